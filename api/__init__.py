@@ -1,0 +1,1 @@
+"""The faces: FastAPI app, job runner, live stream, browser UI and the rig CLI."""

@@ -1,0 +1,22 @@
+"""The ``rig`` command: one entry point, one module per command group.
+
+Every command takes ``--db URL`` (default: ``RIG_DATABASE_URL`` or the SQLite file
+documented in the README) where it touches storage, and ``--json`` where a script
+may want to read its output.
+"""
+
+from __future__ import annotations
+
+import click
+
+from api import cli_sim
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(package_name="towrig", prog_name="rig")
+def main() -> None:
+    """Run the underwater-vehicle test rig: tow and spin tests, thrust calibration,
+    sequences, stored runs, estimation, the simulated rig and the HTTP service."""
+
+
+main.add_command(cli_sim.sim)

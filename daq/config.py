@@ -1,0 +1,280 @@
+"""Rig file: one TOML file per rig, validated once into typed objects.
+
+The rig file is the single source of truth for where every channel lives on the
+PLC and how its raw register words scale to SI units. Code never hard-codes an
+address: it asks ``RigConfig.channel(name)``.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_RIG_FILE = PACKAGE_ROOT / "fixtures" / "rigs" / "benbam.toml"
+
+RegisterKind = Literal["input", "holding", "coil", "discrete"]
+DataType = Literal["uint16", "int16", "uint32", "int32", "float32", "bool"]
+WordOrder = Literal["big", "little"]
+
+#: Number of 16-bit registers each data type occupies.
+REGISTER_WIDTH: dict[str, int] = {
+    "uint16": 1,
+    "int16": 1,
+    "uint32": 2,
+    "int32": 2,
+    "float32": 2,
+    "bool": 1,
+}
+
+#: Channel names other tools and tests rely on (see README, "Register map").
+STANDARD_CHANNELS = (
+    "tow_position",
+    "yaw_angle",
+    "load_cell",
+    "supply_voltage",
+    "heartbeat",
+    "tow_release",
+    "spin_release",
+    "end_of_travel",
+    "estop",
+)
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+
+
+class RigConfigError(ValueError):
+    """A rig or scenario file is missing a field or has a value out of range."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RigInfo(_Strict):
+    name: str = Field(min_length=1)
+    #: "simulated": the service starts the simulated rig and talks to it over
+    #: real Modbus/serial; "hardware": connect to the endpoints given below.
+    mode: Literal["simulated", "hardware"] = "simulated"
+    #: Local gravitational acceleration used to turn hung masses into forces.
+    g: Annotated[float, Field(gt=9.7, lt=9.9)] = 9.81
+
+
+class Geometry(_Strict):
+    rail_length_m: PositiveFloat
+    #: Carriage position at which the end-of-travel switch trips.
+    end_of_travel_m: PositiveFloat
+    pulley_radius_m: PositiveFloat
+    #: Rotational inertia of the tow pulley (adds J/r² to the towed mass).
+    pulley_inertia_kg_m2: NonNegativeFloat = 0.0
+    spin_drum_radius_m: PositiveFloat
+    spin_drum_inertia_kg_m2: NonNegativeFloat = 0.0
+    #: Largest yaw angle the spin cord allows before it is fully unwound.
+    spin_max_angle_rad: PositiveFloat = 6 * math.pi
+
+    @model_validator(mode="after")
+    def _end_inside_rail(self) -> Geometry:
+        if self.end_of_travel_m >= self.rail_length_m:
+            raise ValueError(
+                f"end_of_travel_m must be less than rail_length_m ({self.rail_length_m} m), "
+                f"got {self.end_of_travel_m}"
+            )
+        return self
+
+
+class Vehicle(_Strict):
+    name: str = Field(min_length=1)
+    dry_mass_kg: PositiveFloat
+
+
+class ModbusConnection(_Strict):
+    transport: Literal["tcp", "rtu"] = "tcp"
+    host: str = "127.0.0.1"
+    port: Annotated[int, Field(ge=0, le=65535)] = 5020
+    #: RTU only: device path (``/dev/ttyUSB0``) or pyserial URL (``socket://host:port``).
+    serial_port: str | None = None
+    baudrate: Annotated[int, Field(ge=1200, le=921600)] = 115200
+    parity: Literal["N", "E", "O"] = "N"
+    stopbits: Literal[1, 2] = 1
+    bytesize: Literal[7, 8] = 8
+    unit_id: Annotated[int, Field(ge=0, le=247)] = 1
+    #: Per-request timeout. Keep it well under the clock period.
+    timeout_s: Annotated[float, Field(gt=0, le=5)] = 0.05
+    #: Back-off bounds of the driver's own reconnect loop.
+    reconnect_min_s: Annotated[float, Field(gt=0, le=10)] = 0.1
+    reconnect_max_s: Annotated[float, Field(gt=0, le=60)] = 2.0
+
+    @model_validator(mode="after")
+    def _rtu_needs_port(self) -> ModbusConnection:
+        if self.transport == "rtu" and not self.serial_port:
+            raise ValueError("serial_port is required when transport = 'rtu'")
+        return self
+
+
+class Channel(_Strict):
+    name: str = Field(pattern=r"^[a-z][a-z0-9_]*$")
+    kind: RegisterKind
+    address: Annotated[int, Field(ge=0, le=65535)]
+    type: DataType = "uint16"
+    word_order: WordOrder = "big"
+    #: SI value = raw * scale + offset.
+    scale: Annotated[float, Field(allow_inf_nan=False)] = 1.0
+    offset: Annotated[float, Field(allow_inf_nan=False)] = 0.0
+    unit: str = ""
+    #: A reading older than this is flagged stale.
+    freshness_s: PositiveFloat = 0.5
+    #: A counter that wraps (heartbeat, PLC clock): unwrap it on the host.
+    wraps: bool = False
+    #: Simulation-only register (operator acts the simulator lets a procedure play).
+    sim_only: bool = False
+
+    @property
+    def width(self) -> int:
+        """Registers occupied (bits count 1)."""
+        return REGISTER_WIDTH[self.type]
+
+    @model_validator(mode="after")
+    def _type_matches_kind(self) -> Channel:
+        is_bit = self.kind in ("coil", "discrete")
+        if is_bit != (self.type == "bool"):
+            allowed = "'bool'" if is_bit else "'uint16', 'int16', 'uint32', 'int32', 'float32'"
+            raise ValueError(
+                f"channel {self.name!r}: kind {self.kind!r} needs type {allowed}, got {self.type!r}"
+            )
+        if self.scale == 0:
+            raise ValueError(f"channel {self.name!r}: scale must not be 0")
+        return self
+
+
+class ThrusterPort(_Strict):
+    #: Device path, pyserial URL (``socket://127.0.0.1:7000``), or ``"sim"`` to use
+    #: the simulated controller's pty.
+    port: str = "sim"
+    baudrate: Annotated[int, Field(ge=1200, le=921600)] = 115200
+    count: Annotated[int, Field(ge=1, le=16)] = 2
+    #: Full-scale (command 1000 ‰) forward thrust of one thruster, N.
+    full_scale_thrust_n: PositiveFloat = 40.0
+    #: Lever arm of the thrusters about the vertical axis, m (for thruster-driven yaw).
+    yaw_lever_arm_m: PositiveFloat = 0.2
+    ack_timeout_s: Annotated[float, Field(gt=0, le=2)] = 0.1
+
+
+class Limits(_Strict):
+    max_force_n: PositiveFloat
+    max_torque_nm: PositiveFloat
+    #: Largest thruster command the host sends, as a fraction of full scale (0..1).
+    max_thruster_command: Annotated[float, Field(gt=0, le=1)] = 0.8
+    #: Largest change of thruster command per second (fraction of full scale per s).
+    max_command_slew_per_s: PositiveFloat = 2.0
+    max_speed_m_s: PositiveFloat
+    max_yaw_rate_rad_s: PositiveFloat = 3.0
+    max_run_s: PositiveFloat = 600.0
+
+
+class Acquisition(_Strict):
+    rate_hz: Annotated[float, Field(ge=0.5, le=1000)] = 10.0
+    #: Batch flush interval of the run recorder (≤ 1 s by design).
+    flush_interval_s: Annotated[float, Field(gt=0, le=1.0)] = 0.5
+
+
+class RigConfig(_Strict):
+    rig: RigInfo
+    geometry: Geometry
+    vehicle: Vehicle
+    modbus: ModbusConnection
+    channels: list[Channel] = Field(min_length=1)
+    thrusters: ThrusterPort
+    limits: Limits
+    acquisition: Acquisition = Acquisition()
+
+    @field_validator("channels")
+    @classmethod
+    def _unique_and_non_overlapping(cls, channels: list[Channel]) -> list[Channel]:
+        names = [c.name for c in channels]
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        if dupes:
+            raise ValueError(f"channel names must be unique; repeated: {', '.join(dupes)}")
+        used: dict[tuple[str, int], str] = {}
+        for ch in channels:
+            for a in range(ch.address, ch.address + ch.width):
+                key = (ch.kind, a)
+                if key in used:
+                    raise ValueError(
+                        f"channel {ch.name!r} overlaps {used[key]!r} at {ch.kind} address {a}"
+                    )
+                used[key] = ch.name
+        return channels
+
+    @model_validator(mode="after")
+    def _standard_channels_present(self) -> RigConfig:
+        missing = [n for n in STANDARD_CHANNELS if n not in {c.name for c in self.channels}]
+        if missing:
+            raise ValueError(
+                f"channels: missing required channel(s) {', '.join(missing)}; "
+                f"every rig file defines {', '.join(STANDARD_CHANNELS)}"
+            )
+        return self
+
+    def channel(self, name: str) -> Channel:
+        """The channel called ``name``; KeyError names the known channels."""
+        for ch in self.channels:
+            if ch.name == name:
+                return ch
+        raise KeyError(f"no channel {name!r}; known: {', '.join(c.name for c in self.channels)}")
+
+    def channels_of(self, kind: RegisterKind, *, sim_only: bool | None = False) -> list[Channel]:
+        """Channels of one register kind, sorted by address."""
+        out = [
+            c
+            for c in self.channels
+            if c.kind == kind and (sim_only is None or c.sim_only == sim_only)
+        ]
+        return sorted(out, key=lambda c: c.address)
+
+
+def format_validation_error(source: str, err: ValidationError) -> str:
+    """One line per problem: ``<source>: <field.path>: <message> (got <value>)``."""
+    lines = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
+        msg = e["msg"].removeprefix("Value error, ")
+        got = e.get("input")
+        shown = "" if isinstance(got, dict | list) or got is None else f" (got {got!r})"
+        if e["type"] == "missing":
+            msg = "field required"
+        lines.append(f"{source}: {loc}: {msg}{shown}")
+    return "\n".join(lines)
+
+
+def parse_rig(data: dict, source: str = "rig file") -> RigConfig:
+    """Validate a rig-file dictionary; raises RigConfigError naming each bad field."""
+    try:
+        return RigConfig.model_validate(data)
+    except ValidationError as err:
+        raise RigConfigError(format_validation_error(source, err)) from None
+
+
+def load_rig(path: str | Path | None = None) -> RigConfig:
+    """Load and validate a rig file (default: the BENBAM rig of seed 000)."""
+    p = Path(path) if path else DEFAULT_RIG_FILE
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as err:
+        raise RigConfigError(f"{p}: cannot read rig file ({err.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise RigConfigError(f"{p}: not valid TOML: {err}") from None
+    return parse_rig(data, str(p))

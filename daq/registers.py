@@ -1,0 +1,77 @@
+"""Register codec: SI value <-> 16-bit Modbus words, as the rig file describes.
+
+Used by both ends of the wire (the simulated PLC encodes, the driver decodes), so
+scale, data type and 32-bit word order are written once.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+
+from daq.config import Channel
+
+_STRUCT = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i", "float32": "f"}
+_RANGE = {
+    "uint16": (0, 0xFFFF),
+    "int16": (-0x8000, 0x7FFF),
+    "uint32": (0, 0xFFFFFFFF),
+    "int32": (-0x80000000, 0x7FFFFFFF),
+}
+
+
+def raw_to_words(channel: Channel, raw: int | float) -> list[int]:
+    """Pack a raw (unscaled) value into the channel's register words."""
+    fmt = _STRUCT[channel.type]
+    if channel.type != "float32":
+        lo, hi = _RANGE[channel.type]
+        raw = int(raw)
+        if channel.wraps:
+            raw = (raw - lo) % (hi - lo + 1) + lo
+        else:
+            raw = min(max(raw, lo), hi)
+    data = struct.pack(">" + fmt, raw)
+    words = [int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2)]
+    if channel.word_order == "little":
+        words.reverse()
+    return words
+
+
+def words_to_raw(channel: Channel, words: list[int]) -> int | float:
+    """Unpack the channel's register words into its raw value."""
+    if len(words) != channel.width:
+        raise ValueError(f"channel {channel.name!r} needs {channel.width} words, got {len(words)}")
+    ordered = list(reversed(words)) if channel.word_order == "little" else list(words)
+    data = b"".join(w.to_bytes(2, "big") for w in ordered)
+    return struct.unpack(">" + _STRUCT[channel.type], data)[0]
+
+
+def si_to_raw(channel: Channel, value: float) -> int | float:
+    """SI value -> raw register value (rounded to the nearest count for integers)."""
+    raw = (value - channel.offset) / channel.scale
+    if channel.type == "float32":
+        return raw
+    if not math.isfinite(raw):
+        raise ValueError(f"channel {channel.name!r}: cannot encode {value!r}")
+    return round(raw)
+
+
+def raw_to_si(channel: Channel, raw: int | float) -> float:
+    """Raw register value -> SI value."""
+    return raw * channel.scale + channel.offset
+
+
+def encode(channel: Channel, value: float) -> list[int]:
+    """SI value -> register words."""
+    return raw_to_words(channel, si_to_raw(channel, value))
+
+
+def decode(channel: Channel, words: list[int]) -> float:
+    """Register words -> SI value (no unwrapping; see ``daq.unwrap``)."""
+    return raw_to_si(channel, words_to_raw(channel, words))
+
+
+def wrap_period(channel: Channel) -> int:
+    """Number of raw counts after which a wrapping counter repeats."""
+    lo, hi = _RANGE[channel.type]
+    return hi - lo + 1

@@ -1,0 +1,1 @@
+"""Per-axis models, estimators, effect library, residual diagnostics and reports."""

@@ -1,0 +1,1 @@
+"""Thruster serial protocol, driver, simulated controller and thrust calibration."""
