@@ -1,0 +1,1 @@
+"""The simulated rig: plant physics behind a real Modbus server and serial emulator."""

@@ -1,0 +1,390 @@
+"""The simulated rig's physics: carriage, yaw, tow/spin weights, thrusters, load cell.
+
+Fixed-step integration (1 ms, semi-implicit Euler) independent of polling:
+``advance_to(t_mono)`` integrates whole steps up to that time, so the plant's
+history does not depend on how often anyone reads it. Equations (SI units):
+
+* tow, rigid rope: ``(M + m_w + J_p/r_p²) v̇ = m_w g + T_x + F_bias − k x − K_L v − K_Q|v|v
+  − c v³ − F_c sgn v``
+* tow, elastic rope (stiffness k_r, damping c_r): the weight is its own body,
+  ``(m_w + J_p/r_p²) ü = m_w g − R``, ``M v̇ = R + …`` with ``R = max(0, k_r (y − x) + c_r (u − v))``
+* yaw: ``(I + m_s r_d² + J_d) ω̇ = m_s g r_d + τ_thr + τ_bias − k_θ θ − K_L ω − K_Q|ω|ω − c_θ ω³
+  − τ_c sgn ω`` (the weight term drops once the cord has run out)
+* thruster i: ``T_ss = F_fs · s^p · (V/V_nom)^q`` with ``s = (|u| − d)/(1 − d)`` above the dead
+  band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
+"""
+
+from __future__ import annotations
+
+import math
+import random
+
+from daq.config import RigConfig
+from daq.sim.scenario import Scenario
+
+STEP_S = 0.001
+HEARTBEAT_PERIOD_S = 0.01
+
+
+def _sign(x: float) -> float:
+    return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+
+class Plant:
+    """Physics of the rig; the simulated PLC reads and writes it by channel name."""
+
+    def __init__(self, rig: RigConfig, scenario: Scenario | None = None) -> None:
+        self.rig = rig
+        self.scenario = scenario or Scenario()
+        self._rng = random.Random(self.scenario.seed)
+        geo, thr = rig.geometry, self.scenario.thrusters
+        self.g = rig.rig.g
+        self.full_scale_thrust_n = thr.full_scale_thrust_n or rig.thrusters.full_scale_thrust_n
+        self._pulley_mass = geo.pulley_inertia_kg_m2 / geo.pulley_radius_m**2
+        self._thrust_alpha = (
+            1.0 if thr.time_constant_s == 0 else 1.0 - math.exp(-STEP_S / thr.time_constant_s)
+        )
+        # Port thrusters (even index) turn the vehicle positive, starboard (odd) negative.
+        self._yaw_sign = [1.0 if i % 2 == 0 else -1.0 for i in range(rig.thrusters.count)]
+        self.t_start: float | None = None
+        self.steps = 0
+        self.estop = False
+        self.tow_weight_kg = 0.0
+        self.spin_weight_kg = 0.0
+        self.thrust_stand = False
+        n = rig.thrusters.count
+        self.commands = [0.0] * n
+        self.thrusts_n = [0.0] * n
+        self._tow_release_at: float | None = None
+        self._spin_release_at: float | None = None
+        self.tow_release = False
+        self.spin_release = False
+        self.reset()
+
+    # ---- state ---------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Carriage to 0 m and yaw to 0 rad, at rest, both brakes engaged."""
+        self.position_m = 0.0
+        self.velocity_m_s = 0.0
+        self.yaw_rad = 0.0
+        self.yaw_rate_rad_s = 0.0
+        self.tow_braked = True
+        self.spin_braked = True
+        self.tow_release = False
+        self.spin_release = False
+        self._tow_release_at = None
+        self._spin_release_at = None
+        self._hang_weight_at_rest()
+
+    def _hang_weight_at_rest(self) -> None:
+        k = self.scenario.effects.rope_stiffness_n_per_m
+        stretch = self.tow_weight_kg * self.g / k if k > 0 else 0.0
+        self.weight_position_m = self.position_m + stretch
+        self.weight_velocity_m_s = 0.0
+
+    @property
+    def sim_time_s(self) -> float:
+        """Simulated time since the first ``advance_to``, s."""
+        return self.steps * STEP_S
+
+    @property
+    def end_of_travel(self) -> bool:
+        """The end-of-travel switch is tripped."""
+        return self.position_m >= self.rig.geometry.end_of_travel_m
+
+    @property
+    def cord_out(self) -> bool:
+        """The spin cord has fully unwound (the drum weight no longer pulls)."""
+        return self.yaw_rad >= self.rig.geometry.spin_max_angle_rad
+
+    # ---- time ----------------------------------------------------------------------------
+    def advance_to(self, t_mono: float) -> int:
+        """Integrate whole 1 ms steps up to monotonic time ``t_mono``; returns steps taken."""
+        if self.t_start is None:
+            self.t_start = t_mono
+            return 0
+        target = int((t_mono - self.t_start) / STEP_S)
+        n = target - self.steps
+        if n <= 0:
+            return 0
+        for i in range(n):
+            if self._quiescent():
+                self.steps += n - i
+                break
+            self.steps += 1
+            self._step()
+        return n
+
+    def advance(self, seconds: float) -> None:
+        """Integrate ``seconds`` of simulated time (tests and offline use)."""
+        if self.t_start is None:
+            self.t_start = 0.0
+        self.advance_to(self.t_start + (self.steps + round(seconds / STEP_S) + 0.5) * STEP_S)
+
+    def _quiescent(self) -> bool:
+        """Nothing can change until an outside write: skip integration."""
+        if not (self.tow_braked and self.spin_braked):
+            return False
+        if self._tow_release_at is not None or self._spin_release_at is not None:
+            return False
+        k_rope = self.scenario.effects.rope_stiffness_n_per_m
+        if k_rope > 0 and self.tow_weight_kg > 0:
+            stretch = self.weight_position_m - self.position_m
+            unbalanced = self.tow_weight_kg * self.g - k_rope * stretch
+            if abs(self.weight_velocity_m_s) > 1e-9 or abs(unbalanced) > 1e-6:
+                return False
+        v = self.loaded_voltage_v()
+        return all(
+            abs(self.static_thrust_n(u, v) - t) < 1e-9
+            for u, t in zip(self.commands, self.thrusts_n, strict=True)
+        )
+
+    # ---- one step ------------------------------------------------------------------------
+    def _step(self) -> None:
+        t = self.steps * STEP_S
+        if self._tow_release_at is not None and t >= self._tow_release_at:
+            self._tow_release_at = None
+            self.tow_braked = False
+        if self._spin_release_at is not None and t >= self._spin_release_at:
+            self._spin_release_at = None
+            self.spin_braked = False
+        volts = self.loaded_voltage_v()
+        alpha = self._thrust_alpha
+        thrusts = self.thrusts_n
+        for i, u in enumerate(self.commands):
+            thrusts[i] += (self.static_thrust_n(u, volts) - thrusts[i]) * alpha
+        if self.thrust_stand:
+            surge_thrust = yaw_torque = 0.0
+        else:
+            surge_thrust = sum(thrusts)
+            lever = self.rig.thrusters.yaw_lever_arm_m
+            yaw_torque = lever * sum(s * f for s, f in zip(self._yaw_sign, thrusts, strict=True))
+        self._step_tow(surge_thrust)
+        self._step_yaw(yaw_torque)
+
+    def _step_tow(self, thrust_n: float) -> None:
+        sc, fx = self.scenario.surge, self.scenario.effects
+        m_w = self.tow_weight_kg
+        k_rope = fx.rope_stiffness_n_per_m
+        x, v = self.position_m, self.velocity_m_s
+        if k_rope > 0 and m_w > 0:
+            stretch = self.weight_position_m - x
+            rope = k_rope * stretch + fx.rope_damping_n_s_per_m * (self.weight_velocity_m_s - v)
+            rope = max(0.0, rope) if stretch > 0 else 0.0
+            acc_w = (m_w * self.g - rope) / (m_w + self._pulley_mass)
+            self.weight_velocity_m_s += acc_w * STEP_S
+            self.weight_position_m += self.weight_velocity_m_s * STEP_S
+            mass = sc.inertia_kg
+            pull = rope
+        else:
+            mass = sc.inertia_kg + (m_w + self._pulley_mass if m_w > 0 else 0.0)
+            pull = m_w * self.g
+        if self.tow_braked:
+            self.velocity_m_s = 0.0
+            if k_rope == 0:
+                self.weight_position_m, self.weight_velocity_m_s = x, 0.0
+            return
+        drive = pull + thrust_n + fx.bias_force_n - fx.spring_n_per_m * x
+        force = (
+            drive - (sc.linear_damping + sc.quadratic_damping * abs(v) + fx.cubic_drag * v * v) * v
+        )
+        v_new = self._friction_step(
+            v, drive, force, mass, fx.coulomb_friction_n, fx.static_friction_n
+        )
+        x += v_new * STEP_S
+        if x < 0.0 and v_new < 0.0:  # buffer at the start of the rail
+            x, v_new = 0.0, 0.0
+        self.position_m, self.velocity_m_s = x, v_new
+        if k_rope == 0 or m_w == 0:
+            self.weight_position_m, self.weight_velocity_m_s = x, v_new
+        if self.end_of_travel:
+            # The switch trips; the PLC interlock drops tow_release and the brake bites.
+            self.velocity_m_s = 0.0
+            self.tow_braked = True
+            self.tow_release = False
+            self._tow_release_at = None
+            if k_rope == 0:
+                self.weight_velocity_m_s = 0.0
+
+    def _step_yaw(self, thrust_torque_nm: float) -> None:
+        if self.spin_braked:
+            self.yaw_rate_rad_s = 0.0
+            return
+        sc, fx, geo = self.scenario.yaw, self.scenario.effects, self.rig.geometry
+        th, w = self.yaw_rad, self.yaw_rate_rad_s
+        inertia = sc.inertia_kg_m2 + geo.spin_drum_inertia_kg_m2
+        weight_torque = 0.0
+        if self.spin_weight_kg > 0 and not self.cord_out:
+            r = geo.spin_drum_radius_m
+            inertia += self.spin_weight_kg * r * r
+            weight_torque = self.spin_weight_kg * self.g * r
+        drive = weight_torque + thrust_torque_nm + fx.bias_torque_nm - fx.spring_nm_per_rad * th
+        damping = sc.linear_damping + sc.quadratic_damping * abs(w) + fx.yaw_cubic_drag * w * w
+        torque = drive - damping * w
+        w_new = self._friction_step(
+            w, drive, torque, inertia, fx.yaw_coulomb_friction_nm, fx.yaw_static_friction_nm
+        )
+        self.yaw_rad = th + w_new * STEP_S
+        self.yaw_rate_rad_s = w_new
+
+    @staticmethod
+    def _friction_step(
+        v: float, drive: float, force: float, mass: float, coulomb: float, static: float
+    ) -> float:
+        """One semi-implicit velocity step with stick-slip friction."""
+        if coulomb == 0 and static == 0:
+            return v + force / mass * STEP_S
+        if v == 0.0:
+            if abs(drive) <= (static or coulomb):
+                return 0.0  # stuck: friction balances the drive
+            force -= coulomb * _sign(drive)
+            return v + force / mass * STEP_S
+        v_new = v + (force - coulomb * _sign(v)) / mass * STEP_S
+        return 0.0 if v_new * v < 0 else v_new  # friction stops it; re-check break-away
+
+    # ---- thrusters and supply ------------------------------------------------------------
+    def static_thrust_n(self, command: float, supply_v: float) -> float:
+        """Steady thrust of one thruster for a command in −1…1 at a supply voltage, N."""
+        thr = self.scenario.thrusters
+        a = abs(command)
+        if a <= thr.dead_band:
+            return 0.0
+        s = min(1.0, (a - thr.dead_band) / (1.0 - thr.dead_band))
+        volts = max(supply_v, 0.0) / thr.nominal_voltage_v
+        thrust = self.full_scale_thrust_n * s**thr.curve_exponent * volts**thr.voltage_exponent
+        return thrust if command > 0 else -thrust * thr.reverse_ratio
+
+    def thruster_current_a(self, thrust_n: float) -> float:
+        """Electrical current drawn by one thruster producing ``thrust_n``, A."""
+        thr = self.scenario.thrusters
+        return thr.full_scale_current_a * (abs(thrust_n) / self.full_scale_thrust_n) ** 1.5
+
+    def loaded_voltage_v(self) -> float:
+        """Supply voltage under the present thruster load (noise-free), V."""
+        sens = self.scenario.sensors
+        amps = sum(self.thruster_current_a(t) for t in self.thrusts_n)
+        return sens.supply_voltage_v - sens.supply_resistance_ohm * amps
+
+    def set_commands(self, fractions: list[float]) -> None:
+        """Thruster outputs as fractions of full scale (−1…1), from the serial controller."""
+        if len(fractions) != len(self.commands):
+            raise ValueError(
+                f"thruster commands: expected {len(self.commands)} values, got {len(fractions)}"
+            )
+        self.commands = [0.0 if self.estop else max(-1.0, min(1.0, float(u))) for u in fractions]
+
+    def telemetry(self) -> list[tuple[float, float]]:
+        """Per thruster: (propeller speed in rpm, signed like thrust; current in A)."""
+        thr = self.scenario.thrusters
+        out = []
+        for t in self.thrusts_n:
+            rpm = thr.full_scale_rpm * math.sqrt(abs(t) / self.full_scale_thrust_n) * _sign(t)
+            out.append((rpm, self.thruster_current_a(t)))
+        return out
+
+    # ---- channels (what the PLC serves) --------------------------------------------------
+    def read(self, name: str) -> float | None:
+        """SI value of a standard channel, as the PLC would report it now (None: unknown)."""
+        sens = self.scenario.sensors
+        if name == "tow_position":
+            return round(self.position_m * sens.encoder_counts_per_m) / sens.encoder_counts_per_m
+        if name == "yaw_angle":
+            cpr = sens.encoder_counts_per_rad
+            return round(self.yaw_rad * cpr) / cpr
+        if name == "load_cell":
+            force = sum(self.thrusts_n) if self.thrust_stand else 0.0
+            return force + sens.load_cell_offset_n + self._rng.gauss(0.0, sens.load_cell_noise_n)
+        if name == "supply_voltage":
+            return self.loaded_voltage_v() + self._rng.gauss(0.0, sens.supply_voltage_noise_v)
+        if name == "heartbeat":
+            return float(int(self.sim_time_s / HEARTBEAT_PERIOD_S + 1e-9))
+        if name == "plc_clock":
+            return self.sim_time_s
+        bits = {
+            "tow_release": self.tow_release,
+            "spin_release": self.spin_release,
+            "end_of_travel": self.end_of_travel,
+            "estop": self.estop,
+            "sim_thrust_stand": self.thrust_stand,
+            "sim_reset": False,
+        }
+        if name in bits:
+            return 1.0 if bits[name] else 0.0
+        if name == "sim_tow_weight":
+            return self.tow_weight_kg
+        if name == "sim_spin_weight":
+            return self.spin_weight_kg
+        return None
+
+    def write(self, name: str, value: float) -> bool:
+        """Apply a write to a standard channel; False if the plant does not know it."""
+        on = bool(value)
+        t = self.sim_time_s
+        delay = self.scenario.effects.release_delay_s
+        if name == "tow_release":
+            if on and not (self.estop or self.end_of_travel):
+                if not self.tow_release:
+                    self.tow_release = True
+                    self._tow_release_at = t + delay
+            elif not on:
+                self.tow_release, self._tow_release_at, self.tow_braked = False, None, True
+                self.velocity_m_s = 0.0
+        elif name == "spin_release":
+            if on and not self.estop:
+                if not self.spin_release:
+                    self.spin_release = True
+                    self._spin_release_at = t + delay
+            elif not on:
+                self.spin_release, self._spin_release_at, self.spin_braked = False, None, True
+                self.yaw_rate_rad_s = 0.0
+        elif name == "sim_tow_weight":
+            self._check_weight(name, value)
+            self.tow_weight_kg = float(value)
+            if self.tow_braked:
+                self._hang_weight_at_rest()
+        elif name == "sim_spin_weight":
+            self._check_weight(name, value)
+            self.spin_weight_kg = float(value)
+        elif name == "sim_thrust_stand":
+            self.thrust_stand = on
+        elif name == "sim_reset":
+            if on:
+                self.reset()
+        elif name == "estop":
+            self.press_estop(on)
+        else:
+            return False
+        return True
+
+    def press_estop(self, pressed: bool = True) -> None:
+        """Emergency stop: brakes engage, releases drop, thruster commands go to zero."""
+        self.estop = pressed
+        if pressed:
+            self.write("tow_release", 0)
+            self.write("spin_release", 0)
+            self.commands = [0.0] * len(self.commands)
+
+    @staticmethod
+    def _check_weight(name: str, value: float) -> None:
+        if not (0.0 <= value <= 50.0) or math.isnan(value):
+            raise ValueError(f"{name}: weight must be within 0…50 kg, got {value}")
+
+    # ---- closed-form helpers -------------------------------------------------------------
+    def steady_tow_speed(self, force_n: float) -> float:
+        """Steady carriage speed (m/s) under a constant force with this scenario's damping."""
+        sc, fx = self.scenario.surge, self.scenario.effects
+        net = force_n + fx.bias_force_n
+        if abs(net) <= max(fx.coulomb_friction_n, fx.static_friction_n):
+            return 0.0
+        target = abs(net) - fx.coulomb_friction_n
+
+        def resist(v: float) -> float:
+            return sc.linear_damping * v + sc.quadratic_damping * v * v + fx.cubic_drag * v**3
+
+        lo, hi = 0.0, 1.0
+        while resist(hi) < target:
+            hi *= 2
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if resist(mid) < target else (lo, mid)
+        return math.copysign(0.5 * (lo + hi), net)
