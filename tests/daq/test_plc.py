@@ -1,0 +1,216 @@
+"""PlcClient against a real pymodbus server on a real TCP socket."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import socket
+import time
+
+import pytest
+
+from daq.config import load_rig
+from daq.plc import DeviceError, PlcClient
+from daq.sample import Quality
+from tests.daq.modbus_server import MapServer
+
+
+@pytest.fixture
+async def server():
+    srv = MapServer(load_rig())
+    await srv.start()
+    yield srv
+    await srv.stop()
+
+
+@pytest.fixture
+async def plc(server):
+    client = PlcClient(server.rig_config())
+    await client.connect()
+    yield client
+    await client.close()
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+async def test_read_all_decodes_every_channel_in_si(server, plc):
+    server.set("tow_position", -1.23456)
+    server.set("yaw_angle", 3.14159)
+    server.set("load_cell", -83.3)  # little word order on BENBAM
+    server.set("supply_voltage", 24.37)
+    server.set("end_of_travel", True)
+    server.set("tow_release", True)
+    readings = await plc.read_all()
+    assert set(readings) == {c.name for c in plc.rig.channels if not c.sim_only}
+    assert readings["tow_position"].value == pytest.approx(-1.23456, abs=1e-5)
+    assert readings["yaw_angle"].value == pytest.approx(3.14159, abs=1e-5)
+    assert readings["load_cell"].value == pytest.approx(-83.3, abs=1e-3)
+    assert readings["supply_voltage"].value == pytest.approx(24.37, abs=0.005)
+    assert readings["end_of_travel"].value == 1.0
+    assert readings["estop"].value == 0.0
+    assert readings["tow_release"].value == 1.0
+    assert all(r.quality == Quality.OK for r in readings.values())
+    assert plc.stats.reads == 3  # one request per kind: input 0-9, discrete 0-1, coil 0-1
+
+
+@pytest.mark.parametrize("order", ["big", "little"])
+async def test_32_bit_word_order_both_ways(order):
+    rig = load_rig()
+    chans = [
+        c.model_copy(update={"word_order": order}) if c.name == "tow_position" else c
+        for c in rig.channels
+    ]
+    srv = MapServer(rig.model_copy(update={"channels": chans}))
+    await srv.start()
+    try:
+        srv.words["input"][0], srv.words["input"][1] = 0x0001, 0x0002
+        client = PlcClient(srv.rig_config())
+        await client.connect()
+        raw = 0x00010002 if order == "big" else 0x00020001
+        assert await client.read("tow_position") == pytest.approx(raw * 1e-5)
+        await client.close()
+    finally:
+        await srv.stop()
+
+
+async def test_heartbeat_and_plc_clock_unwrap_on_the_wire(server, plc):
+    server.set_raw("heartbeat", 65534)
+    server.set_raw("plc_clock", 2**32 - 2)  # ms
+    first = await plc.read_all()
+    server.set_raw("heartbeat", 65536 + 5)  # wraps to 5 on the wire
+    server.set_raw("plc_clock", 2**32 + 3)
+    second = await plc.read_all()
+    assert second["heartbeat"].value - first["heartbeat"].value == 7
+    assert second["plc_clock"].value - first["plc_clock"].value == pytest.approx(0.005)
+    assert second["plc_clock"].value == pytest.approx((2**32 + 3) * 1e-3)
+
+
+async def test_a_counter_that_stops_counting_goes_stale(server):
+    rig = server.rig_config()
+    chans = [c.model_copy(update={"freshness_s": 0.1}) for c in rig.channels]
+    plc = PlcClient(rig.model_copy(update={"channels": chans}))
+    await plc.connect()
+    try:
+        server.set_raw("heartbeat", 10)
+        assert (await plc.read_all())["heartbeat"].quality == Quality.OK
+        await asyncio.sleep(0.15)  # heartbeat frozen for longer than freshness_s
+        frozen = await plc.read_all()
+        assert frozen["heartbeat"].quality == Quality.STALE
+        assert frozen["tow_position"].quality == Quality.OK  # read fresh; it may not move
+        server.set_raw("heartbeat", 11)
+        assert (await plc.read_all())["heartbeat"].quality == Quality.OK
+    finally:
+        await plc.close()
+
+
+async def test_an_exception_response_flags_only_that_block(server, plc):
+    await plc.read_all()
+    server.fail_reads = True
+    with pytest.raises(DeviceError, match=r"input registers 0-9 \(tow_position"):
+        await plc.read_all()  # every block failed -> raises
+    assert plc.connected
+    server.fail_reads = False
+    assert all(r.quality == Quality.OK for r in (await plc.read_all()).values())
+
+
+async def test_write_by_name_coils_and_sim_only_holding(server, plc):
+    await plc.write("tow_release", True)
+    assert server.get("tow_release") == 1.0
+    await plc.write("sim_tow_weight", 2.5)  # kg -> 2500 g in a uint32, sim_only allowed
+    assert server.get("sim_tow_weight") == pytest.approx(2.5)
+    assert await plc.read("sim_tow_weight") == pytest.approx(2.5)
+    await plc.write("tow_release", False)
+    assert await plc.read("tow_release") == 0.0
+
+
+async def test_bad_writes_name_the_channel_value_and_range(plc):
+    with pytest.raises(ValueError, match=r"'sim_tow_weight'.*-1.0.*allowed 0.0\.\."):
+        await plc.write("sim_tow_weight", -1.0)
+    with pytest.raises(ValueError, match="finite"):
+        await plc.write("sim_tow_weight", math.nan)
+    with pytest.raises(ValueError, match="true/false"):
+        await plc.write("tow_release", 2)
+    with pytest.raises(DeviceError, match="read-only"):
+        await plc.write("estop", True)
+    with pytest.raises(KeyError, match="no channel 'warp_drive'"):
+        await plc.write("warp_drive", 1.0)
+
+
+async def test_first_connect_does_not_retry():
+    rig = load_rig()
+    rig = rig.model_copy(update={"modbus": rig.modbus.model_copy(update={"port": _free_port()})})
+    plc = PlcClient(rig)
+    t0 = time.monotonic()
+    with pytest.raises(DeviceError, match=r"cannot connect to PLC at tcp 127.0.0.1:\d+ unit 1"):
+        await plc.connect()
+    assert time.monotonic() - t0 < 0.5
+    await plc.close()
+
+
+async def test_connect_with_timeout_retries_until_the_server_appears():
+    srv = MapServer(load_rig(), port=_free_port())
+    plc = PlcClient(srv.rig_config(reconnect_min_s=0.05, reconnect_max_s=0.2))
+
+    async def late_start():
+        await asyncio.sleep(0.3)
+        await srv.start()
+
+    starter = asyncio.create_task(late_start())
+    try:
+        await plc.connect(timeout_s=3.0)
+        assert plc.connected
+        await plc.read_all()
+    finally:
+        await starter
+        await plc.close()
+        await srv.stop()
+
+
+async def test_connect_timeout_gives_up_with_device_error():
+    srv = MapServer(load_rig(), port=_free_port())
+    plc = PlcClient(srv.rig_config(reconnect_min_s=0.05, reconnect_max_s=0.1))
+    t0 = time.monotonic()
+    with pytest.raises(DeviceError, match=r"attempt\(s\) in 0.4 s"):
+        await plc.connect(timeout_s=0.4)
+    assert 0.35 < time.monotonic() - t0 < 1.0
+    await plc.close()
+
+
+async def test_server_lost_then_back_reconnects_in_the_background(server):
+    plc = PlcClient(server.rig_config(reconnect_min_s=0.05, reconnect_max_s=0.2))
+    await plc.connect()
+    try:
+        server.set("tow_position", 0.5)
+        await plc.read_all()
+        await server.stop()
+        await asyncio.sleep(0.05)
+        t0 = time.monotonic()
+        with pytest.raises(DeviceError, match="tow_position"):
+            await plc.read_all()
+        assert time.monotonic() - t0 < 0.1  # fails fast: no inline reconnect
+        assert not plc.connected
+        await asyncio.sleep(0.3)
+        await server.start()  # same port
+        for _ in range(100):
+            if plc.connected:
+                break
+            await asyncio.sleep(0.02)
+        assert plc.connected
+        assert plc.stats.reconnects == 1
+        assert (await plc.read_all())["tow_position"].value == pytest.approx(0.5)
+    finally:
+        await plc.close()
+
+
+async def test_a_slow_plc_times_out_after_the_configured_timeout(server, plc):
+    server.delay_s = 0.2  # longer than timeout_s = 0.05 s
+    t0 = time.monotonic()
+    with pytest.raises(DeviceError, match="input registers 0-9"):
+        await plc.read_all()
+    elapsed = time.monotonic() - t0
+    assert elapsed < 0.15  # one timeout, the other blocks of the poll not attempted
+    assert plc.stats.errors == 1
