@@ -1,0 +1,116 @@
+"""Events (operator actions, faults, limit trips) and results (estimations,
+calibrations) of runs."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import sqlalchemy as sa
+
+from daq.store import checks
+from daq.store.base import StoreBase, software_version
+from daq.store.records import EventInfo, ResultInfo, to_datetime
+from daq.store.schema import events, result_runs, results
+from daq.store.schema import runs as runs_t
+
+
+class EventsAndResults(StoreBase):
+    """The events and results half of :class:`daq.store.Store`."""
+
+    def add_event(
+        self, run_id: str | None, kind: str, message: str, data: dict | None = None
+    ) -> None:
+        """Log an event (``operator``, ``fault``, ``limit``, ``info``, …), optionally of a run."""
+        checks.check_kind("kind", kind)
+        if not isinstance(message, str) or not message.strip():
+            raise ValueError(f"message: {message!r} is not allowed; give a non-empty text")
+        checks.check_json("data", data, optional=True)
+        with self.transaction() as conn:
+            pk = None if run_id is None else self._resolve(conn, run_id).id
+            self._insert_event(conn, pk, kind, message, data)
+
+    @staticmethod
+    def _insert_event(
+        conn: sa.Connection, run_pk: int | None, kind: str, message: str, data: dict | None
+    ) -> None:
+        conn.execute(
+            sa.insert(events).values(
+                run_id=run_pk, t_wall=time.time(), kind=kind, message=message, data=data
+            )
+        )
+
+    def events(self, run_id: str | None = None, *, limit: int | None = None) -> list[EventInfo]:
+        """Events in time order: all of them, or those of one run."""
+        query = sa.select(events, runs_t.c.uuid).outerjoin(runs_t, runs_t.c.id == events.c.run_id)
+        with self.engine.connect() as conn:
+            if run_id is not None:
+                query = query.where(events.c.run_id == self._resolve(conn, run_id).id)
+            query = query.order_by(events.c.t_wall, events.c.id)
+            if limit is not None:
+                query = query.limit(checks.check_limit("limit", limit, minimum=1))
+            rows = conn.execute(query).all()
+        return [
+            EventInfo(
+                id=r.id,
+                run_id=r.uuid,
+                time=to_datetime(r.t_wall),
+                kind=r.kind,
+                message=r.message,
+                data=r.data,
+            )
+            for r in rows
+        ]
+
+    def add_result(self, run_ids: Sequence[str], kind: str, data: dict) -> int:
+        """Store an ``estimation``/``calibration`` result of one or more runs; returns its id."""
+        checks.check_kind("kind", kind)
+        checks.check_json("data", data)
+        if isinstance(run_ids, str) or not run_ids:
+            raise ValueError(f"run_ids: {run_ids!r} is not allowed; give a list of ≥ 1 run ids")
+        with self.transaction() as conn:
+            pks = sorted({self._resolve(conn, r).id for r in run_ids})
+            result_id = conn.execute(
+                sa.insert(results).values(
+                    kind=kind,
+                    created_at=time.time(),
+                    software_version=software_version(),
+                    data=data,
+                )
+            ).inserted_primary_key[0]
+            conn.execute(
+                sa.insert(result_runs), [{"result_id": result_id, "run_id": pk} for pk in pks]
+            )
+        return int(result_id)
+
+    def results(self, run_id: str | None = None, kind: str | None = None) -> list[ResultInfo]:
+        """Results, oldest first, optionally only those of a run and/or of a kind."""
+        query = sa.select(results).order_by(results.c.created_at, results.c.id)
+        if kind is not None:
+            query = query.where(results.c.kind == checks.check_kind("kind", kind))
+        with self.engine.connect() as conn:
+            if run_id is not None:
+                pk = self._resolve(conn, run_id).id
+                linked = sa.select(result_runs.c.result_id).where(result_runs.c.run_id == pk)
+                query = query.where(results.c.id.in_(linked))
+            rows = conn.execute(query).all()
+            links: dict[int, list[str]] = {}
+            if rows:
+                for result_id, run_uuid in conn.execute(
+                    sa.select(result_runs.c.result_id, runs_t.c.uuid)
+                    .join(runs_t, runs_t.c.id == result_runs.c.run_id)
+                    .where(result_runs.c.result_id.in_([r.id for r in rows]))
+                    .order_by(runs_t.c.started_at)
+                ):
+                    links.setdefault(result_id, []).append(run_uuid)
+        return [
+            ResultInfo(
+                id=r.id,
+                kind=r.kind,
+                created_at=to_datetime(r.created_at),
+                run_ids=tuple(links.get(r.id, ())),
+                software_version=r.software_version,
+                data=r.data,
+            )
+            for r in rows
+        ]

@@ -1,0 +1,119 @@
+"""The store's plumbing: engine, migrations on open, transactions and run-id lookup."""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from importlib import metadata as importlib_metadata
+
+import sqlalchemy as sa
+from sqlalchemy.dialects import postgresql as pg_dialect
+from sqlalchemy.dialects import sqlite as sqlite_dialect
+
+from daq.config import PACKAGE_ROOT
+from daq.store import checks
+from daq.store.migrate import create_engine, default_database_url, upgrade_to_head
+from daq.store.packing import SamplePacker
+from daq.store.records import AmbiguousRunId, RunNotFound
+from daq.store.schema import runs as runs_t
+
+SAMPLE_COLUMNS = "run_id, seq, t_mono, t_wall, quality, stale, channel_values"
+
+
+def software_version() -> str:
+    """The towrig version: installed metadata, else the checkout's pyproject.toml."""
+    try:
+        return importlib_metadata.version("towrig")
+    except importlib_metadata.PackageNotFoundError:
+        pass
+    try:
+        with open(PACKAGE_ROOT / "pyproject.toml", "rb") as f:
+            return str(tomllib.load(f)["project"]["version"])
+    except (OSError, KeyError, tomllib.TOMLDecodeError):
+        return "unknown"
+
+
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` of this host exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # zombie = dead
+    except FileNotFoundError:
+        return False
+    except OSError:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
+
+
+class StoreBase:
+    """Engine and lookups shared by :class:`daq.store.Store`; ``url`` defaults to
+    :func:`default_database_url`; opening creates the database if needed and migrates it
+    to the newest schema."""
+
+    def __init__(self, url: str | None = None) -> None:
+        self.url = url or default_database_url()
+        self.engine = create_engine(self.url)
+        upgrade_to_head(self.engine)
+        self.backend = self.engine.dialect.name
+        mark = "?" if self.backend == "sqlite" else "%s"
+        self._insert_samples_sql = (
+            f"INSERT INTO samples ({SAMPLE_COLUMNS}) VALUES ({', '.join([mark] * 7)})"
+        )
+        self._packers: dict[str, tuple[int, SamplePacker]] = {}
+
+    # -- plumbing ---------------------------------------------------------------------
+    def close(self) -> None:
+        """Release every pooled connection."""
+        self.engine.dispose()
+
+    def __enter__(self) -> StoreBase:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Store({self.engine.url.render_as_string(hide_password=True)!r})"
+
+    @contextmanager
+    def transaction(self) -> Iterator[sa.Connection]:
+        """One transaction: committed on success, rolled back (and re-raised) on error."""
+        with self.engine.begin() as conn:
+            yield conn
+
+    def _named_id(self, conn: sa.Connection, table: sa.Table, name: str) -> int:
+        insert = (pg_dialect if self.backend == "postgresql" else sqlite_dialect).insert
+        conn.execute(insert(table).values(name=name).on_conflict_do_nothing())
+        return conn.execute(sa.select(table.c.id).where(table.c.name == name)).scalar_one()
+
+    def _resolve(self, conn: sa.Connection, run_id: str) -> sa.Row:
+        """The run row for a uuid or unique uuid prefix."""
+        key = checks.check_run_id(run_id)
+        row = conn.execute(sa.select(runs_t).where(runs_t.c.uuid == key)).first()
+        if row is not None:
+            return row
+        rows = conn.execute(sa.select(runs_t).where(runs_t.c.uuid.like(key + "%")).limit(6)).all()
+        if not rows:
+            raise RunNotFound(f"no run with id {run_id!r} in {self!r}")
+        if len(rows) > 1:
+            shown = ", ".join(r.uuid for r in rows[:5])
+            raise AmbiguousRunId(
+                f"run id prefix {run_id!r} matches several runs ({shown}"
+                f"{', …' if len(rows) > 5 else ''}); give more characters"
+            )
+        return rows[0]
+
+    def _packer(self, conn: sa.Connection, run_id: str) -> tuple[int, SamplePacker]:
+        cached = self._packers.get(run_id)
+        if cached is None:
+            row = self._resolve(conn, run_id)
+            cached = (row.id, SamplePacker(row.channel_names))
+            self._packers[row.uuid] = cached
+        return cached

@@ -1,0 +1,209 @@
+"""CSV/JSON export of a stored run and CSV import of runs recorded elsewhere.
+
+An exported CSV has columns ``t`` (s since the first sample), ``seq``, ``t_mono``,
+``t_wall``, ``quality`` and one column per channel (SI; empty = not read). An imported
+CSV needs a header with ``t`` (s, strictly increasing) and ``position`` (m for a tow,
+rad for a spin; ``tow_position``/``yaw_angle`` are accepted too); ``seq``, ``t_mono``,
+``t_wall`` and ``quality`` are used when present and every other column becomes a channel.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+from daq.sample import Quality, Sample
+from daq.store.store import Store
+
+#: Column the import maps ``position`` to, per run kind.
+POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
+#: Parameter each imported run kind needs (the applied load).
+LOAD_PARAMETER = {"tow": "force_n", "spin": "torque_nm"}
+_RESERVED = ("t", "seq", "t_mono", "t_wall", "quality")
+
+
+class CsvImportError(ValueError):
+    """The CSV cannot be imported; the message names the line and column."""
+
+
+def _cell(value: float) -> str:
+    return "" if math.isnan(value) else repr(float(value))
+
+
+def export_run_csv(store: Store, run_id: str, fileobj: TextIO) -> int:
+    """Write the run's samples as CSV to ``fileobj``; returns the number of rows."""
+    run = store.get_run(run_id)
+    table = store.samples(run.id)
+    writer = csv.writer(fileobj, lineterminator="\n")
+    writer.writerow([*_RESERVED, *run.channel_names])
+    t = table.t
+    columns = [table.channels[name] for name in run.channel_names]
+    for i in range(len(table)):
+        writer.writerow(
+            [
+                repr(float(t[i])),
+                int(table.seq[i]),
+                repr(float(table.t_mono[i])),
+                repr(float(table.t_wall[i])),
+                int(table.quality[i]),
+                *(_cell(column[i]) for column in columns),
+            ]
+        )
+    return len(table)
+
+
+def export_run_json(store: Store, run_id: str, fileobj: TextIO) -> None:
+    """Write the run (metadata, samples, events, results) as one JSON document."""
+    run = store.get_run(run_id)
+    document = {
+        "run": run.to_json(),
+        "samples": store.samples(run.id).to_json(),
+        "events": [e.to_json() for e in store.events(run.id)],
+        "results": [r.to_json() for r in store.results(run.id)],
+    }
+    json.dump(document, fileobj, allow_nan=False, indent=1)
+    fileobj.write("\n")
+
+
+def check_import_parameters(kind: str, parameters: dict[str, Any]) -> dict[str, Any]:
+    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, > 0) and an
+    optional ``hung_mass_kg`` (> 0), plus ``source: import``."""
+    if kind not in LOAD_PARAMETER:
+        raise ValueError(f"kind: {kind!r} is not allowed; use one of {', '.join(LOAD_PARAMETER)}")
+    needed = LOAD_PARAMETER[kind]
+    out: dict[str, Any] = {"source": "import"}
+    for key, value in parameters.items():
+        if key in (needed, "hung_mass_kg"):
+            if value is None and key == "hung_mass_kg":
+                continue
+            ok = isinstance(value, int | float) and not isinstance(value, bool)
+            if not ok or not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{key}: {value!r} is not allowed; use a finite number > 0")
+            out[key] = float(value)
+        else:
+            out[key] = value
+    if needed not in out:
+        raise ValueError(f"{needed}: missing; a {kind} run needs the applied load")
+    out["source"] = "import"
+    return out
+
+
+def _number(text: str, line: int, column: str, *, allow_missing: bool) -> float:
+    stripped = text.strip()
+    if allow_missing and stripped.lower() in ("", "nan"):
+        return math.nan
+    try:
+        value = float(stripped)
+    except ValueError:
+        raise CsvImportError(f"line {line}, column {column!r}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise CsvImportError(
+            f"line {line}, column {column!r}: {text!r} is not allowed; use a finite number"
+        )
+    return value
+
+
+def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]]:
+    columns = [c.strip() for c in row]
+    if not columns or "t" not in columns:
+        raise CsvImportError(
+            f"{path}: line 1: no header with a 't' column (got {row!r}); expected e.g. 't,position'"
+        )
+    dupes = sorted({c for c in columns if columns.count(c) > 1})
+    if dupes or "" in columns:
+        raise CsvImportError(f"{path}: line 1: empty or repeated column names {dupes or ['']}")
+    target = POSITION_CHANNEL[kind]
+    if "position" in columns and target in columns:
+        raise CsvImportError(f"{path}: line 1: both 'position' and {target!r}; keep one")
+    if "position" not in columns and target not in columns:
+        raise CsvImportError(
+            f"{path}: line 1: no 'position' column (m for tow, rad for spin) in {columns}"
+        )
+    channels = [target if c == "position" else c for c in columns if c not in _RESERVED]
+    renamed = [target if c == "position" else c for c in columns]
+    return renamed, channels
+
+
+def _read_samples(path: Path, kind: str) -> tuple[list[str], list[Sample], bool]:
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = [(n, r) for n, r in enumerate(csv.reader(f), start=1) if r and any(r)]
+    if not rows:
+        raise CsvImportError(f"{path}: empty file; expected a header row 't,position'")
+    header_line, header_row = rows[0]
+    columns, channels = _header(header_row, kind, path)
+    position = POSITION_CHANNEL[kind]
+    samples: list[Sample] = []
+    previous: dict[str, float] = {}
+    for line, row in rows[1:]:
+        if len(row) != len(columns):
+            raise CsvImportError(
+                f"{path}: line {line}: {len(row)} fields, the header has {len(columns)}"
+            )
+        values: dict[str, float] = {}
+        for column, text in zip(columns, row, strict=True):
+            missing_ok = column not in ("t", position, "seq", "t_mono", "t_wall", "quality")
+            values[column] = _number(text, line, column, allow_missing=missing_ok)
+            rising = column in ("t", "seq", "t_mono") and column in previous
+            if rising and values[column] <= previous[column]:
+                raise CsvImportError(
+                    f"{path}: line {line}, column {column!r}: {text.strip()!r} is not "
+                    f"greater than the previous {previous[column]!r} (must strictly increase)"
+                )
+        for column in ("seq", "quality"):
+            if column in values and (values[column] != int(values[column]) or values[column] < 0):
+                raise CsvImportError(
+                    f"{path}: line {line}, column {column!r}: {values[column]!r} is not "
+                    "allowed; use an integer ≥ 0"
+                )
+        previous = values
+        samples.append(
+            Sample(
+                seq=int(values.get("seq", len(samples))),
+                t_mono=values.get("t_mono", values["t"]),
+                t_wall=values.get("t_wall", values["t"]),  # shifted below if absent
+                channels={name: values[name] for name in channels},
+                quality=Quality(int(values.get("quality", 0))),
+            )
+        )
+    if not samples:
+        raise CsvImportError(f"{path}: line {header_line}: a header but no data rows")
+    return channels, samples, "t_wall" in columns
+
+
+def import_csv(
+    store: Store,
+    path: str | Path,
+    *,
+    kind: str,
+    parameters: dict[str, Any],
+    rig_name: str = "imported",
+    vehicle: str = "unknown",
+    rig_toml: str = "",
+) -> str:
+    """Import a CSV as a completed ``kind`` (``tow``/``spin``) run in one transaction;
+    returns the new run id. Nothing is written when the file or parameters are bad."""
+    path = Path(path)
+    params = check_import_parameters(kind, parameters)
+    params.setdefault("file", path.name)
+    channels, samples, has_wall = _read_samples(path, kind)
+    if not has_wall:
+        t0 = samples[0].t_wall
+        start = time.time()
+        samples = [
+            Sample(s.seq, s.t_mono, start + (s.t_wall - t0), s.channels, s.quality) for s in samples
+        ]
+    return store.import_run(
+        kind=kind,
+        parameters=params,
+        channel_names=channels,
+        rig_name=rig_name,
+        vehicle=vehicle,
+        rig_toml=rig_toml,
+        samples=samples,
+        started_at=samples[0].t_wall,
+        stopped_at=samples[-1].t_wall,
+    )

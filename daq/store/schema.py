@@ -1,0 +1,106 @@
+"""The run database's tables (SQLAlchemy Core), the one description both the code and the
+Alembic revisions follow.
+
+Times are stored as Unix seconds (float64) so SQLite and PostgreSQL behave the same;
+the Python API hands out aware UTC datetimes. A sample is one row with fixed columns and
+its channel values packed as a little-endian float64 BLOB in the run's channel order
+(``runs.channel_names``), which keeps ingest fast and the table independent of the rig.
+"""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+
+metadata = sa.MetaData(
+    naming_convention={
+        "ix": "ix_%(column_0_label)s",
+        "uq": "uq_%(table_name)s_%(column_0_name)s",
+        "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
+        "pk": "pk_%(table_name)s",
+    }
+)
+
+#: Statuses a run can have; ``running`` only until it ends.
+RUN_STATUSES = ("running", "completed", "aborted", "interrupted")
+#: Statuses ``finish_run`` accepts.
+END_STATUSES = ("completed", "aborted", "interrupted")
+
+rigs = sa.Table(
+    "rigs",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("name", sa.String(200), nullable=False, unique=True),
+)
+
+vehicles = sa.Table(
+    "vehicles",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("name", sa.String(200), nullable=False, unique=True),
+)
+
+runs = sa.Table(
+    "runs",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("uuid", sa.String(36), nullable=False, unique=True),
+    sa.Column("kind", sa.String(40), nullable=False, index=True),
+    sa.Column("status", sa.String(20), nullable=False, index=True),
+    sa.Column("reason", sa.Text, nullable=True),
+    sa.Column("parameters", sa.JSON, nullable=False),
+    sa.Column("rig_id", sa.ForeignKey("rigs.id"), nullable=False),
+    sa.Column("vehicle_id", sa.ForeignKey("vehicles.id"), nullable=False),
+    sa.Column("started_at", sa.Float(precision=53), nullable=False, index=True),
+    sa.Column("stopped_at", sa.Float(precision=53), nullable=True),
+    sa.Column("channel_names", sa.JSON, nullable=False),
+    sa.Column("sample_count", sa.BigInteger, nullable=False, server_default="0"),
+    sa.Column("software_version", sa.String(100), nullable=False),
+    sa.Column("rig_toml", sa.Text, nullable=False),
+    sa.Column("scenario_toml", sa.Text, nullable=True),
+    sa.Column("owner_host", sa.String(255), nullable=True),
+    sa.Column("owner_pid", sa.Integer, nullable=True),
+    sa.CheckConstraint(
+        "status IN ('running', 'completed', 'aborted', 'interrupted')", name="ck_runs_status"
+    ),
+)
+
+samples = sa.Table(
+    "samples",
+    metadata,
+    sa.Column("run_id", sa.ForeignKey("runs.id", ondelete="CASCADE"), primary_key=True),
+    sa.Column("seq", sa.BigInteger, primary_key=True, autoincrement=False),
+    sa.Column("t_mono", sa.Float(precision=53), nullable=False),
+    sa.Column("t_wall", sa.Float(precision=53), nullable=False),
+    sa.Column("quality", sa.Integer, nullable=False),
+    sa.Column("stale", sa.Text, nullable=True),  # comma-separated channel names, NULL if none
+    sa.Column("channel_values", sa.LargeBinary, nullable=False),
+    sqlite_with_rowid=False,
+)
+
+events = sa.Table(
+    "events",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("run_id", sa.ForeignKey("runs.id", ondelete="CASCADE"), nullable=True, index=True),
+    sa.Column("t_wall", sa.Float(precision=53), nullable=False, index=True),
+    sa.Column("kind", sa.String(40), nullable=False),
+    sa.Column("message", sa.Text, nullable=False),
+    sa.Column("data", sa.JSON, nullable=True),
+)
+
+results = sa.Table(
+    "results",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("kind", sa.String(40), nullable=False, index=True),
+    sa.Column("created_at", sa.Float(precision=53), nullable=False),
+    sa.Column("software_version", sa.String(100), nullable=False),
+    sa.Column("data", sa.JSON, nullable=False),
+)
+
+result_runs = sa.Table(
+    "result_runs",
+    metadata,
+    sa.Column("result_id", sa.ForeignKey("results.id", ondelete="CASCADE"), primary_key=True),
+    sa.Column("run_id", sa.ForeignKey("runs.id", ondelete="CASCADE"), primary_key=True, index=True),
+)

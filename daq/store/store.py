@@ -1,0 +1,402 @@
+"""The run database: runs, samples, events and results behind one URL (SQLite or
+PostgreSQL). The SQL lives here; every write is one transaction."""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+import uuid
+from collections.abc import Sequence
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+import sqlalchemy as sa
+
+from daq.sample import Sample
+from daq.store import checks
+from daq.store.annotations import EventsAndResults
+from daq.store.base import SAMPLE_COLUMNS, process_alive, software_version
+from daq.store.packing import SamplePacker
+from daq.store.records import (
+    DuplicateSample,
+    RunInfo,
+    SampleTable,
+    to_datetime,
+)
+from daq.store.schema import (
+    END_STATUSES,
+    RUN_STATUSES,
+    events,
+    results,
+    rigs,
+    vehicles,
+)
+from daq.store.schema import runs as runs_t
+from daq.store.schema import samples as samples_t
+
+
+class Store(EventsAndResults):
+    """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
+    creates the database if needed and migrates it to the newest schema."""
+
+    # -- runs -------------------------------------------------------------------------
+    def _insert_run(
+        self,
+        conn: sa.Connection,
+        *,
+        kind: str,
+        parameters: dict,
+        channel_names: Sequence[str],
+        rig_name: str,
+        vehicle: str,
+        rig_toml: str,
+        scenario_toml: str | None,
+        started_at: float,
+    ) -> tuple[str, int]:
+        checks.check_kind("kind", kind)
+        checks.check_json("parameters", parameters)
+        names = checks.check_channel_names(channel_names)
+        rig_name = checks.check_name("rig_name", rig_name)
+        vehicle = checks.check_name("vehicle", vehicle)
+        if not isinstance(rig_toml, str):
+            raise ValueError(f"rig_toml: expected the rig file's text, got {rig_toml!r}")
+        if scenario_toml is not None and not isinstance(scenario_toml, str):
+            raise ValueError(f"scenario_toml: expected TOML text or None, got {scenario_toml!r}")
+        run_uuid = str(uuid.uuid4())
+        pk = conn.execute(
+            sa.insert(runs_t).values(
+                uuid=run_uuid,
+                kind=kind,
+                status="running",
+                parameters=parameters,
+                rig_id=self._named_id(conn, rigs, rig_name),
+                vehicle_id=self._named_id(conn, vehicles, vehicle),
+                started_at=started_at,
+                channel_names=list(names),
+                software_version=software_version(),
+                rig_toml=rig_toml,
+                scenario_toml=scenario_toml,
+                owner_host=socket.gethostname(),
+                owner_pid=os.getpid(),
+            )
+        ).inserted_primary_key[0]
+        return run_uuid, pk
+
+    def create_run(
+        self,
+        *,
+        kind: str,
+        parameters: dict,
+        channel_names: Sequence[str],
+        rig_name: str,
+        vehicle: str,
+        rig_toml: str,
+        scenario_toml: str | None = None,
+    ) -> str:
+        """Start a run (status ``running``, owned by this process); returns its uuid."""
+        with self.transaction() as conn:
+            run_uuid, _ = self._insert_run(
+                conn,
+                kind=kind,
+                parameters=parameters,
+                channel_names=channel_names,
+                rig_name=rig_name,
+                vehicle=vehicle,
+                rig_toml=rig_toml,
+                scenario_toml=scenario_toml,
+                started_at=time.time(),
+            )
+        return run_uuid
+
+    def _finish(
+        self,
+        conn: sa.Connection,
+        run: sa.Row,
+        status: str,
+        reason: str | None,
+        stopped_at: float,
+    ) -> None:
+        checks.check_choice("status", status, END_STATUSES)
+        if status == "aborted" and not (reason and reason.strip()):
+            raise ValueError("reason: an aborted run needs a reason (e.g. 'device lost')")
+        done = conn.execute(
+            sa.update(runs_t)
+            .where(runs_t.c.id == run.id, runs_t.c.status == "running")
+            .values(status=status, reason=reason, stopped_at=stopped_at)
+        )
+        if done.rowcount != 1:
+            current = conn.execute(
+                sa.select(runs_t.c.status).where(runs_t.c.id == run.id)
+            ).scalar_one()
+            raise ValueError(
+                f"run {run.uuid}: already ended as {current!r}; cannot mark {status!r}"
+            )
+
+    def finish_run(
+        self,
+        run_id: str,
+        status: str,
+        reason: str | None = None,
+        *,
+        stopped_at: datetime | float | None = None,
+    ) -> None:
+        """End a running run as ``completed``, ``aborted`` (reason required) or
+        ``interrupted``; the stop time is now unless given."""
+        stop = checks.unix_seconds("stopped_at", stopped_at)
+        with self.transaction() as conn:
+            run = self._resolve(conn, run_id)
+            self._finish(conn, run, status, reason, time.time() if stop is None else stop)
+
+    def import_run(
+        self,
+        *,
+        kind: str,
+        parameters: dict,
+        channel_names: Sequence[str],
+        rig_name: str,
+        vehicle: str,
+        rig_toml: str,
+        samples: Sequence[Sample],
+        started_at: float,
+        stopped_at: float,
+        scenario_toml: str | None = None,
+        status: str = "completed",
+        reason: str | None = None,
+    ) -> str:
+        """Store a whole, already finished run in one transaction (nothing on error)."""
+        with self.transaction() as conn:
+            run_uuid, pk = self._insert_run(
+                conn,
+                kind=kind,
+                parameters=parameters,
+                channel_names=channel_names,
+                rig_name=rig_name,
+                vehicle=vehicle,
+                rig_toml=rig_toml,
+                scenario_toml=scenario_toml,
+                started_at=started_at,
+            )
+            packer = SamplePacker(checks.check_channel_names(channel_names))
+            self._insert_rows(conn, run_uuid, pk, packer, samples)
+            run = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()
+            self._finish(conn, run, status, reason, stopped_at)
+        return run_uuid
+
+    _RUN_COLUMNS = (
+        runs_t,
+        rigs.c.name.label("rig_name"),
+        vehicles.c.name.label("vehicle_name"),
+    )
+
+    def _run_query(self) -> sa.Select:
+        return (
+            sa.select(*self._RUN_COLUMNS)
+            .join(rigs, rigs.c.id == runs_t.c.rig_id)
+            .join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
+        )
+
+    @staticmethod
+    def _run_info(row: sa.Row) -> RunInfo:
+        return RunInfo(
+            id=row.uuid,
+            kind=row.kind,
+            status=row.status,
+            reason=row.reason,
+            parameters=dict(row.parameters),
+            started_at=to_datetime(row.started_at),
+            stopped_at=to_datetime(row.stopped_at),
+            sample_count=int(row.sample_count),
+            rig_name=row.rig_name,
+            vehicle=row.vehicle_name,
+            channel_names=tuple(row.channel_names),
+            software_version=row.software_version,
+            rig_toml=row.rig_toml,
+            scenario_toml=row.scenario_toml,
+        )
+
+    def get_run(self, run_id_or_unique_prefix: str) -> RunInfo:
+        """One run by uuid or unique prefix (RunNotFound / AmbiguousRunId otherwise)."""
+        with self.engine.connect() as conn:
+            run = self._resolve(conn, run_id_or_unique_prefix)
+            row = conn.execute(self._run_query().where(runs_t.c.id == run.id)).one()
+        return self._run_info(row)
+
+    def list_runs(
+        self,
+        *,
+        kind: str | None = None,
+        status: str | None = None,
+        vehicle: str | None = None,
+        since: datetime | None = None,
+        until: datetime | None = None,
+        limit: int = 100,
+        offset: int = 0,
+    ) -> list[RunInfo]:
+        """Runs, newest first, filtered by kind, status, vehicle name and start time
+        (``since`` ≤ start < ``until``; a naive datetime is taken as UTC)."""
+        query = self._run_query()
+        if kind is not None:
+            query = query.where(runs_t.c.kind == checks.check_kind("kind", kind))
+        if status is not None:
+            query = query.where(
+                runs_t.c.status == checks.check_choice("status", status, RUN_STATUSES)
+            )
+        if vehicle is not None:
+            query = query.where(vehicles.c.name == vehicle)
+        if since is not None:
+            query = query.where(runs_t.c.started_at >= checks.unix_seconds("since", since))
+        if until is not None:
+            query = query.where(runs_t.c.started_at < checks.unix_seconds("until", until))
+        query = (
+            query.order_by(runs_t.c.started_at.desc(), runs_t.c.id.desc())
+            .limit(checks.check_limit("limit", limit, minimum=1))
+            .offset(checks.check_limit("offset", offset, minimum=0))
+        )
+        with self.engine.connect() as conn:
+            return [self._run_info(row) for row in conn.execute(query)]
+
+    # -- samples ----------------------------------------------------------------------
+    def _insert_rows(
+        self,
+        conn: sa.Connection,
+        run_uuid: str,
+        pk: int,
+        packer: SamplePacker,
+        samples: Sequence[Sample],
+    ) -> int:
+        if not samples:
+            return 0
+        rows = packer.rows(pk, samples)
+        dbapi = conn.dialect.loaded_dbapi
+        try:
+            if self.backend == "postgresql":
+                cursor = conn.connection.driver_connection.cursor()
+                with cursor, cursor.copy(f"COPY samples ({SAMPLE_COLUMNS}) FROM STDIN") as copy:
+                    for row in rows:
+                        copy.write_row(row)
+            else:
+                conn.exec_driver_sql(self._insert_samples_sql, rows)
+        except (sa.exc.IntegrityError, dbapi.IntegrityError) as exc:
+            raise DuplicateSample(
+                f"run {run_uuid}: a sample with seq in {rows[0][1]}..{rows[-1][1]} is already "
+                "stored (seq must be unique per run); nothing from this batch was written"
+            ) from exc
+        conn.execute(
+            sa.update(runs_t)
+            .where(runs_t.c.id == pk)
+            .values(sample_count=runs_t.c.sample_count + len(rows))
+        )
+        return len(rows)
+
+    def add_samples(self, run_id: str, samples: Sequence[Sample]) -> int:
+        """Store a batch of samples in one transaction; returns how many."""
+        with self.transaction() as conn:
+            pk, packer = self._packer(conn, run_id)
+            return self._insert_rows(conn, run_id, pk, packer, samples)
+
+    def samples(self, run_id: str, *, start_seq: int = 0, limit: int | None = None) -> SampleTable:
+        """A run's samples with ``seq ≥ start_seq`` (at most ``limit``) as numpy columns."""
+        checks.check_limit("start_seq", start_seq, minimum=0)
+        if limit is not None:
+            checks.check_limit("limit", limit, minimum=0)
+        with self.engine.connect() as conn:
+            run = self._resolve(conn, run_id)
+            query = (
+                sa.select(
+                    samples_t.c.seq,
+                    samples_t.c.t_mono,
+                    samples_t.c.t_wall,
+                    samples_t.c.quality,
+                    samples_t.c.stale,
+                    samples_t.c.channel_values,
+                )
+                .where(samples_t.c.run_id == run.id, samples_t.c.seq >= start_seq)
+                .order_by(samples_t.c.seq)
+            )
+            if limit is not None:
+                query = query.limit(limit)
+            rows = conn.execute(query).all()
+        packer = SamplePacker(run.channel_names)
+        columns = list(zip(*rows, strict=True)) if rows else [[]] * 6
+        stale = columns[4]
+        return SampleTable(
+            seq=np.array(columns[0], dtype=np.int64),
+            t_mono=np.array(columns[1], dtype=np.float64),
+            t_wall=np.array(columns[2], dtype=np.float64),
+            quality=np.array(columns[3], dtype=np.int64),
+            channels=packer.unpack([bytes(b) for b in columns[5]]),
+            stale=tuple(tuple(s.split(",")) if s else () for s in stale),
+        )
+
+    def sample_count(self, run_id: str) -> int:
+        """How many samples of the run are stored (counted, not cached)."""
+        with self.engine.connect() as conn:
+            run = self._resolve(conn, run_id)
+            return conn.execute(
+                sa.select(sa.func.count()).where(samples_t.c.run_id == run.id)
+            ).scalar_one()
+
+    def last_sample(self, run_id: str) -> Sample | None:
+        """The stored sample with the highest seq (None before the first flush)."""
+        with self.engine.connect() as conn:
+            run = self._resolve(conn, run_id)
+            last = conn.execute(
+                sa.select(sa.func.max(samples_t.c.seq)).where(samples_t.c.run_id == run.id)
+            ).scalar()
+        if last is None:
+            return None
+        return self.samples(run.uuid, start_seq=last, limit=1).sample(0)
+
+    # -- start-up and health ------------------------------------------------------------
+    def recover_interrupted(self, *, include_live_owners: bool = False) -> list[str]:
+        """Mark runs left ``running`` by a dead process as ``interrupted``, stopped at the
+        wall time of their last stored sample (or their start); returns their ids.
+
+        Runs whose owning process is still alive on this host, or that were started on
+        another host, are left alone unless ``include_live_owners``.
+        """
+        here = socket.gethostname()
+        recovered: list[str] = []
+        with self.transaction() as conn:
+            running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
+            for run in running:
+                owner_alive = run.owner_host != here or (
+                    run.owner_pid is not None and process_alive(run.owner_pid)
+                )
+                if owner_alive and not include_live_owners:
+                    continue
+                last_wall = conn.execute(
+                    sa.select(sa.func.max(samples_t.c.t_wall)).where(samples_t.c.run_id == run.id)
+                ).scalar()
+                stop = run.started_at if last_wall is None else max(last_wall, run.started_at)
+                reason = "recording process ended without finishing the run"
+                self._finish(conn, run, "interrupted", reason, stop)
+                self._insert_event(
+                    conn,
+                    run.id,
+                    "fault",
+                    f"run {run.uuid} interrupted: {reason}; recovered at start-up",
+                    {"owner_host": run.owner_host, "owner_pid": run.owner_pid},
+                )
+                recovered.append(run.uuid)
+        return recovered
+
+    def integrity_check(self) -> str:
+        """``ok`` when the database is sound (SQLite PRAGMA integrity_check), else the
+        problems found."""
+        with self.engine.connect() as conn:
+            if self.backend == "sqlite":
+                lines = [r[0] for r in conn.exec_driver_sql("PRAGMA integrity_check")]
+                return "ok" if lines == ["ok"] else "; ".join(lines)
+            conn.execute(sa.select(sa.func.count()).select_from(runs_t)).scalar_one()
+            return "ok"
+
+    def stats(self) -> dict[str, Any]:
+        """Row counts per table (for status pages)."""
+        with self.engine.connect() as conn:
+            return {
+                t.name: conn.execute(sa.select(sa.func.count()).select_from(t)).scalar_one()
+                for t in (runs_t, samples_t, events, results)
+            }
