@@ -1,0 +1,319 @@
+"""Thruster driver: host-side limits, heartbeat and zero-on-exit over the line protocol.
+
+Serial I/O runs on one dedicated worker thread (``SerialLink``), so no call blocks the
+event loop. Every way out — ``close()``, ``async with`` (normal exit or exception),
+SIGINT/SIGTERM via ``install_signal_handlers`` and an ``atexit`` fallback — leaves the
+thrusters commanded to zero. See ``docs/thruster-protocol.md``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import atexit
+import logging
+import math
+import os
+import signal
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import serial
+
+from daq.config import Limits, ThrusterPort
+from thrusters import protocol as p
+from thrusters.link import LinkStats, SerialLink
+
+log = logging.getLogger(__name__)
+
+#: Longest interval the slew limit credits between two steps (s). A command after a
+#: long pause still ramps instead of jumping.
+MAX_SLEW_INTERVAL_S = 0.1
+
+
+class ThrusterError(RuntimeError):
+    """The controller refused or did not answer an operator-level request."""
+
+
+@dataclass(frozen=True, slots=True)
+class ThrusterStatus:
+    """Answer to a query: controller state, measured RPM and motor current (A) per thruster."""
+
+    state: str
+    rpm: tuple[float, ...]
+    current_a: tuple[float, ...]
+    t_mono: float
+
+
+class ThrusterDriver:
+    """Driver for the thruster controller named in the rig file's ``[thrusters]`` section.
+
+    ``port`` overrides ``cfg.port`` (needed when the rig file says ``"sim"``: the simulated
+    rig hands over its pty path or ``socket://`` URL). ``clock`` is the monotonic time
+    source of the slew limiter (tests pass their own to make ramps byte-exact).
+    """
+
+    def __init__(
+        self,
+        cfg: ThrusterPort,
+        limits: Limits,
+        *,
+        port: str | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        url = port or cfg.port
+        if url == "sim":
+            raise ValueError(
+                "thrusters.port: 'sim' must be resolved to the simulator's pty path or "
+                "socket:// URL (pass port=...), got 'sim'"
+            )
+        self.cfg = cfg
+        self.clock = clock
+        self.limits = limits
+        self.count = cfg.count
+        self._link = SerialLink(url, cfg.baudrate, cfg.ack_timeout_s)
+        self._executor: ThreadPoolExecutor | None = None
+        self._seq = 0
+        self.state = "UNKNOWN"
+        #: Commands last sent, as fractions of full scale (after clamp and slew limit).
+        self.output: list[float] = [0.0] * self.count
+        #: Commands asked for by the caller, after clamping.
+        self.target: list[float] = [0.0] * self.count
+        self._last_step_t: float | None = None
+        #: Why commands are held at zero (stale sensors, shutting down), or None.
+        self.inhibited: str | None = None
+        self.clamped_commands = 0
+        self._signal_task: asyncio.Task[None] | None = None
+
+    @property
+    def stats(self) -> LinkStats:
+        """Counters: sent, acked, naks by reason, timeouts, garbage/corrupt lines, I/O errors."""
+        return self._link.stats
+
+    @property
+    def is_open(self) -> bool:
+        return self._link.is_open
+
+    # ---- life cycle -------------------------------------------------------------------
+
+    async def open(self) -> None:
+        """Open the port and query the controller; ThrusterError if it does not answer."""
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="thrusters")
+        try:
+            await self._run(self._link.open)
+        except (OSError, serial.SerialException) as err:
+            self._executor.shutdown(wait=False)
+            self._executor = None
+            raise ThrusterError(f"thrusters.port: cannot open {self._link.url!r}: {err}") from err
+        atexit.register(self._zero_at_exit)
+        self.inhibited = None
+        try:
+            await self.query()
+        except ThrusterError:
+            await self._close_port()
+            raise
+
+    async def close(self) -> None:
+        """Command zero (waiting for the ACK, ≤ 3 retries), disarm, close. Never raises."""
+        if not self.is_open:
+            return
+        self.inhibited = "shutting down"
+        try:
+            if not await self.zero():
+                log.error("thrusters: zero command was not acknowledged before close")
+            await self.disarm()
+        except Exception as err:
+            log.error("thrusters: disarm on close failed: %s", err)
+        await self._close_port()
+
+    async def _close_port(self) -> None:
+        atexit.unregister(self._zero_at_exit)
+        if self._executor is not None:
+            await self._run(self._link.close)
+            self._executor.shutdown(wait=False)
+            self._executor = None
+
+    async def __aenter__(self) -> ThrusterDriver:
+        await self.open()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    # ---- operator requests ------------------------------------------------------------
+
+    async def arm(self) -> None:
+        """Arm the controller (from DISARMED or WDT); outputs start from zero."""
+        reply = await self._transact(p.arm_frame)
+        self._expect_ack(reply, "arm")
+        self.output = [0.0] * self.count
+        self.target = [0.0] * self.count
+        self._last_step_t = self.clock()
+
+    async def disarm(self) -> None:
+        """Disarm: the controller zeroes its outputs."""
+        self.target = self.output = [0.0] * self.count
+        self._expect_ack(await self._transact(p.disarm_frame), "disarm")
+
+    async def query(self) -> ThrusterStatus:
+        """Controller state and measured RPM/current per thruster."""
+        reply = await self._transact(p.qry_frame)
+        if reply is None or reply.kind != "STA":
+            raise ThrusterError(f"query: controller at {self._link.url} gave {_describe(reply)}")
+        if len(reply.rpm) != self.count:
+            raise ThrusterError(
+                f"query: controller reports {len(reply.rpm)} thrusters, "
+                f"rig file thrusters.count is {self.count}"
+            )
+        self.state = reply.state or "UNKNOWN"
+        return ThrusterStatus(reply.state or "", reply.rpm, reply.current_a, time.monotonic())
+
+    # ---- commanding -------------------------------------------------------------------
+
+    async def command(self, fractions: Sequence[float]) -> bool:
+        """Ask for thrust per thruster as a fraction of full scale (+ = forward).
+
+        Values are clamped to ±``limits.max_thruster_command`` and the sent command moves
+        toward them at most ``limits.max_command_slew_per_s`` per second (the rest of the
+        ramp is sent by ``heartbeat``). Returns True when the controller ACKed.
+        """
+        if len(fractions) != self.count:
+            raise ValueError(
+                f"fractions: one value per thruster ({self.count}) needed, got {len(fractions)}"
+            )
+        limit = self.limits.max_thruster_command
+        target = []
+        for i, f in enumerate(fractions):
+            if not isinstance(f, int | float) or not math.isfinite(f):
+                raise ValueError(f"thruster {i}: command must be a finite fraction, got {f!r}")
+            clamped = min(max(float(f), -limit), limit)
+            if clamped != f:
+                self.clamped_commands += 1
+            target.append(clamped)
+        self.target = target
+        return await self._step()
+
+    async def heartbeat(self) -> bool:
+        """Re-send the (slew-limited) command; call every clock tick while armed."""
+        return await self._step()
+
+    async def zero(self, retries: int = 3) -> bool:
+        """Command zero at once (no ramp) and wait for the ACK, retrying up to ``retries``
+        times. A ``NAK disarmed`` counts as success (outputs are zero in DISARMED/WDT); if
+        the controller answers but keeps refusing, DISARM is the last resort."""
+        self.target = self.output = [0.0] * self.count
+        self._last_step_t = self.clock()
+        zeros = [0] * self.count
+        answered = False
+        for attempt in range(retries + 1):
+            reply = await self._transact(lambda seq: p.thr_frame(seq, zeros))
+            if reply is not None and (reply.kind == "ACK" or reply.reason == "disarmed"):
+                return True
+            answered = answered or reply is not None
+            log.warning("thrusters: zero attempt %d got %s", attempt + 1, _describe(reply))
+        if answered:
+            reply = await self._transact(p.disarm_frame)
+            return reply is not None and reply.kind == "ACK"
+        return False
+
+    async def zero_on_stale(self, stale: bool, *, reason: str = "sensor data stale") -> None:
+        """Policy hook for the acquisition/procedure layer: while ``stale`` is True the
+        thrusters are held at zero (commands are replaced by zeros); False releases them
+        (they ramp up again under the slew limit)."""
+        if stale and self.inhibited is None:
+            log.warning("thrusters: %s: commanding zero", reason)
+            self.inhibited = reason
+            await self.zero()
+        elif not stale and self.inhibited == reason:
+            self.inhibited = None
+
+    async def _step(self) -> bool:
+        now = self.clock()
+        if self.inhibited is not None:
+            new = [0.0] * self.count
+        else:
+            dt = MAX_SLEW_INTERVAL_S if self._last_step_t is None else now - self._last_step_t
+            max_step = self.limits.max_command_slew_per_s * min(dt, MAX_SLEW_INTERVAL_S)
+            new = [
+                out + min(max(tgt - out, -max_step), max_step)
+                for out, tgt in zip(self.output, self.target, strict=True)
+            ]
+        self.output, self._last_step_t = new, now
+        commands = [p.fraction_to_command(x, i) for i, x in enumerate(new)]
+        reply = await self._transact(lambda seq: p.thr_frame(seq, commands))
+        return reply is not None and reply.kind == "ACK"
+
+    # ---- plumbing ---------------------------------------------------------------------
+
+    async def _run(self, fn: Callable[..., object], *args: object) -> object:
+        if self._executor is None:
+            raise ThrusterError(f"thruster driver for {self._link.url} is not open")
+        return await asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
+
+    async def _transact(self, make: Callable[[int], bytes]) -> p.Reply | None:
+        self._seq = p.next_seq(self._seq)
+        seq = self._seq
+        reply = await self._run(self._link.transact, make(seq), seq)
+        assert reply is None or isinstance(reply, p.Reply)
+        if reply is not None and reply.state:
+            self.state = reply.state
+        return reply
+
+    def _expect_ack(self, reply: p.Reply | None, what: str) -> None:
+        if reply is None or reply.kind != "ACK":
+            raise ThrusterError(f"{what}: controller at {self._link.url} gave {_describe(reply)}")
+
+    def _zero_at_exit(self) -> None:
+        """Last resort at interpreter exit: write zero and DISARM frames synchronously."""
+        if not self.is_open:
+            return
+        try:
+            self._seq = p.next_seq(self._seq)
+            self._link.write_raw(p.thr_frame(self._seq, [0] * self.count))
+            self._seq = p.next_seq(self._seq)
+            self._link.write_raw(p.disarm_frame(self._seq))
+            log.warning("thrusters: zero frame written at exit (driver was not closed)")
+        except Exception as err:
+            log.error("thrusters: zero at exit failed: %s", err)
+
+    def install_signal_handlers(
+        self,
+        loop: asyncio.AbstractEventLoop | None = None,
+        *,
+        then: Callable[[int], None] | None = None,
+    ) -> None:
+        """On SIGINT/SIGTERM: zero and disarm (``close()``), then call ``then(signum)`` —
+        by default restore the default handler and re-raise the signal, so the process
+        exits as the signal asked, thrusters already at zero."""
+        loop = loop or asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, self._on_signal, loop, sig, then)
+
+    def _on_signal(
+        self, loop: asyncio.AbstractEventLoop, sig: int, then: Callable[[int], None] | None
+    ) -> None:
+        if self._signal_task is None:
+            log.warning("thrusters: signal %d: zeroing before exit", sig)
+            self.inhibited = "shutting down"
+            self._signal_task = loop.create_task(self._shutdown(loop, sig, then))
+
+    async def _shutdown(
+        self, loop: asyncio.AbstractEventLoop, sig: int, then: Callable[[int], None] | None
+    ) -> None:
+        await self.close()
+        if then is not None:
+            then(sig)
+            return
+        for s in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(s)
+        signal.signal(sig, signal.SIG_DFL)
+        os.kill(os.getpid(), sig)
+
+
+def _describe(reply: p.Reply | None) -> str:
+    if reply is None:
+        return "no reply (timeout or line error)"
+    if reply.kind == "NAK":
+        return f"NAK {reply.reason}"
+    return f"{reply.kind} {reply.state}"

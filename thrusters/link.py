@@ -1,0 +1,156 @@
+"""Blocking request/reply over a serial line (pyserial): one frame out, its reply back.
+
+Used from a single worker thread by ``ThrusterDriver``. Anything on the line that is not
+the expected reply (garbage, CRC errors, replies to other sequence numbers) is counted and
+logged, never raised.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+
+import serial
+
+from thrusters import protocol as p
+
+log = logging.getLogger(__name__)
+
+#: Longest single blocking read; bounds how late a reply deadline can be noticed.
+READ_SLICE_S = 0.01
+
+
+@dataclass
+class LinkStats:
+    """What the host sent and what came back."""
+
+    sent: int = 0
+    acked: int = 0
+    queries_answered: int = 0
+    naks: Counter[str] = field(default_factory=Counter)
+    timeouts: int = 0
+    #: Lines that are not frames at all (no ``$``, bad syntax, over-long).
+    garbage_lines: int = 0
+    #: Frames whose CRC does not match.
+    corrupt_lines: int = 0
+    #: Valid replies answering another sequence number (late or unsolicited).
+    unexpected_replies: int = 0
+    io_errors: int = 0
+
+
+class SerialLink:
+    """A pyserial port (device path or URL such as ``socket://host:port``) carrying frames."""
+
+    def __init__(self, url: str, baudrate: int, reply_timeout_s: float) -> None:
+        self.url = url
+        self.baudrate = baudrate
+        self.reply_timeout_s = reply_timeout_s
+        self.stats = LinkStats()
+        self._port: serial.SerialBase | None = None
+        self._rx = b""
+
+    @property
+    def is_open(self) -> bool:
+        return self._port is not None
+
+    def open(self) -> None:
+        """Open the port and discard anything already waiting."""
+        self._port = serial.serial_for_url(
+            self.url, baudrate=self.baudrate, timeout=READ_SLICE_S, write_timeout=0.5
+        )
+        self._port.reset_input_buffer()
+        self._rx = b""
+
+    def close(self) -> None:
+        port, self._port = self._port, None
+        if port is not None:
+            try:
+                port.close()
+            except (OSError, serial.SerialException) as err:
+                log.debug("thruster link: close failed: %s", err)
+
+    def write_raw(self, raw: bytes) -> None:
+        """Write bytes without waiting for anything (the at-exit fallback)."""
+        if self._port is None:
+            return
+        self._port.write(raw)
+        self._port.flush()
+
+    def transact(self, raw: bytes, seq: int) -> p.Reply | None:
+        """Send one frame and return the reply carrying ``seq`` (or a NAK without a
+        readable seq); None on timeout or a broken line."""
+        if self._port is None:
+            raise serial.SerialException(f"thruster link {self.url} is not open")
+        try:
+            self._drain_stray()
+            self._port.write(raw)
+            self.stats.sent += 1
+            deadline = time.monotonic() + self.reply_timeout_s
+            while (line := self._read_line(deadline)) is not None:
+                reply = self._classify(line, seq)
+                if reply is not None:
+                    return reply
+        except (OSError, serial.SerialException) as err:
+            self.stats.io_errors += 1
+            log.warning("thruster link %s: I/O error: %s", self.url, err)
+            return None
+        self.stats.timeouts += 1
+        log.warning(
+            "thruster link %s: no reply to %r within %.3f s", self.url, raw, self.reply_timeout_s
+        )
+        return None
+
+    def _classify(self, line: bytes, seq: int) -> p.Reply | None:
+        """The reply if ``line`` answers ``seq``; otherwise count it and return None."""
+        try:
+            reply = p.parse_reply(line)
+        except p.ProtocolError as err:
+            if err.reason == "crc":
+                self.stats.corrupt_lines += 1
+            else:
+                self.stats.garbage_lines += 1
+            log.warning("thruster link %s: dropped line %r (%s)", self.url, line[:60], err)
+            return None
+        if reply.seq is not None and reply.seq != seq:
+            self.stats.unexpected_replies += 1
+            log.warning(
+                "thruster link %s: reply for seq %s while waiting for %s", self.url, reply.seq, seq
+            )
+            return None
+        if reply.kind == "ACK":
+            self.stats.acked += 1
+        elif reply.kind == "NAK":
+            self.stats.naks[reply.reason or "?"] += 1
+            log.warning("thruster link %s: NAK %s for seq %s", self.url, reply.reason, seq)
+        else:
+            self.stats.queries_answered += 1
+        return reply
+
+    def _read_line(self, deadline: float) -> bytes | None:
+        assert self._port is not None
+        while b"\n" not in self._rx:
+            if time.monotonic() >= deadline:
+                return None
+            chunk = self._port.read(max(1, self._port.in_waiting))
+            self._rx += chunk
+            if b"\n" not in self._rx and len(self._rx) > p.MAX_LINE_BYTES:
+                self.stats.garbage_lines += 1
+                log.warning(
+                    "thruster link %s: dropped %d bytes without a line end", self.url, len(self._rx)
+                )
+                self._rx = b""
+        line, _, self._rx = self._rx.partition(b"\n")
+        return line
+
+    def _drain_stray(self) -> None:
+        """Count and drop complete lines that arrived while nobody was waiting."""
+        assert self._port is not None
+        waiting = self._port.in_waiting
+        if waiting:
+            self._rx += self._port.read(waiting)
+        while b"\n" in self._rx:
+            line, _, self._rx = self._rx.partition(b"\n")
+            if line.strip():
+                self._classify(line, -1)
