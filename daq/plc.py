@@ -90,6 +90,11 @@ class PlcClient:
         self._reconnect_task: asyncio.Task | None = None
         self._closed = False
 
+    @property
+    def channel_names(self) -> tuple[str, ...]:
+        """Names ``read_all`` returns: every non-``sim_only`` channel, in read order."""
+        return tuple(c.name for b in self.blocks for c in b.channels)
+
     # ---- connection ----------------------------------------------------------------
     @property
     def endpoint(self) -> str:

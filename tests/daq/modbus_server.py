@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import time
 
 from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
@@ -34,6 +35,8 @@ class MapServer:
                 self.words[ch.kind][ch.address + i] = 0
         self.delay_s = 0.0
         self.fail_reads = False
+        #: Like a PLC scan: heartbeat +1 per 10 ms and plc_clock in ms, while True.
+        self.heartbeat_running = True
         self.requests = 0
         self._server: ModbusTcpServer | ModbusSerialServer | None = None
         self._task: asyncio.Task | None = None
@@ -91,6 +94,9 @@ class MapServer:
         if fc in _READ_FC:
             if self.fail_reads:
                 return ExcCodes.DEVICE_FAILURE
+            if self.heartbeat_running:
+                self.set_raw("heartbeat", int(time.monotonic() * 100))
+                self.set_raw("plc_clock", int(time.monotonic() * 1000))
             kind = _READ_FC[fc]
             table = self.words[kind]
             if fc in (1, 2):  # packed bits: register r holds bits 16r .. 16r+15

@@ -78,6 +78,7 @@ async def test_32_bit_word_order_both_ways(order):
 
 
 async def test_heartbeat_and_plc_clock_unwrap_on_the_wire(server, plc):
+    server.heartbeat_running = False
     server.set_raw("heartbeat", 65534)
     server.set_raw("plc_clock", 2**32 - 2)  # ms
     first = await plc.read_all()
@@ -94,6 +95,7 @@ async def test_a_counter_that_stops_counting_goes_stale(server):
     chans = [c.model_copy(update={"freshness_s": 0.1}) for c in rig.channels]
     plc = PlcClient(rig.model_copy(update={"channels": chans}))
     await plc.connect()
+    server.heartbeat_running = False
     try:
         server.set_raw("heartbeat", 10)
         assert (await plc.read_all())["heartbeat"].quality == Quality.OK

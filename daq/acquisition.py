@@ -1,0 +1,226 @@
+"""The acquisition clock: one fixed-rate clock with absolute deadlines.
+
+Slot ``k`` is due at ``t0 + k / rate_hz`` (monotonic time), so the clock never
+drifts however long each read takes. The clock sleeps on the event loop to about
+``spin_s`` before the deadline, then yields in a tight loop until it is due,
+which keeps lateness well under a millisecond on an idle loop.
+
+A tick that runs long makes the clock skip every slot whose deadline is more than
+half a period gone (``seq`` jumps, the next Sample carries OVERRUN); it never
+bursts to catch up. Samples are handed off through per-consumer asyncio queues
+with ``put_nowait``: a full queue loses its own oldest sample (counted), so a
+slow consumer cannot slow the clock. Nothing on the clock's path waits on a
+database, HTTP or a fit.
+
+A failed poll still produces a Sample on time: quality ERROR, the unread
+channels NaN (never a repeated old value, which would look like a vehicle at
+rest). The PLC client reconnects in the background; ``device_lost`` is set once
+reads have failed for longer than ``device_lost_after_s`` and cleared on the next
+good read.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from daq.plc import Reading
+from daq.sample import Quality, Sample
+
+log = logging.getLogger(__name__)
+
+
+class Sampler(Protocol):
+    """What the clock polls: a PLC client (``daq.plc.PlcClient``) or anything alike."""
+
+    @property
+    def channel_names(self) -> tuple[str, ...]: ...
+
+    async def read_all(self) -> dict[str, Reading]: ...
+
+
+@dataclass
+class ClockStats:
+    """Counters of the clock; ``lateness_s`` keeps the last ``maxlen`` tick latenesses."""
+
+    ticks: int = 0
+    overruns: int = 0
+    skipped_slots: int = 0
+    failed_polls: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+    lateness_s: deque[float] = field(default_factory=lambda: deque(maxlen=100_000))
+
+    def lateness_percentiles(self) -> dict[str, float]:
+        """Lateness (actual tick start minus its deadline) p50, p99 and max, in seconds."""
+        if not self.lateness_s:
+            return {"p50_s": math.nan, "p99_s": math.nan, "max_s": math.nan}
+        ordered = sorted(self.lateness_s)
+        n = len(ordered)
+
+        def pct(p: float) -> float:
+            return ordered[min(n - 1, math.ceil(p / 100 * n) - 1)]
+
+        return {"p50_s": pct(50), "p99_s": pct(99), "max_s": ordered[-1]}
+
+
+@dataclass(eq=False)
+class _Subscriber:
+    name: str
+    queue: asyncio.Queue[Sample]
+
+
+class Acquisition:
+    """Fixed-rate sampling of ``plc`` into Samples handed to subscribers' queues."""
+
+    def __init__(
+        self,
+        plc: Sampler,
+        *,
+        rate_hz: float = 10.0,
+        device_lost_after_s: float | None = None,
+        spin_s: float = 0.002,
+    ) -> None:
+        if not (math.isfinite(rate_hz) and 0 < rate_hz <= 10_000):
+            raise ValueError(f"rate_hz must be in (0, 10000] Hz, got {rate_hz!r}")
+        self.plc = plc
+        self.rate_hz = rate_hz
+        self.period_s = 1.0 / rate_hz
+        #: Reads failing for this long set ``device_lost`` (default: 3 periods, at least 0.5 s).
+        self.device_lost_after_s = (
+            device_lost_after_s if device_lost_after_s is not None else max(3 * self.period_s, 0.5)
+        )
+        if self.device_lost_after_s <= 0:
+            raise ValueError(f"device_lost_after_s must be > 0 s, got {self.device_lost_after_s!r}")
+        self.spin_s = spin_s
+        self.stats = ClockStats()
+        self.latest: Sample | None = None
+        #: Set while the device has been unreadable for longer than ``device_lost_after_s``.
+        self.device_lost = asyncio.Event()
+        self._subscribers: dict[asyncio.Queue[Sample], _Subscriber] = {}
+        self._stopping = False
+        self._wake: asyncio.Future | None = None
+        self._running = False
+
+    # ---- consumers ------------------------------------------------------------------
+    def subscribe(self, maxsize: int = 1000, *, name: str | None = None) -> asyncio.Queue[Sample]:
+        """A new queue that receives every Sample; when full it loses its oldest one."""
+        if maxsize < 1:
+            raise ValueError(f"maxsize must be at least 1 sample, got {maxsize!r}")
+        q: asyncio.Queue[Sample] = asyncio.Queue(maxsize=maxsize)
+        sub = _Subscriber(name or f"consumer-{len(self.stats.dropped) + 1}", q)
+        self._subscribers[q] = sub
+        self.stats.dropped.setdefault(sub.name, 0)
+        return q
+
+    def unsubscribe(self, q: asyncio.Queue[Sample]) -> None:
+        """Stop feeding ``q`` (its drop count stays in ``stats.dropped``)."""
+        self._subscribers.pop(q, None)
+
+    def _publish(self, sample: Sample) -> None:
+        self.latest = sample
+        for sub in self._subscribers.values():
+            q = sub.queue
+            if q.full():
+                with contextlib.suppress(asyncio.QueueEmpty):
+                    q.get_nowait()
+                self.stats.dropped[sub.name] += 1
+            q.put_nowait(sample)
+
+    # ---- the clock ------------------------------------------------------------------
+    def stop(self) -> None:
+        """Ask ``run()`` to return after the tick in progress (wakes a sleeping clock)."""
+        self._stopping = True
+        if self._wake is not None and not self._wake.done():
+            self._wake.set_result(None)
+
+    async def _sleep_until(self, deadline: float) -> None:
+        loop = asyncio.get_running_loop()
+        coarse = deadline - self.spin_s
+        if time.monotonic() < coarse:
+            self._wake = loop.create_future()
+            handle = loop.call_at(coarse, _resolve, self._wake)
+            try:
+                await self._wake
+            finally:
+                handle.cancel()
+                self._wake = None
+        while not self._stopping and time.monotonic() < deadline:
+            await asyncio.sleep(0)
+
+    async def run(self) -> None:
+        """Tick until ``stop()``; seq counts slots from 0 at the start of this run."""
+        if self._running:
+            raise RuntimeError("this Acquisition is already running")
+        self._running, self._stopping = True, False
+        period = self.period_s
+        t0 = time.monotonic()
+        last_good = t0
+        slot = 0
+        overrun = False
+        try:
+            while True:
+                deadline = t0 + slot * period
+                await self._sleep_until(deadline)
+                if self._stopping:
+                    return
+                start = time.monotonic()
+                self.stats.lateness_s.append(start - deadline)
+                sample = await self._tick(slot, overrun)
+                self.stats.ticks += 1
+                if sample.quality & Quality.ERROR and not _any_read(sample):
+                    if sample.t_mono - last_good >= self.device_lost_after_s:
+                        if not self.device_lost.is_set():
+                            down_s = sample.t_mono - last_good
+                            log.warning("device lost: no good read for %.3f s", down_s)
+                        self.device_lost.set()
+                else:
+                    last_good = sample.t_mono
+                    self.device_lost.clear()
+                self._publish(sample)
+                # Next slot: the first one not more than half a period overdue.
+                due = math.ceil((time.monotonic() - t0) / period - 0.5)
+                next_slot = max(slot + 1, due)
+                overrun = next_slot > slot + 1
+                if overrun:
+                    self.stats.overruns += 1
+                    self.stats.skipped_slots += next_slot - slot - 1
+                slot = next_slot
+        finally:
+            self._running = False
+
+    async def _tick(self, seq: int, overrun: bool) -> Sample:
+        quality = Quality.OVERRUN if overrun else Quality.OK
+        try:
+            readings = await self.plc.read_all()
+        except Exception as err:  # DeviceError, or anything odd from the transport
+            self.stats.failed_polls += 1
+            log.debug("poll %d failed: %s", seq, err)
+            t_mono, t_wall = time.monotonic(), time.time()
+            channels = dict.fromkeys(self.plc.channel_names, math.nan)
+            return Sample(seq, t_mono, t_wall, channels, quality | Quality.ERROR)
+        t_mono, t_wall = time.monotonic(), time.time()
+        channels: dict[str, float] = {}
+        stale: list[str] = []
+        for name, r in readings.items():
+            quality |= r.quality
+            channels[name] = math.nan if r.quality & Quality.ERROR else r.value
+            if r.quality & Quality.STALE:
+                stale.append(name)
+        if quality & Quality.ERROR:
+            self.stats.failed_polls += 1
+        return Sample(seq, t_mono, t_wall, channels, quality, tuple(stale))
+
+
+def _resolve(fut: asyncio.Future) -> None:
+    if not fut.done():
+        fut.set_result(None)
+
+
+def _any_read(sample: Sample) -> bool:
+    return any(not math.isnan(v) for v in sample.channels.values())

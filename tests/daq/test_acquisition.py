@@ -1,0 +1,153 @@
+"""The acquisition clock against a real Modbus server on a real socket."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import math
+import time
+
+import pytest
+
+from daq.acquisition import Acquisition
+from daq.config import load_rig
+from daq.plc import PlcClient
+from daq.sample import Quality, Sample
+from tests.daq.modbus_server import MapServer
+
+
+@pytest.fixture
+async def server():
+    srv = MapServer(load_rig())
+    await srv.start()
+    yield srv
+    await srv.stop()
+
+
+@pytest.fixture
+async def plc(server):
+    client = PlcClient(server.rig_config(timeout_s=0.1, reconnect_min_s=0.05, reconnect_max_s=0.2))
+    await client.connect()
+    yield client
+    await client.close()
+
+
+async def _collect(q: asyncio.Queue[Sample], n: int, timeout_s: float = 10.0) -> list[Sample]:
+    out = []
+    async with asyncio.timeout(timeout_s):
+        while len(out) < n:
+            out.append(await q.get())
+    return out
+
+
+async def test_absolute_deadlines_do_not_drift_at_100_hz(plc):
+    acq = Acquisition(plc, rate_hz=100.0)
+    q = acq.subscribe(maxsize=1000)
+    runner = asyncio.create_task(acq.run())
+    samples = await _collect(q, 201)
+    acq.stop()
+    await runner
+    assert [s.seq for s in samples] == list(range(201))
+    # Slot 200 is due exactly 2.000 s after slot 0; each sample's time is its read.
+    assert samples[-1].t_mono - samples[0].t_mono == pytest.approx(2.0, abs=0.005)
+    assert acq.stats.overruns == 0 and acq.stats.skipped_slots == 0
+    assert all(s.quality == Quality.OK for s in samples)
+    lateness = acq.stats.lateness_percentiles()
+    assert lateness["p50_s"] < 0.002
+    assert min(acq.stats.lateness_s) >= 0
+    assert math.isclose(samples[5].channels["tow_position"], 0.0)
+    assert acq.latest is not None and acq.latest.seq >= 200
+
+
+async def test_an_overrun_skips_slots_and_never_bursts(server, plc):
+    acq = Acquisition(plc, rate_hz=100.0)
+    q = acq.subscribe(maxsize=1000)
+    runner = asyncio.create_task(acq.run())
+    await _collect(q, 10)
+    server.delay_s = 0.02  # each of the 3 requests answers after 20 ms: a tick takes ~60 ms
+    slow = await _collect(q, 8)
+    server.delay_s = 0.0
+    await _collect(q, 3)  # drain the tick that was in flight
+    after = await _collect(q, 20)
+    acq.stop()
+    await runner
+    gaps = [b.seq - a.seq for a, b in itertools.pairwise(slow)]
+    assert all(g >= 5 for g in gaps), gaps  # slots skipped, seq jumps
+    assert all(s.quality & Quality.OVERRUN for s in slow[1:])
+    times = [b.t_mono - a.t_mono for a, b in itertools.pairwise(slow)]
+    assert min(times) > 0.04  # no catch-up burst of back-to-back ticks
+    assert acq.stats.skipped_slots >= sum(g - 1 for g in gaps)
+    assert acq.stats.overruns >= len(gaps)
+    assert [s.seq for s in after] == list(range(after[0].seq, after[0].seq + 20))
+    assert all(s.quality == Quality.OK for s in after)
+
+
+async def test_a_slow_subscriber_loses_its_own_oldest_samples_only(plc):
+    acq = Acquisition(plc, rate_hz=100.0)
+    slow = acq.subscribe(maxsize=5, name="slow")
+    fast = acq.subscribe(maxsize=1000, name="fast")
+    runner = asyncio.create_task(acq.run())
+    got = await _collect(fast, 60)
+    acq.stop()
+    await runner
+    assert [s.seq for s in got] == list(range(60))
+    assert acq.stats.dropped["fast"] == 0
+    assert acq.stats.dropped["slow"] == acq.stats.ticks - 5
+    kept = [slow.get_nowait().seq for _ in range(slow.qsize())]
+    assert kept == list(range(acq.stats.ticks - 5, acq.stats.ticks))  # the newest five
+    assert acq.stats.overruns == 0
+    acq.unsubscribe(slow)
+    assert acq.stats.dropped["slow"] > 0
+
+
+async def test_plc_lost_mid_acquisition_then_back(server, plc):
+    acq = Acquisition(plc, rate_hz=50.0, device_lost_after_s=0.1)
+    q = acq.subscribe(maxsize=1000)
+    runner = asyncio.create_task(acq.run())
+    server.set("tow_position", 1.25)
+    before = await _collect(q, 5)
+    assert all(s.quality == Quality.OK for s in before)
+    assert not acq.device_lost.is_set()
+
+    await server.stop()
+    t_lost = time.monotonic()
+    async with asyncio.timeout(2.0):
+        await acq.device_lost.wait()
+    assert 0.08 < time.monotonic() - t_lost < 0.5
+    down = await _collect(q, 10)
+    errors = [s for s in down if s.quality & Quality.ERROR]
+    assert errors and all(math.isnan(v) for s in errors for v in s.channels.values())
+    assert set(errors[0].channels) == set(plc.channel_names)
+
+    await server.start()  # back on the same port
+    async with asyncio.timeout(3.0):
+        while True:
+            s = await q.get()
+            if s.quality == Quality.OK:
+                break
+    assert s.channels["tow_position"] == pytest.approx(1.25)
+    assert not acq.device_lost.is_set()
+    assert plc.stats.reconnects == 1
+    acq.stop()
+    await runner
+    # The clock kept its slots through the outage: failed reads fail fast.
+    assert acq.stats.overruns == 0
+    assert acq.stats.failed_polls >= 10
+
+
+async def test_stop_wakes_a_sleeping_clock_promptly(plc):
+    acq = Acquisition(plc, rate_hz=0.5)
+    runner = asyncio.create_task(acq.run())
+    await asyncio.sleep(0.1)
+    t0 = time.monotonic()
+    acq.stop()
+    await asyncio.wait_for(runner, 1.0)
+    assert time.monotonic() - t0 < 0.1
+    assert acq.stats.ticks == 1
+
+
+def test_bad_arguments_name_the_value_and_range():
+    with pytest.raises(ValueError, match=r"rate_hz must be in \(0, 10000\] Hz, got -5"):
+        Acquisition(None, rate_hz=-5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="device_lost_after_s"):
+        Acquisition(None, device_lost_after_s=0)  # type: ignore[arg-type]
