@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from api import cli_sim
+from api import cli_estimate, cli_procedures, cli_runs, cli_sim
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -19,4 +19,16 @@ def main() -> None:
     sequences, stored runs, estimation, the simulated rig and the HTTP service."""
 
 
-main.add_command(cli_sim.sim)
+for command in (
+    cli_procedures.tow,
+    cli_procedures.spin,
+    cli_procedures.calibrate_thrusters,
+    cli_procedures.sequence,
+    cli_runs.runs,
+    cli_runs.show,
+    cli_runs.export,
+    cli_runs.import_,
+    cli_estimate.estimate,
+    cli_sim.sim,
+):
+    main.add_command(command)

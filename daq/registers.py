@@ -26,10 +26,8 @@ def raw_to_words(channel: Channel, raw: int | float) -> list[int]:
     if channel.type != "float32":
         lo, hi = _RANGE[channel.type]
         raw = int(raw)
-        if channel.wraps:
-            raw = (raw - lo) % (hi - lo + 1) + lo
-        else:
-            raw = min(max(raw, lo), hi)
+        # A wrapping counter wraps; any other value saturates at the type's range.
+        raw = (raw - lo) % (hi - lo + 1) + lo if channel.wraps else min(max(raw, lo), hi)
     data = struct.pack(">" + fmt, raw)
     words = [int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2)]
     if channel.word_order == "little":

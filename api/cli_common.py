@@ -1,0 +1,135 @@
+"""What every ``rig`` command shares: options, error reporting, the session runner."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import signal
+import sys
+from collections.abc import Awaitable, Callable
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+import click
+
+from daq.config import RigConfigError
+from daq.procedures.params import ParameterError, Progress
+from daq.procedures.recording import AbortSignal
+
+T = TypeVar("T")
+
+db_option = click.option(
+    "--db",
+    "db_url",
+    metavar="URL",
+    envvar="RIG_DATABASE_URL",
+    default=None,
+    help="Database URL (sqlite:///path or postgresql+psycopg://...). "
+    "Default: $RIG_DATABASE_URL, else ~/.local/share/towrig/rig.db.",
+)
+json_option = click.option(
+    "--json", "as_json", is_flag=True, help="Print one JSON document (for scripts)."
+)
+rig_option = click.option(
+    "--rig",
+    "rig_file",
+    metavar="FILE",
+    default=None,
+    help="Rig file (default: fixtures/rigs/benbam.toml, simulated).",
+)
+scenario_option = click.option(
+    "--scenario",
+    "scenario_file",
+    metavar="FILE",
+    default=None,
+    help="Simulation scenario (simulated rig only).",
+)
+
+
+def fail(message: str, code: int = 2) -> None:
+    """Print ``error: message`` on stderr and exit (2 = bad input, 1 = failure)."""
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
+
+
+@contextmanager
+def user_errors():
+    """Turn bad rig files and bad parameters into one clear message and exit 2."""
+    try:
+        yield
+    except (RigConfigError, ParameterError) as err:
+        fail("\n       ".join(err.lines()) if isinstance(err, ParameterError) else str(err))
+    except KeyError as err:  # RunNotFound and friends carry their own message
+        fail(err.args[0] if err.args else str(err))
+
+
+def open_store(db_url: str | None):
+    from daq.store import Store
+
+    with user_errors():
+        try:
+            return Store(db_url)
+        except Exception as err:  # a bad URL or unreachable server
+            fail(f"cannot open database {db_url or '(default)'}: {err}")
+
+
+def echo_json(data: Any) -> None:
+    click.echo(json.dumps(data, indent=2, default=str))
+
+
+class ProgressView:
+    """A rich progress bar on a terminal, nothing under ``--json``."""
+
+    def __init__(self, enabled: bool, title: str) -> None:
+        self.enabled = enabled and sys.stderr.isatty()
+        self._bar = None
+        self._task = None
+        self.title = title
+        self.last: Progress | None = None
+
+    def __enter__(self) -> ProgressView:
+        if self.enabled:
+            from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
+            from rich.progress import Progress as Bar
+
+            self._bar = Bar(
+                TextColumn("[bold]{task.description}"),
+                BarColumn(),
+                TextColumn("{task.percentage:>3.0f}%"),
+                TimeElapsedColumn(),
+                TextColumn("{task.fields[message]}"),
+                transient=False,
+            )
+            self._bar.__enter__()
+            self._task = self._bar.add_task(self.title, total=1.0, message="")
+        return self
+
+    def __call__(self, p: Progress) -> None:
+        self.last = p
+        if self._bar is not None:
+            self._bar.update(self._task, completed=p.fraction, message=p.message)
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(None, None, None)
+
+
+def run_with_signals(main: Callable[[AbortSignal], Awaitable[T]]) -> T:
+    """Run ``main(abort)`` on a fresh event loop; SIGINT/SIGTERM set ``abort``.
+
+    The procedure then ends the run as ``aborted`` and the session leaves the rig
+    safe (thrusters zero, brakes on) before the process exits.
+    """
+
+    async def runner() -> T:
+        loop = asyncio.get_running_loop()
+        abort = AbortSignal()
+        for sig, name in ((signal.SIGINT, "SIGINT"), (signal.SIGTERM, "SIGTERM")):
+            loop.add_signal_handler(sig, abort.set, f"operator abort ({name})")
+        try:
+            return await main(abort)
+        finally:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.remove_signal_handler(sig)
+
+    return asyncio.run(runner())

@@ -1,0 +1,77 @@
+"""The operator's acts: hanging a weight, returning the carriage, mounting the
+thrust stand.
+
+On a real rig a person does these, asked through the CLI prompt or the API state
+``waiting_for_operator``; on the simulated rig the procedure plays the operator
+by writing the simulator's documented simulation-only registers.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+
+@dataclass(frozen=True)
+class OperatorAct:
+    """One thing the operator must do before the procedure goes on."""
+
+    #: hang_tow_weight | hang_spin_weight | return_carriage | (un)mount_thrust_stand
+    name: str
+    instruction: str
+    value: float | None = None
+
+
+class Operator(Protocol):
+    async def perform(self, act: OperatorAct) -> None:
+        """Return once the act is done; raise to refuse (the procedure aborts)."""
+
+
+class ChannelWriter(Protocol):
+    async def write(self, name: str, value: float | bool) -> None: ...
+
+
+class SimulatedOperator:
+    """Plays the operator on the simulated rig through its sim-only registers."""
+
+    def __init__(self, plc: ChannelWriter, *, settle_s: float = 0.2) -> None:
+        self._plc = plc
+        self._settle_s = settle_s
+
+    async def perform(self, act: OperatorAct) -> None:
+        if act.name == "hang_tow_weight":
+            await self._plc.write("sim_tow_weight", act.value or 0.0)
+        elif act.name == "hang_spin_weight":
+            await self._plc.write("sim_spin_weight", act.value or 0.0)
+        elif act.name == "return_carriage":
+            await self._plc.write("sim_reset", True)
+        elif act.name == "mount_thrust_stand":
+            await self._plc.write("sim_thrust_stand", True)
+        elif act.name == "unmount_thrust_stand":
+            await self._plc.write("sim_thrust_stand", False)
+        else:
+            raise ValueError(f"unknown operator act {act.name!r}")
+        await asyncio.sleep(self._settle_s)
+
+
+class PromptOperator:
+    """Asks a person and waits for confirmation (CLI prompt, API button).
+
+    ``ask`` shows the instruction and returns once the person confirms; it is the
+    only part that differs between the CLI and the HTTP API.
+    """
+
+    def __init__(self, ask: Callable[[OperatorAct], Awaitable[None]]) -> None:
+        self._ask = ask
+
+    async def perform(self, act: OperatorAct) -> None:
+        await self._ask(act)
+
+
+async def console_ask(act: OperatorAct) -> None:
+    """CLI: print the instruction and wait for Enter (in a thread: the clock keeps ticking)."""
+    await asyncio.to_thread(
+        input, f"\n>>> {act.instruction}\n    Press Enter when done (Ctrl-C aborts) "
+    )

@@ -1,0 +1,1 @@
+"""Test procedures: tow, spin, thrust calibration, sequences."""

@@ -1,0 +1,156 @@
+"""Thrust calibration: thrusters bolted to the load cell, command stepped over a
+sweep (up and back down, to expose hysteresis; then the same in reverse).
+
+At each step: command, wait for the thrust to settle, average N load-cell samples
+and log the supply voltage. The whole time series is stored as a run; the table
+and the fitted curve (with its inverse map) are stored as a ``calibration`` result.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import statistics
+from typing import Any
+
+from daq.operator import OperatorAct
+from daq.procedures.motion import RunOutcome
+from daq.procedures.params import CalibrationParameters, Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.session import RigSession
+
+
+def _mean_std(values: list[float]) -> tuple[float, float]:
+    finite = [v for v in values if math.isfinite(v)]
+    if not finite:
+        return math.nan, math.nan
+    return statistics.fmean(finite), statistics.stdev(finite) if len(finite) > 1 else 0.0
+
+
+async def run_thrust_calibration(
+    session: RigSession,
+    params: CalibrationParameters,
+    *,
+    abort: AbortSignal | None = None,
+    progress: ProgressCallback | None = None,
+) -> tuple[RunOutcome, dict[str, Any] | None]:
+    """Run the sweep; returns the run outcome and the stored calibration (or None if aborted)."""
+    abort = abort or AbortSignal()
+    report = progress or (lambda p: None)
+    n = session.rig.thrusters.count
+    sweep = params.sweep
+    table: list[dict[str, Any]] = []
+    async with session.locked("thrust calibration"):
+        await session.safe_state()
+        await session.operator.perform(
+            OperatorAct("mount_thrust_stand", "Bolt the thrusters to the load cell")
+        )
+        rec = RecordedRun(
+            session,
+            kind="thrust_calibration",
+            parameters=params.to_json(),
+            abort=abort,
+            progress=report,
+        )
+        try:
+            async with rec:
+                report(
+                    Progress(
+                        0.0,
+                        f"taring the load cell ({params.tare_samples} samples)",
+                        extra={"run_id": rec.run_id},
+                    )
+                )
+                await session.arm_thrusters()
+                await rec.event("operator", "thrusters armed")
+                tare_samples = await _collect(rec, params.tare_samples)
+                tare, tare_std = _mean_std([s.channels["load_cell"] for s in tare_samples])
+                await rec.event(
+                    "info", f"load cell tare {tare:.3f} N (σ {tare_std:.3f} N)", tare_n=tare
+                )
+                previous = 0.0
+                for i, command in enumerate(sweep):
+                    abort.check()
+                    direction = (
+                        "up"
+                        if abs(command) > abs(previous)
+                        else "down"
+                        if abs(command) < abs(previous)
+                        else "hold"
+                    )
+                    previous = command
+                    session.set_thrust([command] * n)
+                    report(
+                        Progress(
+                            0.05 + 0.9 * i / len(sweep),
+                            f"step {i + 1}/{len(sweep)}: command {command:+.2f}",
+                        )
+                    )
+                    await rec.record_for(params.settle_s)
+                    got = await _collect(rec, params.samples_per_step)
+                    thrust, thrust_std = _mean_std([s.channels["load_cell"] - tare for s in got])
+                    volts, _ = _mean_std([s.channels["supply_voltage"] for s in got])
+                    row = {
+                        "step": i,
+                        "command": command,
+                        "direction": direction,
+                        "thrust_n": thrust,
+                        "thrust_std_n": thrust_std,
+                        "thrust_per_thruster_n": thrust / n,
+                        "supply_voltage_v": volts,
+                        "samples": len(got),
+                        "seq_first": got[0].seq if got else None,
+                        "seq_last": got[-1].seq if got else None,
+                    }
+                    table.append(row)
+                    await rec.event(
+                        "info",
+                        f"step {i}: command {command:+.3f} → {thrust:+.3f} N at {volts:.2f} V",
+                        **row,
+                    )
+                session.set_thrust([0.0] * n)
+                await session.disarm_thrusters()
+        finally:
+            await session.operator.perform(
+                OperatorAct("unmount_thrust_stand", "Unbolt the thrusters from the load cell")
+            )
+        calibration = None
+        if rec.status == "completed":
+            calibration = await asyncio.to_thread(
+                _store_calibration, session, rec.run_id, params, table
+            )
+        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
+        report(Progress(1.0, f"calibration {rec.status}", state=rec.status or ""))
+        assert rec.run_id and rec.status
+        return RunOutcome(
+            rec.run_id, rec.status, rec.reason, "thrust_calibration", count
+        ), calibration
+
+
+async def _collect(rec: RecordedRun, count: int) -> list:
+    got = []
+    async for sample in rec.samples():
+        got.append(sample)
+        if len(got) >= count:
+            break
+    return got
+
+
+def _store_calibration(
+    session: RigSession, run_id: str, params: CalibrationParameters, table: list[dict]
+) -> dict:
+    """Fit the thrust curve (per thruster) and store table + fit as a result."""
+    from estimation.thrust_curve import fit_thrust_curve
+
+    commands = [r["command"] for r in table]
+    thrust = [r["thrust_per_thruster_n"] for r in table]
+    directions = [r["direction"] for r in table]
+    fit = fit_thrust_curve(commands, thrust, directions=directions)
+    data = {
+        "run_id": run_id,
+        "thrusters": session.rig.thrusters.count,
+        "table": table,
+        "fit": fit.to_json(),
+    }
+    data["result_id"] = session.store.add_result([run_id], "calibration", data)
+    return data

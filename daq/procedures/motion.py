@@ -1,0 +1,221 @@
+"""Tow and spin tests: one lifecycle on two axes.
+
+Return the carriage (or yaw) to zero, hang the weight, check the vehicle is at
+rest and the path clear, record a pre-trigger baseline, release the brake, record
+until end of travel / distance / angle / timeout, brake, and mark the run.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from daq.operator import OperatorAct
+from daq.procedures.params import Progress, SpinParameters, TowParameters
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.sample import Quality, Sample
+from daq.session import Aborted, RigSession
+
+#: Largest speed (m/s or rad/s) at which the vehicle counts as at rest.
+AT_REST_SPEED = 0.002
+
+
+class PreconditionFailed(RuntimeError):
+    """The rig is not ready for the test (nothing was recorded)."""
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """How a procedure's run ended."""
+
+    run_id: str
+    status: str
+    reason: str | None
+    kind: str
+    samples: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "run_id": self.run_id,
+            "status": self.status,
+            "reason": self.reason,
+            "kind": self.kind,
+            "samples": self.samples,
+        }
+
+
+@dataclass(frozen=True)
+class _Axis:
+    kind: str
+    position: str
+    release: str
+    weight_act: str
+    unit: str
+
+
+TOW = _Axis("tow", "tow_position", "tow_release", "hang_tow_weight", "m")
+SPIN = _Axis("spin", "yaw_angle", "spin_release", "hang_spin_weight", "rad")
+
+
+async def _settled_samples(session: RigSession, seconds: float, abort: AbortSignal) -> list[Sample]:
+    assert session.acquisition is not None
+    queue = session.acquisition.subscribe(maxsize=1000)
+    got: list[Sample] = []
+    try:
+        loop = asyncio.get_running_loop()
+        end = loop.time() + seconds
+        while loop.time() < end:
+            abort.check()
+            try:
+                sample = await asyncio.wait_for(queue.get(), timeout=max(0.05, end - loop.time()))
+            except TimeoutError:
+                break
+            if not sample.quality & (Quality.ERROR | Quality.STALE):
+                got.append(sample)
+    finally:
+        session.acquisition.unsubscribe(queue)
+    return got
+
+
+async def _check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> float:
+    """Vehicle at rest, switch clear, no e-stop; returns the start position."""
+    samples = await _settled_samples(session, 0.5, abort)
+    if len(samples) < 2:
+        raise PreconditionFailed(
+            "no fresh data from the PLC: check the connection before starting a test"
+        )
+    last = samples[-1].channels
+    if last.get("estop"):
+        raise PreconditionFailed("the emergency stop is pressed: release it before starting a test")
+    if axis is TOW and last.get("end_of_travel"):
+        raise PreconditionFailed(
+            "the end-of-travel switch is tripped: return the carriage to the start"
+        )
+    pos = [s.channels[axis.position] for s in samples]
+    dt = samples[-1].t_mono - samples[0].t_mono
+    speed = abs(pos[-1] - pos[0]) / dt if dt > 0 else 0.0
+    if speed > AT_REST_SPEED:
+        raise PreconditionFailed(
+            f"the vehicle is moving ({speed:.4f} {axis.unit}/s on {axis.position}); "
+            "wait until it is at rest"
+        )
+    return statistics.fmean(pos)
+
+
+async def run_motion_test(
+    session: RigSession,
+    params: TowParameters | SpinParameters,
+    *,
+    abort: AbortSignal | None = None,
+    progress: ProgressCallback | None = None,
+) -> RunOutcome:
+    """Run one tow or spin test under the rig lock; see the module docstring."""
+    abort = abort or AbortSignal()
+    report = progress or (lambda p: None)
+    axis = TOW if isinstance(params, TowParameters) else SPIN
+    if isinstance(params, SpinParameters) and params.drive == "thrusters":
+        from daq.procedures.thruster_drive import run_thruster_spin
+
+        return await run_thruster_spin(session, params, abort=abort, progress=progress)
+    label = (
+        f"tow {params.force_n:.4g} N"
+        if isinstance(params, TowParameters)
+        else f"spin {params.torque_nm:.4g} N·m"
+    )
+    async with session.locked(label):
+        op = session.operator
+        report(Progress(0.0, "returning the vehicle to the start"))
+        await session.safe_state()
+        await op.perform(
+            OperatorAct(
+                "return_carriage",
+                "Return the carriage to the start of the rail and let the vehicle settle",
+            )
+        )
+        mass = params.hung_mass_kg or 0.0
+        report(Progress(0.02, f"hanging {mass:.3f} kg"))
+        what = "tow line" if axis is TOW else "spin-drum cord"
+        await op.perform(
+            OperatorAct(axis.weight_act, f"Hang {mass:.3f} kg on the {what} (brake on)", mass)
+        )
+        start = await _check_ready(session, axis, abort)
+        limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
+        rec = RecordedRun(
+            session, kind=axis.kind, parameters=params.to_json(), abort=abort, progress=report
+        )
+        async with rec:
+            await rec.event(
+                "operator", f"{axis.weight_act.replace('_', ' ')}: {mass:.3f} kg", hung_mass_kg=mass
+            )
+            report(
+                Progress(
+                    0.05,
+                    f"recording a {params.baseline_s:g} s baseline",
+                    extra={"run_id": rec.run_id},
+                )
+            )
+            await rec.record_for(params.baseline_s)
+            await session.plc.write(axis.release, True)
+            released = time.monotonic()  # the PLC acknowledged the write: brake is off
+            latest = session.latest()
+            await rec.event(
+                "operator",
+                f"{axis.release} set: brake released",
+                action="release",
+                seq=latest.seq if latest else None,
+                t_mono=released,
+            )
+            t0 = None
+            previous_t = None
+            async for sample in rec.samples():
+                t0 = t0 if t0 is not None else sample.t_mono
+                elapsed = sample.t_mono - t0
+                travelled = abs(sample.channels[axis.position] - start)
+                frac = max(elapsed / params.max_time_s, travelled / limit)
+                report(
+                    Progress(
+                        0.05 + 0.9 * min(frac, 1.0),
+                        f"{axis.kind}: {travelled:.3f} {axis.unit} in {elapsed:.1f} s",
+                    )
+                )
+                stop = None
+                # The last sample of free motion: the switch stops the carriage before this sample.
+                t_last_free = sample.t_mono
+                if axis is TOW and sample.channels.get("end_of_travel"):
+                    stop = "end of travel"
+                    t_last_free = previous_t if previous_t is not None else sample.t_mono
+                elif travelled >= limit:
+                    stop = f"max {'distance' if axis is TOW else 'angle'} {limit:g} {axis.unit}"
+                elif elapsed >= params.max_time_s:
+                    stop = f"max time {params.max_time_s:g} s"
+                if stop:
+                    await session.plc.write(axis.release, False)
+                    braked = time.monotonic()
+                    await rec.event(
+                        "limit",
+                        f"{stop}: brake engaged",
+                        action="brake",
+                        seq=sample.seq,
+                        t_mono=braked,
+                        t_last_free=t_last_free,
+                    )
+                    break
+                previous_t = sample.t_mono
+            # A short tail after the brake shows the stop in the data.
+            await rec.record_for(0.3)
+        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
+        report(
+            Progress(
+                1.0,
+                f"run {rec.status}" + (f": {rec.reason}" if rec.reason else ""),
+                state=rec.status or "",
+            )
+        )
+        assert rec.run_id is not None and rec.status is not None
+        return RunOutcome(rec.run_id, rec.status, rec.reason, axis.kind, count)
+
+
+__all__ = ["Aborted", "PreconditionFailed", "RunOutcome", "run_motion_test"]

@@ -1,0 +1,315 @@
+"""Validated parameters of every procedure, checked against the rig's limits
+*before* the rig lock is taken or anything moves (Bluesky's ``check_value``).
+
+Every error names the field, the value given and the allowed range, and is the
+same object whether it reaches an operator through the CLI or a lab tool through
+the HTTP API (as a 422 body).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+from daq.config import RigConfig
+
+THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
+
+
+class ParameterError(ValueError):
+    """One or more parameters are missing or out of range."""
+
+    def __init__(self, problems: list[tuple[str, Any, str]]) -> None:
+        self.problems = problems
+        super().__init__("; ".join(self.lines()))
+
+    def lines(self) -> list[str]:
+        """One line per problem: ``field: value is not allowed (allowed …)``."""
+        return [
+            f"{name}: {_show(value)} is not allowed ({allowed})"
+            for name, value, allowed in self.problems
+        ]
+
+    def to_json(self) -> list[dict[str, Any]]:
+        """``[{"field", "value", "allowed", "message"}]`` for API error bodies."""
+        return [
+            {
+                "field": name,
+                "value": value if _json_safe(value) else str(value),
+                "allowed": allowed,
+                "message": line,
+            }
+            for (name, value, allowed), line in zip(self.problems, self.lines(), strict=True)
+        ]
+
+
+def _json_safe(value: Any) -> bool:
+    return not (isinstance(value, float) and not math.isfinite(value))
+
+
+def _show(value: Any) -> str:
+    return "missing" if value is None else repr(value)
+
+
+class _Checker:
+    def __init__(self, raw: dict[str, Any]) -> None:
+        self.raw = raw
+        self.problems: list[tuple[str, Any, str]] = []
+
+    def number(
+        self,
+        name: str,
+        *,
+        low: float,
+        high: float,
+        unit: str,
+        low_inclusive: bool = False,
+        default: float | None = None,
+        required: bool = False,
+        why_high: str = "",
+    ) -> float | None:
+        value = self.raw.get(name, default)
+        lo_sym = "≤" if low_inclusive else "<"
+        allowed = f"allowed {low:g} {lo_sym} {name} ≤ {high:g} {unit}{why_high}"
+        if value is None:
+            if required:
+                self.problems.append((name, None, allowed))
+            return None
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                self.problems.append((name, value, "a number; " + allowed))
+                return None
+        value = float(value)
+        ok = (
+            math.isfinite(value)
+            and (value >= low if low_inclusive else value > low)
+            and value <= high
+        )
+        if not ok:
+            self.problems.append((name, value, allowed))
+            return None
+        return value
+
+    def fail_if_problems(self) -> None:
+        if self.problems:
+            raise ParameterError(self.problems)
+
+
+@dataclass(frozen=True)
+class TowParameters:
+    """A tow test: constant force from a weight over the pulley."""
+
+    force_n: float
+    hung_mass_kg: float
+    max_distance_m: float
+    max_time_s: float
+    baseline_s: float = 1.0
+    kind: Literal["tow"] = "tow"
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class SpinParameters:
+    """A spin test: constant torque from a weight on the drum, or from the thrusters."""
+
+    torque_nm: float
+    hung_mass_kg: float | None
+    drive: Literal["weight", "thrusters"]
+    max_angle_rad: float
+    max_time_s: float
+    baseline_s: float = 1.0
+    kind: Literal["spin"] = "spin"
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class CalibrationParameters:
+    """A thrust calibration sweep on the load cell (up, then back down)."""
+
+    commands: tuple[float, ...]
+    settle_s: float = 1.0
+    samples_per_step: int = 10
+    tare_samples: int = 20
+    reverse: bool = True
+    kind: Literal["thrust_calibration"] = "thrust_calibration"
+
+    @property
+    def sweep(self) -> list[float]:
+        """Commands in the order applied: up then down (and the same for reverse)."""
+        up = sorted(set(self.commands))
+        order = up + up[-2::-1]
+        if self.reverse:
+            neg = [-c for c in up if c > 0]
+            order += neg + neg[-2::-1] + [0.0]
+        return order
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["commands"] = list(self.commands)
+        d["sweep"] = self.sweep
+        return d
+
+
+def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
+    """Validate a tow request: exactly one of ``force_n`` / ``weight_kg``."""
+    c = _Checker(raw)
+    g = rig.rig.g
+    lim = rig.limits
+    force = c.number(
+        "force_n", low=0, high=lim.max_force_n, unit="N", why_high=", rig limit max_force_n"
+    )
+    weight = c.number(
+        "weight_kg",
+        low=0,
+        high=lim.max_force_n / g,
+        unit="kg",
+        why_high=f", max_force_n / g = {lim.max_force_n:g} N / {g:g}",
+    )
+    if raw.get("force_n") is None and raw.get("weight_kg") is None:
+        c.problems.append(("force_n", None, "give force_n (N) or weight_kg (kg)"))
+    elif raw.get("force_n") is not None and raw.get("weight_kg") is not None:
+        c.problems.append(
+            ("weight_kg", raw.get("weight_kg"), "give force_n or weight_kg, not both")
+        )
+    eot = rig.geometry.end_of_travel_m
+    dist = c.number(
+        "max_distance_m", low=0, high=eot, unit="m", default=eot, why_high=", end_of_travel_m"
+    )
+    tmax = c.number(
+        "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
+    )
+    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    c.fail_if_problems()
+    if force is not None:
+        weight = force / g
+    else:
+        assert weight is not None
+        force = weight * g
+    assert dist is not None and tmax is not None and base is not None
+    return TowParameters(
+        force_n=force, hung_mass_kg=weight, max_distance_m=dist, max_time_s=tmax, baseline_s=base
+    )
+
+
+def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
+    """Validate a spin request: ``torque_nm`` or ``weight_kg``; ``drive`` weight|thrusters."""
+    c = _Checker(raw)
+    g, r = rig.rig.g, rig.geometry.spin_drum_radius_m
+    lim = rig.limits
+    drive = raw.get("drive", "weight")
+    if drive not in ("weight", "thrusters"):
+        c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
+    torque = c.number(
+        "torque_nm",
+        low=0,
+        high=lim.max_torque_nm,
+        unit="N·m",
+        why_high=", rig limit max_torque_nm",
+    )
+    weight = c.number(
+        "weight_kg",
+        low=0,
+        high=lim.max_torque_nm / (g * r),
+        unit="kg",
+        why_high=", max_torque_nm / (g · drum radius)",
+    )
+    if raw.get("torque_nm") is None and raw.get("weight_kg") is None:
+        c.problems.append(("torque_nm", None, "give torque_nm (N·m) or weight_kg (kg)"))
+    elif raw.get("torque_nm") is not None and raw.get("weight_kg") is not None:
+        c.problems.append(
+            ("weight_kg", raw.get("weight_kg"), "give torque_nm or weight_kg, not both")
+        )
+    elif drive == "thrusters" and raw.get("weight_kg") is not None:
+        c.problems.append(
+            ("weight_kg", raw.get("weight_kg"), "a thruster-driven spin takes torque_nm")
+        )
+    amax = rig.geometry.spin_max_angle_rad
+    angle = c.number(
+        "max_angle_rad",
+        low=0,
+        high=amax,
+        unit="rad",
+        default=amax,
+        why_high=", spin_max_angle_rad",
+    )
+    tmax = c.number(
+        "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
+    )
+    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    c.fail_if_problems()
+    if torque is None:
+        assert weight is not None
+        torque = weight * g * r
+    elif drive == "weight":
+        weight = torque / (g * r)
+    assert angle is not None and tmax is not None and base is not None
+    return SpinParameters(
+        torque_nm=torque,
+        hung_mass_kg=weight if drive == "weight" else None,
+        drive=drive,  # type: ignore[arg-type]
+        max_angle_rad=angle,
+        max_time_s=tmax,
+        baseline_s=base,
+    )
+
+
+def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationParameters:
+    """Validate a thrust-calibration request (commands as fractions of full scale)."""
+    c = _Checker(raw)
+    cmax = rig.limits.max_thruster_command
+    commands = raw.get("commands", THRUST_SWEEP_DEFAULT)
+    good: list[float] = []
+    if not isinstance(commands, list | tuple) or not commands:
+        c.problems.append(("commands", commands, f"a non-empty list of fractions 0 ≤ c ≤ {cmax:g}"))
+    else:
+        for i, value in enumerate(commands):
+            sub = _Checker({f"commands[{i}]": value})
+            v = sub.number(
+                f"commands[{i}]",
+                low=0,
+                high=cmax,
+                unit="(fraction of full thrust)",
+                low_inclusive=True,
+                why_high=", rig limit max_thruster_command",
+            )
+            c.problems += sub.problems
+            if v is not None:
+                good.append(v)
+    settle = c.number("settle_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    n = c.number(
+        "samples_per_step", low=1, high=1000, unit="samples", low_inclusive=True, default=10
+    )
+    tare = c.number(
+        "tare_samples", low=1, high=1000, unit="samples", low_inclusive=True, default=20
+    )
+    reverse = raw.get("reverse", True)
+    if not isinstance(reverse, bool):
+        c.problems.append(("reverse", reverse, "true or false"))
+    c.fail_if_problems()
+    if 0.0 not in good:
+        good.append(0.0)
+    assert settle is not None and n is not None and tare is not None
+    return CalibrationParameters(
+        commands=tuple(sorted(good)),
+        settle_s=settle,
+        samples_per_step=int(n),
+        tare_samples=int(tare),
+        reverse=reverse,
+    )
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What a running procedure reports: 0..1 and a one-line message."""
+
+    fraction: float
+    message: str
+    state: str = "running"
+    extra: dict[str, Any] = field(default_factory=dict)

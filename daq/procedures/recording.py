@@ -1,0 +1,199 @@
+"""A run being recorded: the store record, the recorder task, the ending.
+
+``RecordedRun`` is the one place that decides how a run ends: ``completed`` when
+the body returns, ``aborted`` with the reason when it raises ``Aborted`` (or any
+other error), and — whatever happened — the rig is put in its safe state and every
+sample the clock produced is flushed before the status is written.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+import time
+from collections.abc import AsyncIterator, Callable
+from typing import Any
+
+from daq.procedures.params import Progress
+from daq.sample import Quality, Sample
+from daq.session import Aborted, RigSession
+from daq.store import RunRecorder
+
+log = logging.getLogger(__name__)
+
+ProgressCallback = Callable[[Progress], None]
+
+
+class AbortSignal:
+    """Set by an operator (CLI Ctrl-C, API abort) to stop the running procedure."""
+
+    def __init__(self) -> None:
+        self._event = asyncio.Event()
+        self.reason = ""
+
+    def set(self, reason: str = "operator abort") -> None:
+        if not self._event.is_set():
+            self.reason = reason
+            self._event.set()
+
+    def is_set(self) -> bool:
+        return self._event.is_set()
+
+    async def wait(self) -> None:
+        await self._event.wait()
+
+    def check(self) -> None:
+        """Raise ``Aborted`` if set (a checkpoint)."""
+        if self._event.is_set():
+            raise Aborted(self.reason)
+
+
+class RecordedRun:
+    """Context manager around one stored run; yields samples to the procedure."""
+
+    def __init__(
+        self,
+        session: RigSession,
+        *,
+        kind: str,
+        parameters: dict[str, Any],
+        abort: AbortSignal,
+        progress: ProgressCallback | None = None,
+    ) -> None:
+        self.session = session
+        self.kind = kind
+        self.parameters = parameters
+        self.abort = abort
+        self.progress = progress or (lambda p: None)
+        self.run_id: str | None = None
+        self.status: str | None = None
+        self.reason: str | None = None
+        self._recorder: RunRecorder | None = None
+        self._tasks: list[asyncio.Task] = []
+        self._queue: asyncio.Queue[Sample] | None = None
+
+    @property
+    def store(self):
+        return self.session.store
+
+    async def __aenter__(self) -> RecordedRun:
+        s = self.session
+        assert s.acquisition is not None
+        channel_names = [
+            c.name for c in s.rig.channels if c.kind in ("input", "holding") and not c.sim_only
+        ]
+        channel_names += [
+            c.name for c in s.rig.channels if c.kind in ("coil", "discrete") and not c.sim_only
+        ]
+        self.run_id = await asyncio.to_thread(
+            self.store.create_run,
+            kind=self.kind,
+            parameters=self.parameters,
+            channel_names=channel_names,
+            rig_name=s.rig.rig.name,
+            vehicle=s.rig.vehicle.name,
+            rig_toml=s.source.rig_toml,
+            scenario_toml=s.source.scenario_toml,
+        )
+        self._recorder = RunRecorder(
+            self.store, self.run_id, flush_interval_s=s.rig.acquisition.flush_interval_s
+        )
+        self._tasks.append(
+            asyncio.create_task(self._recorder.run(), name=f"recorder-{self.run_id[:8]}")
+        )
+        # The recorder gets every sample: a queue big enough for a long fault, then drops.
+        recorder_queue = s.acquisition.subscribe(maxsize=100_000)
+        self._tasks.append(asyncio.create_task(self._pump(recorder_queue), name="recorder-pump"))
+        self._recorder_queue = recorder_queue
+        self._queue = s.acquisition.subscribe(maxsize=1000)
+        return self
+
+    async def _pump(self, queue: asyncio.Queue[Sample]) -> None:
+        assert self._recorder is not None
+        while True:
+            self._recorder.put(await queue.get())
+
+    async def __aexit__(self, exc_type, exc, tb) -> bool:
+        s = self.session
+        if exc is None:
+            self.status, self.reason = "completed", None
+        elif isinstance(exc, Aborted):
+            self.status, self.reason = "aborted", exc.reason
+        elif isinstance(exc, asyncio.CancelledError):
+            self.status, self.reason = "aborted", self.abort.reason or "cancelled"
+        else:
+            self.status, self.reason = "aborted", f"error: {exc}"
+        await s.safe_state()
+        if self.status != "completed":
+            await self.event(
+                "fault" if self.reason == "device lost" else "operator",
+                f"run {self.status}: {self.reason}",
+            )
+        assert s.acquisition is not None
+        if self._queue is not None:
+            s.acquisition.unsubscribe(self._queue)
+        # Let the samples already produced reach the recorder, then stop the pump.
+        await asyncio.sleep(0)
+        s.acquisition.unsubscribe(self._recorder_queue)
+        while not self._recorder_queue.empty():
+            self._recorder.put(self._recorder_queue.get_nowait())
+        for task in self._tasks:
+            if task.get_name() == "recorder-pump":
+                task.cancel()
+        assert self._recorder is not None
+        await self._recorder.close()
+        for task in self._tasks:
+            with contextlib.suppress(BaseException):
+                await task
+        await asyncio.to_thread(self.store.finish_run, self.run_id, self.status, self.reason)
+        log.info(
+            "run %s %s%s", self.run_id, self.status, f" ({self.reason})" if self.reason else ""
+        )
+        # Swallow Aborted (it is an ending, recorded above); let real errors propagate.
+        return isinstance(exc, Aborted)
+
+    async def event(self, kind: str, message: str, **data: Any) -> None:
+        """Store an event on this run (operator acts, faults, limit trips)."""
+        await asyncio.to_thread(self.store.add_event, self.run_id, kind, message, data or None)
+
+    async def samples(self, *, timeout_s: float = 2.0) -> AsyncIterator[Sample]:
+        """Samples of this run, checking abort, device loss and the emergency stop."""
+        assert self._queue is not None and self.session.acquisition is not None
+        acq = self.session.acquisition
+        while True:
+            self.abort.check()
+            get = asyncio.ensure_future(self._queue.get())
+            stop = asyncio.ensure_future(self.abort.wait())
+            done, _ = await asyncio.wait(
+                {get, stop}, timeout=timeout_s, return_when=asyncio.FIRST_COMPLETED
+            )
+            stop.cancel()
+            if get not in done:
+                get.cancel()
+                self.abort.check()
+                if acq.device_lost.is_set():
+                    raise Aborted("device lost")
+                continue
+            sample = get.result()
+            if acq.device_lost.is_set():
+                raise Aborted("device lost")
+            if sample.channels.get("estop", 0.0) and not math.isnan(
+                sample.channels.get("estop", 0.0)
+            ):
+                raise Aborted("emergency stop")
+            yield sample
+
+    async def record_for(self, seconds: float, *, message: str = "") -> list[Sample]:
+        """Collect samples for ``seconds`` (baseline, settling) and return them."""
+        end = time.monotonic() + seconds
+        got: list[Sample] = []
+        if seconds <= 0:
+            return got
+        async for sample in self.samples():
+            if not sample.quality & Quality.ERROR:
+                got.append(sample)
+            if sample.t_mono >= end:
+                break
+        return got

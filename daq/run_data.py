@@ -1,0 +1,97 @@
+"""Stored runs as the estimators see them (``estimation.runs.RunData``).
+
+The bridge between storage and estimation: picks the position channel of the
+axis, the time base, the release and brake instants from the run's events, and
+the drive (force or torque, hung weight, drive-train inertia) from its parameters
+and the rig file it ran with. ``estimation`` itself never imports this.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import numpy as np
+
+from daq.config import parse_rig
+from daq.sample import Quality
+from daq.store import Store
+from estimation.runs import RunData
+
+POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
+
+
+def _event_time(events, action: str, key: str = "t_mono") -> float | None:
+    for e in events:
+        data = e.data or {}
+        if data.get("action") == action and data.get(key) is not None:
+            return float(data[key])
+    return None
+
+
+def load_run_data(store: Store, run_id: str) -> RunData:
+    """Build the estimator's view of one stored tow or spin run.
+
+    Time base: the PLC's own millisecond clock when the run has it (device-side
+    timestamps, free of host scheduling jitter), else the host's monotonic time.
+    Raises ``ValueError`` naming the run when it cannot be estimated.
+    """
+    run = store.get_run(run_id)
+    if run.kind not in POSITION_CHANNEL:
+        raise ValueError(f"run {run.id}: kind {run.kind!r} cannot be estimated; allowed: tow, spin")
+    table = store.samples(run.id)
+    channel = POSITION_CHANNEL[run.kind]
+    if channel not in table.channels and "position" in table.channels:
+        channel = "position"
+    if channel not in table.channels:
+        raise ValueError(f"run {run.id}: no {POSITION_CHANNEL[run.kind]!r} channel in its samples")
+    good = np.isfinite(table.channels[channel]) & ((table.quality & int(Quality.ERROR)) == 0)
+    t_host = table.t_mono[good]
+    position = table.channels[channel][good]
+    t = t_host
+    clock = table.channels.get("plc_clock")
+    if clock is not None and np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0):
+        t = clock[good]
+    # Map host instants (release, brake) onto the chosen time base.
+    offset = float(np.median(t - t_host)) if t.size else 0.0
+    events = store.events(run.id)
+    params = run.parameters
+    t_release = _event_time(events, "release")
+    t_brake = _event_time(events, "brake", "t_last_free")
+    t_release = float(t[0]) if t_release is None else t_release + offset
+    t_end = None if t_brake is None else t_brake + offset
+    t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
+
+    drive_inertia = 0.0
+    drum_radius = None
+    if run.rig_toml:
+        try:
+            rig = parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
+        except Exception:
+            rig = None
+        if rig is not None:
+            g = rig.geometry
+            if run.kind == "tow":
+                drive_inertia = g.pulley_inertia_kg_m2 / g.pulley_radius_m**2
+            else:
+                drive_inertia = g.spin_drum_inertia_kg_m2
+                drum_radius = g.spin_drum_radius_m
+    if run.kind == "spin" and params.get("drum_radius_m"):
+        drum_radius = float(params["drum_radius_m"])
+    drive = params.get("force_n") if run.kind == "tow" else params.get("torque_nm")
+    if drive is None or not math.isfinite(float(drive)):
+        name = "force_n" if run.kind == "tow" else "torque_nm"
+        raise ValueError(f"run {run.id}: no applied {name} in its parameters")
+    hung = params.get("hung_mass_kg")
+    return RunData(
+        run_id=run.id,
+        axis="surge" if run.kind == "tow" else "yaw",
+        t=np.asarray(t, dtype=float),
+        position=np.asarray(position, dtype=float),
+        drive=float(drive),
+        hung_mass_kg=float(hung) if hung else None,
+        drive_inertia=drive_inertia,
+        drum_radius_m=drum_radius,
+        t_release=t_release,
+        t_end=t_end,
+    )

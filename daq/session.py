@@ -1,0 +1,253 @@
+"""One open rig: its devices, its clock, its lock.
+
+``RigSession`` owns the PLC client, the acquisition clock, the thruster driver
+and (for a simulated rig) the simulator thread. Procedures borrow it under the
+rig lock. It also runs the thruster supervisor: every clock tick while armed it
+re-sends the (slew-limited) target as the controller's heartbeat, and commands
+zero as soon as the sensor data goes stale.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+from collections.abc import AsyncIterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from daq.acquisition import Acquisition
+from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
+from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
+from daq.plc import PlcClient
+from daq.sample import Quality, Sample
+from daq.store import Store
+from thrusters.driver import ThrusterDriver
+
+log = logging.getLogger(__name__)
+
+
+class RigBusy(RuntimeError):
+    """The rig lock is held by another procedure."""
+
+    def __init__(self, holder: str) -> None:
+        self.holder = holder
+        super().__init__(f"rig is busy: {holder} holds the rig lock")
+
+
+class Aborted(RuntimeError):
+    """A procedure was stopped before it finished; ``reason`` says why."""
+
+    def __init__(self, reason: str) -> None:
+        self.reason = reason
+        super().__init__(reason)
+
+
+@dataclass
+class RigSource:
+    """Where a session's configuration came from, kept with every run."""
+
+    rig: RigConfig
+    rig_toml: str
+    scenario_toml: str | None = None
+    scenario: object | None = None
+
+    @classmethod
+    def load(
+        cls, rig_file: str | Path | None = None, scenario_file: str | Path | None = None
+    ) -> RigSource:
+        """Read and validate the rig file (default BENBAM) and an optional scenario."""
+        path = Path(rig_file) if rig_file else DEFAULT_RIG_FILE
+        rig = load_rig(path)
+        scenario = scenario_toml = None
+        if scenario_file:
+            from daq.sim.scenario import load_scenario
+
+            scenario = load_scenario(scenario_file)
+            scenario_toml = Path(scenario_file).read_text(encoding="utf-8")
+        return cls(
+            rig=rig,
+            rig_toml=path.read_text(encoding="utf-8"),
+            scenario_toml=scenario_toml,
+            scenario=scenario,
+        )
+
+
+@dataclass
+class ThrustTarget:
+    """What the procedure wants the thrusters to do (fractions of full scale)."""
+
+    fractions: list[float] = field(default_factory=list)
+    armed: bool = False
+
+
+class RigSession:
+    """Open the devices of one rig and keep the clock running until ``close``."""
+
+    def __init__(
+        self,
+        source: RigSource,
+        store: Store,
+        *,
+        operator: Operator | None = None,
+        rate_hz: float | None = None,
+    ) -> None:
+        self.source = source
+        self.rig = source.rig
+        self.store = store
+        self.simulated = self.rig.rig.mode == "simulated"
+        self._operator = operator
+        self._rate_hz = rate_hz or self.rig.acquisition.rate_hz
+        self.sim = None
+        self.plc: PlcClient | None = None
+        self.acquisition: Acquisition | None = None
+        self.thrusters: ThrusterDriver | None = None
+        self._tasks: list[asyncio.Task] = []
+        self._lock_holder: str | None = None
+        self.thrust = ThrustTarget()
+        self.stale_zeroings = 0
+
+    # -- lifecycle -------------------------------------------------------------------------
+    async def open(self, *, connect_timeout_s: float = 10.0) -> None:
+        """Start the simulator (simulated rig), connect the devices, start the clock."""
+        conn = self.rig
+        if self.simulated:
+            from daq.sim.rig import SimulatedRigThread
+
+            self.sim = SimulatedRigThread(self.rig, self.source.scenario)
+            await asyncio.to_thread(self.sim.__enter__)
+            conn = self.sim.connection_rig()
+        self.plc = PlcClient(conn)
+        await self.plc.connect(timeout_s=connect_timeout_s)
+        self.acquisition = Acquisition(self.plc, rate_hz=self._rate_hz)
+        self._tasks.append(asyncio.create_task(self.acquisition.run(), name="acquisition"))
+        self.thrusters = ThrusterDriver(conn.thrusters, conn.limits)
+        await self.thrusters.open()
+        self._tasks.append(
+            asyncio.create_task(self._supervise_thrusters(), name="thruster-supervisor")
+        )
+        if self._operator is None:
+            self._operator = (
+                SimulatedOperator(self.plc) if self.simulated else PromptOperator(console_ask)
+            )
+
+    async def close(self) -> None:
+        """Thrusters to zero, brakes on, clock stopped, devices closed. Never raises."""
+        with contextlib.suppress(Exception):
+            await self.safe_state()
+        if self.thrusters is not None:
+            with contextlib.suppress(Exception):
+                await self.thrusters.close()
+        if self.acquisition is not None:
+            self.acquisition.stop()
+        for task in self._tasks:
+            task.cancel()
+        for task in self._tasks:
+            with contextlib.suppress(BaseException):
+                await task
+        self._tasks.clear()
+        if self.plc is not None:
+            with contextlib.suppress(Exception):
+                await self.plc.close()
+        if self.sim is not None:
+            with contextlib.suppress(Exception):
+                await asyncio.to_thread(self.sim.close)
+            self.sim = None
+
+    async def __aenter__(self) -> RigSession:
+        try:
+            await self.open()
+        except BaseException:
+            await self.close()
+            raise
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    # -- the rig lock ----------------------------------------------------------------------
+    @property
+    def lock_holder(self) -> str | None:
+        """Who holds the rig lock (``None`` when free)."""
+        return self._lock_holder
+
+    @contextlib.asynccontextmanager
+    async def locked(self, holder: str) -> AsyncIterator[None]:
+        """Hold the rig lock; raise ``RigBusy`` at once (never queue) when it is taken."""
+        if self._lock_holder is not None:
+            raise RigBusy(self._lock_holder)
+        self._lock_holder = holder
+        try:
+            yield
+        finally:
+            self._lock_holder = None
+
+    # -- devices -----------------------------------------------------------------------------
+    @property
+    def operator(self) -> Operator:
+        assert self._operator is not None, "session not open"
+        return self._operator
+
+    async def safe_state(self) -> None:
+        """Brakes engaged and thrusters at zero (waits for the controller's ACK)."""
+        errors = []
+        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=self.thrust.armed)
+        # Disarmed (or watchdog-latched) controllers already hold their outputs at zero.
+        if self.thrusters is not None and self.thrusters.state not in ("DISARMED", "WDT"):
+            try:
+                await self.thrusters.zero()
+            except Exception as err:  # keep going: the brakes matter too
+                errors.append(f"thrusters: {err}")
+        if self.plc is not None and self.plc.connected:
+            for name in ("tow_release", "spin_release"):
+                try:
+                    await self.plc.write(name, False)
+                except Exception as err:
+                    errors.append(f"{name}: {err}")
+        if errors:
+            log.warning("safe state incomplete: %s", "; ".join(errors))
+
+    async def arm_thrusters(self) -> None:
+        assert self.thrusters is not None
+        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=True)
+        await self.thrusters.arm()
+
+    async def disarm_thrusters(self) -> None:
+        assert self.thrusters is not None
+        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=False)
+        with contextlib.suppress(Exception):
+            await self.thrusters.zero()
+        await self.thrusters.disarm()
+
+    def set_thrust(self, fractions: Sequence[float]) -> None:
+        """Ask for thruster outputs; the supervisor sends them, slew-limited, every tick."""
+        values = [float(f) for f in fractions]
+        if len(values) != self.rig.thrusters.count or not all(math.isfinite(v) for v in values):
+            raise ValueError(
+                f"thrust: need {self.rig.thrusters.count} finite fractions, got {list(fractions)!r}"
+            )
+        self.thrust = ThrustTarget(values, armed=self.thrust.armed)
+
+    async def _supervise_thrusters(self) -> None:
+        assert self.acquisition is not None and self.thrusters is not None
+        queue = self.acquisition.subscribe(maxsize=4)
+        try:
+            while True:
+                sample = await queue.get()
+                if not self.thrust.armed:
+                    continue
+                try:
+                    if sample.quality & (Quality.STALE | Quality.ERROR):
+                        if any(self.thrust.fractions):
+                            self.stale_zeroings += 1
+                            log.warning("sensor data %s: thrusters to zero", sample.quality.name)
+                        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=True)
+                    await self.thrusters.command(self.thrust.fractions)
+                except Exception as err:
+                    log.warning("thruster heartbeat failed: %s", err)
+        finally:
+            self.acquisition.unsubscribe(queue)
+
+    def latest(self) -> Sample | None:
+        return self.acquisition.latest if self.acquisition else None
