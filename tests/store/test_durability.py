@@ -1,0 +1,82 @@
+"""A recording process killed with SIGKILL loses at most the last second of samples, and
+its run is marked interrupted at the next start-up."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from daq.store import Store
+from tests.store.helpers import make_samples, new_run
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def test_sigkill_mid_recording_loses_at_most_one_second(db_url: str) -> None:
+    child = subprocess.Popen(
+        [sys.executable, "-m", "tests.store.record_child", db_url],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        header = child.stdout.readline().split()
+        assert header[:1] == ["run"], child.stderr.read()
+        run_id = header[1]
+        last_put = -1
+        deadline = time.monotonic() + 30
+        while last_put < 250 and time.monotonic() < deadline:  # ≈ 2.5 s at 100 Hz
+            line = child.stdout.readline()
+            assert line, child.stderr.read()
+            last_put = int(line.split()[1])
+        os.kill(child.pid, signal.SIGKILL)
+        child.wait(timeout=10)  # reaped: its pid is no longer alive
+        for line in child.stdout:  # lines printed before the kill
+            last_put = int(line.split()[1])
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    assert child.returncode == -signal.SIGKILL
+
+    with Store(db_url) as store:
+        assert store.get_run(run_id).status == "running"
+        assert store.recover_interrupted() == [run_id]
+        run = store.get_run(run_id)
+        table = store.samples(run_id)
+        assert run.status == "interrupted"
+        assert "ended without finishing" in run.reason
+        np.testing.assert_array_equal(table.seq, np.arange(len(table)))  # no holes
+        missing = last_put + 1 - len(table)
+        assert 0 <= missing <= 100, f"{missing} samples lost (100 Hz: at most 1 s allowed)"
+        assert len(table) >= 150
+        assert run.stopped_at.timestamp() == pytest.approx(table.t_wall[-1], abs=1e-6)
+        assert store.integrity_check() == "ok"
+        (event,) = store.events(run_id)
+        assert event.kind == "fault" and "interrupted" in event.message
+        assert store.recover_interrupted() == []  # once only
+
+
+def test_recover_leaves_live_runs_alone_unless_forced(store: Store) -> None:
+    live = new_run(store)
+    t0_wall = time.time()
+    store.add_samples(live, make_samples(0, 30, t0_wall=t0_wall))
+    empty = new_run(store)
+    done = new_run(store)
+    store.finish_run(done, "completed")
+
+    assert store.recover_interrupted() == []  # this process owns them and is alive
+    assert sorted(store.recover_interrupted(include_live_owners=True)) == sorted([live, empty])
+    with_samples, without = store.get_run(live), store.get_run(empty)
+    assert with_samples.status == without.status == "interrupted"
+    assert with_samples.stopped_at.timestamp() == pytest.approx(t0_wall + 2.9)  # last sample
+    assert without.stopped_at == without.started_at  # no samples: its start time
+    assert store.get_run(done).status == "completed"
+    assert {e.run_id for e in store.events()} == {live, empty}

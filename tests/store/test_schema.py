@@ -1,0 +1,98 @@
+"""Opening a database: migrations to head, SQLite pragmas, the default location."""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+
+from daq.store import Store, default_database_url
+from daq.store.migrate import (
+    alembic_config,
+    create_engine,
+    current_revision,
+    head_revision,
+    upgrade_to_head,
+)
+
+TABLES = {"rigs", "vehicles", "runs", "samples", "events", "results", "result_runs"}
+
+
+def test_opening_an_empty_database_upgrades_it_to_head(db_url: str) -> None:
+    engine = create_engine(db_url)
+    assert current_revision(engine) is None
+    assert not TABLES & set(sa.inspect(engine).get_table_names())
+
+    Store(db_url).close()
+
+    inspector = sa.inspect(engine)
+    assert set(inspector.get_table_names()) >= TABLES
+    assert current_revision(engine) == head_revision()
+    sample_columns = {c["name"] for c in inspector.get_columns("samples")}
+    assert sample_columns == {
+        "run_id",
+        "seq",
+        "t_mono",
+        "t_wall",
+        "quality",
+        "stale",
+        "channel_values",
+    }
+    assert inspector.get_pk_constraint("samples")["constrained_columns"] == ["run_id", "seq"]
+    engine.dispose()
+
+
+def test_reopening_keeps_data_and_downgrade_upgrade_round_trips(db_url: str) -> None:
+    from alembic import command
+
+    with Store(db_url) as store:
+        run_id = store.create_run(
+            kind="tow",
+            parameters={},
+            channel_names=["tow_position"],
+            rig_name="r",
+            vehicle="v",
+            rig_toml="",
+        )
+    with Store(db_url) as store:  # second open: no migration to run, data intact
+        assert store.get_run(run_id).status == "running"
+
+    engine = create_engine(db_url)
+    with engine.begin() as conn:
+        command.downgrade(alembic_config(conn), "base")
+    assert not TABLES & set(sa.inspect(engine).get_table_names())
+    upgrade_to_head(engine)
+    assert set(sa.inspect(engine).get_table_names()) >= TABLES
+    engine.dispose()
+
+
+def test_sqlite_runs_in_wal_mode_with_synchronous_normal(tmp_path) -> None:
+    with Store(f"sqlite:///{tmp_path / 'rig.db'}") as store, store.engine.connect() as conn:
+        assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+        assert conn.exec_driver_sql("PRAGMA synchronous").scalar() == 1  # NORMAL
+        assert conn.exec_driver_sql("PRAGMA foreign_keys").scalar() == 1
+    assert (tmp_path / "rig.db-wal").exists() or (tmp_path / "rig.db").exists()
+
+
+def test_default_url_is_env_var_else_xdg_data_home(monkeypatch, tmp_path) -> None:
+    monkeypatch.setenv("RIG_DATABASE_URL", "postgresql+psycopg://lab@db/rig")
+    assert default_database_url() == "postgresql+psycopg://lab@db/rig"
+
+    monkeypatch.delenv("RIG_DATABASE_URL")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    expected = tmp_path / "data" / "towrig" / "rig.db"
+    assert default_database_url() == f"sqlite:///{expected}"
+    with Store() as store:  # creates the folder and the database
+        assert store.integrity_check() == "ok"
+    assert expected.exists()
+
+    monkeypatch.delenv("XDG_DATA_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert default_database_url() == f"sqlite:///{tmp_path}/home/.local/share/towrig/rig.db"
+
+
+def test_unsupported_url_names_the_backend() -> None:
+    import pytest
+
+    with pytest.raises(ValueError, match="'mysql' is not supported"):
+        Store("mysql://lab@db/rig")
+    with pytest.raises(ValueError, match="not valid"):
+        Store("not a url")
