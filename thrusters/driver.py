@@ -258,6 +258,10 @@ class ThrusterDriver:
         assert reply is None or isinstance(reply, p.Reply)
         if reply is not None and reply.state:
             self.state = reply.state
+        elif reply is not None and reply.reason == "disarmed" and self.state == "ARMED":
+            # Only the watchdog takes the controller out of ARMED without our DISARM.
+            log.warning("thrusters: controller no longer armed (watchdog tripped)")
+            self.state = "WDT"
         return reply
 
     def _expect_ack(self, reply: p.Reply | None, what: str) -> None:

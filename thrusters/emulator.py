@@ -162,9 +162,10 @@ class ThrusterControllerEmulator:
         for line in lines:
             if not self.silent:
                 self._handle_line(line, writer)
-        if len(rest) > p.MAX_LINE_BYTES:
+        if len(rest) > p.MAX_LINE_BYTES:  # noise without a line end: resync at the last '$'
             self.stats.garbage_lines += 1
-            rest = b""
+            start = rest.rfind(b"$")
+            rest = rest[start:] if start > 0 and len(rest) - start <= p.MAX_LINE_BYTES else b""
         return rest
 
     def _handle_line(self, line: bytes, writer: asyncio.StreamWriter | None) -> None:

@@ -136,13 +136,20 @@ class SerialLink:
             chunk = self._port.read(max(1, self._port.in_waiting))
             self._rx += chunk
             if b"\n" not in self._rx and len(self._rx) > p.MAX_LINE_BYTES:
-                self.stats.garbage_lines += 1
-                log.warning(
-                    "thruster link %s: dropped %d bytes without a line end", self.url, len(self._rx)
-                )
-                self._rx = b""
+                self._rx = self._resync(self._rx)
         line, _, self._rx = self._rx.partition(b"\n")
         return line
+
+    def _resync(self, rx: bytes) -> bytes:
+        """Drop an over-long run of bytes without a line end, keeping a frame that may
+        have started at its last ``$``."""
+        start = rx.rfind(b"$")
+        keep = rx[start:] if start > 0 and len(rx) - start <= p.MAX_LINE_BYTES else b""
+        self.stats.garbage_lines += 1
+        log.warning(
+            "thruster link %s: dropped %d bytes without a line end", self.url, len(rx) - len(keep)
+        )
+        return keep
 
     def _drain_stray(self) -> None:
         """Count and drop complete lines that arrived while nobody was waiting."""

@@ -1,0 +1,174 @@
+"""ThrusterDriver against the simulated controller over a real pty and over socket://."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import signal
+import sys
+import time
+from collections.abc import AsyncIterator
+from pathlib import Path
+
+import pytest
+from thruster_helpers import limits, thruster_port
+
+from thrusters.driver import ThrusterDriver
+from thrusters.emulator import ThrusterControllerEmulator
+
+CHILD = Path(__file__).with_name("thruster_child.py")
+
+
+@pytest.fixture(params=["pty", "socket"])
+async def served(request) -> AsyncIterator[tuple[ThrusterControllerEmulator, str]]:
+    seen: list[tuple[float, list[float]]] = []
+    emu = ThrusterControllerEmulator(2, on_outputs=lambda f: seen.append((time.monotonic(), f)))
+    emu.seen = seen  # type: ignore[attr-defined]
+    url = await (emu.start_pty() if request.param == "pty" else emu.start_tcp())
+    yield emu, url
+    await emu.stop()
+
+
+async def test_clamp_and_slew_visible_in_controller_outputs(served) -> None:
+    emu, url = served
+    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        await drv.arm()
+        t0 = time.monotonic()
+        while emu.outputs != [0.8, -0.8] and time.monotonic() - t0 < 2:
+            assert await drv.command([1.0, -3.0])
+            await asyncio.sleep(0.02)
+        ramp_s = time.monotonic() - t0
+    outputs = [f for _, f in emu.seen]
+    assert [0.8, -0.8] in outputs, "clamped to the rig's max_thruster_command, never beyond"
+    assert max(abs(x) for f in outputs for x in f) <= 0.8
+    # slew 2.0 /s: 0 → 0.8 takes ≥ 0.4 s; no step exceeds 2.0 × 0.1 s.
+    assert ramp_s >= 0.38
+    ramp = outputs[: outputs.index([0.8, -0.8]) + 1]  # zeroing at close is immediate
+    steps = [abs(b[0] - a[0]) for a, b in itertools.pairwise(ramp)]
+    assert max(steps) <= 0.2 + 1e-9
+    assert outputs[-1] == [0.0, 0.0] and emu.state == "DISARMED"
+
+
+async def test_zero_on_exception_exit(served) -> None:
+    emu, url = served
+    with pytest.raises(RuntimeError, match="procedure failed"):
+        async with ThrusterDriver(thruster_port(url), limits()) as drv:
+            await drv.arm()
+            for _ in range(10):
+                await drv.command([0.3, 0.3])
+                await asyncio.sleep(0.02)
+            assert emu.outputs == [0.3, 0.3]
+            raise RuntimeError("procedure failed")
+    assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
+    assert emu.stats.accepted_commands[-1][1] == (0, 0)
+
+
+async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served) -> None:
+    emu, url = served
+    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        await drv.arm()
+        emu.inject(b"\x00\x17 line noise \xff\r\n")
+        assert await drv.command([0.1, 0.1])
+        emu.corrupt_replies = 1
+        assert not await drv.command([0.1, 0.1]), "a corrupted ACK is not an ACK"
+        emu.inject(b"$ACK,9999,ARMED*0000\r\n\r\n")
+        emu.inject(b"partial frame without end " * 20)
+        assert await drv.heartbeat()
+        assert drv.stats.garbage_lines >= 2
+        assert drv.stats.corrupt_lines == 2
+        assert drv.stats.timeouts == 1
+    assert emu.outputs == [0.0, 0.0]
+
+
+async def test_silent_controller_times_out_then_its_watchdog_latches(served) -> None:
+    emu, url = served
+    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits())
+    await drv.open()
+    await drv.arm()
+    await asyncio.sleep(0.1)
+    await drv.command([0.2, 0.2])
+    assert emu.outputs == [0.2, 0.2]
+    emu.silent = True
+    t0 = time.monotonic()
+    while emu.state == "ARMED" and time.monotonic() - t0 < 2:
+        assert not await drv.heartbeat()
+    assert emu.state == "WDT" and emu.outputs == [0.0, 0.0]
+    assert 0.35 <= time.monotonic() - t0 <= 0.7
+    assert drv.stats.timeouts >= 3
+    emu.silent = False
+    assert not await drv.heartbeat()
+    assert drv.stats.naks["disarmed"] == 1 and drv.state == "WDT"
+    await drv.arm()
+    assert await drv.command([0.05, 0.05])
+    await drv.close()
+    assert emu.state == "DISARMED"
+
+
+async def test_heartbeat_keeps_controller_armed(served) -> None:
+    emu, url = served
+    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        await drv.arm()
+        await drv.command([0.1, 0.1])
+        for _ in range(8):
+            await asyncio.sleep(0.1)
+            assert await drv.heartbeat()
+        assert emu.state == "ARMED" and emu.stats.watchdog_trips == 0
+        status = await drv.query()
+        assert status.state == "ARMED" and status.rpm == (0.0, 0.0)
+
+
+async def _start_child(url: str, mode: str) -> asyncio.subprocess.Process:
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable, str(CHILD), url, mode, stdout=asyncio.subprocess.PIPE
+    )
+    assert proc.stdout is not None
+    assert await asyncio.wait_for(proc.stdout.readline(), 10) == b"armed\n"
+    return proc
+
+
+async def _wait_for_thrust(emu: ThrusterControllerEmulator) -> None:
+    t0 = time.monotonic()
+    while emu.outputs != [0.5, 0.5]:
+        assert time.monotonic() - t0 < 3, f"child never reached 50 % thrust: {emu.outputs}"
+        await asyncio.sleep(0.02)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+async def test_signal_zeroes_and_acks_before_the_process_exits(served, sig) -> None:
+    emu, url = served
+    proc = await _start_child(url, "signals")
+    await _wait_for_thrust(emu)
+    acks_before = emu.stats.acks
+    proc.send_signal(sig)
+    assert await asyncio.wait_for(proc.wait(), 5) == -sig
+    exited = time.monotonic()
+    zero_times = [t for t, cmds in emu.stats.accepted_commands if cmds == (0, 0)]
+    assert zero_times and zero_times[-1] < exited, "zero accepted (and ACKed) before exit"
+    assert emu.stats.acks >= acks_before + 2  # the zero and the DISARM were answered
+    assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
+    assert emu.stats.watchdog_trips == 0, "zeroed by the driver, not by the watchdog"
+
+
+async def test_sigkill_leaves_it_to_the_controller_watchdog(served) -> None:
+    emu, url = served
+    proc = await _start_child(url, "signals")
+    await _wait_for_thrust(emu)
+    proc.kill()
+    await asyncio.wait_for(proc.wait(), 5)
+    killed = time.monotonic()
+    while emu.state == "ARMED" and time.monotonic() - killed < 2:
+        await asyncio.sleep(0.01)
+    assert emu.state == "WDT" and emu.outputs == [0.0, 0.0]
+    assert emu.stats.watchdog_trips == 1
+    assert emu.seen[-1][0] - killed <= 0.5
+
+
+async def test_atexit_fallback_writes_zero_when_never_closed(served) -> None:
+    emu, url = served
+    proc = await _start_child(url, "atexit")
+    await _wait_for_thrust(emu)
+    assert await asyncio.wait_for(proc.wait(), 5) == 3
+    await asyncio.sleep(0.05)
+    assert emu.stats.accepted_commands[-1][1] == (0, 0)
+    assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
+    assert emu.stats.watchdog_trips == 0
