@@ -1,0 +1,147 @@
+"""CSV import (validated, one transaction) and CSV/JSON export of runs."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+
+import numpy as np
+import pytest
+
+from daq.store import DuplicateSample, Store, export_run_csv, export_run_json, import_csv
+from daq.store.csvio import CsvImportError
+from tests.store.helpers import make_samples, new_run
+
+TOW_CSV = "t,position,load_cell\n0.0,0.0,24.1\n0.1,0.004,24.3\n0.2,0.016,\n0.3,0.035,24.2\n"
+
+
+def write(tmp_path, text: str, name: str = "run.csv"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_import_makes_a_completed_run_with_mapped_channels(store: Store, tmp_path) -> None:
+    path = write(tmp_path, TOW_CSV)
+    run_id = import_csv(store, path, kind="tow", parameters={"force_n": 24.5, "hung_mass_kg": 2.5})
+    run = store.get_run(run_id)
+    assert (run.kind, run.status, run.sample_count) == ("tow", "completed", 4)
+    assert run.parameters == {
+        "source": "import",
+        "force_n": 24.5,
+        "hung_mass_kg": 2.5,
+        "file": "run.csv",
+    }
+    assert run.channel_names == ("tow_position", "load_cell")
+    assert run.duration_s == pytest.approx(0.3, abs=1e-5)
+    table = store.samples(run_id)
+    np.testing.assert_allclose(table.t, [0.0, 0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(table.channels["tow_position"], [0.0, 0.004, 0.016, 0.035])
+    assert math.isnan(table.channels["load_cell"][2])  # empty cell = not read
+
+    spin = import_csv(
+        store,
+        write(tmp_path, "t,position\n0,0\n0.5,0.1\n", "s.csv"),
+        kind="spin",
+        parameters={"torque_nm": 0.907},
+    )
+    assert store.get_run(spin).channel_names == ("yaw_angle",)
+
+
+def test_csv_export_reimports_identically(store: Store, tmp_path) -> None:
+    run_id = new_run(store)
+    store.add_samples(run_id, make_samples(0, 50))
+    store.finish_run(run_id, "completed")
+    exported = io.StringIO()
+    assert export_run_csv(store, run_id, exported) == 50
+    header = exported.getvalue().splitlines()[0]
+    assert header == "t,seq,t_mono,t_wall,quality,tow_position,load_cell"
+
+    again = import_csv(
+        store, write(tmp_path, exported.getvalue()), kind="tow", parameters={"force_n": 24.5}
+    )
+    original, copy = store.samples(run_id), store.samples(again)
+    for column in ("seq", "t_mono", "t_wall", "quality"):
+        np.testing.assert_array_equal(getattr(copy, column), getattr(original, column))
+    for name in ("tow_position", "load_cell"):
+        np.testing.assert_array_equal(copy.channels[name], original.channels[name])
+    second = io.StringIO()
+    export_run_csv(store, again, second)
+    assert second.getvalue() == exported.getvalue()
+
+
+def test_json_export_holds_run_samples_events_results(store: Store) -> None:
+    run_id = new_run(store)
+    store.add_samples(run_id, make_samples(0, 3))
+    store.add_event(run_id, "limit", "end of travel")
+    store.add_result([run_id], "estimation", {"k": 1.0})
+    out = io.StringIO()
+    export_run_json(store, run_id, out)
+    document = json.loads(out.getvalue())
+    assert document["run"]["id"] == run_id
+    assert document["samples"]["seq"] == [0, 1, 2]
+    assert document["events"][0]["message"] == "end of travel"
+    assert document["results"][0]["data"] == {"k": 1.0}
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", "empty file"),
+        ("0.0,0.0\n0.1,0.1\n", "line 1: no header with a 't' column"),
+        ("t,load_cell\n0,1\n", "line 1: no 'position' column"),
+        ("t,position\n", "a header but no data rows"),
+        ("t,position\n0,0\n0.1,abc\n", "line 3, column 'tow_position': 'abc' is not a number"),
+        ("t,position\n0,0\nnan,0.1\n", "line 3, column 't': 'nan' is not allowed; use a finite"),
+        ("t,position\n0,0\n0.1,inf\n", "line 3, column 'tow_position': 'inf' is not allowed"),
+        ("t,position\n0,0\n0.2,1\n0.2,2\n", "line 4, column 't': '0.2' is not greater than"),
+        ("t,position\n0,0\n0.1\n", "line 3: 1 fields, the header has 2"),
+        ("t,position,t\n0,0,0\n", "repeated column names"),
+        ("t,seq,position\n0,0,0\n0.1,0,0\n", "line 3, column 'seq': '0' is not greater"),
+        ("t,position,load_cell\n0,0,1\n0.1,0.1,-inf\n", "column 'load_cell': '-inf' is not"),
+    ],
+)
+def test_a_bad_csv_is_rejected_naming_the_line_and_nothing_is_written(
+    store: Store, tmp_path, text: str, message: str
+) -> None:
+    with pytest.raises(CsvImportError, match=message):
+        import_csv(store, write(tmp_path, text), kind="tow", parameters={"force_n": 24.5})
+    assert store.list_runs() == [] and store.stats()["samples"] == 0
+
+
+@pytest.mark.parametrize(
+    ("kind", "parameters", "message"),
+    [
+        ("tow", {"force_n": -1.0}, "force_n: -1.0 is not allowed; use a finite number > 0"),
+        ("tow", {"force_n": float("nan")}, "force_n: nan is not allowed"),
+        ("tow", {"torque_nm": 1.0}, "force_n: missing"),
+        ("spin", {"torque_nm": 0.9, "hung_mass_kg": 0}, "hung_mass_kg: 0 is not allowed"),
+        ("thrust", {"force_n": 1.0}, "kind: 'thrust' is not allowed; use one of tow, spin"),
+    ],
+)
+def test_bad_import_parameters_are_rejected(store: Store, tmp_path, kind, parameters, message):
+    with pytest.raises(ValueError, match=message):
+        import_csv(store, write(tmp_path, TOW_CSV), kind=kind, parameters=parameters)
+    assert store.list_runs() == []
+
+
+def test_a_failure_late_in_the_import_rolls_everything_back(store: Store, tmp_path) -> None:
+    """A seq gap is fine; a repeated seq is refused by the database inside the transaction
+    that already created the run, so the run disappears too."""
+    text = "t,seq,position\n0,0,0\n0.1,2,0.1\n"
+    run_id = import_csv(store, write(tmp_path, text), kind="tow", parameters={"force_n": 1.0})
+    assert store.samples(run_id).seq.tolist() == [0, 2]
+    with pytest.raises(DuplicateSample, match="already stored"):
+        store.import_run(
+            kind="tow",
+            parameters={"force_n": 1.0},
+            channel_names=["tow_position"],
+            rig_name="r",
+            vehicle="v",
+            rig_toml="",
+            samples=make_samples(0, 2) + make_samples(1, 1),
+            started_at=0.0,
+            stopped_at=1.0,
+        )
+    assert len(store.list_runs()) == 1
