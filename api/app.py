@@ -1,0 +1,191 @@
+"""The FastAPI application: routes, error bodies, token checks, the browser UI.
+
+``create_app(service, token=...)`` wires a ``RigService`` (the rig thread) and a
+``JobRunner`` into the routes. With ``manage_service`` (the default) the app's
+lifespan starts the rig when the server starts and leaves it safe when it stops.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import AsyncIterator, Sequence
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.responses import FileResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from api import routes_jobs, routes_rig, routes_runs, routes_stream
+from api.jobs import JobConflict, JobNotFound, JobRunner
+from api.service import RigService, RigUnavailable
+from daq.procedures.params import ParameterError
+from daq.store import AmbiguousRunId, RunNotFound
+from daq.store.base import software_version
+
+log = logging.getLogger(__name__)
+STATIC_DIR = Path(__file__).parent / "static"
+#: Largest CSV upload accepted (bytes).
+MAX_UPLOAD_BYTES = 20 * 1024 * 1024
+
+
+def _plotly_js() -> Path | None:
+    try:
+        import plotly
+    except ImportError:  # pragma: no cover - plotly is a dependency
+        return None
+    path = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+    return path if path.is_file() else None
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    try:
+        json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError):
+        return str(value)
+    return value
+
+
+def _error(status: int, detail: str, **extra: Any) -> JSONResponse:
+    body = {"detail": detail} | {k: v for k, v in extra.items() if v is not None}
+    return JSONResponse(body, status_code=status)
+
+
+def _install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        response = _error(exc.status_code, str(exc.detail))
+        for k, v in (exc.headers or {}).items():
+            response.headers[k] = v
+        return response
+
+    @app.exception_handler(RequestValidationError)
+    async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+        problems = []
+        for e in exc.errors():
+            loc = [str(p) for p in e.get("loc", ()) if p not in ("body", "query", "path")]
+            field = ".".join(loc) or "body"
+            value = None if e.get("type") == "missing" else _json_safe(e.get("input"))
+            problems.append(
+                {
+                    "field": field,
+                    "value": value,
+                    "allowed": e.get("msg", "invalid"),
+                    "message": f"{field}: {value!r} is not allowed; {e.get('msg', 'invalid')}",
+                }
+            )
+        detail = "; ".join(p["message"] for p in problems) or "invalid request"
+        return _error(422, detail, errors=problems)
+
+    @app.exception_handler(ParameterError)
+    async def parameter_error(request: Request, exc: ParameterError) -> JSONResponse:
+        return _error(422, str(exc), errors=exc.to_json())
+
+    @app.exception_handler(RunNotFound)
+    async def run_not_found(request: Request, exc: RunNotFound) -> JSONResponse:
+        return _error(404, str(exc))
+
+    @app.exception_handler(JobNotFound)
+    async def job_not_found(request: Request, exc: JobNotFound) -> JSONResponse:
+        return _error(404, str(exc))
+
+    @app.exception_handler(AmbiguousRunId)
+    async def ambiguous(request: Request, exc: AmbiguousRunId) -> JSONResponse:
+        return _error(404, str(exc))
+
+    @app.exception_handler(JobConflict)
+    async def conflict(request: Request, exc: JobConflict) -> JSONResponse:
+        return _error(409, str(exc), holder=exc.holder)
+
+    @app.exception_handler(RigUnavailable)
+    async def unavailable(request: Request, exc: RigUnavailable) -> JSONResponse:
+        return _error(503, str(exc))
+
+    @app.exception_handler(ValueError)
+    async def bad_value(request: Request, exc: ValueError) -> JSONResponse:
+        # The store and the CSV import name the field (or line/column) in their message.
+        if "JSON compliant" in str(exc):  # our bug (a NaN in a response), not bad input
+            log.error("response not JSON-serialisable: %s", exc)
+            return _error(500, "internal error: a response held a non-finite number")
+        return _error(422, str(exc))
+
+    @app.exception_handler(TimeoutError)
+    async def timeout(request: Request, exc: TimeoutError) -> JSONResponse:
+        return _error(503, f"the rig did not answer in time: {exc}")
+
+
+def create_app(
+    service: RigService,
+    *,
+    token: str,
+    open_read: bool = False,
+    cors_origins: Sequence[str] = (),
+    max_upload_bytes: int = MAX_UPLOAD_BYTES,
+    manage_service: bool = True,
+    report_root: Path | None = None,
+) -> FastAPI:
+    """The rig's HTTP API and browser UI on top of ``service``."""
+    runner_box: dict[str, JobRunner] = {}
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        import asyncio
+
+        if manage_service:
+            await asyncio.to_thread(service.start)
+        try:
+            yield
+        finally:
+            runner_box["runner"].close()
+            if manage_service:
+                await asyncio.to_thread(service.stop)
+
+    app = FastAPI(
+        title="towrig rig service",
+        version=software_version(),
+        description="Run the underwater-vehicle test rig: tests as jobs, stored runs, "
+        "estimation, a live stream. Every state-changing endpoint needs "
+        "`Authorization: Bearer <token>` (`rig token` prints it); read-only ones too "
+        "unless the service runs with `--open-read`.",
+        lifespan=lifespan,
+    )
+    runner = JobRunner(service, report_root=report_root)
+    runner_box["runner"] = runner
+    app.state.service = service
+    app.state.runner = runner
+    app.state.token = token
+    app.state.open_read = open_read
+    app.state.max_upload_bytes = max_upload_bytes
+    _install_error_handlers(app)
+    if cors_origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=list(cors_origins),
+            allow_methods=["GET", "POST"],
+            allow_headers=["Authorization", "Content-Type"],
+        )
+    for module in (routes_rig, routes_jobs, routes_runs, routes_stream):
+        app.include_router(module.router)
+
+    plotly_js = _plotly_js()
+
+    @app.get("/", include_in_schema=False)
+    def index() -> FileResponse:
+        return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
+
+    @app.get("/static/plotly.min.js", include_in_schema=False)
+    def plotly_bundle() -> FileResponse:
+        if plotly_js is None:  # pragma: no cover
+            raise StarletteHTTPException(404, "plotly is not installed")
+        return FileResponse(plotly_js, media_type="text/javascript")
+
+    app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    return app

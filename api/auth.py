@@ -1,0 +1,69 @@
+"""The API's bearer token: where it comes from and how a request proves it has it.
+
+The token is ``$RIG_API_TOKEN`` when set; otherwise it is generated once and kept in
+``api-token`` next to the default database (``~/.local/share/towrig/api-token``,
+mode 0600), so ``rig serve`` and ``rig token`` agree across restarts.
+"""
+
+from __future__ import annotations
+
+import hmac
+import os
+import secrets
+from pathlib import Path
+
+from fastapi import HTTPException, Request
+
+from daq.store import default_database_path
+
+TOKEN_ENV = "RIG_API_TOKEN"
+
+
+def token_path() -> Path:
+    """Where a generated token is kept: ``api-token`` beside the default database."""
+    return default_database_path().parent / "api-token"
+
+
+def load_or_create_token(path: Path | None = None) -> str:
+    """``$RIG_API_TOKEN``, else the token stored at ``path`` (created, mode 0600, if absent)."""
+    from_env = os.environ.get(TOKEN_ENV, "").strip()
+    if from_env:
+        return from_env
+    path = path or token_path()
+    if path.exists():
+        text = path.read_text(encoding="utf-8").strip()
+        if text:
+            return text
+    path.parent.mkdir(parents=True, exist_ok=True)
+    token = secrets.token_urlsafe(32)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(token + "\n")
+    return token
+
+
+def presented_token(request: Request) -> str | None:
+    """The token of an ``Authorization: Bearer <token>`` header, if any."""
+    header = request.headers.get("authorization", "")
+    scheme, _, value = header.partition(" ")
+    if scheme.lower() == "bearer" and value.strip():
+        return value.strip()
+    return None
+
+
+def check_token(request: Request, expected: str) -> None:
+    """Raise 401 unless the request carries ``expected`` (constant-time comparison)."""
+    given = presented_token(request)
+    if given is None:
+        raise HTTPException(
+            401,
+            "missing bearer token: send 'Authorization: Bearer <token>' "
+            "(print it with 'rig token')",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    if not hmac.compare_digest(given.encode(), expected.encode()):
+        raise HTTPException(
+            401,
+            "wrong bearer token (print the right one with 'rig token')",
+            headers={"WWW-Authenticate": "Bearer"},
+        )

@@ -1,0 +1,78 @@
+"""``rig serve`` (the HTTP API and browser UI) and ``rig token``."""
+
+from __future__ import annotations
+
+import socket
+
+import click
+
+from api.auth import TOKEN_ENV, load_or_create_token, token_path
+from api.cli_common import db_option, fail, rig_option, scenario_option, user_errors
+
+
+@click.command()
+@rig_option
+@scenario_option
+@db_option
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind.")
+@click.option(
+    "--port", default=8000, show_default=True, type=click.IntRange(0, 65535),
+    help="TCP port (0 picks a free one).",
+)  # fmt: skip
+@click.option("--open-read", is_flag=True, help="Let read-only endpoints answer without the token.")
+@click.option(
+    "--cors-origin", "cors_origins", multiple=True, metavar="ORIGIN",
+    help="Allow browser pages from ORIGIN (repeatable). CORS is off by default.",
+)  # fmt: skip
+@click.option(
+    "--ask-operator/--auto-operator", default=None,
+    help="Ask a person through the API for weights etc. (default: only on a hardware rig).",
+)  # fmt: skip
+def serve(rig_file, scenario_file, db_url, host, port, open_read, cors_origins, ask_operator):
+    """Serve the HTTP API and the browser UI (binds 127.0.0.1 by default)."""
+    import uvicorn
+
+    from api.app import create_app
+    from api.service import RigService, RigUnavailable
+    from daq.session import RigSource
+
+    with user_errors():
+        source = RigSource.load(rig_file, scenario_file)
+    token = load_or_create_token()
+    service = RigService(source, db_url, ask_operator=ask_operator)
+    app = create_app(service, token=token, open_read=open_read, cors_origins=cors_origins)
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as err:
+        fail(f"cannot bind {host}:{port}: {err.strerror}", code=1)
+    bound_port = sock.getsockname()[1]
+    shown = f"[{host}]" if ":" in host else host
+    where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
+    click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
+               f"{source.rig.rig.mode})")  # fmt: skip
+    click.echo(f"API token: from {where}; send 'Authorization: Bearer <token>'")
+    click.echo(f"browser UI: http://{shown}:{bound_port}/#token=<token> (or paste it when asked)")
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        click.echo(f"warning: listening on {host}: reachable from other machines", err=True)
+    config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
+    server = uvicorn.Server(config)
+    try:
+        server.run(sockets=[sock])
+    except RigUnavailable as err:
+        fail(str(err), code=1)
+    if server.started is False and service.error:
+        fail(f"cannot open the rig: {service.error}", code=1)
+
+
+def _token_from_env() -> bool:
+    import os
+
+    return bool(os.environ.get(TOKEN_ENV, "").strip())
+
+
+@click.command()
+def token():
+    """Print the API's bearer token (created on first use; or set RIG_API_TOKEN)."""
+    click.echo(load_or_create_token())

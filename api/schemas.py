@@ -1,0 +1,253 @@
+"""Request and response models of the HTTP API (they make the OpenAPI document).
+
+Request bodies are strict: a number must be a JSON number (``"24.5"`` is refused),
+unknown fields are refused, and limits are checked by ``daq.procedures.params`` so
+the API and the CLI give the same message naming the field and the allowed range.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+JobState = Literal[
+    "queued", "running", "waiting_for_operator", "paused", "completed", "aborted", "failed"
+]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(strict=True, extra="forbid")
+
+
+# ---- errors ---------------------------------------------------------------------------
+class FieldProblem(BaseModel):
+    field: str = Field(description="The parameter, e.g. 'force_n' or 'steps[2].torque_nm'.")
+    value: Any = Field(None, description="The value given (null when missing).")
+    allowed: str = Field(description="What is allowed, e.g. 'allowed 0 < force_n ≤ 100 N'.")
+    message: str
+
+
+class ErrorBody(BaseModel):
+    """Every error: a clear message; ``errors`` for bad input, ``holder`` for a busy rig."""
+
+    detail: str
+    errors: list[FieldProblem] | None = None
+    holder: str | None = None
+
+
+def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI declarations of the error responses a route can give."""
+    text = {
+        401: "Missing or wrong bearer token",
+        404: "Unknown id",
+        409: "Conflict: the rig is busy (holder named) or the job is in the wrong state",
+        413: "Upload too large",
+        422: "Bad input: each problem names the field, the value and what is allowed",
+        503: "The rig service is not running",
+    }
+    return {code: {"model": ErrorBody, "description": text[code]} for code in codes}
+
+
+# ---- procedures -------------------------------------------------------------------------
+class TowRequest(_Strict):
+    """A tow test: give ``force_n`` or ``weight_kg`` (force = weight × the rig's g)."""
+
+    force_n: float | None = Field(None, description="Towing force, N (0 < F ≤ max_force_n).")
+    weight_kg: float | None = Field(None, description="Hung weight, kg.")
+    max_distance_m: float | None = Field(None, description="Stop after m (default: end of travel).")
+    max_time_s: float | None = Field(None, description="Stop after s (default 120).")
+    baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")
+
+
+class SpinRequest(_Strict):
+    """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters."""
+
+    torque_nm: float | None = Field(None, description="Torque, N·m (0 < τ ≤ max_torque_nm).")
+    weight_kg: float | None = Field(None, description="Weight on the drum, kg.")
+    drive: Literal["weight", "thrusters"] = "weight"
+    max_angle_rad: float | None = None
+    max_time_s: float | None = None
+    baseline_s: float | None = None
+
+
+class CalibrationRequest(_Strict):
+    """A thrust calibration sweep (commands as fractions of full thrust)."""
+
+    commands: list[float] | None = Field(None, description="Command steps, 0 ≤ c ≤ the limit.")
+    settle_s: float | None = None
+    samples_per_step: int | None = None
+    tare_samples: int | None = None
+    reverse: bool | None = None
+
+
+class SequenceStep(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    kind: str = Field(description="tow | spin | thrust_calibration")
+
+
+class SequenceRequest(_Strict):
+    """A sequence, the same content as a sequence TOML file."""
+
+    name: str | None = None
+    rest_s: float | None = None
+    repeats: int | None = None
+    steps: list[SequenceStep] = Field(description="[{kind, ...the step's parameters}]")
+
+
+class EstimationRequest(_Strict):
+    run_ids: list[str] = Field(min_length=1, max_length=50, description="Tow or spin run ids.")
+    method: Literal["output-error", "ls-raw", "ls-curvefit", "ls-steady"] = "output-error"
+    search_effects: bool = True
+
+
+# ---- jobs --------------------------------------------------------------------------------
+class JobProgress(BaseModel):
+    fraction: float = Field(description="0..1")
+    message: str
+
+
+class OperatorActOut(BaseModel):
+    name: str
+    instruction: str
+    value: float | None = None
+
+
+class JobOut(BaseModel):
+    id: str
+    kind: Literal["tow", "spin", "thrust_calibration", "sequence", "estimation"]
+    label: str
+    state: JobState
+    progress: JobProgress
+    parameters: dict[str, Any]
+    run_ids: list[str]
+    outcome: dict[str, Any] | None = Field(
+        None, description="Run outcome(s); for an estimation the result JSON of issue 4."
+    )
+    error: str | None = None
+    result_id: int | None = None
+    operator_act: OperatorActOut | None = Field(
+        None, description="What the operator must do (state waiting_for_operator)."
+    )
+    created_at: float = Field(description="Unix time, s")
+    started_at: float | None = None
+    finished_at: float | None = None
+
+
+class EmergencyStopOut(BaseModel):
+    aborted_jobs: list[str]
+    safe_state: bool
+
+
+# ---- rig ------------------------------------------------------------------------------------
+class SampleOut(BaseModel):
+    seq: int
+    t_wall: float
+    quality: int
+    quality_flags: list[str]
+    stale_channels: list[str]
+    channels: dict[str, float | None]
+
+
+class ClockOut(BaseModel):
+    rate_hz: float
+    ticks: int
+    overruns: int
+    skipped_slots: int
+    failed_polls: int
+    dropped: dict[str, int]
+    lateness_p50_s: float | None
+    lateness_p99_s: float | None
+    lateness_max_s: float | None
+    lateness_window: int
+
+
+class ThrustersOut(BaseModel):
+    state: str
+    output: list[float]
+    sent: int
+    acked: int
+    timeouts: int
+    naks: dict[str, int]
+    stale_zeroings: int
+
+
+class RigStatus(BaseModel):
+    running: bool
+    error: str | None = None
+    simulated: bool
+    rig_name: str
+    vehicle: str | None = None
+    connected: bool = False
+    device_lost: bool = False
+    lock_holder: str | None = None
+    armed: bool = False
+    current_job: JobOut | None = None
+    sample: SampleOut | None = None
+    stale_channels: list[str] = []
+    clock: ClockOut | None = None
+    thrusters: ThrustersOut | None = None
+    limits: dict[str, float] = {}
+    stream_clients: int = 0
+
+
+class Health(BaseModel):
+    ok: bool
+    version: str
+    read_requires_token: bool
+
+
+# ---- runs ------------------------------------------------------------------------------------
+class RunOut(BaseModel):
+    id: str
+    kind: str
+    status: str
+    reason: str | None
+    parameters: dict[str, Any]
+    started_at: str
+    stopped_at: str | None
+    duration_s: float | None
+    sample_count: int
+    rig_name: str
+    vehicle: str
+    channel_names: list[str]
+    software_version: str
+    rig_toml: str | None = None
+    scenario_toml: str | None = None
+
+
+class SamplesOut(BaseModel):
+    run_id: str
+    start_seq: int
+    count: int
+    next_start_seq: int | None = Field(description="Ask again from here; null at the end.")
+    seq: list[int]
+    t: list[float] = Field(description="s since the run's first sample")
+    t_mono: list[float]
+    t_wall: list[float]
+    quality: list[int]
+    channels: dict[str, list[float | None]]
+
+
+class EventOut(BaseModel):
+    id: int
+    run_id: str | None
+    time: str
+    kind: str
+    message: str
+    data: dict[str, Any] | None
+
+
+class ResultOut(BaseModel):
+    id: int
+    kind: str
+    created_at: str
+    run_ids: list[str]
+    software_version: str
+    data: dict[str, Any]
+    report_plots: list[str] = Field([], description="Names for GET .../report/{name}.png")
+
+
+class ImportOut(BaseModel):
+    run_id: str
+    samples: int
