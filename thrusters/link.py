@@ -38,6 +38,8 @@ class LinkStats:
     #: Valid replies answering another sequence number (late or unsolicited).
     unexpected_replies: int = 0
     io_errors: int = 0
+    #: Times the port was reopened after an I/O error (adapter unplugged, socket dropped).
+    reconnects: int = 0
 
 
 class SerialLink:
@@ -49,14 +51,20 @@ class SerialLink:
         self.reply_timeout_s = reply_timeout_s
         self.stats = LinkStats()
         self._port: serial.SerialBase | None = None
+        self._wanted = False
         self._rx = b""
 
     @property
     def is_open(self) -> bool:
-        return self._port is not None
+        """True between ``open()`` and ``close()``, even while the line is down."""
+        return self._wanted
 
     def open(self) -> None:
         """Open the port and discard anything already waiting."""
+        self._connect()
+        self._wanted = True
+
+    def _connect(self) -> None:
         self._port = serial.serial_for_url(
             self.url, baudrate=self.baudrate, timeout=READ_SLICE_S, write_timeout=0.5
         )
@@ -64,6 +72,10 @@ class SerialLink:
         self._rx = b""
 
     def close(self) -> None:
+        self._wanted = False
+        self._drop_port()
+
+    def _drop_port(self) -> None:
         port, self._port = self._port, None
         if port is not None:
             try:
@@ -81,9 +93,14 @@ class SerialLink:
     def transact(self, raw: bytes, seq: int) -> p.Reply | None:
         """Send one frame and return the reply carrying ``seq`` (or a NAK without a
         readable seq); None on timeout or a broken line."""
-        if self._port is None:
+        if not self._wanted:
             raise serial.SerialException(f"thruster link {self.url} is not open")
         try:
+            if self._port is None:  # lost after an I/O error: one reopen attempt per frame
+                self._connect()
+                self.stats.reconnects += 1
+                log.warning("thruster link %s: reconnected", self.url)
+            assert self._port is not None
             self._drain_stray()
             self._port.write(raw)
             self.stats.sent += 1
@@ -95,6 +112,7 @@ class SerialLink:
         except (OSError, serial.SerialException) as err:
             self.stats.io_errors += 1
             log.warning("thruster link %s: I/O error: %s", self.url, err)
+            self._drop_port()
             return None
         self.stats.timeouts += 1
         log.warning(

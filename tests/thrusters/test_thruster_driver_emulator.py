@@ -172,3 +172,28 @@ async def test_atexit_fallback_writes_zero_when_never_closed(served) -> None:
     assert emu.stats.accepted_commands[-1][1] == (0, 0)
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
     assert emu.stats.watchdog_trips == 0
+
+
+async def test_driver_reconnects_when_the_controller_comes_back() -> None:
+    emu = ThrusterControllerEmulator(2)
+    url = await emu.start_tcp()
+    port = int(url.rsplit(":", 1)[1])
+    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits())
+    await drv.open()
+    await drv.arm()
+    await emu.stop()  # controller (or its serial server) goes away
+    assert not await drv.heartbeat()
+    assert not await drv.heartbeat(), "still down: reconnect attempt fails, no exception"
+    assert drv.stats.io_errors == 2
+    emu2 = ThrusterControllerEmulator(2)
+    await emu2.start_tcp(port=port)
+    try:
+        assert not await drv.heartbeat()  # reconnected; a fresh controller is DISARMED
+        assert drv.stats.reconnects == 1 and drv.stats.naks["disarmed"] == 1
+        await drv.arm()
+        await asyncio.sleep(0.1)
+        assert await drv.command([0.1, 0.1]) and emu2.outputs == [0.1, 0.1]
+        await drv.close()
+        assert emu2.outputs == [0.0, 0.0] and emu2.state == "DISARMED"
+    finally:
+        await emu2.stop()
