@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from api import cli_estimate, cli_procedures, cli_runs, cli_sim
+from api import cli_estimate, cli_procedures, cli_runs, cli_serve, cli_sim
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -30,5 +30,11 @@ for command in (
     cli_runs.import_,
     cli_estimate.estimate,
     cli_sim.sim,
+    cli_serve.serve,
+    cli_serve.token,
 ):
     main.add_command(command)
+
+
+if __name__ == "__main__":
+    main()

@@ -157,10 +157,19 @@ def export(run_id, fmt, output, db_url):
     type=float,
     help="Hung weight in kg, if known (lets estimation account for its inertia).",
 )
-@click.option("--vehicle", default=None, help="Vehicle name (default: the default rig's vehicle).")
+@click.option(
+    "--vehicle", default=None, help="Vehicle name (default: the rig file's, else 'unknown')."
+)
+@click.option(
+    "--rig",
+    "rig_file",
+    metavar="FILE",
+    default=None,
+    help="Rig file the data was recorded on (gives pulley/drum inertia to estimation).",
+)
 @db_option
 @json_option
-def import_(file, kind, force_n, torque_nm, weight_kg, vehicle, db_url, as_json):
+def import_(file, kind, force_n, torque_nm, weight_kg, vehicle, rig_file, db_url, as_json):
     """Import a CSV (columns t [s] and position [m or rad]; more allowed); prints the new run id."""
     from daq.procedures.params import ParameterError
     from daq.store import import_csv
@@ -190,10 +199,21 @@ def import_(file, kind, force_n, torque_nm, weight_kg, vehicle, db_url, as_json)
     params: dict[str, Any] = {"source": "import", "file": str(file), drive_name: drive}
     if weight_kg is not None:
         params["hung_mass_kg"] = weight_kg
+    origin: dict[str, str] = {"vehicle": vehicle or "unknown"}
+    if rig_file:
+        from daq.session import RigSource
+
+        with user_errors():
+            source = RigSource.load(rig_file)
+        origin = {
+            "rig_name": source.rig.rig.name,
+            "vehicle": vehicle or source.rig.vehicle.name,
+            "rig_toml": source.rig_toml,
+        }
     store = open_store(db_url)
     try:
         try:
-            run_id = import_csv(store, file, kind=kind, parameters=params, vehicle=vehicle)
+            run_id = import_csv(store, file, kind=kind, parameters=params, **origin)
         except ValueError as err:
             fail(str(err))
         if as_json:

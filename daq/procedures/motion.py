@@ -171,6 +171,8 @@ async def run_motion_test(
             t0 = None
             previous_t = None
             async for sample in rec.samples():
+                if sample.quality & Quality.ERROR:
+                    continue  # unread this tick; rec.samples() aborts once the device is lost
                 t0 = t0 if t0 is not None else sample.t_mono
                 elapsed = sample.t_mono - t0
                 travelled = abs(sample.channels[axis.position] - start)

@@ -1,0 +1,117 @@
+"""Tow and spin tests end to end: simulated rig → Modbus → clock → store."""
+
+from __future__ import annotations
+
+import asyncio
+
+import numpy as np
+import pytest
+
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import spin_parameters, tow_parameters
+from daq.procedures.recording import AbortSignal
+from daq.run_data import load_run_data
+from daq.session import RigBusy, RigSession, RigSource
+from tests.procedures.conftest import short_rail
+
+
+async def test_tow_records_release_motion_and_brake(session, store):
+    params = tow_parameters({"force_n": 44.1, "max_time_s": 2.5, "baseline_s": 0.5}, session.rig)
+    progress = []
+    outcome = await run_motion_test(session, params, progress=progress.append)
+
+    assert outcome.status == "completed" and outcome.reason is None
+    run = store.get_run(outcome.run_id)
+    assert run.status == "completed" and run.parameters["hung_mass_kg"] == pytest.approx(4.5)
+    table = store.samples(outcome.run_id)
+    assert len(table) == outcome.samples >= 25
+    seq = table.seq
+    assert np.all(np.diff(seq) >= 1)  # one sample per clock slot, in order
+    x = table.channels["tow_position"]
+    assert x[0] == pytest.approx(0.0, abs=1e-3)  # at rest during the baseline
+    assert x[-1] > 0.5  # 44.1 N moves the vehicle well over half a metre in 2.5 s
+    actions = [e.data.get("action") for e in store.events(outcome.run_id) if e.data]
+    assert actions.index("release") < actions.index("brake")
+    # The procedure leaves the brake engaged and the carriage stops.
+    assert await session.plc.read("tow_release") == 0
+    await asyncio.sleep(0.3)
+    p1 = await session.plc.read("tow_position")
+    await asyncio.sleep(0.3)
+    assert await session.plc.read("tow_position") == pytest.approx(p1, abs=1e-4)
+    assert progress[-1].fraction == 1.0 and progress[-1].state == "completed"
+    # The estimator's view: release after the baseline, positions from the PLC clock.
+    data = load_run_data(store, outcome.run_id)
+    assert data.axis == "surge" and data.hung_mass_kg == pytest.approx(4.5)
+    assert data.t[0] < data.t_release < data.t[-1]
+    assert data.t_end is not None and data.t_release < data.t_end
+
+
+async def test_tow_stops_at_end_of_travel(source, store):
+    short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
+    async with RigSession(short, store) as session:
+        params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
+        outcome = await run_motion_test(session, params)
+    assert outcome.status == "completed"
+    brake = [e for e in store.events(outcome.run_id) if e.data and e.data.get("action") == "brake"]
+    assert brake and brake[0].message.startswith("end of travel")
+    x = store.samples(outcome.run_id).channels["tow_position"]
+    assert x.max() == pytest.approx(0.5, abs=0.02)  # stopped by the switch, not by time
+
+
+async def test_spin_records_yaw(session, store):
+    params = spin_parameters(
+        {"torque_nm": 2.269, "max_time_s": 2.0, "baseline_s": 0.3}, session.rig
+    )
+    outcome = await run_motion_test(session, params)
+    assert outcome.status == "completed"
+    run = store.get_run(outcome.run_id)
+    assert run.kind == "spin" and run.parameters["hung_mass_kg"] == pytest.approx(2.5, rel=1e-3)
+    yaw = store.samples(outcome.run_id).channels["yaw_angle"]
+    assert yaw[-1] > 0.2
+    assert await session.plc.read("spin_release") == 0
+
+
+async def test_abort_ends_run_aborted_with_samples_kept(session, store):
+    abort = AbortSignal()
+    params = tow_parameters({"force_n": 24.5, "max_time_s": 30, "baseline_s": 0.3}, session.rig)
+    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
+    await asyncio.sleep(2.5)  # ~1 s of set-up, then recording
+    abort.set("operator abort (test)")
+    outcome = await asyncio.wait_for(task, 5)
+    assert outcome.status == "aborted" and outcome.reason == "operator abort (test)"
+    assert store.get_run(outcome.run_id).status == "aborted"
+    assert store.sample_count(outcome.run_id) >= 10
+    assert await session.plc.read("tow_release") == 0
+
+
+async def test_second_procedure_while_busy_is_refused(session):
+    params = tow_parameters({"force_n": 24.5, "max_time_s": 2, "baseline_s": 0.2}, session.rig)
+    task = asyncio.create_task(run_motion_test(session, params))
+    await asyncio.sleep(0.2)
+    with pytest.raises(RigBusy, match=r"tow 24\.5 N"):
+        await run_motion_test(session, params)
+    assert (await task).status == "completed"
+
+
+async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, store):
+    params = tow_parameters({"force_n": 24.5, "max_time_s": 30, "baseline_s": 0.3}, session.rig)
+    task = asyncio.create_task(run_motion_test(session, params))
+    await asyncio.sleep(2.5)
+    port = session.sim.endpoints.port
+    await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
+    stopped_at = session.latest().seq
+    outcome = await asyncio.wait_for(task, 10)
+    assert outcome.status == "aborted" and outcome.reason == "device lost"
+    seqs = store.samples(outcome.run_id).seq
+    good = seqs[seqs <= stopped_at]
+    assert len(good) >= 10 and np.all(np.diff(good) == 1)  # nothing received was lost
+    assert session.thrusters.output == [0.0] * session.rig.thrusters.count
+    # The server returns on the same port: the driver reconnects and samples are good again.
+    await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
+    assert session.sim.endpoints.port == port
+    for _ in range(100):
+        await asyncio.sleep(0.1)
+        if not session.acquisition.device_lost.is_set() and session.latest().quality == 0:
+            break
+    assert not session.acquisition.device_lost.is_set()
+    assert session.latest().quality == 0
