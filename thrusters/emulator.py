@@ -14,7 +14,7 @@ import logging
 import os
 import time
 import tty
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -34,8 +34,10 @@ class EmulatorStats:
     queries: int = 0
     watchdog_trips: int = 0
     naks: Counter[str] = field(default_factory=Counter)
-    #: Every accepted THR as (monotonic time, commands in per mille).
-    accepted_commands: list[tuple[float, tuple[int, ...]]] = field(default_factory=list)
+    #: The last 1000 accepted THR frames as (monotonic time, commands in per mille).
+    accepted_commands: deque[tuple[float, tuple[int, ...]]] = field(
+        default_factory=lambda: deque(maxlen=1000)
+    )
 
 
 class ThrusterControllerEmulator:
