@@ -1,0 +1,222 @@
+"""Output-error fit: simulate the axis model and fit measured positions of all runs jointly.
+
+Minimises Σ_runs Σ_samples (x_meas − x0_run − X(t; θ))², θ = (M, K_L, K_Q, effects...),
+one position offset x0 per run as a nuisance parameter. Standard errors from
+σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from estimation.effects import EFFECTS
+from estimation.model import BASE_NAMES, PreparedRun, simulate
+
+BASE_LOWER = (1e-6, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A converged joint fit: global coefficients with σ, offsets, residuals and evidence."""
+
+    effects: tuple[str, ...]
+    names: tuple[str, ...]
+    values: np.ndarray
+    std: np.ndarray
+    correlation: np.ndarray
+    offsets: np.ndarray
+    residuals: tuple[np.ndarray, ...]  # measured − model, per run (m or rad)
+    velocities: tuple[np.ndarray, ...]  # model velocity at the samples
+    sse: float
+    n_samples: int
+    n_params: int
+    at_bound: tuple[str, ...]
+
+    @property
+    def bic(self) -> float:
+        """Bayesian information criterion n·ln(SSE/n) + p·ln(n)."""
+        n = self.n_samples
+        return n * np.log(max(self.sse, 1e-300) / n) + self.n_params * np.log(n)
+
+    @property
+    def rmse(self) -> float:
+        """Overall position RMSE over all runs (m or rad)."""
+        return float(np.sqrt(self.sse / self.n_samples))
+
+    def rmse_per_run(self) -> list[float]:
+        """Position RMSE of each run (m or rad)."""
+        return [float(np.sqrt(np.mean(r**2))) for r in self.residuals]
+
+    def value(self, name: str) -> float:
+        """Fitted value of the named coefficient or effect (0 when absent)."""
+        return float(self.values[self.names.index(name)]) if name in self.names else 0.0
+
+
+def _bounds(effects: Sequence[str], n_runs: int) -> tuple[np.ndarray, np.ndarray]:
+    lower = list(BASE_LOWER) + [EFFECTS[e].lower for e in effects] + [-np.inf] * n_runs
+    upper = [np.inf] * 3 + [EFFECTS[e].upper for e in effects] + [np.inf] * n_runs
+    return np.array(lower, dtype=float), np.array(upper, dtype=float)
+
+
+def _steady_speed(run: PreparedRun) -> float:
+    moving = run.t > run.t_release
+    t, x = run.t[moving], run.x[moving]
+    tail = slice(int(0.6 * t.size), None)
+    if t[tail].size < 2:
+        return float((x[-1] - x[0]) / max(t[-1] - t[0], 1e-9))
+    return float(np.polyfit(t[tail], x[tail], 1)[0])
+
+
+def initial_guess(runs: Sequence[PreparedRun], effects: Sequence[str]) -> np.ndarray:
+    """Start values: drag law from steady speeds, inertia by a vectorized grid search."""
+    speeds = np.array([abs(_steady_speed(r)) for r in runs]) + 1e-9
+    drives = np.array([r.mean_abs_drive for r in runs])
+    if np.unique(np.round(drives, 9)).size >= 2:
+        h = np.column_stack([speeds, speeds**2])
+        k_l, k_q = np.linalg.lstsq(h, drives, rcond=None)[0]
+    else:
+        k_l, k_q = 0.1 * drives[0] / speeds[0], 0.9 * drives[0] / speeds[0] ** 2
+    k_l, k_q = max(k_l, 1e-3 * drives.max() / speeds.max()), max(k_q, 0.0)
+    k_q = max(k_q, 1e-3 * drives.max() / speeds.max() ** 2)
+    damping = k_l + 2 * k_q * speeds.mean()
+    grid = damping * np.geomspace(0.02, 20.0, 40)
+    theta = np.column_stack([grid, np.full_like(grid, k_l), np.full_like(grid, k_q)])
+    sims = simulate(theta, (), runs)
+    sse = np.zeros(grid.size)
+    for r, (x, _) in zip(runs, sims, strict=True):
+        res = r.x[None, :] - x
+        res -= res.mean(axis=1, keepdims=True)
+        sse += np.sum(res**2, axis=1)
+    inertia = grid[int(np.argmin(sse))]
+    start = {"coulomb_friction": 0.01 * drives.min(), "drive_inertia": 0.1}
+    extra = [start.get(e, 0.0) for e in effects]
+    return np.array([inertia, k_l, k_q, *extra])
+
+
+class _Problem:
+    """Residuals and Jacobian of the joint output-error problem."""
+
+    def __init__(self, runs: Sequence[PreparedRun], effects: Sequence[str]) -> None:
+        self.runs, self.effects = runs, tuple(effects)
+        self.n_global = 3 + len(self.effects)
+        self.sizes = [r.t.size for r in runs]
+        self.starts = np.concatenate([[0], np.cumsum(self.sizes)])
+        self.measured = np.concatenate([r.x for r in runs])
+        self.run_index = np.repeat(np.arange(len(runs)), self.sizes)
+        self._key: bytes | None = None
+        self._sims = np.zeros(0)
+        self._steps = np.zeros(0)
+
+    def model(self, params: np.ndarray, sets: np.ndarray) -> np.ndarray:
+        sims = simulate(sets, self.effects, self.runs)
+        x = np.concatenate([s[0] for s in sims], axis=1)
+        return x + params[self.n_global :][self.run_index][None, :]
+
+    def _evaluate(self, params: np.ndarray) -> np.ndarray:
+        """Model for the parameters and each finite-difference perturbation (one call)."""
+        key = params.tobytes()
+        if key != self._key:
+            g = params[: self.n_global]
+            self._steps = 1e-6 * np.maximum(np.abs(g), 1e-3)
+            sets = np.vstack([g, g + np.diag(self._steps)])
+            self._sims, self._key = self.model(params, sets), key
+        return self._sims
+
+    def residual(self, params: np.ndarray) -> np.ndarray:
+        return self.measured - self._evaluate(params)[0]
+
+    def jacobian(self, params: np.ndarray) -> np.ndarray:
+        sims = self._evaluate(params)
+        jac = np.zeros((self.measured.size, params.size))
+        jac[:, : self.n_global] = -((sims[1:] - sims[0]) / self._steps[:, None]).T
+        jac[np.arange(self.measured.size), self.n_global + self.run_index] = -1.0
+        return jac
+
+
+def fit_output_error(
+    runs: Sequence[PreparedRun],
+    effects: Sequence[str] = (),
+    start: np.ndarray | None = None,
+) -> FitResult:
+    """Fit (M, K_L, K_Q, effects) and one offset per run to all runs' positions jointly."""
+    effects = tuple(effects)
+    prob = _Problem(runs, effects)
+    g0 = initial_guess(runs, effects) if start is None else np.asarray(start, dtype=float)
+    offsets0 = [
+        float(np.median(r.x[r.t <= r.t_release])) if np.any(r.t <= r.t_release) else float(r.x[0])
+        for r in runs
+    ]
+    lower, upper = _bounds(effects, len(runs))
+    p0 = np.clip(np.concatenate([g0, offsets0]), lower, upper)
+    on_lower = np.isfinite(lower) & (p0 <= lower)
+    p0 = np.where(on_lower, lower + 1e-9 + 1e-6 * np.abs(np.nan_to_num(lower)), p0)
+    sol = least_squares(
+        prob.residual,
+        p0,
+        jac=prob.jacobian,
+        bounds=(lower, upper),
+        method="trf",
+        x_scale="jac",
+        xtol=1e-10,
+        ftol=1e-10,
+        gtol=1e-10,
+        max_nfev=200,
+    )
+    params = sol.x
+    res = prob.residual(params)
+    jac = prob.jacobian(params)
+    n, p = res.size, params.size
+    sse = float(res @ res)
+    sigma2 = sse / max(n - p, 1)
+    cov = sigma2 * np.linalg.pinv(jac.T @ jac)
+    ng = prob.n_global
+    std = np.sqrt(np.maximum(np.diag(cov)[:ng], 0.0))
+    denom = np.outer(std, std)
+    corr = np.divide(cov[:ng, :ng], denom, out=np.eye(ng), where=denom > 0)
+    names = (*BASE_NAMES, *effects)
+    tol = 1e-6 * np.maximum(np.abs(params[:ng]), 1.0)
+    at_bound = tuple(
+        name
+        for name, v, lo, hi in zip(names, params[:ng], lower, upper, strict=False)
+        if abs(v - lo) < tol[names.index(name)] or abs(v - hi) < tol[names.index(name)]
+    )
+    sims = simulate(params[None, :ng], effects, runs)
+    return FitResult(
+        effects=effects,
+        names=names,
+        values=params[:ng].copy(),
+        std=std,
+        correlation=corr,
+        offsets=params[ng:].copy(),
+        residuals=tuple(np.split(res, prob.starts[1:-1])),
+        velocities=tuple(s[1][0] for s in sims),
+        sse=sse,
+        n_samples=n,
+        n_params=p,
+        at_bound=at_bound,
+    )
+
+
+def predict_run(fit: FitResult, run: PreparedRun) -> np.ndarray:
+    """Residual of a held-out run under ``fit``'s global parameters (offset refitted)."""
+    x = simulate(fit.values[None, :], fit.effects, [run])[0][0][0]
+    res = run.x - x
+    return res - np.mean(res)
+
+
+def leave_one_run_out_rmse(runs: Sequence[PreparedRun], fit: FitResult) -> float | None:
+    """Leave-one-run-out prediction RMSE (m or rad); None with fewer than 3 runs."""
+    if len(runs) < 3:
+        return None
+    sq, count = 0.0, 0
+    for i in range(len(runs)):
+        train = [r for j, r in enumerate(runs) if j != i]
+        sub = fit_output_error(train, fit.effects, start=fit.values)
+        res = predict_run(sub, runs[i])
+        sq += float(res @ res)
+        count += res.size
+    return float(np.sqrt(sq / count))

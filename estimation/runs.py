@@ -1,0 +1,125 @@
+"""Run data as the estimators see it: arrays plus metadata, no device code."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+Axis = Literal["surge", "yaw"]
+AXES: tuple[str, ...] = ("surge", "yaw")
+MIN_MOVING_SAMPLES = 5
+
+
+@dataclass(frozen=True)
+class RunData:
+    """One tow (surge) or spin (yaw) run.
+
+    ``t`` in s (monotonic), ``position`` in m (surge) or rad (yaw), ``drive`` the applied
+    force in N / torque in N·m (a constant for weight-driven runs, or one value per sample).
+    ``drive_inertia`` is the known extra inertia of the drive train in axis units (pulley
+    J_p/r_p² in kg for surge, drum J_d in kg·m² for yaw); the hung weight's own inertia
+    (m_w, or m_w·r_d² for yaw) is added by the estimator when ``hung_mass_kg`` (and for yaw
+    ``drum_radius_m``) is given. Samples before ``t_release`` are the at-rest baseline;
+    samples after ``t_end`` (end of travel, brake) are ignored.
+    """
+
+    run_id: str
+    axis: Axis
+    t: np.ndarray
+    position: np.ndarray
+    drive: float | np.ndarray
+    hung_mass_kg: float | None = None
+    drive_inertia: float = 0.0
+    drum_radius_m: float | None = None
+    t_release: float = 0.0
+    t_end: float | None = None
+
+    def declared_extra_inertia(self) -> float:
+        """Known inertia that moves with the vehicle (axis units): drive train + hung weight."""
+        extra = float(self.drive_inertia)
+        if self.hung_mass_kg is not None:
+            if self.axis == "surge":
+                extra += float(self.hung_mass_kg)
+            elif self.drum_radius_m is not None:
+                extra += float(self.hung_mass_kg) * float(self.drum_radius_m) ** 2
+        return extra
+
+    def hung_mass_declared(self) -> bool:
+        """True when the hung weight's inertia is part of the declared model."""
+        if self.hung_mass_kg is None:
+            return False
+        return self.axis == "surge" or self.drum_radius_m is not None
+
+    def window(self) -> np.ndarray:
+        """Boolean mask of the usable samples (t ≤ t_end)."""
+        if self.t_end is None:
+            return np.ones(self.t.shape, dtype=bool)
+        return self.t <= self.t_end
+
+    def drive_at_samples(self) -> np.ndarray:
+        """Drive as one value per sample (N or N·m)."""
+        drive = np.asarray(self.drive, dtype=float)
+        if drive.ndim == 0:
+            return np.full(self.t.shape, float(drive))
+        return drive
+
+    def is_constant_drive(self) -> bool:
+        """True for weight-driven runs (scalar drive)."""
+        return np.asarray(self.drive).ndim == 0
+
+
+def _fail(run_id: str, field: str, value: object, allowed: str) -> ValueError:
+    return ValueError(f"run {run_id!r}: {field}: got {value!r}, allowed: {allowed}")
+
+
+def validate_run(run: RunData) -> None:
+    """Raise ValueError naming the field, the value and what is allowed when a run is unusable."""
+    rid = run.run_id
+    if run.axis not in AXES:
+        raise _fail(rid, "axis", run.axis, "'surge' or 'yaw'")
+    t = np.asarray(run.t)
+    x = np.asarray(run.position)
+    if t.ndim != 1 or x.ndim != 1 or t.shape != x.shape:
+        raise _fail(rid, "position", f"shape {x.shape} vs t {t.shape}", "1-D, same length as t")
+    if not np.all(np.isfinite(t)):
+        raise _fail(rid, "t", "NaN/inf", "finite sample times")
+    if not np.all(np.isfinite(x)):
+        raise _fail(rid, "position", "NaN/inf", "finite positions")
+    if t.size > 1 and np.any(np.diff(t) <= 0):
+        raise _fail(rid, "t", "non-increasing", "strictly increasing sample times")
+    drive = np.asarray(run.drive, dtype=float)
+    if drive.ndim not in (0, 1) or (drive.ndim == 1 and drive.shape != t.shape):
+        raise _fail(rid, "drive", f"shape {drive.shape}", "a scalar or one value per sample")
+    if not np.all(np.isfinite(drive)):
+        raise _fail(rid, "drive", "NaN/inf", "finite force/torque")
+    if not np.any(drive != 0):
+        raise _fail(rid, "drive", 0.0, "a non-zero force (N) or torque (N·m)")
+    if run.hung_mass_kg is not None and not run.hung_mass_kg > 0:
+        raise _fail(rid, "hung_mass_kg", run.hung_mass_kg, "> 0 kg or None")
+    if not run.drive_inertia >= 0:
+        raise _fail(rid, "drive_inertia", run.drive_inertia, ">= 0")
+    if run.drum_radius_m is not None and not run.drum_radius_m > 0:
+        raise _fail(rid, "drum_radius_m", run.drum_radius_m, "> 0 m or None")
+    if t.size and not (t[0] <= run.t_release <= t[-1]):
+        raise _fail(rid, "t_release", run.t_release, f"within [{t[0]:g}, {t[-1]:g}] s")
+    moving = np.count_nonzero((t > run.t_release) & run.window())
+    if moving < MIN_MOVING_SAMPLES:
+        raise _fail(rid, "t", f"{moving} samples after release", f">= {MIN_MOVING_SAMPLES} samples")
+
+
+def validate_runs(runs: Sequence[RunData]) -> str:
+    """Validate a set of runs for a joint fit; returns their common axis."""
+    if len(runs) == 0:
+        raise ValueError("runs: got 0 runs, allowed: at least 1 run")
+    for run in runs:
+        validate_run(run)
+    axes = sorted({run.axis for run in runs})
+    if len(axes) != 1:
+        raise ValueError(f"runs: axis: got mixed axes {axes}, allowed: one axis per fit")
+    ids = [run.run_id for run in runs]
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"runs: run_id: got duplicates {ids}, allowed: unique ids")
+    return axes[0]

@@ -1,0 +1,170 @@
+"""Forward effect search: add one effect at a time, refit by output error, keep it only if it
+lowers the leave-one-run-out error AND the BIC AND whitens the residual (Ljung–Box Q)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from estimation.diagnostics import ljung_box
+from estimation.effects import EFFECTS
+from estimation.model import PreparedRun
+from estimation.output_error import FitResult, fit_output_error, leave_one_run_out_rmse
+
+BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
+AMBIGUITY_BIC = 2.0  # two effects whose BIC drops differ by less than this explain the data alike
+PAIR_EXPERIMENTS = {
+    frozenset({"coulomb_friction", "constant_bias"}): (
+        "coulomb_friction and constant_bias are collinear when every run moves the same way: "
+        "add a reverse tow/spin (opposite force) or a free-decay run"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class SearchStep:
+    """Evidence for one candidate effect at one iteration."""
+
+    effect: str
+    delta_bic: float
+    cv_before: float | None
+    cv_after: float | None
+    ljung_box_before: float
+    ljung_box_after: float
+    accepted: bool
+    reason: str
+
+
+@dataclass(frozen=True)
+class SearchOutcome:
+    """Base fit, final fit, the steps taken and the ambiguities found."""
+
+    base: FitResult
+    final: FitResult
+    cv_base: float | None
+    cv_final: float | None
+    steps: tuple[SearchStep, ...]
+    ambiguous: tuple[tuple[str, ...], ...] = ()
+    advice: tuple[str, ...] = field(default=())
+
+
+def candidate_effects(runs_declared_mass: bool) -> list[str]:
+    """Effects worth trying: drive_inertia only when the hung mass is not declared."""
+    names = list(EFFECTS)
+    if runs_declared_mass:
+        names.remove("drive_inertia")
+    return names
+
+
+def _start(fit: FitResult, effect: str, runs: Sequence[PreparedRun]) -> np.ndarray:
+    init = {"coulomb_friction": 0.01 * min(r.mean_abs_drive for r in runs), "drive_inertia": 0.1}
+    return np.concatenate([fit.values, [init.get(effect, 0.0)]])
+
+
+def _separating_advice(group: Sequence[str]) -> str:
+    key = frozenset(group)
+    if key in PAIR_EXPERIMENTS:
+        return PAIR_EXPERIMENTS[key]
+    parts = "; ".join(f"{e}: {EFFECTS[e].separated_by}" for e in group)
+    return f"{' and '.join(group)} explain the data equally: to separate them — {parts}"
+
+
+def search_effects(
+    runs: Sequence[PreparedRun], base: FitResult, candidates: Sequence[str]
+) -> SearchOutcome:
+    """Greedy forward selection of effects over ``candidates`` starting from ``base``."""
+    current = base
+    cv_current = leave_one_run_out_rmse(runs, base)
+    cv_base = cv_current
+    q_current = ljung_box(base.residuals).q_statistic
+    remaining = list(candidates)
+    steps: list[SearchStep] = []
+    ambiguous: list[tuple[str, ...]] = []
+    advice: list[str] = []
+    while remaining:
+        trials = {
+            e: fit_output_error(runs, (*current.effects, e), start=_start(current, e, runs))
+            for e in remaining
+        }
+        gains = {e: f.bic - current.bic for e, f in trials.items()}
+        best_gain = min(gains.values())
+        # effects that explain the data alike are tried in library order (most common first)
+        near = [e for e in remaining if gains[e] - best_gain < AMBIGUITY_BIC]
+        order = near + sorted((e for e in remaining if e not in near), key=lambda e: gains[e])
+        accepted = None
+        for e in order:
+            fit = trials[e]
+            q_new = ljung_box(fit.residuals).q_statistic
+            if gains[e] > -BIC_THRESHOLD:
+                steps.append(
+                    SearchStep(
+                        e,
+                        gains[e],
+                        cv_current,
+                        None,
+                        q_current,
+                        q_new,
+                        False,
+                        f"ΔBIC {gains[e]:.1f} > −{BIC_THRESHOLD:g}",
+                    )
+                )
+                continue
+            if e in fit.at_bound:
+                steps.append(
+                    SearchStep(
+                        e,
+                        gains[e],
+                        cv_current,
+                        None,
+                        q_current,
+                        q_new,
+                        False,
+                        "value at its physical bound",
+                    )
+                )
+                continue
+            cv_new = leave_one_run_out_rmse(runs, fit)
+            cv_ok = cv_new is None or cv_current is None or cv_new < cv_current
+            white_ok = q_new < q_current
+            ok = cv_ok and white_ok
+            reason = (
+                "kept"
+                if ok
+                else (
+                    "leave-one-run-out error did not drop"
+                    if not cv_ok
+                    else "residual not whiter (Ljung–Box Q did not drop)"
+                )
+            )
+            steps.append(SearchStep(e, gains[e], cv_current, cv_new, q_current, q_new, ok, reason))
+            if ok:
+                accepted = (e, fit, cv_new, q_new)
+                break
+        if accepted is None:
+            break
+        name, fit, cv_new, q_new = accepted
+        twins = [
+            e
+            for e in order
+            if e != name
+            and gains[e] <= -BIC_THRESHOLD
+            and abs(gains[e] - gains[name]) < AMBIGUITY_BIC
+            and e not in trials[e].at_bound
+        ]
+        if twins:
+            group = (name, *twins)
+            ambiguous.append(group)
+            advice.append(_separating_advice(group))
+        current, cv_current, q_current = fit, cv_new, q_new
+        remaining = [e for e in remaining if e != name and e not in twins]
+    return SearchOutcome(
+        base=base,
+        final=current,
+        cv_base=cv_base,
+        cv_final=cv_current,
+        steps=tuple(steps),
+        ambiguous=tuple(ambiguous),
+        advice=tuple(advice),
+    )

@@ -1,0 +1,139 @@
+"""Test-side data generator: integrates the TRUE rig physics finely, independent of estimation.
+
+Three bodies joined by an inextensible cord: the vehicle (inertia M), the pulley or drum
+(J) and the hung weight (m_w). Cord tensions are eliminated by hand here:
+    surge: (M + m_w + J_p/r_p²)·ẍ = m_w·g − D(ẋ) − extras
+    yaw:   (I + m_w·r_d² + J_d)·ψ̈ = m_w·g·r_d − D(ψ̇) − extras
+integrated with RK4 at 1 kHz, sampled at ``rate_hz`` with timestamp jitter, quantized to the
+encoder step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from estimation.runs import RunData
+
+G_RIG = 9.8
+SURGE_TRUTH = (143.26, 20.16, 241.14)
+YAW_TRUTH = (7.97, 0.119, 4.12)
+SURGE_FORCES = (4.9, 24.5, 44.1, 83.3)
+YAW_TORQUES = (0.454, 0.907, 1.361, 2.269)
+PULLEY_RADIUS_M, PULLEY_J = 0.05, 0.0005
+DRUM_RADIUS_M, DRUM_J = 0.0926, 0.001
+
+
+@dataclass
+class Physics:
+    """True plant: base coefficients plus optional rig effects (all SI, axis units)."""
+
+    inertia: float
+    linear_damping: float
+    quadratic_damping: float
+    coulomb: float = 0.0  # kinetic dry friction
+    static: float = 0.0  # breakaway force (≥ coulomb when used)
+    bias: float = 0.0  # force that does not flip with direction
+    spring: float = 0.0  # restoring stiffness about the release position
+    cubic: float = 0.0  # cubic drag coefficient
+    delay: float = 0.0  # brake release lag, s
+    extras: dict = field(default_factory=dict)
+
+
+def _integrate(phys: Physics, total_inertia: float, drive: float, duration: float, dt: float):
+    n = int(np.ceil(duration / dt)) + 1
+
+    def accel(x: float, v: float) -> float:
+        net = drive + phys.bias - phys.spring * x
+        net -= phys.linear_damping * v + phys.quadratic_damping * abs(v) * v + phys.cubic * v**3
+        if v == 0.0:
+            if abs(net) <= max(phys.static, phys.coulomb):
+                return 0.0
+            return (net - phys.coulomb * np.sign(net)) / total_inertia
+        return (net - phys.coulomb * np.sign(v)) / total_inertia
+
+    xs = np.zeros(n)
+    x = v = 0.0
+    for k in range(1, n):
+        a1 = accel(x, v)
+        v2 = v + 0.5 * dt * a1
+        a2 = accel(x + 0.5 * dt * v, v2)
+        v3 = v + 0.5 * dt * a2
+        a3 = accel(x + 0.5 * dt * v2, v3)
+        v4 = v + dt * a3
+        a4 = accel(x + dt * v3, v4)
+        new_v = v + dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        x = x + dt / 6 * (v + 2 * v2 + 2 * v3 + v4)
+        v = 0.0 if v != 0.0 and np.sign(new_v) != np.sign(v) and phys.coulomb > 0 else new_v
+        xs[k] = x
+    return np.arange(n) * dt, xs
+
+
+def weight_run(
+    phys: Physics,
+    drive: float,
+    *,
+    axis: str = "surge",
+    run_id: str = "run",
+    rng: np.random.Generator | None = None,
+    quantum: float = 1e-4,
+    rate_hz: float = 10.0,
+    jitter_s: float = 0.002,
+    duration_s: float = 30.0,
+    travel_limit: float | None = None,
+    baseline_s: float = 1.0,
+    declare_hung_mass: bool = True,
+    fine_dt: float = 1e-3,
+) -> RunData:
+    """One weight-driven run: drive in N (surge) or N·m (yaw), sampled and quantized."""
+    rng = rng or np.random.default_rng(0)
+    if axis == "surge":
+        hung = abs(drive) / G_RIG
+        drive_j = PULLEY_J / PULLEY_RADIUS_M**2
+        total = phys.inertia + hung + drive_j
+        limit = 5.5 if travel_limit is None else travel_limit
+        radius = None
+    else:
+        hung = abs(drive) / (G_RIG * DRUM_RADIUS_M)
+        drive_j = DRUM_J
+        total = phys.inertia + hung * DRUM_RADIUS_M**2 + drive_j
+        limit = 37.7 if travel_limit is None else travel_limit
+        radius = DRUM_RADIUS_M
+    t_fine, x_fine = _integrate(phys, total, drive, duration_s, fine_dt)
+    beyond = np.nonzero(np.abs(x_fine) >= limit)[0]
+    motion_end = t_fine[beyond[0]] if beyond.size else duration_s
+    t_release = baseline_s
+    nominal = np.arange(0.0, t_release + phys.delay + motion_end, 1.0 / rate_hz)
+    t = nominal + rng.normal(0.0, jitter_s, nominal.size)
+    t[0] = 0.0
+    t = np.maximum.accumulate(t + 1e-9 * np.arange(t.size))
+    tau = np.clip(t - t_release - phys.delay, 0.0, None)
+    x_true = 0.37 + np.interp(tau, t_fine, x_fine)  # arbitrary encoder zero
+    position = np.floor(x_true / quantum) * quantum
+    return RunData(
+        run_id=run_id,
+        axis=axis,  # type: ignore[arg-type]
+        t=t,
+        position=position,
+        drive=float(drive),
+        hung_mass_kg=hung if declare_hung_mass else None,
+        drive_inertia=drive_j,
+        drum_radius_m=radius,
+        t_release=t_release,
+    )
+
+
+def tow_set(
+    phys: Physics | None = None, *, axis: str = "surge", seed: int = 0, drives=None, **kw
+) -> list[RunData]:
+    """Four runs at the seed's forces (surge) or torques (yaw)."""
+    if phys is None:
+        phys = Physics(*(SURGE_TRUTH if axis == "surge" else YAW_TRUTH))
+    if drives is None:
+        drives = SURGE_FORCES if axis == "surge" else YAW_TORQUES
+    rng = np.random.default_rng(seed)
+    return [
+        weight_run(phys, d, axis=axis, run_id=f"{axis}-{i}", rng=rng, **kw)
+        for i, d in enumerate(drives)
+    ]
