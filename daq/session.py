@@ -231,18 +231,19 @@ class RigSession:
 
     async def _supervise_thrusters(self) -> None:
         assert self.acquisition is not None and self.thrusters is not None
-        queue = self.acquisition.subscribe(maxsize=4)
+        queue = self.acquisition.subscribe(maxsize=4, name="thruster-supervisor")
         try:
             while True:
                 sample = await queue.get()
                 if not self.thrust.armed:
                     continue
+                stale = bool(sample.quality & (Quality.STALE | Quality.ERROR))
                 try:
-                    if sample.quality & (Quality.STALE | Quality.ERROR):
-                        if any(self.thrust.fractions):
-                            self.stale_zeroings += 1
-                            log.warning("sensor data %s: thrusters to zero", sample.quality.name)
+                    if stale and self.thrusters.inhibited is None:
+                        self.stale_zeroings += 1
                         self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=True)
+                    # Stale sensors: zero at once (no ramp) and hold until data is good again.
+                    await self.thrusters.zero_on_stale(stale, reason="sensor data stale or unread")
                     await self.thrusters.command(self.thrust.fractions)
                 except Exception as err:
                     log.warning("thruster heartbeat failed: %s", err)

@@ -115,3 +115,24 @@ async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, sto
             break
     assert not session.acquisition.device_lost.is_set()
     assert session.latest().quality == 0
+
+
+async def test_stale_sensor_data_zeroes_armed_thrusters_at_once(session):
+    await session.plc.write("sim_thrust_stand", True)
+    await session.arm_thrusters()
+    session.set_thrust([0.4, 0.4])
+    emulator = session.sim.thrusters
+    for _ in range(30):
+        await asyncio.sleep(0.1)
+        if emulator.outputs == [0.4, 0.4]:
+            break
+    assert emulator.outputs == [0.4, 0.4]
+    await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
+    for _ in range(10):  # the first unread tick (≤ 0.1 s + read timeout) zeroes them
+        await asyncio.sleep(0.05)
+        if emulator.outputs == [0.0, 0.0]:
+            break
+    assert emulator.outputs == [0.0, 0.0]
+    assert emulator.state == "ARMED"  # zeroed by our driver, not by the controller's watchdog
+    assert session.stale_zeroings == 1
+    await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
