@@ -1,0 +1,97 @@
+"""Several writers at once: a recorder's batches, events of another run and a second
+process-like Store creating and finishing runs never fail or lose rows."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+
+import numpy as np
+import sqlalchemy as sa
+
+from daq.store import RunRecorder, Store
+from tests.store.helpers import make_samples, new_run
+
+
+def test_concurrent_writers_do_not_fail(db_url: str) -> None:
+    first, second = Store(db_url), Store(db_url)
+    recorded, annotated = new_run(first), new_run(first)
+    errors: list[str] = []
+    counts = {"samples": 0, "events": 0, "runs": 0}
+    stop = time.monotonic() + 1.0
+
+    def guarded(name: str, step) -> None:
+        while time.monotonic() < stop:
+            try:
+                step()
+            except Exception as exc:  # collected: the assertion below shows them
+                errors.append(f"{name}: {exc!r}")
+
+    def add_batch() -> None:
+        counts["samples"] += first.add_samples(recorded, make_samples(counts["samples"], 50))
+
+    def add_event() -> None:
+        first.add_event(annotated, "info", "tick")
+        counts["events"] += 1
+
+    def run_lifecycle() -> None:
+        second.finish_run(new_run(second), "completed")
+        counts["runs"] += 1
+
+    threads = [
+        threading.Thread(target=guarded, args=(name, step))
+        for name, step in (("samples", add_batch), ("events", add_event), ("runs", run_lifecycle))
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    assert min(counts.values()) > 0
+    np.testing.assert_array_equal(first.samples(recorded).seq, np.arange(counts["samples"]))
+    assert len(first.events(annotated)) == counts["events"]
+    assert len(first.list_runs(status="completed", limit=10_000)) == counts["runs"]
+    first.close()
+    second.close()
+
+
+async def test_postgres_connections_killed_mid_recording_lose_nothing(
+    postgres_server, tmp_path
+) -> None:
+    """The server drops every connection of the database while the recorder runs, then
+    refuses new ones for a while: failed flushes keep their samples and retry, and every
+    sample is stored exactly once."""
+    url = postgres_server.create_database()
+    try:
+        store = Store(url)
+        run_id = new_run(store)
+        recorder = RunRecorder(store, run_id, flush_interval_s=0.1)
+        flusher = asyncio.create_task(recorder.run())
+        samples = make_samples(0, 300)
+        database = sa.make_url(url).database
+        admin = sa.create_engine(postgres_server.admin_url, isolation_level="AUTOCOMMIT")
+        for i, sample in enumerate(samples):
+            recorder.put(sample)
+            await asyncio.sleep(0.002)
+            if i in (100, 150):
+                with admin.connect() as conn:
+                    if i == 150:
+                        conn.exec_driver_sql(f'ALTER DATABASE "{database}" ALLOW_CONNECTIONS false')
+                    killed = conn.exec_driver_sql(
+                        "SELECT count(pg_terminate_backend(pid)) FROM pg_stat_activity "
+                        f"WHERE datname = '{database}' AND pid <> pg_backend_pid()"
+                    ).scalar()
+                assert killed >= 1
+            if i == 250:
+                await asyncio.sleep(0.3)  # a few refused flushes
+                with admin.connect() as conn:
+                    conn.exec_driver_sql(f'ALTER DATABASE "{database}" ALLOW_CONNECTIONS true')
+        await recorder.close()
+        await flusher
+        np.testing.assert_array_equal(store.samples(run_id).seq, np.arange(300))
+        assert recorder.stats.failed_flushes >= 1  # the refused flushes were retried
+        admin.dispose()
+        store.close()
+    finally:
+        postgres_server.drop_database(url)
