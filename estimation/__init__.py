@@ -1,1 +1,10 @@
-"""Per-axis models, estimators, effect library, residual diagnostics and reports."""
+"""Per-axis models, estimators, effect library, residual diagnostics and reports.
+
+Works on runs as arrays plus metadata (``RunData``); imports nothing from the device side.
+"""
+
+from estimation.estimate import METHODS, estimate
+from estimation.result import EffectEstimate, Estimate, EstimationResult
+from estimation.runs import RunData
+
+__all__ = ["METHODS", "EffectEstimate", "Estimate", "EstimationResult", "RunData", "estimate"]

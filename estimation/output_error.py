@@ -220,3 +220,36 @@ def leave_one_run_out_rmse(runs: Sequence[PreparedRun], fit: FitResult) -> float
         sq += float(res @ res)
         count += res.size
     return float(np.sqrt(sq / count))
+
+
+def evaluate_parameters(
+    runs: Sequence[PreparedRun],
+    values: np.ndarray,
+    std: np.ndarray,
+    correlation: np.ndarray,
+    effects: Sequence[str] = (),
+) -> FitResult:
+    """Simulate fixed coefficients (e.g. from a seed approach), refitting only the offsets."""
+    effects = tuple(effects)
+    values = np.asarray(values, dtype=float)
+    sims = simulate(values[None, :], effects, runs)
+    residuals, offsets = [], []
+    for r, (x, _) in zip(runs, sims, strict=True):
+        res = r.x - x[0]
+        offsets.append(float(np.mean(res)))
+        residuals.append(res - offsets[-1])
+    sse = float(sum(float(r @ r) for r in residuals))
+    return FitResult(
+        effects=effects,
+        names=(*BASE_NAMES, *effects),
+        values=values,
+        std=np.asarray(std, dtype=float),
+        correlation=np.asarray(correlation, dtype=float),
+        offsets=np.array(offsets),
+        residuals=tuple(residuals),
+        velocities=tuple(s[1][0] for s in sims),
+        sse=sse,
+        n_samples=sum(r.size for r in residuals),
+        n_params=values.size + len(runs),
+        at_bound=(),
+    )

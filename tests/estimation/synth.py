@@ -10,7 +10,8 @@ encoder step.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -25,7 +26,7 @@ PULLEY_RADIUS_M, PULLEY_J = 0.05, 0.0005
 DRUM_RADIUS_M, DRUM_J = 0.0926, 0.001
 
 
-@dataclass
+@dataclass(frozen=True)
 class Physics:
     """True plant: base coefficients plus optional rig effects (all SI, axis units)."""
 
@@ -38,9 +39,9 @@ class Physics:
     spring: float = 0.0  # restoring stiffness about the release position
     cubic: float = 0.0  # cubic drag coefficient
     delay: float = 0.0  # brake release lag, s
-    extras: dict = field(default_factory=dict)
 
 
+@lru_cache(maxsize=64)
 def _integrate(phys: Physics, total_inertia: float, drive: float, duration: float, dt: float):
     n = int(np.ceil(duration / dt)) + 1
 

@@ -1,0 +1,82 @@
+"""Closing the loop: undeclared effects in simulated runs are named, sized and removed."""
+
+import numpy as np
+import pytest
+
+from estimation import estimate
+from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set
+
+
+def _coefficients(doc):
+    return np.array(
+        [
+            doc["coefficients"][k]["value"]
+            for k in ("inertia", "linear_damping", "quadratic_damping")
+        ]
+    )
+
+
+def _check_found(doc, name, value, truth, rel=0.05):
+    assert [e["name"] for e in doc["effects"]] == [name]
+    effect = doc["effects"][0]
+    assert effect["value"] == pytest.approx(value, rel=rel)
+    assert np.all(np.abs(_coefficients(doc) / np.array(truth) - 1) < 0.01)
+    assert doc["rmse_after"] < 0.2 * doc["rmse_before"]
+    assert doc["evidence"]["bic_after"] < doc["evidence"]["bic_before"] - 10
+    assert doc["evidence"]["cv_rmse_after"] < doc["evidence"]["cv_rmse_before"]
+
+
+@pytest.mark.parametrize("axis", ["surge", "yaw"])
+def test_clean_data_yields_no_effect(axis):
+    for seed in (5, 6):
+        doc = estimate(tow_set(axis=axis, seed=seed), n_bootstrap=0).to_json()
+        assert doc["effects"] == [] and doc["ambiguous"] == []
+        assert doc["rmse_after"] == doc["rmse_before"]
+
+
+@pytest.mark.parametrize(
+    ("effect", "physics_kw", "value"),
+    [
+        ("constant_bias", {"bias": 2.0}, 2.0),  # aids motion: cannot be friction
+        ("restoring_spring", {"spring": 1.0}, 1.0),
+        ("cubic_drag", {"cubic": 150.0}, 150.0),
+        ("release_delay", {"delay": 0.15}, 0.15),
+    ],
+)
+def test_single_undeclared_effect_is_named_surge(effect, physics_kw, value):
+    runs = tow_set(Physics(*SURGE_TRUTH, **physics_kw), seed=7)
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    _check_found(doc, effect, value, SURGE_TRUTH)
+    assert doc["ambiguous"] == []
+
+
+def test_coulomb_on_one_way_tows_is_reported_ambiguous_with_bias():
+    runs = tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=8)
+    result = estimate(runs, n_bootstrap=0)
+    doc = result.to_json()
+    _check_found(doc, "coulomb_friction", 3.0, SURGE_TRUTH, rel=0.02)
+    assert [sorted(g) for g in doc["ambiguous"]] == [["constant_bias", "coulomb_friction"]]
+    assert any("reverse tow" in a for a in doc["advice"])
+    # without the effect the drag law absorbs it: K_Q bends the wrong way (seed 002's story)
+    assert doc["coefficients_before"]["quadratic_damping"]["value"] < 0.7 * SURGE_TRUTH[2]
+
+
+def test_reverse_tow_separates_coulomb_from_bias():
+    runs = tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=9, drives=(24.5, -44.1, 83.3, -4.9))
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    _check_found(doc, "coulomb_friction", 3.0, SURGE_TRUTH, rel=0.02)
+    assert doc["ambiguous"] == []
+
+
+def test_undeclared_hung_weight_is_found_as_drive_inertia():
+    runs = tow_set(seed=10, declare_hung_mass=False)
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    # the whole weight accelerates: k = g_rig/g_standard ≈ 1 kg per kg of hung weight
+    _check_found(doc, "drive_inertia", 9.80665 / 9.8, SURGE_TRUTH, rel=0.03)
+
+
+def test_yaw_tether_spring_is_named():
+    runs = tow_set(Physics(*YAW_TRUTH, spring=0.01), axis="yaw", seed=12)
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    _check_found(doc, "restoring_spring", 0.01, YAW_TRUTH)
+    assert doc["effects"][0]["unit"] == "N·m/rad"

@@ -1,0 +1,57 @@
+"""Parameter recovery of the joint output-error fit on clean simulated runs."""
+
+import numpy as np
+import pytest
+
+from estimation import estimate
+from estimation.model import prepare
+from estimation.output_error import fit_output_error
+from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set
+
+TRUTH = {"surge": np.array(SURGE_TRUTH), "yaw": np.array(YAW_TRUTH)}
+
+
+@pytest.mark.parametrize("axis", ["surge", "yaw"])
+def test_recovers_truth_within_one_percent(axis):
+    result = estimate(tow_set(axis=axis, seed=11), n_bootstrap=10)
+    doc = result.to_json()
+    values = np.array(
+        [
+            doc["coefficients"][k]["value"]
+            for k in ("inertia", "linear_damping", "quadratic_damping")
+        ]
+    )
+    assert np.all(np.abs(values / TRUTH[axis] - 1) < 0.01)
+    assert doc["effects"] == [] and doc["ambiguous"] == []
+    assert doc["rmse_after"] < 0.0001 / np.sqrt(12) * 1.2  # quantization noise only
+    assert doc["bootstrap"]["used"] >= 5
+    assert len(doc["correlation"]["matrix"]) == 3
+
+
+def test_one_force_cannot_separate_linear_and_quadratic_damping():
+    runs = tow_set(seed=2, drives=(24.5,))
+    result = estimate(runs, search_effects=False, n_bootstrap=0)
+    assert any("not separable from one force" in w and "4×" in w for w in result.warnings)
+
+
+def test_standard_errors_grow_with_encoder_step():
+    fine = fit_output_error([prepare(r) for r in tow_set(seed=4, quantum=1e-4)])
+    coarse = fit_output_error([prepare(r) for r in tow_set(seed=4, quantum=1e-3)])
+    assert np.all(coarse.std > 5 * fine.std)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("axis", ["surge", "yaw"])
+def test_truth_inside_two_sigma_in_90_percent_of_50_seeds(axis):
+    truth = TRUTH[axis]
+    inside, worst = np.zeros(3), np.zeros(3)
+    for seed in range(50):
+        fit = fit_output_error(
+            [prepare(r) for r in tow_set(Physics(*truth), axis=axis, seed=1000 + seed)]
+        )
+        inside += np.abs(fit.values - truth) <= 2 * fit.std
+        worst = np.maximum(worst, np.abs(fit.values / truth - 1))
+    coverage = inside / 50
+    print(f"{axis}: truth within ±2σ in {coverage} of 50 seeds, worst relative error {worst}")
+    assert np.all(worst < 0.01)
+    assert np.all(coverage >= 0.9)
