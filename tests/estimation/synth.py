@@ -138,3 +138,33 @@ def tow_set(
         weight_run(phys, d, axis=axis, run_id=f"{axis}-{i}", rng=rng, **kw)
         for i, d in enumerate(drives)
     ]
+
+
+PAPER_CURVES = {
+    "surge": ((0.11, 0.27, 0.38, 0.51), (1.0, 1.0, 0.75, 0.75), SURGE_FORCES),
+    "yaw": ((0.31, 0.44, 0.56, 0.74), (2.75, 2.75, 2.25, 2.25), YAW_TORQUES),
+}
+
+
+def paper_curve_runs(axis: str, quantum: float = 1e-4, seconds_after: float = 3.0):
+    """Runs regenerated from seed 000's published first-order fits ẋ = A(1 − e^{−t/T}).
+
+    Position x = A(t − T(1 − e^{−t/T})), sampled at 10 Hz, quantized; no hung mass declared
+    (the paper's coefficients include the weight), 1 s baseline, 4T + ``seconds_after`` long.
+    """
+    runs = []
+    for i, (amp, tc, drive) in enumerate(zip(*PAPER_CURVES[axis], strict=True)):
+        t = np.arange(0.0, 1.0 + 4 * tc + seconds_after, 0.1)
+        tau = np.clip(t - 1.0, 0.0, None)
+        x = amp * (tau - tc * (1 - np.exp(-tau / tc)))
+        runs.append(
+            RunData(
+                f"paper-{axis}-{i}",
+                axis,
+                t,
+                np.floor(x / quantum) * quantum,  # type: ignore[arg-type]
+                drive,
+                t_release=1.0,
+            )
+        )
+    return runs
