@@ -3,7 +3,8 @@
 The clock's consumer calls :meth:`RunRecorder.put` (never waits); :meth:`RunRecorder.run`
 writes whatever is queued at least every ``flush_interval_s`` (≤ 1 s) in a worker thread,
 so the event loop never blocks on SQLite or PostgreSQL. A failed write keeps its samples
-queued and is retried at the next flush; a duplicate (run, seq) batch is discarded.
+queued and is retried at the next flush; samples whose (run, seq) is already stored are
+dropped and counted, the rest of their batch is kept.
 """
 
 from __future__ import annotations
@@ -118,12 +119,17 @@ class RunRecorder:
                 batch = [self._queue.popleft() for _ in range(count)]
                 started = time.perf_counter()
                 try:
-                    await asyncio.to_thread(self.store.add_samples, self.run_id, batch)
-                except DuplicateSample as exc:
-                    self.stats.discarded_duplicates += len(batch)
-                    self.stats.last_error = str(exc)
-                    log.error("%s", exc)
-                    continue
+                    try:
+                        written = await asyncio.to_thread(
+                            self.store.add_samples, self.run_id, batch
+                        )
+                    except DuplicateSample as exc:  # keep the new samples, drop the repeats
+                        self.stats.last_error = str(exc)
+                        log.error("%s", exc)
+                        written = await asyncio.to_thread(
+                            self.store.add_samples, self.run_id, batch, skip_existing=True
+                        )
+                        self.stats.discarded_duplicates += len(batch) - written
                 except Exception as exc:
                     self._queue.extendleft(reversed(batch))
                     self.stats.failed_flushes += 1
@@ -131,11 +137,11 @@ class RunRecorder:
                     log.warning("run %s: flush failed, will retry: %s", self.run_id, exc)
                     break
                 elapsed = time.perf_counter() - started
-                self.stats.samples_stored += len(batch)
+                self.stats.samples_stored += written
                 self.stats.batches += 1
                 self.stats.last_flush_s = elapsed
                 self.stats.max_flush_s = max(self.stats.max_flush_s, elapsed)
-                stored += len(batch)
+                stored += written
         return stored
 
     async def close(self, *, retries: int = 3, retry_delay_s: float = 0.2) -> None:

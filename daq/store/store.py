@@ -279,8 +279,9 @@ class Store(EventsAndResults):
             else:
                 conn.exec_driver_sql(self._insert_samples_sql, rows)
         except (sa.exc.IntegrityError, dbapi.IntegrityError) as exc:
+            seqs = [row[1] for row in rows]
             raise DuplicateSample(
-                f"run {run_uuid}: a sample with seq in {rows[0][1]}..{rows[-1][1]} is already "
+                f"run {run_uuid}: a sample with seq in {min(seqs)}..{max(seqs)} is already "
                 "stored (seq must be unique per run); nothing from this batch was written"
             ) from exc
         conn.execute(
@@ -290,10 +291,31 @@ class Store(EventsAndResults):
         )
         return len(rows)
 
-    def add_samples(self, run_id: str, samples: Sequence[Sample]) -> int:
-        """Store a batch of samples in one transaction; returns how many."""
+    def add_samples(
+        self, run_id: str, samples: Sequence[Sample], *, skip_existing: bool = False
+    ) -> int:
+        """Store a batch of samples in one transaction; returns how many were stored.
+
+        A seq already stored raises :class:`DuplicateSample` (nothing written), or with
+        ``skip_existing`` is left out (as are repeats within the batch) and the rest stored.
+        """
         with self.transaction() as conn:
             pk, packer = self._packer(conn, run_id)
+            if skip_existing and samples:
+                seqs = [s.seq for s in samples]
+                stored = set(
+                    conn.execute(
+                        sa.select(samples_t.c.seq).where(
+                            samples_t.c.run_id == pk,
+                            samples_t.c.seq.between(min(seqs), max(seqs)),
+                        )
+                    ).scalars()
+                )
+                fresh: dict[int, Sample] = {}
+                for sample in samples:
+                    if sample.seq not in stored:
+                        fresh.setdefault(sample.seq, sample)
+                samples = list(fresh.values())
             return self._insert_rows(conn, run_id, pk, packer, samples)
 
     def samples(self, run_id: str, *, start_seq: int = 0, limit: int | None = None) -> SampleTable:

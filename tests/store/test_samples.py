@@ -62,6 +62,10 @@ def test_seq_is_unique_per_run_and_a_bad_batch_writes_nothing(store: Store) -> N
         store.add_samples(run_id, make_samples(8, 5))
     assert store.sample_count(run_id) == 10  # seq 10, 11, 12 of that batch were not written
     assert store.get_run(run_id).sample_count == 10
+    repeated_in_batch = make_samples(8, 5) + make_samples(12, 1)
+    assert store.add_samples(run_id, repeated_in_batch, skip_existing=True) == 3  # 10, 11, 12
+    np.testing.assert_array_equal(store.samples(run_id).seq, np.arange(13))
+    assert store.get_run(run_id).sample_count == 13
     with pytest.raises(ValueError, match="sample channel 'load_cell': value 'x' is not a number"):
         store.add_samples(run_id, [Sample(20, 0.0, 0.0, {"tow_position": 1.0, "load_cell": "x"})])
     assert store.integrity_check() == "ok"
