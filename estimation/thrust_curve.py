@@ -1,0 +1,134 @@
+"""Thrust calibration curve: per-side power law with dead band, asymmetry and hysteresis.
+
+    u_e = u − h·s/2            (s = +1 on an up sweep, −1 on a down sweep, 0 unknown)
+    F = +k_f·(u_e − d_f)^p_f    for u_e > d_f        (forward side)
+    F = −k_r·(−u_e − d_r)^p_r   for u_e < −d_r       (reverse side)
+    F = 0                       inside the dead band −d_r ≤ u_e ≤ d_f
+p < 1 is a concave (saturating) curve, where a plain F = c·|u|·u leaves a bowed residual.
+Commands are in the thruster's command units (e.g. −1 … 1); forces in N.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+PARAMS: tuple[str, ...] = (
+    "forward_gain",
+    "forward_dead_band",
+    "forward_exponent",
+    "reverse_gain",
+    "reverse_dead_band",
+    "reverse_exponent",
+    "hysteresis",
+)
+
+
+def _model(params: np.ndarray, command: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    k_f, d_f, p_f, k_r, d_r, p_r, hyst = params
+    u = command - 0.5 * hyst * direction
+    fwd = np.clip(u - d_f, 0.0, None)
+    rev = np.clip(-u - d_r, 0.0, None)
+    return k_f * fwd**p_f - k_r * rev**p_r
+
+
+@dataclass(frozen=True)
+class ThrustCurve:
+    """A fitted thrust curve: values and σ in PARAMS order, plus fit quality."""
+
+    values: np.ndarray
+    std: np.ndarray
+    correlation: np.ndarray
+    rmse_n: float
+    command_min: float
+    command_max: float
+
+    def parameter(self, name: str) -> float:
+        """Fitted value of one parameter (see PARAMS)."""
+        return float(self.values[PARAMS.index(name)])
+
+    def force(self, command: np.ndarray | float, direction: np.ndarray | float = 0.0):
+        """Thrust in N for a command (direction +1 up-sweep, −1 down-sweep, 0 mid-loop)."""
+        u = np.asarray(command, dtype=float)
+        s = np.broadcast_to(np.asarray(direction, dtype=float), u.shape)
+        return _model(self.values, u, s)
+
+    def command_for_force(self, force: np.ndarray | float, direction: float = 0.0):
+        """Inverse map: the command giving ``force`` N (0 N → 0). Raises when out of reach."""
+        k_f, d_f, p_f, k_r, d_r, p_r, hyst = self.values
+        f = np.asarray(force, dtype=float)
+        fwd = d_f + (np.clip(f, 0.0, None) / k_f) ** (1.0 / p_f)
+        rev = -(d_r + (np.clip(-f, 0.0, None) / k_r) ** (1.0 / p_r))
+        u = np.where(f > 0, fwd, np.where(f < 0, rev, 0.0)) + 0.5 * hyst * direction
+        u = np.where(f == 0, 0.0, u)
+        lo, hi = self.command_min, self.command_max
+        if np.any((u < lo - 1e-9) | (u > hi + 1e-9)):
+            worst = float(f.flat[np.argmax(np.abs(u).ravel())])
+            reach = (float(self.force(lo)), float(self.force(hi)))
+            raise ValueError(
+                f"force: got {worst:g} N, allowed: {reach[0]:.4g} … {reach[1]:.4g} N "
+                f"(commands {lo:g} … {hi:g})"
+            )
+        return u
+
+    def to_json(self) -> dict:
+        """{parameters: {name: {value, std}}, rmse_n, command_range}."""
+        return {
+            "parameters": {
+                n: {"value": float(v), "std": float(s)}
+                for n, v, s in zip(PARAMS, self.values, self.std, strict=True)
+            },
+            "rmse_n": self.rmse_n,
+            "command_range": [self.command_min, self.command_max],
+        }
+
+
+def _side_guess(u: np.ndarray, f: np.ndarray) -> tuple[float, float, float]:
+    if u.size == 0 or np.max(f) <= 0:
+        return 1.0, 0.05, 1.0
+    small = u[f < 0.05 * f.max()]
+    dead = float(small.max()) if small.size else 0.0
+    return float(f.max() / max(u.max() - dead, 1e-3)), min(dead, 0.9 * u.max()), 1.0
+
+
+def fit_thrust_curve(
+    command: np.ndarray, force: np.ndarray, direction: np.ndarray | None = None
+) -> ThrustCurve:
+    """Fit the per-side curve to static thrust measurements (command, force N, sweep sign)."""
+    u = np.asarray(command, dtype=float)
+    f = np.asarray(force, dtype=float)
+    if u.shape != f.shape or u.ndim != 1:
+        raise ValueError(f"force: got shape {f.shape} vs command {u.shape}, allowed: same 1-D")
+    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(f))):
+        raise ValueError("command/force: got NaN/inf, allowed: finite values")
+    if np.count_nonzero(u > 0) < 4 or np.count_nonzero(u < 0) < 4:
+        raise ValueError(
+            f"command: got {np.count_nonzero(u > 0)} forward and {np.count_nonzero(u < 0)} "
+            "reverse points, allowed: at least 4 on each side"
+        )
+    s = np.zeros_like(u) if direction is None else np.asarray(direction, dtype=float)
+    kf, df, pf = _side_guess(u[u > 0], f[u > 0])
+    kr, dr, pr = _side_guess(-u[u < 0], -f[u < 0])
+    p0 = np.array([kf, df, pf, kr, dr, pr, 0.0])
+    span = float(np.max(np.abs(u)))
+    lower = np.array([1e-9, 0.0, 0.2, 1e-9, 0.0, 0.2, -span])
+    upper = np.array([np.inf, span, 3.0, np.inf, span, 3.0, span])
+    if direction is None or not np.any(s):
+        lower[6], upper[6] = -1e-12, 1e-12
+    sol = least_squares(
+        lambda p: _model(p, u, s) - f,
+        np.clip(p0, lower, upper),
+        bounds=(lower, upper),
+        x_scale="jac",
+    )
+    res = sol.fun
+    dof = max(res.size - 7, 1)
+    cov = float(res @ res) / dof * np.linalg.pinv(sol.jac.T @ sol.jac)
+    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    denom = np.outer(std, std)
+    corr = np.divide(cov, denom, out=np.eye(7), where=denom > 0)
+    return ThrustCurve(
+        sol.x, std, corr, float(np.sqrt(np.mean(res**2))), float(u.min()), float(u.max())
+    )
