@@ -25,6 +25,7 @@ import asyncio
 import contextlib
 import logging
 import math
+import os
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -85,6 +86,7 @@ class Acquisition:
         rate_hz: float = 10.0,
         device_lost_after_s: float | None = None,
         spin_s: float = 0.002,
+        realtime: bool = False,
     ) -> None:
         if not (math.isfinite(rate_hz) and 0 < rate_hz <= 10_000):
             raise ValueError(f"rate_hz must be in (0, 10000] Hz, got {rate_hz!r}")
@@ -98,6 +100,8 @@ class Acquisition:
         if self.device_lost_after_s <= 0:
             raise ValueError(f"device_lost_after_s must be > 0 s, got {self.device_lost_after_s!r}")
         self.spin_s = spin_s
+        #: Ask the OS for real-time scheduling of the clock's thread (see ``set_realtime``).
+        self.realtime = realtime
         self.stats = ClockStats()
         self.latest: Sample | None = None
         #: Set while the device has been unreadable for longer than ``device_lost_after_s``.
@@ -158,6 +162,9 @@ class Acquisition:
         if self._running:
             raise RuntimeError("this Acquisition is already running")
         self._running, self._stopping = True, False
+        saved = _scheduling() if self.realtime else None
+        if self.realtime:
+            set_realtime()
         period = self.period_s
         t0 = time.monotonic()
         last_good = t0
@@ -193,6 +200,8 @@ class Acquisition:
                 slot = next_slot
         finally:
             self._running = False
+            if saved is not None:
+                _restore_scheduling(saved)
 
     async def _tick(self, seq: int, overrun: bool) -> Sample:
         quality = Quality.OVERRUN if overrun else Quality.OK
@@ -215,6 +224,43 @@ class Acquisition:
         if quality & Quality.ERROR:
             self.stats.failed_polls += 1
         return Sample(seq, t_mono, t_wall, channels, quality, tuple(stale))
+
+
+def set_realtime(priority: int = 10) -> bool:
+    """Schedule the calling thread SCHED_FIFO at ``priority`` (1-99), else at niceness -10.
+
+    On a busy machine a normal-priority clock wakes up to a few ms late (the
+    scheduler runs someone else first). A real-time thread preempts normal work at
+    once; the clock only spins ``spin_s`` per tick, so it cannot starve the machine.
+    Threads this thread starts later inherit the policy; child processes do not.
+    Needs CAP_SYS_NICE (or root); returns False, with a warning, when refused.
+    """
+    if not 1 <= priority <= 99:
+        raise ValueError(f"priority must be within 1..99, got {priority!r}")
+    try:
+        policy = os.SCHED_FIFO | getattr(os, "SCHED_RESET_ON_FORK", 0)
+        os.sched_setscheduler(0, policy, os.sched_param(priority))
+        return True
+    except (OSError, AttributeError) as err:
+        first = err
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, -10)
+    except OSError as err:
+        log.warning("acquisition clock stays at normal priority: %s; %s", first, err)
+        return False
+    log.warning("acquisition clock: no SCHED_FIFO (%s); running at niceness -10", first)
+    return True
+
+
+def _scheduling() -> tuple[int, os.sched_param, int]:
+    return os.sched_getscheduler(0), os.sched_getparam(0), os.getpriority(os.PRIO_PROCESS, 0)
+
+
+def _restore_scheduling(saved: tuple[int, os.sched_param, int]) -> None:
+    policy, param, niceness = saved
+    with contextlib.suppress(OSError):
+        os.sched_setscheduler(0, policy, param)
+        os.setpriority(os.PRIO_PROCESS, 0, niceness)
 
 
 def _resolve(fut: asyncio.Future) -> None:

@@ -86,7 +86,8 @@ class PlcClient:
             c.name: CounterUnwrapper(registers.wrap_period(c)) for c in rig.channels if c.wraps
         }
         self._last: dict[str, Reading] = {}
-        self._client = self._make_client()
+        # Made on first connect: pymodbus clients bind to the running event loop.
+        self._client: AsyncModbusTcpClient | AsyncModbusSerialClient | None = None
         self._reconnect_task: asyncio.Task | None = None
         self._closed = False
 
@@ -106,7 +107,7 @@ class PlcClient:
     @property
     def connected(self) -> bool:
         """True while the transport to the PLC is open."""
-        return bool(self._client.connected)
+        return self._client is not None and bool(self._client.connected)
 
     def _make_client(self) -> AsyncModbusTcpClient | AsyncModbusSerialClient:
         m = self.modbus
@@ -125,6 +126,8 @@ class PlcClient:
         )
 
     async def _attempt(self) -> bool:
+        if self._client is None:
+            self._client = self._make_client()
         try:
             return bool(await self._client.connect())
         except Exception as err:  # pyserial raises for a missing device path
@@ -165,7 +168,8 @@ class PlcClient:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
-        self._client.close()
+        if self._client is not None:
+            self._client.close()
 
     def _ensure_reconnecting(self) -> None:
         if self._closed or self.connected:
@@ -203,6 +207,7 @@ class PlcClient:
         if not self.connected:
             raise self._fail(what, "not connected (reconnecting in the background)")
         c = self._client
+        assert c is not None  # connected
         dev = self.modbus.unit_id
         call = {
             "input": c.read_input_registers,
@@ -303,6 +308,7 @@ class PlcClient:
         if not self.connected:
             raise self._fail(what, "not connected (reconnecting in the background)")
         dev = self.modbus.unit_id
+        assert self._client is not None  # connected
         try:
             if words is None:
                 rr = await self._client.write_coil(ch.address, bool(value), device_id=dev)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import math
+import os
 import time
 
 import pytest
@@ -151,3 +152,15 @@ def test_bad_arguments_name_the_value_and_range():
         Acquisition(None, rate_hz=-5)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="device_lost_after_s"):
         Acquisition(None, device_lost_after_s=0)  # type: ignore[arg-type]
+
+
+async def test_realtime_clock_runs_and_restores_the_thread_scheduling(plc):
+    before = (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0))
+    acq = Acquisition(plc, rate_hz=100.0, realtime=True)
+    q = acq.subscribe()
+    runner = asyncio.create_task(acq.run())
+    samples = await _collect(q, 20)
+    acq.stop()
+    await runner
+    assert [s.seq for s in samples] == list(range(20))
+    assert (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0)) == before
