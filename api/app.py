@@ -131,9 +131,12 @@ def create_app(
     max_upload_bytes: int = MAX_UPLOAD_BYTES,
     manage_service: bool = True,
     report_root: Path | None = None,
+    runner: JobRunner | None = None,
 ) -> FastAPI:
-    """The rig's HTTP API and browser UI on top of ``service``."""
-    runner_box: dict[str, JobRunner] = {}
+    """The rig's HTTP API and browser UI on top of ``service`` (and an existing ``runner``,
+    to serve the same jobs from a second app)."""
+    own_runner = runner is None
+    runner = runner or JobRunner(service, report_root=report_root)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -144,7 +147,8 @@ def create_app(
         try:
             yield
         finally:
-            runner_box["runner"].close()
+            if own_runner:
+                runner.close()
             if manage_service:
                 await asyncio.to_thread(service.stop)
 
@@ -157,8 +161,6 @@ def create_app(
         "unless the service runs with `--open-read`.",
         lifespan=lifespan,
     )
-    runner = JobRunner(service, report_root=report_root)
-    runner_box["runner"] = runner
     app.state.service = service
     app.state.runner = runner
     app.state.token = token

@@ -241,7 +241,10 @@ async def import_run(
             try:
                 run_id = import_csv(store, path, kind=kind, parameters=params, vehicle=vehicle)
             except ValueError as err:
-                raise ValueError(str(err).replace(str(path), name)) from None
+                message = str(err).replace(str(path), name)
+                if "line" in message and not message.startswith(name):
+                    message = f"{name}: {message}"
+                raise ValueError(message) from None
         return {"run_id": run_id, "samples": store.get_run(run_id).sample_count}
 
     return await run_in_threadpool(work)

@@ -1,0 +1,95 @@
+"""Fixtures of the API tests: one simulated rig behind the app, a real uvicorn server."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from collections.abc import Iterator
+
+import httpx
+import pytest
+import uvicorn
+from fastapi.testclient import TestClient
+
+from api.app import create_app
+from api.service import RigService
+from daq.session import RigSource
+
+TOKEN = "test-token-123"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+FINAL = ("completed", "aborted", "failed")
+#: A short tow: the whole job takes about 3 s on the simulated rig.
+SHORT_TOW = {"force_n": 24.5, "max_time_s": 1.5, "baseline_s": 0.3}
+
+
+def wait_job(client, job_id: str, *, states=FINAL, timeout_s: float = 30.0) -> dict:
+    """Poll the job until its state is one of ``states``."""
+    end = time.monotonic() + timeout_s
+    while True:
+        job = client.get(f"/api/jobs/{job_id}", headers=AUTH).json()
+        if job["state"] in states:
+            return job
+        if time.monotonic() > end:
+            raise AssertionError(f"job {job_id} still {job['state']} after {timeout_s} s: {job}")
+        time.sleep(0.05)
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory) -> RigService:
+    db = tmp_path_factory.mktemp("api") / "rig.db"
+    return RigService(RigSource.load(), f"sqlite:///{db}")
+
+
+@pytest.fixture(scope="module")
+def client(service: RigService, tmp_path_factory) -> Iterator[TestClient]:
+    app = create_app(
+        service,
+        token=TOKEN,
+        max_upload_bytes=64 * 1024,
+        report_root=tmp_path_factory.mktemp("reports"),
+    )
+    with TestClient(app) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def tow_job(client: TestClient) -> dict:
+    """One completed short tow (shared by the read tests)."""
+    r = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"])
+    assert job["state"] == "completed", job
+    return job
+
+
+class LiveServer:
+    """A real uvicorn server in a thread on a free loopback port."""
+
+    def __init__(self, app) -> None:
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off"))
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.sock]})
+
+    def __enter__(self) -> LiveServer:
+        self.thread.start()
+        end = time.monotonic() + 10
+        while not self.server.started:
+            assert time.monotonic() < end, "uvicorn did not start"
+            time.sleep(0.02)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(10)
+        self.sock.close()
+
+
+@pytest.fixture(scope="module")
+def live_url(service: RigService, client: TestClient):
+    """The same rig service and jobs behind a second app served by real uvicorn (streams)."""
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, httpx.Client(base_url=live.url, headers=AUTH, timeout=10) as h:
+        yield h

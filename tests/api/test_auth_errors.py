@@ -1,0 +1,136 @@
+"""Token checks, 401/404/422 bodies and the OpenAPI document."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from fastapi.testclient import TestClient
+
+from api.app import create_app
+from tests.api.conftest import AUTH, TOKEN
+
+
+def test_health_needs_no_token_and_says_reads_are_protected(client):
+    r = client.get("/api/health")
+    assert r.status_code == 200
+    assert r.json()["ok"] is True
+    assert r.json()["read_requires_token"] is True
+
+
+@pytest.mark.parametrize(
+    ("method", "path"),
+    [
+        ("get", "/api/rig"),
+        ("get", "/api/runs"),
+        ("get", "/api/jobs"),
+        ("get", "/api/results"),
+        ("post", "/api/jobs/tow"),
+        ("post", "/api/rig/arm"),
+        ("post", "/api/rig/emergency-stop"),
+    ],
+)
+def test_every_endpoint_refuses_a_missing_or_wrong_token(client, method, path):
+    missing = getattr(client, method)(path)
+    assert missing.status_code == 401
+    assert "rig token" in missing.json()["detail"]
+    assert missing.headers["www-authenticate"] == "Bearer"
+    wrong = getattr(client, method)(path, headers={"Authorization": "Bearer nope"})
+    assert wrong.status_code == 401
+    assert "wrong bearer token" in wrong.json()["detail"]
+
+
+def test_open_read_lets_reads_through_but_never_writes(service, client):
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with TestClient(app) as open_client:
+        app.state.open_read = True
+        assert open_client.get("/api/runs").status_code == 200
+        assert open_client.get("/api/rig").status_code == 200
+        assert open_client.get("/api/health").json()["read_requires_token"] is False
+        assert open_client.post("/api/jobs/tow", json={"force_n": 5}).status_code == 401
+        assert open_client.post("/api/rig/emergency-stop").status_code == 401
+
+
+@pytest.mark.parametrize(
+    ("body", "field", "allowed_has"),
+    [
+        ({"force_n": -4.9}, "force_n", "0 < force_n"),
+        ({"force_n": 0}, "force_n", "0 < force_n"),
+        ({"force_n": 150.0}, "force_n", "max_force_n"),
+        ({"force_n": "24.5"}, "force_n", "valid number"),
+        ({"force_n": True}, "force_n", "valid number"),
+        ({}, "force_n", "give force_n"),
+        ({"force_n": 5.0, "weight_kg": 0.5}, "weight_kg", "not both"),
+        ({"force_n": 5.0, "max_time_s": 9999}, "max_time_s", "max_time_s"),
+        ({"force_n": 5.0, "max_distance_m": 9.0}, "max_distance_m", "end_of_travel_m"),
+        ({"force_n": 5.0, "colour": "red"}, "colour", "Extra inputs"),
+    ],
+)
+def test_bad_tow_parameters_are_422_naming_field_and_allowed_range(
+    client, body, field, allowed_has
+):
+    r = client.post("/api/jobs/tow", json=body, headers=AUTH)
+    assert r.status_code == 422, r.text
+    problems = r.json()["errors"]
+    assert field in [p["field"] for p in problems], problems
+    problem = next(p for p in problems if p["field"] == field)
+    assert allowed_has in problem["allowed"]
+    assert field in r.json()["detail"]
+
+
+def test_nan_and_infinity_are_refused_even_though_json_has_no_such_literal(client):
+    for literal in ("NaN", "Infinity", "-Infinity"):
+        r = client.post(
+            "/api/jobs/tow",
+            content=f'{{"force_n": {literal}}}',
+            headers=AUTH | {"Content-Type": "application/json"},
+        )
+        assert r.status_code == 422, r.text
+        (problem,) = r.json()["errors"]
+        assert problem["field"] == "force_n"
+        assert isinstance(problem["value"], str)  # a JSON-safe echo of the bad value
+        assert not (isinstance(problem["value"], float) and math.isnan(problem["value"]))
+
+
+def test_bad_spin_calibration_and_sequence_name_the_field(client):
+    r = client.post("/api/jobs/spin", json={"torque_nm": 50.0}, headers=AUTH)
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["field"] == "torque_nm"
+    r = client.post("/api/jobs/calibration", json={"commands": [0.1, 2.0]}, headers=AUTH)
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["field"] == "commands[1]"
+    seq = {"steps": [{"kind": "tow", "force_n": 4.9}, {"kind": "spin", "torque_nm": -1}]}
+    r = client.post("/api/jobs/sequence", json=seq, headers=AUTH)
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["field"] == "steps[1].torque_nm"
+
+
+def test_unknown_ids_are_404_with_a_message(client):
+    for path in (
+        "/api/jobs/doesnotexist",
+        "/api/runs/0123abcd",
+        "/api/runs/0123abcd/samples",
+        "/api/runs/0123abcd/samples.csv",
+        "/api/runs/0123abcd/events",
+        "/api/results/987654",
+        "/api/results/987654/report/fit.png",
+    ):
+        r = client.get(path, headers=AUTH)
+        assert r.status_code == 404, (path, r.text)
+        assert r.json()["detail"]
+    for action in ("abort", "pause", "resume", "confirm"):
+        assert client.post(f"/api/jobs/nope/{action}", headers=AUTH).status_code == 404
+    r = client.post("/api/jobs/estimation", json={"run_ids": ["0123abcd"]}, headers=AUTH)
+    assert r.status_code == 404
+
+
+def test_openapi_declares_errors_security_and_models(client):
+    doc = client.get("/openapi.json").json()
+    tow = doc["paths"]["/api/jobs/tow"]["post"]
+    assert {"202", "401", "409", "422"} <= set(tow["responses"])
+    assert tow["responses"]["422"]["content"]["application/json"]["schema"]["$ref"].endswith(
+        "ErrorBody"
+    )
+    assert tow["security"] == [{"HTTPBearer": []}]
+    assert "JobOut" in doc["components"]["schemas"]
+    assert "text/csv" in doc["paths"]["/api/runs/import"]["post"]["requestBody"]["content"]

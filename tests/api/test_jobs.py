@@ -1,0 +1,127 @@
+"""Procedures as jobs on the simulated rig: tow end to end, 409, abort, e-stop, sequences."""
+
+from __future__ import annotations
+
+import time
+
+from tests.api.conftest import AUTH, SHORT_TOW, wait_job
+
+
+def test_tow_job_end_to_end_stores_a_completed_run(client, tow_job):
+    assert tow_job["kind"] == "tow"
+    assert tow_job["progress"]["fraction"] == 1.0
+    (run_id,) = tow_job["run_ids"]
+    assert tow_job["outcome"]["run_id"] == run_id
+    assert tow_job["outcome"]["status"] == "completed"
+    run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
+    assert run["status"] == "completed"
+    assert run["kind"] == "tow"
+    assert run["parameters"]["force_n"] == 24.5
+    # ~0.3 s baseline + 1.5 s released + tail at 10 Hz
+    assert 15 <= run["sample_count"] <= 40
+    samples = client.get(f"/api/runs/{run_id}/samples", headers=AUTH).json()
+    position = [p for p in samples["channels"]["tow_position"] if p is not None]
+    assert max(position) - min(position) > 0.05, "the carriage moved under 24.5 N"
+
+
+def test_second_start_while_busy_is_409_naming_the_holder(client):
+    r = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
+    assert r.status_code == 202
+    job_id = r.json()["id"]
+    try:
+        for path, body in (
+            ("/api/jobs/tow", {"force_n": 4.9}),
+            ("/api/jobs/spin", {"torque_nm": 0.454}),
+            ("/api/jobs/calibration", {}),
+        ):
+            busy = client.post(path, json=body, headers=AUTH)
+            assert busy.status_code == 409, busy.text
+            assert busy.json()["holder"] == f"tow 24.5 N (job {job_id})"
+            assert "busy" in busy.json()["detail"]
+        assert client.post("/api/rig/arm", headers=AUTH).status_code == 409
+        status = client.get("/api/rig", headers=AUTH).json()
+        assert status["current_job"]["id"] == job_id
+    finally:
+        client.post(f"/api/jobs/{job_id}/abort", headers=AUTH)
+        wait_job(client, job_id)
+
+
+def test_abort_ends_the_run_aborted_with_brake_on(client):
+    r = client.post("/api/jobs/tow", json={"force_n": 10.0, "max_time_s": 30}, headers=AUTH)
+    job_id = r.json()["id"]
+    end = time.monotonic() + 10
+    while not client.get(f"/api/jobs/{job_id}", headers=AUTH).json()["run_ids"]:
+        assert time.monotonic() < end
+        time.sleep(0.05)
+    time.sleep(0.8)  # released and moving
+    r = client.post(f"/api/jobs/{job_id}/abort", headers=AUTH)
+    assert r.status_code == 200
+    job = wait_job(client, job_id, timeout_s=10)
+    assert job["state"] == "aborted"
+    assert "operator abort" in job["progress"]["message"]
+    run = client.get(f"/api/runs/{job['run_ids'][0]}", headers=AUTH).json()
+    assert run["status"] == "aborted"
+    assert "operator abort" in run["reason"]
+    status = client.get("/api/rig", headers=AUTH).json()
+    assert status["sample"]["channels"]["tow_release"] == 0.0  # brake engaged
+    assert status["lock_holder"] is None
+    # an ended job cannot be aborted again
+    assert client.post(f"/api/jobs/{job_id}/abort", headers=AUTH).status_code == 409
+
+
+def test_emergency_stop_aborts_the_running_job(client):
+    r = client.post("/api/jobs/tow", json={"force_n": 10.0, "max_time_s": 30}, headers=AUTH)
+    job_id = r.json()["id"]
+    wait_job(client, job_id, states=("running",))
+    stop = client.post("/api/rig/emergency-stop", headers=AUTH)
+    assert stop.status_code == 200
+    assert stop.json() == {"aborted_jobs": [job_id], "safe_state": True}
+    job = wait_job(client, job_id, timeout_s=10)
+    assert job["state"] == "aborted"
+    assert "emergency stop" in (job["error"] or job["progress"]["message"])
+
+
+def test_arm_and_disarm_thrusters(client):
+    r = client.post("/api/rig/arm", headers=AUTH)
+    assert r.status_code == 200, r.text
+    assert r.json()["armed"] is True
+    assert r.json()["thrusters"]["state"] == "ARMED"
+    r = client.post("/api/rig/disarm", headers=AUTH)
+    assert r.json()["armed"] is False
+    assert r.json()["thrusters"]["state"] == "DISARMED"
+
+
+def test_rig_status_reports_values_clock_and_limits(client):
+    status = client.get("/api/rig", headers=AUTH).json()
+    assert status["running"] and status["connected"] and status["simulated"]
+    assert status["device_lost"] is False
+    assert set(status["sample"]["channels"]) >= {"tow_position", "yaw_angle", "load_cell"}
+    assert status["clock"]["rate_hz"] == 10.0
+    assert status["clock"]["ticks"] > 0
+    assert 0 <= status["clock"]["lateness_p50_s"] <= status["clock"]["lateness_p99_s"]
+    assert status["limits"]["max_force_n"] == 100.0
+
+
+def test_sequence_pauses_between_steps_and_resumes(client):
+    step = {"kind": "tow", "force_n": 4.9, "max_time_s": 0.5, "baseline_s": 0.0}
+    body = {"name": "api test", "rest_s": 0.2, "steps": [step, step]}
+    r = client.post("/api/jobs/sequence", json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job_id = r.json()["id"]
+    assert client.post(f"/api/jobs/{job_id}/pause", headers=AUTH).status_code == 200
+    paused = wait_job(client, job_id, states=("paused", *("completed", "aborted", "failed")))
+    assert paused["state"] == "paused", paused
+    assert len(paused["run_ids"]) == 1  # the first step finished, the second waits
+    time.sleep(0.4)
+    assert client.get(f"/api/jobs/{job_id}", headers=AUTH).json()["state"] == "paused"
+    assert client.post(f"/api/jobs/{job_id}/resume", headers=AUTH).status_code == 200
+    done = wait_job(client, job_id)
+    assert done["state"] == "completed", done
+    assert len(done["run_ids"]) == 2
+    assert [r["status"] for r in done["outcome"]["runs"]] == ["completed", "completed"]
+
+
+def test_pause_and_confirm_refused_when_they_do_not_apply(client, tow_job):
+    for action in ("pause", "resume", "confirm"):
+        r = client.post(f"/api/jobs/{tow_job['id']}/{action}", headers=AUTH)
+        assert r.status_code == 409, (action, r.text)

@@ -1,0 +1,49 @@
+"""A rig that asks a person: the job waits in ``waiting_for_operator`` until confirmed."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from fastapi.testclient import TestClient
+
+from api.app import create_app
+from api.service import RigService
+from daq.session import RigSource
+from tests.api.conftest import AUTH, TOKEN, wait_job
+
+
+@pytest.fixture(scope="module")
+def asking_client(tmp_path_factory):
+    db = tmp_path_factory.mktemp("op") / "rig.db"
+    service = RigService(RigSource.load(), f"sqlite:///{db}", ask_operator=True)
+    with TestClient(create_app(service, token=TOKEN)) as c:
+        yield c
+
+
+def test_operator_acts_wait_for_confirm_then_abort_ends_the_job(asking_client):
+    c = asking_client
+    job_id = c.post("/api/jobs/tow", json={"weight_kg": 0.5, "max_time_s": 1}, headers=AUTH).json()[
+        "id"
+    ]
+    first = wait_job(c, job_id, states=("waiting_for_operator",))
+    assert first["operator_act"]["name"] == "return_carriage"
+    assert "Return the carriage" in first["progress"]["message"]
+    assert c.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
+
+    end = time.monotonic() + 10
+    while True:  # the confirm wakes the procedure, which then asks for the weight
+        second = c.get(f"/api/jobs/{job_id}", headers=AUTH).json()
+        if (second["operator_act"] or {}).get("name", "return_carriage") != "return_carriage":
+            break
+        assert time.monotonic() < end, second
+        time.sleep(0.02)
+    assert second["state"] == "waiting_for_operator"
+    assert second["operator_act"]["name"] == "hang_tow_weight"
+    assert second["operator_act"]["value"] == pytest.approx(0.5)
+    assert "Hang 0.500 kg" in second["operator_act"]["instruction"]
+    assert c.post(f"/api/jobs/{job_id}/abort", headers=AUTH).status_code == 200
+    done = wait_job(c, job_id)
+    assert done["state"] == "aborted"
+    assert done["operator_act"] is None
+    assert c.get("/api/rig", headers=AUTH).json()["lock_holder"] is None

@@ -1,0 +1,121 @@
+"""The live stream over a real uvicorn socket: samples, job events, down-sampling, and a
+client that stops reading never slows the clock."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import socket
+import time
+
+from tests.api.conftest import AUTH, SHORT_TOW, wait_job
+
+
+def _events(http, query: str) -> list[tuple[str, dict]]:
+    out = []
+    with http.stream("GET", f"/api/stream?{query}") as r:
+        assert r.status_code == 200
+        assert r.headers["content-type"].startswith("text/event-stream")
+        kind = None
+        for line in r.iter_lines():
+            if line.startswith("event: "):
+                kind = line[7:]
+            elif line.startswith("data: "):
+                out.append((kind, json.loads(line[6:])))
+    return out
+
+
+def test_stream_delivers_live_samples_at_the_clock_rate(live_url):
+    t0 = time.monotonic()
+    events = _events(live_url, "max_events=8&jobs=false")
+    elapsed = time.monotonic() - t0
+    assert [k for k, _ in events] == ["sample"] * 8
+    seqs = [d["seq"] for _, d in events]
+    assert seqs == sorted(seqs) and len(set(seqs)) == 8
+    assert {"tow_position", "yaw_angle", "load_cell"} <= set(events[0][1]["channels"])
+    assert 0.5 < elapsed < 3.0  # 8 samples at 10 Hz
+
+
+def test_stream_down_samples_for_slow_clients(live_url):
+    events = _events(live_url, "max_hz=2&max_s=2.1&jobs=false")
+    samples = [d for k, d in events if k == "sample"]
+    assert 3 <= len(samples) <= 6, len(samples)
+    gaps = [b["t_mono"] - a["t_mono"] for a, b in itertools.pairwise(samples)]
+    assert min(gaps) >= 0.45
+
+
+def test_stream_carries_job_events_of_a_tow(live_url, client):
+    with live_url.stream("GET", "/api/stream?samples=false&max_s=15") as r:
+        job_id = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH).json()["id"]
+        states = []
+        kind = None
+        for line in r.iter_lines():
+            if line.startswith("event: "):
+                kind = line[7:]
+            elif line.startswith("data: ") and kind == "job":
+                job = json.loads(line[6:])
+                if job["id"] == job_id:
+                    states.append(job["state"])
+                    if job["state"] in ("completed", "aborted", "failed"):
+                        break
+    assert states[0] == "queued"
+    assert "running" in states
+    assert states[-1] == "completed"
+
+
+def test_a_client_that_stops_reading_never_slows_the_clock(live_url, client, service):
+    """Open streams whose reader never reads, run a tow; the clock keeps time."""
+    host, port = live_url.base_url.host, live_url.base_url.port
+    stalled = []
+    for _ in range(3):
+        s = socket.create_connection((host, port))
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        s.sendall(
+            f"GET /api/stream HTTP/1.1\r\nHost: {host}\r\n"
+            f"Authorization: {AUTH['Authorization']}\r\n\r\n".encode()
+        )
+        stalled.append(s)
+    try:
+        acq = service.session.acquisition
+        before, t0 = acq.stats.ticks, time.monotonic()
+        job_id = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH).json()["id"]
+        job = wait_job(client, job_id)
+        assert job["state"] == "completed"
+        expected = (time.monotonic() - t0) * acq.rate_hz
+        assert acq.stats.ticks - before >= 0.9 * expected - 1  # the clock kept its rate
+        assert acq.stats.dropped.get("api-stream", 0) == 0  # the hand-off never backed up
+        assert service.broadcaster.client_count >= 3
+    finally:
+        for s in stalled:
+            s.close()
+    end = time.monotonic() + 20
+    while service.broadcaster.client_count > 0 and time.monotonic() < end:
+        time.sleep(0.1)
+    assert service.broadcaster.client_count == 0, "vanished clients were not dropped"
+
+
+def test_broadcaster_bounds_a_stuck_client_and_publishing_stays_cheap():
+    """A client whose loop never drains: its queue stays bounded, drops are counted."""
+    import asyncio
+
+    from api.stream import CLIENT_QUEUE, Broadcaster, Client
+    from daq.sample import Sample
+
+    loop = asyncio.new_event_loop()
+    try:
+        b = Broadcaster()
+        stuck = Client(loop, max_hz=None)
+        slow = Client(loop, max_hz=1.0)
+        b.add(stuck)
+        b.add(slow)
+        t0 = time.perf_counter()
+        for i in range(5000):
+            b.publish_sample(Sample(i, i / 100, 1e9 + i / 100, {"tow_position": 0.1 * i}))
+        per_sample = (time.perf_counter() - t0) / 5000
+        assert len(stuck.queue) == CLIENT_QUEUE
+        assert stuck.dropped == 5000 - CLIENT_QUEUE
+        assert stuck.queue[-1][1]["seq"] == 4999  # the newest kept, the oldest dropped
+        assert len(slow.queue) == 50  # 50 s of samples at max_hz=1
+        assert per_sample < 0.001
+    finally:
+        loop.close()
