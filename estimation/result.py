@@ -138,6 +138,7 @@ def _white(w: Whiteness) -> dict[str, Any]:
 
 def _step(s: SearchStep) -> dict[str, Any]:
     return {
+        "round": s.round,
         "effect": s.effect,
         "delta_bic": _num(s.delta_bic),
         "cv_rmse_before": _num(s.cv_before),

@@ -4,7 +4,7 @@ lowers the leave-one-run-out error AND the BIC AND whitens the residual (Ljungâ€
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -35,6 +35,7 @@ class SearchStep:
     ljung_box_after: float
     accepted: bool
     reason: str
+    round: int = 1  # forward-selection round (1 = first effect tried on the base model)
 
 
 @dataclass(frozen=True)
@@ -83,7 +84,10 @@ def search_effects(
     steps: list[SearchStep] = []
     ambiguous: list[tuple[str, ...]] = []
     advice: list[str] = []
+    round_no = 0
     while remaining:
+        round_no += 1
+        first_step = len(steps)
         trials = {
             e: fit_output_error(runs, (*current.effects, e), start=_start(current, e, runs))
             for e in remaining
@@ -142,9 +146,27 @@ def search_effects(
             if ok:
                 accepted = (e, fit, cv_new, q_new)
                 break
+        steps[first_step:] = [replace(st, round=round_no) for st in steps[first_step:]]
         if accepted is None:
             break
         name, fit, cv_new, q_new = accepted
+        logged = {st.effect for st in steps[-len(order) :]}
+        for e in order:
+            if e not in logged:
+                q_e = ljung_box(trials[e].residuals).q_statistic
+                steps.append(
+                    SearchStep(
+                        e,
+                        gains[e],
+                        cv_current,
+                        None,
+                        q_current,
+                        q_e,
+                        False,
+                        f"not added this round: {name} was kept",
+                        round_no,
+                    )
+                )
         twins = [
             e
             for e in order
