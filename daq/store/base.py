@@ -7,6 +7,7 @@ import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib import metadata as importlib_metadata
+from typing import Self
 
 import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql as pg_dialect
@@ -35,14 +36,41 @@ def software_version() -> str:
         return "unknown"
 
 
-def process_alive(pid: int) -> bool:
-    """Whether process ``pid`` of this host exists and is not a zombie."""
+def _boot_id() -> str | None:
     try:
-        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # zombie = dead
+        with open("/proc/sys/kernel/random/boot_id", encoding="ascii") as f:
+            return f.read().strip() or None
+    except OSError:
+        return None
+
+
+def _proc_stat(pid: int) -> list[str] | None:
+    """Fields of /proc/<pid>/stat from field 3 (state) on; None if there is no such process."""
+    with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as f:
+        return f.read().rsplit(")", 1)[1].split()
+
+
+def process_identity(pid: int | None = None) -> tuple[str | None, int | None]:
+    """(boot id, start time in clock ticks since boot) of ``pid`` (default: this process);
+    None where the system does not tell."""
+    try:
+        stat = _proc_stat(os.getpid() if pid is None else pid)
+    except OSError:
+        return _boot_id(), None
+    return _boot_id(), int(stat[19]) if stat and len(stat) > 19 else None
+
+
+def process_alive(pid: int, boot_id: str | None = None, start_ticks: int | None = None) -> bool:
+    """Whether process ``pid`` of this host still exists, is not a zombie and (when given)
+    is the same process: same boot, same start time (so a reused pid is not taken for it)."""
+    current_boot = _boot_id()
+    if boot_id and current_boot and boot_id != current_boot:
+        return False  # the host rebooted since
+    try:
+        stat = _proc_stat(pid)
     except FileNotFoundError:
         return False
-    except OSError:
+    except OSError:  # no /proc: ask the kernel
         try:
             os.kill(pid, 0)
         except ProcessLookupError:
@@ -50,6 +78,9 @@ def process_alive(pid: int) -> bool:
         except PermissionError:
             return True
         return True
+    if not stat or stat[0] == "Z":  # zombie = dead
+        return False
+    return start_ticks is None or len(stat) <= 19 or int(stat[19]) == start_ticks
 
 
 class StoreBase:
@@ -73,7 +104,7 @@ class StoreBase:
         """Release every pooled connection."""
         self.engine.dispose()
 
-    def __enter__(self) -> StoreBase:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -59,6 +59,9 @@ runs = sa.Table(
     sa.Column("scenario_toml", sa.Text, nullable=True),
     sa.Column("owner_host", sa.String(255), nullable=True),
     sa.Column("owner_pid", sa.Integer, nullable=True),
+    # Identity of the owner process, so a reused pid or a reboot is not taken for it.
+    sa.Column("owner_boot_id", sa.String(64), nullable=True),
+    sa.Column("owner_start_ticks", sa.BigInteger, nullable=True),
     sa.CheckConstraint(
         "status IN ('running', 'completed', 'aborted', 'interrupted')", name="ck_runs_status"
     ),

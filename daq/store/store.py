@@ -17,7 +17,7 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
-from daq.store.base import SAMPLE_COLUMNS, process_alive, software_version
+from daq.store.base import SAMPLE_COLUMNS, process_alive, process_identity, software_version
 from daq.store.packing import SamplePacker
 from daq.store.records import (
     DuplicateSample,
@@ -65,6 +65,7 @@ class Store(EventsAndResults):
         if scenario_toml is not None and not isinstance(scenario_toml, str):
             raise ValueError(f"scenario_toml: expected TOML text or None, got {scenario_toml!r}")
         run_uuid = str(uuid.uuid4())
+        boot_id, start_ticks = process_identity()
         pk = conn.execute(
             sa.insert(runs_t).values(
                 uuid=run_uuid,
@@ -80,6 +81,8 @@ class Store(EventsAndResults):
                 scenario_toml=scenario_toml,
                 owner_host=socket.gethostname(),
                 owner_pid=os.getpid(),
+                owner_boot_id=boot_id,
+                owner_start_ticks=start_ticks,
             )
         ).inserted_primary_key[0]
         return run_uuid, pk
@@ -385,7 +388,8 @@ class Store(EventsAndResults):
             running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
             for run in running:
                 owner_alive = run.owner_host != here or (
-                    run.owner_pid is not None and process_alive(run.owner_pid)
+                    run.owner_pid is not None
+                    and process_alive(run.owner_pid, run.owner_boot_id, run.owner_start_ticks)
                 )
                 if owner_alive and not include_live_owners:
                     continue

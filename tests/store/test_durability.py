@@ -80,3 +80,24 @@ def test_recover_leaves_live_runs_alone_unless_forced(store: Store) -> None:
     assert without.stopped_at == without.started_at  # no samples: its start time
     assert store.get_run(done).status == "completed"
     assert {e.run_id for e in store.events()} == {live, empty}
+
+
+def test_a_reused_pid_or_a_reboot_does_not_keep_a_dead_run_running(store: Store) -> None:
+    """The owner is recorded as (boot id, pid, start time): a live process with the same
+    pid but another start time, or the same pid after a reboot, is not the owner."""
+    import sqlalchemy as sa
+
+    from daq.store.schema import runs
+
+    reused, rebooted, live = new_run(store), new_run(store), new_run(store)
+    with store.transaction() as conn:
+        conn.execute(
+            sa.update(runs)
+            .where(runs.c.uuid == reused)
+            .values(owner_start_ticks=runs.c.owner_start_ticks - 1)
+        )
+        conn.execute(
+            sa.update(runs).where(runs.c.uuid == rebooted).values(owner_boot_id="another-boot")
+        )
+    assert sorted(store.recover_interrupted()) == sorted([reused, rebooted])
+    assert store.get_run(live).status == "running"

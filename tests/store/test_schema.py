@@ -96,3 +96,34 @@ def test_unsupported_url_names_the_backend() -> None:
         Store("mysql://lab@db/rig")
     with pytest.raises(ValueError, match="not valid"):
         Store("not a url")
+
+
+def test_a_database_at_the_first_revision_upgrades_with_its_runs(db_url: str) -> None:
+    from alembic import command
+
+    engine = create_engine(db_url)
+    with engine.begin() as conn:
+        command.upgrade(alembic_config(conn), "0001")
+        rig_id = conn.execute(sa.text("INSERT INTO rigs (name) VALUES ('old') RETURNING id"))
+        rig_id = rig_id.scalar_one()
+        conn.execute(sa.text("INSERT INTO vehicles (id, name) VALUES (1, 'v')"))
+        conn.execute(
+            sa.text(
+                "INSERT INTO runs (uuid, kind, status, parameters, rig_id, vehicle_id, "
+                "started_at, channel_names, sample_count, software_version, rig_toml, owner_pid) "
+                "VALUES ('0123abcd-0000-4000-8000-000000000000', 'tow', 'running', '{}', :rig, "
+                "1, 1.7e9, '[\"tow_position\"]', 0, '0.0.1', '', 1)"
+            ),
+            {"rig": rig_id},
+        )
+    assert current_revision(engine) == "0001"
+    with Store(db_url) as store:
+        assert current_revision(engine) == head_revision() != "0001"
+        run = store.get_run("0123abcd")
+        assert (run.kind, run.status, run.rig_name, run.channel_names) == (
+            "tow",
+            "running",
+            "old",
+            ("tow_position",),
+        )
+    engine.dispose()
