@@ -286,6 +286,8 @@ class _PtyBridge:
 
     def start(self) -> None:
         self._loop = asyncio.get_running_loop()
+        os.set_blocking(self._server_master, False)
+        os.set_blocking(self._client_master, False)
         self._loop.add_reader(
             self._server_master, self._copy, self._server_master, self._client_master
         )
