@@ -36,7 +36,7 @@ class EventsAndResults(StoreBase):
     ) -> None:
         conn.execute(
             sa.insert(events).values(
-                run_id=run_pk, t_wall=time.time(), kind=kind, message=message, data=data
+                run_id=run_pk, t_wall=round(time.time(), 6), kind=kind, message=message, data=data
             )
         )
 
@@ -73,7 +73,7 @@ class EventsAndResults(StoreBase):
             result_id = conn.execute(
                 sa.insert(results).values(
                     kind=kind,
-                    created_at=time.time(),
+                    created_at=round(time.time(), 6),
                     software_version=software_version(),
                     data=data,
                 )

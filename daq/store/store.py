@@ -74,7 +74,7 @@ class Store(EventsAndResults):
                 parameters=parameters,
                 rig_id=self._named_id(conn, rigs, rig_name),
                 vehicle_id=self._named_id(conn, vehicles, vehicle),
-                started_at=started_at,
+                started_at=round(started_at, 6),  # µs: round-trips via datetime
                 channel_names=list(names),
                 software_version=software_version(),
                 rig_toml=rig_toml,
@@ -127,7 +127,7 @@ class Store(EventsAndResults):
         done = conn.execute(
             sa.update(runs_t)
             .where(runs_t.c.id == run.id, runs_t.c.status == "running")
-            .values(status=status, reason=reason, stopped_at=stopped_at)
+            .values(status=status, reason=reason, stopped_at=round(stopped_at, 6))
         )
         if done.rowcount != 1:
             current = conn.execute(

@@ -96,6 +96,9 @@ def test_list_runs_filters_and_pages(store: Store) -> None:
     assert [r.id for r in store.list_runs(status="aborted")] == [spin_a]
     assert [r.id for r in store.list_runs(vehicle="alpha")] == [spin_a, tow_a]
     assert [r.id for r in store.list_runs(kind="tow", status="running")] == [tow_b]
+    for run in store.list_runs():  # a run's own start time is inside since=, outside until=
+        assert run.id in [r.id for r in store.list_runs(since=run.started_at)]
+        assert run.id not in [r.id for r in store.list_runs(until=run.started_at)]
     middle = store.get_run(spin_a).started_at
     assert [r.id for r in store.list_runs(since=middle)] == [tow_b, spin_a]
     assert [r.id for r in store.list_runs(until=middle)] == [tow_a]
