@@ -77,9 +77,10 @@ class Plant:
         self._hang_weight_at_rest()
 
     def _hang_weight_at_rest(self) -> None:
-        k = self.scenario.effects.rope_stiffness_n_per_m
-        stretch = self.tow_weight_kg * self.g / k if k > 0 else 0.0
-        self.weight_position_m = self.position_m + stretch
+        # The weight rests on its support with the rope just taut until the brake lets go
+        # (the PLC drops the support with the brake), so an elastic rope starts unstretched.
+        self.weight_supported = True
+        self.weight_position_m = self.position_m
         self.weight_velocity_m_s = 0.0
 
     @property
@@ -128,7 +129,7 @@ class Plant:
         if self._tow_release_at is not None or self._spin_release_at is not None:
             return False
         k_rope = self.scenario.effects.rope_stiffness_n_per_m
-        if k_rope > 0 and self.tow_weight_kg > 0:
+        if k_rope > 0 and self.tow_weight_kg > 0 and not self.weight_supported:
             stretch = self.weight_position_m - self.position_m
             unbalanced = self.tow_weight_kg * self.g - k_rope * stretch
             if abs(self.weight_velocity_m_s) > 1e-9 or abs(unbalanced) > 1e-6:
@@ -145,6 +146,7 @@ class Plant:
         if self._tow_release_at is not None and t >= self._tow_release_at:
             self._tow_release_at = None
             self.tow_braked = False
+            self.weight_supported = False
         if self._spin_release_at is not None and t >= self._spin_release_at:
             self._spin_release_at = None
             self.spin_braked = False
@@ -167,7 +169,7 @@ class Plant:
         m_w = self.tow_weight_kg
         k_rope = fx.rope_stiffness_n_per_m
         x, v = self.position_m, self.velocity_m_s
-        if k_rope > 0 and m_w > 0:
+        if k_rope > 0 and m_w > 0 and not self.weight_supported:
             stretch = self.weight_position_m - x
             rope = k_rope * stretch + fx.rope_damping_n_s_per_m * (self.weight_velocity_m_s - v)
             rope = max(0.0, rope) if stretch > 0 else 0.0
@@ -181,7 +183,7 @@ class Plant:
             pull = m_w * self.g
         if self.tow_braked:
             self.velocity_m_s = 0.0
-            if k_rope == 0:
+            if k_rope == 0 or self.weight_supported:
                 self.weight_position_m, self.weight_velocity_m_s = x, 0.0
             return
         drive = pull + thrust_n + fx.bias_force_n - fx.spring_n_per_m * x
