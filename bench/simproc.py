@@ -9,6 +9,7 @@ bytes through no faster than a real half-duplex serial line would.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import select
@@ -24,16 +25,31 @@ from daq.config import RigConfig
 REPO = Path(__file__).resolve().parent.parent
 
 
-class RigSimProcess:
-    """``rig sim --modbus-port 0 [--rtu]`` in a subprocess; ``ready`` is its JSON line."""
+def _fifo() -> None:
+    """In a child before exec: SCHED_FIFO priority 5 (needs root/CAP_SYS_NICE; else no-op)."""
+    with contextlib.suppress(OSError):
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))
 
-    def __init__(self, *, rtu: bool = False) -> None:
+
+class RigSimProcess:
+    """``rig sim --modbus-port 0 [--rtu]`` in a subprocess; ``ready`` is its JSON line.
+
+    ``realtime=True`` runs it SCHED_FIFO, as a stand-in for a PLC with its own CPU
+    that does not compete with the host's other processes.
+    """
+
+    def __init__(self, *, rtu: bool = False, realtime: bool = False) -> None:
         code = "from api.cli import main; main()"
         args = [sys.executable, "-c", code, "sim", "--modbus-port", "0"]
         if rtu:
             args.append("--rtu")
         self.proc = subprocess.Popen(
-            args, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            args,
+            cwd=REPO,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=_fifo if realtime else None,
         )
         line = self.proc.stdout.readline() if self.proc.stdout else ""
         if not line:
@@ -99,12 +115,20 @@ def _relay(device_path: str, bytes_per_s: float) -> None:
 class PacedPtyLink:
     """A pty (``client_path``) joined to ``device_path`` through a line of ``baudrate`` 8N1."""
 
-    def __init__(self, device_path: str, *, baudrate: int = 115200, bits_per_byte: int = 10):
+    def __init__(
+        self,
+        device_path: str,
+        *,
+        baudrate: int = 115200,
+        bits_per_byte: int = 10,
+        realtime: bool = False,
+    ) -> None:
         self.bytes_per_s = baudrate / bits_per_byte
         self.proc = subprocess.Popen(
             [sys.executable, __file__, "relay", device_path, str(self.bytes_per_s)],
             stdout=subprocess.PIPE,
             text=True,
+            preexec_fn=_fifo if realtime else None,
         )
         line = self.proc.stdout.readline() if self.proc.stdout else ""
         if not line.strip():

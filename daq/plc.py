@@ -189,9 +189,11 @@ class PlcClient:
             delay = min(2 * delay, self.modbus.reconnect_max_s)
 
     # ---- requests ------------------------------------------------------------------
-    def _fail(self, what: str, err: object, *, link: bool = True) -> DeviceError:
+    def _fail(self, what: str | ReadBlock, err: object, *, link: bool = True) -> DeviceError:
         """Count a failed request; ``link`` = the link failed (timeout, disconnect)."""
         self.stats.errors += 1
+        if isinstance(what, ReadBlock):
+            what = f"read of {what.describe()}"
         if isinstance(err, BaseException):
             err = str(err) or type(err).__name__
         message = f"PLC {what} at {self.endpoint} failed: {err}"
@@ -203,9 +205,8 @@ class PlcClient:
         return error
 
     async def _read_block(self, block: ReadBlock) -> list[int] | list[bool]:
-        what = f"read of {block.describe()}"
         if not self.connected:
-            raise self._fail(what, "not connected (reconnecting in the background)")
+            raise self._fail(block, "not connected (reconnecting in the background)")
         c = self._client
         assert c is not None  # connected
         dev = self.modbus.unit_id
@@ -218,12 +219,12 @@ class PlcClient:
         try:
             rr = await call(block.start, count=block.count, device_id=dev)
         except (TimeoutError, ModbusException, OSError) as err:
-            raise self._fail(what, err) from None
+            raise self._fail(block, err) from None
         if rr.isError():
-            raise self._fail(what, f"exception response {rr}", link=False)
+            raise self._fail(block, f"exception response {rr}", link=False)
         values = rr.bits if block.kind in ("coil", "discrete") else rr.registers
         if len(values) < block.count:
-            raise self._fail(what, f"short response ({len(values)} of {block.count})", link=False)
+            raise self._fail(block, f"short response ({len(values)} of {block.count})", link=False)
         self.stats.reads += 1
         return values[: block.count]
 

@@ -1,4 +1,4 @@
-"""PlcClient and the clock end to end against the product's simulated PLC and plant.
+"""PlcClient and the clock end to end against the product's simulated rig.
 
 Real transports only: Modbus TCP on a socket, Modbus RTU on a pty pair, and RTU
 framing behind a pyserial ``socket://`` URL.
@@ -15,20 +15,17 @@ from daq.acquisition import Acquisition
 from daq.config import RigConfig, load_rig
 from daq.plc import PlcClient
 from daq.sample import Quality
-from daq.sim.plant import Plant
-from daq.sim.plc import SimulatedPLC
+from daq.sim.rig import SimulatedRig, SimulatedRigThread
 
 
 def _pointed(rig: RigConfig, **modbus) -> RigConfig:
     return rig.model_copy(update={"modbus": rig.modbus.model_copy(update=modbus)})
 
 
-@pytest.fixture
-async def sim():
-    rig = load_rig()
-    plc = SimulatedPLC(rig, Plant(rig))
-    yield plc
-    await plc.stop()
+async def _started(rtu: bool | str = False) -> SimulatedRig:
+    sim = SimulatedRig(load_rig(), rtu=rtu)
+    await sim.start()
+    return sim
 
 
 async def _tow_and_watch(client: PlcClient, *, rate_hz: float, n: int) -> list:
@@ -43,14 +40,15 @@ async def _tow_and_watch(client: PlcClient, *, rate_hz: float, n: int) -> list:
     return samples
 
 
-async def test_tow_over_modbus_tcp_position_grows(sim):
-    port = await sim.start_tcp()
-    client = PlcClient(_pointed(sim.rig, transport="tcp", host="127.0.0.1", port=port))
-    await client.connect()
-    try:
-        samples = await _tow_and_watch(client, rate_hz=20.0, n=20)
-    finally:
-        await client.close()
+async def test_tow_over_modbus_tcp_position_grows():
+    # The simulator on its own thread and loop, as the service and benches run it.
+    with SimulatedRigThread(load_rig()) as sim:
+        client = PlcClient(sim.connection_rig())
+        await client.connect()
+        try:
+            samples = await _tow_and_watch(client, rate_hz=20.0, n=20)
+        finally:
+            await client.close()
     assert [s.seq for s in samples] == list(range(20))
     assert all(s.quality == Quality.OK for s in samples)
     positions = [s.channels["tow_position"] for s in samples]
@@ -61,34 +59,36 @@ async def test_tow_over_modbus_tcp_position_grows(sim):
     assert clock[-1] - clock[0] == pytest.approx(19 / 20.0, abs=0.03)  # PLC ms clock, SI s
 
 
-async def test_rtu_over_a_pty(sim):
-    path = await sim.start_rtu_pty()
-    client = PlcClient(_pointed(sim.rig, transport="rtu", serial_port=path, timeout_s=0.2))
+async def test_rtu_over_a_pty():
+    sim = await _started(rtu=True)
+    client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.2))
+    assert client.modbus.serial_port.startswith("/dev/")
     await client.connect()
     try:
         samples = await _tow_and_watch(client, rate_hz=20.0, n=10)
     finally:
         await client.close()
+        await sim.stop()
     assert all(s.quality == Quality.OK for s in samples)
     assert samples[-1].channels["tow_position"] > samples[0].channels["tow_position"]
 
 
-async def test_rtu_over_a_socket_url(sim):
-    url = await sim.start_rtu_tcp()
-    assert url.startswith("socket://")
-    client = PlcClient(_pointed(sim.rig, transport="rtu", serial_port=url, timeout_s=0.2))
+async def test_rtu_over_a_socket_url():
+    sim = await _started(rtu="socket")
+    client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.2))
+    assert client.modbus.serial_port.startswith("socket://")
     await client.connect()
     try:
         assert await client.read("supply_voltage") > 10.0
         assert (await client.read_all())["estop"].value == 0.0
     finally:
         await client.close()
+        await sim.stop()
 
 
-async def test_a_delayed_plc_makes_the_clock_skip_slots(sim):
-    port = await sim.start_tcp()
-    rig = _pointed(sim.rig, transport="tcp", host="127.0.0.1", port=port, timeout_s=0.5)
-    client = PlcClient(rig)
+async def test_a_delayed_plc_makes_the_clock_skip_slots():
+    sim = await _started()
+    client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.5))
     await client.connect()
     acq = Acquisition(client, rate_hz=100.0)
     q = acq.subscribe()
@@ -96,31 +96,31 @@ async def test_a_delayed_plc_makes_the_clock_skip_slots(sim):
     try:
         for _ in range(5):
             await q.get()
-        sim.faults.delay_s = 0.015  # > one 10 ms period per request
+        sim.plc.faults.delay_s = 0.015  # > one 10 ms period per request
         slow = [await asyncio.wait_for(q.get(), 2.0) for _ in range(5)]
     finally:
         acq.stop()
         await runner
         await client.close()
+        await sim.stop()
     assert all(b.seq - a.seq >= 4 for a, b in itertools.pairwise(slow[1:]))
     assert acq.stats.skipped_slots >= 12
     assert all(s.quality & Quality.OVERRUN for s in slow[2:])
     assert not any(s.quality & Quality.ERROR for s in slow)
 
 
-async def test_simulated_plc_stops_and_returns(sim):
-    port = await sim.start_tcp()
-    rig = _pointed(sim.rig, port=port, host="127.0.0.1", reconnect_min_s=0.05, reconnect_max_s=0.2)
-    client = PlcClient(rig)
+async def test_simulated_plc_stops_and_returns():
+    sim = await _started()
+    client = PlcClient(_pointed(sim.connection_rig(), reconnect_min_s=0.05, reconnect_max_s=0.2))
     await client.connect()
     acq = Acquisition(client, rate_hz=50.0, device_lost_after_s=0.1)
     q = acq.subscribe()
     runner = asyncio.create_task(acq.run())
     try:
         await asyncio.wait_for(q.get(), 2.0)
-        await sim.stop_server()
+        await sim.plc.stop_server()
         await asyncio.wait_for(acq.device_lost.wait(), 2.0)
-        await sim.start_server()
+        await sim.plc.start_server()
         async with asyncio.timeout(3.0):
             while (await q.get()).quality != Quality.OK:
                 pass
@@ -129,5 +129,36 @@ async def test_simulated_plc_stops_and_returns(sim):
         acq.stop()
         await runner
         await client.close()
+        await sim.stop()
     assert client.stats.reconnects == 1
     assert acq.stats.failed_polls >= 5
+
+
+async def test_dropped_responses_time_out_on_time_and_recover():
+    sim = await _started()
+    client = PlcClient(_pointed(sim.connection_rig(), reconnect_min_s=0.05, reconnect_max_s=0.2))
+    await client.connect()
+    acq = Acquisition(client, rate_hz=10.0, device_lost_after_s=0.25)
+    q = acq.subscribe()
+    runner = asyncio.create_task(acq.run())
+    try:
+        await asyncio.wait_for(q.get(), 2.0)
+        sim.plc.faults.drop = True  # requests processed, answers swallowed
+        await asyncio.wait_for(acq.device_lost.wait(), 2.0)
+        dropped = [await asyncio.wait_for(q.get(), 2.0) for _ in range(5)]
+        sim.plc.faults.drop = False
+        async with asyncio.timeout(3.0):
+            while (await q.get()).quality != Quality.OK:
+                pass
+        assert not acq.device_lost.is_set()
+    finally:
+        acq.stop()
+        await runner
+        await client.close()
+        await sim.stop()
+    assert all(s.quality & Quality.ERROR for s in dropped)
+    # A 50 ms timeout inside a 100 ms slot: the clock never overran while the PLC was mute.
+    assert acq.stats.overruns == 0
+    assert client.stats.errors >= 5
+    # pymodbus drops a TCP link after 3 unanswered requests; our back-off loop restores it.
+    assert client.stats.reconnects >= 1
