@@ -76,3 +76,7 @@ def _token_from_env() -> bool:
 def token():
     """Print the API's bearer token (created on first use; or set RIG_API_TOKEN)."""
     click.echo(load_or_create_token())
+
+
+if __name__ == "__main__":  # ``python -m api.cli_serve`` (what the browser test starts)
+    serve()

@@ -1,0 +1,124 @@
+"""End to end in real headless Chromium against a real ``rig serve`` process: start a tow
+from the page, see live data arrive, see the run listed, run an estimation, see its result."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import require_tool
+
+TOKEN = "browser-test-token"
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("serve")
+    env = os.environ | {"RIG_API_TOKEN": TOKEN, "XDG_DATA_HOME": str(tmp), "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "api.cli_serve", "--port", "0", "--db", f"sqlite:///{tmp}/rig.db"],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("rig service: http://127.0.0.1:"), first
+        url = first.split()[2]
+        import httpx
+
+        end = time.monotonic() + 20
+        while True:
+            try:
+                if httpx.get(url + "api/health", timeout=1).json()["ok"]:
+                    break
+            except httpx.HTTPError:
+                pass
+            assert time.monotonic() < end, "rig serve did not come up"
+            time.sleep(0.1)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=chromium or shutil.which("chromium"),
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        context = browser.new_context()
+        pg = context.new_page()
+        pg.set_default_timeout(30_000)
+        yield pg
+        context.close()
+        browser.close()
+
+
+def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page):
+    from playwright.sync_api import expect
+
+    page.goto(f"{server}#token={TOKEN}")
+    expect(page.locator("#conn-text")).to_contain_text("simulated")
+    assert "token=" not in page.url  # the token left the address bar
+
+    # live samples arrive before anything runs
+    page.wait_for_function("Number(document.querySelector('#live-count').textContent) > 5")
+
+    # out-of-range input: the server's message names the field and the limit
+    page.fill("#form-tow [name=force_n]", "")
+    page.fill("#form-tow [name=weight_kg]", "")
+    page.click("#start-tow")
+    expect(page.locator("#form-tow .errors")).to_contain_text("force_n")
+
+    runs = []
+    for force in ("24.5", "83.3"):
+        page.fill("#form-tow [name=force_n]", force)
+        page.fill("#form-tow [name=max_time_s]", "2.5")
+        page.fill("#form-tow [name=baseline_s]", "0.3")
+        before = int(page.text_content("#live-count"))
+        page.click("#start-tow")
+        expect(page.locator("#job-state")).to_have_text("running")
+        expect(page.locator("#job-state")).to_have_text("completed", timeout=30_000)
+        assert int(page.text_content("#live-count")) > before + 20  # live data during the tow
+        runs.append(page.text_content("#job-runs").strip())
+
+    page.click("nav a[data-page=runs]")
+    rows = page.locator("#runs-table tbody tr")
+    expect(rows).to_have_count(2)
+    expect(rows.first).to_contain_text("tow")
+    expect(rows.first).to_contain_text("completed")
+    rows.first.click()
+    expect(page.locator("#run-detail-id")).to_contain_text(runs[-1])
+    expect(page.locator("#run-events")).to_contain_text("brake released")
+
+    page.click("nav a[data-page=estimation]")
+    boxes = page.locator("#est-runs tbody input[type=checkbox]")
+    expect(boxes).to_have_count(2)
+    boxes.nth(0).check()
+    boxes.nth(1).check()
+    page.click("#est-run")
+    expect(page.locator("#est-state")).to_have_text("completed", timeout=60_000)
+    coefs = page.locator("#est-coefs tbody tr")
+    expect(coefs).to_have_count(3)
+    expect(page.locator("#est-coefs")).to_contain_text("inertia")
+    expect(page.locator("#est-rmse")).to_contain_text("RMSE after")
+    expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
