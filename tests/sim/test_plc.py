@@ -1,0 +1,205 @@
+"""The simulated PLC over real sockets and ptys, read by pymodbus clients."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+
+import pytest
+from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
+from pymodbus.exceptions import ModbusException
+
+from daq.config import load_rig
+from daq.registers import decode, encode
+from daq.sim.plant import Plant
+from daq.sim.plc import SimulatedPLC
+
+RIG = load_rig()
+UNIT = RIG.modbus.unit_id
+
+
+@pytest.fixture
+async def plc():
+    simulated = SimulatedPLC(RIG, Plant(RIG))
+    yield simulated
+    await simulated.stop()
+
+
+async def tcp_client(port: int, timeout: float = 0.3) -> AsyncModbusTcpClient:
+    client = AsyncModbusTcpClient("127.0.0.1", port=port, timeout=timeout, retries=0)
+    assert await client.connect()
+    return client
+
+
+async def read_si(client, name: str) -> float:
+    ch = RIG.channel(name)
+    if ch.kind == "input":
+        rr = await client.read_input_registers(ch.address, count=ch.width, device_id=UNIT)
+    elif ch.kind == "holding":
+        rr = await client.read_holding_registers(ch.address, count=ch.width, device_id=UNIT)
+    elif ch.kind == "coil":
+        rr = await client.read_coils(ch.address, count=1, device_id=UNIT)
+        return float(rr.bits[0])
+    else:
+        rr = await client.read_discrete_inputs(ch.address, count=1, device_id=UNIT)
+        return float(rr.bits[0])
+    assert not rr.isError(), rr
+    return decode(ch, rr.registers)
+
+
+async def start_tow(client, kg: float) -> None:
+    weight = RIG.channel("sim_tow_weight")
+    rr = await client.write_registers(weight.address, encode(weight, kg), device_id=UNIT)
+    assert not rr.isError()
+    rr = await client.write_coil(RIG.channel("tow_release").address, True, device_id=UNIT)
+    assert not rr.isError()
+
+
+async def test_tcp_client_sees_tow_position_grow(plc):
+    client = await tcp_client(await plc.start_tcp())
+    try:
+        assert await read_si(client, "sim_tow_weight") == 0.0
+        await start_tow(client, 2.5)
+        assert await read_si(client, "sim_tow_weight") == pytest.approx(2.5)
+        assert await read_si(client, "tow_release") == 1.0
+        positions = []
+        for _ in range(5):
+            await asyncio.sleep(0.1)
+            positions.append(await read_si(client, "tow_position"))
+        assert all(b > a for a, b in itertools.pairwise(positions)), positions
+        assert await read_si(client, "supply_voltage") == pytest.approx(16.0, abs=0.2)
+        assert await read_si(client, "load_cell") == pytest.approx(0.3, abs=0.3)
+        beat0 = await read_si(client, "heartbeat")
+        clock0 = await read_si(client, "plc_clock")
+        await asyncio.sleep(0.1)
+        assert 5 <= await read_si(client, "heartbeat") - beat0 <= 20  # +1 per 10 ms
+        assert 0.05 <= await read_si(client, "plc_clock") - clock0 <= 0.2
+    finally:
+        client.close()
+
+
+async def test_rtu_over_a_pty(plc):
+    path = await plc.start_rtu_pty()
+    client = AsyncModbusSerialClient(path, baudrate=RIG.modbus.baudrate, timeout=0.3, retries=0)
+    assert await client.connect()
+    try:
+        await start_tow(client, 8.5)
+        first = await read_si(client, "tow_position")
+        await asyncio.sleep(0.2)
+        assert await read_si(client, "tow_position") > first
+        rr = await client.read_input_registers(0, count=10, device_id=UNIT)
+        assert not rr.isError() and len(rr.registers) == 10
+    finally:
+        client.close()
+
+
+async def test_rtu_over_a_socket_url(plc):
+    url = await plc.start_rtu_tcp()
+    assert url.startswith("socket://127.0.0.1:")
+    client = AsyncModbusSerialClient(url, timeout=0.3, retries=0)
+    assert await client.connect()
+    try:
+        assert await read_si(client, "supply_voltage") == pytest.approx(16.0, abs=0.2)
+    finally:
+        client.close()
+
+
+async def test_unknown_addresses_answer_illegal_address(plc):
+    client = await tcp_client(await plc.start_tcp())
+    try:
+        for rr in (
+            await client.read_input_registers(10, count=1, device_id=UNIT),
+            await client.read_input_registers(8, count=3, device_id=UNIT),  # runs past the map
+            await client.read_holding_registers(0, count=1, device_id=UNIT),
+            await client.read_coils(5, count=1, device_id=UNIT),  # a gap inside a bit word
+            await client.read_discrete_inputs(2, count=1, device_id=UNIT),
+            await client.write_coil(3, True, device_id=UNIT),
+        ):
+            assert rr.isError() and rr.exception_code == 2, rr  # ILLEGAL_ADDRESS
+    finally:
+        client.close()
+
+
+async def test_out_of_range_weight_is_refused(plc):
+    client = await tcp_client(await plc.start_tcp())
+    try:
+        weight = RIG.channel("sim_tow_weight")
+        rr = await client.write_registers(weight.address, encode(weight, 80.0), device_id=UNIT)
+        assert rr.isError() and rr.exception_code == 3  # ILLEGAL_DATA_VALUE
+        assert plc.plant.tow_weight_kg == 0.0
+    finally:
+        client.close()
+
+
+async def test_sim_reset_and_thrust_stand_coils(plc):
+    client = await tcp_client(await plc.start_tcp())
+    try:
+        await start_tow(client, 8.5)
+        await asyncio.sleep(0.2)
+        assert await read_si(client, "tow_position") > 0
+        await client.write_coil(RIG.channel("sim_reset").address, True, device_id=UNIT)
+        assert await read_si(client, "tow_position") == 0.0
+        assert await read_si(client, "tow_release") == 0.0
+        assert await read_si(client, "sim_reset") == 0.0  # self-clearing
+        await client.write_coil(RIG.channel("sim_thrust_stand").address, True, device_id=UNIT)
+        assert plc.plant.thrust_stand and await read_si(client, "sim_thrust_stand") == 1.0
+    finally:
+        client.close()
+
+
+async def test_faults_drop_delay_and_corrupt(plc):
+    client = await tcp_client(await plc.start_tcp(), timeout=0.15)
+    try:
+        assert await read_si(client, "heartbeat") >= 0
+        for fault in ("drop", "delay", "corrupt"):
+            if fault == "drop":
+                plc.faults.drop = True
+            elif fault == "delay":
+                plc.faults.delay_s = 0.4
+            else:
+                plc.faults.corrupt = True
+            with pytest.raises(ModbusException):
+                await client.read_input_registers(0, count=2, device_id=UNIT)
+            plc.faults.clear()
+            await asyncio.sleep(0.45)  # let a late answer arrive and be discarded
+            if not client.connected:
+                client.close()
+                assert await client.connect()
+            rr = await client.read_input_registers(0, count=2, device_id=UNIT)
+            assert not rr.isError(), f"no recovery after {fault}"
+    finally:
+        client.close()
+
+
+async def test_corrupt_rtu_response_has_a_wrong_crc(plc):
+    path = await plc.start_rtu_pty()
+    client = AsyncModbusSerialClient(path, baudrate=RIG.modbus.baudrate, timeout=0.2, retries=0)
+    assert await client.connect()
+    try:
+        plc.faults.corrupt = True
+        with pytest.raises(ModbusException):
+            await client.read_input_registers(0, count=2, device_id=UNIT)
+        plc.faults.clear()
+        await asyncio.sleep(0.1)
+        rr = await client.read_input_registers(0, count=2, device_id=UNIT)
+        assert not rr.isError()
+    finally:
+        client.close()
+
+
+async def test_stop_server_and_restart_on_the_same_port(plc):
+    port = await plc.start_tcp()
+    client = await tcp_client(port, timeout=0.2)
+    try:
+        await plc.stop_server()
+        with pytest.raises(ModbusException):
+            await client.read_input_registers(0, count=2, device_id=UNIT)
+        client.close()
+        assert not await client.connect()
+        await plc.start_server()
+        assert plc.port == port
+        assert await client.connect()
+        rr = await client.read_input_registers(0, count=2, device_id=UNIT)
+        assert not rr.isError()
+    finally:
+        client.close()
