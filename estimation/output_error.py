@@ -141,8 +141,12 @@ def fit_output_error(
     runs: Sequence[PreparedRun],
     effects: Sequence[str] = (),
     start: np.ndarray | None = None,
+    max_nfev: int = 200,
 ) -> FitResult:
-    """Fit (M, K_L, K_Q, effects) and one offset per run to all runs' positions jointly."""
+    """Fit (M, K_L, K_Q, effects) and one offset per run to all runs' positions jointly.
+
+    ``max_nfev`` caps the model evaluations (the effect search screens with a low cap).
+    """
     effects = tuple(effects)
     prob = _Problem(runs, effects)
     g0 = initial_guess(runs, effects) if start is None else np.asarray(start, dtype=float)
@@ -161,10 +165,11 @@ def fit_output_error(
         bounds=(lower, upper),
         method="trf",
         x_scale="jac",
+        tr_solver="lsmr",
         xtol=1e-10,
         ftol=1e-10,
         gtol=1e-10,
-        max_nfev=200,
+        max_nfev=max_nfev,
     )
     params = sol.x
     res = prob.residual(params)

@@ -14,6 +14,7 @@ from estimation.model import PreparedRun
 from estimation.output_error import FitResult, fit_output_error, leave_one_run_out_rmse
 
 BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
+SCREEN_NFEV = 12  # model evaluations per candidate while screening; the kept one is refitted
 AMBIGUITY_BIC = 2.0  # two effects whose BIC drops differ by less than this explain the data alike
 PAIR_EXPERIMENTS = {
     frozenset({"coulomb_friction", "constant_bias"}): (
@@ -89,7 +90,9 @@ def search_effects(
         round_no += 1
         first_step = len(steps)
         trials = {
-            e: fit_output_error(runs, (*current.effects, e), start=_start(current, e, runs))
+            e: fit_output_error(
+                runs, (*current.effects, e), start=_start(current, e, runs), max_nfev=SCREEN_NFEV
+            )
             for e in remaining
         }
         gains = {e: f.bic - current.bic for e, f in trials.items()}
@@ -150,6 +153,7 @@ def search_effects(
         if accepted is None:
             break
         name, fit, cv_new, q_new = accepted
+        fit = fit_output_error(runs, fit.effects, start=fit.values)  # converge fully
         logged = {st.effect for st in steps[-len(order) :]}
         for e in order:
             if e not in logged:

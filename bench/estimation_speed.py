@@ -1,0 +1,82 @@
+"""Time of a joint 4-run output-error fit (4 × 30 s at 10 Hz) and of a full effect search.
+
+Prints one JSON document. Targets: joint fit < 0.2 s, full effect search < 3 s.
+Run: .venv/bin/python bench/estimation_speed.py
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np
+
+from estimation import estimate
+from estimation.model import prepare
+from estimation.output_error import fit_output_error
+from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
+
+
+def _timed(fn, repeats: int) -> dict:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return {"median_s": float(np.median(times)), "max_s": float(np.max(times)), "repeats": repeats}
+
+
+def main() -> None:
+    # 4 × 30 s at 10 Hz: the rail limit is lifted so every tow lasts the full 30 s
+    clean = tow_set(seed=1, duration_s=30.0, travel_limit=1e3)
+    samples = [int(np.count_nonzero(r.t > r.t_release)) for r in clean]
+    prepared = [prepare(r) for r in clean]
+    cases = {
+        "joint_fit_4x30s_closed_form": _timed(lambda: fit_output_error(prepared), 20),
+        "joint_fit_4x30s_integrated": _timed(
+            lambda: fit_output_error(prepared, ("cubic_drag",)), 5
+        ),
+        "estimate_no_search_no_bootstrap": _timed(
+            lambda: estimate(clean, search_effects=False, n_bootstrap=0), 10
+        ),
+    }
+    searches = {
+        "clean": clean,
+        "coulomb_friction": tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=1, travel_limit=1e3),
+        "restoring_spring": tow_set(Physics(*SURGE_TRUTH, spring=1.0), seed=1, travel_limit=1e3),
+        "cubic_drag": tow_set(Physics(*SURGE_TRUTH, cubic=150.0), seed=1, travel_limit=1e3),
+    }
+    for name, runs in searches.items():
+        found = [e.name for e in estimate(runs, n_bootstrap=0).effects]
+        entry = _timed(lambda runs=runs: estimate(runs, n_bootstrap=0), 3)
+        entry["effects_found"] = found
+        cases[f"full_effect_search_{name}"] = entry
+    cases["estimate_with_40_bootstrap_clean"] = _timed(lambda: estimate(clean), 3)
+    worst_search = max(v["median_s"] for k, v in cases.items() if k.startswith("full_effect"))
+    print(
+        json.dumps(
+            {
+                "benchmark": "estimation_speed",
+                "python": platform.python_version(),
+                "runs": len(clean),
+                "samples_after_release_per_run": samples,
+                "cases": cases,
+                "targets": {
+                    "joint_fit_s": 0.2,
+                    "joint_fit_met": cases["joint_fit_4x30s_closed_form"]["median_s"] < 0.2,
+                    "effect_search_s": 3.0,
+                    "effect_search_met": worst_search < 3.0,
+                },
+            },
+            indent=2,
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()
