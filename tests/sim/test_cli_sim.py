@@ -178,3 +178,27 @@ def test_mbpoll_reads_registers_and_releases_the_tow(rig_sim):
         timeout=10,
     )
     assert "Illegal data address" in refused.stdout + refused.stderr
+
+
+def test_rtu_flag_serves_modbus_rtu_on_a_pty():
+    from pymodbus.client import ModbusSerialClient
+
+    running = RigSim("--rtu")
+    try:
+        mb = running.ready["modbus"]
+        assert mb["transport"] == "rtu" and Path(mb["serial_port"]).exists()
+        client = ModbusSerialClient(
+            mb["serial_port"], baudrate=mb["baudrate"], timeout=0.3, retries=0
+        )
+        assert client.connect()
+        try:
+            rr = client.read_input_registers(6, count=1, device_id=mb["unit_id"])
+            assert not rr.isError() and 1500 < rr.registers[0] < 1700  # 16 V in 10 mV counts
+        finally:
+            client.close()
+        code, out, _ = running.stop()
+        assert code == 0 and out == ""
+    finally:
+        if running.proc.poll() is None:
+            running.proc.kill()
+            running.proc.wait()

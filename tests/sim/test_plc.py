@@ -203,3 +203,54 @@ async def test_stop_server_and_restart_on_the_same_port(plc):
         assert not rr.isError()
     finally:
         client.close()
+
+
+async def test_rtu_pty_server_restarts_on_the_same_path(plc):
+    path = await plc.start_rtu_pty()
+    client = AsyncModbusSerialClient(path, baudrate=RIG.modbus.baudrate, timeout=0.2, retries=0)
+    assert await client.connect()
+    try:
+        await plc.stop_server()
+        with pytest.raises(ModbusException):
+            await client.read_input_registers(0, count=2, device_id=UNIT)
+        await plc.start_server()
+        await asyncio.sleep(0.05)
+        rr = await client.read_input_registers(0, count=2, device_id=UNIT)
+        assert not rr.isError()
+    finally:
+        client.close()
+
+
+async def test_estop_reads_back_and_blocks_release(plc):
+    client = await tcp_client(await plc.start_tcp())
+    try:
+        plc.plant.press_estop(True)
+        assert await read_si(client, "estop") == 1.0
+        await start_tow(client, 2.5)
+        assert await read_si(client, "tow_release") == 0.0
+        plc.plant.press_estop(False)
+        await start_tow(client, 2.5)
+        assert await read_si(client, "tow_release") == 1.0
+    finally:
+        client.close()
+
+
+async def test_timestamp_jitter_spreads_response_times():
+    from daq.sim.scenario import parse_scenario
+
+    plant = Plant(RIG, parse_scenario({"sensors": {"timestamp_jitter_s": 0.03}, "seed": 4}))
+    jittery = SimulatedPLC(RIG, plant)
+    client = await tcp_client(await jittery.start_tcp())
+    try:
+        loop = asyncio.get_running_loop()
+        latencies = []
+        for _ in range(20):
+            t0 = loop.time()
+            rr = await client.read_input_registers(0, count=2, device_id=UNIT)
+            assert not rr.isError()
+            latencies.append(loop.time() - t0)
+        assert max(latencies) - min(latencies) > 0.01
+        assert max(latencies) < 0.03 + 0.05
+    finally:
+        client.close()
+        await jittery.stop()
