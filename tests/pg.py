@@ -7,11 +7,12 @@ unix socket inside that folder (no TCP port is taken). As root it runs them as t
 
 Command line (for CI scripts)::
 
-    python -m tests.pg            # prints the URL of a fresh server's 'postgres' database
+    python -m tests.pg            # runs a fresh server until Ctrl-C, printing its admin URL
 """
 
 from __future__ import annotations
 
+import atexit
 import glob
 import os
 import shutil
@@ -99,6 +100,7 @@ class PostgresServer:
             timeout=30,
         )
         shutil.rmtree(self.base_dir, ignore_errors=True)
+        self.base_dir = None  # stopping twice is harmless
 
 
 def start_postgres(bin_dir: Path | None = None) -> PostgresServer:
@@ -166,7 +168,9 @@ def start_postgres(bin_dir: Path | None = None) -> PostgresServer:
             f"{output.decode(errors='replace')}\n{server_log}"
         ) from exc
     admin_url = f"postgresql+psycopg://postgres@/postgres?host={sock}&port={port}"
-    return PostgresServer(admin_url=admin_url, base_dir=base, bin_dir=bin_dir, run_as=run_as)
+    server = PostgresServer(admin_url=admin_url, base_dir=base, bin_dir=bin_dir, run_as=run_as)
+    atexit.register(server.stop)  # even if the caller forgets (or pytest is interrupted)
+    return server
 
 
 def external_postgres(url: str) -> PostgresServer:
@@ -176,4 +180,9 @@ def external_postgres(url: str) -> PostgresServer:
 
 
 if __name__ == "__main__":
-    print(start_postgres().admin_url)
+    import signal
+
+    stop_signals = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, stop_signals)
+    print(start_postgres().admin_url, flush=True)  # e.g. RIG_TEST_POSTGRES_URL for another shell
+    signal.sigwait(stop_signals)  # then atexit stops the server
