@@ -283,3 +283,25 @@ def test_bad_scenario_names_field_value_and_range(tmp_path):
     text = str(err.value)
     assert "effects.coulomb_friction_n: Input should be greater than or equal to 0 (got -2)" in text
     assert "effects.wind" in text and "sensors.load_cell_noise_n" in text and "(got 99)" in text
+
+
+@pytest.mark.parametrize(
+    ("scenario", "direction"),
+    [
+        ("coulomb-friction", -1),  # bearing friction slows the spin
+        ("bias-current", +1),  # the current's torque adds to the drum torque
+        ("tether-torsion", -1),
+        ("cubic-drag", -1),
+        ("release-delay", -1),  # starts late
+    ],
+)
+def test_each_effect_moves_the_spin_test_the_expected_way(scenario, direction):
+    def angle_after(name: str) -> float:
+        p = plant(name)
+        p.write("sim_spin_weight", 1.0)
+        p.write("spin_release", 1)
+        p.advance(12.0)
+        return p.read("yaw_angle")
+
+    change = angle_after(scenario) - angle_after("clean")
+    assert change * direction > 0.05, f"{scenario}: yaw angle changed by {change:+.3f} rad"
