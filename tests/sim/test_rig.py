@@ -85,3 +85,21 @@ def test_rtu_rig_points_the_connection_at_a_pty():
         assert conn.modbus.transport == "rtu" and conn.modbus.serial_port.startswith("/dev/")
     with pytest.raises(ValueError, match="rtu"):
         SimulatedRigThread(RIG, rtu="udp")
+
+
+def test_socket_urls_for_modbus_rtu_and_thrusters():
+    from pymodbus.client import ModbusSerialClient
+
+    with SimulatedRigThread(RIG, rtu="socket", thruster_transport="tcp") as sim:
+        ep = sim.endpoints
+        assert ep.serial_port.startswith("socket://") and ep.port is None
+        assert ep.thruster_serial_port.startswith("socket://")
+        client = ModbusSerialClient(ep.serial_port, timeout=0.3, retries=0)
+        assert client.connect()
+        line = serial.serial_for_url(ep.thruster_serial_port, timeout=0.5)
+        try:
+            assert not client.read_input_registers(0, count=10, device_id=1).isError()
+            assert send(line, protocol.arm_frame(1)).kind == "ACK"
+        finally:
+            line.close()
+            client.close()
