@@ -37,6 +37,26 @@ CHECKS = [
 ]
 
 
+def _checker(op):
+    """A hypothesis test sending ``op``'s generated requests to the live server."""
+    stream = op.path == "/api/stream"
+
+    @given(case=op.as_strategy())
+    @settings(
+        max_examples=EXAMPLES_PER_OPERATION,
+        deadline=None,
+        suppress_health_check=list(HealthCheck),
+        derandomize=True,
+        database=None,
+    )
+    def check(case) -> None:
+        if stream and isinstance(case.query, dict):
+            case.query = case.query | {"max_s": 0.3}  # bounded: streams never end otherwise
+        case.call_and_validate(headers=AUTH, checks=CHECKS, timeout=10)
+
+    return check
+
+
 @pytest.fixture(scope="module")
 def live_schema(client, service):
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
@@ -50,20 +70,7 @@ def test_no_server_error_and_no_schema_violation(live_schema, client):
     operations = [result.ok() for result in live_schema.get_all_operations()]
     assert len(operations) >= 20
     for op in operations:
-
-        @given(case=op.as_strategy())
-        @settings(
-            max_examples=EXAMPLES_PER_OPERATION,
-            deadline=None,
-            suppress_health_check=list(HealthCheck),
-            derandomize=True,
-            database=None,
-        )
-        def check(case, stream: bool = op.path == "/api/stream") -> None:
-            if stream and isinstance(case.query, dict):
-                case.query = case.query | {"max_s": 0.3}  # bounded: streams never end otherwise
-            case.call_and_validate(headers=AUTH, checks=CHECKS, timeout=10)
-
+        check = _checker(op)
         t0 = time.monotonic()
         try:
             check()
