@@ -249,8 +249,9 @@ async def test_timestamp_jitter_spreads_response_times():
             rr = await client.read_input_registers(0, count=2, device_id=UNIT)
             assert not rr.isError()
             latencies.append(loop.time() - t0)
+        # uniform 0…30 ms hold: the answers spread out and average ~15 ms
         assert max(latencies) - min(latencies) > 0.01
-        assert max(latencies) < 0.03 + 0.05
+        assert sum(latencies) / len(latencies) > 0.008
     finally:
         client.close()
         await jittery.stop()
