@@ -69,11 +69,17 @@ async def test_tcp_client_sees_tow_position_grow(plc):
         assert all(b > a for a, b in itertools.pairwise(positions)), positions
         assert await read_si(client, "supply_voltage") == pytest.approx(16.0, abs=0.2)
         assert await read_si(client, "load_cell") == pytest.approx(0.3, abs=0.3)
-        beat0 = await read_si(client, "heartbeat")
-        clock0 = await read_si(client, "plc_clock")
+        loop = asyncio.get_running_loop()
+        t_a = loop.time()
+        beat0, clock0 = await read_si(client, "heartbeat"), await read_si(client, "plc_clock")
+        t_b = loop.time()
         await asyncio.sleep(0.1)
-        assert 5 <= await read_si(client, "heartbeat") - beat0 <= 20  # +1 per 10 ms
-        assert 0.05 <= await read_si(client, "plc_clock") - clock0 <= 0.2
+        t_c = loop.time()
+        beat1, clock1 = await read_si(client, "heartbeat"), await read_si(client, "plc_clock")
+        t_d = loop.time()
+        shortest, longest = t_c - t_b, t_d - t_a  # bounds on the time between the samples
+        assert shortest / 0.01 - 2 <= beat1 - beat0 <= longest / 0.01 + 2  # +1 per 10 ms
+        assert shortest - 0.002 <= clock1 - clock0 <= longest + 0.002
     finally:
         client.close()
 

@@ -44,14 +44,13 @@ def test_thread_runner_serves_modbus_and_thrusters_on_the_stand():
             assert not client.write_coil(stand.address, True, device_id=1).isError()
             idle = read_load_cell(client)
             assert send(line, protocol.arm_frame(1)).kind == "ACK"
-            assert send(line, protocol.thr_frame(2, [500, 500])).kind == "ACK"
-            time.sleep(0.3)  # keep within the 0.4 s watchdog
-            assert send(line, protocol.thr_frame(3, [500, 500])).kind == "ACK"
-            time.sleep(0.3)
+            for seq in range(2, 7):  # 0.6 s of thrust = 4 lag time constants
+                assert send(line, protocol.thr_frame(seq, [500, 500])).kind == "ACK"
+                time.sleep(0.12)  # well within the 0.4 s watchdog
             thrust = read_load_cell(client) - idle
             expected = 2 * sim.plant.static_thrust_n(0.5, sim.plant.loaded_voltage_v())
             assert thrust == pytest.approx(expected, rel=0.08)
-            sta = send(line, protocol.qry_frame(4))
+            sta = send(line, protocol.qry_frame(7))
             assert sta.kind == "STA"
             time.sleep(0.6)  # no frames: the watchdog zeroes the outputs
             assert sim.call(lambda s: s.thrusters.state) == "WDT"
