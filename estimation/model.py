@@ -166,7 +166,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
         f = const_force.copy()
         for i in varying:
             r = runs[i]
-            t_abs = step_time + r.t_release + delay
+            t_abs = step_time + r.t_release + delay + 1e-9  # sample instants are ZOH edges
             j = np.clip(np.searchsorted(r.t, t_abs, side="right") - 1, 0, r.t.size - 1)
             f[:, i] += r.drive[j]
         return f
@@ -194,7 +194,8 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     for k in range(1, n_steps):
         t0 = (k - 1) * h
         if varying:
-            f0, fh, f1 = force_at(t0), force_at(t0 + h / 2), force_at(t0 + h)
+            # the recorded drive is a zero-order hold between samples: one value per step
+            f0 = fh = f1 = force_at(t0 + h / 2)
         else:
             f0 = fh = f1 = const_force
         a1 = accel(x, v, f0)

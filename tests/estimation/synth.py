@@ -168,3 +168,52 @@ def paper_curve_runs(axis: str, quantum: float = 1e-4, seconds_after: float = 3.
             )
         )
     return runs
+
+
+def thruster_run(
+    phys: Physics,
+    levels: tuple[float, ...],
+    *,
+    hold_s: float = 8.0,
+    run_id: str = "thr",
+    quantum: float = 1e-4,
+    baseline_s: float = 1.0,
+    fine_dt: float = 1e-3,
+) -> RunData:
+    """A thruster-driven surge run: thrust held at each level for ``hold_s`` (no weight).
+
+    Thrust changes exactly at 10 Hz sample instants (no jitter) and is recorded per sample.
+    """
+    n_fine = round((baseline_s + hold_s * len(levels)) / fine_dt)
+    t_fine = np.arange(n_fine + 1) * fine_dt
+    level_idx = np.clip(((t_fine - baseline_s) // hold_s).astype(int), 0, len(levels) - 1)
+    thrust = np.where(t_fine < baseline_s, 0.0, np.array(levels)[level_idx])
+    x = v = 0.0
+    xs = np.zeros(t_fine.size)
+    inertia = phys.inertia
+
+    def accel(v: float, x: float, f: float) -> float:
+        net = f + phys.bias - phys.spring * x - phys.linear_damping * v
+        net -= phys.quadratic_damping * abs(v) * v + phys.cubic * v**3
+        if v == 0.0:
+            return (
+                0.0 if abs(net) <= phys.coulomb else (net - phys.coulomb * np.sign(net)) / inertia
+            )
+        return (net - phys.coulomb * np.sign(v)) / inertia
+
+    for k in range(1, t_fine.size):
+        f = thrust[k - 1]  # held over the step (changes fall on the ms grid)
+        if t_fine[k - 1] < baseline_s:
+            continue
+        a1 = accel(v, x, f)
+        a2 = accel(v + 0.5 * fine_dt * a1, x + 0.5 * fine_dt * v, f)
+        a3 = accel(v + 0.5 * fine_dt * a2, x + 0.5 * fine_dt * (v + 0.5 * fine_dt * a1), f)
+        a4 = accel(v + fine_dt * a3, x + fine_dt * (v + 0.5 * fine_dt * a2), f)
+        new_v = v + fine_dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        x += fine_dt * v + fine_dt**2 / 6 * (a1 + a2 + a3)
+        v = 0.0 if v != 0.0 and np.sign(new_v) != np.sign(v) and phys.coulomb > 0 else new_v
+        xs[k] = x
+    step = round(0.1 / fine_dt)
+    t = t_fine[::step]
+    position = np.floor((0.5 + xs[::step]) / quantum) * quantum
+    return RunData(run_id, "surge", t, position, thrust[::step].copy(), t_release=baseline_s)
