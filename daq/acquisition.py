@@ -26,6 +26,7 @@ import contextlib
 import logging
 import math
 import os
+import sys
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -166,6 +167,10 @@ class Acquisition:
         if self.realtime:
             set_realtime()
         period = self.period_s
+        # A worker thread (the store's flush) may hold the GIL for a whole switch interval
+        # (5 ms by default): more than a slot at high rates. Hand it back faster while running.
+        switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(switch_interval, max(period / 4, 0.0002)))
         t0 = time.monotonic()
         last_good = t0
         slot = 0
@@ -200,6 +205,7 @@ class Acquisition:
                 slot = next_slot
         finally:
             self._running = False
+            sys.setswitchinterval(switch_interval)
             if saved is not None:
                 _restore_scheduling(saved)
 
