@@ -6,5 +6,15 @@ Works on runs as arrays plus metadata (``RunData``); imports nothing from the de
 from estimation.estimate import METHODS, estimate
 from estimation.result import EffectEstimate, Estimate, EstimationResult
 from estimation.runs import RunData
+from estimation.thrust_curve import ThrustCurve, fit_thrust_curve
 
-__all__ = ["METHODS", "EffectEstimate", "Estimate", "EstimationResult", "RunData", "estimate"]
+__all__ = [
+    "METHODS",
+    "EffectEstimate",
+    "Estimate",
+    "EstimationResult",
+    "RunData",
+    "ThrustCurve",
+    "estimate",
+    "fit_thrust_curve",
+]

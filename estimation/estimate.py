@@ -122,7 +122,9 @@ def separability_warnings(fit: FitResult, runs: Sequence[PreparedRun]) -> list[s
 
 def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -> Bootstrap:
     rng = np.random.default_rng(seed)
-    draws = []
+    draws: list[np.ndarray] = []
+    if len(runs) < 2:  # resampling one run only repeats it
+        n = 0
     for _ in range(n):
         pick = rng.integers(0, len(runs), len(runs))
         sample = [runs[i] for i in pick]

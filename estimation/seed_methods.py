@@ -13,11 +13,12 @@ left-hand side so the reported inertia is the vehicle's alone.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import curve_fit
+from scipy.optimize import OptimizeWarning, curve_fit
 
 from estimation.model import BASE_NAMES, PreparedRun
 
@@ -82,13 +83,15 @@ def first_order_fit(run: PreparedRun) -> tuple[float, float]:
     t_mid = tau_v - 0.5 * np.diff(np.concatenate([[0.0], tau_v]))
     a0 = float(np.mean(v[-max(v.size // 4, 1) :]))
     t0 = float(t_mid[np.argmax(np.abs(v) >= 0.63 * abs(a0))]) or 0.5
-    (amp, tc), _ = curve_fit(
-        lambda t, amp, tc: amp * (1.0 - np.exp(-t / tc)),
-        t_mid,
-        v,
-        p0=(a0, max(t0, 0.05)),
-        maxfev=5000,
-    )
+    with warnings.catch_warnings():  # σ of (A, T) is not used: only the curve is
+        warnings.simplefilter("ignore", OptimizeWarning)
+        (amp, tc), _ = curve_fit(
+            lambda t, amp, tc: amp * (1.0 - np.exp(-t / tc)),
+            t_mid,
+            v,
+            p0=(a0, max(t0, 0.05)),
+            maxfev=5000,
+        )
     return float(amp), float(abs(tc))
 
 
