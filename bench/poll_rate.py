@@ -152,6 +152,9 @@ def measure(rig: RigConfig, seconds: float, *, realtime: bool) -> dict[str, Any]
         per_poll = rtu_bytes_per_poll(PlcClient(crig).blocks)
         result = asyncio.run(ladder(crig, RTU_RATES, seconds, realtime))
     wire_limit = link.bytes_per_s / per_poll
+    # Modbus RTU also wants >= 3.5 character times of silence before every frame.
+    gaps = 3.5 * 2 * len(PlcClient(crig).blocks)
+    wire_limit_t35 = link.bytes_per_s / (per_poll + gaps)
     best = result["highest_sustained_polls_per_s"]
     result.update(
         {
@@ -160,6 +163,10 @@ def measure(rig: RigConfig, seconds: float, *, realtime: bool) -> dict[str, Any]
             "bytes_per_poll": per_poll,
             "wire_limit_polls_per_s": round(wire_limit, 1),
             "fraction_of_wire_limit": round(best / wire_limit, 3),
+            "wire_limit_with_t35_silences_polls_per_s": round(wire_limit_t35, 1),
+            "free_running_fraction_of_t35_wire_limit": round(
+                result["free_running_polls_per_s"] / wire_limit_t35, 3
+            ),
             "free_running_fraction_of_wire_limit": round(
                 result["free_running_polls_per_s"] / wire_limit, 3
             ),
