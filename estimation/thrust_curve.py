@@ -1,6 +1,6 @@
 """Thrust calibration curve: per-side power law with dead band, asymmetry and hysteresis.
 
-    u_e = u − h·s/2            (s = +1 on an up sweep, −1 on a down sweep, 0 unknown)
+    u_e = u − h·s/2            (s = +1 while the command rises, −1 while it falls, 0 unknown)
     F = +k_f·(u_e − d_f)^p_f    for u_e > d_f        (forward side)
     F = −k_r·(−u_e − d_r)^p_r   for u_e < −d_r       (reverse side)
     F = 0                       inside the dead band −d_r ≤ u_e ≤ d_f
@@ -10,6 +10,7 @@ Commands are in the thruster's command units (e.g. −1 … 1); forces in N.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,7 +51,7 @@ class ThrustCurve:
         return float(self.values[PARAMS.index(name)])
 
     def force(self, command: np.ndarray | float, direction: np.ndarray | float = 0.0):
-        """Thrust in N for a command (direction +1 up-sweep, −1 down-sweep, 0 mid-loop)."""
+        """Thrust in N for a command (direction +1 rising command, −1 falling, 0 mid-loop)."""
         u = np.asarray(command, dtype=float)
         s = np.broadcast_to(np.asarray(direction, dtype=float), u.shape)
         return _model(self.values, u, s)
@@ -93,10 +94,34 @@ def _side_guess(u: np.ndarray, f: np.ndarray) -> tuple[float, float, float]:
     return float(f.max() / max(u.max() - dead, 1e-3)), min(dead, 0.9 * u.max()), 1.0
 
 
+def sweep_signs(command: np.ndarray, directions: Sequence[object] | np.ndarray) -> np.ndarray:
+    """Signed sweep direction s per point from numbers (+1 command rising, −1 falling, 0) or
+    from the calibration table's words ("up"/"down"/"hold", meaning |command| rising/falling)."""
+    u = np.asarray(command, dtype=float)
+    values = list(directions)
+    if len(values) != u.size:
+        raise ValueError(
+            f"directions: got {len(values)} values for {u.size} commands, allowed: one per command"
+        )
+    words = {"up": 1.0, "down": -1.0, "hold": 0.0}
+    if all(isinstance(v, str) for v in values):
+        unknown = sorted({v for v in values if v not in words})
+        if unknown:
+            raise ValueError(f"directions: got {unknown}, allowed: 'up', 'down', 'hold'")
+        return np.array([words[v] for v in values]) * np.sign(u)
+    return np.asarray(values, dtype=float)
+
+
 def fit_thrust_curve(
-    command: np.ndarray, force: np.ndarray, direction: np.ndarray | None = None
+    command: Sequence[float] | np.ndarray,
+    force: Sequence[float] | np.ndarray,
+    directions: Sequence[object] | np.ndarray | None = None,
 ) -> ThrustCurve:
-    """Fit the per-side curve to static thrust measurements (command, force N, sweep sign)."""
+    """Fit the per-side curve to static thrust points (command, force N, sweep direction).
+
+    ``directions``: signed numbers (+1 rising command, −1 falling, 0 unknown) or the words
+    "up"/"down"/"hold" (|command| rising/falling), see ``sweep_signs``; None = no hysteresis.
+    """
     u = np.asarray(command, dtype=float)
     f = np.asarray(force, dtype=float)
     if u.shape != f.shape or u.ndim != 1:
@@ -108,14 +133,14 @@ def fit_thrust_curve(
             f"command: got {np.count_nonzero(u > 0)} forward and {np.count_nonzero(u < 0)} "
             "reverse points, allowed: at least 4 on each side"
         )
-    s = np.zeros_like(u) if direction is None else np.asarray(direction, dtype=float)
+    s = np.zeros_like(u) if directions is None else sweep_signs(u, directions)
     kf, df, pf = _side_guess(u[u > 0], f[u > 0])
     kr, dr, pr = _side_guess(-u[u < 0], -f[u < 0])
     p0 = np.array([kf, df, pf, kr, dr, pr, 0.0])
     span = float(np.max(np.abs(u)))
     lower = np.array([1e-9, 0.0, 0.2, 1e-9, 0.0, 0.2, -span])
     upper = np.array([np.inf, span, 3.0, np.inf, span, 3.0, span])
-    if direction is None or not np.any(s):
+    if not np.any(s):
         lower[6], upper[6] = -1e-12, 1e-12
     sol = least_squares(
         lambda p: _model(p, u, s) - f,

@@ -83,3 +83,15 @@ def test_needs_points_on_both_sides():
     u = np.linspace(0.1, 1, 20)
     with pytest.raises(ValueError, match="command: got 20 forward and 0 reverse"):
         fit_thrust_curve(u, 30 * u)
+
+
+def test_calibration_table_words_give_the_same_fit():
+    """The calibration procedure records "up"/"down"/"hold" for |command| rising/falling."""
+    u, f, s = _sweeps(3)
+    magnitude_rising = s * np.sign(u)
+    words = np.where(magnitude_rising > 0, "up", np.where(magnitude_rising < 0, "down", "hold"))
+    numeric = fit_thrust_curve(u, f, s)
+    worded = fit_thrust_curve(list(u), list(f), directions=list(words))
+    assert np.allclose(worded.values, numeric.values, rtol=1e-6, atol=1e-9)
+    with pytest.raises(ValueError, match="directions: got \\['sideways'\\]"):
+        fit_thrust_curve(u, f, ["sideways"] * u.size)
