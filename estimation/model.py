@@ -141,7 +141,9 @@ def _hermite(grid_x, grid_v, h, tau):
 
 
 def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.ndarray, ...]]:
-    h = min(RK4_MAX_STEP_S, min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1))
+    h = RK4_MAX_STEP_S
+    if any(r.constant_drive is None for r in runs):  # one step per held thrust sample
+        h = min(h, min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1))
     delay = p["release_delay"]
     span = max(float(r.t[-1] - r.t_release) for r in runs) - min(0.0, float(delay.min()))
     n_steps = max(int(np.ceil(span / h)) + 2, 3)
