@@ -28,7 +28,13 @@ from api.cli_common import db_option, fail, rig_option, scenario_option, user_er
     "--ask-operator/--auto-operator", default=None,
     help="Ask a person through the API for weights etc. (default: only on a hardware rig).",
 )  # fmt: skip
-def serve(rig_file, scenario_file, db_url, host, port, open_read, cors_origins, ask_operator):
+@click.option(
+    "--realtime/--no-realtime", default=True, show_default=True,
+    help="Run the clock's thread SCHED_FIFO (needs CAP_SYS_NICE; falls back with a warning).",
+)  # fmt: skip
+def serve(
+    rig_file, scenario_file, db_url, host, port, open_read, cors_origins, ask_operator, realtime
+):
     """Serve the HTTP API and the browser UI (binds 127.0.0.1 by default)."""
     import uvicorn
 
@@ -39,7 +45,7 @@ def serve(rig_file, scenario_file, db_url, host, port, open_read, cors_origins, 
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
     token = load_or_create_token()
-    service = RigService(source, db_url, ask_operator=ask_operator)
+    service = RigService(source, db_url, ask_operator=ask_operator, realtime=realtime)
     app = create_app(service, token=token, open_read=open_read, cors_origins=cors_origins)
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)

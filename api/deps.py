@@ -1,4 +1,8 @@
-"""What every route depends on: the service, the job runner, the store, the token checks."""
+"""What every route depends on: the service, the job runner, the store, the token checks.
+
+All are ``async def``: they never block, and FastAPI would otherwise hop to a worker
+thread for each of them on every request.
+"""
 
 from __future__ import annotations
 
@@ -18,27 +22,27 @@ bearer = HTTPBearer(
 )
 
 
-def get_service(request: Request) -> RigService:
+async def get_service(request: Request) -> RigService:
     return request.app.state.service
 
 
-def get_runner(request: Request) -> JobRunner:
+async def get_runner(request: Request) -> JobRunner:
     return request.app.state.runner
 
 
-def get_store(request: Request) -> Store:
+async def get_store(request: Request) -> Store:
     store = request.app.state.service.store
     if store is None:
         raise RigUnavailable("the run database is not open")
     return store
 
 
-def require_write(request: Request, _: Credentials) -> None:
+async def require_write(request: Request, _: Credentials) -> None:
     """Every state-changing endpoint: the bearer token is required."""
     check_token(request, request.app.state.token)
 
 
-def require_read(request: Request, _: Credentials) -> None:
+async def require_read(request: Request, _: Credentials) -> None:
     """Read-only endpoints: the token is required unless the service runs ``--open-read``."""
     if not request.app.state.open_read:
         check_token(request, request.app.state.token)

@@ -14,11 +14,12 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
-from fastapi.responses import FileResponse, StreamingResponse
+from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from api.deps import RunnerDep, StoreDep, require_read, require_write
 from api.jobs import JobRunner
+from api.run_cache import EndedRunCache
 from api.schemas import (
     EventOut,
     ImportOut,
@@ -65,17 +66,24 @@ def list_runs(
     return [r.to_json(include_toml=False) for r in runs]
 
 
+_RUN_CACHE = EndedRunCache()
+
+
 @router.get("/runs/{run_id}", response_model=RunOut, dependencies=[Depends(require_read)],
             responses=_READ)  # fmt: skip
-def get_run(
+async def get_run(
     run_id: str,
     store: StoreDep,
     include_toml: Annotated[
         bool, Query(description="Add the rig file and scenario as run.")
     ] = False,
-) -> dict:
+) -> Response:
     """One run's metadata (id or unique id prefix)."""
-    return store.get_run(run_id).to_json(include_toml=include_toml)
+    body = _RUN_CACHE.get(run_id, include_toml)
+    if body is None:
+        run = await run_in_threadpool(store.get_run, run_id)
+        body = _RUN_CACHE.put(run, include_toml)
+    return Response(body, media_type="application/json")
 
 
 @router.get(

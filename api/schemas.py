@@ -178,6 +178,7 @@ class RigStatus(BaseModel):
     simulated: bool
     rig_name: str
     vehicle: str | None = None
+    realtime: bool = Field(False, description="The rig thread runs SCHED_FIFO.")
     connected: bool = False
     device_lost: bool = False
     lock_holder: str | None = None

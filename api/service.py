@@ -60,6 +60,7 @@ class RigService:
         rate_hz: float | None = None,
         ask_operator: bool | None = None,
         broadcaster: Broadcaster | None = None,
+        realtime: bool = False,
     ) -> None:
         self.source = source
         self.store_url = store_url
@@ -70,6 +71,10 @@ class RigService:
             source.rig.rig.mode != "simulated" if ask_operator is None else ask_operator
         )
         self.broadcaster = broadcaster or Broadcaster()
+        #: Run the rig thread (clock, devices) SCHED_FIFO so a busy machine cannot
+        #: delay a tick; falls back (with a warning) when the OS refuses.
+        self.realtime = realtime
+        self.realtime_active = False
         self.store: Store | None = None
         self.session: RigSession | None = None
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -127,6 +132,10 @@ class RigService:
 
     async def _run(self) -> None:
         self._stop = asyncio.Event()
+        if self.realtime:
+            from daq.acquisition import set_realtime
+
+            self.realtime_active = set_realtime()
         operator = PromptOperator(self._ask) if self.ask_operator else None
         assert self.store is not None
         session = RigSession(self.source, self.store, operator=operator, rate_hz=self.rate_hz)
@@ -226,6 +235,7 @@ class RigService:
             "error": None,
             "simulated": session.simulated,
             "rig_name": session.rig.rig.name,
+            "realtime": self.realtime_active,
             "vehicle": session.rig.vehicle.name,
             "connected": bool(session.plc is not None and session.plc.connected),
             "device_lost": acq.device_lost.is_set(),

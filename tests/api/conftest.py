@@ -35,6 +35,22 @@ def wait_job(client, job_id: str, *, states=FINAL, timeout_s: float = 30.0) -> d
         time.sleep(0.05)
 
 
+def wait_rig_free(client, timeout_s: float = 30.0) -> None:
+    """Wait until no job holds the rig (e.g. one a previous test aborted is winding down)."""
+    end = time.monotonic() + timeout_s
+    while client.get("/api/rig", headers=AUTH).json()["current_job"] is not None:
+        assert time.monotonic() < end, "the rig stayed busy"
+        time.sleep(0.05)
+
+
+def start_job(client, path: str, body: dict) -> str:
+    """Start a job once the rig is free; returns its id."""
+    wait_rig_free(client)
+    r = client.post(path, json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    return r.json()["id"]
+
+
 @pytest.fixture(scope="module")
 def service(tmp_path_factory) -> RigService:
     db = tmp_path_factory.mktemp("api") / "rig.db"
@@ -56,9 +72,7 @@ def client(service: RigService, tmp_path_factory) -> Iterator[TestClient]:
 @pytest.fixture(scope="module")
 def tow_job(client: TestClient) -> dict:
     """One completed short tow (shared by the read tests)."""
-    r = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
-    assert r.status_code == 202, r.text
-    job = wait_job(client, r.json()["id"])
+    job = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
     assert job["state"] == "completed", job
     return job
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from tests.api.conftest import AUTH, SHORT_TOW, wait_job
+from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job, wait_rig_free
 
 
 def test_tow_job_end_to_end_stores_a_completed_run(client, tow_job):
@@ -25,9 +25,7 @@ def test_tow_job_end_to_end_stores_a_completed_run(client, tow_job):
 
 
 def test_second_start_while_busy_is_409_naming_the_holder(client):
-    r = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
-    assert r.status_code == 202
-    job_id = r.json()["id"]
+    job_id = start_job(client, "/api/jobs/tow", SHORT_TOW)
     try:
         for path, body in (
             ("/api/jobs/tow", {"force_n": 4.9}),
@@ -47,8 +45,7 @@ def test_second_start_while_busy_is_409_naming_the_holder(client):
 
 
 def test_abort_ends_the_run_aborted_with_brake_on(client):
-    r = client.post("/api/jobs/tow", json={"force_n": 10.0, "max_time_s": 30}, headers=AUTH)
-    job_id = r.json()["id"]
+    job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
     end = time.monotonic() + 10
     while not client.get(f"/api/jobs/{job_id}", headers=AUTH).json()["run_ids"]:
         assert time.monotonic() < end
@@ -70,8 +67,7 @@ def test_abort_ends_the_run_aborted_with_brake_on(client):
 
 
 def test_emergency_stop_aborts_the_running_job(client):
-    r = client.post("/api/jobs/tow", json={"force_n": 10.0, "max_time_s": 30}, headers=AUTH)
-    job_id = r.json()["id"]
+    job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
     wait_job(client, job_id, states=("running",))
     stop = client.post("/api/rig/emergency-stop", headers=AUTH)
     assert stop.status_code == 200
@@ -82,6 +78,7 @@ def test_emergency_stop_aborts_the_running_job(client):
 
 
 def test_arm_and_disarm_thrusters(client):
+    wait_rig_free(client)
     r = client.post("/api/rig/arm", headers=AUTH)
     assert r.status_code == 200, r.text
     assert r.json()["armed"] is True
@@ -105,9 +102,7 @@ def test_rig_status_reports_values_clock_and_limits(client):
 def test_sequence_pauses_between_steps_and_resumes(client):
     step = {"kind": "tow", "force_n": 4.9, "max_time_s": 0.5, "baseline_s": 0.0}
     body = {"name": "api test", "rest_s": 0.2, "steps": [step, step]}
-    r = client.post("/api/jobs/sequence", json=body, headers=AUTH)
-    assert r.status_code == 202, r.text
-    job_id = r.json()["id"]
+    job_id = start_job(client, "/api/jobs/sequence", body)
     assert client.post(f"/api/jobs/{job_id}/pause", headers=AUTH).status_code == 200
     paused = wait_job(client, job_id, states=("paused", *("completed", "aborted", "failed")))
     assert paused["state"] == "paused", paused

@@ -22,7 +22,7 @@ from schemathesis.specs.openapi.checks import (
 )
 
 from api.app import create_app
-from tests.api.conftest import AUTH, TOKEN, LiveServer
+from tests.api.conftest import AUTH, TOKEN, LiveServer, wait_rig_free
 
 EXAMPLES_PER_OPERATION = 12
 #: Everything but "positive data accepted": a schema-valid force can still be over this
@@ -79,5 +79,7 @@ def test_no_server_error_and_no_schema_violation(live_schema, client):
         finally:
             timings[op.label] = time.monotonic() - t0
             client.post("/api/rig/emergency-stop", headers=AUTH)  # end jobs it started
+    client.post("/api/rig/emergency-stop", headers=AUTH)
+    wait_rig_free(client)
     print("slowest operations:", sorted(timings.items(), key=lambda kv: -kv[1])[:3])
     assert not failures, "\n\n".join(f"{k}\n{v}" for k, v in failures.items())

@@ -8,7 +8,7 @@ import json
 import socket
 import time
 
-from tests.api.conftest import AUTH, SHORT_TOW, wait_job
+from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
 
 
 def _events(http, query: str) -> list[tuple[str, dict]]:
@@ -46,7 +46,7 @@ def test_stream_down_samples_for_slow_clients(live_url):
 
 def test_stream_carries_job_events_of_a_tow(live_url, client):
     with live_url.stream("GET", "/api/stream?samples=false&max_s=15") as r:
-        job_id = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH).json()["id"]
+        job_id = start_job(client, "/api/jobs/tow", SHORT_TOW)
         states = []
         kind = None
         for line in r.iter_lines():
@@ -78,7 +78,7 @@ def test_a_client_that_stops_reading_never_slows_the_clock(live_url, client, ser
     try:
         acq = service.session.acquisition
         before, t0 = acq.stats.ticks, time.monotonic()
-        job_id = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH).json()["id"]
+        job_id = start_job(client, "/api/jobs/tow", SHORT_TOW)
         job = wait_job(client, job_id)
         assert job["state"] == "completed"
         expected = (time.monotonic() - t0) * acq.rate_hz
