@@ -164,3 +164,19 @@ async def test_realtime_clock_runs_and_restores_the_thread_scheduling(plc):
     await runner
     assert [s.seq for s in samples] == list(range(20))
     assert (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0)) == before
+
+
+async def test_a_frozen_plc_scan_marks_samples_stale_by_name(server, plc):
+    server.heartbeat_running = False  # the PLC answers but its scan (heartbeat, ms clock) stopped
+    acq = Acquisition(plc, rate_hz=50.0)
+    q = acq.subscribe()
+    runner = asyncio.create_task(acq.run())
+    samples = await _collect(q, 35)  # 0.7 s; freshness_s is 0.5 s
+    acq.stop()
+    await runner
+    assert samples[0].quality == Quality.OK
+    late = samples[-1]
+    assert late.quality == Quality.STALE
+    assert late.stale == ("heartbeat", "plc_clock")
+    assert not math.isnan(late.channels["heartbeat"])  # stale values are still reported
+    assert not acq.device_lost.is_set()
