@@ -193,7 +193,7 @@ async def test_server_lost_then_back_reconnects_in_the_background(server):
         t0 = time.monotonic()
         with pytest.raises(DeviceError, match="tow_position"):
             await plc.read_all()
-        assert time.monotonic() - t0 < 0.1  # fails fast: no inline reconnect
+        assert time.monotonic() - t0 < 0.3  # fails fast: no inline reconnect loop
         assert not plc.connected
         await asyncio.sleep(0.3)
         await server.start()  # same port
