@@ -32,6 +32,8 @@ log = logging.getLogger(__name__)
 ACTIVE = ("queued", "running", "waiting_for_operator", "paused")
 FINAL = ("completed", "aborted", "failed")
 PROCEDURES = ("tow", "spin", "thrust_calibration", "sequence")
+#: Ended jobs remembered (their runs and results are in the store regardless).
+KEEP_ENDED = 500
 
 
 class JobNotFound(KeyError):
@@ -130,6 +132,9 @@ class JobRunner:
     def _new(self, kind: str, label: str, parameters: dict[str, Any]) -> Job:
         job = Job(uuid.uuid4().hex[:12], kind, label, parameters)
         self.jobs[job.id] = job
+        ended = [j for j in self.jobs.values() if j.state in FINAL]
+        for old in sorted(ended, key=lambda j: j.created_at)[: max(0, len(ended) - KEEP_ENDED)]:
+            self.jobs.pop(old.id, None)  # runs and results stay in the store
         return job
 
     def _update(self, job: Job, **changes: Any) -> None:

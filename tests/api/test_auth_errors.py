@@ -134,3 +134,23 @@ def test_openapi_declares_errors_security_and_models(client):
     assert tow["security"] == [{"HTTPBearer": []}]
     assert "JobOut" in doc["components"]["schemas"]
     assert "text/csv" in doc["paths"]["/api/runs/import"]["post"]["requestBody"]["content"]
+
+
+def test_cors_is_off_unless_an_origin_is_configured(service, client):
+    preflight = {"Origin": "http://lab.example", "Access-Control-Request-Method": "POST"}
+    r = client.options("/api/jobs/tow", headers=preflight)
+    assert "access-control-allow-origin" not in r.headers
+    app = create_app(
+        service,
+        token=TOKEN,
+        manage_service=False,
+        runner=client.app.state.runner,
+        cors_origins=["http://lab.example"],
+    )
+    with TestClient(app) as cors_client:
+        r = cors_client.options("/api/jobs/tow", headers=preflight)
+        assert r.headers["access-control-allow-origin"] == "http://lab.example"
+        r = cors_client.options(
+            "/api/jobs/tow", headers=preflight | {"Origin": "http://evil.example"}
+        )
+        assert "access-control-allow-origin" not in r.headers
