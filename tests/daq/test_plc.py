@@ -26,7 +26,7 @@ async def server():
 @pytest.fixture
 async def plc(server):
     client = PlcClient(server.rig_config())
-    await client.connect()
+    await client.connect(timeout_s=2.0)
     yield client
     await client.close()
 
@@ -69,7 +69,7 @@ async def test_32_bit_word_order_both_ways(order):
     try:
         srv.words["input"][0], srv.words["input"][1] = 0x0001, 0x0002
         client = PlcClient(srv.rig_config())
-        await client.connect()
+        await client.connect(timeout_s=2.0)
         raw = 0x00010002 if order == "big" else 0x00020001
         assert await client.read("tow_position") == pytest.approx(raw * 1e-5)
         await client.close()
@@ -94,7 +94,7 @@ async def test_a_counter_that_stops_counting_goes_stale(server):
     rig = server.rig_config()
     chans = [c.model_copy(update={"freshness_s": 0.1}) for c in rig.channels]
     plc = PlcClient(rig.model_copy(update={"channels": chans}))
-    await plc.connect()
+    await plc.connect(timeout_s=2.0)
     server.heartbeat_running = False
     try:
         server.set_raw("heartbeat", 10)
@@ -184,7 +184,7 @@ async def test_connect_timeout_gives_up_with_device_error():
 
 async def test_server_lost_then_back_reconnects_in_the_background(server):
     plc = PlcClient(server.rig_config(reconnect_min_s=0.05, reconnect_max_s=0.2))
-    await plc.connect()
+    await plc.connect(timeout_s=2.0)
     try:
         server.set("tow_position", 0.5)
         await plc.read_all()

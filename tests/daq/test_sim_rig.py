@@ -44,7 +44,7 @@ async def test_tow_over_modbus_tcp_position_grows():
     # The simulator on its own thread and loop, as the service and benches run it.
     with SimulatedRigThread(load_rig()) as sim:
         client = PlcClient(sim.connection_rig())
-        await client.connect()
+        await client.connect(timeout_s=2.0)
         try:
             samples = await _tow_and_watch(client, rate_hz=20.0, n=20)
         finally:
@@ -63,7 +63,7 @@ async def test_rtu_over_a_pty():
     sim = await _started(rtu=True)
     client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.2))
     assert client.modbus.serial_port.startswith("/dev/")
-    await client.connect()
+    await client.connect(timeout_s=2.0)
     try:
         samples = await _tow_and_watch(client, rate_hz=20.0, n=10)
     finally:
@@ -77,7 +77,7 @@ async def test_rtu_over_a_socket_url():
     sim = await _started(rtu="socket")
     client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.2))
     assert client.modbus.serial_port.startswith("socket://")
-    await client.connect()
+    await client.connect(timeout_s=2.0)
     try:
         assert await client.read("supply_voltage") > 10.0
         assert (await client.read_all())["estop"].value == 0.0
@@ -89,7 +89,7 @@ async def test_rtu_over_a_socket_url():
 async def test_a_delayed_plc_makes_the_clock_skip_slots():
     sim = await _started()
     client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.5))
-    await client.connect()
+    await client.connect(timeout_s=2.0)
     acq = Acquisition(client, rate_hz=100.0)
     q = acq.subscribe()
     runner = asyncio.create_task(acq.run())
@@ -112,7 +112,7 @@ async def test_a_delayed_plc_makes_the_clock_skip_slots():
 async def test_simulated_plc_stops_and_returns():
     sim = await _started()
     client = PlcClient(_pointed(sim.connection_rig(), reconnect_min_s=0.05, reconnect_max_s=0.2))
-    await client.connect()
+    await client.connect(timeout_s=2.0)
     acq = Acquisition(client, rate_hz=50.0, device_lost_after_s=0.1)
     q = acq.subscribe()
     runner = asyncio.create_task(acq.run())
@@ -137,7 +137,7 @@ async def test_simulated_plc_stops_and_returns():
 async def test_dropped_responses_time_out_on_time_and_recover():
     sim = await _started()
     client = PlcClient(_pointed(sim.connection_rig(), reconnect_min_s=0.05, reconnect_max_s=0.2))
-    await client.connect()
+    await client.connect(timeout_s=2.0)
     acq = Acquisition(client, rate_hz=10.0, device_lost_after_s=0.25)
     q = acq.subscribe()
     runner = asyncio.create_task(acq.run())
