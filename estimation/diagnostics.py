@@ -40,67 +40,83 @@ def ljung_box(residuals: Sequence[np.ndarray], max_lag: int = 10) -> Whiteness:
     return Whiteness(q_total, lags_total, p)
 
 
-def measured_derivatives(run: PreparedRun) -> tuple[np.ndarray, np.ndarray]:
-    """Velocity and acceleration of the measured positions (Savitzky–Golay, 7 samples)."""
-    dt = float(np.median(np.diff(run.t))) if run.t.size > 1 else 0.1
-    if run.t.size < 7:
-        v = np.gradient(run.x, run.t)
-        return v, np.gradient(v, run.t)
-    v = savgol_filter(run.x, 7, 2, deriv=1, delta=dt)
-    a = savgol_filter(run.x, 7, 2, deriv=2, delta=dt)
-    return v, a
+def smoothed_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and second time derivative of samples y(t) at the sample times.
+
+    Resampled to a uniform grid (irregular timestamps would otherwise read as noise),
+    smoothed by a 7-point Savitzky–Golay filter and mapped back.
+    """
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.1
+    grid = np.arange(t[0], t[-1] + 0.5 * dt, dt)
+    if grid.size < 7:
+        d1 = np.gradient(y, t) if t.size > 1 else np.zeros_like(y)
+        return d1, np.gradient(d1, t) if t.size > 1 else np.zeros_like(y)
+    yy = np.interp(grid, t, y)
+    d1 = savgol_filter(yy, 7, 2, deriv=1, delta=dt)
+    d2 = savgol_filter(yy, 7, 2, deriv=2, delta=dt)
+    return np.interp(t, grid, d1), np.interp(t, grid, d2)
 
 
 def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndarray]:
-    """Force-domain residual τ − (model forces) on measured derivatives, per run (N or N·m)."""
+    """Force-domain residual per run (N or N·m): the force the model misses, linearised.
+
+    For a position residual r(t) about the model trajectory v(t):
+        τ_res ≈ M_tot·r̈ + (K_L + 2K_Q·|v| + 3K_C·v²)·ṙ + k_s·r
+    with ṙ, r̈ from smoothed derivatives of r (model derivatives are exact, so fast
+    transients do not bias it).
+    """
     out = []
-    for r, offset in zip(runs, fit.offsets, strict=True):
-        v, a = measured_derivatives(r)
+    for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True):
+        d1, d2 = smoothed_derivatives(r.t, res)
         inertia = fit.value("inertia") + r.extra_inertia
         inertia += fit.value("drive_inertia") * r.mean_abs_drive / STANDARD_GRAVITY
-        moving = r.t > r.t_release + fit.value("release_delay")
-        drive = np.where(moving, r.drive + fit.value("constant_bias"), 0.0)
-        friction = fit.value("coulomb_friction") * np.sign(v) * moving
-        model = (
-            inertia * a
-            + fit.value("linear_damping") * v
-            + fit.value("quadratic_damping") * np.abs(v) * v
-            + fit.value("cubic_drag") * v**3
-            + fit.value("restoring_spring") * (r.x - offset) * moving
-            + friction
+        damping = (
+            fit.value("linear_damping")
+            + 2 * fit.value("quadratic_damping") * np.abs(v)
+            + 3 * fit.value("cubic_drag") * v**2
         )
-        out.append(drive - model)
+        out.append(inertia * d2 + damping * d1 + fit.value("restoring_spring") * res)
     return out
 
 
 def regressor_correlations(
     fit: FitResult, runs: Sequence[PreparedRun], force_res: Sequence[np.ndarray]
 ) -> dict[str, float]:
-    """Correlation of the pooled force residual with each effect's signature regressor."""
-    cols: dict[str, list[np.ndarray]] = {
-        k: []
-        for k in (
-            "coulomb_friction",
-            "constant_bias",
-            "drive_inertia",
-            "restoring_spring",
-            "cubic_drag",
-        )
-    }
-    for r, offset, v_model in zip(runs, fit.offsets, fit.velocities, strict=True):
-        _, a = measured_derivatives(r)
-        cols["coulomb_friction"].append(-np.sign(v_model))
-        cols["constant_bias"].append(np.ones_like(v_model))
+    """Partial correlation of the pooled force residual with each effect's regressor.
+
+    Both are first made orthogonal to the base model's own regressors (v̇, v, |v|·v), since
+    whatever lies along those was already absorbed by M, K_L and K_Q. Sign: positive means
+    adding the effect with a positive value would explain the residual.
+    """
+    base, cols = (
+        [],
+        {
+            k: []
+            for k in (
+                "coulomb_friction",
+                "constant_bias",
+                "drive_inertia",
+                "restoring_spring",
+                "cubic_drag",
+            )
+        },
+    )
+    for r, offset, v in zip(runs, fit.offsets, fit.velocities, strict=True):
+        a = np.gradient(v, r.t) if r.t.size > 1 else np.zeros_like(v)
+        base.append(np.column_stack([a, v, np.abs(v) * v]))
+        cols["coulomb_friction"].append(-np.sign(v))
+        cols["constant_bias"].append(np.ones_like(v))
         cols["drive_inertia"].append(-a * r.mean_abs_drive)
         cols["restoring_spring"].append(-(r.x - offset))
-        cols["cubic_drag"].append(-(v_model**3))
+        cols["cubic_drag"].append(-(v**3))
+    h = np.vstack(base)
+    h_pinv = np.linalg.pinv(h)
     res = np.concatenate(force_res)
+    res = res - h @ (h_pinv @ res)
     out = {}
     for name, parts in cols.items():
         reg = np.concatenate(parts)
-        if np.std(reg) == 0 or np.std(res) == 0:
-            # a constant regressor: correlation is undefined, report the normalised mean
-            out[name] = float(np.mean(res * reg) / (np.sqrt(np.mean(res**2)) or 1.0))
-        else:
-            out[name] = float(np.corrcoef(res, reg)[0, 1])
+        reg = reg - h @ (h_pinv @ reg)
+        denom = float(np.linalg.norm(res) * np.linalg.norm(reg))
+        out[name] = float(res @ reg) / denom if denom > 0 else 0.0
     return out

@@ -163,6 +163,7 @@ def _build(
         for e in final.effects
     )
     warnings = separability_warnings(final, prepared)
+    force_before = force_residuals(base, prepared)
     return EstimationResult(
         axis=axis,
         method=method,
@@ -181,9 +182,9 @@ def _build(
         advice=tuple(advice),
         whiteness_before=ljung_box(base.residuals),
         whiteness_after=ljung_box(final.residuals),
-        residual_correlations=regressor_correlations(
-            base, prepared, force_residuals(base, prepared)
-        ),
+        residual_correlations=regressor_correlations(base, prepared, force_before),
+        force_rmse_per_run_before=_rms_per_run(ids, force_before),
+        force_rmse_per_run_after=_rms_per_run(ids, force_residuals(final, prepared)),
         steps=tuple(steps),
         cv_before=cv_before,
         cv_after=cv_after,
@@ -191,6 +192,10 @@ def _build(
         fit_before=base,
         fit_after=final,
     )
+
+
+def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:
+    return {i: float(np.sqrt(np.mean(r**2))) for i, r in zip(ids, residuals, strict=True)}
 
 
 def _seed_result(axis, method, runs, prepared) -> EstimationResult:

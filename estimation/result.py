@@ -78,6 +78,8 @@ class EstimationResult:
     whiteness_before: Whiteness
     whiteness_after: Whiteness
     residual_correlations: dict[str, float]
+    force_rmse_per_run_before: dict[str, float] = field(default_factory=dict)
+    force_rmse_per_run_after: dict[str, float] = field(default_factory=dict)
     steps: tuple[SearchStep, ...] = ()
     cv_before: float | None = None
     cv_after: float | None = None
@@ -109,6 +111,12 @@ class EstimationResult:
             "diagnostics": {
                 "ljung_box_before": _white(self.whiteness_before),
                 "ljung_box_after": _white(self.whiteness_after),
+                "force_rmse_per_run_before": {
+                    k: _num(v) for k, v in self.force_rmse_per_run_before.items()
+                },
+                "force_rmse_per_run_after": {
+                    k: _num(v) for k, v in self.force_rmse_per_run_after.items()
+                },
                 "residual_correlation_before": {
                     k: _num(v) for k, v in self.residual_correlations.items()
                 },
