@@ -9,7 +9,6 @@ import numpy as np
 from scipy.signal import savgol_filter
 from scipy.stats import chi2
 
-from estimation.effects import STANDARD_GRAVITY
 from estimation.model import PreparedRun
 from estimation.output_error import FitResult
 
@@ -69,7 +68,7 @@ def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndar
     for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True):
         d1, d2 = smoothed_derivatives(r.t, res)
         inertia = fit.value("inertia") + r.extra_inertia
-        inertia += fit.value("drive_inertia") * r.mean_abs_drive / STANDARD_GRAVITY
+        inertia += fit.value("drive_inertia") * r.weight_equivalent
         damping = (
             fit.value("linear_damping")
             + 2 * fit.value("quadratic_damping") * np.abs(v)
@@ -106,7 +105,7 @@ def regressor_correlations(
         base.append(np.column_stack([a, v, np.abs(v) * v]))
         cols["coulomb_friction"].append(-np.sign(v))
         cols["constant_bias"].append(np.ones_like(v))
-        cols["drive_inertia"].append(-a * r.mean_abs_drive)
+        cols["drive_inertia"].append(-a * r.weight_equivalent)
         cols["restoring_spring"].append(-(r.x - offset))
         cols["cubic_drag"].append(-(v**3))
     h = np.vstack(base)

@@ -33,6 +33,7 @@ class PreparedRun:
     t_release: float
     extra_inertia: float
     mean_abs_drive: float
+    weight_equivalent: float  # |τ|/g when the hung weight is undeclared, else 0 (drive_inertia)
 
 
 def prepare(run: RunData) -> PreparedRun:
@@ -42,6 +43,7 @@ def prepare(run: RunData) -> PreparedRun:
     drive = run.drive_at_samples()[keep]
     moving = t > run.t_release
     const = float(np.asarray(run.drive)) if run.is_constant_drive() else None
+    mean_abs = float(np.mean(np.abs(drive[moving]))) if moving.any() else 0.0
     return PreparedRun(
         run_id=run.run_id,
         t=t,
@@ -50,7 +52,8 @@ def prepare(run: RunData) -> PreparedRun:
         constant_drive=const,
         t_release=float(run.t_release),
         extra_inertia=run.declared_extra_inertia(),
-        mean_abs_drive=float(np.mean(np.abs(drive[moving]))) if moving.any() else 0.0,
+        mean_abs_drive=mean_abs,
+        weight_equivalent=0.0 if run.hung_mass_declared() else mean_abs / STANDARD_GRAVITY,
     )
 
 
@@ -108,11 +111,7 @@ def _simulate_closed(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np
     for r in runs:
         force = r.constant_drive
         assert force is not None
-        inertia = (
-            col("inertia")
-            + r.extra_inertia
-            + col("drive_inertia") * abs(force) / (STANDARD_GRAVITY)
-        )
+        inertia = col("inertia") + r.extra_inertia + col("drive_inertia") * r.weight_equivalent
         net = force + col("constant_bias")
         f_eff = np.maximum(np.abs(net) - col("coulomb_friction"), 0.0)
         tau = np.maximum(r.t[None, :] - r.t_release - col("release_delay"), 0.0)
@@ -152,11 +151,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     const_force = np.zeros((n_sets, n_runs))
     varying = [i for i, r in enumerate(runs) if r.constant_drive is None]
     for i, r in enumerate(runs):
-        inertia[:, i] = (
-            p["inertia"]
-            + r.extra_inertia
-            + p["drive_inertia"] * r.mean_abs_drive / STANDARD_GRAVITY
-        )
+        inertia[:, i] = p["inertia"] + r.extra_inertia + p["drive_inertia"] * r.weight_equivalent
         const_force[:, i] = (r.constant_drive or 0.0) + p["constant_bias"]
     k_l, k_q = p["linear_damping"][:, None], p["quadratic_damping"][:, None]
     k_c, k_s = p["cubic_drag"][:, None], p["restoring_spring"][:, None]

@@ -80,3 +80,11 @@ def test_yaw_tether_spring_is_named():
     doc = estimate(runs, n_bootstrap=0).to_json()
     _check_found(doc, "restoring_spring", 0.01, YAW_TRUTH)
     assert doc["effects"][0]["unit"] == "N·m/rad"
+
+
+def test_drive_inertia_only_touches_runs_without_a_declared_weight():
+    declared = tow_set(seed=13)
+    undeclared = tow_set(seed=13, declare_hung_mass=False)
+    runs = [declared[0], undeclared[1], declared[2], undeclared[3]]
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    _check_found(doc, "drive_inertia", 9.80665 / 9.8, SURGE_TRUTH, rel=0.03)
