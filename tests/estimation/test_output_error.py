@@ -1,5 +1,7 @@
 """Parameter recovery of the joint output-error fit on clean simulated runs."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -55,3 +57,25 @@ def test_truth_inside_two_sigma_in_90_percent_of_50_seeds(axis):
     print(f"{axis}: truth within ±2σ in {coverage} of 50 seeds, worst relative error {worst}")
     assert np.all(worst < 0.01)
     assert np.all(coverage >= 0.9)
+
+
+def test_samples_after_t_end_are_ignored():
+    """After the end-of-travel brake the carriage stands still: those samples must not count."""
+    runs = []
+    for r in tow_set(seed=14):
+        t_stop = np.arange(1, 21) * 0.1 + r.t[-1]
+        t = np.concatenate([r.t, t_stop])
+        x = np.concatenate([r.position, np.full(t_stop.size, r.position[-1])])
+        runs.append(dataclasses.replace(r, t=t, position=x, t_end=float(r.t[-1])))
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    values = np.array(
+        [
+            doc["coefficients"][k]["value"]
+            for k in ("inertia", "linear_damping", "quadratic_damping")
+        ]
+    )
+    assert np.all(np.abs(values / TRUTH["surge"] - 1) < 0.01) and doc["effects"] == []
+    braked = [dataclasses.replace(r, t_end=None) for r in runs]
+    assert (
+        estimate(braked, search_effects=False, n_bootstrap=0).rmse_after > 100 * doc["rmse_after"]
+    )
