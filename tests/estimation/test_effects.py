@@ -88,3 +88,17 @@ def test_drive_inertia_only_touches_runs_without_a_declared_weight():
     runs = [declared[0], undeclared[1], declared[2], undeclared[3]]
     doc = estimate(runs, n_bootstrap=0).to_json()
     _check_found(doc, "drive_inertia", 9.80665 / 9.8, SURGE_TRUTH, rel=0.03)
+
+
+@pytest.mark.parametrize(
+    ("effect", "physics_kw", "value", "ambiguous"),
+    [
+        ("coulomb_friction", {"coulomb": 0.05}, 0.05, [["constant_bias", "coulomb_friction"]]),
+        ("release_delay", {"delay": 0.2}, 0.2, []),
+    ],
+)
+def test_yaw_effects(effect, physics_kw, value, ambiguous):
+    runs = tow_set(Physics(*YAW_TRUTH, **physics_kw), axis="yaw", seed=15)
+    doc = estimate(runs, n_bootstrap=0).to_json()
+    _check_found(doc, effect, value, YAW_TRUTH)
+    assert [sorted(g) for g in doc["ambiguous"]] == ambiguous
