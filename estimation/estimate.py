@@ -49,7 +49,8 @@ def estimate(
         return _seed_result(axis, method, runs, prepared)
     base = fit_output_error(prepared)
     if search_effects:
-        declared = all(r.hung_mass_declared() for r in runs)
+        # drive_inertia is a candidate only for weight-driven runs without a declared weight
+        declared = all(r.hung_mass_declared() or not r.is_constant_drive() for r in runs)
         outcome = search_effects_fn(prepared, base, candidate_effects(declared))
         final, steps = outcome.final, outcome.steps
         ambiguous, advice = outcome.ambiguous, outcome.advice

@@ -53,7 +53,11 @@ def prepare(run: RunData) -> PreparedRun:
         t_release=float(run.t_release),
         extra_inertia=run.declared_extra_inertia(),
         mean_abs_drive=mean_abs,
-        weight_equivalent=0.0 if run.hung_mass_declared() else mean_abs / STANDARD_GRAVITY,
+        weight_equivalent=(
+            mean_abs / STANDARD_GRAVITY
+            if const is not None and not run.hung_mass_declared()
+            else 0.0
+        ),
     )
 
 
