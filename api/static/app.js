@@ -525,6 +525,9 @@ async function loadCalibration() {
     { x: table.map((r) => r.command), y: table.map((r) => r.thrust_per_thruster_n), mode: "markers", name: "measured" },
   ];
   const fit = data.fit && data.fit.parameters;
+  $("#cal-params tbody").innerHTML = Object.entries(fit || {})
+    .map(([k, v]) => `<tr><td>${k}</td><td>${fmt(v.value, 5)}</td><td>± ${fmt(v.std, 3)}</td></tr>`)
+    .join("") + (data.fit ? `<tr><td>RMSE (N)</td><td>${fmt(data.fit.rmse_n, 3)}</td><td></td></tr>` : "");
   const p = fit ? Object.fromEntries(Object.entries(fit).map(([k, v]) => [k, v.value])) : null;
   if (p) {
     const [lo, hi] = data.fit.command_range || [-1, 1];

@@ -1,0 +1,85 @@
+"""Estimation and calibration through the API: jobs, stored results, report plots."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.api.conftest import AUTH, start_job, wait_job
+
+
+@pytest.fixture(scope="module")
+def two_tows(client) -> list[str]:
+    runs = []
+    for force in (24.5, 83.3):
+        job_id = start_job(
+            client, "/api/jobs/tow", {"force_n": force, "max_time_s": 2.0, "baseline_s": 0.3}
+        )
+        job = wait_job(client, job_id)
+        assert job["state"] == "completed", job
+        runs += job["run_ids"]
+    return runs
+
+
+def test_estimation_job_returns_the_result_json_and_report_plots(client, two_tows):
+    r = client.post(
+        "/api/jobs/estimation",
+        json={"run_ids": [run[:8] for run in two_tows], "method": "output-error"},
+        headers=AUTH,
+    )
+    assert r.status_code == 202, r.text
+    assert r.json()["run_ids"] == two_tows  # prefixes resolved to full ids at once
+    job = wait_job(client, r.json()["id"], timeout_s=60)
+    assert job["state"] == "completed", job
+    result = job["outcome"]
+    assert result["axis"] == "surge"
+    assert result["method"] == "output-error"
+    assert set(result["coefficients"]) == {"inertia", "linear_damping", "quadratic_damping"}
+    for c in result["coefficients"].values():
+        assert c["value"] > 0 and c["std"] >= 0
+    assert result["rmse_after"] <= result["rmse_before"] + 1e-12
+    stored = client.get(f"/api/results/{job['result_id']}", headers=AUTH).json()
+    assert stored["kind"] == "estimation"
+    assert sorted(stored["run_ids"]) == sorted(two_tows)
+    assert "fit_after" in stored["report_plots"]
+    png = client.get(f"/api/results/{job['result_id']}/report/fit_after.png", headers=AUTH)
+    assert png.status_code == 200
+    assert png.content.startswith(b"\x89PNG")
+    bad = client.get(f"/api/results/{job['result_id']}/report/..%2Fsecret.png", headers=AUTH)
+    assert bad.status_code == 404
+    listed = client.get(f"/api/runs/{two_tows[0]}/results", headers=AUTH).json()
+    assert job["result_id"] in [r["id"] for r in listed]
+
+
+def test_estimation_input_errors(client, two_tows):
+    r = client.post(
+        "/api/jobs/estimation", json={"run_ids": two_tows, "method": "magic"}, headers=AUTH
+    )
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["field"] == "method"
+    r = client.post("/api/jobs/estimation", json={"run_ids": []}, headers=AUTH)
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["field"] == "run_ids"
+
+
+def test_thrust_calibration_job_stores_the_curve(client):
+    body = {"commands": [0.3, 0.6, 0.8], "settle_s": 0.2, "samples_per_step": 2, "tare_samples": 3}
+    job = wait_job(client, start_job(client, "/api/jobs/calibration", body), timeout_s=60)
+    assert job["state"] == "completed", job
+    calibration = job["outcome"]["calibration"]
+    latest = client.get("/api/calibration/latest", headers=AUTH).json()
+    assert latest["id"] == calibration["result_id"]
+    assert latest["run_ids"] == job["run_ids"]
+    fit = latest["data"]["fit"]
+    assert fit["parameters"]["forward_gain"]["value"] > 0
+    assert fit["command_range"] == [-0.8, 0.8]
+    commands = [row["command"] for row in latest["data"]["table"]]
+    assert max(commands) == 0.8 and min(commands) == -0.8
+
+
+def test_spin_job_by_weight(client):
+    body = {"weight_kg": 1.0, "max_time_s": 1.0, "baseline_s": 0.2}
+    job = wait_job(client, start_job(client, "/api/jobs/spin", body))
+    assert job["state"] == "completed", job
+    run = client.get(f"/api/runs/{job['run_ids'][0]}", headers=AUTH).json()
+    assert run["kind"] == "spin"
+    assert run["parameters"]["torque_nm"] == pytest.approx(1.0 * 9.8 * 0.0926)
