@@ -83,15 +83,43 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         name = "force_n" if run.kind == "tow" else "torque_nm"
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
+    if params.get("drive") == "thrusters":
+        drive = thruster_torque(store, params, t - t_release)
     return RunData(
         run_id=run.id,
         axis="surge" if run.kind == "tow" else "yaw",
         t=np.asarray(t, dtype=float),
         position=np.asarray(position, dtype=float),
-        drive=float(drive),
+        drive=drive if isinstance(drive, np.ndarray) else float(drive),
         hung_mass_kg=float(hung) if hung else None,
         drive_inertia=drive_inertia,
         drum_radius_m=drum_radius,
         t_release=t_release,
         t_end=t_end,
     )
+
+
+def thruster_torque(store: Store, params: dict, t_since_on: np.ndarray) -> np.ndarray:
+    """Torque per sample of a thruster-driven spin, N·m, from the stored calibration.
+
+    The commands ramp from zero at the host's slew limit when the thrust is switched on
+    (t = 0); each thruster's force comes from the calibrated curve. The thrusters' own
+    lag is not modelled here (the residual search sees it as a release delay).
+    """
+    from daq.procedures.thruster_drive import yaw_signs
+    from estimation.thrust_curve import ThrustCurve
+
+    calibrations = store.results(params["calibration_run_id"], kind="calibration")
+    match = [r for r in calibrations if r.id == params["calibration_result_id"]]
+    if not match:
+        raise ValueError(
+            f"calibration result #{params['calibration_result_id']} is no longer stored"
+        )
+    curve = ThrustCurve.from_json(match[0].data["fit"])
+    slew = float(params["slew_per_s"])
+    on = np.clip(t_since_on, 0.0, None)
+    torque = np.zeros_like(on)
+    for sign, target in zip(yaw_signs(len(params["commands"])), params["commands"], strict=True):
+        command = np.sign(target) * np.minimum(abs(target), slew * on)
+        torque += sign * curve.force(command) * params["yaw_lever_arm_m"]
+    return torque

@@ -74,6 +74,15 @@ class ThrustCurve:
             )
         return u
 
+    @classmethod
+    def from_json(cls, data: dict) -> ThrustCurve:
+        """Rebuild a stored curve from ``to_json()`` output (correlation not kept: identity)."""
+        params = data["parameters"]
+        values = np.array([params[n]["value"] for n in PARAMS], dtype=float)
+        std = np.array([params[n]["std"] for n in PARAMS], dtype=float)
+        lo, hi = data["command_range"]
+        return cls(values, std, np.eye(len(PARAMS)), float(data["rmse_n"]), float(lo), float(hi))
+
     def to_json(self) -> dict:
         """{parameters: {name: {value, std}}, rmse_n, command_range}."""
         return {

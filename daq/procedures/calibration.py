@@ -71,13 +71,9 @@ async def run_thrust_calibration(
                 previous = 0.0
                 for i, command in enumerate(sweep):
                     abort.check()
-                    direction = (
-                        "up"
-                        if abs(command) > abs(previous)
-                        else "down"
-                        if abs(command) < abs(previous)
-                        else "hold"
-                    )
+                    # +1 while the command rises, −1 while it falls (hysteresis), 0 when held.
+                    sweep_sign = (command > previous) - (command < previous)
+                    direction = {1: "up", -1: "down", 0: "hold"}[sweep_sign]
                     previous = command
                     session.set_thrust([command] * n)
                     report(
@@ -94,6 +90,7 @@ async def run_thrust_calibration(
                         "step": i,
                         "command": command,
                         "direction": direction,
+                        "sweep_sign": sweep_sign,
                         "thrust_n": thrust,
                         "thrust_std_n": thrust_std,
                         "thrust_per_thruster_n": thrust / n,
@@ -109,8 +106,8 @@ async def run_thrust_calibration(
                         **row,
                     )
                 session.set_thrust([0.0] * n)
-                await session.disarm_thrusters()
         finally:
+            await session.disarm_thrusters()
             await session.operator.perform(
                 OperatorAct("unmount_thrust_stand", "Unbolt the thrusters from the load cell")
             )
@@ -144,8 +141,7 @@ def _store_calibration(
 
     commands = [r["command"] for r in table]
     thrust = [r["thrust_per_thruster_n"] for r in table]
-    directions = [r["direction"] for r in table]
-    fit = fit_thrust_curve(commands, thrust, directions=directions)
+    fit = fit_thrust_curve(commands, thrust, [float(r["sweep_sign"]) for r in table])
     data = {
         "run_id": run_id,
         "thrusters": session.rig.thrusters.count,

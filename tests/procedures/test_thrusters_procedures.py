@@ -1,0 +1,67 @@
+"""Thrust calibration on the simulated load cell, then a thruster-driven spin using it."""
+
+from __future__ import annotations
+
+import pytest
+
+from daq.procedures.calibration import run_thrust_calibration
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import ParameterError, calibration_parameters, spin_parameters
+
+
+async def test_calibration_then_thruster_spin(session, store):
+    params = calibration_parameters(
+        {
+            "commands": [0.0, 0.2, 0.4, 0.6, 0.8],
+            "settle_s": 0.6,
+            "samples_per_step": 3,
+            "tare_samples": 5,
+        },
+        session.rig,
+    )
+    # No calibration yet: a thruster spin is refused before anything moves.
+    with pytest.raises(ParameterError, match="calibrate-thrusters"):
+        await run_motion_test(
+            session, spin_parameters({"torque_nm": 1.0, "drive": "thrusters"}, session.rig)
+        )
+
+    outcome, calibration = await run_thrust_calibration(session, params)
+    assert outcome.status == "completed"
+    table = calibration["table"]
+    assert [r["command"] for r in table] == params.sweep
+    by_command: dict[float, list[float]] = {}
+    for row in table:
+        by_command.setdefault(row["command"], []).append(row["thrust_per_thruster_n"])
+    forward = [sum(by_command[c]) / len(by_command[c]) for c in (0.2, 0.4, 0.6, 0.8)]
+    reverse = [sum(by_command[-c]) / len(by_command[-c]) for c in (0.2, 0.4, 0.6, 0.8)]
+    assert forward == sorted(forward) and forward[0] > 0
+    assert reverse == sorted(reverse, reverse=True) and reverse[0] < 0
+    ratio = -reverse[-1] / forward[-1]
+    assert ratio == pytest.approx(0.78, abs=0.06)  # the simulated thrusters' asymmetry
+    assert abs(sum(by_command[0.0]) / len(by_command[0.0])) < 0.3  # tared load cell
+    assert all(r["supply_voltage_v"] > 10 for r in table)
+    stored = store.results(outcome.run_id, kind="calibration")
+    assert stored and stored[0].data["fit"]["rmse_n"] < 1.0
+    assert session.thrusters.state == "DISARMED"
+    assert await session.plc.read("sim_thrust_stand") == 0  # unmounted again
+
+    spin = spin_parameters(
+        {"torque_nm": 1.0, "drive": "thrusters", "max_time_s": 2.0, "baseline_s": 0.3}, session.rig
+    )
+    result = await run_motion_test(session, spin)
+    assert result.status == "completed"
+    run = store.get_run(result.run_id)
+    commands = run.parameters["commands"]
+    assert commands[0] > 0 > commands[1] and abs(commands[1]) > commands[0]  # reverse needs more
+    yaw = store.samples(result.run_id).channels["yaw_angle"]
+    assert yaw[-1] > 0.1
+    assert session.thrusters.state == "DISARMED"
+    assert session.sim.thrusters.outputs == [0.0, 0.0]
+    assert await session.plc.read("spin_release") == 0
+    # The estimator's view: torque from the calibration, ramping at the slew limit.
+    from daq.run_data import load_run_data
+
+    data = load_run_data(store, result.run_id)
+    after = data.t > data.t_release + 1.0
+    assert data.drive[after] == pytest.approx(1.0, rel=0.02)
+    assert data.drive[data.t < data.t_release].max() == 0.0
