@@ -28,7 +28,8 @@ def run_estimation(
     Raises ``ValueError`` naming the field for an unknown method, a run that cannot be
     estimated or runs of mixed axes; ``RunNotFound`` for an unknown id.
     """
-    from estimation import estimate, write_report
+    from estimation import estimate
+    from estimation.report import write_report
 
     if method not in METHODS:
         raise ValueError(f"method: {method!r} is not allowed; allowed: {', '.join(METHODS)}")
