@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import logging
 import shutil
 import tempfile
@@ -108,7 +109,15 @@ class JobRunner:
         self.report_root = report_root or Path(tempfile.mkdtemp(prefix="towrig-reports-"))
         service.operator_hook = self._ask_operator
 
-    def close(self) -> None:
+    def close(self, *, timeout_s: float = 15.0) -> None:
+        """Abort running procedures (their runs end ``aborted``, the rig safe) and wait."""
+        for job in list(self.jobs.values()):
+            if job.kind in PROCEDURES and job.state in ACTIVE:
+                with contextlib.suppress(Exception):
+                    self.abort(job.id, "service stopped")
+        end = time.monotonic() + timeout_s
+        while self.rig_job is not None and time.monotonic() < end:
+            time.sleep(0.05)
         self._estimator.shutdown(wait=True, cancel_futures=True)
         if self._own_report_root:
             shutil.rmtree(self.report_root, ignore_errors=True)

@@ -47,3 +47,23 @@ def test_operator_acts_wait_for_confirm_then_abort_ends_the_job(asking_client):
     assert done["state"] == "aborted"
     assert done["operator_act"] is None
     assert c.get("/api/rig", headers=AUTH).json()["lock_holder"] is None
+
+
+def test_stopping_the_service_aborts_the_running_test_and_records_why(tmp_path):
+    from daq.store import Store
+
+    url = f"sqlite:///{tmp_path / 'rig.db'}"
+    service = RigService(RigSource.load(), url)
+    with TestClient(create_app(service, token=TOKEN)) as c:
+        body = {"force_n": 10.0, "max_time_s": 60, "baseline_s": 0.2}
+        job_id = c.post("/api/jobs/tow", json=body, headers=AUTH).json()["id"]
+        end = time.monotonic() + 10
+        while not (run_ids := c.get(f"/api/jobs/{job_id}", headers=AUTH).json()["run_ids"]):
+            assert time.monotonic() < end
+            time.sleep(0.05)
+        time.sleep(0.5)  # recording
+    with Store(url) as store:
+        run = store.get_run(run_ids[0])
+        assert run.status == "aborted"
+        assert run.reason == "service stopped"
+        assert run.sample_count >= 3  # what was recorded before the stop is kept
