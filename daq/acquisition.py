@@ -5,11 +5,12 @@ drifts however long each read takes. The clock sleeps on the event loop to about
 ``spin_s`` before the deadline, then yields in a tight loop until it is due,
 which keeps lateness well under a millisecond on an idle loop.
 
-A tick that runs long makes the clock skip every slot whose deadline is more than
-half a period gone (``seq`` jumps, the next Sample carries OVERRUN); it never
-bursts to catch up. Samples are handed off through per-consumer asyncio queues
-with ``put_nowait``: a full queue loses its own oldest sample (counted), so a
-slow consumer cannot slow the clock. Nothing on the clock's path waits on a
+A tick that runs long, or a wake-up the OS delays, makes the clock skip every slot
+whose deadline is more than half a period gone (``seq`` jumps, the next Sample
+carries OVERRUN); it never bursts to catch up, so lateness stays under half a
+period. Samples are handed off through per-consumer asyncio queues with
+``put_nowait``: a full queue loses its own oldest sample (counted), so a slow
+consumer cannot slow the clock. Nothing on the clock's path waits on a
 database, HTTP or a fit.
 
 A failed poll still produces a Sample on time: quality ERROR, the unread
@@ -182,6 +183,12 @@ class Acquisition:
                 if self._stopping:
                     return
                 start = time.monotonic()
+                due = math.ceil((start - t0) / period - 0.5)
+                if due > slot:  # woke over half a period late (busy machine): skip, not burst
+                    self.stats.overruns += 1
+                    self.stats.skipped_slots += due - slot
+                    slot, overrun = due, True
+                    continue
                 self.stats.lateness_s.append(start - deadline)
                 sample = await self._tick(slot, overrun)
                 self.stats.ticks += 1

@@ -56,9 +56,9 @@ async def test_absolute_deadlines_do_not_drift_at_100_hz(plc):
     seqs = [s.seq for s in samples]
     assert seqs == sorted(set(seqs))
     # On an idle machine every slot is served; a loaded CI box may skip a few, never burst.
-    assert acq.stats.skipped_slots == last.seq - 200 <= 10
-    gaps = [b.t_mono - a.t_mono for a, b in itertools.pairwise(samples)]
-    assert min(gaps) > 0.005
+    assert acq.stats.skipped_slots == last.seq - 200 <= 20
+    # No burst: a slot more than half a period overdue is skipped, never run late.
+    assert max(acq.stats.lateness_s) <= 0.005
     assert all(s.quality in (Quality.OK, Quality.OVERRUN) for s in samples)
     assert acq.stats.lateness_percentiles()["p50_s"] < 0.002
     assert min(acq.stats.lateness_s) >= 0
