@@ -141,7 +141,7 @@ class JobRunner:
     def _new(self, kind: str, label: str, parameters: dict[str, Any]) -> Job:
         job = Job(uuid.uuid4().hex[:12], kind, label, parameters)
         self.jobs[job.id] = job
-        ended = [j for j in self.jobs.values() if j.state in FINAL]
+        ended = [j for j in list(self.jobs.values()) if j.state in FINAL]  # snapshot: threads
         for old in sorted(ended, key=lambda j: j.created_at)[: max(0, len(ended) - KEEP_ENDED)]:
             self.jobs.pop(old.id, None)  # runs and results stay in the store
         return job
