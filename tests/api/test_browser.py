@@ -92,7 +92,7 @@ def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page):
     runs = []
     for force in ("24.5", "83.3"):
         page.fill("#form-tow [name=force_n]", force)
-        page.fill("#form-tow [name=max_time_s]", "2.5")
+        page.fill("#form-tow [name=max_time_s]", "2.0")
         page.fill("#form-tow [name=baseline_s]", "0.3")
         before = int(page.text_content("#live-count"))
         page.click("#start-tow")

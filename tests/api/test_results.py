@@ -12,7 +12,7 @@ def two_tows(client) -> list[str]:
     runs = []
     for force in (24.5, 83.3):
         job_id = start_job(
-            client, "/api/jobs/tow", {"force_n": force, "max_time_s": 2.0, "baseline_s": 0.3}
+            client, "/api/jobs/tow", {"force_n": force, "max_time_s": 1.5, "baseline_s": 0.3}
         )
         job = wait_job(client, job_id)
         assert job["state"] == "completed", job
@@ -62,7 +62,7 @@ def test_estimation_input_errors(client, two_tows):
 
 
 def test_thrust_calibration_job_stores_the_curve(client):
-    body = {"commands": [0.3, 0.6, 0.8], "settle_s": 0.2, "samples_per_step": 2, "tare_samples": 3}
+    body = {"commands": [0.3, 0.6, 0.8], "settle_s": 0.1, "samples_per_step": 2, "tare_samples": 3}
     job = wait_job(client, start_job(client, "/api/jobs/calibration", body), timeout_s=60)
     assert job["state"] == "completed", job
     calibration = job["outcome"]["calibration"]
