@@ -34,6 +34,7 @@ class PreparedRun:
     extra_inertia: float
     mean_abs_drive: float
     weight_equivalent: float  # |τ|/g when the hung weight is undeclared, else 0 (drive_inertia)
+    t_release_std: float = 0.0  # 1σ uncertainty of the release instant, s
 
 
 def prepare(run: RunData) -> PreparedRun:
@@ -58,6 +59,7 @@ def prepare(run: RunData) -> PreparedRun:
             if const is not None and not run.hung_mass_declared()
             else 0.0
         ),
+        t_release_std=float(run.t_release_std),
     )
 
 

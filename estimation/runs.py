@@ -36,6 +36,9 @@ class RunData:
     drum_radius_m: float | None = None
     t_release: float = 0.0
     t_end: float | None = None
+    #: How well the release instant is known (1σ, s): host timing of the brake command.
+    #: A fitted release delay within 3× this is not reported as an effect.
+    t_release_std: float = 0.0
 
     def declared_extra_inertia(self) -> float:
         """Known inertia that moves with the vehicle (axis units): drive train + hung weight."""
@@ -99,6 +102,8 @@ def validate_run(run: RunData) -> None:
         raise _fail(rid, "drive", 0.0, "a non-zero force (N) or torque (N·m)")
     if run.hung_mass_kg is not None and not run.hung_mass_kg > 0:
         raise _fail(rid, "hung_mass_kg", run.hung_mass_kg, "> 0 kg or None")
+    if not (np.isfinite(run.t_release_std) and run.t_release_std >= 0):
+        raise _fail(rid, "t_release_std", run.t_release_std, ">= 0 s")
     if not run.drive_inertia >= 0:
         raise _fail(rid, "drive_inertia", run.drive_inertia, ">= 0")
     if run.drum_radius_m is not None and not run.drum_radius_m > 0:

@@ -15,6 +15,8 @@ from estimation.output_error import FitResult, fit_output_error, leave_one_run_o
 
 BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
 SCREEN_NFEV = 12  # model evaluations per candidate while screening; the kept one is refitted
+RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one
+MATERIAL_FRACTION = 0.005  # an effect below 0.5 % of the drive is within the drive's uncertainty
 AMBIGUITY_BIC = 2.0  # two effects whose BIC drops differ by less than this explain the data alike
 PAIR_EXPERIMENTS = {
     frozenset({"coulomb_friction", "constant_bias"}): (
@@ -63,6 +65,51 @@ def candidate_effects(runs_declared_mass: bool) -> list[str]:
 def _start(fit: FitResult, effect: str, runs: Sequence[PreparedRun]) -> np.ndarray:
     init = {"coulomb_friction": 0.01 * min(r.mean_abs_drive for r in runs), "drive_inertia": 0.1}
     return np.concatenate([fit.values, [init.get(effect, 0.0)]])
+
+
+def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndarray) -> float:
+    """Largest force/torque the effect exerts over one run's data (N or N·m)."""
+    if effect in ("coulomb_friction", "constant_bias"):
+        return abs(value)
+    if effect == "restoring_spring":
+        return abs(value) * float(np.max(np.abs(run.x - run.x[0]), initial=0.0))
+    if effect == "cubic_drag":
+        return abs(value) * float(np.max(np.abs(velocity), initial=0.0)) ** 3
+    if effect == "drive_inertia" and velocity.size > 1:
+        accel = np.gradient(velocity, run.t)
+        return abs(value) * run.weight_equivalent * float(np.max(np.abs(accel)))
+    return np.inf
+
+
+def _below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> str | None:
+    """Why an effect is too small to be a physical finding, or None.
+
+    Statistics alone would name effects far below what the experiment resolves:
+    - a release delay is a start-time offset; when the release instant itself is only known
+      to ±σ_t (host timing), an offset within 3σ_t is timing, not stiction;
+    - any other effect must reach MATERIAL_FRACTION of the drive on at least one run: a
+      force smaller than the uncertainty of the drive itself (weights, g, pulley) cannot be
+      told from a slightly wrong drive.
+    """
+    value = fit.value(effect)
+    if effect == "release_delay":
+        timing = max((r.t_release_std for r in runs), default=0.0)
+        if abs(value) < RESOLUTION_SIGMAS * timing:
+            return (
+                f"{abs(value) * 1e3:.1f} ms is within the release-timing resolution "
+                f"({RESOLUTION_SIGMAS:g} × {timing * 1e3:.1f} ms)"
+            )
+        return None
+    share = max(
+        _effect_force(effect, value, run, vel) / max(run.mean_abs_drive, 1e-12)
+        for run, vel in zip(runs, fit.velocities, strict=True)
+    )
+    if share < MATERIAL_FRACTION:
+        return (
+            f"not material: at most {share:.2%} of the drive "
+            f"(below {MATERIAL_FRACTION:.1%}, the drive's own uncertainty)"
+        )
+    return None
 
 
 def _separating_advice(group: Sequence[str]) -> str:
@@ -130,6 +177,12 @@ def search_effects(
                         False,
                         "value at its physical bound",
                     )
+                )
+                continue
+            below = _below_resolution(e, fit, runs)
+            if below:
+                steps.append(
+                    SearchStep(e, gains[e], cv_current, None, q_current, q_new, False, below)
                 )
                 continue
             cv_new = leave_one_run_out_rmse(runs, fit)
