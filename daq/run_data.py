@@ -50,15 +50,27 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     position = table.channels[channel][good]
     t = t_host
     clock = table.channels.get("plc_clock")
+    clock_step = 0.0
     if clock is not None and np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0):
         t = clock[good]
+        clock_step = 1e-3  # the PLC clock ticks in ms (see the rig file's plc_clock scale)
     # Map host instants (release, brake) onto the chosen time base.
-    offset = float(np.median(t - t_host)) if t.size else 0.0
+    gap = t - t_host
+    offset = float(np.median(gap)) if t.size else 0.0
+    offset_spread = 1.4826 * float(np.median(np.abs(gap - offset))) if t.size else 0.0
     events = store.events(run.id)
     params = run.parameters
     t_release = _event_time(events, "release")
     t_brake = _event_time(events, "brake", "t_last_free")
-    t_release = float(t[0]) if t_release is None else t_release + offset
+    if t_release is None:  # imported data: the release is somewhere in the first period
+        t_release = float(t[0])
+        t_release_std = float(np.median(np.diff(t))) / np.sqrt(12) if t.size > 1 else 0.0
+    else:
+        # The brake let go while the write was in flight (± half-width, uniform), mapped
+        # onto the time base with the spread of the host/PLC offset and the clock's step.
+        half_width = _event_time(events, "release", "t_half_width") or 0.0
+        t_release += offset
+        t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
     t_end = None if t_brake is None else t_brake + offset
     t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
 
@@ -96,6 +108,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         drum_radius_m=drum_radius,
         t_release=t_release,
         t_end=t_end,
+        t_release_std=t_release_std,
     )
 
 

@@ -13,6 +13,7 @@ import asyncio
 import contextlib
 import logging
 import math
+import time
 from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -219,6 +220,15 @@ class RigSession:
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
         await self.thrusters.disarm()
+
+    async def apply_thrust(self, fractions: Sequence[float]) -> float:
+        """Set the thrust target and send its first (slew-limited) step now, not at the
+        next tick; returns the host time just before sending (when thrust starts)."""
+        self.set_thrust(fractions)
+        assert self.thrusters is not None
+        started = time.monotonic()
+        await self.thrusters.command(self.thrust.fractions)
+        return started
 
     def set_thrust(self, fractions: Sequence[float]) -> None:
         """Ask for thruster outputs; the supervisor sends them, slew-limited, every tick."""

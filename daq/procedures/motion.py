@@ -158,15 +158,17 @@ async def run_motion_test(
                 )
             )
             await rec.record_for(params.baseline_s)
+            before = time.monotonic()
             await session.plc.write(axis.release, True)
-            released = time.monotonic()  # the PLC acknowledged the write: brake is off
+            after = time.monotonic()  # the PLC acknowledged: the brake let go in between
             latest = session.latest()
             await rec.event(
                 "operator",
                 f"{axis.release} set: brake released",
                 action="release",
                 seq=latest.seq if latest else None,
-                t_mono=released,
+                t_mono=(before + after) / 2,
+                t_half_width=(after - before) / 2,
             )
             t0 = None
             previous_t = None

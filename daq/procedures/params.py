@@ -157,6 +157,20 @@ class CalibrationParameters:
         return d
 
 
+#: Weights are hung (and known) to the gram: the force or torque recorded with a run is
+#: what that weight gives, so the estimator's drive matches the rig's.
+WEIGHT_RESOLUTION_KG = 0.001
+
+
+def _hung_mass(c: _Checker, name: str, mass_kg: float | None) -> float:
+    assert mass_kg is not None
+    rounded = round(mass_kg / WEIGHT_RESOLUTION_KG) * WEIGHT_RESOLUTION_KG
+    if rounded <= 0:
+        c.problems.append((name, c.raw.get(name), "at least a 1 g weight's worth"))
+        c.fail_if_problems()
+    return round(rounded, 6)
+
+
 def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     """Validate a tow request: exactly one of ``force_n`` / ``weight_kg``."""
     c = _Checker(raw)
@@ -187,11 +201,12 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     )
     base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
     c.fail_if_problems()
-    if force is not None:
-        weight = force / g
-    else:
-        assert weight is not None
-        force = weight * g
+    weight = _hung_mass(
+        c,
+        "force_n" if force is not None else "weight_kg",
+        force / g if force is not None else weight,
+    )
+    force = weight * g  # what the hung weight really pulls
     assert dist is not None and tmax is not None and base is not None
     return TowParameters(
         force_n=force, hung_mass_kg=weight, max_distance_m=dist, max_time_s=tmax, baseline_s=base
@@ -244,11 +259,11 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     )
     base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
     c.fail_if_problems()
-    if torque is None:
-        assert weight is not None
-        torque = weight * g * r
-    elif drive == "weight":
-        weight = torque / (g * r)
+    if drive == "weight":
+        name = "torque_nm" if torque is not None else "weight_kg"
+        weight = _hung_mass(c, name, torque / (g * r) if torque is not None else weight)
+        torque = weight * g * r  # what the weight on the drum really gives
+    assert torque is not None
     assert angle is not None and tmax is not None and base is not None
     return SpinParameters(
         torque_nm=torque,

@@ -142,12 +142,14 @@ async def _spin_with_thrusters(session, rec, params, commands, start, report) ->
         )
     )
     await rec.record_for(params.baseline_s)
-    session.set_thrust(commands)
+    before = await session.apply_thrust(commands)
+    after = time.monotonic()
     await rec.event(
         "operator",
         f"thrust on: commands {', '.join(f'{c:+.3f}' for c in commands)}",
         action="release",
-        t_mono=time.monotonic(),
+        t_mono=(before + after) / 2,
+        t_half_width=(after - before) / 2,
     )
     t0 = None
     async for sample in rec.samples():
