@@ -11,6 +11,7 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.params import spin_parameters, tow_parameters
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
+from daq.sample import Quality
 from daq.session import RigBusy, RigSession, RigSource
 from tests.procedures.conftest import short_rail
 
@@ -102,9 +103,14 @@ async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, sto
     stopped_at = session.latest().seq
     outcome = await asyncio.wait_for(task, 10)
     assert outcome.status == "aborted" and outcome.reason == "device lost"
-    seqs = store.samples(outcome.run_id).seq
-    good = seqs[seqs <= stopped_at]
-    assert len(good) >= 10 and np.all(np.diff(good) == 1)  # nothing received was lost
+    table = store.samples(outcome.run_id)
+    before = table.seq <= stopped_at
+    seqs, quality = table.seq[before], table.quality[before]
+    assert len(seqs) >= 10
+    # Nothing received was lost: a gap in seq is only ever a slot the clock skipped
+    # (flagged OVERRUN on the next sample), never a sample that went missing.
+    gaps = np.flatnonzero(np.diff(seqs) > 1)
+    assert all(quality[i + 1] & Quality.OVERRUN for i in gaps)
     assert session.thrusters.output == [0.0] * session.rig.thrusters.count
     # The server returns on the same port: the driver reconnects and samples are good again.
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
