@@ -41,7 +41,10 @@ from daq.plc import PlcClient
 from daq.store import RunRecorder, Store
 
 TCP_RATES = (500.0, 1000.0, 1250.0, 1500.0, 2000.0)
-RTU_RATES = (100.0, 150.0, 160.0, 170.0, 180.0)
+RTU_RATES = (40.0, 50.0, 55.0, 58.0, 60.0)
+RTU_4REG_RATES = (150.0, 160.0, 165.0, 170.0, 175.0, 180.0)
+ENCODERS = ("tow_position", "yaw_angle")  # 2 × int32 = 4 registers, one request
+T35_S = 1.75e-3  # Modbus RTU inter-frame silence above 19200 baud
 FREE_RUN_HZ = 10_000.0
 
 
@@ -55,10 +58,15 @@ def rtu_bytes_per_poll(blocks: list[ReadBlock]) -> int:
 
 
 async def pipeline(
-    rig: RigConfig, rate_hz: float, seconds: float, store: Store, realtime: bool = False
+    rig: RigConfig,
+    rate_hz: float,
+    seconds: float,
+    store: Store,
+    realtime: bool = False,
+    channels: tuple[str, ...] | None = None,
 ) -> dict[str, Any]:
     """Run clock -> recorder for ``seconds`` at ``rate_hz``; what got through."""
-    plc = PlcClient(rig)
+    plc = PlcClient(rig, channels=channels)
     await plc.connect(timeout_s=5.0)
     run_id = store.create_run(
         kind="bench_poll_rate",
@@ -118,14 +126,18 @@ async def pipeline(
 
 
 async def ladder(
-    rig: RigConfig, rates: tuple[float, ...], seconds: float, realtime: bool = False
+    rig: RigConfig,
+    rates: tuple[float, ...],
+    seconds: float,
+    realtime: bool = False,
+    channels: tuple[str, ...] | None = None,
 ) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         store = Store(f"sqlite:///{tmp}/bench.db")
         try:
-            await pipeline(rig, rates[0], 0.5, store, realtime)  # warm-up, not reported
-            runs = [await pipeline(rig, r, seconds, store, realtime) for r in rates]
-            free = await pipeline(rig, FREE_RUN_HZ, seconds, store, realtime)
+            await pipeline(rig, rates[0], 0.5, store, realtime, channels)  # warm-up
+            runs = [await pipeline(rig, r, seconds, store, realtime, channels) for r in rates]
+            free = await pipeline(rig, FREE_RUN_HZ, seconds, store, realtime, channels)
         finally:
             store.close()
     sustained = [r["polls_per_s"] for r in runs if r["sustained"]]
@@ -144,37 +156,44 @@ def measure(rig: RigConfig, seconds: float, *, realtime: bool) -> dict[str, Any]
     result["target_polls_per_s"] = 1000.0
     result["pass"] = result["highest_sustained_polls_per_s"] >= 1000.0
     out["modbus_tcp"] = result
-    with (
-        RigSimProcess(rtu=True, realtime=realtime) as sim,
-        PacedPtyLink(sim.ready["modbus"]["serial_port"], realtime=realtime) as link,
+    # RTU: the full BENBAM map (3 requests a poll) and the issue's 4-register poll (the two
+    # 32-bit encoders in one request). The paced line keeps Modbus RTU's 1.75 ms silence
+    # before every frame (the spec's fixed t3.5 above 19200 baud), so no run can beat the wire.
+    for label, channels, rates in (
+        ("modbus_rtu_pty_115200", None, RTU_RATES),
+        ("modbus_rtu_pty_115200_4_registers", ENCODERS, RTU_4REG_RATES),
     ):
-        crig = sim.connection_rig(rig, serial_port=link.client_path, timeout_s=0.1)
-        per_poll = rtu_bytes_per_poll(PlcClient(crig).blocks)
-        result = asyncio.run(ladder(crig, RTU_RATES, seconds, realtime))
-    wire_limit = link.bytes_per_s / per_poll
-    # Modbus RTU also wants >= 3.5 character times of silence before every frame.
-    gaps = 3.5 * 2 * len(PlcClient(crig).blocks)
-    wire_limit_t35 = link.bytes_per_s / (per_poll + gaps)
-    best = result["highest_sustained_polls_per_s"]
-    result.update(
-        {
-            "baud": 115200,
-            "line_bytes_per_s": link.bytes_per_s,
-            "bytes_per_poll": per_poll,
-            "wire_limit_polls_per_s": round(wire_limit, 1),
-            "fraction_of_wire_limit": round(best / wire_limit, 3),
-            "wire_limit_with_t35_silences_polls_per_s": round(wire_limit_t35, 1),
-            "free_running_fraction_of_t35_wire_limit": round(
-                result["free_running_polls_per_s"] / wire_limit_t35, 3
-            ),
-            "free_running_fraction_of_wire_limit": round(
-                result["free_running_polls_per_s"] / wire_limit, 3
-            ),
-            "target_fraction": 0.9,
-            "pass": best >= 0.9 * wire_limit,
-        }
-    )
-    out["modbus_rtu_pty_115200"] = result
+        with (
+            RigSimProcess(rtu=True, realtime=realtime) as sim,
+            PacedPtyLink(
+                sim.ready["modbus"]["serial_port"], realtime=realtime, frame_gap_s=T35_S
+            ) as link,
+        ):
+            crig = sim.connection_rig(rig, serial_port=link.client_path, timeout_s=0.1)
+            blocks = PlcClient(crig, channels=channels).blocks
+            result = asyncio.run(ladder(crig, rates, seconds, realtime, channels))
+        per_poll_s = rtu_bytes_per_poll(blocks) / link.bytes_per_s + 2 * len(blocks) * T35_S
+        wire_limit = 1.0 / per_poll_s
+        best = result["highest_sustained_polls_per_s"]
+        result.update(
+            {
+                "baud": 115200,
+                "registers_per_poll": sum(
+                    b.count for b in blocks if b.kind in ("input", "holding")
+                ),
+                "requests_per_poll": len(blocks),
+                "bytes_per_poll": rtu_bytes_per_poll(blocks),
+                "frame_gap_s": T35_S,
+                "wire_limit_polls_per_s": round(wire_limit, 1),
+                "fraction_of_wire_limit": round(best / wire_limit, 3),
+                "free_running_fraction_of_wire_limit": round(
+                    result["free_running_polls_per_s"] / wire_limit, 3
+                ),
+            }
+        )
+        if channels == ENCODERS:  # the issue's target is stated for a 4-register poll
+            result.update({"target_fraction": 0.9, "pass": best >= 0.9 * wire_limit})
+        out[label] = result
     return out
 
 

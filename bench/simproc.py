@@ -84,8 +84,9 @@ class RigSimProcess:
         self.close()
 
 
-def _relay(device_path: str, bytes_per_s: float) -> None:
-    """Child process: forward bytes between a new pty and ``device_path``, paced."""
+def _relay(device_path: str, bytes_per_s: float, frame_gap_s: float = 0.0) -> None:
+    """Child process: forward bytes between a new pty and ``device_path``, paced; each
+    chunk (a frame: Modbus writes whole frames) waits ``frame_gap_s`` of line silence."""
     master, slave = os.openpty()
     tty.setraw(slave)
     device = os.open(device_path, os.O_RDWR | os.O_NOCTTY)
@@ -105,7 +106,7 @@ def _relay(device_path: str, bytes_per_s: float) -> None:
                 continue
             # The chunk is on the receiver's side once its last byte has crossed the wire.
             now = time.monotonic()
-            wire_free_at = max(now, wire_free_at) + len(data) / bytes_per_s
+            wire_free_at = max(now, wire_free_at + frame_gap_s) + len(data) / bytes_per_s
             while (left := wire_free_at - time.monotonic()) > 0:
                 if left > 0.0005:
                     time.sleep(left - 0.0004)
@@ -121,11 +122,19 @@ class PacedPtyLink:
         *,
         baudrate: int = 115200,
         bits_per_byte: int = 10,
+        frame_gap_s: float = 0.0,
         realtime: bool = False,
     ) -> None:
         self.bytes_per_s = baudrate / bits_per_byte
         self.proc = subprocess.Popen(
-            [sys.executable, __file__, "relay", device_path, str(self.bytes_per_s)],
+            [
+                sys.executable,
+                __file__,
+                "relay",
+                device_path,
+                str(self.bytes_per_s),
+                str(frame_gap_s),
+            ],
             stdout=subprocess.PIPE,
             text=True,
             preexec_fn=_fifo if realtime else None,
@@ -149,5 +158,5 @@ class PacedPtyLink:
         self.close()
 
 
-if __name__ == "__main__" and len(sys.argv) == 4 and sys.argv[1] == "relay":
-    _relay(sys.argv[2], float(sys.argv[3]))
+if __name__ == "__main__" and len(sys.argv) == 5 and sys.argv[1] == "relay":
+    _relay(sys.argv[2], float(sys.argv[3]), float(sys.argv[4]))

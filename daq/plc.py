@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
@@ -77,11 +78,16 @@ class PlcStats:
 class PlcClient:
     """Modbus TCP or RTU client for the rig's PLC/encoder (see module docstring)."""
 
-    def __init__(self, rig: RigConfig) -> None:
+    def __init__(self, rig: RigConfig, *, channels: Sequence[str] | None = None) -> None:
+        """``channels`` limits what ``read_all`` polls (e.g. only the encoders, for a fast
+        loop); default: every non-``sim_only`` channel of the register map."""
         self.rig = rig
         self.modbus = rig.modbus
         self.stats = PlcStats()
-        self.blocks: list[ReadBlock] = plan_blocks(c for c in rig.channels if not c.sim_only)
+        polled = [c for c in rig.channels if not c.sim_only]
+        if channels is not None:
+            polled = [rig.channel(name) for name in channels]  # KeyError names the known ones
+        self.blocks: list[ReadBlock] = plan_blocks(polled)
         self._unwrappers: dict[str, CounterUnwrapper] = {
             c.name: CounterUnwrapper(registers.wrap_period(c)) for c in rig.channels if c.wraps
         }
