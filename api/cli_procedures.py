@@ -19,7 +19,12 @@ from api.cli_common import (
     scenario_option,
     user_errors,
 )
-from daq.procedures.params import calibration_parameters, spin_parameters, tow_parameters
+from daq.procedures.params import (
+    ParameterError,
+    calibration_parameters,
+    spin_parameters,
+    tow_parameters,
+)
 from daq.procedures.recording import AbortSignal
 from daq.session import RigSession, RigSource
 
@@ -54,6 +59,8 @@ def _run_procedure(
                     return await body(session, params, abort, view)
             except PreconditionFailed as err:
                 fail(str(err), code=1)
+            except ParameterError as err:  # checks that need the rig's state (a calibration)
+                fail("\n       ".join(err.lines()))
 
     try:
         return run_with_signals(main)

@@ -53,6 +53,28 @@ def thruster_commands(
     per_thruster = torque_nm / (count * lever_arm_m)
     commands = []
     for sign in yaw_signs(count):
+        # Below the smallest thrust measured on that side the curve is extrapolated into the
+        # dead band, where a small error means no thrust at all: refuse rather than guess.
+        measured = [
+            abs(r["thrust_per_thruster_n"])
+            for r in calibration.get("table", [])
+            if r["command"] * sign > 0 and r["thrust_per_thruster_n"] * sign > 0
+        ]
+        if measured and per_thruster < min(measured):
+            side = "forward" if sign > 0 else "reverse"
+            raise ParameterError(
+                [
+                    (
+                        "torque_nm",
+                        torque_nm,
+                        f"at least {min(measured) * count * lever_arm_m:.3g} N·m: "
+                        f"{per_thruster:.3g} N per thruster is below the smallest calibrated "
+                        f"{side} thrust "
+                        f"({min(measured):.3g} N); calibrate with smaller commands "
+                        "(e.g. --commands 0,0.05,0.1,0.2,...)",
+                    )
+                ]
+            )
         try:
             u = float(curve.command_for_force(sign * per_thruster))
         except ValueError as err:

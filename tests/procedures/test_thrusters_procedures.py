@@ -12,7 +12,7 @@ from daq.procedures.params import ParameterError, calibration_parameters, spin_p
 async def test_calibration_then_thruster_spin(session, store):
     params = calibration_parameters(
         {
-            "commands": [0.0, 0.2, 0.4, 0.6, 0.8],
+            "commands": [0.0, 0.1, 0.2, 0.4, 0.8],
             "settle_s": 0.6,
             "samples_per_step": 3,
             "tare_samples": 5,
@@ -32,8 +32,8 @@ async def test_calibration_then_thruster_spin(session, store):
     by_command: dict[float, list[float]] = {}
     for row in table:
         by_command.setdefault(row["command"], []).append(row["thrust_per_thruster_n"])
-    forward = [sum(by_command[c]) / len(by_command[c]) for c in (0.2, 0.4, 0.6, 0.8)]
-    reverse = [sum(by_command[-c]) / len(by_command[-c]) for c in (0.2, 0.4, 0.6, 0.8)]
+    forward = [sum(by_command[c]) / len(by_command[c]) for c in (0.1, 0.2, 0.4, 0.8)]
+    reverse = [sum(by_command[-c]) / len(by_command[-c]) for c in (0.1, 0.2, 0.4, 0.8)]
     assert forward == sorted(forward) and forward[0] > 0
     assert reverse == sorted(reverse, reverse=True) and reverse[0] < 0
     ratio = -reverse[-1] / forward[-1]
@@ -45,8 +45,13 @@ async def test_calibration_then_thruster_spin(session, store):
     assert session.thrusters.state == "DISARMED"
     assert await session.plc.read("sim_thrust_stand") == 0  # unmounted again
 
+    # Below the smallest calibrated thrust the curve would be extrapolated into the dead band.
+    with pytest.raises(ParameterError, match="below the smallest calibrated"):
+        await run_motion_test(
+            session, spin_parameters({"torque_nm": 0.3, "drive": "thrusters"}, session.rig)
+        )
     spin = spin_parameters(
-        {"torque_nm": 1.0, "drive": "thrusters", "max_time_s": 2.0, "baseline_s": 0.3}, session.rig
+        {"torque_nm": 2.0, "drive": "thrusters", "max_time_s": 2.0, "baseline_s": 0.3}, session.rig
     )
     result = await run_motion_test(session, spin)
     assert result.status == "completed"
@@ -63,5 +68,5 @@ async def test_calibration_then_thruster_spin(session, store):
 
     data = load_run_data(store, result.run_id)
     after = data.t > data.t_release + 1.0
-    assert data.drive[after] == pytest.approx(1.0, rel=0.02)
+    assert data.drive[after] == pytest.approx(2.0, rel=0.02)
     assert data.drive[data.t < data.t_release].max() == 0.0
