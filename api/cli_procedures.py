@@ -81,6 +81,25 @@ def _print_outcome(outcome: Any, as_json: bool, extra: dict | None = None) -> No
         raise SystemExit(1)
 
 
+_max_time_option = click.option(
+    "--max-time", "max_time_s", type=float, help="Stop after this many seconds (default 120)."
+)
+_baseline_option = click.option(
+    "--baseline",
+    "baseline_s",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="Pre-trigger baseline, s.",
+)
+
+
+async def _motion(session: RigSession, params: Any, abort: AbortSignal, view: ProgressView) -> Any:
+    from daq.procedures.motion import run_motion_test
+
+    return await run_motion_test(session, params, abort=abort, progress=view)
+
+
 @click.command()
 @click.option(
     "--force", "force_n", type=float, help="Towing force in N (0 < F ≤ the rig's max_force_n)."
@@ -94,17 +113,8 @@ def _print_outcome(outcome: Any, as_json: bool, extra: dict | None = None) -> No
     type=float,
     help="Stop after this many metres (default: end of travel).",
 )
-@click.option(
-    "--max-time", "max_time_s", type=float, help="Stop after this many seconds (default 120)."
-)
-@click.option(
-    "--baseline",
-    "baseline_s",
-    type=float,
-    default=1.0,
-    show_default=True,
-    help="Pre-trigger baseline, s.",
-)
+@_max_time_option
+@_baseline_option
 @rig_option
 @scenario_option
 @db_option
@@ -130,13 +140,14 @@ def tow(
     }
     raw = {k: v for k, v in raw.items() if v is not None}
 
-    async def body(session, params, abort, view):
-        from daq.procedures.motion import run_motion_test
-
-        return await run_motion_test(session, params, abort=abort, progress=view)
-
     outcome = _run_procedure(
-        rig_file, scenario_file, db_url, lambda s: tow_parameters(raw, s.rig), body, "tow", as_json
+        rig_file,
+        scenario_file,
+        db_url,
+        lambda s: tow_parameters(raw, s.rig),
+        _motion,
+        "tow",
+        as_json,
     )
     _print_outcome(outcome, as_json)
 
@@ -163,17 +174,8 @@ def tow(
     type=float,
     help="Stop after this angle, rad (default: cord length).",
 )
-@click.option(
-    "--max-time", "max_time_s", type=float, help="Stop after this many seconds (default 120)."
-)
-@click.option(
-    "--baseline",
-    "baseline_s",
-    type=float,
-    default=1.0,
-    show_default=True,
-    help="Pre-trigger baseline, s.",
-)
+@_max_time_option
+@_baseline_option
 @rig_option
 @scenario_option
 @db_option
@@ -201,17 +203,12 @@ def spin(
     }
     raw = {k: v for k, v in raw.items() if v is not None}
 
-    async def body(session, params, abort, view):
-        from daq.procedures.motion import run_motion_test
-
-        return await run_motion_test(session, params, abort=abort, progress=view)
-
     outcome = _run_procedure(
         rig_file,
         scenario_file,
         db_url,
         lambda s: spin_parameters(raw, s.rig),
-        body,
+        _motion,
         "spin",
         as_json,
     )
