@@ -199,6 +199,7 @@ class JobRunner:
     async def _run_procedure(self, job: Job, kind: str, params: Any) -> None:
         from daq.procedures.calibration import run_thrust_calibration
         from daq.procedures.motion import PreconditionFailed, run_motion_test
+        from daq.procedures.params import ParameterError
         from daq.procedures.sequence import run_sequence
 
         session = self.service.require_session()
@@ -240,7 +241,7 @@ class JobRunner:
             )
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
-        except (PreconditionFailed, RigBusy) as err:
+        except (PreconditionFailed, RigBusy, ParameterError) as err:  # the rig said no
             self._update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)
