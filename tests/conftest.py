@@ -1,16 +1,23 @@
 """Shared test configuration.
 
 Tests that need an outside program (mbpoll, chromium, a PostgreSQL server) call
-``require_tool``: on a developer's laptop they skip when it is missing, but with
-``CI=true`` they fail, so CI can never go green by skipping them.
+``require_tool`` or use ``postgres_server``: on a developer's laptop they skip when it is
+missing, but with ``CI=true`` they fail, so CI can never go green by skipping them.
+
+``db_url`` gives a fresh, empty database on each backend: SQLite, and PostgreSQL from
+``$RIG_TEST_POSTGRES_URL`` if set, else a throwaway cluster started from the installed
+server binaries (tests/pg.py).
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+from collections.abc import Iterator
 
 import pytest
+
+from tests.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
@@ -25,3 +32,39 @@ def require_tool(name: str, why: str) -> str:
         pytest.fail(message + " (required when CI=true)")
     pytest.skip(message)
     raise AssertionError("unreachable")
+
+
+BACKENDS = ["sqlite", "postgresql"]
+
+
+@pytest.fixture(scope="session")
+def postgres_server() -> Iterator[PostgresServer]:
+    """One PostgreSQL server for the whole session."""
+    url = os.environ.get("RIG_TEST_POSTGRES_URL", "").strip()
+    if url:
+        server = external_postgres(url)
+    elif find_postgres_bin() is not None:
+        server = start_postgres()
+    else:
+        message = "no PostgreSQL: set RIG_TEST_POSTGRES_URL or install postgresql (initdb)"
+        if IN_CI:
+            pytest.fail(message + " (required when CI=true)")
+        pytest.skip(message)
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+@pytest.fixture(params=BACKENDS)
+def db_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
+    """URL of a fresh, empty database on each backend."""
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'rig.db'}"
+        return
+    server: PostgresServer = request.getfixturevalue("postgres_server")
+    url = server.create_database()
+    try:
+        yield url
+    finally:
+        server.drop_database(url)

@@ -125,3 +125,16 @@ async def test_undeclared_tether_torsion_is_found_on_spins(tmp_path):
         YAW_TRUTH["inertia"], rel=0.1
     )
     store.close()
+
+
+async def test_clean_spins_name_no_effect(tmp_path):
+    store, ids = await _record(tmp_path, _source("clean", {}), "spin", [0.907, 1.361, 2.269], 8.0)
+    result = run_estimation(store, ids)
+    _report("clean spins", result, YAW_TRUTH)
+    assert result["axis"] == "yaw" and result["effects"] == [] and result["ambiguous"] == []
+    c = result["coefficients"]
+    assert c["inertia"]["value"] == pytest.approx(YAW_TRUTH["inertia"], rel=0.02)
+    assert c["quadratic_damping"]["value"] == pytest.approx(
+        YAW_TRUTH["quadratic_damping"], rel=0.03
+    )
+    store.close()

@@ -13,6 +13,7 @@ from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
 from daq.sample import Quality
 from daq.session import RigBusy, RigSession, RigSource
+from daq.store import Store
 from tests.procedures.conftest import short_rail
 
 
@@ -142,3 +143,17 @@ async def test_stale_sensor_data_zeroes_armed_thrusters_at_once(session):
     assert emulator.state == "ARMED"  # zeroed by our driver, not by the controller's watchdog
     assert session.stale_zeroings == 1
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
+
+
+async def test_a_tow_is_stored_the_same_on_sqlite_and_postgresql(db_url, source):
+    with Store(db_url) as store:
+        async with RigSession(source, store) as session:
+            params = tow_parameters(
+                {"force_n": 44.1, "max_time_s": 1.5, "baseline_s": 0.3}, session.rig
+            )
+            outcome = await run_motion_test(session, params)
+        assert outcome.status == "completed"
+        assert store.get_run(outcome.run_id).status == "completed"
+        assert store.sample_count(outcome.run_id) == outcome.samples >= 15
+        data = load_run_data(store, outcome.run_id)
+        assert data.position[-1] > 0.1 and data.t_release_std < 0.01
