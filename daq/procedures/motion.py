@@ -62,7 +62,7 @@ SPIN = _Axis("spin", "yaw_angle", "spin_release", "hang_spin_weight", "rad")
 
 async def _settled_samples(session: RigSession, seconds: float, abort: AbortSignal) -> list[Sample]:
     assert session.acquisition is not None
-    queue = session.acquisition.subscribe(maxsize=1000)
+    queue = session.acquisition.subscribe(maxsize=1000, name="readiness-check")
     got: list[Sample] = []
     try:
         loop = asyncio.get_running_loop()

@@ -104,10 +104,10 @@ class RecordedRun:
             asyncio.create_task(self._recorder.run(), name=f"recorder-{self.run_id[:8]}")
         )
         # The recorder gets every sample: a queue big enough for a long fault, then drops.
-        recorder_queue = s.acquisition.subscribe(maxsize=100_000)
+        recorder_queue = s.acquisition.subscribe(maxsize=100_000, name="run-recorder")
         self._tasks.append(asyncio.create_task(self._pump(recorder_queue), name="recorder-pump"))
         self._recorder_queue = recorder_queue
-        self._queue = s.acquisition.subscribe(maxsize=1000)
+        self._queue = s.acquisition.subscribe(maxsize=1000, name="procedure")
         return self
 
     async def _pump(self, queue: asyncio.Queue[Sample]) -> None:
