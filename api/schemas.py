@@ -186,6 +186,7 @@ class RigStatus(BaseModel):
     current_job: JobOut | None = None
     sample: SampleOut | None = None
     stale_channels: list[str] = []
+    units: dict[str, str] = Field({}, description="Unit of each channel, from the rig file.")
     clock: ClockOut | None = None
     thrusters: ThrustersOut | None = None
     limits: dict[str, float] = {}

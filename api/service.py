@@ -241,6 +241,7 @@ class RigService:
             "device_lost": acq.device_lost.is_set(),
             "lock_holder": session.lock_holder,
             "armed": session.thrust.armed,
+            "units": {c.name: c.unit for c in session.rig.channels if not c.sim_only},
             "sample": None
             if latest is None
             else {

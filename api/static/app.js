@@ -116,7 +116,8 @@ async function refreshRig() {
       ["Clock", `${fmt(clock.rate_hz)} Hz, p99 lateness ${fmt((clock.lateness_p99_s || 0) * 1000, 3)} ms`],
     ]);
     const ch = (s.sample && s.sample.channels) || {};
-    kv($("#channels-table"), Object.entries(ch).map(([k, v]) => [k, fmt(v, 6)]));
+    const units = s.units || {};
+    kv($("#channels-table"), Object.entries(ch).map(([k, v]) => [k, units[k] && v !== null ? `${fmt(v, 6)} ${units[k]}` : fmt(v, 6)]));
     setLimits();
     if (s.current_job) showJob(s.current_job);
   } catch (err) {
@@ -248,11 +249,11 @@ function initLivePlot() {
     "live-plot",
     [trace("position (m)", "y"), trace("angle (rad)", "y"), trace("speed (m/s)", "y2"), trace("yaw rate (rad/s)", "y2")],
     {
-      margin: { t: 10, r: 60, b: 40, l: 60 },
+      margin: { t: 30, r: 60, b: 40, l: 60 },
       xaxis: { title: { text: "time (s)" } },
-      yaxis: { title: { text: "position / angle" } },
-      yaxis2: { title: { text: "velocity" }, overlaying: "y", side: "right" },
-      legend: { orientation: "h" },
+      yaxis: { title: { text: "position (m) / angle (rad)" } },
+      yaxis2: { title: { text: "speed (m/s) / yaw rate (rad/s)" }, overlaying: "y", side: "right" },
+      legend: { orientation: "h", x: 0, y: 1.12 },
     },
     { responsive: true, displaylogo: false },
   );
