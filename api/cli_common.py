@@ -64,13 +64,21 @@ def user_errors():
 
 
 def open_store(db_url: str | None):
+    """Open the database; runs left ``running`` by a dead process become ``interrupted``."""
     from daq.store import Store
 
     with user_errors():
         try:
-            return Store(db_url)
+            store = Store(db_url)
         except Exception as err:  # a bad URL or unreachable server
             fail(f"cannot open database {db_url or '(default)'}: {err}")
+    recovered = store.recover_interrupted()  # only runs whose owning process is gone
+    if recovered:
+        click.echo(
+            f"marked {len(recovered)} run(s) left running by a dead process as interrupted",
+            err=True,
+        )
+    return store
 
 
 def echo_json(data: Any) -> None:

@@ -43,12 +43,6 @@ def _run_procedure(
         source = RigSource.load(rig_file, scenario_file)
         params = validate(source)
     store = open_store(db_url)
-    recovered = store.recover_interrupted()
-    if recovered and not as_json:
-        click.echo(
-            f"marked {len(recovered)} run(s) left running by a dead process as interrupted",
-            err=True,
-        )
 
     async def main(abort: AbortSignal) -> Any:
         from daq.procedures.motion import PreconditionFailed
