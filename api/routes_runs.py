@@ -28,7 +28,7 @@ from api.schemas import (
     SamplesOut,
     error_responses,
 )
-from daq.store import Store, import_csv
+from daq.store import ResultNotFound, Store, import_csv
 
 router = APIRouter(prefix="/api", tags=["runs"])
 RunStatus = Literal["running", "completed", "aborted", "interrupted"]
@@ -282,10 +282,10 @@ def list_results(
 
 
 def _find_result(store: Store, result_id: int):
-    for r in store.results():
-        if r.id == result_id:
-            return r
-    raise HTTPException(404, f"no result with id {result_id}")
+    try:
+        return store.result(result_id)
+    except ResultNotFound as err:
+        raise HTTPException(404, str(err)) from None
 
 
 @router.get(
@@ -307,10 +307,10 @@ def get_result(result_id: int, store: StoreDep, runner: RunnerDep) -> dict:
 )
 def latest_calibration(store: StoreDep, runner: RunnerDep) -> dict:
     """The newest thrust calibration: table, fitted curve and inverse map."""
-    found = store.results(kind="calibration")
-    if not found:
+    latest = store.latest_result("calibration")
+    if latest is None:
         raise HTTPException(404, "no thrust calibration stored yet; run one first")
-    return _result_json(found[-1], runner)
+    return _result_json(latest, runner)
 
 
 @router.get(

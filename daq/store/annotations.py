@@ -10,7 +10,7 @@ import sqlalchemy as sa
 
 from daq.store import checks
 from daq.store.base import StoreBase, software_version
-from daq.store.records import EventInfo, ResultInfo, to_datetime
+from daq.store.records import EventInfo, ResultInfo, ResultNotFound, to_datetime
 from daq.store.schema import events, result_runs, results
 from daq.store.schema import runs as runs_t
 
@@ -88,6 +88,27 @@ class EventsAndResults(StoreBase):
         query = sa.select(results).order_by(results.c.created_at, results.c.id)
         if kind is not None:
             query = query.where(results.c.kind == checks.check_kind("kind", kind))
+        return self._fetch_results(query, run_id)
+
+    def result(self, result_id: int) -> ResultInfo:
+        """One result by id; ``ResultNotFound`` names the id."""
+        found = self._fetch_results(sa.select(results).where(results.c.id == int(result_id)))
+        if not found:
+            raise ResultNotFound(f"no result with id {result_id}")
+        return found[0]
+
+    def latest_result(self, kind: str) -> ResultInfo | None:
+        """The newest result of ``kind`` (e.g. the thrust calibration in force), or None."""
+        query = (
+            sa.select(results)
+            .where(results.c.kind == checks.check_kind("kind", kind))
+            .order_by(results.c.created_at.desc(), results.c.id.desc())
+            .limit(1)
+        )
+        found = self._fetch_results(query)
+        return found[0] if found else None
+
+    def _fetch_results(self, query: sa.Select, run_id: str | None = None) -> list[ResultInfo]:
         with self.engine.connect() as conn:
             if run_id is not None:
                 pk = self._resolve(conn, run_id).id

@@ -20,6 +20,13 @@ class RunNotFound(KeyError):
         return str(self.args[0]) if self.args else "run not found"
 
 
+class ResultNotFound(KeyError):
+    """No result has this id."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else "result not found"
+
+
 class AmbiguousRunId(ValueError):
     """A run id prefix matches more than one run."""
 
