@@ -5,7 +5,8 @@ from __future__ import annotations
 import click
 
 from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
-from api.estimation_job import METHODS, run_estimation
+from api.estimation_job import run_estimation
+from estimation import METHODS
 
 
 def _pm(c: dict) -> str:

@@ -11,8 +11,7 @@ from typing import Any
 
 from daq.run_data import load_run_data
 from daq.store import Store
-
-METHODS = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
+from estimation import METHODS
 
 
 def run_estimation(
@@ -29,7 +28,7 @@ def run_estimation(
     estimated or runs of mixed axes; ``RunNotFound`` for an unknown id.
     """
     from estimation import estimate
-    from estimation.report import write_report
+    from estimation.report import write_report  # matplotlib: load only when estimating
 
     if method not in METHODS:
         raise ValueError(f"method: {method!r} is not allowed; allowed: {', '.join(METHODS)}")
