@@ -170,6 +170,11 @@ class ThrusterPort(_Strict):
     yaw_lever_arm_m: PositiveFloat = 0.2
     ack_timeout_s: Annotated[float, Field(gt=0, le=2)] = 0.1
 
+    def yaw_signs(self) -> list[float]:
+        """+1 for thrusters that turn the vehicle positive about the vertical axis (even
+        index, port side), −1 for the others; each acts at ``yaw_lever_arm_m``."""
+        return [1.0 if i % 2 == 0 else -1.0 for i in range(self.count)]
+
 
 class Limits(_Strict):
     max_force_n: PositiveFloat

@@ -13,9 +13,9 @@ import tomllib
 
 import numpy as np
 
-from daq.config import parse_rig
+from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
-from daq.store import Store
+from daq.store import ResultNotFound, RunInfo, Store
 from estimation.runs import RunData
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
@@ -29,16 +29,27 @@ def _event_time(events, action: str, key: str = "t_mono") -> float | None:
     return None
 
 
+def _rig_of(run: RunInfo) -> RigConfig | None:
+    """The rig file the run was recorded with (None for imported data without one)."""
+    if not run.rig_toml:
+        return None
+    try:
+        return parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
+    except (RigConfigError, tomllib.TOMLDecodeError) as err:
+        raise ValueError(f"run {run.id}: its stored rig file is unreadable: {err}") from None
+
+
 def load_run_data(store: Store, run_id: str) -> RunData:
     """Build the estimator's view of one stored tow or spin run.
 
-    Time base: the PLC's own millisecond clock when the run has it (device-side
-    timestamps, free of host scheduling jitter), else the host's monotonic time.
-    Raises ``ValueError`` naming the run when it cannot be estimated.
+    Time base: the PLC's own clock when the run has it (device-side timestamps, free of
+    host scheduling jitter), else the host's monotonic time. Raises ``ValueError``
+    naming the run when it cannot be estimated.
     """
     run = store.get_run(run_id)
     if run.kind not in POSITION_CHANNEL:
         raise ValueError(f"run {run.id}: kind {run.kind!r} cannot be estimated; allowed: tow, spin")
+    rig = _rig_of(run)
     table = store.samples(run.id)
     channel = POSITION_CHANNEL[run.kind]
     if channel not in table.channels and "position" in table.channels:
@@ -53,7 +64,8 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     clock_step = 0.0
     if clock is not None and np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0):
         t = clock[good]
-        clock_step = 1e-3  # the PLC clock ticks in ms (see the rig file's plc_clock scale)
+        # One count of the PLC clock (the rig file's scale; ms on BENBAM).
+        clock_step = abs(rig.channel("plc_clock").scale) if rig is not None else 1e-3
     # Map host instants (release, brake) onto the chosen time base.
     gap = t - t_host
     offset = float(np.median(gap)) if t.size else 0.0
@@ -76,27 +88,22 @@ def load_run_data(store: Store, run_id: str) -> RunData:
 
     drive_inertia = 0.0
     drum_radius = None
-    if run.rig_toml:
-        try:
-            rig = parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
-        except Exception:
-            rig = None
-        if rig is not None:
-            g = rig.geometry
-            if run.kind == "tow":
-                drive_inertia = g.pulley_inertia_kg_m2 / g.pulley_radius_m**2
-            else:
-                drive_inertia = g.spin_drum_inertia_kg_m2
-                drum_radius = g.spin_drum_radius_m
-    if run.kind == "spin" and params.get("drum_radius_m"):
-        drum_radius = float(params["drum_radius_m"])
+    if rig is not None:
+        geo = rig.geometry
+        if run.kind == "tow":
+            drive_inertia = geo.pulley_inertia_kg_m2 / geo.pulley_radius_m**2
+        else:
+            drive_inertia = geo.spin_drum_inertia_kg_m2
+            drum_radius = geo.spin_drum_radius_m
     drive = params.get("force_n") if run.kind == "tow" else params.get("torque_nm")
     if drive is None or not math.isfinite(float(drive)):
         name = "force_n" if run.kind == "tow" else "torque_nm"
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
     if params.get("drive") == "thrusters":
-        drive = thruster_torque(store, params, t - t_release)
+        if rig is None:
+            raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
+        drive = thruster_torque(store, rig, params, t - t_release)
     return RunData(
         run_id=run.id,
         axis="surge" if run.kind == "tow" else "yaw",
@@ -112,27 +119,28 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     )
 
 
-def thruster_torque(store: Store, params: dict, t_since_on: np.ndarray) -> np.ndarray:
+def thruster_torque(
+    store: Store, rig: RigConfig, params: dict, t_since_on: np.ndarray
+) -> np.ndarray:
     """Torque per sample of a thruster-driven spin, N·m, from the stored calibration.
 
-    The commands ramp from zero at the host's slew limit when the thrust is switched on
+    The commands ramp from zero at the rig's slew limit when the thrust is switched on
     (t = 0); each thruster's force comes from the calibrated curve. The thrusters' own
     lag is not modelled here (the residual search sees it as a release delay).
     """
-    from daq.procedures.thruster_drive import yaw_signs
     from estimation.thrust_curve import ThrustCurve
 
-    calibrations = store.results(params["calibration_run_id"], kind="calibration")
-    match = [r for r in calibrations if r.id == params["calibration_result_id"]]
-    if not match:
+    try:
+        calibration = store.result(params["calibration_result_id"])
+    except ResultNotFound:
         raise ValueError(
             f"calibration result #{params['calibration_result_id']} is no longer stored"
-        )
-    curve = ThrustCurve.from_json(match[0].data["fit"])
-    slew = float(params["slew_per_s"])
+        ) from None
+    curve = ThrustCurve.from_json(calibration.data["fit"])
+    slew = rig.limits.max_command_slew_per_s
     on = np.clip(t_since_on, 0.0, None)
     torque = np.zeros_like(on)
-    for sign, target in zip(yaw_signs(len(params["commands"])), params["commands"], strict=True):
+    for sign, target in zip(rig.thrusters.yaw_signs(), params["commands"], strict=True):
         command = np.sign(target) * np.minimum(abs(target), slew * on)
-        torque += sign * curve.force(command) * params["yaw_lever_arm_m"]
+        torque += sign * curve.force(command) * rig.thrusters.yaw_lever_arm_m
     return torque

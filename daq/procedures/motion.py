@@ -80,7 +80,7 @@ async def _settled_samples(session: RigSession, seconds: float, abort: AbortSign
     return got
 
 
-async def _check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> float:
+async def check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> float:
     """Vehicle at rest, switch clear, no e-stop; returns the start position."""
     samples = await _settled_samples(session, 0.5, abort)
     if len(samples) < 2:
@@ -103,6 +103,45 @@ async def _check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> 
             "wait until it is at rest"
         )
     return statistics.fmean(pos)
+
+
+async def follow_motion(
+    rec: RecordedRun,
+    axis: _Axis,
+    start: float,
+    limit: float,
+    max_time_s: float,
+    report: ProgressCallback,
+) -> tuple[str, Sample, float]:
+    """Follow a released axis until end of travel, ``limit`` (m or rad) or ``max_time_s``.
+
+    Returns why it stopped, the sample that decided it, and the time of the last sample
+    of free motion (the end-of-travel switch stops the carriage before the sample that
+    sees it tripped). Unread ticks are skipped; ``rec.samples()`` aborts on device loss.
+    """
+    t0 = previous_t = None
+    async for sample in rec.samples():
+        if sample.quality & Quality.ERROR:
+            continue
+        t0 = t0 if t0 is not None else sample.t_mono
+        elapsed = sample.t_mono - t0
+        travelled = abs(sample.channels[axis.position] - start)
+        done = max(elapsed / max_time_s, travelled / limit)
+        report(
+            Progress(
+                0.05 + 0.9 * min(done, 1.0),
+                f"{axis.kind}: {travelled:.3f} {axis.unit} in {elapsed:.1f} s",
+            )
+        )
+        if axis is TOW and sample.channels.get("end_of_travel"):
+            return "end of travel", sample, previous_t if previous_t is not None else t0
+        if travelled >= limit:
+            what = "distance" if axis is TOW else "angle"
+            return f"max {what} {limit:g} {axis.unit}", sample, sample.t_mono
+        if elapsed >= max_time_s:
+            return f"max time {max_time_s:g} s", sample, sample.t_mono
+        previous_t = sample.t_mono
+    raise AssertionError("rec.samples() ends only by raising")
 
 
 async def run_motion_test(
@@ -141,7 +180,7 @@ async def run_motion_test(
         await op.perform(
             OperatorAct(axis.weight_act, f"Hang {mass:.3f} kg on the {what} (brake on)", mass)
         )
-        start = await _check_ready(session, axis, abort)
+        start = await check_ready(session, axis, abort)
         limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
         rec = RecordedRun(
             session, kind=axis.kind, parameters=params.to_json(), abort=abort, progress=report
@@ -170,44 +209,18 @@ async def run_motion_test(
                 t_mono=(before + after) / 2,
                 t_half_width=(after - before) / 2,
             )
-            t0 = None
-            previous_t = None
-            async for sample in rec.samples():
-                if sample.quality & Quality.ERROR:
-                    continue  # unread this tick; rec.samples() aborts once the device is lost
-                t0 = t0 if t0 is not None else sample.t_mono
-                elapsed = sample.t_mono - t0
-                travelled = abs(sample.channels[axis.position] - start)
-                frac = max(elapsed / params.max_time_s, travelled / limit)
-                report(
-                    Progress(
-                        0.05 + 0.9 * min(frac, 1.0),
-                        f"{axis.kind}: {travelled:.3f} {axis.unit} in {elapsed:.1f} s",
-                    )
-                )
-                stop = None
-                # The last sample of free motion: the switch stops the carriage before this sample.
-                t_last_free = sample.t_mono
-                if axis is TOW and sample.channels.get("end_of_travel"):
-                    stop = "end of travel"
-                    t_last_free = previous_t if previous_t is not None else sample.t_mono
-                elif travelled >= limit:
-                    stop = f"max {'distance' if axis is TOW else 'angle'} {limit:g} {axis.unit}"
-                elif elapsed >= params.max_time_s:
-                    stop = f"max time {params.max_time_s:g} s"
-                if stop:
-                    await session.plc.write(axis.release, False)
-                    braked = time.monotonic()
-                    await rec.event(
-                        "limit",
-                        f"{stop}: brake engaged",
-                        action="brake",
-                        seq=sample.seq,
-                        t_mono=braked,
-                        t_last_free=t_last_free,
-                    )
-                    break
-                previous_t = sample.t_mono
+            stop, sample, t_last_free = await follow_motion(
+                rec, axis, start, limit, params.max_time_s, report
+            )
+            await session.plc.write(axis.release, False)
+            await rec.event(
+                "limit",
+                f"{stop}: brake engaged",
+                action="brake",
+                seq=sample.seq,
+                t_mono=time.monotonic(),
+                t_last_free=t_last_free,
+            )
             # A short tail after the brake shows the stop in the data.
             await rec.record_for(0.3)
         count = await asyncio.to_thread(session.store.sample_count, rec.run_id)

@@ -1,10 +1,10 @@
 """Thruster-driven spin: the calibrated inverse map turns a torque into commands.
 
-Thrusters with an even index (0, 2, …) turn the vehicle positive about the
-vertical axis and odd ones negative, each at the rig file's ``yaw_lever_arm_m``;
-a pure torque τ asks every thruster for ``F = τ / (n·L)`` with the sign of its
-side, so the surge forces cancel. The inverse map comes from the newest stored
-thrust calibration; reverse-running thrusters get the larger reverse command.
+Each thruster turns the vehicle with the sign ``ThrusterPort.yaw_signs()`` gives it,
+at the rig file's ``yaw_lever_arm_m``; a pure torque τ asks every thruster for
+``F = τ / (n·L)`` with the sign of its side, so the surge forces cancel. The inverse
+map comes from the newest stored thrust calibration; reverse-running thrusters get the
+larger reverse command.
 """
 
 from __future__ import annotations
@@ -13,46 +13,36 @@ import asyncio
 import time
 from typing import Any
 
+from daq.config import ThrusterPort
 from daq.operator import OperatorAct
-from daq.procedures.motion import SPIN, RunOutcome, _check_ready
+from daq.procedures.motion import SPIN, RunOutcome, check_ready, follow_motion
 from daq.procedures.params import ParameterError, Progress, SpinParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.sample import Quality
 from daq.session import RigSession
 from daq.store import Store
 
 
-def yaw_signs(count: int) -> list[float]:
-    """+1 for thrusters that turn the vehicle positive (even index), −1 for the others."""
-    return [1.0 if i % 2 == 0 else -1.0 for i in range(count)]
-
-
 def latest_calibration(store: Store) -> dict[str, Any]:
     """The newest stored thrust calibration; ParameterError when there is none."""
-    found = store.results(kind="calibration")
-    if not found:
+    newest = store.latest_result("calibration")
+    if newest is None:
         raise ParameterError(
             [("drive", "thrusters", "a thrust calibration first: run `rig calibrate-thrusters`")]
         )
-    newest = max(found, key=lambda r: r.created_at)
     return newest.data | {"result_id": newest.id}
 
 
 def thruster_commands(
-    torque_nm: float,
-    calibration: dict[str, Any],
-    *,
-    count: int,
-    lever_arm_m: float,
-    max_command: float,
+    torque_nm: float, calibration: dict[str, Any], thrusters: ThrusterPort, max_command: float
 ) -> tuple[list[float], float]:
     """Commands (fractions) giving ``torque_nm`` and the force per thruster, N."""
     from estimation.thrust_curve import ThrustCurve
 
     curve = ThrustCurve.from_json(calibration["fit"])
+    count, lever_arm_m = thrusters.count, thrusters.yaw_lever_arm_m
     per_thruster = torque_nm / (count * lever_arm_m)
     commands = []
-    for sign in yaw_signs(count):
+    for sign in thrusters.yaw_signs():
         # Below the smallest thrust measured on that side the curve is extrapolated into the
         # dead band, where a small error means no thrust at all: refuse rather than guess.
         measured = [
@@ -112,17 +102,13 @@ async def run_thruster_spin(
     commands, force = thruster_commands(
         params.torque_nm,
         calibration,
-        count=rig.thrusters.count,
-        lever_arm_m=rig.thrusters.yaw_lever_arm_m,
+        rig.thrusters,
         max_command=rig.limits.max_thruster_command,
     )
     parameters = params.to_json() | {
         "commands": commands,
         "force_per_thruster_n": force,
-        "yaw_lever_arm_m": rig.thrusters.yaw_lever_arm_m,
         "calibration_result_id": calibration["result_id"],
-        "calibration_run_id": calibration["run_id"],
-        "slew_per_s": rig.limits.max_command_slew_per_s,
     }
     async with session.locked(f"thruster spin {params.torque_nm:.4g} N·m"):
         op = session.operator
@@ -139,7 +125,7 @@ async def run_thruster_spin(
                 "unmount_thrust_stand", "Make sure the thrusters are free (not on the load cell)"
             )
         )
-        start = await _check_ready(session, SPIN, abort)
+        start = await check_ready(session, SPIN, abort)
         rec = RecordedRun(session, kind="spin", parameters=parameters, abort=abort, progress=report)
         async with rec:
             try:
@@ -173,29 +159,17 @@ async def _spin_with_thrusters(session, rec, params, commands, start, report) ->
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
     )
-    t0 = None
-    async for sample in rec.samples():
-        if sample.quality & Quality.ERROR:
-            continue
-        t0 = t0 if t0 is not None else sample.t_mono
-        elapsed = sample.t_mono - t0
-        turned = abs(sample.channels["yaw_angle"] - start)
-        done = max(elapsed / params.max_time_s, turned / params.max_angle_rad)
-        report(Progress(0.05 + 0.9 * min(done, 1.0), f"spin: {turned:.2f} rad in {elapsed:.1f} s"))
-        if turned >= params.max_angle_rad:
-            stop = f"max angle {params.max_angle_rad:g} rad"
-        elif elapsed >= params.max_time_s:
-            stop = f"max time {params.max_time_s:g} s"
-        else:
-            continue
-        session.set_thrust([0.0] * rig.thrusters.count)
-        await session.thrusters.zero()
-        await session.plc.write("spin_release", False)
-        await rec.event(
-            "limit",
-            f"{stop}: thrust off, brake engaged",
-            action="brake",
-            t_mono=time.monotonic(),
-            t_last_free=sample.t_mono,
-        )
-        return
+    stop, sample, t_last_free = await follow_motion(
+        rec, SPIN, start, params.max_angle_rad, params.max_time_s, report
+    )
+    session.set_thrust([0.0] * rig.thrusters.count)
+    await session.thrusters.zero()
+    await session.plc.write("spin_release", False)
+    await rec.event(
+        "limit",
+        f"{stop}: thrust off, brake engaged",
+        action="brake",
+        seq=sample.seq,
+        t_mono=time.monotonic(),
+        t_last_free=t_last_free,
+    )

@@ -45,7 +45,7 @@ class Plant:
             1.0 if thr.time_constant_s == 0 else 1.0 - math.exp(-STEP_S / thr.time_constant_s)
         )
         # Port thrusters (even index) turn the vehicle positive, starboard (odd) negative.
-        self._yaw_sign = [1.0 if i % 2 == 0 else -1.0 for i in range(rig.thrusters.count)]
+        self._yaw_sign = rig.thrusters.yaw_signs()
         self.t_start: float | None = None
         self.steps = 0
         self.estop = False
