@@ -94,6 +94,15 @@ async def _motion(session: RigSession, params: Any, abort: AbortSignal, view: Pr
     return await run_motion_test(session, params, abort=abort, progress=view)
 
 
+def _motion_command(validate, raw, rig_file, scenario_file, db_url, as_json, title) -> None:
+    """Shared body of ``rig tow`` and ``rig spin``: options left unset take their defaults."""
+    given = {k: v for k, v in raw.items() if v is not None}
+    outcome = _run_procedure(
+        rig_file, scenario_file, db_url, lambda s: validate(given, s.rig), _motion, title, as_json
+    )
+    _print_outcome(outcome, as_json)
+
+
 @click.command()
 @click.option(
     "--force", "force_n", type=float, help="Towing force in N (0 < F ≤ the rig's max_force_n)."
@@ -113,37 +122,9 @@ async def _motion(session: RigSession, params: Any, abort: AbortSignal, view: Pr
 @scenario_option
 @db_option
 @json_option
-def tow(
-    force_n,
-    weight_kg,
-    max_distance_m,
-    max_time_s,
-    baseline_s,
-    rig_file,
-    scenario_file,
-    db_url,
-    as_json,
-):
+def tow(rig_file, scenario_file, db_url, as_json, **raw):
     """Tow test: a weight over the pulley pulls the vehicle along the rail."""
-    raw = {
-        "force_n": force_n,
-        "weight_kg": weight_kg,
-        "max_distance_m": max_distance_m,
-        "max_time_s": max_time_s,
-        "baseline_s": baseline_s,
-    }
-    raw = {k: v for k, v in raw.items() if v is not None}
-
-    outcome = _run_procedure(
-        rig_file,
-        scenario_file,
-        db_url,
-        lambda s: tow_parameters(raw, s.rig),
-        _motion,
-        "tow",
-        as_json,
-    )
-    _print_outcome(outcome, as_json)
+    _motion_command(tow_parameters, raw, rig_file, scenario_file, db_url, as_json, "tow")
 
 
 @click.command()
@@ -174,39 +155,10 @@ def tow(
 @scenario_option
 @db_option
 @json_option
-def spin(
-    torque_nm,
-    weight_kg,
-    use_thrusters,
-    max_angle_rad,
-    max_time_s,
-    baseline_s,
-    rig_file,
-    scenario_file,
-    db_url,
-    as_json,
-):
+def spin(use_thrusters, rig_file, scenario_file, db_url, as_json, **raw):
     """Spin test: constant torque about the vertical axis (weight on the drum, or thrusters)."""
-    raw = {
-        "torque_nm": torque_nm,
-        "weight_kg": weight_kg,
-        "max_angle_rad": max_angle_rad,
-        "max_time_s": max_time_s,
-        "baseline_s": baseline_s,
-        "drive": "thrusters" if use_thrusters else "weight",
-    }
-    raw = {k: v for k, v in raw.items() if v is not None}
-
-    outcome = _run_procedure(
-        rig_file,
-        scenario_file,
-        db_url,
-        lambda s: spin_parameters(raw, s.rig),
-        _motion,
-        "spin",
-        as_json,
-    )
-    _print_outcome(outcome, as_json)
+    raw["drive"] = "thrusters" if use_thrusters else "weight"
+    _motion_command(spin_parameters, raw, rig_file, scenario_file, db_url, as_json, "spin")
 
 
 @click.command("calibrate-thrusters")

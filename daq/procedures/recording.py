@@ -71,7 +71,8 @@ class RecordedRun:
         self.status: str | None = None
         self.reason: str | None = None
         self._recorder: RunRecorder | None = None
-        self._tasks: list[asyncio.Task] = []
+        self._recorder_task: asyncio.Task | None = None
+        self._pump_task: asyncio.Task | None = None
         self._queue: asyncio.Queue[Sample] | None = None
 
     @property
@@ -100,13 +101,12 @@ class RecordedRun:
         self._recorder = RunRecorder(
             self.store, self.run_id, flush_interval_s=s.rig.acquisition.flush_interval_s
         )
-        self._tasks.append(
-            asyncio.create_task(self._recorder.run(), name=f"recorder-{self.run_id[:8]}")
+        self._recorder_task = asyncio.create_task(
+            self._recorder.run(), name=f"recorder-{self.run_id[:8]}"
         )
         # The recorder gets every sample: a queue big enough for a long fault, then drops.
-        recorder_queue = s.acquisition.subscribe(maxsize=100_000, name="run-recorder")
-        self._tasks.append(asyncio.create_task(self._pump(recorder_queue), name="recorder-pump"))
-        self._recorder_queue = recorder_queue
+        self._recorder_queue = s.acquisition.subscribe(maxsize=100_000, name="run-recorder")
+        self._pump_task = asyncio.create_task(self._pump(self._recorder_queue), name="pump")
         self._queue = s.acquisition.subscribe(maxsize=1000, name="procedure")
         return self
 
@@ -134,17 +134,15 @@ class RecordedRun:
         assert s.acquisition is not None
         if self._queue is not None:
             s.acquisition.unsubscribe(self._queue)
-        # Let the samples already produced reach the recorder, then stop the pump.
-        await asyncio.sleep(0)
+        # Stop the pump (it never holds a sample across an await) and hand the recorder
+        # whatever it had not taken yet; the final flush stores all of it.
         s.acquisition.unsubscribe(self._recorder_queue)
+        assert self._recorder is not None and self._pump_task and self._recorder_task
+        self._pump_task.cancel()
         while not self._recorder_queue.empty():
             self._recorder.put(self._recorder_queue.get_nowait())
-        for task in self._tasks:
-            if task.get_name() == "recorder-pump":
-                task.cancel()
-        assert self._recorder is not None
         await self._recorder.close()
-        for task in self._tasks:
+        for task in (self._pump_task, self._recorder_task):
             with contextlib.suppress(BaseException):
                 await task
         await asyncio.to_thread(self.store.finish_run, self.run_id, self.status, self.reason)
