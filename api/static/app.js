@@ -5,6 +5,8 @@ const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed"];
 const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {} };
+// Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
+const pageLoaders = {};
 
 // ---- token: from #token=..., else localStorage, else ask ------------------------------
 function initToken() {
@@ -92,6 +94,7 @@ function showPage() {
   if (page === "estimation") loadEstimationRuns();
   if (page === "thrusters") loadCalibration();
   if (page === "rig") Plotly.Plots.resize("live-plot");
+  if (pageLoaders[page]) pageLoaders[page]();
 }
 window.addEventListener("hashchange", showPage);
 
@@ -561,7 +564,8 @@ function refreshAll() {
 
 initToken();
 initLivePlot();
-showPage();
+// Page scripts load after this one: show the page once they have registered.
+window.addEventListener("load", showPage);
 refreshRig();
 setInterval(refreshRig, 2000);
 stream();
