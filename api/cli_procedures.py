@@ -111,6 +111,12 @@ def _motion_command(validate, raw, rig_file, scenario_file, db_url, as_json, tit
     "--weight", "weight_kg", type=float, help="Hung weight in kg (force = weight × the rig's g)."
 )
 @click.option(
+    "--thrusters",
+    "use_thrusters",
+    is_flag=True,
+    help="Drive the force with the calibrated thrusters (no weight).",
+)
+@click.option(
     "--max-distance",
     "max_distance_m",
     type=float,
@@ -122,8 +128,9 @@ def _motion_command(validate, raw, rig_file, scenario_file, db_url, as_json, tit
 @scenario_option
 @db_option
 @json_option
-def tow(rig_file, scenario_file, db_url, as_json, **raw):
-    """Tow test: a weight over the pulley pulls the vehicle along the rail."""
+def tow(use_thrusters, rig_file, scenario_file, db_url, as_json, **raw):
+    """Tow test: a weight over the pulley (or the thrusters) pulls the vehicle along the rail."""
+    raw["drive"] = "thrusters" if use_thrusters else "weight"
     _motion_command(tow_parameters, raw, rig_file, scenario_file, db_url, as_json, "tow")
 
 

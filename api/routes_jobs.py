@@ -36,7 +36,8 @@ def start_tow(
 ) -> dict:
     """Start a tow test (the same parameters as ``rig tow``)."""
     params = tow_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    return runner.start_procedure("tow", params, f"tow {params.force_n:.4g} N").to_json()
+    label = f"tow {params.force_n:.4g} N" + (" (thrusters)" if params.drive == "thrusters" else "")
+    return runner.start_procedure("tow", params, label).to_json()
 
 
 @router.post(

@@ -51,10 +51,12 @@ def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
 
 # ---- procedures -------------------------------------------------------------------------
 class TowRequest(_Strict):
-    """A tow test: give ``force_n`` or ``weight_kg`` (force = weight × the rig's g)."""
+    """A tow test: ``force_n`` or ``weight_kg`` (force = weight × the rig's g); ``drive``
+    weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map)."""
 
     force_n: float | None = Field(None, description="Towing force, N (0 < F ≤ max_force_n).")
     weight_kg: float | None = Field(None, description="Hung weight, kg.")
+    drive: Literal["weight", "thrusters"] = "weight"
     max_distance_m: float | None = Field(None, description="Stop after m (default: end of travel).")
     max_time_s: float | None = Field(None, description="Stop after s (default 120).")
     baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")

@@ -17,6 +17,7 @@ from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, Store
 from estimation.runs import RunData
+from estimation.thrust_curve import ThrustCurve
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 
@@ -88,9 +89,12 @@ def load_run_data(store: Store, run_id: str) -> RunData:
 
     drive_inertia = 0.0
     drum_radius = None
+    thrusters = params.get("drive") == "thrusters"
     if rig is not None:
         geo = rig.geometry
-        if run.kind == "tow":
+        if run.kind == "tow" and thrusters:
+            drive_inertia = 0.0  # no weight, tow line unhooked: the pulley does not turn
+        elif run.kind == "tow":
             drive_inertia = geo.pulley_inertia_kg_m2 / geo.pulley_radius_m**2
         else:
             drive_inertia = geo.spin_drum_inertia_kg_m2
@@ -100,10 +104,18 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         name = "force_n" if run.kind == "tow" else "torque_nm"
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
-    if params.get("drive") == "thrusters":
+    draws = None
+    if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        drive = thruster_torque(store, rig, params, t - t_release)
+        curve = _calibration_curve(store, params)
+        drive = thruster_drive(curve, rig, run.kind, params["commands"], t - t_release)
+        draws = np.array(
+            [
+                thruster_drive(c, rig, run.kind, params["commands"], t - t_release)
+                for c in curve_draws(curve, DRIVE_DRAWS)
+            ]
+        )
     return RunData(
         run_id=run.id,
         axis="surge" if run.kind == "tow" else "yaw",
@@ -116,31 +128,57 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         t_release=t_release,
         t_end=t_end,
         t_release_std=t_release_std,
+        drive_draws=draws,
     )
 
 
-def thruster_torque(
-    store: Store, rig: RigConfig, params: dict, t_since_on: np.ndarray
-) -> np.ndarray:
-    """Torque per sample of a thruster-driven spin, N·m, from the stored calibration.
-
-    The commands ramp from zero at the rig's slew limit when the thrust is switched on
-    (t = 0); each thruster's force comes from the calibrated curve. The thrusters' own
-    lag is not modelled here (the residual search sees it as a release delay).
-    """
-    from estimation.thrust_curve import ThrustCurve
-
+def _calibration_curve(store: Store, params: dict) -> ThrustCurve:
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:
         raise ValueError(
             f"calibration result #{params['calibration_result_id']} is no longer stored"
         ) from None
-    curve = ThrustCurve.from_json(calibration.data["fit"])
+    return ThrustCurve.from_json(calibration.data["fit"])
+
+
+def thruster_drive(
+    curve: ThrustCurve, rig: RigConfig, kind: str, commands: list[float], t_since_on: np.ndarray
+) -> np.ndarray:
+    """Drive per sample of a thruster-driven tow (force, N: Σ F) or spin (torque, N·m:
+    Σ sign·F·L), from the calibrated thrust curve.
+
+    The commands ramp from zero at the rig's slew limit when the thrust is switched on
+    (t = 0); each thruster's force comes from the calibrated curve. The thrusters' own
+    lag is not modelled here (the residual search sees it as a release delay).
+    """
+    from daq.procedures.thruster_drive import thrust_layout
+
+    signs, arm = thrust_layout(rig.thrusters, kind)
     slew = rig.limits.max_command_slew_per_s
     on = np.clip(t_since_on, 0.0, None)
-    torque = np.zeros_like(on)
-    for sign, target in zip(rig.thrusters.yaw_signs(), params["commands"], strict=True):
+    drive = np.zeros_like(on)
+    for sign, target in zip(signs, commands, strict=True):
         command = np.sign(target) * np.minimum(abs(target), slew * on)
-        torque += sign * curve.force(command) * rig.thrusters.yaw_lever_arm_m
-    return torque
+        drive += sign * curve.force(command) * arm
+    return drive
+
+
+#: Thrust curves drawn per thruster-driven run to carry the calibration's uncertainty.
+DRIVE_DRAWS = 30
+DRIVE_DRAW_SEED = 20261121
+
+
+def curve_draws(curve: ThrustCurve, count: int, seed: int = DRIVE_DRAW_SEED) -> list[ThrustCurve]:
+    """``count`` thrust curves with parameters drawn from N(values, cov) of the calibration
+    fit (cov from its σ and correlation), kept inside the fit's bounds; fixed seed."""
+    from dataclasses import replace
+
+    std = np.asarray(curve.std, dtype=float)
+    cov = np.outer(std, std) * np.asarray(curve.correlation, dtype=float)
+    rng = np.random.default_rng(seed)
+    values = rng.multivariate_normal(curve.values, cov, size=count, method="eigh")
+    # gains > 0, dead bands ≥ 0, exponents within the fit's 0.2 … 3
+    low = np.array([1e-9, 0.0, 0.2, 1e-9, 0.0, 0.2, -np.inf])
+    high = np.array([np.inf, np.inf, 3.0, np.inf, np.inf, 3.0, np.inf])
+    return [replace(curve, values=np.clip(v, low, high)) for v in values]

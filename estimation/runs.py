@@ -39,6 +39,9 @@ class RunData:
     #: How well the release instant is known (1σ, s): host timing of the brake command.
     #: A fitted release delay within 3× this is not reported as an effect.
     t_release_std: float = 0.0
+    #: Thruster-driven runs: K alternative drives, shape (K, len(t)), from thrust curves
+    #: drawn within the calibration's uncertainty (None: the drive is known exactly).
+    drive_draws: np.ndarray | None = None
 
     def declared_extra_inertia(self) -> float:
         """Known inertia that moves with the vehicle (axis units): drive train + hung weight."""
@@ -100,6 +103,12 @@ def validate_run(run: RunData) -> None:
         raise _fail(rid, "drive", "NaN/inf", "finite force/torque")
     if not np.any(drive != 0):
         raise _fail(rid, "drive", 0.0, "a non-zero force (N) or torque (N·m)")
+    if run.drive_draws is not None:
+        draws = np.asarray(run.drive_draws, dtype=float)
+        if draws.ndim != 2 or draws.shape[1] != t.size or draws.shape[0] < 2:
+            raise _fail(rid, "drive_draws", f"shape {draws.shape}", f"(K ≥ 2, {t.size}) or None")
+        if not np.all(np.isfinite(draws)):
+            raise _fail(rid, "drive_draws", "NaN/inf", "finite forces/torques")
     if run.hung_mass_kg is not None and not run.hung_mass_kg > 0:
         raise _fail(rid, "hung_mass_kg", run.hung_mass_kg, "> 0 kg or None")
     if not (np.isfinite(run.t_release_std) and run.t_release_std >= 0):

@@ -76,19 +76,31 @@ class ThrustCurve:
 
     @classmethod
     def from_json(cls, data: dict) -> ThrustCurve:
-        """Rebuild a stored curve from ``to_json()`` output (correlation not kept: identity)."""
+        """Rebuild a stored curve from ``to_json()`` output (results stored before the
+        correlation was kept get the identity)."""
         params = data["parameters"]
         values = np.array([params[n]["value"] for n in PARAMS], dtype=float)
         std = np.array([params[n]["std"] for n in PARAMS], dtype=float)
         lo, hi = data["command_range"]
-        return cls(values, std, np.eye(len(PARAMS)), float(data["rmse_n"]), float(lo), float(hi))
+        corr = np.eye(len(PARAMS))
+        stored = data.get("correlation")
+        if stored is not None:
+            names = list(stored["names"])
+            order = [names.index(n) for n in PARAMS]
+            corr = np.array(stored["matrix"], dtype=float)[np.ix_(order, order)]
+        return cls(values, std, corr, float(data["rmse_n"]), float(lo), float(hi))
 
     def to_json(self) -> dict:
-        """{parameters: {name: {value, std}}, rmse_n, command_range}."""
+        """{parameters: {name: {value, std}}, correlation: {names, matrix}, rmse_n,
+        command_range}."""
         return {
             "parameters": {
                 n: {"value": float(v), "std": float(s)}
                 for n, v, s in zip(PARAMS, self.values, self.std, strict=True)
+            },
+            "correlation": {
+                "names": list(PARAMS),
+                "matrix": [[float(x) for x in row] for row in np.asarray(self.correlation)],
             },
             "rmse_n": self.rmse_n,
             "command_range": [self.command_min, self.command_max],

@@ -155,10 +155,10 @@ async def run_motion_test(
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
     axis = TOW if isinstance(params, TowParameters) else SPIN
-    if isinstance(params, SpinParameters) and params.drive == "thrusters":
-        from daq.procedures.thruster_drive import run_thruster_spin
+    if params.drive == "thrusters":
+        from daq.procedures.thruster_drive import run_thruster_test
 
-        return await run_thruster_spin(session, params, abort=abort, progress=progress)
+        return await run_thruster_test(session, params, abort=abort, progress=progress)
     label = (
         f"tow {params.force_n:.4g} N"
         if isinstance(params, TowParameters)

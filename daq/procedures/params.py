@@ -100,13 +100,14 @@ class _Checker:
 
 @dataclass(frozen=True)
 class TowParameters:
-    """A tow test: constant force from a weight over the pulley."""
+    """A tow test: constant force from a weight over the pulley, or from the thrusters."""
 
     force_n: float
-    hung_mass_kg: float
+    hung_mass_kg: float | None
     max_distance_m: float
     max_time_s: float
     baseline_s: float = 1.0
+    drive: Literal["weight", "thrusters"] = "weight"
     kind: Literal["tow"] = "tow"
 
     def to_json(self) -> dict[str, Any]:
@@ -172,10 +173,13 @@ def _hung_mass(c: _Checker, name: str, mass_kg: float | None) -> float:
 
 
 def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
-    """Validate a tow request: exactly one of ``force_n`` / ``weight_kg``."""
+    """Validate a tow request: ``force_n`` or ``weight_kg``; ``drive`` weight|thrusters."""
     c = _Checker(raw)
     g = rig.rig.g
     lim = rig.limits
+    drive = raw.get("drive", "weight")
+    if drive not in ("weight", "thrusters"):
+        c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
     force = c.number(
         "force_n", low=0, high=lim.max_force_n, unit="N", why_high=", rig limit max_force_n"
     )
@@ -192,6 +196,10 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
         c.problems.append(
             ("weight_kg", raw.get("weight_kg"), "give force_n or weight_kg, not both")
         )
+    elif drive == "thrusters" and raw.get("weight_kg") is not None:
+        c.problems.append(
+            ("weight_kg", raw.get("weight_kg"), "a thruster-driven tow takes force_n")
+        )
     eot = rig.geometry.end_of_travel_m
     dist = c.number(
         "max_distance_m", low=0, high=eot, unit="m", default=eot, why_high=", end_of_travel_m"
@@ -201,15 +209,22 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     )
     base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
     c.fail_if_problems()
-    weight = _hung_mass(
-        c,
-        "force_n" if force is not None else "weight_kg",
-        force / g if force is not None else weight,
-    )
-    force = weight * g  # what the hung weight really pulls
+    if drive == "weight":
+        weight = _hung_mass(
+            c,
+            "force_n" if force is not None else "weight_kg",
+            force / g if force is not None else weight,
+        )
+        force = weight * g  # what the hung weight really pulls
+    assert force is not None
     assert dist is not None and tmax is not None and base is not None
     return TowParameters(
-        force_n=force, hung_mass_kg=weight, max_distance_m=dist, max_time_s=tmax, baseline_s=base
+        force_n=force,
+        hung_mass_kg=weight if drive == "weight" else None,
+        max_distance_m=dist,
+        max_time_s=tmax,
+        baseline_s=base,
+        drive=drive,  # type: ignore[arg-type]
     )
 
 

@@ -1,10 +1,11 @@
-"""Thruster-driven spin: the calibrated inverse map turns a torque into commands.
+"""Thruster-driven tows and spins: the calibrated inverse map turns a drive into commands.
 
-Each thruster turns the vehicle with the sign ``ThrusterPort.yaw_signs()`` gives it,
-at the rig file's ``yaw_lever_arm_m``; a pure torque τ asks every thruster for
-``F = τ / (n·L)`` with the sign of its side, so the surge forces cancel. The inverse
-map comes from the newest stored thrust calibration; reverse-running thrusters get the
-larger reverse command.
+Surge (tow without a weight): every thruster pushes forward with ``F = F_total / n``.
+Yaw (spin): each thruster turns the vehicle with the sign ``ThrusterPort.yaw_signs()``
+gives it, at the rig file's ``yaw_lever_arm_m``; a pure torque τ asks every thruster for
+``F = τ / (n·L)`` with the sign of its side, so the surge forces cancel. The inverse map
+comes from the newest stored thrust calibration; reverse-running thrusters get the
+larger reverse command. Both axes share one lifecycle (``run_thruster_test``).
 """
 
 from __future__ import annotations
@@ -15,11 +16,14 @@ from typing import Any
 
 from daq.config import ThrusterPort
 from daq.operator import OperatorAct
-from daq.procedures.motion import SPIN, RunOutcome, check_ready, follow_motion
-from daq.procedures.params import ParameterError, Progress, SpinParameters
+from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion
+from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.session import RigSession
 from daq.store import Store
+
+#: The drive each run kind's thrusters give: (parameter, unit).
+DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:
@@ -32,17 +36,35 @@ def latest_calibration(store: Store) -> dict[str, Any]:
     return newest.data | {"result_id": newest.id}
 
 
+def thrust_layout(thrusters: ThrusterPort, kind: str) -> tuple[list[float], float]:
+    """Per-thruster sign and arm (m; 1 for a force) that turn thruster forces into the drive
+    of a ``"tow"`` (Σ F) or a ``"spin"`` (Σ sign·F·L)."""
+    if kind == "tow":
+        return [1.0] * thrusters.count, 1.0
+    if kind == "spin":
+        return thrusters.yaw_signs(), thrusters.yaw_lever_arm_m
+    raise ValueError(f"kind: {kind!r} is not allowed; allowed 'tow' or 'spin'")
+
+
 def thruster_commands(
-    torque_nm: float, calibration: dict[str, Any], thrusters: ThrusterPort, max_command: float
+    drive: float,
+    calibration: dict[str, Any],
+    thrusters: ThrusterPort,
+    max_command: float,
+    kind: str = "spin",
 ) -> tuple[list[float], float]:
-    """Commands (fractions) giving ``torque_nm`` and the force per thruster, N."""
+    """Commands (fractions) giving ``drive`` (N for a tow, N·m for a spin) and the force per
+    thruster, N. Refuses (ParameterError) below the smallest calibrated thrust and beyond
+    the thrusters' reach at ``max_command``."""
     from estimation.thrust_curve import ThrustCurve
 
+    name, unit = DRIVE_FIELD[kind]
     curve = ThrustCurve.from_json(calibration["fit"])
-    count, lever_arm_m = thrusters.count, thrusters.yaw_lever_arm_m
-    per_thruster = torque_nm / (count * lever_arm_m)
+    signs, arm = thrust_layout(thrusters, kind)
+    count = thrusters.count
+    per_thruster = drive / (count * arm)
     commands = []
-    for sign in thrusters.yaw_signs():
+    for sign in signs:
         # Below the smallest thrust measured on that side the curve is extrapolated into the
         # dead band, where a small error means no thrust at all: refuse rather than guess.
         measured = [
@@ -55,9 +77,9 @@ def thruster_commands(
             raise ParameterError(
                 [
                     (
-                        "torque_nm",
-                        torque_nm,
-                        f"at least {min(measured) * count * lever_arm_m:.3g} N·m: "
+                        name,
+                        drive,
+                        f"at least {min(measured) * count * arm:.3g} {unit}: "
                         f"{per_thruster:.3g} N per thruster is below the smallest calibrated "
                         f"{side} thrust "
                         f"({min(measured):.3g} N); calibrate with smaller commands "
@@ -68,17 +90,15 @@ def thruster_commands(
         try:
             u = float(curve.command_for_force(sign * per_thruster))
         except ValueError as err:
-            raise ParameterError(
-                [("torque_nm", torque_nm, f"within the calibrated range: {err}")]
-            ) from None
+            raise ParameterError([(name, drive, f"within the calibrated range: {err}")]) from None
         if abs(u) > max_command:
             reach = min(abs(float(curve.force(max_command))), abs(float(curve.force(-max_command))))
             raise ParameterError(
                 [
                     (
-                        "torque_nm",
-                        torque_nm,
-                        f"allowed up to {reach * count * lever_arm_m:.3g} N·m with these thrusters "
+                        name,
+                        drive,
+                        f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
                         f"(max_thruster_command {max_command:g})",
                     )
                 ]
@@ -87,63 +107,94 @@ def thruster_commands(
     return commands, per_thruster
 
 
-async def run_thruster_spin(
+async def run_thruster_test(
     session: RigSession,
-    params: SpinParameters,
+    params: TowParameters | SpinParameters,
     *,
     abort: AbortSignal | None = None,
     progress: ProgressCallback | None = None,
 ) -> RunOutcome:
-    """Spin the free vehicle with a thruster couple; same lifecycle as a weight spin."""
+    """Tow or spin the free vehicle with its thrusters; same lifecycle as a weight test.
+
+    No weight is hung (the tow line is unhooked); after the baseline the thrust goes on
+    (ramped at the slew limit), the motion is followed to end of travel / distance /
+    angle / timeout, then the thrust goes to zero and the brake engages. The thrusters
+    end zero and disarmed whatever happens.
+    """
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
     rig = session.rig
+    tow = isinstance(params, TowParameters)
+    axis = TOW if tow else SPIN
+    drive = params.force_n if tow else params.torque_nm
+    unit = DRIVE_FIELD[axis.kind][1]
     calibration = await asyncio.to_thread(latest_calibration, session.store)
     commands, force = thruster_commands(
-        params.torque_nm,
+        drive,
         calibration,
         rig.thrusters,
         max_command=rig.limits.max_thruster_command,
+        kind=axis.kind,
     )
     parameters = params.to_json() | {
         "commands": commands,
         "force_per_thruster_n": force,
         "calibration_result_id": calibration["result_id"],
     }
-    async with session.locked(f"thruster spin {params.torque_nm:.4g} N·m"):
+    async with session.locked(f"thruster {axis.kind} {drive:.4g} {unit}"):
         op = session.operator
-        report(Progress(0.0, "returning the vehicle to zero yaw"))
+        report(Progress(0.0, "returning the vehicle to the start"))
         await session.safe_state()
-        await op.perform(
-            OperatorAct("return_carriage", "Return the vehicle to zero yaw and let it settle")
-        )
-        await op.perform(
-            OperatorAct("hang_spin_weight", "Remove any weight from the spin drum", 0.0)
-        )
+        if tow:
+            await op.perform(
+                OperatorAct(
+                    "return_carriage",
+                    "Return the carriage to the start of the rail and let the vehicle settle",
+                )
+            )
+            await op.perform(
+                OperatorAct(
+                    "hang_tow_weight", "Remove the weight and unhook the tow line (brake on)", 0.0
+                )
+            )
+        else:
+            await op.perform(
+                OperatorAct("return_carriage", "Return the vehicle to zero yaw and let it settle")
+            )
+            await op.perform(
+                OperatorAct("hang_spin_weight", "Remove any weight from the spin drum", 0.0)
+            )
         await op.perform(
             OperatorAct(
                 "unmount_thrust_stand", "Make sure the thrusters are free (not on the load cell)"
             )
         )
-        start = await check_ready(session, SPIN, abort)
-        rec = RecordedRun(session, kind="spin", parameters=parameters, abort=abort, progress=report)
+        start = await check_ready(session, axis, abort)
+        rec = RecordedRun(
+            session, kind=axis.kind, parameters=parameters, abort=abort, progress=report
+        )
         async with rec:
             try:
-                await _spin_with_thrusters(session, rec, params, commands, start, report)
+                await _drive_with_thrusters(session, rec, axis, params, commands, start, report)
             finally:
                 await session.disarm_thrusters()
             await rec.record_for(0.3)
         count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
         report(Progress(1.0, f"run {rec.status}", state=rec.status or ""))
         assert rec.run_id and rec.status
-        return RunOutcome(rec.run_id, rec.status, rec.reason, "spin", count)
+        return RunOutcome(rec.run_id, rec.status, rec.reason, axis.kind, count)
 
 
-async def _spin_with_thrusters(session, rec, params, commands, start, report) -> None:
+#: The same lifecycle under the names of the two tests.
+run_thruster_spin = run_thruster_test
+run_thruster_tow = run_thruster_test
+
+
+async def _drive_with_thrusters(session, rec, axis, params, commands, start, report) -> None:
     rig = session.rig
-    await session.plc.write("spin_release", True)
+    await session.plc.write(axis.release, True)
     await session.arm_thrusters()
-    await rec.event("operator", "spin brake released, thrusters armed")
+    await rec.event("operator", f"{axis.release} set: brake released, thrusters armed")
     report(
         Progress(
             0.05, f"recording a {params.baseline_s:g} s baseline", extra={"run_id": rec.run_id}
@@ -159,12 +210,13 @@ async def _spin_with_thrusters(session, rec, params, commands, start, report) ->
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
     )
+    limit = params.max_distance_m if axis is TOW else params.max_angle_rad
     stop, sample, t_last_free = await follow_motion(
-        rec, SPIN, start, params.max_angle_rad, params.max_time_s, report
+        rec, axis, start, limit, params.max_time_s, report
     )
     session.set_thrust([0.0] * rig.thrusters.count)
     await session.thrusters.zero()
-    await session.plc.write("spin_release", False)
+    await session.plc.write(axis.release, False)
     await rec.event(
         "limit",
         f"{stop}: thrust off, brake engaged",

@@ -1,0 +1,111 @@
+"""Thruster-driven tow on the simulated rig over Modbus: the calibrated inverse map turns a
+surge force into commands; the thrusters end zero and disarmed however the run ends."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from daq.procedures.calibration import run_thrust_calibration
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import ParameterError, calibration_parameters, tow_parameters
+from daq.procedures.recording import AbortSignal
+from daq.run_data import load_run_data
+from estimation.thrust_curve import ThrustCurve
+
+
+async def _calibrate(session) -> dict:
+    params = calibration_parameters(
+        {
+            "commands": [0.0, 0.1, 0.3, 0.8],
+            "settle_s": 0.4,
+            "samples_per_step": 3,
+            "tare_samples": 5,
+        },
+        session.rig,
+    )
+    outcome, calibration = await run_thrust_calibration(session, params)
+    assert outcome.status == "completed"
+    return calibration
+
+
+async def _assert_thrusters_safe(session) -> None:
+    assert session.thrusters.state == "DISARMED"
+    assert session.sim.thrusters.outputs == [0.0] * session.rig.thrusters.count
+    assert await session.plc.read("tow_release") == 0
+
+
+async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
+    with pytest.raises(ParameterError, match="calibrate-thrusters"):
+        await run_motion_test(
+            session, tow_parameters({"force_n": 20.0, "drive": "thrusters"}, session.rig)
+        )
+    calibration = await _calibrate(session)
+    # Below the smallest calibrated thrust (command 0.1) the curve would be extrapolated.
+    smallest = (
+        min(r["thrust_per_thruster_n"] for r in calibration["table"] if r["command"] > 0)
+        * session.rig.thrusters.count
+    )
+    with pytest.raises(ParameterError, match=r"force_n: .*below the smallest calibrated"):
+        await run_motion_test(
+            session,
+            tow_parameters({"force_n": 0.8 * smallest, "drive": "thrusters"}, session.rig),
+        )
+    # Beyond what the thrusters give within the calibrated commands.
+    with pytest.raises(ParameterError, match=r"force_n: 99\.0 is not allowed \(within the"):
+        await run_motion_test(
+            session, tow_parameters({"force_n": 99.0, "drive": "thrusters"}, session.rig)
+        )
+    await _assert_thrusters_safe(session)
+
+    params = tow_parameters(
+        {"force_n": 20.0, "drive": "thrusters", "max_time_s": 2.5, "baseline_s": 0.3},
+        session.rig,
+    )
+    assert params.hung_mass_kg is None and params.force_n == 20.0
+    outcome = await run_motion_test(session, params)
+    assert outcome.status == "completed" and outcome.kind == "tow"
+    run = store.get_run(outcome.run_id)
+    assert run.parameters["drive"] == "thrusters"
+    assert run.parameters["calibration_result_id"] == calibration["result_id"]
+    curve = ThrustCurve.from_json(calibration["fit"])
+    commands = run.parameters["commands"]
+    assert len(commands) == session.rig.thrusters.count
+    for u in commands:  # all push forward, each giving F/n through the curve
+        assert u > 0
+        assert float(curve.force(u)) == pytest.approx(10.0, rel=1e-6)
+    assert await session.plc.read("sim_tow_weight") == 0  # no weight hung
+    x = store.samples(outcome.run_id).channels["tow_position"]
+    assert x[-1] > 0.2
+    await _assert_thrusters_safe(session)
+    await _abort_leaves_the_thrusters_zero(session)
+
+    # The estimator's view: the force from the calibration, ramping at the slew limit,
+    # no pulley inertia (line unhooked), and drawn drives around it.
+    data = load_run_data(store, outcome.run_id)
+    assert data.axis == "surge" and data.drive_inertia == 0.0 and data.hung_mass_kg is None
+    after = data.t > data.t_release + 1.0
+    assert data.drive[after] == pytest.approx(20.0, rel=1e-6)
+    assert data.drive[data.t < data.t_release].max() == 0.0
+    assert data.drive_draws is not None and data.drive_draws.shape[1] == data.t.size
+    spread = data.drive_draws[:, after].std(axis=0)
+    assert 0 < spread.max() < 0.2 * 20.0
+
+
+async def _abort_leaves_the_thrusters_zero(session) -> None:
+    abort = AbortSignal()
+    params = tow_parameters(
+        {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
+        session.rig,
+    )
+    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
+    for _ in range(100):  # until the thrust is on
+        await asyncio.sleep(0.05)
+        if any(session.sim.thrusters.outputs):
+            break
+    assert any(session.sim.thrusters.outputs)
+    abort.set("operator abort (test)")
+    outcome = await asyncio.wait_for(task, 5)
+    assert outcome.status == "aborted"
+    await _assert_thrusters_safe(session)
