@@ -51,6 +51,9 @@ STANDARD_CHANNELS = (
     "estop",
 )
 
+#: Channels a rig with a ``[pendulum]`` section defines (encoder and release latch).
+PENDULUM_CHANNELS = ("pendulum_angle", "pendulum_release")
+
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
@@ -194,6 +197,44 @@ class Acquisition(_Strict):
     flush_interval_s: Annotated[float, Field(gt=0, le=1.0)] = 0.5
 
 
+class Pendulum(_Strict):
+    """A physical pendulum carrying the vehicle: free-decay tests (seed 002, §4.4.1).
+
+    The swing obeys ``(J_t + m_z l² + J_v + α l²) φ̈ = −[(m_z − ρV) l + m_t r] g sin φ − …``
+    (``docs/pendulum.md``); the vehicle's mass is ``[vehicle] dry_mass_kg``.
+    """
+
+    #: l: pivot to the vehicle's centre of gravity, m.
+    pivot_to_vehicle_m: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False)]
+    #: m_t: rod (+ clamp) mass, kg.
+    rod_mass_kg: Annotated[float, Field(ge=0, le=500, allow_inf_nan=False)]
+    #: r: pivot to the rod's centre of gravity, m.
+    rod_cg_m: Annotated[float, Field(ge=0, le=10, allow_inf_nan=False)]
+    #: J_t: rod (+ clamp) about the pivot, kg·m² (measured by a rod-only swing).
+    rod_inertia_kg_m2: Annotated[float, Field(ge=0, le=1_000, allow_inf_nan=False)]
+    #: J_v: the vehicle about its own centre of gravity, about the swing axis, kg·m².
+    vehicle_inertia_kg_m2: Annotated[float, Field(ge=0, le=1_000, allow_inf_nan=False)]
+    #: ρ·V: mass of the water the vehicle displaces, kg (buoyancy acts at the vehicle's CG).
+    buoyancy_kg: Annotated[float, Field(ge=0, le=10_000, allow_inf_nan=False)]
+    #: b: known viscous torque of pivot and rod per angular speed, N·m·s/rad (0: not measured).
+    pivot_damping_nm_s: Annotated[float, Field(ge=0, le=1_000, allow_inf_nan=False)] = 0.0
+    #: Largest start angle a test may pull the pendulum out to, rad.
+    max_angle_rad: Annotated[float, Field(gt=0, le=1.2, allow_inf_nan=False)] = 0.5
+    #: The vehicle axis that moves through the water as the pendulum swings.
+    axis: Literal["surge", "sway", "heave"] = "surge"
+
+    @model_validator(mode="after")
+    def _rod_inertia_physical(self) -> Pendulum:
+        # A body's inertia about the pivot is at least that of its mass at its CG.
+        least = self.rod_mass_kg * self.rod_cg_m**2
+        if self.rod_inertia_kg_m2 < least * (1 - 1e-9):
+            raise ValueError(
+                f"rod_inertia_kg_m2 must be at least rod_mass_kg · rod_cg_m² ({least:.4g} kg·m²), "
+                f"got {self.rod_inertia_kg_m2}"
+            )
+        return self
+
+
 class RigConfig(_Strict):
     rig: RigInfo
     geometry: Geometry
@@ -203,6 +244,8 @@ class RigConfig(_Strict):
     thrusters: ThrusterPort
     limits: Limits
     acquisition: Acquisition = Acquisition()
+    #: Optional: a pendulum for free-decay tests (needs the pendulum channels).
+    pendulum: Pendulum | None = None
 
     @field_validator("channels")
     @classmethod
@@ -229,6 +272,26 @@ class RigConfig(_Strict):
             raise ValueError(
                 f"channels: missing required channel(s) {', '.join(missing)}; "
                 f"every rig file defines {', '.join(STANDARD_CHANNELS)}"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _pendulum_channels_present(self) -> RigConfig:
+        if self.pendulum is None:
+            return self
+        names = {c.name for c in self.channels}
+        missing = [n for n in PENDULUM_CHANNELS if n not in names]
+        if missing:
+            raise ValueError(
+                f"channels: a rig with [pendulum] needs channel(s) {', '.join(missing)}"
+            )
+        p = self.pendulum
+        righting = (self.vehicle.dry_mass_kg - p.buoyancy_kg) * p.pivot_to_vehicle_m
+        righting += p.rod_mass_kg * p.rod_cg_m
+        if righting <= 0:
+            raise ValueError(
+                "pendulum: (dry_mass_kg − buoyancy_kg) · pivot_to_vehicle_m + rod_mass_kg · "
+                f"rod_cg_m must be positive (a restoring moment), got {righting:.4g} kg·m"
             )
         return self
 

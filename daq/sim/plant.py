@@ -12,6 +12,7 @@ history does not depend on how often anyone reads it. Equations (SI units):
   − τ_c sgn ω`` (the weight term drops once the cord has run out)
 * thruster i: ``T_ss = F_fs · s^p · (V/V_nom)^q`` with ``s = (|u| − d)/(1 − d)`` above the dead
   band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
+* pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum``, stepped with the rest
 """
 
 from __future__ import annotations
@@ -20,14 +21,12 @@ import math
 import random
 
 from daq.config import RigConfig
+from daq.sim.friction import sign, stick_slip_step
+from daq.sim.pendulum import SimPendulum
 from daq.sim.scenario import Scenario
 
 STEP_S = 0.001
 HEARTBEAT_PERIOD_S = 0.01
-
-
-def _sign(x: float) -> float:
-    return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
 
 
 class Plant:
@@ -59,6 +58,8 @@ class Plant:
         self._spin_release_at: float | None = None
         self.tow_release = False
         self.spin_release = False
+        #: The free-decay pendulum, when the rig file has one (``daq.sim.pendulum``).
+        self.pendulum = SimPendulum(rig, self.scenario) if rig.pendulum is not None else None
         self.reset()
 
     # ---- state ---------------------------------------------------------------------------
@@ -75,6 +76,8 @@ class Plant:
         self._tow_release_at = None
         self._spin_release_at = None
         self._hang_weight_at_rest()
+        if self.pendulum is not None:
+            self.pendulum.reset()
 
     def _hang_weight_at_rest(self) -> None:
         # The weight rests on its support with the rope just taut until the brake lets go
@@ -124,6 +127,8 @@ class Plant:
 
     def _quiescent(self) -> bool:
         """Nothing can change until an outside write: skip integration."""
+        if self.pendulum is not None and not self.pendulum.quiescent:
+            return False
         if not (self.tow_braked and self.spin_braked):
             return False
         if self._tow_release_at is not None or self._spin_release_at is not None:
@@ -163,6 +168,8 @@ class Plant:
             yaw_torque = lever * sum(s * f for s, f in zip(self._yaw_sign, thrusts, strict=True))
         self._step_tow(surge_thrust)
         self._step_yaw(yaw_torque)
+        if self.pendulum is not None:
+            self.pendulum.step(t, STEP_S)
 
     def _step_tow(self, thrust_n: float) -> None:
         sc, fx = self.scenario.surge, self.scenario.effects
@@ -234,15 +241,7 @@ class Plant:
         v: float, drive: float, force: float, mass: float, coulomb: float, static: float
     ) -> float:
         """One semi-implicit velocity step with stick-slip friction."""
-        if coulomb == 0 and static == 0:
-            return v + force / mass * STEP_S
-        if v == 0.0:
-            if abs(drive) <= (static or coulomb):
-                return 0.0  # stuck: friction balances the drive
-            force -= coulomb * _sign(drive)
-            return v + force / mass * STEP_S
-        v_new = v + (force - coulomb * _sign(v)) / mass * STEP_S
-        return 0.0 if v_new * v < 0 else v_new  # friction stops it; re-check break-away
+        return stick_slip_step(v, drive, force, mass, coulomb, static, STEP_S)
 
     # ---- thrusters and supply ------------------------------------------------------------
     def static_thrust_n(self, command: float, supply_v: float) -> float:
@@ -280,7 +279,7 @@ class Plant:
         thr = self.scenario.thrusters
         out = []
         for t in self.thrusts_n:
-            rpm = thr.full_scale_rpm * math.sqrt(abs(t) / self.full_scale_thrust_n) * _sign(t)
+            rpm = thr.full_scale_rpm * math.sqrt(abs(t) / self.full_scale_thrust_n) * sign(t)
             out.append((rpm, self.thruster_current_a(t)))
         return out
 
@@ -316,6 +315,8 @@ class Plant:
             return self.tow_weight_kg
         if name == "sim_spin_weight":
             return self.spin_weight_kg
+        if self.pendulum is not None:
+            return self.pendulum.read(name)
         return None
 
     def write(self, name: str, value: float) -> bool:
@@ -354,6 +355,8 @@ class Plant:
                 self.reset()
         elif name == "estop":
             self.press_estop(on)
+        elif self.pendulum is not None:
+            return self.pendulum.write(name, value, t)
         else:
             return False
         return True

@@ -36,6 +36,14 @@ class SurgeCoefficients(_Strict):
     quadratic_damping: Annotated[float, Field(ge=0, le=100_000)] = 241.14
 
 
+class TranslationCoefficients(_Strict):
+    """Another translational axis of the vehicle (sway, heave): seen only by the pendulum."""
+
+    inertia_kg: Annotated[float, Field(gt=0, le=10_000)]
+    linear_damping: Annotated[float, Field(ge=0, le=10_000)]
+    quadratic_damping: Annotated[float, Field(ge=0, le=100_000)]
+
+
 class YawCoefficients(_Strict):
     """Yaw (spin) axis: ``I ω̇ + K_L ω + K_Q |ω| ω = τ``."""
 
@@ -68,12 +76,17 @@ class Effects(_Strict):
     yaw_cubic_drag: Annotated[float, Field(ge=0, le=1_000)] = 0.0
     #: Time between setting a release coil and the brake actually letting go, s.
     release_delay_s: Annotated[float, Field(ge=0, le=10)] = 0.0
+    #: Dry (Coulomb) friction torque in the pendulum's pivot, N·m, and its break-away
+    #: (static) level; 0 means equal to the Coulomb level.
+    pivot_coulomb_friction_nm: Annotated[float, Field(ge=0, le=50)] = 0.0
+    pivot_static_friction_nm: Annotated[float, Field(ge=0, le=50)] = 0.0
 
     @model_validator(mode="after")
     def _static_not_below_coulomb(self) -> Effects:
         pairs = (
             ("static_friction_n", "coulomb_friction_n"),
             ("yaw_static_friction_nm", "yaw_coulomb_friction_nm"),
+            ("pivot_static_friction_nm", "pivot_coulomb_friction_nm"),
         )
         for static, coulomb in pairs:
             s, c = getattr(self, static), getattr(self, coulomb)
@@ -89,6 +102,9 @@ class Sensors(_Strict):
     encoder_counts_per_m: Annotated[float, Field(ge=100, le=1e7)] = 10_000.0
     #: Yaw encoder resolution (16 384 counts per revolution).
     encoder_counts_per_rad: Annotated[float, Field(ge=10, le=1e7)] = 16_384 / (2 * math.pi)
+    #: Pendulum angle encoder resolution (17 bits per revolution) and its noise, rad.
+    pendulum_counts_per_rad: Annotated[float, Field(ge=10, le=1e7)] = 131_072 / (2 * math.pi)
+    pendulum_angle_noise_rad: Annotated[float, Field(ge=0, le=0.1)] = 0.0
     #: Load-cell noise (standard deviation, N) and zero offset (N).
     load_cell_noise_n: Annotated[float, Field(ge=0, le=10)] = 0.05
     load_cell_offset_n: Annotated[float, Field(ge=-100, le=100)] = 0.3
@@ -128,6 +144,9 @@ class Scenario(_Strict):
     description: str = ""
     surge: SurgeCoefficients = SurgeCoefficients()
     yaw: YawCoefficients = YawCoefficients()
+    #: Sway and heave: only a pendulum swinging along that axis needs them.
+    sway: TranslationCoefficients | None = None
+    heave: TranslationCoefficients | None = None
     effects: Effects = Effects()
     sensors: Sensors = Sensors()
     thrusters: ThrusterModel = ThrusterModel()

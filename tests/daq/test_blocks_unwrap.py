@@ -13,7 +13,7 @@ def test_benbam_map_reads_in_one_request_per_kind():
     rig = load_rig()
     blocks = plan_blocks(c for c in rig.channels if not c.sim_only)
     spans = [(b.kind, b.start, b.count) for b in blocks]
-    assert spans == [("input", 0, 10), ("discrete", 0, 2), ("coil", 0, 2)]
+    assert spans == [("input", 0, 12), ("discrete", 0, 2), ("coil", 0, 3)]
     assert [c.name for c in blocks[0].channels] == [
         "tow_position",
         "yaw_angle",
@@ -21,8 +21,9 @@ def test_benbam_map_reads_in_one_request_per_kind():
         "supply_voltage",
         "heartbeat",
         "plc_clock",
+        "pendulum_angle",
     ]
-    assert "input registers 0-9" in blocks[0].describe()
+    assert "input registers 0-11" in blocks[0].describe()
 
 
 def test_gaps_are_never_bridged_and_kinds_are_separate():

@@ -54,7 +54,7 @@ async def test_read_all_decodes_every_channel_in_si(server, plc):
     assert readings["estop"].value == 0.0
     assert readings["tow_release"].value == 1.0
     assert all(r.quality == Quality.OK for r in readings.values())
-    assert plc.stats.reads == 3  # one request per kind: input 0-9, discrete 0-1, coil 0-1
+    assert plc.stats.reads == 3  # one request per kind: input 0-11, discrete 0-1, coil 0-2
 
 
 @pytest.mark.parametrize("order", ["big", "little"])
@@ -112,7 +112,7 @@ async def test_a_counter_that_stops_counting_goes_stale(server):
 async def test_an_exception_response_flags_only_that_block(server, plc):
     await plc.read_all()
     server.fail_reads = True
-    with pytest.raises(DeviceError, match=r"input registers 0-9 \(tow_position"):
+    with pytest.raises(DeviceError, match=r"input registers 0-11 \(tow_position"):
         await plc.read_all()  # every block failed -> raises
     assert plc.connected
     server.fail_reads = False
@@ -211,7 +211,7 @@ async def test_server_lost_then_back_reconnects_in_the_background(server):
 async def test_a_slow_plc_times_out_after_the_configured_timeout(server, plc):
     server.delay_s = 0.2  # longer than timeout_s = 0.05 s
     t0 = time.monotonic()
-    with pytest.raises(DeviceError, match="input registers 0-9"):
+    with pytest.raises(DeviceError, match="input registers 0-11"):
         await plc.read_all()
     elapsed = time.monotonic() - t0
     assert elapsed < 0.15  # one timeout, the other blocks of the poll not attempted

@@ -114,8 +114,8 @@ async def test_unknown_addresses_answer_illegal_address(plc):
     client = await tcp_client(await plc.start_tcp())
     try:
         for rr in (
-            await client.read_input_registers(10, count=1, device_id=UNIT),
-            await client.read_input_registers(8, count=3, device_id=UNIT),  # runs past the map
+            await client.read_input_registers(12, count=1, device_id=UNIT),
+            await client.read_input_registers(10, count=3, device_id=UNIT),  # runs past the map
             await client.read_holding_registers(0, count=1, device_id=UNIT),
             await client.read_coils(5, count=1, device_id=UNIT),  # a gap inside a bit word
             await client.read_discrete_inputs(2, count=1, device_id=UNIT),
