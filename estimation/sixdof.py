@@ -352,7 +352,8 @@ def simulate(
     |u| > max_command is refused (ValueError naming the thruster), not clamped.
     ``force``: generalized body force (X, Y, Z, K, M, N), (6,) or t ↦ (6,); added to the
     thrusters' τ. Integrator: LSODA (scipy ``odeint``) to ``rtol``/``atol``, output at
-    the sample times. SingularAttitude if θ reaches ±90°.
+    the sample times; with a callable input no step is longer than ``dt``, so an input
+    pulse is seen when it lasts at least ``dt``. SingularAttitude if θ reaches ±90°.
     """
     if not (isinstance(duration_s, (int, float)) and 0 < duration_s <= MAX_DURATION_S):
         raise ValueError(f"duration_s: got {duration_s!r}, allowed: 0 < d ≤ {MAX_DURATION_S:g} s")
@@ -388,6 +389,7 @@ def simulate(
         rtol=rtol,
         atol=atol,
         mxstep=100_000,
+        hmax=dt if tau_of_t is not None else 0.0,  # inputs in time are seen every dt
         full_output=True,
     )
     if errors:

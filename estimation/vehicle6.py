@@ -121,6 +121,34 @@ class Vehicle6:
         i = _dof_index(self, axis)
         return self.mass_kg if i < 3 else self.body_inertia_about_origin()[i - 3]
 
+    def to_json(self) -> dict[str, Any]:
+        """Parameters, coefficients (by name), σ and thrusters, in the internal frame."""
+        return {
+            "name": self.name,
+            "frame": "x-forward-y-starboard-z-down",
+            "mass_kg": self.mass_kg,
+            "inertia_kg_m2": list(self.inertia_kg_m2),
+            "cg_m": list(self.cg_m),
+            "cb_m": list(self.cb_m),
+            "weight_n": self.weight_n,
+            "buoyancy_n": self.buoyancy_n,
+            "g": self.g,
+            "coefficients": self.coefficients(),
+            "total_inertia": {dof: self.total_inertia(dof) for dof in DOFS},
+            "sigma": dict(self.sigma),
+            "thrusters": [
+                {
+                    "name": t.name,
+                    "position_m": list(t.position_m),
+                    "direction": list(t.direction),
+                    "gain_n_per_command": t.gain_n_per_command,
+                    "max_command": t.max_command,
+                }
+                for t in self.thrusters
+            ],
+            "notes": self.notes,
+        }
+
     def total_inertia(self, axis: str) -> float:
         """Rigid-body plus added mass/inertia on one axis (the per-axis model's m + m_a)."""
         return self.rigid_body_inertia(axis) + self.added_mass[_dof_index(self, axis)]
@@ -426,3 +454,39 @@ def apply_estimate(
         name = f"{_ESTIMATE_SIGMA[key]}.{axis}" if key in _ESTIMATE_SIGMA else key
         new_sigma[name] = value
     return replace(changed, sigma=new_sigma)
+
+
+def apply_result_json(
+    vehicle: Vehicle6, doc: Mapping[str, Any], source: str = "result"
+) -> Vehicle6:
+    """Plug a stored per-axis estimation result (``EstimationResult.to_json()``: ``axis``
+    and ``coefficients`` {inertia, linear_damping, quadratic_damping: {value, std}}) into
+    the vehicle with :func:`apply_estimate`; σ comes along where the result has one."""
+    axis = doc.get("axis") if isinstance(doc, Mapping) else None
+    if axis not in DOFS:
+        raise VehicleError(source, "axis", axis, "one of " + ", ".join(DOFS))
+    coefficients = doc.get("coefficients")
+    if not isinstance(coefficients, Mapping):
+        raise VehicleError(source, "coefficients", coefficients, "a table of {value, std}")
+    values: dict[str, float] = {}
+    sigma: dict[str, float] = {}
+    for key in ("inertia", "linear_damping", "quadratic_damping"):
+        entry = coefficients.get(key)
+        value = entry.get("value") if isinstance(entry, Mapping) else None
+        if not _finite(value):
+            raise VehicleError(source, f"coefficients.{key}.value", value, "a finite number")
+        values[key] = float(value)
+        std = entry.get("std")  # type: ignore[union-attr]
+        if _finite(std) and std >= 0:
+            sigma[key] = float(std)
+    try:
+        return apply_estimate(
+            vehicle,
+            axis,
+            values["inertia"],
+            values["linear_damping"],
+            values["quadratic_damping"],
+            sigma,
+        )
+    except VehicleError as err:
+        raise VehicleError(source, err.field, err.value, err.allowed) from None

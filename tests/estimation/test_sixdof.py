@@ -241,3 +241,34 @@ def test_trajectory_json_decimates_keeping_the_end(benbam):
     assert doc["t"][-1] == pytest.approx(1.0)
     assert len(doc["t"]) == len(doc["nu"]["u"]) == 5  # 0, .3, .6, .9, 1.0
     assert set(doc["eta"]) == {"x", "y", "z", "phi", "theta", "psi"}
+
+
+def test_short_input_pulse_is_not_stepped_over(benbam):
+    """A callable input is sampled at least every dt: a 50 ms, 20 N pulse gives the
+    vehicle its impulse (1 N·s) / (m + m_a) of surge speed."""
+    pulse = simulate(benbam, 20.0, commands=lambda t: [0.5 if 5.0 <= t < 5.05 else 0.0, 0.0])
+    peak = np.max(pulse.nu[:, 0])
+    assert peak == pytest.approx(20.0 * 0.05 / benbam.total_inertia("surge"), rel=0.02)
+    assert pulse.tau[np.searchsorted(pulse.t, 5.02), 0] == pytest.approx(20.0)
+
+
+def test_apply_result_json_uses_value_and_std(benbam):
+    from estimation.vehicle6 import apply_result_json
+
+    doc = {
+        "axis": "yaw",
+        "coefficients": {
+            "inertia": {"value": 9.0, "std": 0.4},
+            "linear_damping": {"value": 0.2, "std": 0.05},
+            "quadratic_damping": {"value": 3.9, "std": None},
+        },
+    }
+    veh = apply_result_json(benbam, doc, "result 7")
+    assert veh.total_inertia("yaw") == pytest.approx(9.0)
+    assert veh.sigma["added_mass.yaw"] == 0.4 and veh.sigma["linear_damping.yaw"] == 0.05
+    assert "quadratic_damping.yaw" not in veh.sigma
+    doc["coefficients"]["quadratic_damping"]["value"] = -1.0
+    with pytest.raises(VehicleError, match=r"result 7: quadratic_damping\.yaw: got -1\.0"):
+        apply_result_json(benbam, doc, "result 7")
+    with pytest.raises(VehicleError, match="result 7: axis: got 'heading'"):
+        apply_result_json(benbam, {"axis": "heading"}, "result 7")
