@@ -1,0 +1,430 @@
+"""The thesis's three ways to read a free decay (seed 002 §3.3), each giving α and β with σ.
+
+Linearised moment balance J·φ̈ + c·φ̇ + k·φ = 0 with J = J_known + α·l², c = β·l² + b:
+decay rate K = c/(2J), damped frequency ω with ω² + K² = k/J, hence
+
+    J = k/(ω² + K²),  α = (J − J_known)/l²,  β = (2·K·J − b)/l².
+
+- ``damped_fit`` (the thesis's lsqcurvefit, its best): φ = C·e^{−Kτ}·sin(ωτ + θ) + offset on
+  the whole record after release, τ = t − t₀;
+- ``log_decrement`` (the "component" method): extrema of both signs, each refined by a
+  parabola through 3 samples; ln|peak| linear in t gives K, the extremum spacing π/ω;
+- ``equation_error``: φ̈ = θ₁·|φ̇|·φ̇ + θ₂·φ̇ + θ₃·sin φ on Savitzky–Golay derivatives,
+  J = −k/θ₃, c = −θ₂·J, γ = −θ₁·J/l³ (and the linear-only variant without θ₁).
+σ everywhere by the delta method from the fit's or regression's covariance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares, minimize_scalar
+from scipy.signal import savgol_filter
+
+from estimation.pendulum_data import PendulumGeometry, PendulumRun
+from estimation.pendulum_sim import Plant, simulate, step_size
+from estimation.result import Estimate
+
+SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...
+SG_POLYORDER = 4  # ... with a quartic: φ̈ of a sinusoid biased < 0.02 %
+MIN_EXTREMA = 3
+
+
+@dataclass(frozen=True)
+class Decay:
+    """One run cut to its free decay: t (s, absolute), φ (rad), the known plant and noise."""
+
+    run_id: str
+    t: np.ndarray
+    phi: np.ndarray
+    geometry: PendulumGeometry
+    plant: Plant
+    noise: float  # rad, 1σ of the sample-to-sample noise (incl. quantization)
+    t_release_std: float = 0.0
+
+
+@dataclass(frozen=True)
+class Peaks:
+    """Extrema of a decay (both signs) and the two envelopes fitted to their magnitudes.
+
+    ``offset`` the midline (rad); ``times`` (s), ``amplitudes`` |peak − offset| (rad).
+    Exponential envelope A = C·e^{−K·t} (log-decrement); linear A = A₀ − r·t, the envelope
+    of pure dry friction (r = 4τ_c/(k·T)·... per second; per cycle 4τ_c/k).
+    """
+
+    offset: float
+    times: np.ndarray
+    amplitudes: np.ndarray
+    exp_c: float
+    exp_k: float
+    exp_k_std: float
+    half_period: float
+    half_period_std: float
+    lin_a0: float
+    lin_rate: float
+    sse_exp: float
+    sse_lin: float
+
+    @property
+    def decays_linearly(self) -> bool:
+        """True when a straight line fits the peak magnitudes better than an exponential."""
+        return self.times.size >= 4 and self.sse_lin < self.sse_exp
+
+    def to_json(self) -> dict:
+        """{offset, times, amplitudes, exponential {c, decay_rate}, linear {...}, ...}."""
+        return {
+            "offset": float(self.offset),
+            "times": [float(x) for x in self.times],
+            "amplitudes": [float(x) for x in self.amplitudes],
+            "exponential": {"c": float(self.exp_c), "decay_rate": float(self.exp_k)},
+            "linear": {"a0": float(self.lin_a0), "rate_per_s": float(self.lin_rate)},
+            "sse_exponential": float(self.sse_exp),
+            "sse_linear": float(self.sse_lin),
+            "decays_linearly": bool(self.decays_linearly),
+        }
+
+
+@dataclass(frozen=True)
+class MethodEstimate:
+    """One method on one run: α (kg), β (N·s/m), γ (kg/m) or None, with σ; e and RMSE (rad)."""
+
+    method: str
+    run_id: str
+    added_mass: Estimate
+    linear_damping: Estimate
+    quadratic_damping: Estimate | None
+    total_inertia: Estimate  # J (kg·m²) about the pivot
+    total_damping: Estimate  # c (N·m·s) about the pivot
+    signal: dict[str, float]
+    mse: float  # the thesis's e: mean squared deviation of the model's angle (rad²)
+    rmse: float
+    note: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """The method's row of the result document."""
+        from estimation.result import _num
+
+        return {
+            "method": self.method,
+            "run_id": self.run_id,
+            "added_mass": self.added_mass.to_json(),
+            "linear_damping": self.linear_damping.to_json(),
+            "quadratic_damping": (
+                self.quadratic_damping.to_json() if self.quadratic_damping else None
+            ),
+            "total_inertia": self.total_inertia.to_json(),
+            "total_damping": self.total_damping.to_json(),
+            "signal": {k: _num(v) for k, v in self.signal.items()},
+            "mse": _num(self.mse),
+            "rmse": _num(self.rmse),
+            "note": self.note,
+            **self.extra,
+        }
+
+
+def plant_of(geometry: PendulumGeometry) -> Plant:
+    """The simulator's view of the known rig."""
+    return Plant(
+        known_inertia=geometry.known_inertia(),
+        stiffness=geometry.restoring_stiffness(),
+        pivot_damping=geometry.pivot_damping_nm_s,
+        arm=geometry.pivot_to_vehicle_m,
+    )
+
+
+def noise_level(phi: np.ndarray) -> float:
+    """Sample noise (rad, 1σ) from third differences (a smooth swing has none), ≥ 1e-9."""
+    d3 = np.diff(phi, 3)
+    robust = 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / np.sqrt(20.0)
+    steps = np.abs(np.diff(phi))
+    quantum = float(np.min(steps[steps > 0])) if np.any(steps > 0) else 0.0
+    return max(robust, quantum / np.sqrt(12.0), 1e-9)
+
+
+def prepare_decay(run: PendulumRun) -> Decay:
+    """The samples at and after release, with the known plant and the noise level."""
+    t, phi = run.decay()
+    return Decay(
+        run.run_id, t, phi, run.geometry, plant_of(run.geometry), noise_level(phi),
+        run.t_release_std,
+    )  # fmt: skip
+
+
+# ---- signal → coefficients -----------------------------------------------------------------
+def coefficients_from_signal(
+    decay_rate: float, omega: float, cov: np.ndarray, geometry: PendulumGeometry
+) -> tuple[Estimate, Estimate, Estimate, Estimate]:
+    """(J, c, α, β) with σ from K (1/s), ω (rad/s) and their 2×2 covariance."""
+    k = geometry.restoring_stiffness()
+    arm = geometry.pivot_to_vehicle_m
+    s = omega**2 + decay_rate**2
+    inertia = k / s
+    damping = 2 * decay_rate * inertia
+    # gradients w.r.t. (K, ω)
+    d_inertia = np.array([-2 * decay_rate * k / s**2, -2 * omega * k / s**2])
+    d_damping = 2 * inertia * np.array([1.0, 0.0]) + 2 * decay_rate * d_inertia
+    cov = np.asarray(cov, dtype=float)
+    sj = float(np.sqrt(max(d_inertia @ cov @ d_inertia, 0.0)))
+    sc = float(np.sqrt(max(d_damping @ cov @ d_damping, 0.0)))
+    alpha = (inertia - geometry.known_inertia()) / arm**2
+    beta = (damping - geometry.pivot_damping_nm_s) / arm**2
+    return (
+        Estimate(inertia, sj),
+        Estimate(damping, sc),
+        Estimate(alpha, sj / arm**2),
+        Estimate(beta, sc / arm**2),
+    )
+
+
+def thesis_translational(
+    decay_rate: float,
+    omega: float,
+    arm: float,
+    rod_mass: float,
+    rod_cg: float,
+    vehicle_mass: float,
+    displaced_mass: float,
+    rod_damping: float,
+    g: float = 9.81,
+) -> tuple[float, float]:
+    """α (kg), β (N·s/m) by the thesis's translational form (seed 002 eq. 188–190).
+
+    M = m_z·l + m̃_t·r + α·l, D = β·l + b̃·r, m̃_t = (r/l)·m_t, b̃ = (r/l)·b, with
+    2K = D/M and ω² + K² = (m_z + m̃_t − ρV)·g/M. Multiplied by l this is our rotational
+    form with J_t = m_t·r² (rod as a point mass), J_v = 0 and the pivot's b_rot = b·r²
+    (the thesis's b is a force per m/s at the rod's CG, eq. 161).
+    """
+    rod_eq = rod_cg / arm * rod_mass
+    big_m = (vehicle_mass + rod_eq - displaced_mass) * g / (omega**2 + decay_rate**2)
+    big_d = 2 * decay_rate * big_m
+    alpha = (big_m - vehicle_mass * arm - rod_eq * rod_cg) / arm
+    beta = (big_d - rod_cg / arm * rod_damping * rod_cg) / arm
+    return alpha, beta
+
+
+# ---- peaks ---------------------------------------------------------------------------------
+def _raw_extrema(t: np.ndarray, y: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """Extrema between hysteresis zero crossings, each refined by a parabola (3 samples)."""
+    label = np.where(y > threshold, 1, np.where(y < -threshold, -1, 0))
+    idx = np.flatnonzero(label)
+    if idx.size == 0:
+        return np.zeros(0), np.zeros(0)
+    lab = label[idx]
+    cuts = np.flatnonzero(np.diff(lab)) + 1
+    times, values = [], []
+    for seg in np.split(idx, cuts):
+        i = seg[0] + int(np.argmax(np.abs(y[seg[0] : seg[-1] + 1])))
+        if i <= 1 or i >= y.size - 2:
+            continue  # the release itself, or cut off by the end of the record
+        y0, y1, y2 = y[i - 1], y[i], y[i + 1]
+        denom = y0 - 2 * y1 + y2
+        shift = 0.5 * (y0 - y2) / denom if denom != 0 else 0.0
+        shift = float(np.clip(shift, -1.0, 1.0))
+        dt = 0.5 * (t[i + 1] - t[i - 1])
+        times.append(t[i] + shift * dt)
+        values.append(y1 - 0.25 * (y0 - y2) * shift)
+    return np.array(times), np.array(values)
+
+
+def _line(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares line: (coef [intercept, slope], cov, sse)."""
+    a = np.column_stack([np.ones_like(x), x])
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    res = y - a @ coef
+    sse = float(res @ res)
+    dof = max(x.size - 2, 1)
+    cov = sse / dof * np.linalg.inv(a.T @ a)
+    return coef, cov, sse
+
+
+def find_peaks(decay: Decay) -> Peaks:
+    """Extrema of both signs and their exponential and linear envelopes.
+
+    The midline (equilibrium angle) is the one that makes ln|peak − midline| most nearly
+    linear in t; extrema within 10σ of noise (or 1 % of the swing) are ignored.
+    """
+    t, phi = decay.t, decay.phi
+    swing = float(np.max(np.abs(phi - np.median(phi))))
+    threshold = max(10 * decay.noise, 0.01 * swing)
+    centre = float(np.median(phi[-max(phi.size // 5, 1) :]))
+    times, values = _raw_extrema(t, phi - centre, threshold)
+    if times.size < MIN_EXTREMA:
+        raise ValueError(
+            f"run {decay.run_id!r}: angle: got {times.size} swing extrema above "
+            f"{threshold:.2g} rad, allowed: >= {MIN_EXTREMA} (no free oscillation recorded)"
+        )
+    values = values + centre
+
+    def sse(c: float) -> float:
+        return _line(times, np.log(np.maximum(np.abs(values - c), 1e-300)))[2]
+
+    span = 0.5 * float(np.min(np.abs(values - centre)))
+    offset = centre
+    if times.size >= 4:
+        offset = float(minimize_scalar(sse, bounds=(centre - span, centre + span)).x)
+    amps = np.abs(values - offset)
+    (ln_c, slope), cov, _ = _line(times, np.log(amps))
+    exp_fit = np.exp(ln_c + slope * times)
+    lin, _, sse_lin = _line(times, amps)
+    spacing, cov_s, _ = _line(np.arange(times.size, dtype=float), times)
+    return Peaks(
+        offset=offset,
+        times=times,
+        amplitudes=amps,
+        exp_c=float(np.exp(ln_c)),
+        exp_k=float(-slope),
+        exp_k_std=float(np.sqrt(cov[1, 1])),
+        half_period=float(spacing[1]),
+        half_period_std=float(np.sqrt(cov_s[1, 1])),
+        lin_a0=float(lin[0]),
+        lin_rate=float(-lin[1]),
+        sse_exp=float(np.sum((amps - exp_fit) ** 2)),
+        sse_lin=sse_lin,
+    )
+
+
+# ---- the three methods -----------------------------------------------------------------------
+def _signal(tau: np.ndarray, c: float, k: float, w: float, theta: float, off: float) -> np.ndarray:
+    return c * np.exp(-k * tau) * np.sin(w * tau + theta) + off
+
+
+def _signal_amplitude_phase(tau, phi, k, w, off) -> tuple[float, float]:
+    """C, θ of C·e^{−Kτ}·sin(ωτ + θ) by linear least squares for given K, ω, offset."""
+    env = np.exp(-k * tau)
+    a = np.column_stack([env * np.sin(w * tau), env * np.cos(w * tau)])
+    (p, q), *_ = np.linalg.lstsq(a, phi - off, rcond=None)
+    return float(np.hypot(p, q)), float(np.arctan2(q, p))
+
+
+def _method(
+    name, decay, signal_k, signal_w, cov, signal, residual, note="", extra=None
+) -> MethodEstimate:
+    inertia, damping, alpha, beta = coefficients_from_signal(
+        signal_k, signal_w, cov, decay.geometry
+    )
+    mse = float(np.mean(residual**2))
+    return MethodEstimate(
+        name, decay.run_id, alpha, beta, None, inertia, damping, signal, mse, float(np.sqrt(mse)),
+        note, extra or {},
+    )  # fmt: skip
+
+
+def log_decrement(decay: Decay, peaks: Peaks | None = None) -> MethodEstimate:
+    """The component method: K from ln|peaks| vs t, ω from the spacing of the extrema."""
+    peaks = peaks or find_peaks(decay)
+    k = peaks.exp_k
+    w = np.pi / peaks.half_period
+    w_std = np.pi / peaks.half_period**2 * peaks.half_period_std
+    tau = decay.t - decay.t[0]
+    c, theta = _signal_amplitude_phase(tau, decay.phi, k, w, peaks.offset)
+    res = decay.phi - _signal(tau, c, k, w, theta, peaks.offset)
+    signal = {"C": c, "K": k, "omega": w, "theta": theta, "offset": peaks.offset}
+    cov = np.diag([peaks.exp_k_std**2, w_std**2])
+    return _method(
+        "log-decrement", decay, k, w, cov, signal, res,
+        f"{peaks.times.size} extrema; e is the damped sinusoid with these K, ω (C, θ by LS)",
+    )  # fmt: skip
+
+
+def damped_fit(decay: Decay, peaks: Peaks | None = None) -> MethodEstimate:
+    """lsqcurvefit: C·e^{−Kτ}·sin(ωτ + θ) + offset fitted to the whole decay (least_squares)."""
+    peaks = peaks or find_peaks(decay)
+    tau = decay.t - decay.t[0]
+    k0, w0 = max(peaks.exp_k, 1e-4), np.pi / peaks.half_period
+    c0, th0 = _signal_amplitude_phase(tau, decay.phi, k0, w0, peaks.offset)
+    p0 = np.array([c0, k0, w0, th0, peaks.offset])
+
+    def resid(p):
+        return _signal(tau, *p) - decay.phi
+
+    sol = least_squares(resid, p0, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    res = -sol.fun
+    n, p = res.size, sol.x.size
+    cov = float(res @ res) / max(n - p, 1) * np.linalg.pinv(sol.jac.T @ sol.jac)
+    c, k, w, theta, off = sol.x
+    if c < 0:  # the same signal with a positive amplitude
+        c, theta = -c, theta + np.pi
+    theta = float(np.mod(theta, 2 * np.pi))
+    signal = {"C": c, "K": k, "omega": w, "theta": theta, "offset": off}
+    stds = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    signal_std = dict(zip(("C", "K", "omega", "theta", "offset"), stds.tolist(), strict=True))
+    return _method(
+        "damped-fit", decay, k, abs(w), cov[1:3, 1:3], signal, res,
+        "y = C·e^(−Kτ)·sin(ωτ + θ) + offset, τ = t − t₀",
+        {"signal_std": signal_std},
+    )  # fmt: skip
+
+
+def savgol_window(decay: Decay, half_period: float) -> int:
+    """Savitzky–Golay window (samples): the odd number nearest period/6, at least 7."""
+    dt = float(np.median(np.diff(decay.t)))
+    n = round(2 * half_period / SG_PERIOD_FRACTION / dt)
+    n = max(n, SG_POLYORDER + 3)
+    return n if n % 2 else n + 1
+
+
+def equation_error(
+    decay: Decay, peaks: Peaks | None = None, quadratic: bool = True
+) -> MethodEstimate:
+    """Equation-error LS on smoothed derivatives (uniformly resampled), up to the last extremum.
+
+    φ̈ = θ₁·|φ̇|·φ̇ + θ₂·φ̇ + θ₃·sin(φ − offset); ``quadratic=False`` drops θ₁.
+    """
+    peaks = peaks or find_peaks(decay)
+    geometry, arm = decay.geometry, decay.geometry.pivot_to_vehicle_m
+    window = savgol_window(decay, peaks.half_period)
+    dt = float(np.median(np.diff(decay.t)))
+    grid = np.arange(decay.t[0], decay.t[-1] + 0.5 * dt, dt)
+    y = np.interp(grid, decay.t, decay.phi) - peaks.offset
+    d1 = savgol_filter(y, window, SG_POLYORDER, deriv=1, delta=dt)
+    d2 = savgol_filter(y, window, SG_POLYORDER, deriv=2, delta=dt)
+    half = window // 2
+    last = min(np.searchsorted(grid, peaks.times[-1] + 0.5 * peaks.half_period), grid.size - half)
+    use = slice(half, max(last, half + 5))
+    cols = [np.abs(d1) * d1, d1, np.sin(y)] if quadratic else [d1, np.sin(y)]
+    a = np.column_stack(cols)[use]
+    b = d2[use]
+    theta, *_ = np.linalg.lstsq(a, b, rcond=None)
+    res_eq = b - a @ theta
+    n, p = b.size, theta.size
+    cov = float(res_eq @ res_eq) / max(n - p, 1) * np.linalg.inv(a.T @ a)
+    th3 = float(theta[-1])
+    k = geometry.restoring_stiffness()
+    inertia = -k / th3
+    damping = -float(theta[-2]) * inertia
+    # delta method on J = −k/θ₃, c = −θ₂·J = k·θ₂/θ₃, γ·l³ = −θ₁·J = k·θ₁/θ₃
+    i2, i3 = p - 2, p - 1
+    g_j = np.zeros(p)
+    g_j[i3] = k / th3**2
+    g_c = np.zeros(p)
+    g_c[i2], g_c[i3] = k / th3, -k * theta[i2] / th3**2
+    sj = float(np.sqrt(max(g_j @ cov @ g_j, 0.0)))
+    sc = float(np.sqrt(max(g_c @ cov @ g_c, 0.0)))
+    signal = {f"theta{i + (0 if quadratic else 1) + 1}": float(v) for i, v in enumerate(theta)}
+    quad = None
+    if quadratic:
+        g_q = np.zeros(p)
+        g_q[0], g_q[i3] = k / th3, -k * theta[0] / th3**2
+        q_val = k * float(theta[0]) / th3 / arm**3
+        quad = Estimate(q_val, float(np.sqrt(max(g_q @ cov @ g_q, 0.0))) / arm**3)
+    alpha = Estimate((inertia - geometry.known_inertia()) / arm**2, sj / arm**2)
+    beta = Estimate((damping - geometry.pivot_damping_nm_s) / arm**2, sc / arm**2)
+    mse = _simulated_mse(decay, alpha.value, beta.value, quad.value if quad else 0.0, peaks)
+    name = "equation-error" if quadratic else "equation-error-linear"
+    note = f"Savitzky–Golay window {window} samples ({window * dt:.2f} s ≈ period/6), order 4"
+    return MethodEstimate(
+        name, decay.run_id, alpha, beta, quad, Estimate(inertia, sj), Estimate(damping, sc),
+        signal, mse, float(np.sqrt(mse)), note, {"savgol_window": window},
+    )  # fmt: skip
+
+
+def _simulated_mse(decay: Decay, alpha: float, beta: float, gamma: float, peaks: Peaks) -> float:
+    """e of fixed coefficients: the nonlinear model from the first sample, released at rest."""
+    if not decay.plant.known_inertia + alpha * decay.plant.arm**2 > 0:
+        return float("nan")
+    h = step_size(decay.t, decay.plant, alpha)
+    phi0 = decay.phi[0] - peaks.offset
+    angle, _ = simulate(decay.plant, decay.t, alpha, beta, gamma, 0.0, phi0, 0.0, h)
+    return float(np.mean((decay.phi - peaks.offset - angle[0]) ** 2))
