@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from estimation.diagnostics import force_residuals, ljung_box, regressor_correlations
+from estimation.drive_uncertainty import DriveUncertainty, drive_uncertainty
 from estimation.effects import EFFECTS
 from estimation.model import BASE_NAMES, PreparedRun, prepare
 from estimation.output_error import (
@@ -72,6 +73,7 @@ def estimate(
         cv_before,
         cv_after,
         boot,
+        drive_uncertainty(runs, final),
     )
 
 
@@ -154,7 +156,19 @@ def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -
 
 
 def _build(
-    axis, method, runs, prepared, base, final, steps, ambiguous, advice, cv_before, cv_after, boot
+    axis,
+    method,
+    runs,
+    prepared,
+    base,
+    final,
+    steps,
+    ambiguous,
+    advice,
+    cv_before,
+    cv_after,
+    boot,
+    uncertainty: DriveUncertainty | None = None,
 ) -> EstimationResult:
     ids = tuple(r.run_id for r in runs)
     effects = tuple(
@@ -190,6 +204,7 @@ def _build(
         cv_before=cv_before,
         cv_after=cv_after,
         bootstrap=boot,
+        uncertainty=uncertainty,
         fit_before=base,
         fit_after=final,
     )

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from estimation.diagnostics import Whiteness
+from estimation.drive_uncertainty import DriveUncertainty
 from estimation.output_error import FitResult
 from estimation.search import SearchStep
 
@@ -84,6 +85,7 @@ class EstimationResult:
     cv_before: float | None = None
     cv_after: float | None = None
     bootstrap: Bootstrap | None = None
+    uncertainty: DriveUncertainty | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -129,6 +131,7 @@ class EstimationResult:
                 "steps": [_step(s) for s in self.steps],
             },
             "bootstrap": _boot(self.bootstrap),
+            "uncertainty": _uncertainty(self.uncertainty),
         }
         return doc
 
@@ -167,4 +170,21 @@ def _boot(b: Bootstrap | None) -> dict[str, Any] | None:
         "std": {k: _num(v) for k, v in b.std.items()},
         "percentile_2_5": {k: _num(v) for k, v in b.low.items()},
         "percentile_97_5": {k: _num(v) for k, v in b.high.items()},
+    }
+
+
+def _uncertainty(u: DriveUncertainty | None) -> dict[str, Any] | None:
+    if u is None:
+        return None
+    total = u.std_total
+    return {
+        "calibration_draws": u.draws,
+        "parameters": {
+            n: {
+                "std_fit": _num(u.std_fit[n]),
+                "std_calibration": _num(u.std_calibration[n]),
+                "std_total": _num(total[n]),
+            }
+            for n in u.std_fit
+        },
     }
