@@ -156,13 +156,13 @@ def test_sigma_sensitivity_uses_the_vehicle_sigma():
 
 def test_bad_inputs_name_the_field():
     body = decoupled()
-    with pytest.raises(SensitivityError, match="keep: 'drag.surge' is not allowed"):
+    with pytest.raises(SensitivityError, match=r"keep: 'drag\.surge' is not allowed"):
         analyse(body, ["steady_surge_speed"], forces={"surge": FORCE}, keep=["drag.surge"])
-    with pytest.raises(SensitivityError, match="delta: 0.9"):
+    with pytest.raises(SensitivityError, match=r"delta: 0\.9"):
         analyse(body, ["steady_surge_speed"], forces={"surge": FORCE}, delta=0.9)
     with pytest.raises(ResponseError, match="responses: 'speed' is not allowed"):
         analyse(body, ["speed"], forces={"surge": FORCE})
-    with pytest.raises(ResponseError, match="no thrust along surge; give forces.surge"):
+    with pytest.raises(ResponseError, match=r"no thrust along surge; give forces\.surge"):
         analyse(body, ["steady_surge_speed"])
 
 
