@@ -24,7 +24,7 @@ import numpy as np
 
 from estimation.runs import RunData
 from estimation.sensitivity import SensitivityReport, analyse
-from estimation.vehicle6 import DOFS, Vehicle6, apply_estimate
+from estimation.vehicle6 import DOFS, Vehicle6, apply_result_json
 
 #: Result JSON names → vehicle coefficient kinds.
 RESULT_KINDS = {
@@ -42,41 +42,19 @@ class IdentifiabilityError(ValueError):
 
 
 def plug_results(vehicle: Vehicle6, results: Sequence[Mapping[str, Any]]) -> Vehicle6:
-    """The vehicle with each result's identified axis model (value and σ) plugged in."""
+    """The vehicle with each result's identified axis model (value and σ) plugged in
+    (:func:`estimation.vehicle6.apply_result_json`); one result per axis."""
     seen: dict[str, int] = {}
     for k, doc in enumerate(results):
         where = f"results[{k}]" + (f" (id {doc['result_id']})" if "result_id" in doc else "")
         axis = doc.get("axis")
-        if axis not in DOFS:
-            raise IdentifiabilityError(f"{where}: axis: {axis!r} is not allowed; allowed: {DOFS}")
         if axis in seen:
             raise IdentifiabilityError(
                 f"{where}: axis: a second result for {axis!r} (the first is results[{seen[axis]}]);"
                 " give one result per axis"
             )
+        vehicle = apply_result_json(vehicle, doc, where)
         seen[axis] = k
-        coeffs = doc.get("coefficients") or {}
-        values, sigma = {}, {}
-        for name in RESULT_KINDS:
-            entry = coeffs.get(name)
-            value = None if not isinstance(entry, Mapping) else entry.get("value")
-            if not isinstance(value, (int, float)) or not np.isfinite(value):
-                raise IdentifiabilityError(
-                    f"{where}: coefficients.{name}.value: {value!r} is not allowed; "
-                    "give a finite number"
-                )
-            values[name] = float(value)
-            std = entry.get("std")
-            if isinstance(std, (int, float)) and np.isfinite(std) and std >= 0:
-                sigma[name] = float(std)
-        vehicle = apply_estimate(
-            vehicle,
-            axis,
-            values["inertia"],
-            values["linear_damping"],
-            values["quadratic_damping"],
-            sigma=sigma,
-        )
     return vehicle
 
 

@@ -240,3 +240,9 @@ def test_next_test_for_a_dominant_inertia_sigma_is_an_acceleration_run(slow_tows
     assert nxt["coefficient"] == "added_mass.surge"
     assert "pendulum free-decay" in nxt["test"] and "acceleration-dominated tow" in nxt["test"]
     assert np.isfinite(report.identifiability["coefficients"][0]["weighted"])
+
+
+def test_two_results_for_one_axis_are_refused(slow_tows):
+    _, doc = slow_tows
+    with pytest.raises(ValueError, match=r"results\[1\]: axis: a second result for 'surge'"):
+        plug_results(load_vehicle(VEHICLES / "benbam.toml"), [doc, doc])
