@@ -345,6 +345,7 @@ def simulate(
     nu0: Sequence[float] | None = None,
     rtol: float = 1e-8,
     atol: float = 1e-10,
+    max_evaluations: int | None = None,
 ) -> Trajectory:
     """Integrate the 6-DOF equations for ``duration_s`` and sample every ``dt`` seconds.
 
@@ -353,7 +354,9 @@ def simulate(
     ``force``: generalized body force (X, Y, Z, K, M, N), (6,) or t ↦ (6,); added to the
     thrusters' τ. Integrator: LSODA (scipy ``odeint``) to ``rtol``/``atol``, output at
     the sample times; with a callable input no step is longer than ``dt``, so an input
-    pulse is seen when it lasts at least ``dt``. SingularAttitude if θ reaches ±90°.
+    pulse is seen when it lasts at least ``dt``. SingularAttitude if θ reaches ±90°;
+    ValueError when the integration needs more than ``max_evaluations`` right-hand-side
+    evaluations (a bound on the cost of a violent input, e.g. for a web request).
     """
     if not (isinstance(duration_s, (int, float)) and 0 < duration_s <= MAX_DURATION_S):
         raise ValueError(f"duration_s: got {duration_s!r}, allowed: 0 < d ≤ {MAX_DURATION_S:g} s")
@@ -372,9 +375,20 @@ def simulate(
     rhs = _rhs_factory(vehicle, tau_const, tau_of_t)
     rhs(0.0, np.concatenate([eta_start, nu_start]))  # a singular start fails here, clearly
     errors: list[BaseException] = []
+    budget = [max_evaluations if max_evaluations is not None else -1]
 
     def guarded(y: np.ndarray, time: float) -> list[float]:
         if errors:
+            return [0.0] * 12
+        budget[0] -= 1
+        if budget[0] == 0:
+            errors.append(
+                ValueError(
+                    f"duration_s: got {duration_s!r}, allowed: a motion that integrates in "
+                    f"≤ {max_evaluations} steps (this one is too fast: reduce the input, "
+                    f"the initial speed or the duration; stopped at t = {time:.6g} s)"
+                )
+            )
             return [0.0] * 12
         try:
             return rhs(time, y)

@@ -272,3 +272,10 @@ def test_apply_result_json_uses_value_and_std(benbam):
         apply_result_json(benbam, doc, "result 7")
     with pytest.raises(VehicleError, match="result 7: axis: got 'heading'"):
         apply_result_json(benbam, {"axis": "heading"}, "result 7")
+
+
+def test_evaluation_budget_refuses_a_violent_input(benbam):
+    with pytest.raises(ValueError, match=r"duration_s: .*too fast"):
+        simulate(benbam, 600.0, force=lambda t: [0, 0, 0, 0, 0, math.sin(t)], max_evaluations=2000)
+    # the same budget is plenty for an ordinary manoeuvre
+    simulate(benbam, 60.0, commands=[0.3, 0.3], max_evaluations=2000)

@@ -1,0 +1,93 @@
+"""6-DOF routes: vehicle list and detail, simulation with commands, force and stored
+estimates, errors named by field."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tests.api.conftest import AUTH
+
+
+def test_vehicle_list_and_detail(client):
+    r = client.get("/api/vehicles", headers=AUTH)
+    assert r.status_code == 200, r.text
+    names = {v["name"]: v for v in r.json()}
+    assert {"seed002-rov", "benbam"} <= set(names)
+    assert names["seed002-rov"]["thrusters"] == [str(i) for i in range(1, 9)]
+    detail = client.get("/api/vehicles/seed002-rov", headers=AUTH).json()
+    b = detail["allocation_matrix"]
+    assert len(b) == 6 and len(b[0]) == 8
+    # thruster 1: 2.4336·cos 35° forward; yaw moment of the lower thrusters only
+    assert b[0][0] == pytest.approx(2.4336 * math.cos(math.radians(35)), rel=1e-9)
+    assert b[5][4:] == pytest.approx([0, 0, 0, 0], abs=1e-12)
+    assert detail["vehicle"]["coefficients"]["added_mass.heave"] == pytest.approx(219.5567)
+    assert detail["vehicle"]["total_inertia"]["roll"] == pytest.approx(17.8011)
+    assert client.get("/api/vehicles/nope", headers=AUTH).status_code == 404
+    assert client.get("/api/vehicles", headers={}).status_code == 401
+
+
+def test_simulate_with_commands_reaches_the_steady_speed(client):
+    body = {"vehicle": "benbam", "commands": [0.3, 0.3], "duration_s": 30, "dt": 0.01}
+    r = client.post("/api/sixdof/simulate", json=body, headers=AUTH)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    kl, kq, force = 20.16, 241.14, 24.0
+    expected = (-kl + math.sqrt(kl**2 + 4 * kq * force)) / (2 * kq)
+    assert out["steady"]["nu"]["u"] == pytest.approx(expected, rel=1e-4)
+    assert out["steady"]["settled"] is True
+    assert out["tau"]["X"] == pytest.approx(force)
+    traj = out["trajectory"]
+    assert 1000 < len(traj["t"]) <= 2000  # 3001 samples decimated
+    assert traj["t"][-1] == pytest.approx(30.0)
+    assert traj["nu"]["u"][-1] == out["steady"]["nu"]["u"]
+
+
+def test_simulate_plugs_in_a_stored_estimate(client, tow_job):
+    store = client.app.state.service.store
+    doc = {
+        "axis": "surge",
+        "coefficients": {
+            "inertia": {"value": 100.0, "std": 2.0},
+            "linear_damping": {"value": 30.0, "std": 1.0},
+            "quadratic_damping": {"value": 100.0, "std": 5.0},
+        },
+    }
+    result_id = store.add_result(tow_job["run_ids"], "estimation", doc)
+    body = {"vehicle": "benbam", "force": [24, 0, 0, 0, 0, 0], "duration_s": 40}
+    r = client.post("/api/sixdof/simulate", json=body | {"estimates": [result_id]}, headers=AUTH)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["applied_estimates"][0]["added_mass"] == pytest.approx(70.0)
+    assert out["coefficients"]["linear_damping.surge"] == 30.0
+    expected = (-30 + math.sqrt(30**2 + 4 * 100 * 24)) / (2 * 100)
+    assert out["steady"]["nu"]["u"] == pytest.approx(expected, rel=1e-4)
+    missing = client.post("/api/sixdof/simulate", json=body | {"estimates": [999999]}, headers=AUTH)
+    assert missing.status_code == 404
+
+
+@pytest.mark.parametrize(
+    ("change", "field_text"),
+    [
+        ({"commands": [0.3, 1.3]}, "thruster 'starboard'"),
+        ({"commands": [0.3, 0.3, 0.3]}, "one per thruster"),
+        ({"duration_s": 601}, "duration_s"),
+        ({"duration_s": 0}, "duration_s"),
+        ({"force": [1, 2, 3]}, "force"),
+        ({"dt": 0.001, "duration_s": 600}, "dt"),
+        ({"commands": None}, "commands"),
+    ],
+)
+def test_simulate_errors_name_the_field(client, change, field_text):
+    body = {"vehicle": "benbam", "commands": [0.3, 0.3], "duration_s": 10} | change
+    r = client.post("/api/sixdof/simulate", json=body, headers=AUTH)
+    assert r.status_code == 422, r.text
+    assert field_text in r.json()["detail"]
+
+
+def test_simulate_needs_the_write_token(client):
+    body = {"vehicle": "benbam", "commands": [0.3, 0.3], "duration_s": 10}
+    assert client.post("/api/sixdof/simulate", json=body).status_code == 401
+    r = client.post("/api/sixdof/simulate", json=body | {"vehicle": "../etc/x"}, headers=AUTH)
+    assert r.status_code == 404
