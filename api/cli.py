@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from api import cli_estimate, cli_procedures, cli_runs, cli_serve, cli_sim
+from api import cli_estimate, cli_procedures, cli_runs, cli_serve, cli_sim, cli_sixdof
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -32,6 +32,7 @@ for command in (
     cli_sim.sim,
     cli_serve.serve,
     cli_serve.token,
+    cli_sixdof.sixdof,
 ):
     main.add_command(command)
 

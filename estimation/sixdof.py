@@ -459,7 +459,7 @@ def steady_state(traj: Trajectory, window_s: float = 1.0, tolerance: float = 1e-
         settled=bool(np.all(acc < tolerance)),
         max_acceleration=float(np.max(acc)),
         speed_m_s=speed,
-        turn_radius_m=speed / abs(r) if abs(r) > 1e-9 else None,
+        turn_radius_m=speed / abs(r) if abs(r) > 1e-9 and speed > 1e-9 else None,
     )
 
 

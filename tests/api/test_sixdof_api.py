@@ -91,3 +91,29 @@ def test_simulate_needs_the_write_token(client):
     assert client.post("/api/sixdof/simulate", json=body).status_code == 401
     r = client.post("/api/sixdof/simulate", json=body | {"vehicle": "../etc/x"}, headers=AUTH)
     assert r.status_code == 404
+
+
+def test_cli_prints_steady_values_and_json():
+    import json
+
+    from click.testing import CliRunner
+
+    from api.cli import main
+
+    runner = CliRunner()
+    text = runner.invoke(main, ["sixdof", "benbam", "--commands", "0.3,0.3", "--duration", "30"])
+    assert text.exit_code == 0, text.output
+    assert "u =  0.2764" in text.output and "settled: yes" in text.output
+    out = runner.invoke(
+        main, ["sixdof", "seed002-rov", "--force", "0,0,0,0,0,0.5", "--duration", "60", "--json"]
+    )
+    assert out.exit_code == 0, out.output
+    doc = json.loads(out.output)
+    kl, kq = 1.6711, 1.2674
+    assert doc["steady"]["nu"]["r"] == pytest.approx(
+        (-kl + math.sqrt(kl**2 + 4 * kq * 0.5)) / (2 * kq), rel=1e-4
+    )
+    assert len(doc["trajectory"]["t"]) <= 2000
+    bad = runner.invoke(main, ["sixdof", "benbam", "--commands", "0.3,0.9,0.1"])
+    assert bad.exit_code == 2
+    assert "one per thruster (2" in bad.output
