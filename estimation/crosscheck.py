@@ -1,0 +1,435 @@
+"""Cross-check: coefficients from weight-driven runs against those from thruster-driven runs.
+
+Works on two stored estimation result documents (``EstimationResult.to_json()``) of the
+same axis. Per coefficient: both values ± σ_total (the fit's σ and, for thruster-driven
+runs, the thrust calibration's), their difference and z = Δ / √(σ₁² + σ₂²); verdict
+``agree`` (|z| < 2), ``marginal`` (2 ≤ |z| < 3) or ``disagree`` (|z| ≥ 3).
+
+Diagnosis, in order:
+
+a. A drive scaled by k scales inertia, K_L and K_Q all by k. When the thruster/weight
+   ratios are consistent with one common factor (weighted mean k, χ² test) and k differs
+   from 1 by more than 3σ_k, the thrust calibration is off: the estimator was told the
+   calibrated thrust F while the vehicle felt F/k, so the thrusters deliver 1/k× the
+   calibrated thrust (k > 1: weaker than at calibration). Recalibrate.
+b. When the two residual searches kept different effects, the difference is named: the
+   effect belongs to one way of driving the rig (e.g. thruster lag seen as a delay).
+c. Otherwise any disagreement left is reported as unexplained.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.stats import chi2
+
+COEFFICIENTS: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
+LABELS = {"inertia": "inertia", "linear_damping": "K_L", "quadratic_damping": "K_Q"}
+UNITS = {
+    "surge": {"inertia": "kg", "linear_damping": "N·s/m", "quadratic_damping": "N·s²/m²"},
+    "yaw": {"inertia": "kg·m²", "linear_damping": "N·m·s/rad", "quadratic_damping": "N·m·s²/rad²"},
+}
+AGREE_Z = 2.0
+DISAGREE_Z = 3.0
+#: χ² p-value below which the ratios are not one common factor.
+FACTOR_P_MIN = 0.01
+#: |k − 1| / σ_k above which the common factor is a finding.
+FACTOR_SIGMAS = 3.0
+
+
+def verdict(z: float) -> str:
+    """``agree`` (|z| < 2), ``marginal`` (2–3) or ``disagree`` (≥ 3); ``unknown`` without σ."""
+    if not math.isfinite(z):
+        return "unknown"
+    return "agree" if abs(z) < AGREE_Z else "marginal" if abs(z) < DISAGREE_Z else "disagree"
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One coefficient from both sets: values ± σ_total, difference and z."""
+
+    name: str
+    weight: float
+    weight_std: float
+    thruster: float
+    thruster_std: float
+
+    @property
+    def difference(self) -> float:
+        """thruster − weight."""
+        return self.thruster - self.weight
+
+    @property
+    def z(self) -> float:
+        """Δ / √(σ_w² + σ_t²) (nan when both σ are 0 or unknown)."""
+        s = math.hypot(self.weight_std, self.thruster_std)
+        return self.difference / s if s > 0 else float("nan")
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "weight": {"value": _num(self.weight), "std": _num(self.weight_std)},
+            "thruster": {"value": _num(self.thruster), "std": _num(self.thruster_std)},
+            "difference": _num(self.difference),
+            "z": _num(self.z),
+            "verdict": verdict(self.z),
+        }
+
+
+@dataclass(frozen=True)
+class CommonFactor:
+    """The thruster/weight ratios of the coefficients as one factor k ± σ_k (χ² test)."""
+
+    k: float
+    std: float
+    chi2: float
+    dof: int
+    p_value: float
+    used: tuple[str, ...]
+
+    @property
+    def thrust_factor(self) -> float:
+        """Delivered / calibrated thrust, 1/k (the coefficients scale with the drive
+        the estimator was told, not the one the vehicle felt)."""
+        return 1.0 / self.k
+
+    @property
+    def thrust_factor_std(self) -> float:
+        return self.std / self.k**2
+
+    @property
+    def consistent(self) -> bool:
+        """The ratios agree with one factor (χ² p ≥ 0.01; always true for one ratio)."""
+        return self.dof == 0 or self.p_value >= FACTOR_P_MIN
+
+    @property
+    def significant(self) -> bool:
+        """k differs from 1 by more than 3σ_k."""
+        return self.std > 0 and abs(self.k - 1.0) > FACTOR_SIGMAS * self.std
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "k": _num(self.k),
+            "std": _num(self.std),
+            "thrust_factor": _num(self.thrust_factor),
+            "thrust_factor_std": _num(self.thrust_factor_std),
+            "chi2": _num(self.chi2),
+            "dof": self.dof,
+            "p_value": _num(self.p_value),
+            "coefficients": list(self.used),
+            "consistent": self.consistent,
+            "significant": self.significant,
+        }
+
+
+def common_factor(comparisons: list[Comparison]) -> CommonFactor | None:
+    """Weighted mean of thruster/weight over the coefficients the weight runs resolve
+    (|value| > 2σ); None when fewer than one ratio is usable."""
+    ratios, sigmas, used = [], [], []
+    for c in comparisons:
+        if not (c.weight > 0 and c.weight > 2 * c.weight_std and np.isfinite(c.thruster)):
+            continue
+        r = c.thruster / c.weight
+        s = math.hypot(c.thruster_std / c.weight, r * c.weight_std / c.weight)
+        if s > 0 and math.isfinite(s):
+            ratios.append(r)
+            sigmas.append(s)
+            used.append(c.name)
+    if not ratios:
+        return None
+    w = 1.0 / np.square(sigmas)
+    k = float(np.sum(w * ratios) / np.sum(w))
+    stat = float(np.sum(w * (np.array(ratios) - k) ** 2))
+    dof = len(ratios) - 1
+    p = float(chi2.sf(stat, dof)) if dof > 0 else 1.0
+    # The calibration's share of σ is common to all ratios (one drive scale): averaging does
+    # not shrink it, so σ_k is never taken below the best single ratio's σ.
+    std = max(float(1.0 / math.sqrt(np.sum(w))), float(min(sigmas)))
+    return CommonFactor(k, std, stat, dof, p, tuple(used))
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """Weight- vs thruster-driven coefficients of one axis, with the diagnosis."""
+
+    axis: str
+    weight_result_id: int | None
+    thruster_result_id: int | None
+    weight_runs: tuple[str, ...]
+    thruster_runs: tuple[str, ...]
+    comparisons: tuple[Comparison, ...]
+    factor: CommonFactor | None
+    effects_weight: dict[str, float]
+    effects_thruster: dict[str, float]
+    rmse: dict[str, dict[str, float | None]]
+    diagnosis: tuple[str, ...]
+    warnings: tuple[str, ...] = ()
+    supply: dict[str, float | None] = field(default_factory=dict)
+
+    @property
+    def verdict(self) -> str:
+        """The worst per-coefficient verdict."""
+        order = ("agree", "unknown", "marginal", "disagree")
+        return max((verdict(c.z) for c in self.comparisons), key=order.index)
+
+    def to_json(self) -> dict[str, Any]:
+        """The stored document (kind ``crosscheck``); see docs/hil.md."""
+        return {
+            "kind": "crosscheck",
+            "axis": self.axis,
+            "weight_result_id": self.weight_result_id,
+            "thruster_result_id": self.thruster_result_id,
+            "weight_runs": list(self.weight_runs),
+            "thruster_runs": list(self.thruster_runs),
+            "coefficients": {c.name: c.to_json() for c in self.comparisons},
+            "verdict": self.verdict,
+            "common_factor": self.factor.to_json() if self.factor else None,
+            "effects": {
+                "weight": {k: _num(v) for k, v in self.effects_weight.items()},
+                "thruster": {k: _num(v) for k, v in self.effects_thruster.items()},
+            },
+            "rmse": self.rmse,
+            "supply_voltage_v": {k: _num(v) for k, v in self.supply.items()},
+            "diagnosis": list(self.diagnosis),
+            "warnings": list(self.warnings),
+        }
+
+
+def _num(x: float | None) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _check(name: str, doc: Any) -> None:
+    if not isinstance(doc, dict) or not isinstance(doc.get("coefficients"), dict):
+        raise ValueError(
+            f"{name}: not an estimation result (no 'coefficients'); allowed: a stored "
+            "estimation result document"
+        )
+    missing = [c for c in COEFFICIENTS if c not in doc["coefficients"]]
+    if missing:
+        raise ValueError(f"{name}.coefficients: missing {missing}; allowed: {list(COEFFICIENTS)}")
+    if doc.get("axis") not in UNITS:
+        raise ValueError(f"{name}.axis: {doc.get('axis')!r} is not allowed; allowed surge, yaw")
+
+
+def _value_std(doc: dict, name: str) -> tuple[float, float]:
+    """Value and σ_total (σ of the fit when the result predates the uncertainty key)."""
+    c = doc["coefficients"][name]
+    value = float("nan") if c.get("value") is None else float(c["value"])
+    std = c.get("std")
+    total = ((doc.get("uncertainty") or {}).get("parameters") or {}).get(name, {})
+    if total.get("std_total") is not None:
+        std = total["std_total"]
+    return value, float("nan") if std is None else float(std)
+
+
+def _effects(doc: dict) -> dict[str, float]:
+    found = {e["name"]: e.get("value") for e in doc.get("effects", [])}
+    for group in doc.get("ambiguous", []):
+        for name in group:
+            found.setdefault(name, float("nan"))
+    return found
+
+
+def _calibration_line(factor: CommonFactor, supply: dict[str, float | None]) -> str:
+    now, then = supply.get("runs"), supply.get("calibration")
+    if now is not None and then is not None:
+        volts = f"supply voltage now {now:.2f} V vs {then:.2f} V at calibration"
+    else:
+        volts = "supply voltage now vs at calibration: not recorded"
+    return (
+        f"thrust calibration: the thruster-driven {', '.join(LABELS[n] for n in factor.used)} "
+        f"are all k = {factor.k:.3f} ± {factor.std:.3f}× the weight-driven ones (one common "
+        f"factor, χ² p = {factor.p_value:.2g}), so the thrusters deliver "
+        f"{factor.thrust_factor:.3f} ± {factor.thrust_factor_std:.3f}× the calibrated thrust: "
+        f"recalibrate the thrusters ({volts})"
+    )
+
+
+def cross_check(
+    weight_result: dict[str, Any],
+    thruster_result: dict[str, Any],
+    *,
+    supply_voltage_v: dict[str, float | None] | None = None,
+) -> CrossCheck:
+    """Compare two stored estimation results of one axis (weight- vs thruster-driven).
+
+    ``supply_voltage_v``: optional ``{"calibration": V, "runs": V}`` (mean supply voltage
+    during the thrust calibration and while the thruster-driven runs drove), quoted when
+    the diagnosis points at the calibration. Raises ``ValueError`` naming the field when a
+    document is not an estimation result or the axes differ.
+    """
+    _check("weight_result", weight_result)
+    _check("thruster_result", thruster_result)
+    axis = weight_result["axis"]
+    if thruster_result["axis"] != axis:
+        raise ValueError(
+            f"thruster_result.axis: {thruster_result['axis']!r} is not allowed; allowed: the "
+            f"weight result's axis {axis!r}"
+        )
+    supply = dict(supply_voltage_v or {})
+    comparisons = []
+    for name in COEFFICIENTS:
+        w, sw = _value_std(weight_result, name)
+        t, st = _value_std(thruster_result, name)
+        comparisons.append(Comparison(name, w, sw, t, st))
+    factor = common_factor(comparisons)
+    eff_w, eff_t = _effects(weight_result), _effects(thruster_result)
+    warnings = []
+    draws_t = (thruster_result.get("uncertainty") or {}).get("calibration_draws")
+    if draws_t == 0:
+        warnings.append(
+            "the thruster result carries no calibration uncertainty (no drive draws): "
+            "were its runs thruster-driven?"
+        )
+    draws_w = (weight_result.get("uncertainty") or {}).get("calibration_draws")
+    if draws_w:
+        warnings.append("the weight result has drive draws: were its runs weight-driven?")
+
+    diagnosis = []
+    bad = [c for c in comparisons if verdict(c.z) in ("marginal", "disagree")]
+    if factor is not None and factor.significant and factor.consistent:
+        diagnosis.append(_calibration_line(factor, supply))
+    only_w = sorted(set(eff_w) - set(eff_t))
+    only_t = sorted(set(eff_t) - set(eff_w))
+    if only_w or only_t:
+        parts = []
+        if only_t:
+            parts.append(f"only the thruster-driven runs show {_named(eff_t, only_t, axis)}")
+        if only_w:
+            parts.append(f"only the weight-driven runs show {_named(eff_w, only_w, axis)}")
+        diagnosis.append(
+            "the effect searches differ: "
+            + "; ".join(parts)
+            + " — an effect of the way the rig is driven, not of the vehicle"
+        )
+    if bad and not diagnosis:
+        text = ", ".join(f"{LABELS[c.name]} (z = {c.z:+.1f})" for c in bad)
+        if factor is not None and factor.significant and not factor.consistent:
+            text += (
+                f"; the ratios are not one common factor (k = {factor.k:.3f}, χ² p = "
+                f"{factor.p_value:.2g}), so not simply the thrust calibration"
+            )
+        diagnosis.append(f"unexplained: {text}")
+    if not diagnosis:
+        diagnosis.append(
+            "weight- and thruster-driven coefficients agree within their uncertainties "
+            "(all |z| < 2)"
+            if not bad
+            else "marginal differences only"
+        )
+    rmse = {
+        side: {"before": _num(doc.get("rmse_before")), "after": _num(doc.get("rmse_after"))}
+        for side, doc in (("weight", weight_result), ("thruster", thruster_result))
+    }
+    return CrossCheck(
+        axis=axis,
+        weight_result_id=weight_result.get("result_id"),
+        thruster_result_id=thruster_result.get("result_id"),
+        weight_runs=tuple(weight_result.get("runs", [])),
+        thruster_runs=tuple(thruster_result.get("runs", [])),
+        comparisons=tuple(comparisons),
+        factor=factor,
+        effects_weight=eff_w,
+        effects_thruster=eff_t,
+        rmse=rmse,
+        diagnosis=tuple(diagnosis),
+        warnings=tuple(warnings),
+        supply=supply,
+    )
+
+
+def _named(found: dict[str, float], names: list[str], axis: str) -> str:
+    out = []
+    for n in names:
+        v = found.get(n)
+        out.append(f"{n} ({v:.3g})" if v is not None and math.isfinite(v) else n)
+    return ", ".join(out)
+
+
+def markdown(check: CrossCheck) -> str:
+    """The cross-check as a Markdown report (table, common factor, RMSE, diagnosis)."""
+    units = UNITS[check.axis]
+    lines = [
+        f"# Cross-check, {check.axis}: weight-driven vs thruster-driven",
+        "",
+        f"Weight-driven result #{check.weight_result_id} (runs {', '.join(check.weight_runs)});"
+        f" thruster-driven result #{check.thruster_result_id} "
+        f"(runs {', '.join(check.thruster_runs)}). σ is σ_total (fit and thrust calibration).",
+        "",
+        "| coefficient | weight | thrusters | Δ | z | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in check.comparisons:
+        lines.append(
+            f"| {LABELS[c.name]} ({units[c.name]}) | {c.weight:.5g} ± {c.weight_std:.2g} | "
+            f"{c.thruster:.5g} ± {c.thruster_std:.2g} | {c.difference:+.3g} | {c.z:+.2f} | "
+            f"{verdict(c.z)} |"
+        )
+    lines += ["", f"Overall: **{check.verdict}**", ""]
+    if check.factor is not None:
+        f = check.factor
+        lines.append(
+            f"Common factor thruster/weight: k = {f.k:.4f} ± {f.std:.4f} over "
+            f"{', '.join(LABELS[n] for n in f.used)} (χ² = {f.chi2:.2f}, dof {f.dof}, "
+            f"p = {f.p_value:.3g}); delivered/calibrated thrust 1/k = "
+            f"{f.thrust_factor:.4f} ± {f.thrust_factor_std:.4f}"
+        )
+        lines.append("")
+    lines.append("| | RMSE before effect search | RMSE after |")
+    lines.append("|---|---|---|")
+    for side in ("weight", "thruster"):
+        r = check.rmse[side]
+        lines.append(f"| {side} | {_fmt(r['before'])} | {_fmt(r['after'])} |")
+    lines += ["", "## Diagnosis", ""]
+    lines += [f"- {d}" for d in check.diagnosis]
+    if check.warnings:
+        lines += ["", "## Warnings", ""] + [f"- {w}" for w in check.warnings]
+    return "\n".join(lines) + "\n"
+
+
+def _fmt(x: float | None) -> str:
+    return "—" if x is None else f"{x:.3g}"
+
+
+def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]:
+    """``report.md`` and ``crosscheck.png`` (coefficients side by side, ±σ_total bars)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    md = out / "report.md"
+    md.write_text(markdown(check), encoding="utf-8")
+    fig = Figure(figsize=(9, 3.2))
+    units = UNITS[check.axis]
+    for i, c in enumerate(check.comparisons):
+        ax = fig.add_subplot(1, 3, i + 1)
+        ax.errorbar(
+            [0, 1],
+            [c.weight, c.thruster],
+            yerr=[_bar(c.weight_std), _bar(c.thruster_std)],
+            fmt="o",
+            capsize=6,
+            color="k",
+        )
+        ax.set_xticks([0, 1], ["weight", "thrusters"])
+        ax.set_xlim(-0.6, 1.6)
+        ax.set_ylabel(units[c.name])
+        ax.set_title(f"{LABELS[c.name]}: z = {c.z:+.1f} ({verdict(c.z)})", fontsize=9)
+    fig.suptitle(f"{check.axis}: weight- vs thruster-driven (±1σ_total)", fontsize=10)
+    FigureCanvasAgg(fig)
+    fig.tight_layout()
+    png = out / "crosscheck.png"
+    fig.savefig(png, dpi=90)
+    return [md, png]
+
+
+def _bar(s: float) -> float:
+    return s if math.isfinite(s) else 0.0
