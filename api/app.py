@@ -22,7 +22,7 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from api import routes_jobs, routes_rig, routes_runs, routes_sixdof, routes_stream
+from api import routes_analysis, routes_jobs, routes_rig, routes_runs, routes_sixdof, routes_stream
 from api.jobs import JobConflict, JobNotFound, JobRunner
 from api.service import RigService, RigUnavailable
 from daq.procedures.params import ParameterError
@@ -174,7 +174,14 @@ def create_app(
             allow_methods=["GET", "POST"],
             allow_headers=["Authorization", "Content-Type"],
         )
-    for module in (routes_rig, routes_jobs, routes_runs, routes_stream, routes_sixdof):
+    for module in (
+        routes_rig,
+        routes_jobs,
+        routes_runs,
+        routes_stream,
+        routes_sixdof,
+        routes_analysis,
+    ):
         app.include_router(module.router)
 
     plotly_js = _plotly_js()
