@@ -7,6 +7,9 @@ import click
 from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
 from api.estimation_job import run_estimation
 from estimation import METHODS
+from estimation.pendulum import PENDULUM_METHODS
+
+ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
 
 
 def _pm(c: dict) -> str:
@@ -17,10 +20,12 @@ def _pm(c: dict) -> str:
 @click.argument("run_ids", nargs=-1, required=True, metavar="RUN_ID...")
 @click.option(
     "--method",
-    type=click.Choice(METHODS),
+    type=click.Choice(ALL_METHODS),
     default="output-error",
     show_default=True,
-    help="output-error (joint over runs, default) or one of seed 000's least-squares approaches.",
+    help="output-error (joint over runs, default); for tow/spin runs one of seed 000's "
+    "least-squares approaches, for pendulum runs one of seed 002's damped-fit, "
+    "log-decrement, equation-error (all are reported; this picks the headline).",
 )
 @click.option(
     "--no-effects",
@@ -36,8 +41,9 @@ def _pm(c: dict) -> str:
 @db_option
 @json_option
 def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
-    """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs, trace the
-    residual to missing effects, and report the error before and after."""
+    """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
+    vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
+    the error before and after."""
     store = open_store(db_url)
     try:
         with user_errors():
@@ -53,6 +59,9 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
                 fail(str(err))
         if as_json:
             echo_json(data)
+            return
+        if data.get("analysis") == "pendulum":
+            _echo_pendulum(data)
             return
         units = {
             "surge": ("kg", "N·s/m", "N·s²/m²", "m"),
@@ -82,3 +91,29 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
         click.echo(f"  stored as result #{data['result_id']}")
     finally:
         store.close()
+
+
+def _echo_pendulum(data: dict) -> None:
+    """Human summary of a pendulum result: methods side by side, effects, error."""
+    click.echo(
+        f"pendulum free decay, {data['axis']} from {len(data['runs'])} run(s), "
+        f"headline {data['method']}"
+    )
+    units = data["units"]
+    for name, est in data["coefficients"].items():
+        click.echo(f"  {name:<28} {_pm(est)} {units[name]}")
+    click.echo(f"  {'method':<22} {'run':<10} {'α [kg]':<22} {'β [N·s/m]':<22} e [rad²]")
+    for m in data["methods"]:
+        e = "—" if m["mse"] is None else f"{m['mse']:.3g}"
+        click.echo(
+            f"  {m['method']:<22} {m['run_id'][:8]:<10} {_pm(m['added_mass']):<22} "
+            f"{_pm(m['linear_damping']):<22} {e}"
+        )
+    for eff in data.get("effects", []):
+        click.echo(f"  effect {eff['name']:<21} {_pm(eff)} {eff['unit']}")
+    for warning in data.get("warnings", []):
+        click.echo(f"  warning: {warning}")
+    for advice in data.get("advice", []):
+        click.echo(f"  advice: {advice}")
+    click.echo(f"  RMSE before {data['rmse_before']:.3g} rad, after {data['rmse_after']:.3g} rad")
+    click.echo(f"  stored as result #{data['result_id']}")

@@ -98,8 +98,37 @@ class SequenceRequest(_Strict):
 
 
 class EstimationRequest(_Strict):
-    run_ids: list[str] = Field(min_length=1, max_length=50, description="Tow or spin run ids.")
-    method: Literal["output-error", "ls-raw", "ls-curvefit", "ls-steady"] = "output-error"
+    run_ids: list[str] = Field(
+        min_length=1, max_length=50, description="Tow or spin run ids, or pendulum run ids."
+    )
+    method: Literal[
+        "output-error",
+        "ls-raw",
+        "ls-curvefit",
+        "ls-steady",
+        "damped-fit",
+        "log-decrement",
+        "equation-error",
+    ] = Field(
+        "output-error",
+        description="output-error for both kinds; ls-* for tow/spin runs; damped-fit, "
+        "log-decrement, equation-error for pendulum runs (checked per kind).",
+    )
+    search_effects: bool = True
+
+
+class CrossCheckRequest(_Strict):
+    """Two stored estimation results of one axis: weight-driven and thruster-driven."""
+
+    weight_result_id: int = Field(description="Estimation result of weight-driven runs.")
+    thruster_result_id: int = Field(description="Estimation result of thruster-driven runs.")
+
+
+class CrossCheckJobRequest(_Strict):
+    """Weight-driven and thruster-driven runs of one axis, estimated and cross-checked."""
+
+    weight_runs: list[str] = Field(min_length=1, max_length=50, description="Run ids.")
+    thruster_runs: list[str] = Field(min_length=1, max_length=50, description="Run ids.")
     search_effects: bool = True
 
 
@@ -117,7 +146,7 @@ class OperatorActOut(BaseModel):
 
 class JobOut(BaseModel):
     id: str
-    kind: Literal["tow", "spin", "thrust_calibration", "sequence", "estimation"]
+    kind: Literal["tow", "spin", "thrust_calibration", "sequence", "estimation", "crosscheck"]
     label: str
     state: JobState
     progress: JobProgress

@@ -396,7 +396,7 @@ $("#export-json").onclick = () => state.selectedRun && download(`/api/runs/${sta
 async function loadEstimationRuns() {
   let runs = [];
   try {
-    runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => r.kind === "tow" || r.kind === "spin");
+    runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => ["tow", "spin", "pendulum"].includes(r.kind));
   } catch (err) {
     return;
   }
@@ -450,6 +450,11 @@ function showEstimationJob(job) {
 }
 
 async function renderEstimation(res) {
+  if (typeof renderPendulumEstimation === "function") {
+    // pendulum free-decay results (api/static/pendulum.js)
+    if (res.analysis === "pendulum") return renderPendulumEstimation(res);
+    clearPendulumEstimation();
+  }
   $("#est-result").hidden = false;
   const units = COEF_UNITS[res.axis] || {};
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
