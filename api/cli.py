@@ -9,7 +9,15 @@ from __future__ import annotations
 
 import click
 
-from api import cli_estimate, cli_procedures, cli_runs, cli_serve, cli_sim, cli_sixdof
+from api import (
+    cli_analysis,
+    cli_estimate,
+    cli_procedures,
+    cli_runs,
+    cli_serve,
+    cli_sim,
+    cli_sixdof,
+)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -33,6 +41,7 @@ for command in (
     cli_serve.serve,
     cli_serve.token,
     cli_sixdof.sixdof,
+    cli_analysis.sensitivity,
 ):
     main.add_command(command)
 
