@@ -1,5 +1,5 @@
 """The operator's acts: hanging a weight, returning the carriage, mounting the
-thrust stand.
+thrust stand, pulling the pendulum out.
 
 On a real rig a person does these, asked through the CLI prompt or the API state
 ``waiting_for_operator``; on the simulated rig the procedure plays the operator
@@ -18,7 +18,8 @@ from typing import Protocol
 class OperatorAct:
     """One thing the operator must do before the procedure goes on."""
 
-    #: hang_tow_weight | hang_spin_weight | return_carriage | (un)mount_thrust_stand
+    #: hang_tow_weight | hang_spin_weight | return_carriage | (un)mount_thrust_stand |
+    #: mount_pendulum | pull_pendulum
     name: str
     instruction: str
     value: float | None = None
@@ -51,6 +52,10 @@ class SimulatedOperator:
             await self._plc.write("sim_thrust_stand", True)
         elif act.name == "unmount_thrust_stand":
             await self._plc.write("sim_thrust_stand", False)
+        elif act.name == "mount_pendulum":  # the vehicle hangs plumb at rest on the rod
+            await self._plc.write("sim_pendulum_angle", 0.0)
+        elif act.name == "pull_pendulum":  # pulled out to the angle and held there
+            await self._plc.write("sim_pendulum_angle", act.value or 0.0)
         else:
             raise ValueError(f"unknown operator act {act.name!r}")
         await asyncio.sleep(self._settle_s)

@@ -1,4 +1,5 @@
-"""Stored runs as the estimators see them (``estimation.runs.RunData``).
+"""Stored runs as the estimators see them (``estimation.runs.RunData``, and
+``estimation.pendulum_data.PendulumRun`` for pendulum free-decay runs).
 
 The bridge between storage and estimation: picks the position channel of the
 axis, the time base, the release and brake instants from the run's events, and
@@ -10,12 +11,14 @@ from __future__ import annotations
 
 import math
 import tomllib
+from dataclasses import dataclass
 
 import numpy as np
 
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
-from daq.store import ResultNotFound, RunInfo, Store
+from daq.store import ResultNotFound, RunInfo, SampleTable, Store
+from estimation.pendulum_data import PendulumGeometry, PendulumRun
 from estimation.runs import RunData
 from estimation.thrust_curve import ThrustCurve
 
@@ -40,26 +43,36 @@ def _rig_of(run: RunInfo) -> RigConfig | None:
         raise ValueError(f"run {run.id}: its stored rig file is unreadable: {err}") from None
 
 
-def load_run_data(store: Store, run_id: str) -> RunData:
-    """Build the estimator's view of one stored tow or spin run.
+@dataclass(frozen=True)
+class _Timeline:
+    """A run's time base and its release (and end) instants on it."""
 
-    Time base: the PLC's own clock when the run has it (device-side timestamps, free of
-    host scheduling jitter), else the host's monotonic time. Raises ``ValueError``
-    naming the run when it cannot be estimated.
+    t: np.ndarray  # s, the good samples' times
+    good: np.ndarray  # mask of the good samples in the stored table
+    t_release: float
+    t_release_std: float
+    t_end: float | None
+
+
+def _timeline(
+    store: Store,
+    run: RunInfo,
+    rig: RigConfig | None,
+    table: SampleTable,
+    channel: str,
+    *,
+    end: tuple[str, str],
+) -> _Timeline:
+    """Time base of the samples where ``channel`` is good, and the release/end instants.
+
+    The PLC's own clock when the run has it (device-side timestamps, free of host
+    scheduling jitter), else the host's monotonic time. Host instants from the events
+    (release ``t_mono``, the ``end`` event's key) are mapped onto it with the median
+    host/PLC offset; ``t_release_std`` combines the write's bracket, the offset's spread
+    and the clock's step.
     """
-    run = store.get_run(run_id)
-    if run.kind not in POSITION_CHANNEL:
-        raise ValueError(f"run {run.id}: kind {run.kind!r} cannot be estimated; allowed: tow, spin")
-    rig = _rig_of(run)
-    table = store.samples(run.id)
-    channel = POSITION_CHANNEL[run.kind]
-    if channel not in table.channels and "position" in table.channels:
-        channel = "position"
-    if channel not in table.channels:
-        raise ValueError(f"run {run.id}: no {POSITION_CHANNEL[run.kind]!r} channel in its samples")
     good = np.isfinite(table.channels[channel]) & ((table.quality & int(Quality.ERROR)) == 0)
     t_host = table.t_mono[good]
-    position = table.channels[channel][good]
     t = t_host
     clock = table.channels.get("plc_clock")
     clock_step = 0.0
@@ -72,11 +85,10 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     offset = float(np.median(gap)) if t.size else 0.0
     offset_spread = 1.4826 * float(np.median(np.abs(gap - offset))) if t.size else 0.0
     events = store.events(run.id)
-    params = run.parameters
     t_release = _event_time(events, "release")
-    t_brake = _event_time(events, "brake", "t_last_free")
+    t_stop = _event_time(events, *end)
     if t_release is None:  # imported data: the release is somewhere in the first period
-        t_release = float(t[0])
+        t_release = float(t[0]) if t.size else 0.0
         t_release_std = float(np.median(np.diff(t))) / np.sqrt(12) if t.size > 1 else 0.0
     else:
         # The brake let go while the write was in flight (± half-width, uniform), mapped
@@ -84,8 +96,31 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         half_width = _event_time(events, "release", "t_half_width") or 0.0
         t_release += offset
         t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
-    t_end = None if t_brake is None else t_brake + offset
+    t_end = None if t_stop is None else t_stop + offset
     t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
+    return _Timeline(np.asarray(t, dtype=float), good, t_release, t_release_std, t_end)
+
+
+def load_run_data(store: Store, run_id: str) -> RunData:
+    """Build the estimator's view of one stored tow or spin run.
+
+    Time base as ``_timeline`` picks it. Raises ``ValueError`` naming the run when it
+    cannot be estimated.
+    """
+    run = store.get_run(run_id)
+    if run.kind not in POSITION_CHANNEL:
+        raise ValueError(f"run {run.id}: kind {run.kind!r} cannot be estimated; allowed: tow, spin")
+    rig = _rig_of(run)
+    table = store.samples(run.id)
+    channel = POSITION_CHANNEL[run.kind]
+    if channel not in table.channels and "position" in table.channels:
+        channel = "position"
+    if channel not in table.channels:
+        raise ValueError(f"run {run.id}: no {POSITION_CHANNEL[run.kind]!r} channel in its samples")
+    timeline = _timeline(store, run, rig, table, channel, end=("brake", "t_last_free"))
+    t, position = timeline.t, table.channels[channel][timeline.good]
+    t_release, t_release_std, t_end = timeline.t_release, timeline.t_release_std, timeline.t_end
+    params = run.parameters
 
     drive_inertia = 0.0
     drum_radius = None
@@ -129,6 +164,61 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         t_end=t_end,
         t_release_std=t_release_std,
         drive_draws=draws,
+    )
+
+
+def pendulum_geometry(rig: RigConfig) -> PendulumGeometry:
+    """The estimator's pendulum geometry from a rig file's ``[pendulum]`` and ``[vehicle]``."""
+    p = rig.pendulum
+    if p is None:
+        raise ValueError(f"rig {rig.rig.name!r}: no [pendulum] section in its rig file")
+    return PendulumGeometry(
+        pivot_to_vehicle_m=p.pivot_to_vehicle_m,
+        rod_mass_kg=p.rod_mass_kg,
+        rod_cg_m=p.rod_cg_m,
+        rod_inertia_kg_m2=p.rod_inertia_kg_m2,
+        vehicle_mass_kg=rig.vehicle.dry_mass_kg,
+        vehicle_inertia_kg_m2=p.vehicle_inertia_kg_m2,
+        buoyancy_kg=p.buoyancy_kg,
+        pivot_damping_nm_s=p.pivot_damping_nm_s,
+        g=rig.rig.g,
+    )
+
+
+def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
+    """Build the estimator's view of one stored pendulum free-decay run.
+
+    The geometry comes from the rig file stored with the run, the angle from its
+    ``pendulum_angle`` channel, the time base and release instant as for a tow
+    (``_timeline``). Samples after the catch (the pendulum held still) are left out.
+    Raises ``ValueError`` naming the run when it cannot be estimated.
+    """
+    run = store.get_run(run_id)
+    if run.kind != "pendulum":
+        raise ValueError(f"run {run.id}: kind {run.kind!r} is not a pendulum free-decay run")
+    rig = _rig_of(run)
+    if rig is None or rig.pendulum is None:
+        raise ValueError(
+            f"run {run.id}: the rig file it ran with has no [pendulum] section (geometry unknown)"
+        )
+    table = store.samples(run.id)
+    channel = "pendulum_angle"
+    if channel not in table.channels:
+        raise ValueError(f"run {run.id}: no {channel!r} channel in its samples")
+    timeline = _timeline(store, run, rig, table, channel, end=("catch", "t_last_free"))
+    t, angle = timeline.t, table.channels[channel][timeline.good]
+    last_free = _event_time(store.events(run.id), "catch", "seq")
+    if last_free is not None:
+        free = table.seq[timeline.good] <= last_free
+        t, angle = t[free], angle[free]
+    return PendulumRun(
+        run_id=run.id,
+        t=t,
+        angle=np.asarray(angle, dtype=float),
+        t_release=timeline.t_release,
+        geometry=pendulum_geometry(rig),
+        axis=rig.pendulum.axis,
+        t_release_std=timeline.t_release_std,
     )
 
 

@@ -336,6 +336,65 @@ def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationPa
 
 
 @dataclass(frozen=True)
+class PendulumParameters:
+    """A pendulum free-decay test: pull out to ``start_angle_rad``, release, record the decay."""
+
+    start_angle_rad: float
+    max_time_s: float
+    stop_amplitude_rad: float = 0.005
+    baseline_s: float = 1.0
+    kind: Literal["pendulum"] = "pendulum"
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumParameters:
+    """Validate a free-decay request against the rig file's ``[pendulum]`` section."""
+    if rig.pendulum is None:
+        raise ParameterError(
+            [("rig", rig.rig.name, "a rig file with a [pendulum] section (see docs/pendulum.md)")]
+        )
+    c = _Checker(raw)
+    amax = rig.pendulum.max_angle_rad
+    angle = c.number(
+        "start_angle_rad",
+        low=0,
+        high=amax,
+        unit="rad",
+        required=True,
+        why_high=", the rig's pendulum max_angle_rad",
+    )
+    tmax = c.number(
+        "max_time_s",
+        low=0,
+        high=rig.limits.max_run_s,
+        unit="s",
+        default=min(120.0, rig.limits.max_run_s),
+        why_high=", rig limit max_run_s",
+    )
+    stop = c.number(
+        "stop_amplitude_rad",
+        low=0,
+        high=angle if angle is not None else amax,
+        unit="rad",
+        default=0.005,
+        why_high=", start_angle_rad",
+    )
+    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    c.fail_if_problems()
+    assert angle is not None and tmax is not None and stop is not None and base is not None
+    if stop >= angle:
+        c.problems.append(
+            ("stop_amplitude_rad", stop, f"allowed below start_angle_rad ({angle:g} rad)")
+        )
+        c.fail_if_problems()
+    return PendulumParameters(
+        start_angle_rad=angle, max_time_s=tmax, stop_amplitude_rad=stop, baseline_s=base
+    )
+
+
+@dataclass(frozen=True)
 class Progress:
     """What a running procedure reports: 0..1 and a one-line message."""
 
