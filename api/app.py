@@ -22,7 +22,15 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from api import routes_analysis, routes_jobs, routes_rig, routes_runs, routes_sixdof, routes_stream
+from api import (
+    routes_analysis,
+    routes_crosscheck,
+    routes_jobs,
+    routes_rig,
+    routes_runs,
+    routes_sixdof,
+    routes_stream,
+)
 from api.jobs import JobConflict, JobNotFound, JobRunner
 from api.service import RigService, RigUnavailable
 from daq.procedures.params import ParameterError
@@ -176,6 +184,7 @@ def create_app(
         )
     for module in (
         routes_rig,
+        routes_crosscheck,
         routes_jobs,
         routes_runs,
         routes_stream,

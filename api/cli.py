@@ -11,6 +11,7 @@ import click
 
 from api import (
     cli_analysis,
+    cli_crosscheck,
     cli_estimate,
     cli_procedures,
     cli_runs,
@@ -37,6 +38,7 @@ for command in (
     cli_runs.export,
     cli_runs.import_,
     cli_estimate.estimate,
+    cli_crosscheck.crosscheck,
     cli_sim.sim,
     cli_serve.serve,
     cli_serve.token,

@@ -1,6 +1,6 @@
 """Jobs: procedures on the rig loop, estimations in a worker thread, one registry.
 
-A procedure job (tow, spin, thrust calibration, sequence) holds the rig for its whole
+A procedure job (tow, spin, pendulum, thrust calibration, sequence) holds the rig for its whole
 life: a second start while one is active is refused at once with the holder's name
 (HTTP 409). States: ``queued → running ⇄ waiting_for_operator | paused →
 completed | aborted | failed``. Every change is published to the live stream.
@@ -32,7 +32,7 @@ log = logging.getLogger(__name__)
 
 ACTIVE = ("queued", "running", "waiting_for_operator", "paused")
 FINAL = ("completed", "aborted", "failed")
-PROCEDURES = ("tow", "spin", "thrust_calibration", "sequence")
+PROCEDURES = ("tow", "spin", "pendulum", "thrust_calibration", "sequence")
 #: Ended jobs remembered (their runs and results are in the store regardless).
 KEEP_ENDED = 500
 
@@ -200,6 +200,7 @@ class JobRunner:
         from daq.procedures.calibration import run_thrust_calibration
         from daq.procedures.motion import PreconditionFailed, run_motion_test
         from daq.procedures.params import ParameterError
+        from daq.procedures.pendulum import run_pendulum_decay
         from daq.procedures.sequence import run_sequence
 
         session = self.service.require_session()
@@ -225,6 +226,11 @@ class JobRunner:
                     session, params, control=job.control, progress=report
                 )
                 data = seq_outcome.to_json()
+            elif kind == "pendulum":
+                outcome = await run_pendulum_decay(
+                    session, params, abort=job.abort, progress=report
+                )
+                data = outcome.to_json()
             else:
                 outcome = await run_motion_test(session, params, abort=job.abort, progress=report)
                 data = outcome.to_json()
@@ -280,8 +286,8 @@ class JobRunner:
         job = self.get(job_id)
         if job.state in FINAL:
             raise JobConflict(f"job {job.id} already ended ({job.state})")
-        if job.kind == "estimation":
-            raise JobConflict(f"job {job.id}: an estimation cannot be aborted once started")
+        if job.kind in ("estimation", "crosscheck"):
+            raise JobConflict(f"job {job.id}: an {job.kind} cannot be aborted once started")
         if job.abort is None:  # still queued on the rig loop
             self._update(job, state="aborted", message=f"aborted: {reason}", error=reason)
         else:
@@ -374,6 +380,57 @@ class JobRunner:
             self._update(job, state="failed", message=f"error: {err}", error=str(err))
         finally:
             self._update(job, finished_at=time.time())
+
+    # -- cross-check ------------------------------------------------------------------------
+    def start_crosscheck(
+        self, weight_runs: list[str], thruster_runs: list[str], search_effects: bool = True
+    ) -> Job:
+        """Estimate both sets of runs and cross-check them, in the estimation worker."""
+        params = {
+            "weight_runs": weight_runs,
+            "thruster_runs": thruster_runs,
+            "search_effects": search_effects,
+        }
+        label = f"cross-check {len(weight_runs)} weight vs {len(thruster_runs)} thruster run(s)"
+        job = self._new("crosscheck", label, params)
+        job.run_ids = list(dict.fromkeys([*weight_runs, *thruster_runs]))
+        self._estimator.submit(self._run_crosscheck, job, params)
+        self.service.broadcaster.publish_job(job.to_json())
+        return job
+
+    def _run_crosscheck(self, job: Job, params: dict[str, Any]) -> None:
+        from api.crosscheck_job import crosscheck_runs
+
+        assert self.service.store is not None
+        self._update(job, state="running", started_at=time.time(), message="fitting both sets")
+        report_dir = self.report_root / f"job-{job.id}"
+        try:
+            data = crosscheck_runs(self.service.store, **params, report_dir=report_dir)
+            self.adopt_report(data["result_id"], report_dir)
+            sides = (("weight_estimation", "weight"), ("thruster_estimation", "thrusters"))
+            for key, side in sides:
+                self.adopt_report(data[key]["result_id"], report_dir / side)
+            self._update(
+                job,
+                state="completed",
+                fraction=1.0,
+                outcome=data,
+                result_id=data["result_id"],
+                message=f"cross-check done: {data['verdict']}",
+            )
+        except Exception as err:
+            if not isinstance(err, ValueError | KeyError):
+                log.exception("cross-check job %s failed", job.id)
+            self._update(job, state="failed", message=f"error: {err}", error=str(err))
+        finally:
+            self._update(job, finished_at=time.time())
+
+    def adopt_report(self, result_id: int, folder: Path) -> None:
+        """Serve ``folder``'s PNGs as the report plots of ``result_id``."""
+        target = self.report_root / f"result-{result_id}"
+        target.mkdir(parents=True, exist_ok=True)
+        for png in folder.glob("*.png"):
+            png.replace(target / png.name)
 
     def report_file(self, result_id: int, name: str) -> Path | None:
         """The PNG ``name`` of an estimation result's report, if this service made it."""

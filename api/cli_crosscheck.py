@@ -1,0 +1,99 @@
+"""``rig crosscheck``: weight-driven vs thruster-driven coefficients of one axis."""
+
+from __future__ import annotations
+
+import click
+
+from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
+from api.crosscheck_job import crosscheck_results, crosscheck_runs
+from estimation.crosscheck import LABELS
+
+
+def _pm(side: dict) -> str:
+    if side.get("value") is None:
+        return "—"
+    std = side.get("std")
+    return f"{side['value']:.5g} ± {std:.2g}" if std is not None else f"{side['value']:.5g}"
+
+
+def _num(x: float | None) -> str:
+    return "—" if x is None else f"{x:.3g}"
+
+
+@click.command("crosscheck")
+@click.option(
+    "--weight", "weight_runs", multiple=True, metavar="RUN", help="A weight-driven run (repeat)."
+)
+@click.option(
+    "--thrusters",
+    "thruster_runs",
+    multiple=True,
+    metavar="RUN",
+    help="A thruster-driven run (repeat).",
+)
+@click.option(
+    "--results",
+    nargs=2,
+    type=int,
+    default=None,
+    metavar="WEIGHT_RESULT_ID THRUSTER_RESULT_ID",
+    help="Compare two stored estimation results instead (no fitting).",
+)
+@click.option("--no-effects", is_flag=True, help="Estimate the base model only (with --weight).")
+@click.option(
+    "--report",
+    "report_dir",
+    type=click.Path(file_okay=False),
+    help="Write report.md and crosscheck.png here.",
+)
+@db_option
+@json_option
+def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_url, as_json):
+    """Estimate weight-driven and thruster-driven runs of one axis (or take two stored
+    estimation results) and compare the coefficients in σ units; a disagreement points
+    at the thrust calibration or at an effect."""
+    if results and (weight_runs or thruster_runs):
+        fail("--results: give either --results or --weight/--thrusters runs, not both")
+    if not results and not (weight_runs and thruster_runs):
+        fail("--weight and --thrusters: give at least one run of each (or --results A B)")
+    store = open_store(db_url)
+    try:
+        with user_errors():
+            try:
+                if results:
+                    data = crosscheck_results(store, *results, report_dir=report_dir)
+                else:
+                    data = crosscheck_runs(
+                        store,
+                        list(weight_runs),
+                        list(thruster_runs),
+                        search_effects=not no_effects,
+                        report_dir=report_dir,
+                    )
+            except ValueError as err:
+                fail(str(err))
+        if as_json:
+            echo_json(data)
+            return
+        click.echo(
+            f"{data['axis']}: weight result #{data['weight_result_id']} vs thruster result "
+            f"#{data['thruster_result_id']}  (σ = σ_total)"
+        )
+        click.echo(f"  {'':<10} {'weight':>22} {'thrusters':>22} {'z':>7}  verdict")
+        for name, c in data["coefficients"].items():
+            z = "—" if c["z"] is None else f"{c['z']:+.2f}"
+            click.echo(
+                f"  {LABELS[name]:<10} {_pm(c['weight']):>22} {_pm(c['thruster']):>22} "
+                f"{z:>7}  {c['verdict']}"
+            )
+        for side in ("weight", "thruster"):
+            r = data["rmse"][side]
+            click.echo(f"  RMSE {side:<8} before {_num(r['before'])}, after {_num(r['after'])}")
+        click.echo(f"  verdict: {data['verdict']}")
+        for line in data["diagnosis"]:
+            click.echo(f"  diagnosis: {line}")
+        for line in data["warnings"]:
+            click.echo(f"  warning: {line}")
+        click.echo(f"  stored as result #{data['result_id']}")
+    finally:
+        store.close()

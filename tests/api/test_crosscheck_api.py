@@ -1,0 +1,98 @@
+"""Cross-check through the API: thruster-driven tow jobs, the estimation+cross-check job,
+the fast comparison of two stored results, its plot, and input errors."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.api.conftest import AUTH, start_job, wait_job
+
+
+def _completed(client, path: str, body: dict) -> dict:
+    job = wait_job(client, start_job(client, path, body), timeout_s=60)
+    assert job["state"] == "completed", job
+    return job
+
+
+@pytest.fixture(scope="module")
+def runs(client) -> dict[str, list[str]]:
+    calibration = {"commands": [0.1, 0.3, 0.8], "settle_s": 0.4, "samples_per_step": 3}
+    _completed(client, "/api/jobs/calibration", calibration | {"tare_samples": 5})
+    short = {"max_time_s": 1.5, "baseline_s": 0.3}
+    weight = [
+        _completed(client, "/api/jobs/tow", {"force_n": f} | short)["run_ids"][0]
+        for f in (24.5, 44.1)
+    ]
+    thrusters = []
+    for f in (20.0, 40.0):
+        job = _completed(client, "/api/jobs/tow", {"force_n": f, "drive": "thrusters"} | short)
+        assert job["label"].endswith("(thrusters)")
+        thrusters += job["run_ids"]
+    return {"weight": weight, "thrusters": thrusters}
+
+
+def test_crosscheck_job_then_fast_comparison_of_the_stored_results(client, runs):
+    stored = client.get(f"/api/runs/{runs['thrusters'][0]}", headers=AUTH).json()
+    assert stored["parameters"]["drive"] == "thrusters"
+    assert stored["parameters"]["hung_mass_kg"] is None
+    r = client.post(
+        "/api/jobs/crosscheck",
+        json={"weight_runs": runs["weight"], "thruster_runs": runs["thrusters"]},
+        headers=AUTH,
+    )
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=120)
+    assert job["kind"] == "crosscheck" and job["state"] == "completed", job
+    out = job["outcome"]
+    assert out["axis"] == "surge"
+    assert set(out["coefficients"]) == {"inertia", "linear_damping", "quadratic_damping"}
+    assert out["thruster_estimation"]["uncertainty"]["calibration_draws"] == 30
+    assert out["weight_estimation"]["uncertainty"]["calibration_draws"] == 0
+    for c in out["coefficients"].values():
+        assert c["verdict"] in ("agree", "marginal", "disagree")
+    assert out["supply_voltage_v"]["calibration"] > 10 and out["supply_voltage_v"]["runs"] > 10
+    assert out["diagnosis"]
+    w_id = out["weight_estimation"]["result_id"]
+    t_id = out["thruster_estimation"]["result_id"]
+
+    r = client.post(
+        "/api/crosscheck", json={"weight_result_id": w_id, "thruster_result_id": t_id}, headers=AUTH
+    )
+    assert r.status_code == 200, r.text
+    fast = r.json()
+    assert fast["coefficients"] == out["coefficients"]  # same documents, same comparison
+    assert fast["result_id"] != out["result_id"]
+    result = client.get(f"/api/results/{fast['result_id']}", headers=AUTH).json()
+    assert result["kind"] == "crosscheck"
+    assert sorted(result["run_ids"]) == sorted(runs["weight"] + runs["thrusters"])
+    assert result["report_plots"] == ["crosscheck"]
+    png = client.get(f"/api/results/{fast['result_id']}/report/crosscheck.png", headers=AUTH)
+    assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
+    listed = client.get("/api/crosscheck", headers=AUTH).json()
+    assert {fast["result_id"], out["result_id"]} <= {c["id"] for c in listed}
+
+
+def test_crosscheck_input_errors(client, runs):
+    calibration = client.get("/api/calibration/latest", headers=AUTH).json()["id"]
+    r = client.post(
+        "/api/crosscheck",
+        json={"weight_result_id": calibration, "thruster_result_id": calibration},
+        headers=AUTH,
+    )
+    assert r.status_code == 422
+    assert "weight_result_id: result" in r.json()["detail"]
+    assert "allowed: an estimation" in r.json()["detail"]
+    r = client.post(
+        "/api/crosscheck", json={"weight_result_id": 99999, "thruster_result_id": 1}, headers=AUTH
+    )
+    assert r.status_code == 422 and "weight_result_id: 99999" in r.json()["detail"]
+    r = client.post(
+        "/api/jobs/crosscheck",
+        json={"weight_runs": ["ffffffffffff"], "thruster_runs": runs["thrusters"]},
+        headers=AUTH,
+    )
+    assert r.status_code == 404
+    r = client.post("/api/crosscheck", json={"weight_result_id": 1}, headers=AUTH)
+    assert r.status_code == 422
+    r = client.post("/api/crosscheck", json={"weight_result_id": 1, "thruster_result_id": 2})
+    assert r.status_code == 401
