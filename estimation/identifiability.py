@@ -157,7 +157,7 @@ def assess(
         top = influential[0]
         next_test["unmeasured"] = (
             f"the most influential coefficient without σ is {top['name']} (composite "
-            f"{top['composite']:.3g}): {top['note']}"
+            f"{_composite(top['composite'])}): {top['note']}"
         )
     return {
         "coefficients": [_clean(r) for r in rows],
@@ -166,6 +166,10 @@ def assess(
         "unmeasured": unmeasured,
         "next_test": next_test,
     }
+
+
+def _composite(x: float) -> str:
+    return f"{x:.3g}" if np.isfinite(x) else "∞: the model fails without it"
 
 
 def _unmeasured_note(axis: str, measured_axes: set[str]) -> str:
