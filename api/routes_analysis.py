@@ -13,10 +13,10 @@ from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel, ConfigDict, Field
 
 from api import analysis_common, sixdof_common
-from api.deps import StoreDep, require_write
+from api.deps import StoreDep, require_read, require_write
 from api.schemas import error_responses
 from daq.store import ResultNotFound
-from estimation.responses import RESPONSE_NAMES
+from estimation.responses import RESPONSE_NAMES, RESPONSES
 from estimation.vehicle6 import COEFFICIENT_NAMES, DOFS
 
 router = APIRouter(prefix="/api/analysis", tags=["analysis"])
@@ -90,6 +90,12 @@ class SensitivityRequest(Strict):
         description="Step size per axis (N or N·m), e.g. {'surge': 20}; default half the "
         "thrusters' reach.",
     )
+
+
+@router.get("/responses", dependencies=[Depends(require_read)], responses=error_responses(401))
+def list_responses() -> list[dict]:
+    """The response library: name, unit, the manoeuvre it is measured on, how."""
+    return [r.to_json() for r in RESPONSES]
 
 
 @router.post("/ahp", dependencies=[Depends(require_write)], responses=error_responses(401, 422))

@@ -109,3 +109,11 @@ def test_sensitivity_errors_name_the_field(client, change, status, text):
     r = client.post("/api/analysis/sensitivity", json=body, headers=AUTH)
     assert r.status_code == status, r.text
     assert text in r.json()["detail"]
+
+
+def test_response_library_is_listed(client):
+    r = client.get("/api/analysis/responses", headers=AUTH)
+    assert r.status_code == 200
+    names = {x["name"]: x for x in r.json()}
+    assert names["steady_surge_speed"]["unit"] == "m/s"
+    assert names["turning_diameter"]["manoeuvre"] == "turn"
