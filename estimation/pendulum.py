@@ -47,6 +47,7 @@ PENDULUM_METHODS: tuple[str, ...] = (
 SCHEMA_VERSION = 1
 UNITS = {"added_mass": "kg", "linear_damping": "N·s/m", "quadratic_damping": "kg/m"}
 NOT_WHITE_P = 0.01
+RESOLUTION_FLOOR = 2.0  # RMSE within 2× the sample noise: nothing left to resolve
 
 
 @dataclass(frozen=True)
@@ -202,10 +203,19 @@ def _warnings(
                 f"(sin φ, dry friction or quadratic drag are outside that model)"
             )
     if white_after.p_value < NOT_WHITE_P:
-        out.append(
-            f"output-error residual still not white (Ljung–Box p = {white_after.p_value:.2g}):"
-            f" an effect outside the library, or the geometry is off"
-        )
+        floor = max(d.noise for d in decays)
+        if final.rmse <= RESOLUTION_FLOOR * floor:
+            out.append(
+                f"output-error residual not white (Ljung–Box p = {white_after.p_value:.2g}) but "
+                f"at the sensor's resolution (RMSE {final.rmse:.2g} rad vs noise/quantization "
+                f"{floor:.2g} rad): quantization of a slow or stopped swing, no effect to resolve"
+            )
+        else:
+            out.append(
+                f"output-error residual still not white (Ljung–Box p = "
+                f"{white_after.p_value:.2g}, RMSE {final.rmse:.2g} rad vs noise {floor:.2g} rad):"
+                f" an effect outside the library, or the geometry is off"
+            )
     if "pivot_dry_friction" in final.effects:
         tau = final.value("pivot_dry_friction")
         for d in decays:
