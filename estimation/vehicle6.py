@@ -74,7 +74,7 @@ class Vehicle6:
     linear_damping: tuple[float, ...]
     quadratic_damping: tuple[float, ...]
     thrusters: tuple[Thruster, ...]
-    sigma: Mapping[str, float] = field(default_factory=dict)
+    sigma: Mapping[str, float] = field(default_factory=dict, hash=False)
     #: Where the description came from (a file path), for error messages.
     source: str = field(default="", compare=False)
     #: Free text: where each number comes from.
