@@ -1,0 +1,118 @@
+// Cross-check page: two stored estimation results (or runs estimated now), the coefficients
+// side by side with z and verdict, the common factor, the diagnosis and an error-bar plot.
+"use strict";
+
+const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q" };
+const CC_UNITS = {
+  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²" },
+  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²" },
+};
+
+async function crosscheckLoad() {
+  try {
+    const results = (await api("GET", "/api/results?kind=estimation")).filter((r) =>
+      ["surge", "yaw"].includes((r.data || {}).axis),
+    );
+    const option = (r) => {
+      const draws = ((r.data.uncertainty || {}).calibration_draws || 0) > 0;
+      return `<option value="${r.id}" data-thrusters="${draws}">#${r.id} ${esc(r.data.axis)}, ${r.data.runs.length} run(s)${draws ? ", thruster-driven" : ""} — ${esc(r.created_at.slice(0, 16))}</option>`;
+    };
+    const weight = results.filter((r) => !((r.data.uncertainty || {}).calibration_draws > 0));
+    const thrusters = results.filter((r) => (r.data.uncertainty || {}).calibration_draws > 0);
+    $("#cc-weight").innerHTML = (weight.length ? weight : results).map(option).join("");
+    $("#cc-thrusters").innerHTML = (thrusters.length ? thrusters : results).map(option).join("");
+    const runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => ["tow", "spin"].includes(r.kind));
+    $("#cc-runs tbody").innerHTML = runs
+      .map((r) => {
+        const drive = (r.parameters || {}).drive || "weight";
+        return `<tr><td><input type="checkbox" name="cc-w" value="${r.id}"></td><td><input type="checkbox" name="cc-t" value="${r.id}"></td>
+        <td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${esc(drive)}</td><td>${load(r)}</td></tr>`;
+      })
+      .join("");
+  } catch (err) {
+    $("#cc-status").textContent = err.message;
+  }
+}
+
+$("#cc-compare").onclick = async () => {
+  const w = Number($("#cc-weight").value);
+  const t = Number($("#cc-thrusters").value);
+  if (!w || !t) return ($("#cc-status").textContent = "Pick two stored estimation results.");
+  $("#cc-status").textContent = "Comparing…";
+  try {
+    crosscheckRender(await api("POST", "/api/crosscheck", { weight_result_id: w, thruster_result_id: t }));
+    $("#cc-status").textContent = "";
+  } catch (err) {
+    $("#cc-status").textContent = err.message;
+  }
+};
+
+$("#cc-estimate").onclick = async () => {
+  const weight = $$('#cc-runs input[name="cc-w"]:checked').map((i) => i.value);
+  const thrusters = $$('#cc-runs input[name="cc-t"]:checked').map((i) => i.value);
+  if (!weight.length || !thrusters.length) return ($("#cc-status").textContent = "Tick at least one weight-driven and one thruster-driven run.");
+  $("#cc-status").textContent = "Starting…";
+  try {
+    let job = await api("POST", "/api/jobs/crosscheck", { weight_runs: weight, thruster_runs: thrusters });
+    while (!FINAL.includes(job.state)) {
+      $("#cc-status").innerHTML = `<span class="state ${job.state}">${job.state}</span> ${esc(job.progress.message)}`;
+      await new Promise((res) => setTimeout(res, 500));
+      job = await api("GET", `/api/jobs/${job.id}`);
+    }
+    $("#cc-status").innerHTML = `<span class="state ${job.state}" id="cc-state">${job.state}</span> ${esc(job.error || job.progress.message)}`;
+    if (job.state === "completed") {
+      crosscheckRender(job.outcome);
+      crosscheckLoad();
+    }
+  } catch (err) {
+    $("#cc-status").textContent = err.message;
+  }
+};
+
+function crosscheckRender(res) {
+  $("#cc-result").hidden = false;
+  const units = CC_UNITS[res.axis] || {};
+  $("#cc-title").textContent = `${res.axis}: weight result #${res.weight_result_id} vs thruster result #${res.thruster_result_id} — ${res.verdict}`;
+  const pm = (s) => `${fmt(s.value, 5)} ± ${fmt(s.std, 2)}`;
+  $("#cc-table tbody").innerHTML = Object.entries(res.coefficients)
+    .map(
+      ([k, c]) => `<tr><td>${CC_LABELS[k]} (${units[k] || ""})</td><td>${pm(c.weight)}</td><td>${pm(c.thruster)}</td>
+      <td>${fmt(c.difference, 3)}</td><td>${fmt(c.z, 3)}</td><td class="verdict ${c.verdict}">${c.verdict}</td></tr>`,
+    )
+    .join("");
+  const f = res.common_factor;
+  const v = res.supply_voltage_v || {};
+  kv($("#cc-kv"), [
+    ["Common factor k (thrusters / weight)", f ? `${fmt(f.k, 4)} ± ${fmt(f.std, 2)} (χ² p = ${fmt(f.p_value, 2)})` : "—"],
+    ["Delivered / calibrated thrust (1/k)", f ? `${fmt(f.thrust_factor, 4)} ± ${fmt(f.thrust_factor_std, 2)}` : "—"],
+    ["Supply voltage at calibration / during runs", `${fmt(v.calibration, 4)} V / ${fmt(v.runs, 4)} V`],
+    ["RMSE weight (before → after effects)", `${fmt(res.rmse.weight.before, 3)} → ${fmt(res.rmse.weight.after, 3)}`],
+    ["RMSE thrusters (before → after effects)", `${fmt(res.rmse.thruster.before, 3)} → ${fmt(res.rmse.thruster.after, 3)}`],
+    ["Stored as result", `#${res.result_id}`],
+  ]);
+  $("#cc-diagnosis").innerHTML = [...res.diagnosis, ...res.warnings.map((w) => `warning: ${w}`)]
+    .map((d) => `<li>${esc(d)}</li>`)
+    .join("");
+  const names = Object.keys(res.coefficients);
+  const traces = ["weight", "thruster"].map((side) => ({
+    name: side === "weight" ? "weight-driven" : "thruster-driven",
+    type: "scatter",
+    mode: "markers",
+    x: names.map((k) => CC_LABELS[k]),
+    y: names.map((k) => res.coefficients[k][side].value / res.coefficients[k].weight.value),
+    error_y: { type: "data", array: names.map((k) => (res.coefficients[k][side].std || 0) / res.coefficients[k].weight.value) },
+  }));
+  Plotly.react(
+    "cc-plot",
+    traces,
+    {
+      title: "Coefficients relative to the weight-driven value (±1σ_total)",
+      yaxis: { title: "value / weight-driven value" },
+      margin: { t: 40 },
+      legend: { orientation: "h", y: -0.15 },
+    },
+    { responsive: true, displaylogo: false },
+  );
+}
+
+pageLoaders.crosscheck = crosscheckLoad;
