@@ -1,0 +1,107 @@
+"""Pendulum free decay through the full chain, with dry friction in the pivot nobody declared.
+
+simulated rig (scenario: pivot Coulomb friction) → run_pendulum_decay over Modbus TCP →
+acquisition clock → SQLite → daq.run_data.load_pendulum_data → estimation.pendulum (via
+the same ``run_estimation`` the CLI and the API use). The estimator knows only the rig
+file's geometry; it must name the pivot friction, size it, and return the scenario's
+surge added mass and damping. Run with ``-s`` to see the figures.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from api.estimation_job import run_estimation
+from daq.config import DEFAULT_RIG_FILE
+from daq.procedures.params import pendulum_parameters
+from daq.procedures.pendulum import run_pendulum_decay
+from daq.session import RigSession, RigSource
+from daq.sim.scenario import parse_scenario
+from daq.store import Store
+
+#: A short, bottom-heavy pendulum (period ≈ 3.9 s) so ≈ 5 swings fit in a 20 s real-time run.
+SHORT_PENDULUM = """
+[pendulum]
+pivot_to_vehicle_m = 0.6
+rod_mass_kg = 7.88
+rod_cg_m = 0.3
+rod_inertia_kg_m2 = 0.95
+vehicle_inertia_kg_m2 = 1.1
+buoyancy_kg = 10.0
+pivot_damping_nm_s = 0.228
+max_angle_rad = 0.5
+axis = "surge"
+"""
+PIVOT_FRICTION_NM = 0.8
+#: The scenario's surge defaults (seed 000): α = inertia − BENBAM's 30 kg dry mass.
+ALPHA, BETA, GAMMA = 143.26 - 30.0, 20.16, 241.14
+
+
+def _source(tmp_path) -> RigSource:
+    text = DEFAULT_RIG_FILE.read_text(encoding="utf-8")
+    rig_file = tmp_path / "short-pendulum.toml"
+    rig_file.write_text(text[: text.index("[pendulum]")] + SHORT_PENDULUM, encoding="utf-8")
+    base = RigSource.load(rig_file)
+    effects = {"pivot_coulomb_friction_nm": PIVOT_FRICTION_NM}
+    scenario = parse_scenario({"name": "pivot-friction", "effects": effects})
+    scenario_toml = 'name = "pivot-friction"\n[effects]\n' + "".join(
+        f"{k} = {v}\n" for k, v in effects.items()
+    )
+    return RigSource(
+        rig=base.rig, rig_toml=base.rig_toml, scenario=scenario, scenario_toml=scenario_toml
+    )
+
+
+def _print(label: str, data: dict) -> None:
+    print(f"\n{label}: effects {[(e['name'], e['value'], e['std']) for e in data['effects']]}")
+    for m in data["methods"]:
+        q = m["quadratic_damping"]
+        print(
+            f"  {m['method']:<22} α {m['added_mass']['value']:9.3f} ± {m['added_mass']['std']:.3f}"
+            f"  β {m['linear_damping']['value']:8.3f} ± {m['linear_damping']['std']:.3f}"
+            f"  γ {'—' if q is None else format(q['value'], '.2f')}  e {m['mse']:.3g}"
+        )
+    print(f"  RMSE before {data['rmse_before']:.3g} rad, after {data['rmse_after']:.3g} rad")
+    lb = data["diagnostics"]
+    print(f"  Ljung–Box Q {lb['ljung_box_before']['q']:.1f} → {lb['ljung_box_after']['q']:.1f}")
+    for w in data["warnings"]:
+        print(f"  warning: {w}")
+
+
+async def test_undeclared_pivot_friction_is_found_through_the_full_chain(tmp_path):
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    async with RigSession(_source(tmp_path), store) as session:
+        params = pendulum_parameters(
+            {
+                "start_angle_rad": 0.3,
+                "stop_amplitude_rad": 0.004,
+                "max_time_s": 20,
+                "baseline_s": 0.5,
+            },
+            session.rig,
+        )
+        outcome = await run_pendulum_decay(session, params)
+    assert outcome.status == "completed", outcome
+    base = run_estimation(store, [outcome.run_id], search_effects=False)
+    data = run_estimation(store, [outcome.run_id], report_dir=tmp_path / "report")
+    _print("base model (no effects)", base)
+    _print("after the effect search", data)
+
+    assert data["analysis"] == "pendulum" and data["axis"] == "surge"
+    names = [e["name"] for e in data["effects"]]
+    assert "pivot_dry_friction" in names
+    assert set(names) <= {"pivot_dry_friction", "quadratic_damping"}  # γ is in the plant too
+    tau = next(e for e in data["effects"] if e["name"] == "pivot_dry_friction")
+    assert tau["value"] == pytest.approx(PIVOT_FRICTION_NM, rel=0.1)
+    c = data["coefficients"]
+    assert c["added_mass"]["value"] == pytest.approx(ALPHA, rel=0.02)
+    assert c["linear_damping"]["value"] == pytest.approx(BETA, rel=0.1)
+    assert data["rmse_after"] < data["rmse_before"] / 5
+    lb = data["diagnostics"]
+    assert lb["ljung_box_after"]["q"] < lb["ljung_box_before"]["q"]
+    # what is left is the encoder's resolution (4.8e-5 rad counts), not a missing effect
+    assert data["rmse_after"] < 4.8e-5
+    stored = store.results(outcome.run_id, kind="estimation")
+    assert stored and stored[-1].data["analysis"] == "pendulum"
+    assert (tmp_path / "report" / "peaks.png").is_file()
+    store.close()
