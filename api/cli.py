@@ -24,13 +24,14 @@ from api import (
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="towrig", prog_name="rig")
 def main() -> None:
-    """Run the underwater-vehicle test rig: tow and spin tests, thrust calibration,
+    """Run the underwater-vehicle test rig: tow, spin and pendulum tests, thrust calibration,
     sequences, stored runs, estimation, the simulated rig and the HTTP service."""
 
 
 for command in (
     cli_procedures.tow,
     cli_procedures.spin,
+    cli_procedures.pendulum,
     cli_procedures.calibrate_thrusters,
     cli_procedures.sequence,
     cli_runs.runs,

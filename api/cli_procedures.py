@@ -1,4 +1,4 @@
-"""``rig tow``, ``rig spin``, ``rig calibrate-thrusters``, ``rig sequence``."""
+"""``rig tow``, ``rig spin``, ``rig pendulum``, ``rig calibrate-thrusters``, ``rig sequence``."""
 
 from __future__ import annotations
 
@@ -22,6 +22,7 @@ from api.cli_common import (
 from daq.procedures.params import (
     ParameterError,
     calibration_parameters,
+    pendulum_parameters,
     spin_parameters,
     tow_parameters,
 )
@@ -166,6 +167,46 @@ def spin(use_thrusters, rig_file, scenario_file, db_url, as_json, **raw):
     """Spin test: constant torque about the vertical axis (weight on the drum, or thrusters)."""
     raw["drive"] = "thrusters" if use_thrusters else "weight"
     _motion_command(spin_parameters, raw, rig_file, scenario_file, db_url, as_json, "spin")
+
+
+@click.command()
+@click.option(
+    "--angle",
+    "start_angle_rad",
+    type=float,
+    help="Start angle, rad (0 < φ₀ ≤ the rig file's pendulum max_angle_rad).",
+)
+@click.option(
+    "--stop-amplitude",
+    "stop_amplitude_rad",
+    type=float,
+    help="Stop once the amplitude over the last full cycle is below this, rad (default 0.005).",
+)
+@_max_time_option
+@_baseline_option
+@rig_option
+@scenario_option
+@db_option
+@json_option
+def pendulum(rig_file, scenario_file, db_url, as_json, **raw):
+    """Pendulum free decay: pull the vehicle out on the pendulum, release, record the swing."""
+    given = {k: v for k, v in raw.items() if v is not None}
+
+    async def body(session, params, abort, view):
+        from daq.procedures.pendulum import run_pendulum_decay
+
+        return await run_pendulum_decay(session, params, abort=abort, progress=view)
+
+    outcome = _run_procedure(
+        rig_file,
+        scenario_file,
+        db_url,
+        lambda s: pendulum_parameters(given, s.rig),
+        body,
+        "pendulum",
+        as_json,
+    )
+    _print_outcome(outcome, as_json)
 
 
 @click.command("calibrate-thrusters")

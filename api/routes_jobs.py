@@ -1,4 +1,5 @@
-"""Job routes: start tow / spin / calibration / sequence / estimation, watch, control."""
+"""Job routes: start tow / spin / pendulum / calibration / sequence / estimation, watch,
+control."""
 
 from __future__ import annotations
 
@@ -9,12 +10,18 @@ from api.schemas import (
     CalibrationRequest,
     EstimationRequest,
     JobOut,
+    PendulumRequest,
     SequenceRequest,
     SpinRequest,
     TowRequest,
     error_responses,
 )
-from daq.procedures.params import calibration_parameters, spin_parameters, tow_parameters
+from daq.procedures.params import (
+    calibration_parameters,
+    pendulum_parameters,
+    spin_parameters,
+    tow_parameters,
+)
 from daq.procedures.sequence import parse_sequence
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -58,6 +65,24 @@ def start_spin(
         " (thrusters)" if params.drive == "thrusters" else ""
     )
     return runner.start_procedure("spin", params, label).to_json()
+
+
+@router.post(
+    "/pendulum",
+    status_code=202,
+    response_model=JobOut,
+    dependencies=[Depends(require_write)],
+    responses=_START,
+)
+def start_pendulum(
+    body: PendulumRequest,
+    service: ServiceDep,
+    runner: RunnerDep,
+) -> dict:
+    """Start a pendulum free-decay test (the same parameters as ``rig pendulum``)."""
+    params = pendulum_parameters(body.model_dump(exclude_none=True), service.source.rig)
+    label = f"pendulum {params.start_angle_rad:.3g} rad"
+    return runner.start_procedure("pendulum", params, label).to_json()
 
 
 @router.post(

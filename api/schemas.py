@@ -73,6 +73,19 @@ class SpinRequest(_Strict):
     baseline_s: float | None = None
 
 
+class PendulumRequest(_Strict):
+    """A pendulum free-decay test (needs a rig file with a ``[pendulum]`` section)."""
+
+    start_angle_rad: float | None = Field(
+        None, description="Start angle, rad (0 < φ₀ ≤ the pendulum's max_angle_rad); required."
+    )
+    stop_amplitude_rad: float | None = Field(
+        None, description="Stop once the amplitude over a full cycle is below, rad (0.005)."
+    )
+    max_time_s: float | None = Field(None, description="Stop after s (default 120).")
+    baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")
+
+
 class CalibrationRequest(_Strict):
     """A thrust calibration sweep (commands as fractions of full thrust)."""
 
@@ -85,7 +98,7 @@ class CalibrationRequest(_Strict):
 
 class SequenceStep(BaseModel):
     model_config = ConfigDict(extra="allow")
-    kind: str = Field(description="tow | spin | thrust_calibration")
+    kind: str = Field(description="tow | spin | pendulum | thrust_calibration")
 
 
 class SequenceRequest(_Strict):
@@ -146,7 +159,9 @@ class OperatorActOut(BaseModel):
 
 class JobOut(BaseModel):
     id: str
-    kind: Literal["tow", "spin", "thrust_calibration", "sequence", "estimation", "crosscheck"]
+    kind: Literal[
+        "tow", "spin", "pendulum", "thrust_calibration", "sequence", "estimation", "crosscheck"
+    ]
     label: str
     state: JobState
     progress: JobProgress

@@ -6,7 +6,7 @@ rest_s = 30          # between runs, to let the water settle
 repeats = 1          # the whole list this many times
 
 [[steps]]
-kind = "tow"         # tow | spin | thrust_calibration
+kind = "tow"         # tow | spin | pendulum | thrust_calibration
 force_n = 4.9        # the same parameters as the CLI / API
 ```
 Every step is validated against the rig's limits before the first one starts, so a
@@ -29,20 +29,24 @@ from daq.procedures.motion import RunOutcome, run_motion_test
 from daq.procedures.params import (
     CalibrationParameters,
     ParameterError,
+    PendulumParameters,
     Progress,
     SpinParameters,
     TowParameters,
     calibration_parameters,
+    pendulum_parameters,
     spin_parameters,
     tow_parameters,
 )
+from daq.procedures.pendulum import run_pendulum_decay
 from daq.procedures.recording import AbortSignal, ProgressCallback
 from daq.session import Aborted, RigSession
 
-StepParameters = TowParameters | SpinParameters | CalibrationParameters
+StepParameters = TowParameters | SpinParameters | CalibrationParameters | PendulumParameters
 _VALIDATORS = {
     "tow": tow_parameters,
     "spin": spin_parameters,
+    "pendulum": pendulum_parameters,
     "thrust_calibration": calibration_parameters,
 }
 
@@ -86,7 +90,11 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
         kind = raw.get("kind") if isinstance(raw, dict) else None
         if kind not in _VALIDATORS:
             problems.append(
-                (f"steps[{i}].kind", kind, "allowed 'tow', 'spin' or 'thrust_calibration'")
+                (
+                    f"steps[{i}].kind",
+                    kind,
+                    "allowed 'tow', 'spin', 'pendulum' or 'thrust_calibration'",
+                )
             )
             continue
         try:
@@ -198,6 +206,8 @@ async def run_sequence(
                 outcome, _ = await run_thrust_calibration(
                     session, step, abort=control.abort, progress=sub
                 )
+            elif isinstance(step, PendulumParameters):
+                outcome = await run_pendulum_decay(session, step, abort=control.abort, progress=sub)
             else:
                 outcome = await run_motion_test(session, step, abort=control.abort, progress=sub)
             outcomes.append(outcome)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 from pathlib import Path
 
@@ -13,9 +14,12 @@ from daq.config import DEFAULT_RIG_FILE, RigConfig
 from daq.procedures.params import ParameterError, pendulum_parameters
 from daq.procedures.pendulum import CycleAmplitude, run_pendulum_decay
 from daq.procedures.recording import AbortSignal
+from daq.procedures.sequence import parse_sequence
 from daq.run_data import load_pendulum_data
 from daq.session import RigSession, RigSource
 from daq.sim.scenario import Scenario
+from daq.store import Store
+from tests.procedures.test_cli import rig
 
 #: A short, bottom-heavy pendulum (period ≈ 3.6 s) so a decay fits in a fast test.
 FAST_PENDULUM = """
@@ -163,3 +167,31 @@ def test_cycle_amplitude_follows_a_decaying_and_a_stuck_swing():
     for ti in np.arange(20, 25, 0.1):
         last = cycle.add(ti, 0.003)
     assert last == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_sequence_can_hold_pendulum_steps(source):
+    seq = parse_sequence(
+        {"steps": [{"kind": "pendulum", "start_angle_rad": 0.2}, {"kind": "tow", "force_n": 4.9}]},
+        source.rig,
+    )
+    assert seq.steps[0].kind == "pendulum" and seq.steps[0].start_angle_rad == 0.2
+    with pytest.raises(ParameterError, match=r"steps\[0\]\.start_angle_rad: 0\.9"):
+        parse_sequence({"steps": [{"kind": "pendulum", "start_angle_rad": 0.9}]}, source.rig)
+
+
+def test_cli_runs_a_decay_and_refuses_bad_input(tmp_path):
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    bad = rig("pendulum", "--angle", "0.9", db=db)
+    assert bad.returncode == 2 and "start_angle_rad: 0.9 is not allowed" in bad.stderr
+    rig_file = str(fast_rig_file(tmp_path))
+    done = rig(
+        "pendulum",
+        *("--angle", "0.3", "--stop-amplitude", "0.12", "--max-time", "15"),
+        *("--baseline", "0.3", "--rig", rig_file, "--json"),
+        db=db,
+    )
+    assert done.returncode == 0, done.stderr
+    outcome = json.loads(done.stdout)
+    assert outcome["kind"] == "pendulum" and outcome["status"] == "completed"
+    with Store(db) as store:
+        assert load_pendulum_data(store, outcome["run_id"]).geometry.pivot_to_vehicle_m == 0.5
