@@ -63,6 +63,8 @@ def analyse_vehicle(
     delta: float = 0.01,
     forces: Mapping[str, float] | None = None,
     allow_path: bool = False,
+    max_evaluations: int | None = None,
+    time_limit_s: float | None = None,
 ) -> dict[str, Any]:
     """The full analysis of a vehicle (with stored estimates plugged in) as JSON."""
     if weights and ahp:
@@ -82,6 +84,8 @@ def analyse_vehicle(
         thresholds=thresholds,
         keep=keep,
         forces=forces,
+        max_evaluations=max_evaluations,
+        time_limit_s=time_limit_s,
     )
     out = report.to_json()
     out["vehicle_name"] = vehicle_name

@@ -20,6 +20,10 @@ from estimation.responses import RESPONSE_NAMES, RESPONSES
 from estimation.vehicle6 import COEFFICIENT_NAMES, DOFS
 
 router = APIRouter(prefix="/api/analysis", tags=["analysis"])
+#: Right-hand-side evaluations one simulation may cost (a typical one needs a few hundred).
+MAX_EVALUATIONS = 200_000
+#: A request's analysis stops (422) past this many seconds (a typical one takes 0.3 s).
+TIME_LIMIT_S = 30.0
 #: At most this many extra thresholds per request (each costs one reduced-model run per
 #: criterion).
 MAX_THRESHOLDS = 20
@@ -134,6 +138,8 @@ def sensitivity(body: SensitivityRequest, store: StoreDep) -> dict:
             keep=body.keep,
             delta=body.delta,
             forces=body.forces,
+            max_evaluations=MAX_EVALUATIONS,
+            time_limit_s=TIME_LIMIT_S,
         )
     except (sixdof_common.VehicleNotFound, ResultNotFound) as err:
         raise HTTPException(404, str(err)) from None

@@ -352,15 +352,26 @@ def _manoeuvre(
 
 
 # ---- evaluation -------------------------------------------------------------------------------
-def evaluate(vehicle: Vehicle6, the_plan: Plan) -> dict[str, ResponseValue]:
+def evaluate(
+    vehicle: Vehicle6, the_plan: Plan, *, max_evaluations: int | None = None
+) -> dict[str, ResponseValue]:
     """Every response of the plan on ``vehicle`` (one simulation per manoeuvre)."""
-    return measure(the_plan, simulate_plan(vehicle, the_plan))
+    return measure(the_plan, simulate_plan(vehicle, the_plan, max_evaluations=max_evaluations))
 
 
-def simulate_plan(vehicle: Vehicle6, the_plan: Plan) -> dict[str, Trajectory]:
-    """One 6-DOF simulation per manoeuvre of the plan."""
+def simulate_plan(
+    vehicle: Vehicle6, the_plan: Plan, *, max_evaluations: int | None = None
+) -> dict[str, Trajectory]:
+    """One 6-DOF simulation per manoeuvre of the plan (each refused with a ValueError past
+    ``max_evaluations`` right-hand-side evaluations, when given)."""
     return {
-        name: simulate(vehicle, m.duration_s, force=np.array(m.force), dt=m.dt)
+        name: simulate(
+            vehicle,
+            m.duration_s,
+            force=np.array(m.force),
+            dt=m.dt,
+            max_evaluations=max_evaluations,
+        )
         for name, m in the_plan.manoeuvres.items()
     }
 

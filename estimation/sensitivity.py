@@ -198,19 +198,34 @@ def _check(vehicle: Vehicle6, delta: float, thresholds, keep, candidates) -> Non
 class _Evaluator:
     """Evaluates the plan on changed vehicles, counting simulations."""
 
-    def __init__(self, vehicle: Vehicle6, the_plan: Plan) -> None:
+    def __init__(
+        self,
+        vehicle: Vehicle6,
+        the_plan: Plan,
+        max_evaluations: int | None,
+        deadline: float | None,
+        time_limit_s: float | None,
+    ) -> None:
         self.vehicle = vehicle
         self.plan = the_plan
+        self.max_evaluations = max_evaluations
+        self.deadline = deadline
+        self.time_limit_s = time_limit_s
         self.simulations = 0
         self.notes: list[str] = []
 
     def __call__(self, changes: Mapping[str, float], label: str) -> dict[str, ResponseValue]:
         """Responses of the changed vehicle; a failed simulation (e.g. the vehicle pitched
         to ±90°) gives NaN responses and a note naming ``label``."""
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            raise SensitivityError(
+                f"time_limit_s: the analysis took longer than {self.time_limit_s:g} s "
+                f"(at {label}); ask for fewer responses or thresholds, or smaller forces"
+            )
         self.simulations += len(self.plan.manoeuvres)
         v = self.vehicle.with_coefficients(dict(changes)) if changes else self.vehicle
         try:
-            return evaluate(v, self.plan)
+            return evaluate(v, self.plan, max_evaluations=self.max_evaluations)
         except (ValueError, RuntimeError) as exc:
             self.notes.append(f"{label}: simulation failed ({exc}); its changes count as ∞")
             return {r.name: ResponseValue(float("nan"), False) for r in self.plan.responses}
@@ -226,13 +241,17 @@ def analyse(
     keep: Iterable[str] = (),
     candidates: Iterable[str] | None = None,
     forces: Mapping[str, float] | None = None,
+    max_evaluations: int | None = None,
+    time_limit_s: float | None = None,
 ) -> SensitivityReport:
     """Sensitivity, knock-out, composite ranking, ±σ and the threshold sweep of ``vehicle``.
 
     ``thresholds`` are added to ``DEFAULT_THRESHOLDS``. ``keep`` names coefficients never
     removed; ``candidates`` limits the removable ones (default: every non-zero one).
     ``weights`` are per-response weights (renormalised) or an AHP judgement/hierarchy whose
-    labels are the response names; default equal weights.
+    labels are the response names; default equal weights. ``max_evaluations`` bounds each
+    simulation's cost (a variant past it counts as failed); past ``time_limit_s`` the
+    analysis stops with a SensitivityError.
     """
     start = time.perf_counter()
     keep = tuple(keep)
@@ -242,10 +261,11 @@ def analyse(
     the_plan = plan(vehicle, responses, forces=forces)
     names = [r.name for r in the_plan.responses]
     y, ahp_info = _weights(weights, names)
-    run = _Evaluator(vehicle, the_plan)
+    deadline = None if time_limit_s is None else start + time_limit_s
+    run = _Evaluator(vehicle, the_plan, max_evaluations, deadline, time_limit_s)
     notes: list[str] = []
 
-    ref_trajectories = simulate_plan(vehicle, the_plan)
+    ref_trajectories = simulate_plan(vehicle, the_plan, max_evaluations=max_evaluations)
     run.simulations += len(the_plan.manoeuvres)
     ref = measure(the_plan, ref_trajectories)
     notes.extend(attitude_warnings(the_plan, ref_trajectories))

@@ -246,3 +246,11 @@ def test_two_results_for_one_axis_are_refused(slow_tows):
     _, doc = slow_tows
     with pytest.raises(ValueError, match=r"results\[1\]: axis: a second result for 'surge'"):
         plug_results(load_vehicle(VEHICLES / "benbam.toml"), [doc, doc])
+
+
+def test_cost_limits_stop_the_analysis():
+    body = decoupled()
+    with pytest.raises(SensitivityError, match=r"time_limit_s: the analysis took longer than 0 s"):
+        analyse(body, ["steady_surge_speed"], forces={"surge": FORCE}, time_limit_s=0.0)
+    with pytest.raises(ValueError, match=r"integrates in ≤ 5 steps"):
+        analyse(body, ["steady_surge_speed"], forces={"surge": FORCE}, max_evaluations=5)
