@@ -9,8 +9,12 @@ surge added mass and damping. Run with ``-s`` to see the figures.
 
 from __future__ import annotations
 
-import pytest
+import json
 
+import pytest
+from click.testing import CliRunner
+
+from api.cli import main as rig_cli
 from api.estimation_job import run_estimation
 from daq.config import DEFAULT_RIG_FILE
 from daq.procedures.params import pendulum_parameters
@@ -105,3 +109,59 @@ async def test_undeclared_pivot_friction_is_found_through_the_full_chain(tmp_pat
     assert stored and stored[-1].data["analysis"] == "pendulum"
     assert (tmp_path / "report" / "peaks.png").is_file()
     store.close()
+
+
+def _other_kind_run(store: Store, rig_toml: str) -> str:
+    """A (sample-less) tow run next to the pendulum run: enough to test the kind check."""
+    return store.import_run(
+        kind="tow",
+        parameters={"force_n": 24.5},
+        channel_names=["tow_position"],
+        rig_name="BENBAM tow tank",
+        vehicle="BENBAM",
+        rig_toml=rig_toml,
+        samples=[],
+        started_at=0.0,
+        stopped_at=1.0,
+    )
+
+
+async def test_pendulum_runs_through_the_cli_with_methods_checked_per_kind(tmp_path):
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    store = Store(db)
+    source = _source(tmp_path)
+    async with RigSession(source, store) as session:
+        params = pendulum_parameters(
+            {
+                "start_angle_rad": 0.2,
+                "stop_amplitude_rad": 0.02,
+                "max_time_s": 8,
+                "baseline_s": 0.3,
+            },
+            session.rig,
+        )
+        outcome = await run_pendulum_decay(session, params)
+    run_id = outcome.run_id
+    tow_id = _other_kind_run(store, source.rig_toml)
+    store.close()
+
+    cli = CliRunner()
+    done = cli.invoke(rig_cli, ["estimate", run_id, "--db", db, "--method", "damped-fit", "--json"])
+    assert done.exit_code == 0, done.output
+    data = json.loads(done.output)
+    assert data["analysis"] == "pendulum" and data["method"] == "damped-fit"
+    row = next(m for m in data["methods"] if m["method"] == "damped-fit")
+    assert data["coefficients"]["added_mass"]["value"] == pytest.approx(row["added_mass"]["value"])
+    text = cli.invoke(rig_cli, ["estimate", run_id, "--db", db, "--no-effects"])
+    assert text.exit_code == 0, text.output
+    assert "log-decrement" in text.output and "RMSE before" in text.output
+
+    wrong = cli.invoke(rig_cli, ["estimate", run_id, "--db", db, "--method", "ls-raw"])
+    assert wrong.exit_code != 0
+    assert "method: 'ls-raw' is not allowed for pendulum runs" in wrong.output
+    assert "allowed: output-error, damped-fit, log-decrement, equation-error" in wrong.output
+    mixed = cli.invoke(rig_cli, ["estimate", run_id, tow_id, "--db", db])
+    assert mixed.exit_code != 0
+    assert "mixed kinds ['pendulum', 'tow']" in mixed.output
+    tow_only = cli.invoke(rig_cli, ["estimate", tow_id, "--db", db, "--method", "damped-fit"])
+    assert "method: 'damped-fit' is not allowed for tow/spin runs" in tow_only.output
