@@ -82,6 +82,7 @@ function load(run) {
   const p = run.parameters || {};
   if (p.force_n !== undefined) return `${fmt(p.force_n)} N`;
   if (p.torque_nm !== undefined) return `${fmt(p.torque_nm)} N·m`;
+  if (p.start_angle_rad !== undefined) return `${fmt(p.start_angle_rad)} rad`;
   return "";
 }
 
@@ -377,7 +378,7 @@ async function openRun(runId) {
     ["Samples", run.sample_count],
     ["Rig / vehicle", `${run.rig_name} / ${run.vehicle}`],
   ]);
-  const channel = run.kind === "spin" ? "yaw_angle" : run.kind === "thrust_calibration" ? "load_cell" : "tow_position";
+  const channel = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" }[run.kind] || "tow_position";
   const y = samples.channels[channel] || samples.channels.position || [];
   Plotly.newPlot(
     "run-plot",

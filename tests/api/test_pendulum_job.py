@@ -1,7 +1,9 @@
-"""The pendulum free-decay job over HTTP on the simulated rig (a fast pendulum rig file)."""
+"""The pendulum free-decay job over HTTP and from the rig page in headless Chromium, on the
+simulated rig with a fast pendulum rig file."""
 
 from __future__ import annotations
 
+import shutil
 from collections.abc import Iterator
 
 import pytest
@@ -10,15 +12,20 @@ from fastapi.testclient import TestClient
 from api.app import create_app
 from api.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, start_job, wait_job
+from tests.api.conftest import AUTH, TOKEN, LiveServer, start_job, wait_job
+from tests.conftest import require_tool
 from tests.procedures.test_pendulum import fast_rig_file
 
 
 @pytest.fixture(scope="module")
-def client(tmp_path_factory) -> Iterator[TestClient]:
+def service(tmp_path_factory) -> RigService:
     tmp = tmp_path_factory.mktemp("pendulum-api")
-    service = RigService(RigSource.load(fast_rig_file(tmp)), f"sqlite:///{tmp / 'rig.db'}")
-    app = create_app(service, token=TOKEN, report_root=tmp / "reports")
+    return RigService(RigSource.load(fast_rig_file(tmp)), f"sqlite:///{tmp / 'rig.db'}")
+
+
+@pytest.fixture(scope="module")
+def client(service, tmp_path_factory) -> Iterator[TestClient]:
+    app = create_app(service, token=TOKEN, report_root=tmp_path_factory.mktemp("reports"))
     with TestClient(app) as c:
         yield c
 
@@ -52,3 +59,36 @@ def test_pendulum_job_end_to_end_stores_a_completed_decay(client):
     status = client.get("/api/rig", headers=AUTH).json()
     assert status["sample"]["channels"]["pendulum_release"] == 0.0  # caught
     assert status["lock_holder"] is None
+
+
+def test_pendulum_tab_starts_a_decay_from_the_rig_page(client, service):
+    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
+    from playwright.sync_api import expect, sync_playwright
+
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=chromium or shutil.which("chromium"),
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        page = browser.new_context().new_page()
+        page.set_default_timeout(30_000)
+        page.goto(f"{live.url}/#token={TOKEN}")
+        page.click(".tabs button[data-form=pendulum]")
+        form = "#form-pendulum"
+        expect(page.locator(form)).to_be_visible()
+        expect(page.locator("#form-tow")).to_be_hidden()
+        page.fill(f"{form} [name=start_angle_rad]", "0.9")  # beyond max_angle_rad
+        page.click(f"{form} button[type=submit]")
+        expect(page.locator(f"{form} .errors")).to_contain_text("start_angle_rad")
+        page.fill(f"{form} [name=start_angle_rad]", "0.3")
+        page.fill(f"{form} [name=stop_amplitude_rad]", "0.12")
+        page.fill(f"{form} [name=max_time_s]", "15")
+        page.fill(f"{form} [name=baseline_s]", "0.3")
+        page.click(f"{form} button[type=submit]")
+        expect(page.locator("#job-state")).to_have_text("completed", timeout=40_000)
+        page.click("nav a[data-page=runs]")
+        row = page.locator("#runs-table tbody tr").first
+        expect(row).to_contain_text("pendulum")
+        expect(row).to_contain_text("0.3 rad")
+        browser.close()
