@@ -15,8 +15,33 @@ from estimation import METHODS
 from estimation.pendulum import PENDULUM_METHODS
 
 
-def _kinds(store: Store, run_ids: Sequence[str]) -> dict[str, str]:
-    return {rid: store.get_run(rid).kind for rid in run_ids}
+def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
+    """What the runs call for — "pendulum" or "axis" (tow/spin) — with ``method`` checked.
+
+    Raises ``ValueError`` naming the field for no runs, mixed kinds, or a method the kind
+    does not have; ``RunNotFound`` for an unknown id. The API calls this before starting
+    the job so such requests are a 422, not a failed job.
+    """
+    if not run_ids:
+        raise ValueError("run_ids: give at least one run id")
+    kinds = {store.get_run(rid).kind for rid in run_ids}
+    if "pendulum" in kinds:
+        if kinds != {"pendulum"}:
+            raise ValueError(
+                f"run_ids: got mixed kinds {sorted(kinds)}, allowed: all pendulum runs, "
+                f"or tow/spin runs only"
+            )
+        if method not in PENDULUM_METHODS:
+            raise ValueError(
+                f"method: {method!r} is not allowed for pendulum runs; allowed: "
+                f"{', '.join(PENDULUM_METHODS)}"
+            )
+        return "pendulum"
+    if method not in METHODS:
+        raise ValueError(
+            f"method: {method!r} is not allowed for tow/spin runs; allowed: {', '.join(METHODS)}"
+        )
+    return "axis"
 
 
 def run_estimation(
@@ -38,20 +63,8 @@ def run_estimation(
     from estimation import estimate
     from estimation.report import write_report  # matplotlib: load only when estimating
 
-    if not run_ids:
-        raise ValueError("run_ids: give at least one run id")
-    kinds = _kinds(store, run_ids)
-    if "pendulum" in kinds.values():
-        if set(kinds.values()) != {"pendulum"}:
-            raise ValueError(
-                f"run_ids: got mixed kinds {sorted(set(kinds.values()))}, allowed: all "
-                f"pendulum runs, or tow/spin runs only"
-            )
+    if check_estimation_request(store, run_ids, method) == "pendulum":
         return _run_pendulum(store, run_ids, method, search_effects, report_dir)
-    if method not in METHODS:
-        raise ValueError(
-            f"method: {method!r} is not allowed for tow/spin runs; allowed: {', '.join(METHODS)}"
-        )
     runs = [load_run_data(store, rid) for rid in run_ids]
     result = estimate(runs, method=method, search_effects=search_effects)
     data = result.to_json()
@@ -72,11 +85,6 @@ def _run_pendulum(
     from estimation.pendulum import estimate_pendulum
     from estimation.pendulum_report import write_pendulum_report
 
-    if method not in PENDULUM_METHODS:
-        raise ValueError(
-            f"method: {method!r} is not allowed for pendulum runs; allowed: "
-            f"{', '.join(PENDULUM_METHODS)}"
-        )
     runs = [load_pendulum_data(store, rid) for rid in run_ids]
     result = estimate_pendulum(runs, method=method, search=search_effects)
     data = result.to_json()

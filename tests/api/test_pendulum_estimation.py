@@ -1,0 +1,111 @@
+"""Estimating a pendulum free decay over HTTP and on the estimation page (headless Chromium),
+on the simulated rig with a fast pendulum rig file (the scenario's surge coefficients)."""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Iterator
+
+import pytest
+from fastapi.testclient import TestClient
+
+from api.app import create_app
+from api.service import RigService
+from daq.session import RigSource
+from tests.api.conftest import AUTH, SHORT_TOW, TOKEN, LiveServer, start_job, wait_job
+from tests.conftest import require_tool
+from tests.procedures.test_pendulum import fast_rig_file
+
+ALPHA = 143.26 - 30.0  # kg: the scenario's surge inertia minus BENBAM's dry mass
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory) -> RigService:
+    tmp = tmp_path_factory.mktemp("pendulum-estimation")
+    return RigService(RigSource.load(fast_rig_file(tmp)), f"sqlite:///{tmp / 'rig.db'}")
+
+
+@pytest.fixture(scope="module")
+def client(service, tmp_path_factory) -> Iterator[TestClient]:
+    app = create_app(service, token=TOKEN, report_root=tmp_path_factory.mktemp("reports"))
+    with TestClient(app) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def runs(client) -> dict[str, str]:
+    body = {"start_angle_rad": 0.3, "stop_amplitude_rad": 0.01, "max_time_s": 12, "baseline_s": 0.3}
+    pendulum = wait_job(client, start_job(client, "/api/jobs/pendulum", body), timeout_s=40)
+    assert pendulum["state"] == "completed", pendulum
+    tow = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
+    assert tow["state"] == "completed", tow
+    return {"pendulum": pendulum["run_ids"][0], "tow": tow["run_ids"][0]}
+
+
+def test_pendulum_estimation_job_stores_the_methods_and_report(client, runs):
+    r = client.post("/api/jobs/estimation", json={"run_ids": [runs["pendulum"]]}, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=60)
+    assert job["state"] == "completed", job
+    res = job["outcome"]
+    assert res["analysis"] == "pendulum" and res["method"] == "output-error"
+    assert res["coefficients"]["added_mass"]["value"] == pytest.approx(ALPHA, rel=0.03)
+    # the plant has the scenario's quadratic drag: the search names it
+    assert [e["name"] for e in res["effects"]] == ["quadratic_damping"]
+    assert {m["method"] for m in res["methods"]} >= {"damped-fit", "log-decrement"}
+    stored = client.get(f"/api/results/{job['result_id']}", headers=AUTH).json()
+    assert stored["kind"] == "estimation" and stored["data"]["analysis"] == "pendulum"
+    assert {"fit_after", "peaks"} <= set(stored["report_plots"])
+    png = client.get(f"/api/results/{job['result_id']}/report/peaks.png", headers=AUTH)
+    assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
+
+
+def test_methods_are_checked_per_kind_and_kinds_not_mixed(client, runs):
+    for body, text in (
+        (
+            {"run_ids": [runs["pendulum"]], "method": "ls-raw"},
+            "method: 'ls-raw' is not allowed for pendulum runs; allowed: output-error, damped-fit",
+        ),
+        (
+            {"run_ids": [runs["tow"]], "method": "log-decrement"},
+            "method: 'log-decrement' is not allowed for tow/spin runs",
+        ),
+        (
+            {"run_ids": [runs["pendulum"], runs["tow"]]},
+            "run_ids: got mixed kinds ['pendulum', 'tow']",
+        ),
+    ):
+        r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
+        assert r.status_code == 422, r.text
+        assert text in r.json()["detail"]
+
+
+def test_estimation_page_shows_a_pendulum_result(client, service, runs):
+    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
+    from playwright.sync_api import expect, sync_playwright
+
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=chromium or shutil.which("chromium"),
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        page = browser.new_context().new_page()
+        page.set_default_timeout(30_000)
+        page.goto(f"{live.url}/#token={TOKEN}")
+        page.click("nav a[data-page=estimation]")
+        box = page.locator(f"#est-runs input[value='{runs['pendulum']}']")
+        expect(box).to_have_attribute("data-kind", "pendulum")
+        box.check()
+        page.select_option("#est-method", "damped-fit")
+        page.click("#est-run")
+        expect(page.locator("#est-state")).to_have_text("completed", timeout=60_000)
+        methods = page.locator("#est-pendulum-methods")
+        expect(methods).to_contain_text("log-decrement")
+        expect(methods).to_contain_text("equation-error")
+        expect(page.locator("#est-coefs")).to_contain_text("added_mass (kg)")
+        expect(page.locator("#est-rmse")).to_contain_text("pendulum free decay, surge / damped-fit")
+        expect(page.locator("#est-rmse")).to_contain_text("rad")
+        expect(page.locator("#est-effects-list")).to_contain_text("quadratic_damping")
+        expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
+        browser.close()
