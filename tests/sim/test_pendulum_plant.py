@@ -121,6 +121,9 @@ def test_swinging_pendulum_is_integrated_and_a_caught_one_is_quiescent():
     assert plant.read("sim_pendulum_angle") == pytest.approx(caught)  # held where caught
     with pytest.raises(ValueError, match=r"sim_pendulum_angle: must be within ±0\.5 rad"):
         plant.write("sim_pendulum_angle", 0.8)
+    plant.write("pendulum_release", 1)
+    plant.write("sim_reset", 1)  # everything back to the start: hanging plumb, latched
+    assert plant.read("pendulum_angle") == 0.0 and plant.read("pendulum_release") == 0.0
 
 
 def test_encoder_resolution_and_noise_come_from_the_scenario():
