@@ -18,14 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from estimation.pendulum import estimate_pendulum
+from estimation.pendulum_decay import find_peaks, prepare_decay
 from estimation.pendulum_fit import fit_output_error, search_effects
-from estimation.pendulum_methods import (
-    damped_fit,
-    equation_error,
-    find_peaks,
-    log_decrement,
-    prepare_decay,
-)
+from estimation.pendulum_methods import damped_fit, equation_error, log_decrement
 from tests.estimation.pendulum_synth import ALPHA, BETA, decay
 
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from estimation.diagnostics import Whiteness, ljung_box
 from estimation.pendulum_data import PendulumRun, validate_pendulum_run
+from estimation.pendulum_decay import Decay, Peaks, find_peaks, prepare_decay
 from estimation.pendulum_fit import (
     BASE_NAMES,
     PENDULUM_EFFECTS,
@@ -26,14 +27,10 @@ from estimation.pendulum_fit import (
     search_effects,
 )
 from estimation.pendulum_methods import (
-    Decay,
     MethodEstimate,
-    Peaks,
     damped_fit,
     equation_error,
-    find_peaks,
     log_decrement,
-    prepare_decay,
 )
 from estimation.result import EffectEstimate, Estimate, _num, _step, _white
 from estimation.search import SearchStep

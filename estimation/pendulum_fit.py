@@ -23,7 +23,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from estimation.diagnostics import ljung_box
-from estimation.pendulum_methods import Decay
+from estimation.pendulum_decay import Decay
 from estimation.pendulum_sim import simulate, step_size
 from estimation.search import (
     AMBIGUITY_BIC,

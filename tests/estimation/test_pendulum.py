@@ -18,11 +18,8 @@ import pytest
 
 from estimation.pendulum import PENDULUM_METHODS, estimate_pendulum
 from estimation.pendulum_data import PendulumGeometry, validate_pendulum_run
-from estimation.pendulum_methods import (
-    coefficients_from_signal,
-    plant_of,
-    thesis_translational,
-)
+from estimation.pendulum_decay import plant_of
+from estimation.pendulum_methods import coefficients_from_signal, thesis_translational
 from estimation.pendulum_report import write_pendulum_report
 from estimation.pendulum_sim import simulate, step_size
 from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
