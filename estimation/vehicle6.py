@@ -317,11 +317,45 @@ def _direction(raw: Mapping[str, Any], source: str, path: str) -> tuple[float, f
     return (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
 
 
+_TABLES = ("vehicle", *COEFFICIENT_KINDS, "sigma", "thrusters")
+_VEHICLE_KEYS = (
+    "name",
+    "frame",
+    "mass_kg",
+    "g",
+    "buoyancy_n",
+    "displaced_volume_m3",
+    "water_density_kg_m3",
+    "inertia_kg_m2",
+    "cg_m",
+    "cb_m",
+    "notes",
+)
+_THRUSTER_KEYS = (
+    "name",
+    "position_m",
+    "direction",
+    "azimuth_deg",
+    "elevation_deg",
+    "gain_n_per_command",
+    "max_command",
+)
+
+
+def _known_keys(table: Mapping[str, Any], known: tuple[str, ...], source: str, prefix: str) -> None:
+    """A misspelt key would otherwise fall back silently to a default."""
+    for key in table:
+        if key not in known:
+            raise VehicleError(source, f"{prefix}{key}", table[key], "keys " + ", ".join(known))
+
+
 def parse_vehicle(data: dict, source: str) -> Vehicle6:
     """A ``Vehicle6`` from a parsed vehicle file (``source`` names it in errors)."""
+    _known_keys(data, _TABLES, source, "")
     v = _get(data, "vehicle", source, "[vehicle]")
     if not isinstance(v, dict):
         raise VehicleError(source, "[vehicle]", v, "a table")
+    _known_keys(v, _VEHICLE_KEYS, source, "vehicle.")
     frame = _get(v, "frame", source, "vehicle.frame", "x-forward-y-starboard-z-down")
     if frame not in FRAMES:
         raise VehicleError(source, "vehicle.frame", frame, " or ".join(repr(f) for f in FRAMES))
@@ -347,6 +381,9 @@ def parse_vehicle(data: dict, source: str) -> Vehicle6:
         raise VehicleError(source, "[[thrusters]]", raw_thrusters, "an array of tables")
     for i, raw in enumerate(raw_thrusters):
         path = f"thrusters[{i}]"
+        if not isinstance(raw, dict):
+            raise VehicleError(source, path, raw, "a table ([[thrusters]])")
+        _known_keys(raw, _THRUSTER_KEYS, source, f"{path}.")
         thrusters.append(
             Thruster(
                 name=str(_get(raw, "name", source, f"{path}.name", str(i + 1))),

@@ -207,6 +207,14 @@ def test_file_errors_name_file_field_value():
     with pytest.raises(VehicleError, match=r"added_mass\.heave.*required"):
         parse_vehicle(data, "x.toml")
     data = _benbam_data()
+    data["vehicle"]["cb"] = [0.0, 0.0, -0.1]  # misspelt cb_m must not fall back to 0
+    with pytest.raises(VehicleError, match=r"vehicle\.cb: .*allowed: keys .*cb_m"):
+        parse_vehicle(data, "x.toml")
+    data = _benbam_data()
+    data["thrusters"][0]["gain"] = 40.0
+    with pytest.raises(VehicleError, match=r"thrusters\[0\]\.gain: "):
+        parse_vehicle(data, "x.toml")
+    data = _benbam_data()
     data["vehicle"]["inertia_kg_m2"] = [5.0, 1.0, 1.0]
     with pytest.raises(VehicleError, match="triangle inequality"):
         parse_vehicle(data, "x.toml")
