@@ -62,6 +62,7 @@ def analyse_vehicle(
     keep: Sequence[str] = (),
     delta: float = 0.01,
     forces: Mapping[str, float] | None = None,
+    distance_time_s: float | None = None,
     allow_path: bool = False,
     max_evaluations: int | None = None,
     time_limit_s: float | None = None,
@@ -84,6 +85,7 @@ def analyse_vehicle(
         thresholds=thresholds,
         keep=keep,
         forces=forces,
+        distance_time_s=distance_time_s,
         max_evaluations=max_evaluations,
         time_limit_s=time_limit_s,
     )

@@ -129,10 +129,27 @@ def _print(out: dict) -> None:
     help="JSON file of judgement matrices over the responses (docs/sensitivity.md).",
 )
 @click.option("--delta", type=float, default=0.01, show_default=True, help="Relative step of S.")
+@click.option(
+    "--distance-time",
+    "distance_time_s",
+    type=float,
+    default=None,
+    help="t of distance_at_t, s (default: 3 surge time constants).",
+)
 @db_option
 @json_option
 def sensitivity(
-    vehicle, estimates, responses, thresholds, keep, weight_pairs, ahp_file, delta, db_url, as_json
+    vehicle,
+    estimates,
+    responses,
+    thresholds,
+    keep,
+    weight_pairs,
+    ahp_file,
+    delta,
+    distance_time_s,
+    db_url,
+    as_json,
 ):
     """Rank VEHICLE's coefficients (a name from fixtures/vehicles or $RIG_VEHICLES_DIR, or a
     .toml file) by their effect on standard manoeuvres, sweep thresholds for a reduced model,
@@ -150,6 +167,7 @@ def sensitivity(
             thresholds=thresholds,
             keep=keep,
             delta=delta,
+            distance_time_s=distance_time_s,
             allow_path=True,
         )
     except (sixdof_common.VehicleNotFound, ResultNotFound) as err:

@@ -94,6 +94,9 @@ class SensitivityRequest(Strict):
         description="Step size per axis (N or N·m), e.g. {'surge': 20}; default half the "
         "thrusters' reach.",
     )
+    distance_time_s: float | None = Field(
+        None, gt=0, le=1e5, description="t of distance_at_t, s; default 3 surge time constants."
+    )
 
 
 @router.get("/responses", dependencies=[Depends(require_read)], responses=error_responses(401))
@@ -138,6 +141,7 @@ def sensitivity(body: SensitivityRequest, store: StoreDep) -> dict:
             keep=body.keep,
             delta=body.delta,
             forces=body.forces,
+            distance_time_s=body.distance_time_s,
             max_evaluations=MAX_EVALUATIONS,
             time_limit_s=TIME_LIMIT_S,
         )

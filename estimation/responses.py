@@ -266,8 +266,12 @@ def plan(
     *,
     forces: Mapping[str, float] | None = None,
     fraction: float = DEFAULT_FRACTION,
+    distance_time_s: float | None = None,
 ) -> Plan:
     """Manoeuvres for the responses ``names`` (default: every one the vehicle can do).
+
+    ``distance_time_s`` is the t of ``distance_at_t`` (default ``DISTANCE_TIME_CONSTANTS``
+    surge time constants; at most the surge step's duration).
 
     ``forces`` overrides the step size per axis (``{"surge": 20.0, "yaw": 3.0}``, N / N·m);
     otherwise it is ``fraction`` of the thrusters' reach. A response asked for by name on an
@@ -317,7 +321,15 @@ def plan(
         )
     if "surge_step" in manoeuvres:
         tau, _ = time_constant(vehicle, "surge", step["surge"])
-        constants["distance_time_s"] = DISTANCE_TIME_CONSTANTS * tau
+        longest = manoeuvres["surge_step"].duration_s
+        if distance_time_s is None:
+            distance_time_s = DISTANCE_TIME_CONSTANTS * tau
+        elif not (np.isfinite(distance_time_s) and 0 < distance_time_s <= longest):
+            raise ResponseError(
+                f"distance_time_s: {distance_time_s!r} is not allowed; give 0 < t ≤ "
+                f"{longest:.4g} s (the surge step's duration)"
+            )
+        constants["distance_time_s"] = float(distance_time_s)
     return Plan(manoeuvres=manoeuvres, responses=tuple(responses), constants=constants)
 
 

@@ -241,6 +241,7 @@ def analyse(
     keep: Iterable[str] = (),
     candidates: Iterable[str] | None = None,
     forces: Mapping[str, float] | None = None,
+    distance_time_s: float | None = None,
     max_evaluations: int | None = None,
     time_limit_s: float | None = None,
 ) -> SensitivityReport:
@@ -258,7 +259,7 @@ def analyse(
     candidates = None if candidates is None else tuple(candidates)
     thresholds = tuple(sorted(set(DEFAULT_THRESHOLDS) | {float(t) for t in thresholds}))
     _check(vehicle, delta, thresholds, keep, candidates)
-    the_plan = plan(vehicle, responses, forces=forces)
+    the_plan = plan(vehicle, responses, forces=forces, distance_time_s=distance_time_s)
     names = [r.name for r in the_plan.responses]
     y, ahp_info = _weights(weights, names)
     deadline = None if time_limit_s is None else start + time_limit_s

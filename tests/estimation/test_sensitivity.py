@@ -254,3 +254,15 @@ def test_cost_limits_stop_the_analysis():
         analyse(body, ["steady_surge_speed"], forces={"surge": FORCE}, time_limit_s=0.0)
     with pytest.raises(ValueError, match=r"integrates in ≤ 5 steps"):
         analyse(body, ["steady_surge_speed"], forces={"surge": FORCE}, max_evaluations=5)
+
+
+def test_distance_at_a_chosen_time_matches_the_linear_solution():
+    """K_Q = 0: x(t) = v∞·(t − τ(1 − e^{−t/τ})), v∞ = F/K_L, τ = (m + a)/K_L."""
+    body = decoupled(quadratic_damping=(0.0, 30.0, 31.0, 1.0, 1.2, 1.5))
+    report = analyse(body, ["distance_at_t"], forces={"surge": FORCE}, distance_time_s=2.5)
+    tau = (MASS + body.added_mass[0]) / K_L
+    x = FORCE / K_L * (2.5 - tau * (1 - math.exp(-2.5 / tau)))
+    assert report.plan.constants["distance_time_s"] == 2.5
+    assert report.reference["distance_at_t"] == pytest.approx(x, rel=1e-4)
+    with pytest.raises(ResponseError, match=r"distance_time_s: 1000\.0 is not allowed"):
+        analyse(body, ["distance_at_t"], forces={"surge": FORCE}, distance_time_s=1000.0)
