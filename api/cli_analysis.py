@@ -76,6 +76,16 @@ def _print(out: dict) -> None:
             f"{s['criterion']:<11}{s['threshold']:>10.4g}{s['n_removed']:>9}"
             f"{_pct(s['max_error']):>11}  {s['worst_response']}"
         )
+    flips = out["weight_stability"]
+    if flips:
+        click.echo("weights: doubling or halving one response's weight changes these removals:")
+        for f in flips:
+            change = ", ".join(
+                [f"+{n}" for n in f["now_removed"]] + [f"−{n}" for n in f["now_kept"]]
+            )
+            click.echo(f"  {f['response']} ×{f['factor']:g} at {f['threshold']:g}: {change}")
+    else:
+        click.echo("weights: doubling or halving any response's weight changes no removal")
     ident = out["identifiability"] or {}
     nxt = ident.get("next_test") or {}
     if nxt.get("coefficient"):

@@ -11,7 +11,9 @@ response R:
 - a threshold sweep: every candidate below the threshold removed *jointly*, the reduced
   model re-simulated, its error per response, the largest one and the weighted one. Each
   threshold is swept twice: on the composite index (the seed's rule) and on the largest
-  single-response Sc (a weighted sum can hide a coefficient that matters to one response).
+  single-response Sc (a weighted sum can hide a coefficient that matters to one response);
+- weight stability: which removals change when one response's weight is doubled or halved
+  (AHP weights are judgements).
 
 When |R_ref| is ≈ 0 the relative change is undefined: that response's changes are divided
 by the largest |R| seen in the analysis instead ("range" mode, reported per response).
@@ -42,6 +44,8 @@ DEFAULT_THRESHOLDS: tuple[float, ...] = (0.005, 0.0075, 0.01)
 #: |R_ref| below this fraction of the largest |R| seen → "range" mode for that response.
 ZERO_RESPONSE = 1e-6
 CRITERIA = ("composite", "max")
+#: Weight stability: each response's weight is multiplied and divided by this.
+WEIGHT_FACTOR = 2.0
 
 
 class SensitivityError(ValueError):
@@ -125,6 +129,7 @@ class SensitivityReport:
     notes: tuple[str, ...]
     simulations: int
     elapsed_s: float
+    weight_stability: tuple[dict, ...] = ()
     identifiability: dict | None = field(default=None)
 
     def row(self, name: str) -> CoefficientRow:
@@ -156,6 +161,7 @@ class SensitivityReport:
             "notes": list(self.notes),
             "simulations": self.simulations,
             "elapsed_s": self.elapsed_s,
+            "weight_stability": list(self.weight_stability),
             "identifiability": self.identifiability,
         }
 
@@ -380,7 +386,50 @@ def analyse(
         notes=tuple(notes + run.notes),
         simulations=run.simulations,
         elapsed_s=time.perf_counter() - start,
+        weight_stability=tuple(weight_stability(rows, y, thresholds)),
     )
+
+
+def weight_stability(
+    rows: Sequence[CoefficientRow],
+    weights: Mapping[str, float],
+    thresholds: Sequence[float],
+    factor: float = WEIGHT_FACTOR,
+) -> list[dict]:
+    """How the composite-rule removals depend on the weights (no new simulations).
+
+    For each response, its weight is multiplied and divided by ``factor`` (the others
+    renormalised); returned are the cases where a threshold would then remove a different
+    set of candidates: ``{response, factor, threshold, now_removed, now_kept}``.
+    """
+    names = list(weights)
+    out = []
+    base = _removed(rows, weights, thresholds)
+    for n in names if len(names) > 1 else ():
+        for f in (factor, 1 / factor):
+            changed = {k: w * (f if k == n else 1.0) for k, w in weights.items()}
+            total = sum(changed.values())
+            changed = {k: w / total for k, w in changed.items()}
+            for t, removed in _removed(rows, changed, thresholds).items():
+                gained, lost = removed - base[t], base[t] - removed
+                if gained or lost:
+                    out.append(
+                        {
+                            "response": n,
+                            "factor": f,
+                            "threshold": t,
+                            "now_removed": sorted(gained),
+                            "now_kept": sorted(lost),
+                        }
+                    )
+    return out
+
+
+def _removed(
+    rows: Sequence[CoefficientRow], weights: Mapping[str, float], thresholds: Sequence[float]
+) -> dict[float, set[str]]:
+    composite = {r.name: sum(r.sc[n] * w for n, w in weights.items()) for r in rows}
+    return {t: {r.name for r in rows if r.candidate and composite[r.name] < t} for t in thresholds}
 
 
 def _scales(

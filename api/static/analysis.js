@@ -139,6 +139,13 @@ function analysisShow(out) {
   $("#an-correlations").innerHTML = (ident.correlations || [])
     .map((c) => `<li>${esc(c.a)} ↔ ${esc(c.b)}: ρ = ${fmt(c.rho, 3)}</li>`)
     .join("");
+  const flips = out.weight_stability || [];
+  $("#an-stability").innerHTML = flips.length
+    ? `<p>Doubling or halving one response's weight changes these removals (composite rule):</p><ul>${flips
+      .map((f) => `<li>${esc(f.response)} ×${fmt(f.factor, 2)} at ${fmt(f.threshold, 4)}: ${[
+        ...f.now_removed.map((n) => `+${esc(n)}`), ...f.now_kept.map((n) => `−${esc(n)}`)].join(", ")}</li>`)
+      .join("")}</ul>`
+    : "<p class=\"muted\">Doubling or halving any response's weight changes no removal.</p>";
   $("#an-notes").innerHTML = out.notes.map((n) => `<li>${esc(n)}</li>`).join("");
 }
 

@@ -27,6 +27,7 @@ def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(server, page):  # noq
     first = page.locator("#an-ranking tbody tr").first
     expect(first).to_contain_text("quadratic_damping")
     expect(page.locator("#an-bars .main-svg").first).to_be_attached()
+    expect(page.locator("#an-stability")).to_contain_text("response's weight")
 
     ahp = {"name": "mine", "matrix": INCONSISTENT, "labels": ["a", "b", "c"]}
     page.fill("#an-form [name=ahp]", json.dumps(ahp))

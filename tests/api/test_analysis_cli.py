@@ -23,6 +23,7 @@ def test_table_lists_ranking_sweep_and_advice():
     lines = [ln for ln in out.splitlines() if ln.startswith("added_mass.surge")]
     assert lines and lines[0].endswith("keep")
     assert "next test:" in out
+    assert "weights: doubling or halving" in out
 
 
 def test_json_with_ahp_file_matches_the_weights(tmp_path):

@@ -266,3 +266,44 @@ def test_distance_at_a_chosen_time_matches_the_linear_solution():
     assert report.reference["distance_at_t"] == pytest.approx(x, rel=1e-4)
     with pytest.raises(ResponseError, match=r"distance_time_s: 1000\.0 is not allowed"):
         analyse(body, ["distance_at_t"], forces={"surge": FORCE}, distance_time_s=1000.0)
+
+
+def test_weight_stability_names_the_removals_a_weight_change_flips():
+    vehicle = load_vehicle(VEHICLES / "benbam.toml")
+    names = ["steady_surge_speed", "steady_yaw_rate", "turning_diameter"]
+    report = analyse(vehicle, names)
+    assert report.weight_stability  # BENBAM's linear_damping.yaw sits near 0.01
+    base = {
+        t: {r.name for r in report.rows if r.candidate and r.composite < t}
+        for t in (0.005, 0.0075, 0.01)
+    }
+    seen = set()
+    for case in report.weight_stability:
+        w = dict(report.weights)
+        w[case["response"]] *= case["factor"]
+        total = sum(w.values())
+        removed = {
+            r.name
+            for r in report.rows
+            if r.candidate and sum(r.sc[n] * w[n] / total for n in names) < case["threshold"]
+        }
+        assert removed - base[case["threshold"]] == set(case["now_removed"])
+        assert base[case["threshold"]] - removed == set(case["now_kept"])
+        seen.add((case["response"], case["factor"], case["threshold"]))
+    # every (response, ×2 or ÷2, threshold) not listed changes nothing
+    for n in names:
+        for f in (2.0, 0.5):
+            for t in base:
+                if (n, f, t) in seen:
+                    continue
+                w = dict(report.weights)
+                w[n] *= f
+                total = sum(w.values())
+                removed = {
+                    r.name
+                    for r in report.rows
+                    if r.candidate and sum(r.sc[k] * w[k] / total for k in names) < t
+                }
+                assert removed == base[t]
+    single = analyse(vehicle, ["steady_surge_speed"])
+    assert single.weight_stability == ()
