@@ -144,7 +144,7 @@ def assess(
     unmeasured = [
         {
             "name": row.name,
-            "composite": row.composite,
+            "composite": row.composite if np.isfinite(row.composite) else None,  # None: ∞
             "note": _unmeasured_note(row.name.split(".")[1], measured_axes),
         }
         for row in report.rows
@@ -152,7 +152,7 @@ def assess(
     ]
     correlations = _correlations(results)
     next_test = _next_test(rows, vehicle, correlations, run_speeds or {}, units, y)
-    influential = [u for u in unmeasured if u["composite"] > 0]
+    influential = [u for u in unmeasured if u["composite"] is None or u["composite"] > 0]
     if influential:
         top = influential[0]
         next_test["unmeasured"] = (
@@ -168,8 +168,8 @@ def assess(
     }
 
 
-def _composite(x: float) -> str:
-    return f"{x:.3g}" if np.isfinite(x) else "∞: the model fails without it"
+def _composite(x: float | None) -> str:
+    return "∞: the model fails without it" if x is None else f"{x:.3g}"
 
 
 def _unmeasured_note(axis: str, measured_axes: set[str]) -> str:

@@ -117,3 +117,13 @@ def test_response_library_is_listed(client):
     names = {x["name"]: x for x in r.json()}
     assert names["steady_surge_speed"]["unit"] == "m/s"
     assert names["turning_diameter"]["manoeuvre"] == "turn"
+
+
+def test_sensitivity_of_the_seed002_rov_with_failing_knock_outs(client):
+    r = client.post("/api/analysis/sensitivity", json={"vehicle": "seed002-rov"}, headers=AUTH)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert "steady_heave_speed" in out["weights"]  # 8 thrusters: heave thrust too
+    assert out["ranking"][0]["composite"] is None  # a knock-out the model cannot survive
+    assert any("simulation failed" in n for n in out["notes"])
+    assert "∞" in out["identifiability"]["next_test"]["unmeasured"]

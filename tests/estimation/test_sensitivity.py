@@ -307,3 +307,22 @@ def test_weight_stability_names_the_removals_a_weight_change_flips():
                 assert removed == base[t]
     single = analyse(vehicle, ["steady_surge_speed"])
     assert single.weight_stability == ()
+
+
+def test_a_knock_out_that_breaks_the_model_counts_as_infinite_in_strict_json():
+    """seed 002's ROV has no restoring moment and no surge K_Q: without K_L.surge the
+    surge step never settles and the vehicle pitches over (the simulator refuses ±90°)."""
+    import json
+
+    report = analyse_identified(
+        load_vehicle(VEHICLES / "seed002-rov.toml"), [], responses=["steady_surge_speed"]
+    )
+    row = report.row("linear_damping.surge")
+    assert row.composite == math.inf
+    assert any(n.startswith("linear_damping.surge = 0: simulation failed") for n in report.notes)
+    doc = json.loads(json.dumps(report.to_json(), allow_nan=False))
+    ranked = {r["name"]: r for r in doc["ranking"]}
+    assert ranked["linear_damping.surge"]["composite"] is None
+    assert doc["ranking"][0]["composite"] is None  # ∞ ranks first
+    for row in report.sweep:
+        assert "linear_damping.surge" not in row.removed
