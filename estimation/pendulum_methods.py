@@ -25,7 +25,7 @@ from scipy.signal import savgol_filter
 from estimation.pendulum_data import PendulumGeometry
 from estimation.pendulum_decay import Decay, Peaks, find_peaks
 from estimation.pendulum_sim import simulate, step_size
-from estimation.result import Estimate
+from estimation.result import Estimate, _num
 
 SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...
 SG_POLYORDER = 4  # ... with a quartic: φ̈ of a sinusoid biased < 0.02 %
@@ -50,8 +50,6 @@ class MethodEstimate:
 
     def to_json(self) -> dict:
         """The method's row of the result document."""
-        from estimation.result import _num
-
         return {
             "method": self.method,
             "run_id": self.run_id,
