@@ -171,6 +171,9 @@ class ThrusterPort(_Strict):
     full_scale_thrust_n: PositiveFloat = 40.0
     #: Lever arm of the thrusters about the vertical axis, m (for thruster-driven yaw).
     yaw_lever_arm_m: PositiveFloat = 0.2
+    #: Thrust response time (first-order time constant, s, from the thrusters' datasheet):
+    #: the drive of thruster-driven runs is rebuilt with it (0 = thrust follows at once).
+    time_constant_s: Annotated[float, Field(ge=0, le=5)] = 0.0
     ack_timeout_s: Annotated[float, Field(gt=0, le=2)] = 0.1
 
     def yaw_signs(self) -> list[float]:

@@ -144,10 +144,10 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
         curve = _calibration_curve(store, params)
-        drive = thruster_drive(curve, rig, run.kind, params["commands"], t - t_release)
+        drive = thruster_drive(curve, rig, run.kind, params["commands"], t, t_release)
         draws = np.array(
             [
-                thruster_drive(c, rig, run.kind, params["commands"], t - t_release)
+                thruster_drive(c, rig, run.kind, params["commands"], t, t_release)
                 for c in curve_draws(curve, DRIVE_DRAWS)
             ]
         )
@@ -232,26 +232,62 @@ def _calibration_curve(store: Store, params: dict) -> ThrustCurve:
     return ThrustCurve.from_json(calibration.data["fit"])
 
 
-def thruster_drive(
-    curve: ThrustCurve, rig: RigConfig, kind: str, commands: list[float], t_since_on: np.ndarray
-) -> np.ndarray:
-    """Drive per sample of a thruster-driven tow (force, N: Σ F) or spin (torque, N·m:
-    Σ sign·F·L), from the calibrated thrust curve.
+#: Step of the fine grid the thruster drive is built on, s.
+DRIVE_GRID_S = 0.001
 
-    The commands ramp from zero at the rig's slew limit when the thrust is switched on
-    (t = 0); each thruster's force comes from the calibrated curve. The thrusters' own
-    lag is not modelled here (the residual search sees it as a release delay).
+
+def thruster_drive(
+    curve: ThrustCurve,
+    rig: RigConfig,
+    kind: str,
+    commands: list[float],
+    t: np.ndarray,
+    t_on: float,
+) -> np.ndarray:
+    """Drive of a thruster-driven tow (force, N: Σ F) or spin (torque, N·m: Σ sign·F·L) per
+    sample, from the calibrated thrust curve; ``t`` the sample times, ``t_on`` the instant
+    the thrust was switched on (same time base).
+
+    The commands ramp as the driver sends them: a first step at ``t_on`` credited with the
+    time since the previous tick, then one step per acquisition tick (the sample times) of
+    at most ``max_command_slew_per_s`` × the tick interval (≤ 0.1 s). The thrust follows
+    the command with the rig file's first-order ``thrusters.time_constant_s``. The
+    estimator holds each sample's drive until the next sample, so each value is the mean
+    drive over its sample interval (built on a 1 ms grid).
     """
     from daq.procedures.thruster_drive import thrust_layout
+    from thrusters.driver import MAX_SLEW_INTERVAL_S
 
+    t = np.asarray(t, dtype=float)
+    if t.size == 0:
+        return np.zeros(0)
     signs, arm = thrust_layout(rig.thrusters, kind)
     slew = rig.limits.max_command_slew_per_s
-    on = np.clip(t_since_on, 0.0, None)
-    drive = np.zeros_like(on)
+    end = float(t[-1]) + (float(np.median(np.diff(t))) if t.size > 1 else 0.1)
+    grid = np.arange(float(t[0]), end + DRIVE_GRID_S, DRIVE_GRID_S)
+    # Instants the driver steps the command: thrust on, then each later tick.
+    before = t[t < t_on]
+    previous = float(before[-1]) if before.size else t_on - MAX_SLEW_INTERVAL_S
+    step_times = np.concatenate([[t_on], t[t > t_on]])
+    credit = np.minimum(np.diff(np.concatenate([[previous], step_times])), MAX_SLEW_INTERVAL_S)
+    ramp = np.cumsum(slew * credit)  # |command| reachable at each step
+    index = np.searchsorted(step_times, grid, side="right") - 1
+    reach = np.where(index >= 0, ramp[np.clip(index, 0, None)], 0.0)
+    force = np.zeros_like(grid)
     for sign, target in zip(signs, commands, strict=True):
-        command = np.sign(target) * np.minimum(abs(target), slew * on)
-        drive += sign * curve.force(command) * arm
-    return drive
+        command = np.sign(target) * np.minimum(abs(target), reach)
+        force += sign * curve.force(command) * arm
+    tau = rig.thrusters.time_constant_s
+    if tau > 0:
+        from scipy.signal import lfilter
+
+        alpha = 1.0 - np.exp(-DRIVE_GRID_S / tau)
+        force = lfilter([alpha], [1.0, alpha - 1.0], force)
+    # Mean over each sample interval [t_k, t_k+1) (the last one: one median interval).
+    edges = np.searchsorted(grid, np.concatenate([t, [end]]))
+    total = np.concatenate([[0.0], np.cumsum(force)])
+    counts = np.maximum(np.diff(edges), 1)
+    return (total[edges[1:]] - total[edges[:-1]]) / counts
 
 
 #: Thrust curves drawn per thruster-driven run to carry the calibration's uncertainty.

@@ -35,6 +35,9 @@ class PreparedRun:
     mean_abs_drive: float
     weight_equivalent: float  # |τ|/g when the hung weight is undeclared, else 0 (drive_inertia)
     t_release_std: float = 0.0  # 1σ uncertainty of the release instant, s
+    #: The drive held from the last sample at or before the release until the first kept
+    #: sample (per-sample drives; None: ``drive[0]``).
+    drive_at_release: float | None = None
 
 
 def prepare(run: RunData) -> PreparedRun:
@@ -60,7 +63,16 @@ def prepare(run: RunData) -> PreparedRun:
             else 0.0
         ),
         t_release_std=float(run.t_release_std),
+        drive_at_release=_held_at(run, run.t_release),
     )
+
+
+def _held_at(run: RunData, instant: float) -> float | None:
+    """The per-sample drive held at ``instant`` (the last sample at or before it)."""
+    if run.is_constant_drive():
+        return None
+    before = np.nonzero(np.asarray(run.t) <= instant)[0]
+    return float(run.drive_at_samples()[before[-1]]) if before.size else None
 
 
 class ParamView:
@@ -145,6 +157,20 @@ def _hermite(grid_x, grid_v, h, tau):
     return x, v
 
 
+def _zoh_integral_at_samples(r: PreparedRun) -> np.ndarray:
+    """∫ drive dt from the first sample to each sample (drive held until the next one)."""
+    return np.concatenate([[0.0], np.cumsum(r.drive[:-1] * np.diff(r.t))])
+
+
+def _zoh_integral(r: PreparedRun, cumulative: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """∫ drive dt from the first kept sample to ``t`` (held drive; before the first kept
+    sample the drive held at the release, after the last one the last value)."""
+    j = np.clip(np.searchsorted(r.t, t, side="right") - 1, 0, r.t.size - 1)
+    inside = cumulative[j] + r.drive[j] * (t - r.t[j])
+    early = r.drive[0] if r.drive_at_release is None else r.drive_at_release
+    return np.where(t < r.t[0], early * (t - r.t[0]), inside)
+
+
 def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.ndarray, ...]]:
     h = RK4_MAX_STEP_S
     if any(r.constant_drive is None for r in runs):  # one step per held thrust sample
@@ -163,15 +189,17 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     k_c, k_s = p["cubic_drag"][:, None], p["restoring_spring"][:, None]
     f_c = p["coulomb_friction"][:, None]
 
-    def force_at(step_time: float) -> np.ndarray:
-        if not varying:
-            return const_force
+    # The recorded drive is a zero-order hold (each value until the next sample): its running
+    # integral at the sample instants, so a step takes the drive's exact mean over its span
+    # even when the steps do not line up with the samples (release between two samples).
+    held = {i: _zoh_integral_at_samples(runs[i]) for i in varying}
+
+    def mean_force(step_start: float) -> np.ndarray:
         f = const_force.copy()
         for i in varying:
             r = runs[i]
-            t_abs = step_time + r.t_release + delay + 1e-9  # sample instants are ZOH edges
-            j = np.clip(np.searchsorted(r.t, t_abs, side="right") - 1, 0, r.t.size - 1)
-            f[:, i] += r.drive[j]
+            a = step_start + r.t_release + delay
+            f[:, i] += (_zoh_integral(r, held[i], a + h) - _zoh_integral(r, held[i], a)) / h
         return f
 
     has_cubic, has_spring = bool(np.any(k_c)), bool(np.any(k_s))
@@ -197,8 +225,8 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     for k in range(1, n_steps):
         t0 = (k - 1) * h
         if varying:
-            # the recorded drive is a zero-order hold between samples: one value per step
-            f0 = fh = f1 = force_at(t0 + h / 2)
+            # the recorded drive is a zero-order hold between samples: its mean over the step
+            f0 = fh = f1 = mean_force(t0)
         else:
             f0 = fh = f1 = const_force
         a1 = accel(x, v, f0)
