@@ -8,8 +8,9 @@ runs, the thrust calibration's), their difference and z = Δ / √(σ₁² + σ�
 Diagnosis, in order:
 
 a. A drive scaled by k scales inertia, K_L and K_Q all by k. When the thruster/weight
-   ratios are consistent with one common factor (weighted mean k, χ² test) and k differs
-   from 1 by more than 3σ_k, the thrust calibration is off: the estimator was told the
+   ratios are consistent with one common factor (weighted mean k, χ² test; or their
+   scatter about k is under a quarter of |k − 1|: k carries the bulk of the disagreement)
+   and k differs from 1 by more than 3σ_k, the thrust calibration is off: the estimator was told the
    calibrated thrust F while the vehicle felt F/k, so the thrusters deliver 1/k× the
    calibrated thrust (k > 1: weaker than at calibration). Recalibrate.
 b. When the two residual searches kept different effects, the difference is named: the
@@ -39,6 +40,8 @@ DISAGREE_Z = 3.0
 FACTOR_P_MIN = 0.01
 #: |k − 1| / σ_k above which the common factor is a finding.
 FACTOR_SIGMAS = 3.0
+#: Ratio scatter about k, as a share of |k − 1|, below which k carries the disagreement.
+DOMINANT_SHARE = 0.25
 
 
 def verdict(z: float) -> str:
@@ -89,6 +92,7 @@ class CommonFactor:
     dof: int
     p_value: float
     used: tuple[str, ...]
+    spread: float = 0.0  # largest |ratio − k| over the ratios used
 
     @property
     def thrust_factor(self) -> float:
@@ -106,6 +110,12 @@ class CommonFactor:
         return self.dof == 0 or self.p_value >= FACTOR_P_MIN
 
     @property
+    def dominant(self) -> bool:
+        """The common factor carries the bulk of the disagreement: the ratios scatter about
+        k by less than a quarter of |k − 1| (even when χ² says they scatter beyond σ)."""
+        return self.spread < DOMINANT_SHARE * abs(self.k - 1.0)
+
+    @property
     def significant(self) -> bool:
         """k differs from 1 by more than 3σ_k."""
         return self.std > 0 and abs(self.k - 1.0) > FACTOR_SIGMAS * self.std
@@ -120,7 +130,9 @@ class CommonFactor:
             "dof": self.dof,
             "p_value": _num(self.p_value),
             "coefficients": list(self.used),
+            "spread": _num(self.spread),
             "consistent": self.consistent,
+            "dominant": self.dominant,
             "significant": self.significant,
         }
 
@@ -148,7 +160,8 @@ def common_factor(comparisons: list[Comparison]) -> CommonFactor | None:
     # The calibration's share of σ is common to all ratios (one drive scale): averaging does
     # not shrink it, so σ_k is never taken below the best single ratio's σ.
     std = max(float(1.0 / math.sqrt(np.sum(w))), float(min(sigmas)))
-    return CommonFactor(k, std, stat, dof, p, tuple(used))
+    spread = float(np.max(np.abs(np.array(ratios) - k)))
+    return CommonFactor(k, std, stat, dof, p, tuple(used), spread)
 
 
 @dataclass(frozen=True)
@@ -219,14 +232,20 @@ def _check(name: str, doc: Any) -> None:
 
 
 def _value_std(doc: dict, name: str) -> tuple[float, float]:
-    """Value and σ_total (σ of the fit when the result predates the uncertainty key)."""
+    """Value and σ: σ_total (fit ⊕ calibration; the fit's σ for results stored before it),
+    or the run-level bootstrap σ when that is larger: the fit's σ assumes white residuals,
+    the bootstrap sees how much the runs disagree among themselves."""
     c = doc["coefficients"][name]
     value = float("nan") if c.get("value") is None else float(c["value"])
     std = c.get("std")
     total = ((doc.get("uncertainty") or {}).get("parameters") or {}).get(name, {})
     if total.get("std_total") is not None:
         std = total["std_total"]
-    return value, float("nan") if std is None else float(std)
+    std = float("nan") if std is None else float(std)
+    boot = ((doc.get("bootstrap") or {}).get("std") or {}).get(name)
+    if boot is not None and (boot > std or not math.isfinite(std)):
+        std = math.hypot(boot, (total.get("std_calibration") or 0.0))
+    return value, std
 
 
 def _effects(doc: dict) -> dict[str, float]:
@@ -243,12 +262,18 @@ def _calibration_line(factor: CommonFactor, supply: dict[str, float | None]) -> 
         volts = f"supply voltage now {now:.2f} V vs {then:.2f} V at calibration"
     else:
         volts = "supply voltage now vs at calibration: not recorded"
+    scatter = (
+        ""
+        if factor.consistent
+        else f"; a smaller second discrepancy remains: the ratios scatter by up to "
+        f"{factor.spread:.3f} about k, beyond their σ (χ² p = {factor.p_value:.2g})"
+    )
     return (
         f"thrust calibration: the thruster-driven {', '.join(LABELS[n] for n in factor.used)} "
         f"are all k = {factor.k:.3f} ± {factor.std:.3f}× the weight-driven ones (one common "
-        f"factor, χ² p = {factor.p_value:.2g}), so the thrusters deliver "
+        f"factor), so the thrusters deliver "
         f"{factor.thrust_factor:.3f} ± {factor.thrust_factor_std:.3f}× the calibrated thrust: "
-        f"recalibrate the thrusters ({volts})"
+        f"recalibrate the thrusters ({volts}){scatter}"
     )
 
 
@@ -294,7 +319,7 @@ def cross_check(
 
     diagnosis = []
     bad = [c for c in comparisons if verdict(c.z) in ("marginal", "disagree")]
-    if factor is not None and factor.significant and factor.consistent:
+    if factor is not None and factor.significant and (factor.consistent or factor.dominant):
         diagnosis.append(_calibration_line(factor, supply))
     only_w = sorted(set(eff_w) - set(eff_t))
     only_t = sorted(set(eff_t) - set(eff_w))
@@ -311,7 +336,7 @@ def cross_check(
         )
     if bad and not diagnosis:
         text = ", ".join(f"{LABELS[c.name]} (z = {c.z:+.1f})" for c in bad)
-        if factor is not None and factor.significant and not factor.consistent:
+        if factor is not None and factor.significant:
             text += (
                 f"; the ratios are not one common factor (k = {factor.k:.3f}, χ² p = "
                 f"{factor.p_value:.2g}), so not simply the thrust calibration"
