@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from daq.config import DEFAULT_RIG_FILE, RigConfig
+from daq.procedures.motion import PreconditionFailed
 from daq.procedures.params import ParameterError, pendulum_parameters
 from daq.procedures.pendulum import CycleAmplitude, run_pendulum_decay
 from daq.procedures.recording import AbortSignal
@@ -195,3 +196,27 @@ def test_cli_runs_a_decay_and_refuses_bad_input(tmp_path):
     assert outcome["kind"] == "pendulum" and outcome["status"] == "completed"
     with Store(db) as store:
         assert load_pendulum_data(store, outcome["run_id"]).geometry.pivot_to_vehicle_m == 0.5
+
+
+async def test_a_pendulum_held_off_the_start_angle_is_refused_and_nothing_recorded(tmp_path, store):
+    class SloppyOperator:
+        """Pulls the pendulum only half way out."""
+
+        def __init__(self) -> None:
+            self.plc = None
+
+        async def perform(self, act) -> None:
+            if act.name == "pull_pendulum":
+                await self.plc.write("sim_pendulum_angle", act.value / 2)
+            elif act.name == "mount_pendulum":
+                await self.plc.write("sim_pendulum_angle", 0.0)
+
+    operator = SloppyOperator()
+    source = RigSource.load(fast_rig_file(tmp_path))
+    async with RigSession(source, store, operator=operator) as session:
+        operator.plc = session.plc
+        params = pendulum_parameters({"start_angle_rad": 0.3}, session.rig)
+        with pytest.raises(PreconditionFailed, match=r"held at 0\.150 rad, asked for 0\.300"):
+            await run_pendulum_decay(session, params)
+        assert session.lock_holder is None
+    assert store.list_runs() == []
