@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -151,6 +152,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
                 for c in curve_draws(curve, DRIVE_DRAWS)
             ]
         )
+        draws *= lack_of_fit_factors(curve, params, run.id, DRIVE_DRAWS)[:, None]
     return RunData(
         run_id=run.id,
         axis="surge" if run.kind == "tow" else "yaw",
@@ -293,6 +295,18 @@ def thruster_drive(
 #: Thrust curves drawn per thruster-driven run to carry the calibration's uncertainty.
 DRIVE_DRAWS = 30
 DRIVE_DRAW_SEED = 20261121
+
+
+def lack_of_fit_factors(curve: ThrustCurve, params: dict, run_id: str, count: int) -> np.ndarray:
+    """Per draw, a factor 1 + δ on the run's whole drive with δ ~ N(0, RMSE / |F|): the
+    curve is trusted only to its fit RMSE at the run's thrust F per thruster (a power law
+    does not follow real thrusters exactly, and the parameter covariance does not carry
+    that). Independent between runs (their commands differ), fixed per run id."""
+    force = abs(float(params.get("force_per_thruster_n") or 0.0))
+    if not force > 0:
+        return np.ones(count)
+    rng = np.random.default_rng([DRIVE_DRAW_SEED, zlib.crc32(run_id.encode())])
+    return 1.0 + rng.normal(0.0, curve.rmse_n / force, count)
 
 
 def curve_draws(curve: ThrustCurve, count: int, seed: int = DRIVE_DRAW_SEED) -> list[ThrustCurve]:

@@ -67,3 +67,16 @@ def test_drive_draws_of_the_wrong_shape_are_refused():
     bad = replace(run, drive_draws=np.zeros((5, run.t.size - 1)))
     with pytest.raises(ValueError, match="drive_draws"):
         estimate([bad], n_bootstrap=0)
+
+
+def test_lack_of_fit_factors_carry_the_curve_rmse_at_the_run_thrust():
+    from daq.run_data import lack_of_fit_factors
+
+    curve = replace(_curve(0.0), rmse_n=0.05)
+    params = {"force_per_thruster_n": 5.0}
+    a = lack_of_fit_factors(curve, params, "run-a", 400)
+    assert np.std(a - 1.0) == pytest.approx(0.05 / 5.0, rel=0.15)
+    assert np.array_equal(a, lack_of_fit_factors(curve, params, "run-a", 400))  # fixed per run
+    b = lack_of_fit_factors(curve, params, "run-b", 400)
+    assert abs(np.corrcoef(a, b)[0, 1]) < 0.2  # independent between runs
+    assert np.all(lack_of_fit_factors(curve, {}, "run-a", 5) == 1.0)
