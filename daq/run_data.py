@@ -144,11 +144,14 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        curve = _calibration_curve(store, params)
-        drive = thruster_drive(curve, rig, run.kind, params["commands"], t, t_release)
+        curve, table = _calibration(store, params)
+        measured = CalibratedThrust.from_table(curve, table)
+        drive = thruster_drive(measured, rig, run.kind, params["commands"], t, t_release)
         draws = np.array(
             [
-                thruster_drive(c, rig, run.kind, params["commands"], t, t_release)
+                thruster_drive(
+                    measured.with_curve(c), rig, run.kind, params["commands"], t, t_release
+                )
                 for c in curve_draws(curve, DRIVE_DRAWS)
             ]
         )
@@ -224,14 +227,51 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     )
 
 
-def _calibration_curve(store: Store, params: dict) -> ThrustCurve:
+def _calibration(store: Store, params: dict) -> tuple[ThrustCurve, list[dict]]:
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:
         raise ValueError(
             f"calibration result #{params['calibration_result_id']} is no longer stored"
         ) from None
-    return ThrustCurve.from_json(calibration.data["fit"])
+    return ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
+
+
+@dataclass(frozen=True)
+class CalibratedThrust:
+    """The fitted curve corrected by its residuals at the calibrated commands (mean of the
+    up and down sweeps, interpolated linearly between commands, zero at command 0 and in
+    the dead band): exact where the thrust was measured, the curve's shape in between."""
+
+    curve: ThrustCurve
+    commands: np.ndarray
+    residuals: np.ndarray
+
+    @classmethod
+    def from_table(cls, curve: ThrustCurve, table: list[dict]) -> CalibratedThrust:
+        """Residuals of ``curve`` at each calibrated command of the calibration table."""
+        by_command: dict[float, list[float]] = {0.0: []}
+        for row in table:
+            by_command.setdefault(float(row["command"]), []).append(
+                float(row["thrust_per_thruster_n"])
+            )
+        commands = np.array(sorted(by_command))
+        residuals = np.array(
+            [
+                float(np.mean(by_command[u]) - curve.force(u)) if u != 0 and by_command[u] else 0.0
+                for u in commands
+            ]
+        )
+        return cls(curve, commands, residuals)
+
+    def with_curve(self, curve: ThrustCurve) -> CalibratedThrust:
+        """The same residual correction on another (drawn) curve."""
+        return CalibratedThrust(curve, self.commands, self.residuals)
+
+    def force(self, command: np.ndarray | float) -> np.ndarray:
+        """Thrust of one thruster, N."""
+        base = self.curve.force(command)
+        return base + np.where(base != 0, np.interp(command, self.commands, self.residuals), 0.0)
 
 
 #: Step of the fine grid the thruster drive is built on, s.
@@ -239,7 +279,7 @@ DRIVE_GRID_S = 0.001
 
 
 def thruster_drive(
-    curve: ThrustCurve,
+    curve: ThrustCurve | CalibratedThrust,
     rig: RigConfig,
     kind: str,
     commands: list[float],

@@ -85,8 +85,11 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     # no pulley inertia (line unhooked), and drawn drives around it.
     data = load_run_data(store, outcome.run_id)
     assert data.axis == "surge" and data.drive_inertia == 0.0 and data.hung_mass_kg is None
-    after = data.t > data.t_release + 1.5  # ramp and thrust lag (rig file: 0.15 s) are over
-    assert data.drive[after] == pytest.approx(20.0, rel=1e-3)
+    # Once ramp and thrust lag (rig file: 0.15 s) are over: the force the inverse map aimed
+    # at, give or take the curve's residual at that command (the drive is corrected by the
+    # calibration table, the command came from the bare curve).
+    after = data.t > data.t_release + 1.5
+    assert data.drive[after] == pytest.approx(20.0, rel=0.01)
     assert 0 < data.drive[(data.t > data.t_release)][0] < 10.0  # still ramping up
     assert data.drive[data.t < data.t_release].max() == 0.0
     assert data.drive_draws is not None and data.drive_draws.shape[1] == data.t.size
