@@ -17,7 +17,7 @@ import pytest
 from api.crosscheck_job import crosscheck_results, crosscheck_runs
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.params import calibration_parameters, spin_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from estimation.crosscheck import markdown
@@ -27,6 +27,9 @@ pytestmark = pytest.mark.slow
 WEIGHT_FORCES = (24.5, 44.1, 83.3)
 THRUSTER_COMMANDS = (0.2, 0.4)
 SECONDS = 3.5
+WEIGHT_TORQUES = (0.907, 2.269)
+SPIN_COMMANDS = (0.1, 0.2)
+SPIN_SECONDS = 5.0
 #: Supply voltage of the second case, V (the calibration ran at the scenario's 16 V).
 LOW_SUPPLY_V = 14.0
 
@@ -38,7 +41,10 @@ def _low_supply(sim) -> None:
 
 
 async def _record(store: Store) -> dict[str, list[str]]:
-    ids: dict[str, list[str]] = {"weight": [], "thrusters": [], "thrusters_low": []}
+    ids: dict[str, list[str]] = {
+        key: []
+        for key in ("weight", "thrusters", "weight_spins", "thruster_spins", "thrusters_low")
+    }
     async with RigSession(RigSource.load(), store) as session:
         rig = session.rig
         calibration = calibration_parameters(
@@ -52,14 +58,16 @@ async def _record(store: Store) -> dict[str, list[str]]:
         )
         outcome, table = await run_thrust_calibration(session, calibration)
         assert outcome.status == "completed"
-        # Tow at forces the calibration measured (commands 0.2 and 0.4 on every thruster):
-        # the drive then rests on measured points, not on the curve between them.
-        forces = [
-            rig.thrusters.count
-            * sum(r["thrust_per_thruster_n"] for r in table["table"] if r["command"] == u)
-            / sum(1 for r in table["table"] if r["command"] == u)
-            for u in THRUSTER_COMMANDS
-        ]
+
+        # Tow at forces the calibration measured (commands 0.2 and 0.4 on every thruster);
+        # spin with the forward thrusters at commands 0.1 and 0.2.
+        def measured(u: float) -> float:
+            rows = [r["thrust_per_thruster_n"] for r in table["table"] if r["command"] == u]
+            return sum(rows) / len(rows)
+
+        n, lever = rig.thrusters.count, rig.thrusters.yaw_lever_arm_m
+        forces = [n * measured(u) for u in THRUSTER_COMMANDS]
+        torques = [n * lever * measured(u) for u in SPIN_COMMANDS]
 
         async def tow(force: float, drive: str) -> str:
             raw = {"force_n": force, "drive": drive, "max_time_s": SECONDS, "baseline_s": 0.5}
@@ -71,6 +79,17 @@ async def _record(store: Store) -> dict[str, list[str]]:
             ids["weight"].append(await tow(f, "weight"))
         for f in forces:
             ids["thrusters"].append(await tow(round(f, 3), "thrusters"))
+
+        async def spin(torque: float, drive: str) -> str:
+            raw = {"torque_nm": torque, "drive": drive, "max_time_s": SPIN_SECONDS}
+            result = await run_motion_test(session, spin_parameters(raw | {"baseline_s": 0.5}, rig))
+            assert result.status == "completed", result
+            return result.run_id
+
+        for tq in WEIGHT_TORQUES:
+            ids["weight_spins"].append(await spin(tq, "weight"))
+        for tq in torques:
+            ids["thruster_spins"].append(await spin(round(tq, 4), "thrusters"))
         await asyncio.to_thread(session.sim.call, _low_supply)
         for f in forces:
             ids["thrusters_low"].append(await tow(round(f, 3), "thrusters"))
@@ -142,3 +161,13 @@ def test_weaker_thrusters_than_at_calibration_point_at_the_calibration(recorded)
     )
     assert "recalibrate" in doc["diagnosis"][0]
     assert f"{volts['runs']:.2f} V vs {volts['calibration']:.2f} V" in doc["diagnosis"][0]
+
+
+def test_thruster_spins_agree_with_weight_spins(recorded):
+    store, ids = recorded
+    doc = crosscheck_runs(store, ids["weight_spins"], ids["thruster_spins"])
+    _show("yaw: thruster couple as calibrated", doc)
+    assert doc["axis"] == "yaw"
+    for name, c in doc["coefficients"].items():
+        assert abs(c["z"]) < 3, (name, c)
+    assert not any("recalibrate" in d for d in doc["diagnosis"])
