@@ -133,8 +133,12 @@ class EstimationRequest(_Strict):
 class CrossCheckRequest(_Strict):
     """Two stored estimation results of one axis: weight-driven and thruster-driven."""
 
-    weight_result_id: int = Field(description="Estimation result of weight-driven runs.")
-    thruster_result_id: int = Field(description="Estimation result of thruster-driven runs.")
+    weight_result_id: int = Field(
+        ge=1, le=2**53, description="Estimation result of weight-driven runs."
+    )
+    thruster_result_id: int = Field(
+        ge=1, le=2**53, description="Estimation result of thruster-driven runs."
+    )
 
 
 class CrossCheckJobRequest(_Strict):

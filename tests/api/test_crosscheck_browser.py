@@ -1,0 +1,66 @@
+"""The Cross-check page in real headless Chromium: compare two stored estimation results,
+then tick runs as weight / thrusters and run the estimation + cross-check job."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from api.app import create_app
+from api.estimation_job import run_estimation
+from tests.api.conftest import TOKEN, LiveServer
+from tests.conftest import require_tool
+from tests.procedures.test_crosscheck_cli import _import_tows
+
+
+@pytest.fixture(scope="module")
+def page_url(client, service, tmp_path_factory):
+    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
+    from playwright.sync_api import sync_playwright
+
+    tmp = tmp_path_factory.mktemp("csv")
+    first = _import_tows(service.store, tmp, (24.5, 83.3), seed=1)
+    second = _import_tows(service.store, tmp, (34.3, 63.7), seed=2)
+    results = [run_estimation(service.store, ids)["result_id"] for ids in (first, second)]
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=chromium or shutil.which("chromium"),
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        context = browser.new_context()
+        pg = context.new_page()
+        pg.set_default_timeout(30_000)
+        yield pg, live.url, results, first, second
+        context.close()
+        browser.close()
+
+
+def test_crosscheck_page_compares_results_and_runs(page_url):
+    from playwright.sync_api import expect
+
+    page, url, results, first, second = page_url
+    page.goto(f"{url}/#token={TOKEN}")
+    page.click("nav a[data-page=crosscheck]")
+    expect(page.locator(f"#cc-weight option[value='{results[0]}']")).to_have_count(1)
+    page.select_option("#cc-weight", str(results[0]))
+    page.select_option("#cc-thrusters", str(results[1]))
+    page.click("#cc-compare")
+    expect(page.locator("#cc-result")).to_be_visible()
+    rows = page.locator("#cc-table tbody tr")
+    expect(rows).to_have_count(3)
+    expect(rows.first).to_contain_text("inertia (kg)")
+    expect(page.locator("#cc-title")).to_contain_text(f"weight result #{results[0]}")
+    expect(page.locator("#cc-diagnosis li").first).to_be_visible()
+    expect(page.locator("#cc-kv")).to_contain_text("Common factor")
+    expect(page.locator("#cc-plot .main-svg").first).to_be_visible()
+
+    for run in first:
+        page.check(f"#cc-runs input[name=cc-w][value='{run}']")
+    for run in second:
+        page.check(f"#cc-runs input[name=cc-t][value='{run}']")
+    page.click("#cc-estimate")
+    expect(page.locator("#cc-state")).to_have_text("completed", timeout=90_000)
+    expect(page.locator("#cc-kv")).to_contain_text("Stored as result")
+    expect(page.locator("#cc-table tbody tr")).to_have_count(3)
