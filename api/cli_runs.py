@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
+from daq.procedures.params import RUN_KINDS
 
 
 def _when(value: datetime | None) -> str:
@@ -27,7 +28,7 @@ def _summary(params: dict[str, Any]) -> str:
 @click.command("runs")
 @click.option(
     "--kind",
-    type=click.Choice(["tow", "spin", "thrust_calibration"]),
+    type=click.Choice(RUN_KINDS),
     help="Only runs of this kind.",
 )
 @click.option(

@@ -28,6 +28,7 @@ from api.schemas import (
     SamplesOut,
     error_responses,
 )
+from daq.procedures.params import RUN_KINDS
 from daq.store import ResultNotFound, Store, import_csv
 
 router = APIRouter(prefix="/api", tags=["runs"])
@@ -45,7 +46,7 @@ CSV_PAGE = 5000
 )
 def list_runs(
     store: StoreDep,
-    kind: Annotated[str | None, Query(description="tow | spin | thrust_calibration | …")] = None,
+    kind: Annotated[str | None, Query(description=" | ".join(RUN_KINDS))] = None,
     status: RunStatus | None = None,
     vehicle: str | None = None,
     since: Annotated[datetime | None, Query(description="Started at or after (ISO 8601).")] = None,

@@ -254,4 +254,7 @@ def simulate(
     p = ParamView(theta, effects)
     if closed_form_applies(effects, runs):
         return _simulate_closed(p, runs)
-    return _simulate_ode(p, runs)
+    # A trial parameter set far from the data (e.g. an effect search's first step on a
+    # short run) can diverge; its non-finite residual rejects it, so no warning is needed.
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _simulate_ode(p, runs)

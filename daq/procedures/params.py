@@ -14,6 +14,8 @@ from typing import Any, Literal
 
 from daq.config import RigConfig
 
+#: The kinds of run the procedures record (a run's ``kind``).
+RUN_KINDS = ("tow", "spin", "pendulum", "thrust_calibration")
 THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 
 
