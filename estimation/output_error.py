@@ -15,13 +15,14 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from estimation.effects import EFFECTS
+from estimation.fit_stats import FitStatistics
 from estimation.model import BASE_NAMES, PreparedRun, simulate
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
-class FitResult:
+class FitResult(FitStatistics):
     """A converged joint fit: global coefficients with σ, offsets, residuals and evidence."""
 
     effects: tuple[str, ...]
@@ -36,25 +37,6 @@ class FitResult:
     n_samples: int
     n_params: int
     at_bound: tuple[str, ...]
-
-    @property
-    def bic(self) -> float:
-        """Bayesian information criterion n·ln(SSE/n) + p·ln(n)."""
-        n = self.n_samples
-        return n * np.log(max(self.sse, 1e-300) / n) + self.n_params * np.log(n)
-
-    @property
-    def rmse(self) -> float:
-        """Overall position RMSE over all runs (m or rad)."""
-        return float(np.sqrt(self.sse / self.n_samples))
-
-    def rmse_per_run(self) -> list[float]:
-        """Position RMSE of each run (m or rad)."""
-        return [float(np.sqrt(np.mean(r**2))) for r in self.residuals]
-
-    def value(self, name: str) -> float:
-        """Fitted value of the named coefficient or effect (0 when absent)."""
-        return float(self.values[self.names.index(name)]) if name in self.names else 0.0
 
 
 def _bounds(effects: Sequence[str], n_runs: int) -> tuple[np.ndarray, np.ndarray]:

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from estimation.diagnostics import ljung_box
+from estimation.fit_stats import FitStatistics
 from estimation.pendulum_decay import Decay
 from estimation.pendulum_sim import simulate, step_size
 from estimation.search import (
@@ -72,7 +73,7 @@ PENDULUM_EFFECTS: dict[str, PendulumEffect] = {
 
 
 @dataclass(frozen=True)
-class PendulumFit:
+class PendulumFit(FitStatistics):
     """A converged output-error fit: coefficients with σ, nuisance per run, residuals."""
 
     effects: tuple[str, ...]
@@ -89,29 +90,6 @@ class PendulumFit:
     n_samples: int
     n_params: int
     at_bound: tuple[str, ...] = field(default=())
-
-    @property
-    def bic(self) -> float:
-        """n·ln(SSE/n) + p·ln(n)."""
-        n = self.n_samples
-        return n * np.log(max(self.sse, 1e-300) / n) + self.n_params * np.log(n)
-
-    @property
-    def rmse(self) -> float:
-        """Angle RMSE over all runs (rad)."""
-        return float(np.sqrt(self.sse / self.n_samples))
-
-    def rmse_per_run(self) -> list[float]:
-        """Angle RMSE of each run (rad)."""
-        return [float(np.sqrt(np.mean(r**2))) for r in self.residuals]
-
-    def value(self, name: str) -> float:
-        """Fitted value (0 when the effect is not in the model)."""
-        return float(self.values[self.names.index(name)]) if name in self.names else 0.0
-
-    def sigma(self, name: str) -> float:
-        """Standard error of a fitted value (0 when absent)."""
-        return float(self.std[self.names.index(name)]) if name in self.names else 0.0
 
 
 def _coeffs(globals_: np.ndarray, effects: Sequence[str]) -> tuple[np.ndarray, ...]:

@@ -144,6 +144,35 @@ async def follow_motion(
     raise AssertionError("rec.samples() ends only by raising")
 
 
+async def baseline_then_release(
+    session: RigSession,
+    rec: RecordedRun,
+    baseline_s: float,
+    channel: str,
+    report: ProgressCallback,
+    what: str = "brake released",
+) -> None:
+    """Record the at-rest baseline, then set the release coil and log a ``release`` event.
+
+    The instant is bracketed by the write and its acknowledgement (``t_mono`` ± ``t_half_width``):
+    estimation carries that timing uncertainty.
+    """
+    report(Progress(0.05, f"recording a {baseline_s:g} s baseline", extra={"run_id": rec.run_id}))
+    await rec.record_for(baseline_s)
+    before = time.monotonic()
+    await session.plc.write(channel, True)
+    after = time.monotonic()  # the PLC acknowledged: the release happened in between
+    latest = session.latest()
+    await rec.event(
+        "operator",
+        f"{channel} set: {what}",
+        action="release",
+        seq=latest.seq if latest else None,
+        t_mono=(before + after) / 2,
+        t_half_width=(after - before) / 2,
+    )
+
+
 async def run_motion_test(
     session: RigSession,
     params: TowParameters | SpinParameters,
@@ -189,26 +218,7 @@ async def run_motion_test(
             await rec.event(
                 "operator", f"{axis.weight_act.replace('_', ' ')}: {mass:.3f} kg", hung_mass_kg=mass
             )
-            report(
-                Progress(
-                    0.05,
-                    f"recording a {params.baseline_s:g} s baseline",
-                    extra={"run_id": rec.run_id},
-                )
-            )
-            await rec.record_for(params.baseline_s)
-            before = time.monotonic()
-            await session.plc.write(axis.release, True)
-            after = time.monotonic()  # the PLC acknowledged: the brake let go in between
-            latest = session.latest()
-            await rec.event(
-                "operator",
-                f"{axis.release} set: brake released",
-                action="release",
-                seq=latest.seq if latest else None,
-                t_mono=(before + after) / 2,
-                t_half_width=(after - before) / 2,
-            )
+            await baseline_then_release(session, rec, params.baseline_s, axis.release, report)
             stop, sample, t_last_free = await follow_motion(
                 rec, axis, start, limit, params.max_time_s, report
             )

@@ -18,7 +18,13 @@ import time
 from collections import deque
 
 from daq.operator import OperatorAct
-from daq.procedures.motion import PreconditionFailed, RunOutcome, _Axis, check_ready
+from daq.procedures.motion import (
+    PreconditionFailed,
+    RunOutcome,
+    _Axis,
+    baseline_then_release,
+    check_ready,
+)
 from daq.procedures.params import PendulumParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
@@ -117,25 +123,8 @@ async def run_pendulum_decay(
                     f"pendulum pulled out to {held:.4f} rad and held",
                     held_angle_rad=held,
                 )
-                report(
-                    Progress(
-                        0.05,
-                        f"recording a {params.baseline_s:g} s baseline",
-                        extra={"run_id": rec.run_id},
-                    )
-                )
-                await rec.record_for(params.baseline_s)
-                before = time.monotonic()
-                await session.plc.write(PENDULUM.release, True)
-                after = time.monotonic()  # the PLC acknowledged: the latch let go in between
-                latest = session.latest()
-                await rec.event(
-                    "operator",
-                    f"{PENDULUM.release} set: latch released",
-                    action="release",
-                    seq=latest.seq if latest else None,
-                    t_mono=(before + after) / 2,
-                    t_half_width=(after - before) / 2,
+                await baseline_then_release(
+                    session, rec, params.baseline_s, PENDULUM.release, report, "latch released"
                 )
                 stop, last = await _follow_decay(rec, params, held, report)
                 await session.plc.write(PENDULUM.release, False)
