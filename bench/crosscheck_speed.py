@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import platform
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -19,20 +18,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
+from bench.timing import timed
 from daq.run_data import DRIVE_DRAWS, curve_draws
 from estimation import estimate
 from estimation.crosscheck import cross_check
 from estimation.thrust_curve import ThrustCurve
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
-
-
-def _timed(fn, repeats: int) -> dict:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return {"median_s": float(np.median(times)), "max_s": float(np.max(times)), "repeats": repeats}
 
 
 def main() -> None:
@@ -49,13 +40,13 @@ def main() -> None:
     weight_doc = estimate(tow_set(drives=(24.5, 83.3)), n_bootstrap=0).to_json()
     thruster_doc = estimate(runs, n_bootstrap=0).to_json()
     cases = {
-        "estimate_2_thruster_runs_without_draws": _timed(
+        "estimate_2_thruster_runs_without_draws": timed(
             lambda: estimate(bare, n_bootstrap=0, search_effects=False), 3
         ),
-        f"estimate_2_thruster_runs_with_{DRIVE_DRAWS}_draws": _timed(
+        f"estimate_2_thruster_runs_with_{DRIVE_DRAWS}_draws": timed(
             lambda: estimate(runs, n_bootstrap=0, search_effects=False), 3
         ),
-        "cross_check_of_two_result_documents": _timed(
+        "cross_check_of_two_result_documents": timed(
             lambda: cross_check(weight_doc, thruster_doc), 50
         ),
     }

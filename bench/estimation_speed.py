@@ -9,26 +9,17 @@ from __future__ import annotations
 import json
 import platform
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
+from bench.timing import timed
 from estimation import estimate
 from estimation.model import prepare
 from estimation.output_error import fit_output_error
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
-
-
-def _timed(fn, repeats: int) -> dict:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return {"median_s": float(np.median(times)), "max_s": float(np.max(times)), "repeats": repeats}
 
 
 def main() -> None:
@@ -37,11 +28,9 @@ def main() -> None:
     samples = [int(np.count_nonzero(r.t > r.t_release)) for r in clean]
     prepared = [prepare(r) for r in clean]
     cases = {
-        "joint_fit_4x30s_closed_form": _timed(lambda: fit_output_error(prepared), 20),
-        "joint_fit_4x30s_integrated": _timed(
-            lambda: fit_output_error(prepared, ("cubic_drag",)), 5
-        ),
-        "estimate_no_search_no_bootstrap": _timed(
+        "joint_fit_4x30s_closed_form": timed(lambda: fit_output_error(prepared), 20),
+        "joint_fit_4x30s_integrated": timed(lambda: fit_output_error(prepared, ("cubic_drag",)), 5),
+        "estimate_no_search_no_bootstrap": timed(
             lambda: estimate(clean, search_effects=False, n_bootstrap=0), 10
         ),
     }
@@ -53,10 +42,10 @@ def main() -> None:
     }
     for name, runs in searches.items():
         found = [e.name for e in estimate(runs, n_bootstrap=0).effects]
-        entry = _timed(lambda runs=runs: estimate(runs, n_bootstrap=0), 3)
+        entry = timed(lambda runs=runs: estimate(runs, n_bootstrap=0), 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_{name}"] = entry
-    cases["estimate_with_40_bootstrap_clean"] = _timed(lambda: estimate(clean), 3)
+    cases["estimate_with_40_bootstrap_clean"] = timed(lambda: estimate(clean), 3)
     worst_search = max(v["median_s"] for k, v in cases.items() if k.startswith("full_effect"))
     print(
         json.dumps(

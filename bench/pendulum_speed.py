@@ -10,27 +10,18 @@ from __future__ import annotations
 import json
 import platform
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
+from bench.timing import timed
 from estimation.pendulum import estimate_pendulum
 from estimation.pendulum_decay import find_peaks, prepare_decay
 from estimation.pendulum_fit import fit_output_error, search_effects
 from estimation.pendulum_methods import damped_fit, equation_error, log_decrement
 from tests.estimation.pendulum_synth import ALPHA, BETA, decay
-
-
-def _timed(fn, repeats: int) -> dict:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return {"median_s": float(np.median(times)), "max_s": float(np.max(times)), "repeats": repeats}
 
 
 def main() -> None:
@@ -43,15 +34,15 @@ def main() -> None:
         nuisance = np.array([[d.phi[0], 0.0, 0.0]])
         base = fit_output_error([d], start=start, nuisance=nuisance)
         out["cases"][label] = {
-            "find_peaks": _timed(lambda d=d: find_peaks(d), 20),
-            "damped-fit": _timed(lambda d=d, p=peaks: damped_fit(d, p), 20),
-            "log-decrement": _timed(lambda d=d, p=peaks: log_decrement(d, p), 20),
-            "equation-error": _timed(lambda d=d, p=peaks: equation_error(d, p), 20),
-            "output-error (base fit)": _timed(
+            "find_peaks": timed(lambda d=d: find_peaks(d), 20),
+            "damped-fit": timed(lambda d=d, p=peaks: damped_fit(d, p), 20),
+            "log-decrement": timed(lambda d=d, p=peaks: log_decrement(d, p), 20),
+            "equation-error": timed(lambda d=d, p=peaks: equation_error(d, p), 20),
+            "output-error (base fit)": timed(
                 lambda d=d, s=start, n=nuisance: fit_output_error([d], start=s, nuisance=n), 5
             ),
-            "effect search": _timed(lambda d=d, b=base: search_effects([d], b), 3),
-            "estimate_pendulum (all)": _timed(lambda r=run: estimate_pendulum([r]), 3),
+            "effect search": timed(lambda d=d, b=base: search_effects([d], b), 3),
+            "estimate_pendulum (all)": timed(lambda r=run: estimate_pendulum([r]), 3),
         }
     out["python"] = platform.python_version()
     out["machine"] = platform.machine()

@@ -11,27 +11,17 @@ import json
 import math
 import platform
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import numpy as np
 
+from bench.timing import timed
 from estimation.sixdof import simulate
 from estimation.vehicle6 import load_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[1] / "fixtures" / "vehicles"
 TARGET_S = 0.05
-
-
-def _timed(fn, repeats: int) -> dict:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return {"median_s": float(np.median(times)), "max_s": float(np.max(times)), "repeats": repeats}
 
 
 def main() -> None:
@@ -51,7 +41,7 @@ def main() -> None:
             benbam, 60.0, commands=lambda t: [0.4 * math.sin(0.5 * t), 0.3]
         ),
     }
-    results = {name: _timed(fn, 10) for name, fn in cases.items()}
+    results = {name: timed(fn, 10) for name, fn in cases.items()}
     constant = [v["median_s"] for k, v in results.items() if "callable" not in k]
     print(
         json.dumps(
