@@ -200,7 +200,7 @@ $("#disarm-btn").onclick = () => api("POST", "/api/rig/disarm").then(refreshRig)
 $$(".tabs button").forEach((b) => {
   b.onclick = () => {
     $$(".tabs button").forEach((x) => x.classList.toggle("active", x === b));
-    $$(".start-form").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
+    $$(".start-form[data-kind]").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
   };
 });
 
@@ -216,7 +216,7 @@ function formBody(form) {
   return body;
 }
 
-$$(".start-form").forEach((form) => {
+$$(".start-form[data-kind]").forEach((form) => {
   form.addEventListener("submit", async (ev) => {
     ev.preventDefault();
     const errors = $(".errors", form);

@@ -51,6 +51,8 @@ def test_sixdof_page_simulates_a_yaw_turn(page_url):
     # N = 4 · 0.5 · 2.4336 · |ρ × d| = 1.298 N·m about z up, i.e. r < 0 (z down):
     # K_L r + K_Q r² = N gives |r| = 0.54851 rad/s
     expect(page.locator("#sixdof-steady")).to_contain_text("-0.54851")
+    # the form is not mistaken for a "start a test" form (that would POST /api/jobs/undefined)
+    expect(page.locator("#sixdof-file-errors li")).to_have_count(0)
 
     page.fill("#sixdof-form [name=u0]", "1.5")  # over max_command: the server says which
     page.click("#sixdof-form button[type=submit]")
