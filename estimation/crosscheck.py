@@ -219,6 +219,10 @@ def _num(x: float | None) -> float | None:
 
 
 def _check(name: str, doc: Any) -> None:
+    if isinstance(doc, dict) and doc.get("analysis") == "pendulum":
+        raise ValueError(
+            f"{name}: a pendulum free-decay analysis; allowed: a tow or spin estimation result"
+        )
     if not isinstance(doc, dict) or not isinstance(doc.get("coefficients"), dict):
         raise ValueError(
             f"{name}: not an estimation result (no 'coefficients'); allowed: a stored "

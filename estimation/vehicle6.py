@@ -498,13 +498,27 @@ def apply_result_json(
 ) -> Vehicle6:
     """Plug a stored per-axis estimation result (``EstimationResult.to_json()``: ``axis``
     and ``coefficients`` {inertia, linear_damping, quadratic_damping: {value, std}}) into
-    the vehicle with :func:`apply_estimate`; σ comes along where the result has one."""
+    the vehicle with :func:`apply_estimate`; σ comes along where the result has one.
+
+    A pendulum free-decay result (``"analysis": "pendulum"``) gives the swing axis's
+    ``added_mass`` and ``linear_damping`` (and ``quadratic_damping`` when its effect search
+    found it; otherwise the vehicle's value stays)."""
     axis = doc.get("axis") if isinstance(doc, Mapping) else None
     if axis not in DOFS:
         raise VehicleError(source, "axis", axis, "one of " + ", ".join(DOFS))
     coefficients = doc.get("coefficients")
     if not isinstance(coefficients, Mapping):
         raise VehicleError(source, "coefficients", coefficients, "a table of {value, std}")
+    pendulum = doc.get("analysis") == "pendulum"
+    if pendulum:
+        coefficients = dict(coefficients)
+        added = coefficients.pop("added_mass", None)
+        if isinstance(added, Mapping) and _finite(added.get("value")):
+            body = vehicle.rigid_body_inertia(axis)
+            coefficients["inertia"] = {"value": body + added["value"], "std": added.get("std")}
+        coefficients.setdefault(
+            "quadratic_damping", {"value": vehicle.coefficients()[f"quadratic_damping.{axis}"]}
+        )
     values: dict[str, float] = {}
     sigma: dict[str, float] = {}
     for key in ("inertia", "linear_damping", "quadratic_damping"):

@@ -11,7 +11,7 @@ const CC_UNITS = {
 async function crosscheckLoad() {
   try {
     const results = (await api("GET", "/api/results?kind=estimation")).filter((r) =>
-      ["surge", "yaw"].includes((r.data || {}).axis),
+      ["surge", "yaw"].includes((r.data || {}).axis) && r.data.analysis !== "pendulum",
     );
     const option = (r) => {
       const draws = ((r.data.uncertainty || {}).calibration_draws || 0) > 0;

@@ -109,3 +109,6 @@ def test_bad_documents_name_the_field():
         cross_check(w, _doc((8.0, 0.1, 4.0), (1, 1, 1), axis="yaw"))
     with pytest.raises(ValueError, match="weight_result: not an estimation result"):
         cross_check({"table": []}, w)
+    pendulum = {"analysis": "pendulum", "axis": "surge", "coefficients": {}}
+    with pytest.raises(ValueError, match="weight_result: a pendulum free-decay analysis"):
+        cross_check(pendulum, w)

@@ -294,3 +294,26 @@ def test_vehicles_are_hashable_values(rov):
     again = load_vehicle(VEHICLES / "seed002-rov.toml")
     assert again == rov and hash(again) == hash(rov)
     assert rov.with_coefficients({"linear_damping.yaw": 2.0}) != rov
+
+
+def test_a_pendulum_result_plugs_in_added_mass_and_damping_of_its_swing_axis(benbam):
+    from estimation.vehicle6 import apply_result_json
+
+    doc = {
+        "analysis": "pendulum",
+        "axis": "surge",
+        "coefficients": {
+            "added_mass": {"value": 110.0, "std": 0.5},
+            "linear_damping": {"value": 21.0, "std": 0.2},
+        },
+    }
+    veh = apply_result_json(benbam, doc, "result 9")
+    assert veh.total_inertia("surge") == pytest.approx(benbam.mass_kg + 110.0)
+    assert veh.coefficients()["linear_damping.surge"] == pytest.approx(21.0)
+    # no quadratic term found: the vehicle's own stays
+    assert veh.coefficients()["quadratic_damping.surge"] == pytest.approx(
+        benbam.coefficients()["quadratic_damping.surge"]
+    )
+    assert veh.sigma["added_mass.surge"] == 0.5
+    doc["coefficients"]["quadratic_damping"] = {"value": 230.0, "std": 3.0}
+    assert apply_result_json(benbam, doc).coefficients()["quadratic_damping.surge"] == 230.0
