@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import shutil
 import socket
 import threading
 import time
@@ -15,6 +17,7 @@ from fastapi.testclient import TestClient
 from api.app import create_app
 from api.service import RigService
 from daq.session import RigSource
+from tests.conftest import require_tool
 
 TOKEN = "test-token-123"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -107,3 +110,25 @@ def live_url(service: RigService, client: TestClient):
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
     with LiveServer(app) as live, httpx.Client(base_url=live.url, headers=AUTH, timeout=10) as h:
         yield h
+
+
+@contextlib.contextmanager
+def chromium_page():
+    """A page in real headless Debian Chromium, driven by Playwright (never a downloaded
+    browser): skips on a laptop without ``chromium``, fails under ``CI=true``."""
+    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=chromium or shutil.which("chromium"),
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        context = browser.new_context()
+        page = context.new_page()
+        page.set_default_timeout(30_000)
+        try:
+            yield page
+        finally:
+            context.close()
+            browser.close()

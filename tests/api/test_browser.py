@@ -4,7 +4,6 @@ from the page, see live data arrive, see the run listed, run an estimation, see 
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -12,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import require_tool
+from tests.api.conftest import chromium_page
 
 TOKEN = "browser-test-token"
 ROOT = Path(__file__).resolve().parents[2]
@@ -57,20 +56,8 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(server):
-    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=chromium or shutil.which("chromium"),
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        context = browser.new_context()
-        pg = context.new_page()
-        pg.set_default_timeout(30_000)
+    with chromium_page() as pg:
         yield pg
-        context.close()
-        browser.close()
 
 
 def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page):

@@ -3,38 +3,23 @@ then tick runs as weight / thrusters and run the estimation + cross-check job.""
 
 from __future__ import annotations
 
-import shutil
-
 import pytest
 
 from api.app import create_app
 from api.estimation_job import run_estimation
-from tests.api.conftest import TOKEN, LiveServer
-from tests.conftest import require_tool
+from tests.api.conftest import TOKEN, LiveServer, chromium_page
 from tests.procedures.test_crosscheck_cli import _import_tows
 
 
 @pytest.fixture(scope="module")
 def page_url(client, service, tmp_path_factory):
-    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
-    from playwright.sync_api import sync_playwright
-
     tmp = tmp_path_factory.mktemp("csv")
     first = _import_tows(service.store, tmp, (24.5, 83.3), seed=1)
     second = _import_tows(service.store, tmp, (34.3, 63.7), seed=2)
     results = [run_estimation(service.store, ids)["result_id"] for ids in (first, second)]
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=chromium or shutil.which("chromium"),
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        context = browser.new_context()
-        pg = context.new_page()
-        pg.set_default_timeout(30_000)
+    with LiveServer(app) as live, chromium_page() as pg:
         yield pg, live.url, results, first, second
-        context.close()
-        browser.close()
 
 
 def test_crosscheck_page_compares_results_and_runs(page_url):

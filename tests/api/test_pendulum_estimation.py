@@ -3,7 +3,6 @@ on the simulated rig with a fast pendulum rig file (the scenario's surge coeffic
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Iterator
 
 import pytest
@@ -12,8 +11,15 @@ from fastapi.testclient import TestClient
 from api.app import create_app
 from api.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, SHORT_TOW, TOKEN, LiveServer, start_job, wait_job
-from tests.conftest import require_tool
+from tests.api.conftest import (
+    AUTH,
+    SHORT_TOW,
+    TOKEN,
+    LiveServer,
+    chromium_page,
+    start_job,
+    wait_job,
+)
 from tests.procedures.test_pendulum import fast_rig_file
 
 ALPHA = 143.26 - 30.0  # kg: the scenario's surge inertia minus BENBAM's dry mass
@@ -81,17 +87,10 @@ def test_methods_are_checked_per_kind_and_kinds_not_mixed(client, runs):
 
 
 def test_estimation_page_shows_a_pendulum_result(client, service, runs):
-    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
-    from playwright.sync_api import expect, sync_playwright
+    from playwright.sync_api import expect
 
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=chromium or shutil.which("chromium"),
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        page = browser.new_context().new_page()
-        page.set_default_timeout(30_000)
+    with LiveServer(app) as live, chromium_page() as page:
         page.goto(f"{live.url}/#token={TOKEN}")
         page.click("nav a[data-page=estimation]")
         box = page.locator(f"#est-runs input[value='{runs['pendulum']}']")
@@ -108,4 +107,3 @@ def test_estimation_page_shows_a_pendulum_result(client, service, runs):
         expect(page.locator("#est-rmse")).to_contain_text("rad")
         expect(page.locator("#est-effects-list")).to_contain_text("quadratic_damping")
         expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
-        browser.close()

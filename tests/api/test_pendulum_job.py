@@ -3,7 +3,6 @@ simulated rig with a fast pendulum rig file."""
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Iterator
 
 import pytest
@@ -12,8 +11,7 @@ from fastapi.testclient import TestClient
 from api.app import create_app
 from api.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, LiveServer, start_job, wait_job
-from tests.conftest import require_tool
+from tests.api.conftest import AUTH, TOKEN, LiveServer, chromium_page, start_job, wait_job
 from tests.procedures.test_pendulum import fast_rig_file
 
 
@@ -62,17 +60,10 @@ def test_pendulum_job_end_to_end_stores_a_completed_decay(client):
 
 
 def test_pendulum_tab_starts_a_decay_from_the_rig_page(client, service):
-    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
-    from playwright.sync_api import expect, sync_playwright
+    from playwright.sync_api import expect
 
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=chromium or shutil.which("chromium"),
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        page = browser.new_context().new_page()
-        page.set_default_timeout(30_000)
+    with LiveServer(app) as live, chromium_page() as page:
         page.goto(f"{live.url}/#token={TOKEN}")
         page.click(".tabs button[data-form=pendulum]")
         form = "#form-pendulum"
@@ -91,4 +82,3 @@ def test_pendulum_tab_starts_a_decay_from_the_rig_page(client, service):
         row = page.locator("#runs-table tbody tr").first
         expect(row).to_contain_text("pendulum")
         expect(row).to_contain_text("0.3 rad")
-        browser.close()

@@ -3,32 +3,17 @@ turn through its thrusters, see the plots, the steady values and the allocation 
 
 from __future__ import annotations
 
-import shutil
-
 import pytest
 
 from api.app import create_app
-from tests.api.conftest import TOKEN, LiveServer
-from tests.conftest import require_tool
+from tests.api.conftest import TOKEN, LiveServer, chromium_page
 
 
 @pytest.fixture(scope="module")
 def page_url(client, service):
-    chromium = require_tool("chromium", "the browser UI is tested in real headless Chromium")
-    from playwright.sync_api import sync_playwright
-
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=chromium or shutil.which("chromium"),
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        context = browser.new_context()
-        pg = context.new_page()
-        pg.set_default_timeout(30_000)
+    with LiveServer(app) as live, chromium_page() as pg:
         yield pg, live.url
-        context.close()
-        browser.close()
 
 
 def test_sixdof_page_simulates_a_yaw_turn(page_url):
