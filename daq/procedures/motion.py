@@ -144,6 +144,22 @@ async def follow_motion(
     raise AssertionError("rec.samples() ends only by raising")
 
 
+async def run_outcome(
+    session: RigSession, rec: RecordedRun, kind: str, report: ProgressCallback
+) -> RunOutcome:
+    """How the recorded run ended (status, reason, samples stored), reported as done."""
+    count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
+    report(
+        Progress(
+            1.0,
+            f"run {rec.status}" + (f": {rec.reason}" if rec.reason else ""),
+            state=rec.status or "",
+        )
+    )
+    assert rec.run_id is not None and rec.status is not None
+    return RunOutcome(rec.run_id, rec.status, rec.reason, kind, count)
+
+
 async def baseline_then_release(
     session: RigSession,
     rec: RecordedRun,
@@ -233,16 +249,7 @@ async def run_motion_test(
             )
             # A short tail after the brake shows the stop in the data.
             await rec.record_for(0.3)
-        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
-        report(
-            Progress(
-                1.0,
-                f"run {rec.status}" + (f": {rec.reason}" if rec.reason else ""),
-                state=rec.status or "",
-            )
-        )
-        assert rec.run_id is not None and rec.status is not None
-        return RunOutcome(rec.run_id, rec.status, rec.reason, axis.kind, count)
+        return await run_outcome(session, rec, axis.kind, report)
 
 
 __all__ = ["Aborted", "PreconditionFailed", "RunOutcome", "run_motion_test"]

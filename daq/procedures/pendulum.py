@@ -11,7 +11,6 @@ zero throughout. On the simulated rig the procedure plays the operator.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import math
 import time
@@ -24,6 +23,7 @@ from daq.procedures.motion import (
     _Axis,
     baseline_then_release,
     check_ready,
+    run_outcome,
 )
 from daq.procedures.params import PendulumParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
@@ -142,16 +142,7 @@ async def run_pendulum_decay(
                     with contextlib.suppress(Exception):
                         await session.plc.write(PENDULUM.release, False)
             await rec.record_for(0.3)  # a short tail shows the catch in the data
-        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
-        report(
-            Progress(
-                1.0,
-                f"run {rec.status}" + (f": {rec.reason}" if rec.reason else ""),
-                state=rec.status or "",
-            )
-        )
-        assert rec.run_id is not None and rec.status is not None
-        return RunOutcome(rec.run_id, rec.status, rec.reason, PENDULUM.kind, count)
+        return await run_outcome(session, rec, PENDULUM.kind, report)
 
 
 async def _follow_decay(

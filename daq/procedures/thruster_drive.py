@@ -16,7 +16,7 @@ from typing import Any
 
 from daq.config import ThrusterPort
 from daq.operator import OperatorAct
-from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion
+from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.session import RigSession
@@ -179,10 +179,7 @@ async def run_thruster_test(
             finally:
                 await session.disarm_thrusters()
             await rec.record_for(0.3)
-        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
-        report(Progress(1.0, f"run {rec.status}", state=rec.status or ""))
-        assert rec.run_id and rec.status
-        return RunOutcome(rec.run_id, rec.status, rec.reason, axis.kind, count)
+        return await run_outcome(session, rec, axis.kind, report)
 
 
 #: The same lifecycle under the names of the two tests.
