@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 
 from api import analysis_common, sixdof_common
-from api.cli_common import db_option, echo_json, fail, json_option, open_store
+from api.cli_common import db_option, echo_json, fail, json_option, number, open_store
 from daq.store import ResultNotFound
 from estimation.responses import RESPONSE_NAMES
 
@@ -22,10 +22,6 @@ def _pct(x: float | None) -> str:
     if x < 1e-4:
         return "<0.01 %"
     return f"{100 * x:.0f} %" if x >= 10 else f"{100 * x:.3g} %"
-
-
-def _num(x: float | None) -> str:
-    return "—" if x is None else f"{x:.3g}"
 
 
 def _weights(pairs: tuple[str, ...]) -> dict[str, float] | None:
@@ -51,7 +47,7 @@ def _print(out: dict) -> None:
         ref = out["reference"][name]
         mode = "" if ref["mode"] == "relative" else f"  [{ref['mode']} mode]"
         weight = out["weights"][name]
-        click.echo(f"  R{i} {name:<20} {weight:.3f}; {_num(ref['value'])} {ref['unit']}{mode}")
+        click.echo(f"  R{i} {name:<20} {weight:.3f}; {number(ref['value'])} {ref['unit']}{mode}")
     if out["ahp"]:
         click.echo(f"  AHP CR = {out['ahp']['cr']:.3f}")
     head = f"{'coefficient':<26}{'value':>10}{'σ':>9}{'composite':>11}" + "".join(
@@ -62,7 +58,7 @@ def _print(out: dict) -> None:
     for row in out["ranking"]:
         flag = " keep" if row["keep"] else ""
         click.echo(
-            f"{row['name']:<26}{_num(row['value']):>10}{_num(row['sigma']):>9}"
+            f"{row['name']:<26}{number(row['value']):>10}{number(row['sigma']):>9}"
             f"{_pct(row['composite']):>11}"
             + "".join(f"{_pct(row['sc'][n]):>10}" for n in responses)
             + flag

@@ -141,3 +141,16 @@ def run_with_signals(main: Callable[[AbortSignal], Awaitable[T]]) -> T:
                 loop.remove_signal_handler(sig)
 
     return asyncio.run(runner())
+
+
+def plus_minus(estimate: dict) -> str:
+    """``value ± std`` of a result's {value, std} (``—`` when there is no value)."""
+    if estimate.get("value") is None:
+        return "—"
+    std = estimate.get("std")
+    return f"{estimate['value']:.5g} ± {std:.2g}" if std is not None else f"{estimate['value']:.5g}"
+
+
+def number(x: float | None) -> str:
+    """Three significant digits, ``—`` for a missing number."""
+    return "—" if x is None else f"{x:.3g}"

@@ -4,20 +4,18 @@ from __future__ import annotations
 
 import click
 
-from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
+from api.cli_common import (
+    db_option,
+    echo_json,
+    fail,
+    json_option,
+    number,
+    open_store,
+    plus_minus,
+    user_errors,
+)
 from api.crosscheck_job import crosscheck_results, crosscheck_runs
 from estimation.crosscheck import LABELS
-
-
-def _pm(side: dict) -> str:
-    if side.get("value") is None:
-        return "—"
-    std = side.get("std")
-    return f"{side['value']:.5g} ± {std:.2g}" if std is not None else f"{side['value']:.5g}"
-
-
-def _num(x: float | None) -> str:
-    return "—" if x is None else f"{x:.3g}"
 
 
 @click.command("crosscheck")
@@ -83,12 +81,12 @@ def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_u
         for name, c in data["coefficients"].items():
             z = "—" if c["z"] is None else f"{c['z']:+.2f}"
             click.echo(
-                f"  {LABELS[name]:<10} {_pm(c['weight']):>22} {_pm(c['thruster']):>22} "
-                f"{z:>7}  {c['verdict']}"
+                f"  {LABELS[name]:<10} {plus_minus(c['weight']):>22} "
+                f"{plus_minus(c['thruster']):>22} {z:>7}  {c['verdict']}"
             )
         for side in ("weight", "thruster"):
             r = data["rmse"][side]
-            click.echo(f"  RMSE {side:<8} before {_num(r['before'])}, after {_num(r['after'])}")
+            click.echo(f"  RMSE {side:<8} before {number(r['before'])}, after {number(r['after'])}")
         click.echo(f"  verdict: {data['verdict']}")
         for line in data["diagnosis"]:
             click.echo(f"  diagnosis: {line}")

@@ -4,16 +4,20 @@ from __future__ import annotations
 
 import click
 
-from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
+from api.cli_common import (
+    db_option,
+    echo_json,
+    fail,
+    json_option,
+    open_store,
+    plus_minus,
+    user_errors,
+)
 from api.estimation_job import run_estimation
 from estimation import METHODS
 from estimation.pendulum import PENDULUM_METHODS
 
 ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
-
-
-def _pm(c: dict) -> str:
-    return f"{c['value']:.5g} ± {c['std']:.2g}" if c.get("std") is not None else f"{c['value']:.5g}"
 
 
 @click.command("estimate")
@@ -78,9 +82,9 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
             u[:3],
             strict=True,
         ):
-            click.echo(f"  {label:<28} {_pm(data['coefficients'][name])} {unit}")
+            click.echo(f"  {label:<28} {plus_minus(data['coefficients'][name])} {unit}")
         for eff in data.get("effects", []):
-            click.echo(f"  effect {eff['name']:<21} {_pm(eff)} {eff['unit']}")
+            click.echo(f"  effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}")
         for group in data.get("ambiguous", []):
             click.echo(f"  ambiguous: {' / '.join(group)}")
         for warning in data.get("warnings", []):
@@ -101,16 +105,16 @@ def _echo_pendulum(data: dict) -> None:
     )
     units = data["units"]
     for name, est in data["coefficients"].items():
-        click.echo(f"  {name:<28} {_pm(est)} {units[name]}")
+        click.echo(f"  {name:<28} {plus_minus(est)} {units[name]}")
     click.echo(f"  {'method':<22} {'run':<10} {'α [kg]':<22} {'β [N·s/m]':<22} e [rad²]")
     for m in data["methods"]:
         e = "—" if m["mse"] is None else f"{m['mse']:.3g}"
         click.echo(
-            f"  {m['method']:<22} {m['run_id'][:8]:<10} {_pm(m['added_mass']):<22} "
-            f"{_pm(m['linear_damping']):<22} {e}"
+            f"  {m['method']:<22} {m['run_id'][:8]:<10} {plus_minus(m['added_mass']):<22} "
+            f"{plus_minus(m['linear_damping']):<22} {e}"
         )
     for eff in data.get("effects", []):
-        click.echo(f"  effect {eff['name']:<21} {_pm(eff)} {eff['unit']}")
+        click.echo(f"  effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}")
     for warning in data.get("warnings", []):
         click.echo(f"  warning: {warning}")
     for advice in data.get("advice", []):
