@@ -489,16 +489,20 @@ async function renderEstimation(res) {
     { margin: { t: 20, r: 20, b: 60, l: 60 }, yaxis: { title: { text: `residual RMSE (${unit})` } }, barmode: "group" },
     { responsive: true, displaylogo: false },
   );
+  await showReportPlots(res.result_id);
+}
+
+// The stored result's report PNGs into #est-plots (fetched with the token).
+async function showReportPlots(resultId) {
   const box = $("#est-plots");
   box.innerHTML = "";
-  if (res.result_id === undefined || res.result_id === null) return;
+  if (resultId === undefined || resultId === null) return;
   try {
-    const stored = await api("GET", `/api/results/${res.result_id}`);
+    const stored = await api("GET", `/api/results/${resultId}`);
     for (const name of stored.report_plots) {
-      const r = await fetch(`/api/results/${res.result_id}/report/${name}.png`, { headers: { Authorization: `Bearer ${state.token}` } });
+      const r = await fetch(`/api/results/${resultId}/report/${name}.png`, { headers: { Authorization: `Bearer ${state.token}` } });
       if (!r.ok) continue;
-      const img = Object.assign(document.createElement("img"), { src: URL.createObjectURL(await r.blob()), alt: name, title: name });
-      box.append(img);
+      box.append(Object.assign(document.createElement("img"), { src: URL.createObjectURL(await r.blob()), alt: name, title: name }));
     }
   } catch (err) {
     console.warn(err);

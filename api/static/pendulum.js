@@ -79,19 +79,7 @@ async function renderPendulumEstimation(res) {
     { margin: { t: 20, r: 20, b: 50, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: "|peak − midline| (rad)" } } },
     { responsive: true, displaylogo: false },
   );
-  const box = $("#est-plots");
-  box.innerHTML = "";
-  if (res.result_id === undefined || res.result_id === null) return;
-  try {
-    const stored = await api("GET", `/api/results/${res.result_id}`);
-    for (const name of stored.report_plots) {
-      const r = await fetch(`/api/results/${res.result_id}/report/${name}.png`, { headers: { Authorization: `Bearer ${state.token}` } });
-      if (!r.ok) continue;
-      box.append(Object.assign(document.createElement("img"), { src: URL.createObjectURL(await r.blob()), alt: name, title: name }));
-    }
-  } catch (err) {
-    console.warn(err);
-  }
+  await showReportPlots(res.result_id);
 }
 
 function clearPendulumEstimation() {
