@@ -33,6 +33,7 @@ from estimation.pendulum_methods import (
     log_decrement,
 )
 from estimation.result import EffectEstimate, Estimate, _num, _step, _white
+from estimation.runs import validate_run_set
 from estimation.search import SearchStep
 
 PENDULUM_METHODS: tuple[str, ...] = (
@@ -132,17 +133,7 @@ class PendulumResult:
 
 def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
     """Validate runs for a joint fit; returns their common swing axis."""
-    if len(runs) == 0:
-        raise ValueError("runs: got 0 runs, allowed: at least 1 pendulum run")
-    for run in runs:
-        validate_pendulum_run(run)
-    axes = sorted({run.axis for run in runs})
-    if len(axes) != 1:
-        raise ValueError(f"runs: axis: got mixed axes {axes}, allowed: one swing axis per fit")
-    ids = [run.run_id for run in runs]
-    if len(set(ids)) != len(ids):
-        raise ValueError(f"runs: run_id: got duplicates {ids}, allowed: unique ids")
-    return axes[0]
+    return validate_run_set(runs, validate_pendulum_run, "pendulum run", "one swing axis per fit")
 
 
 def _coefficients(fit: PendulumFit) -> dict[str, Estimate]:

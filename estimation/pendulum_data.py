@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.runs import field_error, validate_series
+
 SWING_AXES: tuple[str, ...] = ("surge", "sway", "heave")
 MIN_DECAY_SAMPLES = 20
 
@@ -78,10 +80,6 @@ class PendulumRun:
         return t[keep], np.asarray(self.angle, dtype=float)[keep]
 
 
-def _fail(run_id: str, field: str, value: object, allowed: str) -> ValueError:
-    return ValueError(f"run {run_id!r}: {field}: got {value!r}, allowed: {allowed}")
-
-
 def validate_geometry(geometry: PendulumGeometry, run_id: str = "") -> None:
     """Raise ValueError naming the field, the value and the allowed range."""
     g = geometry
@@ -92,7 +90,7 @@ def validate_geometry(geometry: PendulumGeometry, run_id: str = "") -> None:
     }
     for field, (value, allowed) in positive.items():
         if not (np.isfinite(value) and value > 0):
-            raise _fail(run_id, field, value, allowed)
+            raise field_error(run_id, field, value, allowed)
     non_negative = {
         "geometry.rod_mass_kg": (g.rod_mass_kg, ">= 0 kg"),
         "geometry.rod_cg_m": (g.rod_cg_m, ">= 0 m"),
@@ -103,9 +101,9 @@ def validate_geometry(geometry: PendulumGeometry, run_id: str = "") -> None:
     }
     for field, (value, allowed) in non_negative.items():
         if not (np.isfinite(value) and value >= 0):
-            raise _fail(run_id, field, value, allowed)
+            raise field_error(run_id, field, value, allowed)
     if not g.restoring_stiffness() > 0:
-        raise _fail(
+        raise field_error(
             run_id,
             "geometry.buoyancy_kg",
             g.buoyancy_kg,
@@ -118,25 +116,19 @@ def validate_pendulum_run(run: PendulumRun) -> None:
     rid = run.run_id
     validate_geometry(run.geometry, rid)
     if run.axis not in SWING_AXES:
-        raise _fail(rid, "axis", run.axis, f"one of {list(SWING_AXES)}")
-    t = np.asarray(run.t)
+        raise field_error(rid, "axis", run.axis, f"one of {list(SWING_AXES)}")
+    t = validate_series(rid, run.t, run.angle, "angle", "finite angles (rad)")
     phi = np.asarray(run.angle)
-    if t.ndim != 1 or phi.ndim != 1 or t.shape != phi.shape:
-        raise _fail(rid, "angle", f"shape {phi.shape} vs t {t.shape}", "1-D, same length as t")
-    if not np.all(np.isfinite(t)):
-        raise _fail(rid, "t", "NaN/inf", "finite sample times")
-    if not np.all(np.isfinite(phi)):
-        raise _fail(rid, "angle", "NaN/inf", "finite angles (rad)")
-    if t.size > 1 and np.any(np.diff(t) <= 0):
-        raise _fail(rid, "t", "non-increasing", "strictly increasing sample times")
     if not (np.isfinite(run.t_release_std) and run.t_release_std >= 0):
-        raise _fail(rid, "t_release_std", run.t_release_std, ">= 0 s")
+        raise field_error(rid, "t_release_std", run.t_release_std, ">= 0 s")
     if t.size == 0 or not (t[0] <= run.t_release <= t[-1]):
         lo, hi = (t[0], t[-1]) if t.size else (np.nan, np.nan)
-        raise _fail(rid, "t_release", run.t_release, f"within [{lo:g}, {hi:g}] s")
+        raise field_error(rid, "t_release", run.t_release, f"within [{lo:g}, {hi:g}] s")
     after = int(np.count_nonzero(t >= run.t_release))
     if after < MIN_DECAY_SAMPLES:
-        raise _fail(rid, "t", f"{after} samples after release", f">= {MIN_DECAY_SAMPLES}")
+        raise field_error(rid, "t", f"{after} samples after release", f">= {MIN_DECAY_SAMPLES}")
     swing = phi[t >= run.t_release]
     if np.max(np.abs(swing)) > np.pi / 2:
-        raise _fail(rid, "angle", float(np.max(np.abs(swing))), "|φ| <= π/2 rad after release")
+        raise field_error(
+            rid, "angle", float(np.max(np.abs(swing))), "|φ| <= π/2 rad after release"
+        )

@@ -77,7 +77,8 @@ class RunData:
         return np.asarray(self.drive).ndim == 0
 
 
-def _fail(run_id: str, field: str, value: object, allowed: str) -> ValueError:
+def field_error(run_id: str, field: str, value: object, allowed: str) -> ValueError:
+    """A run's unusable field: the error names the run, field, value and what is allowed."""
     return ValueError(f"run {run_id!r}: {field}: got {value!r}, allowed: {allowed}")
 
 
@@ -85,55 +86,71 @@ def validate_run(run: RunData) -> None:
     """Raise ValueError naming the field, the value and what is allowed when a run is unusable."""
     rid = run.run_id
     if run.axis not in AXES:
-        raise _fail(rid, "axis", run.axis, "'surge' or 'yaw'")
-    t = np.asarray(run.t)
-    x = np.asarray(run.position)
-    if t.ndim != 1 or x.ndim != 1 or t.shape != x.shape:
-        raise _fail(rid, "position", f"shape {x.shape} vs t {t.shape}", "1-D, same length as t")
-    if not np.all(np.isfinite(t)):
-        raise _fail(rid, "t", "NaN/inf", "finite sample times")
-    if not np.all(np.isfinite(x)):
-        raise _fail(rid, "position", "NaN/inf", "finite positions")
-    if t.size > 1 and np.any(np.diff(t) <= 0):
-        raise _fail(rid, "t", "non-increasing", "strictly increasing sample times")
+        raise field_error(rid, "axis", run.axis, "'surge' or 'yaw'")
+    t = validate_series(rid, run.t, run.position, "position", "finite positions")
     drive = np.asarray(run.drive, dtype=float)
     if drive.ndim not in (0, 1) or (drive.ndim == 1 and drive.shape != t.shape):
-        raise _fail(rid, "drive", f"shape {drive.shape}", "a scalar or one value per sample")
+        raise field_error(rid, "drive", f"shape {drive.shape}", "a scalar or one value per sample")
     if not np.all(np.isfinite(drive)):
-        raise _fail(rid, "drive", "NaN/inf", "finite force/torque")
+        raise field_error(rid, "drive", "NaN/inf", "finite force/torque")
     if not np.any(drive != 0):
-        raise _fail(rid, "drive", 0.0, "a non-zero force (N) or torque (N·m)")
+        raise field_error(rid, "drive", 0.0, "a non-zero force (N) or torque (N·m)")
     if run.drive_draws is not None:
         draws = np.asarray(run.drive_draws, dtype=float)
         if draws.ndim != 2 or draws.shape[1] != t.size or draws.shape[0] < 2:
-            raise _fail(rid, "drive_draws", f"shape {draws.shape}", f"(K ≥ 2, {t.size}) or None")
+            raise field_error(
+                rid, "drive_draws", f"shape {draws.shape}", f"(K ≥ 2, {t.size}) or None"
+            )
         if not np.all(np.isfinite(draws)):
-            raise _fail(rid, "drive_draws", "NaN/inf", "finite forces/torques")
+            raise field_error(rid, "drive_draws", "NaN/inf", "finite forces/torques")
     if run.hung_mass_kg is not None and not run.hung_mass_kg > 0:
-        raise _fail(rid, "hung_mass_kg", run.hung_mass_kg, "> 0 kg or None")
+        raise field_error(rid, "hung_mass_kg", run.hung_mass_kg, "> 0 kg or None")
     if not (np.isfinite(run.t_release_std) and run.t_release_std >= 0):
-        raise _fail(rid, "t_release_std", run.t_release_std, ">= 0 s")
+        raise field_error(rid, "t_release_std", run.t_release_std, ">= 0 s")
     if not run.drive_inertia >= 0:
-        raise _fail(rid, "drive_inertia", run.drive_inertia, ">= 0")
+        raise field_error(rid, "drive_inertia", run.drive_inertia, ">= 0")
     if run.drum_radius_m is not None and not run.drum_radius_m > 0:
-        raise _fail(rid, "drum_radius_m", run.drum_radius_m, "> 0 m or None")
+        raise field_error(rid, "drum_radius_m", run.drum_radius_m, "> 0 m or None")
     if t.size and not (t[0] <= run.t_release <= t[-1]):
-        raise _fail(rid, "t_release", run.t_release, f"within [{t[0]:g}, {t[-1]:g}] s")
+        raise field_error(rid, "t_release", run.t_release, f"within [{t[0]:g}, {t[-1]:g}] s")
     moving = np.count_nonzero((t > run.t_release) & run.window())
     if moving < MIN_MOVING_SAMPLES:
-        raise _fail(rid, "t", f"{moving} samples after release", f">= {MIN_MOVING_SAMPLES} samples")
+        raise field_error(
+            rid, "t", f"{moving} samples after release", f">= {MIN_MOVING_SAMPLES} samples"
+        )
 
 
 def validate_runs(runs: Sequence[RunData]) -> str:
     """Validate a set of runs for a joint fit; returns their common axis."""
+    return validate_run_set(runs, validate_run, "run", "one axis per fit")
+
+
+def validate_run_set(runs: Sequence, validate_one, what: str, one_axis: str) -> str:
+    """Validate each run (``validate_one``), then the set: not empty, one common ``axis``,
+    unique ``run_id``s. Returns the axis."""
     if len(runs) == 0:
-        raise ValueError("runs: got 0 runs, allowed: at least 1 run")
+        raise ValueError(f"runs: got 0 runs, allowed: at least 1 {what}")
     for run in runs:
-        validate_run(run)
+        validate_one(run)
     axes = sorted({run.axis for run in runs})
     if len(axes) != 1:
-        raise ValueError(f"runs: axis: got mixed axes {axes}, allowed: one axis per fit")
+        raise ValueError(f"runs: axis: got mixed axes {axes}, allowed: {one_axis}")
     ids = [run.run_id for run in runs]
     if len(set(ids)) != len(ids):
         raise ValueError(f"runs: run_id: got duplicates {ids}, allowed: unique ids")
     return axes[0]
+
+
+def validate_series(run_id: str, t, values, name: str, finite: str) -> np.ndarray:
+    """Check a sampled signal: 1-D like ``t``, finite, ``t`` strictly increasing; returns t."""
+    t = np.asarray(t)
+    x = np.asarray(values)
+    if t.ndim != 1 or x.ndim != 1 or t.shape != x.shape:
+        raise field_error(run_id, name, f"shape {x.shape} vs t {t.shape}", "1-D, same length as t")
+    if not np.all(np.isfinite(t)):
+        raise field_error(run_id, "t", "NaN/inf", "finite sample times")
+    if not np.all(np.isfinite(x)):
+        raise field_error(run_id, name, "NaN/inf", finite)
+    if t.size > 1 and np.any(np.diff(t) <= 0):
+        raise field_error(run_id, "t", "non-increasing", "strictly increasing sample times")
+    return t
