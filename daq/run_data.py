@@ -53,6 +53,7 @@ class _Timeline:
     t_release: float
     t_release_std: float
     t_end: float | None
+    offset: float  # host monotonic time + offset = the time base
 
 
 def _timeline(
@@ -99,7 +100,7 @@ def _timeline(
         t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
     t_end = None if t_stop is None else t_stop + offset
     t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
-    return _Timeline(np.asarray(t, dtype=float), good, t_release, t_release_std, t_end)
+    return _Timeline(np.asarray(t, dtype=float), good, t_release, t_release_std, t_end, offset)
 
 
 def load_run_data(store: Store, run_id: str) -> RunData:
@@ -146,11 +147,12 @@ def load_run_data(store: Store, run_id: str) -> RunData:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
         curve, table = _calibration(store, params)
         measured = CalibratedThrust.from_table(curve, table)
-        drive = thruster_drive(measured, rig, run.kind, params["commands"], t, t_release)
+        steps = _thrust_steps(store.events(run.id), timeline.offset)
+        drive = thruster_drive(measured, rig, run.kind, params["commands"], t, t_release, steps)
         draws = np.array(
             [
                 thruster_drive(
-                    measured.with_curve(c), rig, run.kind, params["commands"], t, t_release
+                    measured.with_curve(c), rig, run.kind, params["commands"], t, t_release, steps
                 )
                 for c in curve_draws(curve, DRIVE_DRAWS)
             ]
@@ -278,6 +280,22 @@ class CalibratedThrust:
 DRIVE_GRID_S = 0.001
 
 
+def _thrust_steps(events, offset: float) -> list[tuple[float, list[float]]] | None:
+    """The outputs the controller confirmed during the run, as (instant on the time base,
+    fraction per thruster); each change is put mid-way between sending and the reply.
+    None for runs recorded before the steps were stored."""
+    from daq.procedures.thruster_drive import THRUST_STEPS
+
+    for e in events:
+        data = e.data or {}
+        if data.get("action") == THRUST_STEPS:
+            return [
+                ((float(sent) + float(acked)) / 2 + offset, [float(f) for f in fractions])
+                for sent, acked, fractions in data.get("steps", [])
+            ]
+    return None
+
+
 def thruster_drive(
     curve: ThrustCurve | CalibratedThrust,
     rig: RigConfig,
@@ -285,40 +303,47 @@ def thruster_drive(
     commands: list[float],
     t: np.ndarray,
     t_on: float,
+    steps: list[tuple[float, list[float]]] | None = None,
 ) -> np.ndarray:
     """Drive of a thruster-driven tow (force, N: Σ F) or spin (torque, N·m: Σ sign·F·L) per
     sample, from the calibrated thrust curve; ``t`` the sample times, ``t_on`` the instant
     the thrust was switched on (same time base).
 
-    The commands ramp as the driver sends them: a first step at ``t_on`` credited with the
-    time since the previous tick, then one step per acquisition tick (the sample times) of
-    at most ``max_command_slew_per_s`` × the tick interval (≤ 0.1 s). The thrust follows
-    the command with the rig file's first-order ``thrusters.time_constant_s``. The
-    estimator holds each sample's drive until the next sample, so each value is the mean
-    drive over its sample interval (built on a 1 ms grid).
+    The outputs are the ``steps`` the controller confirmed (instant, fraction per
+    thruster) when the run stored them. Older runs get the ramp as the driver would have
+    sent it: a first step at ``t_on`` credited with the time since the previous tick,
+    then one step per acquisition tick (the sample times) of at most
+    ``max_command_slew_per_s`` × the tick interval (≤ 0.1 s) toward ``commands`` — right
+    only while the heartbeat kept time. The thrust follows the outputs with the rig
+    file's first-order ``thrusters.time_constant_s``. The estimator holds each sample's
+    drive until the next sample, so each value is the mean drive over its sample interval
+    (built on a 1 ms grid).
     """
     from daq.procedures.thruster_drive import thrust_layout
-    from thrusters.driver import MAX_SLEW_INTERVAL_S
 
     t = np.asarray(t, dtype=float)
     if t.size == 0:
         return np.zeros(0)
     signs, arm = thrust_layout(rig.thrusters, kind)
-    slew = rig.limits.max_command_slew_per_s
     end = float(t[-1]) + (float(np.median(np.diff(t))) if t.size > 1 else 0.1)
     grid = np.arange(float(t[0]), end + DRIVE_GRID_S, DRIVE_GRID_S)
-    # Instants the driver steps the command: thrust on, then each later tick.
-    before = t[t < t_on]
-    previous = float(before[-1]) if before.size else t_on - MAX_SLEW_INTERVAL_S
-    step_times = np.concatenate([[t_on], t[t > t_on]])
-    credit = np.minimum(np.diff(np.concatenate([[previous], step_times])), MAX_SLEW_INTERVAL_S)
-    ramp = np.cumsum(slew * credit)  # |command| reachable at each step
-    index = np.searchsorted(step_times, grid, side="right") - 1
-    reach = np.where(index >= 0, ramp[np.clip(index, 0, None)], 0.0)
+    if steps is not None:
+        if any(len(fractions) != len(signs) for _, fractions in steps):
+            raise ValueError(
+                f"thrust steps: one output per thruster ({len(signs)}) needed in every step"
+            )
+        step_times = np.array([instant for instant, _ in steps], dtype=float)
+        values = np.array([fractions for _, fractions in steps], dtype=float).reshape(
+            -1, len(signs)
+        )
+        index = np.searchsorted(step_times, grid, side="right") - 1
+        held = np.where(index[:, None] >= 0, values[np.clip(index, 0, None)], 0.0)
+        outputs = held.T
+    else:
+        outputs = _modelled_ramp(rig, commands, t, t_on, grid)
     force = np.zeros_like(grid)
-    for sign, target in zip(signs, commands, strict=True):
-        command = np.sign(target) * np.minimum(abs(target), reach)
-        force += sign * curve.force(command) * arm
+    for sign, output in zip(signs, outputs, strict=True):
+        force += sign * curve.force(output) * arm
     tau = rig.thrusters.time_constant_s
     if tau > 0:
         from scipy.signal import lfilter
@@ -330,6 +355,23 @@ def thruster_drive(
     total = np.concatenate([[0.0], np.cumsum(force)])
     counts = np.maximum(np.diff(edges), 1)
     return (total[edges[1:]] - total[edges[:-1]]) / counts
+
+
+def _modelled_ramp(
+    rig: RigConfig, commands: list[float], t: np.ndarray, t_on: float, grid: np.ndarray
+) -> np.ndarray:
+    """Outputs per thruster on ``grid`` as the driver ramps them toward ``commands`` when
+    every heartbeat comes on its acquisition tick."""
+    from thrusters.driver import MAX_SLEW_INTERVAL_S
+
+    before = t[t < t_on]
+    previous = float(before[-1]) if before.size else t_on - MAX_SLEW_INTERVAL_S
+    step_times = np.concatenate([[t_on], t[t > t_on]])
+    credit = np.minimum(np.diff(np.concatenate([[previous], step_times])), MAX_SLEW_INTERVAL_S)
+    ramp = np.cumsum(rig.limits.max_command_slew_per_s * credit)  # |command| at each step
+    index = np.searchsorted(step_times, grid, side="right") - 1
+    reach = np.where(index >= 0, ramp[np.clip(index, 0, None)], 0.0)
+    return np.array([np.sign(c) * np.minimum(abs(c), reach) for c in commands])
 
 
 #: Thrust curves drawn per thruster-driven run to carry the calibration's uncertainty.

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import asyncio
 import atexit
+import contextlib
 import logging
 import math
 import os
 import signal
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -44,6 +45,20 @@ class ThrusterStatus:
     rpm: tuple[float, ...]
     current_a: tuple[float, ...]
     t_mono: float
+
+
+@dataclass(frozen=True, slots=True)
+class OutputStep:
+    """One change of the controller's outputs: host monotonic times just before the frame
+    went out and when its reply came back (the change happened in between), and the
+    outputs after it as fractions of full scale."""
+
+    t_sent: float
+    t_acked: float
+    fractions: tuple[float, ...]
+
+    def to_json(self) -> list:
+        return [self.t_sent, self.t_acked, list(self.fractions)]
 
 
 class ThrusterDriver:
@@ -84,6 +99,10 @@ class ThrusterDriver:
         #: Why commands are held at zero (stale sensors, shutting down), or None.
         self.inhibited: str | None = None
         self.clamped_commands = 0
+        #: Outputs the controller last confirmed (ACK, or zero when it is not armed).
+        self._confirmed: tuple[float, ...] = (0.0,) * self.count
+        self._t_confirmed = time.monotonic()
+        self._output_logs: list[list[OutputStep]] = []
         self._signal_task: asyncio.Task[None] | None = None
 
     @property
@@ -145,7 +164,7 @@ class ThrusterDriver:
 
     async def arm(self) -> None:
         """Arm the controller (from DISARMED or WDT); outputs start from zero."""
-        reply = await self._transact(p.arm_frame)
+        reply = await self._transact(p.arm_frame, self._zeros)
         self._expect_ack(reply, "arm")
         self.output = [0.0] * self.count
         self.target = [0.0] * self.count
@@ -154,7 +173,7 @@ class ThrusterDriver:
     async def disarm(self) -> None:
         """Disarm: the controller zeroes its outputs."""
         self.target = self.output = [0.0] * self.count
-        self._expect_ack(await self._transact(p.disarm_frame), "disarm")
+        self._expect_ack(await self._transact(p.disarm_frame, self._zeros), "disarm")
 
     async def query(self) -> ThrusterStatus:
         """Controller state and measured RPM/current per thruster."""
@@ -207,13 +226,13 @@ class ThrusterDriver:
         zeros = [0] * self.count
         answered = False
         for attempt in range(retries + 1):
-            reply = await self._transact(lambda seq: p.thr_frame(seq, zeros))
+            reply = await self._transact(lambda seq: p.thr_frame(seq, zeros), self._zeros)
             if reply is not None and (reply.kind == "ACK" or reply.reason == "disarmed"):
                 return True
             answered = answered or reply is not None
             log.warning("thrusters: zero attempt %d got %s", attempt + 1, _describe(reply))
         if answered:
-            reply = await self._transact(p.disarm_frame)
+            reply = await self._transact(p.disarm_frame, self._zeros)
             return reply is not None and reply.kind == "ACK"
         return False
 
@@ -241,8 +260,33 @@ class ThrusterDriver:
             ]
         self.output, self._last_step_t = new, now
         commands = [p.fraction_to_command(x, i) for i, x in enumerate(new)]
-        reply = await self._transact(lambda seq: p.thr_frame(seq, commands))
+        sent = tuple(c / 1000 for c in commands)
+        reply = await self._transact(lambda seq: p.thr_frame(seq, commands), sent)
         return reply is not None and reply.kind == "ACK"
+
+    @contextlib.contextmanager
+    def recording_outputs(self) -> Iterator[list[OutputStep]]:
+        """Collect every change of the controller's outputs while the block runs: the
+        thrust a run actually got, whatever the heartbeat's timing (a test's drive is
+        rebuilt from it, not from a model of the ramp)."""
+        steps: list[OutputStep] = []
+        self._output_logs.append(steps)
+        try:
+            yield steps
+        finally:
+            self._output_logs.remove(steps)
+
+    @property
+    def _zeros(self) -> tuple[float, ...]:
+        return (0.0,) * self.count
+
+    def _confirm(self, outputs: tuple[float, ...], t_sent: float) -> None:
+        now = time.monotonic()
+        if outputs != self._confirmed:
+            step = OutputStep(t_sent, now, outputs)
+            for steps in self._output_logs:
+                steps.append(step)
+        self._confirmed, self._t_confirmed = outputs, now
 
     # ---- plumbing ---------------------------------------------------------------------
 
@@ -251,9 +295,13 @@ class ThrusterDriver:
             raise ThrusterError(f"thruster driver for {self._link.url} is not open")
         return await asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
 
-    async def _transact(self, make: Callable[[int], bytes]) -> p.Reply | None:
+    async def _transact(
+        self, make: Callable[[int], bytes], outputs: tuple[float, ...] | None = None
+    ) -> p.Reply | None:
+        """Send one frame; ``outputs`` are the controller's outputs once it ACKs it."""
         self._seq = p.next_seq(self._seq)
         seq = self._seq
+        t_sent = time.monotonic()
         reply = await self._run(self._link.transact, make(seq), seq)
         assert reply is None or isinstance(reply, p.Reply)
         if reply is not None and reply.state:
@@ -262,6 +310,11 @@ class ThrusterDriver:
             # Only the watchdog takes the controller out of ARMED without our DISARM.
             log.warning("thrusters: controller no longer armed (watchdog tripped)")
             self.state = "WDT"
+        if reply is not None and reply.kind == "ACK" and outputs is not None:
+            self._confirm(outputs, t_sent)
+        elif reply is not None and reply.reason == "disarmed":
+            # Not armed: outputs are zero, since some time after the last confirmation.
+            self._confirm(self._zeros, self._t_confirmed)
         return reply
 
     def _expect_ack(self, reply: p.Reply | None, what: str) -> None:

@@ -22,6 +22,10 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.session import RigSession
 from daq.store import Store
 
+#: Event action holding the outputs the controller confirmed during a run:
+#: ``steps`` = [[t_sent, t_acked, [fraction per thruster]], …] in host monotonic time.
+THRUST_STEPS = "thrust_steps"
+
 #: The drive each run kind's thrusters give: (parameter, unit).
 DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
 
@@ -119,7 +123,8 @@ async def run_thruster_test(
     No weight is hung (the tow line is unhooked); after the baseline the thrust goes on
     (ramped at the slew limit), the motion is followed to end of travel / distance /
     angle / timeout, then the thrust goes to zero and the brake engages. The thrusters
-    end zero and disarmed whatever happens.
+    end zero and disarmed whatever happens. Every output change the controller confirmed
+    is stored as the run's ``thrust_steps`` event, the drive the estimator rebuilds.
     """
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
@@ -174,10 +179,19 @@ async def run_thruster_test(
             session, kind=axis.kind, parameters=parameters, abort=abort, progress=report
         )
         async with rec:
-            try:
-                await _drive_with_thrusters(session, rec, axis, params, commands, start, report)
-            finally:
-                await session.disarm_thrusters()
+            with session.thrusters.recording_outputs() as steps:
+                try:
+                    await _drive_with_thrusters(session, rec, axis, params, commands, start, report)
+                finally:
+                    try:
+                        await session.disarm_thrusters()
+                    finally:
+                        await rec.event(
+                            "thrusters",
+                            f"thruster outputs changed {len(steps)} times",
+                            action=THRUST_STEPS,
+                            steps=[step.to_json() for step in steps],
+                        )
             await rec.record_for(0.3)
         return await run_outcome(session, rec, axis.kind, report)
 

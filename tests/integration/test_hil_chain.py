@@ -25,7 +25,7 @@ from estimation.crosscheck import markdown
 pytestmark = pytest.mark.slow
 
 WEIGHT_FORCES = (24.5, 44.1, 83.3)
-THRUSTER_COMMANDS = (0.2, 0.4)
+THRUSTER_COMMANDS = (0.2, 0.4, 0.6)
 SECONDS = 3.5
 WEIGHT_TORQUES = (0.907, 2.269)
 SPIN_COMMANDS = (0.1, 0.2)
@@ -49,7 +49,7 @@ async def _record(store: Store) -> dict[str, list[str]]:
         rig = session.rig
         calibration = calibration_parameters(
             {
-                "commands": [0.0, 0.1, 0.2, 0.4, 0.8],
+                "commands": [0.0, 0.1, 0.2, 0.4, 0.6, 0.8],
                 "settle_s": 1.0,
                 "samples_per_step": 5,
                 "tare_samples": 5,

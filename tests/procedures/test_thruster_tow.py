@@ -78,6 +78,17 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     assert await session.plc.read("sim_tow_weight") == 0  # no weight hung
     x = store.samples(outcome.run_id).channels["tow_position"]
     assert x[-1] > 0.2
+    # The run keeps every output change the controller confirmed: the ramp up at the slew
+    # limit (≤ 2.0/s × 0.1 s a step) to the commands, then zero, each bracketed in time.
+    (steps,) = [
+        e.data["steps"]
+        for e in store.events(outcome.run_id)
+        if (e.data or {}).get("action") == "thrust_steps"
+    ]
+    levels = [fractions[0] for _, _, fractions in steps]
+    assert levels[-1] == 0.0 and max(levels) == pytest.approx(commands[0], abs=1e-3)
+    assert all(b - a <= 0.2 + 1e-9 for a, b in zip([0.0, *levels[:-2]], levels[:-1], strict=True))
+    assert all(0 <= acked - sent < 0.5 for sent, acked, _ in steps)
     await _assert_thrusters_safe(session)
     await _abort_leaves_the_thrusters_zero(session)
 
@@ -88,8 +99,10 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     # Once ramp and thrust lag (rig file: 0.15 s) are over: the force the inverse map aimed
     # at, give or take the curve's residual at that command (the drive is corrected by the
     # calibration table, the command came from the bare curve).
-    after = data.t > data.t_release + 1.5
+    after = (data.t > data.t_release + 1.5) & (data.t < data.t_end - 0.05)
     assert data.drive[after] == pytest.approx(20.0, rel=0.01)
+    # The thrust went off at the brake: the recorded outputs say so, the lag decays it.
+    assert data.drive[-1] < 0.1 * data.drive[after][-1]
     assert 0 < data.drive[(data.t > data.t_release)][0] < 10.0  # still ramping up
     assert data.drive[data.t < data.t_release].max() == 0.0
     assert data.drive_draws is not None and data.drive_draws.shape[1] == data.t.size

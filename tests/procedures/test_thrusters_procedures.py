@@ -67,6 +67,6 @@ async def test_calibration_then_thruster_spin(session, store):
     from daq.run_data import load_run_data
 
     data = load_run_data(store, result.run_id)
-    after = data.t > data.t_release + 1.0
+    after = (data.t > data.t_release + 1.0) & (data.t < data.t_end - 0.05)
     assert data.drive[after] == pytest.approx(2.0, rel=0.02)
     assert data.drive[data.t < data.t_release].max() == 0.0

@@ -197,3 +197,26 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
         assert emu2.outputs == [0.0, 0.0] and emu2.state == "DISARMED"
     finally:
         await emu2.stop()
+
+
+async def test_recorded_outputs_bracket_every_change_the_controller_made(served) -> None:
+    """Late and early heartbeats change the ramp; the record follows what was applied."""
+    emu, url = served
+    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        await drv.arm()
+        with drv.recording_outputs() as steps:
+            for pause in (0.0, 0.02, 0.15, 0.05, 0.01, 0.12, 0.1, 0.1):
+                await asyncio.sleep(pause)
+                await drv.command([0.5, -0.3])
+            # No heartbeat for longer than the controller's watchdog: it zeroes the outputs.
+            await asyncio.sleep(emu.watchdog_s + 0.2)
+            assert not await drv.command([0.5, -0.3])
+        assert drv.state == "WDT"
+    seen = [(0.0, [0.0, 0.0]), *emu.seen]
+    applied = [(t, f) for (_, g), (t, f) in itertools.pairwise(seen) if f != g]
+    assert [list(s.fractions) for s in steps] == [f for _, f in applied]
+    assert steps[-2].fractions == (0.5, -0.3) and steps[-1].fractions == (0.0, 0.0)
+    for step, (t_applied, _) in zip(steps, applied, strict=True):
+        assert step.t_sent <= t_applied <= step.t_acked
+    # The watchdog trip is bracketed by the last ACK before it and the refusal after it.
+    assert steps[-1].t_acked - steps[-1].t_sent >= emu.watchdog_s
