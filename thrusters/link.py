@@ -148,15 +148,21 @@ class SerialLink:
 
     def _read_line(self, deadline: float) -> bytes | None:
         assert self._port is not None
-        while b"\n" not in self._rx:
-            if time.monotonic() >= deadline:
-                return None
-            chunk = self._port.read(max(1, self._port.in_waiting))
-            self._rx += chunk
-            if b"\n" not in self._rx and len(self._rx) > p.MAX_LINE_BYTES:
-                self._rx = self._resync(self._rx)
-        line, _, self._rx = self._rx.partition(b"\n")
-        return line
+        while True:
+            while b"\n" not in self._rx:
+                if time.monotonic() >= deadline:
+                    return None
+                chunk = self._port.read(max(1, self._port.in_waiting))
+                self._rx += chunk
+                if b"\n" not in self._rx and len(self._rx) > p.MAX_LINE_BYTES:
+                    self._rx = self._resync(self._rx)
+            line, _, self._rx = self._rx.partition(b"\n")
+            if len(line) <= p.MAX_LINE_BYTES:
+                return line
+            # Over-long garbage and a frame arrived in one read: the same resync as above,
+            # however the bytes were split into reads.
+            if line := self._resync(line):
+                return line
 
     def _resync(self, rx: bytes) -> bytes:
         """Drop an over-long run of bytes without a line end, keeping a frame that may

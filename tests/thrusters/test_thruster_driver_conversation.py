@@ -174,3 +174,21 @@ async def test_open_fails_clearly_without_a_controller() -> None:
         await ThrusterDriver(thruster_port("/dev/nonexistent-thr"), limits()).open()
     with pytest.raises(ValueError, match=r"thrusters\.port: 'sim'"):
         ThrusterDriver(thruster_port("sim"), limits())
+
+
+async def test_overlong_noise_glued_to_a_reply_is_dropped_and_the_reply_kept() -> None:
+    """Line noise without a line end, then the ACK in the same read: one garbage count,
+    the ACK still answers (not a timeout), however the bytes were split into reads."""
+    noise = b"\x00noise without end " * 20  # longer than protocol.MAX_LINE_BYTES
+    peer = ScriptedPeer(
+        [
+            (p.qry_frame(1), p.sta_frame(1, "ARMED", [(0, 0)] * 2)),
+            (p.thr_frame(2, [0, 0]), noise + p.ack_frame(2, "ARMED")),
+            (p.thr_frame(3, [0, 0]), p.ack_frame(3, "ARMED")),
+            (p.disarm_frame(4), p.ack_frame(4, "DISARMED")),
+        ]
+    )
+    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+        assert await drv.heartbeat()
+        assert drv.stats.garbage_lines == 1 and drv.stats.timeouts == 0
+    peer.assert_done()
