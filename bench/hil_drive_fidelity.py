@@ -1,0 +1,158 @@
+"""How well the rebuilt thruster drive matches the thrust the simulated plant produced.
+
+A thruster-driven tow on the simulated rig (Modbus TCP, thruster pty, SQLite), with the
+plant's own thrust (Σ ``Plant.thrusts_n``) read every 2 ms on the simulator's loop. The
+drive per sample interval is rebuilt twice from the same stored calibration: from the
+outputs the controller confirmed (the run's ``thrust_steps`` event, what the estimator
+uses) and from the modelled ramp older runs fall back on. ``--load N`` runs N busy
+processes alongside, as on a shared CI machine. Prints one JSON document.
+Run: .venv/bin/python bench/hil_drive_fidelity.py [--load 2] [--runs 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import itertools
+import json
+import multiprocessing
+import platform
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np
+
+from daq.procedures.calibration import run_thrust_calibration
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.thruster_drive import THRUST_STEPS
+from daq.run_data import CalibratedThrust, thruster_drive
+from daq.session import RigSession, RigSource
+from daq.store import Store
+from estimation.thrust_curve import ThrustCurve
+
+COMMAND = 0.4  # every thruster, as calibrated
+RAMP_S = 0.6  # after thrust-on: the slew-limited ramp and the lag
+
+
+def _busy() -> None:
+    while True:
+        pass
+
+
+def _watch_plant(session: RigSession, out: list, stop: threading.Event) -> None:
+    while not stop.is_set():
+        out.append(session.sim.call(lambda sim: (time.monotonic(), sum(sim.plant.thrusts_n))))
+        time.sleep(0.002)
+
+
+def _compare(store: Store, rig, run_id: str, plant: list) -> dict:
+    run = store.get_run(run_id)
+    table = store.samples(run_id)
+    events = store.events(run_id)
+    data = {e.data.get("action"): e.data for e in events if e.data}
+    t = table.t_mono
+    t_on = data["release"]["t_mono"]
+    t_off = data["brake"]["t_mono"]
+    steps = [((a + b) / 2, f) for a, b, f in data[THRUST_STEPS]["steps"]]
+    calibration = store.result(run.parameters["calibration_result_id"]).data
+    curve = ThrustCurve.from_json(calibration["fit"])
+    measured = CalibratedThrust.from_table(curve, calibration["table"])
+    commands = run.parameters["commands"]
+    recorded = thruster_drive(measured, rig, "tow", commands, t, t_on, steps)
+    modelled = thruster_drive(measured, rig, "tow", commands, t, t_on)
+    pt, pf = np.array(plant).T
+    # The plant's mean thrust over each sample interval [t_k, t_k+1).
+    truth = np.array(
+        [
+            pf[(pt >= a) & (pt < b)].mean() if np.any((pt >= a) & (pt < b)) else np.nan
+            for a, b in itertools.pairwise(t)
+        ]
+    )
+    ramp = (t[:-1] >= t_on - 0.1) & (t[:-1] < t_on + RAMP_S) & np.isfinite(truth)
+    steady = (t[:-1] >= t_on + 1.5) & (t[1:] < t_off) & np.isfinite(truth)
+    # How long after its acquisition tick each later output change reached the controller.
+    changed = np.array([s for s, _ in steps[1:]])
+    lateness = changed - t[np.searchsorted(t, changed, side="right") - 1]
+
+    def errors(drive: np.ndarray) -> dict:
+        d = drive[:-1]
+        return {
+            "ramp_max_abs_n": float(np.max(np.abs(d[ramp] - truth[ramp]))),
+            "steady_mean_rel": float(np.mean(d[steady] / truth[steady] - 1.0)),
+        }
+
+    return {
+        "steady_thrust_n": float(np.mean(truth[steady])),
+        "output_changes": len(steps),
+        "max_output_change_after_tick_s": float(lateness.max()) if lateness.size else 0.0,
+        "recorded_outputs": errors(recorded),
+        "modelled_ramp": errors(modelled),
+    }
+
+
+async def _bench(runs: int) -> list[dict]:
+    with tempfile.TemporaryDirectory() as tmp:
+        store = Store(f"sqlite:///{Path(tmp) / 'rig.db'}")
+        async with RigSession(RigSource.load(), store) as session:
+            rig = session.rig
+            cal = calibration_parameters(
+                {
+                    "commands": [0.0, 0.1, 0.2, 0.4, 0.6, 0.8],
+                    "settle_s": 1.0,
+                    "samples_per_step": 5,
+                    "tare_samples": 5,
+                },
+                rig,
+            )
+            _, table = await run_thrust_calibration(session, cal)
+            rows = [r["thrust_per_thruster_n"] for r in table["table"] if r["command"] == COMMAND]
+            force = rig.thrusters.count * sum(rows) / len(rows)
+            results = []
+            for _ in range(runs):
+                plant: list = []
+                stop = threading.Event()
+                watcher = threading.Thread(target=_watch_plant, args=(session, plant, stop))
+                watcher.start()
+                try:
+                    raw = {"force_n": round(force, 3), "drive": "thrusters", "max_time_s": 3.5}
+                    outcome = await run_motion_test(session, tow_parameters(raw, rig))
+                finally:
+                    stop.set()
+                    await asyncio.to_thread(watcher.join)
+                results.append(_compare(store, rig, outcome.run_id, plant))
+        store.close()
+    return results
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--load", type=int, default=0, help="busy processes alongside")
+    parser.add_argument("--runs", type=int, default=3, help="thruster tows to compare")
+    args = parser.parse_args()
+    hogs = [multiprocessing.Process(target=_busy, daemon=True) for _ in range(args.load)]
+    for h in hogs:
+        h.start()
+    try:
+        runs = asyncio.run(_bench(args.runs))
+    finally:
+        for h in hogs:
+            h.terminate()
+    doc = {
+        "benchmark": "hil_drive_fidelity",
+        "python": platform.python_version(),
+        "cpus": multiprocessing.cpu_count(),
+        "busy_processes": args.load,
+        "command": COMMAND,
+        "runs": runs,
+    }
+    print(json.dumps(doc, indent=2))
+
+
+if __name__ == "__main__":
+    main()
