@@ -124,7 +124,9 @@ async def run_thruster_test(
     (ramped at the slew limit), the motion is followed to end of travel / distance /
     angle / timeout, then the thrust goes to zero and the brake engages. The thrusters
     end zero and disarmed whatever happens. Every output change the controller confirmed
-    is stored as the run's ``thrust_steps`` event, the drive the estimator rebuilds.
+    is stored as the run's ``thrust_steps`` event, the drive the estimator rebuilds. If
+    the controller's watchdog zeroes the thrust mid-run (heartbeats lost), the run is
+    aborted with that reason rather than recorded to the end without thrust.
     """
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
@@ -180,9 +182,11 @@ async def run_thruster_test(
         )
         async with rec:
             with session.thrusters.recording_outputs() as steps:
+                watchdog = asyncio.create_task(_abort_on_watchdog_trip(session, abort))
                 try:
                     await _drive_with_thrusters(session, rec, axis, params, commands, start, report)
                 finally:
+                    watchdog.cancel()
                     try:
                         await session.disarm_thrusters()
                     finally:
@@ -199,6 +203,24 @@ async def run_thruster_test(
 #: The same lifecycle under the names of the two tests.
 run_thruster_spin = run_thruster_test
 run_thruster_tow = run_thruster_test
+
+
+#: How often a thruster-driven run checks whether the controller's watchdog tripped, s.
+WATCHDOG_CHECK_S = 0.05
+
+
+async def _abort_on_watchdog_trip(session: RigSession, abort: AbortSignal) -> None:
+    """Abort the run if, once armed, the controller reports its watchdog zeroed the
+    outputs (a state left from an earlier run does not count)."""
+    thrusters = session.thrusters
+    while thrusters.state != "ARMED":
+        await asyncio.sleep(WATCHDOG_CHECK_S)
+    while thrusters.state == "ARMED":
+        await asyncio.sleep(WATCHDOG_CHECK_S)
+    if thrusters.state == "WDT":
+        abort.set(
+            "thruster controller watchdog tripped (heartbeats lost): thrust went to zero mid-run"
+        )
 
 
 async def _drive_with_thrusters(session, rec, axis, params, commands, start, report) -> None:

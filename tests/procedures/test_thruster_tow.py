@@ -91,6 +91,7 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     assert all(0 <= acked - sent < 0.5 for sent, acked, _ in steps)
     await _assert_thrusters_safe(session)
     await _abort_leaves_the_thrusters_zero(session)
+    await _watchdog_trip_aborts_the_run(session, store)
 
     # The estimator's view: the force from the calibration, ramping at the slew limit,
     # no pulley inertia (line unhooked), and drawn drives around it.
@@ -126,3 +127,35 @@ async def _abort_leaves_the_thrusters_zero(session) -> None:
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     await _assert_thrusters_safe(session)
+
+
+async def _watchdog_trip_aborts_the_run(session, store) -> None:
+    """Heartbeats lost for longer than the controller's watchdog: the thrust went to zero,
+    so the run ends aborted with that reason, not recorded on without thrust."""
+    params = tow_parameters(
+        {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
+        session.rig,
+    )
+    task = asyncio.create_task(run_motion_test(session, params))
+    for _ in range(100):  # until the thrust is on
+        await asyncio.sleep(0.05)
+        if any(session.sim.thrusters.outputs):
+            break
+    emulator = session.sim.thrusters
+    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
+    await asyncio.sleep(emulator.watchdog_s + 0.3)
+    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", False))
+    outcome = await asyncio.wait_for(task, 5)
+    assert outcome.status == "aborted"
+    assert "watchdog tripped" in outcome.reason
+    assert emulator.stats.watchdog_trips >= 1
+    await _assert_thrusters_safe(session)
+    # The stored outputs end with the watchdog's zero, bracketed by the last ACK before it.
+    (steps,) = [
+        e.data["steps"]
+        for e in store.events(outcome.run_id)
+        if (e.data or {}).get("action") == "thrust_steps"
+    ]
+    sent, acked, fractions = steps[-1]
+    assert fractions == [0.0] * session.rig.thrusters.count
+    assert acked - sent >= emulator.watchdog_s
