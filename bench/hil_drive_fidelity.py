@@ -31,10 +31,10 @@ from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import calibration_parameters, tow_parameters
 from daq.procedures.thruster_drive import THRUST_STEPS
-from daq.run_data import CalibratedThrust, thruster_drive
+from daq.run_data import thruster_drive
 from daq.session import RigSession, RigSource
 from daq.store import Store
-from estimation.thrust_curve import ThrustCurve
+from estimation.thrust_curve import CalibratedThrust, ThrustCurve
 
 COMMAND = 0.4  # every thruster, as calibrated
 RAMP_S = 0.6  # after thrust-on: the slew-limited ramp and the lag

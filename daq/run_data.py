@@ -21,7 +21,7 @@ from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
 from estimation.pendulum_data import PendulumGeometry, PendulumRun
 from estimation.runs import RunData
-from estimation.thrust_curve import ThrustCurve
+from estimation.thrust_curve import CalibratedThrust, ThrustCurve
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 
@@ -237,43 +237,6 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustCurve, list[dict]]:
             f"calibration result #{params['calibration_result_id']} is no longer stored"
         ) from None
     return ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
-
-
-@dataclass(frozen=True)
-class CalibratedThrust:
-    """The fitted curve corrected by its residuals at the calibrated commands (mean of the
-    up and down sweeps, interpolated linearly between commands, zero at command 0 and in
-    the dead band): exact where the thrust was measured, the curve's shape in between."""
-
-    curve: ThrustCurve
-    commands: np.ndarray
-    residuals: np.ndarray
-
-    @classmethod
-    def from_table(cls, curve: ThrustCurve, table: list[dict]) -> CalibratedThrust:
-        """Residuals of ``curve`` at each calibrated command of the calibration table."""
-        by_command: dict[float, list[float]] = {0.0: []}
-        for row in table:
-            by_command.setdefault(float(row["command"]), []).append(
-                float(row["thrust_per_thruster_n"])
-            )
-        commands = np.array(sorted(by_command))
-        residuals = np.array(
-            [
-                float(np.mean(by_command[u]) - curve.force(u)) if u != 0 and by_command[u] else 0.0
-                for u in commands
-            ]
-        )
-        return cls(curve, commands, residuals)
-
-    def with_curve(self, curve: ThrustCurve) -> CalibratedThrust:
-        """The same residual correction on another (drawn) curve."""
-        return CalibratedThrust(curve, self.commands, self.residuals)
-
-    def force(self, command: np.ndarray | float) -> np.ndarray:
-        """Thrust of one thruster, N."""
-        base = self.curve.force(command)
-        return base + np.where(base != 0, np.interp(command, self.commands, self.residuals), 0.0)
 
 
 #: Step of the fine grid the thruster drive is built on, s.

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import brentq, least_squares
 
 PARAMS: tuple[str, ...] = (
     "forward_gain",
@@ -178,3 +178,57 @@ def fit_thrust_curve(
     return ThrustCurve(
         sol.x, std, corr, float(np.sqrt(np.mean(res**2))), float(u.min()), float(u.max())
     )
+
+
+@dataclass(frozen=True)
+class CalibratedThrust:
+    """The fitted curve corrected by its residuals at the calibrated commands (mean of the
+    up and down sweeps, interpolated linearly between commands, zero at command 0 and in
+    the dead band): exact where the thrust was measured, the curve's shape in between."""
+
+    curve: ThrustCurve
+    commands: np.ndarray
+    residuals: np.ndarray
+
+    @classmethod
+    def from_table(cls, curve: ThrustCurve, table: list[dict]) -> CalibratedThrust:
+        """Residuals of ``curve`` at each calibrated command of the calibration table."""
+        by_command: dict[float, list[float]] = {0.0: []}
+        for row in table:
+            by_command.setdefault(float(row["command"]), []).append(
+                float(row["thrust_per_thruster_n"])
+            )
+        commands = np.array(sorted(by_command))
+        residuals = np.array(
+            [
+                float(np.mean(by_command[u]) - curve.force(u)) if u != 0 and by_command[u] else 0.0
+                for u in commands
+            ]
+        )
+        return cls(curve, commands, residuals)
+
+    def with_curve(self, curve: ThrustCurve) -> CalibratedThrust:
+        """The same residual correction on another (drawn) curve."""
+        return CalibratedThrust(curve, self.commands, self.residuals)
+
+    def force(self, command: np.ndarray | float) -> np.ndarray:
+        """Thrust of one thruster, N."""
+        base = self.curve.force(command)
+        return base + np.where(base != 0, np.interp(command, self.commands, self.residuals), 0.0)
+
+    def command_for_force(self, force: float) -> float:
+        """The command whose corrected thrust is ``force`` N: the curve's inverse (which
+        raises when out of reach), refined on the corrected curve between 0 and the end
+        of the calibrated commands on that side."""
+        guess = float(self.curve.command_for_force(force))
+        if force == 0:
+            return 0.0
+        end = self.curve.command_max if force > 0 else self.curve.command_min
+        lo, hi = sorted((0.5 * guess, end))
+
+        def miss(u: float) -> float:
+            return float(self.force(u)) - force
+
+        if miss(lo) * miss(hi) > 0:  # the correction moves the force out of reach there
+            return guess
+        return float(brentq(miss, lo, hi, xtol=1e-9))

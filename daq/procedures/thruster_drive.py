@@ -58,12 +58,15 @@ def thruster_commands(
     kind: str = "spin",
 ) -> tuple[list[float], float]:
     """Commands (fractions) giving ``drive`` (N for a tow, N·m for a spin) and the force per
-    thruster, N. Refuses (ParameterError) below the smallest calibrated thrust and beyond
-    the thrusters' reach at ``max_command``."""
-    from estimation.thrust_curve import ThrustCurve
+    thruster, N, through the calibration: the fitted curve corrected by the thrusts the
+    load cell measured (``CalibratedThrust``, the same the estimator rebuilds the drive
+    with). Refuses (ParameterError) below the smallest calibrated thrust and beyond the
+    thrusters' reach at ``max_command``."""
+    from estimation.thrust_curve import CalibratedThrust, ThrustCurve
 
     name, unit = DRIVE_FIELD[kind]
     curve = ThrustCurve.from_json(calibration["fit"])
+    calibrated = CalibratedThrust.from_table(curve, calibration.get("table", []))
     signs, arm = thrust_layout(thrusters, kind)
     count = thrusters.count
     per_thruster = drive / (count * arm)
@@ -92,11 +95,11 @@ def thruster_commands(
                 ]
             )
         try:
-            u = float(curve.command_for_force(sign * per_thruster))
+            u = calibrated.command_for_force(sign * per_thruster)
         except ValueError as err:
             raise ParameterError([(name, drive, f"within the calibrated range: {err}")]) from None
         if abs(u) > max_command:
-            reach = min(abs(float(curve.force(max_command))), abs(float(curve.force(-max_command))))
+            reach = min(abs(float(calibrated.force(c))) for c in (max_command, -max_command))
             raise ParameterError(
                 [
                     (

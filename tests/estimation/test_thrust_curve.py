@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimation.thrust_curve import PARAMS, fit_thrust_curve
+from estimation.thrust_curve import PARAMS, CalibratedThrust, ThrustCurve, fit_thrust_curve
 
 TRUTH = {
     "forward_gain": 40.0,
@@ -95,3 +95,24 @@ def test_calibration_table_words_give_the_same_fit():
     assert np.allclose(worded.values, numeric.values, rtol=1e-6, atol=1e-9)
     with pytest.raises(ValueError, match="directions: got \\['sideways'\\]"):
         fit_thrust_curve(u, f, ["sideways"] * u.size)
+
+
+def test_calibrated_inverse_hits_the_measured_thrusts_and_the_curve_in_between():
+    curve = ThrustCurve(
+        np.array([50.0, 0.05, 0.8, 39.0, 0.05, 0.8, 0.0]), np.zeros(7), np.eye(7), 0.1, -0.8, 0.8
+    )
+    # The load cell measured 0.6 N more than the curve at 0.4 and 0.3 N less at -0.4.
+    table = [
+        {"command": 0.4, "thrust_per_thruster_n": float(curve.force(0.4)) + 0.6},
+        {"command": -0.4, "thrust_per_thruster_n": float(curve.force(-0.4)) - 0.3},
+    ]
+    calibrated = CalibratedThrust.from_table(curve, table)
+    assert calibrated.command_for_force(float(curve.force(0.4)) + 0.6) == pytest.approx(0.4)
+    assert calibrated.command_for_force(float(curve.force(-0.4)) - 0.3) == pytest.approx(-0.4)
+    for force in (3.0, 12.0, 20.0, -8.0, -15.0):
+        u = calibrated.command_for_force(force)
+        assert float(calibrated.force(u)) == pytest.approx(force, abs=1e-6)
+        assert abs(u - float(curve.command_for_force(force))) < 0.02  # a refinement, not a jump
+    assert calibrated.command_for_force(0.0) == 0.0
+    with pytest.raises(ValueError, match="force: got 99 N, allowed"):
+        calibrated.command_for_force(99.0)

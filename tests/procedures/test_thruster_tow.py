@@ -12,7 +12,7 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, tow_parameters
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
-from estimation.thrust_curve import ThrustCurve
+from estimation.thrust_curve import CalibratedThrust, ThrustCurve
 
 
 async def _calibrate(session) -> dict:
@@ -70,11 +70,12 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     assert run.parameters["drive"] == "thrusters"
     assert run.parameters["calibration_result_id"] == calibration["result_id"]
     curve = ThrustCurve.from_json(calibration["fit"])
+    calibrated = CalibratedThrust.from_table(curve, calibration["table"])
     commands = run.parameters["commands"]
     assert len(commands) == session.rig.thrusters.count
-    for u in commands:  # all push forward, each giving F/n through the curve
+    for u in commands:  # all push forward, each giving F/n as the load cell measured it
         assert u > 0
-        assert float(curve.force(u)) == pytest.approx(10.0, rel=1e-6)
+        assert float(calibrated.force(u)) == pytest.approx(10.0, rel=1e-6)
     assert await session.plc.read("sim_tow_weight") == 0  # no weight hung
     x = store.samples(outcome.run_id).channels["tow_position"]
     assert x[-1] > 0.2
@@ -98,10 +99,9 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     data = load_run_data(store, outcome.run_id)
     assert data.axis == "surge" and data.drive_inertia == 0.0 and data.hung_mass_kg is None
     # Once ramp and thrust lag (rig file: 0.15 s) are over: the force the inverse map aimed
-    # at, give or take the curve's residual at that command (the drive is corrected by the
-    # calibration table, the command came from the bare curve).
+    # at, to the command's per-mille resolution on the wire.
     after = (data.t > data.t_release + 1.5) & (data.t < data.t_end - 0.05)
-    assert data.drive[after] == pytest.approx(20.0, rel=0.01)
+    assert data.drive[after] == pytest.approx(20.0, rel=0.003)
     # The thrust went off at the brake: the recorded outputs say so, the lag decays it.
     assert data.drive[-1] < 0.1 * data.drive[after][-1]
     assert 0 < data.drive[(data.t > data.t_release)][0] < 10.0  # still ramping up
