@@ -174,6 +174,10 @@ class ThrusterPort(_Strict):
     #: Thrust response time (first-order time constant, s, from the thrusters' datasheet):
     #: the drive of thruster-driven runs is rebuilt with it (0 = thrust follows at once).
     time_constant_s: Annotated[float, Field(ge=0, le=5)] = 0.0
+    #: Thrust at a fixed command scales as (supply voltage)^voltage_exponent (datasheet;
+    #: ≈ 1.5 for brushless thrusters): the drive of thruster-driven runs is corrected by
+    #: the supply voltage recorded during the run against the calibration's (0 = not).
+    voltage_exponent: Annotated[float, Field(ge=0, le=3)] = 0.0
     ack_timeout_s: Annotated[float, Field(gt=0, le=2)] = 0.1
 
     def yaw_signs(self) -> list[float]:

@@ -145,14 +145,25 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        curve, table = _calibration(store, params)
-        measured = CalibratedThrust.from_table(curve, table)
+        curve, cal_table = _calibration(store, params)
+        measured = CalibratedThrust.from_table(curve, cal_table)
         steps = _thrust_steps(store.events(run.id), timeline.offset)
-        drive = thruster_drive(measured, rig, run.kind, params["commands"], t, t_release, steps)
+        volts = table.channels.get("supply_voltage")
+        volts = None if volts is None else volts[timeline.good]
+        drive = thruster_drive(
+            measured, rig, run.kind, params["commands"], t, t_release, steps, volts
+        )
         draws = np.array(
             [
                 thruster_drive(
-                    measured.with_curve(c), rig, run.kind, params["commands"], t, t_release, steps
+                    measured.with_curve(c),
+                    rig,
+                    run.kind,
+                    params["commands"],
+                    t,
+                    t_release,
+                    steps,
+                    volts,
                 )
                 for c in curve_draws(curve, DRIVE_DRAWS)
             ]
@@ -267,6 +278,7 @@ def thruster_drive(
     t: np.ndarray,
     t_on: float,
     steps: list[tuple[float, list[float]]] | None = None,
+    volts: np.ndarray | None = None,
 ) -> np.ndarray:
     """Drive of a thruster-driven tow (force, N: Σ F) or spin (torque, N·m: Σ sign·F·L) per
     sample, from the calibrated thrust curve; ``t`` the sample times, ``t_on`` the instant
@@ -277,10 +289,13 @@ def thruster_drive(
     sent it: a first step at ``t_on`` credited with the time since the previous tick,
     then one step per acquisition tick (the sample times) of at most
     ``max_command_slew_per_s`` × the tick interval (≤ 0.1 s) toward ``commands`` — right
-    only while the heartbeat kept time. The thrust follows the outputs with the rig
-    file's first-order ``thrusters.time_constant_s``. The estimator holds each sample's
-    drive until the next sample, so each value is the mean drive over its sample interval
-    (built on a 1 ms grid).
+    only while the heartbeat kept time. With the rig file's ``thrusters.voltage_exponent``
+    q > 0, a ``CalibratedThrust`` and the run's supply voltage per sample (``volts``),
+    each thruster's force is scaled by (V / V_cal(command))^q: the supply sags as the
+    thrust rises and may have dropped since the calibration. The thrust follows the
+    outputs with the rig file's first-order ``thrusters.time_constant_s``. The estimator
+    holds each sample's drive until the next sample, so each value is the mean drive over
+    its sample interval (built on a 1 ms grid).
     """
     from daq.procedures.thruster_drive import thrust_layout
 
@@ -304,9 +319,14 @@ def thruster_drive(
         outputs = held.T
     else:
         outputs = _modelled_ramp(rig, commands, t, t_on, grid)
+    supply = _supply_on_grid(volts, t, grid)
+    exponent = rig.thrusters.voltage_exponent
     force = np.zeros_like(grid)
     for sign, output in zip(signs, outputs, strict=True):
-        force += sign * curve.force(output) * arm
+        thrust = curve.force(output)
+        if supply is not None and isinstance(curve, CalibratedThrust):
+            thrust = thrust * curve.supply_factor(output, supply, exponent)
+        force += sign * thrust * arm
     tau = rig.thrusters.time_constant_s
     if tau > 0:
         from scipy.signal import lfilter
@@ -318,6 +338,16 @@ def thruster_drive(
     total = np.concatenate([[0.0], np.cumsum(force)])
     counts = np.maximum(np.diff(edges), 1)
     return (total[edges[1:]] - total[edges[:-1]]) / counts
+
+
+def _supply_on_grid(volts: np.ndarray | None, t: np.ndarray, grid: np.ndarray) -> np.ndarray | None:
+    """The run's supply voltage on the drive grid: a 3-sample running mean (the reading's
+    noise) interpolated between samples; None when not recorded."""
+    if volts is None or volts.size != t.size or not np.all(np.isfinite(volts)) or t.size < 3:
+        return None
+    smooth = np.convolve(volts, np.ones(3) / 3, mode="same")
+    smooth[0], smooth[-1] = volts[:2].mean(), volts[-2:].mean()
+    return np.interp(grid, t, smooth)
 
 
 def _modelled_ramp(

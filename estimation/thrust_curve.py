@@ -189,15 +189,20 @@ class CalibratedThrust:
     curve: ThrustCurve
     commands: np.ndarray
     residuals: np.ndarray
+    #: Mean supply voltage while each command was measured, V (NaN: not recorded).
+    voltages: np.ndarray | None = None
 
     @classmethod
     def from_table(cls, curve: ThrustCurve, table: list[dict]) -> CalibratedThrust:
-        """Residuals of ``curve`` at each calibrated command of the calibration table."""
+        """Residuals of ``curve`` at each calibrated command of the calibration table, and
+        the supply voltage each command was measured at."""
         by_command: dict[float, list[float]] = {0.0: []}
+        volts: dict[float, list[float]] = {}
         for row in table:
-            by_command.setdefault(float(row["command"]), []).append(
-                float(row["thrust_per_thruster_n"])
-            )
+            u = float(row["command"])
+            by_command.setdefault(u, []).append(float(row["thrust_per_thruster_n"]))
+            if row.get("supply_voltage_v") is not None:
+                volts.setdefault(u, []).append(float(row["supply_voltage_v"]))
         commands = np.array(sorted(by_command))
         residuals = np.array(
             [
@@ -205,11 +210,25 @@ class CalibratedThrust:
                 for u in commands
             ]
         )
-        return cls(curve, commands, residuals)
+        voltages = np.array([np.mean(volts[u]) if u in volts else np.nan for u in commands])
+        return cls(curve, commands, residuals, voltages)
 
     def with_curve(self, curve: ThrustCurve) -> CalibratedThrust:
         """The same residual correction on another (drawn) curve."""
-        return CalibratedThrust(curve, self.commands, self.residuals)
+        return CalibratedThrust(curve, self.commands, self.residuals, self.voltages)
+
+    def supply_factor(
+        self, command: np.ndarray, volts: np.ndarray, exponent: float
+    ) -> np.ndarray | float:
+        """(V / V_cal(command))^exponent: the thrust at supply ``volts`` relative to the
+        calibration's at that command (V_cal interpolated between calibrated commands).
+        1 when the calibration recorded no voltage or ``exponent`` is 0."""
+        known = self.voltages is not None and np.isfinite(self.voltages)
+        if not exponent or not np.any(known):
+            return 1.0
+        assert self.voltages is not None
+        v_cal = np.interp(command, self.commands[known], self.voltages[known])
+        return (np.asarray(volts, dtype=float) / v_cal) ** exponent
 
     def force(self, command: np.ndarray | float) -> np.ndarray:
         """Thrust of one thruster, N."""
