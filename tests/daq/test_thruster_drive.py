@@ -7,7 +7,7 @@ import pytest
 
 from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.run_data import thruster_drive
-from estimation.thrust_curve import ThrustCurve
+from estimation.thrust_curve import CalibratedThrust, ThrustCurve
 
 CURVE = ThrustCurve(
     np.array([50.0, 0.05, 0.8, 39.0, 0.05, 0.8, 0.0]), np.zeros(7), np.eye(7), 0.1, -0.8, 0.8
@@ -52,3 +52,28 @@ def test_steps_with_the_wrong_number_of_outputs_are_refused():
     rig = load_rig(DEFAULT_RIG_FILE)
     with pytest.raises(ValueError, match="one output per thruster"):
         thruster_drive(CURVE, rig, "tow", [0.5, 0.5], T, 0.5, [(0.5, [0.1])])
+
+
+def test_the_supply_voltage_scales_the_drive_against_the_calibration_voltage():
+    rig = load_rig(DEFAULT_RIG_FILE)
+    n, q = rig.thrusters.count, rig.thrusters.voltage_exponent
+    assert q == 1.5
+    table = [
+        {"command": u, "thrust_per_thruster_n": float(CURVE.force(u)), "supply_voltage_v": v}
+        for u, v in ((0.2, 15.9), (0.5, 15.6))
+    ]
+    calibrated = CalibratedThrust.from_table(CURVE, table)
+    steps = [(0.5, [0.5] * n)]
+    at_calibration = thruster_drive(calibrated, rig, "tow", [0.5] * n, T, 0.5, steps, T * 0 + 15.6)
+    sagged_less = thruster_drive(calibrated, rig, "tow", [0.5] * n, T, 0.5, steps, T * 0 + 15.9)
+    unknown = thruster_drive(calibrated, rig, "tow", [0.5] * n, T, 0.5, steps)
+    np.testing.assert_allclose(at_calibration, unknown, rtol=1e-12)
+    on = T > 1.5
+    np.testing.assert_allclose(sagged_less[on] / at_calibration[on], (15.9 / 15.6) ** q)
+    # A calibration that recorded no voltage cannot be compensated against.
+    bare = CalibratedThrust.from_table(
+        CURVE, [{k: r[k] for k in ("command", "thrust_per_thruster_n")} for r in table]
+    )
+    np.testing.assert_allclose(
+        thruster_drive(bare, rig, "tow", [0.5] * n, T, 0.5, steps, T * 0 + 15.9), unknown
+    )
