@@ -69,9 +69,9 @@ def _timeline(
 
     The PLC's own clock when the run has it (device-side timestamps, free of host
     scheduling jitter), else the host's monotonic time. Host instants from the events
-    (release ``t_mono``, the ``end`` event's key) are mapped onto it with the median
-    host/PLC offset; ``t_release_std`` combines the write's bracket, the offset's spread
-    and the clock's step.
+    (release ``t_mono``, the ``end`` event's key) are mapped onto it with the host/PLC
+    offset of the least-delayed samples; ``t_release_std`` combines the write's bracket,
+    the offset's spread and the clock's step.
     """
     good = np.isfinite(table.channels[channel]) & ((table.quality & int(Quality.ERROR)) == 0)
     t_host = table.t_mono[good]
@@ -82,10 +82,14 @@ def _timeline(
         t = clock[good]
         # One count of the PLC clock (the rig file's scale; ms on BENBAM).
         clock_step = abs(rig.channel("plc_clock").scale) if rig is not None else 1e-3
-    # Map host instants (release, brake) onto the chosen time base.
+    # Map host instants (release, brake, thrust steps) onto the chosen time base. A sample's
+    # host time is stamped when its reply arrived, i.e. late by the poll's latency, which is
+    # never negative and grows under CPU load: the least-delayed samples (the top tenth of
+    # PLC − host) give the offset, as the minimum-delay filter of clock synchronisation
+    # does. The median would put host events early by the typical latency.
     gap = t - t_host
-    offset = float(np.median(gap)) if t.size else 0.0
-    offset_spread = 1.4826 * float(np.median(np.abs(gap - offset))) if t.size else 0.0
+    offset = float(np.mean(np.sort(gap)[-max(1, gap.size // 10) :])) if t.size else 0.0
+    offset_spread = 1.4826 * float(np.median(np.abs(gap - np.median(gap)))) if t.size else 0.0
     events = store.events(run.id)
     t_release = _event_time(events, "release")
     t_stop = _event_time(events, *end)
