@@ -54,6 +54,7 @@ class _Timeline:
     t_release_std: float
     t_end: float | None
     offset: float  # host monotonic time + offset = the time base
+    events: list  # the run's stored events
 
 
 def _timeline(
@@ -104,7 +105,9 @@ def _timeline(
         t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
     t_end = None if t_stop is None else t_stop + offset
     t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
-    return _Timeline(np.asarray(t, dtype=float), good, t_release, t_release_std, t_end, offset)
+    return _Timeline(
+        np.asarray(t, dtype=float), good, t_release, t_release_std, t_end, offset, events
+    )
 
 
 def load_run_data(store: Store, run_id: str) -> RunData:
@@ -151,7 +154,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
         curve, cal_table = _calibration(store, params)
         measured = CalibratedThrust.from_table(curve, cal_table)
-        steps = _thrust_steps(store.events(run.id), timeline.offset)
+        steps = _thrust_steps(timeline.events, timeline.offset)
         volts = table.channels.get("supply_voltage")
         volts = None if volts is None else volts[timeline.good]
         drive = thruster_drive(
@@ -309,20 +312,17 @@ def thruster_drive(
     signs, arm = thrust_layout(rig.thrusters, kind)
     end = float(t[-1]) + (float(np.median(np.diff(t))) if t.size > 1 else 0.1)
     grid = np.arange(float(t[0]), end + DRIVE_GRID_S, DRIVE_GRID_S)
-    if steps is not None:
-        if any(len(fractions) != len(signs) for _, fractions in steps):
-            raise ValueError(
-                f"thrust steps: one output per thruster ({len(signs)}) needed in every step"
-            )
-        step_times = np.array([instant for instant, _ in steps], dtype=float)
-        values = np.array([fractions for _, fractions in steps], dtype=float).reshape(
-            -1, len(signs)
+    if steps is None:
+        steps = _modelled_steps(rig, commands, t, t_on)
+    if any(len(fractions) != len(signs) for _, fractions in steps):
+        raise ValueError(
+            f"thrust steps: one output per thruster ({len(signs)}) needed in every step"
         )
-        index = np.searchsorted(step_times, grid, side="right") - 1
-        held = np.where(index[:, None] >= 0, values[np.clip(index, 0, None)], 0.0)
-        outputs = held.T
-    else:
-        outputs = _modelled_ramp(rig, commands, t, t_on, grid)
+    # Each step's outputs held until the next step (zero before the first).
+    step_times = np.array([instant for instant, _ in steps], dtype=float)
+    values = np.array([fractions for _, fractions in steps], dtype=float).reshape(-1, len(signs))
+    index = np.searchsorted(step_times, grid, side="right") - 1
+    outputs = np.where(index[:, None] >= 0, values[np.clip(index, 0, None)], 0.0).T
     supply = _supply_on_grid(volts, t, grid)
     exponent = rig.thrusters.voltage_exponent
     force = np.zeros_like(grid)
@@ -354,11 +354,11 @@ def _supply_on_grid(volts: np.ndarray | None, t: np.ndarray, grid: np.ndarray) -
     return np.interp(grid, t, smooth)
 
 
-def _modelled_ramp(
-    rig: RigConfig, commands: list[float], t: np.ndarray, t_on: float, grid: np.ndarray
-) -> np.ndarray:
-    """Outputs per thruster on ``grid`` as the driver ramps them toward ``commands`` when
-    every heartbeat comes on its acquisition tick."""
+def _modelled_steps(
+    rig: RigConfig, commands: list[float], t: np.ndarray, t_on: float
+) -> list[tuple[float, list[float]]]:
+    """The steps the driver sends toward ``commands`` when every heartbeat comes on its
+    acquisition tick (runs recorded before the confirmed outputs were stored)."""
     from thrusters.driver import MAX_SLEW_INTERVAL_S
 
     before = t[t < t_on]
@@ -366,9 +366,10 @@ def _modelled_ramp(
     step_times = np.concatenate([[t_on], t[t > t_on]])
     credit = np.minimum(np.diff(np.concatenate([[previous], step_times])), MAX_SLEW_INTERVAL_S)
     ramp = np.cumsum(rig.limits.max_command_slew_per_s * credit)  # |command| at each step
-    index = np.searchsorted(step_times, grid, side="right") - 1
-    reach = np.where(index >= 0, ramp[np.clip(index, 0, None)], 0.0)
-    return np.array([np.sign(c) * np.minimum(abs(c), reach) for c in commands])
+    return [
+        (float(at), [float(np.sign(c) * min(abs(c), reach)) for c in commands])
+        for at, reach in zip(step_times, ramp, strict=True)
+    ]
 
 
 #: Thrust curves drawn per thruster-driven run to carry the calibration's uncertainty.
