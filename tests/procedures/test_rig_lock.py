@@ -13,7 +13,10 @@ from pathlib import Path
 
 import pytest
 
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import tow_parameters
 from daq.rig_lock import FileRigLock, PostgresRigLock, ProcessRigLock, RigInUse, rig_lock
+from daq.session import RigSession, RigSource
 from daq.store import Store
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,6 +24,8 @@ RIG = "BENBAM tow tank"
 
 HOLD = """
 import sys
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import tow_parameters
 from daq.rig_lock import rig_lock
 lock = rig_lock(sys.argv[1], sys.argv[2], "holder-child")
 lock.acquire()
@@ -70,7 +75,7 @@ def test_second_holder_is_refused_with_the_first_ones_name(db_url):
         assert first.holder().program == "rig tow"
 
 
-def test_a_sigkilled_holder_does_not_block_the_next(db_url):
+async def test_a_sigkilled_holder_does_not_block_the_next_run(db_url):
     Store(db_url).close()
     child = subprocess.Popen(
         [sys.executable, "-c", HOLD, db_url, RIG],
@@ -87,8 +92,13 @@ def test_a_sigkilled_holder_does_not_block_the_next(db_url):
         child.send_signal(signal.SIGKILL)
         child.wait(10)
         _wait_free(lock)
-        with lock:
-            assert lock.held
+        with Store(db_url) as store:  # the next run takes the rig and completes
+            async with RigSession(RigSource.load(), store) as session:
+                params = tow_parameters(
+                    {"force_n": 24.5, "max_time_s": 1.0, "baseline_s": 0.2}, session.rig
+                )
+                outcome = await run_motion_test(session, params)
+            assert outcome.status == "completed"
     finally:
         if child.poll() is None:
             child.kill()
