@@ -55,19 +55,19 @@ def serve(
     except OSError as err:
         fail(f"cannot bind {host}:{port}: {err.strerror}", code=1)
     bound_port = sock.getsockname()[1]
-    app = create_app(
-        service, token=token, open_read=open_read, cors_origins=cors_origins, manage_service=False
-    )
+    # The app's lifespan stops the service (rig left safe) before uvicorn re-raises a SIGTERM.
+    app = create_app(service, token=token, open_read=open_read, cors_origins=cors_origins)
     # Configures logging: before the rig opens, so the device loggers keep their levels.
     config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
     # Open the rig (and take its lock) before announcing anything: a rig another process
     # drives, or one that cannot be reached, is one line on stderr and exit code 1.
     try:
         service.start()
-    except RigUnavailable as err:
+    except Exception as err:  # the rig is held elsewhere or unreachable, or a bad database
         sock.close()
         app.state.runner.close()
-        fail(str(err), code=1)
+        bad_db = f"cannot open database {db_url or '(default)'}: {err}"
+        fail(str(err) if isinstance(err, RigUnavailable) else bad_db, code=1)
     shown = f"[{host}]" if ":" in host else host
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
@@ -80,7 +80,7 @@ def serve(
     try:
         server.run(sockets=[sock])
     finally:
-        service.stop()  # thrusters zero, brakes on, the rig lock given back
+        service.stop()  # (already done by the lifespan, unless uvicorn never started)
 
 
 def _token_from_env() -> bool:

@@ -179,6 +179,11 @@ class RigService:
 
     # -- crossing into the rig loop ------------------------------------------------------
     @property
+    def started(self) -> bool:
+        """``start()`` was called and ``stop()`` not yet."""
+        return self._thread is not None
+
+    @property
     def running(self) -> bool:
         return self.session is not None and self.loop is not None and not self.loop.is_closed()
 
