@@ -15,13 +15,13 @@ import shutil
 import subprocess
 import sys
 import sysconfig
-import time
 from pathlib import Path
 
 import httpx
 import pytest
 
 from tests.conftest import IN_CI
+from tests.serve import wait_for_service
 
 ROOT = Path(__file__).resolve().parents[1]
 TOKEN = "install-test-token"
@@ -98,19 +98,7 @@ def test_installed_rig_serve_answers_with_the_token(installed, tmp_path):
         text=True,
     )
     try:
-        first = proc.stdout.readline()
-        assert first.startswith("rig service: http://127.0.0.1:"), first + proc.stdout.read()
-        url = first.split()[2]
-        end = time.monotonic() + 30
-        while True:
-            try:
-                if httpx.get(url + "api/health", timeout=1).json()["ok"]:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert proc.poll() is None, f"rig serve exited: {proc.stdout.read()}"
-            assert time.monotonic() < end, "rig serve did not come up"
-            time.sleep(0.1)
+        url = wait_for_service(proc)
         auth = {"Authorization": f"Bearer {TOKEN}"}
         rig = httpx.get(url + "api/rig", headers=auth, timeout=5)
         assert rig.status_code == 200, rig.text
