@@ -245,6 +245,7 @@ class JobRunner:
                 run_ids=run_ids,
                 fraction=1.0 if state == "completed" else job.fraction,
                 message=f"{state}" + (f": {data['reason']}" if data.get("reason") else ""),
+                error=None if state == "completed" else data.get("reason"),
             )
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)

@@ -310,9 +310,14 @@ class RunRecorder:
                     self.store.finish_run, self.run_id, status, reason, stopped_at=stopped_at
                 )
                 break
+            except ValueError:
+                # "already ended": an earlier attempt may have committed before its error.
+                if attempts and self.store.get_run(self.run_id).status == status:
+                    break
+                raise  # a wrong status, or a run someone else ended: a bug, not storage
             except Exception as exc:
                 if not isinstance(exc, sa.exc.SQLAlchemyError | OSError):
-                    raise  # a wrong status or a run already ended: a bug, not storage
+                    raise
                 err = describe(exc)
                 attempts += 1
                 self.stats.last_error = err.message

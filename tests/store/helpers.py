@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import sqlalchemy as sa
+
 from daq.sample import Quality, Sample
 from daq.store import Store
 
@@ -36,3 +38,41 @@ def make_samples(start: int, count: int, *, t0_wall: float = 1.7e9) -> list[Samp
         )
         for seq in range(start, start + count)
     ]
+
+
+class SqliteLimits:
+    """Per-connection SQLite settings applied to every pooled connection of a store."""
+
+    def __init__(self, store: Store) -> None:
+        self.store = store
+        self.max_pages: int | None = None
+        self.busy_ms: int | None = None
+        self.read_only = False
+        sa.event.listen(store.engine, "connect", self._apply)
+
+    def _apply(self, dbapi_connection, _record) -> None:
+        if self.max_pages is not None:
+            dbapi_connection.execute(f"PRAGMA max_page_count={self.max_pages}")
+        if self.busy_ms is not None:
+            dbapi_connection.execute(f"PRAGMA busy_timeout={self.busy_ms}")
+        if self.read_only:
+            dbapi_connection.execute("PRAGMA query_only=ON")
+
+    def set(
+        self, *, max_pages: int | None = None, busy_ms: int | None = None, read_only: bool = False
+    ) -> None:
+        self.max_pages, self.busy_ms, self.read_only = max_pages, busy_ms, read_only
+        self.store.engine.dispose()  # new connections take the new settings
+
+    def fill(self) -> None:
+        """No room for one more page: the next batch fails with SQLITE_FULL."""
+        with self.store.engine.connect() as conn:
+            pages = conn.exec_driver_sql("PRAGMA page_count").scalar_one()
+        self.set(max_pages=pages)
+
+
+def no_sql(text: str | None) -> None:
+    """``text`` is one line without SQL, parameters or SQLAlchemy's footer."""
+    assert text is not None and "\n" not in text, text
+    for word in ("INSERT", "SELECT", "UPDATE", "[SQL", "parameters", "Background on"):
+        assert word not in text, text

@@ -4,7 +4,7 @@ again or the store is next opened; a held lock is retried, and the run's end is 
 once, truthfully.
 
 A real SQLite database is made "full" with ``PRAGMA max_page_count`` (SQLITE_FULL, as a
-full disk gives) and locked by a second real connection.
+full disk gives), read-only, or locked by a second real connection.
 """
 
 from __future__ import annotations
@@ -19,38 +19,7 @@ import sqlalchemy as sa
 from daq.store import RunRecorder, Store
 from daq.store.faults import describe, one_line
 from daq.store.spill import read_spill
-from tests.store.helpers import make_samples, new_run
-
-
-class Limits:
-    """Per-connection SQLite settings applied to every pooled connection of a store."""
-
-    def __init__(self, store: Store) -> None:
-        self.store = store
-        self.max_pages: int | None = None
-        self.busy_ms: int | None = None
-        self.read_only = False
-        sa.event.listen(store.engine, "connect", self._apply)
-
-    def _apply(self, dbapi_connection, _record) -> None:
-        if self.max_pages is not None:
-            dbapi_connection.execute(f"PRAGMA max_page_count={self.max_pages}")
-        if self.busy_ms is not None:
-            dbapi_connection.execute(f"PRAGMA busy_timeout={self.busy_ms}")
-        if self.read_only:
-            dbapi_connection.execute("PRAGMA query_only=ON")
-
-    def set(
-        self, *, max_pages: int | None = None, busy_ms: int | None = None, read_only: bool = False
-    ) -> None:
-        self.max_pages, self.busy_ms, self.read_only = max_pages, busy_ms, read_only
-        self.store.engine.dispose()  # new connections take the new settings
-
-    def fill(self) -> None:
-        """No room for one more page: the next batch fails with SQLITE_FULL."""
-        with self.store.engine.connect() as conn:
-            pages = conn.exec_driver_sql("PRAGMA page_count").scalar_one()
-        self.set(max_pages=pages)
+from tests.store.helpers import SqliteLimits, make_samples, new_run, no_sql
 
 
 @pytest.fixture
@@ -60,16 +29,10 @@ def sqlite_store(tmp_path):
     store.close()
 
 
-def _no_sql(text: str | None) -> None:
-    assert text is not None and "\n" not in text
-    for word in ("INSERT", "SELECT", "UPDATE", "[SQL", "parameters", "Background on"):
-        assert word not in text, text
-
-
 async def test_a_full_database_is_one_fault_spilled_and_written_back_when_room_returns(
     sqlite_store: Store,
 ) -> None:
-    limits = Limits(sqlite_store)
+    limits = SqliteLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     faults: list[str] = []
     recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
@@ -102,7 +65,7 @@ async def test_a_full_database_is_one_fault_spilled_and_written_back_when_room_r
 async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_next_open(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = Limits(sqlite_store)
+    limits = SqliteLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     faults: list[str] = []
     recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
@@ -124,7 +87,7 @@ async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_
     with Store(sqlite_store.url, spill_dir=tmp_path / "spill") as reopened:
         run = reopened.get_run(run_id)
         assert (run.status, run.reason) == (status, reason)
-        _no_sql(run.reason)
+        no_sql(run.reason)
         np.testing.assert_array_equal(reopened.samples(run_id).seq, np.arange(530))
         (event,) = reopened.events(run_id)
         assert event.message == "end of travel: brake engaged" and event.data == {"seq": 529}
@@ -134,7 +97,7 @@ async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_
 async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_completes(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = Limits(sqlite_store)
+    limits = SqliteLimits(sqlite_store)
     limits.set(busy_ms=50)  # each attempt gives up quickly: the retries are what is tested
     run_id = new_run(sqlite_store)
     faults: list[str] = []
@@ -162,7 +125,7 @@ async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_comple
 async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = Limits(sqlite_store)
+    limits = SqliteLimits(sqlite_store)
     limits.set(busy_ms=50)
     run_id = new_run(sqlite_store)
     recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
@@ -175,7 +138,7 @@ async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
     while recorder.stats.last_error is None:
         await asyncio.sleep(0.02)
     assert "database is locked" in recorder.stats.last_error
-    _no_sql(recorder.stats.last_error)
+    no_sql(recorder.stats.last_error)
     blocker.execute("COMMIT")
     blocker.close()
     assert await asyncio.wait_for(ending, 30) == ("completed", None)
@@ -185,7 +148,7 @@ async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
 def test_database_errors_read_as_one_line_and_say_whether_a_retry_helps(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = Limits(sqlite_store)
+    limits = SqliteLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     limits.fill()
     with pytest.raises(sa.exc.OperationalError) as full:
@@ -193,7 +156,7 @@ def test_database_errors_read_as_one_line_and_say_whether_a_retry_helps(
     assert "INSERT INTO samples" in str(full.value)  # what used to reach the operator
     assert describe(full.value).message == "SQLite: database or disk is full"
     assert not describe(full.value).retryable
-    _no_sql(one_line(full.value))
+    no_sql(one_line(full.value))
 
     limits.set(busy_ms=10)
     blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
