@@ -25,10 +25,14 @@ from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import one_line
+from daq.store.spill import write_back_later
 
 log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[Progress], None]
+
+#: Background write-backs of spill files (a reference keeps each task alive).
+_WRITE_BACKS: set[asyncio.Task] = set()
 
 
 class AbortSignal:
@@ -155,6 +159,10 @@ class RecordedRun:
         # Flush the rest and write the end once (retried; a storage fault makes it
         # ``aborted`` naming storage; unstored samples wait in the spill file).
         self.status, self.reason = await self._recorder.end(self.status, self.reason)
+        if self._recorder.spill.path.exists():  # the database did not take everything
+            task = asyncio.create_task(write_back_later(self.store, self._recorder.spill.path))
+            _WRITE_BACKS.add(task)
+            task.add_done_callback(_WRITE_BACKS.discard)
         for task in (self._pump_task, self._recorder_task):
             with contextlib.suppress(BaseException):
                 await task

@@ -11,6 +11,7 @@ by another process never replays a run that is still being recorded.
 
 from __future__ import annotations
 
+import asyncio
 import fcntl
 import json
 import logging
@@ -141,6 +142,17 @@ def read_spill(path: Path) -> SpillContents:
                 status, reason, stopped_at = record["end"]
                 end = (status, reason, stopped_at)
     return SpillContents(samples, events, end)
+
+
+async def write_back_later(store: Store, path: Path, *, max_delay_s: float = 60.0) -> None:
+    """Retry :func:`replay_spills` (1 s doubling to ``max_delay_s``) until ``path`` is
+    written back: a long-lived process (``rig serve``) ends a run as soon as storage
+    allows, without waiting for the next run or a restart."""
+    delay = 1.0
+    while path.exists():
+        await asyncio.sleep(delay)
+        await asyncio.to_thread(replay_spills, store, path.parent)
+        delay = min(2 * delay, max_delay_s)
 
 
 def replay_spills(store: Store, directory: Path | None = None) -> list[str]:

@@ -1,6 +1,6 @@
 """Under ``rig serve``: storage failing mid-tow aborts the job with a one-line error naming
-storage, the rig is left safe, and the run's end is written once storage takes writes
-again (here: before the next run starts)."""
+storage, the rig is left safe, and the run's end (and the samples kept aside) is written
+as soon as storage takes writes again, while the service runs."""
 
 from __future__ import annotations
 
@@ -48,8 +48,11 @@ def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_s
     (run_id,) = job["run_ids"]
     assert client.get(f"/api/runs/{run_id}", headers=AUTH).json()["status"] == "running"
 
-    limits.set()  # storage is back: the next run first writes back what was kept aside
-    assert wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))["state"] == ("completed")
-    run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
+    limits.set()  # storage is back: the service writes back what was kept aside
+    end = time.monotonic() + 30
+    while (run := client.get(f"/api/runs/{run_id}", headers=AUTH).json())["status"] == "running":
+        assert time.monotonic() < end, "the run's end was never written"
+        time.sleep(0.1)
     assert (run["status"], run["reason"]) == ("aborted", REASON)
     assert run["sample_count"] > job["outcome"]["samples"]  # the kept samples are back
+    assert wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))["state"] == ("completed")
