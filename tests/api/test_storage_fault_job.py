@@ -11,7 +11,7 @@ import pytest
 from api.service import RigService
 from daq.session import RigSource
 from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
-from tests.store.helpers import SqliteLimits, no_sql
+from tests.store.helpers import DbLimits, no_sql
 
 REASON = "storage failed: SQLite: attempt to write a readonly database"
 
@@ -27,7 +27,7 @@ def service(tmp_path_factory) -> RigService:
 def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_safe(
     client, service
 ):
-    limits = SqliteLimits(service.store)
+    limits = DbLimits(service.store)
     job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
     end = time.monotonic() + 30
     while (

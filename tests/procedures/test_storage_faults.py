@@ -33,7 +33,7 @@ from daq.store import Store
 from daq.store.spill import SUFFIX
 from tests.conftest import IN_CI
 from tests.procedures.conftest import short_rail
-from tests.store.helpers import SqliteLimits, no_sql
+from tests.store.helpers import DbLimits, no_sql
 
 ROOT = Path(__file__).resolve().parents[2]
 TOW = [sys.executable, "-m", "api.cli", "tow", "--force", "2", "--max-time", "40"]
@@ -105,7 +105,7 @@ def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, t
 
 async def test_a_database_refusing_writes_mid_tow_leaves_the_rig_safe(source, tmp_path):
     store = Store(f"sqlite:///{tmp_path / 'rig.db'}", spill_dir=tmp_path / "spill")
-    limits = SqliteLimits(store)
+    limits = DbLimits(store)
     try:
         async with RigSession(source, store) as session:
             params = tow_parameters(

@@ -19,7 +19,7 @@ import sqlalchemy as sa
 from daq.store import RunRecorder, Store
 from daq.store.faults import describe, one_line
 from daq.store.spill import read_spill
-from tests.store.helpers import SqliteLimits, make_samples, new_run, no_sql
+from tests.store.helpers import DbLimits, held_write_lock, make_samples, new_run, no_sql
 
 
 @pytest.fixture
@@ -32,7 +32,7 @@ def sqlite_store(tmp_path):
 async def test_a_full_database_is_one_fault_spilled_and_written_back_when_room_returns(
     sqlite_store: Store,
 ) -> None:
-    limits = SqliteLimits(sqlite_store)
+    limits = DbLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     faults: list[str] = []
     recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
@@ -65,7 +65,7 @@ async def test_a_full_database_is_one_fault_spilled_and_written_back_when_room_r
 async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_next_open(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = SqliteLimits(sqlite_store)
+    limits = DbLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     faults: list[str] = []
     recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
@@ -97,7 +97,7 @@ async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_
 async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_completes(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = SqliteLimits(sqlite_store)
+    limits = DbLimits(sqlite_store)
     limits.set(busy_ms=50)  # each attempt gives up quickly: the retries are what is tested
     run_id = new_run(sqlite_store)
     faults: list[str] = []
@@ -125,7 +125,7 @@ async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_comple
 async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = SqliteLimits(sqlite_store)
+    limits = DbLimits(sqlite_store)
     limits.set(busy_ms=50)
     run_id = new_run(sqlite_store)
     recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
@@ -148,7 +148,7 @@ async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
 def test_database_errors_read_as_one_line_and_say_whether_a_retry_helps(
     sqlite_store: Store, tmp_path
 ) -> None:
-    limits = SqliteLimits(sqlite_store)
+    limits = DbLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     limits.fill()
     with pytest.raises(sa.exc.OperationalError) as full:
@@ -170,3 +170,36 @@ def test_database_errors_read_as_one_line_and_say_whether_a_retry_helps(
     assert describe(locked.value).message == "SQLite: database is locked"
     assert describe(locked.value).retryable
     assert one_line(ValueError("two\nlines")) == "two lines"
+
+
+async def test_refused_writes_are_a_fault_and_a_held_lock_is_retried(store: Store, tmp_path):
+    """Both backends: a lock is waited out (no fault), refused writes are one fault."""
+    limits = DbLimits(store)
+    limits.set(busy_ms=50)
+    run_id = new_run(store)
+    faults: list[str] = []
+    recorder = RunRecorder(
+        store, run_id, flush_interval_s=0.1, on_fault=faults.append, spill_dir=tmp_path
+    )
+    with held_write_lock(store):
+        for sample in make_samples(0, 10):
+            recorder.put(sample)
+        assert await recorder.flush() == 0
+        assert recorder.stats.failed_flushes == 1 and faults == []
+        no_sql(recorder.stats.last_error)
+    assert await recorder.flush() == 10
+
+    limits.set(read_only=True)
+    for sample in make_samples(10, 10):
+        recorder.put(sample)
+    assert await recorder.flush() == 0
+    (fault,) = faults
+    assert fault.startswith("storage failed: ") and "read" in fault, fault
+    no_sql(fault)
+    assert [s.seq for s in read_spill(recorder.spill.path).samples] == list(range(10, 20))
+
+    limits.set()
+    assert await recorder.end("completed", None) == ("aborted", fault)
+    run = store.get_run(run_id)
+    assert (run.status, run.reason, run.sample_count) == ("aborted", fault, 20)
+    assert not recorder.spill.path.exists()
