@@ -58,9 +58,12 @@ class RecorderStats:
 
 
 class RunRecorder:
-    """Batches samples of one run into the store, flushing at least every
+    """Batches samples (and events) of one run into the store, flushing at least every
     ``flush_interval_s`` seconds; at most ``max_queue`` samples wait in memory (more are
-    dropped and counted, so a stuck database can never exhaust memory or stall the clock)."""
+    dropped and counted, so a stuck database can never exhaust memory or stall the clock).
+    ``on_fault`` is called once with a one-line message on the first storage fault;
+    unstored samples then also go to the spill file in ``spill_dir`` (default: the
+    store's)."""
 
     def __init__(
         self,
