@@ -290,15 +290,18 @@ class RunRecorder:
         """Close, then write the run's end once, truthfully; returns the (status, reason)
         written (or kept in the spill file for the next open).
 
-        A storage fault turns ``completed`` into ``aborted`` (the fault is the reason) and
-        is added to another reason; a run whose samples were all stored keeps its status
-        whatever happens while its end is written (retried like :meth:`close`).
+        A storage fault that leaves samples unstored turns ``completed`` into ``aborted``
+        (the fault is the reason) and is added to another reason; a run whose samples were
+        all stored keeps its status whatever happens while its end is written (retried
+        like :meth:`close`).
         """
         with contextlib.suppress(StorageFault):
             await self.close()
         if self.fault is not None:
             if status == "completed":
-                status, reason = "aborted", self.fault
+                if self._queue or self.stats.dropped_queue_full:  # samples not stored
+                    status, reason = "aborted", self.fault
+                # else only events wait (in the spill file): the run stays completed
             elif reason and self.fault not in reason:
                 reason = f"{reason}; {self.fault}"
             elif not reason:

@@ -203,3 +203,22 @@ async def test_refused_writes_are_a_fault_and_a_held_lock_is_retried(store: Stor
     run = store.get_run(run_id)
     assert (run.status, run.reason, run.sample_count) == ("aborted", fault, 20)
     assert not recorder.spill.path.exists()
+
+
+async def test_only_events_refused_at_the_end_leave_a_completed_run_completed(
+    sqlite_store: Store, tmp_path
+) -> None:
+    limits = DbLimits(sqlite_store)
+    run_id = new_run(sqlite_store)
+    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
+    for sample in make_samples(0, 40):
+        recorder.put(sample)
+    await recorder.flush()  # every sample stored
+    recorder.add_event("limit", "max time 4 s: brake engaged")
+    limits.set(read_only=True)
+    assert await recorder.end("completed", None) == ("completed", None)
+    limits.set()
+    assert sqlite_store.replay_spills() == [run_id]
+    run = sqlite_store.get_run(run_id)
+    assert (run.status, run.reason, run.sample_count) == ("completed", None, 40)
+    assert [e.message for e in sqlite_store.events(run_id)] == ["max time 4 s: brake engaged"]
