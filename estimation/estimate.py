@@ -21,6 +21,7 @@ from estimation.runs import RunData, validate_runs
 from estimation.search import candidate_effects
 from estimation.search import search_effects as search_effects_fn
 from estimation.seed_methods import SEED_METHODS
+from estimation.unexplained import characterise
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
@@ -178,6 +179,9 @@ def _build(
         for e in final.effects
     )
     warnings = separability_warnings(final, prepared)
+    unexplained = characterise(final, prepared, axis) if method == "output-error" else None
+    if unexplained is not None and (text := unexplained.warning(axis)):
+        warnings.append(text)
     force_before = force_residuals(base, prepared)
     return EstimationResult(
         axis=axis,
@@ -205,6 +209,7 @@ def _build(
         cv_after=cv_after,
         bootstrap=boot,
         uncertainty=uncertainty,
+        unexplained=unexplained,
         fit_before=base,
         fit_after=final,
     )

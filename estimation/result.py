@@ -11,6 +11,7 @@ from estimation.diagnostics import Whiteness
 from estimation.drive_uncertainty import DriveUncertainty
 from estimation.output_error import FitResult
 from estimation.search import SearchStep
+from estimation.unexplained import Unexplained
 
 SCHEMA_VERSION = 1
 
@@ -86,6 +87,7 @@ class EstimationResult:
     cv_after: float | None = None
     bootstrap: Bootstrap | None = None
     uncertainty: DriveUncertainty | None = None
+    unexplained: Unexplained | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -132,6 +134,7 @@ class EstimationResult:
             },
             "bootstrap": _boot(self.bootstrap),
             "uncertainty": _uncertainty(self.uncertainty),
+            "unexplained": self.unexplained.to_json() if self.unexplained else None,
         }
         return doc
 

@@ -109,6 +109,7 @@ class RecordedRun:
             rig_toml=s.source.rig_toml,
             scenario_toml=s.source.scenario_toml,
         )
+        await s.note_run(self.run_id)
         # A storage fault stops the procedure like a lost PLC: the abort signal wakes every
         # wait (samples, operator prompts) and the ending below makes the rig safe.
         self._recorder = RunRecorder(
