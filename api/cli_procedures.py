@@ -6,6 +6,7 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 import click
+from sqlalchemy.exc import SQLAlchemyError
 
 from api.cli_common import (
     ProgressView,
@@ -29,6 +30,7 @@ from daq.procedures.params import (
 from daq.procedures.recording import AbortSignal
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
+from daq.store.faults import one_line
 
 
 def _run_procedure(
@@ -57,6 +59,8 @@ def _run_procedure(
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
                 fail("\n       ".join(err.lines()))
+            except SQLAlchemyError as err:  # storage failed outside a run (its start, say)
+                fail(f"storage failed: {one_line(err)}", code=1)
 
     try:
         return run_with_signals(main)
