@@ -88,7 +88,9 @@ def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(db_ur
         assert runs[0].status == "completed"
         release = store.samples(runs[0].id).channels["tow_release"]
     # The carriage was released once and braked once: nobody else touched the brake.
-    edges = np.diff(np.nan_to_num(release).astype(int))
+    # A poll that failed under load stores NaN: it says nothing about the coil, so skip it.
+    read = np.asarray(release, dtype=float)
+    edges = np.diff(read[np.isfinite(read)].astype(int))
     assert (edges == 1).sum() == 1 and (edges == -1).sum() == 1, release
 
 
