@@ -11,6 +11,7 @@ from estimation.diagnostics import Whiteness
 from estimation.drive_uncertainty import DriveUncertainty
 from estimation.output_error import FitResult
 from estimation.search import SearchStep
+from estimation.window import WindowReport
 
 SCHEMA_VERSION = 1
 
@@ -86,6 +87,8 @@ class EstimationResult:
     cv_after: float | None = None
     bootstrap: Bootstrap | None = None
     uncertainty: DriveUncertainty | None = None
+    #: Per run, the samples fitted and how the release and end were found.
+    windows: dict[str, WindowReport] = field(default_factory=dict)
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -132,6 +135,7 @@ class EstimationResult:
             },
             "bootstrap": _boot(self.bootstrap),
             "uncertainty": _uncertainty(self.uncertainty),
+            "windows": {k: w.to_json() for k, w in self.windows.items()},
         }
         return doc
 
