@@ -172,8 +172,9 @@ def refine_release(
     threshold: float,
 ) -> float:
     """Release instant in [low, high] that best fits the start of a released motion,
-    x − base = A·(s − τ(1 − e^{−s/τ})) with s = t − t_r ≥ 0 (τ on a grid), to the samples from ``low`` until the motion is well above the noise (ONSET_SPAN ×
-    ``threshold``; at least 3 samples after ``high``, at most ONSET_FIT_MAX_S)."""
+    x − base = A·(s − τ(1 − e^{−s/τ})) with s = t − t_r ≥ 0 (τ on a grid), to the samples
+    from ``low`` until the motion is ONSET_SPAN × ``threshold`` clear of the baseline (at
+    least 3 samples after ``high``, at most ONSET_FIT_MAX_S)."""
     if not high > low:
         return float(low)
     y_all = (x - base) * (direction or 1.0)

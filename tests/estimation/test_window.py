@@ -24,7 +24,7 @@ def raw_recording(run, rng: np.random.Generator, *, spikes: int = 2) -> tuple[np
     0.5 s of brake hold, 3 % of samples dropped, single-sample encoder glitches."""
     t, x = np.asarray(run.t), np.asarray(run.position)
     step = float(np.median(np.diff(t)))
-    hold_t = t[-1] + step * np.arange(1, int(round(HOLD_S / step)) + 1)
+    hold_t = t[-1] + step * np.arange(1, round(HOLD_S / step) + 1)
     t = np.concatenate([t, hold_t])
     x = np.concatenate([x, np.full(hold_t.size, x[-1])])
     keep = rng.random(t.size) >= 0.03
@@ -72,7 +72,9 @@ def test_raw_recordings_estimate_within_3_percent(tmp_path, scale):
         accel = float(run.drive) / (SCALES[scale][0] + run.declared_extra_inertia())
         slack = max(0.05, np.sqrt(2 * 2e-3 / accel))
         assert result.windows[run.run_id].t_release == pytest.approx(1.0, abs=slack)
-    for name, value in zip(("inertia", "linear_damping", "quadratic_damping"), SCALES[scale]):
+    for name, value in zip(
+        ("inertia", "linear_damping", "quadratic_damping"), SCALES[scale], strict=True
+    ):
         got = result.coefficients[name].value
         assert got == pytest.approx(value, rel=0.03), (name, got, value)
     assert [e.name for e in result.effects] == []
