@@ -187,6 +187,7 @@ def _uncertainty(u: DriveUncertainty | None) -> dict[str, Any] | None:
             n: {
                 "std_fit": _num(u.std_fit[n]),
                 "std_calibration": _num(u.std_calibration[n]),
+                "std_release_timing": _num(u.std_release_timing.get(n, 0.0)),
                 "std_total": _num(total[n]),
             }
             for n in u.std_fit

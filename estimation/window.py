@@ -348,6 +348,8 @@ def windowed_run(
 FOUND_RELEASES = ("release coil", "motion onset")
 #: Half-width searched around a release found from the motion, s.
 ONSET_SEARCH_S = 0.15
+#: Step of the RMSE profile whose curvature gives a fitted release's σ, s.
+PROFILE_STEP_S = 0.001
 
 
 def fit_release(run: RunData) -> RunData:
@@ -386,10 +388,18 @@ def fit_release(run: RunData) -> RunData:
     instant = float(best.x) if best.success and best.fun <= rmse(found.t_release) else None
     if instant is None:
         return run
+    # how sharply the data fix it: the RMSE profile's curvature (ΔSSE = σ̂² at 1σ)
+    n, h = base.t.size, PROFILE_STEP_S
+    sse = [n * rmse(instant + d) ** 2 for d in (-h, 0.0, h)]
+    curvature = (sse[0] - 2 * sse[1] + sse[2]) / h**2
+    noise = sse[1] / max(n - 4, 1)
+    std = float(np.sqrt(2 * noise / curvature)) if curvature > 0 else run.t_release_std
     report = replace(
         found,
         t_release=instant,
         release_source=f"{found.release_source}, refined by the fit",
         dropped_before=int(np.count_nonzero(t <= instant)),
     )
-    return replace(run, t_release=instant, window_found=report)
+    return replace(
+        run, t_release=instant, t_release_std=min(std, run.t_release_std), window_found=report
+    )
