@@ -9,7 +9,7 @@ import pytest
 from estimation import estimate
 from estimation.csv_import import run_from_csv
 from estimation.window import find_spikes, find_window
-from tests.estimation.synth import Physics, tow_set
+from tests.estimation.synth import YAW_TRUTH, Physics, tow_set
 
 HOLD_S = 0.5
 SCALES = {  # inertia, K_L, K_Q: BENBAM's, and its damping scaled by area ∝ M^(2/3)
@@ -141,3 +141,31 @@ def test_time_in_milliseconds_is_refused_with_the_fix(tmp_path):
         run_from_csv(path, axis="surge", drive=float(run.drive))
     same = run_from_csv(path, axis="surge", drive=float(run.drive), time_unit="ms")
     assert np.median(np.diff(same.t)) == pytest.approx(0.1, rel=0.05)
+
+
+def test_spin_recordings_with_the_release_coil_estimate_within_3_percent(tmp_path):
+    truth = Physics(*YAW_TRUTH)
+    rng = np.random.default_rng(5)
+    runs = []
+    for run in tow_set(truth, axis="yaw", seed=4, quantum=1e-3, baseline_s=1.0):
+        t, x = raw_recording(run, rng, spikes=1)
+        coil = ((t > run.t_release) & (t <= t[-1] - HOLD_S)).astype(float)
+        path = tmp_path / f"{run.run_id}.csv"
+        write_csv(path, t, x, spin_release=coil)
+        kw = dict(hung_mass_kg=run.hung_mass_kg, drum_radius_m=run.drum_radius_m)
+        runs.append(
+            run_from_csv(
+                path, axis="yaw", drive=float(run.drive), drive_inertia=run.drive_inertia, **kw
+            )
+        )
+    result = estimate(runs, n_bootstrap=0)
+    for run in runs:
+        w = result.windows[run.run_id]
+        assert w.release_source == "release coil, refined by the fit"
+        assert w.end_source == "release coil off" and w.spikes_dropped == 1
+        assert w.t_release == pytest.approx(1.0, abs=0.02)
+    for name, value in zip(
+        ("inertia", "linear_damping", "quadratic_damping"), YAW_TRUTH, strict=True
+    ):
+        assert result.coefficients[name].value == pytest.approx(value, rel=0.03), name
+    assert [e.name for e in result.effects] == []
