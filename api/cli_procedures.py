@@ -27,6 +27,7 @@ from daq.procedures.params import (
     tow_parameters,
 )
 from daq.procedures.recording import AbortSignal
+from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 
 
@@ -52,7 +53,7 @@ def _run_procedure(
             try:
                 async with RigSession(source, store) as session:
                     return await body(session, params, abort, view)
-            except PreconditionFailed as err:
+            except (PreconditionFailed, RigInUse) as err:
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
                 fail("\n       ".join(err.lines()))

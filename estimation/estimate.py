@@ -21,6 +21,7 @@ from estimation.runs import RunData, validate_runs
 from estimation.search import candidate_effects
 from estimation.search import search_effects as search_effects_fn
 from estimation.seed_methods import SEED_METHODS
+from estimation.unexplained import characterise
 from estimation.window import fit_release
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
@@ -180,6 +181,9 @@ def _build(
         for e in final.effects
     )
     warnings = separability_warnings(final, prepared)
+    unexplained = characterise(final, prepared, axis) if method == "output-error" else None
+    if unexplained is not None and (text := unexplained.warning(axis)):
+        warnings.append(text)
     force_before = force_residuals(base, prepared)
     return EstimationResult(
         axis=axis,
@@ -208,6 +212,7 @@ def _build(
         bootstrap=boot,
         uncertainty=uncertainty,
         windows={r.run_id: r.window_report() for r in runs},
+        unexplained=unexplained,
         fit_before=base,
         fit_after=final,
     )

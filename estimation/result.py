@@ -11,6 +11,7 @@ from estimation.diagnostics import Whiteness
 from estimation.drive_uncertainty import DriveUncertainty
 from estimation.output_error import FitResult
 from estimation.search import SearchStep
+from estimation.unexplained import Unexplained
 from estimation.window import WindowReport
 
 SCHEMA_VERSION = 1
@@ -89,6 +90,7 @@ class EstimationResult:
     uncertainty: DriveUncertainty | None = None
     #: Per run, the samples fitted and how the release and end were found.
     windows: dict[str, WindowReport] = field(default_factory=dict)
+    unexplained: Unexplained | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -136,6 +138,7 @@ class EstimationResult:
             "bootstrap": _boot(self.bootstrap),
             "uncertainty": _uncertainty(self.uncertainty),
             "windows": {k: w.to_json() for k, w in self.windows.items()},
+            "unexplained": self.unexplained.to_json() if self.unexplained else None,
         }
         return doc
 

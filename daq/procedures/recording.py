@@ -98,6 +98,7 @@ class RecordedRun:
             rig_toml=s.source.rig_toml,
             scenario_toml=s.source.scenario_toml,
         )
+        await s.note_run(self.run_id)
         self._recorder = RunRecorder(
             self.store, self.run_id, flush_interval_s=s.rig.acquisition.flush_interval_s
         )
