@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from daq.store import Store
@@ -199,7 +200,9 @@ def test_an_export_imported_back_estimates_the_same_coefficients(db, tmp_path):
 
 def test_import_window_options_and_a_time_column_in_ms(db, tmp_path):
     ms = tmp_path / "ms.csv"
-    ms.write_text("t,position\n" + "".join(f"{i * 100},{0.001 * i * i:.4f}\n" for i in range(40)))
+    s = np.clip(np.arange(40) * 0.1 - 0.9, 0.0, None)  # released at 0.9 s, damped
+    x = 0.3 * (s - 0.8 * -np.expm1(-s / 0.8))
+    ms.write_text("t,position\n" + "".join(f"{i * 100},{v:.4f}\n" for i, v in enumerate(x)))
     refused = rig("import", str(ms), "--kind", "tow", "--force", "24.5", db=db)
     assert refused.returncode == 2
     assert "column 't': median step 100 between samples, expected seconds" in refused.stderr
@@ -211,14 +214,14 @@ def test_import_window_options_and_a_time_column_in_ms(db, tmp_path):
     assert bad.returncode == 2 and "release_time_s: 9.0 is not allowed" in bad.stderr
     ok = rig(
         "import", str(ms), "--kind", "tow", "--force", "24.5", "--time-unit", "ms",
-        "--release-time", "0.95", "--end-time", "3.5", db=db,
+        "--release-time", "0.9", "--end-time", "3.5", db=db,
     )  # fmt: skip
     assert ok.returncode == 0, ok.stderr
     with Store(db) as store:
         params = store.get_run(ok.stdout.strip()).parameters
-    assert params["release_time_s"] == pytest.approx(0.95)
+    assert params["release_time_s"] == pytest.approx(0.9)
     assert params["end_time_s"] == pytest.approx(3.5)
     window = next(iter(_estimate(ok.stdout.strip(), db)["windows"].values()))
     assert window["release_source"] == "release_time_s (given)"
     assert window["end_source"] == "end_time_s (given)"
-    assert window["release_time_s"] == pytest.approx(0.95, abs=1e-6)
+    assert window["release_time_s"] == pytest.approx(0.9, abs=1e-6)
