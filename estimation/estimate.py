@@ -22,6 +22,7 @@ from estimation.search import candidate_effects
 from estimation.search import search_effects as search_effects_fn
 from estimation.seed_methods import SEED_METHODS
 from estimation.unexplained import characterise
+from estimation.window import fit_release
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
@@ -46,6 +47,7 @@ def estimate(
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     axis = validate_runs(runs)
+    runs = [fit_release(r) for r in runs]
     prepared = [prepare(r) for r in runs]
     if method != "output-error":
         return _seed_result(axis, method, runs, prepared)
@@ -209,6 +211,7 @@ def _build(
         cv_after=cv_after,
         bootstrap=boot,
         uncertainty=uncertainty,
+        windows={r.run_id: r.window_report() for r in runs},
         unexplained=unexplained,
         fit_before=base,
         fit_after=final,
