@@ -73,6 +73,29 @@ def _residualise(columns: np.ndarray, others: np.ndarray) -> np.ndarray:
     return columns - q @ (q.T @ columns)
 
 
+def independent_shares(
+    fit: FitResult, runs: Sequence[PreparedRun], names: Sequence[str]
+) -> dict[str, float]:
+    """Share of each effect's sensitivity that ``fit``'s own parameters cannot mimic.
+
+    ‖P⊥ ∂x/∂θ_e‖ / ‖∂x/∂θ_e‖ with P⊥ removing the span of the base coefficients, ``fit``'s
+    effects and one offset per run: 0 when the effect is a combination of them (e.g. a bias
+    on one run at one force is an inertia change), 1 when it is orthogonal to them all.
+    """
+    params, jac = sensitivities(fit, runs, names)
+    sizes = [r.t.size for r in runs]
+    offsets = np.zeros((jac.shape[0], len(runs)))
+    offsets[np.arange(jac.shape[0]), np.repeat(np.arange(len(runs)), sizes)] = 1.0
+    held = [i for i, n in enumerate(params) if n in fit.names]
+    others = np.hstack([jac[:, held], offsets])
+    out = {}
+    for name in names:
+        column = jac[:, [params.index(name)]]
+        norm = float(np.linalg.norm(column))
+        out[name] = float(np.linalg.norm(_residualise(column, others))) / norm if norm else 0.0
+    return out
+
+
 def partial_correlations(
     fit: FitResult, runs: Sequence[PreparedRun], names: Sequence[str]
 ) -> dict[frozenset[str], float]:

@@ -33,6 +33,7 @@ import numpy as np
 from estimation.collinearity import (
     COLLINEAR,
     NEAR_COLLINEAR,
+    independent_shares,
     partial_correlations,
     predicted_steps,
 )
@@ -40,14 +41,17 @@ from estimation.diagnostics import ljung_box, noise_floor_ratio
 from estimation.effects import EFFECTS
 from estimation.model import BASE_NAMES, PreparedRun
 from estimation.output_error import FitResult, fit_output_error, leave_one_run_out_rmse
+from estimation.unexplained import NUMERICAL_RMSE
 
 BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
 RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one
+DELAY_STEP_FRACTION = 0.01  # nor one below 1 % of the sample step (release known exactly)
 MATERIAL_FRACTION = 0.005  # an effect below 0.5 % of the drive is within the drive's uncertainty
 MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the noise floor
 AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
+MIN_INDEPENDENT_SHARE = 0.1  # |ρ| ≥ 0.995 with the base model's own sensitivities: unknowable
 PAIR_EXPERIMENTS = {
     frozenset({"coulomb_friction", "constant_bias"}): (
         "coulomb_friction and constant_bias are collinear when every run moves the same way: "
@@ -117,7 +121,8 @@ def _below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) 
     """Why an effect is too small to be a physical finding, or None.
 
     - a release delay is a start-time offset; when the release instant itself is only known
-      to ±σ_t (host timing), an offset within 3σ_t is timing, not stiction;
+      to ±σ_t (host timing), an offset within 3σ_t (or 1 % of a sample step, for a release
+      given exactly) is timing, not stiction;
     - any other effect must reach MATERIAL_FRACTION of the drive on at least one run: a
       force smaller than the uncertainty of the drive itself cannot be told from a slightly
       wrong drive.
@@ -125,10 +130,12 @@ def _below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) 
     value = fit.value(effect)
     if effect == "release_delay":
         timing = max((r.t_release_std for r in runs), default=0.0)
-        if abs(value) < RESOLUTION_SIGMAS * timing:
+        step = min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1)
+        if abs(value) < max(RESOLUTION_SIGMAS * timing, DELAY_STEP_FRACTION * step):
             return (
-                f"release_delay {abs(value) * 1e3:.1f} ms is within the release-timing "
-                f"resolution ({RESOLUTION_SIGMAS:g} × {timing * 1e3:.1f} ms)"
+                f"release_delay {abs(value) * 1e3:.2g} ms is within the release-timing "
+                f"resolution ({RESOLUTION_SIGMAS:g} × {timing * 1e3:.1f} ms, at least "
+                f"{DELAY_STEP_FRACTION:.0%} of the {step * 1e3:.0f} ms sample step)"
             )
         return None
     share = max(
@@ -168,6 +175,7 @@ class _Search:
         self.order = {e: i for i, e in enumerate(candidates)}
         self.steps: list[SearchStep] = []
         self.cv: dict[tuple[str, ...], float | None] = {}
+        self.travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
 
     def key(self, combo: Sequence[str]) -> tuple[int, ...]:
         """Library order of a combination (ties are broken towards common effects)."""
@@ -191,7 +199,9 @@ class _Search:
         cv_new: float | None = None
         reason = "kept"
         at_bound = [e for e in combo if e in fit.at_bound]
-        if gain > -BIC_THRESHOLD:
+        if ref.fit.rmse <= NUMERICAL_RMSE * self.travel:
+            reason = "the error is already at round-off: nothing left to explain"
+        elif gain > -BIC_THRESHOLD:
             reason = f"ΔBIC {gain:.1f} > −{BIC_THRESHOLD:g}"
         elif rival is not None and fit.bic >= rival.fit.bic - BIC_THRESHOLD:
             reason = f"not better than the best single effect by ΔBIC {BIC_THRESHOLD:g}"
@@ -277,6 +287,28 @@ class _Search:
         near = [c for c, f in kept.items() if f.bic - lowest < AMBIGUITY_BIC]
         return kept[min(near, key=self.key)]
 
+    def identifiable(self, base: FitResult, candidates: Sequence[str]) -> list[str]:
+        """The candidates these runs can tell from inertia, K_L and K_Q (the rest are
+        recorded as not identifiable: no fit could pin them down)."""
+        shares = independent_shares(base, self.runs, candidates)
+        kept = [e for e in candidates if shares[e] >= MIN_INDEPENDENT_SHARE]
+        for e in candidates:
+            if e not in kept:
+                self.steps.append(
+                    SearchStep(
+                        e,
+                        0.0,
+                        None,
+                        None,
+                        0.0,
+                        0.0,
+                        False,
+                        f"not identifiable on these runs: {shares[e]:.1%} of its effect is "
+                        "not already a change of inertia, K_L or K_Q",
+                    )
+                )
+        return kept
+
     def reference(self, fit: FitResult) -> _Reference:
         """``fit`` as the model the next combinations must beat."""
         cv = self.cv.get(fit.effects)
@@ -291,6 +323,7 @@ def search_effects(
     start = _Reference(
         base, leave_one_run_out_rmse(runs, base), ljung_box(base.residuals).q_statistic
     )
+    candidates = search.identifiable(base, candidates)
     rho = partial_correlations(base, runs, candidates)
     single = search.best(start, [(e,) for e in candidates], 1)
     pairs = [p for p in combinations(candidates, 2) if abs(rho[frozenset(p)]) < COLLINEAR]

@@ -23,6 +23,7 @@ from estimation.output_error import FitResult
 
 WHITE_P = 1e-3  # Ljung–Box p below this: the residual is not white
 ABOVE_FLOOR = 3.0  # force residual RMS over the fit's own noise floor that counts as structure
+NUMERICAL_RMSE = 1e-7  # an RMSE below this share of the travel is round-off, not structure
 PERIODIC_SHARE = 0.3  # a sinusoid explaining this share of the residual is called periodic
 N_FREQUENCIES = 300
 
@@ -106,7 +107,9 @@ def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unex
     force_rms = float(np.sqrt(np.mean(pooled**2))) if pooled.size else 0.0
     floor = force_noise_floor(fit, runs)
     p_value = ljung_box(fit.residuals).p_value
-    structured = p_value < WHITE_P and force_rms > ABOVE_FLOOR * floor
+    travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
+    numerical = fit.rmse <= NUMERICAL_RMSE * travel  # noise-free data: round-off is no force
+    structured = p_value < WHITE_P and force_rms > ABOVE_FLOOR * floor and not numerical
     coords = _coordinates(fit, runs)
     correlations = {
         name: _pearson(pooled, np.concatenate([c[m] for c, m in zip(cols, moving, strict=True)]))

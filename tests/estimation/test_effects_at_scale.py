@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
+from estimation.runs import RunData
 from tests.estimation.synth import Physics, tow_set
 
 #: (inertia kg, K_L N·s/m, K_Q N·s²/m², forward drives N) per scale.
@@ -115,3 +116,14 @@ def test_a_force_outside_the_library_is_flagged_not_absorbed(scale):
     assert unexplained["period"]["value"] == pytest.approx(0.4, rel=0.05)
     assert unexplained["ratio_to_noise_floor"] > 3
     assert any("still structured" in w and "biased" in w for w in doc["warnings"])
+
+
+def test_one_noise_free_run_claims_no_effect_it_cannot_identify():
+    """One run at one force: a bias is an inertia change, a delay of microseconds is timing
+    and round-off is no force. Nothing is claimed."""
+    t = np.arange(0.0, 6.0, 0.1)
+    x = np.where(t > 0.95, 0.1 * (t - 0.95) ** 2, 0.0)  # 10 N on 50 kg, no damping
+    doc = estimate([RunData("u", "surge", t, x, 10.0, t_release=0.95)], n_bootstrap=0).to_json()
+    assert doc["effects"] == []
+    steps = doc["evidence"]["steps"]
+    assert "constant_bias" in {s["effect"] for s in steps if "not identifiable" in s["reason"]}
