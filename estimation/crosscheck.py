@@ -494,10 +494,9 @@ def _combined(
     """The damping K_L + K_Q·|v| at the speed of the set that cannot split K_L from K_Q
     (the thruster set's when neither can); none when both sets separate them."""
     stuck = [side for side in ("thruster", "weight") if not sep[side].separable]
-    if not stuck or sep[stuck[0]].speed is None:
+    speed = sep[stuck[0]].speed if stuck else None
+    if speed is None:
         return []
-    speed = sep[stuck[0]].speed
-    assert speed is not None
     why = None
     if len(stuck) == 2:
         other = sep["weight"].speed
