@@ -17,7 +17,7 @@ from tests.procedures.test_crosscheck_cli import _import_tows
 def page_url(client, service, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("csv")
     first = _import_tows(service.store, tmp, (24.5, 83.3), seed=1)
-    second = _import_tows(service.store, tmp, (34.3, 63.7), seed=2)
+    second = _import_tows(service.store, tmp, (14.7, 63.7), seed=2)  # K_L, K_Q separable
     one_level = _import_tows(service.store, tmp, (44.1,), seed=3)
     results = [
         run_estimation(service.store, ids)["result_id"] for ids in (first, second, one_level)
