@@ -13,6 +13,7 @@ import csv
 import json
 import math
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -24,6 +25,8 @@ POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 #: Parameter each imported run kind needs (the applied load).
 LOAD_PARAMETER = {"tow": "force_n", "spin": "torque_nm"}
 _RESERVED = ("t", "seq", "t_mono", "t_wall", "quality")
+#: Most data rows one import may hold (10⁶ rows = 28 h at 10 Hz).
+MAX_IMPORT_ROWS = 1_000_000
 
 
 class CsvImportError(ValueError):
@@ -130,15 +133,31 @@ def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]
 
 def _read_samples(path: Path, kind: str) -> tuple[list[str], list[Sample], bool]:
     with open(path, newline="", encoding="utf-8") as f:
-        rows = [(n, r) for n, r in enumerate(csv.reader(f), start=1) if r and any(r)]
-    if not rows:
+        try:
+            return _parse_rows(path, kind, csv.reader(f))
+        except UnicodeDecodeError as err:
+            raise CsvImportError(
+                f"{path}: not UTF-8 text ({err.reason} at byte {err.start})"
+            ) from None
+
+
+def _parse_rows(
+    path: Path, kind: str, reader: Iterator[list[str]]
+) -> tuple[list[str], list[Sample], bool]:
+    rows = ((n, r) for n, r in enumerate(reader, start=1) if r and any(r))
+    first = next(rows, None)
+    if first is None:
         raise CsvImportError(f"{path}: empty file; expected a header row 't,position'")
-    header_line, header_row = rows[0]
+    header_line, header_row = first
     columns, channels = _header(header_row, kind, path)
     position = POSITION_CHANNEL[kind]
     samples: list[Sample] = []
     previous: dict[str, float] = {}
-    for line, row in rows[1:]:
+    for line, row in rows:
+        if len(samples) >= MAX_IMPORT_ROWS:
+            raise CsvImportError(
+                f"{path}: line {line}: more than {MAX_IMPORT_ROWS} data rows (the import limit)"
+            )
         if len(row) != len(columns):
             raise CsvImportError(
                 f"{path}: line {line}: {len(row)} fields, the header has {len(columns)}"
