@@ -145,3 +145,17 @@ def test_a_failure_late_in_the_import_rolls_everything_back(store: Store, tmp_pa
             stopped_at=1.0,
         )
     assert len(store.list_runs()) == 1
+
+
+def test_an_import_over_the_row_limit_is_refused_naming_the_line(
+    store: Store, tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setattr("daq.store.csvio.MAX_IMPORT_ROWS", 5)
+    path = tmp_path / "long.csv"
+    path.write_text("t,position\n" + "".join(f"{i / 10},0.0\n" for i in range(6)))
+    with pytest.raises(CsvImportError, match=r"line 7: more than 5 data rows \(the import limit\)"):
+        import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
+    assert store.list_runs() == []
+    path.write_text("t,position\n" + "".join(f"{i / 10},0.0\n" for i in range(5)))
+    run_id = import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
+    assert store.get_run(run_id).sample_count == 5
