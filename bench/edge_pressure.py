@@ -1,8 +1,8 @@
 """Pressure at the edge while a tow runs: the acquisition clock's lateness and skipped slots.
 
 Runs the service as ``rig serve`` does (uvicorn in a thread, the rig session on its own
-"rig thread", simulated rig) and, with a 10 Hz tow in progress, measures the clock over
-windows in which a separate process
+"rig thread", simulated rig) and, with 10 Hz tows in progress (back to back), measures
+the clock over windows in which a separate process
 
 * ``idle``: does nothing (the baseline);
 * ``huge_body_declared``: sends unauthenticated 300 MB bodies with ``Content-Length``,
@@ -198,12 +198,14 @@ class Window:
         lateness = list(s.lateness_s)[self.n0 :]
         skipped = s.skipped_slots - self.skipped0
         p99 = _pct(lateness, 99)
+        worst = max(range(len(lateness)), key=lateness.__getitem__) if lateness else None
         return {
             "ticks": len(lateness),
             "lateness_ms": {
                 "p50": _ms(_pct(lateness, 50)),
                 "p99": _ms(p99),
                 "max": _ms(max(lateness) if lateness else None),
+                "max_at_tick": worst,
             },
             "skipped_slots": skipped,
             "overruns": s.overruns - self.over0,
@@ -243,17 +245,41 @@ def main() -> None:
         window = Window(acq)
 
         def with_tow(name: str, pressure) -> None:
-            tow = http.post(
-                "/api/jobs/tow", json={"force_n": 4.9, "max_time_s": 300, "baseline_s": 0.5}
-            ).json()
-            _wait_job(http, tow["id"], ("running",))
-            while not http.get(f"/api/jobs/{tow['id']}").json()["run_ids"]:
-                time.sleep(0.05)
-            result = pressure()
-            state = http.get(f"/api/jobs/{tow['id']}").json()["state"]
-            http.post(f"/api/jobs/{tow['id']}/abort")
-            _wait_job(http, tow["id"], ("completed", "aborted", "failed"))
-            windows[name] = result | {"tow_state_at_end": state}
+            """Run ``pressure`` while tows run back to back (a new one when one ends)."""
+            done = threading.Event()
+            tows: list[str] = []
+            first_recording = threading.Event()
+
+            def keep_towing() -> None:
+                with httpx.Client(base_url=url, headers=http.headers) as h:
+                    while not done.is_set():
+                        tow = h.post(
+                            "/api/jobs/tow",
+                            json={"force_n": 4.9, "max_time_s": 300, "baseline_s": 0.5},
+                        ).json()
+                        tows.append(tow["id"])
+                        _wait_job(h, tow["id"], ("running",))
+                        while not h.get(f"/api/jobs/{tow['id']}").json()["run_ids"]:
+                            time.sleep(0.05)
+                        first_recording.set()
+                        while not done.is_set():
+                            job = h.get(f"/api/jobs/{tow['id']}").json()
+                            if job["state"] in ("completed", "aborted", "failed"):
+                                break
+                            time.sleep(0.1)
+                        else:
+                            h.post(f"/api/jobs/{tow['id']}/abort")
+                            _wait_job(h, tow["id"], ("completed", "aborted", "failed"))
+
+            towing = threading.Thread(target=keep_towing, daemon=True)
+            towing.start()
+            first_recording.wait(60)
+            try:
+                result = pressure()
+            finally:
+                done.set()
+                towing.join(60)
+            windows[name] = result | {"tows_during_window": len(tows)}
 
         def idle() -> dict:
             window.start()

@@ -228,6 +228,8 @@ def test_an_open_read_service_answers_only_local_or_named_hosts(service, client)
             r = c.get("/api/runs", headers={"Host": host})
             assert r.status_code == 400, host
             assert c.get("/api/stream?max_events=1", headers={"Host": host}).status_code == 400
+    serve_help = CliRunner().invoke(main, ["serve", "--help"]).output
+    assert "--allow-host" in serve_help
 
 
 def test_a_token_file_readable_by_others_is_warned_about_with_the_fix(tmp_path, monkeypatch):
