@@ -27,6 +27,8 @@ LOAD_PARAMETER = {"tow": "force_n", "spin": "torque_nm"}
 _RESERVED = ("t", "seq", "t_mono", "t_wall", "quality")
 #: Most data rows one import may hold (10⁶ rows = 28 h at 10 Hz).
 MAX_IMPORT_ROWS = 1_000_000
+#: Samples per transaction of a long import (SQLite's write lock is held this long).
+IMPORT_BATCH_ROWS = 50_000
 
 
 class CsvImportError(ValueError):
@@ -203,8 +205,10 @@ def import_csv(
     vehicle: str = "unknown",
     rig_toml: str = "",
 ) -> str:
-    """Import a CSV as a completed ``kind`` (``tow``/``spin``) run in one transaction;
-    returns the new run id. Nothing is written when the file or parameters are bad."""
+    """Import a CSV as a completed ``kind`` (``tow``/``spin``) run; returns the new run id.
+    Nothing is written when the file or parameters are bad (all is parsed first). Up to
+    ``IMPORT_BATCH_ROWS`` samples go in one transaction; a longer run in transactions of
+    that many, so a live run sharing the database is never locked out for long."""
     path = Path(path)
     params = check_import_parameters(kind, parameters)
     params.setdefault("file", path.name)
@@ -225,4 +229,5 @@ def import_csv(
         samples=samples,
         started_at=samples[0].t_wall,
         stopped_at=samples[-1].t_wall,
+        batch_rows=IMPORT_BATCH_ROWS,
     )
