@@ -262,11 +262,11 @@ def main() -> None:
                         while not h.get(f"/api/jobs/{tow['id']}").json()["run_ids"]:
                             time.sleep(0.05)
                         first_recording.set()
-                        while not done.is_set():
-                            job = h.get(f"/api/jobs/{tow['id']}").json()
+                        while not done.is_set():  # polled slowly: this thread shares
+                            job = h.get(f"/api/jobs/{tow['id']}").json()  # the GIL
                             if job["state"] in ("completed", "aborted", "failed"):
                                 break
-                            time.sleep(0.1)
+                            done.wait(1.0)
                         else:
                             h.post(f"/api/jobs/{tow['id']}/abort")
                             _wait_job(h, tow["id"], ("completed", "aborted", "failed"))
