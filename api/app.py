@@ -18,6 +18,7 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.middleware.cors import CORSMiddleware
+from fastapi.middleware.trustedhost import TrustedHostMiddleware
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
@@ -32,6 +33,7 @@ from api import (
     routes_stream,
 )
 from api.jobs import JobConflict, JobNotFound, JobRunner
+from api.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
 from api.service import RigService, RigUnavailable
 from daq.procedures.params import ParameterError
 from daq.store import AmbiguousRunId, RunNotFound
@@ -40,7 +42,9 @@ from daq.store.base import software_version
 log = logging.getLogger(__name__)
 STATIC_DIR = Path(__file__).parent / "static"
 #: Largest CSV upload accepted (bytes).
-MAX_UPLOAD_BYTES = 20 * 1024 * 1024
+MAX_UPLOAD_BYTES = UPLOAD_BODY_LIMIT
+#: Host names an ``open_read`` service always answers to (besides ``allowed_hosts``).
+LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1", "[::1]")
 
 
 def _plotly_js() -> Path | None:
@@ -136,13 +140,19 @@ def create_app(
     token: str,
     open_read: bool = False,
     cors_origins: Sequence[str] = (),
+    allowed_hosts: Sequence[str] = (),
     max_upload_bytes: int = MAX_UPLOAD_BYTES,
+    max_json_bytes: int = JSON_BODY_LIMIT,
     manage_service: bool = True,
     report_root: Path | None = None,
     runner: JobRunner | None = None,
 ) -> FastAPI:
     """The rig's HTTP API and browser UI on top of ``service`` (and an existing ``runner``,
-    to serve the same jobs from a second app)."""
+    to serve the same jobs from a second app).
+
+    Request bodies are capped before parsing and before the token check (``api.limits``).
+    With ``open_read`` only requests whose ``Host`` is local or in ``allowed_hosts`` are
+    answered (400 otherwise), so a DNS-rebinding page cannot read runs or the stream."""
     own_runner = runner is None
     runner = runner or JobRunner(service, report_root=report_root)
 
@@ -182,6 +192,13 @@ def create_app(
             allow_methods=["GET", "POST"],
             allow_headers=["Authorization", "Content-Type"],
         )
+    if open_read:
+        app.add_middleware(
+            TrustedHostMiddleware,
+            allowed_hosts=[*LOCAL_HOSTS, *allowed_hosts],
+            www_redirect=False,
+        )
+    app.add_middleware(BodyLimit, json_limit=max_json_bytes, upload_limit=max_upload_bytes)
     for module in (
         routes_rig,
         routes_crosscheck,

@@ -10,6 +10,7 @@ from __future__ import annotations
 import hmac
 import os
 import secrets
+import stat
 from pathlib import Path
 
 from fastapi import HTTPException, Request
@@ -40,6 +41,24 @@ def load_or_create_token(path: Path | None = None) -> str:
     with os.fdopen(fd, "w", encoding="utf-8") as f:
         f.write(token + "\n")
     return token
+
+
+def token_file_warning(path: Path | None = None) -> str | None:
+    """A one-line warning (with the fix) when the token file is readable or writable by
+    group or others; ``None`` when it is private, absent, or the token comes from the env."""
+    if os.environ.get(TOKEN_ENV, "").strip():
+        return None
+    path = path or token_path()
+    try:
+        mode = stat.S_IMODE(path.stat().st_mode)
+    except OSError:
+        return None
+    if not mode & 0o077:
+        return None
+    return (
+        f"warning: token file {path} has mode {mode:04o}: other users can read the API "
+        f"token; fix: chmod 600 {path}"
+    )
 
 
 def presented_token(request: Request) -> str | None:

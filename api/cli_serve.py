@@ -6,7 +6,7 @@ import socket
 
 import click
 
-from api.auth import TOKEN_ENV, load_or_create_token, token_path
+from api.auth import TOKEN_ENV, load_or_create_token, token_file_warning, token_path
 from api.cli_common import db_option, fail, rig_option, scenario_option, user_errors
 
 
@@ -21,6 +21,11 @@ from api.cli_common import db_option, fail, rig_option, scenario_option, user_er
 )  # fmt: skip
 @click.option("--open-read", is_flag=True, help="Let read-only endpoints answer without the token.")
 @click.option(
+    "--allow-host", "allow_hosts", multiple=True, metavar="NAME",
+    help="With --open-read, also answer requests for Host NAME (repeatable; the bound "
+    "address, localhost and 127.0.0.1 always are).",
+)  # fmt: skip
+@click.option(
     "--cors-origin", "cors_origins", multiple=True, metavar="ORIGIN",
     help="Allow browser pages from ORIGIN (repeatable). CORS is off by default.",
 )  # fmt: skip
@@ -33,7 +38,16 @@ from api.cli_common import db_option, fail, rig_option, scenario_option, user_er
     help="Run the clock's thread SCHED_FIFO (needs CAP_SYS_NICE; falls back with a warning).",
 )  # fmt: skip
 def serve(
-    rig_file, scenario_file, db_url, host, port, open_read, cors_origins, ask_operator, realtime
+    rig_file,
+    scenario_file,
+    db_url,
+    host,
+    port,
+    open_read,
+    allow_hosts,
+    cors_origins,
+    ask_operator,
+    realtime,
 ):
     """Serve the HTTP API and the browser UI (binds 127.0.0.1 by default)."""
     import uvicorn
@@ -45,6 +59,8 @@ def serve(
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
     token = load_or_create_token()
+    if warning := token_file_warning():
+        click.echo(warning, err=True)
     service = RigService(
         source, db_url, ask_operator=ask_operator, realtime=realtime, owner="rig serve"
     )
@@ -56,7 +72,13 @@ def serve(
         fail(f"cannot bind {host}:{port}: {err.strerror}", code=1)
     bound_port = sock.getsockname()[1]
     # The app's lifespan stops the service (rig left safe) before uvicorn re-raises a SIGTERM.
-    app = create_app(service, token=token, open_read=open_read, cors_origins=cors_origins)
+    app = create_app(
+        service,
+        token=token,
+        open_read=open_read,
+        cors_origins=cors_origins,
+        allowed_hosts=[host, *allow_hosts],
+    )
     # Configures logging: before the rig opens, so the device loggers keep their levels.
     config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
     # Open the rig (and take its lock) before announcing anything: a rig another process
@@ -93,6 +115,8 @@ def _token_from_env() -> bool:
 def token():
     """Print the API's bearer token (created on first use; or set RIG_API_TOKEN)."""
     click.echo(load_or_create_token())
+    if warning := token_file_warning():
+        click.echo(warning, err=True)
 
 
 if __name__ == "__main__":  # ``python -m api.cli_serve`` (what the browser test starts)

@@ -17,6 +17,7 @@ from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
+from api.csv_upload import import_file, save_stream
 from api.deps import RunnerDep, StoreDep, require_read, require_write
 from api.jobs import JobRunner
 from api.run_cache import EndedRunCache
@@ -29,7 +30,7 @@ from api.schemas import (
     error_responses,
 )
 from daq.procedures.params import RUN_KINDS
-from daq.store import ResultNotFound, Store, import_csv
+from daq.store import ResultNotFound, Store
 
 router = APIRouter(prefix="/api", tags=["runs"])
 RunStatus = Literal["running", "completed", "aborted", "interrupted"]
@@ -234,53 +235,37 @@ async def import_run(
         Query(description="End of free motion, s on the t axis (default: found in the data)."),
     ] = None,
 ) -> dict:
-    """Import a CSV recorded elsewhere as a completed run (body = the CSV text).
+    """Import a CSV recorded elsewhere as a completed run (body = the CSV text, at most
+    ``max_upload_bytes`` and ``MAX_IMPORT_ROWS`` rows; parsed in a separate process).
 
     Estimation finds the release and the end of free motion from the
     ``tow_release``/``spin_release``/``end_of_travel`` columns when present, else from the
     motion; ``release_time_s``/``end_time_s`` override that."""
-    limit = request.app.state.max_upload_bytes
-    declared = request.headers.get("content-length", "")
-    if declared.isdigit() and int(declared) > limit:
-        raise HTTPException(413, f"upload of {int(declared)} bytes is over the {limit}-byte limit")
-    body = bytearray()
-    async for chunk in request.stream():
-        body += chunk
-        if len(body) > limit:
-            raise HTTPException(413, f"upload is over the {limit}-byte limit")
     load = {"tow": ("force_n", force_n), "spin": ("torque_nm", torque_nm)}[kind]
     params: dict = {load[0]: load[1]} if load[1] is not None else {}
     if weight_kg is not None:
         params["hung_mass_kg"] = weight_kg
     name = re.sub(r"[^A-Za-z0-9._-]", "_", Path(filename).name) or "upload.csv"
-    try:
-        text = body.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise ValueError(f"{name}: not UTF-8 text ({err.reason} at byte {err.start})") from None
-
-    def work() -> dict:
-        with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
-            path = Path(folder) / name
-            path.write_text(text, encoding="utf-8")
-            try:
-                run_id = import_csv(
-                    store,
-                    path,
-                    kind=kind,
-                    parameters=params,
-                    vehicle=vehicle,
-                    time_unit=time_unit,
-                    release_time_s=release_time_s,
-                    end_time_s=end_time_s,
-                )
-            except ValueError as err:
-                message = str(err).replace(str(path), name)
-                if "line" in message and not message.startswith(name):
-                    message = f"{name}: {message}"
-                raise ValueError(message) from None
-        return {"run_id": run_id, "samples": store.get_run(run_id).sample_count}
-
-    return await run_in_threadpool(work)
+    with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
+        path = Path(folder) / name
+        await save_stream(request.stream(), path)  # the size cap is api.limits.BodyLimit's
+        try:
+            run_id, samples = await import_file(
+                store,
+                path,
+                kind=kind,
+                parameters=params,
+                vehicle=vehicle,
+                time_unit=time_unit,
+                release_time_s=release_time_s,
+                end_time_s=end_time_s,
+            )
+        except ValueError as err:
+            message = str(err).replace(str(path), name)
+            if "line" in message and not message.startswith(name):
+                message = f"{name}: {message}"
+            raise ValueError(message) from None
+    return {"run_id": run_id, "samples": samples}
 
 
 # ---- results ----------------------------------------------------------------------------------

@@ -11,6 +11,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from daq.procedures.params import MAX_CALIBRATION_COMMANDS, MAX_SEQUENCE_STEPS
+
 JobState = Literal[
     "queued", "running", "waiting_for_operator", "paused", "completed", "aborted", "failed"
 ]
@@ -89,7 +91,11 @@ class PendulumRequest(_Strict):
 class CalibrationRequest(_Strict):
     """A thrust calibration sweep (commands as fractions of full thrust)."""
 
-    commands: list[float] | None = Field(None, description="Command steps, 0 ≤ c ≤ the limit.")
+    commands: list[float] | None = Field(
+        None,
+        max_length=MAX_CALIBRATION_COMMANDS,
+        description=f"Command steps, 0 ≤ c ≤ the limit; at most {MAX_CALIBRATION_COMMANDS}.",
+    )
     settle_s: float | None = None
     samples_per_step: int | None = None
     tare_samples: int | None = None
@@ -104,10 +110,13 @@ class SequenceStep(BaseModel):
 class SequenceRequest(_Strict):
     """A sequence, the same content as a sequence TOML file."""
 
-    name: str | None = None
+    name: str | None = Field(None, max_length=200)
     rest_s: float | None = None
     repeats: int | None = None
-    steps: list[SequenceStep] = Field(description="[{kind, ...the step's parameters}]")
+    steps: list[SequenceStep] = Field(
+        max_length=MAX_SEQUENCE_STEPS,
+        description=f"[{{kind, ...the step's parameters}}]; at most {MAX_SEQUENCE_STEPS} steps.",
+    )
 
 
 class EstimationRequest(_Strict):

@@ -4,7 +4,11 @@ The ``Broadcaster`` sits between threads: the rig loop publishes samples and the
 runner publishes job events; each client has its own bounded ``deque`` (drop-oldest)
 on the HTTP side. Publishing is an append and a thread-safe wake-up per client, so a
 slow or vanished client costs the rig thread nothing more than that and can never
-hold up the acquisition clock. Samples are down-sampled per client (``max_hz``).
+hold up the acquisition clock. Samples are down-sampled per client (``max_hz``) on a
+grid of ``1/max_hz`` with half a clock interval of tolerance, so a rate equal to the
+clock's keeps every sample despite jitter and the long-run rate never exceeds
+``max_hz``. Each ``sample`` event says how many samples were thinned out just before
+it (``thinned``); a ``dropped`` event counts events lost because the client read slowly.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ def sample_json(sample: Sample) -> dict[str, Any]:
     """A sample as JSON (non-finite values become ``null``)."""
     return {
         "seq": sample.seq,
+        "thinned": 0,
         "t_mono": sample.t_mono,
         "t_wall": sample.t_wall,
         "quality": int(sample.quality),
@@ -55,9 +60,24 @@ class Client:
         default_factory=lambda: deque(maxlen=CLIENT_QUEUE)
     )
     wake: asyncio.Event = field(default_factory=asyncio.Event)
-    last_sample_t: float = -math.inf
+    #: Clock time from which the next sample is due (down-sampling grid).
+    next_due: float = -math.inf
+    #: Samples thinned out by ``max_hz`` since the last one offered.
+    thinned: int = 0
     dropped: int = 0
     sent: int = 0
+
+    def wants(self, t: float, slack: float) -> bool:
+        """Down-sampling: is the sample at clock time ``t`` due (``slack`` = tolerance)?"""
+        if self.max_hz is None:
+            return True
+        if t < self.next_due - slack:
+            self.thinned += 1
+            return False
+        period = 1.0 / self.max_hz
+        # on the grid; after a gap (or at the start) the grid restarts at this sample
+        self.next_due = self.next_due + period if t < self.next_due + period else t + period
+        return True
 
     def offer(self, kind: str, data: dict[str, Any]) -> None:
         if len(self.queue) == self.queue.maxlen:
@@ -74,6 +94,10 @@ class Broadcaster:
         self._clients: set[Client] = set()
         self._lock = threading.Lock()
         self.published_samples = 0
+        #: Smoothed interval between published samples (s): the down-sampling tolerance
+        #: is half of it.
+        self.interval_s = 0.0
+        self._last_t: float | None = None
 
     @property
     def client_count(self) -> int:
@@ -90,15 +114,21 @@ class Broadcaster:
     def publish_sample(self, sample: Sample) -> None:
         """Called on the rig loop for every sample; JSON is built only if someone wants it."""
         self.published_samples += 1
+        t = sample.t_mono
+        if self._last_t is not None and 0 < t - self._last_t < 1.0:
+            step = t - self._last_t
+            self.interval_s = step if self.interval_s == 0 else 0.9 * self.interval_s + 0.1 * step
+        self._last_t = t
         with self._lock:
             clients = [c for c in self._clients if c.samples]
         data = None
+        slack = 0.5 * self.interval_s
         for c in clients:
-            if c.max_hz is not None and sample.t_mono - c.last_sample_t < 1.0 / c.max_hz - 1e-4:
+            if not c.wants(t, slack):
                 continue
-            c.last_sample_t = sample.t_mono
             data = data or sample_json(sample)
-            c.offer("sample", data)
+            c.offer("sample", data | {"thinned": c.thinned} if c.thinned else data)
+            c.thinned = 0
 
     def publish_job(self, job: dict[str, Any]) -> None:
         """A job changed state or progress."""

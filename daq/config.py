@@ -158,6 +158,12 @@ class Channel(_Strict):
             )
         if self.scale == 0:
             raise ValueError(f"channel {self.name!r}: scale must not be 0")
+        last = 65535 - (self.width - 1)
+        if self.address > last:
+            raise ValueError(
+                f"channel {self.name!r}: address {self.address} does not fit a {self.type} "
+                f"({self.width} registers); allowed address 0..{last}"
+            )
         return self
 
 
@@ -348,6 +354,10 @@ def load_rig(path: str | Path | None = None) -> RigConfig:
         text = p.read_text(encoding="utf-8")
     except OSError as err:
         raise RigConfigError(f"{p}: cannot read rig file ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise RigConfigError(
+            f"{p}: not a rig file: not UTF-8 text ({err.reason} at byte {err.start})"
+        ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

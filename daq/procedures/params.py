@@ -17,6 +17,11 @@ from daq.config import RigConfig
 #: The kinds of run the procedures record (a run's ``kind``).
 RUN_KINDS = ("tow", "spin", "pendulum", "thrust_calibration")
 THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
+#: Most command steps one calibration may sweep (each is held ``settle_s`` plus samples,
+#: up and down, both directions): longer sweeps are split into several calibrations.
+MAX_CALIBRATION_COMMANDS = 50
+#: Most steps one sequence may list (``repeats`` multiplies them, at most 100).
+MAX_SEQUENCE_STEPS = 100
 
 
 class ParameterError(ValueError):
@@ -300,6 +305,14 @@ def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationPa
     good: list[float] = []
     if not isinstance(commands, list | tuple) or not commands:
         c.problems.append(("commands", commands, f"a non-empty list of fractions 0 ≤ c ≤ {cmax:g}"))
+    elif len(commands) > MAX_CALIBRATION_COMMANDS:
+        c.problems.append(
+            (
+                "commands",
+                f"a list of {len(commands)}",
+                f"at most {MAX_CALIBRATION_COMMANDS} commands per calibration",
+            )
+        )
     else:
         for i, value in enumerate(commands):
             sub = _Checker({f"commands[{i}]": value})

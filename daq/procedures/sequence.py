@@ -27,6 +27,7 @@ from daq.config import RigConfig
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import RunOutcome, run_motion_test
 from daq.procedures.params import (
+    MAX_SEQUENCE_STEPS,
     CalibrationParameters,
     ParameterError,
     PendulumParameters,
@@ -85,6 +86,15 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
     steps: list[StepParameters] = []
     if not isinstance(raw_steps, list) or not raw_steps:
         problems.append(("steps", raw_steps, "a non-empty list of [[steps]] tables"))
+        raw_steps = []
+    elif len(raw_steps) > MAX_SEQUENCE_STEPS:
+        problems.append(
+            (
+                "steps",
+                f"a list of {len(raw_steps)}",
+                f"at most {MAX_SEQUENCE_STEPS} steps per sequence",
+            )
+        )
         raw_steps = []
     for i, raw in enumerate(raw_steps):
         kind = raw.get("kind") if isinstance(raw, dict) else None

@@ -171,6 +171,10 @@ def load_scenario(path: str | Path | None = None) -> Scenario:
         text = p.read_text(encoding="utf-8")
     except OSError as err:
         raise RigConfigError(f"{p}: cannot read scenario file ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise RigConfigError(
+            f"{p}: not a scenario file: not UTF-8 text ({err.reason} at byte {err.start})"
+        ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

@@ -15,6 +15,7 @@ import csv
 import json
 import math
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -30,6 +31,10 @@ POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 #: Parameter each imported run kind needs (the applied load).
 LOAD_PARAMETER = {"tow": "force_n", "spin": "torque_nm"}
 _RESERVED = ("t", "seq", "t_mono", "t_wall", "quality")
+#: Most data rows one import may hold (10⁶ rows = 28 h at 10 Hz).
+MAX_IMPORT_ROWS = 1_000_000
+#: Samples per transaction of a long import (SQLite's write lock is held this long).
+IMPORT_BATCH_ROWS = 50_000
 
 
 class CsvImportError(ValueError):
@@ -138,16 +143,32 @@ def _read_samples(
     path: Path, kind: str, time_scale: float = 1.0
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     with open(path, newline="", encoding="utf-8") as f:
-        rows = [(n, r) for n, r in enumerate(csv.reader(f), start=1) if r and any(r)]
-    if not rows:
+        try:
+            return _parse_rows(path, kind, csv.reader(f), time_scale)
+        except UnicodeDecodeError as err:
+            raise CsvImportError(
+                f"{path}: not UTF-8 text ({err.reason} at byte {err.start})"
+            ) from None
+
+
+def _parse_rows(
+    path: Path, kind: str, reader: Iterator[list[str]], time_scale: float
+) -> tuple[list[str], list[Sample], bool, list[float]]:
+    rows = ((n, r) for n, r in enumerate(reader, start=1) if r and any(r))
+    first = next(rows, None)
+    if first is None:
         raise CsvImportError(f"{path}: empty file; expected a header row 't,position'")
-    header_line, header_row = rows[0]
+    header_line, header_row = first
     columns, channels = _header(header_row, kind, path)
     position = POSITION_CHANNEL[kind]
     samples: list[Sample] = []
     times: list[float] = []
     previous: dict[str, float] = {}
-    for line, row in rows[1:]:
+    for line, row in rows:
+        if len(samples) >= MAX_IMPORT_ROWS:
+            raise CsvImportError(
+                f"{path}: line {line}: more than {MAX_IMPORT_ROWS} data rows (the import limit)"
+            )
         if len(row) != len(columns):
             raise CsvImportError(
                 f"{path}: line {line}: {len(row)} fields, the header has {len(columns)}"
@@ -227,8 +248,10 @@ def import_csv(
     release_time_s: float | None = None,
     end_time_s: float | None = None,
 ) -> str:
-    """Import a CSV as a completed ``kind`` (``tow``/``spin``) run in one transaction;
-    returns the new run id. Nothing is written when the file or parameters are bad.
+    """Import a CSV as a completed ``kind`` (``tow``/``spin``) run; returns the new run id.
+    Nothing is written when the file or parameters are bad (all is parsed first). Up to
+    ``IMPORT_BATCH_ROWS`` samples go in one transaction; a longer run in transactions of
+    that many, so a live run sharing the database is never locked out for long.
 
     ``time_unit`` (s, ms, us) is the unit of the ``t`` column; a median step over 1 s is
     refused as evidently not seconds. ``release_time_s``/``end_time_s`` (on the CSV's ``t``
@@ -261,4 +284,5 @@ def import_csv(
         samples=samples,
         started_at=samples[0].t_wall,
         stopped_at=samples[-1].t_wall,
+        batch_rows=IMPORT_BATCH_ROWS,
     )

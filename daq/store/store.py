@@ -182,8 +182,30 @@ class Store(EventsAndResults):
         scenario_toml: str | None = None,
         status: str = "completed",
         reason: str | None = None,
+        batch_rows: int | None = None,
     ) -> str:
-        """Store a whole, already finished run in one transaction (nothing on error)."""
+        """Store a whole, already finished run in one transaction (nothing on error).
+
+        With ``batch_rows``, a longer run is written in transactions of that many samples
+        so the database's write lock is never held for long (a live run's recorder and
+        events keep their turn); the run reads ``running`` until the last one, and a
+        failure part-way ends it ``aborted`` naming the error."""
+        if batch_rows is not None and len(samples) > batch_rows:
+            return self._import_in_batches(
+                samples,
+                batch_rows,
+                status,
+                reason,
+                stopped_at,
+                kind=kind,
+                parameters=parameters,
+                channel_names=channel_names,
+                rig_name=rig_name,
+                vehicle=vehicle,
+                rig_toml=rig_toml,
+                scenario_toml=scenario_toml,
+                started_at=started_at,
+            )
         with self.transaction() as conn:
             run_uuid, pk = self._insert_run(
                 conn,
@@ -200,6 +222,31 @@ class Store(EventsAndResults):
             self._insert_rows(conn, run_uuid, pk, packer, samples)
             run = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()
             self._finish(conn, run, status, reason, stopped_at)
+        return run_uuid
+
+    def _import_in_batches(
+        self,
+        samples: Sequence[Sample],
+        batch_rows: int,
+        status: str,
+        reason: str | None,
+        stopped_at: float,
+        **run: Any,
+    ) -> str:
+        packer = SamplePacker(checks.check_channel_names(run["channel_names"]))
+        with self.transaction() as conn:
+            run_uuid, pk = self._insert_run(conn, **run)
+        try:
+            for start in range(0, len(samples), batch_rows):
+                with self.transaction() as conn:
+                    chunk = samples[start : start + batch_rows]
+                    self._insert_rows(conn, run_uuid, pk, packer, chunk)
+        except Exception as exc:
+            self.finish_run(run_uuid, "aborted", f"import failed: {exc}", stopped_at=stopped_at)
+            raise
+        with self.transaction() as conn:
+            row = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()
+            self._finish(conn, row, status, reason, stopped_at)
         return run_uuid
 
     _RUN_COLUMNS = (

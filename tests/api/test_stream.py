@@ -122,3 +122,66 @@ def test_broadcaster_bounds_a_stuck_client_and_publishing_stays_cheap():
         assert per_sample < 0.001
     finally:
         loop.close()
+
+
+def _publish_jittered(b, n: int, clock_hz: float, jitter_s: float, seed: int = 1) -> None:
+    import random
+
+    from daq.sample import Sample
+
+    rng = random.Random(seed)
+    for i in range(n):
+        t = i / clock_hz + rng.uniform(-jitter_s, jitter_s)
+        b.publish_sample(Sample(i, t, 1e9 + t, {"tow_position": 0.0}))
+
+
+def test_down_sampling_at_the_clock_rate_keeps_every_sample_despite_jitter():
+    """10 Hz asked of a 10 Hz clock whose ticks jitter by ±20 ms: all 200 samples arrive."""
+    import asyncio
+
+    from api.stream import Broadcaster, Client
+
+    loop = asyncio.new_event_loop()
+    try:
+        b = Broadcaster()
+        same = Client(loop, max_hz=10.0)
+        b.add(same)
+        _publish_jittered(b, 200, 10.0, 0.02)
+        assert len(same.queue) == 200
+        assert all(d["thinned"] == 0 for _, d in same.queue)
+    finally:
+        loop.close()
+
+
+def test_down_sampling_keeps_the_requested_rate_and_counts_what_it_thins():
+    import asyncio
+
+    from api.stream import Broadcaster, Client
+
+    loop = asyncio.new_event_loop()
+    try:
+        b = Broadcaster()
+        slow = Client(loop, max_hz=2.0)
+        third = Client(loop, max_hz=10.0 / 3)  # not a divisor of the clock rate
+        b.add(slow)
+        b.add(third)
+        _publish_jittered(b, 200, 10.0, 0.02)  # 20 s
+        got = [d for _, d in slow.queue]
+        assert len(got) == 40  # 2 Hz for 20 s
+        assert min(b["t_mono"] - a["t_mono"] for a, b in itertools.pairwise(got)) > 0.4
+        # every clock sample is either sent or counted as thinned before the next one sent
+        assert len(got) + sum(d["thinned"] for d in got) + slow.thinned == 200
+        span = got[-1]["t_mono"] - got[0]["t_mono"]
+        assert (len(got) - 1) / span <= 2.0 + 1e-9
+        sent = [d for _, d in third.queue]
+        assert len(sent) in (66, 67)  # 10/3 Hz for 20 s, never above
+        assert len(sent) + sum(d["thinned"] for d in sent) + third.thinned == 200
+    finally:
+        loop.close()
+
+
+def test_stream_at_the_clock_rate_thins_nothing(live_url):
+    events = _events(live_url, "max_hz=10&max_events=20&jobs=false")
+    samples = [d for k, d in events if k == "sample"]
+    assert len(samples) == 20
+    assert [d["thinned"] for d in samples] == [0] * 20

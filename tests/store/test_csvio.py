@@ -145,3 +145,55 @@ def test_a_failure_late_in_the_import_rolls_everything_back(store: Store, tmp_pa
             stopped_at=1.0,
         )
     assert len(store.list_runs()) == 1
+
+
+def test_an_import_over_the_row_limit_is_refused_naming_the_line(
+    store: Store, tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setattr("daq.store.csvio.MAX_IMPORT_ROWS", 5)
+    path = tmp_path / "long.csv"
+    path.write_text("t,position\n" + "".join(f"{i / 10},0.0\n" for i in range(6)))
+    with pytest.raises(CsvImportError, match=r"line 7: more than 5 data rows \(the import limit\)"):
+        import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
+    assert store.list_runs() == []
+    path.write_text("t,position\n" + "".join(f"{i / 10},0.0\n" for i in range(5)))
+    run_id = import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
+    assert store.get_run(run_id).sample_count == 5
+
+
+def test_a_long_import_is_written_in_batches_and_a_late_failure_ends_it_aborted(
+    store: Store, tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setattr("daq.store.csvio.IMPORT_BATCH_ROWS", 4)
+    path = tmp_path / "long.csv"
+    path.write_text("t,position\n" + "".join(f"{i / 10},{i / 100}\n" for i in range(10)))
+    transactions = []
+    real = store.transaction
+
+    def counted():
+        transactions.append(1)
+        return real()
+
+    monkeypatch.setattr(store, "transaction", counted)
+    run_id = import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
+    run = store.get_run(run_id)
+    assert (run.status, run.sample_count) == ("completed", 10)
+    assert np.allclose(store.samples(run_id).channels["tow_position"], np.arange(10) / 100)
+    assert len(transactions) == 5  # the run, 3 batches of ≤ 4, the finish
+
+    calls = []
+    insert = store._insert_rows
+
+    def fail_second(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise OSError("disk full")
+        return insert(*args, **kwargs)
+
+    monkeypatch.setattr(store, "_insert_rows", fail_second)
+    with pytest.raises(OSError, match="disk full"):
+        import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
+    failed = [r for r in store.list_runs() if r.id != run_id]
+    assert [(r.status, r.reason, r.sample_count) for r in failed] == [
+        ("aborted", "import failed: disk full", 4)
+    ]

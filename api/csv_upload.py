@@ -1,0 +1,76 @@
+"""CSV import off the clock's process.
+
+The upload is streamed to a temporary file (the service holds one chunk at a time) and
+parsed and stored by a short-lived child process (spawned, niced), so neither the parse
+of up to ``MAX_IMPORT_ROWS`` rows nor its garbage collection ever holds the GIL the
+acquisition clock's thread needs. A database only this process can open (in-memory
+SQLite) falls back to a worker thread.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import multiprocessing
+import os
+from collections.abc import AsyncIterator
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from starlette.concurrency import run_in_threadpool
+
+from daq.store import Store, import_csv
+
+#: Niceness of the import process: it yields the CPU to the service and the clock.
+IMPORT_NICENESS = 10
+
+
+async def save_stream(chunks: AsyncIterator[bytes], path: Path) -> int:
+    """Write the request body to ``path`` chunk by chunk; returns its size (bytes)."""
+    size = 0
+    with open(path, "wb") as f:
+        async for chunk in chunks:
+            f.write(chunk)
+            size += len(chunk)
+    return size
+
+
+def _lower_priority() -> None:
+    with contextlib.suppress(OSError):
+        os.nice(IMPORT_NICENESS)
+
+
+def _import(url: str, path: Path, kind: str, options: dict[str, Any]) -> tuple[str, int]:
+    store = Store(url)
+    try:
+        run_id = import_csv(store, path, kind=kind, **options)
+        return run_id, store.get_run(run_id).sample_count
+    finally:
+        store.close()
+
+
+def _shared(url: str) -> bool:
+    """Can another process open this database?"""
+    return not (url.startswith("sqlite") and (":memory:" in url or url.rstrip("/") == "sqlite:"))
+
+
+async def import_file(store: Store, path: Path, *, kind: str, **options: Any) -> tuple[str, int]:
+    """Import ``path`` as a completed run; returns (run id, sample count).
+
+    ``options``: the keyword arguments of ``daq.store.import_csv`` (parameters, vehicle,
+    time_unit, release_time_s, end_time_s)."""
+    if not _shared(store.url):
+
+        def local() -> tuple[str, int]:
+            run_id = import_csv(store, path, kind=kind, **options)
+            return run_id, store.get_run(run_id).sample_count
+
+        return await run_in_threadpool(local)
+    pool = ProcessPoolExecutor(
+        1, mp_context=multiprocessing.get_context("spawn"), initializer=_lower_priority
+    )
+    try:
+        return await asyncio.wrap_future(pool.submit(_import, store.url, path, kind, options))
+    finally:
+        await asyncio.to_thread(pool.shutdown)
