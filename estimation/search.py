@@ -51,7 +51,7 @@ MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the no
 AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
-MIN_INDEPENDENT_SHARE = 0.1  # |ρ| ≥ 0.995 with the base model's own sensitivities: unknowable
+MIN_INDEPENDENT_SHARE = 1e-3  # below: the effect is a combination of M, K_L, K_Q on these runs
 PAIR_EXPERIMENTS = {
     frozenset({"coulomb_friction", "constant_bias"}): (
         "coulomb_friction and constant_bias are collinear when every run moves the same way: "
