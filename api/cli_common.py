@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import asyncio
 import json
-import signal
+import re
 import sys
 from collections.abc import Awaitable, Callable
 from contextlib import contextmanager
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
-from daq.config import RigConfigError
-from daq.procedures.params import ParameterError, Progress
-from daq.procedures.recording import AbortSignal
+if TYPE_CHECKING:  # imported where used: light commands start without numpy & co.
+    from daq.procedures.params import Progress
+    from daq.procedures.recording import AbortSignal
 
 T = TypeVar("T")
 
@@ -52,13 +51,38 @@ def fail(message: str, code: int = 2) -> None:
     sys.exit(code)
 
 
+def flag_names(ctx: click.Context | None, message: str) -> str:
+    """``message`` with the command's parameter names (``force_n``) replaced by the
+    option that sets them (``--force``), as the user typed them."""
+    while ctx is not None and ctx.invoked_subcommand is not None and ctx.command is not None:
+        sub = getattr(ctx.command, "get_command", lambda *_: None)(ctx, ctx.invoked_subcommand)
+        if sub is None:
+            break
+        ctx = click.Context(sub, parent=ctx)
+    if ctx is None or ctx.command is None:
+        return message
+    for param in ctx.command.params:
+        if isinstance(param, click.Option) and param.name and param.opts:
+            flag = max(param.opts, key=len)
+            message = re.sub(rf"(?<![\w.\[-]){re.escape(param.name)}\b", flag, message)
+    return message
+
+
 @contextmanager
 def user_errors():
-    """Turn bad rig files and bad parameters into one clear message and exit 2."""
+    """Turn bad rig files, bad parameters and unknown or ambiguous ids into one clear
+    message naming the CLI flag, and exit 2."""
+    from daq.config import RigConfigError
+    from daq.procedures.params import ParameterError
+    from daq.store.records import AmbiguousRunId
+
+    ctx = click.get_current_context(silent=True)
     try:
         yield
-    except (RigConfigError, ParameterError) as err:
-        fail("\n       ".join(err.lines()) if isinstance(err, ParameterError) else str(err))
+    except ParameterError as err:
+        fail(flag_names(ctx, "\n       ".join(err.lines())))
+    except (RigConfigError, AmbiguousRunId) as err:
+        fail(str(err))
     except KeyError as err:  # RunNotFound and friends carry their own message
         fail(err.args[0] if err.args else str(err))
 
@@ -128,6 +152,11 @@ def run_with_signals(main: Callable[[AbortSignal], Awaitable[T]]) -> T:
     The procedure then ends the run as ``aborted`` and the session leaves the rig
     safe (thrusters zero, brakes on) before the process exits.
     """
+
+    import asyncio
+    import signal
+
+    from daq.procedures.recording import AbortSignal
 
     async def runner() -> T:
         loop = asyncio.get_running_loop()

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-from daq.config import RigConfig
+if TYPE_CHECKING:  # annotations only: ``rig runs``/``rig show`` start without pydantic
+    from daq.config import RigConfig
 
 #: The kinds of run the procedures record (a run's ``kind``).
 RUN_KINDS = ("tow", "spin", "pendulum", "thrust_calibration")
