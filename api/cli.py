@@ -12,6 +12,7 @@ error a user's input can cause ends as one ``error: …`` line, never a tracebac
 from __future__ import annotations
 
 import importlib
+import logging
 import os
 import sys
 from typing import Any
@@ -104,21 +105,33 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 DEBUG_ENV = "RIG_DEBUG"
 
 
-def _user_error_types() -> tuple[type[BaseException], ...]:
-    """Exceptions that mean bad input (exit 2), loaded with the modules that raise them."""
+def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseException], ...]:
+    """Exception classes of modules already imported (a command that never imported one
+    cannot raise it), so catching them costs no import."""
     found: list[type[BaseException]] = []
-    for module, names in (
-        ("daq.store.records", ("RunNotFound", "ResultNotFound", "AmbiguousRunId")),
-        ("daq.config", ("RigConfigError",)),
-        ("daq.procedures.params", ("ParameterError",)),
-    ):
+    for module, names in pairs:
         loaded = sys.modules.get(module)
         found += [getattr(loaded, n) for n in names] if loaded is not None else []
     return tuple(found)
 
 
+#: Bad input (exit 2): unknown or ambiguous ids, bad rig files, bad parameters.
+USER_ERRORS = (
+    ("daq.store.records", ("RunNotFound", "ResultNotFound", "AmbiguousRunId")),
+    ("daq.config", ("RigConfigError",)),
+    ("daq.procedures.params", ("ParameterError",)),
+)
+#: The rig or a device failed (exit 1: the run, if any, did not complete).
+FAULTS = (
+    ("daq.plc", ("DeviceError",)),
+    ("thrusters.driver", ("ThrusterError",)),
+    ("daq.session", ("RigBusy",)),
+    ("daq.procedures.motion", ("PreconditionFailed",)),
+)
+
+
 class RigGroup(click.Group):
-    """Loads a command's module on first use; turns stray exceptions into one line."""
+    """Loads a command's module on first use; every error ends as one ``error: …`` line."""
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return list(COMMANDS)
@@ -136,29 +149,81 @@ class RigGroup(click.Group):
         with formatter.section("Commands"):
             formatter.write_dl(rows)
 
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        """Click's usage errors as one line (with where to find help), not three."""
+        # pymodbus logs each failed connect/bind itself; the command reports it once.
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+        try:
+            rv = super().main(*args, standalone_mode=False, **kwargs)
+        except click.ClickException as err:
+            hint = ""
+            if isinstance(err, click.UsageError) and err.ctx is not None:
+                hint = f" (see '{err.ctx.command_path} --help')"
+            click.echo(f"error: {_one_line(err.format_message())}{hint}", err=True)
+            sys.exit(err.exit_code)
+        except click.Abort:
+            click.echo("error: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        name, cmd, rest = super().resolve_command(ctx, args)
+        ctx.meta["rig.command"] = (name, cmd, list(rest))  # to name flags in errors
+        return name, cmd, rest
+
     def invoke(self, ctx: click.Context) -> Any:
+        from api.cli_common import fail, flag_names
+
         try:
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort, SystemExit):
             raise
         except KeyboardInterrupt:
-            click.echo("error: interrupted", err=True)
-            sys.exit(130)
-        except _user_error_types() as err:
-            from api.cli_common import fail, flag_names
-
-            fail(flag_names(ctx, _one_line(err)))
-        except Exception as err:  # a bug, or a fault outside the rig's control
+            fail("interrupted", code=130)
+        except _loaded(USER_ERRORS) as err:
+            fail(flag_names(_command_context(ctx), _one_line(err)))
+        except _loaded(FAULTS) as err:
+            fail(_one_line(err), code=1)
+        except OSError as err:
+            if err.filename is None:
+                fail(_one_line(err), code=1)
+            where = _option_given(_command_context(ctx), str(err.filename))
+            fail(f"{where}cannot use {err.filename}: {err.strerror or err}")
+        except Exception as err:  # a bug: say what, and how to see more
             if os.environ.get(DEBUG_ENV):
                 raise
-            click.echo(
-                f"error: {_one_line(err)} ({type(err).__name__}; set {DEBUG_ENV}=1 for details)",
-                err=True,
-            )
-            sys.exit(1)
+            fail(f"{_one_line(err)} ({type(err).__name__}; set {DEBUG_ENV}=1 for details)", 1)
 
 
-def _one_line(err: BaseException) -> str:
+def _command_context(ctx: click.Context) -> click.Context | None:
+    """The subcommand's context, parsed again from its arguments (the real one is gone
+    by the time an error reaches the group)."""
+    name, cmd, args = ctx.meta.get("rig.command", (None, None, []))
+    if cmd is None:
+        return None
+    try:
+        return cmd.make_context(name, list(args), parent=ctx, resilient_parsing=True)
+    except click.ClickException:
+        return None
+
+
+def _option_given(ctx: click.Context | None, path: str) -> str:
+    """``--output: `` when the user gave ``path`` (or a folder holding it) to an option."""
+    if ctx is None:
+        return ""
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name or "")
+        values = value if isinstance(value, tuple | list) else [value]
+        for v in values:
+            given = str(v).rstrip("/") if v is not None else ""
+            if given and (path == given or path.startswith(given + "/")):
+                return f"{max(param.opts, key=len)}: " if isinstance(param, click.Option) else ""
+    return ""
+
+
+def _one_line(err: BaseException | str) -> str:
     lines = getattr(err, "lines", None)
     text = "; ".join(lines()) if callable(lines) else str(err)
     return " ".join(text.split()) or type(err).__name__

@@ -53,18 +53,17 @@ def fail(message: str, code: int = 2) -> None:
 
 def flag_names(ctx: click.Context | None, message: str) -> str:
     """``message`` with the command's parameter names (``force_n``) replaced by the
-    option that sets them (``--force``), as the user typed them."""
-    while ctx is not None and ctx.invoked_subcommand is not None and ctx.command is not None:
-        sub = getattr(ctx.command, "get_command", lambda *_: None)(ctx, ctx.invoked_subcommand)
-        if sub is None:
-            break
-        ctx = click.Context(sub, parent=ctx)
+    option that sets them (``--force``) and a leading argument name by its metavar."""
     if ctx is None or ctx.command is None:
         return message
     for param in ctx.command.params:
-        if isinstance(param, click.Option) and param.name and param.opts:
+        if not param.name:
+            continue
+        if isinstance(param, click.Option) and param.opts:
             flag = max(param.opts, key=len)
             message = re.sub(rf"(?<![\w.\[-]){re.escape(param.name)}\b", flag, message)
+        elif isinstance(param, click.Argument) and message.startswith(f"{param.name}:"):
+            message = param.make_metavar(ctx) + message[len(param.name) :]
     return message
 
 
@@ -95,7 +94,7 @@ def open_store(db_url: str | None):
         try:
             store = Store(db_url)
         except Exception as err:  # a bad URL or unreachable server
-            fail(f"cannot open database {db_url or '(default)'}: {err}")
+            fail(f"--db: cannot open the database: {_database_error(err)}")
     recovered = store.recover_interrupted()  # only runs whose owning process is gone
     if recovered:
         click.echo(
@@ -103,6 +102,15 @@ def open_store(db_url: str | None):
             err=True,
         )
     return store
+
+
+def _database_error(err: Exception) -> str:
+    """The driver's reason, on one line, without the URL (it may hold a password) or
+    SQLAlchemy's wrapper text."""
+    text = str(getattr(err, "orig", None) or err)
+    text = re.sub(r"\(Background on this error at: [^)]*\)", "", text)
+    text = re.sub(r"\w+://\S*", "<URL>", text)
+    return " ".join(text.split())
 
 
 def echo_json(data: Any) -> None:

@@ -68,8 +68,9 @@ def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_u
                         search_effects=not no_effects,
                         report_dir=report_dir,
                     )
-            except ValueError as err:
-                fail(str(err))
+            except ValueError as err:  # the API's field names are the order of --results
+                message = str(err).replace("weight_result_id", "--results (first)")
+                fail(message.replace("thruster_result_id", "--results (second)"))
         if as_json:
             echo_json(data)
             return

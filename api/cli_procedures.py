@@ -12,6 +12,7 @@ from api.cli_common import (
     db_option,
     echo_json,
     fail,
+    flag_names,
     json_option,
     open_store,
     rig_option,
@@ -43,6 +44,9 @@ def _run_procedure(
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
         params = validate(source)
+    note = getattr(params, "adjustment", lambda: None)()
+    if note:  # the weight hangs to the gram: say what the run really applies
+        click.echo(f"note: {flag_names(click.get_current_context(silent=True), note)}", err=True)
     store = open_store(db_url)
 
     async def main(abort: AbortSignal) -> Any:
