@@ -18,7 +18,6 @@ import sys
 from typing import Any
 
 import click
-from click.utils import make_default_short_help
 
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing
 #: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py).
@@ -145,7 +144,10 @@ class RigGroup(click.Group):
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         limit = formatter.width - 6 - max(len(name) for name in COMMANDS)
-        rows = [(name, make_default_short_help(h, limit)) for name, (_, _, h) in COMMANDS.items()]
+        rows = [
+            (name, click.Command(name, help=text).get_short_help_str(limit))
+            for name, (_, _, text) in COMMANDS.items()
+        ]
         with formatter.section("Commands"):
             formatter.write_dl(rows)
 
@@ -240,4 +242,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(prog_name="rig")

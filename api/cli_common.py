@@ -46,8 +46,10 @@ scenario_option = click.option(
 
 
 def fail(message: str, code: int = 2) -> None:
-    """Print ``error: message`` on stderr and exit (2 = bad input, 1 = failure)."""
-    click.echo(f"error: {message}", err=True)
+    """Print ``error: message`` on stderr, on one line (several problems are joined by
+    ``;``), and exit (2 = bad input, 1 = failure)."""
+    parts = [line.strip() for line in str(message).splitlines() if line.strip()]
+    click.echo(f"error: {'; '.join(parts)}", err=True)
     sys.exit(code)
 
 
@@ -79,7 +81,7 @@ def user_errors():
     try:
         yield
     except ParameterError as err:
-        fail(flag_names(ctx, "\n       ".join(err.lines())))
+        fail(flag_names(ctx, "; ".join(err.lines())))
     except (RigConfigError, AmbiguousRunId) as err:
         fail(str(err))
     except KeyError as err:  # RunNotFound and friends carry their own message
@@ -111,6 +113,15 @@ def _database_error(err: Exception) -> str:
     text = re.sub(r"\(Background on this error at: [^)]*\)", "", text)
     text = re.sub(r"\w+://\S*", "<URL>", text)
     return " ".join(text.split())
+
+
+def report_folder(path: str | None) -> str | None:
+    """Create a ``--report`` folder before any work, so a bad path fails at once."""
+    if path:
+        from pathlib import Path
+
+        Path(path).mkdir(parents=True, exist_ok=True)
+    return path
 
 
 def echo_json(data: Any) -> None:

@@ -59,7 +59,7 @@ def _run_procedure(
             except PreconditionFailed as err:
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
-                fail("\n       ".join(err.lines()))
+                fail(flag_names(click.get_current_context(silent=True), "; ".join(err.lines())))
 
     try:
         return run_with_signals(main)
