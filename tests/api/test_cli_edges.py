@@ -5,6 +5,7 @@ on stderr, exit 2 (1 when a device or the run failed), never a traceback."""
 from __future__ import annotations
 
 import importlib
+import json
 import os
 import re
 import socket
@@ -172,3 +173,22 @@ def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
     assert proc.returncode == code, (proc.returncode, err)
     for leak in ("sqlite:", "secret", "Store(", "site-packages", "/work/"):
         assert leak not in lines[0], err
+
+
+def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(world):
+    """The note comes before the run; the thruster line says nothing ('NAK disarmed' was
+    the close zeroing a controller that was never armed); the run stores both loads."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "api.cli", "tow", "--force", "10", "--max-time", "1",
+         "--baseline", "0.3", "--db", world["db"], "--json"],
+        cwd=world["tmp"], capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.splitlines() == [
+        "note: --force 10 N asked for; weights hang to the gram, so 1.020 kg is hung and "
+        "the run applies 9.996 N"
+    ]
+    with Store(world["db"]) as store:
+        run = store.get_run(json.loads(proc.stdout)["run_id"])
+    assert run.parameters["requested"] == {"force_n": 10.0}
+    assert run.parameters["force_n"] == pytest.approx(9.996)
