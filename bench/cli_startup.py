@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -22,13 +23,18 @@ HEAVY = ("numpy", "scipy", "matplotlib", "fastapi", "sqlalchemy", "pymodbus", "p
 RIG = [sys.executable, "-c", "import sys; from api.cli import main; sys.argv[0] = 'rig'; main()"]
 
 
-def timed(argv: list[str], env: dict[str, str], runs: int) -> float:
-    times = []
+def timed(argv: list[str], env: dict[str, str], runs: int) -> tuple[float, float]:
+    """Median wall time and median CPU time (user + system) of ``runs`` fresh processes;
+    CPU time is the figure to trust on a loaded machine."""
+    walls, cpus = [], []
     for _ in range(runs):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         subprocess.run(argv, env=env, cwd=env["XDG_DATA_HOME"], capture_output=True, check=False)
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+        walls.append(time.perf_counter() - t0)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    return statistics.median(walls), statistics.median(cpus)
 
 
 def heavy_imports(args: list[str], env: dict[str, str]) -> list[str]:
@@ -61,7 +67,7 @@ def main() -> None:
             }
         )
         subprocess.run([*RIG, "runs"], env=env, cwd=tmp, capture_output=True, check=True)  # the db
-        baseline = timed([sys.executable, "-c", "pass"], env, opts.runs)
+        baseline, baseline_cpu = timed([sys.executable, "-c", "pass"], env, opts.runs)
         commands = {
             "rig --help": ["--help"],
             "rig token": ["token"],
@@ -73,13 +79,16 @@ def main() -> None:
             "source": str(opts.src or Path(__file__).resolve().parents[1]),
             "runs": opts.runs,
             "python_c_pass_s": round(baseline, 3),
+            "python_c_pass_cpu_s": round(baseline_cpu, 3),
             "commands": {},
         }
         for label, args in commands.items():
-            median = timed([*RIG, *args], env, opts.runs)
+            median, cpu = timed([*RIG, *args], env, opts.runs)
             out["commands"][label] = {
                 "median_s": round(median, 3),
                 "over_python_s": round(median - baseline, 3),
+                "cpu_s": round(cpu, 3),
+                "cpu_over_python_s": round(cpu - baseline_cpu, 3),
                 "imports": heavy_imports(args, env),
             }
         out["cpu_load_1min"] = round(os.getloadavg()[0], 2)
