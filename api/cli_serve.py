@@ -52,7 +52,7 @@ def serve(
     try:
         sock.bind((host, port))
     except OSError as err:
-        fail(f"cannot bind {host}:{port}: {err.strerror}", code=1)
+        fail(f"--host/--port: cannot bind {host}:{port}: {err.strerror}")
     bound_port = sock.getsockname()[1]
     shown = f"[{host}]" if ":" in host else host
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"

@@ -87,7 +87,7 @@ case(2, "No such command 'nosuch'", "nosuch")
 case(2, "--db: cannot open the database: connection failed", "runs", "--db", "{pg}")
 case(2, "--db: cannot open the database", "show", "{run}", "--db", "{pg}")
 case(2, "--modbus-port: cannot listen on 127.0.0.1:{busy}", "sim", "--modbus-port", "{busy}")
-case(1, "cannot bind 127.0.0.1:{busy}", "serve", "--port", "{busy}", "--db", "{db}")
+case(2, "--host/--port: cannot bind 127.0.0.1:{busy}", "serve", "--port", "{busy}", "--db", "{db}")
 case(1, "cannot connect to PLC at tcp 127.0.0.1:{closed}", "tow", "--force", "9.8", "--rig", "{hw}")
 
 
