@@ -156,6 +156,7 @@ class RigGroup(click.Group):
         # pymodbus logs each failed connect/bind itself; the command reports it once.
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         try:
+            kwargs.pop("standalone_mode", None)  # errors are reported here, one line each
             rv = super().main(*args, standalone_mode=False, **kwargs)
         except click.ClickException as err:
             hint = ""
