@@ -81,7 +81,9 @@ def test_lookup_by_unique_prefix_and_clear_errors(store: Store) -> None:
         store.get_run("tow%")
     with pytest.raises(RunNotFound, match=r"'a{40}…'"):  # long ids are cut in the message
         store.get_run("a" * 100)
-    assert "sqlite" not in str(pytest.raises(RunNotFound, store.get_run, "ffff0000").value)
+    with pytest.raises(RunNotFound) as unknown:
+        store.get_run("ffff0000")
+    assert "sqlite" not in str(unknown.value) and "Store(" not in str(unknown.value)
     with pytest.raises(KeyError):  # RunNotFound is a KeyError too
         store.samples("0000000000")
 
