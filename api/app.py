@@ -34,7 +34,9 @@ from api import (
 )
 from api.jobs import JobConflict, JobNotFound, JobRunner
 from api.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
+from api.request_errors import request_json_error, request_not_found
 from api.service import RigService, RigUnavailable
+from api.static_assets import app_with_offline_docs, compress_static
 from daq.procedures.params import ParameterError
 from daq.store import AmbiguousRunId, RunNotFound
 from daq.store.base import software_version
@@ -81,6 +83,12 @@ def _install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+        not_found = request_not_found(exc.errors())
+        if not_found is not None:  # an id no resource can have is an unknown id
+            return _error(404, not_found)
+        invalid_json = request_json_error(exc.errors())
+        if invalid_json is not None:
+            return _error(422, invalid_json["message"], errors=[invalid_json])
         problems = []
         for e in exc.errors():
             loc = [str(p) for p in e.get("loc", ()) if p not in ("body", "query", "path")]
@@ -170,7 +178,7 @@ def create_app(
             if manage_service:
                 await asyncio.to_thread(service.stop)
 
-    app = FastAPI(
+    app = app_with_offline_docs(
         title="towrig rig service",
         version=software_version(),
         description="Run the underwater-vehicle test rig: tests as jobs, stored runs, "
@@ -185,6 +193,7 @@ def create_app(
     app.state.open_read = open_read
     app.state.max_upload_bytes = max_upload_bytes
     _install_error_handlers(app)
+    compress_static(app)
     if cors_origins:
         app.add_middleware(
             CORSMiddleware,

@@ -12,10 +12,12 @@ import os
 import secrets
 import stat
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from fastapi import HTTPException, Request
+if TYPE_CHECKING:  # ``rig token`` reads the token without importing the web stack
+    from fastapi import Request
 
-from daq.store import default_database_path
+from daq.data_dir import default_database_path
 
 TOKEN_ENV = "RIG_API_TOKEN"
 
@@ -72,6 +74,8 @@ def presented_token(request: Request) -> str | None:
 
 def check_token(request: Request, expected: str) -> None:
     """Raise 401 unless the request carries ``expected`` (constant-time comparison)."""
+    from fastapi import HTTPException
+
     given = presented_token(request)
     if given is None:
         raise HTTPException(

@@ -37,6 +37,15 @@ def _weights(pairs: tuple[str, ...]) -> dict[str, float] | None:
     return out
 
 
+def _ahp_judgements(path: str) -> dict:
+    """The ``--ahp`` file's JSON; exit 2 naming the flag when it is not JSON."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        fail(f"--ahp: {path} is not a JSON file of judgement matrices ({err})")
+        raise  # unreachable: fail() exits
+
+
 def _print(out: dict) -> None:
     responses = list(out["weights"])
     click.echo(f"vehicle {out['vehicle']} ({out['vehicle_name']})")
@@ -162,7 +171,7 @@ def sensitivity(
     and suggest the test that would pin down the most uncertain one."""
     store = open_store(db_url) if estimates else None
     try:
-        ahp = json.loads(Path(ahp_file).read_text(encoding="utf-8")) if ahp_file else None
+        ahp = _ahp_judgements(ahp_file) if ahp_file else None
         out = analysis_common.analyse_vehicle(
             store,
             vehicle,

@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import asyncio
 import json
-import signal
+import re
 import sys
 from collections.abc import Awaitable, Callable
 from contextlib import contextmanager
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
-from daq.config import RigConfigError
-from daq.procedures.params import ParameterError, Progress
-from daq.procedures.recording import AbortSignal
+if TYPE_CHECKING:  # imported where used: light commands start without numpy & co.
+    from daq.procedures.params import Progress
+    from daq.procedures.recording import AbortSignal
 
 T = TypeVar("T")
 
@@ -47,18 +46,44 @@ scenario_option = click.option(
 
 
 def fail(message: str, code: int = 2) -> None:
-    """Print ``error: message`` on stderr and exit (2 = bad input, 1 = failure)."""
-    click.echo(f"error: {message}", err=True)
+    """Print ``error: message`` on stderr, on one line (several problems are joined by
+    ``;``), and exit (2 = bad input, 1 = failure)."""
+    parts = [line.strip() for line in str(message).splitlines() if line.strip()]
+    click.echo(f"error: {'; '.join(parts)}", err=True)
     sys.exit(code)
+
+
+def flag_names(ctx: click.Context | None, message: str) -> str:
+    """``message`` with the command's parameter names (``force_n``) replaced by the
+    option that sets them (``--force``) and a leading argument name by its metavar."""
+    if ctx is None or ctx.command is None:
+        return message
+    for param in ctx.command.params:
+        if not param.name:
+            continue
+        if isinstance(param, click.Option) and param.opts:
+            flag = max(param.opts, key=len)
+            message = re.sub(rf"(?<![\w.\[-]){re.escape(param.name)}\b", flag, message)
+        elif isinstance(param, click.Argument) and message.startswith(f"{param.name}:"):
+            message = param.make_metavar(ctx) + message[len(param.name) :]
+    return message
 
 
 @contextmanager
 def user_errors():
-    """Turn bad rig files and bad parameters into one clear message and exit 2."""
+    """Turn bad rig files, bad parameters and unknown or ambiguous ids into one clear
+    message naming the CLI flag, and exit 2."""
+    from daq.config import RigConfigError
+    from daq.procedures.params import ParameterError
+    from daq.store.records import AmbiguousRunId
+
+    ctx = click.get_current_context(silent=True)
     try:
         yield
-    except (RigConfigError, ParameterError) as err:
-        fail("\n       ".join(err.lines()) if isinstance(err, ParameterError) else str(err))
+    except ParameterError as err:
+        fail(flag_names(ctx, "; ".join(err.lines())))
+    except (RigConfigError, AmbiguousRunId) as err:
+        fail(str(err))
     except KeyError as err:  # RunNotFound and friends carry their own message
         fail(err.args[0] if err.args else str(err))
 
@@ -71,7 +96,7 @@ def open_store(db_url: str | None):
         try:
             store = Store(db_url)
         except Exception as err:  # a bad URL or unreachable server
-            fail(f"cannot open database {db_url or '(default)'}: {err}")
+            fail(f"--db: cannot open the database: {_database_error(err)}")
     recovered = store.recover_interrupted()  # only runs whose owning process is gone
     if recovered:
         click.echo(
@@ -79,6 +104,24 @@ def open_store(db_url: str | None):
             err=True,
         )
     return store
+
+
+def _database_error(err: Exception) -> str:
+    """The driver's reason, on one line, without the URL (it may hold a password) or
+    SQLAlchemy's wrapper text."""
+    text = str(getattr(err, "orig", None) or err)
+    text = re.sub(r"\(Background on this error at: [^)]*\)", "", text)
+    text = re.sub(r"\w+://\S*", "<URL>", text)
+    return " ".join(text.split())
+
+
+def report_folder(path: str | None) -> str | None:
+    """Create a ``--report`` folder before any work, so a bad path fails at once."""
+    if path:
+        from pathlib import Path
+
+        Path(path).mkdir(parents=True, exist_ok=True)
+    return path
 
 
 def echo_json(data: Any) -> None:
@@ -128,6 +171,11 @@ def run_with_signals(main: Callable[[AbortSignal], Awaitable[T]]) -> T:
     The procedure then ends the run as ``aborted`` and the session leaves the rig
     safe (thrusters zero, brakes on) before the process exits.
     """
+
+    import asyncio
+    import signal
+
+    from daq.procedures.recording import AbortSignal
 
     async def runner() -> T:
         loop = asyncio.get_running_loop()

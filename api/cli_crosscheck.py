@@ -12,6 +12,7 @@ from api.cli_common import (
     number,
     open_store,
     plus_minus,
+    report_folder,
     user_errors,
 )
 from api.crosscheck_job import crosscheck_results, crosscheck_runs
@@ -54,6 +55,7 @@ def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_u
         fail("--results: give either --results or --weight/--thrusters runs, not both")
     if not results and not (weight_runs and thruster_runs):
         fail("--weight and --thrusters: give at least one run of each (or --results A B)")
+    report_folder(report_dir)
     store = open_store(db_url)
     try:
         with user_errors():
@@ -68,8 +70,9 @@ def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_u
                         search_effects=not no_effects,
                         report_dir=report_dir,
                     )
-            except ValueError as err:
-                fail(str(err))
+            except ValueError as err:  # the API's field names are the order of --results
+                message = str(err).replace("weight_result_id", "--results (first)")
+                fail(message.replace("thruster_result_id", "--results (second)"))
         if as_json:
             echo_json(data)
             return

@@ -11,6 +11,7 @@ from api.cli_common import (
     json_option,
     open_store,
     plus_minus,
+    report_folder,
     user_errors,
 )
 from api.estimation_job import run_estimation
@@ -48,6 +49,7 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
     """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
     vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
     the error before and after."""
+    report_folder(report_dir)
     store = open_store(db_url)
     try:
         with user_errors():

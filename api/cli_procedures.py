@@ -13,6 +13,7 @@ from api.cli_common import (
     db_option,
     echo_json,
     fail,
+    flag_names,
     json_option,
     open_store,
     rig_option,
@@ -46,6 +47,9 @@ def _run_procedure(
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
         params = validate(source)
+    note = getattr(params, "adjustment", lambda: None)()
+    if note:  # the weight hangs to the gram: say what the run really applies
+        click.echo(f"note: {flag_names(click.get_current_context(silent=True), note)}", err=True)
     store = open_store(db_url)
 
     async def main(abort: AbortSignal) -> Any:
@@ -58,7 +62,7 @@ def _run_procedure(
             except (PreconditionFailed, RigInUse) as err:
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
-                fail("\n       ".join(err.lines()))
+                fail(flag_names(click.get_current_context(silent=True), "; ".join(err.lines())))
             except SQLAlchemyError as err:  # storage failed outside a run (its start, say)
                 fail(f"storage failed: {one_line(err)}", code=1)
 

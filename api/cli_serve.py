@@ -69,7 +69,7 @@ def serve(
     try:
         sock.bind((host, port))
     except OSError as err:
-        fail(f"cannot bind {host}:{port}: {err.strerror}", code=1)
+        fail(f"--host/--port: cannot bind {host}:{port}: {err.strerror}")
     bound_port = sock.getsockname()[1]
     # The app's lifespan stops the service (rig left safe) before uvicorn re-raises a SIGTERM.
     app = create_app(

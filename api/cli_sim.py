@@ -123,11 +123,11 @@ def sim(
         rig = load_rig(rig_file)
         scenario = load_scenario(scenario_file)
     except RigConfigError as err:
-        click.echo(str(err), err=True)
+        click.echo(f"error: {err}", err=True)
         sys.exit(2)
     simulated = SimulatedRig(rig, scenario, modbus_port=modbus_port, host=host, rtu=rtu)
     try:
         asyncio.run(_serve(simulated))
     except click.ClickException as err:
-        click.echo(f"rig sim: {err.message}", err=True)
+        click.echo(f"error: {err.message}", err=True)
         sys.exit(2)

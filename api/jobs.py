@@ -71,6 +71,8 @@ class Job:
     created_at: float = field(default_factory=time.time)
     started_at: float | None = None
     finished_at: float | None = None
+    #: What the operator should know about the request, e.g. a load rounded to the gram.
+    notes: list[str] = field(default_factory=list)
     # rig-loop objects (procedures) — touched only through RigService.call_soon
     abort: AbortSignal | None = None
     control: SequenceControl | None = None
@@ -94,6 +96,7 @@ class Job:
                 "created_at": self.created_at,
                 "started_at": self.started_at,
                 "finished_at": self.finished_at,
+                "notes": list(self.notes),
             }
 
 
@@ -171,6 +174,8 @@ class JobRunner:
                     holder=session.lock_holder,
                 )
             job = self._new(kind, label, parameters)
+            note = getattr(params, "adjustment", lambda: None)()
+            job.notes = [note] if note else []
             self._rig_job = job
         try:
             self.service.submit(self._run_procedure(job, kind, params))

@@ -191,6 +191,11 @@ class JobOut(BaseModel):
     created_at: float = Field(description="Unix time, s")
     started_at: float | None = None
     finished_at: float | None = None
+    notes: list[str] = Field(
+        default_factory=list,
+        description="What the request became, e.g. a force rounded to a whole-gram weight "
+        "(the run's parameters keep both: `requested` and the applied value).",
+    )
 
 
 class EmergencyStopOut(BaseModel):

@@ -91,6 +91,8 @@ class ThrusterDriver:
         self._executor: ThreadPoolExecutor | None = None
         self._seq = 0
         self.state = "UNKNOWN"
+        #: An ARM was sent and no reply since has shown the controller DISARMED.
+        self._maybe_armed = False
         #: Commands last sent, as fractions of full scale (after clamp and slew limit).
         self.output: list[float] = [0.0] * self.count
         #: Commands asked for by the caller, after clamping.
@@ -134,10 +136,17 @@ class ThrusterDriver:
             raise
 
     async def close(self) -> None:
-        """Command zero (waiting for the ACK, ≤ 3 retries), disarm, close. Never raises."""
+        """Command zero (waiting for the ACK, ≤ 3 retries), disarm, close. Never raises.
+
+        A controller that said DISARMED after the last ARM this driver sent (or that was
+        never sent an ARM) holds its outputs at zero: nothing is sent, so a weight-driven
+        run leaves the thruster line quiet."""
         if not self.is_open:
             return
         self.inhibited = "shutting down"
+        if self.state == "DISARMED" and not self._maybe_armed:
+            await self._close_port()
+            return
         try:
             if not await self.zero():
                 log.error("thrusters: zero command was not acknowledged before close")
@@ -164,6 +173,7 @@ class ThrusterDriver:
 
     async def arm(self) -> None:
         """Arm the controller (from DISARMED or WDT); outputs start from zero."""
+        self._maybe_armed = True
         reply = await self._transact(p.arm_frame, self._zeros)
         self._expect_ack(reply, "arm")
         self.output = [0.0] * self.count
@@ -306,6 +316,8 @@ class ThrusterDriver:
         assert reply is None or isinstance(reply, p.Reply)
         if reply is not None and reply.state:
             self.state = reply.state
+            if reply.state == "DISARMED":
+                self._maybe_armed = False
         elif reply is not None and reply.reason == "disarmed" and self.state == "ARMED":
             # Only the watchdog takes the controller out of ARMED without our DISARM.
             log.warning("thrusters: controller no longer armed (watchdog tripped)")

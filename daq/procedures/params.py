@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-from daq.config import RigConfig
+if TYPE_CHECKING:  # annotations only: ``rig runs``/``rig show`` start without pydantic
+    from daq.config import RigConfig
 
 #: The kinds of run the procedures record (a run's ``kind``).
 RUN_KINDS = ("tow", "spin", "pendulum", "thrust_calibration")
@@ -116,9 +117,15 @@ class TowParameters:
     baseline_s: float = 1.0
     drive: Literal["weight", "thrusters"] = "weight"
     kind: Literal["tow"] = "tow"
+    #: What was asked for when the hung weight (to the gram) changed it, e.g. {"force_n": 10}.
+    requested: dict[str, float] | None = None
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
+
+    def adjustment(self) -> str | None:
+        """The sentence telling the operator the requested load was rounded, if it was."""
+        return _adjustment(self.requested, self.hung_mass_kg, f"{self.force_n:.5g} N")
 
 
 @dataclass(frozen=True)
@@ -132,9 +139,15 @@ class SpinParameters:
     max_time_s: float
     baseline_s: float = 1.0
     kind: Literal["spin"] = "spin"
+    #: What was asked for when the hung weight (to the gram) changed it, e.g. {"torque_nm": 0.9}.
+    requested: dict[str, float] | None = None
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
+
+    def adjustment(self) -> str | None:
+        """The sentence telling the operator the requested load was rounded, if it was."""
+        return _adjustment(self.requested, self.hung_mass_kg, f"{self.torque_nm:.5g} N·m")
 
 
 @dataclass(frozen=True)
@@ -168,6 +181,26 @@ class CalibrationParameters:
 #: Weights are hung (and known) to the gram: the force or torque recorded with a run is
 #: what that weight gives, so the estimator's drive matches the rig's.
 WEIGHT_RESOLUTION_KG = 0.001
+
+
+_UNITS = {"force_n": "N", "torque_nm": "N·m", "weight_kg": "kg"}
+
+
+def _adjustment(requested: dict[str, float] | None, mass_kg: float | None, load: str) -> str | None:
+    if not requested or mass_kg is None:
+        return None
+    (name, value), *_ = requested.items()
+    return (
+        f"{name} {value:g} {_UNITS.get(name, '')} asked for; weights hang to the gram, so "
+        f"{mass_kg:.3f} kg is hung and the run applies {load}"
+    )
+
+
+def _requested(name: str, value: float | None, applied: float) -> dict[str, float] | None:
+    """``{name: value}`` when rounding the weight to the gram changed the request."""
+    if value is None or math.isclose(value, applied, rel_tol=1e-9, abs_tol=1e-12):
+        return None
+    return {name: value}
 
 
 def _hung_mass(c: _Checker, name: str, mass_kg: float | None) -> float:
@@ -216,13 +249,16 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     )
     base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
     c.fail_if_problems()
+    requested = None
     if drive == "weight":
+        asked = ("force_n", force) if force is not None else ("weight_kg", weight)
         weight = _hung_mass(
             c,
             "force_n" if force is not None else "weight_kg",
             force / g if force is not None else weight,
         )
         force = weight * g  # what the hung weight really pulls
+        requested = _requested(*asked, force if asked[0] == "force_n" else weight)
     assert force is not None
     assert dist is not None and tmax is not None and base is not None
     return TowParameters(
@@ -232,6 +268,7 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
         max_time_s=tmax,
         baseline_s=base,
         drive=drive,  # type: ignore[arg-type]
+        requested=requested,
     )
 
 
@@ -281,10 +318,13 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     )
     base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
     c.fail_if_problems()
+    requested = None
     if drive == "weight":
         name = "torque_nm" if torque is not None else "weight_kg"
+        asked = ("torque_nm", torque) if torque is not None else ("weight_kg", weight)
         weight = _hung_mass(c, name, torque / (g * r) if torque is not None else weight)
         torque = weight * g * r  # what the weight on the drum really gives
+        requested = _requested(*asked, torque if asked[0] == "torque_nm" else weight)
     assert torque is not None
     assert angle is not None and tmax is not None and base is not None
     return SpinParameters(
@@ -294,6 +334,7 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
         max_angle_rad=angle,
         max_time_s=tmax,
         baseline_s=base,
+        requested=requested,
     )
 
 

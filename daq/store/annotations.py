@@ -14,6 +14,9 @@ from daq.store.records import EventInfo, ResultInfo, ResultNotFound, to_datetime
 from daq.store.schema import events, result_runs, results
 from daq.store.schema import runs as runs_t
 
+#: The largest id a result can have (SQLite and PostgreSQL integer keys are 64-bit).
+MAX_RESULT_ID = 2**63 - 1
+
 
 class EventsAndResults(StoreBase):
     """The events and results half of :class:`daq.store.Store`."""
@@ -104,8 +107,17 @@ class EventsAndResults(StoreBase):
         return self._fetch_results(query, run_id)
 
     def result(self, result_id: int) -> ResultInfo:
-        """One result by id; ``ResultNotFound`` names the id."""
-        found = self._fetch_results(sa.select(results).where(results.c.id == int(result_id)))
+        """One result by id; ``ResultNotFound`` names the id (also for one no row can have:
+        not an integer, or beyond the database's 64-bit ids)."""
+        if isinstance(result_id, bool) or not isinstance(result_id, int | str):
+            raise ResultNotFound(f"no result with id {result_id!r}")
+        try:
+            key = int(result_id)
+        except ValueError:
+            raise ResultNotFound(f"no result with id {result_id!r}") from None
+        if not 0 < key <= MAX_RESULT_ID:
+            raise ResultNotFound(f"no result with id {result_id}")
+        found = self._fetch_results(sa.select(results).where(results.c.id == key))
         if not found:
             raise ResultNotFound(f"no result with id {result_id}")
         return found[0]

@@ -126,13 +126,16 @@ class StoreBase:
 
     def _resolve(self, conn: sa.Connection, run_id: str) -> sa.Row:
         """The run row for a uuid or unique uuid prefix."""
-        key = checks.check_run_id(run_id)
+        try:
+            key = checks.check_run_id(run_id)
+        except ValueError as err:  # no run can have this id: the same answer as an unknown one
+            raise RunNotFound(f"no run with id {checks.shown_id(run_id)}: {err}") from None
         row = conn.execute(sa.select(runs_t).where(runs_t.c.uuid == key)).first()
         if row is not None:
             return row
         rows = conn.execute(sa.select(runs_t).where(runs_t.c.uuid.like(key + "%")).limit(6)).all()
         if not rows:
-            raise RunNotFound(f"no run with id {run_id!r} in {self!r}")
+            raise RunNotFound(f"no run with id {checks.shown_id(run_id)}")
         if len(rows) > 1:
             shown = ", ".join(r.uuid for r in rows[:5])
             raise AmbiguousRunId(

@@ -68,12 +68,18 @@ def check_channel_names(value: Sequence[str]) -> tuple[str, ...]:
     return names
 
 
+def shown_id(value: object, limit: int = 40) -> str:
+    """``repr`` of an id for a message, cut after ``limit`` characters."""
+    text = str(value)
+    return repr(text if len(text) <= limit else text[:limit] + "…")
+
+
 def check_run_id(value: object) -> str:
     """A run uuid or a prefix of one (hex digits and '-')."""
     text = value.strip().lower() if isinstance(value, str) else value
     if not isinstance(text, str) or not _RUN_ID.match(text):
         raise ValueError(
-            f"run id: {value!r} is not allowed; give a run uuid or a prefix of it (hex digits)"
+            "a run id is a uuid or a unique prefix of one (hex digits and '-', ≤ 36 characters)"
         )
     return text
 

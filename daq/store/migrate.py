@@ -12,13 +12,9 @@ from alembic.config import Config
 from alembic.runtime.migration import MigrationContext
 from alembic.script import ScriptDirectory
 
+from daq.data_dir import default_database_path
+
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
-
-
-def default_database_path() -> Path:
-    """``$XDG_DATA_HOME/towrig/rig.db`` (``~/.local/share/towrig/rig.db`` by default)."""
-    data_home = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-    return Path(data_home) / "towrig" / "rig.db"
 
 
 def default_database_url() -> str:

@@ -44,11 +44,11 @@ def _wait_for_samples(db: str, count: int, timeout: float = 20) -> str:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["tow", "--force", "-5"], "force_n: -5.0 is not allowed (allowed 0 < force_n ≤ 100 N"),
-        (["tow", "--force", "nan"], "force_n: nan is not allowed"),
+        (["tow", "--force", "-5"], "--force: -5.0 is not allowed (allowed 0 < --force ≤ 100 N"),
+        (["tow", "--force", "nan"], "--force: nan is not allowed"),
         (["tow", "--force", "150"], "rig limit max_force_n"),
-        (["tow", "--force", "10", "--weight", "1"], "give force_n or weight_kg, not both"),
-        (["spin", "--torque", "9"], "torque_nm: 9.0 is not allowed (allowed 0 < torque_nm ≤ 5 N·m"),
+        (["tow", "--force", "10", "--weight", "1"], "give --force or --weight, not both"),
+        (["spin", "--torque", "9"], "--torque: 9.0 is not allowed (allowed 0 < --torque ≤ 5 N·m"),
         (["tow", "--force", "10", "--rig", "fixtures/rigs/missing.toml"], "cannot read rig file"),
     ],
 )

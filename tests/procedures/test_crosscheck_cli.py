@@ -84,7 +84,7 @@ def test_crosscheck_input_errors(stored):
     assert done.returncode == 2 and "give at least one run of each" in done.stderr
     done = rig("crosscheck", "--results", "999", "1", db=db)
     assert done.returncode == 2
-    assert "weight_result_id: 999 is not allowed" in done.stderr
+    assert "--results (first): 999 is not allowed" in done.stderr  # the flag, not the field
 
 
 def test_thruster_tow_without_a_calibration_is_refused(tmp_path):
@@ -93,4 +93,5 @@ def test_thruster_tow_without_a_calibration_is_refused(tmp_path):
     assert done.returncode == 2
     assert "calibrate-thrusters" in done.stderr
     done = rig("tow", "--thrusters", "--weight", "2", db=db)
-    assert done.returncode == 2 and "a thruster-driven tow takes force_n" in done.stderr
+    assert done.returncode == 2
+    assert "--weight: 2.0 is not allowed (a thruster-driven tow takes --force)" in done.stderr

@@ -76,8 +76,14 @@ def test_lookup_by_unique_prefix_and_clear_errors(store: Store) -> None:
         store.get_run(shared)
     with pytest.raises(RunNotFound, match="no run with id 'ffffffff-ffff'"):
         store.get_run("ffffffff-ffff")
-    with pytest.raises(ValueError, match="run id: 'tow%' is not allowed"):
+    # An id no run can have is an unknown id (404 on the API), saying what an id looks like.
+    with pytest.raises(RunNotFound, match="no run with id 'tow%': a run id is a uuid"):
         store.get_run("tow%")
+    with pytest.raises(RunNotFound, match=r"'a{40}…'"):  # long ids are cut in the message
+        store.get_run("a" * 100)
+    with pytest.raises(RunNotFound) as unknown:
+        store.get_run("ffff0000")
+    assert "sqlite" not in str(unknown.value) and "Store(" not in str(unknown.value)
     with pytest.raises(KeyError):  # RunNotFound is a KeyError too
         store.samples("0000000000")
 

@@ -192,3 +192,31 @@ async def test_overlong_noise_glued_to_a_reply_is_dropped_and_the_reply_kept() -
         assert await drv.heartbeat()
         assert drv.stats.garbage_lines == 1 and drv.stats.timeouts == 0
     peer.assert_done()
+
+
+async def test_close_sends_nothing_to_a_controller_that_was_never_armed(caplog) -> None:
+    """A weight-driven run opens the driver (query) and closes it: the controller said
+    DISARMED, so no zero (which would earn a ``NAK disarmed``) and no DISARM are sent."""
+    peer = ScriptedPeer([(p.qry_frame(1), STA_IDLE)])
+    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+        assert drv.state == "DISARMED"
+    peer.assert_done()
+    assert drv.stats.sent == 1 and not drv.stats.naks
+    assert "NAK" not in caplog.text
+
+
+async def test_close_still_zeroes_when_an_arm_went_unanswered() -> None:
+    """An ARM that timed out may have armed the controller: close zeroes and disarms."""
+    peer = ScriptedPeer(
+        [
+            (p.qry_frame(1), STA_IDLE),
+            (p.arm_frame(2), None),
+            (p.thr_frame(3, [0, 0]), p.ack_frame(3, "ARMED")),
+            (p.disarm_frame(4), p.ack_frame(4, "DISARMED")),
+        ]
+    )
+    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+        with pytest.raises(ThrusterError, match="arm"):
+            await drv.arm()
+        assert drv.state == "DISARMED"  # what it last said, not what it may be now
+    peer.assert_done()

@@ -1,0 +1,47 @@
+"""Static assets over the wire: the interactive API docs served from an installed package
+(no CDN, so ``/docs`` and ``/redoc`` work offline) and gzip for the big bundles.
+
+``fastapi-offline`` ships Swagger UI and ReDoc and mounts them at ``DOCS_ASSETS_URL``;
+``compress_static`` gzips only the UI's and the docs' files (plotly.min.js is 4.8 MB,
+about 1.4 MB gzipped), never API responses or the event stream.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi_offline import FastAPIOffline
+from starlette.middleware.gzip import GZipMiddleware
+from starlette.types import ASGIApp, Receive, Scope, Send
+
+#: Where the Swagger UI / ReDoc files are served from.
+DOCS_ASSETS_URL = "/static-offline-docs"
+#: Paths whose responses are gzipped when the client accepts it.
+COMPRESSED_PREFIXES = ("/static/", f"{DOCS_ASSETS_URL}/")
+#: zlib level: 6 compresses plotly.min.js to within 2 % of level 9 in a third of the time.
+COMPRESS_LEVEL = 6
+
+
+def app_with_offline_docs(**kwargs: Any) -> FastAPI:
+    """``FastAPI(**kwargs)`` with ``/docs`` and ``/redoc`` using locally served assets."""
+    return FastAPIOffline(static_url=DOCS_ASSETS_URL, **kwargs)
+
+
+class _StaticGZip:
+    """GZip for ``COMPRESSED_PREFIXES`` only; everything else passes through untouched."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+        self.gzip = GZipMiddleware(app, minimum_size=1024, compresslevel=COMPRESS_LEVEL)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and scope["path"].startswith(COMPRESSED_PREFIXES):
+            await self.gzip(scope, receive, send)
+        else:
+            await self.app(scope, receive, send)
+
+
+def compress_static(app: FastAPI) -> None:
+    """Serve the static bundles gzipped to clients that accept it."""
+    app.add_middleware(_StaticGZip)

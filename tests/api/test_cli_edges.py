@@ -1,0 +1,194 @@
+"""Every ``rig`` command, fed what a user can type wrong (malformed ids, ambiguous
+prefixes, missing files, unreachable ports), as real subprocesses: one ``error: …`` line
+on stderr, exit 2 (1 when a device or the run failed), never a traceback."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import click
+import pytest
+
+from api.cli import COMMANDS, DEBUG_ENV, main
+from daq.store import Store
+from tests.store.helpers import new_run
+
+ROOT = Path(__file__).resolve().parents[2]
+BENBAM = ROOT / "fixtures" / "rigs" / "benbam.toml"
+RIG = "rig.toml"  # a copy of BENBAM's in the test's folder (relative: no paths in messages)
+HUGE = "9" * 23  # no 64-bit id is this large
+#: A case per command at least: (argv, exit status, text the error line must hold).
+CASES: list[tuple[list[str], int, str]] = []
+
+
+def case(code: int, expect: str, *argv: str) -> None:
+    CASES.append((list(argv), code, expect))
+
+
+# -- stored runs: ids ------------------------------------------------------------------
+case(2, "no run with id 'zzz': a run id is a uuid", "show", "zzz")
+case(2, "no run with id '" + "a" * 40 + "…'", "show", "a" * 100)
+case(2, "no run with id '00000000'", "show", "00000000")
+for cmd in ("show", "export", "estimate"):
+    case(2, "matches several runs", cmd, "{ambiguous}")
+case(2, "no run with id 'zzz'", "export", "zzz")
+case(2, "no run with id 'zzz'", "estimate", "{run}", "zzz")
+case(2, "no run with id 'zzz'", "crosscheck", "--weight", "zzz", "--thrusters", "{run}")
+case(2, "matches several runs", "crosscheck", "--weight", "{ambiguous}", "--thrusters", "{run}")
+case(2, "--results (first): " + HUGE, "crosscheck", "--results", HUGE, "1")
+case(
+    2, f"no result with id {HUGE}", "sixdof", "benbam", "--commands", "0.5,0.5", "--estimate", HUGE
+)
+case(2, f"no result with id {HUGE}", "sensitivity", "benbam", "--estimate", HUGE)
+case(2, "--commands: got 'a,b'", "sixdof", "benbam", "--commands", "a,b")
+case(2, "no vehicle named 'nope'", "sixdof", "nope", "--commands", "0.5,0.5")
+case(2, "no vehicle named 'nope'", "sensitivity", "nope")
+# -- files -------------------------------------------------------------------------------
+case(2, "File 'nope.csv' does not exist", "import", "nope.csv", "--kind", "tow", "--force", "1")
+case(2, "no header with a 't' column", "import", RIG, "--kind", "tow", "--force", "1")
+case(2, "--force: missing is not allowed", "import", "{csv}", "--kind", "tow")
+case(2, "--output: cannot use /etc/passwd/x.csv", "export", "{run}", "-o", "/etc/passwd/x.csv")
+case(2, "--report: cannot use /etc/passwd/r", "estimate", "{run}", "--report", "/etc/passwd/r")
+case(2, "FILE: 'nope.toml' is not allowed", "sequence", "nope.toml")
+case(2, "nope.toml: cannot read rig file", "tow", "--force", "10", "--rig", "nope.toml")
+case(
+    2, "nope.toml: cannot read scenario file", "spin", "--torque", "0.5", "--scenario", "nope.toml"
+)
+case(2, "nope.toml: cannot read rig file", "pendulum", "--angle", "0.2", "--rig", "nope.toml")
+case(2, "nope.toml: cannot read rig file", "calibrate-thrusters", "--rig", "nope.toml")
+case(2, "nope.toml: cannot read rig file", "sim", "--rig", "nope.toml")
+case(2, "nope.toml: cannot read rig file", "serve", "--rig", "nope.toml")
+case(2, "--ahp: ", "sensitivity", "benbam", "--ahp", RIG)
+case(2, "cannot use /etc/passwd/towrig", "token", "{xdg:/etc/passwd}")
+# -- values: flags, not API field names --------------------------------------------------
+case(2, "--force: -1.0 is not allowed (allowed 0 < --force ≤", "tow", "--force", "-1")
+case(2, "--weight: 0.0001 is not allowed", "tow", "--weight", "0.0001")
+case(2, "--torque: 99.0 is not allowed", "spin", "--torque", "99")
+case(
+    2,
+    "--force: -1.0 is not allowed (allowed 0 < --force ≤ 100 N, rig limit max_force_n); "
+    "--max-time: -2.0 is not allowed",
+    "tow",
+    "--force",
+    "-1",
+    "--max-time",
+    "-2",
+)
+case(2, "Invalid value for '--force': 'abc'", "tow", "--force", "abc")
+case(2, "No such command 'nosuch'", "nosuch")
+# -- unreachable ports -------------------------------------------------------------------
+case(2, "--db: cannot open the database: connection failed", "runs", "--db", "{pg}")
+case(2, "--db: cannot open the database", "show", "{run}", "--db", "{pg}")
+case(2, "--modbus-port: cannot listen on 127.0.0.1:{busy}", "sim", "--modbus-port", "{busy}")
+case(2, "--host/--port: cannot bind 127.0.0.1:{busy}", "serve", "--port", "{busy}", "--db", "{db}")
+case(1, "cannot connect to PLC at tcp 127.0.0.1:{closed}", "tow", "--force", "9.8", "--rig", "{hw}")
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory):
+    """A database with 17 finished runs (two must share a first hex digit), a CSV, a
+    hardware rig file whose PLC port is closed, a busy port and a closed one."""
+    tmp = tmp_path_factory.mktemp("cli-edges")
+    db = f"sqlite:///{tmp}/rig.db"
+    with Store(db) as store:
+        ids = [new_run(store) for _ in range(17)]
+        for run_id in ids:
+            store.finish_run(run_id, "completed")
+    firsts = [r[0] for r in ids]
+    csv = tmp / "run.csv"
+    csv.write_text("t,position\n0,0\n0.1,0.01\n0.2,0.03\n", encoding="utf-8")
+    busy = socket.socket()
+    busy.bind(("127.0.0.1", 0))
+    busy.listen()
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))  # bound, never listening: connections are refused
+    text = BENBAM.read_text(encoding="utf-8")
+    (tmp / RIG).write_text(text, encoding="utf-8")
+    hw = tmp / "hw.toml"
+    text = re.sub(r'(?m)^mode = "simulated"', 'mode = "hardware"', text)
+    text = text.replace("port = 5020", f"port = {closed.getsockname()[1]}", 1)
+    hw.write_text(text.replace('port = "sim"', f'port = "{tmp}/no-tty"', 1), encoding="utf-8")
+    yield {
+        "db": db,
+        "tmp": tmp,
+        "run": ids[0],
+        "ambiguous": next(c for c in firsts if firsts.count(c) > 1),
+        "csv": csv.name,
+        "hw": hw.name,
+        "busy": str(busy.getsockname()[1]),
+        "closed": str(closed.getsockname()[1]),
+        "pg": f"postgresql+psycopg://rig:secret@127.0.0.1:{closed.getsockname()[1]}/rig",
+    }
+    busy.close()
+    closed.close()
+
+
+def test_every_command_of_the_group_has_cases():
+    names = main.list_commands(click.Context(main))
+    assert set(names) == set(COMMANDS)
+    covered = {argv[0] for argv, _, _ in CASES}
+    assert set(names) <= covered, f"commands without edge cases: {set(names) - covered}"
+
+
+def test_the_lazy_help_table_matches_each_command():
+    """``rig --help`` lists COMMANDS' short help without importing the modules: it must be
+    what each command says of itself."""
+    for name, (module, attr, short) in COMMANDS.items():
+        command = getattr(importlib.import_module(module), attr)
+        assert command.name == name
+        assert short == command.get_short_help_str(limit=80), name
+
+
+@pytest.mark.parametrize(("argv", "code", "expect"), CASES, ids=lambda v: None)
+def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
+    env = os.environ | {"RIG_DATABASE_URL": world["db"], "XDG_DATA_HOME": str(world["tmp"])}
+    env.pop(DEBUG_ENV, None)
+    args = []
+    for a in argv:
+        if a.startswith("{xdg:"):
+            env["XDG_DATA_HOME"] = a[5:-1]
+            continue
+        args.append(a.format(**world))
+    proc = subprocess.run(
+        [sys.executable, "-m", "api.cli", *args],
+        cwd=world["tmp"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        stdin=subprocess.DEVNULL,
+    )
+    err = proc.stderr
+    assert "Traceback" not in err + proc.stdout, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    assert expect.format(**world) in lines[0], err
+    assert proc.returncode == code, (proc.returncode, err)
+    for leak in ("sqlite:", "secret", "Store(", "site-packages", "/work/"):
+        assert leak not in lines[0], err
+
+
+def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(world):
+    """The note comes before the run; the thruster line says nothing ('NAK disarmed' was
+    the close zeroing a controller that was never armed); the run stores both loads."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "api.cli", "tow", "--force", "10", "--max-time", "1",
+         "--baseline", "0.3", "--db", world["db"], "--json"],
+        cwd=world["tmp"], capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.splitlines() == [
+        "note: --force 10 N asked for; weights hang to the gram, so 1.020 kg is hung and "
+        "the run applies 9.996 N"
+    ]
+    with Store(world["db"]) as store:
+        run = store.get_run(json.loads(proc.stdout)["run_id"])
+    assert run.parameters["requested"] == {"force_n": 10.0}
+    assert run.parameters["force_n"] == pytest.approx(9.996)
