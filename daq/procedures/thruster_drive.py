@@ -229,8 +229,10 @@ async def _abort_on_thruster_fault(
     event."""
     await armed.wait()
     fault = await session.thrusters.wait_fault()
-    abort.set(fault.reason)
-    await rec.event("fault", fault.reason, action="thruster_fault", **fault.to_json())
+    try:  # stored before the abort, so the run's ending cannot cancel it half-way
+        await rec.event("fault", fault.reason, action="thruster_fault", **fault.to_json())
+    finally:
+        abort.set(fault.reason)
 
 
 async def _end_thrust(
