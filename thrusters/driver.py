@@ -35,9 +35,10 @@ MAX_SLEW_INTERVAL_S = 0.1
 
 #: Consecutive frames without a valid reply (timeout, bad CRC, garbage, I/O error, or a
 #: ``NAK crc``/``NAK malformed`` saying our frame arrived spoiled) after which the link
-#: counts as lost. At 10 Hz heartbeats and ``ack_timeout_s`` 0.1 s that is ≤ 0.4 s after
-#: the fault (see docs/thruster-protocol.md, "Link supervision").
-LINK_LOST_AFTER = 3
+#: counts as lost: one lost reply is ridden out, two are not. The fault is seen at most
+#: one heartbeat + 2 × ``ack_timeout_s`` after it began (0.3 s at 10 Hz and 0.1 s; see
+#: docs/thruster-protocol.md, "Link supervision").
+LINK_LOST_AFTER = 2
 
 #: NAK reasons that mean the controller got our frame spoiled: the line, not the request.
 LINE_NAKS = frozenset({"crc", "malformed"})

@@ -21,6 +21,7 @@ from daq.operator import OperatorAct
 from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
 
@@ -229,10 +230,15 @@ async def _abort_on_thruster_fault(
     event."""
     await armed.wait()
     fault = await session.thrusters.wait_fault()
+    reason = fault.reason
+    latest = session.latest()
+    if latest is not None and latest.quality & Quality.ERROR and session.plc is not None:
+        # Both devices gone at once (the rig's power, the simulator): name the PLC too.
+        reason += f"; PLC at {session.plc.endpoint} unreadable too"
     try:  # stored before the abort, so the run's ending cannot cancel it half-way
-        await rec.event("fault", fault.reason, action="thruster_fault", **fault.to_json())
+        await rec.event("fault", reason, action="thruster_fault", **fault.to_json())
     finally:
-        abort.set(fault.reason)
+        abort.set(reason)
 
 
 async def _end_thrust(
