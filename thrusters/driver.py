@@ -136,9 +136,8 @@ class ThrusterDriver:
         self._t_confirmed = time.monotonic()
         self._output_logs: list[list[OutputStep]] = []
         self._signal_task: asyncio.Task[None] | None = None
-        #: Frames in a row without a valid reply, and what went wrong with the last one.
+        #: Frames in a row without a valid reply.
         self.missed_replies = 0
-        self._miss_cause = ""
         #: The first fault since the last ``arm()`` (link lost, watchdog trip), or None.
         self.fault: ThrusterFault | None = None
         self._fault_event: asyncio.Event | None = None
@@ -350,18 +349,18 @@ class ThrusterDriver:
             self.missed_replies = 0
             return
         self.missed_replies += 1
-        self._miss_cause = _miss_cause(reply, before, self._link.stats)
         if self.missed_replies < LINK_LOST_AFTER or self.fault is not None:
             return
         if self.state != "ARMED":  # nothing to supervise: outputs already zero
             return
         self.inhibited = "thruster link lost"
+        cause = _miss_cause(reply, before, self._link.stats)
         age = time.monotonic() - self._t_confirmed
         confirmed = ", ".join(f"{x:+.3f}" for x in self._confirmed)
         self._set_fault(
             "link_lost",
             f"thruster link lost: {self.missed_replies} consecutive replies missing "
-            f"({self._miss_cause}); thrust last confirmed {age:.2f} s before "
+            f"({cause}); thrust last confirmed {age:.2f} s before "
             f"(outputs {confirmed}); commanding zero",
         )
 
