@@ -199,10 +199,14 @@ async def _silent_controller_aborts_the_run(session, store) -> None:
         if (e.data or {}).get("action") == "thruster_fault"
     ]
     assert fault["fault"] == "link_lost"
+    # The controller could not be disarmed either: stored, without replacing the reason.
+    (disarm,) = [
+        e for e in store.events(outcome.run_id) if (e.data or {}).get("action") == "disarm_failed"
+    ]
+    assert disarm.message.startswith("thrusters not disarmed at the end of the run: disarm:")
     assert muted - 0.2 < fault["t_thrust_confirmed"] <= muted + 0.1  # the last ACK before it
     assert fault["t_detected"] - muted < 0.5
     assert any(fault["confirmed_outputs"])
     assert _thrust_steps(store, outcome.run_id)  # the ramp the controller did confirm
-    await asyncio.to_thread(session.sim.call, lambda sim: None)
     await session.disarm_thrusters()  # the link is back: the next run can go
     await _assert_thrusters_safe(session)
