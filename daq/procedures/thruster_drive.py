@@ -195,7 +195,7 @@ async def run_thruster_test(
                 with session.thrusters.recording_outputs() as steps:
                     armed = asyncio.Event()
                     supervisor = asyncio.create_task(
-                        _abort_on_thruster_fault(session, rec, abort, armed)
+                        abort_on_thruster_fault(session, rec, abort, armed)
                     )
                     try:
                         await _drive_with_thrusters(
@@ -221,7 +221,7 @@ run_thruster_spin = run_thruster_test
 run_thruster_tow = run_thruster_test
 
 
-async def _abort_on_thruster_fault(
+async def abort_on_thruster_fault(
     session: RigSession, rec: RecordedRun, abort: AbortSignal, armed: asyncio.Event
 ) -> None:
     """Once this run has armed the thrusters (a fault left from an earlier run does not
