@@ -150,7 +150,7 @@ def create_app(
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         import asyncio
 
-        if manage_service:
+        if manage_service and not service.started:  # `rig serve` starts it beforehand
             await asyncio.to_thread(service.start)
         try:
             yield

@@ -77,12 +77,16 @@ def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_u
             f"{data['axis']}: weight result #{data['weight_result_id']} vs thruster result "
             f"#{data['thruster_result_id']}  (σ = σ_total)"
         )
-        click.echo(f"  {'':<10} {'weight':>22} {'thrusters':>22} {'z':>7}  verdict")
-        for name, c in data["coefficients"].items():
+        click.echo(f"  {'':<13} {'weight':>22} {'thrusters':>22} {'z':>9}  verdict")
+        rows = {**data["coefficients"], **data.get("combined", {})}
+        for name, c in rows.items():
             z = "—" if c["z"] is None else f"{c['z']:+.2f}"
+            if c["verdict"] == "undecided":  # computed, not judged
+                z = f"({z})"
+            speed = f"  at |v| = {c['speed']:.3g}" if c.get("speed") is not None else ""
             click.echo(
-                f"  {LABELS[name]:<10} {plus_minus(c['weight']):>22} "
-                f"{plus_minus(c['thruster']):>22} {z:>7}  {c['verdict']}"
+                f"  {LABELS[name]:<13} {plus_minus(c['weight']):>22} "
+                f"{plus_minus(c['thruster']):>22} {z:>9}  {c['verdict']}{speed}"
             )
         for side in ("weight", "thruster"):
             r = data["rmse"][side]

@@ -6,6 +6,7 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 import click
+from sqlalchemy.exc import SQLAlchemyError
 
 from api.cli_common import (
     ProgressView,
@@ -27,7 +28,9 @@ from daq.procedures.params import (
     tow_parameters,
 )
 from daq.procedures.recording import AbortSignal
+from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
+from daq.store.faults import one_line
 
 
 def _run_procedure(
@@ -54,11 +57,13 @@ def _run_procedure(
             try:
                 async with RigSession(source, store) as session:
                     return await body(session, params, abort, view)
-            except (PreconditionFailed, DeviceError, ThrusterError) as err:
-                # Not ready, or a device that cannot be reached: one line, exit 1.
+            except (PreconditionFailed, RigInUse, DeviceError, ThrusterError) as err:
+                # Not ready, the rig in use, or a device that cannot be reached: exit 1.
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
                 fail("\n       ".join(err.lines()))
+            except SQLAlchemyError as err:  # storage failed outside a run (its start, say)
+                fail(f"storage failed: {one_line(err)}", code=1)
 
     try:
         return run_with_signals(main)

@@ -168,10 +168,46 @@ def export(run_id, fmt, output, db_url):
     default=None,
     help="Rig file the data was recorded on (gives pulley/drum inertia to estimation).",
 )
+@click.option(
+    "--time-unit",
+    type=click.Choice(["s", "ms", "us"]),
+    default="s",
+    show_default=True,
+    help="Unit of the t column (a median step over 1 s is refused as not seconds).",
+)
+@click.option(
+    "--release-time",
+    "release_time_s",
+    type=float,
+    help="Brake release, s on the t axis (default: found from the release coil or the motion).",
+)
+@click.option(
+    "--end-time",
+    "end_time_s",
+    type=float,
+    help="End of free motion, s on the t axis (default: end_of_travel/brake/carriage at rest).",
+)
 @db_option
 @json_option
-def import_(file, kind, force_n, torque_nm, weight_kg, vehicle, rig_file, db_url, as_json):
-    """Import a CSV (columns t [s] and position [m or rad]; more allowed); prints the new run id."""
+def import_(
+    file,
+    kind,
+    force_n,
+    torque_nm,
+    weight_kg,
+    vehicle,
+    rig_file,
+    time_unit,
+    release_time_s,
+    end_time_s,
+    db_url,
+    as_json,
+):
+    """Import a CSV (columns t [s] and position [m or rad]; more allowed); prints the new run id.
+
+    Estimation finds the free-motion window itself (tow_release/spin_release and
+    end_of_travel columns when present, else the motion); --release-time/--end-time
+    override it."""
     from daq.procedures.params import ParameterError
     from daq.store import import_csv
 
@@ -214,7 +250,16 @@ def import_(file, kind, force_n, torque_nm, weight_kg, vehicle, rig_file, db_url
     store = open_store(db_url)
     try:
         try:
-            run_id = import_csv(store, file, kind=kind, parameters=params, **origin)
+            run_id = import_csv(
+                store,
+                file,
+                kind=kind,
+                parameters=params,
+                time_unit=time_unit,
+                release_time_s=release_time_s,
+                end_time_s=end_time_s,
+                **origin,
+            )
         except ValueError as err:
             fail(str(err))
         if as_json:

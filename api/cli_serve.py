@@ -45,8 +45,9 @@ def serve(
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
     token = load_or_create_token()
-    service = RigService(source, db_url, ask_operator=ask_operator, realtime=realtime)
-    app = create_app(service, token=token, open_read=open_read, cors_origins=cors_origins)
+    service = RigService(
+        source, db_url, ask_operator=ask_operator, realtime=realtime, owner="rig serve"
+    )
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
@@ -54,6 +55,19 @@ def serve(
     except OSError as err:
         fail(f"cannot bind {host}:{port}: {err.strerror}", code=1)
     bound_port = sock.getsockname()[1]
+    # The app's lifespan stops the service (rig left safe) before uvicorn re-raises a SIGTERM.
+    app = create_app(service, token=token, open_read=open_read, cors_origins=cors_origins)
+    # Configures logging: before the rig opens, so the device loggers keep their levels.
+    config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
+    # Open the rig (and take its lock) before announcing anything: a rig another process
+    # drives, or one that cannot be reached, is one line on stderr and exit code 1.
+    try:
+        service.start()
+    except Exception as err:  # the rig is held elsewhere or unreachable, or a bad database
+        sock.close()
+        app.state.runner.close()
+        bad_db = f"cannot open database {db_url or '(default)'}: {err}"
+        fail(str(err) if isinstance(err, RigUnavailable) else bad_db, code=1)
     shown = f"[{host}]" if ":" in host else host
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
@@ -62,14 +76,11 @@ def serve(
     click.echo(f"browser UI: http://{shown}:{bound_port}/#token=<token> (or paste it when asked)")
     if host not in ("127.0.0.1", "localhost", "::1"):
         click.echo(f"warning: listening on {host}: reachable from other machines", err=True)
-    config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
     server = uvicorn.Server(config)
     try:
         server.run(sockets=[sock])
-    except RigUnavailable as err:
-        fail(str(err), code=1)
-    if server.started is False and service.error:
-        fail(f"cannot open the rig: {service.error}", code=1)
+    finally:
+        service.stop()  # (already done by the lifespan, unless uvicorn never started)
 
 
 def _token_from_env() -> bool:

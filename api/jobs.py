@@ -27,6 +27,7 @@ from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
 from daq.session import Aborted, RigBusy
+from daq.store.faults import one_line
 
 log = logging.getLogger(__name__)
 
@@ -244,6 +245,7 @@ class JobRunner:
                 run_ids=run_ids,
                 fraction=1.0 if state == "completed" else job.fraction,
                 message=f"{state}" + (f": {data['reason']}" if data.get("reason") else ""),
+                error=None if state == "completed" else data.get("reason"),
             )
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
@@ -251,7 +253,9 @@ class JobRunner:
             self._update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)
-            self._update(job, state="failed", message=f"error: {err}", error=str(err))
+            self._update(
+                job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
+            )
         finally:
             with self._lock:
                 if self._rig_job is job:

@@ -222,8 +222,23 @@ async def import_run(
     weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
     vehicle: Annotated[str, Query(min_length=1, max_length=200)] = "unknown",
     filename: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",
+    time_unit: Annotated[
+        Literal["s", "ms", "us"], Query(description="Unit of the t column.")
+    ] = "s",
+    release_time_s: Annotated[
+        float | None,
+        Query(description="Brake release, s on the t axis (default: found in the data)."),
+    ] = None,
+    end_time_s: Annotated[
+        float | None,
+        Query(description="End of free motion, s on the t axis (default: found in the data)."),
+    ] = None,
 ) -> dict:
-    """Import a CSV recorded elsewhere as a completed run (body = the CSV text)."""
+    """Import a CSV recorded elsewhere as a completed run (body = the CSV text).
+
+    Estimation finds the release and the end of free motion from the
+    ``tow_release``/``spin_release``/``end_of_travel`` columns when present, else from the
+    motion; ``release_time_s``/``end_time_s`` override that."""
     limit = request.app.state.max_upload_bytes
     declared = request.headers.get("content-length", "")
     if declared.isdigit() and int(declared) > limit:
@@ -248,7 +263,16 @@ async def import_run(
             path = Path(folder) / name
             path.write_text(text, encoding="utf-8")
             try:
-                run_id = import_csv(store, path, kind=kind, parameters=params, vehicle=vehicle)
+                run_id = import_csv(
+                    store,
+                    path,
+                    kind=kind,
+                    parameters=params,
+                    vehicle=vehicle,
+                    time_unit=time_unit,
+                    release_time_s=release_time_s,
+                    end_time_s=end_time_s,
+                )
             except ValueError as err:
                 message = str(err).replace(str(path), name)
                 if "line" in message and not message.startswith(name):

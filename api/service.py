@@ -27,6 +27,7 @@ from typing import Any, TypeVar
 
 from api.stream import Broadcaster
 from daq.operator import OperatorAct, PromptOperator
+from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
 
@@ -61,8 +62,11 @@ class RigService:
         ask_operator: bool | None = None,
         broadcaster: Broadcaster | None = None,
         realtime: bool = False,
+        owner: str | None = None,
     ) -> None:
         self.source = source
+        #: How this service is named to a process refused the rig (default ``rig <cmd>``).
+        self.owner = owner
         self.store_url = store_url
         self.rate_hz = rate_hz
         #: Ask a person (API state ``waiting_for_operator``) instead of the simulated
@@ -138,11 +142,13 @@ class RigService:
             self.realtime_active = set_realtime()
         operator = PromptOperator(self._ask) if self.ask_operator else None
         assert self.store is not None
-        session = RigSession(self.source, self.store, operator=operator, rate_hz=self.rate_hz)
+        session = RigSession(
+            self.source, self.store, operator=operator, rate_hz=self.rate_hz, owner=self.owner
+        )
         try:
             await session.open()
         except BaseException as err:
-            self.error = f"{type(err).__name__}: {err}"
+            self.error = str(err) if isinstance(err, RigInUse) else f"{type(err).__name__}: {err}"
             await session.close()
             self._ready.set()
             return
@@ -172,6 +178,11 @@ class RigService:
             acq.unsubscribe(queue)
 
     # -- crossing into the rig loop ------------------------------------------------------
+    @property
+    def started(self) -> bool:
+        """``start()`` was called and ``stop()`` not yet."""
+        return self._thread is not None
+
     @property
     def running(self) -> bool:
         return self.session is not None and self.loop is not None and not self.loop.is_closed()

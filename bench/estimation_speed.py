@@ -1,6 +1,10 @@
 """Time of a joint 4-run output-error fit (4 × 30 s at 10 Hz) and of a full effect search.
 
-Prints one JSON document. Targets: joint fit < 0.2 s, full effect search < 3 s.
+The search tries every single effect and every pair (and extends a winning pair); the
+"pair" case needs two effects at once (dry friction and a current, reverse runs in the set),
+the "outside_library" case a force periodic along the rail that must be flagged, not fitted.
+Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
+quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet.
 Run: .venv/bin/python bench/estimation_speed.py
 """
 
@@ -39,6 +43,13 @@ def main() -> None:
         "coulomb_friction": tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=1, travel_limit=1e3),
         "restoring_spring": tow_set(Physics(*SURGE_TRUTH, spring=1.0), seed=1, travel_limit=1e3),
         "cubic_drag": tow_set(Physics(*SURGE_TRUTH, cubic=150.0), seed=1, travel_limit=1e3),
+        "pair_coulomb_and_current": tow_set(
+            Physics(*SURGE_TRUTH, coulomb=2.0, bias=-1.0),
+            seed=1,
+            travel_limit=1e3,
+            drives=(24.5, -44.1, 83.3, -4.9),
+        ),
+        "outside_library": tow_set(Physics(*SURGE_TRUTH, ripple=2.0), seed=1, travel_limit=1e3),
     }
     for name, runs in searches.items():
         found = [e.name for e in estimate(runs, n_bootstrap=0).effects]
@@ -46,7 +57,9 @@ def main() -> None:
         entry["effects_found"] = found
         cases[f"full_effect_search_{name}"] = entry
     cases["estimate_with_40_bootstrap_clean"] = timed(lambda: estimate(clean), 3)
-    worst_search = max(v["median_s"] for k, v in cases.items() if k.startswith("full_effect"))
+    searches_run = [v for k, v in cases.items() if k.startswith("full_effect")]
+    worst_search = max(v["median_s"] for v in searches_run)
+    worst_cpu = max(v["cpu_median_s"] for v in searches_run)
     print(
         json.dumps(
             {
@@ -58,8 +71,12 @@ def main() -> None:
                 "targets": {
                     "joint_fit_s": 0.2,
                     "joint_fit_met": cases["joint_fit_4x30s_closed_form"]["median_s"] < 0.2,
-                    "effect_search_s": 3.0,
-                    "effect_search_met": worst_search < 3.0,
+                    "effect_search_s": 1.0,
+                    "effect_search_floor_s": 3.0,
+                    "worst_search_wall_s": worst_search,
+                    "worst_search_cpu_s": worst_cpu,
+                    "effect_search_met": worst_search <= 1.0,
+                    "effect_search_floor_met": worst_search <= 3.0,
                 },
             },
             indent=2,

@@ -22,6 +22,7 @@ from daq.store import ResultNotFound, RunInfo, SampleTable, Store
 from estimation.pendulum_data import PendulumGeometry, PendulumRun
 from estimation.runs import RunData
 from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+from estimation.window import WindowReport, find_window
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 
@@ -55,6 +56,10 @@ class _Timeline:
     t_end: float | None
     offset: float  # host monotonic time + offset = the time base
     events: list  # the run's stored events
+    #: How the release/end were known ("release event", "release_time_s", …); None: not
+    #: recorded (the release defaults to the first sample, the end to the last).
+    release_source: str | None = None
+    end_source: str | None = None
 
 
 def _timeline(
@@ -94,6 +99,17 @@ def _timeline(
     events = store.events(run.id)
     t_release = _event_time(events, "release")
     t_stop = _event_time(events, *end)
+    release_source = end_source = None
+    if t_release is not None:
+        release_source = "release event"
+    elif run.parameters.get("release_time_s") is not None:  # given at import
+        t_release = float(table.t_mono[0]) + float(run.parameters["release_time_s"])
+        release_source = "release_time_s (given)"
+    if t_stop is not None:
+        end_source = f"{end[0]} event"
+    elif run.parameters.get("end_time_s") is not None:
+        t_stop = float(table.t_mono[0]) + float(run.parameters["end_time_s"])
+        end_source = "end_time_s (given)"
     if t_release is None:  # imported data: the release is somewhere in the first period
         t_release = float(t[0]) if t.size else 0.0
         t_release_std = float(np.median(np.diff(t))) / np.sqrt(12) if t.size > 1 else 0.0
@@ -106,7 +122,15 @@ def _timeline(
     t_end = None if t_stop is None else t_stop + offset
     t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
     return _Timeline(
-        np.asarray(t, dtype=float), good, t_release, t_release_std, t_end, offset, events
+        np.asarray(t, dtype=float),
+        good,
+        t_release,
+        t_release_std,
+        t_end,
+        offset,
+        events,
+        release_source,
+        end_source,
     )
 
 
@@ -128,8 +152,12 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         raise ValueError(f"run {run.id}: no {POSITION_CHANNEL[run.kind]!r} channel in its samples")
     timeline = _timeline(store, run, rig, table, channel, end=("brake", "t_last_free"))
     t, position = timeline.t, table.channels[channel][timeline.good]
-    t_release, t_release_std, t_end = timeline.t_release, timeline.t_release_std, timeline.t_end
     params = run.parameters
+    keep, window, t_release_std = _window(run, table, timeline, position)
+    t, position = t[keep], position[keep]
+    t_release, t_end = window.t_release, window.t_end
+    if t_release_std is None:
+        t_release_std = timeline.t_release_std
 
     drive_inertia = 0.0
     drum_radius = None
@@ -156,7 +184,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         measured = CalibratedThrust.from_table(curve, cal_table)
         steps = _thrust_steps(timeline.events, timeline.offset)
         volts = table.channels.get("supply_voltage")
-        volts = None if volts is None else volts[timeline.good]
+        volts = None if volts is None else volts[timeline.good][keep]
         drive = thruster_drive(
             measured, rig, run.kind, params["commands"], t, t_release, steps, volts
         )
@@ -189,7 +217,43 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         t_end=t_end,
         t_release_std=t_release_std,
         drive_draws=draws,
+        window_found=window,
     )
+
+
+#: The coil whose rising edge lets each kind of run go.
+RELEASE_COIL = {"tow": "tow_release", "spin": "spin_release"}
+
+
+def _window(
+    run: RunInfo, table: SampleTable, timeline: _Timeline, position: np.ndarray
+) -> tuple[np.ndarray, WindowReport, float | None]:
+    """The samples to fit and how the window was found (``estimation.window``): the
+    recorded events or given times first, then the run's own coil/switch channels, then
+    the motion itself. Returns (mask of the good samples kept, report, release σ or None
+    when the timeline's own applies)."""
+
+    def channel(name: str) -> np.ndarray | None:
+        values = table.channels.get(name)
+        if values is None:
+            return None
+        values = values[timeline.good]
+        return values if np.all(np.isfinite(values)) else None
+
+    force = run.parameters.get("force_n") if run.kind == "tow" else run.parameters.get("torque_nm")
+    direction = float(np.sign(float(force))) if force is not None else 0.0
+    keep, report, std = find_window(
+        timeline.t,
+        position,
+        direction=direction,
+        release_coil=channel(RELEASE_COIL[run.kind]),
+        end_switch=channel("end_of_travel") if run.kind == "tow" else None,
+        t_release=timeline.t_release if timeline.release_source else None,
+        release_source=timeline.release_source or "",
+        t_end=timeline.t_end if timeline.end_source else None,
+        end_source=timeline.end_source or "",
+    )
+    return keep, report, std
 
 
 def pendulum_geometry(rig: RigConfig) -> PendulumGeometry:

@@ -1,10 +1,13 @@
 """One open rig: its devices, its clock, its lock.
 
 ``RigSession`` owns the PLC client, the acquisition clock, the thruster driver
-and (for a simulated rig) the simulator thread. Procedures borrow it under the
-rig lock. It also runs the thruster supervisor: every clock tick while armed it
-re-sends the (slew-limited) target as the controller's heartbeat, and commands
-zero as soon as the sensor data goes stale.
+and (for a simulated rig) the simulator thread. Opening it first takes the rig's
+cross-process lock in the run database (``daq.rig_lock``: one process drives a rig)
+and closing it gives the lock back after the rig is left safe; procedures borrow the
+session under its in-process lock (one procedure at a time), which also tells anyone
+refused what the holder is doing. It also runs the thruster supervisor: every clock
+tick while armed it re-sends the (slew-limited) target as the controller's heartbeat,
+and commands zero as soon as the sensor data goes stale.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from daq.acquisition import Acquisition
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
+from daq.rig_lock import RigLock, rig_lock
 from daq.sample import Quality, Sample
 from daq.store import Store
 from thrusters.driver import ThrusterDriver
@@ -93,6 +97,7 @@ class RigSession:
         *,
         operator: Operator | None = None,
         rate_hz: float | None = None,
+        owner: str | None = None,
     ) -> None:
         self.source = source
         self.rig = source.rig
@@ -106,12 +111,18 @@ class RigSession:
         self.thrusters: ThrusterDriver | None = None
         self._tasks: list[asyncio.Task] = []
         self._lock_holder: str | None = None
+        #: The rig's cross-process lock; ``owner`` names this program to whoever is refused.
+        self.rig_lock: RigLock = rig_lock(store.url, self.rig.rig.name, owner)
+        self._has_rig = False
         self.thrust = ThrustTarget()
         self.stale_zeroings = 0
 
     # -- lifecycle -------------------------------------------------------------------------
     async def open(self, *, connect_timeout_s: float = 10.0) -> None:
-        """Start the simulator (simulated rig), connect the devices, start the clock."""
+        """Take the rig (``RigInUse`` if another process drives it), start the simulator
+        (simulated rig), connect the devices, start the clock."""
+        await asyncio.to_thread(self.rig_lock.acquire)
+        self._has_rig = True
         conn = self.rig
         if self.simulated:
             from daq.sim.rig import SimulatedRigThread
@@ -134,7 +145,10 @@ class RigSession:
             )
 
     async def close(self) -> None:
-        """Thrusters to zero, brakes on, clock stopped, devices closed. Never raises."""
+        """Thrusters to zero, brakes on, clock stopped, devices closed, rig lock given
+        back. Never raises; a session that never got the rig touches no device."""
+        if not self._has_rig:
+            return
         with contextlib.suppress(Exception):
             await self.safe_state()
         if self.thrusters is not None:
@@ -155,6 +169,8 @@ class RigSession:
             with contextlib.suppress(Exception):
                 await asyncio.to_thread(self.sim.close)
             self.sim = None
+        self._has_rig = False
+        await asyncio.to_thread(self.rig_lock.release)
 
     async def __aenter__(self) -> RigSession:
         try:
@@ -175,14 +191,24 @@ class RigSession:
 
     @contextlib.asynccontextmanager
     async def locked(self, holder: str) -> AsyncIterator[None]:
-        """Hold the rig lock; raise ``RigBusy`` at once (never queue) when it is taken."""
+        """Hold the rig lock; raise ``RigBusy`` at once (never queue) when it is taken
+        (``RigInUse`` if the cross-process lock was lost to another process)."""
         if self._lock_holder is not None:
             raise RigBusy(self._lock_holder)
         self._lock_holder = holder
         try:
+            await asyncio.to_thread(self.rig_lock.check)
+            await asyncio.to_thread(self.rig_lock.set_activity, holder)
             yield
         finally:
             self._lock_holder = None
+            with contextlib.suppress(Exception):
+                await asyncio.to_thread(self.rig_lock.set_activity, None)
+
+    async def note_run(self, run_id: str) -> None:
+        """Tell whoever is refused the rig which run the current procedure records."""
+        activity = f"{self._lock_holder}, run {run_id[:8]}" if self._lock_holder else run_id
+        await asyncio.to_thread(self.rig_lock.set_activity, activity)
 
     # -- devices -----------------------------------------------------------------------------
     @property

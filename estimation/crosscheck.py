@@ -5,6 +5,13 @@ same axis. Per coefficient: both values ± σ_total (the fit's σ and, for thrus
 runs, the thrust calibration's), their difference and z = Δ / √(σ₁² + σ₂²); verdict
 ``agree`` (|z| < 2), ``marginal`` (2 ≤ |z| < 3) or ``disagree`` (|z| ≥ 3).
 
+A set that cannot separate K_L from K_Q (one drive level, or |ρ(K_L, K_Q)| above the
+estimator's SEPARABILITY_LIMIT; see ``estimation.set_separability``) gets no verdict on them:
+they are ``undecided``, with the run that would decide them. Compared instead is what such a
+set does fix, the damping K_L + K_Q·|v| at the speed it ran (``damping_at_speed``).
+Undecided comparisons take no part in the common factor, the overall verdict or the
+diagnosis below.
+
 Diagnosis, in order:
 
 a. A drive scaled by k scales inertia, K_L and K_Q all by k. When the thruster/weight
@@ -28,12 +35,36 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2
 
+from estimation.estimate import SEPARABILITY_LIMIT
+from estimation.set_separability import SetSeparability, damping_at, separability
+
 COEFFICIENTS: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
-LABELS = {"inertia": "inertia", "linear_damping": "K_L", "quadratic_damping": "K_Q"}
-UNITS = {
-    "surge": {"inertia": "kg", "linear_damping": "N·s/m", "quadratic_damping": "N·s²/m²"},
-    "yaw": {"inertia": "kg·m²", "linear_damping": "N·m·s/rad", "quadratic_damping": "N·m·s²/rad²"},
+DAMPING = ("linear_damping", "quadratic_damping")
+COMBINED = "damping_at_speed"
+LABELS = {
+    "inertia": "inertia",
+    "linear_damping": "K_L",
+    "quadratic_damping": "K_Q",
+    COMBINED: "K_L + K_Q·|v|",
 }
+UNITS = {
+    "surge": {
+        "inertia": "kg",
+        "linear_damping": "N·s/m",
+        "quadratic_damping": "N·s²/m²",
+        COMBINED: "N·s/m",
+    },
+    "yaw": {
+        "inertia": "kg·m²",
+        "linear_damping": "N·m·s/rad",
+        "quadratic_damping": "N·m·s²/rad²",
+        COMBINED: "N·m·s/rad",
+    },
+}
+SPEED_UNITS = {"surge": "m/s", "yaw": "rad/s"}
+#: Two sets that both cannot separate K_L from K_Q are compared on their damping only when
+#: their speeds differ by less than this share (each fixes D(|v|) at its own speed only).
+SAME_SPEED = 0.25
 AGREE_Z = 2.0
 DISAGREE_Z = 3.0
 #: χ² p-value below which the ratios are not one common factor.
@@ -60,6 +91,23 @@ class Comparison:
     weight_std: float
     thruster: float
     thruster_std: float
+    undecided: str | None = None  # why the sets cannot decide it (no verdict then)
+    speed: float | None = None  # |v| of a damping_at_speed comparison
+
+    @property
+    def decided(self) -> bool:
+        return self.undecided is None
+
+    @property
+    def verdict(self) -> str:
+        """``undecided`` when the sets cannot decide it, else ``verdict(z)``."""
+        return verdict(self.z) if self.decided else "undecided"
+
+    def label(self, axis: str) -> str:
+        """``K_L`` etc.; the combined damping with its speed."""
+        if self.speed is None:
+            return LABELS[self.name]
+        return f"{LABELS[self.name]} at |v| = {self.speed:.3g} {SPEED_UNITS[axis]}"
 
     @property
     def difference(self) -> float:
@@ -73,13 +121,18 @@ class Comparison:
         return self.difference / s if s > 0 else float("nan")
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        doc: dict[str, Any] = {
             "weight": {"value": _num(self.weight), "std": _num(self.weight_std)},
             "thruster": {"value": _num(self.thruster), "std": _num(self.thruster_std)},
             "difference": _num(self.difference),
             "z": _num(self.z),
-            "verdict": verdict(self.z),
+            "verdict": self.verdict,
         }
+        if self.speed is not None:
+            doc["speed"] = _num(self.speed)
+        if self.undecided is not None:
+            doc["reason"] = self.undecided
+        return doc
 
 
 @dataclass(frozen=True)
@@ -138,10 +191,12 @@ class CommonFactor:
 
 
 def common_factor(comparisons: list[Comparison]) -> CommonFactor | None:
-    """Weighted mean of thruster/weight over the coefficients the weight runs resolve
-    (|value| > 2σ); None when fewer than one ratio is usable."""
+    """Weighted mean of thruster/weight over the decided coefficients the weight runs
+    resolve (|value| > 2σ); None when fewer than one ratio is usable."""
     ratios, sigmas, used = [], [], []
     for c in comparisons:
+        if not c.decided:
+            continue
         if not (c.weight > 0 and c.weight > 2 * c.weight_std and np.isfinite(c.thruster)):
             continue
         r = c.thruster / c.weight
@@ -181,12 +236,23 @@ class CrossCheck:
     diagnosis: tuple[str, ...]
     warnings: tuple[str, ...] = ()
     supply: dict[str, float | None] = field(default_factory=dict)
+    combined: tuple[Comparison, ...] = ()  # damping_at_speed when a set cannot split K_L/K_Q
+
+    @property
+    def all_comparisons(self) -> tuple[Comparison, ...]:
+        return (*self.comparisons, *self.combined)
+
+    @property
+    def undecided(self) -> tuple[str, ...]:
+        """Names of the coefficients without a verdict."""
+        return tuple(c.name for c in self.comparisons if not c.decided)
 
     @property
     def verdict(self) -> str:
-        """The worst per-coefficient verdict."""
+        """The worst verdict over the decided comparisons; ``undecided`` when none is."""
         order = ("agree", "unknown", "marginal", "disagree")
-        return max((verdict(c.z) for c in self.comparisons), key=order.index)
+        decided = [c.verdict for c in self.all_comparisons if c.decided]
+        return max(decided, key=order.index) if decided else "undecided"
 
     def to_json(self) -> dict[str, Any]:
         """The stored document (kind ``crosscheck``); see docs/hil.md."""
@@ -198,6 +264,8 @@ class CrossCheck:
             "weight_runs": list(self.weight_runs),
             "thruster_runs": list(self.thruster_runs),
             "coefficients": {c.name: c.to_json() for c in self.comparisons},
+            "combined": {c.name: c.to_json() for c in self.combined},
+            "undecided": list(self.undecided),
             "verdict": self.verdict,
             "common_factor": self.factor.to_json() if self.factor else None,
             "effects": {
@@ -303,12 +371,16 @@ def cross_check(
             f"weight result's axis {axis!r}"
         )
     supply = dict(supply_voltage_v or {})
+    sep = {"weight": separability(weight_result), "thruster": separability(thruster_result)}
+    reasons = [_undecided_reason(side, s, axis) for side, s in sep.items() if not s.separable]
     comparisons = []
     for name in COEFFICIENTS:
         w, sw = _value_std(weight_result, name)
         t, st = _value_std(thruster_result, name)
-        comparisons.append(Comparison(name, w, sw, t, st))
-    factor = common_factor(comparisons)
+        why = "; ".join(reasons) if reasons and name in DAMPING else None
+        comparisons.append(Comparison(name, w, sw, t, st, undecided=why))
+    combined = _combined(weight_result, thruster_result, sep, axis)
+    factor = common_factor([*comparisons, *combined])
     eff_w, eff_t = _effects(weight_result), _effects(thruster_result)
     warnings = []
     draws_t = (thruster_result.get("uncertainty") or {}).get("calibration_draws")
@@ -322,7 +394,7 @@ def cross_check(
         warnings.append("the weight result has drive draws: were its runs weight-driven?")
 
     diagnosis = []
-    bad = [c for c in comparisons if verdict(c.z) in ("marginal", "disagree")]
+    bad = [c for c in (*comparisons, *combined) if c.verdict in ("marginal", "disagree")]
     if factor is not None and factor.significant and (factor.consistent or factor.dominant):
         diagnosis.append(_calibration_line(factor, supply))
     only_w = sorted(set(eff_w) - set(eff_t))
@@ -339,20 +411,38 @@ def cross_check(
             + " — an effect of the way the rig is driven, not of the vehicle"
         )
     if bad and not diagnosis:
-        text = ", ".join(f"{LABELS[c.name]} (z = {c.z:+.1f})" for c in bad)
+        text = ", ".join(f"{c.label(axis)} (z = {c.z:+.1f})" for c in bad)
         if factor is not None and factor.significant:
             text += (
                 f"; the ratios are not one common factor (k = {factor.k:.3f}, χ² p = "
                 f"{factor.p_value:.2g}), so not simply the thrust calibration"
             )
         diagnosis.append(f"unexplained: {text}")
+    undecided = [c for c in comparisons if not c.decided]
     if not diagnosis:
-        diagnosis.append(
-            "weight- and thruster-driven coefficients agree within their uncertainties "
-            "(all |z| < 2)"
-            if not bad
-            else "marginal differences only"
-        )
+        if bad:
+            diagnosis.append("marginal differences only")
+        elif undecided:
+            decided = ", ".join(c.label(axis) for c in (*comparisons, *combined) if c.decided)
+            diagnosis.append(
+                "weight- and thruster-driven sets agree within their uncertainties on what "
+                f"both decide ({decided}; all |z| < 2)"
+            )
+        else:
+            diagnosis.append(
+                "weight- and thruster-driven coefficients agree within their uncertainties "
+                "(all |z| < 2)"
+            )
+    if undecided:
+        names = ", ".join(LABELS[c.name] for c in undecided)
+        line = f"{names} undecided: {undecided[0].undecided}"
+        for c in combined:
+            line += (
+                f"; compared instead: {c.label(axis)}, z = {c.z:+.1f} ({c.verdict})"
+                if c.decided
+                else f"; {c.label(axis)} not compared either: {c.undecided}"
+            )
+        diagnosis.append(line)
     rmse = {
         side: {"before": _num(doc.get("rmse_before")), "after": _num(doc.get("rmse_after"))}
         for side, doc in (("weight", weight_result), ("thruster", thruster_result))
@@ -371,7 +461,56 @@ def cross_check(
         diagnosis=tuple(diagnosis),
         warnings=tuple(warnings),
         supply=supply,
+        combined=tuple(combined),
     )
+
+
+def _undecided_reason(side: str, sep: SetSeparability, axis: str) -> str:
+    """Why one set cannot decide K_L and K_Q, and which run would."""
+    force, unit = ("force", "N") if axis == "surge" else ("torque", "N·m")
+    run = {
+        ("weight", "surge"): "a weight run",
+        ("weight", "yaw"): "a weight spin",
+        ("thruster", "surge"): "a thruster tow",
+        ("thruster", "yaw"): "a thruster spin",
+    }[(side, axis)]
+    rho = f"ρ = {sep.rho:+.4f}" if sep.rho is not None else "ρ not stored"
+    if sep.one_level:
+        now = f" ≈ {sep.drive:.3g} {unit}" if sep.drive is not None else ""
+        return (
+            f"the {side} set has one drive level (K_L, K_Q correlated {rho}): add {run} at a "
+            f"clearly different {force}, e.g. 0.25× or 4× the current{now}"
+        )
+    return (
+        f"the {side} set's drive levels do not separate K_L from K_Q ({rho}, beyond the "
+        f"estimator's ±{SEPARABILITY_LIMIT}): add {run} well outside the {force}s it covers "
+        f"(e.g. a quarter of the lowest or twice the highest)"
+    )
+
+
+def _combined(
+    weight: dict[str, Any], thruster: dict[str, Any], sep: dict[str, SetSeparability], axis: str
+) -> list[Comparison]:
+    """The damping K_L + K_Q·|v| at the speed of the set that cannot split K_L from K_Q
+    (the thruster set's when neither can); none when both sets separate them."""
+    stuck = [side for side in ("thruster", "weight") if not sep[side].separable]
+    speed = sep[stuck[0]].speed if stuck else None
+    if speed is None:
+        return []
+    why = None
+    if len(stuck) == 2:
+        other = sep["weight"].speed
+        if other is None:
+            return []
+        if abs(other - speed) > SAME_SPEED * speed:
+            unit = SPEED_UNITS[axis]
+            why = (
+                f"neither set separates K_L from K_Q and they ran at different speeds "
+                f"({other:.3g} vs {speed:.3g} {unit}): each fixes the damping at its own only"
+            )
+    w, sw = damping_at(weight, speed)
+    t, st = damping_at(thruster, speed)
+    return [Comparison(COMBINED, w, sw, t, st, undecided=why, speed=speed)]
 
 
 def _named(found: dict[str, float], names: list[str], axis: str) -> str:
@@ -395,13 +534,25 @@ def markdown(check: CrossCheck) -> str:
         "| coefficient | weight | thrusters | Δ | z | verdict |",
         "|---|---|---|---|---|---|",
     ]
-    for c in check.comparisons:
+    for c in check.all_comparisons:
+        # an undecided coefficient's z is shown in parentheses: computed, not judged
+        z = f"{c.z:+.2f}" if c.decided else f"({c.z:+.2f})"
+        shown = c.verdict if c.decided else "**undecided**"
         lines.append(
-            f"| {LABELS[c.name]} ({units[c.name]}) | {c.weight:.5g} ± {c.weight_std:.2g} | "
-            f"{c.thruster:.5g} ± {c.thruster_std:.2g} | {c.difference:+.3g} | {c.z:+.2f} | "
-            f"{verdict(c.z)} |"
+            f"| {c.label(check.axis)} ({units[c.name]}) | {c.weight:.5g} ± {c.weight_std:.2g} | "
+            f"{c.thruster:.5g} ± {c.thruster_std:.2g} | {c.difference:+.3g} | {z} | {shown} |"
         )
-    lines += ["", f"Overall: **{check.verdict}**", ""]
+    undecided = [c for c in check.all_comparisons if not c.decided]
+    if undecided:
+        lines.append("")
+        for reason in dict.fromkeys(c.undecided for c in undecided):
+            names = ", ".join(c.label(check.axis) for c in undecided if c.undecided == reason)
+            lines.append(f"Undecided {names}: {reason}.")
+    overall = check.verdict
+    if check.undecided and overall != "undecided":
+        overall += f" (on what both sets decide; {', '.join(LABELS[n] for n in check.undecided)}"
+        overall += " undecided)"
+    lines += ["", f"Overall: **{overall}**", ""]
     if check.factor is not None:
         f = check.factor
         lines.append(
@@ -428,7 +579,8 @@ def _fmt(x: float | None) -> str:
 
 
 def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]:
-    """``report.md`` and ``crosscheck.png`` (coefficients side by side, ±σ_total bars)."""
+    """``report.md`` and ``crosscheck.png`` (coefficients side by side, ±σ_total bars;
+    undecided ones titled so, the combined damping as a fourth panel when compared)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -436,10 +588,11 @@ def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]
     out.mkdir(parents=True, exist_ok=True)
     md = out / "report.md"
     md.write_text(markdown(check), encoding="utf-8")
-    fig = Figure(figsize=(9, 3.2))
+    shown = check.all_comparisons
+    fig = Figure(figsize=(3 * len(shown), 3.2))
     units = UNITS[check.axis]
-    for i, c in enumerate(check.comparisons):
-        ax = fig.add_subplot(1, 3, i + 1)
+    for i, c in enumerate(shown):
+        ax = fig.add_subplot(1, len(shown), i + 1)
         ax.errorbar(
             [0, 1],
             [c.weight, c.thruster],
@@ -451,7 +604,13 @@ def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]
         ax.set_xticks([0, 1], ["weight", "thrusters"])
         ax.set_xlim(-0.6, 1.6)
         ax.set_ylabel(units[c.name])
-        ax.set_title(f"{LABELS[c.name]}: z = {c.z:+.1f} ({verdict(c.z)})", fontsize=9)
+        if c.speed is not None:
+            ax.set_xlabel(f"at |v| = {c.speed:.3g} {SPEED_UNITS[check.axis]}", fontsize=8)
+        if c.decided:
+            ax.set_title(f"{LABELS[c.name]}: z = {c.z:+.1f} ({c.verdict})", fontsize=9)
+        else:
+            ax.set_title(f"{LABELS[c.name]}: UNDECIDED", fontsize=9, color="tab:red")
+            ax.set_xlabel("a set cannot separate K_L from K_Q", fontsize=8, color="tab:red")
     fig.suptitle(f"{check.axis}: weight- vs thruster-driven (±1σ_total)", fontsize=10)
     FigureCanvasAgg(fig)
     fig.tight_layout()

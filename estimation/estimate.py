@@ -21,6 +21,8 @@ from estimation.runs import RunData, validate_runs
 from estimation.search import candidate_effects
 from estimation.search import search_effects as search_effects_fn
 from estimation.seed_methods import SEED_METHODS
+from estimation.unexplained import characterise
+from estimation.window import fit_release
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
@@ -45,6 +47,7 @@ def estimate(
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     axis = validate_runs(runs)
+    runs = [fit_release(r) for r in runs]
     prepared = [prepare(r) for r in runs]
     if method != "output-error":
         return _seed_result(axis, method, runs, prepared)
@@ -178,6 +181,9 @@ def _build(
         for e in final.effects
     )
     warnings = separability_warnings(final, prepared)
+    unexplained = characterise(final, prepared, axis) if method == "output-error" else None
+    if unexplained is not None and (text := unexplained.warning(axis)):
+        warnings.append(text)
     force_before = force_residuals(base, prepared)
     return EstimationResult(
         axis=axis,
@@ -205,6 +211,8 @@ def _build(
         cv_after=cv_after,
         bootstrap=boot,
         uncertainty=uncertainty,
+        windows={r.run_id: r.window_report() for r in runs},
+        unexplained=unexplained,
         fit_before=base,
         fit_after=final,
     )

@@ -11,6 +11,8 @@ from estimation.diagnostics import Whiteness
 from estimation.drive_uncertainty import DriveUncertainty
 from estimation.output_error import FitResult
 from estimation.search import SearchStep
+from estimation.unexplained import Unexplained
+from estimation.window import WindowReport
 
 SCHEMA_VERSION = 1
 
@@ -86,6 +88,9 @@ class EstimationResult:
     cv_after: float | None = None
     bootstrap: Bootstrap | None = None
     uncertainty: DriveUncertainty | None = None
+    #: Per run, the samples fitted and how the release and end were found.
+    windows: dict[str, WindowReport] = field(default_factory=dict)
+    unexplained: Unexplained | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -132,6 +137,8 @@ class EstimationResult:
             },
             "bootstrap": _boot(self.bootstrap),
             "uncertainty": _uncertainty(self.uncertainty),
+            "windows": {k: w.to_json() for k, w in self.windows.items()},
+            "unexplained": self.unexplained.to_json() if self.unexplained else None,
         }
         return doc
 
@@ -183,6 +190,7 @@ def _uncertainty(u: DriveUncertainty | None) -> dict[str, Any] | None:
             n: {
                 "std_fit": _num(u.std_fit[n]),
                 "std_calibration": _num(u.std_calibration[n]),
+                "std_release_timing": _num(u.std_release_timing.get(n, 0.0)),
                 "std_total": _num(total[n]),
             }
             for n in u.std_fit

@@ -8,6 +8,8 @@ from typing import Literal
 
 import numpy as np
 
+from estimation.window import WindowReport, check_time_step
+
 Axis = Literal["surge", "yaw"]
 AXES: tuple[str, ...] = ("surge", "yaw")
 MIN_MOVING_SAMPLES = 5
@@ -42,6 +44,25 @@ class RunData:
     #: Thruster-driven runs: K alternative drives, shape (K, len(t)), from thrust curves
     #: drawn within the calibration's uncertainty (None: the drive is known exactly).
     drive_draws: np.ndarray | None = None
+    #: How the fitted window was found in a raw recording (``estimation.window``); None:
+    #: ``t_release``/``t_end`` were given.
+    window_found: WindowReport | None = None
+
+    def window_report(self) -> WindowReport:
+        """The window as fitted: the found one, or one built from the given instants."""
+        if self.window_found is not None:
+            return self.window_found
+        t = np.asarray(self.t)
+        after = 0 if self.t_end is None else int(np.count_nonzero(t > self.t_end))
+        return WindowReport(
+            float(self.t_release),
+            "given",
+            self.t_end,
+            "given" if self.t_end is not None else "last sample",
+            int(np.count_nonzero(t <= self.t_release)),
+            after,
+            0,
+        )
 
     def declared_extra_inertia(self) -> float:
         """Known inertia that moves with the vehicle (axis units): drive train + hung weight."""
@@ -88,6 +109,7 @@ def validate_run(run: RunData) -> None:
     if run.axis not in AXES:
         raise field_error(rid, "axis", run.axis, "'surge' or 'yaw'")
     t = validate_series(rid, run.t, run.position, "position", "finite positions")
+    check_time_step(t, "t", f"run {rid!r}")
     drive = np.asarray(run.drive, dtype=float)
     if drive.ndim not in (0, 1) or (drive.ndim == 1 and drive.shape != t.shape):
         raise field_error(rid, "drive", f"shape {drive.shape}", "a scalar or one value per sample")

@@ -2,11 +2,12 @@
 // side by side with z and verdict, the common factor, the diagnosis and an error-bar plot.
 "use strict";
 
-const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q" };
+const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q", damping_at_speed: "K_L + K_Q·|v|" };
 const CC_UNITS = {
-  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²" },
-  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²" },
+  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²", damping_at_speed: "N·s/m" },
+  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²", damping_at_speed: "N·m·s/rad" },
 };
+const CC_SPEED_UNITS = { surge: "m/s", yaw: "rad/s" };
 
 async function crosscheckLoad() {
   try {
@@ -74,10 +75,15 @@ function crosscheckRender(res) {
   const units = CC_UNITS[res.axis] || {};
   $("#cc-title").textContent = `${res.axis}: weight result #${res.weight_result_id} vs thruster result #${res.thruster_result_id} — ${res.verdict}`;
   const pm = (s) => `${fmt(s.value, 5)} ± ${fmt(s.std, 2)}`;
-  $("#cc-table tbody").innerHTML = Object.entries(res.coefficients)
+  // Stored cross-checks from before "combined" / "undecided" existed have neither key.
+  const rows = { ...res.coefficients, ...(res.combined || {}) };
+  const label = (k, c) => CC_LABELS[k] + (c.speed != null ? ` at |v| = ${fmt(c.speed, 3)} ${CC_SPEED_UNITS[res.axis] || ""}` : "");
+  // An undecided coefficient's z is computed, not judged: shown in parentheses, reason on hover.
+  $("#cc-table tbody").innerHTML = Object.entries(rows)
     .map(
-      ([k, c]) => `<tr><td>${CC_LABELS[k]} (${units[k] || ""})</td><td>${pm(c.weight)}</td><td>${pm(c.thruster)}</td>
-      <td>${fmt(c.difference, 3)}</td><td>${fmt(c.z, 3)}</td><td class="verdict ${c.verdict}">${c.verdict}</td></tr>`,
+      ([k, c]) => `<tr><td>${esc(label(k, c))} (${units[k] || ""})</td><td>${pm(c.weight)}</td><td>${pm(c.thruster)}</td>
+      <td>${fmt(c.difference, 3)}</td><td>${c.verdict === "undecided" ? `(${fmt(c.z, 3)})` : fmt(c.z, 3)}</td>
+      <td class="verdict ${c.verdict}" title="${esc(c.reason || "")}">${c.verdict === "undecided" ? "<b>undecided</b>" : c.verdict}</td></tr>`,
     )
     .join("");
   const f = res.common_factor;
@@ -93,14 +99,14 @@ function crosscheckRender(res) {
   $("#cc-diagnosis").innerHTML = [...res.diagnosis, ...res.warnings.map((w) => `warning: ${w}`)]
     .map((d) => `<li>${esc(d)}</li>`)
     .join("");
-  const names = Object.keys(res.coefficients);
+  const names = Object.keys(rows);
   const traces = ["weight", "thruster"].map((side) => ({
     name: side === "weight" ? "weight-driven" : "thruster-driven",
     type: "scatter",
     mode: "markers",
-    x: names.map((k) => CC_LABELS[k]),
-    y: names.map((k) => res.coefficients[k][side].value / res.coefficients[k].weight.value),
-    error_y: { type: "data", array: names.map((k) => (res.coefficients[k][side].std || 0) / res.coefficients[k].weight.value) },
+    x: names.map((k) => CC_LABELS[k] + (rows[k].verdict === "undecided" ? " (undecided)" : "")),
+    y: names.map((k) => rows[k][side].value / rows[k].weight.value),
+    error_y: { type: "data", array: names.map((k) => (rows[k][side].std || 0) / rows[k].weight.value) },
   }));
   Plotly.react(
     "cc-plot",

@@ -8,6 +8,7 @@ until end of travel / distance / angle / timeout, brake, and mark the run.
 from __future__ import annotations
 
 import asyncio
+import logging
 import statistics
 import time
 from dataclasses import dataclass
@@ -18,6 +19,9 @@ from daq.procedures.params import Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
+from daq.store.faults import one_line
+
+log = logging.getLogger(__name__)
 
 #: Largest speed (m/s or rad/s) at which the vehicle counts as at rest.
 AT_REST_SPEED = 0.002
@@ -148,7 +152,11 @@ async def run_outcome(
     session: RigSession, rec: RecordedRun, kind: str, report: ProgressCallback
 ) -> RunOutcome:
     """How the recorded run ended (status, reason, samples stored), reported as done."""
-    count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
+    try:
+        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
+    except Exception as err:  # storage failed: what this recorder stored is the count
+        log.warning("run %s: cannot count its samples: %s", rec.run_id, one_line(err))
+        count = rec.samples_stored
     report(
         Progress(
             1.0,

@@ -4,6 +4,10 @@
 the body returns, ``aborted`` with the reason when it raises ``Aborted`` (or any
 other error), and — whatever happened — the rig is put in its safe state and every
 sample the clock produced is flushed before the status is written.
+
+Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
+abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
+storage; samples the database did not take wait in a spill file (docs/storage.md).
 """
 
 from __future__ import annotations
@@ -20,6 +24,8 @@ from daq.procedures.params import Progress
 from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import RunRecorder
+from daq.store.faults import one_line
+from daq.store.spill import write_back_later
 
 log = logging.getLogger(__name__)
 
@@ -27,6 +33,9 @@ ProgressCallback = Callable[[Progress], None]
 
 #: How the reason of a run aborted because the PLC stopped answering begins.
 DEVICE_LOST = "device lost"
+
+#: Background write-backs of spill files (a reference keeps each task alive).
+_WRITE_BACKS: set[asyncio.Task] = set()
 
 
 class AbortSignal:
@@ -91,6 +100,8 @@ class RecordedRun:
         channel_names += [
             c.name for c in s.rig.channels if c.kind in ("coil", "discrete") and not c.sim_only
         ]
+        # Samples kept aside while storage had failed go back first (if it takes them now).
+        await asyncio.to_thread(self.store.replay_spills)
         self.run_id = await asyncio.to_thread(
             self.store.create_run,
             kind=self.kind,
@@ -101,8 +112,14 @@ class RecordedRun:
             rig_toml=s.source.rig_toml,
             scenario_toml=s.source.scenario_toml,
         )
+        await s.note_run(self.run_id)
+        # A storage fault stops the procedure like a lost PLC: the abort signal wakes every
+        # wait (samples, operator prompts) and the ending below makes the rig safe.
         self._recorder = RunRecorder(
-            self.store, self.run_id, flush_interval_s=s.rig.acquisition.flush_interval_s
+            self.store,
+            self.run_id,
+            flush_interval_s=s.rig.acquisition.flush_interval_s,
+            on_fault=self.abort.set,
         )
         self._recorder_task = asyncio.create_task(
             self._recorder.run(), name=f"recorder-{self.run_id[:8]}"
@@ -127,37 +144,48 @@ class RecordedRun:
         elif isinstance(exc, asyncio.CancelledError):
             self.status, self.reason = "aborted", self.abort.reason or "cancelled"
         else:
-            self.status, self.reason = "aborted", f"error: {exc}"
+            self.status, self.reason = "aborted", f"error: {one_line(exc)}"
         await s.safe_state()
+        assert self._recorder is not None
         if self.status != "completed":
-            await self.event(
-                "fault" if self.reason.startswith(DEVICE_LOST) else "operator",
-                f"run {self.status}: {self.reason}",
-            )
+            fault = self.reason.startswith(DEVICE_LOST) or self._recorder.fault is not None
+            await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
         assert s.acquisition is not None
         if self._queue is not None:
             s.acquisition.unsubscribe(self._queue)
         # Stop the pump (it never holds a sample across an await) and hand the recorder
         # whatever it had not taken yet; the final flush stores all of it.
         s.acquisition.unsubscribe(self._recorder_queue)
-        assert self._recorder is not None and self._pump_task and self._recorder_task
+        assert self._pump_task and self._recorder_task
         self._pump_task.cancel()
         while not self._recorder_queue.empty():
             self._recorder.put(self._recorder_queue.get_nowait())
-        await self._recorder.close()
+        # Flush the rest and write the end once (retried; a storage fault makes it
+        # ``aborted`` naming storage; unstored samples wait in the spill file).
+        self.status, self.reason = await self._recorder.end(self.status, self.reason)
+        if self._recorder.spill.path.exists():  # the database did not take everything
+            task = asyncio.create_task(write_back_later(self.store, self._recorder.spill.path))
+            _WRITE_BACKS.add(task)
+            task.add_done_callback(_WRITE_BACKS.discard)
         for task in (self._pump_task, self._recorder_task):
             with contextlib.suppress(BaseException):
                 await task
-        await asyncio.to_thread(self.store.finish_run, self.run_id, self.status, self.reason)
         log.info(
             "run %s %s%s", self.run_id, self.status, f" ({self.reason})" if self.reason else ""
         )
         # Swallow Aborted (it is an ending, recorded above); let real errors propagate.
         return isinstance(exc, Aborted)
 
+    @property
+    def samples_stored(self) -> int:
+        """Samples of this run the recorder has stored so far."""
+        return 0 if self._recorder is None else self._recorder.stats.samples_stored
+
     async def event(self, kind: str, message: str, **data: Any) -> None:
-        """Store an event on this run (operator acts, faults, limit trips)."""
-        await asyncio.to_thread(self.store.add_event, self.run_id, kind, message, data or None)
+        """Log an event on this run (operator acts, faults, limit trips), stamped now and
+        stored with the recorder's next flush: the procedure never waits on the database."""
+        assert self._recorder is not None
+        self._recorder.add_event(kind, message, data or None)
 
     async def samples(self, *, timeout_s: float = 2.0) -> AsyncIterator[Sample]:
         """Samples of this run, checking abort, device loss and the emergency stop."""

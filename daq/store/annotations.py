@@ -19,24 +19,37 @@ class EventsAndResults(StoreBase):
     """The events and results half of :class:`daq.store.Store`."""
 
     def add_event(
-        self, run_id: str | None, kind: str, message: str, data: dict | None = None
+        self,
+        run_id: str | None,
+        kind: str,
+        message: str,
+        data: dict | None = None,
+        *,
+        t_wall: float | None = None,
     ) -> None:
-        """Log an event (``operator``, ``fault``, ``limit``, ``info``, …), optionally of a run."""
+        """Log an event (``operator``, ``fault``, ``limit``, ``info``, …), optionally of a run;
+        ``t_wall`` (Unix s) is when it happened, default now."""
         checks.check_kind("kind", kind)
         if not isinstance(message, str) or not message.strip():
             raise ValueError(f"message: {message!r} is not allowed; give a non-empty text")
         checks.check_json("data", data, optional=True)
         with self.transaction() as conn:
             pk = None if run_id is None else self._resolve(conn, run_id).id
-            self._insert_event(conn, pk, kind, message, data)
+            self._insert_event(conn, pk, kind, message, data, t_wall)
 
     @staticmethod
     def _insert_event(
-        conn: sa.Connection, run_pk: int | None, kind: str, message: str, data: dict | None
+        conn: sa.Connection,
+        run_pk: int | None,
+        kind: str,
+        message: str,
+        data: dict | None,
+        t_wall: float | None = None,
     ) -> None:
+        when = time.time() if t_wall is None else t_wall
         conn.execute(
             sa.insert(events).values(
-                run_id=run_pk, t_wall=round(time.time(), 6), kind=kind, message=message, data=data
+                run_id=run_pk, t_wall=round(when, 6), kind=kind, message=message, data=data
             )
         )
 

@@ -4,7 +4,9 @@ An exported CSV has columns ``t`` (s since the first sample), ``seq``, ``t_mono`
 ``t_wall``, ``quality`` and one column per channel (SI; empty = not read). An imported
 CSV needs a header with ``t`` (s, strictly increasing) and ``position`` (m for a tow,
 rad for a spin; ``tow_position``/``yaw_angle`` are accepted too); ``seq``, ``t_mono``,
-``t_wall`` and ``quality`` are used when present and every other column becomes a channel.
+``t_wall`` and ``quality`` are used when present and every other column becomes a channel
+(``tow_release``/``spin_release``/``end_of_travel`` among them tell estimation the release
+and the end of travel, as an export writes them).
 """
 
 from __future__ import annotations
@@ -16,8 +18,12 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
+import numpy as np
+
 from daq.sample import Quality, Sample
 from daq.store.store import Store
+from estimation.csv_import import TIME_UNITS
+from estimation.window import check_time_step
 
 #: Column the import maps ``position`` to, per run kind.
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
@@ -128,7 +134,9 @@ def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]
     return renamed, channels
 
 
-def _read_samples(path: Path, kind: str) -> tuple[list[str], list[Sample], bool]:
+def _read_samples(
+    path: Path, kind: str, time_scale: float = 1.0
+) -> tuple[list[str], list[Sample], bool, list[float]]:
     with open(path, newline="", encoding="utf-8") as f:
         rows = [(n, r) for n, r in enumerate(csv.reader(f), start=1) if r and any(r)]
     if not rows:
@@ -137,6 +145,7 @@ def _read_samples(path: Path, kind: str) -> tuple[list[str], list[Sample], bool]
     columns, channels = _header(header_row, kind, path)
     position = POSITION_CHANNEL[kind]
     samples: list[Sample] = []
+    times: list[float] = []
     previous: dict[str, float] = {}
     for line, row in rows[1:]:
         if len(row) != len(columns):
@@ -160,18 +169,49 @@ def _read_samples(path: Path, kind: str) -> tuple[list[str], list[Sample], bool]
                     "allowed; use an integer ≥ 0"
                 )
         previous = values
+        t = values["t"] * time_scale
+        times.append(t)
         samples.append(
             Sample(
                 seq=int(values.get("seq", len(samples))),
-                t_mono=values.get("t_mono", values["t"]),
-                t_wall=values.get("t_wall", values["t"]),  # shifted below if absent
+                t_mono=values.get("t_mono", t),
+                t_wall=values.get("t_wall", t),  # shifted below if absent
                 channels={name: values[name] for name in channels},
                 quality=Quality(int(values.get("quality", 0))),
             )
         )
     if not samples:
         raise CsvImportError(f"{path}: line {header_line}: a header but no data rows")
-    return channels, samples, "t_wall" in columns
+    try:
+        check_time_step(np.asarray(times), "t", str(path))
+    except ValueError as err:
+        raise CsvImportError(str(err)) from None
+    return channels, samples, "t_wall" in columns, times
+
+
+def _window_times(
+    times: list[float], samples: list[Sample], given: dict[str, float | None]
+) -> dict[str, float]:
+    """The given release/end instants (s, on the CSV's ``t`` axis) as seconds since the
+    stored run's first sample (its ``t_mono`` axis), checked against the recording."""
+    out: dict[str, float] = {}
+    lo, hi = times[0], times[-1]
+    for key, value in given.items():
+        if value is None:
+            continue
+        if not math.isfinite(value) or not lo <= value <= hi:
+            raise CsvImportError(
+                f"{key}: {value!r} is not allowed; use a time within the file's t range "
+                f"[{lo:g}, {hi:g}] s"
+            )
+        mono = [s.t_mono for s in samples]
+        out[key] = float(np.interp(value, times, mono)) - mono[0]
+    if len(out) == 2 and not out["release_time_s"] < out["end_time_s"]:
+        raise CsvImportError(
+            f"end_time_s: {given['end_time_s']!r} is not allowed; use a time after "
+            f"release_time_s ({given['release_time_s']!r})"
+        )
+    return out
 
 
 def import_csv(
@@ -183,13 +223,28 @@ def import_csv(
     rig_name: str = "imported",
     vehicle: str = "unknown",
     rig_toml: str = "",
+    time_unit: str = "s",
+    release_time_s: float | None = None,
+    end_time_s: float | None = None,
 ) -> str:
     """Import a CSV as a completed ``kind`` (``tow``/``spin``) run in one transaction;
-    returns the new run id. Nothing is written when the file or parameters are bad."""
+    returns the new run id. Nothing is written when the file or parameters are bad.
+
+    ``time_unit`` (s, ms, us) is the unit of the ``t`` column; a median step over 1 s is
+    refused as evidently not seconds. ``release_time_s``/``end_time_s`` (on the CSV's ``t``
+    axis, in s) are stored as parameters (seconds since the first sample) that estimation
+    takes for the release and the end of free motion instead of finding them."""
     path = Path(path)
+    if time_unit not in TIME_UNITS:
+        raise ValueError(
+            f"time_unit: {time_unit!r} is not allowed; use one of {', '.join(TIME_UNITS)}"
+        )
     params = check_import_parameters(kind, parameters)
     params.setdefault("file", path.name)
-    channels, samples, has_wall = _read_samples(path, kind)
+    channels, samples, has_wall, times = _read_samples(path, kind, TIME_UNITS[time_unit])
+    params.update(
+        _window_times(times, samples, {"release_time_s": release_time_s, "end_time_s": end_time_s})
+    )
     if not has_wall:
         t0 = samples[0].t_wall
         start = time.time()

@@ -9,6 +9,7 @@ import time
 import uuid
 from collections.abc import Sequence
 from datetime import datetime
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,11 +36,25 @@ from daq.store.schema import (
 )
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
+from daq.store.spill import default_spill_dir, replay_spills
 
 
 class Store(EventsAndResults):
     """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
-    creates the database if needed and migrates it to the newest schema."""
+    creates the database if needed, migrates it to the newest schema and writes back the
+    spill files of its runs (samples a recorder could not store, see
+    :mod:`daq.store.spill`); ``spill_dir`` defaults to :func:`default_spill_dir`."""
+
+    def __init__(self, url: str | None = None, *, spill_dir: str | Path | None = None) -> None:
+        super().__init__(url)
+        self.spill_dir = Path(spill_dir) if spill_dir is not None else default_spill_dir()
+        self.replay_spills()
+
+    def replay_spills(self) -> list[str]:
+        """Write back the spill files of this database's runs (see :mod:`daq.store.spill`);
+        returns the ids of the runs written back. Never raises: what still cannot be
+        written stays for the next attempt."""
+        return replay_spills(self)
 
     # -- runs -------------------------------------------------------------------------
     def _insert_run(

@@ -6,12 +6,12 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
 from tests.api.conftest import chromium_page
+from tests.serve import wait_for_service
 
 TOKEN = "browser-test-token"
 ROOT = Path(__file__).resolve().parents[2]
@@ -30,20 +30,7 @@ def server(tmp_path_factory):
         text=True,
     )
     try:
-        first = proc.stdout.readline()
-        assert first.startswith("rig service: http://127.0.0.1:"), first
-        url = first.split()[2]
-        import httpx
-
-        end = time.monotonic() + 20
-        while True:
-            try:
-                if httpx.get(url + "api/health", timeout=1).json()["ok"]:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert time.monotonic() < end, "rig serve did not come up"
-            time.sleep(0.1)
+        url = wait_for_service(proc, timeout_s=20)
         yield url
     finally:
         proc.terminate()

@@ -31,6 +31,13 @@ def runs(client) -> dict[str, list[str]]:
     return {"weight": weight, "thrusters": thrusters}
 
 
+def _rho(estimation: dict) -> float:
+    """|ρ(K_L, K_Q)| of a stored estimation document."""
+    names = estimation["correlation"]["names"]
+    i, j = names.index("linear_damping"), names.index("quadratic_damping")
+    return abs(estimation["correlation"]["matrix"][i][j])
+
+
 def test_crosscheck_job_then_fast_comparison_of_the_stored_results(client, runs):
     stored = client.get(f"/api/runs/{runs['thrusters'][0]}", headers=AUTH).json()
     assert stored["parameters"]["drive"] == "thrusters"
@@ -48,8 +55,21 @@ def test_crosscheck_job_then_fast_comparison_of_the_stored_results(client, runs)
     assert set(out["coefficients"]) == {"inertia", "linear_damping", "quadratic_damping"}
     assert out["thruster_estimation"]["uncertainty"]["calibration_draws"] == 30
     assert out["weight_estimation"]["uncertainty"]["calibration_draws"] == 0
-    for c in out["coefficients"].values():
-        assert c["verdict"] in ("agree", "marginal", "disagree")
+    stuck = [_rho(out[f"{side}_estimation"]) > 0.95 for side in ("weight", "thruster")]
+    for name, c in out["coefficients"].items():
+        # 1.5 s tows at two forces may not separate K_L from K_Q: then, and only then, no
+        # verdict on them, and the damping at the set's speed is compared instead.
+        if name != "inertia" and any(stuck):
+            assert c["verdict"] == "undecided" and "add a" in c["reason"], c
+            combined = out["combined"]["damping_at_speed"]
+            if all(stuck):  # compared only when both ran at about the same speed
+                assert (
+                    combined["verdict"] != "undecided" or "different speeds" in combined["reason"]
+                )
+            else:
+                assert combined["verdict"] != "undecided", combined
+        else:
+            assert c["verdict"] in ("agree", "marginal", "disagree"), c
     assert out["supply_voltage_v"]["calibration"] > 10 and out["supply_voltage_v"]["runs"] > 10
     assert out["diagnosis"]
     w_id = out["weight_estimation"]["result_id"]
@@ -61,6 +81,7 @@ def test_crosscheck_job_then_fast_comparison_of_the_stored_results(client, runs)
     assert r.status_code == 200, r.text
     fast = r.json()
     assert fast["coefficients"] == out["coefficients"]  # same documents, same comparison
+    assert fast["combined"] == out["combined"]
     assert fast["result_id"] != out["result_id"]
     result = client.get(f"/api/results/{fast['result_id']}", headers=AUTH).json()
     assert result["kind"] == "crosscheck"

@@ -3,6 +3,8 @@ then tick runs as weight / thrusters and run the estimation + cross-check job.""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from api.app import create_app
@@ -15,8 +17,11 @@ from tests.procedures.test_crosscheck_cli import _import_tows
 def page_url(client, service, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("csv")
     first = _import_tows(service.store, tmp, (24.5, 83.3), seed=1)
-    second = _import_tows(service.store, tmp, (34.3, 63.7), seed=2)
-    results = [run_estimation(service.store, ids)["result_id"] for ids in (first, second)]
+    second = _import_tows(service.store, tmp, (14.7, 63.7), seed=2)  # K_L, K_Q separable
+    one_level = _import_tows(service.store, tmp, (44.1,), seed=3)
+    results = [
+        run_estimation(service.store, ids)["result_id"] for ids in (first, second, one_level)
+    ]
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
     with LiveServer(app) as live, chromium_page() as pg:
         yield pg, live.url, results, first, second
@@ -40,6 +45,16 @@ def test_crosscheck_page_compares_results_and_runs(page_url):
     expect(page.locator("#cc-diagnosis li").first).to_be_visible()
     expect(page.locator("#cc-kv")).to_contain_text("Common factor")
     expect(page.locator("#cc-plot .main-svg").first).to_be_visible()
+
+    # One tow cannot separate K_L from K_Q: no verdict on them, the damping at its speed
+    # compared instead.
+    page.select_option("#cc-thrusters", str(results[2]))
+    page.click("#cc-compare")
+    expect(page.locator("#cc-title")).to_contain_text(f"thruster result #{results[2]}")
+    expect(rows).to_have_count(4)
+    expect(rows.nth(1)).to_contain_text("undecided")
+    expect(rows.nth(1).locator("td.verdict")).to_have_attribute("title", re.compile("one drive"))
+    expect(rows.nth(3)).to_contain_text("K_L + K_Q·|v| at |v| =")
 
     for run in first:
         page.check(f"#cc-runs input[name=cc-w][value='{run}']")

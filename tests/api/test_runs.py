@@ -104,6 +104,24 @@ def test_bad_csv_is_422_naming_line_and_column(client):
     assert r.status_code == 422
 
 
+def test_csv_import_time_unit_and_window_fields(client):
+    text = "t,position\n" + "".join(f"{i * 100},{0.001 * i * i}\n" for i in range(50))
+    r = _upload(client, text, kind="tow", force_n=24.5, filename="ms.csv")
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert "column 't': median step 100 between samples, expected seconds" in detail
+    assert "time_unit=ms" in detail and "/tmp" not in detail
+    r = _upload(client, text, kind="tow", force_n=24.5, time_unit="ms", end_time_s=7)
+    assert r.status_code == 422 and "end_time_s: 7.0 is not allowed" in r.json()["detail"]
+    r = _upload(
+        client, text, kind="tow", force_n=24.5, time_unit="ms", release_time_s=0.4, end_time_s=4
+    )
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["parameters"]["release_time_s"] == 0.4
+    assert run["parameters"]["end_time_s"] == 4.0
+
+
 def test_oversized_upload_is_413(client):
     big = "t,position\n" + "0.0,0.0\n" * 20_000  # > 64 KiB, the test app's limit
     r = _upload(client, big, kind="tow", force_n=5)

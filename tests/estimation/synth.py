@@ -39,6 +39,12 @@ class Physics:
     spring: float = 0.0  # restoring stiffness about the release position
     cubic: float = 0.0  # cubic drag coefficient
     delay: float = 0.0  # brake release lag, s
+    ripple: float = 0.0  # amplitude of a force periodic along the rail (outside the library)
+    ripple_wavelength: float = 0.5  # its period in position, m (or rad)
+
+    def rail_force(self, x: float) -> float:
+        """The periodic rail force at displacement ``x`` from the release point."""
+        return self.ripple * np.sin(2 * np.pi * x / self.ripple_wavelength) if self.ripple else 0.0
 
 
 @lru_cache(maxsize=64)
@@ -46,7 +52,7 @@ def _integrate(phys: Physics, total_inertia: float, drive: float, duration: floa
     n = int(np.ceil(duration / dt)) + 1
 
     def accel(x: float, v: float) -> float:
-        net = drive + phys.bias - phys.spring * x
+        net = drive + phys.bias - phys.spring * x + phys.rail_force(x)
         net -= phys.linear_damping * v + phys.quadratic_damping * abs(v) * v + phys.cubic * v**3
         if v == 0.0:
             if abs(net) <= max(phys.static, phys.coulomb):
@@ -193,7 +199,7 @@ def thruster_run(
     inertia = phys.inertia
 
     def accel(v: float, x: float, f: float) -> float:
-        net = f + phys.bias - phys.spring * x - phys.linear_damping * v
+        net = f + phys.bias - phys.spring * x + phys.rail_force(x) - phys.linear_damping * v
         net -= phys.quadratic_damping * abs(v) * v + phys.cubic * v**3
         if v == 0.0:
             return (

@@ -16,8 +16,16 @@ from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 NAMES = ("inertia", "linear_damping", "quadratic_damping")
 
 
-def _doc(values, stds, *, axis="surge", effects=(), draws=0, rmse=(1e-3, 1e-4)) -> dict:
-    return {
+def _doc(
+    values, stds, *, axis="surge", effects=(), draws=0, rmse=(1e-3, 1e-4), rho=None, warnings=()
+) -> dict:
+    extra = {}
+    if rho is not None:  # ρ(K_L, K_Q); inertia uncorrelated
+        matrix = np.eye(3)
+        matrix[1, 2] = matrix[2, 1] = rho
+        extra["correlation"] = {"names": list(NAMES), "matrix": matrix.tolist()}
+    return extra | {
+        "warnings": list(warnings),
         "axis": axis,
         "runs": ["a", "b"],
         "coefficients": {
@@ -112,3 +120,140 @@ def test_bad_documents_name_the_field():
     pendulum = {"analysis": "pendulum", "axis": "surge", "coefficients": {}}
     with pytest.raises(ValueError, match="weight_result: a pendulum free-decay analysis"):
         cross_check(pendulum, w)
+
+
+# --- sets that cannot separate K_L from K_Q -------------------------------------------------
+
+ONE_FORCE = "K_L and K_Q are not separable from one force (ρ = -1.000): add a run at …"
+
+
+def _steady_speed(phys: Physics, force: float) -> float:
+    """|v| where K_L·v + K_Q·v² = force."""
+    a, b = phys.quadratic_damping, phys.linear_damping
+    return (-b + np.sqrt(b * b + 4 * a * force)) / (2 * a)
+
+
+@pytest.fixture(scope="module")
+def weight_doc() -> dict:
+    """Four weight runs on the clean simulated rig, estimated for real."""
+    return estimate(tow_set(Physics(*SURGE_TRUTH)), n_bootstrap=0).to_json()
+
+
+def _thrusters(phys: Physics, forces, *, delivered: float = 1.0) -> dict:
+    """Thruster tows at ``forces`` (one run each) as recorded; the vehicle feels
+    ``delivered`` × the recorded thrust."""
+    runs = []
+    for f in forces:
+        run = thruster_run(phys, (f * delivered,), hold_s=6.0, run_id=f"thr-{f:g}")
+        runs.append(replace(run, drive=np.asarray(run.drive) / delivered))
+    return estimate(runs, n_bootstrap=0).to_json()
+
+
+def test_one_thruster_level_leaves_K_L_and_K_Q_undecided_with_the_run_that_decides(
+    weight_doc, tmp_path
+):
+    phys = Physics(*SURGE_TRUTH)
+    thrusters = _thrusters(phys, (36.0,))
+    rho = thrusters["correlation"]["matrix"][1][2]
+    assert abs(rho) > 0.95  # the estimator's own SEPARABILITY_LIMIT
+    check = cross_check(weight_doc, thrusters)
+    doc = check.to_json()
+    assert doc["verdict"] == "agree"
+    assert doc["undecided"] == ["linear_damping", "quadratic_damping"]
+    for name in ("linear_damping", "quadratic_damping"):
+        c = doc["coefficients"][name]
+        assert c["verdict"] == "undecided"
+        assert "the thruster set has one drive level" in c["reason"]
+        assert f"ρ = {rho:+.4f}" in c["reason"]
+        assert "add a thruster tow at a clearly different force" in c["reason"]
+    assert doc["coefficients"]["inertia"]["verdict"] == "agree"
+    # What one level does fix: the damping at its own speed, compared instead.
+    combined = doc["combined"]["damping_at_speed"]
+    assert combined["verdict"] == "agree"
+    v = _steady_speed(phys, 36.0)
+    assert combined["speed"] == pytest.approx(v, rel=0.1)
+    truth = phys.linear_damping + phys.quadratic_damping * combined["speed"]
+    assert combined["thruster"]["value"] == pytest.approx(truth, rel=1e-3)
+    # fixed far better than either coefficient alone
+    k_l = doc["coefficients"]["linear_damping"]["thruster"]
+    assert combined["thruster"]["std"] / truth < 0.1 * k_l["std"] / k_l["value"]
+    assert doc["common_factor"]["coefficients"] == ["inertia", "damping_at_speed"]
+    assert not any("unexplained" in d or "disagree" in d for d in doc["diagnosis"])
+    assert any(d.startswith("K_L, K_Q undecided: the thruster set") for d in doc["diagnosis"])
+    md = markdown(check)
+    assert "| **undecided** |" in md and "Undecided K_L, K_Q: the thruster set" in md
+    assert "K_L + K_Q·|v| at |v| = " in md
+    files = write_crosscheck_report(check, tmp_path)
+    assert files[1].stat().st_size > 5000
+
+
+def test_two_thruster_levels_get_real_verdicts(weight_doc):
+    thrusters = _thrusters(Physics(*SURGE_TRUTH), (18.0, 72.0))
+    assert abs(thrusters["correlation"]["matrix"][1][2]) < 0.95
+    doc = cross_check(weight_doc, thrusters).to_json()
+    assert doc["undecided"] == [] and doc["combined"] == {}
+    assert {c["verdict"] for c in doc["coefficients"].values()} == {"agree"}
+    assert doc["common_factor"]["coefficients"] == list(NAMES)
+
+
+def test_weak_thrusters_at_one_level_still_point_at_the_calibration(weight_doc):
+    # The vehicle feels 0.85× the recorded thrust: every coefficient reads 1/0.85× high.
+    thrusters = _thrusters(Physics(*SURGE_TRUTH), (36.0,), delivered=0.85)
+    doc = cross_check(weight_doc, thrusters).to_json()
+    assert doc["verdict"] == "disagree"
+    assert doc["coefficients"]["inertia"]["verdict"] == "disagree"
+    assert doc["combined"]["damping_at_speed"]["verdict"] == "disagree"
+    assert doc["coefficients"]["linear_damping"]["verdict"] == "undecided"
+    factor = doc["common_factor"]
+    assert factor["coefficients"] == ["inertia", "damping_at_speed"]
+    assert factor["thrust_factor"] == pytest.approx(0.85, abs=0.01)
+    assert "recalibrate" in doc["diagnosis"][0]
+    assert not any(d.startswith("unexplained") for d in doc["diagnosis"])
+
+
+def test_a_collinear_pair_off_along_its_ridge_is_undecided_not_unexplained():
+    # One level fixes K_L + K_Q·|v| at |v| ≈ 0.345: the thruster K_L/K_Q moved along that
+    # ridge (ΔK_L = −|v|·ΔK_Q), far beyond their individual σ (K_L z ≈ −6).
+    w = _doc((143.0, 20.16, 241.14), (0.05, 0.01, 0.03), rho=-0.77)
+    t = _doc((143.1, 19.0, 244.5), (0.1, 0.19, 0.55), rho=-0.998, warnings=[ONE_FORCE])
+    assert cross_check(_doc((143.0, 20.16, 241.14), (0.05, 0.01, 0.03)), _old(t)).verdict == (
+        "disagree"
+    )  # what the individual σ alone would say
+    doc = cross_check(w, t).to_json()
+    assert doc["coefficients"]["linear_damping"]["z"] < -6
+    assert doc["coefficients"]["linear_damping"]["verdict"] == "undecided"
+    assert doc["combined"]["damping_at_speed"]["speed"] == pytest.approx(0.998 * 0.19 / 0.55)
+    assert doc["combined"]["damping_at_speed"]["verdict"] == "agree"
+    assert doc["verdict"] == "agree"
+    assert not any("unexplained" in d for d in doc["diagnosis"])
+
+
+def test_high_correlation_without_one_level_says_the_levels_do_not_separate():
+    w = _doc((143.0, 20.16, 241.14), (0.05, 0.01, 0.03), rho=-0.96)
+    t = _doc((143.0, 20.16, 241.14), (0.05, 0.01, 0.03), rho=-0.5)
+    doc = cross_check(w, t).to_json()
+    reason = doc["coefficients"]["quadratic_damping"]["reason"]
+    assert reason.startswith("the weight set's drive levels do not separate K_L from K_Q")
+    assert "add a weight run well outside the forces it covers" in reason
+
+
+def test_both_sets_stuck_at_different_speeds_compare_nothing_but_inertia():
+    w = _doc((143.0, 20.16, 241.14), (0.05, 0.19, 0.55), rho=-0.998, warnings=[ONE_FORCE])
+    t = _doc((143.0, 22.0, 236.0), (0.05, 0.19, 0.40), rho=-0.999, warnings=[ONE_FORCE])
+    doc = cross_check(w, t).to_json()
+    assert doc["combined"]["damping_at_speed"]["verdict"] == "undecided"
+    assert "ran at different speeds" in doc["combined"]["damping_at_speed"]["reason"]
+    assert doc["common_factor"]["coefficients"] == ["inertia"]
+    assert doc["verdict"] == "agree"
+
+
+def _old(doc: dict) -> dict:
+    """A document as stored before correlation and warnings were read by the cross-check."""
+    return {k: v for k, v in doc.items() if k not in ("correlation", "warnings")}
+
+
+def test_old_documents_without_correlation_still_load():
+    w = _old(_doc((143.0, 20.0, 241.0), (2.0, 3.0, 4.0)))
+    t = _old(_doc((145.0, 17.0, 236.0), (2.0, 3.0, 5.0)))
+    doc = cross_check(w, t).to_json()
+    assert doc["verdict"] == "agree" and doc["undecided"] == [] and doc["combined"] == {}

@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from daq.store import Store
@@ -158,3 +159,69 @@ def test_import_refuses_bad_csv_and_writes_nothing(db, tmp_path):
     assert "line 3" in result.stderr and "position" in result.stderr
     with Store(db) as store:
         assert store.list_runs() == []
+
+
+def _estimate(run_id: str, db: str) -> dict:
+    result = rig("estimate", run_id, "--json", db=db, timeout=120)
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    return data.get("result", data).get("data", data)
+
+
+def test_an_export_imported_back_estimates_the_same_coefficients(db, tmp_path):
+    """Through the real CLI: a simulated-rig tow, exported, imported as a lab's file would
+    be (no events: its tow_release/end_of_travel columns carry the window) and estimated."""
+    recorded = rig("tow", "--force", "44.1", "--max-time", "2", "--baseline", "0.5", db=db)
+    assert recorded.returncode == 0, recorded.stderr
+    with Store(db) as store:
+        run_id = store.list_runs()[0].id
+        hung = store.get_run(run_id).parameters["hung_mass_kg"]
+    csv_path = tmp_path / "tow.csv"
+    assert rig("export", run_id, "-o", str(csv_path), db=db).returncode == 0
+    args = ["--kind", "tow", "--force", "44.1", "--weight", str(hung)]
+    imported = rig("import", str(csv_path), *args, "--rig", "fixtures/rigs/benbam.toml", db=db)
+    assert imported.returncode == 0, imported.stderr
+    original, again = _estimate(run_id, db), _estimate(imported.stdout.strip(), db)
+    window = next(iter(again["windows"].values()))
+    assert window["release_source"] == "release coil, refined by the fit"
+    assert window["end_source"] == "release coil off"
+    assert window["samples_dropped_before"] >= 4 and window["spikes_dropped"] == 0
+    for name, first in original["coefficients"].items():
+        second = again["coefficients"][name]
+        # σ_total carries the release timing: host timing of the recorded release, how
+        # sharply the data fix the found one
+        sigmas = [r["uncertainty"]["parameters"][name] for r in (original, again)]
+        assert all(s["std_release_timing"] > 0 for s in sigmas)
+        sigma = (sigmas[0]["std_total"] ** 2 + sigmas[1]["std_total"] ** 2) ** 0.5
+        assert abs(first["value"] - second["value"]) <= 3 * sigma, (name, first, second, sigmas)
+    assert again["rmse_after"] <= 1.5 * original["rmse_after"]
+    assert again["effects"] == original["effects"] == []
+
+
+def test_import_window_options_and_a_time_column_in_ms(db, tmp_path):
+    ms = tmp_path / "ms.csv"
+    s = np.clip(np.arange(40) * 0.1 - 0.9, 0.0, None)  # released at 0.9 s, damped
+    x = 0.3 * (s - 0.8 * -np.expm1(-s / 0.8))
+    ms.write_text("t,position\n" + "".join(f"{i * 100},{v:.4f}\n" for i, v in enumerate(x)))
+    refused = rig("import", str(ms), "--kind", "tow", "--force", "24.5", db=db)
+    assert refused.returncode == 2
+    assert "column 't': median step 100 between samples, expected seconds" in refused.stderr
+    assert "--time-unit ms" in refused.stderr
+    bad = rig(
+        "import", str(ms), "--kind", "tow", "--force", "24.5", "--time-unit", "ms",
+        "--release-time", "9", db=db,
+    )  # fmt: skip
+    assert bad.returncode == 2 and "release_time_s: 9.0 is not allowed" in bad.stderr
+    ok = rig(
+        "import", str(ms), "--kind", "tow", "--force", "24.5", "--time-unit", "ms",
+        "--release-time", "0.9", "--end-time", "3.5", db=db,
+    )  # fmt: skip
+    assert ok.returncode == 0, ok.stderr
+    with Store(db) as store:
+        params = store.get_run(ok.stdout.strip()).parameters
+    assert params["release_time_s"] == pytest.approx(0.9)
+    assert params["end_time_s"] == pytest.approx(3.5)
+    window = next(iter(_estimate(ok.stdout.strip(), db)["windows"].values()))
+    assert window["release_source"] == "release_time_s (given)"
+    assert window["end_source"] == "end_time_s (given)"
+    assert window["release_time_s"] == pytest.approx(0.9, abs=1e-6)

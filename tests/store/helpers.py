@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import math
+import sqlite3
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import sqlalchemy as sa
 
 from daq.sample import Quality, Sample
 from daq.store import Store
@@ -36,3 +41,72 @@ def make_samples(start: int, count: int, *, t0_wall: float = 1.7e9) -> list[Samp
         )
         for seq in range(start, start + count)
     ]
+
+
+class DbLimits:
+    """Per-connection settings applied to every pooled connection of a store: a page
+    limit (SQLite: SQLITE_FULL as from a full disk), a short lock wait, read-only."""
+
+    def __init__(self, store: Store) -> None:
+        self.store = store
+        self.max_pages: int | None = None
+        self.busy_ms: int | None = None
+        self.read_only = False
+        sa.event.listen(store.engine, "connect", self._apply)
+
+    def _apply(self, dbapi_connection, _record) -> None:
+        if self.store.backend == "sqlite":
+            if self.max_pages is not None:
+                dbapi_connection.execute(f"PRAGMA max_page_count={self.max_pages}")
+            if self.busy_ms is not None:
+                dbapi_connection.execute(f"PRAGMA busy_timeout={self.busy_ms}")
+            if self.read_only:
+                dbapi_connection.execute("PRAGMA query_only=ON")
+            return
+        if self.busy_ms is not None:
+            dbapi_connection.execute(f"SET lock_timeout = '{self.busy_ms}ms'")
+        if self.read_only:
+            dbapi_connection.execute("SET default_transaction_read_only = on")
+        dbapi_connection.commit()  # a session setting, kept past the pool's rollback
+
+    def set(
+        self, *, max_pages: int | None = None, busy_ms: int | None = None, read_only: bool = False
+    ) -> None:
+        self.max_pages, self.busy_ms, self.read_only = max_pages, busy_ms, read_only
+        self.store.engine.dispose()  # new connections take the new settings
+
+    def fill(self) -> None:
+        """SQLite: no room for one more page, the next batch fails with SQLITE_FULL."""
+        with self.store.engine.connect() as conn:
+            pages = conn.exec_driver_sql("PRAGMA page_count").scalar_one()
+        self.set(max_pages=pages)
+
+
+@contextmanager
+def held_write_lock(store: Store) -> Iterator[None]:
+    """Another connection holds the write lock (SQLite ``BEGIN EXCLUSIVE``, PostgreSQL
+    ``LOCK TABLE samples, runs``) until the block ends."""
+    if store.backend == "sqlite":
+        path = sa.make_url(store.url).database
+        blocker = sqlite3.connect(path, isolation_level=None)
+        blocker.execute("BEGIN EXCLUSIVE")
+        try:
+            yield
+        finally:
+            blocker.execute("COMMIT")
+            blocker.close()
+        return
+    engine = sa.create_engine(store.url)
+    try:
+        with engine.begin() as conn:
+            conn.exec_driver_sql("LOCK TABLE samples, runs, events IN ACCESS EXCLUSIVE MODE")
+            yield
+    finally:
+        engine.dispose()
+
+
+def no_sql(text: str | None) -> None:
+    """``text`` is one line without SQL, parameters or SQLAlchemy's footer."""
+    assert text is not None and "\n" not in text, text
+    for word in ("INSERT INTO", "SELECT ", "UPDATE ", "[SQL", "parameters", "Background on"):
+        assert word not in text, text

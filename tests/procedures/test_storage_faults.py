@@ -1,0 +1,172 @@
+"""Storage failing during and at the end of a run, on the simulated rig.
+
+* A full disk (a 2 MB tmpfs holding the SQLite database; needs root to mount: skipped on a
+  laptop, required under CI=true) stops a 500 Hz tow safely; the CLI prints its JSON and
+  exits 1 (no traceback); once space returns, the next open of the store writes back
+  every sample the database did not take and the run reads ``aborted`` with a one-line
+  reason naming storage.
+* A database that refuses writes mid-run (in process) leaves the brake engaged and the
+  thrusters at zero.
+* A write lock held across the end of a run, then released: the run ends ``completed``
+  with all its samples and no SQL anywhere.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import os
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import tow_parameters
+from daq.sample import Quality
+from daq.session import RigSession, RigSource
+from daq.store import Store
+from daq.store.spill import SUFFIX
+from tests.conftest import IN_CI
+from tests.procedures.conftest import short_rail
+from tests.store.helpers import DbLimits, no_sql
+
+ROOT = Path(__file__).resolve().parents[2]
+TOW = [sys.executable, "-m", "api.cli", "tow", "--force", "2", "--max-time", "40"]
+STORAGE_REASON = "storage failed: SQLite: database or disk is full"
+
+
+def _only_skipped_slots_missing(table) -> None:
+    """Every gap in seq is a slot the clock skipped (OVERRUN on the next sample)."""
+    gaps = np.flatnonzero(np.diff(table.seq) > 1)
+    assert all(table.quality[i + 1] & Quality.OVERRUN for i in gaps), "a sample went missing"
+
+
+@pytest.fixture
+def small_tmpfs(tmp_path) -> Path:
+    """A 2 MB tmpfs (unmounted afterwards)."""
+    mount = tmp_path / "tmpfs"
+    mount.mkdir()
+    if os.geteuid() != 0:
+        if IN_CI:
+            pytest.fail("mounting a tmpfs needs root (required when CI=true)")
+        pytest.skip("mounting a tmpfs needs root")
+    subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(mount)], check=True)
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, tmp_path):
+    db = f"sqlite:///{small_tmpfs / 'rig.db'}"
+    spill = tmp_path / "spill"
+    Store(db, spill_dir=spill).close()  # schema in place
+    free = os.statvfs(small_tmpfs).f_bavail * os.statvfs(small_tmpfs).f_frsize
+    filler = small_tmpfs / "filler"
+    filler.write_bytes(b"\0" * (free - 400_000))  # room for a second or two at 500 Hz
+    rig_file = tmp_path / "rig500.toml"
+    text = (ROOT / "fixtures/rigs/benbam.toml").read_text()
+    rig_file.write_text(text.replace("rate_hz = 10.0", "rate_hz = 500.0"))
+
+    result = subprocess.run(
+        [*TOW, "--rig", str(rig_file), "--db", db, "--json"],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=ROOT,
+        env=os.environ | {"RIG_SPILL_DIR": str(spill)},
+    )
+    assert result.returncode == 1, result.stderr
+    assert "Traceback" not in result.stderr and "INSERT" not in result.stderr, result.stderr
+    outcome = json.loads(result.stdout)
+    assert (outcome["status"], outcome["reason"]) == ("aborted", STORAGE_REASON)
+    assert list(spill.glob(f"*{SUFFIX}")), "unstored samples were not kept aside"
+
+    filler.unlink()  # space returns; the next open writes the kept samples back
+    with Store(db, spill_dir=spill) as store:
+        run = store.get_run(outcome["run_id"])
+        assert (run.status, run.reason) == ("aborted", STORAGE_REASON)
+        no_sql(run.reason)
+        assert run.duration_s < 20  # stopped at the fault, not at --max-time 40
+        table = store.samples(run.id)
+        assert len(table) > outcome["samples"]  # more than the database had taken
+        _only_skipped_slots_missing(table)
+        assert table.t_wall[-1] <= run.stopped_at.timestamp()
+        fault = [e for e in store.events(run.id) if e.kind == "fault"]
+        assert [e.message for e in fault] == [f"run aborted: {STORAGE_REASON}"]
+        assert store.integrity_check() == "ok"
+    assert not list(spill.glob(f"*{SUFFIX}"))
+
+
+async def test_a_database_refusing_writes_mid_tow_leaves_the_rig_safe(source, tmp_path):
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}", spill_dir=tmp_path / "spill")
+    limits = DbLimits(store)
+    try:
+        async with RigSession(source, store) as session:
+            params = tow_parameters(
+                {"force_n": 24.5, "max_time_s": 30, "baseline_s": 0.3}, session.rig
+            )
+
+            def progress(p) -> None:
+                if p.message.startswith("tow:") and not limits.read_only:
+                    limits.set(read_only=True)  # the vehicle is moving: storage goes
+
+            outcome = await asyncio.wait_for(
+                run_motion_test(session, params, progress=progress), 60
+            )
+            reason = "storage failed: SQLite: attempt to write a readonly database"
+            assert (outcome.status, outcome.reason) == ("aborted", reason)
+            assert await session.plc.read("tow_release") == 0  # brake engaged
+            assert session.thrusters.output == [0.0] * session.rig.thrusters.count
+        limits.set()
+        assert store.replay_spills() == [outcome.run_id]
+        run = store.get_run(outcome.run_id)
+        assert (run.status, run.reason) == ("aborted", reason)
+        assert run.duration_s < 20
+        _only_skipped_slots_missing(store.samples(run.id))
+    finally:
+        store.close()
+
+
+async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
+    source, store, tmp_path, caplog
+):
+    caplog.set_level(logging.WARNING, logger="daq.store.recorder")
+    short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
+    path = Path(store.url.removeprefix("sqlite:///"))
+    blocker = sqlite3.connect(path, isolation_level=None, timeout=30, check_same_thread=False)
+    async with RigSession(short, store) as session:
+        params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
+        watch = session.acquisition.subscribe(maxsize=10_000, name="test-brake-watch")
+        task = asyncio.create_task(run_motion_test(session, params))
+        released = False
+        while True:  # the brake comes off, then on again at the end of travel
+            sample = await asyncio.wait_for(watch.get(), 30)
+            released = released or sample.channels["tow_release"] == 1
+            if released and sample.channels["tow_release"] == 0:
+                break
+        session.acquisition.unsubscribe(watch)
+        await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
+        while not any("database is locked" in r.getMessage() for r in caplog.records):
+            assert not task.done(), "the run ended while the database was locked"
+            await asyncio.sleep(0.1)  # the recorder's 10 s busy wait, then its retries
+        blocker.execute("COMMIT")
+        blocker.close()
+        outcome = await asyncio.wait_for(task, 60)
+
+    assert (outcome.status, outcome.reason) == ("completed", None)
+    run = store.get_run(outcome.run_id)
+    assert (run.status, run.reason) == ("completed", None)
+    table = store.samples(run.id)
+    assert len(table) == outcome.samples == run.sample_count
+    _only_skipped_slots_missing(table)
+    assert table.channels["tow_release"][-1] == 0  # the tail after the brake is stored
+    events = store.events(run.id)
+    assert any(e.data and e.data.get("action") == "brake" for e in events)
+    for e in events:
+        no_sql(e.message)

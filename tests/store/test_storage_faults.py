@@ -1,0 +1,225 @@
+"""The recorder when storage fails: a full database is a fault (one line, once), what it
+could not store goes to the spill file and back into the database when a flush succeeds
+again or the store is next opened; a held lock is retried, and the run's end is written
+once, truthfully.
+
+A real SQLite database is made "full" with ``PRAGMA max_page_count`` (SQLITE_FULL, as a
+full disk gives), read-only, or locked by a second real connection.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import sqlite3
+
+import numpy as np
+import pytest
+import sqlalchemy as sa
+
+from daq.store import RunRecorder, Store
+from daq.store.faults import describe, one_line
+from daq.store.spill import read_spill
+from tests.store.helpers import DbLimits, held_write_lock, make_samples, new_run, no_sql
+
+
+@pytest.fixture
+def sqlite_store(tmp_path):
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}", spill_dir=tmp_path / "spill")
+    yield store
+    store.close()
+
+
+async def test_a_full_database_is_one_fault_spilled_and_written_back_when_room_returns(
+    sqlite_store: Store,
+) -> None:
+    limits = DbLimits(sqlite_store)
+    run_id = new_run(sqlite_store)
+    faults: list[str] = []
+    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
+    for sample in make_samples(0, 50):
+        recorder.put(sample)
+    assert await recorder.flush() == 50
+
+    limits.fill()
+    for sample in make_samples(50, 2000):
+        recorder.put(sample)
+    assert await recorder.flush() == 0
+    for sample in make_samples(2050, 100):  # the clock keeps going while the rig stops
+        recorder.put(sample)
+    assert await recorder.flush() == 0
+
+    assert faults == ["storage failed: SQLite: database or disk is full"]  # once
+    assert recorder.fault == faults[0]
+    spilled = read_spill(recorder.spill.path)
+    assert [s.seq for s in spilled.samples] == list(range(50, 2150))  # each sample once
+    assert spilled.samples[7] == make_samples(57, 1)[0]  # exactly as acquired
+    assert recorder.queued == 2100  # also kept in memory for the next flush
+
+    limits.set()  # room again
+    assert await recorder.flush() == 2100
+    await recorder.close()
+    assert not recorder.spill.path.exists()  # everything it held is stored
+    np.testing.assert_array_equal(sqlite_store.samples(run_id).seq, np.arange(2150))
+
+
+async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_next_open(
+    sqlite_store: Store, tmp_path
+) -> None:
+    limits = DbLimits(sqlite_store)
+    run_id = new_run(sqlite_store)
+    faults: list[str] = []
+    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
+    for sample in make_samples(0, 30):
+        recorder.put(sample)
+    await recorder.flush()
+    limits.set(read_only=True)  # no write at all succeeds now, not even the run's end
+    for sample in make_samples(30, 500):
+        recorder.put(sample)
+    recorder.add_event("limit", "end of travel: brake engaged", {"seq": 529})
+
+    # The body "completed", but storage failed: the end is aborted, naming storage.
+    status, reason = await recorder.end("completed", None)
+    message = "storage failed: SQLite: attempt to write a readonly database"
+    assert (status, reason) == ("aborted", message) and faults == [message]
+    assert sqlite_store.get_run(run_id).status == "running"  # could not be written yet
+    assert read_spill(recorder.spill.path).end[:2] == (status, reason)
+
+    with Store(sqlite_store.url, spill_dir=tmp_path / "spill") as reopened:
+        run = reopened.get_run(run_id)
+        assert (run.status, run.reason) == (status, reason)
+        no_sql(run.reason)
+        np.testing.assert_array_equal(reopened.samples(run_id).seq, np.arange(530))
+        (event,) = reopened.events(run_id)
+        assert event.message == "end of travel: brake engaged" and event.data == {"seq": 529}
+    assert not recorder.spill.path.exists()
+
+
+async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_completes(
+    sqlite_store: Store, tmp_path
+) -> None:
+    limits = DbLimits(sqlite_store)
+    limits.set(busy_ms=50)  # each attempt gives up quickly: the retries are what is tested
+    run_id = new_run(sqlite_store)
+    faults: list[str] = []
+    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
+    for sample in make_samples(0, 341):
+        recorder.put(sample)
+    recorder.add_event("limit", "max time 2 s: brake engaged")
+    blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
+    blocker.execute("BEGIN EXCLUSIVE")
+    ending = asyncio.create_task(recorder.end("completed", None))
+    while recorder.stats.failed_flushes < 3 and not ending.done():
+        await asyncio.sleep(0.02)  # the end is being retried against the lock
+    assert not ending.done()
+    blocker.execute("COMMIT")
+    blocker.close()
+
+    assert await asyncio.wait_for(ending, 30) == ("completed", None)
+    assert faults == []
+    run = sqlite_store.get_run(run_id)
+    assert (run.status, run.reason, run.sample_count) == ("completed", None, 341)
+    assert [e.message for e in sqlite_store.events(run_id)] == ["max time 2 s: brake engaged"]
+    assert not recorder.spill.path.exists()
+
+
+async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
+    sqlite_store: Store, tmp_path
+) -> None:
+    limits = DbLimits(sqlite_store)
+    limits.set(busy_ms=50)
+    run_id = new_run(sqlite_store)
+    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
+    for sample in make_samples(0, 100):
+        recorder.put(sample)
+    await recorder.close()  # every sample stored
+    blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
+    blocker.execute("BEGIN EXCLUSIVE")
+    ending = asyncio.create_task(recorder.end("completed", None))
+    while recorder.stats.last_error is None:
+        await asyncio.sleep(0.02)
+    assert "database is locked" in recorder.stats.last_error
+    no_sql(recorder.stats.last_error)
+    blocker.execute("COMMIT")
+    blocker.close()
+    assert await asyncio.wait_for(ending, 30) == ("completed", None)
+    assert sqlite_store.get_run(run_id).status == "completed"
+
+
+def test_database_errors_read_as_one_line_and_say_whether_a_retry_helps(
+    sqlite_store: Store, tmp_path
+) -> None:
+    limits = DbLimits(sqlite_store)
+    run_id = new_run(sqlite_store)
+    limits.fill()
+    with pytest.raises(sa.exc.OperationalError) as full:
+        sqlite_store.add_samples(run_id, make_samples(0, 500))
+    assert "INSERT INTO samples" in str(full.value)  # what used to reach the operator
+    assert describe(full.value).message == "SQLite: database or disk is full"
+    assert not describe(full.value).retryable
+    no_sql(one_line(full.value))
+
+    limits.set(busy_ms=10)
+    blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
+    blocker.execute("BEGIN EXCLUSIVE")
+    try:
+        with pytest.raises(sa.exc.OperationalError) as locked:
+            sqlite_store.finish_run(run_id, "completed")
+    finally:
+        blocker.execute("ROLLBACK")
+        blocker.close()
+    assert describe(locked.value).message == "SQLite: database is locked"
+    assert describe(locked.value).retryable
+    assert one_line(ValueError("two\nlines")) == "two lines"
+
+
+async def test_refused_writes_are_a_fault_and_a_held_lock_is_retried(store: Store, tmp_path):
+    """Both backends: a lock is waited out (no fault), refused writes are one fault."""
+    limits = DbLimits(store)
+    limits.set(busy_ms=50)
+    run_id = new_run(store)
+    faults: list[str] = []
+    recorder = RunRecorder(
+        store, run_id, flush_interval_s=0.1, on_fault=faults.append, spill_dir=tmp_path
+    )
+    with held_write_lock(store):
+        for sample in make_samples(0, 10):
+            recorder.put(sample)
+        assert await recorder.flush() == 0
+        assert recorder.stats.failed_flushes == 1 and faults == []
+        no_sql(recorder.stats.last_error)
+    assert await recorder.flush() == 10
+
+    limits.set(read_only=True)
+    for sample in make_samples(10, 10):
+        recorder.put(sample)
+    assert await recorder.flush() == 0
+    (fault,) = faults
+    assert fault.startswith("storage failed: ") and "read" in fault, fault
+    no_sql(fault)
+    assert [s.seq for s in read_spill(recorder.spill.path).samples] == list(range(10, 20))
+
+    limits.set()  # writable again: the end stores everything (a procedure would have
+    # been aborted by on_fault; the reason it passes is kept)
+    assert await recorder.end("aborted", fault) == ("aborted", fault)
+    run = store.get_run(run_id)
+    assert (run.status, run.reason, run.sample_count) == ("aborted", fault, 20)
+    assert not recorder.spill.path.exists()
+
+
+async def test_only_events_refused_at_the_end_leave_a_completed_run_completed(
+    sqlite_store: Store, tmp_path
+) -> None:
+    limits = DbLimits(sqlite_store)
+    run_id = new_run(sqlite_store)
+    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
+    for sample in make_samples(0, 40):
+        recorder.put(sample)
+    await recorder.flush()  # every sample stored
+    recorder.add_event("limit", "max time 4 s: brake engaged")
+    limits.set(read_only=True)
+    assert await recorder.end("completed", None) == ("completed", None)
+    limits.set()
+    assert sqlite_store.replay_spills() == [run_id]
+    run = sqlite_store.get_run(run_id)
+    assert (run.status, run.reason, run.sample_count) == ("completed", None, 40)
+    assert [e.message for e in sqlite_store.events(run_id)] == ["max time 4 s: brake engaged"]
