@@ -53,13 +53,16 @@ def _run_procedure(
     store = open_store(db_url)
 
     async def main(abort: AbortSignal) -> Any:
+        from daq.plc import DeviceError
         from daq.procedures.motion import PreconditionFailed
+        from thrusters.driver import ThrusterError
 
         with ProgressView(not as_json, title) as view:
             try:
                 async with RigSession(source, store) as session:
                     return await body(session, params, abort, view)
-            except (PreconditionFailed, RigInUse) as err:
+            except (PreconditionFailed, RigInUse, DeviceError, ThrusterError) as err:
+                # Not ready, the rig in use, or a device that cannot be reached: exit 1.
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
                 fail(flag_names(click.get_current_context(silent=True), "; ".join(err.lines())))

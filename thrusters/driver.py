@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import atexit
 import contextlib
+import dataclasses
 import logging
 import math
 import os
@@ -32,9 +33,40 @@ log = logging.getLogger(__name__)
 #: long pause still ramps instead of jumping.
 MAX_SLEW_INTERVAL_S = 0.1
 
+#: Consecutive frames without a valid reply (timeout, bad CRC, garbage, I/O error, or a
+#: ``NAK crc``/``NAK malformed`` saying our frame arrived spoiled) after which the link
+#: counts as lost: one lost reply is ridden out, two are not. The fault is seen at most
+#: one heartbeat + 2 × ``ack_timeout_s`` after it began (0.3 s at 10 Hz and 0.1 s; see
+#: docs/thruster-protocol.md, "Link supervision").
+LINK_LOST_AFTER = 2
+
+#: NAK reasons that mean the controller got our frame spoiled: the line, not the request.
+LINE_NAKS = frozenset({"crc", "malformed"})
+
 
 class ThrusterError(RuntimeError):
     """The controller refused or did not answer an operator-level request."""
+
+
+@dataclass(frozen=True, slots=True)
+class ThrusterFault:
+    """Why thrust can no longer be trusted: the link was lost or the controller's watchdog
+    tripped. ``t_confirmed`` is the host monotonic time the controller last confirmed its
+    outputs, ``outputs`` what it confirmed then (fractions of full scale)."""
+
+    kind: str  # "link_lost" | "watchdog"
+    reason: str
+    t_detected: float
+    t_confirmed: float
+    outputs: tuple[float, ...]
+
+    def to_json(self) -> dict:
+        return {
+            "fault": self.kind,
+            "t_detected": self.t_detected,
+            "t_thrust_confirmed": self.t_confirmed,
+            "confirmed_outputs": list(self.outputs),
+        }
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,6 +138,11 @@ class ThrusterDriver:
         self._t_confirmed = time.monotonic()
         self._output_logs: list[list[OutputStep]] = []
         self._signal_task: asyncio.Task[None] | None = None
+        #: Frames in a row without a valid reply.
+        self.missed_replies = 0
+        #: The first fault since the last ``arm()`` (link lost, watchdog trip), or None.
+        self.fault: ThrusterFault | None = None
+        self._fault_event: asyncio.Event | None = None
 
     @property
     def stats(self) -> LinkStats:
@@ -129,6 +166,7 @@ class ThrusterDriver:
             raise ThrusterError(f"thrusters.port: cannot open {self._link.url!r}: {err}") from err
         atexit.register(self._zero_at_exit)
         self.inhibited = None
+        self._clear_fault()
         try:
             await self.query()
         except ThrusterError:
@@ -176,6 +214,7 @@ class ThrusterDriver:
         self._maybe_armed = True
         reply = await self._transact(p.arm_frame, self._zeros)
         self._expect_ack(reply, "arm")
+        self._clear_fault()
         self.output = [0.0] * self.count
         self.target = [0.0] * self.count
         self._last_step_t = self.clock()
@@ -271,8 +310,69 @@ class ThrusterDriver:
         self.output, self._last_step_t = new, now
         commands = [p.fraction_to_command(x, i) for i, x in enumerate(new)]
         sent = tuple(c / 1000 for c in commands)
+        lost_before = self.link_lost
         reply = await self._transact(lambda seq: p.thr_frame(seq, commands), sent)
+        if self.link_lost and not lost_before:
+            # Put one zero frame on the wire now rather than at the next heartbeat: the
+            # controller may still hear us even if we cannot hear it.
+            await self._transact(lambda seq: p.thr_frame(seq, [0] * self.count), self._zeros)
         return reply is not None and reply.kind == "ACK"
+
+    # ---- supervision ------------------------------------------------------------------
+
+    @property
+    def link_lost(self) -> bool:
+        return self.fault is not None and self.fault.kind == "link_lost"
+
+    async def wait_fault(self) -> ThrusterFault:
+        """Wait until the link is lost or the controller's watchdog trips (since the last
+        ``arm()``) and return that fault."""
+        if self._fault_event is None:
+            self._fault_event = asyncio.Event()
+        await self._fault_event.wait()
+        assert self.fault is not None
+        return self.fault
+
+    def _clear_fault(self) -> None:
+        self.fault = None
+        self.missed_replies = 0
+        if self._fault_event is not None:
+            self._fault_event.clear()
+        if self.inhibited == "thruster link lost":
+            self.inhibited = None
+
+    def _set_fault(self, kind: str, reason: str) -> None:
+        if self.fault is not None:
+            return
+        self.fault = ThrusterFault(
+            kind, reason, time.monotonic(), self._t_confirmed, self._confirmed
+        )
+        log.error("thrusters: %s", reason)
+        if self._fault_event is None:
+            self._fault_event = asyncio.Event()
+        self._fault_event.set()
+
+    def _supervise(self, reply: p.Reply | None, before: LinkStats) -> None:
+        """Count frames without a valid reply; ``LINK_LOST_AFTER`` in a row is a lost link:
+        commands are then held at zero (``inhibited``) until the next ``arm()``."""
+        if reply is not None and reply.reason not in LINE_NAKS:
+            self.missed_replies = 0
+            return
+        self.missed_replies += 1
+        if self.missed_replies < LINK_LOST_AFTER or self.fault is not None:
+            return
+        if self.state != "ARMED":  # nothing to supervise: outputs already zero
+            return
+        self.inhibited = "thruster link lost"
+        cause = _miss_cause(reply, before, self._link.stats)
+        age = time.monotonic() - self._t_confirmed
+        confirmed = ", ".join(f"{x:+.3f}" for x in self._confirmed)
+        self._set_fault(
+            "link_lost",
+            f"thruster link lost: {self.missed_replies} consecutive replies missing "
+            f"({cause}); thrust last confirmed {age:.2f} s before "
+            f"(outputs {confirmed}); commanding zero",
+        )
 
     @contextlib.contextmanager
     def recording_outputs(self) -> Iterator[list[OutputStep]]:
@@ -312,16 +412,24 @@ class ThrusterDriver:
         self._seq = p.next_seq(self._seq)
         seq = self._seq
         t_sent = time.monotonic()
+        before = dataclasses.replace(self._link.stats)
         reply = await self._run(self._link.transact, make(seq), seq)
         assert reply is None or isinstance(reply, p.Reply)
+        was_armed = self.state == "ARMED"
         if reply is not None and reply.state:
             self.state = reply.state
             if reply.state == "DISARMED":
                 self._maybe_armed = False
         elif reply is not None and reply.reason == "disarmed" and self.state == "ARMED":
             # Only the watchdog takes the controller out of ARMED without our DISARM.
-            log.warning("thrusters: controller no longer armed (watchdog tripped)")
             self.state = "WDT"
+        if was_armed and self.state == "WDT":
+            self._set_fault(
+                "watchdog",
+                "thruster controller watchdog tripped (heartbeats lost): "
+                "thrust went to zero mid-run",
+            )
+        self._supervise(reply, before)
         if reply is not None and reply.kind == "ACK" and outputs is not None:
             self._confirm(outputs, t_sent)
         elif reply is not None and reply.reason == "disarmed":
@@ -378,6 +486,22 @@ class ThrusterDriver:
             loop.remove_signal_handler(s)
         signal.signal(sig, signal.SIG_DFL)
         os.kill(os.getpid(), sig)
+
+
+def _miss_cause(reply: p.Reply | None, before: LinkStats, after: LinkStats) -> str:
+    """What kept one frame from getting a valid reply, from the link counters."""
+    if reply is not None:
+        return f"controller got our frame spoiled: NAK {reply.reason}"
+    if after.io_errors > before.io_errors:
+        return "I/O error on the port"
+    causes = []
+    if after.corrupt_lines > before.corrupt_lines:
+        causes.append("bad CRC")
+    if after.garbage_lines > before.garbage_lines:
+        causes.append("garbage")
+    if after.unexpected_replies > before.unexpected_replies:
+        causes.append("reply to another frame")
+    return ", ".join(causes) or "no reply within ack_timeout_s"
 
 
 def _describe(reply: p.Reply | None) -> str:

@@ -148,10 +148,15 @@ class SerialLink:
 
     def _read_line(self, deadline: float) -> bytes | None:
         assert self._port is not None
+        late_read = False
         while True:
             while b"\n" not in self._rx:
                 if time.monotonic() >= deadline:
-                    return None
+                    # A reply that arrived while this thread was not scheduled (host under
+                    # load) is still on time: take what is waiting once, then give up.
+                    if late_read or not self._port.in_waiting:
+                        return None
+                    late_read = True
                 chunk = self._port.read(max(1, self._port.in_waiting))
                 self._rx += chunk
                 if b"\n" not in self._rx and len(self._rx) > p.MAX_LINE_BYTES:

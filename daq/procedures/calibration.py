@@ -9,6 +9,7 @@ and the fitted curve (with its inverse map) are stored as a ``calibration`` resu
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 import statistics
 from typing import Any
@@ -17,7 +18,10 @@ from daq.operator import OperatorAct
 from daq.procedures.motion import RunOutcome
 from daq.procedures.params import CalibrationParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.thruster_drive import abort_on_thruster_fault
 from daq.session import RigSession
+
+log = logging.getLogger(__name__)
 
 
 def _mean_std(values: list[float]) -> tuple[float, float]:
@@ -52,6 +56,8 @@ async def run_thrust_calibration(
             abort=abort,
             progress=report,
         )
+        armed = asyncio.Event()
+        supervisor = asyncio.create_task(abort_on_thruster_fault(session, rec, abort, armed))
         try:
             async with rec:
                 report(
@@ -62,6 +68,7 @@ async def run_thrust_calibration(
                     )
                 )
                 await session.arm_thrusters()
+                armed.set()
                 await rec.event("operator", "thrusters armed")
                 tare_samples = await _collect(rec, params.tare_samples)
                 tare, tare_std = _mean_std([s.channels["load_cell"] for s in tare_samples])
@@ -107,7 +114,11 @@ async def run_thrust_calibration(
                     )
                 session.set_thrust([0.0] * n)
         finally:
-            await session.disarm_thrusters()
+            supervisor.cancel()
+            try:
+                await session.disarm_thrusters()
+            except Exception as err:  # the run is stored; its reason stays what it was
+                log.error("thrusters not disarmed after the calibration: %s", err)
             await session.operator.perform(
                 OperatorAct("unmount_thrust_stand", "Unbolt the thrusters from the load cell")
             )

@@ -31,6 +31,9 @@ log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[Progress], None]
 
+#: How the reason of a run aborted because the PLC stopped answering begins.
+DEVICE_LOST = "device lost"
+
 #: Background write-backs of spill files (a reference keeps each task alive).
 _WRITE_BACKS: set[asyncio.Task] = set()
 
@@ -145,7 +148,7 @@ class RecordedRun:
         await s.safe_state()
         assert self._recorder is not None
         if self.status != "completed":
-            fault = self.reason == "device lost" or self._recorder.fault is not None
+            fault = self.reason.startswith(DEVICE_LOST) or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
         assert s.acquisition is not None
         if self._queue is not None:
@@ -200,16 +203,25 @@ class RecordedRun:
                 get.cancel()
                 self.abort.check()
                 if acq.device_lost.is_set():
-                    raise Aborted("device lost")
+                    raise Aborted(self._device_lost_reason())
                 continue
             sample = get.result()
             if acq.device_lost.is_set():
-                raise Aborted("device lost")
+                raise Aborted(self._device_lost_reason())
             if sample.channels.get("estop", 0.0) and not math.isnan(
                 sample.channels.get("estop", 0.0)
             ):
                 raise Aborted("emergency stop")
             yield sample
+
+    def _device_lost_reason(self) -> str:
+        acq = self.session.acquisition
+        plc = self.session.plc
+        assert acq is not None and plc is not None
+        return (
+            f"{DEVICE_LOST}: PLC at {plc.endpoint} unreadable for over "
+            f"{acq.device_lost_after_s:g} s"
+        )
 
     async def record_for(self, seconds: float, *, message: str = "") -> list[Sample]:
         """Collect samples for ``seconds`` (baseline, settling) and return them."""

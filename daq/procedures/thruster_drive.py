@@ -11,6 +11,8 @@ larger reverse command. Both axes share one lifecycle (``run_thruster_test``).
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import logging
 import time
 from typing import Any
 
@@ -19,8 +21,11 @@ from daq.operator import OperatorAct
 from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.session import RigSession
+from daq.sample import Quality
+from daq.session import Aborted, RigSession
 from daq.store import Store
+
+log = logging.getLogger(__name__)
 
 #: Event action holding the outputs the controller confirmed during a run:
 #: ``steps`` = [[t_sent, t_acked, [fraction per thruster]], …] in host monotonic time.
@@ -128,8 +133,10 @@ async def run_thruster_test(
     angle / timeout, then the thrust goes to zero and the brake engages. The thrusters
     end zero and disarmed whatever happens. Every output change the controller confirmed
     is stored as the run's ``thrust_steps`` event, the drive the estimator rebuilds. If
-    the controller's watchdog zeroes the thrust mid-run (heartbeats lost), the run is
-    aborted with that reason rather than recorded to the end without thrust.
+    the thruster link is lost (``LINK_LOST_AFTER`` replies missing in a row) or the
+    controller's watchdog zeroes the thrust mid-run, the run is aborted with that reason
+    rather than recorded to the end without thrust; a disarm that fails at the end is
+    stored as an event and never replaces the reason the run ended.
     """
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
@@ -183,23 +190,29 @@ async def run_thruster_test(
         rec = RecordedRun(
             session, kind=axis.kind, parameters=parameters, abort=abort, progress=report
         )
-        async with rec:
-            with session.thrusters.recording_outputs() as steps:
-                watchdog = asyncio.create_task(_abort_on_watchdog_trip(session, abort))
-                try:
-                    await _drive_with_thrusters(session, rec, axis, params, commands, start, report)
-                finally:
-                    watchdog.cancel()
+        try:
+            async with rec:
+                with session.thrusters.recording_outputs() as steps:
+                    armed = asyncio.Event()
+                    supervisor = asyncio.create_task(
+                        abort_on_thruster_fault(session, rec, abort, armed)
+                    )
                     try:
-                        await session.disarm_thrusters()
-                    finally:
-                        await rec.event(
-                            "thrusters",
-                            f"thruster outputs changed {len(steps)} times",
-                            action=THRUST_STEPS,
-                            steps=[step.to_json() for step in steps],
+                        await _drive_with_thrusters(
+                            session, rec, axis, params, commands, start, report, armed
                         )
-            await rec.record_for(0.3)
+                    except BaseException:
+                        await _end_thrust(session, rec, steps, supervisor)
+                        raise
+                    failure = await _end_thrust(session, rec, steps, supervisor)
+                    if failure:
+                        raise Aborted(failure)
+                await rec.record_for(0.3)
+        except Exception:
+            if rec.status is None:  # the run was never stored: nothing to report
+                raise
+            # Stored as aborted with the error as its reason; the caller gets the outcome.
+            log.exception("thruster %s run %s ended by an error", axis.kind, rec.run_id)
         return await run_outcome(session, rec, axis.kind, report)
 
 
@@ -208,28 +221,66 @@ run_thruster_spin = run_thruster_test
 run_thruster_tow = run_thruster_test
 
 
-#: How often a thruster-driven run checks whether the controller's watchdog tripped, s.
-WATCHDOG_CHECK_S = 0.05
+async def abort_on_thruster_fault(
+    session: RigSession, rec: RecordedRun, abort: AbortSignal, armed: asyncio.Event
+) -> None:
+    """Once this run has armed the thrusters (a fault left from an earlier run does not
+    count), abort it when the thruster link is lost or the controller's watchdog zeroes
+    the outputs; the fault, with when thrust was last confirmed, is stored as a ``fault``
+    event."""
+    await armed.wait()
+    fault = await session.thrusters.wait_fault()
+    reason = fault.reason
+    latest = session.latest()
+    if latest is not None and latest.quality & Quality.ERROR and session.plc is not None:
+        # Both devices gone at once (the rig's power, the simulator): name the PLC too.
+        reason += f"; PLC at {session.plc.endpoint} unreadable too"
+    try:  # stored before the abort, so the run's ending cannot cancel it half-way
+        await rec.event("fault", reason, action="thruster_fault", **fault.to_json())
+    finally:
+        abort.set(reason)
 
 
-async def _abort_on_watchdog_trip(session: RigSession, abort: AbortSignal) -> None:
-    """Abort the run if, once armed, the controller reports its watchdog zeroed the
-    outputs (a state left from an earlier run does not count)."""
-    thrusters = session.thrusters
-    while thrusters.state != "ARMED":
-        await asyncio.sleep(WATCHDOG_CHECK_S)
-    while thrusters.state == "ARMED":
-        await asyncio.sleep(WATCHDOG_CHECK_S)
-    if thrusters.state == "WDT":
-        abort.set(
-            "thruster controller watchdog tripped (heartbeats lost): thrust went to zero mid-run"
+async def _end_thrust(
+    session: RigSession, rec: RecordedRun, steps: list, supervisor: asyncio.Task
+) -> str | None:
+    """Zero and disarm the thrusters (best effort) and store the confirmed outputs as
+    ``thrust_steps``. Never raises: returns why the thrusters could not be disarmed, so a
+    failure here is recorded without replacing the reason the run is already ending."""
+    failure = None
+    try:
+        await session.disarm_thrusters()
+    except Exception as err:
+        failure = f"thrusters not disarmed at the end of the run: {err}"
+        log.error("%s", failure)
+    supervisor.cancel()
+    with contextlib.suppress(asyncio.CancelledError):
+        try:
+            await supervisor
+        except Exception:
+            log.exception("thruster fault supervisor failed")
+    with contextlib.suppress(Exception):
+        if failure:
+            await rec.event("fault", failure, action="disarm_failed")
+    try:
+        await rec.event(
+            "thrusters",
+            f"thruster outputs changed {len(steps)} times",
+            action=THRUST_STEPS,
+            steps=[step.to_json() for step in steps],
         )
+    except Exception as err:
+        log.error("thrust_steps not stored: %s", err)
+    return failure
 
 
-async def _drive_with_thrusters(session, rec, axis, params, commands, start, report) -> None:
+async def _drive_with_thrusters(
+    session, rec, axis, params, commands, start, report, armed: asyncio.Event
+) -> None:
     rig = session.rig
     await session.plc.write(axis.release, True)
     await session.arm_thrusters()
+    armed.set()
     await rec.event("operator", f"{axis.release} set: brake released, thrusters armed")
     report(
         Progress(

@@ -103,7 +103,7 @@ async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, sto
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
     stopped_at = session.latest().seq
     outcome = await asyncio.wait_for(task, 10)
-    assert outcome.status == "aborted" and outcome.reason == "device lost"
+    assert outcome.status == "aborted" and outcome.reason.startswith("device lost: PLC at tcp ")
     table = store.samples(outcome.run_id)
     before = table.seq <= stopped_at
     seqs, quality = table.seq[before], table.quality[before]

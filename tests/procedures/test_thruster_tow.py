@@ -4,6 +4,7 @@ surge force into commands; the thrusters end zero and disarmed however the run e
 from __future__ import annotations
 
 import asyncio
+import time
 
 import pytest
 
@@ -13,6 +14,7 @@ from daq.procedures.params import ParameterError, calibration_parameters, tow_pa
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
 from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+from thrusters.driver import LINK_LOST_AFTER
 
 
 async def _calibrate(session) -> dict:
@@ -93,6 +95,7 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     await _assert_thrusters_safe(session)
     await _abort_leaves_the_thrusters_zero(session)
     await _watchdog_trip_aborts_the_run(session, store)
+    await _silent_controller_aborts_the_run(session, store)
 
     # The estimator's view: the force from the calibration, ramping at the slew limit,
     # no pulley inertia (line unhooked), and drawn drives around it.
@@ -129,33 +132,81 @@ async def _abort_leaves_the_thrusters_zero(session) -> None:
     await _assert_thrusters_safe(session)
 
 
-async def _watchdog_trip_aborts_the_run(session, store) -> None:
-    """Heartbeats lost for longer than the controller's watchdog: the thrust went to zero,
-    so the run ends aborted with that reason, not recorded on without thrust."""
-    params = tow_parameters(
-        {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
-        session.rig,
-    )
+async def _thrust_on(session, params) -> asyncio.Task:
     task = asyncio.create_task(run_motion_test(session, params))
     for _ in range(100):  # until the thrust is on
         await asyncio.sleep(0.05)
         if any(session.sim.thrusters.outputs):
             break
+    assert any(session.sim.thrusters.outputs)
+    return task
+
+
+def _thrust_steps(store, run_id) -> list:
+    (steps,) = [
+        e.data["steps"]
+        for e in store.events(run_id)
+        if (e.data or {}).get("action") == "thrust_steps"
+    ]
+    return steps
+
+
+async def _watchdog_trip_aborts_the_run(session, store) -> None:
+    """The host stalls (its event loop blocked) for longer than the controller's watchdog:
+    the thrust went to zero, so the run ends aborted with that reason, not recorded on
+    without thrust."""
+    params = tow_parameters(
+        {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
+        session.rig,
+    )
+    task = await _thrust_on(session, params)
     emulator = session.sim.thrusters
-    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
-    await asyncio.sleep(emulator.watchdog_s + 0.3)
-    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", False))
+    time.sleep(emulator.watchdog_s + 0.2)  # blocks the host's loop: no heartbeats go out
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     assert "watchdog tripped" in outcome.reason
     assert emulator.stats.watchdog_trips >= 1
     await _assert_thrusters_safe(session)
     # The stored outputs end with the watchdog's zero, bracketed by the last ACK before it.
-    (steps,) = [
-        e.data["steps"]
-        for e in store.events(outcome.run_id)
-        if (e.data or {}).get("action") == "thrust_steps"
-    ]
-    sent, acked, fractions = steps[-1]
+    sent, acked, fractions = _thrust_steps(store, outcome.run_id)[-1]
     assert fractions == [0.0] * session.rig.thrusters.count
     assert acked - sent >= emulator.watchdog_s
+
+
+async def _silent_controller_aborts_the_run(session, store) -> None:
+    """The controller stops answering: after LINK_LOST_AFTER missing replies the host
+    declares the link lost, aborts with that reason and stores when thrust was last
+    confirmed; the controller's own watchdog zeroes the outputs it can no longer hear."""
+    params = tow_parameters(
+        {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
+        session.rig,
+    )
+    task = await _thrust_on(session, params)
+    emulator = session.sim.thrusters
+    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
+    muted = time.monotonic()
+    outcome = await asyncio.wait_for(task, 10)
+    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", False))
+    assert outcome.status == "aborted"
+    assert outcome.reason.startswith(
+        f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "
+        "(no reply within ack_timeout_s); thrust last confirmed"
+    )
+    assert emulator.stats.watchdog_trips >= 1 and emulator.outputs == [0.0, 0.0]
+    (fault,) = [
+        e.data
+        for e in store.events(outcome.run_id)
+        if (e.data or {}).get("action") == "thruster_fault"
+    ]
+    assert fault["fault"] == "link_lost"
+    # The controller could not be disarmed either: stored, without replacing the reason.
+    (disarm,) = [
+        e for e in store.events(outcome.run_id) if (e.data or {}).get("action") == "disarm_failed"
+    ]
+    assert disarm.message.startswith("thrusters not disarmed at the end of the run: disarm:")
+    assert muted - 0.2 < fault["t_thrust_confirmed"] <= muted + 0.1  # the last ACK before it
+    assert fault["t_detected"] - muted < 0.5
+    assert any(fault["confirmed_outputs"])
+    assert _thrust_steps(store, outcome.run_id)  # the ramp the controller did confirm
+    await session.disarm_thrusters()  # the link is back: the next run can go
+    await _assert_thrusters_safe(session)

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import asyncio
+
 import pytest
 
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, spin_parameters
+from thrusters.driver import LINK_LOST_AFTER
 
 
 async def test_calibration_then_thruster_spin(session, store):
@@ -70,3 +73,30 @@ async def test_calibration_then_thruster_spin(session, store):
     after = (data.t > data.t_release + 1.0) & (data.t < data.t_end - 0.05)
     assert data.drive[after] == pytest.approx(2.0, rel=0.02)
     assert data.drive[data.t < data.t_release].max() == 0.0
+
+
+async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(session, store):
+    """The thruster link supervision covers the calibration too: the controller stops
+    answering mid-sweep, the run ends aborted naming the lost link, nothing is fitted, and
+    the controller's outputs are zero (its watchdog, as it hears nothing)."""
+    params = calibration_parameters(
+        {"commands": [0.0, 0.3, 0.6], "settle_s": 2.0, "samples_per_step": 3, "tare_samples": 5},
+        session.rig,
+    )
+    task = asyncio.create_task(run_thrust_calibration(session, params))
+    for _ in range(200):  # until the thrust is on
+        await asyncio.sleep(0.05)
+        if any(session.sim.thrusters.outputs):
+            break
+    assert any(session.sim.thrusters.outputs)
+    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
+    try:
+        outcome, calibration = await asyncio.wait_for(task, 10)
+        assert session.sim.thrusters.outputs == [0.0, 0.0]
+    finally:
+        await asyncio.to_thread(
+            session.sim.call, lambda sim: setattr(sim.thrusters, "silent", False)
+        )
+    assert outcome.status == "aborted" and calibration is None
+    assert outcome.reason.startswith(f"thruster link lost: {LINK_LOST_AFTER} consecutive replies")
+    assert store.get_run(outcome.run_id).reason == outcome.reason

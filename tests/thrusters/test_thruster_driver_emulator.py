@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from thruster_helpers import limits, thruster_port
 
-from thrusters.driver import ThrusterDriver
+from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
 
 CHILD = Path(__file__).with_name("thruster_child.py")
@@ -184,7 +184,8 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
     await emu.stop()  # controller (or its serial server) goes away
     assert not await drv.heartbeat()
     assert not await drv.heartbeat(), "still down: reconnect attempt fails, no exception"
-    assert drv.stats.io_errors == 2
+    assert drv.link_lost  # LINK_LOST_AFTER = 2 frames failed: a zero frame was tried at once
+    assert drv.stats.io_errors == 3
     emu2 = ThrusterControllerEmulator(2)
     await emu2.start_tcp(port=port)
     try:
@@ -220,3 +221,50 @@ async def test_recorded_outputs_bracket_every_change_the_controller_made(served)
         assert step.t_sent <= t_applied <= step.t_acked
     # The watchdog trip is bracketed by the last ACK before it and the refusal after it.
     assert steps[-1].t_acked - steps[-1].t_sent >= emu.watchdog_s
+
+
+async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(served) -> None:
+    """One spoiled reply is ridden out; LINK_LOST_AFTER in a row are a lost link: a zero
+    frame goes out at once, commands stay zero, and only a new ARM clears the fault."""
+    emu, url = served
+    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        await drv.arm()
+        for _ in range(5):
+            await drv.command([0.3, 0.3])
+            await asyncio.sleep(0.02)
+        assert emu.outputs[0] > 0
+        emu.corrupt_replies = LINK_LOST_AFTER - 1
+        for _ in range(LINK_LOST_AFTER):
+            await drv.command([0.3, 0.3])
+        assert drv.fault is None and drv.missed_replies == 0
+        emu.corrupt_replies = LINK_LOST_AFTER
+        confirmed = emu.outputs
+        t0 = time.monotonic()
+        for _ in range(LINK_LOST_AFTER):
+            assert not await drv.command([0.3, 0.3])
+        fault = await asyncio.wait_for(drv.wait_fault(), 1)
+        assert fault.kind == "link_lost" and fault.t_confirmed < t0
+        assert fault.reason.startswith(
+            f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing (bad CRC)"
+        )
+        assert list(fault.outputs) == pytest.approx(confirmed)
+        assert emu.outputs == [0.0, 0.0]  # the zero frame sent on detection got through
+        assert await drv.command([0.3, 0.3]) and emu.outputs == [0.0, 0.0]  # held at zero
+        await drv.arm()
+        assert drv.fault is None
+        for _ in range(5):
+            await drv.command([0.3, 0.3])
+            await asyncio.sleep(0.02)
+        assert emu.outputs[0] > 0
+
+
+async def test_watchdog_trip_seen_in_the_reply_is_a_fault(served) -> None:
+    emu, url = served
+    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        await drv.arm()
+        await drv.command([0.2, 0.2])
+        await asyncio.sleep(emu.watchdog_s + 0.1)  # no heartbeat: the controller trips
+        assert not await drv.command([0.2, 0.2])  # NAK disarmed
+        fault = await asyncio.wait_for(drv.wait_fault(), 1)
+        assert fault.kind == "watchdog" and "watchdog tripped" in fault.reason
+        assert drv.state == "WDT" and emu.outputs == [0.0, 0.0]
