@@ -17,14 +17,14 @@ import asyncio
 import json
 import math
 import multiprocessing as mp
-import socket
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench.service import serve_in_thread
 
 TOKEN = "bench-token"
 TARGET_API_P99_MS = 20.0
@@ -104,28 +104,6 @@ def _load(url: str, path: str, rate: float, seconds: float, out) -> None:
 
 
 # ---- the service, as ``rig serve`` runs it ----------------------------------------------------
-def _serve(db_url: str, realtime: bool):
-    import uvicorn
-
-    from api.app import create_app
-    from api.service import RigService
-    from daq.session import RigSource
-
-    service = RigService(RigSource.load(), db_url, realtime=realtime)
-    app = create_app(service, token=TOKEN)
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    server = uvicorn.Server(
-        uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
-    )
-    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    end = time.monotonic() + 30
-    while not server.started:
-        if time.monotonic() > end:
-            raise SystemExit("uvicorn did not start")
-        time.sleep(0.05)
-    return service, app, server, thread, f"http://127.0.0.1:{sock.getsockname()[1]}"
 
 
 def _wait_job(http, job_id: str, states: tuple[str, ...], timeout_s: float = 60) -> dict:
@@ -157,7 +135,9 @@ def main() -> None:
 
     logging.getLogger("thrusters").setLevel(logging.ERROR)
     with tempfile.TemporaryDirectory(prefix="api-bench-") as tmp:
-        service, _app, server, thread, url = _serve(f"sqlite:///{tmp}/rig.db", not args.no_realtime)
+        service, _app, server, thread, url = serve_in_thread(
+            f"sqlite:///{tmp}/rig.db", TOKEN, not args.no_realtime, start_timeout_s=30
+        )
         http = httpx.Client(base_url=url, headers={"Authorization": f"Bearer {TOKEN}"})
         try:
             # a stored run to read

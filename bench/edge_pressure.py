@@ -34,6 +34,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench.service import serve_in_thread
+
 TOKEN = "bench-token"
 HUGE = 300 * 1024 * 1024
 CHUNK = 64 * 1024
@@ -147,28 +149,6 @@ def _csv_upload(url: str, rows: int, ready, go, out) -> None:
 
 
 # ---- the service, as ``rig serve`` runs it ----------------------------------------------------
-def _serve(db_url: str, realtime: bool):
-    import uvicorn
-
-    from api.app import create_app
-    from api.service import RigService
-    from daq.session import RigSource
-
-    service = RigService(RigSource.load(), db_url, realtime=realtime)
-    app = create_app(service, token=TOKEN)
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    server = uvicorn.Server(
-        uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
-    )
-    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    end = time.monotonic() + 60
-    while not server.started:
-        if time.monotonic() > end:
-            raise SystemExit("uvicorn did not start")
-        time.sleep(0.05)
-    return service, server, thread, sock.getsockname()[1]
 
 
 def _wait_job(http, job_id: str, states: tuple[str, ...], timeout_s: float = 60) -> dict:
@@ -238,7 +218,10 @@ def main() -> None:
     t_start = time.monotonic()
     windows: dict[str, dict] = {}
     with tempfile.TemporaryDirectory(prefix="edge-bench-") as tmp:
-        service, server, thread, port = _serve(f"sqlite:///{tmp}/rig.db", not args.no_realtime)
+        service, _app, server, thread, url = serve_in_thread(
+            f"sqlite:///{tmp}/rig.db", TOKEN, not args.no_realtime
+        )
+        port = int(url.rsplit(":", 1)[1])
         url = f"http://127.0.0.1:{port}"
         http = httpx.Client(base_url=url, headers={"Authorization": f"Bearer {TOKEN}"})
         acq = service.session.acquisition

@@ -190,34 +190,22 @@ class Store(EventsAndResults):
         so the database's write lock is never held for long (a live run's recorder and
         events keep their turn); the run reads ``running`` until the last one, and a
         failure part-way ends it ``aborted`` naming the error."""
+        header = {
+            "kind": kind,
+            "parameters": parameters,
+            "channel_names": channel_names,
+            "rig_name": rig_name,
+            "vehicle": vehicle,
+            "rig_toml": rig_toml,
+            "scenario_toml": scenario_toml,
+            "started_at": started_at,
+        }
         if batch_rows is not None and len(samples) > batch_rows:
             return self._import_in_batches(
-                samples,
-                batch_rows,
-                status,
-                reason,
-                stopped_at,
-                kind=kind,
-                parameters=parameters,
-                channel_names=channel_names,
-                rig_name=rig_name,
-                vehicle=vehicle,
-                rig_toml=rig_toml,
-                scenario_toml=scenario_toml,
-                started_at=started_at,
+                samples, batch_rows, status, reason, stopped_at, **header
             )
         with self.transaction() as conn:
-            run_uuid, pk = self._insert_run(
-                conn,
-                kind=kind,
-                parameters=parameters,
-                channel_names=channel_names,
-                rig_name=rig_name,
-                vehicle=vehicle,
-                rig_toml=rig_toml,
-                scenario_toml=scenario_toml,
-                started_at=started_at,
-            )
+            run_uuid, pk = self._insert_run(conn, **header)
             packer = SamplePacker(checks.check_channel_names(channel_names))
             self._insert_rows(conn, run_uuid, pk, packer, samples)
             run = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()

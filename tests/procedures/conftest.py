@@ -8,6 +8,14 @@ from daq.config import RigConfig
 from daq.session import RigSession, RigSource
 from daq.store import Store
 
+#: A short thrust calibration of the simulated rig (parameters, before the rig's checks).
+QUICK_CALIBRATION = {
+    "commands": [0.0, 0.1, 0.3, 0.8],
+    "settle_s": 0.4,
+    "samples_per_step": 3,
+    "tare_samples": 5,
+}
+
 
 def short_rail(rig: RigConfig, end_of_travel_m: float = 0.5) -> RigConfig:
     """The BENBAM rig with the end-of-travel switch moved close, so tows end quickly."""

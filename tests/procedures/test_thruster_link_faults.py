@@ -28,6 +28,7 @@ from daq.session import RigSession, RigSource
 from daq.sim.rig import SimulatedRigThread
 from daq.store import Store
 from tests.fault_proxies import SerialFaultProxy, TcpCutProxy
+from tests.procedures.conftest import QUICK_CALIBRATION
 from thrusters.driver import LINK_LOST_AFTER
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,12 +46,7 @@ def calibrated_db(tmp_path_factory) -> Path:
         with Store(f"sqlite:///{path}") as store:
             async with RigSession(RigSource.load(), store) as session:
                 params = calibration_parameters(
-                    {
-                        "commands": [0.0, 0.1, 0.3, 0.8],
-                        "settle_s": 0.4,
-                        "samples_per_step": 3,
-                        "tare_samples": 5,
-                    },
+                    QUICK_CALIBRATION,
                     session.rig,
                 )
                 outcome, _ = await run_thrust_calibration(session, params)

@@ -14,17 +14,13 @@ from daq.procedures.params import ParameterError, calibration_parameters, tow_pa
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
 from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+from tests.procedures.conftest import QUICK_CALIBRATION
 from thrusters.driver import LINK_LOST_AFTER
 
 
 async def _calibrate(session) -> dict:
     params = calibration_parameters(
-        {
-            "commands": [0.0, 0.1, 0.3, 0.8],
-            "settle_s": 0.4,
-            "samples_per_step": 3,
-            "tare_samples": 5,
-        },
+        QUICK_CALIBRATION,
         session.rig,
     )
     outcome, calibration = await run_thrust_calibration(session, params)
