@@ -183,7 +183,7 @@ def test_a_sequence_can_hold_pendulum_steps(source):
 def test_cli_runs_a_decay_and_refuses_bad_input(tmp_path):
     db = f"sqlite:///{tmp_path / 'rig.db'}"
     bad = rig("pendulum", "--angle", "0.9", db=db)
-    assert bad.returncode == 2 and "start_angle_rad: 0.9 is not allowed" in bad.stderr
+    assert bad.returncode == 2 and "--angle: 0.9 is not allowed" in bad.stderr
     rig_file = str(fast_rig_file(tmp_path))
     done = rig(
         "pendulum",
