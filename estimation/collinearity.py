@@ -65,6 +65,14 @@ def sensitivities(
     return names, ((x[1:] - x[0]) / steps[:, None]).T
 
 
+def _offset_columns(runs: Sequence[PreparedRun]) -> np.ndarray:
+    """One indicator column per run: the sensitivity to that run's position offset."""
+    sizes = [r.t.size for r in runs]
+    offsets = np.zeros((sum(sizes), len(runs)))
+    offsets[np.arange(sum(sizes)), np.repeat(np.arange(len(runs)), sizes)] = 1.0
+    return offsets
+
+
 def _residualise(columns: np.ndarray, others: np.ndarray) -> np.ndarray:
     """``columns`` with their least-squares projection on ``others`` removed."""
     if others.shape[1] == 0:
@@ -83,9 +91,7 @@ def independent_shares(
     on one run at one force is an inertia change), 1 when it is orthogonal to them all.
     """
     params, jac = sensitivities(fit, runs, names)
-    sizes = [r.t.size for r in runs]
-    offsets = np.zeros((jac.shape[0], len(runs)))
-    offsets[np.arange(jac.shape[0]), np.repeat(np.arange(len(runs)), sizes)] = 1.0
+    offsets = _offset_columns(runs)
     held = [i for i, n in enumerate(params) if n in fit.names]
     others = np.hstack([jac[:, held], offsets])
     out = {}
@@ -105,9 +111,7 @@ def partial_correlations(
     in the pair, and one offset per run.
     """
     params, jac = sensitivities(fit, runs, names)
-    sizes = [r.t.size for r in runs]
-    offsets = np.zeros((jac.shape[0], len(runs)))
-    offsets[np.arange(jac.shape[0]), np.repeat(np.arange(len(runs)), sizes)] = 1.0
+    offsets = _offset_columns(runs)
     out: dict[frozenset[str], float] = {}
     for a, b in combinations(dict.fromkeys(names), 2):
         held = [
@@ -137,9 +141,7 @@ def predicted_steps(
     """
     extra = sorted({e for c in combos for e in c if e not in fit.effects})
     params, jac = sensitivities(fit, runs, extra)
-    sizes = [r.t.size for r in runs]
-    offsets = np.zeros((jac.shape[0], len(runs)))
-    offsets[np.arange(jac.shape[0]), np.repeat(np.arange(len(runs)), sizes)] = 1.0
+    offsets = _offset_columns(runs)
     residual = np.concatenate(fit.residuals)
     held = [params.index(n) for n in fit.names]
     out: dict[tuple[str, ...], tuple[float, np.ndarray]] = {}

@@ -383,8 +383,7 @@ def _explains_alike(
     """A converged fit with ``other`` in place of ``kept`` is physical (inside its bounds,
     material) and, unless the two are collinear, explains the data as well."""
     effects = tuple(other if e == kept else e for e in final.effects)
-    start = np.array([final.value(n) if n != other else 0.0 for n in (*final.names[:3], *effects)])
-    swap = fit_output_error(search.runs, effects, start=start)
+    swap = fit_output_error(search.runs, effects, start=_start(final, effects, search.runs))
     if other in swap.at_bound or _below_resolution(other, swap, search.runs):
         return False  # e.g. an aiding force cannot be dry friction
     return not compare_bic or abs(swap.bic - final.bic) < AMBIGUITY_BIC
