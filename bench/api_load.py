@@ -24,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.service import serve_in_thread
+from bench.service import serve_in_thread, wait_job
 
 TOKEN = "bench-token"
 TARGET_API_P99_MS = 20.0
@@ -103,20 +103,6 @@ def _load(url: str, path: str, rate: float, seconds: float, out) -> None:
     out.put(asyncio.run(main()))
 
 
-# ---- the service, as ``rig serve`` runs it ----------------------------------------------------
-
-
-def _wait_job(http, job_id: str, states: tuple[str, ...], timeout_s: float = 60) -> dict:
-    end = time.monotonic() + timeout_s
-    while True:
-        job = http.get(f"/api/jobs/{job_id}").json()
-        if job["state"] in states:
-            return job
-        if time.monotonic() > end:
-            raise SystemExit(f"job {job_id} stuck in {job['state']}")
-        time.sleep(0.1)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rate", type=float, default=200.0, help="requests per second")
@@ -144,7 +130,7 @@ def main() -> None:
             first = http.post(
                 "/api/jobs/tow", json={"force_n": 24.5, "max_time_s": 3, "baseline_s": 0.5}
             ).json()
-            run_id = _wait_job(http, first["id"], ("completed", "aborted", "failed"))["run_ids"][0]
+            run_id = wait_job(http, first["id"], ("completed", "aborted", "failed"))["run_ids"][0]
             path = (
                 f"/api/runs/{run_id}"
                 if args.read == "run"
@@ -155,7 +141,7 @@ def main() -> None:
                 "/api/jobs/tow",
                 json={"force_n": 4.9, "max_time_s": 2 * args.seconds + 10, "baseline_s": 0.5},
             ).json()
-            _wait_job(http, test["id"], ("running",))
+            wait_job(http, test["id"], ("running",))
             while not http.get(f"/api/jobs/{test['id']}").json()["run_ids"]:
                 time.sleep(0.05)
             acq = service.session.acquisition
@@ -178,7 +164,7 @@ def main() -> None:
             loaded_overruns = acq.stats.overruns - over0
             job = http.get(f"/api/jobs/{test['id']}").json()
             http.post(f"/api/jobs/{test['id']}/abort")
-            _wait_job(http, test["id"], ("completed", "aborted", "failed"))
+            wait_job(http, test["id"], ("completed", "aborted", "failed"))
         finally:
             http.close()
             server.should_exit = True

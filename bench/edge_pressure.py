@@ -34,7 +34,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.service import serve_in_thread
+from bench.service import serve_in_thread, wait_job
 
 TOKEN = "bench-token"
 HUGE = 300 * 1024 * 1024
@@ -148,20 +148,6 @@ def _csv_upload(url: str, rows: int, ready, go, out) -> None:
     )
 
 
-# ---- the service, as ``rig serve`` runs it ----------------------------------------------------
-
-
-def _wait_job(http, job_id: str, states: tuple[str, ...], timeout_s: float = 60) -> dict:
-    end = time.monotonic() + timeout_s
-    while True:
-        job = http.get(f"/api/jobs/{job_id}").json()
-        if job["state"] in states:
-            return job
-        if time.monotonic() > end:
-            raise SystemExit(f"job {job_id} stuck in {job['state']}")
-        time.sleep(0.1)
-
-
 class Window:
     """The clock's statistics between ``start()`` and ``stop()``."""
 
@@ -241,7 +227,7 @@ def main() -> None:
                             json={"force_n": 4.9, "max_time_s": 300, "baseline_s": 0.5},
                         ).json()
                         tows.append(tow["id"])
-                        _wait_job(h, tow["id"], ("running",))
+                        wait_job(h, tow["id"], ("running",))
                         while not h.get(f"/api/jobs/{tow['id']}").json()["run_ids"]:
                             time.sleep(0.05)
                         first_recording.set()
@@ -252,7 +238,7 @@ def main() -> None:
                             done.wait(1.0)
                         else:
                             h.post(f"/api/jobs/{tow['id']}/abort")
-                            _wait_job(h, tow["id"], ("completed", "aborted", "failed"))
+                            wait_job(h, tow["id"], ("completed", "aborted", "failed"))
 
             towing = threading.Thread(target=keep_towing, daemon=True)
             towing.start()

@@ -33,3 +33,15 @@ def serve_in_thread(db_url: str, token: str, realtime: bool, start_timeout_s: fl
             raise SystemExit("uvicorn did not start")
         time.sleep(0.05)
     return service, app, server, thread, f"http://127.0.0.1:{sock.getsockname()[1]}"
+
+
+def wait_job(http, job_id: str, states: tuple[str, ...], timeout_s: float = 60) -> dict:
+    """Poll ``/api/jobs/{job_id}`` (an httpx client) until its state is one of ``states``."""
+    end = time.monotonic() + timeout_s
+    while True:
+        job = http.get(f"/api/jobs/{job_id}").json()
+        if job["state"] in states:
+            return job
+        if time.monotonic() > end:
+            raise SystemExit(f"job {job_id} stuck in {job['state']}")
+        time.sleep(0.1)

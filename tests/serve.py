@@ -1,4 +1,4 @@
-"""Waiting for a ``rig serve`` subprocess to answer."""
+"""Waiting for a ``rig serve`` subprocess to answer, and stopping it."""
 
 from __future__ import annotations
 
@@ -26,3 +26,13 @@ def wait_for_service(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
         assert proc.poll() is None, f"rig serve exited: {proc.stdout.read()}"
         assert time.monotonic() < end, "rig serve did not come up"
         time.sleep(0.1)  # polling a server that is starting: there is no event to wait on
+
+
+def stop_service(proc: subprocess.Popen) -> None:
+    """SIGTERM (the rig is left safe by the service's lifespan), SIGKILL after 15 s."""
+    proc.terminate()
+    try:
+        proc.wait(15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5)

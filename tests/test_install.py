@@ -21,7 +21,7 @@ import httpx
 import pytest
 
 from tests.conftest import IN_CI
-from tests.serve import wait_for_service
+from tests.serve import stop_service, wait_for_service
 
 ROOT = Path(__file__).resolve().parents[1]
 TOKEN = "install-test-token"
@@ -108,9 +108,4 @@ def test_installed_rig_serve_answers_with_the_token(installed, tmp_path):
         assert page.status_code == 200 and "<html" in page.text.lower()
         assert db.is_file()  # the migrations shipped: the schema was created
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        stop_service(proc)

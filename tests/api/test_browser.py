@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from tests.api.conftest import chromium_page
-from tests.serve import wait_for_service
+from tests.serve import stop_service, wait_for_service
 
 TOKEN = "browser-test-token"
 ROOT = Path(__file__).resolve().parents[2]
@@ -33,12 +33,7 @@ def server(tmp_path_factory):
         url = wait_for_service(proc, timeout_s=20)
         yield url
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        stop_service(proc)
 
 
 @pytest.fixture(scope="module")
