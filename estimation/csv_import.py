@@ -43,7 +43,7 @@ def run_from_csv(
         raise ValueError(f"time_unit: got {time_unit!r}, allowed: {', '.join(TIME_UNITS)}")
     with path.open(newline="", encoding="utf-8") as f:
         reader = csv.DictReader(f)
-        header = reader.fieldnames or []
+        header = list(reader.fieldnames or [])
         wanted = [time_column, position_column] + ([] if drive is not None else [drive_column])
         missing = [c for c in wanted if c not in header]
         if missing:
@@ -52,14 +52,16 @@ def run_from_csv(
     try:
         t = np.array([float(r[time_column]) for r in rows]) * TIME_UNITS[time_unit]
         x = np.array([float(r[position_column]) for r in rows])
-        d = float(drive) if drive is not None else np.array([float(r[drive_column]) for r in rows])
+        d: float | np.ndarray = (
+            float(drive) if drive is not None else np.array([float(r[drive_column]) for r in rows])
+        )
         coil, switch = (
             _column(rows, header, name) for name in (RELEASE_COLUMN.get(axis, ""), END_COLUMN)
         )
     except ValueError as exc:
         raise ValueError(f"{path.name}: a value is not a number ({exc})") from None
     check_time_step(t, time_column, path.name)
-    if drive is None and np.ptp(d) == 0 and d.size:
+    if isinstance(d, np.ndarray) and d.size and np.ptp(d) == 0:
         d = float(d[0])  # a constant column is a weight-driven run: use the closed form
     release_known, end_known = "t_release" in metadata, "t_end" in metadata
     run = RunData(run_id=run_id or path.stem, axis=axis, t=t, position=x, drive=d, **metadata)  # type: ignore[arg-type]

@@ -143,19 +143,17 @@ def regressor_correlations(
     whatever lies along those was already absorbed by M, K_L and K_Q. Sign: positive means
     adding the effect with a positive value would explain the residual.
     """
-    base, cols = (
-        [],
-        {
-            k: []
-            for k in (
-                "coulomb_friction",
-                "constant_bias",
-                "drive_inertia",
-                "restoring_spring",
-                "cubic_drag",
-            )
-        },
-    )
+    base: list[np.ndarray] = []
+    cols: dict[str, list[np.ndarray]] = {
+        k: []
+        for k in (
+            "coulomb_friction",
+            "constant_bias",
+            "drive_inertia",
+            "restoring_spring",
+            "cubic_drag",
+        )
+    }
     for r, offset, v in zip(runs, fit.offsets, fit.velocities, strict=True):
         a = np.gradient(v, r.t) if r.t.size > 1 else np.zeros_like(v)
         base.append(np.column_stack([a, v, np.abs(v) * v]))

@@ -47,7 +47,7 @@ def plug_results(vehicle: Vehicle6, results: Sequence[Mapping[str, Any]]) -> Veh
     seen: dict[str, int] = {}
     for k, doc in enumerate(results):
         where = f"results[{k}]" + (f" (id {doc['result_id']})" if "result_id" in doc else "")
-        axis = doc.get("axis")
+        axis = str(doc.get("axis"))
         if axis in seen:
             raise IdentifiabilityError(
                 f"{where}: axis: a second result for {axis!r} (the first is results[{seen[axis]}]);"
@@ -112,13 +112,13 @@ def assess(
     y = report.weights
     units = {r.name: r.unit for r in report.plan.responses}
     contributions: dict[str, dict[str, float]] = {}
-    rows = []
+    rows: list[dict[str, Any]] = []
     for row in report.rows:
         sigma = vehicle.sigma.get(row.name)
         if sigma is None or row.value == 0:
             continue
         rel = sigma / abs(row.value)
-        c = {n: abs(row.s[n]) * rel if row.s[n] is not None else float("nan") for n in names}
+        c = {n: float("nan") if (s := row.s[n]) is None else abs(s) * rel for n in names}
         contributions[row.name] = c
         rows.append(
             {
@@ -141,7 +141,7 @@ def assess(
     measured_axes = {doc["axis"] for doc in results} | {
         name.split(".")[1] for name in vehicle.sigma
     }
-    unmeasured = [
+    unmeasured: list[dict[str, Any]] = [
         {
             "name": row.name,
             "composite": row.composite if np.isfinite(row.composite) else None,  # None: ∞

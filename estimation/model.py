@@ -123,7 +123,9 @@ def constant_force_response(
     return x, v
 
 
-def _simulate_closed(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.ndarray, ...]]:
+def _simulate_closed(
+    p: ParamView, runs: Sequence[PreparedRun]
+) -> list[tuple[np.ndarray, np.ndarray]]:
     out = []
     col = lambda name: p[name][:, None]  # noqa: E731
     for r in runs:
@@ -171,7 +173,7 @@ def _zoh_integral(r: PreparedRun, cumulative: np.ndarray, t: np.ndarray) -> np.n
     return np.where(t < r.t[0], early * (t - r.t[0]), inside)
 
 
-def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.ndarray, ...]]:
+def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.ndarray, np.ndarray]]:
     h = RK4_MAX_STEP_S
     if any(r.constant_drive is None for r in runs):  # one step per held thrust sample
         h = min(h, min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1))

@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 STEPS_PER_PERIOD = 60  # RK4 at ω·h ≈ 0.1: relative error < 1e-6 per period
 MAX_STEP_S = 0.1
@@ -57,17 +58,17 @@ def _rk4(phi, v, h, sign, k, inv_j, c, q, tau):
 def simulate(
     plant: Plant,
     t: np.ndarray,
-    added_mass: np.ndarray,
-    linear_damping: np.ndarray,
-    quadratic_damping: np.ndarray,
-    dry_friction: np.ndarray,
-    phi0: np.ndarray,
-    rate0: np.ndarray,
+    added_mass: ArrayLike,
+    linear_damping: ArrayLike,
+    quadratic_damping: ArrayLike,
+    dry_friction: ArrayLike,
+    phi0: ArrayLike,
+    rate0: ArrayLike,
     h: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Angle and rate (S, n) at sample times ``t`` (from t[0]) for S parameter sets.
 
-    Coefficient arrays have shape (S,): α (kg), β (N·s/m), γ (kg/m), τ_c (N·m), the
+    Coefficient arrays have shape (S,) (or are scalars): α (kg), β (N·s/m), γ (kg/m), τ_c (N·m), the
     state (φ, φ̇) at t[0] (rad, rad/s). Sets with J ≤ 0 come back as NaN.
     """
     given = (added_mass, linear_damping, quadratic_damping, dry_friction, phi0, rate0)

@@ -321,9 +321,9 @@ def analyse(
         sc: dict[str, float] = {}
         for n in names:
             diff = r["plus"][n].value - r["minus"][n].value
-            s_val[n] = (diff / (2 * scales[n])) / delta if scales[n] > 0 else 0.0
-            if modes[n] == "relative" and ref[n].value < 0:
-                s_val[n] = -s_val[n]  # S is relative to the signed reference
+            slope = (diff / (2 * scales[n])) / delta if scales[n] > 0 else 0.0
+            # S is relative to the signed reference
+            s_val[n] = -slope if modes[n] == "relative" and ref[n].value < 0 else slope
             sc[n] = change(n, r["zero"][n])
         sig_change = None
         if "sigma_plus" in r:

@@ -49,7 +49,7 @@ class SingularAttitude(ValueError):
 # ---- matrices (the readable form; the simulator uses an unrolled copy) ----------------
 
 
-def skew(a: Sequence[float]) -> np.ndarray:
+def skew(a: Sequence[float] | np.ndarray) -> np.ndarray:
     """S(a) with S(a) b = a × b."""
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
@@ -67,11 +67,11 @@ def mass_matrix(vehicle: Vehicle6) -> np.ndarray:
     return mrb + np.diag(vehicle.added_mass)
 
 
-def coriolis_matrix(vehicle: Vehicle6, nu: Sequence[float]) -> np.ndarray:
+def coriolis_matrix(vehicle: Vehicle6, nu: Sequence[float] | np.ndarray) -> np.ndarray:
     """C(ν) = C_RB(ν) + C_A(ν) (6×6, skew-symmetric)."""
     m = vehicle.mass_kg
-    nu = np.asarray(nu, dtype=float)
-    v1, v2 = nu[:3], nu[3:]
+    v = np.asarray(nu, dtype=float)
+    v1, v2 = v[:3], v[3:]
     sg = skew(vehicle.cg_m)
     c12 = -m * skew(v1) - m * skew(v2) @ sg
     crb = np.block([[np.zeros((3, 3)), c12], [-c12.T, -skew(_inertia_about_origin(vehicle) @ v2)]])
@@ -81,11 +81,11 @@ def coriolis_matrix(vehicle: Vehicle6, nu: Sequence[float]) -> np.ndarray:
     return crb + ca
 
 
-def damping_matrix(vehicle: Vehicle6, nu: Sequence[float]) -> np.ndarray:
+def damping_matrix(vehicle: Vehicle6, nu: Sequence[float] | np.ndarray) -> np.ndarray:
     """D(ν) = diag(K_L) + diag(K_Q)·|ν|."""
-    nu = np.asarray(nu, dtype=float)
+    speed = np.abs(np.asarray(nu, dtype=float))
     return np.diag(
-        np.asarray(vehicle.linear_damping) + np.asarray(vehicle.quadratic_damping) * np.abs(nu)
+        np.asarray(vehicle.linear_damping) + np.asarray(vehicle.quadratic_damping) * speed
     )
 
 
@@ -141,10 +141,10 @@ def allocation_matrix(vehicle: Vehicle6) -> np.ndarray:
 
 def resisting_force(vehicle: Vehicle6, eta: Sequence[float], nu: Sequence[float]) -> np.ndarray:
     """C(ν)ν + D(ν)ν + g(η): the τ that holds the state ``(η, ν)`` unaccelerated."""
-    nu = np.asarray(nu, dtype=float)
+    v = np.asarray(nu, dtype=float)
     return (
-        coriolis_matrix(vehicle, nu) @ nu
-        + damping_matrix(vehicle, nu) @ nu
+        coriolis_matrix(vehicle, v) @ v
+        + damping_matrix(vehicle, v) @ v
         + restoring_force(vehicle, eta)
     )
 

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, TypeGuard
 
 DOFS: tuple[str, ...] = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 COEFFICIENT_KINDS: tuple[str, ...] = ("added_mass", "linear_damping", "quadratic_damping")
@@ -107,7 +107,7 @@ class Vehicle6:
                 )
             kind, dof = name.split(".")
             values[kind][DOFS.index(dof)] = float(value)
-        return replace(self, **{k: tuple(v) for k, v in values.items()})
+        return replace(self, **{k: tuple(v) for k, v in values.items()})  # type: ignore[arg-type]
 
     def body_inertia_about_origin(self) -> tuple[float, float, float]:
         """Diagonal of the body inertia about the body origin (parallel-axis theorem)."""
@@ -164,7 +164,7 @@ def _dof_index(vehicle: Vehicle6, axis: str) -> int:
     return DOFS.index(axis)
 
 
-def _finite(x: object) -> bool:
+def _finite(x: object) -> TypeGuard[float]:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 

@@ -122,14 +122,14 @@ async def run_thrust_calibration(
             await session.operator.perform(
                 OperatorAct("unmount_thrust_stand", "Unbolt the thrusters from the load cell")
             )
+        assert rec.run_id and rec.status
         calibration = None
         if rec.status == "completed":
             calibration = await asyncio.to_thread(
                 _store_calibration, session, rec.run_id, params, table
             )
         count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
-        report(Progress(1.0, f"calibration {rec.status}", state=rec.status or ""))
-        assert rec.run_id and rec.status
+        report(Progress(1.0, f"calibration {rec.status}", state=rec.status))
         return RunOutcome(
             rec.run_id, rec.status, rec.reason, "thrust_calibration", count
         ), calibration
