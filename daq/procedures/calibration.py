@@ -148,7 +148,7 @@ def _store_calibration(
     session: RigSession, run_id: str, params: CalibrationParameters, table: list[dict]
 ) -> dict:
     """Fit the thrust curve (per thruster) and store table + fit as a result."""
-    from estimation.thrust_curve import fit_thrust_curve
+    from estimation.thrust.curve import fit_thrust_curve
 
     commands = [r["command"] for r in table]
     thrust = [r["thrust_per_thruster_n"] for r in table]

@@ -16,7 +16,6 @@ import logging
 import time
 from typing import Any
 
-from daq.config import ThrusterPort
 from daq.operator import OperatorAct
 from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
@@ -24,6 +23,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+from thrusters.config import ThrusterPort
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ def thruster_commands(
     load cell measured (``CalibratedThrust``, the same the estimator rebuilds the drive
     with). Refuses (ParameterError) below the smallest calibrated thrust and beyond the
     thrusters' reach at ``max_command``."""
-    from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+    from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
     name, unit = DRIVE_FIELD[kind]
     curve = ThrustCurve.from_json(calibration["fit"])

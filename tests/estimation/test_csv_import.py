@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from estimation import estimate
-from estimation.csv_import import run_from_csv
+from estimation.axis import estimate
+from estimation.data.csv_import import run_from_csv
 from tests.estimation.synth import tow_set
 
 

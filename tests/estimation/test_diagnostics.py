@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from estimation import estimate
-from estimation.diagnostics import ljung_box
+from estimation.axis import estimate
+from estimation.stats.diagnostics import ljung_box
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 

@@ -9,8 +9,8 @@ flagged with its correlate and not absorbed.
 import numpy as np
 import pytest
 
-from estimation import estimate
-from estimation.runs import RunData
+from estimation.axis import estimate
+from estimation.data.runs import RunData
 from tests.estimation.synth import Physics, tow_set
 
 #: (inertia kg, K_L N·s/m, K_Q N·s²/m², forward drives N) per scale.

@@ -5,7 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimation import RunData, estimate
+from estimation import RunData
+from estimation.axis import estimate
 
 
 def _run(**kw):
