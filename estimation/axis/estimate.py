@@ -15,13 +15,13 @@ from estimation.axis.output_error import (
     fit_output_error,
     leave_one_run_out_rmse,
 )
+from estimation.axis.release import fit_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
 from estimation.axis.search import candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.data.runs import RunData, validate_runs
-from estimation.data.window import fit_release
 from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")

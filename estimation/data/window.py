@@ -9,8 +9,8 @@ finds what to fit from the recording's own signals, preferring what was recorded
   the motion onset (the first sustained departure from the baseline beyond the noise).
   Both the coil's bracket and the onset are refined by fitting the start of a released
   motion, x − x₀ = A·(s − τ(1 − e^{−s/τ})) with s = t − t_release (≈ A·s²/2τ at first),
-  to the samples until the motion is well clear of the noise; ``fit_release`` then
-  refines the instant with the axis model itself.
+  to the samples until the motion is well clear of the noise; then
+  ``estimation.axis.release.fit_release`` refines the instant with the axis model itself.
 * end: a recorded event or a given time, else the end_of_travel switch or the release
   coil dropping (brake on), else the carriage coming to rest (a trailing plateau).
 * isolated single-sample spikes against the local trend are dropped.
@@ -341,65 +341,4 @@ def windowed_run(
         t_end=report.t_end,
         t_release_std=run.t_release_std if release_std is None else release_std,
         window_found=report,
-    )
-
-
-#: Releases found in the data (not recorded) that the fit itself refines.
-FOUND_RELEASES = ("release coil", "motion onset")
-#: Half-width searched around a release found from the motion, s.
-ONSET_SEARCH_S = 0.15
-#: Step of the RMSE profile whose curvature gives a fitted release's σ, s.
-PROFILE_STEP_S = 0.001
-
-
-def fit_release(run: RunData) -> RunData:
-    """A found release refined by the axis model itself: the instant within the coil's
-    bracket (or ±ONSET_SEARCH_S around the motion onset) that minimises the run's
-    output-error RMSE over a fixed set of samples. Recorded or given releases are kept."""
-    from scipy.optimize import minimize_scalar
-
-    from estimation.axis.model import prepare
-    from estimation.axis.output_error import fit_output_error
-
-    found = run.window_found
-    if found is None or found.release_source not in FOUND_RELEASES:
-        return run
-    t = np.asarray(run.t, dtype=float)
-    if found.release_source == "release coil":
-        before = t[t <= found.t_release]
-        after = t[t > found.t_release]
-        low = float(before[-1]) if before.size else float(t[0])
-        high = float(after[0]) if after.size else found.t_release
-    else:
-        low = max(float(t[0]), found.t_release - ONSET_SEARCH_S)
-        high = found.t_release + ONSET_SEARCH_S
-    base = prepare(replace(run, t_release=low))
-    if base.t.size < 8 or not high > low:
-        return run
-    first = fit_output_error([replace(base, t_release=found.t_release)])
-    if not np.all(np.isfinite(first.values)):
-        return run
-
-    def rmse(instant: float) -> float:
-        fit = fit_output_error([replace(base, t_release=instant)], start=first.values)
-        return float(fit.rmse) if np.isfinite(fit.rmse) else np.inf
-
-    best = minimize_scalar(rmse, bounds=(low, high), method="bounded", options={"xatol": 1e-4})
-    instant = float(best.x) if best.success and best.fun <= rmse(found.t_release) else None
-    if instant is None:
-        return run
-    # how sharply the data fix it: the RMSE profile's curvature (ΔSSE = σ̂² at 1σ)
-    n, h = base.t.size, PROFILE_STEP_S
-    sse = [n * rmse(instant + d) ** 2 for d in (-h, 0.0, h)]
-    curvature = (sse[0] - 2 * sse[1] + sse[2]) / h**2
-    noise = sse[1] / max(n - 4, 1)
-    std = float(np.sqrt(2 * noise / curvature)) if curvature > 0 else run.t_release_std
-    report = replace(
-        found,
-        t_release=instant,
-        release_source=f"{found.release_source}, refined by the fit",
-        dropped_before=int(np.count_nonzero(t <= instant)),
-    )
-    return replace(
-        run, t_release=instant, t_release_std=min(std, run.t_release_std), window_found=report
     )
