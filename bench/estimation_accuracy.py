@@ -19,8 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from estimation import METHODS
-from estimation.axis import estimate
+from estimation import METHODS, estimate
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, tow_set
 
 NAMES = ("inertia", "linear_damping", "quadratic_damping")

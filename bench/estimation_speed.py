@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from bench.timing import timed
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set

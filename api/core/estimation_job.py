@@ -60,7 +60,7 @@ def run_estimation(
     unknown method (per kind), a run that cannot be estimated, runs of mixed kinds or
     axes; ``RunNotFound`` for an unknown id.
     """
-    from estimation.axis import estimate
+    from estimation import estimate
     from estimation.axis.report import write_report  # matplotlib: load only when estimating
 
     if check_estimation_request(store, run_ids, method) == "pendulum":

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.data.csv_import import run_from_csv
 from tests.estimation.synth import tow_set
 

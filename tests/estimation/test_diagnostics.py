@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.stats.diagnostics import ljung_box
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from daq.run_data import curve_draws
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.thrust.curve import ThrustCurve
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 

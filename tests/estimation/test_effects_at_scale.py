@@ -9,7 +9,7 @@ flagged with its correlate and not absorbed.
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.data.runs import RunData
 from tests.estimation.synth import Physics, tow_set
 

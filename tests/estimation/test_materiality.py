@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 

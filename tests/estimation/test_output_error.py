@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.axis.report import write_report
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 

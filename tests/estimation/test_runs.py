@@ -5,8 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimation import RunData
-from estimation.axis import estimate
+from estimation import RunData, estimate
 
 
 def _run(**kw):

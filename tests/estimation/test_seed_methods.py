@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from tests.estimation.synth import paper_curve_runs
 
 TABLE1_INERTIA = {"surge": (133.2060, 143.2591), "yaw": (7.0796, 7.9708)}

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.vehicle.ahp import hierarchy
 from estimation.vehicle.description import Vehicle6, load_vehicle
 from estimation.vehicle.identifiability import analyse_identified, assess, plug_results, run_speed

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run
 
 LEVELS = ((20.0, -20.0, 0.0), (45.0, -45.0, 0.0), (70.0, 0.0))

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimation.axis import estimate
+from estimation import estimate
 from estimation.data.csv_import import run_from_csv
 from estimation.data.window import find_spikes, find_window
 from tests.estimation.synth import YAW_TRUTH, Physics, tow_set
