@@ -1,1 +1,2 @@
-"""The faces: FastAPI app, job runner, live stream, browser UI and the rig CLI."""
+"""The application core (``api.core``) and its two faces: HTTP with the browser UI
+(``api.http``) and the ``rig`` command line (``api.cli``)."""

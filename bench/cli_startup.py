@@ -20,7 +20,11 @@ import time
 from pathlib import Path
 
 HEAVY = ("numpy", "scipy", "matplotlib", "fastapi", "sqlalchemy", "pymodbus", "pydantic")
-RIG = [sys.executable, "-c", "import sys; from api.cli import main; sys.argv[0] = 'rig'; main()"]
+RIG = [
+    sys.executable,
+    "-c",
+    "import sys; from api.cli.main import main; sys.argv[0] = 'rig'; main()",
+]
 
 
 def timed(argv: list[str], env: dict[str, str], runs: int) -> tuple[float, float]:

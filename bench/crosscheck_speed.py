@@ -21,8 +21,8 @@ import numpy as np
 from bench.timing import timed
 from daq.run_data import DRIVE_DRAWS, curve_draws
 from estimation import estimate
-from estimation.crosscheck import cross_check
-from estimation.thrust_curve import ThrustCurve
+from estimation.axis.crosscheck import cross_check
+from estimation.thrust.curve import ThrustCurve
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 
 

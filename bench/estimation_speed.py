@@ -21,8 +21,8 @@ import numpy as np
 
 from bench.timing import timed
 from estimation import estimate
-from estimation.model import prepare
-from estimation.output_error import fit_output_error
+from estimation.axis.model import prepare
+from estimation.axis.output_error import fit_output_error
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 

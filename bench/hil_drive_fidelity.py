@@ -35,7 +35,7 @@ from daq.procedures.thruster_drive import THRUST_STEPS
 from daq.run_data import thruster_drive
 from daq.session import RigSession, RigSource
 from daq.store import Store
-from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
 COMMAND = 0.4  # every thruster, as calibrated
 RAMP_S = 0.6  # after thrust-on: the slew-limited ramp and the lag

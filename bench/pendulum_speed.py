@@ -17,10 +17,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from bench.timing import timed
-from estimation.pendulum import estimate_pendulum
-from estimation.pendulum_decay import find_peaks, prepare_decay
-from estimation.pendulum_fit import fit_output_error, search_effects
-from estimation.pendulum_methods import damped_fit, equation_error, log_decrement
+from estimation.pendulum.decay import find_peaks, prepare_decay
+from estimation.pendulum.estimate import estimate_pendulum
+from estimation.pendulum.fit import fit_output_error, search_effects
+from estimation.pendulum.methods import damped_fit, equation_error, log_decrement
 from tests.estimation.pendulum_synth import ALPHA, BETA, decay
 
 

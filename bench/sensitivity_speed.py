@@ -2,7 +2,7 @@
 of the fixture vehicles with every response they can do.
 
 Prints one JSON document. The API runs the analysis in the request when it stays under
-~2 s (api/routes_analysis.py). Run: .venv/bin/python bench/sensitivity_speed.py
+~2 s (api/http/routes/analysis.py). Run: .venv/bin/python bench/sensitivity_speed.py
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from estimation.identifiability import analyse_identified
-from estimation.vehicle6 import load_vehicle
+from estimation.vehicle.description import load_vehicle
+from estimation.vehicle.identifiability import analyse_identified
 
 VEHICLES = Path(__file__).resolve().parents[1] / "fixtures" / "vehicles"
 #: A surge result as stored by the estimator (BENBAM's seed-000 values, 2–5 % σ), so the

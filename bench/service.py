@@ -14,8 +14,8 @@ def serve_in_thread(db_url: str, token: str, realtime: bool, start_timeout_s: fl
     """
     import uvicorn
 
-    from api.app import create_app
-    from api.service import RigService
+    from api.core.service import RigService
+    from api.http.app import create_app
     from daq.session import RigSource
 
     service = RigService(RigSource.load(), db_url, realtime=realtime)

@@ -39,7 +39,7 @@ class RigSimProcess:
     """
 
     def __init__(self, *, rtu: bool = False, realtime: bool = False) -> None:
-        code = "from api.cli import main; main()"
+        code = "from api.cli.main import main; main()"
         args = [sys.executable, "-c", code, "sim", "--modbus-port", "0"]
         if rtu:
             args.append("--rtu")

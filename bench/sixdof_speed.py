@@ -17,8 +17,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 from bench.timing import timed
-from estimation.sixdof import simulate
-from estimation.vehicle6 import load_vehicle
+from estimation.vehicle.description import load_vehicle
+from estimation.vehicle.dynamics import simulate
 
 VEHICLES = Path(__file__).resolve().parents[1] / "fixtures" / "vehicles"
 TARGET_S = 0.05

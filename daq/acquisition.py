@@ -224,8 +224,8 @@ class Acquisition:
             self.stats.failed_polls += 1
             log.debug("poll %d failed: %s", seq, err)
             t_mono, t_wall = time.monotonic(), time.time()
-            channels = dict.fromkeys(self.plc.channel_names, math.nan)
-            return Sample(seq, t_mono, t_wall, channels, quality | Quality.ERROR)
+            lost = dict.fromkeys(self.plc.channel_names, math.nan)
+            return Sample(seq, t_mono, t_wall, lost, quality | Quality.ERROR)
         t_mono, t_wall = time.monotonic(), time.time()
         channels: dict[str, float] = {}
         stale: list[str] = []

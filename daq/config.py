@@ -21,6 +21,8 @@ from pydantic import (
     model_validator,
 )
 
+from thrusters.config import ThrusterPort
+
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_RIG_FILE = PACKAGE_ROOT / "fixtures" / "rigs" / "benbam.toml"
 
@@ -165,31 +167,6 @@ class Channel(_Strict):
                 f"({self.width} registers); allowed address 0..{last}"
             )
         return self
-
-
-class ThrusterPort(_Strict):
-    #: Device path, pyserial URL (``socket://127.0.0.1:7000``), or ``"sim"`` to use
-    #: the simulated controller's pty.
-    port: str = "sim"
-    baudrate: Annotated[int, Field(ge=1200, le=921600)] = 115200
-    count: Annotated[int, Field(ge=1, le=16)] = 2
-    #: Full-scale (command 1000 ‰) forward thrust of one thruster, N.
-    full_scale_thrust_n: PositiveFloat = 40.0
-    #: Lever arm of the thrusters about the vertical axis, m (for thruster-driven yaw).
-    yaw_lever_arm_m: PositiveFloat = 0.2
-    #: Thrust response time (first-order time constant, s, from the thrusters' datasheet):
-    #: the drive of thruster-driven runs is rebuilt with it (0 = thrust follows at once).
-    time_constant_s: Annotated[float, Field(ge=0, le=5)] = 0.0
-    #: Thrust at a fixed command scales as (supply voltage)^voltage_exponent (datasheet;
-    #: ≈ 1.5 for brushless thrusters): the drive of thruster-driven runs is corrected by
-    #: the supply voltage recorded during the run against the calibration's (0 = not).
-    voltage_exponent: Annotated[float, Field(ge=0, le=3)] = 0.0
-    ack_timeout_s: Annotated[float, Field(gt=0, le=2)] = 0.1
-
-    def yaw_signs(self) -> list[float]:
-        """+1 for thrusters that turn the vehicle positive about the vertical axis (even
-        index, port side), −1 for the others; each acts at ``yaw_lever_arm_m``."""
-        return [1.0 if i % 2 == 0 else -1.0 for i in range(self.count)]
 
 
 class Limits(_Strict):

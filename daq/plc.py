@@ -117,9 +117,10 @@ class PlcClient:
 
     def _make_client(self) -> AsyncModbusTcpClient | AsyncModbusSerialClient:
         m = self.modbus
-        common = {"timeout": m.timeout_s, "retries": 0, "reconnect_delay": 0, "name": "plc"}
         if m.transport == "tcp":
-            return AsyncModbusTcpClient(m.host, port=m.port, **common)
+            return AsyncModbusTcpClient(
+                m.host, port=m.port, timeout=m.timeout_s, retries=0, reconnect_delay=0, name="plc"
+            )
         # A device path or any pyserial URL (socket://host:port, rfc2217://...): pymodbus
         # opens it with serial.serial_for_url and speaks RTU framing over it.
         return AsyncModbusSerialClient(
@@ -128,7 +129,10 @@ class PlcClient:
             parity=m.parity,
             stopbits=m.stopbits,
             bytesize=m.bytesize,
-            **common,
+            timeout=m.timeout_s,
+            retries=0,
+            reconnect_delay=0,
+            name="plc",
         )
 
     async def _attempt(self) -> bool:
@@ -228,7 +232,9 @@ class PlcClient:
             raise self._fail(block, err) from None
         if rr.isError():
             raise self._fail(block, f"exception response {rr}", link=False)
-        values = rr.bits if block.kind in ("coil", "discrete") else rr.registers
+        values: list[int] | list[bool] = (
+            list(rr.bits) if block.kind in ("coil", "discrete") else list(rr.registers)
+        )
         if len(values) < block.count:
             raise self._fail(block, f"short response ({len(values)} of {block.count})", link=False)
         self.stats.reads += 1

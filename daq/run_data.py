@@ -1,5 +1,5 @@
-"""Stored runs as the estimators see them (``estimation.runs.RunData``, and
-``estimation.pendulum_data.PendulumRun`` for pendulum free-decay runs).
+"""Stored runs as the estimators see them (``estimation.data.runs.RunData``, and
+``estimation.pendulum.data.PendulumRun`` for pendulum free-decay runs).
 
 The bridge between storage and estimation: picks the position channel of the
 axis, the time base, the release and brake instants from the run's events, and
@@ -19,10 +19,10 @@ import numpy as np
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
-from estimation.pendulum_data import PendulumGeometry, PendulumRun
-from estimation.runs import RunData
-from estimation.thrust_curve import CalibratedThrust, ThrustCurve
-from estimation.window import WindowReport, find_window
+from estimation.data.runs import RunData
+from estimation.data.window import WindowReport, find_window
+from estimation.pendulum.data import PendulumGeometry, PendulumRun
+from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 
@@ -228,7 +228,7 @@ RELEASE_COIL = {"tow": "tow_release", "spin": "spin_release"}
 def _window(
     run: RunInfo, table: SampleTable, timeline: _Timeline, position: np.ndarray
 ) -> tuple[np.ndarray, WindowReport, float | None]:
-    """The samples to fit and how the window was found (``estimation.window``): the
+    """The samples to fit and how the window was found (``estimation.data.window``): the
     recorded events or given times first, then the run's own coil/switch channels, then
     the motion itself. Returns (mask of the good samples kept, report, release σ or None
     when the timeline's own applies)."""

@@ -20,6 +20,7 @@ import time
 from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from daq.acquisition import Acquisition
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
@@ -29,6 +30,10 @@ from daq.rig_lock import RigLock, rig_lock
 from daq.sample import Quality, Sample
 from daq.store import Store
 from thrusters.driver import ThrusterDriver
+
+if TYPE_CHECKING:
+    from daq.sim.rig import SimulatedRigThread
+    from daq.sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +61,7 @@ class RigSource:
     rig: RigConfig
     rig_toml: str
     scenario_toml: str | None = None
-    scenario: object | None = None
+    scenario: Scenario | None = None
 
     @classmethod
     def load(
@@ -105,7 +110,7 @@ class RigSession:
         self.simulated = self.rig.rig.mode == "simulated"
         self._operator = operator
         self._rate_hz = rate_hz or self.rig.acquisition.rate_hz
-        self.sim = None
+        self.sim: SimulatedRigThread | None = None
         self.plc: PlcClient | None = None
         self.acquisition: Acquisition | None = None
         self.thrusters: ThrusterDriver | None = None
@@ -127,9 +132,10 @@ class RigSession:
         if self.simulated:
             from daq.sim.rig import SimulatedRigThread
 
-            self.sim = SimulatedRigThread(self.rig, self.source.scenario)
-            await asyncio.to_thread(self.sim.__enter__)
-            conn = self.sim.connection_rig()
+            sim = SimulatedRigThread(self.rig, self.source.scenario)
+            self.sim = sim
+            await asyncio.to_thread(sim.__enter__)
+            conn = sim.connection_rig()
         self.plc = PlcClient(conn)
         await self.plc.connect(timeout_s=connect_timeout_s)
         self.acquisition = Acquisition(self.plc, rate_hz=self._rate_hz)
@@ -215,6 +221,18 @@ class RigSession:
     def operator(self) -> Operator:
         assert self._operator is not None, "session not open"
         return self._operator
+
+    @property
+    def live_plc(self) -> PlcClient:
+        """The PLC client of an open session."""
+        assert self.plc is not None, "session not open"
+        return self.plc
+
+    @property
+    def live_thrusters(self) -> ThrusterDriver:
+        """The thruster driver of an open session."""
+        assert self.thrusters is not None, "session not open"
+        return self.thrusters
 
     async def safe_state(self) -> None:
         """Brakes engaged and thrusters at zero (waits for the controller's ACK)."""

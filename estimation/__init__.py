@@ -3,10 +3,10 @@
 Works on runs as arrays plus metadata (``RunData``); imports nothing from the device side.
 """
 
-from estimation.estimate import METHODS, estimate
-from estimation.result import EffectEstimate, Estimate, EstimationResult
-from estimation.runs import RunData
-from estimation.thrust_curve import ThrustCurve, fit_thrust_curve
+from estimation.axis.estimate import METHODS, estimate
+from estimation.axis.result import EffectEstimate, Estimate, EstimationResult
+from estimation.data.runs import RunData
+from estimation.thrust.curve import ThrustCurve, fit_thrust_curve
 
 __all__ = [
     "METHODS",

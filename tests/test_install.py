@@ -73,7 +73,9 @@ def _clean_env(tmp: Path) -> dict[str, str]:
 
 
 def test_installed_code_is_the_wheel_not_the_checkout(installed, tmp_path):
-    probe = "import daq.config as c, api.app as a; print(c.DEFAULT_RIG_FILE); print(a.__file__)"
+    probe = (
+        "import daq.config as c, api.http.app as a; print(c.DEFAULT_RIG_FILE); print(a.__file__)"
+    )
     out = subprocess.run(
         [installed / "python", "-c", probe],
         cwd=tmp_path,

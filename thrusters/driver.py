@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import serial
 
-from daq.config import Limits, ThrusterPort
 from thrusters import protocol as p
+from thrusters.config import CommandLimits, ThrusterPort
 from thrusters.link import LinkStats, SerialLink
 
 log = logging.getLogger(__name__)
@@ -104,7 +104,7 @@ class ThrusterDriver:
     def __init__(
         self,
         cfg: ThrusterPort,
-        limits: Limits,
+        limits: CommandLimits,
         *,
         port: str | None = None,
         clock: Callable[[], float] = time.monotonic,

@@ -122,14 +122,14 @@ async def run_thrust_calibration(
             await session.operator.perform(
                 OperatorAct("unmount_thrust_stand", "Unbolt the thrusters from the load cell")
             )
+        assert rec.run_id and rec.status
         calibration = None
         if rec.status == "completed":
             calibration = await asyncio.to_thread(
                 _store_calibration, session, rec.run_id, params, table
             )
         count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
-        report(Progress(1.0, f"calibration {rec.status}", state=rec.status or ""))
-        assert rec.run_id and rec.status
+        report(Progress(1.0, f"calibration {rec.status}", state=rec.status))
         return RunOutcome(
             rec.run_id, rec.status, rec.reason, "thrust_calibration", count
         ), calibration
@@ -148,7 +148,7 @@ def _store_calibration(
     session: RigSession, run_id: str, params: CalibrationParameters, table: list[dict]
 ) -> dict:
     """Fit the thrust curve (per thruster) and store table + fit as a result."""
-    from estimation.thrust_curve import fit_thrust_curve
+    from estimation.thrust.curve import fit_thrust_curve
 
     commands = [r["command"] for r in table]
     thrust = [r["thrust_per_thruster_n"] for r in table]

@@ -152,6 +152,7 @@ async def run_outcome(
     session: RigSession, rec: RecordedRun, kind: str, report: ProgressCallback
 ) -> RunOutcome:
     """How the recorded run ended (status, reason, samples stored), reported as done."""
+    assert rec.run_id is not None and rec.status is not None
     try:
         count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
     except Exception as err:  # storage failed: what this recorder stored is the count
@@ -161,10 +162,9 @@ async def run_outcome(
         Progress(
             1.0,
             f"run {rec.status}" + (f": {rec.reason}" if rec.reason else ""),
-            state=rec.status or "",
+            state=rec.status,
         )
     )
-    assert rec.run_id is not None and rec.status is not None
     return RunOutcome(rec.run_id, rec.status, rec.reason, kind, count)
 
 
@@ -184,7 +184,7 @@ async def baseline_then_release(
     report(Progress(0.05, f"recording a {baseline_s:g} s baseline", extra={"run_id": rec.run_id}))
     await rec.record_for(baseline_s)
     before = time.monotonic()
-    await session.plc.write(channel, True)
+    await session.live_plc.write(channel, True)
     after = time.monotonic()  # the PLC acknowledged: the release happened in between
     latest = session.latest()
     await rec.event(
@@ -246,7 +246,7 @@ async def run_motion_test(
             stop, sample, t_last_free = await follow_motion(
                 rec, axis, start, limit, params.max_time_s, report
             )
-            await session.plc.write(axis.release, False)
+            await session.live_plc.write(axis.release, False)
             await rec.event(
                 "limit",
                 f"{stop}: brake engaged",

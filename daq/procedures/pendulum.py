@@ -88,7 +88,7 @@ async def run_pendulum_decay(
         op = session.operator
         report(Progress(0.0, "mounting the vehicle on the pendulum"))
         await session.safe_state()
-        await session.plc.write(PENDULUM.release, False)  # the latch engaged
+        await session.live_plc.write(PENDULUM.release, False)  # the latch engaged
         await op.perform(
             OperatorAct(
                 "mount_pendulum",
@@ -127,7 +127,7 @@ async def run_pendulum_decay(
                     session, rec, params.baseline_s, PENDULUM.release, report, "latch released"
                 )
                 stop, last = await _follow_decay(rec, params, held, report)
-                await session.plc.write(PENDULUM.release, False)
+                await session.live_plc.write(PENDULUM.release, False)
                 caught = True
                 await rec.event(
                     "limit",
@@ -140,7 +140,7 @@ async def run_pendulum_decay(
             finally:
                 if not caught:  # abort, device loss: never leave it swinging
                     with contextlib.suppress(Exception):
-                        await session.plc.write(PENDULUM.release, False)
+                        await session.live_plc.write(PENDULUM.release, False)
             await rec.record_for(0.3)  # a short tail shows the catch in the data
         return await run_outcome(session, rec, PENDULUM.kind, report)
 

@@ -102,7 +102,7 @@ class RecordedRun:
         ]
         # Samples kept aside while storage had failed go back first (if it takes them now).
         await asyncio.to_thread(self.store.replay_spills)
-        self.run_id = await asyncio.to_thread(
+        run_id: str = await asyncio.to_thread(
             self.store.create_run,
             kind=self.kind,
             parameters=self.parameters,
@@ -112,17 +112,18 @@ class RecordedRun:
             rig_toml=s.source.rig_toml,
             scenario_toml=s.source.scenario_toml,
         )
-        await s.note_run(self.run_id)
+        self.run_id = run_id
+        await s.note_run(run_id)
         # A storage fault stops the procedure like a lost PLC: the abort signal wakes every
         # wait (samples, operator prompts) and the ending below makes the rig safe.
         self._recorder = RunRecorder(
             self.store,
-            self.run_id,
+            run_id,
             flush_interval_s=s.rig.acquisition.flush_interval_s,
             on_fault=self.abort.set,
         )
         self._recorder_task = asyncio.create_task(
-            self._recorder.run(), name=f"recorder-{self.run_id[:8]}"
+            self._recorder.run(), name=f"recorder-{run_id[:8]}"
         )
         # The recorder gets every sample: a queue big enough for a long fault, then drops.
         self._recorder_queue = s.acquisition.subscribe(maxsize=100_000, name="run-recorder")
@@ -148,7 +149,7 @@ class RecordedRun:
         await s.safe_state()
         assert self._recorder is not None
         if self.status != "completed":
-            fault = self.reason.startswith(DEVICE_LOST) or self._recorder.fault is not None
+            fault = (self.reason or "").startswith(DEVICE_LOST) or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
         assert s.acquisition is not None
         if self._queue is not None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,7 +45,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback
 from daq.session import Aborted, RigSession
 
 StepParameters = TowParameters | SpinParameters | CalibrationParameters | PendulumParameters
-_VALIDATORS = {
+_VALIDATORS: dict[str, Callable[[dict[str, Any], RigConfig], StepParameters]] = {
     "tow": tow_parameters,
     "spin": spin_parameters,
     "pendulum": pendulum_parameters,

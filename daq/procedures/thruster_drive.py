@@ -16,7 +16,6 @@ import logging
 import time
 from typing import Any
 
-from daq.config import ThrusterPort
 from daq.operator import OperatorAct
 from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
@@ -24,6 +23,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+from thrusters.config import ThrusterPort
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ def thruster_commands(
     load cell measured (``CalibratedThrust``, the same the estimator rebuilds the drive
     with). Refuses (ParameterError) below the smallest calibrated thrust and beyond the
     thrusters' reach at ``max_command``."""
-    from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+    from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
     name, unit = DRIVE_FIELD[kind]
     curve = ThrustCurve.from_json(calibration["fit"])
@@ -143,7 +143,7 @@ async def run_thruster_test(
     rig = session.rig
     tow = isinstance(params, TowParameters)
     axis = TOW if tow else SPIN
-    drive = params.force_n if tow else params.torque_nm
+    drive = params.force_n if isinstance(params, TowParameters) else params.torque_nm
     unit = DRIVE_FIELD[axis.kind][1]
     calibration = await asyncio.to_thread(latest_calibration, session.store)
     commands, force = thruster_commands(
@@ -192,7 +192,7 @@ async def run_thruster_test(
         )
         try:
             async with rec:
-                with session.thrusters.recording_outputs() as steps:
+                with session.live_thrusters.recording_outputs() as steps:
                     armed = asyncio.Event()
                     supervisor = asyncio.create_task(
                         abort_on_thruster_fault(session, rec, abort, armed)
@@ -229,7 +229,7 @@ async def abort_on_thruster_fault(
     the outputs; the fault, with when thrust was last confirmed, is stored as a ``fault``
     event."""
     await armed.wait()
-    fault = await session.thrusters.wait_fault()
+    fault = await session.live_thrusters.wait_fault()
     reason = fault.reason
     latest = session.latest()
     if latest is not None and latest.quality & Quality.ERROR and session.plc is not None:
@@ -278,7 +278,7 @@ async def _drive_with_thrusters(
     session, rec, axis, params, commands, start, report, armed: asyncio.Event
 ) -> None:
     rig = session.rig
-    await session.plc.write(axis.release, True)
+    await session.live_plc.write(axis.release, True)
     await session.arm_thrusters()
     armed.set()
     await rec.event("operator", f"{axis.release} set: brake released, thrusters armed")
@@ -302,8 +302,8 @@ async def _drive_with_thrusters(
         rec, axis, start, limit, params.max_time_s, report
     )
     session.set_thrust([0.0] * rig.thrusters.count)
-    await session.thrusters.zero()
-    await session.plc.write(axis.release, False)
+    await session.live_thrusters.zero()
+    await session.live_plc.write(axis.release, False)
     await rec.event(
         "limit",
         f"{stop}: thrust off, brake engaged",

@@ -87,7 +87,7 @@ class SimulatedPLC:
 
     # ---- device model --------------------------------------------------------------------
     def _device(self) -> SimDevice:
-        blocks = []
+        blocks: list[list[SimData]] = []
         for kind in ("coil", "discrete", "holding", "input"):
             chans = self._by_kind[kind]
             if kind in _BIT_KINDS:
@@ -100,7 +100,10 @@ class SimulatedPLC:
                 fill = DataType.BITS if kind in _BIT_KINDS else DataType.INVALID
                 data = [SimData(0, values=[False] if kind in _BIT_KINDS else 0, datatype=fill)]
             blocks.append(data)
-        return SimDevice(self.unit_id, simdata=tuple(blocks), action=self._action)
+        coils, discretes, holdings, inputs = blocks
+        return SimDevice(
+            self.unit_id, simdata=(coils, discretes, holdings, inputs), action=self._action
+        )
 
     async def _action(
         self,

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.base import StoreBase, software_version
+from daq.store.base import StoreBase, inserted_id, software_version
 from daq.store.records import EventInfo, ResultInfo, ResultNotFound, to_datetime
 from daq.store.schema import events, result_runs, results
 from daq.store.schema import runs as runs_t
@@ -86,14 +86,15 @@ class EventsAndResults(StoreBase):
             raise ValueError(f"run_ids: {run_ids!r} is not allowed; give a list of ≥ 1 run ids")
         with self.transaction() as conn:
             pks = sorted({self._resolve(conn, r).id for r in run_ids})
-            result_id = conn.execute(
+            inserted = conn.execute(
                 sa.insert(results).values(
                     kind=kind,
                     created_at=round(time.time(), 6),
                     software_version=software_version(),
                     data=data,
                 )
-            ).inserted_primary_key[0]
+            )
+            result_id = inserted_id(inserted)
             conn.execute(
                 sa.insert(result_runs), [{"result_id": result_id, "run_id": pk} for pk in pks]
             )

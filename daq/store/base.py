@@ -23,6 +23,13 @@ from daq.store.schema import runs as runs_t
 SAMPLE_COLUMNS = "run_id, seq, t_mono, t_wall, quality, stale, channel_values"
 
 
+def inserted_id(result: sa.CursorResult) -> int:
+    """The primary key of the row an INSERT added."""
+    key = result.inserted_primary_key
+    assert key is not None, "not an INSERT of one row"
+    return int(key[0])
+
+
 def software_version() -> str:
     """The towrig version: installed metadata, else the checkout's pyproject.toml."""
     try:

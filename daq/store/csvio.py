@@ -23,8 +23,8 @@ import numpy as np
 
 from daq.sample import Quality, Sample
 from daq.store.store import Store
-from estimation.csv_import import TIME_UNITS
-from estimation.window import check_time_step
+from estimation.data.csv_import import TIME_UNITS
+from estimation.data.window import check_time_step
 
 #: Column the import maps ``position`` to, per run kind.
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}

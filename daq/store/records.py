@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -35,6 +35,10 @@ class DuplicateSample(ValueError):
     """A sample with the same (run, seq) is already stored."""
 
 
+@overload
+def to_datetime(unix_s: float) -> datetime: ...
+@overload
+def to_datetime(unix_s: None) -> None: ...
 def to_datetime(unix_s: float | None) -> datetime | None:
     """Aware UTC datetime of a Unix time (None stays None)."""
     return None if unix_s is None else datetime.fromtimestamp(unix_s, tz=UTC)

@@ -137,7 +137,8 @@ def read_spill(path: Path) -> SpillContents:
                     Sample(seq, t_mono, t_wall, channels, Quality(quality), tuple(stale))
                 )
             elif "e" in record:
-                events.append(PendingEvent(*record["e"][1:3], record["e"][3], record["e"][0]))
+                t_wall, kind, message, data = record["e"]
+                events.append(PendingEvent(kind, message, data, t_wall))
             elif "end" in record:
                 status, reason, stopped_at = record["end"]
                 end = (status, reason, stopped_at)

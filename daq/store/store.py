@@ -18,7 +18,13 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
-from daq.store.base import SAMPLE_COLUMNS, process_alive, process_identity, software_version
+from daq.store.base import (
+    SAMPLE_COLUMNS,
+    inserted_id,
+    process_alive,
+    process_identity,
+    software_version,
+)
 from daq.store.packing import SamplePacker
 from daq.store.records import (
     DuplicateSample,
@@ -81,7 +87,7 @@ class Store(EventsAndResults):
             raise ValueError(f"scenario_toml: expected TOML text or None, got {scenario_toml!r}")
         run_uuid = str(uuid.uuid4())
         boot_id, start_ticks = process_identity()
-        pk = conn.execute(
+        inserted = conn.execute(
             sa.insert(runs_t).values(
                 uuid=run_uuid,
                 kind=kind,
@@ -99,7 +105,8 @@ class Store(EventsAndResults):
                 owner_boot_id=boot_id,
                 owner_start_ticks=start_ticks,
             )
-        ).inserted_primary_key[0]
+        )
+        pk = inserted_id(inserted)
         return run_uuid, pk
 
     def create_run(
@@ -190,7 +197,7 @@ class Store(EventsAndResults):
         so the database's write lock is never held for long (a live run's recorder and
         events keep their turn); the run reads ``running`` until the last one, and a
         failure part-way ends it ``aborted`` naming the error."""
-        header = {
+        header: dict[str, Any] = {
             "kind": kind,
             "parameters": parameters,
             "channel_names": channel_names,
@@ -325,7 +332,9 @@ class Store(EventsAndResults):
         dbapi = conn.dialect.loaded_dbapi
         try:
             if self.backend == "postgresql":
-                cursor = conn.connection.driver_connection.cursor()
+                driver = conn.connection.driver_connection
+                assert driver is not None
+                cursor = driver.cursor()
                 with cursor, cursor.copy(f"COPY samples ({SAMPLE_COLUMNS}) FROM STDIN") as copy:
                     for row in rows:
                         copy.write_row(row)
@@ -394,7 +403,7 @@ class Store(EventsAndResults):
                 query = query.limit(limit)
             rows = conn.execute(query).all()
         packer = SamplePacker(run.channel_names)
-        columns = list(zip(*rows, strict=True)) if rows else [[]] * 6
+        columns: list[Sequence[Any]] = list(zip(*rows, strict=True)) if rows else [[]] * 6
         stale = columns[4]
         return SampleTable(
             seq=np.array(columns[0], dtype=np.int64),

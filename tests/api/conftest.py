@@ -14,8 +14,8 @@ import pytest
 import uvicorn
 from fastapi.testclient import TestClient
 
-from api.app import create_app
-from api.service import RigService
+from api.core.service import RigService
+from api.http.app import create_app
 from daq.session import RigSource
 from tests.conftest import require_tool
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from api.estimation_job import run_estimation
+from api.core.estimation_job import run_estimation
 from tests.api.conftest import AUTH
 
 C1 = {"name": "C1", "matrix": [[1, 3], [1 / 3, 1]]}

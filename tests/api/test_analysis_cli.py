@@ -7,7 +7,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from api.cli_analysis import sensitivity
+from api.cli.analysis import sensitivity
 
 RESPONSES = ["--response", "steady_surge_speed", "--response", "steady_yaw_rate"]
 

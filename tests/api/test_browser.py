@@ -22,7 +22,7 @@ def server(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("serve")
     env = os.environ | {"RIG_API_TOKEN": TOKEN, "XDG_DATA_HOME": str(tmp), "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "api.cli_serve", "--port", "0", "--db", f"sqlite:///{tmp}/rig.db"],
+        [sys.executable, "-m", "api.cli.serve", "--port", "0", "--db", f"sqlite:///{tmp}/rig.db"],
         cwd=ROOT,
         env=env,
         stdout=subprocess.PIPE,

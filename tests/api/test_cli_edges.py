@@ -16,7 +16,7 @@ from pathlib import Path
 import click
 import pytest
 
-from api.cli import COMMANDS, DEBUG_ENV, main
+from api.cli.main import COMMANDS, DEBUG_ENV, main
 from daq.store import Store
 from tests.store.helpers import new_run
 
@@ -157,7 +157,7 @@ def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
             continue
         args.append(a.format(**world))
     proc = subprocess.run(
-        [sys.executable, "-m", "api.cli", *args],
+        [sys.executable, "-m", "api.cli.main", *args],
         cwd=world["tmp"],
         env=env,
         capture_output=True,
@@ -179,7 +179,7 @@ def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(
     """The note comes before the run; the thruster line says nothing ('NAK disarmed' was
     the close zeroing a controller that was never armed); the run stores both loads."""
     proc = subprocess.run(
-        [sys.executable, "-m", "api.cli", "tow", "--force", "10", "--max-time", "1",
+        [sys.executable, "-m", "api.cli.main", "tow", "--force", "10", "--max-time", "1",
          "--baseline", "0.3", "--db", world["db"], "--json"],
         cwd=world["tmp"], capture_output=True, text=True, timeout=120,
     )  # fmt: skip

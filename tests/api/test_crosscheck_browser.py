@@ -7,8 +7,8 @@ import re
 
 import pytest
 
-from api.app import create_app
-from api.estimation_job import run_estimation
+from api.core.estimation_job import run_estimation
+from api.http.app import create_app
 from tests.api.conftest import TOKEN, LiveServer, chromium_page
 from tests.procedures.test_crosscheck_cli import _import_tows
 

@@ -8,9 +8,9 @@ import gzip
 import httpx
 import pytest
 
-from api.app import create_app
-from api.service import RigService
-from api.static_assets import DOCS_ASSETS_URL
+from api.core.service import RigService
+from api.http.app import create_app
+from api.http.static_assets import DOCS_ASSETS_URL
 from daq.session import RigSource
 from tests.api.conftest import TOKEN, LiveServer, chromium_page
 

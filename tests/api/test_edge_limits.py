@@ -19,10 +19,10 @@ import pytest
 from click.testing import CliRunner
 from fastapi.testclient import TestClient
 
-from api.app import create_app
-from api.auth import token_file_warning, token_path
-from api.cli import main
-from api.limits import JSON_BODY_LIMIT
+from api.cli.main import main
+from api.http.app import create_app
+from api.http.auth import token_file_warning, token_path
+from api.http.limits import JSON_BODY_LIMIT
 from daq.procedures.params import MAX_CALIBRATION_COMMANDS, MAX_SEQUENCE_STEPS
 from tests.api.conftest import AUTH, TOKEN, LiveServer
 
@@ -208,7 +208,7 @@ def test_the_cli_has_the_same_caps(tmp_path):
         (["sequence", str(sequence)], f"at most {MAX_SEQUENCE_STEPS} steps"),
     ):
         result = subprocess.run(
-            [sys.executable, "-m", "api.cli", *args, "--db", db],
+            [sys.executable, "-m", "api.cli.main", *args, "--db", db],
             capture_output=True, text=True, timeout=60, cwd=ROOT,
         )  # fmt: skip
         assert result.returncode == 2, result.stderr

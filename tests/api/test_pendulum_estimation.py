@@ -8,8 +8,8 @@ from collections.abc import Iterator
 import pytest
 from fastapi.testclient import TestClient
 
-from api.app import create_app
-from api.service import RigService
+from api.core.service import RigService
+from api.http.app import create_app
 from daq.session import RigSource
 from tests.api.conftest import (
     AUTH,

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from api.app import create_app
-from api.service import RigService, RigUnavailable
+from api.core.service import RigService, RigUnavailable
+from api.http.app import create_app
 from daq.operator import OperatorAct, SimulatedOperator
 from daq.session import RigSource
 from daq.store import Store

@@ -21,7 +21,7 @@ from schemathesis.specs.openapi.checks import (
     status_code_conformance,
 )
 
-from api.app import create_app
+from api.http.app import create_app
 from tests.api.conftest import AUTH, TOKEN, LiveServer, wait_rig_free
 
 EXAMPLES_PER_OPERATION = 12

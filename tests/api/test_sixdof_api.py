@@ -98,7 +98,7 @@ def test_cli_prints_steady_values_and_json():
 
     from click.testing import CliRunner
 
-    from api.cli import main
+    from api.cli.main import main
 
     runner = CliRunner()
     text = runner.invoke(main, ["sixdof", "benbam", "--commands", "0.3,0.3", "--duration", "30"])

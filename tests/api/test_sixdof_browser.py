@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from api.app import create_app
+from api.http.app import create_app
 from tests.api.conftest import TOKEN, LiveServer, chromium_page
 
 

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from api.service import RigService
+from api.core.service import RigService
 from daq.session import RigSource
 from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
 from tests.store.helpers import DbLimits, no_sql

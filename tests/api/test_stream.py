@@ -101,7 +101,7 @@ def test_broadcaster_bounds_a_stuck_client_and_publishing_stays_cheap():
     """A client whose loop never drains: its queue stays bounded, drops are counted."""
     import asyncio
 
-    from api.stream import CLIENT_QUEUE, Broadcaster, Client
+    from api.core.stream import CLIENT_QUEUE, Broadcaster, Client
     from daq.sample import Sample
 
     loop = asyncio.new_event_loop()
@@ -139,7 +139,7 @@ def test_down_sampling_at_the_clock_rate_keeps_every_sample_despite_jitter():
     """10 Hz asked of a 10 Hz clock whose ticks jitter by ±20 ms: all 200 samples arrive."""
     import asyncio
 
-    from api.stream import Broadcaster, Client
+    from api.core.stream import Broadcaster, Client
 
     loop = asyncio.new_event_loop()
     try:
@@ -156,7 +156,7 @@ def test_down_sampling_at_the_clock_rate_keeps_every_sample_despite_jitter():
 def test_down_sampling_keeps_the_requested_rate_and_counts_what_it_thins():
     import asyncio
 
-    from api.stream import Broadcaster, Client
+    from api.core.stream import Broadcaster, Client
 
     loop = asyncio.new_event_loop()
     try:

@@ -6,8 +6,8 @@ import stat
 
 from click.testing import CliRunner
 
-from api.auth import load_or_create_token, token_path
-from api.cli import main
+from api.cli.main import main
+from api.http.auth import load_or_create_token, token_path
 
 
 def test_generated_token_is_private_and_stable(tmp_path, monkeypatch):

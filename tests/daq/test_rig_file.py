@@ -55,7 +55,7 @@ def test_the_cli_reports_a_binary_or_unreadable_rig_file_without_a_traceback(tmp
     folder.mkdir()
     for path, says in ((binary, "not UTF-8 text"), (folder, "cannot read rig file")):
         result = subprocess.run(
-            [sys.executable, "-m", "api.cli", "tow", "--force", "5", "--rig", str(path),
+            [sys.executable, "-m", "api.cli.main", "tow", "--force", "5", "--rig", str(path),
              "--db", f"sqlite:///{tmp_path / 'rig.db'}"],
             capture_output=True, text=True, timeout=60, cwd=ROOT,
         )  # fmt: skip

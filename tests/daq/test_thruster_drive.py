@@ -7,7 +7,7 @@ import pytest
 
 from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.run_data import thruster_drive
-from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
 CURVE = ThrustCurve(
     np.array([50.0, 0.05, 0.8, 39.0, 0.05, 0.8, 0.0]), np.zeros(7), np.eye(7), 0.1, -0.8, 0.8

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from estimation.pendulum_data import PendulumGeometry, PendulumRun
+from estimation.pendulum.data import PendulumGeometry, PendulumRun
 
 #: A rig like seed 002's (rod 7.88 kg, CG 0.495 m; vehicle 40.9 kg at 1.205 m), the vehicle
 #: 2 kg heavy in water so that it, not only the rod, pulls the pendulum back.

@@ -15,7 +15,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from estimation.runs import RunData
+from estimation.data.runs import RunData
 
 G_RIG = 9.8
 SURGE_TRUTH = (143.26, 20.16, 241.14)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimation.ahp import AHPError, check_matrix, hierarchy, judge, random_index
+from estimation.vehicle.ahp import AHPError, check_matrix, hierarchy, judge, random_index
 
 C1 = [[1, 3], [1 / 3, 1]]
 C2 = [[1, 1 / 3, 1], [3, 1, 3], [1, 1 / 3, 1]]

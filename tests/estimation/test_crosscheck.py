@@ -9,8 +9,8 @@ import pytest
 
 from daq.run_data import curve_draws
 from estimation import estimate
-from estimation.crosscheck import cross_check, markdown, write_crosscheck_report
-from estimation.thrust_curve import ThrustCurve
+from estimation.axis.crosscheck import cross_check, markdown, write_crosscheck_report
+from estimation.thrust.curve import ThrustCurve
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 
 NAMES = ("inertia", "linear_damping", "quadratic_damping")

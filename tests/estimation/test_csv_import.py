@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.csv_import import run_from_csv
+from estimation.data.csv_import import run_from_csv
 from tests.estimation.synth import tow_set
 
 

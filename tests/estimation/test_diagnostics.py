@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.diagnostics import ljung_box
+from estimation.stats.diagnostics import ljung_box
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from daq.run_data import curve_draws
 from estimation import estimate
-from estimation.thrust_curve import ThrustCurve
+from estimation.thrust.curve import ThrustCurve
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 
 COEFFICIENTS = ("inertia", "linear_damping", "quadratic_damping")

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from estimation.model import constant_force_response, prepare, simulate
-from estimation.runs import RunData
+from estimation.axis.model import constant_force_response, prepare, simulate
+from estimation.data.runs import RunData
 
 
 def _runs(drives):

@@ -16,12 +16,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from estimation.pendulum import PENDULUM_METHODS, estimate_pendulum
-from estimation.pendulum_data import PendulumGeometry, validate_pendulum_run
-from estimation.pendulum_decay import plant_of
-from estimation.pendulum_methods import coefficients_from_signal, thesis_translational
-from estimation.pendulum_report import write_pendulum_report
-from estimation.pendulum_sim import simulate, step_size
+from estimation.pendulum.data import PendulumGeometry, validate_pendulum_run
+from estimation.pendulum.decay import plant_of
+from estimation.pendulum.estimate import PENDULUM_METHODS, estimate_pendulum
+from estimation.pendulum.methods import coefficients_from_signal, thesis_translational
+from estimation.pendulum.report import write_pendulum_report
+from estimation.pendulum.sim import simulate, step_size
 from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
 
 TAU_C = 0.4  # N·m: dead band τ_c/k ≈ 6.5 mrad, 4τ_c/k ≈ 26 mrad off the swing per cycle

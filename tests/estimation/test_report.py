@@ -5,7 +5,7 @@ import json
 import pytest
 
 from estimation import estimate
-from estimation.report import write_report
+from estimation.axis.report import write_report
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

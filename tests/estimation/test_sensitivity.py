@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.ahp import hierarchy
-from estimation.identifiability import analyse_identified, assess, plug_results, run_speed
-from estimation.responses import ResponseError, evaluate
-from estimation.sensitivity import SensitivityError, analyse
-from estimation.vehicle6 import Vehicle6, load_vehicle
+from estimation.vehicle.ahp import hierarchy
+from estimation.vehicle.description import Vehicle6, load_vehicle
+from estimation.vehicle.identifiability import analyse_identified, assess, plug_results, run_speed
+from estimation.vehicle.responses import ResponseError, evaluate
+from estimation.vehicle.sensitivity import SensitivityError, analyse
 from tests.estimation.synth import tow_set
 
 VEHICLES = Path(__file__).parents[2] / "fixtures" / "vehicles"

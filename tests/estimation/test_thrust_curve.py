@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimation.thrust_curve import PARAMS, CalibratedThrust, ThrustCurve, fit_thrust_curve
+from estimation.thrust.curve import PARAMS, CalibratedThrust, ThrustCurve, fit_thrust_curve
 
 TRUTH = {
     "forward_gain": 40.0,

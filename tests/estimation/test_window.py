@@ -1,5 +1,5 @@
 """Raw recordings made elsewhere: the free-motion window, glitches and the time unit are
-found from the data (estimation.window), built by the independent test-side integrator."""
+found from the data (estimation.data.window), built by the independent test-side integrator."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.csv_import import run_from_csv
-from estimation.window import find_spikes, find_window
+from estimation.data.csv_import import run_from_csv
+from estimation.data.window import find_spikes, find_window
 from tests.estimation.synth import YAW_TRUTH, Physics, tow_set
 
 HOLD_S = 0.5

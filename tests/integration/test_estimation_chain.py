@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from api.estimation_job import run_estimation
+from api.core.estimation_job import run_estimation
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import spin_parameters, tow_parameters
 from daq.session import RigSession, RigSource

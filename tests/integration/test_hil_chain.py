@@ -16,13 +16,13 @@ import asyncio
 
 import pytest
 
-from api.crosscheck_job import crosscheck_results, crosscheck_runs
+from api.core.crosscheck_job import crosscheck_results, crosscheck_runs
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import calibration_parameters, spin_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.store import Store
-from estimation.crosscheck import markdown
+from estimation.axis.crosscheck import markdown
 
 pytestmark = pytest.mark.slow
 
@@ -137,7 +137,7 @@ def _show(label: str, doc: dict) -> None:
 
 
 def markdown_of(doc: dict) -> str:
-    from estimation.crosscheck import cross_check
+    from estimation.axis.crosscheck import cross_check
 
     check = cross_check(
         doc["weight_estimation"],

@@ -1,7 +1,7 @@
 """Pendulum free decay through the full chain, with dry friction in the pivot nobody declared.
 
 simulated rig (scenario: pivot Coulomb friction) → run_pendulum_decay over Modbus TCP →
-acquisition clock → SQLite → daq.run_data.load_pendulum_data → estimation.pendulum (via
+acquisition clock → SQLite → daq.run_data.load_pendulum_data → estimation.pendulum.estimate (via
 the same ``run_estimation`` the CLI and the API use). The estimator knows only the rig
 file's geometry; it must name the pivot friction, size it, and return the scenario's
 surge added mass and damping. Run with ``-s`` to see the figures.
@@ -14,8 +14,8 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from api.cli import main as rig_cli
-from api.estimation_job import run_estimation
+from api.cli.main import main as rig_cli
+from api.core.estimation_job import run_estimation
 from daq.config import DEFAULT_RIG_FILE
 from daq.procedures.params import pendulum_parameters
 from daq.procedures.pendulum import run_pendulum_decay

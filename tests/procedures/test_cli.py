@@ -15,7 +15,7 @@ import pytest
 
 from daq.store import Store
 
-RIG = [sys.executable, "-m", "api.cli"]
+RIG = [sys.executable, "-m", "api.cli.main"]
 ROOT = Path(__file__).resolve().parents[2]
 
 

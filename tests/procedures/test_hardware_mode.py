@@ -21,7 +21,7 @@ from daq.registers import encode
 from daq.store import Store
 
 ROOT = Path(__file__).resolve().parents[2]
-RIG = [sys.executable, "-m", "api.cli"]
+RIG = [sys.executable, "-m", "api.cli.main"]
 
 
 def test_tow_on_a_hardware_rig_file_asks_the_operator(tmp_path):

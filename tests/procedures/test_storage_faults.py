@@ -36,7 +36,7 @@ from tests.procedures.conftest import short_rail
 from tests.store.helpers import DbLimits, no_sql
 
 ROOT = Path(__file__).resolve().parents[2]
-TOW = [sys.executable, "-m", "api.cli", "tow", "--force", "2", "--max-time", "40"]
+TOW = [sys.executable, "-m", "api.cli.main", "tow", "--force", "2", "--max-time", "40"]
 STORAGE_REASON = "storage failed: SQLite: database or disk is full"
 
 

@@ -32,7 +32,7 @@ from tests.procedures.conftest import QUICK_CALIBRATION
 from thrusters.driver import LINK_LOST_AFTER
 
 ROOT = Path(__file__).resolve().parents[2]
-RIG = [sys.executable, "-m", "api.cli"]
+RIG = [sys.executable, "-m", "api.cli.main"]
 #: Longest time from the fault to zero thrust at the controller.
 ZERO_WITHIN_S = 0.5
 

@@ -13,7 +13,7 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, tow_parameters
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
-from estimation.thrust_curve import CalibratedThrust, ThrustCurve
+from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION
 from thrusters.driver import LINK_LOST_AFTER
 

@@ -19,7 +19,7 @@ from daq.registers import decode
 from tests.conftest import require_tool
 
 REPO = Path(__file__).resolve().parents[2]
-RIG_SIM = [sys.executable, "-c", "from api.cli import main; main()", "sim"]
+RIG_SIM = [sys.executable, "-c", "from api.cli.main import main; main()", "sim"]
 
 
 class RigSim:

@@ -8,7 +8,8 @@ import threading
 import time
 import tty
 
-from daq.config import Limits, ThrusterPort, load_rig
+from daq.config import Limits, load_rig
+from thrusters.config import ThrusterPort
 
 RIG = load_rig()
 

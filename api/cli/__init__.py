@@ -1,0 +1,1 @@
+"""The ``rig`` command line face: one module per command group."""

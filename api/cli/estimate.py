@@ -1,0 +1,133 @@
+"""``rig estimate``: hydrodynamic coefficients from stored runs."""
+
+from __future__ import annotations
+
+import click
+
+from api.cli.common import (
+    db_option,
+    echo_json,
+    fail,
+    json_option,
+    open_store,
+    plus_minus,
+    report_folder,
+    user_errors,
+)
+from api.core.estimation_job import run_estimation
+from estimation import METHODS
+from estimation.pendulum.estimate import PENDULUM_METHODS
+
+ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
+
+
+@click.command("estimate")
+@click.argument("run_ids", nargs=-1, required=True, metavar="RUN_ID...")
+@click.option(
+    "--method",
+    type=click.Choice(ALL_METHODS),
+    default="output-error",
+    show_default=True,
+    help="output-error (joint over runs, default); for tow/spin runs one of seed 000's "
+    "least-squares approaches, for pendulum runs one of seed 002's damped-fit, "
+    "log-decrement, equation-error (all are reported; this picks the headline).",
+)
+@click.option(
+    "--no-effects",
+    is_flag=True,
+    help="Fit the base model only; skip the search for missing effects.",
+)
+@click.option(
+    "--report",
+    "report_dir",
+    type=click.Path(file_okay=False),
+    help="Write report plots (PNG) here.",
+)
+@db_option
+@json_option
+def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
+    """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
+    vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
+    the error before and after."""
+    report_folder(report_dir)
+    store = open_store(db_url)
+    try:
+        with user_errors():
+            try:
+                data = run_estimation(
+                    store,
+                    run_ids,
+                    method=method,
+                    search_effects=not no_effects,
+                    report_dir=report_dir,
+                )
+            except ValueError as err:
+                fail(str(err))
+        if as_json:
+            echo_json(data)
+            return
+        if data.get("analysis") == "pendulum":
+            _echo_pendulum(data)
+            return
+        units = {
+            "surge": ("kg", "N·s/m", "N·s²/m²", "m"),
+            "yaw": ("kg·m²", "N·m·s/rad", "N·m·s²/rad²", "rad"),
+        }
+        u = units[data["axis"]]
+        click.echo(f"{data['axis']} from {len(data['runs'])} run(s), method {data['method']}")
+        for (name, label), unit in zip(
+            (
+                ("inertia", "inertia (vehicle + added)"),
+                ("linear_damping", "linear damping K_L"),
+                ("quadratic_damping", "quadratic damping K_Q"),
+            ),
+            u[:3],
+            strict=True,
+        ):
+            click.echo(f"  {label:<28} {plus_minus(data['coefficients'][name])} {unit}")
+        for eff in data.get("effects", []):
+            click.echo(f"  effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}")
+        for group in data.get("ambiguous", []):
+            click.echo(f"  ambiguous: {' / '.join(group)}")
+        for warning in data.get("warnings", []):
+            click.echo(f"  warning: {warning}")
+        click.echo(
+            f"  RMSE before {data['rmse_before']:.3g} {u[3]}, after {data['rmse_after']:.3g} {u[3]}"
+        )
+        for run_id, w in data.get("windows", {}).items():
+            end = "last sample" if w["end_time_s"] is None else f"{w['end_time_s']:.3f} s"
+            click.echo(
+                f"  window {run_id[:8]}: release {w['release_time_s']:.3f} s "
+                f"({w['release_source']}), end {end} ({w['end_source']}); dropped "
+                f"{w['samples_dropped_before']} before, {w['samples_dropped_after']} after, "
+                f"{w['spikes_dropped']} spike(s)"
+            )
+        click.echo(f"  stored as result #{data['result_id']}")
+    finally:
+        store.close()
+
+
+def _echo_pendulum(data: dict) -> None:
+    """Human summary of a pendulum result: methods side by side, effects, error."""
+    click.echo(
+        f"pendulum free decay, {data['axis']} from {len(data['runs'])} run(s), "
+        f"headline {data['method']}"
+    )
+    units = data["units"]
+    for name, est in data["coefficients"].items():
+        click.echo(f"  {name:<28} {plus_minus(est)} {units[name]}")
+    click.echo(f"  {'method':<22} {'run':<10} {'α [kg]':<22} {'β [N·s/m]':<22} e [rad²]")
+    for m in data["methods"]:
+        e = "—" if m["mse"] is None else f"{m['mse']:.3g}"
+        click.echo(
+            f"  {m['method']:<22} {m['run_id'][:8]:<10} {plus_minus(m['added_mass']):<22} "
+            f"{plus_minus(m['linear_damping']):<22} {e}"
+        )
+    for eff in data.get("effects", []):
+        click.echo(f"  effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}")
+    for warning in data.get("warnings", []):
+        click.echo(f"  warning: {warning}")
+    for advice in data.get("advice", []):
+        click.echo(f"  advice: {advice}")
+    click.echo(f"  RMSE before {data['rmse_before']:.3g} rad, after {data['rmse_after']:.3g} rad")
+    click.echo(f"  stored as result #{data['result_id']}")

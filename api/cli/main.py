@@ -1,0 +1,246 @@
+"""The ``rig`` command: one entry point, one module per command group.
+
+Every command takes ``--db URL`` (default: ``RIG_DATABASE_URL`` or the SQLite file
+documented in the README) where it touches storage, and ``--json`` where a script
+may want to read its output.
+
+Command modules are imported only when their command runs (``rig --help`` and light
+commands such as ``rig token`` never import numpy, scipy or the web stack), and any
+error a user's input can cause ends as one ``error: …`` line, never a traceback.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import os
+import sys
+from typing import Any
+
+import click
+
+#: name → (module, attribute, its short help as ``rig --help`` lists it without importing
+#: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py).
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "tow": (
+        "api.cli.procedures",
+        "tow",
+        "Tow test: a weight over the pulley (or the thrusters) pulls the vehicle along...",
+    ),
+    "spin": (
+        "api.cli.procedures",
+        "spin",
+        "Spin test: constant torque about the vertical axis (weight on the drum, or...",
+    ),
+    "pendulum": (
+        "api.cli.procedures",
+        "pendulum",
+        "Pendulum free decay: pull the vehicle out on the pendulum, release, record...",
+    ),
+    "calibrate-thrusters": (
+        "api.cli.procedures",
+        "calibrate_thrusters",
+        "Thrust calibration: step the thrusters on the load cell and fit thrust vs...",
+    ),
+    "sequence": (
+        "api.cli.procedures",
+        "sequence",
+        "Run a sequence file (tows, spins, calibrations; repeats and rest time).",
+    ),
+    "runs": ("api.cli.runs", "runs", "List stored runs, newest first."),
+    "show": (
+        "api.cli.runs",
+        "show",
+        "Show one run: configuration, how it ended, events and results (id or unique...",
+    ),
+    "export": (
+        "api.cli.runs",
+        "export",
+        "Export a run's samples (CSV: one row per sample; JSON: metadata + samples).",
+    ),
+    "import": (
+        "api.cli.runs",
+        "import_",
+        "Import a CSV (columns t [s] and position [m or rad]; more allowed); prints...",
+    ),
+    "estimate": (
+        "api.cli.estimate",
+        "estimate",
+        "Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β...",
+    ),
+    "crosscheck": (
+        "api.cli.crosscheck",
+        "crosscheck",
+        "Estimate weight-driven and thruster-driven runs of one axis (or take two...",
+    ),
+    "sim": (
+        "api.cli.sim",
+        "sim",
+        "Run the simulated rig (plant, Modbus PLC, thruster controller) until Ctrl-C.",
+    ),
+    "serve": (
+        "api.cli.serve",
+        "serve",
+        "Serve the HTTP API and the browser UI (binds 127.0.0.1 by default).",
+    ),
+    "token": (
+        "api.cli.serve",
+        "token",
+        "Print the API's bearer token (created on first use; or set RIG_API_TOKEN).",
+    ),
+    "sixdof": (
+        "api.cli.sixdof",
+        "sixdof",
+        "Simulate VEHICLE (a name from fixtures/vehicles or $RIG_VEHICLES_DIR, or a...",
+    ),
+    "sensitivity": (
+        "api.cli.analysis",
+        "sensitivity",
+        "Rank VEHICLE's coefficients (a name from fixtures/vehicles or...",
+    ),
+}
+
+#: Set to see the traceback of an unexpected error (for bug reports).
+DEBUG_ENV = "RIG_DEBUG"
+
+
+def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseException], ...]:
+    """Exception classes of modules already imported (a command that never imported one
+    cannot raise it), so catching them costs no import."""
+    found: list[type[BaseException]] = []
+    for module, names in pairs:
+        loaded = sys.modules.get(module)
+        found += [getattr(loaded, n) for n in names] if loaded is not None else []
+    return tuple(found)
+
+
+#: Bad input (exit 2): unknown or ambiguous ids, bad rig files, bad parameters.
+USER_ERRORS = (
+    ("daq.store.records", ("RunNotFound", "ResultNotFound", "AmbiguousRunId")),
+    ("daq.config", ("RigConfigError",)),
+    ("daq.procedures.params", ("ParameterError",)),
+)
+#: The rig or a device failed (exit 1: the run, if any, did not complete).
+FAULTS = (
+    ("daq.plc", ("DeviceError",)),
+    ("thrusters.driver", ("ThrusterError",)),
+    ("daq.session", ("RigBusy",)),
+    ("daq.procedures.motion", ("PreconditionFailed",)),
+)
+
+
+class RigGroup(click.Group):
+    """Loads a command's module on first use; every error ends as one ``error: …`` line."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return list(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        entry = COMMANDS.get(cmd_name)
+        if entry is None:
+            return None
+        module, attr, _ = entry
+        return getattr(importlib.import_module(module), attr)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        limit = formatter.width - 6 - max(len(name) for name in COMMANDS)
+        rows = [
+            (name, click.Command(name, help=text).get_short_help_str(limit))
+            for name, (_, _, text) in COMMANDS.items()
+        ]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        """Click's usage errors as one line (with where to find help), not three."""
+        # pymodbus logs each failed connect/bind itself; the command reports it once.
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+        try:
+            kwargs.pop("standalone_mode", None)  # errors are reported here, one line each
+            rv = super().main(*args, standalone_mode=False, **kwargs)
+        except click.ClickException as err:
+            hint = ""
+            if isinstance(err, click.UsageError) and err.ctx is not None:
+                hint = f" (see '{err.ctx.command_path} --help')"
+            click.echo(f"error: {_one_line(err.format_message())}{hint}", err=True)
+            sys.exit(err.exit_code)
+        except click.Abort:
+            click.echo("error: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        name, cmd, rest = super().resolve_command(ctx, args)
+        ctx.meta["rig.command"] = (name, cmd, list(rest))  # to name flags in errors
+        return name, cmd, rest
+
+    def invoke(self, ctx: click.Context) -> Any:
+        from api.cli.common import fail, flag_names
+
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.Exit, click.ClickException, click.Abort, SystemExit):
+            raise
+        except KeyboardInterrupt:
+            fail("interrupted", code=130)
+        except _loaded(USER_ERRORS) as err:
+            fail(flag_names(_command_context(ctx), _one_line(err)))
+        except _loaded(FAULTS) as err:
+            fail(_one_line(err), code=1)
+        except OSError as err:
+            if err.filename is None:
+                fail(_one_line(err), code=1)
+            where = _option_given(_command_context(ctx), str(err.filename))
+            fail(f"{where}cannot use {err.filename}: {err.strerror or err}")
+        except Exception as err:  # a bug: say what, and how to see more
+            if os.environ.get(DEBUG_ENV):
+                raise
+            fail(f"{_one_line(err)} ({type(err).__name__}; set {DEBUG_ENV}=1 for details)", 1)
+
+
+def _command_context(ctx: click.Context) -> click.Context | None:
+    """The subcommand's context, parsed again from its arguments (the real one is gone
+    by the time an error reaches the group)."""
+    name, cmd, args = ctx.meta.get("rig.command", (None, None, []))
+    if cmd is None:
+        return None
+    try:
+        return cmd.make_context(name, list(args), parent=ctx, resilient_parsing=True)
+    except click.ClickException:
+        return None
+
+
+def _option_given(ctx: click.Context | None, path: str) -> str:
+    """``--output: `` when the user gave ``path`` (or a folder holding it) to an option."""
+    if ctx is None:
+        return ""
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name or "")
+        values = value if isinstance(value, tuple | list) else [value]
+        for v in values:
+            given = str(v).rstrip("/") if v is not None else ""
+            if given and (path == given or path.startswith(given + "/")):
+                return f"{max(param.opts, key=len)}: " if isinstance(param, click.Option) else ""
+    return ""
+
+
+def _one_line(err: BaseException | str) -> str:
+    lines = getattr(err, "lines", None)
+    text = "; ".join(lines()) if callable(lines) else str(err)
+    return " ".join(text.split()) or type(err).__name__
+
+
+@click.group(
+    cls=RigGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
+@click.version_option(package_name="towrig", prog_name="rig")
+def main() -> None:
+    """Run the underwater-vehicle test rig: tow, spin and pendulum tests, thrust calibration,
+    sequences, stored runs, estimation, the simulated rig and the HTTP service."""
+
+
+if __name__ == "__main__":
+    main(prog_name="rig")

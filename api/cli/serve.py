@@ -1,0 +1,123 @@
+"""``rig serve`` (the HTTP API and browser UI) and ``rig token``."""
+
+from __future__ import annotations
+
+import socket
+
+import click
+
+from api.cli.common import db_option, fail, rig_option, scenario_option, user_errors
+from api.http.auth import TOKEN_ENV, load_or_create_token, token_file_warning, token_path
+
+
+@click.command()
+@rig_option
+@scenario_option
+@db_option
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind.")
+@click.option(
+    "--port", default=8000, show_default=True, type=click.IntRange(0, 65535),
+    help="TCP port (0 picks a free one).",
+)  # fmt: skip
+@click.option("--open-read", is_flag=True, help="Let read-only endpoints answer without the token.")
+@click.option(
+    "--allow-host", "allow_hosts", multiple=True, metavar="NAME",
+    help="With --open-read, also answer requests for Host NAME (repeatable; the bound "
+    "address, localhost and 127.0.0.1 always are).",
+)  # fmt: skip
+@click.option(
+    "--cors-origin", "cors_origins", multiple=True, metavar="ORIGIN",
+    help="Allow browser pages from ORIGIN (repeatable). CORS is off by default.",
+)  # fmt: skip
+@click.option(
+    "--ask-operator/--auto-operator", default=None,
+    help="Ask a person through the API for weights etc. (default: only on a hardware rig).",
+)  # fmt: skip
+@click.option(
+    "--realtime/--no-realtime", default=True, show_default=True,
+    help="Run the clock's thread SCHED_FIFO (needs CAP_SYS_NICE; falls back with a warning).",
+)  # fmt: skip
+def serve(
+    rig_file,
+    scenario_file,
+    db_url,
+    host,
+    port,
+    open_read,
+    allow_hosts,
+    cors_origins,
+    ask_operator,
+    realtime,
+):
+    """Serve the HTTP API and the browser UI (binds 127.0.0.1 by default)."""
+    import uvicorn
+
+    from api.core.service import RigService, RigUnavailable
+    from api.http.app import create_app
+    from daq.session import RigSource
+
+    with user_errors():
+        source = RigSource.load(rig_file, scenario_file)
+    token = load_or_create_token()
+    if warning := token_file_warning():
+        click.echo(warning, err=True)
+    service = RigService(
+        source, db_url, ask_operator=ask_operator, realtime=realtime, owner="rig serve"
+    )
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as err:
+        fail(f"--host/--port: cannot bind {host}:{port}: {err.strerror}")
+    bound_port = sock.getsockname()[1]
+    # The app's lifespan stops the service (rig left safe) before uvicorn re-raises a SIGTERM.
+    app = create_app(
+        service,
+        token=token,
+        open_read=open_read,
+        cors_origins=cors_origins,
+        allowed_hosts=[host, *allow_hosts],
+    )
+    # Configures logging: before the rig opens, so the device loggers keep their levels.
+    config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
+    # Open the rig (and take its lock) before announcing anything: a rig another process
+    # drives, or one that cannot be reached, is one line on stderr and exit code 1.
+    try:
+        service.start()
+    except Exception as err:  # the rig is held elsewhere or unreachable, or a bad database
+        sock.close()
+        app.state.runner.close()
+        bad_db = f"cannot open database {db_url or '(default)'}: {err}"
+        fail(str(err) if isinstance(err, RigUnavailable) else bad_db, code=1)
+    shown = f"[{host}]" if ":" in host else host
+    where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
+    click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
+               f"{source.rig.rig.mode})")  # fmt: skip
+    click.echo(f"API token: from {where}; send 'Authorization: Bearer <token>'")
+    click.echo(f"browser UI: http://{shown}:{bound_port}/#token=<token> (or paste it when asked)")
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        click.echo(f"warning: listening on {host}: reachable from other machines", err=True)
+    server = uvicorn.Server(config)
+    try:
+        server.run(sockets=[sock])
+    finally:
+        service.stop()  # (already done by the lifespan, unless uvicorn never started)
+
+
+def _token_from_env() -> bool:
+    import os
+
+    return bool(os.environ.get(TOKEN_ENV, "").strip())
+
+
+@click.command()
+def token():
+    """Print the API's bearer token (created on first use; or set RIG_API_TOKEN)."""
+    click.echo(load_or_create_token())
+    if warning := token_file_warning():
+        click.echo(warning, err=True)
+
+
+if __name__ == "__main__":  # ``python -m api.cli.serve`` (what the browser test starts)
+    serve()

@@ -1,0 +1,1 @@
+"""The application core: the rig service, the job runner, the live stream."""

@@ -1,0 +1,98 @@
+"""What the analysis route and ``rig sensitivity`` share: stored estimation results with
+their runs' speeds, AHP weights from judgement matrices, and one analysis call."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from api.core.sixdof import find_vehicle
+from daq.run_data import load_run_data
+from daq.store import Store
+from estimation.vehicle.ahp import Hierarchy, Judgement, hierarchy, judge
+from estimation.vehicle.identifiability import analyse_identified, run_speed
+
+
+def stored_results(store: Store, result_ids: Sequence[int]) -> tuple[list[dict], dict]:
+    """Estimation result documents (with ``result_id``) and, per axis, the end speeds of
+    the runs behind them. ``ResultNotFound`` names an unknown id; a calibration result is
+    a ValueError naming it."""
+    docs, speeds = [], {}
+    for result_id in result_ids:
+        found = store.result(result_id)
+        if found.kind != "estimation":
+            raise ValueError(
+                f"estimates: result {result_id} is a {found.kind!r} result, "
+                "allowed: estimation results"
+            )
+        doc = dict(found.data) | {"result_id": result_id}
+        docs.append(doc)
+        for run_id in found.run_ids:
+            try:
+                speeds.setdefault(doc["axis"], []).append(run_speed(load_run_data(store, run_id)))
+            except (KeyError, ValueError):  # run gone or not estimable: σ and ρ still speak
+                continue
+    return docs, speeds
+
+
+def judgement(spec: Mapping[str, Any]) -> Judgement | Hierarchy:
+    """AHP from ``{"criteria": {name, matrix, labels}, "groups": [{name, matrix, labels}]}``
+    (a two-level hierarchy) or ``{"matrix", "labels", "name"}`` (one matrix)."""
+    if spec.get("groups"):
+        crit = spec.get("criteria") or {}
+        groups = spec["groups"]
+        return hierarchy(
+            crit.get("matrix"),
+            [(g.get("matrix"), g.get("labels") or []) for g in groups],
+            criteria_name=crit.get("name") or "criteria",
+            group_names=[g.get("name") or f"group{i}" for i, g in enumerate(groups)],
+        )
+    return judge(spec.get("matrix"), spec.get("name") or "matrix", labels=spec.get("labels"))
+
+
+def analyse_vehicle(
+    store: Store | None,
+    vehicle_name: str,
+    *,
+    estimates: Sequence[int] = (),
+    responses: Sequence[str] | None = None,
+    weights: Mapping[str, float] | None = None,
+    ahp: Mapping[str, Any] | None = None,
+    thresholds: Sequence[float] = (),
+    keep: Sequence[str] = (),
+    delta: float = 0.01,
+    forces: Mapping[str, float] | None = None,
+    distance_time_s: float | None = None,
+    allow_path: bool = False,
+    max_evaluations: int | None = None,
+    time_limit_s: float | None = None,
+) -> dict[str, Any]:
+    """The full analysis of a vehicle (with stored estimates plugged in) as JSON."""
+    if weights and ahp:
+        raise ValueError("weights: give either weights or ahp judgement matrices, not both")
+    vehicle = find_vehicle(vehicle_name, allow_path=allow_path)
+    if estimates and store is None:
+        raise ValueError("estimates: stored results need a database")
+    docs, speeds = stored_results(store, estimates) if store and estimates else ([], {})
+    chosen = judgement(ahp) if ahp else weights
+    report = analyse_identified(
+        vehicle,
+        docs,
+        run_speeds=speeds,
+        responses=responses,
+        weights=chosen,
+        delta=delta,
+        thresholds=thresholds,
+        keep=keep,
+        forces=forces,
+        distance_time_s=distance_time_s,
+        max_evaluations=max_evaluations,
+        time_limit_s=time_limit_s,
+    )
+    out = report.to_json()
+    out["vehicle_name"] = vehicle_name
+    out["estimates"] = [
+        {"result_id": d["result_id"], "axis": d["axis"], "runs": d.get("runs", [])} for d in docs
+    ]
+    out["run_speeds"] = speeds
+    return out

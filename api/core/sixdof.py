@@ -1,0 +1,161 @@
+"""What the 6-DOF route and the ``rig sixdof`` command share: where vehicle files are,
+finding one by name, plugging stored estimates in, and the simulation summary."""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from estimation.vehicle.description import (
+    DOFS,
+    Vehicle6,
+    VehicleError,
+    apply_result_json,
+    load_vehicle,
+)
+from estimation.vehicle.dynamics import Trajectory, allocation_matrix, simulate, steady_state
+
+#: The vehicles that come with the project.
+FIXTURE_VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
+#: A directory of the lab's own vehicle files, searched after the fixtures.
+VEHICLES_DIR_ENV = "RIG_VEHICLES_DIR"
+#: Trajectories sent back hold at most this many samples.
+MAX_POINTS = 2000
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
+
+
+class VehicleNotFound(KeyError):
+    """No vehicle file has this name."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else "vehicle not found"
+
+
+def vehicle_dirs() -> list[Path]:
+    """The fixtures directory, then ``$RIG_VEHICLES_DIR`` when set."""
+    dirs = [FIXTURE_VEHICLES]
+    extra = os.environ.get(VEHICLES_DIR_ENV, "").strip()
+    if extra:
+        dirs.append(Path(extra).expanduser())
+    return dirs
+
+
+def vehicle_files() -> dict[str, Path]:
+    """Vehicle name (file stem) → file; a later directory does not shadow an earlier one."""
+    found: dict[str, Path] = {}
+    for folder in vehicle_dirs():
+        if folder.is_dir():
+            for path in sorted(folder.glob("*.toml")):
+                found.setdefault(path.stem, path)
+    return found
+
+
+def find_vehicle(name: str, *, allow_path: bool = False) -> Vehicle6:
+    """The vehicle named ``name`` (a file stem, e.g. ``seed002-rov``); with ``allow_path``
+    (the CLI, not the API) also a path to a ``.toml`` file."""
+    files = vehicle_files()
+    if _NAME.match(name) and name in files:
+        return load_vehicle(files[name])
+    if allow_path and name.endswith(".toml") and Path(name).is_file():
+        return load_vehicle(name)
+    known = ", ".join(files) or "none"
+    raise VehicleNotFound(f"no vehicle named {name!r}; known: {known}")
+
+
+def vehicle_summary(name: str, path: Path) -> dict[str, Any]:
+    """One line of the vehicle list (a broken file is listed with its error)."""
+    try:
+        v = load_vehicle(path)
+    except VehicleError as err:
+        return {"name": name, "file": str(path), "error": str(err)}
+    return {
+        "name": name,
+        "file": str(path),
+        "vehicle": v.name,
+        "mass_kg": v.mass_kg,
+        "thrusters": [t.name for t in v.thrusters],
+        "notes": v.notes,
+    }
+
+
+def vehicle_detail(name: str) -> dict[str, Any]:
+    """Parameters, coefficients, thrusters and allocation matrix of one vehicle."""
+    v = find_vehicle(name)
+    return {
+        "name": name,
+        "file": v.source,
+        "dofs": list(DOFS),
+        "vehicle": v.to_json(),
+        "allocation_matrix": allocation_matrix(v).tolist(),
+    }
+
+
+def apply_results(vehicle: Vehicle6, results: Sequence[tuple[int, dict]]) -> tuple[Vehicle6, list]:
+    """Plug stored estimation results (id, data) into the vehicle, in order."""
+    applied = []
+    for result_id, data in results:
+        vehicle = apply_result_json(vehicle, data, f"result {result_id}")
+        axis = data["axis"]
+        applied.append(
+            {
+                "result_id": result_id,
+                "axis": axis,
+                "added_mass": vehicle.coefficients()[f"added_mass.{axis}"],
+                "linear_damping": vehicle.coefficients()[f"linear_damping.{axis}"],
+                "quadratic_damping": vehicle.coefficients()[f"quadratic_damping.{axis}"],
+            }
+        )
+    return vehicle, applied
+
+
+def run(
+    vehicle: Vehicle6,
+    duration_s: float,
+    *,
+    commands: Sequence[float] | None,
+    force: Sequence[float] | None,
+    dt: float,
+    eta0: Sequence[float] | None = None,
+    nu0: Sequence[float] | None = None,
+    max_points: int = MAX_POINTS,
+    max_evaluations: int | None = None,
+) -> tuple[Trajectory, dict[str, Any]]:
+    """Simulate with constant inputs; the trajectory and a JSON summary (steady values,
+    final pose, applied τ, trajectory decimated to ≤ ``max_points`` samples)."""
+    if commands is None and force is None and eta0 is None and nu0 is None:
+        raise ValueError(
+            "commands: got None, allowed: per-thruster commands or a force (6 values) "
+            "or an initial state"
+        )
+    traj = simulate(
+        vehicle,
+        duration_s,
+        commands=None if commands is None else np.asarray(commands, dtype=float),
+        force=None if force is None else np.asarray(force, dtype=float),
+        dt=dt,
+        eta0=eta0,
+        nu0=nu0,
+        max_evaluations=max_evaluations,
+    )
+    every = max(1, math.ceil(len(traj.t) / (max_points - 1)))
+    steady = steady_state(traj)
+    summary = {
+        "vehicle": vehicle.name,
+        "duration_s": float(traj.t[-1]),
+        "dt": dt,
+        "samples": len(traj.t),
+        "every": every,
+        "tau": dict(zip(("X", "Y", "Z", "K", "M", "N"), traj.tau[0].tolist(), strict=True)),
+        "steady": steady.to_json(),
+        "final_eta": dict(
+            zip(("x", "y", "z", "phi", "theta", "psi"), traj.eta[-1].tolist(), strict=True)
+        ),
+        "trajectory": traj.to_json(every=every),
+    }
+    return traj, summary

@@ -1,0 +1,233 @@
+"""The FastAPI application: routes, error bodies, token checks, the browser UI.
+
+``create_app(service, token=...)`` wires a ``RigService`` (the rig thread) and a
+``JobRunner`` into the routes. With ``manage_service`` (the default) the app's
+lifespan starts the rig when the server starts and leaves it safe when it stops.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import AsyncIterator, Sequence
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.middleware.trustedhost import TrustedHostMiddleware
+from fastapi.responses import FileResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from api.core.jobs import JobConflict, JobNotFound, JobRunner
+from api.core.service import RigService, RigUnavailable
+from api.http.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
+from api.http.request_errors import request_json_error, request_not_found
+from api.http.routes import analysis as routes_analysis
+from api.http.routes import crosscheck as routes_crosscheck
+from api.http.routes import jobs as routes_jobs
+from api.http.routes import rig as routes_rig
+from api.http.routes import runs as routes_runs
+from api.http.routes import sixdof as routes_sixdof
+from api.http.routes import stream as routes_stream
+from api.http.static_assets import app_with_offline_docs, compress_static
+from daq.procedures.params import ParameterError
+from daq.store import AmbiguousRunId, RunNotFound
+from daq.store.base import software_version
+
+log = logging.getLogger(__name__)
+STATIC_DIR = Path(__file__).parent / "static"
+#: Largest CSV upload accepted (bytes).
+MAX_UPLOAD_BYTES = UPLOAD_BODY_LIMIT
+#: Host names an ``open_read`` service always answers to (besides ``allowed_hosts``).
+LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1", "[::1]")
+
+
+def _plotly_js() -> Path | None:
+    try:
+        import plotly
+    except ImportError:  # pragma: no cover - plotly is a dependency
+        return None
+    path = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+    return path if path.is_file() else None
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    try:
+        json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError):
+        return str(value)
+    return value
+
+
+def _error(status: int, detail: str, **extra: Any) -> JSONResponse:
+    body = {"detail": detail} | {k: v for k, v in extra.items() if v is not None}
+    return JSONResponse(body, status_code=status)
+
+
+def _install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        response = _error(exc.status_code, str(exc.detail))
+        for k, v in (exc.headers or {}).items():
+            response.headers[k] = v
+        return response
+
+    @app.exception_handler(RequestValidationError)
+    async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+        not_found = request_not_found(exc.errors())
+        if not_found is not None:  # an id no resource can have is an unknown id
+            return _error(404, not_found)
+        invalid_json = request_json_error(exc.errors())
+        if invalid_json is not None:
+            return _error(422, invalid_json["message"], errors=[invalid_json])
+        problems = []
+        for e in exc.errors():
+            loc = [str(p) for p in e.get("loc", ()) if p not in ("body", "query", "path")]
+            field = ".".join(loc) or "body"
+            value = None if e.get("type") == "missing" else _json_safe(e.get("input"))
+            problems.append(
+                {
+                    "field": field,
+                    "value": value,
+                    "allowed": e.get("msg", "invalid"),
+                    "message": f"{field}: {value!r} is not allowed; {e.get('msg', 'invalid')}",
+                }
+            )
+        detail = "; ".join(p["message"] for p in problems) or "invalid request"
+        return _error(422, detail, errors=problems)
+
+    @app.exception_handler(ParameterError)
+    async def parameter_error(request: Request, exc: ParameterError) -> JSONResponse:
+        return _error(422, str(exc), errors=exc.to_json())
+
+    @app.exception_handler(RunNotFound)
+    async def run_not_found(request: Request, exc: RunNotFound) -> JSONResponse:
+        return _error(404, str(exc))
+
+    @app.exception_handler(JobNotFound)
+    async def job_not_found(request: Request, exc: JobNotFound) -> JSONResponse:
+        return _error(404, str(exc))
+
+    @app.exception_handler(AmbiguousRunId)
+    async def ambiguous(request: Request, exc: AmbiguousRunId) -> JSONResponse:
+        return _error(404, str(exc))
+
+    @app.exception_handler(JobConflict)
+    async def conflict(request: Request, exc: JobConflict) -> JSONResponse:
+        return _error(409, str(exc), holder=exc.holder)
+
+    @app.exception_handler(RigUnavailable)
+    async def unavailable(request: Request, exc: RigUnavailable) -> JSONResponse:
+        return _error(503, str(exc))
+
+    @app.exception_handler(ValueError)
+    async def bad_value(request: Request, exc: ValueError) -> JSONResponse:
+        # The store and the CSV import name the field (or line/column) in their message.
+        if "JSON compliant" in str(exc):  # our bug (a NaN in a response), not bad input
+            log.error("response not JSON-serialisable: %s", exc)
+            return _error(500, "internal error: a response held a non-finite number")
+        return _error(422, str(exc))
+
+    @app.exception_handler(TimeoutError)
+    async def timeout(request: Request, exc: TimeoutError) -> JSONResponse:
+        return _error(503, f"the rig did not answer in time: {exc}")
+
+
+def create_app(
+    service: RigService,
+    *,
+    token: str,
+    open_read: bool = False,
+    cors_origins: Sequence[str] = (),
+    allowed_hosts: Sequence[str] = (),
+    max_upload_bytes: int = MAX_UPLOAD_BYTES,
+    max_json_bytes: int = JSON_BODY_LIMIT,
+    manage_service: bool = True,
+    report_root: Path | None = None,
+    runner: JobRunner | None = None,
+) -> FastAPI:
+    """The rig's HTTP API and browser UI on top of ``service`` (and an existing ``runner``,
+    to serve the same jobs from a second app).
+
+    Request bodies are capped before parsing and before the token check (``api.http.limits``).
+    With ``open_read`` only requests whose ``Host`` is local or in ``allowed_hosts`` are
+    answered (400 otherwise), so a DNS-rebinding page cannot read runs or the stream."""
+    own_runner = runner is None
+    runner = runner or JobRunner(service, report_root=report_root)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        import asyncio
+
+        if manage_service and not service.started:  # `rig serve` starts it beforehand
+            await asyncio.to_thread(service.start)
+        try:
+            yield
+        finally:
+            if own_runner:
+                runner.close()
+            if manage_service:
+                await asyncio.to_thread(service.stop)
+
+    app = app_with_offline_docs(
+        title="towrig rig service",
+        version=software_version(),
+        description="Run the underwater-vehicle test rig: tests as jobs, stored runs, "
+        "estimation, a live stream. Every state-changing endpoint needs "
+        "`Authorization: Bearer <token>` (`rig token` prints it); read-only ones too "
+        "unless the service runs with `--open-read`.",
+        lifespan=lifespan,
+    )
+    app.state.service = service
+    app.state.runner = runner
+    app.state.token = token
+    app.state.open_read = open_read
+    app.state.max_upload_bytes = max_upload_bytes
+    _install_error_handlers(app)
+    compress_static(app)
+    if cors_origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=list(cors_origins),
+            allow_methods=["GET", "POST"],
+            allow_headers=["Authorization", "Content-Type"],
+        )
+    if open_read:
+        app.add_middleware(
+            TrustedHostMiddleware,
+            allowed_hosts=[*LOCAL_HOSTS, *allowed_hosts],
+            www_redirect=False,
+        )
+    app.add_middleware(BodyLimit, json_limit=max_json_bytes, upload_limit=max_upload_bytes)
+    for module in (
+        routes_rig,
+        routes_crosscheck,
+        routes_jobs,
+        routes_runs,
+        routes_stream,
+        routes_sixdof,
+        routes_analysis,
+    ):
+        app.include_router(module.router)
+
+    plotly_js = _plotly_js()
+
+    @app.get("/", include_in_schema=False)
+    def index() -> FileResponse:
+        return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
+
+    @app.get("/static/plotly.min.js", include_in_schema=False)
+    def plotly_bundle() -> FileResponse:
+        if plotly_js is None:  # pragma: no cover
+            raise StarletteHTTPException(404, "plotly is not installed")
+        return FileResponse(plotly_js, media_type="text/javascript")
+
+    app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    return app

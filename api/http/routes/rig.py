@@ -1,0 +1,100 @@
+"""Rig routes: status, arm/disarm thrusters, emergency stop, health."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends, Request
+
+from api.core.jobs import JobConflict, JobRunner
+from api.core.service import RigService
+from api.http.deps import RunnerDep, ServiceDep, require_read, require_write
+from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
+from daq.store.base import software_version
+
+router = APIRouter(prefix="/api", tags=["rig"])
+
+
+def rig_status(service: RigService, runner: JobRunner) -> dict:
+    """The rig's status with the current job and the rig's limits."""
+    data = service.snapshot()
+    job = runner.rig_job
+    data["current_job"] = job.to_json() if job is not None else None
+    lim = service.source.rig.limits
+    data["limits"] = {
+        "max_force_n": lim.max_force_n,
+        "max_torque_nm": lim.max_torque_nm,
+        "max_thruster_command": lim.max_thruster_command,
+        "max_run_s": lim.max_run_s,
+        "end_of_travel_m": service.source.rig.geometry.end_of_travel_m,
+        "spin_max_angle_rad": service.source.rig.geometry.spin_max_angle_rad,
+        "g": service.source.rig.rig.g,
+    }
+    data["stream_clients"] = service.broadcaster.client_count
+    return data
+
+
+@router.get("/health", response_model=Health)
+def health(request: Request, service: ServiceDep) -> dict:
+    """Liveness (no token needed): is the rig service running."""
+    return {
+        "ok": service.running,
+        "version": software_version(),
+        "read_requires_token": not request.app.state.open_read,
+    }
+
+
+@router.get(
+    "/rig",
+    response_model=RigStatus,
+    dependencies=[Depends(require_read)],
+    responses=error_responses(401),
+)
+def get_rig(service: ServiceDep, runner: RunnerDep) -> dict:
+    """Connected, armed, stale channels, current values, lock holder, device loss, clock."""
+    return rig_status(service, runner)
+
+
+def _idle_session(service: RigService, runner: JobRunner):
+    session = service.require_session()
+    job = runner.rig_job
+    if job is not None or session.lock_holder is not None:
+        holder = f"{job.label} (job {job.id})" if job is not None else session.lock_holder
+        raise JobConflict(f"rig is busy: {holder} holds the rig lock", holder=holder)
+    return session
+
+
+@router.post(
+    "/rig/arm",
+    response_model=RigStatus,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 409, 503),
+)
+def arm(service: ServiceDep, runner: RunnerDep) -> dict:
+    """Arm the thrusters (outputs stay at zero until a procedure commands them)."""
+    session = _idle_session(service, runner)
+    service.run(session.arm_thrusters())
+    return rig_status(service, runner)
+
+
+@router.post(
+    "/rig/disarm",
+    response_model=RigStatus,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 409, 503),
+)
+def disarm(service: ServiceDep, runner: RunnerDep) -> dict:
+    """Command zero and disarm the thrusters."""
+    session = _idle_session(service, runner)
+    service.run(session.disarm_thrusters())
+    return rig_status(service, runner)
+
+
+@router.post(
+    "/rig/emergency-stop",
+    response_model=EmergencyStopOut,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 503),
+)
+def emergency_stop(runner: RunnerDep) -> dict:
+    """Abort whatever runs and put the rig in its safe state (thrusters zero, brakes on)."""
+    aborted = runner.emergency_stop()
+    return {"aborted_jobs": aborted, "safe_state": True}

@@ -1,0 +1,581 @@
+// towrig browser UI: plain JavaScript, talks to the same HTTP API as any lab tool.
+"use strict";
+
+const $ = (sel, root = document) => root.querySelector(sel);
+const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
+const FINAL = ["completed", "aborted", "failed"];
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {} };
+// Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
+const pageLoaders = {};
+
+// ---- token: from #token=..., else localStorage, else ask ------------------------------
+function initToken() {
+  const m = location.hash.match(/token=([^&]+)/);
+  if (m) {
+    localStorage.setItem("rig-token", decodeURIComponent(m[1]));
+    history.replaceState(null, "", location.pathname + "#rig");
+  }
+  state.token = localStorage.getItem("rig-token");
+  if (!state.token) askToken();
+}
+
+function askToken(message = "") {
+  $("#token-error").textContent = message;
+  $("#token-dialog").hidden = false;
+  $("#token-input").focus();
+}
+
+$("#token-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  state.token = $("#token-input").value.trim();
+  localStorage.setItem("rig-token", state.token);
+  try {
+    await api("GET", "/api/rig");
+    $("#token-dialog").hidden = true;
+    refreshAll();
+  } catch (err) {
+    askToken(err.message);
+  }
+});
+
+class ApiError extends Error {
+  constructor(status, body) {
+    super(body.detail || `HTTP ${status}`);
+    this.status = status;
+    this.body = body;
+  }
+}
+
+async function api(method, path, body) {
+  const headers = { Authorization: `Bearer ${state.token}` };
+  const init = { method, headers };
+  if (body !== undefined) {
+    headers["Content-Type"] = "application/json";
+    init.body = JSON.stringify(body);
+  }
+  const r = await fetch(path, init);
+  const isJson = (r.headers.get("content-type") || "").includes("json");
+  const data = isJson ? await r.json() : await r.text();
+  if (r.status === 401) askToken("The token was refused: " + (data.detail || ""));
+  if (!r.ok) throw new ApiError(r.status, isJson ? data : { detail: data });
+  return data;
+}
+
+async function download(path, filename) {
+  const r = await fetch(path, { headers: { Authorization: `Bearer ${state.token}` } });
+  if (!r.ok) return alert(`Export failed: HTTP ${r.status}`);
+  const url = URL.createObjectURL(await r.blob());
+  const a = Object.assign(document.createElement("a"), { href: url, download: filename });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 5000);
+}
+
+const fmt = (v, digits = 4) =>
+  v === null || v === undefined ? "—" : typeof v === "number" ? Number(v.toPrecision(digits)).toString() : String(v);
+const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
+function kv(table, rows) {
+  table.innerHTML = rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("");
+}
+function load(run) {
+  const p = run.parameters || {};
+  if (p.force_n !== undefined) return `${fmt(p.force_n)} N`;
+  if (p.torque_nm !== undefined) return `${fmt(p.torque_nm)} N·m`;
+  if (p.start_angle_rad !== undefined) return `${fmt(p.start_angle_rad)} rad`;
+  return "";
+}
+
+// ---- pages ----------------------------------------------------------------------------
+function showPage() {
+  const page = (location.hash.replace("#", "").split("&")[0] || "rig");
+  $$(".page").forEach((s) => (s.hidden = s.id !== `page-${page}`));
+  $$("nav a").forEach((a) => a.classList.toggle("active", a.dataset.page === page));
+  if (page === "runs") loadRuns();
+  if (page === "estimation") loadEstimationRuns();
+  if (page === "thrusters") loadCalibration();
+  if (page === "rig") Plotly.Plots.resize("live-plot");
+  if (pageLoaders[page]) pageLoaders[page]();
+}
+window.addEventListener("hashchange", showPage);
+
+// ---- rig status -------------------------------------------------------------------------
+async function refreshRig() {
+  try {
+    const s = await api("GET", "/api/rig");
+    state.rig = s;
+    state.limits = s.limits || {};
+    const ok = s.running && s.connected && !s.device_lost;
+    $("#conn-dot").className = "dot " + (ok ? "ok" : "bad");
+    $("#conn-text").textContent = ok ? `${s.rig_name}${s.simulated ? " (simulated)" : ""}` : s.error || "device lost";
+    const clock = s.clock || {};
+    kv($("#status-table"), [
+      ["Rig", `${s.rig_name} — ${s.vehicle || ""}`],
+      ["Mode", s.simulated ? "simulated" : "hardware"],
+      ["PLC connected", s.connected ? "yes" : "NO"],
+      ["Device lost", s.device_lost ? "YES" : "no"],
+      ["Thrusters", `${s.armed ? "armed" : "disarmed"} (${s.thrusters ? s.thrusters.state : "—"})`],
+      ["Rig lock", s.lock_holder || "free"],
+      ["Stale channels", (s.stale_channels || []).join(", ") || "none"],
+      ["Clock", `${fmt(clock.rate_hz)} Hz, p99 lateness ${fmt((clock.lateness_p99_s || 0) * 1000, 3)} ms`],
+    ]);
+    const ch = (s.sample && s.sample.channels) || {};
+    const units = s.units || {};
+    kv($("#channels-table"), Object.entries(ch).map(([k, v]) => [k, units[k] && v !== null ? `${fmt(v, 6)} ${units[k]}` : fmt(v, 6)]));
+    setLimits();
+    if (s.current_job) showJob(s.current_job);
+  } catch (err) {
+    $("#conn-dot").className = "dot bad";
+    $("#conn-text").textContent = err.message;
+  }
+}
+
+function setLimits() {
+  const l = state.limits;
+  const set = (form, name, max) => {
+    const el = $(`#form-${form} [name=${name}]`);
+    if (el && max !== undefined) el.max = max;
+  };
+  set("tow", "force_n", l.max_force_n);
+  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined);
+  set("tow", "max_time_s", l.max_run_s);
+  set("tow", "max_distance_m", l.end_of_travel_m);
+  set("spin", "torque_nm", l.max_torque_nm);
+  set("spin", "max_time_s", l.max_run_s);
+}
+
+// ---- jobs ---------------------------------------------------------------------------------
+function showJob(job) {
+  if (!job) return;
+  if (job.kind === "estimation") return showEstimationJob(job);
+  state.job = job;
+  const pct = Math.round(100 * (job.progress.fraction || 0));
+  const act = job.operator_act;
+  const runs = job.run_ids.map((r) => `<a href="#runs" data-run="${r}">${r.slice(0, 8)}</a>`).join(", ");
+  $("#job-panel").innerHTML = `
+    <p><strong>${esc(job.label)}</strong> <span class="state ${job.state}" id="job-state">${job.state}</span></p>
+    <div class="progress"><div style="width:${pct}%"></div></div>
+    <p id="job-message">${esc(job.progress.message)}</p>
+    ${act ? `<div class="operator"><strong>Operator:</strong> ${esc(act.instruction)}
+        <button id="confirm-btn">Done — continue</button></div>` : ""}
+    ${job.kind === "sequence" && !FINAL.includes(job.state)
+      ? `<button id="pause-btn">Pause</button> <button id="resume-btn">Resume</button>` : ""}
+    <p class="muted">Runs: <span id="job-runs">${runs || "—"}</span></p>
+    ${job.error ? `<p class="error">${esc(job.error)}</p>` : ""}`;
+  const bind = (id, action) => {
+    const b = $(id);
+    if (b) b.onclick = () => api("POST", `/api/jobs/${job.id}/${action}`).then(showJob).catch((e) => alert(e.message));
+  };
+  bind("#confirm-btn", "confirm");
+  bind("#pause-btn", "pause");
+  bind("#resume-btn", "resume");
+  $$("#job-runs a").forEach((a) => (a.onclick = () => openRunSoon(a.dataset.run)));
+  if (FINAL.includes(job.state)) setTimeout(refreshRig, 200);
+}
+
+function openRunSoon(runId) {
+  setTimeout(() => openRun(runId), 100);
+}
+
+$("#abort-btn").onclick = async () => {
+  const job = (state.rig && state.rig.current_job) || state.job;
+  if (!job || FINAL.includes(job.state)) return alert("No test is running.");
+  try {
+    showJob(await api("POST", `/api/jobs/${job.id}/abort`));
+  } catch (err) {
+    alert(err.message);
+  }
+};
+$("#estop-btn").onclick = async () => {
+  try {
+    const r = await api("POST", "/api/rig/emergency-stop");
+    $("#job-panel").insertAdjacentHTML("afterbegin", `<p class="error">Emergency stop: aborted ${r.aborted_jobs.length} job(s); rig safe.</p>`);
+  } catch (err) {
+    alert(err.message);
+  }
+};
+$("#arm-btn").onclick = () => api("POST", "/api/rig/arm").then(refreshRig).catch((e) => alert(e.message));
+$("#disarm-btn").onclick = () => api("POST", "/api/rig/disarm").then(refreshRig).catch((e) => alert(e.message));
+
+$$(".tabs button").forEach((b) => {
+  b.onclick = () => {
+    $$(".tabs button").forEach((x) => x.classList.toggle("active", x === b));
+    $$(".start-form[data-kind]").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
+  };
+});
+
+function formBody(form) {
+  const body = {};
+  for (const el of form.elements) {
+    if (!el.name || el.value === "" || el.type === "submit") continue;
+    if (el.type === "checkbox") body[el.name] = el.checked;
+    else if (el.name === "commands") body.commands = el.value.split(",").map((x) => Number(x.trim()));
+    else if (el.type === "number") body[el.name] = Number(el.value);
+    else body[el.name] = el.value;
+  }
+  return body;
+}
+
+$$(".start-form[data-kind]").forEach((form) => {
+  form.addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    const errors = $(".errors", form);
+    errors.innerHTML = "";
+    $$("input", form).forEach((i) => i.classList.remove("invalid"));
+    if (!form.checkValidity()) {
+      form.reportValidity();
+      return;
+    }
+    try {
+      const job = await api("POST", `/api/jobs/${form.dataset.kind}`, formBody(form));
+      showJob(job);
+      resetLive();
+    } catch (err) {
+      const problems = (err.body && err.body.errors) || [{ message: err.message, field: "" }];
+      for (const p of problems) {
+        errors.insertAdjacentHTML("beforeend", `<li>${esc(p.message)}</li>`);
+        const input = $(`[name="${p.field}"]`, form);
+        if (input) input.classList.add("invalid");
+      }
+      if (err.body && err.body.holder) errors.insertAdjacentHTML("beforeend", `<li>Rig held by ${esc(err.body.holder)}</li>`);
+    }
+  });
+});
+
+// ---- live stream (SSE read with fetch so the token travels in a header) -----------------
+const LIVE_POINTS = 600;
+let liveCount = 0;
+let lastSample = null;
+
+function initLivePlot() {
+  const trace = (name, yaxis) => ({ x: [], y: [], name, mode: "lines", yaxis });
+  Plotly.newPlot(
+    "live-plot",
+    [trace("position (m)", "y"), trace("angle (rad)", "y"), trace("speed (m/s)", "y2"), trace("yaw rate (rad/s)", "y2")],
+    {
+      margin: { t: 30, r: 60, b: 40, l: 60 },
+      xaxis: { title: { text: "time (s)" } },
+      yaxis: { title: { text: "position (m) / angle (rad)" } },
+      yaxis2: { title: { text: "speed (m/s) / yaw rate (rad/s)" }, overlaying: "y", side: "right" },
+      legend: { orientation: "h", x: 0, y: 1.12 },
+    },
+    { responsive: true, displaylogo: false },
+  );
+}
+
+function resetLive() {
+  lastSample = null;
+}
+
+let liveT0 = null;
+function onSample(s) {
+  liveCount += 1;
+  $("#live-count").textContent = String(liveCount);
+  if (liveT0 === null) liveT0 = s.t_mono;
+  const t = s.t_mono - liveT0;
+  const x = s.channels.tow_position;
+  const a = s.channels.yaw_angle;
+  let v = null;
+  let w = null;
+  if (lastSample) {
+    const dt = s.t_mono - lastSample.t_mono;
+    if (dt > 0 && x !== null && lastSample.channels.tow_position !== null) v = (x - lastSample.channels.tow_position) / dt;
+    if (dt > 0 && a !== null && lastSample.channels.yaw_angle !== null) w = (a - lastSample.channels.yaw_angle) / dt;
+  }
+  lastSample = s;
+  if (!$("#page-rig").hidden) Plotly.extendTraces("live-plot", { x: [[t], [t], [t], [t]], y: [[x], [a], [v], [w]] }, [0, 1, 2, 3], LIVE_POINTS);
+}
+
+async function stream() {
+  for (;;) {
+    try {
+      const r = await fetch("/api/stream?max_hz=10", { headers: { Authorization: `Bearer ${state.token}` } });
+      if (r.status === 401) {
+        askToken("The token was refused.");
+        await new Promise((res) => setTimeout(res, 3000));
+        continue;
+      }
+      const reader = r.body.getReader();
+      const decoder = new TextDecoder();
+      let buf = "";
+      for (;;) {
+        const { value, done } = await reader.read();
+        if (done) break;
+        buf += decoder.decode(value, { stream: true });
+        let i;
+        while ((i = buf.indexOf("\n\n")) >= 0) {
+          const block = buf.slice(0, i);
+          buf = buf.slice(i + 2);
+          let kind = "message";
+          let data = "";
+          for (const line of block.split("\n")) {
+            if (line.startsWith("event: ")) kind = line.slice(7);
+            else if (line.startsWith("data: ")) data += line.slice(6);
+          }
+          if (!data) continue;
+          const obj = JSON.parse(data);
+          if (kind === "sample") onSample(obj);
+          else if (kind === "job") onJobEvent(obj);
+        }
+      }
+    } catch (err) {
+      console.warn("stream", err);
+    }
+    await new Promise((res) => setTimeout(res, 2000));
+  }
+}
+
+function onJobEvent(job) {
+  if (job.kind === "estimation") return showEstimationJob(job);
+  showJob(job);
+  if (FINAL.includes(job.state) && !$("#page-runs").hidden) loadRuns();
+}
+
+// ---- runs -----------------------------------------------------------------------------------
+async function loadRuns() {
+  const params = new URLSearchParams();
+  for (const el of $("#runs-filter").elements) {
+    if (!el.name || !el.value) continue;
+    params.set(el.name, el.type === "date" ? `${el.value}T00:00:00Z` : el.value);
+  }
+  try {
+    state.runs = await api("GET", `/api/runs?${params}`);
+  } catch (err) {
+    return;
+  }
+  $("#runs-table tbody").innerHTML = state.runs
+    .map(
+      (r) => `<tr data-run="${r.id}"><td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${load(r)}</td>
+      <td><span class="state ${r.status}">${r.status}</span>${r.reason ? ` <span class="muted">${esc(r.reason)}</span>` : ""}</td>
+      <td>${new Date(r.started_at).toLocaleString()}</td><td>${fmt(r.duration_s, 3)} s</td><td>${r.sample_count}</td><td>${esc(r.vehicle)}</td></tr>`,
+    )
+    .join("");
+  $$("#runs-table tbody tr").forEach((tr) => (tr.onclick = () => openRun(tr.dataset.run)));
+}
+$("#runs-filter").addEventListener("submit", (ev) => {
+  ev.preventDefault();
+  loadRuns();
+});
+
+async function openRun(runId) {
+  location.hash = "#runs";
+  const [run, samples, events] = await Promise.all([
+    api("GET", `/api/runs/${runId}`),
+    api("GET", `/api/runs/${runId}/samples?limit=100000`),
+    api("GET", `/api/runs/${runId}/events`),
+  ]);
+  state.selectedRun = run;
+  $("#run-detail").hidden = false;
+  $("#run-detail-id").textContent = run.id;
+  $$("#runs-table tbody tr").forEach((tr) => tr.classList.toggle("selected", tr.dataset.run === run.id));
+  kv($("#run-meta"), [
+    ["Kind", run.kind],
+    ["Status", run.status + (run.reason ? ` (${run.reason})` : "")],
+    ["Load", load(run)],
+    ["Parameters", JSON.stringify(run.parameters)],
+    ["Started", new Date(run.started_at).toLocaleString()],
+    ["Duration", `${fmt(run.duration_s, 4)} s`],
+    ["Samples", run.sample_count],
+    ["Rig / vehicle", `${run.rig_name} / ${run.vehicle}`],
+  ]);
+  const channel = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" }[run.kind] || "tow_position";
+  const y = samples.channels[channel] || samples.channels.position || [];
+  Plotly.newPlot(
+    "run-plot",
+    [{ x: samples.t, y, mode: "lines+markers", marker: { size: 3 }, name: channel }],
+    { margin: { t: 10, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: channel } } },
+    { responsive: true, displaylogo: false },
+  );
+  $("#run-events").innerHTML = events
+    .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
+    .join("");
+}
+$("#export-csv").onclick = () => state.selectedRun && download(`/api/runs/${state.selectedRun.id}/samples.csv`, `run-${state.selectedRun.id.slice(0, 8)}.csv`);
+$("#export-json").onclick = () => state.selectedRun && download(`/api/runs/${state.selectedRun.id}/samples?limit=100000`, `run-${state.selectedRun.id.slice(0, 8)}.json`);
+
+// ---- estimation -----------------------------------------------------------------------------
+async function loadEstimationRuns() {
+  let runs = [];
+  try {
+    runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => ["tow", "spin", "pendulum"].includes(r.kind));
+  } catch (err) {
+    return;
+  }
+  const checked = new Set($$("#est-runs input:checked").map((i) => i.value));
+  $("#est-runs tbody").innerHTML = runs
+    .map(
+      (r) => `<tr><td><input type="checkbox" value="${r.id}" data-kind="${r.kind}" ${checked.has(r.id) ? "checked" : ""}></td>
+      <td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${load(r)}</td><td>${new Date(r.started_at).toLocaleString()}</td></tr>`,
+    )
+    .join("");
+}
+
+let estimationJobId = null;
+$("#est-run").onclick = async () => {
+  const runIds = $$("#est-runs input:checked").map((i) => i.value);
+  if (!runIds.length) return ($("#est-status").textContent = "Pick at least one run.");
+  $("#est-status").textContent = "Starting…";
+  try {
+    const job = await api("POST", "/api/jobs/estimation", {
+      run_ids: runIds,
+      method: $("#est-method").value,
+      search_effects: $("#est-effects").checked,
+    });
+    estimationJobId = job.id;
+    showEstimationJob(job);
+    pollEstimation(job.id);
+  } catch (err) {
+    $("#est-status").textContent = err.message;
+  }
+};
+
+async function pollEstimation(jobId) {
+  for (;;) {
+    const job = await api("GET", `/api/jobs/${jobId}`);
+    showEstimationJob(job);
+    if (FINAL.includes(job.state)) return;
+    await new Promise((res) => setTimeout(res, 500));
+  }
+}
+
+const COEF_UNITS = {
+  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²" },
+  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²" },
+};
+
+function showEstimationJob(job) {
+  if (job.id !== estimationJobId) return;
+  $("#est-status").innerHTML = `<span class="state ${job.state}" id="est-state">${job.state}</span> ${esc(job.progress.message)}`;
+  if (job.state !== "completed" || !job.outcome) return;
+  renderEstimation(job.outcome);
+}
+
+async function renderEstimation(res) {
+  if (typeof renderPendulumEstimation === "function") {
+    // pendulum free-decay results (api/http/static/pendulum.js)
+    if (res.analysis === "pendulum") return renderPendulumEstimation(res);
+    clearPendulumEstimation();
+  }
+  $("#est-result").hidden = false;
+  const units = COEF_UNITS[res.axis] || {};
+  $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
+    .map(([k, c]) => {
+      const before = (res.coefficients_before || {})[k];
+      return `<tr><td>${k} (${units[k] || ""})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
+        ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
+    })
+    .join("");
+  const unit = res.axis === "yaw" ? "rad" : "m";
+  kv($("#est-rmse"), [
+    ["Axis / method", `${res.axis} / ${res.method}`],
+    ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],
+    ["RMSE after", `${fmt(res.rmse_after, 3)} ${unit}`],
+    ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
+  ]);
+  $("#est-effects-list").innerHTML = (res.effects || []).length
+    ? res.effects.map((e) => `<li><strong>${e.name}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`).join("")
+    : "<li>none (the base model explains the data)</li>";
+  const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
+  $("#est-ambiguous").innerHTML =
+    (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
+    [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
+  const perRun = Object.keys(res.rmse_per_run_before || {});
+  Plotly.newPlot(
+    "est-fit-plot",
+    [
+      { x: perRun, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },
+      { x: perRun, y: perRun.map((r) => (res.rmse_per_run_after || {})[r]), type: "bar", name: "RMSE after" },
+    ],
+    { margin: { t: 20, r: 20, b: 60, l: 60 }, yaxis: { title: { text: `residual RMSE (${unit})` } }, barmode: "group" },
+    { responsive: true, displaylogo: false },
+  );
+  await showReportPlots(res.result_id);
+}
+
+// The stored result's report PNGs into #est-plots (fetched with the token).
+async function showReportPlots(resultId) {
+  const box = $("#est-plots");
+  box.innerHTML = "";
+  if (resultId === undefined || resultId === null) return;
+  try {
+    const stored = await api("GET", `/api/results/${resultId}`);
+    for (const name of stored.report_plots) {
+      const r = await fetch(`/api/results/${resultId}/report/${name}.png`, { headers: { Authorization: `Bearer ${state.token}` } });
+      if (!r.ok) continue;
+      box.append(Object.assign(document.createElement("img"), { src: URL.createObjectURL(await r.blob()), alt: name, title: name }));
+    }
+  } catch (err) {
+    console.warn(err);
+  }
+}
+
+// ---- thrusters --------------------------------------------------------------------------------
+function thrust(p, u) {
+  const fwd = Math.max(u - p.forward_dead_band, 0);
+  const rev = Math.max(-u - p.reverse_dead_band, 0);
+  return p.forward_gain * fwd ** p.forward_exponent - p.reverse_gain * rev ** p.reverse_exponent;
+}
+function commandFor(p, f) {
+  if (f > 0) return p.forward_dead_band + (f / p.forward_gain) ** (1 / p.forward_exponent);
+  if (f < 0) return -(p.reverse_dead_band + (-f / p.reverse_gain) ** (1 / p.reverse_exponent));
+  return 0;
+}
+
+async function loadCalibration() {
+  let cal;
+  try {
+    cal = await api("GET", "/api/calibration/latest");
+  } catch (err) {
+    $("#cal-status").textContent = err.status === 404 ? "No thrust calibration yet: start one on the Rig page." : err.message;
+    return;
+  }
+  const data = cal.data;
+  const table = data.table || [];
+  $("#cal-status").textContent = `Calibration ${cal.id} of ${new Date(cal.created_at).toLocaleString()} (run ${cal.run_ids[0].slice(0, 8)}).`;
+  $("#cal-table tbody").innerHTML = table
+    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${r.direction}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${fmt(r.supply_voltage_v, 4)}</td></tr>`)
+    .join("");
+  const traces = [
+    { x: table.map((r) => r.command), y: table.map((r) => r.thrust_per_thruster_n), mode: "markers", name: "measured" },
+  ];
+  const fit = data.fit && data.fit.parameters;
+  $("#cal-params tbody").innerHTML = Object.entries(fit || {})
+    .map(([k, v]) => `<tr><td>${k}</td><td>${fmt(v.value, 5)}</td><td>± ${fmt(v.std, 3)}</td></tr>`)
+    .join("") + (data.fit ? `<tr><td>RMSE (N)</td><td>${fmt(data.fit.rmse_n, 3)}</td><td></td></tr>` : "");
+  const p = fit ? Object.fromEntries(Object.entries(fit).map(([k, v]) => [k, v.value])) : null;
+  if (p) {
+    const [lo, hi] = data.fit.command_range || [-1, 1];
+    const us = Array.from({ length: 201 }, (_, i) => lo + ((hi - lo) * i) / 200);
+    traces.push({ x: us, y: us.map((u) => thrust(p, u)), mode: "lines", name: "fit" });
+    const fs = us.map((u) => thrust(p, u));
+    const fmin = Math.min(...fs);
+    const fmax = Math.max(...fs);
+    const forces = Array.from({ length: 201 }, (_, i) => fmin + ((fmax - fmin) * i) / 200);
+    Plotly.newPlot(
+      "cal-inverse-plot",
+      [{ x: forces, y: forces.map((f) => commandFor(p, f)), mode: "lines", name: "inverse map" }],
+      { title: { text: "Inverse map: force → command" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "thrust per thruster (N)" } }, yaxis: { title: { text: "command" } } },
+      { responsive: true, displaylogo: false },
+    );
+  }
+  Plotly.newPlot(
+    "cal-plot",
+    traces,
+    { title: { text: "Thrust curve" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "command (fraction)" } }, yaxis: { title: { text: "thrust per thruster (N)" } } },
+    { responsive: true, displaylogo: false },
+  );
+}
+
+// ---- start ------------------------------------------------------------------------------------
+function refreshAll() {
+  refreshRig();
+  showPage();
+}
+
+initToken();
+initLivePlot();
+// Page scripts load after this one: show the page once they have registered.
+window.addEventListener("load", showPage);
+refreshRig();
+setInterval(refreshRig, 2000);
+stream();

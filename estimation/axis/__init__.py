@@ -1,0 +1,1 @@
+"""Per-axis model, fits, effect library and search, results and reports."""

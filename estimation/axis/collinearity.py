@@ -1,0 +1,169 @@
+"""Which effects these runs can tell apart: partial correlation of their output sensitivities.
+
+Two effects are one on a set of runs when their columns of the position Jacobian ∂x/∂θ are
+(nearly) parallel once every other parameter of the model (inertia, K_L, K_Q, the other
+effects, one offset per run) is projected out. Example: when every run moves one way,
+sign(v) is constant, so −F_c·sign(v) and a bias b move the model identically (ρ = −1) and
+no data of that kind can separate dry friction from a current force. The verdict depends
+only on the runs and the fitted trajectory, never on how far an optimiser went.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from itertools import combinations
+
+import numpy as np
+
+from estimation.axis.effects import EFFECTS
+from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
+from estimation.axis.output_error import FitResult
+
+#: |ρ| at or above this: the two effects are structurally the same on these runs.
+COLLINEAR = 0.995
+#: |ρ| at or above this: close enough that converged fits must decide (see search.py).
+NEAR_COLLINEAR = 0.9
+
+
+def _typical_step(name: str, fit: FitResult, runs: Sequence[PreparedRun]) -> float:
+    """A finite-difference step small against the parameter's plausible size."""
+    drive = max(min(r.mean_abs_drive for r in runs), 1e-9)
+    speed = max(float(np.max(np.abs(v), initial=0.0)) for v in fit.velocities) or 1e-3
+    travel = max(float(np.ptp(r.x)) for r in runs) or 1e-3
+    scale = {
+        "coulomb_friction": drive,
+        "constant_bias": drive,
+        "restoring_spring": drive / travel,
+        "cubic_drag": drive / speed**3,
+        "drive_inertia": 1.0,
+        "release_delay": 0.1,
+    }.get(name)
+    if scale is None:  # a base coefficient
+        scale = abs(fit.value(name)) if name in fit.names else 1.0
+    return 1e-4 * max(scale, 1e-12)
+
+
+def sensitivities(
+    fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
+) -> tuple[tuple[str, ...], np.ndarray]:
+    """∂x/∂θ at ``fit`` (its effects, plus ``extra`` effects at zero), stacked over runs.
+
+    Returns the parameter names and a (n_samples, n_params) matrix. A step that leaves a
+    parameter's bounds is taken the other way.
+    """
+    effects = (*fit.effects, *(e for e in extra if e not in fit.effects))
+    names = (*BASE_NAMES, *effects)
+    values = np.array([fit.value(n) if n in fit.names else 0.0 for n in names])
+    steps = np.array([_typical_step(n, fit, runs) for n in names])
+    for i, n in enumerate(names):
+        upper = EFFECTS[n].upper if n in EFFECTS else np.inf
+        if values[i] + steps[i] > upper:
+            steps[i] = -steps[i]
+    sets = np.vstack([values, values + np.diag(steps)])
+    sims = simulate(sets, effects, runs)
+    x = np.concatenate([s[0] for s in sims], axis=1)
+    return names, ((x[1:] - x[0]) / steps[:, None]).T
+
+
+def _offset_columns(runs: Sequence[PreparedRun]) -> np.ndarray:
+    """One indicator column per run: the sensitivity to that run's position offset."""
+    sizes = [r.t.size for r in runs]
+    offsets = np.zeros((sum(sizes), len(runs)))
+    offsets[np.arange(sum(sizes)), np.repeat(np.arange(len(runs)), sizes)] = 1.0
+    return offsets
+
+
+def _residualise(columns: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """``columns`` with their least-squares projection on ``others`` removed."""
+    if others.shape[1] == 0:
+        return columns
+    q, _ = np.linalg.qr(others)
+    return columns - q @ (q.T @ columns)
+
+
+def independent_shares(
+    fit: FitResult, runs: Sequence[PreparedRun], names: Sequence[str]
+) -> dict[str, float]:
+    """Share of each effect's sensitivity that ``fit``'s own parameters cannot mimic.
+
+    ‖P⊥ ∂x/∂θ_e‖ / ‖∂x/∂θ_e‖ with P⊥ removing the span of the base coefficients, ``fit``'s
+    effects and one offset per run: 0 when the effect is a combination of them (e.g. a bias
+    on one run at one force is an inertia change), 1 when it is orthogonal to them all.
+    """
+    params, jac = sensitivities(fit, runs, names)
+    offsets = _offset_columns(runs)
+    held = [i for i, n in enumerate(params) if n in fit.names]
+    others = np.hstack([jac[:, held], offsets])
+    out = {}
+    for name in names:
+        column = jac[:, [params.index(name)]]
+        norm = float(np.linalg.norm(column))
+        out[name] = float(np.linalg.norm(_residualise(column, others))) / norm if norm else 0.0
+    return out
+
+
+def partial_correlations(
+    fit: FitResult, runs: Sequence[PreparedRun], names: Sequence[str]
+) -> dict[frozenset[str], float]:
+    """Partial correlation of the sensitivities of each pair in ``names``.
+
+    The other parameters held out are the base coefficients, ``fit``'s effects that are not
+    in the pair, and one offset per run.
+    """
+    params, jac = sensitivities(fit, runs, names)
+    offsets = _offset_columns(runs)
+    out: dict[frozenset[str], float] = {}
+    for a, b in combinations(dict.fromkeys(names), 2):
+        held = [
+            i
+            for i, n in enumerate(params)
+            if n in BASE_NAMES or (n in fit.effects and n not in (a, b))
+        ]
+        others = np.hstack([jac[:, held], offsets])
+        pair = _residualise(jac[:, [params.index(a), params.index(b)]], others)
+        norms = np.linalg.norm(pair, axis=0)
+        if np.any(norms <= 1e-300):
+            out[frozenset((a, b))] = 0.0  # an effect that does not move this model at all
+            continue
+        out[frozenset((a, b))] = float(pair[:, 0] @ pair[:, 1] / (norms[0] * norms[1]))
+    return out
+
+
+def predicted_steps(
+    fit: FitResult, runs: Sequence[PreparedRun], combos: Sequence[tuple[str, ...]]
+) -> dict[tuple[str, ...], tuple[float, np.ndarray]]:
+    """One Gauss–Newton step from ``fit`` for each combination of added effects.
+
+    Returns, per combination, the predicted SSE after the step and the start values it
+    gives (``fit``'s coefficients and effects, then the combination's). A step that takes a
+    bounded effect past its bound leaves that effect at the bound. A linear prediction,
+    used to decide which combinations are worth a converged fit.
+    """
+    extra = sorted({e for c in combos for e in c if e not in fit.effects})
+    params, jac = sensitivities(fit, runs, extra)
+    offsets = _offset_columns(runs)
+    residual = np.concatenate(fit.residuals)
+    held = [params.index(n) for n in fit.names]
+    out: dict[tuple[str, ...], tuple[float, np.ndarray]] = {}
+    for combo in combos:
+        free = [e for e in combo if e not in fit.effects]
+        while True:
+            cols = held + [params.index(e) for e in free]
+            design = np.hstack([jac[:, cols], offsets])
+            step = np.linalg.lstsq(design, residual, rcond=None)[0]
+            values = np.array([*fit.values, *np.zeros(len(free))]) + step[: len(cols)]
+            past = [
+                e
+                for e, v in zip(free, values[len(held) :], strict=True)
+                if not EFFECTS[e].lower <= v <= EFFECTS[e].upper
+            ]
+            if not past:
+                break
+            free = [e for e in free if e not in past]
+        left = residual - design @ step
+        full = {n: v for n, v in zip([*fit.names, *free], values, strict=True)}
+        start = np.array(
+            [full.get(n, 0.0) for n in (*fit.names, *(e for e in combo if e not in fit.names))]
+        )
+        out[combo] = (float(left @ left), start)
+    return out

@@ -1,0 +1,623 @@
+"""Cross-check: coefficients from weight-driven runs against those from thruster-driven runs.
+
+Works on two stored estimation result documents (``EstimationResult.to_json()``) of the
+same axis. Per coefficient: both values ± σ_total (the fit's σ and, for thruster-driven
+runs, the thrust calibration's), their difference and z = Δ / √(σ₁² + σ₂²); verdict
+``agree`` (|z| < 2), ``marginal`` (2 ≤ |z| < 3) or ``disagree`` (|z| ≥ 3).
+
+A set that cannot separate K_L from K_Q (one drive level, or |ρ(K_L, K_Q)| above the
+estimator's SEPARABILITY_LIMIT; see ``estimation.axis.set_separability``) gets no verdict on them:
+they are ``undecided``, with the run that would decide them. Compared instead is what such a
+set does fix, the damping K_L + K_Q·|v| at the speed it ran (``damping_at_speed``).
+Undecided comparisons take no part in the common factor, the overall verdict or the
+diagnosis below.
+
+Diagnosis, in order:
+
+a. A drive scaled by k scales inertia, K_L and K_Q all by k. When the thruster/weight
+   ratios are consistent with one common factor (weighted mean k, χ² test; or their
+   scatter about k is under a quarter of |k − 1|: k carries the bulk of the disagreement)
+   and k differs from 1 by more than 3σ_k, the thrust calibration is off: the estimator was told the
+   calibrated thrust F while the vehicle felt F/k, so the thrusters deliver 1/k× the
+   calibrated thrust (k > 1: weaker than at calibration). Recalibrate.
+b. When the two residual searches kept different effects, the difference is named: the
+   effect belongs to one way of driving the rig (e.g. thruster lag seen as a delay).
+c. Otherwise any disagreement left is reported as unexplained.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.stats import chi2
+
+from estimation.axis.estimate import SEPARABILITY_LIMIT
+from estimation.axis.set_separability import SetSeparability, damping_at, separability
+
+COEFFICIENTS: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
+DAMPING = ("linear_damping", "quadratic_damping")
+COMBINED = "damping_at_speed"
+LABELS = {
+    "inertia": "inertia",
+    "linear_damping": "K_L",
+    "quadratic_damping": "K_Q",
+    COMBINED: "K_L + K_Q·|v|",
+}
+UNITS = {
+    "surge": {
+        "inertia": "kg",
+        "linear_damping": "N·s/m",
+        "quadratic_damping": "N·s²/m²",
+        COMBINED: "N·s/m",
+    },
+    "yaw": {
+        "inertia": "kg·m²",
+        "linear_damping": "N·m·s/rad",
+        "quadratic_damping": "N·m·s²/rad²",
+        COMBINED: "N·m·s/rad",
+    },
+}
+SPEED_UNITS = {"surge": "m/s", "yaw": "rad/s"}
+#: Two sets that both cannot separate K_L from K_Q are compared on their damping only when
+#: their speeds differ by less than this share (each fixes D(|v|) at its own speed only).
+SAME_SPEED = 0.25
+AGREE_Z = 2.0
+DISAGREE_Z = 3.0
+#: χ² p-value below which the ratios are not one common factor.
+FACTOR_P_MIN = 0.01
+#: |k − 1| / σ_k above which the common factor is a finding.
+FACTOR_SIGMAS = 3.0
+#: Ratio scatter about k, as a share of |k − 1|, below which k carries the disagreement.
+DOMINANT_SHARE = 0.25
+
+
+def verdict(z: float) -> str:
+    """``agree`` (|z| < 2), ``marginal`` (2–3) or ``disagree`` (≥ 3); ``unknown`` without σ."""
+    if not math.isfinite(z):
+        return "unknown"
+    return "agree" if abs(z) < AGREE_Z else "marginal" if abs(z) < DISAGREE_Z else "disagree"
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One coefficient from both sets: values ± σ_total, difference and z."""
+
+    name: str
+    weight: float
+    weight_std: float
+    thruster: float
+    thruster_std: float
+    undecided: str | None = None  # why the sets cannot decide it (no verdict then)
+    speed: float | None = None  # |v| of a damping_at_speed comparison
+
+    @property
+    def decided(self) -> bool:
+        return self.undecided is None
+
+    @property
+    def verdict(self) -> str:
+        """``undecided`` when the sets cannot decide it, else ``verdict(z)``."""
+        return verdict(self.z) if self.decided else "undecided"
+
+    def label(self, axis: str) -> str:
+        """``K_L`` etc.; the combined damping with its speed."""
+        if self.speed is None:
+            return LABELS[self.name]
+        return f"{LABELS[self.name]} at |v| = {self.speed:.3g} {SPEED_UNITS[axis]}"
+
+    @property
+    def difference(self) -> float:
+        """thruster − weight."""
+        return self.thruster - self.weight
+
+    @property
+    def z(self) -> float:
+        """Δ / √(σ_w² + σ_t²) (nan when both σ are 0 or unknown)."""
+        s = math.hypot(self.weight_std, self.thruster_std)
+        return self.difference / s if s > 0 else float("nan")
+
+    def to_json(self) -> dict[str, Any]:
+        doc: dict[str, Any] = {
+            "weight": {"value": _num(self.weight), "std": _num(self.weight_std)},
+            "thruster": {"value": _num(self.thruster), "std": _num(self.thruster_std)},
+            "difference": _num(self.difference),
+            "z": _num(self.z),
+            "verdict": self.verdict,
+        }
+        if self.speed is not None:
+            doc["speed"] = _num(self.speed)
+        if self.undecided is not None:
+            doc["reason"] = self.undecided
+        return doc
+
+
+@dataclass(frozen=True)
+class CommonFactor:
+    """The thruster/weight ratios of the coefficients as one factor k ± σ_k (χ² test)."""
+
+    k: float
+    std: float
+    chi2: float
+    dof: int
+    p_value: float
+    used: tuple[str, ...]
+    spread: float = 0.0  # largest |ratio − k| over the ratios used
+
+    @property
+    def thrust_factor(self) -> float:
+        """Delivered / calibrated thrust, 1/k (the coefficients scale with the drive
+        the estimator was told, not the one the vehicle felt)."""
+        return 1.0 / self.k
+
+    @property
+    def thrust_factor_std(self) -> float:
+        return self.std / self.k**2
+
+    @property
+    def consistent(self) -> bool:
+        """The ratios agree with one factor (χ² p ≥ 0.01; always true for one ratio)."""
+        return self.dof == 0 or self.p_value >= FACTOR_P_MIN
+
+    @property
+    def dominant(self) -> bool:
+        """The common factor carries the bulk of the disagreement: the ratios scatter about
+        k by less than a quarter of |k − 1| (even when χ² says they scatter beyond σ)."""
+        return self.spread < DOMINANT_SHARE * abs(self.k - 1.0)
+
+    @property
+    def significant(self) -> bool:
+        """k differs from 1 by more than 3σ_k."""
+        return self.std > 0 and abs(self.k - 1.0) > FACTOR_SIGMAS * self.std
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "k": _num(self.k),
+            "std": _num(self.std),
+            "thrust_factor": _num(self.thrust_factor),
+            "thrust_factor_std": _num(self.thrust_factor_std),
+            "chi2": _num(self.chi2),
+            "dof": self.dof,
+            "p_value": _num(self.p_value),
+            "coefficients": list(self.used),
+            "spread": _num(self.spread),
+            "consistent": self.consistent,
+            "dominant": self.dominant,
+            "significant": self.significant,
+        }
+
+
+def common_factor(comparisons: list[Comparison]) -> CommonFactor | None:
+    """Weighted mean of thruster/weight over the decided coefficients the weight runs
+    resolve (|value| > 2σ); None when fewer than one ratio is usable."""
+    ratios, sigmas, used = [], [], []
+    for c in comparisons:
+        if not c.decided:
+            continue
+        if not (c.weight > 0 and c.weight > 2 * c.weight_std and np.isfinite(c.thruster)):
+            continue
+        r = c.thruster / c.weight
+        s = math.hypot(c.thruster_std / c.weight, r * c.weight_std / c.weight)
+        if s > 0 and math.isfinite(s):
+            ratios.append(r)
+            sigmas.append(s)
+            used.append(c.name)
+    if not ratios:
+        return None
+    w = 1.0 / np.square(sigmas)
+    k = float(np.sum(w * ratios) / np.sum(w))
+    stat = float(np.sum(w * (np.array(ratios) - k) ** 2))
+    dof = len(ratios) - 1
+    p = float(chi2.sf(stat, dof)) if dof > 0 else 1.0
+    # The calibration's share of σ is common to all ratios (one drive scale): averaging does
+    # not shrink it, so σ_k is never taken below the best single ratio's σ.
+    std = max(float(1.0 / math.sqrt(np.sum(w))), float(min(sigmas)))
+    spread = float(np.max(np.abs(np.array(ratios) - k)))
+    return CommonFactor(k, std, stat, dof, p, tuple(used), spread)
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """Weight- vs thruster-driven coefficients of one axis, with the diagnosis."""
+
+    axis: str
+    weight_result_id: int | None
+    thruster_result_id: int | None
+    weight_runs: tuple[str, ...]
+    thruster_runs: tuple[str, ...]
+    comparisons: tuple[Comparison, ...]
+    factor: CommonFactor | None
+    effects_weight: dict[str, float]
+    effects_thruster: dict[str, float]
+    rmse: dict[str, dict[str, float | None]]
+    diagnosis: tuple[str, ...]
+    warnings: tuple[str, ...] = ()
+    supply: dict[str, float | None] = field(default_factory=dict)
+    combined: tuple[Comparison, ...] = ()  # damping_at_speed when a set cannot split K_L/K_Q
+
+    @property
+    def all_comparisons(self) -> tuple[Comparison, ...]:
+        return (*self.comparisons, *self.combined)
+
+    @property
+    def undecided(self) -> tuple[str, ...]:
+        """Names of the coefficients without a verdict."""
+        return tuple(c.name for c in self.comparisons if not c.decided)
+
+    @property
+    def verdict(self) -> str:
+        """The worst verdict over the decided comparisons; ``undecided`` when none is."""
+        order = ("agree", "unknown", "marginal", "disagree")
+        decided = [c.verdict for c in self.all_comparisons if c.decided]
+        return max(decided, key=order.index) if decided else "undecided"
+
+    def to_json(self) -> dict[str, Any]:
+        """The stored document (kind ``crosscheck``); see docs/hil.md."""
+        return {
+            "kind": "crosscheck",
+            "axis": self.axis,
+            "weight_result_id": self.weight_result_id,
+            "thruster_result_id": self.thruster_result_id,
+            "weight_runs": list(self.weight_runs),
+            "thruster_runs": list(self.thruster_runs),
+            "coefficients": {c.name: c.to_json() for c in self.comparisons},
+            "combined": {c.name: c.to_json() for c in self.combined},
+            "undecided": list(self.undecided),
+            "verdict": self.verdict,
+            "common_factor": self.factor.to_json() if self.factor else None,
+            "effects": {
+                "weight": {k: _num(v) for k, v in self.effects_weight.items()},
+                "thruster": {k: _num(v) for k, v in self.effects_thruster.items()},
+            },
+            "rmse": self.rmse,
+            "supply_voltage_v": {k: _num(v) for k, v in self.supply.items()},
+            "diagnosis": list(self.diagnosis),
+            "warnings": list(self.warnings),
+        }
+
+
+def _num(x: float | None) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _check(name: str, doc: Any) -> None:
+    if isinstance(doc, dict) and doc.get("analysis") == "pendulum":
+        raise ValueError(
+            f"{name}: a pendulum free-decay analysis; allowed: a tow or spin estimation result"
+        )
+    if not isinstance(doc, dict) or not isinstance(doc.get("coefficients"), dict):
+        raise ValueError(
+            f"{name}: not an estimation result (no 'coefficients'); allowed: a stored "
+            "estimation result document"
+        )
+    missing = [c for c in COEFFICIENTS if c not in doc["coefficients"]]
+    if missing:
+        raise ValueError(f"{name}.coefficients: missing {missing}; allowed: {list(COEFFICIENTS)}")
+    if doc.get("axis") not in UNITS:
+        raise ValueError(f"{name}.axis: {doc.get('axis')!r} is not allowed; allowed surge, yaw")
+
+
+def _value_std(doc: dict, name: str) -> tuple[float, float]:
+    """Value and σ: σ_total (fit ⊕ calibration; the fit's σ for results stored before it),
+    or the run-level bootstrap σ when that is larger: the fit's σ assumes white residuals,
+    the bootstrap sees how much the runs disagree among themselves."""
+    c = doc["coefficients"][name]
+    value = float("nan") if c.get("value") is None else float(c["value"])
+    std = c.get("std")
+    total = ((doc.get("uncertainty") or {}).get("parameters") or {}).get(name, {})
+    if total.get("std_total") is not None:
+        std = total["std_total"]
+    std = float("nan") if std is None else float(std)
+    boot = ((doc.get("bootstrap") or {}).get("std") or {}).get(name)
+    if boot is not None and (boot > std or not math.isfinite(std)):
+        std = math.hypot(boot, (total.get("std_calibration") or 0.0))
+    return value, std
+
+
+def _effects(doc: dict) -> dict[str, float]:
+    found = {e["name"]: e.get("value") for e in doc.get("effects", [])}
+    for group in doc.get("ambiguous", []):
+        for name in group:
+            found.setdefault(name, float("nan"))
+    return found
+
+
+def _calibration_line(factor: CommonFactor, supply: dict[str, float | None]) -> str:
+    now, then = supply.get("runs"), supply.get("calibration")
+    if now is not None and then is not None:
+        volts = f"supply voltage now {now:.2f} V vs {then:.2f} V at calibration"
+    else:
+        volts = "supply voltage now vs at calibration: not recorded"
+    scatter = (
+        ""
+        if factor.consistent
+        else f"; a smaller second discrepancy remains: the ratios scatter by up to "
+        f"{factor.spread:.3f} about k, beyond their σ (χ² p = {factor.p_value:.2g})"
+    )
+    return (
+        f"thrust calibration: the thruster-driven {', '.join(LABELS[n] for n in factor.used)} "
+        f"are all k = {factor.k:.3f} ± {factor.std:.3f}× the weight-driven ones (one common "
+        f"factor), so the thrusters deliver "
+        f"{factor.thrust_factor:.3f} ± {factor.thrust_factor_std:.3f}× the calibrated thrust: "
+        f"recalibrate the thrusters ({volts}){scatter}"
+    )
+
+
+def cross_check(
+    weight_result: dict[str, Any],
+    thruster_result: dict[str, Any],
+    *,
+    supply_voltage_v: dict[str, float | None] | None = None,
+) -> CrossCheck:
+    """Compare two stored estimation results of one axis (weight- vs thruster-driven).
+
+    ``supply_voltage_v``: optional ``{"calibration": V, "runs": V}`` (mean supply voltage
+    during the thrust calibration and while the thruster-driven runs drove), quoted when
+    the diagnosis points at the calibration. Raises ``ValueError`` naming the field when a
+    document is not an estimation result or the axes differ.
+    """
+    _check("weight_result", weight_result)
+    _check("thruster_result", thruster_result)
+    axis = weight_result["axis"]
+    if thruster_result["axis"] != axis:
+        raise ValueError(
+            f"thruster_result.axis: {thruster_result['axis']!r} is not allowed; allowed: the "
+            f"weight result's axis {axis!r}"
+        )
+    supply = dict(supply_voltage_v or {})
+    sep = {"weight": separability(weight_result), "thruster": separability(thruster_result)}
+    reasons = [_undecided_reason(side, s, axis) for side, s in sep.items() if not s.separable]
+    comparisons = []
+    for name in COEFFICIENTS:
+        w, sw = _value_std(weight_result, name)
+        t, st = _value_std(thruster_result, name)
+        why = "; ".join(reasons) if reasons and name in DAMPING else None
+        comparisons.append(Comparison(name, w, sw, t, st, undecided=why))
+    combined = _combined(weight_result, thruster_result, sep, axis)
+    factor = common_factor([*comparisons, *combined])
+    eff_w, eff_t = _effects(weight_result), _effects(thruster_result)
+    warnings = []
+    draws_t = (thruster_result.get("uncertainty") or {}).get("calibration_draws")
+    if draws_t == 0:
+        warnings.append(
+            "the thruster result carries no calibration uncertainty (no drive draws): "
+            "were its runs thruster-driven?"
+        )
+    draws_w = (weight_result.get("uncertainty") or {}).get("calibration_draws")
+    if draws_w:
+        warnings.append("the weight result has drive draws: were its runs weight-driven?")
+
+    diagnosis = []
+    bad = [c for c in (*comparisons, *combined) if c.verdict in ("marginal", "disagree")]
+    if factor is not None and factor.significant and (factor.consistent or factor.dominant):
+        diagnosis.append(_calibration_line(factor, supply))
+    only_w = sorted(set(eff_w) - set(eff_t))
+    only_t = sorted(set(eff_t) - set(eff_w))
+    if only_w or only_t:
+        parts = []
+        if only_t:
+            parts.append(f"only the thruster-driven runs show {_named(eff_t, only_t, axis)}")
+        if only_w:
+            parts.append(f"only the weight-driven runs show {_named(eff_w, only_w, axis)}")
+        diagnosis.append(
+            "the effect searches differ: "
+            + "; ".join(parts)
+            + " — an effect of the way the rig is driven, not of the vehicle"
+        )
+    if bad and not diagnosis:
+        text = ", ".join(f"{c.label(axis)} (z = {c.z:+.1f})" for c in bad)
+        if factor is not None and factor.significant:
+            text += (
+                f"; the ratios are not one common factor (k = {factor.k:.3f}, χ² p = "
+                f"{factor.p_value:.2g}), so not simply the thrust calibration"
+            )
+        diagnosis.append(f"unexplained: {text}")
+    undecided = [c for c in comparisons if not c.decided]
+    if not diagnosis:
+        if bad:
+            diagnosis.append("marginal differences only")
+        elif undecided:
+            decided = ", ".join(c.label(axis) for c in (*comparisons, *combined) if c.decided)
+            diagnosis.append(
+                "weight- and thruster-driven sets agree within their uncertainties on what "
+                f"both decide ({decided}; all |z| < 2)"
+            )
+        else:
+            diagnosis.append(
+                "weight- and thruster-driven coefficients agree within their uncertainties "
+                "(all |z| < 2)"
+            )
+    if undecided:
+        names = ", ".join(LABELS[c.name] for c in undecided)
+        line = f"{names} undecided: {undecided[0].undecided}"
+        for c in combined:
+            line += (
+                f"; compared instead: {c.label(axis)}, z = {c.z:+.1f} ({c.verdict})"
+                if c.decided
+                else f"; {c.label(axis)} not compared either: {c.undecided}"
+            )
+        diagnosis.append(line)
+    rmse = {
+        side: {"before": _num(doc.get("rmse_before")), "after": _num(doc.get("rmse_after"))}
+        for side, doc in (("weight", weight_result), ("thruster", thruster_result))
+    }
+    return CrossCheck(
+        axis=axis,
+        weight_result_id=weight_result.get("result_id"),
+        thruster_result_id=thruster_result.get("result_id"),
+        weight_runs=tuple(weight_result.get("runs", [])),
+        thruster_runs=tuple(thruster_result.get("runs", [])),
+        comparisons=tuple(comparisons),
+        factor=factor,
+        effects_weight=eff_w,
+        effects_thruster=eff_t,
+        rmse=rmse,
+        diagnosis=tuple(diagnosis),
+        warnings=tuple(warnings),
+        supply=supply,
+        combined=tuple(combined),
+    )
+
+
+def _undecided_reason(side: str, sep: SetSeparability, axis: str) -> str:
+    """Why one set cannot decide K_L and K_Q, and which run would."""
+    force, unit = ("force", "N") if axis == "surge" else ("torque", "N·m")
+    run = {
+        ("weight", "surge"): "a weight run",
+        ("weight", "yaw"): "a weight spin",
+        ("thruster", "surge"): "a thruster tow",
+        ("thruster", "yaw"): "a thruster spin",
+    }[(side, axis)]
+    rho = f"ρ = {sep.rho:+.4f}" if sep.rho is not None else "ρ not stored"
+    if sep.one_level:
+        now = f" ≈ {sep.drive:.3g} {unit}" if sep.drive is not None else ""
+        return (
+            f"the {side} set has one drive level (K_L, K_Q correlated {rho}): add {run} at a "
+            f"clearly different {force}, e.g. 0.25× or 4× the current{now}"
+        )
+    return (
+        f"the {side} set's drive levels do not separate K_L from K_Q ({rho}, beyond the "
+        f"estimator's ±{SEPARABILITY_LIMIT}): add {run} well outside the {force}s it covers "
+        f"(e.g. a quarter of the lowest or twice the highest)"
+    )
+
+
+def _combined(
+    weight: dict[str, Any], thruster: dict[str, Any], sep: dict[str, SetSeparability], axis: str
+) -> list[Comparison]:
+    """The damping K_L + K_Q·|v| at the speed of the set that cannot split K_L from K_Q
+    (the thruster set's when neither can); none when both sets separate them."""
+    stuck = [side for side in ("thruster", "weight") if not sep[side].separable]
+    speed = sep[stuck[0]].speed if stuck else None
+    if speed is None:
+        return []
+    why = None
+    if len(stuck) == 2:
+        other = sep["weight"].speed
+        if other is None:
+            return []
+        if abs(other - speed) > SAME_SPEED * speed:
+            unit = SPEED_UNITS[axis]
+            why = (
+                f"neither set separates K_L from K_Q and they ran at different speeds "
+                f"({other:.3g} vs {speed:.3g} {unit}): each fixes the damping at its own only"
+            )
+    w, sw = damping_at(weight, speed)
+    t, st = damping_at(thruster, speed)
+    return [Comparison(COMBINED, w, sw, t, st, undecided=why, speed=speed)]
+
+
+def _named(found: dict[str, float], names: list[str], axis: str) -> str:
+    out = []
+    for n in names:
+        v = found.get(n)
+        out.append(f"{n} ({v:.3g})" if v is not None and math.isfinite(v) else n)
+    return ", ".join(out)
+
+
+def markdown(check: CrossCheck) -> str:
+    """The cross-check as a Markdown report (table, common factor, RMSE, diagnosis)."""
+    units = UNITS[check.axis]
+    lines = [
+        f"# Cross-check, {check.axis}: weight-driven vs thruster-driven",
+        "",
+        f"Weight-driven result #{check.weight_result_id} (runs {', '.join(check.weight_runs)});"
+        f" thruster-driven result #{check.thruster_result_id} "
+        f"(runs {', '.join(check.thruster_runs)}). σ is σ_total (fit and thrust calibration).",
+        "",
+        "| coefficient | weight | thrusters | Δ | z | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in check.all_comparisons:
+        # an undecided coefficient's z is shown in parentheses: computed, not judged
+        z = f"{c.z:+.2f}" if c.decided else f"({c.z:+.2f})"
+        shown = c.verdict if c.decided else "**undecided**"
+        lines.append(
+            f"| {c.label(check.axis)} ({units[c.name]}) | {c.weight:.5g} ± {c.weight_std:.2g} | "
+            f"{c.thruster:.5g} ± {c.thruster_std:.2g} | {c.difference:+.3g} | {z} | {shown} |"
+        )
+    undecided = [c for c in check.all_comparisons if not c.decided]
+    if undecided:
+        lines.append("")
+        for reason in dict.fromkeys(c.undecided for c in undecided):
+            names = ", ".join(c.label(check.axis) for c in undecided if c.undecided == reason)
+            lines.append(f"Undecided {names}: {reason}.")
+    overall = check.verdict
+    if check.undecided and overall != "undecided":
+        overall += f" (on what both sets decide; {', '.join(LABELS[n] for n in check.undecided)}"
+        overall += " undecided)"
+    lines += ["", f"Overall: **{overall}**", ""]
+    if check.factor is not None:
+        f = check.factor
+        lines.append(
+            f"Common factor thruster/weight: k = {f.k:.4f} ± {f.std:.4f} over "
+            f"{', '.join(LABELS[n] for n in f.used)} (χ² = {f.chi2:.2f}, dof {f.dof}, "
+            f"p = {f.p_value:.3g}); delivered/calibrated thrust 1/k = "
+            f"{f.thrust_factor:.4f} ± {f.thrust_factor_std:.4f}"
+        )
+        lines.append("")
+    lines.append("| | RMSE before effect search | RMSE after |")
+    lines.append("|---|---|---|")
+    for side in ("weight", "thruster"):
+        r = check.rmse[side]
+        lines.append(f"| {side} | {_fmt(r['before'])} | {_fmt(r['after'])} |")
+    lines += ["", "## Diagnosis", ""]
+    lines += [f"- {d}" for d in check.diagnosis]
+    if check.warnings:
+        lines += ["", "## Warnings", ""] + [f"- {w}" for w in check.warnings]
+    return "\n".join(lines) + "\n"
+
+
+def _fmt(x: float | None) -> str:
+    return "—" if x is None else f"{x:.3g}"
+
+
+def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]:
+    """``report.md`` and ``crosscheck.png`` (coefficients side by side, ±σ_total bars;
+    undecided ones titled so, the combined damping as a fourth panel when compared)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    md = out / "report.md"
+    md.write_text(markdown(check), encoding="utf-8")
+    shown = check.all_comparisons
+    fig = Figure(figsize=(3 * len(shown), 3.2))
+    units = UNITS[check.axis]
+    for i, c in enumerate(shown):
+        ax = fig.add_subplot(1, len(shown), i + 1)
+        ax.errorbar(
+            [0, 1],
+            [c.weight, c.thruster],
+            yerr=[_bar(c.weight_std), _bar(c.thruster_std)],
+            fmt="o",
+            capsize=6,
+            color="k",
+        )
+        ax.set_xticks([0, 1], ["weight", "thrusters"])
+        ax.set_xlim(-0.6, 1.6)
+        ax.set_ylabel(units[c.name])
+        if c.speed is not None:
+            ax.set_xlabel(f"at |v| = {c.speed:.3g} {SPEED_UNITS[check.axis]}", fontsize=8)
+        if c.decided:
+            ax.set_title(f"{LABELS[c.name]}: z = {c.z:+.1f} ({c.verdict})", fontsize=9)
+        else:
+            ax.set_title(f"{LABELS[c.name]}: UNDECIDED", fontsize=9, color="tab:red")
+            ax.set_xlabel("a set cannot separate K_L from K_Q", fontsize=8, color="tab:red")
+    fig.suptitle(f"{check.axis}: weight- vs thruster-driven (±1σ_total)", fontsize=10)
+    FigureCanvasAgg(fig)
+    fig.tight_layout()
+    png = out / "crosscheck.png"
+    fig.savefig(png, dpi=90)
+    return [md, png]
+
+
+def _bar(s: float) -> float:
+    return s if math.isfinite(s) else 0.0

@@ -1,0 +1,235 @@
+"""The one public entry point: ``estimate(runs, method, search_effects)``."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
+from estimation.axis.effects import EFFECTS
+from estimation.axis.model import BASE_NAMES, PreparedRun, prepare
+from estimation.axis.output_error import (
+    FitResult,
+    evaluate_parameters,
+    fit_output_error,
+    leave_one_run_out_rmse,
+)
+from estimation.axis.release import fit_release
+from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
+from estimation.axis.search import candidate_effects
+from estimation.axis.search import search_effects as search_effects_fn
+from estimation.axis.seed_methods import SEED_METHODS
+from estimation.axis.unexplained import characterise
+from estimation.data.runs import RunData, validate_runs
+from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
+
+METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
+SEPARABILITY_LIMIT = 0.95
+
+
+def estimate(
+    runs: Sequence[RunData],
+    method: str = "output-error",
+    search_effects: bool = True,
+    n_bootstrap: int = 40,
+    seed: int = 0,
+) -> EstimationResult:
+    """Estimate inertia, K_L and K_Q of one axis from runs, with σ, effects and evidence.
+
+    Model: (M + M_drive)·v̇ + K_L·v + K_Q·|v|·v = τ (+ effects found in the residual).
+    ``method``: "output-error" (default, joint fit of all runs' positions) or one of the
+    seed's "ls-raw", "ls-curvefit", "ls-steady". Effect search and the run-level bootstrap
+    apply to output-error only.
+    """
+    if method not in METHODS:
+        raise ValueError(f"method: got {method!r}, allowed: {', '.join(METHODS)}")
+    if n_bootstrap < 0:
+        raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
+    axis = validate_runs(runs)
+    runs = [fit_release(r) for r in runs]
+    prepared = [prepare(r) for r in runs]
+    if method != "output-error":
+        return _seed_result(axis, method, runs, prepared)
+    base = fit_output_error(prepared)
+    if search_effects:
+        # drive_inertia is a candidate only for weight-driven runs without a declared weight
+        declared = all(r.hung_mass_declared() or not r.is_constant_drive() for r in runs)
+        outcome = search_effects_fn(prepared, base, candidate_effects(declared))
+        final, steps = outcome.final, outcome.steps
+        ambiguous, advice = outcome.ambiguous, outcome.advice
+        cv_before, cv_after = outcome.cv_base, outcome.cv_final
+    else:
+        final, steps, ambiguous, advice = base, (), (), ()
+        cv_before = cv_after = leave_one_run_out_rmse(prepared, base)
+    boot = _bootstrap(prepared, final, n_bootstrap, seed) if n_bootstrap else None
+    return _build(
+        axis,
+        method,
+        runs,
+        prepared,
+        base,
+        final,
+        steps,
+        ambiguous,
+        advice,
+        cv_before,
+        cv_after,
+        boot,
+        drive_uncertainty(runs, final),
+    )
+
+
+def _coefficients(fit: FitResult) -> dict[str, Estimate]:
+    return {n: Estimate(fit.value(n), float(fit.std[fit.names.index(n)])) for n in BASE_NAMES}
+
+
+def _distinct_drives(runs: Sequence[PreparedRun]) -> list[float]:
+    return sorted({round(r.mean_abs_drive, 6) for r in runs})
+
+
+def separability_warnings(fit: FitResult, runs: Sequence[PreparedRun]) -> list[str]:
+    """Warnings for coefficient pairs with |ρ| > 0.95, naming the run that would separate them."""
+    out = []
+    drives = _distinct_drives(runs)
+    n = len(fit.names)
+    for i in range(n):
+        for j in range(i + 1, n):
+            rho = float(fit.correlation[i, j])
+            if not abs(rho) > SEPARABILITY_LIMIT:
+                continue
+            a, b = fit.names[i], fit.names[j]
+            if {a, b} == {"linear_damping", "quadratic_damping"}:
+                if len(drives) == 1:
+                    out.append(
+                        f"K_L and K_Q are not separable from one force (ρ = {rho:.3f}): add a "
+                        f"run at a clearly different force (e.g. 4× the current one, "
+                        f"{4 * drives[0]:.3g})"
+                    )
+                else:
+                    out.append(
+                        f"K_L and K_Q are poorly separated (ρ = {rho:.3f}) by forces "
+                        f"{drives}: add a run well outside that range (e.g. {0.25 * drives[0]:.3g}"
+                        f" or {2 * drives[-1]:.3g})"
+                    )
+            else:
+                hint = EFFECTS[b].separated_by if b in EFFECTS else "a run at a different force"
+                out.append(
+                    f"{a} and {b} are not separable by these runs (ρ = {rho:.3f}): add {hint}"
+                )
+    if "quadratic_damping" in fit.at_bound:
+        out.append(
+            "quadratic_damping sits at its lower bound 0: the drag law is bending the wrong "
+            "way, the signature of dry (Coulomb) friction the model lacks (seed 002's negative "
+            "K_Q); enable the effect search or add a reverse tow"
+        )
+    return out
+
+
+def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -> Bootstrap:
+    rng = np.random.default_rng(seed)
+    draws: list[np.ndarray] = []
+    if len(runs) < 2:  # resampling one run only repeats it
+        n = 0
+    for _ in range(n):
+        pick = rng.integers(0, len(runs), len(runs))
+        sample = [runs[i] for i in pick]
+        if len(_distinct_drives(sample)) < min(2, len(_distinct_drives(runs))):
+            continue
+        draws.append(fit_output_error(sample, fit.effects, start=fit.values).values)
+    names = fit.names
+    if not draws:
+        nan = dict.fromkeys(names, float("nan"))
+        return Bootstrap(n, 0, nan, nan, nan)
+    arr = np.array(draws)
+    return Bootstrap(
+        requested=n,
+        used=len(draws),
+        std={
+            k: float(v)
+            for k, v in zip(
+                names,
+                arr.std(axis=0, ddof=1) if len(draws) > 1 else np.full(len(names), np.nan),
+                strict=True,
+            )
+        },
+        low={k: float(v) for k, v in zip(names, np.percentile(arr, 2.5, axis=0), strict=True)},
+        high={k: float(v) for k, v in zip(names, np.percentile(arr, 97.5, axis=0), strict=True)},
+    )
+
+
+def _build(
+    axis,
+    method,
+    runs,
+    prepared,
+    base,
+    final,
+    steps,
+    ambiguous,
+    advice,
+    cv_before,
+    cv_after,
+    boot,
+    uncertainty: DriveUncertainty | None = None,
+) -> EstimationResult:
+    ids = tuple(r.run_id for r in runs)
+    effects = tuple(
+        EffectEstimate(
+            e, final.value(e), float(final.std[final.names.index(e)]), EFFECTS[e].unit(axis)
+        )
+        for e in final.effects
+    )
+    warnings = separability_warnings(final, prepared)
+    unexplained = characterise(final, prepared, axis) if method == "output-error" else None
+    if unexplained is not None and (text := unexplained.warning(axis)):
+        warnings.append(text)
+    force_before = force_residuals(base, prepared)
+    return EstimationResult(
+        axis=axis,
+        method=method,
+        runs=ids,
+        coefficients=_coefficients(final),
+        coefficients_before=_coefficients(base),
+        effects=effects,
+        ambiguous=tuple(ambiguous),
+        rmse_before=base.rmse,
+        rmse_after=final.rmse,
+        rmse_per_run_before=dict(zip(ids, base.rmse_per_run(), strict=True)),
+        rmse_per_run_after=dict(zip(ids, final.rmse_per_run(), strict=True)),
+        correlation_names=final.names,
+        correlation=final.correlation,
+        warnings=tuple(warnings),
+        advice=tuple(advice),
+        whiteness_before=ljung_box(base.residuals),
+        whiteness_after=ljung_box(final.residuals),
+        residual_correlations=regressor_correlations(base, prepared, force_before),
+        force_rmse_per_run_before=_rms_per_run(ids, force_before),
+        force_rmse_per_run_after=_rms_per_run(ids, force_residuals(final, prepared)),
+        steps=tuple(steps),
+        cv_before=cv_before,
+        cv_after=cv_after,
+        bootstrap=boot,
+        uncertainty=uncertainty,
+        windows={r.run_id: r.window_report() for r in runs},
+        unexplained=unexplained,
+        fit_before=base,
+        fit_after=final,
+    )
+
+
+def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:
+    return {i: float(np.sqrt(np.mean(r**2))) for i, r in zip(ids, residuals, strict=True)}
+
+
+def _seed_result(axis, method, runs, prepared) -> EstimationResult:
+    ls = SEED_METHODS[method](prepared)
+    warnings = []
+    if ls.values[0] > 0:
+        fit = evaluate_parameters(prepared, ls.values, ls.std, ls.correlation)
+    else:
+        fit = evaluate_parameters(prepared, np.r_[1e-9, ls.values[1:]], ls.std, ls.correlation)
+        warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
+    fit = FitResult(**{**fit.__dict__, "values": ls.values})
+    result = _build(axis, method, runs, prepared, fit, fit, (), (), (), None, None, None)
+    return EstimationResult(**{**result.__dict__, "warnings": (*warnings, *result.warnings)})

@@ -1,0 +1,69 @@
+"""A release found in the data, refined by the axis model itself (the window of a
+recording is found in :mod:`estimation.data.window`; this needs the model, so it lives
+beside it)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from estimation.axis.model import prepare
+from estimation.axis.output_error import fit_output_error
+from estimation.data.runs import RunData
+
+#: Releases found in the data (not recorded) that the fit itself refines.
+FOUND_RELEASES = ("release coil", "motion onset")
+#: Half-width searched around a release found from the motion, s.
+ONSET_SEARCH_S = 0.15
+#: Step of the RMSE profile whose curvature gives a fitted release's σ, s.
+PROFILE_STEP_S = 0.001
+
+
+def fit_release(run: RunData) -> RunData:
+    """A found release refined by the axis model itself: the instant within the coil's
+    bracket (or ±ONSET_SEARCH_S around the motion onset) that minimises the run's
+    output-error RMSE over a fixed set of samples. Recorded or given releases are kept."""
+    found = run.window_found
+    if found is None or found.release_source not in FOUND_RELEASES:
+        return run
+    t = np.asarray(run.t, dtype=float)
+    if found.release_source == "release coil":
+        before = t[t <= found.t_release]
+        after = t[t > found.t_release]
+        low = float(before[-1]) if before.size else float(t[0])
+        high = float(after[0]) if after.size else found.t_release
+    else:
+        low = max(float(t[0]), found.t_release - ONSET_SEARCH_S)
+        high = found.t_release + ONSET_SEARCH_S
+    base = prepare(replace(run, t_release=low))
+    if base.t.size < 8 or not high > low:
+        return run
+    first = fit_output_error([replace(base, t_release=found.t_release)])
+    if not np.all(np.isfinite(first.values)):
+        return run
+
+    def rmse(instant: float) -> float:
+        fit = fit_output_error([replace(base, t_release=instant)], start=first.values)
+        return float(fit.rmse) if np.isfinite(fit.rmse) else np.inf
+
+    best = minimize_scalar(rmse, bounds=(low, high), method="bounded", options={"xatol": 1e-4})
+    instant = float(best.x) if best.success and best.fun <= rmse(found.t_release) else None
+    if instant is None:
+        return run
+    # how sharply the data fix it: the RMSE profile's curvature (ΔSSE = σ̂² at 1σ)
+    n, h = base.t.size, PROFILE_STEP_S
+    sse = [n * rmse(instant + d) ** 2 for d in (-h, 0.0, h)]
+    curvature = (sse[0] - 2 * sse[1] + sse[2]) / h**2
+    noise = sse[1] / max(n - 4, 1)
+    std = float(np.sqrt(2 * noise / curvature)) if curvature > 0 else run.t_release_std
+    report = replace(
+        found,
+        t_release=instant,
+        release_source=f"{found.release_source}, refined by the fit",
+        dropped_before=int(np.count_nonzero(t <= instant)),
+    )
+    return replace(
+        run, t_release=instant, t_release_std=min(std, run.t_release_std), window_found=report
+    )

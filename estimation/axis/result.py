@@ -1,0 +1,198 @@
+"""EstimationResult: coefficients with σ, effects, evidence, and its JSON document."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from estimation.axis.drive_uncertainty import DriveUncertainty
+from estimation.axis.output_error import FitResult
+from estimation.axis.search import SearchStep
+from estimation.axis.unexplained import Unexplained
+from estimation.data.window import WindowReport
+from estimation.stats.diagnostics import Whiteness
+
+SCHEMA_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A value with its standard error, in SI units."""
+
+    value: float
+    std: float
+
+    def to_json(self) -> dict[str, float | None]:
+        """{value, std} with non-finite numbers as null."""
+        return {"value": _num(self.value), "std": _num(self.std)}
+
+
+@dataclass(frozen=True)
+class EffectEstimate:
+    """An effect found in the data: library name, value ± σ, unit."""
+
+    name: str
+    value: float
+    std: float
+    unit: str
+
+    def to_json(self) -> dict[str, Any]:
+        """{name, value, std, unit}."""
+        return {
+            "name": self.name,
+            "value": _num(self.value),
+            "std": _num(self.std),
+            "unit": self.unit,
+        }
+
+
+@dataclass(frozen=True)
+class Bootstrap:
+    """Run-level bootstrap: runs resampled with replacement and refitted."""
+
+    requested: int
+    used: int
+    std: dict[str, float]
+    low: dict[str, float]  # 2.5 % percentile
+    high: dict[str, float]  # 97.5 % percentile
+
+
+@dataclass(frozen=True)
+class EstimationResult:
+    """Everything one estimation produced; ``to_json()`` is the documented document."""
+
+    axis: str
+    method: str
+    runs: tuple[str, ...]
+    coefficients: dict[str, Estimate]
+    coefficients_before: dict[str, Estimate]
+    effects: tuple[EffectEstimate, ...]
+    ambiguous: tuple[tuple[str, ...], ...]
+    rmse_before: float
+    rmse_after: float
+    rmse_per_run_before: dict[str, float]
+    rmse_per_run_after: dict[str, float]
+    correlation_names: tuple[str, ...]
+    correlation: np.ndarray
+    warnings: tuple[str, ...]
+    advice: tuple[str, ...]
+    whiteness_before: Whiteness
+    whiteness_after: Whiteness
+    residual_correlations: dict[str, float]
+    force_rmse_per_run_before: dict[str, float] = field(default_factory=dict)
+    force_rmse_per_run_after: dict[str, float] = field(default_factory=dict)
+    steps: tuple[SearchStep, ...] = ()
+    cv_before: float | None = None
+    cv_after: float | None = None
+    bootstrap: Bootstrap | None = None
+    uncertainty: DriveUncertainty | None = None
+    #: Per run, the samples fitted and how the release and end were found.
+    windows: dict[str, WindowReport] = field(default_factory=dict)
+    unexplained: Unexplained | None = None
+    fit_before: FitResult | None = field(default=None, repr=False, compare=False)
+    fit_after: FitResult | None = field(default=None, repr=False, compare=False)
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON document (see docs/estimation.md for the schema)."""
+        doc: dict[str, Any] = {
+            "schema_version": SCHEMA_VERSION,
+            "axis": self.axis,
+            "method": self.method,
+            "runs": list(self.runs),
+            "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
+            "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
+            "effects": [e.to_json() for e in self.effects],
+            "ambiguous": [list(group) for group in self.ambiguous],
+            "rmse_before": _num(self.rmse_before),
+            "rmse_after": _num(self.rmse_after),
+            "rmse_per_run_before": {k: _num(v) for k, v in self.rmse_per_run_before.items()},
+            "rmse_per_run_after": {k: _num(v) for k, v in self.rmse_per_run_after.items()},
+            "correlation": {
+                "names": list(self.correlation_names),
+                "matrix": [[_num(x) for x in row] for row in np.asarray(self.correlation)],
+            },
+            "warnings": list(self.warnings),
+            "advice": list(self.advice),
+            "diagnostics": {
+                "ljung_box_before": _white(self.whiteness_before),
+                "ljung_box_after": _white(self.whiteness_after),
+                "force_rmse_per_run_before": {
+                    k: _num(v) for k, v in self.force_rmse_per_run_before.items()
+                },
+                "force_rmse_per_run_after": {
+                    k: _num(v) for k, v in self.force_rmse_per_run_after.items()
+                },
+                "residual_correlation_before": {
+                    k: _num(v) for k, v in self.residual_correlations.items()
+                },
+            },
+            "evidence": {
+                "bic_before": _num(self.fit_before.bic) if self.fit_before else None,
+                "bic_after": _num(self.fit_after.bic) if self.fit_after else None,
+                "cv_rmse_before": _num(self.cv_before),
+                "cv_rmse_after": _num(self.cv_after),
+                "steps": [_step(s) for s in self.steps],
+            },
+            "bootstrap": _boot(self.bootstrap),
+            "uncertainty": _uncertainty(self.uncertainty),
+            "windows": {k: w.to_json() for k, w in self.windows.items()},
+            "unexplained": self.unexplained.to_json() if self.unexplained else None,
+        }
+        return doc
+
+
+def _num(x: float | None) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def _white(w: Whiteness) -> dict[str, Any]:
+    return {"q": _num(w.q_statistic), "lags": w.lags, "p_value": _num(w.p_value)}
+
+
+def _step(s: SearchStep) -> dict[str, Any]:
+    return {
+        "round": s.round,
+        "effect": s.effect,
+        "delta_bic": _num(s.delta_bic),
+        "cv_rmse_before": _num(s.cv_before),
+        "cv_rmse_after": _num(s.cv_after),
+        "ljung_box_q_before": _num(s.ljung_box_before),
+        "ljung_box_q_after": _num(s.ljung_box_after),
+        "accepted": s.accepted,
+        "reason": s.reason,
+    }
+
+
+def _boot(b: Bootstrap | None) -> dict[str, Any] | None:
+    if b is None:
+        return None
+    return {
+        "requested": b.requested,
+        "used": b.used,
+        "std": {k: _num(v) for k, v in b.std.items()},
+        "percentile_2_5": {k: _num(v) for k, v in b.low.items()},
+        "percentile_97_5": {k: _num(v) for k, v in b.high.items()},
+    }
+
+
+def _uncertainty(u: DriveUncertainty | None) -> dict[str, Any] | None:
+    if u is None:
+        return None
+    total = u.std_total
+    return {
+        "calibration_draws": u.draws,
+        "parameters": {
+            n: {
+                "std_fit": _num(u.std_fit[n]),
+                "std_calibration": _num(u.std_calibration[n]),
+                "std_release_timing": _num(u.std_release_timing.get(n, 0.0)),
+                "std_total": _num(total[n]),
+            }
+            for n in u.std_fit
+        },
+    }

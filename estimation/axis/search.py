@@ -1,0 +1,389 @@
+"""Effect search over subsets of the library, judged as combinations.
+
+Every single effect and every pair of effects is a candidate combination; a combination is
+kept only if, as a whole, it
+- lowers the BIC by more than ``BIC_THRESHOLD`` ("very strong" evidence),
+- lowers the leave-one-run-out prediction error,
+- whitens the residual (Ljung–Box Q drops),
+- cuts the error materially: halves the RMSE, or brings the force-domain residual to
+  within ``AT_NOISE_FLOOR`` of the noise floor the fit implies (structure outside the
+  library is never absorbed by an effect that only nibbles at it, see unexplained.py),
+- and has no member at a physical bound or below what the experiment resolves.
+A pair wins over the best single only by beating it on every count as well (BIC by another
+``BIC_THRESHOLD``, Ljung–Box Q, leave-one-run-out error); a winning pair is
+extended one effect at a time under the same rules (triples and beyond).
+
+One Gauss–Newton step from the reference fit (one sensitivity matrix for all candidates)
+predicts each combination's error; only combinations predicted to help are fitted to
+convergence and judged, so the verdict never rests on a partly converged fit.
+
+Two effects are *ambiguous* when their sensitivities are collinear on these runs
+(``collinearity.COLLINEAR``), or nearly so and fully converged fits with either one explain
+the data alike (BIC within ``AMBIGUITY_BIC``). A collinear pair is never fitted together.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+
+from estimation.axis.collinearity import (
+    COLLINEAR,
+    NEAR_COLLINEAR,
+    independent_shares,
+    partial_correlations,
+    predicted_steps,
+)
+from estimation.axis.effects import EFFECTS
+from estimation.axis.model import BASE_NAMES, PreparedRun
+from estimation.axis.output_error import FitResult, fit_output_error, leave_one_run_out_rmse
+from estimation.axis.unexplained import NUMERICAL_RMSE
+from estimation.stats.diagnostics import ljung_box, noise_floor_ratio
+
+BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
+RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one
+DELAY_STEP_FRACTION = 0.01  # nor one below 1 % of the sample step (release known exactly)
+MATERIAL_FRACTION = 0.005  # an effect below 0.5 % of the drive is within the drive's uncertainty
+MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the noise floor
+AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
+FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
+AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
+MIN_INDEPENDENT_SHARE = 1e-3  # below: the effect is a combination of M, K_L, K_Q on these runs
+PAIR_EXPERIMENTS = {
+    frozenset({"coulomb_friction", "constant_bias"}): (
+        "coulomb_friction and constant_bias are collinear when every run moves the same way: "
+        "add a reverse tow/spin (opposite force) or a free-decay run"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class SearchStep:
+    """Evidence for one candidate combination (``effect`` joins its members with ' + ')."""
+
+    effect: str
+    delta_bic: float
+    cv_before: float | None
+    cv_after: float | None
+    ljung_box_before: float
+    ljung_box_after: float
+    accepted: bool
+    reason: str
+    round: int = 1  # 1 = singles and pairs on the base model, 2… = extensions of the winner
+
+
+@dataclass(frozen=True)
+class SearchOutcome:
+    """Base fit, final fit, the steps taken and the ambiguities found."""
+
+    base: FitResult
+    final: FitResult
+    cv_base: float | None
+    cv_final: float | None
+    steps: tuple[SearchStep, ...]
+    ambiguous: tuple[tuple[str, ...], ...] = ()
+    advice: tuple[str, ...] = field(default=())
+
+
+def candidate_effects(runs_declared_mass: bool) -> list[str]:
+    """Effects worth trying: drive_inertia only when the hung mass is not declared."""
+    names = list(EFFECTS)
+    if runs_declared_mass:
+        names.remove("drive_inertia")
+    return names
+
+
+def _start(fit: FitResult, effects: Sequence[str], runs: Sequence[PreparedRun]) -> np.ndarray:
+    """``fit``'s values, with each effect it lacks at a small physical start value."""
+    init = {"coulomb_friction": 0.01 * min(r.mean_abs_drive for r in runs), "drive_inertia": 0.1}
+    names = (*BASE_NAMES, *effects)
+    return np.array([fit.value(n) if n in fit.names else init.get(n, 0.0) for n in names])
+
+
+def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndarray) -> float:
+    """Largest force/torque the effect exerts over one run's data (N or N·m)."""
+    if effect in ("coulomb_friction", "constant_bias"):
+        return abs(value)
+    if effect == "restoring_spring":
+        return abs(value) * float(np.max(np.abs(run.x - run.x[0]), initial=0.0))
+    if effect == "cubic_drag":
+        return abs(value) * float(np.max(np.abs(velocity), initial=0.0)) ** 3
+    if effect == "drive_inertia" and velocity.size > 1:
+        accel = np.gradient(velocity, run.t)
+        return abs(value) * run.weight_equivalent * float(np.max(np.abs(accel)))
+    return np.inf
+
+
+def _below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> str | None:
+    """Why an effect is too small to be a physical finding, or None.
+
+    - a release delay is a start-time offset; when the release instant itself is only known
+      to ±σ_t (host timing), an offset within 3σ_t (or 1 % of a sample step, for a release
+      given exactly) is timing, not stiction;
+    - any other effect must reach MATERIAL_FRACTION of the drive on at least one run: a
+      force smaller than the uncertainty of the drive itself cannot be told from a slightly
+      wrong drive.
+    """
+    value = fit.value(effect)
+    if effect == "release_delay":
+        timing = max((r.t_release_std for r in runs), default=0.0)
+        step = min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1)
+        if abs(value) < max(RESOLUTION_SIGMAS * timing, DELAY_STEP_FRACTION * step):
+            return (
+                f"release_delay {abs(value) * 1e3:.2g} ms is within the release-timing "
+                f"resolution ({RESOLUTION_SIGMAS:g} × {timing * 1e3:.1f} ms, at least "
+                f"{DELAY_STEP_FRACTION:.0%} of the {step * 1e3:.0f} ms sample step)"
+            )
+        return None
+    share = max(
+        _effect_force(effect, value, run, vel) / max(run.mean_abs_drive, 1e-12)
+        for run, vel in zip(runs, fit.velocities, strict=True)
+    )
+    if share < MATERIAL_FRACTION:
+        return (
+            f"{effect} not material: at most {share:.2%} of the drive "
+            f"(below {MATERIAL_FRACTION:.1%}, the drive's own uncertainty)"
+        )
+    return None
+
+
+def _separating_advice(group: Sequence[str]) -> str:
+    key = frozenset(group)
+    if key in PAIR_EXPERIMENTS:
+        return PAIR_EXPERIMENTS[key]
+    parts = "; ".join(f"{e}: {EFFECTS[e].separated_by}" for e in group)
+    return f"{' and '.join(group)} explain the data equally: to separate them — {parts}"
+
+
+@dataclass(frozen=True)
+class _Reference:
+    """What a combination must beat: a fit, its LORO error and its Ljung–Box Q."""
+
+    fit: FitResult
+    cv: float | None
+    q: float
+
+
+class _Search:
+    """One search over ``candidates`` on ``runs`` (holds the fits already made)."""
+
+    def __init__(self, runs: Sequence[PreparedRun], candidates: Sequence[str]) -> None:
+        self.runs = runs
+        self.order = {e: i for i, e in enumerate(candidates)}
+        self.steps: list[SearchStep] = []
+        self.cv: dict[tuple[str, ...], float | None] = {}
+        self.travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
+
+    def key(self, combo: Sequence[str]) -> tuple[int, ...]:
+        """Library order of a combination (ties are broken towards common effects)."""
+        return (len(combo), *sorted(self.order[e] for e in combo))
+
+    def judge(
+        self,
+        ref: _Reference,
+        combo: tuple[str, ...],
+        fit: FitResult,
+        round_no: int,
+        rival: _Reference | None = None,
+    ) -> bool:
+        """Record the evidence for ``combo`` (added to ``ref``) and whether it is kept.
+
+        ``rival``: a model the combination must also beat on every count (a pair against
+        the best single: BIC by another ``BIC_THRESHOLD``, Ljung–Box Q, LORO error).
+        """
+        gain = fit.bic - ref.fit.bic
+        q_new = ljung_box(fit.residuals).q_statistic
+        cv_new: float | None = None
+        reason = "kept"
+        at_bound = [e for e in combo if e in fit.at_bound]
+        if ref.fit.rmse <= NUMERICAL_RMSE * self.travel:
+            reason = "the error is already at round-off: nothing left to explain"
+        elif gain > -BIC_THRESHOLD:
+            reason = f"ΔBIC {gain:.1f} > −{BIC_THRESHOLD:g}"
+        elif rival is not None and fit.bic >= rival.fit.bic - BIC_THRESHOLD:
+            reason = f"not better than the best single effect by ΔBIC {BIC_THRESHOLD:g}"
+        elif at_bound:
+            reason = f"{', '.join(at_bound)} at its physical bound"
+        elif below := [b for b in (_below_resolution(e, fit, self.runs) for e in combo) if b]:
+            reason = "; ".join(below)
+        elif q_new >= ref.q or (rival is not None and q_new >= rival.q):
+            reason = "residual not whiter (Ljung–Box Q did not drop)"
+        elif fit.rmse > (1 - MATERIAL_CUT) * ref.fit.rmse and (
+            noise_floor_ratio(fit, self.runs) > AT_NOISE_FLOOR
+        ):
+            reason = (
+                f"error not cut materially (RMSE −{1 - fit.rmse / ref.fit.rmse:.1%}, "
+                "residual still above the noise floor)"
+            )
+        else:
+            cv_new = leave_one_run_out_rmse(self.runs, fit)
+            bars = [ref.cv] + ([rival.cv] if rival is not None else [])
+            if cv_new is not None and any(b is not None and cv_new >= b for b in bars):
+                reason = "leave-one-run-out error did not drop"
+        kept = reason == "kept"
+        if kept:
+            self.cv[fit.effects] = cv_new
+        self.steps.append(
+            SearchStep(
+                " + ".join(combo), gain, ref.cv, cv_new, ref.q, q_new, kept, reason, round_no
+            )
+        )
+        return kept
+
+    def best(
+        self,
+        ref: _Reference,
+        combos: Sequence[tuple[str, ...]],
+        round_no: int,
+        rival: _Reference | None = None,
+    ) -> FitResult | None:
+        """The kept combination with the lowest BIC (library order within AMBIGUITY_BIC).
+
+        A combination is fitted to convergence only when one Gauss–Newton step from the
+        reference predicts a BIC below what it must beat (with ``BIC_THRESHOLD`` to spare)
+        and a gain within ``FAR_BEHIND`` of a kept one; the others are recorded with their
+        predicted ΔBIC.
+        """
+        predicted = predicted_steps(ref.fit, self.runs, combos)
+        gate = ref.fit.bic if rival is None else min(ref.fit.bic, rival.fit.bic - BIC_THRESHOLD)
+        n = ref.fit.n_samples
+        kept: dict[tuple[str, ...], FitResult] = {}
+        bics = {
+            c: n * np.log(max(sse, 1e-300) / n) + (ref.fit.n_params + len(c)) * np.log(n)
+            for c, (sse, _) in predicted.items()
+        }
+        for c in sorted(combos, key=lambda c: (bics[c], self.key(c))):
+            bic, start = bics[c], predicted[c][1]
+            best_gain = min((bics[k] - ref.fit.bic for k in kept), default=0.0)
+            why = None
+            if bic >= gate + BIC_THRESHOLD:
+                why = "a linearised step predicts no gain"
+            elif bic - ref.fit.bic > FAR_BEHIND * best_gain:
+                why = "a linearised step predicts far less gain than a kept combination"
+            if why:
+                self.steps.append(
+                    SearchStep(
+                        " + ".join(c),
+                        bic - ref.fit.bic,
+                        ref.cv,
+                        None,
+                        ref.q,
+                        ref.q,
+                        False,
+                        f"not fitted: {why}",
+                        round_no,
+                    )
+                )
+                continue
+            fit = fit_output_error(self.runs, (*ref.fit.effects, *c), start=start)
+            if self.judge(ref, c, fit, round_no, rival):
+                kept[c] = fit
+        if not kept:
+            return None
+        lowest = min(f.bic for f in kept.values())
+        near = [c for c, f in kept.items() if f.bic - lowest < AMBIGUITY_BIC]
+        return kept[min(near, key=self.key)]
+
+    def identifiable(self, base: FitResult, candidates: Sequence[str]) -> list[str]:
+        """The candidates these runs can tell from inertia, K_L and K_Q (the rest are
+        recorded as not identifiable: no fit could pin them down)."""
+        shares = independent_shares(base, self.runs, candidates)
+        kept = [e for e in candidates if shares[e] >= MIN_INDEPENDENT_SHARE]
+        for e in candidates:
+            if e not in kept:
+                self.steps.append(
+                    SearchStep(
+                        e,
+                        0.0,
+                        None,
+                        None,
+                        0.0,
+                        0.0,
+                        False,
+                        f"not identifiable on these runs: {shares[e]:.1%} of its effect is "
+                        "not already a change of inertia, K_L or K_Q",
+                    )
+                )
+        return kept
+
+    def reference(self, fit: FitResult) -> _Reference:
+        """``fit`` as the model the next combinations must beat."""
+        cv = self.cv.get(fit.effects)
+        return _Reference(fit, cv, ljung_box(fit.residuals).q_statistic)
+
+
+def search_effects(
+    runs: Sequence[PreparedRun], base: FitResult, candidates: Sequence[str]
+) -> SearchOutcome:
+    """Subset search of effects over ``candidates`` starting from ``base`` (module doc)."""
+    search = _Search(runs, candidates)
+    start = _Reference(
+        base, leave_one_run_out_rmse(runs, base), ljung_box(base.residuals).q_statistic
+    )
+    candidates = search.identifiable(base, candidates)
+    rho = partial_correlations(base, runs, candidates)
+    single = search.best(start, [(e,) for e in candidates], 1)
+    pairs = [p for p in combinations(candidates, 2) if abs(rho[frozenset(p)]) < COLLINEAR]
+    rival = search.reference(single) if single is not None else None
+    chosen = search.best(start, pairs, 1, rival) or single
+    current = start if chosen is None else search.reference(chosen)
+    round_no = 1
+    while chosen is not None and len(chosen.effects) >= 2:  # extend a winning pair
+        round_no += 1
+        rest = [e for e in candidates if e not in chosen.effects]
+        rho = partial_correlations(chosen, runs, [*chosen.effects, *rest])
+        separable = [
+            (e,)
+            for e in rest
+            if all(abs(rho[frozenset((e, k))]) < COLLINEAR for k in chosen.effects)
+        ]
+        chosen = search.best(current, separable, round_no) if separable else None
+        if chosen is not None:
+            current = search.reference(chosen)
+    ambiguous, advice = _ambiguities(search, current.fit, candidates)
+    return SearchOutcome(
+        base=base,
+        final=current.fit,
+        cv_base=start.cv,
+        cv_final=current.cv,
+        steps=tuple(search.steps),
+        ambiguous=ambiguous,
+        advice=advice,
+    )
+
+
+def _ambiguities(
+    search: _Search, final: FitResult, candidates: Sequence[str]
+) -> tuple[tuple[tuple[str, ...], ...], tuple[str, ...]]:
+    """Groups of effects the runs cannot tell apart from each kept effect, with advice."""
+    if not final.effects:
+        return (), ()
+    others = [c for c in candidates if c not in final.effects]
+    rho = partial_correlations(final, search.runs, [*final.effects, *others])
+    groups, advice = [], []
+    for kept in final.effects:
+        twins = []
+        for c in others:
+            r = abs(rho[frozenset((kept, c))])
+            if r >= NEAR_COLLINEAR and _explains_alike(search, final, kept, c, r < COLLINEAR):
+                twins.append(c)
+        if twins:
+            group = (kept, *twins)
+            groups.append(group)
+            advice.append(_separating_advice(group))
+    return tuple(groups), tuple(advice)
+
+
+def _explains_alike(
+    search: _Search, final: FitResult, kept: str, other: str, compare_bic: bool
+) -> bool:
+    """A converged fit with ``other`` in place of ``kept`` is physical (inside its bounds,
+    material) and, unless the two are collinear, explains the data as well."""
+    effects = tuple(other if e == kept else e for e in final.effects)
+    swap = fit_output_error(search.runs, effects, start=_start(final, effects, search.runs))
+    if other in swap.at_bound or _below_resolution(other, swap, search.runs):
+        return False  # e.g. an aiding force cannot be dry friction
+    return not compare_bic or abs(swap.bic - final.bic) < AMBIGUITY_BIC

@@ -1,0 +1,140 @@
+"""Seed 000's three least-squares approaches, as published (kept for comparison).
+
+All solve K̂ = (HᵀH)⁻¹Hᵀτ with σ̂_K = √diag(σ̂²(HᵀH)⁻¹), σ̂² = SSR/(n − p), on
+(M + M_drive)·ẍ + K_L·ẋ + K_Q·|ẋ|·ẋ = τ; the declared drive inertia is moved to the
+left-hand side so the reported inertia is the vehicle's alone.
+
+1. ``ls-raw``: ẋ, ẍ by backward differences of the encoder samples (eqs. 4–5, 11).
+2. ``ls-curvefit``: per run ẋ = A(1 − e^{−t/T}), ẍ = (A/T)e^{−t/T} fitted to the difference
+   velocities; regression as in 1 over each run's transient (0 … 4T).
+3. ``ls-steady``: K_L, K_Q from the steady speeds A vs τ (eq. 12); then M from
+   τ − K_L·ẋ − K_Q·|ẋ|·ẋ = M·ẍ with the curve-fit derivatives (eq. 13).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import OptimizeWarning, curve_fit
+
+from estimation.axis.model import BASE_NAMES, PreparedRun
+
+TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
+
+
+@dataclass(frozen=True)
+class LeastSquaresFit:
+    """Coefficients (inertia, K_L, K_Q) with σ and correlation from one seed approach."""
+
+    method: str
+    names: tuple[str, ...]
+    values: np.ndarray
+    std: np.ndarray
+    correlation: np.ndarray
+    curve_fits: tuple[tuple[float, float], ...] = ()  # (A, T) per run for 2 and 3
+
+
+def _solve(h: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """K̂ = (HᵀH)⁻¹Hᵀy and its covariance σ̂²(HᵀH)⁻¹."""
+    hth_inv = np.linalg.pinv(h.T @ h)
+    k = hth_inv @ h.T @ y
+    resid = y - h @ k
+    dof = max(y.size - h.shape[1], 1)
+    return k, float(resid @ resid) / dof * hth_inv
+
+
+def _corr(cov: np.ndarray) -> np.ndarray:
+    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    denom = np.outer(std, std)
+    return np.divide(cov, denom, out=np.eye(cov.shape[0]), where=denom > 0)
+
+
+def _moving(run: PreparedRun) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times since release, positions and drive from the last at-rest sample onwards."""
+    start = max(int(np.searchsorted(run.t, run.t_release, side="right")) - 1, 0)
+    return run.t[start:] - run.t_release, run.x[start:], run.drive[start:]
+
+
+def _differences(run: PreparedRun):
+    tau, x, drive = _moving(run)
+    dt = np.diff(tau)
+    v = np.diff(x) / dt
+    a = np.diff(v) / dt[1:]
+    return tau[2:], v[1:], a, drive[2:], tau[1:], v
+
+
+def ls_raw(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
+    """Approach 1: regress τ on [ẍ, ẋ, |ẋ|ẋ] with derivatives from backward differences."""
+    rows, ys = [], []
+    for r in runs:
+        _, v, a, drive, _, _ = _differences(r)
+        rows.append(np.column_stack([a, v, np.abs(v) * v]))
+        ys.append(drive - r.extra_inertia * a)
+    k, cov = _solve(np.vstack(rows), np.concatenate(ys))
+    return LeastSquaresFit("ls-raw", BASE_NAMES, k, np.sqrt(np.diag(cov)), _corr(cov))
+
+
+def first_order_fit(run: PreparedRun) -> tuple[float, float]:
+    """Fit ẋ = A(1 − e^{−t/T}) to the difference velocities of one run; returns (A, T)."""
+    _, _, _, _, tau_v, v = _differences(run)
+    t_mid = tau_v - 0.5 * np.diff(np.concatenate([[0.0], tau_v]))
+    a0 = float(np.mean(v[-max(v.size // 4, 1) :]))
+    t0 = float(t_mid[np.argmax(np.abs(v) >= 0.63 * abs(a0))]) or 0.5
+    with warnings.catch_warnings():  # σ of (A, T) is not used: only the curve is
+        warnings.simplefilter("ignore", OptimizeWarning)
+        (amp, tc), _ = curve_fit(
+            lambda t, amp, tc: amp * (1.0 - np.exp(-t / tc)),
+            t_mid,
+            v,
+            p0=(a0, max(t0, 0.05)),
+            maxfev=5000,
+        )
+    return float(amp), float(abs(tc))
+
+
+def _curve_rows(run: PreparedRun, amp: float, tc: float):
+    tau, _, drive = _moving(run)
+    keep = (tau > 0) & (tau <= TRANSIENT_TIME_CONSTANTS * tc)
+    e = np.exp(-tau[keep] / tc)
+    return amp * (1 - e), amp / tc * e, drive[keep]
+
+
+def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
+    """Approach 2: regress τ on the first-order curve-fit derivatives over each transient."""
+    fits = tuple(first_order_fit(r) for r in runs)
+    rows, ys = [], []
+    for r, (amp, tc) in zip(runs, fits, strict=True):
+        v, a, drive = _curve_rows(r, amp, tc)
+        rows.append(np.column_stack([a, v, np.abs(v) * v]))
+        ys.append(drive - r.extra_inertia * a)
+    k, cov = _solve(np.vstack(rows), np.concatenate(ys))
+    return LeastSquaresFit("ls-curvefit", BASE_NAMES, k, np.sqrt(np.diag(cov)), _corr(cov), fits)
+
+
+def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
+    """Approach 3: drag law from steady speeds vs drive, then inertia from the transients."""
+    drives = np.array([r.mean_abs_drive * np.sign(np.mean(r.drive)) for r in runs])
+    if np.unique(np.round(np.abs(drives), 9)).size < 2:
+        raise ValueError(
+            f"runs: drive: got one distinct drive {sorted(set(np.abs(drives)))}, allowed: "
+            "ls-steady needs runs at two or more different forces/torques"
+        )
+    fits = tuple(first_order_fit(r) for r in runs)
+    speeds = np.array([amp for amp, _ in fits])
+    kd, cov_d = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives)
+    lhs, rhs = [], []
+    for r, (amp, tc) in zip(runs, fits, strict=True):
+        v, a, drive = _curve_rows(r, amp, tc)
+        lhs.append(a)
+        rhs.append(drive - kd[0] * v - kd[1] * np.abs(v) * v - r.extra_inertia * a)
+    km, cov_m = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs))
+    values = np.array([km[0], kd[0], kd[1]])
+    cov = np.zeros((3, 3))
+    cov[0, 0], cov[1:, 1:] = cov_m[0, 0], cov_d
+    return LeastSquaresFit("ls-steady", BASE_NAMES, values, np.sqrt(np.diag(cov)), _corr(cov), fits)
+
+
+SEED_METHODS = {"ls-raw": ls_raw, "ls-curvefit": ls_curvefit, "ls-steady": ls_steady}

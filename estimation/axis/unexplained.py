@@ -1,0 +1,193 @@
+"""Structure the final model still lacks: flagged, characterised, never absorbed.
+
+After the effect search, the residual should be what the encoder and the clock leave: white
+and at the noise floor the fit itself implies (``diagnostics.force_noise_floor``). When it is
+neither — Ljung–Box rejects whiteness AND the force-domain residual is well above that
+floor — something outside the effect library acts on the vehicle. It is characterised, not
+fitted: its correlation with position, velocity, time since release and acceleration, and
+the dominant period of a sinusoid in position or in time (the share of the force residual it
+explains, from a least-squares periodogram, per run with its own amplitude and phase).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from estimation.axis.model import PreparedRun
+from estimation.axis.output_error import FitResult
+from estimation.stats.diagnostics import force_noise_floor, force_residuals, ljung_box
+
+WHITE_P = 1e-3  # Ljung–Box p below this: the residual is not white
+ABOVE_FLOOR = 3.0  # force residual RMS over the fit's own noise floor that counts as structure
+NUMERICAL_RMSE = 1e-7  # an RMSE below this share of the travel is round-off, not structure
+PERIODIC_SHARE = 0.3  # a sinusoid explaining this share of the residual is called periodic
+N_FREQUENCIES = 300
+
+
+@dataclass(frozen=True)
+class Period:
+    """The strongest sinusoid in the force residual."""
+
+    domain: str  # "position" or "time"
+    value: float  # period, in the domain's unit
+    unit: str
+    share: float  # fraction of the force residual's variance it explains
+
+
+@dataclass(frozen=True)
+class Unexplained:
+    """How much structure is left after the search, and what it looks like."""
+
+    structured: bool
+    ljung_box_p: float
+    force_rms: float  # N or N·m
+    noise_floor: float  # N or N·m
+    correlations: dict[str, float]  # Pearson r with position, velocity, time, acceleration
+    period: Period | None
+    strongest: str | None  # "position", "velocity", "time", "acceleration", or None
+
+    @property
+    def ratio(self) -> float:
+        """Force residual RMS over the noise floor (≈ 1 when only noise is left)."""
+        return self.force_rms / self.noise_floor if self.noise_floor > 0 else float("inf")
+
+    def warning(self, axis: str) -> str | None:
+        """One sentence for ``warnings``, or None when nothing structured is left."""
+        if not self.structured:
+            return None
+        where = f"strongest correlate: {self.strongest}" if self.strongest else "no clear correlate"
+        if self.period is not None and self.period.share >= PERIODIC_SHARE:
+            where = (
+                f"periodic in {self.period.domain} with period {self.period.value:.3g} "
+                f"{self.period.unit} ({self.period.share:.0%} of it)"
+            )
+        unit = "N" if axis == "surge" else "N·m"
+        return (
+            f"the residual is still structured after the effect search (Ljung–Box p = "
+            f"{self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} {unit}, "
+            f"{self.ratio:.1f}× the noise floor the fit implies); {where}; no effect in the "
+            "library explains it, so none was added: the coefficients may be biased by it"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``unexplained`` field of the result document."""
+        return {
+            "structured": self.structured,
+            "coefficients_possibly_biased": self.structured,
+            "ljung_box_p": _num(self.ljung_box_p),
+            "force_rms": _num(self.force_rms),
+            "noise_floor": _num(self.noise_floor),
+            "ratio_to_noise_floor": _num(self.ratio),
+            "correlations": {k: _num(v) for k, v in self.correlations.items()},
+            "strongest": self.strongest,
+            "period": None
+            if self.period is None
+            else {
+                "domain": self.period.domain,
+                "value": _num(self.period.value),
+                "unit": self.period.unit,
+                "share": _num(self.period.share),
+            },
+        }
+
+
+def _num(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unexplained:
+    """Flag and describe what ``fit`` leaves unexplained in ``runs`` (module doc)."""
+    forces = force_residuals(fit, runs)
+    moving = [r.t > r.t_release for r in runs]
+    pooled = np.concatenate([f[m] for f, m in zip(forces, moving, strict=True)])
+    force_rms = float(np.sqrt(np.mean(pooled**2))) if pooled.size else 0.0
+    floor = force_noise_floor(fit, runs)
+    p_value = ljung_box(fit.residuals).p_value
+    travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
+    numerical = fit.rmse <= NUMERICAL_RMSE * travel  # noise-free data: round-off is no force
+    structured = p_value < WHITE_P and force_rms > ABOVE_FLOOR * floor and not numerical
+    coords = _coordinates(fit, runs)
+    correlations = {
+        name: _pearson(pooled, np.concatenate([c[m] for c, m in zip(cols, moving, strict=True)]))
+        for name, cols in coords.items()
+    }
+    along = {"position": [np.asarray(r.x) for r in runs], "time": coords["time"]}
+    period = _dominant_period(forces, along, moving, axis)
+    strongest = None
+    if structured:
+        strongest = max(correlations, key=lambda k: abs(correlations[k]))
+        if period is not None and period.share >= max(PERIODIC_SHARE, correlations[strongest] ** 2):
+            strongest = period.domain
+    return Unexplained(structured, p_value, force_rms, floor, correlations, period, strongest)
+
+
+def _coordinates(fit: FitResult, runs: Sequence[PreparedRun]) -> dict[str, list[np.ndarray]]:
+    """Per run: displacement since release, model velocity, time since release, acceleration."""
+    out: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("position", "velocity", "time", "acceleration")
+    }
+    for r, offset, v in zip(runs, fit.offsets, fit.velocities, strict=True):
+        out["position"].append(r.x - offset)
+        out["velocity"].append(v)
+        out["time"].append(r.t - r.t_release)
+        out["acceleration"].append(np.gradient(v, r.t) if r.t.size > 1 else np.zeros_like(v))
+    return out
+
+
+def _pearson(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a - a.mean(), b - b.mean()
+    denom = float(np.linalg.norm(a) * np.linalg.norm(b))
+    return float(a @ b) / denom if denom > 0 else 0.0
+
+
+def _dominant_period(
+    forces: Sequence[np.ndarray],
+    coords: dict[str, list[np.ndarray]],
+    moving: Sequence[np.ndarray],
+    axis: str,
+) -> Period | None:
+    """The sinusoid that explains most of the force residual: in rail position (the encoder's
+    reading, so a feature of the rail lines up across runs) or in time since release."""
+    units = {"position": "m" if axis == "surge" else "rad", "time": "s"}
+    best: Period | None = None
+    for domain, unit in units.items():
+        parts = [(c[m], f[m]) for c, f, m in zip(coords[domain], forces, moving, strict=True)]
+        parts = [(u, f) for u, f in parts if u.size >= 10 and np.ptp(u) > 0]
+        if not parts:
+            continue
+        step = float(np.median(np.concatenate([np.abs(np.diff(u)) for u, _ in parts])))
+        longest = max(float(np.ptp(u)) for u, _ in parts)
+        shortest = 2.5 * step
+        if not 0 < shortest < longest / 1.5:
+            continue
+        periods = np.geomspace(shortest, longest / 1.5, N_FREQUENCIES)
+        total = sum(float(np.sum((f - f.mean()) ** 2)) for _, f in parts)
+        if total <= 0:
+            continue
+        explained = np.zeros(periods.size)
+        for u, f in parts:
+            explained += _sinusoid_fit(u, f - f.mean(), 2 * np.pi / periods)
+        k = int(np.argmax(explained))
+        share = float(explained[k] / total)
+        if best is None or share > best.share:
+            best = Period(domain, float(periods[k]), unit, share)
+    return best
+
+
+def _sinusoid_fit(u: np.ndarray, f: np.ndarray, omegas: np.ndarray) -> np.ndarray:
+    """Variance of ``f`` (centred) explained by a·sin(ωu) + b·cos(ωu) + c, for each ω."""
+    phase = np.outer(omegas, u)
+    s, c = np.sin(phase), np.cos(phase)
+    s -= s.mean(axis=1, keepdims=True)
+    c -= c.mean(axis=1, keepdims=True)
+    ss, cc, sc = (s * s).sum(1), (c * c).sum(1), (s * c).sum(1)
+    sf, cf = s @ f, c @ f
+    det = ss * cc - sc**2
+    ok = det > 1e-12 * np.maximum(ss * cc, 1e-300)
+    a = np.where(ok, (cc * sf - sc * cf) / np.where(ok, det, 1.0), 0.0)
+    b = np.where(ok, (ss * cf - sc * sf) / np.where(ok, det, 1.0), 0.0)
+    return a * sf + b * cf

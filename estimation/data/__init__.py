@@ -1,0 +1,1 @@
+"""Recordings as the estimators see them: arrays, windows, CSV files."""

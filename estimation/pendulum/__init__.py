@@ -1,0 +1,1 @@
+"""Pendulum free decays: data, simulation, the three methods, fit, report."""

@@ -1,0 +1,342 @@
+"""Pendulum free-decay estimation: α (added mass) and β (linear damping) of the vehicle along
+the swing axis, by the thesis's three methods and by output error, with the effect search.
+
+    (J_t + m_z·l² + J_v + α·l²)·φ̈ = −[(m_z − ρV)·l + m_t·r]·g·sin φ − (β·l² + b)·φ̇
+                                     [− γ·l³·|φ̇|·φ̇] [− τ_c·sgn φ̇]
+
+One entry point, ``estimate_pendulum(runs, method, search_effects)``; the result's
+``to_json()`` is documented in docs/pendulum.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from estimation.axis.result import EffectEstimate, Estimate, _num, _step, _white
+from estimation.axis.search import SearchStep
+from estimation.data.runs import validate_run_set
+from estimation.pendulum.data import PendulumRun, validate_pendulum_run
+from estimation.pendulum.decay import Decay, Peaks, find_peaks, prepare_decay
+from estimation.pendulum.fit import (
+    BASE_NAMES,
+    PENDULUM_EFFECTS,
+    PendulumFit,
+    fit_output_error,
+    search_effects,
+)
+from estimation.pendulum.methods import (
+    MethodEstimate,
+    damped_fit,
+    equation_error,
+    log_decrement,
+)
+from estimation.stats.diagnostics import Whiteness, ljung_box
+
+PENDULUM_METHODS: tuple[str, ...] = (
+    "output-error",
+    "damped-fit",
+    "log-decrement",
+    "equation-error",
+)
+SCHEMA_VERSION = 1
+UNITS = {"added_mass": "kg", "linear_damping": "N·s/m", "quadratic_damping": "kg/m"}
+NOT_WHITE_P = 0.01
+RESOLUTION_FLOOR = 2.0  # RMSE within 2× the sample noise: nothing left to resolve
+
+
+@dataclass(frozen=True)
+class PendulumResult:
+    """Everything one pendulum estimation produced; ``to_json()`` is the documented document."""
+
+    axis: str
+    method: str
+    runs: tuple[str, ...]
+    coefficients: dict[str, Estimate]
+    coefficients_before: dict[str, Estimate]
+    effects: tuple[EffectEstimate, ...]
+    ambiguous: tuple[tuple[str, ...], ...]
+    methods: tuple[MethodEstimate, ...]
+    peaks: dict[str, Peaks]
+    rmse_before: float
+    rmse_after: float
+    rmse_per_run_before: dict[str, float]
+    rmse_per_run_after: dict[str, float]
+    whiteness_before: Whiteness
+    whiteness_after: Whiteness
+    steps: tuple[SearchStep, ...]
+    warnings: tuple[str, ...]
+    advice: tuple[str, ...]
+    geometry: dict[str, dict[str, float]]
+    fit_before: PendulumFit = field(repr=False, compare=False)
+    fit_after: PendulumFit = field(repr=False, compare=False)
+    decays: tuple[Decay, ...] = field(default=(), repr=False, compare=False)
+
+    def method_estimate(self, method: str, run_id: str | None = None) -> MethodEstimate:
+        """The row of ``method`` (on ``run_id``, default the first run)."""
+        rid = run_id or self.runs[0]
+        for m in self.methods:
+            if m.method == method and m.run_id == rid:
+                return m
+        raise KeyError(f"method {method!r} on run {rid!r} not in this result")
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON document (schema in docs/pendulum.md)."""
+        return {
+            "schema_version": SCHEMA_VERSION,
+            "analysis": "pendulum",
+            "axis": self.axis,
+            "method": self.method,
+            "runs": list(self.runs),
+            "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
+            "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
+            "units": dict(UNITS),
+            "effects": [e.to_json() for e in self.effects],
+            "ambiguous": [list(g) for g in self.ambiguous],
+            "methods": [m.to_json() for m in self.methods],
+            "peaks": {rid: p.to_json() for rid, p in self.peaks.items()},
+            "rmse_before": _num(self.rmse_before),
+            "rmse_after": _num(self.rmse_after),
+            "rmse_per_run_before": {k: _num(v) for k, v in self.rmse_per_run_before.items()},
+            "rmse_per_run_after": {k: _num(v) for k, v in self.rmse_per_run_after.items()},
+            "warnings": list(self.warnings),
+            "advice": list(self.advice),
+            "geometry": self.geometry,
+            "diagnostics": {
+                "ljung_box_before": _white(self.whiteness_before),
+                "ljung_box_after": _white(self.whiteness_after),
+            },
+            "evidence": {
+                "bic_before": _num(self.fit_before.bic),
+                "bic_after": _num(self.fit_after.bic),
+                "steps": [_step(s) for s in self.steps],
+            },
+            "nuisance": {
+                rid: {
+                    "initial_angle": _num(a),
+                    "initial_rate": _num(r),
+                    "offset": _num(o),
+                }
+                for rid, a, r, o in zip(
+                    self.runs,
+                    self.fit_after.initial_angle,
+                    self.fit_after.initial_rate,
+                    self.fit_after.offsets,
+                    strict=True,
+                )
+            },
+        }
+
+
+def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
+    """Validate runs for a joint fit; returns their common swing axis."""
+    return validate_run_set(runs, validate_pendulum_run, "pendulum run", "one swing axis per fit")
+
+
+def _coefficients(fit: PendulumFit) -> dict[str, Estimate]:
+    out = {n: Estimate(fit.value(n), fit.sigma(n)) for n in BASE_NAMES}
+    if "quadratic_damping" in fit.names:
+        out["quadratic_damping"] = Estimate(
+            fit.value("quadratic_damping"), fit.sigma("quadratic_damping")
+        )
+    return out
+
+
+def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Estimate]:
+    """Inverse-variance mean of one method's α and β over runs."""
+    out = {}
+    for name in BASE_NAMES:
+        est = [getattr(m, name) for m in rows]
+        w = np.array([1 / e.std**2 if e.std > 0 else 0.0 for e in est])
+        vals = np.array([e.value for e in est])
+        if w.sum() > 0:
+            out[name] = Estimate(float(w @ vals / w.sum()), float(1 / np.sqrt(w.sum())))
+        else:
+            out[name] = Estimate(float(vals.mean()), float("nan"))
+    return out
+
+
+def _warnings(
+    methods: Sequence[MethodEstimate],
+    peaks: dict[str, Peaks],
+    decays: Sequence[Decay],
+    final: PendulumFit,
+    white_after: Whiteness,
+) -> list[str]:
+    out = []
+    for m in methods:
+        q = m.quadratic_damping
+        if m.method == "equation-error" and q is not None and q.value < -2 * q.std:
+            out.append(
+                f"equation-error γ = {q.value:.4g} ± {q.std:.2g} kg/m < 0 on run {m.run_id}: "
+                f"the signature of dry friction in the pivot (least squares puts sgn φ̇ into a "
+                f"too-large β, {m.linear_damping.value:.4g} N·s/m, and a negative γ; seed 002 "
+                f"§7.2)"
+            )
+    for rid, p in peaks.items():
+        if p.decays_linearly:
+            out.append(
+                f"run {rid}: the peaks decrease linearly rather than geometrically "
+                f"({p.lin_rate:.3g} rad/s): the envelope of dry friction"
+            )
+    for d in decays:
+        fit = next(m for m in methods if m.method == "damped-fit" and m.run_id == d.run_id)
+        if fit.rmse > 5 * d.noise:
+            out.append(
+                f"run {d.run_id}: the damped sinusoid misses the record (RMSE {fit.rmse:.2g} rad,"
+                f" {fit.rmse / d.noise:.0f}× the sample noise): its σ understates the error "
+                f"(sin φ, dry friction or quadratic drag are outside that model)"
+            )
+    if white_after.p_value < NOT_WHITE_P:
+        floor = max(d.noise for d in decays)
+        if final.rmse <= RESOLUTION_FLOOR * floor:
+            out.append(
+                f"output-error residual not white (Ljung–Box p = {white_after.p_value:.2g}) but "
+                f"at the sensor's resolution (RMSE {final.rmse:.2g} rad vs noise/quantization "
+                f"{floor:.2g} rad): quantization of a slow or stopped swing, no effect to resolve"
+            )
+        else:
+            out.append(
+                f"output-error residual still not white (Ljung–Box p = "
+                f"{white_after.p_value:.2g}, RMSE {final.rmse:.2g} rad vs noise {floor:.2g} rad):"
+                f" an effect outside the library, or the geometry is off"
+            )
+    if "pivot_dry_friction" in final.effects:
+        tau = final.value("pivot_dry_friction")
+        for d in decays:
+            out.append(
+                f"run {d.run_id}: pivot dry friction τ_c = {tau:.3g} N·m takes "
+                f"4τ_c/k = {4 * tau / d.plant.stiffness:.3g} rad off the swing per cycle and "
+                f"stops the pendulum within ±{tau / d.plant.stiffness:.3g} rad of rest"
+            )
+    return out
+
+
+def estimate_pendulum(
+    runs: Sequence[PendulumRun], method: str = "output-error", search: bool = True
+) -> PendulumResult:
+    """α, β of the vehicle from free-decay runs, all methods side by side, effects searched.
+
+    ``method`` picks the headline coefficients: "output-error" (default: nonlinear model,
+    joint over runs, after the effect search), or "damped-fit", "log-decrement",
+    "equation-error" (pooled over runs by inverse variance). The effect search always
+    runs on the output-error fit when ``search`` is true.
+    """
+    if method not in PENDULUM_METHODS:
+        raise ValueError(f"method: got {method!r}, allowed: {', '.join(PENDULUM_METHODS)}")
+    axis = validate_pendulum_runs(runs)
+    decays = [prepare_decay(r) for r in runs]
+    peaks: dict[str, Peaks] = {}
+    rows: list[MethodEstimate] = []
+    for d in decays:
+        p = find_peaks(d)
+        peaks[d.run_id] = p
+        rows += [
+            damped_fit(d, p),
+            log_decrement(d, p),
+            equation_error(d, p),
+            equation_error(d, p, quadratic=False),
+        ]
+    fits = [m for m in rows if m.method == "damped-fit"]
+    start = np.array(
+        [
+            np.mean([m.added_mass.value for m in fits]),
+            np.mean([m.linear_damping.value for m in fits]),
+        ]
+    )
+    nuisance = np.array(
+        [
+            [d.phi[0] - m.signal["offset"], 0.0, m.signal["offset"]]
+            for d, m in zip(decays, fits, strict=True)
+        ]
+    )
+    base = fit_output_error(decays, (), start=start, nuisance=nuisance)
+    if search:
+        outcome = search_effects(decays, base)
+        final, steps = outcome.final, outcome.steps
+        ambiguous, advice = outcome.ambiguous, list(outcome.advice)
+    else:
+        final, steps, ambiguous, advice = base, (), (), []
+    ids = tuple(d.run_id for d in decays)
+    rows += _output_error_rows(decays, final)
+    white_before, white_after = ljung_box(base.residuals), ljung_box(final.residuals)
+    warnings = _warnings(rows, peaks, decays, final, white_after)
+    if final.effects and len({round(float(np.max(np.abs(d.phi))), 2) for d in decays}) < 2:
+        advice.append(
+            "to confirm "
+            + ", ".join(final.effects)
+            + ": "
+            + "; ".join(PENDULUM_EFFECTS[e].separated_by for e in final.effects)
+        )
+    if method == "output-error":
+        coefficients = _coefficients(final)
+    else:
+        coefficients = _pooled([m for m in rows if m.method == method])
+    effects = tuple(
+        EffectEstimate(e, final.value(e), final.sigma(e), PENDULUM_EFFECTS[e].unit)
+        for e in final.effects
+        if e != "quadratic_damping"
+    )
+    if "quadratic_damping" in final.effects:
+        effects += (
+            EffectEstimate(
+                "quadratic_damping",
+                final.value("quadratic_damping"),
+                final.sigma("quadratic_damping"),
+                "kg/m",
+            ),
+        )
+    return PendulumResult(
+        axis=axis,
+        method=method,
+        runs=ids,
+        coefficients=coefficients,
+        coefficients_before=_coefficients(base),
+        effects=effects,
+        ambiguous=tuple(ambiguous),
+        methods=tuple(rows),
+        peaks=peaks,
+        rmse_before=base.rmse,
+        rmse_after=final.rmse,
+        rmse_per_run_before=dict(zip(ids, base.rmse_per_run(), strict=True)),
+        rmse_per_run_after=dict(zip(ids, final.rmse_per_run(), strict=True)),
+        whiteness_before=white_before,
+        whiteness_after=white_after,
+        steps=tuple(steps),
+        warnings=tuple(warnings),
+        advice=tuple(advice),
+        geometry={r.run_id: asdict(r.geometry) for r in runs},
+        fit_before=base,
+        fit_after=final,
+        decays=tuple(decays),
+    )
+
+
+def _output_error_rows(decays: Sequence[Decay], fit: PendulumFit) -> list[MethodEstimate]:
+    """The output-error fit as one row per run (coefficients are joint over runs)."""
+    rows = []
+    gamma = (
+        Estimate(fit.value("quadratic_damping"), fit.sigma("quadratic_damping"))
+        if "quadratic_damping" in fit.names
+        else None
+    )
+    for d, res in zip(decays, fit.residuals, strict=True):
+        arm = d.plant.arm
+        alpha = Estimate(fit.value("added_mass"), fit.sigma("added_mass"))
+        beta = Estimate(fit.value("linear_damping"), fit.sigma("linear_damping"))
+        inertia = Estimate(d.plant.known_inertia + alpha.value * arm**2, alpha.std * arm**2)
+        damping = Estimate(beta.value * arm**2 + d.plant.pivot_damping, beta.std * arm**2)
+        effects = {e: fit.value(e) for e in fit.effects}
+        mse = float(np.mean(res**2))
+        rows.append(
+            MethodEstimate(
+                "output-error", d.run_id, alpha, beta, gamma, inertia, damping, effects, mse,
+                float(np.sqrt(mse)),
+                "nonlinear model (sin φ) integrated and fitted to the angle"
+                + (f", with {', '.join(fit.effects)}" if fit.effects else ""),
+            )
+        )  # fmt: skip
+    return rows

@@ -1,0 +1,376 @@
+"""Output-error fit of the pendulum's nonlinear moment balance, and the search for effects.
+
+Fits α, β (and any effects) jointly over runs, with each run's state (φ₀, φ̇₀) at its first
+sample after release and its encoder zero offset as nuisance parameters (the fitted
+initial state also absorbs an error in the release instant):
+
+    (J_known + α·l²)·φ̈ = −k·sin φ − (β·l² + b)·φ̇ [− γ·l³·|φ̇|·φ̇] [− τ_c·sgn φ̇]
+    φ_measured = φ + offset
+
+σ from σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p). The effect search follows ``estimation.axis.search``:
+an effect is kept only when the BIC drops by more than 10, its value is off its physical
+bound, resolvable (> 3σ) and material (its largest torque ≥ 0.5 % of the largest
+restoring torque: below that it cannot be told from an error in the rig geometry), and
+the residual gets whiter (Ljung–Box Q drops).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from estimation.axis.search import (
+    AMBIGUITY_BIC,
+    BIC_THRESHOLD,
+    MATERIAL_FRACTION,
+    RESOLUTION_SIGMAS,
+    SearchStep,
+)
+from estimation.pendulum.decay import Decay
+from estimation.pendulum.sim import simulate, step_size
+from estimation.stats.diagnostics import ljung_box
+from estimation.stats.fit import FitStatistics
+
+BASE_NAMES: tuple[str, ...] = ("added_mass", "linear_damping")
+
+
+@dataclass(frozen=True)
+class PendulumEffect:
+    """A candidate effect of the pendulum: formula, unit, residual signature, experiment."""
+
+    name: str
+    formula: str
+    unit: str
+    signature: str
+    separated_by: str
+    lower: float = 0.0
+
+
+PENDULUM_EFFECTS: dict[str, PendulumEffect] = {
+    e.name: e
+    for e in (
+        PendulumEffect(
+            "pivot_dry_friction",
+            "τ = −τ_c·sgn φ̇ (dry friction in the pivot)",
+            "N·m",
+            "peaks decrease linearly rather than geometrically (by 4τ_c/k per cycle); the "
+            "pendulum stops off zero; equation-error LS gives a too-large β and a negative γ",
+            "release from two clearly different amplitudes: the linear decrease per cycle "
+            "4τ_c/k is the same for both, a quadratic drag decays the large swing faster",
+        ),
+        PendulumEffect(
+            "quadratic_damping",
+            "τ = −γ·l³·|φ̇|·φ̇ (quadratic drag of the vehicle)",
+            "kg/m",
+            "decay faster at large amplitude, slower near rest",
+            "release from two clearly different amplitudes",
+        ),
+    )
+}
+
+
+@dataclass(frozen=True)
+class PendulumFit(FitStatistics):
+    """A converged output-error fit: coefficients with σ, nuisance per run, residuals."""
+
+    effects: tuple[str, ...]
+    names: tuple[str, ...]
+    values: np.ndarray
+    std: np.ndarray
+    correlation: np.ndarray
+    initial_angle: np.ndarray  # rad, per run
+    initial_rate: np.ndarray  # rad/s, per run
+    offsets: np.ndarray  # rad, per run (encoder zero)
+    residuals: tuple[np.ndarray, ...]  # measured − model (rad)
+    rates: tuple[np.ndarray, ...]  # model φ̇ at the samples (rad/s)
+    sse: float
+    n_samples: int
+    n_params: int
+    at_bound: tuple[str, ...] = field(default=())
+
+
+def _coeffs(globals_: np.ndarray, effects: Sequence[str]) -> tuple[np.ndarray, ...]:
+    """(α, β, γ, τ_c) columns from rows of global parameters."""
+    g = np.atleast_2d(globals_)
+    col = {n: g[:, i] for i, n in enumerate((*BASE_NAMES, *effects))}
+    zero = np.zeros(g.shape[0])
+    return (
+        col["added_mass"],
+        col["linear_damping"],
+        col.get("quadratic_damping", zero),
+        col.get("pivot_dry_friction", zero),
+    )
+
+
+class _Problem:
+    """Residuals and finite-difference Jacobian, one vectorized simulation per run."""
+
+    def __init__(self, decays: Sequence[Decay], effects: Sequence[str], h: Sequence[float]):
+        self.decays, self.effects, self.h = decays, tuple(effects), h
+        self.ng = len(BASE_NAMES) + len(self.effects)
+        self.sizes = [d.t.size for d in decays]
+        self.starts = np.concatenate([[0], np.cumsum(self.sizes)]).astype(int)
+        self.measured = np.concatenate([d.phi for d in decays])
+        self._key: bytes | None = None
+
+    def _run_params(self, params: np.ndarray, r: int) -> tuple[float, float, float]:
+        base = self.ng + 3 * r
+        return params[base], params[base + 1], params[base + 2]
+
+    def simulate_run(self, params: np.ndarray, r: int, perturb: bool):
+        g = params[: self.ng]
+        phi0, rate0, _ = self._run_params(params, r)
+        rows = [np.r_[g, phi0, rate0]]
+        steps = np.zeros(0)
+        if perturb:
+            full = np.r_[g, phi0, rate0]
+            steps = 1e-6 * np.maximum(np.abs(full), 1e-3)
+            steps[-1] = 1e-6 * max(abs(rate0), 1e-2)
+            rows += list(full + np.diag(steps))
+        sets = np.array(rows)
+        alpha, beta, gamma, tau = _coeffs(sets[:, : self.ng], self.effects)
+        d = self.decays[r]
+        angle, rate = simulate(
+            d.plant, d.t, alpha, beta, gamma, tau, sets[:, -2], sets[:, -1], self.h[r]
+        )
+        return np.nan_to_num(angle, nan=1e3, posinf=1e3, neginf=-1e3), rate, steps
+
+    def _evaluate(self, params: np.ndarray) -> None:
+        key = params.tobytes()
+        if key == self._key:
+            return
+        n, p = self.measured.size, params.size
+        model = np.empty(n)
+        jac = np.zeros((n, p))
+        for r in range(len(self.decays)):
+            angle, _, steps = self.simulate_run(params, r, perturb=True)
+            lo, hi = self.starts[r], self.starts[r + 1]
+            offset = self._run_params(params, r)[2]
+            model[lo:hi] = angle[0] + offset
+            diffs = ((angle[1:] - angle[0]) / steps[:, None]).T
+            jac[lo:hi, : self.ng] = -diffs[:, : self.ng]
+            base = self.ng + 3 * r
+            jac[lo:hi, base : base + 2] = -diffs[:, self.ng :]
+            jac[lo:hi, base + 2] = -1.0
+        self._model, self._jac, self._key = model, jac, key
+
+    def residual(self, params: np.ndarray) -> np.ndarray:
+        self._evaluate(params)
+        return self.measured - self._model
+
+    def jacobian(self, params: np.ndarray) -> np.ndarray:
+        self._evaluate(params)
+        return self._jac
+
+
+def _bounds(decays: Sequence[Decay], effects: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    alpha_min = max(-d.plant.known_inertia / d.plant.arm**2 for d in decays) * (1 - 1e-6)
+    lower = [alpha_min, 0.0] + [PENDULUM_EFFECTS[e].lower for e in effects]
+    lower += [-np.inf] * (3 * len(decays))
+    upper = [np.inf] * len(lower)
+    return np.array(lower), np.array(upper)
+
+
+def effect_start(effect: str, fit: PendulumFit, decays: Sequence[Decay]) -> np.ndarray:
+    """Start values (globals of ``fit`` + the new effect) from a grid, nuisance held.
+
+    A new damping effect takes over part of what β carried, and a dry friction started in
+    the wrong place stays in a local minimum (it shifts the phase of every later swing), so
+    the grid spans the effect (log-spaced) × β (scaled 0.05–1); one vectorized simulation
+    per run. τ_c from 1e-4 to 0.2 of the largest restoring torque; γ so that the quadratic
+    torque at the largest speed spans 1e-3 to 10× the linear one.
+    """
+    swing = [float(np.max(np.abs(d.phi - o))) for d, o in zip(decays, fit.offsets, strict=True)]
+    beta = max(fit.value("linear_damping"), 1e-3)
+    if effect == "pivot_dry_friction":
+        top = max(d.plant.stiffness * np.sin(a) for d, a in zip(decays, swing, strict=True))
+        values = top * np.geomspace(1e-4, 0.2, 25)
+    else:
+        speed = max(float(np.max(np.abs(r))) for r in fit.rates) * decays[0].plant.arm
+        values = beta / max(speed, 1e-6) * np.geomspace(1e-3, 10, 25)
+    scales = np.linspace(0.05, 1.0, 12)
+    ev, sc = (a.ravel() for a in np.meshgrid(values, scales))
+    sets = np.tile(np.r_[fit.values, 0.0], (ev.size, 1))
+    sets[:, -1] = ev
+    sets[:, fit.names.index("linear_damping")] = beta * sc
+    alpha, beta_, gamma, tau = _coeffs(sets, (*fit.effects, effect))
+    sse = np.zeros(ev.size)
+    for r, d in enumerate(decays):
+        h = step_size(d.t, d.plant, fit.value("added_mass"))
+        angle, _ = simulate(
+            d.plant, d.t, alpha, beta_, gamma, tau, fit.initial_angle[r], fit.initial_rate[r], h
+        )
+        res = d.phi[None, :] - angle
+        res -= res.mean(axis=1, keepdims=True)
+        sse += np.nan_to_num(np.sum(res**2, axis=1), nan=np.inf)
+    return sets[int(np.argmin(sse))]
+
+
+def fit_output_error(
+    decays: Sequence[Decay],
+    effects: Sequence[str] = (),
+    start: np.ndarray | None = None,
+    nuisance: np.ndarray | None = None,
+) -> PendulumFit:
+    """Fit (α, β, effects) and per-run (φ₀, φ̇₀, offset) to all runs' angles jointly.
+
+    ``start``: global start values; ``nuisance``: per-run start values, shape (runs, 3).
+    """
+    effects = tuple(effects)
+    h = [step_size(d.t, d.plant, float(start[0]) if start is not None else 0.0) for d in decays]
+    prob = _Problem(decays, effects, h)
+    lower, upper = _bounds(decays, effects)
+    p0 = np.concatenate([np.asarray(start, float), np.asarray(nuisance, float).ravel()])
+    p0 = np.clip(p0, lower, upper)
+    on_lower = np.isfinite(lower) & (p0 <= lower)
+    p0 = np.where(on_lower, lower + 1e-6 * np.maximum(np.abs(p0), 1e-3), p0)
+    sol = least_squares(
+        prob.residual, p0, jac=prob.jacobian, bounds=(lower, upper), method="trf",
+        x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200,
+    )  # fmt: skip
+    params = sol.x
+    res = prob.residual(params)
+    jac = prob.jacobian(params)
+    n, p = res.size, params.size
+    sse = float(res @ res)
+    cov = sse / max(n - p, 1) * np.linalg.pinv(jac.T @ jac)
+    ng = prob.ng
+    std = np.sqrt(np.maximum(np.diag(cov)[:ng], 0.0))
+    denom = np.outer(std, std)
+    corr = np.divide(cov[:ng, :ng], denom, out=np.eye(ng), where=denom > 0)
+    names = (*BASE_NAMES, *effects)
+    at_bound = tuple(
+        name
+        for i, name in enumerate(names)
+        if np.isfinite(lower[i]) and params[i] - lower[i] < max(1e-6 * abs(params[i]), 1e-9)
+    )
+    nuis = params[ng:].reshape(-1, 3)
+    rates = tuple(prob.simulate_run(params, r, perturb=False)[1][0] for r in range(len(decays)))
+    return PendulumFit(
+        effects=effects,
+        names=names,
+        values=params[:ng].copy(),
+        std=std,
+        correlation=corr,
+        initial_angle=nuis[:, 0].copy(),
+        initial_rate=nuis[:, 1].copy(),
+        offsets=nuis[:, 2].copy(),
+        residuals=tuple(np.split(res, prob.starts[1:-1])),
+        rates=rates,
+        sse=sse,
+        n_samples=n,
+        n_params=p,
+        at_bound=at_bound,
+    )
+
+
+def _nuisance(fit: PendulumFit) -> np.ndarray:
+    return np.column_stack([fit.initial_angle, fit.initial_rate, fit.offsets])
+
+
+def effect_torque_share(effect: str, fit: PendulumFit, decays: Sequence[Decay]) -> float:
+    """Largest torque of the effect over the largest restoring torque, best run."""
+    shares = []
+    for d, rate, offset in zip(decays, fit.rates, fit.offsets, strict=True):
+        restoring = d.plant.stiffness * np.sin(float(np.max(np.abs(d.phi - offset))))
+        if effect == "pivot_dry_friction":
+            torque = abs(fit.value(effect))
+        else:
+            torque = abs(fit.value(effect)) * d.plant.arm**3 * float(np.max(rate**2))
+        shares.append(torque / max(restoring, 1e-12))
+    return max(shares)
+
+
+def _rejection(effect: str, fit: PendulumFit, decays: Sequence[Decay]) -> str | None:
+    """Why a statistically better fit is not a physical finding, or None."""
+    if effect in fit.at_bound:
+        return "value at its physical bound"
+    value, sigma = fit.value(effect), fit.sigma(effect)
+    if not abs(value) > RESOLUTION_SIGMAS * sigma:
+        return f"not resolved: {value:.3g} ± {sigma:.2g} is within {RESOLUTION_SIGMAS:g}σ of 0"
+    share = effect_torque_share(effect, fit, decays)
+    if share < MATERIAL_FRACTION:
+        return (
+            f"not material: at most {share:.2%} of the restoring torque (below "
+            f"{MATERIAL_FRACTION:.1%}, the rig geometry's own uncertainty)"
+        )
+    return None
+
+
+@dataclass(frozen=True)
+class PendulumSearch:
+    """Base fit, final fit, the evidence for each candidate, ambiguities and advice."""
+
+    base: PendulumFit
+    final: PendulumFit
+    steps: tuple[SearchStep, ...]
+    ambiguous: tuple[tuple[str, ...], ...] = ()
+    advice: tuple[str, ...] = ()
+
+
+def search_effects(
+    decays: Sequence[Decay], base: PendulumFit, candidates: Sequence[str] = tuple(PENDULUM_EFFECTS)
+) -> PendulumSearch:
+    """Greedy forward selection over ``candidates`` starting from ``base``."""
+    current, q_current = base, ljung_box(base.residuals).q_statistic
+    remaining = list(candidates)
+    steps: list[SearchStep] = []
+    ambiguous: list[tuple[str, ...]] = []
+    advice: list[str] = []
+    round_no = 0
+    while remaining:
+        round_no += 1
+        trials = {
+            e: fit_output_error(
+                decays,
+                (*current.effects, e),
+                start=effect_start(e, current, decays),
+                nuisance=_nuisance(current),
+            )
+            for e in remaining
+        }
+        gains = {e: f.bic - current.bic for e, f in trials.items()}
+        order = sorted(remaining, key=lambda e: gains[e])
+        accepted = None
+        for e in order:
+            fit = trials[e]
+            q_new = ljung_box(fit.residuals).q_statistic
+            reason = None
+            if gains[e] > -BIC_THRESHOLD:
+                reason = f"ΔBIC {gains[e]:.1f} > −{BIC_THRESHOLD:g}"
+            elif accepted is not None:
+                reason = f"not added this round: {accepted[0]} was kept"
+            else:
+                reason = _rejection(e, fit, decays)
+                if reason is None and not q_new < q_current:
+                    reason = "residual not whiter (Ljung–Box Q did not drop)"
+            ok = reason is None
+            steps.append(
+                SearchStep(
+                    e, gains[e], None, None, q_current, q_new, ok, reason or "kept", round_no
+                )
+            )
+            if ok:
+                accepted = (e, fit, q_new)
+        if accepted is None:
+            break
+        name, fit, q_new = accepted
+        twins = [
+            e
+            for e in order
+            if e != name
+            and gains[e] <= -BIC_THRESHOLD
+            and abs(gains[e] - gains[name]) < AMBIGUITY_BIC
+            and _rejection(e, trials[e], decays) is None
+        ]
+        if twins:
+            group = (name, *twins)
+            ambiguous.append(group)
+            parts = "; ".join(f"{e}: {PENDULUM_EFFECTS[e].separated_by}" for e in group)
+            advice.append(f"{' and '.join(group)} explain the data alike — {parts}")
+        current, q_current = fit, q_new
+        remaining = [e for e in remaining if e != name and e not in twins]
+    return PendulumSearch(base, current, tuple(steps), tuple(ambiguous), tuple(advice))

@@ -1,0 +1,1 @@
+"""Statistics every fit shares: BIC, RMSE, residual diagnostics."""

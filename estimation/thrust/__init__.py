@@ -1,0 +1,1 @@
+"""Thrust: calibration curves and the thrust law."""

@@ -1,0 +1,1 @@
+"""The 6-DOF vehicle: description, dynamics, responses, sensitivity."""
