@@ -19,6 +19,7 @@ from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
 from daq.store.base import SAMPLE_COLUMNS, process_alive, process_identity, software_version
+from daq.store.calibrations import ImportedCalibrations
 from daq.store.packing import SamplePacker
 from daq.store.records import (
     DuplicateSample,
@@ -39,7 +40,7 @@ from daq.store.schema import samples as samples_t
 from daq.store.spill import default_spill_dir, replay_spills
 
 
-class Store(EventsAndResults):
+class Store(EventsAndResults, ImportedCalibrations):
     """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
     creates the database if needed, migrates it to the newest schema and writes back the
     spill files of its runs (samples a recorder could not store, see
