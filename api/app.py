@@ -25,6 +25,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from api import (
     routes_analysis,
+    routes_calibration,
     routes_crosscheck,
     routes_jobs,
     routes_rig,
@@ -216,6 +217,7 @@ def create_app(
         routes_stream,
         routes_sixdof,
         routes_analysis,
+        routes_calibration,
     ):
         app.include_router(module.router)
 

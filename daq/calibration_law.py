@@ -19,6 +19,21 @@ from estimation.thrust_law import ThrustLaw, identify_thrust_law
 SOURCES = ("imported", "run")
 
 
+#: Laws already identified, by (source, id): a stored calibration never changes.
+_LAWS: dict[tuple[str, int], ThrustLaw] = {}
+_LAWS_KEPT = 16
+
+
+def _cached(source: str, key: int, build) -> ThrustLaw:
+    law = _LAWS.get((source, key))
+    if law is None:
+        law = build()
+        if len(_LAWS) >= _LAWS_KEPT:
+            _LAWS.pop(next(iter(_LAWS)))
+        _LAWS[(source, key)] = law
+    return law
+
+
 class NoCalibration(LookupError):
     """No thrust calibration stored (or not the one asked for)."""
 
@@ -87,11 +102,11 @@ def law_of(
     except (CalibrationNotFound, ResultNotFound) as err:
         raise NoCalibration(str(err)) from None
     if imported is not None and (run is None or imported.created_at >= run.created_at):
-        law = identify_thrust_law(imported.data["table"])
+        law = _cached("imported", imported.id, lambda: identify_thrust_law(imported.data["table"]))
         return law, {"source": "imported", "id": imported.id, "name": imported.name}
     if run is not None:
         rows, _ = _run_table(run.data.get("table", []))
-        law = identify_thrust_law(rows)
+        law = _cached("run", run.id, lambda: identify_thrust_law(rows))
         return law, {"source": "run", "id": run.id, "name": f"calibration run {run.id}"}
     raise NoCalibration(
         "no thrust calibration stored: run `rig calibrate-thrusters` or "

@@ -107,24 +107,24 @@ class ThrustLaw:
         v = np.broadcast_to(
             np.asarray(self.reference_voltage if volts is None else volts, dtype=float), u.shape
         )
-        table = self._at_voltages(u.ravel()).reshape(len(self.curves), *u.shape)
+        # Commands repeat (a drive holds each output for many instants): one interpolant
+        # across voltage per distinct command.
+        commands, which = np.unique(u.ravel(), return_inverse=True)
+        table = self._at_voltages(commands)  # (voltages, distinct commands)
         v_lo, v_hi = float(self.voltages[0]), float(self.voltages[-1])
         q = self.assumed_exponent[0]
+        flat_v = v.ravel()
         if not self.identified:
-            return table[0] * (v / v_lo) ** q
-        inside = np.clip(v, v_lo, v_hi)
-        if len(self.curves) == 2:
-            w = (inside - v_lo) / (v_hi - v_lo)
-            out = table[0] * (1 - w) + table[1] * w
-        else:
-            flat = table.reshape(len(self.curves), -1)
-            out = np.array(
-                [
-                    PchipInterpolator(self.voltages, flat[:, i])(vi)
-                    for i, vi in enumerate(inside.ravel())
-                ]
-            ).reshape(u.shape)
-        return out * (v / inside) ** q
+            return (table[0][which] * (flat_v / v_lo) ** q).reshape(u.shape)
+        inside = np.clip(flat_v, v_lo, v_hi)
+        out = np.empty_like(inside)
+        for k in range(commands.size):
+            at = which == k
+            if len(self.curves) == 2:
+                out[at] = np.interp(inside[at], self.voltages, table[:, k])
+            else:
+                out[at] = PchipInterpolator(self.voltages, table[:, k])(inside[at])
+        return (out * (flat_v / inside) ** q).reshape(u.shape)
 
     def estimate(self, command: float, volts: float | None = None) -> ThrustEstimate:
         """Thrust ± σ at one command and voltage."""

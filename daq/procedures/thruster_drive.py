@@ -36,11 +36,38 @@ DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:
-    """The newest stored thrust calibration; ParameterError when there is none."""
+    """The newest stored thrust calibration, measured (``result_id``) or imported
+    (``calibration_import_id``; its curve and rows at its reference voltage, the highest
+    it covers); ParameterError when there is none."""
     newest = store.latest_result("calibration")
+    imported = store.latest_imported_calibration()
+    if imported is not None and (newest is None or imported.created_at >= newest.created_at):
+        from daq.calibration_law import law_of
+        from estimation.thrust_law import VOLTAGE_TOLERANCE_V
+
+        law, _ = law_of(store, "imported", imported.id)
+        rows = [
+            r
+            for r in imported.data["table"]
+            if r.get("supply_voltage_v") is None
+            or abs(r["supply_voltage_v"] - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
+        ]
+        return {
+            "fit": law.curves[-1].curve.to_json(),
+            "table": rows,
+            "result_id": None,
+            "calibration_import_id": imported.id,
+        }
     if newest is None:
         raise ParameterError(
-            [("drive", "thrusters", "a thrust calibration first: run `rig calibrate-thrusters`")]
+            [
+                (
+                    "drive",
+                    "thrusters",
+                    "a thrust calibration first: run `rig calibrate-thrusters` "
+                    "or `rig import-calibration FILE`",
+                )
+            ]
         )
     return newest.data | {"result_id": newest.id}
 
@@ -158,6 +185,8 @@ async def run_thruster_test(
         "force_per_thruster_n": force,
         "calibration_result_id": calibration["result_id"],
     }
+    if calibration.get("calibration_import_id") is not None:
+        parameters["calibration_import_id"] = calibration["calibration_import_id"]
     async with session.locked(f"thruster {axis.kind} {drive:.4g} {unit}"):
         op = session.operator
         report(Progress(0.0, "returning the vehicle to the start"))
