@@ -14,7 +14,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from daq.config import ThrusterPort
 from daq.operator import OperatorAct
@@ -24,6 +24,9 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+
+if TYPE_CHECKING:
+    from estimation.thrust_law import ThrustLaw
 
 log = logging.getLogger(__name__)
 
@@ -146,6 +149,51 @@ def thruster_commands(
     return commands, per_thruster
 
 
+async def _supply_now(session: RigSession) -> float | None:
+    """The supply voltage read now (None: the rig has no such channel or it cannot be read)."""
+    try:
+        volts = float(await session.plc.read("supply_voltage"))
+    except Exception as err:  # a rig without the channel, or a failed read
+        log.info("supply voltage not read before the run: %s", err)
+        return None
+    return volts if volts > 0 else None
+
+
+def law_commands(
+    drive: float,
+    law: ThrustLaw,
+    volts: float | None,
+    thrusters: ThrusterPort,
+    max_command: float,
+    kind: str,
+) -> tuple[list[float], float]:
+    """Commands giving ``drive`` through an identified thrust law at supply ``volts`` (None:
+    the law's reference voltage) and the force per thruster, N. Refuses (ParameterError)
+    beyond what the thrusters deliver at that voltage within ``max_command``."""
+    name, unit = DRIVE_FIELD[kind]
+    signs, arm = thrust_layout(thrusters, kind)
+    count = thrusters.count
+    per_thruster = drive / (count * arm)
+    at = law.reference_voltage if volts is None else volts
+    commands = []
+    for sign in signs:
+        reach = min(abs(law.max_force(at, sign)), abs(float(law.force(sign * max_command, at))))
+        if per_thruster > reach:
+            raise ParameterError(
+                [
+                    (
+                        name,
+                        drive,
+                        f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
+                        f"at the supply voltage now ({at:.3g} V; max_thruster_command "
+                        f"{max_command:g})",
+                    )
+                ]
+            )
+        commands.append(law.command_for_force(sign * per_thruster, at).value)
+    return commands, per_thruster
+
+
 async def run_thruster_test(
     session: RigSession,
     params: TowParameters | SpinParameters,
@@ -173,20 +221,32 @@ async def run_thruster_test(
     drive = params.force_n if tow else params.torque_nm
     unit = DRIVE_FIELD[axis.kind][1]
     calibration = await asyncio.to_thread(latest_calibration, session.store)
-    commands, force = thruster_commands(
-        drive,
-        calibration,
-        rig.thrusters,
-        max_command=rig.limits.max_thruster_command,
-        kind=axis.kind,
-    )
+    imported = calibration.get("calibration_import_id")
+    volts = None
+    if imported is None:
+        commands, force = thruster_commands(
+            drive,
+            calibration,
+            rig.thrusters,
+            max_command=rig.limits.max_thruster_command,
+            kind=axis.kind,
+        )
+    else:  # an imported table's law, at the supply voltage measured now
+        from daq.calibration_law import law_of
+
+        law, _ = await asyncio.to_thread(law_of, session.store, "imported", imported)
+        volts = await _supply_now(session)
+        commands, force = law_commands(
+            drive, law, volts, rig.thrusters, rig.limits.max_thruster_command, axis.kind
+        )
     parameters = params.to_json() | {
         "commands": commands,
         "force_per_thruster_n": force,
         "calibration_result_id": calibration["result_id"],
     }
-    if calibration.get("calibration_import_id") is not None:
-        parameters["calibration_import_id"] = calibration["calibration_import_id"]
+    if imported is not None:
+        parameters["calibration_import_id"] = imported
+        parameters["supply_voltage_at_start_v"] = volts
     async with session.locked(f"thruster {axis.kind} {drive:.4g} {unit}"):
         op = session.operator
         report(Progress(0.0, "returning the vehicle to the start"))
