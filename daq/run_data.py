@@ -23,6 +23,7 @@ from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
+from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
 
@@ -180,29 +181,49 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        curve, cal_table = _calibration(store, params)
+        law, curve, cal_table = _calibration(store, params)
         measured = CalibratedThrust.from_table(curve, cal_table)
         steps = _thrust_steps(timeline.events, timeline.offset)
         volts = table.channels.get("supply_voltage")
         volts = None if volts is None else volts[timeline.good][keep]
-        drive = thruster_drive(
-            measured, rig, run.kind, params["commands"], t, t_release, steps, volts
-        )
-        draws = np.array(
-            [
-                thruster_drive(
-                    measured.with_curve(c),
-                    rig,
-                    run.kind,
-                    params["commands"],
-                    t,
-                    t_release,
-                    steps,
-                    volts,
-                )
-                for c in curve_draws(curve, DRIVE_DRAWS)
-            ]
-        )
+        if law is not None and law.identified:
+            mean_v = law.reference_voltage if volts is None else float(np.mean(volts))
+            drive_law = f"{law.voltage_law(mean_v)} (mean supply {mean_v:.3g} V)"
+            if volts is None:
+                drive_law += ": not recorded, the calibration's highest voltage taken"
+            drive = thruster_drive(
+                law, rig, run.kind, params["commands"], t, t_release, steps, volts
+            )
+            # The law's σ: its interpolation between voltages (common to the run) and the
+            # calibration's scatter at the run's thrust.
+            rng = np.random.default_rng([DRIVE_DRAW_SEED, zlib.crc32(run.id.encode())])
+            factors = 1.0 + rng.normal(0.0, law.interpolation_error, DRIVE_DRAWS)
+            draws = factors[:, None] * drive[None, :]
+        else:
+            exponent = rig.thrusters.voltage_exponent
+            drive_law = (
+                f"rig file: thrust ∝ V^{exponent:g} (thrusters.voltage_exponent)"
+                if exponent and volts is not None
+                else "no supply-voltage correction"
+            )
+            drive = thruster_drive(
+                measured, rig, run.kind, params["commands"], t, t_release, steps, volts
+            )
+            draws = np.array(
+                [
+                    thruster_drive(
+                        measured.with_curve(c),
+                        rig,
+                        run.kind,
+                        params["commands"],
+                        t,
+                        t_release,
+                        steps,
+                        volts,
+                    )
+                    for c in curve_draws(curve, DRIVE_DRAWS)
+                ]
+            )
         draws *= lack_of_fit_factors(curve, params, run.id, DRIVE_DRAWS)[:, None]
     return RunData(
         run_id=run.id,
@@ -218,6 +239,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         t_release_std=t_release_std,
         drive_draws=draws,
         window_found=window,
+        drive_law=drive_law if thrusters else None,
     )
 
 
@@ -311,14 +333,33 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     )
 
 
-def _calibration(store: Store, params: dict) -> tuple[ThrustCurve, list[dict]]:
+def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCurve, list[dict]]:
+    """The run's calibration: an imported table (its thrust law, and the curve and rows at
+    its reference voltage) or a calibration run's result (no law: one voltage)."""
+    imported = params.get("calibration_import_id")
+    if imported is not None:
+        from daq.calibration_law import NoCalibration, law_of
+
+        try:
+            law, _ = law_of(store, "imported", imported)
+        except NoCalibration:
+            raise ValueError(f"imported calibration #{imported} is no longer stored") from None
+        ref = law.curves[-1]
+        rows = store.imported_calibration(imported).data["table"]
+        at_ref = [
+            r
+            for r in rows
+            if r.get("supply_voltage_v") is None
+            or abs(float(r["supply_voltage_v"]) - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
+        ]
+        return law, ref.curve, at_ref
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:
         raise ValueError(
             f"calibration result #{params['calibration_result_id']} is no longer stored"
         ) from None
-    return ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
+    return None, ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
 
 
 #: Step of the fine grid the thruster drive is built on, s.
@@ -342,7 +383,7 @@ def _thrust_steps(events, offset: float) -> list[tuple[float, list[float]]] | No
 
 
 def thruster_drive(
-    curve: ThrustCurve | CalibratedThrust,
+    curve: ThrustCurve | CalibratedThrust | ThrustLaw,
     rig: RigConfig,
     kind: str,
     commands: list[float],
@@ -364,7 +405,9 @@ def thruster_drive(
     q > 0, a ``CalibratedThrust`` and the run's supply voltage per sample (``volts``),
     each thruster's force is scaled by (V / V_cal(command))^q: the supply sags as the
     thrust rises and may have dropped since the calibration. The thrust follows the
-    outputs with the rig file's first-order ``thrusters.time_constant_s``. The estimator
+    outputs with the rig file's first-order ``thrusters.time_constant_s``. A ``ThrustLaw``
+    identified from calibrations at several voltages replaces that exponent: the thrust is
+    the law's F(output, V) at each instant's supply voltage. The estimator
     holds each sample's drive until the next sample, so each value is the mean drive over
     its sample interval (built on a 1 ms grid).
     """
@@ -391,7 +434,10 @@ def thruster_drive(
     exponent = rig.thrusters.voltage_exponent
     force = np.zeros_like(grid)
     for sign, output in zip(signs, outputs, strict=True):
-        thrust = curve.force(output)
+        if isinstance(curve, ThrustLaw):  # identified F(command, V)
+            thrust = curve.force(output, supply)
+        else:
+            thrust = curve.force(output)
         if supply is not None and isinstance(curve, CalibratedThrust):
             thrust = thrust * curve.supply_factor(output, supply, exponent)
         force += sign * thrust * arm

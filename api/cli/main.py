@@ -63,6 +63,16 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "import_",
         "Import a CSV (columns t [s] and position [m or rad]; more allowed); prints...",
     ),
+    "import-calibration": (
+        "api.cli.calibration",
+        "import_calibration",
+        "Import a thrust-stand calibration table (CSV: command, thrust, optional...",
+    ),
+    "thrust": (
+        "api.cli.calibration",
+        "thrust",
+        "Thrust law of the stored calibration: the force ± σ at --command and...",
+    ),
     "estimate": (
         "api.cli.estimate",
         "estimate",

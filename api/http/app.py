@@ -28,6 +28,7 @@ from api.core.service import RigService, RigUnavailable
 from api.http.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
 from api.http.request_errors import request_json_error, request_not_found
 from api.http.routes import analysis as routes_analysis
+from api.http.routes import calibration as routes_calibration
 from api.http.routes import crosscheck as routes_crosscheck
 from api.http.routes import jobs as routes_jobs
 from api.http.routes import rig as routes_rig
@@ -214,6 +215,7 @@ def create_app(
         routes_stream,
         routes_sixdof,
         routes_analysis,
+        routes_calibration,
     ):
         app.include_router(module.router)
 

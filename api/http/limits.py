@@ -20,7 +20,7 @@ JSON_BODY_LIMIT = 64 * 1024
 #: Largest CSV upload (bytes) by default: ~10⁶ rows of ``t,position``.
 UPLOAD_BODY_LIMIT = 64 * 1024 * 1024
 #: Routes that take a CSV body (the larger cap).
-UPLOAD_PATHS = frozenset({"/api/runs/import"})
+UPLOAD_PATHS = frozenset({"/api/runs/import", "/api/calibrations/import"})
 
 
 def _too_large(limit: int, size: int | None = None) -> str:

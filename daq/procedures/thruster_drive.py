@@ -14,7 +14,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from daq.operator import OperatorAct
 from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
@@ -24,6 +24,9 @@ from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
 from thrusters.config import ThrusterPort
+
+if TYPE_CHECKING:
+    from estimation.thrust.law import ThrustLaw
 
 log = logging.getLogger(__name__)
 
@@ -36,11 +39,38 @@ DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:
-    """The newest stored thrust calibration; ParameterError when there is none."""
+    """The newest stored thrust calibration, measured (``result_id``) or imported
+    (``calibration_import_id``; its curve and rows at its reference voltage, the highest
+    it covers); ParameterError when there is none."""
     newest = store.latest_result("calibration")
+    imported = store.latest_imported_calibration()
+    if imported is not None and (newest is None or imported.created_at >= newest.created_at):
+        from daq.calibration_law import law_of
+        from estimation.thrust.law import VOLTAGE_TOLERANCE_V
+
+        law, _ = law_of(store, "imported", imported.id)
+        rows = [
+            r
+            for r in imported.data["table"]
+            if r.get("supply_voltage_v") is None
+            or abs(r["supply_voltage_v"] - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
+        ]
+        return {
+            "fit": law.curves[-1].curve.to_json(),
+            "table": rows,
+            "result_id": None,
+            "calibration_import_id": imported.id,
+        }
     if newest is None:
         raise ParameterError(
-            [("drive", "thrusters", "a thrust calibration first: run `rig calibrate-thrusters`")]
+            [
+                (
+                    "drive",
+                    "thrusters",
+                    "a thrust calibration first: run `rig calibrate-thrusters` "
+                    "or `rig import-calibration FILE`",
+                )
+            ]
         )
     return newest.data | {"result_id": newest.id}
 
@@ -119,6 +149,51 @@ def thruster_commands(
     return commands, per_thruster
 
 
+async def _supply_now(session: RigSession) -> float | None:
+    """The supply voltage read now (None: the rig has no such channel or it cannot be read)."""
+    try:
+        volts = float(await session.plc.read("supply_voltage"))
+    except Exception as err:  # a rig without the channel, or a failed read
+        log.info("supply voltage not read before the run: %s", err)
+        return None
+    return volts if volts > 0 else None
+
+
+def law_commands(
+    drive: float,
+    law: ThrustLaw,
+    volts: float | None,
+    thrusters: ThrusterPort,
+    max_command: float,
+    kind: str,
+) -> tuple[list[float], float]:
+    """Commands giving ``drive`` through an identified thrust law at supply ``volts`` (None:
+    the law's reference voltage) and the force per thruster, N. Refuses (ParameterError)
+    beyond what the thrusters deliver at that voltage within ``max_command``."""
+    name, unit = DRIVE_FIELD[kind]
+    signs, arm = thrust_layout(thrusters, kind)
+    count = thrusters.count
+    per_thruster = drive / (count * arm)
+    at = law.reference_voltage if volts is None else volts
+    commands = []
+    for sign in signs:
+        reach = min(abs(law.max_force(at, sign)), abs(float(law.force(sign * max_command, at))))
+        if per_thruster > reach:
+            raise ParameterError(
+                [
+                    (
+                        name,
+                        drive,
+                        f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
+                        f"at the supply voltage now ({at:.3g} V; max_thruster_command "
+                        f"{max_command:g})",
+                    )
+                ]
+            )
+        commands.append(law.command_for_force(sign * per_thruster, at).value)
+    return commands, per_thruster
+
+
 async def run_thruster_test(
     session: RigSession,
     params: TowParameters | SpinParameters,
@@ -146,18 +221,32 @@ async def run_thruster_test(
     drive = params.force_n if isinstance(params, TowParameters) else params.torque_nm
     unit = DRIVE_FIELD[axis.kind][1]
     calibration = await asyncio.to_thread(latest_calibration, session.store)
-    commands, force = thruster_commands(
-        drive,
-        calibration,
-        rig.thrusters,
-        max_command=rig.limits.max_thruster_command,
-        kind=axis.kind,
-    )
+    imported = calibration.get("calibration_import_id")
+    volts = None
+    if imported is None:
+        commands, force = thruster_commands(
+            drive,
+            calibration,
+            rig.thrusters,
+            max_command=rig.limits.max_thruster_command,
+            kind=axis.kind,
+        )
+    else:  # an imported table's law, at the supply voltage measured now
+        from daq.calibration_law import law_of
+
+        law, _ = await asyncio.to_thread(law_of, session.store, "imported", imported)
+        volts = await _supply_now(session)
+        commands, force = law_commands(
+            drive, law, volts, rig.thrusters, rig.limits.max_thruster_command, axis.kind
+        )
     parameters = params.to_json() | {
         "commands": commands,
         "force_per_thruster_n": force,
         "calibration_result_id": calibration["result_id"],
     }
+    if imported is not None:
+        parameters["calibration_import_id"] = imported
+        parameters["supply_voltage_at_start_v"] = volts
     async with session.locked(f"thruster {axis.kind} {drive:.4g} {unit}"):
         op = session.operator
         report(Progress(0.0, "returning the vehicle to the start"))

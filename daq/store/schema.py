@@ -107,3 +107,16 @@ result_runs = sa.Table(
     sa.Column("result_id", sa.ForeignKey("results.id", ondelete="CASCADE"), primary_key=True),
     sa.Column("run_id", sa.ForeignKey("runs.id", ondelete="CASCADE"), primary_key=True, index=True),
 )
+
+#: Thrust calibrations brought in from other tools (thrust-stand tables): no run behind
+#: them. ``data``: {source, units, table: [{command, thrust_per_thruster_n,
+#: supply_voltage_v}]}; the thrust law is identified from the table when used.
+thrust_calibrations = sa.Table(
+    "thrust_calibrations",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("name", sa.String(200), nullable=False),
+    sa.Column("created_at", sa.Float(precision=53), nullable=False, index=True),
+    sa.Column("software_version", sa.String(100), nullable=False),
+    sa.Column("data", sa.JSON, nullable=False),
+)

@@ -25,6 +25,7 @@ from daq.store.base import (
     process_identity,
     software_version,
 )
+from daq.store.calibrations import ImportedCalibrations
 from daq.store.packing import SamplePacker
 from daq.store.records import (
     DuplicateSample,
@@ -45,7 +46,7 @@ from daq.store.schema import samples as samples_t
 from daq.store.spill import default_spill_dir, replay_spills
 
 
-class Store(EventsAndResults):
+class Store(EventsAndResults, ImportedCalibrations):
     """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
     creates the database if needed, migrates it to the newest schema and writes back the
     spill files of its runs (samples a recorder could not store, see

@@ -212,6 +212,7 @@ def _build(
         bootstrap=boot,
         uncertainty=uncertainty,
         windows={r.run_id: r.window_report() for r in runs},
+        drive_laws={r.run_id: r.drive_law for r in runs if r.drive_law},
         unexplained=unexplained,
         fit_before=base,
         fit_after=final,

@@ -90,6 +90,8 @@ class EstimationResult:
     uncertainty: DriveUncertainty | None = None
     #: Per run, the samples fitted and how the release and end were found.
     windows: dict[str, WindowReport] = field(default_factory=dict)
+    #: Per thruster-driven run, the thrust law its drive was rebuilt with.
+    drive_laws: dict[str, str] = field(default_factory=dict)
     unexplained: Unexplained | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
@@ -101,6 +103,7 @@ class EstimationResult:
             "axis": self.axis,
             "method": self.method,
             "runs": list(self.runs),
+            "drive_law": dict(self.drive_laws),
             "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
             "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
             "effects": [e.to_json() for e in self.effects],

@@ -47,6 +47,9 @@ class RunData:
     #: How the fitted window was found in a raw recording (``estimation.data.window``); None:
     #: ``t_release``/``t_end`` were given.
     window_found: WindowReport | None = None
+    #: Thruster-driven runs: how the thrust's supply-voltage dependence was taken (the
+    #: identified law of a multi-voltage calibration, or the rig file's exponent).
+    drive_law: str | None = None
 
     def window_report(self) -> WindowReport:
         """The window as fitted: the found one, or one built from the given instants."""

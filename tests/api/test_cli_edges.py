@@ -82,6 +82,49 @@ case(
     "-2",
 )
 case(2, "Invalid value for '--force': 'abc'", "tow", "--force", "abc")
+case(
+    2,
+    "--thrust-column: no column 'Nope'; the table has",
+    "import-calibration",
+    "{csv}",
+    "--thrust-column",
+    "Nope",
+)
+case(
+    2,
+    "--full-scale: a command in volts needs",
+    "import-calibration",
+    "{csv}",
+    "--command-unit",
+    "volts",
+)
+case(2, "--voltage: got 0, allowed: 0 < V ≤ 1000", "import-calibration", "{csv}", "--voltage", "0")
+case(
+    2,
+    "run.csv: line 2, column 'position': got 0, allowed: a command within full reverse",
+    "import-calibration",
+    "{csv}",
+    "--command-column",
+    "position",
+    "--command-unit",
+    "pwm_us",
+    "--thrust-column",
+    "t",
+    "--voltage",
+    "12",
+)
+case(2, "--command: got 1.5, allowed: −1 … 1", "thrust", "--command", "1.5")
+case(2, "--command or --force: give exactly one", "thrust")
+case(2, "no thrust calibration stored", "thrust", "--force", "10")
+case(
+    2,
+    "--calibration: got 'x:1', allowed: ID or run:ID",
+    "thrust",
+    "--force",
+    "1",
+    "--calibration",
+    "x:1",
+)
 case(2, "No such command 'nosuch'", "nosuch")
 # -- unreachable ports -------------------------------------------------------------------
 case(2, "--db: cannot open the database: connection failed", "runs", "--db", "{pg}")

@@ -1,0 +1,181 @@
+"""Thrust-stand calibration tables from other tools: a CSV with a command column, a thrust
+column and optionally a supply-voltage column, each in its own unit.
+
+Read with Python's ``csv`` module: the separator (``,`` ``;`` tab) is found by
+``csv.Sniffer``, Excel's UTF-8 byte-order mark is dropped (``utf-8-sig``), lines starting
+with ``#`` are comments, and with a ``;`` or tab separator a decimal comma is read as a
+point. Commands become the rig's fractions of full command (−1 … 1), thrust newtons.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+
+#: Newtons per unit of thrust.
+THRUST_UNITS: dict[str, float] = {
+    "N": 1.0,
+    "kgf": 9.80665,
+    "gf": 9.80665e-3,
+    "lbf": 4.4482216152605,
+}
+#: Command units: the command is turned into a fraction of full command.
+COMMAND_UNITS: tuple[str, ...] = ("pwm_us", "permille", "fraction", "volts")
+
+
+@dataclass(frozen=True)
+class CommandUnit:
+    """How a command column maps to a fraction: PWM (µs − neutral) / span, ‰ / 1000, a
+    fraction as is, volts / full_scale_v."""
+
+    unit: str = "fraction"
+    pwm_neutral_us: float = 1500.0
+    pwm_span_us: float = 400.0
+    full_scale_v: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.unit not in COMMAND_UNITS:
+            raise ValueError(
+                f"command_unit: got {self.unit!r}, allowed: {', '.join(COMMAND_UNITS)}"
+            )
+        if not self.pwm_span_us > 0:
+            raise ValueError(f"pwm_span_us: got {self.pwm_span_us:g}, allowed: > 0")
+        if self.unit == "volts" and not (self.full_scale_v and self.full_scale_v > 0):
+            raise ValueError(
+                "full_scale_v: a command in volts needs the full-scale command voltage (> 0)"
+            )
+
+    def fraction(self, value: float) -> float:
+        """The command as a fraction of full command."""
+        if self.unit == "pwm_us":
+            return (value - self.pwm_neutral_us) / self.pwm_span_us
+        if self.unit == "permille":
+            return value / 1000.0
+        if self.unit == "volts":
+            assert self.full_scale_v is not None
+            return value / self.full_scale_v
+        return value
+
+    def to_json(self) -> dict:
+        return {
+            "unit": self.unit,
+            "pwm_neutral_us": self.pwm_neutral_us,
+            "pwm_span_us": self.pwm_span_us,
+            "full_scale_v": self.full_scale_v,
+        }
+
+
+@dataclass(frozen=True)
+class ImportSpec:
+    """Which columns hold what, and in which unit. A column is named by its header text
+    (surrounding blanks ignored, case-insensitive) or its 1-based number."""
+
+    command_column: str
+    thrust_column: str
+    thrust_unit: str = "N"
+    command: CommandUnit = CommandUnit()
+    voltage_column: str | None = None
+    #: Supply voltage of every row when the table has no voltage column (None: not known).
+    voltage_v: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.thrust_unit not in THRUST_UNITS:
+            raise ValueError(
+                f"thrust_unit: got {self.thrust_unit!r}, allowed: {', '.join(THRUST_UNITS)}"
+            )
+        if self.voltage_v is not None and not (0 < self.voltage_v <= 1000):
+            raise ValueError(f"voltage_v: got {self.voltage_v:g}, allowed: 0 < V ≤ 1000")
+
+
+def _lines(text: str) -> list[tuple[int, str]]:
+    return [
+        (n, line)
+        for n, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+
+
+def _column(header: list[str], wanted: str, flag: str) -> int:
+    names = [h.strip().lower() for h in header]
+    key = wanted.strip().lower()
+    if key in names:
+        return names.index(key)
+    if key.isdigit() and 1 <= int(key) <= len(header):
+        return int(key) - 1
+    raise ValueError(
+        f"{flag}: no column {wanted!r}; the table has {', '.join(repr(h.strip()) for h in header)}"
+    )
+
+
+def _number(cell: str, decimal_comma: bool, column: str, line: int) -> float:
+    text = cell.strip().replace("\u00a0", "").replace(" ", "")
+    if decimal_comma:
+        text = text.replace(",", ".")
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(
+            f"line {line}, column {column!r}: got {cell!r}, allowed: a number"
+        ) from None
+    if not math.isfinite(value):
+        raise ValueError(f"line {line}, column {column!r}: got {cell!r}, allowed: a finite number")
+    return value
+
+
+def read_calibration_csv(data: bytes | str, spec: ImportSpec) -> list[dict]:
+    """Rows ``{command, thrust_per_thruster_n, supply_voltage_v}`` (command a fraction, thrust
+    N, voltage V or None) from a CSV table; ``ValueError`` names the column and line."""
+    if isinstance(data, bytes):
+        try:
+            data = data.decode("utf-8-sig")
+        except UnicodeDecodeError as err:
+            raise ValueError(f"file: not UTF-8 text ({err.reason} at byte {err.start})") from None
+    data = data.removeprefix("\ufeff")
+    lines = _lines(data)
+    if len(lines) < 2:
+        raise ValueError("file: allowed a header line and at least one row of numbers")
+    sample = "\n".join(line for _, line in lines[:20])
+    try:
+        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t")
+        delimiter = dialect.delimiter
+    except csv.Error:
+        delimiter = ","
+    decimal_comma = delimiter != ","
+    rows = list(csv.reader((line for _, line in lines), delimiter=delimiter))
+    header, numbers = rows[0], rows[1:]
+    ci = _column(header, spec.command_column, "command_column")
+    ti = _column(header, spec.thrust_column, "thrust_column")
+    vi = (
+        None
+        if spec.voltage_column is None
+        else _column(header, spec.voltage_column, "voltage_column")
+    )
+    names = {i: header[i].strip() for i in (ci, ti, vi) if i is not None}
+    scale = THRUST_UNITS[spec.thrust_unit]
+    out = []
+    for (line, _), row in zip(lines[1:], numbers, strict=True):
+        for i in names:
+            if i >= len(row) or not row[i].strip():
+                raise ValueError(f"line {line}, column {names[i]!r}: empty, allowed: a number")
+        command = spec.command.fraction(_number(row[ci], decimal_comma, names[ci], line))
+        if not -1.0 - 1e-9 <= command <= 1.0 + 1e-9:
+            raise ValueError(
+                f"line {line}, column {names[ci]!r}: got {row[ci].strip()}, allowed: "
+                f"a command within full reverse … full forward ({spec.command.unit})"
+            )
+        volts = spec.voltage_v
+        if vi is not None:
+            volts = _number(row[vi], decimal_comma, names[vi], line)
+            if not 0 < volts <= 1000:
+                raise ValueError(
+                    f"line {line}, column {names[vi]!r}: got {volts:g}, allowed: 0 < V ≤ 1000"
+                )
+        out.append(
+            {
+                "command": round(command, 12),
+                "thrust_per_thruster_n": _number(row[ti], decimal_comma, names[ti], line) * scale,
+                "supply_voltage_v": volts,
+            }
+        )
+    return out
