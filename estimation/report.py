@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from estimation.diagnostics import force_residuals
 from estimation.model import PreparedRun, prepare
@@ -72,9 +73,9 @@ def _effects_text(effects: Sequence[str]) -> str:
     return "base model + " + ", ".join(effects) if effects else "base model"
 
 
-def _fit_figure(
-    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str], out: Path
-) -> list[Path]:
+def fit_figure(
+    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
+) -> Figure:
     """One row per run: measured vs model before and after against time from release, then
     the residual before and the residual after, each on its own scale."""
     units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
@@ -112,12 +113,12 @@ def _fit_figure(
         f"{_effects_text(after.effects)} (RMSE {result.rmse_after:.3g} {units['position']})",
         fontsize=11,
     )
-    return save_figure(fig, out, "fit")
+    return fig
 
 
-def _force_figure(
-    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str], out: Path
-) -> list[Path]:
+def force_figure(
+    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
+) -> Figure:
     """Force-domain residual (the force the model misses) against model velocity, before and
     after the effect search, moving samples of every run."""
     units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
@@ -140,7 +141,7 @@ def _force_figure(
         f"{result.axis}: force-domain residual vs velocity (a pattern = a missing effect)",
         fontsize=11,
     )
-    return save_figure(fig, out, "force_residual")
+    return fig
 
 
 def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
@@ -166,7 +167,7 @@ def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
         else "| warnings | none | |",
         "",
     ]
-    lines += [f"> **Warning:** {w}" for w in result.warnings]
+    lines += [f"- **Warning:** {w}" for w in result.warnings]
     if result.warnings:
         lines.append("")
     lines += ["| run (as labelled in the figures) | run id |", "|---|---|"]
@@ -251,8 +252,8 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     prepared = [prepare(r) for r in runs]
     labels = run_labels(prepared, result.axis)
-    fit = _fit_figure(result, prepared, labels, out)
-    force = _force_figure(result, prepared, labels, out)
+    fit = save_figure(fit_figure(result, prepared, labels), out, "fit")
+    force = save_figure(force_figure(result, prepared, labels), out, "force_residual")
     figures = [
         ("Measured vs model before and after the effect search, and residuals, per run", fit[0]),
         ("Force-domain residual vs model velocity, before and after", force[0]),
