@@ -480,11 +480,13 @@ async function renderEstimation(res) {
     (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
     [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
   const perRun = Object.keys(res.rmse_per_run_before || {});
+  // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
+  const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
   Plotly.newPlot(
     "est-fit-plot",
     [
-      { x: perRun, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },
-      { x: perRun, y: perRun.map((r) => (res.rmse_per_run_after || {})[r]), type: "bar", name: "RMSE after" },
+      { x: runLabels, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },
+      { x: runLabels, y: perRun.map((r) => (res.rmse_per_run_after || {})[r]), type: "bar", name: "RMSE after" },
     ],
     { title: { text: "Residual RMSE per run (the fits themselves are in the report figures below)" }, margin: { t: 40, r: 20, b: 60, l: 60 }, yaxis: { title: { text: `residual RMSE (${unit})` } }, barmode: "group" },
     { responsive: true, displaylogo: false },
