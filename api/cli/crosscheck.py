@@ -43,7 +43,7 @@ from estimation.axis.crosscheck import LABELS
     "--report",
     "report_dir",
     type=click.Path(file_okay=False),
-    help="Write report.md and crosscheck.png here.",
+    help="Write report.md and the figure crosscheck.png/.svg here.",
 )
 @db_option
 @json_option

@@ -41,7 +41,7 @@ ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
     "--report",
     "report_dir",
     type=click.Path(file_okay=False),
-    help="Write report plots (PNG) here.",
+    help="Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.",
 )
 @db_option
 @json_option

@@ -286,7 +286,16 @@ def calibrate_thrusters(
                 f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
                 f"{row['supply_voltage_v']:10.2f}"
             )
+        _print_thrust_fit(calibration["fit"])
     _print_outcome(outcome, as_json, {"calibration": calibration} if as_json else None)
+
+
+def _print_thrust_fit(fit: dict[str, Any]) -> None:
+    """The fitted thrust curve: each parameter with σ and unit, then the fit's RMSE."""
+    click.echo("fit parameter           value ± σ [unit]")
+    for name, p in fit["parameters"].items():
+        click.echo(f"{name:<22} {p['value']:.5g} ± {p['std']:.2g} [{p['unit']}]")
+    click.echo(f"{'rmse':<22} {fit['rmse_n']:.3g} [N]")
 
 
 @click.command("sequence")

@@ -36,6 +36,8 @@ FINAL = ("completed", "aborted", "failed")
 PROCEDURES = ("tow", "spin", "pendulum", "thrust_calibration", "sequence")
 #: Ended jobs remembered (their runs and results are in the store regardless).
 KEEP_ENDED = 500
+#: Report figures a result serves: the raster for the page, the vector beside it.
+REPORT_SUFFIXES = (".png", ".svg")
 
 
 class JobNotFound(KeyError):
@@ -435,16 +437,20 @@ class JobRunner:
             self._update(job, finished_at=time.time())
 
     def adopt_report(self, result_id: int, folder: Path) -> None:
-        """Serve ``folder``'s PNGs as the report plots of ``result_id``."""
+        """Serve ``folder``'s figures (PNG and SVG) as the report plots of ``result_id``."""
         target = self.report_root / f"result-{result_id}"
         target.mkdir(parents=True, exist_ok=True)
-        for png in folder.glob("*.png"):
-            png.replace(target / png.name)
+        for suffix in REPORT_SUFFIXES:
+            for figure in folder.glob(f"*{suffix}"):
+                figure.replace(target / figure.name)
 
-    def report_file(self, result_id: int, name: str) -> Path | None:
-        """The PNG ``name`` of an estimation result's report, if this service made it."""
+    def report_file(self, result_id: int, name: str, suffix: str = ".png") -> Path | None:
+        """The figure ``name`` (``.png`` or ``.svg``) of a result's report, if this service
+        made it."""
         folder = self.report_root / f"result-{result_id}"
-        path = folder / f"{name}.png"
+        if suffix not in REPORT_SUFFIXES:
+            return None
+        path = folder / f"{name}{suffix}"
         if path.parent != folder or not path.is_file():
             return None
         return path

@@ -152,7 +152,7 @@ def thruster_commands(
 async def _supply_now(session: RigSession) -> float | None:
     """The supply voltage read now (None: the rig has no such channel or it cannot be read)."""
     try:
-        volts = float(await session.plc.read("supply_voltage"))
+        volts = float(await session.live_plc.read("supply_voltage"))
     except Exception as err:  # a rig without the channel, or a failed read
         log.info("supply voltage not read before the run: %s", err)
         return None

@@ -107,7 +107,7 @@ class EventsAndResults(StoreBase):
             query = query.where(results.c.kind == checks.check_kind("kind", kind))
         return self._fetch_results(query, run_id)
 
-    def result(self, result_id: int) -> ResultInfo:
+    def result(self, result_id: int | str) -> ResultInfo:
         """One result by id; ``ResultNotFound`` names the id (also for one no row can have:
         not an integer, or beyond the database's 64-bit ids)."""
         if isinstance(result_id, bool) or not isinstance(result_id, int | str):

@@ -10,7 +10,7 @@ from typing import Any
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.base import StoreBase, software_version
+from daq.store.base import StoreBase, inserted_id, software_version
 from daq.store.records import to_datetime
 from daq.store.schema import thrust_calibrations
 
@@ -52,15 +52,15 @@ class ImportedCalibrations(StoreBase):
         if not name or len(name) > 200:
             raise ValueError(f"name: got {name!r}, allowed: 1 … 200 characters")
         with self.transaction() as conn:
-            key = conn.execute(
+            inserted = conn.execute(
                 sa.insert(thrust_calibrations).values(
                     name=name,
                     created_at=round(time.time(), 6),
                     software_version=software_version(),
                     data=data,
                 )
-            ).inserted_primary_key[0]
-        return int(key)
+            )
+        return inserted_id(inserted)
 
     def _calibrations(self, query: sa.Select) -> list[CalibrationInfo]:
         with self.engine.connect() as conn:

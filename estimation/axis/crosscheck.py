@@ -28,6 +28,7 @@ c. Otherwise any disagreement left is reported as unexplained.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -521,8 +522,9 @@ def _named(found: dict[str, float], names: list[str], axis: str) -> str:
     return ", ".join(out)
 
 
-def markdown(check: CrossCheck) -> str:
-    """The cross-check as a Markdown report (table, common factor, RMSE, diagnosis)."""
+def markdown(check: CrossCheck, figures: Sequence[tuple[str, Path]] = ()) -> str:
+    """The cross-check as a Markdown report (table, verdict, figures, common factor, RMSE,
+    diagnosis)."""
     units = UNITS[check.axis]
     lines = [
         f"# Cross-check, {check.axis}: weight-driven vs thruster-driven",
@@ -553,6 +555,10 @@ def markdown(check: CrossCheck) -> str:
         overall += f" (on what both sets decide; {', '.join(LABELS[n] for n in check.undecided)}"
         overall += " undecided)"
     lines += ["", f"Overall: **{overall}**", ""]
+    if figures:
+        from estimation.figures import figure_links
+
+        lines += figure_links(figures)
     if check.factor is not None:
         f = check.factor
         lines.append(
@@ -579,17 +585,16 @@ def _fmt(x: float | None) -> str:
 
 
 def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]:
-    """``report.md`` and ``crosscheck.png`` (coefficients side by side, ±σ_total bars;
-    undecided ones titled so, the combined damping as a fourth panel when compared)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    """``report.md`` and the figure ``crosscheck`` (150 dpi PNG and SVG): each coefficient
+    weight vs thrusters with ±1σ_total bars, its name and unit on the y axis; undecided ones
+    titled so, the combined damping as a fourth panel when compared."""
+    from estimation.figures import new_figure, save_figure
 
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    md = out / "report.md"
-    md.write_text(markdown(check), encoding="utf-8")
     shown = check.all_comparisons
-    fig = Figure(figsize=(3 * len(shown), 3.2))
+    fig = new_figure(4.6, max(10.0, 3.4 * len(shown)))
+    fig.subplots_adjust(wspace=0.45)
     units = UNITS[check.axis]
     for i, c in enumerate(shown):
         ax = fig.add_subplot(1, len(shown), i + 1)
@@ -601,22 +606,26 @@ def write_crosscheck_report(check: CrossCheck, folder: str | Path) -> list[Path]
             capsize=6,
             color="k",
         )
-        ax.set_xticks([0, 1], ["weight", "thrusters"])
+        ax.set_xticks([0, 1], ["weight-driven", "thruster-driven"])
         ax.set_xlim(-0.6, 1.6)
-        ax.set_ylabel(units[c.name])
+        ax.set_ylabel(f"{LABELS[c.name]} [{units[c.name]}]")
         if c.speed is not None:
-            ax.set_xlabel(f"at |v| = {c.speed:.3g} {SPEED_UNITS[check.axis]}", fontsize=8)
+            ax.set_xlabel(f"at |v| = {c.speed:.3g} {SPEED_UNITS[check.axis]}", fontsize=9)
         if c.decided:
-            ax.set_title(f"{LABELS[c.name]}: z = {c.z:+.1f} ({c.verdict})", fontsize=9)
+            ax.set_title(f"{LABELS[c.name]}: z = {c.z:+.1f} ({c.verdict})", fontsize=10)
         else:
-            ax.set_title(f"{LABELS[c.name]}: UNDECIDED", fontsize=9, color="tab:red")
-            ax.set_xlabel("a set cannot separate K_L from K_Q", fontsize=8, color="tab:red")
-    fig.suptitle(f"{check.axis}: weight- vs thruster-driven (±1σ_total)", fontsize=10)
-    FigureCanvasAgg(fig)
-    fig.tight_layout()
-    png = out / "crosscheck.png"
-    fig.savefig(png, dpi=90)
-    return [md, png]
+            ax.set_title(f"{LABELS[c.name]}: UNDECIDED", fontsize=10, color="tab:red")
+            ax.set_xlabel("a set cannot separate K_L from K_Q", fontsize=9, color="tab:red")
+    fig.suptitle(
+        f"{check.axis}: weight- vs thruster-driven coefficients (±1σ_total), "
+        f"overall: {check.verdict}",
+        fontsize=11,
+    )
+    paths = save_figure(fig, out, "crosscheck")
+    caption = "Coefficients from weight-driven and thruster-driven runs, ±1σ_total"
+    md = out / "report.md"
+    md.write_text(markdown(check, [(caption, paths[0])]), encoding="utf-8")
+    return [md, *paths]
 
 
 def _bar(s: float) -> float:

@@ -1,4 +1,6 @@
-"""Estimation report: JSON, Markdown summary and PNG plots (matplotlib Agg, no global state)."""
+"""Estimation report: result.json, report.md (summary table first, figures linked) and the
+figures: measured vs model before/after against time from release with residuals, and the
+force-domain residual against velocity (see docs/estimation.md, "Report")."""
 
 from __future__ import annotations
 
@@ -6,12 +8,26 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from matplotlib.backends.backend_agg import FigureCanvasAgg
+import numpy as np
 from matplotlib.figure import Figure
 
-from estimation.axis.model import prepare
+from estimation.axis.model import PreparedRun, prepare
 from estimation.axis.result import EstimationResult
 from estimation.data.runs import RunData
+from estimation.figures import (
+    AFTER,
+    BEFORE,
+    MEASURED,
+    TIME_LABEL,
+    WIDE_IN,
+    figure_links,
+    new_figure,
+    prefixed,
+    run_label,
+    save_figure,
+    signed,
+)
+from estimation.stats.diagnostics import force_residuals
 
 UNITS = {
     "surge": {
@@ -31,56 +47,143 @@ UNITS = {
 }
 
 
-def _save(fig: Figure, path: Path) -> Path:
-    FigureCanvasAgg(fig)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    return path
+AXIS_LABELS = {
+    "surge": {"position": "position", "velocity": "velocity", "drive": "force", "force": "N"},
+    "yaw": {"position": "angle", "velocity": "yaw rate", "drive": "torque", "force": "N·m"},
+}
 
 
-def _fit_plot(result: EstimationResult, runs, which: str, path: Path) -> Path:
-    fit = result.fit_before if which == "before" else result.fit_after
-    unit = UNITS[result.axis]["position"]
-    fig = Figure(figsize=(8, 2.2 * len(runs) + 0.5))
-    for i, (r, res) in enumerate(zip(runs, fit.residuals, strict=True)):
-        ax = fig.add_subplot(len(runs), 1, i + 1)
-        ax.plot(r.t, r.x, ".", ms=3, label="measured")
-        ax.plot(r.t, r.x - res, "-", lw=1, label=f"model ({which})")
-        ax.set_ylabel(f"{r.run_id} [{unit}]")
-        ax.legend(loc="upper left", fontsize=7)
-    fig.axes[-1].set_xlabel("t [s]")
+def run_labels(runs: Sequence[PreparedRun], axis: str) -> dict[str, str]:
+    """Short label per run: ``run 1 (a1b2c3d4), +15 N`` (weight-driven) or
+    ``run 2 (…), thrusters, mean +12 N`` (thruster-driven)."""
+    unit = AXIS_LABELS[axis]["force"]
+    labels = {}
+    for i, r in enumerate(runs, start=1):
+        if r.constant_drive is not None:
+            detail = signed(r.constant_drive, unit)
+        else:
+            moving = r.t > r.t_release
+            mean = float(np.mean(r.drive[moving])) if moving.any() else 0.0
+            detail = f"thrusters, mean {signed(mean, unit)}"
+        labels[r.run_id] = run_label(i, r.run_id, detail)
+    return labels
+
+
+def _effects_text(effects: Sequence[str]) -> str:
+    return "base model + " + ", ".join(effects) if effects else "base model"
+
+
+def fit_figure(
+    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
+) -> Figure:
+    """One row per run: measured vs model before and after against time from release, then
+    the residual before and the residual after, each on its own scale."""
+    units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
+    before, after = result.fit_before, result.fit_after
+    assert before is not None and after is not None
+    fig = new_figure(2.7 * len(runs) + 1.0, WIDE_IN)
+    grid = fig.add_gridspec(len(runs), 3, width_ratios=(2.2, 1.4, 1.4), hspace=0.45, wspace=0.28)
+    for i, r in enumerate(runs):
+        t = r.t - r.t_release
+        ax = fig.add_subplot(grid[i, 0])
+        ax.plot(t, r.x - before.residuals[i], "--", lw=1.4, color=BEFORE, label="model before")
+        ax.plot(t, r.x - after.residuals[i], "-", lw=1.4, color=AFTER, label="model after")
+        ax.plot(t, r.x, ".", ms=2.5, color=MEASURED, label="measured", zorder=3)
+        ax.set_title(labels[r.run_id], loc="left", fontsize=10)
+        ax.set_ylabel(f"{names['position']} [{units['position']}]")
+        axes = [ax]
+        for col, (which, fit, colour) in enumerate(
+            (("before", before, BEFORE), ("after", after, AFTER)), start=1
+        ):
+            scale, unit = prefixed([fit.residuals[i]], units["position"])
+            ax_res = fig.add_subplot(grid[i, col], sharex=ax)
+            ax_res.axhline(0.0, color="0.6", lw=0.8)
+            ax_res.plot(t, fit.residuals[i] / scale, ".", ms=2.5, color=colour)
+            ax_res.set_title(f"measured − model {which}", loc="left", fontsize=10)
+            ax_res.set_ylabel(f"residual [{unit}]")
+            axes.append(ax_res)
+        if i == 0:
+            ax.legend(loc="best", fontsize=8)
+        if i == len(runs) - 1:
+            for a in axes:
+                a.set_xlabel(TIME_LABEL)
     fig.suptitle(
-        f"{result.axis}: measured vs model {which} (RMSE "
-        f"{getattr(result, 'rmse_' + which):.3g} {unit})"
+        f"{result.axis}, {result.method}: before = {_effects_text(before.effects)} "
+        f"(RMSE {result.rmse_before:.3g} {units['position']}), after = "
+        f"{_effects_text(after.effects)} (RMSE {result.rmse_after:.3g} {units['position']})",
+        fontsize=11,
     )
-    return _save(fig, path)
+    return fig
 
 
-def _residual_plot(result: EstimationResult, runs, path: Path) -> Path:
-    units = UNITS[result.axis]
-    fig = Figure(figsize=(10, 6))
-    for row, which in enumerate(("before", "after")):
+def force_figure(
+    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
+) -> Figure:
+    """Force-domain residual (the force the model misses) against model velocity, before and
+    after the effect search, moving samples of every run."""
+    units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
+    fig = new_figure(4.6)
+    axes = fig.subplots(1, 2)
+    for ax, which in zip(axes, ("before", "after"), strict=True):
         fit = result.fit_before if which == "before" else result.fit_after
-        ax_t = fig.add_subplot(2, 2, 2 * row + 1)
-        ax_v = fig.add_subplot(2, 2, 2 * row + 2)
-        for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True):
-            ax_t.plot(r.t, res, ".", ms=2, label=r.run_id)
-            ax_v.plot(v, res, ".", ms=2)
-        ax_t.set_ylabel(f"residual {which} [{units['position']}]")
-        ax_t.set_xlabel("t [s]")
-        ax_v.set_xlabel(f"model velocity [{units['velocity']}]")
-        ax_t.legend(fontsize=6)
-    return _save(fig, path)
+        assert fit is not None
+        moving = [r.t > r.t_release for r in runs]
+        forces = [f[m] for f, m in zip(force_residuals(fit, runs), moving, strict=True)]
+        scale, unit = prefixed(forces, names["force"])
+        for r, force, v, m in zip(runs, forces, fit.velocities, moving, strict=True):
+            ax.plot(v[m], force / scale, ".", ms=3, label=labels[r.run_id])
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_title(f"{which}: {_effects_text(fit.effects)}", loc="left", fontsize=10)
+        ax.set_xlabel(f"model {names['velocity']} [{units['velocity']}]")
+        ax.set_ylabel(f"{names['drive']} residual [{unit}]")
+    axes[1].legend(loc="best", fontsize=8)
+    fig.suptitle(
+        f"{result.axis}: force-domain residual vs velocity (a pattern = a missing effect)",
+        fontsize=11,
+    )
+    return fig
 
 
-def _markdown(result: EstimationResult) -> str:
+def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
+    """The table a reader needs first: coefficients ± σ, effects, RMSE, warnings."""
+    units = UNITS[result.axis]
+    unit = units["position"]
+    lines = [
+        "## Summary",
+        "",
+        "| quantity | value ± σ | unit |",
+        "|---|---|---|",
+    ]
+    for name, est in result.coefficients.items():
+        lines.append(f"| {name} | {est.value:.5g} ± {est.std:.2g} | {units[name]} |")
+    for e in result.effects:
+        lines.append(f"| effect `{e.name}` | {e.value:.5g} ± {e.std:.2g} | {e.unit} |")
+    if not result.effects:
+        lines.append("| effects found | none (the base model explains the data) | |")
+    lines += [
+        f"| RMSE before → after | {result.rmse_before:.3g} → {result.rmse_after:.3g} | {unit} |",
+        f"| warnings | {len(result.warnings)} (below) | |"
+        if result.warnings
+        else "| warnings | none | |",
+        "",
+    ]
+    lines += [f"- **Warning:** {w}" for w in result.warnings]
+    if result.warnings:
+        lines.append("")
+    lines += ["| run (as labelled in the figures) | run id |", "|---|---|"]
+    lines += [f"| {labels[rid]} | `{rid}` |" for rid in result.runs]
+    return [*lines, ""]
+
+
+def _markdown(
+    result: EstimationResult, labels: dict[str, str], figures: Sequence[tuple[str, Path]]
+) -> str:
     units = UNITS[result.axis]
     doc = result.to_json()
-    lines = [
-        f"# Estimation report — {result.axis}, {result.method}",
-        "",
-        f"Runs: {', '.join(result.runs)}",
-        "",
+    lines = [f"# Estimation report — {result.axis}, {result.method}", ""]
+    lines += _summary(result, labels)
+    lines += figure_links(figures)
+    lines += [
         "## Coefficients (vehicle alone)",
         "",
         "| coefficient | before | after | unit |",
@@ -108,7 +211,7 @@ def _markdown(result: EstimationResult) -> str:
     ]
     for rid in result.runs:
         lines.append(
-            f"| {rid} | {result.rmse_per_run_before[rid]:.4g} | "
+            f"| {labels[rid]} | {result.rmse_per_run_before[rid]:.4g} | "
             f"{result.rmse_per_run_after[rid]:.4g} |"
         )
     lines.append(f"| **all** | {result.rmse_before:.4g} | {result.rmse_after:.4g} |")
@@ -125,20 +228,19 @@ def _markdown(result: EstimationResult) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for s in result.steps:
-        cv = "—" if s.cv_after is None else f"{s.cv_after:.4g}"
+        cv_s = "—" if s.cv_after is None else f"{s.cv_after:.4g}"
         lines.append(
-            f"| {s.round} | {s.effect} | {s.delta_bic:.1f} | {cv} | {s.ljung_box_before:.1f} → "
+            f"| {s.round} | {s.effect} | {s.delta_bic:.1f} | {cv_s} | {s.ljung_box_before:.1f} → "
             f"{s.ljung_box_after:.1f} | {'yes' if s.accepted else 'no'} | {s.reason} |"
         )
-    if result.warnings:
-        lines += ["", "## Warnings", ""] + [f"- {w}" for w in result.warnings]
     return "\n".join(lines) + "\n"
 
 
 def write_report(
     result: EstimationResult, runs: Sequence[RunData], directory: str | Path
 ) -> list[Path]:
-    """Write result.json, report.md and PNG plots (fit before/after, residuals) to directory."""
+    """Write result.json, report.md and the figures (``fit`` and ``force_residual``, each as
+    a 150 dpi PNG and an SVG) to directory; returns the paths written."""
     if result.fit_before is None or result.fit_after is None:
         raise ValueError("result: got a result without fits, allowed: one made by estimate()")
     if tuple(r.run_id for r in runs) != result.runs:
@@ -149,12 +251,15 @@ def write_report(
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     prepared = [prepare(r) for r in runs]
+    labels = run_labels(prepared, result.axis)
+    fit = save_figure(fit_figure(result, prepared, labels), out, "fit")
+    force = save_figure(force_figure(result, prepared, labels), out, "force_residual")
+    figures = [
+        ("Measured vs model before and after the effect search, and residuals, per run", fit[0]),
+        ("Force-domain residual vs model velocity, before and after", force[0]),
+    ]
     json_path = out / "result.json"
     json_path.write_text(json.dumps(result.to_json(), indent=2, ensure_ascii=False))
     md_path = out / "report.md"
-    md_path.write_text(_markdown(result), encoding="utf-8")
-    paths = [json_path, md_path]
-    paths.append(_fit_plot(result, prepared, "before", out / "fit_before.png"))
-    paths.append(_fit_plot(result, prepared, "after", out / "fit_after.png"))
-    paths.append(_residual_plot(result, prepared, out / "residuals.png"))
-    return paths
+    md_path.write_text(_markdown(result, labels, figures), encoding="utf-8")
+    return [json_path, md_path, *fit, *force]

@@ -1,16 +1,31 @@
-"""Pendulum report: result.json, report.md and PNGs (measured vs model before/after the
-effect search, residual vs time, peak magnitudes with exponential and linear envelopes)."""
+"""Pendulum report: result.json, report.md (summary first, figures linked) and the figures:
+measured vs model before/after the effect search against time from release with residuals,
+residual vs angular rate, peak magnitudes with exponential and linear envelopes."""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from estimation.axis.report import _save
+from estimation.figures import (
+    AFTER,
+    BEFORE,
+    MEASURED,
+    TIME_LABEL,
+    WIDE_IN,
+    figure_links,
+    new_figure,
+    prefixed,
+    run_label,
+    save_figure,
+)
 from estimation.pendulum.estimate import UNITS, PendulumResult
+
+COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
 METHOD_ORDER = (
     "output-error",
@@ -21,49 +36,98 @@ METHOD_ORDER = (
 )
 
 
-def _fit_plot(result: PendulumResult, which: str, path: Path) -> Path:
-    fit = result.fit_before if which == "before" else result.fit_after
+def run_labels(result: PendulumResult) -> dict[str, str]:
+    """``run 1 (a1b2c3d4), swing 12.3°``: order, id prefix and the largest swing angle."""
+    return {
+        d.run_id: run_label(i, d.run_id, f"swing {np.degrees(np.max(np.abs(d.phi))):.3g}°")
+        for i, d in enumerate(result.decays, start=1)
+    }
+
+
+def _effects_text(effects) -> str:
+    return "base model + " + ", ".join(effects) if effects else "base model"
+
+
+def fit_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
+    """One row per run: measured vs model before and after against time from release, then
+    the residual before and the residual after, each on its own scale."""
     n = len(result.decays)
-    fig = Figure(figsize=(8, 2.4 * n + 0.5))
-    for i, (d, res) in enumerate(zip(result.decays, fit.residuals, strict=True)):
-        ax = fig.add_subplot(n, 1, i + 1)
-        ax.plot(d.t, d.phi, ".", ms=3, label="measured")
-        ax.plot(d.t, d.phi - res, "-", lw=1, label=f"model ({which})")
-        ax.set_ylabel(f"{d.run_id} φ [rad]")
-        ax.legend(loc="upper right", fontsize=7)
-    fig.axes[-1].set_xlabel("t [s]")
-    effects = ", ".join(fit.effects) or "base model"
-    rmse = result.rmse_before if which == "before" else result.rmse_after
-    fig.suptitle(f"measured vs model {which} ({effects}; RMSE {rmse:.3g} rad)")
-    return _save(fig, path)
+    fig = new_figure(2.7 * n + 1.0, WIDE_IN)
+    grid = fig.add_gridspec(n, 3, width_ratios=(2.2, 1.4, 1.4), hspace=0.45, wspace=0.28)
+    fits = (("before", result.fit_before, BEFORE), ("after", result.fit_after, AFTER))
+    for i, d in enumerate(result.decays):
+        t = d.t - d.t[0]
+        ax = fig.add_subplot(grid[i, 0])
+        ax.plot(t, d.phi - result.fit_before.residuals[i], "--", lw=1.2, color=BEFORE,
+                label="model before")  # fmt: skip
+        ax.plot(t, d.phi - result.fit_after.residuals[i], "-", lw=1.2, color=AFTER,
+                label="model after")  # fmt: skip
+        ax.plot(t, d.phi, ".", ms=2.5, color=MEASURED, label="measured", zorder=3)
+        ax.set_title(labels[d.run_id], loc="left", fontsize=10)
+        ax.set_ylabel("angle φ [rad]")
+        axes = [ax]
+        for col, (which, fit, colour) in enumerate(fits, start=1):
+            scale, unit = prefixed([fit.residuals[i]], "rad")
+            ax_res = fig.add_subplot(grid[i, col], sharex=ax)
+            ax_res.axhline(0.0, color="0.6", lw=0.8)
+            ax_res.plot(t, fit.residuals[i] / scale, ".", ms=2.5, color=colour)
+            ax_res.set_title(f"measured − model {which}", loc="left", fontsize=10)
+            ax_res.set_ylabel(f"residual [{unit}]")
+            axes.append(ax_res)
+        if i == 0:
+            ax.legend(loc="upper right", fontsize=8)
+        if i == n - 1:
+            for a in axes:
+                a.set_xlabel(TIME_LABEL)
+    fig.suptitle(
+        f"pendulum, {result.method}: before = {_effects_text(result.fit_before.effects)} "
+        f"(RMSE {result.rmse_before:.3g} rad), after = "
+        f"{_effects_text(result.fit_after.effects)} (RMSE {result.rmse_after:.3g} rad)",
+        fontsize=11,
+    )
+    return fig
 
 
-def _residual_plot(result: PendulumResult, path: Path) -> Path:
-    fig = Figure(figsize=(8, 5))
-    for row, which in enumerate(("before", "after")):
+def rate_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
+    """Residual against the model's angular rate, before and after the effect search: dry
+    friction shows as a step at zero rate, quadratic damping as an odd curve."""
+    fig = new_figure(4.6)
+    axes = fig.subplots(1, 2)
+    for ax, which in zip(axes, ("before", "after"), strict=True):
         fit = result.fit_before if which == "before" else result.fit_after
-        ax = fig.add_subplot(2, 1, row + 1)
-        for d, res in zip(result.decays, fit.residuals, strict=True):
-            ax.plot(d.t, res, ".", ms=2, label=d.run_id)
-        ax.set_ylabel(f"residual {which} [rad]")
-        ax.legend(fontsize=6)
-    fig.axes[-1].set_xlabel("t [s]")
-    return _save(fig, path)
+        scale, unit = prefixed(fit.residuals, "rad")
+        for d, res, rate in zip(result.decays, fit.residuals, fit.rates, strict=True):
+            ax.plot(rate, res / scale, ".", ms=3, label=labels[d.run_id])
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_title(f"{which}: {_effects_text(fit.effects)}", loc="left", fontsize=10)
+        ax.set_xlabel("model angular rate φ̇ [rad/s]")
+        ax.set_ylabel(f"residual [{unit}]")
+    axes[1].legend(loc="best", fontsize=8)
+    fig.suptitle("pendulum: residual vs angular rate (a pattern = a missing effect)", fontsize=11)
+    return fig
 
 
-def _peaks_plot(result: PendulumResult, path: Path) -> Path:
-    fig = Figure(figsize=(8, 4))
+def peaks_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
+    """Peak magnitudes with the exponential (viscous) and linear (dry friction) envelopes."""
+    fig = new_figure(5.0)
     ax = fig.add_subplot(1, 1, 1)
-    for rid, p in result.peaks.items():
-        ax.plot(p.times, p.amplitudes, "o", label=f"{rid} |peak|")
+    start = {d.run_id: float(d.t[0]) for d in result.decays}
+    for (rid, p), colour in zip(result.peaks.items(), COLOURS, strict=False):
+        t0 = start.get(rid, 0.0)
         tt = np.linspace(p.times[0], p.times[-1], 100)
-        ax.plot(tt, p.exp_c * np.exp(-p.exp_k * tt), "-", lw=1, label=f"{rid} C·e^(−Kt)")
-        ax.plot(tt, p.lin_a0 - p.lin_rate * tt, "--", lw=1, label=f"{rid} linear")
-    ax.set_xlabel("t [s]")
+        ax.plot(p.times - t0, p.amplitudes, "o", ms=4, color=colour, label=f"{labels[rid]}: |peak|")
+        ax.plot(tt - t0, p.exp_c * np.exp(-p.exp_k * tt), "-", lw=1.2, color=colour,
+                label="C·e^(−Kt) (viscous)")  # fmt: skip
+        ax.plot(tt - t0, p.lin_a0 - p.lin_rate * tt, ":", lw=1.5, color=colour,
+                label="A₀ − r·t (dry friction)")  # fmt: skip
+    ax.set_xlabel(TIME_LABEL)
     ax.set_ylabel("|peak − midline| [rad]")
-    ax.set_title("Peak magnitudes: exponential (viscous) vs linear (dry friction) envelope")
-    ax.legend(fontsize=7)
-    return _save(fig, path)
+    fig.suptitle(
+        "pendulum: peak magnitudes, exponential (viscous) vs linear (dry friction) envelope",
+        fontsize=11,
+    )
+    ax.legend(fontsize=8, ncols=max(1, len(result.peaks)))
+    return fig
 
 
 def _pm(est: dict | None) -> str:
@@ -73,14 +137,43 @@ def _pm(est: dict | None) -> str:
     return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
 
 
-def pendulum_markdown(result: PendulumResult) -> str:
-    """The Markdown summary: methods side by side, effects, error before/after, evidence."""
+def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
+    """Coefficients ± σ (headline method, after the effects), effects, RMSE, warnings, runs."""
     doc = result.to_json()
+    lines = ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
+    for name, est in doc["coefficients"].items():
+        lines.append(f"| {name} | {_pm(est)} | {UNITS[name]} |")
+    for e in result.effects:
+        lines.append(f"| effect `{e.name}` | {e.value:.5g} ± {e.std:.2g} | {e.unit} |")
+    if not result.effects:
+        lines.append("| effects found | none (the base model explains the data) | |")
+    lines.append(
+        f"| RMSE before → after | {result.rmse_before:.3g} → {result.rmse_after:.3g} | rad |"
+    )
+    lines.append(
+        f"| warnings | {len(result.warnings)} (below) | |"
+        if result.warnings
+        else "| warnings | none | |"
+    )
+    lines.append("")
+    lines += [f"- **Warning:** {w}" for w in result.warnings]
+    if result.warnings:
+        lines.append("")
+    lines += ["| run (as labelled in the figures) | run id |", "|---|---|"]
+    lines += [f"| {labels[rid]} | `{rid}` |" for rid in result.runs]
+    return [*lines, ""]
+
+
+def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
+    """The Markdown report: summary table, figures, methods side by side, effects, error
+    before/after, evidence."""
+    doc = result.to_json()
+    labels = run_labels(result) if result.decays else {r: r for r in result.runs}
     lines = [
         f"# Pendulum free-decay report — {result.axis}, headline method {result.method}",
         "",
-        f"Runs: {', '.join(result.runs)}",
-        "",
+        *_summary(result, labels),
+        *(figure_links(figures) if figures else []),
         "## Coefficients of the vehicle (headline)",
         "",
         "| coefficient | before effects | after effects | unit |",
@@ -124,7 +217,7 @@ def pendulum_markdown(result: PendulumResult) -> str:
     ]
     for rid in result.runs:
         lines.append(
-            f"| {rid} | {result.rmse_per_run_before[rid]:.4g} | "
+            f"| {labels[rid]} | {result.rmse_per_run_before[rid]:.4g} | "
             f"{result.rmse_per_run_after[rid]:.4g} |"
         )
     lines += [
@@ -142,30 +235,31 @@ def pendulum_markdown(result: PendulumResult) -> str:
             f"| {s.round} | {s.effect} | {s.delta_bic:.1f} | {s.ljung_box_before:.1f} → "
             f"{s.ljung_box_after:.1f} | {'yes' if s.accepted else 'no'} | {s.reason} |"
         )
-    if result.warnings:
-        lines += ["", "## Warnings", ""] + [f"- {w}" for w in result.warnings]
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]
     return "\n".join(lines) + "\n"
 
 
 def write_pendulum_report(result: PendulumResult, directory: str | Path) -> list[Path]:
-    """Write result.json, report.md, fit_before/fit_after/residuals/peaks PNGs to directory."""
+    """Write result.json, report.md and the figures ``fit``, ``residual_vs_rate`` and
+    ``peaks`` (each a 150 dpi PNG and an SVG) to directory; returns the paths written."""
     if not result.decays:
         raise ValueError(
             "result: got a result without its decays, allowed: one made by estimate_pendulum()"
         )
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
+    labels = run_labels(result)
+    fit = save_figure(fit_figure(result, labels), out, "fit")
+    rate = save_figure(rate_figure(result, labels), out, "residual_vs_rate")
+    peaks = save_figure(peaks_figure(result, labels), out, "peaks")
+    figures = [
+        ("Measured vs model before and after the effect search, and residuals, per run", fit[0]),
+        ("Residual vs model angular rate, before and after", rate[0]),
+        ("Peak magnitudes with the viscous and dry-friction envelopes", peaks[0]),
+    ]
     json_path = out / "result.json"
     json_path.write_text(json.dumps(result.to_json(), indent=2, ensure_ascii=False))
     md_path = out / "report.md"
-    md_path.write_text(pendulum_markdown(result), encoding="utf-8")
-    return [
-        json_path,
-        md_path,
-        _fit_plot(result, "before", out / "fit_before.png"),
-        _fit_plot(result, "after", out / "fit_after.png"),
-        _residual_plot(result, out / "residuals.png"),
-        _peaks_plot(result, out / "peaks.png"),
-    ]
+    md_path.write_text(pendulum_markdown(result, figures), encoding="utf-8")
+    return [json_path, md_path, *fit, *rate, *peaks]

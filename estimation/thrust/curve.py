@@ -25,6 +25,17 @@ PARAMS: tuple[str, ...] = (
     "reverse_exponent",
     "hysteresis",
 )
+#: Unit of each parameter. Commands are fractions of full scale, so a gain is the thrust one
+#: full command unit beyond the dead band (N); exponents are dimensionless ("1").
+PARAM_UNITS: dict[str, str] = {
+    "forward_gain": "N",
+    "forward_dead_band": "command",
+    "forward_exponent": "1",
+    "reverse_gain": "N",
+    "reverse_dead_band": "command",
+    "reverse_exponent": "1",
+    "hysteresis": "command",
+}
 
 
 def _model(params: np.ndarray, command: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -91,11 +102,11 @@ class ThrustCurve:
         return cls(values, std, corr, float(data["rmse_n"]), float(lo), float(hi))
 
     def to_json(self) -> dict:
-        """{parameters: {name: {value, std}}, correlation: {names, matrix}, rmse_n,
+        """{parameters: {name: {value, std, unit}}, correlation: {names, matrix}, rmse_n,
         command_range}."""
         return {
             "parameters": {
-                n: {"value": float(v), "std": float(s)}
+                n: {"value": float(v), "std": float(s), "unit": PARAM_UNITS[n]}
                 for n, v, s in zip(PARAMS, self.values, self.std, strict=True)
             },
             "correlation": {

@@ -61,7 +61,7 @@ def test_pendulum_estimation_job_stores_the_methods_and_report(client, runs):
     assert {m["method"] for m in res["methods"]} >= {"damped-fit", "log-decrement"}
     stored = client.get(f"/api/results/{job['result_id']}", headers=AUTH).json()
     assert stored["kind"] == "estimation" and stored["data"]["analysis"] == "pendulum"
-    assert {"fit_after", "peaks"} <= set(stored["report_plots"])
+    assert set(stored["report_plots"]) == {"fit", "peaks", "residual_vs_rate"}
     png = client.get(f"/api/results/{job['result_id']}/report/peaks.png", headers=AUTH)
     assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
 

@@ -40,10 +40,15 @@ def test_estimation_job_returns_the_result_json_and_report_plots(client, two_tow
     stored = client.get(f"/api/results/{job['result_id']}", headers=AUTH).json()
     assert stored["kind"] == "estimation"
     assert sorted(stored["run_ids"]) == sorted(two_tows)
-    assert "fit_after" in stored["report_plots"]
-    png = client.get(f"/api/results/{job['result_id']}/report/fit_after.png", headers=AUTH)
+    assert stored["report_plots"] == ["fit", "force_residual"]
+    png = client.get(f"/api/results/{job['result_id']}/report/fit.png", headers=AUTH)
     assert png.status_code == 200
     assert png.content.startswith(b"\x89PNG")
+    svg = client.get(f"/api/results/{job['result_id']}/report/fit.svg", headers=AUTH)
+    assert svg.status_code == 200 and svg.headers["content-type"].startswith("image/svg+xml")
+    assert "position [m]" in svg.text and "time from release [s]" in svg.text
+    other = client.get(f"/api/results/{job['result_id']}/report/report.md.svg", headers=AUTH)
+    assert other.status_code == 404
     bad = client.get(f"/api/results/{job['result_id']}/report/..%2Fsecret.png", headers=AUTH)
     assert bad.status_code == 404
     listed = client.get(f"/api/runs/{two_tows[0]}/results", headers=AUTH).json()

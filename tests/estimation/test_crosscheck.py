@@ -90,8 +90,13 @@ def test_thrusters_weaker_than_calibrated_are_diagnosed_as_the_calibration(tmp_p
     assert "14.90 V vs 16.00 V at calibration" in doc["diagnosis"][0]
     assert not any(d.startswith("unexplained") for d in doc["diagnosis"])
     files = write_crosscheck_report(check, tmp_path)
-    assert [f.name for f in files] == ["report.md", "crosscheck.png"]
+    assert [f.name for f in files] == ["report.md", "crosscheck.png", "crosscheck.svg"]
     assert files[1].stat().st_size > 5000
+    svg = files[2].read_text(encoding="utf-8")
+    for label in ("inertia [kg]", "K_L [N·s/m]", "K_Q [N·s²/m²]"):
+        assert label in svg  # the y axes name the coefficient and its unit
+    md = files[0].read_text(encoding="utf-8")
+    assert "![" in md and "(crosscheck.png)" in md and "(crosscheck.svg)" in md
 
 
 def test_different_effects_are_named():

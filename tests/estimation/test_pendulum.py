@@ -11,16 +11,18 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from estimation.pendulum.data import PendulumGeometry, validate_pendulum_run
 from estimation.pendulum.decay import plant_of
 from estimation.pendulum.estimate import PENDULUM_METHODS, estimate_pendulum
 from estimation.pendulum.methods import coefficients_from_signal, thesis_translational
-from estimation.pendulum.report import write_pendulum_report
+from estimation.pendulum.report import fit_figure, run_labels, write_pendulum_report
 from estimation.pendulum.sim import simulate, step_size
 from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
 
@@ -149,11 +151,29 @@ def test_result_document_and_report(dry, tmp_path):
     assert doc["diagnostics"]["ljung_box_after"]["q"] < doc["diagnostics"]["ljung_box_before"]["q"]
     assert len(doc["peaks"]["p1"]["times"]) >= 3
     paths = write_pendulum_report(dry, tmp_path)
-    names = {p.name for p in paths}
-    assert {"result.json", "report.md", "fit_before.png", "fit_after.png", "peaks.png"} <= names
+    figures = {p.name for p in paths if p.suffix in (".png", ".svg")}
+    assert figures == {
+        f"{stem}.{ext}" for stem in ("fit", "residual_vs_rate", "peaks") for ext in ("png", "svg")
+    }
     text = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "pivot_dry_friction" in text and "log-decrement" in text
-    assert (tmp_path / "peaks.png").stat().st_size > 1000
+    assert text.index("## Summary") < text.index("## Figures") < text.index("## Methods")
+    assert "effect `pivot_dry_friction`" in text.split("## Figures")[0]
+    assert set(re.findall(r"\]\(([^)]+)\)", text)) == figures  # every figure linked
+    with Image.open(tmp_path / "peaks.png") as img:
+        assert img.width >= 1500
+    svg = (tmp_path / "fit.svg").read_text(encoding="utf-8")
+    assert "angle φ [rad]" in svg and "time from release [s]" in svg
+    assert "run 1 (p1), swing" in svg
+    assert "model angular rate φ̇ [rad/s]" in (tmp_path / "residual_vs_rate.svg").read_text()
+
+
+def test_pendulum_fit_figure_starts_at_release(dry):
+    fig = fit_figure(dry, run_labels(dry))
+    ax = fig.axes[0]
+    assert ax.get_ylabel() == "angle φ [rad]"
+    assert all(line.get_xdata()[0] == pytest.approx(0.0, abs=0.2) for line in ax.get_lines())
+    assert ax.get_title(loc="left").startswith("run 1 (p1), swing ")
 
 
 # ---- seed 002's published numbers ----------------------------------------------------------

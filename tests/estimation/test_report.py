@@ -1,42 +1,125 @@
-"""Report files: JSON with the documented schema, Markdown with before/after, PNG plots."""
+"""Report files: JSON with the documented schema, Markdown with the summary first and every
+figure linked, figures at readable size with unit labels and time from release."""
 
 import json
+import re
+import uuid
+from dataclasses import replace
 
 import pytest
+from PIL import Image
 
 from estimation import estimate
-from estimation.axis.report import write_report
+from estimation.axis.model import prepare
+from estimation.axis.report import fit_figure, force_figure, run_labels, write_report
+from estimation.figures import DPI, TIME_LABEL
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+#: Recorded runs carry service/PLC time: release ~88 s after the clock started.
+CLOCK_OFFSET_S = 88.0
 
 
-def test_report_writes_json_markdown_and_plots(tmp_path):
-    runs = tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=21)
-    result = estimate(runs, n_bootstrap=5)
+def _late_clock(runs):
+    """The runs with UUID ids and their times shifted as a service clock would have them."""
+    return [
+        replace(
+            r,
+            run_id=str(uuid.UUID(int=i + 1)),
+            t=r.t + CLOCK_OFFSET_S,
+            t_release=r.t_release + CLOCK_OFFSET_S,
+            t_end=None if r.t_end is None else r.t_end + CLOCK_OFFSET_S,
+        )
+        for i, r in enumerate(runs)
+    ]
+
+
+@pytest.fixture(scope="module")
+def surge():
+    runs = _late_clock(tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=21))
+    return runs, estimate(runs, n_bootstrap=5)
+
+
+def test_report_writes_json_markdown_and_figures(surge, tmp_path):
+    runs, result = surge
     paths = write_report(result, runs, tmp_path / "out")
     names = sorted(p.name for p in paths)
-    assert names == ["fit_after.png", "fit_before.png", "report.md", "residuals.png", "result.json"]
+    assert names == [
+        "fit.png", "fit.svg", "force_residual.png", "force_residual.svg", "report.md",
+        "result.json",
+    ]  # fmt: skip
     for p in paths:
         if p.suffix == ".png":
-            assert p.read_bytes()[:8] == PNG_MAGIC and p.stat().st_size > 10_000
+            assert p.read_bytes()[:8] == PNG_MAGIC
+            with Image.open(p) as img:
+                assert img.width >= 1500  # readable, not a thumbnail
+                assert img.info["dpi"][0] == pytest.approx(DPI, abs=0.5)
     doc = json.loads((tmp_path / "out" / "result.json").read_text())
-    for key in (
-        "axis",
-        "method",
-        "coefficients",
-        "effects",
-        "ambiguous",
-        "rmse_before",
-        "rmse_after",
-        "runs",
-    ):
+    for key in ("axis", "method", "coefficients", "effects", "ambiguous", "rmse_before",
+                "rmse_after", "runs"):  # fmt: skip
         assert key in doc
     for key in ("inertia", "linear_damping", "quadratic_damping"):
         assert set(doc["coefficients"][key]) == {"value", "std"}
     assert doc["effects"][0]["name"] == "coulomb_friction" and doc["effects"][0]["unit"] == "N"
-    md = (tmp_path / "out" / "report.md").read_text()
+    md = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     assert "coulomb_friction" in md and "| **all** |" in md and "ambiguous" in md
+    # the summary comes first: coefficients ± σ with units, effects, RMSE, warnings
+    summary = md.split("## Summary", 1)[1].split("## Figures", 1)[0]
+    assert "| inertia | 143." in summary and "| kg |" in summary
+    assert "effect `coulomb_friction`" in summary and "RMSE before → after" in summary
+    assert "warnings" in summary
+    # every figure written is linked from report.md: PNG inline, SVG beside it
+    linked = set(re.findall(r"\]\(([^)]+)\)", md))
+    assert {p.name for p in paths if p.suffix in (".png", ".svg")} == linked
+    assert md.index("## Summary") < md.index("## Figures") < md.index("## Evidence")
+
+
+def test_fit_figure_runs_from_release_with_units_and_short_labels(surge):
+    runs, result = surge
+    prepared = [prepare(r) for r in runs]
+    labels = run_labels(prepared, "surge")
+    fig = fit_figure(result, prepared, labels)
+    rows = [fig.axes[i : i + 3] for i in range(0, len(fig.axes), 3)]
+    assert len(rows) == len(runs)
+    for (ax, res_before, res_after), run in zip(rows, runs, strict=True):
+        assert ax.get_ylabel() == "position [m]"
+        assert re.fullmatch(r"residual \[(m|mm|µm)\]", res_before.get_ylabel())
+        assert re.fullmatch(r"residual \[(m|mm|µm)\]", res_after.get_ylabel())
+        title = ax.get_title(loc="left")
+        assert title.startswith("run ") and run.run_id[:8] in title and run.run_id not in title
+        assert title.endswith(" N")  # the weight's force
+        for line in ax.get_lines():
+            t = line.get_xdata()
+            assert 0.0 < t[0] <= 0.25  # first sample after release, not ~88 s of clock
+    assert rows[0][0].get_title(loc="left") == "run 1 (00000000), +4.9 N"
+    assert [a.get_xlabel() for a in rows[-1]] == [TIME_LABEL] * 3
+    assert {line.get_label() for line in rows[0][0].get_lines()} == {
+        "measured", "model before", "model after"
+    }  # fmt: skip
+
+
+def test_force_figure_plots_force_residual_against_velocity(surge):
+    runs, result = surge
+    prepared = [prepare(r) for r in runs]
+    fig = force_figure(result, prepared, run_labels(prepared, "surge"))
+    before, after = fig.axes
+    for ax in (before, after):
+        assert ax.get_xlabel() == "model velocity [m/s]"
+        assert re.fullmatch(r"force residual \[(N|mN|µN)\]", ax.get_ylabel())
+        assert len([line for line in ax.get_lines() if line.get_label().startswith("run ")]) == 4
+    assert "coulomb_friction" in after.get_title(loc="left")
+
+
+def test_yaw_report_labels_angle_and_torque(tmp_path):
+    runs = _late_clock(tow_set(axis="yaw", seed=5))
+    result = estimate(runs, n_bootstrap=0, search_effects=False)
+    paths = write_report(result, runs, tmp_path)
+    svg = {p.stem: p.read_text(encoding="utf-8") for p in paths if p.suffix == ".svg"}
+    for text in ("angle [rad]", TIME_LABEL, "measured − model before", "N·m"):
+        assert text in svg["fit"] or text in svg["force_residual"]
+    assert "model yaw rate [rad/s]" in svg["force_residual"]
+    assert "torque residual [" in svg["force_residual"]
+    assert "run 1 (00000000), +0.454 N·m" in svg["fit"]
 
 
 def test_report_refuses_other_runs(tmp_path):
@@ -50,4 +133,4 @@ def test_report_for_seed_method(tmp_path):
     runs = tow_set(seed=23)
     result = estimate(runs, method="ls-steady")
     paths = write_report(result, runs, tmp_path)
-    assert len(paths) == 5
+    assert len(paths) == 6

@@ -79,6 +79,18 @@ def test_inverse_map_round_trips_and_refuses_unreachable_force():
         curve.command_for_force(500.0)
 
 
+def test_parameters_carry_units_and_round_trip():
+    u, f, s = _sweeps(2)
+    doc = fit_thrust_curve(u, f, s).to_json()
+    assert {n: p["unit"] for n, p in doc["parameters"].items()} == {
+        "forward_gain": "N", "forward_dead_band": "command", "forward_exponent": "1",
+        "reverse_gain": "N", "reverse_dead_band": "command", "reverse_exponent": "1",
+        "hysteresis": "command",
+    }  # fmt: skip
+    again = ThrustCurve.from_json(doc)
+    assert again.to_json() == doc
+
+
 def test_needs_points_on_both_sides():
     u = np.linspace(0.1, 1, 20)
     with pytest.raises(ValueError, match="command: got 20 forward and 0 reverse"):

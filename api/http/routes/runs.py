@@ -335,9 +335,32 @@ def get_report_plot(
     store: StoreDep,
     runner: RunnerDep,
 ) -> FileResponse:
-    """A PNG of an estimation report made by this service (names in ``report_plots``)."""
+    """A report figure as a 150 dpi PNG (names in ``report_plots``)."""
+    return _report_figure(result_id, name, ".png", store, runner)
+
+
+@router.get(
+    "/results/{result_id}/report/{name}.svg",
+    dependencies=[Depends(require_read)],
+    responses={200: {"content": {"image/svg+xml": {}}, "description": "A report plot"}} | _READ,
+    response_class=FileResponse,
+)
+def get_report_svg(
+    result_id: int,
+    name: str,
+    store: StoreDep,
+    runner: RunnerDep,
+) -> FileResponse:
+    """The same report figure as SVG (vector, its labels as text)."""
+    return _report_figure(result_id, name, ".svg", store, runner)
+
+
+def _report_figure(
+    result_id: int, name: str, suffix: str, store: Store, runner: JobRunner
+) -> FileResponse:
     _find_result(store, result_id)
-    path = runner.report_file(result_id, name)
+    path = runner.report_file(result_id, name, suffix)
     if path is None:
         raise HTTPException(404, f"result {result_id} has no report plot named {name!r}")
-    return FileResponse(path, media_type="image/png")
+    media = "image/svg+xml" if suffix == ".svg" else "image/png"
+    return FileResponse(path, media_type=media)

@@ -480,19 +480,22 @@ async function renderEstimation(res) {
     (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
     [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
   const perRun = Object.keys(res.rmse_per_run_before || {});
+  // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
+  const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
   Plotly.newPlot(
     "est-fit-plot",
     [
-      { x: perRun, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },
-      { x: perRun, y: perRun.map((r) => (res.rmse_per_run_after || {})[r]), type: "bar", name: "RMSE after" },
+      { x: runLabels, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },
+      { x: runLabels, y: perRun.map((r) => (res.rmse_per_run_after || {})[r]), type: "bar", name: "RMSE after" },
     ],
-    { margin: { t: 20, r: 20, b: 60, l: 60 }, yaxis: { title: { text: `residual RMSE (${unit})` } }, barmode: "group" },
+    { title: { text: "Residual RMSE per run (the fits themselves are in the report figures below)" }, margin: { t: 40, r: 20, b: 60, l: 60 }, yaxis: { title: { text: `residual RMSE (${unit})` } }, barmode: "group" },
     { responsive: true, displaylogo: false },
   );
   await showReportPlots(res.result_id);
 }
 
-// The stored result's report PNGs into #est-plots (fetched with the token).
+// The stored result's report figures into #est-plots, full width (fetched with the token):
+// click a figure to see it at its natural size; links open the PNG and the SVG on their own.
 async function showReportPlots(resultId) {
   const box = $("#est-plots");
   box.innerHTML = "";
@@ -500,14 +503,43 @@ async function showReportPlots(resultId) {
   try {
     const stored = await api("GET", `/api/results/${resultId}`);
     for (const name of stored.report_plots) {
-      const r = await fetch(`/api/results/${resultId}/report/${name}.png`, { headers: { Authorization: `Bearer ${state.token}` } });
-      if (!r.ok) continue;
-      box.append(Object.assign(document.createElement("img"), { src: URL.createObjectURL(await r.blob()), alt: name, title: name }));
+      const png = await reportBlob(resultId, `${name}.png`);
+      if (!png) continue;
+      const svg = await reportBlob(resultId, `${name}.svg`);
+      const fig = document.createElement("figure");
+      fig.className = "report-figure";
+      fig.innerHTML = `<img alt="report figure ${esc(name)}" title="click to view at full size">
+        <figcaption>${esc(name)} — <a class="report-png" target="_blank" rel="noopener">PNG</a>${svg ? ` · <a class="report-svg" target="_blank" rel="noopener">SVG</a>` : ""}</figcaption>`;
+      fig.querySelector("img").src = png;
+      fig.querySelector("img").addEventListener("click", () => openLightbox(png, name));
+      fig.querySelector(".report-png").href = png;
+      if (svg) fig.querySelector(".report-svg").href = svg;
+      box.append(fig);
     }
   } catch (err) {
     console.warn(err);
   }
 }
+
+async function reportBlob(resultId, file) {
+  const r = await fetch(`/api/results/${resultId}/report/${file}`, { headers: { Authorization: `Bearer ${state.token}` } });
+  return r.ok ? URL.createObjectURL(await r.blob()) : null;
+}
+
+// A report figure at its natural size over the page; click or Escape closes it.
+function openLightbox(src, name) {
+  const box = $("#lightbox");
+  box.querySelector("img").src = src;
+  box.querySelector("img").alt = `report figure ${name}`;
+  box.hidden = false;
+}
+function closeLightbox() {
+  $("#lightbox").hidden = true;
+}
+$("#lightbox").addEventListener("click", closeLightbox);
+document.addEventListener("keydown", (e) => {
+  if (e.key === "Escape") closeLightbox();
+});
 
 // ---- thrusters --------------------------------------------------------------------------------
 function thrust(p, u) {
@@ -540,7 +572,7 @@ async function loadCalibration() {
   ];
   const fit = data.fit && data.fit.parameters;
   $("#cal-params tbody").innerHTML = Object.entries(fit || {})
-    .map(([k, v]) => `<tr><td>${k}</td><td>${fmt(v.value, 5)}</td><td>± ${fmt(v.std, 3)}</td></tr>`)
+    .map(([k, v]) => `<tr><td>${k}${v.unit ? ` (${esc(v.unit)})` : ""}</td><td>${fmt(v.value, 5)}</td><td>± ${fmt(v.std, 3)}</td></tr>`)
     .join("") + (data.fit ? `<tr><td>RMSE (N)</td><td>${fmt(data.fit.rmse_n, 3)}</td><td></td></tr>` : "");
   const p = fit ? Object.fromEntries(Object.entries(fit).map(([k, v]) => [k, v.value])) : null;
   if (p) {

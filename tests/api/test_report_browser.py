@@ -1,0 +1,51 @@
+"""A finished estimation on the Estimation page in real headless Chromium: the report
+figures are shown full-size (a PNG of at least 1000 px filling the card, click to enlarge)
+and the same figure's SVG names its axes with units."""
+
+from __future__ import annotations
+
+from api.http.app import create_app
+from tests.api.conftest import SHORT_TOW, TOKEN, LiveServer, chromium_page, start_job, wait_job
+
+
+def test_estimation_page_shows_full_size_report_figures_with_units(client, service):
+    from playwright.sync_api import expect
+
+    runs = []
+    for force in (24.5, 83.3):
+        job = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW | {"force_n": force}))
+        assert job["state"] == "completed", job
+        runs += job["run_ids"]
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, chromium_page() as page:
+        # this test is about the report, not the live plot: keep the 10 Hz stream out
+        page.route("**/api/stream**", lambda route: route.abort())
+        page.goto(f"{live.url}/#token={TOKEN}")
+        page.click("nav a[data-page=estimation]")
+        for run in runs:
+            page.check(f"#est-runs input[value='{run}']")
+        page.click("#est-run")
+        expect(page.locator("#est-state")).to_have_text("completed", timeout=120_000)
+
+        fit = page.locator("#est-plots figure").first
+        expect(fit.locator("figcaption")).to_contain_text("fit")
+        page.wait_for_function(
+            "document.querySelector('#est-plots figure img')?.naturalWidth >= 1000"
+        )
+        shown = fit.locator("img").evaluate("img => img.getBoundingClientRect().width")
+        card = page.locator("#est-plots").evaluate("el => el.getBoundingClientRect().width")
+        assert shown >= 0.95 * card  # the figure fills the result card, not a thumbnail
+        svg = fit.locator("a.report-svg").evaluate("a => fetch(a.href).then((r) => r.text())")
+        for label in ("position [m]", "time from release [s]", "residual ["):
+            assert label in svg
+        for run in runs:  # runs labelled "run 1 (a1b2c3d4), +24.5 N", not by UUID
+            assert run not in svg and f"({run[:8]})" in svg
+        assert "+24.5 N" in svg and "+83.3 N" in svg
+
+        # a click opens it at its natural size over the page; Escape closes it
+        fit.locator("img").click()
+        big = page.locator("#lightbox img")
+        expect(big).to_be_visible()
+        assert big.evaluate("img => img.getBoundingClientRect().width") >= 1000
+        page.keyboard.press("Escape")
+        expect(page.locator("#lightbox")).to_be_hidden()
