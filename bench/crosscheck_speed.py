@@ -19,10 +19,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from bench.timing import timed
-from daq.run_data import DRIVE_DRAWS, curve_draws
 from estimation import estimate
 from estimation.axis.crosscheck import cross_check
 from estimation.thrust.curve import ThrustCurve
+from estimation.thrust.drive import DRIVE_DRAWS, curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import tomllib
-import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +22,7 @@ from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
+from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
 from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
 
 POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
@@ -182,49 +182,19 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
         law, curve, cal_table = _calibration(store, params)
-        measured = CalibratedThrust.from_table(curve, cal_table)
-        steps = _thrust_steps(timeline.events, timeline.offset)
         volts = table.channels.get("supply_voltage")
-        volts = None if volts is None else volts[timeline.good][keep]
-        if law is not None and law.identified:
-            mean_v = law.reference_voltage if volts is None else float(np.mean(volts))
-            drive_law = f"{law.voltage_law(mean_v)} (mean supply {mean_v:.3g} V)"
-            if volts is None:
-                drive_law += ": not recorded, the calibration's highest voltage taken"
-            drive = thruster_drive(
-                law, rig, run.kind, params["commands"], t, t_release, steps, volts
-            )
-            # The law's σ: its interpolation between voltages (common to the run) and the
-            # calibration's scatter at the run's thrust.
-            rng = np.random.default_rng([DRIVE_DRAW_SEED, zlib.crc32(run.id.encode())])
-            factors = 1.0 + rng.normal(0.0, law.interpolation_error, DRIVE_DRAWS)
-            draws = factors[:, None] * drive[None, :]
-        else:
-            exponent = rig.thrusters.voltage_exponent
-            drive_law = (
-                f"rig file: thrust ∝ V^{exponent:g} (thrusters.voltage_exponent)"
-                if exponent and volts is not None
-                else "no supply-voltage correction"
-            )
-            drive = thruster_drive(
-                measured, rig, run.kind, params["commands"], t, t_release, steps, volts
-            )
-            draws = np.array(
-                [
-                    thruster_drive(
-                        measured.with_curve(c),
-                        rig,
-                        run.kind,
-                        params["commands"],
-                        t,
-                        t_release,
-                        steps,
-                        volts,
-                    )
-                    for c in curve_draws(curve, DRIVE_DRAWS)
-                ]
-            )
-        draws *= lack_of_fit_factors(curve, params, run.id, DRIVE_DRAWS)[:, None]
+        rebuilt = rebuild_drive(
+            law,
+            CalibratedThrust.from_table(curve, cal_table),
+            thrust_layout_of(rig, run.kind),
+            t,
+            _thrust_steps(timeline.events, timeline.offset)
+            or _modelled_steps(rig, params["commands"], t, t_release),
+            None if volts is None else volts[timeline.good][keep],
+            run.id,
+            params,
+        )
+        drive, draws, drive_law = rebuilt.drive, rebuilt.draws, rebuilt.law
     return RunData(
         run_id=run.id,
         axis="surge" if run.kind == "tow" else "yaw",
@@ -363,9 +333,6 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCu
 
 
 #: Step of the fine grid the thruster drive is built on, s.
-DRIVE_GRID_S = 0.001
-
-
 def _thrust_steps(events, offset: float) -> list[tuple[float, list[float]]] | None:
     """The outputs the controller confirmed during the run, as (instant on the time base,
     fraction per thruster); each change is put mid-way between sending and the reply.
@@ -382,6 +349,14 @@ def _thrust_steps(events, offset: float) -> list[tuple[float, list[float]]] | No
     return None
 
 
+def thrust_layout_of(rig: RigConfig, kind: str) -> ThrustLayout:
+    """How the rig's thrusters make the drive of a ``"tow"`` or a ``"spin"``."""
+    from daq.procedures.thruster_drive import thrust_layout
+
+    signs, arm = thrust_layout(rig.thrusters, kind)
+    return ThrustLayout(signs, arm, rig.thrusters.time_constant_s, rig.thrusters.voltage_exponent)
+
+
 def thruster_drive(
     curve: ThrustCurve | CalibratedThrust | ThrustLaw,
     rig: RigConfig,
@@ -389,79 +364,20 @@ def thruster_drive(
     commands: list[float],
     t: np.ndarray,
     t_on: float,
-    steps: list[tuple[float, list[float]]] | None = None,
+    steps: Steps | None = None,
     volts: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Drive of a thruster-driven tow (force, N: Σ F) or spin (torque, N·m: Σ sign·F·L) per
-    sample, from the calibrated thrust curve; ``t`` the sample times, ``t_on`` the instant
-    the thrust was switched on (same time base).
-
-    The outputs are the ``steps`` the controller confirmed (instant, fraction per
-    thruster) when the run stored them. Older runs get the ramp as the driver would have
-    sent it: a first step at ``t_on`` credited with the time since the previous tick,
-    then one step per acquisition tick (the sample times) of at most
-    ``max_command_slew_per_s`` × the tick interval (≤ 0.1 s) toward ``commands`` — right
-    only while the heartbeat kept time. With the rig file's ``thrusters.voltage_exponent``
-    q > 0, a ``CalibratedThrust`` and the run's supply voltage per sample (``volts``),
-    each thruster's force is scaled by (V / V_cal(command))^q: the supply sags as the
-    thrust rises and may have dropped since the calibration. The thrust follows the
-    outputs with the rig file's first-order ``thrusters.time_constant_s``. A ``ThrustLaw``
-    identified from calibrations at several voltages replaces that exponent: the thrust is
-    the law's F(output, V) at each instant's supply voltage. The estimator
-    holds each sample's drive until the next sample, so each value is the mean drive over
-    its sample interval (built on a 1 ms grid).
-    """
-    from daq.procedures.thruster_drive import thrust_layout
-
+    """Drive of a thruster-driven tow (force, N) or spin (torque, N·m) per sample time
+    ``t`` (:func:`estimation.thrust.drive.drive_from_steps`), from the ``steps`` the
+    controller confirmed, or — for runs recorded before those were stored — the ramp the
+    driver would have sent from ``t_on`` toward ``commands``: right only while the
+    heartbeat kept time."""
     t = np.asarray(t, dtype=float)
     if t.size == 0:
         return np.zeros(0)
-    signs, arm = thrust_layout(rig.thrusters, kind)
-    end = float(t[-1]) + (float(np.median(np.diff(t))) if t.size > 1 else 0.1)
-    grid = np.arange(float(t[0]), end + DRIVE_GRID_S, DRIVE_GRID_S)
     if steps is None:
         steps = _modelled_steps(rig, commands, t, t_on)
-    if any(len(fractions) != len(signs) for _, fractions in steps):
-        raise ValueError(
-            f"thrust steps: one output per thruster ({len(signs)}) needed in every step"
-        )
-    # Each step's outputs held until the next step (zero before the first).
-    step_times = np.array([instant for instant, _ in steps], dtype=float)
-    values = np.array([fractions for _, fractions in steps], dtype=float).reshape(-1, len(signs))
-    index = np.searchsorted(step_times, grid, side="right") - 1
-    outputs = np.where(index[:, None] >= 0, values[np.clip(index, 0, None)], 0.0).T
-    supply = _supply_on_grid(volts, t, grid)
-    exponent = rig.thrusters.voltage_exponent
-    force = np.zeros_like(grid)
-    for sign, output in zip(signs, outputs, strict=True):
-        if isinstance(curve, ThrustLaw):  # identified F(command, V)
-            thrust = curve.force(output, supply)
-        else:
-            thrust = curve.force(output)
-        if supply is not None and isinstance(curve, CalibratedThrust):
-            thrust = thrust * curve.supply_factor(output, supply, exponent)
-        force += sign * thrust * arm
-    tau = rig.thrusters.time_constant_s
-    if tau > 0:
-        from scipy.signal import lfilter
-
-        alpha = 1.0 - np.exp(-DRIVE_GRID_S / tau)
-        force = lfilter([alpha], [1.0, alpha - 1.0], force)
-    # Mean over each sample interval [t_k, t_k+1) (the last one: one median interval).
-    edges = np.searchsorted(grid, np.concatenate([t, [end]]))
-    total = np.concatenate([[0.0], np.cumsum(force)])
-    counts = np.maximum(np.diff(edges), 1)
-    return (total[edges[1:]] - total[edges[:-1]]) / counts
-
-
-def _supply_on_grid(volts: np.ndarray | None, t: np.ndarray, grid: np.ndarray) -> np.ndarray | None:
-    """The run's supply voltage on the drive grid: a 3-sample running mean (the reading's
-    noise) interpolated between samples; None when not recorded."""
-    if volts is None or volts.size != t.size or not np.all(np.isfinite(volts)) or t.size < 3:
-        return None
-    smooth = np.convolve(volts, np.ones(3) / 3, mode="same")
-    smooth[0], smooth[-1] = volts[:2].mean(), volts[-2:].mean()
-    return np.interp(grid, t, smooth)
+    return drive_from_steps(curve, thrust_layout_of(rig, kind), t, steps, volts)
 
 
 def _modelled_steps(
@@ -480,35 +396,3 @@ def _modelled_steps(
         (float(at), [float(np.sign(c) * min(abs(c), reach)) for c in commands])
         for at, reach in zip(step_times, ramp, strict=True)
     ]
-
-
-#: Thrust curves drawn per thruster-driven run to carry the calibration's uncertainty.
-DRIVE_DRAWS = 30
-DRIVE_DRAW_SEED = 20261121
-
-
-def lack_of_fit_factors(curve: ThrustCurve, params: dict, run_id: str, count: int) -> np.ndarray:
-    """Per draw, a factor 1 + δ on the run's whole drive with δ ~ N(0, RMSE / |F|): the
-    curve is trusted only to its fit RMSE at the run's thrust F per thruster (a power law
-    does not follow real thrusters exactly, and the parameter covariance does not carry
-    that). Independent between runs (their commands differ), fixed per run id."""
-    force = abs(float(params.get("force_per_thruster_n") or 0.0))
-    if not force > 0:
-        return np.ones(count)
-    rng = np.random.default_rng([DRIVE_DRAW_SEED, zlib.crc32(run_id.encode())])
-    return 1.0 + rng.normal(0.0, curve.rmse_n / force, count)
-
-
-def curve_draws(curve: ThrustCurve, count: int, seed: int = DRIVE_DRAW_SEED) -> list[ThrustCurve]:
-    """``count`` thrust curves with parameters drawn from N(values, cov) of the calibration
-    fit (cov from its σ and correlation), kept inside the fit's bounds; fixed seed."""
-    from dataclasses import replace
-
-    std = np.asarray(curve.std, dtype=float)
-    cov = np.outer(std, std) * np.asarray(curve.correlation, dtype=float)
-    rng = np.random.default_rng(seed)
-    values = rng.multivariate_normal(curve.values, cov, size=count, method="eigh")
-    # gains > 0, dead bands ≥ 0, exponents within the fit's 0.2 … 3
-    low = np.array([1e-9, 0.0, 0.2, 1e-9, 0.0, 0.2, -np.inf])
-    high = np.array([np.inf, np.inf, 3.0, np.inf, np.inf, 3.0, np.inf])
-    return [replace(curve, values=np.clip(v, low, high)) for v in values]

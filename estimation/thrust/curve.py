@@ -16,6 +16,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq, least_squares
 
+#: Physical bounds of the parameters (gain_f, dead_f, exp_f, gain_r, dead_r, exp_r,
+#: hysteresis): gains > 0, dead bands ≥ 0, exponents 0.2 … 3. The fit narrows the dead
+#: bands and the hysteresis to the commands' span; parameter draws stay inside these.
+PARAMETER_LOWER = np.array([1e-9, 0.0, 0.2, 1e-9, 0.0, 0.2, -np.inf])
+PARAMETER_UPPER = np.array([np.inf, np.inf, 3.0, np.inf, np.inf, 3.0, np.inf])
+
 PARAMS: tuple[str, ...] = (
     "forward_gain",
     "forward_dead_band",
@@ -170,8 +176,9 @@ def fit_thrust_curve(
     kr, dr, pr = _side_guess(-u[u < 0], -f[u < 0])
     p0 = np.array([kf, df, pf, kr, dr, pr, 0.0])
     span = float(np.max(np.abs(u)))
-    lower = np.array([1e-9, 0.0, 0.2, 1e-9, 0.0, 0.2, -span])
-    upper = np.array([np.inf, span, 3.0, np.inf, span, 3.0, span])
+    # dead bands and hysteresis within the commands' span
+    lower = np.maximum(PARAMETER_LOWER, [-np.inf] * 6 + [-span])
+    upper = np.minimum(PARAMETER_UPPER, [np.inf, span, np.inf, np.inf, span, np.inf, span])
     if not np.any(s):
         lower[6], upper[6] = -1e-12, 1e-12
     sol = least_squares(

@@ -7,10 +7,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from daq.run_data import curve_draws
 from estimation import estimate
 from estimation.axis.crosscheck import cross_check, markdown, write_crosscheck_report
 from estimation.thrust.curve import ThrustCurve
+from estimation.thrust.drive import curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 
 NAMES = ("inertia", "linear_damping", "quadratic_damping")

@@ -7,9 +7,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from daq.run_data import curve_draws
 from estimation import estimate
 from estimation.thrust.curve import ThrustCurve
+from estimation.thrust.drive import curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
 
 COEFFICIENTS = ("inertia", "linear_damping", "quadratic_damping")
@@ -70,7 +70,7 @@ def test_drive_draws_of_the_wrong_shape_are_refused():
 
 
 def test_lack_of_fit_factors_carry_the_curve_rmse_at_the_run_thrust():
-    from daq.run_data import lack_of_fit_factors
+    from estimation.thrust.drive import lack_of_fit_factors
 
     curve = replace(_curve(0.0), rmse_n=0.05)
     params = {"force_per_thruster_n": 5.0}
