@@ -29,7 +29,8 @@ const live = {
 };
 
 // ---- axis ticks --------------------------------------------------------------------------
-// A 1-2-5 step giving about `target` intervals over [lo, hi], and the range rounded to it.
+// A 1-2-5 step giving about `target` intervals over [lo, hi], and a range just beyond the
+// outer ticks.
 function niceAxis(lo, hi, target = 5) {
   if (!Number.isFinite(lo) || !Number.isFinite(hi)) return null;
   if (hi - lo < 1e-12) {
@@ -41,8 +42,10 @@ function niceAxis(lo, hi, target = 5) {
   const mag = 10 ** Math.floor(Math.log10(raw));
   const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= raw * (1 - 1e-9));
   const decimals = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+  const [a, b] = [Math.floor(lo / step + 1e-9) * step, Math.ceil(hi / step - 1e-9) * step];
+  const margin = 0.04 * (b - a); // the outer ticks stay on 1-2-5 values, lines off the frame
   return {
-    range: [Math.floor(lo / step + 1e-9) * step, Math.ceil(hi / step - 1e-9) * step],
+    range: [a - margin, b + margin],
     dtick: step,
     tickformat: `.${decimals}f`,
   };
@@ -144,7 +147,23 @@ function onSample(s) {
   live.buffer.push({ t: s.t_mono - live.t0, v });
   if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);
   liveSync();
-  if (!$("#page-rig").hidden) liveDraw();
+  liveRequestDraw();
+}
+
+// Redraw at most every LIVE_REDRAW_MS and never more than half the time: a redraw costs
+// Plotly tens of ms (hundreds on a loaded machine), samples arrive every 100 ms.
+const LIVE_REDRAW_MS = 250;
+let liveTimer = null;
+let liveDrawMs = 0;
+function liveRequestDraw() {
+  if (liveTimer !== null) return;
+  liveTimer = setTimeout(() => {
+    liveTimer = null;
+    if ($("#page-rig").hidden) return;
+    const t = performance.now();
+    liveDraw();
+    liveDrawMs = performance.now() - t;
+  }, Math.max(LIVE_REDRAW_MS, liveDrawMs));
 }
 
 function resetLive() {
@@ -175,10 +194,11 @@ function liveDraw() {
     const ref = r === 0 ? "y" : `y${r + 1}`;
     const inRow = chosen.filter((c) => c.unit === unit);
     const ys = [];
-    for (const c of inRow) {
+    for (const [i, c] of inRow.entries()) {
       const y = live.buffer.map((p) => (p.v[c.key] === undefined ? null : p.v[c.key]));
       ys.push(...y.filter((x) => x !== null));
-      traces.push({ x: t, y, name: c.unit ? `${c.label} [${c.unit}]` : c.label, meta: c.key, mode: "lines", yaxis: ref });
+      traces.push({ x: t, y, name: c.unit ? `${c.label} [${c.unit}]` : c.label, meta: c.key, mode: "lines", yaxis: ref,
+        line: { dash: ["solid", "dash", "dot", "dashdot"][i % 4] } }); // equal commands stay visible
     }
     const name = inRow.length === 1 ? inRow[0].label.replace(/ \(from .*\)$/, "") : unit === "fraction" ? "command" : "";
     const top = 1 - r * (h + gap);
