@@ -30,9 +30,11 @@ function askToken(message = "") {
   $("#token-input").focus();
 }
 
-// A 401: ask for a token, saying it was refused only if there was one.
-function tokenRefused(detail) {
-  askToken(state.token ? `The token was refused: ${detail || "HTTP 401"}` : "");
+// A 401 to a request sent with `used`: ask for a token, saying it was refused only if there
+// was one. An answer to a request sent before the token changed says nothing about the new one.
+function tokenRefused(used, detail) {
+  if (used !== state.token) return;
+  askToken(used ? `The token was refused: ${detail || "HTTP 401"}` : "");
 }
 
 $("#token-form").addEventListener("submit", async (ev) => {
@@ -58,6 +60,7 @@ class ApiError extends Error {
 }
 
 async function api(method, path, body) {
+  const used = state.token;
   const headers = authHeaders();
   const init = { method, headers };
   if (body !== undefined) {
@@ -67,7 +70,7 @@ async function api(method, path, body) {
   const r = await fetch(path, init);
   const isJson = (r.headers.get("content-type") || "").includes("json");
   const data = isJson ? await r.json() : await r.text();
-  if (r.status === 401) tokenRefused(data.detail);
+  if (r.status === 401) tokenRefused(used, data.detail);
   if (!r.ok) throw new ApiError(r.status, isJson ? data : { detail: data });
   return data;
 }
@@ -268,9 +271,10 @@ $$(".start-form[data-kind]").forEach((form) => {
 async function stream() {
   for (;;) {
     try {
+      const used = state.token;
       const r = await fetch("/api/stream?max_hz=10", { headers: authHeaders() });
       if (r.status === 401) {
-        tokenRefused((await r.json().catch(() => ({}))).detail);
+        tokenRefused(used, (await r.json().catch(() => ({}))).detail);
         await new Promise((res) => setTimeout(res, 3000));
         continue;
       }

@@ -90,6 +90,18 @@ def test_the_printed_link_carries_the_token_and_opens_the_ui_signed_in(serve):
         assert runs.value.status == 200
         expect(page.locator("#token-dialog")).to_be_hidden()
 
+        # the link pasted into a tab already asking for the token (no reload: a hash change)
+        page.evaluate("localStorage.clear()")
+        page.goto(serve.url)
+        expect(page.locator("#token-dialog")).to_be_visible()
+        expect(page.locator("#conn-text")).to_have_text("waiting for the API token")
+        page.goto(serve.link)
+        expect(page.locator("#conn-text")).to_contain_text("simulated")
+        # answers to requests sent before the token arrived do not bring the dialog back
+        page.wait_for_function("Number(document.querySelector('#live-count').textContent) > 20")
+        expect(page.locator("#token-dialog")).to_be_hidden()
+        assert page.text_content("#token-error") == ""
+
 
 def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_row(serve):
     from playwright.sync_api import expect
@@ -164,7 +176,10 @@ def test_chosen_channels_are_plotted_live_with_units_and_kept(serve):
             lo, hi = layout[axis]["range"]
             assert 3 <= (hi - lo) / step <= 12, layout[axis]
 
-        expect(page.locator("#job-state")).to_have_text("completed", timeout=40_000)
+        final = "el => ['completed', 'aborted', 'failed'].includes(el.textContent)"
+        page.wait_for_selector("#job-state", state="attached")
+        page.wait_for_function(f"({final})(document.querySelector('#job-state'))", timeout=40_000)
+        assert page.text_content("#job-state") == "completed", page.text_content("#job-panel")
 
         page.reload()  # the choice for pendulum tests is kept
         expect(page.locator("#live-kind")).to_have_text("pendulum")
