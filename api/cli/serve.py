@@ -95,7 +95,7 @@ def serve(
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
                f"{source.rig.rig.mode})")  # fmt: skip
     click.echo(f"API token: from {where}; send 'Authorization: Bearer <token>'")
-    click.echo(f"browser UI: http://{shown}:{bound_port}/#token=<token> (or paste it when asked)")
+    click.echo(f"browser UI: {ui_link(host, bound_port, token)}")
     if host not in ("127.0.0.1", "localhost", "::1"):
         click.echo(f"warning: listening on {host}: reachable from other machines", err=True)
     server = uvicorn.Server(config)
@@ -103,6 +103,17 @@ def serve(
         server.run(sockets=[sock])
     finally:
         service.stop()  # (already done by the lifespan, unless uvicorn never started)
+
+
+def ui_link(host: str, port: int, token: str) -> str:
+    """The browser UI's address carrying the token (the page stores it and clears the
+    address bar); a wildcard bind is linked through the loopback address."""
+    from urllib.parse import quote
+
+    if host in ("0.0.0.0", "", "::"):
+        host = "127.0.0.1"
+    shown = f"[{host}]" if ":" in host else host
+    return f"http://{shown}:{port}/#token={quote(token, safe='')}"
 
 
 def _token_from_env() -> bool:

@@ -173,12 +173,15 @@ class RigService:
         await self.operator_hook(act)
 
     async def _forward_samples(self) -> None:
-        assert self.session is not None and self.session.acquisition is not None
-        acq = self.session.acquisition
+        session = self.session
+        assert session is not None and session.acquisition is not None
+        acq = session.acquisition
         queue = acq.subscribe(maxsize=8, name="api-stream")
         try:
             while True:
-                self.broadcaster.publish_sample(await queue.get())
+                sample = await queue.get()
+                thr = session.thrusters
+                self.broadcaster.publish_sample(sample, None if thr is None else thr.output)
         finally:
             acq.unsubscribe(queue)
 

@@ -20,7 +20,7 @@ import math
 import threading
 import time
 from collections import deque
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,9 +32,10 @@ CLIENT_QUEUE = 256
 KEEPALIVE_S = 15.0
 
 
-def sample_json(sample: Sample) -> dict[str, Any]:
-    """A sample as JSON (non-finite values become ``null``)."""
-    return {
+def sample_json(sample: Sample, thrusters: Sequence[float] | None = None) -> dict[str, Any]:
+    """A sample as JSON (non-finite values become ``null``); ``thrusters`` (the commands
+    last sent, fractions of full scale) is added when the rig has thrusters."""
+    data: dict[str, Any] = {
         "seq": sample.seq,
         "thinned": 0,
         "t_mono": sample.t_mono,
@@ -46,6 +47,9 @@ def sample_json(sample: Sample) -> dict[str, Any]:
             for k, v in sample.channels.items()
         },
     }
+    if thrusters is not None:
+        data["thrusters"] = [float(u) for u in thrusters]
+    return data
 
 
 @dataclass(eq=False)
@@ -111,8 +115,9 @@ class Broadcaster:
         with self._lock:
             self._clients.discard(client)
 
-    def publish_sample(self, sample: Sample) -> None:
-        """Called on the rig loop for every sample; JSON is built only if someone wants it."""
+    def publish_sample(self, sample: Sample, thrusters: Sequence[float] | None = None) -> None:
+        """Called on the rig loop for every sample (with the thruster commands sent at that
+        time, if the rig has thrusters); JSON is built only if someone wants it."""
         self.published_samples += 1
         t = sample.t_mono
         if self._last_t is not None and 0 < t - self._last_t < 1.0:
@@ -126,7 +131,7 @@ class Broadcaster:
         for c in clients:
             if not c.wants(t, slack):
                 continue
-            data = data or sample_json(sample)
+            data = data or sample_json(sample, thrusters)
             c.offer("sample", data | {"thinned": c.thinned} if c.thinned else data)
             c.thinned = 0
 

@@ -25,7 +25,7 @@ def _events(http, query: str) -> list[tuple[str, dict]]:
     return out
 
 
-def test_stream_delivers_live_samples_at_the_clock_rate(live_url):
+def test_stream_delivers_live_samples_at_the_clock_rate(live_url, service):
     t0 = time.monotonic()
     events = _events(live_url, "max_events=8&jobs=false")
     elapsed = time.monotonic() - t0
@@ -33,6 +33,8 @@ def test_stream_delivers_live_samples_at_the_clock_rate(live_url):
     seqs = [d["seq"] for _, d in events]
     assert seqs == sorted(seqs) and len(set(seqs)) == 8
     assert {"tow_position", "yaw_angle", "load_cell"} <= set(events[0][1]["channels"])
+    # the thruster commands last sent (zero: nothing drives them), one per thruster
+    assert events[0][1]["thrusters"] == [0.0] * service.source.rig.thrusters.count
     assert 0.5 < elapsed < 3.0  # 8 samples at 10 Hz
 
 

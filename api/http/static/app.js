@@ -8,26 +8,39 @@ const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, 
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
-// ---- token: from #token=..., else localStorage, else ask ------------------------------
+// ---- token: from #token=... (the link `rig serve` prints), else localStorage, else ask ----
+// The dialog opens when the API answers 401; it shows an error only for a token that was
+// tried (none on a first visit; with `--open-read` reading works without one).
 function initToken() {
   const m = location.hash.match(/token=([^&]+)/);
   if (m) {
     localStorage.setItem("rig-token", decodeURIComponent(m[1]));
-    history.replaceState(null, "", location.pathname + "#rig");
+    history.replaceState(null, "", location.pathname + location.search + "#rig");
   }
   state.token = localStorage.getItem("rig-token");
-  if (!state.token) askToken();
 }
 
+const authHeaders = () => (state.token ? { Authorization: `Bearer ${state.token}` } : {});
+
 function askToken(message = "") {
-  $("#token-error").textContent = message;
-  $("#token-dialog").hidden = false;
+  const dialog = $("#token-dialog");
+  if (message) $("#token-error").textContent = message;
+  if (!dialog.hidden) return; // already asking: leave what the user is typing alone
+  dialog.hidden = false;
   $("#token-input").focus();
+}
+
+// A 401 to a request sent with `used`: ask for a token, saying it was refused only if there
+// was one. An answer to a request sent before the token changed says nothing about the new one.
+function tokenRefused(used, detail) {
+  if (used !== state.token) return;
+  askToken(used ? `The token was refused: ${detail || "HTTP 401"}` : "");
 }
 
 $("#token-form").addEventListener("submit", async (ev) => {
   ev.preventDefault();
   state.token = $("#token-input").value.trim();
+  $("#token-error").textContent = "";
   localStorage.setItem("rig-token", state.token);
   try {
     await api("GET", "/api/rig");
@@ -47,7 +60,8 @@ class ApiError extends Error {
 }
 
 async function api(method, path, body) {
-  const headers = { Authorization: `Bearer ${state.token}` };
+  const used = state.token;
+  const headers = authHeaders();
   const init = { method, headers };
   if (body !== undefined) {
     headers["Content-Type"] = "application/json";
@@ -56,7 +70,7 @@ async function api(method, path, body) {
   const r = await fetch(path, init);
   const isJson = (r.headers.get("content-type") || "").includes("json");
   const data = isJson ? await r.json() : await r.text();
-  if (r.status === 401) askToken("The token was refused: " + (data.detail || ""));
+  if (r.status === 401) tokenRefused(used, data.detail);
   if (!r.ok) throw new ApiError(r.status, isJson ? data : { detail: data });
   return data;
 }
@@ -97,7 +111,16 @@ function showPage() {
   if (page === "rig") Plotly.Plots.resize("live-plot");
   if (pageLoaders[page]) pageLoaders[page]();
 }
-window.addEventListener("hashchange", showPage);
+window.addEventListener("hashchange", () => {
+  if (/token=/.test(location.hash)) {
+    // the link `rig serve` prints, opened in a tab that shows the page already
+    initToken();
+    $("#token-dialog").hidden = true;
+    $("#token-error").textContent = "";
+    return refreshAll();
+  }
+  showPage();
+});
 
 // ---- rig status -------------------------------------------------------------------------
 async function refreshRig() {
@@ -108,6 +131,7 @@ async function refreshRig() {
     const ok = s.running && s.connected && !s.device_lost;
     $("#conn-dot").className = "dot " + (ok ? "ok" : "bad");
     $("#conn-text").textContent = ok ? `${s.rig_name}${s.simulated ? " (simulated)" : ""}` : s.error || "device lost";
+    $("#conn-text").title = $("#conn-text").textContent; // in full where the header cuts it
     const clock = s.clock || {};
     kv($("#status-table"), [
       ["Rig", `${s.rig_name} — ${s.vehicle || ""}`],
@@ -126,7 +150,7 @@ async function refreshRig() {
     if (s.current_job) showJob(s.current_job);
   } catch (err) {
     $("#conn-dot").className = "dot bad";
-    $("#conn-text").textContent = err.message;
+    $("#conn-text").textContent = err.status === 401 ? "waiting for the API token" : err.message;
   }
 }
 
@@ -243,55 +267,14 @@ $$(".start-form[data-kind]").forEach((form) => {
 });
 
 // ---- live stream (SSE read with fetch so the token travels in a header) -----------------
-const LIVE_POINTS = 600;
-let liveCount = 0;
-let lastSample = null;
-
-function initLivePlot() {
-  const trace = (name, yaxis) => ({ x: [], y: [], name, mode: "lines", yaxis });
-  Plotly.newPlot(
-    "live-plot",
-    [trace("position (m)", "y"), trace("angle (rad)", "y"), trace("speed (m/s)", "y2"), trace("yaw rate (rad/s)", "y2")],
-    {
-      margin: { t: 30, r: 60, b: 40, l: 60 },
-      xaxis: { title: { text: "time (s)" } },
-      yaxis: { title: { text: "position (m) / angle (rad)" } },
-      yaxis2: { title: { text: "speed (m/s) / yaw rate (rad/s)" }, overlaying: "y", side: "right" },
-      legend: { orientation: "h", x: 0, y: 1.12 },
-    },
-    { responsive: true, displaylogo: false },
-  );
-}
-
-function resetLive() {
-  lastSample = null;
-}
-
-let liveT0 = null;
-function onSample(s) {
-  liveCount += 1;
-  $("#live-count").textContent = String(liveCount);
-  if (liveT0 === null) liveT0 = s.t_mono;
-  const t = s.t_mono - liveT0;
-  const x = s.channels.tow_position;
-  const a = s.channels.yaw_angle;
-  let v = null;
-  let w = null;
-  if (lastSample) {
-    const dt = s.t_mono - lastSample.t_mono;
-    if (dt > 0 && x !== null && lastSample.channels.tow_position !== null) v = (x - lastSample.channels.tow_position) / dt;
-    if (dt > 0 && a !== null && lastSample.channels.yaw_angle !== null) w = (a - lastSample.channels.yaw_angle) / dt;
-  }
-  lastSample = s;
-  if (!$("#page-rig").hidden) Plotly.extendTraces("live-plot", { x: [[t], [t], [t], [t]], y: [[x], [a], [v], [w]] }, [0, 1, 2, 3], LIVE_POINTS);
-}
-
+// The live plot itself is api/http/static/live.js (onSample, resetLive, initLivePlot).
 async function stream() {
   for (;;) {
     try {
-      const r = await fetch("/api/stream?max_hz=10", { headers: { Authorization: `Bearer ${state.token}` } });
+      const used = state.token;
+      const r = await fetch("/api/stream?max_hz=10", { headers: authHeaders() });
       if (r.status === 401) {
-        askToken("The token was refused.");
+        tokenRefused(used, (await r.json().catch(() => ({}))).detail);
         await new Promise((res) => setTimeout(res, 3000));
         continue;
       }

@@ -1,0 +1,231 @@
+// Rig page live plot: any channel the rig file defines (with its unit), the derived speed
+// and yaw rate, and the thruster commands; one row per unit, 1-2-5 ticks. The channels shown
+// by default depend on the running job's kind; the user's choice is kept per kind in
+// localStorage. Loaded before app.js, whose stream calls onSample() and whose start
+// buttons call resetLive(); it reads app.js's `state` (rig status, current job).
+"use strict";
+
+const LIVE_POINTS = 600; // one minute at 10 Hz
+const LIVE_STORE = "rig-live-channels"; // {kind: [channel keys]}
+const LIVE_KIND_STORE = "rig-live-kind"; // the kind whose choice was shown last
+// What matters for each kind of test (keys that the rig lacks are dropped).
+const LIVE_DEFAULTS = {
+  tow: ["tow_position", "speed"],
+  spin: ["yaw_angle", "yaw_rate"],
+  pendulum: ["pendulum_angle"],
+  thrust_calibration: ["load_cell", "thrusters"],
+  sequence: ["tow_position", "speed", "yaw_angle", "yaw_rate"],
+};
+const live = {
+  channels: [], // [{key, label, unit}] in chooser order
+  signature: "",
+  kind: null, // the kind whose choice is shown
+  jobId: null,
+  selected: [],
+  buffer: [], // [{t, v: {key: value}}], newest last
+  t0: null,
+  last: null, // previous sample (derivatives)
+  count: 0,
+};
+
+// ---- axis ticks --------------------------------------------------------------------------
+// A 1-2-5 step giving about `target` intervals over [lo, hi], and a range just beyond the
+// outer ticks.
+function niceAxis(lo, hi, target = 5) {
+  if (!Number.isFinite(lo) || !Number.isFinite(hi)) return null;
+  if (hi - lo < 1e-12) {
+    const pad = Math.max(Math.abs(lo) * 0.05, 1e-3);
+    lo -= pad;
+    hi += pad;
+  }
+  const raw = (hi - lo) / target;
+  const mag = 10 ** Math.floor(Math.log10(raw));
+  const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= raw * (1 - 1e-9));
+  const decimals = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+  const [a, b] = [Math.floor(lo / step + 1e-9) * step, Math.ceil(hi / step - 1e-9) * step];
+  const margin = 0.04 * (b - a); // the outer ticks stay on 1-2-5 values, lines off the frame
+  return {
+    range: [a - margin, b + margin],
+    dtick: step,
+    tickformat: `.${decimals}f`,
+  };
+}
+
+// ---- channels ----------------------------------------------------------------------------
+function liveChannelList() {
+  const units = (state.rig && state.rig.units) || {};
+  const names = Object.keys(units);
+  if (!names.length) return [];
+  const list = names.map((k) => ({ key: k, label: k.replace(/_/g, " "), unit: units[k] }));
+  if ("tow_position" in units) list.push({ key: "speed", label: "speed (from position)", unit: "m/s" });
+  if ("yaw_angle" in units) list.push({ key: "yaw_rate", label: "yaw rate (from angle)", unit: "rad/s" });
+  const n = ((state.rig && state.rig.thrusters && state.rig.thrusters.output) || []).length;
+  for (let i = 0; i < n; i += 1) list.push({ key: `thruster_${i + 1}`, label: `thruster ${i + 1} command`, unit: "fraction" });
+  return list;
+}
+
+function liveDefaults(kind) {
+  const keys = new Set(live.channels.map((c) => c.key));
+  const wanted = (LIVE_DEFAULTS[kind] || LIVE_DEFAULTS.tow).flatMap((k) =>
+    k === "thrusters" ? live.channels.filter((c) => c.key.startsWith("thruster_")).map((c) => c.key) : [k],
+  );
+  return wanted.filter((k) => keys.has(k));
+}
+
+function liveSaved() {
+  try {
+    return JSON.parse(localStorage.getItem(LIVE_STORE) || "{}") || {};
+  } catch (err) {
+    return {};
+  }
+}
+
+// Show the choice for `kind`: the user's saved one, else that kind's defaults.
+function liveUseKind(kind) {
+  live.kind = kind;
+  localStorage.setItem(LIVE_KIND_STORE, kind);
+  const keys = new Set(live.channels.map((c) => c.key));
+  const saved = liveSaved()[kind];
+  live.selected = Array.isArray(saved) ? saved.filter((k) => keys.has(k)) : liveDefaults(kind);
+  liveRenderChooser();
+  liveDraw();
+}
+
+function liveRenderChooser() {
+  const box = $("#live-channels");
+  box.innerHTML = live.channels
+    .map(
+      (c) => `<label class="chip"><input type="checkbox" value="${esc(c.key)}" ${live.selected.includes(c.key) ? "checked" : ""}>
+        ${esc(c.label)}${c.unit ? ` <span class="muted">${esc(c.unit)}</span>` : ""}</label>`,
+    )
+    .join("");
+  $$("input", box).forEach((i) => (i.onchange = liveChosen));
+  const name = (live.kind || "tow").replace(/_/g, " ");
+  $("#live-kind").textContent = name;
+}
+
+function liveChosen() {
+  live.selected = $$("#live-channels input:checked").map((i) => i.value);
+  const saved = liveSaved();
+  saved[live.kind] = live.selected;
+  localStorage.setItem(LIVE_STORE, JSON.stringify(saved));
+  liveDraw();
+}
+
+// Channel list (from the rig status) and the running job's kind, checked on every sample.
+function liveSync() {
+  const channels = liveChannelList();
+  const signature = channels.map((c) => `${c.key}:${c.unit}`).join(",");
+  let kind = live.kind;
+  const job = state.job;
+  if (job && job.id !== live.jobId && !FINAL.includes(job.state)) {
+    live.jobId = job.id; // a job started: show what matters for its kind
+    if (LIVE_DEFAULTS[job.kind]) kind = job.kind;
+  }
+  if (!kind) kind = localStorage.getItem(LIVE_KIND_STORE) || "tow";
+  if (signature !== live.signature) {
+    live.signature = signature;
+    live.channels = channels;
+    if (channels.length) return liveUseKind(kind);
+  }
+  if (kind !== live.kind && channels.length) liveUseKind(kind);
+}
+
+// ---- samples -------------------------------------------------------------------------------
+function onSample(s) {
+  live.count += 1;
+  $("#live-count").textContent = String(live.count);
+  if (live.t0 === null) live.t0 = s.t_mono;
+  const v = { ...s.channels };
+  (s.thrusters || []).forEach((u, i) => (v[`thruster_${i + 1}`] = u));
+  const prev = live.last;
+  const dt = prev ? s.t_mono - prev.t_mono : 0;
+  const rate = (k) => (dt > 0 && v[k] != null && prev.channels[k] != null ? (v[k] - prev.channels[k]) / dt : null);
+  v.speed = rate("tow_position");
+  v.yaw_rate = rate("yaw_angle");
+  live.last = s;
+  live.buffer.push({ t: s.t_mono - live.t0, v });
+  if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);
+  liveSync();
+  liveRequestDraw();
+}
+
+// Redraw at most every LIVE_REDRAW_MS and never more than half the time: a redraw costs
+// Plotly tens of ms (hundreds on a loaded machine), samples arrive every 100 ms.
+const LIVE_REDRAW_MS = 250;
+let liveTimer = null;
+let liveDrawMs = 0;
+function liveRequestDraw() {
+  if (liveTimer !== null) return;
+  liveTimer = setTimeout(() => {
+    liveTimer = null;
+    if ($("#page-rig").hidden) return;
+    const t = performance.now();
+    liveDraw();
+    liveDrawMs = performance.now() - t;
+  }, Math.max(LIVE_REDRAW_MS, liveDrawMs));
+}
+
+function resetLive() {
+  live.last = null;
+}
+
+// ---- plot ------------------------------------------------------------------------------------
+const LIVE_ROW_PX = 190;
+
+function liveDraw() {
+  const chosen = live.channels.filter((c) => live.selected.includes(c.key));
+  const units = [...new Set(chosen.map((c) => c.unit))];
+  const rows = Math.max(units.length, 1);
+  const gap = 0.06;
+  const h = (1 - gap * (rows - 1)) / rows;
+  const t = live.buffer.map((p) => p.t);
+  const layout = {
+    height: 60 + Math.max(LIVE_ROW_PX * rows, 300),
+    margin: { t: 30, r: 20, b: 45, l: 75 },
+    showlegend: true,
+    legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
+    xaxis: { title: { text: "time [s]" }, anchor: rows > 1 ? `y${rows}` : "y", zeroline: false },
+    uirevision: "live",
+  };
+  const traces = [];
+  units.forEach((unit, r) => {
+    const axis = r === 0 ? "yaxis" : `yaxis${r + 1}`;
+    const ref = r === 0 ? "y" : `y${r + 1}`;
+    const inRow = chosen.filter((c) => c.unit === unit);
+    const ys = [];
+    for (const [i, c] of inRow.entries()) {
+      const y = live.buffer.map((p) => (p.v[c.key] === undefined ? null : p.v[c.key]));
+      ys.push(...y.filter((x) => x !== null));
+      traces.push({ x: t, y, name: c.unit ? `${c.label} [${c.unit}]` : c.label, meta: c.key, mode: "lines", yaxis: ref,
+        line: { dash: ["solid", "dash", "dot", "dashdot"][i % 4] } }); // equal commands stay visible
+    }
+    const name = inRow.length === 1 ? inRow[0].label.replace(/ \(from .*\)$/, "") : unit === "fraction" ? "command" : "";
+    const top = 1 - r * (h + gap);
+    layout[axis] = {
+      domain: [Math.max(top - h, 0), top],
+      title: { text: unit ? `${name} [${unit}]`.trim() : name || "state" },
+      zeroline: false,
+    };
+    const nice = ys.length ? niceAxis(Math.min(...ys), Math.max(...ys)) : null;
+    if (nice) Object.assign(layout[axis], { range: nice.range, tickmode: "linear", tick0: 0, dtick: nice.dtick, tickformat: nice.tickformat });
+  });
+  if (!units.length) {
+    const text = live.channels.length ? "Choose channels above" : "Waiting for the rig's channels…";
+    layout.annotations = [{ text, showarrow: false, xref: "paper", yref: "paper", x: 0.5, y: 0.5, font: { size: 14 } }];
+    layout.xaxis.visible = false;
+    layout.yaxis = { visible: false };
+    layout.height = 300;
+  }
+  Plotly.react("live-plot", traces, layout, { responsive: true, displaylogo: false });
+}
+
+function initLivePlot() {
+  $("#live-defaults").onclick = () => {
+    const saved = liveSaved();
+    delete saved[live.kind];
+    localStorage.setItem(LIVE_STORE, JSON.stringify(saved));
+    if (live.kind) liveUseKind(live.kind);
+  };
+  liveDraw();
+}
