@@ -56,7 +56,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "export": (
         "api.cli.runs",
         "export",
-        "Export a run's samples (CSV: one row per sample; JSON: metadata + samples).",
+        "Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata.",
     ),
     "import": (
         "api.cli.runs",

@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from api.cli.common import db_option, echo_json, fail, json_option, open_store, user_errors
+from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.params import RUN_KINDS
 
 
@@ -114,32 +115,57 @@ def show(run_id, db_url, as_json):
 @click.command("export")
 @click.argument("run_id")
 @click.option(
-    "--format", "fmt", type=click.Choice(["csv", "json"]), default="csv", show_default=True
+    "--format",
+    "fmt",
+    type=click.Choice(list(FORMATS)),
+    default="csv",
+    show_default=True,
+    help="csv: units and run in # comments; json: one document; netcdf: for xarray "
+    "(units, run as attributes); parquet: for pandas (units in the schema).",
 )
 @click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False, writable=True),
-    help="File to write (default: stdout).",
+    help="File to write (default: stdout; netcdf and parquet need it on a terminal).",
 )
 @db_option
 def export(run_id, fmt, output, db_url):
-    """Export a run's samples (CSV: one row per sample; JSON: metadata + samples)."""
-    from daq.store import export_run_csv, export_run_json
-
+    """Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata."""
     store = open_store(db_url)
     try:
         with user_errors():
             run = store.get_run(run_id)
-        writer = export_run_csv if fmt == "csv" else export_run_json
+        binary = FORMATS[fmt].binary
         if output:
-            with open(output, "w", encoding="utf-8", newline="") as f:
-                writer(store, run.id, f)
+            write_export(store, run.id, fmt, output)
             click.echo(f"wrote {output}", err=True)
+        elif not binary:
+            from daq.store import export_run_csv, export_run_json
+
+            (export_run_csv if fmt == "csv" else export_run_json)(store, run.id, sys.stdout)
+        elif sys.stdout.isatty():
+            fail(
+                f"--output: a file is needed for --format {fmt} (binary), e.g. -o "
+                + export_file_name(run.id, fmt)
+            )
         else:
-            writer(store, run.id, sys.stdout)
+            _binary_to_stdout(store, run.id, fmt)
     finally:
         store.close()
+
+
+def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
+    """Write a binary export to a temporary file (HDF5 needs to seek), then to stdout."""
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory(prefix="rig-export-") as folder:
+        path = write_export(store, run_id, fmt, Path(folder) / export_file_name(run_id, fmt))
+        with open(path, "rb") as f:
+            shutil.copyfileobj(f, sys.stdout.buffer)
+        sys.stdout.buffer.flush()
 
 
 @click.command("import")

@@ -6,9 +6,11 @@ See docs/storage.md. Typical use::
     store = Store()                       # $RIG_DATABASE_URL or ~/.local/share/towrig/rig.db
     run_id = store.create_run(kind="tow", parameters={"force_n": 24.5}, ...)
     recorder = RunRecorder(store, run_id)  # the clock's consumer calls recorder.put(sample)
+    run = store.load(run_id)              # in a notebook: run.to_pandas(), run.to_xarray()
 """
 
 from daq.store.csvio import export_run_csv, export_run_json, import_csv
+from daq.store.loaded_run import LoadedRun
 from daq.store.migrate import default_database_path, default_database_url
 from daq.store.recorder import RecorderStats, RunRecorder
 from daq.store.records import (
@@ -30,6 +32,7 @@ __all__ = [
     "AmbiguousRunId",
     "DuplicateSample",
     "EventInfo",
+    "LoadedRun",
     "RecorderStats",
     "ResultInfo",
     "ResultNotFound",

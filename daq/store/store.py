@@ -10,7 +10,7 @@ import uuid
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sqlalchemy as sa
@@ -44,6 +44,9 @@ from daq.store.schema import (
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
 from daq.store.spill import default_spill_dir, replay_spills
+
+if TYPE_CHECKING:
+    from daq.store.loaded_run import LoadedRun
 
 
 class Store(EventsAndResults, ImportedCalibrations):
@@ -283,6 +286,13 @@ class Store(EventsAndResults, ImportedCalibrations):
             run = self._resolve(conn, run_id_or_unique_prefix)
             row = conn.execute(self._run_query().where(runs_t.c.id == run.id)).one()
         return self._run_info(row)
+
+    def load(self, run_id_or_unique_prefix: str) -> LoadedRun:
+        """One run whole (record, samples, events, results) for a notebook:
+        ``.to_pandas()``, ``.to_xarray()``, ``.to_netcdf(path)``, ``.to_parquet(path)``."""
+        from daq.store.loaded_run import LoadedRun
+
+        return LoadedRun.from_store(self, run_id_or_unique_prefix)
 
     def list_runs(
         self,

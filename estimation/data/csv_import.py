@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,18 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 #: The release coil column of each axis, and the end-of-travel switch (tows).
 RELEASE_COLUMN = {"surge": "tow_release", "yaw": "spin_release"}
 END_COLUMN = "end_of_travel"
+#: A line starting with this is a comment (an export's units and run description).
+COMMENT = "#"
+
+
+def without_comments(lines: Iterable[str], *, keep_line_numbers: bool = False) -> Iterator[str]:
+    """The lines for ``csv.reader`` without comment lines; with ``keep_line_numbers`` each
+    comment becomes an empty line (a row ``[]``), so row numbers stay the file's lines."""
+    for line in lines:
+        if not line.startswith(COMMENT):
+            yield line
+        elif keep_line_numbers:
+            yield "\n"
 
 
 def run_from_csv(
@@ -42,7 +55,7 @@ def run_from_csv(
     if time_unit not in TIME_UNITS:
         raise ValueError(f"time_unit: got {time_unit!r}, allowed: {', '.join(TIME_UNITS)}")
     with path.open(newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
+        reader = csv.DictReader(without_comments(f))
         header = list(reader.fieldnames or [])
         wanted = [time_column, position_column] + ([] if drive is not None else [drive_column])
         missing = [c for c in wanted if c not in header]

@@ -1,5 +1,6 @@
 """End to end in real headless Chromium against a real ``rig serve`` process: start a tow
-from the page, see live data arrive, see the run listed, run an estimation, see its result."""
+from the page, see live data arrive, see the run listed and export it as NetCDF, run an
+estimation, see its result."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import xarray as xr
 
 from tests.api.conftest import chromium_page
 from tests.serve import stop_service, wait_for_service
@@ -42,7 +44,7 @@ def page(server):
         yield pg
 
 
-def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page):
+def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page, tmp_path):
     from playwright.sync_api import expect
 
     page.goto(f"{server}#token={TOKEN}")
@@ -78,6 +80,17 @@ def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page):
     rows.first.click()
     expect(page.locator("#run-detail-id")).to_contain_text(runs[-1])
     expect(page.locator("#run-events")).to_contain_text("brake released")
+
+    # the export menu: the run as NetCDF, which xarray opens with units and the run's id
+    page.select_option("#export-format", "netcdf")
+    with page.expect_download() as download:
+        page.click("#export-run")
+    assert download.value.suggested_filename.endswith(".nc")
+    saved = tmp_path / download.value.suggested_filename
+    download.value.save_as(saved)
+    with xr.open_dataset(saved) as ds:
+        assert runs[-1] in ds.attrs["run_id"] and ds.attrs["kind"] == "tow"
+        assert ds["tow_position"].attrs["units"] == "m" and ds.sizes["t"] > 20
 
     page.click("nav a[data-page=estimation]")
     boxes = page.locator("#est-runs tbody input[type=checkbox]")

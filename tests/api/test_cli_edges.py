@@ -55,6 +55,10 @@ case(2, "File 'nope.csv' does not exist", "import", "nope.csv", "--kind", "tow",
 case(2, "no header with a 't' column", "import", RIG, "--kind", "tow", "--force", "1")
 case(2, "--force: missing is not allowed", "import", "{csv}", "--kind", "tow")
 case(2, "--output: cannot use /etc/passwd/x.csv", "export", "{run}", "-o", "/etc/passwd/x.csv")
+case(
+    2, "--output: cannot use /etc/passwd/x.nc", "export", "{run}", "--format", "netcdf",
+    "-o", "/etc/passwd/x.nc",
+)  # fmt: skip
 case(2, "--report: cannot use /etc/passwd/r", "estimate", "{run}", "--report", "/etc/passwd/r")
 case(2, "FILE: 'nope.toml' is not allowed", "sequence", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "tow", "--force", "10", "--rig", "nope.toml")

@@ -10,7 +10,7 @@ from tests.api.conftest import AUTH, start_job, wait_job
 
 HUGE = "9" * 23
 RUN_ROUTES = ("/api/runs/{}", "/api/runs/{}/samples", "/api/runs/{}/samples.csv",
-              "/api/runs/{}/events", "/api/runs/{}/results")  # fmt: skip
+              "/api/runs/{}/export", "/api/runs/{}/events", "/api/runs/{}/results")  # fmt: skip
 RESULT_ROUTES = ("/api/results/{}", "/api/results/{}/report/fit.png")
 JOB_ROUTES = ("/api/jobs/{}",)
 JOB_ACTIONS = ("abort", "pause", "resume", "confirm")

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import csv
-import io
+
+import pytest
 
 from tests.api.conftest import AUTH
 
@@ -55,10 +56,14 @@ def test_csv_export_streams_every_sample(client, tow_job):
     r = client.get(f"/api/runs/{run_id}/samples.csv", headers=AUTH)
     assert r.status_code == 200
     assert r.headers["content-type"].startswith("text/csv")
-    rows = list(csv.DictReader(io.StringIO(r.text)))
+    lines = r.text.splitlines()
+    assert any(line.startswith("# units: t=s,") and "tow_position=m" in line for line in lines)
+    rows = list(csv.DictReader(line for line in lines if not line.startswith("#")))
     samples = client.get(f"/api/runs/{run_id}/samples?limit=100000", headers=AUTH).json()
     assert [int(row["seq"]) for row in rows] == samples["seq"]
-    assert float(rows[-1]["tow_position"]) == samples["channels"]["tow_position"][-1]
+    # written at the encoder's resolution (10 µm): the stored double, without float noise
+    last = samples["channels"]["tow_position"][-1]
+    assert float(rows[-1]["tow_position"]) == pytest.approx(last, abs=1e-12)
 
 
 def test_events_record_release_and_brake(client, tow_job):

@@ -11,7 +11,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
+import xarray as xr
 
 from daq.store import Store
 
@@ -133,8 +135,20 @@ def test_runs_show_export_import_round_trip(db, tmp_path):
     )
     csv_path = tmp_path / "run.csv"
     assert rig("export", run_id, "--format", "csv", "-o", str(csv_path), db=db).returncode == 0
-    header = csv_path.read_text().splitlines()[0].split(",")
+    lines = csv_path.read_text().splitlines()
+    header = next(line for line in lines if not line.startswith("#")).split(",")
     assert header[0] == "t" and "tow_position" in header
+    assert f"# run_id: {run_id}" in lines
+    # NetCDF and Parquet from the CLI open in xarray and pandas with units
+    for fmt, name in (("netcdf", "run.nc"), ("parquet", "run.parquet")):
+        done = rig("export", run_id[:8], "--format", fmt, "-o", str(tmp_path / name), db=db)
+        assert done.returncode == 0 and f"wrote {tmp_path / name}" in done.stderr, done.stderr
+    with xr.open_dataset(tmp_path / "run.nc") as ds:
+        assert ds["tow_position"].attrs["units"] == "m" and ds.attrs["run_id"] == run_id
+        assert ds["t_from_release"].attrs["units"] == "s"  # the release event is known
+        assert float(ds["t_from_release"][0]) < 0 < float(ds["t_from_release"][-1])
+    frame = pd.read_parquet(tmp_path / "run.parquet")
+    assert frame.attrs["units"]["tow_position"] == "m" and len(frame) == len(ds["t"])
     # A lab's own CSV (t, position) imports as a new run.
     own = tmp_path / "own.csv"
     own.write_text(

@@ -1,20 +1,19 @@
-"""Run routes: list with filters, one run, samples (JSON paged, CSV streamed), events,
-results, CSV import; estimation/calibration results and report plots."""
+"""Run routes: list with filters, one run, samples (JSON paged, CSV streamed), export
+(CSV, JSON, NetCDF, Parquet), events, results, CSV import; estimation/calibration results
+and report plots."""
 
 from __future__ import annotations
 
-import csv
-import io
-import math
 import re
+import shutil
 import tempfile
-from collections.abc import Iterator
 from datetime import datetime
 from pathlib import Path
 from typing import Annotated, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from fastapi.responses import FileResponse, Response, StreamingResponse
+from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
 from api.core.csv_upload import import_file, save_stream
@@ -29,14 +28,14 @@ from api.http.schemas import (
     SamplesOut,
     error_responses,
 )
+from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.params import RUN_KINDS
 from daq.store import ResultNotFound, Store
+from daq.store.csvio import csv_chunks
 
 router = APIRouter(prefix="/api", tags=["runs"])
 RunStatus = Literal["running", "completed", "aborted", "interrupted"]
 _READ = error_responses(401, 404, 422)
-#: Samples per page of the CSV stream (bounded memory for long runs).
-CSV_PAGE = 5000
 
 
 @router.get(
@@ -127,36 +126,8 @@ def _first_t_mono(store: Store, run_id: str) -> float:
     return float(first.t_mono[0]) if len(first) else 0.0
 
 
-def _csv_rows(store: Store, run_id: str, channels: tuple[str, ...]) -> Iterator[str]:
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["t", "seq", "t_mono", "t_wall", "quality", *channels])
-    start, t0 = 0, None
-    while True:
-        table = store.samples(run_id, start_seq=start, limit=CSV_PAGE)
-        if not len(table):
-            break
-        t0 = float(table.t_mono[0]) if t0 is None else t0
-        columns = [table.channels[name] for name in channels]
-        for i in range(len(table)):
-            writer.writerow(
-                [
-                    repr(float(table.t_mono[i]) - t0),
-                    int(table.seq[i]),
-                    repr(float(table.t_mono[i])),
-                    repr(float(table.t_wall[i])),
-                    int(table.quality[i]),
-                    *("" if math.isnan(c[i]) else repr(float(c[i])) for c in columns),
-                ]
-            )
-        yield buf.getvalue()
-        buf.seek(0)
-        buf.truncate()
-        if len(table) < CSV_PAGE:
-            break
-        start = int(table.seq[-1]) + 1
-    if buf.getvalue():
-        yield buf.getvalue()
+def _attachment(run_id: str, fmt: str) -> dict[str, str]:
+    return {"Content-Disposition": f'attachment; filename="{export_file_name(run_id, fmt)}"'}
 
 
 @router.get(
@@ -166,12 +137,52 @@ def _csv_rows(store: Store, run_id: str, channels: tuple[str, ...]) -> Iterator[
     response_class=StreamingResponse,
 )
 def get_samples_csv(run_id: str, store: StoreDep) -> StreamingResponse:
-    """All samples as CSV (``t`` in s since the first sample, then every channel in SI)."""
+    """All samples as CSV, as ``/runs/{id}/export?format=csv`` (``#`` comment lines with
+    the run and ``# units: …``, then ``t`` in s since the first sample and every channel
+    in SI)."""
     run = store.get_run(run_id)
     return StreamingResponse(
-        _csv_rows(store, run.id, run.channel_names),
-        media_type="text/csv",
-        headers={"Content-Disposition": f'attachment; filename="run-{run.id[:8]}.csv"'},
+        csv_chunks(store, run.id), media_type="text/csv", headers=_attachment(run.id, "csv")
+    )
+
+
+_EXPORT_CONTENT = {f.media_type: {} for f in FORMATS.values()}
+
+
+@router.get(
+    "/runs/{run_id}/export",
+    dependencies=[Depends(require_read)],
+    responses={200: {"content": _EXPORT_CONTENT, "description": "The run as a file"}} | _READ,
+    response_class=FileResponse,
+)
+def export_run(
+    run_id: str,
+    store: StoreDep,
+    fmt: Annotated[
+        Literal["csv", "json", "netcdf", "parquet"],
+        Query(
+            alias="format",
+            description=" | ".join(f"{f.name}: {f.description}" for f in FORMATS.values()),
+        ),
+    ] = "csv",
+) -> Response:
+    """The run as a file to download: CSV (streamed; units and the run in ``#`` comments),
+    JSON, NetCDF-4 (xarray: units per variable, the run as global attributes) or Parquet
+    (pandas: units in the schema, the run in ``df.attrs``)."""
+    run = store.get_run(run_id)
+    if fmt == "csv":
+        return get_samples_csv(run.id, store)
+    folder = tempfile.mkdtemp(prefix="rig-export-")
+    try:
+        path = write_export(store, run.id, fmt, Path(folder) / export_file_name(run.id, fmt))
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    return FileResponse(
+        path,
+        media_type=FORMATS[fmt].media_type,
+        filename=path.name,
+        background=BackgroundTask(shutil.rmtree, folder, ignore_errors=True),
     )
 
 

@@ -373,8 +373,11 @@ async function openRun(runId) {
     .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
     .join("");
 }
-$("#export-csv").onclick = () => state.selectedRun && download(`/api/runs/${state.selectedRun.id}/samples.csv`, `run-${state.selectedRun.id.slice(0, 8)}.csv`);
-$("#export-json").onclick = () => state.selectedRun && download(`/api/runs/${state.selectedRun.id}/samples?limit=100000`, `run-${state.selectedRun.id.slice(0, 8)}.json`);
+const EXPORT_SUFFIX = { csv: ".csv", json: ".json", netcdf: ".nc", parquet: ".parquet" };
+$("#export-run").onclick = () => {
+  const run = state.selectedRun, format = $("#export-format").value;
+  if (run) download(`/api/runs/${run.id}/export?format=${format}`, `run-${run.id.slice(0, 8)}${EXPORT_SUFFIX[format]}`);
+};
 
 // ---- estimation -----------------------------------------------------------------------------
 async function loadEstimationRuns() {
