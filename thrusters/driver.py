@@ -4,6 +4,10 @@ Serial I/O runs on one dedicated worker thread (``SerialLink``), so no call bloc
 event loop. Every way out — ``close()``, ``async with`` (normal exit or exception),
 SIGINT/SIGTERM via ``install_signal_handlers`` and an ``atexit`` fallback — leaves the
 thrusters commanded to zero. See ``docs/thruster-protocol.md``.
+
+One module because the driver is one state machine (link, confirmed outputs, slew limiter,
+fault, watchdog) driven from one event loop: every method reads or changes that state, and
+split modules would each need all of it.
 """
 
 from __future__ import annotations

@@ -93,7 +93,7 @@ def crosscheck_results(
 ) -> dict[str, Any]:
     """Cross-check two stored estimation results (no fitting); store it linked to the runs
     of both and return its JSON with ``result_id``. ``ValueError`` names a bad field."""
-    from estimation.axis.crosscheck import write_crosscheck_report
+    from estimation.axis.crosscheck_report import write_crosscheck_report
 
     weight = _estimation(store, weight_result_id, "weight_result_id")
     thrusters = _estimation(store, thruster_result_id, "thruster_result_id")

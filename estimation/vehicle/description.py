@@ -9,6 +9,10 @@ turns its vectors (thruster positions and directions, CG, CB) into the internal 
 Coefficients are positive numbers: ``added_mass.<dof>`` = −X_u̇ … −N_ṙ (kg or kg·m²),
 ``linear_damping.<dof>`` (N·s/m or N·m·s/rad), ``quadratic_damping.<dof>``
 (N·s²/m² or N·m·s²/rad²), so that D(ν)ν = (K_L + K_Q |ν|) ν per DOF.
+
+One module because the vehicle file's schema, its parsing and its validation name the same
+fields and frames; the error messages quote them, and split modules would repeat the field
+table.
 """
 
 from __future__ import annotations

@@ -21,6 +21,10 @@ signs); (2.21) the buoyancy moment uses the CB (x_b, y_b, z_b), not the CG; (2.2
 printed leading "−" in front of g(η) dropped (it clashes with +g(η) on the left of (2.6)).
 Seed 002's B matrix is reproduced by ``allocation_matrix`` up to its frame (z up there)
 and its rotational rows' ×100 scale error.
+
+One module because Fossen's matrices, the state derivative built from them and the
+integrator that guards its singular attitudes are one model; tests check them against each
+other.
 """
 
 from __future__ import annotations

@@ -10,6 +10,9 @@ Default forces are a fraction (``DEFAULT_FRACTION``) of what the vehicle's thrus
 reach along the axis (Σ_j |B_ij|·max_command_j, B the allocation matrix). Durations are
 ``SETTLE_TIME_CONSTANTS`` time constants of the axis, τ = M/(K_L + 2·K_Q·v*) at the steady
 speed v* of the 1-DOF model K_L·v + K_Q·v² = F.
+
+One module because the manoeuvre library, the plan that sizes each manoeuvre from the
+vehicle and the measures read from its trajectory are one table keyed by response name.
 """
 
 from __future__ import annotations

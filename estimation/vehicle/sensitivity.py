@@ -17,6 +17,9 @@ response R:
 
 When |R_ref| is ≈ 0 the relative change is undefined: that response's changes are divided
 by the largest |R| seen in the analysis instead ("range" mode, reported per response).
+
+One module because the sensitivity indices, the threshold sweep and the weight-stability
+check share one evaluator and one report type.
 """
 
 from __future__ import annotations

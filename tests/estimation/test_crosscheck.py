@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.axis.crosscheck import cross_check, markdown, write_crosscheck_report
+from estimation.axis.crosscheck import cross_check
+from estimation.axis.crosscheck_report import markdown, write_crosscheck_report
 from estimation.thrust.curve import ThrustCurve
 from estimation.thrust.drive import curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set

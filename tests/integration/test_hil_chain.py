@@ -22,7 +22,7 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.params import calibration_parameters, spin_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.store import Store
-from estimation.axis.crosscheck import markdown
+from estimation.axis.crosscheck_report import markdown
 
 pytestmark = pytest.mark.slow
 
