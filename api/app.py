@@ -27,6 +27,7 @@ from api import (
     routes_analysis,
     routes_crosscheck,
     routes_jobs,
+    routes_queue,
     routes_rig,
     routes_runs,
     routes_sixdof,
@@ -170,6 +171,8 @@ def create_app(
 
         if manage_service and not service.started:  # `rig serve` starts it beforehand
             await asyncio.to_thread(service.start)
+        if own_runner and service.started:
+            await asyncio.to_thread(runner.open)  # interrupted jobs, the queue (paused)
         try:
             yield
         finally:
@@ -212,6 +215,7 @@ def create_app(
         routes_rig,
         routes_crosscheck,
         routes_jobs,
+        routes_queue,
         routes_runs,
         routes_stream,
         routes_sixdof,

@@ -63,6 +63,16 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "import_",
         "Import a CSV (columns t [s] and position [m or rad]; more allowed); prints...",
     ),
+    "jobs": (
+        "api.cli_jobs",
+        "jobs",
+        "List jobs stored in the database (every service's, across restarts), newest...",
+    ),
+    "queue": (
+        "api.cli_jobs",
+        "queue",
+        "Show the rigs' queues: procedure jobs waiting for the rig, in the order they...",
+    ),
     "estimate": (
         "api.cli_estimate",
         "estimate",

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
-from fastapi.responses import FileResponse, Response, StreamingResponse
+from fastapi.responses import Response, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from api.csv_upload import import_file, save_stream
@@ -271,8 +271,7 @@ async def import_run(
 # ---- results ----------------------------------------------------------------------------------
 def _result_json(result, runner: JobRunner) -> dict:
     data = result.to_json()
-    folder = runner.report_root / f"result-{result.id}"
-    data["report_plots"] = sorted(p.stem for p in folder.glob("*.png")) if folder.is_dir() else []
+    data["report_plots"] = runner.report_names(result.id)
     return data
 
 
@@ -327,17 +326,18 @@ def latest_calibration(store: StoreDep, runner: RunnerDep) -> dict:
     "/results/{result_id}/report/{name}.png",
     dependencies=[Depends(require_read)],
     responses={200: {"content": {"image/png": {}}, "description": "A report plot"}} | _READ,
-    response_class=FileResponse,
+    response_class=Response,
 )
 def get_report_plot(
     result_id: int,
     name: str,
     store: StoreDep,
     runner: RunnerDep,
-) -> FileResponse:
-    """A PNG of an estimation report made by this service (names in ``report_plots``)."""
+) -> Response:
+    """A PNG of an estimation report (names in ``report_plots``), from the database."""
     _find_result(store, result_id)
-    path = runner.report_file(result_id, name)
-    if path is None:
+    found = runner.report_file(result_id, name)
+    if found is None:
         raise HTTPException(404, f"result {result_id} has no report plot named {name!r}")
-    return FileResponse(path, media_type="image/png")
+    media_type, content = found
+    return Response(content, media_type=media_type)
