@@ -264,7 +264,8 @@ class JobRunner:
 
     def _rig_freed(self, job: Job) -> None:
         with self._lock:
-            if job.state != JobState.COMPLETED and self._queue and not self._closing:
+            paused = self._queue_paused is not None  # keep the first reason (an e-stop)
+            if job.state != JobState.COMPLETED and self._queue and not (paused or self._closing):
                 self._queue_paused = (
                     f"job {job.id} ({job.label}) ended {job.state}: "
                     "resume the queue to run the next job"
