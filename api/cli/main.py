@@ -73,6 +73,16 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "thrust",
         "Thrust law of the stored calibration: the force ± σ at --command and...",
     ),
+    "jobs": (
+        "api.cli.jobs",
+        "jobs",
+        "List jobs stored in the database (every service's, across restarts), newest...",
+    ),
+    "queue": (
+        "api.cli.jobs",
+        "queue",
+        "Show the rigs' queues: procedure jobs waiting for the rig, in the order they...",
+    ),
     "estimate": (
         "api.cli.estimate",
         "estimate",

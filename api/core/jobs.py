@@ -1,9 +1,20 @@
-"""Jobs: procedures on the rig loop, estimations in a worker thread, one registry.
+"""Jobs: procedures on the rig loop, estimations in a worker thread, one registry kept in
+the database, and the rig's queue.
 
 A procedure job (tow, spin, pendulum, thrust calibration, sequence) holds the rig for its whole
-life: a second start while one is active is refused at once with the holder's name
-(HTTP 409). States: ``queued → running ⇄ waiting_for_operator | paused →
-completed | aborted | failed``. Every change is published to the live stream.
+life. Starting one while the rig is busy puts it in the rig's queue (``queued`` with a
+``position``; with ``queue=False`` it is refused at once, HTTP 409, naming the holder). Queued
+jobs start in order as the rig frees. A job that ends other than ``completed`` (aborted,
+failed) pauses the queue, as does an emergency stop and a service start that finds queued
+jobs: the rig never moves by itself after something went wrong, an operator resumes the
+queue. States (:class:`daq.store.schema.JobState`): ``queued → running ⇄
+waiting_for_operator | paused → completed | aborted | failed``, ``interrupted`` when the
+service died while the job ran (marked at the next start). Every change is published to the
+live stream and written to the jobs table (from one writer thread: the rig loop never waits
+on the database); report files of estimations are stored with their result.
+
+Over ~400 lines: the runner's parts share one lock and one set of job objects; the queue and
+the pipelines are short and read best next to the state they change.
 """
 
 from __future__ import annotations
@@ -17,10 +28,11 @@ import tempfile
 import threading
 import time
 import uuid
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from api.core.job_model import Job, JobConflict, JobNotFound
+from api.core.job_requests import procedure_from_request
 from api.core.service import RigService
 from daq.operator import OperatorAct
 from daq.procedures.params import Progress
@@ -28,103 +40,109 @@ from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
 from daq.session import Aborted, RigBusy
 from daq.store.faults import one_line
+from daq.store.jobs import JobRepository
+from daq.store.schema import JOB_ACTIVE, JOB_FINAL, JobState
 
 log = logging.getLogger(__name__)
 
-ACTIVE = ("queued", "running", "waiting_for_operator", "paused")
-FINAL = ("completed", "aborted", "failed")
+ACTIVE = JOB_ACTIVE
+FINAL = JOB_FINAL
 PROCEDURES = ("tow", "spin", "pendulum", "thrust_calibration", "sequence")
-#: Ended jobs remembered (their runs and results are in the store regardless).
+#: Ended jobs kept in memory (all of them stay in the database).
 KEEP_ENDED = 500
-#: Report figures a result serves: the raster for the page, the vector beside it.
-REPORT_SUFFIXES = (".png", ".svg")
+#: Report figures a result serves (the raster for the page, the vector beside it): media types.
+REPORT_SUFFIXES = {".png": "image/png", ".svg": "image/svg+xml"}
+#: Jobs ``list`` reads from the database, newest first.
+LIST_LIMIT = 500
+#: A progress change that is neither a new state nor a new message is written at most this often.
+SAVE_EVERY_S = 1.0
 
-
-class JobNotFound(KeyError):
-    def __str__(self) -> str:
-        return str(self.args[0]) if self.args else "job not found"
-
-
-class JobConflict(RuntimeError):
-    """The request does not fit the job's state (or the rig is held by another job)."""
-
-    def __init__(self, message: str, holder: str | None = None) -> None:
-        super().__init__(message)
-        self.holder = holder
-
-
-@dataclass(eq=False)
-class Job:
-    """One job as the API shows it; mutated on the thread that runs it, under ``lock``."""
-
-    id: str
-    kind: str
-    label: str
-    parameters: dict[str, Any]
-    state: str = "queued"
-    fraction: float = 0.0
-    message: str = "queued"
-    run_ids: list[str] = field(default_factory=list)
-    outcome: dict[str, Any] | None = None
-    error: str | None = None
-    result_id: int | None = None
-    operator_act: dict[str, Any] | None = None
-    pause_requested: bool = False
-    created_at: float = field(default_factory=time.time)
-    started_at: float | None = None
-    finished_at: float | None = None
-    #: What the operator should know about the request, e.g. a load rounded to the gram.
-    notes: list[str] = field(default_factory=list)
-    # rig-loop objects (procedures) — touched only through RigService.call_soon
-    abort: AbortSignal | None = None
-    control: SequenceControl | None = None
-    confirm: asyncio.Event | None = None
-    lock: threading.Lock = field(default_factory=threading.Lock)
-
-    def to_json(self) -> dict[str, Any]:
-        with self.lock:
-            return {
-                "id": self.id,
-                "kind": self.kind,
-                "label": self.label,
-                "state": self.state,
-                "progress": {"fraction": self.fraction, "message": self.message},
-                "parameters": self.parameters,
-                "run_ids": list(self.run_ids),
-                "outcome": self.outcome,
-                "error": self.error,
-                "result_id": self.result_id,
-                "operator_act": self.operator_act,
-                "created_at": self.created_at,
-                "started_at": self.started_at,
-                "finished_at": self.finished_at,
-                "notes": list(self.notes),
-            }
+__all__ = ["ACTIVE", "FINAL", "PROCEDURES", "Job", "JobConflict", "JobNotFound", "JobRunner"]
 
 
 class JobRunner:
-    """Starts, tracks and stops jobs for one ``RigService``."""
+    """Starts, tracks, queues and stops jobs for one ``RigService``."""
 
     def __init__(self, service: RigService, *, report_root: Path | None = None) -> None:
         self.service = service
         self.jobs: dict[str, Job] = {}
         self._lock = threading.Lock()
         self._rig_job: Job | None = None
+        self._queue: list[Job] = []
+        #: Why the queue does not start its next job by itself (None: it does).
+        self._queue_paused: str | None = None
+        self._closing = False
+        self._repo: JobRepository | None = None
+        self._saved_at: dict[str, float] = {}
         self._estimator = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="estimate")
+        self._writer = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="job-store")
         self._own_report_root = report_root is None
+        #: Scratch space where reports are drawn before they are stored in the database.
         self.report_root = report_root or Path(tempfile.mkdtemp(prefix="towrig-reports-"))
         service.operator_hook = self._ask_operator
 
+    # -- database ----------------------------------------------------------------------------
+    @property
+    def repo(self) -> JobRepository:
+        if self._repo is None:
+            if self.service.store is None:
+                raise RuntimeError("the rig service is not running")
+            self._repo = JobRepository(self.service.store)
+        return self._repo
+
+    @property
+    def rig_name(self) -> str:
+        return self.service.source.rig.rig.name
+
+    def open(self) -> None:
+        """After the service started: mark jobs a dead service left running ``interrupted``
+        and take back the queue, paused until an operator resumes it."""
+        recovered = self.repo.recover_interrupted(self.rig_name)
+        if recovered:
+            log.warning("marked %d job(s) interrupted: %s", len(recovered), ", ".join(recovered))
+        with self._lock:
+            for row in self.repo.queued(self.rig_name):
+                if row["id"] not in self.jobs:
+                    job = Job.from_row(row)
+                    self.jobs[job.id] = job
+                    self._queue.append(job)
+            if self._queue:
+                self._queue_paused = (
+                    f"the service started with {len(self._queue)} job(s) queued: "
+                    "resume the queue to run them"
+                )
+            self._renumber()
+
+    def _save(self, job: Job, event: bool = False) -> concurrent.futures.Future:
+        """Write the job's row (and a progress event) from the writer thread."""
+        row = job.row(self.rig_name)
+        self._saved_at[job.id] = time.monotonic()
+
+        def write() -> None:
+            try:
+                self.repo.save(job.id, row)
+                if event:
+                    self.repo.add_event(
+                        job.id, row["state"], row["fraction"], row["message"], time.time()
+                    )
+            except Exception as err:  # the job goes on; its row catches up on the next save
+                log.error("job %s: cannot store its state: %s", job.id, one_line(err))
+
+        return self._writer.submit(write)
+
     def close(self, *, timeout_s: float = 15.0) -> None:
-        """Abort running procedures (their runs end ``aborted``, the rig safe) and wait."""
+        """Abort running procedures (their runs end ``aborted``, the rig safe) and wait;
+        queued jobs stay queued in the database."""
+        self._closing = True
         for job in list(self.jobs.values()):
-            if job.kind in PROCEDURES and job.state in ACTIVE:
+            if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:
                 with contextlib.suppress(Exception):
                     self.abort(job.id, "service stopped")
         end = time.monotonic() + timeout_s
         while self.rig_job is not None and time.monotonic() < end:
             time.sleep(0.05)
         self._estimator.shutdown(wait=True, cancel_futures=True)
+        self._writer.shutdown(wait=True)
         if self._own_report_root:
             shutil.rmtree(self.report_root, ignore_errors=True)
 
@@ -132,11 +150,25 @@ class JobRunner:
     def get(self, job_id: str) -> Job:
         job = self.jobs.get(job_id)
         if job is None:
-            raise JobNotFound(f"no job with id {job_id!r}")
+            row = self.repo.get(job_id) if self.service.store is not None else None
+            if row is None or row["rig_name"] != self.rig_name:
+                raise JobNotFound(f"no job with id {job_id!r}")
+            job = Job.from_row(row)
         return job
 
     def list(self) -> list[Job]:
-        return sorted(self.jobs.values(), key=lambda j: j.created_at, reverse=True)
+        """This rig's jobs, newest first: the database's, live ones as this process sees them."""
+        found: dict[str, Job] = {}
+        if self.service.store is not None:
+            found = {r["id"]: Job.from_row(r) for r in self.repo.list_jobs(self.rig_name)}
+        found |= dict(self.jobs)
+        return sorted(found.values(), key=lambda j: j.created_at, reverse=True)[:LIST_LIMIT]
+
+    def events(self, job_id: str) -> list[dict[str, Any]]:
+        """A job's stored progress events, oldest first."""
+        self.get(job_id)
+        self._writer.submit(lambda: None).result(10)  # what is pending is written first
+        return self.repo.events(job_id)
 
     @property
     def rig_job(self) -> Job | None:
@@ -144,50 +176,204 @@ class JobRunner:
         job = self._rig_job
         return job if job is not None and job.state in ACTIVE else None
 
-    def _new(self, kind: str, label: str, parameters: dict[str, Any]) -> Job:
-        job = Job(uuid.uuid4().hex[:12], kind, label, parameters)
+    def _new(self, kind: str, label: str, parameters: dict[str, Any], **fields: Any) -> Job:
+        job = Job(uuid.uuid4().hex[:12], kind, label, parameters, **fields)
         self.jobs[job.id] = job
         ended = [j for j in list(self.jobs.values()) if j.state in FINAL]  # snapshot: threads
         for old in sorted(ended, key=lambda j: j.created_at)[: max(0, len(ended) - KEEP_ENDED)]:
-            self.jobs.pop(old.id, None)  # runs and results stay in the store
+            self.jobs.pop(old.id, None)  # it stays in the database
+            self._saved_at.pop(old.id, None)
         return job
 
     def _update(self, job: Job, **changes: Any) -> None:
         with job.lock:
+            before = (job.state, job.message)
+            if "state" in changes:
+                changes["state"] = JobState(changes["state"])
             for name, value in changes.items():
                 setattr(job, name, value)
+            event = (job.state, job.message) != before
         self.service.broadcaster.publish_job(job.to_json())
+        due = time.monotonic() - self._saved_at.get(job.id, 0.0) >= SAVE_EVERY_S
+        if event or due or set(changes) - {"fraction", "message"}:
+            self._save(job, event=event)
 
     # -- procedures ----------------------------------------------------------------------
-    def start_procedure(self, kind: str, params: Any, label: str) -> Job:
-        """Start a validated procedure; ``JobConflict`` (→ 409) when the rig is held."""
+    def start_procedure(
+        self,
+        kind: str,
+        params: Any,
+        label: str,
+        *,
+        request: dict[str, Any] | None = None,
+        queue: bool = True,
+    ) -> Job:
+        """Start a validated procedure, or queue it behind the job holding the rig (and the
+        jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409)."""
         session = self.service.require_session()
         parameters = params.to_json()
+        note = getattr(params, "adjustment", lambda: None)()
+        fields = {"notes": [note] if note else [], "request": request, "params": params}
         with self._lock:
             busy = self.rig_job
-            if busy is not None:
-                raise JobConflict(
-                    f"rig is busy: job {busy.id} ({busy.label}) holds the rig lock",
-                    holder=f"{busy.label} (job {busy.id})",
-                )
-            if session.lock_holder is not None:
+            if session.lock_holder is not None and busy is None:
                 raise JobConflict(
                     f"rig is busy: {session.lock_holder} holds the rig lock",
                     holder=session.lock_holder,
                 )
-            job = self._new(kind, label, parameters)
-            note = getattr(params, "adjustment", lambda: None)()
-            job.notes = [note] if note else []
-            self._rig_job = job
+            if busy is not None or self._queue:
+                if not queue:
+                    if busy is None:
+                        raise JobConflict(
+                            f"rig is free but {len(self._queue)} job(s) wait in its queue "
+                            f"(queue {'paused' if self._queue_paused else 'starting'})",
+                            holder="the rig's queue",
+                        )
+                    raise JobConflict(
+                        f"rig is busy: job {busy.id} ({busy.label}) holds the rig lock",
+                        holder=f"{busy.label} (job {busy.id})",
+                    )
+                job = self._new(kind, label, parameters, **fields)
+                self._queue.append(job)
+                self._renumber()
+            else:
+                job = self._new(kind, label, parameters, **fields)
+                self._rig_job = job
+        if job.position is not None:
+            self._save(job, event=True).result(10)  # a queued job survives a restart at once
+            self.service.broadcaster.publish_job(job.to_json())
+            return job
+        self._save(job, event=True)
+        self._submit(job, params)
+        return job
+
+    def _submit(self, job: Job, params: Any) -> None:
         try:
-            self.service.submit(self._run_procedure(job, kind, params))
+            self.service.submit(self._hold_rig(job, params))
         except Exception:
             with self._lock:
                 self._rig_job = None
-            job.state, job.error = "failed", "the rig service is not running"
+            self._update(job, state="failed", error="the rig service is not running")
             raise
         self.service.broadcaster.publish_job(job.to_json())
+
+    async def _hold_rig(self, job: Job, params: Any) -> None:
+        """Run a procedure, then hand the rig to the next queued job."""
+        try:
+            await self._run_procedure(job, job.kind, params)
+        finally:
+            self._rig_freed(job)
+
+    def _rig_freed(self, job: Job) -> None:
+        with self._lock:
+            paused = self._queue_paused is not None  # keep the first reason (an e-stop)
+            if job.state != JobState.COMPLETED and self._queue and not (paused or self._closing):
+                self._queue_paused = (
+                    f"job {job.id} ({job.label}) ended {job.state}: "
+                    "resume the queue to run the next job"
+                )
+        self._start_next()
+
+    def _start_next(self) -> None:
+        """Start the first queued job if the rig is free and the queue is not paused."""
+        with self._lock:
+            if self._closing or self._queue_paused or self.rig_job is not None:
+                return
+            if not self._queue:
+                return
+            job = self._queue.pop(0)
+            self._rig_job = job
+            job.position = None
+            self._renumber()
+        params = job.params
+        if params is None:  # queued before a restart: rebuilt as the route built it
+            try:
+                params, _ = procedure_from_request(
+                    job.kind, job.request or {}, self.service.source.rig
+                )
+            except Exception as err:
+                with self._lock:
+                    self._rig_job = None
+                    self._queue_paused = f"job {job.id} could not be started: {one_line(err)}"
+                self._update(
+                    job,
+                    state="failed",
+                    error=one_line(err),
+                    message=f"error: {one_line(err)}",
+                    finished_at=time.time(),
+                )
+                return
+        self._update(job, position=None, message="starting")
+        try:
+            self._submit(job, params)
+        except Exception as err:
+            log.error("job %s could not be started: %s", job.id, one_line(err))
+
+    def _renumber(self) -> None:
+        """Positions 1, 2, … in queue order (caller holds ``_lock``); saved in the background."""
+        for position, queued in enumerate(self._queue, start=1):
+            if queued.position != position:
+                queued.position = position
+                queued.message = f"queued (position {position})"
+                self._save(queued)
+
+    # -- the queue (called from HTTP threads) -------------------------------------------------
+    def queue_json(self) -> dict[str, Any]:
+        """The rig's queue: paused or not (and why), the job on the rig, the waiting jobs."""
+        with self._lock:
+            waiting = list(self._queue)
+            paused = self._queue_paused
+        running = self.rig_job
+        return {
+            "paused": paused is not None,
+            "reason": paused,
+            "running": running.to_json() if running is not None else None,
+            "jobs": [j.to_json() for j in waiting],
+        }
+
+    def _queued(self, job_id: str) -> Job:
+        job = self.get(job_id)
+        if job not in self._queue:
+            raise JobConflict(f"job {job.id} is not in the queue (state {job.state})")
         return job
+
+    def move(self, job_id: str, position: int) -> dict[str, Any]:
+        """Put a queued job at ``position`` (1 = next to run)."""
+        with self._lock:
+            job = self._queued(job_id)
+            if not 1 <= position <= len(self._queue):
+                raise ValueError(
+                    f"position: {position} is outside the queue; allowed 1 ≤ position ≤ "
+                    f"{len(self._queue)}"
+                )
+            self._queue.remove(job)
+            self._queue.insert(position - 1, job)
+            self._renumber()
+        self._writer.submit(lambda: None).result(10)
+        return self.queue_json()
+
+    def remove(self, job_id: str) -> dict[str, Any]:
+        """Take a job out of the queue and forget it (it never ran)."""
+        with self._lock:
+            job = self._queued(job_id)
+            self._queue.remove(job)
+            self.jobs.pop(job.id, None)
+            self._renumber()
+        self._writer.submit(lambda: self.repo.delete(job.id)).result(10)
+        return self.queue_json()
+
+    def pause_queue(self, reason: str = "paused by the operator (API)") -> dict[str, Any]:
+        """Start no further queued job (the one on the rig goes on)."""
+        with self._lock:
+            self._queue_paused = reason
+        return self.queue_json()
+
+    def resume_queue(self) -> dict[str, Any]:
+        """Let the queue start its jobs again, the first one now if the rig is free."""
+        with self._lock:
+            self._queue_paused = None
+        self._start_next()
+        return self.queue_json()
 
     def _progress(self, job: Job):
         def report(p: Progress) -> None:
@@ -299,8 +485,20 @@ class JobRunner:
             raise JobConflict(f"job {job.id} already ended ({job.state})")
         if job.kind in ("estimation", "crosscheck"):
             raise JobConflict(f"job {job.id}: an {job.kind} cannot be aborted once started")
-        if job.abort is None:  # still queued on the rig loop
-            self._update(job, state="aborted", message=f"aborted: {reason}", error=reason)
+        with self._lock:
+            queued = job in self._queue
+            if queued:
+                self._queue.remove(job)
+                self._renumber()
+        if queued or job.abort is None:  # still in the queue, or not yet on the rig loop
+            self._update(
+                job,
+                state="aborted",
+                position=None,
+                message=f"aborted: {reason}",
+                error=reason,
+                finished_at=time.time() if queued else job.finished_at,
+            )
         else:
             self.service.call_soon(job.abort.set, reason)
             self._update(job, message=f"aborting: {reason}")
@@ -335,13 +533,18 @@ class JobRunner:
             raise JobConflict(f"job {job.id} is a {job.kind}; only sequences pause and resume")
         if job.state in FINAL:
             raise JobConflict(f"job {job.id} already ended ({job.state})")
+        if job in self._queue:
+            raise JobConflict(f"job {job.id} waits in the queue; pause the queue instead")
         return job
 
     def emergency_stop(self) -> list[str]:
-        """Abort every procedure job and put the rig in its safe state now."""
+        """Abort the procedure on the rig, pause the queue (its jobs stay queued) and put
+        the rig in its safe state now."""
+        with self._lock:
+            self._queue_paused = "emergency stop (API): resume the queue to go on"
         aborted = []
         for job in list(self.jobs.values()):
-            if job.kind in PROCEDURES and job.state in ACTIVE:
+            if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:
                 self.abort(job.id, "emergency stop (API)")
                 aborted.append(job.id)
         session = self.service.require_session()
@@ -354,6 +557,7 @@ class JobRunner:
         params = {"run_ids": run_ids, "method": method, "search_effects": search_effects}
         job = self._new("estimation", f"estimation {method} on {len(run_ids)} run(s)", params)
         job.run_ids = list(run_ids)
+        self._save(job, event=True)
         self._estimator.submit(self._run_estimation, job, run_ids, method, search_effects)
         self.service.broadcaster.publish_job(job.to_json())
         return job
@@ -375,8 +579,8 @@ class JobRunner:
                 report_dir=report_dir,
             )
             result_id = data.get("result_id")
-            if result_id is not None and report_dir.exists():
-                report_dir.rename(self.report_root / f"result-{result_id}")
+            if result_id is not None:
+                self.adopt_report(result_id, report_dir)
             self._update(
                 job,
                 state="completed",
@@ -390,6 +594,7 @@ class JobRunner:
                 log.exception("estimation job %s failed", job.id)
             self._update(job, state="failed", message=f"error: {err}", error=str(err))
         finally:
+            shutil.rmtree(report_dir, ignore_errors=True)
             self._update(job, finished_at=time.time())
 
     # -- cross-check ------------------------------------------------------------------------
@@ -405,6 +610,7 @@ class JobRunner:
         label = f"cross-check {len(weight_runs)} weight vs {len(thruster_runs)} thruster run(s)"
         job = self._new("crosscheck", label, params)
         job.run_ids = list(dict.fromkeys([*weight_runs, *thruster_runs]))
+        self._save(job, event=True)
         self._estimator.submit(self._run_crosscheck, job, params)
         self.service.broadcaster.publish_job(job.to_json())
         return job
@@ -434,23 +640,30 @@ class JobRunner:
                 log.exception("cross-check job %s failed", job.id)
             self._update(job, state="failed", message=f"error: {err}", error=str(err))
         finally:
+            shutil.rmtree(report_dir, ignore_errors=True)
             self._update(job, finished_at=time.time())
 
-    def adopt_report(self, result_id: int, folder: Path) -> None:
-        """Serve ``folder``'s figures (PNG and SVG) as the report plots of ``result_id``."""
-        target = self.report_root / f"result-{result_id}"
-        target.mkdir(parents=True, exist_ok=True)
-        for suffix in REPORT_SUFFIXES:
-            for figure in folder.glob(f"*{suffix}"):
-                figure.replace(target / figure.name)
+    # -- report files (in the database) ------------------------------------------------------
+    def adopt_report(self, result_id: int, folder: Path) -> list[str]:
+        """Store ``folder``'s figures (PNG for the page, SVG beside it) as the report of
+        ``result_id``; the figure names."""
+        files = [
+            (p.name, REPORT_SUFFIXES[p.suffix], p.read_bytes())
+            for suffix in REPORT_SUFFIXES
+            for p in sorted(Path(folder).glob(f"*{suffix}"))
+        ]
+        self.repo.save_report_files(result_id, files)
+        return sorted({Path(name).stem for name, _, _ in files})
 
-    def report_file(self, result_id: int, name: str, suffix: str = ".png") -> Path | None:
-        """The figure ``name`` (``.png`` or ``.svg``) of a result's report, if this service
-        made it."""
-        folder = self.report_root / f"result-{result_id}"
+    def report_names(self, result_id: int) -> list[str]:
+        """Names of the report figures stored with ``result_id``."""
+        return sorted({Path(name).stem for name in self.repo.report_names(result_id)})
+
+    def report_file(
+        self, result_id: int, name: str, suffix: str = ".png"
+    ) -> tuple[str, bytes] | None:
+        """``(media type, bytes)`` of the figure ``name`` (``.png`` or ``.svg``) of a
+        result's report, if stored."""
         if suffix not in REPORT_SUFFIXES:
             return None
-        path = folder / f"{name}{suffix}"
-        if path.parent != folder or not path.is_file():
-            return None
-        return path
+        return self.repo.report_file(result_id, f"{name}{suffix}")

@@ -31,6 +31,7 @@ from api.http.routes import analysis as routes_analysis
 from api.http.routes import calibration as routes_calibration
 from api.http.routes import crosscheck as routes_crosscheck
 from api.http.routes import jobs as routes_jobs
+from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
 from api.http.routes import runs as routes_runs
 from api.http.routes import sixdof as routes_sixdof
@@ -169,6 +170,8 @@ def create_app(
 
         if manage_service and not service.started:  # `rig serve` starts it beforehand
             await asyncio.to_thread(service.start)
+        if own_runner and service.started:
+            await asyncio.to_thread(runner.open)  # interrupted jobs, the queue (paused)
         try:
             yield
         finally:
@@ -211,6 +214,7 @@ def create_app(
         routes_rig,
         routes_crosscheck,
         routes_jobs,
+        routes_queue,
         routes_runs,
         routes_stream,
         routes_sixdof,

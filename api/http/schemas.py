@@ -12,10 +12,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from daq.procedures.params import MAX_CALIBRATION_COMMANDS, MAX_SEQUENCE_STEPS
-
-JobState = Literal[
-    "queued", "running", "waiting_for_operator", "paused", "completed", "aborted", "failed"
-]
+from daq.store.schema import JobState
 
 
 class _Strict(BaseModel):
@@ -188,14 +185,35 @@ class JobOut(BaseModel):
     operator_act: OperatorActOut | None = Field(
         None, description="What the operator must do (state waiting_for_operator)."
     )
-    created_at: float = Field(description="Unix time, s")
-    started_at: float | None = None
-    finished_at: float | None = None
+    position: int | None = Field(
+        None, description="Place in the rig's queue (1 = next to run) while ``queued``."
+    )
+    created_at: str = Field(description="ISO 8601, UTC (like a run's times)")
+    started_at: str | None = Field(None, description="ISO 8601, UTC")
+    finished_at: str | None = Field(None, description="ISO 8601, UTC")
     notes: list[str] = Field(
         default_factory=list,
         description="What the request became, e.g. a force rounded to a whole-gram weight "
         "(the run's parameters keep both: `requested` and the applied value).",
     )
+
+
+class JobEventOut(BaseModel):
+    t_wall: str = Field(description="ISO 8601, UTC")
+    state: JobState
+    fraction: float
+    message: str
+
+
+class QueueOut(BaseModel):
+    paused: bool = Field(description="True: no queued job starts until the queue is resumed.")
+    reason: str | None = Field(None, description="Why the queue is paused.")
+    running: JobOut | None = Field(None, description="The job holding the rig, if any.")
+    jobs: list[JobOut] = Field(description="Queued jobs in the order they will run.")
+
+
+class QueueMoveRequest(_Strict):
+    position: int = Field(description="New place in the queue, 1 = next to run.")
 
 
 class EmergencyStopOut(BaseModel):

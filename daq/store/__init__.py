@@ -10,7 +10,7 @@ See docs/storage.md. Typical use::
 """
 
 from daq.store.csvio import export_run_csv, export_run_json, import_csv
-from daq.store.loaded_run import LoadedRun
+from daq.store.jobs import JobRepository
 from daq.store.migrate import default_database_path, default_database_url
 from daq.store.recorder import RecorderStats, RunRecorder
 from daq.store.records import (
@@ -23,7 +23,7 @@ from daq.store.records import (
     RunNotFound,
     SampleTable,
 )
-from daq.store.schema import END_STATUSES, RUN_STATUSES
+from daq.store.schema import END_STATUSES, RUN_STATUSES, JobState
 from daq.store.store import Store
 
 __all__ = [
@@ -32,7 +32,8 @@ __all__ = [
     "AmbiguousRunId",
     "DuplicateSample",
     "EventInfo",
-    "LoadedRun",
+    "JobRepository",
+    "JobState",
     "RecorderStats",
     "ResultInfo",
     "ResultNotFound",

@@ -9,6 +9,8 @@ its channel values packed as a little-endian float64 BLOB in the run's channel o
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 import sqlalchemy as sa
 
 metadata = sa.MetaData(
@@ -24,6 +26,28 @@ metadata = sa.MetaData(
 RUN_STATUSES = ("running", "completed", "aborted", "interrupted")
 #: Statuses ``finish_run`` accepts.
 END_STATUSES = ("completed", "aborted", "interrupted")
+
+
+class JobState(StrEnum):
+    """A job's state: ``queued → running ⇄ waiting_for_operator | paused → completed |
+    aborted | failed``; ``interrupted`` when its service died while it ran."""
+
+    QUEUED = "queued"
+    RUNNING = "running"
+    WAITING_FOR_OPERATOR = "waiting_for_operator"
+    PAUSED = "paused"
+    COMPLETED = "completed"
+    ABORTED = "aborted"
+    FAILED = "failed"
+    INTERRUPTED = "interrupted"
+
+
+#: States of a job that has not ended.
+JOB_ACTIVE = frozenset(
+    {JobState.QUEUED, JobState.RUNNING, JobState.WAITING_FOR_OPERATOR, JobState.PAUSED}
+)
+#: States of a job that has ended.
+JOB_FINAL = frozenset(JobState) - JOB_ACTIVE
 
 rigs = sa.Table(
     "rigs",
@@ -119,4 +143,56 @@ thrust_calibrations = sa.Table(
     sa.Column("created_at", sa.Float(precision=53), nullable=False, index=True),
     sa.Column("software_version", sa.String(100), nullable=False),
     sa.Column("data", sa.JSON, nullable=False),
+)
+
+jobs = sa.Table(
+    "jobs",
+    metadata,
+    sa.Column("id", sa.String(32), primary_key=True),
+    sa.Column("rig_name", sa.String(200), nullable=False, index=True),
+    sa.Column("kind", sa.String(40), nullable=False),
+    sa.Column("label", sa.Text, nullable=False),
+    sa.Column("state", sa.String(30), nullable=False, index=True),
+    # 1, 2, … for a procedure waiting in the rig's queue; NULL otherwise
+    sa.Column("position", sa.Integer, nullable=True),
+    # the request a queued procedure is rebuilt from after a restart
+    sa.Column("request", sa.JSON, nullable=True),
+    sa.Column("parameters", sa.JSON, nullable=False),
+    sa.Column("fraction", sa.Float(precision=53), nullable=False, server_default="0"),
+    sa.Column("message", sa.Text, nullable=False),
+    sa.Column("run_ids", sa.JSON, nullable=False),
+    sa.Column("outcome", sa.JSON, nullable=True),
+    sa.Column("error", sa.Text, nullable=True),
+    sa.Column("result_id", sa.Integer, nullable=True),
+    sa.Column("notes", sa.JSON, nullable=False),
+    sa.Column("created_at", sa.Float(precision=53), nullable=False, index=True),
+    sa.Column("started_at", sa.Float(precision=53), nullable=True),
+    sa.Column("finished_at", sa.Float(precision=53), nullable=True),
+    sa.Column("owner_host", sa.String(255), nullable=True),
+    sa.Column("owner_pid", sa.Integer, nullable=True),
+    sa.Column("owner_boot_id", sa.String(64), nullable=True),
+    sa.Column("owner_start_ticks", sa.BigInteger, nullable=True),
+    sa.CheckConstraint(
+        "state IN (" + ", ".join(f"'{s.value}'" for s in JobState) + ")", name="ck_jobs_state"
+    ),
+)
+
+job_events = sa.Table(
+    "job_events",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("job_id", sa.ForeignKey("jobs.id", ondelete="CASCADE"), nullable=False, index=True),
+    sa.Column("t_wall", sa.Float(precision=53), nullable=False),
+    sa.Column("state", sa.String(30), nullable=False),
+    sa.Column("fraction", sa.Float(precision=53), nullable=False),
+    sa.Column("message", sa.Text, nullable=False),
+)
+
+report_files = sa.Table(
+    "report_files",
+    metadata,
+    sa.Column("result_id", sa.ForeignKey("results.id", ondelete="CASCADE"), primary_key=True),
+    sa.Column("name", sa.String(200), primary_key=True),
+    sa.Column("media_type", sa.String(100), nullable=False),
+    sa.Column("content", sa.LargeBinary, nullable=False),
 )

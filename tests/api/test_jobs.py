@@ -1,4 +1,5 @@
-"""Procedures as jobs on the simulated rig: tow end to end, 409, abort, e-stop, sequences."""
+"""Procedures as jobs on the simulated rig: tow end to end, 409 with ``?queue=false``,
+abort, e-stop (which pauses the queue), sequences."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ def test_tow_job_end_to_end_stores_a_completed_run(client, tow_job):
     assert max(position) - min(position) > 0.05, "the carriage moved under 24.5 N"
 
 
-def test_second_start_while_busy_is_409_naming_the_holder(client):
+def test_second_start_while_busy_without_queueing_is_409_naming_the_holder(client):
     job_id = start_job(client, "/api/jobs/tow", SHORT_TOW)
     try:
         for path, body in (
@@ -32,7 +33,7 @@ def test_second_start_while_busy_is_409_naming_the_holder(client):
             ("/api/jobs/spin", {"torque_nm": 0.454}),
             ("/api/jobs/calibration", {}),
         ):
-            busy = client.post(path, json=body, headers=AUTH)
+            busy = client.post(path, json=body, headers=AUTH, params={"queue": "false"})
             assert busy.status_code == 409, busy.text
             assert busy.json()["holder"] == f"tow 24.5 N (job {job_id})"
             assert "busy" in busy.json()["detail"]
@@ -75,6 +76,22 @@ def test_emergency_stop_aborts_the_running_job(client):
     job = wait_job(client, job_id, timeout_s=10)
     assert job["state"] == "aborted"
     assert "emergency stop" in (job["error"] or job["progress"]["message"])
+
+
+def test_emergency_stop_pauses_the_queue_and_keeps_its_jobs(client):
+    running = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
+    wait_job(client, running, states=("running",))
+    queued = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH).json()
+    assert (queued["state"], queued["position"]) == ("queued", 1)
+    stop = client.post("/api/rig/emergency-stop", headers=AUTH).json()
+    assert stop["aborted_jobs"] == [running]
+    assert wait_job(client, running, timeout_s=10)["state"] == "aborted"
+    queue = client.get("/api/queue", headers=AUTH).json()
+    assert queue["paused"] and "emergency stop" in queue["reason"], queue
+    assert [j["id"] for j in queue["jobs"]] == [queued["id"]]  # kept, not started
+    assert client.get(f"/api/jobs/{queued['id']}", headers=AUTH).json()["state"] == "queued"
+    assert client.delete(f"/api/queue/{queued['id']}", headers=AUTH).json()["jobs"] == []
+    assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
 
 
 def test_arm_and_disarm_thrusters(client):

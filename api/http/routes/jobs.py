@@ -3,12 +3,16 @@ control."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends
+from typing import Annotated
 
+from fastapi import APIRouter, Depends, Query
+
+from api.core.job_requests import procedure_from_request
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
 from api.http.schemas import (
     CalibrationRequest,
     EstimationRequest,
+    JobEventOut,
     JobOut,
     PendulumRequest,
     SequenceRequest,
@@ -16,17 +20,24 @@ from api.http.schemas import (
     TowRequest,
     error_responses,
 )
-from daq.procedures.params import (
-    calibration_parameters,
-    pendulum_parameters,
-    spin_parameters,
-    tow_parameters,
-)
-from daq.procedures.sequence import parse_sequence
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 409, 422, 503)
 _CONTROL = error_responses(401, 404, 409, 503)
+#: ``?queue=false``: refuse (409) instead of queueing when the rig is busy.
+QueueFlag = Annotated[
+    bool,
+    Query(
+        description="When the rig is busy: true (default) queues the job behind the jobs "
+        "already waiting; false refuses it at once with 409 naming the holder."
+    ),
+]
+
+
+def _start(kind: str, body, service, runner, queue: bool) -> dict:
+    request = body.model_dump(mode="json", exclude_none=True)
+    params, label = procedure_from_request(kind, request, service.source.rig)
+    return runner.start_procedure(kind, params, label, request=request, queue=queue).to_json()
 
 
 @router.post(
@@ -40,11 +51,10 @@ def start_tow(
     body: TowRequest,
     service: ServiceDep,
     runner: RunnerDep,
+    queue: QueueFlag = True,
 ) -> dict:
-    """Start a tow test (the same parameters as ``rig tow``)."""
-    params = tow_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    label = f"tow {params.force_n:.4g} N" + (" (thrusters)" if params.drive == "thrusters" else "")
-    return runner.start_procedure("tow", params, label).to_json()
+    """Start a tow test (the same parameters as ``rig tow``); queued while the rig is busy."""
+    return _start("tow", body, service, runner, queue)
 
 
 @router.post(
@@ -58,13 +68,10 @@ def start_spin(
     body: SpinRequest,
     service: ServiceDep,
     runner: RunnerDep,
+    queue: QueueFlag = True,
 ) -> dict:
-    """Start a spin test (the same parameters as ``rig spin``)."""
-    params = spin_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    label = f"spin {params.torque_nm:.4g} N·m" + (
-        " (thrusters)" if params.drive == "thrusters" else ""
-    )
-    return runner.start_procedure("spin", params, label).to_json()
+    """Start a spin test (the same parameters as ``rig spin``); queued while the rig is busy."""
+    return _start("spin", body, service, runner, queue)
 
 
 @router.post(
@@ -78,11 +85,11 @@ def start_pendulum(
     body: PendulumRequest,
     service: ServiceDep,
     runner: RunnerDep,
+    queue: QueueFlag = True,
 ) -> dict:
-    """Start a pendulum free-decay test (the same parameters as ``rig pendulum``)."""
-    params = pendulum_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    label = f"pendulum {params.start_angle_rad:.3g} rad"
-    return runner.start_procedure("pendulum", params, label).to_json()
+    """Start a pendulum free-decay test (the same parameters as ``rig pendulum``);
+    queued while the rig is busy."""
+    return _start("pendulum", body, service, runner, queue)
 
 
 @router.post(
@@ -96,10 +103,11 @@ def start_calibration(
     body: CalibrationRequest,
     service: ServiceDep,
     runner: RunnerDep,
+    queue: QueueFlag = True,
 ) -> dict:
-    """Start a thrust calibration sweep (``rig calibrate-thrusters``)."""
-    params = calibration_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    return runner.start_procedure("thrust_calibration", params, "thrust calibration").to_json()
+    """Start a thrust calibration sweep (``rig calibrate-thrusters``); queued while the
+    rig is busy."""
+    return _start("thrust_calibration", body, service, runner, queue)
 
 
 @router.post(
@@ -113,11 +121,11 @@ def start_sequence(
     body: SequenceRequest,
     service: ServiceDep,
     runner: RunnerDep,
+    queue: QueueFlag = True,
 ) -> dict:
-    """Start a sequence (the content of a sequence TOML file, as JSON)."""
-    seq = parse_sequence(body.model_dump(exclude_none=True), service.source.rig, source="api")
-    label = f"sequence {seq.name} ({len(seq.steps) * seq.repeats} runs)"
-    return runner.start_procedure("sequence", seq, label).to_json()
+    """Start a sequence (the content of a sequence TOML file, as JSON); queued while the rig
+    is busy."""
+    return _start("sequence", body, service, runner, queue)
 
 
 @router.post(
@@ -147,7 +155,7 @@ def start_estimation(
     responses=error_responses(401),
 )
 def list_jobs(runner: RunnerDep) -> list[dict]:
-    """Jobs of this service, newest first."""
+    """This rig's jobs, newest first, from the database (so they outlive a restart)."""
     return [j.to_json() for j in runner.list()]
 
 
@@ -162,6 +170,19 @@ def get_job(job_id: str, runner: RunnerDep) -> dict:
     return runner.get(job_id).to_json()
 
 
+@router.get(
+    "/{job_id}/events",
+    response_model=list[JobEventOut],
+    dependencies=[Depends(require_read)],
+    responses=error_responses(401, 404),
+)
+def job_events(job_id: str, runner: RunnerDep) -> list[dict]:
+    """The job's stored progress: each change of state or message, oldest first."""
+    from api.core.job_model import iso_time
+
+    return [e | {"t_wall": iso_time(e["t_wall"])} for e in runner.events(job_id)]
+
+
 @router.post(
     "/{job_id}/abort",
     response_model=JobOut,
@@ -169,7 +190,8 @@ def get_job(job_id: str, runner: RunnerDep) -> dict:
     responses=_CONTROL,
 )
 def abort_job(job_id: str, runner: RunnerDep) -> dict:
-    """Abort a procedure: its run ends ``aborted``, thrusters zero, brakes on."""
+    """Abort a procedure: its run ends ``aborted``, thrusters zero, brakes on. A queued job
+    leaves the queue and is kept as ``aborted``."""
     return runner.abort(job_id).to_json()
 
 

@@ -282,8 +282,7 @@ async def import_run(
 # ---- results ----------------------------------------------------------------------------------
 def _result_json(result, runner: JobRunner) -> dict:
     data = result.to_json()
-    folder = runner.report_root / f"result-{result.id}"
-    data["report_plots"] = sorted(p.stem for p in folder.glob("*.png")) if folder.is_dir() else []
+    data["report_plots"] = runner.report_names(result.id)
     return data
 
 
@@ -338,14 +337,14 @@ def latest_calibration(store: StoreDep, runner: RunnerDep) -> dict:
     "/results/{result_id}/report/{name}.png",
     dependencies=[Depends(require_read)],
     responses={200: {"content": {"image/png": {}}, "description": "A report plot"}} | _READ,
-    response_class=FileResponse,
+    response_class=Response,
 )
 def get_report_plot(
     result_id: int,
     name: str,
     store: StoreDep,
     runner: RunnerDep,
-) -> FileResponse:
+) -> Response:
     """A report figure as a 150 dpi PNG (names in ``report_plots``)."""
     return _report_figure(result_id, name, ".png", store, runner)
 
@@ -354,24 +353,25 @@ def get_report_plot(
     "/results/{result_id}/report/{name}.svg",
     dependencies=[Depends(require_read)],
     responses={200: {"content": {"image/svg+xml": {}}, "description": "A report plot"}} | _READ,
-    response_class=FileResponse,
+    response_class=Response,
 )
 def get_report_svg(
     result_id: int,
     name: str,
     store: StoreDep,
     runner: RunnerDep,
-) -> FileResponse:
+) -> Response:
     """The same report figure as SVG (vector, its labels as text)."""
     return _report_figure(result_id, name, ".svg", store, runner)
 
 
 def _report_figure(
     result_id: int, name: str, suffix: str, store: Store, runner: JobRunner
-) -> FileResponse:
+) -> Response:
+    """A stored report figure (from the database, so it outlives the service)."""
     _find_result(store, result_id)
-    path = runner.report_file(result_id, name, suffix)
-    if path is None:
+    found = runner.report_file(result_id, name, suffix)
+    if found is None:
         raise HTTPException(404, f"result {result_id} has no report plot named {name!r}")
-    media = "image/svg+xml" if suffix == ".svg" else "image/png"
-    return FileResponse(path, media_type=media)
+    media_type, content = found
+    return Response(content, media_type=media_type)

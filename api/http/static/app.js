@@ -3,7 +3,7 @@
 
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
-const FINAL = ["completed", "aborted", "failed"];
+const FINAL = ["completed", "aborted", "failed", "interrupted"];
 const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {} };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
@@ -310,6 +310,9 @@ async function stream() {
 
 function onJobEvent(job) {
   if (job.kind === "estimation") return showEstimationJob(job);
+  // a job queued behind the one on the rig does not take its panel (see /api/queue)
+  const onRig = state.job && state.job.id !== job.id && !FINAL.includes(state.job.state);
+  if (job.state === "queued" && onRig) return;
   showJob(job);
   if (FINAL.includes(job.state) && !$("#page-runs").hidden) loadRuns();
 }

@@ -1,0 +1,87 @@
+"""``rig jobs`` and ``rig queue``: jobs and queues as stored in the database (read-only;
+a running ``rig serve`` changes its queue over HTTP, see docs/api.md)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from api.cli.common import db_option, echo_json, json_option, open_store
+from daq.store.schema import JobState
+
+
+def _when(unix_s: float | None) -> str:
+    from daq.store.records import to_datetime
+
+    moment = to_datetime(unix_s)
+    return moment.astimezone().strftime("%Y-%m-%d %H:%M:%S") if moment else "—"
+
+
+def _as_json(row: dict[str, Any]) -> dict[str, Any]:
+    from api.core.job_model import Job
+
+    return Job.from_row(row).to_json() | {"rig_name": row["rig_name"]}
+
+
+def _table(rows: list[dict[str, Any]], first: str) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(first, "job", "rig", "label", "state", "created", "runs", box=None)
+    for row in rows:
+        state = row["state"] + (f" ({row['error']})" if row["error"] else "")
+        table.add_row(
+            str(row["position"] or "") if first == "#" else row["kind"],
+            row["id"],
+            row["rig_name"],
+            row["label"],
+            state,
+            _when(row["created_at"]),
+            " ".join(r[:8] for r in row["run_ids"] or []),
+        )
+    Console().print(table)
+
+
+@click.command("jobs")
+@click.option("--state", type=click.Choice([s.value for s in JobState]), help="Only this state.")
+@click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
+@db_option
+@json_option
+def jobs(state, limit, db_url, as_json):
+    """List jobs stored in the database (every service's, across restarts), newest first."""
+    from daq.store.jobs import JobRepository
+
+    store = open_store(db_url)
+    try:
+        rows = JobRepository(store).list_jobs(None, state=state, limit=limit)
+        if as_json:
+            echo_json([_as_json(r) for r in rows])
+            return
+        _table(rows, "kind")
+        if not rows:
+            click.echo("no jobs stored yet: start one with `rig serve` and the API", err=True)
+    finally:
+        store.close()
+
+
+@click.command("queue")
+@db_option
+@json_option
+def queue(db_url, as_json):
+    """Show the rigs' queues: procedure jobs waiting for the rig, in the order they run.
+
+    Reorder, remove, pause and resume through the running service's API (/api/queue)."""
+    from daq.store.jobs import JobRepository
+
+    store = open_store(db_url)
+    try:
+        rows = JobRepository(store).queued(None)
+        if as_json:
+            echo_json([_as_json(r) for r in rows])
+            return
+        _table(rows, "#")
+        if not rows:
+            click.echo("the queue is empty", err=True)
+    finally:
+        store.close()
