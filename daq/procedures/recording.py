@@ -111,6 +111,7 @@ class RecordedRun:
             vehicle=s.rig.vehicle.name,
             rig_toml=s.source.rig_toml,
             scenario_toml=s.source.scenario_toml,
+            metadata=s.run_metadata,
         )
         await s.note_run(self.run_id)
         # A storage fault stops the procedure like a lost PLC: the abort signal wakes every

@@ -8,7 +8,8 @@ See docs/storage.md. Typical use::
     recorder = RunRecorder(store, run_id)  # the clock's consumer calls recorder.put(sample)
 """
 
-from daq.store.csvio import export_run_csv, export_run_json, import_csv
+from typing import TYPE_CHECKING, Any
+
 from daq.store.migrate import default_database_path, default_database_url
 from daq.store.recorder import RecorderStats, RunRecorder
 from daq.store.records import (
@@ -23,6 +24,22 @@ from daq.store.records import (
 )
 from daq.store.schema import END_STATUSES, RUN_STATUSES
 from daq.store.store import Store
+
+if TYPE_CHECKING:
+    from daq.store.csvio import export_run_csv, export_run_json, import_csv
+
+#: Names served from daq.store.csvio on first use (it imports numpy and the estimator's
+#: CSV rules; listing runs needs neither).
+_CSVIO = ("export_run_csv", "export_run_json", "import_csv")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _CSVIO:
+        from daq.store import csvio
+
+        return getattr(csvio, name)
+    raise AttributeError(f"module 'daq.store' has no attribute {name!r}")
+
 
 __all__ = [
     "END_STATUSES",

@@ -7,6 +7,10 @@ rad for a spin; ``tow_position``/``yaw_angle`` are accepted too); ``seq``, ``t_m
 ``t_wall`` and ``quality`` are used when present and every other column becomes a channel
 (``tow_release``/``spin_release``/``end_of_travel`` among them tell estimation the release
 and the end of travel, as an export writes them).
+
+An export starts with comment lines (``#``) before the header: ``# run: {…}`` (id, kind,
+drive, source, vehicle, start) and ``# metadata: {…}`` (the run's metadata, JSON). An
+import skips comment lines and takes ``# metadata:`` back as the new run's metadata.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from daq.sample import Quality, Sample
+from daq.store.records import RunInfo
 from daq.store.store import Store
 from estimation.csv_import import TIME_UNITS
 from estimation.window import check_time_step
@@ -45,10 +50,24 @@ def _cell(value: float) -> str:
     return "" if math.isnan(value) else repr(float(value))
 
 
+def csv_comment_lines(run: RunInfo) -> str:
+    """The ``# run:`` and ``# metadata:`` lines an exported CSV starts with."""
+    head = run.to_json(include_toml=False)
+    keys = ("id", "kind", "drive", "source", "source_file", "imported_at", "vehicle",
+            "rig_name", "started_at", "stopped_at", "status")  # fmt: skip
+    described = {k: head[k] for k in keys}
+    return (
+        f"# run: {json.dumps(described, ensure_ascii=False)}\n"
+        f"# metadata: {json.dumps(run.metadata, ensure_ascii=False)}\n"
+    )
+
+
 def export_run_csv(store: Store, run_id: str, fileobj: TextIO) -> int:
-    """Write the run's samples as CSV to ``fileobj``; returns the number of rows."""
+    """Write the run's samples as CSV to ``fileobj`` (after the comment lines of
+    :func:`csv_comment_lines`); returns the number of rows."""
     run = store.get_run(run_id)
     table = store.samples(run.id)
+    fileobj.write(csv_comment_lines(run))
     writer = csv.writer(fileobj, lineterminator="\n")
     writer.writerow([*_RESERVED, *run.channel_names])
     t = table.t
@@ -139,12 +158,37 @@ def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]
     return renamed, channels
 
 
+def _comment_metadata(path: Path, line: int, text: str) -> dict[str, Any] | None:
+    """The metadata of a ``# metadata: {…}`` line (None for any other comment)."""
+    body = text.lstrip("#").strip()
+    if not body.startswith("metadata:"):
+        return None
+    try:
+        value = json.loads(body.removeprefix("metadata:"))
+    except json.JSONDecodeError as err:
+        raise CsvImportError(f"{path}: line {line}: '# metadata:' is not JSON ({err.msg})") from None
+    return value if isinstance(value, dict) else None
+
+
+def read_csv_metadata(path: str | Path) -> dict[str, Any]:
+    """The ``# metadata:`` comment of a CSV's leading comment lines ({} when none)."""
+    path = Path(path)
+    found: dict[str, Any] = {}
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for line, text in enumerate(f, start=1):
+            if not text.startswith("#"):
+                break
+            found = _comment_metadata(path, line, text) or found
+    return found
+
+
 def _read_samples(
     path: Path, kind: str, time_scale: float = 1.0
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     with open(path, newline="", encoding="utf-8") as f:
         try:
-            return _parse_rows(path, kind, csv.reader(f), time_scale)
+            lines = (("" if text.startswith("#") else text) for text in f)  # keeps line numbers
+            return _parse_rows(path, kind, csv.reader(lines), time_scale)
         except UnicodeDecodeError as err:
             raise CsvImportError(
                 f"{path}: not UTF-8 text ({err.reason} at byte {err.start})"
@@ -247,8 +291,11 @@ def import_csv(
     time_unit: str = "s",
     release_time_s: float | None = None,
     end_time_s: float | None = None,
+    metadata: dict[str, Any] | None = None,
 ) -> str:
     """Import a CSV as a completed ``kind`` (``tow``/``spin``) run; returns the new run id.
+    The run is marked imported from the file's name (now), keeps the recorded start time
+    and takes the file's ``# metadata:`` comment updated by ``metadata``.
     Nothing is written when the file or parameters are bad (all is parsed first). Up to
     ``IMPORT_BATCH_ROWS`` samples go in one transaction; a longer run in transactions of
     that many, so a live run sharing the database is never locked out for long.
@@ -274,6 +321,10 @@ def import_csv(
         samples = [
             Sample(s.seq, s.t_mono, start + (s.t_wall - t0), s.channels, s.quality) for s in samples
         ]
+    from daq.store.run_metadata import check_run_metadata
+
+    carried = check_run_metadata(read_csv_metadata(path), prefix=f"{path.name}: metadata.")
+    carried.update(check_run_metadata(metadata))
     return store.import_run(
         kind=kind,
         parameters=params,
@@ -285,4 +336,6 @@ def import_csv(
         started_at=samples[0].t_wall,
         stopped_at=samples[-1].t_wall,
         batch_rows=IMPORT_BATCH_ROWS,
+        source_file=Path(str(params["file"])).name or path.name,
+        metadata=carried,
     )

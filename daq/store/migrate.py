@@ -3,6 +3,8 @@ migrations to head, all without an alembic.ini."""
 
 from __future__ import annotations
 
+import functools
+import json
 import os
 from pathlib import Path
 
@@ -23,6 +25,10 @@ def default_database_url() -> str:
     if url:
         return url
     return f"sqlite:///{default_database_path()}"
+
+
+#: JSON columns keep text as written (ü, not \u00fc), so a metadata search finds it.
+_json_text = functools.partial(json.dumps, ensure_ascii=False)
 
 
 def _set_sqlite_pragmas(dbapi_connection, _record) -> None:
@@ -50,11 +56,13 @@ def create_engine(url: str) -> sa.Engine:
         database = parsed.database or ""
         if database and database != ":memory:" and not database.startswith("file:"):
             Path(database).expanduser().parent.mkdir(parents=True, exist_ok=True)
-        engine = sa.create_engine(parsed, connect_args={"check_same_thread": False})
+        engine = sa.create_engine(
+            parsed, connect_args={"check_same_thread": False}, json_serializer=_json_text
+        )
         sa.event.listen(engine, "connect", _set_sqlite_pragmas)
         return engine
     if parsed.get_backend_name() == "postgresql":
-        return sa.create_engine(parsed, pool_pre_ping=True)
+        return sa.create_engine(parsed, pool_pre_ping=True, json_serializer=_json_text)
     raise ValueError(
         f"database URL {url!r}: backend {parsed.get_backend_name()!r} is not supported; "
         "use sqlite:/// or postgresql+psycopg://"
