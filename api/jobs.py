@@ -157,8 +157,14 @@ class JobRunner:
         self.service.broadcaster.publish_job(job.to_json())
 
     # -- procedures ----------------------------------------------------------------------
-    def start_procedure(self, kind: str, params: Any, label: str) -> Job:
-        """Start a validated procedure; ``JobConflict`` (→ 409) when the rig is held."""
+    def start_procedure(
+        self, kind: str, params: Any, label: str, metadata: dict[str, Any] | None = None
+    ) -> Job:
+        """Start a validated procedure; ``JobConflict`` (→ 409) when the rig is held.
+        ``metadata`` goes on every run it records (checked here: 422 before anything)."""
+        from daq.store.run_metadata import check_run_metadata
+
+        metadata = check_run_metadata(metadata) or None
         session = self.service.require_session()
         parameters = params.to_json()
         with self._lock:
@@ -178,7 +184,7 @@ class JobRunner:
             job.notes = [note] if note else []
             self._rig_job = job
         try:
-            self.service.submit(self._run_procedure(job, kind, params))
+            self.service.submit(self._run_procedure(job, kind, params, metadata))
         except Exception:
             with self._lock:
                 self._rig_job = None
@@ -202,7 +208,9 @@ class JobRunner:
 
         return report
 
-    async def _run_procedure(self, job: Job, kind: str, params: Any) -> None:
+    async def _run_procedure(
+        self, job: Job, kind: str, params: Any, metadata: dict[str, Any] | None = None
+    ) -> None:
         from daq.procedures.calibration import run_thrust_calibration
         from daq.procedures.motion import PreconditionFailed, run_motion_test
         from daq.procedures.params import ParameterError
@@ -221,6 +229,7 @@ class JobRunner:
             if job.state == "aborted":  # aborted while queued
                 return
             self._update(job, state="running", started_at=time.time(), message="starting")
+            session.run_metadata = metadata
             if kind == "thrust_calibration":
                 outcome, calibration = await run_thrust_calibration(
                     session, params, abort=job.abort, progress=report
@@ -262,6 +271,7 @@ class JobRunner:
                 job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
             )
         finally:
+            session.run_metadata = None
             with self._lock:
                 if self._rig_job is job:
                     self._rig_job = None

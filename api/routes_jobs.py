@@ -42,9 +42,9 @@ def start_tow(
     runner: RunnerDep,
 ) -> dict:
     """Start a tow test (the same parameters as ``rig tow``)."""
-    params = tow_parameters(body.model_dump(exclude_none=True), service.source.rig)
+    params = tow_parameters(body.parameters(), service.source.rig)
     label = f"tow {params.force_n:.4g} N" + (" (thrusters)" if params.drive == "thrusters" else "")
-    return runner.start_procedure("tow", params, label).to_json()
+    return runner.start_procedure("tow", params, label, body.run_metadata()).to_json()
 
 
 @router.post(
@@ -60,11 +60,11 @@ def start_spin(
     runner: RunnerDep,
 ) -> dict:
     """Start a spin test (the same parameters as ``rig spin``)."""
-    params = spin_parameters(body.model_dump(exclude_none=True), service.source.rig)
+    params = spin_parameters(body.parameters(), service.source.rig)
     label = f"spin {params.torque_nm:.4g} N·m" + (
         " (thrusters)" if params.drive == "thrusters" else ""
     )
-    return runner.start_procedure("spin", params, label).to_json()
+    return runner.start_procedure("spin", params, label, body.run_metadata()).to_json()
 
 
 @router.post(
@@ -80,9 +80,9 @@ def start_pendulum(
     runner: RunnerDep,
 ) -> dict:
     """Start a pendulum free-decay test (the same parameters as ``rig pendulum``)."""
-    params = pendulum_parameters(body.model_dump(exclude_none=True), service.source.rig)
+    params = pendulum_parameters(body.parameters(), service.source.rig)
     label = f"pendulum {params.start_angle_rad:.3g} rad"
-    return runner.start_procedure("pendulum", params, label).to_json()
+    return runner.start_procedure("pendulum", params, label, body.run_metadata()).to_json()
 
 
 @router.post(
@@ -98,8 +98,11 @@ def start_calibration(
     runner: RunnerDep,
 ) -> dict:
     """Start a thrust calibration sweep (``rig calibrate-thrusters``)."""
-    params = calibration_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    return runner.start_procedure("thrust_calibration", params, "thrust calibration").to_json()
+    params = calibration_parameters(body.parameters(), service.source.rig)
+    job = runner.start_procedure(
+        "thrust_calibration", params, "thrust calibration", body.run_metadata()
+    )
+    return job.to_json()
 
 
 @router.post(
@@ -115,9 +118,9 @@ def start_sequence(
     runner: RunnerDep,
 ) -> dict:
     """Start a sequence (the content of a sequence TOML file, as JSON)."""
-    seq = parse_sequence(body.model_dump(exclude_none=True), service.source.rig, source="api")
+    seq = parse_sequence(body.parameters(), service.source.rig, source="api")
     label = f"sequence {seq.name} ({len(seq.steps) * seq.repeats} runs)"
-    return runner.start_procedure("sequence", seq, label).to_json()
+    return runner.start_procedure("sequence", seq, label, body.run_metadata()).to_json()
 
 
 @router.post(

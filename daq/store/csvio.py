@@ -166,7 +166,8 @@ def _comment_metadata(path: Path, line: int, text: str) -> dict[str, Any] | None
     try:
         value = json.loads(body.removeprefix("metadata:"))
     except json.JSONDecodeError as err:
-        raise CsvImportError(f"{path}: line {line}: '# metadata:' is not JSON ({err.msg})") from None
+        message = f"{path}: line {line}: '# metadata:' is not JSON ({err.msg})"
+        raise CsvImportError(message) from None
     return value if isinstance(value, dict) else None
 
 

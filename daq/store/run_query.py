@@ -54,7 +54,9 @@ class RunFilter:
         if self.kind is not None:
             query = query.where(c.kind == checks.check_kind("kind", self.kind))
         if self.status is not None:
-            query = query.where(c.status == checks.check_choice("status", self.status, RUN_STATUSES))
+            query = query.where(
+                c.status == checks.check_choice("status", self.status, RUN_STATUSES)
+            )
         if self.vehicle is not None:
             query = query.where(vehicles.c.name == self.vehicle)
         if self.drive is not None:
@@ -64,7 +66,9 @@ class RunFilter:
         if self.source is not None:
             query = query.where(c.source == checks.check_choice("source", self.source, RUN_SOURCES))
         if self.tag is not None:
-            tagged = sa.select(run_tags.c.run_id).where(run_tags.c.tag == check_tag("tag", self.tag))
+            tagged = sa.select(run_tags.c.run_id).where(
+                run_tags.c.tag == check_tag("tag", self.tag)
+            )
             query = query.where(c.id.in_(tagged))
         if self.search is not None:
             query = query.where(self._search_clause(self.search))

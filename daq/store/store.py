@@ -325,6 +325,13 @@ class Store(EventsAndResults):
             row = conn.execute(self._run_query().where(runs_t.c.id == run.id)).one()
         return self._run_info(row)
 
+    def stored_metadata(self, run_id: str) -> dict[str, Any] | None:
+        """The metadata of the run with exactly this uuid ({} when none, None when there
+        is no such run): one indexed read, for caches of ended runs."""
+        with self.engine.connect() as conn:
+            row = conn.execute(sa.select(runs_t.c.metadata).where(runs_t.c.uuid == run_id)).first()
+        return None if row is None else dict(row[0] or {})
+
     def list_runs(
         self,
         *,

@@ -55,7 +55,9 @@ def test_csv_export_streams_every_sample(client, tow_job):
     r = client.get(f"/api/runs/{run_id}/samples.csv", headers=AUTH)
     assert r.status_code == 200
     assert r.headers["content-type"].startswith("text/csv")
-    rows = list(csv.DictReader(io.StringIO(r.text)))
+    comments = [line for line in r.text.splitlines() if line.startswith("#")]
+    assert comments[0].startswith(f'# run: {{"id": "{run_id}"') and len(comments) == 2
+    rows = list(csv.DictReader(line for line in io.StringIO(r.text) if not line.startswith("#")))
     samples = client.get(f"/api/runs/{run_id}/samples?limit=100000", headers=AUTH).json()
     assert [int(row["seq"]) for row in rows] == samples["seq"]
     assert float(rows[-1]["tow_position"]) == samples["channels"]["tow_position"][-1]
