@@ -8,37 +8,53 @@ See docs/storage.md. Typical use::
     recorder = RunRecorder(store, run_id)  # the clock's consumer calls recorder.put(sample)
 """
 
+from importlib import import_module
 from typing import TYPE_CHECKING, Any
-
-from daq.store.migrate import default_database_path, default_database_url
-from daq.store.recorder import RecorderStats, RunRecorder
-from daq.store.records import (
-    AmbiguousRunId,
-    DuplicateSample,
-    EventInfo,
-    ResultInfo,
-    ResultNotFound,
-    RunInfo,
-    RunNotFound,
-    SampleTable,
-)
-from daq.store.schema import END_STATUSES, RUN_STATUSES
-from daq.store.store import Store
 
 if TYPE_CHECKING:
     from daq.store.csvio import export_run_csv, export_run_json, import_csv
+    from daq.store.migrate import default_database_path, default_database_url
+    from daq.store.recorder import RecorderStats, RunRecorder
+    from daq.store.records import (
+        AmbiguousRunId,
+        DuplicateSample,
+        EventInfo,
+        ResultInfo,
+        ResultNotFound,
+        RunInfo,
+        RunNotFound,
+        SampleTable,
+    )
+    from daq.store.schema import END_STATUSES, RUN_STATUSES
+    from daq.store.store import Store
 
-#: Names served from daq.store.csvio on first use (it imports numpy and the estimator's
-#: CSV rules; listing runs needs neither).
-_CSVIO = ("export_run_csv", "export_run_json", "import_csv")
+#: Where each public name lives; imported on first use, so ``daq.store.run_metadata`` or
+#: ``daq.store.records`` come without SQLAlchemy, and listing runs without numpy and the
+#: estimator's CSV rules (csvio).
+_HOME = {
+    "export_run_csv": "csvio",
+    "export_run_json": "csvio",
+    "import_csv": "csvio",
+    "default_database_path": "migrate",
+    "default_database_url": "migrate",
+    "RecorderStats": "recorder",
+    "RunRecorder": "recorder",
+    "END_STATUSES": "schema",
+    "RUN_STATUSES": "schema",
+    "Store": "store",
+    **dict.fromkeys(
+        ("AmbiguousRunId", "DuplicateSample", "EventInfo", "ResultInfo", "ResultNotFound",
+         "RunInfo", "RunNotFound", "SampleTable"),
+        "records",
+    ),
+}  # fmt: skip
 
 
 def __getattr__(name: str) -> Any:
-    if name in _CSVIO:
-        from daq.store import csvio
-
-        return getattr(csvio, name)
-    raise AttributeError(f"module 'daq.store' has no attribute {name!r}")
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module 'daq.store' has no attribute {name!r}")
+    return getattr(import_module(f"daq.store.{home}"), name)
 
 
 __all__ = [

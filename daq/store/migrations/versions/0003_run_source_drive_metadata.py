@@ -66,7 +66,8 @@ def upgrade() -> None:
     for row in conn.execute(sa.select(runs.c.id, runs.c.kind, runs.c.parameters)).all():
         params = row.parameters if isinstance(row.parameters, dict) else {}
         imported = params.get("source") == "import"
-        source_file = str(params["file"])[-255:] if imported and params.get("file") else None
+        name = str(params.get("file") or "").rsplit("/", 1)[-1][-255:]
+        source_file = name if imported and name else None
         conn.execute(
             sa.update(runs)
             .where(runs.c.id == row.id)
