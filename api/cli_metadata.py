@@ -54,6 +54,9 @@ def metadata_from_options(
         for pair in given.get("meta") or ():
             key, value = parse_meta_pair(pair)
             free[key] = value
+    except ValueError as err:
+        fail(f"--meta {err}")
+    try:
         checked = check_run_metadata(known, prefix="")
     except ValueError as err:
         fail(re.sub(r"--tag\[\d+\]", "--tag", flag_names(ctx, str(err))))

@@ -3,6 +3,7 @@ drive, source, tag and text with a total, and the local-day window."""
 
 from __future__ import annotations
 
+import re
 from datetime import UTC, date, datetime, timedelta, timezone
 from zoneinfo import ZoneInfo
 
@@ -105,7 +106,7 @@ def test_days_are_local_and_until_includes_its_whole_day() -> None:
     assert parse_tz("tz", "+05:30").utcoffset(None) == timedelta(hours=5, minutes=30)
     assert parse_tz("tz", "UTC") is UTC and parse_tz("tz", None) is None
     for bad, call in (("23/11/2026", parse_moment), ("Mars/Base", parse_tz), ("+15:00", parse_tz)):
-        with pytest.raises(ValueError, match=f"^x: '{bad}' is not allowed"):
+        with pytest.raises(ValueError, match=f"^x: '{re.escape(bad)}' is not allowed"):
             call("x", bad)
 
 
