@@ -121,6 +121,9 @@ class RigSession:
         self._has_rig = False
         self.thrust = ThrustTarget()
         self.stale_zeroings = 0
+        #: Metadata (operator, water temperature, notes, tags, …) every run recorded from
+        #: now on gets; set by whoever starts a procedure (API job, CLI), checked on store.
+        self.run_metadata: dict | None = None
 
     # -- lifecycle -------------------------------------------------------------------------
     async def open(self, *, connect_timeout_s: float = 10.0) -> None:

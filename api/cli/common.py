@@ -73,7 +73,6 @@ def flag_names(ctx: click.Context | None, message: str) -> str:
 def user_errors():
     """Turn bad rig files, bad parameters and unknown or ambiguous ids into one clear
     message naming the CLI flag, and exit 2."""
-    from daq.config import RigConfigError
     from daq.procedures.params import ParameterError
     from daq.store.records import AmbiguousRunId
 
@@ -82,7 +81,13 @@ def user_errors():
         yield
     except ParameterError as err:
         fail(flag_names(ctx, "; ".join(err.lines())))
-    except (RigConfigError, AmbiguousRunId) as err:
+    except AmbiguousRunId as err:
+        fail(str(err))
+    except ValueError as err:
+        # A bad rig file; daq.config (pydantic) is loaded only if the block used it.
+        config = sys.modules.get("daq.config")
+        if config is None or not isinstance(err, config.RigConfigError):
+            raise
         fail(str(err))
     except KeyError as err:  # RunNotFound and friends carry their own message
         fail(err.args[0] if err.args else str(err))

@@ -53,6 +53,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "show",
         "Show one run: configuration, how it ended, events and results (id or unique...",
     ),
+    "annotate": (
+        "api.cli.runs",
+        "annotate",
+        "Set a run's metadata: operator, water temperature, notes, tags, free keys.",
+    ),
     "export": (
         "api.cli.runs",
         "export",
@@ -120,6 +125,10 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
 }
 
+#: Commands that record or import runs: they take --operator --water-temp --notes --tag
+#: --meta (api.cli.metadata), added here once rather than per command.
+RUN_STARTERS = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "import")
+
 #: Set to see the traceback of an unexpected error (for bug reports).
 DEBUG_ENV = "RIG_DEBUG"
 
@@ -160,7 +169,12 @@ class RigGroup(click.Group):
         if entry is None:
             return None
         module, attr, _ = entry
-        return getattr(importlib.import_module(module), attr)
+        command = getattr(importlib.import_module(module), attr)
+        if cmd_name in RUN_STARTERS:
+            from api.cli.metadata import with_run_metadata
+
+            command = with_run_metadata(command)
+        return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         limit = formatter.width - 6 - max(len(name) for name in COMMANDS)

@@ -21,6 +21,7 @@ from api.cli.common import (
     scenario_option,
     user_errors,
 )
+from api.cli.metadata import run_metadata
 from daq.procedures.params import (
     ParameterError,
     calibration_parameters,
@@ -60,6 +61,7 @@ def _run_procedure(
         with ProgressView(not as_json, title) as view:
             try:
                 async with RigSession(source, store) as session:
+                    session.run_metadata = run_metadata()  # --operator, --tag, … (cli_metadata)
                     return await body(session, params, abort, view)
             except (PreconditionFailed, RigInUse, DeviceError, ThrusterError) as err:
                 # Not ready, the rig in use, or a device that cannot be reached: exit 1.

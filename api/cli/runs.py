@@ -8,7 +8,15 @@ from typing import Any
 
 import click
 
-from api.cli.common import db_option, echo_json, fail, json_option, open_store, user_errors
+from api.cli.common import (
+    db_option,
+    echo_json,
+    fail,
+    flag_names,
+    json_option,
+    open_store,
+    user_errors,
+)
 from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.params import RUN_KINDS
 
@@ -26,54 +34,115 @@ def _summary(params: dict[str, Any]) -> str:
     return ""
 
 
+def _source(run) -> str:
+    return f"imported {run.source_file or ''}".strip() if run.source == "imported" else "recorded"
+
+
+class _Moment(click.ParamType):
+    """A day (YYYY-MM-DD, today, yesterday) or a date-time, in this machine's time zone."""
+
+    name = "DAY"
+
+    def convert(self, value, param, ctx):
+        from daq.store.day_window import parse_moment
+
+        if not isinstance(value, str):
+            return value
+        try:
+            return parse_moment("", value)
+        except ValueError as err:
+            self.fail(str(err).removeprefix(": "), param, ctx)
+
+
 @click.command("runs")
-@click.option(
-    "--kind",
-    type=click.Choice(RUN_KINDS),
-    help="Only runs of this kind.",
-)
+@click.option("--kind", type=click.Choice(RUN_KINDS), help="Only runs of this kind.")
 @click.option(
     "--status",
     type=click.Choice(["running", "completed", "aborted", "interrupted"]),
     help="Only this status.",
 )
+@click.option(
+    "--drive",
+    type=click.Choice(["weight", "thrusters", "none"]),
+    help="What moved the vehicle (none: nothing, e.g. a pendulum).",
+)
+@click.option(
+    "--source", type=click.Choice(["recorded", "imported"]), help="Recorded here or imported."
+)
 @click.option("--vehicle", help="Only runs of this vehicle.")
-@click.option("--since", type=click.DateTime(), help="Started at or after (local time).")
+@click.option("--tag", metavar="TAG", help="Only runs with this tag.")
+@click.option(
+    "--search",
+    metavar="TEXT",
+    help="Text in the metadata (operator, notes, tags, keys), vehicle, imported file or id.",
+)
+@click.option(
+    "--since",
+    type=_Moment(),
+    help="Started on or after this day (YYYY-MM-DD, today, yesterday; local) or date-time.",
+)
+@click.option(
+    "--until",
+    type=_Moment(),
+    help="Started on or before this day (the whole day included; local) or date-time.",
+)
 @click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
+@click.option(
+    "--offset", type=click.IntRange(0), default=0, show_default=True, help="Skip this many."
+)
 @db_option
 @json_option
-def runs(kind, status, vehicle, since, limit, db_url, as_json):
+def runs(
+    kind, status, drive, source, vehicle, tag, search, since, until, limit, offset, db_url,
+    as_json,
+):  # fmt: skip
     """List stored runs, newest first."""
+    from daq.store.day_window import start_window
+
+    low, high = start_window(since, until, datetime.now().astimezone().tzinfo)
+    filters = dict(kind=kind, status=status, vehicle=vehicle, drive=drive, source=source,
+                   tag=tag, search=search, since=low, until=high)  # fmt: skip
     store = open_store(db_url)
     try:
-        found = store.list_runs(
-            kind=kind,
-            status=status,
-            vehicle=vehicle,
-            since=since.astimezone() if since else None,
-            limit=limit,
-        )
+        with user_errors():
+            try:
+                found = store.list_runs(**filters, limit=limit, offset=offset)
+                total = store.count_runs(**filters)
+            except ValueError as err:
+                fail(flag_names(click.get_current_context(), str(err)))
         if as_json:
             echo_json([r.to_json() for r in found])
             return
         from rich.console import Console
         from rich.table import Table
 
-        table = Table("run", "kind", "input", "status", "started", "samples", "vehicle", box=None)
+        table = Table(
+            "run", "kind", "drive", "input", "status", "recorded", "samples", "vehicle",
+            "source", "tags", box=None,
+        )  # fmt: skip
         for r in found:
             status_text = r.status + (f" ({r.reason})" if r.reason else "")
             table.add_row(
                 r.id[:8],
                 r.kind,
+                r.drive or "—",
                 _summary(r.parameters),
                 status_text,
                 _when(r.started_at),
                 str(r.sample_count),
                 r.vehicle,
+                _source(r),
+                ", ".join(r.metadata.get("tags", [])),
             )
-        Console().print(table)
-        if not found:
-            click.echo("no runs stored yet: try `rig tow --force 24.5`", err=True)
+        Console(width=None if sys.stdout.isatty() else 200).print(table)
+        if not found and not total:
+            click.echo("no runs found (none stored yet? try `rig tow --force 24.5`)", err=True)
+        elif offset + len(found) < total or offset:
+            more = (
+                f"; --offset {offset + len(found)} for more" if offset + len(found) < total else ""
+            )
+            shown = f"{offset + 1}-{offset + len(found)}" if found else "none"
+            click.echo(f"runs {shown} of {total}{more}", err=True)
     finally:
         store.close()
 
@@ -97,17 +166,74 @@ def show(run_id, db_url, as_json):
             echo_json(data)
             return
         click.echo(f"run        {run.id}")
-        click.echo(f"kind       {run.kind}   {_summary(run.parameters)}")
+        click.echo(f"kind       {run.kind}   {_summary(run.parameters)}   drive {run.drive or '—'}")
         click.echo(f"status     {run.status}" + (f" ({run.reason})" if run.reason else ""))
         click.echo(f"vehicle    {run.vehicle} on {run.rig_name}")
-        click.echo(f"started    {_when(run.started_at)}   stopped {_when(run.stopped_at)}")
+        if run.source == "imported":
+            click.echo(f"imported   {_when(run.imported_at)} from {run.source_file}")
+        click.echo(f"recorded   {_when(run.started_at)}   stopped {_when(run.stopped_at)}")
         click.echo(f"samples    {run.sample_count}   channels {', '.join(run.channel_names)}")
         click.echo(f"parameters {run.parameters}")
+        for key, value in run.metadata.items():
+            shown = ", ".join(value) if key == "tags" else value
+            click.echo(f"{key:<10} {shown}" if len(key) <= 10 else f"{key} {shown}")
         click.echo(f"software   {run.software_version}")
         for e in events:
             click.echo(f"  {_when(e.time)}  {e.kind:<8} {e.message}")
         for r in results:
             click.echo(f"  result #{r.id} {r.kind} ({_when(r.created_at)})")
+    finally:
+        store.close()
+
+
+def _annotate_options(command):
+    from api.cli.metadata import metadata_options
+
+    command.params[1:1] = [
+        *metadata_options(tag_help="Add a tag (repeat for more)."),
+        click.Option(["--untag"], multiple=True, metavar="TAG", help="Remove a tag."),
+        click.Option(
+            ["--unset"], multiple=True, metavar="KEY", help="Remove a key (e.g. notes, ballast)."
+        ),
+    ]
+    return command
+
+
+@_annotate_options
+@click.command("annotate")
+@click.argument("run_id")
+@db_option
+@json_option
+def annotate(run_id, untag, unset, db_url, as_json, **given):
+    """Set a run's metadata: operator, water temperature, notes, tags, free keys.
+
+    Options given replace the stored values; --tag adds, --untag and --unset remove. Works
+    on any run, recorded or imported; prints the metadata as stored."""
+    from api.cli.metadata import metadata_from_options
+
+    ctx = click.get_current_context()
+    changes = metadata_from_options(ctx, given)
+    store = open_store(db_url)
+    try:
+        with user_errors():
+            run = store.get_run(run_id)
+        for key in unset:
+            changes[key] = None
+        if "tags" in changes or untag:
+            tags = [t for t in run.metadata.get("tags", []) if t not in untag]
+            changes["tags"] = list(dict.fromkeys([*tags, *changes.get("tags", [])])) or None
+        if not changes:
+            fail("nothing to change: give --operator, --water-temp, --notes, --tag, --untag, "
+                 "--meta or --unset")  # fmt: skip
+        try:
+            run = store.set_run_metadata(run.id, changes)
+        except ValueError as err:
+            fail(flag_names(ctx, str(err)).replace("metadata.", "--unset ", 1))
+        if as_json:
+            echo_json(run.metadata)
+        else:
+            for key, value in run.metadata.items():
+                click.echo(f"{key}: {', '.join(value) if key == 'tags' else value}")
     finally:
         store.close()
 
@@ -234,6 +360,7 @@ def import_(
     Estimation finds the free-motion window itself (tow_release/spin_release and
     end_of_travel columns when present, else the motion); --release-time/--end-time
     override it."""
+    from api.cli.metadata import run_metadata
     from daq.procedures.params import ParameterError
     from daq.store import import_csv
 
@@ -279,6 +406,7 @@ def import_(
             run_id = import_csv(
                 store,
                 file,
+                metadata=run_metadata(),
                 kind=kind,
                 parameters=params,
                 time_unit=time_unit,

@@ -16,7 +16,9 @@ from daq.procedures.sequence import parse_sequence
 
 def procedure_from_request(kind: str, request: dict[str, Any], rig: Any) -> tuple[Any, str]:
     """``(parameters, label)`` of a ``kind`` job asked for with ``request`` (the JSON body);
-    ``ParameterError`` / ``ValueError`` name the bad field."""
+    ``ParameterError`` / ``ValueError`` name the bad field. The request's ``metadata`` is
+    for the runs, not the procedure (:meth:`JobRunner.start_procedure` checks it)."""
+    request = {k: v for k, v in request.items() if k != "metadata"}
     if kind == "tow":
         params = tow_parameters(request, rig)
         drive = " (thrusters)" if params.drive == "thrusters" else ""

@@ -60,6 +60,13 @@ SAVE_EVERY_S = 1.0
 __all__ = ["ACTIVE", "FINAL", "PROCEDURES", "Job", "JobConflict", "JobNotFound", "JobRunner"]
 
 
+def run_metadata(job: Job) -> dict[str, Any] | None:
+    """The metadata a procedure job puts on its runs (from its request; None without)."""
+    from daq.store.run_metadata import check_run_metadata
+
+    return check_run_metadata((job.request or {}).get("metadata")) or None
+
+
 class JobRunner:
     """Starts, tracks, queues and stops jobs for one ``RigService``."""
 
@@ -209,7 +216,11 @@ class JobRunner:
         queue: bool = True,
     ) -> Job:
         """Start a validated procedure, or queue it behind the job holding the rig (and the
-        jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409)."""
+        jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409).
+        The request's ``metadata`` goes on every run it records (checked here: 422 first)."""
+        from daq.store.run_metadata import check_run_metadata
+
+        check_run_metadata((request or {}).get("metadata"))
         session = self.service.require_session()
         parameters = params.to_json()
         note = getattr(params, "adjustment", lambda: None)()
@@ -409,6 +420,7 @@ class JobRunner:
             if job.state == "aborted":  # aborted while queued
                 return
             self._update(job, state="running", started_at=time.time(), message="starting")
+            session.run_metadata = run_metadata(job)
             if kind == "thrust_calibration":
                 outcome, calibration = await run_thrust_calibration(
                     session, params, abort=job.abort, progress=report
@@ -450,6 +462,7 @@ class JobRunner:
                 job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
             )
         finally:
+            session.run_metadata = None
             with self._lock:
                 if self._rig_job is job:
                     self._rig_job = None

@@ -1,8 +1,9 @@
 """Serialised metadata of ended runs, kept in memory for fast repeated reads.
 
-A run that has ended (completed, aborted, interrupted) never changes its metadata, so
-its JSON can be built once and served from memory; running runs and id prefixes always
-go to the database.
+A run that has ended (completed, aborted, interrupted) never changes, except for its
+free ``metadata`` (annotations, by this process or another). So an entry remembers the
+metadata it was built with and is served only while the stored metadata is the same
+(one indexed read of one column); running runs and id prefixes always go to the database.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import json
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 
 from daq.store import RunInfo
 
@@ -21,27 +23,32 @@ class EndedRunCache:
 
     def __init__(self, max_runs: int = 1000) -> None:
         self.max_runs = max_runs
-        self._items: OrderedDict[tuple[str, bool], bytes] = OrderedDict()
+        self._items: OrderedDict[tuple[str, bool], tuple[dict, bytes]] = OrderedDict()
         self._lock = threading.Lock()
         self.hits = 0
         self.misses = 0
 
-    def get(self, run_id: str, include_toml: bool) -> bytes | None:
+    def get(
+        self, run_id: str, include_toml: bool, stored_metadata: Callable[[str], dict | None]
+    ) -> bytes | None:
+        """The remembered JSON, if any and ``stored_metadata(run_id)`` is still the same."""
         with self._lock:
-            body = self._items.get((run_id, include_toml))
-            if body is None:
+            item = self._items.get((run_id, include_toml))
+        if item is None or stored_metadata(run_id) != item[0]:
+            with self._lock:
                 self.misses += 1
-                return None
+            return None
+        with self._lock:
             self._items.move_to_end((run_id, include_toml))
             self.hits += 1
-            return body
+        return item[1]
 
     def put(self, run: RunInfo, include_toml: bool) -> bytes:
         """The run's JSON; remembered when the run has ended."""
         body = json.dumps(run.to_json(include_toml=include_toml), allow_nan=False).encode()
         if run.status in ENDED:
             with self._lock:
-                self._items[(run.id, include_toml)] = body
+                self._items[(run.id, include_toml)] = (run.metadata, body)
                 while len(self._items) > self.max_runs:
                     self._items.popitem(last=False)
         return body

@@ -48,8 +48,39 @@ def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
     return {code: {"model": ErrorBody, "description": text[code]} for code in codes}
 
 
+# ---- run metadata ---------------------------------------------------------------------
+class RunMetadataIn(BaseModel):
+    """Free metadata of a run (checked by ``daq.store.run_metadata``): the four keys below
+    and any other lower-case key with a text, number or true/false value. In a PATCH a
+    ``null`` removes the key."""
+
+    model_config = ConfigDict(extra="allow")
+    operator: str | None = Field(None, max_length=200, description="Who ran the test.")
+    water_temperature_c: float | None = Field(None, description="Water temperature, °C (-2…50).")
+    notes: str | None = Field(None, max_length=10_000)
+    tags: list[str] | None = Field(
+        None, max_length=20, description="Tags to find the run by, e.g. ['fins-v2']."
+    )
+
+
+class _ProcedureRequest(_Strict):
+    """What every procedure start takes besides its own parameters."""
+
+    metadata: RunMetadataIn | None = Field(
+        None, description="Stored on every run the procedure records (see PATCH .../metadata)."
+    )
+
+    def parameters(self) -> dict[str, Any]:
+        """The procedure's own parameters, as given (unset ones left out)."""
+        return self.model_dump(exclude_none=True, exclude={"metadata"})
+
+    def run_metadata(self) -> dict[str, Any] | None:
+        """The ``metadata`` object as given (None when absent)."""
+        return None if self.metadata is None else self.metadata.model_dump(exclude_unset=True)
+
+
 # ---- procedures -------------------------------------------------------------------------
-class TowRequest(_Strict):
+class TowRequest(_ProcedureRequest):
     """A tow test: ``force_n`` or ``weight_kg`` (force = weight × the rig's g); ``drive``
     weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map)."""
 
@@ -61,7 +92,7 @@ class TowRequest(_Strict):
     baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")
 
 
-class SpinRequest(_Strict):
+class SpinRequest(_ProcedureRequest):
     """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters."""
 
     torque_nm: float | None = Field(None, description="Torque, N·m (0 < τ ≤ max_torque_nm).")
@@ -72,7 +103,7 @@ class SpinRequest(_Strict):
     baseline_s: float | None = None
 
 
-class PendulumRequest(_Strict):
+class PendulumRequest(_ProcedureRequest):
     """A pendulum free-decay test (needs a rig file with a ``[pendulum]`` section)."""
 
     start_angle_rad: float | None = Field(
@@ -85,7 +116,7 @@ class PendulumRequest(_Strict):
     baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")
 
 
-class CalibrationRequest(_Strict):
+class CalibrationRequest(_ProcedureRequest):
     """A thrust calibration sweep (commands as fractions of full thrust)."""
 
     commands: list[float] | None = Field(
@@ -104,7 +135,7 @@ class SequenceStep(BaseModel):
     kind: str = Field(description="tow | spin | pendulum | thrust_calibration")
 
 
-class SequenceRequest(_Strict):
+class SequenceRequest(_ProcedureRequest):
     """A sequence, the same content as a sequence TOML file."""
 
     name: str | None = Field(None, max_length=200)
@@ -298,6 +329,17 @@ class RunOut(BaseModel):
     software_version: str
     rig_toml: str | None = None
     scenario_toml: str | None = None
+    drive: Literal["weight", "thrusters"] | None = Field(
+        None, description="What moved the vehicle (null: nothing, e.g. a pendulum)."
+    )
+    source: Literal["recorded", "imported"] = "recorded"
+    source_file: str | None = Field(None, description="The imported file's name.")
+    imported_at: str | None = Field(
+        None, description="When it was imported (started_at stays when it was recorded)."
+    )
+    metadata: dict[str, Any] = Field(
+        {}, description="Operator, water_temperature_c, notes, tags and free keys."
+    )
 
 
 class SamplesOut(BaseModel):

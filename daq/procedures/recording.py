@@ -111,6 +111,7 @@ class RecordedRun:
             vehicle=s.rig.vehicle.name,
             rig_toml=s.source.rig_toml,
             scenario_toml=s.source.scenario_toml,
+            metadata=s.run_metadata,
         )
         self.run_id = run_id
         await s.note_run(run_id)

@@ -9,22 +9,57 @@ See docs/storage.md. Typical use::
     run = store.load(run_id)              # in a notebook: run.to_pandas(), run.to_xarray()
 """
 
-from daq.store.csvio import export_run_csv, export_run_json, import_csv
-from daq.store.jobs import JobRepository
-from daq.store.migrate import default_database_path, default_database_url
-from daq.store.recorder import RecorderStats, RunRecorder
-from daq.store.records import (
-    AmbiguousRunId,
-    DuplicateSample,
-    EventInfo,
-    ResultInfo,
-    ResultNotFound,
-    RunInfo,
-    RunNotFound,
-    SampleTable,
-)
-from daq.store.schema import END_STATUSES, RUN_STATUSES, JobState
-from daq.store.store import Store
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from daq.store.csvio import export_run_csv, export_run_json, import_csv
+    from daq.store.jobs import JobRepository
+    from daq.store.migrate import default_database_path, default_database_url
+    from daq.store.recorder import RecorderStats, RunRecorder
+    from daq.store.records import (
+        AmbiguousRunId,
+        DuplicateSample,
+        EventInfo,
+        ResultInfo,
+        ResultNotFound,
+        RunInfo,
+        RunNotFound,
+        SampleTable,
+    )
+    from daq.store.schema import END_STATUSES, RUN_STATUSES, JobState
+    from daq.store.store import Store
+
+#: Where each public name lives; imported on first use, so ``daq.store.run_metadata`` or
+#: ``daq.store.records`` come without SQLAlchemy, and listing runs without numpy and the
+#: estimator's CSV rules (csvio).
+_HOME = {
+    "export_run_csv": "csvio",
+    "export_run_json": "csvio",
+    "import_csv": "csvio",
+    "default_database_path": "migrate",
+    "default_database_url": "migrate",
+    "RecorderStats": "recorder",
+    "RunRecorder": "recorder",
+    "END_STATUSES": "schema",
+    "RUN_STATUSES": "schema",
+    "JobState": "schema",
+    "JobRepository": "jobs",
+    "Store": "store",
+    **dict.fromkeys(
+        ("AmbiguousRunId", "DuplicateSample", "EventInfo", "ResultInfo", "ResultNotFound",
+         "RunInfo", "RunNotFound", "SampleTable"),
+        "records",
+    ),
+}  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module 'daq.store' has no attribute {name!r}")
+    return getattr(import_module(f"daq.store.{home}"), name)
+
 
 __all__ = [
     "END_STATUSES",

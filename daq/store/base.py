@@ -13,7 +13,6 @@ import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql as pg_dialect
 from sqlalchemy.dialects import sqlite as sqlite_dialect
 
-from daq.config import PACKAGE_ROOT
 from daq.store import checks
 from daq.store.migrate import create_engine, default_database_url, upgrade_to_head
 from daq.store.packing import SamplePacker
@@ -36,6 +35,8 @@ def software_version() -> str:
         return importlib_metadata.version("towrig")
     except importlib_metadata.PackageNotFoundError:
         pass
+    from daq.config import PACKAGE_ROOT  # here: daq.config imports pydantic
+
     try:
         with open(PACKAGE_ROOT / "pyproject.toml", "rb") as f:
             return str(tomllib.load(f)["project"]["version"])

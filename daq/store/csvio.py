@@ -9,6 +9,9 @@ lines (they are skipped) and needs a header with ``t`` (s, strictly increasing) 
 too); ``seq``, ``t_mono``, ``t_wall`` and ``quality`` are used when present and every
 other column becomes a channel (``tow_release``/``spin_release``/``end_of_travel`` among
 them tell estimation the release and the end of travel, as an export writes them).
+
+An import takes the ``# metadata: {…}`` line (the run's metadata, JSON) back as the new
+run's metadata.
 """
 
 from __future__ import annotations
@@ -68,6 +71,7 @@ def csv_header(run: RunInfo, events: list[EventInfo], first_t_mono: float) -> li
         if any(c in text for c in "\r\n"):
             text = json.dumps(text, ensure_ascii=False)
         lines.append(f"{COMMENT} {key}: {text}")
+    lines.append(f"{COMMENT} metadata: {json.dumps(run.metadata, ensure_ascii=False)}")
     lines.append(f"{COMMENT} units: {units_line(column_infos(run))}")
     return lines
 
@@ -195,6 +199,31 @@ def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]
     return renamed, channels
 
 
+def _comment_metadata(path: Path, line: int, text: str) -> dict[str, Any] | None:
+    """The metadata of a ``# metadata: {…}`` line (None for any other comment)."""
+    body = text.lstrip("#").strip()
+    if not body.startswith("metadata:"):
+        return None
+    try:
+        value = json.loads(body.removeprefix("metadata:"))
+    except json.JSONDecodeError as err:
+        message = f"{path}: line {line}: '# metadata:' is not JSON ({err.msg})"
+        raise CsvImportError(message) from None
+    return value if isinstance(value, dict) else None
+
+
+def read_csv_metadata(path: str | Path) -> dict[str, Any]:
+    """The ``# metadata:`` comment of a CSV's leading comment lines ({} when none)."""
+    path = Path(path)
+    found: dict[str, Any] = {}
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for line, text in enumerate(f, start=1):
+            if not text.startswith("#"):
+                break
+            found = _comment_metadata(path, line, text) or found
+    return found
+
+
 def _read_samples(
     path: Path, kind: str, time_scale: float = 1.0
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
@@ -304,8 +333,11 @@ def import_csv(
     time_unit: str = "s",
     release_time_s: float | None = None,
     end_time_s: float | None = None,
+    metadata: dict[str, Any] | None = None,
 ) -> str:
     """Import a CSV as a completed ``kind`` (``tow``/``spin``) run; returns the new run id.
+    The run is marked imported from the file's name (now), keeps the recorded start time
+    and takes the file's ``# metadata:`` comment updated by ``metadata``.
     Nothing is written when the file or parameters are bad (all is parsed first). Up to
     ``IMPORT_BATCH_ROWS`` samples go in one transaction; a longer run in transactions of
     that many, so a live run sharing the database is never locked out for long.
@@ -331,6 +363,10 @@ def import_csv(
         samples = [
             Sample(s.seq, s.t_mono, start + (s.t_wall - t0), s.channels, s.quality) for s in samples
         ]
+    from daq.store.run_metadata import check_run_metadata
+
+    carried = check_run_metadata(read_csv_metadata(path), prefix=f"{path.name}: metadata.")
+    carried.update(check_run_metadata(metadata))
     return store.import_run(
         kind=kind,
         parameters=params,
@@ -342,4 +378,6 @@ def import_csv(
         started_at=samples[0].t_wall,
         stopped_at=samples[-1].t_wall,
         batch_rows=IMPORT_BATCH_ROWS,
+        source_file=Path(str(params["file"])).name or path.name,
+        metadata=carried,
     )

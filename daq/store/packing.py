@@ -7,10 +7,12 @@ import math
 import struct
 from collections.abc import Sequence
 from operator import itemgetter
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from daq.sample import Sample
+
+if TYPE_CHECKING:  # numpy is imported where samples are read: listing runs needs none
+    import numpy as np
 
 NAN = math.nan
 
@@ -64,6 +66,8 @@ class SamplePacker:
 
     def unpack(self, blobs: list[bytes]) -> dict[str, np.ndarray]:
         """Column arrays name → float64 from the packed BLOBs of consecutive rows."""
+        import numpy as np
+
         width = len(self.channel_names)
         if not blobs or width == 0:
             return {name: np.empty(0, dtype=np.float64) for name in self.channel_names}

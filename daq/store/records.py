@@ -6,11 +6,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import Any, overload
-
-import numpy as np
+from typing import TYPE_CHECKING, Any, overload
 
 from daq.sample import Quality, Sample
+
+if TYPE_CHECKING:  # annotations only: listing runs starts without numpy
+    import numpy as np
 
 
 class RunNotFound(KeyError):
@@ -66,6 +67,14 @@ class RunInfo:
     software_version: str
     rig_toml: str
     scenario_toml: str | None
+    #: weight | thrusters, None when nothing drove the vehicle (a pendulum).
+    drive: str | None = None
+    #: recorded | imported; an import keeps the original start as ``started_at``.
+    source: str = "recorded"
+    source_file: str | None = None
+    imported_at: datetime | None = None
+    #: Operator, water temperature, notes, tags, free keys (daq.store.run_metadata).
+    metadata: dict[str, Any] = field(default_factory=dict)
 
     @property
     def duration_s(self) -> float | None:
@@ -90,6 +99,11 @@ class RunInfo:
             "vehicle": self.vehicle,
             "channel_names": list(self.channel_names),
             "software_version": self.software_version,
+            "drive": self.drive,
+            "source": self.source,
+            "source_file": self.source_file,
+            "imported_at": _iso(self.imported_at),
+            "metadata": self.metadata,
         }
         if include_toml:
             out["rig_toml"] = self.rig_toml

@@ -26,6 +26,10 @@ metadata = sa.MetaData(
 RUN_STATUSES = ("running", "completed", "aborted", "interrupted")
 #: Statuses ``finish_run`` accepts.
 END_STATUSES = ("completed", "aborted", "interrupted")
+#: Where a run's samples came from: recorded on this rig, or imported from a file.
+RUN_SOURCES = ("recorded", "imported")
+#: What moved the vehicle (``runs.drive``; NULL when nothing did, e.g. a pendulum).
+RUN_DRIVES = ("weight", "thrusters")
 
 
 class JobState(StrEnum):
@@ -86,9 +90,26 @@ runs = sa.Table(
     # Identity of the owner process, so a reused pid or a reboot is not taken for it.
     sa.Column("owner_boot_id", sa.String(64), nullable=True),
     sa.Column("owner_start_ticks", sa.BigInteger, nullable=True),
+    # Found and told apart in lists (revision 0003): the drive, where the data came from
+    # (an import keeps the original start as started_at), and free metadata (operator,
+    # water temperature, notes, tags, any key; see daq.store.run_metadata).
+    sa.Column("drive", sa.String(20), nullable=True, index=True),
+    sa.Column("source", sa.String(20), nullable=False, server_default="recorded", index=True),
+    sa.Column("source_file", sa.String(255), nullable=True),
+    sa.Column("imported_at", sa.Float(precision=53), nullable=True),
+    sa.Column("metadata", sa.JSON, nullable=True),
     sa.CheckConstraint(
         "status IN ('running', 'completed', 'aborted', 'interrupted')", name="ck_runs_status"
     ),
+)
+
+#: The tags of ``runs.metadata`` as rows, so a tag filter is an indexed lookup
+#: (written with the metadata, in the same transaction).
+run_tags = sa.Table(
+    "run_tags",
+    metadata,
+    sa.Column("run_id", sa.ForeignKey("runs.id", ondelete="CASCADE"), primary_key=True),
+    sa.Column("tag", sa.String(40), primary_key=True, index=True),
 )
 
 samples = sa.Table(

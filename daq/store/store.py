@@ -12,7 +12,6 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import sqlalchemy as sa
 
 from daq.sample import Sample
@@ -33,12 +32,14 @@ from daq.store.records import (
     SampleTable,
     to_datetime,
 )
+from daq.store.run_metadata import check_run_metadata, merge_run_metadata
+from daq.store.run_query import RunFilter, drive_of
 from daq.store.schema import (
     END_STATUSES,
-    RUN_STATUSES,
     events,
     results,
     rigs,
+    run_tags,
     vehicles,
 )
 from daq.store.schema import runs as runs_t
@@ -79,9 +80,14 @@ class Store(EventsAndResults, ImportedCalibrations):
         rig_toml: str,
         scenario_toml: str | None,
         started_at: float,
+        metadata: dict[str, Any] | None = None,
+        source_file: str | None = None,
     ) -> tuple[str, int]:
         checks.check_kind("kind", kind)
         checks.check_json("parameters", parameters)
+        meta = check_run_metadata(metadata)
+        if source_file is not None:
+            source_file = checks.check_name("source_file", source_file)[-255:]
         names = checks.check_channel_names(channel_names)
         rig_name = checks.check_name("rig_name", rig_name)
         vehicle = checks.check_name("vehicle", vehicle)
@@ -108,10 +114,37 @@ class Store(EventsAndResults, ImportedCalibrations):
                 owner_pid=os.getpid(),
                 owner_boot_id=boot_id,
                 owner_start_ticks=start_ticks,
+                drive=drive_of(kind, parameters),
+                source="recorded" if source_file is None else "imported",
+                source_file=source_file,
+                imported_at=None if source_file is None else round(time.time(), 6),
+                metadata=meta or None,
             )
         )
         pk = inserted_id(inserted)
+        self._write_tags(conn, pk, meta.get("tags", []))
         return run_uuid, pk
+
+    @staticmethod
+    def _write_tags(conn: sa.Connection, pk: int, tags: Sequence[str]) -> None:
+        conn.execute(sa.delete(run_tags).where(run_tags.c.run_id == pk))
+        if tags:
+            conn.execute(sa.insert(run_tags), [{"run_id": pk, "tag": t} for t in tags])
+
+    def set_run_metadata(self, run_id: str, changes: dict[str, Any]) -> RunInfo:
+        """Update a run's metadata (any status, imported runs too): the keys given replace
+        the stored ones, a None value removes its key, ``tags`` replaces the tag list.
+        Returns the run as stored after the change."""
+        checked = check_run_metadata(changes, allow_null=True)
+        with self.transaction() as conn:
+            run = self._resolve(conn, run_id)
+            merged = merge_run_metadata(dict(run._mapping["metadata"] or {}), checked)
+            conn.execute(
+                sa.update(runs_t).where(runs_t.c.id == run.id).values(metadata=merged or None)
+            )
+            if "tags" in checked:
+                self._write_tags(conn, run.id, merged.get("tags", []))
+        return self.get_run(run.uuid)
 
     def create_run(
         self,
@@ -123,8 +156,11 @@ class Store(EventsAndResults, ImportedCalibrations):
         vehicle: str,
         rig_toml: str,
         scenario_toml: str | None = None,
+        metadata: dict[str, Any] | None = None,
     ) -> str:
-        """Start a run (status ``running``, owned by this process); returns its uuid."""
+        """Start a run (status ``running``, owned by this process); returns its uuid.
+        ``metadata``: operator, water temperature, notes, tags, free keys (checked by
+        :func:`daq.store.run_metadata.check_run_metadata`)."""
         with self.transaction() as conn:
             run_uuid, _ = self._insert_run(
                 conn,
@@ -136,6 +172,7 @@ class Store(EventsAndResults, ImportedCalibrations):
                 rig_toml=rig_toml,
                 scenario_toml=scenario_toml,
                 started_at=time.time(),
+                metadata=metadata,
             )
         return run_uuid
 
@@ -194,8 +231,13 @@ class Store(EventsAndResults, ImportedCalibrations):
         status: str = "completed",
         reason: str | None = None,
         batch_rows: int | None = None,
+        source_file: str | None = None,
+        metadata: dict[str, Any] | None = None,
     ) -> str:
         """Store a whole, already finished run in one transaction (nothing on error).
+
+        With ``source_file`` (the original file's name) the run is marked ``imported``
+        (now, ``imported_at``); ``started_at`` stays when it was recorded.
 
         With ``batch_rows``, a longer run is written in transactions of that many samples
         so the database's write lock is never held for long (a live run's recorder and
@@ -210,6 +252,8 @@ class Store(EventsAndResults, ImportedCalibrations):
             "rig_toml": rig_toml,
             "scenario_toml": scenario_toml,
             "started_at": started_at,
+            "metadata": metadata,
+            "source_file": source_file,
         }
         if batch_rows is not None and len(samples) > batch_rows:
             return self._import_in_batches(
@@ -278,6 +322,11 @@ class Store(EventsAndResults, ImportedCalibrations):
             software_version=row.software_version,
             rig_toml=row.rig_toml,
             scenario_toml=row.scenario_toml,
+            drive=row.drive,
+            source=row.source,
+            source_file=row.source_file,
+            imported_at=to_datetime(row.imported_at),
+            metadata=dict(row._mapping["metadata"] or {}),
         )
 
     def get_run(self, run_id_or_unique_prefix: str) -> RunInfo:
@@ -294,39 +343,50 @@ class Store(EventsAndResults, ImportedCalibrations):
 
         return LoadedRun.from_store(self, run_id_or_unique_prefix)
 
+    def stored_metadata(self, run_id: str) -> dict[str, Any] | None:
+        """The metadata of the run with exactly this uuid ({} when none, None when there
+        is no such run): one indexed read, for caches of ended runs."""
+        with self.engine.connect() as conn:
+            row = conn.execute(sa.select(runs_t.c.metadata).where(runs_t.c.uuid == run_id)).first()
+        return None if row is None else dict(row[0] or {})
+
     def list_runs(
         self,
         *,
         kind: str | None = None,
         status: str | None = None,
         vehicle: str | None = None,
+        drive: str | None = None,
+        source: str | None = None,
+        tag: str | None = None,
+        search: str | None = None,
         since: datetime | None = None,
         until: datetime | None = None,
         limit: int = 100,
         offset: int = 0,
     ) -> list[RunInfo]:
-        """Runs, newest first, filtered by kind, status, vehicle name and start time
-        (``since`` ≤ start < ``until``; a naive datetime is taken as UTC)."""
-        query = self._run_query()
-        if kind is not None:
-            query = query.where(runs_t.c.kind == checks.check_kind("kind", kind))
-        if status is not None:
-            query = query.where(
-                runs_t.c.status == checks.check_choice("status", status, RUN_STATUSES)
-            )
-        if vehicle is not None:
-            query = query.where(vehicles.c.name == vehicle)
-        if since is not None:
-            query = query.where(runs_t.c.started_at >= checks.unix_seconds("since", since))
-        if until is not None:
-            query = query.where(runs_t.c.started_at < checks.unix_seconds("until", until))
+        """Runs, newest first, filtered as :class:`daq.store.run_query.RunFilter` says
+        (``since`` ≤ start < ``until``; a naive datetime is taken as UTC; ``drive='none'``
+        for runs nothing drove)."""
+        where = RunFilter(kind, status, vehicle, drive, source, tag, search, since, until)
         query = (
-            query.order_by(runs_t.c.started_at.desc(), runs_t.c.id.desc())
+            where.where(self._run_query())
+            .order_by(runs_t.c.started_at.desc(), runs_t.c.id.desc())
             .limit(checks.check_limit("limit", limit, minimum=1))
             .offset(checks.check_limit("offset", offset, minimum=0))
         )
         with self.engine.connect() as conn:
             return [self._run_info(row) for row in conn.execute(query)]
+
+    def count_runs(self, **filters: Any) -> int:
+        """How many runs :meth:`list_runs` with these filters finds, without paging."""
+        query = RunFilter(**filters).where(
+            sa.select(sa.func.count())
+            .select_from(runs_t)
+            .join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
+        )
+        with self.engine.connect() as conn:
+            return int(conn.execute(query).scalar_one())
 
     # -- samples ----------------------------------------------------------------------
     def _insert_rows(
@@ -413,6 +473,8 @@ class Store(EventsAndResults, ImportedCalibrations):
             if limit is not None:
                 query = query.limit(limit)
             rows = conn.execute(query).all()
+        import numpy as np  # here: listing runs starts without it
+
         packer = SamplePacker(run.channel_names)
         columns: list[Sequence[Any]] = list(zip(*rows, strict=True)) if rows else [[]] * 6
         stale = columns[4]

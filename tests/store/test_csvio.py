@@ -53,16 +53,30 @@ def test_csv_export_reimports_identically(store: Store, tmp_path) -> None:
     run_id = new_run(store)
     store.add_samples(run_id, make_samples(0, 50))
     store.finish_run(run_id, "completed")
+    store.set_run_metadata(run_id, {"operator": "Åsa", "tags": ["fins-v2"], "ballast": "B3"})
     exported = io.StringIO()
     assert export_run_csv(store, run_id, exported) == 50
     lines = exported.getvalue().splitlines()
     header = next(line for line in lines if not line.startswith("#"))
+    meta_line = next(line for line in lines if line.startswith("# metadata: "))
+    assert json.loads(meta_line.removeprefix("# metadata: ")) == {
+        "operator": "Åsa", "tags": ["fins-v2"], "ballast": "B3"
+    }  # fmt: skip
     assert header == "t,seq,t_mono,t_wall,quality,tow_position,load_cell"
     assert any(line.startswith("# units: t=s, seq=1, t_mono=s") for line in lines)
 
     again = import_csv(
-        store, write(tmp_path, exported.getvalue()), kind="tow", parameters={"force_n": 24.5}
-    )
+        store, write(tmp_path, exported.getvalue(), "export.csv"), kind="tow",
+        parameters={"force_n": 24.5}, metadata={"notes": "re-imported"},
+    )  # fmt: skip
+    copy_run, original_run = store.get_run(again), store.get_run(run_id)
+    assert (copy_run.source, copy_run.source_file) == ("imported", "export.csv")
+    assert original_run.source == "recorded" and original_run.imported_at is None
+    recorded_at = store.samples(run_id).t_wall[0]  # the first sample's wall time, kept
+    assert copy_run.started_at.timestamp() == pytest.approx(recorded_at, abs=1e-6)
+    assert copy_run.imported_at is not None and copy_run.imported_at > original_run.stopped_at
+    assert copy_run.metadata == original_run.metadata | {"notes": "re-imported"}
+    assert [r.id for r in store.list_runs(source="imported")] == [again]
     original, copy = store.samples(run_id), store.samples(again)
     for column in ("seq", "quality"):
         np.testing.assert_array_equal(getattr(copy, column), getattr(original, column))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import sqlalchemy as sa
 
 from daq.store import Store, default_database_url
@@ -126,4 +128,61 @@ def test_a_database_at_the_first_revision_upgrades_with_its_runs(db_url: str) ->
             "old",
             ("tow_position",),
         )
+    engine.dispose()
+
+
+def test_the_quick_head_check_reads_the_same_head_as_alembic(db_url: str) -> None:
+    """Opening an up-to-date database skips Alembic by reading the head from the revision
+    files; it must be the head Alembic finds, and a database behind it is migrated."""
+    from alembic import command
+
+    from daq.store.migrate import _at_shipped_head, _shipped_head
+
+    assert _shipped_head() == head_revision()
+    engine = create_engine(db_url)
+    upgrade_to_head(engine)
+    assert _at_shipped_head(engine)
+    with engine.begin() as conn:
+        command.downgrade(alembic_config(conn), "0002")
+    assert not _at_shipped_head(engine)
+    upgrade_to_head(engine)
+    assert current_revision(engine) == head_revision()
+
+
+def test_runs_of_revision_0002_get_their_drive_and_source_from_their_parameters(
+    db_url: str,
+) -> None:
+    from alembic import command
+
+    engine = create_engine(db_url)
+    old = {
+        "0123abcd-0000-4000-8000-000000000001": ("spin", {"drive": "thrusters"}),
+        "0123abcd-0000-4000-8000-000000000002": (
+            "tow", {"source": "import", "file": "/data/day1.csv", "hung_mass_kg": 1.0},
+        ),
+        "0123abcd-0000-4000-8000-000000000003": ("pendulum", {"start_angle_rad": 0.2}),
+    }  # fmt: skip
+    with engine.begin() as conn:
+        command.upgrade(alembic_config(conn), "0002")
+        conn.execute(sa.text("INSERT INTO rigs (id, name) VALUES (1, 'old')"))
+        conn.execute(sa.text("INSERT INTO vehicles (id, name) VALUES (1, 'v')"))
+        for uuid, (kind, params) in old.items():
+            conn.execute(
+                sa.text(
+                    "INSERT INTO runs (uuid, kind, status, parameters, rig_id, vehicle_id, "
+                    "started_at, channel_names, sample_count, software_version, rig_toml) "
+                    "VALUES (:uuid, :kind, 'completed', :params, 1, 1, 1.7e9, '[\"x\"]', 0, "
+                    "'0.0.1', '')"
+                ),
+                {"uuid": uuid, "kind": kind, "params": json.dumps(params)},
+            )
+    with Store(db_url) as store:
+        runs = {r.id: r for r in store.list_runs()}
+        found = {u: (r.drive, r.source, r.source_file, r.metadata) for u, r in runs.items()}
+        assert found == {
+            "0123abcd-0000-4000-8000-000000000001": ("thrusters", "recorded", None, {}),
+            "0123abcd-0000-4000-8000-000000000002": ("weight", "imported", "day1.csv", {}),
+            "0123abcd-0000-4000-8000-000000000003": (None, "recorded", None, {}),
+        }
+        assert [r.kind for r in store.list_runs(drive="none")] == ["pendulum"]
     engine.dispose()

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 import shutil
 import tempfile
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -24,6 +24,7 @@ from api.http.schemas import (
     EventOut,
     ImportOut,
     ResultOut,
+    RunMetadataIn,
     RunOut,
     SamplesOut,
     error_responses,
@@ -32,6 +33,7 @@ from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.params import RUN_KINDS
 from daq.store import ResultNotFound, Store
 from daq.store.csvio import csv_chunks
+from daq.store.day_window import parse_moment, parse_tz, start_window
 
 router = APIRouter(prefix="/api", tags=["runs"])
 RunStatus = Literal["running", "completed", "aborted", "interrupted"]
@@ -46,25 +48,82 @@ _READ = error_responses(401, 404, 422)
 )
 def list_runs(
     store: StoreDep,
+    response: Response,
     kind: Annotated[str | None, Query(description=" | ".join(RUN_KINDS))] = None,
     status: RunStatus | None = None,
     vehicle: str | None = None,
-    since: Annotated[datetime | None, Query(description="Started at or after (ISO 8601).")] = None,
-    until: Annotated[datetime | None, Query(description="Started before (ISO 8601).")] = None,
+    drive: Annotated[
+        Literal["weight", "thrusters", "none"] | None,
+        Query(description="What moved the vehicle; none = nothing (a pendulum)."),
+    ] = None,
+    source: Annotated[
+        Literal["recorded", "imported"] | None, Query(description="Recorded here or imported.")
+    ] = None,
+    tag: Annotated[str | None, Query(max_length=40, description="Runs with this tag.")] = None,
+    search: Annotated[
+        str | None,
+        Query(
+            max_length=200,
+            description="Text in the metadata (operator, notes, tags, free keys), the "
+            "vehicle, the imported file's name or the start of the run id.",
+        ),
+    ] = None,
+    since: Annotated[
+        str | None,
+        Query(
+            description="Started on or after: a day YYYY-MM-DD (from its midnight in tz), "
+            "'today', or an ISO 8601 date-time."
+        ),
+    ] = None,
+    until: Annotated[
+        str | None,
+        Query(
+            description="Started on or before: a day YYYY-MM-DD (the whole day in tz, "
+            "included), 'today', or an ISO 8601 date-time (included)."
+        ),
+    ] = None,
+    tz: Annotated[
+        str | None,
+        Query(
+            max_length=64,
+            description="Time zone of since/until days and of date-times without an "
+            "offset: IANA name (Europe/Oslo), UTC or ±HH:MM. Default UTC.",
+        ),
+    ] = None,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
     offset: Annotated[int, Query(ge=0, le=1_000_000)] = 0,
 ) -> list[dict]:
-    """Stored runs, newest first."""
-    runs = store.list_runs(
-        kind=kind,
-        status=status,
-        vehicle=vehicle,
-        since=since,
-        until=until,
-        limit=limit,
-        offset=offset,
+    """Stored runs, newest first, a page at a time: the ``X-Total-Count`` header gives how
+    many match the filters, ``X-Next-Offset`` the ``offset`` of the next page (absent on
+    the last)."""
+    zone = parse_tz("tz", tz)
+    today = datetime.now(zone or UTC).date()
+    low, high = start_window(
+        None if since is None else parse_moment("since", since, today=today),
+        None if until is None else parse_moment("until", until, today=today),
+        zone,
     )
+    filters = dict(kind=kind, status=status, vehicle=vehicle, drive=drive, source=source,
+                   tag=tag, search=search, since=low, until=high)  # fmt: skip
+    runs = store.list_runs(**filters, limit=limit, offset=offset)
+    total = store.count_runs(**filters)
+    response.headers["X-Total-Count"] = str(total)
+    if offset + len(runs) < total:
+        response.headers["X-Next-Offset"] = str(offset + len(runs))
     return [r.to_json(include_toml=False) for r in runs]
+
+
+@router.patch(
+    "/runs/{run_id}/metadata",
+    response_model=RunOut,
+    dependencies=[Depends(require_write)],
+    responses=_READ,
+)
+def patch_run_metadata(run_id: str, body: RunMetadataIn, store: StoreDep) -> dict:
+    """Annotate a run (any status, imported too): the keys given replace the stored ones,
+    ``null`` removes a key, ``tags`` replaces the tag list. Returns the run."""
+    run = store.set_run_metadata(run_id, body.model_dump(exclude_unset=True))
+    return run.to_json(include_toml=False)
 
 
 _RUN_CACHE = EndedRunCache()
@@ -80,7 +139,7 @@ async def get_run(
     ] = False,
 ) -> Response:
     """One run's metadata (id or unique id prefix)."""
-    body = _RUN_CACHE.get(run_id, include_toml)
+    body = await run_in_threadpool(_RUN_CACHE.get, run_id, include_toml, store.stored_metadata)
     if body is None:
         run = await run_in_threadpool(store.get_run, run_id)
         body = _RUN_CACHE.put(run, include_toml)

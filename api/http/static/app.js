@@ -59,7 +59,7 @@ class ApiError extends Error {
   }
 }
 
-async function api(method, path, body) {
+async function api(method, path, body, meta) {
   const used = state.token;
   const headers = authHeaders();
   const init = { method, headers };
@@ -72,6 +72,7 @@ async function api(method, path, body) {
   const data = isJson ? await r.json() : await r.text();
   if (r.status === 401) tokenRefused(used, data.detail);
   if (!r.ok) throw new ApiError(r.status, isJson ? data : { detail: data });
+  if (meta) meta.headers = r.headers;
   return data;
 }
 
@@ -318,29 +319,97 @@ function onJobEvent(job) {
 }
 
 // ---- runs -----------------------------------------------------------------------------------
+const RUNS_PAGE = 50;
+const TZ = Intl.DateTimeFormat().resolvedOptions().timeZone;
+const tags = (r) => (r.metadata && r.metadata.tags ? r.metadata.tags.map((t) => `<span class="tag">${esc(t)}</span>`).join(" ") : "");
+const source = (r) => (r.source === "imported" ? `imported <span class="muted">${esc(r.source_file || "")}</span>` : "recorded");
+state.runsOffset = 0;
+
 async function loadRuns() {
-  const params = new URLSearchParams();
+  const params = new URLSearchParams({ limit: RUNS_PAGE, offset: state.runsOffset, tz: TZ });
   for (const el of $("#runs-filter").elements) {
-    if (!el.name || !el.value) continue;
-    params.set(el.name, el.type === "date" ? `${el.value}T00:00:00Z` : el.value);
+    if (el.name && el.value) params.set(el.name, el.value);  // days: the API takes them in tz
   }
+  const meta = {};
   try {
-    state.runs = await api("GET", `/api/runs?${params}`);
+    state.runs = await api("GET", `/api/runs?${params}`, undefined, meta);
   } catch (err) {
+    $("#runs-count").textContent = err.message;
     return;
   }
+  const total = Number(meta.headers.get("X-Total-Count") || 0);
+  const first = state.runs.length ? state.runsOffset + 1 : 0;
+  $("#runs-count").textContent = `${first}–${state.runsOffset + state.runs.length} of ${total}`;
+  $("#runs-prev").disabled = state.runsOffset === 0;
+  $("#runs-next").disabled = !meta.headers.get("X-Next-Offset");
   $("#runs-table tbody").innerHTML = state.runs
     .map(
-      (r) => `<tr data-run="${r.id}"><td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${load(r)}</td>
+      (r) => `<tr data-run="${r.id}"><td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${r.drive || "—"}</td><td>${load(r)}</td>
       <td><span class="state ${r.status}">${r.status}</span>${r.reason ? ` <span class="muted">${esc(r.reason)}</span>` : ""}</td>
-      <td>${new Date(r.started_at).toLocaleString()}</td><td>${fmt(r.duration_s, 3)} s</td><td>${r.sample_count}</td><td>${esc(r.vehicle)}</td></tr>`,
+      <td>${new Date(r.started_at).toLocaleString()}</td><td>${fmt(r.duration_s, 3)} s</td><td>${r.sample_count}</td><td>${esc(r.vehicle)}</td>
+      <td>${source(r)}</td><td>${tags(r)}</td></tr>`,
     )
     .join("");
   $$("#runs-table tbody tr").forEach((tr) => (tr.onclick = () => openRun(tr.dataset.run)));
 }
 $("#runs-filter").addEventListener("submit", (ev) => {
   ev.preventDefault();
+  state.runsOffset = 0;
   loadRuns();
+});
+$("#runs-prev").onclick = () => {
+  state.runsOffset = Math.max(0, state.runsOffset - RUNS_PAGE);
+  loadRuns();
+};
+$("#runs-next").onclick = () => {
+  state.runsOffset += RUNS_PAGE;
+  loadRuns();
+};
+
+function showRunMeta(run) {
+  const m = run.metadata || {};
+  const known = ["operator", "water_temperature_c", "notes", "tags"];
+  kv($("#run-meta"), [
+    ["Kind", run.kind],
+    ["Status", run.status + (run.reason ? ` (${run.reason})` : "")],
+    ["Drive", run.drive || "—"],
+    ["Load", load(run)],
+    ["Source", run.source === "imported" ? `imported ${new Date(run.imported_at).toLocaleString()} from ${run.source_file}` : "recorded"],
+    ["Parameters", JSON.stringify(run.parameters)],
+    ["Recorded at", new Date(run.started_at).toLocaleString()],
+    ["Duration", `${fmt(run.duration_s, 4)} s`],
+    ["Samples", run.sample_count],
+    ["Rig / vehicle", `${run.rig_name} / ${run.vehicle}`],
+    ["Operator", m.operator || "—"],
+    ["Water", m.water_temperature_c === undefined ? "—" : `${m.water_temperature_c} °C`],
+    ["Notes", m.notes || "—"],
+    ["Tags", (m.tags || []).join(", ") || "—"],
+    ...Object.entries(m).filter(([k]) => !known.includes(k)).map(([k, v]) => [k, String(v)]),
+  ]);
+  const form = $("#run-annotate");
+  for (const name of known) form.elements[name].value = name === "tags" ? (m.tags || []).join(", ") : (m[name] ?? "");
+}
+
+$("#run-annotate").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  const run = state.selectedRun;
+  if (!run) return;
+  const f = ev.target.elements;
+  const body = {
+    operator: f.operator.value.trim() || null,
+    water_temperature_c: f.water_temperature_c.value === "" ? null : Number(f.water_temperature_c.value),
+    notes: f.notes.value.trim() || null,
+    tags: f.tags.value.split(",").map((t) => t.trim()).filter(Boolean),
+  };
+  if (!body.tags.length) body.tags = null;
+  try {
+    state.selectedRun = await api("PATCH", `/api/runs/${run.id}/metadata`, body);
+    showRunMeta(state.selectedRun);
+    $("#run-annotate-status").textContent = "saved";
+    loadRuns();
+  } catch (err) {
+    $("#run-annotate-status").textContent = err.message;
+  }
 });
 
 async function openRun(runId) {
@@ -354,16 +423,8 @@ async function openRun(runId) {
   $("#run-detail").hidden = false;
   $("#run-detail-id").textContent = run.id;
   $$("#runs-table tbody tr").forEach((tr) => tr.classList.toggle("selected", tr.dataset.run === run.id));
-  kv($("#run-meta"), [
-    ["Kind", run.kind],
-    ["Status", run.status + (run.reason ? ` (${run.reason})` : "")],
-    ["Load", load(run)],
-    ["Parameters", JSON.stringify(run.parameters)],
-    ["Started", new Date(run.started_at).toLocaleString()],
-    ["Duration", `${fmt(run.duration_s, 4)} s`],
-    ["Samples", run.sample_count],
-    ["Rig / vehicle", `${run.rig_name} / ${run.vehicle}`],
-  ]);
+  showRunMeta(run);
+  $("#run-annotate-status").textContent = "";
   const channel = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" }[run.kind] || "tow_position";
   const y = samples.channels[channel] || samples.channels.position || [];
   Plotly.newPlot(
@@ -385,8 +446,11 @@ $("#export-run").onclick = () => {
 // ---- estimation -----------------------------------------------------------------------------
 async function loadEstimationRuns() {
   let runs = [];
+  const search = $("#est-search").value.trim();
+  const query = new URLSearchParams({ status: "completed", limit: 1000 });
+  if (search) query.set("search", search);
   try {
-    runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => ["tow", "spin", "pendulum"].includes(r.kind));
+    runs = (await api("GET", `/api/runs?${query}`)).filter((r) => ["tow", "spin", "pendulum"].includes(r.kind));
   } catch (err) {
     return;
   }
@@ -394,10 +458,12 @@ async function loadEstimationRuns() {
   $("#est-runs tbody").innerHTML = runs
     .map(
       (r) => `<tr><td><input type="checkbox" value="${r.id}" data-kind="${r.kind}" ${checked.has(r.id) ? "checked" : ""}></td>
-      <td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${load(r)}</td><td>${new Date(r.started_at).toLocaleString()}</td></tr>`,
+      <td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${r.drive || "—"}</td><td>${load(r)}</td>
+      <td>${new Date(r.started_at).toLocaleString()}</td><td>${esc(r.vehicle)}</td><td>${source(r)}</td><td>${tags(r)}</td></tr>`,
     )
     .join("");
 }
+$("#est-search").addEventListener("change", loadEstimationRuns);
 
 let estimationJobId = null;
 $("#est-run").onclick = async () => {

@@ -1,0 +1,138 @@
+"""Free metadata on a run: who ran it, the water temperature, notes, tags and any other
+key/value a lab wants to keep — checked here once for the store, the API and the CLI.
+
+A run's ``metadata`` is one flat JSON object::
+
+    {"operator": "Ada", "water_temperature_c": 18.5, "notes": "new fins",
+     "tags": ["fins-v2", "baseline"], "ballast": "B3", "depth_m": 1.2}
+
+The four known keys have their own rules; any other key is a lower-case name and its
+value a string, number or boolean. Messages name the field (``metadata.tags``) with the
+given value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+#: Water temperature range a lab tank can have, °C (sea water freezes at -1.9 °C).
+WATER_TEMPERATURE_RANGE_C = (-2.0, 50.0)
+MAX_TAGS = 20
+MAX_TAG_CHARS = 40
+MAX_NOTES_CHARS = 10_000
+MAX_TEXT_CHARS = 200
+MAX_EXTRA_KEYS = 30
+KNOWN_KEYS = ("operator", "water_temperature_c", "notes", "tags")
+_KEY = re.compile(r"^[a-z][a-z0-9_]{0,39}$")
+_TAG = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:+-]*$")
+
+
+def _text(field: str, value: object, limit: int) -> str:
+    if not isinstance(value, str) or not value.strip() or len(value) > limit:
+        raise ValueError(
+            f"{field}: {value!r} is not allowed; use a non-empty text of at most {limit} characters"
+        )
+    return value.strip()
+
+
+def check_tag(field: str, value: object) -> str:
+    """A tag: 1-40 letters, digits or ``_ . : + -``, starting with a letter or digit."""
+    if not isinstance(value, str) or len(value) > MAX_TAG_CHARS or not _TAG.match(value):
+        raise ValueError(
+            f"{field}: {value!r} is not allowed; use 1-{MAX_TAG_CHARS} letters, digits or "
+            "'_.:+-' starting with a letter or digit (e.g. 'fins-v2')"
+        )
+    return value
+
+
+def check_water_temperature(field: str, value: object) -> float:
+    """A finite number within :data:`WATER_TEMPERATURE_RANGE_C`."""
+    low, high = WATER_TEMPERATURE_RANGE_C
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(
+            f"{field}: {value!r} is not allowed; use a number {low:g} ≤ T ≤ {high:g} °C"
+        )
+    if not (math.isfinite(value) and low <= value <= high):
+        raise ValueError(
+            f"{field}: {value!r} is not allowed; use {low:g} ≤ water_temperature_c ≤ {high:g} °C"
+        )
+    return float(value)
+
+
+def _value(field: str, key: str, value: object) -> Any:
+    if key == "operator":
+        return _text(field, value, MAX_TEXT_CHARS)
+    if key == "water_temperature_c":
+        return check_water_temperature(field, value)
+    if key == "notes":
+        return _text(field, value, MAX_NOTES_CHARS)
+    if key == "tags":
+        if not isinstance(value, list | tuple) or len(value) > MAX_TAGS:
+            raise ValueError(
+                f"{field}: {value!r} is not allowed; use a list of at most {MAX_TAGS} tags"
+            )
+        tags = [check_tag(f"{field}[{i}]", tag) for i, tag in enumerate(value)]
+        return list(dict.fromkeys(tags))  # in the order given, without repeats
+    if isinstance(value, str):
+        return _text(field, value, MAX_TEXT_CHARS)
+    if isinstance(value, bool) or (isinstance(value, int | float) and math.isfinite(value)):
+        return value
+    raise ValueError(
+        f"{field}: {value!r} is not allowed; use a text, a finite number or true/false"
+    )
+
+
+def check_run_metadata(
+    value: object, *, prefix: str = "metadata.", allow_null: bool = False
+) -> dict[str, Any]:
+    """The checked metadata (texts stripped, tags without repeats); ``allow_null`` lets a
+    value be None (an update that removes the key)."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise ValueError(f"{prefix.rstrip('.') or 'metadata'}: expected an object, got {value!r}")
+    out: dict[str, Any] = {}
+    extra = 0
+    for key, item in value.items():
+        if not isinstance(key, str) or not _KEY.match(key):
+            raise ValueError(
+                f"{prefix}{key}: this key is not allowed; use a lower-case name of 1-40 "
+                "letters, digits or '_' starting with a letter (e.g. 'ballast')"
+            )
+        extra += key not in KNOWN_KEYS
+        if extra > MAX_EXTRA_KEYS:
+            raise ValueError(f"{prefix}{key}: more than {MAX_EXTRA_KEYS} free keys on a run")
+        if item is None and allow_null:
+            out[key] = None
+            continue
+        out[key] = _value(f"{prefix}{key}", key, item)
+    return out
+
+
+def merge_run_metadata(current: dict[str, Any], changes: dict[str, Any]) -> dict[str, Any]:
+    """``current`` updated by checked ``changes`` (a None value removes the key)."""
+    merged = dict(current)
+    for key, value in changes.items():
+        if value is None:
+            merged.pop(key, None)
+        else:
+            merged[key] = value
+    extra = [k for k in merged if k not in KNOWN_KEYS]
+    if len(extra) > MAX_EXTRA_KEYS:
+        raise ValueError(f"metadata: {len(extra)} free keys; at most {MAX_EXTRA_KEYS} on a run")
+    return merged
+
+
+def parse_meta_pair(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` from the command line: a number when VALUE reads as one, else text."""
+    key, sep, raw = text.partition("=")
+    if not sep or not key.strip():
+        raise ValueError(f"{text!r} is not allowed; use KEY=VALUE (e.g. ballast=B3)")
+    raw = raw.strip()
+    value: Any = raw
+    if re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", raw):
+        number = float(raw)
+        value = int(number) if re.fullmatch(r"[-+]?\d+", raw) else number
+    return key.strip(), value
