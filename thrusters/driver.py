@@ -102,7 +102,8 @@ class ThrusterDriver:
 
     ``port`` overrides ``cfg.port`` (needed when the rig file says ``"sim"``: the simulated
     rig hands over its pty path or ``socket://`` URL). ``clock`` is the monotonic time
-    source of the slew limiter (tests pass their own to make ramps byte-exact).
+    source of the slew limiter (tests pass their own to make ramps byte-exact). ``link``
+    replaces the serial link built from the port (tests pass one over an in-memory port).
     """
 
     def __init__(
@@ -112,8 +113,9 @@ class ThrusterDriver:
         *,
         port: str | None = None,
         clock: Callable[[], float] = time.monotonic,
+        link: SerialLink | None = None,
     ) -> None:
-        url = port or cfg.port
+        url = link.url if link is not None else port or cfg.port
         if url == "sim":
             raise ValueError(
                 "thrusters.port: 'sim' must be resolved to the simulator's pty path or "
@@ -123,7 +125,7 @@ class ThrusterDriver:
         self.clock = clock
         self.limits = limits
         self.count = cfg.count
-        self._link = SerialLink(url, cfg.baudrate, cfg.ack_timeout_s)
+        self._link = link or SerialLink(url, cfg.baudrate, cfg.ack_timeout_s)
         self._executor: ThreadPoolExecutor | None = None
         self._seq = 0
         self.state = "UNKNOWN"

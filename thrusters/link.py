@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import serial
@@ -42,13 +43,33 @@ class LinkStats:
     reconnects: int = 0
 
 
-class SerialLink:
-    """A pyserial port (device path or URL such as ``socket://host:port``) carrying frames."""
+def open_serial_port(url: str, baudrate: int) -> serial.SerialBase:
+    """A pyserial port for a device path or URL, reading in slices of ``READ_SLICE_S``."""
+    return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE_S, write_timeout=0.5)
 
-    def __init__(self, url: str, baudrate: int, reply_timeout_s: float) -> None:
+
+class SerialLink:
+    """A pyserial port (device path or URL such as ``socket://host:port``) carrying frames.
+
+    ``open_port`` and ``clock`` are the transport seam: tests pass an in-memory port (any
+    object with pyserial's ``read``/``write``/``flush``/``in_waiting``/
+    ``reset_input_buffer``/``close``) and the clock it advances, so conversations and reply
+    timeouts run without a pty or real waiting."""
+
+    def __init__(
+        self,
+        url: str,
+        baudrate: int,
+        reply_timeout_s: float,
+        *,
+        open_port: Callable[[str, int], serial.SerialBase] = open_serial_port,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.url = url
         self.baudrate = baudrate
         self.reply_timeout_s = reply_timeout_s
+        self._open_port = open_port
+        self._clock = clock
         self.stats = LinkStats()
         self._port: serial.SerialBase | None = None
         self._wanted = False
@@ -65,9 +86,7 @@ class SerialLink:
         self._wanted = True
 
     def _connect(self) -> None:
-        self._port = serial.serial_for_url(
-            self.url, baudrate=self.baudrate, timeout=READ_SLICE_S, write_timeout=0.5
-        )
+        self._port = self._open_port(self.url, self.baudrate)
         self._port.reset_input_buffer()
         self._rx = b""
 
@@ -104,7 +123,7 @@ class SerialLink:
             self._drain_stray()
             self._port.write(raw)
             self.stats.sent += 1
-            deadline = time.monotonic() + self.reply_timeout_s
+            deadline = self._clock() + self.reply_timeout_s
             while (line := self._read_line(deadline)) is not None:
                 reply = self._classify(line, seq)
                 if reply is not None:
@@ -151,7 +170,7 @@ class SerialLink:
         late_read = False
         while True:
             while b"\n" not in self._rx:
-                if time.monotonic() >= deadline:
+                if self._clock() >= deadline:
                     # A reply that arrived while this thread was not scheduled (host under
                     # load) is still on time: take what is waiting once, then give up.
                     if late_read or not self._port.in_waiting:

@@ -7,7 +7,7 @@ import shutil
 import socket
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import httpx
 import pytest
@@ -36,6 +36,35 @@ def wait_job(client, job_id: str, *, states=FINAL, timeout_s: float = 30.0) -> d
         if time.monotonic() > end:
             raise AssertionError(f"job {job_id} still {job['state']} after {timeout_s} s: {job}")
         time.sleep(0.05)
+
+
+def wait_job_until(
+    client, job_id: str, ready: Callable[[dict], bool], what: str, *, timeout_s: float = 30.0
+) -> dict:
+    """Poll the job until ``ready(job)``; fails naming ``what`` if the job ends first."""
+    end = time.monotonic() + timeout_s
+    while True:
+        job = client.get(f"/api/jobs/{job_id}", headers=AUTH).json()
+        if ready(job):
+            return job
+        if job["state"] in FINAL:
+            raise AssertionError(f"job {job_id} ended {job['state']} before {what}: {job}")
+        if time.monotonic() > end:
+            raise AssertionError(f"job {job_id}: no {what} after {timeout_s} s: {job}")
+        time.sleep(0.05)
+
+
+def moving_for(seconds: float) -> Callable[[dict], bool]:
+    """``ready`` for a tow/spin job whose axis has moved for ``seconds``, read from the
+    procedure's progress message (``tow: 0.123 m in 0.8 s``)."""
+
+    def ready(job: dict) -> bool:
+        message = (job.get("progress") or {}).get("message", "")
+        if not message.startswith(("tow:", "spin:")) or " in " not in message:
+            return False
+        return float(message.rsplit(" in ", 1)[1].split()[0]) >= seconds
+
+    return ready
 
 
 def wait_rig_free(client, timeout_s: float = 30.0) -> None:

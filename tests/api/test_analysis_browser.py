@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from tests.api.test_browser import TOKEN, page, server  # noqa: F401 (fixtures)
+
+#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
+pytestmark = pytest.mark.slow
 
 INCONSISTENT = [[1, 5, 1 / 7], [1 / 5, 1, 7], [7, 1 / 7, 1]]
 

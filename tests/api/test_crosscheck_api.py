@@ -7,6 +7,9 @@ import pytest
 
 from tests.api.conftest import AUTH, start_job, wait_job
 
+#: Slow lane: real-time tows on the simulated rig, then cross-check fits.
+pytestmark = pytest.mark.slow
+
 
 def _completed(client, path: str, body: dict) -> dict:
     job = wait_job(client, start_job(client, path, body), timeout_s=60)

@@ -12,6 +12,9 @@ from api.http.app import create_app
 from tests.api.conftest import TOKEN, LiveServer, chromium_page
 from tests.procedures.test_crosscheck_cli import _import_tows
 
+#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def page_url(client, service, tmp_path_factory):

@@ -5,7 +5,15 @@ from __future__ import annotations
 
 import time
 
-from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job, wait_rig_free
+from tests.api.conftest import (
+    AUTH,
+    SHORT_TOW,
+    moving_for,
+    start_job,
+    wait_job,
+    wait_job_until,
+    wait_rig_free,
+)
 
 
 def test_tow_job_end_to_end_stores_a_completed_run(client, tow_job):
@@ -47,11 +55,7 @@ def test_second_start_while_busy_without_queueing_is_409_naming_the_holder(clien
 
 def test_abort_ends_the_run_aborted_with_brake_on(client):
     job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
-    end = time.monotonic() + 10
-    while not client.get(f"/api/jobs/{job_id}", headers=AUTH).json()["run_ids"]:
-        assert time.monotonic() < end
-        time.sleep(0.05)
-    time.sleep(0.8)  # released and moving
+    wait_job_until(client, job_id, moving_for(0.3), "the carriage moving")
     r = client.post(f"/api/jobs/{job_id}/abort", headers=AUTH)
     assert r.status_code == 200
     job = wait_job(client, job_id, timeout_s=10)

@@ -10,7 +10,7 @@ from fastapi.testclient import TestClient
 from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, wait_job
+from tests.api.conftest import AUTH, TOKEN, moving_for, wait_job, wait_job_until
 
 
 @pytest.fixture(scope="module")
@@ -57,11 +57,7 @@ def test_stopping_the_service_aborts_the_running_test_and_records_why(tmp_path):
     with TestClient(create_app(service, token=TOKEN)) as c:
         body = {"force_n": 10.0, "max_time_s": 60, "baseline_s": 0.2}
         job_id = c.post("/api/jobs/tow", json=body, headers=AUTH).json()["id"]
-        end = time.monotonic() + 10
-        while not (run_ids := c.get(f"/api/jobs/{job_id}", headers=AUTH).json()["run_ids"]):
-            assert time.monotonic() < end
-            time.sleep(0.05)
-        time.sleep(0.5)  # recording
+        run_ids = wait_job_until(c, job_id, moving_for(0.2), "recording under way")["run_ids"]
     with Store(url) as store:
         run = store.get_run(run_ids[0])
         assert run.status == "aborted"

@@ -24,6 +24,9 @@ from schemathesis.specs.openapi.checks import (
 from api.http.app import create_app
 from tests.api.conftest import AUTH, TOKEN, LiveServer, wait_rig_free
 
+#: Slow lane: hundreds of generated requests (the fast lane has the hand-written API tests).
+pytestmark = pytest.mark.slow
+
 EXAMPLES_PER_OPERATION = 12
 #: Everything but "positive data accepted": a schema-valid force can still be over this
 #: rig's limit (a 422 naming the limit is the right answer there).

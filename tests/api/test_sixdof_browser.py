@@ -8,6 +8,9 @@ import pytest
 from api.http.app import create_app
 from tests.api.conftest import TOKEN, LiveServer, chromium_page
 
+#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def page_url(client, service):

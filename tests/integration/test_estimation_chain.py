@@ -17,6 +17,9 @@ from daq.session import RigSession, RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
 
+#: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
+pytestmark = pytest.mark.slow
+
 SURGE_TRUTH = {"inertia": 143.26, "linear_damping": 20.16, "quadratic_damping": 241.14}
 YAW_TRUTH = {"inertia": 7.97, "linear_damping": 0.119, "quadratic_damping": 4.12}
 

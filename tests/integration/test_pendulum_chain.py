@@ -23,6 +23,9 @@ from daq.session import RigSession, RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
 
+#: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
+pytestmark = pytest.mark.slow
+
 #: A short, bottom-heavy pendulum (period ≈ 3.9 s) so ≈ 5 swings fit in a 20 s real-time run.
 SHORT_PENDULUM = """
 [pendulum]

@@ -182,6 +182,7 @@ def _estimate(run_id: str, db: str) -> dict:
     return data.get("result", data).get("data", data)
 
 
+@pytest.mark.slow
 def test_an_export_imported_back_estimates_the_same_coefficients(db, tmp_path):
     """Through the real CLI: a simulated-rig tow, exported, imported as a lab's file would
     be (no events: its tow_release/end_of_travel columns carry the window) and estimated."""

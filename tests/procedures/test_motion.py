@@ -15,6 +15,7 @@ from daq.sample import Quality
 from daq.session import RigBusy, RigSession, RigSource
 from daq.store import Store
 from tests.procedures.conftest import short_rail
+from tests.progress_log import ProgressLog
 
 
 async def test_tow_records_release_motion_and_brake(session, store):
@@ -76,8 +77,11 @@ async def test_spin_records_yaw(session, store):
 async def test_abort_ends_run_aborted_with_samples_kept(session, store):
     abort = AbortSignal()
     params = tow_parameters({"force_n": 24.5, "max_time_s": 30, "baseline_s": 0.3}, session.rig)
-    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
-    await asyncio.sleep(2.5)  # ~1 s of set-up, then recording
+    progress = ProgressLog()
+    task = asyncio.create_task(run_motion_test(session, params, abort=abort, progress=progress))
+    await progress.wait(
+        lambda p: p.message.startswith("tow:"), "10 samples moving", times=10, task=task
+    )
     abort.set("operator abort (test)")
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted" and outcome.reason == "operator abort (test)"
@@ -88,8 +92,9 @@ async def test_abort_ends_run_aborted_with_samples_kept(session, store):
 
 async def test_second_procedure_while_busy_is_refused(session):
     params = tow_parameters({"force_n": 24.5, "max_time_s": 2, "baseline_s": 0.2}, session.rig)
-    task = asyncio.create_task(run_motion_test(session, params))
-    await asyncio.sleep(0.2)
+    progress = ProgressLog()
+    task = asyncio.create_task(run_motion_test(session, params, progress=progress))
+    await progress.wait(lambda p: True, "the first tow starting", task=task)
     with pytest.raises(RigBusy, match=r"tow 24\.5 N"):
         await run_motion_test(session, params)
     assert (await task).status == "completed"
@@ -97,8 +102,11 @@ async def test_second_procedure_while_busy_is_refused(session):
 
 async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, store):
     params = tow_parameters({"force_n": 24.5, "max_time_s": 30, "baseline_s": 0.3}, session.rig)
-    task = asyncio.create_task(run_motion_test(session, params))
-    await asyncio.sleep(2.5)
+    progress = ProgressLog()
+    task = asyncio.create_task(run_motion_test(session, params, progress=progress))
+    await progress.wait(
+        lambda p: p.message.startswith("tow:"), "10 samples moving", times=10, task=task
+    )
     port = session.sim.endpoints.port
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
     stopped_at = session.latest().seq

@@ -21,6 +21,7 @@ from daq.session import RigSession, RigSource
 from daq.sim.scenario import Scenario
 from daq.store import Store
 from tests.procedures.test_cli import rig
+from tests.progress_log import ProgressLog
 
 #: A short, bottom-heavy pendulum (period ≈ 3.6 s) so a decay fits in a fast test.
 FAST_PENDULUM = """
@@ -114,8 +115,10 @@ async def test_abort_mid_swing_ends_aborted_keeps_samples_and_catches(fast_sessi
     session = fast_session
     abort = AbortSignal()
     params = pendulum_parameters({"start_angle_rad": 0.2, "baseline_s": 0.3}, session.rig)
-    task = asyncio.create_task(run_pendulum_decay(session, params, abort=abort))
-    await asyncio.sleep(3.0)  # ~1 s of set-up, then swinging
+    progress = ProgressLog()
+    task = asyncio.create_task(run_pendulum_decay(session, params, abort=abort, progress=progress))
+    swinging = lambda p: p.message.startswith("pendulum:")  # noqa: E731
+    await progress.wait(swinging, "10 samples swinging", times=10, task=task)
     abort.set("operator abort (test)")
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted" and outcome.reason == "operator abort (test)"

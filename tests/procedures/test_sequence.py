@@ -9,6 +9,7 @@ import pytest
 
 from daq.procedures.params import ParameterError
 from daq.procedures.sequence import SequenceControl, load_sequence, parse_sequence, run_sequence
+from tests.progress_log import ProgressLog
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,14 +50,14 @@ async def test_sequence_pauses_between_steps_and_resumes(session, store):
         session.rig,
     )
     control = SequenceControl()
-    states = []
-    task = asyncio.create_task(
-        run_sequence(session, seq, control=control, progress=lambda p: states.append(p.state))
-    )
-    await asyncio.sleep(0.5)
+    progress = ProgressLog()
+    task = asyncio.create_task(run_sequence(session, seq, control=control, progress=progress))
+    await progress.wait(lambda p: p.message.startswith("step 1/2"), "the first step", task=task)
     control.pause()  # the running step finishes; the next one waits
-    await asyncio.sleep(4.0)
-    assert control.paused and "paused" in states and len(store.list_runs()) == 1
+    await progress.wait(lambda p: p.state == "paused", "paused between the steps", task=task)
+    assert control.paused and len(store.list_runs()) == 1
+    assert store.list_runs()[0].status == "completed"
+    assert not any(p.message.startswith("step 2/2") for p in progress.reports)
     control.resume()
     outcome = await asyncio.wait_for(task, 20)
     assert outcome.status == "completed"
@@ -69,8 +70,9 @@ async def test_sequence_abort_stops_the_running_step(session, store):
         {"repeats": 3, "steps": [_short("tow", force_n=24.5, max_time_s=20)]}, session.rig
     )
     control = SequenceControl()
-    task = asyncio.create_task(run_sequence(session, seq, control=control))
-    await asyncio.sleep(2.0)
+    progress = ProgressLog()
+    task = asyncio.create_task(run_sequence(session, seq, control=control, progress=progress))
+    await progress.wait(lambda p: "tow:" in p.message, "the first tow moving", task=task)
     control.abort.set("operator abort (test)")
     outcome = await asyncio.wait_for(task, 10)
     assert outcome.status == "aborted" and "operator abort (test)" in outcome.reason

@@ -12,6 +12,7 @@ from daq.procedures.params import ParameterError, calibration_parameters, spin_p
 from thrusters.driver import LINK_LOST_AFTER
 
 
+@pytest.mark.slow
 async def test_calibration_then_thruster_spin(session, store):
     params = calibration_parameters(
         {

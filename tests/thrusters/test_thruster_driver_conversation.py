@@ -1,18 +1,44 @@
-"""Byte-exact conversations between ThrusterDriver and a scripted controller on a pty."""
+"""Byte-exact conversations between ThrusterDriver and a scripted controller.
+
+Each runs in memory (``ExpectedProtocol``: no pty, no real waiting for timeouts); a few
+also run over a real pty (``ScriptedPeer``) so the serial path itself stays covered."""
 
 from __future__ import annotations
 
 import pytest
-from thruster_helpers import FakeClock, ScriptedPeer, limits, thruster_port
+from thruster_helpers import (
+    Conversation,
+    ExpectedProtocol,
+    FakeClock,
+    ScriptedPeer,
+    limits,
+    thruster_port,
+)
 
 from thrusters import protocol as p
 from thrusters.driver import ThrusterDriver, ThrusterError
 
 STA_IDLE = p.sta_frame(1, "DISARMED", [(0, 0), (0, 0)])
 
+#: Tests that also run over a real pty.
+BOTH = pytest.mark.parametrize("transport", ["memory", "pty"])
 
-async def test_arm_ramp_clamp_zero_and_close() -> None:
-    peer = ScriptedPeer(
+
+@pytest.fixture
+def transport() -> str:
+    return "memory"
+
+
+def controller(transport: str, conversation: Conversation) -> ExpectedProtocol | ScriptedPeer:
+    if transport == "memory":
+        return ExpectedProtocol(conversation)
+    return ScriptedPeer(conversation)
+
+
+@BOTH
+async def test_arm_ramp_clamp_zero_and_close(transport: str) -> None:
+    peer = controller(
+        transport,
         [
             (b"$QRY,1*939A\r\n", STA_IDLE),
             (b"$ARM,2*3800\r\n", b"$ACK,2,ARMED*3B91\r\n"),
@@ -26,10 +52,10 @@ async def test_arm_ramp_clamp_zero_and_close() -> None:
             # close(): zero again, then disarm.
             (b"$THR,8,0,0*12ED\r\n", b"$ACK,8,ARMED*C8DF\r\n"),
             (b"$DISARM,9*18B0\r\n", b"$ACK,9,DISARMED*5B7A\r\n"),
-        ]
+        ],
     )
     clock = FakeClock()
-    drv = ThrusterDriver(thruster_port(peer.path), limits(), clock=clock)
+    drv = peer.driver(clock=clock)
     async with drv:
         assert drv.state == "DISARMED"
         await drv.arm()
@@ -49,15 +75,16 @@ async def test_arm_ramp_clamp_zero_and_close() -> None:
     assert not drv.is_open
 
 
-async def test_nan_and_wrong_count_are_refused_before_anything_is_sent() -> None:
-    peer = ScriptedPeer(
+async def test_nan_and_wrong_count_are_refused_before_anything_is_sent(transport: str) -> None:
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), p.sta_frame(1, "ARMED", [(0, 0)] * 2)),
             (p.thr_frame(2, [0, 0]), p.ack_frame(2, "ARMED")),
             (p.disarm_frame(3), p.ack_frame(3, "DISARMED")),
-        ]
+        ],
     )
-    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+    async with peer.driver() as drv:
         with pytest.raises(ValueError, match=r"thruster 1: .*nan"):
             await drv.command([0.1, float("nan")])
         with pytest.raises(ValueError, match=r"thruster 0: .*inf"):
@@ -67,16 +94,18 @@ async def test_nan_and_wrong_count_are_refused_before_anything_is_sent() -> None
     peer.assert_done()
 
 
-async def test_zero_retries_through_silence_garbage_and_corruption() -> None:
-    peer = ScriptedPeer(
+@BOTH
+async def test_zero_retries_through_silence_garbage_and_corruption(transport: str) -> None:
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), p.sta_frame(1, "ARMED", [(0, 0)] * 2)),
             (p.thr_frame(2, [0, 0]), None),  # silent: timeout, retry
             (p.thr_frame(3, [0, 0]), b"\x00\xffnoise\r\n$ACK,3,ARMED*0000\r\n"),
             (p.thr_frame(4, [0, 0]), p.ack_frame(3, "ARMED") + p.ack_frame(4, "ARMED")),
-        ]
+        ],
     )
-    drv = ThrusterDriver(thruster_port(peer.path), limits())
+    drv = peer.driver()
     await drv.open()
     assert await drv.zero(retries=3)
     s = drv.stats
@@ -85,12 +114,13 @@ async def test_zero_retries_through_silence_garbage_and_corruption() -> None:
     peer.assert_done()
 
 
-async def test_zero_gives_up_after_retries_when_silent() -> None:
-    peer = ScriptedPeer(
+async def test_zero_gives_up_after_retries_when_silent(transport: str) -> None:
+    peer = controller(
+        transport,
         [(p.qry_frame(1), p.sta_frame(1, "ARMED", [(0, 0)] * 2))]
-        + [(p.thr_frame(seq, [0, 0]), None) for seq in (2, 3)]
+        + [(p.thr_frame(seq, [0, 0]), None) for seq in (2, 3)],
     )
-    drv = ThrusterDriver(thruster_port(peer.path), limits())
+    drv = peer.driver()
     await drv.open()
     assert not await drv.zero(retries=1)
     assert drv.stats.timeouts == 2
@@ -98,17 +128,20 @@ async def test_zero_gives_up_after_retries_when_silent() -> None:
     peer.assert_done()
 
 
-async def test_zero_counts_nak_disarmed_as_done_and_falls_back_to_disarm_on_stale() -> None:
-    peer = ScriptedPeer(
+async def test_zero_counts_nak_disarmed_as_done_and_falls_back_to_disarm_on_stale(
+    transport: str,
+) -> None:
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), p.sta_frame(1, "WDT", [(0, 0)] * 2)),
             (p.thr_frame(2, [0, 0]), p.nak_frame(2, "disarmed")),
             (p.thr_frame(3, [0, 0]), p.nak_frame(3, "stale")),
             (p.thr_frame(4, [0, 0]), p.nak_frame(4, "stale")),
             (p.disarm_frame(5), p.ack_frame(5, "DISARMED")),
-        ]
+        ],
     )
-    drv = ThrusterDriver(thruster_port(peer.path), limits())
+    drv = peer.driver()
     await drv.open()
     assert drv.state == "WDT"
     assert await drv.zero()
@@ -118,8 +151,9 @@ async def test_zero_counts_nak_disarmed_as_done_and_falls_back_to_disarm_on_stal
     peer.assert_done()
 
 
-async def test_arm_refused_raises_and_query_reports_telemetry() -> None:
-    peer = ScriptedPeer(
+async def test_arm_refused_raises_and_query_reports_telemetry(transport: str) -> None:
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), p.sta_frame(1, "DISARMED", [(0, 0)] * 2)),
             (p.arm_frame(2), p.nak_frame(2, "crc")),
@@ -128,9 +162,9 @@ async def test_arm_refused_raises_and_query_reports_telemetry() -> None:
                 b"$STA,3,ARMED,1500,-1200,2.50,1.75*"
                 + b"%04X\r\n" % p.crc16(b"STA,3,ARMED,1500,-1200,2.50,1.75"),
             ),
-        ]
+        ],
     )
-    drv = ThrusterDriver(thruster_port(peer.path), limits())
+    drv = peer.driver()
     await drv.open()
     with pytest.raises(ThrusterError, match=r"arm: .*NAK crc"):
         await drv.arm()
@@ -141,9 +175,10 @@ async def test_arm_refused_raises_and_query_reports_telemetry() -> None:
     peer.assert_done()
 
 
-async def test_stale_sensor_hook_holds_zero_until_released() -> None:
+async def test_stale_sensor_hook_holds_zero_until_released(transport: str) -> None:
     clock = FakeClock()
-    peer = ScriptedPeer(
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), p.sta_frame(1, "DISARMED", [(0, 0)] * 2)),
             (p.arm_frame(2), p.ack_frame(2, "ARMED")),
@@ -151,9 +186,9 @@ async def test_stale_sensor_hook_holds_zero_until_released() -> None:
             (p.thr_frame(4, [0, 0]), p.ack_frame(4, "ARMED")),  # zero_on_stale(True)
             (p.thr_frame(5, [0, 0]), p.ack_frame(5, "ARMED")),  # command while stale
             (p.thr_frame(6, [200, 200]), p.ack_frame(6, "ARMED")),  # fresh again: ramps
-        ]
+        ],
     )
-    drv = ThrusterDriver(thruster_port(peer.path), limits(), clock=clock)
+    drv = peer.driver(clock=clock)
     await drv.open()
     await drv.arm()
     clock.t += 0.1
@@ -176,47 +211,77 @@ async def test_open_fails_clearly_without_a_controller() -> None:
         ThrusterDriver(thruster_port("sim"), limits())
 
 
-async def test_overlong_noise_glued_to_a_reply_is_dropped_and_the_reply_kept() -> None:
+@BOTH
+async def test_overlong_noise_glued_to_a_reply_is_dropped_and_the_reply_kept(
+    transport: str,
+) -> None:
     """Line noise without a line end, then the ACK in the same read: one garbage count,
     the ACK still answers (not a timeout), however the bytes were split into reads."""
     noise = b"\x00noise without end " * 20  # longer than protocol.MAX_LINE_BYTES
-    peer = ScriptedPeer(
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), p.sta_frame(1, "ARMED", [(0, 0)] * 2)),
             (p.thr_frame(2, [0, 0]), noise + p.ack_frame(2, "ARMED")),
             (p.thr_frame(3, [0, 0]), p.ack_frame(3, "ARMED")),
             (p.disarm_frame(4), p.ack_frame(4, "DISARMED")),
-        ]
+        ],
     )
-    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+    async with peer.driver() as drv:
         assert await drv.heartbeat()
         assert drv.stats.garbage_lines == 1 and drv.stats.timeouts == 0
     peer.assert_done()
 
 
-async def test_close_sends_nothing_to_a_controller_that_was_never_armed(caplog) -> None:
+async def test_close_sends_nothing_to_a_controller_that_was_never_armed(
+    caplog, transport: str
+) -> None:
     """A weight-driven run opens the driver (query) and closes it: the controller said
     DISARMED, so no zero (which would earn a ``NAK disarmed``) and no DISARM are sent."""
-    peer = ScriptedPeer([(p.qry_frame(1), STA_IDLE)])
-    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+    peer = controller(transport, [(p.qry_frame(1), STA_IDLE)])
+    async with peer.driver() as drv:
         assert drv.state == "DISARMED"
     peer.assert_done()
     assert drv.stats.sent == 1 and not drv.stats.naks
     assert "NAK" not in caplog.text
 
 
-async def test_close_still_zeroes_when_an_arm_went_unanswered() -> None:
+async def test_close_still_zeroes_when_an_arm_went_unanswered(transport: str) -> None:
     """An ARM that timed out may have armed the controller: close zeroes and disarms."""
-    peer = ScriptedPeer(
+    peer = controller(
+        transport,
         [
             (p.qry_frame(1), STA_IDLE),
             (p.arm_frame(2), None),
             (p.thr_frame(3, [0, 0]), p.ack_frame(3, "ARMED")),
             (p.disarm_frame(4), p.ack_frame(4, "DISARMED")),
-        ]
+        ],
     )
-    async with ThrusterDriver(thruster_port(peer.path), limits()) as drv:
+    async with peer.driver() as drv:
         with pytest.raises(ThrusterError, match="arm"):
             await drv.arm()
         assert drv.state == "DISARMED"  # what it last said, not what it may be now
     peer.assert_done()
+
+
+async def test_in_memory_silence_costs_the_reply_timeout_on_the_links_clock() -> None:
+    """A silent controller makes the link wait its full ack_timeout_s, counted on the
+    in-memory clock rather than slept."""
+    peer = ExpectedProtocol([(p.qry_frame(1), None)])
+    drv = peer.driver()
+    with pytest.raises(ThrusterError, match="query"):
+        await drv.open()
+    assert drv.stats.timeouts == 1
+    assert peer.t >= thruster_port(peer.url).ack_timeout_s
+    peer.assert_done()
+
+
+async def test_in_memory_controller_rejects_bytes_it_did_not_expect() -> None:
+    """The in-memory controller fails the test on the first wrong byte, naming the step."""
+    peer = ExpectedProtocol([(p.arm_frame(1), p.ack_frame(1, "ARMED"))])
+    drv = peer.driver()
+    with pytest.raises(AssertionError, match=r"step 0: expected b'\$ARM,1"):
+        await drv.open()
+    await drv._close_port()
+    with pytest.raises(AssertionError, match="step 0"):
+        peer.assert_done()

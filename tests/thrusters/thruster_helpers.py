@@ -1,4 +1,5 @@
-"""Helpers for the thruster tests: a scripted serial peer on a real pty, rig settings."""
+"""Helpers for the thruster tests: a scripted controller in memory (``ExpectedProtocol``)
+or on a real pty (``ScriptedPeer``), rig settings."""
 
 from __future__ import annotations
 
@@ -7,9 +8,12 @@ import select
 import threading
 import time
 import tty
+from collections.abc import Callable
 
 from daq.config import Limits, load_rig
 from thrusters.config import ThrusterPort
+from thrusters.driver import ThrusterDriver
+from thrusters.link import READ_SLICE_S, SerialLink
 
 RIG = load_rig()
 
@@ -22,6 +26,95 @@ def thruster_port(port: str, **overrides: object) -> ThrusterPort:
 def limits(**overrides: object) -> Limits:
     """The BENBAM rig's [limits] (max command 0.8, slew 2.0 /s) with overrides."""
     return RIG.limits.model_copy(update=overrides)
+
+
+Conversation = list[tuple[bytes, bytes | None]]
+
+
+class ExpectedProtocol:
+    """A fake controller in memory behind the driver's serial link, like PyMeasure's
+    ``expected_protocol``: it expects exact bytes and answers with given bytes,
+    ``[(expected_write, reply_or_None), ...]`` (None = stay silent).
+
+    It is the link's port and its clock: a read with nothing to give advances the clock by
+    one read slice, so a silent step costs the link its whole reply timeout without any
+    real waiting, and the conversation is the same under any load."""
+
+    url = "memory://thrusters"
+
+    def __init__(self, conversation: Conversation) -> None:
+        self.conversation = conversation
+        self.t = 0.0
+        self.step = 0
+        self.error: str | None = None
+        self.opened = 0
+        self._written = b""
+        self._rx = b""
+
+    # The driver side.
+    def driver(self, lim: Limits | None = None, *, clock: Callable[[], float] | None = None):
+        cfg = thruster_port(self.url)
+        link = SerialLink(
+            self.url, cfg.baudrate, cfg.ack_timeout_s, open_port=self._open, clock=self.clock
+        )
+        extra = {} if clock is None else {"clock": clock}
+        return ThrusterDriver(cfg, lim or limits(), link=link, **extra)
+
+    def clock(self) -> float:
+        return self.t
+
+    def _open(self, url: str, baudrate: int) -> ExpectedProtocol:
+        self.opened += 1
+        return self
+
+    # The pyserial port the link uses.
+    @property
+    def in_waiting(self) -> int:
+        return len(self._rx)
+
+    def reset_input_buffer(self) -> None:
+        self._rx = b""
+
+    def read(self, size: int = 1) -> bytes:
+        if not self._rx:
+            self.t += READ_SLICE_S  # a read that timed out
+            return b""
+        chunk, self._rx = self._rx[:size], self._rx[size:]
+        return chunk
+
+    def write(self, data: bytes) -> int:
+        self._written += data
+        while self._written and self.error is None:
+            if self.step >= len(self.conversation):
+                self.error = f"host wrote unexpected bytes {self._written!r}"
+            else:
+                expected, reply = self.conversation[self.step]
+                if expected.startswith(self._written) and self._written != expected:
+                    break  # a frame written in parts: wait for the rest
+                if not self._written.startswith(expected):
+                    self.error = f"step {self.step}: expected {expected!r}, got {self._written!r}"
+                else:
+                    self._written = self._written[len(expected) :]
+                    self.step += 1
+                    self._rx += reply or b""
+        if self.error is not None:
+            raise AssertionError(self.error)
+        return len(data)
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def assert_done(self) -> None:
+        """Every step happened byte-exact and the host wrote nothing more."""
+        assert self.error is None, self.error
+        assert self.step == len(self.conversation), (
+            f"stopped at step {self.step} of {len(self.conversation)}: "
+            f"expected {self.conversation[self.step][0]!r} next"
+        )
+        assert self._written == b"", f"host wrote unexpected bytes {self._written!r}"
 
 
 class ScriptedPeer:
@@ -57,6 +150,10 @@ class ScriptedPeer:
                 return
             if reply:
                 os.write(self.master, reply)
+
+    def driver(self, lim: Limits | None = None, *, clock: Callable[[], float] | None = None):
+        extra = {} if clock is None else {"clock": clock}
+        return ThrusterDriver(thruster_port(self.path), lim or limits(), **extra)
 
     def assert_done(self) -> None:
         """Every step happened byte-exact and the host wrote nothing more."""
