@@ -9,7 +9,7 @@ from typing import Any
 import click
 
 from api.cli_common import db_option, echo_json, fail, json_option, open_store, user_errors
-from daq.procedures.params import RUN_KINDS
+from daq.vocabulary import AXES, RunKind, RunStatus
 
 
 def _when(value: datetime | None) -> str:
@@ -17,7 +17,7 @@ def _when(value: datetime | None) -> str:
 
 
 def _summary(params: dict[str, Any]) -> str:
-    for key, unit in (("force_n", "N"), ("torque_nm", "N·m")):
+    for key, unit in ((a.drive_key, a.drive_unit) for a in AXES.values() if a.drive_key):
         if params.get(key) is not None:
             return f"{params[key]:.4g} {unit}"
     if params.get("sweep"):
@@ -28,12 +28,12 @@ def _summary(params: dict[str, Any]) -> str:
 @click.command("runs")
 @click.option(
     "--kind",
-    type=click.Choice(RUN_KINDS),
+    type=click.Choice([k.value for k in RunKind]),
     help="Only runs of this kind.",
 )
 @click.option(
     "--status",
-    type=click.Choice(["running", "completed", "aborted", "interrupted"]),
+    type=click.Choice([s.value for s in RunStatus]),
     help="Only this status.",
 )
 @click.option("--vehicle", help="Only runs of this vehicle.")

@@ -3,25 +3,15 @@ control."""
 
 from __future__ import annotations
 
+import inspect
+
 from fastapi import APIRouter, Depends
 
 from api.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
-from api.schemas import (
-    CalibrationRequest,
-    EstimationRequest,
-    JobOut,
-    PendulumRequest,
-    SequenceRequest,
-    SpinRequest,
-    TowRequest,
-    error_responses,
-)
-from daq.procedures.params import (
-    calibration_parameters,
-    pendulum_parameters,
-    spin_parameters,
-    tow_parameters,
-)
+from api.jobs import JobRunner
+from api.schemas import EstimationRequest, JobOut, SequenceRequest, error_responses
+from api.service import RigService
+from daq.procedures.kinds import KINDS, KindSpec
 from daq.procedures.sequence import parse_sequence
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -29,77 +19,35 @@ _START = error_responses(401, 409, 422, 503)
 _CONTROL = error_responses(401, 404, 409, 503)
 
 
-@router.post(
-    "/tow",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_tow(
-    body: TowRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-) -> dict:
-    """Start a tow test (the same parameters as ``rig tow``)."""
-    params = tow_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    label = f"tow {params.force_n:.4g} N" + (" (thrusters)" if params.drive == "thrusters" else "")
-    return runner.start_procedure("tow", params, label).to_json()
+def _start_route(spec: KindSpec) -> None:
+    """``POST /api/jobs/<route>``: the kind's request model as body, validated against the
+    rig (422 naming the field), then started as a job (409 when the rig is held)."""
 
+    def start(body, service: RigService, runner: JobRunner) -> dict:
+        params = spec.validate(body.model_dump(exclude_none=True), service.source.rig)
+        return runner.start_procedure(spec.kind, params, spec.describe(params)).to_json()
 
-@router.post(
-    "/spin",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_spin(
-    body: SpinRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-) -> dict:
-    """Start a spin test (the same parameters as ``rig spin``)."""
-    params = spin_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    label = f"spin {params.torque_nm:.4g} N·m" + (
-        " (thrusters)" if params.drive == "thrusters" else ""
+    start.__name__ = f"start_{spec.route}"  # the OpenAPI operation id: start_tow_api_jobs_…
+    start.__doc__ = f"Start a {spec.label} (the same parameters as ``rig {spec.command}``)."
+    start.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+        [
+            inspect.Parameter("body", inspect.Parameter.KEYWORD_ONLY, annotation=spec.request),
+            inspect.Parameter("service", inspect.Parameter.KEYWORD_ONLY, annotation=ServiceDep),
+            inspect.Parameter("runner", inspect.Parameter.KEYWORD_ONLY, annotation=RunnerDep),
+        ],
+        return_annotation=dict,
     )
-    return runner.start_procedure("spin", params, label).to_json()
+    router.post(
+        f"/{spec.route}",
+        status_code=202,
+        response_model=JobOut,
+        dependencies=[Depends(require_write)],
+        responses=_START,
+    )(start)
 
 
-@router.post(
-    "/pendulum",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_pendulum(
-    body: PendulumRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-) -> dict:
-    """Start a pendulum free-decay test (the same parameters as ``rig pendulum``)."""
-    params = pendulum_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    label = f"pendulum {params.start_angle_rad:.3g} rad"
-    return runner.start_procedure("pendulum", params, label).to_json()
-
-
-@router.post(
-    "/calibration",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_calibration(
-    body: CalibrationRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-) -> dict:
-    """Start a thrust calibration sweep (``rig calibrate-thrusters``)."""
-    params = calibration_parameters(body.model_dump(exclude_none=True), service.source.rig)
-    return runner.start_procedure("thrust_calibration", params, "thrust calibration").to_json()
+for _spec in KINDS.values():
+    _start_route(_spec)
 
 
 @router.post(

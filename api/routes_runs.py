@@ -29,11 +29,11 @@ from api.schemas import (
     SamplesOut,
     error_responses,
 )
-from daq.procedures.params import RUN_KINDS
 from daq.store import ResultNotFound, Store
+from daq.vocabulary import RunKind, RunStatus
 
 router = APIRouter(prefix="/api", tags=["runs"])
-RunStatus = Literal["running", "completed", "aborted", "interrupted"]
+StatusFilter = Literal[tuple(s.value for s in RunStatus)]  # type: ignore[valid-type]
 _READ = error_responses(401, 404, 422)
 #: Samples per page of the CSV stream (bounded memory for long runs).
 CSV_PAGE = 5000
@@ -47,8 +47,8 @@ CSV_PAGE = 5000
 )
 def list_runs(
     store: StoreDep,
-    kind: Annotated[str | None, Query(description=" | ".join(RUN_KINDS))] = None,
-    status: RunStatus | None = None,
+    kind: Annotated[str | None, Query(description=" | ".join(RunKind))] = None,
+    status: StatusFilter | None = None,
     vehicle: str | None = None,
     since: Annotated[datetime | None, Query(description="Started at or after (ISO 8601).")] = None,
     until: Annotated[datetime | None, Query(description="Started before (ISO 8601).")] = None,

@@ -19,12 +19,13 @@ import numpy as np
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
+from daq.vocabulary import AXES, DRIVEN_KINDS
 from estimation.pendulum_data import PendulumGeometry, PendulumRun
 from estimation.runs import RunData
 from estimation.thrust_curve import CalibratedThrust, ThrustCurve
 from estimation.window import WindowReport, find_window
 
-POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
+POSITION_CHANNEL = {kind: AXES[kind].position_channel for kind in DRIVEN_KINDS}
 
 
 def _event_time(events, action: str, key: str = "t_mono") -> float | None:
@@ -171,9 +172,9 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         else:
             drive_inertia = geo.spin_drum_inertia_kg_m2
             drum_radius = geo.spin_drum_radius_m
-    drive = params.get("force_n") if run.kind == "tow" else params.get("torque_nm")
+    name = AXES[run.kind].drive_key
+    drive = params.get(name)
     if drive is None or not math.isfinite(float(drive)):
-        name = "force_n" if run.kind == "tow" else "torque_nm"
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
     draws = None
@@ -206,7 +207,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         draws *= lack_of_fit_factors(curve, params, run.id, DRIVE_DRAWS)[:, None]
     return RunData(
         run_id=run.id,
-        axis="surge" if run.kind == "tow" else "yaw",
+        axis=AXES[run.kind].axis.value,
         t=np.asarray(t, dtype=float),
         position=np.asarray(position, dtype=float),
         drive=drive if isinstance(drive, np.ndarray) else float(drive),
@@ -222,7 +223,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
 
 
 #: The coil whose rising edge lets each kind of run go.
-RELEASE_COIL = {"tow": "tow_release", "spin": "spin_release"}
+RELEASE_COIL = {kind: AXES[kind].release_coil for kind in DRIVEN_KINDS}
 
 
 def _window(
@@ -240,7 +241,7 @@ def _window(
         values = values[timeline.good]
         return values if np.all(np.isfinite(values)) else None
 
-    force = run.parameters.get("force_n") if run.kind == "tow" else run.parameters.get("torque_nm")
+    force = run.parameters.get(AXES[run.kind].drive_key)
     direction = float(np.sign(float(force))) if force is not None else 0.0
     keep, report, std = find_window(
         timeline.t,

@@ -24,6 +24,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+from daq.vocabulary import AXES, DRIVEN_KINDS
 
 log = logging.getLogger(__name__)
 
@@ -32,7 +33,7 @@ log = logging.getLogger(__name__)
 THRUST_STEPS = "thrust_steps"
 
 #: The drive each run kind's thrusters give: (parameter, unit).
-DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
+DRIVE_FIELD = {kind: (AXES[kind].drive_key, AXES[kind].drive_unit) for kind in DRIVEN_KINDS}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
+from daq.vocabulary import RunStatus
+
 metadata = sa.MetaData(
     naming_convention={
         "ix": "ix_%(column_0_label)s",
@@ -63,7 +65,7 @@ runs = sa.Table(
     sa.Column("owner_boot_id", sa.String(64), nullable=True),
     sa.Column("owner_start_ticks", sa.BigInteger, nullable=True),
     sa.CheckConstraint(
-        "status IN ('running', 'completed', 'aborted', 'interrupted')", name="ck_runs_status"
+        "status IN ({})".format(", ".join(f"'{s}'" for s in RunStatus)), name="ck_runs_status"
     ),
 )
 
