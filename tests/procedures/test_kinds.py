@@ -28,7 +28,8 @@ def test_every_kind_has_one_entry_a_route_a_command_and_a_job():
     routes = {r.path: r for r in router.routes if "POST" in getattr(r, "methods", ())}
     for kind, spec in KINDS.items():
         route = routes[f"/api/jobs/{spec.route}"]
-        assert route.body_field is not None and route.body_field.field_info.annotation is spec.request
+        assert route.body_field is not None
+        assert route.body_field.field_info.annotation is spec.request
         assert COMMANDS[spec.command][0] == "api.cli_procedures"
         assert kind in PROCEDURES
 
@@ -55,9 +56,7 @@ def test_cli_options_come_from_the_request_model():
 
 
 class _Toy(BaseModel):
-    settle_s: Annotated[
-        float, Field(ge=0, le=30, description="Settle, s."), Flag("--settle")
-    ] = 1.0
+    settle_s: Annotated[float, Field(ge=0, le=30, description="Settle, s."), Flag("--settle")] = 1.0
     commands: Annotated[
         list[float] | None,
         Field(description="a comma-separated list of numbers"),
