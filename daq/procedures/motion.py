@@ -20,6 +20,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store.faults import one_line
+from daq.vocabulary import AXES, RunKind
 
 log = logging.getLogger(__name__)
 
@@ -59,9 +60,15 @@ class _Axis:
     weight_act: str
     unit: str
 
+    @classmethod
+    def of(cls, kind: RunKind) -> _Axis:
+        """The axis words of ``kind`` (``daq.vocabulary.AXES``)."""
+        terms = AXES[kind]
+        return cls(kind, terms.position_channel, terms.release_coil, terms.weight_act, terms.unit)
 
-TOW = _Axis("tow", "tow_position", "tow_release", "hang_tow_weight", "m")
-SPIN = _Axis("spin", "yaw_angle", "spin_release", "hang_spin_weight", "rad")
+
+TOW = _Axis.of(RunKind.TOW)
+SPIN = _Axis.of(RunKind.SPIN)
 
 
 async def _settled_samples(session: RigSession, seconds: float, abort: AbortSignal) -> list[Sample]:

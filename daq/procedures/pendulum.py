@@ -29,8 +29,9 @@ from daq.procedures.params import PendulumParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import RigSession
+from daq.vocabulary import RunKind
 
-PENDULUM = _Axis("pendulum", "pendulum_angle", "pendulum_release", "pull_pendulum", "rad")
+PENDULUM = _Axis.of(RunKind.PENDULUM)
 
 
 class CycleAmplitude:

@@ -23,6 +23,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+from daq.vocabulary import AXES, DRIVEN_KINDS
 from thrusters.config import ThrusterPort
 
 if TYPE_CHECKING:
@@ -35,7 +36,10 @@ log = logging.getLogger(__name__)
 THRUST_STEPS = "thrust_steps"
 
 #: The drive each run kind's thrusters give: (parameter, unit).
-DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
+#: The drive parameter and its unit per driven kind: ("force_n", "N"), ("torque_nm", "N·m").
+DRIVE_FIELD: dict[str, tuple[str, str]] = {
+    kind: (str(AXES[kind].drive_key), str(AXES[kind].drive_unit)) for kind in DRIVEN_KINDS
+}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:
