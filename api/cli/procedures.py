@@ -54,7 +54,7 @@ def _run_procedure(
 
     async def main(abort: AbortSignal) -> Any:
         from daq.plc import DeviceError
-        from daq.procedures.motion import PreconditionFailed
+        from daq.procedures.steps import PreconditionFailed
         from thrusters.driver import ThrusterError
 
         with ProgressView(not as_json, title) as view:

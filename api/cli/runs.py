@@ -1,4 +1,8 @@
-"""``rig runs``, ``rig show``, ``rig export``, ``rig import``: the stored runs."""
+"""``rig runs``, ``rig show``, ``rig export``, ``rig import``: the stored runs.
+
+One module because the commands on stored runs share the run-id resolution, the one-line
+errors and the table output.
+"""
 
 from __future__ import annotations
 

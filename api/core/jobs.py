@@ -13,7 +13,7 @@ service died while the job ran (marked at the next start). Every change is publi
 live stream and written to the jobs table (from one writer thread: the rig loop never waits
 on the database); report files of estimations are stored with their result.
 
-Over ~400 lines: the runner's parts share one lock and one set of job objects; the queue and
+One module because the runner's parts share one lock and one set of job objects; the queue and
 the pipelines are short and read best next to the state they change.
 """
 
@@ -404,9 +404,9 @@ class JobRunner:
         return report
 
     async def _run_procedure(self, job: Job, kind: str, params: Any) -> None:
-        from daq.procedures.motion import PreconditionFailed
         from daq.procedures.params import ParameterError
         from daq.procedures.sequence import run_sequence
+        from daq.procedures.steps import PreconditionFailed
 
         session = self.service.require_session()
         job.abort = AbortSignal()

@@ -15,9 +15,9 @@ import statistics
 from typing import Any
 
 from daq.operator import OperatorAct
-from daq.procedures.motion import RunOutcome
 from daq.procedures.params import CalibrationParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.steps import RunOutcome
 from daq.procedures.thruster_drive import abort_on_thruster_fault
 from daq.session import RigSession
 

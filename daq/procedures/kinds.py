@@ -34,8 +34,8 @@ if TYPE_CHECKING:
     from pydantic import BaseModel
 
     from daq.config import RigConfig
-    from daq.procedures.motion import RunOutcome
     from daq.procedures.recording import AbortSignal, ProgressCallback
+    from daq.procedures.steps import RunOutcome
     from daq.session import RigSession
 
 StepParameters = TowParameters | SpinParameters | CalibrationParameters | PendulumParameters

@@ -4,6 +4,9 @@
 Every error names the field, the value given and the allowed range, and is the
 same object whether it reaches an operator through the CLI or a lab tool through
 the HTTP API (as a 422 body).
+
+One module because every kind's validator uses one checker, so the API and the CLI name
+fields and ranges the same way for all of them.
 """
 
 from __future__ import annotations
@@ -19,10 +22,6 @@ if TYPE_CHECKING:  # annotations only: ``rig runs``/``rig show`` start without p
 
     from daq.config import RigConfig
 
-THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
-#: Most command steps one calibration may sweep (each is held ``settle_s`` plus samples,
-#: up and down, both directions): longer sweeps are split into several calibrations.
-MAX_CALIBRATION_COMMANDS = 50
 #: Most steps one sequence may list (``repeats`` multiplies them, at most 100).
 MAX_SEQUENCE_STEPS = 100
 
@@ -355,7 +354,11 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
 
 def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationParameters:
     """Validate a thrust-calibration request (commands as fractions of full scale)."""
-    from daq.procedures.requests import CalibrationRequest
+    from daq.procedures.requests import (
+        MAX_CALIBRATION_COMMANDS,
+        THRUST_SWEEP_DEFAULT,
+        CalibrationRequest,
+    )
 
     c = _Checker(raw, CalibrationRequest)
     cmax = rig.limits.max_thruster_command

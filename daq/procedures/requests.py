@@ -16,7 +16,10 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.procedures.params import MAX_CALIBRATION_COMMANDS, THRUST_SWEEP_DEFAULT
+THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
+#: Most command steps one calibration may sweep (each is held ``settle_s`` plus samples,
+#: up and down, both directions): longer sweeps are split into several calibrations.
+MAX_CALIBRATION_COMMANDS = 50
 
 
 @dataclass(frozen=True)

@@ -25,9 +25,9 @@ from typing import Any
 
 from daq.config import RigConfig
 from daq.procedures.kinds import KINDS, StepParameters
-from daq.procedures.motion import RunOutcome
 from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback
+from daq.procedures.steps import RunOutcome
 from daq.session import Aborted, RigSession
 from daq.vocabulary import RunStatus, quoted_kinds
 

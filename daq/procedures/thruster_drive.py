@@ -6,6 +6,9 @@ gives it, at the rig file's ``yaw_lever_arm_m``; a pure torque τ asks every thr
 ``F = τ / (n·L)`` with the sign of its side, so the surge forces cancel. The inverse map
 comes from the newest stored thrust calibration; reverse-running thrusters get the
 larger reverse command. Both axes share one lifecycle (``run_thruster_test``).
+
+One module because the inverse map, the arming and the supervision of a thruster-driven run
+share that run's calibration and driver state.
 """
 
 from __future__ import annotations
@@ -17,9 +20,9 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from daq.operator import OperatorAct
-from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.steps import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store

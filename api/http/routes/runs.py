@@ -1,6 +1,10 @@
 """Run routes: list with filters, one run, samples (JSON paged, CSV streamed), export
 (CSV, JSON, NetCDF, Parquet), events, results, CSV import; estimation/calibration results
-and report plots."""
+and report plots.
+
+One module because every route here is under /api/runs or /api/results and shares the id
+resolution (404 for unknown or malformed ids) and the error bodies.
+"""
 
 from __future__ import annotations
 
