@@ -28,12 +28,12 @@ from api.http.schemas import (
     EventOut,
     ImportOut,
     ResultOut,
-    RunMetadataIn,
     RunOut,
     SamplesOut,
     error_responses,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
+from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
 from daq.store.csvio import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
