@@ -18,6 +18,7 @@ import numpy as np
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
+from daq.vocabulary import AXES, DRIVEN_KINDS
 from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
@@ -25,7 +26,7 @@ from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
 from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
 
-POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
+POSITION_CHANNEL = {kind: AXES[kind].position_channel for kind in DRIVEN_KINDS}
 
 
 def _event_time(events, action: str, key: str = "t_mono") -> float | None:
@@ -172,9 +173,9 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         else:
             drive_inertia = geo.spin_drum_inertia_kg_m2
             drum_radius = geo.spin_drum_radius_m
-    drive = params.get("force_n") if run.kind == "tow" else params.get("torque_nm")
+    name = str(AXES[run.kind].drive_key)
+    drive = params.get(name)
     if drive is None or not math.isfinite(float(drive)):
-        name = "force_n" if run.kind == "tow" else "torque_nm"
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
     draws = None
@@ -197,7 +198,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         drive, draws, drive_law = rebuilt.drive, rebuilt.draws, rebuilt.law
     return RunData(
         run_id=run.id,
-        axis="surge" if run.kind == "tow" else "yaw",
+        axis="surge" if AXES[run.kind].axis.value == "surge" else "yaw",
         t=np.asarray(t, dtype=float),
         position=np.asarray(position, dtype=float),
         drive=drive if isinstance(drive, np.ndarray) else float(drive),
@@ -214,7 +215,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
 
 
 #: The coil whose rising edge lets each kind of run go.
-RELEASE_COIL = {"tow": "tow_release", "spin": "spin_release"}
+RELEASE_COIL = {kind: AXES[kind].release_coil for kind in DRIVEN_KINDS}
 
 
 def _window(
@@ -232,7 +233,7 @@ def _window(
         values = values[timeline.good]
         return values if np.all(np.isfinite(values)) else None
 
-    force = run.parameters.get("force_n") if run.kind == "tow" else run.parameters.get("torque_nm")
+    force = run.parameters.get(str(AXES[run.kind].drive_key))
     direction = float(np.sign(float(force))) if force is not None else 0.0
     keep, report, std = find_window(
         timeline.t,

@@ -327,6 +327,11 @@ class ThrusterDriver:
     # ---- supervision ------------------------------------------------------------------
 
     @property
+    def confirmed(self) -> tuple[float, ...]:
+        """The outputs the controller last confirmed (fractions of full scale)."""
+        return self._confirmed
+
+    @property
     def link_lost(self) -> bool:
         return self.fault is not None and self.fault.kind == "link_lost"
 

@@ -1,4 +1,6 @@
-"""``rig tow``, ``rig spin``, ``rig pendulum``, ``rig calibrate-thrusters``, ``rig sequence``."""
+"""``rig tow``, ``rig spin``, ``rig pendulum``, ``rig calibrate-thrusters`` (one command
+per run kind of ``daq.procedures.kinds.KINDS``, its options from the kind's request model)
+and ``rig sequence``."""
 
 from __future__ import annotations
 
@@ -22,17 +24,14 @@ from api.cli.common import (
     user_errors,
 )
 from api.cli.metadata import run_metadata
-from daq.procedures.params import (
-    ParameterError,
-    calibration_parameters,
-    pendulum_parameters,
-    spin_parameters,
-    tow_parameters,
-)
+from api.cli.options import request_fields, request_options
+from daq.procedures.kinds import KINDS, KindSpec
+from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store.faults import one_line
+from daq.vocabulary import RunKind, RunStatus
 
 
 def _run_procedure(
@@ -55,7 +54,7 @@ def _run_procedure(
 
     async def main(abort: AbortSignal) -> Any:
         from daq.plc import DeviceError
-        from daq.procedures.motion import PreconditionFailed
+        from daq.procedures.steps import PreconditionFailed
         from thrusters.driver import ThrusterError
 
         with ProgressView(not as_json, title) as view:
@@ -77,8 +76,8 @@ def _run_procedure(
         store.close()
 
 
-def _print_outcome(outcome: Any, as_json: bool, extra: dict | None = None) -> None:
-    data = outcome.to_json() | (extra or {})
+def _print_outcome(outcome: Any, as_json: bool) -> None:
+    data = outcome.to_json()
     if as_json:
         echo_json(data)
     else:
@@ -86,210 +85,56 @@ def _print_outcome(outcome: Any, as_json: bool, extra: dict | None = None) -> No
         if data.get("reason"):
             line += f" ({data['reason']})"
         click.echo(line + f"  {data['samples']} samples")
-    if data["status"] != "completed":
+    if data["status"] != RunStatus.COMPLETED:
         raise SystemExit(1)
 
 
-_max_time_option = click.option(
-    "--max-time", "max_time_s", type=float, help="Stop after this many seconds (default 120)."
-)
-_baseline_option = click.option(
-    "--baseline",
-    "baseline_s",
-    type=float,
-    default=1.0,
-    show_default=True,
-    help="Pre-trigger baseline, s.",
-)
+def _print_calibration(calibration: dict[str, Any] | None) -> None:
+    if not calibration:
+        return
+    click.echo("command   thrust/thruster [N]   supply [V]")
+    for row in calibration["table"]:
+        click.echo(
+            f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
+            f"{row['supply_voltage_v']:10.2f}"
+        )
 
 
-async def _motion(session: RigSession, params: Any, abort: AbortSignal, view: ProgressView) -> Any:
-    from daq.procedures.motion import run_motion_test
+def procedure_command(spec: KindSpec) -> click.Command:
+    """``rig <spec.command>``: the kind's request fields as options, then the procedure."""
 
-    return await run_motion_test(session, params, abort=abort, progress=view)
+    async def body(session: RigSession, params: Any, abort: AbortSignal, view: ProgressView):
+        return await spec.run(session, params, abort=abort, progress=view)
 
+    @click.command(spec.command, help=spec.help)
+    @request_options(spec.request)
+    @rig_option
+    @scenario_option
+    @db_option
+    @json_option
+    def command(rig_file, scenario_file, db_url, as_json, **values):
+        given = request_fields(spec.request, values)
+        ran = _run_procedure(
+            rig_file,
+            scenario_file,
+            db_url,
+            lambda source: spec.validate(given, source.rig),
+            body,
+            spec.route,
+            as_json,
+        )
+        if not as_json and "calibration" in ran.extra:
+            _print_calibration(ran.extra["calibration"])
+        _print_outcome(ran, as_json)
 
-def _motion_command(validate, raw, rig_file, scenario_file, db_url, as_json, title) -> None:
-    """Shared body of ``rig tow`` and ``rig spin``: options left unset take their defaults."""
-    given = {k: v for k, v in raw.items() if v is not None}
-    outcome = _run_procedure(
-        rig_file, scenario_file, db_url, lambda s: validate(given, s.rig), _motion, title, as_json
-    )
-    _print_outcome(outcome, as_json)
-
-
-@click.command()
-@click.option(
-    "--force", "force_n", type=float, help="Towing force in N (0 < F ≤ the rig's max_force_n)."
-)
-@click.option(
-    "--weight", "weight_kg", type=float, help="Hung weight in kg (force = weight × the rig's g)."
-)
-@click.option(
-    "--thrusters",
-    "use_thrusters",
-    is_flag=True,
-    help="Drive the force with the calibrated thrusters (no weight).",
-)
-@click.option(
-    "--max-distance",
-    "max_distance_m",
-    type=float,
-    help="Stop after this many metres (default: end of travel).",
-)
-@_max_time_option
-@_baseline_option
-@rig_option
-@scenario_option
-@db_option
-@json_option
-def tow(use_thrusters, rig_file, scenario_file, db_url, as_json, **raw):
-    """Tow test: a weight over the pulley (or the thrusters) pulls the vehicle along the rail."""
-    raw["drive"] = "thrusters" if use_thrusters else "weight"
-    _motion_command(tow_parameters, raw, rig_file, scenario_file, db_url, as_json, "tow")
+    return command
 
 
-@click.command()
-@click.option(
-    "--torque", "torque_nm", type=float, help="Torque in N·m (0 < τ ≤ the rig's max_torque_nm)."
-)
-@click.option(
-    "--weight",
-    "weight_kg",
-    type=float,
-    help="Weight on the drum in kg (τ = weight × g × drum radius).",
-)
-@click.option(
-    "--thrusters",
-    "use_thrusters",
-    is_flag=True,
-    help="Drive the torque with the calibrated thrusters.",
-)
-@click.option(
-    "--max-angle",
-    "max_angle_rad",
-    type=float,
-    help="Stop after this angle, rad (default: cord length).",
-)
-@_max_time_option
-@_baseline_option
-@rig_option
-@scenario_option
-@db_option
-@json_option
-def spin(use_thrusters, rig_file, scenario_file, db_url, as_json, **raw):
-    """Spin test: constant torque about the vertical axis (weight on the drum, or thrusters)."""
-    raw["drive"] = "thrusters" if use_thrusters else "weight"
-    _motion_command(spin_parameters, raw, rig_file, scenario_file, db_url, as_json, "spin")
-
-
-@click.command()
-@click.option(
-    "--angle",
-    "start_angle_rad",
-    type=float,
-    help="Start angle, rad (0 < φ₀ ≤ the rig file's pendulum max_angle_rad).",
-)
-@click.option(
-    "--stop-amplitude",
-    "stop_amplitude_rad",
-    type=float,
-    help="Stop once the amplitude over the last full cycle is below this, rad (default 0.005).",
-)
-@_max_time_option
-@_baseline_option
-@rig_option
-@scenario_option
-@db_option
-@json_option
-def pendulum(rig_file, scenario_file, db_url, as_json, **raw):
-    """Pendulum free decay: pull the vehicle out on the pendulum, release, record the swing."""
-    given = {k: v for k, v in raw.items() if v is not None}
-
-    async def body(session, params, abort, view):
-        from daq.procedures.pendulum import run_pendulum_decay
-
-        return await run_pendulum_decay(session, params, abort=abort, progress=view)
-
-    outcome = _run_procedure(
-        rig_file,
-        scenario_file,
-        db_url,
-        lambda s: pendulum_parameters(given, s.rig),
-        body,
-        "pendulum",
-        as_json,
-    )
-    _print_outcome(outcome, as_json)
-
-
-@click.command("calibrate-thrusters")
-@click.option(
-    "--commands",
-    default=None,
-    metavar="LIST",
-    help="Comma-separated command fractions (default 0,0.1,...,0.8); "
-    "swept up then down, then reversed.",
-)
-@click.option(
-    "--settle",
-    "settle_s",
-    type=float,
-    default=1.0,
-    show_default=True,
-    help="Settling time per step, s.",
-)
-@click.option(
-    "--samples",
-    "samples_per_step",
-    type=int,
-    default=10,
-    show_default=True,
-    help="Samples averaged per step.",
-)
-@click.option("--no-reverse", is_flag=True, help="Forward sweep only.")
-@rig_option
-@scenario_option
-@db_option
-@json_option
-def calibrate_thrusters(
-    commands, settle_s, samples_per_step, no_reverse, rig_file, scenario_file, db_url, as_json
-):
-    """Thrust calibration: step the thrusters on the load cell and fit thrust vs command."""
-    raw: dict[str, Any] = {
-        "settle_s": settle_s,
-        "samples_per_step": samples_per_step,
-        "reverse": not no_reverse,
-    }
-    if commands:
-        try:
-            raw["commands"] = [float(c) for c in commands.split(",")]
-        except ValueError:
-            fail(f"commands: {commands!r} is not allowed; a comma-separated list of numbers")
-
-    async def body(session, params, abort, view):
-        from daq.procedures.calibration import run_thrust_calibration
-
-        return await run_thrust_calibration(session, params, abort=abort, progress=view)
-
-    outcome, calibration = _run_procedure(
-        rig_file,
-        scenario_file,
-        db_url,
-        lambda s: calibration_parameters(raw, s.rig),
-        body,
-        "calibration",
-        as_json,
-    )
-    if not as_json and calibration:
-        click.echo("command   thrust/thruster [N]   supply [V]")
-        for row in calibration["table"]:
-            click.echo(
-                f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
-                f"{row['supply_voltage_v']:10.2f}"
-            )
-        _print_thrust_fit(calibration["fit"])
-    _print_outcome(outcome, as_json, {"calibration": calibration} if as_json else None)
+#: One command per run kind (``api.cli.COMMANDS`` names them for ``rig --help``).
+tow = procedure_command(KINDS[RunKind.TOW])
+spin = procedure_command(KINDS[RunKind.SPIN])
+pendulum = procedure_command(KINDS[RunKind.PENDULUM])
+calibrate_thrusters = procedure_command(KINDS[RunKind.THRUST_CALIBRATION])
 
 
 def _print_thrust_fit(fit: dict[str, Any]) -> None:

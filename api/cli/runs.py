@@ -1,4 +1,8 @@
-"""``rig runs``, ``rig show``, ``rig export``, ``rig import``: the stored runs."""
+"""``rig runs``, ``rig show``, ``rig export``, ``rig import``: the stored runs.
+
+One module because the commands on stored runs share the run-id resolution, the one-line
+errors and the table output.
+"""
 
 from __future__ import annotations
 
@@ -18,7 +22,7 @@ from api.cli.common import (
     user_errors,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
-from daq.procedures.params import RUN_KINDS
+from daq.vocabulary import AXES, RunKind, RunStatus
 
 
 def _when(value: datetime | None) -> str:
@@ -26,7 +30,7 @@ def _when(value: datetime | None) -> str:
 
 
 def _summary(params: dict[str, Any]) -> str:
-    for key, unit in (("force_n", "N"), ("torque_nm", "N·m")):
+    for key, unit in ((a.drive_key, a.drive_unit) for a in AXES.values() if a.drive_key):
         if params.get(key) is not None:
             return f"{params[key]:.4g} {unit}"
     if params.get("sweep"):
@@ -55,10 +59,14 @@ class _Moment(click.ParamType):
 
 
 @click.command("runs")
-@click.option("--kind", type=click.Choice(RUN_KINDS), help="Only runs of this kind.")
+@click.option(
+    "--kind",
+    type=click.Choice([k.value for k in RunKind]),
+    help="Only runs of this kind.",
+)
 @click.option(
     "--status",
-    type=click.Choice(["running", "completed", "aborted", "interrupted"]),
+    type=click.Choice([s.value for s in RunStatus]),
     help="Only this status.",
 )
 @click.option(

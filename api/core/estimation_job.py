@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from daq.procedures.kinds import KINDS
 from daq.run_data import load_run_data
 from daq.store import Store
 from estimation import METHODS
@@ -25,8 +26,9 @@ def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) 
     if not run_ids:
         raise ValueError("run_ids: give at least one run id")
     kinds = {store.get_run(rid).kind for rid in run_ids}
-    if "pendulum" in kinds:
-        if kinds != {"pendulum"}:
+    estimators = {KINDS[k].estimator if k in KINDS else None for k in kinds}  # type: ignore[index]
+    if "pendulum" in estimators:
+        if estimators != {"pendulum"}:
             raise ValueError(
                 f"run_ids: got mixed kinds {sorted(kinds)}, allowed: all pendulum runs, "
                 f"or tow/spin runs only"

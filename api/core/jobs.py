@@ -13,7 +13,7 @@ service died while the job ran (marked at the next start). Every change is publi
 live stream and written to the jobs table (from one writer thread: the rig loop never waits
 on the database); report files of estimations are stored with their result.
 
-Over ~400 lines: the runner's parts share one lock and one set of job objects; the queue and
+One module because the runner's parts share one lock and one set of job objects; the queue and
 the pipelines are short and read best next to the state they change.
 """
 
@@ -35,6 +35,7 @@ from api.core.job_model import Job, JobConflict, JobNotFound
 from api.core.job_requests import procedure_from_request
 from api.core.service import RigService
 from daq.operator import OperatorAct
+from daq.procedures.kinds import KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
@@ -47,7 +48,8 @@ log = logging.getLogger(__name__)
 
 ACTIVE = JOB_ACTIVE
 FINAL = JOB_FINAL
-PROCEDURES = ("tow", "spin", "pendulum", "thrust_calibration", "sequence")
+#: Jobs that hold the rig: one per run kind, and sequences of them.
+PROCEDURES = (*KINDS, "sequence")
 #: Ended jobs kept in memory (all of them stay in the database).
 KEEP_ENDED = 500
 #: Report figures a result serves (the raster for the page, the vector beside it): media types.
@@ -402,11 +404,9 @@ class JobRunner:
         return report
 
     async def _run_procedure(self, job: Job, kind: str, params: Any) -> None:
-        from daq.procedures.calibration import run_thrust_calibration
-        from daq.procedures.motion import PreconditionFailed, run_motion_test
         from daq.procedures.params import ParameterError
-        from daq.procedures.pendulum import run_pendulum_decay
         from daq.procedures.sequence import run_sequence
+        from daq.procedures.steps import PreconditionFailed
 
         session = self.service.require_session()
         job.abort = AbortSignal()
@@ -421,25 +421,15 @@ class JobRunner:
                 return
             self._update(job, state="running", started_at=time.time(), message="starting")
             session.run_metadata = run_metadata(job)
-            if kind == "thrust_calibration":
-                outcome, calibration = await run_thrust_calibration(
-                    session, params, abort=job.abort, progress=report
-                )
-                data = outcome.to_json() | {"calibration": calibration}
-            elif kind == "sequence":
+            if kind == "sequence":
                 assert isinstance(params, Sequence) and job.control is not None
                 seq_outcome = await run_sequence(
                     session, params, control=job.control, progress=report
                 )
                 data = seq_outcome.to_json()
-            elif kind == "pendulum":
-                outcome = await run_pendulum_decay(
-                    session, params, abort=job.abort, progress=report
-                )
-                data = outcome.to_json()
             else:
-                outcome = await run_motion_test(session, params, abort=job.abort, progress=report)
-                data = outcome.to_json()
+                ran = await KINDS[kind].run(session, params, abort=job.abort, progress=report)
+                data = ran.to_json()
             runs = [r["run_id"] for r in data.get("runs", [])] or [data.get("run_id")]
             run_ids = list(dict.fromkeys([*job.run_ids, *[r for r in runs if r]]))
             state = "completed" if data["status"] == "completed" else "aborted"

@@ -14,8 +14,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 
 from daq.store import RunInfo
-
-ENDED = ("completed", "aborted", "interrupted")
+from daq.vocabulary import ENDED_STATUSES
 
 
 class EndedRunCache:
@@ -46,7 +45,7 @@ class EndedRunCache:
     def put(self, run: RunInfo, include_toml: bool) -> bytes:
         """The run's JSON; remembered when the run has ended."""
         body = json.dumps(run.to_json(include_toml=include_toml), allow_nan=False).encode()
-        if run.status in ENDED:
+        if run.status in ENDED_STATUSES:
             with self._lock:
                 self._items[(run.id, include_toml)] = (run.metadata, body)
                 while len(self._items) > self.max_runs:

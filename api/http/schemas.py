@@ -3,6 +3,8 @@
 Request bodies are strict: a number must be a JSON number (``"24.5"`` is refused),
 unknown fields are refused, and limits are checked by ``daq.procedures.params`` so
 the API and the CLI give the same message naming the field and the allowed range.
+The procedures' request bodies are the run kinds' models (``daq.procedures.requests``,
+one per kind in ``daq.procedures.kinds.KINDS``).
 """
 
 from __future__ import annotations
@@ -11,12 +13,13 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.procedures.params import MAX_CALIBRATION_COMMANDS, MAX_SEQUENCE_STEPS
+from daq.procedures.params import MAX_SEQUENCE_STEPS
+from daq.procedures.requests import _ProcedureRequest, _Strict
 from daq.store.schema import JobState
+from daq.vocabulary import RunKind
 
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(strict=True, extra="forbid")
+#: A job runs one run kind, a sequence of them, or an analysis.
+JobKind = Literal[(*(k.value for k in RunKind), "sequence", "estimation", "crosscheck")]  # type: ignore[valid-type]
 
 
 # ---- errors ---------------------------------------------------------------------------
@@ -48,91 +51,10 @@ def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
     return {code: {"model": ErrorBody, "description": text[code]} for code in codes}
 
 
-# ---- run metadata ---------------------------------------------------------------------
-class RunMetadataIn(BaseModel):
-    """Free metadata of a run (checked by ``daq.store.run_metadata``): the four keys below
-    and any other lower-case key with a text, number or true/false value. In a PATCH a
-    ``null`` removes the key."""
-
-    model_config = ConfigDict(extra="allow")
-    operator: str | None = Field(None, max_length=200, description="Who ran the test.")
-    water_temperature_c: float | None = Field(None, description="Water temperature, °C (-2…50).")
-    notes: str | None = Field(None, max_length=10_000)
-    tags: list[str] | None = Field(
-        None, max_length=20, description="Tags to find the run by, e.g. ['fins-v2']."
-    )
-
-
-class _ProcedureRequest(_Strict):
-    """What every procedure start takes besides its own parameters."""
-
-    metadata: RunMetadataIn | None = Field(
-        None, description="Stored on every run the procedure records (see PATCH .../metadata)."
-    )
-
-    def parameters(self) -> dict[str, Any]:
-        """The procedure's own parameters, as given (unset ones left out)."""
-        return self.model_dump(exclude_none=True, exclude={"metadata"})
-
-    def run_metadata(self) -> dict[str, Any] | None:
-        """The ``metadata`` object as given (None when absent)."""
-        return None if self.metadata is None else self.metadata.model_dump(exclude_unset=True)
-
-
 # ---- procedures -------------------------------------------------------------------------
-class TowRequest(_ProcedureRequest):
-    """A tow test: ``force_n`` or ``weight_kg`` (force = weight × the rig's g); ``drive``
-    weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map)."""
-
-    force_n: float | None = Field(None, description="Towing force, N (0 < F ≤ max_force_n).")
-    weight_kg: float | None = Field(None, description="Hung weight, kg.")
-    drive: Literal["weight", "thrusters"] = "weight"
-    max_distance_m: float | None = Field(None, description="Stop after m (default: end of travel).")
-    max_time_s: float | None = Field(None, description="Stop after s (default 120).")
-    baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")
-
-
-class SpinRequest(_ProcedureRequest):
-    """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters."""
-
-    torque_nm: float | None = Field(None, description="Torque, N·m (0 < τ ≤ max_torque_nm).")
-    weight_kg: float | None = Field(None, description="Weight on the drum, kg.")
-    drive: Literal["weight", "thrusters"] = "weight"
-    max_angle_rad: float | None = None
-    max_time_s: float | None = None
-    baseline_s: float | None = None
-
-
-class PendulumRequest(_ProcedureRequest):
-    """A pendulum free-decay test (needs a rig file with a ``[pendulum]`` section)."""
-
-    start_angle_rad: float | None = Field(
-        None, description="Start angle, rad (0 < φ₀ ≤ the pendulum's max_angle_rad); required."
-    )
-    stop_amplitude_rad: float | None = Field(
-        None, description="Stop once the amplitude over a full cycle is below, rad (0.005)."
-    )
-    max_time_s: float | None = Field(None, description="Stop after s (default 120).")
-    baseline_s: float | None = Field(None, description="Pre-trigger baseline, s (default 1).")
-
-
-class CalibrationRequest(_ProcedureRequest):
-    """A thrust calibration sweep (commands as fractions of full thrust)."""
-
-    commands: list[float] | None = Field(
-        None,
-        max_length=MAX_CALIBRATION_COMMANDS,
-        description=f"Command steps, 0 ≤ c ≤ the limit; at most {MAX_CALIBRATION_COMMANDS}.",
-    )
-    settle_s: float | None = None
-    samples_per_step: int | None = None
-    tare_samples: int | None = None
-    reverse: bool | None = None
-
-
 class SequenceStep(BaseModel):
     model_config = ConfigDict(extra="allow")
-    kind: str = Field(description="tow | spin | pendulum | thrust_calibration")
+    kind: str = Field(description=" | ".join(RunKind))
 
 
 class SequenceRequest(_ProcedureRequest):
@@ -200,9 +122,7 @@ class OperatorActOut(BaseModel):
 
 class JobOut(BaseModel):
     id: str
-    kind: Literal[
-        "tow", "spin", "pendulum", "thrust_calibration", "sequence", "estimation", "crosscheck"
-    ]
+    kind: JobKind
     label: str
     state: JobState
     progress: JobProgress

@@ -12,12 +12,13 @@ import asyncio
 import logging
 import math
 import statistics
+import time
 from typing import Any
 
 from daq.operator import OperatorAct
-from daq.procedures.motion import RunOutcome
 from daq.procedures.params import CalibrationParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.steps import RunOutcome
 from daq.procedures.thruster_drive import abort_on_thruster_fault
 from daq.session import RigSession
 
@@ -89,6 +90,7 @@ async def run_thrust_calibration(
                             f"step {i + 1}/{len(sweep)}: command {command:+.2f}",
                         )
                     )
+                    await _until_confirmed(rec, session, [command] * n)
                     await rec.record_for(params.settle_s)
                     got = await _collect(rec, params.samples_per_step)
                     thrust, thrust_std = _mean_std([s.channels["load_cell"] - tare for s in got])
@@ -133,6 +135,29 @@ async def run_thrust_calibration(
         return RunOutcome(
             rec.run_id, rec.status, rec.reason, "thrust_calibration", count
         ), calibration
+
+
+#: A confirmed output within this of the command is the command (the protocol's ‰ step).
+CONFIRM_TOLERANCE = 0.0011
+#: Longest wait for the controller to confirm a step, s (the slew takes < 1 s per step).
+CONFIRM_TIMEOUT_S = 10.0
+
+
+async def _until_confirmed(rec: RecordedRun, session: RigSession, target: list[float]) -> None:
+    """Record until the controller confirms ``target``: the settling time counts from the
+    thrust actually applied, not from the request, even when a loaded host sends the ramp
+    late. A step never confirmed is a fault of the run (the calibration would be wrong)."""
+    thrusters = session.live_thrusters
+    deadline = time.monotonic() + CONFIRM_TIMEOUT_S
+    while any(
+        abs(a - b) > CONFIRM_TOLERANCE for a, b in zip(thrusters.confirmed, target, strict=True)
+    ):
+        if time.monotonic() > deadline:
+            raise RuntimeError(
+                f"thrusters did not confirm command {target} within {CONFIRM_TIMEOUT_S:g} s "
+                f"(confirmed {list(thrusters.confirmed)})"
+            )
+        await rec.record_for(0.05)
 
 
 async def _collect(rec: RecordedRun, count: int) -> list:

@@ -4,6 +4,9 @@
 Every error names the field, the value given and the allowed range, and is the
 same object whether it reaches an operator through the CLI or a lab tool through
 the HTTP API (as a 422 body).
+
+One module because every kind's validator uses one checker, so the API and the CLI name
+fields and ranges the same way for all of them.
 """
 
 from __future__ import annotations
@@ -12,15 +15,13 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from daq.vocabulary import RunKind
+
 if TYPE_CHECKING:  # annotations only: ``rig runs``/``rig show`` start without pydantic
+    from pydantic import BaseModel
+
     from daq.config import RigConfig
 
-#: The kinds of run the procedures record (a run's ``kind``).
-RUN_KINDS = ("tow", "spin", "pendulum", "thrust_calibration")
-THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
-#: Most command steps one calibration may sweep (each is held ``settle_s`` plus samples,
-#: up and down, both directions): longer sweeps are split into several calibrations.
-MAX_CALIBRATION_COMMANDS = 50
 #: Most steps one sequence may list (``repeats`` multiplies them, at most 100).
 MAX_SEQUENCE_STEPS = 100
 
@@ -61,9 +62,18 @@ def _show(value: Any) -> str:
 
 
 class _Checker:
-    def __init__(self, raw: dict[str, Any]) -> None:
+    """Checks ``raw`` field by field; defaults not given are the request model's."""
+
+    def __init__(self, raw: dict[str, Any], model: type[BaseModel] | None = None) -> None:
         self.raw = raw
+        self.model = model
         self.problems: list[tuple[str, Any, str]] = []
+
+    def default(self, name: str) -> Any:
+        """The request model's default for ``name`` (``None``: none, or the rig decides)."""
+        from daq.procedures.requests import field_default
+
+        return None if self.model is None else field_default(self.model, name)
 
     def number(
         self,
@@ -77,7 +87,7 @@ class _Checker:
         required: bool = False,
         why_high: str = "",
     ) -> float | None:
-        value = self.raw.get(name, default)
+        value = self.raw.get(name, default if default is not None else self.default(name))
         lo_sym = "≤" if low_inclusive else "<"
         allowed = f"allowed {low:g} {lo_sym} {name} ≤ {high:g} {unit}{why_high}"
         if value is None:
@@ -116,7 +126,7 @@ class TowParameters:
     max_time_s: float
     baseline_s: float = 1.0
     drive: Literal["weight", "thrusters"] = "weight"
-    kind: Literal["tow"] = "tow"
+    kind: Literal[RunKind.TOW] = RunKind.TOW
     #: What was asked for when the hung weight (to the gram) changed it, e.g. {"force_n": 10}.
     requested: dict[str, float] | None = None
 
@@ -138,7 +148,7 @@ class SpinParameters:
     max_angle_rad: float
     max_time_s: float
     baseline_s: float = 1.0
-    kind: Literal["spin"] = "spin"
+    kind: Literal[RunKind.SPIN] = RunKind.SPIN
     #: What was asked for when the hung weight (to the gram) changed it, e.g. {"torque_nm": 0.9}.
     requested: dict[str, float] | None = None
 
@@ -159,7 +169,7 @@ class CalibrationParameters:
     samples_per_step: int = 10
     tare_samples: int = 20
     reverse: bool = True
-    kind: Literal["thrust_calibration"] = "thrust_calibration"
+    kind: Literal[RunKind.THRUST_CALIBRATION] = RunKind.THRUST_CALIBRATION
 
     @property
     def sweep(self) -> list[float]:
@@ -214,10 +224,12 @@ def _hung_mass(c: _Checker, name: str, mass_kg: float | None) -> float:
 
 def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     """Validate a tow request: ``force_n`` or ``weight_kg``; ``drive`` weight|thrusters."""
-    c = _Checker(raw)
+    from daq.procedures.requests import TowRequest
+
+    c = _Checker(raw, TowRequest)
     g = rig.rig.g
     lim = rig.limits
-    drive = raw.get("drive", "weight")
+    drive = raw.get("drive", c.default("drive"))
     if drive not in ("weight", "thrusters"):
         c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
     force = c.number(
@@ -247,7 +259,7 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     tmax = c.number(
         "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
     )
-    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
     c.fail_if_problems()
     requested = None
     if drive == "weight":
@@ -274,10 +286,12 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
 
 def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     """Validate a spin request: ``torque_nm`` or ``weight_kg``; ``drive`` weight|thrusters."""
-    c = _Checker(raw)
+    from daq.procedures.requests import SpinRequest
+
+    c = _Checker(raw, SpinRequest)
     g, r = rig.rig.g, rig.geometry.spin_drum_radius_m
     lim = rig.limits
-    drive = raw.get("drive", "weight")
+    drive = raw.get("drive", c.default("drive"))
     if drive not in ("weight", "thrusters"):
         c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
     torque = c.number(
@@ -316,7 +330,7 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     tmax = c.number(
         "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
     )
-    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
     c.fail_if_problems()
     requested = None
     if drive == "weight":
@@ -340,7 +354,13 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
 
 def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationParameters:
     """Validate a thrust-calibration request (commands as fractions of full scale)."""
-    c = _Checker(raw)
+    from daq.procedures.requests import (
+        MAX_CALIBRATION_COMMANDS,
+        THRUST_SWEEP_DEFAULT,
+        CalibrationRequest,
+    )
+
+    c = _Checker(raw, CalibrationRequest)
     cmax = rig.limits.max_thruster_command
     commands = raw.get("commands", THRUST_SWEEP_DEFAULT)
     good: list[float] = []
@@ -368,14 +388,10 @@ def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationPa
             c.problems += sub.problems
             if v is not None:
                 good.append(v)
-    settle = c.number("settle_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
-    n = c.number(
-        "samples_per_step", low=1, high=1000, unit="samples", low_inclusive=True, default=10
-    )
-    tare = c.number(
-        "tare_samples", low=1, high=1000, unit="samples", low_inclusive=True, default=20
-    )
-    reverse = raw.get("reverse", True)
+    settle = c.number("settle_s", low=0, high=30, unit="s", low_inclusive=True)
+    n = c.number("samples_per_step", low=1, high=1000, unit="samples", low_inclusive=True)
+    tare = c.number("tare_samples", low=1, high=1000, unit="samples", low_inclusive=True)
+    reverse = raw.get("reverse", c.default("reverse"))
     if not isinstance(reverse, bool):
         c.problems.append(("reverse", reverse, "true or false"))
     c.fail_if_problems()
@@ -399,7 +415,7 @@ class PendulumParameters:
     max_time_s: float
     stop_amplitude_rad: float = 0.005
     baseline_s: float = 1.0
-    kind: Literal["pendulum"] = "pendulum"
+    kind: Literal[RunKind.PENDULUM] = RunKind.PENDULUM
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -411,7 +427,9 @@ def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumParamete
         raise ParameterError(
             [("rig", rig.rig.name, "a rig file with a [pendulum] section (see docs/pendulum.md)")]
         )
-    c = _Checker(raw)
+    from daq.procedures.requests import PendulumRequest
+
+    c = _Checker(raw, PendulumRequest)
     amax = rig.pendulum.max_angle_rad
     angle = c.number(
         "start_angle_rad",
@@ -434,10 +452,9 @@ def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumParamete
         low=0,
         high=angle if angle is not None else amax,
         unit="rad",
-        default=0.005,
         why_high=", start_angle_rad",
     )
-    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True, default=1.0)
+    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
     c.fail_if_problems()
     assert angle is not None and tmax is not None and stop is not None and base is not None
     if stop >= angle:

@@ -17,7 +17,9 @@ import time
 from collections import deque
 
 from daq.operator import OperatorAct
-from daq.procedures.motion import (
+from daq.procedures.params import PendulumParameters, Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.steps import (
     PreconditionFailed,
     RunOutcome,
     _Axis,
@@ -25,12 +27,11 @@ from daq.procedures.motion import (
     check_ready,
     run_outcome,
 )
-from daq.procedures.params import PendulumParameters, Progress
-from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import RigSession
+from daq.vocabulary import RunKind
 
-PENDULUM = _Axis("pendulum", "pendulum_angle", "pendulum_release", "pull_pendulum", "rad")
+PENDULUM = _Axis.of(RunKind.PENDULUM)
 
 
 class CycleAmplitude:

@@ -6,7 +6,7 @@ rest_s = 30          # between runs, to let the water settle
 repeats = 1          # the whole list this many times
 
 [[steps]]
-kind = "tow"         # tow | spin | pendulum | thrust_calibration
+kind = "tow"         # any run kind: tow | spin | pendulum | thrust_calibration
 force_n = 4.9        # the same parameters as the CLI / API
 ```
 Every step is validated against the rig's limits before the first one starts, so a
@@ -19,38 +19,17 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import tomllib
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from daq.config import RigConfig
-from daq.procedures.calibration import run_thrust_calibration
-from daq.procedures.motion import RunOutcome, run_motion_test
-from daq.procedures.params import (
-    MAX_SEQUENCE_STEPS,
-    CalibrationParameters,
-    ParameterError,
-    PendulumParameters,
-    Progress,
-    SpinParameters,
-    TowParameters,
-    calibration_parameters,
-    pendulum_parameters,
-    spin_parameters,
-    tow_parameters,
-)
-from daq.procedures.pendulum import run_pendulum_decay
+from daq.procedures.kinds import KINDS, StepParameters
+from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback
+from daq.procedures.steps import RunOutcome
 from daq.session import Aborted, RigSession
-
-StepParameters = TowParameters | SpinParameters | CalibrationParameters | PendulumParameters
-_VALIDATORS: dict[str, Callable[[dict[str, Any], RigConfig], StepParameters]] = {
-    "tow": tow_parameters,
-    "spin": spin_parameters,
-    "pendulum": pendulum_parameters,
-    "thrust_calibration": calibration_parameters,
-}
+from daq.vocabulary import RunStatus, quoted_kinds
 
 
 @dataclass(frozen=True)
@@ -99,17 +78,18 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
         raw_steps = []
     for i, raw in enumerate(raw_steps):
         kind = raw.get("kind") if isinstance(raw, dict) else None
-        if kind not in _VALIDATORS:
-            problems.append(
-                (
-                    f"steps[{i}].kind",
-                    kind,
-                    "allowed 'tow', 'spin', 'pendulum' or 'thrust_calibration'",
-                )
-            )
+        if not isinstance(kind, str) or kind not in KINDS:
+            problems.append((f"steps[{i}].kind", kind, f"allowed {quoted_kinds()}"))
+            continue
+        spec = KINDS[kind]  # type: ignore[index]  # a RunKind key matches its string
+        given = {k: v for k, v in raw.items() if k != "kind"}
+        unknown = sorted(set(given) - set(spec.request.model_fields))
+        if unknown:
+            allowed = f"a {kind} step takes kind, " + ", ".join(spec.request.model_fields)
+            problems.append((f"steps[{i}].{unknown[0]}", given[unknown[0]], allowed))
             continue
         try:
-            steps.append(_VALIDATORS[kind]({k: v for k, v in raw.items() if k != "kind"}, rig))
+            steps.append(spec.validate(given, rig))
         except ParameterError as err:
             problems += [
                 (f"steps[{i}].{name}", value, allowed) for name, value, allowed in err.problems
@@ -213,16 +193,10 @@ async def run_sequence(
                     )
                 )
 
-            if isinstance(step, CalibrationParameters):
-                outcome, _ = await run_thrust_calibration(
-                    session, step, abort=control.abort, progress=sub
-                )
-            elif isinstance(step, PendulumParameters):
-                outcome = await run_pendulum_decay(session, step, abort=control.abort, progress=sub)
-            else:
-                outcome = await run_motion_test(session, step, abort=control.abort, progress=sub)
+            ran = await KINDS[step.kind].run(session, step, abort=control.abort, progress=sub)
+            outcome = ran.run
             outcomes.append(outcome)
-            if outcome.status != "completed":
+            if outcome.status != RunStatus.COMPLETED:
                 raise Aborted(f"step {i + 1}: {outcome.reason or outcome.status}")
             if i + 1 < len(plan) and seq.rest_s > 0:
                 report(

@@ -6,6 +6,9 @@ gives it, at the rig file's ``yaw_lever_arm_m``; a pure torque τ asks every thr
 ``F = τ / (n·L)`` with the sign of its side, so the surge forces cancel. The inverse map
 comes from the newest stored thrust calibration; reverse-running thrusters get the
 larger reverse command. Both axes share one lifecycle (``run_thruster_test``).
+
+One module because the inverse map, the arming and the supervision of a thruster-driven run
+share that run's calibration and driver state.
 """
 
 from __future__ import annotations
@@ -17,12 +20,13 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from daq.operator import OperatorAct
-from daq.procedures.motion import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.steps import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+from daq.vocabulary import AXES, DRIVEN_KINDS
 from thrusters.config import ThrusterPort
 
 if TYPE_CHECKING:
@@ -35,7 +39,10 @@ log = logging.getLogger(__name__)
 THRUST_STEPS = "thrust_steps"
 
 #: The drive each run kind's thrusters give: (parameter, unit).
-DRIVE_FIELD = {"tow": ("force_n", "N"), "spin": ("torque_nm", "N·m")}
+#: The drive parameter and its unit per driven kind: ("force_n", "N"), ("torque_nm", "N·m").
+DRIVE_FIELD: dict[str, tuple[str, str]] = {
+    kind: (str(AXES[kind].drive_key), str(AXES[kind].drive_unit)) for kind in DRIVEN_KINDS
+}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from daq.store.csvio import export_run_csv, export_run_json, import_csv
     from daq.store.jobs import JobRepository
+    from daq.store.loaded_run import LoadedRun
     from daq.store.migrate import default_database_path, default_database_url
     from daq.store.recorder import RecorderStats, RunRecorder
     from daq.store.records import (
@@ -45,6 +46,7 @@ _HOME = {
     "RUN_STATUSES": "schema",
     "JobState": "schema",
     "JobRepository": "jobs",
+    "LoadedRun": "loaded_run",
     "Store": "store",
     **dict.fromkeys(
         ("AmbiguousRunId", "DuplicateSample", "EventInfo", "ResultInfo", "ResultNotFound",
@@ -69,6 +71,7 @@ __all__ = [
     "EventInfo",
     "JobRepository",
     "JobState",
+    "LoadedRun",
     "RecorderStats",
     "ResultInfo",
     "ResultNotFound",

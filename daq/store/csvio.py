@@ -32,13 +32,14 @@ from daq.store.channel_units import at_resolution, column_infos, table_at_resolu
 from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
 from daq.store.store import Store
+from daq.vocabulary import AXES, DRIVEN_KINDS
 from estimation.data.csv_import import COMMENT, TIME_UNITS, without_comments
 from estimation.data.window import check_time_step
 
 #: Column the import maps ``position`` to, per run kind.
-POSITION_CHANNEL = {"tow": "tow_position", "spin": "yaw_angle"}
+POSITION_CHANNEL = {kind: AXES[kind].position_channel for kind in DRIVEN_KINDS}
 #: Parameter each imported run kind needs (the applied load).
-LOAD_PARAMETER = {"tow": "force_n", "spin": "torque_nm"}
+LOAD_PARAMETER = {kind: AXES[kind].drive_key for kind in DRIVEN_KINDS}
 _RESERVED = ("t", "seq", "t_mono", "t_wall", "quality")
 #: Most data rows one import may hold (10⁶ rows = 28 h at 10 Hz).
 MAX_IMPORT_ROWS = 1_000_000

@@ -13,6 +13,8 @@ from enum import StrEnum
 
 import sqlalchemy as sa
 
+from daq.vocabulary import RunStatus
+
 metadata = sa.MetaData(
     naming_convention={
         "ix": "ix_%(column_0_label)s",
@@ -99,7 +101,7 @@ runs = sa.Table(
     sa.Column("imported_at", sa.Float(precision=53), nullable=True),
     sa.Column("metadata", sa.JSON, nullable=True),
     sa.CheckConstraint(
-        "status IN ('running', 'completed', 'aborted', 'interrupted')", name="ck_runs_status"
+        "status IN ({})".format(", ".join(f"'{s}'" for s in RunStatus)), name="ck_runs_status"
     ),
 )
 

@@ -1,5 +1,10 @@
 """The run database: runs, samples, events and results behind one URL (SQLite or
-PostgreSQL). The SQL lives here; every write is one transaction."""
+PostgreSQL). The SQL lives here; every write is one transaction.
+
+One module because a run's rows (the run, its samples, its tags) are written together in one
+transaction and read through one query; the events, results, calibrations and exports live
+in their own modules.
+"""
 
 from __future__ import annotations
 

@@ -23,7 +23,8 @@ from api.cli.main import main
 from api.http.app import create_app
 from api.http.auth import token_file_warning, token_path
 from api.http.limits import JSON_BODY_LIMIT
-from daq.procedures.params import MAX_CALIBRATION_COMMANDS, MAX_SEQUENCE_STEPS
+from daq.procedures.params import MAX_SEQUENCE_STEPS
+from daq.procedures.requests import MAX_CALIBRATION_COMMANDS
 from tests.api.conftest import AUTH, TOKEN, LiveServer
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -165,9 +165,11 @@ def test_queue_survives_kill_and_restart_reports_survive_a_clean_stop(db_url, tm
         est = ended(client, r.json()["id"], timeout_s=120)
         assert est["state"] == "completed", est
         plots = client.get(f"/api/results/{est['result_id']}").json()["report_plots"]
-        assert "fit_after" in plots
-        png = client.get(f"/api/results/{est['result_id']}/report/fit_after.png")
+        assert "fit" in plots
+        png = client.get(f"/api/results/{est['result_id']}/report/fit.png")
         assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
+        svg = client.get(f"/api/results/{est['result_id']}/report/fit.svg")
+        assert svg.status_code == 200 and b"<svg" in svg.content
         # a clean stop (SIGTERM) at the end of the block
 
     with served(db_url, tmp_path) as (proc, client):
@@ -175,7 +177,7 @@ def test_queue_survives_kill_and_restart_reports_survive_a_clean_stop(db_url, tm
         assert again["state"] == "completed" and again["result_id"] == est["result_id"]
         assert again["finished_at"] == est["finished_at"]
         assert client.get(f"/api/results/{est['result_id']}").json()["report_plots"] == plots
-        png_again = client.get(f"/api/results/{est['result_id']}/report/fit_after.png")
+        png_again = client.get(f"/api/results/{est['result_id']}/report/fit.png")
         assert png_again.status_code == 200 and png_again.content == png.content
         events = client.get(f"/api/jobs/{e['id']}/events").json()
         states = [ev["state"] for ev in events]

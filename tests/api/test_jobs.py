@@ -64,8 +64,13 @@ def test_abort_ends_the_run_aborted_with_brake_on(client):
     run = client.get(f"/api/runs/{job['run_ids'][0]}", headers=AUTH).json()
     assert run["status"] == "aborted"
     assert "operator abort" in run["reason"]
-    status = client.get("/api/rig", headers=AUTH).json()
-    assert status["sample"]["channels"]["tow_release"] == 0.0  # brake engaged
+    # brake engaged: the first sample read after the job ended shows the coil off
+    ended_seq = client.get("/api/rig", headers=AUTH).json()["sample"]["seq"]
+    deadline = time.monotonic() + 5.0
+    while (status := client.get("/api/rig", headers=AUTH).json())["sample"]["seq"] <= ended_seq:
+        assert time.monotonic() < deadline, "no sample after the abort"
+        time.sleep(0.02)
+    assert status["sample"]["channels"]["tow_release"] == 0.0
     assert status["lock_holder"] is None
     # an ended job cannot be aborted again
     assert client.post(f"/api/jobs/{job_id}/abort", headers=AUTH).status_code == 409

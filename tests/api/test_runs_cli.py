@@ -71,7 +71,8 @@ def test_import_with_metadata_then_find_annotate_show_and_export(rig, tmp_path: 
 
     rig("export", first, "-o", "out.csv")
     lines = (tmp_path / "out.csv").read_text().splitlines()
-    assert json.loads(lines[1].removeprefix("# metadata: "))["notes"] == "long fins"
+    metadata = next(line for line in lines if line.startswith("# metadata: "))
+    assert json.loads(metadata.removeprefix("# metadata: "))["notes"] == "long fins"
     again = rig("import", "out.csv", "--kind", "tow", "--force", "10").stdout.strip()
     assert json.loads(rig("show", again, "--json").stdout)["metadata"]["notes"] == "long fins"
 

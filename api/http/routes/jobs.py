@@ -3,23 +3,23 @@ control."""
 
 from __future__ import annotations
 
+import inspect
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query
 
 from api.core.job_requests import procedure_from_request
+from api.core.jobs import JobRunner
+from api.core.service import RigService
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
 from api.http.schemas import (
-    CalibrationRequest,
     EstimationRequest,
     JobEventOut,
     JobOut,
-    PendulumRequest,
     SequenceRequest,
-    SpinRequest,
-    TowRequest,
     error_responses,
 )
+from daq.procedures.kinds import KINDS, KindSpec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 409, 422, 503)
@@ -40,74 +40,41 @@ def _start(kind: str, body, service, runner, queue: bool) -> dict:
     return runner.start_procedure(kind, params, label, request=request, queue=queue).to_json()
 
 
-@router.post(
-    "/tow",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_tow(
-    body: TowRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-    queue: QueueFlag = True,
-) -> dict:
-    """Start a tow test (the same parameters as ``rig tow``); queued while the rig is busy."""
-    return _start("tow", body, service, runner, queue)
+def _start_route(spec: KindSpec) -> None:
+    """``POST /api/jobs/<route>``: the kind's request model as body, validated against the
+    rig (422 naming the field), then started as a job, or queued while the rig is busy
+    (``?queue=false``: 409 instead)."""
+
+    def start(body, service: RigService, runner: JobRunner, queue: bool = True) -> dict:
+        return _start(spec.kind, body, service, runner, queue)
+
+    start.__name__ = f"start_{spec.route}"  # the OpenAPI operation id: start_tow_api_jobs_…
+    start.__doc__ = (
+        f"Start a {spec.label} (the same parameters as ``rig {spec.command}``); queued while"
+        " the rig is busy."
+    )
+    start.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+        [
+            inspect.Parameter("body", inspect.Parameter.KEYWORD_ONLY, annotation=spec.request),
+            inspect.Parameter("service", inspect.Parameter.KEYWORD_ONLY, annotation=ServiceDep),
+            inspect.Parameter("runner", inspect.Parameter.KEYWORD_ONLY, annotation=RunnerDep),
+            inspect.Parameter(
+                "queue", inspect.Parameter.KEYWORD_ONLY, annotation=QueueFlag, default=True
+            ),
+        ],
+        return_annotation=dict,
+    )
+    router.post(
+        f"/{spec.route}",
+        status_code=202,
+        response_model=JobOut,
+        dependencies=[Depends(require_write)],
+        responses=_START,
+    )(start)
 
 
-@router.post(
-    "/spin",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_spin(
-    body: SpinRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-    queue: QueueFlag = True,
-) -> dict:
-    """Start a spin test (the same parameters as ``rig spin``); queued while the rig is busy."""
-    return _start("spin", body, service, runner, queue)
-
-
-@router.post(
-    "/pendulum",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_pendulum(
-    body: PendulumRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-    queue: QueueFlag = True,
-) -> dict:
-    """Start a pendulum free-decay test (the same parameters as ``rig pendulum``);
-    queued while the rig is busy."""
-    return _start("pendulum", body, service, runner, queue)
-
-
-@router.post(
-    "/calibration",
-    status_code=202,
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_START,
-)
-def start_calibration(
-    body: CalibrationRequest,
-    service: ServiceDep,
-    runner: RunnerDep,
-    queue: QueueFlag = True,
-) -> dict:
-    """Start a thrust calibration sweep (``rig calibrate-thrusters``); queued while the
-    rig is busy."""
-    return _start("thrust_calibration", body, service, runner, queue)
+for _spec in KINDS.values():
+    _start_route(_spec)
 
 
 @router.post(

@@ -1,6 +1,10 @@
 """Run routes: list with filters, one run, samples (JSON paged, CSV streamed), export
 (CSV, JSON, NetCDF, Parquet), events, results, CSV import; estimation/calibration results
-and report plots."""
+and report plots.
+
+One module because every route here is under /api/runs or /api/results and shares the id
+resolution (404 for unknown or malformed ids) and the error bodies.
+"""
 
 from __future__ import annotations
 
@@ -24,19 +28,19 @@ from api.http.schemas import (
     EventOut,
     ImportOut,
     ResultOut,
-    RunMetadataIn,
     RunOut,
     SamplesOut,
     error_responses,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
-from daq.procedures.params import RUN_KINDS
+from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
 from daq.store.csvio import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
+from daq.vocabulary import RunKind, RunStatus
 
 router = APIRouter(prefix="/api", tags=["runs"])
-RunStatus = Literal["running", "completed", "aborted", "interrupted"]
+StatusFilter = Literal[tuple(s.value for s in RunStatus)]  # type: ignore[valid-type]
 _READ = error_responses(401, 404, 422)
 
 
@@ -49,8 +53,8 @@ _READ = error_responses(401, 404, 422)
 def list_runs(
     store: StoreDep,
     response: Response,
-    kind: Annotated[str | None, Query(description=" | ".join(RUN_KINDS))] = None,
-    status: RunStatus | None = None,
+    kind: Annotated[str | None, Query(description=" | ".join(RunKind))] = None,
+    status: StatusFilter | None = None,
     vehicle: str | None = None,
     drive: Annotated[
         Literal["weight", "thrusters", "none"] | None,

@@ -1,0 +1,117 @@
+"""Click options derived from a request model (``daq.procedures.requests``), so a
+procedure's parameters are declared once for the API and the CLI.
+
+Each field with a :class:`~daq.procedures.requests.Flag` becomes one option: its name
+from the flag, its type from the annotation, its default (shown) from the field's
+default, a ``ge``/``gt``/``le``/``lt`` bound as a click range, and its help from the
+field's description. An on/off flag (``--thrusters``) sets the field to ``when_set``.
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from collections.abc import Callable
+from typing import Any
+
+import annotated_types
+import click
+from pydantic import BaseModel
+from pydantic.fields import FieldInfo
+
+from daq.procedures.requests import Flag
+
+
+def _flag(info: FieldInfo) -> Flag | None:
+    return next((m for m in info.metadata if isinstance(m, Flag)), None)
+
+
+def _base_type(annotation: Any) -> Any:
+    """``float | None`` → ``float``."""
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return args[0] if len(args) == 1 else annotation
+    return annotation
+
+
+class _Parsed(click.ParamType):
+    """A value typed as text and parsed by the flag's ``parse`` (``0,0.2,0.4`` → a list)."""
+
+    def __init__(self, parse: Callable[[str], Any], what: str) -> None:
+        self.parse = parse
+        self.name = what
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None):
+        if not isinstance(value, str):
+            return value
+        try:
+            return self.parse(value)
+        except ValueError:
+            self.fail(f"got {value!r}; allowed {self.name}", param, ctx)
+
+
+def _click_type(info: FieldInfo, flag: Flag) -> Any:
+    if flag.parse is not None:
+        return _Parsed(flag.parse, info.description or "a list")
+    base = _base_type(info.annotation)
+    bounds: dict[str, Any] = {}
+    for m in info.metadata:
+        if isinstance(m, annotated_types.Ge | annotated_types.Gt):
+            bounds["min"] = m.ge if isinstance(m, annotated_types.Ge) else m.gt
+            bounds["min_open"] = isinstance(m, annotated_types.Gt)
+        elif isinstance(m, annotated_types.Le | annotated_types.Lt):
+            bounds["max"] = m.le if isinstance(m, annotated_types.Le) else m.lt
+            bounds["max_open"] = isinstance(m, annotated_types.Lt)
+    if base is int:
+        return click.IntRange(**bounds) if bounds else int
+    if base is float:
+        return click.FloatRange(**bounds) if bounds else float
+    if base is bool:
+        return bool
+    return str
+
+
+def request_options(model: type[BaseModel]) -> Callable[[click.Command], click.Command]:
+    """A decorator adding one option per flagged field of ``model`` (in field order)."""
+    options = []
+    for name, info in model.model_fields.items():
+        flag = _flag(info)
+        if flag is None:
+            continue
+        if flag.when_set is not None:
+            option = click.option(flag.name, name, is_flag=True, help=flag.help)
+        else:
+            default = info.default
+            option = click.option(
+                flag.name,
+                name,
+                type=_click_type(info, flag),
+                default=default,
+                show_default=default is not None,
+                metavar=flag.metavar,
+                help=flag.help or info.description,
+            )
+        options.append(option)
+
+    def decorate(command: Any) -> Any:
+        for option in reversed(options):
+            command = option(command)
+        return command
+
+    return decorate
+
+
+def request_fields(model: type[BaseModel], values: dict[str, Any]) -> dict[str, Any]:
+    """The request (as a dict of the fields given) from the options' ``values``."""
+    given: dict[str, Any] = {}
+    for name, info in model.model_fields.items():
+        flag = _flag(info)
+        if flag is None or name not in values:
+            continue
+        value = values[name]
+        if flag.when_set is not None:
+            if value:
+                given[name] = flag.when_set
+        elif value is not None:
+            given[name] = value
+    return given

@@ -1,0 +1,201 @@
+"""The steps every test on an axis shares, weight- or thruster-driven: check the
+vehicle is at rest, release after a baseline, follow the motion to its end, and the
+outcome of the recorded run."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from daq.procedures.params import Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.sample import Quality, Sample
+from daq.session import RigSession
+from daq.store.faults import one_line
+from daq.vocabulary import AXES, RunKind
+
+log = logging.getLogger(__name__)
+
+
+#: Largest speed (m/s or rad/s) at which the vehicle counts as at rest.
+AT_REST_SPEED = 0.002
+
+
+class PreconditionFailed(RuntimeError):
+    """The rig is not ready for the test (nothing was recorded)."""
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """How a procedure's run ended."""
+
+    run_id: str
+    status: str
+    reason: str | None
+    kind: str
+    samples: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "run_id": self.run_id,
+            "status": self.status,
+            "reason": self.reason,
+            "kind": self.kind,
+            "samples": self.samples,
+        }
+
+
+@dataclass(frozen=True)
+class _Axis:
+    kind: str
+    position: str
+    release: str
+    weight_act: str
+    unit: str
+
+    @classmethod
+    def of(cls, kind: RunKind) -> _Axis:
+        """The axis words of ``kind`` (``daq.vocabulary.AXES``)."""
+        terms = AXES[kind]
+        return cls(kind, terms.position_channel, terms.release_coil, terms.weight_act, terms.unit)
+
+
+TOW = _Axis.of(RunKind.TOW)
+SPIN = _Axis.of(RunKind.SPIN)
+
+
+async def _settled_samples(session: RigSession, seconds: float, abort: AbortSignal) -> list[Sample]:
+    assert session.acquisition is not None
+    queue = session.acquisition.subscribe(maxsize=1000, name="readiness-check")
+    got: list[Sample] = []
+    try:
+        loop = asyncio.get_running_loop()
+        end = loop.time() + seconds
+        while loop.time() < end:
+            abort.check()
+            try:
+                sample = await asyncio.wait_for(queue.get(), timeout=max(0.05, end - loop.time()))
+            except TimeoutError:
+                break
+            if not sample.quality & (Quality.ERROR | Quality.STALE):
+                got.append(sample)
+    finally:
+        session.acquisition.unsubscribe(queue)
+    return got
+
+
+async def check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> float:
+    """Vehicle at rest, switch clear, no e-stop; returns the start position."""
+    samples = await _settled_samples(session, 0.5, abort)
+    if len(samples) < 2:
+        raise PreconditionFailed(
+            "no fresh data from the PLC: check the connection before starting a test"
+        )
+    last = samples[-1].channels
+    if last.get("estop"):
+        raise PreconditionFailed("the emergency stop is pressed: release it before starting a test")
+    if axis is TOW and last.get("end_of_travel"):
+        raise PreconditionFailed(
+            "the end-of-travel switch is tripped: return the carriage to the start"
+        )
+    pos = [s.channels[axis.position] for s in samples]
+    dt = samples[-1].t_mono - samples[0].t_mono
+    speed = abs(pos[-1] - pos[0]) / dt if dt > 0 else 0.0
+    if speed > AT_REST_SPEED:
+        raise PreconditionFailed(
+            f"the vehicle is moving ({speed:.4f} {axis.unit}/s on {axis.position}); "
+            "wait until it is at rest"
+        )
+    return statistics.fmean(pos)
+
+
+async def follow_motion(
+    rec: RecordedRun,
+    axis: _Axis,
+    start: float,
+    limit: float,
+    max_time_s: float,
+    report: ProgressCallback,
+) -> tuple[str, Sample, float]:
+    """Follow a released axis until end of travel, ``limit`` (m or rad) or ``max_time_s``.
+
+    Returns why it stopped, the sample that decided it, and the time of the last sample
+    of free motion (the end-of-travel switch stops the carriage before the sample that
+    sees it tripped). Unread ticks are skipped; ``rec.samples()`` aborts on device loss.
+    """
+    t0 = previous_t = None
+    async for sample in rec.samples():
+        if sample.quality & Quality.ERROR:
+            continue
+        t0 = t0 if t0 is not None else sample.t_mono
+        elapsed = sample.t_mono - t0
+        travelled = abs(sample.channels[axis.position] - start)
+        done = max(elapsed / max_time_s, travelled / limit)
+        report(
+            Progress(
+                0.05 + 0.9 * min(done, 1.0),
+                f"{axis.kind}: {travelled:.3f} {axis.unit} in {elapsed:.1f} s",
+            )
+        )
+        if axis is TOW and sample.channels.get("end_of_travel"):
+            return "end of travel", sample, previous_t if previous_t is not None else t0
+        if travelled >= limit:
+            what = "distance" if axis is TOW else "angle"
+            return f"max {what} {limit:g} {axis.unit}", sample, sample.t_mono
+        if elapsed >= max_time_s:
+            return f"max time {max_time_s:g} s", sample, sample.t_mono
+        previous_t = sample.t_mono
+    raise AssertionError("rec.samples() ends only by raising")
+
+
+async def run_outcome(
+    session: RigSession, rec: RecordedRun, kind: str, report: ProgressCallback
+) -> RunOutcome:
+    """How the recorded run ended (status, reason, samples stored), reported as done."""
+    assert rec.run_id is not None and rec.status is not None
+    try:
+        count = await asyncio.to_thread(session.store.sample_count, rec.run_id)
+    except Exception as err:  # storage failed: what this recorder stored is the count
+        log.warning("run %s: cannot count its samples: %s", rec.run_id, one_line(err))
+        count = rec.samples_stored
+    report(
+        Progress(
+            1.0,
+            f"run {rec.status}" + (f": {rec.reason}" if rec.reason else ""),
+            state=rec.status,
+        )
+    )
+    return RunOutcome(rec.run_id, rec.status, rec.reason, kind, count)
+
+
+async def baseline_then_release(
+    session: RigSession,
+    rec: RecordedRun,
+    baseline_s: float,
+    channel: str,
+    report: ProgressCallback,
+    what: str = "brake released",
+) -> None:
+    """Record the at-rest baseline, then set the release coil and log a ``release`` event.
+
+    The instant is bracketed by the write and its acknowledgement (``t_mono`` ± ``t_half_width``):
+    estimation carries that timing uncertainty.
+    """
+    report(Progress(0.05, f"recording a {baseline_s:g} s baseline", extra={"run_id": rec.run_id}))
+    await rec.record_for(baseline_s)
+    before = time.monotonic()
+    await session.live_plc.write(channel, True)
+    after = time.monotonic()  # the PLC acknowledged: the release happened in between
+    latest = session.latest()
+    await rec.event(
+        "operator",
+        f"{channel} set: {what}",
+        action="release",
+        seq=latest.seq if latest else None,
+        t_mono=(before + after) / 2,
+        t_half_width=(after - before) / 2,
+    )

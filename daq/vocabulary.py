@@ -1,0 +1,92 @@
+"""The words runs are stored and shown with, defined once: run kinds, run statuses and
+the axis each kind moves (its position channel, release coil, weight act and drive).
+
+``StrEnum`` members are the strings themselves, so the database, the JSON bodies and the
+CLI keep ``"tow"`` and ``"completed"``. Light on purpose (no pydantic, no numpy): ``rig
+runs`` and the store import it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+
+class RunKind(StrEnum):
+    """What a run recorded (a run's ``kind``)."""
+
+    TOW = "tow"
+    SPIN = "spin"
+    PENDULUM = "pendulum"
+    THRUST_CALIBRATION = "thrust_calibration"
+
+
+class RunStatus(StrEnum):
+    """How a run stands: ``running`` until it ends one of the other three ways."""
+
+    RUNNING = "running"
+    COMPLETED = "completed"
+    ABORTED = "aborted"
+    #: The process died under a running run; found and marked on the next start.
+    INTERRUPTED = "interrupted"
+
+
+#: Statuses a run never leaves (its metadata no longer changes).
+ENDED_STATUSES = (RunStatus.COMPLETED, RunStatus.ABORTED, RunStatus.INTERRUPTED)
+
+
+class Axis(StrEnum):
+    """The degree of freedom a run moves."""
+
+    SURGE = "surge"
+    YAW = "yaw"
+    #: The pendulum's swing (roll or pitch, as the rig file's ``[pendulum]`` says).
+    SWING = "swing"
+
+
+@dataclass(frozen=True)
+class AxisTerms:
+    """Everything named after the axis a kind moves.
+
+    ``drive_key``/``drive_unit`` are the applied load a weight or the thrusters give
+    (``None`` for a free decay, which has no drive)."""
+
+    axis: Axis
+    position_channel: str  # e.g. "tow_position"
+    unit: str  # of the position: "m" or "rad"
+    release_coil: str  # the PLC coil whose rising edge lets the run go
+    weight_act: str  # the operator act that loads the axis
+    drive_key: str | None = None  # the run parameter holding the drive, e.g. "force_n"
+    drive_unit: str | None = None
+
+
+#: kind → axis → position channel → drive key: the one table of axis words.
+AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored strings
+    RunKind.TOW: AxisTerms(
+        Axis.SURGE, "tow_position", "m", "tow_release", "hang_tow_weight", "force_n", "N"
+    ),
+    RunKind.SPIN: AxisTerms(
+        Axis.YAW, "yaw_angle", "rad", "spin_release", "hang_spin_weight", "torque_nm", "N·m"
+    ),
+    RunKind.PENDULUM: AxisTerms(
+        Axis.SWING, "pendulum_angle", "rad", "pendulum_release", "pull_pendulum"
+    ),
+}
+
+#: The kinds driven by a constant load (weight or thrusters): tow and spin.
+DRIVEN_KINDS = tuple(kind for kind, terms in AXES.items() if terms.drive_key is not None)
+
+
+def driven_axis(kind: str) -> AxisTerms:
+    """The axis of a weight- or thruster-driven kind; ``ValueError`` naming the allowed."""
+    terms = AXES.get(kind)  # type: ignore[call-overload]  # a StrEnum key matches its str
+    if terms is None or terms.drive_key is None:
+        allowed = " or ".join(repr(str(k)) for k in DRIVEN_KINDS)
+        raise ValueError(f"kind: {kind!r} is not allowed; allowed {allowed}")
+    return terms
+
+
+def quoted_kinds(kinds: tuple[str, ...] | None = None) -> str:
+    """``'tow', 'spin', 'pendulum' or 'thrust_calibration'`` for error messages."""
+    names = [repr(str(k)) for k in (kinds if kinds is not None else tuple(RunKind))]
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
