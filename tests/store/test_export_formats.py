@@ -8,7 +8,7 @@ import csv
 import io
 import json
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +20,7 @@ import xarray as xr
 from daq.export_formats import FORMATS, write_export
 from daq.run_data import load_run_data
 from daq.sample import Quality, Sample
-from daq.store import LoadedRun, RunInfo, Store, export_run_csv, export_run_json, import_csv
+from daq.store import LoadedRun, Store, export_run_csv, export_run_json, import_csv
 from estimation.axis.estimate import estimate
 from estimation.data.csv_import import without_comments
 from tests.estimation.synth import tow_set
@@ -242,16 +242,8 @@ def test_to_pandas_and_to_xarray_for_a_notebook(store: Store) -> None:
     assert float(dataset["tow_position"].sel(t=0.3, method="nearest")) == pytest.approx(0.855)
 
 
-@dataclass(frozen=True)
-class RunWithMetadata(RunInfo):
-    """A run record as it is once runs carry free metadata."""
-
-    metadata: dict = field(default_factory=dict)
-
-
 def test_the_runs_metadata_becomes_global_attributes(store: Store, tmp_path) -> None:
     run = store.load(recorded_tow(store))
-    base = {f.name: getattr(run.info, f.name) for f in fields(RunInfo)}
     metadata = {
         "operator": "A. Lab",
         "water_temperature_c": 18.5,
@@ -259,7 +251,7 @@ def test_the_runs_metadata_becomes_global_attributes(store: Store, tmp_path) -> 
         "kind": "clashes with the run's kind",
     }
     with_metadata = LoadedRun(
-        RunWithMetadata(**base, metadata=metadata), run.samples, run.events, run.results
+        replace(run.info, metadata=metadata), run.samples, run.events, run.results
     )
     path = with_metadata.to_netcdf(tmp_path / "run.nc")
     with xr.open_dataset(path) as ds:
