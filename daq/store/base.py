@@ -10,8 +10,6 @@ from importlib import metadata as importlib_metadata
 from typing import Self
 
 import sqlalchemy as sa
-from sqlalchemy.dialects import postgresql as pg_dialect
-from sqlalchemy.dialects import sqlite as sqlite_dialect
 
 from daq.store import checks
 from daq.store.migrate import create_engine, default_database_url, upgrade_to_head
@@ -128,7 +126,11 @@ class StoreBase:
             yield conn
 
     def _named_id(self, conn: sa.Connection, table: sa.Table, name: str) -> int:
-        insert = (pg_dialect if self.backend == "postgresql" else sqlite_dialect).insert
+        # the backend's own INSERT … ON CONFLICT (imported here: listing runs never needs it)
+        if self.backend == "postgresql":
+            from sqlalchemy.dialects.postgresql import insert
+        else:
+            from sqlalchemy.dialects.sqlite import insert
         conn.execute(insert(table).values(name=name).on_conflict_do_nothing())
         return conn.execute(sa.select(table.c.id).where(table.c.name == name)).scalar_one()
 
