@@ -114,3 +114,26 @@ def test_runs_are_paged_with_a_total(client):
     assert len(seen) == len(set(seen)) == int(total) >= 3
     r = client.get("/api/runs?search=page&limit=2", headers=AUTH)
     assert r.headers["X-Total-Count"] == "3" and r.headers["X-Next-Offset"] == "2"
+
+
+def test_an_import_takes_metadata_from_query_parameters(client):
+    csv = '# metadata: {"operator": "Bo", "notes": "from the file", "ballast": "B3"}\n'
+    csv += "t,position\n0,0\n0.1,0.01\n0.2,0.03\n"
+    headers = AUTH | {"Content-Type": "text/csv"}
+    query = "kind=tow&force_n=10&filename=annotated.csv"
+    meta = "operator=Grace&water_temperature_c=12.5&tag=fins-v2&tag=repeat"
+    r = client.post(f"/api/runs/import?{query}&{meta}", content=csv, headers=headers)
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    # the query parameters replace the file's keys they name; the file's others stay
+    expected = {"operator": "Grace", "notes": "from the file", "ballast": "B3",
+                "water_temperature_c": 12.5, "tags": ["fins-v2", "repeat"]}  # fmt: skip
+    assert run["metadata"] == expected
+    assert [x["id"] for x in _runs(client, "tag=repeat&source=imported")] == [run["id"]]
+
+    before = client.get("/api/runs?limit=1", headers=AUTH).headers["X-Total-Count"]
+    for bad, field in (("water_temperature_c=80", "water_temperature_c: 80.0"),
+                       ("tag=two%20words", "tag: 'two words'")):  # fmt: skip
+        r = client.post(f"/api/runs/import?{query}&{bad}", content=csv, headers=headers)
+        assert r.status_code == 422 and r.json()["detail"].startswith(field), r.text
+    assert client.get("/api/runs?limit=1", headers=AUTH).headers["X-Total-Count"] == before

@@ -37,6 +37,7 @@ from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
 from daq.store.csvio import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
+from daq.store.run_metadata import check_run_metadata, check_tag
 from daq.vocabulary import RunKind, RunStatus
 
 router = APIRouter(prefix="/api", tags=["runs"])
@@ -280,6 +281,18 @@ _IMPORT_BODY = {
 }
 
 
+def _import_metadata(
+    operator: str | None, water: float | None, notes: str | None, tags: list[str] | None
+) -> dict | None:
+    """The import's metadata query parameters, checked before the body is read (errors
+    name the query parameter)."""
+    given = {"operator": operator, "water_temperature_c": water, "notes": notes}
+    metadata = {key: value for key, value in given.items() if value is not None}
+    if tags:
+        metadata["tags"] = [check_tag("tag", t) for t in tags]
+    return check_run_metadata(metadata, prefix="") or None
+
+
 @router.post(
     "/runs/import",
     status_code=201,
@@ -308,13 +321,21 @@ async def import_run(
         float | None,
         Query(description="End of free motion, s on the t axis (default: found in the data)."),
     ] = None,
+    operator: Annotated[str | None, Query(description="Run metadata: who ran the test.")] = None,
+    water_temperature_c: Annotated[
+        float | None, Query(description="Run metadata: water temperature, °C (-2…50).")
+    ] = None,
+    notes: Annotated[str | None, Query(description="Run metadata: free notes.")] = None,
+    tag: Annotated[list[str] | None, Query(description="Run metadata: a tag (repeatable).")] = None,
 ) -> dict:
     """Import a CSV recorded elsewhere as a completed run (body = the CSV text, at most
     ``max_upload_bytes`` and ``MAX_IMPORT_ROWS`` rows; parsed in a separate process).
 
     Estimation finds the release and the end of free motion from the
     ``tow_release``/``spin_release``/``end_of_travel`` columns when present, else from the
-    motion; ``release_time_s``/``end_time_s`` override that."""
+    motion; ``release_time_s``/``end_time_s`` override that. ``operator``,
+    ``water_temperature_c``, ``notes`` and ``tag`` update the file's ``# metadata:`` line."""
+    metadata = _import_metadata(operator, water_temperature_c, notes, tag)
     load = {"tow": ("force_n", force_n), "spin": ("torque_nm", torque_nm)}[kind]
     params: dict = {load[0]: load[1]} if load[1] is not None else {}
     if weight_kg is not None:
@@ -333,6 +354,7 @@ async def import_run(
                 time_unit=time_unit,
                 release_time_s=release_time_s,
                 end_time_s=end_time_s,
+                metadata=metadata,
             )
         except ValueError as err:
             message = str(err).replace(str(path), name)

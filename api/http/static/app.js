@@ -241,26 +241,79 @@ function formBody(form) {
   return body;
 }
 
+// ---- run metadata: one block sent as `metadata` with every start --------------------------
+// Operator and water temperature are remembered in localStorage (many tests in a row).
+const metaForm = $("#form-metadata");
+const META_REMEMBERED = ["operator", "water_temperature_c"];
+for (const name of META_REMEMBERED) {
+  const saved = localStorage.getItem(`rig-meta-${name}`);
+  if (saved !== null) metaForm.elements[name].value = saved;
+}
+
+function metadataBody() {
+  const f = metaForm.elements;
+  const m = {};
+  if (f.operator.value.trim()) m.operator = f.operator.value.trim();
+  if (f.water_temperature_c.value !== "") m.water_temperature_c = Number(f.water_temperature_c.value);
+  if (f.notes.value.trim()) m.notes = f.notes.value.trim();
+  const tags = f.tags.value.split(",").map((t) => t.trim()).filter(Boolean);
+  if (tags.length) m.tags = tags;
+  return Object.keys(m).length ? m : undefined;
+}
+
+function showMetadataSummary() {
+  const m = metadataBody() || {};
+  const parts = [m.operator, m.water_temperature_c === undefined ? "" : `${m.water_temperature_c} °C`,
+    (m.tags || []).join(", ")].filter(Boolean);
+  $("#run-metadata-summary").textContent = parts.length ? `(${parts.join(" · ")})` : "(none)";
+}
+
+metaForm.addEventListener("submit", (ev) => ev.preventDefault());
+metaForm.addEventListener("input", () => {
+  for (const name of META_REMEMBERED) {
+    const value = metaForm.elements[name].value.trim();
+    if (value) localStorage.setItem(`rig-meta-${name}`, value);
+    else localStorage.removeItem(`rig-meta-${name}`);
+  }
+  showMetadataSummary();
+});
+showMetadataSummary();
+
+// The field a 422 names: `errors[].field`, else the start of the message (`metadata.notes: …`).
+function problemField(p) {
+  return p.field || ((p.message || "").match(/^([\w.[\]]+):/) || [])[1] || "";
+}
+
 $$(".start-form[data-kind]").forEach((form) => {
   form.addEventListener("submit", async (ev) => {
     ev.preventDefault();
     const errors = $(".errors", form);
+    const metaErrors = $(".errors", metaForm);
     errors.innerHTML = "";
+    metaErrors.innerHTML = "";
     $$("input", form).forEach((i) => i.classList.remove("invalid"));
+    $$("input", metaForm).forEach((i) => i.classList.remove("invalid"));
     if (!form.checkValidity()) {
       form.reportValidity();
       return;
     }
+    const body = formBody(form);
+    const metadata = metadataBody();
+    if (metadata) body.metadata = metadata;
     try {
-      const job = await api("POST", `/api/jobs/${form.dataset.kind}`, formBody(form));
+      const job = await api("POST", `/api/jobs/${form.dataset.kind}`, body);
       showJob(job);
       resetLive();
     } catch (err) {
       const problems = (err.body && err.body.errors) || [{ message: err.message, field: "" }];
       for (const p of problems) {
-        errors.insertAdjacentHTML("beforeend", `<li>${esc(p.message)}</li>`);
-        const input = $(`[name="${p.field}"]`, form);
+        const field = problemField(p);
+        const key = (field.match(/^metadata\.([a-z0-9_]+)/) || [])[1];
+        const target = key ? metaForm : form;
+        $(".errors", target).insertAdjacentHTML("beforeend", `<li>${esc(p.message)}</li>`);
+        const input = $(`[name="${key || field}"]`, target);
         if (input) input.classList.add("invalid");
+        if (key) $("#run-metadata").open = true;
       }
       if (err.body && err.body.holder) errors.insertAdjacentHTML("beforeend", `<li>Rig held by ${esc(err.body.holder)}</li>`);
     }
