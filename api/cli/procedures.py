@@ -100,6 +100,40 @@ def _print_calibration(calibration: dict[str, Any] | None) -> None:
         )
 
 
+def _report_option(spec: KindSpec) -> Callable[[Callable], Callable]:
+    """``--report DIR`` on the commands whose kind writes a report of its own."""
+
+    def decorate(func: Callable) -> Callable:
+        if spec.report is None:
+            return func
+        return click.option(
+            "--report",
+            "report_dir",
+            type=click.Path(file_okay=False),
+            metavar="DIR",
+            default=None,
+            help="After a completed run, write its report (report.md and figures) to DIR.",
+        )(func)
+
+    return decorate
+
+
+def _write_report(spec: KindSpec, ran: Any, folder: str) -> None:
+    """The kind's report of a completed run into folder (paths on stderr; stdout stays the
+    outcome); a folder that cannot be written is an error after the run is stored."""
+    from pathlib import Path
+
+    if ran.run.status != RunStatus.COMPLETED:
+        click.echo("report: not written, the run did not complete", err=True)
+        return
+    assert spec.report is not None
+    try:
+        paths = spec.report(ran, Path(folder))
+    except OSError as err:
+        fail(f"--report: cannot write {folder}: {err.strerror or err}", code=1)
+    click.echo(f"report: {paths[0]}", err=True)
+
+
 def procedure_command(spec: KindSpec) -> click.Command:
     """``rig <spec.command>``: the kind's request fields as options, then the procedure."""
 
@@ -108,11 +142,12 @@ def procedure_command(spec: KindSpec) -> click.Command:
 
     @click.command(spec.command, help=spec.help)
     @request_options(spec.request)
+    @_report_option(spec)
     @rig_option
     @scenario_option
     @db_option
     @json_option
-    def command(rig_file, scenario_file, db_url, as_json, **values):
+    def command(rig_file, scenario_file, db_url, as_json, report_dir=None, **values):
         given = request_fields(spec.request, values)
         ran = _run_procedure(
             rig_file,
@@ -125,6 +160,8 @@ def procedure_command(spec: KindSpec) -> click.Command:
         )
         if not as_json and "calibration" in ran.extra:
             _print_calibration(ran.extra["calibration"])
+        if report_dir is not None:
+            _write_report(spec, ran, report_dir)
         _print_outcome(ran, as_json)
 
     return command

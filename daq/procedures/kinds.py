@@ -31,6 +31,8 @@ from daq.procedures.params import (
 from daq.vocabulary import AXES, AxisTerms, RunKind
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from pydantic import BaseModel
 
     from daq.config import RigConfig
@@ -86,6 +88,9 @@ class KindSpec:
     route: str
     #: The estimation that takes this kind's runs: "axis" (tow/spin), "pendulum", or none.
     estimator: Literal["axis", "pendulum"] | None
+    #: Write a report of a completed run into a folder → paths written (``--report DIR``),
+    #: or ``None`` when the kind has no report of its own.
+    report: Callable[[KindOutcome, Path], list[Path]] | None = None
 
     @property
     def axis(self) -> AxisTerms | None:
@@ -112,6 +117,12 @@ async def _run_calibration(session, params, *, abort, progress) -> KindOutcome:
         session, params, abort=abort, progress=progress
     )
     return KindOutcome(outcome, {"calibration": calibration})
+
+
+def _calibration_report(outcome: KindOutcome, folder: Path) -> list[Path]:
+    from estimation.thrust.report import write_calibration_report
+
+    return write_calibration_report(outcome.extra["calibration"], folder)
 
 
 def _driven(name: str, load: float, unit: str, drive: str) -> str:
@@ -173,6 +184,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             command="calibrate-thrusters",
             route="calibration",
             estimator=None,
+            report=_calibration_report,
         ),
     )
 }
