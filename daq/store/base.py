@@ -128,10 +128,10 @@ class StoreBase:
     def _named_id(self, conn: sa.Connection, table: sa.Table, name: str) -> int:
         # the backend's own INSERT … ON CONFLICT (imported here: listing runs never needs it)
         if self.backend == "postgresql":
-            from sqlalchemy.dialects.postgresql import insert
+            from sqlalchemy.dialects import postgresql as dialect
         else:
-            from sqlalchemy.dialects.sqlite import insert
-        conn.execute(insert(table).values(name=name).on_conflict_do_nothing())
+            from sqlalchemy.dialects import sqlite as dialect  # type: ignore[no-redef]
+        conn.execute(dialect.insert(table).values(name=name).on_conflict_do_nothing())
         return conn.execute(sa.select(table.c.id).where(table.c.name == name)).scalar_one()
 
     def _resolve(self, conn: sa.Connection, run_id: str) -> sa.Row:

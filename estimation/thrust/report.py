@@ -79,7 +79,7 @@ def calibration_figure(calibration: dict[str, Any]) -> Figure:
         sel = pts["direction"] == direction
         if not np.any(sel):
             continue
-        style = {"fmt": marker, "ms": 5, "color": colour, "capsize": 3}
+        style: dict[str, Any] = {"fmt": marker, "ms": 5, "color": colour, "capsize": 3}
         u_sel, std_sel = pts["command"][sel], pts["std"][sel]
         ax.errorbar(u_sel, pts["thrust"][sel], yerr=std_sel, label=f"measured, {label}", **style)
         ax_res.errorbar(u_sel, residual[sel], yerr=std_sel, **style)
