@@ -199,6 +199,11 @@ class JobRunner:
             before = (job.state, job.message)
             if "state" in changes:
                 changes["state"] = JobState(changes["state"])
+                if changes["state"] in FINAL and job.finished_at is None:
+                    # ended and its end time in one change: no reader sees one without the other
+                    changes.setdefault("finished_at", time.time())
+            if job.finished_at is not None:
+                changes.pop("finished_at", None)  # a job ends once; its end time stays
             for name, value in changes.items():
                 setattr(job, name, value)
             event = (job.state, job.message) != before
