@@ -8,7 +8,9 @@ threads; the SVG is written with ``svg.fonttype = none`` so its labels stay sear
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import matplotlib
 import numpy as np
@@ -87,3 +89,58 @@ def figure_links(figures: Sequence[tuple[str, Path]]) -> list[str]:
             "",
         ]
     return lines
+
+
+def effects_text(effects: Sequence[str]) -> str:
+    """What a model is, for titles: "base model" or "base model + coulomb_friction"."""
+    return "base model + " + ", ".join(effects) if effects else "base model"
+
+
+@dataclass(frozen=True)
+class FitRow:
+    """One run of a fit figure: time from release, measured values, and the residuals of
+    the model before and after the effect search."""
+
+    label: str
+    t: np.ndarray
+    measured: np.ndarray
+    residual_before: np.ndarray
+    residual_after: np.ndarray
+
+
+def fit_over_measurements(
+    rows: Sequence[FitRow],
+    quantity: str,
+    unit: str,
+    title: str,
+    legend_loc: Literal["best", "upper right"] = "best",
+) -> Figure:
+    """One row per run: measured vs model before and after against time from release, then
+    the residual before and the residual after, each on its own scale with its unit."""
+    fig = new_figure(2.7 * len(rows) + 1.0, WIDE_IN)
+    grid = fig.add_gridspec(len(rows), 3, width_ratios=(2.2, 1.4, 1.4), hspace=0.45, wspace=0.28)
+    for i, row in enumerate(rows):
+        ax = fig.add_subplot(grid[i, 0])
+        before, after = row.measured - row.residual_before, row.measured - row.residual_after
+        ax.plot(row.t, before, "--", lw=1.4, color=BEFORE, label="model before")
+        ax.plot(row.t, after, "-", lw=1.4, color=AFTER, label="model after")
+        ax.plot(row.t, row.measured, ".", ms=2.5, color=MEASURED, label="measured", zorder=3)
+        ax.set_title(row.label, loc="left", fontsize=10)
+        ax.set_ylabel(f"{quantity} [{unit}]")
+        axes = [ax]
+        residuals = (("before", row.residual_before, BEFORE), ("after", row.residual_after, AFTER))
+        for col, (which, residual, colour) in enumerate(residuals, start=1):
+            scale, shown = prefixed([residual], unit)
+            ax_res = fig.add_subplot(grid[i, col], sharex=ax)
+            ax_res.axhline(0.0, color="0.6", lw=0.8)
+            ax_res.plot(row.t, residual / scale, ".", ms=2.5, color=colour)
+            ax_res.set_title(f"measured − model {which}", loc="left", fontsize=10)
+            ax_res.set_ylabel(f"residual [{shown}]")
+            axes.append(ax_res)
+        if i == 0:
+            ax.legend(loc=legend_loc, fontsize=8)
+        if i == len(rows) - 1:
+            for a in axes:
+                a.set_xlabel(TIME_LABEL)
+    fig.suptitle(title, fontsize=11)
+    return fig

@@ -15,12 +15,10 @@ from estimation.axis.model import PreparedRun, prepare
 from estimation.axis.result import EstimationResult
 from estimation.data.runs import RunData
 from estimation.figures import (
-    AFTER,
-    BEFORE,
-    MEASURED,
-    TIME_LABEL,
-    WIDE_IN,
+    FitRow,
+    effects_text,
     figure_links,
+    fit_over_measurements,
     new_figure,
     prefixed,
     run_label,
@@ -69,51 +67,24 @@ def run_labels(runs: Sequence[PreparedRun], axis: str) -> dict[str, str]:
     return labels
 
 
-def _effects_text(effects: Sequence[str]) -> str:
-    return "base model + " + ", ".join(effects) if effects else "base model"
-
-
 def fit_figure(
     result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
 ) -> Figure:
-    """One row per run: measured vs model before and after against time from release, then
-    the residual before and the residual after, each on its own scale."""
+    """The fit over the measurements (:func:`estimation.figures.fit_over_measurements`)."""
     units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
     before, after = result.fit_before, result.fit_after
     assert before is not None and after is not None
-    fig = new_figure(2.7 * len(runs) + 1.0, WIDE_IN)
-    grid = fig.add_gridspec(len(runs), 3, width_ratios=(2.2, 1.4, 1.4), hspace=0.45, wspace=0.28)
-    for i, r in enumerate(runs):
-        t = r.t - r.t_release
-        ax = fig.add_subplot(grid[i, 0])
-        ax.plot(t, r.x - before.residuals[i], "--", lw=1.4, color=BEFORE, label="model before")
-        ax.plot(t, r.x - after.residuals[i], "-", lw=1.4, color=AFTER, label="model after")
-        ax.plot(t, r.x, ".", ms=2.5, color=MEASURED, label="measured", zorder=3)
-        ax.set_title(labels[r.run_id], loc="left", fontsize=10)
-        ax.set_ylabel(f"{names['position']} [{units['position']}]")
-        axes = [ax]
-        for col, (which, fit, colour) in enumerate(
-            (("before", before, BEFORE), ("after", after, AFTER)), start=1
-        ):
-            scale, unit = prefixed([fit.residuals[i]], units["position"])
-            ax_res = fig.add_subplot(grid[i, col], sharex=ax)
-            ax_res.axhline(0.0, color="0.6", lw=0.8)
-            ax_res.plot(t, fit.residuals[i] / scale, ".", ms=2.5, color=colour)
-            ax_res.set_title(f"measured − model {which}", loc="left", fontsize=10)
-            ax_res.set_ylabel(f"residual [{unit}]")
-            axes.append(ax_res)
-        if i == 0:
-            ax.legend(loc="best", fontsize=8)
-        if i == len(runs) - 1:
-            for a in axes:
-                a.set_xlabel(TIME_LABEL)
-    fig.suptitle(
-        f"{result.axis}, {result.method}: before = {_effects_text(before.effects)} "
-        f"(RMSE {result.rmse_before:.3g} {units['position']}), after = "
-        f"{_effects_text(after.effects)} (RMSE {result.rmse_after:.3g} {units['position']})",
-        fontsize=11,
+    rows = [
+        FitRow(labels[r.run_id], r.t - r.t_release, r.x, before.residuals[i], after.residuals[i])
+        for i, r in enumerate(runs)
+    ]
+    unit = units["position"]
+    title = (
+        f"{result.axis}, {result.method}: before = {effects_text(before.effects)} "
+        f"(RMSE {result.rmse_before:.3g} {unit}), after = "
+        f"{effects_text(after.effects)} (RMSE {result.rmse_after:.3g} {unit})"
     )
-    return fig
+    return fit_over_measurements(rows, names["position"], unit, title)
 
 
 def force_figure(
@@ -133,7 +104,7 @@ def force_figure(
         for r, force, v, m in zip(runs, forces, fit.velocities, moving, strict=True):
             ax.plot(v[m], force / scale, ".", ms=3, label=labels[r.run_id])
         ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.set_title(f"{which}: {_effects_text(fit.effects)}", loc="left", fontsize=10)
+        ax.set_title(f"{which}: {effects_text(fit.effects)}", loc="left", fontsize=10)
         ax.set_xlabel(f"model {names['velocity']} [{units['velocity']}]")
         ax.set_ylabel(f"{names['drive']} residual [{unit}]")
     axes[1].legend(loc="best", fontsize=8)

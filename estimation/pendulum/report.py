@@ -12,12 +12,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from estimation.figures import (
-    AFTER,
-    BEFORE,
-    MEASURED,
     TIME_LABEL,
-    WIDE_IN,
+    FitRow,
+    effects_text,
     figure_links,
+    fit_over_measurements,
     new_figure,
     prefixed,
     run_label,
@@ -44,48 +43,24 @@ def run_labels(result: PendulumResult) -> dict[str, str]:
     }
 
 
-def _effects_text(effects) -> str:
-    return "base model + " + ", ".join(effects) if effects else "base model"
-
-
 def fit_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
-    """One row per run: measured vs model before and after against time from release, then
-    the residual before and the residual after, each on its own scale."""
-    n = len(result.decays)
-    fig = new_figure(2.7 * n + 1.0, WIDE_IN)
-    grid = fig.add_gridspec(n, 3, width_ratios=(2.2, 1.4, 1.4), hspace=0.45, wspace=0.28)
-    fits = (("before", result.fit_before, BEFORE), ("after", result.fit_after, AFTER))
-    for i, d in enumerate(result.decays):
-        t = d.t - d.t[0]
-        ax = fig.add_subplot(grid[i, 0])
-        ax.plot(t, d.phi - result.fit_before.residuals[i], "--", lw=1.2, color=BEFORE,
-                label="model before")  # fmt: skip
-        ax.plot(t, d.phi - result.fit_after.residuals[i], "-", lw=1.2, color=AFTER,
-                label="model after")  # fmt: skip
-        ax.plot(t, d.phi, ".", ms=2.5, color=MEASURED, label="measured", zorder=3)
-        ax.set_title(labels[d.run_id], loc="left", fontsize=10)
-        ax.set_ylabel("angle φ [rad]")
-        axes = [ax]
-        for col, (which, fit, colour) in enumerate(fits, start=1):
-            scale, unit = prefixed([fit.residuals[i]], "rad")
-            ax_res = fig.add_subplot(grid[i, col], sharex=ax)
-            ax_res.axhline(0.0, color="0.6", lw=0.8)
-            ax_res.plot(t, fit.residuals[i] / scale, ".", ms=2.5, color=colour)
-            ax_res.set_title(f"measured − model {which}", loc="left", fontsize=10)
-            ax_res.set_ylabel(f"residual [{unit}]")
-            axes.append(ax_res)
-        if i == 0:
-            ax.legend(loc="upper right", fontsize=8)
-        if i == n - 1:
-            for a in axes:
-                a.set_xlabel(TIME_LABEL)
-    fig.suptitle(
-        f"pendulum, {result.method}: before = {_effects_text(result.fit_before.effects)} "
+    """The fit over the measurements (:func:`estimation.figures.fit_over_measurements`)."""
+    rows = [
+        FitRow(
+            labels[d.run_id],
+            d.t - d.t[0],
+            d.phi,
+            result.fit_before.residuals[i],
+            result.fit_after.residuals[i],
+        )
+        for i, d in enumerate(result.decays)
+    ]
+    title = (
+        f"pendulum, {result.method}: before = {effects_text(result.fit_before.effects)} "
         f"(RMSE {result.rmse_before:.3g} rad), after = "
-        f"{_effects_text(result.fit_after.effects)} (RMSE {result.rmse_after:.3g} rad)",
-        fontsize=11,
+        f"{effects_text(result.fit_after.effects)} (RMSE {result.rmse_after:.3g} rad)"
     )
-    return fig
+    return fit_over_measurements(rows, "angle φ", "rad", title, legend_loc="upper right")
 
 
 def rate_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
@@ -99,7 +74,7 @@ def rate_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
         for d, res, rate in zip(result.decays, fit.residuals, fit.rates, strict=True):
             ax.plot(rate, res / scale, ".", ms=3, label=labels[d.run_id])
         ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.set_title(f"{which}: {_effects_text(fit.effects)}", loc="left", fontsize=10)
+        ax.set_title(f"{which}: {effects_text(fit.effects)}", loc="left", fontsize=10)
         ax.set_xlabel("model angular rate φ̇ [rad/s]")
         ax.set_ylabel(f"residual [{unit}]")
     axes[1].legend(loc="best", fontsize=8)
