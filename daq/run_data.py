@@ -18,15 +18,13 @@ import numpy as np
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
-from daq.vocabulary import AXES, DRIVEN_KINDS
+from daq.vocabulary import AXES, DRIVEN_KINDS, POSITION_CHANNEL
 from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
 from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
-
-POSITION_CHANNEL = {kind: AXES[kind].position_channel for kind in DRIVEN_KINDS}
 
 
 def _event_time(events, action: str, key: str = "t_mono") -> float | None:

@@ -75,6 +75,12 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
 
 #: The kinds driven by a constant load (weight or thrusters): tow and spin.
 DRIVEN_KINDS = tuple(kind for kind, terms in AXES.items() if terms.drive_key is not None)
+#: Per driven kind: the channel that records its position, and the parameter holding its
+#: drive with the drive's unit (``"force_n"``, ``"N"``).
+POSITION_CHANNEL: dict[str, str] = {kind: AXES[kind].position_channel for kind in DRIVEN_KINDS}
+DRIVE_FIELD: dict[str, tuple[str, str]] = {
+    kind: (str(AXES[kind].drive_key), str(AXES[kind].drive_unit)) for kind in DRIVEN_KINDS
+}
 
 
 def driven_axis(kind: str) -> AxisTerms:

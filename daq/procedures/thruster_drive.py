@@ -26,7 +26,7 @@ from daq.procedures.steps import SPIN, TOW, RunOutcome, check_ready, follow_moti
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
-from daq.vocabulary import AXES, DRIVEN_KINDS
+from daq.vocabulary import DRIVE_FIELD
 from thrusters.config import ThrusterPort
 
 if TYPE_CHECKING:
@@ -39,10 +39,6 @@ log = logging.getLogger(__name__)
 THRUST_STEPS = "thrust_steps"
 
 #: The drive each run kind's thrusters give: (parameter, unit).
-#: The drive parameter and its unit per driven kind: ("force_n", "N"), ("torque_nm", "N·m").
-DRIVE_FIELD: dict[str, tuple[str, str]] = {
-    kind: (str(AXES[kind].drive_key), str(AXES[kind].drive_unit)) for kind in DRIVEN_KINDS
-}
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:

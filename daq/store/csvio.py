@@ -32,14 +32,10 @@ from daq.store.channel_units import at_resolution, column_infos, table_at_resolu
 from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
 from daq.store.store import Store
-from daq.vocabulary import AXES, DRIVEN_KINDS
+from daq.vocabulary import DRIVE_FIELD, POSITION_CHANNEL
 from estimation.data.csv_import import COMMENT, TIME_UNITS, without_comments
 from estimation.data.window import check_time_step
 
-#: Column the import maps ``position`` to, per run kind.
-POSITION_CHANNEL = {kind: AXES[kind].position_channel for kind in DRIVEN_KINDS}
-#: Parameter each imported run kind needs (the applied load).
-LOAD_PARAMETER = {kind: AXES[kind].drive_key for kind in DRIVEN_KINDS}
 _RESERVED = ("t", "seq", "t_mono", "t_wall", "quality")
 #: Most data rows one import may hold (10⁶ rows = 28 h at 10 Hz).
 MAX_IMPORT_ROWS = 1_000_000
@@ -144,9 +140,9 @@ def export_run_json(store: Store, run_id: str, fileobj: TextIO) -> None:
 def check_import_parameters(kind: str, parameters: dict[str, Any]) -> dict[str, Any]:
     """The imported run's parameters: the load (``force_n`` or ``torque_nm``, > 0) and an
     optional ``hung_mass_kg`` (> 0), plus ``source: import``."""
-    if kind not in LOAD_PARAMETER:
-        raise ValueError(f"kind: {kind!r} is not allowed; use one of {', '.join(LOAD_PARAMETER)}")
-    needed = LOAD_PARAMETER[kind]
+    if kind not in DRIVE_FIELD:
+        raise ValueError(f"kind: {kind!r} is not allowed; use one of {', '.join(DRIVE_FIELD)}")
+    needed = DRIVE_FIELD[kind][0]
     out: dict[str, Any] = {"source": "import"}
     for key, value in parameters.items():
         if key in (needed, "hung_mass_kg"):
