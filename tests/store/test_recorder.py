@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import sqlite3
+import threading
 import time
 
 import numpy as np
@@ -76,11 +77,26 @@ async def test_close_without_run_task_flushes_and_only_repeated_seqs_are_dropped
 
 
 def test_put_never_blocks_and_a_full_queue_drops_and_counts(store: Store) -> None:
+    """put() does no database work: with every table locked by another connection (a
+    writer would wait there for seconds), 150 puts still return at once."""
     recorder = RunRecorder(store, new_run(store), max_queue=100)
-    started = time.perf_counter()
-    for sample in make_samples(0, 150):
-        recorder.put(sample)
-    assert time.perf_counter() - started < 0.05
+    locker = Store(store.url)
+    with locker.engine.connect() as conn:
+        if locker.backend == "sqlite":
+            conn.exec_driver_sql("BEGIN EXCLUSIVE")
+        else:
+            conn.exec_driver_sql("BEGIN")
+            conn.exec_driver_sql("LOCK TABLE samples, events, runs IN ACCESS EXCLUSIVE MODE")
+        putter = threading.Thread(
+            target=lambda: [recorder.put(sample) for sample in make_samples(0, 150)]
+        )
+        putter.start()
+        putter.join(timeout=5.0)  # the lock is held far longer than any put could take
+        blocked = putter.is_alive()
+        conn.rollback()
+    putter.join()
+    locker.close()
+    assert not blocked, "put() waited on the database"
     assert recorder.queued == 100 and recorder.stats.dropped_queue_full == 50
 
 
