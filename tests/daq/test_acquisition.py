@@ -151,7 +151,7 @@ async def test_stop_wakes_a_sleeping_clock_promptly(plc):
     t0 = time.monotonic()
     acq.stop()
     await asyncio.wait_for(runner, 1.0)
-    assert time.monotonic() - t0 < 0.1
+    assert time.monotonic() - t0 < 1.0  # the next tick is 2 s away: stop did not wait for it
     assert acq.stats.ticks == 1
 
 
