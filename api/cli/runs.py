@@ -310,8 +310,12 @@ def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
     required=True,
     help="Tow (position in m) or spin (angle in rad).",
 )
-@click.option("--force", "force_n", type=float, help="Tow force in N.")
-@click.option("--torque", "torque_nm", type=float, help="Spin torque in N·m.")
+@click.option(
+    "--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow)."
+)
+@click.option(
+    "--torque", "torque_nm", type=float, help="Spin torque in N·m (negative: a reverse spin)."
+)
 @click.option(
     "--weight",
     "weight_kg",
@@ -383,8 +387,10 @@ def import_(
                 f"--{'force' if kind == 'tow' else 'torque'} is required for a {kind}",
             )
         )
-    elif not (drive > 0 and drive < float("inf")):
-        problems.append((drive_name, drive, f"allowed 0 < {drive_name} < ∞"))
+    elif not (drive != 0 and abs(drive) < float("inf")):
+        problems.append(
+            (drive_name, drive, f"allowed 0 < |{drive_name}| < ∞; negative for a reverse run")
+        )
     if other is not None:
         problems.append(
             ("torque_nm" if kind == "tow" else "force_n", other, f"not used by a {kind}")

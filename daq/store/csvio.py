@@ -138,8 +138,9 @@ def export_run_json(store: Store, run_id: str, fileobj: TextIO) -> None:
 
 
 def check_import_parameters(kind: str, parameters: dict[str, Any]) -> dict[str, Any]:
-    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, > 0) and an
-    optional ``hung_mass_kg`` (> 0), plus ``source: import``."""
+    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, signed and not
+    0: negative is a reverse run) and an optional ``hung_mass_kg`` (> 0), plus
+    ``source: import``."""
     if kind not in DRIVE_FIELD:
         raise ValueError(f"kind: {kind!r} is not allowed; use one of {', '.join(DRIVE_FIELD)}")
     needed = DRIVE_FIELD[kind][0]
@@ -149,7 +150,13 @@ def check_import_parameters(kind: str, parameters: dict[str, Any]) -> dict[str, 
             if value is None and key == "hung_mass_kg":
                 continue
             ok = isinstance(value, int | float) and not isinstance(value, bool)
-            if not ok or not math.isfinite(value) or value <= 0:
+            if key == needed:  # signed: a negative load is a reverse run
+                if not ok or not math.isfinite(value) or value == 0:
+                    raise ValueError(
+                        f"{key}: {value!r} is not allowed; use a finite number other than 0 "
+                        "(negative: a reverse run)"
+                    )
+            elif not ok or not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{key}: {value!r} is not allowed; use a finite number > 0")
             out[key] = float(value)
         else:

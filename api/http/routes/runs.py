@@ -305,8 +305,12 @@ async def import_run(
     request: Request,
     kind: Annotated[Literal["tow", "spin"], Query(description="What the CSV recorded.")],
     store: StoreDep,
-    force_n: Annotated[float | None, Query(description="Tow force, N (tow runs).")] = None,
-    torque_nm: Annotated[float | None, Query(description="Torque, N·m (spin runs).")] = None,
+    force_n: Annotated[
+        float | None, Query(description="Tow force, N (tow runs; negative: a reverse tow).")
+    ] = None,
+    torque_nm: Annotated[
+        float | None, Query(description="Torque, N·m (spin runs; negative: a reverse spin).")
+    ] = None,
     weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
     vehicle: Annotated[str, Query(min_length=1, max_length=200)] = "unknown",
     filename: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",

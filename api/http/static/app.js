@@ -157,15 +157,17 @@ async function refreshRig() {
 
 function setLimits() {
   const l = state.limits;
-  const set = (form, name, max) => {
+  // signed: a negative drive is a reverse test, so the range is −max…max
+  const set = (form, name, max, signed = false) => {
     const el = $(`#form-${form} [name=${name}]`);
     if (el && max !== undefined) el.max = max;
+    if (el && max !== undefined && signed) el.min = -max;
   };
-  set("tow", "force_n", l.max_force_n);
-  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined);
+  set("tow", "force_n", l.max_force_n, true);
+  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined, true);
   set("tow", "max_time_s", l.max_run_s);
   set("tow", "max_distance_m", l.end_of_travel_m);
-  set("spin", "torque_nm", l.max_torque_nm);
+  set("spin", "torque_nm", l.max_torque_nm, true);
   set("spin", "max_time_s", l.max_run_s);
 }
 
@@ -587,6 +589,7 @@ async function renderEstimation(res) {
   $("#est-ambiguous").innerHTML =
     (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
     [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
+  showReverseButton(res.reverse_test);
   const perRun = Object.keys(res.rmse_per_run_before || {});
   // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
   const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
@@ -600,6 +603,42 @@ async function renderEstimation(res) {
     { responsive: true, displaylogo: false },
   );
   await showReportPlots(res.result_id);
+}
+
+// The reverse tow/spin the estimator asks for (friction ≈ bias), as a button that starts it
+// when the rig can run it: the service runs a rig, its PLC answers, and a thruster-driven
+// reverse needs the thrusters.
+function rigCanRun(test) {
+  const r = state.rig;
+  if (!r || !r.running || !r.connected || r.device_lost) return false;
+  const caps = r.capabilities; // a rig file's capabilities, when the API lists them
+  if (caps && Array.isArray(caps.procedures) && !caps.procedures.includes(test.kind)) return false;
+  if (test.request.drive === "thrusters" && (!r.thrusters || r.thrusters.state === "absent")) return false;
+  return true;
+}
+
+function showReverseButton(test) {
+  const box = $("#est-reverse");
+  box.innerHTML = "";
+  if (!test) return;
+  if (!rigCanRun(test)) {
+    box.innerHTML = `<p class="muted">Reverse ${esc(test.kind)} to record: <code>${esc(test.command)}</code> (this rig cannot run it now).</p>`;
+    return;
+  }
+  box.innerHTML = `<button id="est-reverse-btn" title="POST ${esc(test.route)}">Run the reverse ${esc(test.kind)}</button>
+    <code>${esc(test.command)}</code> <span id="est-reverse-status" class="muted"></span>`;
+  $("#est-reverse-btn").onclick = async () => {
+    const body = { ...test.request };
+    const metadata = metadataBody();
+    if (metadata) body.metadata = metadata;
+    try {
+      const job = await api("POST", test.route, body);
+      $("#est-reverse-status").textContent = `started: ${job.label}`;
+      showJob(job);
+    } catch (err) {
+      $("#est-reverse-status").textContent = err.message;
+    }
+  };
 }
 
 // The stored result's report figures into #est-plots, full width (fetched with the token):
