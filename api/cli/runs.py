@@ -310,9 +310,7 @@ def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
     required=True,
     help="Tow (position in m) or spin (angle in rad).",
 )
-@click.option(
-    "--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow)."
-)
+@click.option("--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow).")
 @click.option(
     "--torque", "torque_nm", type=float, help="Spin torque in N·m (negative: a reverse spin)."
 )

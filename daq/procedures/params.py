@@ -109,9 +109,7 @@ class _Checker:
         value = float(value)
         size = abs(value) if signed else value
         ok = (
-            math.isfinite(value)
-            and (size >= low if low_inclusive else size > low)
-            and size <= high
+            math.isfinite(value) and (size >= low if low_inclusive else size > low) and size <= high
         )
         if not ok:
             self.problems.append((name, value, allowed))

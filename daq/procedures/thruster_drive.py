@@ -156,7 +156,7 @@ def thruster_commands(
                     (
                         name,
                         drive,
-                        f"allowed |{name}| up to {reach * count * arm:.3g} {unit} with these thrusters "
+                        f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
                         f"(max_thruster_command {max_command:g})",
                     )
                 ]
@@ -202,7 +202,7 @@ def law_commands(
                     (
                         name,
                         drive,
-                        f"allowed |{name}| up to {reach * count * arm:.3g} {unit} with these thrusters "
+                        f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
                         f"at the supply voltage now ({at:.3g} V; max_thruster_command "
                         f"{max_command:g})",
                     )

@@ -17,8 +17,8 @@ from estimation.axis.output_error import (
     leave_one_run_out_rmse,
 )
 from estimation.axis.release import fit_release
-from estimation.axis.reverse import FRICTION_AND_BIAS, suggest_reverse_test
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
+from estimation.axis.reverse import FRICTION_AND_BIAS, suggest_reverse_test
 from estimation.axis.search import candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
@@ -67,7 +67,7 @@ def estimate(
     reverse = suggest_reverse_test(axis, runs, ambiguous)
     if reverse is not None:  # the experiment the advice asks for, as a command to run
         advice = tuple(
-            f"{text}: run `{reverse.command}`" if FRICTION_AND_BIAS <= set(group) else text
+            f"{text}: run `{reverse.command}`" if set(group) >= FRICTION_AND_BIAS else text
             for group, text in zip(ambiguous, advice, strict=True)
         )
     boot = _bootstrap(prepared, final, n_bootstrap, seed) if n_bootstrap else None

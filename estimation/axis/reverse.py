@@ -39,7 +39,8 @@ class ReverseTest:
     def command(self) -> str:
         """``rig tow --force -83.3`` (``--thrusters`` when thruster-driven)."""
         flag = "--force" if self.kind == "tow" else "--torque"
-        return f"rig {self.kind} {flag} {self.drive:.4g}" + (" --thrusters" if self.thrusters else "")
+        thrusters = " --thrusters" if self.thrusters else ""
+        return f"rig {self.kind} {flag} {self.drive:.4g}{thrusters}"
 
     def request(self) -> dict[str, Any]:
         """The body of ``POST /api/jobs/<kind>`` that starts it."""
@@ -66,7 +67,7 @@ def suggest_reverse_test(
 
     Weight-driven: the largest drive used, turned round (the fastest run shows the friction
     best). Thruster-driven: the smallest, turned round (thrusters push less in reverse)."""
-    if not any(FRICTION_AND_BIAS <= set(group) for group in ambiguous) or not runs:
+    if not any(set(group) >= FRICTION_AND_BIAS for group in ambiguous) or not runs:
         return None
     drives = [float(np.mean(r.drive_at_samples()[np.asarray(r.t) > r.t_release])) for r in runs]
     signs = {np.sign(d) for d in drives if d != 0}
