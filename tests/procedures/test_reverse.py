@@ -118,6 +118,19 @@ async def test_reverse_thruster_tow_turns_the_thrusters_round(session, store):
     after = data.drive[data.t > data.t_release + 1.0]  # rebuilt from the thrust steps
     assert np.all(after < 0) and np.median(after) == pytest.approx(-15.0, rel=0.1)
 
+    # A reverse thruster spin: every thruster turns the other way from a forward spin's.
+    spin = spin_parameters(
+        {"torque_nm": -2.0, "drive": "thrusters", "max_time_s": 2.0, "baseline_s": 0.3},
+        session.rig,
+    )
+    outcome = await run_motion_test(session, spin)
+    assert outcome.status == "completed", outcome
+    commands = store.get_run(outcome.run_id).parameters["commands"]
+    signs = session.rig.thrusters.yaw_signs()
+    assert all(u * s < 0 for u, s in zip(commands, signs, strict=True))
+    yaw = store.samples(outcome.run_id).channels["yaw_angle"]
+    assert yaw[0] == pytest.approx(0.0, abs=1e-3) and yaw[-1] < -0.05
+
 
 @pytest.mark.parametrize(
     ("raw", "message"),
