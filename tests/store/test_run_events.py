@@ -8,6 +8,7 @@ import pytest
 
 from daq.store.records import EventInfo
 from daq.store.run_events import Halt, Release, RunAction, RunEvents, ThrustStep
+from tests.store.helpers import new_run
 
 
 def _event(n: int, data: dict | None, kind: str = "operator") -> EventInfo:
@@ -50,21 +51,10 @@ def test_a_run_without_events_has_none_of_them():
     assert events.release_time is None and events.thrust_steps is None
 
 
-def test_the_action_is_stored_as_its_plain_name(tmp_path):
+def test_the_action_is_stored_as_its_plain_name(store):
     """Writers pass the enum; the database keeps the plain string the readers match."""
-    from daq.store import Store
-
-    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    run_id = store.create_run(
-        kind="pendulum",
-        parameters={},
-        channel_names=["pendulum_angle"],
-        rig_name="r",
-        vehicle="v",
-        rig_toml="",
-    )
+    run_id = new_run(store, kind="pendulum")
     store.add_event(run_id, "limit", "caught", {"action": RunAction.CATCH, "seq": 7})
     (stored,) = store.events(run_id)
     assert stored.data == {"action": "catch", "seq": 7}
     assert RunEvents.of([stored]).catch == Halt(None, None, 7)
-    store.close()
