@@ -1,0 +1,30 @@
+"""Waiting on a condition in tests: poll until it holds, fail naming what never happened.
+
+For state the test cannot subscribe to (a counter, a stat, a list another thread fills);
+returns as soon as the condition holds, so a loaded machine only makes it slower."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+
+
+def wait_until(
+    condition: Callable[[], object], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
+) -> None:
+    """Block until ``condition()`` is true; AssertionError naming ``what`` after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"{what}: not within {timeout_s:g} s"
+        time.sleep(poll_s)
+
+
+async def until(
+    condition: Callable[[], object], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
+) -> None:
+    """``wait_until`` for a test on the event loop: the loop keeps running while it waits."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"{what}: not within {timeout_s:g} s"
+        await asyncio.sleep(poll_s)
