@@ -6,6 +6,7 @@ returns as soon as the condition holds, so a loaded machine only makes it slower
 from __future__ import annotations
 
 import asyncio
+import inspect
 import time
 from collections.abc import Callable
 
@@ -23,8 +24,13 @@ def wait_until(
 async def until(
     condition: Callable[[], object], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
 ) -> None:
-    """``wait_until`` for a test on the event loop: the loop keeps running while it waits."""
+    """``wait_until`` for a test on the event loop: the loop keeps running while it waits.
+    ``condition`` may be a coroutine function (a read from a device)."""
     deadline = time.monotonic() + timeout_s
-    while not condition():
+    while not await _value(condition()):
         assert time.monotonic() < deadline, f"{what}: not within {timeout_s:g} s"
         await asyncio.sleep(poll_s)
+
+
+async def _value(result: object) -> object:
+    return await result if inspect.isawaitable(result) else result
