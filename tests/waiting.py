@@ -9,6 +9,7 @@ import asyncio
 import inspect
 import time
 from collections.abc import Callable
+from typing import Any
 
 
 def wait_until(
@@ -34,3 +35,13 @@ async def until(
 
 async def _value(result: object) -> object:
     return await result if inspect.isawaitable(result) else result
+
+
+async def next_samples(acquisition: Any, count: int, *, timeout_s: float = 10.0) -> list[Any]:
+    """The next ``count`` samples the acquisition clock takes (``Acquisition.subscribe``):
+    to watch something over clock ticks rather than over a guessed wall-clock time."""
+    queue = acquisition.subscribe(maxsize=count, name="test-next-samples")
+    try:
+        return [await asyncio.wait_for(queue.get(), timeout_s) for _ in range(count)]
+    finally:
+        acquisition.unsubscribe(queue)
