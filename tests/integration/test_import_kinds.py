@@ -18,7 +18,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from api.core.estimation_job import run_estimation
-from daq.config import DEFAULT_RIG_FILE
+from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.store import Store, export_run_csv
 from tests.estimation import pendulum_synth
 from tests.estimation.pendulum_synth import PendulumGeometry
@@ -132,3 +132,68 @@ def test_logged_drive_errors_are_one_line_naming_the_column(rig, tmp_path: Path)
         err = rig("import", *argv, "--kind", "tow", code=2)
         assert expect in err and err.count("\n") == 1, (argv, err)
     assert "no runs" in rig("runs") or rig("runs").count("\n") <= 1
+
+
+#: A half-scale BENBAM on a shorter rod: masses × 1/8, inertias × 1/32, 0.25 kg heavy in
+#: water; its added mass and damping scaled alike (α × 1/8). g is the rig file's.
+HALF = PendulumGeometry(
+    pivot_to_vehicle_m=0.6,
+    rod_mass_kg=3.0,
+    rod_cg_m=0.3,
+    rod_inertia_kg_m2=0.36,
+    vehicle_mass_kg=3.75,
+    vehicle_inertia_kg_m2=1.1 / 32,
+    buoyancy_kg=3.5,
+    pivot_damping_nm_s=0.05,
+    g=load_rig(DEFAULT_RIG_FILE).rig.g,
+)
+HALF_ALPHA, HALF_BETA = 14.2, 2.5
+
+
+def _half_scale_rig(path: Path) -> None:
+    """BENBAM's rig file with the half-scale vehicle and pendulum."""
+    text = DEFAULT_RIG_FILE.read_text(encoding="utf-8")
+    text = re.sub(r"(?m)^dry_mass_kg = .*$", f"dry_mass_kg = {HALF.vehicle_mass_kg}", text)
+    text = re.sub(r'(?m)^name = "BENBAM"$', 'name = "BENBAM half scale"', text)
+    keys = {
+        "pivot_to_vehicle_m": HALF.pivot_to_vehicle_m,
+        "rod_mass_kg": HALF.rod_mass_kg,
+        "rod_cg_m": HALF.rod_cg_m,
+        "rod_inertia_kg_m2": HALF.rod_inertia_kg_m2,
+        "vehicle_inertia_kg_m2": HALF.vehicle_inertia_kg_m2,
+        "buoyancy_kg": HALF.buoyancy_kg,
+        "pivot_damping_nm_s": HALF.pivot_damping_nm_s,
+    }
+    head, pendulum = text.split("[pendulum]")
+    for key, value in keys.items():
+        pendulum, n = re.subn(rf"(?m)^{key} = \S+", f"{key} = {value!r}", pendulum)
+        assert n == 1, key
+    path.write_text(head + "[pendulum]" + pendulum, encoding="utf-8")
+
+
+def test_a_half_scale_pendulum_decay_imports_and_estimates_its_coefficients(
+    rig, tmp_path: Path
+) -> None:
+    run = pendulum_synth.decay(HALF, alpha=HALF_ALPHA, beta=HALF_BETA, amplitude=0.2,
+                               duration=30.0, t_release=2.0)  # fmt: skip
+    lines = ["t,position"] + [f"{a:.1f},{b:.5f}" for a, b in zip(run.t, run.angle, strict=True)]
+    (tmp_path / "decay.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    _half_scale_rig(tmp_path / "half.toml")
+    err = rig("import", "decay.csv", "--kind", "pendulum", code=2)
+    assert "--rig: a pendulum import needs the rig file" in err
+    run_id = rig("import", "decay.csv", "--kind", "pendulum", "--rig", "half.toml",
+                 "--release-time", "2")  # fmt: skip
+    store = Store(rig.db)
+    try:
+        stored = store.get_run(run_id)
+        assert stored.kind == "pendulum" and stored.vehicle == "BENBAM half scale"
+        assert list(stored.channel_names) == ["pendulum_angle"]
+        data = run_estimation(store, [run_id], search_effects=False)
+    finally:
+        store.close()
+    assert data["analysis"] == "pendulum"
+    c = data["coefficients"]
+    for name, truth in (("added_mass", HALF_ALPHA), ("linear_damping", HALF_BETA)):
+        value, std = c[name]["value"], c[name]["std"]
+        assert 0 < std < 0.1 * truth, (name, value, std)
+        assert abs(value - truth) < 3 * std, (name, value, std)
