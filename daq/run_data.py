@@ -5,6 +5,10 @@ The bridge between storage and estimation: picks the position channel of the
 axis, the time base, the release and brake instants from the run's events, and
 the drive (force or torque, hung weight, drive-train inertia) from its parameters
 and the rig file it ran with. ``estimation`` itself never imports this.
+
+One module because tow, spin and pendulum runs share the time base and the release/end
+instants (``_timeline``), and the drive of a run (constant, logged per sample, or rebuilt
+from the thrusters' calibration) is chosen from the same stored parameters.
 """
 
 from __future__ import annotations

@@ -16,6 +16,10 @@ which estimation takes as the drive instead of a constant ``force_n``/``torque_n
 
 An import takes the ``# metadata: {…}`` line (the run's metadata, JSON) back as the new
 run's metadata.
+
+One module because export and import are the two sides of one file contract (the
+reserved columns, the comment lines, the position and drive channels per kind): an
+export must import back, and keeping both here keeps that contract in one place.
 """
 
 from __future__ import annotations
