@@ -197,3 +197,30 @@ def test_a_half_scale_pendulum_decay_imports_and_estimates_its_coefficients(
         value, std = c[name]["value"], c[name]["std"]
         assert 0 < std < 0.1 * truth, (name, value, std)
         assert abs(value - truth) < 3 * std, (name, value, std)
+
+
+def test_a_spin_takes_its_logged_torque_per_sample_in_si(tmp_path: Path) -> None:
+    """``N*m`` reads as N·m, kgf·m is scaled to N·m, and the estimator's drive is the
+    column at each sample (not a constant)."""
+    from daq.run_data import load_run_data
+    from daq.store import import_csv
+
+    t = np.arange(0.0, 6.0, 0.1)
+    angle = np.where(t < 1.0, 0.0, 0.2 * (t - 1.0) ** 2)
+    torque = 0.1 + 0.02 * t
+    lines = ["t,position,tq"] + [
+        f"{a:.1f},{b:.6f},{c:.4f}" for a, b, c in zip(t, angle, torque, strict=True)
+    ]
+    (tmp_path / "spin.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with Store(f"sqlite:///{tmp_path}/rig.db") as store:
+        for unit, scale in (("N*m", 1.0), ("kgf·m", KGF)):
+            run_id = import_csv(store, tmp_path / "spin.csv", kind="spin", parameters={},
+                                drive_column="tq", drive_unit=unit, release_time_s=1.0)  # fmt: skip
+            assert store.get_run(run_id).parameters["drive_channel"] == "drive_torque"
+            data = load_run_data(store, run_id)
+            assert not data.is_constant_drive()
+            expected = np.interp(data.t, t, torque) * scale
+            assert np.allclose(data.drive, expected, rtol=1e-9, atol=1e-9)
+        with pytest.raises(ValueError, match="drive_unit: 'N' is not allowed; use one of N·m"):
+            import_csv(store, tmp_path / "spin.csv", kind="spin", parameters={},
+                       drive_column="tq", drive_unit="N")  # fmt: skip
