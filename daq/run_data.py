@@ -5,6 +5,10 @@ The bridge between storage and estimation: picks the position channel of the
 axis, the time base, the release and brake instants from the run's events, and
 the drive (force or torque, hung weight, drive-train inertia) from its parameters
 and the rig file it ran with. ``estimation`` itself never imports this.
+
+One module because tow, spin and pendulum runs share the time base and the release/end
+instants (``_timeline``), and the drive of a run (constant, logged per sample, or rebuilt
+from the thrusters' calibration) is chosen from the same stored parameters.
 """
 
 from __future__ import annotations
@@ -167,7 +171,10 @@ def load_run_data(store: Store, run_id: str) -> RunData:
             drum_radius = geo.spin_drum_radius_m
     name = str(AXES[run.kind].drive_key)
     drive = params.get(name)
-    if drive is None or not math.isfinite(float(drive)):
+    logged = _logged_drive(run, table, timeline.good)
+    if logged is not None:
+        drive = logged[keep]
+    elif drive is None or not math.isfinite(float(drive)):
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
     draws = None
@@ -206,6 +213,21 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     )
 
 
+def _logged_drive(run: RunInfo, table: SampleTable, good: np.ndarray) -> np.ndarray | None:
+    """The drive logged per sample (an imported run's ``drive_channel``) at the good
+    samples; None when the run has a constant drive."""
+    channel = run.parameters.get("drive_channel")
+    if channel is None:
+        return None
+    values = table.channels.get(channel)
+    if values is None:
+        raise ValueError(f"run {run.id}: no {channel!r} channel (its logged drive) in its samples")
+    values = np.asarray(values[good], dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"run {run.id}: its logged drive {channel!r} has samples missing")
+    return values
+
+
 #: The coil whose rising edge lets each kind of run go.
 RELEASE_COIL = {kind: AXES[kind].release_coil for kind in DRIVEN_KINDS}
 
@@ -226,6 +248,9 @@ def _window(
         return values if np.all(np.isfinite(values)) else None
 
     force = run.parameters.get(str(AXES[run.kind].drive_key))
+    logged = _logged_drive(run, table, timeline.good)
+    if logged is not None:
+        force = float(np.mean(logged)) if logged.size else None
     direction = float(np.sign(float(force))) if force is not None else 0.0
     keep, report, std = find_window(
         timeline.t,
@@ -285,6 +310,8 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     if catch is not None and catch.seq is not None:
         free = table.seq[timeline.good] <= catch.seq
         t, angle = t[free], angle[free]
+    elif timeline.t_end is not None:  # an imported decay's end_time_s
+        t, angle = t[t <= timeline.t_end], angle[t <= timeline.t_end]
     return PendulumRun(
         run_id=run.id,
         t=t,

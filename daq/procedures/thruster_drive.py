@@ -169,7 +169,8 @@ def law_commands(
 ) -> tuple[list[float], float]:
     """Commands giving ``drive`` through an identified thrust law at supply ``volts`` (None:
     the law's reference voltage) and the force per thruster, N. Refuses (ParameterError)
-    beyond what the thrusters deliver at that voltage within ``max_command``."""
+    beyond what the thrusters deliver at that voltage within ``max_command``, and below
+    the smallest thrust calibrated there (``ThrustLaw.min_force``)."""
     name, unit = DRIVE_FIELD[kind]
     signs, arm = thrust_layout(thrusters, kind)
     count = thrusters.count
@@ -187,6 +188,21 @@ def law_commands(
                         f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
                         f"at the supply voltage now ({at:.3g} V; max_thruster_command "
                         f"{max_command:g})",
+                    )
+                ]
+            )
+        floor = law.min_force(at, sign)
+        if floor is not None and 0 < per_thruster < abs(floor):
+            side = "forward" if sign > 0 else "reverse"
+            raise ParameterError(
+                [
+                    (
+                        name,
+                        drive,
+                        f"at least {abs(floor) * count * arm:.3g} {unit}: {per_thruster:.3g} N "
+                        f"per thruster is below the smallest calibrated {side} thrust "
+                        f"({abs(floor):.3g} N at {at:.3g} V, command "
+                        f"{law.smallest_command(sign, at):g}); calibrate smaller commands",
                     )
                 ]
             )
