@@ -17,6 +17,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import RigSession
 from daq.store.faults import one_line
+from daq.store.run_events import RunAction
 from daq.vocabulary import AXES, RunKind
 
 if TYPE_CHECKING:
@@ -227,7 +228,7 @@ async def baseline_then_release(
     await rec.event(
         "operator",
         f"{channel} set: {what}",
-        action="release",
+        action=RunAction.RELEASE,
         seq=latest.seq if latest else None,
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
