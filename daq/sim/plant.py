@@ -17,6 +17,9 @@ history does not depend on how often anyone reads it. Equations (SI units):
 * thruster i: ``T_ss = F_fs · s^p · (V/V_nom)^q`` with ``s = (|u| − d)/(1 − d)`` above the dead
   band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
 * pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum``, stepped with the rest
+
+One module because every channel the simulated PLC serves reads or writes this one state
+(carriage, yaw, weights and their rigging, thrusters, supply), integrated in one step.
 """
 
 from __future__ import annotations
