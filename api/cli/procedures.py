@@ -96,7 +96,7 @@ def _print_calibration(calibration: dict[str, Any] | None) -> None:
     for row in calibration["table"]:
         click.echo(
             f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
-            f"{row['supply_voltage_v']:10.2f}"
+            + (f"{row['supply_voltage_v']:10.2f}" if row["supply_voltage_v"] is not None else "")
         )
 
 
@@ -153,7 +153,7 @@ def procedure_command(spec: KindSpec) -> click.Command:
             rig_file,
             scenario_file,
             db_url,
-            lambda source: spec.validate(given, source.rig),
+            lambda source: spec.check(given, source.rig),
             body,
             spec.route,
             as_json,

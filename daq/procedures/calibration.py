@@ -94,7 +94,11 @@ async def run_thrust_calibration(
                     await rec.record_for(params.settle_s)
                     got = await _collect(rec, params.samples_per_step)
                     thrust, thrust_std = _mean_std([s.channels["load_cell"] - tare for s in got])
-                    volts, _ = _mean_std([s.channels["supply_voltage"] for s in got])
+                    volts = (  # None: the rig has no supply-voltage channel
+                        _mean_std([s.channels["supply_voltage"] for s in got])[0]
+                        if session.rig.has("supply_voltage")
+                        else None
+                    )
                     row = {
                         "step": i,
                         "command": command,
@@ -111,7 +115,8 @@ async def run_thrust_calibration(
                     table.append(row)
                     await rec.event(
                         "info",
-                        f"step {i}: command {command:+.3f} → {thrust:+.3f} N at {volts:.2f} V",
+                        f"step {i}: command {command:+.3f} → {thrust:+.3f} N"
+                        + (f" at {volts:.2f} V" if volts is not None else ""),
                         **row,
                     )
                 session.set_thrust([0.0] * n)
