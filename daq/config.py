@@ -280,6 +280,14 @@ class RigConfig(_Strict):
             )
         return self
 
+    def thruster_port(self) -> ThrusterPort:
+        """The ``[thrusters]`` section; RigConfigError when the rig file has none."""
+        if self.thrusters is None:
+            raise RigConfigError(
+                f"rig {self.rig.name!r} has no thrusters (its rig file has no [thrusters] section)"
+            )
+        return self.thrusters
+
     def has(self, name: str) -> bool:
         """The rig file lists a channel called ``name`` (simulation-only ones included)."""
         return any(c.name == name for c in self.channels)

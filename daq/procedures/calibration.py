@@ -42,7 +42,7 @@ async def run_thrust_calibration(
     """Run the sweep; returns the run outcome and the stored calibration (or None if aborted)."""
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
-    n = session.rig.thrusters.count
+    n = session.rig.thruster_port().count
     sweep = params.sweep
     table: list[dict[str, Any]] = []
     async with session.locked("thrust calibration"):
@@ -185,7 +185,7 @@ def _store_calibration(
     fit = fit_thrust_curve(commands, thrust, [float(r["sweep_sign"]) for r in table])
     data = {
         "run_id": run_id,
-        "thrusters": session.rig.thrusters.count,
+        "thrusters": session.rig.thruster_port().count,
         "table": table,
         "fit": fit.to_json(),
     }
