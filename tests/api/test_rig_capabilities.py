@@ -10,7 +10,7 @@ import pytest
 
 from api.core.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, start_job, wait_job
+from tests.api.conftest import AUTH, TOKEN, chromium_page, start_job, wait_job
 
 ENCODER_TOW = Path(__file__).resolve().parents[2] / "fixtures/rigs/encoder-tow.toml"
 
@@ -73,3 +73,28 @@ def test_a_weight_tow_on_the_minimal_rig_completes_by_distance(client):
     assert position[-1] >= 0.3  # stopped by distance (this rig has no end-of-travel switch)
     csv = client.get(f"/api/runs/{run_id}/export?format=csv", headers=AUTH)
     assert csv.status_code == 200 and "tow_position" in csv.text
+
+
+def test_the_page_offers_only_what_the_rig_can_do_and_says_why(live_url):
+    from playwright.sync_api import expect
+
+    with chromium_page() as page:
+        page.goto(f"{live_url.base_url}#token={TOKEN}")
+        expect(page.locator("#conn-text")).to_contain_text("Encoder tow rig")
+        expect(page.locator(".tabs button[data-form=spin]")).to_have_class("unavailable")
+        expect(page.locator(".tabs button[data-form=tow]")).not_to_have_class("unavailable")
+        # tow: the weight drive only, the thruster drive greyed out with its reason
+        expect(page.locator("#form-tow .capability-reason")).to_contain_text(
+            "tow with thrusters: needs a [thrusters] section"
+        )
+        drives = page.eval_on_selector_all(
+            "#form-tow select[name=drive] option", "os => os.map(o => [o.value, o.disabled])"
+        )
+        assert drives == [["weight", False], ["thrusters", True]]
+        assert page.locator("#start-tow").is_enabled()
+        page.click(".tabs button[data-form=spin]")
+        expect(page.locator("#form-spin .capability-reason")).to_contain_text(
+            "spin: needs channel yaw_angle"
+        )
+        assert page.locator("#form-spin button[type=submit]").is_disabled()
+        assert page.locator("#arm-btn").is_disabled()
