@@ -4,6 +4,8 @@ line naming what is missing, before anything is opened."""
 
 from __future__ import annotations
 
+import json
+import re
 import subprocess
 import sys
 import tomllib
@@ -141,3 +143,25 @@ def test_the_cli_refuses_a_kind_the_rig_cannot_do_in_one_line_before_opening_any
         assert len(lines) == 1 and lines[0].startswith("error: rig 'Encoder tow rig' cannot do")
         assert says in lines[0]
     assert not db.exists()  # refused before the database (or the rig) was opened
+
+
+def test_rig_capabilities_lists_each_test_or_why_not():
+    def run(*args: str) -> str:
+        done = subprocess.run(
+            [sys.executable, "-m", "api.cli.main", "capabilities", "--rig", str(ENCODER_TOW),
+             *args],
+            capture_output=True, text=True, timeout=60, cwd=ROOT,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        return done.stdout
+
+    data = json.loads(run("--json"))
+    assert data["capabilities"] == capabilities(load_rig(ENCODER_TOW))
+    assert data["safety"]["estop"]["available"] is False
+    lines = run().splitlines()
+    assert re.fullmatch(r"\s+rig tow\s+yes", lines[1])
+    assert re.fullmatch(
+        r"\s+rig tow --thrusters\s+no: tow with thrusters: needs a \[thrusters\] section", lines[2]
+    )
+    spin = r"\s+rig spin\s+no: spin: needs channel yaw_angle.*"
+    assert any(re.fullmatch(spin, line) for line in lines)
