@@ -160,6 +160,7 @@ FAULTS = (
     ("thrusters.driver", ("ThrusterError",)),
     ("daq.session", ("RigBusy",)),
     ("daq.procedures.motion", ("PreconditionFailed",)),
+    ("daq.operator", ("OperatorActUnavailable",)),
 )
 
 

@@ -165,3 +165,19 @@ def test_rig_capabilities_lists_each_test_or_why_not():
     )
     spin = r"\s+rig spin\s+no: spin: needs channel yaw_angle.*"
     assert any(re.fullmatch(spin, line) for line in lines)
+
+
+def test_a_simulated_rig_file_without_the_operator_registers_says_which_is_missing(tmp_path):
+    text = ENCODER_TOW.read_text(encoding="utf-8")
+    rig_file = tmp_path / "no-sim-channels.toml"
+    rig_file.write_text(text[: text.index("# ---- simulation-only")], encoding="utf-8")
+    done = subprocess.run(
+        [sys.executable, "-m", "api.cli.main", "tow", "--force", "9.8", "--rig", str(rig_file),
+         "--db", f"sqlite:///{tmp_path / 'rig.db'}"],
+        capture_output=True, text=True, timeout=60, cwd=ROOT,
+    )  # fmt: skip
+    assert done.returncode == 1
+    assert done.stderr.strip() == (
+        "error: simulated operator: cannot return carriage: the rig file has no sim_only "
+        "channel 'sim_reset' (docs/simulated-rig.md)"
+    )
