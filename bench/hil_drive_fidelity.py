@@ -31,10 +31,10 @@ import numpy as np
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import calibration_parameters, tow_parameters
-from daq.procedures.thruster_drive import THRUST_STEPS
 from daq.run_data import thruster_drive
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from daq.store.run_events import RunEvents
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
 COMMAND = 0.4  # every thruster, as calibrated
@@ -61,12 +61,12 @@ def _watch_plant(session: RigSession, out: list, stop: threading.Event) -> None:
 def _compare(store: Store, rig, run_id: str, plant: list) -> dict:
     run = store.get_run(run_id)
     table = store.samples(run_id)
-    events = store.events(run_id)
-    data = {e.data.get("action"): e.data for e in events if e.data}
+    events = RunEvents.of(store.events(run_id))
+    assert events.release is not None and events.brake is not None and events.thrust_steps
     t = table.t_mono
-    t_on = data["release"]["t_mono"]
-    t_off = data["brake"]["t_mono"]
-    steps = [((a + b) / 2, f) for a, b, f in data[THRUST_STEPS]["steps"]]
+    t_on = events.release.t_mono
+    t_off = events.brake.t_mono
+    steps = [(step.t_mono, list(step.fractions)) for step in events.thrust_steps]
     calibration = store.result(run.parameters["calibration_result_id"]).data
     curve = ThrustCurve.from_json(calibration["fit"])
     measured = CalibratedThrust.from_table(curve, calibration["table"])

@@ -5,6 +5,10 @@ The bridge between storage and estimation: picks the position channel of the
 axis, the time base, the release and brake instants from the run's events, and
 the drive (force or torque, hung weight, drive-train inertia) from its parameters
 and the rig file it ran with. ``estimation`` itself never imports this.
+
+One module because tow, spin and pendulum runs share the time base and the release/end
+instants (``_timeline``), and the drive of a run (constant, logged per sample, or rebuilt
+from the thrusters' calibration) is chosen from the same stored parameters.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import numpy as np
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
+from daq.store.run_events import RunAction, RunEvents
 from daq.vocabulary import AXES, DRIVEN_KINDS, POSITION_CHANNEL
 from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
@@ -25,14 +30,6 @@ from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
 from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
-
-
-def _event_time(events, action: str, key: str = "t_mono") -> float | None:
-    for e in events:
-        data = e.data or {}
-        if data.get("action") == action and data.get(key) is not None:
-            return float(data[key])
-    return None
 
 
 def _rig_of(run: RunInfo) -> RigConfig | None:
@@ -55,7 +52,7 @@ class _Timeline:
     t_release_std: float
     t_end: float | None
     offset: float  # host monotonic time + offset = the time base
-    events: list  # the run's stored events
+    events: RunEvents  # the run's stored events
     #: How the release/end were known ("release event", "release_time_s", …); None: not
     #: recorded (the release defaults to the first sample, the end to the last).
     release_source: str | None = None
@@ -69,13 +66,13 @@ def _timeline(
     table: SampleTable,
     channel: str,
     *,
-    end: tuple[str, str],
+    end: RunAction,
 ) -> _Timeline:
     """Time base of the samples where ``channel`` is good, and the release/end instants.
 
     The PLC's own clock when the run has it (device-side timestamps, free of host
     scheduling jitter), else the host's monotonic time. Host instants from the events
-    (release ``t_mono``, the ``end`` event's key) are mapped onto it with the host/PLC
+    (the release, the ``end`` event's last free sample) are mapped onto it with the host/PLC
     offset of the least-delayed samples; ``t_release_std`` combines the write's bracket,
     the offset's spread and the clock's step.
     """
@@ -96,9 +93,10 @@ def _timeline(
     gap = t - t_host
     offset = float(np.mean(np.sort(gap)[-max(1, gap.size // 10) :])) if t.size else 0.0
     offset_spread = 1.4826 * float(np.median(np.abs(gap - np.median(gap)))) if t.size else 0.0
-    events = store.events(run.id)
-    t_release = _event_time(events, "release")
-    t_stop = _event_time(events, *end)
+    events = RunEvents.of(store.events(run.id))
+    t_release = events.release_time
+    halt = events.halt(end)
+    t_stop = None if halt is None else halt.t_last_free
     release_source = end_source = None
     if t_release is not None:
         release_source = "release event"
@@ -106,7 +104,7 @@ def _timeline(
         t_release = float(table.t_mono[0]) + float(run.parameters["release_time_s"])
         release_source = "release_time_s (given)"
     if t_stop is not None:
-        end_source = f"{end[0]} event"
+        end_source = f"{end} event"
     elif run.parameters.get("end_time_s") is not None:
         t_stop = float(table.t_mono[0]) + float(run.parameters["end_time_s"])
         end_source = "end_time_s (given)"
@@ -116,7 +114,7 @@ def _timeline(
     else:
         # The brake let go while the write was in flight (± half-width, uniform), mapped
         # onto the time base with the spread of the host/PLC offset and the clock's step.
-        half_width = _event_time(events, "release", "t_half_width") or 0.0
+        half_width = events.release.t_half_width if events.release is not None else 0.0
         t_release += offset
         t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
     t_end = None if t_stop is None else t_stop + offset
@@ -150,7 +148,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         channel = "position"
     if channel not in table.channels:
         raise ValueError(f"run {run.id}: no {POSITION_CHANNEL[run.kind]!r} channel in its samples")
-    timeline = _timeline(store, run, rig, table, channel, end=("brake", "t_last_free"))
+    timeline = _timeline(store, run, rig, table, channel, end=RunAction.BRAKE)
     t, position = timeline.t, table.channels[channel][timeline.good]
     params = run.parameters
     keep, window, t_release_std = _window(run, table, timeline, position)
@@ -173,7 +171,10 @@ def load_run_data(store: Store, run_id: str) -> RunData:
             drum_radius = geo.spin_drum_radius_m
     name = str(AXES[run.kind].drive_key)
     drive = params.get(name)
-    if drive is None or not math.isfinite(float(drive)):
+    logged = _logged_drive(run, table, timeline.good)
+    if logged is not None:
+        drive = logged[keep]
+    elif drive is None or not math.isfinite(float(drive)):
         raise ValueError(f"run {run.id}: no applied {name} in its parameters")
     hung = params.get("hung_mass_kg")
     draws = None
@@ -212,6 +213,21 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     )
 
 
+def _logged_drive(run: RunInfo, table: SampleTable, good: np.ndarray) -> np.ndarray | None:
+    """The drive logged per sample (an imported run's ``drive_channel``) at the good
+    samples; None when the run has a constant drive."""
+    channel = run.parameters.get("drive_channel")
+    if channel is None:
+        return None
+    values = table.channels.get(channel)
+    if values is None:
+        raise ValueError(f"run {run.id}: no {channel!r} channel (its logged drive) in its samples")
+    values = np.asarray(values[good], dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"run {run.id}: its logged drive {channel!r} has samples missing")
+    return values
+
+
 #: The coil whose rising edge lets each kind of run go.
 RELEASE_COIL = {kind: AXES[kind].release_coil for kind in DRIVEN_KINDS}
 
@@ -232,6 +248,9 @@ def _window(
         return values if np.all(np.isfinite(values)) else None
 
     force = run.parameters.get(str(AXES[run.kind].drive_key))
+    logged = _logged_drive(run, table, timeline.good)
+    if logged is not None:
+        force = float(np.mean(logged)) if logged.size else None
     direction = float(np.sign(float(force))) if force is not None else 0.0
     keep, report, std = find_window(
         timeline.t,
@@ -285,12 +304,14 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     channel = "pendulum_angle"
     if channel not in table.channels:
         raise ValueError(f"run {run.id}: no {channel!r} channel in its samples")
-    timeline = _timeline(store, run, rig, table, channel, end=("catch", "t_last_free"))
+    timeline = _timeline(store, run, rig, table, channel, end=RunAction.CATCH)
     t, angle = timeline.t, table.channels[channel][timeline.good]
-    last_free = _event_time(store.events(run.id), "catch", "seq")
-    if last_free is not None:
-        free = table.seq[timeline.good] <= last_free
+    catch = timeline.events.catch
+    if catch is not None and catch.seq is not None:
+        free = table.seq[timeline.good] <= catch.seq
         t, angle = t[free], angle[free]
+    elif timeline.t_end is not None:  # an imported decay's end_time_s
+        t, angle = t[t <= timeline.t_end], angle[t <= timeline.t_end]
     return PendulumRun(
         run_id=run.id,
         t=t,
@@ -331,21 +352,13 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCu
     return None, ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
 
 
-#: Step of the fine grid the thruster drive is built on, s.
-def _thrust_steps(events, offset: float) -> list[tuple[float, list[float]]] | None:
+def _thrust_steps(events: RunEvents, offset: float) -> list[tuple[float, list[float]]] | None:
     """The outputs the controller confirmed during the run, as (instant on the time base,
     fraction per thruster); each change is put mid-way between sending and the reply.
     None for runs recorded before the steps were stored."""
-    from daq.procedures.thruster_drive import THRUST_STEPS
-
-    for e in events:
-        data = e.data or {}
-        if data.get("action") == THRUST_STEPS:
-            return [
-                ((float(sent) + float(acked)) / 2 + offset, [float(f) for f in fractions])
-                for sent, acked, fractions in data.get("steps", [])
-            ]
-    return None
+    if events.thrust_steps is None:
+        return None
+    return [(step.t_mono + offset, list(step.fractions)) for step in events.thrust_steps]
 
 
 def thrust_layout_of(rig: RigConfig, kind: str) -> ThrustLayout:

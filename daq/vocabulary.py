@@ -81,6 +81,9 @@ POSITION_CHANNEL: dict[str, str] = {kind: AXES[kind].position_channel for kind i
 DRIVE_FIELD: dict[str, tuple[str, str]] = {
     kind: (str(AXES[kind].drive_key), str(AXES[kind].drive_unit)) for kind in DRIVEN_KINDS
 }
+#: Per driven kind: the channel an imported run's logged drive (one value per sample, in
+#: the drive's SI unit) is stored as; the run's ``drive_channel`` parameter names it.
+LOGGED_DRIVE_CHANNEL: dict[str, str] = {RunKind.TOW: "drive_force", RunKind.SPIN: "drive_torque"}
 
 
 def driven_axis(kind: str) -> AxisTerms:

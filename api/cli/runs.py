@@ -306,12 +306,25 @@ def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
 @click.option(
     "--kind",
-    type=click.Choice(["tow", "spin"]),
+    type=click.Choice(["tow", "spin", "pendulum"]),
     required=True,
-    help="Tow (position in m) or spin (angle in rad).",
+    help="Tow (position in m), spin (angle in rad) or pendulum free decay (angle in rad; "
+    "--rig gives the geometry).",
 )
 @click.option("--force", "force_n", type=float, help="Tow force in N.")
 @click.option("--torque", "torque_nm", type=float, help="Spin torque in N·m.")
+@click.option(
+    "--drive-column",
+    metavar="NAME",
+    help="Column with the force (tow) or torque (spin) logged per sample, instead of "
+    "--force/--torque.",
+)
+@click.option(
+    "--drive-unit",
+    metavar="UNIT",
+    help="Unit of --drive-column: N, kN, kgf, gf, lbf (tow); N·m (or N*m), kgf·m, … (spin). "
+    "Default N or N·m.",
+)
 @click.option(
     "--weight",
     "weight_kg",
@@ -354,6 +367,8 @@ def import_(
     kind,
     force_n,
     torque_nm,
+    drive_column,
+    drive_unit,
     weight_kg,
     vehicle,
     rig_file,
@@ -367,7 +382,9 @@ def import_(
 
     Estimation finds the free-motion window itself (tow_release/spin_release and
     end_of_travel columns when present, else the motion); --release-time/--end-time
-    override it."""
+    override it. A drive logged per sample: --drive-column (and --drive-unit) instead of
+    --force/--torque. A pendulum decay needs --rig with a [pendulum] section (its
+    geometry); its release is the first sample unless --release-time says otherwise."""
     from api.cli.metadata import run_metadata
     from daq.procedures.params import ParameterError
     from daq.store import import_csv
@@ -375,7 +392,22 @@ def import_(
     problems = []
     drive_name, drive = ("force_n", force_n) if kind == "tow" else ("torque_nm", torque_nm)
     other = torque_nm if kind == "tow" else force_n
-    if drive is None:
+    flag = "--force" if kind == "tow" else "--torque"
+    if kind == "pendulum":
+        flags = {"--force": force_n, "--torque": torque_nm, "--drive-column": drive_column}
+        given = [
+            name for name, value in (flags | {"--weight": weight_kg}).items() if value is not None
+        ]
+        if given:
+            fail(f"{given[0]}: not used by a pendulum free decay (it has no drive)")
+        if not rig_file:
+            fail("--rig: a pendulum import needs the rig file with its [pendulum] geometry")
+    elif drive_column is not None:
+        if drive is not None:
+            fail(f"{flag}: not used with --drive-column (the drive is logged per sample)")
+    elif drive_unit is not None:
+        fail("--drive-unit: only with --drive-column")
+    elif drive is None:
         problems.append(
             (
                 drive_name,
@@ -385,7 +417,7 @@ def import_(
         )
     elif not (drive > 0 and drive < float("inf")):
         problems.append((drive_name, drive, f"allowed 0 < {drive_name} < ∞"))
-    if other is not None:
+    if other is not None and kind != "pendulum":
         problems.append(
             ("torque_nm" if kind == "tow" else "force_n", other, f"not used by a {kind}")
         )
@@ -394,7 +426,9 @@ def import_(
     with user_errors():
         if problems:
             raise ParameterError(problems)
-    params: dict[str, Any] = {"source": "import", "file": str(file), drive_name: drive}
+    params: dict[str, Any] = {"source": "import", "file": str(file)}
+    if drive is not None and kind != "pendulum":
+        params[drive_name] = drive
     if weight_kg is not None:
         params["hung_mass_kg"] = weight_kg
     origin: dict[str, str] = {"vehicle": vehicle or "unknown"}
@@ -403,6 +437,8 @@ def import_(
 
         with user_errors():
             source = RigSource.load(rig_file)
+        if kind == "pendulum" and source.rig.pendulum is None:
+            fail(f"--rig: {rig_file} has no [pendulum] section (the pendulum's geometry)")
         origin = {
             "rig_name": source.rig.rig.name,
             "vehicle": vehicle or source.rig.vehicle.name,
@@ -420,10 +456,16 @@ def import_(
                 time_unit=time_unit,
                 release_time_s=release_time_s,
                 end_time_s=end_time_s,
+                drive_column=drive_column,
+                drive_unit=drive_unit,
                 **origin,
             )
         except ValueError as err:
-            fail(str(err))
+            message = str(err)
+            for name in ("drive_column", "drive_unit"):
+                if message.startswith(f"{name}:"):
+                    message = f"--{name.replace('_', '-')}" + message.removeprefix(name)
+            fail(message)
         if as_json:
             echo_json({"run_id": run_id})
         else:

@@ -13,6 +13,7 @@ import numpy as np
 
 from api.core.estimation_job import run_estimation
 from daq.store import ResultNotFound, RunNotFound, Store
+from daq.store.run_events import RunEvents
 from estimation.axis.crosscheck import cross_check
 
 
@@ -43,22 +44,9 @@ def supply_voltages(store: Store, thruster_result: dict[str, Any]) -> dict[str, 
         calibration_ids.add(params.get("calibration_result_id"))
         table = store.samples(run.id)
         channel = table.channels.get("supply_voltage")
-        release = next(
-            (
-                (e.data or {}).get("t_mono")
-                for e in store.events(run.id)
-                if (e.data or {}).get("action") == "release"
-            ),
-            None,
-        )
-        brake = next(
-            (
-                (e.data or {}).get("t_last_free")
-                for e in store.events(run.id)
-                if (e.data or {}).get("action") == "brake"
-            ),
-            None,
-        )
+        events = RunEvents.of(store.events(run.id))
+        release = events.release_time
+        brake = None if events.brake is None else events.brake.t_last_free
         if channel is None or release is None:
             continue
         on = table.t_mono > release + 0.5  # past the ramp

@@ -4,6 +4,13 @@ A run that has ended (completed, aborted, interrupted) never changes, except for
 free ``metadata`` (annotations, by this process or another). So an entry remembers the
 metadata it was built with and is served only while the stored metadata is the same
 (one indexed read of one column); running runs and id prefixes always go to the database.
+
+That read stays on every hit: another process on the same database (``rig runs
+annotate``, a second service) can annotate an ended run, and nothing cheaper tells this
+one so. SQLite has no cross-process notification, and its ``PRAGMA data_version`` is per
+connection and moves with every sample a running run writes; a time-to-live would serve
+another process's annotation stale. The read is one column of one row by its unique
+index, against a full run record and its JSON on a miss.
 """
 
 from __future__ import annotations

@@ -25,6 +25,7 @@ from daq.procedures.steps import (
 )
 from daq.procedures.thruster_drive import run_thruster_test
 from daq.session import Aborted, RigSession
+from daq.store.run_events import RunAction
 
 log = logging.getLogger(__name__)
 
@@ -80,7 +81,7 @@ async def run_motion_test(
             await rec.event(
                 "limit",
                 f"{stop}: brake engaged",
-                action="brake",
+                action=RunAction.BRAKE,
                 seq=sample.seq,
                 t_mono=time.monotonic(),
                 t_last_free=t_last_free,

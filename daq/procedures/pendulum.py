@@ -29,6 +29,7 @@ from daq.procedures.steps import (
 )
 from daq.sample import Quality, Sample
 from daq.session import RigSession
+from daq.store.run_events import RunAction
 from daq.vocabulary import RunKind
 
 PENDULUM = _Axis.of(RunKind.PENDULUM)
@@ -133,7 +134,7 @@ async def run_pendulum_decay(
                 await rec.event(
                     "limit",
                     f"{stop}: pendulum caught",
-                    action="catch",
+                    action=RunAction.CATCH,
                     seq=last.seq,
                     t_mono=time.monotonic(),
                     t_last_free=last.t_mono,

@@ -16,6 +16,7 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import RigSession
 from daq.store.faults import one_line
+from daq.store.run_events import RunAction
 from daq.vocabulary import AXES, RunKind
 
 log = logging.getLogger(__name__)
@@ -194,7 +195,7 @@ async def baseline_then_release(
     await rec.event(
         "operator",
         f"{channel} set: {what}",
-        action="release",
+        action=RunAction.RELEASE,
         seq=latest.seq if latest else None,
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,

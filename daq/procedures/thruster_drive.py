@@ -26,6 +26,7 @@ from daq.procedures.steps import SPIN, TOW, RunOutcome, check_ready, follow_moti
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
+from daq.store.run_events import RunAction
 from daq.vocabulary import DRIVE_FIELD
 from thrusters.config import ThrusterPort
 
@@ -33,10 +34,6 @@ if TYPE_CHECKING:
     from estimation.thrust.law import ThrustLaw
 
 log = logging.getLogger(__name__)
-
-#: Event action holding the outputs the controller confirmed during a run:
-#: ``steps`` = [[t_sent, t_acked, [fraction per thruster]], …] in host monotonic time.
-THRUST_STEPS = "thrust_steps"
 
 #: The drive each run kind's thrusters give: (parameter, unit).
 
@@ -172,7 +169,8 @@ def law_commands(
 ) -> tuple[list[float], float]:
     """Commands giving ``drive`` through an identified thrust law at supply ``volts`` (None:
     the law's reference voltage) and the force per thruster, N. Refuses (ParameterError)
-    beyond what the thrusters deliver at that voltage within ``max_command``."""
+    beyond what the thrusters deliver at that voltage within ``max_command``, and below
+    the smallest thrust calibrated there (``ThrustLaw.min_force``)."""
     name, unit = DRIVE_FIELD[kind]
     signs, arm = thrust_layout(thrusters, kind)
     count = thrusters.count
@@ -190,6 +188,21 @@ def law_commands(
                         f"allowed up to {reach * count * arm:.3g} {unit} with these thrusters "
                         f"at the supply voltage now ({at:.3g} V; max_thruster_command "
                         f"{max_command:g})",
+                    )
+                ]
+            )
+        floor = law.min_force(at, sign)
+        if floor is not None and 0 < per_thruster < abs(floor):
+            side = "forward" if sign > 0 else "reverse"
+            raise ParameterError(
+                [
+                    (
+                        name,
+                        drive,
+                        f"at least {abs(floor) * count * arm:.3g} {unit}: {per_thruster:.3g} N "
+                        f"per thruster is below the smallest calibrated {side} thrust "
+                        f"({abs(floor):.3g} N at {at:.3g} V, command "
+                        f"{law.smallest_command(sign, at):g}); calibrate smaller commands",
                     )
                 ]
             )
@@ -328,7 +341,7 @@ async def abort_on_thruster_fault(
         # Both devices gone at once (the rig's power, the simulator): name the PLC too.
         reason += f"; PLC at {session.plc.endpoint} unreadable too"
     try:  # stored before the abort, so the run's ending cannot cancel it half-way
-        await rec.event("fault", reason, action="thruster_fault", **fault.to_json())
+        await rec.event("fault", reason, action=RunAction.THRUSTER_FAULT, **fault.to_json())
     finally:
         abort.set(reason)
 
@@ -353,12 +366,12 @@ async def _end_thrust(
             log.exception("thruster fault supervisor failed")
     with contextlib.suppress(Exception):
         if failure:
-            await rec.event("fault", failure, action="disarm_failed")
+            await rec.event("fault", failure, action=RunAction.DISARM_FAILED)
     try:
         await rec.event(
             "thrusters",
             f"thruster outputs changed {len(steps)} times",
-            action=THRUST_STEPS,
+            action=RunAction.THRUST_STEPS,
             steps=[step.to_json() for step in steps],
         )
     except Exception as err:
@@ -384,7 +397,7 @@ async def _drive_with_thrusters(
     await rec.event(
         "operator",
         f"thrust on: commands {', '.join(f'{c:+.3f}' for c in commands)}",
-        action="release",
+        action=RunAction.RELEASE,
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
     )
@@ -398,7 +411,7 @@ async def _drive_with_thrusters(
     await rec.event(
         "limit",
         f"{stop}: thrust off, brake engaged",
-        action="brake",
+        action=RunAction.BRAKE,
         seq=sample.seq,
         t_mono=time.monotonic(),
         t_last_free=t_last_free,

@@ -19,13 +19,18 @@ from typing import Any
 import numpy as np
 
 from daq.store.records import RunInfo, SampleTable
+from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL
 
 #: Decimals of the time columns (1 µs; the store keeps start times to the µs as well).
 TIME_DECIMALS = 6
 #: Most decimals a scaled channel is written with (its scale is finer than this: repr).
 MAX_DECIMALS = 12
-#: Unit of the position channel an imported run of each kind has by contract.
-POSITION_UNITS = {"tow_position": "m", "yaw_angle": "rad"}
+#: Unit of the position (and logged drive) channel an imported run of each kind has by
+#: contract (UDUNITS text: "N m", not "N·m").
+POSITION_UNITS = {terms.position_channel: terms.unit for terms in AXES.values()} | {
+    channel: DRIVE_FIELD[kind][1].replace("·", " ")
+    for kind, channel in LOGGED_DRIVE_CHANNEL.items()
+}
 
 
 @dataclass(frozen=True)

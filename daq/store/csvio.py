@@ -9,9 +9,17 @@ lines (they are skipped) and needs a header with ``t`` (s, strictly increasing) 
 too); ``seq``, ``t_mono``, ``t_wall`` and ``quality`` are used when present and every
 other column becomes a channel (``tow_release``/``spin_release``/``end_of_travel`` among
 them tell estimation the release and the end of travel, as an export writes them).
+A pendulum free decay has ``position`` (or ``pendulum_angle``) in rad. A drive logged
+per sample (a force column of a tow, a torque column of a spin, in a unit of
+``LOGGED_DRIVE_UNITS``) is stored in SI as the ``drive_force``/``drive_torque`` channel,
+which estimation takes as the drive instead of a constant ``force_n``/``torque_nm``.
 
 An import takes the ``# metadata: {…}`` line (the run's metadata, JSON) back as the new
 run's metadata.
+
+One module because export and import are the two sides of one file contract (the
+reserved columns, the comment lines, the position and drive channels per kind): an
+export must import back, and keeping both here keeps that contract in one place.
 """
 
 from __future__ import annotations
@@ -32,7 +40,7 @@ from daq.store.channel_units import at_resolution, column_infos, table_at_resolu
 from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
 from daq.store.store import Store
-from daq.vocabulary import DRIVE_FIELD, POSITION_CHANNEL
+from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL, RunKind
 from estimation.data.csv_import import COMMENT, TIME_UNITS, without_comments
 from estimation.data.window import check_time_step
 
@@ -45,8 +53,30 @@ IMPORT_BATCH_ROWS = 50_000
 CSV_PAGE_ROWS = 5000
 
 
+#: Units a logged drive column may be in, per kind: to N (tow) or N·m (spin).
+_FORCE_UNITS = {"N": 1.0, "kN": 1000.0, "kgf": 9.80665, "gf": 9.80665e-3, "lbf": 4.4482216152605}
+LOGGED_DRIVE_UNITS: dict[str, dict[str, float]] = {
+    RunKind.TOW: _FORCE_UNITS,
+    RunKind.SPIN: {f"{unit}·m": scale for unit, scale in _FORCE_UNITS.items()},
+}
+#: The kinds a CSV can be imported as.
+IMPORT_KINDS = (RunKind.TOW, RunKind.SPIN, RunKind.PENDULUM)
+
+
 class CsvImportError(ValueError):
     """The CSV cannot be imported; the message names the line and column."""
+
+
+def logged_drive_scale(kind: str, unit: str) -> float:
+    """SI per unit of a logged drive column (``N*m`` is read as ``N·m``); ``ValueError``
+    naming ``drive_unit`` and the allowed units."""
+    units = LOGGED_DRIVE_UNITS.get(kind)
+    if units is None:
+        raise ValueError(f"drive_column: a {kind} run has no drive; allowed for tow or spin")
+    scale = units.get(unit.strip().replace("*", "·").replace(".", "·"))
+    if scale is None:
+        raise ValueError(f"drive_unit: {unit!r} is not allowed; use one of {', '.join(units)}")
+    return scale
 
 
 def _text(value: float, decimals: int | None) -> str:
@@ -137,12 +167,21 @@ def export_run_json(store: Store, run_id: str, fileobj: TextIO) -> None:
     fileobj.write("\n")
 
 
-def check_import_parameters(kind: str, parameters: dict[str, Any]) -> dict[str, Any]:
-    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, > 0) and an
-    optional ``hung_mass_kg`` (> 0), plus ``source: import``."""
+def check_import_parameters(
+    kind: str, parameters: dict[str, Any], *, logged_drive: bool = False
+) -> dict[str, Any]:
+    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, > 0; none
+    with a ``logged_drive`` column, nor for a pendulum) and an optional ``hung_mass_kg``
+    (> 0), plus ``source: import``."""
+    if kind not in IMPORT_KINDS:
+        raise ValueError(
+            f"kind: {kind!r} is not allowed; use one of {', '.join(map(str, IMPORT_KINDS))}"
+        )
     if kind not in DRIVE_FIELD:
-        raise ValueError(f"kind: {kind!r} is not allowed; use one of {', '.join(DRIVE_FIELD)}")
+        return {**parameters, "source": "import"}
     needed = DRIVE_FIELD[kind][0]
+    if logged_drive and parameters.get(needed) is not None:
+        raise ValueError(f"{needed}: not used with drive_column (the drive is logged per sample)")
     out: dict[str, Any] = {"source": "import"}
     for key, value in parameters.items():
         if key in (needed, "hung_mass_kg"):
@@ -154,8 +193,10 @@ def check_import_parameters(kind: str, parameters: dict[str, Any]) -> dict[str, 
             out[key] = float(value)
         else:
             out[key] = value
-    if needed not in out:
-        raise ValueError(f"{needed}: missing; a {kind} run needs the applied load")
+    if needed not in out and not logged_drive:
+        raise ValueError(
+            f"{needed}: missing; a {kind} run needs the applied load (or a drive_column)"
+        )
     out["source"] = "import"
     return out
 
@@ -175,7 +216,9 @@ def _number(text: str, line: int, column: str, *, allow_missing: bool) -> float:
     return value
 
 
-def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]]:
+def _header(
+    row: list[str], kind: str, path: Path, drive_column: str | None = None
+) -> tuple[list[str], list[str]]:
     columns = [c.strip() for c in row]
     if not columns or "t" not in columns:
         raise CsvImportError(
@@ -184,15 +227,28 @@ def _header(row: list[str], kind: str, path: Path) -> tuple[list[str], list[str]
     dupes = sorted({c for c in columns if columns.count(c) > 1})
     if dupes or "" in columns:
         raise CsvImportError(f"{path}: line 1: empty or repeated column names {dupes or ['']}")
-    target = POSITION_CHANNEL[kind]
+    target = AXES[kind].position_channel
     if "position" in columns and target in columns:
         raise CsvImportError(f"{path}: line 1: both 'position' and {target!r}; keep one")
     if "position" not in columns and target not in columns:
         raise CsvImportError(
-            f"{path}: line 1: no 'position' column (m for tow, rad for spin) in {columns}"
+            f"{path}: line 1: no 'position' column (m for tow, rad for spin and pendulum) "
+            f"in {columns}"
         )
-    channels = [target if c == "position" else c for c in columns if c not in _RESERVED]
-    renamed = [target if c == "position" else c for c in columns]
+    names = {"position": target}
+    if drive_column is not None:
+        logged = LOGGED_DRIVE_CHANNEL[kind]
+        if drive_column not in columns:
+            raise CsvImportError(f"drive_column: no column {drive_column!r} in {path}: {columns}")
+        if drive_column in _RESERVED or drive_column in ("position", target):
+            raise CsvImportError(f"drive_column: {drive_column!r} is not a drive column")
+        if logged in columns and drive_column != logged:
+            raise CsvImportError(
+                f"drive_column: {path} has a {logged!r} column too; name that one or drop it"
+            )
+        names[drive_column] = logged
+    renamed = [names.get(c, c) for c in columns]
+    channels = [c for c in renamed if c not in _RESERVED]
     return renamed, channels
 
 
@@ -222,12 +278,16 @@ def read_csv_metadata(path: str | Path) -> dict[str, Any]:
 
 
 def _read_samples(
-    path: Path, kind: str, time_scale: float = 1.0
+    path: Path,
+    kind: str,
+    time_scale: float = 1.0,
+    drive: tuple[str, float] | None = None,
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
+    """``drive``: the logged drive column and its SI scale (None: no such column)."""
     with open(path, newline="", encoding="utf-8") as f:
         try:
             rows = csv.reader(without_comments(f, keep_line_numbers=True))
-            return _parse_rows(path, kind, rows, time_scale)
+            return _parse_rows(path, kind, rows, time_scale, drive)
         except UnicodeDecodeError as err:
             raise CsvImportError(
                 f"{path}: not UTF-8 text ({err.reason} at byte {err.start})"
@@ -235,15 +295,21 @@ def _read_samples(
 
 
 def _parse_rows(
-    path: Path, kind: str, reader: Iterator[list[str]], time_scale: float
+    path: Path,
+    kind: str,
+    reader: Iterator[list[str]],
+    time_scale: float,
+    drive: tuple[str, float] | None = None,
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     rows = ((n, r) for n, r in enumerate(reader, start=1) if r and any(r))
     first = next(rows, None)
     if first is None:
         raise CsvImportError(f"{path}: empty file; expected a header row 't,position'")
     header_line, header_row = first
-    columns, channels = _header(header_row, kind, path)
-    position = POSITION_CHANNEL[kind]
+    columns, channels = _header(header_row, kind, path, drive[0] if drive else None)
+    position = AXES[kind].position_channel
+    logged, scale = (LOGGED_DRIVE_CHANNEL[kind], drive[1]) if drive else ("", 1.0)
+    names = {logged: drive[0]} if drive else {}  # errors name the file's drive column
     samples: list[Sample] = []
     times: list[float] = []
     previous: dict[str, float] = {}
@@ -258,8 +324,10 @@ def _parse_rows(
             )
         values: dict[str, float] = {}
         for column, text in zip(columns, row, strict=True):
-            missing_ok = column not in ("t", position, "seq", "t_mono", "t_wall", "quality")
-            values[column] = _number(text, line, column, allow_missing=missing_ok)
+            missing_ok = column not in ("t", position, logged, "seq", "t_mono", "t_wall", "quality")
+            values[column] = _number(
+                text, line, names.get(column, column), allow_missing=missing_ok
+            )
             rising = column in ("t", "seq", "t_mono") and column in previous
             if rising and values[column] <= previous[column]:
                 raise CsvImportError(
@@ -273,6 +341,8 @@ def _parse_rows(
                     "allowed; use an integer ≥ 0"
                 )
         previous = values
+        if logged:
+            values[logged] *= scale
         t = values["t"] * time_scale
         times.append(t)
         samples.append(
@@ -331,8 +401,11 @@ def import_csv(
     release_time_s: float | None = None,
     end_time_s: float | None = None,
     metadata: dict[str, Any] | None = None,
+    drive_column: str | None = None,
+    drive_unit: str | None = None,
 ) -> str:
-    """Import a CSV as a completed ``kind`` (``tow``/``spin``) run; returns the new run id.
+    """Import a CSV as a completed ``kind`` (``tow``/``spin``/``pendulum``) run; returns
+    the new run id.
     The run is marked imported from the file's name (now), keeps the recorded start time
     and takes the file's ``# metadata:`` comment updated by ``metadata``.
     Nothing is written when the file or parameters are bad (all is parsed first). Up to
@@ -342,15 +415,31 @@ def import_csv(
     ``time_unit`` (s, ms, us) is the unit of the ``t`` column; a median step over 1 s is
     refused as evidently not seconds. ``release_time_s``/``end_time_s`` (on the CSV's ``t``
     axis, in s) are stored as parameters (seconds since the first sample) that estimation
-    takes for the release and the end of free motion instead of finding them."""
+    takes for the release and the end of free motion instead of finding them.
+
+    ``drive_column`` (tow/spin): the column holding the drive logged per sample, in
+    ``drive_unit`` (default N or N·m); stored in SI as ``LOGGED_DRIVE_CHANNEL[kind]``
+    and named by the run's ``drive_channel`` parameter (no ``force_n``/``torque_nm``).
+    A pendulum run needs ``rig_toml`` with a ``[pendulum]`` section to be estimated."""
     path = Path(path)
     if time_unit not in TIME_UNITS:
         raise ValueError(
             f"time_unit: {time_unit!r} is not allowed; use one of {', '.join(TIME_UNITS)}"
         )
-    params = check_import_parameters(kind, parameters)
+    params = check_import_parameters(kind, parameters, logged_drive=drive_column is not None)
     params.setdefault("file", path.name)
-    channels, samples, has_wall, times = _read_samples(path, kind, TIME_UNITS[time_unit])
+    drive = None
+    if drive_column is not None:
+        unit = drive_unit or DRIVE_FIELD.get(kind, ("", ""))[1]
+        drive = (drive_column.strip(), logged_drive_scale(kind, unit))
+        params |= {
+            "drive_channel": LOGGED_DRIVE_CHANNEL[kind],
+            "drive_column": drive_column.strip(),
+            "drive_unit": unit,
+        }
+    elif drive_unit is not None:
+        raise ValueError("drive_unit: only with drive_column")
+    channels, samples, has_wall, times = _read_samples(path, kind, TIME_UNITS[time_unit], drive)
     params.update(
         _window_times(times, samples, {"release_time_s": release_time_s, "end_time_s": end_time_s})
     )

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from daq.store.records import EventInfo, RunInfo
+from daq.store.run_events import RunEvents
 
 Attribute = str | int | float
 
@@ -35,10 +36,9 @@ def _attribute(value: Any) -> Attribute | None:
 def release_time(run: RunInfo, events: Sequence[EventInfo], first_t_mono: float) -> float | None:
     """The brake release, s since the run's first sample: the recorded release event's
     host instant, else the ``release_time_s`` given at import; None when neither is known."""
-    for event in events:
-        data = event.data or {}
-        if data.get("action") == "release" and data.get("t_mono") is not None:
-            return round(float(data["t_mono"]) - first_t_mono, 6)  # µs, like the times
+    released = RunEvents.of(events).release_time
+    if released is not None:
+        return round(released - first_t_mono, 6)  # µs, like the times
     given = run.parameters.get("release_time_s")
     return float(given) if isinstance(given, int | float) else None
 

@@ -24,7 +24,7 @@ the data alike (BIC within ``AMBIGUITY_BIC``). A collinear pair is never fitted 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
 
@@ -42,6 +42,7 @@ from estimation.axis.model import BASE_NAMES, PreparedRun
 from estimation.axis.output_error import FitResult, fit_output_error, leave_one_run_out_rmse
 from estimation.axis.unexplained import NUMERICAL_RMSE
 from estimation.stats.diagnostics import ljung_box, noise_floor_ratio
+from estimation.stats.selection import forward_selection, select_round
 
 BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
 RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one
@@ -250,13 +251,13 @@ class _Search:
         predicted = predicted_steps(ref.fit, self.runs, combos)
         gate = ref.fit.bic if rival is None else min(ref.fit.bic, rival.fit.bic - BIC_THRESHOLD)
         n = ref.fit.n_samples
-        kept: dict[tuple[str, ...], FitResult] = {}
         bics = {
             c: n * np.log(max(sse, 1e-300) / n) + (ref.fit.n_params + len(c)) * np.log(n)
             for c, (sse, _) in predicted.items()
         }
-        for c in sorted(combos, key=lambda c: (bics[c], self.key(c))):
-            bic, start = bics[c], predicted[c][1]
+
+        def fit(c: tuple[str, ...], kept: Mapping[tuple[str, ...], FitResult]) -> FitResult | None:
+            bic = bics[c]
             best_gain = min((bics[k] - ref.fit.bic for k in kept), default=0.0)
             why = None
             if bic >= gate + BIC_THRESHOLD:
@@ -277,15 +278,18 @@ class _Search:
                         round_no,
                     )
                 )
-                continue
-            fit = fit_output_error(self.runs, (*ref.fit.effects, *c), start=start)
-            if self.judge(ref, c, fit, round_no, rival):
-                kept[c] = fit
-        if not kept:
-            return None
-        lowest = min(f.bic for f in kept.values())
-        near = [c for c, f in kept.items() if f.bic - lowest < AMBIGUITY_BIC]
-        return kept[min(near, key=self.key)]
+                return None
+            return fit_output_error(self.runs, (*ref.fit.effects, *c), start=predicted[c][1])
+
+        chosen = select_round(
+            sorted(combos, key=self.key),
+            fit,
+            lambda f: f.bic,
+            lambda c, f, _: self.judge(ref, c, f, round_no, rival),
+            predicted={c: bics[c] for c in combos},
+            tolerance=AMBIGUITY_BIC,
+        )
+        return None if chosen is None else chosen[1]
 
     def identifiable(self, base: FitResult, candidates: Sequence[str]) -> list[str]:
         """The candidates these runs can tell from inertia, K_L and K_Q (the rest are
@@ -330,19 +334,21 @@ def search_effects(
     rival = search.reference(single) if single is not None else None
     chosen = search.best(start, pairs, 1, rival) or single
     current = start if chosen is None else search.reference(chosen)
-    round_no = 1
-    while chosen is not None and len(chosen.effects) >= 2:  # extend a winning pair
-        round_no += 1
-        rest = [e for e in candidates if e not in chosen.effects]
-        rho = partial_correlations(chosen, runs, [*chosen.effects, *rest])
+
+    def extend(ref: _Reference, round_no: int) -> _Reference | None:
+        """One more effect on a winning pair or larger (triples and beyond)."""
+        rest = [e for e in candidates if e not in ref.fit.effects]
+        rho = partial_correlations(ref.fit, runs, [*ref.fit.effects, *rest])
         separable = [
             (e,)
             for e in rest
-            if all(abs(rho[frozenset((e, k))]) < COLLINEAR for k in chosen.effects)
+            if all(abs(rho[frozenset((e, k))]) < COLLINEAR for k in ref.fit.effects)
         ]
-        chosen = search.best(current, separable, round_no) if separable else None
-        if chosen is not None:
-            current = search.reference(chosen)
+        chosen = search.best(ref, separable, round_no) if separable else None
+        return None if chosen is None else search.reference(chosen)
+
+    if chosen is not None and len(chosen.effects) >= 2:  # extend a winning pair
+        current = forward_selection(current, extend, first_round=2)
     ambiguous, advice = _ambiguities(search, current.fit, candidates)
     return SearchOutcome(
         base=base,

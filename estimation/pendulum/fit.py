@@ -16,7 +16,7 @@ the residual gets whiter (Ljung–Box Q drops).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +33,7 @@ from estimation.pendulum.decay import Decay
 from estimation.pendulum.sim import simulate, step_size
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.fit import FitStatistics
+from estimation.stats.selection import forward_selection, select_round
 
 BASE_NAMES: tuple[str, ...] = ("added_mass", "linear_damping")
 
@@ -314,63 +315,72 @@ class PendulumSearch:
 def search_effects(
     decays: Sequence[Decay], base: PendulumFit, candidates: Sequence[str] = tuple(PENDULUM_EFFECTS)
 ) -> PendulumSearch:
-    """Greedy forward selection over ``candidates`` starting from ``base``."""
-    current, q_current = base, ljung_box(base.residuals).q_statistic
+    """Greedy forward selection (``estimation.stats.selection``) over ``candidates`` from
+    ``base``: each round fits every remaining effect added to the current model and keeps
+    the lowest BIC that passes the module's rules; effects explaining the data alike
+    (BIC within ``AMBIGUITY_BIC``) are reported as ambiguous with it and not tried again."""
     remaining = list(candidates)
     steps: list[SearchStep] = []
     ambiguous: list[tuple[str, ...]] = []
     advice: list[str] = []
-    round_no = 0
-    while remaining:
-        round_no += 1
-        trials = {
-            e: fit_output_error(
+
+    def extend(current: PendulumFit, round_no: int) -> PendulumFit | None:
+        if not remaining:
+            return None
+        q_current = ljung_box(current.residuals).q_statistic
+        trials: dict[str, PendulumFit] = {}  # in the order judged: by BIC
+
+        def fit(added: tuple[str, ...], _: object) -> PendulumFit:
+            (effect,) = added
+            return fit_output_error(
                 decays,
-                (*current.effects, e),
-                start=effect_start(e, current, decays),
+                (*current.effects, effect),
+                start=effect_start(effect, current, decays),
                 nuisance=_nuisance(current),
             )
-            for e in remaining
-        }
-        gains = {e: f.bic - current.bic for e, f in trials.items()}
-        order = sorted(remaining, key=lambda e: gains[e])
-        accepted = None
-        for e in order:
-            fit = trials[e]
+
+        def judge(added: tuple[str, ...], fit: PendulumFit, kept: Mapping) -> bool:
+            (effect,) = added
+            trials[effect] = fit
+            gain = fit.bic - current.bic
             q_new = ljung_box(fit.residuals).q_statistic
             reason = None
-            if gains[e] > -BIC_THRESHOLD:
-                reason = f"ΔBIC {gains[e]:.1f} > −{BIC_THRESHOLD:g}"
-            elif accepted is not None:
-                reason = f"not added this round: {accepted[0]} was kept"
+            if gain > -BIC_THRESHOLD:
+                reason = f"ΔBIC {gain:.1f} > −{BIC_THRESHOLD:g}"
+            elif kept:
+                reason = f"not added this round: {next(iter(kept))[0]} was kept"
             else:
-                reason = _rejection(e, fit, decays)
+                reason = _rejection(effect, fit, decays)
                 if reason is None and not q_new < q_current:
                     reason = "residual not whiter (Ljung–Box Q did not drop)"
-            ok = reason is None
             steps.append(
                 SearchStep(
-                    e, gains[e], None, None, q_current, q_new, ok, reason or "kept", round_no
+                    effect, gain, None, None, q_current, q_new, reason is None, reason or "kept",
+                    round_no,
                 )
-            )
-            if ok:
-                accepted = (e, fit, q_new)
-        if accepted is None:
-            break
-        name, fit, q_new = accepted
+            )  # fmt: skip
+            return reason is None
+
+        chosen = select_round([(e,) for e in remaining], fit, lambda f: f.bic, judge)
+        if chosen is None:
+            return None
+        (name,), kept_fit = chosen
+        gain = kept_fit.bic - current.bic
         twins = [
             e
-            for e in order
+            for e, f in trials.items()
             if e != name
-            and gains[e] <= -BIC_THRESHOLD
-            and abs(gains[e] - gains[name]) < AMBIGUITY_BIC
-            and _rejection(e, trials[e], decays) is None
+            and f.bic - current.bic <= -BIC_THRESHOLD
+            and abs(f.bic - current.bic - gain) < AMBIGUITY_BIC
+            and _rejection(e, f, decays) is None
         ]
         if twins:
             group = (name, *twins)
             ambiguous.append(group)
             parts = "; ".join(f"{e}: {PENDULUM_EFFECTS[e].separated_by}" for e in group)
             advice.append(f"{' and '.join(group)} explain the data alike — {parts}")
-        current, q_current = fit, q_new
-        remaining = [e for e in remaining if e != name and e not in twins]
-    return PendulumSearch(base, current, tuple(steps), tuple(ambiguous), tuple(advice))
+        remaining[:] = [e for e in remaining if e != name and e not in twins]
+        return kept_fit
+
+    final = forward_selection(base, extend)
+    return PendulumSearch(base, final, tuple(steps), tuple(ambiguous), tuple(advice))

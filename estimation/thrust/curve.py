@@ -202,7 +202,8 @@ def fit_thrust_curve(
 class CalibratedThrust:
     """The fitted curve corrected by its residuals at the calibrated commands (mean of the
     up and down sweeps, interpolated linearly between commands, zero at command 0 and in
-    the dead band): exact where the thrust was measured, the curve's shape in between."""
+    the measured dead band): exact where the thrust was measured, the curve's shape in
+    between."""
 
     curve: ThrustCurve
     commands: np.ndarray
@@ -248,10 +249,33 @@ class CalibratedThrust:
         v_cal = np.interp(command, self.commands[known], self.voltages[known])
         return (np.asarray(volts, dtype=float) / v_cal) ** exponent
 
+    def measured(self) -> np.ndarray:
+        """The mean thrust measured at each calibrated command, N (0 at command 0)."""
+        return np.asarray(self.curve.force(self.commands), dtype=float) + self.residuals
+
+    def dead_band_edges(self) -> tuple[float, float]:
+        """The outermost calibrated commands (reverse ≤ 0 ≤ forward) that measured no
+        thrust on their side: the dead band as measured."""
+        m = self.measured()
+        c = self.commands
+        fwd = c[(c >= 0) & (m <= 0)]
+        rev = c[(c <= 0) & (m >= 0)]
+        return float(rev.min()) if rev.size else 0.0, float(fwd.max()) if fwd.size else 0.0
+
     def force(self, command: np.ndarray | float) -> np.ndarray:
-        """Thrust of one thruster, N."""
+        """Thrust of one thruster, N. Where the fitted curve is in its dead band but the
+        calibration measured thrust (a fitted dead band wider than the measured one, as a
+        curve bent by saturation has), the measured thrusts interpolated linearly."""
         base = self.curve.force(command)
-        return base + np.where(base != 0, np.interp(command, self.commands, self.residuals), 0.0)
+        u = np.asarray(command, dtype=float)
+        lo, hi = self.dead_band_edges()
+        live = (base == 0) & ((u > hi) | (u < lo))
+        if not np.any(live):
+            return base + np.where(base != 0, np.interp(u, self.commands, self.residuals), 0.0)
+        between = np.interp(u, self.commands, self.measured())
+        between = np.where(u > 0, np.clip(between, 0.0, None), np.clip(between, None, 0.0))
+        corrected = base + np.interp(u, self.commands, self.residuals)
+        return np.where(base != 0, corrected, np.where(live, between, 0.0))
 
     def command_for_force(self, force: float) -> float:
         """The command whose corrected thrust is ``force`` N: the curve's inverse (which

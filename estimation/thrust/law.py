@@ -17,6 +17,13 @@ voltages the nearest curve is scaled by that assumed law too.
 Saturation: a command beyond the calibrated range gives the thrust at the range's end
 (the controller's full command); the inverse refuses forces beyond what full command
 delivers at the voltage asked for, naming that force.
+
+Low end: the inverse also refuses a non-zero force below the smallest calibrated thrust on
+its side (the law at the smallest command where the calibrations at that voltage measured
+thrust beyond their last reading of none), naming that thrust. Below it the curve is
+extrapolated into the dead band, where the thrust is not proportional to anything
+measured and a small command error means no thrust at all; a refusal says to calibrate
+smaller commands, a warning would let a test run on a drive nobody measured.
 """
 
 from __future__ import annotations
@@ -144,12 +151,54 @@ class ThrustLaw:
         lo, hi = self.command_range
         return float(self.force(hi if sign > 0 else lo, volts))
 
+    def _bracket(self, volts: float) -> list[int]:
+        """The calibrations a force at ``volts`` comes from: the one at that voltage, else
+        its neighbours on either side (the nearest outside the calibrated range)."""
+        gaps = np.abs(self.voltages - volts)
+        if gaps.min() <= VOLTAGE_TOLERANCE_V or volts <= self.voltages[0]:
+            return [int(np.argmin(gaps))]
+        if volts >= self.voltages[-1]:
+            return [len(self.voltages) - 1]
+        above = int(np.searchsorted(self.voltages, volts))
+        return [above - 1, above]
+
+    def smallest_command(self, sign: float = 1.0, volts: float | None = None) -> float | None:
+        """The smallest |command| on the forward (sign > 0) or reverse side at which the
+        calibrations at ``volts`` (or its neighbouring voltages) measured thrust, beyond
+        their last reading of none (None: no such command on that side)."""
+        v = self.reference_voltage if volts is None else float(volts)
+        smallest = []
+        for c in (self.curves[i] for i in self._bracket(v)):
+            lo, hi = c.dead_band_edges()
+            u = c.commands[c.commands > hi] if sign > 0 else c.commands[c.commands < lo]
+            live = np.abs(u[np.sign(c.measured()[np.isin(c.commands, u)]) == np.sign(sign)])
+            if live.size == 0:
+                return None
+            smallest.append(float(live.min()))
+        return max(smallest)
+
+    def min_force(self, volts: float | None, sign: float = 1.0) -> float | None:
+        """The smallest calibrated non-zero thrust on that side at ``volts``, N (signed;
+        None when that side was not calibrated)."""
+        u = self.smallest_command(sign, volts)
+        return None if u is None else float(self.force(math.copysign(u, sign), volts))
+
     def command_for_force(self, force: float, volts: float | None = None) -> ThrustEstimate:
         """The command giving ``force`` N at ``volts`` ± σ (σ of the force through the local
-        slope). Raises ``ValueError`` naming the largest force deliverable at that voltage."""
+        slope). Raises ``ValueError`` naming the largest force deliverable at that voltage,
+        or the smallest calibrated one for a non-zero force below it."""
         v = self.reference_voltage if volts is None else float(volts)
         if force == 0:
             return ThrustEstimate(0.0, 0.0, self.voltage_law(v))
+        floor = self.min_force(v, math.copysign(1.0, force))
+        if floor is not None and abs(force) < abs(floor):
+            side = "forward" if force > 0 else "reverse"
+            u = self.smallest_command(math.copysign(1.0, force), v)
+            raise ValueError(
+                f"force: got {force:g} N, allowed: at least {abs(floor):.4g} N {side} at {v:g} V "
+                f"(the smallest calibrated thrust, command {u:g}; below it the curve is "
+                "extrapolated into the dead band — calibrate smaller commands) or 0"
+            )
         reach = self.max_force(v, math.copysign(1.0, force))
         if abs(force) > abs(reach):
             side = "forward" if force > 0 else "reverse"

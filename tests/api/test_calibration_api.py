@@ -67,6 +67,23 @@ def test_a_force_beyond_full_command_at_that_voltage_is_refused_naming_the_limit
     assert r.status_code == 200
 
 
+def test_a_force_below_the_smallest_calibrated_thrust_is_refused_naming_it(client):
+    """At 10 V the table's smallest forward reading is 0.05 kgf at 1548 µs (1532 µs reads
+    0): half of it is refused with that thrust and command; it and 0 N are answered."""
+    assert _post(client, T200.read_bytes()).status_code == 201
+    floor = 0.05 * 9.80665
+    r = client.get(f"/api/thrust?force_n={floor / 2:.4f}&voltage_v=10", headers=AUTH)
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert detail.startswith(f"force_n: got {floor / 2:.4f} N, allowed: at least {floor:.4g} N")
+    assert "the smallest calibrated thrust, command 0.12" in detail and "\n" not in detail
+    r = client.get(f"/api/thrust?force_n=-{floor / 2:.4f}&voltage_v=10", headers=AUTH)
+    assert r.status_code == 422 and "N reverse at 10 V" in r.json()["detail"]
+    for ok in (floor * 1.001, 0.0):
+        r = client.get(f"/api/thrust?force_n={ok:.4f}&voltage_v=10", headers=AUTH)
+        assert r.status_code == 200, r.text
+
+
 def test_bad_tables_and_questions_are_one_line_422s(client):
     bad = "PWM (µs);Voltage (V);Force (Kg f)\n1500;12;0\n1600;12;zero\n".encode()
     r = _post(client, bad)

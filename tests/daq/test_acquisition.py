@@ -15,6 +15,7 @@ from daq.config import load_rig
 from daq.plc import PlcClient
 from daq.sample import Quality, Sample
 from tests.daq.modbus_server import MapServer
+from tests.waiting import until
 
 
 @pytest.fixture
@@ -147,7 +148,7 @@ async def test_plc_lost_mid_acquisition_then_back(server, plc):
 async def test_stop_wakes_a_sleeping_clock_promptly(plc):
     acq = Acquisition(plc, rate_hz=0.5)
     runner = asyncio.create_task(acq.run())
-    await asyncio.sleep(0.1)
+    await until(lambda: acq.stats.ticks == 1, "the first tick")  # then 2 s asleep
     t0 = time.monotonic()
     acq.stop()
     await asyncio.wait_for(runner, 1.0)

@@ -131,3 +131,37 @@ def test_a_table_without_voltages_needs_one(rows):
     with pytest.raises(ValueError, match="supply_voltage_v: the calibration recorded no"):
         identify_thrust_law(bare)
     assert identify_thrust_law(bare, nominal_v=16).voltage_law(16).startswith("assumed")
+
+
+@pytest.mark.parametrize("volts", [10.0, 14.0, 16.0, 20.0])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_the_inverse_refuses_a_force_below_the_smallest_calibrated_thrust(law, rows, volts, sign):
+    """The floor is what the table measured at its smallest command outside the dead band
+    at that voltage (or the larger of its neighbours'); half of it is refused naming it,
+    the floor itself and zero are answered."""
+    near = [v for v in (10, 12, 16, 18, 20) if abs(v - volts) < 0.25] or [12, 16]
+    smallest = max(
+        min(
+            abs(r["command"])
+            for r in rows
+            if r["supply_voltage_v"] == v
+            and r["command"] * sign > 0
+            and r["thrust_per_thruster_n"] * sign > 0
+        )
+        for v in near
+    )
+    floor = law.min_force(volts, sign)
+    assert law.smallest_command(sign, volts) == pytest.approx(smallest)
+    assert floor * sign > 0
+    if len(near) == 1:
+        measured = [
+            r["thrust_per_thruster_n"]
+            for r in rows
+            if r["supply_voltage_v"] == near[0] and r["command"] == sign * smallest
+        ]
+        assert floor == pytest.approx(measured[0], rel=1e-6)
+    with pytest.raises(ValueError, match=rf"at least {abs(floor):.4g} N .*smallest calibrated"):
+        law.command_for_force(0.5 * floor, volts)
+    assert law.command_for_force(0.0, volts).value == 0.0
+    u = law.command_for_force(floor * 1.0001, volts).value
+    assert float(law.force(u, volts)) == pytest.approx(floor, rel=1e-3)

@@ -16,6 +16,7 @@ from daq.session import RigBusy, RigSession, RigSource
 from daq.store import Store
 from tests.procedures.conftest import short_rail
 from tests.progress_log import ProgressLog
+from tests.waiting import next_samples
 
 
 async def test_tow_records_release_motion_and_brake(session, store):
@@ -37,10 +38,10 @@ async def test_tow_records_release_motion_and_brake(session, store):
     assert actions.index("release") < actions.index("brake")
     # The procedure leaves the brake engaged and the carriage stops.
     assert await session.plc.read("tow_release") == 0
-    await asyncio.sleep(0.3)
-    p1 = await session.plc.read("tow_position")
-    await asyncio.sleep(0.3)
-    assert await session.plc.read("tow_position") == pytest.approx(p1, abs=1e-4)
+    settle = round(0.3 * session.acquisition.rate_hz)  # 0.3 s of clock ticks, then 0.3 s still
+    ticks = await next_samples(session.acquisition, 2 * settle + 1)
+    still = [s.channels["tow_position"] for s in ticks[settle:]]
+    assert still == pytest.approx([still[0]] * len(still), abs=1e-4)
     assert progress[-1].fraction == 1.0 and progress[-1].state == "completed"
     # The estimator's view: release after the baseline, positions from the PLC clock.
     data = load_run_data(store, outcome.run_id)

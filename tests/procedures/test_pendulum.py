@@ -22,6 +22,7 @@ from daq.sim.scenario import Scenario
 from daq.store import Store
 from tests.procedures.test_cli import rig
 from tests.progress_log import ProgressLog
+from tests.waiting import next_samples
 
 #: A short, bottom-heavy pendulum (period ≈ 3.6 s) so a decay fits in a fast test.
 FAST_PENDULUM = """
@@ -125,9 +126,9 @@ async def test_abort_mid_swing_ends_aborted_keeps_samples_and_catches(fast_sessi
     assert store.get_run(outcome.run_id).status == "aborted"
     assert store.sample_count(outcome.run_id) >= 10
     assert await session.plc.read("pendulum_release") == 0  # caught, not left swinging
-    a1 = await session.plc.read("pendulum_angle")
-    await asyncio.sleep(0.3)
-    assert await session.plc.read("pendulum_angle") == pytest.approx(a1, abs=1e-4)
+    ticks = await next_samples(session.acquisition, round(0.3 * session.acquisition.rate_hz) + 1)
+    held = [s.channels["pendulum_angle"] for s in ticks]  # 0.3 s of clock ticks
+    assert held == pytest.approx([held[0]] * len(held), abs=1e-4)
 
 
 def test_parameters_are_checked_against_the_pendulum_section(source):

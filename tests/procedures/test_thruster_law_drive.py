@@ -64,6 +64,15 @@ async def test_a_tow_on_an_imported_calibration_rebuilds_its_drive_from_the_law(
         )
     assert session.sim.thrusters.outputs == [0.0] * count
 
+    # Below the smallest thrust the table calibrated at that voltage: refused, naming it.
+    floor = count * float(law.min_force(at_start, 1.0))
+    with pytest.raises(ParameterError, match=r"force_n: .*below the smallest calibrated forward"):
+        await run_motion_test(
+            session,
+            tow_parameters({"force_n": 0.5 * floor, "drive": "thrusters"}, session.rig),
+        )
+    assert session.sim.thrusters.outputs == [0.0] * count
+
 
 def test_the_drive_follows_the_law_at_each_instant_not_v15(session_free_rig):
     """The same outputs at 12 V and at 18 V: the drive's ratio is the law's, far from

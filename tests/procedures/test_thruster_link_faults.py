@@ -112,14 +112,21 @@ def _start_tow(
     return tow, db
 
 
-def _wait_for_thrust(tow: subprocess.Popen, thrust_on: Callable[[], bool]) -> None:
-    """Until the thrust is on, then 0.3 s more (ramping, the vehicle moving)."""
+#: Heartbeats asking for thrust (one a clock tick) before the fault: the ramp under way,
+#: the vehicle moving, samples from before the fault stored.
+THRUST_TICKS = 4
+
+
+def _wait_for_thrust(
+    tow: subprocess.Popen, line: SerialFaultProxy, thrust_on: Callable[[], bool] = lambda: True
+) -> None:
+    """Until the host has put ``THRUST_TICKS`` frames asking for thrust on the line and
+    ``thrust_on()`` (the controller's outputs, where the test can see them)."""
     deadline = time.monotonic() + 30
-    while not thrust_on():
+    while sum(_thrust(raw) for _, raw in list(line.from_host)) < THRUST_TICKS or not thrust_on():
         assert tow.poll() is None, tow.communicate()
         assert time.monotonic() < deadline, "the thrust never went on"
         time.sleep(0.01)
-    time.sleep(0.3)
 
 
 def _finish(tow: subprocess.Popen) -> tuple[str, str]:
@@ -195,7 +202,7 @@ def test_fault_during_a_thruster_tow_zeroes_the_thrust_and_aborts(
         plc = TcpCutProxy((sim.endpoints.host, sim.endpoints.port))
         try:
             tow, db = _start_tow(tmp_path, calibrated_db, plc.port, line.path)
-            _wait_for_thrust(tow, outputs.thrust_on)
+            _wait_for_thrust(tow, line, outputs.thrust_on)
             thrust_before = list(sim.thrusters.outputs)
             t_fault = plc.cut() if FAULTS[fault] is None else line.set(**FAULTS[fault])
             out, err = _finish(tow)
@@ -240,7 +247,7 @@ def test_simulator_killed_during_a_thruster_tow(calibrated_db, tmp_path):
         line = SerialFaultProxy(ready["thrusters"]["serial_port"])
         try:
             tow, db = _start_tow(tmp_path, calibrated_db, ready["modbus"]["port"], line.path)
-            _wait_for_thrust(tow, lambda: any(_thrust(raw) for _, raw in list(line.from_host)))
+            _wait_for_thrust(tow, line)
             sim.kill()
             t_fault = time.monotonic()
             out, err = _finish(tow)

@@ -8,7 +8,6 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +16,7 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.registers import decode
 from tests.conftest import require_tool
+from tests.waiting import wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 RIG_SIM = [sys.executable, "-c", "from api.cli.main import main; main()", "sim"]
@@ -147,10 +147,13 @@ def test_mbpoll_reads_registers_and_releases_the_tow(rig_sim):
         coil = client.read_coils(regs["tow_release"]["address"], count=1, device_id=1)
         assert coil.bits[0] is True
         pos = rig.channel("tow_position")
-        first = decode(pos, client.read_input_registers(0, count=2, device_id=1).registers)
-        time.sleep(0.3)
-        later = decode(pos, client.read_input_registers(0, count=2, device_id=1).registers)
-        assert later > first
+
+        def read() -> float:
+            return decode(pos, client.read_input_registers(0, count=2, device_id=1).registers)
+
+        first = read()
+        wait_until(lambda: read() > first, "the released vehicle moving", timeout_s=10)
+        later = read()
     finally:
         client.close()
     # mbpoll reads the 32-bit position too, and an unmapped register is refused

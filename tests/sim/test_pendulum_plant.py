@@ -14,6 +14,7 @@ from daq.sim.plant import Plant
 from daq.sim.plc import SimulatedPLC
 from daq.sim.scenario import Scenario, parse_scenario
 from tests.sim.test_plc import UNIT, read_si, tcp_client
+from tests.waiting import until
 
 RIG = load_rig()
 LINEAR_ONLY = parse_scenario({"surge": {"quadratic_damping": 0.0}})
@@ -164,13 +165,18 @@ async def test_release_and_catch_over_modbus():
         release = RIG.channel("pendulum_release").address
         rr = await client.write_registers(hold.address, encode(hold, 0.25), device_id=UNIT)
         assert not rr.isError()
-        await asyncio.sleep(0.3)
-        assert await read_si(client, "pendulum_angle") == pytest.approx(0.25, abs=1e-4)
+
+        async def angle_near(target: float) -> bool:
+            return await read_si(client, "pendulum_angle") == pytest.approx(target, abs=1e-4)
+
+        await until(lambda: angle_near(0.25), "the pendulum held at 0.25 rad", timeout_s=5)
         assert not (await client.write_coil(release, True, device_id=UNIT)).isError()
-        await asyncio.sleep(1.0)
         assert await read_si(client, "pendulum_release") == 1.0
-        swinging = await read_si(client, "pendulum_angle")
-        assert swinging < 0.245
+
+        async def swinging() -> bool:
+            return await read_si(client, "pendulum_angle") < 0.245
+
+        await until(swinging, "the pendulum swinging off 0.25 rad", timeout_s=5)
         assert not (await client.write_coil(release, False, device_id=UNIT)).isError()
         caught = await read_si(client, "pendulum_angle")
         await asyncio.sleep(0.3)

@@ -13,6 +13,7 @@ from daq.config import load_rig
 from daq.registers import decode, encode
 from daq.sim.plant import Plant
 from daq.sim.plc import SimulatedPLC
+from tests.waiting import until
 
 RIG = load_rig()
 UNIT = RIG.modbus.unit_id
@@ -45,6 +46,10 @@ async def read_si(client, name: str) -> float:
         return float(rr.bits[0])
     assert not rr.isError(), rr
     return decode(ch, rr.registers)
+
+
+async def _above(client, name: str, value: float) -> bool:
+    return await read_si(client, name) > value
 
 
 async def start_tow(client, kg: float) -> None:
@@ -91,8 +96,9 @@ async def test_rtu_over_a_pty(plc):
     try:
         await start_tow(client, 8.5)
         first = await read_si(client, "tow_position")
-        await asyncio.sleep(0.2)
-        assert await read_si(client, "tow_position") > first
+        await until(
+            lambda: _above(client, "tow_position", first), "the vehicle moving", timeout_s=5
+        )
         rr = await client.read_input_registers(0, count=10, device_id=UNIT)
         assert not rr.isError() and len(rr.registers) == 10
     finally:
@@ -141,8 +147,7 @@ async def test_sim_reset_and_thrust_stand_coils(plc):
     client = await tcp_client(await plc.start_tcp())
     try:
         await start_tow(client, 8.5)
-        await asyncio.sleep(0.2)
-        assert await read_si(client, "tow_position") > 0
+        await until(lambda: _above(client, "tow_position", 0.0), "the vehicle moving", timeout_s=5)
         await client.write_coil(RIG.channel("sim_reset").address, True, device_id=UNIT)
         assert await read_si(client, "tow_position") == 0.0
         assert await read_si(client, "tow_release") == 0.0

@@ -11,6 +11,7 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.registers import decode
 from daq.sim.rig import SimulatedRigThread
+from tests.waiting import wait_until
 from thrusters import protocol
 
 RIG = load_rig()
@@ -52,8 +53,8 @@ def test_thread_runner_serves_modbus_and_thrusters_on_the_stand():
             assert thrust == pytest.approx(expected, rel=0.08)
             sta = send(line, protocol.qry_frame(7))
             assert sta.kind == "STA"
-            time.sleep(0.6)  # no frames: the watchdog zeroes the outputs
-            assert sim.call(lambda s: s.thrusters.state) == "WDT"
+            # no frames: the watchdog (0.4 s) trips and zeroes the outputs
+            wait_until(lambda: sim.call(lambda s: s.thrusters.state) == "WDT", "watchdog trip")
             assert sim.plant.commands == [0.0, 0.0]
         finally:
             line.close()

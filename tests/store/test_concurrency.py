@@ -12,6 +12,7 @@ import sqlalchemy as sa
 
 from daq.store import RunRecorder, Store
 from tests.store.helpers import make_samples, new_run
+from tests.waiting import until
 
 
 def test_concurrent_writers_do_not_fail(db_url: str) -> None:
@@ -84,7 +85,10 @@ async def test_postgres_connections_killed_mid_recording_lose_nothing(
                     ).scalar()
                 assert killed >= 1
             if i == 250:
-                await asyncio.sleep(0.3)  # a few refused flushes
+                await until(
+                    lambda n=recorder.stats.failed_flushes: recorder.stats.failed_flushes >= n + 2,
+                    "two more refused flushes",
+                )
                 with admin.connect() as conn:
                     conn.exec_driver_sql(f'ALTER DATABASE "{database}" ALLOW_CONNECTIONS true')
         await recorder.close()

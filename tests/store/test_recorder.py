@@ -14,6 +14,7 @@ import pytest
 from daq.sample import Sample
 from daq.store import RunRecorder, Store
 from tests.store.helpers import make_samples, new_run
+from tests.waiting import until
 
 
 async def test_samples_become_visible_within_the_flush_interval(db_url: str) -> None:
@@ -129,7 +130,7 @@ async def test_a_locked_sqlite_database_never_stalls_the_event_loop(tmp_path) ->
             recorder.put(Sample(i, float(i), float(i), {"tow_position": 0.0, "load_cell": 0.0}))
 
     ticker = asyncio.create_task(tick())
-    await asyncio.sleep(0.6)
+    await until(lambda: len(lags) >= 60, "60 ticks under the lock")  # ≥ 0.6 s, flushes waiting
     assert await asyncio.to_thread(store.sample_count, run_id) == 0  # WAL: reads still work
     blocker.execute("COMMIT")
     blocker.close()

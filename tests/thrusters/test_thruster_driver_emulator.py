@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from thruster_helpers import limits, thruster_port
 
+from tests.waiting import until
 from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
 
@@ -168,7 +169,7 @@ async def test_atexit_fallback_writes_zero_when_never_closed(served) -> None:
     proc = await _start_child(url, "atexit")
     await _wait_for_thrust(emu)
     assert await asyncio.wait_for(proc.wait(), 5) == 3
-    await asyncio.sleep(0.05)
+    await until(lambda: emu.state == "DISARMED", "the controller disarmed", timeout_s=5)
     assert emu.stats.accepted_commands[-1][1] == (0, 0)
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
     assert emu.stats.watchdog_trips == 0

@@ -23,7 +23,7 @@ from starlette.concurrency import run_in_threadpool
 from api.core.csv_upload import import_file, save_stream
 from api.core.jobs import JobRunner
 from api.core.run_cache import EndedRunCache
-from api.http.deps import RunnerDep, StoreDep, require_read, require_write
+from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
 from api.http.schemas import (
     EventOut,
     ImportOut,
@@ -276,7 +276,8 @@ _IMPORT_BODY = {
     "requestBody": {
         "required": True,
         "content": {"text/csv": {"schema": {"type": "string"}}},
-        "description": "CSV with a header: t (s), position (m or rad), more columns allowed.",
+        "description": "CSV with a header: t (s), position (m or rad), more columns allowed "
+        "(a drive logged per sample among them, named by drive_column).",
     }
 }
 
@@ -303,10 +304,30 @@ def _import_metadata(
 )
 async def import_run(
     request: Request,
-    kind: Annotated[Literal["tow", "spin"], Query(description="What the CSV recorded.")],
+    kind: Annotated[
+        Literal["tow", "spin", "pendulum"], Query(description="What the CSV recorded.")
+    ],
     store: StoreDep,
+    service: ServiceDep,
     force_n: Annotated[float | None, Query(description="Tow force, N (tow runs).")] = None,
     torque_nm: Annotated[float | None, Query(description="Torque, N·m (spin runs).")] = None,
+    drive_column: Annotated[
+        str | None,
+        Query(
+            min_length=1,
+            max_length=200,
+            description="Column of the force (tow) or torque (spin) logged per sample, "
+            "instead of force_n/torque_nm.",
+        ),
+    ] = None,
+    drive_unit: Annotated[
+        str | None,
+        Query(
+            max_length=20,
+            description="Unit of drive_column: N, kN, kgf, gf, lbf (tow); N·m, kgf·m, … "
+            "(spin). Default N or N·m.",
+        ),
+    ] = None,
     weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
     vehicle: Annotated[str, Query(min_length=1, max_length=200)] = "unknown",
     filename: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",
@@ -334,12 +355,33 @@ async def import_run(
     Estimation finds the release and the end of free motion from the
     ``tow_release``/``spin_release``/``end_of_travel`` columns when present, else from the
     motion; ``release_time_s``/``end_time_s`` override that. ``operator``,
-    ``water_temperature_c``, ``notes`` and ``tag`` update the file's ``# metadata:`` line."""
+    ``water_temperature_c``, ``notes`` and ``tag`` update the file's ``# metadata:`` line.
+    ``drive_column`` names a drive logged per sample. A pendulum decay (angle in rad) is
+    stored with the rig file the service runs with (its ``[pendulum]`` geometry)."""
     metadata = _import_metadata(operator, water_temperature_c, notes, tag)
-    load = {"tow": ("force_n", force_n), "spin": ("torque_nm", torque_nm)}[kind]
-    params: dict = {load[0]: load[1]} if load[1] is not None else {}
-    if weight_kg is not None:
-        params["hung_mass_kg"] = weight_kg
+    origin: dict = {"vehicle": vehicle}
+    params: dict = {}
+    if kind == "pendulum":
+        given = {"force_n": force_n, "torque_nm": torque_nm, "drive_column": drive_column}
+        for name, value in (given | {"weight_kg": weight_kg}).items():
+            if value is not None:
+                raise ValueError(f"{name}: not used by a pendulum free decay (it has no drive)")
+        rig = service.source.rig
+        if rig.pendulum is None:
+            raise ValueError(
+                f"kind: 'pendulum' needs a [pendulum] section in the rig file {rig.rig.name!r} "
+                "runs with (the pendulum's geometry)"
+            )
+        origin = {
+            "rig_name": rig.rig.name,
+            "vehicle": rig.vehicle.name if vehicle == "unknown" else vehicle,
+            "rig_toml": service.source.rig_toml,
+        }
+    else:
+        load = {"tow": ("force_n", force_n), "spin": ("torque_nm", torque_nm)}[kind]
+        params = {load[0]: load[1]} if load[1] is not None else {}
+        if weight_kg is not None:
+            params["hung_mass_kg"] = weight_kg
     name = re.sub(r"[^A-Za-z0-9._-]", "_", Path(filename).name) or "upload.csv"
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
         path = Path(folder) / name
@@ -350,11 +392,13 @@ async def import_run(
                 path,
                 kind=kind,
                 parameters=params,
-                vehicle=vehicle,
                 time_unit=time_unit,
                 release_time_s=release_time_s,
                 end_time_s=end_time_s,
                 metadata=metadata,
+                drive_column=drive_column,
+                drive_unit=drive_unit,
+                **origin,
             )
         except ValueError as err:
             message = str(err).replace(str(path), name)

@@ -1,0 +1,57 @@
+"""POST /api/runs/import of a drive logged per sample and of a pendulum decay: stored as
+the estimator needs them, bad columns a one-line 422 naming the query parameter."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.api.conftest import AUTH
+from tests.integration.test_import_kinds import _tow_csv
+
+CSV = {"Content-Type": "text/csv"}
+
+
+def test_the_api_imports_a_logged_drive(client, tmp_path: Path) -> None:
+    _tow_csv(tmp_path / "tow.csv", 30.0, 4)
+    body = (tmp_path / "tow.csv").read_bytes()
+    url = "/api/runs/import?kind=tow&drive_column=pull%20(kgf)&drive_unit=kgf&release_time_s=1"
+    r = client.post(url, content=body, headers=AUTH | CSV)
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["parameters"]["drive_channel"] == "drive_force"
+    assert run["parameters"]["drive_unit"] == "kgf" and "force_n" not in run["parameters"]
+    assert "drive_force" in run["channel_names"]
+
+    r = client.post(url.replace("pull%20(kgf)", "pull"), content=body, headers=AUTH | CSV)
+    assert r.status_code == 422
+    assert r.json()["detail"].startswith("drive_column: no column 'pull' in")
+    r = client.post(url + "&force_n=3", content=body, headers=AUTH | CSV)
+    assert r.status_code == 422
+    assert (
+        r.json()["detail"] == "force_n: not used with drive_column (the drive is logged per sample)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("query", "detail"),
+    [
+        ("&force_n=3", "force_n: not used by a pendulum free decay (it has no drive)"),
+        ("&drive_column=t", "drive_column: not used by a pendulum free decay (it has no drive)"),
+    ],
+)
+def test_a_pendulum_import_takes_no_drive(client, query, detail) -> None:
+    body = b"t,position\n0,0.1\n0.1,0.09\n"
+    r = client.post(f"/api/runs/import?kind=pendulum{query}", content=body, headers=AUTH | CSV)
+    assert r.status_code == 422 and r.json()["detail"] == detail
+
+
+def test_the_api_imports_a_pendulum_decay_with_the_services_rig(client) -> None:
+    lines = ["t,position"] + [f"{k / 10:.1f},{0.2 * 0.97**k:.5f}" for k in range(60)]
+    r = client.post("/api/runs/import?kind=pendulum&filename=decay.csv",
+                    content="\n".join(lines).encode(), headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["kind"] == "pendulum" and run["channel_names"] == ["pendulum_angle"]
+    assert run["vehicle"] == "BENBAM"
