@@ -4,6 +4,7 @@ and the weight-driven tow it can do runs on the simulated rig."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -73,6 +74,21 @@ def test_a_weight_tow_on_the_minimal_rig_completes_by_distance(client):
     assert position[-1] >= 0.3  # stopped by distance (this rig has no end-of-travel switch)
     csv = client.get(f"/api/runs/{run_id}/export?format=csv", headers=AUTH)
     assert csv.status_code == 200 and "tow_position" in csv.text
+
+
+def test_the_live_stream_carries_the_rigs_two_channels_and_no_thrusters(live_url):
+    samples = []
+    with live_url.stream("GET", "/api/stream?max_s=1.5&jobs=false") as r:
+        assert r.status_code == 200
+        kind = None
+        for line in r.iter_lines():
+            if line.startswith("event: "):
+                kind = line[7:]
+            elif line.startswith("data: ") and kind == "sample":
+                samples.append(json.loads(line[6:]))
+    assert len(samples) >= 5
+    assert all(set(s["channels"]) == {"tow_position", "tow_release"} for s in samples)
+    assert all(not s.get("thrusters") for s in samples)
 
 
 def test_the_page_offers_only_what_the_rig_can_do_and_says_why(live_url):
