@@ -80,7 +80,8 @@ class RigInfo(_Strict):
 
 class Geometry(_Strict):
     rail_length_m: PositiveFloat
-    #: Carriage position at which the end-of-travel switch trips.
+    #: Carriage position at which the end-of-travel switch trips; also the longest tow
+    #: (``max_distance_m``), which is how a rig without the switch stops a tow.
     end_of_travel_m: PositiveFloat
     pulley_radius_m: PositiveFloat
     #: Rotational inertia of the tow pulley (adds J/r² to the towed mass).
