@@ -111,6 +111,13 @@ class PlcClient:
         return f"{where} unit {m.unit_id}"
 
     @property
+    def _setting(self) -> str:
+        """The rig-file settings that say where the PLC is."""
+        if self.modbus.transport == "tcp":
+            return "host, port, unit_id"
+        return "serial_port, baudrate, unit_id"
+
+    @property
     def connected(self) -> bool:
         """True while the transport to the PLC is open."""
         return self._client is not None and bool(self._client.connected)
@@ -166,6 +173,7 @@ class PlcClient:
                 raise DeviceError(
                     f"cannot connect to PLC at {self.endpoint} after {attempts} attempt(s)"
                     + (f" in {timeout_s} s" if timeout_s is not None else "")
+                    + f" (rig file [modbus] {self._setting})"
                 )
             await asyncio.sleep(min(delay, remaining))
             delay = min(2 * delay, self.modbus.reconnect_max_s)

@@ -148,6 +148,7 @@ async function refreshRig() {
     const units = s.units || {};
     kv($("#channels-table"), Object.entries(ch).map(([k, v]) => [k, units[k] && v !== null ? `${fmt(v, 6)} ${units[k]}` : fmt(v, 6)]));
     setLimits();
+    setCapabilities(s.capabilities || {});
     if (s.current_job) showJob(s.current_job);
   } catch (err) {
     $("#conn-dot").className = "dot bad";
@@ -167,6 +168,48 @@ function setLimits() {
   set("tow", "max_distance_m", l.end_of_travel_m);
   set("spin", "torque_nm", l.max_torque_nm);
   set("spin", "max_time_s", l.max_run_s);
+}
+
+// Offer only what the rig can do (GET /api/rig → capabilities); say why the rest is missing.
+const CAPABILITY_OF_FORM = { tow: "tow", spin: "spin", pendulum: "pendulum", calibration: "thrust_calibration" };
+function setCapabilities(caps) {
+  for (const [form, key] of Object.entries(CAPABILITY_OF_FORM)) {
+    const cap = caps[key];
+    const el = $(`#form-${form}`);
+    if (!cap || !el) continue;
+    const tab = $(`.tabs button[data-form=${form}]`);
+    if (tab) {
+      tab.classList.toggle("unavailable", !cap.available);
+      tab.title = cap.available ? "" : cap.reason;
+    }
+    el.querySelector("button[type=submit]").disabled = !cap.available;
+    let note = el.querySelector(".capability-reason");
+    if (!note) {
+      note = document.createElement("p");
+      note.className = "capability-reason muted";
+      el.prepend(note);
+    }
+    const reasons = cap.available ? [] : [cap.reason];
+    const drive = el.querySelector("select[name=drive]");
+    for (const [name, d] of Object.entries(cap.drives || {})) {
+      const option = drive && [...drive.options].find((o) => o.value === name);
+      if (!option) continue;
+      option.disabled = !d.available;
+      option.title = d.available ? "" : d.reason;
+      if (!d.available && cap.available) reasons.push(d.reason);
+      if (!d.available && drive.value === name) {
+        const other = [...drive.options].find((o) => !o.disabled);
+        if (other) drive.value = other.value;
+      }
+    }
+    note.textContent = reasons.length ? `This rig cannot: ${reasons.join("; ")}` : "";
+    note.hidden = !reasons.length;
+  }
+  const noThrusters = state.rig && state.rig.thrusters && state.rig.thrusters.state === "absent";
+  for (const id of ["#arm-btn", "#disarm-btn"]) {
+    $(id).disabled = !!noThrusters;
+    $(id).title = noThrusters ? "this rig has no thrusters (no [thrusters] section in its rig file)" : "";
+  }
 }
 
 // ---- jobs ---------------------------------------------------------------------------------
