@@ -40,7 +40,8 @@ REGISTER_WIDTH: dict[str, int] = {
     "bool": 1,
 }
 
-#: Channel names other tools and tests rely on (see README, "Register map").
+#: Channel names the code knows (see README, "Register map"). A rig file lists only those
+#: its rig has; what the rig can do follows from them (``daq.capabilities``).
 STANDARD_CHANNELS = (
     "tow_position",
     "yaw_angle",
@@ -83,12 +84,15 @@ class RigInfo(_Strict):
 
 class Geometry(_Strict):
     rail_length_m: PositiveFloat
-    #: Carriage position at which the end-of-travel switch trips.
+    #: Carriage position at which the end-of-travel switch trips; also the longest tow
+    #: (``max_distance_m``), which is how a rig without the switch stops a tow.
     end_of_travel_m: PositiveFloat
     pulley_radius_m: PositiveFloat
     #: Rotational inertia of the tow pulley (adds J/r² to the towed mass).
     pulley_inertia_kg_m2: NonNegativeFloat = 0.0
-    spin_drum_radius_m: PositiveFloat
+    #: Radius the spin weight's cord acts at; a rig without a spin drum leaves it out
+    #: (weight-driven spin tests then need it, see ``daq.capabilities``).
+    spin_drum_radius_m: PositiveFloat | None = None
     spin_drum_inertia_kg_m2: NonNegativeFloat = 0.0
     #: Largest yaw angle the spin cord allows before it is fully unwound.
     spin_max_angle_rad: PositiveFloat = 6 * math.pi
@@ -196,7 +200,8 @@ class Channel(_Strict):
 
 class Limits(_Strict):
     max_force_n: PositiveFloat
-    max_torque_nm: PositiveFloat
+    #: Largest spin torque; a rig without a spin axis leaves it out (spin tests need it).
+    max_torque_nm: PositiveFloat | None = None
     #: Largest thruster command the host sends, as a fraction of full scale (0..1).
     max_thruster_command: Annotated[float, Field(gt=0, le=1)] = 0.8
     #: Largest change of thruster command per second (fraction of full scale per s).
@@ -256,7 +261,8 @@ class RigConfig(_Strict):
     vehicle: Vehicle
     modbus: ModbusConnection
     channels: list[Channel] = Field(min_length=1)
-    thrusters: ThrusterPort
+    #: Optional: the thruster controller (thruster-driven tests and calibration need it).
+    thrusters: ThrusterPort | None = None
     limits: Limits
     acquisition: Acquisition = Acquisition()
     #: Optional: a pendulum for free-decay tests (needs the pendulum channels).
@@ -281,16 +287,6 @@ class RigConfig(_Strict):
         return channels
 
     @model_validator(mode="after")
-    def _standard_channels_present(self) -> RigConfig:
-        missing = [n for n in STANDARD_CHANNELS if n not in {c.name for c in self.channels}]
-        if missing:
-            raise ValueError(
-                f"channels: missing required channel(s) {', '.join(missing)}; "
-                f"every rig file defines {', '.join(STANDARD_CHANNELS)}"
-            )
-        return self
-
-    @model_validator(mode="after")
     def _pendulum_channels_present(self) -> RigConfig:
         if self.pendulum is None:
             return self
@@ -309,6 +305,18 @@ class RigConfig(_Strict):
                 f"rod_cg_m must be positive (a restoring moment), got {righting:.4g} kg·m"
             )
         return self
+
+    def thruster_port(self) -> ThrusterPort:
+        """The ``[thrusters]`` section; RigConfigError when the rig file has none."""
+        if self.thrusters is None:
+            raise RigConfigError(
+                f"rig {self.rig.name!r} has no thrusters (its rig file has no [thrusters] section)"
+            )
+        return self.thrusters
+
+    def has(self, name: str) -> bool:
+        """The rig file lists a channel called ``name`` (simulation-only ones included)."""
+        return any(c.name == name for c in self.channels)
 
     def channel(self, name: str) -> Channel:
         """The channel called ``name``; KeyError names the known channels."""

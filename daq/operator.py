@@ -37,6 +37,22 @@ class ChannelWriter(Protocol):
     async def write(self, name: str, value: float | bool) -> None: ...
 
 
+class OperatorActUnavailable(RuntimeError):
+    """The simulated operator cannot play an act: the rig file lacks its sim-only channel."""
+
+
+#: The simulation-only channel each act of the simulated operator writes.
+SIM_CHANNEL = {
+    "hang_tow_weight": "sim_tow_weight",
+    "hang_spin_weight": "sim_spin_weight",
+    "return_carriage": "sim_reset",
+    "mount_thrust_stand": "sim_thrust_stand",
+    "unmount_thrust_stand": "sim_thrust_stand",
+    "mount_pendulum": "sim_pendulum_angle",
+    "pull_pendulum": "sim_pendulum_angle",
+}
+
+
 class SimulatedOperator:
     """Plays the operator on the simulated rig through its sim-only registers."""
 
@@ -45,6 +61,13 @@ class SimulatedOperator:
         self._settle_s = settle_s
 
     async def perform(self, act: OperatorAct) -> None:
+        channel = SIM_CHANNEL.get(act.name)
+        known = getattr(self._plc, "rig", None)
+        if channel is not None and known is not None and not known.has(channel):
+            raise OperatorActUnavailable(
+                f"simulated operator: cannot {act.name.replace('_', ' ')}: the rig file has no "
+                f"sim_only channel {channel!r} (docs/simulated-rig.md)"
+            )
         if act.name == "hang_tow_weight":
             await self._plc.write("sim_tow_weight", act.value or 0.0)
             if act.reverse:  # over the far-end pulley (sim_reset leads it back)

@@ -31,6 +31,9 @@ from daq.config import Channel, RigConfig
 from daq.sample import Quality
 from daq.unwrap import CounterUnwrapper
 
+#: Tries of one write before it fails (a write sets a value: repeating it is harmless).
+WRITE_ATTEMPTS = 3
+
 _RAW_RANGE = {
     "uint16": (0, 0xFFFF),
     "int16": (-0x8000, 0x7FFF),
@@ -111,6 +114,13 @@ class PlcClient:
         return f"{where} unit {m.unit_id}"
 
     @property
+    def _setting(self) -> str:
+        """The rig-file settings that say where the PLC is."""
+        if self.modbus.transport == "tcp":
+            return "host, port, unit_id"
+        return "serial_port, baudrate, unit_id"
+
+    @property
     def connected(self) -> bool:
         """True while the transport to the PLC is open."""
         return self._client is not None and bool(self._client.connected)
@@ -166,6 +176,7 @@ class PlcClient:
                 raise DeviceError(
                     f"cannot connect to PLC at {self.endpoint} after {attempts} attempt(s)"
                     + (f" in {timeout_s} s" if timeout_s is not None else "")
+                    + f" (rig file [modbus] {self._setting})"
                 )
             await asyncio.sleep(min(delay, remaining))
             delay = min(2 * delay, self.modbus.reconnect_max_s)
@@ -318,19 +329,30 @@ class PlcClient:
             words: list[int] | None = None
         else:
             words = registers.encode(ch, _check_range(ch, float(value)))
-        if not self.connected:
-            raise self._fail(what, "not connected (reconnecting in the background)")
-        dev = self.modbus.unit_id
-        assert self._client is not None  # connected
-        try:
-            if words is None:
-                rr = await self._client.write_coil(ch.address, bool(value), device_id=dev)
-            elif len(words) == 1:
-                rr = await self._client.write_register(ch.address, words[0], device_id=dev)
-            else:
-                rr = await self._client.write_registers(ch.address, words, device_id=dev)
-        except (TimeoutError, ModbusException, OSError) as err:
-            raise self._fail(what, err) from None
+        # A write sets a value, so sending it again is harmless: a reply lost or late once
+        # (a busy PLC or host) must not fail a release or a brake.
+        for attempt in range(1, WRITE_ATTEMPTS + 1):
+            if not self.connected:
+                raise self._fail(what, "not connected (reconnecting in the background)")
+            dev = self.modbus.unit_id
+            assert self._client is not None  # connected
+            try:
+                if words is None:
+                    rr = await self._client.write_coil(ch.address, bool(value), device_id=dev)
+                elif len(words) == 1:
+                    rr = await self._client.write_register(ch.address, words[0], device_id=dev)
+                else:
+                    rr = await self._client.write_registers(ch.address, words, device_id=dev)
+                break
+            except (TimeoutError, ModbusException) as err:
+                if attempt == WRITE_ATTEMPTS or not self.connected:
+                    raise self._fail(what, f"{err} ({attempt} attempts)") from None
+                self.stats.errors += 1
+                # Let a late reply arrive while nothing waits for it (it would otherwise be
+                # taken for the next try's reply and fail it on the transaction id).
+                await asyncio.sleep(self.modbus.timeout_s)
+            except OSError as err:
+                raise self._fail(what, err) from None
         if rr.isError():
             raise self._fail(what, f"exception response {rr}", link=False)
 

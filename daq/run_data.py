@@ -365,8 +365,9 @@ def thrust_layout_of(rig: RigConfig, kind: str) -> ThrustLayout:
     """How the rig's thrusters make the drive of a ``"tow"`` or a ``"spin"``."""
     from daq.procedures.thruster_drive import thrust_layout
 
-    signs, arm = thrust_layout(rig.thrusters, kind)
-    return ThrustLayout(signs, arm, rig.thrusters.time_constant_s, rig.thrusters.voltage_exponent)
+    port = rig.thruster_port()
+    signs, arm = thrust_layout(port, kind)
+    return ThrustLayout(signs, arm, port.time_constant_s, port.voltage_exponent)
 
 
 def thruster_drive(

@@ -29,13 +29,31 @@ from daq.plc import PlcClient
 from daq.rig_lock import RigLock, rig_lock
 from daq.sample import Quality, Sample
 from daq.store import Store
-from thrusters.driver import ThrusterDriver
+from thrusters.config import CommandLimits, ThrusterPort
+from thrusters.driver import ThrusterDriver, ThrusterError
 
 if TYPE_CHECKING:
     from daq.sim.rig import SimulatedRigThread
     from daq.sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
+
+
+NO_THRUSTERS = "this rig has no thrusters (its rig file has no [thrusters] section)"
+
+#: Brakes the safe state engages (those the rig file lists).
+RELEASE_CHANNELS = ("tow_release", "spin_release")
+
+
+def open_thruster_driver(port: ThrusterPort, limits: CommandLimits) -> ThrusterDriver:
+    """The driver for the rig file's ``[thrusters]``; a port that cannot be used is a
+    one-line ``ThrusterError`` naming the controller and the ``thrusters.port`` setting."""
+    if port.port == "sim":
+        raise ThrusterError(
+            "thruster controller: thrusters.port = 'sim' is only for a simulated rig; "
+            "give the controller's device path or pyserial URL"
+        )
+    return ThrusterDriver(port, limits)
 
 
 class RigBusy(RuntimeError):
@@ -143,11 +161,13 @@ class RigSession:
         await self.plc.connect(timeout_s=connect_timeout_s)
         self.acquisition = Acquisition(self.plc, rate_hz=self._rate_hz)
         self._tasks.append(asyncio.create_task(self.acquisition.run(), name="acquisition"))
-        self.thrusters = ThrusterDriver(conn.thrusters, conn.limits)
-        await self.thrusters.open()
-        self._tasks.append(
-            asyncio.create_task(self._supervise_thrusters(), name="thruster-supervisor")
-        )
+        if conn.thrusters is not None:  # a rig without [thrusters] opens no serial port
+            driver = open_thruster_driver(conn.thrusters, conn.limits)
+            await driver.open()
+            self.thrusters = driver  # only an open driver is zeroed and closed later
+            self._tasks.append(
+                asyncio.create_task(self._supervise_thrusters(), name="thruster-supervisor")
+            )
         if self._operator is None:
             self._operator = (
                 SimulatedOperator(self.plc) if self.simulated else PromptOperator(console_ask)
@@ -240,7 +260,7 @@ class RigSession:
     async def safe_state(self) -> None:
         """Brakes engaged and thrusters at zero (waits for the controller's ACK)."""
         errors = []
-        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=self.thrust.armed)
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
         # Disarmed (or watchdog-latched) controllers already hold their outputs at zero.
         if self.thrusters is not None and self.thrusters.state not in ("DISARMED", "WDT"):
             try:
@@ -248,7 +268,9 @@ class RigSession:
             except Exception as err:  # keep going: the brakes matter too
                 errors.append(f"thrusters: {err}")
         if self.plc is not None and self.plc.connected:
-            for name in ("tow_release", "spin_release"):
+            for name in RELEASE_CHANNELS:
+                if not self.rig.has(name):
+                    continue
                 try:
                     await self.plc.write(name, False)
                 except Exception as err:
@@ -256,14 +278,21 @@ class RigSession:
         if errors:
             log.warning("safe state incomplete: %s", "; ".join(errors))
 
+    @property
+    def thruster_count(self) -> int:
+        """Thrusters of the rig file's ``[thrusters]`` section (0 without one)."""
+        return self.rig.thrusters.count if self.rig.thrusters is not None else 0
+
     async def arm_thrusters(self) -> None:
-        assert self.thrusters is not None
-        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=True)
+        if self.thrusters is None:
+            raise ThrusterError(NO_THRUSTERS)
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
         await self.thrusters.arm()
 
     async def disarm_thrusters(self) -> None:
-        assert self.thrusters is not None
-        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=False)
+        if self.thrusters is None:
+            raise ThrusterError(NO_THRUSTERS)
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
         await self.thrusters.disarm()
@@ -280,9 +309,9 @@ class RigSession:
     def set_thrust(self, fractions: Sequence[float]) -> None:
         """Ask for thruster outputs; the supervisor sends them, slew-limited, every tick."""
         values = [float(f) for f in fractions]
-        if len(values) != self.rig.thrusters.count or not all(math.isfinite(v) for v in values):
+        if len(values) != self.thruster_count or not all(math.isfinite(v) for v in values):
             raise ValueError(
-                f"thrust: need {self.rig.thrusters.count} finite fractions, got {list(fractions)!r}"
+                f"thrust: need {self.thruster_count} finite fractions, got {list(fractions)!r}"
             )
         self.thrust = ThrustTarget(values, armed=self.thrust.armed)
 
@@ -298,7 +327,7 @@ class RigSession:
                 try:
                     if stale and self.thrusters.inhibited is None:
                         self.stale_zeroings += 1
-                        self.thrust = ThrustTarget([0.0] * self.rig.thrusters.count, armed=True)
+                        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
                     # Stale sensors: zero at once (no ramp) and hold until data is good again.
                     await self.thrusters.zero_on_stale(stale, reason="sensor data stale or unread")
                     await self.thrusters.command(self.thrust.fractions)

@@ -11,7 +11,8 @@ server binaries (tests/pg.py).
 Lanes and workers (pyproject.toml): ``pytest`` runs the fast lane (``-m 'not slow'``) on
 two xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled by module
 (``--dist loadscope``), so module-scoped fixtures (recorded runs, servers) are built once;
-the modules in ``TIMING_MODULES`` form one scope, so they run one at a time on one worker.
+the real-time modules (``is_realtime``) form one scope, so they run one at a time on one
+worker while the other worker runs everything else.
 """
 
 from __future__ import annotations
@@ -27,33 +28,53 @@ from tests.pg import PostgresServer, external_postgres, find_postgres_bin, start
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
-#: Modules that assert wall-clock bounds (clock lateness, reply timeouts, watchdogs, a
-#: stream's pace): one xdist scope, so two of them never run at once.
-TIMING_MODULES = frozenset(
+#: Folders whose tests drive a rig, a device or a clock in real time.
+REALTIME_FOLDERS = (
+    "tests/daq/",
+    "tests/integration/",
+    "tests/procedures/",
+    "tests/sim/",
+    "tests/thrusters/",
+)
+#: Other modules that run tests on the simulated rig in real time or assert wall-clock
+#: bounds (a stream's pace, the recorder's flush interval).
+REALTIME_MODULES = frozenset(
     {
+        "tests/api/test_browser.py",
+        "tests/api/test_job_queue.py",
+        "tests/api/test_jobs.py",
+        "tests/api/test_live_ui.py",
+        "tests/api/test_operator.py",
+        "tests/api/test_pendulum_job.py",
+        "tests/api/test_rig_capabilities.py",
+        "tests/api/test_rig_lock.py",
+        "tests/api/test_storage_fault_job.py",
         "tests/api/test_stream.py",
-        "tests/daq/test_acquisition.py",
-        "tests/daq/test_plc.py",
-        "tests/procedures/test_thruster_link_faults.py",
-        "tests/sim/test_plc.py",
-        "tests/sim/test_rig.py",
         "tests/store/test_recorder.py",
-        "tests/thrusters/test_thruster_driver_emulator.py",
     }
 )
 
 
+def is_realtime(module: str) -> bool:
+    """Whether a test module (path from the project root) runs in the real-time scope."""
+    return module in REALTIME_MODULES or module.startswith(REALTIME_FOLDERS)
+
+
 class _ModuleScheduling(LoadScopeScheduling):
-    """xdist's loadscope by module, with the timing-sensitive modules as one scope."""
+    """xdist's loadscope by module, with every real-time module in one scope: they run one
+    at a time on one worker (as in a single process), while the other worker takes the
+    computing modules (estimation, storage, API reads), so two simulated rigs never compete
+    for the two cores of a CI machine. The real-time scope is the largest, so xdist sends it
+    first."""
 
     def _split_scope(self, nodeid: str) -> str:
         module = nodeid.split("::", 1)[0]
-        return "timing" if module in TIMING_MODULES else module
+        return "realtime" if is_realtime(module) else module
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_xdist_make_scheduler(config: pytest.Config, log) -> LoadScopeScheduling | None:
-    """Under ``--dist loadscope``, schedule by module with one scope for TIMING_MODULES.
+    """Under ``--dist loadscope``, schedule by module with one scope for the real-time ones.
     (xdist's own ``loadgroup`` silently stops grouping on pytest 9.2, pytest-xdist#1386.)"""
     if config.getvalue("dist") != "loadscope":
         return None

@@ -166,18 +166,22 @@ class ThrusterDriver:
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="thrusters")
         try:
             await self._run(self._link.open)
-        except (OSError, serial.SerialException) as err:
+        except (OSError, serial.SerialException, ValueError) as err:  # ValueError: bad URL
             self._executor.shutdown(wait=False)
             self._executor = None
-            raise ThrusterError(f"thrusters.port: cannot open {self._link.url!r}: {err}") from err
+            raise ThrusterError(
+                f"thruster controller: thrusters.port: cannot open {self._link.url!r}: {err}"
+            ) from err
         atexit.register(self._zero_at_exit)
         self.inhibited = None
         self._clear_fault()
         try:
             await self.query()
-        except ThrusterError:
+        except ThrusterError as err:
             await self._close_port()
-            raise
+            raise ThrusterError(
+                f"thruster controller at thrusters.port {self._link.url!r}: {err}"
+            ) from err
 
     async def close(self) -> None:
         """Command zero (waiting for the ACK, ≤ 3 retries), disarm, close. Never raises.

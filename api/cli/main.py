@@ -47,6 +47,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "sequence",
         "Run a sequence file (tows, spins, calibrations; repeats and rest time).",
     ),
+    "capabilities": (
+        "api.cli.capabilities",
+        "capabilities",
+        "What the rig can do: each test (and drive), or why not; the safety channels...",
+    ),
     "runs": ("api.cli.runs", "runs", "List stored runs, newest first."),
     "show": (
         "api.cli.runs",
@@ -155,6 +160,7 @@ FAULTS = (
     ("thrusters.driver", ("ThrusterError",)),
     ("daq.session", ("RigBusy",)),
     ("daq.procedures.motion", ("PreconditionFailed",)),
+    ("daq.operator", ("OperatorActUnavailable",)),
 )
 
 

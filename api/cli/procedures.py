@@ -53,6 +53,7 @@ def _run_procedure(
     store = open_store(db_url)
 
     async def main(abort: AbortSignal) -> Any:
+        from daq.operator import OperatorActUnavailable
         from daq.plc import DeviceError
         from daq.procedures.steps import PreconditionFailed
         from thrusters.driver import ThrusterError
@@ -62,7 +63,13 @@ def _run_procedure(
                 async with RigSession(source, store) as session:
                     session.run_metadata = run_metadata()  # --operator, --tag, … (cli_metadata)
                     return await body(session, params, abort, view)
-            except (PreconditionFailed, RigInUse, DeviceError, ThrusterError) as err:
+            except (
+                PreconditionFailed,
+                RigInUse,
+                DeviceError,
+                ThrusterError,
+                OperatorActUnavailable,
+            ) as err:
                 # Not ready, the rig in use, or a device that cannot be reached: exit 1.
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
@@ -96,7 +103,7 @@ def _print_calibration(calibration: dict[str, Any] | None) -> None:
     for row in calibration["table"]:
         click.echo(
             f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
-            f"{row['supply_voltage_v']:10.2f}"
+            + (f"{row['supply_voltage_v']:10.2f}" if row["supply_voltage_v"] is not None else "")
         )
 
 
@@ -153,7 +160,7 @@ def procedure_command(spec: KindSpec) -> click.Command:
             rig_file,
             scenario_file,
             db_url,
-            lambda source: spec.validate(given, source.rig),
+            lambda source: spec.check(given, source.rig),
             body,
             spec.route,
             as_json,

@@ -20,5 +20,5 @@ def procedure_from_request(kind: str, request: dict[str, Any], rig: Any) -> tupl
     spec = KINDS.get(kind)
     if spec is None:
         raise ValueError(f"kind: {kind!r} is not a procedure")
-    params = spec.validate(request, rig)
+    params = spec.check(request, rig)
     return params, spec.describe(params)

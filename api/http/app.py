@@ -37,6 +37,7 @@ from api.http.routes import runs as routes_runs
 from api.http.routes import sixdof as routes_sixdof
 from api.http.routes import stream as routes_stream
 from api.http.static_assets import app_with_offline_docs, compress_static
+from daq.procedures.kinds import NotCapable
 from daq.procedures.params import ParameterError
 from daq.store import AmbiguousRunId, RunNotFound
 from daq.store.base import software_version
@@ -108,6 +109,11 @@ def _install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(ParameterError)
     async def parameter_error(request: Request, exc: ParameterError) -> JSONResponse:
         return _error(422, str(exc), errors=exc.to_json())
+
+    @app.exception_handler(NotCapable)
+    async def not_capable(request: Request, exc: NotCapable) -> JSONResponse:
+        # The request is well formed; the rig (its rig file) cannot do it.
+        return _error(409, str(exc), errors=exc.to_json())
 
     @app.exception_handler(RunNotFound)
     async def run_not_found(request: Request, exc: RunNotFound) -> JSONResponse:

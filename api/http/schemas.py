@@ -205,6 +205,12 @@ class ThrustersOut(BaseModel):
     stale_zeroings: int
 
 
+class CapabilityOut(BaseModel):
+    available: bool
+    reason: str | None = Field(None, description="What the rig file lacks (absent if available).")
+    drives: dict[str, CapabilityOut] | None = None
+
+
 class RigStatus(BaseModel):
     running: bool
     error: str | None = None
@@ -223,6 +229,15 @@ class RigStatus(BaseModel):
     clock: ClockOut | None = None
     thrusters: ThrustersOut | None = None
     limits: dict[str, float] = {}
+    capabilities: dict[str, CapabilityOut] = Field(
+        {},
+        description="Per run kind: can this rig run it (tow/spin per drive), and why not.",
+    )
+    safety: dict[str, CapabilityOut] = Field(
+        {},
+        description="end_of_travel, estop, heartbeat, supply_voltage: used when the rig file "
+        "lists them; the reason says what the rig does without one.",
+    )
     stream_clients: int = 0
 
 

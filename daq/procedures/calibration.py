@@ -42,7 +42,7 @@ async def run_thrust_calibration(
     """Run the sweep; returns the run outcome and the stored calibration (or None if aborted)."""
     abort = abort or AbortSignal()
     report = progress or (lambda p: None)
-    n = session.rig.thrusters.count
+    n = session.rig.thruster_port().count
     sweep = params.sweep
     table: list[dict[str, Any]] = []
     async with session.locked("thrust calibration"):
@@ -94,7 +94,11 @@ async def run_thrust_calibration(
                     await rec.record_for(params.settle_s)
                     got = await _collect(rec, params.samples_per_step)
                     thrust, thrust_std = _mean_std([s.channels["load_cell"] - tare for s in got])
-                    volts, _ = _mean_std([s.channels["supply_voltage"] for s in got])
+                    volts = (  # None: the rig has no supply-voltage channel
+                        _mean_std([s.channels["supply_voltage"] for s in got])[0]
+                        if session.rig.has("supply_voltage")
+                        else None
+                    )
                     row = {
                         "step": i,
                         "command": command,
@@ -111,7 +115,8 @@ async def run_thrust_calibration(
                     table.append(row)
                     await rec.event(
                         "info",
-                        f"step {i}: command {command:+.3f} → {thrust:+.3f} N at {volts:.2f} V",
+                        f"step {i}: command {command:+.3f} → {thrust:+.3f} N"
+                        + (f" at {volts:.2f} V" if volts is not None else ""),
                         **row,
                     )
                 session.set_thrust([0.0] * n)
@@ -180,7 +185,7 @@ def _store_calibration(
     fit = fit_thrust_curve(commands, thrust, [float(r["sweep_sign"]) for r in table])
     data = {
         "run_id": run_id,
-        "thrusters": session.rig.thrusters.count,
+        "thrusters": session.rig.thruster_port().count,
         "table": table,
         "fit": fit.to_json(),
     }

@@ -17,9 +17,12 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
+from daq.capabilities import Capability, Needs, capability
+from daq.config import PENDULUM_CHANNELS
 from daq.procedures import requests
 from daq.procedures.params import (
     CalibrationParameters,
+    ParameterError,
     PendulumParameters,
     SpinParameters,
     TowParameters,
@@ -41,6 +44,25 @@ if TYPE_CHECKING:
     from daq.session import RigSession
 
 StepParameters = TowParameters | SpinParameters | CalibrationParameters | PendulumParameters
+
+
+#: How a reason names a drive ("tow with thrusters: needs a [thrusters] section").
+DRIVE_WORDS = {"weight": "with a hung weight", "thrusters": "with thrusters"}
+
+
+class NotCapable(ParameterError):
+    """The rig file lacks what a run kind (or its drive) needs; nothing was started.
+
+    One line per refusal, e.g. ``rig 'Encoder tow rig' cannot run a spin test: needs
+    channel yaw_angle, channel spin_release``; the API answers it with 409."""
+
+    def __init__(self, field_name: str, value: Any, reason: str, rig_name: str) -> None:
+        self.reason = reason
+        self.rig_name = rig_name
+        super().__init__([(field_name, value, reason)])
+
+    def lines(self) -> list[str]:
+        return [f"rig {self.rig_name!r} cannot do this: {self.reason}"]
 
 
 @dataclass(frozen=True)
@@ -91,11 +113,52 @@ class KindSpec:
     #: Write a report of a completed run into a folder → paths written (``--report DIR``),
     #: or ``None`` when the kind has no report of its own.
     report: Callable[[KindOutcome, Path], list[Path]] | None = None
+    #: What the rig file must list for this kind, whatever drives it (``daq.capabilities``).
+    needs: Needs = field(default_factory=Needs)
+    #: Tow/spin: what each drive (``weight``, ``thrusters``) needs on top of ``needs``.
+    drives: dict[str, Needs] = field(default_factory=dict)
 
     @property
     def axis(self) -> AxisTerms | None:
         """The axis the kind moves (``None`` for a calibration on the load cell)."""
         return AXES.get(self.kind)
+
+    def capability(self, rig: RigConfig, drive: str | None = None) -> Capability:
+        """Can ``rig`` run this kind (with ``drive``; ``None``: with any of its drives)?"""
+        name = str(self.kind)
+        base = capability(name, self.needs, rig)
+        if not base.available or not self.drives:
+            return base
+        if drive is not None and drive in self.drives:
+            return capability(f"{name} {DRIVE_WORDS[drive]}", self.drives[drive], rig)
+        each = {d: self.capability(rig, d) for d in self.drives}
+        if any(c.available for c in each.values()):
+            return Capability(True)
+        return Capability(False, "; ".join(str(c.reason) for c in each.values()))
+
+    def describe_capability(self, rig: RigConfig) -> dict[str, Any]:
+        """``{"available", "reason"?, "drives"?: {drive: {"available", "reason"?}}}``."""
+        out = self.capability(rig).to_json()
+        if self.drives:
+            out["drives"] = {d: self.capability(rig, d).to_json() for d in self.drives}
+        return out
+
+    def check(self, raw: dict[str, Any], rig: RigConfig) -> StepParameters:
+        """Refuse (``NotCapable``) what the rig cannot do, then validate the request."""
+        base = capability(str(self.kind), self.needs, rig)
+        if not base.available:
+            raise NotCapable("kind", str(self.kind), str(base.reason), rig.rig.name)
+        drive = raw.get("drive", "weight")
+        if drive in self.drives:
+            can = self.capability(rig, drive)
+            if not can.available:
+                raise NotCapable("drive", drive, str(can.reason), rig.rig.name)
+        return self.validate(raw, rig)
+
+
+def capabilities(rig: RigConfig) -> dict[str, dict[str, Any]]:
+    """What ``rig`` can do, per run kind (``GET /api/rig`` → ``capabilities``)."""
+    return {str(kind): spec.describe_capability(rig) for kind, spec in KINDS.items()}
 
 
 async def _run_motion(session, params, *, abort, progress) -> KindOutcome:
@@ -125,6 +188,11 @@ def _calibration_report(outcome: KindOutcome, folder: Path) -> list[Path]:
     return write_calibration_report(outcome.extra["calibration"], folder)
 
 
+def _axis_channels(kind: RunKind) -> tuple[str, ...]:
+    """The position channel and release coil a test on ``kind``'s axis reads and writes."""
+    return (AXES[kind].position_channel, AXES[kind].release_coil)
+
+
 def _driven(name: str, load: float, unit: str, drive: str) -> str:
     return f"{name} {load:.4g} {unit}" + (" (thrusters)" if drive == "thrusters" else "")
 
@@ -145,6 +213,8 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             command="tow",
             route="tow",
             estimator="axis",
+            needs=Needs(channels=_axis_channels(RunKind.TOW)),
+            drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
         ),
         KindSpec(
             kind=RunKind.SPIN,
@@ -158,6 +228,11 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             command="spin",
             route="spin",
             estimator="axis",
+            needs=Needs(channels=_axis_channels(RunKind.SPIN), settings=("limits.max_torque_nm",)),
+            drives={
+                "weight": Needs(settings=("geometry.spin_drum_radius_m",)),
+                "thrusters": Needs(thrusters=True),
+            },
         ),
         KindSpec(
             kind=RunKind.PENDULUM,
@@ -171,6 +246,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             command="pendulum",
             route="pendulum",
             estimator="pendulum",
+            needs=Needs(channels=PENDULUM_CHANNELS, pendulum=True),
         ),
         KindSpec(
             kind=RunKind.THRUST_CALIBRATION,
@@ -185,6 +261,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             route="calibration",
             estimator=None,
             report=_calibration_report,
+            needs=Needs(channels=("load_cell",), thrusters=True),
         ),
     )
 }

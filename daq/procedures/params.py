@@ -322,15 +322,18 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     from daq.procedures.requests import SpinRequest
 
     c = _Checker(raw, SpinRequest)
-    g, r = rig.rig.g, rig.geometry.spin_drum_radius_m
+    # A rig without a drum radius or torque limit cannot spin (``KindSpec.check`` refuses
+    # first, naming what is missing); nan keeps a direct call from crashing here.
+    g, r = rig.rig.g, rig.geometry.spin_drum_radius_m or math.nan
     lim = rig.limits
+    max_torque = lim.max_torque_nm or math.nan
     drive = raw.get("drive", c.default("drive"))
     if drive not in ("weight", "thrusters"):
         c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
     torque = c.number(
         "torque_nm",
         low=0,
-        high=lim.max_torque_nm,
+        high=max_torque,
         unit="N·m",
         why_high=", rig limit max_torque_nm",
         signed=True,
@@ -338,7 +341,7 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     weight = c.number(
         "weight_kg",
         low=0,
-        high=lim.max_torque_nm / (g * r),
+        high=max_torque / (g * r),
         unit="kg",
         why_high=", max_torque_nm / (g · drum radius)",
         signed=True,

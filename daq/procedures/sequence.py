@@ -93,7 +93,7 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
             problems.append((f"steps[{i}].{unknown[0]}", given[unknown[0]], allowed))
             continue
         try:
-            steps.append(spec.validate(given, rig))
+            steps.append(spec.check(given, rig))
         except ParameterError as err:
             problems += [
                 (f"steps[{i}].{name}", value, allowed) for name, value, allowed in err.problems

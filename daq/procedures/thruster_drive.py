@@ -258,7 +258,7 @@ async def run_thruster_test(
         commands, force = thruster_commands(
             drive,
             calibration,
-            rig.thrusters,
+            rig.thruster_port(),
             max_command=rig.limits.max_thruster_command,
             kind=axis.kind,
         )
@@ -268,7 +268,7 @@ async def run_thruster_test(
         law, _ = await asyncio.to_thread(law_of, session.store, "imported", imported)
         volts = await _supply_now(session)
         commands, force = law_commands(
-            drive, law, volts, rig.thrusters, rig.limits.max_thruster_command, axis.kind
+            drive, law, volts, rig.thruster_port(), rig.limits.max_thruster_command, axis.kind
         )
     parameters = params.to_json() | {
         "commands": commands,
@@ -390,7 +390,6 @@ async def _end_thrust(
 async def _drive_with_thrusters(
     session, rec, axis, params, commands, start, report, armed: asyncio.Event
 ) -> None:
-    rig = session.rig
     await session.live_plc.write(axis.release, True)
     await session.arm_thrusters()
     armed.set()
@@ -414,7 +413,7 @@ async def _drive_with_thrusters(
     stop, sample, t_last_free = await follow_motion(
         rec, axis, start, limit, params.max_time_s, report
     )
-    session.set_thrust([0.0] * rig.thrusters.count)
+    session.set_thrust([0.0] * session.thruster_count)
     await session.live_thrusters.zero()
     await session.live_plc.write(axis.release, False)
     await rec.event(

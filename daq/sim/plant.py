@@ -31,6 +31,7 @@ from daq.config import RigConfig
 from daq.sim.friction import sign, stick_slip_step
 from daq.sim.pendulum import SimPendulum
 from daq.sim.scenario import Scenario
+from thrusters.config import ThrusterPort
 
 STEP_S = 0.001
 HEARTBEAT_PERIOD_S = 0.01
@@ -44,14 +45,16 @@ class Plant:
         self.scenario = scenario or Scenario()
         self._rng = random.Random(self.scenario.seed)
         geo, thr = rig.geometry, self.scenario.thrusters
+        #: The rig's thrusters; a rig without [thrusters] gets the default ones, never commanded.
+        self.thruster_port = rig.thrusters or ThrusterPort()
         self.g = rig.rig.g
-        self.full_scale_thrust_n = thr.full_scale_thrust_n or rig.thrusters.full_scale_thrust_n
+        self.full_scale_thrust_n = thr.full_scale_thrust_n or self.thruster_port.full_scale_thrust_n
         self._pulley_mass = geo.pulley_inertia_kg_m2 / geo.pulley_radius_m**2
         self._thrust_alpha = (
             1.0 if thr.time_constant_s == 0 else 1.0 - math.exp(-STEP_S / thr.time_constant_s)
         )
         # Port thrusters (even index) turn the vehicle positive, starboard (odd) negative.
-        self._yaw_sign = rig.thrusters.yaw_signs()
+        self._yaw_sign = self.thruster_port.yaw_signs()
         self.t_start: float | None = None
         self.steps = 0
         self.estop = False
@@ -62,7 +65,7 @@ class Plant:
         #: weight pulls (turns) negative. ``reset`` rigs both the normal way again.
         self.tow_reversed = False
         self.spin_reversed = False
-        n = rig.thrusters.count
+        n = self.thruster_port.count
         self.commands = [0.0] * n
         self.thrusts_n = [0.0] * n
         self._tow_release_at: float | None = None
@@ -184,7 +187,7 @@ class Plant:
             surge_thrust = yaw_torque = 0.0
         else:
             surge_thrust = sum(thrusts)
-            lever = self.rig.thrusters.yaw_lever_arm_m
+            lever = self.thruster_port.yaw_lever_arm_m
             yaw_torque = lever * sum(s * f for s, f in zip(self._yaw_sign, thrusts, strict=True))
         self._step_tow(surge_thrust)
         self._step_yaw(yaw_torque)
@@ -245,8 +248,8 @@ class Plant:
         th, w = self.yaw_rad, self.yaw_rate_rad_s
         inertia = sc.inertia_kg_m2 + geo.spin_drum_inertia_kg_m2
         weight_torque = 0.0
-        if self.spin_weight_kg > 0 and not self.cord_out:
-            r = geo.spin_drum_radius_m
+        r = geo.spin_drum_radius_m
+        if self.spin_weight_kg > 0 and not self.cord_out and r is not None:  # a drum to hang on
             inertia += self.spin_weight_kg * r * r
             weight_torque = self.spin_weight_kg * self.g * r * (-1.0 if self.spin_reversed else 1.0)
         drive = weight_torque + thrust_torque_nm + fx.bias_torque_nm - fx.spring_nm_per_rad * th

@@ -35,8 +35,8 @@ class SimEndpoints:
     port: int | None  # Modbus TCP port (None for RTU)
     serial_port: str | None  # Modbus RTU device path or socket:// URL (None for TCP)
     unit_id: int
-    thruster_serial_port: str  # pty device path or socket:// URL
-    thruster_baudrate: int
+    thruster_serial_port: str | None  # pty device path or socket:// URL (None: no [thrusters])
+    thruster_baudrate: int | None
     thruster_count: int
 
     def as_dict(self) -> dict[str, Any]:
@@ -73,8 +73,13 @@ class SimulatedRig:
         self.clock = clock
         self.plant = Plant(rig, self.scenario)
         self.plc = SimulatedPLC(rig, self.plant, clock=clock)
-        self.thrusters = ThrusterControllerEmulator(
-            rig.thrusters.count, on_outputs=self._on_outputs, telemetry=self._telemetry
+        #: The thruster controller (``None`` for a rig file without [thrusters]).
+        self.thrusters = (
+            ThrusterControllerEmulator(
+                rig.thrusters.count, on_outputs=self._on_outputs, telemetry=self._telemetry
+            )
+            if rig.thrusters is not None
+            else None
         )
         self.modbus_port = modbus_port
         self.host = host
@@ -102,7 +107,10 @@ class SimulatedRig:
             else:
                 host = self.host
                 port = await self.plc.start_tcp(self.host, self.modbus_port)
-            if self._thruster_transport == "tcp":
+            thr_port = None
+            if self.thrusters is None:
+                pass
+            elif self._thruster_transport == "tcp":
                 thr_port = await self.thrusters.start_tcp(self.host)
             else:
                 thr_port = await self.thrusters.start_pty()
@@ -116,18 +124,19 @@ class SimulatedRig:
             serial_port=serial,
             unit_id=self.rig.modbus.unit_id,
             thruster_serial_port=thr_port,
-            thruster_baudrate=self.rig.thrusters.baudrate,
-            thruster_count=self.rig.thrusters.count,
+            thruster_baudrate=self.rig.thrusters.baudrate if self.rig.thrusters else None,
+            thruster_count=self.rig.thrusters.count if self.rig.thrusters else 0,
         )
         return self.endpoints
 
     async def stop(self) -> None:
         """Stop serving; thrusters go to zero and both brakes engage."""
-        self.plant.set_commands([0.0] * self.rig.thrusters.count)
+        self.plant.set_commands([0.0] * self.plant.thruster_port.count)
         self.plant.write("tow_release", 0)
         self.plant.write("spin_release", 0)
         await self.plc.stop()
-        await self.thrusters.stop()
+        if self.thrusters is not None:
+            await self.thrusters.stop()
 
     def connection_rig(self) -> RigConfig:
         """The rig config with [modbus] and [thrusters] pointing at this simulator."""
@@ -138,14 +147,12 @@ class SimulatedRig:
             modbus = {"transport": "tcp", "host": ep.host, "port": ep.port}
         else:
             modbus = {"transport": "rtu", "serial_port": ep.serial_port}
-        return self.rig.model_copy(
-            update={
-                "modbus": self.rig.modbus.model_copy(update=modbus),
-                "thrusters": self.rig.thrusters.model_copy(
-                    update={"port": ep.thruster_serial_port}
-                ),
-            }
-        )
+        update: dict[str, Any] = {"modbus": self.rig.modbus.model_copy(update=modbus)}
+        if self.rig.thrusters is not None:
+            update["thrusters"] = self.rig.thrusters.model_copy(
+                update={"port": ep.thruster_serial_port}
+            )
+        return self.rig.model_copy(update=update)
 
 
 class SimulatedRigThread:
@@ -184,7 +191,7 @@ class SimulatedRigThread:
         return self.sim.plc
 
     @property
-    def thrusters(self) -> ThrusterControllerEmulator:
+    def thrusters(self) -> ThrusterControllerEmulator | None:
         return self.sim.thrusters
 
     def connection_rig(self) -> RigConfig:

@@ -73,6 +73,7 @@ case(2, "nope.toml: cannot read rig file", "pendulum", "--angle", "0.2", "--rig"
 case(2, "nope.toml: cannot read rig file", "calibrate-thrusters", "--rig", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "sim", "--rig", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "serve", "--rig", "nope.toml")
+case(2, "nope.toml: cannot read rig file", "capabilities", "--rig", "nope.toml")
 case(2, "--ahp: ", "sensitivity", "benbam", "--ahp", RIG)
 case(2, "cannot use /etc/passwd/towrig", "token", "{xdg:/etc/passwd}")
 # -- values: flags, not API field names --------------------------------------------------

@@ -35,6 +35,8 @@ class MapServer:
                 self.words[ch.kind][ch.address + i] = 0
         self.delay_s = 0.0
         self.fail_reads = False
+        #: The next this-many writes answer after 0.2 s (later than the client's timeout).
+        self.slow_writes = 0
         #: Like a PLC scan: heartbeat +1 per 10 ms and plc_clock in ms, while True.
         self.heartbeat_running = True
         self.requests = 0
@@ -91,6 +93,9 @@ class MapServer:
         self.requests += 1
         if self.delay_s:
             await asyncio.sleep(self.delay_s)
+        if fc in (5, 6, 15, 16) and set_values is not None and self.slow_writes:
+            self.slow_writes -= 1
+            await asyncio.sleep(0.2)
         if fc in _READ_FC:
             if self.fail_reads:
                 return ExcCodes.DEVICE_FAILURE

@@ -10,7 +10,7 @@ import time
 import pytest
 
 from daq.config import load_rig
-from daq.plc import DeviceError, PlcClient
+from daq.plc import WRITE_ATTEMPTS, DeviceError, PlcClient
 from daq.sample import Quality
 from tests.daq.modbus_server import MapServer
 
@@ -206,6 +206,21 @@ async def test_server_lost_then_back_reconnects_in_the_background(server):
         assert (await plc.read_all())["tow_position"].value == pytest.approx(0.5)
     finally:
         await plc.close()
+
+
+async def test_a_write_whose_reply_is_late_is_sent_again(server, plc):
+    server.slow_writes = 1  # the first reply comes 0.2 s late (timeout_s = 0.05 s)
+    await plc.write("tow_release", True)
+    assert server.get("tow_release") == 1.0 and plc.stats.errors == 1
+
+
+async def test_a_write_that_never_gets_a_reply_in_time_fails_naming_its_attempts(server, plc):
+    server.slow_writes = WRITE_ATTEMPTS
+    with pytest.raises(
+        DeviceError, match=rf"write of 'tow_release'.*\({WRITE_ATTEMPTS} attempts\)"
+    ):
+        await plc.write("tow_release", True)
+    assert plc.stats.errors == WRITE_ATTEMPTS
 
 
 async def test_a_slow_plc_times_out_after_the_configured_timeout(server, plc):

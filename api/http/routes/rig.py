@@ -8,6 +8,8 @@ from api.core.jobs import JobConflict, JobRunner
 from api.core.service import RigService
 from api.http.deps import RunnerDep, ServiceDep, require_read, require_write
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
+from daq.capabilities import safety
+from daq.procedures.kinds import NotCapable, capabilities
 from daq.store.base import software_version
 
 router = APIRouter(prefix="/api", tags=["rig"])
@@ -18,8 +20,11 @@ def rig_status(service: RigService, runner: JobRunner) -> dict:
     data = service.snapshot()
     job = runner.rig_job
     data["current_job"] = job.to_json() if job is not None else None
-    lim = service.source.rig.limits
-    data["limits"] = {
+    rig = service.source.rig
+    lim = rig.limits
+    data["capabilities"] = capabilities(rig)
+    data["safety"] = {name: c.to_json() for name, c in safety(rig).items()}
+    limits = {
         "max_force_n": lim.max_force_n,
         "max_torque_nm": lim.max_torque_nm,
         "max_thruster_command": lim.max_thruster_command,
@@ -28,6 +33,7 @@ def rig_status(service: RigService, runner: JobRunner) -> dict:
         "spin_max_angle_rad": service.source.rig.geometry.spin_max_angle_rad,
         "g": service.source.rig.rig.g,
     }
+    data["limits"] = {k: v for k, v in limits.items() if v is not None}  # unset: not offered
     data["stream_clients"] = service.broadcaster.client_count
     return data
 
@@ -49,12 +55,17 @@ def health(request: Request, service: ServiceDep) -> dict:
     responses=error_responses(401),
 )
 def get_rig(service: ServiceDep, runner: RunnerDep) -> dict:
-    """Connected, armed, stale channels, current values, lock holder, device loss, clock."""
+    """Connected, armed, stale channels, current values, lock holder, device loss, clock;
+    what the rig can do (``capabilities``, with the reason for what it cannot) and which
+    safety channels it has (``safety``)."""
     return rig_status(service, runner)
 
 
-def _idle_session(service: RigService, runner: JobRunner):
+def _idle_session(service: RigService, runner: JobRunner, *, thrusters: bool = False):
     session = service.require_session()
+    if thrusters and session.rig.thrusters is None:
+        reason = "arming: needs a [thrusters] section"
+        raise NotCapable("thrusters", None, reason, session.rig.rig.name)
     job = runner.rig_job
     if job is not None or session.lock_holder is not None:
         holder = f"{job.label} (job {job.id})" if job is not None else session.lock_holder
@@ -70,7 +81,7 @@ def _idle_session(service: RigService, runner: JobRunner):
 )
 def arm(service: ServiceDep, runner: RunnerDep) -> dict:
     """Arm the thrusters (outputs stay at zero until a procedure commands them)."""
-    session = _idle_session(service, runner)
+    session = _idle_session(service, runner, thrusters=True)
     service.run(session.arm_thrusters())
     return rig_status(service, runner)
 
@@ -83,7 +94,7 @@ def arm(service: ServiceDep, runner: RunnerDep) -> dict:
 )
 def disarm(service: ServiceDep, runner: RunnerDep) -> dict:
     """Command zero and disarm the thrusters."""
-    session = _idle_session(service, runner)
+    session = _idle_session(service, runner, thrusters=True)
     service.run(session.disarm_thrusters())
     return rig_status(service, runner)
 

@@ -148,6 +148,7 @@ async function refreshRig() {
     const units = s.units || {};
     kv($("#channels-table"), Object.entries(ch).map(([k, v]) => [k, units[k] && v !== null ? `${fmt(v, 6)} ${units[k]}` : fmt(v, 6)]));
     setLimits();
+    setCapabilities(s.capabilities || {});
     if (s.current_job) showJob(s.current_job);
   } catch (err) {
     $("#conn-dot").className = "dot bad";
@@ -169,6 +170,48 @@ function setLimits() {
   set("tow", "max_distance_m", l.end_of_travel_m);
   set("spin", "torque_nm", l.max_torque_nm, true);
   set("spin", "max_time_s", l.max_run_s);
+}
+
+// Offer only what the rig can do (GET /api/rig → capabilities); say why the rest is missing.
+const CAPABILITY_OF_FORM = { tow: "tow", spin: "spin", pendulum: "pendulum", calibration: "thrust_calibration" };
+function setCapabilities(caps) {
+  for (const [form, key] of Object.entries(CAPABILITY_OF_FORM)) {
+    const cap = caps[key];
+    const el = $(`#form-${form}`);
+    if (!cap || !el) continue;
+    const tab = $(`.tabs button[data-form=${form}]`);
+    if (tab) {
+      tab.classList.toggle("unavailable", !cap.available);
+      tab.title = cap.available ? "" : cap.reason;
+    }
+    el.querySelector("button[type=submit]").disabled = !cap.available;
+    let note = el.querySelector(".capability-reason");
+    if (!note) {
+      note = document.createElement("p");
+      note.className = "capability-reason muted";
+      el.prepend(note);
+    }
+    const reasons = cap.available ? [] : [cap.reason];
+    const drive = el.querySelector("select[name=drive]");
+    for (const [name, d] of Object.entries(cap.drives || {})) {
+      const option = drive && [...drive.options].find((o) => o.value === name);
+      if (!option) continue;
+      option.disabled = !d.available;
+      option.title = d.available ? "" : d.reason;
+      if (!d.available && cap.available) reasons.push(d.reason);
+      if (!d.available && drive.value === name) {
+        const other = [...drive.options].find((o) => !o.disabled);
+        if (other) drive.value = other.value;
+      }
+    }
+    note.textContent = reasons.length ? `This rig cannot: ${reasons.join("; ")}` : "";
+    note.hidden = !reasons.length;
+  }
+  const noThrusters = state.rig && state.rig.thrusters && state.rig.thrusters.state === "absent";
+  for (const id of ["#arm-btn", "#disarm-btn"]) {
+    $(id).disabled = !!noThrusters;
+    $(id).title = noThrusters ? "this rig has no thrusters (no [thrusters] section in its rig file)" : "";
+  }
 }
 
 // ---- jobs ---------------------------------------------------------------------------------
@@ -606,23 +649,26 @@ async function renderEstimation(res) {
 }
 
 // The reverse tow/spin the estimator asks for (friction ≈ bias), as a button that starts it
-// when the rig can run it: the service runs a rig, its PLC answers, and a thruster-driven
-// reverse needs the thrusters.
-function rigCanRun(test) {
+// when the rig can run it: the service runs a rig whose PLC answers, and the rig's
+// capabilities (GET /api/rig) offer that kind with that drive. Otherwise: why not.
+function reverseBlocker(test) {
   const r = state.rig;
-  if (!r || !r.running || !r.connected || r.device_lost) return false;
-  const caps = r.capabilities; // a rig file's capabilities, when the API lists them
-  if (caps && Array.isArray(caps.procedures) && !caps.procedures.includes(test.kind)) return false;
-  if (test.request.drive === "thrusters" && (!r.thrusters || r.thrusters.state === "absent")) return false;
-  return true;
+  if (!r || !r.running || !r.connected || r.device_lost) return "the rig is not connected";
+  const cap = (r.capabilities || {})[test.kind];
+  if (!cap) return `this rig cannot run a ${test.kind}`;
+  if (!cap.available) return cap.reason;
+  const drive = (cap.drives || {})[test.request.drive];
+  if (drive && !drive.available) return drive.reason;
+  return null;
 }
 
 function showReverseButton(test) {
   const box = $("#est-reverse");
   box.innerHTML = "";
   if (!test) return;
-  if (!rigCanRun(test)) {
-    box.innerHTML = `<p class="muted">Reverse ${esc(test.kind)} to record: <code>${esc(test.command)}</code> (this rig cannot run it now).</p>`;
+  const blocker = reverseBlocker(test);
+  if (blocker) {
+    box.innerHTML = `<p class="muted">Reverse ${esc(test.kind)} to record: <code>${esc(test.command)}</code> (not offered here: ${esc(blocker)}).</p>`;
     return;
   }
   box.innerHTML = `<button id="est-reverse-btn" title="POST ${esc(test.route)}">Run the reverse ${esc(test.kind)}</button>

@@ -1,0 +1,39 @@
+"""``rig capabilities``: what the rig file's rig can do, and why not the rest."""
+
+from __future__ import annotations
+
+import click
+
+from api.cli.common import echo_json, json_option, rig_option, user_errors
+
+
+@click.command("capabilities")
+@rig_option
+@json_option
+def capabilities(rig_file: str | None, as_json: bool) -> None:
+    """What the rig can do: each test (and drive), or why not; the safety channels it uses."""
+    from daq.capabilities import safety
+    from daq.config import load_rig
+    from daq.procedures.kinds import KINDS
+
+    with user_errors():
+        rig = load_rig(rig_file)
+    if as_json:
+        echo_json(
+            {
+                "rig": rig.rig.name,
+                "capabilities": {str(k): s.describe_capability(rig) for k, s in KINDS.items()},
+                "safety": {name: c.to_json() for name, c in safety(rig).items()},
+            }
+        )
+        return
+    click.echo(f"rig {rig.rig.name!r}")
+    for spec in KINDS.values():
+        drives = spec.drives or {None: None}
+        for drive in drives:
+            can = spec.capability(rig, drive)
+            flag = f" --{drive}" if drive == "thrusters" else ""
+            what = f"rig {spec.command}{flag}"
+            click.echo(f"  {what:<28} " + ("yes" if can.available else f"no: {can.reason}"))
+    for name, c in safety(rig).items():
+        click.echo(f"  {name:<28} " + ("used" if c.available else c.reason or ""))

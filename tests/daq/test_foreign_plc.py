@@ -1,0 +1,193 @@
+"""A rig of two channels on a PLC that is neither the simulator nor built on pymodbus.
+
+pyModbusTCP's ``ModbusServer`` (its own Modbus TCP implementation) stands in for a lab's
+PLC: the encoder is a uint32 in two holding registers, the brake a coil, nothing else: no
+end-of-travel switch, no e-stop, no heartbeat, no thrusters. The test plays the PLC's
+program (the cart rolls while the brake is released, like a weight-driven carriage) and the
+operator (Enter at each prompt), and `rig tow` runs end to end against it as a user would.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from pyModbusTCP.server import DataBank, ModbusServer
+
+from daq.store import Store
+
+ROOT = Path(__file__).resolve().parents[2]
+RIG = [sys.executable, "-m", "api.cli.main"]
+
+#: The carriage's speed once the brake lets go (m/s) and the encoder's resolution (m/count).
+CART_SPEED_M_S = 0.5
+METRES_PER_COUNT = 1e-5
+
+RIG_FILE = """
+[rig]
+name = "Two-channel lab rig"
+mode = "hardware"
+g = 9.8
+
+[geometry]
+rail_length_m = 3.0
+end_of_travel_m = 2.5
+pulley_radius_m = 0.05
+
+[vehicle]
+name = "box"
+dry_mass_kg = 12.0
+
+[modbus]
+host = "127.0.0.1"
+port = {port}
+unit_id = 1
+
+[limits]
+max_force_n = 50.0
+max_speed_m_s = 1.0
+
+[[channels]]
+name = "tow_position"
+kind = "holding"
+address = 10
+type = "uint32"
+word_order = "big"
+scale = 1e-5
+unit = "m"
+
+[[channels]]
+name = "tow_release"
+kind = "coil"
+address = 3
+type = "bool"
+"""
+
+
+class CartPlc:
+    """The PLC's program: while coil 3 (the brake release) is set, the encoder count in
+    holding registers 10-11 (high word first) advances at ``CART_SPEED_M_S``."""
+
+    def __init__(self) -> None:
+        self.bank = DataBank()
+        self.server = ModbusServer(host="127.0.0.1", port=0, no_block=True, data_bank=self.bank)
+        self.position_m = 0.0
+        self.released_ever = threading.Event()
+        self.braked_after_release = threading.Event()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._scan, name="cart-plc", daemon=True)
+
+    @property
+    def port(self) -> int:
+        return self.server._service.server_address[1]  # bound by start() (port 0: any free)
+
+    def start(self) -> None:
+        self._write_position(0.0)
+        self.server.start()
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(5)
+        self.server.stop()
+
+    def reset(self) -> None:
+        """The operator pushes the carriage back to the start."""
+        self._write_position(0.0)
+
+    def _write_position(self, metres: float) -> None:
+        self.position_m = metres
+        counts = round(metres / METRES_PER_COUNT)
+        self.bank.set_holding_registers(10, [counts >> 16, counts & 0xFFFF])
+
+    def _scan(self) -> None:
+        last = time.monotonic()
+        while not self._stop.wait(0.005):
+            now = time.monotonic()
+            released = bool(self.bank.get_coils(3, 1)[0])
+            if released:
+                self.released_ever.set()
+                self._write_position(self.position_m + CART_SPEED_M_S * (now - last))
+            elif self.released_ever.is_set():
+                self.braked_after_release.set()
+            last = now
+
+
+@pytest.fixture
+def cart_plc():
+    plc = CartPlc()
+    plc.start()
+    try:
+        yield plc
+    finally:
+        plc.stop()
+
+
+def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, tmp_path):
+    rig_file = tmp_path / "lab.toml"
+    rig_file.write_text(RIG_FILE.format(port=cart_plc.port), encoding="utf-8")
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    tow = subprocess.Popen(
+        [*RIG, "tow", "--force", "4.9", "--max-distance", "0.4", "--max-time", "10",
+         "--baseline", "0.3", "--rig", str(rig_file), "--db", db, "--json"],
+        cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    asked, out = [], []
+    assert tow.stdout is not None and tow.stdin is not None
+    for line in tow.stdout:
+        out.append(line)
+        match = re.match(r">>> (.*)", line)
+        if not match:
+            continue
+        asked.append(match.group(1))
+        if "Return the carriage" in line:
+            cart_plc.reset()
+        tow.stdin.write("\n")  # the operator confirms (the weight is hung by hand)
+        tow.stdin.flush()
+    tow.wait(60)
+    err = tow.stderr.read() if tow.stderr else ""
+    assert tow.returncode == 0, "".join(out) + err
+    assert "Traceback" not in err
+    assert asked[0].startswith("Return the carriage") and asked[1].startswith("Hang 0.500 kg")
+    outcome = json.loads("".join(out)[("".join(out)).index("{") :])
+    assert outcome["status"] == "completed"
+    assert cart_plc.braked_after_release.is_set(), "the brake was never engaged after the tow"
+    with Store(db) as store:
+        run = store.get_run(outcome["run_id"])
+        assert list(run.channel_names) == ["tow_position", "tow_release"]
+        events = [e.message for e in store.events(run.id)]
+        assert any("max distance 0.4 m" in m for m in events), events  # no switch: by distance
+        table = store.samples(run.id)
+        assert len(table) == outcome["samples"] > 10
+        position = table.channels["tow_position"]
+        assert position[0] == pytest.approx(0.0, abs=1e-4)  # the baseline at rest
+        assert 0.4 <= position[-1] < 0.4 + CART_SPEED_M_S * 0.5  # braked soon after 0.4 m
+        assert set(table.channels["tow_release"][:3]) == {0.0}  # released after the baseline
+        assert 1.0 in set(table.channels["tow_release"])
+
+
+@pytest.mark.parametrize("port", ["{tmp}/no-such-tty", "nonsense://thrusters"])
+def test_a_thruster_port_that_cannot_be_opened_is_one_line_naming_device_and_setting(
+    cart_plc, tmp_path, port
+):
+    port = port.format(tmp=tmp_path)
+    rig_file = tmp_path / "lab.toml"
+    text = RIG_FILE.format(port=cart_plc.port) + f'\n[thrusters]\nport = "{port}"\ncount = 2\n'
+    rig_file.write_text(text, encoding="utf-8")
+    result = subprocess.run(
+        [*RIG, "tow", "--force", "4.9", "--rig", str(rig_file),
+         "--db", f"sqlite:///{tmp_path / 'rig.db'}"],
+        cwd=ROOT, capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL,
+    )  # fmt: skip
+    assert result.returncode == 1, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr  # no traceback, no warning about a port never opened
+    assert lines[0].startswith("error: thruster controller: thrusters.port: cannot open ")
+    assert repr(port) in lines[0]
