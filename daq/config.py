@@ -57,6 +57,10 @@ STANDARD_CHANNELS = (
 #: Channels a rig with a ``[pendulum]`` section defines (encoder and release latch).
 PENDULUM_CHANNELS = ("pendulum_angle", "pendulum_release")
 
+#: A reverse tow starts this far short of the end-of-travel switch (unless the rig file
+#: says ``reverse_start_m``) and stops by distance this far short of the start buffer.
+REVERSE_START_MARGIN_M = 0.1
+
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
@@ -92,6 +96,9 @@ class Geometry(_Strict):
     spin_drum_inertia_kg_m2: NonNegativeFloat = 0.0
     #: Largest yaw angle the spin cord allows before it is fully unwound.
     spin_max_angle_rad: PositiveFloat = 6 * math.pi
+    #: Where a reverse tow starts: the carriage pushed to the far end, the tow line over the
+    #: far-end pulley; it travels back toward 0 m. Default: 0.1 m short of end_of_travel_m.
+    reverse_start_m: PositiveFloat | None = None
 
     @model_validator(mode="after")
     def _end_inside_rail(self) -> Geometry:
@@ -100,7 +107,25 @@ class Geometry(_Strict):
                 f"end_of_travel_m must be less than rail_length_m ({self.rail_length_m} m), "
                 f"got {self.end_of_travel_m}"
             )
+        if self.reverse_start_m is not None and self.reverse_start_m >= self.end_of_travel_m:
+            raise ValueError(
+                f"reverse_start_m must be less than end_of_travel_m ({self.end_of_travel_m} m), "
+                f"got {self.reverse_start_m}"
+            )
         return self
+
+    @property
+    def reverse_start(self) -> float:
+        """Carriage position a reverse tow starts from, m."""
+        if self.reverse_start_m is not None:
+            return self.reverse_start_m
+        return max(self.end_of_travel_m - REVERSE_START_MARGIN_M, 0.5 * self.end_of_travel_m)
+
+    @property
+    def reverse_travel(self) -> float:
+        """Longest reverse tow, m: from ``reverse_start`` back to ``REVERSE_START_MARGIN_M``
+        short of the buffer at 0 m (there is no switch at that end: it stops by distance)."""
+        return max(self.reverse_start - REVERSE_START_MARGIN_M, 0.5 * self.reverse_start)
 
 
 class Vehicle(_Strict):

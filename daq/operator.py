@@ -23,6 +23,9 @@ class OperatorAct:
     name: str
     instruction: str
     value: float | None = None
+    #: A reverse test's rigging: the tow line over the far-end pulley, the spin cord wound
+    #: the other way (``hang_tow_weight``/``hang_spin_weight``).
+    reverse: bool = False
 
 
 class Operator(Protocol):
@@ -67,10 +70,17 @@ class SimulatedOperator:
             )
         if act.name == "hang_tow_weight":
             await self._plc.write("sim_tow_weight", act.value or 0.0)
+            if act.reverse:  # over the far-end pulley (sim_reset leads it back)
+                await self._plc.write("sim_tow_reversed", True)
         elif act.name == "hang_spin_weight":
             await self._plc.write("sim_spin_weight", act.value or 0.0)
-        elif act.name == "return_carriage":
-            await self._plc.write("sim_reset", True)
+            if act.reverse:  # the cord wound the other way (sim_reset winds it back)
+                await self._plc.write("sim_spin_reversed", True)
+        elif act.name == "return_carriage":  # to the start, or pushed to ``value`` m
+            if act.value:
+                await self._plc.write("sim_carriage_position", act.value)
+            else:
+                await self._plc.write("sim_reset", True)
         elif act.name == "mount_thrust_stand":
             await self._plc.write("sim_thrust_stand", True)
         elif act.name == "unmount_thrust_stand":

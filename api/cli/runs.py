@@ -311,8 +311,10 @@ def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
     help="Tow (position in m), spin (angle in rad) or pendulum free decay (angle in rad; "
     "--rig gives the geometry).",
 )
-@click.option("--force", "force_n", type=float, help="Tow force in N.")
-@click.option("--torque", "torque_nm", type=float, help="Spin torque in N·m.")
+@click.option("--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow).")
+@click.option(
+    "--torque", "torque_nm", type=float, help="Spin torque in N·m (negative: a reverse spin)."
+)
 @click.option(
     "--drive-column",
     metavar="NAME",
@@ -415,8 +417,10 @@ def import_(
                 f"--{'force' if kind == 'tow' else 'torque'} is required for a {kind}",
             )
         )
-    elif not (drive > 0 and drive < float("inf")):
-        problems.append((drive_name, drive, f"allowed 0 < {drive_name} < ∞"))
+    elif not (drive != 0 and abs(drive) < float("inf")):
+        problems.append(
+            (drive_name, drive, f"allowed 0 < |{drive_name}| < ∞; negative for a reverse run")
+        )
     if other is not None and kind != "pendulum":
         problems.append(
             ("torque_nm" if kind == "tow" else "force_n", other, f"not used by a {kind}")

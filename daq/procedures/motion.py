@@ -20,7 +20,9 @@ from daq.procedures.steps import (
     RunOutcome,
     baseline_then_release,
     check_ready,
+    check_room,
     follow_motion,
+    return_act,
     run_outcome,
 )
 from daq.procedures.thruster_drive import run_thruster_test
@@ -52,19 +54,12 @@ async def run_motion_test(
         op = session.operator
         report(Progress(0.0, "returning the vehicle to the start"))
         await session.safe_state()
-        await op.perform(
-            OperatorAct(
-                "return_carriage",
-                "Return the carriage to the start of the rail and let the vehicle settle",
-            )
-        )
+        await op.perform(return_act(params, session.rig))
         mass = params.hung_mass_kg or 0.0
         report(Progress(0.02, f"hanging {mass:.3f} kg"))
-        what = "tow line" if axis is TOW else "spin-drum cord"
-        await op.perform(
-            OperatorAct(axis.weight_act, f"Hang {mass:.3f} kg on the {what} (brake on)", mass)
-        )
+        await op.perform(_hang_act(axis, mass, params.reverse))
         start = await check_ready(session, axis, abort)
+        check_room(params, start)
         limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
         rec = RecordedRun(
             session, kind=axis.kind, parameters=params.to_json(), abort=abort, progress=report
@@ -89,6 +84,20 @@ async def run_motion_test(
             # A short tail after the brake shows the stop in the data.
             await rec.record_for(0.3)
         return await run_outcome(session, rec, axis.kind, report)
+
+
+def _hang_act(axis, mass: float, reverse: bool) -> OperatorAct:
+    """Hang the weight; a reverse test rigs it the other way first (far-end pulley, or the
+    cord wound the other way round the drum)."""
+    if axis is TOW:
+        where = "the tow line led over the far-end pulley" if reverse else "the tow line"
+    else:
+        where = (
+            "the spin-drum cord wound the other way round the drum"
+            if reverse
+            else "the spin-drum cord"
+        )
+    return OperatorAct(axis.weight_act, f"Hang {mass:.3f} kg on {where} (brake on)", mass, reverse)
 
 
 __all__ = ["Aborted", "PreconditionFailed", "RunOutcome", "run_motion_test"]

@@ -86,10 +86,16 @@ class _Checker:
         default: float | None = None,
         required: bool = False,
         why_high: str = "",
+        signed: bool = False,
     ) -> float | None:
+        """The field as a float in ``low ⋯ high``; ``signed``: its magnitude is (a negative
+        drive is a reverse test)."""
         value = self.raw.get(name, default if default is not None else self.default(name))
         lo_sym = "≤" if low_inclusive else "<"
-        allowed = f"allowed {low:g} {lo_sym} {name} ≤ {high:g} {unit}{why_high}"
+        shown = f"|{name}|" if signed else name
+        allowed = f"allowed {low:g} {lo_sym} {shown} ≤ {high:g} {unit}{why_high}"
+        if signed:
+            allowed += "; negative for a reverse test"
         if value is None:
             if required:
                 self.problems.append((name, None, allowed))
@@ -101,10 +107,9 @@ class _Checker:
                 self.problems.append((name, value, "a number; " + allowed))
                 return None
         value = float(value)
+        size = abs(value) if signed else value
         ok = (
-            math.isfinite(value)
-            and (value >= low if low_inclusive else value > low)
-            and value <= high
+            math.isfinite(value) and (size >= low if low_inclusive else size > low) and size <= high
         )
         if not ok:
             self.problems.append((name, value, allowed))
@@ -118,7 +123,11 @@ class _Checker:
 
 @dataclass(frozen=True)
 class TowParameters:
-    """A tow test: constant force from a weight over the pulley, or from the thrusters."""
+    """A tow test: constant force from a weight over the pulley, or from the thrusters.
+
+    A negative ``force_n`` is a reverse tow: the carriage starts at the far end
+    (``Geometry.reverse_start``) and is pulled back, by a weight over the far-end pulley or
+    by the thrusters; ``hung_mass_kg`` is the weight hung (positive) either way."""
 
     force_n: float
     hung_mass_kg: float | None
@@ -137,10 +146,18 @@ class TowParameters:
         """The sentence telling the operator the requested load was rounded, if it was."""
         return _adjustment(self.requested, self.hung_mass_kg, f"{self.force_n:.5g} N")
 
+    @property
+    def reverse(self) -> bool:
+        """A reverse tow (negative force): from the far end back toward the start."""
+        return self.force_n < 0
+
 
 @dataclass(frozen=True)
 class SpinParameters:
-    """A spin test: constant torque from a weight on the drum, or from the thrusters."""
+    """A spin test: constant torque from a weight on the drum, or from the thrusters.
+
+    A negative ``torque_nm`` is a reverse spin: the cord wound the other way round the drum
+    (or the thrusters turning the other way); ``hung_mass_kg`` stays positive."""
 
     torque_nm: float
     hung_mass_kg: float | None
@@ -158,6 +175,11 @@ class SpinParameters:
     def adjustment(self) -> str | None:
         """The sentence telling the operator the requested load was rounded, if it was."""
         return _adjustment(self.requested, self.hung_mass_kg, f"{self.torque_nm:.5g} N·m")
+
+    @property
+    def reverse(self) -> bool:
+        """A reverse spin (negative torque): the cord wound the other way round the drum."""
+        return self.torque_nm < 0
 
 
 @dataclass(frozen=True)
@@ -214,8 +236,10 @@ def _requested(name: str, value: float | None, applied: float) -> dict[str, floa
 
 
 def _hung_mass(c: _Checker, name: str, mass_kg: float | None) -> float:
+    """The weight hung for a signed load in kg (its sign is the test's direction), to the
+    gram; the weight itself is positive."""
     assert mass_kg is not None
-    rounded = round(mass_kg / WEIGHT_RESOLUTION_KG) * WEIGHT_RESOLUTION_KG
+    rounded = round(abs(mass_kg) / WEIGHT_RESOLUTION_KG) * WEIGHT_RESOLUTION_KG
     if rounded <= 0:
         c.problems.append((name, c.raw.get(name), "at least a 1 g weight's worth"))
         c.fail_if_problems()
@@ -233,7 +257,12 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     if drive not in ("weight", "thrusters"):
         c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
     force = c.number(
-        "force_n", low=0, high=lim.max_force_n, unit="N", why_high=", rig limit max_force_n"
+        "force_n",
+        low=0,
+        high=lim.max_force_n,
+        unit="N",
+        why_high=", rig limit max_force_n",
+        signed=True,
     )
     weight = c.number(
         "weight_kg",
@@ -241,6 +270,7 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
         high=lim.max_force_n / g,
         unit="kg",
         why_high=f", max_force_n / g = {lim.max_force_n:g} N / {g:g}",
+        signed=True,
     )
     if raw.get("force_n") is None and raw.get("weight_kg") is None:
         c.problems.append(("force_n", None, "give force_n (N) or weight_kg (kg)"))
@@ -252,10 +282,13 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
         c.problems.append(
             ("weight_kg", raw.get("weight_kg"), "a thruster-driven tow takes force_n")
         )
-    eot = rig.geometry.end_of_travel_m
-    dist = c.number(
-        "max_distance_m", low=0, high=eot, unit="m", default=eot, why_high=", end_of_travel_m"
-    )
+    load = force if force is not None else weight
+    if load is not None and load < 0:  # from the far end back toward the start
+        room = rig.geometry.reverse_travel
+        why = f", a reverse tow's room from {rig.geometry.reverse_start:g} m back to the start"
+    else:
+        room, why = rig.geometry.end_of_travel_m, ", end_of_travel_m"
+    dist = c.number("max_distance_m", low=0, high=room, unit="m", default=room, why_high=why)
     tmax = c.number(
         "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
     )
@@ -264,13 +297,13 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     requested = None
     if drive == "weight":
         asked = ("force_n", force) if force is not None else ("weight_kg", weight)
-        weight = _hung_mass(
-            c,
-            "force_n" if force is not None else "weight_kg",
-            force / g if force is not None else weight,
+        signed_kg = force / g if force is not None else weight
+        assert signed_kg is not None
+        weight = _hung_mass(c, asked[0], signed_kg)
+        force = math.copysign(weight * g, signed_kg)  # what the hung weight really pulls
+        requested = _requested(
+            *asked, force if asked[0] == "force_n" else math.copysign(weight, signed_kg)
         )
-        force = weight * g  # what the hung weight really pulls
-        requested = _requested(*asked, force if asked[0] == "force_n" else weight)
     assert force is not None
     assert dist is not None and tmax is not None and base is not None
     return TowParameters(
@@ -303,6 +336,7 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
         high=max_torque,
         unit="N·m",
         why_high=", rig limit max_torque_nm",
+        signed=True,
     )
     weight = c.number(
         "weight_kg",
@@ -310,6 +344,7 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
         high=max_torque / (g * r),
         unit="kg",
         why_high=", max_torque_nm / (g · drum radius)",
+        signed=True,
     )
     if raw.get("torque_nm") is None and raw.get("weight_kg") is None:
         c.problems.append(("torque_nm", None, "give torque_nm (N·m) or weight_kg (kg)"))
@@ -337,11 +372,14 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     c.fail_if_problems()
     requested = None
     if drive == "weight":
-        name = "torque_nm" if torque is not None else "weight_kg"
         asked = ("torque_nm", torque) if torque is not None else ("weight_kg", weight)
-        weight = _hung_mass(c, name, torque / (g * r) if torque is not None else weight)
-        torque = weight * g * r  # what the weight on the drum really gives
-        requested = _requested(*asked, torque if asked[0] == "torque_nm" else weight)
+        signed_kg = torque / (g * r) if torque is not None else weight
+        assert signed_kg is not None
+        weight = _hung_mass(c, asked[0], signed_kg)
+        torque = math.copysign(weight * g * r, signed_kg)  # what the weight really gives
+        requested = _requested(
+            *asked, torque if asked[0] == "torque_nm" else math.copysign(weight, signed_kg)
+        )
     assert torque is not None
     assert angle is not None and tmax is not None and base is not None
     return SpinParameters(

@@ -93,16 +93,23 @@ Baseline = Annotated[
 
 class TowRequest(_ProcedureRequest):
     """A tow test: ``force_n`` or ``weight_kg`` (force = weight × the rig's g); ``drive``
-    weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map)."""
+    weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map). A negative
+    load is a reverse tow: from the far end back toward the start (far-end pulley)."""
 
     force_n: Annotated[
         float | None,
-        Field(description="Towing force in N (0 < F ≤ the rig's max_force_n)."),
+        Field(
+            description="Towing force in N, 0 < |F| ≤ the rig's max_force_n; negative: a "
+            "reverse tow from the far end (far-end pulley, or thrusters turned round)."
+        ),
         Flag("--force"),
     ] = None
     weight_kg: Annotated[
         float | None,
-        Field(description="Hung weight in kg (force = weight × the rig's g)."),
+        Field(
+            description="Hung weight in kg (force = weight × the rig's g); negative: hung on "
+            "the far-end pulley (a reverse tow)."
+        ),
         Flag("--weight"),
     ] = None
     drive: Annotated[
@@ -114,7 +121,10 @@ class TowRequest(_ProcedureRequest):
     ] = "weight"
     max_distance_m: Annotated[
         float | None,
-        Field(description="Stop after this many metres (default: end of travel)."),
+        Field(
+            description="Stop after this many metres (default: end of travel; a reverse tow: "
+            "its room back to the start)."
+        ),
         Flag("--max-distance"),
     ] = None
     max_time_s: MaxTime = None
@@ -122,16 +132,23 @@ class TowRequest(_ProcedureRequest):
 
 
 class SpinRequest(_ProcedureRequest):
-    """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters."""
+    """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters.
+    A negative load is a reverse spin (the cord wound the other way round the drum)."""
 
     torque_nm: Annotated[
         float | None,
-        Field(description="Torque in N·m (0 < τ ≤ the rig's max_torque_nm)."),
+        Field(
+            description="Torque in N·m, 0 < |τ| ≤ the rig's max_torque_nm; negative: a reverse "
+            "spin (cord wound the other way, or thrusters turned round)."
+        ),
         Flag("--torque"),
     ] = None
     weight_kg: Annotated[
         float | None,
-        Field(description="Weight on the drum in kg (τ = weight × g × drum radius)."),
+        Field(
+            description="Weight on the drum in kg (τ = weight × g × drum radius); negative: "
+            "the cord wound the other way (a reverse spin)."
+        ),
         Flag("--weight"),
     ] = None
     drive: Annotated[

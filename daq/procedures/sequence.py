@@ -8,6 +8,10 @@ repeats = 1          # the whole list this many times
 [[steps]]
 kind = "tow"         # any run kind: tow | spin | pendulum | thrust_calibration
 force_n = 4.9        # the same parameters as the CLI / API
+
+[[steps]]
+kind = "tow"
+force_n = -24.5      # negative: a reverse tow (from the far end, over the far-end pulley)
 ```
 Every step is validated against the rig's limits before the first one starts, so a
 typo in step 7 never aborts a half-finished campaign. Between steps the sequence

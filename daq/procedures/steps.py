@@ -9,15 +9,19 @@ import logging
 import statistics
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from daq.procedures.params import Progress
+from daq.operator import OperatorAct
+from daq.procedures.params import Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.sample import Quality, Sample
 from daq.session import RigSession
 from daq.store.faults import one_line
 from daq.store.run_events import RunAction
 from daq.vocabulary import AXES, RunKind
+
+if TYPE_CHECKING:
+    from daq.config import RigConfig
 
 log = logging.getLogger(__name__)
 
@@ -112,6 +116,35 @@ async def check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> f
             "wait until it is at rest"
         )
     return statistics.fmean(pos)
+
+
+def return_act(params: TowParameters | SpinParameters, rig: RigConfig) -> OperatorAct:
+    """The operator act that brings the vehicle to where the test starts: the start of the
+    rail (or zero yaw), or the far end for a reverse tow (``Geometry.reverse_start``)."""
+    if isinstance(params, SpinParameters):
+        return OperatorAct("return_carriage", "Return the vehicle to zero yaw and let it settle")
+    if params.reverse:
+        far = rig.geometry.reverse_start
+        return OperatorAct(
+            "return_carriage",
+            f"Push the carriage to the far end of the rail ({far:g} m, short of the "
+            "end-of-travel switch) and let the vehicle settle",
+            far,
+        )
+    return OperatorAct(
+        "return_carriage",
+        "Return the carriage to the start of the rail and let the vehicle settle",
+    )
+
+
+def check_room(params: TowParameters | SpinParameters, start: float) -> None:
+    """A reverse tow travels back toward 0 m: the carriage must start at least its
+    distance from there (``PreconditionFailed`` otherwise; nothing recorded)."""
+    if isinstance(params, TowParameters) and params.reverse and start < params.max_distance_m:
+        raise PreconditionFailed(
+            f"the carriage is at {start:.3f} m: a reverse tow of {params.max_distance_m:g} m "
+            "needs it at least that far from the start; push it to the far end of the rail"
+        )
 
 
 async def follow_motion(

@@ -22,7 +22,16 @@ from typing import TYPE_CHECKING, Any
 from daq.operator import OperatorAct
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.procedures.steps import SPIN, TOW, RunOutcome, check_ready, follow_motion, run_outcome
+from daq.procedures.steps import (
+    SPIN,
+    TOW,
+    RunOutcome,
+    check_ready,
+    check_room,
+    follow_motion,
+    return_act,
+    run_outcome,
+)
 from daq.sample import Quality
 from daq.session import Aborted, RigSession
 from daq.store import Store
@@ -105,8 +114,12 @@ def thruster_commands(
     signs, arm = thrust_layout(thrusters, kind)
     count = thrusters.count
     per_thruster = drive / (count * arm)
+    # A negative drive (a reverse test) turns every thruster round: each pushes |F| the
+    # other way, and the side it then runs on decides which calibration applies.
+    reverse = -1.0 if per_thruster < 0 else 1.0
+    size = abs(per_thruster)
     commands = []
-    for sign in signs:
+    for sign in (s * reverse for s in signs):
         # Below the smallest thrust measured on that side the curve is extrapolated into the
         # dead band, where a small error means no thrust at all: refuse rather than guess.
         measured = [
@@ -114,15 +127,15 @@ def thruster_commands(
             for r in calibration.get("table", [])
             if r["command"] * sign > 0 and r["thrust_per_thruster_n"] * sign > 0
         ]
-        if measured and per_thruster < min(measured):
+        if measured and size < min(measured):
             side = "forward" if sign > 0 else "reverse"
             raise ParameterError(
                 [
                     (
                         name,
                         drive,
-                        f"at least {min(measured) * count * arm:.3g} {unit}: "
-                        f"{per_thruster:.3g} N per thruster is below the smallest calibrated "
+                        f"|{name}| at least {min(measured) * count * arm:.3g} {unit}: "
+                        f"{size:.3g} N per thruster is below the smallest calibrated "
                         f"{side} thrust "
                         f"({min(measured):.3g} N); calibrate with smaller commands "
                         "(e.g. --commands 0,0.05,0.1,0.2,...)",
@@ -130,7 +143,7 @@ def thruster_commands(
                 ]
             )
         try:
-            u = calibrated.command_for_force(sign * per_thruster)
+            u = calibrated.command_for_force(sign * size)
         except ValueError as err:
             raise ParameterError([(name, drive, f"within the calibrated range: {err}")]) from None
         if abs(u) > max_command:
@@ -175,11 +188,13 @@ def law_commands(
     signs, arm = thrust_layout(thrusters, kind)
     count = thrusters.count
     per_thruster = drive / (count * arm)
+    reverse = -1.0 if per_thruster < 0 else 1.0  # a reverse test turns every thruster round
+    size = abs(per_thruster)
     at = law.reference_voltage if volts is None else volts
     commands = []
-    for sign in signs:
+    for sign in (s * reverse for s in signs):
         reach = min(abs(law.max_force(at, sign)), abs(float(law.force(sign * max_command, at))))
-        if per_thruster > reach:
+        if size > reach:
             raise ParameterError(
                 [
                     (
@@ -192,21 +207,21 @@ def law_commands(
                 ]
             )
         floor = law.min_force(at, sign)
-        if floor is not None and 0 < per_thruster < abs(floor):
+        if floor is not None and 0 < size < abs(floor):
             side = "forward" if sign > 0 else "reverse"
             raise ParameterError(
                 [
                     (
                         name,
                         drive,
-                        f"at least {abs(floor) * count * arm:.3g} {unit}: {per_thruster:.3g} N "
+                        f"|{name}| at least {abs(floor) * count * arm:.3g} {unit}: {size:.3g} N "
                         f"per thruster is below the smallest calibrated {side} thrust "
                         f"({abs(floor):.3g} N at {at:.3g} V, command "
                         f"{law.smallest_command(sign, at):g}); calibrate smaller commands",
                     )
                 ]
             )
-        commands.append(law.command_for_force(sign * per_thruster, at).value)
+        commands.append(law.command_for_force(sign * size, at).value)
     return commands, per_thruster
 
 
@@ -267,22 +282,14 @@ async def run_thruster_test(
         op = session.operator
         report(Progress(0.0, "returning the vehicle to the start"))
         await session.safe_state()
+        await op.perform(return_act(params, rig))
         if tow:
-            await op.perform(
-                OperatorAct(
-                    "return_carriage",
-                    "Return the carriage to the start of the rail and let the vehicle settle",
-                )
-            )
             await op.perform(
                 OperatorAct(
                     "hang_tow_weight", "Remove the weight and unhook the tow line (brake on)", 0.0
                 )
             )
         else:
-            await op.perform(
-                OperatorAct("return_carriage", "Return the vehicle to zero yaw and let it settle")
-            )
             await op.perform(
                 OperatorAct("hang_spin_weight", "Remove any weight from the spin drum", 0.0)
             )
@@ -292,6 +299,7 @@ async def run_thruster_test(
             )
         )
         start = await check_ready(session, axis, abort)
+        check_room(params, start)
         rec = RecordedRun(
             session, kind=axis.kind, parameters=parameters, abort=abort, progress=report
         )

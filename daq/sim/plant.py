@@ -4,15 +4,22 @@ Fixed-step integration (1 ms, semi-implicit Euler) independent of polling:
 ``advance_to(t_mono)`` integrates whole steps up to that time, so the plant's
 history does not depend on how often anyone reads it. Equations (SI units):
 
-* tow, rigid rope: ``(M + m_w + J_p/r_p²) v̇ = m_w g + T_x + F_bias − k x − K_L v − K_Q|v|v
+* tow, rigid rope: ``(M + m_w + J_p/r_p²) v̇ = d·m_w g + T_x + F_bias − k x − K_L v − K_Q|v|v
   − c v³ − F_c sgn v``
 * tow, elastic rope (stiffness k_r, damping c_r): the weight is its own body,
-  ``(m_w + J_p/r_p²) ü = m_w g − R``, ``M v̇ = R + …`` with ``R = max(0, k_r (y − x) + c_r (u − v))``
-* yaw: ``(I + m_s r_d² + J_d) ω̇ = m_s g r_d + τ_thr + τ_bias − k_θ θ − K_L ω − K_Q|ω|ω − c_θ ω³
+  ``(m_w + J_p/r_p²) ü = m_w g − R``, ``M v̇ = d·R + …`` with
+  ``R = max(0, k_r d(y − x) + c_r d(u − v))``
+* d = −1 when the tow line runs over the far-end pulley (``sim_tow_reversed``: the weight
+  pulls the carriage back toward the start), +1 otherwise; likewise the spin cord wound the
+  other way round the drum (``sim_spin_reversed``) turns the vehicle negative
+* yaw: ``(I + m_s r_d² + J_d) ω̇ = d·m_s g r_d + τ_thr + τ_bias − k_θ θ − K_L ω − K_Q|ω|ω − c_θ ω³
   − τ_c sgn ω`` (the weight term drops once the cord has run out)
 * thruster i: ``T_ss = F_fs · s^p · (V/V_nom)^q`` with ``s = (|u| − d)/(1 − d)`` above the dead
   band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
 * pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum``, stepped with the rest
+
+One module because every channel the simulated PLC serves reads or writes this one state
+(carriage, yaw, weights and their rigging, thrusters, supply), integrated in one step.
 """
 
 from __future__ import annotations
@@ -54,6 +61,10 @@ class Plant:
         self.tow_weight_kg = 0.0
         self.spin_weight_kg = 0.0
         self.thrust_stand = False
+        #: The tow line over the far-end pulley / the spin cord wound the other way: the
+        #: weight pulls (turns) negative. ``reset`` rigs both the normal way again.
+        self.tow_reversed = False
+        self.spin_reversed = False
         n = self.thruster_port.count
         self.commands = [0.0] * n
         self.thrusts_n = [0.0] * n
@@ -66,9 +77,12 @@ class Plant:
         self.reset()
 
     # ---- state ---------------------------------------------------------------------------
-    def reset(self) -> None:
-        """Carriage to 0 m and yaw to 0 rad, at rest, both brakes engaged."""
-        self.position_m = 0.0
+    def reset(self, position_m: float = 0.0) -> None:
+        """Carriage to ``position_m`` (0 m: the start) and yaw to 0 rad, at rest, both brakes
+        engaged, the tow line over the near pulley and the spin cord wound the normal way."""
+        self.position_m = position_m
+        self.tow_reversed = False
+        self.spin_reversed = False
         self.velocity_m_s = 0.0
         self.yaw_rad = 0.0
         self.yaw_rate_rad_s = 0.0
@@ -102,7 +116,13 @@ class Plant:
     @property
     def cord_out(self) -> bool:
         """The spin cord has fully unwound (the drum weight no longer pulls)."""
-        return self.yaw_rad >= self.rig.geometry.spin_max_angle_rad
+        turned = -self.yaw_rad if self.spin_reversed else self.yaw_rad
+        return turned >= self.rig.geometry.spin_max_angle_rad
+
+    @property
+    def tow_direction(self) -> float:
+        """+1: the hung weight pulls toward the far end; −1: over the far-end pulley, back."""
+        return -1.0 if self.tow_reversed else 1.0
 
     # ---- time ----------------------------------------------------------------------------
     def advance_to(self, t_mono: float) -> int:
@@ -138,7 +158,7 @@ class Plant:
             return False
         k_rope = self.scenario.effects.rope_stiffness_n_per_m
         if k_rope > 0 and self.tow_weight_kg > 0 and not self.weight_supported:
-            stretch = self.weight_position_m - self.position_m
+            stretch = self.tow_direction * (self.weight_position_m - self.position_m)
             unbalanced = self.tow_weight_kg * self.g - k_rope * stretch
             if abs(self.weight_velocity_m_s) > 1e-9 or abs(unbalanced) > 1e-6:
                 return False
@@ -178,19 +198,21 @@ class Plant:
         sc, fx = self.scenario.surge, self.scenario.effects
         m_w = self.tow_weight_kg
         k_rope = fx.rope_stiffness_n_per_m
+        d = self.tow_direction
         x, v = self.position_m, self.velocity_m_s
         if k_rope > 0 and m_w > 0 and not self.weight_supported:
-            stretch = self.weight_position_m - x
-            rope = k_rope * stretch + fx.rope_damping_n_s_per_m * (self.weight_velocity_m_s - v)
+            # The weight's own coordinate runs along the rail; d turns it to the pull's sense.
+            stretch = d * (self.weight_position_m - x)
+            rope = k_rope * stretch + fx.rope_damping_n_s_per_m * d * (self.weight_velocity_m_s - v)
             rope = max(0.0, rope) if stretch > 0 else 0.0
-            acc_w = (m_w * self.g - rope) / (m_w + self._pulley_mass)
+            acc_w = d * (m_w * self.g - rope) / (m_w + self._pulley_mass)
             self.weight_velocity_m_s += acc_w * STEP_S
             self.weight_position_m += self.weight_velocity_m_s * STEP_S
             mass = sc.inertia_kg
-            pull = rope
+            pull = d * rope
         else:
             mass = sc.inertia_kg + (m_w + self._pulley_mass if m_w > 0 else 0.0)
-            pull = m_w * self.g
+            pull = d * m_w * self.g
         if self.tow_braked:
             self.velocity_m_s = 0.0
             if k_rope == 0 or self.weight_supported:
@@ -229,7 +251,7 @@ class Plant:
         r = geo.spin_drum_radius_m
         if self.spin_weight_kg > 0 and not self.cord_out and r is not None:  # a drum to hang on
             inertia += self.spin_weight_kg * r * r
-            weight_torque = self.spin_weight_kg * self.g * r
+            weight_torque = self.spin_weight_kg * self.g * r * (-1.0 if self.spin_reversed else 1.0)
         drive = weight_torque + thrust_torque_nm + fx.bias_torque_nm - fx.spring_nm_per_rad * th
         damping = sc.linear_damping + sc.quadratic_damping * abs(w) + fx.yaw_cubic_drag * w * w
         torque = drive - damping * w
@@ -311,6 +333,8 @@ class Plant:
             "estop": self.estop,
             "sim_thrust_stand": self.thrust_stand,
             "sim_reset": False,
+            "sim_tow_reversed": self.tow_reversed,
+            "sim_spin_reversed": self.spin_reversed,
         }
         if name in bits:
             return 1.0 if bits[name] else 0.0
@@ -318,6 +342,8 @@ class Plant:
             return self.tow_weight_kg
         if name == "sim_spin_weight":
             return self.spin_weight_kg
+        if name == "sim_carriage_position":
+            return self.position_m
         if self.pendulum is not None:
             return self.pendulum.read(name)
         return None
@@ -356,6 +382,15 @@ class Plant:
         elif name == "sim_reset":
             if on:
                 self.reset()
+        elif name == "sim_carriage_position":  # the operator pushes the carriage there
+            self._check_position(value)
+            self.reset(float(value))
+        elif name == "sim_tow_reversed":
+            self.tow_reversed = on
+            if self.tow_braked:
+                self._hang_weight_at_rest()
+        elif name == "sim_spin_reversed":
+            self.spin_reversed = on
         elif name == "estop":
             self.press_estop(on)
         elif self.pendulum is not None:
@@ -371,6 +406,14 @@ class Plant:
             self.write("tow_release", 0)
             self.write("spin_release", 0)
             self.commands = [0.0] * len(self.commands)
+
+    def _check_position(self, value: float) -> None:
+        end = self.rig.geometry.end_of_travel_m
+        if not (0.0 <= value < end):
+            raise ValueError(
+                f"sim_carriage_position: {value} m is not allowed; allowed 0 ≤ x < "
+                f"end_of_travel_m ({end:g} m)"
+            )
 
     @staticmethod
     def _check_weight(name: str, value: float) -> None:

@@ -170,9 +170,9 @@ def export_run_json(store: Store, run_id: str, fileobj: TextIO) -> None:
 def check_import_parameters(
     kind: str, parameters: dict[str, Any], *, logged_drive: bool = False
 ) -> dict[str, Any]:
-    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, > 0; none
-    with a ``logged_drive`` column, nor for a pendulum) and an optional ``hung_mass_kg``
-    (> 0), plus ``source: import``."""
+    """The imported run's parameters: the load (``force_n`` or ``torque_nm``, signed and not
+    0: negative is a reverse run; none with a ``logged_drive`` column, nor for a pendulum)
+    and an optional ``hung_mass_kg`` (> 0), plus ``source: import``."""
     if kind not in IMPORT_KINDS:
         raise ValueError(
             f"kind: {kind!r} is not allowed; use one of {', '.join(map(str, IMPORT_KINDS))}"
@@ -188,7 +188,13 @@ def check_import_parameters(
             if value is None and key == "hung_mass_kg":
                 continue
             ok = isinstance(value, int | float) and not isinstance(value, bool)
-            if not ok or not math.isfinite(value) or value <= 0:
+            if key == needed:  # signed: a negative load is a reverse run
+                if not ok or not math.isfinite(value) or value == 0:
+                    raise ValueError(
+                        f"{key}: {value!r} is not allowed; use a finite number other than 0 "
+                        "(negative: a reverse run)"
+                    )
+            elif not ok or not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{key}: {value!r} is not allowed; use a finite number > 0")
             out[key] = float(value)
         else:

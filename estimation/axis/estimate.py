@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -17,6 +18,7 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.release import fit_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
+from estimation.axis.reverse import FRICTION_AND_BIAS, suggest_reverse_test
 from estimation.axis.search import candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
@@ -62,8 +64,14 @@ def estimate(
     else:
         final, steps, ambiguous, advice = base, (), (), ()
         cv_before = cv_after = leave_one_run_out_rmse(prepared, base)
+    reverse = suggest_reverse_test(axis, runs, ambiguous)
+    if reverse is not None:  # the experiment the advice asks for, as a command to run
+        advice = tuple(
+            f"{text}: run `{reverse.command}`" if set(group) >= FRICTION_AND_BIAS else text
+            for group, text in zip(ambiguous, advice, strict=True)
+        )
     boot = _bootstrap(prepared, final, n_bootstrap, seed) if n_bootstrap else None
-    return _build(
+    result = _build(
         axis,
         method,
         runs,
@@ -78,6 +86,7 @@ def estimate(
         boot,
         drive_uncertainty(runs, final),
     )
+    return replace(result, reverse_test=reverse)
 
 
 def _coefficients(fit: FitResult) -> dict[str, Estimate]:

@@ -9,6 +9,7 @@ import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty
 from estimation.axis.output_error import FitResult
+from estimation.axis.reverse import ReverseTest
 from estimation.axis.search import SearchStep
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
@@ -93,6 +94,8 @@ class EstimationResult:
     #: Per thruster-driven run, the thrust law its drive was rebuilt with.
     drive_laws: dict[str, str] = field(default_factory=dict)
     unexplained: Unexplained | None = None
+    #: The reverse run that separates friction from bias, when they are ambiguous.
+    reverse_test: ReverseTest | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -118,6 +121,7 @@ class EstimationResult:
             },
             "warnings": list(self.warnings),
             "advice": list(self.advice),
+            "reverse_test": self.reverse_test.to_json() if self.reverse_test else None,
             "diagnostics": {
                 "ljung_box_before": _white(self.whiteness_before),
                 "ljung_box_after": _white(self.whiteness_after),

@@ -54,8 +54,8 @@ def test_open_read_lets_reads_through_but_never_writes(service, client):
 @pytest.mark.parametrize(
     ("body", "field", "allowed_has"),
     [
-        ({"force_n": -4.9}, "force_n", "0 < force_n"),
-        ({"force_n": 0}, "force_n", "0 < force_n"),
+        ({"force_n": -150.0}, "force_n", "0 < |force_n| ≤ 100 N"),  # negative: a reverse tow
+        ({"force_n": 0}, "force_n", "0 < |force_n|"),
         ({"force_n": 150.0}, "force_n", "max_force_n"),
         ({"force_n": "24.5"}, "force_n", "valid number"),
         ({"force_n": True}, "force_n", "valid number"),
@@ -99,7 +99,7 @@ def test_bad_spin_calibration_and_sequence_name_the_field(client):
     r = client.post("/api/jobs/calibration", json={"commands": [0.1, 2.0]}, headers=AUTH)
     assert r.status_code == 422
     assert r.json()["errors"][0]["field"] == "commands[1]"
-    seq = {"steps": [{"kind": "tow", "force_n": 4.9}, {"kind": "spin", "torque_nm": -1}]}
+    seq = {"steps": [{"kind": "tow", "force_n": 4.9}, {"kind": "spin", "torque_nm": 0}]}
     r = client.post("/api/jobs/sequence", json=seq, headers=AUTH)
     assert r.status_code == 422
     assert r.json()["errors"][0]["field"] == "steps[1].torque_nm"

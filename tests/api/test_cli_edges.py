@@ -77,16 +77,16 @@ case(2, "nope.toml: cannot read rig file", "capabilities", "--rig", "nope.toml")
 case(2, "--ahp: ", "sensitivity", "benbam", "--ahp", RIG)
 case(2, "cannot use /etc/passwd/towrig", "token", "{xdg:/etc/passwd}")
 # -- values: flags, not API field names --------------------------------------------------
-case(2, "--force: -1.0 is not allowed (allowed 0 < --force ≤", "tow", "--force", "-1")
+case(2, "--force: 0.0 is not allowed (allowed 0 < |--force| ≤", "tow", "--force", "0")
 case(2, "--weight: 0.0001 is not allowed", "tow", "--weight", "0.0001")
 case(2, "--torque: 99.0 is not allowed", "spin", "--torque", "99")
 case(
     2,
-    "--force: -1.0 is not allowed (allowed 0 < --force ≤ 100 N, rig limit max_force_n); "
-    "--max-time: -2.0 is not allowed",
+    "--force: -101.0 is not allowed (allowed 0 < |--force| ≤ 100 N, rig limit max_force_n; "
+    "negative for a reverse test); --max-time: -2.0 is not allowed",
     "tow",
     "--force",
-    "-1",
+    "-101",
     "--max-time",
     "-2",
 )

@@ -137,3 +137,20 @@ def test_an_import_takes_metadata_from_query_parameters(client):
         r = client.post(f"/api/runs/import?{query}&{bad}", content=csv, headers=headers)
         assert r.status_code == 422 and r.json()["detail"].startswith(field), r.text
     assert client.get("/api/runs?limit=1", headers=AUTH).headers["X-Total-Count"] == before
+
+
+def test_a_reverse_tow_imports_over_the_api_with_its_negative_force(client):
+    r = client.post(
+        "/api/runs/import?kind=tow&force_n=-24.5&weight_kg=2.5&filename=back.csv",
+        content="t,position\n0,5.4\n0.1,5.39\n0.2,5.37\n",
+        headers=AUTH | {"Content-Type": "text/csv"},
+    )
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["parameters"]["force_n"] == -24.5 and run["parameters"]["hung_mass_kg"] == 2.5
+    zero = client.post(
+        "/api/runs/import?kind=tow&force_n=0",
+        content="t,position\n0,0\n0.1,0.01\n",
+        headers=AUTH | {"Content-Type": "text/csv"},
+    )
+    assert zero.status_code == 422 and "force_n: 0.0 is not allowed" in zero.text, zero.text

@@ -103,7 +103,7 @@ def test_bad_csv_is_422_naming_line_and_column(client):
     r = _upload(client, "t,position\n0,0\n", kind="tow")
     assert r.status_code == 422
     assert "force_n" in r.json()["detail"]
-    r = _upload(client, "t,position\n0,0\n", kind="tow", force_n=-3)
+    r = _upload(client, "t,position\n0,0\n", kind="tow", force_n=0)
     assert r.status_code == 422
     r = _upload(client, b"\xff\xfe\x00", kind="tow", force_n=3)
     assert r.status_code == 422

@@ -57,6 +57,8 @@ def test_coulomb_on_one_way_tows_is_reported_ambiguous_with_bias():
     _check_found(doc, "coulomb_friction", 3.0, SURGE_TRUTH, rel=0.02)
     assert [sorted(g) for g in doc["ambiguous"]] == [["constant_bias", "coulomb_friction"]]
     assert any("reverse tow" in a for a in doc["advice"])
+    command = doc["reverse_test"]["command"]  # the run that separates them, to run as is
+    assert command.startswith("rig tow --force -") and f"run `{command}`" in doc["advice"][0]
     # without the effect the drag law absorbs it: K_Q bends the wrong way (seed 002's story)
     assert doc["coefficients_before"]["quadratic_damping"]["value"] < 0.7 * SURGE_TRUTH[2]
 
@@ -65,7 +67,7 @@ def test_reverse_tow_separates_coulomb_from_bias():
     runs = tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=9, drives=(24.5, -44.1, 83.3, -4.9))
     doc = estimate(runs, n_bootstrap=0).to_json()
     _check_found(doc, "coulomb_friction", 3.0, SURGE_TRUTH, rel=0.02)
-    assert doc["ambiguous"] == []
+    assert doc["ambiguous"] == [] and doc["reverse_test"] is None
 
 
 def test_undeclared_hung_weight_is_found_as_drive_inertia():

@@ -46,11 +46,13 @@ def _wait_for_samples(db: str, count: int, timeout: float = 20) -> str:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["tow", "--force", "-5"], "--force: -5.0 is not allowed (allowed 0 < --force ≤ 100 N"),
+        (["tow", "--force", "0"], "--force: 0.0 is not allowed (allowed 0 < |--force| ≤ 100 N"),
+        (["tow", "--force", "-150"], "--force: -150.0 is not allowed (allowed 0 < |--force| ≤"),
         (["tow", "--force", "nan"], "--force: nan is not allowed"),
         (["tow", "--force", "150"], "rig limit max_force_n"),
         (["tow", "--force", "10", "--weight", "1"], "give --force or --weight, not both"),
-        (["spin", "--torque", "9"], "--torque: 9.0 is not allowed (allowed 0 < --torque ≤ 5 N·m"),
+        (["spin", "--torque", "9"], "--torque: 9.0 is not allowed (allowed 0 < |--torque| ≤ 5 N·m"),
+        (["spin", "--torque", "-0"], "--torque: -0.0 is not allowed (allowed 0 < |--torque| ≤ 5"),
         (["tow", "--force", "10", "--rig", "fixtures/rigs/missing.toml"], "cannot read rig file"),
     ],
 )
@@ -60,6 +62,16 @@ def test_bad_input_is_refused_and_writes_nothing(db, args, message):
     assert message in result.stderr
     with Store(db) as store:
         assert store.list_runs() == []
+
+
+def test_a_negative_force_tows_the_carriage_back_from_the_far_end(db):
+    result = rig("tow", "--force", "-24.5", "--max-time", "1.5", "--baseline", "0.3", db=db)
+    assert result.returncode == 0, result.stderr
+    with Store(db) as store:
+        (run,) = store.list_runs()
+        x = store.samples(run.id).channels["tow_position"]
+    assert run.parameters["force_n"] == pytest.approx(-24.5) and run.status == "completed"
+    assert x[0] > 5.0 and x[-1] < x[0] - 0.05  # from the far end, back toward the start
 
 
 def test_bad_rig_file_names_the_field(db, tmp_path):

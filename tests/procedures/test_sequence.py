@@ -26,7 +26,7 @@ def test_every_step_is_checked_before_anything_runs(source):
     data = {
         "steps": [
             {"kind": "tow", "force_n": 24.5},
-            {"kind": "spin", "torque_nm": -1},
+            {"kind": "spin", "torque_nm": 0},  # zero is no test (negative is a reverse one)
             {"kind": "jump"},
         ]
     }
@@ -38,6 +38,21 @@ def test_every_step_is_checked_before_anything_runs(source):
 
 def _short(kind: str, **kw) -> dict:
     return {"kind": kind, "max_time_s": 1.0, "baseline_s": 0.2, **kw}
+
+
+async def test_a_sequence_with_reverse_steps_runs_them_the_other_way(session, store):
+    seq = parse_sequence(
+        {"steps": [_short("tow", force_n=-24.5), _short("spin", torque_nm=-0.907)]}, session.rig
+    )
+    assert [s.reverse for s in seq.steps] == [True, True]
+    outcome = await run_sequence(session, seq)
+    outcomes = outcome.runs
+    assert [o.status for o in outcomes] == ["completed", "completed"]
+    tow, spin = (store.samples(o.run_id).channels for o in outcomes)
+    far = session.rig.geometry.reverse_start
+    assert tow["tow_position"][0] == pytest.approx(far, abs=1e-3)
+    assert tow["tow_position"][-1] < far - 0.05
+    assert spin["yaw_angle"][-1] < -0.05
 
 
 async def test_sequence_pauses_between_steps_and_resumes(session, store):

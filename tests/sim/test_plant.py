@@ -305,3 +305,47 @@ def test_each_effect_moves_the_spin_test_the_expected_way(scenario, direction):
 
     change = angle_after(scenario) - angle_after("clean")
     assert change * direction > 0.05, f"{scenario}: yaw angle changed by {change:+.3f} rad"
+
+
+@pytest.mark.parametrize("scenario", ["clean", "rope-elastic", "bias-current"])
+def test_a_weight_over_the_far_end_pulley_mirrors_the_tow(scenario):
+    """Rigged the other way (``sim_tow_reversed``), the same weight pulls the carriage from
+    the far end back toward the start at the speed the forward tow reaches; a current (which
+    does not flip) helps one way and hinders the other by the same force."""
+
+    def travel(reverse: bool) -> tuple[float, float]:
+        p = plant(scenario)
+        start = RIG.geometry.reverse_start if reverse else 0.0
+        p.write("sim_carriage_position", start)
+        assert p.position_m == start and p.read("sim_tow_reversed") == 0
+        p.write("sim_tow_weight", 2.5)
+        p.write("sim_tow_reversed", 1 if reverse else 0)
+        p.write("tow_release", 1)
+        p.advance(8.0)
+        return p.position_m - start, p.velocity_m_s
+
+    (fwd_x, fwd_v), (back_x, back_v) = travel(False), travel(True)
+    assert back_x < -0.5 and back_v < 0
+    p = plant(scenario)  # the closed form adds the scenario's bias to the force it is given
+    assert fwd_v == pytest.approx(p.steady_tow_speed(2.5 * G), rel=0.02)
+    assert back_v == pytest.approx(p.steady_tow_speed(-2.5 * G), rel=0.02)
+    if scenario == "bias-current":
+        assert -back_v < fwd_v - 0.01  # the current hinders the reverse tow
+    if scenario != "bias-current":
+        assert back_x == pytest.approx(-fwd_x, rel=1e-6)  # an exact mirror
+
+
+def test_a_cord_wound_the_other_way_turns_the_vehicle_negative_until_it_runs_out():
+    p = plant()
+    p.write("sim_spin_weight", 2.5)
+    p.write("sim_spin_reversed", 1)
+    p.write("spin_release", 1)
+    p.advance(3.0)
+    assert p.yaw_rad < -1.0 and p.yaw_rate_rad_s < 0 and not p.cord_out
+    p.write("sim_reset", 1)  # returning the vehicle rigs the cord the normal way again
+    assert p.read("sim_spin_reversed") == 0 and p.read("sim_tow_reversed") == 0
+
+
+def test_the_carriage_cannot_be_pushed_past_the_switch():
+    with pytest.raises(ValueError, match=r"sim_carriage_position: 5\.5 m is not allowed"):
+        plant().write("sim_carriage_position", RIG.geometry.end_of_travel_m)

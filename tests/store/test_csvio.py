@@ -132,7 +132,8 @@ def test_a_bad_csv_is_rejected_naming_the_line_and_nothing_is_written(
 @pytest.mark.parametrize(
     ("kind", "parameters", "message"),
     [
-        ("tow", {"force_n": -1.0}, "force_n: -1.0 is not allowed; use a finite number > 0"),
+        ("tow", {"force_n": 0.0}, r"force_n: 0.0 is not allowed; use a finite number other "),
+        ("spin", {"torque_nm": -0.5, "hung_mass_kg": -0.5}, "hung_mass_kg: -0.5 is not allowed"),
         ("tow", {"force_n": float("nan")}, "force_n: nan is not allowed"),
         ("tow", {"torque_nm": 1.0}, "force_n: missing"),
         ("spin", {"torque_nm": 0.9, "hung_mass_kg": 0}, "hung_mass_kg: 0 is not allowed"),
@@ -216,3 +217,44 @@ def test_a_long_import_is_written_in_batches_and_a_late_failure_ends_it_aborted(
     assert [(r.status, r.reason, r.sample_count) for r in failed] == [
         ("aborted", "import failed: disk full", 4)
     ]
+
+
+def test_a_reverse_run_imports_with_its_signed_drive_and_round_trips(store: Store, tmp_path):
+    """A tow pulled back from the far end: the negative force is kept, the estimator's view
+    has it, and the run exported and imported again is the same run."""
+    from daq.run_data import load_run_data
+
+    t = np.arange(60) * 0.1
+    x = 5.4 - 0.15 * np.clip(t - 1.0, 0.0, None) ** 1.5  # released at 1 s, moving back
+    text = "t,position\n" + "".join(f"{a:.1f},{b:.5f}\n" for a, b in zip(t, x, strict=True))
+    run_id = import_csv(
+        store,
+        write(tmp_path, text),
+        kind="tow",
+        parameters={"force_n": -24.5, "hung_mass_kg": 2.5},
+    )
+    assert store.get_run(run_id).parameters["force_n"] == -24.5
+    data = load_run_data(store, run_id)
+    assert data.drive == -24.5 and data.hung_mass_kg == 2.5
+    assert data.t_release == pytest.approx(1.0, abs=0.15)  # found from the motion, backwards
+    exported = io.StringIO()
+    export_run_csv(store, run_id, exported)
+    again = import_csv(
+        store,
+        write(tmp_path, exported.getvalue(), "again.csv"),
+        kind="tow",
+        parameters={"force_n": -24.5, "hung_mass_kg": 2.5},
+    )
+    positions = [store.samples(r).channels["tow_position"] for r in (run_id, again)]
+    np.testing.assert_allclose(positions[1], positions[0])
+    document = io.StringIO()
+    export_run_json(store, again, document)
+    assert json.loads(document.getvalue())["run"]["parameters"]["force_n"] == -24.5
+
+    spin = import_csv(
+        store,
+        write(tmp_path, "t,position\n0,0\n0.5,-0.1\n1.0,-0.3\n", "s.csv"),
+        kind="spin",
+        parameters={"torque_nm": -0.907},
+    )
+    assert store.get_run(spin).parameters["torque_nm"] == -0.907

@@ -309,8 +309,12 @@ async def import_run(
     ],
     store: StoreDep,
     service: ServiceDep,
-    force_n: Annotated[float | None, Query(description="Tow force, N (tow runs).")] = None,
-    torque_nm: Annotated[float | None, Query(description="Torque, N·m (spin runs).")] = None,
+    force_n: Annotated[
+        float | None, Query(description="Tow force, N (tow runs; negative: a reverse tow).")
+    ] = None,
+    torque_nm: Annotated[
+        float | None, Query(description="Torque, N·m (spin runs; negative: a reverse spin).")
+    ] = None,
     drive_column: Annotated[
         str | None,
         Query(

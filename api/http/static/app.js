@@ -158,15 +158,17 @@ async function refreshRig() {
 
 function setLimits() {
   const l = state.limits;
-  const set = (form, name, max) => {
+  // signed: a negative drive is a reverse test, so the range is −max…max
+  const set = (form, name, max, signed = false) => {
     const el = $(`#form-${form} [name=${name}]`);
     if (el && max !== undefined) el.max = max;
+    if (el && max !== undefined && signed) el.min = -max;
   };
-  set("tow", "force_n", l.max_force_n);
-  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined);
+  set("tow", "force_n", l.max_force_n, true);
+  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined, true);
   set("tow", "max_time_s", l.max_run_s);
   set("tow", "max_distance_m", l.end_of_travel_m);
-  set("spin", "torque_nm", l.max_torque_nm);
+  set("spin", "torque_nm", l.max_torque_nm, true);
   set("spin", "max_time_s", l.max_run_s);
 }
 
@@ -630,6 +632,7 @@ async function renderEstimation(res) {
   $("#est-ambiguous").innerHTML =
     (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
     [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
+  showReverseButton(res.reverse_test);
   const perRun = Object.keys(res.rmse_per_run_before || {});
   // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
   const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
@@ -643,6 +646,45 @@ async function renderEstimation(res) {
     { responsive: true, displaylogo: false },
   );
   await showReportPlots(res.result_id);
+}
+
+// The reverse tow/spin the estimator asks for (friction ≈ bias), as a button that starts it
+// when the rig can run it: the service runs a rig whose PLC answers, and the rig's
+// capabilities (GET /api/rig) offer that kind with that drive. Otherwise: why not.
+function reverseBlocker(test) {
+  const r = state.rig;
+  if (!r || !r.running || !r.connected || r.device_lost) return "the rig is not connected";
+  const cap = (r.capabilities || {})[test.kind];
+  if (!cap) return `this rig cannot run a ${test.kind}`;
+  if (!cap.available) return cap.reason;
+  const drive = (cap.drives || {})[test.request.drive];
+  if (drive && !drive.available) return drive.reason;
+  return null;
+}
+
+function showReverseButton(test) {
+  const box = $("#est-reverse");
+  box.innerHTML = "";
+  if (!test) return;
+  const blocker = reverseBlocker(test);
+  if (blocker) {
+    box.innerHTML = `<p class="muted">Reverse ${esc(test.kind)} to record: <code>${esc(test.command)}</code> (not offered here: ${esc(blocker)}).</p>`;
+    return;
+  }
+  box.innerHTML = `<button id="est-reverse-btn" title="POST ${esc(test.route)}">Run the reverse ${esc(test.kind)}</button>
+    <code>${esc(test.command)}</code> <span id="est-reverse-status" class="muted"></span>`;
+  $("#est-reverse-btn").onclick = async () => {
+    const body = { ...test.request };
+    const metadata = metadataBody();
+    if (metadata) body.metadata = metadata;
+    try {
+      const job = await api("POST", test.route, body);
+      $("#est-reverse-status").textContent = `started: ${job.label}`;
+      showJob(job);
+    } catch (err) {
+      $("#est-reverse-status").textContent = err.message;
+    }
+  };
 }
 
 // The stored result's report figures into #est-plots, full width (fetched with the token):

@@ -1,0 +1,79 @@
+"""The reverse test that separates dry friction from a constant bias, as a runnable command.
+
+On runs that all move one way, ``−F_c·sign(v)`` and ``+b`` are the same constant force:
+the estimator reports them ambiguous. A run with the opposite drive flips the friction but
+not the bias. :func:`suggest_reverse_test` names that run: its kind, its signed drive and the
+``rig`` command (and the ``POST /api/jobs/<kind>`` body) that records it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from estimation.data.runs import RunData
+
+#: The pair a reverse run separates.
+FRICTION_AND_BIAS = frozenset({"coulomb_friction", "constant_bias"})
+
+
+@dataclass(frozen=True)
+class ReverseTest:
+    """A tow or spin with the drive opposite to every run estimated.
+
+    ``drive``: N (tow) or N·m (spin), signed; ``thrusters``: driven by the thrusters (the
+    runs were), else by a hung weight."""
+
+    kind: Literal["tow", "spin"]
+    drive: float
+    thrusters: bool
+
+    @property
+    def field(self) -> str:
+        return "force_n" if self.kind == "tow" else "torque_nm"
+
+    @property
+    def command(self) -> str:
+        """``rig tow --force -83.3`` (``--thrusters`` when thruster-driven)."""
+        flag = "--force" if self.kind == "tow" else "--torque"
+        thrusters = " --thrusters" if self.thrusters else ""
+        return f"rig {self.kind} {flag} {self.drive:.4g}{thrusters}"
+
+    def request(self) -> dict[str, Any]:
+        """The body of ``POST /api/jobs/<kind>`` that starts it."""
+        return {self.field: float(f"{self.drive:.4g}"), "drive": self.drive_kind}
+
+    @property
+    def drive_kind(self) -> str:
+        return "thrusters" if self.thrusters else "weight"
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "command": self.command,
+            "route": f"/api/jobs/{self.kind}",
+            "request": self.request(),
+        }
+
+
+def suggest_reverse_test(
+    axis: str, runs: Sequence[RunData], ambiguous: Sequence[Sequence[str]]
+) -> ReverseTest | None:
+    """The reverse run to record when friction and bias are ambiguous and every run moved
+    one way; None otherwise (already separated, or runs both ways).
+
+    Weight-driven: the largest drive used, turned round (the fastest run shows the friction
+    best). Thruster-driven: the smallest, turned round (thrusters push less in reverse)."""
+    if not any(set(group) >= FRICTION_AND_BIAS for group in ambiguous) or not runs:
+        return None
+    drives = [float(np.mean(r.drive_at_samples()[np.asarray(r.t) > r.t_release])) for r in runs]
+    signs = {np.sign(d) for d in drives if d != 0}
+    if len(signs) != 1:
+        return None
+    thrusters = all(r.drive_law is not None for r in runs)
+    size = min(abs(d) for d in drives) if thrusters else max(abs(d) for d in drives)
+    kind: Literal["tow", "spin"] = "tow" if axis == "surge" else "spin"
+    return ReverseTest(kind, -signs.pop() * size, thrusters)

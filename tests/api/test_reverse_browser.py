@@ -1,0 +1,67 @@
+"""The reverse run the estimator asks for, started from the Estimation page in real
+headless Chromium: on a rig with dry friction and a current, forward tows leave the two
+ambiguous; the result shows a button naming the reverse tow, and clicking it starts that
+tow (negative force, from the far end) on the rig."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from api.core.service import RigService
+from api.http.app import create_app
+from daq.session import RigSource
+from daq.sim.scenario import load_scenario
+from tests.api.conftest import AUTH, TOKEN, LiveServer, chromium_page, start_job, wait_job
+
+#: Slow lane: three real-time tows, an estimation and the reverse tow it starts.
+pytestmark = pytest.mark.slow
+
+SCENARIO = Path(__file__).resolve().parents[2] / "fixtures/scenarios/friction-and-current.toml"
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory) -> RigService:
+    base = RigSource.load()
+    source = RigSource(
+        rig=base.rig,
+        rig_toml=base.rig_toml,
+        scenario=load_scenario(SCENARIO),
+        scenario_toml=SCENARIO.read_text(),
+    )
+    return RigService(source, f"sqlite:///{tmp_path_factory.mktemp('reverse') / 'rig.db'}")
+
+
+def test_the_reverse_button_starts_the_reverse_tow(client, service):
+    from playwright.sync_api import expect
+
+    runs = []
+    for force in (24.5, 44.1, 83.3):
+        body = {"force_n": force, "max_time_s": 5.0, "baseline_s": 0.5}
+        job = wait_job(client, start_job(client, "/api/jobs/tow", body))
+        assert job["state"] == "completed", job
+        runs += job["run_ids"]
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, chromium_page() as page:
+        page.route("**/api/stream**", lambda route: route.abort())
+        page.goto(f"{live.url}/#token={TOKEN}")
+        page.click("nav a[data-page=estimation]")
+        for run in runs:
+            page.check(f"#est-runs input[value='{run}']")
+        page.click("#est-run")
+        expect(page.locator("#est-state")).to_have_text("completed", timeout=180_000)
+        expect(page.locator("#est-ambiguous")).to_contain_text("rig tow --force -83.3")
+        button = page.locator("#est-reverse-btn")
+        expect(button).to_be_visible()
+        expect(page.locator("#est-reverse code")).to_have_text("rig tow --force -83.3")
+        button.click()
+        expect(page.locator("#est-reverse-status")).to_contain_text("started: tow -83.3 N")
+
+    jobs = client.get("/api/jobs", headers=AUTH).json()
+    reverse = next(j for j in jobs if j["label"].startswith("tow -83.3"))
+    done = wait_job(client, reverse["id"], timeout_s=60)
+    assert done["state"] == "completed", done
+    run = client.get(f"/api/runs/{done['run_ids'][0]}", headers=AUTH).json()
+    assert run["parameters"]["force_n"] == pytest.approx(-83.3)
+    assert run["parameters"]["hung_mass_kg"] == pytest.approx(8.5)
