@@ -47,6 +47,7 @@ REALTIME_MODULES = frozenset(
         "tests/api/test_operator.py",
         "tests/api/test_pendulum_job.py",
         "tests/api/test_rig_capabilities.py",
+        "tests/api/test_reverse_browser.py",
         "tests/api/test_rig_lock.py",
         "tests/api/test_storage_fault_job.py",
         "tests/api/test_stream.py",
