@@ -29,12 +29,16 @@ db_option = click.option(
 json_option = click.option(
     "--json", "as_json", is_flag=True, help="Print one JSON document (for scripts)."
 )
+#: A lab sets its rig file once: every command's ``--rig`` defaults to it, and ``rig --help``
+#: lists what that rig cannot do.
+RIG_FILE_ENV = "RIG_FILE"
 rig_option = click.option(
     "--rig",
     "rig_file",
     metavar="FILE",
+    envvar=RIG_FILE_ENV,
     default=None,
-    help="Rig file (default: fixtures/rigs/benbam.toml, simulated).",
+    help=f"Rig file (default: ${RIG_FILE_ENV}, else fixtures/rigs/benbam.toml, simulated).",
 )
 scenario_option = click.option(
     "--scenario",

@@ -19,6 +19,8 @@ from typing import Any
 
 import click
 
+from api.cli.common import RIG_FILE_ENV
+
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing
 #: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py).
 COMMANDS: dict[str, tuple[str, str, str]] = {
@@ -190,6 +192,10 @@ class RigGroup(click.Group):
         ]
         with formatter.section("Commands"):
             formatter.write_dl(rows)
+        missing = _not_on_this_rig()
+        if missing:
+            with formatter.section(f"Not on the rig of ${RIG_FILE_ENV}"):
+                formatter.write_dl(missing)
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         """Click's usage errors as one line (with where to find help), not three."""
@@ -238,6 +244,32 @@ class RigGroup(click.Group):
             if os.environ.get(DEBUG_ENV):
                 raise
             fail(f"{_one_line(err)} ({type(err).__name__}; set {DEBUG_ENV}=1 for details)", 1)
+
+
+def _not_on_this_rig() -> list[tuple[str, str]]:
+    """With ``$RIG_FILE`` set: each test its rig cannot do, with why (the rig file is read
+    only then, so a plain ``rig --help`` stays light)."""
+    path = os.environ.get(RIG_FILE_ENV)
+    if not path:
+        return []
+    from daq.config import RigConfigError, load_rig
+    from daq.procedures.kinds import KINDS
+
+    try:
+        rig = load_rig(path)
+    except RigConfigError as err:
+        return [(RIG_FILE_ENV, _one_line(err))]
+    rows = []
+    for spec in KINDS.values():
+        can = spec.capability(rig)  # with any of its drives
+        if not can.available:
+            rows.append((spec.command, str(can.reason)))
+            continue
+        for drive in spec.drives:
+            can = spec.capability(rig, drive)
+            if not can.available:
+                rows.append((f"{spec.command} --{drive}", str(can.reason)))
+    return rows
 
 
 def _command_context(ctx: click.Context) -> click.Context | None:

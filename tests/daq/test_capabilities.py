@@ -5,6 +5,7 @@ line naming what is missing, before anything is opened."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -165,6 +166,33 @@ def test_rig_capabilities_lists_each_test_or_why_not():
     )
     spin = r"\s+rig spin\s+no: spin: needs channel yaw_angle.*"
     assert any(re.fullmatch(spin, line) for line in lines)
+
+
+def test_with_rig_file_set_once_help_lists_what_that_rig_cannot_do_and_commands_use_it(
+    tmp_path,
+):
+    def rig(*args: str, rig_file: Path | None) -> subprocess.CompletedProcess[str]:
+        env = {k: v for k, v in os.environ.items() if k != "RIG_FILE"}
+        if rig_file is not None:
+            env["RIG_FILE"] = str(rig_file)
+        return subprocess.run(
+            [sys.executable, "-m", "api.cli.main", *args], env=env,
+            capture_output=True, text=True, timeout=60, cwd=ROOT,
+        )  # fmt: skip
+
+    assert "Not on the rig" not in rig("--help", rig_file=None).stdout  # BENBAM does it all
+    listed = rig("--help", rig_file=ENCODER_TOW).stdout.split("Not on the rig of $RIG_FILE:")[1]
+    rows = dict(re.findall(r"^  (\S+(?: --\w+)?)\s+(.+)$", listed, re.M))
+    assert rows["tow --thrusters"] == "tow with thrusters: needs a [thrusters] section"
+    assert rows["spin"].startswith("spin: needs channel yaw_angle")
+    assert "tow" not in rows and "spin --thrusters" not in rows  # spin is out whatever drives it
+    broken = rig("--help", rig_file=tmp_path / "missing.toml")
+    assert broken.returncode == 0 and "cannot read rig file" in " ".join(broken.stdout.split())
+    # Every command takes $RIG_FILE as its --rig.
+    db = tmp_path / "rig.db"
+    refused = rig("spin", "--torque", "0.3", "--db", f"sqlite:///{db}", rig_file=ENCODER_TOW)
+    assert refused.returncode == 2
+    assert refused.stderr.startswith("error: rig 'Encoder tow rig' cannot do this: spin")
 
 
 def test_a_simulated_rig_file_without_the_operator_registers_says_which_is_missing(tmp_path):
