@@ -18,7 +18,7 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.release import fit_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
-from estimation.axis.reverse import FRICTION_AND_BIAS, suggest_reverse_test
+from estimation.axis.reverse import FRICTION_AND_BIAS, opposite_run, suggest_reverse_test
 from estimation.axis.search import candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
@@ -28,6 +28,10 @@ from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_c
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
+
+
+#: How the warning that K_Q sits at 0 (dry friction the model lacks) begins.
+DRY_FRICTION_SIGN = "quadratic_damping sits at its lower bound 0"
 
 
 def estimate(
@@ -86,6 +90,15 @@ def estimate(
         boot,
         drive_uncertainty(runs, final),
     )
+    if any(w.startswith(DRY_FRICTION_SIGN) for w in result.warnings):
+        # K_Q at 0 asks for a reverse run as well: name it (and offer it) where one exists.
+        reverse = reverse or opposite_run(axis, runs)
+        if reverse is not None:
+            warnings = tuple(
+                f"{w}: run `{reverse.command}`" if w.startswith(DRY_FRICTION_SIGN) else w
+                for w in result.warnings
+            )
+            result = replace(result, warnings=warnings)
     return replace(result, reverse_test=reverse)
 
 
@@ -128,9 +141,9 @@ def separability_warnings(fit: FitResult, runs: Sequence[PreparedRun]) -> list[s
                 )
     if "quadratic_damping" in fit.at_bound:
         out.append(
-            "quadratic_damping sits at its lower bound 0: the drag law is bending the wrong "
+            f"{DRY_FRICTION_SIGN}: the drag law is bending the wrong "
             "way, the signature of dry (Coulomb) friction the model lacks (seed 002's negative "
-            "K_Q); enable the effect search or add a reverse tow"
+            "K_Q); enable the effect search or add a reverse run"
         )
     return out
 

@@ -63,11 +63,18 @@ def suggest_reverse_test(
     axis: str, runs: Sequence[RunData], ambiguous: Sequence[Sequence[str]]
 ) -> ReverseTest | None:
     """The reverse run to record when friction and bias are ambiguous and every run moved
-    one way; None otherwise (already separated, or runs both ways).
+    one way; None otherwise (already separated, or runs both ways)."""
+    if not any(set(group) >= FRICTION_AND_BIAS for group in ambiguous):
+        return None
+    return opposite_run(axis, runs)
+
+
+def opposite_run(axis: str, runs: Sequence[RunData]) -> ReverseTest | None:
+    """The run with the drive opposite to every run's (None when they already go both ways).
 
     Weight-driven: the largest drive used, turned round (the fastest run shows the friction
     best). Thruster-driven: the smallest, turned round (thrusters push less in reverse)."""
-    if not any(set(group) >= FRICTION_AND_BIAS for group in ambiguous) or not runs:
+    if not runs:
         return None
     drives = [float(np.mean(r.drive_at_samples()[np.asarray(r.t) > r.t_release])) for r in runs]
     signs = {np.sign(d) for d in drives if d != 0}

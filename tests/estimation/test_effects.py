@@ -63,6 +63,18 @@ def test_coulomb_on_one_way_tows_is_reported_ambiguous_with_bias():
     assert doc["coefficients_before"]["quadratic_damping"]["value"] < 0.7 * SURGE_TRUTH[2]
 
 
+def test_drag_law_at_its_bound_on_one_way_tows_names_the_reverse_run_to_record():
+    # Strong dry friction, no effect search: the drag law bends the wrong way to 0.
+    runs = tow_set(Physics(*SURGE_TRUTH, coulomb=20.0), seed=8)
+    doc = estimate(runs, n_bootstrap=0, search_effects=False).to_json()
+    (warning,) = [w for w in doc["warnings"] if w.startswith("quadratic_damping sits at")]
+    assert doc["reverse_test"]["request"] == {"force_n": -83.3, "drive": "weight"}
+    assert warning.endswith(f"run `{doc['reverse_test']['command']}`")
+    # With a reverse tow among the runs there is nothing to suggest.
+    both = tow_set(Physics(*SURGE_TRUTH, coulomb=20.0), seed=8, drives=(24.5, -44.1, 83.3, -4.9))
+    assert estimate(both, n_bootstrap=0, search_effects=False).to_json()["reverse_test"] is None
+
+
 def test_reverse_tow_separates_coulomb_from_bias():
     runs = tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=9, drives=(24.5, -44.1, 83.3, -4.9))
     doc = estimate(runs, n_bootstrap=0).to_json()
