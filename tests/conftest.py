@@ -11,8 +11,8 @@ server binaries (tests/pg.py).
 Lanes and workers (pyproject.toml): ``pytest`` runs the fast lane (``-m 'not slow'``) on
 two xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled by module
 (``--dist loadscope``), so module-scoped fixtures (recorded runs, servers) are built once;
-the real-time modules (``is_realtime``) form one scope, so they run one at a time on one
-worker while the other worker runs everything else.
+the real-time modules form two scopes (``realtime_scope``), one per worker, so each worker
+runs at most one real-time test at a time.
 """
 
 from __future__ import annotations
@@ -28,17 +28,12 @@ from tests.pg import PostgresServer, external_postgres, find_postgres_bin, start
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
-#: Folders whose tests drive a rig, a device or a clock in real time.
-REALTIME_FOLDERS = (
-    "tests/daq/",
-    "tests/integration/",
-    "tests/procedures/",
-    "tests/sim/",
-    "tests/thrusters/",
-)
-#: Other modules that run tests on the simulated rig in real time or assert wall-clock
-#: bounds (a stream's pace, the recorder's flush interval).
-REALTIME_MODULES = frozenset(
+#: Folders whose tests drive a device or the rig's procedures in real time.
+DEVICE_FOLDERS = ("tests/daq/", "tests/procedures/", "tests/sim/", "tests/thrusters/")
+#: Other modules that run tests on the simulated rig in real time (the chains, the service's
+#: jobs and pages) or assert wall-clock bounds (a stream's pace, the recorder's flushes).
+SERVICE_FOLDERS = ("tests/integration/",)
+SERVICE_MODULES = frozenset(
     {
         "tests/api/test_browser.py",
         "tests/api/test_job_queue.py",
@@ -46,8 +41,8 @@ REALTIME_MODULES = frozenset(
         "tests/api/test_live_ui.py",
         "tests/api/test_operator.py",
         "tests/api/test_pendulum_job.py",
-        "tests/api/test_rig_capabilities.py",
         "tests/api/test_reverse_browser.py",
+        "tests/api/test_rig_capabilities.py",
         "tests/api/test_rig_lock.py",
         "tests/api/test_storage_fault_job.py",
         "tests/api/test_stream.py",
@@ -56,26 +51,31 @@ REALTIME_MODULES = frozenset(
 )
 
 
-def is_realtime(module: str) -> bool:
-    """Whether a test module (path from the project root) runs in the real-time scope."""
-    return module in REALTIME_MODULES or module.startswith(REALTIME_FOLDERS)
+def realtime_scope(module: str) -> str | None:
+    """The real-time scope of a test module (path from the project root), or None for a
+    module that only computes (estimation, storage, API reads and checks)."""
+    if module.startswith(DEVICE_FOLDERS):
+        return "realtime-devices"
+    if module in SERVICE_MODULES or module.startswith(SERVICE_FOLDERS):
+        return "realtime-service"
+    return None
 
 
 class _ModuleScheduling(LoadScopeScheduling):
-    """xdist's loadscope by module, with every real-time module in one scope: they run one
-    at a time on one worker (as in a single process), while the other worker takes the
-    computing modules (estimation, storage, API reads), so two simulated rigs never compete
-    for the two cores of a CI machine. The real-time scope is the largest, so xdist sends it
-    first."""
+    """xdist's loadscope by module, with the real-time modules in two scopes (device and
+    procedure tests; chains and service tests) of about equal length: each worker runs one
+    of them, one test at a time, so at most two real-time tests run at once on a 2-core
+    machine, one per core, and the computing modules fill the gaps. The two scopes hold the
+    most tests, so xdist sends them first, one to each worker."""
 
     def _split_scope(self, nodeid: str) -> str:
         module = nodeid.split("::", 1)[0]
-        return "realtime" if is_realtime(module) else module
+        return realtime_scope(module) or module
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_xdist_make_scheduler(config: pytest.Config, log) -> LoadScopeScheduling | None:
-    """Under ``--dist loadscope``, schedule by module with one scope for the real-time ones.
+    """Under ``--dist loadscope``, schedule by module with two scopes for the real-time ones.
     (xdist's own ``loadgroup`` silently stops grouping on pytest 9.2, pytest-xdist#1386.)"""
     if config.getvalue("dist") != "loadscope":
         return None

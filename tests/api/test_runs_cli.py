@@ -4,34 +4,19 @@ real subprocesses on a fresh database: filters, local days, paging, one-line err
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.cli import RigCli
 
 CSV = "t,position\n0,0\n0.1,0.01\n0.2,0.03\n"
 
 
 @pytest.fixture
-def rig(tmp_path: Path):
-    env = os.environ | {
-        "RIG_DATABASE_URL": f"sqlite:///{tmp_path}/rig.db",
-        "XDG_DATA_HOME": str(tmp_path),
-    }
+def rig(tmp_path: Path) -> RigCli:
     (tmp_path / "day1.csv").write_text(CSV)
-
-    def run(*argv: str, code: int = 0) -> subprocess.CompletedProcess:
-        proc = subprocess.run(
-            [sys.executable, "-m", "api.cli.main", *argv],
-            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120, check=False,
-        )  # fmt: skip
-        assert proc.returncode == code, (argv, proc.stdout, proc.stderr)
-        assert "Traceback" not in proc.stderr
-        return proc
-
-    return run
+    return RigCli(tmp_path)
 
 
 def test_import_with_metadata_then_find_annotate_show_and_export(rig, tmp_path: Path) -> None:

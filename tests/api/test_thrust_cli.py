@@ -6,36 +6,20 @@ one error line naming that thrust."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec, read_calibration_csv
+from tests.cli import RigCli
 from tests.estimation.motor_thruster import KGF, calibration_csv, full_thrust_n, thrust_n
 
 CALIBRATED = (10.0, 12.0, 14.0, 18.0, 20.0)
 
 
 @pytest.fixture
-def rig(tmp_path: Path):
-    env = os.environ | {
-        "RIG_DATABASE_URL": f"sqlite:///{tmp_path}/rig.db",
-        "XDG_DATA_HOME": str(tmp_path),
-    }
-
-    def run(*argv: str, code: int = 0) -> subprocess.CompletedProcess:
-        proc = subprocess.run(
-            [sys.executable, "-m", "api.cli.main", *argv],
-            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120, check=False,
-        )  # fmt: skip
-        assert proc.returncode == code, (argv, proc.stdout, proc.stderr)
-        assert "Traceback" not in proc.stderr
-        return proc
-
-    return run
+def rig(tmp_path: Path) -> RigCli:
+    return RigCli(tmp_path)
 
 
 def test_import_the_table_then_ask_a_held_out_voltage_and_a_too_small_force(rig, tmp_path):

@@ -7,10 +7,7 @@ own integrator."""
 from __future__ import annotations
 
 import io
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +17,7 @@ from scipy.integrate import solve_ivp
 from api.core.estimation_job import run_estimation
 from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.store import Store, export_run_csv
+from tests.cli import RigCliText
 from tests.estimation import pendulum_synth
 from tests.estimation.pendulum_synth import PendulumGeometry
 
@@ -55,21 +53,8 @@ def _tow_csv(path: Path, mean: float, seed: int) -> None:
 
 
 @pytest.fixture
-def rig(tmp_path: Path):
-    db = f"sqlite:///{tmp_path}/rig.db"
-    env = os.environ | {"RIG_DATABASE_URL": db, "XDG_DATA_HOME": str(tmp_path)}
-
-    def run(*argv: str, code: int = 0) -> str:
-        proc = subprocess.run(
-            [sys.executable, "-m", "api.cli.main", *argv],
-            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120, check=False,
-        )  # fmt: skip
-        assert proc.returncode == code, (argv, proc.stdout, proc.stderr)
-        assert "Traceback" not in proc.stderr
-        return proc.stdout.strip() if code == 0 else proc.stderr
-
-    run.db = db  # type: ignore[attr-defined]
-    return run
+def rig(tmp_path: Path) -> RigCliText:
+    return RigCliText(tmp_path)
 
 
 def _coefficients(data: dict) -> dict[str, tuple[float, float]]:
