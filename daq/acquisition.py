@@ -53,7 +53,10 @@ class ClockStats:
     """Counters of the clock; ``lateness_s`` keeps the last ``maxlen`` tick latenesses."""
 
     ticks: int = 0
+    #: Slots skipped over, for either cause: a tick that ran long, or a late wake-up.
     overruns: int = 0
+    #: Of those, the wake-ups over half a period late (the host was busy, not the device).
+    late_wakeups: int = 0
     skipped_slots: int = 0
     failed_polls: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
@@ -186,6 +189,7 @@ class Acquisition:
                 due = math.ceil((start - t0) / period - 0.5)
                 if due > slot:  # woke over half a period late (busy machine): skip, not burst
                     self.stats.overruns += 1
+                    self.stats.late_wakeups += 1
                     self.stats.skipped_slots += due - slot
                     slot, overrun = due, True
                     continue

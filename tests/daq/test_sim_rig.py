@@ -157,8 +157,9 @@ async def test_dropped_responses_time_out_on_time_and_recover():
         await client.close()
         await sim.stop()
     assert all(s.quality & Quality.ERROR for s in dropped)
-    # A 50 ms timeout inside a 100 ms slot: the clock never overran while the PLC was mute.
-    assert acq.stats.overruns == 0
+    # A 50 ms timeout inside a 100 ms slot: no tick ran long while the PLC was mute (a late
+    # wake-up of a loaded host is counted apart).
+    assert acq.stats.overruns - acq.stats.late_wakeups == 0
     assert client.stats.errors >= 5
     # pymodbus drops a TCP link after 3 unanswered requests; our back-off loop restores it.
     assert client.stats.reconnects >= 1
