@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 
+import numpy as np
 import pytest
 
 from daq.procedures.calibration import run_thrust_calibration
@@ -73,9 +74,11 @@ async def test_calibration_then_thruster_spin(session, store):
     data = load_run_data(store, result.run_id)
     after = (data.t > data.t_release + 1.0) & (data.t < data.t_end - 0.05)
     assert data.drive[after] == pytest.approx(2.0, rel=0.02)
-    # No thrust before the first output was sent: the release instant is the middle of
-    # that send's bracket, so the bound is 3σ of it earlier (the bracket widens under load).
-    assert data.drive[data.t < data.t_release - 3 * data.t_release_std].max() == 0.0
+    # No thrust before the first output was sent. A sample's drive is its mean over the
+    # interval to the next sample, and the release instant is the middle of the first
+    # send's bracket: every interval ending 3σ of it before the release holds zero.
+    ends = np.append(data.t[1:], np.inf)
+    assert data.drive[ends < data.t_release - 3 * data.t_release_std].max() == 0.0
 
 
 async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(session, store):
