@@ -16,6 +16,7 @@ from daq.session import RigBusy, RigSession, RigSource
 from daq.store import Store
 from tests.procedures.conftest import short_rail
 from tests.progress_log import ProgressLog
+from tests.readings import good
 from tests.waiting import next_samples
 
 
@@ -58,7 +59,7 @@ async def test_tow_stops_at_end_of_travel(source, store):
     assert outcome.status == "completed"
     brake = [e for e in store.events(outcome.run_id) if e.data and e.data.get("action") == "brake"]
     assert brake and brake[0].message.startswith("end of travel")
-    x = store.samples(outcome.run_id).channels["tow_position"]
+    x = good(store.samples(outcome.run_id).channels["tow_position"])
     assert x.max() == pytest.approx(0.5, abs=0.02)  # stopped by the switch, not by time
 
 
@@ -70,7 +71,7 @@ async def test_spin_records_yaw(session, store):
     assert outcome.status == "completed"
     run = store.get_run(outcome.run_id)
     assert run.kind == "spin" and run.parameters["hung_mass_kg"] == pytest.approx(2.5, rel=1e-3)
-    yaw = store.samples(outcome.run_id).channels["yaw_angle"]
+    yaw = good(store.samples(outcome.run_id).channels["yaw_angle"])
     assert yaw[-1] > 0.2
     assert await session.plc.read("spin_release") == 0
 

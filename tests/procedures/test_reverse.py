@@ -19,6 +19,7 @@ from daq.procedures.params import (
 from daq.procedures.steps import PreconditionFailed
 from daq.run_data import load_run_data
 from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.readings import good
 
 
 async def test_reverse_tow_starts_at_the_far_end_and_moves_back(session, store):
@@ -29,7 +30,7 @@ async def test_reverse_tow_starts_at_the_far_end_and_moves_back(session, store):
     assert params.max_distance_m == pytest.approx(session.rig.geometry.reverse_travel)
     outcome = await run_motion_test(session, params)
     assert outcome.status == "completed", outcome
-    x = store.samples(outcome.run_id).channels["tow_position"]
+    x = good(store.samples(outcome.run_id).channels["tow_position"])
     assert x[0] == pytest.approx(far, abs=1e-3)  # pushed to the far end, at rest
     assert x[-1] < far - 0.3  # pulled back toward the start
     assert await session.plc.read("sim_tow_reversed") == 1  # over the far-end pulley
@@ -41,7 +42,7 @@ async def test_reverse_tow_starts_at_the_far_end_and_moves_back(session, store):
     # The next forward tow is rigged the normal way again (returning the carriage does it).
     forward = tow_parameters({"force_n": 24.5, "max_time_s": 2.5, "baseline_s": 0.3}, session.rig)
     outcome = await run_motion_test(session, forward)
-    x = store.samples(outcome.run_id).channels["tow_position"]
+    x = good(store.samples(outcome.run_id).channels["tow_position"])
     assert x[0] == pytest.approx(0.0, abs=1e-3) and x[-1] > 0.2
     assert await session.plc.read("sim_tow_reversed") == 0
 
@@ -53,7 +54,7 @@ async def test_reverse_spin_turns_the_vehicle_negative(session, store):
     assert params.reverse and params.hung_mass_kg == pytest.approx(0.999)
     outcome = await run_motion_test(session, params)
     assert outcome.status == "completed", outcome
-    yaw = store.samples(outcome.run_id).channels["yaw_angle"]
+    yaw = good(store.samples(outcome.run_id).channels["yaw_angle"])
     assert yaw[0] == pytest.approx(0.0, abs=1e-3) and yaw[-1] < -0.2
     assert await session.plc.read("sim_spin_reversed") == 1
     assert load_run_data(store, outcome.run_id).drive == pytest.approx(params.torque_nm)
@@ -110,7 +111,7 @@ async def test_reverse_thruster_tow_turns_the_thrusters_round(session, store):
     run = store.get_run(outcome.run_id)
     assert all(u < 0 for u in run.parameters["commands"])
     assert run.parameters["force_per_thruster_n"] == pytest.approx(-7.5)
-    x = store.samples(outcome.run_id).channels["tow_position"]
+    x = good(store.samples(outcome.run_id).channels["tow_position"])
     far = session.rig.geometry.reverse_start
     assert x[0] == pytest.approx(far, abs=1e-3) and x[-1] < far - 0.1
     assert session.sim.thrusters.outputs == [0.0] * session.rig.thrusters.count
@@ -128,7 +129,7 @@ async def test_reverse_thruster_tow_turns_the_thrusters_round(session, store):
     commands = store.get_run(outcome.run_id).parameters["commands"]
     signs = session.rig.thrusters.yaw_signs()
     assert all(u * s < 0 for u, s in zip(commands, signs, strict=True))
-    yaw = store.samples(outcome.run_id).channels["yaw_angle"]
+    yaw = good(store.samples(outcome.run_id).channels["yaw_angle"])
     assert yaw[0] == pytest.approx(0.0, abs=1e-3) and yaw[-1] < -0.05
 
 

@@ -16,6 +16,7 @@ from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.readings import good
 from thrusters.driver import LINK_LOST_AFTER
 
 
@@ -76,7 +77,7 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
         assert u > 0
         assert float(calibrated.force(u)) == pytest.approx(10.0, rel=1e-6)
     assert await session.plc.read("sim_tow_weight") == 0  # no weight hung
-    x = store.samples(outcome.run_id).channels["tow_position"]
+    x = good(store.samples(outcome.run_id).channels["tow_position"])
     assert x[-1] > 0.2
     # The run keeps every output change the controller confirmed: the ramp up at the slew
     # limit (≤ 2.0/s × 0.1 s a step) to the commands, then zero, each bracketed in time.
