@@ -94,6 +94,34 @@ def thrust_layout(thrusters: ThrusterPort, kind: str) -> tuple[list[float], floa
     raise ValueError(f"kind: {kind!r} is not allowed; allowed 'tow' or 'spin'")
 
 
+def _below_smallest_thrust(
+    kind: str,
+    drive: float,
+    per_thruster: float,
+    smallest: float,
+    sign: float,
+    gain: float,
+    advice: str,
+    where: str = "",
+) -> ParameterError:
+    """The refusal of a drive whose thrust per thruster is below the smallest one calibrated
+    on that side (the curve below it is a guess inside the dead band). ``gain``: thrusters ×
+    arm, from thrust per thruster to the drive."""
+    name, unit = DRIVE_FIELD[kind]
+    side = "forward" if sign > 0 else "reverse"
+    return ParameterError(
+        [
+            (
+                name,
+                drive,
+                f"|{name}| at least {smallest * gain:.3g} {unit}: {per_thruster:.3g} N per "
+                f"thruster is below the smallest calibrated {side} thrust ({smallest:.3g} N"
+                f"{where}); {advice}",
+            )
+        ]
+    )
+
+
 def thruster_commands(
     drive: float,
     calibration: dict[str, Any],
@@ -128,20 +156,10 @@ def thruster_commands(
             if r["command"] * sign > 0 and r["thrust_per_thruster_n"] * sign > 0
         ]
         if measured and size < min(measured):
-            side = "forward" if sign > 0 else "reverse"
-            raise ParameterError(
-                [
-                    (
-                        name,
-                        drive,
-                        f"|{name}| at least {min(measured) * count * arm:.3g} {unit}: "
-                        f"{size:.3g} N per thruster is below the smallest calibrated "
-                        f"{side} thrust "
-                        f"({min(measured):.3g} N); calibrate with smaller commands "
-                        "(e.g. --commands 0,0.05,0.1,0.2,...)",
-                    )
-                ]
-            )
+            raise _below_smallest_thrust(
+                kind, drive, size, min(measured), sign, count * arm,
+                "calibrate with smaller commands (e.g. --commands 0,0.05,0.1,0.2,...)",
+            )  # fmt: skip
         try:
             u = calibrated.command_for_force(sign * size)
         except ValueError as err:
@@ -208,19 +226,10 @@ def law_commands(
             )
         floor = law.min_force(at, sign)
         if floor is not None and 0 < size < abs(floor):
-            side = "forward" if sign > 0 else "reverse"
-            raise ParameterError(
-                [
-                    (
-                        name,
-                        drive,
-                        f"|{name}| at least {abs(floor) * count * arm:.3g} {unit}: {size:.3g} N "
-                        f"per thruster is below the smallest calibrated {side} thrust "
-                        f"({abs(floor):.3g} N at {at:.3g} V, command "
-                        f"{law.smallest_command(sign, at):g}); calibrate smaller commands",
-                    )
-                ]
-            )
+            raise _below_smallest_thrust(
+                kind, drive, size, abs(floor), sign, count * arm, "calibrate smaller commands",
+                where=f" at {at:.3g} V, command {law.smallest_command(sign, at):g}",
+            )  # fmt: skip
         commands.append(law.command_for_force(sign * size, at).value)
     return commands, per_thruster
 
