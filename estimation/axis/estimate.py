@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 
 import numpy as np
 
@@ -18,7 +17,12 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.release import fit_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
-from estimation.axis.reverse import FRICTION_AND_BIAS, opposite_run, suggest_reverse_test
+from estimation.axis.reverse import (
+    FRICTION_AND_BIAS,
+    ReverseTest,
+    opposite_run,
+    suggest_reverse_test,
+)
 from estimation.axis.search import candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
@@ -28,10 +32,6 @@ from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_c
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
-
-
-#: How the warning that K_Q sits at 0 (dry friction the model lacks) begins.
-DRY_FRICTION_SIGN = "quadratic_damping sits at its lower bound 0"
 
 
 def estimate(
@@ -74,8 +74,10 @@ def estimate(
             f"{text}: run `{reverse.command}`" if set(group) >= FRICTION_AND_BIAS else text
             for group, text in zip(ambiguous, advice, strict=True)
         )
+    elif "quadratic_damping" in final.at_bound:  # K_Q at 0 asks for a reverse run as well
+        reverse = opposite_run(axis, runs)
     boot = _bootstrap(prepared, final, n_bootstrap, seed) if n_bootstrap else None
-    result = _build(
+    return _build(
         axis,
         method,
         runs,
@@ -89,17 +91,8 @@ def estimate(
         cv_after,
         boot,
         drive_uncertainty(runs, final),
+        reverse,
     )
-    if any(w.startswith(DRY_FRICTION_SIGN) for w in result.warnings):
-        # K_Q at 0 asks for a reverse run as well: name it (and offer it) where one exists.
-        reverse = reverse or opposite_run(axis, runs)
-        if reverse is not None:
-            warnings = tuple(
-                f"{w}: run `{reverse.command}`" if w.startswith(DRY_FRICTION_SIGN) else w
-                for w in result.warnings
-            )
-            result = replace(result, warnings=warnings)
-    return replace(result, reverse_test=reverse)
 
 
 def _coefficients(fit: FitResult) -> dict[str, Estimate]:
@@ -110,8 +103,11 @@ def _distinct_drives(runs: Sequence[PreparedRun]) -> list[float]:
     return sorted({round(r.mean_abs_drive, 6) for r in runs})
 
 
-def separability_warnings(fit: FitResult, runs: Sequence[PreparedRun]) -> list[str]:
-    """Warnings for coefficient pairs with |ρ| > 0.95, naming the run that would separate them."""
+def separability_warnings(
+    fit: FitResult, runs: Sequence[PreparedRun], reverse: ReverseTest | None = None
+) -> list[str]:
+    """Warnings for coefficient pairs with |ρ| > 0.95, naming the run that would separate them
+    (``reverse``: the reverse run to name when K_Q sits at its bound)."""
     out = []
     drives = _distinct_drives(runs)
     n = len(fit.names)
@@ -140,10 +136,11 @@ def separability_warnings(fit: FitResult, runs: Sequence[PreparedRun]) -> list[s
                     f"{a} and {b} are not separable by these runs (ρ = {rho:.3f}): add {hint}"
                 )
     if "quadratic_damping" in fit.at_bound:
+        run = f": run `{reverse.command}`" if reverse is not None else ""
         out.append(
-            f"{DRY_FRICTION_SIGN}: the drag law is bending the wrong "
+            "quadratic_damping sits at its lower bound 0: the drag law is bending the wrong "
             "way, the signature of dry (Coulomb) friction the model lacks (seed 002's negative "
-            "K_Q); enable the effect search or add a reverse run"
+            f"K_Q); enable the effect search or add a reverse run{run}"
         )
     return out
 
@@ -194,6 +191,7 @@ def _build(
     cv_after,
     boot,
     uncertainty: DriveUncertainty | None = None,
+    reverse: ReverseTest | None = None,
 ) -> EstimationResult:
     ids = tuple(r.run_id for r in runs)
     effects = tuple(
@@ -202,7 +200,7 @@ def _build(
         )
         for e in final.effects
     )
-    warnings = separability_warnings(final, prepared)
+    warnings = separability_warnings(final, prepared, reverse)
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis)):
         warnings.append(text)
@@ -233,6 +231,7 @@ def _build(
         cv_after=cv_after,
         bootstrap=boot,
         uncertainty=uncertainty,
+        reverse_test=reverse,
         windows={r.run_id: r.window_report() for r in runs},
         drive_laws={r.run_id: r.drive_law for r in runs if r.drive_law},
         unexplained=unexplained,
