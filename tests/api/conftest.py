@@ -109,6 +109,19 @@ def tow_job(client: TestClient) -> dict:
     return job
 
 
+def estimate_in_page(page, runs: list[str], timeout_ms: int) -> None:
+    """On the Estimation page (the live stream kept out: these tests are not about it),
+    select ``runs``, start the estimation and wait for it to complete."""
+    from playwright.sync_api import expect
+
+    page.route("**/api/stream**", lambda route: route.abort())
+    page.click("nav a[data-page=estimation]")
+    for run in runs:
+        page.check(f"#est-runs input[value='{run}']")
+    page.click("#est-run")
+    expect(page.locator("#est-state")).to_have_text("completed", timeout=timeout_ms)
+
+
 class LiveServer:
     """A real uvicorn server in a thread on a free loopback port."""
 

@@ -5,7 +5,15 @@ and the same figure's SVG names its axes with units."""
 from __future__ import annotations
 
 from api.http.app import create_app
-from tests.api.conftest import SHORT_TOW, TOKEN, LiveServer, chromium_page, start_job, wait_job
+from tests.api.conftest import (
+    SHORT_TOW,
+    TOKEN,
+    LiveServer,
+    chromium_page,
+    estimate_in_page,
+    start_job,
+    wait_job,
+)
 
 
 def test_estimation_page_shows_full_size_report_figures_with_units(client, service):
@@ -18,14 +26,8 @@ def test_estimation_page_shows_full_size_report_figures_with_units(client, servi
         runs += job["run_ids"]
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
     with LiveServer(app) as live, chromium_page() as page:
-        # this test is about the report, not the live plot: keep the 10 Hz stream out
-        page.route("**/api/stream**", lambda route: route.abort())
         page.goto(f"{live.url}/#token={TOKEN}")
-        page.click("nav a[data-page=estimation]")
-        for run in runs:
-            page.check(f"#est-runs input[value='{run}']")
-        page.click("#est-run")
-        expect(page.locator("#est-state")).to_have_text("completed", timeout=120_000)
+        estimate_in_page(page, runs, timeout_ms=120_000)
 
         fit = page.locator("#est-plots figure").first
         expect(fit.locator("figcaption")).to_contain_text("fit")

@@ -13,7 +13,15 @@ from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
 from daq.sim.scenario import load_scenario
-from tests.api.conftest import AUTH, TOKEN, LiveServer, chromium_page, start_job, wait_job
+from tests.api.conftest import (
+    AUTH,
+    TOKEN,
+    LiveServer,
+    chromium_page,
+    estimate_in_page,
+    start_job,
+    wait_job,
+)
 
 #: Slow lane: three real-time tows, an estimation and the reverse tow it starts.
 pytestmark = pytest.mark.slow
@@ -44,13 +52,8 @@ def test_the_reverse_button_starts_the_reverse_tow(client, service):
         runs += job["run_ids"]
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
     with LiveServer(app) as live, chromium_page() as page:
-        page.route("**/api/stream**", lambda route: route.abort())
         page.goto(f"{live.url}/#token={TOKEN}")
-        page.click("nav a[data-page=estimation]")
-        for run in runs:
-            page.check(f"#est-runs input[value='{run}']")
-        page.click("#est-run")
-        expect(page.locator("#est-state")).to_have_text("completed", timeout=180_000)
+        estimate_in_page(page, runs, timeout_ms=180_000)
         expect(page.locator("#est-ambiguous")).to_contain_text("rig tow --force -83.3")
         button = page.locator("#est-reverse-btn")
         expect(button).to_be_visible()
