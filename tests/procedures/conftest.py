@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from daq.config import RigConfig
@@ -21,6 +23,19 @@ def short_rail(rig: RigConfig, end_of_travel_m: float = 0.5) -> RigConfig:
     """The BENBAM rig with the end-of-travel switch moved close, so tows end quickly."""
     geometry = rig.geometry.model_copy(update={"end_of_travel_m": end_of_travel_m})
     return rig.model_copy(update={"geometry": geometry})
+
+
+def hardware_rig_file(folder: Path, modbus_port: int, thruster_port: str) -> Path:
+    """BENBAM's rig file in ``folder`` with mode = "hardware", its PLC on loopback
+    ``modbus_port`` and its thruster controller on ``thruster_port`` (a running `rig sim`,
+    or proxies in front of one)."""
+    text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
+    text = text.replace('mode = "simulated"', 'mode = "hardware"')
+    text = text.replace("port = 5020", f"port = {modbus_port}")
+    text = text.replace('port = "sim"', f'port = "{thruster_port}"')
+    path = folder / "hw.toml"
+    path.write_text(text)
+    return path
 
 
 @pytest.fixture
