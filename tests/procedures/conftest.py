@@ -9,6 +9,7 @@ import pytest
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from tests.waiting import until
 
 #: A short thrust calibration of the simulated rig (parameters, before the rig's checks).
 QUICK_CALIBRATION = {
@@ -36,6 +37,12 @@ def hardware_rig_file(folder: Path, modbus_port: int, thruster_port: str) -> Pat
     path = folder / "hw.toml"
     path.write_text(text)
     return path
+
+
+async def until_thrust_on(session: RigSession, *, timeout_s: float) -> None:
+    """Until the simulated thruster controller's outputs are not all zero."""
+    thrusters = session.sim.thrusters
+    await until(lambda: any(thrusters.outputs), "the thrust on", timeout_s=timeout_s)
 
 
 @pytest.fixture

@@ -15,7 +15,7 @@ from daq.procedures.params import ParameterError, calibration_parameters, tow_pa
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
-from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.procedures.conftest import QUICK_CALIBRATION, until_thrust_on
 from tests.readings import good
 from thrusters.driver import LINK_LOST_AFTER
 
@@ -126,25 +126,17 @@ async def _abort_leaves_the_thrusters_zero(session) -> None:
         {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
         session.rig,
     )
-    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
-    for _ in range(100):  # until the thrust is on
-        await asyncio.sleep(0.05)
-        if any(session.sim.thrusters.outputs):
-            break
-    assert any(session.sim.thrusters.outputs)
+    task = await _thrust_on(session, params, abort)
     abort.set("operator abort (test)")
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     await _assert_thrusters_safe(session)
 
 
-async def _thrust_on(session, params) -> asyncio.Task:
-    task = asyncio.create_task(run_motion_test(session, params))
-    for _ in range(100):  # until the thrust is on
-        await asyncio.sleep(0.05)
-        if any(session.sim.thrusters.outputs):
-            break
-    assert any(session.sim.thrusters.outputs)
+async def _thrust_on(session, params, abort: AbortSignal | None = None) -> asyncio.Task:
+    """The motion run started in a task, once its thrust is on."""
+    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
+    await until_thrust_on(session, timeout_s=5)
     return task
 
 
