@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import multiprocessing as mp
 import os
 import select
@@ -35,22 +34,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.service import serve_in_thread, wait_job
+from bench.timing import in_ms, percentile
 
 TOKEN = "bench-token"
 HUGE = 300 * 1024 * 1024
 CHUNK = 64 * 1024
 TARGET_CLOCK_P99_MS = 2.0
-
-
-def _pct(values: list[float], p: float) -> float | None:
-    if not values:
-        return None
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, math.ceil(p / 100 * len(ordered)) - 1)]
-
-
-def _ms(seconds: float | None) -> float | None:
-    return None if seconds is None else round(seconds * 1000, 3)
 
 
 def _memory_mb() -> dict[str, float]:
@@ -163,14 +152,14 @@ class Window:
         s = self.acq.stats
         lateness = list(s.lateness_s)[self.n0 :]
         skipped = s.skipped_slots - self.skipped0
-        p99 = _pct(lateness, 99)
+        p99 = percentile(lateness, 99)
         worst = max(range(len(lateness)), key=lateness.__getitem__) if lateness else None
         return {
             "ticks": len(lateness),
             "lateness_ms": {
-                "p50": _ms(_pct(lateness, 50)),
-                "p99": _ms(p99),
-                "max": _ms(max(lateness) if lateness else None),
+                "p50": in_ms(percentile(lateness, 50)),
+                "p99": in_ms(p99),
+                "max": in_ms(max(lateness) if lateness else None),
                 "max_at_tick": worst,
             },
             "skipped_slots": skipped,
