@@ -23,7 +23,6 @@ import argparse
 import json
 import multiprocessing as mp
 import os
-import select
 import socket
 import sys
 import tempfile
@@ -35,10 +34,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.service import serve_in_thread, wait_job
 from bench.timing import in_ms, percentile
+from tests.api.streamed_post import feed_post, zeros
 
 TOKEN = "bench-token"
 HUGE = 300 * 1024 * 1024
-CHUNK = 64 * 1024
 TARGET_CLOCK_P99_MS = 2.0
 
 
@@ -63,35 +62,17 @@ def _huge_posts(port: int, seconds: float, rate: float, chunked: bool, out) -> N
     attempts = 0
     start = time.monotonic()
     end = start + seconds
-    zeros = b"0" * CHUNK
-    chunk = f"{CHUNK:x}\r\n".encode() + zeros + b"\r\n" if chunked else zeros
+    headers = {"Content-Type": "application/json"}
+    if not chunked:
+        headers["Content-Length"] = str(HUGE)
     while time.monotonic() < end:
         if rate > 0:
             time.sleep(max(0.0, start + attempts / rate - time.monotonic()))
         attempts += 1
-        head = ["POST /api/jobs/tow HTTP/1.1", "Host: 127.0.0.1", "Content-Type: application/json"]
-        head.append("Transfer-Encoding: chunked" if chunked else f"Content-Length: {HUGE}")
         status = "no answer"
         try:
             with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
-                s.sendall(("\r\n".join(head) + "\r\n\r\n").encode())
-                s.setblocking(False)
-                pending, body_left = b"", HUGE
-                while body_left > 0 or pending:
-                    readable, writable, _ = select.select([s], [s], [], 1.0)
-                    if readable:
-                        break
-                    if not writable:
-                        continue
-                    if not pending:
-                        pending, body_left = chunk, body_left - CHUNK
-                    try:
-                        n = s.send(pending)
-                    except BlockingIOError:
-                        continue
-                    fed += n
-                    pending = pending[n:]
-                s.setblocking(True)
+                fed += feed_post(s, "/api/jobs/tow", headers, zeros(HUGE), chunked=chunked)
                 data = s.recv(65536)
                 status = data.split(b" ")[1].decode() if data.startswith(b"HTTP/") else "closed"
         except OSError as err:
