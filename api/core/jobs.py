@@ -22,6 +22,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import dataclasses
 import logging
 import shutil
 import tempfile
@@ -473,7 +474,7 @@ class JobRunner:
         self._update(
             job,
             state="waiting_for_operator",
-            operator_act={"name": act.name, "instruction": act.instruction, "value": act.value},
+            operator_act=dataclasses.asdict(act),
             message=act.instruction,
         )
         confirm = asyncio.ensure_future(job.confirm.wait())

@@ -118,6 +118,11 @@ class OperatorActOut(BaseModel):
     name: str
     instruction: str
     value: float | None = None
+    reverse: bool = Field(
+        False,
+        description="A reverse test's rigging: the tow line over the far-end pulley, or the "
+        "spin cord wound the other way round the drum.",
+    )
 
 
 class JobOut(BaseModel):

@@ -130,6 +130,7 @@ def return_act(params: TowParameters | SpinParameters, rig: RigConfig) -> Operat
             f"Push the carriage to the far end of the rail ({far:g} m, short of the "
             "end-of-travel switch) and let the vehicle settle",
             far,
+            reverse=True,
         )
     return OperatorAct(
         "return_carriage",

@@ -63,3 +63,27 @@ def test_stopping_the_service_aborts_the_running_test_and_records_why(tmp_path):
         assert run.status == "aborted"
         assert run.reason == "service stopped"
         assert run.sample_count >= 3  # what was recorded before the stop is kept
+
+
+def test_a_reverse_tow_asks_for_the_far_end_pulley_and_says_reverse(asking_client):
+    c = asking_client
+    body = {"weight_kg": -0.5, "max_time_s": 1}
+    job_id = c.post("/api/jobs/tow", json=body, headers=AUTH).json()["id"]
+    try:
+        first = wait_job(c, job_id, states=("waiting_for_operator",))
+        assert first["operator_act"]["name"] == "return_carriage"
+        assert first["operator_act"]["reverse"] is True
+        assert "far end of the rail" in first["operator_act"]["instruction"]
+        assert c.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
+        hang = wait_job_until(
+            c,
+            job_id,
+            lambda job: (job["operator_act"] or {}).get("name") == "hang_tow_weight",
+            "the ask for the weight",
+        )
+        assert hang["operator_act"]["reverse"] is True
+        assert "far-end pulley" in hang["operator_act"]["instruction"]
+        assert hang["operator_act"]["value"] == pytest.approx(0.5)
+    finally:
+        c.post(f"/api/jobs/{job_id}/abort", headers=AUTH)
+        assert wait_job(c, job_id)["state"] == "aborted"
