@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from api.http.app import create_app
 from tests.api.conftest import (
+    AUTH,
     SHORT_TOW,
     TOKEN,
     LiveServer,
@@ -51,3 +52,10 @@ def test_estimation_page_shows_full_size_report_figures_with_units(client, servi
         assert big.evaluate("img => img.getBoundingClientRect().width") >= 1000
         page.keyboard.press("Escape")
         expect(page.locator("#lightbox")).to_be_hidden()
+
+        # Two redraws racing (a job update and its result arrive together): the figures stay
+        # once each, in the report's order.
+        result = client.get("/api/results?kind=estimation", headers=AUTH).json()[0]
+        page.evaluate("id => Promise.all([showReportPlots(id), showReportPlots(id)])", result["id"])
+        captions = page.locator("#est-plots figcaption").all_inner_texts()
+        assert [c.split(" — ")[0] for c in captions] == result["report_plots"]
