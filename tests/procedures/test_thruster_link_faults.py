@@ -188,7 +188,7 @@ REASONS = {
     "(no reply within ack_timeout_s)",
     "garbage both ways": f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "
     "(garbage)",
-    "PLC lost": "device lost: PLC at tcp 127.0.0.1:",
+    "PLC lost": "sensor data stale or unread (PLC at tcp 127.0.0.1:",
 }
 
 
