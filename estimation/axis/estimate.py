@@ -65,7 +65,9 @@ def estimate(
         outcome = search_effects_fn(prepared, base, candidate_effects(declared))
     else:
         cv = leave_one_run_out_rmse(prepared, base)
-        outcome = SearchOutcome(base=base, final=base, cv_base=cv, cv_final=cv, steps=())
+        outcome = SearchOutcome(
+            base=base, final=base, cv_base=cv, cv_final=cv, steps=(), searched=False
+        )
     final = outcome.final
     reverse = suggest_reverse_test(axis, runs, outcome.ambiguous)
     if reverse is not None:  # the experiment the advice asks for, as a command to run
@@ -185,7 +187,7 @@ def _build(
     )
     warnings = separability_warnings(final, prepared, reverse)
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
-    if unexplained is not None and (text := unexplained.warning(axis)):
+    if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):
         warnings.append(text)
     force_before = force_residuals(base, prepared)
     return EstimationResult(
