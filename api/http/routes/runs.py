@@ -30,6 +30,7 @@ from api.http.schemas import (
     ResultOut,
     RunOut,
     SamplesOut,
+    csv_upload_body,
     error_responses,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
@@ -272,14 +273,10 @@ def get_run_results(run_id: str, store: StoreDep, runner: RunnerDep) -> list[dic
     return [_result_json(r, runner) for r in store.results(store.get_run(run_id).id)]
 
 
-_IMPORT_BODY = {
-    "requestBody": {
-        "required": True,
-        "content": {"text/csv": {"schema": {"type": "string"}}},
-        "description": "CSV with a header: t (s), position (m or rad), more columns allowed "
-        "(a drive logged per sample among them, named by drive_column).",
-    }
-}
+_IMPORT_BODY = csv_upload_body(
+    "CSV with a header: t (s), position (m or rad), more columns allowed "
+    "(a drive logged per sample among them, named by drive_column)."
+)
 
 
 def _import_metadata(
