@@ -15,6 +15,7 @@ from api.cli.common import (
     open_store,
     plus_minus,
     report_folder,
+    report_option,
     user_errors,
 )
 from api.core.estimation_job import run_estimation
@@ -54,12 +55,7 @@ def _echo_findings(data: dict, lists: tuple[str, ...]) -> None:
     is_flag=True,
     help="Fit the base model only; skip the search for missing effects.",
 )
-@click.option(
-    "--report",
-    "report_dir",
-    type=click.Path(file_okay=False),
-    help="Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.",
-)
+@report_option("Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.")
 @db_option
 @json_option
 def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
