@@ -299,11 +299,21 @@ def _drive_and_load(
     return drive, load, weight
 
 
-def _hang_weight(
-    c: _Checker, name: str, load: float | None, weight: float | None, g: float, radius_m: float
-) -> tuple[float, float, dict[str, float] | None]:
-    """A weight-driven test: the weight hung (to the gram), the signed load it really gives
-    (``weight · g · radius_m``) and what was asked for if that differs."""
+def _applied_load(
+    c: _Checker,
+    drive: str,
+    name: str,
+    load: float | None,
+    weight: float | None,
+    g: float,
+    radius_m: float,
+) -> tuple[float, float | None, dict[str, float] | None]:
+    """The signed load the test applies, the weight hung (to the gram; ``None`` when the
+    thrusters drive) and what was asked for if that weight changed it: a hung weight
+    gives ``weight · g · radius_m``, the thrusters the load asked for."""
+    if drive != "weight":
+        assert load is not None
+        return load, None, None
     asked = (name, load) if load is not None else ("weight_kg", weight)
     signed_kg = load / (g * radius_m) if load is not None else weight
     assert signed_kg is not None
@@ -354,14 +364,11 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     tmax = _max_time(c, rig)
     base = _baseline(c)
     c.fail_if_problems()
-    requested = None
-    if drive == "weight":
-        force, weight, requested = _hang_weight(c, "force_n", force, weight, g, 1.0)
-    assert force is not None
+    force, hung, requested = _applied_load(c, drive, "force_n", force, weight, g, 1.0)
     assert dist is not None and tmax is not None and base is not None
     return TowParameters(
         force_n=force,
-        hung_mass_kg=weight if drive == "weight" else None,
+        hung_mass_kg=hung,
         max_distance_m=dist,
         max_time_s=tmax,
         baseline_s=base,
@@ -401,14 +408,11 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     tmax = _max_time(c, rig)
     base = _baseline(c)
     c.fail_if_problems()
-    requested = None
-    if drive == "weight":
-        torque, weight, requested = _hang_weight(c, "torque_nm", torque, weight, g, r)
-    assert torque is not None
+    torque, hung, requested = _applied_load(c, drive, "torque_nm", torque, weight, g, r)
     assert angle is not None and tmax is not None and base is not None
     return SpinParameters(
         torque_nm=torque,
-        hung_mass_kg=weight if drive == "weight" else None,
+        hung_mass_kg=hung,
         drive=drive,
         max_angle_rad=angle,
         max_time_s=tmax,
