@@ -28,6 +28,7 @@ from daq.procedures.steps import (
     RunOutcome,
     check_ready,
     check_room,
+    engage_and_log_stop,
     follow_motion,
     return_act,
     run_outcome,
@@ -258,7 +259,7 @@ async def run_thruster_test(
     rig = session.rig
     tow = isinstance(params, TowParameters)
     axis = TOW if tow else SPIN
-    drive = params.force_n if isinstance(params, TowParameters) else params.torque_nm
+    drive = params.load
     unit = DRIVE_FIELD[axis.kind][1]
     calibration = await asyncio.to_thread(latest_calibration, session.store)
     imported = calibration.get("calibration_import_id")
@@ -459,18 +460,14 @@ async def _drive_with_thrusters(
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
     )
-    limit = params.max_distance_m if axis is TOW else params.max_angle_rad
-    stop, sample, t_last_free = await follow_motion(
-        rec, axis, start, limit, params.max_time_s, report
-    )
+    stop, sample, t_last_free = await follow_motion(rec, axis, start, params, report)
     session.set_thrust([0.0] * session.thruster_count)
     await session.live_thrusters.zero()
-    await session.live_plc.write(axis.release, False)
-    await rec.event(
-        "limit",
+    await engage_and_log_stop(
+        rec,
+        axis.release,
         f"{stop}: thrust off, brake engaged",
-        action=RunAction.BRAKE,
-        seq=sample.seq,
-        t_mono=time.monotonic(),
-        t_last_free=t_last_free,
+        RunAction.BRAKE,
+        sample,
+        t_last_free,
     )
