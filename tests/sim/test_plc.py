@@ -194,7 +194,6 @@ async def test_corrupt_rtu_response_has_a_wrong_crc(plc):
         with pytest.raises(ModbusException):
             await client.read_input_registers(0, count=2, device_id=UNIT)
         plc.faults.clear()
-        await asyncio.sleep(0.1)
         rr = await client.read_input_registers(0, count=2, device_id=UNIT)
         assert not rr.isError()
     finally:
@@ -228,7 +227,6 @@ async def test_rtu_pty_server_restarts_on_the_same_path(plc):
         with pytest.raises(ModbusException):
             await client.read_input_registers(0, count=2, device_id=UNIT)
         await plc.start_server()
-        await asyncio.sleep(0.05)
         rr = await client.read_input_registers(0, count=2, device_id=UNIT)
         assert not rr.isError()
     finally:
