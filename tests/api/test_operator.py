@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import pytest
 from fastapi.testclient import TestClient
 
@@ -11,6 +9,7 @@ from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
 from tests.api.conftest import AUTH, TOKEN, moving_for, wait_job, wait_job_until
+from tests.waiting import read_until
 
 
 @pytest.fixture(scope="module")
@@ -31,13 +30,13 @@ def test_operator_acts_wait_for_confirm_then_abort_ends_the_job(asking_client):
     assert "Return the carriage" in first["progress"]["message"]
     assert c.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
 
-    end = time.monotonic() + 10
-    while True:  # the confirm wakes the procedure, which then asks for the weight
-        second = c.get(f"/api/jobs/{job_id}", headers=AUTH).json()
-        if (second["operator_act"] or {}).get("name", "return_carriage") != "return_carriage":
-            break
-        assert time.monotonic() < end, second
-        time.sleep(0.02)
+    second = read_until(  # the confirm wakes the procedure, which then asks for the weight
+        lambda: c.get(f"/api/jobs/{job_id}", headers=AUTH).json(),
+        lambda job: (job["operator_act"] or {}).get("name", "return_carriage") != "return_carriage",
+        "the next operator act after the confirm",
+        timeout_s=10,
+        poll_s=0.02,
+    )
     assert second["state"] == "waiting_for_operator"
     assert second["operator_act"]["name"] == "hang_tow_weight"
     assert second["operator_act"]["value"] == pytest.approx(0.5)

@@ -29,6 +29,7 @@ from daq.sim.rig import SimulatedRigThread
 from daq.store import Store
 from tests.fault_proxies import SerialFaultProxy, TcpCutProxy
 from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -122,11 +123,12 @@ def _wait_for_thrust(
 ) -> None:
     """Until the host has put ``THRUST_TICKS`` frames asking for thrust on the line and
     ``thrust_on()`` (the controller's outputs, where the test can see them)."""
-    deadline = time.monotonic() + 30
-    while sum(_thrust(raw) for _, raw in list(line.from_host)) < THRUST_TICKS or not thrust_on():
+
+    def thrusting() -> bool:
         assert tow.poll() is None, tow.communicate()
-        assert time.monotonic() < deadline, "the thrust never went on"
-        time.sleep(0.01)
+        return sum(_thrust(raw) for _, raw in list(line.from_host)) >= THRUST_TICKS and thrust_on()
+
+    wait_until(thrusting, "the thrust on", timeout_s=30)
 
 
 def _finish(tow: subprocess.Popen) -> tuple[str, str]:

@@ -18,6 +18,7 @@ from daq.run_data import load_run_data
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION
 from tests.readings import good
+from tests.waiting import until, wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
 
@@ -129,11 +130,7 @@ async def _abort_leaves_the_thrusters_zero(session) -> None:
         session.rig,
     )
     task = asyncio.create_task(run_motion_test(session, params, abort=abort))
-    for _ in range(100):  # until the thrust is on
-        await asyncio.sleep(0.05)
-        if any(session.sim.thrusters.outputs):
-            break
-    assert any(session.sim.thrusters.outputs)
+    await until(lambda: any(session.sim.thrusters.outputs), "the thrust on", timeout_s=5)
     abort.set("operator abort (test)")
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
@@ -142,11 +139,7 @@ async def _abort_leaves_the_thrusters_zero(session) -> None:
 
 async def _thrust_on(session, params) -> asyncio.Task:
     task = asyncio.create_task(run_motion_test(session, params))
-    for _ in range(100):  # until the thrust is on
-        await asyncio.sleep(0.05)
-        if any(session.sim.thrusters.outputs):
-            break
-    assert any(session.sim.thrusters.outputs)
+    await until(lambda: any(session.sim.thrusters.outputs), "the thrust on", timeout_s=5)
     return task
 
 
@@ -169,7 +162,8 @@ async def _watchdog_trip_aborts_the_run(session, store) -> None:
     )
     task = await _thrust_on(session, params)
     emulator = session.sim.thrusters
-    time.sleep(emulator.watchdog_s + 0.2)  # blocks the host's loop: no heartbeats go out
+    # Block the host's loop (no heartbeats go out) until the controller's watchdog trips.
+    wait_until(lambda: emulator.state == "WDT", "the controller's watchdog tripping", timeout_s=5)
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     assert "watchdog tripped" in outcome.reason

@@ -92,11 +92,7 @@ async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(s
         session.rig,
     )
     task = asyncio.create_task(run_thrust_calibration(session, params))
-    for _ in range(200):  # until the thrust is on
-        await asyncio.sleep(0.05)
-        if any(session.sim.thrusters.outputs):
-            break
-    assert any(session.sim.thrusters.outputs)
+    await until(lambda: any(session.sim.thrusters.outputs), "the thrust on", timeout_s=10)
     await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
     try:
         outcome, calibration = await asyncio.wait_for(task, 10)
