@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import (
     BaseModel,
@@ -25,6 +25,9 @@ from thrusters.config import ThrusterPort
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_RIG_FILE = PACKAGE_ROOT / "fixtures" / "rigs" / "benbam.toml"
+
+#: A validated configuration model (the rig file, a simulation scenario).
+ConfigModel = TypeVar("ConfigModel", bound=BaseModel)
 
 RegisterKind = Literal["input", "holding", "coil", "discrete"]
 DataType = Literal["uint16", "int16", "uint32", "int32", "float32", "bool"]
@@ -349,27 +352,37 @@ def format_validation_error(source: str, err: ValidationError) -> str:
     return "\n".join(lines)
 
 
-def parse_rig(data: dict, source: str = "rig file") -> RigConfig:
-    """Validate a rig-file dictionary; raises RigConfigError naming each bad field."""
+def validate_config(model: type[ConfigModel], data: dict, source: str) -> ConfigModel:
+    """``data`` validated into ``model``; RigConfigError naming each bad field of ``source``."""
     try:
-        return RigConfig.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as err:
         raise RigConfigError(format_validation_error(source, err)) from None
+
+
+def read_toml_file(path: Path, what: str) -> dict[str, Any]:
+    """The tables of the TOML file at ``path``; RigConfigError naming the file and ``what``
+    it should be ("rig file") when it cannot be read, is not UTF-8 or not TOML."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise RigConfigError(f"{path}: cannot read {what} ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise RigConfigError(
+            f"{path}: not a {what}: not UTF-8 text ({err.reason} at byte {err.start})"
+        ) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise RigConfigError(f"{path}: not valid TOML: {err}") from None
+
+
+def parse_rig(data: dict, source: str = "rig file") -> RigConfig:
+    """Validate a rig-file dictionary; raises RigConfigError naming each bad field."""
+    return validate_config(RigConfig, data, source)
 
 
 def load_rig(path: str | Path | None = None) -> RigConfig:
     """Load and validate a rig file (default: the BENBAM rig of seed 000)."""
     p = Path(path) if path else DEFAULT_RIG_FILE
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as err:
-        raise RigConfigError(f"{p}: cannot read rig file ({err.strerror})") from None
-    except UnicodeDecodeError as err:
-        raise RigConfigError(
-            f"{p}: not a rig file: not UTF-8 text ({err.reason} at byte {err.start})"
-        ) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise RigConfigError(f"{p}: not valid TOML: {err}") from None
-    return parse_rig(data, str(p))
+    return parse_rig(read_toml_file(p, "rig file"), str(p))

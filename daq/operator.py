@@ -23,8 +23,8 @@ class OperatorAct:
     name: str
     instruction: str
     value: float | None = None
-    #: A reverse test's rigging: the tow line over the far-end pulley, the spin cord wound
-    #: the other way (``hang_tow_weight``/``hang_spin_weight``).
+    #: A reverse test's rigging: the carriage pushed to the far end (``return_carriage``), the
+    #: tow line over the far-end pulley, the spin cord wound the other way (the hang acts).
     reverse: bool = False
 
 

@@ -139,6 +139,10 @@ class RigSession:
         self._has_rig = False
         self.thrust = ThrustTarget()
         self.stale_zeroings = 0
+        #: Set at each of those zeroings (a thruster-driven run waits on it to end itself),
+        #: with the sample that caused the last one.
+        self.stale_zeroed = asyncio.Event()
+        self.stale_sample: Sample | None = None
         #: Metadata (operator, water temperature, notes, tags, …) every run recorded from
         #: now on gets; set by whoever starts a procedure (API job, CLI), checked on store.
         self.run_metadata: dict | None = None
@@ -327,6 +331,8 @@ class RigSession:
                 try:
                     if stale and self.thrusters.inhibited is None:
                         self.stale_zeroings += 1
+                        self.stale_sample = sample
+                        self.stale_zeroed.set()
                         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
                     # Stale sensors: zero at once (no ramp) and hold until data is good again.
                     await self.thrusters.zero_on_stale(stale, reason="sensor data stale or unread")

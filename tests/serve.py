@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import subprocess
-import time
+from collections.abc import Callable
 
 import httpx
+
+from tests.waiting import wait_until
 
 
 def wait_for_service(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
@@ -16,16 +18,26 @@ def wait_for_service(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
     first = proc.stdout.readline()
     assert first.startswith("rig service: http://127.0.0.1:"), first + proc.stdout.read()
     url = first.split()[2]
-    end = time.monotonic() + timeout_s
-    while True:
+    wait_healthy(proc, url, proc.stdout.read, timeout_s=timeout_s)
+    return url
+
+
+def wait_healthy(
+    proc: subprocess.Popen, url: str, output: Callable[[], str], timeout_s: float = 30.0
+) -> None:
+    """Until ``url``/api/health answers ok (uvicorn listens just after ``rig serve`` prints
+    its lines: there is no event to wait on). Fails with ``output()`` if the process exits."""
+
+    def healthy() -> bool:
         try:
             if httpx.get(url + "api/health", timeout=1).json()["ok"]:
-                return url
+                return True
         except httpx.HTTPError:
             pass
-        assert proc.poll() is None, f"rig serve exited: {proc.stdout.read()}"
-        assert time.monotonic() < end, "rig serve did not come up"
-        time.sleep(0.1)  # polling a server that is starting: there is no event to wait on
+        assert proc.poll() is None, f"rig serve exited: {output()}"
+        return False
+
+    wait_until(healthy, "rig serve answering /api/health", timeout_s=timeout_s, poll_s=0.1)
 
 
 def stop_service(proc: subprocess.Popen) -> None:

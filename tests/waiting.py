@@ -1,7 +1,8 @@
 """Waiting on a condition in tests: poll until it holds, fail naming what never happened.
 
-For state the test cannot subscribe to (a counter, a stat, a list another thread fills);
-returns as soon as the condition holds, so a loaded machine only makes it slower."""
+For state the test cannot subscribe to (a counter, a stat, a list another thread fills,
+a job read over HTTP); returns as soon as the condition holds, so a loaded machine only
+makes it slower. The only polling sleeps of the test suite live here."""
 
 from __future__ import annotations
 
@@ -9,28 +10,52 @@ import asyncio
 import inspect
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
+
+T = TypeVar("T")
 
 
 def wait_until(
-    condition: Callable[[], object], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
-) -> None:
-    """Block until ``condition()`` is true; AssertionError naming ``what`` after ``timeout_s``."""
+    condition: Callable[[], T], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
+) -> T:
+    """Block until ``condition()`` is truthy and return that value; AssertionError naming
+    ``what`` after ``timeout_s``. ``condition`` may assert to fail at once (a process
+    that exited, a job that ended first)."""
+    return read_until(condition, bool, what, timeout_s=timeout_s, poll_s=poll_s)
+
+
+def read_until(
+    read: Callable[[], T],
+    ready: Callable[[T], object],
+    what: str,
+    *,
+    timeout_s: float = 30.0,
+    poll_s: float = 0.01,
+) -> T:
+    """Block until ``ready(read())`` and return the value read; AssertionError naming
+    ``what`` and the last value read after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, f"{what}: not within {timeout_s:g} s"
+    while not ready(value := read()):
+        assert time.monotonic() < deadline, _never(what, timeout_s, value)
         time.sleep(poll_s)
+    return value
 
 
 async def until(
-    condition: Callable[[], object], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
-) -> None:
+    condition: Callable[[], Any], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
+) -> Any:
     """``wait_until`` for a test on the event loop: the loop keeps running while it waits.
-    ``condition`` may be a coroutine function (a read from a device)."""
+    ``condition`` may be a coroutine function (a read from a device, a command sent)."""
     deadline = time.monotonic() + timeout_s
-    while not await _value(condition()):
-        assert time.monotonic() < deadline, f"{what}: not within {timeout_s:g} s"
+    while not (value := await _value(condition())):
+        assert time.monotonic() < deadline, _never(what, timeout_s, value)
         await asyncio.sleep(poll_s)
+    return value
+
+
+def _never(what: str, timeout_s: float, last: object) -> str:
+    said = "" if last is None or isinstance(last, bool) else f" (last read: {last!r})"
+    return f"{what}: not within {timeout_s:g} s{said}"
 
 
 async def _value(result: object) -> object:

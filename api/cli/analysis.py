@@ -8,7 +8,15 @@ from pathlib import Path
 
 import click
 
-from api.cli.common import db_option, echo_json, fail, json_option, number, open_store
+from api.cli.common import (
+    db_option,
+    echo_json,
+    estimate_option,
+    fail,
+    json_option,
+    number,
+    open_store,
+)
 from api.core import analysis as analysis_common
 from api.core import sixdof as sixdof_common
 from daq.store import ResultNotFound
@@ -106,14 +114,7 @@ def _print(out: dict) -> None:
 
 @click.command("sensitivity")
 @click.argument("vehicle")
-@click.option(
-    "--estimate",
-    "estimates",
-    type=int,
-    multiple=True,
-    metavar="RESULT_ID",
-    help="Plug a stored estimation result in (repeatable, one per axis).",
-)
+@estimate_option("Plug a stored estimation result in (repeatable, one per axis).")
 @click.option(
     "--response",
     "responses",

@@ -49,6 +49,20 @@ scenario_option = click.option(
 )
 
 
+def report_option(help: str) -> Callable[[Any], Any]:
+    """``--report`` (into ``report_dir``): a folder to write the command's report to;
+    ``help`` says what goes in it. Create it first with :func:`report_folder`."""
+    return click.option("--report", "report_dir", type=click.Path(file_okay=False), help=help)
+
+
+def estimate_option(help: str) -> Callable[[Any], Any]:
+    """``--estimate RESULT_ID`` (repeatable, into ``estimates``): stored estimation results
+    to plug into a vehicle; ``help`` says which."""
+    return click.option(
+        "--estimate", "estimates", type=int, multiple=True, metavar="RESULT_ID", help=help
+    )
+
+
 def fail(message: str, code: int = 2) -> None:
     """Print ``error: message`` on stderr, on one line (several problems are joined by
     ``;``), and exit (2 = bad input, 1 = failure)."""

@@ -13,6 +13,7 @@ from api.cli.common import (
     open_store,
     plus_minus,
     report_folder,
+    report_option,
     user_errors,
 )
 from api.core.crosscheck_job import crosscheck_results, crosscheck_runs
@@ -39,12 +40,7 @@ from estimation.axis.crosscheck import LABELS
     help="Compare two stored estimation results instead (no fitting).",
 )
 @click.option("--no-effects", is_flag=True, help="Estimate the base model only (with --weight).")
-@click.option(
-    "--report",
-    "report_dir",
-    type=click.Path(file_okay=False),
-    help="Write report.md and the figure crosscheck.png/.svg here.",
-)
+@report_option("Write report.md and the figure crosscheck.png/.svg here.")
 @db_option
 @json_option
 def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_url, as_json):

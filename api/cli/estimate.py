@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import click
 
 from api.cli.common import (
@@ -12,6 +15,7 @@ from api.cli.common import (
     open_store,
     plus_minus,
     report_folder,
+    report_option,
     user_errors,
 )
 from api.core.estimation_job import run_estimation
@@ -19,6 +23,20 @@ from estimation import METHODS
 from estimation.pendulum.estimate import PENDULUM_METHODS
 
 ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
+#: How the summary words one item of each list a result may carry.
+_FINDING_LINES: dict[str, Callable[[Any], str]] = {
+    "effects": lambda eff: f"effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}",
+    "ambiguous": lambda group: f"ambiguous: {' / '.join(group)}",
+    "warnings": lambda warning: f"warning: {warning}",
+    "advice": lambda advice: f"advice: {advice}",
+}
+
+
+def _echo_findings(data: dict, lists: tuple[str, ...]) -> None:
+    """One indented line per item of the result's ``lists`` (effects, warnings, …), in order."""
+    for key in lists:
+        for item in data.get(key, []):
+            click.echo(f"  {_FINDING_LINES[key](item)}")
 
 
 @click.command("estimate")
@@ -37,12 +55,7 @@ ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
     is_flag=True,
     help="Fit the base model only; skip the search for missing effects.",
 )
-@click.option(
-    "--report",
-    "report_dir",
-    type=click.Path(file_okay=False),
-    help="Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.",
-)
+@report_option("Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.")
 @db_option
 @json_option
 def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
@@ -85,12 +98,7 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
             strict=True,
         ):
             click.echo(f"  {label:<28} {plus_minus(data['coefficients'][name])} {unit}")
-        for eff in data.get("effects", []):
-            click.echo(f"  effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}")
-        for group in data.get("ambiguous", []):
-            click.echo(f"  ambiguous: {' / '.join(group)}")
-        for warning in data.get("warnings", []):
-            click.echo(f"  warning: {warning}")
+        _echo_findings(data, ("effects", "ambiguous", "warnings"))
         click.echo(
             f"  RMSE before {data['rmse_before']:.3g} {u[3]}, after {data['rmse_after']:.3g} {u[3]}"
         )
@@ -123,11 +131,6 @@ def _echo_pendulum(data: dict) -> None:
             f"  {m['method']:<22} {m['run_id'][:8]:<10} {plus_minus(m['added_mass']):<22} "
             f"{plus_minus(m['linear_damping']):<22} {e}"
         )
-    for eff in data.get("effects", []):
-        click.echo(f"  effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}")
-    for warning in data.get("warnings", []):
-        click.echo(f"  warning: {warning}")
-    for advice in data.get("advice", []):
-        click.echo(f"  advice: {advice}")
+    _echo_findings(data, ("effects", "warnings", "advice"))
     click.echo(f"  RMSE before {data['rmse_before']:.3g} rad, after {data['rmse_after']:.3g} rad")
     click.echo(f"  stored as result #{data['result_id']}")

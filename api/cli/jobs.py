@@ -3,12 +3,16 @@ a running ``rig serve`` changes its queue over HTTP, see docs/api.md)."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from api.cli.common import db_option, echo_json, json_option, open_store
 from daq.store.schema import JobState
+
+if TYPE_CHECKING:  # imported where used: `rig --help` stays light
+    from daq.store.jobs import JobRepository
 
 
 def _when(unix_s: float | None) -> str:
@@ -43,6 +47,30 @@ def _table(rows: list[dict[str, Any]], first: str) -> None:
     Console().print(table)
 
 
+def _show_jobs(
+    db_url: str | None,
+    read: Callable[[JobRepository], list[dict[str, Any]]],
+    first: str,
+    empty: str,
+    as_json: bool,
+) -> None:
+    """Print the job rows ``read`` takes from the database: JSON, or a table whose first
+    column is ``first`` (``empty`` on stderr when there are none)."""
+    from daq.store.jobs import JobRepository
+
+    store = open_store(db_url)
+    try:
+        rows = read(JobRepository(store))
+        if as_json:
+            echo_json([_as_json(r) for r in rows])
+            return
+        _table(rows, first)
+        if not rows:
+            click.echo(empty, err=True)
+    finally:
+        store.close()
+
+
 @click.command("jobs")
 @click.option("--state", type=click.Choice([s.value for s in JobState]), help="Only this state.")
 @click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
@@ -50,19 +78,13 @@ def _table(rows: list[dict[str, Any]], first: str) -> None:
 @json_option
 def jobs(state, limit, db_url, as_json):
     """List jobs stored in the database (every service's, across restarts), newest first."""
-    from daq.store.jobs import JobRepository
-
-    store = open_store(db_url)
-    try:
-        rows = JobRepository(store).list_jobs(None, state=state, limit=limit)
-        if as_json:
-            echo_json([_as_json(r) for r in rows])
-            return
-        _table(rows, "kind")
-        if not rows:
-            click.echo("no jobs stored yet: start one with `rig serve` and the API", err=True)
-    finally:
-        store.close()
+    _show_jobs(
+        db_url,
+        lambda repo: repo.list_jobs(None, state=state, limit=limit),
+        "kind",
+        "no jobs stored yet: start one with `rig serve` and the API",
+        as_json,
+    )
 
 
 @click.command("queue")
@@ -72,16 +94,4 @@ def queue(db_url, as_json):
     """Show the rigs' queues: procedure jobs waiting for the rig, in the order they run.
 
     Reorder, remove, pause and resume through the running service's API (/api/queue)."""
-    from daq.store.jobs import JobRepository
-
-    store = open_store(db_url)
-    try:
-        rows = JobRepository(store).queued(None)
-        if as_json:
-            echo_json([_as_json(r) for r in rows])
-            return
-        _table(rows, "#")
-        if not rows:
-            click.echo("the queue is empty", err=True)
-    finally:
-        store.close()
+    _show_jobs(db_url, lambda repo: repo.queued(None), "#", "the queue is empty", as_json)

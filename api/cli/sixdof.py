@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from api.cli.common import db_option, echo_json, fail, json_option, open_store
+from api.cli.common import db_option, echo_json, estimate_option, fail, json_option, open_store
 from api.core import sixdof as sixdof_common
 from daq.store import ResultNotFound
 
@@ -27,14 +27,7 @@ def _numbers(text: str | None, option: str) -> list[float] | None:
 @click.option("--duration", "duration_s", type=float, default=30.0, show_default=True,
               help="Simulated time, s.")  # fmt: skip
 @click.option("--dt", type=float, default=0.01, show_default=True, help="Output step, s.")
-@click.option(
-    "--estimate",
-    "estimates",
-    type=int,
-    multiple=True,
-    metavar="RESULT_ID",
-    help="Plug a stored surge/yaw estimation result in (repeatable).",
-)
+@estimate_option("Plug a stored surge/yaw estimation result in (repeatable).")
 @db_option
 @json_option
 def sixdof(vehicle, commands, force, duration_s, dt, estimates, db_url, as_json):

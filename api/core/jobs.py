@@ -22,12 +22,14 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import dataclasses
 import logging
 import shutil
 import tempfile
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +42,7 @@ from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
 from daq.session import Aborted, RigBusy
+from daq.store import Store
 from daq.store.faults import one_line
 from daq.store.jobs import JobRepository
 from daq.store.schema import JOB_ACTIVE, JOB_FINAL, JobState
@@ -473,7 +476,7 @@ class JobRunner:
         self._update(
             job,
             state="waiting_for_operator",
-            operator_act={"name": act.name, "instruction": act.instruction, "value": act.value},
+            operator_act=dataclasses.asdict(act),
             message=act.instruction,
         )
         confirm = asyncio.ensure_future(job.confirm.wait())
@@ -513,19 +516,22 @@ class JobRunner:
         return job
 
     def pause(self, job_id: str) -> Job:
-        job = self._sequence(job_id)
-        job.pause_requested = True
-        if job.control is not None:
-            self.service.call_soon(job.control.pause)
+        job = self._request_pause(job_id, True)
         self._update(job, message="pausing after the current step")
         return job
 
     def resume(self, job_id: str) -> Job:
-        job = self._sequence(job_id)
-        job.pause_requested = False
-        if job.control is not None:
-            self.service.call_soon(job.control.resume)
+        job = self._request_pause(job_id, False)
         self._update(job, state="running" if job.state == "paused" else job.state)
+        return job
+
+    def _request_pause(self, job_id: str, paused: bool) -> Job:
+        """Record that the sequence ``job_id`` should be ``paused`` (or go on) and tell its
+        control on the rig loop, if it is running there yet."""
+        job = self._sequence(job_id)
+        job.pause_requested = paused
+        if job.control is not None:
+            self.service.call_soon(job.control.pause if paused else job.control.resume)
         return job
 
     def confirm(self, job_id: str) -> Job:
@@ -575,31 +581,44 @@ class JobRunner:
     ) -> None:
         from api.core.estimation_job import run_estimation
 
-        assert self.service.store is not None
-        self._update(job, state="running", started_at=time.time(), message="fitting")
-        report_dir = self.report_root / f"job-{job.id}"
-        try:
+        def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
             data = run_estimation(
-                self.service.store,
-                run_ids,
-                method=method,
-                search_effects=search_effects,
-                report_dir=report_dir,
+                store, run_ids, method=method, search_effects=search_effects, report_dir=report_dir
             )
             result_id = data.get("result_id")
             if result_id is not None:
                 self.adopt_report(result_id, report_dir)
+            return data, result_id, "estimation done"
+
+        self._run_in_worker(job, "estimation", "fitting", fit)
+
+    def _run_in_worker(
+        self,
+        job: Job,
+        what: str,
+        message: str,
+        fit: Callable[[Store, Path], tuple[dict[str, Any], int | None, str]],
+    ) -> None:
+        """Run ``fit(store, report_dir)`` as ``job`` (in the estimation worker): ``running``
+        with ``message``, then ``completed`` with the outcome, result id and message ``fit``
+        returns, or ``failed`` with the error (logged unless it is bad input). The report
+        folder goes and the finish time is stored either way."""
+        assert self.service.store is not None
+        self._update(job, state="running", started_at=time.time(), message=message)
+        report_dir = self.report_root / f"job-{job.id}"
+        try:
+            data, result_id, done = fit(self.service.store, report_dir)
             self._update(
                 job,
                 state="completed",
                 fraction=1.0,
                 outcome=data,
                 result_id=result_id,
-                message="estimation done",
+                message=done,
             )
         except Exception as err:
             if not isinstance(err, ValueError | KeyError):
-                log.exception("estimation job %s failed", job.id)
+                log.exception("%s job %s failed", what, job.id)
             self._update(job, state="failed", message=f"error: {err}", error=str(err))
         finally:
             shutil.rmtree(report_dir, ignore_errors=True)
@@ -626,30 +645,15 @@ class JobRunner:
     def _run_crosscheck(self, job: Job, params: dict[str, Any]) -> None:
         from api.core.crosscheck_job import crosscheck_runs
 
-        assert self.service.store is not None
-        self._update(job, state="running", started_at=time.time(), message="fitting both sets")
-        report_dir = self.report_root / f"job-{job.id}"
-        try:
-            data = crosscheck_runs(self.service.store, **params, report_dir=report_dir)
+        def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
+            data = crosscheck_runs(store, **params, report_dir=report_dir)
             self.adopt_report(data["result_id"], report_dir)
             sides = (("weight_estimation", "weight"), ("thruster_estimation", "thrusters"))
             for key, side in sides:
                 self.adopt_report(data[key]["result_id"], report_dir / side)
-            self._update(
-                job,
-                state="completed",
-                fraction=1.0,
-                outcome=data,
-                result_id=data["result_id"],
-                message=f"cross-check done: {data['verdict']}",
-            )
-        except Exception as err:
-            if not isinstance(err, ValueError | KeyError):
-                log.exception("cross-check job %s failed", job.id)
-            self._update(job, state="failed", message=f"error: {err}", error=str(err))
-        finally:
-            shutil.rmtree(report_dir, ignore_errors=True)
-            self._update(job, finished_at=time.time())
+            return data, data["result_id"], f"cross-check done: {data['verdict']}"
+
+        self._run_in_worker(job, "cross-check", "fitting both sets", fit)
 
     # -- report files (in the database) ------------------------------------------------------
     def adopt_report(self, result_id: int, folder: Path) -> list[str]:

@@ -51,6 +51,13 @@ def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
     return {code: {"model": ErrorBody, "description": text[code]} for code in codes}
 
 
+def csv_upload_body(description: str) -> dict[str, Any]:
+    """OpenAPI declaration (``openapi_extra``) of a route whose body is a raw CSV upload,
+    read from the request stream rather than parsed by FastAPI."""
+    content = {"text/csv": {"schema": {"type": "string"}}}
+    return {"requestBody": {"required": True, "content": content, "description": description}}
+
+
 # ---- procedures -------------------------------------------------------------------------
 class SequenceStep(BaseModel):
     model_config = ConfigDict(extra="allow")
@@ -118,6 +125,11 @@ class OperatorActOut(BaseModel):
     name: str
     instruction: str
     value: float | None = None
+    reverse: bool = Field(
+        False,
+        description="A reverse test's rigging: the tow line over the far-end pulley, or the "
+        "spin cord wound the other way round the drum.",
+    )
 
 
 class JobOut(BaseModel):

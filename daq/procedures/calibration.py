@@ -83,16 +83,13 @@ async def run_thrust_calibration(
                     sweep_sign = (command > previous) - (command < previous)
                     direction = {1: "up", -1: "down", 0: "hold"}[sweep_sign]
                     previous = command
-                    session.set_thrust([command] * n)
                     report(
                         Progress(
                             0.05 + 0.9 * i / len(sweep),
                             f"step {i + 1}/{len(sweep)}: command {command:+.2f}",
                         )
                     )
-                    await _until_confirmed(rec, session, [command] * n)
-                    await rec.record_for(params.settle_s)
-                    got = await _collect(rec, params.samples_per_step)
+                    got = await _measure_step(rec, session, params, i, [command] * n)
                     thrust, thrust_std = _mean_std([s.channels["load_cell"] - tare for s in got])
                     volts = (  # None: the rig has no supply-voltage channel
                         _mean_std([s.channels["supply_voltage"] for s in got])[0]
@@ -146,17 +143,77 @@ async def run_thrust_calibration(
 CONFIRM_TOLERANCE = 0.0011
 #: Longest wait for the controller to confirm a step, s (the slew takes < 1 s per step).
 CONFIRM_TIMEOUT_S = 10.0
+#: Tries of one step when stale sensor data zeroes the thrusters during it.
+STEP_ATTEMPTS = 3
 
 
-async def _until_confirmed(rec: RecordedRun, session: RigSession, target: list[float]) -> None:
+class _ZeroedForSafety(Exception):
+    """Stale or unread sensor data zeroed the thrusters during this step (session policy)."""
+
+
+async def _measure_step(
+    rec: RecordedRun,
+    session: RigSession,
+    params: CalibrationParameters,
+    step: int,
+    target: list[float],
+) -> list:
+    """Apply ``target``, wait for it to be confirmed and settle, and collect the step's
+    samples. Stale sensor data zeroes the thrusters (``RigSession._supervise_thrusters``):
+    samples spanning that are not this step's thrust, so the step is tried again once the
+    data is good, up to ``STEP_ATTEMPTS`` times, each zeroing stored as a ``fault`` event."""
+    for attempt in range(1, STEP_ATTEMPTS + 1):
+        await _until_data_good(rec, session)
+        zeroings = session.stale_zeroings
+        session.set_thrust(target)
+        try:
+            await _until_confirmed(rec, session, target, zeroings)
+            await rec.record_for(params.settle_s)
+            got = await _collect(rec, params.samples_per_step)
+            if session.stale_zeroings != zeroings:
+                raise _ZeroedForSafety
+            return got
+        except _ZeroedForSafety:
+            await rec.event(
+                "fault",
+                f"step {step}: sensor data stale or unread, the thrusters were zeroed for "
+                f"safety (try {attempt} of {STEP_ATTEMPTS}); its samples are not used",
+                step=step,
+                attempt=attempt,
+            )
+    raise RuntimeError(
+        f"step {step} (command {target}): sensor data went stale during each of "
+        f"{STEP_ATTEMPTS} tries and the thrusters were zeroed for safety each time; check "
+        "the PLC link and the host's load, then calibrate again"
+    )
+
+
+async def _until_data_good(rec: RecordedRun, session: RigSession) -> None:
+    """Record until the thrusters are no longer held at zero for stale sensor data."""
+    deadline = time.monotonic() + CONFIRM_TIMEOUT_S
+    while session.live_thrusters.inhibited is not None:
+        if time.monotonic() > deadline:
+            raise RuntimeError(
+                f"sensor data stayed stale or unread for {CONFIRM_TIMEOUT_S:g} s: the "
+                "thrusters are held at zero"
+            )
+        await rec.record_for(0.05)
+
+
+async def _until_confirmed(
+    rec: RecordedRun, session: RigSession, target: list[float], zeroings: int
+) -> None:
     """Record until the controller confirms ``target``: the settling time counts from the
     thrust actually applied, not from the request, even when a loaded host sends the ramp
-    late. A step never confirmed is a fault of the run (the calibration would be wrong)."""
+    late. A step never confirmed is a fault of the run (the calibration would be wrong);
+    one zeroed for stale data (``zeroings`` changed) raises ``_ZeroedForSafety``."""
     thrusters = session.live_thrusters
     deadline = time.monotonic() + CONFIRM_TIMEOUT_S
     while any(
         abs(a - b) > CONFIRM_TOLERANCE for a, b in zip(thrusters.confirmed, target, strict=True)
     ):
+        if session.stale_zeroings != zeroings:
+            raise _ZeroedForSafety
         if time.monotonic() > deadline:
             raise RuntimeError(
                 f"thrusters did not confirm command {target} within {CONFIRM_TIMEOUT_S:g} s "

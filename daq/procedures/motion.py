@@ -8,7 +8,6 @@ until end of travel / distance / angle / timeout, brake, and mark the run.
 from __future__ import annotations
 
 import logging
-import time
 
 from daq.operator import OperatorAct
 from daq.procedures.params import Progress, SpinParameters, TowParameters
@@ -21,6 +20,7 @@ from daq.procedures.steps import (
     baseline_then_release,
     check_ready,
     check_room,
+    engage_and_log_stop,
     follow_motion,
     return_act,
     run_outcome,
@@ -60,7 +60,6 @@ async def run_motion_test(
         await op.perform(_hang_act(axis, mass, params.reverse))
         start = await check_ready(session, axis, abort)
         check_room(params, start)
-        limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
         rec = RecordedRun(
             session, kind=axis.kind, parameters=params.to_json(), abort=abort, progress=report
         )
@@ -69,17 +68,9 @@ async def run_motion_test(
                 "operator", f"{axis.weight_act.replace('_', ' ')}: {mass:.3f} kg", hung_mass_kg=mass
             )
             await baseline_then_release(session, rec, params.baseline_s, axis.release, report)
-            stop, sample, t_last_free = await follow_motion(
-                rec, axis, start, limit, params.max_time_s, report
-            )
-            await session.live_plc.write(axis.release, False)
-            await rec.event(
-                "limit",
-                f"{stop}: brake engaged",
-                action=RunAction.BRAKE,
-                seq=sample.seq,
-                t_mono=time.monotonic(),
-                t_last_free=t_last_free,
+            stop, sample, t_last_free = await follow_motion(rec, axis, start, params, report)
+            await engage_and_log_stop(
+                rec, axis.release, f"{stop}: brake engaged", RunAction.BRAKE, sample, t_last_free
             )
             # A short tail after the brake shows the stop in the data.
             await rec.record_for(0.3)

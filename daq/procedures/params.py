@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from daq.vocabulary import RunKind
 
@@ -121,13 +121,43 @@ class _Checker:
             raise ParameterError(self.problems)
 
 
+class _SignedLoad:
+    """What a tow's and a spin's parameters share: a signed load (its sign is the test's
+    direction) from a hung weight or from the thrusters, and the request it rounded."""
+
+    hung_mass_kg: float | None
+    requested: dict[str, float] | None
+    #: The load's unit, for the operator's note.
+    load_unit: ClassVar[str]
+
+    @property
+    def load(self) -> float:
+        """The signed load: the tow's force (N) or the spin's torque (N·m)."""
+        raise NotImplementedError
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)  # type: ignore[call-overload]  # subclasses are dataclasses
+
+    def adjustment(self) -> str | None:
+        """The sentence telling the operator the requested load was rounded, if it was."""
+        return _adjustment(self.requested, self.hung_mass_kg, f"{self.load:.5g} {self.load_unit}")
+
+    @property
+    def reverse(self) -> bool:
+        """A reverse test (negative load): a tow from the far end back toward the start, a
+        spin with the cord wound the other way round the drum."""
+        return self.load < 0
+
+
 @dataclass(frozen=True)
-class TowParameters:
+class TowParameters(_SignedLoad):
     """A tow test: constant force from a weight over the pulley, or from the thrusters.
 
     A negative ``force_n`` is a reverse tow: the carriage starts at the far end
     (``Geometry.reverse_start``) and is pulled back, by a weight over the far-end pulley or
     by the thrusters; ``hung_mass_kg`` is the weight hung (positive) either way."""
+
+    load_unit: ClassVar[str] = "N"
 
     force_n: float
     hung_mass_kg: float | None
@@ -139,25 +169,19 @@ class TowParameters:
     #: What was asked for when the hung weight (to the gram) changed it, e.g. {"force_n": 10}.
     requested: dict[str, float] | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        return asdict(self)
-
-    def adjustment(self) -> str | None:
-        """The sentence telling the operator the requested load was rounded, if it was."""
-        return _adjustment(self.requested, self.hung_mass_kg, f"{self.force_n:.5g} N")
-
     @property
-    def reverse(self) -> bool:
-        """A reverse tow (negative force): from the far end back toward the start."""
-        return self.force_n < 0
+    def load(self) -> float:
+        return self.force_n
 
 
 @dataclass(frozen=True)
-class SpinParameters:
+class SpinParameters(_SignedLoad):
     """A spin test: constant torque from a weight on the drum, or from the thrusters.
 
     A negative ``torque_nm`` is a reverse spin: the cord wound the other way round the drum
     (or the thrusters turning the other way); ``hung_mass_kg`` stays positive."""
+
+    load_unit: ClassVar[str] = "N·m"
 
     torque_nm: float
     hung_mass_kg: float | None
@@ -169,17 +193,9 @@ class SpinParameters:
     #: What was asked for when the hung weight (to the gram) changed it, e.g. {"torque_nm": 0.9}.
     requested: dict[str, float] | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        return asdict(self)
-
-    def adjustment(self) -> str | None:
-        """The sentence telling the operator the requested load was rounded, if it was."""
-        return _adjustment(self.requested, self.hung_mass_kg, f"{self.torque_nm:.5g} N·m")
-
     @property
-    def reverse(self) -> bool:
-        """A reverse spin (negative torque): the cord wound the other way round the drum."""
-        return self.torque_nm < 0
+    def load(self) -> float:
+        return self.torque_nm
 
 
 @dataclass(frozen=True)
@@ -246,42 +262,98 @@ def _hung_mass(c: _Checker, name: str, mass_kg: float | None) -> float:
     return round(rounded, 6)
 
 
+def _drive_and_load(
+    c: _Checker,
+    *,
+    test: str,
+    name: str,
+    unit: str,
+    high: float,
+    why_high: str,
+    g: float,
+    radius_m: float,
+    why_weight_high: str,
+) -> tuple[Any, float | None, float | None]:
+    """A tow's or spin's ``drive`` (weight|thrusters) and its signed load, given as ``name``
+    (up to ``high`` ``unit``) or as ``weight_kg`` (one kg hung gives ``g · radius_m``; a
+    tow's radius is 1), not both; a thruster-driven test takes ``name``."""
+    drive = c.raw.get("drive", c.default("drive"))
+    if drive not in ("weight", "thrusters"):
+        c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
+    load = c.number(name, low=0, high=high, unit=unit, why_high=why_high, signed=True)
+    weight = c.number(
+        "weight_kg",
+        low=0,
+        high=high / (g * radius_m),
+        unit="kg",
+        why_high=why_weight_high,
+        signed=True,
+    )
+    given_weight = c.raw.get("weight_kg")
+    if c.raw.get(name) is None and given_weight is None:
+        c.problems.append((name, None, f"give {name} ({unit}) or weight_kg (kg)"))
+    elif c.raw.get(name) is not None and given_weight is not None:
+        c.problems.append(("weight_kg", given_weight, f"give {name} or weight_kg, not both"))
+    elif drive == "thrusters" and given_weight is not None:
+        c.problems.append(("weight_kg", given_weight, f"a thruster-driven {test} takes {name}"))
+    return drive, load, weight
+
+
+def _applied_load(
+    c: _Checker,
+    drive: str,
+    name: str,
+    load: float | None,
+    weight: float | None,
+    g: float,
+    radius_m: float,
+) -> tuple[float, float | None, dict[str, float] | None]:
+    """The signed load the test applies, the weight hung (to the gram; ``None`` when the
+    thrusters drive) and what was asked for if that weight changed it: a hung weight
+    gives ``weight · g · radius_m``, the thrusters the load asked for."""
+    if drive != "weight":
+        assert load is not None
+        return load, None, None
+    asked = (name, load) if load is not None else ("weight_kg", weight)
+    signed_kg = load / (g * radius_m) if load is not None else weight
+    assert signed_kg is not None
+    hung = _hung_mass(c, asked[0], signed_kg)
+    applied = math.copysign(hung * g * radius_m, signed_kg)
+    requested = _requested(*asked, applied if asked[0] == name else math.copysign(hung, signed_kg))
+    return applied, hung, requested
+
+
+def _max_time(c: _Checker, rig: RigConfig, why_high: str = "") -> float | None:
+    """``max_time_s`` up to the rig's ``max_run_s`` (default 120 s or that limit)."""
+    high = rig.limits.max_run_s
+    return c.number(
+        "max_time_s", low=0, high=high, unit="s", default=min(120.0, high), why_high=why_high
+    )
+
+
+def _baseline(c: _Checker) -> float | None:
+    """``baseline_s``: the at-rest recording before the release, 0 … 30 s."""
+    return c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
+
+
 def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     """Validate a tow request: ``force_n`` or ``weight_kg``; ``drive`` weight|thrusters."""
     from daq.procedures.requests import TowRequest
 
     c = _Checker(raw, TowRequest)
     g = rig.rig.g
-    lim = rig.limits
-    drive = raw.get("drive", c.default("drive"))
-    if drive not in ("weight", "thrusters"):
-        c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
-    force = c.number(
-        "force_n",
-        low=0,
-        high=lim.max_force_n,
+    max_force = rig.limits.max_force_n
+    drive, force, weight = _drive_and_load(
+        c,
+        test="tow",
+        name="force_n",
         unit="N",
+        high=max_force,
         why_high=", rig limit max_force_n",
-        signed=True,
+        g=g,
+        radius_m=1.0,
+        why_weight_high=f", max_force_n / g = {max_force:g} N / {g:g}",
     )
-    weight = c.number(
-        "weight_kg",
-        low=0,
-        high=lim.max_force_n / g,
-        unit="kg",
-        why_high=f", max_force_n / g = {lim.max_force_n:g} N / {g:g}",
-        signed=True,
-    )
-    if raw.get("force_n") is None and raw.get("weight_kg") is None:
-        c.problems.append(("force_n", None, "give force_n (N) or weight_kg (kg)"))
-    elif raw.get("force_n") is not None and raw.get("weight_kg") is not None:
-        c.problems.append(
-            ("weight_kg", raw.get("weight_kg"), "give force_n or weight_kg, not both")
-        )
-    elif drive == "thrusters" and raw.get("weight_kg") is not None:
-        c.problems.append(
-            ("weight_kg", raw.get("weight_kg"), "a thruster-driven tow takes force_n")
-        )
     load = force if force is not None else weight
     if load is not None and load < 0:  # from the far end back toward the start
         room = rig.geometry.reverse_travel
@@ -289,30 +361,18 @@ def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowParameters:
     else:
         room, why = rig.geometry.end_of_travel_m, ", end_of_travel_m"
     dist = c.number("max_distance_m", low=0, high=room, unit="m", default=room, why_high=why)
-    tmax = c.number(
-        "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
-    )
-    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
+    tmax = _max_time(c, rig)
+    base = _baseline(c)
     c.fail_if_problems()
-    requested = None
-    if drive == "weight":
-        asked = ("force_n", force) if force is not None else ("weight_kg", weight)
-        signed_kg = force / g if force is not None else weight
-        assert signed_kg is not None
-        weight = _hung_mass(c, asked[0], signed_kg)
-        force = math.copysign(weight * g, signed_kg)  # what the hung weight really pulls
-        requested = _requested(
-            *asked, force if asked[0] == "force_n" else math.copysign(weight, signed_kg)
-        )
-    assert force is not None
+    force, hung, requested = _applied_load(c, drive, "force_n", force, weight, g, 1.0)
     assert dist is not None and tmax is not None and base is not None
     return TowParameters(
         force_n=force,
-        hung_mass_kg=weight if drive == "weight" else None,
+        hung_mass_kg=hung,
         max_distance_m=dist,
         max_time_s=tmax,
         baseline_s=base,
-        drive=drive,  # type: ignore[arg-type]
+        drive=drive,
         requested=requested,
     )
 
@@ -325,37 +385,17 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
     # A rig without a drum radius or torque limit cannot spin (``KindSpec.check`` refuses
     # first, naming what is missing); nan keeps a direct call from crashing here.
     g, r = rig.rig.g, rig.geometry.spin_drum_radius_m or math.nan
-    lim = rig.limits
-    max_torque = lim.max_torque_nm or math.nan
-    drive = raw.get("drive", c.default("drive"))
-    if drive not in ("weight", "thrusters"):
-        c.problems.append(("drive", drive, "allowed 'weight' or 'thrusters'"))
-    torque = c.number(
-        "torque_nm",
-        low=0,
-        high=max_torque,
+    drive, torque, weight = _drive_and_load(
+        c,
+        test="spin",
+        name="torque_nm",
         unit="N·m",
+        high=rig.limits.max_torque_nm or math.nan,
         why_high=", rig limit max_torque_nm",
-        signed=True,
+        g=g,
+        radius_m=r,
+        why_weight_high=", max_torque_nm / (g · drum radius)",
     )
-    weight = c.number(
-        "weight_kg",
-        low=0,
-        high=max_torque / (g * r),
-        unit="kg",
-        why_high=", max_torque_nm / (g · drum radius)",
-        signed=True,
-    )
-    if raw.get("torque_nm") is None and raw.get("weight_kg") is None:
-        c.problems.append(("torque_nm", None, "give torque_nm (N·m) or weight_kg (kg)"))
-    elif raw.get("torque_nm") is not None and raw.get("weight_kg") is not None:
-        c.problems.append(
-            ("weight_kg", raw.get("weight_kg"), "give torque_nm or weight_kg, not both")
-        )
-    elif drive == "thrusters" and raw.get("weight_kg") is not None:
-        c.problems.append(
-            ("weight_kg", raw.get("weight_kg"), "a thruster-driven spin takes torque_nm")
-        )
     amax = rig.geometry.spin_max_angle_rad
     angle = c.number(
         "max_angle_rad",
@@ -365,27 +405,15 @@ def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinParameters:
         default=amax,
         why_high=", spin_max_angle_rad",
     )
-    tmax = c.number(
-        "max_time_s", low=0, high=lim.max_run_s, unit="s", default=min(120.0, lim.max_run_s)
-    )
-    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
+    tmax = _max_time(c, rig)
+    base = _baseline(c)
     c.fail_if_problems()
-    requested = None
-    if drive == "weight":
-        asked = ("torque_nm", torque) if torque is not None else ("weight_kg", weight)
-        signed_kg = torque / (g * r) if torque is not None else weight
-        assert signed_kg is not None
-        weight = _hung_mass(c, asked[0], signed_kg)
-        torque = math.copysign(weight * g * r, signed_kg)  # what the weight really gives
-        requested = _requested(
-            *asked, torque if asked[0] == "torque_nm" else math.copysign(weight, signed_kg)
-        )
-    assert torque is not None
+    torque, hung, requested = _applied_load(c, drive, "torque_nm", torque, weight, g, r)
     assert angle is not None and tmax is not None and base is not None
     return SpinParameters(
         torque_nm=torque,
-        hung_mass_kg=weight if drive == "weight" else None,
-        drive=drive,  # type: ignore[arg-type]
+        hung_mass_kg=hung,
+        drive=drive,
         max_angle_rad=angle,
         max_time_s=tmax,
         baseline_s=base,
@@ -480,14 +508,7 @@ def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumParamete
         required=True,
         why_high=", the rig's pendulum max_angle_rad",
     )
-    tmax = c.number(
-        "max_time_s",
-        low=0,
-        high=rig.limits.max_run_s,
-        unit="s",
-        default=min(120.0, rig.limits.max_run_s),
-        why_high=", rig limit max_run_s",
-    )
+    tmax = _max_time(c, rig, ", rig limit max_run_s")
     stop = c.number(
         "stop_amplitude_rad",
         low=0,
@@ -495,7 +516,7 @@ def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumParamete
         unit="rad",
         why_high=", start_angle_rad",
     )
-    base = c.number("baseline_s", low=0, high=30, unit="s", low_inclusive=True)
+    base = _baseline(c)
     c.fail_if_problems()
     assert angle is not None and tmax is not None and stop is not None and base is not None
     if stop >= angle:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import time
 from collections import deque
 
 from daq.operator import OperatorAct
@@ -25,6 +24,7 @@ from daq.procedures.steps import (
     _Axis,
     baseline_then_release,
     check_ready,
+    engage_and_log_stop,
     run_outcome,
 )
 from daq.sample import Quality, Sample
@@ -129,16 +129,10 @@ async def run_pendulum_decay(
                     session, rec, params.baseline_s, PENDULUM.release, report, "latch released"
                 )
                 stop, last = await _follow_decay(rec, params, held, report)
-                await session.live_plc.write(PENDULUM.release, False)
-                caught = True
-                await rec.event(
-                    "limit",
-                    f"{stop}: pendulum caught",
-                    action=RunAction.CATCH,
-                    seq=last.seq,
-                    t_mono=time.monotonic(),
-                    t_last_free=last.t_mono,
+                await engage_and_log_stop(
+                    rec, PENDULUM.release, f"{stop}: pendulum caught", RunAction.CATCH, last
                 )
+                caught = True
             finally:
                 if not caught:  # abort, device loss: never leave it swinging
                     with contextlib.suppress(Exception):

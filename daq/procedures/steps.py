@@ -130,6 +130,7 @@ def return_act(params: TowParameters | SpinParameters, rig: RigConfig) -> Operat
             f"Push the carriage to the far end of the rail ({far:g} m, short of the "
             "end-of-travel switch) and let the vehicle settle",
             far,
+            reverse=True,
         )
     return OperatorAct(
         "return_carriage",
@@ -151,16 +152,18 @@ async def follow_motion(
     rec: RecordedRun,
     axis: _Axis,
     start: float,
-    limit: float,
-    max_time_s: float,
+    params: TowParameters | SpinParameters,
     report: ProgressCallback,
 ) -> tuple[str, Sample, float]:
-    """Follow a released axis until end of travel, ``limit`` (m or rad) or ``max_time_s``.
+    """Follow a released axis until end of travel, the test's ``max_distance_m`` or
+    ``max_angle_rad`` (the limit) or its ``max_time_s``.
 
     Returns why it stopped, the sample that decided it, and the time of the last sample
     of free motion (the end-of-travel switch stops the carriage before the sample that
     sees it tripped). Unread ticks are skipped; ``rec.samples()`` aborts on device loss.
     """
+    limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
+    max_time_s = params.max_time_s
     t0 = previous_t = None
     async for sample in rec.samples():
         if sample.quality & Quality.ERROR:
@@ -232,4 +235,26 @@ async def baseline_then_release(
         seq=latest.seq if latest else None,
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
+    )
+
+
+async def engage_and_log_stop(
+    rec: RecordedRun,
+    release: str,
+    message: str,
+    action: RunAction,
+    sample: Sample,
+    t_last_free: float | None = None,
+) -> None:
+    """End a test's free motion: clear the ``release`` coil (brake or latch engaged), then
+    log the ``limit`` event saying why (``message``), with the sample that decided it, the
+    time now and the time of the last sample of free motion (default: ``sample``'s)."""
+    await rec.session.live_plc.write(release, False)
+    await rec.event(
+        "limit",
+        message,
+        action=action,
+        seq=sample.seq,
+        t_mono=time.monotonic(),
+        t_last_free=sample.t_mono if t_last_free is None else t_last_free,
     )

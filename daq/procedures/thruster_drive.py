@@ -28,6 +28,7 @@ from daq.procedures.steps import (
     RunOutcome,
     check_ready,
     check_room,
+    engage_and_log_stop,
     follow_motion,
     return_act,
     run_outcome,
@@ -258,7 +259,7 @@ async def run_thruster_test(
     rig = session.rig
     tow = isinstance(params, TowParameters)
     axis = TOW if tow else SPIN
-    drive = params.force_n if isinstance(params, TowParameters) else params.torque_nm
+    drive = params.load
     unit = DRIVE_FIELD[axis.kind][1]
     calibration = await asyncio.to_thread(latest_calibration, session.store)
     imported = calibration.get("calibration_import_id")
@@ -317,7 +318,7 @@ async def run_thruster_test(
                 with session.live_thrusters.recording_outputs() as steps:
                     armed = asyncio.Event()
                     supervisor = asyncio.create_task(
-                        abort_on_thruster_fault(session, rec, abort, armed)
+                        abort_on_thruster_fault(session, rec, abort, armed, on_stale_zeroing=True)
                     )
                     try:
                         await _drive_with_thrusters(
@@ -343,15 +344,56 @@ run_thruster_spin = run_thruster_test
 run_thruster_tow = run_thruster_test
 
 
+#: How the reason begins when stale sensor data zeroed a thruster tow's or spin's thrust.
+STALE_ZEROED = "sensor data stale or unread"
+
+
+def _stale_zeroed_reason(session: RigSession) -> str:
+    """Why the run ends: which data went stale (the PLC unread, or the stale channels)."""
+    cause = session.stale_sample
+    if cause is not None and cause.quality & Quality.ERROR and session.plc is not None:
+        what = f"PLC at {session.plc.endpoint} unread"
+    else:
+        what = "stale: " + (", ".join(cause.stale) if cause and cause.stale else "?")
+    return (
+        f"{STALE_ZEROED} ({what}): the thrusters were zeroed for safety, so the drive is no "
+        "longer the one asked for; run the test again"
+    )
+
+
 async def abort_on_thruster_fault(
-    session: RigSession, rec: RecordedRun, abort: AbortSignal, armed: asyncio.Event
+    session: RigSession,
+    rec: RecordedRun,
+    abort: AbortSignal,
+    armed: asyncio.Event,
+    *,
+    on_stale_zeroing: bool = False,
 ) -> None:
     """Once this run has armed the thrusters (a fault left from an earlier run does not
     count), abort it when the thruster link is lost or the controller's watchdog zeroes
     the outputs; the fault, with when thrust was last confirmed, is stored as a ``fault``
-    event."""
+    event. ``on_stale_zeroing``: also when stale sensor data zeroes the thrusters (a tow or
+    spin, whose drive must stay as asked; a calibration measures the step again instead)."""
     await armed.wait()
-    fault = await session.live_thrusters.wait_fault()
+    session.stale_zeroed.clear()
+    waits: set[asyncio.Future[object]] = {
+        asyncio.ensure_future(session.live_thrusters.wait_fault())
+    }
+    if on_stale_zeroing:
+        waits.add(asyncio.ensure_future(session.stale_zeroed.wait()))
+    try:
+        await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for w in waits:
+            w.cancel()
+    fault = session.live_thrusters.fault
+    if fault is None:  # the stale-data zeroing
+        reason = _stale_zeroed_reason(session)
+        try:  # stored before the abort, as below
+            await rec.event("fault", reason, stale_zeroings=session.stale_zeroings)
+        finally:
+            abort.set(reason)
+        return
     reason = fault.reason
     latest = session.latest()
     if latest is not None and latest.quality & Quality.ERROR and session.plc is not None:
@@ -418,18 +460,14 @@ async def _drive_with_thrusters(
         t_mono=(before + after) / 2,
         t_half_width=(after - before) / 2,
     )
-    limit = params.max_distance_m if axis is TOW else params.max_angle_rad
-    stop, sample, t_last_free = await follow_motion(
-        rec, axis, start, limit, params.max_time_s, report
-    )
+    stop, sample, t_last_free = await follow_motion(rec, axis, start, params, report)
     session.set_thrust([0.0] * session.thruster_count)
     await session.live_thrusters.zero()
-    await session.live_plc.write(axis.release, False)
-    await rec.event(
-        "limit",
+    await engage_and_log_stop(
+        rec,
+        axis.release,
         f"{stop}: thrust off, brake engaged",
-        action=RunAction.BRAKE,
-        seq=sample.seq,
-        t_mono=time.monotonic(),
-        t_last_free=t_last_free,
+        RunAction.BRAKE,
+        sample,
+        t_last_free,
     )

@@ -49,12 +49,21 @@ class Faults:
     """Fault injection switches; change them at any time from the simulator's loop."""
 
     drop: bool = False
+    #: Swallow only this many next responses (one lost poll, without losing the device).
+    drop_next: int = 0
     delay_s: float = 0.0
     corrupt: bool = False
 
     def clear(self) -> None:
         """Back to a healthy PLC."""
-        self.drop, self.delay_s, self.corrupt = False, 0.0, False
+        self.drop, self.drop_next, self.delay_s, self.corrupt = False, 0, 0.0, False
+
+    def take_drop(self) -> bool:
+        """Whether to swallow the response being sent (``drop``, or one of ``drop_next``)."""
+        if self.drop_next > 0:
+            self.drop_next -= 1
+            return True
+        return self.drop
 
 
 class SimulatedPLC:
@@ -170,7 +179,7 @@ class SimulatedPLC:
     def _trace_packet(self, sending: bool, data: bytes) -> bytes:
         if not sending:
             return data
-        if self.faults.drop:
+        if self.faults.take_drop():
             return b""
         if self.faults.corrupt and data:
             if self._rtu:

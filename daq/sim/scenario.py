@@ -9,13 +9,12 @@ effect is off by default, so an empty file is the clean plant. See
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from daq.config import PACKAGE_ROOT, RigConfigError, format_validation_error
+from daq.config import PACKAGE_ROOT, read_toml_file, validate_config
 
 SCENARIO_DIR = PACKAGE_ROOT / "fixtures" / "scenarios"
 
@@ -156,10 +155,7 @@ class Scenario(_Strict):
 
 def parse_scenario(data: dict, source: str = "scenario file") -> Scenario:
     """Validate a scenario dictionary; raises RigConfigError naming each bad field."""
-    try:
-        return Scenario.model_validate(data)
-    except ValidationError as err:
-        raise RigConfigError(format_validation_error(source, err)) from None
+    return validate_config(Scenario, data, source)
 
 
 def load_scenario(path: str | Path | None = None) -> Scenario:
@@ -167,17 +163,6 @@ def load_scenario(path: str | Path | None = None) -> Scenario:
     if path is None:
         return Scenario()
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as err:
-        raise RigConfigError(f"{p}: cannot read scenario file ({err.strerror})") from None
-    except UnicodeDecodeError as err:
-        raise RigConfigError(
-            f"{p}: not a scenario file: not UTF-8 text ({err.reason} at byte {err.start})"
-        ) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise RigConfigError(f"{p}: not valid TOML: {err}") from None
+    data = read_toml_file(p, "scenario file")
     data.setdefault("name", p.stem)
     return parse_scenario(data, str(p))

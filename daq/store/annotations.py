@@ -9,7 +9,7 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.base import StoreBase, inserted_id, software_version
+from daq.store.base import StoreBase, created_stamp, inserted_id
 from daq.store.records import EventInfo, ResultInfo, ResultNotFound, to_datetime
 from daq.store.schema import events, result_runs, results
 from daq.store.schema import runs as runs_t
@@ -87,12 +87,7 @@ class EventsAndResults(StoreBase):
         with self.transaction() as conn:
             pks = sorted({self._resolve(conn, r).id for r in run_ids})
             inserted = conn.execute(
-                sa.insert(results).values(
-                    kind=kind,
-                    created_at=round(time.time(), 6),
-                    software_version=software_version(),
-                    data=data,
-                )
+                sa.insert(results).values(kind=kind, data=data, **created_stamp())
             )
             result_id = inserted_id(inserted)
             conn.execute(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -40,6 +41,12 @@ def software_version() -> str:
             return str(tomllib.load(f)["project"]["version"])
     except (OSError, KeyError, tomllib.TOMLDecodeError):
         return "unknown"
+
+
+def created_stamp() -> dict[str, float | str]:
+    """The columns that stamp a stored result or calibration: ``created_at`` (now, to the
+    µs) and the ``software_version`` that wrote it."""
+    return {"created_at": round(time.time(), 6), "software_version": software_version()}
 
 
 def _boot_id() -> str | None:

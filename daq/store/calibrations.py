@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
@@ -10,7 +9,7 @@ from typing import Any
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.base import StoreBase, inserted_id, software_version
+from daq.store.base import StoreBase, created_stamp, inserted_id
 from daq.store.records import to_datetime
 from daq.store.schema import thrust_calibrations
 
@@ -53,12 +52,7 @@ class ImportedCalibrations(StoreBase):
             raise ValueError(f"name: got {name!r}, allowed: 1 … 200 characters")
         with self.transaction() as conn:
             inserted = conn.execute(
-                sa.insert(thrust_calibrations).values(
-                    name=name,
-                    created_at=round(time.time(), 6),
-                    software_version=software_version(),
-                    data=data,
-                )
+                sa.insert(thrust_calibrations).values(name=name, data=data, **created_stamp())
             )
         return inserted_id(inserted)
 

@@ -15,7 +15,7 @@ import uuid
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NotRequired, TypedDict, Unpack
 
 import sqlalchemy as sa
 
@@ -55,6 +55,21 @@ if TYPE_CHECKING:
     from daq.store.loaded_run import LoadedRun
 
 
+class NewRun(TypedDict):
+    """What describes a run when it is started or imported (``Store.create_run``,
+    ``Store.import_run``): its kind and validated parameters, the channels it records,
+    the rig and vehicle by name, the rig file's (and scenario's) text, and its metadata."""
+
+    kind: str
+    parameters: dict
+    channel_names: Sequence[str]
+    rig_name: str
+    vehicle: str
+    rig_toml: str
+    scenario_toml: NotRequired[str | None]
+    metadata: NotRequired[dict[str, Any] | None]
+
+
 class Store(EventsAndResults, ImportedCalibrations):
     """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
     creates the database if needed, migrates it to the newest schema and writes back the
@@ -83,8 +98,8 @@ class Store(EventsAndResults, ImportedCalibrations):
         rig_name: str,
         vehicle: str,
         rig_toml: str,
-        scenario_toml: str | None,
         started_at: float,
+        scenario_toml: str | None = None,
         metadata: dict[str, Any] | None = None,
         source_file: str | None = None,
     ) -> tuple[str, int]:
@@ -151,34 +166,12 @@ class Store(EventsAndResults, ImportedCalibrations):
                 self._write_tags(conn, run.id, merged.get("tags", []))
         return self.get_run(run.uuid)
 
-    def create_run(
-        self,
-        *,
-        kind: str,
-        parameters: dict,
-        channel_names: Sequence[str],
-        rig_name: str,
-        vehicle: str,
-        rig_toml: str,
-        scenario_toml: str | None = None,
-        metadata: dict[str, Any] | None = None,
-    ) -> str:
+    def create_run(self, **run: Unpack[NewRun]) -> str:
         """Start a run (status ``running``, owned by this process); returns its uuid.
         ``metadata``: operator, water temperature, notes, tags, free keys (checked by
         :func:`daq.store.run_metadata.check_run_metadata`)."""
         with self.transaction() as conn:
-            run_uuid, _ = self._insert_run(
-                conn,
-                kind=kind,
-                parameters=parameters,
-                channel_names=channel_names,
-                rig_name=rig_name,
-                vehicle=vehicle,
-                rig_toml=rig_toml,
-                scenario_toml=scenario_toml,
-                started_at=time.time(),
-                metadata=metadata,
-            )
+            run_uuid, _ = self._insert_run(conn, started_at=time.time(), **run)
         return run_uuid
 
     def _finish(
@@ -223,21 +216,14 @@ class Store(EventsAndResults, ImportedCalibrations):
     def import_run(
         self,
         *,
-        kind: str,
-        parameters: dict,
-        channel_names: Sequence[str],
-        rig_name: str,
-        vehicle: str,
-        rig_toml: str,
         samples: Sequence[Sample],
         started_at: float,
         stopped_at: float,
-        scenario_toml: str | None = None,
         status: str = "completed",
         reason: str | None = None,
         batch_rows: int | None = None,
         source_file: str | None = None,
-        metadata: dict[str, Any] | None = None,
+        **run: Unpack[NewRun],
     ) -> str:
         """Store a whole, already finished run in one transaction (nothing on error).
 
@@ -248,28 +234,17 @@ class Store(EventsAndResults, ImportedCalibrations):
         so the database's write lock is never held for long (a live run's recorder and
         events keep their turn); the run reads ``running`` until the last one, and a
         failure part-way ends it ``aborted`` naming the error."""
-        header: dict[str, Any] = {
-            "kind": kind,
-            "parameters": parameters,
-            "channel_names": channel_names,
-            "rig_name": rig_name,
-            "vehicle": vehicle,
-            "rig_toml": rig_toml,
-            "scenario_toml": scenario_toml,
-            "started_at": started_at,
-            "metadata": metadata,
-            "source_file": source_file,
-        }
+        header: dict[str, Any] = {**run, "started_at": started_at, "source_file": source_file}
         if batch_rows is not None and len(samples) > batch_rows:
             return self._import_in_batches(
                 samples, batch_rows, status, reason, stopped_at, **header
             )
         with self.transaction() as conn:
             run_uuid, pk = self._insert_run(conn, **header)
-            packer = SamplePacker(checks.check_channel_names(channel_names))
+            packer = SamplePacker(checks.check_channel_names(run["channel_names"]))
             self._insert_rows(conn, run_uuid, pk, packer, samples)
-            run = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()
-            self._finish(conn, run, status, reason, stopped_at)
+            row = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()
+            self._finish(conn, row, status, reason, stopped_at)
         return run_uuid
 
     def _import_in_batches(

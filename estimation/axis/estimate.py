@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from estimation.axis.reverse import (
     opposite_run,
     suggest_reverse_test,
 )
-from estimation.axis.search import candidate_effects
+from estimation.axis.search import SearchOutcome, candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
@@ -62,36 +63,24 @@ def estimate(
         # drive_inertia is a candidate only for weight-driven runs without a declared weight
         declared = all(r.hung_mass_declared() or not r.is_constant_drive() for r in runs)
         outcome = search_effects_fn(prepared, base, candidate_effects(declared))
-        final, steps = outcome.final, outcome.steps
-        ambiguous, advice = outcome.ambiguous, outcome.advice
-        cv_before, cv_after = outcome.cv_base, outcome.cv_final
     else:
-        final, steps, ambiguous, advice = base, (), (), ()
-        cv_before = cv_after = leave_one_run_out_rmse(prepared, base)
-    reverse = suggest_reverse_test(axis, runs, ambiguous)
+        cv = leave_one_run_out_rmse(prepared, base)
+        outcome = SearchOutcome(
+            base=base, final=base, cv_base=cv, cv_final=cv, steps=(), searched=False
+        )
+    final = outcome.final
+    reverse = suggest_reverse_test(axis, runs, outcome.ambiguous)
     if reverse is not None:  # the experiment the advice asks for, as a command to run
         advice = tuple(
             f"{text}: run `{reverse.command}`" if set(group) >= FRICTION_AND_BIAS else text
-            for group, text in zip(ambiguous, advice, strict=True)
+            for group, text in zip(outcome.ambiguous, outcome.advice, strict=True)
         )
+        outcome = replace(outcome, advice=advice)
     elif "quadratic_damping" in final.at_bound:  # K_Q at 0 asks for a reverse run as well
         reverse = opposite_run(axis, runs)
     boot = _bootstrap(prepared, final, n_bootstrap, seed) if n_bootstrap else None
     return _build(
-        axis,
-        method,
-        runs,
-        prepared,
-        base,
-        final,
-        steps,
-        ambiguous,
-        advice,
-        cv_before,
-        cv_after,
-        boot,
-        drive_uncertainty(runs, final),
-        reverse,
+        axis, method, runs, prepared, outcome, boot, drive_uncertainty(runs, final), reverse
     )
 
 
@@ -178,21 +167,17 @@ def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -
 
 
 def _build(
-    axis,
-    method,
-    runs,
-    prepared,
-    base,
-    final,
-    steps,
-    ambiguous,
-    advice,
-    cv_before,
-    cv_after,
-    boot,
+    axis: str,
+    method: str,
+    runs: Sequence[RunData],
+    prepared: Sequence[PreparedRun],
+    outcome: SearchOutcome,
+    boot: Bootstrap | None,
     uncertainty: DriveUncertainty | None = None,
     reverse: ReverseTest | None = None,
 ) -> EstimationResult:
+    """The result document of ``outcome`` (base and final fit, the search's evidence)."""
+    base, final = outcome.base, outcome.final
     ids = tuple(r.run_id for r in runs)
     effects = tuple(
         EffectEstimate(
@@ -202,7 +187,7 @@ def _build(
     )
     warnings = separability_warnings(final, prepared, reverse)
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
-    if unexplained is not None and (text := unexplained.warning(axis)):
+    if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):
         warnings.append(text)
     force_before = force_residuals(base, prepared)
     return EstimationResult(
@@ -212,7 +197,7 @@ def _build(
         coefficients=_coefficients(final),
         coefficients_before=_coefficients(base),
         effects=effects,
-        ambiguous=tuple(ambiguous),
+        ambiguous=tuple(outcome.ambiguous),
         rmse_before=base.rmse,
         rmse_after=final.rmse,
         rmse_per_run_before=dict(zip(ids, base.rmse_per_run(), strict=True)),
@@ -220,15 +205,15 @@ def _build(
         correlation_names=final.names,
         correlation=final.correlation,
         warnings=tuple(warnings),
-        advice=tuple(advice),
+        advice=tuple(outcome.advice),
         whiteness_before=ljung_box(base.residuals),
         whiteness_after=ljung_box(final.residuals),
         residual_correlations=regressor_correlations(base, prepared, force_before),
         force_rmse_per_run_before=_rms_per_run(ids, force_before),
         force_rmse_per_run_after=_rms_per_run(ids, force_residuals(final, prepared)),
-        steps=tuple(steps),
-        cv_before=cv_before,
-        cv_after=cv_after,
+        steps=tuple(outcome.steps),
+        cv_before=outcome.cv_base,
+        cv_after=outcome.cv_final,
         bootstrap=boot,
         uncertainty=uncertainty,
         reverse_test=reverse,
@@ -253,5 +238,6 @@ def _seed_result(axis, method, runs, prepared) -> EstimationResult:
         fit = evaluate_parameters(prepared, np.r_[1e-9, ls.values[1:]], ls.std, ls.correlation)
         warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
     fit = FitResult(**{**fit.__dict__, "values": ls.values})
-    result = _build(axis, method, runs, prepared, fit, fit, (), (), (), None, None, None)
+    outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())
+    result = _build(axis, method, runs, prepared, outcome, None)
     return EstimationResult(**{**result.__dict__, "warnings": (*warnings, *result.warnings)})

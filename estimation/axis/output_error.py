@@ -16,7 +16,7 @@ from scipy.signal import savgol_filter
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
-from estimation.stats.fit import FitStatistics
+from estimation.stats.fit import FitStatistics, solution_statistics
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
 
@@ -25,18 +25,8 @@ BASE_LOWER = (1e-6, 0.0, 0.0)
 class FitResult(FitStatistics):
     """A converged joint fit: global coefficients with σ, offsets, residuals and evidence."""
 
-    effects: tuple[str, ...]
-    names: tuple[str, ...]
-    values: np.ndarray
-    std: np.ndarray
-    correlation: np.ndarray
     offsets: np.ndarray
-    residuals: tuple[np.ndarray, ...]  # measured − model, per run (m or rad)
     velocities: tuple[np.ndarray, ...]  # model velocity at the samples
-    sse: float
-    n_samples: int
-    n_params: int
-    at_bound: tuple[str, ...]
 
 
 def _bounds(effects: Sequence[str], n_runs: int) -> tuple[np.ndarray, np.ndarray]:
@@ -162,17 +152,9 @@ def fit_output_error(
         gtol=1e-10,
         max_nfev=max_nfev,
     )
-    params = sol.x
+    params, ng = sol.x, prob.n_global
     res = prob.residual(params)
-    jac = prob.jacobian(params)
-    n, p = res.size, params.size
-    sse = float(res @ res)
-    sigma2 = sse / max(n - p, 1)
-    cov = sigma2 * np.linalg.pinv(jac.T @ jac)
-    ng = prob.n_global
-    std = np.sqrt(np.maximum(np.diag(cov)[:ng], 0.0))
-    denom = np.outer(std, std)
-    corr = np.divide(cov[:ng, :ng], denom, out=np.eye(ng), where=denom > 0)
+    stats = solution_statistics(res, prob.jacobian(params), ng)
     names = (*BASE_NAMES, *effects)
     tol = 1e-6 * np.maximum(np.abs(params[:ng]), 1.0)
     at_bound = tuple(
@@ -185,14 +167,10 @@ def fit_output_error(
         effects=effects,
         names=names,
         values=params[:ng].copy(),
-        std=std,
-        correlation=corr,
+        **stats,
         offsets=params[ng:].copy(),
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         velocities=tuple(s[1][0] for s in sims),
-        sse=sse,
-        n_samples=n,
-        n_params=p,
         at_bound=at_bound,
     )
 

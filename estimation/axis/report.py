@@ -4,7 +4,6 @@ force-domain residual against velocity (see docs/estimation.md, "Report")."""
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -24,6 +23,12 @@ from estimation.figures import (
     run_label,
     save_figure,
     signed,
+)
+from estimation.fit_report import (
+    effects_found,
+    error_before_after,
+    summary_rows,
+    write_result_and_markdown,
 )
 from estimation.stats.diagnostics import force_residuals
 
@@ -127,23 +132,7 @@ def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
     ]
     for name, est in result.coefficients.items():
         lines.append(f"| {name} | {est.value:.5g} ± {est.std:.2g} | {units[name]} |")
-    for e in result.effects:
-        lines.append(f"| effect `{e.name}` | {e.value:.5g} ± {e.std:.2g} | {e.unit} |")
-    if not result.effects:
-        lines.append("| effects found | none (the base model explains the data) | |")
-    lines += [
-        f"| RMSE before → after | {result.rmse_before:.3g} → {result.rmse_after:.3g} | {unit} |",
-        f"| warnings | {len(result.warnings)} (below) | |"
-        if result.warnings
-        else "| warnings | none | |",
-        "",
-    ]
-    lines += [f"- **Warning:** {w}" for w in result.warnings]
-    if result.warnings:
-        lines.append("")
-    lines += ["| run (as labelled in the figures) | run id |", "|---|---|"]
-    lines += [f"| {labels[rid]} | `{rid}` |" for rid in result.runs]
-    return [*lines, ""]
+    return lines + summary_rows(result, unit, labels)
 
 
 def _markdown(
@@ -166,26 +155,10 @@ def _markdown(
             f"| {name} | {before.value:.6g} ± {before.std:.2g} | "
             f"{after.value:.6g} ± {after.std:.2g} | {units[name]} |"
         )
-    lines += ["", "## Effects found", ""]
-    if result.effects:
-        lines += [f"- `{e.name}` = {e.value:.6g} ± {e.std:.2g} {e.unit}" for e in result.effects]
-    else:
-        lines.append("- none (the base model explains the data)")
+    lines += effects_found(result.effects, digits=6)
     for group, advice in zip(result.ambiguous, result.advice, strict=False):
         lines.append(f"- ambiguous: {', '.join(group)} — {advice}")
-    lines += [
-        "",
-        "## Error before and after",
-        "",
-        f"| run | RMSE before [{units['position']}] | RMSE after [{units['position']}] |",
-        "|---|---|---|",
-    ]
-    for rid in result.runs:
-        lines.append(
-            f"| {labels[rid]} | {result.rmse_per_run_before[rid]:.4g} | "
-            f"{result.rmse_per_run_after[rid]:.4g} |"
-        )
-    lines.append(f"| **all** | {result.rmse_before:.4g} | {result.rmse_after:.4g} |")
+    lines += error_before_after(result, units["position"], labels)
     ev = doc["evidence"]
     cv = [f"{x:.4g}" if x is not None else "n/a" for x in (result.cv_before, result.cv_after)]
     lines += [
@@ -229,8 +202,5 @@ def write_report(
         ("Measured vs model before and after the effect search, and residuals, per run", fit[0]),
         ("Force-domain residual vs model velocity, before and after", force[0]),
     ]
-    json_path = out / "result.json"
-    json_path.write_text(json.dumps(result.to_json(), indent=2, ensure_ascii=False))
-    md_path = out / "report.md"
-    md_path.write_text(_markdown(result, labels, figures), encoding="utf-8")
-    return [json_path, md_path, *fit, *force]
+    written = write_result_and_markdown(out, result.to_json(), _markdown(result, labels, figures))
+    return [*written, *fit, *force]

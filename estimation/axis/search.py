@@ -87,6 +87,8 @@ class SearchOutcome:
     steps: tuple[SearchStep, ...]
     ambiguous: tuple[tuple[str, ...], ...] = ()
     advice: tuple[str, ...] = field(default=())
+    #: False when the search was off (the final fit is the base fit, nothing was tried).
+    searched: bool = True
 
 
 def candidate_effects(runs_declared_mass: bool) -> list[str]:

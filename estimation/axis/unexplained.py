@@ -55,8 +55,9 @@ class Unexplained:
         """Force residual RMS over the noise floor (≈ 1 when only noise is left)."""
         return self.force_rms / self.noise_floor if self.noise_floor > 0 else float("inf")
 
-    def warning(self, axis: str) -> str | None:
-        """One sentence for ``warnings``, or None when nothing structured is left."""
+    def warning(self, axis: str, searched: bool = True) -> str | None:
+        """One sentence for ``warnings``, or None when nothing structured is left
+        (``searched``: whether the effect search ran; if not, the sentence asks for it)."""
         if not self.structured:
             return None
         where = f"strongest correlate: {self.strongest}" if self.strongest else "no clear correlate"
@@ -66,11 +67,19 @@ class Unexplained:
                 f"{self.period.unit} ({self.period.share:.0%} of it)"
             )
         unit = "N" if axis == "surge" else "N·m"
+        evidence = (
+            f"(Ljung–Box p = {self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} {unit}, "
+            f"{self.ratio:.1f}× the noise floor the fit implies); {where}"
+        )
+        if not searched:
+            return (
+                f"the residual is structured {evidence}; the effect search was off, so no "
+                "effect was tried: estimate again with it on (the default); the coefficients "
+                "may be biased by it"
+            )
         return (
-            f"the residual is still structured after the effect search (Ljung–Box p = "
-            f"{self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} {unit}, "
-            f"{self.ratio:.1f}× the noise floor the fit implies); {where}; no effect in the "
-            "library explains it, so none was added: the coefficients may be biased by it"
+            f"the residual is still structured after the effect search {evidence}; no effect "
+            "in the library explains it, so none was added: the coefficients may be biased by it"
         )
 
     def to_json(self) -> dict[str, Any]:

@@ -17,7 +17,7 @@ the residual gets whiter (Ljung–Box Q drops).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -32,7 +32,7 @@ from estimation.axis.search import (
 from estimation.pendulum.decay import Decay
 from estimation.pendulum.sim import simulate, step_size
 from estimation.stats.diagnostics import ljung_box
-from estimation.stats.fit import FitStatistics
+from estimation.stats.fit import FitStatistics, solution_statistics
 from estimation.stats.selection import forward_selection, select_round
 
 BASE_NAMES: tuple[str, ...] = ("added_mass", "linear_damping")
@@ -75,22 +75,12 @@ PENDULUM_EFFECTS: dict[str, PendulumEffect] = {
 
 @dataclass(frozen=True)
 class PendulumFit(FitStatistics):
-    """A converged output-error fit: coefficients with σ, nuisance per run, residuals."""
+    """A converged output-error fit: coefficients with σ, nuisance per run, residuals (rad)."""
 
-    effects: tuple[str, ...]
-    names: tuple[str, ...]
-    values: np.ndarray
-    std: np.ndarray
-    correlation: np.ndarray
     initial_angle: np.ndarray  # rad, per run
     initial_rate: np.ndarray  # rad/s, per run
     offsets: np.ndarray  # rad, per run (encoder zero)
-    residuals: tuple[np.ndarray, ...]  # measured − model (rad)
     rates: tuple[np.ndarray, ...]  # model φ̇ at the samples (rad/s)
-    sse: float
-    n_samples: int
-    n_params: int
-    at_bound: tuple[str, ...] = field(default=())
 
 
 def _coeffs(globals_: np.ndarray, effects: Sequence[str]) -> tuple[np.ndarray, ...]:
@@ -232,16 +222,9 @@ def fit_output_error(
         prob.residual, p0, jac=prob.jacobian, bounds=(lower, upper), method="trf",
         x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200,
     )  # fmt: skip
-    params = sol.x
+    params, ng = sol.x, prob.ng
     res = prob.residual(params)
-    jac = prob.jacobian(params)
-    n, p = res.size, params.size
-    sse = float(res @ res)
-    cov = sse / max(n - p, 1) * np.linalg.pinv(jac.T @ jac)
-    ng = prob.ng
-    std = np.sqrt(np.maximum(np.diag(cov)[:ng], 0.0))
-    denom = np.outer(std, std)
-    corr = np.divide(cov[:ng, :ng], denom, out=np.eye(ng), where=denom > 0)
+    stats = solution_statistics(res, prob.jacobian(params), ng)
     names = (*BASE_NAMES, *effects)
     at_bound = tuple(
         name
@@ -254,16 +237,12 @@ def fit_output_error(
         effects=effects,
         names=names,
         values=params[:ng].copy(),
-        std=std,
-        correlation=corr,
+        **stats,
         initial_angle=nuis[:, 0].copy(),
         initial_rate=nuis[:, 1].copy(),
         offsets=nuis[:, 2].copy(),
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         rates=rates,
-        sse=sse,
-        n_samples=n,
-        n_params=p,
         at_bound=at_bound,
     )
 

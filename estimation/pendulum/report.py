@@ -4,7 +4,6 @@ residual vs angular rate, peak magnitudes with exponential and linear envelopes.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -21,6 +20,12 @@ from estimation.figures import (
     prefixed,
     run_label,
     save_figure,
+)
+from estimation.fit_report import (
+    effects_found,
+    error_before_after,
+    summary_rows,
+    write_result_and_markdown,
 )
 from estimation.pendulum.estimate import UNITS, PendulumResult
 
@@ -118,25 +123,7 @@ def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     lines = ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
     for name, est in doc["coefficients"].items():
         lines.append(f"| {name} | {_pm(est)} | {UNITS[name]} |")
-    for e in result.effects:
-        lines.append(f"| effect `{e.name}` | {e.value:.5g} ± {e.std:.2g} | {e.unit} |")
-    if not result.effects:
-        lines.append("| effects found | none (the base model explains the data) | |")
-    lines.append(
-        f"| RMSE before → after | {result.rmse_before:.3g} → {result.rmse_after:.3g} | rad |"
-    )
-    lines.append(
-        f"| warnings | {len(result.warnings)} (below) | |"
-        if result.warnings
-        else "| warnings | none | |"
-    )
-    lines.append("")
-    lines += [f"- **Warning:** {w}" for w in result.warnings]
-    if result.warnings:
-        lines.append("")
-    lines += ["| run (as labelled in the figures) | run id |", "|---|---|"]
-    lines += [f"| {labels[rid]} | `{rid}` |" for rid in result.runs]
-    return [*lines, ""]
+    return lines + summary_rows(result, "rad", labels)
 
 
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
@@ -174,29 +161,13 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
             else f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
             f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | — | — |"
         )
-    lines += ["", "## Effects found", ""]
-    if result.effects:
-        lines += [f"- `{e.name}` = {e.value:.5g} ± {e.std:.2g} {e.unit}" for e in result.effects]
-    else:
-        lines.append("- none (the base model explains the data)")
+    lines += effects_found(result.effects, digits=5)
     for group in result.ambiguous:
         lines.append(f"- ambiguous: {', '.join(group)}")
     wb, wa = doc["diagnostics"]["ljung_box_before"], doc["diagnostics"]["ljung_box_after"]
     ev = doc["evidence"]
+    lines += error_before_after(result, "rad", labels)
     lines += [
-        "",
-        "## Error before and after",
-        "",
-        "| run | RMSE before [rad] | RMSE after [rad] |",
-        "|---|---|---|",
-    ]
-    for rid in result.runs:
-        lines.append(
-            f"| {labels[rid]} | {result.rmse_per_run_before[rid]:.4g} | "
-            f"{result.rmse_per_run_after[rid]:.4g} |"
-        )
-    lines += [
-        f"| **all** | {result.rmse_before:.4g} | {result.rmse_after:.4g} |",
         "",
         f"Ljung–Box Q {wb['q']:.1f} (p {wb['p_value']:.2g}) → "
         f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
@@ -233,8 +204,5 @@ def write_pendulum_report(result: PendulumResult, directory: str | Path) -> list
         ("Residual vs model angular rate, before and after", rate[0]),
         ("Peak magnitudes with the viscous and dry-friction envelopes", peaks[0]),
     ]
-    json_path = out / "result.json"
-    json_path.write_text(json.dumps(result.to_json(), indent=2, ensure_ascii=False))
-    md_path = out / "report.md"
-    md_path.write_text(pendulum_markdown(result, figures), encoding="utf-8")
-    return [json_path, md_path, *fit, *rate, *peaks]
+    written = write_result_and_markdown(out, result.to_json(), pendulum_markdown(result, figures))
+    return [*written, *fit, *rate, *peaks]

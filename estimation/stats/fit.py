@@ -1,21 +1,55 @@
-"""What every fitted model reports the same way: BIC, RMSE, values by name."""
+"""What every fitted model reports the same way: σ and correlation from the Jacobian,
+BIC, RMSE, values by name."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 
 
-class FitStatistics:
-    """Mixin for fit results with ``names``, ``values``, ``std``, ``residuals`` (per run),
-    ``sse``, ``n_samples`` and ``n_params``."""
+class SolutionStatistics(TypedDict):
+    """The fields of :class:`FitStatistics` a least-squares solution gives directly."""
 
-    names: tuple[str, ...]
-    values: np.ndarray
     std: np.ndarray
-    residuals: tuple[np.ndarray, ...]
+    correlation: np.ndarray
     sse: float
     n_samples: int
     n_params: int
+
+
+def solution_statistics(
+    residuals: np.ndarray, jacobian: np.ndarray, n_global: int
+) -> SolutionStatistics:
+    """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
+    from cov = σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p) (σ of 0 where the variance is not positive),
+    with SSE, n and p; ``residuals`` and ``jacobian`` evaluated at the solution."""
+    n, p = residuals.size, jacobian.shape[1]
+    sse = float(residuals @ residuals)
+    cov = sse / max(n - p, 1) * np.linalg.pinv(jacobian.T @ jacobian)
+    std = np.sqrt(np.maximum(np.diag(cov)[:n_global], 0.0))
+    denom = np.outer(std, std)
+    corr = np.divide(cov[:n_global, :n_global], denom, out=np.eye(n_global), where=denom > 0)
+    return SolutionStatistics(std=std, correlation=corr, sse=sse, n_samples=n, n_params=p)
+
+
+@dataclass(frozen=True, kw_only=True)
+class FitStatistics:
+    """A converged fit of named coefficients and effects: values with σ and correlation,
+    residuals per run, and the evidence derived from them (subclasses add their nuisance
+    parameters and model states)."""
+
+    effects: tuple[str, ...]
+    names: tuple[str, ...]  # base coefficients, then effects
+    values: np.ndarray
+    std: np.ndarray
+    correlation: np.ndarray
+    residuals: tuple[np.ndarray, ...]  # measured − model, per run (m or rad)
+    sse: float
+    n_samples: int
+    n_params: int
+    at_bound: tuple[str, ...] = ()  # names whose value sits on a bound
 
     @property
     def bic(self) -> float:

@@ -6,7 +6,6 @@ import contextlib
 import shutil
 import socket
 import threading
-import time
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
 from tests.conftest import require_tool
+from tests.waiting import read_until, wait_until
 
 TOKEN = "test-token-123"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -30,30 +30,33 @@ SHORT_TOW = {"force_n": 24.5, "max_time_s": 1.5, "baseline_s": 0.3}
 
 def wait_job(client, job_id: str, *, states=FINAL, timeout_s: float = 30.0) -> dict:
     """Poll the job until its state is one of ``states``."""
-    end = time.monotonic() + timeout_s
-    while True:
-        job = client.get(f"/api/jobs/{job_id}", headers=AUTH).json()
-        if job["state"] in states:
-            return job
-        if time.monotonic() > end:
-            raise AssertionError(f"job {job_id} still {job['state']} after {timeout_s} s: {job}")
-        time.sleep(0.05)
+    return read_until(
+        lambda: client.get(f"/api/jobs/{job_id}", headers=AUTH).json(),
+        lambda job: job["state"] in states,
+        f"job {job_id} in one of {states}",
+        timeout_s=timeout_s,
+        poll_s=0.05,
+    )
 
 
 def wait_job_until(
     client, job_id: str, ready: Callable[[dict], bool], what: str, *, timeout_s: float = 30.0
 ) -> dict:
     """Poll the job until ``ready(job)``; fails naming ``what`` if the job ends first."""
-    end = time.monotonic() + timeout_s
-    while True:
-        job = client.get(f"/api/jobs/{job_id}", headers=AUTH).json()
+
+    def ready_or_ended(job: dict) -> bool:
         if ready(job):
-            return job
-        if job["state"] in FINAL:
-            raise AssertionError(f"job {job_id} ended {job['state']} before {what}: {job}")
-        if time.monotonic() > end:
-            raise AssertionError(f"job {job_id}: no {what} after {timeout_s} s: {job}")
-        time.sleep(0.05)
+            return True
+        assert job["state"] not in FINAL, f"job {job_id} ended {job['state']} before {what}: {job}"
+        return False
+
+    return read_until(
+        lambda: client.get(f"/api/jobs/{job_id}", headers=AUTH).json(),
+        ready_or_ended,
+        f"job {job_id}: {what}",
+        timeout_s=timeout_s,
+        poll_s=0.05,
+    )
 
 
 def moving_for(seconds: float) -> Callable[[dict], bool]:
@@ -71,10 +74,13 @@ def moving_for(seconds: float) -> Callable[[dict], bool]:
 
 def wait_rig_free(client, timeout_s: float = 30.0) -> None:
     """Wait until no job holds the rig (e.g. one a previous test aborted is winding down)."""
-    end = time.monotonic() + timeout_s
-    while client.get("/api/rig", headers=AUTH).json()["current_job"] is not None:
-        assert time.monotonic() < end, "the rig stayed busy"
-        time.sleep(0.05)
+    read_until(
+        lambda: client.get("/api/rig", headers=AUTH).json()["current_job"],
+        lambda job: job is None,
+        "the rig free of jobs",
+        timeout_s=timeout_s,
+        poll_s=0.05,
+    )
 
 
 def start_job(client, path: str, body: dict) -> str:
@@ -136,10 +142,8 @@ class LiveServer:
 
     def __enter__(self) -> LiveServer:
         self.thread.start()
-        end = time.monotonic() + 10
-        while not self.server.started:
-            assert time.monotonic() < end, "uvicorn did not start"
-            time.sleep(0.02)
+        # uvicorn sets a flag, not an event, once it serves
+        wait_until(lambda: self.server.started, "uvicorn started", timeout_s=10)
         return self
 
     def __exit__(self, *exc: object) -> None:

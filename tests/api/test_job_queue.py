@@ -11,7 +11,6 @@ import signal
 import subprocess
 import sys
 import threading
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +18,7 @@ from pathlib import Path
 import httpx
 
 from tests.serve import stop_service, wait_for_service
+from tests.waiting import read_until
 
 ROOT = Path(__file__).resolve().parents[2]
 TOKEN = "queue-test-token"
@@ -67,13 +67,9 @@ def job(client: httpx.Client, job_id: str) -> dict:
 
 def wait_for(client: httpx.Client, job_id: str, ok, timeout_s: float = 60.0) -> dict:
     """Poll the job until ``ok(job)`` (the API has no push for a test to wait on)."""
-    end = time.monotonic() + timeout_s
-    while True:
-        found = job(client, job_id)
-        if ok(found):
-            return found
-        assert time.monotonic() < end, f"job {job_id} stayed {found['state']}: {found}"
-        time.sleep(0.05)
+    return read_until(
+        lambda: job(client, job_id), ok, f"job {job_id} moving on", timeout_s=timeout_s, poll_s=0.05
+    )
 
 
 def ended(client: httpx.Client, job_id: str, timeout_s: float = 60.0) -> dict:

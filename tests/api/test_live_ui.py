@@ -10,15 +10,13 @@ import math
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
-import httpx
 import pytest
 
 from tests.api.conftest import chromium_page
 from tests.procedures.test_pendulum import fast_rig_file
-from tests.serve import stop_service
+from tests.serve import stop_service, wait_healthy
 
 ROOT = Path(__file__).resolve().parents[2]
 PENDULUM = {"start_angle_rad": "0.3", "stop_amplitude_rad": "0.12", "max_time_s": "15"}
@@ -59,16 +57,7 @@ def serve(tmp_path_factory):
             lines.append(line.rstrip("\n"))
         token = (tmp / "towrig" / "api-token").read_text().strip()
         service = Serve(proc, lines, token)
-        end = time.monotonic() + 20
-        while True:  # uvicorn starts listening just after the lines are printed
-            try:
-                if httpx.get(service.url + "api/health", timeout=1).json()["ok"]:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert proc.poll() is None, (tmp / "stderr.txt").read_text()
-            assert time.monotonic() < end, "rig serve did not come up"
-            time.sleep(0.1)  # a server that is starting: no event to wait on
+        wait_healthy(proc, service.url, (tmp / "stderr.txt").read_text, timeout_s=20)
         yield service
     finally:
         stop_service(proc)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import pytest
 from fastapi.testclient import TestClient
 
@@ -11,6 +9,7 @@ from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
 from tests.api.conftest import AUTH, TOKEN, moving_for, wait_job, wait_job_until
+from tests.waiting import read_until
 
 
 @pytest.fixture(scope="module")
@@ -31,13 +30,13 @@ def test_operator_acts_wait_for_confirm_then_abort_ends_the_job(asking_client):
     assert "Return the carriage" in first["progress"]["message"]
     assert c.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
 
-    end = time.monotonic() + 10
-    while True:  # the confirm wakes the procedure, which then asks for the weight
-        second = c.get(f"/api/jobs/{job_id}", headers=AUTH).json()
-        if (second["operator_act"] or {}).get("name", "return_carriage") != "return_carriage":
-            break
-        assert time.monotonic() < end, second
-        time.sleep(0.02)
+    second = read_until(  # the confirm wakes the procedure, which then asks for the weight
+        lambda: c.get(f"/api/jobs/{job_id}", headers=AUTH).json(),
+        lambda job: (job["operator_act"] or {}).get("name", "return_carriage") != "return_carriage",
+        "the next operator act after the confirm",
+        timeout_s=10,
+        poll_s=0.02,
+    )
     assert second["state"] == "waiting_for_operator"
     assert second["operator_act"]["name"] == "hang_tow_weight"
     assert second["operator_act"]["value"] == pytest.approx(0.5)
@@ -63,3 +62,27 @@ def test_stopping_the_service_aborts_the_running_test_and_records_why(tmp_path):
         assert run.status == "aborted"
         assert run.reason == "service stopped"
         assert run.sample_count >= 3  # what was recorded before the stop is kept
+
+
+def test_a_reverse_tow_asks_for_the_far_end_pulley_and_says_reverse(asking_client):
+    c = asking_client
+    body = {"weight_kg": -0.5, "max_time_s": 1}
+    job_id = c.post("/api/jobs/tow", json=body, headers=AUTH).json()["id"]
+    try:
+        first = wait_job(c, job_id, states=("waiting_for_operator",))
+        assert first["operator_act"]["name"] == "return_carriage"
+        assert first["operator_act"]["reverse"] is True
+        assert "far end of the rail" in first["operator_act"]["instruction"]
+        assert c.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
+        hang = wait_job_until(
+            c,
+            job_id,
+            lambda job: (job["operator_act"] or {}).get("name") == "hang_tow_weight",
+            "the ask for the weight",
+        )
+        assert hang["operator_act"]["reverse"] is True
+        assert "far-end pulley" in hang["operator_act"]["instruction"]
+        assert hang["operator_act"]["value"] == pytest.approx(0.5)
+    finally:
+        c.post(f"/api/jobs/{job_id}/abort", headers=AUTH)
+        assert wait_job(c, job_id)["state"] == "aborted"

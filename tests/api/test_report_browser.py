@@ -4,7 +4,7 @@ and the same figure's SVG names its axes with units."""
 
 from __future__ import annotations
 
-from tests.api.conftest import completed_tows, estimate_in_page, signed_in_page
+from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page
 
 
 def test_estimation_page_shows_full_size_report_figures_with_units(client, service):
@@ -36,3 +36,10 @@ def test_estimation_page_shows_full_size_report_figures_with_units(client, servi
         assert big.evaluate("img => img.getBoundingClientRect().width") >= 1000
         page.keyboard.press("Escape")
         expect(page.locator("#lightbox")).to_be_hidden()
+
+        # Two redraws racing (a job update and its result arrive together): the figures stay
+        # once each, in the report's order.
+        result = client.get("/api/results?kind=estimation", headers=AUTH).json()[0]
+        page.evaluate("id => Promise.all([showReportPlots(id), showReportPlots(id)])", result["id"])
+        captions = page.locator("#est-plots figcaption").all_inner_texts()
+        assert [c.split(" — ")[0] for c in captions] == result["report_plots"]

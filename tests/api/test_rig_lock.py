@@ -10,7 +10,6 @@ import re
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from daq.operator import OperatorAct, SimulatedOperator
 from daq.session import RigSource
 from daq.store import Store
 from tests.api.conftest import AUTH, FINAL, TOKEN, wait_job
+from tests.waiting import read_until
 
 ROOT = Path(__file__).resolve().parents[2]
 RIG = str(Path(sys.executable).parent / "rig")  # the installed console script
@@ -48,12 +48,10 @@ def _rig(*args: str, timeout_s: float = 120) -> subprocess.CompletedProcess:
 
 def _play_operator(client: TestClient, service: RigService, job_id: str) -> dict:
     """Do each act the job asks for on the simulated rig, confirm it; return the ended job."""
-    end = time.monotonic() + 60
     done: set[str] = set()
-    while True:
+
+    def act_or_ended() -> dict:
         job = client.get(f"/api/jobs/{job_id}", headers=AUTH).json()
-        if job["state"] in FINAL:
-            return job
         act = job["operator_act"]
         if job["state"] == "waiting_for_operator" and act and act["name"] not in done:
             session = service.require_session()
@@ -62,8 +60,11 @@ def _play_operator(client: TestClient, service: RigService, job_id: str) -> dict
             service.run(SimulatedOperator(session.plc).perform(todo))
             done.add(act["name"])
             assert client.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
-        assert time.monotonic() < end, job
-        time.sleep(0.05)
+        return job
+
+    return read_until(
+        act_or_ended, lambda job: job["state"] in FINAL, "the job ended", timeout_s=60, poll_s=0.05
+    )
 
 
 def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(db_url):

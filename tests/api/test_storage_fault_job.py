@@ -4,14 +4,13 @@ as soon as storage takes writes again, while the service runs."""
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
 from api.core.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
+from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job, wait_job_until
 from tests.store.helpers import DbLimits, no_sql
+from tests.waiting import read_until
 
 REASON = "storage failed: SQLite: attempt to write a readonly database"
 
@@ -29,14 +28,9 @@ def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_s
 ):
     limits = DbLimits(service.store)
     job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
-    end = time.monotonic() + 30
-    while (
-        not client.get(f"/api/jobs/{job_id}", headers=AUTH)
-        .json()["progress"]["message"]
-        .startswith("tow:")
-    ):  # released and moving
-        assert time.monotonic() < end, "the tow never started moving"
-        time.sleep(0.05)
+    wait_job_until(  # released and moving
+        client, job_id, lambda job: job["progress"]["message"].startswith("tow:"), "tow moving"
+    )
     limits.set(read_only=True)
     job = wait_job(client, job_id, timeout_s=60)
     assert (job["state"], job["error"]) == ("aborted", REASON)
@@ -49,10 +43,13 @@ def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_s
     assert client.get(f"/api/runs/{run_id}", headers=AUTH).json()["status"] == "running"
 
     limits.set()  # storage is back: the service writes back what was kept aside
-    end = time.monotonic() + 30
-    while (run := client.get(f"/api/runs/{run_id}", headers=AUTH).json())["status"] == "running":
-        assert time.monotonic() < end, "the run's end was never written"
-        time.sleep(0.1)
+    run = read_until(
+        lambda: client.get(f"/api/runs/{run_id}", headers=AUTH).json(),
+        lambda run: run["status"] != "running",
+        "the run's end written back",
+        timeout_s=30,
+        poll_s=0.1,
+    )
     assert (run["status"], run["reason"]) == ("aborted", REASON)
     assert run["sample_count"] > job["outcome"]["samples"]  # the kept samples are back
     assert wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))["state"] == ("completed")

@@ -9,6 +9,7 @@ import socket
 import time
 
 from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
+from tests.waiting import wait_until
 
 
 def _events(http, query: str) -> list[tuple[str, dict]]:
@@ -93,10 +94,9 @@ def test_a_client_that_stops_reading_never_slows_the_clock(live_url, client, ser
     finally:
         for s in stalled:
             s.close()
-    end = time.monotonic() + 20
-    while service.broadcaster.client_count > 0 and time.monotonic() < end:
-        time.sleep(0.1)
-    assert service.broadcaster.client_count == 0, "vanished clients were not dropped"
+    wait_until(
+        lambda: service.broadcaster.client_count == 0, "vanished clients dropped", timeout_s=20
+    )
 
 
 def test_broadcaster_bounds_a_stuck_client_and_publishing_stays_cheap():

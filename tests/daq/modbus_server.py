@@ -9,7 +9,6 @@ the words on the wire; end-to-end tests use the product's simulated rig.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import time
 
 from pymodbus.constants import ExcCodes
@@ -41,7 +40,6 @@ class MapServer:
         self.heartbeat_running = True
         self.requests = 0
         self._server: ModbusTcpServer | ModbusSerialServer | None = None
-        self._task: asyncio.Task | None = None
 
     # ---- values ------------------------------------------------------------------
     def set(self, name: str, value: float) -> None:
@@ -92,10 +90,10 @@ class MapServer:
     async def _action(self, fc, start, address, count, regs, set_values):
         self.requests += 1
         if self.delay_s:
-            await asyncio.sleep(self.delay_s)
+            await asyncio.sleep(self.delay_s)  # fault knob: a PLC slow to answer
         if fc in (5, 6, 15, 16) and set_values is not None and self.slow_writes:
             self.slow_writes -= 1
-            await asyncio.sleep(0.2)
+            await asyncio.sleep(0.2)  # fault knob: this reply later than the client's timeout
         if fc in _READ_FC:
             if self.fail_reads:
                 return ExcCodes.DEVICE_FAILURE
@@ -129,12 +127,7 @@ class MapServer:
             )
         else:
             self._server = ModbusTcpServer(self._device(), address=("127.0.0.1", self.port))
-        self._task = asyncio.create_task(self._server.serve_forever())
-        for _ in range(200):
-            await asyncio.sleep(0.005)
-            transport = getattr(self._server, "transport", None)
-            if transport is not None:
-                break
+        await self._server.serve_forever(background=True)  # returns once it listens
         if not self.serial_port:
             self.port = self._server.transport.sockets[0].getsockname()[1]
 
@@ -143,11 +136,6 @@ class MapServer:
         if self._server is not None:
             await self._server.shutdown()
             self._server = None
-        if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await self._task
-            self._task = None
 
     def rig_config(self, **modbus) -> RigConfig:
         """The rig file pointed at this server (plus any modbus overrides)."""

@@ -13,6 +13,7 @@ from daq.config import load_rig
 from daq.plc import WRITE_ATTEMPTS, DeviceError, PlcClient
 from daq.sample import Quality
 from tests.daq.modbus_server import MapServer
+from tests.waiting import until
 
 
 def _free_port() -> int:
@@ -142,7 +143,7 @@ async def test_connect_with_timeout_retries_until_the_server_appears():
     plc = PlcClient(srv.rig_config(reconnect_min_s=0.05, reconnect_max_s=0.2))
 
     async def late_start():
-        await asyncio.sleep(0.3)
+        await asyncio.sleep(0.3)  # the server away for a while: the first attempts must fail
         await srv.start()
 
     starter = asyncio.create_task(late_start())
@@ -173,19 +174,15 @@ async def test_server_lost_then_back_reconnects_in_the_background(server):
         server.set("tow_position", 0.5)
         await plc.read_all()
         await server.stop()
-        await asyncio.sleep(0.05)
+        await until(lambda: not plc.connected, "the client seeing the server gone", timeout_s=2)
         t0 = time.monotonic()
         with pytest.raises(DeviceError, match="tow_position"):
             await plc.read_all()
         assert time.monotonic() - t0 < 0.3  # fails fast: no inline reconnect loop
         assert not plc.connected
-        await asyncio.sleep(0.3)
+        await asyncio.sleep(0.3)  # the server away while the background attempts fail
         await server.start()  # same port
-        for _ in range(100):
-            if plc.connected:
-                break
-            await asyncio.sleep(0.02)
-        assert plc.connected
+        await until(lambda: plc.connected, "reconnected in the background", timeout_s=2)
         assert plc.stats.reconnects == 1
         assert (await plc.read_all())["tow_position"].value == pytest.approx(0.5)
     finally:

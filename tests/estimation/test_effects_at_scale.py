@@ -116,6 +116,10 @@ def test_a_force_outside_the_library_is_flagged_not_absorbed(scale):
     assert unexplained["period"]["value"] == pytest.approx(0.4, rel=0.05)
     assert unexplained["ratio_to_noise_floor"] > 3
     assert any("still structured" in w and "biased" in w for w in doc["warnings"])
+    # With the search off the warning says no effect was tried, and asks for the search.
+    off = estimate(runs, n_bootstrap=0, search_effects=False).to_json()
+    (warning,) = [w for w in off["warnings"] if "structured" in w]
+    assert "effect search was off" in warning and "after the effect search" not in warning
 
 
 def test_one_noise_free_run_claims_no_effect_it_cannot_identify():

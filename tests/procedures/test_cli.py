@@ -16,6 +16,7 @@ import pytest
 import xarray as xr
 
 from daq.store import Store
+from tests.waiting import wait_until
 
 RIG = [sys.executable, "-m", "api.cli.main"]
 ROOT = Path(__file__).resolve().parents[2]
@@ -33,14 +34,16 @@ def db(tmp_path) -> str:
 
 
 def _wait_for_samples(db: str, count: int, timeout: float = 20) -> str:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
+    """The id of the newest run once it has ``count`` samples stored."""
+
+    def stored() -> str | None:
         with Store(db) as store:
             runs = store.list_runs()
             if runs and store.sample_count(runs[0].id) >= count:
                 return runs[0].id
-        time.sleep(0.2)
-    raise AssertionError(f"no run reached {count} samples in {timeout} s")
+        return None
+
+    return wait_until(stored, f"a run with {count} samples stored", timeout_s=timeout, poll_s=0.2)
 
 
 @pytest.mark.parametrize(
@@ -93,7 +96,7 @@ def test_sigkill_mid_run_leaves_an_interrupted_run_missing_at_most_a_second(db):
     )
     try:
         run_id = _wait_for_samples(db, 25)
-        time.sleep(0.7)
+        time.sleep(0.7)  # kill between flushes, with samples queued: the loss bound is tested
         killed_at = time.time()
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(10)

@@ -17,7 +17,7 @@ from daq.store import Store
 from tests.procedures.conftest import short_rail
 from tests.progress_log import ProgressLog
 from tests.readings import good
-from tests.waiting import next_samples
+from tests.waiting import next_samples, until
 
 
 async def test_tow_records_release_motion_and_brake(session, store):
@@ -126,10 +126,11 @@ async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, sto
     # The server returns on the same port: the driver reconnects and samples are good again.
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
     assert session.sim.endpoints.port == port
-    for _ in range(100):
-        await asyncio.sleep(0.1)
-        if not session.acquisition.device_lost.is_set() and session.latest().quality == 0:
-            break
+    await until(
+        lambda: not session.acquisition.device_lost.is_set() and session.latest().quality == 0,
+        "good samples again after the reconnect",
+        timeout_s=10,
+    )
     assert not session.acquisition.device_lost.is_set()
     assert session.latest().quality == 0
 
@@ -139,17 +140,10 @@ async def test_stale_sensor_data_zeroes_armed_thrusters_at_once(session):
     await session.arm_thrusters()
     session.set_thrust([0.4, 0.4])
     emulator = session.sim.thrusters
-    for _ in range(30):
-        await asyncio.sleep(0.1)
-        if emulator.outputs == [0.4, 0.4]:
-            break
-    assert emulator.outputs == [0.4, 0.4]
+    await until(lambda: emulator.outputs == [0.4, 0.4], "the thrust at 0.4", timeout_s=3)
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
-    for _ in range(10):  # the first unread tick (≤ 0.1 s + read timeout) zeroes them
-        await asyncio.sleep(0.05)
-        if emulator.outputs == [0.0, 0.0]:
-            break
-    assert emulator.outputs == [0.0, 0.0]
+    # the first unread tick (≤ 0.1 s + read timeout) zeroes them
+    await until(lambda: emulator.outputs == [0.0, 0.0], "the thrust zeroed", timeout_s=0.5)
     assert emulator.state == "ARMED"  # zeroed by our driver, not by the controller's watchdog
     assert session.stale_zeroings == 1
     await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())

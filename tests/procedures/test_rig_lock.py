@@ -8,7 +8,6 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -18,6 +17,7 @@ from daq.procedures.params import tow_parameters
 from daq.rig_lock import FileRigLock, PostgresRigLock, ProcessRigLock, RigInUse, rig_lock
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from tests.waiting import read_until
 
 ROOT = Path(__file__).resolve().parents[2]
 RIG = "BENBAM tow tank"
@@ -38,10 +38,13 @@ sys.stdin.read()
 def _wait_free(lock, timeout_s: float = 10.0) -> None:
     """Wait until nobody holds the rig (PostgreSQL ends a dead client's backend at once,
     but asynchronously)."""
-    end = time.monotonic() + timeout_s
-    while lock.holder() is not None:
-        assert time.monotonic() < end, f"rig still held by {lock.holder()}"
-        time.sleep(0.02)
+    read_until(
+        lock.holder,
+        lambda holder: holder is None,
+        "the rig freed",
+        timeout_s=timeout_s,
+        poll_s=0.02,
+    )
 
 
 def test_the_lock_kind_follows_the_database(tmp_path):

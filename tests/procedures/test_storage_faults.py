@@ -34,6 +34,7 @@ from daq.store.spill import SUFFIX
 from tests.conftest import IN_CI
 from tests.procedures.conftest import short_rail
 from tests.store.helpers import DbLimits, no_sql
+from tests.waiting import until
 
 ROOT = Path(__file__).resolve().parents[2]
 TOW = [sys.executable, "-m", "api.cli.main", "tow", "--force", "2", "--max-time", "40"]
@@ -152,9 +153,12 @@ async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
                 break
         session.acquisition.unsubscribe(watch)
         await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
-        while not any("database is locked" in r.getMessage() for r in caplog.records):
+
+        def lock_logged() -> bool:  # after the recorder's 10 s busy wait, then its retries
             assert not task.done(), "the run ended while the database was locked"
-            await asyncio.sleep(0.1)  # the recorder's 10 s busy wait, then its retries
+            return any("database is locked" in r.getMessage() for r in caplog.records)
+
+        await until(lock_logged, "a 'database is locked' warning", timeout_s=60, poll_s=0.1)
         blocker.execute("COMMIT")
         blocker.close()
         outcome = await asyncio.wait_for(task, 60)

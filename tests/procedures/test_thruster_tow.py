@@ -13,10 +13,12 @@ from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, tow_parameters
 from daq.procedures.recording import AbortSignal
+from daq.procedures.thruster_drive import STALE_ZEROED
 from daq.run_data import load_run_data
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION, until_thrust_on
 from tests.readings import good
+from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
 
@@ -94,6 +96,7 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     await _abort_leaves_the_thrusters_zero(session)
     await _watchdog_trip_aborts_the_run(session, store)
     await _silent_controller_aborts_the_run(session, store)
+    await _lost_poll_zeroes_the_thrust_and_ends_the_run(session, store)
 
     # The estimator's view: the force from the calibration, ramping at the slew limit,
     # no pulley inertia (line unhooked), and drawn drives around it.
@@ -159,7 +162,8 @@ async def _watchdog_trip_aborts_the_run(session, store) -> None:
     )
     task = await _thrust_on(session, params)
     emulator = session.sim.thrusters
-    time.sleep(emulator.watchdog_s + 0.2)  # blocks the host's loop: no heartbeats go out
+    # Block the host's loop (no heartbeats go out) until the controller's watchdog trips.
+    wait_until(lambda: emulator.state == "WDT", "the controller's watchdog tripping", timeout_s=5)
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     assert "watchdog tripped" in outcome.reason
@@ -207,4 +211,26 @@ async def _silent_controller_aborts_the_run(session, store) -> None:
     assert any(fault["confirmed_outputs"])
     assert _thrust_steps(store, outcome.run_id)  # the ramp the controller did confirm
     await session.disarm_thrusters()  # the link is back: the next run can go
+    await _assert_thrusters_safe(session)
+
+
+async def _lost_poll_zeroes_the_thrust_and_ends_the_run(session, store) -> None:
+    """One PLC poll lost while the thrust is on: the session zeroes the thrusters (safety),
+    and the run ends aborted saying so, rather than recording on at zero thrust as if the
+    drive were the one asked for. The samples up to then are kept."""
+    params = tow_parameters(
+        {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
+        session.rig,
+    )
+    zeroings = session.stale_zeroings
+    task = await _thrust_on(session, params)
+    await asyncio.to_thread(session.sim.call, lambda s: setattr(s.plc.faults, "drop_next", 1))
+    outcome = await asyncio.wait_for(task, 10)
+    assert session.stale_zeroings == zeroings + 1
+    assert outcome.status == "aborted"
+    assert outcome.reason.startswith(f"{STALE_ZEROED} (PLC at tcp "), outcome.reason
+    assert "thrusters were zeroed for safety" in outcome.reason
+    faults = [e.kind for e in store.events(outcome.run_id) if e.message == outcome.reason]
+    assert faults == ["fault"]
+    assert store.sample_count(outcome.run_id) > 0
     await _assert_thrusters_safe(session)

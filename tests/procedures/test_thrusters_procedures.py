@@ -12,6 +12,7 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, spin_parameters
 from tests.procedures.conftest import until_thrust_on
 from tests.readings import good
+from tests.waiting import until
 from thrusters.driver import LINK_LOST_AFTER
 
 
@@ -104,3 +105,33 @@ async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(s
     assert outcome.status == "aborted" and calibration is None
     assert outcome.reason.startswith(f"thruster link lost: {LINK_LOST_AFTER} consecutive replies")
     assert store.get_run(outcome.run_id).reason == outcome.reason
+
+
+@pytest.mark.slow
+async def test_stale_data_mid_step_zeroes_the_thrust_and_the_step_is_measured_again(session, store):
+    """One PLC poll is lost while a calibration step's thrust is on: the session zeroes
+    the thrusters (safety), that step's samples are not used, and once the data is good the
+    step is applied and measured again; the zeroing is stored as a fault event."""
+    params = calibration_parameters(
+        {
+            "commands": [0.0, 0.1, 0.2, 0.3, 0.4],  # the fit needs 4 points each way
+            "settle_s": 0.5,
+            "samples_per_step": 3,
+            "tare_samples": 5,
+        },
+        session.rig,
+    )
+    task = asyncio.create_task(run_thrust_calibration(session, params))
+    emulator = session.sim.thrusters
+    await until(lambda: emulator.outputs == [0.4, 0.4] or task.done(), "the top step confirmed")
+    await asyncio.to_thread(session.sim.call, lambda s: setattr(s.plc.faults, "drop_next", 1))
+    await until(lambda: session.stale_zeroings == 1, "the stale-data zeroing")
+    outcome, calibration = await asyncio.wait_for(task, 60)
+    assert outcome.status == "completed", outcome.reason
+    rows = [r for r in calibration["table"] if r["command"] == 0.4]
+    assert len(rows) == 1
+    # measured with the thrust on, not the zeroed interval: as large as the reverse step's
+    reverse = next(r for r in calibration["table"] if r["command"] == -0.4)
+    assert rows[0]["thrust_per_thruster_n"] > 0.5 * abs(reverse["thrust_per_thruster_n"]) > 0
+    faults = [e for e in store.events(outcome.run_id) if "zeroed for safety" in e.message]
+    assert len(faults) == 1 and faults[0].kind == "fault"

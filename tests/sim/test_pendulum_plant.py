@@ -179,7 +179,7 @@ async def test_release_and_catch_over_modbus():
         await until(swinging, "the pendulum swinging off 0.25 rad", timeout_s=5)
         assert not (await client.write_coil(release, False, device_id=UNIT)).isError()
         caught = await read_si(client, "pendulum_angle")
-        await asyncio.sleep(0.3)
+        await asyncio.sleep(0.3)  # observation window: a caught pendulum stays where it is
         assert await read_si(client, "pendulum_angle") == pytest.approx(caught, abs=2e-5)
         # Beyond max_angle_rad the PLC refuses the write.
         rr = await client.write_registers(hold.address, encode(hold, 0.9), device_id=UNIT)

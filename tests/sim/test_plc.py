@@ -76,7 +76,7 @@ async def test_tcp_client_sees_tow_position_grow(plc):
         assert await read_si(client, "tow_release") == 1.0
         positions = []
         for _ in range(5):
-            await asyncio.sleep(0.1)
+            await asyncio.sleep(0.1)  # readings spread over time: the position grows between
             positions.append(await read_si(client, "tow_position"))
         assert all(b > a for a, b in itertools.pairwise(positions)), positions
         assert await read_si(client, "supply_voltage") == pytest.approx(16.0, abs=0.2)
@@ -85,7 +85,7 @@ async def test_tcp_client_sees_tow_position_grow(plc):
         t_a = loop.time()
         beat0, clock0 = await read_si(client, "heartbeat"), await read_si(client, "plc_clock")
         t_b = loop.time()
-        await asyncio.sleep(0.1)
+        await asyncio.sleep(0.1)  # a known interval over which to count the heartbeat's ticks
         t_c = loop.time()
         beat1, clock1 = await read_si(client, "heartbeat"), await read_si(client, "plc_clock")
         t_d = loop.time()
@@ -164,6 +164,7 @@ async def test_sim_reset_and_thrust_stand_coils(plc):
 
 async def test_faults_drop_delay_and_corrupt(plc):
     client = await tcp_client(await plc.start_tcp(), timeout=0.15)
+    loop = asyncio.get_running_loop()
     try:
         assert await read_si(client, "heartbeat") >= 0
         for fault in ("drop", "delay", "corrupt"):
@@ -173,10 +174,12 @@ async def test_faults_drop_delay_and_corrupt(plc):
                 plc.faults.delay_s = 0.4
             else:
                 plc.faults.corrupt = True
+            asked = loop.time()
             with pytest.raises(ModbusException):
                 await client.read_input_registers(0, count=2, device_id=UNIT)
             plc.faults.clear()
-            await asyncio.sleep(0.45)  # let a late answer arrive and be discarded
+            if fault == "delay":  # the answer comes 0.4 s after the request, unannounced:
+                await asyncio.sleep(asked + 0.45 - loop.time())  # let it come and be discarded
             if not client.connected:
                 client.close()
                 assert await client.connect()
@@ -193,7 +196,6 @@ async def test_corrupt_rtu_response_has_a_wrong_crc(plc):
         with pytest.raises(ModbusException):
             await client.read_input_registers(0, count=2, device_id=UNIT)
         plc.faults.clear()
-        await asyncio.sleep(0.1)
         rr = await client.read_input_registers(0, count=2, device_id=UNIT)
         assert not rr.isError()
     finally:
@@ -225,7 +227,6 @@ async def test_rtu_pty_server_restarts_on_the_same_path(plc):
         with pytest.raises(ModbusException):
             await client.read_input_registers(0, count=2, device_id=UNIT)
         await plc.start_server()
-        await asyncio.sleep(0.05)
         rr = await client.read_input_registers(0, count=2, device_id=UNIT)
         assert not rr.isError()
     finally:

@@ -47,7 +47,7 @@ def test_thread_runner_serves_modbus_and_thrusters_on_the_stand():
             assert send(line, protocol.arm_frame(1)).kind == "ACK"
             for seq in range(2, 7):  # 0.6 s of thrust = 4 lag time constants
                 assert send(line, protocol.thr_frame(seq, [500, 500])).kind == "ACK"
-                time.sleep(0.12)  # well within the 0.4 s watchdog
+                time.sleep(0.12)  # paced like a host, each frame within the 0.4 s watchdog
             thrust = read_load_cell(client) - idle
             expected = 2 * sim.plant.static_thrust_n(0.5, sim.plant.loaded_voltage_v())
             assert thrust == pytest.approx(expected, rel=0.08)

@@ -34,7 +34,7 @@ async def record(url: str) -> None:
     start = loop.time()
     seq = 0
     while True:
-        await asyncio.sleep(max(0.0, start + seq / RATE_HZ - loop.time()))
+        await asyncio.sleep(max(0.0, start + seq / RATE_HZ - loop.time()))  # paced at 100 Hz
         recorder.put(
             Sample(
                 seq,

@@ -74,7 +74,7 @@ async def test_postgres_connections_killed_mid_recording_lose_nothing(
         admin = sa.create_engine(postgres_server.admin_url, isolation_level="AUTOCOMMIT")
         for i, sample in enumerate(samples):
             recorder.put(sample)
-            await asyncio.sleep(0.002)
+            await asyncio.sleep(0.002)  # paced: the kills land while samples still arrive
             if i in (100, 150):
                 with admin.connect() as conn:
                     if i == 150:

@@ -29,17 +29,17 @@ async def test_samples_become_visible_within_the_flush_interval(db_url: str) -> 
         for sample in make_samples(0, 125):  # 2.5 s at 50 Hz
             recorder.put(sample)
             put_times.append(time.monotonic())
-            await asyncio.sleep(0.02)
+            await asyncio.sleep(0.02)  # paced like a 50 Hz clock: latency is what is measured
 
-    async def watch() -> None:
-        while len(first_seen) < 125:
-            visible = await asyncio.to_thread(reader.sample_count, run_id)
-            now = time.monotonic()
-            for seq in range(visible):
-                first_seen.setdefault(seq, now)
-            await asyncio.sleep(0.05)
+    async def all_seen() -> bool:
+        visible = await asyncio.to_thread(reader.sample_count, run_id)
+        now = time.monotonic()
+        for seq in range(visible):
+            first_seen.setdefault(seq, now)
+        return len(first_seen) >= 125
 
-    watcher = asyncio.create_task(watch())
+    # a reader polling like a UI every 50 ms, timing what it first sees
+    watcher = asyncio.create_task(until(all_seen, "all 125 samples visible", poll_s=0.05))
     await produce()
     await asyncio.wait_for(watcher, timeout=3.0)  # the last samples arrive without close()
     await recorder.close()
@@ -125,7 +125,7 @@ async def test_a_locked_sqlite_database_never_stalls_the_event_loop(tmp_path) ->
         loop = asyncio.get_running_loop()
         for i in range(80):
             expected = loop.time() + 0.01
-            await asyncio.sleep(0.01)
+            await asyncio.sleep(0.01)  # a 10 ms ticker: its lateness is the loop's stall
             lags.append(loop.time() - expected)
             recorder.put(Sample(i, float(i), float(i), {"tow_position": 0.0, "load_cell": 0.0}))
 

@@ -90,9 +90,9 @@ def test_lookup_by_unique_prefix_and_clear_errors(store: Store) -> None:
 
 def test_list_runs_filters_and_pages(store: Store) -> None:
     tow_a = new_run(store, vehicle="alpha")
-    time.sleep(0.02)
+    time.sleep(0.02)  # distinct creation times: the order tested is by start time
     spin_a = new_run(store, kind="spin", vehicle="alpha", parameters={"torque_nm": 0.907})
-    time.sleep(0.02)
+    time.sleep(0.02)  # distinct creation times
     tow_b = new_run(store, vehicle="bravo")
     store.finish_run(tow_a, "completed")
     store.finish_run(spin_a, "aborted", "operator")

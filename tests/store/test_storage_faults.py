@@ -20,6 +20,7 @@ from daq.store import RunRecorder, Store
 from daq.store.faults import describe, one_line
 from daq.store.spill import read_spill
 from tests.store.helpers import DbLimits, held_write_lock, make_samples, new_run, no_sql
+from tests.waiting import until
 
 
 @pytest.fixture
@@ -111,8 +112,9 @@ async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_comple
     blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
     blocker.execute("BEGIN EXCLUSIVE")
     ending = asyncio.create_task(recorder.end("completed", None))
-    while recorder.stats.failed_flushes < 3 and not ending.done():
-        await asyncio.sleep(0.02)  # the end is being retried against the lock
+    await until(  # the end is being retried against the lock
+        lambda: recorder.stats.failed_flushes >= 3 or ending.done(), "3 failed flushes at the end"
+    )
     assert not ending.done()
     blocker.execute("COMMIT")
     blocker.close()
@@ -136,8 +138,7 @@ async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
     blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
     blocker.execute("BEGIN EXCLUSIVE")
     ending = asyncio.create_task(recorder.end("completed", None))
-    while recorder.stats.last_error is None:
-        await asyncio.sleep(0.02)
+    await until(lambda: recorder.stats.last_error, "a flush failing on the lock")
     assert "database is locked" in recorder.stats.last_error
     no_sql(recorder.stats.last_error)
     blocker.execute("COMMIT")

@@ -11,7 +11,7 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
-from thruster_helpers import limits, thruster_port
+from thruster_helpers import FakeClock, limits, thruster_port
 
 from tests.waiting import until
 from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
@@ -32,32 +32,37 @@ async def served(request) -> AsyncIterator[tuple[ThrusterControllerEmulator, str
 
 async def test_clamp_and_slew_visible_in_controller_outputs(served) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    clock = FakeClock()  # the slew limiter's time: commands 0.02 s apart, on any machine
+    async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
         await drv.arm()
-        t0 = time.monotonic()
-        while emu.outputs != [0.8, -0.8] and time.monotonic() - t0 < 2:
+        t0 = clock.t
+        for _ in range(100):
+            clock.t += 0.02
             assert await drv.command([1.0, -3.0])
-            await asyncio.sleep(0.02)
-        ramp_s = time.monotonic() - t0
+            if emu.outputs == [0.8, -0.8]:
+                break
+        ramp_s = clock.t - t0
     outputs = [f for _, f in emu.seen]
     assert [0.8, -0.8] in outputs, "clamped to the rig's max_thruster_command, never beyond"
     assert max(abs(x) for f in outputs for x in f) <= 0.8
-    # slew 2.0 /s: 0 → 0.8 takes ≥ 0.4 s; no step exceeds 2.0 × 0.1 s.
-    assert ramp_s >= 0.38
+    # slew 2.0 /s: 0 → 0.8 takes 0.4 s; no step exceeds 2.0 /s × 0.02 s.
+    assert ramp_s == pytest.approx(0.4)
     ramp = outputs[: outputs.index([0.8, -0.8]) + 1]  # zeroing at close is immediate
     steps = [abs(b[0] - a[0]) for a, b in itertools.pairwise(ramp)]
-    assert max(steps) <= 0.2 + 1e-9
+    assert max(steps) <= 0.04 + 1e-9
     assert outputs[-1] == [0.0, 0.0] and emu.state == "DISARMED"
 
 
 async def test_zero_on_exception_exit(served) -> None:
     emu, url = served
+    clock = FakeClock()
     with pytest.raises(RuntimeError, match="procedure failed"):
-        async with ThrusterDriver(thruster_port(url), limits()) as drv:
+        async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
             await drv.arm()
-            for _ in range(10):
-                await drv.command([0.3, 0.3])
-                await asyncio.sleep(0.02)
+            clock.t += 0.1
+            await drv.command([0.3, 0.3])
+            clock.t += 0.1  # slew 2.0 /s: 0 → 0.3 in two steps
+            await drv.heartbeat()
             assert emu.outputs == [0.3, 0.3]
             raise RuntimeError("procedure failed")
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
@@ -83,10 +88,11 @@ async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served) -> No
 
 async def test_silent_controller_times_out_then_its_watchdog_latches(served) -> None:
     emu, url = served
-    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits())
+    clock = FakeClock()
+    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits(), clock=clock)
     await drv.open()
     await drv.arm()
-    await asyncio.sleep(0.1)
+    clock.t += 0.1  # slew 2.0 /s: 0.2 in one step
     await drv.command([0.2, 0.2])
     assert emu.outputs == [0.2, 0.2]
     emu.silent = True
@@ -111,7 +117,7 @@ async def test_heartbeat_keeps_controller_armed(served) -> None:
         await drv.arm()
         await drv.command([0.1, 0.1])
         for _ in range(8):
-            await asyncio.sleep(0.1)
+            await asyncio.sleep(0.1)  # paced like the 10 Hz host, for 0.8 s > the watchdog
             assert await drv.heartbeat()
         assert emu.state == "ARMED" and emu.stats.watchdog_trips == 0
         status = await drv.query()
@@ -128,10 +134,12 @@ async def _start_child(url: str, mode: str) -> asyncio.subprocess.Process:
 
 
 async def _wait_for_thrust(emu: ThrusterControllerEmulator) -> None:
-    t0 = time.monotonic()
-    while emu.outputs != [0.5, 0.5]:
-        assert time.monotonic() - t0 < 3, f"child never reached 50 % thrust: {emu.outputs}"
-        await asyncio.sleep(0.02)
+    await until(lambda: emu.outputs == [0.5, 0.5], "the child at 50 % thrust", timeout_s=3)
+
+
+async def _watchdog_tripped(emu: ThrusterControllerEmulator) -> None:
+    """Until the controller's watchdog trips (the host sends nothing meanwhile)."""
+    await until(lambda: emu.state == "WDT", "the controller's watchdog tripping", timeout_s=2)
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
@@ -157,8 +165,7 @@ async def test_sigkill_leaves_it_to_the_controller_watchdog(served) -> None:
     proc.kill()
     await asyncio.wait_for(proc.wait(), 5)
     killed = time.monotonic()
-    while emu.state == "ARMED" and time.monotonic() - killed < 2:
-        await asyncio.sleep(0.01)
+    await until(lambda: emu.state != "ARMED", "the watchdog tripping", timeout_s=2)
     assert emu.state == "WDT" and emu.outputs == [0.0, 0.0]
     assert emu.stats.watchdog_trips == 1
     assert emu.seen[-1][0] - killed <= 0.5
@@ -179,7 +186,8 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
     emu = ThrusterControllerEmulator(2)
     url = await emu.start_tcp()
     port = int(url.rsplit(":", 1)[1])
-    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits())
+    clock = FakeClock()
+    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits(), clock=clock)
     await drv.open()
     await drv.arm()
     await emu.stop()  # controller (or its serial server) goes away
@@ -193,7 +201,7 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
         assert not await drv.heartbeat()  # reconnected; a fresh controller is DISARMED
         assert drv.stats.reconnects == 1 and drv.stats.naks["disarmed"] == 1
         await drv.arm()
-        await asyncio.sleep(0.1)
+        clock.t += 0.1  # slew 2.0 /s: 0.1 in one step
         assert await drv.command([0.1, 0.1]) and emu2.outputs == [0.1, 0.1]
         await drv.close()
         assert emu2.outputs == [0.0, 0.0] and emu2.state == "DISARMED"
@@ -208,10 +216,10 @@ async def test_recorded_outputs_bracket_every_change_the_controller_made(served)
         await drv.arm()
         with drv.recording_outputs() as steps:
             for pause in (0.0, 0.02, 0.15, 0.05, 0.01, 0.12, 0.1, 0.1):
-                await asyncio.sleep(pause)
+                await asyncio.sleep(pause)  # deliberately early and late heartbeats, real time
                 await drv.command([0.5, -0.3])
             # No heartbeat for longer than the controller's watchdog: it zeroes the outputs.
-            await asyncio.sleep(emu.watchdog_s + 0.2)
+            await _watchdog_tripped(emu)
             assert not await drv.command([0.5, -0.3])
         assert drv.state == "WDT"
     seen = [(0.0, [0.0, 0.0]), *emu.seen]
@@ -228,20 +236,22 @@ async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(
     """One spoiled reply is ridden out; LINK_LOST_AFTER in a row are a lost link: a zero
     frame goes out at once, commands stay zero, and only a new ARM clears the fault."""
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    clock = FakeClock()
+    async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
         await drv.arm()
-        for _ in range(5):
-            await drv.command([0.3, 0.3])
-            await asyncio.sleep(0.02)
+        clock.t += 0.1
+        await drv.command([0.3, 0.3])
         assert emu.outputs[0] > 0
         emu.corrupt_replies = LINK_LOST_AFTER - 1
         for _ in range(LINK_LOST_AFTER):
+            clock.t += 0.02  # still ramping: what is sent differs from what was confirmed
             await drv.command([0.3, 0.3])
         assert drv.fault is None and drv.missed_replies == 0
         emu.corrupt_replies = LINK_LOST_AFTER
         confirmed = emu.outputs
         t0 = time.monotonic()
         for _ in range(LINK_LOST_AFTER):
+            clock.t += 0.02
             assert not await drv.command([0.3, 0.3])
         fault = await asyncio.wait_for(drv.wait_fault(), 1)
         assert fault.kind == "link_lost" and fault.t_confirmed < t0
@@ -253,9 +263,8 @@ async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(
         assert await drv.command([0.3, 0.3]) and emu.outputs == [0.0, 0.0]  # held at zero
         await drv.arm()
         assert drv.fault is None
-        for _ in range(5):
-            await drv.command([0.3, 0.3])
-            await asyncio.sleep(0.02)
+        clock.t += 0.1
+        await drv.command([0.3, 0.3])
         assert emu.outputs[0] > 0
 
 
@@ -264,7 +273,8 @@ async def test_watchdog_trip_seen_in_the_reply_is_a_fault(served) -> None:
     async with ThrusterDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         await drv.command([0.2, 0.2])
-        await asyncio.sleep(emu.watchdog_s + 0.1)  # no heartbeat: the controller trips
+        # no heartbeat: the controller trips
+        await _watchdog_tripped(emu)
         assert not await drv.command([0.2, 0.2])  # NAK disarmed
         fault = await asyncio.wait_for(drv.wait_fault(), 1)
         assert fault.kind == "watchdog" and "watchdog tripped" in fault.reason

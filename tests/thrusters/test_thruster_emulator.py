@@ -9,6 +9,7 @@ from collections.abc import AsyncIterator
 import pytest
 import serial
 
+from tests.waiting import until
 from thrusters import protocol as p
 from thrusters.emulator import ThrusterControllerEmulator
 
@@ -96,8 +97,7 @@ async def test_watchdog_trips_latches_and_rearms(emu, line) -> None:
     t_last = time.monotonic()
     # QRY does not feed the watchdog: only accepted ARM/THR frames do.
     await line.ask(p.qry_frame(3))
-    while emu.state == "ARMED" and time.monotonic() - t_last < 2:
-        await asyncio.sleep(0.01)
+    await until(lambda: emu.state != "ARMED", "the watchdog tripping", timeout_s=2)
     tripped_after = time.monotonic() - t_last
     assert emu.state == "WDT"
     assert 0.38 <= tripped_after <= 0.6
@@ -114,7 +114,7 @@ async def test_heartbeat_keeps_watchdog_fed(emu, line) -> None:
     await line.ask(p.arm_frame(1))
     for seq in range(2, 12):
         assert await line.ask(p.thr_frame(seq, [100, 100])) == p.ack_frame(seq, "ARMED")
-        await asyncio.sleep(0.1)
+        await asyncio.sleep(0.1)  # paced like the 10 Hz host, for 1 s > the 0.4 s watchdog
     assert emu.state == "ARMED" and emu.stats.watchdog_trips == 0
 
 

@@ -27,7 +27,7 @@ async def main(url: str, mode: str) -> None:
     await drv.command([0.5, 0.5])
     print("armed", flush=True)
     for _ in range(5 if mode == "atexit" else 10_000):
-        await asyncio.sleep(0.1)
+        await asyncio.sleep(0.1)  # paced like the 10 Hz host: heartbeats feed the watchdog
         await drv.heartbeat()
     if mode == "atexit":
         sys.exit(3)  # the driver is still open: only the atexit fallback zeroes

@@ -10,20 +10,16 @@ from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from starlette.concurrency import run_in_threadpool
 
 from api.http.deps import StoreDep, require_read, require_write
-from api.http.schemas import error_responses
+from api.http.schemas import csv_upload_body, error_responses
 from daq.calibration_law import NoCalibration, import_calibration, law_of
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec
 
 router = APIRouter(prefix="/api", tags=["calibration"])
 
-_TABLE_BODY = {
-    "requestBody": {
-        "required": True,
-        "content": {"text/csv": {"schema": {"type": "string"}}},
-        "description": "CSV with a header: a command column, a thrust column and optionally "
-        "a supply-voltage column (`,` `;` or tab separated; decimal commas and a BOM read).",
-    }
-}
+_TABLE_BODY = csv_upload_body(
+    "CSV with a header: a command column, a thrust column and optionally "
+    "a supply-voltage column (`,` `;` or tab separated; decimal commas and a BOM read)."
+)
 
 
 @router.post(

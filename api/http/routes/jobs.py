@@ -4,10 +4,12 @@ control."""
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query
 
+from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
 from api.core.jobs import JobRunner
 from api.core.service import RigService
@@ -150,46 +152,32 @@ def job_events(job_id: str, runner: RunnerDep) -> list[dict]:
     return [e | {"t_wall": iso_time(e["t_wall"])} for e in runner.events(job_id)]
 
 
-@router.post(
-    "/{job_id}/abort",
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_CONTROL,
-)
-def abort_job(job_id: str, runner: RunnerDep) -> dict:
+def _control_route(verb: str, control: Callable[[JobRunner, str], Job], doc: str) -> None:
+    """``POST /api/jobs/{job_id}/<verb>``: ``control(runner, job_id)``, the job as answer."""
+
+    def control_job(job_id: str, runner: RunnerDep) -> dict:
+        return control(runner, job_id).to_json()
+
+    control_job.__name__ = f"{verb}_job"  # the OpenAPI operation id: abort_job_api_jobs_…
+    control_job.__doc__ = doc
+    router.post(
+        f"/{{job_id}}/{verb}",
+        response_model=JobOut,
+        dependencies=[Depends(require_write)],
+        responses=_CONTROL,
+    )(control_job)
+
+
+_control_route(
+    "abort",
+    JobRunner.abort,
     """Abort a procedure: its run ends ``aborted``, thrusters zero, brakes on. A queued job
-    leaves the queue and is kept as ``aborted``."""
-    return runner.abort(job_id).to_json()
-
-
-@router.post(
-    "/{job_id}/pause",
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_CONTROL,
+    leaves the queue and is kept as ``aborted``.""",
 )
-def pause_job(job_id: str, runner: RunnerDep) -> dict:
-    """Pause a sequence after the step in progress."""
-    return runner.pause(job_id).to_json()
-
-
-@router.post(
-    "/{job_id}/resume",
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_CONTROL,
+_control_route("pause", JobRunner.pause, "Pause a sequence after the step in progress.")
+_control_route("resume", JobRunner.resume, "Resume a paused sequence.")
+_control_route(
+    "confirm",
+    JobRunner.confirm,
+    "Confirm the operator act a job is waiting for (state ``waiting_for_operator``).",
 )
-def resume_job(job_id: str, runner: RunnerDep) -> dict:
-    """Resume a paused sequence."""
-    return runner.resume(job_id).to_json()
-
-
-@router.post(
-    "/{job_id}/confirm",
-    response_model=JobOut,
-    dependencies=[Depends(require_write)],
-    responses=_CONTROL,
-)
-def confirm_job(job_id: str, runner: RunnerDep) -> dict:
-    """Confirm the operator act a job is waiting for (state ``waiting_for_operator``)."""
-    return runner.confirm(job_id).to_json()

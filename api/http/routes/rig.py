@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Coroutine
+from typing import Any
+
 from fastapi import APIRouter, Depends, Request
 
 from api.core.jobs import JobConflict, JobRunner
@@ -10,6 +13,7 @@ from api.http.deps import RunnerDep, ServiceDep, require_read, require_write
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
 from daq.capabilities import safety
 from daq.procedures.kinds import NotCapable, capabilities
+from daq.session import RigSession
 from daq.store.base import software_version
 
 router = APIRouter(prefix="/api", tags=["rig"])
@@ -73,30 +77,33 @@ def _idle_session(service: RigService, runner: JobRunner, *, thrusters: bool = F
     return session
 
 
-@router.post(
-    "/rig/arm",
-    response_model=RigStatus,
-    dependencies=[Depends(require_write)],
-    responses=error_responses(401, 409, 503),
-)
-def arm(service: ServiceDep, runner: RunnerDep) -> dict:
-    """Arm the thrusters (outputs stay at zero until a procedure commands them)."""
-    session = _idle_session(service, runner, thrusters=True)
-    service.run(session.arm_thrusters())
-    return rig_status(service, runner)
+def _thrusters_route(
+    verb: str, switch: Callable[[RigSession], Coroutine[Any, Any, None]], doc: str
+) -> None:
+    """``POST /api/rig/<verb>``: ``switch`` the thrusters of an idle rig (409 while a job or
+    another client holds the rig), the rig's status as answer."""
+
+    def switch_thrusters(service: ServiceDep, runner: RunnerDep) -> dict:
+        session = _idle_session(service, runner, thrusters=True)
+        service.run(switch(session))
+        return rig_status(service, runner)
+
+    switch_thrusters.__name__ = verb  # the OpenAPI operation id: arm_api_rig_arm_post
+    switch_thrusters.__doc__ = doc
+    router.post(
+        f"/rig/{verb}",
+        response_model=RigStatus,
+        dependencies=[Depends(require_write)],
+        responses=error_responses(401, 409, 503),
+    )(switch_thrusters)
 
 
-@router.post(
-    "/rig/disarm",
-    response_model=RigStatus,
-    dependencies=[Depends(require_write)],
-    responses=error_responses(401, 409, 503),
+_thrusters_route(
+    "arm",
+    RigSession.arm_thrusters,
+    "Arm the thrusters (outputs stay at zero until a procedure commands them).",
 )
-def disarm(service: ServiceDep, runner: RunnerDep) -> dict:
-    """Command zero and disarm the thrusters."""
-    session = _idle_session(service, runner, thrusters=True)
-    service.run(session.disarm_thrusters())
-    return rig_status(service, runner)
+_thrusters_route("disarm", RigSession.disarm_thrusters, "Command zero and disarm the thrusters.")
 
 
 @router.post(

@@ -21,7 +21,7 @@ from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
 from api.core.csv_upload import import_file, save_stream
-from api.core.jobs import JobRunner
+from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.run_cache import EndedRunCache
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
 from api.http.schemas import (
@@ -30,6 +30,7 @@ from api.http.schemas import (
     ResultOut,
     RunOut,
     SamplesOut,
+    csv_upload_body,
     error_responses,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
@@ -272,14 +273,10 @@ def get_run_results(run_id: str, store: StoreDep, runner: RunnerDep) -> list[dic
     return [_result_json(r, runner) for r in store.results(store.get_run(run_id).id)]
 
 
-_IMPORT_BODY = {
-    "requestBody": {
-        "required": True,
-        "content": {"text/csv": {"schema": {"type": "string"}}},
-        "description": "CSV with a header: t (s), position (m or rad), more columns allowed "
-        "(a drive logged per sample among them, named by drive_column).",
-    }
-}
+_IMPORT_BODY = csv_upload_body(
+    "CSV with a header: t (s), position (m or rad), more columns allowed "
+    "(a drive logged per sample among them, named by drive_column)."
+)
 
 
 def _import_metadata(
@@ -466,45 +463,32 @@ def latest_calibration(store: StoreDep, runner: RunnerDep) -> dict:
     return _result_json(latest, runner)
 
 
-@router.get(
-    "/results/{result_id}/report/{name}.png",
-    dependencies=[Depends(require_read)],
-    responses={200: {"content": {"image/png": {}}, "description": "A report plot"}} | _READ,
-    response_class=Response,
+def _report_figure_route(suffix: str, function_name: str, doc: str) -> None:
+    """``GET /api/results/{result_id}/report/{name}<suffix>``: a stored report figure (from
+    the database, so it outlives the service) in the format ``suffix`` names."""
+
+    def report_figure(result_id: int, name: str, store: StoreDep, runner: RunnerDep) -> Response:
+        _find_result(store, result_id)
+        found = runner.report_file(result_id, name, suffix)
+        if found is None:
+            raise HTTPException(404, f"result {result_id} has no report plot named {name!r}")
+        media_type, content = found
+        return Response(content, media_type=media_type)
+
+    report_figure.__name__ = function_name  # the OpenAPI operation id
+    report_figure.__doc__ = doc
+    content: dict[str, dict] = {REPORT_SUFFIXES[suffix]: {}}
+    router.get(
+        f"/results/{{result_id}}/report/{{name}}{suffix}",
+        dependencies=[Depends(require_read)],
+        responses={200: {"content": content, "description": "A report plot"}} | _READ,
+        response_class=Response,
+    )(report_figure)
+
+
+_report_figure_route(
+    ".png", "get_report_plot", "A report figure as a 150 dpi PNG (names in ``report_plots``)."
 )
-def get_report_plot(
-    result_id: int,
-    name: str,
-    store: StoreDep,
-    runner: RunnerDep,
-) -> Response:
-    """A report figure as a 150 dpi PNG (names in ``report_plots``)."""
-    return _report_figure(result_id, name, ".png", store, runner)
-
-
-@router.get(
-    "/results/{result_id}/report/{name}.svg",
-    dependencies=[Depends(require_read)],
-    responses={200: {"content": {"image/svg+xml": {}}, "description": "A report plot"}} | _READ,
-    response_class=Response,
+_report_figure_route(
+    ".svg", "get_report_svg", "The same report figure as SVG (vector, its labels as text)."
 )
-def get_report_svg(
-    result_id: int,
-    name: str,
-    store: StoreDep,
-    runner: RunnerDep,
-) -> Response:
-    """The same report figure as SVG (vector, its labels as text)."""
-    return _report_figure(result_id, name, ".svg", store, runner)
-
-
-def _report_figure(
-    result_id: int, name: str, suffix: str, store: Store, runner: JobRunner
-) -> Response:
-    """A stored report figure (from the database, so it outlives the service)."""
-    _find_result(store, result_id)
-    found = runner.report_file(result_id, name, suffix)
-    if found is None:
-        raise HTTPException(404, f"result {result_id} has no report plot named {name!r}")
-    media_type, content = found
-    return Response(content, media_type=media_type)

@@ -226,7 +226,7 @@ function showJob(job) {
     <p><strong>${esc(job.label)}</strong> <span class="state ${job.state}" id="job-state">${job.state}</span></p>
     <div class="progress"><div style="width:${pct}%"></div></div>
     <p id="job-message">${esc(job.progress.message)}</p>
-    ${act ? `<div class="operator"><strong>Operator:</strong> ${esc(act.instruction)}
+    ${act ? `<div class="operator" id="operator-act"><strong>Operator:</strong> ${act.reverse ? `<span class="tag">reverse rigging</span>` : ""}${esc(act.instruction)}
         <button id="confirm-btn">Done — continue</button></div>` : ""}
     ${job.kind === "sequence" && !FINAL.includes(job.state)
       ? `<button id="pause-btn">Pause</button> <button id="resume-btn">Resume</button>` : ""}
@@ -689,7 +689,11 @@ function showReverseButton(test) {
 
 // The stored result's report figures into #est-plots, full width (fetched with the token):
 // click a figure to see it at its natural size; links open the PNG and the SVG on their own.
+// Each call draws its result's figures in report order; a later call (the job's update and
+// its final result arrive close together) supersedes an earlier one still fetching.
+let reportPlotsCall = 0;
 async function showReportPlots(resultId) {
+  const call = ++reportPlotsCall;
   const box = $("#est-plots");
   box.innerHTML = "";
   if (resultId === undefined || resultId === null) return;
@@ -697,8 +701,9 @@ async function showReportPlots(resultId) {
     const stored = await api("GET", `/api/results/${resultId}`);
     for (const name of stored.report_plots) {
       const png = await reportBlob(resultId, `${name}.png`);
+      const svg = png && (await reportBlob(resultId, `${name}.svg`));
+      if (call !== reportPlotsCall) return;
       if (!png) continue;
-      const svg = await reportBlob(resultId, `${name}.svg`);
       const fig = document.createElement("figure");
       fig.className = "report-figure";
       fig.innerHTML = `<img alt="report figure ${esc(name)}" title="click to view at full size">

@@ -1,0 +1,91 @@
+"""The parts of a fit report the axis and the pendulum reports write alike: the summary rows
+after the coefficients, the effects found, the error before and after per run, and the
+result.json + report.md pair."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Protocol
+
+from estimation.axis.result import EffectEstimate
+
+
+class FitSummary(Protocol):
+    """What these parts read of a result (``EstimationResult``, ``PendulumResult``)."""
+
+    @property
+    def runs(self) -> tuple[str, ...]: ...
+    @property
+    def effects(self) -> tuple[EffectEstimate, ...]: ...
+    @property
+    def rmse_before(self) -> float: ...
+    @property
+    def rmse_after(self) -> float: ...
+    @property
+    def rmse_per_run_before(self) -> dict[str, float]: ...
+    @property
+    def rmse_per_run_after(self) -> dict[str, float]: ...
+    @property
+    def warnings(self) -> tuple[str, ...]: ...
+
+
+def summary_rows(result: FitSummary, unit: str, labels: Mapping[str, str]) -> list[str]:
+    """The summary table's rows after the coefficients (effects, RMSE in ``unit``, warnings),
+    the warnings in full, then which run each figure label stands for."""
+    lines = [
+        f"| effect `{e.name}` | {e.value:.5g} ± {e.std:.2g} | {e.unit} |" for e in result.effects
+    ]
+    if not result.effects:
+        lines.append("| effects found | none (the base model explains the data) | |")
+    lines += [
+        f"| RMSE before → after | {result.rmse_before:.3g} → {result.rmse_after:.3g} | {unit} |",
+        f"| warnings | {len(result.warnings)} (below) | |"
+        if result.warnings
+        else "| warnings | none | |",
+        "",
+    ]
+    lines += [f"- **Warning:** {w}" for w in result.warnings]
+    if result.warnings:
+        lines.append("")
+    lines += ["| run (as labelled in the figures) | run id |", "|---|---|"]
+    lines += [f"| {labels[rid]} | `{rid}` |" for rid in result.runs]
+    return [*lines, ""]
+
+
+def effects_found(effects: tuple[EffectEstimate, ...], digits: int) -> list[str]:
+    """The "Effects found" section: each effect's value ± σ (``digits`` significant)."""
+    lines = ["", "## Effects found", ""]
+    if effects:
+        lines += [f"- `{e.name}` = {e.value:.{digits}g} ± {e.std:.2g} {e.unit}" for e in effects]
+    else:
+        lines.append("- none (the base model explains the data)")
+    return lines
+
+
+def error_before_after(result: FitSummary, unit: str, labels: Mapping[str, str]) -> list[str]:
+    """The "Error before and after" table: RMSE in ``unit`` per run and over all runs."""
+    lines = [
+        "",
+        "## Error before and after",
+        "",
+        f"| run | RMSE before [{unit}] | RMSE after [{unit}] |",
+        "|---|---|---|",
+    ]
+    lines += [
+        f"| {labels[rid]} | {result.rmse_per_run_before[rid]:.4g} | "
+        f"{result.rmse_per_run_after[rid]:.4g} |"
+        for rid in result.runs
+    ]
+    lines.append(f"| **all** | {result.rmse_before:.4g} | {result.rmse_after:.4g} |")
+    return lines
+
+
+def write_result_and_markdown(out: Path, doc: dict[str, Any], markdown: str) -> list[Path]:
+    """Write ``doc`` as result.json and ``markdown`` as report.md into ``out``; their paths."""
+    json_path = out / "result.json"
+    json_path.write_text(json.dumps(doc, indent=2, ensure_ascii=False))
+    md_path = out / "report.md"
+    md_path.write_text(markdown, encoding="utf-8")
+    return [json_path, md_path]
