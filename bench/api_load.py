@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
-import math
 import multiprocessing as mp
 import sys
 import tempfile
@@ -25,30 +24,20 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.service import serve_in_thread, wait_job
+from bench.timing import in_ms, percentile
 
 TOKEN = "bench-token"
 TARGET_API_P99_MS = 20.0
 TARGET_CLOCK_P99_MS = 2.0
 
 
-def _pct(values: list[float], p: float) -> float | None:
-    if not values:
-        return None
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, math.ceil(p / 100 * len(ordered)) - 1)]
-
-
 def _summary_ms(values: list[float]) -> dict:
     return {
         "n": len(values),
-        "p50_ms": _r(_pct(values, 50)),
-        "p99_ms": _r(_pct(values, 99)),
-        "max_ms": _r(max(values) if values else None),
+        "p50_ms": in_ms(percentile(values, 50)),
+        "p99_ms": in_ms(percentile(values, 99)),
+        "max_ms": in_ms(max(values) if values else None),
     }
-
-
-def _r(seconds: float | None) -> float | None:
-    return None if seconds is None else round(seconds * 1000, 3)
 
 
 # ---- the load generator (separate process) ------------------------------------------------

@@ -26,11 +26,12 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench.recorded_run import bench_run
 from bench.simproc import RigSimProcess
 from daq.acquisition import Acquisition
 from daq.config import RigConfig, load_rig
 from daq.plc import PlcClient
-from daq.store import RunRecorder, Store
+from daq.store import Store
 
 TARGET_P99_S = 0.002
 
@@ -44,15 +45,7 @@ async def measure(rig: RigConfig, rate_hz: float, ticks: int, realtime: bool) ->
     await plc.write("tow_release", True)
     with tempfile.TemporaryDirectory() as tmp:
         store = Store(f"sqlite:///{tmp}/bench.db")
-        run_id = store.create_run(
-            kind="bench_clock_lateness",
-            parameters={"rate_hz": rate_hz},
-            channel_names=plc.channel_names,
-            rig_name=rig.rig.name,
-            vehicle=rig.vehicle.name,
-            rig_toml="",
-        )
-        recorder = RunRecorder(store, run_id, flush_interval_s=0.5)
+        run_id, recorder = bench_run(store, plc, "bench_clock_lateness", {"rate_hz": rate_hz})
         acq = Acquisition(plc, rate_hz=rate_hz, realtime=realtime)
         q = acq.subscribe(maxsize=10_000, name="recorder")
         flusher = asyncio.create_task(recorder.run())

@@ -21,10 +21,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import multiprocessing as mp
 import os
-import select
 import socket
 import sys
 import tempfile
@@ -35,22 +33,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.service import serve_in_thread, wait_job
+from bench.timing import in_ms, percentile
+from tests.api.streamed_post import feed_post, zeros
 
 TOKEN = "bench-token"
 HUGE = 300 * 1024 * 1024
-CHUNK = 64 * 1024
 TARGET_CLOCK_P99_MS = 2.0
-
-
-def _pct(values: list[float], p: float) -> float | None:
-    if not values:
-        return None
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, math.ceil(p / 100 * len(ordered)) - 1)]
-
-
-def _ms(seconds: float | None) -> float | None:
-    return None if seconds is None else round(seconds * 1000, 3)
 
 
 def _memory_mb() -> dict[str, float]:
@@ -74,35 +62,17 @@ def _huge_posts(port: int, seconds: float, rate: float, chunked: bool, out) -> N
     attempts = 0
     start = time.monotonic()
     end = start + seconds
-    zeros = b"0" * CHUNK
-    chunk = f"{CHUNK:x}\r\n".encode() + zeros + b"\r\n" if chunked else zeros
+    headers = {"Content-Type": "application/json"}
+    if not chunked:
+        headers["Content-Length"] = str(HUGE)
     while time.monotonic() < end:
         if rate > 0:
             time.sleep(max(0.0, start + attempts / rate - time.monotonic()))
         attempts += 1
-        head = ["POST /api/jobs/tow HTTP/1.1", "Host: 127.0.0.1", "Content-Type: application/json"]
-        head.append("Transfer-Encoding: chunked" if chunked else f"Content-Length: {HUGE}")
         status = "no answer"
         try:
             with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
-                s.sendall(("\r\n".join(head) + "\r\n\r\n").encode())
-                s.setblocking(False)
-                pending, body_left = b"", HUGE
-                while body_left > 0 or pending:
-                    readable, writable, _ = select.select([s], [s], [], 1.0)
-                    if readable:
-                        break
-                    if not writable:
-                        continue
-                    if not pending:
-                        pending, body_left = chunk, body_left - CHUNK
-                    try:
-                        n = s.send(pending)
-                    except BlockingIOError:
-                        continue
-                    fed += n
-                    pending = pending[n:]
-                s.setblocking(True)
+                fed += feed_post(s, "/api/jobs/tow", headers, zeros(HUGE), chunked=chunked)
                 data = s.recv(65536)
                 status = data.split(b" ")[1].decode() if data.startswith(b"HTTP/") else "closed"
         except OSError as err:
@@ -163,14 +133,14 @@ class Window:
         s = self.acq.stats
         lateness = list(s.lateness_s)[self.n0 :]
         skipped = s.skipped_slots - self.skipped0
-        p99 = _pct(lateness, 99)
+        p99 = percentile(lateness, 99)
         worst = max(range(len(lateness)), key=lateness.__getitem__) if lateness else None
         return {
             "ticks": len(lateness),
             "lateness_ms": {
-                "p50": _ms(_pct(lateness, 50)),
-                "p99": _ms(p99),
-                "max": _ms(max(lateness) if lateness else None),
+                "p50": in_ms(percentile(lateness, 50)),
+                "p99": in_ms(p99),
+                "max": in_ms(max(lateness) if lateness else None),
                 "max_at_tick": worst,
             },
             "skipped_slots": skipped,

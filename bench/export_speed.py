@@ -25,9 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from daq.export_formats import FORMATS, write_export
 from daq.sample import Sample
 from daq.store import Store
+from tests.store.helpers import benbam_tow_run
 
-ROOT = Path(__file__).resolve().parent.parent
-RIG_TOML = (ROOT / "fixtures" / "rigs" / "benbam.toml").read_text()
 CHANNELS = [
     "tow_position", "yaw_angle", "load_cell", "supply_voltage", "heartbeat", "plc_clock",
     "tow_release", "spin_release", "end_of_travel", "estop",
@@ -65,14 +64,7 @@ def main() -> None:
         tempfile.TemporaryDirectory(prefix="bench-export-") as folder,
         Store(f"sqlite:///{folder}/rig.db") as store,
     ):
-        run_id = store.create_run(
-            kind="tow",
-            parameters={"force_n": 24.5, "drive": "weight", "hung_mass_kg": 2.5},
-            channel_names=CHANNELS,
-            rig_name="BENBAM tow tank",
-            vehicle="BENBAM",
-            rig_toml=RIG_TOML,
-        )
+        run_id = benbam_tow_run(store, CHANNELS)
         store.add_samples(run_id, make_samples(args.samples))
         store.finish_run(run_id, "completed")
         figures = {}

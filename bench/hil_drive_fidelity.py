@@ -28,14 +28,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.params import tow_parameters
 from daq.run_data import thruster_drive
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from daq.store.run_events import RunEvents
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
+from tests.hil_calibration import calibrate_for_hil, measured_thrust_n
 
 COMMAND = 0.4  # every thruster, as calibrated
 RAMP_S = 0.6  # after thrust-on: the slew-limited ramp and the lag
@@ -116,18 +116,8 @@ async def _bench(runs: int) -> list[dict]:
         store = Store(f"sqlite:///{Path(tmp) / 'rig.db'}")
         async with RigSession(RigSource.load(), store) as session:
             rig = session.rig
-            cal = calibration_parameters(
-                {
-                    "commands": [0.0, 0.1, 0.2, 0.4, 0.6, 0.8],
-                    "settle_s": 1.0,
-                    "samples_per_step": 5,
-                    "tare_samples": 5,
-                },
-                rig,
-            )
-            _, table = await run_thrust_calibration(session, cal)
-            rows = [r["thrust_per_thruster_n"] for r in table["table"] if r["command"] == COMMAND]
-            force = rig.thrusters.count * sum(rows) / len(rows)
+            calibration = await calibrate_for_hil(session)
+            force = rig.thrusters.count * measured_thrust_n(calibration, COMMAND)
             results = []
             for _ in range(runs):
                 plant: list = []

@@ -33,12 +33,13 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench.recorded_run import bench_run
 from bench.simproc import PacedPtyLink, RigSimProcess
 from daq.acquisition import Acquisition
 from daq.blocks import ReadBlock
 from daq.config import RigConfig, load_rig
 from daq.plc import PlcClient
-from daq.store import RunRecorder, Store
+from daq.store import Store
 
 TCP_RATES = (500.0, 1000.0, 1250.0, 1500.0, 2000.0)
 RTU_RATES = (40.0, 50.0, 55.0, 58.0, 60.0)
@@ -68,15 +69,8 @@ async def pipeline(
     """Run clock -> recorder for ``seconds`` at ``rate_hz``; what got through."""
     plc = PlcClient(rig, channels=channels)
     await plc.connect(timeout_s=5.0)
-    run_id = store.create_run(
-        kind="bench_poll_rate",
-        parameters={"rate_hz": rate_hz, "transport": rig.modbus.transport},
-        channel_names=plc.channel_names,
-        rig_name=rig.rig.name,
-        vehicle=rig.vehicle.name,
-        rig_toml="",
-    )
-    recorder = RunRecorder(store, run_id, flush_interval_s=0.5)
+    parameters = {"rate_hz": rate_hz, "transport": rig.modbus.transport}
+    run_id, recorder = bench_run(store, plc, "bench_poll_rate", parameters)
     acq = Acquisition(plc, rate_hz=rate_hz, realtime=realtime)
     q = acq.subscribe(maxsize=100_000, name="recorder")
 

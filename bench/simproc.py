@@ -18,7 +18,7 @@ import sys
 import time
 import tty
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 from daq.config import RigConfig
 
@@ -31,7 +31,29 @@ def _fifo() -> None:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))
 
 
-class RigSimProcess:
+class _ChildProcess:
+    """A helper process (``proc``) stopped on ``close()`` or at the end of a ``with`` block."""
+
+    proc: subprocess.Popen
+
+    def close(self) -> None:
+        """SIGTERM the process and wait for it (SIGKILL if it has not ended within 5 s)."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(5)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class RigSimProcess(_ChildProcess):
     """``rig sim --modbus-port 0 [--rtu]`` in a subprocess; ``ready`` is its JSON line.
 
     ``realtime=True`` runs it SCHED_FIFO, as a stand-in for a PLC with its own CPU
@@ -67,22 +89,6 @@ class RigSimProcess:
         update.update(modbus)
         return rig.model_copy(update={"modbus": rig.modbus.model_copy(update=update)})
 
-    def close(self) -> None:
-        """SIGTERM the simulator and wait for it."""
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-
-    def __enter__(self) -> RigSimProcess:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
 
 def _relay(device_path: str, bytes_per_s: float, frame_gap_s: float = 0.0) -> None:
     """Child process: forward bytes between a new pty and ``device_path``, paced; each
@@ -113,7 +119,7 @@ def _relay(device_path: str, bytes_per_s: float, frame_gap_s: float = 0.0) -> No
             os.write(peer[src], data)
 
 
-class PacedPtyLink:
+class PacedPtyLink(_ChildProcess):
     """A pty (``client_path``) joined to ``device_path`` through a line of ``baudrate`` 8N1."""
 
     def __init__(
@@ -144,18 +150,6 @@ class PacedPtyLink:
             self.close()
             raise RuntimeError(f"paced pty link to {device_path} did not start")
         self.client_path: str = line.strip()
-
-    def close(self) -> None:
-        """Stop the relay process."""
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            self.proc.wait(5)
-
-    def __enter__(self) -> PacedPtyLink:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 if __name__ == "__main__" and len(sys.argv) == 5 and sys.argv[1] == "relay":

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -26,3 +27,16 @@ def timed(fn: Callable[[], object], repeats: int) -> dict:
         "cpu_median_s": float(np.median(cpu)),
         "repeats": repeats,
     }
+
+
+def percentile(values: Sequence[float], p: float) -> float | None:
+    """The ``p``-th percentile of ``values`` (nearest rank); None when there are none."""
+    if not values:
+        return None
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, math.ceil(p / 100 * len(ordered)) - 1)]
+
+
+def in_ms(seconds: float | None) -> float | None:
+    """``seconds`` in milliseconds, rounded to the microsecond; None stays None."""
+    return None if seconds is None else round(seconds * 1000, 3)

@@ -6,7 +6,9 @@ import contextlib
 import shutil
 import socket
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
@@ -178,3 +180,32 @@ def chromium_page():
         finally:
             context.close()
             browser.close()
+
+
+@contextlib.contextmanager
+def signed_in_page(service: RigService, client: TestClient) -> Iterator[Any]:
+    """``client``'s rig service and jobs behind a real uvicorn server, and a headless
+    Chromium page (``chromium_page``) on it, signed in with the test token."""
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, chromium_page() as page:
+        page.goto(f"{live.url}/#token={TOKEN}")
+        yield page
+
+
+def completed_tows(client, forces: Iterable[float], body: dict = SHORT_TOW) -> list[str]:
+    """One tow job per force (the rest of the request ``body``), each run to completion;
+    their run ids in order."""
+    runs = []
+    for force in forces:
+        job = wait_job(client, start_job(client, "/api/jobs/tow", body | {"force_n": force}))
+        assert job["state"] == "completed", job
+        runs += job["run_ids"]
+    return runs
+
+
+def fast_pendulum_service(folder: Path) -> RigService:
+    """A rig service on the simulated rig with the fast pendulum rig file
+    (``tests.procedures.test_pendulum.fast_rig_file``) and a database in ``folder``."""
+    from tests.procedures.test_pendulum import fast_rig_file
+
+    return RigService(RigSource.load(fast_rig_file(folder)), f"sqlite:///{folder / 'rig.db'}")

@@ -6,12 +6,10 @@ from __future__ import annotations
 
 import json
 import os
-import select
 import socket
 import stat
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -26,10 +24,10 @@ from api.http.limits import JSON_BODY_LIMIT
 from daq.procedures.params import MAX_SEQUENCE_STEPS
 from daq.procedures.requests import MAX_CALIBRATION_COMMANDS
 from tests.api.conftest import AUTH, TOKEN, LiveServer
+from tests.api.streamed_post import feed_post, zeros
 
 ROOT = Path(__file__).resolve().parents[2]
 HUGE = 300 * 1024 * 1024
-CHUNK = 64 * 1024
 UPLOAD_LIMIT = 1024 * 1024
 
 
@@ -66,44 +64,11 @@ def edge(service, client):
         yield counting, live.sock.getsockname()[1]
 
 
-def _zeros(total: int) -> Iterator[bytes]:
-    """A streamed body: ``total`` bytes in 64 KiB chunks, produced only when asked for."""
-    for _ in range(total // CHUNK):
-        yield b"0" * CHUNK
-
-
 def _post(port: int, path: str, headers: dict[str, str], body: Iterator[bytes], *, chunked: bool):
     """Send a POST over a raw socket, feeding the body only while the server has not
     answered; returns (status, JSON body, body bytes handed to the socket)."""
-    head = [f"POST {path} HTTP/1.1", "Host: 127.0.0.1", *(f"{k}: {v}" for k, v in headers.items())]
-    if chunked:
-        head.append("Transfer-Encoding: chunked")
-    sent = 0
     with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
-        s.sendall(("\r\n".join(head) + "\r\n\r\n").encode())
-        s.setblocking(False)
-        pending = b""
-        end = time.monotonic() + 60
-        while time.monotonic() < end:
-            readable, writable, _ = select.select([s], [s], [], 1.0)
-            if readable:
-                break
-            if not writable:
-                continue
-            if not pending:
-                chunk = next(body, None)
-                if chunk is None:
-                    break
-                pending = f"{len(chunk):x}\r\n".encode() + chunk + b"\r\n" if chunked else chunk
-            try:
-                n = s.send(pending)
-            except (BlockingIOError, InterruptedError):
-                continue
-            except (BrokenPipeError, ConnectionResetError):
-                break
-            sent += n
-            pending = pending[n:]
-        s.setblocking(True)
+        sent = feed_post(s, path, headers, body, chunked=chunked)
         s.settimeout(10)
         data = b""
         while b"\r\n\r\n" not in data:
@@ -127,7 +92,7 @@ def test_a_declared_300_mb_unauthenticated_body_is_413_before_a_byte_is_read(edg
         port,
         path,
         {"Content-Type": "application/json", "Content-Length": str(HUGE)},
-        _zeros(HUGE),
+        zeros(HUGE),
         chunked=False,
     )
     assert status == 413
@@ -141,7 +106,7 @@ def test_a_streamed_300_mb_unauthenticated_json_body_stops_at_the_cap(edge):
     counting, port = edge
     before = counting.pulled
     status, body, sent = _post(
-        port, "/api/jobs/tow", {"Content-Type": "application/json"}, _zeros(HUGE), chunked=True
+        port, "/api/jobs/tow", {"Content-Type": "application/json"}, zeros(HUGE), chunked=True
     )
     assert status == 413
     assert f"{JSON_BODY_LIMIT}-byte limit" in body["detail"]
@@ -156,7 +121,7 @@ def test_a_streamed_csv_over_the_upload_cap_is_413(edge):
         port,
         "/api/runs/import?kind=tow&force_n=5",
         AUTH | {"Content-Type": "text/csv"},
-        _zeros(HUGE),
+        zeros(HUGE),
         chunked=True,
     )
     assert status == 413

@@ -23,21 +23,24 @@ def _no_leak(detail: str) -> None:
         assert leak not in detail, detail
 
 
+def _not_found(client, path: str, says: str) -> str:
+    """GET ``path`` is a 404 whose detail begins with ``says``; the detail."""
+    r = client.get(path, headers=AUTH)
+    assert r.status_code == 404, r.text
+    assert r.json()["detail"].startswith(says), r.text
+    return r.json()["detail"]
+
+
 @pytest.mark.parametrize("route", RUN_ROUTES)
 @pytest.mark.parametrize("run_id", BAD_RUN_IDS)
 def test_malformed_unknown_and_huge_run_ids_are_404(client, route, run_id):
-    r = client.get(route.format(run_id), headers=AUTH)
-    assert r.status_code == 404, r.text
-    assert r.json()["detail"].startswith("no run with id"), r.text
-    _no_leak(r.json()["detail"])
+    _no_leak(_not_found(client, route.format(run_id), "no run with id"))
 
 
 @pytest.mark.parametrize("route", RESULT_ROUTES)
 @pytest.mark.parametrize("result_id", BAD_NUMBER_IDS)
 def test_malformed_and_out_of_range_result_ids_are_404(client, route, result_id):
-    r = client.get(route.format(result_id), headers=AUTH)
-    assert r.status_code == 404, r.text
-    assert r.json()["detail"].startswith("no result with id"), r.text
+    _not_found(client, route.format(result_id), "no result with id")
 
 
 @pytest.mark.parametrize("job_id", ("nope", "a" * 300, HUGE))

@@ -3,39 +3,24 @@ on the simulated rig with a fast pendulum rig file (the scenario's surge coeffic
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
-from fastapi.testclient import TestClient
 
 from api.core.service import RigService
-from api.http.app import create_app
-from daq.session import RigSource
 from tests.api.conftest import (
     AUTH,
     SHORT_TOW,
-    TOKEN,
-    LiveServer,
-    chromium_page,
+    fast_pendulum_service,
+    signed_in_page,
     start_job,
     wait_job,
 )
-from tests.procedures.test_pendulum import fast_rig_file
 
 ALPHA = 143.26 - 30.0  # kg: the scenario's surge inertia minus BENBAM's dry mass
 
 
 @pytest.fixture(scope="module")
 def service(tmp_path_factory) -> RigService:
-    tmp = tmp_path_factory.mktemp("pendulum-estimation")
-    return RigService(RigSource.load(fast_rig_file(tmp)), f"sqlite:///{tmp / 'rig.db'}")
-
-
-@pytest.fixture(scope="module")
-def client(service, tmp_path_factory) -> Iterator[TestClient]:
-    app = create_app(service, token=TOKEN, report_root=tmp_path_factory.mktemp("reports"))
-    with TestClient(app) as c:
-        yield c
+    return fast_pendulum_service(tmp_path_factory.mktemp("pendulum-estimation"))
 
 
 @pytest.fixture(scope="module")
@@ -89,9 +74,7 @@ def test_methods_are_checked_per_kind_and_kinds_not_mixed(client, runs):
 def test_estimation_page_shows_a_pendulum_result(client, service, runs):
     from playwright.sync_api import expect
 
-    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as page:
-        page.goto(f"{live.url}/#token={TOKEN}")
+    with signed_in_page(service, client) as page:
         page.click("nav a[data-page=estimation]")
         box = page.locator(f"#est-runs input[value='{runs['pendulum']}']")
         expect(box).to_have_attribute("data-kind", "pendulum")

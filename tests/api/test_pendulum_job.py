@@ -3,29 +3,15 @@ simulated rig with a fast pendulum rig file."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
-from fastapi.testclient import TestClient
 
 from api.core.service import RigService
-from api.http.app import create_app
-from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, LiveServer, chromium_page, start_job, wait_job
-from tests.procedures.test_pendulum import fast_rig_file
+from tests.api.conftest import AUTH, fast_pendulum_service, signed_in_page, start_job, wait_job
 
 
 @pytest.fixture(scope="module")
 def service(tmp_path_factory) -> RigService:
-    tmp = tmp_path_factory.mktemp("pendulum-api")
-    return RigService(RigSource.load(fast_rig_file(tmp)), f"sqlite:///{tmp / 'rig.db'}")
-
-
-@pytest.fixture(scope="module")
-def client(service, tmp_path_factory) -> Iterator[TestClient]:
-    app = create_app(service, token=TOKEN, report_root=tmp_path_factory.mktemp("reports"))
-    with TestClient(app) as c:
-        yield c
+    return fast_pendulum_service(tmp_path_factory.mktemp("pendulum-api"))
 
 
 def test_bad_pendulum_requests_are_422_naming_the_field(client):
@@ -62,9 +48,7 @@ def test_pendulum_job_end_to_end_stores_a_completed_decay(client):
 def test_pendulum_tab_starts_a_decay_from_the_rig_page(client, service):
     from playwright.sync_api import expect
 
-    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as page:
-        page.goto(f"{live.url}/#token={TOKEN}")
+    with signed_in_page(service, client) as page:
         page.click(".tabs button[data-form=pendulum]")
         form = "#form-pendulum"
         expect(page.locator(form)).to_be_visible()

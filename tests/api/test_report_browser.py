@@ -4,30 +4,14 @@ and the same figure's SVG names its axes with units."""
 
 from __future__ import annotations
 
-from api.http.app import create_app
-from tests.api.conftest import (
-    AUTH,
-    SHORT_TOW,
-    TOKEN,
-    LiveServer,
-    chromium_page,
-    estimate_in_page,
-    start_job,
-    wait_job,
-)
+from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page
 
 
 def test_estimation_page_shows_full_size_report_figures_with_units(client, service):
     from playwright.sync_api import expect
 
-    runs = []
-    for force in (24.5, 83.3):
-        job = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW | {"force_n": force}))
-        assert job["state"] == "completed", job
-        runs += job["run_ids"]
-    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as page:
-        page.goto(f"{live.url}/#token={TOKEN}")
+    runs = completed_tows(client, (24.5, 83.3))
+    with signed_in_page(service, client) as page:
         estimate_in_page(page, runs, timeout_ms=120_000)
 
         fit = page.locator("#est-plots figure").first

@@ -10,18 +10,9 @@ from pathlib import Path
 import pytest
 
 from api.core.service import RigService
-from api.http.app import create_app
 from daq.session import RigSource
 from daq.sim.scenario import load_scenario
-from tests.api.conftest import (
-    AUTH,
-    TOKEN,
-    LiveServer,
-    chromium_page,
-    estimate_in_page,
-    start_job,
-    wait_job,
-)
+from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page, wait_job
 
 #: Slow lane: three real-time tows, an estimation and the reverse tow it starts.
 pytestmark = pytest.mark.slow
@@ -44,15 +35,8 @@ def service(tmp_path_factory) -> RigService:
 def test_the_reverse_button_starts_the_reverse_tow(client, service):
     from playwright.sync_api import expect
 
-    runs = []
-    for force in (24.5, 44.1, 83.3):
-        body = {"force_n": force, "max_time_s": 5.0, "baseline_s": 0.5}
-        job = wait_job(client, start_job(client, "/api/jobs/tow", body))
-        assert job["state"] == "completed", job
-        runs += job["run_ids"]
-    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as page:
-        page.goto(f"{live.url}/#token={TOKEN}")
+    runs = completed_tows(client, (24.5, 44.1, 83.3), {"max_time_s": 5.0, "baseline_s": 0.5})
+    with signed_in_page(service, client) as page:
         estimate_in_page(page, runs, timeout_ms=180_000)
         expect(page.locator("#est-ambiguous")).to_contain_text("rig tow --force -83.3")
         button = page.locator("#est-reverse-btn")

@@ -11,27 +11,14 @@ import time
 import pytest
 
 from daq.acquisition import Acquisition
-from daq.config import load_rig
-from daq.plc import PlcClient
 from daq.sample import Quality, Sample
-from tests.daq.modbus_server import MapServer
 from tests.waiting import until
 
 
 @pytest.fixture
-async def server():
-    srv = MapServer(load_rig())
-    await srv.start()
-    yield srv
-    await srv.stop()
-
-
-@pytest.fixture
-async def plc(server):
-    client = PlcClient(server.rig_config(timeout_s=0.1, reconnect_min_s=0.05, reconnect_max_s=0.2))
-    await client.connect(timeout_s=2.0)
-    yield client
-    await client.close()
+def plc_modbus() -> dict:
+    """Short timeouts: a failed poll ends well inside a slot, a reconnect comes soon."""
+    return {"timeout_s": 0.1, "reconnect_min_s": 0.05, "reconnect_max_s": 0.2}
 
 
 async def _collect(q: asyncio.Queue[Sample], n: int, timeout_s: float = 10.0) -> list[Sample]:

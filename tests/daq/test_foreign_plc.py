@@ -9,8 +9,6 @@ operator (Enter at each prompt), and `rig tow` runs end to end against it as a u
 
 from __future__ import annotations
 
-import json
-import re
 import subprocess
 import sys
 import threading
@@ -21,6 +19,7 @@ import pytest
 from pyModbusTCP.server import DataBank, ModbusServer
 
 from daq.store import Store
+from tests.cli import answer_prompts, printed_json
 
 ROOT = Path(__file__).resolve().parents[2]
 RIG = [sys.executable, "-m", "api.cli.main"]
@@ -139,24 +138,18 @@ def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, t
         cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         text=True,
     )  # fmt: skip
-    asked, out = [], []
-    assert tow.stdout is not None and tow.stdin is not None
-    for line in tow.stdout:
-        out.append(line)
-        match = re.match(r">>> (.*)", line)
-        if not match:
-            continue
-        asked.append(match.group(1))
-        if "Return the carriage" in line:
+
+    def operator(prompt: str) -> None:  # confirms; the weight is hung by hand
+        if "Return the carriage" in prompt:
             cart_plc.reset()
-        tow.stdin.write("\n")  # the operator confirms (the weight is hung by hand)
-        tow.stdin.flush()
+
+    asked, out = answer_prompts(tow, operator)
     tow.wait(60)
     err = tow.stderr.read() if tow.stderr else ""
-    assert tow.returncode == 0, "".join(out) + err
+    assert tow.returncode == 0, out + err
     assert "Traceback" not in err
     assert asked[0].startswith("Return the carriage") and asked[1].startswith("Hang 0.500 kg")
-    outcome = json.loads("".join(out)[("".join(out)).index("{") :])
+    outcome = printed_json(out)
     assert outcome["status"] == "completed"
     assert cart_plc.braked_after_release.is_set(), "the brake was never engaged after the tow"
     with Store(db) as store:

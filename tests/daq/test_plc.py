@@ -16,22 +16,6 @@ from tests.daq.modbus_server import MapServer
 from tests.waiting import until
 
 
-@pytest.fixture
-async def server():
-    srv = MapServer(load_rig())
-    await srv.start()
-    yield srv
-    await srv.stop()
-
-
-@pytest.fixture
-async def plc(server):
-    client = PlcClient(server.rig_config())
-    await client.connect(timeout_s=2.0)
-    yield client
-    await client.close()
-
-
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -7,7 +7,9 @@ framing behind a pyserial ``socket://`` URL.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import itertools
+from collections.abc import AsyncIterator
 
 import pytest
 
@@ -26,6 +28,34 @@ async def _started(rtu: bool | str = False) -> SimulatedRig:
     sim = SimulatedRig(load_rig(), rtu=rtu)
     await sim.start()
     return sim
+
+
+@contextlib.asynccontextmanager
+async def _polling(
+    *, rate_hz: float, device_lost_after_s: float | None = None, **modbus
+) -> AsyncIterator[tuple[SimulatedRig, PlcClient, Acquisition, asyncio.Queue]]:
+    """The simulated rig over Modbus TCP, a client (``modbus`` overrides) and the clock
+    polling it at ``rate_hz`` with a subscriber queue; all stopped on the way out."""
+    sim = await _started()
+    client = PlcClient(_pointed(sim.connection_rig(), **modbus))
+    await client.connect(timeout_s=2.0)
+    acq = Acquisition(client, rate_hz=rate_hz, device_lost_after_s=device_lost_after_s)
+    q = acq.subscribe()
+    runner = asyncio.create_task(acq.run())
+    try:
+        yield sim, client, acq, q
+    finally:
+        acq.stop()
+        await runner
+        await client.close()
+        await sim.stop()
+
+
+async def _until_ok(q: asyncio.Queue) -> None:
+    """Until a sample of good quality arrives (3 s at most)."""
+    async with asyncio.timeout(3.0):
+        while (await q.get()).quality != Quality.OK:
+            pass
 
 
 async def _tow_and_watch(client: PlcClient, *, rate_hz: float, n: int) -> list:
@@ -87,22 +117,11 @@ async def test_rtu_over_a_socket_url():
 
 
 async def test_a_delayed_plc_makes_the_clock_skip_slots():
-    sim = await _started()
-    client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.5))
-    await client.connect(timeout_s=2.0)
-    acq = Acquisition(client, rate_hz=100.0)
-    q = acq.subscribe()
-    runner = asyncio.create_task(acq.run())
-    try:
+    async with _polling(rate_hz=100.0, timeout_s=0.5) as (sim, _, acq, q):
         for _ in range(5):
             await q.get()
         sim.plc.faults.delay_s = 0.015  # > one 10 ms period per request
         slow = [await asyncio.wait_for(q.get(), 2.0) for _ in range(5)]
-    finally:
-        acq.stop()
-        await runner
-        await client.close()
-        await sim.stop()
     assert all(b.seq - a.seq >= 4 for a, b in itertools.pairwise(slow[1:]))
     assert acq.stats.skipped_slots >= 12
     assert all(s.quality & Quality.OVERRUN for s in slow[2:])
@@ -110,52 +129,30 @@ async def test_a_delayed_plc_makes_the_clock_skip_slots():
 
 
 async def test_simulated_plc_stops_and_returns():
-    sim = await _started()
-    client = PlcClient(_pointed(sim.connection_rig(), reconnect_min_s=0.05, reconnect_max_s=0.2))
-    await client.connect(timeout_s=2.0)
-    acq = Acquisition(client, rate_hz=50.0, device_lost_after_s=0.1)
-    q = acq.subscribe()
-    runner = asyncio.create_task(acq.run())
-    try:
+    async with _polling(
+        rate_hz=50.0, device_lost_after_s=0.1, reconnect_min_s=0.05, reconnect_max_s=0.2
+    ) as (sim, client, acq, q):
         await asyncio.wait_for(q.get(), 2.0)
         await sim.plc.stop_server()
         await asyncio.wait_for(acq.device_lost.wait(), 2.0)
         await sim.plc.start_server()
-        async with asyncio.timeout(3.0):
-            while (await q.get()).quality != Quality.OK:
-                pass
+        await _until_ok(q)
         assert not acq.device_lost.is_set()
-    finally:
-        acq.stop()
-        await runner
-        await client.close()
-        await sim.stop()
     assert client.stats.reconnects == 1
     assert acq.stats.failed_polls >= 5
 
 
 async def test_dropped_responses_time_out_on_time_and_recover():
-    sim = await _started()
-    client = PlcClient(_pointed(sim.connection_rig(), reconnect_min_s=0.05, reconnect_max_s=0.2))
-    await client.connect(timeout_s=2.0)
-    acq = Acquisition(client, rate_hz=10.0, device_lost_after_s=0.25)
-    q = acq.subscribe()
-    runner = asyncio.create_task(acq.run())
-    try:
+    async with _polling(
+        rate_hz=10.0, device_lost_after_s=0.25, reconnect_min_s=0.05, reconnect_max_s=0.2
+    ) as (sim, client, acq, q):
         await asyncio.wait_for(q.get(), 2.0)
         sim.plc.faults.drop = True  # requests processed, answers swallowed
         await asyncio.wait_for(acq.device_lost.wait(), 2.0)
         dropped = [await asyncio.wait_for(q.get(), 2.0) for _ in range(5)]
         sim.plc.faults.drop = False
-        async with asyncio.timeout(3.0):
-            while (await q.get()).quality != Quality.OK:
-                pass
+        await _until_ok(q)
         assert not acq.device_lost.is_set()
-    finally:
-        acq.stop()
-        await runner
-        await client.close()
-        await sim.stop()
     assert all(s.quality & Quality.ERROR for s in dropped)
     # A 50 ms timeout inside a 100 ms slot: no tick ran long while the PLC was mute (a late
     # wake-up of a loaded host is counted apart).

@@ -11,11 +11,10 @@ from __future__ import annotations
 import pytest
 
 from api.core.estimation_job import run_estimation
-from daq.procedures.motion import run_motion_test
-from daq.procedures.params import spin_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
+from tests.motion_runs import completed_runs
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
 pytestmark = pytest.mark.slow
@@ -33,20 +32,8 @@ def _source(name: str, effects: dict[str, float]) -> RigSource:
 
 async def _record(tmp_path, source: RigSource, kind: str, drives: list[float], seconds: float):
     store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    ids = []
     async with RigSession(source, store) as session:
-        for drive in drives:
-            if kind == "tow":
-                params = tow_parameters(
-                    {"force_n": drive, "max_time_s": seconds, "baseline_s": 0.5}, session.rig
-                )
-            else:
-                params = spin_parameters(
-                    {"torque_nm": drive, "max_time_s": seconds, "baseline_s": 0.5}, session.rig
-                )
-            outcome = await run_motion_test(session, params)
-            assert outcome.status == "completed", outcome
-            ids.append(outcome.run_id)
+        ids = await completed_runs(session, kind, drives, max_time_s=seconds, baseline_s=0.5)
     return store, ids
 
 

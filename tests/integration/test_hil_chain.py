@@ -13,17 +13,16 @@ with the right factor.
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Iterable
 
 import pytest
 
 from api.core.crosscheck_job import crosscheck_results, crosscheck_runs
-from daq.procedures.calibration import run_thrust_calibration
-from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, spin_parameters, tow_parameters
-from daq.procedures.thruster_drive import STALE_ZEROED
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from estimation.axis.crosscheck_report import markdown
+from tests.hil_calibration import calibrate_for_hil, measured_thrust_n
+from tests.motion_runs import completed_runs
 
 pytestmark = pytest.mark.slow
 
@@ -52,78 +51,37 @@ def _foul_thrusters(sim) -> None:
     sim.plant.full_scale_thrust_n *= FOULED
 
 
-async def _completed(session: RigSession, params) -> str:
-    """Run a test to completion. A thruster run the rig ended because a lost PLC poll zeroed
-    its thrust (a loaded host) is run again, as an operator would; at most twice."""
-    for _ in range(3):
-        result = await run_motion_test(session, params)
-        if not (result.reason or "").startswith(STALE_ZEROED):
-            break
-        print(f"run again: {result.reason}")
-    assert result.status == "completed", result
-    return result.run_id
-
-
 async def _record(store: Store) -> dict[str, list[str]]:
-    ids: dict[str, list[str]] = {
-        key: []
-        for key in (
-            "weight",
-            "thrusters",
-            "weight_spins",
-            "thruster_spins",
-            "thrusters_low",
-            "thrusters_fouled",
-        )
-    }
+    ids: dict[str, list[str]] = {}
     async with RigSession(RigSource.load(), store) as session:
         rig = session.rig
-        calibration = calibration_parameters(
-            {
-                "commands": [0.0, 0.1, 0.2, 0.4, 0.6, 0.8],
-                "settle_s": 1.0,
-                "samples_per_step": 5,
-                "tare_samples": 5,
-            },
-            rig,
-        )
-        outcome, table = await run_thrust_calibration(session, calibration)
-        assert outcome.status == "completed"
+        calibration = await calibrate_for_hil(session)
 
         # Tow at forces the calibration measured (commands 0.2 and 0.4 on every thruster);
         # spin with the forward thrusters at commands 0.1 and 0.2.
-        def measured(u: float) -> float:
-            rows = [r["thrust_per_thruster_n"] for r in table["table"] if r["command"] == u]
-            return sum(rows) / len(rows)
-
         n, lever = rig.thrusters.count, rig.thrusters.yaw_lever_arm_m
-        forces = [n * measured(u) for u in THRUSTER_COMMANDS]
-        torques = [n * lever * measured(u) for u in SPIN_COMMANDS]
+        forces = [round(n * measured_thrust_n(calibration, u), 3) for u in THRUSTER_COMMANDS]
+        torques = [round(n * lever * measured_thrust_n(calibration, u), 4) for u in SPIN_COMMANDS]
 
-        async def tow(force: float, drive: str) -> str:
-            raw = {"force_n": force, "drive": drive, "max_time_s": SECONDS, "baseline_s": 0.5}
-            return await _completed(session, tow_parameters(raw, rig))
+        async def tows(drive: str, drives: Iterable[float]) -> list[str]:
+            return await completed_runs(
+                session, "tow", drives, drive=drive, max_time_s=SECONDS, baseline_s=0.5
+            )
 
-        for f in WEIGHT_FORCES:
-            ids["weight"].append(await tow(f, "weight"))
-        for f in forces:
-            ids["thrusters"].append(await tow(round(f, 3), "thrusters"))
+        async def spins(drive: str, drives: Iterable[float]) -> list[str]:
+            return await completed_runs(
+                session, "spin", drives, drive=drive, max_time_s=SPIN_SECONDS, baseline_s=0.5
+            )
 
-        async def spin(torque: float, drive: str) -> str:
-            raw = {"torque_nm": torque, "drive": drive, "max_time_s": SPIN_SECONDS}
-            return await _completed(session, spin_parameters(raw | {"baseline_s": 0.5}, rig))
-
-        for tq in WEIGHT_TORQUES:
-            ids["weight_spins"].append(await spin(tq, "weight"))
-        for tq in torques:
-            ids["thruster_spins"].append(await spin(round(tq, 4), "thrusters"))
+        ids["weight"] = await tows("weight", WEIGHT_FORCES)
+        ids["thrusters"] = await tows("thrusters", forces)
+        ids["weight_spins"] = await spins("weight", WEIGHT_TORQUES)
+        ids["thruster_spins"] = await spins("thrusters", torques)
         await asyncio.to_thread(session.sim.call, _supply(LOW_SUPPLY_V))
-        for f in forces:
-            ids["thrusters_low"].append(await tow(round(f, 3), "thrusters"))
+        ids["thrusters_low"] = await tows("thrusters", forces)
         await asyncio.to_thread(session.sim.call, _supply(16.0))
         await asyncio.to_thread(session.sim.call, _foul_thrusters)
-        for f in forces:
-            ids["thrusters_fouled"].append(await tow(round(f, 3), "thrusters"))
+        ids["thrusters_fouled"] = await tows("thrusters", forces)
     return ids
 
 

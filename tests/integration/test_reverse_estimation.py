@@ -15,11 +15,10 @@ from pathlib import Path
 import pytest
 
 from api.core.estimation_job import run_estimation
-from daq.procedures.motion import run_motion_test
-from daq.procedures.params import spin_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.sim.scenario import load_scenario
 from daq.store import Store
+from tests.motion_runs import completed_runs
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
 pytestmark = pytest.mark.slow
@@ -35,20 +34,6 @@ def _source() -> RigSource:
         scenario=load_scenario(SCENARIO),
         scenario_toml=SCENARIO.read_text(),
     )
-
-
-async def _record(session: RigSession, kind: str, drives: list[float], seconds: float) -> list:
-    ids = []
-    for drive in drives:
-        raw = {"max_time_s": seconds, "baseline_s": 0.5}
-        if kind == "tow":
-            params = tow_parameters(raw | {"force_n": drive}, session.rig)
-        else:
-            params = spin_parameters(raw | {"torque_nm": drive}, session.rig)
-        outcome = await run_motion_test(session, params)
-        assert outcome.status == "completed", outcome
-        ids.append(outcome.run_id)
-    return ids
 
 
 def _effects(result: dict) -> dict[str, float]:
@@ -76,37 +61,41 @@ def _reverse_from_advice(result: dict, kind: str) -> float:
     return drive
 
 
-async def test_reverse_tows_separate_friction_from_a_current(tmp_path):
-    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    async with RigSession(_source(), store) as session:
-        forward = await _record(session, "tow", [24.5, 44.1, 83.3], 5.0)
-        only_forward = run_estimation(store, forward)
-        reverse_drive = _reverse_from_advice(only_forward, "tow")
-        assert reverse_drive == pytest.approx(-83.3)
-        backward = await _record(session, "tow", [reverse_drive, -44.1], 5.0)
-    both = run_estimation(store, forward + backward)
+async def _forward_then_advised_reverse(
+    tmp_path, kind: str, forward_drives: list[float], reverse_too: float, seconds: float
+) -> tuple[float, dict]:
+    """Forward runs, estimated alone: the ambiguity is reported with a reverse run to do.
+    That reverse run and ``reverse_too`` recorded, all estimated together. Returns the
+    advised reverse drive and the estimate from both ways (which must be unambiguous)."""
+    with Store(f"sqlite:///{tmp_path / 'rig.db'}") as store:
+        async with RigSession(_source(), store) as session:
+            raw = {"max_time_s": seconds, "baseline_s": 0.5}
+            forward = await completed_runs(session, kind, forward_drives, **raw)
+            only_forward = run_estimation(store, forward)
+            reverse_drive = _reverse_from_advice(only_forward, kind)
+            backward = await completed_runs(session, kind, [reverse_drive, reverse_too], **raw)
+        both = run_estimation(store, forward + backward)
     print("forward only:", _effects(only_forward), only_forward["ambiguous"])
     print("both ways:", _effects(both), both["ambiguous"], both["coefficients"])
     assert both["ambiguous"] == [] and both["reverse_test"] is None
+    return reverse_drive, both
+
+
+async def test_reverse_tows_separate_friction_from_a_current(tmp_path):
+    reverse_drive, both = await _forward_then_advised_reverse(
+        tmp_path, "tow", [24.5, 44.1, 83.3], -44.1, 5.0
+    )
+    assert reverse_drive == pytest.approx(-83.3)
     found = _effects(both)
     assert found["coulomb_friction"] == pytest.approx(3.0, abs=0.6)
     assert found["constant_bias"] == pytest.approx(2.0, abs=0.6)
     assert both["coefficients"]["inertia"]["value"] == pytest.approx(143.26, rel=0.1)
-    store.close()
 
 
 async def test_reverse_spins_separate_bearing_friction_from_a_current(tmp_path):
-    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    async with RigSession(_source(), store) as session:
-        forward = await _record(session, "spin", [0.907, 1.361, 2.269], 8.0)
-        only_forward = run_estimation(store, forward)
-        reverse_drive = _reverse_from_advice(only_forward, "spin")
-        backward = await _record(session, "spin", [reverse_drive, -1.361], 8.0)
-    both = run_estimation(store, forward + backward)
-    print("forward only:", _effects(only_forward), only_forward["ambiguous"])
-    print("both ways:", _effects(both), both["ambiguous"], both["coefficients"])
-    assert both["ambiguous"] == [] and both["reverse_test"] is None
+    _, both = await _forward_then_advised_reverse(
+        tmp_path, "spin", [0.907, 1.361, 2.269], -1.361, 8.0
+    )
     found = _effects(both)
     assert found["coulomb_friction"] == pytest.approx(0.12, abs=0.02)
     assert found["constant_bias"] == pytest.approx(0.05, abs=0.02)
-    store.close()

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from tests.waiting import until
 
 #: A short thrust calibration of the simulated rig (parameters, before the rig's checks).
 QUICK_CALIBRATION = {
@@ -21,6 +24,25 @@ def short_rail(rig: RigConfig, end_of_travel_m: float = 0.5) -> RigConfig:
     """The BENBAM rig with the end-of-travel switch moved close, so tows end quickly."""
     geometry = rig.geometry.model_copy(update={"end_of_travel_m": end_of_travel_m})
     return rig.model_copy(update={"geometry": geometry})
+
+
+def hardware_rig_file(folder: Path, modbus_port: int, thruster_port: str) -> Path:
+    """BENBAM's rig file in ``folder`` with mode = "hardware", its PLC on loopback
+    ``modbus_port`` and its thruster controller on ``thruster_port`` (a running `rig sim`,
+    or proxies in front of one)."""
+    text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
+    text = text.replace('mode = "simulated"', 'mode = "hardware"')
+    text = text.replace("port = 5020", f"port = {modbus_port}")
+    text = text.replace('port = "sim"', f'port = "{thruster_port}"')
+    path = folder / "hw.toml"
+    path.write_text(text)
+    return path
+
+
+async def until_thrust_on(session: RigSession, *, timeout_s: float) -> None:
+    """Until the simulated thruster controller's outputs are not all zero."""
+    thrusters = session.sim.thrusters
+    await until(lambda: any(thrusters.outputs), "the thrust on", timeout_s=timeout_s)
 
 
 @pytest.fixture

@@ -19,6 +19,8 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.registers import encode
 from daq.store import Store
+from tests.cli import answer_prompts, printed_json
+from tests.procedures.conftest import hardware_rig_file
 from tests.readings import good
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,12 +34,7 @@ def test_tow_on_a_hardware_rig_file_asks_the_operator(tmp_path):
     try:
         ready = json.loads(sim.stdout.readline())
         port, thruster_port = ready["modbus"]["port"], ready["thrusters"]["serial_port"]
-        text = (ROOT / "fixtures/rigs/benbam.toml").read_text()
-        text = text.replace('mode = "simulated"', 'mode = "hardware"')
-        text = text.replace("port = 5020", f"port = {port}")
-        text = text.replace('port = "sim"', f'port = "{thruster_port}"')
-        hw = tmp_path / "hw.toml"
-        hw.write_text(text)
+        hw = hardware_rig_file(tmp_path, port, thruster_port)
         rig = load_rig(hw)
         db = f"sqlite:///{tmp_path / 'rig.db'}"
         tow = subprocess.Popen(
@@ -61,28 +58,22 @@ def test_tow_on_a_hardware_rig_file_asks_the_operator(tmp_path):
             stdout=subprocess.PIPE,
             text=True,
         )
-        asked = []
         operator = ModbusTcpClient("127.0.0.1", port=port, timeout=1)
         operator.connect()
-        out = []
-        for line in tow.stdout:
-            out.append(line)
-            match = re.match(r">>> (.*)", line)
-            if not match:
-                continue
-            asked.append(match.group(1))
-            if "Return the carriage" in line:
+
+        def do_as_asked(prompt: str) -> None:
+            if "Return the carriage" in prompt:
                 operator.write_coil(rig.channel("sim_reset").address, True, device_id=1)
-            elif m := re.search(r"Hang ([0-9.]+) kg on the tow line", line):
+            elif m := re.search(r"Hang ([0-9.]+) kg on the tow line", prompt):
                 ch = rig.channel("sim_tow_weight")
                 operator.write_registers(ch.address, encode(ch, float(m.group(1))), device_id=1)
-            tow.stdin.write("\n")
-            tow.stdin.flush()
+
+        asked, out = answer_prompts(tow, do_as_asked)
         tow.wait(30)
         operator.close()
-        assert tow.returncode == 0, "".join(out)
+        assert tow.returncode == 0, out
         assert asked[0].startswith("Return the carriage") and asked[1].startswith("Hang 2.500 kg")
-        outcome = json.loads("".join(out)[("".join(out)).index("{") :])
+        outcome = printed_json(out)
         assert outcome["status"] == "completed"
         with Store(db) as store:
             run = store.get_run(outcome["run_id"])

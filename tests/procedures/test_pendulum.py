@@ -22,6 +22,7 @@ from daq.sim.scenario import Scenario
 from daq.store import Store
 from tests.procedures.test_cli import rig
 from tests.progress_log import ProgressLog
+from tests.store.helpers import new_run
 from tests.waiting import next_samples
 
 #: A short, bottom-heavy pendulum (period ≈ 3.6 s) so a decay fits in a fast test.
@@ -149,14 +150,7 @@ def test_parameters_are_checked_against_the_pendulum_section(source):
 
 
 def test_load_pendulum_data_refuses_other_runs(store):
-    run_id = store.create_run(
-        kind="tow",
-        parameters={"force_n": 4.9},
-        channel_names=["tow_position"],
-        rig_name="x",
-        vehicle="y",
-        rig_toml="",
-    )
+    run_id = new_run(store)  # a tow
     with pytest.raises(ValueError, match="kind 'tow' is not a pendulum free-decay run"):
         load_pendulum_data(store, run_id)
 

@@ -27,8 +27,9 @@ from daq.sample import Quality
 from daq.session import RigSession, RigSource
 from daq.sim.rig import SimulatedRigThread
 from daq.store import Store
+from tests.cli import printed_json
 from tests.fault_proxies import SerialFaultProxy, TcpCutProxy
-from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
 from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
@@ -81,16 +82,6 @@ class OutputLog:
         return next((when for when, f in self.changes if when >= t and not any(f)), None)
 
 
-def _hardware_rig(tmp_path: Path, modbus_port: int, thruster_port: str) -> Path:
-    text = (ROOT / "fixtures/rigs/benbam.toml").read_text()
-    text = text.replace('mode = "simulated"', 'mode = "hardware"')
-    text = text.replace("port = 5020", f"port = {modbus_port}")
-    text = text.replace('port = "sim"', f'port = "{thruster_port}"')
-    path = tmp_path / "hw.toml"
-    path.write_text(text)
-    return path
-
-
 def _start_tow(
     tmp_path: Path, calibrated_db: Path, modbus_port: int, thruster_port: str
 ) -> tuple[subprocess.Popen, str]:
@@ -100,7 +91,7 @@ def _start_tow(
     db = f"sqlite:///{tmp_path / 'rig.db'}"
     enter = tmp_path / "enter.txt"
     enter.write_text("\n" * 3)
-    rig = _hardware_rig(tmp_path, modbus_port, thruster_port)
+    rig = hardware_rig_file(tmp_path, modbus_port, thruster_port)
     args = ["--force", "15", "--max-time", "30", "--baseline", "0.3", "--rig", str(rig)]
     tow = subprocess.Popen(
         [*RIG, "tow", "--thrusters", *args, "--db", db, "--json"],
@@ -148,7 +139,7 @@ def _assert_aborted_and_stored(
     CLI's outcome and the run's events."""
     assert tow.returncode == 1, err
     assert "Traceback" not in err, err
-    outcome = json.loads(out[out.index("{") :])
+    outcome = printed_json(out)
     assert outcome["status"] == "aborted"
     with Store(db) as store:
         run = store.get_run(outcome["run_id"])

@@ -16,9 +16,9 @@ from daq.procedures.recording import AbortSignal
 from daq.procedures.thruster_drive import STALE_ZEROED
 from daq.run_data import load_run_data
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
-from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.procedures.conftest import QUICK_CALIBRATION, until_thrust_on
 from tests.readings import good
-from tests.waiting import until, wait_until
+from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
 
@@ -129,17 +129,17 @@ async def _abort_leaves_the_thrusters_zero(session) -> None:
         {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},
         session.rig,
     )
-    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
-    await until(lambda: any(session.sim.thrusters.outputs), "the thrust on", timeout_s=5)
+    task = await _thrust_on(session, params, abort)
     abort.set("operator abort (test)")
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     await _assert_thrusters_safe(session)
 
 
-async def _thrust_on(session, params) -> asyncio.Task:
-    task = asyncio.create_task(run_motion_test(session, params))
-    await until(lambda: any(session.sim.thrusters.outputs), "the thrust on", timeout_s=5)
+async def _thrust_on(session, params, abort: AbortSignal | None = None) -> asyncio.Task:
+    """The motion run started in a task, once its thrust is on."""
+    task = asyncio.create_task(run_motion_test(session, params, abort=abort))
+    await until_thrust_on(session, timeout_s=5)
     return task
 
 

@@ -10,6 +10,7 @@ import pytest
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, spin_parameters
+from tests.procedures.conftest import until_thrust_on
 from tests.readings import good
 from tests.waiting import until
 from thrusters.driver import LINK_LOST_AFTER
@@ -92,7 +93,7 @@ async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(s
         session.rig,
     )
     task = asyncio.create_task(run_thrust_calibration(session, params))
-    await until(lambda: any(session.sim.thrusters.outputs), "the thrust on", timeout_s=10)
+    await until_thrust_on(session, timeout_s=10)
     await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
     try:
         outcome, calibration = await asyncio.wait_for(task, 10)

@@ -32,6 +32,13 @@ async def tcp_client(port: int, timeout: float = 0.3) -> AsyncModbusTcpClient:
     return client
 
 
+async def rtu_client(port: str, timeout: float = 0.3) -> AsyncModbusSerialClient:
+    """A connected RTU client on ``port`` (a pty path or a ``socket://`` URL)."""
+    client = AsyncModbusSerialClient(port, baudrate=RIG.modbus.baudrate, timeout=timeout, retries=0)
+    assert await client.connect()
+    return client
+
+
 async def read_si(client, name: str) -> float:
     ch = RIG.channel(name)
     if ch.kind == "input":
@@ -90,9 +97,7 @@ async def test_tcp_client_sees_tow_position_grow(plc):
 
 
 async def test_rtu_over_a_pty(plc):
-    path = await plc.start_rtu_pty()
-    client = AsyncModbusSerialClient(path, baudrate=RIG.modbus.baudrate, timeout=0.3, retries=0)
-    assert await client.connect()
+    client = await rtu_client(await plc.start_rtu_pty())
     try:
         await start_tow(client, 8.5)
         first = await read_si(client, "tow_position")
@@ -108,8 +113,7 @@ async def test_rtu_over_a_pty(plc):
 async def test_rtu_over_a_socket_url(plc):
     url = await plc.start_rtu_tcp()
     assert url.startswith("socket://127.0.0.1:")
-    client = AsyncModbusSerialClient(url, timeout=0.3, retries=0)
-    assert await client.connect()
+    client = await rtu_client(url)
     try:
         assert await read_si(client, "supply_voltage") == pytest.approx(16.0, abs=0.2)
     finally:
@@ -186,9 +190,7 @@ async def test_faults_drop_delay_and_corrupt(plc):
 
 
 async def test_corrupt_rtu_response_has_a_wrong_crc(plc):
-    path = await plc.start_rtu_pty()
-    client = AsyncModbusSerialClient(path, baudrate=RIG.modbus.baudrate, timeout=0.2, retries=0)
-    assert await client.connect()
+    client = await rtu_client(await plc.start_rtu_pty(), timeout=0.2)
     try:
         plc.faults.corrupt = True
         with pytest.raises(ModbusException):
@@ -219,9 +221,7 @@ async def test_stop_server_and_restart_on_the_same_port(plc):
 
 
 async def test_rtu_pty_server_restarts_on_the_same_path(plc):
-    path = await plc.start_rtu_pty()
-    client = AsyncModbusSerialClient(path, baudrate=RIG.modbus.baudrate, timeout=0.2, retries=0)
-    assert await client.connect()
+    client = await rtu_client(await plc.start_rtu_pty(), timeout=0.2)
     try:
         await plc.stop_server()
         with pytest.raises(ModbusException):

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 import sqlite3
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import sqlalchemy as sa
 
@@ -27,6 +28,26 @@ def new_run(store: Store, **overrides) -> str:
     }
     arguments.update(overrides)
     return store.create_run(**arguments)
+
+
+#: BENBAM's rig file (fixtures/rigs/benbam.toml), as stored with the runs recorded on it.
+BENBAM_TOML = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
+#: A tow pulled by a hung 2.5 kg: its parameters as stored.
+HUNG_WEIGHT_TOW = {"force_n": 24.5, "drive": "weight", "hung_mass_kg": 2.5}
+
+
+def benbam_tow_run(
+    store: Store, channel_names: Iterable[str], parameters: dict = HUNG_WEIGHT_TOW
+) -> str:
+    """A running tow run recorded on BENBAM's rig file with ``channel_names``."""
+    return new_run(
+        store,
+        parameters=parameters,
+        channel_names=list(channel_names),
+        rig_name="BENBAM tow tank",
+        vehicle="BENBAM",
+        rig_toml=BENBAM_TOML,
+    )
 
 
 def make_samples(start: int, count: int, *, t0_wall: float = 1.7e9) -> list[Sample]:

@@ -9,7 +9,6 @@ import io
 import json
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -24,8 +23,9 @@ from daq.store import LoadedRun, Store, export_run_csv, export_run_json, import_
 from estimation.axis.estimate import estimate
 from estimation.data.csv_import import without_comments
 from tests.estimation.synth import tow_set
+from tests.store.helpers import BENBAM_TOML, benbam_tow_run
 
-BENBAM = (Path(__file__).resolve().parents[2] / "fixtures" / "rigs" / "benbam.toml").read_text()
+BENBAM = BENBAM_TOML
 CHANNELS = ["tow_position", "load_cell", "tow_release", "heartbeat"]
 #: Host monotonic time of the first sample: not a round number, as on a real host.
 T0_MONO = 81234.567891234
@@ -44,14 +44,7 @@ def recorded_tow(store: Store, count: int = 12, *, release: bool = True) -> str:
     like 0.28500000000000003), a load cell in mN counts (24.016000000000002) with one
     unread sample, the release coil, an unwrapped heartbeat and (optionally) the
     recorded release event."""
-    run_id = store.create_run(
-        kind="tow",
-        parameters={"force_n": 24.5, "drive": "weight", "hung_mass_kg": 2.5},
-        channel_names=CHANNELS,
-        rig_name="BENBAM tow tank",
-        vehicle="BENBAM",
-        rig_toml=BENBAM,
-    )
+    run_id = benbam_tow_run(store, CHANNELS)
     samples = []
     for i in range(count):
         t = i * 0.1
@@ -277,13 +270,10 @@ def test_every_format_writes_a_file_and_an_unknown_one_is_refused(store: Store, 
 def _store_synthetic_tow(store: Store, data) -> str:
     """A synthetic weight-driven tow (true rig physics, 10 µm encoder) stored as recorded:
     host clock offset, the release coil, no events (the window comes from the coil)."""
-    run_id = store.create_run(
-        kind="tow",
-        parameters={"force_n": float(data.drive), "hung_mass_kg": data.hung_mass_kg},
-        channel_names=["tow_position", "tow_release"],
-        rig_name="BENBAM tow tank",
-        vehicle="BENBAM",
-        rig_toml=BENBAM,
+    run_id = benbam_tow_run(
+        store,
+        ["tow_position", "tow_release"],
+        {"force_n": float(data.drive), "hung_mass_kg": data.hung_mass_kg},
     )
     counts = np.round(data.position / 1e-5)
     store.add_samples(

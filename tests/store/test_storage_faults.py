@@ -30,23 +30,33 @@ def sqlite_store(tmp_path):
     store.close()
 
 
+def _recording(store: Store, **options) -> tuple[str, RunRecorder, list[str]]:
+    """A new run in ``store``, its recorder (0.1 s flushes, ``options``) and the list of
+    storage faults the recorder reports."""
+    run_id = new_run(store)
+    faults: list[str] = []
+    recorder = RunRecorder(store, run_id, flush_interval_s=0.1, on_fault=faults.append, **options)
+    return run_id, recorder, faults
+
+
+def _put(recorder: RunRecorder, start: int, count: int) -> None:
+    """Hand ``count`` samples from seq ``start`` to ``recorder`` (as the clock does)."""
+    for sample in make_samples(start, count):
+        recorder.put(sample)
+
+
 async def test_a_full_database_is_one_fault_spilled_and_written_back_when_room_returns(
     sqlite_store: Store,
 ) -> None:
     limits = DbLimits(sqlite_store)
-    run_id = new_run(sqlite_store)
-    faults: list[str] = []
-    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
-    for sample in make_samples(0, 50):
-        recorder.put(sample)
+    run_id, recorder, faults = _recording(sqlite_store)
+    _put(recorder, 0, 50)
     assert await recorder.flush() == 50
 
     limits.fill()
-    for sample in make_samples(50, 2000):
-        recorder.put(sample)
+    _put(recorder, 50, 2000)
     assert await recorder.flush() == 0
-    for sample in make_samples(2050, 100):  # the clock keeps going while the rig stops
-        recorder.put(sample)
+    _put(recorder, 2050, 100)  # the clock keeps going while the rig stops
     assert await recorder.flush() == 0
 
     assert faults == ["storage failed: SQLite: database or disk is full"]  # once
@@ -67,15 +77,11 @@ async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_
     sqlite_store: Store, tmp_path
 ) -> None:
     limits = DbLimits(sqlite_store)
-    run_id = new_run(sqlite_store)
-    faults: list[str] = []
-    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
-    for sample in make_samples(0, 30):
-        recorder.put(sample)
+    run_id, recorder, faults = _recording(sqlite_store)
+    _put(recorder, 0, 30)
     await recorder.flush()
     limits.set(read_only=True)  # no write at all succeeds now, not even the run's end
-    for sample in make_samples(30, 500):
-        recorder.put(sample)
+    _put(recorder, 30, 500)
     recorder.add_event("limit", "end of travel: brake engaged", {"seq": 529})
 
     # The body "completed", but storage failed: the end is aborted, naming storage.
@@ -100,11 +106,8 @@ async def test_a_write_lock_held_across_the_end_is_waited_out_and_the_run_comple
 ) -> None:
     limits = DbLimits(sqlite_store)
     limits.set(busy_ms=50)  # each attempt gives up quickly: the retries are what is tested
-    run_id = new_run(sqlite_store)
-    faults: list[str] = []
-    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1, on_fault=faults.append)
-    for sample in make_samples(0, 341):
-        recorder.put(sample)
+    run_id, recorder, faults = _recording(sqlite_store)
+    _put(recorder, 0, 341)
     recorder.add_event("limit", "max time 2 s: brake engaged")
     blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
     blocker.execute("BEGIN EXCLUSIVE")
@@ -129,10 +132,8 @@ async def test_a_lock_on_the_finish_alone_never_turns_a_stored_run_into_aborted(
 ) -> None:
     limits = DbLimits(sqlite_store)
     limits.set(busy_ms=50)
-    run_id = new_run(sqlite_store)
-    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
-    for sample in make_samples(0, 100):
-        recorder.put(sample)
+    run_id, recorder, _ = _recording(sqlite_store)
+    _put(recorder, 0, 100)
     await recorder.close()  # every sample stored
     blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
     blocker.execute("BEGIN EXCLUSIVE")
@@ -177,22 +178,16 @@ async def test_refused_writes_are_a_fault_and_a_held_lock_is_retried(store: Stor
     """Both backends: a lock is waited out (no fault), refused writes are one fault."""
     limits = DbLimits(store)
     limits.set(busy_ms=50)
-    run_id = new_run(store)
-    faults: list[str] = []
-    recorder = RunRecorder(
-        store, run_id, flush_interval_s=0.1, on_fault=faults.append, spill_dir=tmp_path
-    )
+    run_id, recorder, faults = _recording(store, spill_dir=tmp_path)
     with held_write_lock(store):
-        for sample in make_samples(0, 10):
-            recorder.put(sample)
+        _put(recorder, 0, 10)
         assert await recorder.flush() == 0
         assert recorder.stats.failed_flushes == 1 and faults == []
         no_sql(recorder.stats.last_error)
     assert await recorder.flush() == 10
 
     limits.set(read_only=True)
-    for sample in make_samples(10, 10):
-        recorder.put(sample)
+    _put(recorder, 10, 10)
     assert await recorder.flush() == 0
     (fault,) = faults
     assert fault.startswith("storage failed: ") and "read" in fault, fault
@@ -211,10 +206,8 @@ async def test_only_events_refused_at_the_end_leave_a_completed_run_completed(
     sqlite_store: Store, tmp_path
 ) -> None:
     limits = DbLimits(sqlite_store)
-    run_id = new_run(sqlite_store)
-    recorder = RunRecorder(sqlite_store, run_id, flush_interval_s=0.1)
-    for sample in make_samples(0, 40):
-        recorder.put(sample)
+    run_id, recorder, _ = _recording(sqlite_store)
+    _put(recorder, 0, 40)
     await recorder.flush()  # every sample stored
     recorder.add_event("limit", "max time 4 s: brake engaged")
     limits.set(read_only=True)
