@@ -405,13 +405,12 @@ class ThrusterDriver:
     def _zeros(self) -> tuple[float, ...]:
         return (0.0,) * self.count
 
-    def _confirm(self, outputs: tuple[float, ...], t_sent: float) -> None:
-        now = time.monotonic()
+    def _confirm(self, outputs: tuple[float, ...], t_sent: float, t_acked: float) -> None:
         if outputs != self._confirmed:
-            step = OutputStep(t_sent, now, outputs)
+            step = OutputStep(t_sent, t_acked, outputs)
             for steps in self._output_logs:
                 steps.append(step)
-        self._confirmed, self._t_confirmed = outputs, now
+        self._confirmed, self._t_confirmed = outputs, t_acked
 
     # ---- plumbing ---------------------------------------------------------------------
 
@@ -445,11 +444,13 @@ class ThrusterDriver:
                 "thrust went to zero mid-run",
             )
         self._supervise(reply, before)
+        # The link's own send/reply times: this coroutine may resume late on a loaded host.
+        t_sent, t_reply = self._link.last_bracket or (t_sent, time.monotonic())
         if reply is not None and reply.kind == "ACK" and outputs is not None:
-            self._confirm(outputs, t_sent)
+            self._confirm(outputs, t_sent, t_reply)
         elif reply is not None and reply.reason == "disarmed":
             # Not armed: outputs are zero, since some time after the last confirmation.
-            self._confirm(self._zeros, self._t_confirmed)
+            self._confirm(self._zeros, self._t_confirmed, t_reply)
         return reply
 
     def _expect_ack(self, reply: p.Reply | None, what: str) -> None:

@@ -74,6 +74,10 @@ class SerialLink:
         self._port: serial.SerialBase | None = None
         self._wanted = False
         self._rx = b""
+        #: Host monotonic times just before the last frame went out and when its reply was
+        #: read, stamped in the thread doing the I/O (None: no reply). A caller on an event
+        #: loop resumes later than that on a loaded host; these times do not move with it.
+        self.last_bracket: tuple[float, float] | None = None
 
     @property
     def is_open(self) -> bool:
@@ -114,6 +118,7 @@ class SerialLink:
         readable seq); None on timeout or a broken line."""
         if not self._wanted:
             raise serial.SerialException(f"thruster link {self.url} is not open")
+        self.last_bracket = None
         try:
             if self._port is None:  # lost after an I/O error: one reopen attempt per frame
                 self._connect()
@@ -121,12 +126,14 @@ class SerialLink:
                 log.warning("thruster link %s: reconnected", self.url)
             assert self._port is not None
             self._drain_stray()
+            t_sent = time.monotonic()
             self._port.write(raw)
             self.stats.sent += 1
             deadline = self._clock() + self.reply_timeout_s
             while (line := self._read_line(deadline)) is not None:
                 reply = self._classify(line, seq)
                 if reply is not None:
+                    self.last_bracket = (t_sent, time.monotonic())
                     return reply
         except (OSError, serial.SerialException) as err:
             self.stats.io_errors += 1

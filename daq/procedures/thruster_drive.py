@@ -322,7 +322,7 @@ async def run_thruster_test(
                     )
                     try:
                         await _drive_with_thrusters(
-                            session, rec, axis, params, commands, start, report, armed
+                            session, rec, axis, params, commands, start, report, armed, steps
                         )
                     except BaseException:
                         await _end_thrust(session, rec, steps, supervisor)
@@ -439,7 +439,7 @@ async def _end_thrust(
 
 
 async def _drive_with_thrusters(
-    session, rec, axis, params, commands, start, report, armed: asyncio.Event
+    session, rec, axis, params, commands, start, report, armed: asyncio.Event, steps: list
 ) -> None:
     await session.live_plc.write(axis.release, True)
     await session.arm_thrusters()
@@ -453,6 +453,10 @@ async def _drive_with_thrusters(
     await rec.record_for(params.baseline_s)
     before = await session.apply_thrust(commands)
     after = time.monotonic()
+    # The first confirmed thrust, as the link timed it (this coroutine may resume late).
+    first = next((step for step in steps if any(step.fractions)), None)
+    if first is not None and before <= first.t_sent:
+        before, after = first.t_sent, first.t_acked
     await rec.event(
         "operator",
         f"thrust on: commands {', '.join(f'{c:+.3f}' for c in commands)}",
