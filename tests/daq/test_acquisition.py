@@ -107,7 +107,8 @@ async def test_plc_lost_mid_acquisition_then_back(server, plc):
     runner = asyncio.create_task(acq.run())
     server.set("tow_position", 1.25)
     before = await _collect(q, 5)
-    assert all(s.quality == Quality.OK for s in before)
+    # The PLC answers: every reading good (a loaded host may still skip a slot: OVERRUN).
+    assert not any(s.quality & (Quality.ERROR | Quality.STALE) for s in before), before
     assert not acq.device_lost.is_set()
 
     await server.stop()
