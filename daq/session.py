@@ -16,7 +16,6 @@ import asyncio
 import contextlib
 import logging
 import math
-import time
 from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -301,14 +300,14 @@ class RigSession:
             await self.thrusters.zero()
         await self.thrusters.disarm()
 
-    async def apply_thrust(self, fractions: Sequence[float]) -> float:
+    async def apply_thrust(self, fractions: Sequence[float]) -> tuple[float, float]:
         """Set the thrust target and send its first (slew-limited) step now, not at the
-        next tick; returns the host time just before sending (when thrust starts)."""
+        next tick; returns when that frame went out and its reply came back (thrust starts
+        in between), as the thruster link timed them."""
         self.set_thrust(fractions)
         assert self.thrusters is not None
-        started = time.monotonic()
         await self.thrusters.command(self.thrust.fractions)
-        return started
+        return self.thrusters.last_bracket
 
     def set_thrust(self, fractions: Sequence[float]) -> None:
         """Ask for thruster outputs; the supervisor sends them, slew-limited, every tick."""

@@ -142,6 +142,9 @@ class ThrusterDriver:
         #: Outputs the controller last confirmed (ACK, or zero when it is not armed).
         self._confirmed: tuple[float, ...] = (0.0,) * self.count
         self._t_confirmed = time.monotonic()
+        #: Host times just before the last frame went out and when its reply was read (as the
+        #: link's thread saw them; when no reply came, when this driver saw the timeout).
+        self.last_bracket: tuple[float, float] = (self._t_confirmed, self._t_confirmed)
         self._output_logs: list[list[OutputStep]] = []
         self._signal_task: asyncio.Task[None] | None = None
         #: Frames in a row without a valid reply.
@@ -427,8 +430,12 @@ class ThrusterDriver:
         seq = self._seq
         t_sent = time.monotonic()
         before = dataclasses.replace(self._link.stats)
-        reply = await self._run(self._link.transact, make(seq), seq)
+        exchanged = await self._run(self._exchange, make(seq), seq)
+        assert isinstance(exchanged, tuple)
+        reply, bracket = exchanged
         assert reply is None or isinstance(reply, p.Reply)
+        # The link's own send/reply times: this coroutine may resume late on a loaded host.
+        t_sent, t_reply = self.last_bracket = bracket or (t_sent, time.monotonic())
         was_armed = self.state == "ARMED"
         if reply is not None and reply.state:
             self.state = reply.state
@@ -444,14 +451,17 @@ class ThrusterDriver:
                 "thrust went to zero mid-run",
             )
         self._supervise(reply, before)
-        # The link's own send/reply times: this coroutine may resume late on a loaded host.
-        t_sent, t_reply = self._link.last_bracket or (t_sent, time.monotonic())
         if reply is not None and reply.kind == "ACK" and outputs is not None:
             self._confirm(outputs, t_sent, t_reply)
         elif reply is not None and reply.reason == "disarmed":
             # Not armed: outputs are zero, since some time after the last confirmation.
             self._confirm(self._zeros, self._t_confirmed, t_reply)
         return reply
+
+    def _exchange(self, raw: bytes, seq: int) -> tuple[p.Reply | None, tuple[float, float] | None]:
+        """In the link's thread: the reply and its send/reply times, read together (the next
+        frame, queued behind this one, must not overwrite the times first)."""
+        return self._link.transact(raw, seq), self._link.last_bracket
 
     def _expect_ack(self, reply: p.Reply | None, what: str) -> None:
         if reply is None or reply.kind != "ACK":

@@ -16,7 +16,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import time
 from typing import TYPE_CHECKING, Any
 
 from daq.operator import OperatorAct
@@ -33,7 +32,7 @@ from daq.procedures.steps import (
     return_act,
     run_outcome,
 )
-from daq.sample import Quality
+from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import Store
 from daq.store.run_events import RunAction
@@ -322,7 +321,7 @@ async def run_thruster_test(
                     )
                     try:
                         await _drive_with_thrusters(
-                            session, rec, axis, params, commands, start, report, armed, steps
+                            session, rec, axis, params, commands, start, report, armed
                         )
                     except BaseException:
                         await _end_thrust(session, rec, steps, supervisor)
@@ -348,11 +347,18 @@ run_thruster_tow = run_thruster_test
 STALE_ZEROED = "sensor data stale or unread"
 
 
+def _plc_unread(session: RigSession, sample: Sample | None) -> str | None:
+    """The PLC's endpoint when ``sample`` could not read it (quality ERROR), else None."""
+    if sample is not None and sample.quality & Quality.ERROR and session.plc is not None:
+        return session.plc.endpoint
+    return None
+
+
 def _stale_zeroed_reason(session: RigSession) -> str:
     """Why the run ends: which data went stale (the PLC unread, or the stale channels)."""
     cause = session.stale_sample
-    if cause is not None and cause.quality & Quality.ERROR and session.plc is not None:
-        what = f"PLC at {session.plc.endpoint} unread"
+    if (plc := _plc_unread(session, cause)) is not None:
+        what = f"PLC at {plc} unread"
     else:
         what = "stale: " + (", ".join(cause.stale) if cause and cause.stale else "?")
     return (
@@ -389,18 +395,15 @@ async def abort_on_thruster_fault(
     fault = session.live_thrusters.fault
     if fault is None:  # the stale-data zeroing
         reason = _stale_zeroed_reason(session)
-        try:  # stored before the abort, as below
-            await rec.event("fault", reason, stale_zeroings=session.stale_zeroings)
-        finally:
-            abort.set(reason)
-        return
-    reason = fault.reason
-    latest = session.latest()
-    if latest is not None and latest.quality & Quality.ERROR and session.plc is not None:
-        # Both devices gone at once (the rig's power, the simulator): name the PLC too.
-        reason += f"; PLC at {session.plc.endpoint} unreadable too"
+        data: dict[str, Any] = {"stale_zeroings": session.stale_zeroings}
+    else:
+        reason = fault.reason
+        if (plc := _plc_unread(session, session.latest())) is not None:
+            # Both devices gone at once (the rig's power, the simulator): name the PLC too.
+            reason += f"; PLC at {plc} unreadable too"
+        data = {"action": RunAction.THRUSTER_FAULT, **fault.to_json()}
     try:  # stored before the abort, so the run's ending cannot cancel it half-way
-        await rec.event("fault", reason, action=RunAction.THRUSTER_FAULT, **fault.to_json())
+        await rec.event("fault", reason, **data)
     finally:
         abort.set(reason)
 
@@ -439,7 +442,7 @@ async def _end_thrust(
 
 
 async def _drive_with_thrusters(
-    session, rec, axis, params, commands, start, report, armed: asyncio.Event, steps: list
+    session, rec, axis, params, commands, start, report, armed: asyncio.Event
 ) -> None:
     await session.live_plc.write(axis.release, True)
     await session.arm_thrusters()
@@ -451,12 +454,7 @@ async def _drive_with_thrusters(
         )
     )
     await rec.record_for(params.baseline_s)
-    before = await session.apply_thrust(commands)
-    after = time.monotonic()
-    # The first confirmed thrust, as the link timed it (this coroutine may resume late).
-    first = next((step for step in steps if any(step.fractions)), None)
-    if first is not None and before <= first.t_sent:
-        before, after = first.t_sent, first.t_acked
+    before, after = await session.apply_thrust(commands)
     await rec.event(
         "operator",
         f"thrust on: commands {', '.join(f'{c:+.3f}' for c in commands)}",
