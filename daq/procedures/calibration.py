@@ -13,6 +13,7 @@ import logging
 import math
 import statistics
 import time
+from collections.abc import Callable
 from typing import Any
 
 from daq.operator import OperatorAct
@@ -188,16 +189,27 @@ async def _measure_step(
     )
 
 
+async def _record_until(
+    rec: RecordedRun, done: Callable[[], bool], timed_out: Callable[[], str]
+) -> None:
+    """Record until ``done()``; RuntimeError(``timed_out()``) after ``CONFIRM_TIMEOUT_S``."""
+    deadline = time.monotonic() + CONFIRM_TIMEOUT_S
+    while not done():
+        if time.monotonic() > deadline:
+            raise RuntimeError(timed_out())
+        await rec.record_for(0.05)
+
+
 async def _until_data_good(rec: RecordedRun, session: RigSession) -> None:
     """Record until the thrusters are no longer held at zero for stale sensor data."""
-    deadline = time.monotonic() + CONFIRM_TIMEOUT_S
-    while session.live_thrusters.inhibited is not None:
-        if time.monotonic() > deadline:
-            raise RuntimeError(
-                f"sensor data stayed stale or unread for {CONFIRM_TIMEOUT_S:g} s: the "
-                "thrusters are held at zero"
-            )
-        await rec.record_for(0.05)
+    await _record_until(
+        rec,
+        lambda: session.live_thrusters.inhibited is None,
+        lambda: (
+            f"sensor data stayed stale or unread for {CONFIRM_TIMEOUT_S:g} s: the "
+            "thrusters are held at zero"
+        ),
+    )
 
 
 async def _until_confirmed(
@@ -208,18 +220,23 @@ async def _until_confirmed(
     late. A step never confirmed is a fault of the run (the calibration would be wrong);
     one zeroed for stale data (``zeroings`` changed) raises ``_ZeroedForSafety``."""
     thrusters = session.live_thrusters
-    deadline = time.monotonic() + CONFIRM_TIMEOUT_S
-    while any(
-        abs(a - b) > CONFIRM_TOLERANCE for a, b in zip(thrusters.confirmed, target, strict=True)
-    ):
+
+    def confirmed() -> bool:
         if session.stale_zeroings != zeroings:
             raise _ZeroedForSafety
-        if time.monotonic() > deadline:
-            raise RuntimeError(
-                f"thrusters did not confirm command {target} within {CONFIRM_TIMEOUT_S:g} s "
-                f"(confirmed {list(thrusters.confirmed)})"
-            )
-        await rec.record_for(0.05)
+        return all(
+            abs(a - b) <= CONFIRM_TOLERANCE
+            for a, b in zip(thrusters.confirmed, target, strict=True)
+        )
+
+    await _record_until(
+        rec,
+        confirmed,
+        lambda: (
+            f"thrusters did not confirm command {target} within {CONFIRM_TIMEOUT_S:g} s "
+            f"(confirmed {list(thrusters.confirmed)})"
+        ),
+    )
 
 
 async def _collect(rec: RecordedRun, count: int) -> list:
