@@ -54,16 +54,10 @@ def latest_calibration(store: Store) -> dict[str, Any]:
     newest = store.latest_result("calibration")
     imported = store.latest_imported_calibration()
     if imported is not None and (newest is None or imported.created_at >= newest.created_at):
-        from daq.calibration_law import law_of
-        from estimation.thrust.law import VOLTAGE_TOLERANCE_V
+        from daq.calibration_law import at_reference_voltage, law_of
 
         law, _ = law_of(store, "imported", imported.id)
-        rows = [
-            r
-            for r in imported.data["table"]
-            if r.get("supply_voltage_v") is None
-            or abs(r["supply_voltage_v"] - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
-        ]
+        rows = at_reference_voltage(imported.data["table"], law)
         return {
             "fit": law.curves[-1].curve.to_json(),
             "table": rows,

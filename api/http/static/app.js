@@ -761,10 +761,13 @@ async function loadCalibration() {
   }
   const data = cal.data;
   const table = data.table || [];
-  $("#cal-status").textContent = `Calibration ${cal.id} of ${new Date(cal.created_at).toLocaleString()} (run ${cal.run_ids[0].slice(0, 8)}).`;
+  const volts = cal.voltages_v.length ? ` at ${cal.voltages_v.join(", ")} V` : "";
+  $("#cal-status").textContent = `Newest calibration: ${cal.label} of ${new Date(cal.created_at).toLocaleString()}${volts}.`;
+  const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
   $("#cal-table tbody").innerHTML = table
-    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${r.direction}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${fmt(r.supply_voltage_v, 4)}</td></tr>`)
+    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${cell(r.supply_voltage_v, 4)}</td><td>${cell(r.current_a, 3)}</td><td>${cell(r.efficiency_n_per_w, 3)}</td></tr>`)
     .join("");
+  loadCalibrationList();
   const traces = [
     { x: table.map((r) => r.command), y: table.map((r) => r.thrust_per_thruster_n), mode: "markers", name: "measured" },
   ];
@@ -794,6 +797,13 @@ async function loadCalibration() {
     { title: { text: "Thrust curve" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "command (fraction)" } }, yaxis: { title: { text: "thrust per thruster (N)" } } },
     { responsive: true, displaylogo: false },
   );
+}
+
+async function loadCalibrationList() {
+  const all = await api("GET", "/api/calibrations");
+  $("#cal-list tbody").innerHTML = all
+    .map((c) => `<tr><td>${esc(c.label)}</td><td>${c.source === "run" ? "measured" : "imported"}</td><td>${new Date(c.created_at).toLocaleString()}</td><td>${c.rows}</td><td>${c.voltages_v.map((v) => fmt(v, 3)).join(", ") || "—"}</td><td>${esc(c.channels.join(", ")) || "—"}</td></tr>`)
+    .join("");
 }
 
 // ---- start ------------------------------------------------------------------------------------
