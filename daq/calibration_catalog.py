@@ -74,7 +74,8 @@ def calibrations(store: Store) -> list[dict[str, Any]]:
 
 def latest(store: Store) -> dict[str, Any] | None:
     """The newest calibration of either source with its rows and the fitted curve at its
-    reference voltage (``data.table``, ``data.fit``), or None when there is none."""
+    reference voltage (``data.table``, ``data.fit``; an imported table also the rows at that
+    voltage, ``data.reference_table``), or None when there is none."""
     run = store.latest_result("calibration")
     imported = store.latest_imported_calibration()
     if imported is not None and (run is None or imported.created_at >= run.created_at):
@@ -83,7 +84,7 @@ def latest(store: Store) -> dict[str, Any] | None:
         data = {
             "table": table,
             "fit": law.curves[-1].curve.to_json(),
-            "fit_rows": len(at_reference_voltage(table, law)),
+            "reference_table": at_reference_voltage(table, law),
             "reference_voltage_v": law.reference_voltage,
             "law": law.to_json(),
             "units": imported.data.get("units"),
