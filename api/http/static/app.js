@@ -765,7 +765,7 @@ async function loadCalibration() {
   $("#cal-status").textContent = `Newest calibration: ${cal.label} of ${new Date(cal.created_at).toLocaleString()}${volts}.`;
   const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
   $("#cal-table tbody").innerHTML = table
-    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${cell(r.supply_voltage_v, 4)}</td><td>${cell(r.current_a, 3)}</td><td>${cell(r.efficiency_n_per_w, 3)}</td></tr>`)
+    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${cell(r.supply_voltage_v, 4)}</td><td>${cell(r.current_a, 4)}</td><td>${cell(r.efficiency_n_per_w, 3)}</td></tr>`)
     .join("");
   loadCalibrationList();
   const traces = [
