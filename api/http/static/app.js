@@ -473,7 +473,7 @@ function showRunMeta(run) {
     ["Drive", run.drive || "—"],
     ["Load", load(run)],
     ["Source", run.source === "imported" ? `imported ${new Date(run.imported_at).toLocaleString()} from ${run.source_file}` : "recorded"],
-    ["Parameters", JSON.stringify(run.parameters)],
+    ...(run.parameters_labelled || []).map((p) => [p.label[0].toUpperCase() + p.label.slice(1), p.shown]),
     ["Recorded at", new Date(run.started_at).toLocaleString()],
     ["Duration", `${fmt(run.duration_s, 4)} s`],
     ["Samples", run.sample_count],
