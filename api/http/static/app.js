@@ -4,7 +4,7 @@
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed", "interrupted"];
-const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {} };
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {}, jobDocs: {} };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
@@ -397,7 +397,16 @@ async function stream() {
           if (!data) continue;
           const obj = JSON.parse(data);
           if (kind === "sample") onSample(obj);
-          else if (kind === "job") onJobEvent(obj);
+          else if (kind === "job") {
+            if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
+            else state.jobDocs[obj.id] = obj;
+            onJobEvent(obj);
+          } else if (kind === "job_progress" && state.jobDocs[obj.id]) {
+            // only the progress changed: the stream sends it without the rest of the job
+            const job = { ...state.jobDocs[obj.id], state: obj.state, progress: obj.progress };
+            state.jobDocs[obj.id] = job;
+            onJobEvent(job);
+          }
         }
       }
     } catch (err) {
