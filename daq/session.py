@@ -1,13 +1,19 @@
 """One open rig: its devices, its clock, its lock.
 
 ``RigSession`` owns the PLC client, the acquisition clock, the thruster driver
-and (for a simulated rig) the simulator thread. Opening it first takes the rig's
-cross-process lock in the run database (``daq.rig_lock``: one process drives a rig)
-and closing it gives the lock back after the rig is left safe; procedures borrow the
-session under its in-process lock (one procedure at a time), which also tells anyone
-refused what the holder is doing. It also runs the thruster supervisor: every clock
-tick while armed it re-sends the (slew-limited) target as the controller's heartbeat,
-and commands zero as soon as the sensor data goes stale.
+and (for a simulated rig) the simulator thread. Opening it first takes the lease on the
+rig's devices (``daq.rig_lock``: one process drives a device, whatever its database),
+before any device is touched, and closing it gives the lease back after the rig is left
+safe; procedures borrow the session under its in-process lock (one procedure at a time),
+which also tells anyone refused what the holder is doing. It also runs the thruster
+supervisor: every clock tick while armed it re-sends the (slew-limited) target as the
+controller's heartbeat, and commands zero as soon as the sensor data goes stale.
+
+Losing the lease while open (its renewal failed: the PostgreSQL connection ended, a lock
+file taken by another process) is a fault like a lost PLC: the thrusters go to zero and
+the brakes on at once, the running run is aborted with a reason naming the lost lock
+(``fault listeners``: each recorded run registers its abort signal), and the devices are
+closed and the lease given back (``lease_lost`` says why, ``released`` is set).
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ import asyncio
 import contextlib
 import logging
 import math
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -25,7 +31,7 @@ from daq.acquisition import Acquisition
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
-from daq.rig_lock import RigLock, rig_lock
+from daq.rig_lock import RigLease, rig_lock
 from daq.sample import Quality, Sample
 from daq.store import Store
 from thrusters.config import CommandLimits, ThrusterPort
@@ -133,9 +139,16 @@ class RigSession:
         self.thrusters: ThrusterDriver | None = None
         self._tasks: list[asyncio.Task] = []
         self._lock_holder: str | None = None
-        #: The rig's cross-process lock; ``owner`` names this program to whoever is refused.
-        self.rig_lock: RigLock = rig_lock(store.url, self.rig.rig.name, owner)
+        #: The lease on the rig's devices; ``owner`` names this program to whoever is refused.
+        self.rig_lock: RigLease = rig_lock(store.url, self.rig, owner)
         self._has_rig = False
+        self._closing: asyncio.Task[None] | None = None
+        #: Why the lease was lost while open (``rig lock lost: …``), else None.
+        self.lease_lost: str | None = None
+        #: Set once the devices were closed and the lease given back after its loss.
+        self.released = asyncio.Event()
+        #: Called with the reason when the lease is lost (a run's abort signal).
+        self._fault_listeners: list[Callable[[str], object]] = []
         self.thrust = ThrustTarget()
         self.stale_zeroings = 0
         #: Set at each of those zeroings (a thruster-driven run waits on it to end itself),
@@ -150,6 +163,12 @@ class RigSession:
     async def open(self, *, connect_timeout_s: float = 10.0) -> None:
         """Take the rig (``RigInUse`` if another process drives it), start the simulator
         (simulated rig), connect the devices, start the clock."""
+        loop = asyncio.get_running_loop()
+        self.lease_lost, self._closing = None, None
+        self.released.clear()
+        self.rig_lock.on_lost = lambda reason: loop.call_soon_threadsafe(
+            self._on_lease_lost, reason
+        )
         await asyncio.to_thread(self.rig_lock.acquire)
         self._has_rig = True
         conn = self.rig
@@ -178,7 +197,13 @@ class RigSession:
 
     async def close(self) -> None:
         """Thrusters to zero, brakes on, clock stopped, devices closed, rig lock given
-        back. Never raises; a session that never got the rig touches no device."""
+        back. Never raises; a session that never got the rig touches no device. Closing
+        twice at once (the owner, and the lease's loss) closes once."""
+        if self._closing is None:
+            self._closing = asyncio.ensure_future(self._close())
+        await asyncio.shield(self._closing)
+
+    async def _close(self) -> None:
         if not self._has_rig:
             return
         with contextlib.suppress(Exception):
@@ -204,6 +229,32 @@ class RigSession:
         self._has_rig = False
         await asyncio.to_thread(self.rig_lock.release)
 
+    # -- losing the lease ------------------------------------------------------------------
+    def add_fault_listener(self, listener: Callable[[str], object]) -> Callable[[], None]:
+        """Call ``listener(reason)`` if the lease is lost (at once if it already was);
+        returns the function that removes it."""
+        self._fault_listeners.append(listener)
+        if self.lease_lost is not None:
+            listener(self.lease_lost)
+        return lambda: self._fault_listeners.remove(listener)
+
+    def _on_lease_lost(self, reason: str) -> None:
+        """On the session's loop, when the renewal thread saw the lease lost: stop like a
+        lost PLC (see the module docstring)."""
+        if self.lease_lost is not None or not self._has_rig:
+            return
+        self.lease_lost = reason
+        log.error("%s: thrusters to zero, brakes on, devices released", reason)
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
+        for listener in list(self._fault_listeners):
+            try:
+                listener(reason)
+            except Exception:
+                log.exception("fault listener failed")
+        # close() starts with the safe state, then closes every device and the lease.
+        task = asyncio.ensure_future(self.close())
+        task.add_done_callback(lambda _: self.released.set())
+
     async def __aenter__(self) -> RigSession:
         try:
             await self.open()
@@ -225,11 +276,11 @@ class RigSession:
     async def locked(self, holder: str) -> AsyncIterator[None]:
         """Hold the rig lock; raise ``RigBusy`` at once (never queue) when it is taken
         (``RigInUse`` if the cross-process lock was lost to another process)."""
+        self.rig_lock.check()  # RigLockLost once the lease was lost
         if self._lock_holder is not None:
             raise RigBusy(self._lock_holder)
         self._lock_holder = holder
         try:
-            await asyncio.to_thread(self.rig_lock.check)
             await asyncio.to_thread(self.rig_lock.set_activity, holder)
             yield
         finally:
@@ -295,6 +346,8 @@ class RigSession:
     async def disarm_thrusters(self) -> None:
         if self.thrusters is None:
             raise ThrusterError(NO_THRUSTERS)
+        if self.lease_lost is not None and not self.thrusters.is_open:
+            return  # zeroed, disarmed and closed when the lease was lost
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
