@@ -1,7 +1,11 @@
 """One rig, one driver across processes: while the service drives the rig, a ``rig tow`` or
-a second ``rig serve`` (real subprocesses) on the same database is refused in one line that
-names the holder, and the service's run goes on undisturbed to ``completed``. On SQLite and
-PostgreSQL."""
+a second ``rig serve`` (real subprocesses) on the same rig file is refused in one line that
+names the holder, whatever database each records to, and the service's run goes on
+undisturbed to ``completed``. On SQLite and PostgreSQL.
+
+The rig file says hardware and points at a simulated rig running in this process (a
+simulated rig file would start a simulator of its own in each process: no shared device).
+"""
 
 from __future__ import annotations
 
@@ -18,10 +22,13 @@ from fastapi.testclient import TestClient
 
 from api.core.service import RigService, RigUnavailable
 from api.http.app import create_app
+from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.operator import OperatorAct, SimulatedOperator
 from daq.session import RigSource
+from daq.sim.rig import SimulatedRigThread
 from daq.store import Store
 from tests.api.conftest import AUTH, FINAL, TOKEN, wait_job
+from tests.procedures.conftest import hardware_rig_file
 from tests.waiting import read_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,13 +36,23 @@ RIG = str(Path(sys.executable).parent / "rig")  # the installed console script
 TOW = {"force_n": 24.5, "max_time_s": 1.5, "baseline_s": 0.3}
 
 
+@pytest.fixture
+def rig_file(tmp_path) -> Path:
+    """A hardware rig file whose PLC and thruster controller are a simulated rig's."""
+    with SimulatedRigThread(load_rig(DEFAULT_RIG_FILE)) as sim:
+        ends = sim.endpoints
+        yield hardware_rig_file(tmp_path, ends.port, ends.thruster_serial_port)
+
+
 def _refusal(program: str, activity: str | None = None) -> re.Pattern:
-    """The one line a refused process prints, naming this test process as the holder."""
+    """The one line a refused process prints, naming the PLC and this test process as the
+    holder."""
     host = re.escape(socket.gethostname()[:24])
     tail = rf" \({re.escape(activity)}\)" if activity else ""
     return re.compile(
-        rf"error: (cannot open the rig: )?rig 'BENBAM tow tank' is in use by `{program}` "
-        rf"pid {os.getpid()} on host {host} since \d{{4}}-\d\d-\d\d \d\d:\d\d:\d\d{tail}"
+        rf"error: (cannot open the rig: )?rig 'BENBAM tow tank' \(PLC tcp 127\.0\.0\.1:\d+ "
+        rf"unit 1 on host {host}\) is in use by `{program}` pid {os.getpid()} on host {host} "
+        rf"since \d{{4}}-\d\d-\d\d \d\d:\d\d:\d\d{tail}"
     )
 
 
@@ -67,14 +84,19 @@ def _play_operator(client: TestClient, service: RigService, job_id: str) -> dict
     )
 
 
-def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(db_url):
+def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(
+    db_url, rig_file, tmp_path
+):
     # The service asks a person for each act, so its tow holds the rig as long as we like.
-    service = RigService(RigSource.load(), db_url, ask_operator=True, owner="rig serve")
+    service = RigService(RigSource.load(rig_file), db_url, ask_operator=True, owner="rig serve")
     with TestClient(create_app(service, token=TOKEN)) as client:
         job_id = client.post("/api/jobs/tow", json=TOW, headers=AUTH).json()["id"]
         wait_job(client, job_id, states=("waiting_for_operator",))
 
-        cli = _rig("tow", "--force", "10", "--max-time", "1", "--db", db_url)
+        # Another database: the lease is on the devices, so it is refused all the same.
+        other_db = f"sqlite:///{tmp_path / 'other.db'}"
+        args = ["--force", "10", "--max-time", "1", "--rig", str(rig_file), "--db", other_db]
+        cli = _rig("tow", *args)
         assert cli.returncode == 1, cli.stdout + cli.stderr
         # one error line (after the note on the hung weight's rounding, said at the start)
         lines = [ln for ln in cli.stderr.strip().splitlines() if not ln.startswith("note: ")]
@@ -86,9 +108,11 @@ def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(db_ur
     assert job["state"] == "completed", job
     with Store(db_url) as store:
         runs = store.list_runs()
-        assert [r.id for r in runs] == job["run_ids"]  # the refused tow stored nothing
+        assert [r.id for r in runs] == job["run_ids"]
         assert runs[0].status == "completed"
         release = store.samples(runs[0].id).channels["tow_release"]
+    with Store(other_db) as store:
+        assert store.list_runs() == []  # the refused tow stored nothing
     # The carriage was released once and braked once: nobody else touched the brake.
     # A poll that failed under load stores NaN: it says nothing about the coil, so skip it.
     read = np.asarray(release, dtype=float)
@@ -96,9 +120,10 @@ def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(db_ur
     assert (edges == 1).sum() == 1 and (edges == -1).sum() == 1, release
 
 
-def test_two_services_on_one_database_cannot_drive_one_rig(db_url):
-    first = RigService(RigSource.load(), db_url, owner="rig serve")
-    second = RigService(RigSource.load(), db_url, owner="rig serve")
+def test_two_services_cannot_drive_one_rig_whatever_their_databases(db_url, rig_file, tmp_path):
+    first = RigService(RigSource.load(rig_file), db_url, owner="rig serve")
+    other_db = f"sqlite:///{tmp_path / 'other.db'}"
+    second = RigService(RigSource.load(rig_file), other_db, owner="rig serve")
     first.start()
     try:
         with pytest.raises(RigUnavailable, match=_refusal("rig serve").pattern[len("error: ") :]):
@@ -106,7 +131,8 @@ def test_two_services_on_one_database_cannot_drive_one_rig(db_url):
         second.stop()
         assert first.running and first.session.rig_lock.held
 
-        served = _rig("serve", "--port", "0", "--db", db_url, "--no-realtime")
+        served = _rig("serve", "--port", "0", "--rig", str(rig_file), "--db", db_url,
+                      "--no-realtime")  # fmt: skip
         assert served.returncode == 1, served.stdout + served.stderr
         lines = served.stderr.strip().splitlines()
         assert len(lines) == 1 and _refusal("rig serve").fullmatch(lines[0]), served.stderr
@@ -114,7 +140,7 @@ def test_two_services_on_one_database_cannot_drive_one_rig(db_url):
     finally:
         first.stop()
     # Stopping gives the rig back: the next service opens it.
-    third = RigService(RigSource.load(), db_url, owner="rig serve")
+    third = RigService(RigSource.load(rig_file), other_db, owner="rig serve")
     third.start()
     try:
         assert third.running

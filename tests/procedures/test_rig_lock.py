@@ -4,6 +4,7 @@ when its lock file is deleted, freed when its holder is killed with SIGKILL."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
@@ -192,3 +193,46 @@ def test_postgres_holder_is_seen_by_a_second_host_lock_folder(tmp_path, postgres
             assert not second.held
     finally:
         postgres_server.drop_database(url)
+
+
+def test_a_sigkilled_cli_tow_shows_interrupted_at_the_next_rig_runs(tmp_path):
+    """Its run names the process that owned it; the next command that opens the database
+    (here `rig runs`) marks it, not some later service start."""
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    Store(db).close()  # made before the CLI opens it, so the test can read it meanwhile
+    tow = subprocess.Popen(
+        [sys.executable, "-m", "api.cli.main", "tow", "--force", "24.5", "--max-time", "30",
+         "--db", db],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    try:
+
+        def recording() -> list:
+            assert tow.poll() is None, tow.stderr.read()
+            with Store(db) as store:
+                return [r for r in store.list_runs() if r.sample_count > 0]
+
+        (run,) = read_until(recording, bool, "the CLI tow recording", timeout_s=60, poll_s=0.1)
+        assert run.status == "running"
+        tow.send_signal(signal.SIGKILL)
+        tow.wait(10)
+    finally:
+        _end(tow)
+    listed = subprocess.run(
+        [sys.executable, "-m", "api.cli.main", "runs", "--db", db, "--json"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert listed.returncode == 0, listed.stderr
+    (shown,) = json.loads(listed.stdout)
+    assert shown["id"] == run.id and shown["status"] == "interrupted"
+    host = socket.gethostname()
+    assert shown["reason"] == (
+        f"recording process pid {tow.pid} on host {host} ended without finishing the run"
+    )
+    assert "interrupted" in listed.stderr  # said once, on stderr
