@@ -8,12 +8,7 @@ safe; procedures borrow the session under its in-process lock (one procedure at 
 which also tells anyone refused what the holder is doing. It also runs the thruster
 supervisor: every clock tick while armed it re-sends the (slew-limited) target as the
 controller's heartbeat, and commands zero as soon as the sensor data goes stale.
-
-Losing the lease while open (its renewal failed: the PostgreSQL connection ended, a lock
-file taken by another process) is a fault like a lost PLC: the thrusters go to zero and
-the brakes on at once, the running run is aborted with a reason naming the lost lock
-(``fault listeners``: each recorded run registers its abort signal), and the devices are
-closed and the lease given back (``lease_lost`` says why, ``released`` is set).
+Losing the lease while open is a fault like a lost PLC (``daq.lease_fault``).
 """
 
 from __future__ import annotations
@@ -22,13 +17,14 @@ import asyncio
 import contextlib
 import logging
 import math
-from collections.abc import AsyncIterator, Callable, Sequence
+from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from daq.acquisition import Acquisition
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
+from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
 from daq.rig_lock import RigLease, rig_lock
@@ -142,13 +138,11 @@ class RigSession:
         #: The lease on the rig's devices; ``owner`` names this program to whoever is refused.
         self.rig_lock: RigLease = rig_lock(store.url, self.rig, owner)
         self._has_rig = False
-        self._closing: asyncio.Task[None] | None = None
-        #: Why the lease was lost while open (``rig lock lost: …``), else None.
-        self.lease_lost: str | None = None
-        #: Set once the devices were closed and the lease given back after its loss.
-        self.released = asyncio.Event()
-        #: Called with the reason when the lease is lost (a run's abort signal).
-        self._fault_listeners: list[Callable[[str], object]] = []
+        self._closing: asyncio.Future[None] | None = None
+        self._shutting = False
+        self.lease_fault = LeaseFault()
+        #: ``listener(reason)`` is called if the lease is lost; returns its remover.
+        self.add_fault_listener = self.lease_fault.add_listener
         self.thrust = ThrustTarget()
         self.stale_zeroings = 0
         #: Set at each of those zeroings (a thruster-driven run waits on it to end itself),
@@ -163,12 +157,8 @@ class RigSession:
     async def open(self, *, connect_timeout_s: float = 10.0) -> None:
         """Take the rig (``RigInUse`` if another process drives it), start the simulator
         (simulated rig), connect the devices, start the clock."""
-        loop = asyncio.get_running_loop()
-        self.lease_lost, self._closing = None, None
-        self.released.clear()
-        self.rig_lock.on_lost = lambda reason: loop.call_soon_threadsafe(
-            self._on_lease_lost, reason
-        )
+        self._closing = None
+        self.lease_fault.arm(self.rig_lock, self._zero_target, self.close)
         await asyncio.to_thread(self.rig_lock.acquire)
         self._has_rig = True
         conn = self.rig
@@ -208,6 +198,7 @@ class RigSession:
             return
         with contextlib.suppress(Exception):
             await self.safe_state()
+        self._shutting = True  # safe now; the devices are closing under any later caller
         if self.thrusters is not None:
             with contextlib.suppress(Exception):
                 await self.thrusters.close()
@@ -226,34 +217,18 @@ class RigSession:
             with contextlib.suppress(Exception):
                 await asyncio.to_thread(self.sim.close)
             self.sim = None
-        self._has_rig = False
+        self._has_rig = self._shutting = False
         await asyncio.to_thread(self.rig_lock.release)
 
-    # -- losing the lease ------------------------------------------------------------------
-    def add_fault_listener(self, listener: Callable[[str], object]) -> Callable[[], None]:
-        """Call ``listener(reason)`` if the lease is lost (at once if it already was);
-        returns the function that removes it."""
-        self._fault_listeners.append(listener)
-        if self.lease_lost is not None:
-            listener(self.lease_lost)
-        return lambda: self._fault_listeners.remove(listener)
+    @property
+    def lease_lost(self) -> str | None:
+        """Why the lease on the rig was lost while open (``rig lock lost: …``), else None."""
+        return self.lease_fault.reason
 
-    def _on_lease_lost(self, reason: str) -> None:
-        """On the session's loop, when the renewal thread saw the lease lost: stop like a
-        lost PLC (see the module docstring)."""
-        if self.lease_lost is not None or not self._has_rig:
-            return
-        self.lease_lost = reason
-        log.error("%s: thrusters to zero, brakes on, devices released", reason)
-        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
-        for listener in list(self._fault_listeners):
-            try:
-                listener(reason)
-            except Exception:
-                log.exception("fault listener failed")
-        # close() starts with the safe state, then closes every device and the lease.
-        task = asyncio.ensure_future(self.close())
-        task.add_done_callback(lambda _: self.released.set())
+    @property
+    def released(self) -> asyncio.Event:
+        """Set once the devices were closed and the lease given back after its loss."""
+        return self.lease_fault.released
 
     async def __aenter__(self) -> RigSession:
         try:
@@ -312,7 +287,10 @@ class RigSession:
         return self.thrusters
 
     async def safe_state(self) -> None:
-        """Brakes engaged and thrusters at zero (waits for the controller's ACK)."""
+        """Brakes engaged and thrusters at zero (waits for the controller's ACK); nothing
+        once ``close`` has done it and is closing the devices."""
+        if self._shutting:
+            return
         errors = []
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
         # Disarmed (or watchdog-latched) controllers already hold their outputs at zero.
@@ -336,6 +314,9 @@ class RigSession:
     def thruster_count(self) -> int:
         """Thrusters of the rig file's ``[thrusters]`` section (0 without one)."""
         return self.rig.thrusters.count if self.rig.thrusters is not None else 0
+
+    def _zero_target(self) -> None:
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
 
     async def arm_thrusters(self) -> None:
         if self.thrusters is None:

@@ -41,6 +41,7 @@ from daq.procedures.kinds import KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
+from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
 from daq.store import Store
 from daq.store.faults import one_line
@@ -419,6 +420,8 @@ class JobRunner:
         session = self.service.require_session()
         job.abort = AbortSignal()
         job.confirm = asyncio.Event()
+        # A lost lease on the rig stops the job wherever it waits (a run, the operator).
+        unlisten = session.add_fault_listener(job.abort.set)
         if kind == "sequence":
             job.control = SequenceControl(abort=job.abort)
             if job.pause_requested:
@@ -452,7 +455,7 @@ class JobRunner:
             )
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
-        except (PreconditionFailed, RigBusy, ParameterError) as err:  # the rig said no
+        except (PreconditionFailed, RigBusy, RigLockLost, ParameterError) as err:  # the rig said no
             self._update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)
@@ -460,6 +463,7 @@ class JobRunner:
                 job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
             )
         finally:
+            unlisten()
             session.run_metadata = None
             with self._lock:
                 if self._rig_job is job:

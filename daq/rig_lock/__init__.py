@@ -83,10 +83,11 @@ class RigLease:
         self.devices = devices
         self.me = holder
         self.host_locks = [HostLock(d) for d in devices]
-        postgres = database_url and sa.make_url(database_url).get_backend_name() == "postgresql"
-        self.pg: PgLease | None = PgLease(database_url, devices) if postgres else None
+        self.pg: PgLease | None = None
+        if database_url and sa.make_url(database_url).get_backend_name() == "postgresql":
+            self.pg = PgLease(database_url, devices)
         #: Called once, from the renewal thread, when the lease is lost.
-        self.on_lost: Callable[[str], None] | None = None
+        self.on_lost: Callable[[str], object] | None = None
         #: Why the lease was lost (None while held or never taken).
         self.lost: str | None = None
         self.held = False

@@ -78,7 +78,7 @@ def _network_address(host: str) -> tuple[str, bool]:
     """``host`` as an IP address (as resolved now; the name if it does not resolve), and
     whether it is a loopback address (a device of this host only)."""
     try:
-        address = socket.getaddrinfo(host, None, proto=socket.IPPROTO_TCP)[0][4][0]
+        address = str(socket.getaddrinfo(host, None, proto=socket.IPPROTO_TCP)[0][4][0])
     except (OSError, UnicodeError, IndexError):
         address = host.casefold()
     try:

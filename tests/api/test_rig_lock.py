@@ -14,10 +14,12 @@ import re
 import socket
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
+import sqlalchemy as sa
 from fastapi.testclient import TestClient
 
 from api.core.service import RigService, RigUnavailable
@@ -63,8 +65,14 @@ def _rig(*args: str, timeout_s: float = 120) -> subprocess.CompletedProcess:
     )
 
 
-def _play_operator(client: TestClient, service: RigService, job_id: str) -> dict:
-    """Do each act the job asks for on the simulated rig, confirm it; return the ended job."""
+def _play_operator(
+    client: TestClient,
+    service: RigService,
+    job_id: str,
+    until: Callable[[dict], object] = lambda job: job["state"] in FINAL,
+) -> dict:
+    """Do each act the job asks for on the simulated rig, confirm it; return the job once
+    ``until(job)`` (default: ended)."""
     done: set[str] = set()
 
     def act_or_ended() -> dict:
@@ -79,9 +87,7 @@ def _play_operator(client: TestClient, service: RigService, job_id: str) -> dict
             assert client.post(f"/api/jobs/{job_id}/confirm", headers=AUTH).status_code == 200
         return job
 
-    return read_until(
-        act_or_ended, lambda job: job["state"] in FINAL, "the job ended", timeout_s=60, poll_s=0.05
-    )
+    return read_until(act_or_ended, until, "the job ready", timeout_s=60, poll_s=0.05)
 
 
 def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(
@@ -146,3 +152,37 @@ def test_two_services_cannot_drive_one_rig_whatever_their_databases(db_url, rig_
         assert third.running
     finally:
         third.stop()
+
+
+def test_a_lost_lock_ends_the_service_job_and_frees_the_rig(rig_file, postgres_server):
+    """The service's PostgreSQL lock connection terminated mid-tow: the job's run ends
+    ``aborted`` naming the lost lock, the service says why it no longer drives the rig, a
+    new job is refused in one line, and a second service may take the rig."""
+    url = postgres_server.create_database()
+    service = RigService(RigSource.load(rig_file), url, ask_operator=True, owner="rig serve")
+    try:
+        with TestClient(create_app(service, token=TOKEN)) as client:
+            job_id = client.post("/api/jobs/tow", json=TOW, headers=AUTH).json()["id"]
+            job = _play_operator(
+                client, service, job_id, until=lambda j: j["state"] == "running" and j["run_ids"]
+            )
+            backend = service.require_session().rig_lock.pg.backend_pid
+            with sa.create_engine(postgres_server.admin_url).connect() as admin:
+                admin.execute(sa.text("SELECT pg_terminate_backend(:p)"), {"p": backend})
+            job = wait_job(client, job_id)
+            assert job["state"] == "aborted", job
+            assert job["error"].startswith("rig lock lost: the PostgreSQL connection holding")
+            (run,) = client.get("/api/runs", headers=AUTH).json()
+            assert (run["status"], run["reason"]) == ("aborted", job["error"])
+            rig = client.get("/api/rig", headers=AUTH).json()
+            assert not rig["running"] and rig["error"].startswith("rig lock lost: ")
+            refused = client.post("/api/jobs/tow", json=TOW, headers=AUTH)
+            assert refused.status_code == 503, refused.text
+            assert refused.json()["detail"].startswith("rig lock lost: ")
+            assert "\n" not in refused.json()["detail"]
+            second = RigService(RigSource.load(rig_file), url, owner="rig serve")
+            second.start()  # the first one released the devices
+            second.stop()
+    finally:
+        service.stop()
+        postgres_server.drop_database(url)
