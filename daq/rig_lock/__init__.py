@@ -75,17 +75,18 @@ class RigLease:
     def __init__(
         self,
         rig_name: str,
-        devices: list[Device],
+        devices: list[Device] | Callable[[], list[Device]],
         holder: LockHolder,
         database_url: str | None = None,
     ) -> None:
         self.rig_name = rig_name
-        self.devices = devices
+        self._devices_of = devices if callable(devices) else (lambda: devices)
+        self._database_url = database_url
         self.me = holder
-        self.host_locks = [HostLock(d) for d in devices]
+        #: Filled by ``prepare`` (naming a device may resolve a host name: not on a loop).
+        self.devices: list[Device] = []
+        self.host_locks: list[HostLock] = []
         self.pg: PgLease | None = None
-        if database_url and sa.make_url(database_url).get_backend_name() == "postgresql":
-            self.pg = PgLease(database_url, devices)
         #: Called once, from the renewal thread, when the lease is lost.
         self.on_lost: Callable[[str], object] | None = None
         #: Why the lease was lost (None while held or never taken).
@@ -95,8 +96,19 @@ class RigLease:
         self._stop = threading.Event()
         self._watcher: threading.Thread | None = None
 
+    def prepare(self) -> None:
+        """Name the devices and make their locks (once; ``acquire`` does it first)."""
+        if self.devices:
+            return
+        self.devices = self._devices_of()
+        self.host_locks = [HostLock(d) for d in self.devices]
+        url = self._database_url
+        if url and sa.make_url(url).get_backend_name() == "postgresql":
+            self.pg = PgLease(url, self.devices)
+
     def acquire(self) -> None:
         """Take every device (host first, then PostgreSQL) and start renewing."""
+        self.prepare()
         with self._guard:
             if self.held:
                 return
@@ -151,6 +163,7 @@ class RigLease:
         """Who holds the rig's first taken device now (``None`` when all are free)."""
         if self.held:
             return self.me
+        self.prepare()
         for lock in self.host_locks:
             if lock.taken():
                 return lock.holder()
@@ -203,4 +216,4 @@ class RigLease:
 def rig_lock(database_url: str | None, rig: RigConfig, program: str | None = None) -> RigLease:
     """The lease on ``rig``'s devices for a process recording to ``database_url``
     (``program`` names this process to whoever is refused; default ``rig <command>``)."""
-    return RigLease(rig.rig.name, rig_devices(rig), this_process(program), database_url)
+    return RigLease(rig.rig.name, lambda: rig_devices(rig), this_process(program), database_url)

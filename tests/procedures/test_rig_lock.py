@@ -184,6 +184,7 @@ def test_postgres_holder_is_seen_by_a_second_host_lock_folder(tmp_path, postgres
         rig_file = _hardware_rig(tmp_path)
         first = rig_lock(url, load_rig(rig_file), "rig serve")
         second = rig_lock(url, load_rig(rig_file), "rig tow")
+        second.prepare()
         with first:
             for lock in second.host_locks:  # what another host would see: nothing local
                 lock.acquire = lambda holder: True  # type: ignore[method-assign]
