@@ -18,7 +18,7 @@ import pytest
 from daq.config import load_rig
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import tow_parameters
-from daq.rig_lock import RigInUse, rig_devices, rig_lock
+from daq.rig_lock import RigInUse, RigLockLost, rig_devices, rig_lock
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from tests.procedures.conftest import hardware_rig_file
@@ -237,3 +237,31 @@ def test_a_sigkilled_cli_tow_shows_interrupted_at_the_next_rig_runs(tmp_path):
         f"recording process pid {tow.pid} on host {host} ended without finishing the run"
     )
     assert "interrupted" in listed.stderr  # said once, on stderr
+
+
+def test_a_lock_file_taken_over_under_the_holder_is_a_lost_lease(tmp_path):
+    """A process that cannot see the holder's socket (another network namespace sharing
+    the lock folder) replaces the lock file and locks it: two drivers, so the holder's next
+    renewal reports the lease lost, naming the file."""
+    import fcntl
+    import threading
+
+    lease = rig_lock(f"sqlite:///{tmp_path}/a.db", load_rig(_hardware_rig(tmp_path)))
+    lost: list[str] = []
+    reported = threading.Event()
+    lease.on_lost = lambda reason: (lost.append(reason), reported.set())
+    with lease:
+        path = lease.host_locks[0].path
+        intruder = os.open(path.with_suffix(".new"), os.O_RDWR | os.O_CREAT, 0o600)
+        fcntl.flock(intruder, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.rename(path.with_suffix(".new"), path)  # atomically, between two renewals
+        try:
+            assert reported.wait(5), "the holder never noticed"
+        finally:
+            os.close(intruder)
+        assert lost == [
+            f"rig lock lost: {lease.devices[0]}: its lock file {path} was replaced and "
+            "locked by another process"
+        ]
+        with pytest.raises(RigLockLost, match="was replaced and locked"):
+            lease.check()  # a session's next procedure is refused too
