@@ -272,10 +272,10 @@ class JobRunner:
     def _submit(self, job: Job, params: Any) -> None:
         try:
             self.service.submit(self._hold_rig(job, params))
-        except Exception:
+        except Exception as err:  # RigUnavailable says why (a lost rig lock, say)
             with self._lock:
                 self._rig_job = None
-            self._update(job, state="failed", error="the rig service is not running")
+            self._update(job, state="failed", error=one_line(err))
             raise
         self.service.broadcaster.publish_job(job.to_json())
 

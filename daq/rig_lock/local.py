@@ -51,7 +51,11 @@ def lock_dir() -> Path:
 def _ensure_dir(path: Path) -> None:
     if path.is_dir():
         return
-    path.mkdir(parents=True, exist_ok=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir()
+    except FileExistsError:
+        return  # made meanwhile by another process (maybe another user's)
     if path == SHARED_LOCK_DIR:
         os.chmod(path, 0o1777)  # every user's processes make their files here (sticky)
 
