@@ -29,6 +29,7 @@ class LeaseFault:
         #: Set once the session closed its devices and gave the lease back after the loss.
         self.released = asyncio.Event()
         self._listeners: list[Callable[[str], object]] = []
+        self._closing: asyncio.Future | None = None  # a strong reference to the close
 
     def arm(
         self, lease: RigLease, zero_thrust: Callable[[], None], close: Callable[[], Awaitable]
@@ -49,8 +50,8 @@ class LeaseFault:
                     listener(reason)
                 except Exception:
                     log.exception("fault listener failed")
-            task = asyncio.ensure_future(close())
-            task.add_done_callback(lambda _: self.released.set())
+            self._closing = asyncio.ensure_future(close())
+            self._closing.add_done_callback(lambda _: self.released.set())
 
         lease.on_lost = lambda reason: loop.call_soon_threadsafe(lost, reason)
 
