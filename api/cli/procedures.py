@@ -28,7 +28,7 @@ from api.cli.options import request_fields, request_options
 from daq.procedures.kinds import KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
-from daq.rig_lock import RigInUse, RigLockLost
+from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import one_line
 from daq.vocabulary import RunKind, RunStatus
@@ -68,6 +68,7 @@ def _run_procedure(
             except (
                 PreconditionFailed,
                 RigInUse,
+                RigLockError,
                 RigLockLost,
                 DeviceError,
                 ThrusterError,

@@ -36,8 +36,15 @@ from typing import TYPE_CHECKING
 import sqlalchemy as sa
 
 from daq.rig_lock.devices import Device, rig_devices
-from daq.rig_lock.holder import LOCK_LOST, LockHolder, RigInUse, program_name, this_process
-from daq.rig_lock.local import HostLock, lock_dir
+from daq.rig_lock.holder import (
+    LOCK_LOST,
+    LockHolder,
+    RigInUse,
+    RigLockError,
+    program_name,
+    this_process,
+)
+from daq.rig_lock.local import LOCK_DIR_ENV, HostLock, lock_dir
 from daq.rig_lock.postgres import PgLease
 
 if TYPE_CHECKING:
@@ -55,6 +62,7 @@ __all__ = [
     "LockHolder",
     "RigInUse",
     "RigLease",
+    "RigLockError",
     "RigLockLost",
     "lock_dir",
     "program_name",
@@ -116,7 +124,14 @@ class RigLease:
             taken: list[HostLock] = []
             try:
                 for lock in self.host_locks:
-                    if not lock.acquire(self.me):
+                    try:
+                        got = lock.acquire(self.me)
+                    except OSError as err:
+                        raise RigLockError(
+                            f"cannot take the rig lock: {err} (set {LOCK_DIR_ENV} to a "
+                            "folder every process driving the rig can write)"
+                        ) from err
+                    if not got:
                         raise RigInUse(self.rig_name, lock.holder(), str(lock.device))
                     taken.append(lock)
                 if self.pg is not None and (device := self.pg.acquire(self.me)) is not None:

@@ -73,3 +73,7 @@ class RigInUse(RuntimeError):
         who = holder.describe() if holder else "another process (it is just starting)"
         what = f" ({device})" if device else ""
         super().__init__(f"rig '{rig_name}'{what} is in use by {who}")
+
+
+class RigLockError(RuntimeError):
+    """The lease cannot be taken at all (its lock folder unusable, say): one line."""

@@ -18,7 +18,7 @@ import pytest
 from daq.config import load_rig
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import tow_parameters
-from daq.rig_lock import RigInUse, RigLockLost, rig_devices, rig_lock
+from daq.rig_lock import RigInUse, RigLockError, RigLockLost, rig_devices, rig_lock
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from tests.procedures.conftest import hardware_rig_file
@@ -265,3 +265,12 @@ def test_a_lock_file_taken_over_under_the_holder_is_a_lost_lease(tmp_path):
         ]
         with pytest.raises(RigLockLost, match="was replaced and locked"):
             lease.check()  # a session's next procedure is refused too
+
+
+def test_an_unusable_lock_folder_is_one_line(tmp_path, monkeypatch):
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("RIG_LOCK_DIR", str(tmp_path / "file" / "locks"))
+    lease = rig_lock("sqlite://", load_rig(_hardware_rig(tmp_path)))
+    with pytest.raises(RigLockError, match=r"^cannot take the rig lock: .*RIG_LOCK_DIR") as err:
+        lease.acquire()
+    assert "\n" not in str(err.value) and not lease.held
