@@ -102,10 +102,10 @@ class HostLock:
             try:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
             except PermissionError:  # another user's leftover in the shared folder?
-                mine = self.path.with_name(f"{self.path.stem}-uid{os.getuid()}.lock")
-                if self.path == mine or not self.path.exists():
+                suffix = f"-uid{os.getuid()}"
+                if self.path.stem.endswith(suffix) or not self.path.exists():
                     raise  # the folder itself refuses us
-                self.path = mine
+                self.path = self.path.with_name(f"{self.path.stem}{suffix}.lock")
                 continue
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
