@@ -55,14 +55,14 @@ class Blockage:
         }
 
 
-def _positive(field_name: str, value: float, limit: float) -> float:
+def _positive(field_name: str, value: float, limit: float, unit: str = "m") -> float:
     if (
         not isinstance(value, (int, float))
         or isinstance(value, bool)
         or not math.isfinite(value)
         or not 0 < value <= limit
     ):
-        raise TankError(field_name, value, f"0 < {field_name} ≤ {limit:g}")
+        raise TankError(field_name, value, f"0 < value ≤ {limit:g} {unit}".rstrip())
     return float(value)
 
 
@@ -73,10 +73,10 @@ def blockage(
     limit: float = DEFAULT_LIMIT,
 ) -> Blockage:
     """m = A_X / (B_tank · h) (ITTC 7.5-02-02-01), flagged when above ``limit``."""
-    area = _positive("frontal_area_m2", frontal_area_m2, 1e4)
+    area = _positive("frontal_area_m2", frontal_area_m2, 1e4, "m²")
     width = _positive("tank_width_m", tank_width_m, 1e3)
     depth = _positive("water_depth_m", water_depth_m, 1e3)
-    limit = _positive("limit", limit, 1.0)
+    limit = _positive("limit", limit, 1.0, "")
     section = width * depth
     if area >= section:
         raise TankError("frontal_area_m2", frontal_area_m2, f"< the tank's section {section:g} m²")
@@ -85,8 +85,8 @@ def blockage(
     if exceeds:
         message = (
             f"blockage m = A_X/A = {ratio:.3g} ({100 * ratio:.2g} %) is above {100 * limit:g} %: "
-            "walls and free surface raise added mass and damping; the unbounded-fluid "
-            "prediction is a lower bound here"
+            "walls and free surface raise added mass and damping, so the tank's values are "
+            "likely above the unbounded-fluid prediction"
         )
     else:
         message = (
