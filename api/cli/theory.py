@@ -51,8 +51,8 @@ def water(temperature_c, salinity_g_kg, as_json):
     kind = "fresh water" if out["salinity_g_kg"] == 0 else f"{out['salinity_g_kg']:g} g/kg"
     click.echo(f"water at {out['temperature_c']:g} °C, {kind}:")
     click.echo(f"  ρ = {out['density_kg_m3']:.4f} kg/m³")
-    click.echo(f"  μ = {out['dynamic_viscosity_pa_s']:.5e} Pa·s")
-    click.echo(f"  ν = {out['kinematic_viscosity_m2_s']:.5e} m²/s")
+    click.echo(f"  μ = {out['dynamic_viscosity_pa_s']:.4e} Pa·s")
+    click.echo(f"  ν = {out['kinematic_viscosity_m2_s']:.4e} m²/s")
     click.echo(f"  ({out['method']})")
 
 
