@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import click
 
-from api.cli.common import echo_json, fail, json_option
+from api.cli.common import db_option, echo_json, estimate_option, fail, json_option, open_store
 from api.core import sixdof as sixdof_common
 from api.core import theory as theory_common
+from daq.store import ResultNotFound
 
 _temp_option = click.option(
     "--water-temp",
@@ -27,6 +28,21 @@ _salinity_option = click.option(
     metavar="G_PER_KG",
     help="Absolute salinity, g/kg (0 = fresh water, 35.165 = standard sea water).",
 )
+
+
+def _stored(result_ids: tuple[int, ...], db_url: str | None) -> list[tuple[int, dict]]:
+    """The stored estimation results (id, data) for ``--estimate``."""
+    store = open_store(db_url)
+    try:
+        found = []
+        for result_id in result_ids:
+            result = store.result(result_id)
+            if result.kind != "estimation":
+                fail(f"--estimate: result {result_id} is a {result.kind!r} result")
+            found.append((result_id, result.data))
+        return found
+    finally:
+        store.close()
 
 
 def _num(x: float | None, digits: int = 4) -> str:
@@ -78,14 +94,25 @@ def _flags(message: str, temperature: str = "--water-temp") -> str:
               help="Tank width, m (with --water-depth: report the blockage ratio).")  # fmt: skip
 @click.option("--water-depth", "water_depth_m", type=float, metavar="M",
               help="Water depth, m.")  # fmt: skip
+@estimate_option("Compare a stored surge/yaw/pendulum estimation result (repeatable).")
+@db_option
 @json_option
-def predict_added_mass(vehicle, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, as_json):
+def predict_added_mass(
+    vehicle, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, estimates, db_url,
+    as_json,
+):  # fmt: skip
     """Predict VEHICLE's added mass per DOF from its [hull] (a name from fixtures/vehicles
-    or $RIG_VEHICLES_DIR, or a .toml file), beside its file's values, with the ratio."""
+    or $RIG_VEHICLES_DIR, or a .toml file), beside its file's values (or stored estimates),
+    with the ratio."""
     try:
         veh = sixdof_common.find_vehicle(vehicle, allow_path=True)
-        out = theory_common.predict(veh, temperature_c, salinity_g_kg, tank_width_m, water_depth_m)
-    except KeyError as err:
+        applied: list = []
+        if estimates:
+            veh, applied = sixdof_common.apply_results(veh, _stored(estimates, db_url))
+        out = theory_common.predict(
+            veh, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, applied=applied
+        )
+    except (KeyError, ResultNotFound) as err:
         fail(str(err.args[0]) if err.args else str(err))
     except ValueError as err:
         fail(_flags(str(err)))
@@ -105,7 +132,7 @@ def predict_added_mass(vehicle, temperature_c, salinity_g_kg, tank_width_m, wate
         f"ν {w['kinematic_viscosity_m2_s']:.4e} m²/s"
     )
     click.echo(f"theory: {pred['method']}")
-    click.echo(f"{'dof':<6} {'predicted':>10} {'coef':>6} {'file':>9} {'ratio':>7}  unit")
+    click.echo(f"{'dof':<6} {'predicted':>10} {'coef':>6} {'value':>9} {'ratio':>7}  unit")
     outside: dict[str, list[str]] = {}
     for row in out["dofs"]:
         verdict = row["verdict"]
@@ -119,12 +146,12 @@ def predict_added_mass(vehicle, temperature_c, salinity_g_kg, tank_width_m, wate
         coef = _num(row["coefficient_predicted"], 3)
         click.echo(
             f"{row['dof']:<6} {_num(row['predicted']):>10} {coef:>6}"
-            f" {_num(row['vehicle_file']):>9} {ratio:>7}  {row['unit']}{flag}"
+            f" {_num(row['vehicle_file']):>9} {ratio:>7}  {row['unit']:<6} {row['source']}{flag}"
         )
     low, high = out["band"]
     click.echo(
-        f"ratio = the vehicle file's value (measured or placeholder, as the file says) / "
-        f"predicted; plausible within {low:g} … {high:g}"
+        "ratio = value / predicted (the value from a stored result, or the vehicle file's: "
+        f"measured or placeholder, as the file says); plausible within {low:g} … {high:g}"
     )
     for side, dofs in outside.items():
         click.echo(f"{side} the band ({', '.join(dofs)}); usual causes: " + "; ".join(causes[side]))

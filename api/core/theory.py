@@ -4,6 +4,7 @@ holds (measured or placeholder), with the ratio, the verdict and the blockage.""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from estimation import scale
@@ -33,10 +34,13 @@ def predict(
     tank_width_m: float | None = None,
     water_depth_m: float | None = None,
     band: tuple[float, float] = DEFAULT_BAND,
+    applied: Sequence[dict[str, Any]] = (),
 ) -> dict[str, Any]:
     """The vehicle's predicted added mass per DOF in an unbounded fluid, beside the value
-    in its file (``added_mass.<dof>``): ratio and verdict per DOF, dimensionless
-    coefficients, and the blockage when the tank's width and water depth are given."""
+    it holds (``added_mass.<dof>``: its file's, or a stored estimation result's when
+    ``applied`` — ``sixdof.apply_results``' list — says one was plugged in): ratio and
+    verdict per DOF, dimensionless coefficients, and the blockage when the tank's width
+    and water depth are given."""
     if vehicle.hull is None:
         raise NoHull(
             f"vehicle {vehicle.name!r}: hull: got None, allowed: a [hull] table "
@@ -50,6 +54,7 @@ def predict(
     volume = hull.displaced_volume_m3 or prediction.added_mass.displaced_volume_m3
     area = hull.reference_area_m2 or hull.frontal_area_m2
     in_file = vehicle.coefficients()
+    sources = {a["axis"]: f"result {a['result_id']}" for a in applied}
     rows = []
     for i, dof in enumerate(DOFS):
         predicted = prediction.added_mass.values[dof]
@@ -60,6 +65,7 @@ def predict(
             "predicted": predicted,
             "coefficient_predicted": prediction.added_mass.coefficients[dof],
             "vehicle_file": measured,
+            "source": sources.get(dof, "vehicle file"),
             "sigma": vehicle.sigma.get(f"added_mass.{dof}"),
         }
         if i < 3:
@@ -83,6 +89,7 @@ def predict(
         "prediction": prediction.to_json(),
         "dofs": rows,
         "band": list(band),
+        "applied_estimates": list(applied),
         "dimensionless": {
             "volume_m3": volume,
             "length_m": hull.length_m,

@@ -55,6 +55,7 @@ case(2, "--commands: got 'a,b'", "sixdof", "benbam", "--commands", "a,b")
 case(2, "no vehicle named 'nope'", "sixdof", "nope", "--commands", "0.5,0.5")
 case(2, "no vehicle named 'nope'", "sensitivity", "nope")
 case(2, "no vehicle named 'nope'", "predict-added-mass", "nope")
+case(2, f"no result with id {HUGE}", "predict-added-mass", "benbam", "--estimate", HUGE)
 case(2, ": hull: got None, allowed: a [hull] table", "predict-added-mass", "seed002-rov")
 case(2, "--water-temp: got 80.0, allowed: 0 … 40 °C", "predict-added-mass", "benbam",
      "--water-temp", "80")  # fmt: skip

@@ -69,3 +69,27 @@ def test_http_errors_name_the_field(client, url, code, text):
     assert r.status_code == code, r.text
     assert text in r.text
     assert client.get(url).status_code == 401  # reads need the token
+
+
+def test_http_compares_a_stored_estimate(client, tow_job):
+    """A stored surge result of m + m_a = 32.5 kg (30 kg body): 2.5 kg measured against
+    ≈ 2.3 kg predicted, within the band, and the row says where the value came from."""
+    store = client.app.state.service.store
+    doc = {
+        "axis": "surge",
+        "coefficients": {
+            "inertia": {"value": 32.5, "std": 0.5},
+            "linear_damping": {"value": 20.0, "std": 1.0},
+            "quadratic_damping": {"value": 40.0, "std": 2.0},
+        },
+    }
+    result_id = store.add_result(tow_job["run_ids"], "estimation", doc)
+    r = client.get(f"/api/vehicles/benbam/added-mass?estimates={result_id}", headers=AUTH)
+    assert r.status_code == 200, r.text
+    surge = next(row for row in r.json()["dofs"] if row["dof"] == "surge")
+    assert surge["source"] == f"result {result_id}"
+    assert surge["vehicle_file"] == pytest.approx(2.5)
+    assert surge["sigma"] == pytest.approx(0.5)
+    assert surge["verdict"]["plausible"] is True
+    missing = client.get("/api/vehicles/benbam/added-mass?estimates=999999999", headers=AUTH)
+    assert missing.status_code == 404

@@ -8,11 +8,13 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException, Query
+from pydantic import Field
 
 from api.core import sixdof as sixdof_common
 from api.core import theory as theory_common
-from api.http.deps import require_read
+from api.http.deps import StoreDep, require_read
 from api.http.schemas import error_responses
+from daq.store import ResultNotFound
 from estimation.water import SALINITY_RANGE_G_KG, TEMPERATURE_RANGE_C
 
 router = APIRouter(prefix="/api", tags=["theory"])
@@ -41,17 +43,37 @@ def get_water(temp_c: _Temperature, salinity_g_kg: _Salinity = 0.0) -> dict:
 )
 def get_added_mass(
     name: str,
+    store: StoreDep,
     water_temp_c: _Temperature = theory_common.DEFAULT_WATER_TEMP_C,
     salinity_g_kg: _Salinity = 0.0,
     tank_width_m: _Length = None,
     water_depth_m: _Length = None,
+    estimates: Annotated[
+        list[Annotated[int, Field(ge=1, le=2**62)]],
+        Query(max_length=12, description="Stored estimation result ids to compare, in order."),
+    ] = [],  # noqa: B006 - FastAPI copies a default list per request
 ) -> dict:
     """Predicted added mass per DOF of the vehicle's ``[hull]`` (422 when it has none),
-    beside ``added_mass.<dof>`` of its file: ratio, verdict (band 0.5 … 2) and the usual
-    causes of a ratio outside; dimensionless coefficients; blockage when both
-    ``tank_width_m`` and ``water_depth_m`` are given."""
+    beside ``added_mass.<dof>`` of its file or of the stored ``estimates``: ratio, verdict
+    (band 0.5 … 2) and the usual causes of a ratio outside; dimensionless coefficients;
+    blockage when both ``tank_width_m`` and ``water_depth_m`` are given."""
     try:
         vehicle = sixdof_common.find_vehicle(name)
     except sixdof_common.VehicleNotFound as err:
         raise HTTPException(404, str(err)) from None
-    return theory_common.predict(vehicle, water_temp_c, salinity_g_kg, tank_width_m, water_depth_m)
+    results = []
+    for result_id in estimates:
+        try:
+            found = store.result(result_id)
+        except ResultNotFound as err:
+            raise HTTPException(404, str(err)) from None
+        if found.kind != "estimation":
+            raise ValueError(
+                f"estimates: result {result_id} is a {found.kind!r} result, "
+                "allowed: estimation results"
+            )
+        results.append((result_id, found.data))
+    vehicle, applied = sixdof_common.apply_results(vehicle, results)
+    return theory_common.predict(
+        vehicle, water_temp_c, salinity_g_kg, tank_width_m, water_depth_m, applied=applied
+    )
