@@ -44,7 +44,7 @@ def predict(
     if vehicle.hull is None:
         raise NoHull(
             f"vehicle {vehicle.name!r}: hull: got None, allowed: a [hull] table "
-            "(shape and dimensions; README 'Vehicle file')"
+            "(shape and dimensions; docs/sixdof.md, 'Vehicle file')"
         )
     if (tank_width_m is None) != (water_depth_m is None):
         raise ValueError("tank_width_m/water_depth_m: got one of the two, allowed: both or neither")
