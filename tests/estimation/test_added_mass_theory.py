@@ -15,6 +15,8 @@
 from __future__ import annotations
 
 import math
+import tomllib
+from pathlib import Path
 
 import pytest
 
@@ -22,6 +24,7 @@ from estimation.theory import added_mass as am
 from estimation.theory.compare import compare_added_mass
 from estimation.theory.hull import HullError, parse_hull, predict_added_mass
 from estimation.theory.tank import TankError, blockage
+from estimation.vehicle.description import VehicleError, load_vehicle, parse_vehicle
 
 RHO = 998.2
 #: Lamb §373: c/a, k1, k2, k'.
@@ -142,3 +145,16 @@ def test_blockage_ratio_and_flag():
     assert not blockage(0.045, 4.0, 2.5).exceeds
     with pytest.raises(TankError, match=r"^tank_width_m: got 0"):
         blockage(0.045, 0, 1.0)
+
+
+def test_the_vehicle_file_carries_its_hull_and_names_a_bad_one():
+    root = Path(__file__).resolve().parents[2]
+    benbam = load_vehicle(root / "fixtures" / "vehicles" / "benbam.toml")
+    assert benbam.hull is not None and benbam.hull.shape == "spheroid"
+    # Neutral at 30 kg: the declared volume is the primitive's within 0.1 %.
+    assert benbam.hull.primitive_volume_m3 == pytest.approx(0.03005, rel=1e-3)
+    assert benbam.to_json()["hull"]["shape"] == "spheroid"
+    data = tomllib.loads((root / "fixtures" / "vehicles" / "benbam.toml").read_text("utf-8"))
+    data["hull"] = {"shape": "box", "length_m": 1.0}
+    with pytest.raises(VehicleError, match=r"^x.toml: hull.shape: got 'box', allowed: "):
+        parse_vehicle(data, "x.toml")
