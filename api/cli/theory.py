@@ -146,7 +146,7 @@ def predict_added_mass(
         coef = _num(row["coefficient_predicted"], 3)
         click.echo(
             f"{row['dof']:<6} {_num(row['predicted']):>10} {coef:>6}"
-            f" {_num(row['vehicle_file']):>9} {ratio:>7}  {row['unit']:<6} {row['source']}{flag}"
+            f" {_num(row['value']):>9} {ratio:>7}  {row['unit']:<6} {row['source']}{flag}"
         )
     low, high = out["band"]
     click.echo(

@@ -64,18 +64,18 @@ def predict(
             "unit": "kg" if i < 3 else "kg·m²",
             "predicted": predicted,
             "coefficient_predicted": prediction.added_mass.coefficients[dof],
-            "vehicle_file": measured,
+            "value": measured,
             "source": sources.get(dof, "vehicle file"),
             "sigma": vehicle.sigma.get(f"added_mass.{dof}"),
         }
+        # The value made dimensionless as estimation/scale.py states (the predicted
+        # coefficient is Lamb's: over the primitive's displaced mass or inertia).
         if i < 3:
-            row["coefficient_vehicle_file"] = scale.added_mass_coefficient(
-                measured, w.density, volume
-            )
+            c = scale.added_mass_coefficient(measured, w.density, volume)
+            row["dimensionless"] = {"value": c, "convention": "m_a / (ρ ∇)"}
         else:
-            row["coefficient_vehicle_file"] = scale.added_inertia_coefficient(
-                measured, w.density, volume, hull.length_m
-            )
+            c = scale.added_inertia_coefficient(measured, w.density, volume, hull.length_m)
+            row["dimensionless"] = {"value": c, "convention": "I_a / (ρ ∇ L²)"}
         if predicted is not None and predicted > 0:
             row["verdict"] = compare_added_mass(measured, predicted, band).to_json()
         else:

@@ -47,7 +47,7 @@ def test_http_added_mass_and_water(client):
     assert r.status_code == 200, r.text
     out = r.json()
     surge = next(row for row in out["dofs"] if row["dof"] == "surge")
-    assert surge["vehicle_file"] == pytest.approx(113.26)
+    assert surge["value"] == pytest.approx(113.26)
     assert surge["verdict"]["ratio"] > 40
     assert out["blockage"] is None
     w = client.get("/api/water?temp_c=15", headers=AUTH).json()
@@ -88,7 +88,7 @@ def test_http_compares_a_stored_estimate(client, tow_job):
     assert r.status_code == 200, r.text
     surge = next(row for row in r.json()["dofs"] if row["dof"] == "surge")
     assert surge["source"] == f"result {result_id}"
-    assert surge["vehicle_file"] == pytest.approx(2.5)
+    assert surge["value"] == pytest.approx(2.5)
     assert surge["sigma"] == pytest.approx(0.5)
     assert surge["verdict"]["plausible"] is True
     missing = client.get("/api/vehicles/benbam/added-mass?estimates=999999999", headers=AUTH)
