@@ -54,11 +54,16 @@ def _num(x: float | None, digits: int = 4) -> str:
     "--temp", "temperature_c", type=float, required=True, metavar="C", help="Temperature, °C."
 )
 @_salinity_option
+@click.option("--speed", "speed_m_s", type=float, metavar="M_PER_S",
+              help="Speed, m/s (with --length: print Re = UL/ν and Fr = U/√(gL)).")  # fmt: skip
+@click.option("--length", "length_m", type=float, metavar="M", help="Body length, m.")
+@click.option("--g", "g", type=float, default=9.80665, show_default=True,
+              help="Local gravity for Fr, m/s².")  # fmt: skip
 @json_option
-def water(temperature_c, salinity_g_kg, as_json):
+def water(temperature_c, salinity_g_kg, speed_m_s, length_m, g, as_json):
     """Water density and viscosity at a temperature (ITTC 7.5-02-01-03 formulas)."""
     try:
-        out = theory_common.water(temperature_c, salinity_g_kg)
+        out = theory_common.water(temperature_c, salinity_g_kg, speed_m_s, length_m, g)
     except ValueError as err:
         fail(_flags(str(err), temperature="--temp"))
     if as_json:
@@ -70,6 +75,12 @@ def water(temperature_c, salinity_g_kg, as_json):
     click.echo(f"  μ = {out['dynamic_viscosity_pa_s']:.4e} Pa·s")
     click.echo(f"  ν = {out['kinematic_viscosity_m2_s']:.4e} m²/s")
     click.echo(f"  ({out['method']})")
+    flow = out.get("flow")
+    if flow is not None:
+        click.echo(
+            f"at {flow['speed_m_s']:g} m/s over {flow['length_m']:g} m: "
+            f"Re = {flow['reynolds']:.4g}, Fr = {flow['froude']:.4g} (g = {flow['g']:g} m/s²)"
+        )
 
 
 def _flags(message: str, temperature: str = "--water-temp") -> str:
@@ -80,6 +91,10 @@ def _flags(message: str, temperature: str = "--water-temp") -> str:
         ("tank_width_m/water_depth_m", "--tank-width/--water-depth"),
         ("tank_width_m", "--tank-width"),
         ("water_depth_m", "--water-depth"),
+        ("speed_m_s/length_m", "--speed/--length"),
+        ("speed_m_s", "--speed"),
+        ("length_m", "--length"),
+        ("g", "--g"),
     ):
         if message.startswith(name + ":"):
             return flag + message[len(name) :]

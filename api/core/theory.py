@@ -22,9 +22,29 @@ class NoHull(ValueError):
     """The vehicle file has no ``[hull]`` table."""
 
 
-def water(temperature_c: float, salinity_g_kg: float = 0.0) -> dict[str, Any]:
-    """ρ, μ, ν of the water (ValueError naming the field when out of range)."""
-    return water_properties(temperature_c, salinity_g_kg).to_json()
+def water(
+    temperature_c: float,
+    salinity_g_kg: float = 0.0,
+    speed_m_s: float | None = None,
+    length_m: float | None = None,
+    g: float = scale.STANDARD_GRAVITY,
+) -> dict[str, Any]:
+    """ρ, μ, ν of the water and, given a speed and a length, Re and Fr (ValueError naming
+    the field when out of range)."""
+    if (speed_m_s is None) != (length_m is None):
+        raise ValueError("speed_m_s/length_m: got one of the two, allowed: both or neither")
+    w = water_properties(temperature_c, salinity_g_kg)
+    out: dict[str, Any] = w.to_json()
+    if speed_m_s is not None and length_m is not None:
+        flow = scale.flow_numbers(speed_m_s, length_m, w.kinematic_viscosity, g)
+        out["flow"] = {
+            "speed_m_s": flow.speed_m_s,
+            "length_m": flow.length_m,
+            "g": g,
+            "reynolds": flow.reynolds,
+            "froude": flow.froude,
+        }
+    return out
 
 
 def predict(

@@ -62,6 +62,7 @@ case(2, "--water-temp: got 80.0, allowed: 0 … 40 °C", "predict-added-mass", "
 case(2, "--tank-width/--water-depth: got one of the two", "predict-added-mass", "benbam",
      "--tank-width", "2")  # fmt: skip
 case(2, "--temp: got -3.0, allowed: 0 … 40 °C", "water", "--temp", "-3")
+case(2, "--speed/--length: got one of the two", "water", "--temp", "15", "--speed", "1")
 case(2, "--salinity: got 50.0, allowed: 0 … 42 g/kg", "water", "--temp", "15", "--salinity", "50")
 # -- files -------------------------------------------------------------------------------
 case(2, "File 'nope.csv' does not exist", "import", "nope.csv", "--kind", "tow", "--force", "1")

@@ -42,6 +42,16 @@ def test_cli_water():
     assert "ρ = 999.70" in result.output and "ν = 1.3063e-06 m²/s" in result.output
 
 
+def test_cli_water_with_a_speed_gives_reynolds_and_froude():
+    """Seed 000's fastest steady tow, 0.51 m/s, over BENBAM's placeholder 1 m at 15 °C."""
+    args = ["--temp", "15", "--speed", "0.51", "--length", "1", "--g", "9.8", "--json"]
+    result = CliRunner().invoke(water, args)
+    assert result.exit_code == 0, result.output
+    flow = json.loads(result.output)["flow"]
+    assert flow["reynolds"] == pytest.approx(0.51 / 1.1386e-6, rel=1e-4)
+    assert flow["froude"] == pytest.approx(0.51 / 9.8**0.5)
+
+
 def test_http_added_mass_and_water(client):
     r = client.get("/api/vehicles/benbam/added-mass?water_temp_c=20", headers=AUTH)
     assert r.status_code == 200, r.text
@@ -62,6 +72,7 @@ def test_http_added_mass_and_water(client):
         ("/api/vehicles/benbam/added-mass?tank_width_m=2", 422, "both or neither"),
         ("/api/vehicles/benbam/added-mass?water_temp_c=80", 422, "water_temp_c"),
         ("/api/water?temp_c=-1", 422, "temp_c"),
+        ("/api/water?temp_c=15&speed_m_s=1", 422, "both or neither"),
     ],
 )
 def test_http_errors_name_the_field(client, url, code, text):

@@ -31,9 +31,16 @@ _Length = Annotated[float | None, Query(gt=0, le=1000, description="m")]
 
 
 @router.get("/water", dependencies=[Depends(require_read)], responses=error_responses(401, 422))
-def get_water(temp_c: _Temperature, salinity_g_kg: _Salinity = 0.0) -> dict:
-    """ρ (kg/m³), μ (Pa·s) and ν (m²/s) at ``temp_c`` (ITTC 7.5-02-01-03 formulas)."""
-    return theory_common.water(temp_c, salinity_g_kg)
+def get_water(
+    temp_c: _Temperature,
+    salinity_g_kg: _Salinity = 0.0,
+    speed_m_s: Annotated[float | None, Query(ge=-100, le=100, description="m/s")] = None,
+    length_m: _Length = None,
+    g: Annotated[float, Query(gt=0, le=30, description="m/s²")] = 9.80665,
+) -> dict:
+    """ρ (kg/m³), μ (Pa·s) and ν (m²/s) at ``temp_c`` (ITTC 7.5-02-01-03 formulas); with
+    ``speed_m_s`` and ``length_m`` also Re = UL/ν and Fr = U/√(gL) under ``flow``."""
+    return theory_common.water(temp_c, salinity_g_kg, speed_m_s, length_m, g)
 
 
 @router.get(
