@@ -1,9 +1,11 @@
 """Thrust calibration: thrusters bolted to the load cell, command stepped over a
 sweep (up and back down, to expose hysteresis; then the same in reverse).
 
-At each step: command, wait for the thrust to settle, average N load-cell samples
-and log the supply voltage. The whole time series is stored as a run; the table
-and the fitted curve (with its inverse map) are stored as a ``calibration`` result.
+At each step: command, wait for the thrust to settle, average N load-cell samples,
+log the supply voltage and ask the controller for each thruster's RPM and motor current
+(as a thrust stand logs them: electrical power P = V·I and efficiency |F|/P follow). The
+whole time series is stored as a run; the table and the fitted curve (with its inverse
+map) are stored as a ``calibration`` result.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.steps import RunOutcome
 from daq.procedures.thruster_drive import abort_on_thruster_fault
 from daq.session import RigSession
+from estimation.thrust.calibration_import import efficiency_n_per_w
+from thrusters.driver import ThrusterStatus
 
 log = logging.getLogger(__name__)
 
@@ -109,7 +113,7 @@ async def run_thrust_calibration(
                         "samples": len(got),
                         "seq_first": got[0].seq if got else None,
                         "seq_last": got[-1].seq if got else None,
-                    }
+                    } | stand_reading(await session.live_thrusters.query(), thrust / n, volts)
                     table.append(row)
                     await rec.event(
                         "info",
@@ -246,6 +250,24 @@ async def _collect(rec: RecordedRun, count: int) -> list:
         if len(got) >= count:
             break
     return got
+
+
+def stand_reading(status: ThrusterStatus, thrust_n: float, volts: float | None) -> dict:
+    """A step's RPM and motor current per thruster (the controller's telemetry, read once
+    the thrust settled) and their means, with the electrical power per thruster P = V·I (W)
+    and the efficiency |F|/P (N/W) when the supply voltage is known."""
+    row: dict[str, Any] = {
+        "rpm_per_thruster": list(status.rpm),
+        "current_per_thruster_a": list(status.current_a),
+        "rpm": statistics.fmean(status.rpm) if status.rpm else None,
+        "current_a": statistics.fmean(status.current_a) if status.current_a else None,
+    }
+    if volts is not None and row["current_a"] is not None:
+        row["power_w"] = volts * row["current_a"]
+        efficiency = efficiency_n_per_w(row | {"thrust_per_thruster_n": thrust_n})
+        if efficiency is not None:
+            row["efficiency_n_per_w"] = efficiency
+    return row
 
 
 def _store_calibration(

@@ -1,6 +1,8 @@
-"""Thrust calibration report: report.md (summary table first, figure linked) and the figure
+"""Thrust calibration report: report.md (summary table first, figures linked) and the figure
 ``calibration``: thrust per thruster vs command with error bars by sweep direction, the fitted
-curve and points of its inverse map, over a residual panel."""
+curve and points of its inverse map, over a residual panel; when the steps carry the
+controller's telemetry, the figure ``stand``: thrust vs motor current and efficiency (N/W) vs
+thrust, as a thrust stand reports them."""
 
 from __future__ import annotations
 
@@ -99,6 +101,34 @@ def calibration_figure(calibration: dict[str, Any]) -> Figure:
     return fig
 
 
+def _has_stand(calibration: dict[str, Any]) -> bool:
+    return any(r.get("current_a") is not None for r in calibration["table"])
+
+
+def stand_figure(calibration: dict[str, Any]) -> Figure:
+    """Thrust per thruster vs motor current (A), and efficiency |F|/P (N/W) vs thrust."""
+    table = [r for r in calibration["table"] if r.get("current_a") is not None]
+    thrust = np.array([r["thrust_per_thruster_n"] for r in table], dtype=float)
+    amps = np.array([r["current_a"] for r in table], dtype=float)
+    eff = np.array([r.get("efficiency_n_per_w", np.nan) for r in table], dtype=float)
+    fig = new_figure(4.2)
+    ax_i, ax_e = fig.subplots(1, 2)
+    forward = thrust >= 0
+    for sel, label, colour in ((forward, "forward", "tab:blue"), (~forward, "reverse", "tab:red")):
+        ax_i.plot(amps[sel], thrust[sel], "o", ms=4, color=colour, label=label)
+        ax_e.plot(np.abs(thrust[sel]), eff[sel], "o", ms=4, color=colour, label=label)
+    ax_i.set_xlabel("motor current per thruster [A]")
+    ax_i.set_ylabel(THRUST_LABEL)
+    ax_i.axhline(0.0, color="0.6", lw=0.8)
+    ax_i.legend(loc="best", fontsize=8)
+    ax_e.set_xlabel("|thrust| per thruster [N]")
+    ax_e.set_ylabel("efficiency |F|/(V·I) [N/W]")
+    if not np.any(np.isfinite(eff)):
+        ax_e.text(0.5, 0.5, "no supply voltage recorded", ha="center", transform=ax_e.transAxes)
+    fig.suptitle("thrust stand: thrust vs current, efficiency vs thrust", fontsize=11)
+    return fig
+
+
 def _range(values: np.ndarray, fmt: str = ".2f") -> str:
     finite = values[np.isfinite(values)]
     if not finite.size:
@@ -144,16 +174,23 @@ def calibration_markdown(
         *(figure_links(figures) if figures else []),
         "## Measured steps",
         "",
-        "| step | command | direction | thrust/thruster [N] | σ [N] | supply [V] | samples |",
-        "|---|---|---|---|---|---|---|",
+        "| step | command | direction | thrust/thruster [N] | σ [N] | supply [V] | "
+        "current [A] | RPM | efficiency [N/W] | samples |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row, std in zip(calibration["table"], pts["std"], strict=True):
         lines.append(
             f"| {row.get('step', '')} | {row['command']:+.3f} | {row.get('direction', '')} | "
             f"{row['thrust_per_thruster_n']:+.3f} | {std:.3f} | "
-            f"{row.get('supply_voltage_v', float('nan')):.2f} | {row.get('samples', '')} |"
+            f"{_cell(row.get('supply_voltage_v'), '.2f')} | {_cell(row.get('current_a'), '.2f')} "
+            f"| {_cell(row.get('rpm'), '.0f')} | {_cell(row.get('efficiency_n_per_w'), '.3f')} "
+            f"| {row.get('samples', '')} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _cell(value: float | None, fmt: str) -> str:
+    return "—" if value is None else f"{value:{fmt}}"
 
 
 def write_calibration_report(calibration: dict[str, Any], folder: str | Path) -> list[Path]:
@@ -167,6 +204,10 @@ def write_calibration_report(calibration: dict[str, Any], folder: str | Path) ->
     out.mkdir(parents=True, exist_ok=True)
     files = save_figure(calibration_figure(calibration), out, "calibration")
     figures = [("Thrust per thruster vs command, fitted curve, inverse map, residuals", files[0])]
+    if _has_stand(calibration):
+        stand = save_figure(stand_figure(calibration), out, "stand")
+        figures.append(("Thrust vs motor current, efficiency vs thrust", stand[0]))
+        files += stand
     md = out / "report.md"
     md.write_text(calibration_markdown(calibration, figures), encoding="utf-8")
     return [md, *files]

@@ -34,8 +34,8 @@ def test_calibrate_thrusters_writes_the_report_of_the_stored_calibration(tmp_pat
     assert outcome["status"] == "completed"
     assert f"report: {out / 'report.md'}" in done.stderr
     assert sorted(p.name for p in out.iterdir()) == [
-        "calibration.png", "calibration.svg", "report.md",
-    ]  # fmt: skip
+        "calibration.png", "calibration.svg", "report.md", "stand.png", "stand.svg",
+    ]  # fmt: skip (the simulated controller reports RPM and current: the stand figure)
     with Image.open(out / "calibration.png") as img:
         assert img.width >= 1000
     assert "command [fraction of full scale]" in (out / "calibration.svg").read_text("utf-8")
