@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -181,12 +181,13 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        law, curve, cal_table = _calibration(store, params)
+        law, curve, cal_table, response = _calibration(store, params)
         volts = table.channels.get("supply_voltage")
+        layout, lag_note = _measured_lag(thrust_layout_of(rig, run.kind), response)
         rebuilt = rebuild_drive(
             law,
             CalibratedThrust.from_table(curve, cal_table),
-            thrust_layout_of(rig, run.kind),
+            layout,
             t,
             _thrust_steps(timeline.events, timeline.offset)
             or _modelled_steps(rig, params["commands"], t, t_release),
@@ -194,7 +195,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
             run.id,
             params,
         )
-        drive, draws, drive_law = rebuilt.drive, rebuilt.draws, rebuilt.law
+        drive, draws, drive_law = rebuilt.drive, rebuilt.draws, f"{rebuilt.law}; {lag_note}"
     return RunData(
         run_id=run.id,
         axis="surge" if AXES[run.kind].axis.value == "surge" else "yaw",
@@ -323,9 +324,24 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     )
 
 
-def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCurve, list[dict]]:
+def _measured_lag(layout: ThrustLayout, response: dict | None) -> tuple[ThrustLayout, str]:
+    """The thrust lag a drive is rebuilt with: the one the calibration measured from its
+    step responses, else the rig file's (``thrusters.time_constant_s``), and a note saying
+    which."""
+    if response and response.get("time_constant_s") is not None:
+        tau, std = response["time_constant_s"], response["std_s"]
+        note = f"thrust lag τ = {tau:.3g} ± {std:.1g} s measured by the calibration"
+        return replace(layout, time_constant_s=float(tau)), note
+    note = f"thrust lag τ = {layout.time_constant_s:g} s from the rig file (not measured)"
+    return layout, note
+
+
+def _calibration(
+    store: Store, params: dict
+) -> tuple[ThrustLaw | None, ThrustCurve, list[dict], dict | None]:
     """The run's calibration: an imported table (its thrust law, and the curve and rows at
-    its reference voltage) or a calibration run's result (no law: one voltage)."""
+    its reference voltage) or a calibration run's result (no law: one voltage, and the
+    thrust lag measured from its steps, if it was)."""
     imported = params.get("calibration_import_id")
     if imported is not None:
         from daq.calibration_law import NoCalibration, at_reference_voltage, law_of
@@ -336,14 +352,15 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCu
             raise ValueError(f"imported calibration #{imported} is no longer stored") from None
         ref = law.curves[-1]
         rows = store.imported_calibration(imported).data["table"]
-        return law, ref.curve, at_reference_voltage(rows, law)
+        return law, ref.curve, at_reference_voltage(rows, law), None
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:
         raise ValueError(
             f"calibration result #{params['calibration_result_id']} is no longer stored"
         ) from None
-    return None, ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
+    data = calibration.data
+    return None, ThrustCurve.from_json(data["fit"]), data.get("table", []), data.get("response")
 
 
 def _thrust_steps(events: RunEvents, offset: float) -> list[tuple[float, list[float]]] | None:

@@ -129,6 +129,28 @@ def stand_figure(calibration: dict[str, Any]) -> Figure:
     return fig
 
 
+def response_figure(calibration: dict[str, Any]) -> Figure:
+    """The largest step's load-cell reading against the first-order lag with the measured τ."""
+    response = calibration["response"]
+    step = response["largest_step"]
+    fig = new_figure(4.0)
+    ax = fig.subplots()
+    ax.plot(step["t_s"], step["measured_n"], "o", ms=4, color=MEASURED, label="load cell")
+    tau, std = response["time_constant_s"], response["std_s"]
+    ax.plot(step["model_t_s"], step["model_n"], "-", color="tab:green",
+            label=f"first-order lag, τ = {tau:.3g} ± {std:.1g} s")  # fmt: skip
+    ax.axvline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel("time from the output change [s]")
+    ax.set_ylabel("thrust, all thrusters [N]")
+    ax.legend(loc="best", fontsize=8)
+    fig.suptitle(
+        f"step response: 90 % settling {response['settle_90_s']:.3g} s "
+        f"({response['transients']} steps)",
+        fontsize=11,
+    )
+    return fig
+
+
 def _range(values: np.ndarray, fmt: str = ".2f") -> str:
     finite = values[np.isfinite(values)]
     if not finite.size:
@@ -163,6 +185,7 @@ def calibration_markdown(
         f"| dead band | {-d_r:.3g} … {d_f:.3g} | {UNIT_TEXT['command']} |",
         f"| RMSE of the fit | {fit['rmse_n']:.3g} | N |",
         f"| supply voltage, mean | {_range(pts['volts'])} | V |",
+        _response_row(calibration.get("response")),
         f"| commands calibrated | {lo:g} … {hi:g} ({len(pts['command'])} steps) | "
         f"{UNIT_TEXT['command']} |",
         f"| thrusters on the load cell | {calibration.get('thrusters', 1)} | |",
@@ -189,6 +212,15 @@ def calibration_markdown(
     return "\n".join(lines) + "\n"
 
 
+def _response_row(response: dict | None) -> str:
+    if not response:
+        return "| thrust lag τ | — (not measured) | s |"
+    return (
+        f"| thrust lag τ (90 % settling) | {response['time_constant_s']:.3g} ± "
+        f"{response['std_s']:.1g} ({response['settle_90_s']:.3g}) | s |"
+    )
+
+
 def _cell(value: float | None, fmt: str) -> str:
     return "—" if value is None else f"{value:{fmt}}"
 
@@ -208,6 +240,10 @@ def write_calibration_report(calibration: dict[str, Any], folder: str | Path) ->
         stand = save_figure(stand_figure(calibration), out, "stand")
         figures.append(("Thrust vs motor current, efficiency vs thrust", stand[0]))
         files += stand
+    if (calibration.get("response") or {}).get("largest_step"):
+        step = save_figure(response_figure(calibration), out, "response")
+        figures.append(("Step response and the measured thrust lag", step[0]))
+        files += step
     md = out / "report.md"
     md.write_text(calibration_markdown(calibration, figures), encoding="utf-8")
     return [md, *files]
