@@ -156,9 +156,7 @@ def _numpy_tow(path, noise_m: float) -> None:
 
 
 @pytest.mark.parametrize("noise_m", [1e-5, 1e-4])
-def test_report_draws_a_release_found_from_motion_and_refined_across_a_sample(
-    tmp_path, noise_m
-):
+def test_report_draws_a_release_found_from_motion_and_refined_across_a_sample(tmp_path, noise_m):
     """The fit refines a release found from the motion onset; when the refined instant falls
     before a sample the found one was after, the fit has one more sample than the found
     window: the report must draw the samples the fit used (it failed with "operands could
