@@ -72,7 +72,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata.",
     ),
     "import": (
-        "api.cli.runs",
+        "api.cli.imports",
         "import_",
         "Import a CSV (columns t [s] and position [m or rad]; more allowed); prints...",
     ),
