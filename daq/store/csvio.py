@@ -374,22 +374,29 @@ def _parse_rows(
 
 
 def _window_times(
-    times: list[float], samples: list[Sample], given: dict[str, float | None]
+    times: list[float], samples: list[Sample], given: dict[str, float | None], *, early: bool
 ) -> dict[str, float]:
     """The given release/end instants (s, on the CSV's ``t`` axis) as seconds since the
-    stored run's first sample (its ``t_mono`` axis), checked against the recording."""
+    stored run's first sample (its ``t_mono`` axis), checked against the recording.
+    ``early``: the release may come before the first sample (a record that starts after
+    the release, the body already moving), by at most the record's own length."""
     out: dict[str, float] = {}
     lo, hi = times[0], times[-1]
     for key, value in given.items():
         if value is None:
             continue
-        if not math.isfinite(value) or not lo <= value <= hi:
+        low = lo - (hi - lo) if early and key == "release_time_s" else lo
+        if not math.isfinite(value) or not low <= value <= hi:
+            note = " (before the first sample: the record starts after the release)"
             raise CsvImportError(
-                f"{key}: {value!r} is not allowed; use a time within the file's t range "
-                f"[{lo:g}, {hi:g}] s"
+                f"{key}: {value!r} is not allowed; use a time within [{low:g}, {hi:g}] s"
+                + (note if low < lo else " (the file's t range)")
             )
         mono = [s.t_mono for s in samples]
-        out[key] = float(np.interp(value, times, mono)) - mono[0]
+        if value < lo:  # before the record: its time axis runs on back
+            out[key] = value - lo
+        else:
+            out[key] = float(np.interp(value, times, mono)) - mono[0]
     if len(out) == 2 and not out["release_time_s"] < out["end_time_s"]:
         raise CsvImportError(
             f"end_time_s: {given['end_time_s']!r} is not allowed; use a time after "
@@ -426,7 +433,8 @@ def import_csv(
     ``time_unit`` (s, ms, us) is the unit of the ``t`` column; a median step over 1 s is
     refused as evidently not seconds. ``release_time_s``/``end_time_s`` (on the CSV's ``t``
     axis, in s) are stored as parameters (seconds since the first sample) that estimation
-    takes for the release and the end of free motion instead of finding them.
+    takes for the release and the end of free motion instead of finding them; a tow's or
+    spin's release may come before the first sample (negative: the record starts after it).
 
     ``drive_column`` (tow/spin): the column holding the drive logged per sample, in
     ``drive_unit`` (default N or N·m); stored in SI as ``LOGGED_DRIVE_CHANNEL[kind]``
@@ -461,7 +469,12 @@ def import_csv(
         logged = [s.channels[LOGGED_DRIVE_CHANNEL[kind]] for s in samples]
         check_logged_peak(kind, drive[0], logged, drive_limit)
     params.update(
-        _window_times(times, samples, {"release_time_s": release_time_s, "end_time_s": end_time_s})
+        _window_times(
+            times,
+            samples,
+            {"release_time_s": release_time_s, "end_time_s": end_time_s},
+            early=kind in DRIVE_FIELD,
+        )
     )
     if not has_wall:
         t0 = samples[0].t_wall
