@@ -111,8 +111,10 @@ def plan_import(
             "rig_toml": rig.rig_toml,
         }
     else:
-        options |= {"rig_name": header.text("rig_name") or "imported", "vehicle": vehicle}
-        options["vehicle"] = vehicle or "unknown"
+        options |= {
+            "rig_name": header.text("rig_name") or "imported",
+            "vehicle": vehicle or "unknown",
+        }
     return ImportPlan(str(kind), options, restored)
 
 

@@ -37,7 +37,7 @@ import numpy as np
 
 from daq.sample import Quality, Sample
 from daq.store.channel_units import at_resolution, column_infos, table_at_resolution, units_line
-from daq.store.import_checks import check_drive_direction, check_logged_peak
+from daq.store.import_checks import check_drive_direction, check_logged_peak, window_times
 from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
 from daq.store.store import Store
@@ -373,38 +373,6 @@ def _parse_rows(
     return channels, samples, "t_wall" in columns, times
 
 
-def _window_times(
-    times: list[float], samples: list[Sample], given: dict[str, float | None], *, early: bool
-) -> dict[str, float]:
-    """The given release/end instants (s, on the CSV's ``t`` axis) as seconds since the
-    stored run's first sample (its ``t_mono`` axis), checked against the recording.
-    ``early``: the release may come before the first sample (a record that starts after
-    the release, the body already moving), by at most the record's own length."""
-    out: dict[str, float] = {}
-    lo, hi = times[0], times[-1]
-    for key, value in given.items():
-        if value is None:
-            continue
-        low = lo - (hi - lo) if early and key == "release_time_s" else lo
-        if not math.isfinite(value) or not low <= value <= hi:
-            note = " (before the first sample: the record starts after the release)"
-            raise CsvImportError(
-                f"{key}: {value!r} is not allowed; use a time within [{low:g}, {hi:g}] s"
-                + (note if low < lo else " (the file's t range)")
-            )
-        mono = [s.t_mono for s in samples]
-        if value < lo:  # before the record: its time axis runs on back
-            out[key] = value - lo
-        else:
-            out[key] = float(np.interp(value, times, mono)) - mono[0]
-    if len(out) == 2 and not out["release_time_s"] < out["end_time_s"]:
-        raise CsvImportError(
-            f"end_time_s: {given['end_time_s']!r} is not allowed; use a time after "
-            f"release_time_s ({given['release_time_s']!r})"
-        )
-    return out
-
-
 def import_csv(
     store: Store,
     path: str | Path,
@@ -469,7 +437,7 @@ def import_csv(
         logged = [s.channels[LOGGED_DRIVE_CHANNEL[kind]] for s in samples]
         check_logged_peak(kind, drive[0], logged, drive_limit)
     params.update(
-        _window_times(
+        window_times(
             times,
             samples,
             {"release_time_s": release_time_s, "end_time_s": end_time_s},

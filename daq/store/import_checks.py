@@ -1,6 +1,7 @@
 """Checks of an import's samples against what the user said about them, made while the CSV
 is parsed and before anything is written: the constant drive's sign against the direction
-the record moves, and a logged drive's peak against the rig file's limit."""
+the record moves, a logged drive's peak against the rig file's limit, and the given release
+and end instants against the record's time range."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from daq.sample import Sample
 from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL
 
 #: A departure from the first sample counts as motion beyond this many noise σ (the noise
@@ -81,3 +83,39 @@ def check_logged_peak(
             f"drive_column: {drive_column!r} reaches {peak:g} {unit} (in SI), over the rig "
             f"limit {name} = {value:g} {unit}; allowed |drive| ≤ {value:g} {unit}"
         )
+
+
+def window_times(
+    times: Sequence[float],
+    samples: Sequence[Sample],
+    given: dict[str, float | None],
+    *,
+    early: bool,
+) -> dict[str, float]:
+    """The given release/end instants (s, on the CSV's ``t`` axis) as seconds since the
+    stored run's first sample (its ``t_mono`` axis), checked against the recording.
+    ``early``: the release may come before the first sample (a record that starts after
+    the release, the body already moving), by at most the record's own length."""
+    out: dict[str, float] = {}
+    lo, hi = times[0], times[-1]
+    for key, value in given.items():
+        if value is None:
+            continue
+        low = lo - (hi - lo) if early and key == "release_time_s" else lo
+        if not math.isfinite(value) or not low <= value <= hi:
+            note = " (before the first sample: the record starts after the release)"
+            raise ValueError(
+                f"{key}: {value!r} is not allowed; use a time within [{low:g}, {hi:g}] s"
+                + (note if low < lo else " (the file's t range)")
+            )
+        mono = [s.t_mono for s in samples]
+        if value < lo:  # before the record: its time axis runs on back
+            out[key] = value - lo
+        else:
+            out[key] = float(np.interp(value, times, mono)) - mono[0]
+    if len(out) == 2 and not out["release_time_s"] < out["end_time_s"]:
+        raise ValueError(
+            f"end_time_s: {given['end_time_s']!r} is not allowed; use a time after "
+            f"release_time_s ({given['release_time_s']!r})"
+        )
+    return out

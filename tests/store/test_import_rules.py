@@ -164,6 +164,6 @@ def test_a_release_at_or_before_the_first_sample_is_taken(store, tmp_path) -> No
         data = load_run_data(store, run)
         assert data.t_release - data.t[0] == pytest.approx(stored)
     early = r"release_time_s: -5.0 is not allowed; use a time within \[-2.8, 3\] s \(before the"
-    with pytest.raises(CsvImportError, match=early):
+    with pytest.raises(ValueError, match=early):
         import_csv(store, tmp_path / "moving.csv", kind="tow", parameters={"force_n": 1.0},
                    release_time_s=-5.0)  # fmt: skip
