@@ -16,13 +16,15 @@ import numpy as np
 
 #: What the numerics raise when a fit breaks down on valid input: numpy with ``np.seterr``
 #: raising (FloatingPointError), scipy's "array must not contain infs or NaNs" (ValueError),
-#: a singular matrix (LinAlgError), an overflow or a division by zero (ArithmeticError).
-#: The estimator's own failure type joins this tuple when it has one.
+#: a singular matrix (LinAlgError), an overflow or a division by zero (ArithmeticError),
+#: ``curve_fit``'s "Optimal parameters not found" (RuntimeError). The estimator's own
+#: failure type joins this tuple when it has one.
 NUMERIC_FAILURES: tuple[type[Exception], ...] = (
     FloatingPointError,
     ArithmeticError,
     ValueError,
     np.linalg.LinAlgError,
+    RuntimeError,
 )
 
 

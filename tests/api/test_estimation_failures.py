@@ -27,6 +27,7 @@ NUMERIC = [
     FloatingPointError("overflow encountered in exp"),
     ValueError("array must not contain infs or NaNs"),
     np.linalg.LinAlgError("Singular matrix"),
+    RuntimeError("Optimal parameters not found: Number of calls to function has reached maxfev"),
 ]
 
 
