@@ -29,7 +29,7 @@ from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
-from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
+from estimation.thrust.law import ThrustLaw
 
 
 def _rig_of(run: RunInfo) -> RigConfig | None:
@@ -330,7 +330,7 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCu
     its reference voltage) or a calibration run's result (no law: one voltage)."""
     imported = params.get("calibration_import_id")
     if imported is not None:
-        from daq.calibration_law import NoCalibration, law_of
+        from daq.calibration_law import NoCalibration, at_reference_voltage, law_of
 
         try:
             law, _ = law_of(store, "imported", imported)
@@ -338,13 +338,7 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCu
             raise ValueError(f"imported calibration #{imported} is no longer stored") from None
         ref = law.curves[-1]
         rows = store.imported_calibration(imported).data["table"]
-        at_ref = [
-            r
-            for r in rows
-            if r.get("supply_voltage_v") is None
-            or abs(float(r["supply_voltage_v"]) - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
-        ]
-        return law, ref.curve, at_ref
+        return law, ref.curve, at_reference_voltage(rows, law)
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:

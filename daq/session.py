@@ -44,6 +44,28 @@ NO_THRUSTERS = "this rig has no thrusters (its rig file has no [thrusters] secti
 RELEASE_CHANNELS = ("tow_release", "spin_release")
 
 
+@dataclass(frozen=True)
+class SafeState:
+    """What putting the rig in its safe state did: the release coils cleared (brakes
+    engaged), whether the thrusters were confirmed at zero, and what failed."""
+
+    brakes_engaged: tuple[str, ...]
+    thrusters_zero: bool | None  # None: the rig has no thrusters
+    errors: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        """``safe state: brake engaged (tow_release cleared); thrusters at zero``."""
+        parts = []
+        if self.brakes_engaged:
+            parts.append(f"brake engaged ({', '.join(self.brakes_engaged)} cleared)")
+        if self.thrusters_zero is not None:
+            parts.append(
+                "thrusters at zero" if self.thrusters_zero else "thrusters NOT confirmed at zero"
+            )
+        text = "safe state: " + ("; ".join(parts) or "nothing to engage")
+        return text + (f"; failed: {'; '.join(self.errors)}" if self.errors else "")
+
+
 def open_thruster_driver(port: ThrusterPort, limits: CommandLimits) -> ThrusterDriver:
     """The driver for the rig file's ``[thrusters]``; a port that cannot be used is a
     one-line ``ThrusterError`` naming the controller and the ``thrusters.port`` setting."""
@@ -260,26 +282,34 @@ class RigSession:
         assert self.thrusters is not None, "session not open"
         return self.thrusters
 
-    async def safe_state(self) -> None:
-        """Brakes engaged and thrusters at zero (waits for the controller's ACK)."""
+    async def safe_state(self) -> SafeState:
+        """Brakes engaged and thrusters at zero (waits for the controller's ACK); says
+        what it did."""
         errors = []
+        engaged = []
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
+        zero: bool | None = None if self.thrusters is None else True
         # Disarmed (or watchdog-latched) controllers already hold their outputs at zero.
         if self.thrusters is not None and self.thrusters.state not in ("DISARMED", "WDT"):
             try:
                 await self.thrusters.zero()
             except Exception as err:  # keep going: the brakes matter too
                 errors.append(f"thrusters: {err}")
+                zero = False
         if self.plc is not None and self.plc.connected:
             for name in RELEASE_CHANNELS:
                 if not self.rig.has(name):
                     continue
                 try:
                     await self.plc.write(name, False)
+                    engaged.append(name)
                 except Exception as err:
                     errors.append(f"{name}: {err}")
+        else:
+            errors += [f"{n}: PLC not connected" for n in RELEASE_CHANNELS if self.rig.has(n)]
         if errors:
             log.warning("safe state incomplete: %s", "; ".join(errors))
+        return SafeState(tuple(engaged), zero, tuple(errors))
 
     @property
     def thruster_count(self) -> int:

@@ -81,6 +81,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "import_calibration",
         "Import a thrust-stand calibration table (CSV: command, thrust, optional...",
     ),
+    "calibrations": (
+        "api.cli.calibration",
+        "calibrations",
+        "List thrust calibrations, measured (calibration runs) and imported tables,...",
+    ),
     "thrust": (
         "api.cli.calibration",
         "thrust",

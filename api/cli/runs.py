@@ -23,6 +23,7 @@ from api.cli.common import (
     user_errors,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
+from daq.parameter_labels import labelled
 from daq.vocabulary import AXES, RunKind, RunStatus
 
 
@@ -182,7 +183,8 @@ def show(run_id, db_url, as_json):
             click.echo(f"imported   {_when(run.imported_at)} from {run.source_file}")
         click.echo(f"recorded   {_when(run.started_at)}   stopped {_when(run.stopped_at)}")
         click.echo(f"samples    {run.sample_count}   channels {', '.join(run.channel_names)}")
-        click.echo(f"parameters {run.parameters}")
+        for i, p in enumerate(labelled(run.parameters)):
+            click.echo(f"{'parameters' if i == 0 else '':<10} {p.text}")
         for key, value in run.metadata.items():
             shown = ", ".join(value) if key == "tags" else value
             click.echo(f"{key:<10} {shown}" if len(key) <= 10 else f"{key} {shown}")

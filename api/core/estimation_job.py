@@ -24,7 +24,8 @@ from estimation.pendulum.estimate import PENDULUM_METHODS
 def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
     """What the runs call for — "pendulum" or "axis" (tow/spin) — with ``method`` checked.
 
-    Raises ``ValueError`` naming the field for no runs, mixed kinds, or a method the kind
+    Raises ``ValueError`` naming the field for no runs, mixed kinds (a pendulum with a tow,
+    a tow with a spin), or a method the kind
     does not have; ``RunNotFound`` for an unknown id. The API calls this before starting
     the job so such requests are a 422, not a failed job.
     """
@@ -44,6 +45,11 @@ def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) 
                 f"{', '.join(PENDULUM_METHODS)}"
             )
         return "pendulum"
+    if len(kinds) > 1:  # a tow and a spin are two axes: one fit cannot take both
+        raise ValueError(
+            f"run_ids: got mixed kinds {sorted(kinds)}, allowed: runs of one kind (tows of "
+            f"one axis, or spins); estimate each kind on its own"
+        )
     if method not in METHODS:
         raise ValueError(
             f"method: {method!r} is not allowed for tow/spin runs; allowed: {', '.join(METHODS)}"

@@ -168,13 +168,18 @@ class JobRunner:
             job = Job.from_row(row)
         return job
 
-    def list(self) -> list[Job]:
-        """This rig's jobs, newest first: the database's, live ones as this process sees them."""
+    def list(
+        self, *, limit: int = LIST_LIMIT, offset: int = 0, state: str | None = None
+    ) -> list[Job]:
+        """This rig's jobs, newest first (``offset`` of them skipped, at most ``limit``, only
+        those in ``state`` if given): the database's, live ones as this process sees them."""
         found: dict[str, Job] = {}
         if self.service.store is not None:
-            found = {r["id"]: Job.from_row(r) for r in self.repo.list_jobs(self.rig_name)}
-        found |= dict(self.jobs)
-        return sorted(found.values(), key=lambda j: j.created_at, reverse=True)[:LIST_LIMIT]
+            stored = self.repo.list_jobs(self.rig_name, state=state, limit=offset + limit)
+            found = {r["id"]: Job.from_row(r) for r in stored}
+        found |= {k: j for k, j in self.jobs.items() if state is None or j.state == state}
+        newest = sorted(found.values(), key=lambda j: j.created_at, reverse=True)
+        return newest[offset : offset + limit]
 
     def events(self, job_id: str) -> list[dict[str, Any]]:
         """A job's stored progress events, oldest first."""

@@ -260,12 +260,23 @@ class Health(BaseModel):
 
 
 # ---- runs ------------------------------------------------------------------------------------
+class ParameterOut(BaseModel):
+    key: str
+    label: str = Field(description="What it is, in words (``max distance``).")
+    value: Any
+    unit: str = Field(description="SI unit; empty for a count, a word or a flag.")
+    shown: str = Field(description="The value as people read it, with its unit (``4.2 m``).")
+
+
 class RunOut(BaseModel):
     id: str
     kind: str
     status: str
     reason: str | None
     parameters: dict[str, Any]
+    parameters_labelled: list[ParameterOut] = Field(
+        [], description="The parameters that were set, labelled with units, in stored order."
+    )
     started_at: str
     stopped_at: str | None
     duration_s: float | None

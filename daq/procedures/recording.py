@@ -25,6 +25,7 @@ from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import one_line
+from daq.store.run_events import RunAction
 from daq.store.spill import write_back_later
 
 log = logging.getLogger(__name__)
@@ -33,6 +34,9 @@ ProgressCallback = Callable[[Progress], None]
 
 #: How the reason of a run aborted because the PLC stopped answering begins.
 DEVICE_LOST = "device lost"
+
+#: Clock periods the ending waits for a sample read after the safe state (its last state).
+SAFE_SAMPLE_PERIODS = 3
 
 #: Background write-backs of spill files (a reference keeps each task alive).
 _WRITE_BACKS: set[asyncio.Task] = set()
@@ -147,11 +151,11 @@ class RecordedRun:
             self.status, self.reason = "aborted", self.abort.reason or "cancelled"
         else:
             self.status, self.reason = "aborted", f"error: {one_line(exc)}"
-        await s.safe_state()
         assert self._recorder is not None
         if self.status != "completed":
             fault = (self.reason or "").startswith(DEVICE_LOST) or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
+        await self._end_safe()
         assert s.acquisition is not None
         if self._queue is not None:
             s.acquisition.unsubscribe(self._queue)
@@ -177,6 +181,30 @@ class RecordedRun:
         )
         # Swallow Aborted (it is an ending, recorded above); let real errors propagate.
         return isinstance(exc, Aborted)
+
+    async def _end_safe(self) -> None:
+        """Every ending the same way: brakes engaged and thrusters zero, a ``safe`` event
+        saying so (or what failed), and one sample read after it, so the run's last state
+        shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods)."""
+        s = self.session
+        safe = await s.safe_state()
+        done = time.monotonic()
+        await self.event(
+            "safe",
+            safe.describe(),
+            action=RunAction.SAFE_STATE,
+            t_mono=done,
+            brakes_engaged=list(safe.brakes_engaged),
+            thrusters_zero=safe.thrusters_zero,
+            errors=list(safe.errors),
+        )
+        if self._queue is None or not safe.brakes_engaged:
+            return
+        period = 1.0 / s.rig.acquisition.rate_hz
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(SAFE_SAMPLE_PERIODS * period):
+                while (await self._queue.get()).t_mono <= done:
+                    pass
 
     @property
     def samples_stored(self) -> int:

@@ -48,29 +48,13 @@ log = logging.getLogger(__name__)
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:
-    """The newest stored thrust calibration, measured (``result_id``) or imported
-    (``calibration_import_id``; its curve and rows at its reference voltage, the highest
-    it covers); ParameterError when there is none."""
-    newest = store.latest_result("calibration")
-    imported = store.latest_imported_calibration()
-    if imported is not None and (newest is None or imported.created_at >= newest.created_at):
-        from daq.calibration_law import law_of
-        from estimation.thrust.law import VOLTAGE_TOLERANCE_V
+    """The newest stored thrust calibration (``daq.calibration_catalog.latest``), measured
+    (``result_id``) or imported (``calibration_import_id``; its curve and rows at its
+    reference voltage, the highest it covers); ParameterError when there is none."""
+    from daq.calibration_catalog import latest
 
-        law, _ = law_of(store, "imported", imported.id)
-        rows = [
-            r
-            for r in imported.data["table"]
-            if r.get("supply_voltage_v") is None
-            or abs(r["supply_voltage_v"] - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
-        ]
-        return {
-            "fit": law.curves[-1].curve.to_json(),
-            "table": rows,
-            "result_id": None,
-            "calibration_import_id": imported.id,
-        }
-    if newest is None:
+    found = latest(store)
+    if found is None:
         raise ParameterError(
             [
                 (
@@ -81,7 +65,15 @@ def latest_calibration(store: Store) -> dict[str, Any]:
                 )
             ]
         )
-    return newest.data | {"result_id": newest.id}
+    data = found["data"]
+    if found["source"] == "run":
+        return data | {"result_id": found["id"]}
+    return {
+        "fit": data["fit"],
+        "table": data["reference_table"],
+        "result_id": None,
+        "calibration_import_id": found["id"],
+    }
 
 
 def thrust_layout(thrusters: ThrusterPort, kind: str) -> tuple[list[float], float]:

@@ -134,6 +134,7 @@ case(
     "--calibration",
     "x:1",
 )
+case(2, "--db: cannot open the database", "calibrations", "--db", "{pg}")
 case(2, "No such command 'nosuch'", "nosuch")
 # -- unreachable ports -------------------------------------------------------------------
 case(2, "--db: cannot open the database: connection failed", "runs", "--db", "{pg}")

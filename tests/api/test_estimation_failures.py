@@ -19,7 +19,7 @@ from daq.store import Store, import_csv
 from tests.api.conftest import AUTH, wait_job
 from tests.cli import RigCli
 from tests.integration.test_import_kinds import _tow_csv
-from tests.real_records import real_record
+from tests.shared_data import shared_file
 
 CSV = {"Content-Type": "text/csv"}
 #: What the numerics raise when a fit breaks down (numpy with seterr, scipy, linalg).
@@ -67,7 +67,7 @@ def test_bad_input_is_found_before_fitting_and_names_the_field(store, tmp_path) 
 
 
 def _import_ship2d(rig: RigCli) -> str:
-    record = real_record("ship2d-regular-waves", "ship2d_3111_2_20Hz.csv")
+    record = shared_file("real", "ship2d-regular-waves", "ship2d_3111_2_20Hz.csv")
     argv = ["import", str(record), "--kind", "tow", "--drive-column", "force_sway_N"]
     return rig(*argv, "--drive-unit", "N").stdout.strip()
 

@@ -55,3 +55,19 @@ def test_the_api_imports_a_pendulum_decay_with_the_services_rig(client) -> None:
     run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
     assert run["kind"] == "pendulum" and run["channel_names"] == ["pendulum_angle"]
     assert run["vehicle"] == "BENBAM"
+
+
+def test_a_tow_and_a_spin_estimated_together_are_a_422_not_a_failed_job(client) -> None:
+    """Two axes cannot share one fit: the request is refused before a job is made."""
+    tow = "t,position\n" + "".join(f"{k / 10:.1f},{0.01 * k * k:.4f}\n" for k in range(40))
+    ids = []
+    for kind, drive in (("tow", "force_n=20"), ("spin", "torque_nm=2")):
+        body = tow.encode()  # the same motion read as metres or radians
+        r = client.post(f"/api/runs/import?kind={kind}&{drive}", content=body, headers=AUTH | CSV)
+        assert r.status_code == 201, r.text
+        ids.append(r.json()["run_id"])
+    jobs_before = len(client.get("/api/jobs", headers=AUTH).json())
+    r = client.post("/api/jobs/estimation", json={"run_ids": ids}, headers=AUTH)
+    assert r.status_code == 422, r.text
+    assert "run_ids: got mixed kinds ['spin', 'tow']" in r.text
+    assert len(client.get("/api/jobs", headers=AUTH).json()) == jobs_before

@@ -15,7 +15,7 @@ import pytest
 from daq.config import DEFAULT_RIG_FILE
 from tests.api.conftest import AUTH
 from tests.cli import RigCli
-from tests.real_records import real_record
+from tests.shared_data import shared_file
 
 CSV = {"Content-Type": "text/csv"}
 
@@ -108,7 +108,7 @@ def test_the_api_applies_the_same_rules(client, tmp_path) -> None:
 def test_the_sphere_settling_record_takes_its_release_before_the_first_sample(rig) -> None:
     """The README's command for ten Cate's sphere, released at t = 0 and first sampled
     0.084 s later: `--release-time 0` was refused ("use a time within the file's t range")."""
-    record = real_record("tencate-sphere-settling", "tencate_E1_tow.csv")
+    record = shared_file("real", "tencate-sphere-settling", "tencate_E1_tow.csv")
     run = rig("import", str(record), "--kind", "tow", "--force", "0.0026004",
               "--release-time", "0", "--end-time", "2.45").stdout.strip()  # fmt: skip
     parameters = json.loads(rig("show", run, "--json").stdout)["parameters"]

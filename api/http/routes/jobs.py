@@ -11,7 +11,7 @@ from fastapi import APIRouter, Depends, Query
 
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
-from api.core.jobs import JobRunner
+from api.core.jobs import LIST_LIMIT, JobRunner
 from api.core.service import RigService
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
 from api.http.schemas import (
@@ -22,6 +22,7 @@ from api.http.schemas import (
     error_responses,
 )
 from daq.procedures.kinds import KINDS, KindSpec
+from daq.store.schema import JobState
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 409, 422, 503)
@@ -125,9 +126,14 @@ def start_estimation(
     dependencies=[Depends(require_read)],
     responses=error_responses(401),
 )
-def list_jobs(runner: RunnerDep) -> list[dict]:
+def list_jobs(
+    runner: RunnerDep,
+    limit: Annotated[int, Query(ge=1, le=LIST_LIMIT, description="At most this many.")] = 100,
+    offset: Annotated[int, Query(ge=0, description="Skip this many of the newest.")] = 0,
+    state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
+) -> list[dict]:
     """This rig's jobs, newest first, from the database (so they outlive a restart)."""
-    return [j.to_json() for j in runner.list()]
+    return [j.to_json() for j in runner.list(limit=limit, offset=offset, state=state)]
 
 
 @router.get(

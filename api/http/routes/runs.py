@@ -308,20 +308,6 @@ def get_result(result_id: int, store: StoreDep, runner: RunnerDep) -> dict:
     return _result_json(_find_result(store, result_id), runner)
 
 
-@router.get(
-    "/calibration/latest",
-    response_model=ResultOut,
-    dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404),
-)
-def latest_calibration(store: StoreDep, runner: RunnerDep) -> dict:
-    """The newest thrust calibration: table, fitted curve and inverse map."""
-    latest = store.latest_result("calibration")
-    if latest is None:
-        raise HTTPException(404, "no thrust calibration stored yet; run one first")
-    return _result_json(latest, runner)
-
-
 def _report_figure_route(suffix: str, function_name: str, doc: str) -> None:
     """``GET /api/results/{result_id}/report/{name}<suffix>``: a stored report figure (from
     the database, so it outlives the service) in the format ``suffix`` names."""

@@ -4,7 +4,7 @@
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed", "interrupted"];
-const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {} };
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {}, jobDocs: {} };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
@@ -397,7 +397,16 @@ async function stream() {
           if (!data) continue;
           const obj = JSON.parse(data);
           if (kind === "sample") onSample(obj);
-          else if (kind === "job") onJobEvent(obj);
+          else if (kind === "job") {
+            if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
+            else state.jobDocs[obj.id] = obj;
+            onJobEvent(obj);
+          } else if (kind === "job_progress" && state.jobDocs[obj.id]) {
+            // only the progress changed: the stream sends it without the rest of the job
+            const job = { ...state.jobDocs[obj.id], state: obj.state, progress: obj.progress };
+            state.jobDocs[obj.id] = job;
+            onJobEvent(job);
+          }
         }
       }
     } catch (err) {
@@ -473,7 +482,7 @@ function showRunMeta(run) {
     ["Drive", run.drive || "—"],
     ["Load", load(run)],
     ["Source", run.source === "imported" ? `imported ${new Date(run.imported_at).toLocaleString()} from ${run.source_file}` : "recorded"],
-    ["Parameters", JSON.stringify(run.parameters)],
+    ...(run.parameters_labelled || []).map((p) => [p.label[0].toUpperCase() + p.label.slice(1), p.shown]),
     ["Recorded at", new Date(run.started_at).toLocaleString()],
     ["Duration", `${fmt(run.duration_s, 4)} s`],
     ["Samples", run.sample_count],
@@ -761,10 +770,13 @@ async function loadCalibration() {
   }
   const data = cal.data;
   const table = data.table || [];
-  $("#cal-status").textContent = `Calibration ${cal.id} of ${new Date(cal.created_at).toLocaleString()} (run ${cal.run_ids[0].slice(0, 8)}).`;
+  const volts = cal.voltages_v.length ? ` at ${cal.voltages_v.join(", ")} V` : "";
+  $("#cal-status").textContent = `Newest calibration: ${cal.label} of ${new Date(cal.created_at).toLocaleString()}${volts}.`;
+  const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
   $("#cal-table tbody").innerHTML = table
-    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${r.direction}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${fmt(r.supply_voltage_v, 4)}</td></tr>`)
+    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${cell(r.supply_voltage_v, 4)}</td><td>${cell(r.current_a, 4)}</td><td>${cell(r.efficiency_n_per_w, 3)}</td></tr>`)
     .join("");
+  loadCalibrationList();
   const traces = [
     { x: table.map((r) => r.command), y: table.map((r) => r.thrust_per_thruster_n), mode: "markers", name: "measured" },
   ];
@@ -794,6 +806,13 @@ async function loadCalibration() {
     { title: { text: "Thrust curve" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "command (fraction)" } }, yaxis: { title: { text: "thrust per thruster (N)" } } },
     { responsive: true, displaylogo: false },
   );
+}
+
+async function loadCalibrationList() {
+  const all = await api("GET", "/api/calibrations");
+  $("#cal-list tbody").innerHTML = all
+    .map((c) => `<tr><td>${esc(c.label)}</td><td>${c.source === "run" ? "measured" : "imported"}</td><td>${new Date(c.created_at).toLocaleString()}</td><td>${c.rows}</td><td>${c.voltages_v.map((v) => fmt(v, 3)).join(", ") || "—"}</td><td>${esc(c.channels.join(", ")) || "—"}</td></tr>`)
+    .join("");
 }
 
 // ---- start ------------------------------------------------------------------------------------
