@@ -136,6 +136,16 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "sensitivity",
         "Rank VEHICLE's coefficients (a name from fixtures/vehicles or...",
     ),
+    "predict-added-mass": (
+        "api.cli.theory",
+        "predict_added_mass",
+        "Predict VEHICLE's added mass per DOF from its [hull] (a name from...",
+    ),
+    "water": (
+        "api.cli.theory",
+        "water",
+        "Water density and viscosity at a temperature (ITTC 7.5-02-01-03 formulas).",
+    ),
 }
 
 #: Commands that record or import runs: they take --operator --water-temp --notes --tag

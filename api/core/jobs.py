@@ -41,6 +41,7 @@ from daq.procedures.kinds import KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
+from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
 from daq.store import Store
 from daq.store.faults import one_line
@@ -276,10 +277,10 @@ class JobRunner:
     def _submit(self, job: Job, params: Any) -> None:
         try:
             self.service.submit(self._hold_rig(job, params))
-        except Exception:
+        except Exception as err:  # RigUnavailable says why (a lost rig lock, say)
             with self._lock:
                 self._rig_job = None
-            self._update(job, state="failed", error="the rig service is not running")
+            self._update(job, state="failed", error=one_line(err))
             raise
         self.service.broadcaster.publish_job(job.to_json())
 
@@ -424,6 +425,8 @@ class JobRunner:
         session = self.service.require_session()
         job.abort = AbortSignal()
         job.confirm = asyncio.Event()
+        # A lost lease on the rig stops the job wherever it waits (a run, the operator).
+        unlisten = session.add_fault_listener(job.abort.set)
         if kind == "sequence":
             job.control = SequenceControl(abort=job.abort)
             if job.pause_requested:
@@ -457,7 +460,7 @@ class JobRunner:
             )
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
-        except (PreconditionFailed, RigBusy, ParameterError) as err:  # the rig said no
+        except (PreconditionFailed, RigBusy, RigLockLost, ParameterError) as err:  # the rig said no
             self._update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)
@@ -465,6 +468,7 @@ class JobRunner:
                 job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
             )
         finally:
+            unlisten()
             session.run_metadata = None
             with self._lock:
                 if self._rig_job is job:

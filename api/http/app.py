@@ -37,6 +37,7 @@ from api.http.routes import rig as routes_rig
 from api.http.routes import runs as routes_runs
 from api.http.routes import sixdof as routes_sixdof
 from api.http.routes import stream as routes_stream
+from api.http.routes import theory as routes_theory
 from api.http.static_assets import app_with_offline_docs, compress_static
 from daq.procedures.kinds import NotCapable
 from daq.procedures.params import ParameterError
@@ -228,6 +229,7 @@ def create_app(
         routes_sixdof,
         routes_analysis,
         routes_calibration,
+        routes_theory,
     ):
         app.include_router(module.router)
 

@@ -311,6 +311,9 @@ class SamplesOut(BaseModel):
     t_wall: list[float]
     quality: list[int]
     channels: dict[str, list[float | None]]
+    units: dict[str, str] = Field(
+        {}, description="Each channel's unit (UDUNITS text; '1' dimensionless, '' unknown)."
+    )
 
 
 class EventOut(BaseModel):

@@ -51,3 +51,40 @@ def test_at_1280_by_800_the_work_fits_the_window(client, service, imported):
         expect(page.locator("#cc-runs tbody tr").first).to_be_visible()
         table, room = page.evaluate(FITS, "#cc-runs")
         assert table <= room + 1, (table, room)
+
+
+def test_run_detail_plots_chosen_channels_with_units_and_overlays_a_run(client, service, tmp_path):
+    from playwright.sync_api import expect
+
+    from tests.integration.test_import_kinds import _tow_csv
+
+    ids = []
+    for force, seed in ((30.0, 1), (20.0, 2)):
+        _tow_csv(tmp_path / "tow.csv", force, seed)
+        query = "kind=tow&drive_column=pull%20(kgf)&drive_unit=kgf&release_time_s=1"
+        r = client.post(
+            f"/api/runs/import?{query}",
+            content=(tmp_path / "tow.csv").read_bytes(),
+            headers=AUTH | CSV,
+        )
+        assert r.status_code == 201, r.text
+        ids.append(r.json()["run_id"])
+    with signed_in_page(service, client) as page:
+        page.click("nav a[data-page=runs]")
+        page.click(f"#runs-table tbody tr[data-run='{ids[0]}']")
+        expect(page.locator("#run-channels input:checked")).to_have_count(1)
+        page.check("#run-channels input[value=drive_force]")
+        page.select_option("#run-overlay-pick", ids[1])
+        expect(page.locator("#run-overlays .tag")).to_have_count(1)
+        page.wait_for_function(
+            "document.getElementById('run-plot').data && "
+            "document.getElementById('run-plot').data.length === 4"
+        )
+        layout = page.evaluate("document.getElementById('run-plot').layout")
+        titles = sorted(layout[k]["title"]["text"] for k in ("yaxis", "yaxis2"))
+        assert titles == ["drive force [N]", "tow position [m]"]  # a row per unit
+        assert layout["xaxis"]["title"]["text"].startswith("time from ")
+        names = page.evaluate("document.getElementById('run-plot').data.map(t => t.name)")
+        assert sum(ids[1][:8] in n for n in names) == 2 and sum(ids[0][:8] in n for n in names) == 2
+        page.click(f"#run-overlays button[data-drop='{ids[1]}']")
+        page.wait_for_function("document.getElementById('run-plot').data.length === 2")

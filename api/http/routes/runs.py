@@ -32,6 +32,7 @@ from api.http.schemas import (
 from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
+from daq.store.channel_units import column_infos
 from daq.store.csvio import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
 from daq.vocabulary import RunKind, RunStatus
@@ -177,6 +178,7 @@ def get_samples(
         "t_wall": cols["t_wall"][:n],
         "quality": cols["quality"][:n],
         "channels": {k: v[:n] for k, v in cols["channels"].items()},
+        "units": {k: c.units for k, c in column_infos(run).items() if k in cols["channels"]},
     }
     return out
 

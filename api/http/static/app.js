@@ -519,31 +519,93 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
   }
 });
 
-async function openRun(runId) {
-  location.hash = "#runs";
+// The run detail plots any of the run's channels, with units, one row per unit, and other
+// runs overlaid, on the time from each run's release (from its first sample when a run has
+// no release event).
+const DEFAULT_CHANNEL = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" };
+state.runPlot = { runs: [], channels: [] }; // [{run, samples, release}], chosen channel names
+
+async function runSeries(runId) {
   const [run, samples, events] = await Promise.all([
     api("GET", `/api/runs/${runId}`),
     api("GET", `/api/runs/${runId}/samples?limit=100000`),
     api("GET", `/api/runs/${runId}/events`),
   ]);
+  const released = events.find((e) => e.data && e.data.action === "release" && e.data.t_mono !== undefined);
+  return { run, samples, events, release: released ? released.data.t_mono : null };
+}
+
+async function openRun(runId) {
+  location.hash = "#runs";
+  const shown = await runSeries(runId);
+  const { run, events } = shown;
   state.selectedRun = run;
   $("#run-detail").hidden = false;
   $("#run-detail-id").textContent = run.id;
   $$("#runs-table tbody tr").forEach((tr) => tr.classList.toggle("selected", tr.dataset.run === run.id));
   showRunMeta(run);
   $("#run-annotate-status").textContent = "";
-  const channel = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" }[run.kind] || "tow_position";
-  const y = samples.channels[channel] || samples.channels.position || [];
-  Plotly.newPlot(
-    "run-plot",
-    [{ x: samples.t, y, mode: "lines+markers", marker: { size: 3 }, name: channel }],
-    { margin: { t: 10, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: channel } } },
-    { responsive: true, displaylogo: false },
-  );
+  const names = Object.keys(shown.samples.channels);
+  const first = DEFAULT_CHANNEL[run.kind] || "tow_position";
+  state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean) };
+  $("#run-channels").innerHTML = names
+    .map((k) => {
+      const unit = shown.samples.units[k] || "";
+      const on = state.runPlot.channels.includes(k) ? "checked" : "";
+      return `<label class="chip"><input type="checkbox" value="${esc(k)}" ${on}>${esc(k.replace(/_/g, " "))} <span class="muted">${esc(unit)}</span></label>`;
+    })
+    .join("");
+  $("#run-overlay-pick").innerHTML = `<option value="">—</option>` + state.runs
+    .filter((r) => r.id !== run.id)
+    .map((r) => `<option value="${r.id}">${r.id.slice(0, 8)} ${esc(r.kind)} ${esc(load(r))}</option>`)
+    .join("");
+  drawRunPlot();
   $("#run-events").innerHTML = events
     .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
     .join("");
 }
+
+function drawRunPlot() {
+  const { runs, channels } = state.runPlot;
+  const fromRelease = runs.every((r) => r.release !== null);
+  const series = [];
+  for (const [i, r] of runs.entries()) {
+    const s = r.samples;
+    const t0 = fromRelease ? r.release : s.t_mono[0];
+    const x = s.t_mono.map((t) => t - t0);
+    for (const k of channels) {
+      if (!(k in s.channels)) continue;
+      const unit = s.units[k] === "1" ? "" : s.units[k] || "";
+      const label = k.replace(/_/g, " ");
+      const who = runs.length > 1 ? ` · ${r.run.id.slice(0, 8)}${i === 0 ? "" : " (overlay)"}` : "";
+      series.push({ x, y: s.channels[k], name: `${label}${unit ? ` [${unit}]` : ""}${who}`, label, unit, key: `${r.run.id}:${k}` });
+    }
+  }
+  $("#run-overlays").innerHTML = runs
+    .slice(1)
+    .map((r) => `<span class="tag">${r.run.id.slice(0, 8)} <button type="button" data-drop="${r.run.id}" title="Remove the overlay">×</button></span>`)
+    .join("");
+  const xTitle = fromRelease ? "time from release [s]" : "time from first sample [s]";
+  unitRowsPlot("run-plot", series, { xTitle, empty: "Choose channels above", revision: runs[0] && runs[0].run.id });
+}
+
+$("#run-channels").addEventListener("change", () => {
+  state.runPlot.channels = $$("#run-channels input:checked").map((i) => i.value);
+  drawRunPlot();
+});
+$("#run-overlay-pick").addEventListener("change", async (ev) => {
+  const id = ev.target.value;
+  ev.target.value = "";
+  if (!id || state.runPlot.runs.some((r) => r.run.id === id)) return;
+  state.runPlot.runs.push(await runSeries(id));
+  drawRunPlot();
+});
+$("#run-overlays").addEventListener("click", (ev) => {
+  const id = ev.target.dataset && ev.target.dataset.drop;
+  if (!id) return;
+  state.runPlot.runs = state.runPlot.runs.filter((r) => r.run.id !== id);
+  drawRunPlot();
+});
 const EXPORT_SUFFIX = { csv: ".csv", json: ".json", netcdf: ".nc", parquet: ".parquet" };
 $("#export-run").onclick = () => {
   const run = state.selectedRun, format = $("#export-format").value;
