@@ -44,11 +44,25 @@ def fit_subject(axis: str, run_ids: Sequence[str]) -> str:
 def fitting(subject: str, doing: str = "fit") -> Iterator[None]:
     """Run a fit (or, with ``doing="draw the report of"``, its report): a numerical failure
     inside becomes :class:`EstimationFailure` ``could not <doing> <subject>: <why>``, chained
-    to the original (its traceback shows with ``RIG_DEBUG=1`` and in the service log)."""
+    to the original (its traceback shows with ``RIG_DEBUG=1`` and in the service log).
+
+    numpy's floating-point errors inside (overflow, invalid value, division by zero) are
+    noted instead of printed as warnings (numpy's error state is per context, so other
+    threads are untouched) and named in the line, as the first sign of what went wrong:
+    ``array must not contain infs or NaNs (after overflow, invalid value in the numerics)``."""
+    seen: list[str] = []
+
+    def note(kind: str, flag: int) -> None:
+        if kind not in seen:
+            seen.append(kind)
+
     try:
-        yield
+        with np.errstate(call=note, over="call", invalid="call", divide="call"):
+            yield
     except EstimationFailure:
         raise
     except NUMERIC_FAILURES as err:
         why = " ".join(str(err).split()) or type(err).__name__
+        if seen:
+            why += f" (after {', '.join(seen)} in the numerics)"
         raise EstimationFailure(f"could not {doing} {subject}: {why}") from err

@@ -59,6 +59,23 @@ def test_a_numerical_failure_is_an_estimation_failure_and_stores_nothing(
     assert store.results(run) == []
 
 
+def test_the_failure_line_names_the_floating_point_errors_before_it(
+    store, tmp_path, monkeypatch
+) -> None:
+    """numpy's overflow/invalid warnings are noted, not printed, and said in the line."""
+    _tow_csv(tmp_path / "tow.csv", 30.0, 1)
+    run = import_csv(store, tmp_path / "tow.csv", kind="tow", parameters={"force_n": 30.0})
+
+    def overflowing(*args, **kwargs):
+        np.exp(np.array([1000.0])) - np.inf  # overflow, then inf - inf: invalid
+        raise ValueError("array must not contain infs or NaNs")
+
+    monkeypatch.setattr(estimation, "estimate", overflowing)
+    with pytest.raises(EstimationFailure, match=r"NaNs \(after overflow, invalid value in the "):
+        run_estimation(store, [run])
+    assert np.geterr()["over"] == "warn"  # the error state outside is untouched
+
+
 def test_bad_input_is_found_before_fitting_and_names_the_field(store, tmp_path) -> None:
     (tmp_path / "short.csv").write_text("t,position\n0,0\n0.1,0.01\n0.2,0.03\n")
     run = import_csv(store, tmp_path / "short.csv", kind="tow", parameters={"force_n": 1.0})
