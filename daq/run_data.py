@@ -118,7 +118,9 @@ def _timeline(
         t_release += offset
         t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
     t_end = None if t_stop is None else t_stop + offset
-    t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
+    # a release given at import may precede the record (it starts with the body moving)
+    earliest = -math.inf if release_source == "release_time_s (given)" else float(t[0])
+    t_release = min(max(t_release, earliest), float(t[-1])) if t.size else 0.0
     return _Timeline(
         np.asarray(t, dtype=float),
         good,

@@ -30,6 +30,7 @@ from api.http.request_errors import request_json_error, request_not_found
 from api.http.routes import analysis as routes_analysis
 from api.http.routes import calibration as routes_calibration
 from api.http.routes import crosscheck as routes_crosscheck
+from api.http.routes import imports as routes_imports
 from api.http.routes import jobs as routes_jobs
 from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
@@ -223,6 +224,7 @@ def create_app(
         routes_jobs,
         routes_queue,
         routes_runs,
+        routes_imports,
         routes_stream,
         routes_sixdof,
         routes_analysis,

@@ -338,3 +338,8 @@ class ResultOut(BaseModel):
 class ImportOut(BaseModel):
     run_id: str
     samples: int
+    from_header: dict[str, Any] = Field(
+        default_factory=dict,
+        description="What a towrig export's own header supplied (kind, force_n or torque_nm, "
+        "hung_mass_kg, drive_column, release_time_s, vehicle).",
+    )

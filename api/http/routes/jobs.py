@@ -111,10 +111,12 @@ def start_estimation(
     runner: RunnerDep,
 ) -> dict:
     """Estimate coefficients from stored runs in a worker thread; poll the job for the result."""
-    from api.core.estimation_job import check_estimation_request
+    from api.core.estimation_job import load_estimation_runs
 
     run_ids = [store.get_run(r).id for r in body.run_ids]  # 404 for an unknown id, now
-    check_estimation_request(store, run_ids, body.method)  # 422: mixed kinds, method per kind
+    # 422 for bad input (mixed kinds, a method the kind lacks, a run without its drive or
+    # too short), so a failed job always means the fit itself failed
+    load_estimation_runs(store, run_ids, body.method)
     return runner.start_estimation(run_ids, body.method, body.search_effects).to_json()
 
 
