@@ -33,10 +33,11 @@ def test_calibrate_thrusters_writes_the_report_of_the_stored_calibration(tmp_pat
     outcome = json.loads(done.stdout)  # stdout stays the outcome; the report path on stderr
     assert outcome["status"] == "completed"
     assert f"report: {out / 'report.md'}" in done.stderr
+    # The controller's RPM and current give the stand figure; the steps, the step response.
     assert sorted(p.name for p in out.iterdir()) == [
         "calibration.png", "calibration.svg", "report.md", "response.png", "response.svg",
         "stand.png", "stand.svg",
-    ]  # fmt: skip (the controller's RPM and current: the stand figure; the step response)
+    ]  # fmt: skip
     assert "time from the output change [s]" in (out / "response.svg").read_text("utf-8")
     with Image.open(out / "calibration.png") as img:
         assert img.width >= 1000
