@@ -16,9 +16,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from daq.operator import OperatorAct
+from daq.procedures.current_cutoff import current_over_limit
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.steps import (
@@ -379,15 +380,21 @@ async def abort_on_thruster_fault(
     }
     if on_stale_zeroing:
         waits.add(asyncio.ensure_future(session.stale_zeroed.wait()))
+    over_current = asyncio.ensure_future(current_over_limit(session))
+    waits.add(cast("asyncio.Future[object]", over_current))
     try:
         await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
     finally:
         for w in waits:
             w.cancel()
     fault = session.live_thrusters.fault
-    if fault is None:  # the stale-data zeroing
+    data: dict[str, Any]
+    if over_current.done() and not over_current.cancelled() and fault is None:
+        session.set_thrust([0.0] * session.thruster_count)  # at once, before the ending
+        reason, data = over_current.result()
+    elif fault is None:  # the stale-data zeroing
         reason = _stale_zeroed_reason(session)
-        data: dict[str, Any] = {"stale_zeroings": session.stale_zeroings}
+        data = {"stale_zeroings": session.stale_zeroings}
     else:
         reason = fault.reason
         if (plc := _plc_unread(session, session.latest())) is not None:
