@@ -130,3 +130,13 @@ def test_a_pwm_table_imported_as_fractions_is_told_to_use_pwm_us(client):
     r = _post(client, T200.read_bytes(), command_unit="fraction")
     assert r.status_code == 422
     assert "looks like a PWM pulse in µs: use command_unit pwm_us" in r.json()["detail"]
+
+
+def test_a_table_uploaded_as_a_multipart_form_imports(client):
+    r = client.post(
+        f"/api/calibrations/import?{urlencode(QUERY | {'name': 't200-form'})}",
+        files={"file": ("t200-bollard.csv", T200.read_bytes(), "text/csv")},
+        headers=AUTH,
+    )
+    assert r.status_code == 201, r.text
+    assert r.json()["rows"] == 255

@@ -71,3 +71,24 @@ def test_a_tow_and_a_spin_estimated_together_are_a_422_not_a_failed_job(client) 
     assert r.status_code == 422, r.text
     assert "run_ids: got mixed kinds ['spin', 'tow']" in r.text
     assert len(client.get("/api/jobs", headers=AUTH).json()) == jobs_before
+
+
+def test_a_multipart_upload_imports_like_a_raw_body(client) -> None:
+    """As ``curl -F file=@tow.csv`` sends it: the file part is the CSV (it was read as the
+    CSV itself, and the multipart boundary quoted as 'the header'); the part's file name
+    is the run's source file."""
+    body = "t,position\n" + "".join(f"{k / 10:.1f},{0.002 * k * k:.4f}\n" for k in range(40))
+    r = client.post(
+        "/api/runs/import?kind=tow&force_n=20",
+        files={"file": ("lab tow 3.csv", body.encode(), "text/csv")},
+        headers=AUTH,
+    )
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["sample_count"] == 40 and run["source_file"] == "lab_tow_3.csv"
+    r = client.post(
+        "/api/runs/import?kind=tow&force_n=20",
+        files={"a": ("a.csv", b"t,position\n", "text/csv"), "b": ("b.csv", b"x", "text/csv")},
+        headers=AUTH,
+    )
+    assert r.status_code == 422 and "file: a multipart upload needs one file field" in r.text

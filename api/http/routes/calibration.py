@@ -11,6 +11,7 @@ from starlette.concurrency import run_in_threadpool
 
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import csv_upload_body, error_responses
+from api.http.uploads import upload_bytes
 from daq.calibration_catalog import calibrations, latest, voltage_for
 from daq.calibration_law import NoCalibration, import_calibration, law_of
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec, stand_columns
@@ -63,7 +64,7 @@ async def import_table(
         voltage_v=voltage_v,
         extra_columns=stand_columns(current_a=current_column, rpm=rpm_column, power_w=power_column),
     )
-    body = await request.body()  # capped by api.http.limits.BodyLimit (UPLOAD_PATHS)
+    body = await upload_bytes(request)  # capped by api.http.limits.BodyLimit (UPLOAD_PATHS)
     try:
         return await run_in_threadpool(import_calibration, store, body, spec, name)
     except ValueError as err:

@@ -14,10 +14,11 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Depends, Query, Request
 
-from api.core.csv_upload import import_file, save_stream
+from api.core.csv_upload import import_file
 from api.core.run_import import ImportRequest, plan_import
 from api.http.deps import ServiceDep, StoreDep, require_write
 from api.http.schemas import ImportOut, csv_upload_body, error_responses
+from api.http.uploads import save_upload
 from daq.procedures.params import ParameterError
 from daq.store.run_metadata import check_run_metadata, check_tag
 
@@ -28,6 +29,14 @@ _IMPORT_BODY = csv_upload_body(
     "CSV with a header: t (s), position (m or rad), more columns allowed "
     "(a drive logged per sample among them, named by drive_column)."
 )
+
+
+#: The stored file name when neither the query nor a multipart part names one.
+DEFAULT_NAME = "upload.csv"
+
+
+def _safe_name(filename: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]", "_", Path(filename).name) or DEFAULT_NAME
 
 
 def _import_metadata(
@@ -86,7 +95,7 @@ async def import_run(
         str | None,
         Query(min_length=1, max_length=200, description="Default: the export's, else unknown."),
     ] = None,
-    filename: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",
+    filename: Annotated[str, Query(min_length=1, max_length=200)] = DEFAULT_NAME,
     time_unit: Annotated[
         Literal["s", "ms", "us"], Query(description="Unit of the t column.")
     ] = "s",
@@ -123,10 +132,13 @@ async def import_run(
         drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
         release_time_s=release_time_s, end_time_s=end_time_s,
     )  # fmt: skip
-    name = re.sub(r"[^A-Za-z0-9._-]", "_", Path(filename).name) or "upload.csv"
+    name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
         path = Path(folder) / name
-        await save_stream(request.stream(), path)  # the size cap is api.http.limits.BodyLimit's
+        sent_as = await save_upload(request, path)  # the size cap is BodyLimit's
+        if sent_as and filename == DEFAULT_NAME:  # a multipart part names its file
+            name = _safe_name(sent_as)
+            path = path.rename(Path(folder) / name)
         try:
             plan = plan_import(path, request_, pendulum_rig=service.source, rig_field="kind")
             run_id, samples = await import_file(
