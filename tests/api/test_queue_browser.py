@@ -34,10 +34,13 @@ def test_queued_jobs_shown_reordered_edited_removed_and_the_paused_queue_resumed
     with signed_in_page(service, client) as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
+        page.set_viewport_size({"width": 1280, "height": 800})
         # The Rig page: paused, why, what is next, and a Resume button.
         expect(page.locator("#queue-summary-paused")).to_contain_text("stopped by the operator")
         expect(page.locator("#queue-summary-text")).to_contain_text("2 waiting")
         expect(page.locator("#queue-summary-text")).to_contain_text(first["label"])
+        start = page.get_by_role("heading", name="Start a test").bounding_box()
+        assert start is not None and start["y"] + start["height"] <= 800, start  # still in view
 
         page.click("nav a[data-page=queue]")
         items = page.locator("#queue-list > li")

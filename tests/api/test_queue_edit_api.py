@@ -98,3 +98,15 @@ def test_sequence_files_are_listed_with_steps_and_start_as_a_sequence_job(client
         assert client.delete(f"/api/queue/{job['id']}", headers=AUTH).status_code == 200
     finally:
         client.post("/api/queue/resume", headers=AUTH)
+
+
+def test_the_new_queue_routes_need_the_token(client):
+    for method, path in (
+        ("put", "/api/queue/abc"),
+        ("post", "/api/queue/abc/run-now"),
+        ("post", "/api/jobs/abc/requeue"),
+        ("get", "/api/sequences"),
+    ):
+        kwargs = {"json": SHORT_TOW} if method == "put" else {}
+        r = getattr(client, method)(path, **kwargs)
+        assert r.status_code == 401, (method, path, r.text)
