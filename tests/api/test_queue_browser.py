@@ -7,7 +7,14 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, SHORT_TOW, completed_tows, signed_in_page, wait_job
+from tests.api.conftest import (
+    AUTH,
+    SHORT_TOW,
+    TOKEN,
+    completed_tows,
+    signed_in_page,
+    wait_job,
+)
 from tests.api.conftest import wait_rig_free as rig_free
 
 #: Slow lane: a browser per test, like the other page tests.
@@ -126,3 +133,39 @@ def test_history_requeues_a_finished_job_and_a_sequence_starts_from_the_page(cli
                 client.delete(f"/api/queue/{job_id}", headers=AUTH)
             client.post("/api/queue/resume", headers=AUTH)
         assert not errors, errors
+
+
+def test_after_a_restart_with_a_job_queued_the_rig_page_says_why_it_waits_and_resumes(tmp_path):
+    """The issue's case: the service restarts with a job queued; the Rig page said "No job
+    yet" and a tow started there waited at "queued (position 2)" with no reason and no
+    Resume button."""
+    from fastapi.testclient import TestClient
+    from playwright.sync_api import expect
+
+    from api.core.service import RigService
+    from api.http.app import create_app
+    from daq.session import RigSource
+
+    def app_on(service: RigService):
+        return create_app(service, token=TOKEN, report_root=tmp_path / "reports")
+
+    url = f"sqlite:///{tmp_path / 'rig.db'}"
+    with TestClient(app_on(RigService(RigSource.load(), url))) as before:
+        before.post("/api/queue/pause", headers=AUTH)
+        waiting = _post(before, "/api/jobs/tow", SHORT_TOW)
+    service = RigService(RigSource.load(), url)
+    with TestClient(app_on(service)) as client, signed_in_page(service, client) as page:
+        expect(page.locator("#queue-summary-paused")).to_contain_text("the service started")
+        expect(page.locator("#queue-summary-text")).to_contain_text(waiting["label"])
+        page.fill("#form-tow [name=force_n]", "44.1")
+        page.fill("#form-tow [name=max_time_s]", "1.5")
+        page.fill("#form-tow [name=baseline_s]", "0.3")
+        page.click("#start-tow")
+        expect(page.locator("#job-message")).to_have_text("queued (position 2)")
+        expect(page.locator("#queue-summary-text")).to_contain_text("2 waiting")
+        page.click("#queue-summary-resume")
+        expect(page.locator("#queue-summary-paused")).to_have_count(0)
+        assert wait_job(client, waiting["id"])["state"] == "completed"
+        expect(page.locator("#job-state")).to_have_text("completed", timeout=30_000)
+        expect(page.locator("#job-panel")).to_contain_text("tow 44.1 N")
+        expect(page.locator("#queue-summary-text")).to_have_text("empty")
