@@ -10,6 +10,7 @@ from fastapi import APIRouter, Body, Depends
 from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ValidationError
 
+from api.core.job_model import JobConflict
 from api.http.deps import RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, SequenceRequest, error_responses
 from daq.procedures.kinds import KINDS
@@ -67,6 +68,8 @@ def replace_job(
     """Replace a queued job's parameters, validated exactly like a new submission (422
     naming the field); it keeps its place in the queue (409 once it started)."""
     job = runner.get(job_id)
+    if job.position is None:
+        raise JobConflict(f"job {job.id} is not in the queue (state {job.state})")
     try:
         parsed = _request_model(job.kind).model_validate(body) if job.kind in _EDITABLE else None
     except ValidationError as err:
