@@ -569,7 +569,7 @@ class JobRunner(QueueEdits):
         return job
 
     def emergency_stop(self) -> list[str]:
-        """Abort the procedure on the rig, pause the queue (its jobs stay queued) and put
+        """Abort the procedure on the rig, pause the queue if jobs wait (they stay) and put
         the rig in its safe state now."""
         with self._lock:
             if self._queue:  # an empty queue is not held: the next start runs as before
