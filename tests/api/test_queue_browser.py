@@ -1,7 +1,8 @@
 """The queue in real headless Chromium: the Rig page says the queue is paused, why, and what
 runs next, and resumes it; the Queue page shows queued jobs live, reorders, edits (a 422
-shown, then saved), removes, stops after the current job; the history shows a finished job
-and re-queues it; a sequence file is started from the page."""
+shown, then saved), removes, stops after the current job, runs a job now; the history shows
+a finished job and re-queues it; a sequence file is started from the page; after a restart
+with a job queued the Rig page says why it waits."""
 
 from __future__ import annotations
 
@@ -128,6 +129,18 @@ def test_history_requeues_a_finished_job_and_a_sequence_starts_from_the_page(cli
                 "sequence",
             ]
             assert client.get("/api/rig", headers=AUTH).json()["current_job"] is None
+
+            # Remove the sequence, run the re-queued tow now: the queue resumes, it runs.
+            items.nth(1).locator("button[data-act=remove]").click()
+            expect(items).to_have_count(1)
+            requeued = items.nth(0).get_attribute("data-job")
+            items.nth(0).locator("button[data-act=run-now]").click()
+            expect(page.locator("#queue-reason")).to_have_count(0)
+            expect(items).to_have_count(0)
+            assert wait_job(client, requeued)["state"] == "completed"
+            expect(page.locator(f"#history-table tr[data-job='{requeued}']")).to_contain_text(
+                "completed"
+            )
         finally:
             for job_id in _queue_ids(client):
                 client.delete(f"/api/queue/{job_id}", headers=AUTH)
