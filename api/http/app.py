@@ -35,6 +35,7 @@ from api.http.routes import jobs as routes_jobs
 from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
 from api.http.routes import runs as routes_runs
+from api.http.routes import sequences as routes_sequences
 from api.http.routes import sixdof as routes_sixdof
 from api.http.routes import stream as routes_stream
 from api.http.routes import theory as routes_theory
@@ -223,6 +224,7 @@ def create_app(
         routes_crosscheck,
         routes_jobs,
         routes_queue,
+        routes_sequences,
         routes_runs,
         routes_imports,
         routes_stream,

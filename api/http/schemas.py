@@ -139,6 +139,14 @@ class JobOut(BaseModel):
     state: JobState
     progress: JobProgress
     parameters: dict[str, Any]
+    parameters_labelled: list[ParameterOut] = Field(
+        [], description="The parameters labelled with units; a sequence's steps one each."
+    )
+    request: dict[str, Any] | None = Field(
+        None,
+        description="The request body a procedure job was submitted with (what a re-queue "
+        "submits again); null for analyses.",
+    )
     run_ids: list[str]
     outcome: dict[str, Any] | None = Field(
         None, description="Run outcome(s); for an estimation the result JSON of issue 4."
@@ -173,6 +181,26 @@ class QueueOut(BaseModel):
     reason: str | None = Field(None, description="Why the queue is paused.")
     running: JobOut | None = Field(None, description="The job holding the rig, if any.")
     jobs: list[JobOut] = Field(description="Queued jobs in the order they will run.")
+
+
+class SequenceStepOut(BaseModel):
+    kind: str
+    parameters_labelled: list[ParameterOut]
+
+
+class SequenceFileOut(BaseModel):
+    file: str = Field(description="The file's name without .toml.")
+    name: str
+    rest_s: float | None = None
+    repeats: int | None = None
+    runs: int = Field(description="Runs the sequence records (steps × repeats).")
+    steps: list[SequenceStepOut]
+    content: dict[str, Any] | None = Field(
+        None, description="The file as JSON: the body ``POST /api/jobs/sequence`` takes."
+    )
+    problems: list[str] = Field(
+        description="What this rig refuses in the file, one line each (empty: it can start)."
+    )
 
 
 class QueueMoveRequest(_Strict):

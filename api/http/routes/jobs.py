@@ -189,3 +189,17 @@ _control_route(
     JobRunner.confirm,
     "Confirm the operator act a job is waiting for (state ``waiting_for_operator``).",
 )
+
+
+@router.post(
+    "/{job_id}/requeue",
+    status_code=202,
+    response_model=JobOut,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 404, 409, 422, 503),
+)
+def requeue_job(job_id: str, runner: RunnerDep) -> dict:
+    """Submit a past procedure job's request again: a new job, validated like any
+    submission and queued while the rig is busy or the queue paused (409 for an analysis or
+    a job still queued)."""
+    return runner.requeue(job_id).to_json()
