@@ -42,6 +42,7 @@ from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
 from daq.store.store import Store
 from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL, RunKind
+from estimation.data.csv_dialect import COMMA, TableDialect, sniff_dialect
 from estimation.data.csv_import import COMMENT, TIME_UNITS, without_comments
 from estimation.data.window import check_time_step
 
@@ -208,12 +209,14 @@ def check_import_parameters(
     return out
 
 
-def _number(text: str, line: int, column: str, *, allow_missing: bool) -> float:
+def _number(
+    text: str, line: int, column: str, *, allow_missing: bool, dialect: TableDialect
+) -> float:
     stripped = text.strip()
     if allow_missing and stripped.lower() in ("", "nan"):
         return math.nan
     try:
-        value = float(stripped)
+        value = dialect.number(stripped)
     except ValueError:
         raise CsvImportError(f"line {line}, column {column!r}: {text!r} is not a number") from None
     if not math.isfinite(value):
@@ -291,10 +294,13 @@ def _read_samples(
     drive: tuple[str, float] | None = None,
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     """``drive``: the logged drive column and its SI scale (None: no such column)."""
-    with open(path, newline="", encoding="utf-8") as f:
+    with open(path, newline="", encoding="utf-8-sig") as f:  # Excel's BOM dropped
         try:
-            rows = csv.reader(without_comments(f, keep_line_numbers=True))
-            return _parse_rows(path, kind, rows, time_scale, drive)
+            dialect = sniff_dialect(f)
+            f.seek(0)
+            lines = without_comments(f, keep_line_numbers=True)
+            rows = csv.reader(lines, delimiter=dialect.delimiter)
+            return _parse_rows(path, kind, rows, time_scale, drive, dialect)
         except UnicodeDecodeError as err:
             raise CsvImportError(
                 f"{path}: not UTF-8 text ({err.reason} at byte {err.start})"
@@ -307,6 +313,7 @@ def _parse_rows(
     reader: Iterator[list[str]],
     time_scale: float,
     drive: tuple[str, float] | None = None,
+    dialect: TableDialect = COMMA,
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     rows = ((n, r) for n, r in enumerate(reader, start=1) if r and any(r))
     first = next(rows, None)
@@ -333,7 +340,7 @@ def _parse_rows(
         for column, text in zip(columns, row, strict=True):
             missing_ok = column not in ("t", position, logged, "seq", "t_mono", "t_wall", "quality")
             values[column] = _number(
-                text, line, names.get(column, column), allow_missing=missing_ok
+                text, line, names.get(column, column), allow_missing=missing_ok, dialect=dialect
             )
             rising = column in ("t", "seq", "t_mono") and column in previous
             if rising and values[column] <= previous[column]:

@@ -2,10 +2,10 @@
 column and optionally a supply-voltage column, each in its own unit, and the electrical and
 shaft columns a thrust stand logs beside them (current A, RPM, electrical power W).
 
-Read with Python's ``csv`` module: the separator (``,`` ``;`` tab) is found by
-``csv.Sniffer``, Excel's UTF-8 byte-order mark is dropped (``utf-8-sig``), lines starting
-with ``#`` are comments, and with a ``;`` or tab separator a decimal comma is read as a
-point. Commands become the rig's fractions of full command (−1 … 1), thrust newtons.
+Read as every imported table is (``estimation.data.csv_dialect``): the separator (``,``
+``;`` tab) sniffed, Excel's UTF-8 byte-order mark dropped, lines starting with ``#``
+comments, and with a ``;`` or tab separator a decimal comma read as a point. Commands
+become the rig's fractions of full command (−1 … 1), thrust newtons.
 """
 
 from __future__ import annotations
@@ -13,6 +13,8 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass
+
+from estimation.data.csv_dialect import BOM, TableDialect, decode_table, sniff_dialect
 
 #: Newtons per unit of thrust.
 THRUST_UNITS: dict[str, float] = {
@@ -151,12 +153,12 @@ def _stand_columns(header: list[str], spec: ImportSpec) -> dict[str, int]:
     return found
 
 
-def _pwm_hint(spec: ImportSpec, cell: str, decimal_comma: bool) -> str:
+def _pwm_hint(spec: ImportSpec, cell: str, dialect: TableDialect) -> str:
     """``; use command_unit pwm_us`` when a fraction column holds PWM microseconds."""
     if spec.command.unit != "fraction":
         return ""
     try:
-        value = float(cell.strip().replace(",", ".") if decimal_comma else cell.strip())
+        value = dialect.number(cell)
     except ValueError:
         return ""
     lo, hi = PWM_RANGE_US
@@ -169,13 +171,13 @@ def _pwm_hint(spec: ImportSpec, cell: str, decimal_comma: bool) -> str:
 
 
 def _stand_values(
-    row: list[str], columns: dict[str, int], header: list[str], decimal_comma: bool, line: int
+    row: list[str], columns: dict[str, int], header: list[str], dialect: TableDialect, line: int
 ) -> dict[str, float]:
     """The stand channels of one row (blank cells left out)."""
     out = {}
     for key, i in columns.items():
         if i < len(row) and row[i].strip():
-            out[key] = _number(row[i], decimal_comma, header[i].strip(), line)
+            out[key] = _number(row[i], dialect, header[i].strip(), line)
     return out
 
 
@@ -190,12 +192,9 @@ def efficiency_n_per_w(row: dict) -> float | None:
     return abs(row["thrust_per_thruster_n"]) / power
 
 
-def _number(cell: str, decimal_comma: bool, column: str, line: int) -> float:
-    text = cell.strip().replace("\u00a0", "").replace(" ", "")
-    if decimal_comma:
-        text = text.replace(",", ".")
+def _number(cell: str, dialect: TableDialect, column: str, line: int) -> float:
     try:
-        value = float(text)
+        value = dialect.number(cell)
     except ValueError:
         raise ValueError(
             f"line {line}, column {column!r}: got {cell!r}, allowed: a number"
@@ -211,22 +210,13 @@ def read_calibration_csv(data: bytes | str, spec: ImportSpec) -> list[dict]:
     table has them and ``efficiency_n_per_w`` = |F| / P (P the power column, else V·I);
     ``ValueError`` names the column and line."""
     if isinstance(data, bytes):
-        try:
-            data = data.decode("utf-8-sig")
-        except UnicodeDecodeError as err:
-            raise ValueError(f"file: not UTF-8 text ({err.reason} at byte {err.start})") from None
-    data = data.removeprefix("\ufeff")
+        data = decode_table(data)
+    data = data.removeprefix(BOM)
     lines = _lines(data)
     if len(lines) < 2:
         raise ValueError("file: allowed a header line and at least one row of numbers")
-    sample = "\n".join(line for _, line in lines[:20])
-    try:
-        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t")
-        delimiter = dialect.delimiter
-    except csv.Error:
-        delimiter = ","
-    decimal_comma = delimiter != ","
-    rows = list(csv.reader((line for _, line in lines), delimiter=delimiter))
+    dialect = sniff_dialect(line for _, line in lines)
+    rows = list(csv.reader((line for _, line in lines), delimiter=dialect.delimiter))
     header, numbers = rows[0], rows[1:]
     ci = _column(header, spec.command_column, "command_column")
     ti = _column(header, spec.thrust_column, "thrust_column")
@@ -243,25 +233,25 @@ def read_calibration_csv(data: bytes | str, spec: ImportSpec) -> list[dict]:
         for i in names:
             if i >= len(row) or not row[i].strip():
                 raise ValueError(f"line {line}, column {names[i]!r}: empty, allowed: a number")
-        command = spec.command.fraction(_number(row[ci], decimal_comma, names[ci], line))
+        command = spec.command.fraction(_number(row[ci], dialect, names[ci], line))
         if not -1.0 - 1e-9 <= command <= 1.0 + 1e-9:
             raise ValueError(
                 f"line {line}, column {names[ci]!r}: got {row[ci].strip()}, allowed: "
                 f"a command within full reverse … full forward ({spec.command.unit})"
-                + _pwm_hint(spec, row[ci], decimal_comma)
+                + _pwm_hint(spec, row[ci], dialect)
             )
         volts = spec.voltage_v
         if vi is not None:
-            volts = _number(row[vi], decimal_comma, names[vi], line)
+            volts = _number(row[vi], dialect, names[vi], line)
             if not 0 < volts <= 1000:
                 raise ValueError(
                     f"line {line}, column {names[vi]!r}: got {volts:g}, allowed: 0 < V ≤ 1000"
                 )
         entry: dict = {
             "command": round(command, 12),
-            "thrust_per_thruster_n": _number(row[ti], decimal_comma, names[ti], line) * scale,
+            "thrust_per_thruster_n": _number(row[ti], dialect, names[ti], line) * scale,
             "supply_voltage_v": volts,
-        } | _stand_values(row, stand, header, decimal_comma, line)
+        } | _stand_values(row, stand, header, dialect, line)
         efficiency = efficiency_n_per_w(entry)
         if efficiency is not None:
             entry["efficiency_n_per_w"] = efficiency

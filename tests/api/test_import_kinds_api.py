@@ -92,3 +92,22 @@ def test_a_multipart_upload_imports_like_a_raw_body(client) -> None:
         headers=AUTH,
     )
     assert r.status_code == 422 and "file: a multipart upload needs one file field" in r.text
+
+
+def test_excel_semicolons_decimal_commas_and_a_bom_import_like_a_plain_csv(client) -> None:
+    """The run import reads what the thrust-stand import reads (one reader): a table Excel
+    saved in a decimal-comma locale gives the same samples as the plain CSV."""
+    rows = [(k / 10, 0.002 * k * k) for k in range(40)]
+    plain = "t,position\n" + "".join(f"{t:.1f},{x:.4f}\n" for t, x in rows)
+    excel = "\ufefft;position\r\n" + "".join(
+        f"{t:.1f};{x:.4f}\r\n".replace(".", ",") for t, x in rows
+    )
+    samples = []
+    for body in (plain, excel):
+        r = client.post(
+            "/api/runs/import?kind=tow&force_n=20", content=body.encode(), headers=AUTH | CSV
+        )
+        assert r.status_code == 201, r.text
+        got = client.get(f"/api/runs/{r.json()['run_id']}/samples", headers=AUTH).json()
+        samples.append((got["t"], got["channels"]["tow_position"]))
+    assert samples[0] == samples[1] and samples[0][1][-1] == 0.002 * 39 * 39
