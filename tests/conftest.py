@@ -17,6 +17,7 @@ runs at most one real-time test at a time.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import shutil
 from collections.abc import Iterator
@@ -24,6 +25,7 @@ from collections.abc import Iterator
 import pytest
 from xdist.scheduler import LoadScopeScheduling
 
+from daq.sim.simtime import SimTimeLoop
 from tests.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
@@ -80,6 +82,15 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log) -> LoadScopeScheduli
     if config.getvalue("dist") != "loadscope":
         return None
     return _ModuleScheduling(config, log)
+
+
+@pytest.hookimpl
+def pytest_asyncio_loop_factories(config: pytest.Config, item: pytest.Item) -> dict:
+    """Tests marked ``simtime`` run on simulated time (``daq.sim.simtime.SimTimeLoop``):
+    their async fixtures and the test share one loop whose clock jumps when all wait."""
+    if item.get_closest_marker("simtime") is not None:
+        return {"simtime": SimTimeLoop}
+    return {"asyncio": asyncio.new_event_loop}
 
 
 def require_tool(name: str, why: str) -> str:

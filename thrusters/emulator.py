@@ -123,6 +123,13 @@ class ThrusterControllerEmulator:
         for w in list(self._writers):
             w.write(raw)
 
+    def exchange(self, raw: bytes) -> bytes:
+        """In process (no port): handle the complete lines of ``raw`` as if they had come
+        down the line and return what the controller answers (``thrusters.inprocess``)."""
+        replies = _Collected()
+        self._feed(raw, replies)  # type: ignore[arg-type]
+        return bytes(replies.data)
+
     # ---- pty side ---------------------------------------------------------------------
 
     def _on_pty_readable(self) -> None:
@@ -285,3 +292,13 @@ class ThrusterControllerEmulator:
             self._write_pty(raw)
         else:
             writer.write(raw)
+
+
+class _Collected:
+    """Stands in for a stream writer: keeps the bytes written to it."""
+
+    def __init__(self) -> None:
+        self.data = bytearray()
+
+    def write(self, raw: bytes) -> None:
+        self.data += raw

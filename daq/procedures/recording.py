@@ -16,7 +16,6 @@ import asyncio
 import contextlib
 import logging
 import math
-import time
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
@@ -227,7 +226,7 @@ class RecordedRun:
 
     async def record_for(self, seconds: float, *, message: str = "") -> list[Sample]:
         """Collect samples for ``seconds`` (baseline, settling) and return them."""
-        end = time.monotonic() + seconds
+        end = self.session.clock.now() + seconds
         got: list[Sample] = []
         if seconds <= 0:
             return got

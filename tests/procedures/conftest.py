@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import asyncio
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
+from daq.sim.inprocess import open_inprocess_rig
+from daq.sim.simtime import SimClock, SimTimeLoop
 from daq.store import Store
 from tests.waiting import until
 
@@ -57,7 +61,16 @@ def source() -> RigSource:
     return RigSource.load()
 
 
+def rig_session(source: RigSource, store: Store, **options: Any) -> RigSession:
+    """A session (not yet open) on the simulated rig: in a ``simtime`` test (running on a
+    ``SimTimeLoop``) in process on simulated time, otherwise over Modbus TCP and a thruster
+    pty in real time."""
+    if isinstance(asyncio.get_running_loop(), SimTimeLoop):
+        options |= {"clock": SimClock.of_running_loop(), "devices": open_inprocess_rig}
+    return RigSession(source, store, **options)
+
+
 @pytest.fixture
 async def session(source, store):
-    async with RigSession(source, store) as s:
+    async with rig_session(source, store) as s:
         yield s
