@@ -1,18 +1,16 @@
-"""A real rig session on the simulated rig (Modbus TCP + thruster pty) and a temp SQLite store."""
+"""A rig session on the simulated rig (in process on simulated time in a ``simtime`` module,
+else Modbus TCP + a thruster pty in real time: tests/simrig.py) and a temp SQLite store."""
 
 from __future__ import annotations
 
-import asyncio
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
-from daq.sim.inprocess import open_inprocess_rig
-from daq.sim.simtime import SimClock, SimTimeLoop
 from daq.store import Store
+from tests.simrig import rig_session
 from tests.waiting import until
 
 #: A short thrust calibration of the simulated rig (parameters, before the rig's checks).
@@ -59,15 +57,6 @@ def store(tmp_path):
 @pytest.fixture
 def source() -> RigSource:
     return RigSource.load()
-
-
-def rig_session(source: RigSource, store: Store, **options: Any) -> RigSession:
-    """A session (not yet open) on the simulated rig: in a ``simtime`` test (running on a
-    ``SimTimeLoop``) in process on simulated time, otherwise over Modbus TCP and a thruster
-    pty in real time."""
-    if isinstance(asyncio.get_running_loop(), SimTimeLoop):
-        options |= {"clock": SimClock.of_running_loop(), "devices": open_inprocess_rig}
-    return RigSession(source, store, **options)
 
 
 @pytest.fixture
