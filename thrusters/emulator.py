@@ -181,6 +181,7 @@ class ThrusterControllerEmulator:
         line = line.rstrip(b"\r")
         if not line:
             return
+        self._watchdog_overdue()
         if b"$" not in line:
             self.stats.garbage_lines += 1
             return
@@ -247,6 +248,14 @@ class ThrusterControllerEmulator:
             self._watchdog.cancel()
         loop = self._loop or asyncio.get_running_loop()
         self._watchdog = loop.call_later(self.watchdog_s, self._watchdog_expired)
+
+    def _watchdog_overdue(self) -> None:
+        """A frame arriving after the watchdog's time finds it tripped, even when the loop
+        it shares (simulated time, a loaded host) has not yet run the timer."""
+        loop = self._loop or asyncio.get_running_loop()
+        if self._watchdog is not None and self._watchdog.when() <= loop.time():
+            self._watchdog.cancel()
+            self._watchdog_expired()
 
     def _watchdog_expired(self) -> None:
         self._watchdog = None

@@ -4,12 +4,14 @@
 the reply it gives back, classified exactly as ``SerialLink`` classifies a line read off
 the port (CRC, garbage, replies to other sequence numbers, NAKs). The driver calls it on
 the event loop (``blocking = False``), so the controller's watchdog and the driver run on
-one clock. A controller that does not answer (``silent``) gives no reply at once: the
-reply timeout costs no simulated time.
+one clock. A controller that does not answer (``silent``) costs the reply timeout as a
+blocking read would: ``stall(reply_timeout_s)`` (on simulated time ``SimClock.stall``: the
+loop's time moves on while nothing runs).
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
 import serial
@@ -30,10 +32,12 @@ class InProcessLink(SerialLink):
         reply_timeout_s: float,
         *,
         clock: Callable[[], float],
+        stall: Callable[[float], None] = time.sleep,
         url: str = "inprocess://thrusters",
     ) -> None:
         super().__init__(url, 0, reply_timeout_s, clock=clock)
         self.controller = controller
+        self._stall = stall
 
     def open(self) -> None:
         self._wanted = True
@@ -58,5 +62,6 @@ class InProcessLink(SerialLink):
             if reply is not None:
                 self.last_bracket = (t_sent, self._clock())
                 return reply
+        self._stall(self.reply_timeout_s)
         self.stats.timeouts += 1
         return None

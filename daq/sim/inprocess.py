@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import asyncio
 import inspect
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -186,6 +187,9 @@ def open_inprocess_rig(rig: RigConfig, scenario: Scenario | None, clock: Clock) 
     client = PlcClient(rig, clock=clock, transport=lambda: InProcessModbus(sim.plc, timeout_s))
     driver = None
     if sim.thrusters is not None and rig.thrusters is not None:
-        link = InProcessLink(sim.thrusters, rig.thrusters.ack_timeout_s, clock=clock.now)
+        stall = getattr(clock, "stall", time.sleep)  # a reply timeout blocks the caller
+        link = InProcessLink(
+            sim.thrusters, rig.thrusters.ack_timeout_s, clock=clock.now, stall=stall
+        )
         driver = ThrusterDriver(rig.thrusters, rig.limits, clock=clock.now, link=link)
     return InProcessRig(sim.plant, sim.plc, sim.thrusters, client, driver)

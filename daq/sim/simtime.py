@@ -126,5 +126,10 @@ class SimClock:
     async def sleep(self, seconds: float) -> None:
         await asyncio.sleep(seconds)
 
+    def stall(self, seconds: float) -> None:
+        """Block for ``seconds`` as a blocking call on the loop would: time moves on and
+        nothing else runs meanwhile (timers due by then run late, in order)."""
+        self.loop.advance(seconds)
+
     async def sleep_until(self, deadline: float) -> None:
         await asyncio.sleep(max(0.0, deadline - self.now()))

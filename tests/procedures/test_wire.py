@@ -1,9 +1,12 @@
-"""A PLC lost mid-run over real Modbus TCP (the server stops and returns on its port): the
-run aborts with its samples kept and the client reconnects, in real time."""
+"""Procedures over the real wire, in real time: a PLC lost mid-run over Modbus TCP (the
+server stops and returns on its port: the run aborts with its samples kept and the client
+reconnects); thrust steps timed by the thruster link's thread while the event loop is
+blocked. The other procedure tests run in process on simulated time."""
 
 from __future__ import annotations
 
 import asyncio
+import time
 
 import numpy as np
 
@@ -45,3 +48,25 @@ async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, sto
     )
     assert not session.acquisition.device_lost.is_set()
     assert session.latest().quality == 0
+
+
+async def test_thrust_steps_are_timed_by_the_link_not_by_a_late_event_loop(session):
+    """The event loop is blocked (a loaded host) while a command's reply comes back: the
+    stored step is bracketed by when the frame went out and its reply was read, not by when
+    the loop got round to it, so the drive rebuilt from it is not shifted late."""
+    drv = session.live_thrusters
+    await session.arm_thrusters()
+    try:
+        session.set_thrust([0.8, 0.8])  # a ramp, one step per tick
+        await until(lambda: any(drv.confirmed), "the ramp under way")
+        with drv.recording_outputs() as steps:
+            dispatched = time.monotonic()
+            sending = asyncio.ensure_future(drv.command([0.8, 0.8]))  # the next ramp step
+            await asyncio.sleep(0)  # the frame is handed to the link's thread
+            time.sleep(0.3)  # a host too busy to run the loop; the link's thread goes on
+            assert await sending
+        during = [step for step in steps if step.t_sent >= dispatched]
+        assert during and during[0].t_sent < dispatched + 0.1
+        assert during[0].t_acked - during[0].t_sent < 0.1  # not the 0.3 s the loop was away
+    finally:
+        await session.disarm_thrusters()
