@@ -52,3 +52,9 @@ class RealClock:
 
 #: The clock of production: real time.
 REAL_CLOCK = RealClock()
+
+
+def clock_of(loop: asyncio.AbstractEventLoop) -> Clock:
+    """The clock of ``loop``: its own (``SimTimeLoop.clock``) if it has one, else real time."""
+    clock: Clock = getattr(loop, "clock", REAL_CLOCK)
+    return clock

@@ -11,13 +11,17 @@ CPU allows, in the same order for the same inputs::
     clock = SimClock.run(main())   # or, in a test on a SimTimeLoop: SimClock.of_running_loop()
 
 Real sockets and ptys still work on this loop, but their peers run in real time: keep
-simulated time for in-process devices (``daq.sim.inprocess``).
+simulated time for in-process devices (``daq.sim.inprocess``). A loop that serves someone
+in real time (a rig service behind HTTP in a test) is paced: ``SimTimeLoop(pace=20)`` lets
+its time run at most 20 times faster than the wall clock while it waits, so an idle rig
+does not spin a core and a client's requests still arrive between its ticks.
 """
 
 from __future__ import annotations
 
 import asyncio
 import selectors
+import time
 from collections.abc import Callable, Coroutine
 from concurrent.futures import Executor
 from typing import Any, TypeVar
@@ -46,6 +50,15 @@ class _SimSelector:
         if self._loop.busy_threads:
             wait = _THREAD_POLL_S if timeout is None else min(timeout, _THREAD_POLL_S)
             return self._inner.select(wait)  # time stands still while a thread works
+        pace = self._loop.pace
+        if pace is not None and timeout is not None:
+            started = time.monotonic()
+            events = self._inner.select(timeout / pace)
+            if events:  # woken early: time moved on only as far as the pace allows
+                self._loop.advance(min(timeout, (time.monotonic() - started) * pace))
+                return events
+            self._loop.advance_to_next_timer(timeout)
+            return []
         events = self._inner.select(0)
         if events or timeout is None:
             return events or self._inner.select(None)
@@ -59,9 +72,13 @@ class _SimSelector:
 class SimTimeLoop(asyncio.SelectorEventLoop):
     """An event loop on simulated time (see the module docstring)."""
 
-    def __init__(self, start_s: float = START_S) -> None:
+    def __init__(self, start_s: float = START_S, *, pace: float | None = None) -> None:
         super().__init__()
+        if pace is not None and not pace > 0:
+            raise ValueError(f"pace: must be > 0 (times faster than real time), got {pace!r}")
         self._sim_now = start_s
+        #: At most this many simulated seconds per real second while waiting (None: no limit).
+        self.pace = pace
         #: Worker-thread calls still running; time does not move while any is.
         self.busy_threads = 0
         inner: selectors.BaseSelector = self._selector  # type: ignore[has-type]
@@ -69,6 +86,11 @@ class SimTimeLoop(asyncio.SelectorEventLoop):
 
     def time(self) -> float:
         return self._sim_now
+
+    @property
+    def clock(self) -> SimClock:
+        """This loop's clock (``daq.clock.clock_of``)."""
+        return SimClock(self)
 
     def advance(self, seconds: float) -> None:
         """Move simulated time forward (the loop does this itself when all wait)."""
