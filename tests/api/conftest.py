@@ -107,11 +107,18 @@ def service(request: pytest.FixtureRequest, tmp_path_factory) -> RigService:
     db = tmp_path_factory.mktemp("api") / "rig.db"
     if request.node.get_closest_marker("simtime") is None:
         return RigService(RigSource.load(), f"sqlite:///{db}")
+    return simulated_service(RigSource.load(), f"sqlite:///{db}")
+
+
+def simulated_service(source: RigSource, store_url: str, **options: Any) -> RigService:
+    """A rig service (not started) whose rig thread runs the simulated rig in process on
+    simulated time, paced at ``SERVICE_PACE``; ``options`` as for ``RigService``."""
     return RigService(
-        RigSource.load(),
-        f"sqlite:///{db}",
+        source,
+        store_url,
         loop_factory=functools.partial(SimTimeLoop, pace=SERVICE_PACE),
         devices=open_inprocess_rig,
+        **options,
     )
 
 
@@ -222,8 +229,10 @@ def completed_tows(client, forces: Iterable[float], body: dict = SHORT_TOW) -> l
 
 
 def fast_pendulum_service(folder: Path) -> RigService:
-    """A rig service on the simulated rig with the fast pendulum rig file
-    (``tests.procedures.test_pendulum.fast_rig_file``) and a database in ``folder``."""
+    """A rig service on the simulated rig (in process, simulated time) with the fast pendulum
+    rig file (``tests.procedures.test_pendulum.fast_rig_file``) and a database in ``folder``."""
     from tests.procedures.test_pendulum import fast_rig_file
 
-    return RigService(RigSource.load(fast_rig_file(folder)), f"sqlite:///{folder / 'rig.db'}")
+    return simulated_service(
+        RigSource.load(fast_rig_file(folder)), f"sqlite:///{folder / 'rig.db'}"
+    )
