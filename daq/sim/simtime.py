@@ -13,7 +13,7 @@ CPU allows, in the same order for the same inputs::
 Real sockets and ptys still work on this loop, but their peers run in real time: keep
 simulated time for in-process devices (``daq.sim.inprocess``). A loop that serves someone
 in real time (a rig service behind HTTP in a test) is paced: ``SimTimeLoop(pace=10)`` lets
-its time run at most 20 times faster than the wall clock while it waits, so an idle rig
+its time run at most 10 times faster than the wall clock while it waits, so an idle rig
 does not spin a core and a client's requests still arrive between its ticks.
 """
 
