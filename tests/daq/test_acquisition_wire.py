@@ -43,7 +43,9 @@ async def test_plc_lost_mid_acquisition_then_back(server, plc):
     t_lost = time.monotonic()
     async with asyncio.timeout(2.0):
         await acq.device_lost.wait()
-    assert 0.08 < time.monotonic() - t_lost < 0.5
+    # Not before device_lost_after_s (how soon after it is the host's: the rule is timed
+    # exactly on simulated time, test_acquisition.py).
+    assert time.monotonic() - t_lost > 0.08
     down = await _collect(q, 10)
     errors = [s for s in down if s.quality & Quality.ERROR]
     assert errors and all(math.isnan(v) for s in errors for v in s.channels.values())

@@ -165,7 +165,7 @@ async def _watchdog_trip_aborts_the_run(session, store) -> None:
     emulator = session.sim.thrusters
     # The host's loop is blocked for a second (no heartbeats go out): simulated time moves
     # on without it, and the controller's watchdog trips before the loop runs again.
-    session.clock.loop.advance(1.0)
+    session.clock.stall(1.0)
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     assert "watchdog tripped" in outcome.reason
