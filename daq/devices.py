@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from daq.config import RigConfig
     from daq.plc import PlcClient
     from daq.sim.scenario import Scenario
-    from thrusters.driver import OutputStep, ThrusterDriver, ThrusterFault
+    from thrusters.driver import OutputStep, ThrusterDriver, ThrusterFault, ThrusterStatus
 
 
 class Thrusters(Protocol):
@@ -33,6 +33,8 @@ class Thrusters(Protocol):
 
     @property
     def confirmed(self) -> tuple[float, ...]: ...  # outputs the controller last confirmed
+
+    async def query(self) -> ThrusterStatus: ...  # state, RPM and current per thruster
 
     async def command(self, fractions: Sequence[float]) -> bool: ...
 

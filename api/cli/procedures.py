@@ -28,7 +28,7 @@ from api.cli.options import request_fields, request_options
 from daq.procedures.kinds import KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
-from daq.rig_lock import RigInUse
+from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import one_line
 from daq.vocabulary import RunKind, RunStatus
@@ -62,10 +62,14 @@ def _run_procedure(
             try:
                 async with RigSession(source, store) as session:
                     session.run_metadata = run_metadata()  # --operator, --tag, … (cli_metadata)
+                    # A lost lease stops whatever the procedure waits on (a run, a prompt).
+                    session.add_fault_listener(abort.set)
                     return await body(session, params, abort, view)
             except (
                 PreconditionFailed,
                 RigInUse,
+                RigLockError,
+                RigLockLost,
                 DeviceError,
                 ThrusterError,
                 OperatorActUnavailable,
