@@ -28,11 +28,11 @@ import logging
 import math
 import os
 import sys
-import time
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from daq.clock import REAL_CLOCK, Clock
 from daq.plc import Reading
 from daq.sample import Quality, Sample
 
@@ -92,6 +92,7 @@ class Acquisition:
         device_lost_after_s: float | None = None,
         spin_s: float = 0.002,
         realtime: bool = False,
+        clock: Clock = REAL_CLOCK,
     ) -> None:
         if not (math.isfinite(rate_hz) and 0 < rate_hz <= 10_000):
             raise ValueError(f"rate_hz must be in (0, 10000] Hz, got {rate_hz!r}")
@@ -104,7 +105,9 @@ class Acquisition:
         )
         if self.device_lost_after_s <= 0:
             raise ValueError(f"device_lost_after_s must be > 0 s, got {self.device_lost_after_s!r}")
-        self.spin_s = spin_s
+        #: Time and waiting (``daq.clock``); a simulated clock is on time without spinning.
+        self.clock = clock
+        self.spin_s = 0.0 if clock.simulated else spin_s
         #: Ask the OS for real-time scheduling of the clock's thread (see ``set_realtime``).
         self.realtime = realtime
         self.stats = ClockStats()
@@ -151,7 +154,7 @@ class Acquisition:
     async def _sleep_until(self, deadline: float) -> None:
         loop = asyncio.get_running_loop()
         coarse = deadline - self.spin_s
-        if time.monotonic() < coarse:
+        if self.clock.now() < coarse:
             self._wake = loop.create_future()
             handle = loop.call_at(coarse, _resolve, self._wake)
             try:
@@ -159,7 +162,9 @@ class Acquisition:
             finally:
                 handle.cancel()
                 self._wake = None
-        while not self._stopping and time.monotonic() < deadline:
+        if self.clock.simulated:  # woken at its deadline: simulated time only jumps to timers
+            return
+        while not self._stopping and self.clock.now() < deadline:
             await asyncio.sleep(0)
 
     async def run(self) -> None:
@@ -175,7 +180,7 @@ class Acquisition:
         # (5 ms by default): more than a slot at high rates. Hand it back faster while running.
         switch_interval = sys.getswitchinterval()
         sys.setswitchinterval(min(switch_interval, max(period / 4, 0.0002)))
-        t0 = time.monotonic()
+        t0 = self.clock.now()
         last_good = t0
         slot = 0
         overrun = False
@@ -185,7 +190,7 @@ class Acquisition:
                 await self._sleep_until(deadline)
                 if self._stopping:
                     return
-                start = time.monotonic()
+                start = self.clock.now()
                 due = math.ceil((start - t0) / period - 0.5)
                 if due > slot:  # woke over half a period late (busy machine): skip, not burst
                     self.stats.overruns += 1
@@ -207,7 +212,7 @@ class Acquisition:
                     self.device_lost.clear()
                 self._publish(sample)
                 # Next slot: the first one not more than half a period overdue.
-                due = math.ceil((time.monotonic() - t0) / period - 0.5)
+                due = math.ceil((self.clock.now() - t0) / period - 0.5)
                 next_slot = max(slot + 1, due)
                 overrun = next_slot > slot + 1
                 if overrun:
@@ -227,10 +232,10 @@ class Acquisition:
         except Exception as err:  # DeviceError, or anything odd from the transport
             self.stats.failed_polls += 1
             log.debug("poll %d failed: %s", seq, err)
-            t_mono, t_wall = time.monotonic(), time.time()
+            t_mono, t_wall = self.clock.now(), self.clock.wall()
             lost = dict.fromkeys(self.plc.channel_names, math.nan)
             return Sample(seq, t_mono, t_wall, lost, quality | Quality.ERROR)
-        t_mono, t_wall = time.monotonic(), time.time()
+        t_mono, t_wall = self.clock.now(), self.clock.wall()
         channels: dict[str, float] = {}
         stale: list[str] = []
         for name, r in readings.items():

@@ -18,15 +18,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
 from daq import registers
 from daq.blocks import ReadBlock, plan_blocks
+from daq.clock import REAL_CLOCK, Clock
 from daq.config import Channel, RigConfig
 from daq.sample import Quality
 from daq.unwrap import CounterUnwrapper
@@ -81,10 +82,21 @@ class PlcStats:
 class PlcClient:
     """Modbus TCP or RTU client for the rig's PLC/encoder (see module docstring)."""
 
-    def __init__(self, rig: RigConfig, *, channels: Sequence[str] | None = None) -> None:
+    def __init__(
+        self,
+        rig: RigConfig,
+        *,
+        channels: Sequence[str] | None = None,
+        clock: Clock = REAL_CLOCK,
+        transport: Callable[[], Any] | None = None,
+    ) -> None:
         """``channels`` limits what ``read_all`` polls (e.g. only the encoders, for a fast
-        loop); default: every non-``sim_only`` channel of the register map."""
+        loop); default: every non-``sim_only`` channel of the register map. ``clock`` stamps
+        readings; ``transport`` makes the pymodbus-shaped client instead of the rig file's
+        TCP or RTU one (``daq.sim.inprocess``: the simulated PLC in process)."""
         self.rig = rig
+        self.clock = clock
+        self._transport = transport
         self.modbus = rig.modbus
         self.stats = PlcStats()
         polled = [c for c in rig.channels if not c.sim_only]
@@ -96,7 +108,7 @@ class PlcClient:
         }
         self._last: dict[str, Reading] = {}
         # Made on first connect: pymodbus clients bind to the running event loop.
-        self._client: AsyncModbusTcpClient | AsyncModbusSerialClient | None = None
+        self._client: Any = None
         self._reconnect_task: asyncio.Task | None = None
         self._closed = False
 
@@ -125,7 +137,9 @@ class PlcClient:
         """True while the transport to the PLC is open."""
         return self._client is not None and bool(self._client.connected)
 
-    def _make_client(self) -> AsyncModbusTcpClient | AsyncModbusSerialClient:
+    def _make_client(self) -> Any:
+        if self._transport is not None:
+            return self._transport()
         m = self.modbus
         if m.transport == "tcp":
             return AsyncModbusTcpClient(
@@ -164,14 +178,14 @@ class PlcClient:
         self._closed = False
         if self.connected:
             return
-        deadline = time.monotonic() + (timeout_s or 0.0)
+        deadline = self.clock.now() + (timeout_s or 0.0)
         delay = self.modbus.reconnect_min_s
         attempts = 0
         while True:
             attempts += 1
             if await self._attempt():
                 return
-            remaining = deadline - time.monotonic()
+            remaining = deadline - self.clock.now()
             if timeout_s is None or remaining <= 0:
                 raise DeviceError(
                     f"cannot connect to PLC at {self.endpoint} after {attempts} attempt(s)"
@@ -291,7 +305,7 @@ class PlcClient:
                 except DeviceError as err:
                     first_error = first_error or err
                     give_up = err.link_failure
-            now = time.monotonic()
+            now = self.clock.now()
             if values is not None:
                 fresh = self._decode_block(block, values, now)
                 self._last.update(fresh)
@@ -313,7 +327,7 @@ class PlcClient:
         ch = self.rig.channel(name)
         block = ReadBlock(ch.kind, ch.address, ch.width, (ch,))
         values = await self._read_block(block)
-        reading = self._decode_block(block, values, time.monotonic())[name]
+        reading = self._decode_block(block, values, self.clock.now())[name]
         self._last[name] = reading
         return reading.value
 

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from daq.acquisition import Acquisition
+from daq.clock import REAL_CLOCK, Clock
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
@@ -35,6 +36,7 @@ from thrusters.config import CommandLimits, ThrusterPort
 from thrusters.driver import ThrusterDriver, ThrusterError
 
 if TYPE_CHECKING:
+    from daq.devices import DeviceFactory, RigDevices, Thrusters
     from daq.sim.rig import SimulatedRigThread
     from daq.sim.scenario import Scenario
 
@@ -110,7 +112,14 @@ class ThrustTarget:
 
 
 class RigSession:
-    """Open the devices of one rig and keep the clock running until ``close``."""
+    """Open the devices of one rig and keep the clock running until ``close``.
+
+    ``clock`` is the time of the acquisition clock, the supervisor and the procedures
+    (``daq.clock``; real time by default). ``devices`` makes the PLC client and thruster
+    driver instead of the rig file's own (``daq.devices.DeviceFactory``; tests pass
+    ``daq.sim.inprocess.open_inprocess_rig`` with a simulated clock); what it returns is
+    kept as ``sim`` and closed with the session.
+    """
 
     def __init__(
         self,
@@ -120,14 +129,18 @@ class RigSession:
         operator: Operator | None = None,
         rate_hz: float | None = None,
         owner: str | None = None,
+        clock: Clock = REAL_CLOCK,
+        devices: DeviceFactory | None = None,
     ) -> None:
         self.source = source
+        self.clock = clock
+        self._devices = devices
         self.rig = source.rig
         self.store = store
         self.simulated = self.rig.rig.mode == "simulated"
         self._operator = operator
         self._rate_hz = rate_hz or self.rig.acquisition.rate_hz
-        self.sim: SimulatedRigThread | None = None
+        self.sim: SimulatedRigThread | RigDevices | None = None
         self.plc: PlcClient | None = None
         self.acquisition: Acquisition | None = None
         self.thrusters: ThrusterDriver | None = None
@@ -160,19 +173,23 @@ class RigSession:
         await asyncio.to_thread(self.rig_lock.acquire)
         self._has_rig = True
         conn = self.rig
-        if self.simulated:
+        made = None
+        if self._devices is not None:
+            made = self.sim = self._devices(self.rig, self.source.scenario, self.clock)
+        elif self.simulated:
             from daq.sim.rig import SimulatedRigThread
 
             sim = SimulatedRigThread(self.rig, self.source.scenario)
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
-        self.plc = PlcClient(conn)
+        self.plc = made.plc_client if made else PlcClient(conn)
         await self.plc.connect(timeout_s=connect_timeout_s)
-        self.acquisition = Acquisition(self.plc, rate_hz=self._rate_hz)
+        self.acquisition = Acquisition(self.plc, rate_hz=self._rate_hz, clock=self.clock)
         self._tasks.append(asyncio.create_task(self.acquisition.run(), name="acquisition"))
         if conn.thrusters is not None:  # a rig without [thrusters] opens no serial port
-            driver = open_thruster_driver(conn.thrusters, conn.limits)
+            driver = made.driver if made and made.driver else None
+            driver = driver or open_thruster_driver(conn.thrusters, conn.limits)
             await driver.open()
             self.thrusters = driver  # only an open driver is zeroed and closed later
             self._tasks.append(
@@ -279,8 +296,8 @@ class RigSession:
         return self.plc
 
     @property
-    def live_thrusters(self) -> ThrusterDriver:
-        """The thruster driver of an open session."""
+    def live_thrusters(self) -> Thrusters:
+        """The thrusters of an open session."""
         assert self.thrusters is not None, "session not open"
         return self.thrusters
 

@@ -10,76 +10,37 @@ server binaries (tests/pg.py).
 
 Lanes and workers (pyproject.toml): ``pytest`` runs the fast lane (``-m 'not slow'``) on
 two xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled by module
-(``--dist loadscope``), so module-scoped fixtures (recorded runs, servers) are built once;
-the real-time modules form two scopes (``realtime_scope``), one per worker, so each worker
-runs at most one real-time test at a time.
+(``--dist loadscope``), so module-scoped fixtures (recorded runs, servers) are built once.
+
+Simulated time: a test or module marked ``simtime`` runs its async fixtures and tests on
+``daq.sim.simtime.SimTimeLoop`` (``pytest_asyncio_loop_factories`` below), where
+``tests/simrig.py`` and the API's ``service`` fixture put the simulated rig in process. The
+few modules that prove the real stack (Modbus TCP/RTU, the thruster pty, ``rig``
+subprocesses, the browser, the fault proxies) run in real time.
 """
 
 from __future__ import annotations
 
+import asyncio
 import os
 import shutil
 from collections.abc import Iterator
 
 import pytest
-from xdist.scheduler import LoadScopeScheduling
 
+from daq.sim.simtime import SimTimeLoop
 from tests.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
-#: Folders whose tests drive a device or the rig's procedures in real time.
-DEVICE_FOLDERS = ("tests/daq/", "tests/procedures/", "tests/sim/", "tests/thrusters/")
-#: Other modules that run tests on the simulated rig in real time (the chains, the service's
-#: jobs and pages) or assert wall-clock bounds (a stream's pace, the recorder's flushes).
-SERVICE_FOLDERS = ("tests/integration/",)
-SERVICE_MODULES = frozenset(
-    {
-        "tests/api/test_browser.py",
-        "tests/api/test_job_queue.py",
-        "tests/api/test_jobs.py",
-        "tests/api/test_live_ui.py",
-        "tests/api/test_operator.py",
-        "tests/api/test_pendulum_job.py",
-        "tests/api/test_reverse_browser.py",
-        "tests/api/test_rig_capabilities.py",
-        "tests/api/test_rig_lock.py",
-        "tests/api/test_storage_fault_job.py",
-        "tests/api/test_stream.py",
-        "tests/store/test_recorder.py",
-    }
-)
 
-
-def realtime_scope(module: str) -> str | None:
-    """The real-time scope of a test module (path from the project root), or None for a
-    module that only computes (estimation, storage, API reads and checks)."""
-    if module.startswith(DEVICE_FOLDERS):
-        return "realtime-devices"
-    if module in SERVICE_MODULES or module.startswith(SERVICE_FOLDERS):
-        return "realtime-service"
-    return None
-
-
-class _ModuleScheduling(LoadScopeScheduling):
-    """xdist's loadscope by module, with the real-time modules in two scopes (device and
-    procedure tests; chains and service tests) of about equal length: each worker runs one
-    of them, one test at a time, so at most two real-time tests run at once on a 2-core
-    machine, one per core, and the computing modules fill the gaps. The two scopes hold the
-    most tests, so xdist sends them first, one to each worker."""
-
-    def _split_scope(self, nodeid: str) -> str:
-        module = nodeid.split("::", 1)[0]
-        return realtime_scope(module) or module
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_xdist_make_scheduler(config: pytest.Config, log) -> LoadScopeScheduling | None:
-    """Under ``--dist loadscope``, schedule by module with two scopes for the real-time ones.
-    (xdist's own ``loadgroup`` silently stops grouping on pytest 9.2, pytest-xdist#1386.)"""
-    if config.getvalue("dist") != "loadscope":
-        return None
-    return _ModuleScheduling(config, log)
+@pytest.hookimpl
+def pytest_asyncio_loop_factories(config: pytest.Config, item: pytest.Item) -> dict:
+    """Tests marked ``simtime`` run on simulated time (``daq.sim.simtime.SimTimeLoop``):
+    their async fixtures and the test share one loop whose clock jumps when all wait."""
+    if item.get_closest_marker("simtime") is not None:
+        return {"simtime": SimTimeLoop}
+    return {"asyncio": asyncio.new_event_loop}
 
 
 def require_tool(name: str, why: str) -> str:

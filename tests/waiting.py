@@ -45,10 +45,12 @@ async def until(
     condition: Callable[[], Any], what: str, *, timeout_s: float = 30.0, poll_s: float = 0.01
 ) -> Any:
     """``wait_until`` for a test on the event loop: the loop keeps running while it waits.
-    ``condition`` may be a coroutine function (a read from a device, a command sent)."""
-    deadline = time.monotonic() + timeout_s
+    ``condition`` may be a coroutine function (a read from a device, a command sent).
+    Time is the loop's: simulated time in a ``simtime`` test."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout_s
     while not (value := await _value(condition())):
-        assert time.monotonic() < deadline, _never(what, timeout_s, value)
+        assert loop.time() < deadline, _never(what, timeout_s, value)
         await asyncio.sleep(poll_s)
     return value
 

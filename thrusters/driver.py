@@ -102,7 +102,8 @@ class ThrusterDriver:
 
     ``port`` overrides ``cfg.port`` (needed when the rig file says ``"sim"``: the simulated
     rig hands over its pty path or ``socket://`` URL). ``clock`` is the monotonic time
-    source of the slew limiter (tests pass their own to make ramps byte-exact). ``link``
+    source of the slew limiter and of every time the driver stamps (tests pass their own
+    to make ramps byte-exact; a simulated rig its ``daq.clock.Clock.now``). ``link``
     replaces the serial link built from the port (tests pass one over an in-memory port).
     """
 
@@ -141,7 +142,7 @@ class ThrusterDriver:
         self.clamped_commands = 0
         #: Outputs the controller last confirmed (ACK, or zero when it is not armed).
         self._confirmed: tuple[float, ...] = (0.0,) * self.count
-        self._t_confirmed = time.monotonic()
+        self._t_confirmed = self.clock()
         #: Host times just before the last frame went out and when its reply was read (as the
         #: link's thread saw them; when no reply came, when this driver saw the timeout).
         self.last_bracket: tuple[float, float] = (self._t_confirmed, self._t_confirmed)
@@ -248,7 +249,7 @@ class ThrusterDriver:
                 f"rig file thrusters.count is {self.count}"
             )
         self.state = reply.state or "UNKNOWN"
-        return ThrusterStatus(reply.state or "", reply.rpm, reply.current_a, time.monotonic())
+        return ThrusterStatus(reply.state or "", reply.rpm, reply.current_a, self.clock())
 
     # ---- commanding -------------------------------------------------------------------
 
@@ -362,9 +363,7 @@ class ThrusterDriver:
     def _set_fault(self, kind: str, reason: str) -> None:
         if self.fault is not None:
             return
-        self.fault = ThrusterFault(
-            kind, reason, time.monotonic(), self._t_confirmed, self._confirmed
-        )
+        self.fault = ThrusterFault(kind, reason, self.clock(), self._t_confirmed, self._confirmed)
         log.error("thrusters: %s", reason)
         if self._fault_event is None:
             self._fault_event = asyncio.Event()
@@ -383,7 +382,7 @@ class ThrusterDriver:
             return
         self.inhibited = "thruster link lost"
         cause = _miss_cause(reply, before, self._link.stats)
-        age = time.monotonic() - self._t_confirmed
+        age = self.clock() - self._t_confirmed
         confirmed = ", ".join(f"{x:+.3f}" for x in self._confirmed)
         self._set_fault(
             "link_lost",
@@ -420,6 +419,8 @@ class ThrusterDriver:
     async def _run(self, fn: Callable[..., object], *args: object) -> object:
         if self._executor is None:
             raise ThrusterError(f"thruster driver for {self._link.url} is not open")
+        if not self._link.blocking:  # an in-process link (simulated time): no thread
+            return fn(*args)
         return await asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
 
     async def _transact(
@@ -428,14 +429,14 @@ class ThrusterDriver:
         """Send one frame; ``outputs`` are the controller's outputs once it ACKs it."""
         self._seq = p.next_seq(self._seq)
         seq = self._seq
-        t_sent = time.monotonic()
+        t_sent = self.clock()
         before = dataclasses.replace(self._link.stats)
         exchanged = await self._run(self._exchange, make(seq), seq)
         assert isinstance(exchanged, tuple)
         reply, bracket = exchanged
         assert reply is None or isinstance(reply, p.Reply)
         # The link's own send/reply times: this coroutine may resume late on a loaded host.
-        t_sent, t_reply = self.last_bracket = bracket or (t_sent, time.monotonic())
+        t_sent, t_reply = self.last_bracket = bracket or (t_sent, self.clock())
         was_armed = self.state == "ARMED"
         if reply is not None and reply.state:
             self.state = reply.state

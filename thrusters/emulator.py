@@ -123,6 +123,13 @@ class ThrusterControllerEmulator:
         for w in list(self._writers):
             w.write(raw)
 
+    def exchange(self, raw: bytes) -> bytes:
+        """In process (no port): handle the complete lines of ``raw`` as if they had come
+        down the line and return what the controller answers (``thrusters.inprocess``)."""
+        replies = _Collected()
+        self._feed(raw, replies)  # type: ignore[arg-type]
+        return bytes(replies.data)
+
     # ---- pty side ---------------------------------------------------------------------
 
     def _on_pty_readable(self) -> None:
@@ -174,6 +181,7 @@ class ThrusterControllerEmulator:
         line = line.rstrip(b"\r")
         if not line:
             return
+        self._watchdog_overdue()
         if b"$" not in line:
             self.stats.garbage_lines += 1
             return
@@ -241,6 +249,14 @@ class ThrusterControllerEmulator:
         loop = self._loop or asyncio.get_running_loop()
         self._watchdog = loop.call_later(self.watchdog_s, self._watchdog_expired)
 
+    def _watchdog_overdue(self) -> None:
+        """A frame arriving after the watchdog's time finds it tripped, even when the loop
+        it shares (simulated time, a loaded host) has not yet run the timer."""
+        loop = self._loop or asyncio.get_running_loop()
+        if self._watchdog is not None and self._watchdog.when() <= loop.time():
+            self._watchdog.cancel()
+            self._watchdog_expired()
+
     def _watchdog_expired(self) -> None:
         self._watchdog = None
         if self.state == "ARMED":
@@ -285,3 +301,13 @@ class ThrusterControllerEmulator:
             self._write_pty(raw)
         else:
             writer.write(raw)
+
+
+class _Collected:
+    """Stands in for a stream writer: keeps the bytes written to it."""
+
+    def __init__(self) -> None:
+        self.data = bytearray()
+
+    def write(self, raw: bytes) -> None:
+        self.data += raw

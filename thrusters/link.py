@@ -56,6 +56,9 @@ class SerialLink:
     ``reset_input_buffer``/``close``) and the clock it advances, so conversations and reply
     timeouts run without a pty or real waiting."""
 
+    #: I/O blocks: the driver runs it on its worker thread (an in-process link does not).
+    blocking = True
+
     def __init__(
         self,
         url: str,

@@ -27,6 +27,8 @@ from collections.abc import Callable, Coroutine
 from typing import Any, TypeVar
 
 from api.core.stream import Broadcaster
+from daq.clock import clock_of
+from daq.devices import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
@@ -64,8 +66,15 @@ class RigService:
         broadcaster: Broadcaster | None = None,
         realtime: bool = False,
         owner: str | None = None,
+        loop_factory: Callable[[], asyncio.AbstractEventLoop] = asyncio.new_event_loop,
+        devices: DeviceFactory | None = None,
     ) -> None:
+        """``loop_factory`` makes the rig thread's loop, whose clock the session runs on
+        (``daq.clock.clock_of``: real time, or a test's ``SimTimeLoop``); ``devices`` makes
+        the session's devices (``RigSession``'s ``devices``)."""
         self.source = source
+        self._loop_factory = loop_factory
+        self._devices = devices
         #: How this service is named to a process refused the rig (default ``rig <cmd>``).
         self.owner = owner
         self.store_url = store_url
@@ -128,7 +137,7 @@ class RigService:
         sys.setswitchinterval(self._previous_switch)
 
     def _main(self) -> None:
-        loop = asyncio.new_event_loop()
+        loop = self._loop_factory()
         self.loop = loop
         try:
             loop.run_until_complete(self._run())
@@ -148,7 +157,13 @@ class RigService:
         operator = PromptOperator(self._ask) if self.ask_operator else None
         assert self.store is not None
         session = RigSession(
-            self.source, self.store, operator=operator, rate_hz=self.rate_hz, owner=self.owner
+            self.source,
+            self.store,
+            operator=operator,
+            rate_hz=self.rate_hz,
+            owner=self.owner,
+            clock=clock_of(asyncio.get_running_loop()),
+            devices=self._devices,
         )
         try:
             await session.open()

@@ -14,7 +14,6 @@ import asyncio
 import logging
 import math
 import statistics
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -219,9 +218,9 @@ async def _record_until(
     rec: RecordedRun, done: Callable[[], bool], timed_out: Callable[[], str]
 ) -> None:
     """Record until ``done()``; RuntimeError(``timed_out()``) after ``CONFIRM_TIMEOUT_S``."""
-    deadline = time.monotonic() + CONFIRM_TIMEOUT_S
+    deadline = rec.session.clock.now() + CONFIRM_TIMEOUT_S
     while not done():
-        if time.monotonic() > deadline:
+        if rec.session.clock.now() > deadline:
             raise RuntimeError(timed_out())
         await rec.record_for(0.05)
 

@@ -19,7 +19,6 @@ import asyncio
 import contextlib
 import logging
 import math
-import time
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
@@ -201,7 +200,7 @@ class RecordedRun:
         shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods)."""
         s = self.session
         safe = await s.safe_state()
-        done = time.monotonic()
+        done = s.clock.now()
         if safe is None:  # the session made the rig safe itself as it released the devices
             await self.event("safe", "safe state: made as the devices were released")
             return
@@ -273,7 +272,7 @@ class RecordedRun:
 
     async def record_for(self, seconds: float, *, message: str = "") -> list[Sample]:
         """Collect samples for ``seconds`` (baseline, settling) and return them."""
-        end = time.monotonic() + seconds
+        end = self.session.clock.now() + seconds
         got: list[Sample] = []
         if seconds <= 0:
             return got

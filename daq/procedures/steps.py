@@ -7,7 +7,6 @@ from __future__ import annotations
 import asyncio
 import logging
 import statistics
-import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -224,9 +223,9 @@ async def baseline_then_release(
     """
     report(Progress(0.05, f"recording a {baseline_s:g} s baseline", extra={"run_id": rec.run_id}))
     await rec.record_for(baseline_s)
-    before = time.monotonic()
+    before = session.clock.now()
     await session.live_plc.write(channel, True)
-    after = time.monotonic()  # the PLC acknowledged: the release happened in between
+    after = session.clock.now()  # the PLC acknowledged: the release happened in between
     latest = session.latest()
     await rec.event(
         "operator",
@@ -255,6 +254,6 @@ async def engage_and_log_stop(
         message,
         action=action,
         seq=sample.seq,
-        t_mono=time.monotonic(),
+        t_mono=rec.session.clock.now(),
         t_last_free=sample.t_mono if t_last_free is None else t_last_free,
     )

@@ -142,6 +142,22 @@ class SimulatedPLC:
                 await asyncio.sleep(self._rng.uniform(0.0, self._jitter_s))
         return None
 
+    async def serve(
+        self,
+        function_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        registers: list[int],
+        set_values: list[int] | list[bool] | None,
+    ) -> ExcCodes | None:
+        """Answer one request in process, as the server would (``daq.sim.inprocess``):
+        reads fill ``registers`` (words from ``start_address``; bits packed 16 a word),
+        writes reach the plant; an exception code for a request the PLC refuses."""
+        return await self._action(
+            function_code, start_address, address, count, registers, set_values
+        )
+
     def _fill(self, kind: str, address: int, count: int, start: int, registers: list[int]) -> None:
         """Write the plant's present values into the datastore registers being read."""
         end = address + count

@@ -204,7 +204,7 @@ class SimulatedRigThread:
         A one-parameter function called without arguments gets the SimulatedRig, e.g.
         ``sim.call(lambda s: s.plc.stop_server())``.
         """
-        if not args and _takes_one_argument(fn):
+        if not args and takes_one_argument(fn):
             args = (self.sim,)
 
         async def run() -> Any:
@@ -236,7 +236,8 @@ class SimulatedRigThread:
         self.close()
 
 
-def _takes_one_argument(fn: Callable[..., Any]) -> bool:
+def takes_one_argument(fn: Callable[..., Any]) -> bool:
+    """Whether ``fn`` takes exactly one required positional argument."""
     try:
         params = inspect.signature(fn).parameters.values()
     except (TypeError, ValueError):

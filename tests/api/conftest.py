@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import shutil
 import socket
 import threading
@@ -18,6 +19,8 @@ from fastapi.testclient import TestClient
 from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
+from daq.sim.inprocess import open_inprocess_rig
+from daq.sim.simtime import SimTimeLoop
 from tests.conftest import require_tool
 from tests.waiting import read_until, wait_until
 
@@ -91,10 +94,34 @@ def start_job(client, path: str, body: dict) -> str:
     return r.json()["id"]
 
 
+#: How much faster than the wall clock a ``simtime`` module's rig may run while it waits for
+#: HTTP requests (``SimTimeLoop(pace=...)``): a 3 s tow in 0.3 s. An idle rig still steps its
+#: plant (and holds the GIL) that much more often than in real time, so a module that
+#: seldom runs a test is faster left in real time.
+SERVICE_PACE = 10.0
+
+
 @pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
+def service(request: pytest.FixtureRequest, tmp_path_factory) -> RigService:
+    """The rig service of the module: in a ``simtime`` module the simulated rig in process on
+    simulated time (paced: ``SERVICE_PACE``), otherwise over Modbus TCP and a pty in real
+    time."""
     db = tmp_path_factory.mktemp("api") / "rig.db"
-    return RigService(RigSource.load(), f"sqlite:///{db}")
+    if request.node.get_closest_marker("simtime") is None:
+        return RigService(RigSource.load(), f"sqlite:///{db}")
+    return simulated_service(RigSource.load(), f"sqlite:///{db}")
+
+
+def simulated_service(source: RigSource, store_url: str, **options: Any) -> RigService:
+    """A rig service (not started) whose rig thread runs the simulated rig in process on
+    simulated time, paced at ``SERVICE_PACE``; ``options`` as for ``RigService``."""
+    return RigService(
+        source,
+        store_url,
+        loop_factory=functools.partial(SimTimeLoop, pace=SERVICE_PACE),
+        devices=open_inprocess_rig,
+        **options,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -204,8 +231,10 @@ def completed_tows(client, forces: Iterable[float], body: dict = SHORT_TOW) -> l
 
 
 def fast_pendulum_service(folder: Path) -> RigService:
-    """A rig service on the simulated rig with the fast pendulum rig file
-    (``tests.procedures.test_pendulum.fast_rig_file``) and a database in ``folder``."""
+    """A rig service on the simulated rig (in process, simulated time) with the fast pendulum
+    rig file (``tests.procedures.test_pendulum.fast_rig_file``) and a database in ``folder``."""
     from tests.procedures.test_pendulum import fast_rig_file
 
-    return RigService(RigSource.load(fast_rig_file(folder)), f"sqlite:///{folder / 'rig.db'}")
+    return simulated_service(
+        RigSource.load(fast_rig_file(folder)), f"sqlite:///{folder / 'rig.db'}"
+    )

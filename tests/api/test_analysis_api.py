@@ -8,6 +8,9 @@ import pytest
 from api.core.estimation_job import run_estimation
 from tests.api.conftest import AUTH
 
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
+pytestmark = pytest.mark.simtime
+
 C1 = {"name": "C1", "matrix": [[1, 3], [1 / 3, 1]]}
 C2 = {"name": "C2", "matrix": [[1, 1 / 3, 1], [3, 1, 3], [1, 1 / 3, 1]], "labels": ["p", "T", "d"]}
 C3 = {"name": "C3", "matrix": [[1, 1], [1, 1]], "labels": ["Ds", "DT"]}

@@ -8,6 +8,9 @@ import pytest
 
 from tests.api.conftest import AUTH, start_job, wait_job
 
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
+pytestmark = pytest.mark.simtime
+
 HUGE = "9" * 23
 RUN_ROUTES = ("/api/runs/{}", "/api/runs/{}/samples", "/api/runs/{}/samples.csv",
               "/api/runs/{}/export", "/api/runs/{}/events", "/api/runs/{}/results")  # fmt: skip

@@ -1,9 +1,12 @@
 """Procedures as jobs on the simulated rig: tow end to end, 409 with ``?queue=false``,
-abort, e-stop (which pauses the queue), sequences."""
+abort, e-stop (which pauses the queue), sequences. The rig runs in process on simulated
+time (paced, tests/api/conftest.py)."""
 
 from __future__ import annotations
 
 import time
+
+import pytest
 
 from tests.api.conftest import (
     AUTH,
@@ -15,6 +18,8 @@ from tests.api.conftest import (
     wait_rig_free,
 )
 from tests.waiting import read_until
+
+pytestmark = pytest.mark.simtime
 
 
 def test_tow_job_end_to_end_stores_a_completed_run(client, tow_job):

@@ -5,17 +5,16 @@ from __future__ import annotations
 import pytest
 from fastapi.testclient import TestClient
 
-from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, moving_for, wait_job, wait_job_until
+from tests.api.conftest import AUTH, TOKEN, moving_for, simulated_service, wait_job, wait_job_until
 from tests.waiting import read_until
 
 
 @pytest.fixture(scope="module")
 def asking_client(tmp_path_factory):
     db = tmp_path_factory.mktemp("op") / "rig.db"
-    service = RigService(RigSource.load(), f"sqlite:///{db}", ask_operator=True)
+    service = simulated_service(RigSource.load(), f"sqlite:///{db}", ask_operator=True)
     with TestClient(create_app(service, token=TOKEN)) as c:
         yield c
 
@@ -52,7 +51,7 @@ def test_stopping_the_service_aborts_the_running_test_and_records_why(tmp_path):
     from daq.store import Store
 
     url = f"sqlite:///{tmp_path / 'rig.db'}"
-    service = RigService(RigSource.load(), url)
+    service = simulated_service(RigSource.load(), url)
     with TestClient(create_app(service, token=TOKEN)) as c:
         body = {"force_n": 10.0, "max_time_s": 60, "baseline_s": 0.2}
         job_id = c.post("/api/jobs/tow", json=body, headers=AUTH).json()["id"]

@@ -6,6 +6,9 @@ import pytest
 
 from tests.api.conftest import AUTH, start_job, wait_job
 
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
+pytestmark = pytest.mark.simtime
+
 
 @pytest.fixture(scope="module")
 def two_tows(client) -> list[str]:

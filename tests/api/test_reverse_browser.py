@@ -12,9 +12,17 @@ import pytest
 from api.core.service import RigService
 from daq.session import RigSource
 from daq.sim.scenario import load_scenario
-from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page, wait_job
+from tests.api.conftest import (
+    AUTH,
+    completed_tows,
+    estimate_in_page,
+    signed_in_page,
+    simulated_service,
+    wait_job,
+)
 
-#: Slow lane: three real-time tows, an estimation and the reverse tow it starts.
+#: Slow lane: three tows (in process, simulated time), an estimation and the reverse tow it
+#: starts.
 pytestmark = pytest.mark.slow
 
 SCENARIO = Path(__file__).resolve().parents[2] / "fixtures/scenarios/friction-and-current.toml"
@@ -29,7 +37,7 @@ def service(tmp_path_factory) -> RigService:
         scenario=load_scenario(SCENARIO),
         scenario_toml=SCENARIO.read_text(),
     )
-    return RigService(source, f"sqlite:///{tmp_path_factory.mktemp('reverse') / 'rig.db'}")
+    return simulated_service(source, f"sqlite:///{tmp_path_factory.mktemp('reverse') / 'rig.db'}")
 
 
 def test_the_reverse_button_starts_the_reverse_tow(client, service):

@@ -11,7 +11,7 @@ import pytest
 
 from api.core.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, chromium_page, start_job, wait_job
+from tests.api.conftest import AUTH, TOKEN, chromium_page, simulated_service, start_job, wait_job
 
 ENCODER_TOW = Path(__file__).resolve().parents[2] / "fixtures/rigs/encoder-tow.toml"
 
@@ -19,7 +19,7 @@ ENCODER_TOW = Path(__file__).resolve().parents[2] / "fixtures/rigs/encoder-tow.t
 @pytest.fixture(scope="module")
 def service(tmp_path_factory) -> RigService:
     db = tmp_path_factory.mktemp("api-minimal") / "rig.db"
-    return RigService(RigSource.load(ENCODER_TOW), f"sqlite:///{db}")
+    return simulated_service(RigSource.load(ENCODER_TOW), f"sqlite:///{db}")
 
 
 def test_get_rig_lists_capabilities_with_reasons_and_the_safety_channels(client):

@@ -9,6 +9,9 @@ import pytest
 
 from tests.api.conftest import AUTH
 
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
+pytestmark = pytest.mark.simtime
+
 
 def test_vehicle_list_and_detail(client):
     r = client.get("/api/vehicles", headers=AUTH)

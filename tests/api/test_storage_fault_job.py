@@ -8,7 +8,14 @@ import pytest
 
 from api.core.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job, wait_job_until
+from tests.api.conftest import (
+    AUTH,
+    SHORT_TOW,
+    simulated_service,
+    start_job,
+    wait_job,
+    wait_job_until,
+)
 from tests.store.helpers import DbLimits, no_sql
 from tests.waiting import read_until
 
@@ -20,7 +27,7 @@ def service(tmp_path_factory) -> RigService:
     root = tmp_path_factory.mktemp("api-storage")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("RIG_SPILL_DIR", str(root / "spill"))
-        yield RigService(RigSource.load(), f"sqlite:///{root / 'rig.db'}")
+        yield simulated_service(RigSource.load(), f"sqlite:///{root / 'rig.db'}")
 
 
 def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_safe(

@@ -1,24 +1,44 @@
-"""The acquisition clock against a real Modbus server on a real socket."""
+"""The acquisition clock's rules on simulated time (tests/conftest.py, ``simtime``): slots on
+absolute deadlines, skipping instead of bursting, per-subscriber hand-off, a prompt stop.
+A sampler whose reads take a set simulated time stands in for the PLC, so every time the
+clock stamps is exact. Against a real Modbus server in real time: test_acquisition_wire.py."""
 
 from __future__ import annotations
 
 import asyncio
 import itertools
 import math
-import os
-import time
 
 import pytest
 
 from daq.acquisition import Acquisition
+from daq.plc import Reading
 from daq.sample import Quality, Sample
+from daq.sim.simtime import SimClock
 from tests.waiting import until
 
+pytestmark = pytest.mark.simtime
 
-@pytest.fixture
-def plc_modbus() -> dict:
-    """Short timeouts: a failed poll ends well inside a slot, a reconnect comes soon."""
-    return {"timeout_s": 0.1, "reconnect_min_s": 0.05, "reconnect_max_s": 0.2}
+
+class TimedSampler:
+    """A PLC whose every poll takes ``read_s`` of simulated time; the position is its count."""
+
+    channel_names = ("tow_position",)
+
+    def __init__(self, clock: SimClock, read_s: float = 0.001) -> None:
+        self.clock = clock
+        self.read_s = read_s
+        self.polls = 0
+
+    async def read_all(self) -> dict[str, Reading]:
+        await asyncio.sleep(self.read_s)
+        self.polls += 1
+        return {"tow_position": Reading(float(self.polls), self.clock.now())}
+
+
+def _clock_and_sampler(read_s: float = 0.001) -> tuple[SimClock, TimedSampler]:
+    clock = SimClock.of_running_loop()
+    return clock, TimedSampler(clock, read_s)
 
 
 async def _collect(q: asyncio.Queue[Sample], n: int, timeout_s: float = 10.0) -> list[Sample]:
@@ -29,61 +49,55 @@ async def _collect(q: asyncio.Queue[Sample], n: int, timeout_s: float = 10.0) ->
     return out
 
 
-async def test_absolute_deadlines_do_not_drift_at_100_hz(plc):
-    acq = Acquisition(plc, rate_hz=100.0)
+async def test_absolute_deadlines_do_not_drift_at_100_hz():
+    clock, sampler = _clock_and_sampler(read_s=0.003)
+    acq = Acquisition(sampler, rate_hz=100.0, clock=clock)
     q = acq.subscribe(maxsize=1000)
     runner = asyncio.create_task(acq.run())
     samples = await _collect(q, 201)
     acq.stop()
     await runner
-    first, last = samples[0], samples[-1]
-    # Slot k is due at t0 + k/100 s: elapsed time matches the slot count (each sample's
-    # time is its read, so allow a little jitter). A relative clock (sleep one period
-    # after each ~1 ms read) would be ~0.2 s behind after 200 ticks.
-    assert last.t_mono - first.t_mono == pytest.approx((last.seq - first.seq) / 100.0, abs=0.02)
-    seqs = [s.seq for s in samples]
-    assert seqs == sorted(set(seqs))
-    # Every slot is either served or counted as skipped. How many a loaded machine skips is
-    # the machine's, not the clock's: bench/clock_lateness.py measures it (0 when idle).
-    assert acq.stats.skipped_slots == last.seq - 200
-    # No burst: a slot more than half a period overdue is skipped, never run late.
-    assert max(acq.stats.lateness_s) <= 0.005
-    assert all(s.quality in (Quality.OK, Quality.OVERRUN) for s in samples)
-    assert acq.stats.lateness_percentiles()["p50_s"] < 0.002
-    assert min(acq.stats.lateness_s) >= 0
-    assert math.isclose(samples[5].channels["tow_position"], 0.0)
+    # Slot k starts at t0 + k/100 s and its sample is stamped when the 3 ms read is back. A
+    # relative clock (sleep one period after each read) would be 0.6 s behind after 200 ticks.
+    t0 = samples[0].t_mono - 0.003
+    assert [s.seq for s in samples] == list(range(201))
+    assert [s.t_mono for s in samples] == pytest.approx([t0 + k / 100 + 0.003 for k in range(201)])
+    assert set(acq.stats.lateness_s) == {0.0} and acq.stats.skipped_slots == 0
+    assert all(s.quality == Quality.OK for s in samples)
+    assert samples[5].channels["tow_position"] == 6.0
     assert acq.latest is not None and acq.latest.seq >= 200
 
 
-async def test_an_overrun_skips_slots_and_never_bursts(server, plc):
-    acq = Acquisition(plc, rate_hz=100.0)
+async def test_an_overrun_skips_slots_and_never_bursts():
+    clock, sampler = _clock_and_sampler()
+    acq = Acquisition(sampler, rate_hz=100.0, clock=clock)
     q = acq.subscribe(maxsize=1000)
     runner = asyncio.create_task(acq.run())
     await _collect(q, 10)
-    server.delay_s = 0.02  # each of the 3 requests answers after 20 ms: a tick takes ~60 ms
+    sampler.read_s = 0.064  # a tick takes 64 ms: 6.4 slots
     slow = await _collect(q, 8)
-    server.delay_s = 0.0
-    await _collect(q, 3)  # drain the tick that was in flight
+    sampler.read_s = 0.001
+    await _collect(q, 1)  # the tick that was in flight
     after = await _collect(q, 20)
     acq.stop()
     await runner
+    # A 64 ms tick: the next slot is the first not over half a period (5 ms) overdue, run at
+    # most that late (slot +6, 4 ms late), or skipped to (+7): never a burst to catch up.
     gaps = [b.seq - a.seq for a, b in itertools.pairwise(slow)]
-    assert all(g >= 5 for g in gaps), gaps  # slots skipped, seq jumps
+    assert set(gaps) == {6, 7}
     assert all(s.quality & Quality.OVERRUN for s in slow[1:])
     times = [b.t_mono - a.t_mono for a, b in itertools.pairwise(slow)]
-    assert min(times) > 0.04  # no catch-up burst of back-to-back ticks
-    assert acq.stats.skipped_slots >= sum(g - 1 for g in gaps)
+    assert min(times) >= 0.064 - 1e-9  # each tick starts after the last one's read
+    assert max(acq.stats.lateness_s) == pytest.approx(0.004)
     assert acq.stats.overruns >= len(gaps)
-    # Back on consecutive slots once the PLC answers promptly: on an idle machine every one
-    # (bench/clock_lateness.py); a loaded one may skip some, but most gaps are one slot again
-    # where every gap above was five or more.
-    after_gaps = [b.seq - a.seq for a, b in itertools.pairwise(after)]
-    assert sum(g == 1 for g in after_gaps) >= len(after_gaps) / 2, after_gaps
-    assert sum(s.quality == Quality.OK for s in after) >= len(after) / 2
+    # Back on consecutive slots, every one, once the reads are quick again.
+    assert [b.seq - a.seq for a, b in itertools.pairwise(after)] == [1] * 19
+    assert all(s.quality == Quality.OK for s in after)
 
 
-async def test_a_slow_subscriber_loses_its_own_oldest_samples_only(plc):
-    acq = Acquisition(plc, rate_hz=100.0)
+async def test_a_slow_subscriber_loses_its_own_oldest_samples_only():
+    clock, sampler = _clock_and_sampler()
+    acq = Acquisition(sampler, rate_hz=100.0, clock=clock)
     slow = acq.subscribe(maxsize=5, name="slow")
     fast = acq.subscribe(maxsize=1000, name="fast")
     runner = asyncio.create_task(acq.run())
@@ -96,56 +110,43 @@ async def test_a_slow_subscriber_loses_its_own_oldest_samples_only(plc):
     assert acq.stats.dropped["slow"] == acq.stats.ticks - 5
     kept = [slow.get_nowait().seq for _ in range(slow.qsize())]
     assert kept == [s.seq for s in got[-5:]]  # the newest five
-    assert acq.stats.lateness_percentiles()["p50_s"] < 0.002  # the clock stayed on time
+    assert acq.stats.skipped_slots == 0  # the slow consumer did not slow the clock
     acq.unsubscribe(slow)
     assert acq.stats.dropped["slow"] > 0
 
 
-async def test_plc_lost_mid_acquisition_then_back(server, plc):
-    acq = Acquisition(plc, rate_hz=50.0, device_lost_after_s=0.1)
-    q = acq.subscribe(maxsize=1000)
+async def test_a_failed_poll_is_a_sample_on_time_with_nan_not_an_old_value():
+    clock, sampler = _clock_and_sampler()
+    acq = Acquisition(sampler, rate_hz=10.0, device_lost_after_s=0.25, clock=clock)
+    q = acq.subscribe()
     runner = asyncio.create_task(acq.run())
-    server.set("tow_position", 1.25)
-    before = await _collect(q, 5)
-    # The PLC answers: every reading good (a loaded host may still skip a slot: OVERRUN).
-    assert not any(s.quality & (Quality.ERROR | Quality.STALE) for s in before), before
-    assert not acq.device_lost.is_set()
+    await _collect(q, 2)
 
-    await server.stop()
-    t_lost = time.monotonic()
-    async with asyncio.timeout(2.0):
-        await acq.device_lost.wait()
-    assert 0.08 < time.monotonic() - t_lost < 0.5
-    down = await _collect(q, 10)
-    errors = [s for s in down if s.quality & Quality.ERROR]
-    assert errors and all(math.isnan(v) for s in errors for v in s.channels.values())
-    assert set(errors[0].channels) == set(plc.channel_names)
+    async def fail() -> dict[str, Reading]:
+        raise ConnectionError("PLC gone")
 
-    await server.start()  # back on the same port
-    async with asyncio.timeout(3.0):
-        while True:
-            s = await q.get()
-            if s.quality == Quality.OK:
-                break
-    assert s.channels["tow_position"] == pytest.approx(1.25)
-    assert not acq.device_lost.is_set()
-    assert plc.stats.reconnects == 1
+    good_read, sampler.read_all = sampler.read_all, fail  # type: ignore[method-assign]
+    down = await _collect(q, 4)
+    assert [s.seq for s in down] == [2, 3, 4, 5]  # on their slots
+    assert all(s.quality & Quality.ERROR and math.isnan(s.channels["tow_position"]) for s in down)
+    # Lost once unread for longer than device_lost_after_s: at the third failed poll.
+    assert acq.device_lost.is_set() and acq.stats.failed_polls == 4
+    sampler.read_all = good_read  # type: ignore[method-assign]
+    back = await _collect(q, 1)
+    assert back[0].quality == Quality.OK and not acq.device_lost.is_set()
     acq.stop()
     await runner
-    # The clock kept its slots through the outage: failed reads fail fast, no tick ran long
-    # (a late wake-up of a loaded host is not the PLC's doing and is counted apart).
-    assert acq.stats.overruns - acq.stats.late_wakeups == 0
-    assert acq.stats.failed_polls >= 10
 
 
-async def test_stop_wakes_a_sleeping_clock_promptly(plc):
-    acq = Acquisition(plc, rate_hz=0.5)
+async def test_stop_wakes_a_sleeping_clock_promptly():
+    clock, sampler = _clock_and_sampler()
+    acq = Acquisition(sampler, rate_hz=0.5, clock=clock)
     runner = asyncio.create_task(acq.run())
     await until(lambda: acq.stats.ticks == 1, "the first tick")  # then 2 s asleep
-    t0 = time.monotonic()
+    t0 = clock.now()
     acq.stop()
-    await asyncio.wait_for(runner, 1.0)
-    assert time.monotonic() - t0 < 1.0  # the next tick is 2 s away: stop did not wait for it
+    await runner
+    assert clock.now() - t0 < 0.01  # the next tick is 2 s away: stop did not wait for it
     assert acq.stats.ticks == 1
 
 
@@ -154,31 +155,3 @@ def test_bad_arguments_name_the_value_and_range():
         Acquisition(None, rate_hz=-5)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="device_lost_after_s"):
         Acquisition(None, device_lost_after_s=0)  # type: ignore[arg-type]
-
-
-async def test_realtime_clock_runs_and_restores_the_thread_scheduling(plc):
-    before = (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0))
-    acq = Acquisition(plc, rate_hz=100.0, realtime=True)
-    q = acq.subscribe()
-    runner = asyncio.create_task(acq.run())
-    samples = await _collect(q, 20)
-    acq.stop()
-    await runner
-    assert [s.seq for s in samples] == sorted({s.seq for s in samples})
-    assert (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0)) == before
-
-
-async def test_a_frozen_plc_scan_marks_samples_stale_by_name(server, plc):
-    server.heartbeat_running = False  # the PLC answers but its scan (heartbeat, ms clock) stopped
-    acq = Acquisition(plc, rate_hz=50.0)
-    q = acq.subscribe()
-    runner = asyncio.create_task(acq.run())
-    samples = await _collect(q, 35)  # 0.7 s; freshness_s is 0.5 s
-    acq.stop()
-    await runner
-    assert samples[0].quality == Quality.OK
-    late = samples[-1]
-    assert late.quality == Quality.STALE
-    assert late.stale == ("heartbeat", "plc_clock")
-    assert not math.isnan(late.channels["heartbeat"])  # stale values are still reported
-    assert not acq.device_lost.is_set()

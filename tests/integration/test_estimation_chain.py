@@ -11,13 +11,14 @@ from __future__ import annotations
 import pytest
 
 from api.core.estimation_job import run_estimation
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
 from tests.motion_runs import completed_runs
+from tests.simrig import rig_session
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 SURGE_TRUTH = {"inertia": 143.26, "linear_damping": 20.16, "quadratic_damping": 241.14}
 YAW_TRUTH = {"inertia": 7.97, "linear_damping": 0.119, "quadratic_damping": 4.12}
@@ -32,7 +33,7 @@ def _source(name: str, effects: dict[str, float]) -> RigSource:
 
 async def _record(tmp_path, source: RigSource, kind: str, drives: list[float], seconds: float):
     store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    async with RigSession(source, store) as session:
+    async with rig_session(source, store) as session:
         ids = await completed_runs(session, kind, drives, max_time_s=seconds, baseline_s=0.5)
     return store, ids
 

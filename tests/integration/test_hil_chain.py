@@ -12,19 +12,20 @@ with the right factor.
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import Iterable
 
 import pytest
 
 from api.core.crosscheck_job import crosscheck_results, crosscheck_runs
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
+from daq.sim.simtime import SimClock
 from daq.store import Store
 from estimation.axis.crosscheck_report import markdown
 from tests.hil_calibration import calibrate_for_hil, measured_thrust_n
 from tests.motion_runs import completed_runs
+from tests.simrig import rig_session
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 WEIGHT_FORCES = (24.5, 44.1, 83.3)
 THRUSTER_COMMANDS = (0.2, 0.4, 0.6)
@@ -53,7 +54,7 @@ def _foul_thrusters(sim) -> None:
 
 async def _record(store: Store) -> dict[str, list[str]]:
     ids: dict[str, list[str]] = {}
-    async with RigSession(RigSource.load(), store) as session:
+    async with rig_session(RigSource.load(), store) as session:
         rig = session.rig
         calibration = await calibrate_for_hil(session)
 
@@ -77,10 +78,10 @@ async def _record(store: Store) -> dict[str, list[str]]:
         ids["thrusters"] = await tows("thrusters", forces)
         ids["weight_spins"] = await spins("weight", WEIGHT_TORQUES)
         ids["thruster_spins"] = await spins("thrusters", torques)
-        await asyncio.to_thread(session.sim.call, _supply(LOW_SUPPLY_V))
+        session.sim.call(_supply(LOW_SUPPLY_V))
         ids["thrusters_low"] = await tows("thrusters", forces)
-        await asyncio.to_thread(session.sim.call, _supply(16.0))
-        await asyncio.to_thread(session.sim.call, _foul_thrusters)
+        session.sim.call(_supply(16.0))
+        session.sim.call(_foul_thrusters)
         ids["thrusters_fouled"] = await tows("thrusters", forces)
     return ids
 
@@ -88,7 +89,7 @@ async def _record(store: Store) -> dict[str, list[str]]:
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     store = Store(f"sqlite:///{tmp_path_factory.mktemp('hil') / 'rig.db'}")
-    ids = asyncio.run(_record(store))
+    ids = SimClock.run(_record(store))
     yield store, ids
     store.close()
 

@@ -19,12 +19,13 @@ from api.core.estimation_job import run_estimation
 from daq.config import DEFAULT_RIG_FILE
 from daq.procedures.params import pendulum_parameters
 from daq.procedures.pendulum import run_pendulum_decay
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
+from tests.simrig import rig_session
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 #: A short, bottom-heavy pendulum (period ≈ 3.9 s) so ≈ 5 swings fit in a 20 s real-time run.
 SHORT_PENDULUM = """
@@ -77,7 +78,7 @@ def _print(label: str, data: dict) -> None:
 
 async def test_undeclared_pivot_friction_is_found_through_the_full_chain(tmp_path):
     store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    async with RigSession(_source(tmp_path), store) as session:
+    async with rig_session(_source(tmp_path), store) as session:
         params = pendulum_parameters(
             {
                 "start_angle_rad": 0.3,
@@ -133,7 +134,7 @@ async def test_pendulum_runs_through_the_cli_with_methods_checked_per_kind(tmp_p
     db = f"sqlite:///{tmp_path / 'rig.db'}"
     store = Store(db)
     source = _source(tmp_path)
-    async with RigSession(source, store) as session:
+    async with rig_session(source, store) as session:
         params = pendulum_parameters(
             {
                 "start_angle_rad": 0.2,

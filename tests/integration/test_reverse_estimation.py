@@ -15,13 +15,14 @@ from pathlib import Path
 import pytest
 
 from api.core.estimation_job import run_estimation
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
 from daq.sim.scenario import load_scenario
 from daq.store import Store
 from tests.motion_runs import completed_runs
+from tests.simrig import rig_session
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 SCENARIO = Path(__file__).resolve().parents[2] / "fixtures/scenarios/friction-and-current.toml"
 
@@ -68,7 +69,7 @@ async def _forward_then_advised_reverse(
     That reverse run and ``reverse_too`` recorded, all estimated together. Returns the
     advised reverse drive and the estimate from both ways (which must be unambiguous)."""
     with Store(f"sqlite:///{tmp_path / 'rig.db'}") as store:
-        async with RigSession(_source(), store) as session:
+        async with rig_session(_source(), store) as session:
             raw = {"max_time_s": seconds, "baseline_s": 0.5}
             forward = await completed_runs(session, kind, forward_drives, **raw)
             only_forward = run_estimation(store, forward)

@@ -1,4 +1,5 @@
-"""A real rig session on the simulated rig (Modbus TCP + thruster pty) and a temp SQLite store."""
+"""A rig session on the simulated rig (in process on simulated time in a ``simtime`` module,
+else Modbus TCP + a thruster pty in real time: tests/simrig.py) and a temp SQLite store."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from tests.simrig import rig_session
 from tests.waiting import until
 
 #: A short thrust calibration of the simulated rig (parameters, before the rig's checks).
@@ -59,5 +61,5 @@ def source() -> RigSource:
 
 @pytest.fixture
 async def session(source, store):
-    async with RigSession(source, store) as s:
+    async with rig_session(source, store) as s:
         yield s

@@ -8,8 +8,11 @@ import pytest
 
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.params import calibration_parameters
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
 from tests.procedures.conftest import QUICK_CALIBRATION
+from tests.simrig import rig_session
+
+pytestmark = pytest.mark.simtime
 
 
 @pytest.fixture
@@ -23,7 +26,7 @@ def limited(source: RigSource) -> RigSource:
 
 
 async def test_a_current_over_the_cut_off_stops_the_test_with_its_reason(limited, store):
-    async with RigSession(limited, store) as session:
+    async with rig_session(limited, store) as session:
         params = calibration_parameters(QUICK_CALIBRATION, session.rig)
         outcome, calibration = await run_thrust_calibration(session, params)
         assert outcome.status == "aborted" and calibration is None

@@ -11,13 +11,15 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.params import spin_parameters, tow_parameters
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
-from daq.sample import Quality
-from daq.session import RigBusy, RigSession, RigSource
+from daq.session import RigBusy, RigSource
 from daq.store import Store
 from tests.procedures.conftest import short_rail
 from tests.progress_log import ProgressLog
 from tests.readings import good
+from tests.simrig import rig_session
 from tests.waiting import next_samples, until
+
+pytestmark = pytest.mark.simtime
 
 
 async def test_tow_records_release_motion_and_brake(session, store):
@@ -53,7 +55,7 @@ async def test_tow_records_release_motion_and_brake(session, store):
 
 async def test_tow_stops_at_end_of_travel(source, store):
     short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
-    async with RigSession(short, store) as session:
+    async with rig_session(short, store) as session:
         params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
         outcome = await run_motion_test(session, params)
     assert outcome.status == "completed"
@@ -110,56 +112,22 @@ async def test_second_procedure_while_busy_is_refused(session):
     assert (await task).status == "completed"
 
 
-async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, store):
-    params = tow_parameters({"force_n": 24.5, "max_time_s": 30, "baseline_s": 0.3}, session.rig)
-    progress = ProgressLog()
-    task = asyncio.create_task(run_motion_test(session, params, progress=progress))
-    await progress.wait(
-        lambda p: p.message.startswith("tow:"), "10 samples moving", times=10, task=task
-    )
-    port = session.sim.endpoints.port
-    await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
-    stopped_at = session.latest().seq
-    outcome = await asyncio.wait_for(task, 10)
-    assert outcome.status == "aborted" and outcome.reason.startswith("device lost: PLC at tcp ")
-    table = store.samples(outcome.run_id)
-    before = table.seq <= stopped_at
-    seqs, quality = table.seq[before], table.quality[before]
-    assert len(seqs) >= 10
-    # Nothing received was lost: a gap in seq is only ever a slot the clock skipped
-    # (flagged OVERRUN on the next sample), never a sample that went missing.
-    gaps = np.flatnonzero(np.diff(seqs) > 1)
-    assert all(quality[i + 1] & Quality.OVERRUN for i in gaps)
-    assert session.thrusters.output == [0.0] * session.rig.thrusters.count
-    # The server returns on the same port: the driver reconnects and samples are good again.
-    await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
-    assert session.sim.endpoints.port == port
-    await until(
-        lambda: not session.acquisition.device_lost.is_set() and session.latest().quality == 0,
-        "good samples again after the reconnect",
-        timeout_s=10,
-    )
-    assert not session.acquisition.device_lost.is_set()
-    assert session.latest().quality == 0
-
-
 async def test_stale_sensor_data_zeroes_armed_thrusters_at_once(session):
     await session.plc.write("sim_thrust_stand", True)
     await session.arm_thrusters()
     session.set_thrust([0.4, 0.4])
     emulator = session.sim.thrusters
     await until(lambda: emulator.outputs == [0.4, 0.4], "the thrust at 0.4", timeout_s=3)
-    await asyncio.to_thread(session.sim.call, lambda s: s.plc.stop_server())
+    session.sim.plc.faults.drop = True  # the PLC stops answering
     # the first unread tick (≤ 0.1 s + read timeout) zeroes them
     await until(lambda: emulator.outputs == [0.0, 0.0], "the thrust zeroed", timeout_s=0.5)
     assert emulator.state == "ARMED"  # zeroed by our driver, not by the controller's watchdog
     assert session.stale_zeroings == 1
-    await asyncio.to_thread(session.sim.call, lambda s: s.plc.start_server())
 
 
 async def test_a_tow_is_stored_the_same_on_sqlite_and_postgresql(db_url, source):
     with Store(db_url) as store:
-        async with RigSession(source, store) as session:
+        async with rig_session(source, store) as session:
             params = tow_parameters(
                 {"force_n": 44.1, "max_time_s": 1.5, "baseline_s": 0.3}, session.rig
             )

@@ -17,13 +17,16 @@ from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import parse_sequence
 from daq.procedures.steps import PreconditionFailed
 from daq.run_data import load_pendulum_data
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
 from daq.sim.scenario import Scenario
 from daq.store import Store
 from tests.procedures.test_cli import rig
 from tests.progress_log import ProgressLog
+from tests.simrig import rig_session
 from tests.store.helpers import new_run
 from tests.waiting import next_samples
+
+pytestmark = pytest.mark.simtime
 
 #: A short, bottom-heavy pendulum (period ≈ 3.6 s) so a decay fits in a fast test.
 FAST_PENDULUM = """
@@ -62,7 +65,7 @@ def linear_period(rig: RigConfig, scenario: Scenario) -> float:
 @pytest.fixture
 async def fast_session(tmp_path, store):
     source = RigSource.load(fast_rig_file(tmp_path))
-    async with RigSession(source, store) as s:
+    async with rig_session(source, store) as s:
         yield s
 
 
@@ -211,7 +214,7 @@ async def test_a_pendulum_held_off_the_start_angle_is_refused_and_nothing_record
 
     operator = SloppyOperator()
     source = RigSource.load(fast_rig_file(tmp_path))
-    async with RigSession(source, store, operator=operator) as session:
+    async with rig_session(source, store, operator=operator) as session:
         operator.plc = session.plc
         params = pendulum_parameters({"start_angle_rad": 0.3}, session.rig)
         with pytest.raises(PreconditionFailed, match=r"held at 0\.150 rad, asked for 0\.300"):

@@ -21,6 +21,8 @@ from daq.run_data import load_run_data
 from tests.procedures.conftest import QUICK_CALIBRATION
 from tests.readings import good
 
+pytestmark = pytest.mark.simtime
+
 
 async def test_reverse_tow_starts_at_the_far_end_and_moves_back(session, store):
     params = tow_parameters({"force_n": -24.5, "max_time_s": 2.5, "baseline_s": 0.3}, session.rig)

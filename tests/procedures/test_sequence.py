@@ -11,6 +11,8 @@ from daq.procedures.params import ParameterError
 from daq.procedures.sequence import SequenceControl, load_sequence, parse_sequence, run_sequence
 from tests.progress_log import ProgressLog
 
+pytestmark = pytest.mark.simtime
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -16,6 +16,8 @@ from daq.procedures.params import ParameterError, tow_parameters
 from daq.run_data import load_run_data, thruster_drive
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec
 
+pytestmark = pytest.mark.simtime
+
 T200 = Path(__file__).resolve().parents[2] / "fixtures" / "calibrations" / "t200-bollard.csv"
 SPEC = ImportSpec(
     "PWM (µs)", "Force (Kg f)", "kgf", CommandUnit("pwm_us", 1500, 400), "Voltage (V)"

@@ -1,10 +1,10 @@
-"""Thruster-driven tow on the simulated rig over Modbus: the calibrated inverse map turns a
-surge force into commands; the thrusters end zero and disarmed however the run ends."""
+"""Thruster-driven tow on the simulated rig (in process, simulated time): the calibrated
+inverse map turns a surge force into commands; the thrusters end zero and disarmed however
+the run ends."""
 
 from __future__ import annotations
 
 import asyncio
-import time
 
 import numpy as np
 import pytest
@@ -19,8 +19,9 @@ from daq.sim.scenario import ThrusterModel
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION, until_thrust_on
 from tests.readings import good
-from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
+
+pytestmark = pytest.mark.simtime
 
 
 async def _calibrate(session) -> dict:
@@ -169,12 +170,13 @@ async def _watchdog_trip_aborts_the_run(session, store) -> None:
     )
     task = await _thrust_on(session, params)
     emulator = session.sim.thrusters
-    # Block the host's loop (no heartbeats go out) until the controller's watchdog trips.
-    wait_until(lambda: emulator.state == "WDT", "the controller's watchdog tripping", timeout_s=5)
+    # The host's loop is blocked for a second (no heartbeats go out): simulated time moves
+    # on without it, and the controller's watchdog trips before the loop runs again.
+    session.clock.stall(1.0)
     outcome = await asyncio.wait_for(task, 5)
     assert outcome.status == "aborted"
     assert "watchdog tripped" in outcome.reason
-    assert emulator.stats.watchdog_trips >= 1
+    assert emulator.stats.watchdog_trips == 1
     await _assert_thrusters_safe(session)
     # The stored outputs end with the watchdog's zero, bracketed by the last ACK before it.
     sent, acked, fractions = _thrust_steps(store, outcome.run_id)[-1]
@@ -192,10 +194,10 @@ async def _silent_controller_aborts_the_run(session, store) -> None:
     )
     task = await _thrust_on(session, params)
     emulator = session.sim.thrusters
-    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
-    muted = time.monotonic()
+    session.sim.call(lambda sim: setattr(sim.thrusters, "silent", True))
+    muted = session.clock.now()
     outcome = await asyncio.wait_for(task, 10)
-    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", False))
+    session.sim.call(lambda sim: setattr(sim.thrusters, "silent", False))
     assert outcome.status == "aborted"
     assert outcome.reason.startswith(
         f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "
@@ -231,7 +233,7 @@ async def _lost_poll_zeroes_the_thrust_and_ends_the_run(session, store) -> None:
     )
     zeroings = session.stale_zeroings
     task = await _thrust_on(session, params)
-    await asyncio.to_thread(session.sim.call, lambda s: setattr(s.plc.faults, "drop_next", 1))
+    session.sim.call(lambda s: setattr(s.plc.faults, "drop_next", 1))
     outcome = await asyncio.wait_for(task, 10)
     assert session.stale_zeroings == zeroings + 1
     assert outcome.status == "aborted"

@@ -1,9 +1,9 @@
-"""Thrust calibration on the simulated load cell, then a thruster-driven spin using it."""
+"""Thrust calibration on the simulated load cell, then a thruster-driven spin using it (in
+process, simulated time)."""
 
 from __future__ import annotations
 
 import asyncio
-import time
 
 import numpy as np
 import pytest
@@ -15,6 +15,8 @@ from tests.procedures.conftest import until_thrust_on
 from tests.readings import good
 from tests.waiting import until
 from thrusters.driver import LINK_LOST_AFTER
+
+pytestmark = pytest.mark.simtime
 
 
 @pytest.mark.slow
@@ -95,14 +97,12 @@ async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(s
     )
     task = asyncio.create_task(run_thrust_calibration(session, params))
     await until_thrust_on(session, timeout_s=10)
-    await asyncio.to_thread(session.sim.call, lambda sim: setattr(sim.thrusters, "silent", True))
+    session.sim.call(lambda sim: setattr(sim.thrusters, "silent", True))
     try:
         outcome, calibration = await asyncio.wait_for(task, 10)
         assert session.sim.thrusters.outputs == [0.0, 0.0]
     finally:
-        await asyncio.to_thread(
-            session.sim.call, lambda sim: setattr(sim.thrusters, "silent", False)
-        )
+        session.sim.call(lambda sim: setattr(sim.thrusters, "silent", False))
     assert outcome.status == "aborted" and calibration is None
     assert outcome.reason.startswith(f"thruster link lost: {LINK_LOST_AFTER} consecutive replies")
     assert store.get_run(outcome.run_id).reason == outcome.reason
@@ -125,7 +125,7 @@ async def test_stale_data_mid_step_zeroes_the_thrust_and_the_step_is_measured_ag
     task = asyncio.create_task(run_thrust_calibration(session, params))
     emulator = session.sim.thrusters
     await until(lambda: emulator.outputs == [0.4, 0.4] or task.done(), "the top step confirmed")
-    await asyncio.to_thread(session.sim.call, lambda s: setattr(s.plc.faults, "drop_next", 1))
+    session.sim.call(lambda s: setattr(s.plc.faults, "drop_next", 1))
     await until(lambda: session.stale_zeroings == 1, "the stale-data zeroing")
     outcome, calibration = await asyncio.wait_for(task, 60)
     assert outcome.status == "completed", outcome.reason
@@ -136,25 +136,3 @@ async def test_stale_data_mid_step_zeroes_the_thrust_and_the_step_is_measured_ag
     assert rows[0]["thrust_per_thruster_n"] > 0.5 * abs(reverse["thrust_per_thruster_n"]) > 0
     faults = [e for e in store.events(outcome.run_id) if "zeroed for safety" in e.message]
     assert len(faults) == 1 and faults[0].kind == "fault"
-
-
-async def test_thrust_steps_are_timed_by_the_link_not_by_a_late_event_loop(session):
-    """The event loop is blocked (a loaded host) while a command's reply comes back: the
-    stored step is bracketed by when the frame went out and its reply was read, not by when
-    the loop got round to it, so the drive rebuilt from it is not shifted late."""
-    drv = session.live_thrusters
-    await session.arm_thrusters()
-    try:
-        session.set_thrust([0.8, 0.8])  # a ramp, one step per tick
-        await until(lambda: any(drv.confirmed), "the ramp under way")
-        with drv.recording_outputs() as steps:
-            dispatched = time.monotonic()
-            sending = asyncio.ensure_future(drv.command([0.8, 0.8]))  # the next ramp step
-            await asyncio.sleep(0)  # the frame is handed to the link's thread
-            time.sleep(0.3)  # a host too busy to run the loop; the link's thread goes on
-            assert await sending
-        during = [step for step in steps if step.t_sent >= dispatched]
-        assert during and during[0].t_sent < dispatched + 0.1
-        assert during[0].t_acked - during[0].t_sent < 0.1  # not the 0.3 s the loop was away
-    finally:
-        await session.disarm_thrusters()
