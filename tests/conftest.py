@@ -45,6 +45,8 @@ SERVICE_MODULES = frozenset(
         "tests/api/test_rig_capabilities.py",
         "tests/api/test_rig_lock.py",
         "tests/api/test_storage_fault_job.py",
+        "tests/api/test_submission_checks.py",
+        "tests/api/test_people.py",
         "tests/api/test_stream.py",
         "tests/store/test_recorder.py",
     }

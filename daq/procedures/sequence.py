@@ -13,8 +13,9 @@ force_n = 4.9        # the same parameters as the CLI / API
 kind = "tow"
 force_n = -24.5      # negative: a reverse tow (from the far end, over the far-end pulley)
 ```
-Every step is validated against the rig's limits before the first one starts, so a
-typo in step 7 never aborts a half-finished campaign. Between steps the sequence
+Every step is validated against the rig's limits (and a thruster drive against the stored
+thrust calibration) before the first one starts, so a typo in step 7 never aborts a
+half-finished campaign. Between steps the sequence
 can be paused, resumed or aborted.
 """
 
@@ -177,7 +178,12 @@ async def run_sequence(
     control: SequenceControl | None = None,
     progress: ProgressCallback | None = None,
 ) -> SequenceOutcome:
-    """Run every step ``repeats`` times, resting ``rest_s`` between runs."""
+    """Run every step ``repeats`` times, resting ``rest_s`` between runs. Every step's
+    thruster drive is checked against the newest stored calibration first (it may have
+    changed since the sequence was queued): ``ParameterError`` before anything moves."""
+    from daq.procedures.drive_check import check_steps
+
+    await asyncio.to_thread(check_steps, seq.steps, session.rig, session.store)
     control = control or SequenceControl()
     report = progress or (lambda p: None)
     plan = [step for _ in range(seq.repeats) for step in seq.steps]

@@ -39,7 +39,7 @@ QueueFlag = Annotated[
 
 def _start(kind: str, body, service, runner, queue: bool) -> dict:
     request = body.model_dump(mode="json", exclude_none=True)
-    params, label = procedure_from_request(kind, request, service.source.rig)
+    params, label = procedure_from_request(kind, request, service.source.rig, service.store)
     return runner.start_procedure(kind, params, label, request=request, queue=queue).to_json()
 
 
