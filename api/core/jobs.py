@@ -35,6 +35,7 @@ from typing import Any
 
 from api.core.job_model import Job, JobConflict, JobNotFound
 from api.core.job_requests import procedure_from_request
+from api.core.rig_guard import RigGuard
 from api.core.service import RigService
 from daq.operator import OperatorAct
 from daq.procedures.kinds import KINDS
@@ -66,11 +67,16 @@ SAVE_EVERY_S = 1.0
 __all__ = ["ACTIVE", "FINAL", "PROCEDURES", "Job", "JobConflict", "JobNotFound", "JobRunner"]
 
 
-def run_metadata(job: Job) -> dict[str, Any] | None:
-    """The metadata a procedure job puts on its runs (from its request; None without)."""
+def run_metadata(job: Job) -> dict[str, Any]:
+    """The metadata a procedure job puts on its runs: its request's, then who started it,
+    the job and the sequence that produced them (``started_by``, ``job_id``, ``sequence``)."""
     from daq.store.run_metadata import check_run_metadata
 
-    return check_run_metadata((job.request or {}).get("metadata")) or None
+    meta = check_run_metadata((job.request or {}).get("metadata"))
+    meta |= {"job_id": job.id} | ({"started_by": job.user_name} if job.user_name else {})
+    if job.kind == "sequence":
+        meta["sequence"] = job.parameters.get("name") or job.label
+    return meta
 
 
 class JobRunner:
@@ -230,17 +236,22 @@ class JobRunner:
         *,
         request: dict[str, Any] | None = None,
         queue: bool = True,
+        user: str | None = None,
     ) -> Job:
         """Start a validated procedure, or queue it behind the job holding the rig (and the
         jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409).
-        The request's ``metadata`` goes on every run it records (checked here: 422 first)."""
+        The request's ``metadata`` goes on every run it records (checked here: 422 first).
+        ``user`` asked for it: refused while an emergency stop is unacknowledged or someone
+        else holds the rig (``api.core.rig_guard``)."""
         from daq.store.run_metadata import check_run_metadata
 
         check_run_metadata((request or {}).get("metadata"))
         session = self.service.require_session()
+        RigGuard.of(self.service).check_start(user)
         parameters = params.to_json()
         note = getattr(params, "adjustment", lambda: None)()
         fields = {"notes": [note] if note else [], "request": request, "params": params}
+        fields["user_name"] = user
         with self._lock:
             busy = self.rig_job
             if session.lock_holder is not None and busy is None:
@@ -307,6 +318,10 @@ class JobRunner:
             if self._closing or self._queue_paused or self.rig_job is not None:
                 return
             if not self._queue:
+                return
+            refused = RigGuard.of(self.service).refusal(self._queue[0].user_name)
+            if refused is not None:  # an unacknowledged e-stop, a hold by someone else
+                self._queue_paused = f"{refused}; then resume the queue"
                 return
             job = self._queue.pop(0)
             self._rig_job = job
@@ -560,9 +575,10 @@ class JobRunner:
             raise JobConflict(f"job {job.id} waits in the queue; pause the queue instead")
         return job
 
-    def emergency_stop(self) -> list[str]:
-        """Abort the procedure on the rig, pause the queue (its jobs stay queued) and put
-        the rig in its safe state now."""
+    def emergency_stop(self, user: str | None = None) -> list[str]:
+        """Abort the procedure on the rig, pause the queue (its jobs stay queued), put the
+        rig in its safe state now, then latch the stop (naming ``user``, if known): no
+        motion until an operator acknowledges it."""
         with self._lock:
             self._queue_paused = "emergency stop (API): resume the queue to go on"
         aborted = []
@@ -571,7 +587,14 @@ class JobRunner:
                 self.abort(job.id, "emergency stop (API)")
                 aborted.append(job.id)
         session = self.service.require_session()
-        self.service.run(session.safe_state(), timeout_s=5.0)
+        try:
+            self.service.run(session.safe_state(), timeout_s=5.0)
+        finally:
+            who = f" by {user}" if user else " (no token)"
+            try:
+                RigGuard.of(self.service).record_stop(user, f"emergency stop (API){who}")
+            except Exception as err:  # the stop stands; the queue stays paused
+                log.error("emergency stop not recorded: %s", one_line(err))
         return aborted
 
     # -- estimation ------------------------------------------------------------------------
