@@ -47,6 +47,7 @@ SERVICE_MODULES = frozenset(
         "tests/api/test_storage_fault_job.py",
         "tests/api/test_submission_checks.py",
         "tests/api/test_people.py",
+        "tests/api/test_estop_browser.py",
         "tests/api/test_stream.py",
         "tests/store/test_recorder.py",
     }
