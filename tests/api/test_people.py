@@ -11,6 +11,7 @@ from click.testing import CliRunner
 from api.cli.main import main
 from daq.store.people import UserRepository
 from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
+from tests.waiting import read_until
 
 
 @pytest.fixture(scope="module")
@@ -119,3 +120,40 @@ def test_a_hold_taken_with_the_cli_reaches_the_running_service(client, service, 
     freed = cli.invoke(main, ["release", "--user", "alice", *db])
     assert freed.exit_code == 0, freed.output
     assert client.get("/api/rig", headers=AUTH).json()["guard"]["hold"] is None
+
+
+def test_a_queued_job_of_another_user_waits_while_the_rig_is_held(client, tokens) -> None:
+    """Queued before the hold: when the rig frees, the queue pauses naming the holder
+    instead of starting it; after the release, resuming runs it."""
+    wait_rig_free(client)
+    assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]  # e-stop's
+    first = client.post("/api/jobs/tow", json=SHORT_TOW, headers=tokens["bob"]).json()
+    queued = client.post("/api/jobs/tow", json=SHORT_TOW, headers=tokens["bob"]).json()
+    assert queued["state"] == "queued", queued
+    held = client.post("/api/rig/hold", json={"reason": "fins"}, headers=tokens["alice"])
+    assert held.status_code == 200, held.text
+    assert wait_job(client, first["id"])["state"] == "completed"
+    queue = read_until(
+        lambda: client.get("/api/queue", headers=AUTH).json(),
+        lambda q: q["paused"],
+        "the queue paused by the hold",
+    )
+    assert "held by alice" in queue["reason"] and "fins" in queue["reason"]
+    assert client.get(f"/api/jobs/{queued['id']}", headers=AUTH).json()["state"] == "queued"
+    client.post("/api/rig/release", headers=tokens["alice"])
+    assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
+    assert wait_job(client, queued["id"])["state"] == "completed"
+
+
+def test_the_command_line_refuses_a_test_after_an_unacknowledged_stop(tmp_path) -> None:
+    from daq.store import Store
+    from daq.store.people import ESTOP, RigEventLog
+
+    db = f"sqlite:///{tmp_path}/rig.db"
+    with Store(db) as store:
+        RigEventLog(store, "BENBAM tow tank").add(ESTOP, None, "emergency stop (API)")
+    ran = CliRunner().invoke(main, ["tow", "--force", "10", "--db", db])
+    assert ran.exit_code == 1, ran.output
+    assert "emergency stop" in ran.output and "rig ack-estop" in ran.output
+    with Store(db) as store:
+        assert store.list_runs() == []  # nothing recorded, nothing moved
