@@ -598,10 +598,13 @@ class JobRunner:
         return aborted
 
     # -- estimation ------------------------------------------------------------------------
-    def start_estimation(self, run_ids: list[str], method: str, search_effects: bool) -> Job:
-        """Run an estimation in the worker thread (never on the clock's loop)."""
+    def start_estimation(
+        self, run_ids: list[str], method: str, search_effects: bool, user: str | None = None
+    ) -> Job:
+        """Run an estimation in the worker thread (never on the clock's loop), for ``user``."""
         params = {"run_ids": run_ids, "method": method, "search_effects": search_effects}
-        job = self._new("estimation", f"estimation {method} on {len(run_ids)} run(s)", params)
+        label = f"estimation {method} on {len(run_ids)} run(s)"
+        job = self._new("estimation", label, params, user_name=user)
         job.run_ids = list(run_ids)
         self._save(job, event=True)
         self._estimator.submit(self._run_estimation, job, run_ids, method, search_effects)
@@ -658,7 +661,11 @@ class JobRunner:
 
     # -- cross-check ------------------------------------------------------------------------
     def start_crosscheck(
-        self, weight_runs: list[str], thruster_runs: list[str], search_effects: bool = True
+        self,
+        weight_runs: list[str],
+        thruster_runs: list[str],
+        search_effects: bool = True,
+        user: str | None = None,
     ) -> Job:
         """Estimate both sets of runs and cross-check them, in the estimation worker."""
         params = {
@@ -667,7 +674,7 @@ class JobRunner:
             "search_effects": search_effects,
         }
         label = f"cross-check {len(weight_runs)} weight vs {len(thruster_runs)} thruster run(s)"
-        job = self._new("crosscheck", label, params)
+        job = self._new("crosscheck", label, params, user_name=user)
         job.run_ids = list(dict.fromkeys([*weight_runs, *thruster_runs]))
         self._save(job, event=True)
         self._estimator.submit(self._run_crosscheck, job, params)

@@ -60,6 +60,11 @@ def test_the_user_job_and_sequence_are_stored_on_jobs_and_runs(client, service, 
     meta = service.store.get_run(seq["run_ids"][0]).metadata
     assert (meta["started_by"], meta["job_id"], meta["sequence"]) == ("bob", seq["id"], "one step")
 
+    fit = client.post(
+        "/api/jobs/estimation", json={"run_ids": job["run_ids"]}, headers=tokens["bob"]
+    )
+    assert fit.status_code == 202 and fit.json()["user"] == "bob", fit.text  # every job
+
 
 def test_motion_is_refused_after_an_emergency_stop_until_acknowledged(client, tokens) -> None:
     stop = client.post("/api/rig/emergency-stop")  # no token at all

@@ -123,13 +123,15 @@ def start_estimation(
     body: EstimationRequest,
     store: StoreDep,
     runner: RunnerDep,
+    user: OperatorDep,
 ) -> dict:
     """Estimate coefficients from stored runs in a worker thread; poll the job for the result."""
     from api.core.estimation_job import check_estimation_request
 
     run_ids = [store.get_run(r).id for r in body.run_ids]  # 404 for an unknown id, now
     check_estimation_request(store, run_ids, body.method)  # 422: mixed kinds, method per kind
-    return runner.start_estimation(run_ids, body.method, body.search_effects).to_json()
+    started = runner.start_estimation(run_ids, body.method, body.search_effects, user.name)
+    return started.to_json()
 
 
 @router.get(
