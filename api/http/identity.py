@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+from typing import Any
 
 from fastapi import HTTPException, Request
 
@@ -23,11 +24,20 @@ _MISSING = (
 _WRONG = "wrong bearer token (print the right one with 'rig token', or ask for a named one)"
 
 
-def _lookup(request: Request, token: str) -> User | None:
-    if hmac.compare_digest(token.encode(), request.app.state.token.encode()):
-        return DEFAULT_USER
-    store = request.app.state.service.store
-    return None if store is None else UserRepository(store).by_token(token)
+#: State-changing paths answered without a token (an edge check such as a token-first
+#: middleware must let them through): the emergency stop only makes the rig safer.
+NO_TOKEN_PATHS = frozenset({"/api/rig/emergency-stop"})
+
+
+async def user_for_token(app: Any, token: str) -> User | None:
+    """The user ``token`` belongs to in ``app`` (the service token: ``default``; else a
+    named user, looked up by the token's SHA-256 off the event loop), or None."""
+    if hmac.compare_digest(token.encode(), app.state.token.encode()):
+        return DEFAULT_USER  # no database read for the common case
+    store = app.state.service.store
+    if store is None:
+        return None
+    return await asyncio.to_thread(UserRepository(store).by_token, token)
 
 
 async def user_of(request: Request) -> User | None:
@@ -35,9 +45,7 @@ async def user_of(request: Request) -> User | None:
     token = presented_token(request)
     if token is None:
         return None
-    if hmac.compare_digest(token.encode(), request.app.state.token.encode()):
-        return DEFAULT_USER  # no database read for the common case
-    user = await asyncio.to_thread(_lookup, request, token)
+    user = await user_for_token(request.app, token)
     if user is None:
         raise HTTPException(401, _WRONG, headers={"WWW-Authenticate": "Bearer"})
     return user
