@@ -319,7 +319,10 @@ class JobRunner:
                 return
             if not self._queue:
                 return
-            refused = RigGuard.of(self.service).refusal(self._queue[0].user_name)
+            try:
+                refused = RigGuard.of(self.service).refusal(self._queue[0].user_name)
+            except Exception as err:  # fail safe: no start without the safety log
+                refused = JobConflict(f"the safety log cannot be read: {one_line(err)}")
             if refused is not None:  # an unacknowledged e-stop, a hold by someone else
                 self._queue_paused = f"{refused}; then resume the queue"
                 return
