@@ -68,15 +68,12 @@ __all__ = ["ACTIVE", "FINAL", "PROCEDURES", "Job", "JobConflict", "JobNotFound",
 
 
 def run_metadata(job: Job) -> dict[str, Any]:
-    """The metadata a procedure job puts on its runs: its request's, then who started it,
-    the job and the sequence that produced them (``started_by``, ``job_id``, ``sequence``)."""
+    """The metadata a procedure job puts on its runs: its request's, then who started it
+    and the job (``started_by``, ``job_id``; a sequence adds itself and the step)."""
     from daq.store.run_metadata import check_run_metadata
 
     meta = check_run_metadata((job.request or {}).get("metadata"))
-    meta |= {"job_id": job.id} | ({"started_by": job.user_name} if job.user_name else {})
-    if job.kind == "sequence":
-        meta["sequence"] = job.parameters.get("name") or job.label
-    return meta
+    return meta | {"job_id": job.id} | ({"started_by": job.user_name} if job.user_name else {})
 
 
 class JobRunner:

@@ -188,6 +188,7 @@ async def run_sequence(
     report = progress or (lambda p: None)
     plan = [step for _ in range(seq.repeats) for step in seq.steps]
     outcomes: list[RunOutcome] = []
+    base_metadata = dict(session.run_metadata or {})
     try:
         for i, step in enumerate(plan):
             base = i / len(plan)
@@ -203,6 +204,9 @@ async def run_sequence(
                     )
                 )
 
+            # each run says which sequence and step made it (daq.store.run_metadata)
+            origin = {"sequence": seq.name[:200], "sequence_step": i + 1}
+            session.run_metadata = base_metadata | origin
             ran = await KINDS[step.kind].run(session, step, abort=control.abort, progress=sub)
             outcome = ran.run
             outcomes.append(outcome)
@@ -222,5 +226,7 @@ async def run_sequence(
             Progress(len(outcomes) / len(plan), f"sequence aborted: {err.reason}", state="aborted")
         )
         return SequenceOutcome("aborted", err.reason, tuple(outcomes))
+    finally:
+        session.run_metadata = base_metadata or None
     report(Progress(1.0, f"sequence done: {len(outcomes)} runs", state="completed"))
     return SequenceOutcome("completed", None, tuple(outcomes))

@@ -58,7 +58,8 @@ def test_the_user_job_and_sequence_are_stored_on_jobs_and_runs(client, service, 
     seq = wait_job(client, r.json()["id"])
     assert seq["state"] == "completed" and seq["user"] == "bob"
     meta = service.store.get_run(seq["run_ids"][0]).metadata
-    assert (meta["started_by"], meta["job_id"], meta["sequence"]) == ("bob", seq["id"], "one step")
+    origin = ("bob", seq["id"], "one step", 1)
+    assert (meta["started_by"], meta["job_id"], meta["sequence"], meta["sequence_step"]) == origin
 
     fit = client.post(
         "/api/jobs/estimation", json={"run_ids": job["run_ids"]}, headers=tokens["bob"]
