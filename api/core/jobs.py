@@ -35,7 +35,7 @@ from typing import Any
 
 from api.core.job_model import Job, JobConflict, JobNotFound
 from api.core.job_requests import procedure_from_request
-from api.core.rig_guard import RigGuard
+from api.core.rig_guard import RigGuard, latching_stop
 from api.core.service import RigService
 from daq.operator import OperatorAct
 from daq.procedures.kinds import KINDS
@@ -582,19 +582,13 @@ class JobRunner:
         with self._lock:
             self._queue_paused = "emergency stop (API): resume the queue to go on"
         aborted = []
-        for job in list(self.jobs.values()):
-            if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:
-                self.abort(job.id, "emergency stop (API)")
-                aborted.append(job.id)
-        session = self.service.require_session()
-        try:
+        with latching_stop(self.service, user):
+            for job in list(self.jobs.values()):
+                if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:
+                    self.abort(job.id, "emergency stop (API)")
+                    aborted.append(job.id)
+            session = self.service.require_session()
             self.service.run(session.safe_state(), timeout_s=5.0)
-        finally:
-            who = f" by {user}" if user else " (no token)"
-            try:
-                RigGuard.of(self.service).record_stop(user, f"emergency stop (API){who}")
-            except Exception as err:  # the stop stands; the queue stays paused
-                log.error("emergency stop not recorded: %s", one_line(err))
         return aborted
 
     # -- estimation ------------------------------------------------------------------------

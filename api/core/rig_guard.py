@@ -13,14 +13,22 @@ and an unacknowledged stop outlives a restart.
 
 from __future__ import annotations
 
+import contextlib
+import logging
+from collections.abc import Iterator
 from typing import Any
 
 from api.core.job_model import JobConflict, iso_time
 from api.core.service import RigService
 from daq.store.people import ESTOP, ESTOP_ACK, HOLD, RELEASE, RigEventLog, User
 
+log = logging.getLogger(__name__)
+
 #: Longest hold reason, characters.
 MAX_REASON = 200
+#: Rigs (by name) stopped in this process whose stop the safety log does not hold yet (being
+#: written, or the write failed): motion is refused from memory meanwhile.
+_STOPPING: set[str] = set()
 
 
 class MotionRefused(JobConflict):
@@ -82,6 +90,12 @@ class RigGuard:
 
     def refusal(self, user_name: str | None) -> JobConflict | None:
         """Why ``user_name`` may not move the rig now (None: it may)."""
+        if self.log.rig_name in _STOPPING:
+            return MotionRefused(
+                "rig refuses motion: an emergency stop is being recorded or could not be; an "
+                "operator acknowledges it with POST /api/estop/ack",
+                holder="emergency stop",
+            )
         stop = self.estop()
         if stop is not None:
             return MotionRefused(
@@ -113,10 +127,13 @@ class RigGuard:
     def acknowledge(self, user: User, note: str = "") -> dict[str, Any]:
         """A named operator acknowledges the emergency stop; 409 when none is latched."""
         stop = self.estop()
-        if stop is None:
+        if stop is None and self.log.rig_name not in _STOPPING:
             raise JobConflict("no emergency stop to acknowledge")
-        text = f"acknowledged the emergency stop of {_when(stop)}" + (f": {note}" if note else "")
-        return self.log.add(ESTOP_ACK, user.name, text)
+        when = _when(stop) if stop is not None else "now (not recorded)"
+        text = f"acknowledged the emergency stop of {when}" + (f": {note}" if note else "")
+        event = self.log.add(ESTOP_ACK, user.name, text)
+        _STOPPING.discard(self.log.rig_name)
+        return event
 
     def take_hold(self, user: User, reason: Any) -> dict[str, Any]:
         """Hold the rig for ``user``; 423 when someone else holds it."""
@@ -143,3 +160,23 @@ class RigGuard:
         return self.log.add(
             RELEASE, user.name, f"override: released the hold of {held['user_name']}"
         )
+
+
+@contextlib.contextmanager
+def latching_stop(service: RigService, user_name: str | None) -> Iterator[None]:
+    """Around an emergency stop: motion is refused from the moment it is pressed (in
+    memory), and afterwards the stop is recorded in the safety log naming ``user_name``.
+    The stop never waits for the database first; if recording fails, motion stays refused
+    until an operator acknowledges (fail safe)."""
+    name = service.source.rig.rig.name
+    _STOPPING.add(name)
+    try:
+        yield
+    finally:
+        who = f" by {user_name}" if user_name else " (no token)"
+        try:
+            RigGuard.of(service).record_stop(user_name, f"emergency stop (API){who}")
+        except Exception as err:  # the stop stands; motion stays refused
+            log.error("emergency stop not recorded in the safety log: %s", err)
+        else:
+            _STOPPING.discard(name)

@@ -163,3 +163,28 @@ def test_the_command_line_refuses_a_test_after_an_unacknowledged_stop(tmp_path) 
     assert "emergency stop" in ran.output and "rig ack-estop" in ran.output
     with Store(db) as store:
         assert store.list_runs() == []  # nothing recorded, nothing moved
+
+
+def test_a_stop_the_log_cannot_record_still_refuses_motion(client, tokens, monkeypatch) -> None:
+    """The stop never waits for the database; if the safety log refuses the write, motion
+    stays refused (from memory) until an operator acknowledges."""
+    from daq.store.people import ESTOP, RigEventLog
+
+    written = RigEventLog.add
+
+    def full_disk(self, kind, user_name, message):
+        if kind == ESTOP:
+            raise OSError("database or disk is full")
+        return written(self, kind, user_name, message)
+
+    monkeypatch.setattr(RigEventLog, "add", full_disk)
+    assert client.post("/api/rig/emergency-stop").status_code == 200
+    refused = _tow(client, AUTH)
+    assert refused.status_code == 409 and "could not be" in refused.json()["detail"]
+    ack = client.post("/api/estop/ack", headers=tokens["alice"])
+    assert ack.status_code == 200, ack.text
+    assert client.get("/api/rig/events", headers=AUTH).json()[0]["user"] == "alice"
+    assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
+    moved = _tow(client, AUTH)
+    assert moved.status_code == 202, moved.text
+    wait_job(client, moved.json()["id"])
