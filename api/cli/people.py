@@ -9,6 +9,8 @@ refused until ``rig release``. ``--user`` names who acts: a user added with
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from api.cli.common import db_option, echo_json, fail, json_option, open_store, rig_option
@@ -102,7 +104,7 @@ def remove(name, db_url):
     click.echo(f"user {name} removed")
 
 
-def _acting(store, user_name: str):
+def _acting(store: Any, user_name: str) -> Any:
     """The operator ``user_name`` names (exit 2 naming --user otherwise)."""
     from daq.store.people import User, UserRepository
 
@@ -110,8 +112,10 @@ def _acting(store, user_name: str):
         return User("default", "operator")
     found = UserRepository(store).by_name(user_name)
     if found is None:
+        store.close()
         fail(f"--user: no user named {user_name!r} (`rig user list` lists them)")
-    if not found.operator:
+    elif not found.operator:
+        store.close()
         fail(f"--user: {user_name!r} has role {found.role}; this needs role operator")
     return found
 
