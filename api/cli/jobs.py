@@ -32,7 +32,7 @@ def _table(rows: list[dict[str, Any]], first: str) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(first, "job", "rig", "label", "state", "created", "runs", box=None)
+    table = Table(first, "job", "rig", "label", "state", "user", "created", "runs", box=None)
     for row in rows:
         state = row["state"] + (f" ({row['error']})" if row["error"] else "")
         table.add_row(
@@ -41,6 +41,7 @@ def _table(rows: list[dict[str, Any]], first: str) -> None:
             row["rig_name"],
             row["label"],
             state,
+            row.get("user_name") or "—",
             _when(row["created_at"]),
             " ".join(r[:8] for r in row["run_ids"] or []),
         )

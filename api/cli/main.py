@@ -126,6 +126,26 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "token",
         "Print the API's bearer token (created on first use; or set RIG_API_TOKEN).",
     ),
+    "user": (
+        "api.cli.people",
+        "user",
+        "Named users of the API: each with a token (shown once) and a role (operator...",
+    ),
+    "ack-estop": (
+        "api.cli.people",
+        "ack_estop",
+        "Acknowledge an emergency stop: the rig takes starts again (named in the log).",
+    ),
+    "hold": (
+        "api.cli.people",
+        "hold",
+        "Hold the rig for local work: remote starts by anyone else are refused (423).",
+    ),
+    "release": (
+        "api.cli.people",
+        "release",
+        "Release the hold of the rig (its holder, or another operator with --override).",
+    ),
     "sixdof": (
         "api.cli.sixdof",
         "sixdof",

@@ -51,6 +51,7 @@ def _run_procedure(
     if note:  # the weight hangs to the gram: say what the run really applies
         click.echo(f"note: {flag_names(click.get_current_context(silent=True), note)}", err=True)
     store = open_store(db_url)
+    _refuse_after_estop(store, source)
 
     async def main(abort: AbortSignal) -> Any:
         from daq.operator import OperatorActUnavailable
@@ -85,6 +86,19 @@ def _run_procedure(
         return run_with_signals(main)
     finally:
         store.close()
+
+
+def _refuse_after_estop(store: Any, source: RigSource) -> None:
+    """Exit 1 (nothing opened) while the rig's emergency stop is not acknowledged
+    (``rig ack-estop``): the command line moves the rig no sooner than the API."""
+    from api.core.rig_guard import RigGuard
+    from daq.store.people import RigEventLog
+
+    guard = RigGuard(RigEventLog(store, source.rig.rig.name))
+    if guard.estop() is not None:
+        refused = guard.refusal(None)
+        store.close()
+        fail(str(refused), code=1)
 
 
 def _print_outcome(outcome: Any, as_json: bool) -> None:

@@ -77,6 +77,8 @@ class Job:
     position: int | None = None
     #: The request body a queued procedure is rebuilt from after a restart.
     request: dict[str, Any] | None = None
+    #: The named user who asked for it (None: older jobs, estimations of no one).
+    user_name: str | None = None
     #: The validated parameters object (None for a job loaded back from the database).
     params: Any = None
     # rig-loop objects (procedures) — touched only through RigService.call_soon
@@ -106,6 +108,7 @@ class Job:
                 "started_at": iso_time(self.started_at),
                 "finished_at": iso_time(self.finished_at),
                 "notes": list(self.notes),
+                "user": self.user_name,
             }
 
     def row(self, rig_name: str) -> dict[str, Any]:
@@ -129,6 +132,7 @@ class Job:
                 "created_at": self.created_at,
                 "started_at": self.started_at,
                 "finished_at": self.finished_at,
+                "user_name": self.user_name,
             }
 
     @classmethod
@@ -152,4 +156,5 @@ class Job:
             notes=list(row["notes"] or []),
             position=row["position"],
             request=row["request"],
+            user_name=row.get("user_name"),
         )

@@ -37,6 +37,7 @@ from typing import Any
 from api.core.job_model import Job, JobConflict, JobNotFound
 from api.core.job_requests import procedure_from_request
 from api.core.queue_edits import QueueEdits
+from api.core.rig_guard import RigGuard, latching_stop
 from api.core.service import RigService
 from daq.operator import OperatorAct
 from daq.procedures.kinds import KINDS
@@ -68,11 +69,13 @@ SAVE_EVERY_S = 1.0
 __all__ = ["ACTIVE", "FINAL", "PROCEDURES", "Job", "JobConflict", "JobNotFound", "JobRunner"]
 
 
-def run_metadata(job: Job) -> dict[str, Any] | None:
-    """The metadata a procedure job puts on its runs (from its request; None without)."""
+def run_metadata(job: Job) -> dict[str, Any]:
+    """The metadata a procedure job puts on its runs: its request's, then who started it
+    and the job (``started_by``, ``job_id``; a sequence adds itself and the step)."""
     from daq.store.run_metadata import check_run_metadata
 
-    return check_run_metadata((job.request or {}).get("metadata")) or None
+    meta = check_run_metadata((job.request or {}).get("metadata"))
+    return meta | {"job_id": job.id} | ({"started_by": job.user_name} if job.user_name else {})
 
 
 class JobRunner(QueueEdits):
@@ -233,17 +236,22 @@ class JobRunner(QueueEdits):
         *,
         request: dict[str, Any] | None = None,
         queue: bool = True,
+        user: str | None = None,
     ) -> Job:
         """Start a validated procedure, or queue it behind the job holding the rig (and the
         jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409).
-        The request's ``metadata`` goes on every run it records (checked here: 422 first)."""
+        The request's ``metadata`` goes on every run it records (checked here: 422 first).
+        ``user`` asked for it: refused while an emergency stop is unacknowledged or someone
+        else holds the rig (``api.core.rig_guard``)."""
         from daq.store.run_metadata import check_run_metadata
 
         check_run_metadata((request or {}).get("metadata"))
         session = self.service.require_session()
+        RigGuard.of(self.service).check_start(user)
         parameters = params.to_json()
         note = getattr(params, "adjustment", lambda: None)()
         fields = {"notes": [note] if note else [], "request": request, "params": params}
+        fields["user_name"] = user
         with self._lock:
             busy = self.rig_job
             if session.lock_holder is not None and busy is None:
@@ -315,6 +323,13 @@ class JobRunner(QueueEdits):
             if self._closing or self._queue_paused or self.rig_job is not None:
                 return
             if not self._queue:
+                return
+            try:
+                refused = RigGuard.of(self.service).refusal(self._queue[0].user_name)
+            except Exception as err:  # fail safe: no start without the safety log
+                refused = JobConflict(f"the safety log cannot be read: {one_line(err)}")
+            if refused is not None:  # an unacknowledged e-stop, a hold by someone else
+                self._queue_paused = f"{refused}; then resume the queue"
                 return
             job = self._queue.pop(0)
             self._rig_job = job
@@ -568,26 +583,31 @@ class JobRunner(QueueEdits):
             raise JobConflict(f"job {job.id} waits in the queue; pause the queue instead")
         return job
 
-    def emergency_stop(self) -> list[str]:
-        """Abort the procedure on the rig, pause the queue if jobs wait (they stay) and put
-        the rig in its safe state now."""
+    def emergency_stop(self, user: str | None = None) -> list[str]:
+        """Abort the procedure on the rig, pause the queue if jobs wait (they stay), put the
+        rig in its safe state now, then latch the stop (naming ``user``, if known): no
+        motion until an operator acknowledges it."""
         with self._lock:
             if self._queue:  # an empty queue is not held: the next start runs as before
                 self._queue_paused = "emergency stop (API): resume the queue to go on"
         aborted = []
-        for job in list(self.jobs.values()):
-            if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:
-                self.abort(job.id, "emergency stop (API)")
-                aborted.append(job.id)
-        session = self.service.require_session()
-        self.service.run(session.safe_state(), timeout_s=5.0)
+        with latching_stop(self.service, user):
+            for job in list(self.jobs.values()):
+                if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:
+                    self.abort(job.id, "emergency stop (API)")
+                    aborted.append(job.id)
+            session = self.service.require_session()
+            self.service.run(session.safe_state(), timeout_s=5.0)
         return aborted
 
     # -- estimation ------------------------------------------------------------------------
-    def start_estimation(self, run_ids: list[str], method: str, search_effects: bool) -> Job:
-        """Run an estimation in the worker thread (never on the clock's loop)."""
+    def start_estimation(
+        self, run_ids: list[str], method: str, search_effects: bool, user: str | None = None
+    ) -> Job:
+        """Run an estimation in the worker thread (never on the clock's loop), for ``user``."""
         params = {"run_ids": run_ids, "method": method, "search_effects": search_effects}
-        job = self._new("estimation", f"estimation {method} on {len(run_ids)} run(s)", params)
+        label = f"estimation {method} on {len(run_ids)} run(s)"
+        job = self._new("estimation", label, params, user_name=user)
         job.run_ids = list(run_ids)
         self._save(job, event=True)
         self._estimator.submit(self._run_estimation, job, run_ids, method, search_effects)
@@ -644,7 +664,11 @@ class JobRunner(QueueEdits):
 
     # -- cross-check ------------------------------------------------------------------------
     def start_crosscheck(
-        self, weight_runs: list[str], thruster_runs: list[str], search_effects: bool = True
+        self,
+        weight_runs: list[str],
+        thruster_runs: list[str],
+        search_effects: bool = True,
+        user: str | None = None,
     ) -> Job:
         """Estimate both sets of runs and cross-check them, in the estimation worker."""
         params = {
@@ -653,7 +677,7 @@ class JobRunner(QueueEdits):
             "search_effects": search_effects,
         }
         label = f"cross-check {len(weight_runs)} weight vs {len(thruster_runs)} thruster run(s)"
-        job = self._new("crosscheck", label, params)
+        job = self._new("crosscheck", label, params, user_name=user)
         job.run_ids = list(dict.fromkeys([*weight_runs, *thruster_runs]))
         self._save(job, event=True)
         self._estimator.submit(self._run_crosscheck, job, params)

@@ -43,7 +43,13 @@ class QueueEdits:
         def pause_queue(self, reason: str = ...) -> dict[str, Any]: ...
         def resume_queue(self) -> dict[str, Any]: ...
         def start_procedure(
-            self, kind: str, params: Any, label: str, *, request: dict[str, Any] | None = ...
+            self,
+            kind: str,
+            params: Any,
+            label: str,
+            *,
+            request: dict[str, Any] | None = ...,
+            user: str | None = ...,
         ) -> Job: ...
 
     def replace(self, job_id: str, request: dict[str, Any]) -> Job:
@@ -53,7 +59,9 @@ class QueueEdits:
 
         job = self._queued(job_id)
         check_run_metadata(request.get("metadata"))
-        params, label = procedure_from_request(job.kind, request, self.service.source.rig)
+        params, label = procedure_from_request(
+            job.kind, request, self.service.source.rig, self.service.store
+        )
         note = getattr(params, "adjustment", lambda: None)()
         with self._lock:
             if job not in self._queue:
@@ -79,14 +87,16 @@ class QueueEdits:
         words); ``resume_queue`` undoes it."""
         return self.pause_queue(STOP_AFTER_CURRENT)
 
-    def requeue(self, job_id: str) -> Job:
-        """Submit a past procedure job's request again as a new job (queued while the rig
-        is busy or the queue paused); validated like any submission."""
+    def requeue(self, job_id: str, user: str | None = None) -> Job:
+        """Submit a past procedure job's request again as a new job for ``user`` (queued
+        while the rig is busy or the queue paused); validated like any submission."""
         old = self.get(job_id)
         if old.request is None:
             raise JobConflict(f"job {old.id} ({old.kind}) has no stored request to submit again")
         if old.position is not None:
             raise JobConflict(f"job {old.id} is still in the queue (position {old.position})")
         request = dict(old.request)
-        params, label = procedure_from_request(old.kind, request, self.service.source.rig)
-        return self.start_procedure(old.kind, params, label, request=request)
+        params, label = procedure_from_request(
+            old.kind, request, self.service.source.rig, self.service.store
+        )
+        return self.start_procedure(old.kind, params, label, request=request, user=user)

@@ -24,6 +24,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from api.core.jobs import JobConflict, JobNotFound, JobRunner
+from api.core.rig_guard import RigHeld
 from api.core.service import RigService, RigUnavailable
 from api.http.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
 from api.http.request_errors import request_json_error, request_not_found
@@ -32,6 +33,7 @@ from api.http.routes import calibration as routes_calibration
 from api.http.routes import crosscheck as routes_crosscheck
 from api.http.routes import imports as routes_imports
 from api.http.routes import jobs as routes_jobs
+from api.http.routes import people as routes_people
 from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
 from api.http.routes import runs as routes_runs
@@ -132,7 +134,7 @@ def _install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(JobConflict)
     async def conflict(request: Request, exc: JobConflict) -> JSONResponse:
-        return _error(409, str(exc), holder=exc.holder)
+        return _error(423 if isinstance(exc, RigHeld) else 409, str(exc), holder=exc.holder)
 
     @app.exception_handler(RigUnavailable)
     async def unavailable(request: Request, exc: RigUnavailable) -> JSONResponse:
@@ -223,6 +225,7 @@ def create_app(
         routes_rig,
         routes_crosscheck,
         routes_jobs,
+        routes_people,
         routes_queue,
         routes_sequences,
         routes_runs,

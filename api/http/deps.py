@@ -1,4 +1,5 @@
-"""What every route depends on: the service, the job runner, the store, the token checks.
+"""What every route depends on: the service, the job runner, the store, the token checks
+(who the token belongs to: ``api.http.identity``).
 
 All are ``async def``: they never block, and FastAPI would otherwise hop to a worker
 thread for each of them on every request.
@@ -13,8 +14,9 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from api.core.jobs import JobRunner
 from api.core.service import RigService, RigUnavailable
-from api.http.auth import check_token
+from api.http.identity import known_user, operator
 from daq.store import Store
+from daq.store.people import User
 
 bearer = HTTPBearer(
     auto_error=False,
@@ -37,18 +39,23 @@ async def get_store(request: Request) -> Store:
     return store
 
 
-async def require_write(request: Request, _: Credentials) -> None:
-    """Every state-changing endpoint: the bearer token is required."""
-    check_token(request, request.app.state.token)
+async def require_write(request: Request, _: Credentials) -> User:
+    """Every state-changing endpoint: an operator's bearer token is required (403 for a
+    viewer's)."""
+    return await operator(request)
 
 
 async def require_read(request: Request, _: Credentials) -> None:
-    """Read-only endpoints: the token is required unless the service runs ``--open-read``."""
+    """Read-only endpoints: any user's token is required unless the service runs
+    ``--open-read``."""
     if not request.app.state.open_read:
-        check_token(request, request.app.state.token)
+        await known_user(request)
 
 
 ServiceDep = Annotated[RigService, Depends(get_service)]
 RunnerDep = Annotated[JobRunner, Depends(get_runner)]
 StoreDep = Annotated[Store, Depends(get_store)]
 Credentials = Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]
+#: The operator a state-changing request acts as (checked once per request: FastAPI caches
+#: a dependency, so ``dependencies=[Depends(require_write)]`` and this share the check).
+OperatorDep = Annotated[User, Depends(require_write)]

@@ -42,10 +42,12 @@ def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
     """OpenAPI declarations of the error responses a route can give."""
     text = {
         401: "Missing or wrong bearer token",
+        403: "The token's user has role viewer; this needs role operator",
         404: "Unknown id",
         409: "Conflict: the rig is busy (holder named) or the job is in the wrong state",
         413: "Upload too large",
         422: "Bad input: each problem names the field, the value and what is allowed",
+        423: "The rig is held by another user (holder and reason named)",
         503: "The rig service is not running",
     }
     return {code: {"model": ErrorBody, "description": text[code]} for code in codes}
@@ -162,6 +164,9 @@ class JobOut(BaseModel):
     created_at: str = Field(description="ISO 8601, UTC (like a run's times)")
     started_at: str | None = Field(None, description="ISO 8601, UTC")
     finished_at: str | None = Field(None, description="ISO 8601, UTC")
+    user: str | None = Field(
+        None, description="The named user who asked for the job (`default`: the service token)."
+    )
     notes: list[str] = Field(
         default_factory=list,
         description="What the request became, e.g. a force rounded to a whole-gram weight "
@@ -279,6 +284,11 @@ class RigStatus(BaseModel):
         "lists them; the reason says what the rig does without one.",
     )
     stream_clients: int = 0
+    guard: dict[str, Any] = Field(
+        {},
+        description="`estop`: an emergency stop not yet acknowledged (motion refused), "
+        "`hold`: who holds the rig and why; each `{by, at, message}` or null.",
+    )
 
 
 class Health(BaseModel):

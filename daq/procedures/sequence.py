@@ -13,8 +13,9 @@ force_n = 4.9        # the same parameters as the CLI / API
 kind = "tow"
 force_n = -24.5      # negative: a reverse tow (from the far end, over the far-end pulley)
 ```
-Every step is validated against the rig's limits before the first one starts, so a
-typo in step 7 never aborts a half-finished campaign. Between steps the sequence
+Every step is validated against the rig's limits (and a thruster drive against the stored
+thrust calibration) before the first one starts, so a typo in step 7 never aborts a
+half-finished campaign. Between steps the sequence
 can be paused, resumed or aborted.
 """
 
@@ -177,11 +178,17 @@ async def run_sequence(
     control: SequenceControl | None = None,
     progress: ProgressCallback | None = None,
 ) -> SequenceOutcome:
-    """Run every step ``repeats`` times, resting ``rest_s`` between runs."""
+    """Run every step ``repeats`` times, resting ``rest_s`` between runs. Every step's
+    thruster drive is checked against the newest stored calibration first (it may have
+    changed since the sequence was queued): ``ParameterError`` before anything moves."""
+    from daq.procedures.drive_check import check_steps
+
+    await asyncio.to_thread(check_steps, seq.steps, session.rig, session.store)
     control = control or SequenceControl()
     report = progress or (lambda p: None)
     plan = [step for _ in range(seq.repeats) for step in seq.steps]
     outcomes: list[RunOutcome] = []
+    base_metadata = dict(session.run_metadata or {})
     try:
         for i, step in enumerate(plan):
             base = i / len(plan)
@@ -197,6 +204,9 @@ async def run_sequence(
                     )
                 )
 
+            # each run says which sequence and step made it (daq.store.run_metadata)
+            origin = {"sequence": seq.name[:200], "sequence_step": i + 1}
+            session.run_metadata = base_metadata | origin
             ran = await KINDS[step.kind].run(session, step, abort=control.abort, progress=sub)
             outcome = ran.run
             outcomes.append(outcome)
@@ -216,5 +226,7 @@ async def run_sequence(
             Progress(len(outcomes) / len(plan), f"sequence aborted: {err.reason}", state="aborted")
         )
         return SequenceOutcome("aborted", err.reason, tuple(outcomes))
+    finally:
+        session.run_metadata = base_metadata or None
     report(Progress(1.0, f"sequence done: {len(outcomes)} runs", state="completed"))
     return SequenceOutcome("completed", None, tuple(outcomes))

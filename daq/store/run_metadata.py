@@ -25,6 +25,9 @@ MAX_NOTES_CHARS = 10_000
 MAX_TEXT_CHARS = 200
 MAX_EXTRA_KEYS = 30
 KNOWN_KEYS = ("operator", "water_temperature_c", "notes", "tags")
+#: Where a run came from, added by the job runner and sequences (who started it, the job,
+#: the sequence and its step): not counted against the free keys a person may add.
+ORIGIN_KEYS = ("started_by", "job_id", "sequence", "sequence_step")
 _KEY = re.compile(r"^[a-z][a-z0-9_]{0,39}$")
 _TAG = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:+-]*$")
 
@@ -101,7 +104,7 @@ def check_run_metadata(
                 f"{prefix}{key}: this key is not allowed; use a lower-case name of 1-40 "
                 "letters, digits or '_' starting with a letter (e.g. 'ballast')"
             )
-        extra += key not in KNOWN_KEYS
+        extra += key not in KNOWN_KEYS + ORIGIN_KEYS
         if extra > MAX_EXTRA_KEYS:
             raise ValueError(f"{prefix}{key}: more than {MAX_EXTRA_KEYS} free keys on a run")
         if item is None and allow_null:
@@ -119,7 +122,7 @@ def merge_run_metadata(current: dict[str, Any], changes: dict[str, Any]) -> dict
             merged.pop(key, None)
         else:
             merged[key] = value
-    extra = [k for k in merged if k not in KNOWN_KEYS]
+    extra = [k for k in merged if k not in KNOWN_KEYS + ORIGIN_KEYS]
     if len(extra) > MAX_EXTRA_KEYS:
         raise ValueError(f"metadata: {len(extra)} free keys; at most {MAX_EXTRA_KEYS} on a run")
     return merged

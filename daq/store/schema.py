@@ -195,6 +195,8 @@ jobs = sa.Table(
     sa.Column("owner_pid", sa.Integer, nullable=True),
     sa.Column("owner_boot_id", sa.String(64), nullable=True),
     sa.Column("owner_start_ticks", sa.BigInteger, nullable=True),
+    # who asked for the job (revision 0006; NULL for older jobs)
+    sa.Column("user_name", sa.String(40), nullable=True),
     sa.CheckConstraint(
         "state IN (" + ", ".join(f"'{s.value}'" for s in JobState) + ")", name="ck_jobs_state"
     ),
@@ -218,4 +220,34 @@ report_files = sa.Table(
     sa.Column("name", sa.String(200), primary_key=True),
     sa.Column("media_type", sa.String(100), nullable=False),
     sa.Column("content", sa.LargeBinary, nullable=False),
+)
+
+#: Roles a named user can have: an operator starts and stops tests, a viewer only reads.
+USER_ROLES = ("operator", "viewer")
+
+#: Named users of the API (revision 0006): the token is shown once, only its SHA-256 kept.
+users = sa.Table(
+    "users",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("name", sa.String(40), nullable=False, unique=True),
+    sa.Column("role", sa.String(20), nullable=False),
+    sa.Column("token_sha256", sa.String(64), nullable=False, unique=True),
+    sa.Column("created_at", sa.Float(precision=53), nullable=False),
+    sa.CheckConstraint(
+        "role IN (" + ", ".join(f"'{r}'" for r in USER_ROLES) + ")", name="ck_users_role"
+    ),
+)
+
+#: The rig's safety log (revision 0006): emergency stops, their acknowledgements, holds and
+#: releases, each naming who; the latest of each pair is the rig's state.
+rig_events = sa.Table(
+    "rig_events",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("rig_name", sa.String(200), nullable=False, index=True),
+    sa.Column("t_wall", sa.Float(precision=53), nullable=False),
+    sa.Column("kind", sa.String(40), nullable=False),
+    sa.Column("user_name", sa.String(40), nullable=True),
+    sa.Column("message", sa.Text, nullable=False),
 )

@@ -155,6 +155,15 @@ case(2, "'--state': 'sleeping' is not one of", "jobs", "--state", "sleeping")
 case(2, "--modbus-port: cannot listen on 127.0.0.1:{busy}", "sim", "--modbus-port", "{busy}")
 case(2, "--host/--port: cannot bind 127.0.0.1:{busy}", "serve", "--port", "{busy}", "--db", "{db}")
 case(1, "cannot connect to PLC at tcp 127.0.0.1:{closed}", "tow", "--force", "9.8", "--rig", "{hw}")
+# -- people and the safety log -----------------------------------------------------------
+case(2, "NAME: 'b b' is not allowed (allowed 1-40 letters", "user", "add", "b b")
+case(2, "NAME: 'default' is not allowed", "user", "add", "default", "--role", "operator")
+case(2, "NAME: no user named 'nobody'", "user", "remove", "nobody")
+case(2, "--db: cannot open the database", "user", "list", "--db", "{pg}")
+case(2, "--user: no user named 'nobody'", "ack-estop", "--user", "nobody")
+case(1, "no emergency stop to acknowledge", "ack-estop", "--user", "default")
+case(2, "--reason: '' is not allowed (allowed 1-200", "hold", "--user", "default", "--reason", "")
+case(1, "the rig is not held", "release", "--user", "default")
 
 
 @pytest.fixture(scope="module")

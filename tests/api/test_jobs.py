@@ -94,6 +94,7 @@ def test_emergency_stop_aborts_the_running_job(client):
     job = wait_job(client, job_id, timeout_s=10)
     assert job["state"] == "aborted"
     assert "emergency stop" in (job["error"] or job["progress"]["message"])
+    assert client.post("/api/estop/ack", headers=AUTH).status_code == 200  # motion again
 
 
 def test_emergency_stop_pauses_the_queue_and_keeps_its_jobs(client):
@@ -109,6 +110,7 @@ def test_emergency_stop_pauses_the_queue_and_keeps_its_jobs(client):
     assert [j["id"] for j in queue["jobs"]] == [queued["id"]]  # kept, not started
     assert client.get(f"/api/jobs/{queued['id']}", headers=AUTH).json()["state"] == "queued"
     assert client.delete(f"/api/queue/{queued['id']}", headers=AUTH).json()["jobs"] == []
+    assert client.post("/api/estop/ack", headers=AUTH).status_code == 200
     assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
 
 

@@ -31,7 +31,8 @@ def test_a_tow_started_with_metadata_stores_it_and_is_found_by_it(client):
     assert job["state"] == "completed", job
     run_id = job["run_ids"][0]
     run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
-    assert run["metadata"] == META
+    origin = {"started_by": "default", "job_id": job["id"]}  # who and which job (issue 23)
+    assert run["metadata"] == META | origin
     assert (run["drive"], run["source"], run["source_file"]) == ("weight", "recorded", None)
 
     assert [r["id"] for r in _runs(client, "tag=fins-v2")] == [run_id]
@@ -47,7 +48,7 @@ def test_a_tow_started_with_metadata_stores_it_and_is_found_by_it(client):
     )
     assert r.status_code == 200, r.text
     expected = {"operator": "Åsa", "water_temperature_c": 18.5, "tags": ["repeat"],
-                "notes": "long fins"}  # fmt: skip
+                "notes": "long fins"} | origin  # fmt: skip
     assert r.json()["metadata"] == expected
     assert client.get(f"/api/runs/{run_id}", headers=AUTH).json()["metadata"] == expected
     assert _runs(client, "tag=fins-v2") == []

@@ -82,7 +82,10 @@ def test_no_server_error_and_no_schema_violation(live_schema, client):
         finally:
             timings[op.label] = time.monotonic() - t0
             client.post("/api/rig/emergency-stop", headers=AUTH)  # end jobs it started
+            client.post("/api/estop/ack", headers=AUTH)  # the next operation may move again
+            client.post("/api/rig/release", json={"override": True}, headers=AUTH)
     client.post("/api/rig/emergency-stop", headers=AUTH)
+    client.post("/api/estop/ack", headers=AUTH)
     wait_rig_free(client)
     print("slowest operations:", sorted(timings.items(), key=lambda kv: -kv[1])[:3])
     assert not failures, "\n\n".join(f"{k}\n{v}" for k, v in failures.items())

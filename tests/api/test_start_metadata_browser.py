@@ -37,7 +37,9 @@ def test_a_tow_started_from_the_page_carries_the_run_metadata(live_url):
         expect(page.locator("#job-state")).to_have_text("completed", timeout=30_000)
         run_id = page.text_content("#job-runs").strip()
         run = live_url.get(f"/api/runs/{run_id}", headers=AUTH).json()
-        assert run["metadata"] == {"operator": "Grace", "tags": ["fins-v2", "page"]}
+        job = live_url.get("/api/jobs?limit=1", headers=AUTH).json()[0]
+        origin = {"started_by": "default", "job_id": job["id"]}  # who and which job
+        assert run["metadata"] == {"operator": "Grace", "tags": ["fins-v2", "page"]} | origin
 
         page.reload()  # the operator is remembered for the next test, the tags are not
         page.click("#run-metadata summary")

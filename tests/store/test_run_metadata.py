@@ -117,3 +117,15 @@ def test_meta_pairs_keep_numbers_as_numbers() -> None:
     assert parse_meta_pair("note=a=b") == ("note", "a=b")
     with pytest.raises(ValueError, match="KEY=VALUE"):
         parse_meta_pair("novalue")
+
+
+def test_a_runs_origin_keys_do_not_count_against_the_free_keys() -> None:
+    """A request may carry the most free keys allowed; the job and sequence then add who,
+    which job and which step without pushing the run over the limit."""
+    from daq.store.run_metadata import MAX_EXTRA_KEYS, ORIGIN_KEYS, check_run_metadata
+
+    full = {f"key_{i}": i for i in range(MAX_EXTRA_KEYS)}
+    origin = dict.fromkeys(ORIGIN_KEYS, "x")
+    assert check_run_metadata(full | origin) == full | origin
+    with pytest.raises(ValueError, match="more than 30 free keys"):
+        check_run_metadata(full | origin | {"one_more": 1})

@@ -9,7 +9,7 @@ from pathlib import Path
 from fastapi import APIRouter, Depends
 from starlette.concurrency import run_in_threadpool
 
-from api.http.deps import RunnerDep, StoreDep, require_read, require_write
+from api.http.deps import OperatorDep, RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import (
     CrossCheckJobRequest,
     CrossCheckRequest,
@@ -65,9 +65,11 @@ def list_crosschecks(store: StoreDep) -> list[dict]:
     dependencies=[Depends(require_write)],
     responses=error_responses(401, 404, 422),
 )
-def start_crosscheck_job(body: CrossCheckJobRequest, store: StoreDep, runner: RunnerDep) -> dict:
+def start_crosscheck_job(
+    body: CrossCheckJobRequest, store: StoreDep, runner: RunnerDep, user: OperatorDep
+) -> dict:
     """Estimate the weight-driven and the thruster-driven runs (each stored as an estimation)
     and cross-check them, in the estimation worker; poll the job for the result."""
     weight = [store.get_run(r).id for r in body.weight_runs]  # 404 for an unknown id, now
     thrusters = [store.get_run(r).id for r in body.thruster_runs]
-    return runner.start_crosscheck(weight, thrusters, body.search_effects).to_json()
+    return runner.start_crosscheck(weight, thrusters, body.search_effects, user.name).to_json()

@@ -13,7 +13,14 @@ from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
 from api.core.jobs import LIST_LIMIT, JobRunner
 from api.core.service import RigService
-from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
+from api.http.deps import (
+    OperatorDep,
+    RunnerDep,
+    ServiceDep,
+    StoreDep,
+    require_read,
+    require_write,
+)
 from api.http.schemas import (
     EstimationRequest,
     JobEventOut,
@@ -22,10 +29,11 @@ from api.http.schemas import (
     error_responses,
 )
 from daq.procedures.kinds import KINDS, KindSpec
+from daq.store.people import User
 from daq.store.schema import JobState
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
-_START = error_responses(401, 409, 422, 503)
+_START = error_responses(401, 403, 409, 422, 423, 503)
 _CONTROL = error_responses(401, 404, 409, 503)
 #: ``?queue=false``: refuse (409) instead of queueing when the rig is busy.
 QueueFlag = Annotated[
@@ -37,10 +45,13 @@ QueueFlag = Annotated[
 ]
 
 
-def _start(kind: str, body, service, runner, queue: bool) -> dict:
+def _start(kind: str, body, service, runner, queue: bool, user: User) -> dict:
     request = body.model_dump(mode="json", exclude_none=True)
-    params, label = procedure_from_request(kind, request, service.source.rig)
-    return runner.start_procedure(kind, params, label, request=request, queue=queue).to_json()
+    params, label = procedure_from_request(kind, request, service.source.rig, service.store)
+    started = runner.start_procedure(
+        kind, params, label, request=request, queue=queue, user=user.name
+    )
+    return started.to_json()
 
 
 def _start_route(spec: KindSpec) -> None:
@@ -48,8 +59,8 @@ def _start_route(spec: KindSpec) -> None:
     rig (422 naming the field), then started as a job, or queued while the rig is busy
     (``?queue=false``: 409 instead)."""
 
-    def start(body, service: RigService, runner: JobRunner, queue: bool = True) -> dict:
-        return _start(spec.kind, body, service, runner, queue)
+    def start(body, service: RigService, runner: JobRunner, user: User, queue: bool = True) -> dict:
+        return _start(spec.kind, body, service, runner, queue, user)
 
     start.__name__ = f"start_{spec.route}"  # the OpenAPI operation id: start_tow_api_jobs_…
     start.__doc__ = (
@@ -61,6 +72,7 @@ def _start_route(spec: KindSpec) -> None:
             inspect.Parameter("body", inspect.Parameter.KEYWORD_ONLY, annotation=spec.request),
             inspect.Parameter("service", inspect.Parameter.KEYWORD_ONLY, annotation=ServiceDep),
             inspect.Parameter("runner", inspect.Parameter.KEYWORD_ONLY, annotation=RunnerDep),
+            inspect.Parameter("user", inspect.Parameter.KEYWORD_ONLY, annotation=OperatorDep),
             inspect.Parameter(
                 "queue", inspect.Parameter.KEYWORD_ONLY, annotation=QueueFlag, default=True
             ),
@@ -91,11 +103,13 @@ def start_sequence(
     body: SequenceRequest,
     service: ServiceDep,
     runner: RunnerDep,
+    user: OperatorDep,
     queue: QueueFlag = True,
 ) -> dict:
     """Start a sequence (the content of a sequence TOML file, as JSON); queued while the rig
-    is busy."""
-    return _start("sequence", body, service, runner, queue)
+    is busy. Every step is checked against the rig and the stored thrust calibration first
+    (422 naming ``steps[i].field``)."""
+    return _start("sequence", body, service, runner, queue, user)
 
 
 @router.post(
@@ -109,6 +123,7 @@ def start_estimation(
     body: EstimationRequest,
     store: StoreDep,
     runner: RunnerDep,
+    user: OperatorDep,
 ) -> dict:
     """Estimate coefficients from stored runs in a worker thread; poll the job for the result."""
     from api.core.estimation_job import load_estimation_runs
@@ -117,7 +132,8 @@ def start_estimation(
     # 422 for bad input (mixed kinds, a method the kind lacks, a run without its drive or
     # too short), so a failed job always means the fit itself failed
     load_estimation_runs(store, run_ids, body.method)
-    return runner.start_estimation(run_ids, body.method, body.search_effects).to_json()
+    started = runner.start_estimation(run_ids, body.method, body.search_effects, user.name)
+    return started.to_json()
 
 
 @router.get(
@@ -198,8 +214,8 @@ _control_route(
     dependencies=[Depends(require_write)],
     responses=error_responses(401, 404, 409, 422, 503),
 )
-def requeue_job(job_id: str, runner: RunnerDep) -> dict:
+def requeue_job(job_id: str, runner: RunnerDep, user: OperatorDep) -> dict:
     """Submit a past procedure job's request again: a new job, validated like any
     submission and queued while the rig is busy or the queue paused (409 for an analysis or
-    a job still queued)."""
-    return runner.requeue(job_id).to_json()
+    a job still queued), asked for by this request's user."""
+    return runner.requeue(job_id, user.name).to_json()

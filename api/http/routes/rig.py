@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Coroutine
-from typing import Any
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Request
 
 from api.core.jobs import JobConflict, JobRunner
+from api.core.rig_guard import RigGuard
 from api.core.service import RigService
-from api.http.deps import RunnerDep, ServiceDep, require_read, require_write
+from api.http.deps import OperatorDep, RunnerDep, ServiceDep, require_read, require_write
+from api.http.identity import anyone
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
 from daq.capabilities import safety
 from daq.procedures.kinds import NotCapable, capabilities
 from daq.session import RigSession
 from daq.store.base import software_version
+from daq.store.people import User
 
 router = APIRouter(prefix="/api", tags=["rig"])
 
@@ -39,6 +42,7 @@ def rig_status(service: RigService, runner: JobRunner) -> dict:
     }
     data["limits"] = {k: v for k, v in limits.items() if v is not None}  # unset: not offered
     data["stream_clients"] = service.broadcaster.client_count
+    data["guard"] = RigGuard.of(service).state() if service.store is not None else {}
     return data
 
 
@@ -83,8 +87,10 @@ def _thrusters_route(
     """``POST /api/rig/<verb>``: ``switch`` the thrusters of an idle rig (409 while a job or
     another client holds the rig), the rig's status as answer."""
 
-    def switch_thrusters(service: ServiceDep, runner: RunnerDep) -> dict:
+    def switch_thrusters(service: ServiceDep, runner: RunnerDep, user: OperatorDep) -> dict:
         session = _idle_session(service, runner, thrusters=True)
+        if verb == "arm":  # no motion after an unacknowledged e-stop or in another's hold
+            RigGuard.of(service).check_start(user.name)
         service.run(switch(session))
         return rig_status(service, runner)
 
@@ -94,7 +100,7 @@ def _thrusters_route(
         f"/rig/{verb}",
         response_model=RigStatus,
         dependencies=[Depends(require_write)],
-        responses=error_responses(401, 409, 503),
+        responses=error_responses(401, 403, 409, 423, 503),
     )(switch_thrusters)
 
 
@@ -109,10 +115,13 @@ _thrusters_route("disarm", RigSession.disarm_thrusters, "Command zero and disarm
 @router.post(
     "/rig/emergency-stop",
     response_model=EmergencyStopOut,
-    dependencies=[Depends(require_write)],
-    responses=error_responses(401, 503),
+    responses=error_responses(503),
 )
-def emergency_stop(runner: RunnerDep) -> dict:
-    """Abort whatever runs and put the rig in its safe state (thrusters zero, brakes on)."""
-    aborted = runner.emergency_stop()
+def emergency_stop(runner: RunnerDep, user: Annotated[User | None, Depends(anyone)]) -> dict:
+    """Abort whatever runs and put the rig in its safe state (thrusters zero, brakes on);
+    the rig then refuses motion until an operator acknowledges the stop
+    (``POST /api/estop/ack``). **No token needed**: anyone who can reach the service may
+    stop the rig (a cross-site request could too: it can only make the rig safer); a
+    valid token names who pressed it in the safety log."""
+    aborted = runner.emergency_stop(user.name if user is not None else None)
     return {"aborted_jobs": aborted, "safe_state": True}

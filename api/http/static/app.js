@@ -149,6 +149,7 @@ async function refreshRig() {
     kv($("#channels-table"), Object.entries(ch).map(([k, v]) => [k, units[k] && v !== null ? `${fmt(v, 6)} ${units[k]}` : fmt(v, 6)]));
     setLimits();
     setCapabilities(s.capabilities || {});
+    renderGuard(s.guard || {}); // guard.js: e-stop to acknowledge, who holds the rig
     if (s.current_job) showJob(s.current_job);
   } catch (err) {
     $("#conn-dot").className = "dot bad";

@@ -1,0 +1,50 @@
+"""In real headless Chromium: the Emergency stop button works on a page that has no token
+(the token dialog open beside it), and an operator then acknowledges the stop from the
+Rig page before the rig takes a start again."""
+
+from __future__ import annotations
+
+import pytest
+
+from api.http.app import create_app
+from tests.api.conftest import (
+    AUTH,
+    SHORT_TOW,
+    TOKEN,
+    LiveServer,
+    chromium_page,
+    start_job,
+    wait_job,
+)
+
+#: Slow lane: an extra browser page (tests/api/test_browser.py stays in the fast lane).
+pytestmark = pytest.mark.slow
+
+
+def test_the_emergency_stop_button_works_without_a_token(client, service) -> None:
+    from playwright.sync_api import expect
+
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, chromium_page() as page:
+        page.goto(live.url)  # no #token=…: the page cannot read the rig
+        expect(page.locator("#token-dialog")).to_be_visible()
+        job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
+        wait_job(client, job_id, states=("running",))
+
+        page.click("#estop-btn")  # not behind the dialog: a covered button times out here
+        expect(page.locator("#job-panel")).to_contain_text("Emergency stop: aborted 1 job(s)")
+        assert wait_job(client, job_id, timeout_s=10)["state"] == "aborted"
+        refused = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
+        assert refused.status_code == 409 and "not acknowledged" in refused.json()["detail"]
+
+        page.fill("#token-input", TOKEN)  # an operator signs in and acknowledges
+        page.click("#token-form button[type=submit]")
+        expect(page.locator("#estop-latched")).to_contain_text("refuses motion")
+        page.click("#estop-ack-btn")
+        expect(page.locator("#estop-latched")).to_have_count(0)
+        events = client.get("/api/rig/events", headers=AUTH).json()
+        assert [(e["kind"], e["user"]) for e in events[:2]] == [
+            ("estop_ack", "default"),
+            ("estop", None),
+        ]
+        wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
