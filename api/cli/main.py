@@ -163,6 +163,7 @@ FAULTS = (
     ("daq.session", ("RigBusy",)),
     ("daq.procedures.motion", ("PreconditionFailed",)),
     ("daq.operator", ("OperatorActUnavailable",)),
+    ("daq.store.faults", ("StorageFault",)),
 )
 
 

@@ -43,7 +43,7 @@ from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
 from daq.session import Aborted, RigBusy
 from daq.store import Store
-from daq.store.faults import one_line
+from daq.store.faults import StorageFault, one_line
 from daq.store.jobs import JobRepository
 from daq.store.schema import JOB_ACTIVE, JOB_FINAL, JobState
 
@@ -453,6 +453,9 @@ class JobRunner:
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
         except (PreconditionFailed, RigBusy, ParameterError) as err:  # the rig said no
+            self._update(job, state="failed", message=str(err), error=str(err))
+        except StorageFault as err:  # the database refused the run: one line, no traceback
+            log.error("job %s failed: %s", job.id, err)
             self._update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)

@@ -7,7 +7,9 @@ sample the clock produced is flushed before the status is written.
 
 Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
 abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
-storage; samples the database did not take wait in a spill file (docs/storage.md).
+storage; samples the database did not take wait in a spill file (docs/storage.md). A
+database that refuses the new run raises :class:`daq.store.faults.StorageFault` (one line)
+before the run starts (the rig left safe).
 """
 
 from __future__ import annotations
@@ -20,11 +22,13 @@ import time
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
+import sqlalchemy as sa
+
 from daq.procedures.params import Progress
 from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import RunRecorder
-from daq.store.faults import one_line
+from daq.store.faults import StorageFault, one_line
 from daq.store.spill import write_back_later
 
 log = logging.getLogger(__name__)
@@ -102,17 +106,23 @@ class RecordedRun:
         ]
         # Samples kept aside while storage had failed go back first (if it takes them now).
         await asyncio.to_thread(self.store.replay_spills)
-        run_id: str = await asyncio.to_thread(
-            self.store.create_run,
-            kind=self.kind,
-            parameters=self.parameters,
-            channel_names=channel_names,
-            rig_name=s.rig.rig.name,
-            vehicle=s.rig.vehicle.name,
-            rig_toml=s.source.rig_toml,
-            scenario_toml=s.source.scenario_toml,
-            metadata=s.run_metadata,
-        )
+        try:
+            run_id: str = await asyncio.to_thread(
+                self.store.create_run,
+                kind=self.kind,
+                parameters=self.parameters,
+                channel_names=channel_names,
+                rig_name=s.rig.rig.name,
+                vehicle=s.rig.vehicle.name,
+                rig_toml=s.source.rig_toml,
+                scenario_toml=s.source.scenario_toml,
+                metadata=s.run_metadata,
+            )
+        except (sa.exc.SQLAlchemyError, OSError) as exc:  # no run, no release: one line
+            await s.safe_state()
+            raise StorageFault(
+                f"storage failed: {one_line(exc)}; the run was not started"
+            ) from None
         self.run_id = run_id
         await s.note_run(run_id)
         # A storage fault stops the procedure like a lost PLC: the abort signal wakes every

@@ -148,7 +148,8 @@ async def get_run(
     body = await run_in_threadpool(_RUN_CACHE.get, run_id, include_toml, store.stored_metadata)
     if body is None:
         run = await run_in_threadpool(store.get_run, run_id)
-        body = _RUN_CACHE.put(run, include_toml)
+        stored = store.pending_ends.get(run.id) is None
+        body = _RUN_CACHE.put(run, include_toml, stored=stored)
     return Response(body, media_type="application/json")
 
 
