@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from daq.acquisition import Acquisition
+from daq.collector import hold_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
@@ -202,6 +203,7 @@ class RigSession:
                 await asyncio.to_thread(self.sim.close)
             self.sim = None
         self._has_rig = False
+        hold_full_collections(False)
         await asyncio.to_thread(self.rig_lock.release)
 
     async def __aenter__(self) -> RigSession:
@@ -290,12 +292,14 @@ class RigSession:
         if self.thrusters is None:
             raise ThrusterError(NO_THRUSTERS)
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
+        hold_full_collections(True)  # no 0.1-0.3 s full GC pass while thrust may flow
         await self.thrusters.arm()
 
     async def disarm_thrusters(self) -> None:
         if self.thrusters is None:
             raise ThrusterError(NO_THRUSTERS)
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
+        hold_full_collections(False)
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
         await self.thrusters.disarm()
