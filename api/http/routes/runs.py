@@ -21,6 +21,7 @@ from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
 from api.core.csv_upload import import_file, save_stream
+from api.core.job_model import without_report_files
 from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.run_cache import EndedRunCache
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
@@ -280,6 +281,18 @@ _IMPORT_BODY = csv_upload_body(
 )
 
 
+def upload_file_name(filename: str) -> str:
+    """The uploaded file's name as given, checked to be a plain file name (no folder, not
+    ``.``/``..``, no NUL) and made of safe characters, so it never reaches the file system
+    as a path; 422 naming ``filename`` otherwise."""
+    if filename in (".", "..") or any(c in filename for c in "/\\\0") or filename.strip(". ") == "":
+        raise ValueError(
+            f"filename: {filename!r} is not allowed; give the file's name alone, without "
+            "folders (e.g. tow-24N.csv)"
+        )
+    return re.sub(r"[^A-Za-z0-9._-]", "_", filename)
+
+
 def _import_metadata(
     operator: str | None, water: float | None, notes: str | None, tags: list[str] | None
 ) -> dict | None:
@@ -384,9 +397,9 @@ async def import_run(
         params = {load[0]: load[1]} if load[1] is not None else {}
         if weight_kg is not None:
             params["hung_mass_kg"] = weight_kg
-    name = re.sub(r"[^A-Za-z0-9._-]", "_", Path(filename).name) or "upload.csv"
+    name = upload_file_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
-        path = Path(folder) / name
+        path = Path(folder) / name  # a name, never a path: it stays in the folder
         await save_stream(request.stream(), path)  # the size cap is api.http.limits.BodyLimit's
         try:
             run_id, samples = await import_file(
@@ -412,7 +425,7 @@ async def import_run(
 
 # ---- results ----------------------------------------------------------------------------------
 def _result_json(result, runner: JobRunner) -> dict:
-    data = result.to_json()
+    data = without_report_files(result.to_json())
     data["report_plots"] = runner.report_names(result.id)
     return data
 
