@@ -90,7 +90,8 @@ def crosscheck_results(
     if report_dir is not None:
         data["report_files"] = [str(p) for p in write_crosscheck_report(check, Path(report_dir))]
     runs = list(dict.fromkeys([*weight.get("runs", []), *thrusters.get("runs", [])]))
-    data["result_id"] = store.add_result(runs, "crosscheck", data)
+    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
+    data["result_id"] = store.add_result(runs, "crosscheck", stored)
     return data
 
 

@@ -72,7 +72,8 @@ def run_estimation(
     data = result.to_json()
     if report_dir is not None:
         data["report_files"] = [str(p) for p in write_report(result, runs, Path(report_dir))]
-    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", data)
+    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
+    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data
 
 
@@ -92,5 +93,6 @@ def _run_pendulum(
     data = result.to_json()
     if report_dir is not None:
         data["report_files"] = [str(p) for p in write_pendulum_report(result, Path(report_dir))]
-    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", data)
+    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
+    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

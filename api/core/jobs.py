@@ -33,7 +33,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from api.core.job_model import Job, JobConflict, JobNotFound
+from api.core.job_model import Job, JobConflict, JobNotFound, without_report_files
 from api.core.job_requests import procedure_from_request
 from api.core.service import RigService
 from daq.operator import OperatorAct
@@ -611,6 +611,7 @@ class JobRunner:
         report_dir = self.report_root / f"job-{job.id}"
         try:
             data, result_id, done = fit(self.service.store, report_dir)
+            data = without_report_files(data)  # scratch paths; the figures are stored
             self._update(
                 job,
                 state="completed",
