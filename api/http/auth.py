@@ -37,7 +37,7 @@ def load_or_create_token(path: Path | None = None) -> str:
         text = path.read_text(encoding="utf-8").strip()
         if text:
             return text
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the database's folder too
     token = secrets.token_urlsafe(32)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "w", encoding="utf-8") as f:
