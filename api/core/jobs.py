@@ -55,6 +55,9 @@ FINAL = JOB_FINAL
 PROCEDURES = (*KINDS, "sequence")
 #: Ended jobs kept in memory (all of them stay in the database).
 KEEP_ENDED = 500
+#: Jobs that may wait in the rig's queue: the one registry a client could otherwise grow
+#: without end (a start beyond it is refused, 409).
+MAX_QUEUED = 100
 #: Report figures a result serves (the raster for the page, the vector beside it): media types.
 REPORT_SUFFIXES = {".png": "image/png", ".svg": "image/svg+xml"}
 #: Jobs ``list`` reads from the database, newest first.
@@ -253,6 +256,12 @@ class JobRunner:
                     raise JobConflict(
                         f"rig is busy: job {busy.id} ({busy.label}) holds the rig lock",
                         holder=f"{busy.label} (job {busy.id})",
+                    )
+                if len(self._queue) >= MAX_QUEUED:
+                    raise JobConflict(
+                        f"the rig's queue is full: {len(self._queue)} jobs wait (at most "
+                        f"{MAX_QUEUED}); remove some (DELETE /api/queue/{{id}}) or let them run",
+                        holder="the rig's queue",
                     )
                 job = self._new(kind, label, parameters, **fields)
                 self._queue.append(job)
