@@ -3,6 +3,7 @@ migrations to head, all without an alembic.ini."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -48,10 +49,8 @@ def _create_private(path: Path) -> None:
     only (0600); SQLite gives its ``-wal`` and ``-shm`` files the database file's mode. An
     existing file keeps the mode it has."""
     path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-    try:
+    with contextlib.suppress(FileExistsError):  # it exists: its mode stays
         os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o600))
-    except FileExistsError:
-        pass
 
 
 def create_engine(url: str) -> sa.Engine:
