@@ -2,7 +2,8 @@
 
 * A full disk (a 2 MB tmpfs holding the SQLite database; needs root to mount: skipped on a
   laptop, required under CI=true) stops a 500 Hz tow safely; the CLI prints its JSON and
-  exits 1 (no traceback); once space returns, the next open of the store writes back
+  exits 1 (no traceback); a tow started while the disk is still full is refused in one
+  line, exit 1; once space returns, the next open of the store writes back
   every sample the database did not take and the run reads ``aborted`` with a one-line
   reason naming storage.
 * A database that refuses writes mid-run (in process) leaves the brake engaged and the
@@ -89,6 +90,18 @@ def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, t
     assert (outcome["status"], outcome["reason"]) == ("aborted", STORAGE_REASON)
     assert list(spill.glob(f"*{SUFFIX}")), "unstored samples were not kept aside"
 
+    again = subprocess.run(  # the disk still full: the next tow is refused, one line
+        [*TOW, "--rig", str(rig_file), "--db", db],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=ROOT,
+        env=os.environ | {"RIG_SPILL_DIR": str(spill)},
+    )
+    assert again.returncode == 1, again.stderr
+    assert "Traceback" not in again.stderr and "sqlalche.me" not in again.stderr, again.stderr
+    errors = [line for line in again.stderr.splitlines() if line.startswith("error: ")]
+    assert errors == [f"error: {STORAGE_REASON}; the run was not started"], again.stderr
     filler.unlink()  # space returns; the next open writes the kept samples back
     with Store(db, spill_dir=spill) as store:
         run = store.get_run(outcome["run_id"])
