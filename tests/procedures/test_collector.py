@@ -94,3 +94,31 @@ def test_threads_a_real_time_thread_starts_run_at_normal_priority():
     if seen["clock"] != os.SCHED_FIFO:
         pytest.skip("SCHED_FIFO refused here (needs CAP_SYS_NICE)")
     assert seen["child"] == os.SCHED_OTHER  # SCHED_RESET_ON_FORK: not inherited
+
+
+def test_a_test_command_freezes_the_heap_once_the_rig_is_open(tmp_path, monkeypatch):
+    """``rig tow`` (the CLI drives the rig itself) freezes what start-up loaded, as the
+    service does, before the test begins."""
+    from click.testing import CliRunner
+
+    from api.cli import procedures
+    from api.cli.main import main
+    from daq import collector
+
+    seen: list[tuple[int, bool]] = []
+
+    def freeze() -> None:
+        collector.freeze_after_startup()
+        seen.append((gc.get_freeze_count(), full_collections_held()))
+
+    monkeypatch.setattr(procedures, "freeze_after_startup", freeze)
+    monkeypatch.setenv("RIG_SPILL_DIR", str(tmp_path / "spill"))
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    args = ["tow", "--force", "24.5", "--max-time", "1", "--baseline", "0.3", "--db", db]
+    try:
+        result = CliRunner().invoke(main, [*args, "--json"])
+    finally:
+        gc.unfreeze()
+    assert result.exit_code == 0, result.output
+    ((frozen, held),) = seen  # once, with the rig open and nothing armed yet
+    assert frozen > 10_000 and not held
