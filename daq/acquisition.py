@@ -254,7 +254,10 @@ def set_realtime(priority: int = 10) -> bool:
     On a busy machine a normal-priority clock wakes up to a few ms late (the
     scheduler runs someone else first). A real-time thread preempts normal work at
     once; the clock only spins ``spin_s`` per tick, so it cannot starve the machine.
-    Threads this thread starts later inherit the policy; child processes do not.
+    Only the calling thread runs real-time: the policy is set with
+    ``SCHED_RESET_ON_FORK``, so threads it starts later (the event loop's worker threads,
+    the thruster link's) and child processes start at normal priority (checked in
+    ``tests/daq/test_collector.py``). The niceness fallback is inherited by threads it starts.
     Needs CAP_SYS_NICE (or root); returns False, with a warning, when refused.
     """
     if not 1 <= priority <= 99:

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from daq.acquisition import Acquisition
 from daq.clock import REAL_CLOCK, Clock
+from daq.collector import hold_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
@@ -233,6 +234,7 @@ class RigSession:
                 await asyncio.to_thread(self.sim.close)
             self.sim = None
         self._has_rig = self._shutting = False
+        hold_full_collections(False)
         await asyncio.to_thread(self.rig_lock.release)
 
     @property
@@ -343,6 +345,7 @@ class RigSession:
         if self.thrusters is None:
             raise ThrusterError(NO_THRUSTERS)
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
+        hold_full_collections(True)  # no 0.1-0.3 s full GC pass while thrust may flow
         await self.thrusters.arm()
 
     async def disarm_thrusters(self) -> None:
@@ -351,6 +354,7 @@ class RigSession:
         if self.lease_lost is not None and not self.thrusters.is_open:
             return  # zeroed, disarmed and closed when the lease was lost
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
+        hold_full_collections(False)
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
         await self.thrusters.disarm()

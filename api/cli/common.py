@@ -133,7 +133,19 @@ def open_store(db_url: str | None):
             store = Store(db_url)
         except Exception as err:  # a bad URL or unreachable server
             fail(f"--db: cannot open the database: {_database_error(err)}")
-    recovered = store.recover_interrupted()  # only runs whose owning process is gone
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from daq.store.faults import describe
+
+    try:
+        recovered = store.recover_interrupted()  # only runs whose owning process is gone
+    except (SQLAlchemyError, OSError) as err:  # storage failing: reads still work
+        click.echo(
+            f"warning: runs left running by a dead process not marked: storage failed: "
+            f"{describe(err).message}",
+            err=True,
+        )
+        recovered = []
     if recovered:
         click.echo(
             f"marked {len(recovered)} run(s) left running by a dead process as interrupted",

@@ -197,6 +197,7 @@ FAULTS = (
     ("daq.procedures.motion", ("PreconditionFailed",)),
     ("daq.operator", ("OperatorActUnavailable",)),
     ("api.core.estimation_failure", ("EstimationFailure",)),
+    ("daq.store.faults", ("StorageFault",)),
 )
 
 

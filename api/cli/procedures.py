@@ -25,12 +25,13 @@ from api.cli.common import (
 )
 from api.cli.metadata import run_metadata
 from api.cli.options import request_fields, request_options
+from daq.collector import freeze_after_startup
 from daq.procedures.kinds import KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
-from daq.store.faults import one_line
+from daq.store.faults import StorageFault, one_line
 from daq.vocabulary import RunKind, RunStatus
 
 
@@ -65,6 +66,7 @@ def _run_procedure(
                     session.run_metadata = run_metadata()  # --operator, --tag, … (cli_metadata)
                     # A lost lease stops whatever the procedure waits on (a run, a prompt).
                     session.add_fault_listener(abort.set)
+                    freeze_after_startup()  # full GC passes skip what start-up loaded
                     return await body(session, params, abort, view)
             except (
                 PreconditionFailed,
@@ -74,8 +76,10 @@ def _run_procedure(
                 DeviceError,
                 ThrusterError,
                 OperatorActUnavailable,
+                StorageFault,
             ) as err:
-                # Not ready, the rig in use, or a device that cannot be reached: exit 1.
+                # Not ready, the rig in use, a device that cannot be reached, or a database
+                # that refused the run: exit 1.
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
                 fail(flag_names(click.get_current_context(silent=True), "; ".join(err.lines())))

@@ -94,8 +94,10 @@ def serve(
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
                f"{source.rig.rig.mode})")  # fmt: skip
+    # Never the token itself: this output ends up in service logs.
     click.echo(f"API token: from {where}; send 'Authorization: Bearer <token>'")
-    click.echo(f"browser UI: {ui_link(host, bound_port, token)}")
+    link = "rig token --link" + ("" if bound_port == 8000 else f" --port {bound_port}")
+    click.echo(f"browser UI: open the link '{link}' prints, or paste the token into the page")
     if host not in ("127.0.0.1", "localhost", "::1"):
         click.echo(f"warning: listening on {host}: reachable from other machines", err=True)
     server = uvicorn.Server(config)
@@ -123,9 +125,21 @@ def _token_from_env() -> bool:
 
 
 @click.command()
-def token():
-    """Print the API's bearer token (created on first use; or set RIG_API_TOKEN)."""
-    click.echo(load_or_create_token())
+@click.option(
+    "--link", is_flag=True,
+    help="Print the browser UI's address with the token in it instead (open it once: the "
+    "page keeps the token and takes it out of the address bar).",
+)  # fmt: skip
+@click.option("--host", default="127.0.0.1", show_default=True, help="With --link: the address.")
+@click.option(
+    "--port", default=8000, show_default=True, type=click.IntRange(1, 65535),
+    help="With --link: the port 'rig serve' listens on.",
+)  # fmt: skip
+def token(link, host, port):
+    """Print the API's bearer token (created on first use; or set RIG_API_TOKEN). 'rig serve'
+    never prints it, so it stays out of service logs."""
+    secret = load_or_create_token()
+    click.echo(ui_link(host, port, secret) if link else secret)
     if warning := token_file_warning():
         click.echo(warning, err=True)
 

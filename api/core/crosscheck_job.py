@@ -96,7 +96,8 @@ def crosscheck_results(
         if (stored.data.get("weight_result_id"), stored.data.get("thruster_result_id")) == pair:
             return data | {"result_id": stored.id, "reused": True}
     runs = list(dict.fromkeys([*weight.get("runs", []), *thrusters.get("runs", [])]))
-    data["result_id"] = store.add_result(runs, "crosscheck", data)
+    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
+    data["result_id"] = store.add_result(runs, "crosscheck", stored)
     return data
 
 

@@ -111,7 +111,8 @@ def run_estimation(
     if report_dir is not None:
         with fitting(subject, "draw the report of"):
             data["report_files"] = [str(p) for p in write_report(result, runs, Path(report_dir))]
-    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", data)
+    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
+    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data
 
 
@@ -132,5 +133,6 @@ def _run_pendulum(
     if report_dir is not None:
         with fitting(subject, "draw the report of"):
             data["report_files"] = [str(p) for p in write_pendulum_report(result, Path(report_dir))]
-    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", data)
+    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
+    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

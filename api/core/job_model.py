@@ -158,3 +158,14 @@ class Job:
             request=row["request"],
             user_name=row.get("user_name"),
         )
+
+
+def without_report_files(data: Any) -> Any:
+    """``data`` without its ``report_files`` (absolute paths in a scratch folder that is gone
+    once the job ends, kept in results stored before issue 19): API answers hold no path of
+    this machine; ``/api/results/{id}/report/{name}.png`` serves the figures."""
+    if isinstance(data, dict):
+        return {k: without_report_files(v) for k, v in data.items() if k != "report_files"}
+    if isinstance(data, list):
+        return [without_report_files(v) for v in data]
+    return data

@@ -34,7 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from api.core.job_model import Job, JobConflict, JobNotFound
+from api.core.job_model import Job, JobConflict, JobNotFound, without_report_files
 from api.core.job_requests import procedure_from_request
 from api.core.queue_edits import QueueEdits
 from api.core.rig_guard import RigGuard, latching_stop
@@ -47,7 +47,7 @@ from daq.procedures.sequence import Sequence, SequenceControl
 from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
 from daq.store import Store
-from daq.store.faults import one_line
+from daq.store.faults import StorageFault, one_line
 from daq.store.jobs import JobRepository
 from daq.store.schema import JOB_ACTIVE, JOB_FINAL, JobState
 
@@ -59,6 +59,9 @@ FINAL = JOB_FINAL
 PROCEDURES = (*KINDS, "sequence")
 #: Ended jobs kept in memory (all of them stay in the database).
 KEEP_ENDED = 500
+#: Jobs that may wait in the rig's queue: the one registry a client could otherwise grow
+#: without end (a start beyond it is refused, 409).
+MAX_QUEUED = 100
 #: Report figures a result serves (the raster for the page, the vector beside it): media types.
 REPORT_SUFFIXES = {".png": "image/png", ".svg": "image/svg+xml"}
 #: Jobs ``list`` reads from the database, newest first.
@@ -276,6 +279,12 @@ class JobRunner(QueueEdits):
                         f"rig is busy: job {busy.id} ({busy.label}) holds the rig lock",
                         holder=f"{busy.label} (job {busy.id})",
                     )
+                if len(self._queue) >= MAX_QUEUED:
+                    raise JobConflict(
+                        f"the rig's queue is full: {len(self._queue)} jobs wait (at most "
+                        f"{MAX_QUEUED}); remove some (DELETE /api/queue/{{id}}) or let them run",
+                        holder="the rig's queue",
+                    )
                 job = self._new(kind, label, parameters, **fields)
                 self._queue.append(job)
                 self._renumber()
@@ -485,6 +494,9 @@ class JobRunner(QueueEdits):
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
         except (PreconditionFailed, RigBusy, RigLockLost, ParameterError) as err:  # the rig said no
             self._update(job, state="failed", message=str(err), error=str(err))
+        except StorageFault as err:  # the database refused the run: one line, no traceback
+            log.error("job %s failed: %s", job.id, err)
+            self._update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)
             self._update(
@@ -646,6 +658,7 @@ class JobRunner(QueueEdits):
         report_dir = self.report_root / f"job-{job.id}"
         try:
             data, result_id, done = fit(self.service.store, report_dir)
+            data = without_report_files(data)  # scratch paths; the figures are stored
             self._update(
                 job,
                 state="completed",

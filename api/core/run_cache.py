@@ -49,10 +49,11 @@ class EndedRunCache:
             self.hits += 1
         return item[1]
 
-    def put(self, run: RunInfo, include_toml: bool) -> bytes:
-        """The run's JSON; remembered when the run has ended."""
+    def put(self, run: RunInfo, include_toml: bool, *, stored: bool = True) -> bytes:
+        """The run's JSON; remembered when the run has ended and that end is ``stored``
+        (not an end still waiting for the database: its samples may yet come)."""
         body = json.dumps(run.to_json(include_toml=include_toml), allow_nan=False).encode()
-        if run.status in ENDED_STATUSES:
+        if run.status in ENDED_STATUSES and stored:
             with self._lock:
                 self._items[(run.id, include_toml)] = (run.metadata, body)
                 while len(self._items) > self.max_runs:

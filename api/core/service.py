@@ -18,7 +18,6 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
-import gc
 import logging
 import math
 import sys
@@ -28,6 +27,7 @@ from typing import Any, TypeVar
 
 from api.core.stream import Broadcaster
 from daq.clock import clock_of
+from daq.collector import freeze_after_startup
 from daq.devices import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
 from daq.rig_lock import RigInUse
@@ -119,8 +119,9 @@ class RigService:
             raise RigUnavailable(f"cannot open the rig: {self.error}")
         # Everything loaded so far (modules, the session) lives as long as the service: out
         # of the collector's reach, a full collection no longer walks it while holding the
-        # GIL the clock's thread needs (~150 ms → < 1 ms on the 2-core box).
-        gc.freeze()
+        # GIL the clock's thread needs (~150 ms → < 1 ms on the 2-core box). While the
+        # thrusters are armed the session holds full collections off (daq.collector).
+        freeze_after_startup()
 
     def stop(self, *, timeout_s: float = 15.0) -> None:
         """Leave the rig safe, close the session and end the rig thread."""

@@ -3,6 +3,7 @@ finding one by name, plugging stored estimates in, and the simulation summary.""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import re
@@ -61,22 +62,40 @@ def find_vehicle(name: str, *, allow_path: bool = False) -> Vehicle6:
     (the CLI, not the API) also a path to a ``.toml`` file."""
     files = vehicle_files()
     if _NAME.match(name) and name in files:
-        return load_vehicle(files[name])
+        return _load(files[name])
     if allow_path and name.endswith(".toml") and Path(name).is_file():
         return load_vehicle(name)
     known = ", ".join(files) or "none"
     raise VehicleNotFound(f"no vehicle named {name!r}; known: {known}")
 
 
-def vehicle_summary(name: str, path: Path) -> dict[str, Any]:
-    """One line of the vehicle list (a broken file is listed with its error)."""
+def shown_file(path: Path) -> str:
+    """Where a vehicle file is, without this machine's folders: ``fixtures/vehicles/x.toml``
+    for the project's, ``$RIG_VEHICLES_DIR/x.toml`` for the lab's."""
+    if path.parent == FIXTURE_VEHICLES:
+        return f"fixtures/vehicles/{path.name}"
+    return f"${VEHICLES_DIR_ENV}/{path.name}"
+
+
+def _load(path: Path) -> Vehicle6:
+    """A vehicle file, named in its errors and ``source`` as :func:`shown_file` says."""
+    shown = shown_file(path)
     try:
-        v = load_vehicle(path)
+        return dataclasses.replace(load_vehicle(path), source=shown)
     except VehicleError as err:
-        return {"name": name, "file": str(path), "error": str(err)}
+        raise VehicleError(shown, err.field, err.value, err.allowed) from None
+
+
+def vehicle_summary(name: str, path: Path) -> dict[str, Any]:
+    """One line of the vehicle list (a broken file is listed with its error); file names
+    as :func:`shown_file` gives them (no absolute paths in API answers)."""
+    try:
+        v = _load(path)
+    except VehicleError as err:
+        return {"name": name, "file": shown_file(path), "error": str(err)}
     return {
         "name": name,
-        "file": str(path),
+        "file": shown_file(path),
         "vehicle": v.name,
         "mass_kg": v.mass_kg,
         "thrusters": [t.name for t in v.thrusters],

@@ -41,6 +41,7 @@ from api.http.routes import sequences as routes_sequences
 from api.http.routes import sixdof as routes_sixdof
 from api.http.routes import stream as routes_stream
 from api.http.routes import theory as routes_theory
+from api.http.security import SecurityHeaders, TokenFirst
 from api.http.static_assets import app_with_offline_docs, compress_static
 from daq.procedures.kinds import NotCapable
 from daq.procedures.params import ParameterError
@@ -169,7 +170,9 @@ def create_app(
     """The rig's HTTP API and browser UI on top of ``service`` (and an existing ``runner``,
     to serve the same jobs from a second app).
 
-    Request bodies are capped before parsing and before the token check (``api.http.limits``).
+    Request bodies are capped before parsing and before the token check (``api.http.limits``);
+    a state-changing request's token is checked before its body is read, and every answer
+    carries a Content-Security-Policy with ``frame-ancestors 'none'`` (``api.http.security``).
     With ``open_read`` only requests whose ``Host`` is local or in ``allowed_hosts`` are
     answered (400 otherwise), so a DNS-rebinding page cannot read runs or the stream."""
     own_runner = runner is None
@@ -207,6 +210,7 @@ def create_app(
     app.state.max_upload_bytes = max_upload_bytes
     _install_error_handlers(app)
     compress_static(app)
+    app.add_middleware(TokenFirst)  # inside CORS: a refusal still carries its headers
     if cors_origins:
         app.add_middleware(
             CORSMiddleware,
@@ -221,6 +225,7 @@ def create_app(
             www_redirect=False,
         )
     app.add_middleware(BodyLimit, json_limit=max_json_bytes, upload_limit=max_upload_bytes)
+    app.add_middleware(SecurityHeaders)  # outermost: on every answer, 413s included
     for module in (
         routes_rig,
         routes_crosscheck,

@@ -37,7 +37,7 @@ def load_or_create_token(path: Path | None = None) -> str:
         text = path.read_text(encoding="utf-8").strip()
         if text:
             return text
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the database's folder too
     token = secrets.token_urlsafe(32)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "w", encoding="utf-8") as f:
@@ -65,10 +65,26 @@ def token_file_warning(path: Path | None = None) -> str | None:
 
 def presented_token(request: Request) -> str | None:
     """The token of an ``Authorization: Bearer <token>`` header, if any."""
-    header = request.headers.get("authorization", "")
+    return bearer_token(request.headers.get("authorization", ""))
+
+
+def bearer_token(header: str) -> str | None:
     scheme, _, value = header.partition(" ")
     if scheme.lower() == "bearer" and value.strip():
         return value.strip()
+    return None
+
+
+def token_problem(authorization: str, expected: str) -> str | None:
+    """Why an ``Authorization`` header value does not prove ``expected`` (constant-time
+    comparison), or None when it does."""
+    given = bearer_token(authorization)
+    if given is None:
+        return (
+            "missing bearer token: send 'Authorization: Bearer <token>' (print it with 'rig token')"
+        )
+    if not hmac.compare_digest(given.encode(), expected.encode()):
+        return "wrong bearer token (print the right one with 'rig token')"
     return None
 
 
@@ -76,17 +92,6 @@ def check_token(request: Request, expected: str) -> None:
     """Raise 401 unless the request carries ``expected`` (constant-time comparison)."""
     from fastapi import HTTPException
 
-    given = presented_token(request)
-    if given is None:
-        raise HTTPException(
-            401,
-            "missing bearer token: send 'Authorization: Bearer <token>' "
-            "(print it with 'rig token')",
-            headers={"WWW-Authenticate": "Bearer"},
-        )
-    if not hmac.compare_digest(given.encode(), expected.encode()):
-        raise HTTPException(
-            401,
-            "wrong bearer token (print the right one with 'rig token')",
-            headers={"WWW-Authenticate": "Bearer"},
-        )
+    problem = token_problem(request.headers.get("authorization", ""), expected)
+    if problem is not None:
+        raise HTTPException(401, problem, headers={"WWW-Authenticate": "Bearer"})

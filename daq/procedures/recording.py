@@ -7,10 +7,12 @@ sample the clock produced is flushed before the status is written.
 
 Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
 abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
-storage; samples the database did not take wait in a spill file (docs/storage.md).
-So is losing the lease on the rig's devices (``daq.rig_lock``): the session calls the
-run's abort signal with a reason beginning ``rig lock lost``, and that is how the run ends
-whatever else failed after the devices were released.
+storage; samples the database did not take wait in a spill file (docs/storage.md). A
+database that refuses the new run raises :class:`daq.store.faults.StorageFault` (one line)
+before the run starts (the rig left safe). So is losing the lease on the rig's devices
+(``daq.rig_lock``): the session calls the run's abort signal with a reason beginning ``rig
+lock lost``, and that is how the run ends whatever else failed after the devices were
+released.
 """
 
 from __future__ import annotations
@@ -22,12 +24,14 @@ import math
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
+import sqlalchemy as sa
+
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
 from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import RunRecorder
-from daq.store.faults import one_line
+from daq.store.faults import StorageFault, one_line
 from daq.store.run_events import RunAction
 from daq.store.spill import write_back_later
 
@@ -110,17 +114,23 @@ class RecordedRun:
         ]
         # Samples kept aside while storage had failed go back first (if it takes them now).
         await asyncio.to_thread(self.store.replay_spills)
-        run_id: str = await asyncio.to_thread(
-            self.store.create_run,
-            kind=self.kind,
-            parameters=self.parameters,
-            channel_names=channel_names,
-            rig_name=s.rig.rig.name,
-            vehicle=s.rig.vehicle.name,
-            rig_toml=s.source.rig_toml,
-            scenario_toml=s.source.scenario_toml,
-            metadata=s.run_metadata,
-        )
+        try:
+            run_id: str = await asyncio.to_thread(
+                self.store.create_run,
+                kind=self.kind,
+                parameters=self.parameters,
+                channel_names=channel_names,
+                rig_name=s.rig.rig.name,
+                vehicle=s.rig.vehicle.name,
+                rig_toml=s.source.rig_toml,
+                scenario_toml=s.source.scenario_toml,
+                metadata=s.run_metadata,
+            )
+        except (sa.exc.SQLAlchemyError, OSError) as exc:  # no run, no release: one line
+            await s.safe_state()
+            raise StorageFault(
+                f"storage failed: {one_line(exc)}; the run was not started"
+            ) from None
         self.run_id = run_id
         # Losing the lease on the rig stops the run like a lost PLC (the session makes the
         # rig safe and releases it; the abort signal ends the run naming the lost lock).

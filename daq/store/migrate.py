@@ -3,6 +3,7 @@ migrations to head, all without an alembic.ini."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -43,9 +44,19 @@ def _set_sqlite_pragmas(dbapi_connection, _record) -> None:
         cursor.close()
 
 
+def _create_private(path: Path) -> None:
+    """Create the folder (0700 if new) and an empty database file readable by its owner
+    only (0600); SQLite gives its ``-wal`` and ``-shm`` files the database file's mode. An
+    existing file keeps the mode it has."""
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    with contextlib.suppress(FileExistsError):  # it exists: its mode stays
+        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o600))
+
+
 def create_engine(url: str) -> sa.Engine:
     """An engine for ``url``; SQLite gets WAL, synchronous=NORMAL, foreign keys and a
-    busy timeout, and the folder of its file is created."""
+    busy timeout, and the folder of its file is created; a new database file is private
+    to its owner (0600, with its -wal and -shm files)."""
     try:
         parsed = sa.make_url(url)
     except sa.exc.ArgumentError as exc:
@@ -56,7 +67,7 @@ def create_engine(url: str) -> sa.Engine:
     if parsed.get_backend_name() == "sqlite":
         database = parsed.database or ""
         if database and database != ":memory:" and not database.startswith("file:"):
-            Path(database).expanduser().parent.mkdir(parents=True, exist_ok=True)
+            _create_private(Path(database).expanduser())
         engine = sa.create_engine(
             parsed, connect_args={"check_same_thread": False}, json_serializer=_json_text
         )

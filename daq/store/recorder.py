@@ -10,7 +10,13 @@ A write that no retry can cure (disk full, I/O error, a read-only database) is a
 fault: ``on_fault`` is called once with a one-line message (the procedure stops the rig),
 and from then on everything unstored is also appended to the run's spill file
 (:mod:`daq.store.spill`), written back when a flush succeeds again or on the next open.
-:meth:`RunRecorder.end` writes the run's end with a bounded retry.
+
+:meth:`RunRecorder.end` decides the run's end (status, reason, and the stop time: when it
+is called, i.e. when the run ended on the rig) and makes it the store's answer at once
+(:mod:`daq.store.pending_ends`), then writes it with a bounded retry. A database that only
+delays (a lock held longer than the ``retry_for_s`` limit) is not a fault: what it did not
+take, and the end, go to the spill file and are written back later, and the run keeps its
+status. Only samples that are lost, or a fault (disk full, I/O error), change it.
 """
 
 from __future__ import annotations
@@ -35,6 +41,10 @@ from daq.store.spill import PendingEvent, SpillFile
 from daq.store.store import Store
 
 log = logging.getLogger(__name__)
+
+#: How long a run's last samples and its end are retried against a database that
+#: delays them (a held lock, a dropped connection) before they go to the spill file, s.
+STORE_RETRY_S = 30.0
 
 
 @dataclass
@@ -63,7 +73,8 @@ class RunRecorder:
     dropped and counted, so a stuck database can never exhaust memory or stall the clock).
     ``on_fault`` is called once with a one-line message on the first storage fault;
     unstored samples then also go to the spill file in ``spill_dir`` (default: the
-    store's)."""
+    store's). ``retry_for_s`` (default :data:`STORE_RETRY_S`) bounds how long the end of
+    the run waits on a database that delays writes before spilling them."""
 
     def __init__(
         self,
@@ -75,6 +86,7 @@ class RunRecorder:
         max_batch: int = 50_000,
         spill_dir: Path | None = None,
         on_fault: Callable[[str], None] | None = None,
+        retry_for_s: float | None = None,
     ) -> None:
         if not (isinstance(flush_interval_s, int | float) and 0 < flush_interval_s <= 1.0):
             raise ValueError(
@@ -90,6 +102,7 @@ class RunRecorder:
         self.flush_interval_s = float(flush_interval_s)
         self.max_queue = max_queue
         self.max_batch = max_batch
+        self.retry_for_s = STORE_RETRY_S if retry_for_s is None else float(retry_for_s)
         self.stats = RecorderStats()
         self._queue: deque[Sample] = deque()
         self._events: deque[PendingEvent] = deque()
@@ -244,20 +257,22 @@ class RunRecorder:
             e.spilled = True
         self.stats.samples_spilled += len(samples)
 
-    async def close(self, *, retry_for_s: float = 30.0, fault_retries: int = 3) -> None:
+    async def close(self, *, retry_for_s: float | None = None, fault_retries: int = 3) -> None:
         """Stop :meth:`run` and store everything still queued.
 
         Retryable errors (a lock held by another connection, a dropped connection) are
-        retried with a backoff of 0.1 s doubling to 2 s for up to ``retry_for_s``; after a
-        storage fault (disk full, I/O error) ``fault_retries`` more times. Raises
-        :class:`StorageFault` (one line) if samples are still unstored; they are then in
-        the spill file (see :mod:`daq.store.spill`), written back on the next open.
+        retried with a backoff of 0.1 s doubling to 2 s for up to ``retry_for_s`` (default:
+        the recorder's); after a storage fault (disk full, I/O error) ``fault_retries`` more
+        times. Raises :class:`StorageFault` (one line) if samples or events are still
+        unstored; they are then in the spill file (see :mod:`daq.store.spill`), written back
+        later. Only a spill file that cannot be written either makes this a fault.
         """
         self._close_requested.set()
         if self._running:
             await self._stopped.wait()
+        limit_s = self.retry_for_s if retry_for_s is None else retry_for_s
         loop = asyncio.get_running_loop()
-        give_up_at = loop.time() + retry_for_s
+        give_up_at = loop.time() + limit_s
         delay, attempts = 0.1, 0
         while True:
             await self.flush()
@@ -271,11 +286,11 @@ class RunRecorder:
         if not self.pending:
             self.spill.close(remove=True)  # all it held is in the database now
             return
-        self._set_fault(
-            f"storage failed: {self.stats.last_error} (gave up after {retry_for_s:g} s)"
-        )
         await self._spill_pending()
-        self.spill.close(remove=False)
+        if self.stats.spill_error is not None:  # neither stored nor kept: lost
+            self._set_fault(
+                f"storage failed: {self.stats.last_error} (gave up after {limit_s:g} s)"
+            )
         where = (
             f"kept in {self.spill.path}"
             if self.stats.spill_error is None
@@ -286,29 +301,44 @@ class RunRecorder:
             f"not stored ({self.stats.last_error}); {where}"
         )
 
-    async def end(self, status: str, reason: str | None) -> tuple[str, str | None]:
-        """Close, then write the run's end once, truthfully; returns the (status, reason)
-        written (or kept in the spill file for the next open).
+    @property
+    def lost(self) -> bool:
+        """Samples of the run are neither stored nor in the spill file."""
+        unkept = bool(self._queue) and self.stats.spill_error is not None
+        return self.stats.dropped_queue_full > 0 or unkept
 
-        A storage fault that leaves samples unstored turns ``completed`` into ``aborted``
-        (the fault is the reason) and is added to another reason; a run whose samples were
-        all stored keeps its status whatever happens while its end is written (retried
-        like :meth:`close`).
+    async def end(
+        self, status: str, reason: str | None, *, stopped_at: float | None = None
+    ) -> tuple[str, str | None]:
+        """Close, then write the run's end once, truthfully; returns the (status, reason)
+        written (or kept in the spill file, written back later).
+
+        ``stopped_at`` (Unix s, default: now, when the procedure hands over) is stored as
+        the run's stop time whenever the database takes it. Until then the store answers
+        with this end (:mod:`daq.store.pending_ends`). A storage fault that leaves samples
+        unstored turns ``completed`` into ``aborted`` (the fault is the reason) and is
+        added to another reason; a database that only delays the writes (a lock, however
+        long) never changes the status: what it did not take in ``retry_for_s`` is spilled.
         """
+        stopped_at = time.time() if stopped_at is None else stopped_at
+        self.store.pending_ends.set(self.run_id, status, reason, stopped_at)
         with contextlib.suppress(StorageFault):
             await self.close()
         if self.fault is not None:
             if status == "completed":
-                if self._queue or self.stats.dropped_queue_full:  # samples not stored
+                if self._queue or self.lost:  # samples not stored
                     status, reason = "aborted", self.fault
                 # else only events wait (in the spill file): the run stays completed
             elif reason and self.fault not in reason:
                 reason = f"{reason}; {self.fault}"
             elif not reason:
                 reason = self.fault
-        stopped_at = time.time()
+            self.store.pending_ends.set(self.run_id, status, reason, stopped_at)
+        if self.pending:  # the rest waits in the spill file: the end goes after it
+            await self._spill_end(status, reason, stopped_at)
+            return status, reason
         loop = asyncio.get_running_loop()
-        give_up_at = loop.time() + 30.0
+        give_up_at = loop.time() + self.retry_for_s
         delay, attempts = 0.1, 0
         while True:
             try:
@@ -318,7 +348,8 @@ class RunRecorder:
                 break
             except ValueError:
                 # "already ended": an earlier attempt may have committed before its error.
-                if attempts and self.store.get_run(self.run_id).status == status:
+                if attempts and self.store.get_run(self.run_id, as_stored=True).status == status:
+                    self.store.pending_ends.discard(self.run_id)
                     break
                 raise  # a wrong status, or a run someone else ended: a bug, not storage
             except Exception as exc:
@@ -334,20 +365,24 @@ class RunRecorder:
                         err.message,
                         self.spill.path,
                     )
-                    try:
-                        await asyncio.to_thread(self.spill.append, end=(status, reason, stopped_at))
-                    except OSError as spill_exc:
-                        log.error(
-                            "run %s: cannot write spill file either (%s); it will show as "
-                            "interrupted at the next start-up",
-                            self.run_id,
-                            one_line(spill_exc),
-                        )
-                    self.spill.close(remove=False)
+                    await self._spill_end(status, reason, stopped_at)
                     return status, reason
                 await asyncio.sleep(delay)
                 delay = min(2 * delay, 2.0)
         return status, reason
+
+    async def _spill_end(self, status: str, reason: str | None, stopped_at: float) -> None:
+        """Append the run's end to the spill file and release it (written back later)."""
+        try:
+            await asyncio.to_thread(self.spill.append, end=(status, reason, stopped_at))
+        except OSError as spill_exc:
+            log.error(
+                "run %s: cannot write spill file either (%s); it will show as "
+                "interrupted at the next start-up",
+                self.run_id,
+                one_line(spill_exc),
+            )
+        self.spill.close(remove=False)
 
     def __repr__(self) -> str:
         s = self.stats

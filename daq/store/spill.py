@@ -4,6 +4,7 @@ When storage fails, the recorder appends every sample (and event, and finally th
 intended end) it could not store to ``<spill dir>/<run uuid>.jsonl``, one JSON record a
 line, fsynced. :func:`replay_spills` writes such files back into a store that holds the
 run (on the next open of the store, or before the next run starts) and deletes them.
+Spill files are created 0600 in a 0700 directory: they hold a run's samples.
 
 The recorder holds an exclusive ``flock`` on its file while it lives, so a store opened
 by another process never replays a run that is still being recorded.
@@ -65,8 +66,10 @@ class SpillFile:
 
     def _open(self) -> IO[str]:
         if self._file is None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            f = open(self.path, "a", encoding="utf-8")  # noqa: SIM115 - held until close()
+            self.path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            # 0600: the samples of a run are no other local user's to read
+            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o600)
+            f = os.fdopen(fd, "a", encoding="utf-8")
             fcntl.flock(f, fcntl.LOCK_EX)
             self._file = f
         return self._file
@@ -203,9 +206,10 @@ def _replay_one(store: Store, path: Path) -> bool:
                 abs(t - e.t_wall) < 1e-3 and (k, m) == (e.kind, e.message) for t, k, m in stored
             ):
                 store.add_event(run_id, e.kind, e.message, e.data, t_wall=e.t_wall)
-        if contents.end is not None and store.get_run(run_id).status == "running":
+        if contents.end is not None and store.get_run(run_id, as_stored=True).status == "running":
             status, reason, stopped_at = contents.end
             store.finish_run(run_id, status, reason, stopped_at=stopped_at)
+        store.pending_ends.discard(run.id)  # stored now (or the run was ended otherwise)
         path.unlink()
     log.warning(
         "run %s: wrote back %d samples and %d events kept in %s while storage failed",

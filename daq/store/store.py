@@ -31,6 +31,7 @@ from daq.store.base import (
 )
 from daq.store.calibrations import ImportedCalibrations
 from daq.store.packing import SamplePacker
+from daq.store.pending_ends import PendingEnds
 from daq.store.records import (
     DuplicateSample,
     RunInfo,
@@ -79,11 +80,15 @@ class Store(EventsAndResults, ImportedCalibrations):
     """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
     creates the database if needed, migrates it to the newest schema and writes back the
     spill files of its runs (samples a recorder could not store, see
-    :mod:`daq.store.spill`); ``spill_dir`` defaults to :func:`default_spill_dir`."""
+    :mod:`daq.store.spill`); ``spill_dir`` defaults to :func:`default_spill_dir`.
+
+    Runs whose end this process decided but the database has not taken yet
+    (``pending_ends``, :mod:`daq.store.pending_ends`) read as they ended, not ``running``."""
 
     def __init__(self, url: str | None = None, *, spill_dir: str | Path | None = None) -> None:
         super().__init__(url)
         self.spill_dir = Path(spill_dir) if spill_dir is not None else default_spill_dir()
+        self.pending_ends = PendingEnds()
         self.replay_spills()
 
     def replay_spills(self) -> list[str]:
@@ -217,6 +222,7 @@ class Store(EventsAndResults, ImportedCalibrations):
         with self.transaction() as conn:
             run = self._resolve(conn, run_id)
             self._finish(conn, run, status, reason, time.time() if stop is None else stop)
+        self.pending_ends.discard(run.uuid)
 
     def import_run(
         self,
@@ -314,12 +320,14 @@ class Store(EventsAndResults, ImportedCalibrations):
             metadata=dict(row._mapping["metadata"] or {}),
         )
 
-    def get_run(self, run_id_or_unique_prefix: str) -> RunInfo:
-        """One run by uuid or unique prefix (RunNotFound / AmbiguousRunId otherwise)."""
+    def get_run(self, run_id_or_unique_prefix: str, *, as_stored: bool = False) -> RunInfo:
+        """One run by uuid or unique prefix (RunNotFound / AmbiguousRunId otherwise); as it
+        ended when its end is still pending (``as_stored``: as the database holds it)."""
         with self.engine.connect() as conn:
             run = self._resolve(conn, run_id_or_unique_prefix)
             row = conn.execute(self._run_query().where(runs_t.c.id == run.id)).one()
-        return self._run_info(row)
+        info = self._run_info(row)
+        return info if as_stored else self.pending_ends.apply(info)
 
     def load(self, run_id_or_unique_prefix: str) -> LoadedRun:
         """One run whole (record, samples, events, results) for a notebook:
@@ -361,7 +369,8 @@ class Store(EventsAndResults, ImportedCalibrations):
             .offset(checks.check_limit("offset", offset, minimum=0))
         )
         with self.engine.connect() as conn:
-            return [self._run_info(row) for row in conn.execute(query)]
+            rows = conn.execute(query).all()
+        return [self.pending_ends.apply(self._run_info(row)) for row in rows]
 
     def count_runs(self, **filters: Any) -> int:
         """How many runs :meth:`list_runs` with these filters finds, without paging."""

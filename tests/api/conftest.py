@@ -202,6 +202,7 @@ def chromium_page():
         context = browser.new_context()
         page = context.new_page()
         page.set_default_timeout(30_000)
+        page.add_init_script(CSP_WATCH)
         try:
             yield page
         finally:
@@ -217,6 +218,19 @@ def signed_in_page(service: RigService, client: TestClient) -> Iterator[Any]:
     with LiveServer(app) as live, chromium_page() as page:
         page.goto(f"{live.url}/#token={TOKEN}")
         yield page
+        assert csp_blocked(page) == []  # the page's Content-Security-Policy blocked nothing
+
+
+#: Records what the page's Content-Security-Policy blocks (``csp_blocked``).
+CSP_WATCH = (
+    "window.cspBlocked = []; document.addEventListener('securitypolicyviolation', "
+    "(e) => window.cspBlocked.push(`${e.violatedDirective} ${e.blockedURI}`));"
+)
+
+
+def csp_blocked(page: Any) -> list[str]:
+    """What the Content-Security-Policy blocked on ``page`` since it loaded."""
+    return page.evaluate("() => window.cspBlocked")
 
 
 def completed_tows(client, forces: Iterable[float], body: dict = SHORT_TOW) -> list[str]:

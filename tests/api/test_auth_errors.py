@@ -156,3 +156,55 @@ def test_cors_is_off_unless_an_origin_is_configured(service, client):
             "/api/jobs/tow", headers=preflight | {"Origin": "http://evil.example"}
         )
         assert "access-control-allow-origin" not in r.headers
+        refused = cors_client.post("/api/jobs/tow", headers={"Origin": "http://lab.example"})
+        assert refused.status_code == 401  # refused before the body, with CORS headers
+        assert refused.headers["access-control-allow-origin"] == "http://lab.example"
+
+
+@pytest.mark.parametrize(
+    ("path", "body"),
+    [
+        ("/api/jobs/tow", b'{"force_n": '),  # malformed JSON
+        ("/api/jobs/tow", b'{"force_n": 0}'),  # well formed, invalid
+        ("/api/runs/import?kind=tow&force_n=5&filename=..", b"t,position\n0,0\n"),
+        ("/api/analysis/ahp", b"not json at all"),
+        ("/api/runs/0123abcd/metadata", b"{"),  # PATCH below
+    ],
+)
+def test_without_a_token_no_body_is_parsed_the_answer_is_401(client, path, body):
+    method = "PATCH" if path.startswith("/api/runs/0") else "POST"
+    headers = {"Content-Type": "application/json"}
+    for auth in ({}, {"Authorization": "Bearer nope"}):
+        r = client.request(method, path, content=body, headers=headers | auth)
+        assert r.status_code == 401, r.text
+        assert "token" in r.json()["detail"] and r.headers["www-authenticate"] == "Bearer"
+    with_token = client.request(method, path, content=body, headers=headers | AUTH)
+    assert with_token.status_code in (404, 422), with_token.text  # then the body is read
+
+
+def test_every_answer_forbids_framing_and_the_ui_page_has_a_content_security_policy(client):
+    page = client.get("/")
+    assert page.status_code == 200
+    policy = page.headers["content-security-policy"]
+    assert "frame-ancestors 'none'" in policy and "script-src 'self'" in policy
+    assert "default-src 'self'" in policy and "unsafe-eval" not in policy
+    assert page.headers["x-frame-options"] == "DENY"
+    assert page.headers["x-content-type-options"] == "nosniff"
+    for path in ("/api/health", "/static/app.js", "/api/runs", "/docs"):
+        r = client.get(path)
+        assert "frame-ancestors 'none'" in r.headers["content-security-policy"], path
+        assert r.headers["x-frame-options"] == "DENY", path
+
+
+@pytest.mark.parametrize(
+    "filename", ["..", ".", "../../etc/passwd", "/etc/passwd", "a/b.csv", "a\\b.csv", "..."]
+)
+def test_an_import_file_name_that_is_a_path_is_refused_naming_the_field(client, filename):
+    r = client.post(
+        "/api/runs/import",
+        params={"kind": "tow", "force_n": 5, "filename": filename},
+        content=b"t,position\n0,0\n0.1,0.01\n",
+        headers=AUTH | {"Content-Type": "text/csv"},
+    )
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"].startswith("filename: ")

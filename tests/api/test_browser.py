@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
-from tests.api.conftest import chromium_page
+from tests.api.conftest import chromium_page, csp_blocked
 from tests.serve import stop_service, wait_for_service
 
 TOKEN = "browser-test-token"
@@ -52,7 +52,7 @@ def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page, tmp_
     assert "token=" not in page.url  # the token left the address bar
 
     # live samples arrive before anything runs
-    page.wait_for_function("Number(document.querySelector('#live-count').textContent) > 5")
+    page.wait_for_function("() => Number(document.querySelector('#live-count').textContent) > 5")
 
     # out-of-range input: the server's message names the field and the limit
     page.fill("#form-tow [name=force_n]", "")
@@ -104,3 +104,4 @@ def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page, tmp_
     expect(page.locator("#est-coefs")).to_contain_text("inertia")
     expect(page.locator("#est-rmse")).to_contain_text("RMSE after")
     expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
+    assert csp_blocked(page) == []  # live plot, forms, figures: the page's CSP allows them

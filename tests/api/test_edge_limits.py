@@ -102,11 +102,27 @@ def test_a_declared_300_mb_unauthenticated_body_is_413_before_a_byte_is_read(edg
     assert sent < HUGE // 10  # the client stopped feeding once answered
 
 
-def test_a_streamed_300_mb_unauthenticated_json_body_stops_at_the_cap(edge):
+def test_a_streamed_300_mb_unauthenticated_json_body_is_refused_unread(edge):
     counting, port = edge
     before = counting.pulled
     status, body, sent = _post(
         port, "/api/jobs/tow", {"Content-Type": "application/json"}, zeros(HUGE), chunked=True
+    )
+    assert status == 401  # no token: refused before the body is read (issue 19)
+    assert "bearer token" in body["detail"]
+    assert counting.pulled - before <= counting.largest  # not a message of it parsed
+    assert sent < HUGE // 10
+
+
+def test_a_streamed_300_mb_json_body_with_the_token_stops_at_the_cap(edge):
+    counting, port = edge
+    before = counting.pulled
+    status, body, sent = _post(
+        port,
+        "/api/jobs/tow",
+        AUTH | {"Content-Type": "application/json"},
+        zeros(HUGE),
+        chunked=True,
     )
     assert status == 413
     assert f"{JSON_BODY_LIMIT}-byte limit" in body["detail"]

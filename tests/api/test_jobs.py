@@ -114,6 +114,20 @@ def test_emergency_stop_pauses_the_queue_and_keeps_its_jobs(client):
     assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
 
 
+def test_the_queue_is_bounded_a_start_beyond_it_is_409(client, monkeypatch):
+    monkeypatch.setattr("api.core.jobs.MAX_QUEUED", 2)
+    running = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
+    wait_job(client, running, states=("running",))
+    queued = [client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH) for _ in range(3)]
+    assert [r.status_code for r in queued] == [202, 202, 409]
+    assert "queue is full" in queued[2].json()["detail"], queued[2].text
+    assert len(client.get("/api/queue", headers=AUTH).json()["jobs"]) == 2
+    client.post("/api/rig/emergency-stop", headers=AUTH)
+    for r in queued[:2]:
+        client.delete(f"/api/queue/{r.json()['id']}", headers=AUTH)
+    assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
+
+
 def test_arm_and_disarm_thrusters(client):
     wait_rig_free(client)
     r = client.post("/api/rig/arm", headers=AUTH)

@@ -30,10 +30,9 @@ TRACE_Y = """key => {
 class Serve:
     """``rig serve`` as the user runs it, and what it printed."""
 
-    def __init__(self, proc: subprocess.Popen, lines: list[str], token: str) -> None:
-        self.proc, self.lines, self.token = proc, lines, token
-        self.link = next(ln for ln in lines if ln.startswith("browser UI: ")).split()[2]
-        self.url = self.link.split("#")[0]
+    def __init__(self, proc: subprocess.Popen, lines: list[str], token: str, link: str) -> None:
+        self.proc, self.lines, self.token, self.link = proc, lines, token, link
+        self.url = next(ln for ln in lines if ln.startswith("rig service: ")).split()[2]
 
 
 @pytest.fixture(scope="module")
@@ -56,14 +55,19 @@ def serve(tmp_path_factory):
             assert line, f"rig serve ended: {lines} {(tmp / 'stderr.txt').read_text()}"
             lines.append(line.rstrip("\n"))
         token = (tmp / "towrig" / "api-token").read_text().strip()
-        service = Serve(proc, lines, token)
+        assert not any(token in line for line in lines), lines  # never in its output
+        port = lines[0].split()[2].rstrip("/").rsplit(":", 1)[1]
+        link = subprocess.run(  # the link, printed only when asked for
+            [*cmd, "token", "--link", "--port", port], env=env, capture_output=True, text=True
+        ).stdout.strip()
+        service = Serve(proc, lines, token, link)
         wait_healthy(proc, service.url, (tmp / "stderr.txt").read_text, timeout_s=20)
         yield service
     finally:
         stop_service(proc)
 
 
-def test_the_printed_link_carries_the_token_and_opens_the_ui_signed_in(serve):
+def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(serve):
     from playwright.sync_api import expect
 
     assert serve.link.startswith("http://127.0.0.1:") and "<token>" not in serve.link
@@ -87,7 +91,9 @@ def test_the_printed_link_carries_the_token_and_opens_the_ui_signed_in(serve):
         page.goto(serve.link)
         expect(page.locator("#conn-text")).to_contain_text("simulated")
         # answers to requests sent before the token arrived do not bring the dialog back
-        page.wait_for_function("Number(document.querySelector('#live-count').textContent) > 20")
+        page.wait_for_function(
+            "() => Number(document.querySelector('#live-count').textContent) > 20"
+        )
         expect(page.locator("#token-dialog")).to_be_hidden()
         assert page.text_content("#token-error") == ""
 
@@ -147,11 +153,11 @@ def test_chosen_channels_are_plotted_live_with_units_and_kept(serve):
 
         # the user adds the load cell: a second row in newtons
         page.check("#live-channels input[value=load_cell]")
-        page.wait_for_function(f"({TRACE_Y})('load_cell') !== null")
+        page.wait_for_function(f"() => ({TRACE_Y})('load_cell') !== null")
         # the angle moves: released at 0.3 rad it swings through zero
         page.wait_for_function(
-            f"(() => {{ const y = ({TRACE_Y})('pendulum_angle');"
-            " return y && Math.max(...y) - Math.min(...y) > 0.2; })()",
+            f"() => {{ const y = ({TRACE_Y})('pendulum_angle');"
+            " return y && Math.max(...y) - Math.min(...y) > 0.2; }",
             timeout=40_000,
         )
         layout = page.evaluate("document.getElementById('live-plot').layout")
@@ -167,7 +173,9 @@ def test_chosen_channels_are_plotted_live_with_units_and_kept(serve):
 
         final = "el => ['completed', 'aborted', 'failed'].includes(el.textContent)"
         page.wait_for_selector("#job-state", state="attached")
-        page.wait_for_function(f"({final})(document.querySelector('#job-state'))", timeout=40_000)
+        page.wait_for_function(
+            f"() => ({final})(document.querySelector('#job-state'))", timeout=40_000
+        )
         assert page.text_content("#job-state") == "completed", page.text_content("#job-panel")
 
         page.reload()  # the choice for pendulum tests is kept

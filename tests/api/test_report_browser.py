@@ -18,7 +18,7 @@ def test_estimation_page_shows_full_size_report_figures_with_units(client, servi
         fit = page.locator("#est-plots figure").first
         expect(fit.locator("figcaption")).to_contain_text("fit")
         page.wait_for_function(
-            "document.querySelector('#est-plots figure img')?.naturalWidth >= 1000"
+            "() => document.querySelector('#est-plots figure img')?.naturalWidth >= 1000"
         )
         shown = fit.locator("img").evaluate("img => img.getBoundingClientRect().width")
         card = page.locator("#est-plots").evaluate("el => el.getBoundingClientRect().width")

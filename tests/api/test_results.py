@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import tempfile
+
 import pytest
 
 from tests.api.conftest import AUTH, start_job, wait_job
@@ -56,6 +59,8 @@ def test_estimation_job_returns_the_result_json_and_report_plots(client, two_tow
     assert bad.status_code == 404
     listed = client.get(f"/api/runs/{two_tows[0]}/results", headers=AUTH).json()
     assert job["result_id"] in [r["id"] for r in listed]
+    answers = client.get(f"/api/jobs/{job['id']}", headers=AUTH).text + json.dumps(stored)
+    assert "report_files" not in answers and tempfile.gettempdir() not in answers  # no paths
 
 
 def test_estimation_input_errors(client, two_tows):

@@ -7,10 +7,12 @@ import math
 
 import pytest
 
+from api.core.sixdof import FIXTURE_VEHICLES
 from tests.api.conftest import AUTH
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
 pytestmark = pytest.mark.simtime
+FIXTURES = FIXTURE_VEHICLES.parents[1]  # the checkout or the installed package
 
 
 def test_vehicle_list_and_detail(client):
@@ -120,3 +122,19 @@ def test_cli_prints_steady_values_and_json():
     bad = runner.invoke(main, ["sixdof", "benbam", "--commands", "0.3,0.9,0.1"])
     assert bad.exit_code == 2
     assert "one per thruster (2" in bad.output
+
+
+def test_vehicle_answers_hold_no_path_of_this_machine(client, tmp_path, monkeypatch):
+    lab = tmp_path / "lab-vehicles"
+    lab.mkdir()
+    (lab / "broken.toml").write_text("[vehicle\n")
+    monkeypatch.setenv("RIG_VEHICLES_DIR", str(lab))
+    listed = client.get("/api/vehicles", headers=AUTH)
+    detail = client.get("/api/vehicles/seed002-rov", headers=AUTH)
+    for text in (listed.text, detail.text):
+        assert str(FIXTURES) not in text and str(tmp_path) not in text, text
+    files = {v["name"]: v for v in listed.json()}
+    assert files["seed002-rov"]["file"] == "fixtures/vehicles/seed002-rov.toml"
+    assert files["broken"]["file"] == "$RIG_VEHICLES_DIR/broken.toml"
+    assert files["broken"]["error"].startswith("$RIG_VEHICLES_DIR/broken.toml: file:")
+    assert detail.json()["file"] == "fixtures/vehicles/seed002-rov.toml"

@@ -1,6 +1,8 @@
 """Under ``rig serve``: storage failing mid-tow aborts the job with a one-line error naming
-storage, the rig is left safe, and the run's end (and the samples kept aside) is written
-as soon as storage takes writes again, while the service runs."""
+storage, the rig is left safe, the run reads ``aborted`` over HTTP at once (not when storage
+returns), a job started while storage still fails fails in one line (no traceback), and the
+run's end (and the samples kept aside) is written as soon as storage takes writes again,
+while the service runs."""
 
 from __future__ import annotations
 
@@ -31,7 +33,7 @@ def service(tmp_path_factory) -> RigService:
 
 
 def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_safe(
-    client, service
+    client, service, caplog
 ):
     limits = DbLimits(service.store)
     job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
@@ -47,16 +49,35 @@ def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_s
     assert status["sample"]["channels"]["tow_release"] == 0.0  # brake engaged
     assert status["lock_holder"] is None
     (run_id,) = job["run_ids"]
-    assert client.get(f"/api/runs/{run_id}", headers=AUTH).json()["status"] == "running"
+    assert service.store.get_run(run_id, as_stored=True).status == "running"  # not stored yet
+    run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()  # ... but it ended
+    assert (run["status"], run["reason"]) == ("aborted", REASON)
+    assert run["stopped_at"] is not None
+    listed = client.get("/api/runs", headers=AUTH).json()
+    assert [(r["status"], r["reason"]) for r in listed if r["id"] == run_id] == [
+        ("aborted", REASON)
+    ]
+
+    # A tow started while storage still fails: failed, one line, no traceback anywhere.
+    caplog.clear()
+    refused = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
+    not_started = f"{REASON}; the run was not started"
+    assert (refused["state"], refused["error"]) == ("failed", not_started), refused
+    assert refused["run_ids"] == []
+    assert not [r for r in caplog.records if r.exc_info], "a traceback was logged"
+    status = client.get("/api/rig", headers=AUTH).json()
+    assert status["sample"]["channels"]["tow_release"] == 0.0
+    assert status["lock_holder"] is None
 
     limits.set()  # storage is back: the service writes back what was kept aside
-    run = read_until(
-        lambda: client.get(f"/api/runs/{run_id}", headers=AUTH).json(),
-        lambda run: run["status"] != "running",
+    read_until(
+        lambda: service.store.get_run(run_id, as_stored=True),
+        lambda run: run.status != "running",
         "the run's end written back",
         timeout_s=30,
         poll_s=0.1,
     )
+    run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
     assert (run["status"], run["reason"]) == ("aborted", REASON)
     assert run["sample_count"] > job["outcome"]["samples"]  # the kept samples are back
     assert wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))["state"] == ("completed")

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import os
 import stat
+import subprocess
+import sys
+from pathlib import Path
 
 from click.testing import CliRunner
 
 from api.cli.main import main
 from api.http.auth import load_or_create_token, token_path
+from tests.serve import stop_service, wait_healthy
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_generated_token_is_private_and_stable(tmp_path, monkeypatch):
@@ -36,3 +43,40 @@ def test_rig_serve_is_a_command_with_safe_defaults():
     assert result.exit_code == 0
     assert "127.0.0.1" in result.output
     assert "--open-read" in result.output and "--cors-origin" in result.output
+
+
+def test_rig_serve_never_prints_the_token_only_where_to_find_it(tmp_path, monkeypatch):
+    """Its output lands in service logs: the address, the token file and 'rig token'."""
+    env = os.environ | {"XDG_DATA_HOME": str(tmp_path), "PYTHONUNBUFFERED": "1"}
+    env.pop("RIG_API_TOKEN", None)
+    env["RIG_SPILL_DIR"] = str(tmp_path / "spill")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "api.cli.serve", "--port", "0"],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("rig service: http://127.0.0.1:"), first + proc.stderr.read()
+        url = first.split()[2]
+        wait_healthy(proc, url, proc.stderr.read, timeout_s=30)
+    finally:
+        stop_service(proc)
+    output = first + proc.stdout.read() + proc.stderr.read()  # (it has exited)
+    secret = (tmp_path / "towrig" / "api-token").read_text().strip()
+    assert len(secret) >= 32 and secret not in output, output
+    assert "#token=" not in output and "rig token --link" in output, output
+    assert str(tmp_path / "towrig" / "api-token") in output  # where to find it
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))  # the service's token file
+    monkeypatch.delenv("RIG_API_TOKEN", raising=False)
+    link = CliRunner().invoke(main, ["token", "--link", "--port", url.rsplit(":", 1)[1][:-1]])
+    assert link.output.strip() == f"{url}#token={secret}"  # only when asked for
+
+
+def test_rig_token_link_carries_the_token_for_the_browser(tmp_path, monkeypatch):
+    monkeypatch.setenv("RIG_API_TOKEN", "a/b+c")
+    result = CliRunner().invoke(main, ["token", "--link"])
+    assert result.output.strip() == "http://127.0.0.1:8000/#token=a%2Fb%2Bc"

@@ -2,7 +2,8 @@
 
 * A full disk (a 2 MB tmpfs holding the SQLite database; needs root to mount: skipped on a
   laptop, required under CI=true) stops a 500 Hz tow safely; the CLI prints its JSON and
-  exits 1 (no traceback); once space returns, the next open of the store writes back
+  exits 1 (no traceback); a tow started while the disk is still full is refused in one
+  line, exit 1; once space returns, the next open of the store writes back
   every sample the database did not take and the run reads ``aborted`` with a one-line
   reason naming storage.
 * A database that refuses writes mid-run (in process) leaves the brake engaged and the
@@ -20,6 +21,7 @@ import os
 import sqlite3
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +90,18 @@ def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, t
     assert (outcome["status"], outcome["reason"]) == ("aborted", STORAGE_REASON)
     assert list(spill.glob(f"*{SUFFIX}")), "unstored samples were not kept aside"
 
+    again = subprocess.run(  # the disk still full: the next tow is refused, one line
+        [*TOW, "--rig", str(rig_file), "--db", db],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=ROOT,
+        env=os.environ | {"RIG_SPILL_DIR": str(spill)},
+    )
+    assert again.returncode == 1, again.stderr
+    assert "Traceback" not in again.stderr and "sqlalche.me" not in again.stderr, again.stderr
+    errors = [line for line in again.stderr.splitlines() if line.startswith("error: ")]
+    assert errors == [f"error: {STORAGE_REASON}; the run was not started"], again.stderr
     filler.unlink()  # space returns; the next open writes the kept samples back
     with Store(db, spill_dir=spill) as store:
         run = store.get_run(outcome["run_id"])
@@ -174,3 +188,52 @@ async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
     assert any(e.data and e.data.get("action") == "brake" for e in events)
     for e in events:
         no_sql(e.message)
+
+
+@pytest.mark.slow
+async def test_a_60_s_lock_across_the_end_leaves_the_tow_completed_stopped_when_it_ended(
+    source, store, tmp_path
+):
+    """The issue-19 case with the real limits (10 s busy wait, 30 s of retries): the lock
+    outlasts them, the tow still ends ``completed`` (reads so at once), and when the
+    database takes it the stop time is the end on the rig, not the write."""
+    short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
+    path = Path(store.url.removeprefix("sqlite:///"))
+    blocker = sqlite3.connect(path, isolation_level=None, timeout=30, check_same_thread=False)
+    async with RigSession(short, store) as session:
+        params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
+        watch = session.acquisition.subscribe(maxsize=10_000, name="test-brake-watch")
+        task = asyncio.create_task(run_motion_test(session, params))
+        released = False
+        while True:  # the brake comes off, then on again at the end of travel
+            sample = await asyncio.wait_for(watch.get(), 30)
+            released = released or sample.channels["tow_release"] == 1
+            if released and sample.channels["tow_release"] == 0:
+                break
+        session.acquisition.unsubscribe(watch)
+        await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
+        locked_at = time.time()
+        outcome = await asyncio.wait_for(task, 60)  # it gives up on the database, not the run
+        assert (outcome.status, outcome.reason) == ("completed", None)
+        shown = store.get_run(outcome.run_id)
+        assert (shown.status, shown.reason) == ("completed", None)
+        assert shown.stopped_at.timestamp() < locked_at + 1.0  # the tail, then the end
+        await asyncio.sleep(max(0.0, locked_at + 60 - time.time()))  # the lock's 60 s
+        blocker.execute("COMMIT")
+        blocker.close()
+        taken_at = time.time()
+        await until(  # the session's write-back retries the spill file until it is taken
+            lambda: store.get_run(outcome.run_id, as_stored=True).status != "running",
+            "the run's end written back",
+            timeout_s=90,
+            poll_s=0.5,
+        )
+    run = store.get_run(outcome.run_id, as_stored=True)
+    assert (run.status, run.reason) == ("completed", None)
+    # when it ended, not when it was written
+    assert run.stopped_at.timestamp() == pytest.approx(shown.stopped_at.timestamp(), abs=1e-5)
+    assert run.stopped_at.timestamp() < taken_at - 50
+    table = store.samples(run.id)
+    assert len(table) == run.sample_count and table.t_wall[-1] <= run.stopped_at.timestamp()
+    _only_skipped_slots_missing(table)
+    assert table.channels["tow_release"][-1] == 0  # the tail after the brake is stored

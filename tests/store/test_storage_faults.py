@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import sqlite3
+import time
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ import sqlalchemy as sa
 
 from daq.store import RunRecorder, Store
 from daq.store.faults import describe, one_line
+from daq.store.recorder import STORE_RETRY_S
 from daq.store.spill import read_spill
 from tests.store.helpers import DbLimits, held_write_lock, make_samples, new_run, no_sql
 from tests.waiting import until
@@ -88,7 +90,10 @@ async def test_the_end_of_a_run_the_database_refuses_is_kept_and_written_on_the_
     status, reason = await recorder.end("completed", None)
     message = "storage failed: SQLite: attempt to write a readonly database"
     assert (status, reason) == ("aborted", message) and faults == [message]
-    assert sqlite_store.get_run(run_id).status == "running"  # could not be written yet
+    assert sqlite_store.get_run(run_id, as_stored=True).status == "running"  # not yet written
+    pending = sqlite_store.get_run(run_id)  # ... but this process answers with the truth
+    assert (pending.status, pending.reason) == (status, reason)
+    assert [r.status for r in sqlite_store.list_runs()] == [status]
     assert read_spill(recorder.spill.path).end[:2] == (status, reason)
 
     with Store(sqlite_store.url, spill_dir=tmp_path / "spill") as reopened:
@@ -217,3 +222,46 @@ async def test_only_events_refused_at_the_end_leave_a_completed_run_completed(
     run = sqlite_store.get_run(run_id)
     assert (run.status, run.reason, run.sample_count) == ("completed", None, 40)
     assert [e.message for e in sqlite_store.events(run_id)] == ["max time 4 s: brake engaged"]
+
+
+async def test_a_lock_held_past_the_retry_limit_delays_only_the_bookkeeping(
+    sqlite_store: Store, tmp_path
+) -> None:
+    """The database locked across the end for longer than the recorder retries (1 s here,
+    30 s by default; the same path): the run stays ``completed``, reads so at once, its
+    samples and end wait in the spill file, and its stop time is when it ended, not when
+    the database took it."""
+    limits = DbLimits(sqlite_store)
+    limits.set(busy_ms=50)
+    run_id, recorder, faults = _recording(sqlite_store, retry_for_s=1.0)
+    _put(recorder, 0, 341)
+    recorder.add_event("limit", "max time 2 s: brake engaged")
+    blocker = sqlite3.connect(tmp_path / "rig.db", isolation_level=None)
+    blocker.execute("BEGIN EXCLUSIVE")
+    ended_at = time.time()
+    assert await asyncio.wait_for(recorder.end("completed", None), 30) == ("completed", None)
+    assert faults == [] and recorder.stats.failed_flushes >= 2  # it tried, then spilled
+    assert sqlite_store.get_run(run_id, as_stored=True).status == "running"
+    shown = sqlite_store.get_run(run_id)  # the truth, while the database is still locked
+    assert (shown.status, shown.reason) == ("completed", None)
+    stopped_at = shown.stopped_at.timestamp()
+    assert ended_at <= stopped_at < ended_at + 0.5
+    kept = read_spill(recorder.spill.path)
+    assert [s.seq for s in kept.samples] == list(range(341))
+    assert kept.end is not None and kept.end[:2] == ("completed", None)
+    assert kept.end[2] == pytest.approx(stopped_at, abs=1e-5)
+
+    blocker.execute("COMMIT")
+    blocker.close()
+    taken_at = time.time()
+    assert sqlite_store.replay_spills() == [run_id]
+    run = sqlite_store.get_run(run_id, as_stored=True)
+    assert (run.status, run.reason, run.sample_count) == ("completed", None, 341)
+    assert run.stopped_at.timestamp() == pytest.approx(stopped_at, abs=1e-5)
+    assert run.stopped_at.timestamp() < taken_at - 0.9  # not when the database took it
+    assert [e.message for e in sqlite_store.events(run_id)] == ["max time 2 s: brake engaged"]
+    assert len(sqlite_store.pending_ends) == 0 and not recorder.spill.path.exists()
+
+
+def test_the_default_retry_limit_is_30_s(sqlite_store: Store) -> None:
+    assert RunRecorder(sqlite_store, new_run(sqlite_store)).retry_for_s == STORE_RETRY_S == 30.0

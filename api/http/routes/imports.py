@@ -35,8 +35,16 @@ _IMPORT_BODY = csv_upload_body(
 DEFAULT_NAME = "upload.csv"
 
 
-def _safe_name(filename: str) -> str:
-    return re.sub(r"[^A-Za-z0-9._-]", "_", Path(filename).name) or DEFAULT_NAME
+def _safe_name(filename: str, field: str = "filename") -> str:
+    """The uploaded file's name as given, checked to be a plain file name (no folder, not
+    ``.``/``..``, no NUL) and made of safe characters, so it never reaches the file system
+    as a path; 422 naming ``field`` otherwise."""
+    if filename in (".", "..") or any(c in filename for c in "/\\\0") or filename.strip(". ") == "":
+        raise ValueError(
+            f"{field}: {filename!r} is not allowed; give the file's name alone, without "
+            "folders (e.g. tow-24N.csv)"
+        )
+    return re.sub(r"[^A-Za-z0-9._-]", "_", filename)
 
 
 def _import_metadata(
@@ -137,7 +145,7 @@ async def import_run(
         path = Path(folder) / name
         sent_as = await save_upload(request, path)  # the size cap is BodyLimit's
         if sent_as and filename == DEFAULT_NAME:  # a multipart part names its file
-            name = _safe_name(sent_as)
+            name = _safe_name(Path(sent_as.replace("\\", "/")).name, "file")
             path = path.rename(Path(folder) / name)
         try:
             plan = plan_import(path, request_, pendulum_rig=service.source, rig_field="kind")

@@ -19,6 +19,7 @@ from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
+from api.core.job_model import without_report_files
 from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.run_cache import EndedRunCache
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
@@ -144,7 +145,8 @@ async def get_run(
     body = await run_in_threadpool(_RUN_CACHE.get, run_id, include_toml, store.stored_metadata)
     if body is None:
         run = await run_in_threadpool(store.get_run, run_id)
-        body = _RUN_CACHE.put(run, include_toml)
+        stored = store.pending_ends.get(run.id) is None
+        body = _RUN_CACHE.put(run, include_toml, stored=stored)
     return Response(body, media_type="application/json")
 
 
@@ -272,7 +274,7 @@ def get_run_results(run_id: str, store: StoreDep, runner: RunnerDep) -> list[dic
 
 # ---- results ----------------------------------------------------------------------------------
 def _result_json(result, runner: JobRunner) -> dict:
-    data = result.to_json()
+    data = without_report_files(result.to_json())
     data["report_plots"] = runner.report_names(result.id)
     return data
 

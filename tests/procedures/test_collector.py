@@ -1,0 +1,124 @@
+"""No full garbage collection while the thrusters are armed (issue 19, item 4).
+
+The mechanism, on the simulated rig: arming holds generation-2 collections off (young ones
+go on), disarming gives the thresholds back and full collections resume under the same
+load. The pause it saves is measured by ``bench/gc_pause.py``. And the real-time clock's
+policy stays on its own thread (``set_realtime``'s docstring).
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import threading
+from collections.abc import Iterator
+
+import pytest
+
+from daq.acquisition import set_realtime
+from daq.collector import HELD_THRESHOLD, full_collections_held
+
+
+def _survivors(rounds: int = 300) -> list[list[list[int]]]:
+    """Allocate ``rounds`` × 1000 tracked objects that live on: the load that makes a full
+    collection due (CPython: 10 young passes and 25 % more long-lived objects)."""
+    return [[[] for _ in range(1000)] for _ in range(rounds)]
+
+
+class _Collections:
+    """Generations of the collections started while it is on."""
+
+    def __init__(self) -> None:
+        self.generations: list[int] = []
+
+    def __call__(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self.generations.append(info["generation"])
+
+
+@pytest.fixture
+def collections() -> Iterator[_Collections]:
+    seen = _Collections()
+    gc.callbacks.append(seen)
+    try:
+        yield seen
+    finally:
+        gc.callbacks.remove(seen)
+
+
+async def test_armed_thrusters_hold_full_collections_off_until_disarmed(session, collections):
+    before = gc.get_threshold()
+    assert not full_collections_held()
+    await session.arm_thrusters()
+    try:
+        assert full_collections_held()
+        assert gc.get_threshold() == (before[0], before[1], HELD_THRESHOLD)
+        kept = _survivors()
+        assert 0 in collections.generations  # the young ones still run
+        assert 2 not in collections.generations, "a full collection ran while armed"
+    finally:
+        await session.disarm_thrusters()
+    assert not full_collections_held() and gc.get_threshold() == before
+    collections.generations.clear()
+    kept += _survivors()
+    assert 2 in collections.generations  # the same load: full collections are back
+    del kept
+
+
+async def test_closing_the_session_while_armed_gives_the_thresholds_back(source, store):
+    from daq.session import RigSession
+
+    before = gc.get_threshold()
+    async with RigSession(source, store) as session:
+        await session.arm_thrusters()
+        assert full_collections_held()
+    assert not full_collections_held() and gc.get_threshold() == before
+
+
+def test_threads_a_real_time_thread_starts_run_at_normal_priority():
+    seen: dict[str, object] = {}
+
+    def child() -> None:
+        seen["child"] = os.sched_getscheduler(0)
+
+    def clock() -> None:
+        seen["granted"] = set_realtime()
+        seen["clock"] = os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0)
+        thread = threading.Thread(target=child)
+        thread.start()
+        thread.join()
+
+    thread = threading.Thread(target=clock)
+    thread.start()
+    thread.join()
+    if seen["clock"] != os.SCHED_FIFO:
+        pytest.skip("SCHED_FIFO refused here (needs CAP_SYS_NICE)")
+    assert seen["child"] == os.SCHED_OTHER  # SCHED_RESET_ON_FORK: not inherited
+
+
+def test_a_test_command_freezes_the_heap_once_the_rig_is_open(tmp_path, monkeypatch):
+    """``rig tow`` (the CLI drives the rig itself) freezes what start-up loaded, as the
+    service does, before the test begins."""
+    from click.testing import CliRunner
+
+    from api.cli import procedures
+    from api.cli.main import main
+    from daq import collector
+
+    seen: list[tuple[int, bool]] = []
+
+    def freeze() -> None:
+        collector.freeze_after_startup()
+        seen.append((gc.get_freeze_count(), full_collections_held()))
+
+    monkeypatch.setattr(procedures, "freeze_after_startup", freeze)
+    monkeypatch.setenv("RIG_SPILL_DIR", str(tmp_path / "spill"))
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    args = ["tow", "--force", "24.5", "--max-time", "1", "--baseline", "0.3", "--db", db]
+    try:
+        result = CliRunner().invoke(main, [*args, "--json"])
+    finally:
+        gc.unfreeze()
+    assert result.exit_code == 0, result.output
+    ((frozen, held),) = seen  # once, with the rig open and nothing armed yet
+    assert frozen > 10_000 and not held
