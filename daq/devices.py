@@ -15,12 +15,15 @@ from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
 from typing import TYPE_CHECKING, Protocol
 
+from thrusters.driver import ThrusterDriver, ThrusterError
+
 if TYPE_CHECKING:
     from daq.clock import Clock
     from daq.config import RigConfig
     from daq.plc import PlcClient
     from daq.sim.scenario import Scenario
-    from thrusters.driver import OutputStep, ThrusterDriver, ThrusterFault, ThrusterStatus
+    from thrusters.config import CommandLimits, ThrusterPort
+    from thrusters.driver import OutputStep, ThrusterFault, ThrusterStatus
 
 
 class Thrusters(Protocol):
@@ -56,3 +59,14 @@ class RigDevices(Protocol):
 
 #: Makes the devices of a rig on a clock: ``factory(rig, scenario, clock)``.
 DeviceFactory = Callable[["RigConfig", "Scenario | None", "Clock"], RigDevices]
+
+
+def open_thruster_driver(port: ThrusterPort, limits: CommandLimits) -> ThrusterDriver:
+    """The driver for the rig file's ``[thrusters]``; a port that cannot be used is a
+    one-line ``ThrusterError`` naming the controller and the ``thrusters.port`` setting."""
+    if port.port == "sim":
+        raise ThrusterError(
+            "thruster controller: thrusters.port = 'sim' is only for a simulated rig; "
+            "give the controller's device path or pyserial URL"
+        )
+    return ThrusterDriver(port, limits)

@@ -26,6 +26,7 @@ from daq.acquisition import Acquisition
 from daq.clock import REAL_CLOCK, Clock
 from daq.collector import hold_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
+from daq.devices import open_thruster_driver
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
@@ -33,7 +34,6 @@ from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState
 from daq.sample import Quality, Sample
 from daq.store import Store
-from thrusters.config import CommandLimits, ThrusterPort
 from thrusters.driver import ThrusterDriver, ThrusterError
 
 if TYPE_CHECKING:
@@ -45,17 +45,6 @@ log = logging.getLogger(__name__)
 
 
 NO_THRUSTERS = "this rig has no thrusters (its rig file has no [thrusters] section)"
-
-
-def open_thruster_driver(port: ThrusterPort, limits: CommandLimits) -> ThrusterDriver:
-    """The driver for the rig file's ``[thrusters]``; a port that cannot be used is a
-    one-line ``ThrusterError`` naming the controller and the ``thrusters.port`` setting."""
-    if port.port == "sim":
-        raise ThrusterError(
-            "thruster controller: thrusters.port = 'sim' is only for a simulated rig; "
-            "give the controller's device path or pyserial URL"
-        )
-    return ThrusterDriver(port, limits)
 
 
 class RigBusy(RuntimeError):
