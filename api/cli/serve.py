@@ -94,6 +94,10 @@ def serve(
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
                f"{source.rig.rig.mode})")  # fmt: skip
+    simulated = source.rig.rig.mode == "simulated"
+    scenario = scenario_file or ("the default" if simulated else "— (hardware)")
+    click.echo(f"rig file: {rig_file or 'the default (BENBAM)'}; scenario: {scenario}")
+    click.echo(f"database: {_shown_url(service.store.url if service.store else db_url)}")
     # Never the token itself: this output ends up in service logs.
     click.echo(f"API token: from {where}; send 'Authorization: Bearer <token>'")
     link = "rig token --link" + ("" if bound_port == 8000 else f" --port {bound_port}")
@@ -103,8 +107,20 @@ def serve(
     server = uvicorn.Server(config)
     try:
         server.run(sockets=[sock])
+    except KeyboardInterrupt:  # Ctrl-C is how a person stops it: a normal shutdown
+        pass
     finally:
         service.stop()  # (already done by the lifespan, unless uvicorn never started)
+    click.echo("rig service stopped: thrusters at zero, brakes on, rig released", err=True)
+
+
+def _shown_url(url: str | None) -> str:
+    """A database URL as it may be shown in a log: its password masked."""
+    if not url:
+        return "(default)"
+    from sqlalchemy.engine import make_url
+
+    return make_url(url).render_as_string(hide_password=True)
 
 
 def ui_link(host: str, port: int, token: str) -> str:
