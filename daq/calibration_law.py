@@ -12,8 +12,8 @@ from typing import Any
 
 from daq.store import ResultNotFound, Store
 from daq.store.calibrations import CalibrationNotFound
-from estimation.thrust.calibration_import import ImportSpec, read_calibration_csv
-from estimation.thrust.law import ThrustLaw, identify_thrust_law
+from estimation.thrust.calibration_import import STAND_UNITS, ImportSpec, read_calibration_csv
+from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw, identify_thrust_law
 
 #: Where a calibration comes from: an imported table or a calibration run's result.
 SOURCES = ("imported", "run")
@@ -50,11 +50,30 @@ def import_calibration(store: Store, data: bytes | str, spec: ImportSpec, name: 
             "thrust": spec.thrust_unit,
             "voltage_column": spec.voltage_column,
             "voltage_v": spec.voltage_v,
+            "stand": STAND_UNITS,
         },
         "table": table,
     }
     calibration_id = store.add_calibration(name, record)
-    return {"id": calibration_id, "name": name, "rows": len(table), "law": law.to_json()}
+    kept = [c for c in STAND_UNITS if c in table[0]]
+    return {
+        "id": calibration_id,
+        "name": name,
+        "rows": len(table),
+        "channels": kept,
+        "law": law.to_json(),
+    }
+
+
+def at_reference_voltage(table: list[dict], law: ThrustLaw) -> list[dict]:
+    """The rows measured at the law's reference voltage (rows without a voltage included):
+    the table behind the law's reference curve."""
+    return [
+        r
+        for r in table
+        if r.get("supply_voltage_v") is None
+        or abs(float(r["supply_voltage_v"]) - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
+    ]
 
 
 def _run_table(table: list[dict]) -> tuple[list[dict], float | None]:
@@ -103,11 +122,22 @@ def law_of(
         raise NoCalibration(str(err)) from None
     if imported is not None and (run is None or imported.created_at >= run.created_at):
         law = _cached("imported", imported.id, lambda: identify_thrust_law(imported.data["table"]))
-        return law, {"source": "imported", "id": imported.id, "name": imported.name}
+        return law, {
+            "source": "imported",
+            "id": imported.id,
+            "name": imported.name,
+            "label": f"imported {imported.id} ({imported.name})",
+        }
     if run is not None:
         rows, _ = _run_table(run.data.get("table", []))
         law = _cached("run", run.id, lambda: identify_thrust_law(rows))
-        return law, {"source": "run", "id": run.id, "name": f"calibration run {run.id}"}
+        short = run.run_ids[0][:8] if run.run_ids else str(run.id)
+        return law, {
+            "source": "run",
+            "id": run.id,
+            "name": f"calibration run {short}",
+            "label": f"run {short}",
+        }
     raise NoCalibration(
         "no thrust calibration stored: run `rig calibrate-thrusters` or "
         "`rig import-calibration FILE`"

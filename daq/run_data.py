@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -29,7 +29,7 @@ from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
-from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw
+from estimation.thrust.law import ThrustLaw
 
 
 def _rig_of(run: RunInfo) -> RigConfig | None:
@@ -118,7 +118,9 @@ def _timeline(
         t_release += offset
         t_release_std = float(np.sqrt(half_width**2 / 3 + offset_spread**2 + clock_step**2 / 12))
     t_end = None if t_stop is None else t_stop + offset
-    t_release = min(max(t_release, float(t[0])), float(t[-1])) if t.size else 0.0
+    # a release given at import may precede the record (it starts with the body moving)
+    earliest = -math.inf if release_source == "release_time_s (given)" else float(t[0])
+    t_release = min(max(t_release, earliest), float(t[-1])) if t.size else 0.0
     return _Timeline(
         np.asarray(t, dtype=float),
         good,
@@ -181,12 +183,13 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        law, curve, cal_table = _calibration(store, params)
+        law, curve, cal_table, response = _calibration(store, params)
         volts = table.channels.get("supply_voltage")
+        layout, lag_note = _measured_lag(thrust_layout_of(rig, run.kind), response)
         rebuilt = rebuild_drive(
             law,
             CalibratedThrust.from_table(curve, cal_table),
-            thrust_layout_of(rig, run.kind),
+            layout,
             t,
             _thrust_steps(timeline.events, timeline.offset)
             or _modelled_steps(rig, params["commands"], t, t_release),
@@ -194,7 +197,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
             run.id,
             params,
         )
-        drive, draws, drive_law = rebuilt.drive, rebuilt.draws, rebuilt.law
+        drive, draws, drive_law = rebuilt.drive, rebuilt.draws, f"{rebuilt.law}; {lag_note}"
     return RunData(
         run_id=run.id,
         axis="surge" if AXES[run.kind].axis.value == "surge" else "yaw",
@@ -323,12 +326,27 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     )
 
 
-def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCurve, list[dict]]:
+def _measured_lag(layout: ThrustLayout, response: dict | None) -> tuple[ThrustLayout, str]:
+    """The thrust lag a drive is rebuilt with: the one the calibration measured from its
+    step responses, else the rig file's (``thrusters.time_constant_s``), and a note saying
+    which."""
+    if response and response.get("time_constant_s") is not None:
+        tau, std = response["time_constant_s"], response["std_s"]
+        note = f"thrust lag τ = {tau:.3g} ± {std:.1g} s measured by the calibration"
+        return replace(layout, time_constant_s=float(tau)), note
+    note = f"thrust lag τ = {layout.time_constant_s:g} s from the rig file (not measured)"
+    return layout, note
+
+
+def _calibration(
+    store: Store, params: dict
+) -> tuple[ThrustLaw | None, ThrustCurve, list[dict], dict | None]:
     """The run's calibration: an imported table (its thrust law, and the curve and rows at
-    its reference voltage) or a calibration run's result (no law: one voltage)."""
+    its reference voltage) or a calibration run's result (no law: one voltage, and the
+    thrust lag measured from its steps, if it was)."""
     imported = params.get("calibration_import_id")
     if imported is not None:
-        from daq.calibration_law import NoCalibration, law_of
+        from daq.calibration_law import NoCalibration, at_reference_voltage, law_of
 
         try:
             law, _ = law_of(store, "imported", imported)
@@ -336,20 +354,15 @@ def _calibration(store: Store, params: dict) -> tuple[ThrustLaw | None, ThrustCu
             raise ValueError(f"imported calibration #{imported} is no longer stored") from None
         ref = law.curves[-1]
         rows = store.imported_calibration(imported).data["table"]
-        at_ref = [
-            r
-            for r in rows
-            if r.get("supply_voltage_v") is None
-            or abs(float(r["supply_voltage_v"]) - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
-        ]
-        return law, ref.curve, at_ref
+        return law, ref.curve, at_reference_voltage(rows, law), None
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:
         raise ValueError(
             f"calibration result #{params['calibration_result_id']} is no longer stored"
         ) from None
-    return None, ThrustCurve.from_json(calibration.data["fit"]), calibration.data.get("table", [])
+    data = calibration.data
+    return None, ThrustCurve.from_json(data["fit"]), data.get("table", []), data.get("response")
 
 
 def _thrust_steps(events: RunEvents, offset: float) -> list[tuple[float, list[float]]] | None:

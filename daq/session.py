@@ -1,13 +1,14 @@
 """One open rig: its devices, its clock, its lock.
 
 ``RigSession`` owns the PLC client, the acquisition clock, the thruster driver
-and (for a simulated rig) the simulator thread. Opening it first takes the rig's
-cross-process lock in the run database (``daq.rig_lock``: one process drives a rig)
-and closing it gives the lock back after the rig is left safe; procedures borrow the
-session under its in-process lock (one procedure at a time), which also tells anyone
-refused what the holder is doing. It also runs the thruster supervisor: every clock
-tick while armed it re-sends the (slew-limited) target as the controller's heartbeat,
-and commands zero as soon as the sensor data goes stale.
+and (for a simulated rig) the simulator thread. Opening it first takes the lease on the
+rig's devices (``daq.rig_lock``: one process drives a device, whatever its database),
+before any device is touched, and closing it gives the lease back after the rig is left
+safe; procedures borrow the session under its in-process lock (one procedure at a time),
+which also tells anyone refused what the holder is doing. It also runs the thruster
+supervisor: every clock tick while armed it re-sends the (slew-limited) target as the
+controller's heartbeat, and commands zero as soon as the sensor data goes stale.
+Losing the lease while open is a fault like a lost PLC (``daq.lease_fault``).
 """
 
 from __future__ import annotations
@@ -24,9 +25,11 @@ from typing import TYPE_CHECKING
 from daq.acquisition import Acquisition
 from daq.collector import hold_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
+from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
-from daq.rig_lock import RigLock, rig_lock
+from daq.rig_lock import RigLease, rig_lock
+from daq.safe_state import RELEASE_CHANNELS, SafeState
 from daq.sample import Quality, Sample
 from daq.store import Store
 from thrusters.config import CommandLimits, ThrusterPort
@@ -40,9 +43,6 @@ log = logging.getLogger(__name__)
 
 
 NO_THRUSTERS = "this rig has no thrusters (its rig file has no [thrusters] section)"
-
-#: Brakes the safe state engages (those the rig file lists).
-RELEASE_CHANNELS = ("tow_release", "spin_release")
 
 
 def open_thruster_driver(port: ThrusterPort, limits: CommandLimits) -> ThrusterDriver:
@@ -134,9 +134,14 @@ class RigSession:
         self.thrusters: ThrusterDriver | None = None
         self._tasks: list[asyncio.Task] = []
         self._lock_holder: str | None = None
-        #: The rig's cross-process lock; ``owner`` names this program to whoever is refused.
-        self.rig_lock: RigLock = rig_lock(store.url, self.rig.rig.name, owner)
+        #: The lease on the rig's devices; ``owner`` names this program to whoever is refused.
+        self.rig_lock: RigLease = rig_lock(store.url, self.rig, owner)
         self._has_rig = False
+        self._closing: asyncio.Future[None] | None = None
+        self._shutting = False
+        self.lease_fault = LeaseFault()
+        #: ``listener(reason)`` is called if the lease is lost; returns its remover.
+        self.add_fault_listener = self.lease_fault.add_listener
         self.thrust = ThrustTarget()
         self.stale_zeroings = 0
         #: Set at each of those zeroings (a thruster-driven run waits on it to end itself),
@@ -151,6 +156,8 @@ class RigSession:
     async def open(self, *, connect_timeout_s: float = 10.0) -> None:
         """Take the rig (``RigInUse`` if another process drives it), start the simulator
         (simulated rig), connect the devices, start the clock."""
+        self._closing = None
+        self.lease_fault.arm(self.rig_lock, self._zero_target, self.close)
         await asyncio.to_thread(self.rig_lock.acquire)
         self._has_rig = True
         conn = self.rig
@@ -179,11 +186,18 @@ class RigSession:
 
     async def close(self) -> None:
         """Thrusters to zero, brakes on, clock stopped, devices closed, rig lock given
-        back. Never raises; a session that never got the rig touches no device."""
+        back. Never raises; a session that never got the rig touches no device. Closing
+        twice at once (the owner, and the lease's loss) closes once."""
+        if self._closing is None:
+            self._closing = asyncio.ensure_future(self._close())
+        await asyncio.shield(self._closing)
+
+    async def _close(self) -> None:
         if not self._has_rig:
             return
         with contextlib.suppress(Exception):
             await self.safe_state()
+        self._shutting = True  # safe now; the devices are closing under any later caller
         if self.thrusters is not None:
             with contextlib.suppress(Exception):
                 await self.thrusters.close()
@@ -202,9 +216,19 @@ class RigSession:
             with contextlib.suppress(Exception):
                 await asyncio.to_thread(self.sim.close)
             self.sim = None
-        self._has_rig = False
+        self._has_rig = self._shutting = False
         hold_full_collections(False)
         await asyncio.to_thread(self.rig_lock.release)
+
+    @property
+    def lease_lost(self) -> str | None:
+        """Why the lease on the rig was lost while open (``rig lock lost: …``), else None."""
+        return self.lease_fault.reason
+
+    @property
+    def released(self) -> asyncio.Event:
+        """Set once the devices were closed and the lease given back after its loss."""
+        return self.lease_fault.released
 
     async def __aenter__(self) -> RigSession:
         try:
@@ -227,11 +251,11 @@ class RigSession:
     async def locked(self, holder: str) -> AsyncIterator[None]:
         """Hold the rig lock; raise ``RigBusy`` at once (never queue) when it is taken
         (``RigInUse`` if the cross-process lock was lost to another process)."""
+        self.rig_lock.check()  # RigLockLost once the lease was lost
         if self._lock_holder is not None:
             raise RigBusy(self._lock_holder)
         self._lock_holder = holder
         try:
-            await asyncio.to_thread(self.rig_lock.check)
             await asyncio.to_thread(self.rig_lock.set_activity, holder)
             yield
         finally:
@@ -262,31 +286,43 @@ class RigSession:
         assert self.thrusters is not None, "session not open"
         return self.thrusters
 
-    async def safe_state(self) -> None:
-        """Brakes engaged and thrusters at zero (waits for the controller's ACK)."""
+    async def safe_state(self) -> SafeState | None:
+        """Brakes engaged and thrusters at zero (waits for the controller's ACK); says
+        what it did. Nothing (``None``) once ``close`` has done it and is closing the
+        devices."""
+        if self._shutting:
+            return None
         errors = []
+        engaged = []
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
+        zero: bool | None = None if self.thrusters is None else True
         # Disarmed (or watchdog-latched) controllers already hold their outputs at zero.
         if self.thrusters is not None and self.thrusters.state not in ("DISARMED", "WDT"):
             try:
                 await self.thrusters.zero()
             except Exception as err:  # keep going: the brakes matter too
                 errors.append(f"thrusters: {err}")
+                zero = False
         if self.plc is not None and self.plc.connected:
             for name in RELEASE_CHANNELS:
                 if not self.rig.has(name):
                     continue
                 try:
                     await self.plc.write(name, False)
+                    engaged.append(name)
                 except Exception as err:
                     errors.append(f"{name}: {err}")
         if errors:
             log.warning("safe state incomplete: %s", "; ".join(errors))
+        return SafeState(tuple(engaged), zero, tuple(errors))
 
     @property
     def thruster_count(self) -> int:
         """Thrusters of the rig file's ``[thrusters]`` section (0 without one)."""
         return self.rig.thrusters.count if self.rig.thrusters is not None else 0
+
+    def _zero_target(self) -> None:
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=self.thrust.armed)
 
     async def arm_thrusters(self) -> None:
         if self.thrusters is None:
@@ -298,8 +334,10 @@ class RigSession:
     async def disarm_thrusters(self) -> None:
         if self.thrusters is None:
             raise ThrusterError(NO_THRUSTERS)
-        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
         hold_full_collections(False)
+        if self.lease_lost is not None and not self.thrusters.is_open:
+            return  # zeroed, disarmed and closed when the lease was lost
+        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
         await self.thrusters.disarm()

@@ -107,6 +107,15 @@ class FitRow:
     residual_before: np.ndarray
     residual_after: np.ndarray
 
+    def __post_init__(self) -> None:
+        sizes = {
+            name: np.size(getattr(self, name))
+            for name in ("t", "measured", "residual_before", "residual_after")
+        }
+        if len(set(sizes.values())) > 1:
+            shown = ", ".join(f"{name} {size}" for name, size in sizes.items())
+            raise ValueError(f"{self.label}: one value per sample needed; got {shown}")
+
 
 def fit_over_measurements(
     rows: Sequence[FitRow],

@@ -43,6 +43,11 @@ class ThrusterPort(BaseModel):
     #: the supply voltage recorded during the run against the calibration's (0 = not).
     voltage_exponent: Annotated[float, Field(ge=0, le=3)] = 0.0
     ack_timeout_s: Annotated[float, Field(gt=0, le=2)] = 0.1
+    #: Safety cut-off, A: a thruster drawing more current than this (the controller's
+    #: telemetry, read every ``current_check_s`` while armed) stops the test, thrusters at
+    #: zero (None: no cut-off).
+    max_current_a: Annotated[float, Field(gt=0, le=500)] | None = None
+    current_check_s: Annotated[float, Field(ge=0.05, le=5)] = 0.25
 
     def yaw_signs(self) -> list[float]:
         """+1 for thrusters that turn the vehicle positive about the vertical axis (even

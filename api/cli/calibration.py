@@ -1,12 +1,13 @@
-"""``rig import-calibration`` (a thrust-stand table) and ``rig thrust`` (the thrust law:
-force at a command and voltage, or the command for a force)."""
+"""``rig import-calibration`` (a thrust-stand table), ``rig calibrations`` (measured and
+imported, newest first) and ``rig thrust`` (the thrust law: force at a command and voltage,
+or the command for a force)."""
 
 from __future__ import annotations
 
 import click
 
 from api.cli.common import db_option, echo_json, fail, flag_names, json_option, open_store
-from estimation.thrust.calibration_import import COMMAND_UNITS, THRUST_UNITS
+from estimation.thrust.calibration_import import COMMAND_UNITS, THRUST_UNITS, stand_columns
 
 
 @click.command("import-calibration")
@@ -62,6 +63,13 @@ from estimation.thrust.calibration_import import COMMAND_UNITS, THRUST_UNITS
     type=float,
     help="Supply voltage of the whole table, V (when it has no voltage column).",
 )
+@click.option(
+    "--current-column", "current_column", help="Header (or number) of a current column (A)."
+)
+@click.option("--rpm-column", "rpm_column", help="Header (or number) of an RPM column (rev/min).")
+@click.option(
+    "--power-column", "power_column", help="Header (or number) of an electrical power column (W)."
+)
 @click.option("--name", help="Name to store it under (default: the file name).")
 @db_option
 @json_option
@@ -76,13 +84,18 @@ def import_calibration(
     thrust_unit,
     voltage_column,
     voltage_v,
+    current_column,
+    rpm_column,
+    power_column,
     name,
     db_url,
     as_json,
 ):
     """Import a thrust-stand calibration table (CSV: command, thrust, optional supply
     voltage; `,` or `;` separated, decimal commas and Excel's BOM read); prints its id and
-    the thrust law identified from it. No run is needed: thruster-driven tests and `rig
+    the thrust law identified from it. Current, RPM and power columns are kept when named or
+    when their header says what they are (`Current (A)`, `RPM`, `Power (W)`), with the
+    efficiency (N/W) derived from them. No run is needed: thruster-driven tests and `rig
     thrust` use the newest calibration, imported or measured."""
     from pathlib import Path
 
@@ -98,6 +111,9 @@ def import_calibration(
             command=CommandUnit(command_unit, pwm_neutral_us, pwm_span_us, full_scale_v),
             voltage_column=voltage_column,
             voltage_v=voltage_v,
+            extra_columns=stand_columns(
+                current_a=current_column, rpm=rpm_column, power_w=power_column
+            ),
         )
         data = Path(file).read_bytes()
     except ValueError as err:
@@ -114,7 +130,11 @@ def import_calibration(
         echo_json(summary)
         return
     law = summary["law"]
-    click.echo(f"calibration {summary['id']} ({summary['name']}): {summary['rows']} rows")
+    kept = ", ".join(summary["channels"]) or "none"
+    click.echo(
+        f"calibration {summary['id']} ({summary['name']}): {summary['rows']} rows; "
+        f"stand channels kept: {kept}"
+    )
     volts = ", ".join(f"{v:g}" for v in law["voltages_v"])
     if law["identified"]:
         held = (
@@ -137,7 +157,8 @@ def import_calibration(
     "--voltage",
     "volts",
     type=click.FloatRange(0, 1000, min_open=True),
-    help="Supply voltage, V (default: the calibration's).",
+    help="Supply voltage, V (default: the supply the rig recorded last, else the "
+    "calibration's reference voltage; the output says which).",
 )
 @click.option(
     "--calibration",
@@ -152,6 +173,7 @@ def thrust(command, force_n, volts, calibration_id, db_url, as_json):
     command ± σ for --force at --voltage (refused beyond what full command delivers)."""
     import math
 
+    from daq.calibration_catalog import voltage_for
     from daq.calibration_law import NoCalibration, law_of
 
     if (command is None) == (force_n is None):
@@ -174,9 +196,9 @@ def thrust(command, force_n, volts, calibration_id, db_url, as_json):
             fail(f"--calibration: {err}" if calibration_id else str(err))
         except ValueError as err:
             fail(f"calibration {info_name(source, key)}: {err}")
+        v, voltage_source = voltage_for(store, law.reference_voltage, volts)
     finally:
         store.close()
-    v = law.reference_voltage if volts is None else volts
     try:
         if command is not None:
             out = law.estimate(command, v)
@@ -188,13 +210,48 @@ def thrust(command, force_n, volts, calibration_id, db_url, as_json):
             text = f"command {out.value:.4g} ± {out.std:.2g} for {force_n:g} N at {v:g} V"
     except ValueError as err:  # beyond what full command delivers at that voltage
         fail(f"--force: {str(err).removeprefix('force: ')}")
-    answer |= {"voltage_v": v, "calibration": info, "voltage_law": out.voltage_law}
+    answer |= {
+        "voltage_v": v,
+        "voltage_source": voltage_source,
+        "calibration": info,
+        "voltage_law": out.voltage_law,
+    }
     if as_json:
         echo_json(answer)
     else:
         click.echo(text)
+        click.echo(f"supply: {voltage_source}")
+        click.echo(f"calibration: {info['label']}; {out.voltage_law}")
+
+
+@click.command("calibrations")
+@db_option
+@json_option
+def calibrations(db_url, as_json):
+    """List thrust calibrations, measured (calibration runs) and imported tables, newest
+    first: which one, its voltages, commands and the stand channels it carries."""
+    from daq.calibration_catalog import calibrations as listed
+
+    store = open_store(db_url)
+    try:
+        found = listed(store)
+    finally:
+        store.close()
+    if as_json:
+        echo_json(found)
+        return
+    if not found:
         click.echo(
-            f"calibration: {info['name']} ({info['source']} {info['id']}); {out.voltage_law}"
+            "no thrust calibration stored: rig calibrate-thrusters or rig import-calibration"
+        )
+        return
+    for c in found:
+        volts = ", ".join(f"{v:g}" for v in c["voltages_v"]) or "?"
+        lo, hi = c["command_range"] or (0.0, 0.0)
+        extra = f"; {', '.join(c['channels'])}" if c["channels"] else ""
+        click.echo(
+            f"{c['created_at'][:19]}  {c['label']}: {c['rows']} rows at {volts} V, "
+            f"commands {lo:g} … {hi:g}{extra}"
         )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import sys
 from collections.abc import Awaitable, Callable
@@ -63,9 +64,21 @@ def estimate_option(help: str) -> Callable[[Any], Any]:
     )
 
 
+#: Set to see the traceback behind any error (for bug reports).
+DEBUG_ENV = "RIG_DEBUG"
+
+
 def fail(message: str, code: int = 2) -> None:
     """Print ``error: message`` on stderr, on one line (several problems are joined by
-    ``;``), and exit (2 = bad input, 1 = failure)."""
+    ``;``), and exit (2 = bad input, 1 = failure). With ``RIG_DEBUG=1`` the traceback of
+    the exception being handled (or, without one, where ``fail`` was called) comes first."""
+    if os.environ.get(DEBUG_ENV):
+        import traceback
+
+        if sys.exc_info()[1] is not None:
+            traceback.print_exc()
+        else:
+            traceback.print_stack(sys._getframe(1))
     parts = [line.strip() for line in str(message).splitlines() if line.strip()]
     click.echo(f"error: {'; '.join(parts)}", err=True)
     sys.exit(code)

@@ -18,6 +18,7 @@ from api.cli.common import (
     report_option,
     user_errors,
 )
+from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from estimation import METHODS
 from estimation.pendulum.estimate import PENDULUM_METHODS
@@ -74,8 +75,10 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
                     search_effects=not no_effects,
                     report_dir=report_dir,
                 )
-            except ValueError as err:
+            except ValueError as err:  # bad input, found before fitting
                 fail(str(err))
+            except EstimationFailure as err:  # ours, not the user's
+                fail(str(err), code=1)
         if as_json:
             echo_json(data)
             return

@@ -15,11 +15,12 @@ import importlib
 import logging
 import os
 import sys
+import warnings
 from typing import Any
 
 import click
 
-from api.cli.common import RIG_FILE_ENV
+from api.cli.common import DEBUG_ENV, RIG_FILE_ENV
 
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing
 #: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py).
@@ -71,7 +72,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata.",
     ),
     "import": (
-        "api.cli.runs",
+        "api.cli.imports",
         "import_",
         "Import a CSV (columns t [s] and position [m or rad]; more allowed); prints...",
     ),
@@ -79,6 +80,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "api.cli.calibration",
         "import_calibration",
         "Import a thrust-stand calibration table (CSV: command, thrust, optional...",
+    ),
+    "calibrations": (
+        "api.cli.calibration",
+        "calibrations",
+        "List thrust calibrations, measured (calibration runs) and imported tables,...",
     ),
     "thrust": (
         "api.cli.calibration",
@@ -130,14 +136,21 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "sensitivity",
         "Rank VEHICLE's coefficients (a name from fixtures/vehicles or...",
     ),
+    "predict-added-mass": (
+        "api.cli.theory",
+        "predict_added_mass",
+        "Predict VEHICLE's added mass per DOF from its [hull] (a name from...",
+    ),
+    "water": (
+        "api.cli.theory",
+        "water",
+        "Water density and viscosity at a temperature (ITTC 7.5-02-01-03 formulas).",
+    ),
 }
 
 #: Commands that record or import runs: they take --operator --water-temp --notes --tag
 #: --meta (api.cli.metadata), added here once rather than per command.
 RUN_STARTERS = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "import")
-
-#: Set to see the traceback of an unexpected error (for bug reports).
-DEBUG_ENV = "RIG_DEBUG"
 
 
 def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseException], ...]:
@@ -164,6 +177,7 @@ FAULTS = (
     ("daq.procedures.motion", ("PreconditionFailed",)),
     ("daq.operator", ("OperatorActUnavailable",)),
     ("daq.store.faults", ("StorageFault",)),
+    ("api.core.estimation_failure", ("EstimationFailure",)),
 )
 
 
@@ -202,10 +216,18 @@ class RigGroup(click.Group):
         """Click's usage errors as one line (with where to find help), not three."""
         # pymodbus logs each failed connect/bind itself; the command reports it once.
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+        if not os.environ.get(DEBUG_ENV):  # numerics' warnings are ours: the error line says it
+            warnings.filterwarnings(
+                "ignore", category=RuntimeWarning, module=r"(numpy|scipy|estimation)(\.|$)"
+            )
         try:
             kwargs.pop("standalone_mode", None)  # errors are reported here, one line each
             rv = super().main(*args, standalone_mode=False, **kwargs)
         except click.ClickException as err:
+            if os.environ.get(DEBUG_ENV):
+                import traceback
+
+                traceback.print_exc()
             hint = ""
             if isinstance(err, click.UsageError) and err.ctx is not None:
                 hint = f" (see '{err.ctx.command_path} --help')"
@@ -242,9 +264,8 @@ class RigGroup(click.Group):
             where = _option_given(_command_context(ctx), str(err.filename))
             fail(f"{where}cannot use {err.filename}: {err.strerror or err}")
         except Exception as err:  # a bug: say what, and how to see more
-            if os.environ.get(DEBUG_ENV):
-                raise
-            fail(f"{_one_line(err)} ({type(err).__name__}; set {DEBUG_ENV}=1 for details)", 1)
+            hint = "" if os.environ.get(DEBUG_ENV) else f"; set {DEBUG_ENV}=1 for details"
+            fail(f"{_one_line(err)} ({type(err).__name__}{hint})", 1)
 
 
 def _not_on_this_rig() -> list[tuple[str, str]]:

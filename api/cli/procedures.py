@@ -29,7 +29,7 @@ from daq.collector import freeze_after_startup
 from daq.procedures.kinds import KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
-from daq.rig_lock import RigInUse
+from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import StorageFault, one_line
 from daq.vocabulary import RunKind, RunStatus
@@ -63,11 +63,15 @@ def _run_procedure(
             try:
                 async with RigSession(source, store) as session:
                     session.run_metadata = run_metadata()  # --operator, --tag, … (cli_metadata)
+                    # A lost lease stops whatever the procedure waits on (a run, a prompt).
+                    session.add_fault_listener(abort.set)
                     freeze_after_startup()  # full GC passes skip what start-up loaded
                     return await body(session, params, abort, view)
             except (
                 PreconditionFailed,
                 RigInUse,
+                RigLockError,
+                RigLockLost,
                 DeviceError,
                 ThrusterError,
                 OperatorActUnavailable,

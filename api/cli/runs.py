@@ -1,4 +1,5 @@
-"""``rig runs``, ``rig show``, ``rig export``, ``rig import``: the stored runs.
+"""``rig runs``, ``rig show``, ``rig annotate``, ``rig export``: the stored runs (``rig import`` is
+in ``api.cli.imports``).
 
 One module because the commands on stored runs share the run-id resolution, the one-line
 errors and the table output.
@@ -22,6 +23,7 @@ from api.cli.common import (
     user_errors,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
+from daq.parameter_labels import labelled
 from daq.vocabulary import AXES, RunKind, RunStatus
 
 
@@ -181,7 +183,8 @@ def show(run_id, db_url, as_json):
             click.echo(f"imported   {_when(run.imported_at)} from {run.source_file}")
         click.echo(f"recorded   {_when(run.started_at)}   stopped {_when(run.stopped_at)}")
         click.echo(f"samples    {run.sample_count}   channels {', '.join(run.channel_names)}")
-        click.echo(f"parameters {run.parameters}")
+        for i, p in enumerate(labelled(run.parameters)):
+            click.echo(f"{'parameters' if i == 0 else '':<10} {p.text}")
         for key, value in run.metadata.items():
             shown = ", ".join(value) if key == "tags" else value
             click.echo(f"{key:<10} {shown}" if len(key) <= 10 else f"{key} {shown}")
@@ -300,179 +303,3 @@ def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
         with open(path, "rb") as f:
             shutil.copyfileobj(f, sys.stdout.buffer)
         sys.stdout.buffer.flush()
-
-
-@click.command("import")
-@click.argument("file", type=click.Path(exists=True, dir_okay=False))
-@click.option(
-    "--kind",
-    type=click.Choice(["tow", "spin", "pendulum"]),
-    required=True,
-    help="Tow (position in m), spin (angle in rad) or pendulum free decay (angle in rad; "
-    "--rig gives the geometry).",
-)
-@click.option("--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow).")
-@click.option(
-    "--torque", "torque_nm", type=float, help="Spin torque in N·m (negative: a reverse spin)."
-)
-@click.option(
-    "--drive-column",
-    metavar="NAME",
-    help="Column with the force (tow) or torque (spin) logged per sample, instead of "
-    "--force/--torque.",
-)
-@click.option(
-    "--drive-unit",
-    metavar="UNIT",
-    help="Unit of --drive-column: N, kN, kgf, gf, lbf (tow); N·m (or N*m), kgf·m, … (spin). "
-    "Default N or N·m.",
-)
-@click.option(
-    "--weight",
-    "weight_kg",
-    type=float,
-    help="Hung weight in kg, if known (lets estimation account for its inertia).",
-)
-@click.option(
-    "--vehicle", default=None, help="Vehicle name (default: the rig file's, else 'unknown')."
-)
-@click.option(
-    "--rig",
-    "rig_file",
-    metavar="FILE",
-    default=None,
-    help="Rig file the data was recorded on (gives pulley/drum inertia to estimation).",
-)
-@click.option(
-    "--time-unit",
-    type=click.Choice(["s", "ms", "us"]),
-    default="s",
-    show_default=True,
-    help="Unit of the t column (a median step over 1 s is refused as not seconds).",
-)
-@click.option(
-    "--release-time",
-    "release_time_s",
-    type=float,
-    help="Brake release, s on the t axis (default: found from the release coil or the motion).",
-)
-@click.option(
-    "--end-time",
-    "end_time_s",
-    type=float,
-    help="End of free motion, s on the t axis (default: end_of_travel/brake/carriage at rest).",
-)
-@db_option
-@json_option
-def import_(
-    file,
-    kind,
-    force_n,
-    torque_nm,
-    drive_column,
-    drive_unit,
-    weight_kg,
-    vehicle,
-    rig_file,
-    time_unit,
-    release_time_s,
-    end_time_s,
-    db_url,
-    as_json,
-):
-    """Import a CSV (columns t [s] and position [m or rad]; more allowed); prints the new run id.
-
-    Estimation finds the free-motion window itself (tow_release/spin_release and
-    end_of_travel columns when present, else the motion); --release-time/--end-time
-    override it. A drive logged per sample: --drive-column (and --drive-unit) instead of
-    --force/--torque. A pendulum decay needs --rig with a [pendulum] section (its
-    geometry); its release is the first sample unless --release-time says otherwise."""
-    from api.cli.metadata import run_metadata
-    from daq.procedures.params import ParameterError
-    from daq.store import import_csv
-
-    problems = []
-    drive_name, drive = ("force_n", force_n) if kind == "tow" else ("torque_nm", torque_nm)
-    other = torque_nm if kind == "tow" else force_n
-    flag = "--force" if kind == "tow" else "--torque"
-    if kind == "pendulum":
-        flags = {"--force": force_n, "--torque": torque_nm, "--drive-column": drive_column}
-        given = [
-            name for name, value in (flags | {"--weight": weight_kg}).items() if value is not None
-        ]
-        if given:
-            fail(f"{given[0]}: not used by a pendulum free decay (it has no drive)")
-        if not rig_file:
-            fail("--rig: a pendulum import needs the rig file with its [pendulum] geometry")
-    elif drive_column is not None:
-        if drive is not None:
-            fail(f"{flag}: not used with --drive-column (the drive is logged per sample)")
-    elif drive_unit is not None:
-        fail("--drive-unit: only with --drive-column")
-    elif drive is None:
-        problems.append(
-            (
-                drive_name,
-                None,
-                f"--{'force' if kind == 'tow' else 'torque'} is required for a {kind}",
-            )
-        )
-    elif not (drive != 0 and abs(drive) < float("inf")):
-        problems.append(
-            (drive_name, drive, f"allowed 0 < |{drive_name}| < ∞; negative for a reverse run")
-        )
-    if other is not None and kind != "pendulum":
-        problems.append(
-            ("torque_nm" if kind == "tow" else "force_n", other, f"not used by a {kind}")
-        )
-    if weight_kg is not None and not (weight_kg > 0 and weight_kg < float("inf")):
-        problems.append(("weight_kg", weight_kg, "allowed 0 < weight_kg < ∞"))
-    with user_errors():
-        if problems:
-            raise ParameterError(problems)
-    params: dict[str, Any] = {"source": "import", "file": str(file)}
-    if drive is not None and kind != "pendulum":
-        params[drive_name] = drive
-    if weight_kg is not None:
-        params["hung_mass_kg"] = weight_kg
-    origin: dict[str, str] = {"vehicle": vehicle or "unknown"}
-    if rig_file:
-        from daq.session import RigSource
-
-        with user_errors():
-            source = RigSource.load(rig_file)
-        if kind == "pendulum" and source.rig.pendulum is None:
-            fail(f"--rig: {rig_file} has no [pendulum] section (the pendulum's geometry)")
-        origin = {
-            "rig_name": source.rig.rig.name,
-            "vehicle": vehicle or source.rig.vehicle.name,
-            "rig_toml": source.rig_toml,
-        }
-    store = open_store(db_url)
-    try:
-        try:
-            run_id = import_csv(
-                store,
-                file,
-                metadata=run_metadata(),
-                kind=kind,
-                parameters=params,
-                time_unit=time_unit,
-                release_time_s=release_time_s,
-                end_time_s=end_time_s,
-                drive_column=drive_column,
-                drive_unit=drive_unit,
-                **origin,
-            )
-        except ValueError as err:
-            message = str(err)
-            for name in ("drive_column", "drive_unit"):
-                if message.startswith(f"{name}:"):
-                    message = f"--{name.replace('_', '-')}" + message.removeprefix(name)
-            fail(message)
-        if as_json:
-            echo_json({"run_id": run_id})
-        else:
-            click.echo(run_id)
-    finally:
-        store.close()

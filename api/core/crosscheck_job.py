@@ -80,7 +80,9 @@ def crosscheck_results(
     report_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """Cross-check two stored estimation results (no fitting); store it linked to the runs
-    of both and return its JSON with ``result_id``. ``ValueError`` names a bad field."""
+    of both and return its JSON with ``result_id``. Stored results never change, so a pair
+    already cross-checked returns that result (``reused: true``) instead of storing the same
+    comparison again. ``ValueError`` names a bad field."""
     from estimation.axis.crosscheck_report import write_crosscheck_report
 
     weight = _estimation(store, weight_result_id, "weight_result_id")
@@ -89,6 +91,10 @@ def crosscheck_results(
     data = check.to_json()
     if report_dir is not None:
         data["report_files"] = [str(p) for p in write_crosscheck_report(check, Path(report_dir))]
+    pair = (weight["result_id"], thrusters["result_id"])
+    for stored in reversed(store.results(kind="crosscheck")):
+        if (stored.data.get("weight_result_id"), stored.data.get("thruster_result_id")) == pair:
+            return data | {"result_id": stored.id, "reused": True}
     runs = list(dict.fromkeys([*weight.get("runs", []), *thrusters.get("runs", [])]))
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result(runs, "crosscheck", stored)

@@ -33,6 +33,23 @@ def iso_time(unix_s: float | None) -> str | None:
     return None if moment is None else moment.isoformat()
 
 
+def labelled_parameters(parameters: dict[str, Any]) -> list[dict[str, Any]]:
+    """The job's parameters as people read them (``daq.parameter_labels``); a sequence's
+    steps one entry each (``step 1``: ``tow: force 4.9 N``)."""
+    from daq.parameter_labels import Parameter, labelled
+
+    steps = parameters.get("steps")
+    if not isinstance(steps, list):
+        return [p.to_json() for p in labelled(parameters)]
+    out = [p.to_json() for p in labelled({k: v for k, v in parameters.items() if k != "steps"})]
+    for i, step in enumerate(steps, start=1):
+        if isinstance(step, dict):
+            words = "; ".join(p.text for p in labelled(step))
+            text = f"{step.get('kind', 'step')}: {words}" if words else str(step.get("kind"))
+            out.append(Parameter(f"steps[{i - 1}]", f"step {i}", text, "").to_json())
+    return out
+
+
 @dataclass(eq=False)
 class Job:
     """One job; mutated on the thread that runs it, under ``lock``. Times are Unix s
@@ -78,6 +95,8 @@ class Job:
                 "position": self.position,
                 "progress": {"fraction": self.fraction, "message": self.message},
                 "parameters": self.parameters,
+                "parameters_labelled": labelled_parameters(self.parameters),
+                "request": self.request,
                 "run_ids": list(self.run_ids),
                 "outcome": self.outcome,
                 "error": self.error,

@@ -5,13 +5,14 @@ A procedure job (tow, spin, pendulum, thrust calibration, sequence) holds the ri
 life. Starting one while the rig is busy puts it in the rig's queue (``queued`` with a
 ``position``; with ``queue=False`` it is refused at once, HTTP 409, naming the holder). Queued
 jobs start in order as the rig frees. A job that ends other than ``completed`` (aborted,
-failed) pauses the queue, as does an emergency stop and a service start that finds queued
-jobs: the rig never moves by itself after something went wrong, an operator resumes the
-queue. States (:class:`daq.store.schema.JobState`): ``queued → running ⇄
-waiting_for_operator | paused → completed | aborted | failed``, ``interrupted`` when the
-service died while the job ran (marked at the next start). Every change is published to the
-live stream and written to the jobs table (from one writer thread: the rig loop never waits
-on the database); report files of estimations are stored with their result.
+failed) while others wait pauses the queue, as do an emergency stop and a service start that
+find queued jobs: the rig never moves by itself after something went wrong, an operator
+resumes the queue. A job started while the queue is paused waits in it. States
+(:class:`daq.store.schema.JobState`): ``queued → running ⇄ waiting_for_operator |
+paused → completed | aborted | failed``, ``interrupted`` when the service died while the
+job ran (marked at the next start). Every change is published to the live stream and
+written to the jobs table (from one writer thread: the rig loop never waits on the
+database); report files of estimations are stored with their result.
 
 One module because the runner's parts share one lock and one set of job objects; the queue and
 the pipelines are short and read best next to the state they change.
@@ -35,12 +36,14 @@ from typing import Any
 
 from api.core.job_model import Job, JobConflict, JobNotFound, without_report_files
 from api.core.job_requests import procedure_from_request
+from api.core.queue_edits import QueueEdits
 from api.core.service import RigService
 from daq.operator import OperatorAct
 from daq.procedures.kinds import KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
+from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
 from daq.store import Store
 from daq.store.faults import StorageFault, one_line
@@ -75,8 +78,9 @@ def run_metadata(job: Job) -> dict[str, Any] | None:
     return check_run_metadata((job.request or {}).get("metadata")) or None
 
 
-class JobRunner:
-    """Starts, tracks, queues and stops jobs for one ``RigService``."""
+class JobRunner(QueueEdits):
+    """Starts, tracks, queues and stops jobs for one ``RigService`` (queue editing beyond
+    move/remove: :class:`api.core.queue_edits.QueueEdits`)."""
 
     def __init__(self, service: RigService, *, report_root: Path | None = None) -> None:
         self.service = service
@@ -171,13 +175,18 @@ class JobRunner:
             job = Job.from_row(row)
         return job
 
-    def list(self) -> list[Job]:
-        """This rig's jobs, newest first: the database's, live ones as this process sees them."""
+    def list(
+        self, *, limit: int = LIST_LIMIT, offset: int = 0, state: str | None = None
+    ) -> list[Job]:
+        """This rig's jobs, newest first (``offset`` of them skipped, at most ``limit``, only
+        those in ``state`` if given): the database's, live ones as this process sees them."""
         found: dict[str, Job] = {}
         if self.service.store is not None:
-            found = {r["id"]: Job.from_row(r) for r in self.repo.list_jobs(self.rig_name)}
-        found |= dict(self.jobs)
-        return sorted(found.values(), key=lambda j: j.created_at, reverse=True)[:LIST_LIMIT]
+            stored = self.repo.list_jobs(self.rig_name, state=state, limit=offset + limit)
+            found = {r["id"]: Job.from_row(r) for r in stored}
+        found |= {k: j for k, j in self.jobs.items() if state is None or j.state == state}
+        newest = sorted(found.values(), key=lambda j: j.created_at, reverse=True)
+        return newest[offset : offset + limit]
 
     def events(self, job_id: str) -> list[dict[str, Any]]:
         """A job's stored progress events, oldest first."""
@@ -245,8 +254,13 @@ class JobRunner:
                     f"rig is busy: {session.lock_holder} holds the rig lock",
                     holder=session.lock_holder,
                 )
-            if busy is not None or self._queue:
+            if busy is not None or self._queue or self._queue_paused:  # a paused queue holds it
                 if not queue:
+                    if busy is None and not self._queue:
+                        raise JobConflict(
+                            f"the rig's queue is paused ({self._queue_paused}): resume it first",
+                            holder="the rig's queue",
+                        )
                     if busy is None:
                         raise JobConflict(
                             f"rig is free but {len(self._queue)} job(s) wait in its queue "
@@ -280,10 +294,10 @@ class JobRunner:
     def _submit(self, job: Job, params: Any) -> None:
         try:
             self.service.submit(self._hold_rig(job, params))
-        except Exception:
+        except Exception as err:  # RigUnavailable says why (a lost rig lock, say)
             with self._lock:
                 self._rig_job = None
-            self._update(job, state="failed", error="the rig service is not running")
+            self._update(job, state="failed", error=one_line(err))
             raise
         self.service.broadcaster.publish_job(job.to_json())
 
@@ -428,6 +442,8 @@ class JobRunner:
         session = self.service.require_session()
         job.abort = AbortSignal()
         job.confirm = asyncio.Event()
+        # A lost lease on the rig stops the job wherever it waits (a run, the operator).
+        unlisten = session.add_fault_listener(job.abort.set)
         if kind == "sequence":
             job.control = SequenceControl(abort=job.abort)
             if job.pause_requested:
@@ -461,7 +477,7 @@ class JobRunner:
             )
         except Aborted as err:
             self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
-        except (PreconditionFailed, RigBusy, ParameterError) as err:  # the rig said no
+        except (PreconditionFailed, RigBusy, RigLockLost, ParameterError) as err:  # the rig said no
             self._update(job, state="failed", message=str(err), error=str(err))
         except StorageFault as err:  # the database refused the run: one line, no traceback
             log.error("job %s failed: %s", job.id, err)
@@ -472,6 +488,7 @@ class JobRunner:
                 job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
             )
         finally:
+            unlisten()
             session.run_metadata = None
             with self._lock:
                 if self._rig_job is job:
@@ -564,10 +581,11 @@ class JobRunner:
         return job
 
     def emergency_stop(self) -> list[str]:
-        """Abort the procedure on the rig, pause the queue (its jobs stay queued) and put
+        """Abort the procedure on the rig, pause the queue if jobs wait (they stay) and put
         the rig in its safe state now."""
         with self._lock:
-            self._queue_paused = "emergency stop (API): resume the queue to go on"
+            if self._queue:  # an empty queue is not held: the next start runs as before
+                self._queue_paused = "emergency stop (API): resume the queue to go on"
         aborted = []
         for job in list(self.jobs.values()):
             if job.kind in PROCEDURES and job.state in ACTIVE and job not in self._queue:

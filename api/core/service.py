@@ -161,12 +161,26 @@ class RigService:
         self.session = session
         forward = asyncio.create_task(self._forward_samples(), name="stream-forward")
         self._ready.set()
+        stop = asyncio.ensure_future(self._stop.wait())
+        released = asyncio.ensure_future(session.released.wait())
         try:
-            await self._stop.wait()
+            # Until stopped, or until the lease on the rig is lost (the session has then
+            # made the rig safe, ended the run and released the devices): from then on the
+            # service says why, and a new job fails in one line naming the lost lock.
+            await asyncio.wait({stop, released}, return_when=asyncio.FIRST_COMPLETED)
+            if session.lease_lost is not None:
+                self.error = (
+                    f"{session.lease_lost}; the devices were released (restart the service)"
+                )
+                log.error("%s", self.error)
         finally:
+            stop.cancel()
+            released.cancel()
             forward.cancel()
             await session.close()
             self.session = None
+        if session.lease_lost is not None:
+            await self._stop.wait()  # keep the loop for whoever is still finishing a job
 
     async def _ask(self, act: OperatorAct) -> None:
         if self.operator_hook is None:

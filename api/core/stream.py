@@ -9,6 +9,11 @@ grid of ``1/max_hz`` with half a clock interval of tolerance, so a rate equal to
 clock's keeps every sample despite jitter and the long-run rate never exceeds
 ``max_hz``. Each ``sample`` event says how many samples were thinned out just before
 it (``thinned``); a ``dropped`` event counts events lost because the client read slowly.
+
+Job updates are thinned to what changed: a ``job`` event (the whole job document) when
+anything but its progress changed, else a small ``job_progress`` event (``id``, ``kind``,
+``state``, ``progress``), at most ``max_hz`` per job — a progress update that comes sooner
+is held and sent when it is due, so the last one always arrives.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from daq.sample import Sample
+from daq.store.schema import JOB_FINAL
 
 #: Events a client may queue before the oldest are dropped.
 CLIENT_QUEUE = 256
@@ -70,6 +76,12 @@ class Client:
     thinned: int = 0
     dropped: int = 0
     sent: int = 0
+    #: Per job id: the last document offered, the next time a progress update is due
+    #: (loop time), and a progress update held until then.
+    job_docs: dict[str, dict[str, Any]] = field(default_factory=dict)
+    job_due: dict[str, float] = field(default_factory=dict)
+    job_held: dict[str, dict[str, Any]] = field(default_factory=dict)
+    _job_lock: threading.Lock = field(default_factory=threading.Lock)
 
     def wants(self, t: float, slack: float) -> bool:
         """Down-sampling: is the sample at clock time ``t`` due (``slack`` = tolerance)?"""
@@ -82,6 +94,51 @@ class Client:
         # on the grid; after a gap (or at the start) the grid restarts at this sample
         self.next_due = self.next_due + period if t < self.next_due + period else t + period
         return True
+
+    def offer_job(self, job: dict[str, Any]) -> None:
+        """A job document: whole when more than its progress changed, else its progress
+        (thinned to ``max_hz``). Called from any thread."""
+        job_id = job["id"]
+        with self._job_lock:
+            last = self.job_docs.get(job_id)
+            if last == job:  # nothing changed
+                return
+            changed = last is None or {**last, "progress": None} != {**job, "progress": None}
+            if changed:
+                self.job_held.pop(job_id, None)
+                if job.get("state") in JOB_FINAL:  # nothing follows: forget it
+                    self.job_docs.pop(job_id, None)
+                    self.job_due.pop(job_id, None)
+                else:
+                    self.job_docs[job_id] = job
+            else:
+                self.job_docs[job_id] = job
+            update = {k: job.get(k) for k in ("id", "kind", "state", "progress")}
+            pending = job_id in self.job_held
+            if not changed and self.max_hz is not None:
+                self.job_held[job_id] = update
+        if changed:
+            self.offer("job", job)
+        elif self.max_hz is None:
+            self.offer("job_progress", update)
+        elif not pending:
+            with contextlib.suppress(RuntimeError):  # the client's loop has closed
+                self.loop.call_soon_threadsafe(self._send_progress_when_due, job_id)
+
+    def _send_progress_when_due(self, job_id: str) -> None:
+        """On the client's loop: send the held progress of ``job_id`` now or when due."""
+        assert self.max_hz is not None
+        now = self.loop.time()
+        due = self.job_due.get(job_id, -math.inf)
+        if now < due:
+            self.loop.call_later(due - now, self._send_progress_when_due, job_id)
+            return
+        with self._job_lock:
+            update = self.job_held.pop(job_id, None)
+            if update is not None:
+                self.job_due[job_id] = now + 1.0 / self.max_hz
+        if update is not None:
+            self.offer("job_progress", update)
 
     def offer(self, kind: str, data: dict[str, Any]) -> None:
         if len(self.queue) == self.queue.maxlen:
@@ -140,7 +197,7 @@ class Broadcaster:
         with self._lock:
             clients = [c for c in self._clients if c.jobs]
         for c in clients:
-            c.offer("job", job)
+            c.offer_job(job)
 
 
 def _sse(kind: str, data: dict[str, Any]) -> bytes:

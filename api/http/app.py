@@ -30,12 +30,15 @@ from api.http.request_errors import request_json_error, request_not_found
 from api.http.routes import analysis as routes_analysis
 from api.http.routes import calibration as routes_calibration
 from api.http.routes import crosscheck as routes_crosscheck
+from api.http.routes import imports as routes_imports
 from api.http.routes import jobs as routes_jobs
 from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
 from api.http.routes import runs as routes_runs
+from api.http.routes import sequences as routes_sequences
 from api.http.routes import sixdof as routes_sixdof
 from api.http.routes import stream as routes_stream
+from api.http.routes import theory as routes_theory
 from api.http.security import SecurityHeaders, TokenFirst
 from api.http.static_assets import app_with_offline_docs, compress_static
 from daq.procedures.kinds import NotCapable
@@ -226,11 +229,14 @@ def create_app(
         routes_crosscheck,
         routes_jobs,
         routes_queue,
+        routes_sequences,
         routes_runs,
+        routes_imports,
         routes_stream,
         routes_sixdof,
         routes_analysis,
         routes_calibration,
+        routes_theory,
     ):
         app.include_router(module.router)
 

@@ -139,6 +139,14 @@ class JobOut(BaseModel):
     state: JobState
     progress: JobProgress
     parameters: dict[str, Any]
+    parameters_labelled: list[ParameterOut] = Field(
+        [], description="The parameters labelled with units; a sequence's steps one each."
+    )
+    request: dict[str, Any] | None = Field(
+        None,
+        description="The request body a procedure job was submitted with (what a re-queue "
+        "submits again); null for analyses.",
+    )
     run_ids: list[str]
     outcome: dict[str, Any] | None = Field(
         None, description="Run outcome(s); for an estimation the result JSON of issue 4."
@@ -173,6 +181,26 @@ class QueueOut(BaseModel):
     reason: str | None = Field(None, description="Why the queue is paused.")
     running: JobOut | None = Field(None, description="The job holding the rig, if any.")
     jobs: list[JobOut] = Field(description="Queued jobs in the order they will run.")
+
+
+class SequenceStepOut(BaseModel):
+    kind: str
+    parameters_labelled: list[ParameterOut]
+
+
+class SequenceFileOut(BaseModel):
+    file: str = Field(description="The file's name without .toml.")
+    name: str
+    rest_s: float | None = None
+    repeats: int | None = None
+    runs: int = Field(description="Runs the sequence records (steps × repeats).")
+    steps: list[SequenceStepOut]
+    content: dict[str, Any] | None = Field(
+        None, description="The file as JSON: the body ``POST /api/jobs/sequence`` takes."
+    )
+    problems: list[str] = Field(
+        description="What this rig refuses in the file, one line each (empty: it can start)."
+    )
 
 
 class QueueMoveRequest(_Strict):
@@ -260,12 +288,23 @@ class Health(BaseModel):
 
 
 # ---- runs ------------------------------------------------------------------------------------
+class ParameterOut(BaseModel):
+    key: str
+    label: str = Field(description="What it is, in words (``max distance``).")
+    value: Any
+    unit: str = Field(description="SI unit; empty for a count, a word or a flag.")
+    shown: str = Field(description="The value as people read it, with its unit (``4.2 m``).")
+
+
 class RunOut(BaseModel):
     id: str
     kind: str
     status: str
     reason: str | None
     parameters: dict[str, Any]
+    parameters_labelled: list[ParameterOut] = Field(
+        [], description="The parameters that were set, labelled with units, in stored order."
+    )
     started_at: str
     stopped_at: str | None
     duration_s: float | None
@@ -300,6 +339,9 @@ class SamplesOut(BaseModel):
     t_wall: list[float]
     quality: list[int]
     channels: dict[str, list[float | None]]
+    units: dict[str, str] = Field(
+        {}, description="Each channel's unit (UDUNITS text; '1' dimensionless, '' unknown)."
+    )
 
 
 class EventOut(BaseModel):
@@ -324,3 +366,8 @@ class ResultOut(BaseModel):
 class ImportOut(BaseModel):
     run_id: str
     samples: int
+    from_header: dict[str, Any] = Field(
+        default_factory=dict,
+        description="What a towrig export's own header supplied (kind, force_n or torque_nm, "
+        "hung_mass_kg, drive_column, release_time_s, vehicle).",
+    )

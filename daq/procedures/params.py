@@ -318,9 +318,19 @@ def _applied_load(
     signed_kg = load / (g * radius_m) if load is not None else weight
     assert signed_kg is not None
     hung = _hung_mass(c, asked[0], signed_kg)
-    applied = math.copysign(hung * g * radius_m, signed_kg)
+    applied = _clean(math.copysign(hung * g * radius_m, signed_kg))
     requested = _requested(*asked, applied if asked[0] == name else math.copysign(hung, signed_kg))
     return applied, hung, requested
+
+
+#: Significant digits a derived load is stored with: far finer than a gram of weight
+#: (1e-12 relative), coarse enough to drop binary float noise (83.30000000000001 → 83.3).
+LOAD_DIGITS = 12
+
+
+def _clean(value: float) -> float:
+    """``value`` to :data:`LOAD_DIGITS` significant digits."""
+    return float(f"{value:.{LOAD_DIGITS}g}")
 
 
 def _max_time(c: _Checker, rig: RigConfig, why_high: str = "") -> float | None:

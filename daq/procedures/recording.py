@@ -7,9 +7,12 @@ sample the clock produced is flushed before the status is written.
 
 Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
 abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
-storage; samples the database did not take wait in a spill file (docs/storage.md). A
-database that refuses the new run raises :class:`daq.store.faults.StorageFault` (one line)
-before the run starts (the rig left safe).
+storage; samples the database did not take wait in a spill file (docs/storage.md).
+So is losing the lease on the rig's devices (``daq.rig_lock``): the session calls the
+run's abort signal with a reason beginning ``rig lock lost``, and that is how the run ends
+whatever else failed after the devices were released. A database that refuses the new run
+raises :class:`daq.store.faults.StorageFault` (one line) before the run starts (the rig
+left safe).
 """
 
 from __future__ import annotations
@@ -25,10 +28,12 @@ from typing import Any
 import sqlalchemy as sa
 
 from daq.procedures.params import Progress
+from daq.rig_lock import LOCK_LOST
 from daq.sample import Quality, Sample
 from daq.session import Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import StorageFault, one_line
+from daq.store.run_events import RunAction
 from daq.store.spill import write_back_later
 
 log = logging.getLogger(__name__)
@@ -37,6 +42,9 @@ ProgressCallback = Callable[[Progress], None]
 
 #: How the reason of a run aborted because the PLC stopped answering begins.
 DEVICE_LOST = "device lost"
+
+#: Clock periods the ending waits for a sample read after the safe state (its last state).
+SAFE_SAMPLE_PERIODS = 3
 
 #: Background write-backs of spill files (a reference keeps each task alive).
 _WRITE_BACKS: set[asyncio.Task] = set()
@@ -90,6 +98,7 @@ class RecordedRun:
         self._recorder_task: asyncio.Task | None = None
         self._pump_task: asyncio.Task | None = None
         self._queue: asyncio.Queue[Sample] | None = None
+        self._unlisten: Callable[[], None] | None = None
 
     @property
     def store(self):
@@ -124,6 +133,9 @@ class RecordedRun:
                 f"storage failed: {one_line(exc)}; the run was not started"
             ) from None
         self.run_id = run_id
+        # Losing the lease on the rig stops the run like a lost PLC (the session makes the
+        # rig safe and releases it; the abort signal ends the run naming the lost lock).
+        self._unlisten = s.add_fault_listener(self.abort.set)
         await s.note_run(run_id)
         # A storage fault stops the procedure like a lost PLC: the abort signal wakes every
         # wait (samples, operator prompts) and the ending below makes the rig safe.
@@ -157,11 +169,16 @@ class RecordedRun:
             self.status, self.reason = "aborted", self.abort.reason or "cancelled"
         else:
             self.status, self.reason = "aborted", f"error: {one_line(exc)}"
-        await s.safe_state()
+        if s.lease_lost is not None:  # whatever failed after the devices were released
+            self.status, self.reason = "aborted", s.lease_lost
+        if self._unlisten is not None:
+            self._unlisten()
         assert self._recorder is not None
         if self.status != "completed":
-            fault = (self.reason or "").startswith(DEVICE_LOST) or self._recorder.fault is not None
+            lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST))
+            fault = lost or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
+        await self._end_safe()
         assert s.acquisition is not None
         if self._queue is not None:
             s.acquisition.unsubscribe(self._queue)
@@ -188,6 +205,33 @@ class RecordedRun:
         # Swallow Aborted (it is an ending, recorded above); let real errors propagate.
         return isinstance(exc, Aborted)
 
+    async def _end_safe(self) -> None:
+        """Every ending the same way: brakes engaged and thrusters zero, a ``safe`` event
+        saying so (or what failed), and one sample read after it, so the run's last state
+        shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods)."""
+        s = self.session
+        safe = await s.safe_state()
+        done = time.monotonic()
+        if safe is None:  # the session made the rig safe itself as it released the devices
+            await self.event("safe", "safe state: made as the devices were released")
+            return
+        await self.event(
+            "safe",
+            safe.describe(),
+            action=RunAction.SAFE_STATE,
+            t_mono=done,
+            brakes_engaged=list(safe.brakes_engaged),
+            thrusters_zero=safe.thrusters_zero,
+            errors=list(safe.errors),
+        )
+        if self._queue is None or not safe.brakes_engaged:
+            return
+        period = 1.0 / s.rig.acquisition.rate_hz
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(SAFE_SAMPLE_PERIODS * period):
+                while (await self._queue.get()).t_mono <= done:
+                    pass
+
     @property
     def samples_stored(self) -> int:
         """Samples of this run the recorder has stored so far."""
@@ -204,6 +248,8 @@ class RecordedRun:
         assert self._queue is not None and self.session.acquisition is not None
         acq = self.session.acquisition
         while True:
+            if self.session.lease_lost is not None:
+                raise Aborted(self.session.lease_lost)
             self.abort.check()
             get = asyncio.ensure_future(self._queue.get())
             stop = asyncio.ensure_future(self.abort.wait())

@@ -16,9 +16,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from daq.operator import OperatorAct
+from daq.procedures.current_cutoff import current_over_limit
 from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.steps import (
@@ -48,29 +49,13 @@ log = logging.getLogger(__name__)
 
 
 def latest_calibration(store: Store) -> dict[str, Any]:
-    """The newest stored thrust calibration, measured (``result_id``) or imported
-    (``calibration_import_id``; its curve and rows at its reference voltage, the highest
-    it covers); ParameterError when there is none."""
-    newest = store.latest_result("calibration")
-    imported = store.latest_imported_calibration()
-    if imported is not None and (newest is None or imported.created_at >= newest.created_at):
-        from daq.calibration_law import law_of
-        from estimation.thrust.law import VOLTAGE_TOLERANCE_V
+    """The newest stored thrust calibration (``daq.calibration_catalog.latest``), measured
+    (``result_id``) or imported (``calibration_import_id``; its curve and rows at its
+    reference voltage, the highest it covers); ParameterError when there is none."""
+    from daq.calibration_catalog import latest
 
-        law, _ = law_of(store, "imported", imported.id)
-        rows = [
-            r
-            for r in imported.data["table"]
-            if r.get("supply_voltage_v") is None
-            or abs(r["supply_voltage_v"] - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
-        ]
-        return {
-            "fit": law.curves[-1].curve.to_json(),
-            "table": rows,
-            "result_id": None,
-            "calibration_import_id": imported.id,
-        }
-    if newest is None:
+    found = latest(store)
+    if found is None:
         raise ParameterError(
             [
                 (
@@ -81,7 +66,15 @@ def latest_calibration(store: Store) -> dict[str, Any]:
                 )
             ]
         )
-    return newest.data | {"result_id": newest.id}
+    data = found["data"]
+    if found["source"] == "run":
+        return data | {"result_id": found["id"]}
+    return {
+        "fit": data["fit"],
+        "table": data["reference_table"],
+        "result_id": None,
+        "calibration_import_id": found["id"],
+    }
 
 
 def thrust_layout(thrusters: ThrusterPort, kind: str) -> tuple[list[float], float]:
@@ -387,15 +380,21 @@ async def abort_on_thruster_fault(
     }
     if on_stale_zeroing:
         waits.add(asyncio.ensure_future(session.stale_zeroed.wait()))
+    over_current = asyncio.ensure_future(current_over_limit(session))
+    waits.add(cast("asyncio.Future[object]", over_current))
     try:
         await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
     finally:
         for w in waits:
             w.cancel()
     fault = session.live_thrusters.fault
-    if fault is None:  # the stale-data zeroing
+    data: dict[str, Any]
+    if over_current.done() and not over_current.cancelled() and fault is None:
+        session.set_thrust([0.0] * session.thruster_count)  # at once, before the ending
+        reason, data = over_current.result()
+    elif fault is None:  # the stale-data zeroing
         reason = _stale_zeroed_reason(session)
-        data: dict[str, Any] = {"stale_zeroings": session.stale_zeroings}
+        data = {"stale_zeroings": session.stale_zeroings}
     else:
         reason = fault.reason
         if (plc := _plc_unread(session, session.latest())) is not None:

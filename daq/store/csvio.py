@@ -37,10 +37,12 @@ import numpy as np
 
 from daq.sample import Quality, Sample
 from daq.store.channel_units import at_resolution, column_infos, table_at_resolution, units_line
+from daq.store.import_checks import check_drive_direction, check_logged_peak, window_times
 from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
 from daq.store.store import Store
 from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL, RunKind
+from estimation.data.csv_dialect import COMMA, TableDialect, sniff_dialect
 from estimation.data.csv_import import COMMENT, TIME_UNITS, without_comments
 from estimation.data.window import check_time_step
 
@@ -207,12 +209,14 @@ def check_import_parameters(
     return out
 
 
-def _number(text: str, line: int, column: str, *, allow_missing: bool) -> float:
+def _number(
+    text: str, line: int, column: str, *, allow_missing: bool, dialect: TableDialect
+) -> float:
     stripped = text.strip()
     if allow_missing and stripped.lower() in ("", "nan"):
         return math.nan
     try:
-        value = float(stripped)
+        value = dialect.number(stripped)
     except ValueError:
         raise CsvImportError(f"line {line}, column {column!r}: {text!r} is not a number") from None
     if not math.isfinite(value):
@@ -290,10 +294,13 @@ def _read_samples(
     drive: tuple[str, float] | None = None,
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     """``drive``: the logged drive column and its SI scale (None: no such column)."""
-    with open(path, newline="", encoding="utf-8") as f:
+    with open(path, newline="", encoding="utf-8-sig") as f:  # Excel's BOM dropped
         try:
-            rows = csv.reader(without_comments(f, keep_line_numbers=True))
-            return _parse_rows(path, kind, rows, time_scale, drive)
+            dialect = sniff_dialect(f)
+            f.seek(0)
+            lines = without_comments(f, keep_line_numbers=True)
+            rows = csv.reader(lines, delimiter=dialect.delimiter)
+            return _parse_rows(path, kind, rows, time_scale, drive, dialect)
         except UnicodeDecodeError as err:
             raise CsvImportError(
                 f"{path}: not UTF-8 text ({err.reason} at byte {err.start})"
@@ -306,6 +313,7 @@ def _parse_rows(
     reader: Iterator[list[str]],
     time_scale: float,
     drive: tuple[str, float] | None = None,
+    dialect: TableDialect = COMMA,
 ) -> tuple[list[str], list[Sample], bool, list[float]]:
     rows = ((n, r) for n, r in enumerate(reader, start=1) if r and any(r))
     first = next(rows, None)
@@ -332,7 +340,7 @@ def _parse_rows(
         for column, text in zip(columns, row, strict=True):
             missing_ok = column not in ("t", position, logged, "seq", "t_mono", "t_wall", "quality")
             values[column] = _number(
-                text, line, names.get(column, column), allow_missing=missing_ok
+                text, line, names.get(column, column), allow_missing=missing_ok, dialect=dialect
             )
             rising = column in ("t", "seq", "t_mono") and column in previous
             if rising and values[column] <= previous[column]:
@@ -360,38 +368,16 @@ def _parse_rows(
                 quality=Quality(int(values.get("quality", 0))),
             )
         )
-    if not samples:
-        raise CsvImportError(f"{path}: line {header_line}: a header but no data rows")
+    if len(samples) < 2:
+        raise CsvImportError(
+            f"{path}: line {header_line}: a header but {len(samples) or 'no'} data "
+            f"row{'s' if not samples else ''}; a run needs at least 2 samples (one time step)"
+        )
     try:
         check_time_step(np.asarray(times), "t", str(path))
     except ValueError as err:
         raise CsvImportError(str(err)) from None
     return channels, samples, "t_wall" in columns, times
-
-
-def _window_times(
-    times: list[float], samples: list[Sample], given: dict[str, float | None]
-) -> dict[str, float]:
-    """The given release/end instants (s, on the CSV's ``t`` axis) as seconds since the
-    stored run's first sample (its ``t_mono`` axis), checked against the recording."""
-    out: dict[str, float] = {}
-    lo, hi = times[0], times[-1]
-    for key, value in given.items():
-        if value is None:
-            continue
-        if not math.isfinite(value) or not lo <= value <= hi:
-            raise CsvImportError(
-                f"{key}: {value!r} is not allowed; use a time within the file's t range "
-                f"[{lo:g}, {hi:g}] s"
-            )
-        mono = [s.t_mono for s in samples]
-        out[key] = float(np.interp(value, times, mono)) - mono[0]
-    if len(out) == 2 and not out["release_time_s"] < out["end_time_s"]:
-        raise CsvImportError(
-            f"end_time_s: {given['end_time_s']!r} is not allowed; use a time after "
-            f"release_time_s ({given['release_time_s']!r})"
-        )
-    return out
 
 
 def import_csv(
@@ -409,6 +395,7 @@ def import_csv(
     metadata: dict[str, Any] | None = None,
     drive_column: str | None = None,
     drive_unit: str | None = None,
+    drive_limit: tuple[str, float] | None = None,
 ) -> str:
     """Import a CSV as a completed ``kind`` (``tow``/``spin``/``pendulum``) run; returns
     the new run id.
@@ -421,12 +408,17 @@ def import_csv(
     ``time_unit`` (s, ms, us) is the unit of the ``t`` column; a median step over 1 s is
     refused as evidently not seconds. ``release_time_s``/``end_time_s`` (on the CSV's ``t``
     axis, in s) are stored as parameters (seconds since the first sample) that estimation
-    takes for the release and the end of free motion instead of finding them.
+    takes for the release and the end of free motion instead of finding them; a tow's or
+    spin's release may come before the first sample (negative: the record starts after it).
 
     ``drive_column`` (tow/spin): the column holding the drive logged per sample, in
     ``drive_unit`` (default N or N·m); stored in SI as ``LOGGED_DRIVE_CHANNEL[kind]``
     and named by the run's ``drive_channel`` parameter (no ``force_n``/``torque_nm``).
-    A pendulum run needs ``rig_toml`` with a ``[pendulum]`` section to be estimated."""
+    A pendulum run needs ``rig_toml`` with a ``[pendulum]`` section to be estimated.
+
+    The samples are checked against the parameters (``daq.store.import_checks``): a
+    constant drive whose sign disagrees with the record's first motion is refused, and a
+    logged drive over ``drive_limit`` (the rig limit's name and value, SI)."""
     path = Path(path)
     if time_unit not in TIME_UNITS:
         raise ValueError(
@@ -446,8 +438,18 @@ def import_csv(
     elif drive_unit is not None:
         raise ValueError("drive_unit: only with drive_column")
     channels, samples, has_wall, times = _read_samples(path, kind, TIME_UNITS[time_unit], drive)
+    position = [s.channels[AXES[kind].position_channel] for s in samples]
+    check_drive_direction(kind, params, np.asarray(position))
+    if drive is not None:
+        logged = [s.channels[LOGGED_DRIVE_CHANNEL[kind]] for s in samples]
+        check_logged_peak(kind, drive[0], logged, drive_limit)
     params.update(
-        _window_times(times, samples, {"release_time_s": release_time_s, "end_time_s": end_time_s})
+        window_times(
+            times,
+            samples,
+            {"release_time_s": release_time_s, "end_time_s": end_time_s},
+            early=kind in DRIVE_FIELD,
+        )
     )
     if not has_wall:
         t0 = samples[0].t_wall

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any, overload
 
+from daq.parameter_labels import labelled
 from daq.sample import Quality, Sample
 
 if TYPE_CHECKING:  # annotations only: listing runs starts without numpy
@@ -91,6 +92,7 @@ class RunInfo:
             "status": self.status,
             "reason": self.reason,
             "parameters": self.parameters,
+            "parameters_labelled": [p.to_json() for p in labelled(self.parameters)],
             "started_at": _iso(self.started_at),
             "stopped_at": _iso(self.stopped_at),
             "duration_s": self.duration_s,

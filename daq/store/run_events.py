@@ -31,6 +31,7 @@ class RunAction(StrEnum):
     THRUST_STEPS = "thrust_steps"  # the outputs the thruster controller confirmed
     THRUSTER_FAULT = "thruster_fault"
     DISARM_FAILED = "disarm_failed"
+    SAFE_STATE = "safe_state"  # every ending: brakes engaged, thrusters zero (or what failed)
 
 
 def _number(data: Mapping[str, Any], key: str) -> float | None:

@@ -55,6 +55,11 @@ from daq.store.spill import default_spill_dir, replay_spills
 if TYPE_CHECKING:
     from daq.store.loaded_run import LoadedRun
 
+#: A run of another host whose process holds no lease is marked interrupted only once its
+#: last sample is this old, s (its process may have lost the lease and still be writing
+#: its own ending: the recorder retries that for up to 30 s).
+OTHER_HOST_GRACE_S = 45.0
+
 
 class NewRun(TypedDict):
     """What describes a run when it is started or imported (``Store.create_run``,
@@ -497,29 +502,48 @@ class Store(EventsAndResults, ImportedCalibrations):
 
     # -- start-up and health ------------------------------------------------------------
     def recover_interrupted(self, *, include_live_owners: bool = False) -> list[str]:
-        """Mark runs left ``running`` by a dead process as ``interrupted``, stopped at the
-        wall time of their last stored sample (or their start); returns their ids.
+        """Mark runs left ``running`` by a process that no longer drives the rig as
+        ``interrupted`` (the reason names that process), stopped at the wall time of their
+        last stored sample (or their start); returns their ids.
 
-        Runs whose owning process is still alive on this host, or that were started on
-        another host, are left alone unless ``include_live_owners``.
+        A run recorded on this host is left alone while its process (pid, boot and start
+        time) is alive. One recorded on another host (PostgreSQL) is left alone while its
+        process holds a rig's lease in this database (``daq.rig_lock``), or while its last
+        sample is younger than ``OTHER_HOST_GRACE_S`` (a process that lost its lease may
+        still be writing its own ending); imported runs from another host are left alone.
+        ``include_live_owners`` marks them all.
         """
         here = socket.gethostname()
         recovered: list[str] = []
         with self.transaction() as conn:
             running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
+            holders = None
+            if running and self.backend == "postgresql":
+                from daq.rig_lock.postgres import lease_holders
+
+                holders = lease_holders(conn)
             for run in running:
-                owner_alive = run.owner_host != here or (
-                    run.owner_pid is not None
-                    and process_alive(run.owner_pid, run.owner_boot_id, run.owner_start_ticks)
-                )
-                if owner_alive and not include_live_owners:
-                    continue
                 last_wall = conn.execute(
                     sa.select(sa.func.max(samples_t.c.t_wall)).where(samples_t.c.run_id == run.id)
                 ).scalar()
-                stop = run.started_at if last_wall is None else max(last_wall, run.started_at)
-                reason = "recording process ended without finishing the run"
-                self._finish(conn, run, "interrupted", reason, stop)
+                last = run.started_at if last_wall is None else max(last_wall, run.started_at)
+                owner = f"recording process pid {run.owner_pid} on host {run.owner_host}"
+                if run.owner_host == here or holders is None:
+                    owner_alive = run.owner_host != here or (
+                        run.owner_pid is not None
+                        and process_alive(run.owner_pid, run.owner_boot_id, run.owner_start_ticks)
+                    )
+                    reason = f"{owner} ended without finishing the run"
+                else:
+                    owner_alive = (
+                        (str(run.owner_host)[:24], run.owner_pid) in holders
+                        or run.source != "recorded"
+                        or time.time() - last < OTHER_HOST_GRACE_S
+                    )
+                    reason = f"{owner} no longer holds the rig; it ended without finishing the run"
+                if owner_alive and not include_live_owners:
+                    continue
+                self._finish(conn, run, "interrupted", reason, last)
                 self._insert_event(
                     conn,
                     run.id,

@@ -5,6 +5,7 @@ force-domain residual against velocity (see docs/estimation.md, "Report")."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -194,7 +195,10 @@ def write_report(
         )
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
-    prepared = [prepare(r) for r in runs]
+    # the samples the result fitted: a release found in the data was refined by the fit and
+    # may fall on the other side of a sample (one more or one fewer sample than ``runs``)
+    fitted = {rid: w.t_release for rid, w in result.windows.items()}
+    prepared = [prepare(replace(r, t_release=fitted.get(r.run_id, r.t_release))) for r in runs]
     labels = run_labels(prepared, result.axis)
     fit = save_figure(fit_figure(result, prepared, labels), out, "fit")
     force = save_figure(force_figure(result, prepared, labels), out, "force_residual")

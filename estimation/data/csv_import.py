@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from estimation.data.csv_dialect import COMMENT, TableDialect, sniff_dialect
 from estimation.data.runs import RunData, validate_run
 from estimation.data.window import check_time_step, windowed_run
 
@@ -17,8 +18,6 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 #: The release coil column of each axis, and the end-of-travel switch (tows).
 RELEASE_COLUMN = {"surge": "tow_release", "yaw": "spin_release"}
 END_COLUMN = "end_of_travel"
-#: A line starting with this is a comment (an export's units and run description).
-COMMENT = "#"
 
 
 def without_comments(lines: Iterable[str], *, keep_line_numbers: bool = False) -> Iterator[str]:
@@ -54,22 +53,26 @@ def run_from_csv(
     path = Path(path)
     if time_unit not in TIME_UNITS:
         raise ValueError(f"time_unit: got {time_unit!r}, allowed: {', '.join(TIME_UNITS)}")
-    with path.open(newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(without_comments(f))
+    with path.open(newline="", encoding="utf-8-sig") as f:  # Excel's BOM dropped
+        dialect = sniff_dialect(f)
+        f.seek(0)
+        reader = csv.DictReader(without_comments(f), delimiter=dialect.delimiter)
         header = list(reader.fieldnames or [])
         wanted = [time_column, position_column] + ([] if drive is not None else [drive_column])
         missing = [c for c in wanted if c not in header]
         if missing:
             raise ValueError(f"{path.name}: columns: got {header}, missing {missing}")
         rows = list(reader)
+    number = dialect.number
     try:
-        t = np.array([float(r[time_column]) for r in rows]) * TIME_UNITS[time_unit]
-        x = np.array([float(r[position_column]) for r in rows])
+        t = np.array([number(r[time_column]) for r in rows]) * TIME_UNITS[time_unit]
+        x = np.array([number(r[position_column]) for r in rows])
         d: float | np.ndarray = (
-            float(drive) if drive is not None else np.array([float(r[drive_column]) for r in rows])
+            float(drive) if drive is not None else np.array([number(r[drive_column]) for r in rows])
         )
         coil, switch = (
-            _column(rows, header, name) for name in (RELEASE_COLUMN.get(axis, ""), END_COLUMN)
+            _column(rows, header, name, dialect)
+            for name in (RELEASE_COLUMN.get(axis, ""), END_COLUMN)
         )
     except ValueError as exc:
         raise ValueError(f"{path.name}: a value is not a number ({exc})") from None
@@ -90,11 +93,13 @@ def run_from_csv(
     return run
 
 
-def _column(rows: list[dict], header: list[str], name: str) -> np.ndarray | None:
+def _column(
+    rows: list[dict], header: list[str], name: str, dialect: TableDialect
+) -> np.ndarray | None:
     """A numeric column when present and complete (None otherwise)."""
     if name not in header:
         return None
     values = [r[name].strip() for r in rows]
     if any(v == "" for v in values):
         return None
-    return np.array([float(v) for v in values])
+    return np.array([dialect.number(v) for v in values])

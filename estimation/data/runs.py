@@ -25,7 +25,9 @@ class RunData:
     J_p/r_p² in kg for surge, drum J_d in kg·m² for yaw); the hung weight's own inertia
     (m_w, or m_w·r_d² for yaw) is added by the estimator when ``hung_mass_kg`` (and for yaw
     ``drum_radius_m``) is given. Samples before ``t_release`` are the at-rest baseline;
-    samples after ``t_end`` (end of travel, brake) are ignored.
+    samples after ``t_end`` (end of travel, brake) are ignored. A ``t_release`` before the
+    first sample is a record that starts after the release (the body released from rest
+    then, already moving when the record begins).
     """
 
     run_id: str
@@ -136,8 +138,11 @@ def validate_run(run: RunData) -> None:
         raise field_error(rid, "drive_inertia", run.drive_inertia, ">= 0")
     if run.drum_radius_m is not None and not run.drum_radius_m > 0:
         raise field_error(rid, "drum_radius_m", run.drum_radius_m, "> 0 m or None")
-    if t.size and not (t[0] <= run.t_release <= t[-1]):
-        raise field_error(rid, "t_release", run.t_release, f"within [{t[0]:g}, {t[-1]:g}] s")
+    if t.size and not (np.isfinite(run.t_release) and run.t_release <= t[-1]):
+        # before t[0]: a record that starts after the release, the body already moving
+        raise field_error(
+            rid, "t_release", run.t_release, f"a time ≤ {t[-1]:g} s (the last sample)"
+        )
     moving = np.count_nonzero((t > run.t_release) & run.window())
     if moving < MIN_MOVING_SAMPLES:
         raise field_error(

@@ -1,6 +1,8 @@
-"""Thrust calibration report: report.md (summary table first, figure linked) and the figure
+"""Thrust calibration report: report.md (summary table first, figures linked) and the figure
 ``calibration``: thrust per thruster vs command with error bars by sweep direction, the fitted
-curve and points of its inverse map, over a residual panel."""
+curve and points of its inverse map, over a residual panel; when the steps carry the
+controller's telemetry, the figure ``stand``: thrust vs motor current and efficiency (N/W) vs
+thrust, as a thrust stand reports them."""
 
 from __future__ import annotations
 
@@ -99,6 +101,56 @@ def calibration_figure(calibration: dict[str, Any]) -> Figure:
     return fig
 
 
+def _has_stand(calibration: dict[str, Any]) -> bool:
+    return any(r.get("current_a") is not None for r in calibration["table"])
+
+
+def stand_figure(calibration: dict[str, Any]) -> Figure:
+    """Thrust per thruster vs motor current (A), and efficiency |F|/P (N/W) vs thrust."""
+    table = [r for r in calibration["table"] if r.get("current_a") is not None]
+    thrust = np.array([r["thrust_per_thruster_n"] for r in table], dtype=float)
+    amps = np.array([r["current_a"] for r in table], dtype=float)
+    eff = np.array([r.get("efficiency_n_per_w", np.nan) for r in table], dtype=float)
+    fig = new_figure(4.2)
+    ax_i, ax_e = fig.subplots(1, 2)
+    forward = thrust >= 0
+    for sel, label, colour in ((forward, "forward", "tab:blue"), (~forward, "reverse", "tab:red")):
+        ax_i.plot(amps[sel], thrust[sel], "o", ms=4, color=colour, label=label)
+        ax_e.plot(np.abs(thrust[sel]), eff[sel], "o", ms=4, color=colour, label=label)
+    ax_i.set_xlabel("motor current per thruster [A]")
+    ax_i.set_ylabel(THRUST_LABEL)
+    ax_i.axhline(0.0, color="0.6", lw=0.8)
+    ax_i.legend(loc="best", fontsize=8)
+    ax_e.set_xlabel("|thrust| per thruster [N]")
+    ax_e.set_ylabel("efficiency |F|/(V·I) [N/W]")
+    if not np.any(np.isfinite(eff)):
+        ax_e.text(0.5, 0.5, "no supply voltage recorded", ha="center", transform=ax_e.transAxes)
+    fig.suptitle("thrust stand: thrust vs current, efficiency vs thrust", fontsize=11)
+    return fig
+
+
+def response_figure(calibration: dict[str, Any]) -> Figure:
+    """The largest step's load-cell reading against the first-order lag with the measured τ."""
+    response = calibration["response"]
+    step = response["largest_step"]
+    fig = new_figure(4.0)
+    ax = fig.subplots()
+    ax.plot(step["t_s"], step["measured_n"], "o", ms=4, color=MEASURED, label="load cell")
+    tau, std = response["time_constant_s"], response["std_s"]
+    ax.plot(step["model_t_s"], step["model_n"], "-", color="tab:green",
+            label=f"first-order lag, τ = {tau:.3g} ± {std:.1g} s")  # fmt: skip
+    ax.axvline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel("time from the output change [s]")
+    ax.set_ylabel("thrust, all thrusters [N]")
+    ax.legend(loc="best", fontsize=8)
+    fig.suptitle(
+        f"step response: 90 % settling {response['settle_90_s']:.3g} s "
+        f"({response['transients']} steps)",
+        fontsize=11,
+    )
+    return fig
+
+
 def _range(values: np.ndarray, fmt: str = ".2f") -> str:
     finite = values[np.isfinite(values)]
     if not finite.size:
@@ -133,6 +185,7 @@ def calibration_markdown(
         f"| dead band | {-d_r:.3g} … {d_f:.3g} | {UNIT_TEXT['command']} |",
         f"| RMSE of the fit | {fit['rmse_n']:.3g} | N |",
         f"| supply voltage, mean | {_range(pts['volts'])} | V |",
+        _response_row(calibration.get("response")),
         f"| commands calibrated | {lo:g} … {hi:g} ({len(pts['command'])} steps) | "
         f"{UNIT_TEXT['command']} |",
         f"| thrusters on the load cell | {calibration.get('thrusters', 1)} | |",
@@ -144,16 +197,32 @@ def calibration_markdown(
         *(figure_links(figures) if figures else []),
         "## Measured steps",
         "",
-        "| step | command | direction | thrust/thruster [N] | σ [N] | supply [V] | samples |",
-        "|---|---|---|---|---|---|---|",
+        "| step | command | direction | thrust/thruster [N] | σ [N] | supply [V] | "
+        "current [A] | RPM | efficiency [N/W] | samples |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row, std in zip(calibration["table"], pts["std"], strict=True):
         lines.append(
             f"| {row.get('step', '')} | {row['command']:+.3f} | {row.get('direction', '')} | "
             f"{row['thrust_per_thruster_n']:+.3f} | {std:.3f} | "
-            f"{row.get('supply_voltage_v', float('nan')):.2f} | {row.get('samples', '')} |"
+            f"{_cell(row.get('supply_voltage_v'), '.2f')} | {_cell(row.get('current_a'), '.2f')} "
+            f"| {_cell(row.get('rpm'), '.0f')} | {_cell(row.get('efficiency_n_per_w'), '.3f')} "
+            f"| {row.get('samples', '')} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _response_row(response: dict | None) -> str:
+    if not response:
+        return "| thrust lag τ | — (not measured) | s |"
+    return (
+        f"| thrust lag τ (90 % settling) | {response['time_constant_s']:.3g} ± "
+        f"{response['std_s']:.1g} ({response['settle_90_s']:.3g}) | s |"
+    )
+
+
+def _cell(value: float | None, fmt: str) -> str:
+    return "—" if value is None else f"{value:{fmt}}"
 
 
 def write_calibration_report(calibration: dict[str, Any], folder: str | Path) -> list[Path]:
@@ -167,6 +236,14 @@ def write_calibration_report(calibration: dict[str, Any], folder: str | Path) ->
     out.mkdir(parents=True, exist_ok=True)
     files = save_figure(calibration_figure(calibration), out, "calibration")
     figures = [("Thrust per thruster vs command, fitted curve, inverse map, residuals", files[0])]
+    if _has_stand(calibration):
+        stand = save_figure(stand_figure(calibration), out, "stand")
+        figures.append(("Thrust vs motor current, efficiency vs thrust", stand[0]))
+        files += stand
+    if (calibration.get("response") or {}).get("largest_step"):
+        step = save_figure(response_figure(calibration), out, "response")
+        figures.append(("Step response and the measured thrust lag", step[0]))
+        files += step
     md = out / "report.md"
     md.write_text(calibration_markdown(calibration, figures), encoding="utf-8")
     return [md, *files]

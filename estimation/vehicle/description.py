@@ -1,5 +1,6 @@
 """A 6-DOF vehicle description in Fossen's form: rigid body, diagonal added mass and
-damping, weight and buoyancy, thrusters. Loaded from a TOML file (format in docs/sixdof.md).
+damping, weight and buoyancy, thrusters and, optionally, the hull as a primitive (``[hull]``,
+parsed by ``estimation.theory.hull``). Loaded from a TOML file (format in docs/sixdof.md).
 
 Internal frame (always): Fossen's body frame, origin at the body reference point (the
 fixtures put it at the CG), **x forward, y starboard, z down**. A file may be written in
@@ -24,6 +25,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, TypeGuard
+
+from estimation.theory.hull import Hull, HullError, parse_hull
 
 DOFS: tuple[str, ...] = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 COEFFICIENT_KINDS: tuple[str, ...] = ("added_mass", "linear_damping", "quadratic_damping")
@@ -83,6 +86,8 @@ class Vehicle6:
     source: str = field(default="", compare=False)
     #: Free text: where each number comes from.
     notes: str = field(default="", compare=False)
+    #: The hull as a primitive (optional ``[hull]`` table) for predicted added mass.
+    hull: Hull | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", MappingProxyType(dict(self.sigma)))
@@ -151,6 +156,7 @@ class Vehicle6:
                 for t in self.thrusters
             ],
             "notes": self.notes,
+            "hull": self.hull.to_json() if self.hull is not None else None,
         }
 
     def total_inertia(self, axis: str) -> float:
@@ -321,7 +327,7 @@ def _direction(raw: Mapping[str, Any], source: str, path: str) -> tuple[float, f
     return (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
 
 
-_TABLES = ("vehicle", *COEFFICIENT_KINDS, "sigma", "thrusters")
+_TABLES = ("vehicle", *COEFFICIENT_KINDS, "sigma", "thrusters", "hull")
 _VEHICLE_KEYS = (
     "name",
     "frame",
@@ -408,6 +414,12 @@ def parse_vehicle(data: dict, source: str) -> Vehicle6:
                 max_command=_number(raw.get("max_command", 1.0), source, f"{path}.max_command"),
             )
         )
+    hull = None
+    if "hull" in data:
+        try:
+            hull = parse_hull(data["hull"])
+        except HullError as err:
+            raise VehicleError(source, err.field, err.value, err.allowed) from None
     sigma = data.get("sigma", {})
     if not isinstance(sigma, dict):
         raise VehicleError(source, "[sigma]", sigma, "a table of coefficient name = 1σ")
@@ -430,6 +442,7 @@ def parse_vehicle(data: dict, source: str) -> Vehicle6:
         sigma={str(k): _number(s, source, f"sigma.{k}") for k, s in sigma.items()},
         source=source,
         notes=str(v.get("notes", "")),
+        hull=hull,
     )
 
 

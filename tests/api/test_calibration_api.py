@@ -39,7 +39,13 @@ def test_import_then_ask_the_law_for_force_and_command(client):
 
     at14 = client.get("/api/thrust?command=1&voltage_v=14", headers=AUTH).json()
     at18 = client.get("/api/thrust?command=1&voltage_v=18", headers=AUTH).json()
-    assert at14["calibration"] == {"source": "imported", "id": made["id"], "name": "t200"}
+    assert at14["calibration"] == {
+        "source": "imported",
+        "id": made["id"],
+        "name": "t200",
+        "label": f"imported {made['id']} (t200)",
+    }
+    assert at14["voltage_source"] == "14 V, as given"
     assert "identified" in at14["voltage_law"]
     force14 = at14["force_n"]
     assert 0 < force14["std"] < 0.05 * force14["value"]
@@ -97,3 +103,40 @@ def test_bad_tables_and_questions_are_one_line_422s(client):
     assert r.status_code == 422 and r.json()["detail"] == "command or force_n: give exactly one"
     r = client.get("/api/thrust?command=2", headers=AUTH)
     assert r.status_code == 422
+
+
+def test_an_imported_table_is_the_latest_calibration_and_the_law_says_which_voltage(client):
+    made = _post(client, T200.read_bytes(), name="t200-latest").json()
+    latest = client.get("/api/calibration/latest", headers=AUTH)
+    assert latest.status_code == 200, latest.text
+    body = latest.json()
+    assert (body["source"], body["id"], body["label"]) == (
+        "imported",
+        made["id"],
+        f"imported {made['id']} (t200-latest)",
+    )
+    assert body["run_ids"] == [] and len(body["data"]["table"]) == 255
+    assert body["data"]["fit"]["parameters"]["forward_gain"]["value"] > 0
+    listed = client.get("/api/calibrations", headers=AUTH).json()
+    assert listed[0]["label"] == body["label"] and listed[0]["source"] == "imported"
+    # No run of this module recorded a supply voltage: the calibration's reference is used,
+    # and the answer says so.
+    answer = client.get("/api/thrust?command=1", headers=AUTH).json()
+    assert answer["voltage_v"] == 20
+    assert answer["voltage_source"].startswith("20 V, the calibration's reference")
+
+
+def test_a_pwm_table_imported_as_fractions_is_told_to_use_pwm_us(client):
+    r = _post(client, T200.read_bytes(), command_unit="fraction")
+    assert r.status_code == 422
+    assert "looks like a PWM pulse in µs: use command_unit pwm_us" in r.json()["detail"]
+
+
+def test_a_table_uploaded_as_a_multipart_form_imports(client):
+    r = client.post(
+        f"/api/calibrations/import?{urlencode(QUERY | {'name': 't200-form'})}",
+        files={"file": ("t200-bollard.csv", T200.read_bytes(), "text/csv")},
+        headers=AUTH,
+    )
+    assert r.status_code == 201, r.text
+    assert r.json()["rows"] == 255

@@ -54,6 +54,16 @@ case(2, f"no result with id {HUGE}", "sensitivity", "benbam", "--estimate", HUGE
 case(2, "--commands: got 'a,b'", "sixdof", "benbam", "--commands", "a,b")
 case(2, "no vehicle named 'nope'", "sixdof", "nope", "--commands", "0.5,0.5")
 case(2, "no vehicle named 'nope'", "sensitivity", "nope")
+case(2, "no vehicle named 'nope'", "predict-added-mass", "nope")
+case(2, f"no result with id {HUGE}", "predict-added-mass", "benbam", "--estimate", HUGE)
+case(2, ": hull: got None, allowed: a [hull] table", "predict-added-mass", "seed002-rov")
+case(2, "--water-temp: got 80.0, allowed: 0 … 40 °C", "predict-added-mass", "benbam",
+     "--water-temp", "80")  # fmt: skip
+case(2, "--tank-width/--water-depth: got one of the two", "predict-added-mass", "benbam",
+     "--tank-width", "2")  # fmt: skip
+case(2, "--temp: got -3.0, allowed: 0 … 40 °C", "water", "--temp", "-3")
+case(2, "--speed/--length: got one of the two", "water", "--temp", "15", "--speed", "1")
+case(2, "--salinity: got 50.0, allowed: 0 … 42 g/kg", "water", "--temp", "15", "--salinity", "50")
 # -- files -------------------------------------------------------------------------------
 case(2, "File 'nope.csv' does not exist", "import", "nope.csv", "--kind", "tow", "--force", "1")
 case(2, "no header with a 't' column", "import", RIG, "--kind", "tow", "--force", "1")
@@ -134,6 +144,7 @@ case(
     "--calibration",
     "x:1",
 )
+case(2, "--db: cannot open the database", "calibrations", "--db", "{pg}")
 case(2, "No such command 'nosuch'", "nosuch")
 # -- unreachable ports -------------------------------------------------------------------
 case(2, "--db: cannot open the database: connection failed", "runs", "--db", "{pg}")

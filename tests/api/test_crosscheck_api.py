@@ -95,15 +95,25 @@ def test_crosscheck_job_then_fast_comparison_of_the_stored_results(client, runs)
     fast = r.json()
     assert fast["coefficients"] == out["coefficients"]  # same documents, same comparison
     assert fast["combined"] == out["combined"]
-    assert fast["result_id"] != out["result_id"]
+    # The job already cross-checked this pair: asked again, it is that result, not a copy.
+    assert fast["result_id"] == out["result_id"] and fast["reused"]
+    again = client.post(
+        "/api/crosscheck", json={"weight_result_id": w_id, "thruster_result_id": t_id}, headers=AUTH
+    ).json()
+    assert again["result_id"] == out["result_id"]
+    crosschecks = [c["id"] for c in client.get("/api/crosscheck", headers=AUTH).json()]
+    assert crosschecks.count(out["result_id"]) == 1
     result = client.get(f"/api/results/{fast['result_id']}", headers=AUTH).json()
     assert result["kind"] == "crosscheck"
     assert sorted(result["run_ids"]) == sorted(runs["weight"] + runs["thrusters"])
     assert result["report_plots"] == ["crosscheck"]
     png = client.get(f"/api/results/{fast['result_id']}/report/crosscheck.png", headers=AUTH)
     assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
-    listed = client.get("/api/crosscheck", headers=AUTH).json()
-    assert {fast["result_id"], out["result_id"]} <= {c["id"] for c in listed}
+    pairs = [
+        (c["data"]["weight_result_id"], c["data"]["thruster_result_id"])
+        for c in client.get("/api/crosscheck", headers=AUTH).json()
+    ]
+    assert pairs.count((w_id, t_id)) == 1
 
 
 def test_crosscheck_input_errors(client, runs):

@@ -146,6 +146,18 @@ def test_queue_survives_kill_and_restart_reports_survive_a_clean_stop(db_url, tm
             d["id"]: "interrupted",
             e["id"]: "queued",
         }
+        # Paged and filtered: ?limit, ?offset, ?state (a bad one is a 422 naming it).
+        newest = [j["id"] for j in client.get("/api/jobs").json()]
+        assert len(newest) >= 4
+
+        def ids(**params) -> list[str]:
+            return [j["id"] for j in client.get("/api/jobs", params=params).json()]
+
+        assert ids(limit=2) == newest[:2] and ids(limit=2, offset=1) == newest[1:3]
+        assert ids(state="queued") == [e["id"]]
+        assert ids(state="interrupted") == [d["id"]]
+        bad = client.get("/api/jobs", params={"limit": 0})
+        assert bad.status_code == 422 and "limit" in bad.text
         # The queued job survived, but the rig does not move by itself after a crash.
         queue = client.get("/api/queue").json()
         assert queue["paused"] and queue["running"] is None, queue

@@ -1,5 +1,6 @@
 """A finished estimation on the Estimation page in real headless Chromium: the report
-figures are shown full-size (a PNG of at least 1000 px filling the card, click to enlarge)
+figures are shown full-size (a PNG of at least 1000 px filling the card, click to enlarge
+to the window)
 and the same figure's SVG names its axes with units."""
 
 from __future__ import annotations
@@ -29,11 +30,18 @@ def test_estimation_page_shows_full_size_report_figures_with_units(client, servi
             assert run not in svg and f"({run[:8]})" in svg
         assert "+24.5 N" in svg and "+83.3 N" in svg
 
-        # a click opens it at its natural size over the page; Escape closes it
+        # a click opens it over the page as large as the window allows, never cropped (the
+        # PNG is wider than the window); Escape closes it
         fit.locator("img").click()
         big = page.locator("#lightbox img")
         expect(big).to_be_visible()
-        assert big.evaluate("img => img.getBoundingClientRect().width") >= 1000
+        width, height, natural, window_w, window_h = big.evaluate(
+            "img => { const r = img.getBoundingClientRect();"
+            " return [r.width, r.height, img.naturalWidth, innerWidth, innerHeight]; }"
+        )
+        assert natural > window_w  # the figure is larger than the window: it is scaled
+        assert width <= window_w and height <= window_h, (width, height, window_w, window_h)
+        assert width >= 0.9 * window_w or height >= 0.9 * (window_h - 32)  # and fills it
         page.keyboard.press("Escape")
         expect(page.locator("#lightbox")).to_be_hidden()
 

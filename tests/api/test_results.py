@@ -84,6 +84,19 @@ def test_thrust_calibration_job_stores_the_curve(client):
     assert fit["command_range"] == [-0.8, 0.8]
     commands = [row["command"] for row in latest["data"]["table"]]
     assert max(commands) == 0.8 and min(commands) == -0.8
+    # Each step carries the controller's telemetry, as a thrust stand logs it: RPM and
+    # current per thruster, power V·I and efficiency |F|/P; current rises with thrust.
+    steps = [r for r in latest["data"]["table"] if abs(r["command"]) == 0.8]
+    for row in steps:
+        assert len(row["rpm_per_thruster"]) == len(row["current_per_thruster_a"]) == 2
+        assert row["power_w"] == pytest.approx(row["supply_voltage_v"] * row["current_a"])
+        assert row["efficiency_n_per_w"] == pytest.approx(
+            abs(row["thrust_per_thruster_n"]) / row["power_w"]
+        )
+        assert abs(row["rpm"]) > 1000 and row["current_a"] > 1.0
+    low = [r["current_a"] for r in latest["data"]["table"] if abs(r["command"]) == 0.3]
+    assert max(low) < min(r["current_a"] for r in steps)
+    assert latest["channels"] == ["current_a", "rpm", "power_w", "efficiency_n_per_w"]
 
 
 def test_spin_job_by_weight(client):

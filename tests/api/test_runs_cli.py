@@ -52,6 +52,13 @@ def test_import_with_metadata_then_find_annotate_show_and_export(rig, tmp_path: 
                                             "notes": "long fins"}  # fmt: skip
     shown = rig("show", first[:8]).stdout
     assert "imported" in shown and "from day1.csv" in shown and "notes      long fins" in shown
+    # Parameters as labelled fields with units, not a Python dict.
+    assert "parameters source import\n" in shown and "           force 10 N\n" in shown
+    assert "           hung weight 1.02 kg\n" in shown
+    assert "{" not in shown and "None" not in shown
+    assert {"key": "force_n", "label": "force", "value": 10.0, "unit": "N", "shown": "10 N"} in (
+        run["parameters_labelled"]
+    )
     assert found("--search", "LONG FINS") == [first] and found("--tag", "fins-v2") == []
 
     rig("export", first, "-o", "out.csv")

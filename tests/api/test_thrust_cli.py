@@ -27,7 +27,16 @@ def test_import_the_table_then_ask_a_held_out_voltage_and_a_too_small_force(rig,
     made = rig("import-calibration", "stand.csv", "--command-column", "PWM (µs)",
                "--command-unit", "pwm_us", "--thrust-column", "Schub (kgf)",
                "--thrust-unit", "kgf", "--voltage-column", "Spannung (V)", "--json")  # fmt: skip
-    assert json.loads(made.stdout)["law"]["voltages_v"] == list(CALIBRATED)
+    made = json.loads(made.stdout)
+    assert made["law"]["voltages_v"] == list(CALIBRATED)
+    listed = rig("calibrations").stdout
+    assert (
+        f"imported {made['id']} (stand.csv): {len(_rows())} rows at 10, 12, 14, 18, 20 V" in listed
+    )
+    # Without --voltage, and no supply recorded on the rig: the calibration's reference.
+    text = rig("thrust", "--command", "1").stdout.splitlines()
+    assert text[1].startswith("supply: 20 V, the calibration's reference")
+    assert text[2].startswith(f"calibration: imported {made['id']} (stand.csv);")
 
     full = full_thrust_n(CALIBRATED)
     for pwm in (1600, 1800, 1900, 1200):

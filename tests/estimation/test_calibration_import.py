@@ -17,6 +17,7 @@ from estimation.thrust.calibration_import import (
     ImportSpec,
     read_calibration_csv,
 )
+from tests.shared_data import shared_file
 
 T200 = Path(__file__).resolve().parents[2] / "fixtures" / "calibrations" / "t200-bollard.csv"
 PWM = CommandUnit("pwm_us", 1500, 400)
@@ -132,3 +133,41 @@ def test_bad_units_name_the_field():
         CommandUnit("us")
     with pytest.raises(ValueError, match="full_scale_v"):
         CommandUnit("volts")
+
+
+PUBLISHED_SPEC = ImportSpec("PWM (µs)", "Force (Kg f)", "kgf", PWM, "Voltage (V)")
+
+
+@pytest.mark.parametrize("volts", [10, 12, 14, 16, 18, 20])
+def test_the_published_t200_tables_keep_current_rpm_power_and_efficiency(volts):
+    """Blue Robotics' tables carry RPM, current, power and efficiency (g/W) per command:
+    the import keeps current, RPM and power by their headers, and the efficiency it derives
+    (|F| / P) is the published one."""
+    path = shared_file("thrusters", f"T200-{volts}V.csv")
+    rows = read_calibration_csv(path.read_bytes(), PUBLISHED_SPEC)
+    source = list(csv.DictReader(path.read_text(encoding="utf-8").splitlines(),
+                                 skipinitialspace=True))  # fmt: skip
+    assert len(rows) == len(source) > 100
+    checked = 0
+    for row, published in zip(rows, source, strict=True):
+        assert row["current_a"] == pytest.approx(float(published["Current (A)"]))
+        assert row["rpm"] == pytest.approx(float(published["RPM"]))
+        assert row["power_w"] == pytest.approx(float(published["Power (W)"]))
+        if float(published["Power (W)"]) > 1.0:  # the dead band's ~0 W rows: no efficiency
+            grams_per_watt = row["efficiency_n_per_w"] / THRUST_UNITS["gf"]
+            # Some rows of the sheet hold a rounded force or efficiency (14 V, 1548 µs: 0.1 kgf
+            # → 71.4286 g/W for 71.2787; 20 V, 1124 µs: 8.5): agree within that rounding.
+            published_gw = float(published["Efficiency (g/W)"])
+            assert grams_per_watt == pytest.approx(published_gw, rel=5e-3)
+            checked += 1
+    assert checked > 100
+
+
+def test_a_pwm_column_read_as_fractions_says_to_use_pwm_us():
+    spec = ImportSpec("PWM (µs)", "Force (Kg f)", "kgf", CommandUnit(), "Voltage (V)")
+    with pytest.raises(ValueError) as err:
+        read_calibration_csv(T200.read_bytes(), spec)
+    assert "got 1100, allowed: a command within full reverse … full forward (fraction)" in str(
+        err.value
+    )
+    assert "1100 looks like a PWM pulse in µs: use command_unit pwm_us" in str(err.value)

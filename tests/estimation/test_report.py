@@ -6,13 +6,15 @@ import re
 import uuid
 from dataclasses import replace
 
+import numpy as np
 import pytest
 from PIL import Image
 
 from estimation import estimate
 from estimation.axis.model import prepare
 from estimation.axis.report import fit_figure, force_figure, run_labels, write_report
-from estimation.figures import DPI, TIME_LABEL
+from estimation.data.csv_import import run_from_csv
+from estimation.figures import DPI, TIME_LABEL, FitRow
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -134,3 +136,42 @@ def test_report_for_seed_method(tmp_path):
     result = estimate(runs, method="ls-steady")
     paths = write_report(result, runs, tmp_path)
     assert len(paths) == 6
+
+
+def _numpy_tow(path, noise_m: float) -> None:
+    """A tow written by another tool: ``t, position`` at 10 Hz, 1 s still, then 24.5 N
+    (Euler at 1 kHz, 150 kg, K_L 10, K_Q 20)."""
+    dt, force, inertia, k_l, k_q = 0.001, 24.5, 150.0, 10.0, 20.0
+    t = np.arange(0.0, 16.0 + dt / 2, dt)
+    x, v, p = np.zeros_like(t), 0.0, 0.0
+    for i, ti in enumerate(t):
+        x[i] = p
+        if ti >= 1.0:
+            v += (force - k_l * v - k_q * abs(v) * v) / inertia * dt
+            p += v * dt
+    rows = np.arange(0, t.size, 100)
+    noisy = x[rows] + np.random.default_rng(0).normal(0.0, noise_m, rows.size)
+    np.savetxt(path, np.column_stack([t[rows], noisy]), delimiter=",", header="t,position",
+               comments="")  # fmt: skip
+
+
+@pytest.mark.parametrize("noise_m", [1e-5, 1e-4])
+def test_report_draws_a_release_found_from_motion_and_refined_across_a_sample(tmp_path, noise_m):
+    """The fit refines a release found from the motion onset; when the refined instant falls
+    before a sample the found one was after, the fit has one more sample than the found
+    window: the report must draw the samples the fit used (it failed with "operands could
+    not be broadcast together with shapes (151,) (150,)")."""
+    _numpy_tow(tmp_path / "tow.csv", noise_m)
+    run = run_from_csv(tmp_path / "tow.csv", axis="surge", drive=24.5)
+    result = estimate([run], n_bootstrap=0, search_effects=False)
+    refined = result.windows[run.run_id]
+    assert refined.release_source == "motion onset, refined by the fit"
+    found_samples = np.count_nonzero(run.t > run.t_release)
+    assert np.count_nonzero(run.t > refined.t_release) == found_samples + 1  # the case itself
+    paths = write_report(result, [run], tmp_path / "report")
+    assert {p.name for p in paths} >= {"fit.png", "force_residual.png", "report.md"}
+
+
+def test_a_fit_row_with_mismatched_samples_names_them():
+    with pytest.raises(ValueError, match="run 1: one value per sample needed; got t 3, "):
+        FitRow("run 1", np.zeros(3), np.zeros(3), np.zeros(2), np.zeros(3))

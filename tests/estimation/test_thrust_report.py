@@ -77,3 +77,24 @@ def test_calibration_report_has_a_readable_figure_and_a_summary_with_units(calib
 def test_a_calibration_without_a_table_is_refused(tmp_path):
     with pytest.raises(ValueError, match="calibration: got no table"):
         write_calibration_report({"run_id": "x", "table": []}, tmp_path)
+
+
+def test_a_calibration_with_telemetry_adds_the_stand_figure_and_columns(calibration, tmp_path):
+    """Steps carrying the controller's RPM and current (and so power and efficiency) get
+    the thrust-stand figure and their columns in the measured table."""
+    for row in calibration["table"]:
+        f, volts = row["thrust_per_thruster_n"], row["supply_voltage_v"]
+        amps = 12.0 * (abs(f) / 30.0) ** 1.5
+        row |= {"current_a": amps, "rpm": 3500 * np.sign(f) * np.sqrt(abs(f) / 30.0)}
+        if amps > 0:
+            row |= {"power_w": volts * amps, "efficiency_n_per_w": abs(f) / (volts * amps)}
+    paths = write_calibration_report(calibration, tmp_path / "report")
+    assert {"stand.png", "stand.svg"} <= {p.name for p in paths}
+    svg = (tmp_path / "report" / "stand.svg").read_text(encoding="utf-8")
+    assert "motor current per thruster [A]" in svg and "efficiency |F|/(V·I) [N/W]" in svg
+    md = (tmp_path / "report" / "report.md").read_text(encoding="utf-8")
+    assert "| current [A] | RPM | efficiency [N/W] |" in md
+    full = max(calibration["table"], key=lambda r: r["command"])
+    assert (
+        f"| {full['current_a']:.2f} | {full['rpm']:.0f} | {full['efficiency_n_per_w']:.3f} |" in md
+    )

@@ -33,9 +33,12 @@ def test_calibrate_thrusters_writes_the_report_of_the_stored_calibration(tmp_pat
     outcome = json.loads(done.stdout)  # stdout stays the outcome; the report path on stderr
     assert outcome["status"] == "completed"
     assert f"report: {out / 'report.md'}" in done.stderr
+    # The controller's RPM and current give the stand figure; the steps, the step response.
     assert sorted(p.name for p in out.iterdir()) == [
-        "calibration.png", "calibration.svg", "report.md",
+        "calibration.png", "calibration.svg", "report.md", "response.png", "response.svg",
+        "stand.png", "stand.svg",
     ]  # fmt: skip
+    assert "time from the output change [s]" in (out / "response.svg").read_text("utf-8")
     with Image.open(out / "calibration.png") as img:
         assert img.width >= 1000
     assert "command [fraction of full scale]" in (out / "calibration.svg").read_text("utf-8")
@@ -48,6 +51,8 @@ def test_calibrate_thrusters_writes_the_report_of_the_stored_calibration(tmp_pat
     gain = stored["fit"]["parameters"]["forward_gain"]
     assert f"| forward_gain | {gain['value']:.5g} ± {gain['std']:.2g} | N |" in md
     assert re.search(r"\| supply voltage, mean \| \d+\.\d\d \(range", md)
+    tau = stored["response"]["time_constant_s"]
+    assert f"| thrust lag τ (90 % settling) | {tau:.3g} ± " in md
     assert "![" in md and "(calibration.png)" in md
 
 

@@ -117,7 +117,8 @@ def test_sigkill_mid_run_leaves_an_interrupted_run_missing_at_most_a_second(db):
         assert store.integrity_check() == "ok"
 
 
-def test_sigterm_aborts_the_run_cleanly(db):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_aborts_the_run_cleanly_and_records_the_brake(db, sig):
     proc = subprocess.Popen(
         [*RIG, "tow", "--force", "4.9", "--max-time", "120", "--db", db, "--json"],
         cwd=ROOT,
@@ -125,17 +126,21 @@ def test_sigterm_aborts_the_run_cleanly(db):
         text=True,
     )
     run_id = _wait_for_samples(db, 15)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(sig)
     out, _ = proc.communicate(timeout=20)
     assert proc.returncode == 1
     outcome = json.loads(out)
     assert outcome == outcome | {
         "run_id": run_id,
         "status": "aborted",
-        "reason": "operator abort (SIGTERM)",
+        "reason": f"operator abort ({sig.name})",
     }
     with Store(db) as store:
         assert store.get_run(run_id).status == "aborted"
+        (safe,) = [e for e in store.events(run_id) if e.kind == "safe"]
+        assert safe.message.startswith("safe state: brake engaged (tow_release")
+        last = store.last_sample(run_id)
+        assert last is not None and last.channels["tow_release"] == 0
 
 
 def test_runs_show_export_import_round_trip(db, tmp_path):

@@ -90,6 +90,14 @@ async def test_abort_ends_run_aborted_with_samples_kept(session, store):
     assert store.get_run(outcome.run_id).status == "aborted"
     assert store.sample_count(outcome.run_id) >= 10
     assert await session.plc.read("tow_release") == 0
+    # Every ending the same way: the safe state is an event, and the run's last stored
+    # sample (read after it) shows the brake engaged.
+    (safe,) = [e for e in store.events(outcome.run_id) if e.kind == "safe"]
+    assert safe.message.startswith("safe state: brake engaged (tow_release")
+    assert safe.data["action"] == "safe_state" and not safe.data["errors"]
+    last = store.last_sample(outcome.run_id)
+    assert last is not None and last.channels["tow_release"] == 0
+    assert last.t_mono > safe.data["t_mono"]
 
 
 async def test_second_procedure_while_busy_is_refused(session):

@@ -15,6 +15,7 @@ from daq.procedures.params import ParameterError, calibration_parameters, tow_pa
 from daq.procedures.recording import AbortSignal
 from daq.procedures.thruster_drive import STALE_ZEROED
 from daq.run_data import load_run_data
+from daq.sim.scenario import ThrusterModel
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION, until_thrust_on
 from tests.readings import good
@@ -102,7 +103,13 @@ async def test_thruster_tow_from_the_inverse_map_and_abort(session, store):
     # no pulley inertia (line unhooked), and drawn drives around it.
     data = load_run_data(store, outcome.run_id)
     assert data.axis == "surge" and data.drive_inertia == 0.0 and data.hung_mass_kg is None
-    # Once ramp and thrust lag (rig file: 0.15 s) are over: the force the inverse map aimed
+    # The thrust lag the drive is rebuilt with is the one the calibration measured from its
+    # step responses: the simulated controller's τ within 10 %.
+    response = calibration["response"]
+    assert response["time_constant_s"] == pytest.approx(ThrusterModel().time_constant_s, rel=0.1)
+    assert response["std_s"] < 0.1 * response["time_constant_s"]
+    assert "thrust lag τ = " in data.drive_law and "measured by the calibration" in data.drive_law
+    # Once ramp and thrust lag (simulator: 0.15 s) are over: the force the inverse map aimed
     # at, to the command's per-mille resolution on the wire.
     # Within two standard deviations of the drive's own uncertainty (calibration and supply
     # readings: about 0.5 % here), not a fixed 0.3 %, which a run's voltage noise can exceed.

@@ -101,3 +101,50 @@ def test_a_reused_pid_or_a_reboot_does_not_keep_a_dead_run_running(store: Store)
         )
     assert sorted(store.recover_interrupted()) == sorted([reused, rebooted])
     assert store.get_run(live).status == "running"
+
+
+def test_a_run_of_another_host_is_interrupted_once_its_process_holds_no_lease(postgres_server):
+    """PostgreSQL shared by two hosts: the pid of another host cannot be checked, but its
+    lease can (``daq.rig_lock``): held → the run is left alone; gone → interrupted, naming
+    the process. A run with a sample younger than the grace is left to its own process."""
+    import sqlalchemy as sa
+
+    from daq.rig_lock.holder import LockHolder
+    from daq.rig_lock.postgres import PG_LOCK_CLASS, lease_holders
+    from daq.store.schema import runs
+    from daq.store.store import OTHER_HOST_GRACE_S
+    from tests.waiting import read_until
+
+    db_url = postgres_server.create_database()  # SQLite: one host only, its pids say it all
+    with Store(db_url) as store:
+        old, young = new_run(store), new_run(store)
+        long_ago = time.time() - OTHER_HOST_GRACE_S - 60
+        store.add_samples(young, make_samples(0, 3, t0_wall=time.time() - 1))
+        with store.transaction() as conn:
+            conn.execute(
+                sa.update(runs)
+                .where(runs.c.uuid.in_([old, young]))
+                .values(owner_host="lab-pc-2", owner_pid=4242, owner_boot_id="its-boot")
+            )
+            conn.execute(sa.update(runs).where(runs.c.uuid == old).values(started_at=long_ago))
+        # The other host's recording process, holding a device's advisory lock.
+        other = LockHolder("rig serve", 4242, "lab-pc-2", time.time(), "tow 24.5 N")
+        holder = sa.create_engine(db_url, poolclass=sa.pool.NullPool).connect()
+        holder.execute(sa.text("SELECT set_config('application_name', :v, false)"),
+                       {"v": other.to_pg_name()})  # fmt: skip
+        holder.execute(sa.text("SELECT pg_advisory_lock(:a, 12345)"), {"a": PG_LOCK_CLASS})
+        assert store.recover_interrupted() == []
+        assert store.get_run(old).status == "running"
+
+        holder.close()  # that process ended: the server drops its lock
+        with store.engine.connect() as conn:
+            read_until(lambda: lease_holders(conn), lambda h: not h, "its lock dropped")
+        assert store.recover_interrupted() == [old]
+        run = store.get_run(old)
+        assert (run.status, run.reason) == (
+            "interrupted",
+            "recording process pid 4242 on host lab-pc-2 no longer holds the rig; "
+            "it ended without finishing the run",
+        )
+        assert store.get_run(young).status == "running"  # its process may still end it
+    postgres_server.drop_database(db_url)

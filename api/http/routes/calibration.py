@@ -11,14 +11,17 @@ from starlette.concurrency import run_in_threadpool
 
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import csv_upload_body, error_responses
+from api.http.uploads import upload_bytes
+from daq.calibration_catalog import calibrations, latest, voltage_for
 from daq.calibration_law import NoCalibration, import_calibration, law_of
-from estimation.thrust.calibration_import import CommandUnit, ImportSpec
+from estimation.thrust.calibration_import import CommandUnit, ImportSpec, stand_columns
 
 router = APIRouter(prefix="/api", tags=["calibration"])
 
 _TABLE_BODY = csv_upload_body(
     "CSV with a header: a command column, a thrust column and optionally "
-    "a supply-voltage column (`,` `;` or tab separated; decimal commas and a BOM read)."
+    "a supply-voltage column and the stand's current (A), RPM and power (W) columns "
+    "(`,` `;` or tab separated; decimal commas and a BOM read)."
 )
 
 
@@ -43,10 +46,15 @@ async def import_table(
     thrust_unit: Annotated[Literal["N", "kgf", "gf", "lbf"], Query()] = "N",
     voltage_column: Annotated[str | None, Query(max_length=200)] = None,
     voltage_v: float | None = None,
+    current_column: Annotated[str | None, Query(max_length=200)] = None,
+    rpm_column: Annotated[str | None, Query(max_length=200)] = None,
+    power_column: Annotated[str | None, Query(max_length=200)] = None,
     name: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",
 ) -> dict[str, Any]:
     """Store a thrust-stand table as a calibration (no run needed) and return the thrust
-    law identified from it (``{id, name, rows, law}``)."""
+    law identified from it (``{id, name, rows, law}``). Current, RPM and power columns are
+    kept when named, or when their header says what they are (``Current (A)``, ``RPM``,
+    ``Power (W)``); efficiency (N/W) is derived from them."""
     spec = ImportSpec(
         command_column=command_column,
         thrust_column=thrust_column,
@@ -54,8 +62,9 @@ async def import_table(
         command=CommandUnit(command_unit, pwm_neutral_us, pwm_span_us, full_scale_v),
         voltage_column=voltage_column,
         voltage_v=voltage_v,
+        extra_columns=stand_columns(current_a=current_column, rpm=rpm_column, power_w=power_column),
     )
-    body = await request.body()  # capped by api.http.limits.BodyLimit (UPLOAD_PATHS)
+    body = await upload_bytes(request)  # capped by api.http.limits.BodyLimit (UPLOAD_PATHS)
     try:
         return await run_in_threadpool(import_calibration, store, body, spec, name)
     except ValueError as err:
@@ -67,15 +76,30 @@ async def import_table(
     dependencies=[Depends(require_read)],
     responses=error_responses(401),
 )
-def list_imported(store: StoreDep) -> list[dict[str, Any]]:
-    """Imported calibration tables, newest first (without their rows)."""
-    out = []
-    for c in reversed(store.imported_calibrations()):
-        item = c.to_json()
-        table = item.pop("data").get("table", [])
-        volts = sorted({r["supply_voltage_v"] for r in table if r["supply_voltage_v"] is not None})
-        out.append(item | {"rows": len(table), "voltages_v": volts})
-    return out
+def list_calibrations(store: StoreDep) -> list[dict[str, Any]]:
+    """Every thrust calibration, measured (``source: run``) and imported, newest first,
+    without their rows: ``label`` names it for people (``run fc3ab8ab``, ``imported 3
+    (T200-16V.csv)``), ``voltages_v`` and ``command_range`` what it covers, ``channels`` the
+    stand channels its rows carry besides thrust."""
+    return calibrations(store)
+
+
+@router.get(
+    "/calibration/latest",
+    dependencies=[Depends(require_read)],
+    responses=error_responses(401, 404),
+)
+def latest_calibration(store: StoreDep) -> dict[str, Any]:
+    """The newest thrust calibration, measured or imported (the one thruster-driven tests
+    use): its rows (``data.table``) and the fitted curve and inverse map (``data.fit``)."""
+    found = latest(store)
+    if found is None:
+        raise HTTPException(
+            404,
+            "no thrust calibration stored yet: run one (rig calibrate-thrusters) or import a "
+            "thrust-stand table (rig import-calibration)",
+        )
+    return found
 
 
 @router.get(
@@ -92,7 +116,13 @@ async def thrust(
         float | None, Query(description="Force per thruster, N: give the command.")
     ] = None,
     voltage_v: Annotated[
-        float | None, Query(gt=0, le=1000, description="Supply voltage (default: calibration's).")
+        float | None,
+        Query(
+            gt=0,
+            le=1000,
+            description="Supply voltage (default: the supply the rig recorded last, else the "
+            "calibration's reference voltage; ``voltage_source`` says which).",
+        ),
     ] = None,
     source: Annotated[Literal["imported", "run"] | None, Query()] = None,
     calibration_id: Annotated[int | None, Query(ge=1)] = None,
@@ -108,7 +138,9 @@ async def thrust(
         law, info = await run_in_threadpool(law_of, store, source, calibration_id)
     except NoCalibration as err:
         raise HTTPException(404, str(err)) from None
-    volts = law.reference_voltage if voltage_v is None else voltage_v
+    volts, voltage_source = await run_in_threadpool(
+        voltage_for, store, law.reference_voltage, voltage_v
+    )
     if command is not None:
         out = law.estimate(command, volts)
         answer: dict[str, Any] = {"command": command, "force_n": out.to_json()}
@@ -118,4 +150,9 @@ async def thrust(
         except ValueError as err:
             raise ValueError(f"force_n: {str(err).removeprefix('force: ')}") from None
         answer = {"force_n": force_n, "command": out.to_json()}
-    return answer | {"voltage_v": volts, "calibration": info, "voltage_law": out.voltage_law}
+    return answer | {
+        "voltage_v": volts,
+        "voltage_source": voltage_source,
+        "calibration": info,
+        "voltage_law": out.voltage_law,
+    }

@@ -30,7 +30,8 @@ async def crosscheck(body: CrossCheckRequest, store: StoreDep, runner: RunnerDep
     """Cross-check two stored estimation results (weight- vs thruster-driven, same axis):
     per coefficient both values ± σ_total, z and verdict, the diagnosis; stored as a
     ``crosscheck`` result linked to the runs of both (its id in ``result_id``; the plot at
-    ``/api/results/{result_id}/report/crosscheck.png``). No fitting: fast."""
+    ``/api/results/{result_id}/report/crosscheck.png``). No fitting: fast. A pair already
+    cross-checked answers that stored result (``reused: true``), never a second copy."""
     from api.core.crosscheck_job import crosscheck_results
 
     def work() -> dict:
@@ -38,7 +39,8 @@ async def crosscheck(body: CrossCheckRequest, store: StoreDep, runner: RunnerDep
             data = crosscheck_results(
                 store, body.weight_result_id, body.thruster_result_id, report_dir=folder
             )
-            runner.adopt_report(data["result_id"], Path(folder))
+            if not data.get("reused"):
+                runner.adopt_report(data["result_id"], Path(folder))
         data.pop("report_files", None)
         return data
 

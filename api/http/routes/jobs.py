@@ -11,7 +11,7 @@ from fastapi import APIRouter, Depends, Query
 
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
-from api.core.jobs import JobRunner
+from api.core.jobs import LIST_LIMIT, JobRunner
 from api.core.service import RigService
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
 from api.http.schemas import (
@@ -22,6 +22,7 @@ from api.http.schemas import (
     error_responses,
 )
 from daq.procedures.kinds import KINDS, KindSpec
+from daq.store.schema import JobState
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 409, 422, 503)
@@ -110,10 +111,12 @@ def start_estimation(
     runner: RunnerDep,
 ) -> dict:
     """Estimate coefficients from stored runs in a worker thread; poll the job for the result."""
-    from api.core.estimation_job import check_estimation_request
+    from api.core.estimation_job import load_estimation_runs
 
     run_ids = [store.get_run(r).id for r in body.run_ids]  # 404 for an unknown id, now
-    check_estimation_request(store, run_ids, body.method)  # 422: mixed kinds, method per kind
+    # 422 for bad input (mixed kinds, a method the kind lacks, a run without its drive or
+    # too short), so a failed job always means the fit itself failed
+    load_estimation_runs(store, run_ids, body.method)
     return runner.start_estimation(run_ids, body.method, body.search_effects).to_json()
 
 
@@ -123,9 +126,14 @@ def start_estimation(
     dependencies=[Depends(require_read)],
     responses=error_responses(401),
 )
-def list_jobs(runner: RunnerDep) -> list[dict]:
+def list_jobs(
+    runner: RunnerDep,
+    limit: Annotated[int, Query(ge=1, le=LIST_LIMIT, description="At most this many.")] = 100,
+    offset: Annotated[int, Query(ge=0, description="Skip this many of the newest.")] = 0,
+    state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
+) -> list[dict]:
     """This rig's jobs, newest first, from the database (so they outlive a restart)."""
-    return [j.to_json() for j in runner.list()]
+    return [j.to_json() for j in runner.list(limit=limit, offset=offset, state=state)]
 
 
 @router.get(
@@ -181,3 +189,17 @@ _control_route(
     JobRunner.confirm,
     "Confirm the operator act a job is waiting for (state ``waiting_for_operator``).",
 )
+
+
+@router.post(
+    "/{job_id}/requeue",
+    status_code=202,
+    response_model=JobOut,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 404, 409, 422, 503),
+)
+def requeue_job(job_id: str, runner: RunnerDep) -> dict:
+    """Submit a past procedure job's request again: a new job, validated like any
+    submission and queued while the rig is busy or the queue paused (409 for an analysis or
+    a job still queued)."""
+    return runner.requeue(job_id).to_json()

@@ -1,15 +1,24 @@
-"""Queue routes: the rig's queue of procedure jobs — view, reorder, remove, pause, resume
-(like bluesky-queueserver's queue)."""
+"""Queue routes: the rig's queue of procedure jobs — view, reorder, replace a job's
+parameters, remove, run one now, stop after the current job, resume (like
+bluesky-queueserver's queue)."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends
+from typing import Annotated, Any
 
+from fastapi import APIRouter, Body, Depends
+from fastapi.exceptions import RequestValidationError
+from pydantic import BaseModel, ValidationError
+
+from api.core.job_model import JobConflict
 from api.http.deps import RunnerDep, require_read, require_write
-from api.http.schemas import QueueMoveRequest, QueueOut, error_responses
+from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, SequenceRequest, error_responses
+from daq.procedures.kinds import KINDS
 
 router = APIRouter(prefix="/api/queue", tags=["queue"])
 _CHANGE = error_responses(401, 404, 409, 503)
+#: Job kinds whose request a queued job can have replaced.
+_EDITABLE = (*KINDS, "sequence")
 
 
 @router.get(
@@ -34,6 +43,55 @@ def move_job(job_id: str, body: QueueMoveRequest, runner: RunnerDep) -> dict:
     return runner.move(job_id, body.position)
 
 
+def _request_model(kind: str) -> type[BaseModel]:
+    """The body a new ``kind`` job is submitted with."""
+    return SequenceRequest if kind == "sequence" else KINDS[kind].request  # type: ignore[index]
+
+
+@router.put(
+    "/{job_id}",
+    response_model=JobOut,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 404, 409, 422, 503),
+)
+def replace_job(
+    job_id: str,
+    body: Annotated[
+        dict[str, Any],
+        Body(
+            description="The job's new request: the body its kind's ``POST /api/jobs/…`` "
+            "takes (a tow's ``{force_n, drive, …}``, a sequence's ``{steps, …}``)."
+        ),
+    ],
+    runner: RunnerDep,
+) -> dict:
+    """Replace a queued job's parameters, validated exactly like a new submission (422
+    naming the field); it keeps its place in the queue (409 once it started)."""
+    job = runner.get(job_id)
+    if job.position is None:
+        raise JobConflict(f"job {job.id} is not in the queue (state {job.state})")
+    try:
+        parsed = _request_model(job.kind).model_validate(body) if job.kind in _EDITABLE else None
+    except ValidationError as err:
+        raise RequestValidationError(
+            [e | {"loc": ("body", *e["loc"])} for e in err.errors(include_context=False)]
+        ) from None
+    request = parsed.model_dump(mode="json", exclude_none=True) if parsed is not None else body
+    return runner.replace(job_id, request).to_json()
+
+
+@router.post(
+    "/{job_id}/run-now",
+    response_model=QueueOut,
+    dependencies=[Depends(require_write)],
+    responses=_CHANGE,
+)
+def run_job_now(job_id: str, runner: RunnerDep) -> dict:
+    """Put a queued job first and resume the queue: it starts now if the rig is free, else
+    as soon as the job on the rig ends (409 for a job not queued)."""
+    return runner.run_now(job_id)
+
+
 @router.delete(
     "/{job_id}",
     response_model=QueueOut,
@@ -49,8 +107,9 @@ def remove_job(job_id: str, runner: RunnerDep) -> dict:
     "/pause", response_model=QueueOut, dependencies=[Depends(require_write)], responses=_CHANGE
 )
 def pause_queue(runner: RunnerDep) -> dict:
-    """Start no further queued job; the job on the rig goes on."""
-    return runner.pause_queue()
+    """Stop after the current job: the job on the rig goes on, no further queued job (nor
+    one started now) runs until the queue is resumed."""
+    return runner.stop_after_current()
 
 
 @router.post(

@@ -1,6 +1,6 @@
 """Run routes: list with filters, one run, samples (JSON paged, CSV streamed), export
-(CSV, JSON, NetCDF, Parquet), events, results, CSV import; estimation/calibration results
-and report plots.
+(CSV, JSON, NetCDF, Parquet), events, results; estimation/calibration results and report
+plots. The CSV import is ``api.http.routes.imports``.
 
 One module because every route here is under /api/runs or /api/results and shares the id
 resolution (404 for unknown or malformed ids) and the error bodies.
@@ -8,38 +8,34 @@ resolution (404 for unknown or malformed ids) and the error bodies.
 
 from __future__ import annotations
 
-import re
 import shutil
 import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Request
+from fastapi import APIRouter, Depends, HTTPException, Query
 from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
-from api.core.csv_upload import import_file, save_stream
 from api.core.job_model import without_report_files
 from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.run_cache import EndedRunCache
-from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read, require_write
+from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import (
     EventOut,
-    ImportOut,
     ResultOut,
     RunOut,
     SamplesOut,
-    csv_upload_body,
     error_responses,
 )
 from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
+from daq.store.channel_units import column_infos
 from daq.store.csvio import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
-from daq.store.run_metadata import check_run_metadata, check_tag
 from daq.vocabulary import RunKind, RunStatus
 
 router = APIRouter(prefix="/api", tags=["runs"])
@@ -184,6 +180,7 @@ def get_samples(
         "t_wall": cols["t_wall"][:n],
         "quality": cols["quality"][:n],
         "channels": {k: v[:n] for k, v in cols["channels"].items()},
+        "units": {k: c.units for k, c in column_infos(run).items() if k in cols["channels"]},
     }
     return out
 
@@ -275,154 +272,6 @@ def get_run_results(run_id: str, store: StoreDep, runner: RunnerDep) -> list[dic
     return [_result_json(r, runner) for r in store.results(store.get_run(run_id).id)]
 
 
-_IMPORT_BODY = csv_upload_body(
-    "CSV with a header: t (s), position (m or rad), more columns allowed "
-    "(a drive logged per sample among them, named by drive_column)."
-)
-
-
-def upload_file_name(filename: str) -> str:
-    """The uploaded file's name as given, checked to be a plain file name (no folder, not
-    ``.``/``..``, no NUL) and made of safe characters, so it never reaches the file system
-    as a path; 422 naming ``filename`` otherwise."""
-    if filename in (".", "..") or any(c in filename for c in "/\\\0") or filename.strip(". ") == "":
-        raise ValueError(
-            f"filename: {filename!r} is not allowed; give the file's name alone, without "
-            "folders (e.g. tow-24N.csv)"
-        )
-    return re.sub(r"[^A-Za-z0-9._-]", "_", filename)
-
-
-def _import_metadata(
-    operator: str | None, water: float | None, notes: str | None, tags: list[str] | None
-) -> dict | None:
-    """The import's metadata query parameters, checked before the body is read (errors
-    name the query parameter)."""
-    given = {"operator": operator, "water_temperature_c": water, "notes": notes}
-    metadata = {key: value for key, value in given.items() if value is not None}
-    if tags:
-        metadata["tags"] = [check_tag("tag", t) for t in tags]
-    return check_run_metadata(metadata, prefix="") or None
-
-
-@router.post(
-    "/runs/import",
-    status_code=201,
-    response_model=ImportOut,
-    dependencies=[Depends(require_write)],
-    responses=error_responses(401, 413, 422),
-    openapi_extra=_IMPORT_BODY,
-)
-async def import_run(
-    request: Request,
-    kind: Annotated[
-        Literal["tow", "spin", "pendulum"], Query(description="What the CSV recorded.")
-    ],
-    store: StoreDep,
-    service: ServiceDep,
-    force_n: Annotated[
-        float | None, Query(description="Tow force, N (tow runs; negative: a reverse tow).")
-    ] = None,
-    torque_nm: Annotated[
-        float | None, Query(description="Torque, N·m (spin runs; negative: a reverse spin).")
-    ] = None,
-    drive_column: Annotated[
-        str | None,
-        Query(
-            min_length=1,
-            max_length=200,
-            description="Column of the force (tow) or torque (spin) logged per sample, "
-            "instead of force_n/torque_nm.",
-        ),
-    ] = None,
-    drive_unit: Annotated[
-        str | None,
-        Query(
-            max_length=20,
-            description="Unit of drive_column: N, kN, kgf, gf, lbf (tow); N·m, kgf·m, … "
-            "(spin). Default N or N·m.",
-        ),
-    ] = None,
-    weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
-    vehicle: Annotated[str, Query(min_length=1, max_length=200)] = "unknown",
-    filename: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",
-    time_unit: Annotated[
-        Literal["s", "ms", "us"], Query(description="Unit of the t column.")
-    ] = "s",
-    release_time_s: Annotated[
-        float | None,
-        Query(description="Brake release, s on the t axis (default: found in the data)."),
-    ] = None,
-    end_time_s: Annotated[
-        float | None,
-        Query(description="End of free motion, s on the t axis (default: found in the data)."),
-    ] = None,
-    operator: Annotated[str | None, Query(description="Run metadata: who ran the test.")] = None,
-    water_temperature_c: Annotated[
-        float | None, Query(description="Run metadata: water temperature, °C (-2…50).")
-    ] = None,
-    notes: Annotated[str | None, Query(description="Run metadata: free notes.")] = None,
-    tag: Annotated[list[str] | None, Query(description="Run metadata: a tag (repeatable).")] = None,
-) -> dict:
-    """Import a CSV recorded elsewhere as a completed run (body = the CSV text, at most
-    ``max_upload_bytes`` and ``MAX_IMPORT_ROWS`` rows; parsed in a separate process).
-
-    Estimation finds the release and the end of free motion from the
-    ``tow_release``/``spin_release``/``end_of_travel`` columns when present, else from the
-    motion; ``release_time_s``/``end_time_s`` override that. ``operator``,
-    ``water_temperature_c``, ``notes`` and ``tag`` update the file's ``# metadata:`` line.
-    ``drive_column`` names a drive logged per sample. A pendulum decay (angle in rad) is
-    stored with the rig file the service runs with (its ``[pendulum]`` geometry)."""
-    metadata = _import_metadata(operator, water_temperature_c, notes, tag)
-    origin: dict = {"vehicle": vehicle}
-    params: dict = {}
-    if kind == "pendulum":
-        given = {"force_n": force_n, "torque_nm": torque_nm, "drive_column": drive_column}
-        for name, value in (given | {"weight_kg": weight_kg}).items():
-            if value is not None:
-                raise ValueError(f"{name}: not used by a pendulum free decay (it has no drive)")
-        rig = service.source.rig
-        if rig.pendulum is None:
-            raise ValueError(
-                f"kind: 'pendulum' needs a [pendulum] section in the rig file {rig.rig.name!r} "
-                "runs with (the pendulum's geometry)"
-            )
-        origin = {
-            "rig_name": rig.rig.name,
-            "vehicle": rig.vehicle.name if vehicle == "unknown" else vehicle,
-            "rig_toml": service.source.rig_toml,
-        }
-    else:
-        load = {"tow": ("force_n", force_n), "spin": ("torque_nm", torque_nm)}[kind]
-        params = {load[0]: load[1]} if load[1] is not None else {}
-        if weight_kg is not None:
-            params["hung_mass_kg"] = weight_kg
-    name = upload_file_name(filename)
-    with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
-        path = Path(folder) / name  # a name, never a path: it stays in the folder
-        await save_stream(request.stream(), path)  # the size cap is api.http.limits.BodyLimit's
-        try:
-            run_id, samples = await import_file(
-                store,
-                path,
-                kind=kind,
-                parameters=params,
-                time_unit=time_unit,
-                release_time_s=release_time_s,
-                end_time_s=end_time_s,
-                metadata=metadata,
-                drive_column=drive_column,
-                drive_unit=drive_unit,
-                **origin,
-            )
-        except ValueError as err:
-            message = str(err).replace(str(path), name)
-            if "line" in message and not message.startswith(name):
-                message = f"{name}: {message}"
-            raise ValueError(message) from None
-    return {"run_id": run_id, "samples": samples}
-
-
 # ---- results ----------------------------------------------------------------------------------
 def _result_json(result, runner: JobRunner) -> dict:
     data = without_report_files(result.to_json())
@@ -461,20 +310,6 @@ def _find_result(store: Store, result_id: int):
 def get_result(result_id: int, store: StoreDep, runner: RunnerDep) -> dict:
     """One result (estimation JSON of issue 4, or a thrust calibration with its inverse map)."""
     return _result_json(_find_result(store, result_id), runner)
-
-
-@router.get(
-    "/calibration/latest",
-    response_model=ResultOut,
-    dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404),
-)
-def latest_calibration(store: StoreDep, runner: RunnerDep) -> dict:
-    """The newest thrust calibration: table, fitted curve and inverse map."""
-    latest = store.latest_result("calibration")
-    if latest is None:
-        raise HTTPException(404, "no thrust calibration stored yet; run one first")
-    return _result_json(latest, runner)
 
 
 def _report_figure_route(suffix: str, function_name: str, doc: str) -> None:

@@ -4,7 +4,7 @@
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed", "interrupted"];
-const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {} };
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {}, jobDocs: {} };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
@@ -397,7 +397,16 @@ async function stream() {
           if (!data) continue;
           const obj = JSON.parse(data);
           if (kind === "sample") onSample(obj);
-          else if (kind === "job") onJobEvent(obj);
+          else if (kind === "job") {
+            if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
+            else state.jobDocs[obj.id] = obj;
+            onJobEvent(obj);
+          } else if (kind === "job_progress" && state.jobDocs[obj.id]) {
+            // only the progress changed: the stream sends it without the rest of the job
+            const job = { ...state.jobDocs[obj.id], state: obj.state, progress: obj.progress };
+            state.jobDocs[obj.id] = job;
+            onJobEvent(job);
+          }
         }
       }
     } catch (err) {
@@ -409,6 +418,7 @@ async function stream() {
 
 function onJobEvent(job) {
   if (job.kind === "estimation") return showEstimationJob(job);
+  if (typeof onQueueJobEvent === "function") onQueueJobEvent(job); // queue.js
   // a job queued behind the one on the rig does not take its panel (see /api/queue)
   const onRig = state.job && state.job.id !== job.id && !FINAL.includes(state.job.state);
   if (job.state === "queued" && onRig) return;
@@ -473,7 +483,7 @@ function showRunMeta(run) {
     ["Drive", run.drive || "—"],
     ["Load", load(run)],
     ["Source", run.source === "imported" ? `imported ${new Date(run.imported_at).toLocaleString()} from ${run.source_file}` : "recorded"],
-    ["Parameters", JSON.stringify(run.parameters)],
+    ...(run.parameters_labelled || []).map((p) => [p.label[0].toUpperCase() + p.label.slice(1), p.shown]),
     ["Recorded at", new Date(run.started_at).toLocaleString()],
     ["Duration", `${fmt(run.duration_s, 4)} s`],
     ["Samples", run.sample_count],
@@ -510,31 +520,93 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
   }
 });
 
-async function openRun(runId) {
-  location.hash = "#runs";
+// The run detail plots any of the run's channels, with units, one row per unit, and other
+// runs overlaid, on the time from each run's release (from its first sample when a run has
+// no release event).
+const DEFAULT_CHANNEL = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" };
+state.runPlot = { runs: [], channels: [] }; // [{run, samples, release}], chosen channel names
+
+async function runSeries(runId) {
   const [run, samples, events] = await Promise.all([
     api("GET", `/api/runs/${runId}`),
     api("GET", `/api/runs/${runId}/samples?limit=100000`),
     api("GET", `/api/runs/${runId}/events`),
   ]);
+  const released = events.find((e) => e.data && e.data.action === "release" && e.data.t_mono !== undefined);
+  return { run, samples, events, release: released ? released.data.t_mono : null };
+}
+
+async function openRun(runId) {
+  location.hash = "#runs";
+  const shown = await runSeries(runId);
+  const { run, events } = shown;
   state.selectedRun = run;
   $("#run-detail").hidden = false;
   $("#run-detail-id").textContent = run.id;
   $$("#runs-table tbody tr").forEach((tr) => tr.classList.toggle("selected", tr.dataset.run === run.id));
   showRunMeta(run);
   $("#run-annotate-status").textContent = "";
-  const channel = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" }[run.kind] || "tow_position";
-  const y = samples.channels[channel] || samples.channels.position || [];
-  Plotly.newPlot(
-    "run-plot",
-    [{ x: samples.t, y, mode: "lines+markers", marker: { size: 3 }, name: channel }],
-    { margin: { t: 10, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: channel } } },
-    { responsive: true, displaylogo: false },
-  );
+  const names = Object.keys(shown.samples.channels);
+  const first = DEFAULT_CHANNEL[run.kind] || "tow_position";
+  state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean) };
+  $("#run-channels").innerHTML = names
+    .map((k) => {
+      const unit = shown.samples.units[k] || "";
+      const on = state.runPlot.channels.includes(k) ? "checked" : "";
+      return `<label class="chip"><input type="checkbox" value="${esc(k)}" ${on}>${esc(k.replace(/_/g, " "))} <span class="muted">${esc(unit)}</span></label>`;
+    })
+    .join("");
+  $("#run-overlay-pick").innerHTML = `<option value="">—</option>` + state.runs
+    .filter((r) => r.id !== run.id)
+    .map((r) => `<option value="${r.id}">${r.id.slice(0, 8)} ${esc(r.kind)} ${esc(load(r))}</option>`)
+    .join("");
+  drawRunPlot();
   $("#run-events").innerHTML = events
     .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
     .join("");
 }
+
+function drawRunPlot() {
+  const { runs, channels } = state.runPlot;
+  const fromRelease = runs.every((r) => r.release !== null);
+  const series = [];
+  for (const [i, r] of runs.entries()) {
+    const s = r.samples;
+    const t0 = fromRelease ? r.release : s.t_mono[0];
+    const x = s.t_mono.map((t) => t - t0);
+    for (const k of channels) {
+      if (!(k in s.channels)) continue;
+      const unit = s.units[k] === "1" ? "" : s.units[k] || "";
+      const label = k.replace(/_/g, " ");
+      const who = runs.length > 1 ? ` · ${r.run.id.slice(0, 8)}${i === 0 ? "" : " (overlay)"}` : "";
+      series.push({ x, y: s.channels[k], name: `${label}${unit ? ` [${unit}]` : ""}${who}`, label, unit, key: `${r.run.id}:${k}` });
+    }
+  }
+  $("#run-overlays").innerHTML = runs
+    .slice(1)
+    .map((r) => `<span class="tag">${r.run.id.slice(0, 8)} <button type="button" data-drop="${r.run.id}" title="Remove the overlay">×</button></span>`)
+    .join("");
+  const xTitle = fromRelease ? "time from release [s]" : "time from first sample [s]";
+  unitRowsPlot("run-plot", series, { xTitle, empty: "Choose channels above", revision: runs[0] && runs[0].run.id });
+}
+
+$("#run-channels").addEventListener("change", () => {
+  state.runPlot.channels = $$("#run-channels input:checked").map((i) => i.value);
+  drawRunPlot();
+});
+$("#run-overlay-pick").addEventListener("change", async (ev) => {
+  const id = ev.target.value;
+  ev.target.value = "";
+  if (!id || state.runPlot.runs.some((r) => r.run.id === id)) return;
+  state.runPlot.runs.push(await runSeries(id));
+  drawRunPlot();
+});
+$("#run-overlays").addEventListener("click", (ev) => {
+  const id = ev.target.dataset && ev.target.dataset.drop;
+  if (!id) return;
+  state.runPlot.runs = state.runPlot.runs.filter((r) => r.run.id !== id);
+  drawRunPlot();
+});
 const EXPORT_SUFFIX = { csv: ".csv", json: ".json", netcdf: ".nc", parquet: ".parquet" };
 $("#export-run").onclick = () => {
   const run = state.selectedRun, format = $("#export-format").value;
@@ -761,10 +833,13 @@ async function loadCalibration() {
   }
   const data = cal.data;
   const table = data.table || [];
-  $("#cal-status").textContent = `Calibration ${cal.id} of ${new Date(cal.created_at).toLocaleString()} (run ${cal.run_ids[0].slice(0, 8)}).`;
+  const volts = cal.voltages_v.length ? ` at ${cal.voltages_v.join(", ")} V` : "";
+  $("#cal-status").textContent = `Newest calibration: ${cal.label} of ${new Date(cal.created_at).toLocaleString()}${volts}.`;
+  const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
   $("#cal-table tbody").innerHTML = table
-    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${r.direction}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${fmt(r.supply_voltage_v, 4)}</td></tr>`)
+    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${cell(r.supply_voltage_v, 4)}</td><td>${cell(r.current_a, 4)}</td><td>${cell(r.efficiency_n_per_w, 3)}</td></tr>`)
     .join("");
+  loadCalibrationList();
   const traces = [
     { x: table.map((r) => r.command), y: table.map((r) => r.thrust_per_thruster_n), mode: "markers", name: "measured" },
   ];
@@ -794,6 +869,13 @@ async function loadCalibration() {
     { title: { text: "Thrust curve" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "command (fraction)" } }, yaxis: { title: { text: "thrust per thruster (N)" } } },
     { responsive: true, displaylogo: false },
   );
+}
+
+async function loadCalibrationList() {
+  const all = await api("GET", "/api/calibrations");
+  $("#cal-list tbody").innerHTML = all
+    .map((c) => `<tr><td>${esc(c.label)}</td><td>${c.source === "run" ? "measured" : "imported"}</td><td>${new Date(c.created_at).toLocaleString()}</td><td>${c.rows}</td><td>${c.voltages_v.map((v) => fmt(v, 3)).join(", ") || "—"}</td><td>${esc(c.channels.join(", ")) || "—"}</td></tr>`)
+    .join("");
 }
 
 // ---- start ------------------------------------------------------------------------------------

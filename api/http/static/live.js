@@ -28,29 +28,6 @@ const live = {
   count: 0,
 };
 
-// ---- axis ticks --------------------------------------------------------------------------
-// A 1-2-5 step giving about `target` intervals over [lo, hi], and a range just beyond the
-// outer ticks.
-function niceAxis(lo, hi, target = 5) {
-  if (!Number.isFinite(lo) || !Number.isFinite(hi)) return null;
-  if (hi - lo < 1e-12) {
-    const pad = Math.max(Math.abs(lo) * 0.05, 1e-3);
-    lo -= pad;
-    hi += pad;
-  }
-  const raw = (hi - lo) / target;
-  const mag = 10 ** Math.floor(Math.log10(raw));
-  const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= raw * (1 - 1e-9));
-  const decimals = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
-  const [a, b] = [Math.floor(lo / step + 1e-9) * step, Math.ceil(hi / step - 1e-9) * step];
-  const margin = 0.04 * (b - a); // the outer ticks stay on 1-2-5 values, lines off the frame
-  return {
-    range: [a - margin, b + margin],
-    dtick: step,
-    tickformat: `.${decimals}f`,
-  };
-}
-
 // ---- channels ----------------------------------------------------------------------------
 function liveChannelList() {
   const units = (state.rig && state.rig.units) || {};
@@ -171,53 +148,19 @@ function resetLive() {
 }
 
 // ---- plot ------------------------------------------------------------------------------------
-const LIVE_ROW_PX = 190;
-
 function liveDraw() {
   const chosen = live.channels.filter((c) => live.selected.includes(c.key));
-  const units = [...new Set(chosen.map((c) => c.unit))];
-  const rows = Math.max(units.length, 1);
-  const gap = 0.06;
-  const h = (1 - gap * (rows - 1)) / rows;
   const t = live.buffer.map((p) => p.t);
-  const layout = {
-    height: 60 + Math.max(LIVE_ROW_PX * rows, 300),
-    margin: { t: 30, r: 20, b: 45, l: 75 },
-    showlegend: true,
-    legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
-    xaxis: { title: { text: "time [s]" }, anchor: rows > 1 ? `y${rows}` : "y", zeroline: false },
-    uirevision: "live",
-  };
-  const traces = [];
-  units.forEach((unit, r) => {
-    const axis = r === 0 ? "yaxis" : `yaxis${r + 1}`;
-    const ref = r === 0 ? "y" : `y${r + 1}`;
-    const inRow = chosen.filter((c) => c.unit === unit);
-    const ys = [];
-    for (const [i, c] of inRow.entries()) {
-      const y = live.buffer.map((p) => (p.v[c.key] === undefined ? null : p.v[c.key]));
-      ys.push(...y.filter((x) => x !== null));
-      traces.push({ x: t, y, name: c.unit ? `${c.label} [${c.unit}]` : c.label, meta: c.key, mode: "lines", yaxis: ref,
-        line: { dash: ["solid", "dash", "dot", "dashdot"][i % 4] } }); // equal commands stay visible
-    }
-    const name = inRow.length === 1 ? inRow[0].label.replace(/ \(from .*\)$/, "") : unit === "fraction" ? "command" : "";
-    const top = 1 - r * (h + gap);
-    layout[axis] = {
-      domain: [Math.max(top - h, 0), top],
-      title: { text: unit ? `${name} [${unit}]`.trim() : name || "state" },
-      zeroline: false,
-    };
-    const nice = ys.length ? niceAxis(Math.min(...ys), Math.max(...ys)) : null;
-    if (nice) Object.assign(layout[axis], { range: nice.range, tickmode: "linear", tick0: 0, dtick: nice.dtick, tickformat: nice.tickformat });
-  });
-  if (!units.length) {
-    const text = live.channels.length ? "Choose channels above" : "Waiting for the rig's channels…";
-    layout.annotations = [{ text, showarrow: false, xref: "paper", yref: "paper", x: 0.5, y: 0.5, font: { size: 14 } }];
-    layout.xaxis.visible = false;
-    layout.yaxis = { visible: false };
-    layout.height = 300;
-  }
-  Plotly.react("live-plot", traces, layout, { responsive: true, displaylogo: false });
+  const series = chosen.map((c) => ({
+    x: t,
+    y: live.buffer.map((p) => (p.v[c.key] === undefined ? null : p.v[c.key])),
+    name: c.unit ? `${c.label} [${c.unit}]` : c.label,
+    label: c.label.replace(/ \(from .*\)$/, ""),
+    unit: c.unit,
+    key: c.key,
+  }));
+  const empty = live.channels.length ? "Choose channels above" : "Waiting for the rig's channels…";
+  unitRowsPlot("live-plot", series, { xTitle: "time [s]", empty, revision: "live" });
 }
 
 function initLivePlot() {

@@ -1,0 +1,149 @@
+"""``rig import``: a CSV recorded elsewhere (or a towrig export) as a completed run.
+
+The import's rules (kind, drive, rig limits, the export's header) are
+``api.core.run_import``'s, shared with ``POST /api/runs/import``; this is the command's face.
+"""
+
+from __future__ import annotations
+
+import click
+
+from api.cli.common import (
+    db_option,
+    echo_json,
+    fail,
+    flag_names,
+    json_option,
+    open_store,
+    user_errors,
+)
+
+
+@click.command("import")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option(
+    "--kind",
+    type=click.Choice(["tow", "spin", "pendulum"]),
+    help="Tow (position in m), spin (angle in rad) or pendulum free decay (angle in rad; "
+    "--rig gives the geometry). Default: the kind a towrig export names in its header.",
+)
+@click.option("--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow).")
+@click.option(
+    "--torque", "torque_nm", type=float, help="Spin torque in N·m (negative: a reverse spin)."
+)
+@click.option(
+    "--drive-column",
+    metavar="NAME",
+    help="Column with the force (tow) or torque (spin) logged per sample, instead of "
+    "--force/--torque.",
+)
+@click.option(
+    "--drive-unit",
+    metavar="UNIT",
+    help="Unit of --drive-column: N, kN, kgf, gf, lbf (tow); N·m (or N*m), kgf·m, … (spin). "
+    "Default N or N·m.",
+)
+@click.option(
+    "--weight",
+    "weight_kg",
+    type=float,
+    help="Hung weight in kg, if known (lets estimation account for its inertia).",
+)
+@click.option(
+    "--vehicle", default=None, help="Vehicle name (default: the rig file's, else 'unknown')."
+)
+@click.option(
+    "--rig",
+    "rig_file",
+    metavar="FILE",
+    default=None,
+    help="Rig file the data was recorded on (gives pulley/drum inertia to estimation).",
+)
+@click.option(
+    "--time-unit",
+    type=click.Choice(["s", "ms", "us"]),
+    default="s",
+    show_default=True,
+    help="Unit of the t column (a median step over 1 s is refused as not seconds).",
+)
+@click.option(
+    "--release-time",
+    "release_time_s",
+    type=float,
+    help="Brake release, s on the t axis (default: found from the release coil or the motion).",
+)
+@click.option(
+    "--end-time",
+    "end_time_s",
+    type=float,
+    help="End of free motion, s on the t axis (default: end_of_travel/brake/carriage at rest).",
+)
+@db_option
+@json_option
+def import_(
+    file,
+    kind,
+    force_n,
+    torque_nm,
+    drive_column,
+    drive_unit,
+    weight_kg,
+    vehicle,
+    rig_file,
+    time_unit,
+    release_time_s,
+    end_time_s,
+    db_url,
+    as_json,
+):
+    """Import a CSV (columns t [s] and position [m or rad]; more allowed); prints the new run id.
+
+    Estimation finds the free-motion window itself (tow_release/spin_release and
+    end_of_travel columns when present, else the motion); --release-time/--end-time
+    override it. A drive logged per sample: --drive-column (and --drive-unit) instead of
+    --force/--torque. A pendulum decay needs --rig with a [pendulum] section (its
+    geometry); its release is the first sample unless --release-time says otherwise.
+    With --rig the load is checked against its limits; a constant load whose sign disagrees
+    with the recorded motion is refused. A towrig export (rig export) imports back as it
+    was: kind, load, hung weight, release and vehicle come from its header."""
+    from api.cli.metadata import run_metadata
+    from api.core.run_import import ImportRequest, plan_import
+    from daq.procedures.params import ParameterError
+    from daq.store import import_csv
+
+    ctx = click.get_current_context()
+    request = ImportRequest(
+        kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
+        drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
+        release_time_s=release_time_s, end_time_s=end_time_s,
+    )  # fmt: skip
+    source = None
+    if rig_file:
+        from daq.session import RigSource
+
+        with user_errors():
+            source = RigSource.load(rig_file)
+    with user_errors():
+        try:
+            plan = plan_import(file, request, rig=source, rig_field="rig_file")
+        except ValueError as err:
+            if isinstance(err, ParameterError):
+                raise
+            fail(flag_names(ctx, str(err)))
+    if plan.from_header:
+        taken = ", ".join(f"{k} {v}" for k, v in plan.from_header.items())
+        click.echo(f"note: from the file's export header: {taken}", err=True)
+    store = open_store(db_url)
+    try:
+        try:
+            run_id = import_csv(
+                store, file, metadata=run_metadata(), kind=plan.kind, **plan.options
+            )
+        except ValueError as err:
+            fail(flag_names(ctx, str(err)))
+        if as_json:
+            echo_json({"run_id": run_id, "from_header": plan.from_header})
+        else:
+            click.echo(run_id)
+    finally:
+        store.close()

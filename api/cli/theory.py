@@ -1,0 +1,182 @@
+"""``rig predict-added-mass`` and ``rig water``: theory beside measurement (the vehicle's
+hull as a primitive in an unbounded fluid) and the water's ρ, ν at a temperature."""
+
+from __future__ import annotations
+
+import click
+
+from api.cli.common import db_option, echo_json, estimate_option, fail, json_option, open_store
+from api.core import sixdof as sixdof_common
+from api.core import theory as theory_common
+from daq.store import ResultNotFound
+
+_temp_option = click.option(
+    "--water-temp",
+    "temperature_c",
+    type=float,
+    default=theory_common.DEFAULT_WATER_TEMP_C,
+    show_default=True,
+    metavar="C",
+    help="Water temperature, °C (0–40; ITTC's standard 15 °C by default).",
+)
+_salinity_option = click.option(
+    "--salinity",
+    "salinity_g_kg",
+    type=float,
+    default=0.0,
+    show_default=True,
+    metavar="G_PER_KG",
+    help="Absolute salinity, g/kg (0 = fresh water, 35.165 = standard sea water).",
+)
+
+
+def _stored(result_ids: tuple[int, ...], db_url: str | None) -> list[tuple[int, dict]]:
+    """The stored estimation results (id, data) for ``--estimate``."""
+    store = open_store(db_url)
+    try:
+        found = []
+        for result_id in result_ids:
+            result = store.result(result_id)
+            if result.kind != "estimation":
+                fail(f"--estimate: result {result_id} is a {result.kind!r} result")
+            found.append((result_id, result.data))
+        return found
+    finally:
+        store.close()
+
+
+def _num(x: float | None, digits: int = 4) -> str:
+    return "—" if x is None else f"{x:.{digits}g}"
+
+
+@click.command("water")
+@click.option(
+    "--temp", "temperature_c", type=float, required=True, metavar="C", help="Temperature, °C."
+)
+@_salinity_option
+@click.option("--speed", "speed_m_s", type=float, metavar="M_PER_S",
+              help="Speed, m/s (with --length: print Re = UL/ν and Fr = U/√(gL)).")  # fmt: skip
+@click.option("--length", "length_m", type=float, metavar="M", help="Body length, m.")
+@click.option("--g", "g", type=float, default=9.80665, show_default=True,
+              help="Local gravity for Fr, m/s².")  # fmt: skip
+@json_option
+def water(temperature_c, salinity_g_kg, speed_m_s, length_m, g, as_json):
+    """Water density and viscosity at a temperature (ITTC 7.5-02-01-03 formulas)."""
+    try:
+        out = theory_common.water(temperature_c, salinity_g_kg, speed_m_s, length_m, g)
+    except ValueError as err:
+        fail(_flags(str(err), temperature="--temp"))
+    if as_json:
+        echo_json(out)
+        return
+    kind = "fresh water" if out["salinity_g_kg"] == 0 else f"{out['salinity_g_kg']:g} g/kg"
+    click.echo(f"water at {out['temperature_c']:g} °C, {kind}:")
+    click.echo(f"  ρ = {out['density_kg_m3']:.4f} kg/m³")
+    click.echo(f"  μ = {out['dynamic_viscosity_pa_s']:.4e} Pa·s")
+    click.echo(f"  ν = {out['kinematic_viscosity_m2_s']:.4e} m²/s")
+    click.echo(f"  ({out['method']})")
+    flow = out.get("flow")
+    if flow is not None:
+        click.echo(
+            f"at {flow['speed_m_s']:g} m/s over {flow['length_m']:g} m: "
+            f"Re = {flow['reynolds']:.4g}, Fr = {flow['froude']:.4g} (g = {flow['g']:g} m/s²)"
+        )
+
+
+def _flags(message: str, temperature: str = "--water-temp") -> str:
+    """Field names of the science as the options that set them."""
+    for name, flag in (
+        ("temperature_c", temperature),
+        ("salinity_g_kg", "--salinity"),
+        ("tank_width_m/water_depth_m", "--tank-width/--water-depth"),
+        ("tank_width_m", "--tank-width"),
+        ("water_depth_m", "--water-depth"),
+        ("speed_m_s/length_m", "--speed/--length"),
+        ("speed_m_s", "--speed"),
+        ("length_m", "--length"),
+        ("g", "--g"),
+    ):
+        if message.startswith(name + ":"):
+            return flag + message[len(name) :]
+    return message
+
+
+@click.command("predict-added-mass")
+@click.argument("vehicle")
+@_temp_option
+@_salinity_option
+@click.option("--tank-width", "tank_width_m", type=float, metavar="M",
+              help="Tank width, m (with --water-depth: report the blockage ratio).")  # fmt: skip
+@click.option("--water-depth", "water_depth_m", type=float, metavar="M",
+              help="Water depth, m.")  # fmt: skip
+@estimate_option("Compare a stored surge/yaw/pendulum estimation result (repeatable).")
+@db_option
+@json_option
+def predict_added_mass(
+    vehicle, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, estimates, db_url,
+    as_json,
+):  # fmt: skip
+    """Predict VEHICLE's added mass per DOF from its [hull] (a name from fixtures/vehicles
+    or $RIG_VEHICLES_DIR, or a .toml file), beside its file's values (or stored estimates),
+    with the ratio."""
+    try:
+        veh = sixdof_common.find_vehicle(vehicle, allow_path=True)
+        applied: list = []
+        if estimates:
+            veh, applied = sixdof_common.apply_results(veh, _stored(estimates, db_url))
+        out = theory_common.predict(
+            veh, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, applied=applied
+        )
+    except (KeyError, ResultNotFound) as err:
+        fail(str(err.args[0]) if err.args else str(err))
+    except ValueError as err:
+        fail(_flags(str(err)))
+    if as_json:
+        echo_json(out)
+        return
+    w = out["water"]
+    pred = out["prediction"]
+    causes: dict[str, list[str]] = {}
+    hull = pred["hull"]
+    click.echo(
+        f"{out['vehicle']}: {hull['shape']} L {hull['length_m']:g} m × "
+        f"{hull['width_m']:g} m × {hull['height_m']:g} m, ∇ {pred['displaced_volume_m3']:.4g} m³"
+    )
+    click.echo(
+        f"water {w['temperature_c']:g} °C: ρ {w['density_kg_m3']:.2f} kg/m³, "
+        f"ν {w['kinematic_viscosity_m2_s']:.4e} m²/s"
+    )
+    click.echo(f"theory: {pred['method']}")
+    click.echo(f"{'dof':<6} {'predicted':>10} {'coef':>6} {'value':>9} {'ratio':>7}  unit")
+    outside: dict[str, list[str]] = {}
+    for row in out["dofs"]:
+        verdict = row["verdict"]
+        ratio = "—" if verdict is None else f"{verdict['ratio']:.3g}"
+        flag = ""
+        if verdict is not None and not verdict["plausible"]:
+            flag = "  OUTSIDE"
+            side = "above" if verdict["ratio"] > 1 else "below"
+            outside.setdefault(side, []).append(row["dof"])
+            causes[side] = verdict["causes"]
+        coef = _num(row["coefficient_predicted"], 3)
+        click.echo(
+            f"{row['dof']:<6} {_num(row['predicted']):>10} {coef:>6}"
+            f" {_num(row['value']):>9} {ratio:>7}  {row['unit']:<6} {row['source']}{flag}"
+        )
+    low, high = out["band"]
+    click.echo(
+        "ratio = value / predicted (the value from a stored result, or the vehicle file's: "
+        f"measured or placeholder, as the file says); plausible within {low:g} … {high:g}"
+    )
+    for side, dofs in outside.items():
+        click.echo(f"{side} the band ({', '.join(dofs)}); usual causes: " + "; ".join(causes[side]))
+    for note in pred["notes"]:
+        click.echo(f"note: {note}")
+    dim = out["dimensionless"]
+    area = "declared" if dim["reference_area_declared"] else "frontal area of the hull"
+    click.echo(
+        f"surge C_D = 2 K_Q/(ρ A) = {dim['surge_drag_coefficient']:.3g} "
+        f"(A = {dim['reference_area_m2']:.4g} m², {area})"
+    )
+    if out["blockage"] is not None:
+        click.echo(out["blockage"]["message"])
