@@ -340,10 +340,10 @@ class RigSession:
     async def disarm_thrusters(self) -> None:
         if self.thrusters is None:
             raise ThrusterError(NO_THRUSTERS)
+        hold_full_collections(False)
         if self.lease_lost is not None and not self.thrusters.is_open:
             return  # zeroed, disarmed and closed when the lease was lost
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
-        hold_full_collections(False)
         with contextlib.suppress(Exception):
             await self.thrusters.zero()
         await self.thrusters.disarm()

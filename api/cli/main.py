@@ -196,8 +196,8 @@ FAULTS = (
     ("daq.session", ("RigBusy",)),
     ("daq.procedures.motion", ("PreconditionFailed",)),
     ("daq.operator", ("OperatorActUnavailable",)),
-    ("api.core.estimation_failure", ("EstimationFailure",)),
     ("daq.store.faults", ("StorageFault",)),
+    ("api.core.estimation_failure", ("EstimationFailure",)),
 )
 
 

@@ -7,12 +7,12 @@ sample the clock produced is flushed before the status is written.
 
 Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
 abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
-storage; samples the database did not take wait in a spill file (docs/storage.md). A
-database that refuses the new run raises :class:`daq.store.faults.StorageFault` (one line)
-before the run starts (the rig left safe). So is losing the lease on the rig's devices
-(``daq.rig_lock``): the session calls the run's abort signal with a reason beginning ``rig
-lock lost``, and that is how the run ends whatever else failed after the devices were
-released.
+storage; samples the database did not take wait in a spill file (docs/storage.md).
+So is losing the lease on the rig's devices (``daq.rig_lock``): the session calls the
+run's abort signal with a reason beginning ``rig lock lost``, and that is how the run ends
+whatever else failed after the devices were released. A database that refuses the new run
+raises :class:`daq.store.faults.StorageFault` (one line) before the run starts (the rig
+left safe).
 """
 
 from __future__ import annotations

@@ -208,3 +208,22 @@ def test_an_import_file_name_that_is_a_path_is_refused_naming_the_field(client, 
     )
     assert r.status_code == 422, r.text
     assert r.json()["detail"].startswith("filename: ")
+
+
+def test_a_multipart_file_named_dot_dot_is_refused_and_a_path_keeps_only_its_name(client):
+    upload = {"kind": "tow", "force_n": 5}
+    csv = b"t,position\n0,0\n0.1,0.01\n0.2,0.03\n"
+    r = client.post(
+        "/api/runs/import", params=upload, files={"file": ("..", csv, "text/csv")}, headers=AUTH
+    )
+    assert r.status_code == 422, r.text
+    assert "multipart part's filename" in r.json()["detail"]
+    r = client.post(
+        "/api/runs/import",
+        params=upload,
+        files={"file": ("../../lab/run-7.csv", csv, "text/csv")},
+        headers=AUTH,
+    )
+    assert r.status_code == 201, r.text  # the client's folders are dropped, its name kept
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["source_file"] == "run-7.csv"

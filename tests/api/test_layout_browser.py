@@ -77,7 +77,7 @@ def test_run_detail_plots_chosen_channels_with_units_and_overlays_a_run(client, 
         page.select_option("#run-overlay-pick", ids[1])
         expect(page.locator("#run-overlays .tag")).to_have_count(1)
         page.wait_for_function(
-            "document.getElementById('run-plot').data && "
+            "() => document.getElementById('run-plot').data && "
             "document.getElementById('run-plot').data.length === 4"
         )
         layout = page.evaluate("document.getElementById('run-plot').layout")
@@ -87,4 +87,4 @@ def test_run_detail_plots_chosen_channels_with_units_and_overlays_a_run(client, 
         names = page.evaluate("document.getElementById('run-plot').data.map(t => t.name)")
         assert sum(ids[1][:8] in n for n in names) == 2 and sum(ids[0][:8] in n for n in names) == 2
         page.click(f"#run-overlays button[data-drop='{ids[1]}']")
-        page.wait_for_function("document.getElementById('run-plot').data.length === 2")
+        page.wait_for_function("() => document.getElementById('run-plot').data.length === 2")

@@ -36,10 +36,10 @@ DEFAULT_NAME = "upload.csv"
 
 
 def _safe_name(filename: str, field: str = "filename") -> str:
-    """The uploaded file's name as given, checked to be a plain file name (no folder, not
-    ``.``/``..``, no NUL) and made of safe characters, so it never reaches the file system
-    as a path; 422 naming ``field`` otherwise."""
-    if filename in (".", "..") or any(c in filename for c in "/\\\0") or filename.strip(". ") == "":
+    """The uploaded file's name, checked to be a plain file name (no folder, not ``.`` or
+    ``..``, no NUL) and made of safe characters, so it never reaches the file system as a
+    path; 422 naming ``field`` otherwise."""
+    if filename in (".", "..") or any(c in filename for c in "/\\\0") or not filename.strip(". "):
         raise ValueError(
             f"{field}: {filename!r} is not allowed; give the file's name alone, without "
             "folders (e.g. tow-24N.csv)"
@@ -142,11 +142,12 @@ async def import_run(
     )  # fmt: skip
     name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
-        path = Path(folder) / name
+        path = Path(folder) / name  # a name, never a path: it stays in the folder
         sent_as = await save_upload(request, path)  # the size cap is BodyLimit's
         if sent_as and filename == DEFAULT_NAME:  # a multipart part names its file
-            name = _safe_name(Path(sent_as.replace("\\", "/")).name, "file")
-            path = path.rename(Path(folder) / name)
+            base = re.split(r"[/\\]", sent_as)[-1]  # some clients send the whole path
+            name = _safe_name(base, "the multipart part's filename")
+            path = path.rename(Path(folder) / name)  # a name: it stays in the folder
         try:
             plan = plan_import(path, request_, pendulum_rig=service.source, rig_field="kind")
             run_id, samples = await import_file(
