@@ -106,13 +106,20 @@ def _num(x: float | None) -> float | None:
 
 
 def release_of(record: Record) -> float:
-    """Where a record's free motion starts: its first sample when driven, else the largest
-    excursion from the final rest position (a decay is released at its largest offset)."""
+    """Where a record's free motion starts: its first sample when driven; for a free decay
+    the last sample still within 3σ (noise) of the largest excursion from the final rest
+    position before the motion first crosses that rest (a decay is released at its largest
+    offset: the end of a push, or the end of a hold)."""
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     if record.drive is not None:
         return float(t[0])
     rest = float(np.median(x[-max(x.size // 5, 3) :]))
-    return float(t[int(np.argmax(np.abs(x - rest)))])
+    off = x - rest
+    peak = int(np.argmax(np.abs(off)))
+    crossing = np.nonzero(np.sign(off[peak:]) != np.sign(off[peak]))[0]
+    stop = peak + (int(crossing[0]) if crossing.size else off.size - peak)
+    near = np.abs(off[peak:stop]) >= abs(off[peak]) - 3.0 * position_noise([x])
+    return float(t[peak + int(np.nonzero(near)[0][-1])])
 
 
 def estimate_decay(
