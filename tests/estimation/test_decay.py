@@ -11,7 +11,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from estimation.errors import EstimationFailed
-from estimation.motion import estimate_decay
+from estimation.motion.decay import estimate_decay
 
 
 def decay_record(
