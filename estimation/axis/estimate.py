@@ -33,6 +33,9 @@ from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_c
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
+#: A coefficient within this many σ of zero is not determined by the data (its 95 %
+#: interval holds zero: not even its sign is known).
+NOT_DETERMINED_SIGMAS = 2.0
 
 
 def estimate(
@@ -134,6 +137,37 @@ def separability_warnings(
     return out
 
 
+def physical_warnings(fit: FitResult, runs: Sequence[RunData]) -> list[str]:
+    """A coefficient the data do not determine (σ NaN), an inertia below the body's own,
+    a damping held at its bound 0 is named (values a body cannot have are never silent)."""
+    out = [
+        f"{n} is not identified by these runs (no σ): the data cannot determine it; "
+        "a record with the acceleration from rest (the release) or a run at another force "
+        "would"
+        for n, s in zip(fit.names, fit.std, strict=True)
+        if not np.isfinite(s)
+    ]
+    inertia, sigma = fit.value("inertia"), fit.sigma("inertia")
+    if np.isfinite(sigma) and abs(inertia) < NOT_DETERMINED_SIGMAS * sigma:
+        out.append(
+            f"inertia is not identified by these runs: {inertia:.3g} ± {sigma:.2g} is within "
+            f"{NOT_DETERMINED_SIGMAS:g}σ of zero; a record with the acceleration from rest "
+            "(the release) would determine it"
+        )
+    bodies = [r.body_inertia for r in runs if r.body_inertia is not None]
+    if bodies and inertia < max(bodies):
+        out.append(
+            f"inertia {inertia:.4g} is below the body's own {max(bodies):.4g}: not physical "
+            "(a record that starts after the release, or a missed acceleration, gives this)"
+        )
+    if "linear_damping" in fit.at_bound:
+        out.append(
+            "linear_damping sits at its bound 0: the data want a negative damping, which a "
+            "passive body cannot have"
+        )
+    return out
+
+
 def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -> Bootstrap:
     rng = np.random.default_rng(seed)
     draws: list[np.ndarray] = []
@@ -186,6 +220,7 @@ def _build(
         for e in final.effects
     )
     warnings = separability_warnings(final, prepared, reverse)
+    warnings += physical_warnings(final, runs)
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):
         warnings.append(text)

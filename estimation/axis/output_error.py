@@ -102,8 +102,12 @@ class _Problem:
             g = params[: self.n_global]
             self._steps = 1e-6 * np.maximum(np.abs(g), 1e-3)
             sets = np.vstack([g, g + np.diag(self._steps)])
-            sims = self.model(params, sets)  # unstable trial steps come back as large misfits
-            self._sims = np.nan_to_num(sims, nan=1e6, posinf=1e6, neginf=-1e6)
+            # an unstable trial step comes back as a large, finite misfit: bounded where it
+            # starts (1e3 × the measured travel), so no overflow reaches the optimiser
+            with np.errstate(over="ignore", invalid="ignore"):
+                sims = self.model(params, sets)
+            big = 1e3 * (float(np.ptp(self.measured)) + 1.0)
+            self._sims = np.clip(np.nan_to_num(sims, nan=big, posinf=big, neginf=-big), -big, big)
             self._key = key
         return self._sims
 

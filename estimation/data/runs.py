@@ -50,6 +50,9 @@ class RunData:
     #: Thruster-driven runs: how the thrust's supply-voltage dependence was taken (the
     #: identified law of a multi-voltage calibration, or the rig file's exponent).
     drive_law: str | None = None
+    #: The vehicle's own mass (kg; or its displacement, or its dry inertia in kg·m² for yaw)
+    #: when known: an identified inertia (m + m_a) below it is flagged as not physical.
+    body_inertia: float | None = None
 
     def window_report(self) -> WindowReport:
         """The window as fitted: the found one, or one built from the given instants."""
@@ -136,8 +139,11 @@ def validate_run(run: RunData) -> None:
         raise field_error(rid, "drive_inertia", run.drive_inertia, ">= 0")
     if run.drum_radius_m is not None and not run.drum_radius_m > 0:
         raise field_error(rid, "drum_radius_m", run.drum_radius_m, "> 0 m or None")
-    if t.size and not (t[0] <= run.t_release <= t[-1]):
-        raise field_error(rid, "t_release", run.t_release, f"within [{t[0]:g}, {t[-1]:g}] s")
+    # A release before the first sample is a record that starts after the release.
+    if t.size and not (np.isfinite(run.t_release) and run.t_release <= t[-1]):
+        raise field_error(rid, "t_release", run.t_release, f"finite, at most {t[-1]:g} s")
+    if run.body_inertia is not None and not run.body_inertia > 0:
+        raise field_error(rid, "body_inertia", run.body_inertia, "> 0 or None")
     moving = np.count_nonzero((t > run.t_release) & run.window())
     if moving < MIN_MOVING_SAMPLES:
         raise field_error(
