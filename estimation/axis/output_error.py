@@ -16,6 +16,7 @@ from scipy.signal import savgol_filter
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
+from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics, solution_statistics
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
@@ -71,9 +72,19 @@ def initial_guess(runs: Sequence[PreparedRun], effects: Sequence[str]) -> np.nda
         res -= res.mean(axis=1, keepdims=True)
         sse += np.sum(res**2, axis=1)
     inertia = grid[int(np.argmin(np.nan_to_num(sse, nan=np.inf)))]
-    start = {"coulomb_friction": 0.01 * drives.min(), "drive_inertia": 0.1}
-    extra = [start.get(e, 0.0) for e in effects]
+    extra = [effect_start(e, runs) for e in effects]
     return np.array([inertia, k_l, k_q, *extra])
+
+
+def effect_start(name: str, runs: Sequence[PreparedRun]) -> float:
+    """The entry's own start value on these runs (its share of the force the smallest
+    drive exerts along the measured motion)."""
+    force = min(r.mean_abs_drive for r in runs)
+    x = np.concatenate([r.x - r.x[0] for r in runs])
+    v = np.concatenate([np.gradient(r.x, r.t) for r in runs])
+    a = np.concatenate([np.gradient(np.gradient(r.x, r.t), r.t) for r in runs])
+    weight = max(r.weight_equivalent for r in runs)
+    return LIBRARY[name].start(force, x, v, a, weight)
 
 
 class _Problem:

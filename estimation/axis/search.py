@@ -39,7 +39,12 @@ from estimation.axis.collinearity import (
 )
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun
-from estimation.axis.output_error import FitResult, fit_output_error, leave_one_run_out_rmse
+from estimation.axis.output_error import (
+    FitResult,
+    effect_start,
+    fit_output_error,
+    leave_one_run_out_rmse,
+)
 from estimation.axis.unexplained import NUMERICAL_RMSE
 from estimation.stats.diagnostics import ljung_box, noise_floor_ratio
 from estimation.stats.selection import forward_selection, select_round
@@ -92,32 +97,24 @@ class SearchOutcome:
 
 
 def candidate_effects(runs_declared_mass: bool) -> list[str]:
-    """Effects worth trying: drive_inertia only when the hung mass is not declared."""
-    names = list(EFFECTS)
-    if runs_declared_mass:
-        names.remove("drive_inertia")
-    return names
+    """Effects worth trying: an inertia term (the hung weight's) only when the hung mass is
+    not declared (declared, its weight is 0 and the term could not act)."""
+    return [e for e in EFFECTS if EFFECTS[e].role != "inertia" or not runs_declared_mass]
 
 
 def _start(fit: FitResult, effects: Sequence[str], runs: Sequence[PreparedRun]) -> np.ndarray:
     """``fit``'s values, with each effect it lacks at a small physical start value."""
-    init = {"coulomb_friction": 0.01 * min(r.mean_abs_drive for r in runs), "drive_inertia": 0.1}
     names = (*BASE_NAMES, *effects)
-    return np.array([fit.value(n) if n in fit.names else init.get(n, 0.0) for n in names])
+    return np.array([fit.value(n) if n in fit.names else effect_start(n, runs) for n in names])
 
 
 def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndarray) -> float:
-    """Largest force/torque the effect exerts over one run's data (N or N·m)."""
-    if effect in ("coulomb_friction", "constant_bias"):
-        return abs(value)
-    if effect == "restoring_spring":
-        return abs(value) * float(np.max(np.abs(run.x - run.x[0]), initial=0.0))
-    if effect == "cubic_drag":
-        return abs(value) * float(np.max(np.abs(velocity), initial=0.0)) ** 3
-    if effect == "drive_inertia" and velocity.size > 1:
-        accel = np.gradient(velocity, run.t)
-        return abs(value) * run.weight_equivalent * float(np.max(np.abs(accel)))
-    return np.inf
+    """Largest force/torque the effect exerts over one run's data (N or N·m): the entry's
+    own regressor along the fitted motion."""
+    accel = np.gradient(velocity, run.t) if velocity.size > 1 else np.zeros_like(velocity)
+    return EFFECTS[effect].largest_force(
+        value, run.x - run.x[0], velocity, accel, run.weight_equivalent
+    )
 
 
 def _below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> str | None:
@@ -131,12 +128,12 @@ def _below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) 
       wrong drive.
     """
     value = fit.value(effect)
-    if effect == "release_delay":
+    if EFFECTS[effect].role == "timing":
         timing = max((r.t_release_std for r in runs), default=0.0)
         step = min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1)
         if abs(value) < max(RESOLUTION_SIGMAS * timing, DELAY_STEP_FRACTION * step):
             return (
-                f"release_delay {abs(value) * 1e3:.2g} ms is within the release-timing "
+                f"{effect} {abs(value) * 1e3:.2g} ms is within the release-timing "
                 f"resolution ({RESOLUTION_SIGMAS:g} × {timing * 1e3:.1f} ms, at least "
                 f"{DELAY_STEP_FRACTION:.0%} of the {step * 1e3:.0f} ms sample step)"
             )

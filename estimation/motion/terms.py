@@ -50,7 +50,8 @@ class Term:
     ``units``: the coefficient's unit on a translational and on a rotational DOF.
     ``lower``/``upper``: hard bounds the fit keeps (a damping < 0 would make the simulation
     grow without limit); ``physical`` says why. ``start_share``: the start value as a share
-    of the term's typical size (0: the term starts off). ``v_power``/``x_power``: the
+    of the term's typical size (0: the term starts off); ``start_value``: an absolute one
+    (a dimensionless ratio known a priori). ``v_power``/``x_power``: the
     regressor's degree in ẋ and x (0 with ``sign_of_v``: a force that only flips with the
     direction of motion; None: does not depend on it), used to tell when the closed form of
     a constant-force tow applies. ``set_valued_at_rest``: at ẋ = 0 the force takes any value
@@ -70,6 +71,7 @@ class Term:
     upper: float = np.inf
     physical: str = ""
     start_share: float = 0.0
+    start_value: float | None = None
     x_power: int | None = None
     v_power: int | None = None
     sign_of_v: bool = False
@@ -104,6 +106,15 @@ class Term:
             return 0.1
         reg = float(np.max(np.abs(self.regressor(x, v, a, weight)), initial=0.0))
         return abs(force) / reg if reg > 0 else 1.0
+
+    def start(
+        self, force: float, x: np.ndarray, v: np.ndarray, a: np.ndarray, weight: float
+    ) -> float:
+        """The coefficient a fit starts from: ``start_value`` (a dimensionless ratio known
+        a priori), else ``start_share`` of the term's typical size on this record."""
+        if self.start_value is not None:
+            return self.start_value
+        return self.start_share * self.typical(force, x, v, a, weight)
 
     def in_bounds(self, value: float) -> bool:
         """Whether ``value`` lies within the hard bounds."""
@@ -175,7 +186,7 @@ LIBRARY: dict[str, Term] = {
             role="inertia",
             lower=0.0,
             physical="≥ 0: a hung weight adds inertia",
-            start_share=0.1,
+            start_value=0.1,
         ),
         Term(
             "restoring_spring",
