@@ -16,7 +16,7 @@ from estimation.axis.output_error import (
     fit_output_error,
     leave_one_run_out_rmse,
 )
-from estimation.axis.release import fit_release
+from estimation.axis.release import fit_release, speed_at_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
 from estimation.axis.reverse import (
     FRICTION_AND_BIAS,
@@ -221,6 +221,18 @@ def _build(
     )
     warnings = separability_warnings(final, prepared, reverse)
     warnings += physical_warnings(final, runs)
+    moving = {r.run_id: v for r in runs if (v := speed_at_release(r)) is not None}
+    coefficients = _coefficients(final)
+    if moving:  # the model starts at rest: what the fit says of the inertia is not data
+        coefficients["inertia"] = Estimate(coefficients["inertia"].value, float("nan"))
+        warnings.append(
+            "inertia is not identified: "
+            + ", ".join(
+                f"run {k!r} is already moving at its release ({v:.3g}/s)" for k, v in moving.items()
+            )
+            + "; the model starts from rest there, so the record lacks the acceleration that "
+            "determines the inertia: give the true release (a record with the at-rest samples)"
+        )
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):
         warnings.append(text)
@@ -229,7 +241,7 @@ def _build(
         axis=axis,
         method=method,
         runs=ids,
-        coefficients=_coefficients(final),
+        coefficients=coefficients,
         coefficients_before=_coefficients(base),
         effects=effects,
         ambiguous=tuple(outcome.ambiguous),

@@ -14,11 +14,12 @@ biased, whatever the residual's size against the noise floor.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from estimation.errors import EstimationFailed
 from estimation.motion.fit import MotionFit, fit_motion
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import Step, search_terms
@@ -71,6 +72,9 @@ class DecayResult:
     equilibrium: dict[str, float]
     release_time_s: dict[str, float]
     ambiguous: tuple[tuple[str, str], ...] = ()
+    #: Per rival of a kept term: the final model with the rival in its place (its
+    #: coefficients, and its BIC minus the final's).
+    alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
 
     def to_json(self) -> dict[str, Any]:
@@ -83,6 +87,13 @@ class DecayResult:
             "known": {k: c.to_json() for k, c in self.known.items()},
             "effects": list(self.effects),
             "ambiguous": [list(p) for p in self.ambiguous],
+            "alternatives": {
+                rival: {
+                    "coefficients": {k: c.to_json() for k, c in coeffs.items()},
+                    "delta_bic": _num(delta),
+                }
+                for rival, (coeffs, delta) in self.alternatives.items()
+            },
             "not_identified": list(self.not_identified),
             "rmse_before": _num(self.rmse_before),
             "rmse_after": _num(self.rmse_after),
@@ -198,7 +209,29 @@ def estimate_records(
     base = fit_motion(windowed, setup)
     tried = [c for c in candidates if c not in known and c not in base.names]
     final, steps, rejected, rivals = search_terms(windowed, setup, base, tried)
-    return _result(setup, windowed, base, final, steps, rejected, starts, rivals)
+    result = _result(setup, windowed, base, final, steps, rejected, starts, rivals)
+    alternatives = {}
+    for kept, rival in rivals:
+        swapped = tuple(rival if e == kept else e for e in final.effects)
+        try:
+            alt = fit_motion(windowed, setup, swapped)
+        except EstimationFailed:
+            continue
+        alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
+    return replace(result, alternatives=alternatives)
+
+
+def _coefficients(setup: Setup, fit: MotionFit) -> dict[str, Coefficient]:
+    """A fit's coefficients with σ (None: not identified) and units."""
+    unit = "kg·m²" if DOFS[setup.dof] else "kg"
+    return {
+        n: Coefficient(
+            float(v),
+            None if not np.isfinite(s) else float(s),
+            unit if n == "inertia" else LIBRARY[n].unit(setup.dof),
+        )
+        for n, v, s in zip(fit.names, fit.values, fit.std, strict=True)
+    }
 
 
 def _result(setup, records, base, final, steps, rejected, starts, rivals) -> DecayResult:
@@ -207,10 +240,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         n: LIBRARY[n].unit(setup.dof) for n in (*final.names, *setup.known_terms) if n != "inertia"
     }
     units["inertia"] = "kg·m²" if rotational else "kg"
-    coefficients = {
-        n: Coefficient(float(v), None if not np.isfinite(s) else float(s), units[n])
-        for n, v, s in zip(final.names, final.values, final.std, strict=True)
-    }
+    coefficients = _coefficients(setup, final)
     known = {n: Coefficient(float(v), 0.0, units[n]) for n, v in setup.known_terms.items()}
     if setup.inertia is not None:
         known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])

@@ -24,12 +24,13 @@ column beside the current model's) predicts its SSE; a candidate predicted to mi
 a wide margin (predicted ΔBIC > 0) is recorded, not fitted. Two candidates whose
 sensitivities, after projecting out the current model, have |ρ| ≥ ``RIVALS`` explain the
 same part of the residual: they are **rivals** (quadratic against cubic damping on a decay),
-never fitted together. Between kept rivals the earlier in the library wins (the
-lower-order, conventional term: quadratic before cubic damping), whatever their BIC
-difference: on one class of record their ranking rests on the residual's structure (a
-structured residual makes n samples worth far fewer, n_eff = n·(1 − r₁)/(1 + r₁) for a
-lag-1 autocorrelation r₁), and a published coefficient is comparable only in its own
-model. The later rival and its ΔBIC advantage are reported. Rivals are reported as ambiguous.
+never fitted together. Between kept rivals the earlier in the library (the lower-order,
+conventional term: quadratic before cubic damping) wins unless the later one beats it by
+``BIC_THRESHOLD`` on the residual's effective sample size n_eff = n·(1 − r₁)/(1 + r₁) (r₁:
+lag-1 autocorrelation of the residual; the AR(1) variance inflation): BIC assumes white
+residuals, and with a structured one a difference computed on n samples between two
+alternatives that fit the same direction measures the structure, not the physics. White
+residuals give n_eff ≈ n and the data decide. Rivals are reported as ambiguous.
 
 Whiteness is a verdict on the final model, not a gate (``estimate``): when a structured
 residual remains, its normalised autocorrelation stays near 1 whatever share of it a real
@@ -189,7 +190,9 @@ def search_terms(
         best, chosen = min(kept, key=lambda k: k[0].bic)
         for fit, term in sorted(kept, key=lambda k: order[k[1]]):
             if order[term] < order[chosen] and abs(rho[frozenset((term, chosen))]) >= RIVALS:
-                best, chosen = fit, term
+                scale = effective_samples(best) / best.n_samples
+                if (fit.bic - best.bic) * scale < BIC_THRESHOLD:
+                    best, chosen = fit, term
                 break
         current = best
         rejected_last = []
