@@ -90,23 +90,41 @@ def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, noise=2e-5):
     total, k = 1.8 * m, 40.0 * m
     b1 = 0.03 * 2 * np.sqrt(total * k)
 
-    def rhs(_t, y):
-        x, v = y
-        f = b1 * v + b2 * abs(v) * v + b3 * v**3 + fc * np.sign(v) + k * x + k3 * x**3
-        return [v, -f / total]
-
     t = np.arange(0.0, 15.0, 1.0 / 20.0)
-    sol = solve_ivp(
-        rhs,
-        (0, t[-1]),
-        [0.05, 0.0],
-        t_eval=t,
-        rtol=1e-10,
-        atol=1e-13,
-        max_step=2e-3 if fc else np.inf,
-    )
+    x = np.empty_like(t)
+    start, state = 0.0, [0.05, 0.0]
+    while start < t[-1]:  # one half-swing at a time: dry friction's sign is fixed in each
+        pull = -(k * state[0] + k3 * state[0] ** 3)
+        if abs(pull) <= fc:  # held by dry friction: at rest from here on
+            x[t >= start] = state[0]
+            break
+        s = np.sign(pull)
+
+        def rhs(_t, y, s=s):
+            f = b1 * y[1] + b2 * abs(y[1]) * y[1] + b3 * y[1] ** 3 + fc * s
+            return [y[1], -(f + k * y[0] + k3 * y[0] ** 3) / total]
+
+        def turn(_t, y, s=s):
+            return y[1]
+
+        turn.terminal, turn.direction = True, -s
+        sol = solve_ivp(
+            rhs,
+            (start, t[-1]),
+            state,
+            events=turn,
+            dense_output=True,
+            rtol=1e-10,
+            atol=1e-13,
+            first_step=1e-4,
+        )
+        inside = (t >= start) & (t <= sol.t[-1])
+        x[inside] = sol.sol(t[inside])[0]
+        start, state = float(sol.t[-1]), [float(sol.y[0, -1]), 0.0]
+        if not sol.t_events[0].size:
+            break
     rng = np.random.default_rng(seed)
-    x = sol.y[0] + noise * rng.standard_normal(t.size)
+    x = x + noise * rng.standard_normal(t.size)
     return t, x, dict(added=0.8 * m, k=k, b1=b1, known=m)
 
 
