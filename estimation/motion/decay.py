@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.fit import MotionFit, fit_motion
+from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
-from estimation.motion.search import Step, search_terms
+from estimation.motion.search import TRIAL_NFEV, Step, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 
@@ -213,8 +213,10 @@ def estimate_records(
     alternatives = {}
     for kept, rival in rivals:
         swapped = tuple(rival if e == kept else e for e in final.effects)
+        start = parameters_of(final)
+        start[list(final.names).index(kept)] = 0.0
         try:
-            alt = fit_motion(windowed, setup, swapped)
+            alt = fit_motion(windowed, setup, swapped, start=start, max_nfev=TRIAL_NFEV)
         except EstimationFailed:
             continue
         alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)

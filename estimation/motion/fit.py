@@ -210,9 +210,9 @@ def fit_motion(
         bounds=(lower, upper),
         method="trf",
         x_scale=prob.scale,
-        xtol=1e-10,
-        ftol=1e-10,
-        gtol=1e-10,
+        xtol=1e-9,
+        ftol=1e-9,
+        gtol=1e-9,
         max_nfev=max_nfev,
     )
     p = sol.x

@@ -52,6 +52,7 @@ from estimation.stats.diagnostics import position_noise
 
 BIC_THRESHOLD = 10.0
 MATERIAL_NOISE = 1.0  # explained RMS over the position noise σ
+MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
 TRIAL_NFEV = 40  # a trial starts one Gauss–Newton step from its optimum
 RIVALS = 0.9  # |partial correlation| of two candidates' sensitivities: the same direction
 
@@ -127,10 +128,13 @@ def _screen(records, setup, current: MotionFit, candidates):
     n = current.n_samples
     predicted, rho, start = {}, {}, {}
     norms = np.linalg.norm(perp, axis=0)
+    share = norms / np.maximum(np.linalg.norm(cols, axis=0), 1e-300)
     for i, c in enumerate(candidates):
         gain = (perp[:, i] @ res) ** 2 / norms[i] ** 2 if norms[i] > 0 else 0.0
         value = (perp[:, i] @ res) / norms[i] ** 2 if norms[i] > 0 else 0.0
-        start[c] = float(np.clip(value, LIBRARY[c].lower, LIBRARY[c].upper))
+        start[c] = value
+        if share[i] < MIN_INDEPENDENT_SHARE:  # a combination of the model's own parameters
+            predicted[c] = np.nan
         sse = max(current.sse - gain, 1e-300)
         predicted[c] = n * np.log(sse / current.sse) + np.log(n)
         for j in range(i):
@@ -155,6 +159,36 @@ def search_terms(
         kept: list[tuple[MotionFit, str]] = []
         rejected_last = []
         for term in remaining:
+            if np.isnan(predicted[term]):
+                steps.append(
+                    Step(
+                        term,
+                        round_no,
+                        np.nan,
+                        0.0,
+                        0.0,
+                        False,
+                        f"{term} is not identified by these records: its effect is "
+                        "a change of the model's own parameters (e.g. a constant "
+                        "force only moves a spring's equilibrium)",
+                    )
+                )
+                continue
+            if not LIBRARY[term].in_bounds(start[term]):
+                steps.append(
+                    Step(
+                        term,
+                        round_no,
+                        predicted[term],
+                        0.0,
+                        0.0,
+                        False,
+                        f"not fitted: a linearised step wants {term} = "
+                        f"{start[term]:.3g}, beyond its physical bound "
+                        f"({LIBRARY[term].physical or 'its bounds'})",
+                    )
+                )
+                continue
             if predicted[term] > 0:
                 steps.append(
                     Step(
