@@ -90,7 +90,15 @@ def equation_error_start(records: Sequence[Record], setup: Setup, names: Sequenc
 class _Problem:
     """Residuals and Jacobian of the joint fit (globals, then x_eq, ξ₀, ξ̇₀ per record)."""
 
-    def __init__(self, records, setup: Setup, names, h: float) -> None:
+    def __init__(
+        self,
+        records: Sequence[Record],
+        setup: Setup,
+        names: Sequence[str],
+        h: float,
+        scale: np.ndarray,
+    ) -> None:
+        self.scale = scale  # typical size of every parameter (globals, x_eq, ξ₀, ξ̇₀)
         self.setup, self.names, self.h = setup, tuple(names), h
         self.ng, self.nr = len(self.names), len(records)
         self.tracks = []
@@ -199,10 +207,10 @@ def fit_motion(
     p0 = np.clip(np.where(np.isfinite(p0), p0, 0.0), lower, upper)
     p0 = np.where(np.isfinite(lower) & (p0 <= lower), lower + nudge, p0)
     h = _step(records, setup, names, p0[: len(names)])
-    prob = _Problem(records, setup, names, h)
-    prob.scale = np.concatenate(
+    scale = np.concatenate(
         [typical, np.full(nr, amp), np.full(nr, amp), np.full(nr, max(speed, 1e-12))]
     )
+    prob = _Problem(records, setup, names, h, scale)
     sol = least_squares(
         prob.residual,
         p0,
@@ -312,10 +320,10 @@ def sensitivities(
             _typical(records, setup, extra, np.zeros(len(extra))),
         ]
     )
-    prob = _Problem(records, setup, names, fit.step)
     amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
     nr = len(records)
-    prob.scale = np.concatenate([typical, np.full(2 * nr, amp), np.full(nr, amp)])
+    scale = np.concatenate([typical, np.full(2 * nr, amp), np.full(nr, amp)])
+    prob = _Problem(records, setup, names, fit.step, scale)
     p = np.concatenate([g, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
     jac = -prob.jacobian(p)
     k, ng = len(extra), len(fit.values)
