@@ -3,8 +3,8 @@
 Two rules, each from what the experiment can resolve (not from the drive's size):
 - a timing term (release delay) within ``RESOLUTION_SIGMAS`` σ of the release timing (or
   ``DELAY_STEP_FRACTION`` of a sample step when the release is known exactly) is timing;
-- any other effect must move the fitted motion by at least ``MATERIAL_NOISE`` × the position
-  noise σ the fit implies.
+- any other effect must move the fitted motion by at least ``MATERIAL_NOISE`` × what the data
+  cannot resolve (``motion_floor``: position noise, release timing, round-off).
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from estimation.stats.diagnostics import position_noise
 
 RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one
 DELAY_STEP_FRACTION = 0.01  # nor one below 1 % of the sample step (release known exactly)
-MATERIAL_NOISE = 1.0  # an effect must move the fit by at least the position noise σ
+MATERIAL_NOISE = 1.0  # an effect must move the fit by at least the floor (motion_floor)
+NUMERICAL_SHARE = 1e-7  # of the travel: round-off, as unexplained.NUMERICAL_RMSE
 
 
 def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndarray) -> float:
@@ -57,13 +58,26 @@ def below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -
             )
         return None
     explained = effect_motion_rms(effect, fit, runs)
-    noise = position_noise(fit.residuals)
-    if explained < MATERIAL_NOISE * noise:
+    floor = motion_floor(fit, runs)
+    if explained < MATERIAL_NOISE * floor:
         return (
             f"{effect} not material: it moves the fit by {explained:.3g} RMS, below the "
-            f"position noise {noise:.3g} the fit implies"
+            f"floor {floor:.3g} (position noise, release timing, round-off)"
         )
     return None
+
+
+def motion_floor(fit: FitResult, runs: Sequence[PreparedRun]) -> float:
+    """What the data cannot resolve in the motion (m or rad): the largest of the position
+    noise σ the fit implies, the motion a release error of RESOLUTION_SIGMAS × its σ
+    produces (RMS of v·3σ_t: the release instant is only known that well), and round-off
+    (NUMERICAL_SHARE of the travel: noise-free data have no noise to measure against)."""
+    v = np.concatenate(
+        [u * RESOLUTION_SIGMAS * r.t_release_std for u, r in zip(fit.velocities, runs, strict=True)]
+    )
+    timing = float(np.sqrt(np.mean(v**2))) if v.size else 0.0
+    travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
+    return max(position_noise(fit.residuals), timing, NUMERICAL_SHARE * travel)
 
 
 def effect_motion_rms(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> float:
