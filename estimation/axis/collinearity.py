@@ -16,7 +16,7 @@ from itertools import combinations
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
+from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.axis.output_error import FitResult
 
 #: |ρ| at or above this: the two effects are structurally the same on these runs.
@@ -63,7 +63,7 @@ def sensitivities(
             steps[i] = -steps[i]
     sets = np.vstack([values, values + np.diag(steps)])
     sims = simulate(sets, effects, runs)
-    x = np.concatenate([s[0] for s in sims], axis=1)
+    x = bounded(np.concatenate([s[0] for s in sims], axis=1), runs)
     return names, ((x[1:] - x[0]) / steps[:, None]).T
 
 

@@ -260,6 +260,18 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     return out
 
 
+#: A simulated position beyond this multiple of the measured travel is a diverged trial.
+DIVERGED_TRAVELS = 1e3
+
+
+def bounded(x: np.ndarray, runs: Sequence[PreparedRun]) -> np.ndarray:
+    """Simulated positions held within ±DIVERGED_TRAVELS × (the runs' travel + 1) (m or rad),
+    NaN at the bound: a diverged trial becomes a large, finite misfit where it starts, so
+    no overflow reaches a fit, a sensitivity or a norm."""
+    big = DIVERGED_TRAVELS * (max((float(np.ptp(r.x)) for r in runs), default=0.0) + 1.0)
+    return np.clip(np.nan_to_num(x, nan=big, posinf=big, neginf=-big), -big, big)
+
+
 def simulate(
     theta: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]
 ) -> list[tuple[np.ndarray, np.ndarray]]:

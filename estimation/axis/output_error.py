@@ -15,7 +15,7 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
+from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics, solution_statistics
 
@@ -116,9 +116,7 @@ class _Problem:
             # an unstable trial step comes back as a large, finite misfit: bounded where it
             # starts (1e3 × the measured travel), so no overflow reaches the optimiser
             with np.errstate(over="ignore", invalid="ignore"):
-                sims = self.model(params, sets)
-            big = 1e3 * (float(np.ptp(self.measured)) + 1.0)
-            self._sims = np.clip(np.nan_to_num(sims, nan=big, posinf=big, neginf=-big), -big, big)
+                self._sims = bounded(self.model(params, sets), self.runs)
             self._key = key
         return self._sims
 

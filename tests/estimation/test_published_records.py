@@ -162,3 +162,24 @@ def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
     assert u.period is not None and u.period.domain == "time"
     assert u.period.value == pytest.approx(0.802, rel=0.05)
     assert any("0.79" in w or "0.80" in w for w in r.warnings)
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_ship2d_with_the_release_found_in_the_data_never_overflows():
+    """The import path: the release found from the motion onset and refined by the fit,
+    then the effect search; before, both overflowed ("array must not contain infs")."""
+    from estimation.data.window import windowed_run
+
+    d = _csv("ship2d-regular-waves", "ship2d_3111_2_20Hz.csv")
+    run = RunData(
+        "3111_2",
+        "surge",
+        d.t.to_numpy(),
+        d.position.to_numpy(),
+        drive=d.force_sway_N.to_numpy(),
+        t_release=0.0,
+    )
+    r = estimate([windowed_run(run)], n_bootstrap=0)
+    assert r.unexplained is not None and r.unexplained.structured
+    assert all(np.isfinite(c.value) for c in r.coefficients.values())
