@@ -172,7 +172,7 @@ def test_tow_effect_alone_is_recovered(scale, effect):
     found = {e["name"]: e["value"] for e in doc["effects"]}
     assert effect in found, doc["evidence"]["steps"]
     assert found[effect] == pytest.approx(value, rel=0.10)
-    m, k_l, k_q, _ = SCALES[scale]
+    m, _, k_q, _ = SCALES[scale]
     c = doc["coefficients"]
     assert c["inertia"]["value"] == pytest.approx(m, rel=0.10)
     assert c["quadratic_damping"]["value"] == pytest.approx(k_q, rel=0.10)
