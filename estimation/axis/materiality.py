@@ -33,9 +33,7 @@ def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndar
     )
 
 
-def below_resolution(
-    effect: str, fit: FitResult, runs: Sequence[PreparedRun], explained: float | None = None
-) -> str | None:
+def below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> str | None:
     """Why an effect is too small to be a physical finding, or None.
 
     - a release delay is a start-time offset; when the release instant itself is only known
@@ -59,8 +57,7 @@ def below_resolution(
                 f"{DELAY_STEP_FRACTION:.0%} of the {step * 1e3:.0f} ms sample step)"
             )
         return None
-    if explained is None:  # what the effect alone moves (given: the residual it explains)
-        explained = effect_motion_rms(effect, fit, runs)
+    explained = effect_motion_rms(effect, fit, runs)
     floor = motion_floor(fit, runs)
     if explained < MATERIAL_NOISE * floor:
         return (

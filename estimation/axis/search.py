@@ -140,14 +140,6 @@ class _Search:
         """Library order of a combination (ties are broken towards common effects)."""
         return (len(combo), *sorted(self.order[e] for e in combo))
 
-    @staticmethod
-    def explained(ref: _Reference, combo: tuple[str, ...], fit: FitResult) -> float | None:
-        """RMS of the residual a single effect explains, √((SSE₀ − SSE₁)/n) (None for a
-        combination: each member's share is then simulated)."""
-        if len(combo) != 1:
-            return None
-        return float(np.sqrt(max(ref.fit.sse - fit.sse, 0.0) / fit.n_samples))
-
     def judge(
         self,
         ref: _Reference,
@@ -174,13 +166,7 @@ class _Search:
             reason = f"not better than the best single effect by ΔBIC {BIC_THRESHOLD:g}"
         elif at_bound:
             reason = f"{', '.join(at_bound)} at its physical bound"
-        elif below := [
-            b
-            for b in (
-                below_resolution(e, fit, self.runs, self.explained(ref, combo, fit)) for e in combo
-            )
-            if b
-        ]:
+        elif below := [b for b in (below_resolution(e, fit, self.runs) for e in combo) if b]:
             reason = "; ".join(below)
         elif fit.rmse > (1 - MATERIAL_CUT) * ref.fit.rmse and (
             noise_floor_ratio(fit, self.runs) > AT_NOISE_FLOOR
