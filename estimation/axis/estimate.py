@@ -29,6 +29,7 @@ from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.data.runs import RunData, validate_runs
+from estimation.errors import EstimationFailed
 from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
@@ -57,10 +58,36 @@ def estimate(
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     axis = validate_runs(runs)
+    if method != "output-error":
+        runs = [fit_release(r) for r in runs]
+        return _seed_result(axis, method, runs, [prepare(r) for r in runs])
+    try:
+        return _output_error(axis, runs, search_effects, n_bootstrap, seed)
+    except NUMERICAL_FAILURES as err:  # the runs were valid: the numerics failed
+        ids = ", ".join(r.run_id for r in runs)
+        raise EstimationFailed(
+            f"the {axis} model to runs {ids}", f"{type(err).__name__}: {err}"
+        ) from err
+
+
+#: What a fit of valid runs can raise when its numerics fail (scipy's optimisers say
+#: "Residuals are not finite" as a ValueError): re-raised as ``EstimationFailed``.
+NUMERICAL_FAILURES = (
+    ValueError,
+    np.linalg.LinAlgError,
+    FloatingPointError,
+    OverflowError,
+    ZeroDivisionError,
+)
+
+
+def _output_error(
+    axis: str, runs: Sequence[RunData], search_effects: bool, n_bootstrap: int, seed: int
+) -> EstimationResult:
+    """The output-error estimate of validated runs (``estimate``)."""
+    method = "output-error"
     runs = [fit_release(r) for r in runs]
     prepared = [prepare(r) for r in runs]
-    if method != "output-error":
-        return _seed_result(axis, method, runs, prepared)
     base = fit_output_error(prepared)
     if search_effects:
         # drive_inertia is a candidate only for weight-driven runs without a declared weight

@@ -87,3 +87,21 @@ def test_estimation_failed_is_not_bad_input():
     assert not issubclass(EstimationFailed, ValueError)
     err = EstimationFailed("the heave equation", "the motion did not stay finite")
     assert str(err) == "could not fit the heave equation: the motion did not stay finite"
+
+
+def test_a_numerical_failure_in_a_tow_fit_is_estimation_failed(monkeypatch):
+    """Valid runs whose fit fails numerically (scipy raises ValueError for non-finite
+    residuals) are not reported as bad input."""
+    import estimation.axis.estimate as axis_estimate
+    from estimation import RunData, estimate
+
+    def broken(*_args, **_kwargs):
+        raise ValueError("Residuals are not finite in the initial point.")
+
+    monkeypatch.setattr(axis_estimate, "fit_output_error", broken)
+    t = np.arange(0.0, 5.0, 0.1)
+    run = RunData("a", "surge", t, np.where(t > 1, (t - 1) ** 2, 0.0), 10.0, t_release=1.0)
+    with pytest.raises(EstimationFailed, match="could not fit the surge model to runs a"):
+        estimate([run], n_bootstrap=0)
+    with pytest.raises(ValueError, match="method"):  # bad input stays a ValueError
+        estimate([run], method="magic")
