@@ -13,9 +13,9 @@ from estimation.thrust.curve import ThrustCurve, fit_thrust_curve
 __all__ = [
     "METHODS",
     "DecayResult",
-    "EstimationFailed",
     "EffectEstimate",
     "Estimate",
+    "EstimationFailed",
     "EstimationResult",
     "RunData",
     "ThrustCurve",
