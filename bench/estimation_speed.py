@@ -2,7 +2,8 @@
 
 The search tries every single effect and every pair (and extends a winning pair); the
 "pair" case needs two effects at once (dry friction and a current, reverse runs in the set),
-the "outside_library" case a force periodic along the rail that must be flagged, not fitted.
+the "outside_library" case a force periodic along the rail that must be flagged, not fitted;
+the "decay" cases a free heave decay through ``estimate_decay`` (its own term search).
 Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
 quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet.
 Run: .venv/bin/python bench/estimation_speed.py
@@ -23,7 +24,34 @@ from bench.timing import timed
 from estimation import estimate
 from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
+from estimation.motion.decay import estimate_decay
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
+
+
+def decay_records() -> dict[str, tuple[np.ndarray, np.ndarray, dict]]:
+    """A heave decay of a 143 kg body (+ 114 kg added, ρ·g·A_w = 5720 N/m) from 0.05 m,
+    15 s at 20 Hz, 20 µm noise: clean, and with quadratic damping (RK4 at 1 kHz here)."""
+    out = {}
+    total, k, b1 = 257.4, 5720.0, 72.8
+    for name, b2 in (("clean", 0.0), ("quadratic_damping", 572.0)):
+        dt, n = 1e-3, 15000
+        x, v, xs = 0.05, 0.0, []
+        acc = lambda x, v, b2=b2: -(b1 * v + b2 * abs(v) * v + k * x) / total  # noqa: E731
+        for i in range(n):
+            if i % 50 == 0:
+                xs.append(x)
+            a1 = acc(x, v)
+            a2 = acc(x + dt / 2 * v, v + dt / 2 * a1)
+            a3 = acc(x + dt / 2 * (v + dt / 2 * a1), v + dt / 2 * a2)
+            a4 = acc(x + dt * (v + dt / 2 * a2), v + dt * a3)
+            x, v = (
+                x + dt * v + dt * dt / 6 * (a1 + a2 + a3),
+                v + dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4),
+            )
+        t = np.arange(len(xs)) / 20.0
+        noisy = np.array(xs) + 2e-5 * np.random.default_rng(1).standard_normal(len(xs))
+        out[name] = (t, noisy, {"known_inertia": 143.0, "stiffness": k})
+    return out
 
 
 def main() -> None:
@@ -56,6 +84,11 @@ def main() -> None:
         entry = timed(lambda runs=runs: estimate(runs, n_bootstrap=0), 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_{name}"] = entry
+    for name, record in decay_records().items():
+        found = list(estimate_decay(*record[:2], "heave", **record[2]).effects)
+        entry = timed(lambda r=record: estimate_decay(*r[:2], "heave", **r[2]), 3)
+        entry["effects_found"] = found
+        cases[f"full_effect_search_decay_{name}"] = entry
     cases["estimate_with_40_bootstrap_clean"] = timed(lambda: estimate(clean), 3)
     searches_run = [v for k, v in cases.items() if k.startswith("full_effect")]
     worst_search = max(v["median_s"] for v in searches_run)

@@ -14,11 +14,13 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from estimation.errors import EstimationFailed
+
 #: What the numerics raise when a fit breaks down on valid input: numpy with ``np.seterr``
 #: raising (FloatingPointError), scipy's "array must not contain infs or NaNs" (ValueError),
 #: a singular matrix (LinAlgError), an overflow or a division by zero (ArithmeticError),
 #: ``curve_fit``'s "Optimal parameters not found" (RuntimeError). The estimator's own
-#: failure type joins this tuple when it has one.
+#: ``EstimationFailed`` already says what could not be fitted: it is passed on as it is.
 NUMERIC_FAILURES: tuple[type[Exception], ...] = (
     FloatingPointError,
     ArithmeticError,
@@ -61,6 +63,8 @@ def fitting(subject: str, doing: str = "fit") -> Iterator[None]:
             yield
     except EstimationFailure:
         raise
+    except EstimationFailed as err:  # the estimator's own line: "could not fit …: why"
+        raise EstimationFailure(str(err)) from err
     except NUMERIC_FAILURES as err:
         why = " ".join(str(err).split()) or type(err).__name__
         if seen:

@@ -16,7 +16,7 @@ from itertools import combinations
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
+from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.axis.output_error import FitResult
 
 #: |ρ| at or above this: the two effects are structurally the same on these runs.
@@ -26,19 +26,22 @@ NEAR_COLLINEAR = 0.9
 
 
 def _typical_step(name: str, fit: FitResult, runs: Sequence[PreparedRun]) -> float:
-    """A finite-difference step small against the parameter's plausible size."""
-    drive = max(min(r.mean_abs_drive for r in runs), 1e-9)
-    speed = max(float(np.max(np.abs(v), initial=0.0)) for v in fit.velocities) or 1e-3
-    travel = max(float(np.ptp(r.x)) for r in runs) or 1e-3
-    scale = {
-        "coulomb_friction": drive,
-        "constant_bias": drive,
-        "restoring_spring": drive / travel,
-        "cubic_drag": drive / speed**3,
-        "drive_inertia": 1.0,
-        "release_delay": 0.1,
-    }.get(name)
-    if scale is None:  # a base coefficient
+    """A finite-difference step small against the parameter's plausible size: an effect's
+    typical size is its entry's own (the coefficient that exerts the smallest drive along
+    the fitted motion), a base coefficient's its fitted value."""
+    if name in EFFECTS:
+        drive = max(min(r.mean_abs_drive for r in runs), 1e-9)
+        x = np.concatenate([r.x - r.x[0] for r in runs])
+        v = np.concatenate(fit.velocities)
+        a = np.concatenate(
+            [
+                np.gradient(u, r.t) if u.size > 1 else 0 * u
+                for r, u in zip(runs, fit.velocities, strict=True)
+            ]
+        )
+        weight = max(r.weight_equivalent for r in runs)
+        scale = EFFECTS[name].typical(drive, x, v, a, weight) if np.any(v) else drive
+    else:  # a base coefficient
         scale = abs(fit.value(name)) if name in fit.names else 1.0
     return 1e-4 * max(scale, 1e-12)
 
@@ -56,12 +59,11 @@ def sensitivities(
     values = np.array([fit.value(n) if n in fit.names else 0.0 for n in names])
     steps = np.array([_typical_step(n, fit, runs) for n in names])
     for i, n in enumerate(names):
-        upper = EFFECTS[n].upper if n in EFFECTS else np.inf
-        if values[i] + steps[i] > upper:
+        if n in EFFECTS and values[i] + steps[i] > EFFECTS[n].upper:
             steps[i] = -steps[i]
     sets = np.vstack([values, values + np.diag(steps)])
     sims = simulate(sets, effects, runs)
-    x = np.concatenate([s[0] for s in sims], axis=1)
+    x = bounded(np.concatenate([s[0] for s in sims], axis=1), runs)
     return names, ((x[1:] - x[0]) / steps[:, None]).T
 
 
@@ -162,8 +164,12 @@ def predicted_steps(
             free = [e for e in free if e not in past]
         left = residual - design @ step
         full = {n: v for n, v in zip([*fit.names, *free], values, strict=True)}
+        # an effect the step took past its bound starts at the bound nearest to zero
         start = np.array(
-            [full.get(n, 0.0) for n in (*fit.names, *(e for e in combo if e not in fit.names))]
+            [
+                full[n] if n in full else float(np.clip(0.0, EFFECTS[n].lower, EFFECTS[n].upper))
+                for n in (*fit.names, *(e for e in combo if e not in fit.names))
+            ]
         )
         out[combo] = (float(left @ left), start)
     return out

@@ -16,7 +16,7 @@ from estimation.axis.output_error import (
     fit_output_error,
     leave_one_run_out_rmse,
 )
-from estimation.axis.release import fit_release
+from estimation.axis.release import fit_release, speed_at_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
 from estimation.axis.reverse import (
     FRICTION_AND_BIAS,
@@ -29,10 +29,14 @@ from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.data.runs import RunData, validate_runs
+from estimation.errors import EstimationFailed
 from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
+#: A coefficient within this many σ of zero is not determined by the data (its 95 %
+#: interval holds zero: not even its sign is known).
+NOT_DETERMINED_SIGMAS = 2.0
 
 
 def estimate(
@@ -54,10 +58,36 @@ def estimate(
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     axis = validate_runs(runs)
+    if method != "output-error":
+        runs = [fit_release(r) for r in runs]
+        return _seed_result(axis, method, runs, [prepare(r) for r in runs])
+    try:
+        return _output_error(axis, runs, search_effects, n_bootstrap, seed)
+    except NUMERICAL_FAILURES as err:  # the runs were valid: the numerics failed
+        ids = ", ".join(r.run_id for r in runs)
+        raise EstimationFailed(
+            f"the {axis} model to runs {ids}", f"{type(err).__name__}: {err}"
+        ) from err
+
+
+#: What a fit of valid runs can raise when its numerics fail (scipy's optimisers say
+#: "Residuals are not finite" as a ValueError): re-raised as ``EstimationFailed``.
+NUMERICAL_FAILURES = (
+    ValueError,
+    np.linalg.LinAlgError,
+    FloatingPointError,
+    OverflowError,
+    ZeroDivisionError,
+)
+
+
+def _output_error(
+    axis: str, runs: Sequence[RunData], search_effects: bool, n_bootstrap: int, seed: int
+) -> EstimationResult:
+    """The output-error estimate of validated runs (``estimate``)."""
+    method = "output-error"
     runs = [fit_release(r) for r in runs]
     prepared = [prepare(r) for r in runs]
-    if method != "output-error":
-        return _seed_result(axis, method, runs, prepared)
     base = fit_output_error(prepared)
     if search_effects:
         # drive_inertia is a candidate only for weight-driven runs without a declared weight
@@ -134,6 +164,37 @@ def separability_warnings(
     return out
 
 
+def physical_warnings(fit: FitResult, runs: Sequence[RunData]) -> list[str]:
+    """A coefficient the data do not determine (σ NaN), an inertia below the body's own,
+    a damping held at its bound 0 is named (values a body cannot have are never silent)."""
+    out = [
+        f"{n} is not identified by these runs (no σ): the data cannot determine it; "
+        "a record with the acceleration from rest (the release) or a run at another force "
+        "would"
+        for n, s in zip(fit.names, fit.std, strict=True)
+        if not np.isfinite(s)
+    ]
+    inertia, sigma = fit.value("inertia"), fit.sigma("inertia")
+    if np.isfinite(sigma) and abs(inertia) < NOT_DETERMINED_SIGMAS * sigma:
+        out.append(
+            f"inertia is not identified by these runs: {inertia:.3g} ± {sigma:.2g} is within "
+            f"{NOT_DETERMINED_SIGMAS:g}σ of zero; a record with the acceleration from rest "
+            "(the release) would determine it"
+        )
+    bodies = [r.body_inertia for r in runs if r.body_inertia is not None]
+    if bodies and inertia < max(bodies):
+        out.append(
+            f"inertia {inertia:.4g} is below the body's own {max(bodies):.4g}: not physical "
+            "(a record that starts after the release, or a missed acceleration, gives this)"
+        )
+    if "linear_damping" in fit.at_bound:
+        out.append(
+            "linear_damping sits at its bound 0: the data want a negative damping, which a "
+            "passive body cannot have"
+        )
+    return out
+
+
 def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -> Bootstrap:
     rng = np.random.default_rng(seed)
     draws: list[np.ndarray] = []
@@ -186,6 +247,19 @@ def _build(
         for e in final.effects
     )
     warnings = separability_warnings(final, prepared, reverse)
+    warnings += physical_warnings(final, runs)
+    moving = {r.run_id: v for r in runs if (v := speed_at_release(r)) is not None}
+    coefficients = _coefficients(final)
+    if moving:  # the model starts at rest: what the fit says of the inertia is not data
+        coefficients["inertia"] = Estimate(coefficients["inertia"].value, float("nan"))
+        warnings.append(
+            "inertia is not identified: "
+            + ", ".join(
+                f"run {k!r} is already moving at its release ({v:.3g}/s)" for k, v in moving.items()
+            )
+            + "; the model starts from rest there, so the record lacks the acceleration that "
+            "determines the inertia: give the true release (a record with the at-rest samples)"
+        )
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):
         warnings.append(text)
@@ -194,7 +268,7 @@ def _build(
         axis=axis,
         method=method,
         runs=ids,
-        coefficients=_coefficients(final),
+        coefficients=coefficients,
         coefficients_before=_coefficients(base),
         effects=effects,
         ambiguous=tuple(outcome.ambiguous),

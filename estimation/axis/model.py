@@ -1,9 +1,12 @@
-"""Axis model simulation: closed form for constant drive, RK4 otherwise.
+"""Axis model simulation: the one equation (``estimation.motion.equation``) from rest at
+the release, in closed form for a constant drive when every term allows it, else by RK4.
 
-Model (per axis, SI):  (M + M_drive + k·|τ|/g)·v̇ = τ + b − F_c·sign(v) − K_L·v − K_Q·|v|·v
-                        − K_C·v³ − k_s·(x − x_release),  motion starting at t_release + δ.
-Parameters are evaluated for S parameter sets at once (rows of ``theta``) so Jacobians by
-finite differences cost one vectorized call.
+Model (per axis, SI):  (M + M_drive + Σ θ_i·w_i)·v̇ = τ + Σ_j θ_j·φ_j(x − x_release, v),
+motion starting at t_release + Σ δ (timing terms). The base is inertia M and the library
+entries ``linear_damping`` (K_L) and ``quadratic_damping`` (K_Q); each effect is one more
+entry (``estimation.motion.terms``) that carries its own regressor, so nothing here names
+one. Parameters are evaluated for S parameter sets at once (rows of ``theta``) so Jacobians
+by finite differences cost one vectorized call.
 """
 
 from __future__ import annotations
@@ -13,8 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.axis.effects import STANDARD_GRAVITY
 from estimation.data.runs import RunData
+from estimation.motion.equation import Coefficient, acceleration, hermite
+from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Term
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
 RK4_MAX_STEP_S = 0.1  # RK4 error < 1e-6 m on BENBAM-like dynamics (τ ≥ 0.5 s)
@@ -76,24 +80,43 @@ def _held_at(run: RunData, instant: float) -> float | None:
 
 
 class ParamView:
-    """Named columns of a (S, G) parameter matrix; absent effects read as zero."""
+    """A (S, G) parameter matrix read as the equation's parts: the inertia column and one
+    ``Coefficient`` per library entry (base damping, then effects), grouped by role."""
 
     def __init__(self, theta: np.ndarray, effects: Sequence[str]) -> None:
         self.theta = theta
-        self.index = {name: i for i, name in enumerate((*BASE_NAMES, *effects))}
+        self.inertia = theta[:, 0]
+        entries = [LIBRARY[name] for name in (*BASE_NAMES[1:], *effects)]
+        self.terms = [Coefficient(t, theta[:, [i + 1]]) for i, t in enumerate(entries)]
+        self.forces = [c for c in self.terms if c.term.role == "force"]
+        self.inertias = [c for c in self.terms if c.term.role == "inertia"]
+        self.timings = [c for c in self.terms if c.term.role == "timing"]
 
-    def __getitem__(self, name: str) -> np.ndarray:
-        i = self.index.get(name)
-        if i is None:
-            return np.zeros(self.theta.shape[0])
-        return self.theta[:, i]
+    def total_inertia(self, run: PreparedRun) -> np.ndarray:
+        """M + M_drive + Σ θ_i·w_i per parameter set (kg or kg·m²), shape (S,)."""
+        total = self.inertia + run.extra_inertia
+        for c in self.inertias:
+            total = total + c.value[:, 0] * run.weight_equivalent
+        return total
+
+    def delay(self) -> np.ndarray:
+        """Σ of the timing terms (s), shape (S,)."""
+        out = np.zeros(self.theta.shape[0])
+        for c in self.timings:
+            out = out + c.value[:, 0]
+        return out
+
+
+def _closed_form_term(term: Term) -> bool:
+    """A force term a constant-force tow from rest can carry in closed form: independent of
+    x, and of v only as v (K_L), |v|·v (K_Q) or sign(v)/a constant."""
+    return term.role != "force" or (term.x_power is None and term.v_power in (0, 1, 2))
 
 
 def closed_form_applies(effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:
-    """True when every run has constant drive and no state-dependent effect is active."""
-    if "restoring_spring" in effects or "cubic_drag" in effects:
-        return False
-    return all(r.constant_drive is not None for r in runs)
+    """True when every run has constant drive and every active term allows the closed form."""
+    terms = [LIBRARY[name] for name in (*BASE_NAMES[1:], *effects)]
+    return all(map(_closed_form_term, terms)) and all(r.constant_drive is not None for r in runs)
 
 
 def constant_force_response(
@@ -123,40 +146,43 @@ def constant_force_response(
     return x, v
 
 
+def _closed_form_parts(p: ParamView) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """K_L, K_Q, and the constant forces when moving forward and backward, each (S, 1):
+    Σ θ·(−φ(0, 1)) over the v and |v|·v terms, Σ θ·φ(0, ±1) over the constant ones."""
+    n = p.theta.shape[0]
+    k_l, k_q = np.zeros((n, 1)), np.zeros((n, 1))
+    forward, backward = np.zeros((n, 1)), np.zeros((n, 1))
+    zero, one = np.zeros(1), np.ones(1)
+    for c in p.forces:
+        if c.term.v_power == 1:
+            k_l = k_l - c.value * c.term.phi(zero, one)
+        elif c.term.v_power == 2:
+            k_q = k_q - c.value * c.term.phi(zero, one)
+        else:
+            forward = forward + c.value * c.term.phi(zero, one)
+            backward = backward + c.value * c.term.phi(zero, -one)
+    return k_l, k_q, forward, backward
+
+
 def _simulate_closed(
     p: ParamView, runs: Sequence[PreparedRun]
 ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """From rest at the release under F: moves forward when F + Σ θ·φ(0, +1) > 0, backward
+    when F + Σ θ·φ(0, −1) < 0 (dry friction holds it otherwise), with that net force."""
     out = []
-    col = lambda name: p[name][:, None]  # noqa: E731
+    k_l, k_q, forward, backward = _closed_form_parts(p)
+    delay = p.delay()[:, None]
     for r in runs:
         force = r.constant_drive
         assert force is not None
-        inertia = col("inertia") + r.extra_inertia + col("drive_inertia") * r.weight_equivalent
-        net = force + col("constant_bias")
-        f_eff = np.maximum(np.abs(net) - col("coulomb_friction"), 0.0)
-        tau = np.maximum(r.t[None, :] - r.t_release - col("release_delay"), 0.0)
-        x, v = constant_force_response(
-            tau, inertia, col("linear_damping"), col("quadratic_damping"), f_eff
-        )
-        s = np.sign(net)
+        inertia = p.total_inertia(r)[:, None]
+        ahead, behind = force + forward, force + backward
+        s = np.where(ahead > 0, 1.0, np.where(behind < 0, -1.0, 0.0))
+        f_eff = np.where(ahead > 0, ahead, np.where(behind < 0, -behind, 0.0))
+        tau = np.maximum(r.t[None, :] - r.t_release - delay, 0.0)
+        x, v = constant_force_response(tau, inertia, k_l, k_q, f_eff)
         out.append((s * x, s * v))
     return out
-
-
-def _hermite(grid_x, grid_v, h, tau):
-    """Cubic Hermite interpolation on a uniform grid; grid arrays (K, S), tau (S, n)."""
-    k_max = grid_x.shape[0] - 2
-    k = np.clip(np.floor(tau / h).astype(int), 0, k_max)
-    s = np.clip(tau / h - k, 0.0, 1.0)
-    cols = np.arange(grid_x.shape[1])[:, None]
-    x0, x1 = grid_x[k, cols], grid_x[k + 1, cols]
-    v0, v1 = grid_v[k, cols] * h, grid_v[k + 1, cols] * h
-    s2, s3 = s * s, s * s * s
-    x = (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * v0 + (-2 * s3 + 3 * s2) * x1
-    x = x + (s3 - s2) * v1
-    v = ((6 * s2 - 6 * s) * x0 + (3 * s2 - 4 * s + 1) * v0 + (6 * s - 6 * s2) * x1) / h
-    v = v + (3 * s2 - 2 * s) * v1 / h
-    return x, v
 
 
 def _zoh_integral_at_samples(r: PreparedRun) -> np.ndarray:
@@ -177,7 +203,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     h = RK4_MAX_STEP_S
     if any(r.constant_drive is None for r in runs):  # one step per held thrust sample
         h = min(h, min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1))
-    delay = p["release_delay"]
+    delay = p.delay()
     span = max(float(r.t[-1] - r.t_release) for r in runs) - min(0.0, float(delay.min()))
     n_steps = max(int(np.ceil(span / h)) + 2, 3)
     n_sets, n_runs = p.theta.shape[0], len(runs)
@@ -185,11 +211,11 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     const_force = np.zeros((n_sets, n_runs))
     varying = [i for i, r in enumerate(runs) if r.constant_drive is None]
     for i, r in enumerate(runs):
-        inertia[:, i] = p["inertia"] + r.extra_inertia + p["drive_inertia"] * r.weight_equivalent
-        const_force[:, i] = (r.constant_drive or 0.0) + p["constant_bias"]
-    k_l, k_q = p["linear_damping"][:, None], p["quadratic_damping"][:, None]
-    k_c, k_s = p["cubic_drag"][:, None], p["restoring_spring"][:, None]
-    f_c = p["coulomb_friction"][:, None]
+        inertia[:, i] = p.total_inertia(r)
+        const_force[:, i] = r.constant_drive or 0.0
+    # terms that are zero in every set exert nothing: skipped (dry friction's set-valued
+    # branch costs most)
+    forces = [c for c in p.forces if np.any(c.value)]
 
     # The recorded drive is a zero-order hold (each value until the next sample): its running
     # integral at the sample instants, so a step takes the drive's exact mean over its span
@@ -204,21 +230,10 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
             f[:, i] += (_zoh_integral(r, held[i], a + h) - _zoh_integral(r, held[i], a)) / h
         return f
 
-    has_cubic, has_spring = bool(np.any(k_c)), bool(np.any(k_s))
-    has_coulomb = bool(np.any(f_c))
     inv_inertia = 1.0 / inertia
 
     def accel(x, v, force):
-        net = force - (k_l + k_q * np.abs(v)) * v
-        if has_cubic:
-            net = net - k_c * v**3
-        if has_spring:
-            net = net - k_s * x
-        if not has_coulomb:
-            return net * inv_inertia
-        direction = np.where(v != 0.0, np.sign(v), np.sign(net))
-        stuck = (v == 0.0) & (np.abs(net) <= f_c)
-        return np.where(stuck, 0.0, (net - f_c * direction) * inv_inertia)
+        return acceleration(x, v, force, inv_inertia, forces)
 
     xs = np.zeros((n_steps, n_sets, n_runs))
     vs = np.zeros((n_steps, n_sets, n_runs))
@@ -241,8 +256,20 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     out = []
     for i, r in enumerate(runs):
         tau = np.maximum(r.t[None, :] - r.t_release - delay[:, None], 0.0)
-        out.append(_hermite(xs[:, :, i], vs[:, :, i], h, tau))
+        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
     return out
+
+
+#: A simulated position beyond this multiple of the measured travel is a diverged trial.
+DIVERGED_TRAVELS = 1e3
+
+
+def bounded(x: np.ndarray, runs: Sequence[PreparedRun]) -> np.ndarray:
+    """Simulated positions held within ±DIVERGED_TRAVELS × (the runs' travel + 1) (m or rad),
+    NaN at the bound: a diverged trial becomes a large, finite misfit where it starts, so
+    no overflow reaches a fit, a sensitivity or a norm."""
+    big = DIVERGED_TRAVELS * (max((float(np.ptp(r.x)) for r in runs), default=0.0) + 1.0)
+    return np.clip(np.nan_to_num(x, nan=big, posinf=big, neginf=-big), -big, big)
 
 
 def simulate(

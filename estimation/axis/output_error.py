@@ -15,7 +15,8 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.model import BASE_NAMES, PreparedRun, simulate
+from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
+from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics, solution_statistics
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
@@ -71,9 +72,19 @@ def initial_guess(runs: Sequence[PreparedRun], effects: Sequence[str]) -> np.nda
         res -= res.mean(axis=1, keepdims=True)
         sse += np.sum(res**2, axis=1)
     inertia = grid[int(np.argmin(np.nan_to_num(sse, nan=np.inf)))]
-    start = {"coulomb_friction": 0.01 * drives.min(), "drive_inertia": 0.1}
-    extra = [start.get(e, 0.0) for e in effects]
+    extra = [effect_start(e, runs) for e in effects]
     return np.array([inertia, k_l, k_q, *extra])
+
+
+def effect_start(name: str, runs: Sequence[PreparedRun]) -> float:
+    """The entry's own start value on these runs (its share of the force the smallest
+    drive exerts along the measured motion)."""
+    force = min(r.mean_abs_drive for r in runs)
+    x = np.concatenate([r.x - r.x[0] for r in runs])
+    v = np.concatenate([np.gradient(r.x, r.t) for r in runs])
+    a = np.concatenate([np.gradient(np.gradient(r.x, r.t), r.t) for r in runs])
+    weight = max(r.weight_equivalent for r in runs)
+    return LIBRARY[name].start(force, x, v, a, weight)
 
 
 class _Problem:
@@ -102,8 +113,10 @@ class _Problem:
             g = params[: self.n_global]
             self._steps = 1e-6 * np.maximum(np.abs(g), 1e-3)
             sets = np.vstack([g, g + np.diag(self._steps)])
-            sims = self.model(params, sets)  # unstable trial steps come back as large misfits
-            self._sims = np.nan_to_num(sims, nan=1e6, posinf=1e6, neginf=-1e6)
+            # an unstable trial step comes back as a large, finite misfit: bounded where it
+            # starts (1e3 × the measured travel), so no overflow reaches the optimiser
+            with np.errstate(over="ignore", invalid="ignore"):
+                self._sims = bounded(self.model(params, sets), self.runs)
             self._key = key
         return self._sims
 

@@ -67,3 +67,40 @@ def fit_release(run: RunData) -> RunData:
     return replace(
         run, t_release=instant, t_release_std=min(std, run.t_release_std), window_found=report
     )
+
+
+#: Samples after the release the start-at-rest check fits a parabola to.
+REST_CHECK_SAMPLES = 7
+#: |v(release)| beyond this many σ of the local fit, and …
+REST_CHECK_SIGMAS = 3.0
+#: … beyond this share of the run's largest speed, is motion at the release.
+REST_CHECK_SHARE = 0.05
+
+
+def speed_at_release(run: RunData) -> float | None:
+    """The speed at the release (m/s or rad/s) when the data show the body already moving
+    there, else None. A tow or spin starts from rest: x − x₀ = c·τ² near the release. A
+    parabola x = a + b·τ + c·τ² over the first ``REST_CHECK_SAMPLES`` samples after it
+    gives b with its σ; b beyond REST_CHECK_SIGMAS σ and REST_CHECK_SHARE of the run's
+    largest speed means the record starts after the release (already moving)."""
+    t = np.asarray(run.t, dtype=float)
+    x = np.asarray(run.position, dtype=float)
+    after = np.nonzero((t >= run.t_release) & run.window())[0][:REST_CHECK_SAMPLES]
+    if after.size < 4:
+        return None
+    tau = t[after] - run.t_release
+    design = np.column_stack([np.ones_like(tau), tau, tau**2])
+    coef, *_ = np.linalg.lstsq(design, x[after], rcond=None)
+    res = x[after] - design @ coef
+    dof = max(after.size - 3, 1)
+    cov = float(res @ res) / dof * np.linalg.pinv(design.T @ design)
+    sigma = float(np.sqrt(max(cov[1, 1], 0.0)))
+    # the encoder's step is the floor of what a slope over these samples can show
+    step = float(np.min(np.abs(np.diff(np.unique(x))), initial=np.inf)) if x.size > 1 else 0.0
+    sigma = max(sigma, (step if np.isfinite(step) else 0.0) / max(float(np.ptp(tau)), 1e-12))
+    moving = np.nonzero(run.window() & (t > run.t_release))[0]
+    top = float(np.max(np.abs(np.diff(x[moving]) / np.diff(t[moving])), initial=0.0))
+    b = float(coef[1])
+    if abs(b) > REST_CHECK_SIGMAS * sigma and abs(b) > REST_CHECK_SHARE * top:
+        return b
+    return None

@@ -66,6 +66,11 @@ class Unexplained:
                 f"periodic in {self.period.domain} with period {self.period.value:.3g} "
                 f"{self.period.unit} ({self.period.share:.0%} of it)"
             )
+        elif self.period is not None:  # named, with its share, though it is not most of it
+            where += (
+                f"; strongest sinusoid in {self.period.domain}: period "
+                f"{self.period.value:.3g} {self.period.unit} ({self.period.share:.0%} of it)"
+            )
         unit = "N" if axis == "surge" else "N·m"
         evidence = (
             f"(Ljung–Box p = {self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} {unit}, "

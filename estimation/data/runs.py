@@ -52,6 +52,9 @@ class RunData:
     #: Thruster-driven runs: how the thrust's supply-voltage dependence was taken (the
     #: identified law of a multi-voltage calibration, or the rig file's exponent).
     drive_law: str | None = None
+    #: The vehicle's own mass (kg; or its displacement, or its dry inertia in kg·m² for yaw)
+    #: when known: an identified inertia (m + m_a) below it is flagged as not physical.
+    body_inertia: float | None = None
 
     def window_report(self) -> WindowReport:
         """The window as fitted: the found one, or one built from the given instants."""
@@ -143,6 +146,8 @@ def validate_run(run: RunData) -> None:
         raise field_error(
             rid, "t_release", run.t_release, f"a time ≤ {t[-1]:g} s (the last sample)"
         )
+    if run.body_inertia is not None and not run.body_inertia > 0:
+        raise field_error(rid, "body_inertia", run.body_inertia, "> 0 or None")
     moving = np.count_nonzero((t > run.t_release) & run.window())
     if moving < MIN_MOVING_SAMPLES:
         raise field_error(

@@ -9,7 +9,8 @@ import numpy as np
 from scipy.signal import savgol_filter
 from scipy.stats import chi2
 
-from estimation.axis.model import PreparedRun
+from estimation.axis.effects import EFFECTS
+from estimation.axis.model import ParamView, PreparedRun
 from estimation.axis.output_error import FitResult
 
 
@@ -71,16 +72,16 @@ def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndar
 
 
 def _force_of(fit: FitResult, run: PreparedRun, res: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The linearised force of one run's position residual ``res`` (see force_residuals)."""
+    """The linearised force of one run's position residual ``res`` (see force_residuals):
+    each term's own stiffness −θ·∂φ/∂x and damping −θ·∂φ/∂v along the model motion."""
     d1, d2 = smoothed_derivatives(run.t, res)
-    inertia = fit.value("inertia") + run.extra_inertia
-    inertia += fit.value("drive_inertia") * run.weight_equivalent
-    damping = (
-        fit.value("linear_damping")
-        + 2 * fit.value("quadratic_damping") * np.abs(v)
-        + 3 * fit.value("cubic_drag") * v**2
-    )
-    return inertia * d2 + damping * d1 + fit.value("restoring_spring") * res
+    p = ParamView(fit.values[None, :], fit.effects)
+    x = run.x - run.x[0]
+    damping, stiffness = np.zeros_like(v), np.zeros_like(v)
+    for c in p.forces:
+        damping = damping - c.value[0, 0] * c.term.dphi_dv(x, v)
+        stiffness = stiffness - c.value[0, 0] * c.term.dphi_dx(x, v)
+    return p.total_inertia(run)[0] * d2 + damping * d1 + stiffness * res
 
 
 NOISE_WINDOW = 20  # samples per window of the noise estimate
@@ -144,24 +145,13 @@ def regressor_correlations(
     adding the effect with a positive value would explain the residual.
     """
     base: list[np.ndarray] = []
-    cols: dict[str, list[np.ndarray]] = {
-        k: []
-        for k in (
-            "coulomb_friction",
-            "constant_bias",
-            "drive_inertia",
-            "restoring_spring",
-            "cubic_drag",
-        )
-    }
+    regressors = [e for e in EFFECTS if EFFECTS[e].role != "timing"]
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in regressors}
     for r, offset, v in zip(runs, fit.offsets, fit.velocities, strict=True):
         a = np.gradient(v, r.t) if r.t.size > 1 else np.zeros_like(v)
         base.append(np.column_stack([a, v, np.abs(v) * v]))
-        cols["coulomb_friction"].append(-np.sign(v))
-        cols["constant_bias"].append(np.ones_like(v))
-        cols["drive_inertia"].append(-a * r.weight_equivalent)
-        cols["restoring_spring"].append(-(r.x - offset))
-        cols["cubic_drag"].append(-(v**3))
+        for name in regressors:
+            cols[name].append(EFFECTS[name].regressor(r.x - offset, v, a, r.weight_equivalent))
     h = np.vstack(base)
     h_pinv = np.linalg.pinv(h)
     res = np.concatenate(force_res)

@@ -8,6 +8,8 @@ from typing import TypedDict
 
 import numpy as np
 
+from estimation.motion.identify import honest_statistics
+
 
 class SolutionStatistics(TypedDict):
     """The fields of :class:`FitStatistics` a least-squares solution gives directly."""
@@ -23,15 +25,18 @@ def solution_statistics(
     residuals: np.ndarray, jacobian: np.ndarray, n_global: int
 ) -> SolutionStatistics:
     """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
-    from cov = σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p) (σ of 0 where the variance is not positive),
-    with SSE, n and p; ``residuals`` and ``jacobian`` evaluated at the solution."""
-    n, p = residuals.size, jacobian.shape[1]
-    sse = float(residuals @ residuals)
-    cov = sse / max(n - p, 1) * np.linalg.pinv(jacobian.T @ jacobian)
-    std = np.sqrt(np.maximum(np.diag(cov)[:n_global], 0.0))
-    denom = np.outer(std, std)
-    corr = np.divide(cov[:n_global, :n_global], denom, out=np.eye(n_global), where=denom > 0)
-    return SolutionStatistics(std=std, correlation=corr, sse=sse, n_samples=n, n_params=p)
+    from cov = σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p), with SSE, n and p; ``residuals`` and
+    ``jacobian`` evaluated at the solution. A parameter along a direction the data cannot
+    determine gets σ = NaN (not identified, ``estimation.motion.identify``), never the
+    too-small σ of a pseudo-inverse that drops that direction."""
+    ident = honest_statistics(residuals, jacobian, n_global)
+    return SolutionStatistics(
+        std=ident.std,
+        correlation=ident.correlation,
+        sse=ident.sse,
+        n_samples=ident.n_samples,
+        n_params=ident.n_params,
+    )
 
 
 @dataclass(frozen=True, kw_only=True)

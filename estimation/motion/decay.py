@@ -1,0 +1,328 @@
+"""The entry for a record of one DOF: ``estimate_decay`` (free decay, forced, or pulled).
+
+    (M_known + M)·ẍ + B₁·ẋ + [B₂·|ẋ|·ẋ + B₃·ẋ³ + F_c·sign ẋ] + k·x + [k₃·x³] = τ(t)
+
+(terms in brackets are library candidates, kept by the rules of ``motion.search``). A free
+decay scales every coefficient alike, so it needs one fact from outside: a stiffness (ρ·g·A_w
+for heave, Δ·g·GM for roll) or the inertia. The result's warnings name every coefficient
+the data do not determine, every value a body cannot have, and — when the residual is
+decisively not white (Ljung–Box p < ``WHITE_P``) and the coefficients move by more than
+``MOVED_SIGMAS`` σ when a candidate is added or left out — that the coefficients may be
+biased, whatever the residual's size against the noise floor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from estimation.errors import EstimationFailed
+from estimation.motion.fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.records import Record, Setup, validate
+from estimation.motion.search import TRIAL_NFEV, Step, search_terms
+from estimation.motion.terms import DOFS, LIBRARY
+from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
+
+WHITE_P = 1e-3  # Ljung–Box p below this: decisively not white (10 lags per record)
+MOVED_SIGMAS = 2.0  # a coefficient that moves more than this when a term is tried is fragile
+#: Candidates tried on a decay after the base (damping, then restoring, then friction).
+DECAY_CANDIDATES: tuple[str, ...] = (
+    "quadratic_damping",
+    "cubic_drag",
+    "cubic_stiffness",
+    "coulomb_friction",
+    "constant_bias",
+)
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """A value with its σ (None: not identified by the data), in SI units."""
+
+    value: float
+    std: float | None
+    unit: str
+
+    def to_json(self) -> dict[str, Any]:
+        """{value, std, unit}; a σ that is not known is null."""
+        return {"value": _num(self.value), "std": _num(self.std), "unit": self.unit}
+
+
+@dataclass(frozen=True)
+class DecayResult:
+    """What one estimate of a DOF's equation produced; ``to_json()`` is its document."""
+
+    dof: str
+    runs: tuple[str, ...]
+    coefficients: dict[str, Coefficient]
+    known: dict[str, Coefficient]
+    effects: tuple[str, ...]
+    not_identified: tuple[str, ...]
+    rmse_before: float
+    rmse_after: float
+    noise: float
+    whiteness: Whiteness
+    possibly_biased: bool
+    natural_period_s: float | None
+    warnings: tuple[str, ...]
+    steps: tuple[Step, ...]
+    equilibrium: dict[str, float]
+    release_time_s: dict[str, float]
+    ambiguous: tuple[tuple[str, str], ...] = ()
+    #: Per rival of a kept term: the final model with the rival in its place (its
+    #: coefficients, and its BIC minus the final's).
+    alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
+    fit: MotionFit | None = field(default=None, repr=False, compare=False)
+
+    def to_json(self) -> dict[str, Any]:
+        """The result document (docs/estimation.md, *Free decay*)."""
+        return {
+            "kind": "decay",
+            "dof": self.dof,
+            "runs": list(self.runs),
+            "coefficients": {k: c.to_json() for k, c in self.coefficients.items()},
+            "known": {k: c.to_json() for k, c in self.known.items()},
+            "effects": list(self.effects),
+            "ambiguous": [list(p) for p in self.ambiguous],
+            "alternatives": {
+                rival: {
+                    "coefficients": {k: c.to_json() for k, c in coeffs.items()},
+                    "delta_bic": _num(delta),
+                }
+                for rival, (coeffs, delta) in self.alternatives.items()
+            },
+            "not_identified": list(self.not_identified),
+            "rmse_before": _num(self.rmse_before),
+            "rmse_after": _num(self.rmse_after),
+            "noise": _num(self.noise),
+            "ljung_box": {
+                "q": _num(self.whiteness.q_statistic),
+                "lags": self.whiteness.lags,
+                "p_value": _num(self.whiteness.p_value),
+            },
+            "coefficients_possibly_biased": self.possibly_biased,
+            "natural_period_s": _num(self.natural_period_s),
+            "warnings": list(self.warnings),
+            "evidence": [s.to_json() for s in self.steps],
+            "equilibrium": {k: _num(v) for k, v in self.equilibrium.items()},
+            "release_time_s": {k: _num(v) for k, v in self.release_time_s.items()},
+        }
+
+
+def _num(x: float | None) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def release_of(record: Record) -> float:
+    """Where a record's free motion starts: its first sample when driven; for a free decay
+    the last sample still within 3σ (noise) of the largest excursion from the final rest
+    position before the motion first crosses that rest (a decay is released at its largest
+    offset: the end of a push, or the end of a hold)."""
+    t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
+    if record.drive is not None:
+        return float(t[0])
+    rest = float(np.median(x[-max(x.size // 5, 3) :]))
+    off = x - rest
+    peak = int(np.argmax(np.abs(off)))
+    crossing = np.nonzero(np.sign(off[peak:]) != np.sign(off[peak]))[0]
+    stop = peak + (int(crossing[0]) if crossing.size else off.size - peak)
+    near = np.abs(off[peak:stop]) >= abs(off[peak]) - 3.0 * position_noise([x])
+    return float(t[peak + int(np.nonzero(near)[0][-1])])
+
+
+def estimate_decay(
+    t: np.ndarray,
+    x: np.ndarray,
+    dof: str,
+    drive: float | np.ndarray | None = None,
+    *,
+    known_inertia: float = 0.0,
+    inertia: float | None = None,
+    stiffness: float | None = None,
+    known_terms: Mapping[str, float] | None = None,
+    min_inertia: float | None = None,
+    t_release: float | None = None,
+    t_end: float | None = None,
+    candidates: Sequence[str] = DECAY_CANDIDATES,
+    run_id: str = "decay",
+) -> DecayResult:
+    """Estimate one DOF's equation from one record (arrays t [s], x [m or rad], optional
+    drive [N or N·m]). ``known_inertia``: the known part (body's dry inertia, rig);
+    ``inertia``: the identified part when known; ``stiffness``: a known linear stiffness
+    (N/m or N·m/rad); ``min_inertia``: the smallest identified inertia the body can have.
+    ``t_release``/``t_end``: the free motion's window (default: ``release_of``, last sample).
+    Raises ValueError for unusable input, ``EstimationFailed`` when the numerics fail."""
+    record = Record(run_id, np.asarray(t, dtype=float), np.asarray(x, dtype=float), drive)
+    return estimate_records(
+        [record],
+        dof,
+        known_inertia=known_inertia,
+        inertia=inertia,
+        stiffness=stiffness,
+        known_terms=known_terms,
+        min_inertia=min_inertia,
+        t_release={run_id: t_release} if t_release is not None else None,
+        t_end={run_id: t_end} if t_end is not None else None,
+        candidates=candidates,
+    )
+
+
+def _window(r: Record, start: float, end: float | None) -> Record:
+    t = np.asarray(r.t, dtype=float)
+    keep = (t >= start) & (t <= (np.inf if end is None else end))
+    d = r.drive
+    if d is not None and np.ndim(d) == 1:
+        d = np.asarray(d, dtype=float)[keep]
+    return Record(r.run_id, t[keep], np.asarray(r.x, dtype=float)[keep], d)
+
+
+def estimate_records(
+    records: Sequence[Record],
+    dof: str,
+    *,
+    known_inertia: float = 0.0,
+    inertia: float | None = None,
+    stiffness: float | None = None,
+    known_terms: Mapping[str, float] | None = None,
+    min_inertia: float | None = None,
+    t_release: Mapping[str, float] | None = None,
+    t_end: Mapping[str, float] | None = None,
+    candidates: Sequence[str] = DECAY_CANDIDATES,
+) -> DecayResult:
+    """``estimate_decay`` for several records of one DOF fitted jointly."""
+    known = dict(known_terms or {})
+    base_terms: tuple[str, ...] = ("linear_damping",)
+    if stiffness is not None:
+        known["restoring_spring"] = float(stiffness)
+    else:
+        base_terms = (*base_terms, "restoring_spring")
+    setup = Setup(dof, float(known_inertia), inertia, known, base_terms, min_inertia)
+    for r in records:
+        validate([r], Setup(dof, known_inertia, inertia, known, base_terms))
+    starts = {r.run_id: (t_release or {}).get(r.run_id, release_of(r)) for r in records}
+    ends = t_end or {}
+    windowed = [_window(r, starts[r.run_id], ends.get(r.run_id)) for r in records]
+    validate(windowed, setup)
+    base = fit_motion(windowed, setup)
+    tried = [c for c in candidates if c not in known and c not in base.names]
+    final, steps, rejected, rivals = search_terms(windowed, setup, base, tried)
+    result = _result(setup, windowed, base, final, steps, rejected, starts, rivals)
+    alternatives = {}
+    for kept, rival in rivals:
+        swapped = tuple(rival if e == kept else e for e in final.effects)
+        start = parameters_of(final)
+        start[list(final.names).index(kept)] = 0.0
+        try:
+            alt = fit_motion(windowed, setup, swapped, start=start, max_nfev=TRIAL_NFEV)
+        except EstimationFailed:
+            continue
+        alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
+    return replace(result, alternatives=alternatives)
+
+
+def _coefficients(setup: Setup, fit: MotionFit) -> dict[str, Coefficient]:
+    """A fit's coefficients with σ (None: not identified) and units."""
+    unit = "kg·m²" if DOFS[setup.dof] else "kg"
+    return {
+        n: Coefficient(
+            float(v),
+            None if not np.isfinite(s) else float(s),
+            unit if n == "inertia" else LIBRARY[n].unit(setup.dof),
+        )
+        for n, v, s in zip(fit.names, fit.values, fit.std, strict=True)
+    }
+
+
+def _result(setup, records, base, final, steps, rejected, starts, rivals) -> DecayResult:
+    rotational = DOFS[setup.dof]
+    units = {
+        n: LIBRARY[n].unit(setup.dof) for n in (*final.names, *setup.known_terms) if n != "inertia"
+    }
+    units["inertia"] = "kg·m²" if rotational else "kg"
+    coefficients = _coefficients(setup, final)
+    known = {n: Coefficient(float(v), 0.0, units[n]) for n, v in setup.known_terms.items()}
+    if setup.inertia is not None:
+        known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])
+    white = ljung_box(final.residuals)
+    moved = _moved(final, [base, *rejected])
+    biased = white.p_value < WHITE_P and moved
+    warnings = _warnings(setup, final, white, biased)
+    warnings += [
+        f"{a} and {b} explain the same part of the residual on these records (rivals): "
+        f"{a} is reported; to separate them — {LIBRARY[b].separated_by}"
+        for a, b in rivals
+    ]
+    total_m = setup.known_inertia + (
+        final.value("inertia") if "inertia" in final.names else float(setup.inertia or 0.0)
+    )
+    k = (
+        setup.known_terms.get("restoring_spring")
+        if "restoring_spring" in setup.known_terms
+        else final.value("restoring_spring")
+    )
+    period = 2 * np.pi * np.sqrt(total_m / k) if k and k > 0 and total_m > 0 else None
+    return DecayResult(
+        dof=setup.dof,
+        runs=tuple(r.run_id for r in records),
+        coefficients=coefficients,
+        known=known,
+        effects=final.effects,
+        not_identified=final.not_identified,
+        rmse_before=base.rmse,
+        rmse_after=final.rmse,
+        noise=position_noise(final.residuals),
+        whiteness=white,
+        possibly_biased=biased,
+        natural_period_s=period,
+        warnings=tuple(warnings),
+        steps=steps,
+        equilibrium={r.run_id: float(e) for r, e in zip(records, final.equilibrium, strict=True)},
+        release_time_s=dict(starts),
+        ambiguous=tuple(rivals),
+        fit=final,
+    )
+
+
+def _moved(final: MotionFit, others: Sequence[MotionFit]) -> bool:
+    """Whether a coefficient of ``final`` differs by more than MOVED_SIGMAS σ in another
+    fit of nested structure (the base, or a candidate tried against it)."""
+    for other in others:
+        for n, v, s in zip(final.names, final.values, final.std, strict=True):
+            moved = n in other.names and abs(other.value(n) - v) > MOVED_SIGMAS * s
+            if np.isfinite(s) and s > 0 and moved:
+                return True
+    return False
+
+
+def _warnings(setup: Setup, final: MotionFit, white: Whiteness, biased: bool) -> list[str]:
+    out = []
+    for n in final.not_identified:
+        hint = LIBRARY[n].separated_by if n in LIBRARY else "a forced run or a known stiffness"
+        out.append(
+            f"{n} is not identified by these records: no σ is given; add a record that "
+            f"excites it ({hint})"
+        )
+    for n in final.at_bound:
+        if n in LIBRARY:
+            out.append(
+                f"{n} sits at its physical bound {final.value(n):.3g}: the data want a "
+                f"value a body cannot have ({LIBRARY[n].physical})"
+            )
+    if "inertia" in final.names and setup.min_inertia is not None:
+        value = final.value("inertia")
+        if value < setup.min_inertia:
+            out.append(
+                f"inertia {value:.4g} is below what the body has ({setup.min_inertia:.4g}):"
+                " not physical; the record may start after the release or miss its "
+                "acceleration"
+            )
+    if biased:
+        out.append(
+            f"the residual is not white (Ljung–Box p = {white.p_value:.2g}) and the "
+            f"coefficients move by more than {MOVED_SIGMAS:g}σ when a term is added or left "
+            "out: they may be biased by structure no library term explains"
+        )
+    return out

@@ -1,0 +1,331 @@
+"""Output-error fit of the one equation to records of one DOF, from any initial state.
+
+Minimises Σ_records Σ_samples (x_meas − x_eq − ξ(t; θ, ξ₀, ξ̇₀))², where ξ solves
+
+    (M_known + M + Σ θ_i·w_i)·ξ̈ = τ(t) + Σ_j θ_j·φ_j(ξ, ξ̇)          (equation.py)
+
+from the state (ξ₀, ξ̇₀) at each record's first sample: the equilibrium x_eq (a spring is
+anchored there, not at the release point) and the initial state are nuisance parameters
+per record. Known terms (a hydrostatic stiffness) are fixed. σ from ``identify`` (a
+direction the data cannot determine is reported, not dropped). Start values from the
+equation-error least squares on Savitzky–Golay derivatives; every parameter is scaled by its
+typical size, bounded by its term's bounds, and the RK4 step resolves the start model's
+period and damping rate, so a trial far from the data is a large finite misfit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import savgol_filter
+
+from estimation.errors import EstimationFailed
+from estimation.motion.equation import Coefficient, Track, integrate, stable_step
+from estimation.motion.identify import honest_statistics
+from estimation.motion.records import Record, Setup
+from estimation.motion.terms import LIBRARY
+from estimation.stats.fit import FitStatistics
+
+SAVGOL_WINDOW = 7
+
+
+@dataclass(frozen=True, kw_only=True)
+class MotionFit(FitStatistics):
+    """A converged fit: coefficients with σ (NaN: not identified), nuisances, trajectories."""
+
+    equilibrium: np.ndarray  # per record, m or rad
+    initial: np.ndarray  # (R, 2): ξ₀ (m or rad), ξ̇₀ (m/s or rad/s)
+    displacements: tuple[np.ndarray, ...]  # model ξ at the samples
+    velocities: tuple[np.ndarray, ...]  # model ξ̇ at the samples
+    not_identified: tuple[str, ...] = ()
+    step: float = 0.0  # RK4 step, s
+
+
+def derivatives(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ẋ and ẍ at the samples: 7-point Savitzky–Golay on a uniform resampling."""
+    dt = float(np.median(np.diff(t)))
+    grid = np.arange(t[0], t[-1] + 0.5 * dt, dt)
+    y = np.interp(grid, t, x)
+    w = min(SAVGOL_WINDOW, grid.size - (1 - grid.size % 2))
+    if w < 5:
+        d1 = np.gradient(x, t)
+        return d1, np.gradient(d1, t)
+    d1 = savgol_filter(y, w, 2, deriv=1, delta=dt)
+    d2 = savgol_filter(y, w, 2, deriv=2, delta=dt)
+    return np.interp(t, grid, d1), np.interp(t, grid, d2)
+
+
+def names_of(setup: Setup, effects: Sequence[str]) -> tuple[str, ...]:
+    """Fitted coefficient names: inertia (unless known), base terms, then effects."""
+    head = ("inertia",) if setup.inertia is None else ()
+    return (*head, *setup.terms, *effects)
+
+
+def equation_error_start(records: Sequence[Record], setup: Setup, names: Sequence[str]):
+    """Coefficients, equilibria and initial states from least squares on derivatives."""
+    rows, rhs, eqs, init = [], [], [], []
+    for r in records:
+        t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
+        v, a = derivatives(t, x)
+        eq = float(np.median(x[-max(x.size // 5, 3) :]))
+        xi = x - eq
+        eqs.append(eq)
+        init.append((xi[0], v[0]))
+        drive = r.drive_at_samples()
+        b = (np.zeros_like(t) if drive is None else drive) - setup.known_inertia * a
+        for n, value in setup.known_terms.items():
+            b = b + value * LIBRARY[n].regressor(xi, v, a, 0.0)
+        if setup.inertia is not None:
+            b = b - setup.inertia * a
+        cols = [a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, 0.0) for n in names]
+        rows.append(np.column_stack([*cols, np.ones_like(t)]))
+        rhs.append(b)
+    sol = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+    return sol[: len(names)], np.array(eqs), np.array(init, dtype=float)
+
+
+class _Problem:
+    """Residuals and Jacobian of the joint fit (globals, then x_eq, ξ₀, ξ̇₀ per record)."""
+
+    def __init__(
+        self,
+        records: Sequence[Record],
+        setup: Setup,
+        names: Sequence[str],
+        h: float,
+        scale: np.ndarray,
+    ) -> None:
+        self.scale = scale  # typical size of every parameter (globals, x_eq, ξ₀, ξ̇₀)
+        self.setup, self.names, self.h = setup, tuple(names), h
+        self.ng, self.nr = len(self.names), len(records)
+        self.tracks = []
+        for r in records:
+            t = np.asarray(r.t, dtype=float)
+            d = r.drive_at_samples()
+            self.tracks.append(
+                Track(t - t[0], d, setup.known_inertia, 0.0, float(np.ptp(r.x)) or 1.0)
+            )
+        self.sizes = [r.t.size for r in records]
+        self.starts = np.concatenate([[0], np.cumsum(self.sizes)])
+        self.measured = np.concatenate([np.asarray(r.x, dtype=float) for r in records])
+        self.index = np.repeat(np.arange(self.nr), self.sizes)
+        self._key: bytes | None = None
+
+    def split(self, p: np.ndarray):
+        ng, nr = self.ng, self.nr
+        return p[:ng], p[ng : ng + nr], p[ng + nr : ng + 2 * nr], p[ng + 2 * nr :]
+
+    def simulate(self, g: np.ndarray, xi0: np.ndarray, v0: np.ndarray):
+        """Per record (ξ, ξ̇) at the samples for parameter sets g (S, ng)."""
+        inertia = g[:, self.names.index("inertia")] if "inertia" in self.names else None
+        if inertia is None:
+            inertia = np.full(g.shape[0], float(self.setup.inertia or 0.0))
+        coeffs = [
+            Coefficient(LIBRARY[n], g[:, [i]]) for i, n in enumerate(self.names) if n != "inertia"
+        ]
+        coeffs += [
+            Coefficient(LIBRARY[n], np.full((g.shape[0], 1), v))
+            for n, v in self.setup.known_terms.items()
+        ]
+        return integrate(self.tracks, inertia, coeffs, xi0, v0, self.h)
+
+    def _evaluate(self, p: np.ndarray) -> None:
+        key = p.tobytes()
+        if key == self._key:
+            return
+        g, eq, xi0, v0 = self.split(p)
+        self.g_steps = 1e-6 * np.maximum(np.abs(g), self.scale[: self.ng] * 1e-3)
+        self.x_step = 1e-6 * np.maximum(np.abs(xi0), self.scale[self.ng + self.nr :][: self.nr])
+        self.v_step = 1e-6 * np.maximum(np.abs(v0), self.scale[self.ng + 2 * self.nr :])
+        sets = np.vstack([g, g + np.diag(self.g_steps), g, g])
+        x0 = np.vstack([xi0] * (self.ng + 1) + [xi0 + self.x_step, xi0])
+        vv = np.vstack([v0] * (self.ng + 2) + [v0 + self.v_step])
+        sims = self.simulate(sets, x0, vv)
+        self.x = np.concatenate([s[0] for s in sims], axis=1)
+        self.v = np.concatenate([s[1] for s in sims], axis=1)
+        self.model = self.x[0] + eq[self.index]
+        self._key = key
+
+    def residual(self, p: np.ndarray) -> np.ndarray:
+        self._evaluate(p)
+        return self.measured - self.model
+
+    def jacobian(self, p: np.ndarray) -> np.ndarray:
+        self._evaluate(p)
+        ng, nr, rows = self.ng, self.nr, np.arange(self.measured.size)
+        jac = np.zeros((self.measured.size, p.size))
+        jac[:, :ng] = -((self.x[1 : ng + 1] - self.x[0]) / self.g_steps[:, None]).T
+        jac[rows, ng + self.index] = -1.0
+        jac[rows, ng + nr + self.index] = -(self.x[ng + 1] - self.x[0]) / self.x_step[self.index]
+        jac[rows, ng + 2 * nr + self.index] = (
+            -(self.x[ng + 2] - self.x[0]) / self.v_step[self.index]
+        )
+        return jac
+
+
+def _bounds(setup: Setup, names: Sequence[str], nr: int, typical: np.ndarray):
+    lo, hi = [], []
+    for n, s in zip(names, typical, strict=True):
+        if n == "inertia":  # the total inertia stays positive
+            lo.append(-setup.known_inertia + 1e-9 * max(s, setup.known_inertia))
+            hi.append(np.inf)
+        else:
+            lo.append(LIBRARY[n].lower)
+            hi.append(LIBRARY[n].upper)
+    inf = [np.inf] * (3 * nr)
+    return np.array(lo + [-np.inf] * (3 * nr)), np.array(hi + inf)
+
+
+def fit_motion(
+    records: Sequence[Record],
+    setup: Setup,
+    effects: Sequence[str] = (),
+    start: np.ndarray | None = None,
+    max_nfev: int = 100,
+) -> MotionFit:
+    """Fit the identified coefficients and each record's x_eq, ξ₀, ξ̇₀ (module doc).
+
+    ``start``: full parameter vector of a previous fit (globals then nuisances) to go on
+    from; new effects then start at their ``start_share`` of their typical size.
+    """
+    names = names_of(setup, effects)
+    nr = len(records)
+    g0, eq0, init0 = equation_error_start(records, setup, names)
+    amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
+    speed = max(float(np.ptp(derivatives(np.asarray(r.t), np.asarray(r.x))[0])) for r in records)
+    typical = _typical(records, setup, names, g0)
+    if start is not None:
+        g0 = np.asarray(start, dtype=float)[: len(names)]
+        eq0, xi0, v0 = np.split(np.asarray(start, dtype=float)[len(names) :], 3)
+        init0 = np.column_stack([xi0, v0])
+    lower, upper = _bounds(setup, names, nr, typical)
+    p0 = np.concatenate([g0, eq0, init0[:, 0], init0[:, 1]])
+    nudge = np.concatenate([1e-6 * typical, np.zeros(3 * nr)])
+    p0 = np.clip(np.where(np.isfinite(p0), p0, 0.0), lower, upper)
+    p0 = np.where(np.isfinite(lower) & (p0 <= lower), lower + nudge, p0)
+    h = _step(records, setup, names, p0[: len(names)])
+    scale = np.concatenate(
+        [typical, np.full(nr, amp), np.full(nr, amp), np.full(nr, max(speed, 1e-12))]
+    )
+    prob = _Problem(records, setup, names, h, scale)
+    sol = least_squares(
+        prob.residual,
+        p0,
+        jac=prob.jacobian,
+        bounds=(lower, upper),
+        method="trf",
+        x_scale=prob.scale,
+        xtol=1e-9,
+        ftol=1e-9,
+        gtol=1e-9,
+        max_nfev=max_nfev,
+    )
+    p = sol.x
+    res = prob.residual(p)
+    if not np.all(np.isfinite(res)):
+        raise EstimationFailed(
+            f"the {setup.dof} equation with {', '.join(names)}",
+            "the simulated motion did not stay finite from any start",
+        )
+    stats = honest_statistics(res, prob.jacobian(p), len(names))
+    tol = 1e-6 * np.maximum(np.abs(p[: len(names)]), typical * 1e-3)
+    at_bound = tuple(
+        n
+        for n, v, lo, hi, e in zip(names, p, lower, upper, tol, strict=False)
+        if abs(v - lo) < e or abs(v - hi) < e
+    )
+    g, eq, xi0, v0 = prob.split(p)
+    prob._evaluate(p)
+    return MotionFit(
+        effects=tuple(effects),
+        names=names,
+        values=g.copy(),
+        std=stats.std,
+        correlation=stats.correlation,
+        residuals=tuple(np.split(res, prob.starts[1:-1])),
+        sse=stats.sse,
+        n_samples=stats.n_samples,
+        n_params=stats.n_params,
+        at_bound=at_bound,
+        equilibrium=eq.copy(),
+        initial=np.column_stack([xi0, v0]),
+        displacements=tuple(np.split(prob.x[0], prob.starts[1:-1])),
+        velocities=tuple(np.split(prob.v[0], prob.starts[1:-1])),
+        not_identified=tuple(
+            n for n, lost in zip(names, stats.not_identified, strict=True) if lost
+        ),
+        step=h,
+    )
+
+
+def parameters_of(fit: MotionFit) -> np.ndarray:
+    """The full parameter vector of ``fit`` (globals, x_eq, ξ₀, ξ̇₀) to restart from."""
+    return np.concatenate([fit.values, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
+
+
+def _typical(records, setup: Setup, names, g0) -> np.ndarray:
+    """Each coefficient's natural size on these records: the one whose force equals the
+    record's typical force (inertia × acceleration, or the drive)."""
+    out = []
+    for n, start in zip(names, g0, strict=True):
+        sizes = []
+        for r in records:
+            t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
+            v, a = derivatives(t, x)
+            xi = x - np.median(x[-max(x.size // 5, 3) :])
+            m = setup.known_inertia + abs(
+                setup.inertia if setup.inertia is not None else (start if n == "inertia" else 0.0)
+            )
+            d = r.drive_at_samples()
+            force = max(
+                m * float(np.max(np.abs(a))), 0.0 if d is None else float(np.max(np.abs(d)))
+            )
+            sizes.append(
+                force / max(float(np.max(np.abs(a))), 1e-12)
+                if n == "inertia"
+                else LIBRARY[n].typical(force, xi, v, a, 0.0)
+            )
+        out.append(max(max(sizes), abs(start) if np.isfinite(start) else 0.0, 1e-12))
+    return np.array(out)
+
+
+def _step(records, setup: Setup, names, g) -> float:
+    """The RK4 step for the start model: resolves its period and damping (equation.py)."""
+    m = setup.known_inertia + (
+        g[names.index("inertia")] if "inertia" in names else (setup.inertia or 0.0)
+    )
+    coef = dict(setup.known_terms) | {
+        n: float(v) for n, v in zip(names, g, strict=True) if n != "inertia"
+    }
+    k = sum(max(v, 0.0) for n, v in coef.items() if LIBRARY[n].x_power == 1)
+    c = sum(max(v, 0.0) for n, v in coef.items() if LIBRARY[n].v_power == 1)
+    dt = min(float(np.median(np.diff(np.asarray(r.t)))) for r in records)
+    driven = any(r.drive is not None for r in records)
+    return stable_step(dt, max(m, 1e-12), 1.5 * k, 1.5 * c, driven)
+
+
+def sensitivities(
+    records: Sequence[Record], setup: Setup, fit: MotionFit, extra: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """∂x/∂θ at ``fit`` for its own parameters (n, p) and for each ``extra`` term added
+    at zero (n, k): one vectorized integration."""
+    names = (*fit.names, *extra)
+    g = np.concatenate([fit.values, np.zeros(len(extra))])
+    typical = np.concatenate(
+        [
+            np.maximum(np.abs(fit.values), 1e-12),
+            _typical(records, setup, extra, np.zeros(len(extra))),
+        ]
+    )
+    amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
+    nr = len(records)
+    scale = np.concatenate([typical, np.full(2 * nr, amp), np.full(nr, amp)])
+    prob = _Problem(records, setup, names, fit.step, scale)
+    p = np.concatenate([g, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
+    jac = -prob.jacobian(p)
+    k, ng = len(extra), len(fit.values)
+    own = np.delete(jac, np.arange(ng, ng + k), axis=1)
+    return own, jac[:, ng : ng + k]

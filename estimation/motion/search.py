@@ -1,0 +1,241 @@
+"""Which library terms a record supports: rules from statistics, each stated with its reason.
+
+Forward selection from the base model: each round fits every remaining candidate to
+convergence (from the current fit, the new term at its start value) and keeps the best of
+those that pass all of:
+
+1. **Information criterion.** ΔBIC = n·ln(SSE₁/SSE₀) + Δp·ln n < −``BIC_THRESHOLD`` (10:
+   "very strong" evidence, posterior odds > 150:1, Kass & Raftery 1995). BIC penalises a
+   parameter by ln n, so it does not grow more permissive with longer records as a fixed
+   χ² level would.
+2. **Identified and physical.** The new coefficient is determined by the data (no direction
+   of the Jacobian it loads is lost, ``identify``) and is not held at a bound its physics
+   sets (a damping pushed to 0 wants a negative value a passive body cannot have).
+3. **Material against the noise floor.** The residual the term explains,
+   √((SSE₀ − SSE₁)/n), is at least the position noise σ the fit implies (third differences,
+   ``stats.diagnostics.position_noise``): a term that changes the trajectory by less than
+   the instrument's own scatter is not a physical finding however many samples make it
+   "significant". Not measured against the drive or the restoring force: on a lightly
+   damped body every damping term is ~1 % of the restoring torque (KVLCC2), which a
+   drive-relative rule can never accept.
+
+Before a candidate is fitted, one Gauss–Newton step from the current fit (its sensitivity
+column beside the current model's) predicts its SSE; a candidate predicted to miss rule 1 by
+a wide margin (predicted ΔBIC > 0) is recorded, not fitted. Two candidates whose
+sensitivities, after projecting out the current model, have |ρ| ≥ ``RIVALS`` explain the
+same part of the residual: they are **rivals** (quadratic against cubic damping on a decay),
+never fitted together. Between kept rivals the earlier in the library (the lower-order,
+conventional term: quadratic before cubic damping) wins unless the later one beats it by
+``BIC_THRESHOLD`` on the residual's effective sample size n_eff = n·(1 − r₁)/(1 + r₁) (r₁:
+lag-1 autocorrelation of the residual; the AR(1) variance inflation): BIC assumes white
+residuals, and with a structured one a difference computed on n samples between two
+alternatives that fit the same direction measures the structure, not the physics. White
+residuals give n_eff ≈ n and the data decide. Rivals are reported as ambiguous.
+
+Whiteness is a verdict on the final model, not a gate (``estimate``): when a structured
+residual remains, its normalised autocorrelation stays near 1 whatever share of it a real
+term removes, so "Ljung–Box Q must drop" rejects true terms (KVLCC2's quadratic damping).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimation.errors import EstimationFailed
+from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitivities
+from estimation.motion.records import Record, Setup
+from estimation.motion.terms import LIBRARY
+from estimation.stats.diagnostics import position_noise
+
+BIC_THRESHOLD = 10.0
+MATERIAL_NOISE = 1.0  # explained RMS over the position noise σ
+MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
+TRIAL_NFEV = 40  # a trial starts one Gauss–Newton step from its optimum
+RIVALS = 0.9  # |partial correlation| of two candidates' sensitivities: the same direction
+
+
+@dataclass(frozen=True)
+class Step:
+    """Evidence for one candidate: its ΔBIC, the residual it explains, the verdict."""
+
+    term: str
+    round: int
+    delta_bic: float
+    explained_rms: float  # m or rad
+    noise: float  # m or rad
+    accepted: bool
+    reason: str
+
+    def to_json(self) -> dict:
+        """The step as plain numbers."""
+        return {
+            "term": self.term,
+            "round": self.round,
+            "delta_bic": _num(self.delta_bic),
+            "explained_rms": _num(self.explained_rms),
+            "noise": _num(self.noise),
+            "accepted": self.accepted,
+            "reason": self.reason,
+        }
+
+
+def _num(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _extend(fit: MotionFit, term_start: float) -> np.ndarray:
+    """``fit``'s parameters with one more coefficient (at ``term_start``) after its globals."""
+    p = parameters_of(fit)
+    k = len(fit.values)
+    return np.concatenate([p[:k], [term_start], p[k:]])
+
+
+def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Step:
+    """The rules of the module doc for ``trial`` = ``current`` + ``term``."""
+    n = current.n_samples
+    gain = trial.bic - current.bic
+    explained = float(np.sqrt(max(current.sse - trial.sse, 0.0) / n))
+    noise = position_noise(trial.residuals)
+    reason = "kept"
+    if term in trial.not_identified:
+        reason = f"{term} is not identified by these records"
+    elif term in trial.at_bound:
+        reason = f"{term} held at its physical bound"
+    elif not gain < -BIC_THRESHOLD:
+        reason = f"ΔBIC {gain:.1f} ≥ −{BIC_THRESHOLD:g}"
+    elif explained < MATERIAL_NOISE * noise:
+        reason = f"explains {explained:.3g} RMS, below the noise floor {noise:.3g} the fit implies"
+    return Step(term, round_no, gain, explained, noise, reason == "kept", reason)
+
+
+def effective_samples(fit: MotionFit) -> float:
+    """n·(1 − r₁)/(1 + r₁) from the pooled lag-1 autocorrelation r₁ of the residual."""
+    num = sum(float(r[:-1] @ r[1:]) for r in fit.residuals)
+    den = sum(float(r @ r) for r in fit.residuals)
+    r1 = min(max(num / den, 0.0), 0.999) if den > 0 else 0.0
+    return fit.n_samples * (1 - r1) / (1 + r1)
+
+
+def _screen(records, setup, current: MotionFit, candidates):
+    """Predicted ΔBIC of each candidate and the partial correlation of each pair."""
+    own, cols = sensitivities(records, setup, current, candidates)
+    q, _ = np.linalg.qr(own)
+    perp = cols - q @ (q.T @ cols)
+    res = np.concatenate(current.residuals)
+    n = current.n_samples
+    predicted, rho, start = {}, {}, {}
+    norms = np.linalg.norm(perp, axis=0)
+    share = norms / np.maximum(np.linalg.norm(cols, axis=0), 1e-300)
+    for i, c in enumerate(candidates):
+        gain = (perp[:, i] @ res) ** 2 / norms[i] ** 2 if norms[i] > 0 else 0.0
+        value = (perp[:, i] @ res) / norms[i] ** 2 if norms[i] > 0 else 0.0
+        start[c] = value
+        if share[i] < MIN_INDEPENDENT_SHARE:  # a combination of the model's own parameters
+            predicted[c] = np.nan
+        sse = max(current.sse - gain, 1e-300)
+        predicted[c] = n * np.log(sse / current.sse) + np.log(n)
+        for j in range(i):
+            d = norms[i] * norms[j]
+            rho[frozenset((c, candidates[j]))] = float(perp[:, i] @ perp[:, j] / d) if d else 0.0
+    return predicted, rho, start
+
+
+def search_terms(
+    records: Sequence[Record], setup: Setup, base: MotionFit, candidates: Sequence[str]
+) -> tuple[MotionFit, tuple[Step, ...], tuple[MotionFit, ...], tuple[tuple[str, str], ...]]:
+    """Forward selection (module doc): the final fit, every step, the fits of the candidates
+    rejected against the final model (to tell whether its coefficients move), and the
+    rival pairs (kept term, its rival)."""
+    current, steps, round_no = base, [], 1
+    rejected_last: list[MotionFit] = []
+    rivals: list[tuple[str, str]] = []
+    remaining = [c for c in candidates if c not in base.names]
+    order = {c: i for i, c in enumerate(candidates)}
+    while remaining:
+        predicted, rho, start = _screen(records, setup, current, remaining)
+        kept: list[tuple[MotionFit, str]] = []
+        rejected_last = []
+        for term in remaining:
+            if np.isnan(predicted[term]):
+                steps.append(
+                    Step(
+                        term,
+                        round_no,
+                        np.nan,
+                        0.0,
+                        0.0,
+                        False,
+                        f"{term} is not identified by these records: its effect is "
+                        "a change of the model's own parameters (e.g. a constant "
+                        "force only moves a spring's equilibrium)",
+                    )
+                )
+                continue
+            if not LIBRARY[term].in_bounds(start[term]):
+                steps.append(
+                    Step(
+                        term,
+                        round_no,
+                        predicted[term],
+                        0.0,
+                        0.0,
+                        False,
+                        f"not fitted: a linearised step wants {term} = "
+                        f"{start[term]:.3g}, beyond its physical bound "
+                        f"({LIBRARY[term].physical or 'its bounds'})",
+                    )
+                )
+                continue
+            if predicted[term] > 0:
+                steps.append(
+                    Step(
+                        term,
+                        round_no,
+                        predicted[term],
+                        0.0,
+                        0.0,
+                        False,
+                        f"not fitted: a linearised step predicts ΔBIC {predicted[term]:.1f}",
+                    )
+                )
+                continue
+            try:
+                trial = fit_motion(
+                    records,
+                    setup,
+                    (*current.effects, term),
+                    start=_extend(current, start[term]),
+                    max_nfev=TRIAL_NFEV,
+                )
+            except EstimationFailed as err:
+                steps.append(Step(term, round_no, np.nan, 0.0, 0.0, False, err.why))
+                continue
+            step = judge(current, trial, term, round_no)
+            steps.append(step)
+            if step.accepted:
+                kept.append((trial, term))
+            else:
+                rejected_last.append(trial)
+        if not kept:
+            break
+        best, chosen = min(kept, key=lambda k: k[0].bic)
+        for fit, term in sorted(kept, key=lambda k: order[k[1]]):
+            if order[term] < order[chosen] and abs(rho[frozenset((term, chosen))]) >= RIVALS:
+                scale = effective_samples(best) / best.n_samples
+                if (fit.bic - best.bic) * scale < BIC_THRESHOLD:
+                    best, chosen = fit, term
+                break
+        current = best
+        rejected_last = []
+        out = {
+            c
+            for c in remaining
+            if c != chosen and abs(rho.get(frozenset((c, chosen)), 0.0)) >= RIVALS
+        }
+        rivals += [(chosen, c) for c in sorted(out, key=order.__getitem__)]
+        remaining = [c for c in remaining if c != chosen and c not in out]
+        round_no += 1
+    return current, tuple(steps), tuple(rejected_last), tuple(rivals)

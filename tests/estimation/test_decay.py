@@ -1,0 +1,107 @@
+"""Free decays of every DOF from an integrator that is not ours (scipy's solve_ivp on the
+equation written out here), estimated by ``estimation.motion.estimate_decay``.
+
+    (m + a)·ẍ + b₁·ẋ + b₂·|ẋ|·ẋ + k·x + k₃·x³ = 0,   x(0) = x₀, ẋ(0) = 0
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from estimation.errors import EstimationFailed
+from estimation.motion.decay import estimate_decay
+
+
+def decay_record(
+    total, b1, b2, k, k3=0.0, x0=0.2, rate=20.0, duration=None, noise=0.0, seed=0, offset=0.0
+):
+    """t, x of a free decay from rest at x0 (+ a 1 s hold at x0 before the release)."""
+    period = 2 * np.pi * np.sqrt(total / k)
+    duration = duration or 12 * period
+
+    def rhs(_t, s):
+        x, v = s
+        return [v, -(b1 * v + b2 * abs(v) * v + k * x + k3 * x**3) / total]
+
+    t = np.arange(0.0, duration, 1.0 / rate)
+    sol = solve_ivp(rhs, (0, duration), [x0, 0.0], t_eval=t, rtol=1e-10, atol=1e-12)
+    x = sol.y[0] + offset
+    hold = np.arange(-1.0, 0.0, 1.0 / rate)
+    t_all = np.concatenate([hold + 1.0, t + 1.0])
+    x_all = np.concatenate([np.full(hold.size, x0 + offset), x])
+    rng = np.random.default_rng(seed)
+    return t_all, x_all + noise * rng.standard_normal(x_all.size)
+
+
+@pytest.mark.parametrize("mass", [10.0, 143.0, 1000.0])
+def test_heave_decay_with_hydrostatic_stiffness(mass):
+    added, b1 = 0.8 * mass, 0.05 * 2 * np.sqrt(1.8 * mass * 40.0 * mass)
+    k = 40.0 * mass  # ρ·g·A_w
+    t, x = decay_record(mass + added, b1, 0.0, k, x0=0.05, noise=2e-5, offset=0.3)
+    r = estimate_decay(t, x, "heave", known_inertia=mass, stiffness=k, min_inertia=0.0)
+    assert r.coefficients["inertia"].value == pytest.approx(added, rel=0.02)
+    assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.10)
+    assert r.effects == ()
+    assert r.equilibrium["decay"] == pytest.approx(0.3, abs=1e-4)
+    assert r.to_json()["coefficients"]["inertia"]["unit"] == "kg"
+
+
+@pytest.mark.parametrize("dof", ["surge", "sway", "pitch", "yaw"])
+def test_decays_of_other_dofs_with_quadratic_damping(dof):
+    total, k = 143.0, 500.0
+    b1, b2 = 4.0, 300.0
+    t, x = decay_record(total, b1, b2, k, x0=0.3, noise=1e-5)
+    r = estimate_decay(t, x, dof, known_inertia=100.0, stiffness=k)
+    assert r.coefficients["inertia"].value == pytest.approx(43.0, rel=0.02 * 143 / 43)
+    assert "quadratic_damping" in r.effects
+    assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.10)
+    assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.10)
+
+
+def test_roll_with_stiffening_righting_arm():
+    """KVLCC2-like roll: I44 116, A44 19, C44 822, B1 0.5, B2 15, hardening k₃ 700."""
+    t, x = decay_record(135.0, 0.5, 15.0, 822.0, k3=700.0, x0=0.17, noise=5e-5, duration=60)
+    r = estimate_decay(t, x, "roll", known_inertia=116.0, stiffness=822.0, min_inertia=0.0)
+    assert r.coefficients["inertia"].value == pytest.approx(19.0, rel=0.02 * 135 / 19)
+    assert "cubic_stiffness" in r.effects and "quadratic_damping" in r.effects
+    assert r.coefficients["cubic_stiffness"].value == pytest.approx(700.0, rel=0.10)
+    assert r.coefficients["quadratic_damping"].value == pytest.approx(15.0, rel=0.10)
+    assert r.coefficients["inertia"].unit == "kg·m²"
+
+
+def test_stiffness_identified_when_inertia_known():
+    t, x = decay_record(50.0, 2.0, 0.0, 300.0, x0=0.1, noise=1e-5)
+    r = estimate_decay(t, x, "surge", inertia=50.0)
+    assert r.coefficients["restoring_spring"].value == pytest.approx(300.0, rel=0.01)
+
+
+def test_free_decay_without_a_scale_is_refused():
+    t, x = decay_record(50.0, 2.0, 0.0, 300.0)
+    with pytest.raises(ValueError, match="one must be known"):
+        estimate_decay(t, x, "heave")
+
+
+def test_estimation_failed_is_not_bad_input():
+    assert not issubclass(EstimationFailed, ValueError)
+    err = EstimationFailed("the heave equation", "the motion did not stay finite")
+    assert str(err) == "could not fit the heave equation: the motion did not stay finite"
+
+
+def test_a_numerical_failure_in_a_tow_fit_is_estimation_failed(monkeypatch):
+    """Valid runs whose fit fails numerically (scipy raises ValueError for non-finite
+    residuals) are not reported as bad input."""
+    import estimation.axis.estimate as axis_estimate
+    from estimation import RunData, estimate
+
+    def broken(*_args, **_kwargs):
+        raise ValueError("Residuals are not finite in the initial point.")
+
+    monkeypatch.setattr(axis_estimate, "fit_output_error", broken)
+    t = np.arange(0.0, 5.0, 0.1)
+    run = RunData("a", "surge", t, np.where(t > 1, (t - 1) ** 2, 0.0), 10.0, t_release=1.0)
+    with pytest.raises(EstimationFailed, match="could not fit the surge model to runs a"):
+        estimate([run], n_bootstrap=0)
+    with pytest.raises(ValueError, match="method"):  # bad input stays a ValueError
+        estimate([run], method="magic")
