@@ -148,6 +148,23 @@ def read_spill(path: Path) -> SpillContents:
     return SpillContents(samples, events, end)
 
 
+def spilled_ends(directory: Path) -> set[str]:
+    """Ids of the runs whose ending waits in a side file of ``directory`` (their recorder
+    ended them while storage failed; the write-back stores that ending)."""
+    found: set[str] = set()
+    try:
+        paths = list(Path(directory).glob(f"*{SUFFIX}"))
+    except OSError:
+        return found
+    for path in paths:
+        try:
+            if read_spill(path).end is not None:
+                found.add(path.stem)
+        except OSError:
+            continue
+    return found
+
+
 async def write_back_later(store: Store, path: Path, *, max_delay_s: float = 60.0) -> None:
     """Retry :func:`replay_spills` (1 s doubling to ``max_delay_s``) until ``path`` is
     written back: a long-lived process (``rig serve``) ends a run as soon as storage

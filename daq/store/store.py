@@ -50,7 +50,7 @@ from daq.store.schema import (
 )
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
-from daq.store.spill import default_spill_dir, replay_spills
+from daq.store.spill import default_spill_dir, replay_spills, spilled_ends
 
 if TYPE_CHECKING:
     from daq.store.loaded_run import LoadedRun
@@ -511,10 +511,13 @@ class Store(EventsAndResults, ImportedCalibrations):
         process holds a rig's lease in this database (``daq.rig_lock``), or while its last
         sample is younger than ``OTHER_HOST_GRACE_S`` (a process that lost its lease may
         still be writing its own ending); imported runs from another host are left alone.
-        ``include_live_owners`` marks them all.
+        ``include_live_owners`` marks them all. A run whose ending waits in a spill file
+        (its recorder ended it while storage failed) is never marked: the write-back stores
+        that ending.
         """
         here = socket.gethostname()
         recovered: list[str] = []
+        spilled = spilled_ends(self.spill_dir)  # ended, the ending waiting in a side file
         with self.transaction() as conn:
             running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
             holders = None
@@ -541,7 +544,7 @@ class Store(EventsAndResults, ImportedCalibrations):
                         or time.time() - last < OTHER_HOST_GRACE_S
                     )
                     reason = f"{owner} no longer holds the rig; it ended without finishing the run"
-                if owner_alive and not include_live_owners:
+                if (owner_alive and not include_live_owners) or run.uuid in spilled:
                     continue
                 self._finish(conn, run, "interrupted", reason, last)
                 self._insert_event(

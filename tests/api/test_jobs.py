@@ -125,6 +125,7 @@ def test_the_queue_is_bounded_a_start_beyond_it_is_409(client, monkeypatch):
     client.post("/api/rig/emergency-stop", headers=AUTH)
     for r in queued[:2]:
         client.delete(f"/api/queue/{r.json()['id']}", headers=AUTH)
+    assert client.post("/api/estop/ack", headers=AUTH).status_code == 200  # motion again
     assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
 
 
