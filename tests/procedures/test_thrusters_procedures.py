@@ -11,10 +11,8 @@ import pytest
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, spin_parameters
-from tests.procedures.conftest import until_thrust_on
 from tests.readings import good
 from tests.waiting import until
-from thrusters.driver import LINK_LOST_AFTER
 
 pytestmark = pytest.mark.simtime
 
@@ -85,27 +83,6 @@ async def test_calibration_then_thruster_spin(session, store):
     # send's bracket: every interval ending 3σ of it before the release holds zero.
     ends = np.append(data.t[1:], np.inf)
     assert data.drive[ends < data.t_release - 3 * data.t_release_std].max() == 0.0
-
-
-async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(session, store):
-    """The thruster link supervision covers the calibration too: the controller stops
-    answering mid-sweep, the run ends aborted naming the lost link, nothing is fitted, and
-    the controller's outputs are zero (its watchdog, as it hears nothing)."""
-    params = calibration_parameters(
-        {"commands": [0.0, 0.3, 0.6], "settle_s": 2.0, "samples_per_step": 3, "tare_samples": 5},
-        session.rig,
-    )
-    task = asyncio.create_task(run_thrust_calibration(session, params))
-    await until_thrust_on(session, timeout_s=10)
-    session.sim.call(lambda sim: setattr(sim.thrusters, "silent", True))
-    try:
-        outcome, calibration = await asyncio.wait_for(task, 10)
-        assert session.sim.thrusters.outputs == [0.0, 0.0]
-    finally:
-        session.sim.call(lambda sim: setattr(sim.thrusters, "silent", False))
-    assert outcome.status == "aborted" and calibration is None
-    assert outcome.reason.startswith(f"thruster link lost: {LINK_LOST_AFTER} consecutive replies")
-    assert store.get_run(outcome.run_id).reason == outcome.reason
 
 
 @pytest.mark.slow
