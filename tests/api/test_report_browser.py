@@ -49,5 +49,8 @@ def test_estimation_page_shows_full_size_report_figures_with_units(client, servi
         # once each, in the report's order.
         result = client.get("/api/results?kind=estimation", headers=AUTH).json()[0]
         page.evaluate("id => Promise.all([showReportPlots(id), showReportPlots(id)])", result["id"])
+        # (a redraw the stream started meanwhile may still be fetching: wait for the page
+        # to settle on its figures, then check there is each once, in order)
+        expect(page.locator("#est-plots figcaption")).to_have_count(len(result["report_plots"]))
         captions = page.locator("#est-plots figcaption").all_inner_texts()
         assert [c.split(" — ")[0] for c in captions] == result["report_plots"]
