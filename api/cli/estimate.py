@@ -106,10 +106,15 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
             f"  RMSE before {data['rmse_before']:.3g} {u[3]}, after {data['rmse_after']:.3g} {u[3]}"
         )
         for run_id, w in data.get("windows", {}).items():
-            end = "last sample" if w["end_time_s"] is None else f"{w['end_time_s']:.3f} s"
+            end = (
+                "at the last sample"
+                if w["end_time_s"] is None
+                else f"{w['end_from_release_s']:.3f} s after it"
+            )
             click.echo(
-                f"  window {run_id[:8]}: release {w['release_time_s']:.3f} s "
-                f"({w['release_source']}), end {end} ({w['end_source']}); dropped "
+                f"  window {run_id[:8]}: release {w['release_from_start_s']:.3f} s after the "
+                f"first sample ({w['release_source']}; run clock {w['release_time_s']:.3f} s), "
+                f"end {end} ({w['end_source']}); dropped "
                 f"{w['samples_dropped_before']} before, {w['samples_dropped_after']} after, "
                 f"{w['spikes_dropped']} spike(s)"
             )

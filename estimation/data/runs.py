@@ -70,6 +70,7 @@ class RunData:
             int(np.count_nonzero(t <= self.t_release)),
             after,
             0,
+            float(t[0]) if t.size else 0.0,
         )
 
     def declared_extra_inertia(self) -> float:

@@ -56,14 +56,21 @@ class WindowReport:
     dropped_before: int  # baseline samples at or before the release
     dropped_after: int  # hold samples after the end
     spikes_dropped: int  # isolated encoder glitches
+    #: The first sample's time on the run's clock (release and end above are on it too).
+    record_start: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
-        """{release_time_s, release_source, end_time_s, end_source, samples_dropped_*}."""
+        """{release_time_s, end_time_s (the run's clock, e.g. the PLC's), release_from_start_s,
+        end_from_release_s (times a person reads), sources, samples_dropped_*}."""
+        end = None if self.t_end is None else float(self.t_end)
         return {
             "release_time_s": float(self.t_release),
             "release_source": self.release_source,
-            "end_time_s": None if self.t_end is None else float(self.t_end),
+            "end_time_s": end,
             "end_source": self.end_source,
+            "record_start_s": float(self.record_start),
+            "release_from_start_s": float(self.t_release - self.record_start),
+            "end_from_release_s": None if end is None else end - float(self.t_release),
             "samples_dropped_before": int(self.dropped_before),
             "samples_dropped_after": int(self.dropped_after),
             "spikes_dropped": int(self.spikes_dropped),
@@ -293,6 +300,7 @@ def find_window(
         before,
         after,
         int(np.count_nonzero(~keep)),
+        float(t[0]) if t.size else 0.0,
     )
     return keep, report, release_std
 

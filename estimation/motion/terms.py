@@ -198,6 +198,8 @@ LIBRARY: dict[str, Term] = {
             "a long run at small force, a static pull at two positions, or a decay",
             phi=lambda x, v: -x,
             dphi_dx=lambda x, v: -np.ones(np.broadcast(x, v).shape),
+            lower=0.0,
+            physical="≥ 0: a restoring force pulls back toward the equilibrium",
             x_power=1,
         ),
         Term(
@@ -219,6 +221,8 @@ LIBRARY: dict[str, Term] = {
             "a run at a clearly higher force (e.g. 1.5× the largest)",
             phi=lambda x, v: -(v**3),
             dphi_dv=lambda x, v: -3.0 * v**2,
+            lower=0.0,
+            physical="≥ 0: drag opposes the motion",
             v_power=3,
         ),
         Term(

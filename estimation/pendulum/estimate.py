@@ -84,7 +84,10 @@ class PendulumResult:
         raise KeyError(f"method {method!r} on run {rid!r} not in this result")
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON document (schema in docs/pendulum.md)."""
+        """The JSON document (schema in docs/pendulum.md); each run's peaks carry the
+        release (its decay's first sample) on the run's clock, so a plot can show the time
+        from the release."""
+        start = {d.run_id: float(d.t[0]) for d in self.decays}
         return {
             "schema_version": SCHEMA_VERSION,
             "analysis": "pendulum",
@@ -97,7 +100,10 @@ class PendulumResult:
             "effects": [e.to_json() for e in self.effects],
             "ambiguous": [list(g) for g in self.ambiguous],
             "methods": [m.to_json() for m in self.methods],
-            "peaks": {rid: p.to_json() for rid, p in self.peaks.items()},
+            "peaks": {
+                rid: p.to_json() | {"release_time_s": start.get(rid)}
+                for rid, p in self.peaks.items()
+            },
             "rmse_before": _num(self.rmse_before),
             "rmse_after": _num(self.rmse_after),
             "rmse_per_run_before": {k: _num(v) for k, v in self.rmse_per_run_before.items()},

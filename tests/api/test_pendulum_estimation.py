@@ -90,3 +90,8 @@ def test_estimation_page_shows_a_pendulum_result(client, service, runs):
         expect(page.locator("#est-rmse")).to_contain_text("rad")
         expect(page.locator("#est-effects-list")).to_contain_text("quadratic_damping")
         expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
+        # The peaks plot on the time from the release, as the report (not the run's clock).
+        layout = page.evaluate("() => document.getElementById('est-fit-plot').layout")
+        assert layout["xaxis"]["title"]["text"] == "time from release [s]"
+        first_peak = page.evaluate("() => document.getElementById('est-fit-plot').data[0].x[0]")
+        assert 0 <= first_peak < 5.0, first_peak

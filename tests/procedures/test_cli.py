@@ -262,3 +262,9 @@ def test_import_window_options_and_a_time_column_in_ms(db, tmp_path):
     assert window["release_source"] == "release_time_s (given)"
     assert window["end_source"] == "end_time_s (given)"
     assert window["release_time_s"] == pytest.approx(0.9, abs=1e-6)
+    # Times a person reads: from the first sample, and the end from the release.
+    assert window["release_from_start_s"] == pytest.approx(0.9, abs=1e-6)
+    assert window["end_from_release_s"] == pytest.approx(2.6, abs=1e-6)
+    text = rig("estimate", ok.stdout.strip(), db=db).stdout
+    assert "release 0.900 s after the first sample (release_time_s (given); run clock" in text
+    assert "end 2.600 s after it" in text

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import asyncio
+import errno
 import json
 import logging
 import os
@@ -65,6 +66,16 @@ def small_tmpfs(tmp_path) -> Path:
         subprocess.run(["umount", "-l", str(mount)], check=False)
 
 
+def _fill(path) -> None:
+    """Grow ``path`` until its file system is full (ENOSPC)."""
+    with open(path, "ab", buffering=0) as f:  # unbuffered: nothing left to flush at close
+        try:
+            while True:
+                f.write(b"\0" * 4096)
+        except OSError as err:
+            assert err.errno == errno.ENOSPC, err
+
+
 def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, tmp_path):
     db = f"sqlite:///{small_tmpfs / 'rig.db'}"
     spill = tmp_path / "spill"
@@ -90,6 +101,7 @@ def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, t
     assert (outcome["status"], outcome["reason"]) == ("aborted", STORAGE_REASON)
     assert list(spill.glob(f"*{SUFFIX}")), "unstored samples were not kept aside"
 
+    _fill(filler)  # whatever the first run left free (a page or two) goes too
     again = subprocess.run(  # the disk still full: the next tow is refused, one line
         [*TOW, "--rig", str(rig_file), "--db", db],
         capture_output=True,

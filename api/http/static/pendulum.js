@@ -66,17 +66,20 @@ async function renderPendulumEstimation(res) {
   const traces = [];
   for (const [rid, p] of Object.entries(res.peaks || {})) {
     const name = rid.slice(0, 8);
-    traces.push({ x: p.times, y: p.amplitudes, mode: "markers", name: `${name} |peak|` });
+    // time from the release, as the report shows it (the fits are on the run's clock)
+    const r = p.release_time_s ?? p.times[0];
+    traces.push({ x: p.times.map((t) => t - r), y: p.amplitudes, mode: "markers", name: `${name} |peak|` });
     const t0 = p.times[0];
     const t1 = p.times[p.times.length - 1];
     const ts = Array.from({ length: 60 }, (_, i) => t0 + ((t1 - t0) * i) / 59);
-    traces.push({ x: ts, y: ts.map((t) => p.exponential.c * Math.exp(-p.exponential.decay_rate * t)), mode: "lines", name: `${name} C·e^(−Kt)` });
-    traces.push({ x: ts, y: ts.map((t) => p.linear.a0 - p.linear.rate_per_s * t), mode: "lines", line: { dash: "dash" }, name: `${name} linear` });
+    const x = ts.map((t) => t - r);
+    traces.push({ x, y: ts.map((t) => p.exponential.c * Math.exp(-p.exponential.decay_rate * t)), mode: "lines", name: `${name} C·e^(−Kt)` });
+    traces.push({ x, y: ts.map((t) => p.linear.a0 - p.linear.rate_per_s * t), mode: "lines", line: { dash: "dash" }, name: `${name} linear` });
   }
   Plotly.newPlot(
     "est-fit-plot",
     traces,
-    { margin: { t: 20, r: 20, b: 50, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: "|peak − midline| (rad)" } } },
+    { margin: { t: 20, r: 20, b: 50, l: 60 }, xaxis: { title: { text: "time from release [s]" } }, yaxis: { title: { text: "|peak − midline| [rad]" } } },
     { responsive: true, displaylogo: false },
   );
   await showReportPlots(res.result_id);
