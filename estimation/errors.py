@@ -1,6 +1,9 @@
-"""The one exception for a numerical failure that is not the user's input."""
+"""The estimator's exceptions: a numerical failure that is not the user's input, and a
+quantity that describes nothing physical (the user's)."""
 
 from __future__ import annotations
+
+import math
 
 
 class EstimationFailed(RuntimeError):
@@ -15,3 +18,24 @@ class EstimationFailed(RuntimeError):
         super().__init__(f"could not fit {what}: {why}")
         self.what = what
         self.why = why
+
+
+class FieldError(ValueError):
+    """A quantity that describes nothing physical: one line naming the field, the value
+    and what is allowed."""
+
+    def __init__(self, field_name: str, value: object, allowed: str) -> None:
+        self.field, self.value, self.allowed = field_name, value, allowed
+        super().__init__(f"{field_name}: got {value!r}, allowed: {allowed}")
+
+
+def positive(field_name: str, value: float, error: type[FieldError] = FieldError) -> float:
+    """``value`` as a float when it is a finite number > 0, else ``error`` naming it."""
+    if (
+        not isinstance(value, (int, float))
+        or isinstance(value, bool)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise error(field_name, value, "a finite number > 0")
+    return float(value)

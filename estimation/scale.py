@@ -19,27 +19,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from estimation.errors import FieldError, positive
+
 #: Standard gravity, m/s² (used only when no local g is given).
 STANDARD_GRAVITY = 9.80665
 
 
-class ScaleError(ValueError):
+class ScaleError(FieldError):
     """A quantity that cannot be made dimensionless (one line: field, value, allowed)."""
-
-    def __init__(self, field_name: str, value: object, allowed: str) -> None:
-        self.field, self.value, self.allowed = field_name, value, allowed
-        super().__init__(f"{field_name}: got {value!r}, allowed: {allowed}")
 
 
 def _positive(field_name: str, value: float) -> float:
-    if (
-        not isinstance(value, (int, float))
-        or isinstance(value, bool)
-        or not math.isfinite(value)
-        or value <= 0
-    ):
-        raise ScaleError(field_name, value, "a finite number > 0")
-    return float(value)
+    return positive(field_name, value, ScaleError)
 
 
 def _finite(field_name: str, value: float) -> float:

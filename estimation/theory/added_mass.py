@@ -36,29 +36,20 @@ from dataclasses import dataclass
 
 from scipy.special import elliprd
 
+from estimation.errors import FieldError, positive
+
 #: The six degrees of freedom, body frame (x the body's length axis).
 DOFS: tuple[str, ...] = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 #: Below this relative difference two semi-axes are equal (no added roll inertia).
 _EQUAL = 1e-9
 
 
-class ShapeError(ValueError):
+class ShapeError(FieldError):
     """A dimension that describes no body (one line: field, value, allowed)."""
-
-    def __init__(self, field_name: str, value: object, allowed: str) -> None:
-        self.field, self.value, self.allowed = field_name, value, allowed
-        super().__init__(f"{field_name}: got {value!r}, allowed: {allowed}")
 
 
 def _positive(field_name: str, value: float) -> float:
-    if (
-        not isinstance(value, (int, float))
-        or isinstance(value, bool)
-        or not math.isfinite(value)
-        or value <= 0
-    ):
-        raise ShapeError(field_name, value, "a finite number > 0")
-    return float(value)
+    return positive(field_name, value, ShapeError)
 
 
 @dataclass(frozen=True)
