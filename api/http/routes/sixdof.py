@@ -4,6 +4,7 @@ surge/yaw estimation results plugged in)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException
@@ -12,7 +13,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from api.core import sixdof as sixdof_common
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import error_responses
-from daq.store import ResultNotFound
+from daq.store import ResultNotFound, Store
+from estimation.vehicle.description import Vehicle6
 
 router = APIRouter(prefix="/api", tags=["sixdof"])
 #: Longest simulation the API runs, s.
@@ -53,6 +55,31 @@ class SimulateRequest(BaseModel):
     )
 
 
+def vehicle_with_estimates(
+    store: Store, name: str, estimates: Sequence[int]
+) -> tuple[Vehicle6, list]:
+    """The vehicle file ``name`` with the coefficients of the stored estimation results
+    ``estimates`` applied, and which were (404 for an unknown vehicle or result, 422 for a
+    result that is not an estimation)."""
+    try:
+        vehicle = sixdof_common.find_vehicle(name)
+    except sixdof_common.VehicleNotFound as err:
+        raise HTTPException(404, str(err)) from None
+    results = []
+    for result_id in estimates:
+        try:
+            found = store.result(result_id)
+        except ResultNotFound as err:
+            raise HTTPException(404, str(err)) from None
+        if found.kind != "estimation":
+            raise ValueError(
+                f"estimates: result {result_id} is a {found.kind!r} result, "
+                "allowed: estimation results"
+            )
+        results.append((result_id, found.data))
+    return sixdof_common.apply_results(vehicle, results)
+
+
 @router.get("/vehicles", dependencies=[Depends(require_read)], responses=error_responses(401))
 def list_vehicles() -> list[dict]:
     """Vehicle files: fixtures/vehicles, then $RIG_VEHICLES_DIR (a broken file shows its error)."""
@@ -86,23 +113,7 @@ def simulate_sixdof(body: SimulateRequest, store: StoreDep) -> dict:
             f"dt: got {body.dt!r}, allowed: ≥ duration_s / {MAX_SAMPLES} "
             f"({body.duration_s / MAX_SAMPLES:g} s for {body.duration_s:g} s)"
         )
-    try:
-        vehicle = sixdof_common.find_vehicle(body.vehicle)
-    except sixdof_common.VehicleNotFound as err:
-        raise HTTPException(404, str(err)) from None
-    results = []
-    for result_id in body.estimates:
-        try:
-            found = store.result(result_id)
-        except ResultNotFound as err:
-            raise HTTPException(404, str(err)) from None
-        if found.kind != "estimation":
-            raise ValueError(
-                f"estimates: result {result_id} is a {found.kind!r} result, "
-                "allowed: estimation results"
-            )
-        results.append((result_id, found.data))
-    vehicle, applied = sixdof_common.apply_results(vehicle, results)
+    vehicle, applied = vehicle_with_estimates(store, body.vehicle, body.estimates)
     _, summary = sixdof_common.run(
         vehicle,
         body.duration_s,

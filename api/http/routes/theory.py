@@ -7,14 +7,13 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, HTTPException, Query
+from fastapi import APIRouter, Depends, Query
 from pydantic import Field
 
-from api.core import sixdof as sixdof_common
 from api.core import theory as theory_common
 from api.http.deps import StoreDep, require_read
+from api.http.routes.sixdof import vehicle_with_estimates
 from api.http.schemas import error_responses
-from daq.store import ResultNotFound
 from estimation.water import SALINITY_RANGE_G_KG, TEMPERATURE_RANGE_C
 
 router = APIRouter(prefix="/api", tags=["theory"])
@@ -64,23 +63,7 @@ def get_added_mass(
     beside ``added_mass.<dof>`` of its file or of the stored ``estimates``: ratio, verdict
     (band 0.5 … 2) and the usual causes of a ratio outside; dimensionless coefficients;
     blockage when both ``tank_width_m`` and ``water_depth_m`` are given."""
-    try:
-        vehicle = sixdof_common.find_vehicle(name)
-    except sixdof_common.VehicleNotFound as err:
-        raise HTTPException(404, str(err)) from None
-    results = []
-    for result_id in estimates:
-        try:
-            found = store.result(result_id)
-        except ResultNotFound as err:
-            raise HTTPException(404, str(err)) from None
-        if found.kind != "estimation":
-            raise ValueError(
-                f"estimates: result {result_id} is a {found.kind!r} result, "
-                "allowed: estimation results"
-            )
-        results.append((result_id, found.data))
-    vehicle, applied = sixdof_common.apply_results(vehicle, results)
+    vehicle, applied = vehicle_with_estimates(store, name, estimates)
     return theory_common.predict(
         vehicle, water_temp_c, salinity_g_kg, tank_width_m, water_depth_m, applied=applied
     )
