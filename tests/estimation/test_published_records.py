@@ -4,18 +4,13 @@ folder is missing, failed under ``CI=true``."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import pytest
 
 from estimation import RunData, estimate
 from estimation.motion.decay import estimate_decay
-
-REAL = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real"
-IN_CI = os.environ.get("CI", "").lower() == "true"
+from tests.shared_data import shared_file
 
 #: KVLCC2 1:68, loading condition 166 (kvlcc2-roll-decay/README.md): I44 = Δ·KXX², C44 = Δ·g·GM.
 I44, C44 = 115.74281, 821.96
@@ -25,13 +20,7 @@ A44 = 19.0  # kg·m², from the records' periods and C44, I44
 
 
 def _csv(folder: str, name: str) -> pd.DataFrame:
-    path = REAL / folder / name
-    if not path.exists():
-        message = f"{path} not found: the published records live in ../shared/data/real"
-        if IN_CI:
-            pytest.fail(message + " (required when CI=true)")
-        pytest.skip(message)
-    return pd.read_csv(path)
+    return pd.read_csv(shared_file("real", folder, name))
 
 
 def _be5(b1: float, b2: float, total: float) -> float:
