@@ -151,6 +151,13 @@ async function refreshRig() {
     setCapabilities(s.capabilities || {});
     renderGuard(s.guard || {}); // guard.js: e-stop to acknowledge, who holds the rig
     if (s.current_job) showJob(s.current_job);
+    // The job shown left the rig but its ending never reached the page (an event lost
+    // while the stream reconnected): ask for it, so it is never left showing "running".
+    const shown = state.job;
+    if (shown && !FINAL.includes(shown.state) && (!s.current_job || s.current_job.id !== shown.id)) {
+      const job = await api("GET", `/api/jobs/${shown.id}`);
+      if (state.job === shown) showJob(job);
+    }
   } catch (err) {
     $("#conn-dot").className = "dot bad";
     $("#conn-text").textContent = err.status === 401 ? "waiting for the API token" : err.message;
