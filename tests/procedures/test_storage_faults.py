@@ -160,6 +160,21 @@ async def test_a_database_refusing_writes_mid_tow_leaves_the_rig_safe(source, tm
         store.close()
 
 
+async def _tow_until_braked(session, params) -> asyncio.Task:
+    """Start the tow in a task and return it once its brake came off, then on again at the
+    end of travel (the run's end is about to be written)."""
+    watch = session.acquisition.subscribe(maxsize=10_000, name="test-brake-watch")
+    task = asyncio.create_task(run_motion_test(session, params))
+    released = False
+    while True:
+        sample = await asyncio.wait_for(watch.get(), 30)
+        released = released or sample.channels["tow_release"] == 1
+        if released and sample.channels["tow_release"] == 0:
+            break
+    session.acquisition.unsubscribe(watch)
+    return task
+
+
 async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
     source, store, tmp_path, caplog
 ):
@@ -169,15 +184,7 @@ async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
     blocker = sqlite3.connect(path, isolation_level=None, timeout=30, check_same_thread=False)
     async with RigSession(short, store) as session:
         params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
-        watch = session.acquisition.subscribe(maxsize=10_000, name="test-brake-watch")
-        task = asyncio.create_task(run_motion_test(session, params))
-        released = False
-        while True:  # the brake comes off, then on again at the end of travel
-            sample = await asyncio.wait_for(watch.get(), 30)
-            released = released or sample.channels["tow_release"] == 1
-            if released and sample.channels["tow_release"] == 0:
-                break
-        session.acquisition.unsubscribe(watch)
+        task = await _tow_until_braked(session, params)
         await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
 
         def lock_logged() -> bool:  # after the recorder's 10 s busy wait, then its retries
@@ -214,15 +221,7 @@ async def test_a_60_s_lock_across_the_end_leaves_the_tow_completed_stopped_when_
     blocker = sqlite3.connect(path, isolation_level=None, timeout=30, check_same_thread=False)
     async with RigSession(short, store) as session:
         params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
-        watch = session.acquisition.subscribe(maxsize=10_000, name="test-brake-watch")
-        task = asyncio.create_task(run_motion_test(session, params))
-        released = False
-        while True:  # the brake comes off, then on again at the end of travel
-            sample = await asyncio.wait_for(watch.get(), 30)
-            released = released or sample.channels["tow_release"] == 1
-            if released and sample.channels["tow_release"] == 0:
-                break
-        session.acquisition.unsubscribe(watch)
+        task = await _tow_until_braked(session, params)
         await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
         locked_at = time.time()
         outcome = await asyncio.wait_for(task, 60)  # it gives up on the database, not the run
