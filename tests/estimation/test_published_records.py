@@ -134,10 +134,10 @@ def test_tencate_whole_record_never_confident_below_the_sphere():
         assert any("below the body's own" in w for w in r.warnings)
 
 
-@pytest.mark.slow
-def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
+def _ship2d_run() -> RunData:
+    """The floating section's sway, the measured rig force as a per-sample drive."""
     d = _csv("ship2d-regular-waves", "ship2d_3111_2_20Hz.csv")
-    run = RunData(
+    return RunData(
         "3111_2",
         "surge",
         d.t.to_numpy(),
@@ -145,6 +145,11 @@ def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
         drive=d.force_sway_N.to_numpy(),
         t_release=0.0,
     )
+
+
+@pytest.mark.slow
+def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
+    run = _ship2d_run()
     r = estimate([run], n_bootstrap=0)
     u = r.unexplained
     assert u is not None and u.structured
@@ -160,15 +165,7 @@ def test_ship2d_with_the_release_found_in_the_data_never_overflows():
     then the effect search; before, both overflowed ("array must not contain infs")."""
     from estimation.data.window import windowed_run
 
-    d = _csv("ship2d-regular-waves", "ship2d_3111_2_20Hz.csv")
-    run = RunData(
-        "3111_2",
-        "surge",
-        d.t.to_numpy(),
-        d.position.to_numpy(),
-        drive=d.force_sway_N.to_numpy(),
-        t_release=0.0,
-    )
+    run = _ship2d_run()
     r = estimate([windowed_run(run)], n_bootstrap=0)
     assert r.unexplained is not None and r.unexplained.structured
     assert all(np.isfinite(c.value) for c in r.coefficients.values())
