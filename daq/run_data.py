@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from daq.calibration_law import NoCalibration, at_reference_voltage, law_of
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
 from daq.store import ResultNotFound, RunInfo, SampleTable, Store
@@ -30,6 +31,7 @@ from estimation.pendulum.data import PendulumGeometry, PendulumRun
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
 from estimation.thrust.law import ThrustLaw
+from thrusters.config import MAX_SLEW_INTERVAL_S
 
 
 def _rig_of(run: RunInfo) -> RigConfig | None:
@@ -346,15 +348,13 @@ def _calibration(
     thrust lag measured from its steps, if it was)."""
     imported = params.get("calibration_import_id")
     if imported is not None:
-        from daq.calibration_law import NoCalibration, at_reference_voltage, law_of
-
         try:
             law, _ = law_of(store, "imported", imported)
         except NoCalibration:
             raise ValueError(f"imported calibration #{imported} is no longer stored") from None
-        ref = law.curves[-1]
-        rows = store.imported_calibration(imported).data["table"]
-        return law, ref.curve, at_reference_voltage(rows, law), None
+        table = store.imported_calibration(imported).data["table"]
+        curve, rows = at_reference_voltage(table, law)
+        return law, curve, rows, None
     try:
         calibration = store.result(params["calibration_result_id"])
     except ResultNotFound:
@@ -376,10 +376,8 @@ def _thrust_steps(events: RunEvents, offset: float) -> list[tuple[float, list[fl
 
 def thrust_layout_of(rig: RigConfig, kind: str) -> ThrustLayout:
     """How the rig's thrusters make the drive of a ``"tow"`` or a ``"spin"``."""
-    from daq.procedures.thruster_drive import thrust_layout
-
     port = rig.thruster_port()
-    signs, arm = thrust_layout(port, kind)
+    signs, arm = port.thrust_layout(kind)
     return ThrustLayout(signs, arm, port.time_constant_s, port.voltage_exponent)
 
 
@@ -411,8 +409,6 @@ def _modelled_steps(
 ) -> list[tuple[float, list[float]]]:
     """The steps the driver sends toward ``commands`` when every heartbeat comes on its
     acquisition tick (runs recorded before the confirmed outputs were stored)."""
-    from thrusters.driver import MAX_SLEW_INTERVAL_S
-
     before = t[t < t_on]
     previous = float(before[-1]) if before.size else t_on - MAX_SLEW_INTERVAL_S
     step_times = np.concatenate([[t_on], t[t > t_on]])

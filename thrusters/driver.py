@@ -28,14 +28,10 @@ from dataclasses import dataclass
 import serial
 
 from thrusters import protocol as p
-from thrusters.config import CommandLimits, ThrusterPort
+from thrusters.config import MAX_SLEW_INTERVAL_S, CommandLimits, ThrusterPort
 from thrusters.link import LinkStats, SerialLink
 
 log = logging.getLogger(__name__)
-
-#: Longest interval the slew limit credits between two steps (s). A command after a
-#: long pause still ramps instead of jumping.
-MAX_SLEW_INTERVAL_S = 0.1
 
 #: Consecutive frames without a valid reply (timeout, bad CRC, garbage, I/O error, or a
 #: ``NAK crc``/``NAK malformed`` saying our frame arrived spoiled) after which the link

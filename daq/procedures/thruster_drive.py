@@ -77,16 +77,6 @@ def latest_calibration(store: Store) -> dict[str, Any]:
     }
 
 
-def thrust_layout(thrusters: ThrusterPort, kind: str) -> tuple[list[float], float]:
-    """Per-thruster sign and arm (m; 1 for a force) that turn thruster forces into the drive
-    of a ``"tow"`` (Σ F) or a ``"spin"`` (Σ sign·F·L)."""
-    if kind == "tow":
-        return [1.0] * thrusters.count, 1.0
-    if kind == "spin":
-        return thrusters.yaw_signs(), thrusters.yaw_lever_arm_m
-    raise ValueError(f"kind: {kind!r} is not allowed; allowed 'tow' or 'spin'")
-
-
 def _below_smallest_thrust(
     kind: str,
     drive: float,
@@ -132,7 +122,7 @@ def thruster_commands(
     name, unit = DRIVE_FIELD[kind]
     curve = ThrustCurve.from_json(calibration["fit"])
     calibrated = CalibratedThrust.from_table(curve, calibration.get("table", []))
-    signs, arm = thrust_layout(thrusters, kind)
+    signs, arm = thrusters.thrust_layout(kind)
     count = thrusters.count
     per_thruster = drive / (count * arm)
     # A negative drive (a reverse test) turns every thruster round: each pushes |F| the
@@ -196,7 +186,7 @@ def law_commands(
     beyond what the thrusters deliver at that voltage within ``max_command``, and below
     the smallest thrust calibrated there (``ThrustLaw.min_force``)."""
     name, unit = DRIVE_FIELD[kind]
-    signs, arm = thrust_layout(thrusters, kind)
+    signs, arm = thrusters.thrust_layout(kind)
     count = thrusters.count
     per_thruster = drive / (count * arm)
     reverse = -1.0 if per_thruster < 0 else 1.0  # a reverse test turns every thruster round
