@@ -109,7 +109,7 @@ def import_(
     from api.cli.metadata import run_metadata
     from api.core.run_import import ImportRequest, plan_import
     from daq.procedures.params import ParameterError
-    from daq.store import import_csv
+    from daq.run_import import import_csv
 
     ctx = click.get_current_context()
     request = ImportRequest(

@@ -15,7 +15,7 @@ file into the run's kind, parameters, origin and window times, or refuses naming
   within ``AGREE``), or is refused naming both; a given release or vehicle overrides it.
 
 What needs the samples (the drive's sign against the motion, one-row files, window times
-within the ``t`` range) is checked by ``daq.store.import_csv`` while it parses.
+within the ``t`` range) is checked by ``daq.run_import.import_csv`` while it parses.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ class ImportRequest:
 
 @dataclass(frozen=True)
 class ImportPlan:
-    """The import to make: ``kind``, the keyword arguments of ``daq.store.import_csv``
+    """The import to make: ``kind``, the keyword arguments of ``daq.run_import.import_csv``
     (``options``) and what the file's export header supplied (``from_header``)."""
 
     kind: str

@@ -34,7 +34,7 @@ from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
 from daq.store.channel_units import column_infos
-from daq.store.csvio import csv_chunks
+from daq.store.csv_export import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
 from daq.vocabulary import RunKind, RunStatus
 
