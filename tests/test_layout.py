@@ -47,7 +47,6 @@ LONG_PENDING = {
     # being split on this branch (splits), one commit each
     "daq.run_data": "splits",
     "daq.sim.plant": "splits",
-    "daq.store.store": "splits",
     "estimation.axis.crosscheck": "splits",
     "estimation.vehicle.description": "splits",
     "estimation.vehicle.dynamics": "splits",
