@@ -45,7 +45,6 @@ LONG_PENDING = {
     "thrusters.driver": "edges",
     "daq.procedures.thruster_drive": "edges",
     # being split on this branch (splits), one commit each
-    "daq.sim.plant": "splits",
     "estimation.axis.crosscheck": "splits",
     "estimation.vehicle.description": "splits",
     "estimation.vehicle.dynamics": "splits",
