@@ -9,14 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimation.vehicle.description import (
-    COEFFICIENT_NAMES,
-    DOFS,
-    VehicleError,
-    apply_estimate,
-    load_vehicle,
-    parse_vehicle,
-)
+from estimation.vehicle.apply_estimates import apply_estimate
+from estimation.vehicle.description import COEFFICIENT_NAMES, DOFS, VehicleError
 from estimation.vehicle.dynamics import (
     SingularAttitude,
     allocation_matrix,
@@ -26,6 +20,7 @@ from estimation.vehicle.dynamics import (
     state_derivative,
     steady_state,
 )
+from estimation.vehicle.vehicle_file import load_vehicle, parse_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
 ZERO_DAMPING = {f"{k}.{d}": 0.0 for k in ("linear_damping", "quadratic_damping") for d in DOFS}
@@ -261,7 +256,7 @@ def test_short_input_pulse_is_not_stepped_over(benbam):
 
 
 def test_apply_result_json_uses_value_and_std(benbam):
-    from estimation.vehicle.description import apply_result_json
+    from estimation.vehicle.apply_estimates import apply_result_json
 
     doc = {
         "axis": "yaw",
@@ -297,7 +292,7 @@ def test_vehicles_are_hashable_values(rov):
 
 
 def test_a_pendulum_result_plugs_in_added_mass_and_damping_of_its_swing_axis(benbam):
-    from estimation.vehicle.description import apply_result_json
+    from estimation.vehicle.apply_estimates import apply_result_json
 
     doc = {
         "analysis": "pendulum",
