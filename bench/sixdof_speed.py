@@ -17,7 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 from bench.timing import timed
-from estimation.vehicle.dynamics import simulate
+from estimation.vehicle.simulation import simulate
 from estimation.vehicle.vehicle_file import load_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[1] / "fixtures" / "vehicles"

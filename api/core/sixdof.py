@@ -15,7 +15,8 @@ import numpy as np
 
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
-from estimation.vehicle.dynamics import Trajectory, allocation_matrix, simulate, steady_state
+from estimation.vehicle.dynamics import allocation_matrix
+from estimation.vehicle.simulation import Trajectory, simulate, steady_state
 from estimation.vehicle.vehicle_file import load_vehicle
 
 #: The vehicles that come with the project.

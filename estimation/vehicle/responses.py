@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from estimation.vehicle.description import DOFS, Vehicle6
-from estimation.vehicle.dynamics import Trajectory, allocation_matrix, simulate
+from estimation.vehicle.dynamics import allocation_matrix
+from estimation.vehicle.simulation import Trajectory, simulate
 
 #: Default manoeuvre force: this fraction of the thrusters' reach along the axis.
 DEFAULT_FRACTION = 0.5

@@ -16,10 +16,9 @@ from estimation.vehicle.dynamics import (
     allocation_matrix,
     mass_matrix,
     resisting_force,
-    simulate,
     state_derivative,
-    steady_state,
 )
+from estimation.vehicle.simulation import simulate, steady_state
 from estimation.vehicle.vehicle_file import load_vehicle, parse_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
@@ -65,7 +64,7 @@ def test_allocation_reproduces_seed002_b_matrix(rov):
 def test_fast_right_hand_side_matches_matrix_form(rov):
     """The unrolled simulator equals M⁻¹(τ − Cν − Dν − g) and J(η)ν at a random state,
     with a CG offset, a CB offset and net buoyancy so every term is exercised."""
-    from estimation.vehicle.dynamics import _rhs_factory
+    from estimation.vehicle.simulation import _rhs_factory
 
     rng = np.random.default_rng(3)
     veh = replace(rov, cg_m=(0.01, -0.02, 0.03), cb_m=(-0.01, 0.01, -0.05), buoyancy_n=420.0)
