@@ -46,7 +46,6 @@ LONG_PENDING = {
     "daq.procedures.thruster_drive": "edges",
     # being split on this branch (splits), one commit each
     "estimation.axis.crosscheck": "splits",
-    "estimation.vehicle.sensitivity": "splits",
 }
 
 
