@@ -44,8 +44,6 @@ LONG_PENDING = {
     "daq.procedures.params": "registry",
     "thrusters.driver": "edges",
     "daq.procedures.thruster_drive": "edges",
-    # being split on this branch (splits), one commit each
-    "estimation.axis.crosscheck": "splits",
 }
 
 
