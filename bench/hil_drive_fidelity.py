@@ -30,10 +30,10 @@ import numpy as np
 
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import tow_parameters
+from daq.run_data import thruster_drive
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from daq.store.run_events import RunEvents
-from daq.thruster_run_drive import thruster_drive
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.hil_calibration import calibrate_for_hil, measured_thrust_n
 

@@ -23,6 +23,7 @@ from daq.sample import Quality
 from daq.store import RunInfo, SampleTable, Store
 from daq.store.run_events import RunAction, RunEvents
 from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
+from daq.thruster_run_drive import thruster_drive as thruster_drive  # its callers' old path
 from daq.vocabulary import AXES, DRIVEN_KINDS, POSITION_CHANNEL
 from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
