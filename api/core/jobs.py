@@ -14,14 +14,14 @@ job ran (marked at the next start). Every change is published to the live stream
 written to the jobs table (from one writer thread: the rig loop never waits on the
 database); report files of estimations are stored with their result.
 
-One module because the runner's parts share one lock and one set of job objects; the queue and
-the pipelines are short and read best next to the state they change.
+The registry and its database writer are :mod:`api.core.job_registry`; estimations and
+cross-checks run in :mod:`api.core.analysis_worker`.
 """
 
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
+import builtins
 import contextlib
 import dataclasses
 import logging
@@ -29,12 +29,12 @@ import shutil
 import tempfile
 import threading
 import time
-import uuid
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from api.core.job_model import Job, JobConflict, JobNotFound, without_report_files
+from api.core.analysis_worker import REPORT_SUFFIXES, AnalysisWorker
+from api.core.job_model import Job, JobConflict, JobNotFound
+from api.core.job_registry import LIST_LIMIT, JobRegistry
 from api.core.job_requests import procedure_from_request
 from api.core.queue_edits import QueueEdits
 from api.core.rig_guard import RigGuard, latching_stop
@@ -46,7 +46,6 @@ from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
 from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
-from daq.store import Store
 from daq.store.faults import StorageFault, one_line
 from daq.store.jobs import JobRepository
 from daq.store.schema import JOB_ACTIVE, JOB_FINAL, JobState
@@ -57,19 +56,21 @@ ACTIVE = JOB_ACTIVE
 FINAL = JOB_FINAL
 #: Jobs that hold the rig: one per run kind, and sequences of them.
 PROCEDURES = (*KINDS, "sequence")
-#: Ended jobs kept in memory (all of them stay in the database).
-KEEP_ENDED = 500
 #: Jobs that may wait in the rig's queue: the one registry a client could otherwise grow
 #: without end (a start beyond it is refused, 409).
 MAX_QUEUED = 100
-#: Report figures a result serves (the raster for the page, the vector beside it): media types.
-REPORT_SUFFIXES = {".png": "image/png", ".svg": "image/svg+xml"}
-#: Jobs ``list`` reads from the database, newest first.
-LIST_LIMIT = 500
-#: A progress change that is neither a new state nor a new message is written at most this often.
-SAVE_EVERY_S = 1.0
 
-__all__ = ["ACTIVE", "FINAL", "PROCEDURES", "Job", "JobConflict", "JobNotFound", "JobRunner"]
+__all__ = [
+    "ACTIVE",
+    "FINAL",
+    "LIST_LIMIT",
+    "PROCEDURES",
+    "REPORT_SUFFIXES",
+    "Job",
+    "JobConflict",
+    "JobNotFound",
+    "JobRunner",
+]
 
 
 def run_metadata(job: Job) -> dict[str, Any]:
@@ -87,34 +88,39 @@ class JobRunner(QueueEdits):
 
     def __init__(self, service: RigService, *, report_root: Path | None = None) -> None:
         self.service = service
-        self.jobs: dict[str, Job] = {}
+        self.registry = JobRegistry(service)
         self._lock = threading.Lock()
         self._rig_job: Job | None = None
         self._queue: list[Job] = []
         #: Why the queue does not start its next job by itself (None: it does).
         self._queue_paused: str | None = None
         self._closing = False
-        self._repo: JobRepository | None = None
-        self._saved_at: dict[str, float] = {}
-        self._estimator = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="estimate")
-        self._writer = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="job-store")
         self._own_report_root = report_root is None
         #: Scratch space where reports are drawn before they are stored in the database.
         self.report_root = report_root or Path(tempfile.mkdtemp(prefix="towrig-reports-"))
+        self.analysis = AnalysisWorker(self.registry, self.report_root)
         service.operator_hook = self._ask_operator
 
-    # -- database ----------------------------------------------------------------------------
+    @property
+    def jobs(self) -> dict[str, Job]:
+        """The jobs this process knows, by id."""
+        return self.registry.jobs
+
     @property
     def repo(self) -> JobRepository:
-        if self._repo is None:
-            if self.service.store is None:
-                raise RuntimeError("the rig service is not running")
-            self._repo = JobRepository(self.service.store)
-        return self._repo
+        return self.registry.repo
 
     @property
     def rig_name(self) -> str:
-        return self.service.source.rig.rig.name
+        return self.registry.rig_name
+
+    def get(self, job_id: str) -> Job:
+        """The job ``job_id`` of this rig, live or from the database (``JobNotFound``)."""
+        return self.registry.get(job_id)
+
+    def events(self, job_id: str) -> builtins.list[dict[str, Any]]:
+        """A job's stored progress events, oldest first."""
+        return self.registry.events(job_id)
 
     def open(self) -> None:
         """After the service started: mark jobs a dead service left running ``interrupted``
@@ -126,7 +132,7 @@ class JobRunner(QueueEdits):
             for row in self.repo.queued(self.rig_name):
                 if row["id"] not in self.jobs:
                     job = Job.from_row(row)
-                    self.jobs[job.id] = job
+                    self.registry.adopt(job)
                     self._queue.append(job)
             if self._queue:
                 self._queue_paused = (
@@ -134,23 +140,6 @@ class JobRunner(QueueEdits):
                     "resume the queue to run them"
                 )
             self._renumber()
-
-    def _save(self, job: Job, event: bool = False) -> concurrent.futures.Future:
-        """Write the job's row (and a progress event) from the writer thread."""
-        row = job.row(self.rig_name)
-        self._saved_at[job.id] = time.monotonic()
-
-        def write() -> None:
-            try:
-                self.repo.save(job.id, row)
-                if event:
-                    self.repo.add_event(
-                        job.id, row["state"], row["fraction"], row["message"], time.time()
-                    )
-            except Exception as err:  # the job goes on; its row catches up on the next save
-                log.error("job %s: cannot store its state: %s", job.id, one_line(err))
-
-        return self._writer.submit(write)
 
     def close(self, *, timeout_s: float = 15.0) -> None:
         """Abort running procedures (their runs end ``aborted``, the rig safe) and wait;
@@ -163,72 +152,16 @@ class JobRunner(QueueEdits):
         end = time.monotonic() + timeout_s
         while self.rig_job is not None and time.monotonic() < end:
             time.sleep(0.05)
-        self._estimator.shutdown(wait=True, cancel_futures=True)
-        self._writer.shutdown(wait=True)
+        self.analysis.close()
+        self.registry.close()
         if self._own_report_root:
             shutil.rmtree(self.report_root, ignore_errors=True)
-
-    # -- registry ----------------------------------------------------------------------
-    def get(self, job_id: str) -> Job:
-        job = self.jobs.get(job_id)
-        if job is None:
-            row = self.repo.get(job_id) if self.service.store is not None else None
-            if row is None or row["rig_name"] != self.rig_name:
-                raise JobNotFound(f"no job with id {job_id!r}")
-            job = Job.from_row(row)
-        return job
-
-    def list(
-        self, *, limit: int = LIST_LIMIT, offset: int = 0, state: str | None = None
-    ) -> list[Job]:
-        """This rig's jobs, newest first (``offset`` of them skipped, at most ``limit``, only
-        those in ``state`` if given): the database's, live ones as this process sees them."""
-        found: dict[str, Job] = {}
-        if self.service.store is not None:
-            stored = self.repo.list_jobs(self.rig_name, state=state, limit=offset + limit)
-            found = {r["id"]: Job.from_row(r) for r in stored}
-        found |= {k: j for k, j in self.jobs.items() if state is None or j.state == state}
-        newest = sorted(found.values(), key=lambda j: j.created_at, reverse=True)
-        return newest[offset : offset + limit]
-
-    def events(self, job_id: str) -> list[dict[str, Any]]:
-        """A job's stored progress events, oldest first."""
-        self.get(job_id)
-        self._writer.submit(lambda: None).result(10)  # what is pending is written first
-        return self.repo.events(job_id)
 
     @property
     def rig_job(self) -> Job | None:
         """The procedure job holding the rig, if any."""
         job = self._rig_job
         return job if job is not None and job.state in ACTIVE else None
-
-    def _new(self, kind: str, label: str, parameters: dict[str, Any], **fields: Any) -> Job:
-        job = Job(uuid.uuid4().hex[:12], kind, label, parameters, **fields)
-        self.jobs[job.id] = job
-        ended = [j for j in list(self.jobs.values()) if j.state in FINAL]  # snapshot: threads
-        for old in sorted(ended, key=lambda j: j.created_at)[: max(0, len(ended) - KEEP_ENDED)]:
-            self.jobs.pop(old.id, None)  # it stays in the database
-            self._saved_at.pop(old.id, None)
-        return job
-
-    def _update(self, job: Job, **changes: Any) -> None:
-        with job.lock:
-            before = (job.state, job.message)
-            if "state" in changes:
-                changes["state"] = JobState(changes["state"])
-                if changes["state"] in FINAL and job.finished_at is None:
-                    # ended and its end time in one change: no reader sees one without the other
-                    changes.setdefault("finished_at", time.time())
-            if job.finished_at is not None:
-                changes.pop("finished_at", None)  # a job ends once; its end time stays
-            for name, value in changes.items():
-                setattr(job, name, value)
-            event = (job.state, job.message) != before
-        self.service.broadcaster.publish_job(job.to_json())
-        due = time.monotonic() - self._saved_at.get(job.id, 0.0) >= SAVE_EVERY_S
-        if event or due or set(changes) - {"fraction", "message"}:
-            self._save(job, event=event)
 
     # -- procedures ----------------------------------------------------------------------
     def start_procedure(
@@ -285,17 +218,18 @@ class JobRunner(QueueEdits):
                         f"{MAX_QUEUED}); remove some (DELETE /api/queue/{{id}}) or let them run",
                         holder="the rig's queue",
                     )
-                job = self._new(kind, label, parameters, **fields)
+                job = self.registry.new(kind, label, parameters, **fields)
                 self._queue.append(job)
                 self._renumber()
             else:
-                job = self._new(kind, label, parameters, **fields)
+                job = self.registry.new(kind, label, parameters, **fields)
                 self._rig_job = job
         if job.position is not None:
-            self._save(job, event=True).result(10)  # a queued job survives a restart at once
-            self.service.broadcaster.publish_job(job.to_json())
+            # a queued job survives a restart at once
+            self.registry.save(job, event=True).result(10)
+            self.registry.publish(job)
             return job
-        self._save(job, event=True)
+        self.registry.save(job, event=True)
         self._submit(job, params)
         return job
 
@@ -305,9 +239,9 @@ class JobRunner(QueueEdits):
         except Exception as err:  # RigUnavailable says why (a lost rig lock, say)
             with self._lock:
                 self._rig_job = None
-            self._update(job, state="failed", error=one_line(err))
+            self.registry.update(job, state="failed", error=one_line(err))
             raise
-        self.service.broadcaster.publish_job(job.to_json())
+        self.registry.publish(job)
 
     async def _hold_rig(self, job: Job, params: Any) -> None:
         """Run a procedure, then hand the rig to the next queued job."""
@@ -354,7 +288,7 @@ class JobRunner(QueueEdits):
                 with self._lock:
                     self._rig_job = None
                     self._queue_paused = f"job {job.id} could not be started: {one_line(err)}"
-                self._update(
+                self.registry.update(
                     job,
                     state="failed",
                     error=one_line(err),
@@ -362,7 +296,7 @@ class JobRunner(QueueEdits):
                     finished_at=time.time(),
                 )
                 return
-        self._update(job, position=None, message="starting")
+        self.registry.update(job, position=None, message="starting")
         try:
             self._submit(job, params)
         except Exception as err:
@@ -374,7 +308,7 @@ class JobRunner(QueueEdits):
             if queued.position != position:
                 queued.position = position
                 queued.message = f"queued (position {position})"
-                self._save(queued)
+                self.registry.save(queued)
 
     # -- the queue (called from HTTP threads) -------------------------------------------------
     def queue_json(self) -> dict[str, Any]:
@@ -408,7 +342,7 @@ class JobRunner(QueueEdits):
             self._queue.remove(job)
             self._queue.insert(position - 1, job)
             self._renumber()
-        self._writer.submit(lambda: None).result(10)
+        self.registry.flush()
         return self.queue_json()
 
     def remove(self, job_id: str) -> dict[str, Any]:
@@ -416,9 +350,8 @@ class JobRunner(QueueEdits):
         with self._lock:
             job = self._queued(job_id)
             self._queue.remove(job)
-            self.jobs.pop(job.id, None)
             self._renumber()
-        self._writer.submit(lambda: self.repo.delete(job.id)).result(10)
+        self.registry.delete(job)
         return self.queue_json()
 
     def pause_queue(self, reason: str = "paused by the operator (API)") -> dict[str, Any]:
@@ -445,7 +378,7 @@ class JobRunner(QueueEdits):
                 changes["state"] = "paused"
             elif job.state == "paused" and p.state == "running":
                 changes["state"] = "running"
-            self._update(job, **changes)
+            self.registry.update(job, **changes)
 
         return report
 
@@ -467,7 +400,7 @@ class JobRunner(QueueEdits):
         try:
             if job.state == "aborted":  # aborted while queued
                 return
-            self._update(job, state="running", started_at=time.time(), message="starting")
+            self.registry.update(job, state="running", started_at=time.time(), message="starting")
             session.run_metadata = run_metadata(job)
             if kind == "sequence":
                 assert isinstance(params, Sequence) and job.control is not None
@@ -481,7 +414,7 @@ class JobRunner(QueueEdits):
             runs = [r["run_id"] for r in data.get("runs", [])] or [data.get("run_id")]
             run_ids = list(dict.fromkeys([*job.run_ids, *[r for r in runs if r]]))
             state = "completed" if data["status"] == "completed" else "aborted"
-            self._update(
+            self.registry.update(
                 job,
                 state=state,
                 outcome=data,
@@ -491,15 +424,17 @@ class JobRunner(QueueEdits):
                 error=None if state == "completed" else data.get("reason"),
             )
         except Aborted as err:
-            self._update(job, state="aborted", message=f"aborted: {err.reason}", error=err.reason)
+            self.registry.update(
+                job, state="aborted", message=f"aborted: {err.reason}", error=err.reason
+            )
         except (PreconditionFailed, RigBusy, RigLockLost, ParameterError) as err:  # the rig said no
-            self._update(job, state="failed", message=str(err), error=str(err))
+            self.registry.update(job, state="failed", message=str(err), error=str(err))
         except StorageFault as err:  # the database refused the run: one line, no traceback
             log.error("job %s failed: %s", job.id, err)
-            self._update(job, state="failed", message=str(err), error=str(err))
+            self.registry.update(job, state="failed", message=str(err), error=str(err))
         except Exception as err:
             log.exception("job %s failed", job.id)
-            self._update(
+            self.registry.update(
                 job, state="failed", message=f"error: {one_line(err)}", error=one_line(err)
             )
         finally:
@@ -508,7 +443,7 @@ class JobRunner(QueueEdits):
             with self._lock:
                 if self._rig_job is job:
                     self._rig_job = None
-            self._update(job, finished_at=time.time(), operator_act=None)
+            self.registry.update(job, finished_at=time.time(), operator_act=None)
 
     async def _ask_operator(self, act: OperatorAct) -> None:
         """The API's operator: show the instruction as job state, wait for confirm/abort."""
@@ -517,7 +452,7 @@ class JobRunner(QueueEdits):
             raise Aborted(f"no job to ask the operator through: {act.instruction}")
         job.confirm.clear()
         before = job.state
-        self._update(
+        self.registry.update(
             job,
             state="waiting_for_operator",
             operator_act=dataclasses.asdict(act),
@@ -530,7 +465,7 @@ class JobRunner(QueueEdits):
         finally:
             confirm.cancel()
             aborted.cancel()
-        self._update(job, state=before, operator_act=None)
+        self.registry.update(job, state=before, operator_act=None)
         job.abort.check()
 
     # -- controls (called from HTTP threads) ----------------------------------------------
@@ -546,7 +481,7 @@ class JobRunner(QueueEdits):
                 self._queue.remove(job)
                 self._renumber()
         if queued or job.abort is None:  # still in the queue, or not yet on the rig loop
-            self._update(
+            self.registry.update(
                 job,
                 state="aborted",
                 position=None,
@@ -556,17 +491,17 @@ class JobRunner(QueueEdits):
             )
         else:
             self.service.call_soon(job.abort.set, reason)
-            self._update(job, message=f"aborting: {reason}")
+            self.registry.update(job, message=f"aborting: {reason}")
         return job
 
     def pause(self, job_id: str) -> Job:
         job = self._request_pause(job_id, True)
-        self._update(job, message="pausing after the current step")
+        self.registry.update(job, message="pausing after the current step")
         return job
 
     def resume(self, job_id: str) -> Job:
         job = self._request_pause(job_id, False)
-        self._update(job, state="running" if job.state == "paused" else job.state)
+        self.registry.update(job, state="running" if job.state == "paused" else job.state)
         return job
 
     def _request_pause(self, job_id: str, paused: bool) -> Job:
@@ -595,7 +530,7 @@ class JobRunner(QueueEdits):
             raise JobConflict(f"job {job.id} waits in the queue; pause the queue instead")
         return job
 
-    def emergency_stop(self, user: str | None = None) -> list[str]:
+    def emergency_stop(self, user: str | None = None) -> builtins.list[str]:
         """Abort the procedure on the rig, pause the queue if jobs wait (they stay), put the
         rig in its safe state now, then latch the stop (naming ``user``, if known): no
         motion until an operator acknowledges it."""
@@ -612,125 +547,43 @@ class JobRunner(QueueEdits):
             self.service.run(session.safe_state(), timeout_s=5.0)
         return aborted
 
-    # -- estimation ------------------------------------------------------------------------
+    # -- analysis (estimation, cross-check, reports) ------------------------------------------
     def start_estimation(
-        self, run_ids: list[str], method: str, search_effects: bool, user: str | None = None
-    ) -> Job:
-        """Run an estimation in the worker thread (never on the clock's loop), for ``user``."""
-        params = {"run_ids": run_ids, "method": method, "search_effects": search_effects}
-        label = f"estimation {method} on {len(run_ids)} run(s)"
-        job = self._new("estimation", label, params, user_name=user)
-        job.run_ids = list(run_ids)
-        self._save(job, event=True)
-        self._estimator.submit(self._run_estimation, job, run_ids, method, search_effects)
-        self.service.broadcaster.publish_job(job.to_json())
-        return job
-
-    def _run_estimation(
-        self, job: Job, run_ids: list[str], method: str, search_effects: bool
-    ) -> None:
-        from api.core.estimation_job import run_estimation
-
-        def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
-            data = run_estimation(
-                store, run_ids, method=method, search_effects=search_effects, report_dir=report_dir
-            )
-            result_id = data.get("result_id")
-            if result_id is not None:
-                self.adopt_report(result_id, report_dir)
-            return data, result_id, "estimation done"
-
-        self._run_in_worker(job, "estimation", "fitting", fit)
-
-    def _run_in_worker(
         self,
-        job: Job,
-        what: str,
-        message: str,
-        fit: Callable[[Store, Path], tuple[dict[str, Any], int | None, str]],
-    ) -> None:
-        """Run ``fit(store, report_dir)`` as ``job`` (in the estimation worker): ``running``
-        with ``message``, then ``completed`` with the outcome, result id and message ``fit``
-        returns, or ``failed`` with the error (logged unless it is bad input). The report
-        folder goes and the finish time is stored either way."""
-        assert self.service.store is not None
-        self._update(job, state="running", started_at=time.time(), message=message)
-        report_dir = self.report_root / f"job-{job.id}"
-        try:
-            data, result_id, done = fit(self.service.store, report_dir)
-            data = without_report_files(data)  # scratch paths; the figures are stored
-            self._update(
-                job,
-                state="completed",
-                fraction=1.0,
-                outcome=data,
-                result_id=result_id,
-                message=done,
-            )
-        except Exception as err:
-            if not isinstance(err, ValueError | KeyError):
-                log.exception("%s job %s failed", what, job.id)
-            self._update(job, state="failed", message=f"error: {err}", error=str(err))
-        finally:
-            shutil.rmtree(report_dir, ignore_errors=True)
-            self._update(job, finished_at=time.time())
+        run_ids: builtins.list[str],
+        method: str,
+        search_effects: bool,
+        user: str | None = None,
+    ) -> Job:
+        """Run an estimation in the analysis worker (:class:`AnalysisWorker`)."""
+        return self.analysis.start_estimation(run_ids, method, search_effects, user)
 
-    # -- cross-check ------------------------------------------------------------------------
     def start_crosscheck(
         self,
-        weight_runs: list[str],
-        thruster_runs: list[str],
+        weight_runs: builtins.list[str],
+        thruster_runs: builtins.list[str],
         search_effects: bool = True,
         user: str | None = None,
     ) -> Job:
-        """Estimate both sets of runs and cross-check them, in the estimation worker."""
-        params = {
-            "weight_runs": weight_runs,
-            "thruster_runs": thruster_runs,
-            "search_effects": search_effects,
-        }
-        label = f"cross-check {len(weight_runs)} weight vs {len(thruster_runs)} thruster run(s)"
-        job = self._new("crosscheck", label, params, user_name=user)
-        job.run_ids = list(dict.fromkeys([*weight_runs, *thruster_runs]))
-        self._save(job, event=True)
-        self._estimator.submit(self._run_crosscheck, job, params)
-        self.service.broadcaster.publish_job(job.to_json())
-        return job
+        """Estimate both sets of runs and cross-check them, in the analysis worker."""
+        return self.analysis.start_crosscheck(weight_runs, thruster_runs, search_effects, user)
 
-    def _run_crosscheck(self, job: Job, params: dict[str, Any]) -> None:
-        from api.core.crosscheck_job import crosscheck_runs
+    def adopt_report(self, result_id: int, folder: Path) -> builtins.list[str]:
+        """Store ``folder``'s figures as the report of ``result_id``; the figure names."""
+        return self.analysis.adopt_report(result_id, folder)
 
-        def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
-            data = crosscheck_runs(store, **params, report_dir=report_dir)
-            self.adopt_report(data["result_id"], report_dir)
-            sides = (("weight_estimation", "weight"), ("thruster_estimation", "thrusters"))
-            for key, side in sides:
-                self.adopt_report(data[key]["result_id"], report_dir / side)
-            return data, data["result_id"], f"cross-check done: {data['verdict']}"
-
-        self._run_in_worker(job, "cross-check", "fitting both sets", fit)
-
-    # -- report files (in the database) ------------------------------------------------------
-    def adopt_report(self, result_id: int, folder: Path) -> list[str]:
-        """Store ``folder``'s figures (PNG for the page, SVG beside it) as the report of
-        ``result_id``; the figure names."""
-        files = [
-            (p.name, REPORT_SUFFIXES[p.suffix], p.read_bytes())
-            for suffix in REPORT_SUFFIXES
-            for p in sorted(Path(folder).glob(f"*{suffix}"))
-        ]
-        self.repo.save_report_files(result_id, files)
-        return sorted({Path(name).stem for name, _, _ in files})
-
-    def report_names(self, result_id: int) -> list[str]:
+    def report_names(self, result_id: int) -> builtins.list[str]:
         """Names of the report figures stored with ``result_id``."""
-        return sorted({Path(name).stem for name in self.repo.report_names(result_id)})
+        return self.analysis.report_names(result_id)
 
     def report_file(
         self, result_id: int, name: str, suffix: str = ".png"
     ) -> tuple[str, bytes] | None:
-        """``(media type, bytes)`` of the figure ``name`` (``.png`` or ``.svg``) of a
-        result's report, if stored."""
-        if suffix not in REPORT_SUFFIXES:
-            return None
-        return self.repo.report_file(result_id, f"{name}{suffix}")
+        """``(media type, bytes)`` of a result's report figure ``name``, if stored."""
+        return self.analysis.report_file(result_id, name, suffix)
+
+    def list(
+        self, *, limit: int = LIST_LIMIT, offset: int = 0, state: str | None = None
+    ) -> builtins.list[Job]:
+        """This rig's jobs, newest first (:meth:`JobRegistry.find`)."""
+        return self.registry.find(limit=limit, offset=offset, state=state)

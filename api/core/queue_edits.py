@@ -16,6 +16,7 @@ from api.core.job_requests import procedure_from_request
 if TYPE_CHECKING:
     import threading
 
+    from api.core.job_registry import JobRegistry
     from api.core.service import RigService
 
 #: Why the queue waits after "Stop after the current job" (the words the pages show).
@@ -33,12 +34,12 @@ class QueueEdits:
     _lock: threading.Lock
     _queue: list[Job]
     _queue_paused: str | None
+    registry: JobRegistry
 
     if TYPE_CHECKING:
 
         def get(self, job_id: str) -> Job: ...
         def _queued(self, job_id: str) -> Job: ...
-        def _update(self, job: Job, **changes: Any) -> None: ...
         def move(self, job_id: str, position: int) -> dict[str, Any]: ...
         def pause_queue(self, reason: str = ...) -> dict[str, Any]: ...
         def resume_queue(self) -> dict[str, Any]: ...
@@ -72,7 +73,7 @@ class QueueEdits:
                 job.parameters = params.to_json()
                 job.label = label
                 job.notes = [note] if note else []
-        self._update(job, message=f"queued (position {job.position}): parameters replaced")
+        self.registry.update(job, message=f"queued (position {job.position}): parameters replaced")
         return job
 
     def run_now(self, job_id: str) -> dict[str, Any]:
