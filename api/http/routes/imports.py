@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 import tempfile
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Query, Request
 
@@ -53,7 +53,7 @@ def _import_metadata(
     """The import's metadata query parameters, checked before the body is read (errors
     name the query parameter)."""
     given = {"operator": operator, "water_temperature_c": water, "notes": notes}
-    metadata = {key: value for key, value in given.items() if value is not None}
+    metadata: dict[str, Any] = {key: value for key, value in given.items() if value is not None}
     if tags:
         metadata["tags"] = [check_tag("tag", t) for t in tags]
     return check_run_metadata(metadata, prefix="") or None
