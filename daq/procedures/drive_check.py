@@ -27,7 +27,7 @@ _BISECT_STEPS = 30
 def _commands_for(store: Store, rig: RigConfig, kind: str) -> tuple[Callable[[float], Any], str]:
     """A function turning a drive into commands exactly as the run would (raising
     ``ParameterError`` beyond the calibration), and the calibration's name."""
-    from daq.procedures.thruster_drive import latest_calibration, law_commands, thruster_commands
+    from daq.procedures.thrust_commands import latest_calibration, law_commands, thruster_commands
 
     calibration = latest_calibration(store)  # ParameterError (drive) when there is none
     port = rig.thruster_port()
