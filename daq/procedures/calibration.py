@@ -60,6 +60,7 @@ async def run_thrust_calibration(
             parameters=params.to_json(),
             abort=abort,
             progress=report,
+            thruster_telemetry=True,
         )
         armed = asyncio.Event()
         supervisor = asyncio.create_task(abort_on_thruster_fault(session, rec, abort, armed))

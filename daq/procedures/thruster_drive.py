@@ -140,7 +140,12 @@ async def run_thruster_test(
         start = await check_ready(session, axis, abort)
         check_room(params, start)
         rec = RecordedRun(
-            session, kind=axis.kind, parameters=parameters, abort=abort, progress=report
+            session,
+            kind=axis.kind,
+            parameters=parameters,
+            abort=abort,
+            progress=report,
+            thruster_telemetry=True,
         )
         try:
             async with rec:
