@@ -132,7 +132,7 @@ def import_(
             fail(flag_names(ctx, str(err)))
     if plan.from_header:
         taken = ", ".join(f"{k} {v}" for k, v in plan.from_header.items())
-        click.echo(f"note: from the file's export header: {taken}", err=True)
+        click.echo(f"note: from the file's header: {taken}", err=True)
     store = open_store(db_url)
     try:
         try:

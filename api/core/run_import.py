@@ -12,7 +12,9 @@ file into the run's kind, parameters, origin and window times, or refuses naming
 - a towrig export's own header (``daq.store.export_header``) gives the kind, the load or
   logged drive channel, the hung mass, the release and the vehicle, so the file imports
   back without restating them; what the user states must agree with it (a load or weight
-  within ``AGREE``), or is refused naming both; a given release or vehicle overrides it.
+  within ``AGREE``), or is refused naming both; a given release or vehicle overrides it;
+- any CSV's leading ``# vehicle: NAME`` comment (or its ``# metadata:`` vehicle) names the
+  vehicle when the user does not (before the rig file's, then ``unknown``).
 
 What needs the samples (the drive's sign against the motion, one-row files, window times
 within the ``t`` range) is checked by ``daq.store.import_csv`` while it parses.
@@ -26,7 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from daq.procedures.params import ParameterError
-from daq.store.export_header import ExportHeader, read_export_header
+from daq.store.export_header import ExportHeader, read_export_header, vehicle_in_header
 from daq.vocabulary import DRIVE_FIELD, RunKind
 
 if TYPE_CHECKING:
@@ -101,8 +103,9 @@ def plan_import(
     release = header.release_t_s if request.time_unit == "s" else None  # an export's t is s
     if request.release_time_s is None and release is not None:
         options["release_time_s"] = restored["release_time_s"] = release
-    vehicle = request.vehicle or header.text("vehicle")
-    if request.vehicle is None and header.text("vehicle"):
+    named = header.text("vehicle") or vehicle_in_header(path)  # an export's or a foreign header's
+    vehicle = request.vehicle or named
+    if request.vehicle is None and named:
         restored["vehicle"] = vehicle
     if rig is not None:
         options |= {

@@ -66,7 +66,7 @@ def test_the_cli_imports_its_own_export_back_without_restating_it(rig, tmp_path)
                 "--release-time", "1.05", "--vehicle", "BENBAM-2").stdout.strip()  # fmt: skip
     rig("export", first, "-o", "out.csv")
     proc = rig("import", "out.csv", "--json")
-    assert proc.stderr.startswith("note: from the file's export header: kind tow, force_n 24.5")
+    assert proc.stderr.startswith("note: from the file's header: kind tow, force_n 24.5")
     again = json.loads(proc.stdout)["run_id"]
     run = json.loads(rig("show", again, "--json").stdout)
     assert (run["kind"], run["vehicle"], run["drive"]) == ("tow", "BENBAM-2", "weight")
@@ -114,3 +114,27 @@ def test_the_sphere_settling_record_takes_its_release_before_the_first_sample(ri
     parameters = json.loads(rig("show", run, "--json").stdout)["parameters"]
     assert parameters["release_time_s"] == pytest.approx(-0.08443)
     assert parameters["end_time_s"] == pytest.approx(2.45 - 0.08443)
+
+
+def test_a_foreign_csv_that_names_its_vehicle_imports_as_that_vehicle(rig, client, tmp_path):
+    """Another tool's CSV naming the vehicle in a leading comment (``# vehicle: NAME``, any
+    case, ':' or '='; or its ``# metadata:`` line) is that vehicle's run, not 'unknown'."""
+    rows = (tmp_path / "tow.csv").read_text()
+    (tmp_path / "named.csv").write_text("# logged by tank-daq 2.1\n# Vehicle = ROV-7\n" + rows)
+    ran = rig("import", "named.csv", "--kind", "tow", "--force", "24.5", "--json")
+    assert "vehicle ROV-7" in ran.stderr
+    shown = json.loads(rig("show", json.loads(ran.stdout)["run_id"], "--json").stdout)
+    assert shown["vehicle"] == "ROV-7"
+    stated = rig("import", "named.csv", "--kind", "tow", "--force", "24.5", "--vehicle", "X2")
+    assert json.loads(rig("show", stated.stdout.strip(), "--json").stdout)["vehicle"] == "X2"
+    plain = rig("import", "tow.csv", "--kind", "tow", "--force", "24.5")
+    assert json.loads(rig("show", plain.stdout.strip(), "--json").stdout)["vehicle"] == "unknown"
+
+    # Over HTTP: Excel's BOM and ';' with decimal commas, the vehicle in the metadata line.
+    body = '\ufeff# metadata: {"vehicle": "Sphere E1"}\n' + rows.replace(",", ";").replace(".", ",")
+    r = client.post("/api/runs/import?kind=tow&force_n=24.5", content=body.encode(),
+                    headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 201, r.text
+    assert r.json()["from_header"] == {"vehicle": "Sphere E1"}
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["vehicle"] == "Sphere E1"
