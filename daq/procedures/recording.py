@@ -189,8 +189,10 @@ class RecordedRun:
             lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST))
             fault = lost or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
-        await self._end_safe()
-        self._telemetry.close()
+        try:
+            await self._end_safe()
+        finally:
+            self._telemetry.close()  # the thrusters' telemetry stops with the run's end
         assert s.acquisition is not None
         if self._queue is not None:
             s.acquisition.unsubscribe(self._queue)
