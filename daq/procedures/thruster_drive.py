@@ -2,7 +2,7 @@
 
 The drive becomes per-thruster commands through the newest thrust calibration
 (``daq.procedures.thrust_commands``); the run is supervised and ended by
-``daq.procedures.thruster_supervision``. Both modules' public names are re-exported here.
+``daq.procedures.thruster_faults``. Both modules' public names are re-exported here.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from daq.procedures.thrust_commands import (
     thrust_layout,
     thruster_commands,
 )
-from daq.procedures.thruster_supervision import (
+from daq.procedures.thruster_faults import (
     STALE_ZEROED,
     abort_on_thruster_fault,
     end_thrust,
