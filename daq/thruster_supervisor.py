@@ -77,13 +77,20 @@ class ThrusterTelemetry:
             return
         self._latest = status
 
+    def fresh(self) -> ThrusterStatus | None:
+        """The latest answer while a run logs the telemetry and it is not older than
+        ``max_age_s``, else None."""
+        status = self._latest
+        if not self._loggers or status is None or self.clock() - status.t_mono > self.max_age_s:
+            return None
+        return status
+
     def channels(self) -> dict[str, float]:
         """The channels to add to the sample read now ({} while no run logs them)."""
         if not self._loggers:
             return {}
-        status = self._latest
-        fresh = status is not None and self.clock() - status.t_mono <= self.max_age_s
-        if status is None or not fresh or len(status.rpm) != self.count:
+        status = self.fresh()
+        if status is None or len(status.rpm) != self.count:
             return dict.fromkeys(self.names, math.nan)
         return dict(zip(self.names, (*status.rpm, *status.current_a), strict=True))
 
