@@ -40,10 +40,7 @@ PRIVATE_PENDING = {
 MAX_LINES = 400
 #: Modules over MAX_LINES being split on another branch (the lead removes this at merge).
 LONG_PENDING = {
-    "api.core.jobs": "jobs",
     "daq.procedures.params": "registry",
-    "thrusters.driver": "edges",
-    "daq.procedures.thruster_drive": "edges",
 }
 
 

@@ -21,7 +21,7 @@ from daq.operator import OperatorAct
 from daq.procedures.params import CalibrationParameters, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.steps import RunOutcome
-from daq.procedures.thruster_drive import abort_on_thruster_fault
+from daq.procedures.thruster_faults import abort_on_thruster_fault
 from daq.session import RigSession
 from daq.store.run_events import RunAction, RunEvents
 from estimation.thrust.calibration_import import efficiency_n_per_w
@@ -62,6 +62,7 @@ async def run_thrust_calibration(
             parameters=params.to_json(),
             abort=abort,
             progress=report,
+            thruster_telemetry=True,
         )
         armed = asyncio.Event()
         supervisor = asyncio.create_task(abort_on_thruster_fault(session, rec, abort, armed))

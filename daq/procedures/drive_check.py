@@ -16,7 +16,7 @@ from typing import Any
 from daq.calibration_law import law_of
 from daq.config import RigConfig
 from daq.procedures.params import ParameterError
-from daq.procedures.thruster_drive import latest_calibration, law_commands, thruster_commands
+from daq.procedures.thrust_commands import latest_calibration, law_commands, thruster_commands
 from daq.store import Store
 from daq.vocabulary import DRIVE_FIELD
 

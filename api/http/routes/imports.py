@@ -99,6 +99,14 @@ async def import_run(
         ),
     ] = None,
     weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
+    dry_mass_kg: Annotated[
+        float | None,
+        Query(description="Tow: the body's own mass, kg (estimation flags an inertia below it)."),
+    ] = None,
+    displacement_kg: Annotated[
+        float | None,
+        Query(description="Tow: mass of water the body displaces, kg (a floating body's mass)."),
+    ] = None,
     vehicle: Annotated[
         str | None,
         Query(min_length=1, max_length=200, description="Default: the export's, else unknown."),
@@ -138,7 +146,8 @@ async def import_run(
     request_ = ImportRequest(
         kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
         drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
-        release_time_s=release_time_s, end_time_s=end_time_s,
+        release_time_s=release_time_s, end_time_s=end_time_s, dry_mass_kg=dry_mass_kg,
+        displacement_kg=displacement_kg,
     )  # fmt: skip
     name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
