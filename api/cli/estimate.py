@@ -22,6 +22,7 @@ from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from estimation import METHODS
 from estimation.pendulum.estimate import PENDULUM_METHODS
+from estimation.uncertainty.text import budget_lines
 
 ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
 #: How the summary words one item of each list a result may carry.
@@ -56,10 +57,16 @@ def _echo_findings(data: dict, lists: tuple[str, ...]) -> None:
     is_flag=True,
     help="Fit the base model only; skip the search for missing effects.",
 )
+@click.option(
+    "--exclude-outliers",
+    is_flag=True,
+    help="Leave repeats that Chauvenet's criterion flags out of the fit (they are always "
+    "reported; without this flag they stay in).",
+)
 @report_option("Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.")
 @db_option
 @json_option
-def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
+def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, as_json):
     """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
     vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
     the error before and after."""
@@ -74,6 +81,7 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
                     method=method,
                     search_effects=not no_effects,
                     report_dir=report_dir,
+                    exclude_outliers=exclude_outliers,
                 )
             except ValueError as err:  # bad input, found before fitting
                 fail(str(err))
@@ -118,6 +126,9 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
                 f"{w['samples_dropped_before']} before, {w['samples_dropped_after']} after, "
                 f"{w['spikes_dropped']} spike(s)"
             )
+        if data.get("budget"):
+            for line in budget_lines(data["budget"], data.get("repeats")):
+                click.echo(f"  {line}")
         click.echo(f"  stored as result #{data['result_id']}")
     finally:
         store.close()
