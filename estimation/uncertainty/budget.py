@@ -48,6 +48,7 @@ from estimation.uncertainty.sources import (
     Chain,
     check_tolerances,
     perturbed,
+    reaches,
     standard_uncertainty,
     weight_groups,
 )
@@ -174,8 +175,9 @@ def round_reported(value: float, expanded: float, digits: int = 2) -> tuple[str,
     exponent = math.floor(math.log10(expanded)) - (digits - 1)
     step = 10.0**exponent
     up = math.ceil(round(expanded / step, 9)) * step
-    if up >= 10.0 ** (exponent + digits):  # 9.96 → 10: one digit more, same step
+    if up >= 10.0 ** (exponent + digits):  # 99.6 → 100: two digits are now "10" of tens
         exponent += 1
+        step = 10.0**exponent
     decimals = max(0, -exponent)
     return f"{round(value / step) * step:.{decimals}f}", f"{up:.{decimals}f}"
 
@@ -196,18 +198,27 @@ def _type_b_sensitivity(
 
 
 def _type_b_rows(
-    runs: Sequence[RunData], fit: FitResult, chain: Chain, tolerances: Mapping[str, float]
+    runs: Sequence[RunData],
+    fit: FitResult,
+    chain: Chain,
+    tolerances: Mapping[str, float],
+    notes: list[str],
 ) -> dict[str, list[BudgetRow]]:
+    """Type B rows per coefficient; a declared input that reaches no run is named in
+    ``notes`` instead (a thrust calibration in a weight-driven estimate, the water
+    temperature, which enters only ρ and ν)."""
     axis = runs[0].axis
     rows: dict[str, list[BudgetRow]] = {n: [] for n in fit.names}
+    idle = []
     for name, half_width in tolerances.items():
         source = SOURCES[name]
         if axis not in source.axes or half_width <= 0:
             continue
         u = standard_uncertainty(half_width)
-        grads = _type_b_sensitivity(runs, fit, chain, name, u)
-        if not grads:  # no run this input reaches (e.g. no hung weights)
+        if not reaches(runs, chain, name, u):
+            idle.append(f"{name} (±{half_width:g} {source.unit}: {source.meaning})")
             continue
+        grads = _type_b_sensitivity(runs, fit, chain, name, u)
         for i, coef in enumerate(fit.names):
             parts = np.array([g[i] for g in grads])
             contribution = float(np.sqrt(np.sum((parts * u) ** 2)))
@@ -226,6 +237,8 @@ def _type_b_rows(
                     note=note,
                 )
             )
+    if idle:
+        notes.append("declared, but reaching no run of this estimate: " + "; ".join(idle))
     return rows
 
 
@@ -355,7 +368,8 @@ def uncertainty_budget(
     if not declared:
         notes.append(TYPE_B_NOT_DECLARED)
     runs = [fit_release(r) for r in runs]  # the release instants the estimate fitted with
-    type_b = _type_b_rows(runs, fit, chain or Chain(g=9.81), declared) if declared else {}
+    chain = chain or Chain(g=9.81)
+    type_b = _type_b_rows(runs, fit, chain, declared, notes) if declared else {}
     repeat_std: dict[str, tuple[float, int]] = {}
     if repeats is not None:
         repeat_std, why = repeat_campaign_std(runs, fit, repeats)

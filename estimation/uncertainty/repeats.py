@@ -13,7 +13,9 @@ Repeatability per condition: mean ± t_0.975(N−1)·s/√N.
 
 Outliers: Chauvenet's criterion, the test ITTC 7.5-02-01-01 names for single outliers: a
 repeat whose deviation |x_i − x̄|/s has a two-sided normal probability P with N·P < ½ is
-flagged (N ≥ 3; two repeats cannot tell which one is wrong). A flagged run is left in the
+flagged. With s taken over all N repeats (as ITTC describes it) no |z| can exceed
+(N − 1)/√N, so the criterion can flag nothing below N = 5 (N = 4: 1.50 against the 1.53 it
+needs): plan ≥ 5 repeats where an outlier must be caught. A flagged run is left in the
 estimate unless the user asks to exclude it.
 """
 
@@ -99,7 +101,7 @@ class RepeatAnalysis:
     def to_json(self) -> dict[str, Any]:
         return {
             "load_tolerance": LOAD_TOLERANCE,
-            "outlier_test": "Chauvenet (N·P(|z| ≥ z_i) < 0.5, N ≥ 3)",
+            "outlier_test": "Chauvenet (N·P(|z| ≥ z_i) < 0.5; can flag only when N ≥ 5)",
             "conditions": [c.to_json() for c in self.conditions],
             "outliers": list(self.outliers),
             "excluded": list(self.excluded),

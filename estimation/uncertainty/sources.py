@@ -254,3 +254,17 @@ def perturbed(
     if not only:
         return changed
     return [changed[i] if i in only else r for i, r in enumerate(runs)]
+
+
+def reaches(runs: Sequence[RunData], chain: Chain, source: str, delta: float) -> bool:
+    """True when input ``source`` moved by ``delta`` changes any run the estimator sees."""
+    for before, after in zip(runs, perturbed(runs, chain, source, delta), strict=True):
+        if (
+            before.hung_mass_kg != after.hung_mass_kg
+            or before.drive_inertia != after.drive_inertia
+            or before.drum_radius_m != after.drum_radius_m
+            or not np.array_equal(before.drive, after.drive)
+            or not np.array_equal(before.position, after.position)
+        ):
+            return True
+    return False

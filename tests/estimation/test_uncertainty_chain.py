@@ -10,6 +10,8 @@ tolerance ±a. The estimator is told the nominal values only. Two vehicle scales
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -18,7 +20,7 @@ from scipy.integrate import solve_ivp
 from estimation import RunData, estimate
 from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
-from estimation.uncertainty import Chain, analyse_repeats, uncertainty_budget
+from estimation.uncertainty import Chain, analyse_repeats, uncertainty_budget, without_excluded
 
 TOLERANCES = {
     "hung_mass_kg": 0.005,
@@ -144,3 +146,33 @@ def test_without_tolerances_the_budget_says_type_b_is_not_declared():
     assert not budget.type_b_declared
     assert any(n.startswith("Type B not declared") for n in budget.notes)
     assert all(r.kind == "A" for c in budget.coefficients.values() for r in c.rows)
+
+
+def test_repeat_campaigns_give_the_repeatability_row_and_an_outlier_is_flagged():
+    """Four repeats of each BENBAM tow and a fifth of the 2.5 kg tow in which the weight hung
+    was 0.1 kg heavier than logged (a wrong weight: 4 % more force). Chauvenet flags that
+    run alone (with N = 5 it can: max |z| = (N − 1)/√N = 1.79 > 1.64); it stays in unless
+    excluded; the repeat campaigns give the repeatability row with ν = N − 1 = 3."""
+    coef, masses = SCALES["BENBAM"]
+    rng = np.random.default_rng(5)
+    runs = []
+    for k in range(4):
+        campaign = _campaign(coef, masses, rng)
+        runs += [replace(r, run_id=f"{r.run_id}-{k}") for r in campaign]
+    truth = {k: np.zeros_like(v) for k, v in _truth(rng, 4).items()}
+    truth["mass"][1] = 0.1
+    wrong = _tow(1, coef, masses[1], truth, rng)
+    runs.append(replace(wrong, run_id="tow1-wrong"))
+    analysis = analyse_repeats(runs)
+    assert analysis.outliers == ("tow1-wrong",)
+    assert [c.n for c in analysis.conditions] == [4, 5, 4, 4]
+    kept = analyse_repeats(runs, exclude_outliers=True)
+    assert kept.excluded == ("tow1-wrong",)
+    fitted = without_excluded(runs, kept)
+    assert len(fitted) == 16
+    result = estimate(fitted, search_effects=False, n_bootstrap=0)
+    budget = uncertainty_budget(fitted, result, CHAIN, TOLERANCES, kept)
+    rows = {r.source: r for r in budget.coefficients["inertia"].rows}
+    repeat = next(r for s, r in rows.items() if s.startswith("repeatability (4 repeat"))
+    assert repeat.dof == 3
+    assert repeat.standard_uncertainty > 0
