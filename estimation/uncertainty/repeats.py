@@ -203,7 +203,7 @@ def repeat_campaign_std(
         return {}, (
             "repeatability not evaluated: no condition was run more than once (ITTC names "
             "run-to-run scatter the largest source in practice; set `repeats` ≥ 3 in the "
-            "sequence)"
+            "sequence, ≥ 5 for Chauvenet's criterion to be able to flag an outlier)"
             if n < 2 and not any(len(g) > 1 for g in groups)
             else "repeatability not evaluated: some conditions were run only once"
         )
