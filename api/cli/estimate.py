@@ -129,6 +129,7 @@ def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, 
         if data.get("budget"):
             for line in budget_lines(data["budget"], data.get("repeats")):
                 click.echo(f"  {line}")
+        _echo_theory(data.get("theory"))
         click.echo(f"  stored as result #{data['result_id']}")
     finally:
         store.close()
@@ -153,3 +154,24 @@ def _echo_pendulum(data: dict) -> None:
     _echo_findings(data, ("effects", "warnings", "advice"))
     click.echo(f"  RMSE before {data['rmse_before']:.3g} rad, after {data['rmse_after']:.3g} rad")
     click.echo(f"  stored as result #{data['result_id']}")
+
+
+def _echo_theory(theory: dict | None) -> None:
+    """The added part, its dimensionless form and the verdict against the hull's theory."""
+    if not theory or "added" not in theory:
+        if theory and theory.get("missing"):
+            click.echo(f"  theory: not compared ({theory['missing']})")
+        return
+    a = theory["added"]
+    click.echo(
+        f"  added (fitted − body {a['body']:.4g}): {a['value']:.4g} ± "
+        f"{a['expanded_uncertainty']:.2g} {a['unit']}; "
+        + ", ".join(
+            f"{name.split(' = ')[0]} {c['value']:.4g}"
+            for name, c in theory["dimensionless"].items()
+        )
+    )
+    verdict = theory.get("theory")
+    if verdict is not None:
+        flag = "plausible" if verdict["plausible"] else "FLAGGED"
+        click.echo(f"  measured vs predicted added mass: {flag}: {verdict['message']}")

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from api.core.estimation_failure import fit_subject, fitting
+from api.core.theory_job import theory_document
 from api.core.uncertainty_job import budget_document, screen_repeats
 from daq.procedures.kinds import KINDS
 from daq.run_data import load_run_data
@@ -117,6 +118,7 @@ def run_estimation(
             data["report_files"] = [str(p) for p in write_report(result, runs, Path(report_dir))]
     with fitting(subject, "compute the uncertainty budget of"):
         data |= budget_document(store, runs, result, repeats, report_dir)
+        data |= theory_document(store, data, repeats, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

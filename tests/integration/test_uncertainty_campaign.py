@@ -1,6 +1,7 @@
 """The seed 000 campaign on the simulated rig (simulated time): the estimate states U for the
-inertia with the declared Type B sources in it and names the dominant one, and the pre-test
-prediction made from the sequence file beforehand-style agrees with the U achieved."""
+inertia with the declared Type B sources in it and names the dominant one, the report shows
+Re per run and flags the measured added mass against the hull's predicted one, and the
+pre-test prediction from the sequence file agrees with the U achieved."""
 
 from __future__ import annotations
 
@@ -51,7 +52,14 @@ async def test_seed_campaign_budget_and_pretest_prediction(tmp_path):
             inertia["combined_standard_uncertainty"] > 10 * result["coefficients"]["inertia"]["std"]
         )
         assert inertia["dominant_source"] in {r["source"] for r in inertia["rows"]}
-        assert "dominant" in (tmp_path / axis / "report.md").read_text()
+        report = (tmp_path / axis / "report.md").read_text()
+        assert "dominant" in report
+        if axis == "surge":  # seed 000's m_a ≈ 113 kg against ≈ 2.3 kg for its hull: flagged
+            theory = result["theory"]
+            assert theory["added"]["value"] == pytest.approx(113, abs=2)
+            assert theory["theory"]["plausible"] is False and theory["theory"]["ratio"] > 10
+            assert "FLAGGED" in report and "Measured vs predicted added mass" in report
+            assert all(r["reynolds"] > 5e4 for r in theory["runs"].values())
         achieved[axis] = {n: c["expanded_uncertainty"] for n, c in budget["coefficients"].items()}
         _, runs = load_estimation_runs(store, ids, "output-error")
         release += [r.t_release_std for r in runs]
