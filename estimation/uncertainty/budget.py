@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +38,6 @@ from scipy import stats
 
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
-from estimation.axis.release import fit_release
 from estimation.axis.result import EstimationResult
 from estimation.data.runs import RunData
 from estimation.motion.terms import LIBRARY
@@ -347,6 +346,20 @@ def _finish(name: str, value: float, rows: list[BudgetRow]) -> CoefficientBudget
     return CoefficientBudget(name, value, shared, u_c, dof, k, expanded, shown_value, shown_u)
 
 
+def as_fitted(runs: Sequence[RunData], result: EstimationResult) -> list[RunData]:
+    """The runs with the release instants the estimate fitted with: a release found in the
+    data was refined by the fit (``estimation.axis.release.fit_release``), and the result's
+    window holds the refined instant (refining again would repeat the costliest step of an
+    estimate: 95 s on the ship2d record)."""
+    out = []
+    for r in runs:
+        w = result.windows.get(r.run_id)
+        if w is not None and r.window_found is not None and w != r.window_found:
+            r = replace(r, t_release=w.t_release, window_found=w)
+        out.append(r)
+    return out
+
+
 def uncertainty_budget(
     runs: Sequence[RunData],
     result: EstimationResult,
@@ -367,7 +380,7 @@ def uncertainty_budget(
     notes: list[str] = []
     if not declared:
         notes.append(TYPE_B_NOT_DECLARED)
-    runs = [fit_release(r) for r in runs]  # the release instants the estimate fitted with
+    runs = as_fitted(runs, result)
     chain = chain or Chain(g=9.81)
     type_b = _type_b_rows(runs, fit, chain, declared, notes) if declared else {}
     repeat_std: dict[str, tuple[float, int]] = {}

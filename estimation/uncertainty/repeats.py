@@ -31,7 +31,6 @@ from scipy import special, stats
 
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
-from estimation.axis.release import fit_release
 from estimation.data.runs import RunData
 
 LOAD_TOLERANCE = 0.01
@@ -191,7 +190,8 @@ def without_excluded(runs: Sequence[RunData], analysis: RepeatAnalysis) -> list[
 def repeat_campaign_std(
     runs: Sequence[RunData], fit: FitResult, analysis: RepeatAnalysis
 ) -> tuple[dict[str, tuple[float, int]], str]:
-    """Repeatability of each coefficient from N repeat campaigns: campaign k takes the k-th
+    """Repeatability of each coefficient from N repeat campaigns (``runs`` as fitted, their
+    releases refined): campaign k takes the k-th
     repeat of every condition and is fitted on its own; u = s/√N with ν = N − 1 (the
     standard deviation of the mean of N campaigns, ITTC 7.5-02-01-01 §2.4).
     Returns ({name: (u, N)}, a note when it cannot be evaluated)."""
@@ -209,7 +209,7 @@ def repeat_campaign_std(
         )
     values = []
     for k in range(n):
-        campaign = [prepare(fit_release(g[k])) for g in groups]
+        campaign = [prepare(g[k]) for g in groups]
         values.append(fit_output_error(campaign, fit.effects, start=fit.values).values)
     std = np.std(np.array(values), axis=0, ddof=1) / math.sqrt(n)
     return {name: (float(s), n) for name, s in zip(fit.names, std, strict=True)}, ""
