@@ -5,11 +5,13 @@ measured added mass is implausible for the hull (seed 000's 113 kg)."""
 
 from __future__ import annotations
 
+import math
+import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from api.core.sixdof import VehicleNotFound, find_vehicle
+from api.core.sixdof import VehicleNotFound, find_vehicle, vehicle_files
 from api.core.theory import DEFAULT_WATER_TEMP_C
 from api.core.uncertainty_job import rig_of_runs
 from daq.store import Store
@@ -29,6 +31,38 @@ def water_temperature(store: Store, run_ids: Sequence[str]) -> tuple[float, str]
     if temps:
         return sum(temps) / len(temps), "run metadata"
     return DEFAULT_WATER_TEMP_C, "not recorded: ITTC's standard 15 °C"
+
+
+#: The vehicle file's ``[tolerances]`` keys (±a, rectangular).
+VEHICLE_TOLERANCES = ("mass_kg", "yaw_inertia_kg_m2", "displaced_volume_m3", "length_m")
+TEMP = "water_temperature_c"
+
+
+def vehicle_tolerances(path: Path | None) -> dict[str, float]:
+    """Standard uncertainties u = a/√3 of the vehicle file's ``[tolerances]`` (ValueError
+    naming the field for an unknown key or a value that is not a finite number ≥ 0)."""
+    if path is None or not path.is_file():
+        return {}
+    table = tomllib.loads(path.read_text(encoding="utf-8")).get("tolerances", {})
+    out = {}
+    for key, value in table.items():
+        if key not in VEHICLE_TOLERANCES:
+            allowed = ", ".join(VEHICLE_TOLERANCES)
+            raise ValueError(f"{path.name}: tolerances.{key}: got {key!r}, allowed: {allowed}")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
+            raise ValueError(f"{path.name}: tolerances.{key}: got {value!r}, allowed: >= 0")
+        out[key] = float(value) / math.sqrt(3)
+    return out
+
+
+def density_uncertainty(temperature_c: float, half_width_c: float) -> float:
+    """u(ρ) from the water temperature's tolerance ±a (rectangular): |dρ/dT|·a/√3."""
+    if half_width_c <= 0:
+        return 0.0
+    u_t = half_width_c / math.sqrt(3)
+    low = water_properties(max(temperature_c - u_t, 0.0)).density
+    high = water_properties(min(temperature_c + u_t, 40.0)).density
+    return abs(high - low) / 2
 
 
 def theory_document(
@@ -53,6 +87,7 @@ def theory_document(
     temp, source = water_temperature(store, result["runs"])
     water = water_properties(temp)
     hull = vehicle.hull
+    tol = vehicle_tolerances(vehicle_files().get(rig.vehicle.name.lower()))
     predicted = predict_added_mass(hull, water.density).added_mass.values
     hull_scale = HullScale(
         length_m=hull.length_m,
@@ -60,9 +95,13 @@ def theory_document(
         reference_area_m2=hull.reference_area_m2 or hull.frontal_area_m2,
         body_inertia=vehicle.mass_kg if axis == "surge" else vehicle.inertia_kg_m2[2],
         predicted_added=predicted.get(axis),
+        u_body=tol.get("mass_kg" if axis == "surge" else "yaw_inertia_kg_m2", 0.0),
+        u_volume=tol.get("displaced_volume_m3", 0.0),
+        u_length=tol.get("length_m", 0.0),
+        u_density=density_uncertainty(temp, budget.get("tolerances", {}).get(TEMP, 0.0)),
     )
     coefficients = {
-        n: (c["value"], c["expanded_uncertainty"])
+        n: (c["value"], c["combined_standard_uncertainty"], c["effective_dof"])
         for n, c in budget["coefficients"].items()
         if n in ("inertia", "quadratic_damping")
     }

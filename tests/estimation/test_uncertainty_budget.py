@@ -11,10 +11,12 @@ import pytest
 
 from daq.config import DEFAULT_RIG_FILE, RigConfigError, parse_rig
 from estimation import RunData
+from estimation.theory.measured import HullScale, measured_beside_theory
 from estimation.uncertainty import check_tolerances
 from estimation.uncertainty.budget import coverage_factor, effective_dof, round_reported
 from estimation.uncertainty.repeats import chauvenet, group_conditions
 from estimation.uncertainty.sources import ToleranceError
+from estimation.water import water_properties
 
 
 def test_welch_satterthwaite_and_the_coverage_factor():
@@ -75,3 +77,36 @@ def test_chauvenet_flags_only_the_outlying_repeat():
     assert chauvenet(speeds) == [False] * 6 + [True]
     assert chauvenet([0.5, 0.6]) == [False, False]  # two repeats cannot say which is wrong
     assert chauvenet([0.5, 0.501, 0.499]) == [False, False, False]
+
+
+def test_added_mass_and_its_coefficient_carry_the_vehicle_and_water_tolerances():
+    """m_a = 40 − 30 kg with u_c = 0.1 kg (ν = ∞) and a body known to u = 0.1 kg: u(m_a) =
+    0.1·√2; ∇ known to 1 %: u(C_a)/C_a = √((0.1·√2/10)² + 0.01²). Against a predicted 5 kg the
+    ratio 2 sits on the band's edge (plausible); Re = U L/ν at 15 °C."""
+    water = water_properties(15.0)
+    hull = HullScale(
+        length_m=1.0,
+        volume_m3=0.03,
+        reference_area_m2=0.05,
+        body_inertia=30.0,
+        predicted_added=5.0,
+        u_body=0.1,
+        u_volume=0.0003,
+    )
+    doc = measured_beside_theory(
+        "surge",
+        {"inertia": (40.0, 0.1, None), "quadratic_damping": (200.0, 1.0, None)},
+        {"r1": 0.5},
+        water,
+        hull,
+        9.81,
+    )
+    added = doc["added"]
+    assert added["value"] == pytest.approx(10.0)
+    assert added["expanded_uncertainty"] == pytest.approx(1.96 * 0.1 * math.sqrt(2), rel=1e-3)
+    c_a = doc["dimensionless"]["C_a = m_a / (ρ ∇)"]
+    assert c_a["value"] == pytest.approx(10.0 / (water.density * 0.03))
+    rel = math.sqrt((0.1 * math.sqrt(2) / 10) ** 2 + 0.01**2)
+    assert c_a["expanded_uncertainty"] == pytest.approx(1.96 * rel * c_a["value"], rel=1e-3)
+    assert doc["runs"]["r1"]["reynolds"] == pytest.approx(0.5 / water.kinematic_viscosity)
+    assert doc["theory"]["ratio"] == pytest.approx(2.0) and doc["theory"]["plausible"]
