@@ -34,3 +34,4 @@ def test_pretest_route_predicts_u_for_the_seed_campaign(client, tow_job):
     assert only_surge.status_code == 422 and "no stored estimate for yaw" in only_surge.text
     assert client.get(f"{url.replace('seed000', 'nope')}", headers=AUTH).status_code == 404
     assert client.get(f"{url}?release_std_s=5", headers=AUTH).status_code == 422
+    assert client.get(f"{url}?result=999999999", headers=AUTH).status_code == 404

@@ -13,6 +13,7 @@ from api.core.sequence_files import list_sequences, sequence_files
 from api.http.deps import ServiceDep, StoreDep, require_read
 from api.http.schemas import SequenceFileOut, error_responses
 from daq.procedures.params import ParameterError
+from daq.store import ResultNotFound
 
 router = APIRouter(prefix="/api/sequences", tags=["jobs"])
 
@@ -55,5 +56,7 @@ def get_sequence_uncertainty(
         raise HTTPException(404, f"no sequence file {name!r}")
     try:
         return predict_sequence(store, service.source.rig, path, result, release_std_s)
+    except ResultNotFound as err:
+        raise HTTPException(404, str(err)) from None
     except (ValueError, ParameterError) as err:
         raise HTTPException(422, str(err)) from None
