@@ -7,13 +7,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
-
 from tests.cli import RigCli
 from tests.estimation.test_report import _numpy_tow
 
 
-@pytest.mark.slow
 def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -> None:
     _numpy_tow(tmp_path / "tow.csv", 1e-5)
     rig = RigCli(tmp_path)
