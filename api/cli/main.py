@@ -162,6 +162,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "predict_added_mass",
         "Predict VEHICLE's added mass per DOF from its [hull] (a name from...",
     ),
+    "predict-uncertainty": (
+        "api.cli.uncertainty",
+        "predict_uncertainty",
+        "Simulate SEQUENCE's weight-driven tows and spins with the current model and the...",
+    ),
     "water": (
         "api.cli.theory",
         "water",

@@ -12,6 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from api.core.estimation_failure import fit_subject, fitting
+from api.core.theory_job import theory_document
+from api.core.uncertainty_job import budget_document, screen_repeats
 from daq.body_mass import with_body_inertia
 from daq.procedures.kinds import KINDS
 from daq.run_data import load_run_data
@@ -90,8 +92,11 @@ def run_estimation(
     method: str = "output-error",
     search_effects: bool = True,
     report_dir: str | Path | None = None,
+    exclude_outliers: bool = False,
 ) -> dict[str, Any]:
-    """Estimate from stored runs; returns the result JSON (with ``result_id``).
+    """Estimate from stored runs; returns the result JSON (with ``result_id``), with the
+    uncertainty budget and the repeat analysis (``api.core.uncertainty_job``;
+    ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit).
 
     Tow/spin runs give the axis model (``estimation.axis.estimate``); pendulum free-decay runs
     give α, β of the swing axis (``estimation.pendulum.estimate``, stored as an "estimation"
@@ -105,7 +110,7 @@ def run_estimation(
     what, loaded = load_estimation_runs(store, run_ids, method)
     if what == "pendulum":
         return _run_pendulum(store, loaded, method, search_effects, report_dir)  # type: ignore[arg-type]
-    runs: list[RunData] = loaded  # type: ignore[assignment]
+    runs, repeats = screen_repeats(loaded, exclude_outliers)  # type: ignore[arg-type]
     subject = fit_subject(runs[0].axis, [r.run_id for r in runs])
     with fitting(subject):
         result = estimate(runs, method=method, search_effects=search_effects)
@@ -113,6 +118,9 @@ def run_estimation(
     if report_dir is not None:
         with fitting(subject, "draw the report of"):
             data["report_files"] = [str(p) for p in write_report(result, runs, Path(report_dir))]
+    with fitting(subject, "compute the uncertainty budget of"):
+        data |= budget_document(store, runs, result, repeats, report_dir)
+        data |= theory_document(store, data, repeats, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

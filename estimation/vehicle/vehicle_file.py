@@ -82,7 +82,9 @@ def _direction(raw: Mapping[str, Any], source: str, path: str) -> tuple[float, f
     return (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
 
 
-_TABLES = ("vehicle", *COEFFICIENT_KINDS, "sigma", "thrusters", "hull")
+#: ``[tolerances]`` (±a of mass_kg, yaw_inertia_kg_m2, displaced_volume_m3, length_m) is read by
+#: the uncertainty budget of the added mass (``api.core.theory_job``), not by the 6-DOF model.
+_TABLES = ("vehicle", *COEFFICIENT_KINDS, "sigma", "thrusters", "hull", "tolerances")
 _VEHICLE_KEYS = (
     "name",
     "frame",

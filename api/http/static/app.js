@@ -684,6 +684,7 @@ function showEstimationJob(job) {
 }
 
 async function renderEstimation(res) {
+  if (typeof renderUncertainty === "function") renderUncertainty(res); // uncertainty.js
   if (typeof renderPendulumEstimation === "function") {
     // pendulum free-decay results (api/http/static/pendulum.js)
     if (res.analysis === "pendulum") return renderPendulumEstimation(res);
