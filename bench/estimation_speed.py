@@ -5,7 +5,10 @@ The search tries every single effect and every pair (and extends a winning pair)
 the "outside_library" case a force periodic along the rail that must be flagged, not fitted;
 the "decay" cases a free heave decay through ``estimate_decay`` (its own term search).
 Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
-quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet.
+quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet
+(``effect_search_cpu_met``); on a loaded box OpenBLAS's worker threads spin on the small
+least-squares problems and count as CPU too: ``OPENBLAS_NUM_THREADS=1`` measures the
+algorithm alone.
 Run: .venv/bin/python bench/estimation_speed.py
 """
 
@@ -109,6 +112,7 @@ def main() -> None:
                     "worst_search_wall_s": worst_search,
                     "worst_search_cpu_s": worst_cpu,
                     "effect_search_met": worst_search <= 1.0,
+                    "effect_search_cpu_met": worst_cpu <= 1.0,
                     "effect_search_floor_met": worst_search <= 3.0,
                 },
             },
