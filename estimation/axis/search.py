@@ -61,9 +61,8 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.unexplained import NUMERICAL_RMSE
 from estimation.stats.diagnostics import ljung_box
-from estimation.stats.selection import forward_selection, select_round
+from estimation.stats.selection import BIC_THRESHOLD, forward_selection, select_round
 
-BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
 MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the noise floor
 AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
