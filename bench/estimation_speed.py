@@ -84,12 +84,20 @@ def main() -> None:
     }
     for name, runs in searches.items():
         found = [e.name for e in estimate(runs, n_bootstrap=0).effects]
-        entry = timed(lambda runs=runs: estimate(runs, n_bootstrap=0), 3)
+
+        def search(runs: list = runs) -> object:
+            return estimate(runs, n_bootstrap=0)
+
+        entry = timed(search, 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_{name}"] = entry
-    for name, record in decay_records().items():
-        found = list(estimate_decay(*record[:2], "heave", **record[2]).effects)
-        entry = timed(lambda r=record: estimate_decay(*r[:2], "heave", **r[2]), 3)
+    for name, (t, x, known) in decay_records().items():
+
+        def decay(t: np.ndarray = t, x: np.ndarray = x, known: dict = known) -> object:
+            return estimate_decay(t, x, "heave", **known)
+
+        found = list(estimate_decay(t, x, "heave", **known).effects)
+        entry = timed(decay, 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_decay_{name}"] = entry
     cases["estimate_with_40_bootstrap_clean"] = timed(lambda: estimate(clean), 3)
