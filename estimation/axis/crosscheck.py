@@ -48,6 +48,7 @@ from estimation.axis.crosscheck_comparison import (
     common_factor,
     finite_or_none,
 )
+from estimation.axis.effects import EFFECTS
 from estimation.axis.estimate import SEPARABILITY_LIMIT
 from estimation.axis.set_separability import SetSeparability, damping_at, separability
 
@@ -147,10 +148,13 @@ def _value_std(doc: dict, name: str) -> tuple[float, float]:
 
 
 def _effects(doc: dict) -> dict[str, float]:
+    """Effects found (value) or ambiguous (NaN); a base coefficient an ambiguous group
+    names (a term inseparable from K_L) is not an effect of the way the rig is driven."""
     found = {e["name"]: e.get("value") for e in doc.get("effects", [])}
     for group in doc.get("ambiguous", []):
         for name in group:
-            found.setdefault(name, float("nan"))
+            if name in EFFECTS:
+                found.setdefault(name, float("nan"))
     return found
 
 

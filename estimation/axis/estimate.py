@@ -9,6 +9,7 @@ import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
 from estimation.axis.effects import EFFECTS
+from estimation.axis.force_residual import force_residuals, regressor_correlations
 from estimation.axis.model import BASE_NAMES, PreparedRun, prepare
 from estimation.axis.output_error import (
     FitResult,
@@ -30,7 +31,7 @@ from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.data.runs import RunData, validate_runs
 from estimation.errors import EstimationFailed
-from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
+from estimation.stats.diagnostics import ljung_box
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
