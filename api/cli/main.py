@@ -70,7 +70,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "export": (
         "api.cli.runs",
         "export",
-        "Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata.",
+        "Export a run with its units and metadata, in a format of --format.",
     ),
     "import": (
         "api.cli.imports",

@@ -31,7 +31,14 @@ from api.http.schemas import (
     error_responses,
     file_response,
 )
-from daq.export_formats import FORMATS, export_file_name, write_export
+from daq.export_formats import (
+    FORMATS,
+    FormatInfo,
+    FormatName,
+    export_file_name,
+    formats_help,
+    write_export,
+)
 from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
 from daq.store.channel_units import column_infos
@@ -227,6 +234,13 @@ def get_samples_csv(run_id: str, store: StoreDep) -> StreamingResponse:
 _EXPORT_CONTENT: dict[str, dict[str, Any]] = {f.media_type: {} for f in FORMATS.values()}
 
 
+@router.get("/export-formats", dependencies=[Depends(require_read)], responses=error_responses(401))
+def list_export_formats() -> list[FormatInfo]:
+    """The formats ``/runs/{id}/export`` writes: name, suffix, media type, label, help,
+    binary (the browser's export menu is built from this list)."""
+    return [f.public() for f in FORMATS.values()]
+
+
 @router.get(
     "/runs/{run_id}/export",
     dependencies=[Depends(require_read)],
@@ -236,17 +250,10 @@ _EXPORT_CONTENT: dict[str, dict[str, Any]] = {f.media_type: {} for f in FORMATS.
 def export_run(
     run_id: str,
     store: StoreDep,
-    fmt: Annotated[
-        Literal["csv", "json", "netcdf", "parquet"],
-        Query(
-            alias="format",
-            description=" | ".join(f"{f.name}: {f.description}" for f in FORMATS.values()),
-        ),
-    ] = "csv",
+    fmt: Annotated[FormatName, Query(alias="format", description=formats_help())] = "csv",
 ) -> Response:
-    """The run as a file to download: CSV (streamed; units and the run in ``#`` comments),
-    JSON, NetCDF-4 (xarray: units per variable, the run as global attributes) or Parquet
-    (pandas: units in the schema, the run in ``df.attrs``)."""
+    """The run as a file to download in a format of ``GET /api/export-formats`` (CSV is
+    streamed)."""
     run = store.get_run(run_id)
     if fmt == "csv":
         return get_samples_csv(run.id, store)
