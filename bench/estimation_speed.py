@@ -6,9 +6,8 @@ the "outside_library" case a force periodic along the rail that must be flagged,
 the "decay" cases a free heave decay through ``estimate_decay`` (its own term search).
 Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
 quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet
-(``effect_search_cpu_met``); on a loaded box OpenBLAS's worker threads spin on the small
-least-squares problems and count as CPU too: ``OPENBLAS_NUM_THREADS=1`` measures the
-algorithm alone.
+(``effect_search_cpu_met``). The estimator runs its fits on one BLAS thread
+(``estimation/blas.py``): OpenBLAS's worker threads only spun on these small problems.
 Run: .venv/bin/python bench/estimation_speed.py
 """
 

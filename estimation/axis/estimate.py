@@ -29,6 +29,7 @@ from estimation.axis.search import SearchOutcome, candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
+from estimation.blas import one_blas_thread
 from estimation.data.runs import RunData, validate_runs
 from estimation.errors import EstimationFailed
 from estimation.stats.diagnostics import ljung_box
@@ -40,6 +41,7 @@ SEPARABILITY_LIMIT = 0.95
 NOT_DETERMINED_SIGMAS = 2.0
 
 
+@one_blas_thread
 def estimate(
     runs: Sequence[RunData],
     method: str = "output-error",
