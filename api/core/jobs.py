@@ -36,7 +36,7 @@ from typing import Any
 
 from api.core.job_model import Job, JobConflict, JobNotFound, without_report_files
 from api.core.job_requests import procedure_from_request
-from api.core.queue_edits import QueueEdits
+from api.core.queue_edits import STOP_MARKER, QueueEdits, marker_reason
 from api.core.rig_guard import RigGuard, latching_stop
 from api.core.service import RigService
 from daq.operator import OperatorAct
@@ -341,9 +341,15 @@ class JobRunner(QueueEdits):
                 self._queue_paused = f"{refused}; then resume the queue"
                 return
             job = self._queue.pop(0)
-            self._rig_job = job
+            if job.kind == STOP_MARKER:  # the queue stops here (api.core.queue_edits)
+                self._queue_paused = marker_reason(job)
+            else:
+                self._rig_job = job
             job.position = None
             self._renumber()
+        if job.kind == STOP_MARKER:
+            self._update(job, state="completed", position=None, message="stop marker reached")
+            return
         params = job.params
         if params is None:  # queued before a restart: rebuilt as the route built it
             try:

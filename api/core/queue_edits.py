@@ -25,6 +25,16 @@ STOP_AFTER_CURRENT = (
 )
 
 
+#: The kind of a stop marker in the queue (bluesky-queueserver's ``queue_stop``).
+STOP_MARKER = "queue_stop"
+
+
+def marker_reason(marker: Job) -> str:
+    """Why the queue waits once it reached ``marker`` (the words the pages show)."""
+    who = f" placed by {marker.user_name}" if marker.user_name else ""
+    return f"the queue reached a stop marker{who}: resume the queue to run the next job"
+
+
 class QueueEdits:
     """Replace, run now, stop after current, re-queue (see the module docstring)."""
 
@@ -37,6 +47,10 @@ class QueueEdits:
     if TYPE_CHECKING:
 
         def get(self, job_id: str) -> Job: ...
+        def _new(self, kind: str, label: str, parameters: dict[str, Any], **f: Any) -> Job: ...
+        def _save(self, job: Job, event: bool = False) -> Any: ...
+        def _renumber(self) -> None: ...
+        def _start_next(self) -> None: ...
         def _queued(self, job_id: str) -> Job: ...
         def _update(self, job: Job, **changes: Any) -> None: ...
         def move(self, job_id: str, position: int) -> dict[str, Any]: ...
@@ -100,3 +114,21 @@ class QueueEdits:
             old.kind, request, self.service.source.rig, self.service.store
         )
         return self.start_procedure(old.kind, params, label, request=request, user=user)
+
+    def add_stop_marker(self, position: int | None = None, user: str | None = None) -> Job:
+        """Put a stop marker in the queue at ``position`` (1 = next; None: at the end): when
+        the queue reaches it the marker goes and the queue pauses (``marker_reason``)."""
+        with self._lock:
+            if position is not None and not 1 <= position <= len(self._queue) + 1:
+                raise ValueError(
+                    f"position: {position} is outside the queue; allowed 1 ≤ position ≤ "
+                    f"{len(self._queue) + 1}"
+                )
+            marker = self._new(
+                STOP_MARKER, "stop marker: the queue pauses here", {}, user_name=user
+            )
+            self._queue.insert(len(self._queue) if position is None else position - 1, marker)
+            self._renumber()
+        self._save(marker, event=True).result(10)
+        self._start_next()  # a marker at the front of an idle queue takes effect now
+        return marker

@@ -19,7 +19,8 @@ from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 
 #: A job runs one run kind, a sequence of them, or an analysis.
-JobKind = Literal[(*(k.value for k in RunKind), "sequence", "estimation", "crosscheck")]  # type: ignore[valid-type]
+_KINDS = (*(k.value for k in RunKind), "sequence", "estimation", "crosscheck")
+JobKind = Literal[(*_KINDS, "campaign", "queue_stop")]  # type: ignore[valid-type]
 
 
 # ---- errors ---------------------------------------------------------------------------
