@@ -41,7 +41,7 @@ def envelope_of(
             axes.append(
                 AxisEnvelope(
                     "yaw",
-                    max_load=float(limits.max_torque_nm),
+                    max_load=float(limits.max_torque_nm or 0.0),  # spins need it (KINDS)
                     travel=float(geometry.spin_max_angle_rad),
                     reverse_travel=float(geometry.spin_max_angle_rad),
                     max_rate=float(limits.max_yaw_rate_rad_s),

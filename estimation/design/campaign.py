@@ -118,7 +118,11 @@ class Campaign:
             return {"two_sigma_percent": {}, "unresolved": ["no fit yet"]}
         ratios = state.ratios(self.target.relative)
         percent = {n: _finite(r * self.target.relative * 100) for n, r in ratios.items()}
-        return {"two_sigma_percent": percent, "unresolved": state.unresolved()}
+        return {
+            "two_sigma_percent": percent,
+            "unresolved": state.unresolved(),
+            "correlated": state.correlated(),
+        }
 
     def to_json(self) -> dict[str, Any]:
         return {

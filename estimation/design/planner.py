@@ -2,19 +2,21 @@
 
 State of one axis (:class:`AxisState`): the latest fit (values, σ, correlations, ambiguous
 groups, position RMSE σ_x) and the tests recorded. Target: 2σ/|θ| ≤ ``relative`` for M, K_L,
-K_Q, and nothing unresolved (no ambiguous group, no pair with |ρ| > 0.95, every σ finite).
+K_Q, every σ finite, and no ambiguous group (two effect sets explaining the runs alike).
 
 Criterion. The information of the recorded runs under the current model,
 I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
 k = median_i(σ_fit,i² / (I₀⁻¹)_ii) (the fit knows residual structure the model does not).
 For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. Then
-- an unresolved pair (friction vs bias, K_L vs K_Q) → the shortest candidate predicted to
-  bring that pair's |ρ| under 0.9, else the one bringing it lowest (a reverse run
-  decorrelates friction from bias, a very different load K_L from K_Q);
+- friction and bias ambiguous → the shortest candidate predicted to bring their |ρ| under
+  0.9, else the one bringing it lowest (a reverse run decorrelates them);
 - otherwise → the largest reduction of the worst target ratio max_i 2·√C_ii/|θ_i|/target
   per tank minute (run + reset), a minimax (A-type) design on the target coefficients.
-Stopping rule (``decide``): the target is met on every axis, or the next run does not fit
-the budget (runs, tank minutes).
+While every run of an axis went one way, only the other way's candidates are considered
+(friction and a bias are one constant then; the target requires them told apart).
+Stopping rule (``decide``): the target is met on every axis (marginal 2σ/|θ| ≤ target, every
+σ finite, no ambiguous group left), or the next run does not fit the budget (runs, tank
+minutes).
 """
 
 from __future__ import annotations
@@ -60,14 +62,18 @@ class AxisState:
         return out
 
     def unresolved(self) -> list[str]:
-        """What keeps the fit from being final besides σ: ambiguities, inseparable pairs."""
-        out = [f"{' vs '.join(g)} ambiguous" for g in self.ambiguous]
-        out += [
-            f"{a} and {b} not separable (ρ = {r:.3f})"
+        """What keeps the fit from being final besides σ: the estimator's ambiguities (two
+        models explain the runs alike). A strong correlation between fitted coefficients is
+        not listed: the marginal σ the target is judged on already carries it."""
+        return [f"{' vs '.join(g)} ambiguous" for g in self.ambiguous]
+
+    def correlated(self) -> list[str]:
+        """Fitted pairs with |ρ| > 0.95 (shown, not blocking: see ``unresolved``)."""
+        return [
+            f"{a} and {b} correlated (ρ = {r:.3f})"
             for (a, b), r in self.correlation.items()
             if abs(r) > SEPARABILITY_LIMIT
         ]
-        return out
 
 
 @dataclass(frozen=True)
@@ -163,10 +169,18 @@ def _pair_to_separate(state: AxisState) -> tuple[str, str] | None:
     for group in state.ambiguous:
         if set(group) >= FRICTION_PAIR:
             return ("coulomb_friction", "constant_bias")
-    for (a, b), r in state.correlation.items():
-        if abs(r) > SEPARABILITY_LIMIT and a in PARAMETERS and b in PARAMETERS:
-            return (a, b)
     return None
+
+
+def _other_way(state: AxisState, env: RigEnvelope) -> float | None:
+    """The sign every recorded run lacks when all went one way and the rig can reverse:
+    such a set cannot tell dry friction from a bias (−F_c·sign(v) and b are one constant),
+    which the target requires resolved, so the next run goes the other way."""
+    axis = env.axis(state.axis)
+    signs = {np.sign(t.load) for t in state.recorded}
+    if axis is None or axis.reverse_travel is None or len(signs) != 1:
+        return None
+    return -float(signs.pop())
 
 
 def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None:
@@ -180,8 +194,11 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     k = _fit_scale(state, _covariance(base_info))
     before = _worst(k * _covariance(base_info), theta, relative)
     pair = _pair_to_separate(state)
+    other_way = _other_way(state, env)
     scored = []
     for c in env.candidates(state.axis):
+        if other_way is not None and np.sign(c.load) != other_way:
+            continue
         p = predict(theta, axis_env, c, env.g)
         if not p.moves or p.peak_rate > axis_env.max_rate:
             continue
@@ -204,10 +221,15 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
             f"else the one bringing it lowest ({_rho(cov, *pair):.2f})"
         )
     else:
+        way = (
+            "every run so far went one way (friction and a bias look alike): of the "
+            if other_way is not None
+            else "of the "
+        )
         why = (
-            f"the worst target ratio is {before:.2f} (1 = target met); of {len(scored)} tests "
-            f"the rig can run, this one is predicted to bring it to {after:.2f}, the largest "
-            f"reduction per tank minute"
+            f"the worst target ratio is {before:.2f} (1 = target met); {way}{len(scored)} "
+            f"tests the rig can run{' the other way' if other_way is not None else ''}, this "
+            f"one is predicted to bring it to {after:.2f}, the largest reduction per tank minute"
         )
     return Choice(best, why, before, after, minutes)
 
