@@ -54,3 +54,22 @@ def envelope_of(
 
 def _capable(spec: object, rig: RigConfig) -> bool:
     return bool(spec.capability(rig).available)  # type: ignore[attr-defined]
+
+
+def envelope_of_runs(store: Store, run_ids: list[str]) -> RigEnvelope | None:
+    """The envelope of the rig the newest of ``run_ids`` was recorded on (its stored rig
+    file), for the estimator's advice; None when no run has a readable rig file (imports)."""
+    import tomllib
+
+    from daq.config import RigConfigError, parse_rig
+
+    runs = sorted((store.get_run(r) for r in run_ids), key=lambda r: r.started_at)
+    for run in reversed(runs):
+        if not run.rig_toml:
+            continue
+        try:
+            rig = parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
+        except (RigConfigError, tomllib.TOMLDecodeError):
+            continue
+        return envelope_of(rig, store)
+    return None

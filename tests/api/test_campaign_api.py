@@ -66,3 +66,24 @@ def test_a_campaign_is_stopped_before_its_next_choice(client) -> None:
     client.post("/api/queue/resume", headers=AUTH)
     again = client.post(f"/api/campaigns/{job['id']}/stop", headers=AUTH)
     assert again.status_code == 409
+
+
+def test_the_services_estimation_advice_stays_within_the_rig_file(client) -> None:
+    """Two tows at nearly the same force cannot separate K_L from K_Q; the advice (from the
+    planner, with the rig file's envelope) names a force the rig can pull: ≤ max_force_n
+    100 N, never 2× the highest (180 N)."""
+    import re
+
+    from tests.api.conftest import completed_tows
+
+    runs = completed_tows(client, [80.0, 90.0])
+    body = {"run_ids": runs, "method": "output-error", "search_effects": False}
+    r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=120)
+    warnings = job["outcome"]["warnings"]
+    (advice,) = [w for w in warnings if "K_L and K_Q" in w]
+    forces = [float(x) for x in re.findall(r"rig tow --force (-?[0-9.]+)", advice)]
+    assert forces and all(0 < f <= 100.0 for f in forces), advice
+    assert all(max(f / d, d / f) >= 1.5 for f in forces for d in (80.0, 90.0)), advice
+    assert "180" not in advice
