@@ -67,8 +67,12 @@ class CampaignRunner:
 
     def start(self, target: Target, user: str | None = None) -> Job:
         """Start a campaign for ``user``; ``ValueError`` naming the field when the rig cannot
-        test an axis asked for."""
+        test an axis asked for; the refusal of a start (an unacknowledged emergency stop, a
+        hold by someone else) at once, as for any test."""
+        from api.core.rig_guard import RigGuard
+
         service = self.runner.service
+        RigGuard.of(service).check_start(user)
         store = service.store
         envelope = envelope_of(service.source.rig, store)
         campaign = Campaign(target, envelope)  # ValueError: axes the rig cannot test
@@ -140,9 +144,13 @@ class CampaignRunner:
             params, label = procedure_from_request(test.kind, request, rig, service.store)
             what = instructions(test, rig.rig.g, rig.geometry.spin_drum_radius_m)
             campaign.pending = {"test": test.describe(), "why": choice.why, "instructions": what}
-            item = runner.start_procedure(
-                test.kind, params, label, request=request, user=job.user_name
-            )
+            try:
+                item = runner.start_procedure(
+                    test.kind, params, label, request=request, user=job.user_name
+                )
+            except JobConflict as err:  # an unacknowledged e-stop, a hold, a full queue
+                campaign.outcome = f"refused: {err}"
+                return "aborted", f"its next test was refused: {err}"
             campaign.pending["job_id"] = item.id
             runner._update(
                 job,

@@ -87,3 +87,12 @@ def test_the_services_estimation_advice_stays_within_the_rig_file(client) -> Non
     assert forces and all(0 < f <= 100.0 for f in forces), advice
     assert all(max(f / d, d / f) >= 1.5 for f in forces for d in (80.0, 90.0)), advice
     assert "180" not in advice
+
+
+def test_a_campaign_is_refused_after_an_emergency_stop_until_acknowledged(client) -> None:
+    wait_rig_free(client)
+    assert client.post("/api/rig/emergency-stop").status_code == 200
+    r = client.post("/api/campaigns", json={"axes": ["surge"]}, headers=AUTH)
+    assert r.status_code == 409 and "emergency stop" in r.json()["detail"], r.text
+    assert client.post("/api/estop/ack", json={"note": "checked"}, headers=AUTH).status_code == 200
+    client.post("/api/queue/resume", headers=AUTH)

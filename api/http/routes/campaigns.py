@@ -44,7 +44,7 @@ class CampaignRequest(BaseModel):
     status_code=202,
     response_model=JobOut,
     dependencies=[Depends(require_write)],
-    responses=error_responses(401, 403, 422, 503),
+    responses=error_responses(401, 403, 409, 422, 423, 503),
 )
 def start_campaign(body: CampaignRequest, runner: RunnerDep, user: OperatorDep) -> dict:
     """Start a campaign: each test it chooses is queued as a tow/spin job (metadata
