@@ -7,7 +7,8 @@ Model of one axis, from rest, constant signed load τ, direction s = sign(τ)::
 θ = (M, K_L, K_Q, F_c, b); ``m_w`` the hung weight's inertia (|τ|/g for a tow, |τ|·r/g for
 a spin on a drum of radius r). The run ends at the travel limit or after ``max_time_s``.
 The position x(t) is sampled at ``rate_hz``; with white position noise of σ_x the run's
-information on θ is  I = Jᵀ·J / σ_x²,  J = ∂x(t_k)/∂θ by central differences. The planner
+information on θ is  I = Jᵀ·J / σ_x²,  J = ∂x(t_k)/∂θ by central differences, with its
+mean over the run removed (the fit's per-run position offset). The planner
 adds it to the information of the runs already recorded to predict the covariance after
 the run (``estimation.design.planner``).
 """
@@ -104,6 +105,9 @@ def predict(
             for i in range(len(theta))
         ]
     )
+    # the fit takes one position offset per run (a nuisance): only J's part orthogonal to
+    # a constant carries information on θ
+    jac = jac - jac.mean(axis=0)
     moving = bool(abs(xs[-1, 0]) > 1e-3) if len(xs) else False
     duration = BASELINE_S + float(t[-1] if len(t) else max_time_s) + TAIL_S
     return Prediction(duration, peak, jac.T @ jac, moving)
