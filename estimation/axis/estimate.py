@@ -29,7 +29,12 @@ from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.data.runs import RunData, validate_runs
-from estimation.design.advice import both_ways, different_force_advice, reverse_advice
+from estimation.design.advice import (
+    both_ways,
+    different_force_advice,
+    reverse_advice,
+    separating_hint,
+)
 from estimation.design.envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
@@ -187,6 +192,7 @@ def separability_warnings(
                 out.append(different_force_advice(axis, drives, rho, envelope))
             else:
                 hint = EFFECTS[b].separated_by if b in EFFECTS else "a run at a different force"
+                hint = separating_hint(hint, signed_drives(runs))  # never a stale "reverse"
                 out.append(
                     f"{a} and {b} are not separable by these runs (ρ = {rho:.3f}): add {hint}"
                 )

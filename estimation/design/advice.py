@@ -93,3 +93,13 @@ def reverse_advice(
         f"{head}: they are collinear when every run moves the same way: add a reverse "
         f"{kind} (opposite load) or a free-decay run{run}"
     )
+
+
+def separating_hint(hint: str, drives: Sequence[float]) -> str:
+    """An effect's "separated by" text (``estimation.motion.terms``), unless it asks for a
+    reverse run the set already has: then a clearly different load or a free decay."""
+    if both_ways(drives) and "reverse" in hint:
+        return (
+            "a run at a clearly different load, or a free-decay run (the runs already go both ways)"
+        )
+    return hint

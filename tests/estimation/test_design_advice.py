@@ -12,7 +12,7 @@ import re
 import pytest
 
 from estimation import estimate
-from estimation.design.advice import different_force_advice, reverse_advice
+from estimation.design.advice import different_force_advice, reverse_advice, separating_hint
 from estimation.design.envelope import AxisEnvelope, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
@@ -75,3 +75,10 @@ def test_reverse_test_is_cut_to_the_rig(limit, expected):
     runs = tow_set(Physics(*SURGE_TRUTH, coulomb=3.0), seed=8)  # largest drive 83.3 N
     doc = estimate(runs, n_bootstrap=0, envelope=_rig(limit)).to_json()
     assert doc["reverse_test"]["request"]["force_n"] == pytest.approx(expected)
+
+
+def test_an_effects_separating_hint_drops_the_reverse_run_once_the_set_has_one():
+    hint = "a reverse tow/spin (opposite force) or a free-decay run"  # coulomb_friction's
+    assert separating_hint(hint, [24.5, 83.3]) == hint
+    both = separating_hint(hint, [24.5, -24.5])
+    assert "reverse" not in both and "clearly different load" in both
