@@ -8,8 +8,9 @@ Criterion. The information of the recorded runs under the current model,
 I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
 k = median_i(σ_fit,i² / (I₀⁻¹)_ii) (the fit knows residual structure the model does not).
 For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. Then
-- friction and bias ambiguous → the shortest candidate predicted to bring their |ρ| under
-  0.9, else the one bringing it lowest (a reverse run decorrelates them);
+- friction and bias ambiguous → of the candidates predicted to bring their |ρ| under 0.9,
+  the one with the largest reduction of the target ratio per tank minute (below); if none
+  does, the one bringing |ρ| lowest (a reverse run decorrelates them);
 - otherwise → the largest reduction of the worst target ratio max_i 2·√C_ii/|θ_i|/target
   per tank minute (run + reset), a minimax (A-type) design on the target coefficients.
 While every run of an axis went one way, only the other way's candidates are considered
@@ -205,11 +206,12 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         minutes = (p.duration_s + env.reset_s) / 60
         cov = k * _covariance(base_info + p.information / max(state.rmse, 1e-9) ** 2)
         after = _worst(cov, theta, relative)
-        if pair is not None:  # under the limit (with margin): the shortest; else lowest |ρ|
+        gain = -(before - after) / minutes
+        if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
             rho = _rho(cov, *pair)
-            key = (0.0, minutes) if rho < SEPARATED else (rho, minutes)
+            key = (0.0, gain) if rho < SEPARATED else (rho, minutes)
         else:
-            key = (-(before - after) / minutes, minutes)
+            key = (gain, minutes)
         scored.append((key, c, after, minutes, cov))
     if not scored:
         return None
@@ -217,8 +219,9 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     if pair is not None:
         why = (
             f"{pair[0]} and {pair[1]} are not yet separated: of {len(scored)} tests the rig "
-            f"can run, this is the shortest predicted to bring |ρ| under {SEPARATED}, or "
-            f"else the one bringing it lowest ({_rho(cov, *pair):.2f})"
+            f"can run, this one is predicted to bring |ρ| under {SEPARATED} ("
+            f"{_rho(cov, *pair):.2f}) with the largest reduction of the worst target ratio per "
+            f"tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| lowest"
         )
     else:
         way = (
