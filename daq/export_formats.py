@@ -59,7 +59,7 @@ def write_export(store: Store, run_id: str, fmt: str, path: str | Path) -> Path:
         raise ValueError(f"format: {fmt!r} is not allowed; use one of {', '.join(FORMATS)}")
     path = Path(path)
     if fmt in ("csv", "json"):
-        from daq.store.csvio import export_run_csv, export_run_json
+        from daq.store.csv_export import export_run_csv, export_run_json
 
         writer: Callable = export_run_csv if fmt == "csv" else export_run_json
         with open(path, "w", encoding="utf-8", newline="") as f:

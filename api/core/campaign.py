@@ -86,9 +86,9 @@ class CampaignRunner:
             "max_runs": target.max_runs,
             "max_minutes": target.max_minutes,
         }
-        job = self.runner._new("campaign", label, params, user_name=user)
+        job = self.runner.registry.new("campaign", label, params, user_name=user)
         job.outcome = campaign.to_json()
-        self.runner._save(job, event=True)
+        self.runner.registry.save(job, event=True)
         stop = self._stops[job.id] = threading.Event()
         threading.Thread(
             target=self._run, args=(job, campaign, stop), name=f"campaign-{job.id}", daemon=True
@@ -110,14 +110,14 @@ class CampaignRunner:
     # -- the loop (its own thread) ---------------------------------------------------------
     def _run(self, job: Job, campaign: Campaign, stop: threading.Event) -> None:
         runner = self.runner
-        runner._update(job, state="running", started_at=time.time(), message="planning")
+        runner.registry.update(job, state="running", started_at=time.time(), message="planning")
         try:
             state, message = self._loop(job, campaign, stop)
-            runner._update(job, state=state, outcome=campaign.to_json(), message=message)
+            runner.registry.update(job, state=state, outcome=campaign.to_json(), message=message)
         except Exception as err:  # ours, not the user's: said, and the rig untouched
             log.exception("campaign %s failed", job.id)
             campaign.outcome = f"failed: {one_line(err)}"
-            runner._update(
+            runner.registry.update(
                 job,
                 state="failed",
                 outcome=campaign.to_json(),
@@ -152,7 +152,7 @@ class CampaignRunner:
                 campaign.outcome = f"refused: {err}"
                 return "aborted", f"its next test was refused: {err}"
             campaign.pending["job_id"] = item.id
-            runner._update(
+            runner.registry.update(
                 job,
                 outcome=campaign.to_json(),
                 message=f"run {campaign.runs_used + 1}: {what} (job {item.id})",
@@ -173,7 +173,7 @@ class CampaignRunner:
             entry = campaign.recorded(choice, run_id, seconds, result)
             entry["instructions"] = what
             entry["job_id"] = item.id
-            runner._update(job, outcome=campaign.to_json(), run_ids=[*job.run_ids, run_id])
+            runner.registry.update(job, outcome=campaign.to_json(), run_ids=[*job.run_ids, run_id])
 
     def _wait(self, item: Job, stop: threading.Event) -> Job | None:
         """``item`` once it ended; None when the campaign is stopped while it is queued."""

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from api.core.estimation_failure import fit_subject, fitting
+from daq.body_mass import with_body_inertia
 from daq.procedures.kinds import KINDS
 from daq.run_data import load_run_data
 from daq.store import Store
@@ -76,7 +77,8 @@ def load_estimation_runs(
         swings = [load_pendulum_data(store, rid) for rid in run_ids]
         validate_pendulum_runs(swings)
         return "pendulum", swings
-    runs = [load_run_data(store, rid) for rid in run_ids]
+    # The body's own mass the tow declares: an inertia fitted below it is flagged.
+    runs = [with_body_inertia(load_run_data(store, rid), store.get_run(rid)) for rid in run_ids]
     validate_runs(runs)
     return "axis", runs
 

@@ -2,8 +2,9 @@
 job's request, run one now (to the front, queue resumed), stop after the job on the rig,
 and re-queue a past job (the same request submitted again).
 
-A mixin of :class:`api.core.jobs.JobRunner`: it works on the runner's queue, lock and job
-objects, so a change is seen by every reader of ``queue_json`` at once.
+A mixin of :class:`api.core.jobs.JobRunner`: it works on the runner's
+:class:`~api.core.job_queue.RigQueue` under its lock, so a change is seen by every reader of
+``queue_json`` at once.
 """
 
 from __future__ import annotations
@@ -14,9 +15,10 @@ from api.core.job_model import Job, JobConflict
 from api.core.job_requests import procedure_from_request
 
 if TYPE_CHECKING:
-    import threading
-
+    from api.core.job_queue import RigQueue
+    from api.core.job_registry import JobRegistry
     from api.core.service import RigService
+
 
 #: Why the queue waits after "Stop after the current job" (the words the pages show).
 STOP_AFTER_CURRENT = (
@@ -25,34 +27,17 @@ STOP_AFTER_CURRENT = (
 )
 
 
-#: The kind of a stop marker in the queue (bluesky-queueserver's ``queue_stop``).
-STOP_MARKER = "queue_stop"
-
-
-def marker_reason(marker: Job) -> str:
-    """Why the queue waits once it reached ``marker`` (the words the pages show)."""
-    who = f" placed by {marker.user_name}" if marker.user_name else ""
-    return f"the queue reached a stop marker{who}: resume the queue to run the next job"
-
-
 class QueueEdits:
     """Replace, run now, stop after current, re-queue (see the module docstring)."""
 
     # provided by JobRunner
     service: RigService
-    _lock: threading.Lock
-    _queue: list[Job]
-    _queue_paused: str | None
+    registry: JobRegistry
+    queue: RigQueue
 
     if TYPE_CHECKING:
 
         def get(self, job_id: str) -> Job: ...
-        def _new(self, kind: str, label: str, parameters: dict[str, Any], **f: Any) -> Job: ...
-        def _save(self, job: Job, event: bool = False) -> Any: ...
-        def _renumber(self) -> None: ...
-        def _start_next(self) -> None: ...
-        def _queued(self, job_id: str) -> Job: ...
-        def _update(self, job: Job, **changes: Any) -> None: ...
         def move(self, job_id: str, position: int) -> dict[str, Any]: ...
         def pause_queue(self, reason: str = ...) -> dict[str, Any]: ...
         def resume_queue(self) -> dict[str, Any]: ...
@@ -71,14 +56,14 @@ class QueueEdits:
         submission: ``ParameterError``/``NotCapable`` name the field); it keeps its place."""
         from daq.store.run_metadata import check_run_metadata
 
-        job = self._queued(job_id)
+        job = self.queue.queued(job_id)
         check_run_metadata(request.get("metadata"))
         params, label = procedure_from_request(
             job.kind, request, self.service.source.rig, self.service.store
         )
         note = getattr(params, "adjustment", lambda: None)()
-        with self._lock:
-            if job not in self._queue:
+        with self.queue.lock:
+            if job not in self.queue:
                 raise JobConflict(f"job {job.id} left the queue (state {job.state})")
             with job.lock:
                 job.request = request
@@ -86,13 +71,13 @@ class QueueEdits:
                 job.parameters = params.to_json()
                 job.label = label
                 job.notes = [note] if note else []
-        self._update(job, message=f"queued (position {job.position}): parameters replaced")
+        self.registry.update(job, message=f"queued (position {job.position}): parameters replaced")
         return job
 
     def run_now(self, job_id: str) -> dict[str, Any]:
         """Put a queued job first and resume the queue: it starts now if the rig is free,
         else as soon as the job on the rig ends."""
-        job = self._queued(job_id)
+        job = self.queue.queued(job_id)
         self.move(job.id, 1)
         return self.resume_queue()
 
@@ -117,18 +102,18 @@ class QueueEdits:
 
     def add_stop_marker(self, position: int | None = None, user: str | None = None) -> Job:
         """Put a stop marker in the queue at ``position`` (1 = next; None: at the end): when
-        the queue reaches it the marker goes and the queue pauses (``marker_reason``)."""
-        with self._lock:
-            if position is not None and not 1 <= position <= len(self._queue) + 1:
-                raise ValueError(
-                    f"position: {position} is outside the queue; allowed 1 ≤ position ≤ "
-                    f"{len(self._queue) + 1}"
-                )
-            marker = self._new(
-                STOP_MARKER, "stop marker: the queue pauses here", {}, user_name=user
+        the queue reaches it the marker goes and the queue pauses
+        (:func:`api.core.job_queue.marker_reason`)."""
+        from api.core.job_queue import STOP_MARKER
+
+        if position is not None and not 1 <= position <= len(self.queue) + 1:
+            raise ValueError(
+                f"position: {position} is outside the queue; allowed 1 ≤ position ≤ "
+                f"{len(self.queue) + 1}"
             )
-            self._queue.insert(len(self._queue) if position is None else position - 1, marker)
-            self._renumber()
-        self._save(marker, event=True).result(10)
-        self._start_next()  # a marker at the front of an idle queue takes effect now
+        label = "stop marker: the queue pauses here"
+        marker = self.registry.new(STOP_MARKER, label, {}, user_name=user)
+        self.queue.insert(marker, position)
+        self.registry.save(marker, event=True).result(10)
+        self.queue.start_next()  # a marker at the front of an idle queue takes effect now
         return marker

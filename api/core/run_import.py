@@ -12,10 +12,14 @@ file into the run's kind, parameters, origin and window times, or refuses naming
 - a towrig export's own header (``daq.store.export_header``) gives the kind, the load or
   logged drive channel, the hung mass, the release and the vehicle, so the file imports
   back without restating them; what the user states must agree with it (a load or weight
-  within ``AGREE``), or is refused naming both; a given release or vehicle overrides it.
+  within ``AGREE``), or is refused naming both; a given release or vehicle overrides it;
+- a tow may declare the body's own ``dry_mass_kg`` and ``displacement_kg`` (> 0, kg),
+  kept as parameters: estimation flags an inertia identified below the body's own mass;
+- any CSV's leading ``# vehicle: NAME`` comment (or its ``# metadata:`` vehicle) names the
+  vehicle when the user does not (before the rig file's, then ``unknown``).
 
 What needs the samples (the drive's sign against the motion, one-row files, window times
-within the ``t`` range) is checked by ``daq.store.import_csv`` while it parses.
+within the ``t`` range) is checked by ``daq.run_import.import_csv`` while it parses.
 """
 
 from __future__ import annotations
@@ -25,8 +29,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from daq.body_mass import BODY_MASS_PARAMETERS
 from daq.procedures.params import ParameterError
-from daq.store.export_header import ExportHeader, read_export_header
+from daq.store.export_header import ExportHeader, read_export_header, vehicle_in_header
 from daq.vocabulary import DRIVE_FIELD, RunKind
 
 if TYPE_CHECKING:
@@ -50,6 +55,10 @@ class ImportRequest:
     drive_unit: str | None = None
     weight_kg: float | None = None
     vehicle: str | None = None
+    #: A tow's body: its own mass, and the mass of water it displaces (kg); an inertia
+    #: identified below the body's own mass is flagged (``daq.body_mass``).
+    dry_mass_kg: float | None = None
+    displacement_kg: float | None = None
     time_unit: str = "s"
     release_time_s: float | None = None
     end_time_s: float | None = None
@@ -57,7 +66,7 @@ class ImportRequest:
 
 @dataclass(frozen=True)
 class ImportPlan:
-    """The import to make: ``kind``, the keyword arguments of ``daq.store.import_csv``
+    """The import to make: ``kind``, the keyword arguments of ``daq.run_import.import_csv``
     (``options``) and what the file's export header supplied (``from_header``)."""
 
     kind: str
@@ -98,11 +107,13 @@ def plan_import(
         options["parameters"] = {}
     else:
         options |= _drive(kind, request, header, restored, rig)
+    options["parameters"] |= _body_mass(kind, request, header, restored)
     release = header.release_t_s if request.time_unit == "s" else None  # an export's t is s
     if request.release_time_s is None and release is not None:
         options["release_time_s"] = restored["release_time_s"] = release
-    vehicle = request.vehicle or header.text("vehicle")
-    if request.vehicle is None and header.text("vehicle"):
+    named = header.text("vehicle") or vehicle_in_header(path)  # an export's or a foreign header's
+    vehicle = request.vehicle or named
+    if request.vehicle is None and named:
         restored["vehicle"] = vehicle
     if rig is not None:
         options |= {
@@ -225,6 +236,25 @@ def _drive(
         "drive_unit": drive_unit,
         "drive_limit": limit[:2] if limit and column is not None else None,
     }
+
+
+def _body_mass(
+    kind: str, request: ImportRequest, header: ExportHeader, restored: dict[str, Any]
+) -> dict[str, float]:
+    """A tow's declared ``dry_mass_kg``/``displacement_kg`` (given, else its export
+    header's), each a finite number > 0; refused for a spin or a pendulum (their body
+    inertia is in kg·m²)."""
+    out: dict[str, float] = {}
+    for name in BODY_MASS_PARAMETERS:
+        given: float | None = getattr(request, name)
+        if given is not None and kind != RunKind.TOW:
+            raise ParameterError([(name, given, "only for a tow (a body's own mass, kg)")])
+        if given is not None and not (math.isfinite(given) and given > 0):
+            raise ParameterError([(name, given, f"allowed 0 < {name} < ∞ kg")])
+        value = _from_header(name, "kg", given, header.parameters, header, restored, True)
+        if value is not None and kind == RunKind.TOW:
+            out[name] = value
+    return out
 
 
 def _from_header(
