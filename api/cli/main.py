@@ -51,6 +51,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "sequence",
         "Run a sequence file (tows, spins, calibrations; repeats and rest time).",
     ),
+    "campaign": (
+        "api.cli.campaign",
+        "campaign",
+        "Measure until certain: the planner picks each test, stops at the target or...",
+    ),
     "capabilities": (
         "api.cli.capabilities",
         "capabilities",

@@ -104,6 +104,7 @@ def run_estimation(
     :func:`load_estimation_runs` says; a fit (or its report) that fails in its numerics
     raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
     """
+    from api.core.rig_envelope import envelope_of_runs
     from estimation import estimate
     from estimation.axis.report import write_report  # matplotlib: load only when estimating
 
@@ -113,7 +114,8 @@ def run_estimation(
     runs, repeats = screen_repeats(loaded, exclude_outliers)  # type: ignore[arg-type]
     subject = fit_subject(runs[0].axis, [r.run_id for r in runs])
     with fitting(subject):
-        result = estimate(runs, method=method, search_effects=search_effects)
+        envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
+        result = estimate(runs, method=method, search_effects=search_effects, envelope=envelope)
         data = result.to_json()
     if report_dir is not None:
         with fitting(subject, "draw the report of"):

@@ -26,6 +26,16 @@ from daq.store.schema import JOB_ACTIVE, JobState
 MAX_QUEUED = 100
 
 
+#: The kind of a stop marker in the queue (bluesky-queueserver's ``queue_stop``).
+STOP_MARKER = "queue_stop"
+
+
+def marker_reason(marker: Job) -> str:
+    """Why the queue waits once it reached ``marker`` (the words the pages show)."""
+    who = f" placed by {marker.user_name}" if marker.user_name else ""
+    return f"the queue reached a stop marker{who}: resume the queue to run the next job"
+
+
 class RigQueue:
     """The job on the rig and the jobs waiting for it.
 
@@ -181,9 +191,17 @@ class RigQueue:
                 self._paused = f"{refused}; then resume the queue"
                 return
             job = self._waiting.pop(0)
-            self._hold(job)
+            if job.kind == STOP_MARKER:  # the queue stops here; the marker goes
+                self._paused = marker_reason(job)
+            else:
+                self._hold(job)
             job.position = None
             self._renumber()
+        if job.kind == STOP_MARKER:
+            self.registry.update(
+                job, state="completed", position=None, message="stop marker reached"
+            )
+            return
         self._start(job)
 
     def close(self) -> None:
@@ -214,6 +232,17 @@ class RigQueue:
             self._waiting.insert(position - 1, job)
             self._renumber()
         self.registry.flush()
+
+    def insert(self, job: Job, position: int | None = None) -> None:
+        """Put ``job`` (a stop marker) at ``position`` (1 = next; None: at the end)."""
+        with self.lock:
+            if position is not None and not 1 <= position <= len(self._waiting) + 1:
+                raise ValueError(
+                    f"position: {position} is outside the queue; allowed 1 ≤ position ≤ "
+                    f"{len(self._waiting) + 1}"
+                )
+            self._waiting.insert(len(self._waiting) if position is None else position - 1, job)
+            self._renumber()
 
     def remove(self, job_id: str) -> Job:
         """Take a waiting job out of the queue and forget it (it never ran)."""

@@ -99,3 +99,21 @@ class QueueEdits:
             old.kind, request, self.service.source.rig, self.service.store
         )
         return self.start_procedure(old.kind, params, label, request=request, user=user)
+
+    def add_stop_marker(self, position: int | None = None, user: str | None = None) -> Job:
+        """Put a stop marker in the queue at ``position`` (1 = next; None: at the end): when
+        the queue reaches it the marker goes and the queue pauses
+        (:func:`api.core.job_queue.marker_reason`)."""
+        from api.core.job_queue import STOP_MARKER
+
+        if position is not None and not 1 <= position <= len(self.queue) + 1:
+            raise ValueError(
+                f"position: {position} is outside the queue; allowed 1 ≤ position ≤ "
+                f"{len(self.queue) + 1}"
+            )
+        label = "stop marker: the queue pauses here"
+        marker = self.registry.new(STOP_MARKER, label, {}, user_name=user)
+        self.queue.insert(marker, position)
+        self.registry.save(marker, event=True).result(10)
+        self.queue.start_next()  # a marker at the front of an idle queue takes effect now
+        return marker

@@ -31,6 +31,7 @@ from api.http.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
 from api.http.request_errors import request_json_error, request_not_found
 from api.http.routes import analysis as routes_analysis
 from api.http.routes import calibration as routes_calibration
+from api.http.routes import campaigns as routes_campaigns
 from api.http.routes import crosscheck as routes_crosscheck
 from api.http.routes import imports as routes_imports
 from api.http.routes import jobs as routes_jobs
@@ -42,6 +43,7 @@ from api.http.routes import sequences as routes_sequences
 from api.http.routes import sixdof as routes_sixdof
 from api.http.routes import stream as routes_stream
 from api.http.routes import theory as routes_theory
+from api.http.routes import users as routes_users
 from api.http.security import SecurityHeaders, TokenFirst
 from api.http.static_assets import app_with_offline_docs, compress_static
 from daq.procedures.kinds import NotCapable
@@ -233,6 +235,8 @@ def create_app(
         routes_jobs,
         routes_people,
         routes_queue,
+        routes_campaigns,
+        routes_users,
         routes_sequences,
         routes_runs,
         routes_imports,

@@ -19,7 +19,10 @@ from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 
 #: What a job runs: one run kind, a sequence of them, or an analysis.
-JOB_KINDS = (*(k.value for k in RunKind), "sequence", "estimation", "crosscheck")
+JOB_KINDS = (
+    *(k.value for k in RunKind),
+    *("sequence", "estimation", "crosscheck", "campaign", "queue_stop"),
+)
 if TYPE_CHECKING:
     JobKind = str  # a name of JOB_KINDS: what the type checker can know of a computed Literal
 else:

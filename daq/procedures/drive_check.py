@@ -110,3 +110,19 @@ def check_steps(steps: Iterable[Any], rig: RigConfig, store: Store) -> None:
             problems += err.problems
     if problems:
         raise ParameterError(problems)
+
+
+def calibrated_range(rig: RigConfig, store: Store, kind: str) -> tuple[float, float] | None:
+    """The signed (low, high) drive of ``kind`` the newest stored calibration delivers,
+    within the rig's limit; None without thrusters or a calibration."""
+    if rig.thrusters is None:
+        return None
+    try:
+        commands_for, _ = _commands_for(store, rig, kind)
+    except ParameterError:
+        return None
+    limit = float((rig.limits.max_force_n if kind == "tow" else rig.limits.max_torque_nm) or 1e3)
+    low, high = _reach(commands_for, limit, -1.0), _reach(commands_for, limit, 1.0)
+    if low is None or high is None:
+        return None
+    return (-low, high)

@@ -86,6 +86,16 @@ class UserRepository:
         with self.store.transaction() as conn:
             return conn.execute(sa.delete(users).where(users.c.name == name)).rowcount == 1
 
+    def rotate(self, name: str) -> str | None:
+        """Give user ``name`` a new token (the old one stops working at once); None when
+        there is no such user."""
+        token = secrets.token_urlsafe(32)
+        with self.store.transaction() as conn:
+            changed = conn.execute(
+                sa.update(users).where(users.c.name == name).values(token_sha256=token_hash(token))
+            ).rowcount
+        return token if changed == 1 else None
+
     def list(self) -> list[dict[str, Any]]:
         """Every user (name, role, created_at), by name; never a token."""
         query = sa.select(users.c.name, users.c.role, users.c.created_at).order_by(users.c.name)

@@ -31,6 +31,13 @@ from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.blas import one_blas_thread
 from estimation.data.runs import RunData, validate_runs
+from estimation.design.advice import (
+    both_ways,
+    different_force_advice,
+    reverse_advice,
+    separating_hint,
+)
+from estimation.design.envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.stats.diagnostics import ljung_box
 
@@ -48,13 +55,15 @@ def estimate(
     search_effects: bool = True,
     n_bootstrap: int = 40,
     seed: int = 0,
+    envelope: RigEnvelope | None = None,
 ) -> EstimationResult:
     """Estimate inertia, K_L and K_Q of one axis from runs, with σ, effects and evidence.
 
     Model: (M + M_drive)·v̇ + K_L·v + K_Q·|v|·v = τ (+ effects found in the residual).
     ``method``: "output-error" (default, joint fit of all runs' positions) or one of the
     seed's "ls-raw", "ls-curvefit", "ls-steady". Effect search and the run-level bootstrap
-    apply to output-error only.
+    apply to output-error only. ``envelope``: what the rig can run
+    (``estimation.design``); the advice then names only tests within it.
     """
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}, allowed: {', '.join(METHODS)}")
@@ -65,7 +74,7 @@ def estimate(
         runs = [fit_release(r) for r in runs]
         return _seed_result(axis, method, runs, [prepare(r) for r in runs])
     try:
-        return _output_error(axis, runs, search_effects, n_bootstrap, seed)
+        return _output_error(axis, runs, search_effects, n_bootstrap, seed, envelope)
     except NUMERICAL_FAILURES as err:  # the runs were valid: the numerics failed
         ids = ", ".join(r.run_id for r in runs)
         raise EstimationFailed(
@@ -85,7 +94,12 @@ NUMERICAL_FAILURES = (
 
 
 def _output_error(
-    axis: str, runs: Sequence[RunData], search_effects: bool, n_bootstrap: int, seed: int
+    axis: str,
+    runs: Sequence[RunData],
+    search_effects: bool,
+    n_bootstrap: int,
+    seed: int,
+    envelope: RigEnvelope | None = None,
 ) -> EstimationResult:
     """The output-error estimate of validated runs (``estimate``)."""
     method = "output-error"
@@ -102,19 +116,53 @@ def _output_error(
             base=base, final=base, cv_base=cv, cv_final=cv, steps=(), searched=False
         )
     final = outcome.final
-    reverse = suggest_reverse_test(axis, runs, outcome.ambiguous)
-    if reverse is not None:  # the experiment the advice asks for, as a command to run
-        advice = tuple(
-            f"{text}: run `{reverse.command}`" if set(group) >= FRICTION_AND_BIAS else text
-            for group, text in zip(outcome.ambiguous, outcome.advice, strict=True)
-        )
-        outcome = replace(outcome, advice=advice)
-    elif "quadratic_damping" in final.at_bound:  # K_Q at 0 asks for a reverse run as well
-        reverse = opposite_run(axis, runs)
+    reverse = _within(suggest_reverse_test(axis, runs, outcome.ambiguous), envelope)
+    drives = signed_drives(prepared)
+    # the advice for friction vs bias comes from the planner's envelope (never stale)
+    advice = tuple(
+        reverse_advice(axis, drives, envelope, reverse.command if reverse else None)
+        if set(group) >= FRICTION_AND_BIAS
+        else text
+        for group, text in zip(outcome.ambiguous, outcome.advice, strict=True)
+    )
+    outcome = replace(outcome, advice=advice)
+    if reverse is None and "quadratic_damping" in final.at_bound:  # K_Q at 0: a reverse run
+        reverse = _within(opposite_run(axis, runs), envelope)
     boot = _bootstrap(prepared, final, n_bootstrap, seed) if n_bootstrap else None
     return _build(
-        axis, method, runs, prepared, outcome, boot, drive_uncertainty(runs, final), reverse
+        axis,
+        method,
+        runs,
+        prepared,
+        outcome,
+        boot,
+        drive_uncertainty(runs, final),
+        reverse,
+        envelope,
     )
+
+
+def signed_drives(runs: Sequence[PreparedRun]) -> list[float]:
+    """Each run's mean signed drive after its release (N or N·m)."""
+    return [float(np.mean(r.drive[r.t > r.t_release])) for r in runs if np.any(r.t > r.t_release)]
+
+
+def _within(test: ReverseTest | None, envelope: RigEnvelope | None) -> ReverseTest | None:
+    """``test`` as the rig can run it: its load cut to the rig's limit (or the thrusters'
+    calibrated reach); None when the rig cannot run a reverse test at all."""
+    if test is None or envelope is None:
+        return test
+    axis = "surge" if test.kind == "tow" else "yaw"
+    env = envelope.axis(axis)
+    if env is None or env.reverse_travel is None:
+        return None
+    reach = env.max_load
+    if test.thrusters:
+        if env.thruster_range is None:
+            return None
+        reach = min(reach, abs(env.thruster_range[0] if test.drive < 0 else env.thruster_range[1]))
+    drive = float(np.sign(test.drive) * min(abs(test.drive), reach))
+    return replace(test, drive=drive) if envelope.allows(axis, drive, test.drive_kind) else None
 
 
 def _coefficients(fit: FitResult) -> dict[str, Estimate]:
@@ -126,7 +174,11 @@ def _distinct_drives(runs: Sequence[PreparedRun]) -> list[float]:
 
 
 def separability_warnings(
-    fit: FitResult, runs: Sequence[PreparedRun], reverse: ReverseTest | None = None
+    fit: FitResult,
+    runs: Sequence[PreparedRun],
+    reverse: ReverseTest | None = None,
+    envelope: RigEnvelope | None = None,
+    axis: str = "surge",
 ) -> list[str]:
     """Warnings for coefficient pairs with |ρ| > 0.95, naming the run that would separate them
     (``reverse``: the reverse run to name when K_Q sits at its bound)."""
@@ -140,29 +192,20 @@ def separability_warnings(
                 continue
             a, b = fit.names[i], fit.names[j]
             if {a, b} == {"linear_damping", "quadratic_damping"}:
-                if len(drives) == 1:
-                    out.append(
-                        f"K_L and K_Q are not separable from one force (ρ = {rho:.3f}): add a "
-                        f"run at a clearly different force (e.g. 4× the current one, "
-                        f"{4 * drives[0]:.3g})"
-                    )
-                else:
-                    out.append(
-                        f"K_L and K_Q are poorly separated (ρ = {rho:.3f}) by forces "
-                        f"{drives}: add a run well outside that range (e.g. {0.25 * drives[0]:.3g}"
-                        f" or {2 * drives[-1]:.3g})"
-                    )
+                out.append(different_force_advice(axis, drives, rho, envelope))
             else:
                 hint = EFFECTS[b].separated_by if b in EFFECTS else "a run at a different force"
+                hint = separating_hint(hint, signed_drives(runs))  # never a stale "reverse"
                 out.append(
                     f"{a} and {b} are not separable by these runs (ρ = {rho:.3f}): add {hint}"
                 )
     if "quadratic_damping" in fit.at_bound:
         run = f": run `{reverse.command}`" if reverse is not None else ""
+        ask = "" if both_ways(signed_drives(runs)) else f" or add a reverse run{run}"
         out.append(
             "quadratic_damping sits at its lower bound 0: the drag law is bending the wrong "
             "way, the signature of dry (Coulomb) friction the model lacks (seed 002's negative "
-            f"K_Q); enable the effect search or add a reverse run{run}"
+            f"K_Q); enable the effect search{ask}"
         )
     return out
 
@@ -239,6 +282,7 @@ def _build(
     boot: Bootstrap | None,
     uncertainty: DriveUncertainty | None = None,
     reverse: ReverseTest | None = None,
+    envelope: RigEnvelope | None = None,
 ) -> EstimationResult:
     """The result document of ``outcome`` (base and final fit, the search's evidence)."""
     base, final = outcome.base, outcome.final
@@ -249,7 +293,7 @@ def _build(
         )
         for e in final.effects
     )
-    warnings = separability_warnings(final, prepared, reverse)
+    warnings = separability_warnings(final, prepared, reverse, envelope, axis)
     warnings += physical_warnings(final, runs)
     moving = {r.run_id: v for r in runs if (v := speed_at_release(r)) is not None}
     coefficients = _coefficients(final)

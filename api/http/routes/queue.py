@@ -8,10 +8,10 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Depends
 from fastapi.exceptions import RequestValidationError
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from api.core.job_model import JobConflict
-from api.http.deps import RunnerDep, require_read, require_write
+from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, SequenceRequest, error_responses
 from daq.procedures.kinds import KINDS
 
@@ -118,3 +118,27 @@ def pause_queue(runner: RunnerDep) -> dict:
 def resume_queue(runner: RunnerDep) -> dict:
     """Let queued jobs start again (the first one now if the rig is free)."""
     return runner.resume_queue()
+
+
+class StopMarkerRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    position: int | None = Field(
+        None, description="Place in the queue, 1 = next; omitted: after the last job."
+    )
+
+
+@router.post(
+    "/stop-marker",
+    status_code=201,
+    response_model=QueueOut,
+    dependencies=[Depends(require_write)],
+    responses=error_responses(401, 403, 422, 503),
+)
+def add_stop_marker(
+    runner: RunnerDep, user: OperatorDep, body: StopMarkerRequest | None = None
+) -> dict:
+    """Put a stop marker in the queue (bluesky-queueserver's ``queue_stop``): when the queue
+    reaches it, the marker goes and the queue pauses until resumed. Move or remove it like a
+    job (``DELETE /api/queue/{id}``)."""
+    runner.add_stop_marker(body.position if body else None, user.name)
+    return runner.queue_json()

@@ -426,6 +426,7 @@ async function stream() {
 
 function onJobEvent(job) {
   if (job.kind === "estimation") return showEstimationJob(job);
+  if (job.kind === "campaign") return typeof onCampaignJobEvent === "function" && onCampaignJobEvent(job); // campaign.js
   if (typeof onQueueJobEvent === "function") onQueueJobEvent(job); // queue.js
   // a job queued behind the one on the rig does not take its panel (see /api/queue)
   const onRig = state.job && state.job.id !== job.id && !FINAL.includes(state.job.state);

@@ -67,7 +67,7 @@ function showQueue(q) {
       <div class="row">
         <button type="button" data-act="up" ${i === 0 ? "disabled" : ""} title="Move up">↑</button>
         <button type="button" data-act="down" ${i === q.jobs.length - 1 ? "disabled" : ""} title="Move down">↓</button>
-        <button type="button" data-act="edit">Edit</button>
+        ${job.kind === "queue_stop" ? "" : `<button type="button" data-act="edit">Edit</button>`}
         <button type="button" data-act="run-now" title="First in the queue, and the queue resumed">Run now</button>
         <button type="button" data-act="remove">Remove</button>
       </div>`;

@@ -1,0 +1,198 @@
+"""The campaign job: measure, re-estimate, choose the next test, until certain or out of budget.
+
+A campaign is a job (kind ``campaign``) in the runner's registry, run in its own thread. Each
+test it chooses (``estimation.design``) is submitted like any other through
+``JobRunner.start_procedure`` — validated against the rig, queued behind other jobs, held by
+a paused queue or an emergency stop like them — with ``metadata.campaign`` naming the
+campaign on its run. When the run is done the campaign loads the axis's runs, estimates
+them with the rig's envelope (so the advice in the stored result is the planner's), stores
+that result, books the run and updates its trail: the job's ``outcome`` carries the trail
+(each choice, why, the uncertainty before and after) and is published on the live stream
+at every step. It ends ``completed`` at the target or the budget (``outcome.outcome`` says
+which), ``aborted`` when stopped or when one of its runs did not complete.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+from api.core.job_model import Job, JobConflict
+from api.core.job_requests import procedure_from_request
+from api.core.rig_envelope import envelope_of
+from daq.store.faults import one_line
+from daq.store.schema import JOB_FINAL, JobState
+from estimation.design.campaign import Campaign, Target
+from estimation.design.envelope import Candidate
+
+if TYPE_CHECKING:
+    from api.core.jobs import JobRunner
+
+log = logging.getLogger(__name__)
+#: How often the campaign looks at the job it queued (s); it also wakes when stopped.
+POLL_S = 0.2
+
+
+def instructions(test: Candidate, g: float, drum_radius_m: float | None) -> str:
+    """What the operator does for ``test`` (the procedure asks for each act as well)."""
+    if test.drive == "thrusters":
+        return f"{test.describe()}: thrusters mounted, no weight hung"
+    load = abs(test.load)
+    kg = load / g if test.axis == "surge" else load / g / (drum_radius_m or 1.0)
+    where = (
+        ("on the far-end pulley, carriage at the far end" if test.load < 0 else "on the tow line")
+        if test.axis == "surge"
+        else ("on the drum cord wound the other way" if test.load < 0 else "on the drum cord")
+    )
+    return f"{test.describe()}: hang {kg:.3f} kg {where}"
+
+
+class CampaignRunner:
+    """The campaigns of one ``JobRunner`` (one per runner: :meth:`of`)."""
+
+    def __init__(self, runner: JobRunner) -> None:
+        self.runner = runner
+        self._stops: dict[str, threading.Event] = {}
+
+    @classmethod
+    def of(cls, runner: JobRunner) -> CampaignRunner:
+        existing = getattr(runner, "_campaigns", None)
+        if existing is None:
+            existing = cls(runner)
+            runner._campaigns = existing  # type: ignore[attr-defined]
+        return existing
+
+    def start(self, target: Target, user: str | None = None) -> Job:
+        """Start a campaign for ``user``; ``ValueError`` naming the field when the rig cannot
+        test an axis asked for; the refusal of a start (an unacknowledged emergency stop, a
+        hold by someone else) at once, as for any test."""
+        from api.core.rig_guard import RigGuard
+
+        service = self.runner.service
+        RigGuard.of(service).check_start(user)
+        store = service.store
+        envelope = envelope_of(service.source.rig, store)
+        campaign = Campaign(target, envelope)  # ValueError: axes the rig cannot test
+        label = (
+            f"campaign to 2σ ≤ {target.relative * 100:g} % on {' + '.join(target.axes)} "
+            f"(≤ {target.max_runs} runs, ≤ {target.max_minutes:g} tank min)"
+        )
+        params = {
+            "target_percent": target.relative * 100,
+            "axes": list(target.axes),
+            "max_runs": target.max_runs,
+            "max_minutes": target.max_minutes,
+        }
+        job = self.runner.registry.new("campaign", label, params, user_name=user)
+        job.outcome = campaign.to_json()
+        self.runner.registry.save(job, event=True)
+        stop = self._stops[job.id] = threading.Event()
+        threading.Thread(
+            target=self._run, args=(job, campaign, stop), name=f"campaign-{job.id}", daemon=True
+        ).start()
+        return job
+
+    def stop(self, job_id: str) -> Job:
+        """No further test: a test it queued that has not started leaves the queue; one on the
+        rig goes on (abort it like any job) and the campaign ends when it does."""
+        job = self.runner.get(job_id)
+        if job.kind != "campaign":
+            raise JobConflict(f"job {job_id} is a {job.kind} job, not a campaign")
+        event = self._stops.get(job_id)
+        if event is None or job.state in JOB_FINAL:
+            raise JobConflict(f"campaign {job_id} has ended ({job.state})")
+        event.set()
+        return job
+
+    # -- the loop (its own thread) ---------------------------------------------------------
+    def _run(self, job: Job, campaign: Campaign, stop: threading.Event) -> None:
+        runner = self.runner
+        runner.registry.update(job, state="running", started_at=time.time(), message="planning")
+        try:
+            state, message = self._loop(job, campaign, stop)
+            runner.registry.update(job, state=state, outcome=campaign.to_json(), message=message)
+        except Exception as err:  # ours, not the user's: said, and the rig untouched
+            log.exception("campaign %s failed", job.id)
+            campaign.outcome = f"failed: {one_line(err)}"
+            runner.registry.update(
+                job,
+                state="failed",
+                outcome=campaign.to_json(),
+                error=one_line(err),
+                message=f"error: {one_line(err)}",
+            )
+        finally:
+            self._stops.pop(job.id, None)
+
+    def _loop(self, job: Job, campaign: Campaign, stop: threading.Event) -> tuple[str, str]:
+        runner, service = self.runner, self.runner.service
+        rig = service.source.rig
+        while True:
+            if stop.is_set():
+                campaign.outcome = "stopped by the operator"
+                return "aborted", "stopped by the operator"
+            decision = campaign.next()
+            if decision.stop is not None:
+                return "completed", f"done: {decision.stop}"
+            choice = decision.choice
+            assert choice is not None
+            test = choice.test
+            request = test.request() | {"metadata": {"campaign": job.id}}
+            params, label = procedure_from_request(test.kind, request, rig, service.store)
+            what = instructions(test, rig.rig.g, rig.geometry.spin_drum_radius_m)
+            campaign.pending = {"test": test.describe(), "why": choice.why, "instructions": what}
+            try:
+                item = runner.start_procedure(
+                    test.kind, params, label, request=request, user=job.user_name
+                )
+            except JobConflict as err:  # an unacknowledged e-stop, a hold, a full queue
+                campaign.outcome = f"refused: {err}"
+                return "aborted", f"its next test was refused: {err}"
+            campaign.pending["job_id"] = item.id
+            runner.registry.update(
+                job,
+                outcome=campaign.to_json(),
+                message=f"run {campaign.runs_used + 1}: {what} (job {item.id})",
+                fraction=min(0.99, campaign.runs_used / campaign.target.max_runs),
+            )
+            ended = self._wait(item, stop)
+            if ended is None:  # its queued test never ran: out of the queue with it
+                with contextlib.suppress(JobConflict):
+                    runner.remove(item.id)
+                campaign.outcome = "stopped by the operator"
+                return "aborted", f"stopped by the operator while job {item.id} waited"
+            if ended.state != JobState.COMPLETED or not ended.run_ids:
+                campaign.outcome = f"job {item.id} ended {ended.state}"
+                return "aborted", f"job {item.id} ({label}) ended {ended.state}: campaign stopped"
+            run_id = ended.run_ids[-1]
+            result, seconds = self._estimate(campaign, test.axis, run_id)
+            campaign.pending = None
+            entry = campaign.recorded(choice, run_id, seconds, result)
+            entry["instructions"] = what
+            entry["job_id"] = item.id
+            runner.registry.update(job, outcome=campaign.to_json(), run_ids=[*job.run_ids, run_id])
+
+    def _wait(self, item: Job, stop: threading.Event) -> Job | None:
+        """``item`` once it ended; None when the campaign is stopped while it is queued."""
+        while item.state not in JOB_FINAL:
+            if stop.wait(POLL_S) and item.position is not None:
+                return None
+        return item
+
+    def _estimate(self, campaign: Campaign, axis: str, run_id: str) -> tuple[Any, float]:
+        """The axis's fit on its runs and ``run_id`` (stored as a result), and the run's
+        duration on the rig, s."""
+        from api.core.estimation_job import load_estimation_runs
+        from estimation import estimate
+
+        store = self.runner.service.store
+        assert store is not None
+        ids = [*campaign.run_ids(axis), run_id]
+        _, runs = load_estimation_runs(store, ids, "output-error")
+        result = estimate(runs, n_bootstrap=0, envelope=campaign.envelope)  # type: ignore[arg-type]
+        store.add_result(ids, "estimation", result.to_json() | {"campaign": True})
+        t = runs[-1].t
+        return result, float(t[-1] - t[0])

@@ -1,0 +1,63 @@
+"""A campaign on an open rig session (``rig campaign``, ``bench/campaign_efficiency.py``):
+the same planner and trail as the service's campaign job (``api.core.campaign``), with each
+chosen test run directly on the session instead of through the job queue."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import Any
+
+from daq.procedures.motion import run_motion_test
+from daq.procedures.params import spin_parameters, tow_parameters
+from daq.procedures.recording import AbortSignal
+from daq.run_data import load_run_data
+from daq.session import RigSession
+from estimation.design.campaign import Campaign
+
+
+def fit_axis(store: Any, run_ids: list[str], campaign: Campaign) -> Any:
+    """The axis fit of ``run_ids`` with the campaign's envelope (advice within the rig)."""
+    from estimation import estimate
+
+    runs = [load_run_data(store, r) for r in run_ids]
+    return estimate(runs, n_bootstrap=0, envelope=campaign.envelope)
+
+
+def run_seconds(store: Any, run_id: str) -> float:
+    """A run's duration on the rig: first to last sample, s."""
+    t = load_run_data(store, run_id).t
+    return float(t[-1] - t[0])
+
+
+async def run_campaign(
+    session: RigSession,
+    campaign: Campaign,
+    *,
+    abort: AbortSignal | None = None,
+    on_entry: Callable[[dict[str, Any]], None] | None = None,
+    tag: str | None = None,
+) -> Campaign:
+    """Run ``campaign`` to its target or budget on ``session``; ``on_entry`` gets each trail
+    entry as it is booked; ``tag`` goes on each run as ``metadata.campaign``. A run that does
+    not complete ends the campaign (``outcome``)."""
+    store = session.store
+    while (decision := campaign.next()).stop is None:
+        choice = decision.choice
+        assert choice is not None
+        test = choice.test
+        raw = {test.field: test.load, "drive": test.drive}
+        make = tow_parameters if test.kind == "tow" else spin_parameters
+        if tag is not None:
+            session.run_metadata = (session.run_metadata or {}) | {"campaign": tag}
+        outcome = await run_motion_test(session, make(raw, session.rig), abort=abort)
+        if outcome.status != "completed":
+            campaign.outcome = f"{test.command}: {outcome.status} ({outcome.reason})"
+            return campaign
+        ids = [*campaign.run_ids(test.axis), outcome.run_id]
+        result = await asyncio.to_thread(fit_axis, store, ids, campaign)
+        seconds = await asyncio.to_thread(run_seconds, store, outcome.run_id)
+        entry = campaign.recorded(choice, outcome.run_id, seconds, result)
+        if on_entry is not None:
+            on_entry(entry)
+    return campaign

@@ -1,0 +1,81 @@
+// Queue page, Campaign card: start a campaign (target 2σ in %, axes, budget), watch its trail
+// live — each test it chose, why, the operator's acts, 2σ before → after — and stop it.
+// Live from app.js's job events (onCampaignJobEvent); uses app.js's $, api, esc, FINAL.
+"use strict";
+
+const campaignView = { job: null };
+const COEFFS = [["inertia", "M"], ["linear_damping", "K_L"], ["quadratic_damping", "K_Q"]];
+
+function sigmaText(status) {
+  const pct = (status && status.two_sigma_percent) || {};
+  if (!Object.keys(pct).length) return `<span class="muted">no fit yet</span>`;
+  return COEFFS.map(([k, s]) => `${s} ${pct[k] == null ? "—" : `${Number(pct[k]).toPrecision(2)} %`}`).join(" · ");
+}
+
+function showCampaign(job) {
+  campaignView.job = job;
+  const box = $("#campaign-view");
+  if (!job) {
+    box.innerHTML = `<p class="muted">No campaign yet.</p>`;
+    return;
+  }
+  const c = job.outcome || {};
+  const running = !FINAL.includes(job.state);
+  const pending = c.pending
+    ? `<p id="campaign-pending"><strong>Now:</strong> ${esc(c.pending.instructions)} <span class="muted">— ${esc(c.pending.why)}</span></p>`
+    : "";
+  const rows = (c.trail || [])
+    .map((e) => `<tr><td>${e.n}</td><td>${esc(e.test)}<br><code>${esc(e.command)}</code></td><td class="muted">${esc(e.why)}</td>
+      <td>${sigmaText(e.before)}</td><td>${sigmaText(e.after)}${e.after.unresolved.length ? `<br><span class="muted">${esc(e.after.unresolved.join("; "))}</span>` : ""}</td>
+      <td>${e.tank_minutes.toFixed(1)}</td></tr>`)
+    .join("");
+  box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${job.state}" id="campaign-state">${job.state}</span>
+      ${running ? `<button type="button" id="campaign-stop">Stop the campaign</button>` : ""}</p>
+    <p class="muted" id="campaign-summary">${c.runs_used || 0} of ${c.max_runs} runs · ${(c.tank_minutes || 0).toFixed(1)} of ${c.max_minutes} tank min${c.outcome ? ` · <strong>${esc(c.outcome)}</strong>` : ""}</p>
+    ${pending}
+    <table class="list" id="campaign-trail"><thead><tr><th>#</th><th>Test</th><th>Why</th><th>2σ before</th><th>2σ after</th><th>Tank min</th></tr></thead><tbody>${rows}</tbody></table>`;
+  const stop = $("#campaign-stop");
+  if (stop) stop.onclick = () => campaignCall("POST", `/api/campaigns/${job.id}/stop`);
+}
+
+async function campaignCall(method, path, body) {
+  $("#campaign-error").textContent = "";
+  try {
+    const job = await api(method, path, body);
+    showCampaign(job);
+  } catch (err) {
+    $("#campaign-error").textContent = err.message;
+  }
+}
+
+$("#campaign-form").addEventListener("submit", (ev) => {
+  ev.preventDefault();
+  const f = ev.target;
+  const axes = ["surge", "yaw"].filter((a) => f.elements[`axis-${a}`].checked);
+  campaignCall("POST", "/api/campaigns", {
+    target_percent: Number(f.elements.target_percent.value),
+    axes,
+    max_runs: Number(f.elements.max_runs.value),
+    max_minutes: Number(f.elements.max_minutes.value),
+  });
+});
+
+function onCampaignJobEvent(job) {
+  if (!campaignView.job || campaignView.job.id === job.id || !FINAL.includes(job.state)) showCampaign(job);
+}
+
+async function loadCampaign() {
+  try {
+    const all = await api("GET", "/api/campaigns");
+    if (!campaignView.job || !all.some((j) => j.id === campaignView.job.id)) showCampaign(all[0] || null);
+  } catch (err) {
+    $("#campaign-error").textContent = err.message;
+  }
+}
+
+$("#queue-marker").onclick = () => queueAction("POST", "/api/queue/stop-marker", {});
+const queueLoader = pageLoaders.queue;
+pageLoaders.queue = () => {
+  queueLoader();
+  loadCampaign();
+};

@@ -1,0 +1,132 @@
+"""Campaign vs the seed's fixed test matrix: runs, tank minutes and final uncertainty (JSON).
+
+On the in-process simulated rig in simulated time (``daq.sim.inprocess``), for the clean
+and the dry-friction scenario: (a) ``fixtures/sequences/seed000-campaign.toml`` as it
+stands, then both axes estimated; (b) a campaign (``estimation.design``) with target 2σ ≤ 1 %
+on inertia, K_L and K_Q of surge and yaw, ambiguities resolved. Tank minutes = the
+simulated run durations (first to last sample) + the rest between runs (the sequence's
+``rest_s`` = the campaign's reset time, 30 s) after every run. Usage::
+
+    python bench/campaign_efficiency.py [--scenario clean] [--target 0.01]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from api.core.campaign_session import run_campaign  # noqa: E402
+from api.core.rig_envelope import envelope_of  # noqa: E402
+from daq.procedures.sequence import load_sequence, run_sequence  # noqa: E402
+from daq.run_data import load_run_data  # noqa: E402
+from daq.session import RigSession, RigSource  # noqa: E402
+from daq.sim.inprocess import open_inprocess_rig  # noqa: E402
+from daq.sim.simtime import SimClock  # noqa: E402
+from daq.store import Store  # noqa: E402
+from estimation import estimate  # noqa: E402
+from estimation.design.campaign import Campaign, Target  # noqa: E402
+from estimation.design.planner import state_from_result  # noqa: E402
+
+SCENARIOS = {"clean": "clean.toml", "dry-friction": "coulomb-friction.toml"}
+SEED = ROOT / "fixtures/sequences/seed000-campaign.toml"
+REST_S = 30.0
+
+
+def _seconds(store: Store, run_id: str) -> float:
+    t = load_run_data(store, run_id).t
+    return float(t[-1] - t[0])
+
+
+def _fit(store: Store, ids: list[str]) -> Any:
+    return estimate([load_run_data(store, r) for r in ids], n_bootstrap=0)
+
+
+def _summary(result: Any, relative: float) -> dict[str, Any]:
+    state = state_from_result(result, [])
+    ratios = state.ratios(relative)
+    return {
+        "two_sigma_percent": {n: round(r * relative * 100, 4) for n, r in ratios.items()},
+        "unresolved": state.unresolved(),
+        "effects": [e.name for e in result.effects],
+    }
+
+
+def _session(source: RigSource, store: Store) -> RigSession:
+    return RigSession(source, store, clock=SimClock.of_running_loop(), devices=open_inprocess_rig)
+
+
+async def _seed(source: RigSource, store: Store, relative: float) -> dict[str, Any]:
+    async with _session(source, store) as session:
+        outcome = await run_sequence(session, load_sequence(SEED, source.rig))
+    ids = [r.run_id for r in outcome.runs]
+    kinds = [store.get_run(r).kind for r in ids]
+    seconds = sum(_seconds(store, r) for r in ids)
+    axes = {}
+    for kind, axis in (("tow", "surge"), ("spin", "yaw")):
+        mine = [r for r, k in zip(ids, kinds, strict=True) if k == kind]
+        axes[axis] = _summary(_fit(store, mine), relative)
+    return {
+        "runs": len(ids),
+        "tank_minutes": round((seconds + REST_S * len(ids)) / 60, 2),
+        "axes": axes,
+    }
+
+
+async def _campaign(source: RigSource, store: Store, relative: float) -> dict[str, Any]:
+    campaign = Campaign(Target(relative), envelope_of(source.rig, store, reset_s=REST_S))
+    async with _session(source, store) as session:
+        await run_campaign(session, campaign)
+    doc = campaign.to_json()
+    return {
+        "runs": doc["runs_used"],
+        "tank_minutes": doc["tank_minutes"],
+        "outcome": doc["outcome"],
+        "axes": {
+            a: _summary(_fit(store, campaign.run_ids(a)), relative) for a in campaign.target.axes
+        },
+        "trail": [
+            {k: e[k] for k in ("axis", "test", "run_s", "tank_minutes", "after")}
+            for e in doc["trail"]
+        ],
+    }
+
+
+def bench(scenario: str, relative: float) -> dict[str, Any]:
+    """Both ways on ``scenario``; each in its own store."""
+    source = RigSource.load(scenario_file=ROOT / "fixtures/scenarios" / SCENARIOS[scenario])
+    out: dict[str, Any] = {"scenario": scenario}
+    for name, run in (("seed_sequence", _seed), ("campaign", _campaign)):
+        with tempfile.TemporaryDirectory() as tmp, Store(f"sqlite:///{tmp}/rig.db") as store:
+            wall = time.perf_counter()
+            out[name] = SimClock.run(run(source, store, relative))
+            out[name]["wall_s"] = round(time.perf_counter() - wall, 1)
+    out["tank_time_ratio"] = round(
+        out["campaign"]["tank_minutes"] / out["seed_sequence"]["tank_minutes"], 3
+    )
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", choices=[*SCENARIOS, "all"], default="all")
+    parser.add_argument("--target", type=float, default=0.01, help="2σ/|θ| target (0.01 = 1 %%)")
+    args = parser.parse_args()
+    names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
+    print(
+        json.dumps(
+            {"target_2sigma": args.target, "results": [bench(n, args.target) for n in names]},
+            indent=1,
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,143 @@
+"""A campaign's state and trail: measure, re-estimate, choose, until certain or out of budget.
+
+``Campaign`` holds what was recorded per axis, the latest fit, the tank time used and the
+trail (each choice, why, the target ratios before and after the run it chose). A driver —
+the rig service's campaign job (``api.core.campaign``) or ``bench/campaign_efficiency.py`` —
+loops::
+
+    while (d := campaign.next()).stop is None:
+        run_id, seconds = record(d.choice.test)          # on the rig
+        campaign.recorded(d.choice, run_id, seconds, estimate(campaign.run_ids(axis)))
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from estimation.design.envelope import Candidate, RigEnvelope
+from estimation.design.planner import AxisState, Choice, Decision, decide, state_from_result
+
+
+@dataclass(frozen=True)
+class Target:
+    """2σ/|θ| ≤ ``relative`` on M, K_L, K_Q of every axis in ``axes``, ambiguities resolved;
+    within ``max_runs`` runs and ``max_minutes`` tank minutes (runs + resets)."""
+
+    relative: float = 0.01
+    axes: tuple[str, ...] = ("surge", "yaw")
+    max_runs: int = 12
+    max_minutes: float = 60.0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.relative < 1:
+            raise ValueError(f"target: got {self.relative:g}, allowed: 0 < target < 1 (0.01 = 1 %)")
+        if self.max_runs < 1:
+            raise ValueError(f"max_runs: got {self.max_runs}, allowed: ≥ 1")
+        if not self.max_minutes > 0:
+            raise ValueError(f"max_minutes: got {self.max_minutes:g}, allowed: > 0")
+        bad = [a for a in self.axes if a not in ("surge", "yaw")]
+        if bad or not self.axes:
+            raise ValueError(f"axes: got {list(self.axes)}, allowed: surge and/or yaw")
+
+
+@dataclass
+class Campaign:
+    """Per-axis runs, fits and the trail of one campaign."""
+
+    target: Target
+    envelope: RigEnvelope
+    runs: dict[str, list[tuple[Candidate, str]]] = field(default_factory=dict)
+    states: dict[str, AxisState | None] = field(default_factory=dict)
+    minutes_used: float = 0.0
+    trail: list[dict[str, Any]] = field(default_factory=list)
+    outcome: str | None = None
+    #: The test queued and not yet booked (its description, why, the operator's acts, job).
+    pending: dict[str, Any] | None = None
+
+    def __post_init__(self) -> None:
+        missing = [a for a in self.target.axes if self.envelope.axis(a) is None]
+        if missing:
+            raise ValueError(f"axes: the rig cannot test {', '.join(missing)}")
+        for axis in self.target.axes:
+            self.runs.setdefault(axis, [])
+            self.states.setdefault(axis, None)
+
+    @property
+    def runs_used(self) -> int:
+        return sum(len(r) for r in self.runs.values())
+
+    def run_ids(self, axis: str) -> list[str]:
+        return [rid for _, rid in self.runs[axis]]
+
+    def next(self) -> Decision:
+        """The next test, or the reason to stop (recorded as ``outcome``)."""
+        decision = decide(
+            self.states,
+            self.envelope,
+            self.target.relative,
+            runs_used=self.runs_used,
+            minutes_used=self.minutes_used,
+            max_runs=self.target.max_runs,
+            max_minutes=self.target.max_minutes,
+            done={a: [c for c, _ in r] for a, r in self.runs.items()},
+        )
+        if decision.stop is not None:
+            self.outcome = decision.stop
+        return decision
+
+    def recorded(self, choice: Choice, run_id: str, seconds: float, result: object) -> dict:
+        """Book a finished run (``seconds`` on the rig) and the axis's new fit ``result``
+        (an ``EstimationResult``); returns the trail entry."""
+        axis = choice.test.axis
+        before = self.status(axis)
+        self.runs[axis].append((choice.test, run_id))
+        self.minutes_used += (seconds + self.envelope.reset_s) / 60
+        self.states[axis] = state_from_result(result, [c for c, _ in self.runs[axis]])
+        entry = {
+            "n": len(self.trail) + 1,
+            "axis": axis,
+            "test": choice.test.describe(),
+            "command": choice.test.command,
+            "request": choice.test.request(),
+            "why": choice.why,
+            "run_id": run_id,
+            "run_s": round(seconds, 2),
+            "tank_minutes": round(self.minutes_used, 2),
+            "predicted_after": _finite(choice.predicted_after),
+            "before": before,
+            "after": self.status(axis),
+        }
+        self.trail.append(entry)
+        return entry
+
+    def status(self, axis: str) -> dict[str, Any]:
+        """2σ/|θ| in % per target coefficient and what is unresolved, for the trail."""
+        state = self.states.get(axis)
+        if state is None:
+            return {"two_sigma_percent": {}, "unresolved": ["no fit yet"]}
+        ratios = state.ratios(self.target.relative)
+        percent = {n: _finite(r * self.target.relative * 100) for n, r in ratios.items()}
+        return {
+            "two_sigma_percent": percent,
+            "unresolved": state.unresolved(),
+            "correlated": state.correlated(),
+        }
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "target_percent": self.target.relative * 100,
+            "axes": list(self.target.axes),
+            "max_runs": self.target.max_runs,
+            "max_minutes": self.target.max_minutes,
+            "runs_used": self.runs_used,
+            "tank_minutes": round(self.minutes_used, 2),
+            "outcome": self.outcome,
+            "pending": self.pending,
+            "status": {a: self.status(a) for a in self.target.axes},
+            "trail": list(self.trail),
+        }
+
+
+def _finite(x: float) -> float | None:
+    return None if x != x or x in (float("inf"), float("-inf")) else round(float(x), 4)

@@ -1,0 +1,133 @@
+"""What a rig can do, as the test planner sees it: the loads, directions and travel it offers.
+
+Pure data (no rig file, no device): ``api.core.rig_envelope`` fills it from the rig file and
+the stored thrust calibration. The planner and the estimator's advice draw every test they
+propose from :meth:`RigEnvelope.candidates`, so neither proposes a load the rig cannot give.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+Axis = Literal["surge", "yaw"]
+#: Magnitudes offered per direction and drive: a geometric grid from the largest load down.
+GRID_POINTS = 8
+#: The smallest load offered, as a share of the largest (smaller barely moves a body).
+SMALLEST_SHARE = 1 / 16
+
+
+@dataclass(frozen=True)
+class AxisEnvelope:
+    """One axis's loads and travel. Units: N and m (surge), N·m and rad (yaw).
+
+    ``max_load``: the rig's limit (``max_force_n`` / ``max_torque_nm``); ``thruster_range``:
+    the calibrated (min, max) signed load the thrusters deliver (None: no calibration);
+    ``travel``/``reverse_travel``: longest forward/reverse motion (``reverse_travel`` None:
+    no reverse run possible); ``drum_radius_m``: spin cord drum (a hung weight w adds
+    w·r² of inertia), None for surge; ``max_rate``: speed limit (m/s or rad/s)."""
+
+    axis: Axis
+    max_load: float
+    travel: float
+    reverse_travel: float | None
+    max_rate: float
+    thruster_range: tuple[float, float] | None = None
+    drum_radius_m: float | None = None
+
+    @property
+    def kind(self) -> Literal["tow", "spin"]:
+        return "tow" if self.axis == "surge" else "spin"
+
+    @property
+    def load_field(self) -> str:
+        return "force_n" if self.axis == "surge" else "torque_nm"
+
+    @property
+    def unit(self) -> str:
+        return "N" if self.axis == "surge" else "N·m"
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One test the rig can run: its kind, signed load and drive (weight | thrusters)."""
+
+    axis: Axis
+    load: float
+    drive: Literal["weight", "thrusters"] = "weight"
+
+    @property
+    def kind(self) -> str:
+        return "tow" if self.axis == "surge" else "spin"
+
+    @property
+    def field(self) -> str:
+        return "force_n" if self.axis == "surge" else "torque_nm"
+
+    @property
+    def command(self) -> str:
+        """The ``rig`` command that records it."""
+        flag = "--force" if self.axis == "surge" else "--torque"
+        thrusters = " --thrusters" if self.drive == "thrusters" else ""
+        return f"rig {self.kind} {flag} {self.load:.4g}{thrusters}"
+
+    def request(self) -> dict[str, Any]:
+        """The body of ``POST /api/jobs/<kind>``."""
+        return {self.field: float(f"{self.load:.4g}"), "drive": self.drive}
+
+    def describe(self) -> str:
+        unit = "N" if self.axis == "surge" else "N·m"
+        way = "reverse " if self.load < 0 else ""
+        by = "the thrusters" if self.drive == "thrusters" else "a hung weight"
+        return f"{way}{self.kind} at {self.load:.4g} {unit} driven by {by}"
+
+
+@dataclass(frozen=True)
+class RigEnvelope:
+    """The axes a rig can test, with ``g`` (m/s², hung weight = load/g) and the time between
+    runs (``reset_s``: carriage back, water settling), which counts as tank time."""
+
+    axes: tuple[AxisEnvelope, ...]
+    g: float = 9.81
+    reset_s: float = 30.0
+
+    def axis(self, axis: str) -> AxisEnvelope | None:
+        return next((a for a in self.axes if a.axis == axis), None)
+
+    def candidates(self, axis: str) -> list[Candidate]:
+        """Every test offered on ``axis``: weight loads within ±``max_load`` (reverse only if
+        the rig can run it), thruster loads within the calibrated range."""
+        env = self.axis(axis)
+        if env is None:
+            return []
+        out: list[Candidate] = []
+        grid = env.max_load * np.geomspace(SMALLEST_SHARE, 1.0, GRID_POINTS)
+        signs = (1.0, -1.0) if env.reverse_travel is not None else (1.0,)
+        for sign in signs:
+            out += [Candidate(env.axis, float(sign * m)) for m in grid]
+        if env.thruster_range is not None:
+            low, high = env.thruster_range
+            for end in (low, high):
+                if end == 0 or (end < 0 and env.reverse_travel is None):
+                    continue
+                reach = min(abs(end), env.max_load)
+                out += [
+                    Candidate(env.axis, float(np.sign(end) * m), "thrusters")
+                    for m in reach * np.geomspace(SMALLEST_SHARE * 2, 1.0, GRID_POINTS // 2)
+                ]
+        return out
+
+    def allows(self, axis: str, load: float, drive: str = "weight") -> bool:
+        """Whether the rig can run ``load`` on ``axis`` with ``drive``."""
+        env = self.axis(axis)
+        if env is None or load == 0 or abs(load) > env.max_load:
+            return False
+        if load < 0 and env.reverse_travel is None:
+            return False
+        if drive == "thrusters":
+            if env.thruster_range is None:
+                return False
+            return env.thruster_range[0] <= load <= env.thruster_range[1]
+        return True

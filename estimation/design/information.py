@@ -1,0 +1,113 @@
+"""What a test would teach: predicted record, duration and Fisher information of one run.
+
+Model of one axis, from rest, constant signed load τ, direction s = sign(τ)::
+
+    (M + m_w)·v̇ = τ − K_L·v − K_Q·|v|·v − F_c·s + b
+
+θ = (M, K_L, K_Q, F_c, b); ``m_w`` the hung weight's inertia (|τ|/g for a tow, |τ|·r/g for
+a spin on a drum of radius r). The run ends at the travel limit or after ``max_time_s``.
+The position x(t) is sampled at ``rate_hz``; with white position noise of σ_x the run's
+information on θ is  I = Jᵀ·J / σ_x²,  J = ∂x(t_k)/∂θ by central differences, with its
+mean over the run removed (the fit's per-run position offset). The planner
+adds it to the information of the runs already recorded to predict the covariance after
+the run (``estimation.design.planner``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimation.design.envelope import AxisEnvelope, Candidate
+
+PARAMETERS = ("inertia", "linear_damping", "quadratic_damping", "coulomb_friction", "constant_bias")
+#: Integration step, s (semi-implicit Euler; BENBAM's time constants are ≥ 1 s).
+STEP_S = 0.01
+#: Relative step of the central differences.
+DIFF_STEP = 1e-4
+#: Samples before the release and after the brake, s (the procedures' defaults).
+BASELINE_S = 1.0
+TAIL_S = 0.3
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """A run's predicted duration (s, baseline and tail included), peak rate and information
+    (5×5 over ``PARAMETERS``, for unit position noise: divide by σ_x²)."""
+
+    duration_s: float
+    peak_rate: float
+    information: np.ndarray
+    moves: bool
+
+
+def hung_inertia(env: AxisEnvelope, test: Candidate, g: float) -> float:
+    """The inertia the drive adds: the hung weight (kg for a tow, kg·m² on a spin drum)."""
+    if test.drive != "weight":
+        return 0.0
+    if env.axis == "surge":
+        return abs(test.load) / g  # kg
+    radius = env.drum_radius_m or 0.0
+    return abs(test.load) * radius / g  # (|τ|/(g·r))·r², kg·m²
+
+
+def _simulate(
+    theta: np.ndarray, load: float, extra: float, travel: float, t_end: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Positions (rows: parameter sets) every ``STEP_S`` until ``t_end`` or the nominal set
+    (row 0) reaches ``travel``; returns (x, t, peak rate of row 0)."""
+    s = np.sign(load)
+    m, kl, kq, fc, b = (theta[:, i] for i in range(5))
+    net_static = abs(load) - np.maximum(fc, 0.0)
+    n = int(t_end / STEP_S)
+    x = np.zeros(len(theta))
+    v = np.zeros(len(theta))
+    xs = np.empty((n, len(theta)))
+    for k in range(n):
+        a = (load - kl * v - kq * np.abs(v) * v - fc * s + b) / (m + extra)
+        a = np.where((v == 0) & (net_static <= 0), 0.0, a)
+        v = v + a * STEP_S
+        v = np.where(v * s < 0, 0.0, v)  # friction never drives the body backwards
+        x = x + v * STEP_S
+        xs[k] = x
+        if abs(x[0]) >= travel:
+            xs = xs[: k + 1]
+            break
+    t = STEP_S * np.arange(1, len(xs) + 1)
+    return xs, t, float(np.max(np.abs(np.diff(xs[:, 0])) / STEP_S, initial=0.0))
+
+
+def predict(
+    theta: np.ndarray,
+    env: AxisEnvelope,
+    test: Candidate,
+    g: float,
+    rate_hz: float = 10.0,
+    max_time_s: float = 120.0,
+) -> Prediction:
+    """Duration, peak rate and information of ``test`` under the model ``theta``."""
+    travel = env.travel if test.load > 0 else (env.reverse_travel or env.travel)
+    extra = hung_inertia(env, test, g)
+    scale = np.maximum(np.abs(theta), 1e-3 * np.maximum(np.abs(theta[:3]).max(), 1.0))
+    sets = [theta]
+    for i in range(len(theta)):
+        for sign in (1.0, -1.0):
+            d = np.array(theta, dtype=float)
+            d[i] += sign * DIFF_STEP * scale[i]
+            sets.append(d)
+    xs, t, peak = _simulate(np.array(sets), test.load, extra, travel, max_time_s)
+    every = max(1, round(1.0 / rate_hz / STEP_S))
+    xs = xs[every - 1 :: every]
+    jac = np.column_stack(
+        [
+            (xs[:, 1 + 2 * i] - xs[:, 2 + 2 * i]) / (2 * DIFF_STEP * scale[i])
+            for i in range(len(theta))
+        ]
+    )
+    # the fit takes one position offset per run (a nuisance): only J's part orthogonal to
+    # a constant carries information on θ
+    jac = jac - jac.mean(axis=0)
+    moving = bool(abs(xs[-1, 0]) > 1e-3) if len(xs) else False
+    duration = BASELINE_S + float(t[-1] if len(t) else max_time_s) + TAIL_S
+    return Prediction(duration, peak, jac.T @ jac, moving)

@@ -1,0 +1,306 @@
+"""The next test: the run that most reduces what stands between the estimate and its target.
+
+State of one axis (:class:`AxisState`): the latest fit (values, σ, correlations, ambiguous
+groups, position RMSE σ_x) and the tests recorded. Target: 2σ/|θ| ≤ ``relative`` for M, K_L,
+K_Q, every σ finite, and no ambiguous group (two effect sets explaining the runs alike).
+
+Criterion. The information of the recorded runs under the current model,
+I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
+k = median_i(σ_fit,i² / (I₀⁻¹)_ii) (the fit knows residual structure the model does not).
+For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. Then
+- friction and bias ambiguous → of the candidates predicted to bring their |ρ| under 0.9,
+  the one with the largest reduction of the target ratio per tank minute (below); if none
+  does, the one bringing |ρ| lowest (a reverse run decorrelates them);
+- otherwise → the largest reduction of the worst target ratio max_i 2·√C_ii/|θ_i|/target
+  per tank minute (run + reset), a minimax (A-type) design on the target coefficients.
+While every run of an axis went one way, only the other way's candidates are considered
+(friction and a bias are one constant then; the target requires them told apart).
+Stopping rule (``decide``): the target is met on every axis (marginal 2σ/|θ| ≤ target, every
+σ finite, no ambiguous group left), or the next run does not fit the budget (runs, tank
+minutes).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from estimation.design.envelope import Candidate, RigEnvelope
+from estimation.design.information import PARAMETERS, predict
+
+BASE = PARAMETERS[:3]
+FRICTION_PAIR = frozenset({"coulomb_friction", "constant_bias"})
+SEPARABILITY_LIMIT = 0.95
+#: A pair counts as separated by a candidate when its predicted |ρ| is below this: a margin
+#: under the estimator's limit, since the prediction assumes the current model is right.
+SEPARATED = 0.9
+#: The opening of an axis with no fit yet: the two loads a quadratic law needs, as shares
+#: of the largest weight load (K_L and K_Q separate only with two clearly different speeds).
+OPENING_SHARES = (1.0, 0.35)
+
+
+@dataclass(frozen=True)
+class AxisState:
+    """The latest fit of one axis and the tests behind it."""
+
+    axis: str
+    values: Mapping[str, float]
+    std: Mapping[str, float]
+    correlation: Mapping[tuple[str, str], float]
+    ambiguous: tuple[tuple[str, ...], ...]
+    rmse: float
+    recorded: tuple[Candidate, ...]
+
+    def ratios(self, relative: float) -> dict[str, float]:
+        """2σ/|θ| over the target, per target coefficient (NaN σ → inf)."""
+        out = {}
+        for n in BASE:
+            v, s = self.values.get(n, np.nan), self.std.get(n, np.nan)
+            ok = np.isfinite(s) and np.isfinite(v) and v != 0
+            out[n] = float(2 * s / abs(v) / relative) if ok else float("inf")
+        return out
+
+    def unresolved(self) -> list[str]:
+        """What keeps the fit from being final besides σ: the estimator's ambiguities (two
+        models explain the runs alike). A strong correlation between fitted coefficients is
+        not listed: the marginal σ the target is judged on already carries it."""
+        return [f"{' vs '.join(g)} ambiguous" for g in self.ambiguous]
+
+    def correlated(self) -> list[str]:
+        """Fitted pairs with |ρ| > 0.95 (shown, not blocking: see ``unresolved``)."""
+        return [
+            f"{a} and {b} correlated (ρ = {r:.3f})"
+            for (a, b), r in self.correlation.items()
+            if abs(r) > SEPARABILITY_LIMIT
+        ]
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A chosen test, why, and the predicted worst target ratio before → after."""
+
+    test: Candidate
+    why: str
+    predicted_before: float
+    predicted_after: float
+    minutes: float
+
+
+@dataclass(frozen=True)
+class Decision:
+    """Stop (``stop`` says why: "target" | "budget: …") or run ``choice``."""
+
+    stop: str | None
+    choice: Choice | None = None
+    status: dict[str, dict] = field(default_factory=dict)
+
+
+def state_from_result(result: object, recorded: Sequence[Candidate]) -> AxisState:
+    """The planner's view of an ``estimation.axis.result.EstimationResult``."""
+    r = result  # duck-typed: an EstimationResult
+    values = {n: e.value for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
+    std = {n: e.std for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
+    for e in r.effects:  # type: ignore[attr-defined]
+        values[e.name], std[e.name] = e.value, e.std
+    names = list(r.correlation_names)  # type: ignore[attr-defined]
+    corr = np.asarray(r.correlation)  # type: ignore[attr-defined]
+    pairs = {
+        (a, b): float(corr[i, j])
+        for i, a in enumerate(names)
+        for j, b in enumerate(names)
+        if i < j and np.isfinite(corr[i, j])
+    }
+    return AxisState(
+        axis=r.axis,  # type: ignore[attr-defined]
+        values=values,
+        std=std,
+        correlation=pairs,
+        ambiguous=tuple(tuple(g) for g in r.ambiguous),  # type: ignore[attr-defined]
+        rmse=float(r.fit_after.rmse),  # type: ignore[attr-defined]
+        recorded=tuple(recorded),
+    )
+
+
+def _theta(state: AxisState) -> np.ndarray:
+    return np.array([float(state.values.get(n, 0.0)) for n in PARAMETERS])
+
+
+def _information(state: AxisState, env: RigEnvelope, tests: Sequence[Candidate]) -> np.ndarray:
+    axis = env.axis(state.axis)
+    assert axis is not None
+    theta = _theta(state)
+    info = sum((predict(theta, axis, t, env.g).information for t in tests), start=np.zeros((5, 5)))
+    return info / max(state.rmse, 1e-9) ** 2
+
+
+def _prior(env: RigEnvelope, axis: str) -> np.ndarray:
+    """A weak prior on friction and bias (σ = the largest load): keeps I invertible when
+    every run went one way, without deciding anything."""
+    load = env.axis(axis).max_load  # type: ignore[union-attr]
+    return np.diag([0.0, 0.0, 0.0, 1 / load**2, 1 / load**2])
+
+
+def _covariance(info: np.ndarray) -> np.ndarray:
+    return np.linalg.pinv(info + 1e-12 * np.eye(len(info)) * np.trace(info))
+
+
+def _fit_scale(state: AxisState, model_cov: np.ndarray) -> float:
+    """k = median σ_fit²/σ_model² over the base coefficients (1 when none is finite)."""
+    ratios = [
+        state.std[n] ** 2 / model_cov[i, i]
+        for i, n in enumerate(BASE)
+        if np.isfinite(state.std.get(n, np.nan)) and model_cov[i, i] > 0
+    ]
+    return float(np.median(ratios)) if ratios else 1.0
+
+
+def _worst(cov: np.ndarray, theta: np.ndarray, relative: float) -> float:
+    sig = np.sqrt(np.clip(np.diag(cov)[:3], 0, None))
+    return float(np.max(2 * sig / np.maximum(np.abs(theta[:3]), 1e-12) / relative))
+
+
+def _rho(cov: np.ndarray, a: str, b: str) -> float:
+    i, j = PARAMETERS.index(a), PARAMETERS.index(b)
+    return float(abs(cov[i, j]) / np.sqrt(max(cov[i, i] * cov[j, j], 1e-300)))
+
+
+def _pair_to_separate(state: AxisState) -> tuple[str, str] | None:
+    for group in state.ambiguous:
+        if set(group) >= FRICTION_PAIR:
+            return ("coulomb_friction", "constant_bias")
+    return None
+
+
+def _other_way(state: AxisState, env: RigEnvelope) -> float | None:
+    """The sign every recorded run lacks when all went one way and the rig can reverse:
+    such a set cannot tell dry friction from a bias (−F_c·sign(v) and b are one constant),
+    which the target requires resolved, so the next run goes the other way."""
+    axis = env.axis(state.axis)
+    signs = {np.sign(t.load) for t in state.recorded}
+    if axis is None or axis.reverse_travel is None or len(signs) != 1:
+        return None
+    return -float(signs.pop())
+
+
+def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None:
+    """The best next test on ``state.axis`` (module docstring); None when the rig offers
+    none that moves the body within its rate limit."""
+    axis_env = env.axis(state.axis)
+    if axis_env is None:
+        return None
+    theta = _theta(state)
+    base_info = _information(state, env, state.recorded) + _prior(env, state.axis)
+    k = _fit_scale(state, _covariance(base_info))
+    before = _worst(k * _covariance(base_info), theta, relative)
+    pair = _pair_to_separate(state)
+    other_way = _other_way(state, env)
+    scored = []
+    for c in env.candidates(state.axis):
+        if other_way is not None and np.sign(c.load) != other_way:
+            continue
+        p = predict(theta, axis_env, c, env.g)
+        if not p.moves or p.peak_rate > axis_env.max_rate:
+            continue
+        minutes = (p.duration_s + env.reset_s) / 60
+        cov = k * _covariance(base_info + p.information / max(state.rmse, 1e-9) ** 2)
+        after = _worst(cov, theta, relative)
+        gain = -(before - after) / minutes
+        if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
+            rho = _rho(cov, *pair)
+            key = (0.0, gain) if rho < SEPARATED else (rho, minutes)
+        else:
+            key = (gain, minutes)
+        scored.append((key, c, after, minutes, cov))
+    if not scored:
+        return None
+    key, best, after, minutes, cov = min(scored, key=lambda s: s[0])
+    if pair is not None:
+        why = (
+            f"{pair[0]} and {pair[1]} are not yet separated: of {len(scored)} tests the rig "
+            f"can run, this one is predicted to bring |ρ| under {SEPARATED} ("
+            f"{_rho(cov, *pair):.2f}) with the largest reduction of the worst target ratio per "
+            f"tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| lowest"
+        )
+    else:
+        way = (
+            "every run so far went one way (friction and a bias look alike): of the "
+            if other_way is not None
+            else "of the "
+        )
+        why = (
+            f"the worst target ratio is {before:.2f} (1 = target met); {way}{len(scored)} "
+            f"tests the rig can run{' the other way' if other_way is not None else ''}, this "
+            f"one is predicted to bring it to {after:.2f}, the largest reduction per tank minute"
+        )
+    return Choice(best, why, before, after, minutes)
+
+
+def opening(env: RigEnvelope, axis: str, done: Sequence[Candidate]) -> Candidate | None:
+    """The next opening test of an axis without a fit (``OPENING_SHARES``), None when done."""
+    axis_env = env.axis(axis)
+    if axis_env is None:
+        return None
+    for share in OPENING_SHARES:
+        test = Candidate(axis, share * axis_env.max_load)  # type: ignore[arg-type]
+        if test not in done:
+            return test
+    return None
+
+
+def axis_status(state: AxisState | None, relative: float) -> dict:
+    """``{"ratios", "unresolved", "reached"}`` of one axis (no fit: not reached)."""
+    if state is None:
+        return {"ratios": {}, "unresolved": ["no fit yet"], "reached": False}
+    ratios = state.ratios(relative)
+    unresolved = state.unresolved()
+    reached = all(r <= 1.0 for r in ratios.values()) and not unresolved
+    return {"ratios": ratios, "unresolved": unresolved, "reached": reached}
+
+
+def decide(
+    states: Mapping[str, AxisState | None],
+    env: RigEnvelope,
+    relative: float,
+    *,
+    runs_used: int,
+    minutes_used: float,
+    max_runs: int,
+    max_minutes: float,
+    done: Mapping[str, Sequence[Candidate]],
+) -> Decision:
+    """Stop at the target or the budget, else the next test: an opening run of an axis
+    without a fit, else the chosen test of the axis furthest from its target."""
+    status = {a: axis_status(s, relative) for a, s in states.items()}
+    if all(s["reached"] for s in status.values()):
+        return Decision("target", status=status)
+    if runs_used >= max_runs:
+        return Decision(f"budget: {runs_used} of {max_runs} runs used", status=status)
+    pending = [a for a, s in status.items() if not s["reached"]]
+    choice: Choice | None = None
+    for axis in pending:
+        if states[axis] is None:
+            test = opening(env, axis, done.get(axis, ()))
+            if test is not None:
+                why = "opening run of the axis: a fit needs two clearly different loads"
+                choice = Choice(test, why, float("inf"), float("inf"), 0.0)  # duration unknown
+                break
+    if choice is None:
+        worst = max(
+            (a for a in pending if states[a] is not None),
+            key=lambda a: (bool(status[a]["unresolved"]), max(status[a]["ratios"].values())),
+            default=None,
+        )
+        if worst is not None:
+            choice = choose(states[worst], env, relative)  # type: ignore[arg-type]
+    if choice is None:
+        return Decision("budget: the rig offers no test that would help", status=status)
+    if minutes_used + choice.minutes > max_minutes:
+        return Decision(
+            f"budget: the next run ({choice.minutes:.1f} min) would pass {max_minutes:g} "
+            f"tank minutes ({minutes_used:.1f} used)",
+            choice,
+            status,
+        )
+    return Decision(None, choice, status)

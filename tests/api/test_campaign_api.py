@@ -1,0 +1,98 @@
+"""A campaign over HTTP on the simulated rig (simulated time): it queues the tests it
+chooses as ordinary tow jobs, re-estimates after each, keeps its trail (choice, why,
+uncertainty before and after) on the job, tags its runs, and stops at its budget."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.api.conftest import AUTH, wait_job, wait_rig_free
+
+pytestmark = pytest.mark.simtime
+
+
+def test_a_campaign_runs_its_choices_as_jobs_and_keeps_the_trail(client, service) -> None:
+    wait_rig_free(client)
+    body = {"target_percent": 1, "axes": ["surge"], "max_runs": 2, "max_minutes": 30}
+    r = client.post("/api/campaigns", json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=240)
+    assert job["kind"] == "campaign" and job["state"] == "completed", job
+    doc = job["outcome"]
+    trail = doc["trail"]
+    # a budget of 2 runs: the target (2σ ≤ 1 %, all separated) is not reachable with one
+    # tow, so the campaign made exactly two and said which limit stopped it
+    assert doc["runs_used"] == 2 and len(trail) == 2, doc
+    assert doc["outcome"] in ("target", "budget: 2 of 2 runs used"), doc["outcome"]
+    first, second = trail
+    assert first["before"]["unresolved"] == ["no fit yet"]
+    assert set(first["after"]["two_sigma_percent"]) == {
+        "inertia",
+        "linear_damping",
+        "quadratic_damping",
+    }
+    assert second["before"] == first["after"]  # the trail is continuous
+    assert "reduction" in second["why"] or "separated" in second["why"]
+    assert second["tank_minutes"] > first["tank_minutes"] > 0
+    for entry in trail:  # each a tow within the rig file's 100 N, with its operator's acts
+        assert 0 < abs(entry["request"]["force_n"]) <= 100
+        assert "hang" in entry["instructions"]
+        run = service.store.get_run(entry["run_id"])
+        assert run.metadata["campaign"] == job["id"]
+        assert wait_job(client, entry["job_id"])["state"] == "completed"
+    assert job["run_ids"] == [e["run_id"] for e in trail]
+    listed = client.get("/api/campaigns", headers=AUTH).json()
+    assert job["id"] in [c["id"] for c in listed]
+
+
+def test_a_campaign_refuses_a_bad_target_naming_the_field(client) -> None:
+    r = client.post("/api/campaigns", json={"target_percent": 0}, headers=AUTH)
+    assert r.status_code == 422 and "target_percent" in r.text
+    r = client.post("/api/campaigns", json={"axes": ["heave"]}, headers=AUTH)
+    assert r.status_code == 422 and "axes" in r.text
+
+
+def test_a_campaign_is_stopped_before_its_next_choice(client) -> None:
+    wait_rig_free(client)
+    client.post("/api/queue/pause", headers=AUTH)  # its first tow waits in the queue
+    body = {"axes": ["surge"], "max_runs": 5}
+    job = client.post("/api/campaigns", json=body, headers=AUTH).json()
+    r = client.post(f"/api/campaigns/{job['id']}/stop", headers=AUTH)
+    assert r.status_code == 200, r.text
+    ended = wait_job(client, job["id"], timeout_s=60)
+    assert ended["state"] == "aborted" and ended["outcome"]["outcome"] == "stopped by the operator"
+    assert ended["outcome"]["trail"] == []
+    assert client.get("/api/queue", headers=AUTH).json()["jobs"] == []  # its tow went too
+    client.post("/api/queue/resume", headers=AUTH)
+    again = client.post(f"/api/campaigns/{job['id']}/stop", headers=AUTH)
+    assert again.status_code == 409
+
+
+def test_the_services_estimation_advice_stays_within_the_rig_file(client) -> None:
+    """Two tows at nearly the same force cannot separate K_L from K_Q; the advice (from the
+    planner, with the rig file's envelope) names a force the rig can pull: ≤ max_force_n
+    100 N, never 2× the highest (180 N)."""
+    import re
+
+    from tests.api.conftest import completed_tows
+
+    runs = completed_tows(client, [80.0, 90.0])
+    body = {"run_ids": runs, "method": "output-error", "search_effects": False}
+    r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=120)
+    warnings = job["outcome"]["warnings"]
+    (advice,) = [w for w in warnings if "K_L and K_Q" in w]
+    forces = [float(x) for x in re.findall(r"rig tow --force (-?[0-9.]+)", advice)]
+    assert forces and all(0 < f <= 100.0 for f in forces), advice
+    assert all(max(f / d, d / f) >= 1.5 for f in forces for d in (80.0, 90.0)), advice
+    assert "180" not in advice
+
+
+def test_a_campaign_is_refused_after_an_emergency_stop_until_acknowledged(client) -> None:
+    wait_rig_free(client)
+    assert client.post("/api/rig/emergency-stop").status_code == 200
+    r = client.post("/api/campaigns", json={"axes": ["surge"]}, headers=AUTH)
+    assert r.status_code == 409 and "emergency stop" in r.json()["detail"], r.text
+    assert client.post("/api/estop/ack", json={"note": "checked"}, headers=AUTH).status_code == 200
+    client.post("/api/queue/resume", headers=AUTH)

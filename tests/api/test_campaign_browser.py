@@ -1,0 +1,56 @@
+"""A campaign in real headless Chromium: started from the Queue page's Campaign card, its
+trail (each test, why, 2σ before → after) shown as it runs and its ending shown; a stop
+marker added from the Queue page."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.api.conftest import AUTH, signed_in_page, wait_job, wait_rig_free
+
+#: Slow lane like the other page tests; the rig in simulated time (paced), so a campaign's
+#: tows take seconds.
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
+
+
+def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(client, service):
+    from playwright.sync_api import expect
+
+    wait_rig_free(client)
+    with signed_in_page(service, client) as page:
+        errors: list[str] = []
+        page.on("pageerror", lambda err: errors.append(str(err)))
+        page.click("nav a[data-page=queue]")
+        expect(page.locator("#campaign-view")).to_contain_text("No campaign yet")
+        form = page.locator("#campaign-form")
+        form.locator("[name=axis-yaw]").uncheck()
+        form.locator("[name=max_runs]").fill("2")
+        form.locator("button[type=submit]").click()
+        expect(page.locator("#campaign-state")).to_have_text("running")
+        # while it runs: the test it queued, with the operator's acts and why
+        expect(page.locator("#campaign-pending")).to_contain_text("hang")
+        rows = page.locator("#campaign-trail tbody tr")
+        # the first booked run appears while the campaign still runs (live, no reload)
+        expect(rows).to_have_count(1, timeout=60_000)
+        expect(page.locator("#campaign-state")).to_have_text("running")
+        expect(rows.nth(0)).to_contain_text("rig tow --force")
+        expect(rows.nth(0)).to_contain_text("no fit yet")  # before the first run
+        expect(rows.nth(0)).to_contain_text("K_Q")  # 2σ after it
+        expect(rows).to_have_count(2, timeout=60_000)
+        expect(page.locator("#campaign-state")).to_have_text("completed", timeout=60_000)
+        expect(page.locator("#campaign-summary")).to_contain_text("2 of 2 runs")
+        job = client.get("/api/campaigns", headers=AUTH).json()[0]
+        assert [e["run_id"] for e in job["outcome"]["trail"]] == job["run_ids"]
+
+        # a stop marker from the page: shown in the queue, without an Edit button
+        client.post("/api/queue/pause", headers=AUTH)
+        page.click("#queue-marker")
+        marker = page.locator("#queue-list > li")
+        expect(marker).to_have_count(1)
+        expect(marker).to_contain_text("stop marker")
+        expect(marker.locator("button[data-act=edit]")).to_have_count(0)
+        marker.locator("button[data-act=remove]").click()
+        expect(marker).to_have_count(0)
+        client.post("/api/queue/resume", headers=AUTH)
+        assert errors == []
+    wait_job(client, job["id"])
