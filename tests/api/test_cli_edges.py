@@ -3,31 +3,27 @@ prefixes, missing files, unreachable ports): one ``error: …`` line on stderr, 
 a device or the run failed), never a traceback.
 
 Cases that reach a device, a port or the data folder run as real subprocesses; the others
-(bad ids, files and values: refused before anything opens) run ``main`` in this process
-with what a fresh process would print on stderr besides: an escaped exception's traceback,
-log records of WARNING and above (Python's last-resort handler) and warnings its default
-filters show. One interpreter start per case cost about 0.5 s of CPU (2 s importing SciPy)."""
+(bad ids, files and values: refused before anything opens) run in this process, answered
+as a fresh process would answer (tests/cli.py ``run_in_process``): one interpreter start per
+case cost about 0.5 s of CPU (2 s importing SciPy)."""
 
 from __future__ import annotations
 
 import importlib
 import json
-import logging
 import os
 import re
 import socket
 import subprocess
 import sys
-import traceback
-import warnings
 from pathlib import Path
 
 import click
 import pytest
-from click.testing import CliRunner
 
 from api.cli.main import COMMANDS, DEBUG_ENV, main
 from daq.store import Store
+from tests.cli import run_in_process
 from tests.store.helpers import new_run
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -241,35 +237,8 @@ def _in_subprocess(argv: list[str]) -> bool:
     return argv[0] in SUBPROCESS_COMMANDS or any(m in a for a in argv for m in SUBPROCESS_MARKS)
 
 
-def _run_in_process(args: list[str], env: dict[str, str], caplog) -> tuple[int, str, str]:
-    """``rig args`` through ``main`` here: (exit code, stdout, stderr as a fresh process
-    would print it: the command's own lines, then any traceback, log record of WARNING and
-    above, and warning Python's default filters show)."""
-    changes: dict[str, str | None] = {k: v for k, v in env.items() if os.environ.get(k) != v}
-    changes |= {k: None for k in os.environ if k not in env}
-    pymodbus = logging.getLogger("pymodbus")
-    level = pymodbus.level
-    caplog.clear()
-    try:
-        with warnings.catch_warnings(record=True) as shown, caplog.at_level(logging.WARNING):
-            warnings.resetwarnings()
-            warnings.simplefilter("default")
-            for quiet in (DeprecationWarning, PendingDeprecationWarning, ImportWarning):
-                warnings.filterwarnings("ignore", category=quiet)
-            warnings.filterwarnings("ignore", category=ResourceWarning)
-            result = CliRunner().invoke(main, args, env=changes, catch_exceptions=True)
-    finally:
-        pymodbus.setLevel(level)
-    extra = [f"{r.levelname}: {r.getMessage()}" for r in caplog.records]
-    extra += [f"{w.category.__name__}: {w.message}" for w in shown]
-    if result.exception is not None and not isinstance(result.exception, SystemExit):
-        assert result.exc_info is not None
-        extra.append("".join(traceback.format_exception(*result.exc_info)))
-    return result.exit_code, result.stdout, result.stderr + "".join(f"{x}\n" for x in extra)
-
-
 @pytest.mark.parametrize(("argv", "code", "expect"), CASES, ids=lambda v: None)
-def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect, monkeypatch, caplog):
+def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
     env = os.environ | {"RIG_DATABASE_URL": world["db"], "XDG_DATA_HOME": str(world["tmp"])}
     env.pop(DEBUG_ENV, None)
     args = []
@@ -288,10 +257,9 @@ def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect, monk
             timeout=60,
             stdin=subprocess.DEVNULL,
         )
-        returncode, out, err = proc.returncode, proc.stdout, proc.stderr
     else:
-        monkeypatch.chdir(world["tmp"])
-        returncode, out, err = _run_in_process(args, env, caplog)
+        proc = run_in_process(args, cwd=world["tmp"], env=env)
+    returncode, out, err = proc.returncode, proc.stdout, proc.stderr
     assert "Traceback" not in err + out, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), err
