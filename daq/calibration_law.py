@@ -20,18 +20,19 @@ from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw, identify_thrus
 SOURCES = ("imported", "run")
 
 
-#: Laws already identified, by (source, id): a stored calibration never changes.
-_LAWS: dict[tuple[str, int], ThrustLaw] = {}
+#: Laws already identified, by (database, source, id): a stored calibration never changes,
+#: but id 1 of another database is another calibration.
+_LAWS: dict[tuple[str, str, int], ThrustLaw] = {}
 _LAWS_KEPT = 16
 
 
-def _cached(source: str, key: int, build) -> ThrustLaw:
-    law = _LAWS.get((source, key))
+def _cached(store: Store, source: str, key: int, build) -> ThrustLaw:
+    law = _LAWS.get((store.url, source, key))
     if law is None:
         law = build()
         if len(_LAWS) >= _LAWS_KEPT:
             _LAWS.pop(next(iter(_LAWS)))
-        _LAWS[(source, key)] = law
+        _LAWS[(store.url, source, key)] = law
     return law
 
 
@@ -123,7 +124,9 @@ def law_of(
     except (CalibrationNotFound, ResultNotFound) as err:
         raise NoCalibration(str(err)) from None
     if imported is not None and (run is None or imported.created_at >= run.created_at):
-        law = _cached("imported", imported.id, lambda: identify_thrust_law(imported.data["table"]))
+        law = _cached(
+            store, "imported", imported.id, lambda: identify_thrust_law(imported.data["table"])
+        )
         return law, {
             "source": "imported",
             "id": imported.id,
@@ -132,7 +135,7 @@ def law_of(
         }
     if run is not None:
         rows, _ = _run_table(run.data.get("table", []))
-        law = _cached("run", run.id, lambda: identify_thrust_law(rows))
+        law = _cached(store, "run", run.id, lambda: identify_thrust_law(rows))
         short = run.run_ids[0][:8] if run.run_ids else str(run.id)
         return law, {
             "source": "run",

@@ -83,6 +83,7 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         self.count = cfg.count
         self._link = link or SerialLink(url, cfg.baudrate, cfg.ack_timeout_s)
         self._executor: ThreadPoolExecutor | None = None
+        self._inline = asyncio.Lock()  # a non-blocking link's frames, in turn
         self._seq = 0
         self.state = "UNKNOWN"
         #: An ARM was sent and no reply since has shown the controller DISARMED.
@@ -321,7 +322,10 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         if self._executor is None:
             raise ThrusterError(f"thruster driver for {self._link.url} is not open")
         if not self._link.blocking:  # an in-process link (simulated time): no thread
-            return fn(*args)
+            async with self._inline:  # one frame at a time, as on the link's one thread
+                result = fn(*args)
+                await self._link.wait_on_loop()  # a reply timeout: the loop runs on meanwhile
+            return result
         return await asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
 
     async def _transact(

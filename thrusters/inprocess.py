@@ -4,14 +4,14 @@
 the reply it gives back, classified exactly as ``SerialLink`` classifies a line read off
 the port (CRC, garbage, replies to other sequence numbers, NAKs). The driver calls it on
 the event loop (``blocking = False``), so the controller's watchdog and the driver run on
-one clock. A controller that does not answer (``silent``) costs the reply timeout as a
-blocking read would: ``stall(reply_timeout_s)`` (on simulated time ``SimClock.stall``: the
-loop's time moves on while nothing runs).
+one clock. A controller that does not answer (``silent``) costs the reply timeout, as a
+read on the link's thread would, waited on the event loop (``wait_on_loop``): the
+acquisition, the controller's watchdog and the rest of the loop run on meanwhile.
 """
 
 from __future__ import annotations
 
-import time
+import asyncio
 from collections.abc import Callable
 
 import serial
@@ -32,12 +32,12 @@ class InProcessLink(SerialLink):
         reply_timeout_s: float,
         *,
         clock: Callable[[], float],
-        stall: Callable[[float], None] = time.sleep,
         url: str = "inprocess://thrusters",
     ) -> None:
         super().__init__(url, 0, reply_timeout_s, clock=clock)
         self.controller = controller
-        self._stall = stall
+        #: Time the last ``transact`` owes its caller (s): the reply timeout when unanswered.
+        self.owed_s = 0.0
 
     def open(self) -> None:
         self._wanted = True
@@ -62,6 +62,11 @@ class InProcessLink(SerialLink):
             if reply is not None:
                 self.last_bracket = (t_sent, self._clock())
                 return reply
-        self._stall(self.reply_timeout_s)
+        self.owed_s = self.reply_timeout_s
         self.stats.timeouts += 1
         return None
+
+    async def wait_on_loop(self) -> None:
+        owed, self.owed_s = self.owed_s, 0.0
+        if owed:
+            await asyncio.sleep(owed)

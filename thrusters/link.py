@@ -109,6 +109,10 @@ class SerialLink:
             except (OSError, serial.SerialException) as err:
                 log.debug("thruster link: close failed: %s", err)
 
+    async def wait_on_loop(self) -> None:
+        """What a non-blocking link's last ``transact`` owes the caller in time (its reply
+        timeout), waited on the event loop; a blocking link waited in ``transact``."""
+
     def write_raw(self, raw: bytes) -> None:
         """Write bytes without waiting for anything (the at-exit fallback)."""
         if self._port is None:

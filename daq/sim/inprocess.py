@@ -9,7 +9,8 @@ same frames to ``ThrusterControllerEmulator.exchange`` (CRC, sequence numbers, w
 What is left out: framing bytes, transaction ids, reconnects and the time a request
 spends on the line (a reply comes back at the same simulated instant). Fault switches
 act as a client sees them: ``faults.drop``/``corrupt`` cost ``modbus.timeout_s`` and fail,
-``faults.delay_s`` over the timeout fails, a silent thruster controller gives no reply.
+``faults.delay_s`` over the timeout fails, a silent thruster controller gives no reply
+(the driver waits its reply timeout on the loop).
 
 ``open_inprocess_rig(rig, scenario, clock)`` gives the plant, the simulated devices and
 connected clients on ``clock`` (a ``daq.sim.simtime.SimClock`` in tests).
@@ -19,7 +20,6 @@ from __future__ import annotations
 
 import asyncio
 import inspect
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -187,9 +187,6 @@ def open_inprocess_rig(rig: RigConfig, scenario: Scenario | None, clock: Clock) 
     client = PlcClient(rig, clock=clock, transport=lambda: InProcessModbus(sim.plc, timeout_s))
     driver = None
     if sim.thrusters is not None and rig.thrusters is not None:
-        stall = getattr(clock, "stall", time.sleep)  # a reply timeout blocks the caller
-        link = InProcessLink(
-            sim.thrusters, rig.thrusters.ack_timeout_s, clock=clock.now, stall=stall
-        )
+        link = InProcessLink(sim.thrusters, rig.thrusters.ack_timeout_s, clock=clock.now)
         driver = ThrusterDriver(rig.thrusters, rig.limits, clock=clock.now, link=link)
     return InProcessRig(sim.plant, sim.plc, sim.thrusters, client, driver)

@@ -125,6 +125,19 @@ def simulated_service(source: RigSource, store_url: str, **options: Any) -> RigS
 
 
 @pytest.fixture(scope="module")
+def imports_in_a_thread() -> Iterator[None]:
+    """The module's CSV uploads imported in a worker thread, not a spawned child process
+    (``api.core.csv_upload``: each child starts an interpreter and imports NumPy and the
+    store, seconds of CPU). For modules where the import is incidental; the child's path is
+    tested by test_import_kinds_api.py, test_edge_limits.py and the browser tests."""
+    from api.core import csv_upload
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(csv_upload, "_shared", lambda url: False)
+        yield
+
+
+@pytest.fixture(scope="module")
 def client(service: RigService, tmp_path_factory) -> Iterator[TestClient]:
     app = create_app(
         service,

@@ -10,6 +10,8 @@ from fastapi.testclient import TestClient
 from api.http.app import create_app
 from tests.api.conftest import AUTH, TOKEN
 
+pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
+
 
 def test_health_needs_no_token_and_says_reads_are_protected(client):
     r = client.get("/api/health")

@@ -90,6 +90,7 @@ def _import_ship2d(rig: RigCli) -> str:
     return rig(*argv, "--drive-unit", "N").stdout.strip()
 
 
+@pytest.mark.slow  # a fit of the whole published record: the longest test of the fast lane
 def test_the_ship2d_record_never_ends_as_bad_input(tmp_path: Path) -> None:
     """The README's commands on the floating section: it estimates, or it fails as ours (exit
     1, one line naming what could not be fitted) — never exit 2 as if the user's input were

@@ -18,7 +18,7 @@ from tests.api.conftest import (
 )
 
 #: Slow lane: an extra browser page (tests/api/test_browser.py stays in the fast lane).
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
 def test_the_emergency_stop_button_works_without_a_token(client, service) -> None:

@@ -17,6 +17,8 @@ from tests.api.conftest import AUTH, wait_job
 from tests.cli import RigCli
 from tests.shared_data import shared_file
 
+pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
+
 CSV = {"Content-Type": "text/csv"}
 
 

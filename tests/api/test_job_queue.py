@@ -125,7 +125,8 @@ def test_queue_survives_kill_and_restart_reports_survive_a_clean_stop(db_url, tm
         wait_for(client, c["id"], lambda j: j["state"] != "queued")
         d = post_tow(client, tow(4.9, max_time_s=60))
         assert d["state"] == "queued" and d["position"] == 1
-        assert ended(client, c["id"])["state"] == "completed"
+        c_end = ended(client, c["id"])
+        assert c_end["state"] == "completed", c_end  # the job says why it did not
         running_d = wait_for(client, d["id"], lambda j: j["state"] == "running" and j["run_ids"])
         e = post_tow(client, tow(24.5))
         assert e["state"] == "queued"

@@ -13,6 +13,8 @@ from daq.store.people import UserRepository
 from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
 from tests.waiting import read_until
 
+pytestmark = pytest.mark.simtime
+
 
 @pytest.fixture(scope="module")
 def tokens(service, client) -> dict[str, dict[str, str]]:

@@ -5,7 +5,11 @@ and the same figure's SVG names its axes with units."""
 
 from __future__ import annotations
 
+import pytest
+
 from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page
+
+pytestmark = pytest.mark.simtime  # its two tows on the simulated rig (paced service)
 
 
 def test_estimation_page_shows_full_size_report_figures_with_units(client, service):

@@ -5,7 +5,11 @@ from __future__ import annotations
 
 from datetime import datetime, timedelta
 
+import pytest
+
 from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
+
+pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
 
 META = {"operator": "Åsa", "water_temperature_c": 18.5, "tags": ["fins-v2"], "ballast": "B3"}
 

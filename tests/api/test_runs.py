@@ -8,6 +8,8 @@ import pytest
 
 from tests.api.conftest import AUTH
 
+pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
+
 
 def test_list_runs_filters_by_kind_status_vehicle_and_date(client, tow_job):
     run_id = tow_job["run_ids"][0]

@@ -3,7 +3,11 @@ tow started from the page, stored on the run; operator remembered; a 422 shown b
 
 from __future__ import annotations
 
+import pytest
+
 from tests.api.conftest import AUTH, TOKEN, chromium_page
+
+pytestmark = pytest.mark.simtime  # the tow it starts, on the simulated rig (paced service)
 
 
 def test_a_tow_started_from_the_page_carries_the_run_metadata(live_url):

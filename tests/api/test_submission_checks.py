@@ -12,6 +12,8 @@ import pytest
 from api.core.job_requests import procedure_from_request
 from tests.api.conftest import AUTH, start_job, wait_job
 
+pytestmark = pytest.mark.simtime
+
 #: Five commands each way: the fewest a calibration fits; ~14 s on the simulated rig.
 QUICK_CALIBRATION = {
     "commands": [0, 0.2, 0.4, 0.6, 0.8],

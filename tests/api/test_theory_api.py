@@ -12,6 +12,8 @@ from click.testing import CliRunner
 from api.cli.theory import predict_added_mass, water
 from tests.api.conftest import AUTH
 
+pytestmark = pytest.mark.simtime  # the stored estimate comes from a tow (tow_job)
+
 
 def test_cli_flags_benbams_surge_added_mass():
     result = CliRunner().invoke(predict_added_mass, ["benbam", "--water-temp", "20"])

@@ -88,9 +88,10 @@ async def test_a_frozen_plc_scan_marks_samples_stale_by_name(server, plc):
     samples = await _collect(q, 35)  # 0.7 s; freshness_s is 0.5 s
     acq.stop()
     await runner
-    assert samples[0].quality == Quality.OK
+    # What the PLC's data says, without OVERRUN: a loaded host may skip a slot (the clock's).
+    assert samples[0].quality & ~Quality.OVERRUN == Quality.OK
     late = samples[-1]
-    assert late.quality == Quality.STALE
+    assert late.quality & ~Quality.OVERRUN == Quality.STALE
     assert late.stale == ("heartbeat", "plc_clock")
     assert not math.isnan(late.channels["heartbeat"])  # stale values are still reported
     assert not acq.device_lost.is_set()

@@ -19,6 +19,7 @@ from daq.config import load_rig, parse_rig
 from daq.procedures.kinds import KINDS, NotCapable, capabilities
 from daq.procedures.params import ParameterError
 from daq.procedures.sequence import parse_sequence
+from tests.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]
 BENBAM = ROOT / "fixtures/rigs/benbam.toml"
@@ -134,11 +135,8 @@ def test_the_cli_refuses_a_kind_the_rig_cannot_do_in_one_line_before_opening_any
         (["tow", "--thrusters", "--force", "5"], "tow with thrusters: needs a [thrusters]"),
         (["calibrate-thrusters"], "thrust_calibration: needs channel load_cell"),
     ):
-        result = subprocess.run(
-            [sys.executable, "-m", "api.cli.main", *args, "--rig", str(ENCODER_TOW),
-             "--db", f"sqlite:///{db}"],
-            capture_output=True, text=True, timeout=60, cwd=ROOT,
-        )  # fmt: skip
+        argv = [*args, "--rig", str(ENCODER_TOW), "--db", f"sqlite:///{db}"]
+        result = run_in_process(argv, cwd=ROOT, env=dict(os.environ))
         assert result.returncode == 2, result.stderr
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: rig 'Encoder tow rig' cannot do")
@@ -148,11 +146,8 @@ def test_the_cli_refuses_a_kind_the_rig_cannot_do_in_one_line_before_opening_any
 
 def test_rig_capabilities_lists_each_test_or_why_not():
     def run(*args: str) -> str:
-        done = subprocess.run(
-            [sys.executable, "-m", "api.cli.main", "capabilities", "--rig", str(ENCODER_TOW),
-             *args],
-            capture_output=True, text=True, timeout=60, cwd=ROOT,
-        )  # fmt: skip
+        argv = ["capabilities", "--rig", str(ENCODER_TOW), *args]
+        done = run_in_process(argv, cwd=ROOT, env=dict(os.environ))
         assert done.returncode == 0, done.stderr
         return done.stdout
 
@@ -175,10 +170,7 @@ def test_with_rig_file_set_once_help_lists_what_that_rig_cannot_do_and_commands_
         env = {k: v for k, v in os.environ.items() if k != "RIG_FILE"}
         if rig_file is not None:
             env["RIG_FILE"] = str(rig_file)
-        return subprocess.run(
-            [sys.executable, "-m", "api.cli.main", *args], env=env,
-            capture_output=True, text=True, timeout=60, cwd=ROOT,
-        )  # fmt: skip
+        return run_in_process(list(args), cwd=ROOT, env=env)
 
     assert "Not on the rig" not in rig("--help", rig_file=None).stdout  # BENBAM does it all
     listed = rig("--help", rig_file=ENCODER_TOW).stdout.split("Not on the rig of $RIG_FILE:")[1]

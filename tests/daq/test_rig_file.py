@@ -3,13 +3,13 @@ or binary file is one line naming the file (library and CLI)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
+import os
 from pathlib import Path
 
 import pytest
 
 from daq.config import RigConfigError, load_rig
+from tests.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]
 BENBAM = ROOT / "fixtures/rigs/benbam.toml"
@@ -54,11 +54,16 @@ def test_the_cli_reports_a_binary_or_unreadable_rig_file_without_a_traceback(tmp
     folder = tmp_path / "a-folder.toml"
     folder.mkdir()
     for path, says in ((binary, "not UTF-8 text"), (folder, "cannot read rig file")):
-        result = subprocess.run(
-            [sys.executable, "-m", "api.cli.main", "tow", "--force", "5", "--rig", str(path),
-             "--db", f"sqlite:///{tmp_path / 'rig.db'}"],
-            capture_output=True, text=True, timeout=60, cwd=ROOT,
-        )  # fmt: skip
+        argv = [
+            "tow",
+            "--force",
+            "5",
+            "--rig",
+            str(path),
+            "--db",
+            f"sqlite:///{tmp_path / 'rig.db'}",
+        ]
+        result = run_in_process(argv, cwd=ROOT, env=dict(os.environ))  # refused before opening
         assert result.returncode == 2, result.stderr
         assert str(path) in result.stderr and says in result.stderr
         assert "Traceback" not in result.stderr

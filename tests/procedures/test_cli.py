@@ -1,4 +1,5 @@
-"""The `rig` CLI as an operator uses it: real subprocesses, real signals, a temp database."""
+"""The `rig` CLI as an operator uses it: runs recorded by real subprocesses, real signals, a
+temp database; the store's commands on them in this process (``rig`` below)."""
 
 from __future__ import annotations
 
@@ -16,13 +17,21 @@ import pytest
 import xarray as xr
 
 from daq.store import Store
+from tests.cli import run_in_process
 from tests.waiting import wait_until
 
 RIG = [sys.executable, "-m", "api.cli.main"]
 ROOT = Path(__file__).resolve().parents[2]
 
 
+#: Commands that drive the rig: real subprocesses here. The store's commands (runs, show,
+#: export, import, estimate) run in this process as a fresh one would (tests/cli.py).
+DRIVING = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "serve", "sim")
+
+
 def rig(*args: str, db: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    if args[0] not in DRIVING:
+        return run_in_process([*args, "--db", db], cwd=ROOT, env=dict(os.environ))
     return subprocess.run(
         [*RIG, *args, "--db", db], capture_output=True, text=True, timeout=timeout, cwd=ROOT
     )

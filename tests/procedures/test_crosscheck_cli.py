@@ -1,4 +1,5 @@
-"""`rig crosscheck` and `rig tow --thrusters` as an operator runs them (real subprocesses)."""
+"""`rig crosscheck` and `rig tow --thrusters` as an operator runs them (the tows as real
+subprocesses, the cross-check of stored runs in this process: tests/procedures/test_cli.py)."""
 
 from __future__ import annotations
 

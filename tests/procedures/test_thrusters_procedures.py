@@ -11,8 +11,11 @@ import pytest
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError, calibration_parameters, spin_parameters
+from daq.sample import Quality
+from tests.procedures.conftest import until_thrust_on
 from tests.readings import good
 from tests.waiting import until
+from thrusters.driver import LINK_LOST_AFTER
 
 pytestmark = pytest.mark.simtime
 
@@ -83,6 +86,37 @@ async def test_calibration_then_thruster_spin(session, store):
     # send's bracket: every interval ending 3σ of it before the release holds zero.
     ends = np.append(data.t[1:], np.inf)
     assert data.drive[ends < data.t_release - 3 * data.t_release_std].max() == 0.0
+
+
+async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(session, store):
+    """The thruster link supervision covers the calibration too: the controller stops
+    answering mid-sweep, the run ends aborted naming the lost link, nothing is fitted, and
+    the controller's outputs are zero by its own watchdog (it hears nothing, the host's zero
+    included), all in simulated time: each unanswered frame costs the reply timeout."""
+    params = calibration_parameters(
+        {"commands": [0.0, 0.3, 0.6], "settle_s": 2.0, "samples_per_step": 3, "tare_samples": 5},
+        session.rig,
+    )
+    task = asyncio.create_task(run_thrust_calibration(session, params))
+    await until_thrust_on(session, timeout_s=10)
+    emulator = session.sim.thrusters
+    emulator.silent = True
+    muted = session.clock.now()
+    outcome, calibration = await asyncio.wait_for(task, 10)
+    assert emulator.outputs == [0.0, 0.0] and emulator.stats.watchdog_trips == 1
+    emulator.silent = False
+    assert outcome.status == "aborted" and calibration is None
+    assert outcome.reason.startswith(f"thruster link lost: {LINK_LOST_AFTER} consecutive replies")
+    assert store.get_run(outcome.run_id).reason == outcome.reason
+    # Seen within one heartbeat (10 Hz) and LINK_LOST_AFTER reply timeouts of simulated
+    # time (thrusters/driver.py, LINK_LOST_AFTER): the loop ran on while replies were awaited.
+    (fault,) = [e.data for e in store.events(outcome.run_id) if e.kind == "fault"]
+    bound = 0.1 + LINK_LOST_AFTER * session.rig.thrusters.ack_timeout_s
+    assert 0 < fault["t_detected"] - muted <= bound + 1e-9
+    # Waiting for replies never held up the clock: no slot skipped, none late.
+    seqs = store.samples(outcome.run_id).seq
+    assert list(seqs) == list(range(seqs[0], seqs[0] + len(seqs)))
+    assert not any(store.samples(outcome.run_id).quality & Quality.OVERRUN)
 
 
 @pytest.mark.slow

@@ -1,9 +1,8 @@
 """Procedures over the real wire, in real time: a PLC lost mid-run over Modbus TCP (the
 server stops and returns on its port: the run aborts with its samples kept and the client
 reconnects); thrust steps timed by the thruster link's thread while the event loop is
-blocked; a thruster controller that falls silent mid-calibration (the real driver waits for
-replies on the link's thread, which the in-process link cannot). The other procedure tests
-run in process on simulated time."""
+blocked. The other procedure tests run in process on simulated time (a silent thruster
+controller too: test_thrusters_procedures.py)."""
 
 from __future__ import annotations
 
@@ -12,14 +11,11 @@ import time
 
 import numpy as np
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.params import tow_parameters
 from daq.sample import Quality
-from tests.procedures.conftest import until_thrust_on
 from tests.progress_log import ProgressLog
 from tests.waiting import until
-from thrusters.driver import LINK_LOST_AFTER
 
 
 async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, store):
@@ -75,24 +71,3 @@ async def test_thrust_steps_are_timed_by_the_link_not_by_a_late_event_loop(sessi
         assert during[0].t_acked - during[0].t_sent < 0.1  # not the 0.3 s the loop was away
     finally:
         await session.disarm_thrusters()
-
-
-async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(session, store):
-    """The thruster link supervision covers the calibration too: the controller stops
-    answering mid-sweep, the run ends aborted naming the lost link, nothing is fitted, and
-    the controller's outputs are zero (its watchdog, as it hears nothing)."""
-    params = calibration_parameters(
-        {"commands": [0.0, 0.3, 0.6], "settle_s": 2.0, "samples_per_step": 3, "tare_samples": 5},
-        session.rig,
-    )
-    task = asyncio.create_task(run_thrust_calibration(session, params))
-    await until_thrust_on(session, timeout_s=10)
-    session.sim.call(lambda sim: setattr(sim.thrusters, "silent", True))
-    try:
-        outcome, calibration = await asyncio.wait_for(task, 10)
-        assert session.sim.thrusters.outputs == [0.0, 0.0]
-    finally:
-        session.sim.call(lambda sim: setattr(sim.thrusters, "silent", False))
-    assert outcome.status == "aborted" and calibration is None
-    assert outcome.reason.startswith(f"thruster link lost: {LINK_LOST_AFTER} consecutive replies")
-    assert store.get_run(outcome.run_id).reason == outcome.reason

@@ -100,3 +100,25 @@ def test_an_imported_t200_table_keeps_its_stand_channels(store):
     assert newest is not None
     full = max(newest["data"]["table"], key=lambda r: r["command"])
     assert full["current_a"] == pytest.approx(23.83) and full["power_w"] == pytest.approx(381.28)
+
+
+def test_the_same_calibration_id_in_two_databases_is_two_laws(tmp_path):
+    """A process that opens two databases (a test worker, a CLI run in process) must not
+    answer one's calibration 1 with the other's: the law cache is per database."""
+    from daq.store import Store
+
+    with Store(f"sqlite:///{tmp_path / 'a.db'}") as a, Store(f"sqlite:///{tmp_path / 'b.db'}") as b:
+        _, first = _measured(a)
+        run_id = new_run(b, kind="calibration", parameters={}, channel_names=["load_cell"])
+        b.finish_run(run_id, "completed")
+        halved = [
+            row | {"thrust_per_thruster_n": row["thrust_per_thruster_n"] / 2}
+            for row in MEASURED_TABLE
+        ]
+        second = b.add_result([run_id], "calibration", {"table": halved})
+        assert first == second  # each database's first result
+        law_a, _ = law_of(a, "run", first)
+        law_b, _ = law_of(b, "run", second)
+        assert law_b.estimate(0.6, 15.8).value == pytest.approx(
+            law_a.estimate(0.6, 15.8).value / 2, rel=1e-6
+        )

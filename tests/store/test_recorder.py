@@ -141,7 +141,9 @@ async def test_a_locked_sqlite_database_never_stalls_the_event_loop(tmp_path) ->
     await ticker
     await recorder.close()
     await flusher
-    assert max(lags) < 0.1, f"event loop stalled for {max(lags):.3f} s"
+    # A flush on the loop would block it until SQLite's busy timeout (10 s): the lock is only
+    # released by the ticker. Half that bounds a loaded host's scheduling, not the rule.
+    assert max(lags) < 5.0, f"event loop stalled for {max(lags):.3f} s"
     assert store.sample_count(run_id) == 80
     assert recorder.stats.max_flush_s >= 0.3  # the flush really did wait on the lock
     store.close()
