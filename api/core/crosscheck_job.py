@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from api.core.estimation_job import run_estimation
+from api.core.rig_envelope import envelope_of_runs
 from daq.store import ResultNotFound, RunNotFound, Store
 from daq.store.run_events import RunEvents
 from estimation.axis.crosscheck import cross_check
@@ -90,7 +91,12 @@ def crosscheck_results(
 
     weight = _estimation(store, weight_result_id, "weight_result_id")
     thrusters = _estimation(store, thruster_result_id, "thruster_result_id")
-    check = cross_check(weight, thrusters, supply_voltage_v=supply_voltages(store, thrusters))
+    check = cross_check(
+        weight,
+        thrusters,
+        supply_voltage_v=supply_voltages(store, thrusters),
+        envelope=envelope_of_runs(store, [*weight.get("runs", []), *thrusters.get("runs", [])]),
+    )
     data = check.to_json()
     if report_dir is not None:
         data["report_files"] = [str(p) for p in write_crosscheck_report(check, Path(report_dir))]

@@ -51,6 +51,8 @@ from estimation.axis.crosscheck_comparison import (
 from estimation.axis.effects import EFFECTS
 from estimation.axis.estimate import SEPARABILITY_LIMIT
 from estimation.axis.set_separability import SetSeparability, damping_at, separability
+from estimation.design.advice import separating_load
+from estimation.design.envelope import RigEnvelope
 
 
 @dataclass(frozen=True)
@@ -184,13 +186,15 @@ def cross_check(
     thruster_result: dict[str, Any],
     *,
     supply_voltage_v: dict[str, float | None] | None = None,
+    envelope: RigEnvelope | None = None,
 ) -> CrossCheck:
     """Compare two stored estimation results of one axis (weight- vs thruster-driven).
 
     ``supply_voltage_v``: optional ``{"calibration": V, "runs": V}`` (mean supply voltage
     during the thrust calibration and while the thruster-driven runs drove), quoted when
-    the diagnosis points at the calibration. Raises ``ValueError`` naming the field when a
-    document is not an estimation result or the axes differ.
+    the diagnosis points at the calibration. ``envelope``: the rig's tests (the planner's,
+    ``estimation.design``), so advice names a run the rig can make. Raises ``ValueError``
+    naming the field when a document is not an estimation result or the axes differ.
     """
     _check("weight_result", weight_result)
     _check("thruster_result", thruster_result)
@@ -202,7 +206,9 @@ def cross_check(
         )
     supply = dict(supply_voltage_v or {})
     sep = {"weight": separability(weight_result), "thruster": separability(thruster_result)}
-    reasons = [_undecided_reason(side, s, axis) for side, s in sep.items() if not s.separable]
+    reasons = [
+        _undecided_reason(side, s, axis, envelope) for side, s in sep.items() if not s.separable
+    ]
     comparisons = []
     for name in COEFFICIENTS:
         w, sw = _value_std(weight_result, name)
@@ -298,8 +304,11 @@ def cross_check(
     )
 
 
-def _undecided_reason(side: str, sep: SetSeparability, axis: str) -> str:
-    """Why one set cannot decide K_L and K_Q, and which run would."""
+def _undecided_reason(
+    side: str, sep: SetSeparability, axis: str, envelope: RigEnvelope | None = None
+) -> str:
+    """Why one set cannot decide K_L and K_Q, and which run would: the planner's separating
+    load when the rig's ``envelope`` is known (never beyond its limits or calibration)."""
     force, unit = ("force", "N") if axis == "surge" else ("torque", "N·m")
     run = {
         ("weight", "surge"): "a weight run",
@@ -308,6 +317,18 @@ def _undecided_reason(side: str, sep: SetSeparability, axis: str) -> str:
         ("thruster", "yaw"): "a thruster spin",
     }[(side, axis)]
     rho = f"ρ = {sep.rho:+.4f}" if sep.rho is not None else "ρ not stored"
+    if envelope is not None and sep.drive is not None:
+        drive = "weight" if side == "weight" else "thrusters"
+        test = separating_load(axis, [sep.drive], envelope, drive)
+        if test is None:
+            return (
+                f"the {side} set's drive levels do not separate K_L from K_Q ({rho}) and the "
+                f"rig offers no {force} clearly different within its limits and calibration"
+            )
+        return (
+            f"the {side} set's drive levels do not separate K_L from K_Q ({rho}): add {run} "
+            f"at {test.load:.4g} {unit}: run `{test.command}`"
+        )
     if sep.one_level:
         now = f" ≈ {sep.drive:.3g} {unit}" if sep.drive is not None else ""
         return (

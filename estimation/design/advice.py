@@ -16,13 +16,17 @@ from estimation.design.envelope import Candidate, RigEnvelope
 
 
 def separating_load(
-    axis: str, used: Sequence[float], envelope: RigEnvelope | None
+    axis: str,
+    used: Sequence[float],
+    envelope: RigEnvelope | None,
+    drive: str = "weight",
 ) -> Candidate | None:
-    """The forward weight load the rig offers furthest (in ratio) from every ``used`` |load|;
-    None without an envelope or when it offers none clearly different (ratio < 1.5)."""
+    """The forward load (driven by ``drive``: weight | thrusters) the rig offers furthest
+    (in ratio) from every ``used`` |load|; None without an envelope or when it offers none
+    clearly different (ratio < 1.5)."""
     if envelope is None or not used:
         return None
-    offered = [c for c in envelope.candidates(axis) if c.load > 0 and c.drive == "weight"]
+    offered = [c for c in envelope.candidates(axis) if c.load > 0 and c.drive == drive]
     if not offered:
         return None
     mags = np.abs(np.asarray(used, dtype=float))

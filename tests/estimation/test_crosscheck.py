@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 from estimation import estimate
 from estimation.axis.crosscheck import _effects, cross_check
 from estimation.axis.crosscheck_report import markdown, write_crosscheck_report
+from estimation.design.envelope import AxisEnvelope, RigEnvelope
 from estimation.thrust.curve import ThrustCurve
 from estimation.thrust.drive import curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set
@@ -273,3 +275,20 @@ def test_a_term_inseparable_from_k_l_is_an_ambiguous_effect_and_k_l_is_not_one()
     found = _effects(doc)
     assert set(found) == {"coulomb_friction", "constant_bias"}
     assert found["coulomb_friction"] == 3.0 and np.isnan(found["constant_bias"])
+
+
+def test_with_the_rigs_envelope_the_undecided_advice_is_a_thruster_tow_the_rig_can_run(
+    weight_doc,
+):
+    """The planner's envelope (estimation.design) replaces "0.25× or 4× the current": the
+    thruster tow it names is inside the calibrated range (here −20…48 N, so 4× 36 N = 144 N
+    would be beyond it), clearly different from 36 N, and given as a command."""
+    phys = Physics(*SURGE_TRUTH)
+    thrusters = _thrusters(phys, (36.0,))
+    surge = AxisEnvelope("surge", 100.0, 5.5, 5.3, max_rate=1.0, thruster_range=(-20.0, 48.0))
+    check = cross_check(weight_doc, thrusters, envelope=RigEnvelope((surge,), g=9.8))
+    reason = check.to_json()["coefficients"]["linear_damping"]["reason"]
+    (force,) = [float(x) for x in re.findall(r"rig tow --force (-?[0-9.]+) --thrusters", reason)]
+    assert 0 < force <= 48.0
+    assert max(force / 36.0, 36.0 / force) >= 1.5
+    assert "4×" not in reason
