@@ -295,14 +295,14 @@ def _not_on_this_rig() -> list[tuple[str, str]]:
     if not path:
         return []
     from daq.config import RigConfigError, load_rig
-    from daq.procedures.kinds import KINDS
+    from daq.procedures.kinds import RIG_KINDS
 
     try:
         rig = load_rig(path)
     except RigConfigError as err:
         return [(RIG_FILE_ENV, _one_line(err))]
     rows = []
-    for spec in KINDS.values():
+    for spec in RIG_KINDS.values():
         can = spec.capability(rig)  # with any of its drives
         if not can.available:
             rows.append((spec.command, str(can.reason)))

@@ -40,7 +40,7 @@ from api.core.queue_edits import QueueEdits
 from api.core.rig_guard import RigGuard, latching_stop
 from api.core.service import RigService
 from daq.operator import OperatorAct
-from daq.procedures.kinds import KINDS
+from daq.procedures.kinds import KINDS, RIG_KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
@@ -56,7 +56,7 @@ log = logging.getLogger(__name__)
 ACTIVE = JOB_ACTIVE
 FINAL = JOB_FINAL
 #: Jobs that hold the rig: one per run kind, and sequences of them.
-PROCEDURES = (*KINDS, "sequence")
+PROCEDURES = (*RIG_KINDS, "sequence")
 #: Ended jobs kept in memory (all of them stay in the database).
 KEEP_ENDED = 500
 #: Jobs that may wait in the rig's queue: the one registry a client could otherwise grow

@@ -20,8 +20,10 @@ from typing import TYPE_CHECKING, Any, cast
 
 from daq.operator import OperatorAct
 from daq.procedures.current_cutoff import current_over_limit
-from daq.procedures.params import ParameterError, Progress, SpinParameters, TowParameters
+from daq.procedures.params import ParameterError, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.procedures.steps import (
     SPIN,
     TOW,
