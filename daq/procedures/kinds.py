@@ -277,6 +277,14 @@ RIG_KINDS: dict[str, KindSpec] = {k: s for k, s in KINDS.items() if s.request is
 IMPORT_KINDS: dict[str, KindSpec] = {k: s for k, s in KINDS.items() if s.imports is not None}
 
 
+def all_methods() -> tuple[str, ...]:
+    """Every estimation method some kind's estimator takes (``rig estimate --method``,
+    ``POST /api/jobs/estimation``), each once; which kind takes which is checked per run."""
+    return tuple(
+        dict.fromkeys(m for s in KINDS.values() if s.estimator for m in s.estimator.methods)
+    )
+
+
 def describe_kinds() -> list[dict[str, Any]]:
     """Every kind as ``GET /api/kinds`` serves it: its labels, the JSON Schema of its start
     request (``null``: the rig does not run it), its command and route, its estimation

@@ -19,12 +19,6 @@ from typing import TYPE_CHECKING, Any, overload
 
 if TYPE_CHECKING:
     from daq.config import RigConfig
-    from daq.procedures.requests import (
-        CalibrationRequest,
-        PendulumRequest,
-        SpinRequest,
-        TowRequest,
-    )
 
 #: Most steps one sequence may list (``repeats`` multiplies them, at most 100).
 MAX_SEQUENCE_STEPS = 100
@@ -195,34 +189,6 @@ def adjustment(requested: dict[str, float] | None, mass_kg: float | None, load: 
         f"{name} {value:g} {_UNITS.get(name, '')} asked for; weights hang to the gram, so "
         f"{mass_kg:.3f} kg is hung and the run applies {load}"
     )
-
-
-def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowRequest:
-    """A tow request checked against ``rig`` (``TowRequest.checked``)."""
-    from daq.procedures.requests import TowRequest
-
-    return TowRequest.checked(raw, rig)
-
-
-def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinRequest:
-    """A spin request checked against ``rig`` (``SpinRequest.checked``)."""
-    from daq.procedures.requests import SpinRequest
-
-    return SpinRequest.checked(raw, rig)
-
-
-def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationRequest:
-    """A thrust-calibration request checked against ``rig``."""
-    from daq.procedures.requests import CalibrationRequest
-
-    return CalibrationRequest.checked(raw, rig)
-
-
-def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumRequest:
-    """A pendulum free-decay request checked against the rig file's ``[pendulum]``."""
-    from daq.procedures.requests import PendulumRequest
-
-    return PendulumRequest.checked(raw, rig)
 
 
 @dataclass(frozen=True)

@@ -52,7 +52,11 @@ __all__ = [
     "TowRequest",
     "_ProcedureRequest",
     "_Strict",
+    "calibration_parameters",
     "comma_separated_floats",
+    "pendulum_parameters",
+    "spin_parameters",
+    "tow_parameters",
 ]
 
 THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
@@ -371,3 +375,23 @@ def _command(name: str, value: float, most: float) -> float:
     checked = p.in_range(name, value, low=0, high=most, unit=unit, low_inclusive=True, why_high=why)
     assert checked is not None
     return checked
+
+
+def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowRequest:
+    """A tow request checked against ``rig`` (``TowRequest.checked``)."""
+    return TowRequest.checked(raw, rig)
+
+
+def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinRequest:
+    """A spin request checked against ``rig`` (``SpinRequest.checked``)."""
+    return SpinRequest.checked(raw, rig)
+
+
+def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationRequest:
+    """A thrust-calibration request checked against ``rig``."""
+    return CalibrationRequest.checked(raw, rig)
+
+
+def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumRequest:
+    """A pendulum free-decay request checked against the rig file's ``[pendulum]``."""
+    return PendulumRequest.checked(raw, rig)

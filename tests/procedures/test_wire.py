@@ -14,7 +14,7 @@ import numpy as np
 
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.requests import calibration_parameters, tow_parameters
 from daq.sample import Quality
 from tests.procedures.conftest import until_thrust_on
 from tests.progress_log import ProgressLog
