@@ -33,6 +33,7 @@ from api.http.routes import calibration as routes_calibration
 from api.http.routes import crosscheck as routes_crosscheck
 from api.http.routes import imports as routes_imports
 from api.http.routes import jobs as routes_jobs
+from api.http.routes import kinds as routes_kinds
 from api.http.routes import people as routes_people
 from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
@@ -228,6 +229,7 @@ def create_app(
     app.add_middleware(SecurityHeaders)  # outermost: on every answer, 413s included
     for module in (
         routes_rig,
+        routes_kinds,
         routes_crosscheck,
         routes_jobs,
         routes_people,

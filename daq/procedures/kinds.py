@@ -17,12 +17,16 @@ decay) is one entry with its estimator and import rules.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
+from pydantic import BaseModel
+
 from daq.capabilities import Capability, Needs, capability
 from daq.config import PENDULUM_CHANNELS
+from daq.decay import DECAY, DECAY_IMPORT
 from daq.estimators import AXIS, PENDULUM, Estimator
 from daq.import_rules import ImportRules, drive_plan, pendulum_plan
 from daq.procedures import requests
@@ -268,6 +272,14 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             report=_calibration_report,
             needs=Needs(channels=("load_cell",), thrusters=True),
         ),
+        KindSpec(
+            kind=RunKind.DECAY,
+            label="free decay",
+            help="Free decay: a body released from an offset in one degree of freedom "
+            "(imported: rig import FILE --kind decay --dof heave).",
+            estimator=DECAY,
+            imports=DECAY_IMPORT,
+        ),
     )
 }
 
@@ -275,6 +287,15 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
 RIG_KINDS: dict[str, KindSpec] = {k: s for k, s in KINDS.items() if s.request is not None}
 #: The kinds a CSV may be imported as (``rig import --kind``, ``POST /api/runs/import``).
 IMPORT_KINDS: dict[str, KindSpec] = {k: s for k, s in KINDS.items() if s.imports is not None}
+
+
+@functools.cache
+def import_fields() -> type[BaseModel]:
+    """One model holding every importable kind's own import fields (a free decay's
+    ``dof``): the ``rig import`` options and the HTTP import's query parameters. Which kind
+    takes which is its import rule's check."""
+    models = [s.imports.fields for s in IMPORT_KINDS.values() if s.imports and s.imports.fields]
+    return type("ImportFields", (*models, BaseModel), {"__doc__": import_fields.__doc__})
 
 
 def all_methods() -> tuple[str, ...]:
