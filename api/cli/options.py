@@ -73,7 +73,7 @@ def _click_type(info: FieldInfo, flag: Flag) -> Any:
     return str
 
 
-def request_options(model: type[BaseModel]) -> Callable[[click.Command], click.Command]:
+def request_options(model: type[BaseModel]) -> Callable[[Any], Any]:
     """A decorator adding one option per flagged field of ``model`` (in field order)."""
     options = []
     for name, info in model.model_fields.items():

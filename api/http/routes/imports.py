@@ -94,7 +94,7 @@ async def import_run(
     store: StoreDep,
     service: ServiceDep,
     kind: Annotated[
-        ImportKind | None,
+        ImportKind | None,  # type: ignore[valid-type]  # the registry's import kinds
         Query(description="What the CSV recorded (default: what a towrig export's header says)."),
     ] = None,
     force_n: Annotated[
