@@ -123,10 +123,12 @@ class _ProcedureRequest(_Strict):
 Drive = Literal["weight", "thrusters"]
 MaxTime = Annotated[
     float | None,
-    Field(description="Stop after this many seconds (default 120)."),
+    Field(title="Max time (s)", description="Stop after this many seconds (default 120)."),
     Flag("--max-time"),
 ]
-Baseline = Annotated[float, Field(description="Pre-trigger baseline, s."), Flag("--baseline")]
+Baseline = Annotated[
+    float, Field(title="Baseline (s)", description="Pre-trigger baseline, s."), Flag("--baseline")
+]
 
 
 class _SignedLoad(_ProcedureRequest):

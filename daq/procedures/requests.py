@@ -73,22 +73,27 @@ class TowRequest(_SignedLoad):
     force_n: Annotated[
         float | None,
         Field(
+            title="Force (N)",
             description="Towing force in N, 0 < |F| ≤ the rig's max_force_n; negative: a "
-            "reverse tow from the far end (far-end pulley, or thrusters turned round)."
+            "reverse tow from the far end (far-end pulley, or thrusters turned round).",
         ),
         Flag("--force"),
     ] = None
     weight_kg: Annotated[
         float | None,
         Field(
+            title="or hung weight (kg)",
             description="Hung weight in kg (force = weight × the rig's g); negative: hung on "
-            "the far-end pulley (a reverse tow)."
+            "the far-end pulley (a reverse tow).",
         ),
         Flag("--weight"),
     ] = None
     drive: Annotated[
         Drive,
-        Field(description="weight: a hung weight pulls; thrusters: the calibrated thrusters."),
+        Field(
+            title="Drive",
+            description="weight: a hung weight pulls; thrusters: the calibrated thrusters.",
+        ),
         Flag(
             "--thrusters", "thrusters", "Drive the force with the calibrated thrusters (no weight)."
         ),
@@ -96,8 +101,9 @@ class TowRequest(_SignedLoad):
     max_distance_m: Annotated[
         float | None,
         Field(
+            title="Max distance (m)",
             description="Stop after this many metres (default: end of travel; a reverse tow: "
-            "its room back to the start)."
+            "its room back to the start).",
         ),
         Flag("--max-distance"),
     ] = None
@@ -153,27 +159,35 @@ class SpinRequest(_SignedLoad):
     torque_nm: Annotated[
         float | None,
         Field(
+            title="Torque (N·m)",
             description="Torque in N·m, 0 < |τ| ≤ the rig's max_torque_nm; negative: a reverse "
-            "spin (cord wound the other way, or thrusters turned round)."
+            "spin (cord wound the other way, or thrusters turned round).",
         ),
         Flag("--torque"),
     ] = None
     weight_kg: Annotated[
         float | None,
         Field(
+            title="or weight on drum (kg)",
             description="Weight on the drum in kg (τ = weight × g × drum radius); negative: "
-            "the cord wound the other way (a reverse spin)."
+            "the cord wound the other way (a reverse spin).",
         ),
         Flag("--weight"),
     ] = None
     drive: Annotated[
         Drive,
-        Field(description="weight: a weight on the drum turns; thrusters: the thrusters."),
+        Field(
+            title="Drive",
+            description="weight: a weight on the drum turns; thrusters: the thrusters.",
+        ),
         Flag("--thrusters", "thrusters", "Drive the torque with the calibrated thrusters."),
     ] = "weight"
     max_angle_rad: Annotated[
         float | None,
-        Field(description="Stop after this angle, rad (default: cord length)."),
+        Field(
+            title="Max angle (rad)",
+            description="Stop after this angle, rad (default: cord length).",
+        ),
         Flag("--max-angle"),
     ] = None
     max_time_s: MaxTime = None
@@ -226,14 +240,18 @@ class PendulumRequest(_ProcedureRequest):
     start_angle_rad: Annotated[
         float | None,
         Field(
+            title="Start angle (rad)",
             description="Start angle, rad (0 < φ₀ ≤ the rig file's pendulum max_angle_rad); "
-            "required."
+            "required.",
         ),
         Flag("--angle"),
     ] = None
     stop_amplitude_rad: Annotated[
         float,
-        Field(description="Stop once the amplitude over the last full cycle is below this, rad."),
+        Field(
+            title="Stop below amplitude (rad)",
+            description="Stop once the amplitude over the last full cycle is below this, rad.",
+        ),
         Flag("--stop-amplitude"),
     ] = 0.005
     max_time_s: MaxTime = None
@@ -293,6 +311,7 @@ class CalibrationRequest(_ProcedureRequest):
     commands: Annotated[
         list[float] | None,
         Field(
+            title="Commands (fractions, comma separated)",
             max_length=MAX_CALIBRATION_COMMANDS,
             description=f"Command fractions, 0 ≤ c ≤ the rig's max_thruster_command, at most "
             f"{MAX_CALIBRATION_COMMANDS} (default {_SWEEP}); swept up then down, then reversed.",
@@ -300,19 +319,21 @@ class CalibrationRequest(_ProcedureRequest):
         Flag("--commands", metavar="LIST", parse=comma_separated_floats),
     ] = None
     settle_s: Annotated[
-        float, Field(description="Settling time per step, s."), Flag("--settle")
+        float, Field(title="Settle (s)", description="Settling time per step, s."), Flag("--settle")
     ] = 1.0
     samples_per_step: Annotated[
-        int, Field(description="Samples averaged per step."), Flag("--samples")
+        int,
+        Field(title="Samples per step", description="Samples averaged per step."),
+        Flag("--samples"),
     ] = 10
     tare_samples: Annotated[
         int,
-        Field(description="Samples averaged for the load cell's zero."),
+        Field(title="Tare samples", description="Samples averaged for the load cell's zero."),
         Flag("--tare-samples"),
     ] = 20
     reverse: Annotated[
         bool,
-        Field(description="Also sweep the thrusters in reverse."),
+        Field(title="also reverse thrust", description="Also sweep the thrusters in reverse."),
         Flag("--no-reverse", False, "Forward sweep only."),
     ] = True
 
@@ -354,44 +375,25 @@ class CalibrationRequest(_ProcedureRequest):
             raise ParameterError(problems)
         return sorted(good if 0.0 in good else [*good, 0.0])
 
-    @field_validator("settle_s", "samples_per_step", "tare_samples", "reverse")
+    @field_validator("settle_s", "samples_per_step", "tare_samples")
     @classmethod
-    def _steps(cls, value: Any, info: ValidationInfo) -> Any:
+    def _steps(cls, value: float, info: ValidationInfo) -> float:
         if rig_of(info) is None:
             return value
         name = str(info.field_name)
         if name == "settle_s":
             return p.in_range(name, value, low=0, high=30, unit="s", low_inclusive=True)
-        if name == "reverse":
-            return value
-        return int(
-            p.in_range(name, value, low=1, high=1000, unit="samples", low_inclusive=True) or 0
-        )
+        return int(p.in_range(name, value, low=1, high=1000, unit="samples", low_inclusive=True))
 
 
 def _command(name: str, value: float, most: float) -> float:
     """One command of a sweep: a fraction 0 … the rig's ``max_thruster_command``."""
     unit, why = "(fraction of full thrust)", ", rig limit max_thruster_command"
-    checked = p.in_range(name, value, low=0, high=most, unit=unit, low_inclusive=True, why_high=why)
-    assert checked is not None
-    return checked
+    return p.in_range(name, value, low=0, high=most, unit=unit, low_inclusive=True, why_high=why)
 
 
-def tow_parameters(raw: dict[str, Any], rig: RigConfig) -> TowRequest:
-    """A tow request checked against ``rig`` (``TowRequest.checked``)."""
-    return TowRequest.checked(raw, rig)
-
-
-def spin_parameters(raw: dict[str, Any], rig: RigConfig) -> SpinRequest:
-    """A spin request checked against ``rig`` (``SpinRequest.checked``)."""
-    return SpinRequest.checked(raw, rig)
-
-
-def calibration_parameters(raw: dict[str, Any], rig: RigConfig) -> CalibrationRequest:
-    """A thrust-calibration request checked against ``rig``."""
-    return CalibrationRequest.checked(raw, rig)
-
-
-def pendulum_parameters(raw: dict[str, Any], rig: RigConfig) -> PendulumRequest:
-    """A pendulum free-decay request checked against the rig file's ``[pendulum]``."""
-    return PendulumRequest.checked(raw, rig)
+#: A request (the fields given) checked against the rig → the procedure's parameters.
+tow_parameters = TowRequest.checked
+spin_parameters = SpinRequest.checked
+calibration_parameters = CalibrationRequest.checked
+pendulum_parameters = PendulumRequest.checked

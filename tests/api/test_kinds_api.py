@@ -46,3 +46,34 @@ def test_rig_import_offers_the_registrys_kinds_and_their_fields():
     for kind, spec in KINDS.items():
         assert (kind in text) == (spec.imports is not None), kind
     assert "--dof [surge|sway|heave|roll|pitch|yaw]" in text and "--stiffness" in text
+
+
+def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(service, client):
+    """One tab and one form per kind the rig runs; every field of the schema (but the
+    metadata block's) is an input of that name, labelled by its title; a new field of a
+    request model appears without touching the page (the spin's max_angle_rad was never in
+    the hand-written form)."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import signed_in_page
+
+    kinds = [k for k in client.get("/api/kinds", headers=AUTH).json() if k["schema"]]
+    with signed_in_page(service, client) as page:
+        errors: list[str] = []
+        page.on("pageerror", lambda err: errors.append(str(err)))
+        expect(page.locator("#start-tabs button")).to_have_count(len(kinds))
+        for kind in kinds:
+            form = page.locator(f"#form-{kind['route']}")
+            names = form.locator("[name]").evaluate_all("els => els.map((e) => e.name)")
+            fields = [n for n in kind["schema"]["properties"] if n != "metadata"]
+            assert names == fields, (kind["kind"], names)
+            for name in fields:
+                title = kind["schema"]["properties"][name]["title"]
+                expect(form.locator(f"label:has([name={name}])")).to_contain_text(title)
+        page.click("#start-tabs button[data-form=spin]")
+        expect(page.locator("#form-spin [name=max_angle_rad]")).to_be_visible()
+        expect(page.locator("#form-tow")).to_be_hidden()
+        options = page.locator("#form-tow select[name=drive] option").all_text_contents()
+        assert options == ["weight", "thrusters"]
+        assert page.locator("#form-calibration [name=reverse]").is_checked()
+        assert errors == []

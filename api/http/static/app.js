@@ -127,6 +127,7 @@ window.addEventListener("hashchange", () => {
 async function refreshRig() {
   try {
     const s = await api("GET", "/api/rig");
+    await ensureStartForms(); // start_forms.js: once, from GET /api/kinds
     state.rig = s;
     state.limits = s.limits || {};
     const ok = s.running && s.connected && !s.device_lost;
@@ -181,12 +182,11 @@ function setLimits() {
 }
 
 // Offer only what the rig can do (GET /api/rig → capabilities); say why the rest is missing.
-const CAPABILITY_OF_FORM = { tow: "tow", spin: "spin", pendulum: "pendulum", calibration: "thrust_calibration" };
 function setCapabilities(caps) {
-  for (const [form, key] of Object.entries(CAPABILITY_OF_FORM)) {
-    const cap = caps[key];
-    const el = $(`#form-${form}`);
-    if (!cap || !el) continue;
+  for (const el of $$(".start-form[data-run-kind]")) {
+    const form = el.dataset.kind;
+    const cap = caps[el.dataset.runKind];
+    if (!cap) continue;
     const tab = $(`.tabs button[data-form=${form}]`);
     if (tab) {
       tab.classList.toggle("unavailable", !cap.available);
@@ -275,19 +275,12 @@ $("#estop-btn").onclick = async () => {
 $("#arm-btn").onclick = () => api("POST", "/api/rig/arm").then(refreshRig).catch((e) => alert(e.message));
 $("#disarm-btn").onclick = () => api("POST", "/api/rig/disarm").then(refreshRig).catch((e) => alert(e.message));
 
-$$(".tabs button").forEach((b) => {
-  b.onclick = () => {
-    $$(".tabs button").forEach((x) => x.classList.toggle("active", x === b));
-    $$(".start-form[data-kind]").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
-  };
-});
-
 function formBody(form) {
   const body = {};
   for (const el of form.elements) {
     if (!el.name || el.value === "" || el.type === "submit") continue;
     if (el.type === "checkbox") body[el.name] = el.checked;
-    else if (el.name === "commands") body.commands = el.value.split(",").map((x) => Number(x.trim()));
+    else if (el.dataset.type === "array") body[el.name] = el.value.split(",").map((x) => Number(x.trim()));
     else if (el.type === "number") body[el.name] = Number(el.value);
     else body[el.name] = el.value;
   }
@@ -337,7 +330,8 @@ function problemField(p) {
   return p.field || ((p.message || "").match(/^([\w.[\]]+):/) || [])[1] || "";
 }
 
-$$(".start-form[data-kind]").forEach((form) => {
+// A start form (start_forms.js renders them): POST /api/jobs/<route>; a 422 marks the fields.
+function attachStart(form) {
   form.addEventListener("submit", async (ev) => {
     ev.preventDefault();
     const errors = $(".errors", form);
@@ -371,7 +365,7 @@ $$(".start-form[data-kind]").forEach((form) => {
       if (err.body && err.body.holder) errors.insertAdjacentHTML("beforeend", `<li>Rig held by ${esc(err.body.holder)}</li>`);
     }
   });
-});
+}
 
 // ---- live stream (SSE read with fetch so the token travels in a header) -----------------
 // The live plot itself is api/http/static/live.js (onSample, resetLive, initLivePlot).
