@@ -121,6 +121,9 @@ class KindSpec:
     needs: Needs = field(default_factory=Needs)
     #: Tow/spin: what each drive (``weight``, ``thrusters``) needs on top of ``needs``.
     drives: dict[str, Needs] = field(default_factory=dict)
+    #: The operator acts its procedure asks for (``daq.operator.SIMULATED_ACTS`` plays them
+    #: on the simulated rig; a person does them on a real one).
+    acts: tuple[str, ...] = ()
 
     @property
     def axis(self) -> AxisTerms | None:
@@ -226,6 +229,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             imports=ImportRules("tow position, m", drive_plan),
             needs=Needs(channels=_axis_channels(RunKind.TOW)),
             drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
+            acts=("hang_tow_weight", "return_carriage", "unmount_thrust_stand"),
         ),
         KindSpec(
             kind=RunKind.SPIN,
@@ -244,6 +248,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
                 "weight": Needs(settings=("geometry.spin_drum_radius_m",)),
                 "thrusters": Needs(thrusters=True),
             },
+            acts=("hang_spin_weight", "return_carriage", "unmount_thrust_stand"),
         ),
         KindSpec(
             kind=RunKind.PENDULUM,
@@ -258,6 +263,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             estimator=PENDULUM,
             imports=ImportRules("pendulum angle, rad (--rig gives the geometry)", pendulum_plan),
             needs=Needs(channels=PENDULUM_CHANNELS, pendulum=True),
+            acts=("mount_pendulum", "pull_pendulum"),
         ),
         KindSpec(
             kind=RunKind.THRUST_CALIBRATION,
@@ -271,6 +277,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             route="calibration",
             report=_calibration_report,
             needs=Needs(channels=("load_cell",), thrusters=True),
+            acts=("mount_thrust_stand", "unmount_thrust_stand"),
         ),
         KindSpec(
             kind=RunKind.DECAY,
