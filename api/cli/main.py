@@ -169,8 +169,12 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 #: Commands that record or import runs: they take --operator --water-temp --notes --tag
-#: --meta (api.cli.metadata), added here once rather than per command.
-RUN_STARTERS = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "import")
+#: --meta (api.cli.metadata), added here once rather than per command: every procedure
+#: command (one per kind the rig runs, and sequences) and the import.
+RUN_STARTERS = (
+    *(name for name, (module, _, _) in COMMANDS.items() if module == "api.cli.procedures"),
+    "import",
+)
 
 
 def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseException], ...]:
