@@ -5,7 +5,8 @@ the rig runs, its request model (the API body, the ``rig`` options and the brows
 form are derived from it; checked against the rig file it *is* the procedure's frozen
 parameters) and the procedure that runs it; for a kind whose runs are estimated, its
 estimator (``daq.estimators.Estimator``: loader, fit, methods, report); for a kind a CSV
-may be imported as, its import rules (``daq.estimators.ImportRules``). The HTTP routes, the
+may be imported as, its import rules (``daq.import_rules.ImportRules``); the operator acts its
+procedure asks for (``daq.operator.SIMULATED_ACTS``). The HTTP routes, the
 CLI commands, sequences, the job runner, the import and ``GET /api/kinds`` iterate or index
 ``KINDS`` (``RIG_KINDS``: those the rig runs) instead of branching on the kind.
 
