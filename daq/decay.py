@@ -60,9 +60,15 @@ class DecayImport(BaseModel):
 
 
 def decay_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
-    """A free decay: no drive; ``dof`` required; the fields checked by :class:`DecayImport`."""
+    """A free decay: no drive; ``dof`` required; the fields checked by :class:`DecayImport`
+    (those not given taken from a towrig export's header)."""
     no_drive(plan.request, "a free decay")
-    fields = checked_fields(DecayImport, plan.request.fields)
+    given = {k: v for k, v in plan.request.fields.items() if v is not None}
+    for name in DecayImport.model_fields:  # a towrig export's header restores what it names
+        recorded = plan.header.parameters.get(name)
+        if name not in given and recorded is not None:
+            given[name] = plan.restored[name] = recorded
+    fields = checked_fields(DecayImport, given)
     if "dof" not in fields:
         allowed = ", ".join(Dof.__args__)  # type: ignore[attr-defined]
         raise ParameterError([("dof", None, f"a free decay names its dof: {allowed}")])

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from tests.cli import RigCliText, printed_json
+from tests.cli import RigCli, RigCliText, printed_json
 from tests.shared_data import shared_file
 
 #: KVLCC2 1:68 (kvlcc2-roll-decay/README.md): I44 = Δ·KXX² kg·m², C44 = Δ·g·GM N·m/rad.
@@ -94,3 +94,20 @@ def test_the_published_kvlcc2_roll_decay_imports_and_estimates_over_the_cli(rig)
     assert inertia["value"] == pytest.approx(A44, rel=0.15)
     text = rig("estimate", run_id, "--no-effects")
     assert text.startswith("roll decay from 1 run(s)") and "inertia" in text
+
+
+def test_an_exported_decay_imports_back_from_its_own_header(rig, tmp_path):
+    truth = heave_decay(tmp_path / "heave.csv", 10.0, seed=7)
+    stiffness = f"{truth['stiffness']:g}"
+    first = rig("import", "heave.csv", "--kind", "decay", "--dof", "heave", "--stiffness",
+                stiffness, "--known-inertia", "10", "--release-time", "1")  # fmt: skip
+    rig("export", first, "-o", "back.csv")
+    again = RigCli(tmp_path)("import", "back.csv")  # no flags: its header says it all
+    assert "from the file's export header: kind decay, dof heave" in again.stderr
+    second = again.stdout.strip()
+    one, two = (printed_json(rig("show", r, "--json"))["parameters"] for r in (first, second))
+    for name in ("dof", "stiffness", "known_inertia", "release_time_s"):
+        assert two[name] == one[name], name
+    fits = [printed_json(rig("estimate", r, "--no-effects", "--json")) for r in (first, second)]
+    a, b = (f["coefficients"]["inertia"]["value"] for f in fits)
+    assert b == pytest.approx(a, rel=1e-6)
