@@ -55,3 +55,26 @@ def test_the_http_import_names_a_bad_decay_field(client, query, detail):
     r = client.post(f"/api/runs/import?{query}", content=body, headers=AUTH | CSV)
     assert r.status_code == 422, r.text
     assert r.json()["detail"].startswith(detail), r.json()
+
+
+def test_the_estimation_page_lists_and_fits_a_decay(service, client, tmp_path):
+    """The Estimation page offers every kind with an estimator (GET /api/kinds), a decay
+    among them, and shows its coefficients with the units the result carries."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import estimate_in_page, signed_in_page
+
+    truth = heave_decay(tmp_path / "heave.csv", 10.0, seed=5)
+    query = f"kind=decay&dof=heave&stiffness={truth['stiffness']:g}&known_inertia=10"
+    r = client.post(f"/api/runs/import?{query}&release_time_s=1",
+                    content=(tmp_path / "heave.csv").read_bytes(), headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 201, r.text
+    with signed_in_page(service, client) as page:
+        errors: list[str] = []
+        page.on("pageerror", lambda err: errors.append(str(err)))
+        page.click("nav a[data-page=estimation]")
+        page.uncheck("#est-effects")  # the base model: the truth has no other term
+        estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
+        expect(page.locator("#est-coefs")).to_contain_text("inertia (kg)")
+        expect(page.locator("#est-rmse")).to_contain_text("heave decay")
+        assert errors == []

@@ -622,7 +622,8 @@ async function loadEstimationRuns() {
   const query = new URLSearchParams({ status: "completed", limit: 1000 });
   if (search) query.set("search", search);
   try {
-    runs = (await api("GET", `/api/runs?${query}`)).filter((r) => ["tow", "spin", "pendulum"].includes(r.kind));
+    await ensureStartForms(); // the kinds (start_forms.js): those with an estimator are listed
+    runs = (await api("GET", `/api/runs?${query}`)).filter((r) => estimatedKinds().includes(r.kind));
   } catch (err) {
     return;
   }
@@ -688,19 +689,23 @@ async function renderEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
-      return `<tr><td>${k} (${units[k] || ""})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
+      return `<tr><td>${k} (${units[k] || c.unit || ""})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
         ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
     })
     .join("");
-  const unit = res.axis === "yaw" ? "rad" : "m";
+  // a decay names its dof (m for surge/sway/heave, rad for roll/pitch/yaw) instead of an axis
+  const axis = res.axis || `${res.dof} ${res.kind}`;
+  const unit = ["yaw", "roll", "pitch"].includes(res.axis || res.dof) ? "rad" : "m";
   kv($("#est-rmse"), [
-    ["Axis / method", `${res.axis} / ${res.method}`],
+    ["Axis / method", `${axis} / ${res.method || "output-error"}`],
     ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],
     ["RMSE after", `${fmt(res.rmse_after, 3)} ${unit}`],
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
   ]);
   $("#est-effects-list").innerHTML = (res.effects || []).length
-    ? res.effects.map((e) => `<li><strong>${e.name}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`).join("")
+    ? res.effects.map((e) => (typeof e === "string" // a decay lists the kept terms' names
+      ? `<li><strong>${esc(e)}</strong> (value above)</li>`
+      : `<li><strong>${e.name}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`)).join("")
     : "<li>none (the base model explains the data)</li>";
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
   $("#est-ambiguous").innerHTML =

@@ -5,11 +5,18 @@
 "use strict";
 
 let startKinds = null;
+let servedKinds = [];
+
+// The kinds whose runs the Estimation page offers (those with an estimator).
+function estimatedKinds() {
+  return servedKinds.filter((k) => k.estimator).map((k) => k.kind);
+}
 
 async function ensureStartForms() {
   if (startKinds) return;
   const kinds = await api("GET", "/api/kinds");
   if (startKinds) return; // a concurrent refresh rendered them meanwhile
+  servedKinds = kinds;
   startKinds = kinds.filter((k) => k.route && k.schema);
   renderStartForms(startKinds);
 }
