@@ -5,7 +5,9 @@ The search tries every single effect and every pair (and extends a winning pair)
 the "outside_library" case a force periodic along the rail that must be flagged, not fitted;
 the "decay" cases a free heave decay through ``estimate_decay`` (its own term search).
 Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
-quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet.
+quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet
+(``effect_search_cpu_met``). The estimator runs its fits on one BLAS thread
+(``estimation/blas.py``): OpenBLAS's worker threads only spun on these small problems.
 Run: .venv/bin/python bench/estimation_speed.py
 """
 
@@ -81,12 +83,20 @@ def main() -> None:
     }
     for name, runs in searches.items():
         found = [e.name for e in estimate(runs, n_bootstrap=0).effects]
-        entry = timed(lambda runs=runs: estimate(runs, n_bootstrap=0), 3)
+
+        def search(runs: list = runs) -> object:
+            return estimate(runs, n_bootstrap=0)
+
+        entry = timed(search, 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_{name}"] = entry
-    for name, record in decay_records().items():
-        found = list(estimate_decay(*record[:2], "heave", **record[2]).effects)
-        entry = timed(lambda r=record: estimate_decay(*r[:2], "heave", **r[2]), 3)
+    for name, (t, x, known) in decay_records().items():
+
+        def decay(t: np.ndarray = t, x: np.ndarray = x, known: dict = known) -> object:
+            return estimate_decay(t, x, "heave", **known)
+
+        found = list(estimate_decay(t, x, "heave", **known).effects)
+        entry = timed(decay, 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_decay_{name}"] = entry
     cases["estimate_with_40_bootstrap_clean"] = timed(lambda: estimate(clean), 3)
@@ -109,6 +119,7 @@ def main() -> None:
                     "worst_search_wall_s": worst_search,
                     "worst_search_cpu_s": worst_cpu,
                     "effect_search_met": worst_search <= 1.0,
+                    "effect_search_cpu_met": worst_cpu <= 1.0,
                     "effect_search_floor_met": worst_search <= 3.0,
                 },
             },

@@ -17,8 +17,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from estimation.vehicle.description import load_vehicle
 from estimation.vehicle.identifiability import analyse_identified
+from estimation.vehicle.vehicle_file import load_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[1] / "fixtures" / "vehicles"
 #: A surge result as stored by the estimator (BENBAM's seed-000 values, 2–5 % σ), so the

@@ -17,8 +17,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 from bench.timing import timed
-from estimation.vehicle.description import load_vehicle
-from estimation.vehicle.dynamics import simulate
+from estimation.vehicle.simulation import simulate
+from estimation.vehicle.vehicle_file import load_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[1] / "fixtures" / "vehicles"
 TARGET_S = 0.05

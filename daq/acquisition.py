@@ -24,11 +24,13 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import math
 import os
 import sys
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -93,6 +95,7 @@ class Acquisition:
         spin_s: float = 0.002,
         realtime: bool = False,
         clock: Clock = REAL_CLOCK,
+        extra_channels: Callable[[], dict[str, float]] | None = None,
     ) -> None:
         if not (math.isfinite(rate_hz) and 0 < rate_hz <= 10_000):
             raise ValueError(f"rate_hz must be in (0, 10000] Hz, got {rate_hz!r}")
@@ -110,6 +113,10 @@ class Acquisition:
         self.spin_s = 0.0 if clock.simulated else spin_s
         #: Ask the OS for real-time scheduling of the clock's thread (see ``set_realtime``).
         self.realtime = realtime
+        #: Channels of other devices added to each sample as they stand at the read (the
+        #: thrusters' telemetry, ``daq.thruster_supervisor``); never waited on, and never
+        #: part of the device-lost or quality decision, which is the PLC's alone.
+        self.extra_channels = extra_channels
         self.stats = ClockStats()
         self.latest: Sample | None = None
         #: Set while the device has been unreadable for longer than ``device_lost_after_s``.
@@ -210,6 +217,8 @@ class Acquisition:
                 else:
                     last_good = sample.t_mono
                     self.device_lost.clear()
+                if self.extra_channels is not None and (extra := self.extra_channels()):
+                    sample = dataclasses.replace(sample, channels=sample.channels | extra)
                 self._publish(sample)
                 # Next slot: the first one not more than half a period overdue.
                 due = math.ceil((self.clock.now() - t0) / period - 0.5)

@@ -81,10 +81,11 @@ def latest(store: Store) -> dict[str, Any] | None:
     if imported is not None and (run is None or imported.created_at >= run.created_at):
         law, _ = law_of(store, "imported", imported.id)
         table = imported.data["table"]
+        curve, rows = at_reference_voltage(table, law)
         data = {
             "table": table,
-            "fit": law.curves[-1].curve.to_json(),
-            "reference_table": at_reference_voltage(table, law),
+            "fit": curve.to_json(),
+            "reference_table": rows,
             "reference_voltage_v": law.reference_voltage,
             "law": law.to_json(),
             "units": imported.data.get("units"),

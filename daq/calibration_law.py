@@ -13,6 +13,7 @@ from typing import Any
 from daq.store import ResultNotFound, Store
 from daq.store.calibrations import CalibrationNotFound
 from estimation.thrust.calibration_import import STAND_UNITS, ImportSpec, read_calibration_csv
+from estimation.thrust.curve import ThrustCurve
 from estimation.thrust.law import VOLTAGE_TOLERANCE_V, ThrustLaw, identify_thrust_law
 
 #: Where a calibration comes from: an imported table or a calibration run's result.
@@ -65,15 +66,16 @@ def import_calibration(store: Store, data: bytes | str, spec: ImportSpec, name: 
     }
 
 
-def at_reference_voltage(table: list[dict], law: ThrustLaw) -> list[dict]:
-    """The rows measured at the law's reference voltage (rows without a voltage included):
-    the table behind the law's reference curve."""
-    return [
+def at_reference_voltage(table: list[dict], law: ThrustLaw) -> tuple[ThrustCurve, list[dict]]:
+    """The law's curve at its reference voltage and the rows measured there (rows without a
+    voltage included): what a drive at one voltage is computed and checked with."""
+    rows = [
         r
         for r in table
         if r.get("supply_voltage_v") is None
         or abs(float(r["supply_voltage_v"]) - law.reference_voltage) <= VOLTAGE_TOLERANCE_V
     ]
+    return law.curves[-1].curve, rows
 
 
 def _run_table(table: list[dict]) -> tuple[list[dict], float | None]:

@@ -21,6 +21,7 @@ from pydantic import (
     model_validator,
 )
 
+from daq.tolerances import Tolerances
 from thrusters.config import ThrusterPort
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
@@ -270,6 +271,8 @@ class RigConfig(_Strict):
     acquisition: Acquisition = Acquisition()
     #: Optional: a pendulum for free-decay tests (needs the pendulum channels).
     pendulum: Pendulum | None = None
+    #: Optional: tolerances of the rig's constants (Type B uncertainty); absent: not declared.
+    tolerances: Tolerances | None = None
 
     @field_validator("channels")
     @classmethod

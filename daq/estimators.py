@@ -48,10 +48,12 @@ def _axis_methods() -> tuple[str, ...]:
 
 
 def _axis_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
+    from daq.body_mass import with_body_inertia
     from daq.run_data import load_run_data
     from estimation.data.runs import validate_runs
 
-    runs = [load_run_data(store, rid) for rid in run_ids]
+    # The body's own mass the tow declares: an inertia fitted below it is flagged.
+    runs = [with_body_inertia(load_run_data(store, rid), store.get_run(rid)) for rid in run_ids]
     validate_runs(runs)
     return runs
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from daq.procedures.params import ParameterError
-from daq.vocabulary import DRIVE_FIELD
+from daq.vocabulary import DRIVE_FIELD, RunKind
 
 if TYPE_CHECKING:
     from pydantic import BaseModel
@@ -45,6 +45,10 @@ class ImportRequest:
     drive_unit: str | None = None
     weight_kg: float | None = None
     vehicle: str | None = None
+    #: A tow's body: its own mass, and the mass of water it displaces (kg); an inertia
+    #: identified below the body's own mass is flagged (``daq.body_mass``).
+    dry_mass_kg: float | None = None
+    displacement_kg: float | None = None
     time_unit: str = "s"
     release_time_s: float | None = None
     end_time_s: float | None = None
@@ -231,3 +235,23 @@ def _from_header(
         )
     restored[name] = float(value)
     return float(value)
+
+
+def body_mass(plan: Planning) -> dict[str, float]:
+    """A tow's declared ``dry_mass_kg``/``displacement_kg`` (given, else its export
+    header's), each a finite number > 0; refused for another kind (a spin's or a pendulum's
+    body inertia is in kg·m²)."""
+    from daq.body_mass import BODY_MASS_PARAMETERS
+
+    out: dict[str, float] = {}
+    for name in BODY_MASS_PARAMETERS:
+        given: float | None = getattr(plan.request, name)
+        if given is not None and plan.kind != RunKind.TOW:
+            raise ParameterError([(name, given, "only for a tow (a body's own mass, kg)")])
+        if given is not None and not (math.isfinite(given) and given > 0):
+            raise ParameterError([(name, given, f"allowed 0 < {name} < ∞ kg")])
+        recorded = plan.header.parameters
+        value = _from_header(name, "kg", given, recorded, plan.header, plan.restored, True)
+        if value is not None and plan.kind == RunKind.TOW:
+            out[name] = value
+    return out

@@ -6,30 +6,28 @@ axis, the time base, the release and brake instants from the run's events, and
 the drive (force or torque, hung weight, drive-train inertia) from its parameters
 and the rig file it ran with. ``estimation`` itself never imports this.
 
-One module because tow, spin and pendulum runs share the time base and the release/end
-instants (``_timeline``), and the drive of a run (constant, logged per sample, or rebuilt
-from the thrusters' calibration) is chosen from the same stored parameters.
+Tow, spin and pendulum runs share the time base and the release/end instants
+(``_timeline``); the drive of a thruster-driven run is rebuilt by ``daq.thruster_run_drive``.
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.sample import Quality
-from daq.store import ResultNotFound, RunInfo, SampleTable, Store
+from daq.store import RunInfo, SampleTable, Store
 from daq.store.run_events import RunAction, RunEvents
+from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
+from daq.thruster_run_drive import thruster_drive as thruster_drive  # its callers' old path
 from daq.vocabulary import AXES, DRIVEN_KINDS, POSITION_CHANNEL
 from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
-from estimation.thrust.curve import CalibratedThrust, ThrustCurve
-from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
-from estimation.thrust.law import ThrustLaw
 
 
 def _rig_of(run: RunInfo) -> RigConfig | None:
@@ -183,21 +181,18 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if thrusters:
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
-        law, curve, cal_table, response = _calibration(store, params)
         volts = table.channels.get("supply_voltage")
-        layout, lag_note = _measured_lag(thrust_layout_of(rig, run.kind), response)
-        rebuilt = rebuild_drive(
-            law,
-            CalibratedThrust.from_table(curve, cal_table),
-            layout,
-            t,
-            _thrust_steps(timeline.events, timeline.offset)
-            or _modelled_steps(rig, params["commands"], t, t_release),
-            None if volts is None else volts[timeline.good][keep],
+        steps = confirmed_steps(timeline.events, timeline.offset)
+        drive, draws, drive_law = rebuilt_thruster_drive(
+            store,
+            rig,
             run.id,
+            run.kind,
             params,
+            t,
+            steps or modelled_steps(rig, params["commands"], t, t_release),
+            None if volts is None else volts[timeline.good][keep],
         )
-        drive, draws, drive_law = rebuilt.drive, rebuilt.draws, f"{rebuilt.law}; {lag_note}"
     return RunData(
         run_id=run.id,
         axis="surge" if AXES[run.kind].axis.value == "surge" else "yaw",
@@ -324,101 +319,3 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
         axis=rig.pendulum.axis,
         t_release_std=timeline.t_release_std,
     )
-
-
-def _measured_lag(layout: ThrustLayout, response: dict | None) -> tuple[ThrustLayout, str]:
-    """The thrust lag a drive is rebuilt with: the one the calibration measured from its
-    step responses, else the rig file's (``thrusters.time_constant_s``), and a note saying
-    which."""
-    if response and response.get("time_constant_s") is not None:
-        tau, std = response["time_constant_s"], response["std_s"]
-        note = f"thrust lag τ = {tau:.3g} ± {std:.1g} s measured by the calibration"
-        return replace(layout, time_constant_s=float(tau)), note
-    note = f"thrust lag τ = {layout.time_constant_s:g} s from the rig file (not measured)"
-    return layout, note
-
-
-def _calibration(
-    store: Store, params: dict
-) -> tuple[ThrustLaw | None, ThrustCurve, list[dict], dict | None]:
-    """The run's calibration: an imported table (its thrust law, and the curve and rows at
-    its reference voltage) or a calibration run's result (no law: one voltage, and the
-    thrust lag measured from its steps, if it was)."""
-    imported = params.get("calibration_import_id")
-    if imported is not None:
-        from daq.calibration_law import NoCalibration, at_reference_voltage, law_of
-
-        try:
-            law, _ = law_of(store, "imported", imported)
-        except NoCalibration:
-            raise ValueError(f"imported calibration #{imported} is no longer stored") from None
-        ref = law.curves[-1]
-        rows = store.imported_calibration(imported).data["table"]
-        return law, ref.curve, at_reference_voltage(rows, law), None
-    try:
-        calibration = store.result(params["calibration_result_id"])
-    except ResultNotFound:
-        raise ValueError(
-            f"calibration result #{params['calibration_result_id']} is no longer stored"
-        ) from None
-    data = calibration.data
-    return None, ThrustCurve.from_json(data["fit"]), data.get("table", []), data.get("response")
-
-
-def _thrust_steps(events: RunEvents, offset: float) -> list[tuple[float, list[float]]] | None:
-    """The outputs the controller confirmed during the run, as (instant on the time base,
-    fraction per thruster); each change is put mid-way between sending and the reply.
-    None for runs recorded before the steps were stored."""
-    if events.thrust_steps is None:
-        return None
-    return [(step.t_mono + offset, list(step.fractions)) for step in events.thrust_steps]
-
-
-def thrust_layout_of(rig: RigConfig, kind: str) -> ThrustLayout:
-    """How the rig's thrusters make the drive of a ``"tow"`` or a ``"spin"``."""
-    from daq.procedures.thruster_drive import thrust_layout
-
-    port = rig.thruster_port()
-    signs, arm = thrust_layout(port, kind)
-    return ThrustLayout(signs, arm, port.time_constant_s, port.voltage_exponent)
-
-
-def thruster_drive(
-    curve: ThrustCurve | CalibratedThrust | ThrustLaw,
-    rig: RigConfig,
-    kind: str,
-    commands: list[float],
-    t: np.ndarray,
-    t_on: float,
-    steps: Steps | None = None,
-    volts: np.ndarray | None = None,
-) -> np.ndarray:
-    """Drive of a thruster-driven tow (force, N) or spin (torque, N·m) per sample time
-    ``t`` (:func:`estimation.thrust.drive.drive_from_steps`), from the ``steps`` the
-    controller confirmed, or — for runs recorded before those were stored — the ramp the
-    driver would have sent from ``t_on`` toward ``commands``: right only while the
-    heartbeat kept time."""
-    t = np.asarray(t, dtype=float)
-    if t.size == 0:
-        return np.zeros(0)
-    if steps is None:
-        steps = _modelled_steps(rig, commands, t, t_on)
-    return drive_from_steps(curve, thrust_layout_of(rig, kind), t, steps, volts)
-
-
-def _modelled_steps(
-    rig: RigConfig, commands: list[float], t: np.ndarray, t_on: float
-) -> list[tuple[float, list[float]]]:
-    """The steps the driver sends toward ``commands`` when every heartbeat comes on its
-    acquisition tick (runs recorded before the confirmed outputs were stored)."""
-    from thrusters.driver import MAX_SLEW_INTERVAL_S
-
-    before = t[t < t_on]
-    previous = float(before[-1]) if before.size else t_on - MAX_SLEW_INTERVAL_S
-    step_times = np.concatenate([[t_on], t[t > t_on]])
-    credit = np.minimum(np.diff(np.concatenate([[previous], step_times])), MAX_SLEW_INTERVAL_S)
-    ramp = np.cumsum(rig.limits.max_command_slew_per_s * credit)  # |command| at each step
-    return [
-        (float(at), [float(np.sign(c) * min(abs(c), reach)) for c in commands])
-        for at, reach in zip(step_times, ramp, strict=True)
-    ]

@@ -32,8 +32,9 @@ from daq.operator import Operator, PromptOperator, SimulatedOperator, console_as
 from daq.plc import PlcClient
 from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState
-from daq.sample import Quality, Sample
+from daq.sample import Sample
 from daq.store import Store
+from daq.thruster_supervisor import ThrusterTelemetry, supervise_thrusters
 from thrusters.driver import ThrusterDriver, ThrusterError
 
 if TYPE_CHECKING:
@@ -134,6 +135,8 @@ class RigSession:
         self.plc: PlcClient | None = None
         self.acquisition: Acquisition | None = None
         self.thrusters: ThrusterDriver | None = None
+        #: The thrusters' RPM and current as sample channels while a run logs them.
+        self.telemetry: ThrusterTelemetry | None = None
         self._tasks: list[asyncio.Task] = []
         self._lock_holder: str | None = None
         #: The lease on the rig's devices; ``owner`` names this program to whoever is refused.
@@ -175,7 +178,14 @@ class RigSession:
             conn = sim.connection_rig()
         self.plc = made.plc_client if made else PlcClient(conn)
         await self.plc.connect(timeout_s=connect_timeout_s)
-        self.acquisition = Acquisition(self.plc, rate_hz=self._rate_hz, clock=self.clock)
+        if conn.thrusters is not None:
+            self.telemetry = ThrusterTelemetry(conn.thrusters.count, self._rate_hz, self.clock.now)
+        self.acquisition = Acquisition(
+            self.plc,
+            rate_hz=self._rate_hz,
+            clock=self.clock,
+            extra_channels=None if self.telemetry is None else self.telemetry.channels,
+        )
         self._tasks.append(asyncio.create_task(self.acquisition.run(), name="acquisition"))
         if conn.thrusters is not None:  # a rig without [thrusters] opens no serial port
             driver = made.driver if made and made.driver else None
@@ -183,7 +193,7 @@ class RigSession:
             await driver.open()
             self.thrusters = driver  # only an open driver is zeroed and closed later
             self._tasks.append(
-                asyncio.create_task(self._supervise_thrusters(), name="thruster-supervisor")
+                asyncio.create_task(supervise_thrusters(self), name="thruster-supervisor")
             )
         if self._operator is None:
             self._operator = (
@@ -357,6 +367,16 @@ class RigSession:
         await self.thrusters.command(self.thrust.fractions)
         return self.thrusters.last_bracket
 
+    @property
+    def armed(self) -> bool:
+        """The thrust target is armed (the supervisor sends it every tick)."""
+        return self.thrust.armed
+
+    @property
+    def thrust_fractions(self) -> list[float]:
+        """The thrust target, fractions of full scale."""
+        return self.thrust.fractions
+
     def set_thrust(self, fractions: Sequence[float]) -> None:
         """Ask for thruster outputs; the supervisor sends them, slew-limited, every tick."""
         values = [float(f) for f in fractions]
@@ -365,29 +385,6 @@ class RigSession:
                 f"thrust: need {self.thruster_count} finite fractions, got {list(fractions)!r}"
             )
         self.thrust = ThrustTarget(values, armed=self.thrust.armed)
-
-    async def _supervise_thrusters(self) -> None:
-        assert self.acquisition is not None and self.thrusters is not None
-        queue = self.acquisition.subscribe(maxsize=4, name="thruster-supervisor")
-        try:
-            while True:
-                sample = await queue.get()
-                if not self.thrust.armed:
-                    continue
-                stale = bool(sample.quality & (Quality.STALE | Quality.ERROR))
-                try:
-                    if stale and self.thrusters.inhibited is None:
-                        self.stale_zeroings += 1
-                        self.stale_sample = sample
-                        self.stale_zeroed.set()
-                        self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
-                    # Stale sensors: zero at once (no ramp) and hold until data is good again.
-                    await self.thrusters.zero_on_stale(stale, reason="sensor data stale or unread")
-                    await self.thrusters.command(self.thrust.fractions)
-                except Exception as err:
-                    log.warning("thruster heartbeat failed: %s", err)
-        finally:
-            self.acquisition.unsubscribe(queue)
 
     def latest(self) -> Sample | None:
         return self.acquisition.latest if self.acquisition else None

@@ -104,3 +104,25 @@ def quoted_kinds(kinds: tuple[str, ...] | None = None) -> str:
     """``'tow', 'spin', 'pendulum' or 'thrust_calibration'`` for error messages."""
     names = [repr(str(k)) for k in (kinds if kinds is not None else tuple(RunKind))]
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
+
+
+#: The thrusters' telemetry channels a thruster-driven run logs per thruster (1-based
+#: ``thruster1_rpm``, ``thruster1_current``) and their units (UDUNITS text).
+THRUSTER_TELEMETRY_UNITS: dict[str, str] = {"rpm": "rpm", "current": "A"}
+
+
+def thruster_telemetry_channels(count: int) -> list[str]:
+    """``["thruster1_rpm", …, "thruster1_current", …]`` for ``count`` thrusters."""
+    return [
+        f"thruster{i}_{quantity}"
+        for quantity in THRUSTER_TELEMETRY_UNITS
+        for i in range(1, count + 1)
+    ]
+
+
+def thruster_telemetry_unit(channel: str) -> str | None:
+    """The unit of a thruster telemetry channel (``"thruster2_current"`` → ``"A"``), else None."""
+    prefix, _, quantity = channel.partition("_")
+    if prefix.startswith("thruster") and prefix[8:].isdigit():
+        return THRUSTER_TELEMETRY_UNITS.get(quantity)
+    return None

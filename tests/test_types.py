@@ -1,5 +1,6 @@
-"""The device, thruster and estimation layers type-check clean under mypy (configured in
-pyproject.toml, ``[tool.mypy]``): a wrong type there is a CI failure, not a field bug."""
+"""Every package (devices, thrusters, estimation, the API and CLI) type-checks clean under
+mypy (configured in pyproject.toml, ``[tool.mypy]``): a wrong type is a CI failure, not a
+field bug."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.slow
 
 
-def test_daq_thrusters_and_estimation_type_check_clean():
+def test_every_package_type_checks_clean():
     done = subprocess.run(
         [sys.executable, "-m", "mypy", "--no-error-summary"],
         cwd=ROOT,

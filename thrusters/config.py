@@ -9,6 +9,11 @@ from pydantic import BaseModel, ConfigDict, Field
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
+#: Longest interval the slew limit credits between two steps (s). A command after a
+#: long pause still ramps instead of jumping. The driver enforces it; the loader models
+#: the ramp of runs recorded before the confirmed outputs were stored with it.
+MAX_SLEW_INTERVAL_S = 0.1
+
 
 class CommandLimits(Protocol):
     """What the driver clamps to: the largest command (fraction of full scale) and the
@@ -48,6 +53,15 @@ class ThrusterPort(BaseModel):
     #: zero (None: no cut-off).
     max_current_a: Annotated[float, Field(gt=0, le=500)] | None = None
     current_check_s: Annotated[float, Field(ge=0.05, le=5)] = 0.25
+
+    def thrust_layout(self, kind: str) -> tuple[list[float], float]:
+        """Per-thruster sign and arm (m; 1 for a force) that turn thruster forces into the
+        drive of a ``"tow"`` (Σ F) or a ``"spin"`` (Σ sign·F·L)."""
+        if kind == "tow":
+            return [1.0] * self.count, 1.0
+        if kind == "spin":
+            return self.yaw_signs(), self.yaw_lever_arm_m
+        raise ValueError(f"kind: {kind!r} is not allowed; allowed 'tow' or 'spin'")
 
     def yaw_signs(self) -> list[float]:
         """+1 for thrusters that turn the vehicle positive about the vertical axis (even

@@ -2,12 +2,13 @@
 
 Serial I/O runs on one dedicated worker thread (``SerialLink``), so no call blocks the
 event loop. Every way out — ``close()``, ``async with`` (normal exit or exception),
-SIGINT/SIGTERM via ``install_signal_handlers`` and an ``atexit`` fallback — leaves the
-thrusters commanded to zero. See ``docs/thruster-protocol.md``.
+SIGINT/SIGTERM via ``install_signal_handlers`` and an ``atexit`` fallback
+(``thrusters.exit_safety``) — leaves the thrusters commanded to zero. See
+``docs/thruster-protocol.md``.
 
-One module because the driver is one state machine (link, confirmed outputs, slew limiter,
-fault, watchdog) driven from one event loop: every method reads or changes that state, and
-split modules would each need all of it.
+The driver is one state machine (link, confirmed outputs, slew limiter, fault, watchdog)
+driven from one event loop; what it reports (errors, faults, status, output steps) is in
+``thrusters.status``, whose names are re-exported here.
 """
 
 from __future__ import annotations
@@ -18,86 +19,40 @@ import contextlib
 import dataclasses
 import logging
 import math
-import os
-import signal
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 
 import serial
 
 from thrusters import protocol as p
-from thrusters.config import CommandLimits, ThrusterPort
+from thrusters.config import MAX_SLEW_INTERVAL_S, CommandLimits, ThrusterPort
+from thrusters.exit_safety import ExitSafety
 from thrusters.link import LinkStats, SerialLink
+from thrusters.link_supervision import LinkSupervision
+from thrusters.status import (
+    LINK_LOST_AFTER,
+    OutputStep,
+    ThrusterError,
+    ThrusterFault,
+    ThrusterStatus,
+    describe_reply,
+)
+
+__all__ = [
+    "LINK_LOST_AFTER",
+    "MAX_SLEW_INTERVAL_S",
+    "OutputStep",
+    "ThrusterDriver",
+    "ThrusterError",
+    "ThrusterFault",
+    "ThrusterStatus",
+]
 
 log = logging.getLogger(__name__)
 
-#: Longest interval the slew limit credits between two steps (s). A command after a
-#: long pause still ramps instead of jumping.
-MAX_SLEW_INTERVAL_S = 0.1
 
-#: Consecutive frames without a valid reply (timeout, bad CRC, garbage, I/O error, or a
-#: ``NAK crc``/``NAK malformed`` saying our frame arrived spoiled) after which the link
-#: counts as lost: one lost reply is ridden out, two are not. The fault is seen at most
-#: one heartbeat + 2 × ``ack_timeout_s`` after it began (0.3 s at 10 Hz and 0.1 s; see
-#: docs/thruster-protocol.md, "Link supervision").
-LINK_LOST_AFTER = 2
-
-#: NAK reasons that mean the controller got our frame spoiled: the line, not the request.
-LINE_NAKS = frozenset({"crc", "malformed"})
-
-
-class ThrusterError(RuntimeError):
-    """The controller refused or did not answer an operator-level request."""
-
-
-@dataclass(frozen=True, slots=True)
-class ThrusterFault:
-    """Why thrust can no longer be trusted: the link was lost or the controller's watchdog
-    tripped. ``t_confirmed`` is the host monotonic time the controller last confirmed its
-    outputs, ``outputs`` what it confirmed then (fractions of full scale)."""
-
-    kind: str  # "link_lost" | "watchdog"
-    reason: str
-    t_detected: float
-    t_confirmed: float
-    outputs: tuple[float, ...]
-
-    def to_json(self) -> dict:
-        return {
-            "fault": self.kind,
-            "t_detected": self.t_detected,
-            "t_thrust_confirmed": self.t_confirmed,
-            "confirmed_outputs": list(self.outputs),
-        }
-
-
-@dataclass(frozen=True, slots=True)
-class ThrusterStatus:
-    """Answer to a query: controller state, measured RPM and motor current (A) per thruster."""
-
-    state: str
-    rpm: tuple[float, ...]
-    current_a: tuple[float, ...]
-    t_mono: float
-
-
-@dataclass(frozen=True, slots=True)
-class OutputStep:
-    """One change of the controller's outputs: host monotonic times just before the frame
-    went out and when its reply came back (the change happened in between), and the
-    outputs after it as fractions of full scale."""
-
-    t_sent: float
-    t_acked: float
-    fractions: tuple[float, ...]
-
-    def to_json(self) -> list:
-        return [self.t_sent, self.t_acked, list(self.fractions)]
-
-
-class ThrusterDriver:
+class ThrusterDriver(LinkSupervision, ExitSafety):
     """Driver for the thruster controller named in the rig file's ``[thrusters]`` section.
 
     ``port`` overrides ``cfg.port`` (needed when the rig file says ``"sim"``: the simulated
@@ -158,10 +113,6 @@ class ThrusterDriver:
     def stats(self) -> LinkStats:
         """Counters: sent, acked, naks by reason, timeouts, garbage/corrupt lines, I/O errors."""
         return self._link.stats
-
-    @property
-    def is_open(self) -> bool:
-        return self._link.is_open
 
     # ---- life cycle -------------------------------------------------------------------
 
@@ -242,7 +193,9 @@ class ThrusterDriver:
         """Controller state and measured RPM/current per thruster."""
         reply = await self._transact(p.qry_frame)
         if reply is None or reply.kind != "STA":
-            raise ThrusterError(f"query: controller at {self._link.url} gave {_describe(reply)}")
+            raise ThrusterError(
+                f"query: controller at {self._link.url} gave {describe_reply(reply)}"
+            )
         if len(reply.rpm) != self.count:
             raise ThrusterError(
                 f"query: controller reports {len(reply.rpm)} thrusters, "
@@ -293,7 +246,7 @@ class ThrusterDriver:
             if reply is not None and (reply.kind == "ACK" or reply.reason == "disarmed"):
                 return True
             answered = answered or reply is not None
-            log.warning("thrusters: zero attempt %d got %s", attempt + 1, _describe(reply))
+            log.warning("thrusters: zero attempt %d got %s", attempt + 1, describe_reply(reply))
         if answered:
             reply = await self._transact(p.disarm_frame, self._zeros)
             return reply is not None and reply.kind == "ACK"
@@ -338,58 +291,6 @@ class ThrusterDriver:
     def confirmed(self) -> tuple[float, ...]:
         """The outputs the controller last confirmed (fractions of full scale)."""
         return self._confirmed
-
-    @property
-    def link_lost(self) -> bool:
-        return self.fault is not None and self.fault.kind == "link_lost"
-
-    async def wait_fault(self) -> ThrusterFault:
-        """Wait until the link is lost or the controller's watchdog trips (since the last
-        ``arm()``) and return that fault."""
-        if self._fault_event is None:
-            self._fault_event = asyncio.Event()
-        await self._fault_event.wait()
-        assert self.fault is not None
-        return self.fault
-
-    def _clear_fault(self) -> None:
-        self.fault = None
-        self.missed_replies = 0
-        if self._fault_event is not None:
-            self._fault_event.clear()
-        if self.inhibited == "thruster link lost":
-            self.inhibited = None
-
-    def _set_fault(self, kind: str, reason: str) -> None:
-        if self.fault is not None:
-            return
-        self.fault = ThrusterFault(kind, reason, self.clock(), self._t_confirmed, self._confirmed)
-        log.error("thrusters: %s", reason)
-        if self._fault_event is None:
-            self._fault_event = asyncio.Event()
-        self._fault_event.set()
-
-    def _supervise(self, reply: p.Reply | None, before: LinkStats) -> None:
-        """Count frames without a valid reply; ``LINK_LOST_AFTER`` in a row is a lost link:
-        commands are then held at zero (``inhibited``) until the next ``arm()``."""
-        if reply is not None and reply.reason not in LINE_NAKS:
-            self.missed_replies = 0
-            return
-        self.missed_replies += 1
-        if self.missed_replies < LINK_LOST_AFTER or self.fault is not None:
-            return
-        if self.state != "ARMED":  # nothing to supervise: outputs already zero
-            return
-        self.inhibited = "thruster link lost"
-        cause = _miss_cause(reply, before, self._link.stats)
-        age = self.clock() - self._t_confirmed
-        confirmed = ", ".join(f"{x:+.3f}" for x in self._confirmed)
-        self._set_fault(
-            "link_lost",
-            f"thruster link lost: {self.missed_replies} consecutive replies missing "
-            f"({cause}); thrust last confirmed {age:.2f} s before "
-            f"(outputs {confirmed}); commanding zero",
-        )
 
     @contextlib.contextmanager
     def recording_outputs(self) -> Iterator[list[OutputStep]]:
@@ -466,74 +367,6 @@ class ThrusterDriver:
 
     def _expect_ack(self, reply: p.Reply | None, what: str) -> None:
         if reply is None or reply.kind != "ACK":
-            raise ThrusterError(f"{what}: controller at {self._link.url} gave {_describe(reply)}")
-
-    def _zero_at_exit(self) -> None:
-        """Last resort at interpreter exit: write zero and DISARM frames synchronously."""
-        if not self.is_open:
-            return
-        try:
-            self._seq = p.next_seq(self._seq)
-            self._link.write_raw(p.thr_frame(self._seq, [0] * self.count))
-            self._seq = p.next_seq(self._seq)
-            self._link.write_raw(p.disarm_frame(self._seq))
-            log.warning("thrusters: zero frame written at exit (driver was not closed)")
-        except Exception as err:
-            log.error("thrusters: zero at exit failed: %s", err)
-
-    def install_signal_handlers(
-        self,
-        loop: asyncio.AbstractEventLoop | None = None,
-        *,
-        then: Callable[[int], None] | None = None,
-    ) -> None:
-        """On SIGINT/SIGTERM: zero and disarm (``close()``), then call ``then(signum)`` —
-        by default restore the default handler and re-raise the signal, so the process
-        exits as the signal asked, thrusters already at zero."""
-        loop = loop or asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, self._on_signal, loop, sig, then)
-
-    def _on_signal(
-        self, loop: asyncio.AbstractEventLoop, sig: int, then: Callable[[int], None] | None
-    ) -> None:
-        if self._signal_task is None:
-            log.warning("thrusters: signal %d: zeroing before exit", sig)
-            self.inhibited = "shutting down"
-            self._signal_task = loop.create_task(self._shutdown(loop, sig, then))
-
-    async def _shutdown(
-        self, loop: asyncio.AbstractEventLoop, sig: int, then: Callable[[int], None] | None
-    ) -> None:
-        await self.close()
-        if then is not None:
-            then(sig)
-            return
-        for s in (signal.SIGINT, signal.SIGTERM):
-            loop.remove_signal_handler(s)
-        signal.signal(sig, signal.SIG_DFL)
-        os.kill(os.getpid(), sig)
-
-
-def _miss_cause(reply: p.Reply | None, before: LinkStats, after: LinkStats) -> str:
-    """What kept one frame from getting a valid reply, from the link counters."""
-    if reply is not None:
-        return f"controller got our frame spoiled: NAK {reply.reason}"
-    if after.io_errors > before.io_errors:
-        return "I/O error on the port"
-    causes = []
-    if after.corrupt_lines > before.corrupt_lines:
-        causes.append("bad CRC")
-    if after.garbage_lines > before.garbage_lines:
-        causes.append("garbage")
-    if after.unexpected_replies > before.unexpected_replies:
-        causes.append("reply to another frame")
-    return ", ".join(causes) or "no reply within ack_timeout_s"
-
-
-def _describe(reply: p.Reply | None) -> str:
-    if reply is None:
-        return "no reply (timeout or line error)"
-    if reply.kind == "NAK":
-        return f"NAK {reply.reason}"
-    return f"{reply.kind} {reply.state}"
+            raise ThrusterError(
+                f"{what}: controller at {self._link.url} gave {describe_reply(reply)}"
+            )

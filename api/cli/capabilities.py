@@ -29,7 +29,7 @@ def capabilities(rig_file: str | None, as_json: bool) -> None:
         return
     click.echo(f"rig {rig.rig.name!r}")
     for spec in RIG_KINDS.values():
-        drives = spec.drives or {None: None}
+        drives: list[str | None] = [*spec.drives] or [None]  # None: the kind's one way
         for drive in drives:
             can = spec.capability(rig, drive)
             flag = f" --{drive}" if drive == "thrusters" else ""

@@ -13,6 +13,9 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 
 if TYPE_CHECKING:  # imported where used: light commands start without numpy & co.
+    from rich.progress import Progress as RichProgress
+    from rich.progress import TaskID
+
     from daq.procedures.params import Progress
     from daq.procedures.recording import AbortSignal
 
@@ -181,8 +184,8 @@ class ProgressView:
 
     def __init__(self, enabled: bool, title: str) -> None:
         self.enabled = enabled and sys.stderr.isatty()
-        self._bar = None
-        self._task = None
+        self._bar: RichProgress | None = None
+        self._task: TaskID | None = None
         self.title = title
         self.last: Progress | None = None
 
@@ -191,7 +194,7 @@ class ProgressView:
             from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
             from rich.progress import Progress as Bar
 
-            self._bar = Bar(
+            self._bar = bar = Bar(
                 TextColumn("[bold]{task.description}"),
                 BarColumn(),
                 TextColumn("{task.percentage:>3.0f}%"),
@@ -199,13 +202,13 @@ class ProgressView:
                 TextColumn("{task.fields[message]}"),
                 transient=False,
             )
-            self._bar.__enter__()
-            self._task = self._bar.add_task(self.title, total=1.0, message="")
+            bar.__enter__()
+            self._task = bar.add_task(self.title, total=1.0, message="")
         return self
 
     def __call__(self, p: Progress) -> None:
         self.last = p
-        if self._bar is not None:
+        if self._bar is not None and self._task is not None:
             self._bar.update(self._task, completed=p.fraction, message=p.message)
 
     def __exit__(self, *exc: object) -> None:

@@ -17,7 +17,7 @@ from api.cli.common import (
     user_errors,
 )
 from api.core.crosscheck_job import crosscheck_results, crosscheck_runs
-from estimation.axis.crosscheck import LABELS
+from estimation.axis.crosscheck_comparison import LABELS
 
 
 @click.command("crosscheck")

@@ -21,6 +21,7 @@ from api.cli.common import (
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from daq.procedures.kinds import all_methods
+from estimation.uncertainty.text import budget_lines
 
 ALL_METHODS = all_methods()
 #: How the summary words one item of each list a result may carry.
@@ -55,10 +56,16 @@ def _echo_findings(data: dict, lists: tuple[str, ...]) -> None:
     is_flag=True,
     help="Fit the base model only; skip the search for missing effects.",
 )
+@click.option(
+    "--exclude-outliers",
+    is_flag=True,
+    help="Leave repeats that Chauvenet's criterion flags out of the fit (they are always "
+    "reported; without this flag they stay in).",
+)
 @report_option("Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.")
 @db_option
 @json_option
-def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
+def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, as_json):
     """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
     vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
     the error before and after."""
@@ -73,6 +80,7 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
                     method=method,
                     search_effects=not no_effects,
                     report_dir=report_dir,
+                    exclude_outliers=exclude_outliers,
                 )
             except ValueError as err:  # bad input, found before fitting
                 fail(str(err))
@@ -120,6 +128,10 @@ def estimate(run_ids, method, no_effects, report_dir, db_url, as_json):
                 f"{w['samples_dropped_before']} before, {w['samples_dropped_after']} after, "
                 f"{w['spikes_dropped']} spike(s)"
             )
+        if data.get("budget"):
+            for line in budget_lines(data["budget"], data.get("repeats")):
+                click.echo(f"  {line}")
+        _echo_theory(data.get("theory"))
         click.echo(f"  stored as result #{data['result_id']}")
     finally:
         store.close()
@@ -160,3 +172,24 @@ def _echo_pendulum(data: dict) -> None:
     _echo_findings(data, ("effects", "warnings", "advice"))
     click.echo(f"  RMSE before {data['rmse_before']:.3g} rad, after {data['rmse_after']:.3g} rad")
     click.echo(f"  stored as result #{data['result_id']}")
+
+
+def _echo_theory(theory: dict | None) -> None:
+    """The added part, its dimensionless form and the verdict against the hull's theory."""
+    if not theory or "added" not in theory:
+        if theory and theory.get("missing"):
+            click.echo(f"  theory: not compared ({theory['missing']})")
+        return
+    a = theory["added"]
+    click.echo(
+        f"  added (fitted − body {a['body']:.4g}): {a['value']:.4g} ± "
+        f"{a['expanded_uncertainty']:.2g} {a['unit']}; "
+        + ", ".join(
+            f"{name.split(' = ')[0]} {c['value']:.4g}"
+            for name, c in theory["dimensionless"].items()
+        )
+    )
+    verdict = theory.get("theory")
+    if verdict is not None:
+        flag = "plausible" if verdict["plausible"] else "FLAGGED"
+        click.echo(f"  measured vs predicted added mass: {flag}: {verdict['message']}")

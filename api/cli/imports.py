@@ -55,6 +55,18 @@ from daq.procedures.kinds import IMPORT_KINDS, import_fields
     help="Hung weight in kg, if known (lets estimation account for its inertia).",
 )
 @click.option(
+    "--dry-mass",
+    "dry_mass_kg",
+    type=float,
+    help="Tow: the body's own mass, kg (estimation flags an inertia below it).",
+)
+@click.option(
+    "--displacement",
+    "displacement_kg",
+    type=float,
+    help="Tow: the mass of water the body displaces, kg (a floating body's own mass).",
+)
+@click.option(
     "--vehicle", default=None, help="Vehicle name (default: the rig file's, else 'unknown')."
 )
 @click.option(
@@ -94,6 +106,8 @@ def import_(
     drive_column,
     drive_unit,
     weight_kg,
+    dry_mass_kg,
+    displacement_kg,
     vehicle,
     rig_file,
     time_unit,
@@ -116,14 +130,14 @@ def import_(
     from api.cli.metadata import run_metadata
     from api.core.run_import import ImportRequest, plan_import
     from daq.procedures.params import ParameterError
-    from daq.store import import_csv
+    from daq.run_import import import_csv
 
     ctx = click.get_current_context()
     request = ImportRequest(
         kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
         drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
-        release_time_s=release_time_s, end_time_s=end_time_s,
-        fields=request_fields(import_fields(), kind_fields),
+        release_time_s=release_time_s, end_time_s=end_time_s, dry_mass_kg=dry_mass_kg,
+        displacement_kg=displacement_kg, fields=request_fields(import_fields(), kind_fields),
     )  # fmt: skip
     source = None
     if rig_file:
@@ -140,7 +154,7 @@ def import_(
             fail(flag_names(ctx, str(err)))
     if plan.from_header:
         taken = ", ".join(f"{k} {v}" for k, v in plan.from_header.items())
-        click.echo(f"note: from the file's export header: {taken}", err=True)
+        click.echo(f"note: from the file's header: {taken}", err=True)
     store = open_store(db_url)
     try:
         try:

@@ -16,7 +16,8 @@ import logging
 import os
 import sys
 import warnings
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, NoReturn
 
 import click
 
@@ -69,7 +70,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "export": (
         "api.cli.runs",
         "export",
-        "Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata.",
+        "Export a run with its units and metadata, in a format of --format.",
     ),
     "import": (
         "api.cli.imports",
@@ -161,6 +162,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "predict_added_mass",
         "Predict VEHICLE's added mass per DOF from its [hull] (a name from...",
     ),
+    "predict-uncertainty": (
+        "api.cli.uncertainty",
+        "predict_uncertainty",
+        "Simulate SEQUENCE's weight-driven tows and spins with the current model and the...",
+    ),
     "water": (
         "api.cli.theory",
         "water",
@@ -236,7 +242,14 @@ class RigGroup(click.Group):
             with formatter.section(f"Not on the rig of ${RIG_FILE_ENV}"):
                 formatter.write_dl(missing)
 
-    def main(self, *args: Any, **kwargs: Any) -> Any:
+    def main(
+        self,
+        args: Sequence[str] | None = None,
+        prog_name: str | None = None,
+        complete_var: str | None = None,
+        standalone_mode: bool = True,
+        **extra: Any,
+    ) -> NoReturn:
         """Click's usage errors as one line (with where to find help), not three."""
         # pymodbus logs each failed connect/bind itself; the command reports it once.
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
@@ -245,8 +258,8 @@ class RigGroup(click.Group):
                 "ignore", category=RuntimeWarning, module=r"(numpy|scipy|estimation)(\.|$)"
             )
         try:
-            kwargs.pop("standalone_mode", None)  # errors are reported here, one line each
-            rv = super().main(*args, standalone_mode=False, **kwargs)
+            # errors are reported here, one line each: click's standalone mode is off
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.ClickException as err:
             if os.environ.get(DEBUG_ENV):
                 import traceback

@@ -12,7 +12,7 @@ from __future__ import annotations
 import types
 import typing
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import annotated_types
 import click
@@ -73,7 +73,11 @@ def _click_type(info: FieldInfo, flag: Flag) -> Any:
     return str
 
 
-def request_options(model: type[BaseModel]) -> Callable[[Any], Any]:
+#: A click command, or the function a command is being built from.
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def request_options(model: type[BaseModel]) -> Callable[[F], F]:
     """A decorator adding one option per flagged field of ``model`` (in field order)."""
     options = []
     for name, info in model.model_fields.items():
@@ -95,7 +99,7 @@ def request_options(model: type[BaseModel]) -> Callable[[Any], Any]:
             )
         options.append(option)
 
-    def decorate(command: Any) -> Any:
+    def decorate(command: F) -> F:
         for option in reversed(options):
             command = option(command)
         return command

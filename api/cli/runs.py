@@ -22,7 +22,7 @@ from api.cli.common import (
     open_store,
     user_errors,
 )
-from daq.export_formats import FORMATS, export_file_name, write_export
+from daq.export_formats import FORMATS, export_file_name, formats_help, write_export
 from daq.parameter_labels import labelled
 from daq.vocabulary import AXES, RunKind, RunStatus
 
@@ -257,18 +257,19 @@ def annotate(run_id, untag, unset, db_url, as_json, **given):
     type=click.Choice(list(FORMATS)),
     default="csv",
     show_default=True,
-    help="csv: units and run in # comments; json: one document; netcdf: for xarray "
-    "(units, run as attributes); parquet: for pandas (units in the schema).",
+    help=formats_help() + ".",
 )
 @click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False, writable=True),
-    help="File to write (default: stdout; netcdf and parquet need it on a terminal).",
+    help="File to write (default: stdout; "
+    + ", ".join(f.name for f in FORMATS.values() if f.binary)
+    + " need it on a terminal).",
 )
 @db_option
 def export(run_id, fmt, output, db_url):
-    """Export a run: CSV/JSON, or NetCDF/Parquet with units and the run's metadata."""
+    """Export a run with its units and metadata, in a format of --format."""
     store = open_store(db_url)
     try:
         with user_errors():
@@ -277,23 +278,19 @@ def export(run_id, fmt, output, db_url):
         if output:
             write_export(store, run.id, fmt, output)
             click.echo(f"wrote {output}", err=True)
-        elif not binary:
-            from daq.store import export_run_csv, export_run_json
-
-            (export_run_csv if fmt == "csv" else export_run_json)(store, run.id, sys.stdout)
-        elif sys.stdout.isatty():
+        elif binary and sys.stdout.isatty():
             fail(
                 f"--output: a file is needed for --format {fmt} (binary), e.g. -o "
                 + export_file_name(run.id, fmt)
             )
         else:
-            _binary_to_stdout(store, run.id, fmt)
+            _to_stdout(store, run.id, fmt)
     finally:
         store.close()
 
 
-def _binary_to_stdout(store, run_id: str, fmt: str) -> None:
-    """Write a binary export to a temporary file (HDF5 needs to seek), then to stdout."""
+def _to_stdout(store, run_id: str, fmt: str) -> None:
+    """Write the export to a temporary file (HDF5 needs to seek), then to stdout."""
     import shutil
     import tempfile
     from pathlib import Path

@@ -13,11 +13,14 @@ from estimation.vehicle.ahp import Hierarchy, Judgement, hierarchy, judge
 from estimation.vehicle.identifiability import analyse_identified, run_speed
 
 
-def stored_results(store: Store, result_ids: Sequence[int]) -> tuple[list[dict], dict]:
+def stored_results(
+    store: Store, result_ids: Sequence[int]
+) -> tuple[list[dict[str, Any]], dict[str, list[float]]]:
     """Estimation result documents (with ``result_id``) and, per axis, the end speeds of
     the runs behind them. ``ResultNotFound`` names an unknown id; a calibration result is
     a ValueError naming it."""
-    docs, speeds = [], {}
+    docs: list[dict[str, Any]] = []
+    speeds: dict[str, list[float]] = {}  # axis → end speeds, m/s or rad/s
     for result_id in result_ids:
         found = store.result(result_id)
         if found.kind != "estimation":

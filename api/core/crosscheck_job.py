@@ -32,7 +32,8 @@ def _estimation(store: Store, result_id: int, field: str) -> dict[str, Any]:
 def supply_voltages(store: Store, thruster_result: dict[str, Any]) -> dict[str, float | None]:
     """Mean supply voltage at calibration (thrusting steps of the calibration the runs used)
     and while the thruster-driven runs drove (samples after the thrust went on), V."""
-    calibration_ids, volts = set(), []
+    calibration_ids: set[int] = set()  # the thrust calibrations the runs used
+    volts: list[float] = []
     for run_id in thruster_result.get("runs", []):
         try:
             run = store.get_run(run_id)
@@ -41,7 +42,9 @@ def supply_voltages(store: Store, thruster_result: dict[str, Any]) -> dict[str, 
         params = run.parameters or {}
         if params.get("drive") != "thrusters":
             continue
-        calibration_ids.add(params.get("calibration_result_id"))
+        calibration_id = params.get("calibration_result_id")
+        if calibration_id is not None:
+            calibration_ids.add(calibration_id)
         table = store.samples(run.id)
         channel = table.channels.get("supply_voltage")
         events = RunEvents.of(store.events(run.id))
@@ -56,7 +59,7 @@ def supply_voltages(store: Store, thruster_result: dict[str, Any]) -> dict[str, 
         if good.any():
             volts.append(float(np.mean(channel[good])))
     at_calibration = []
-    for cid in calibration_ids - {None}:
+    for cid in calibration_ids:
         try:
             rows = store.result(cid).data.get("table", [])
         except ResultNotFound:
@@ -92,9 +95,9 @@ def crosscheck_results(
     if report_dir is not None:
         data["report_files"] = [str(p) for p in write_crosscheck_report(check, Path(report_dir))]
     pair = (weight["result_id"], thrusters["result_id"])
-    for stored in reversed(store.results(kind="crosscheck")):
-        if (stored.data.get("weight_result_id"), stored.data.get("thruster_result_id")) == pair:
-            return data | {"result_id": stored.id, "reused": True}
+    for earlier in reversed(store.results(kind="crosscheck")):
+        if (earlier.data.get("weight_result_id"), earlier.data.get("thruster_result_id")) == pair:
+            return data | {"result_id": earlier.id, "reused": True}
     runs = list(dict.fromkeys([*weight.get("runs", []), *thrusters.get("runs", [])]))
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result(runs, "crosscheck", stored)

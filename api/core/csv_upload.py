@@ -20,7 +20,8 @@ from typing import Any
 
 from starlette.concurrency import run_in_threadpool
 
-from daq.store import Store, import_csv
+from daq.run_import import import_csv
+from daq.store import Store
 
 #: Niceness of the import process: it yields the CPU to the service and the clock.
 IMPORT_NICENESS = 10

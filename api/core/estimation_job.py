@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from api.core.estimation_failure import fit_subject, fitting
+from api.core.theory_job import theory_document
+from api.core.uncertainty_job import budget_document, screen_repeats
 from daq.estimators import Estimator
 from daq.procedures.kinds import KINDS
 from daq.store import Store
@@ -74,14 +76,21 @@ def run_estimation(
     method: str = "output-error",
     search_effects: bool = True,
     report_dir: str | Path | None = None,
+    exclude_outliers: bool = False,
 ) -> dict[str, Any]:
     """Estimate from stored runs; returns the result JSON (with ``result_id``), stored as an
-    "estimation" result. Bad input raises as :func:`load_estimation_runs` says; a fit (or
-    its report) that fails in its numerics raises ``EstimationFailure`` (``could not fit
-    surge of run 3f2a9c1b: why``).
+    "estimation" result; the axis model's with the uncertainty budget, the repeat analysis
+    and the theory comparison (``api.core.uncertainty_job``, ``api.core.theory_job``;
+    ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit). Bad input raises
+    as :func:`load_estimation_runs` says; a fit (or its report) that fails in its numerics
+    raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
     """
     estimator = estimator_of(store, run_ids, method)
     runs = estimator.load(store, run_ids)
+    axis = estimator.name == "axis"  # the budget and repeats are the axis model's (for now)
+    repeats = None
+    if axis:
+        runs, repeats = screen_repeats(runs, exclude_outliers)
     subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
     with fitting(subject):
         result = estimator.fit(runs, method, search_effects)
@@ -90,6 +99,10 @@ def run_estimation(
         with fitting(subject, "draw the report of"):
             files = estimator.report(result, runs, Path(report_dir))
             data["report_files"] = [str(p) for p in files]
+    if axis:
+        with fitting(subject, "compute the uncertainty budget of"):
+            data |= budget_document(store, runs, result, repeats, report_dir)
+            data |= theory_document(store, data, repeats, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

@@ -2,8 +2,9 @@
 job's request, run one now (to the front, queue resumed), stop after the job on the rig,
 and re-queue a past job (the same request submitted again).
 
-A mixin of :class:`api.core.jobs.JobRunner`: it works on the runner's queue, lock and job
-objects, so a change is seen by every reader of ``queue_json`` at once.
+A mixin of :class:`api.core.jobs.JobRunner`: it works on the runner's
+:class:`~api.core.job_queue.RigQueue` under its lock, so a change is seen by every reader of
+``queue_json`` at once.
 """
 
 from __future__ import annotations
@@ -14,9 +15,10 @@ from api.core.job_model import Job, JobConflict
 from api.core.job_requests import procedure_from_request
 
 if TYPE_CHECKING:
-    import threading
-
+    from api.core.job_queue import RigQueue
+    from api.core.job_registry import JobRegistry
     from api.core.service import RigService
+
 
 #: Why the queue waits after "Stop after the current job" (the words the pages show).
 STOP_AFTER_CURRENT = (
@@ -30,15 +32,12 @@ class QueueEdits:
 
     # provided by JobRunner
     service: RigService
-    _lock: threading.Lock
-    _queue: list[Job]
-    _queue_paused: str | None
+    registry: JobRegistry
+    queue: RigQueue
 
     if TYPE_CHECKING:
 
         def get(self, job_id: str) -> Job: ...
-        def _queued(self, job_id: str) -> Job: ...
-        def _update(self, job: Job, **changes: Any) -> None: ...
         def move(self, job_id: str, position: int) -> dict[str, Any]: ...
         def pause_queue(self, reason: str = ...) -> dict[str, Any]: ...
         def resume_queue(self) -> dict[str, Any]: ...
@@ -57,14 +56,14 @@ class QueueEdits:
         submission: ``ParameterError``/``NotCapable`` name the field); it keeps its place."""
         from daq.store.run_metadata import check_run_metadata
 
-        job = self._queued(job_id)
+        job = self.queue.queued(job_id)
         check_run_metadata(request.get("metadata"))
         params, label = procedure_from_request(
             job.kind, request, self.service.source.rig, self.service.store
         )
         note = getattr(params, "adjustment", lambda: None)()
-        with self._lock:
-            if job not in self._queue:
+        with self.queue.lock:
+            if job not in self.queue:
                 raise JobConflict(f"job {job.id} left the queue (state {job.state})")
             with job.lock:
                 job.request = request
@@ -72,13 +71,13 @@ class QueueEdits:
                 job.parameters = params.to_json()
                 job.label = label
                 job.notes = [note] if note else []
-        self._update(job, message=f"queued (position {job.position}): parameters replaced")
+        self.registry.update(job, message=f"queued (position {job.position}): parameters replaced")
         return job
 
     def run_now(self, job_id: str) -> dict[str, Any]:
         """Put a queued job first and resume the queue: it starts now if the rig is free,
         else as soon as the job on the rig ends."""
-        job = self._queued(job_id)
+        job = self.queue.queued(job_id)
         self.move(job.id, 1)
         return self.resume_queue()
 

@@ -19,7 +19,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from api.core.job_model import JobConflict, iso_time
-from api.core.service import RigService
+from api.core.service import RigService, RigUnavailable
 from daq.store.people import ESTOP, ESTOP_ACK, HOLD, RELEASE, RigEventLog, User
 
 log = logging.getLogger(__name__)
@@ -62,7 +62,7 @@ class RigGuard:
     @classmethod
     def of(cls, service: RigService) -> RigGuard:
         if service.store is None:
-            raise RuntimeError("the rig service is not running")
+            raise RigUnavailable("the rig service is not running")
         return cls(RigEventLog(service.store, service.source.rig.rig.name))
 
     # -- state --------------------------------------------------------------------------

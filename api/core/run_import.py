@@ -6,10 +6,13 @@ file into the run's kind, parameters, origin and window times, or refuses naming
 export's own header (``daq.store.export_header``); each kind's own rules (its drive, its
 geometry, its fields) are its registry entry's ``imports`` (``daq.import_rules``). The
 header also gives the release and the vehicle, so an export imports back without restating
-them; a given release or vehicle overrides it.
+them; a given release or vehicle overrides it. A tow may declare the body's own
+``dry_mass_kg`` and ``displacement_kg`` (``daq.import_rules.body_mass``); any CSV's leading
+``# vehicle: NAME`` comment (or its ``# metadata:`` vehicle) names the vehicle when the user
+does not (before the rig file's, then ``unknown``).
 
 What needs the samples (the drive's sign against the motion, one-row files, window times
-within the ``t`` range) is checked by ``daq.store.import_csv`` while it parses.
+within the ``t`` range) is checked by ``daq.run_import.import_csv`` while it parses.
 """
 
 from __future__ import annotations
@@ -18,10 +21,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from daq.import_rules import ImportRequest, Planning
+from daq.import_rules import ImportRequest, Planning, body_mass
 from daq.procedures.kinds import IMPORT_KINDS, KINDS
 from daq.procedures.params import ParameterError
-from daq.store.export_header import ExportHeader, read_export_header
+from daq.store.export_header import ExportHeader, read_export_header, vehicle_in_header
 
 if TYPE_CHECKING:
     from daq.session import RigSource
@@ -31,7 +34,7 @@ __all__ = ["IMPORT_KINDS", "ImportPlan", "ImportRequest", "plan_import"]
 
 @dataclass(frozen=True)
 class ImportPlan:
-    """The import to make: ``kind``, the keyword arguments of ``daq.store.import_csv``
+    """The import to make: ``kind``, the keyword arguments of ``daq.run_import.import_csv``
     (``options``) and what the file's export header supplied (``from_header``)."""
 
     kind: str
@@ -62,15 +65,16 @@ def plan_import(
     }
     rules = KINDS[kind].imports  # type: ignore[index]  # a RunKind key matches its string
     assert rules is not None  # _kind allows the importable kinds only
-    planned, rig = rules.plan(
-        Planning(kind, request, header, restored, rig, pendulum_rig, rig_field)
-    )
+    planning = Planning(kind, request, header, restored, rig, pendulum_rig, rig_field)
+    planned, rig = rules.plan(planning)
     options |= planned
+    options["parameters"] |= body_mass(planning)
     release = header.release_t_s if request.time_unit == "s" else None  # an export's t is s
     if request.release_time_s is None and release is not None:
         options["release_time_s"] = restored["release_time_s"] = release
-    vehicle = request.vehicle or header.text("vehicle")
-    if request.vehicle is None and header.text("vehicle"):
+    named = header.text("vehicle") or vehicle_in_header(path)  # an export's or a foreign header's
+    vehicle = request.vehicle or named
+    if request.vehicle is None and named:
         restored["vehicle"] = vehicle
     if rig is not None:
         options |= {

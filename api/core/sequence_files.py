@@ -41,14 +41,21 @@ def describe_sequence(file: str, path: Path, rig: RigConfig) -> dict[str, Any]:
         content = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         problem = f"file: not a readable sequence file ({err})"
-        empty = {"rest_s": None, "repeats": None, "runs": 0, "steps": [], "content": None}
+        empty: dict[str, Any] = {
+            "rest_s": None,
+            "repeats": None,
+            "runs": 0,
+            "steps": [],
+            "content": None,
+        }
         return {"file": file, "name": file, **empty, "problems": [problem]}
     problems: list[str] = []
     try:
         parse_sequence(content, rig, source=file)
     except ParameterError as err:
         problems = err.lines()
-    raw_steps = content.get("steps") if isinstance(content.get("steps"), list) else []
+    given_steps = content.get("steps")
+    raw_steps: list[Any] = given_steps if isinstance(given_steps, list) else []
     steps = [
         {
             "kind": str(step.get("kind", "")),

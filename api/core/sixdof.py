@@ -13,14 +13,11 @@ from typing import Any
 
 import numpy as np
 
-from estimation.vehicle.description import (
-    DOFS,
-    Vehicle6,
-    VehicleError,
-    apply_result_json,
-    load_vehicle,
-)
-from estimation.vehicle.dynamics import Trajectory, allocation_matrix, simulate, steady_state
+from estimation.vehicle.apply_estimates import apply_result_json
+from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
+from estimation.vehicle.dynamics import allocation_matrix
+from estimation.vehicle.simulation import Trajectory, simulate, steady_state
+from estimation.vehicle.vehicle_file import load_vehicle
 
 #: The vehicles that come with the project.
 FIXTURE_VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"

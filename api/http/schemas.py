@@ -9,7 +9,7 @@ one per kind in ``daq.procedures.kinds.KINDS``).
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -19,8 +19,12 @@ from daq.procedures.requests import _ProcedureRequest, _Strict
 from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 
-#: A job runs one run kind, a sequence of them, or an analysis.
-JobKind = Literal[(*(k.value for k in RunKind), "sequence", "estimation", "crosscheck")]  # type: ignore[valid-type]
+#: What a job runs: one run kind, a sequence of them, or an analysis.
+JOB_KINDS = (*(k.value for k in RunKind), "sequence", "estimation", "crosscheck")
+if TYPE_CHECKING:
+    JobKind = str  # a name of JOB_KINDS: what the type checker can know of a computed Literal
+else:
+    JobKind = Literal[JOB_KINDS]  # what pydantic checks and the OpenAPI schema lists
 
 
 # ---- errors ---------------------------------------------------------------------------
@@ -52,6 +56,14 @@ def error_responses(*codes: int) -> dict[int | str, dict[str, Any]]:
         503: "The rig service is not running",
     }
     return {code: {"model": ErrorBody, "description": text[code]} for code in codes}
+
+
+def file_response(
+    content: dict[str, dict[str, Any]], description: str
+) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI declaration of a 200 answer that is not JSON: its media types (``content``)
+    and what it is; ``| error_responses(...)`` adds the errors."""
+    return {200: {"content": content, "description": description}}
 
 
 def csv_upload_body(description: str) -> dict[str, Any]:

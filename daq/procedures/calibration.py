@@ -22,10 +22,12 @@ from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.requests import CalibrationRequest as CalibrationParameters
 from daq.procedures.steps import RunOutcome
-from daq.procedures.thruster_drive import abort_on_thruster_fault
+from daq.procedures.thruster_faults import abort_on_thruster_fault
 from daq.session import RigSession
 from daq.store.run_events import RunAction, RunEvents
 from estimation.thrust.calibration_import import efficiency_n_per_w
+from estimation.thrust.curve import fit_thrust_curve
+from estimation.thrust.response import largest_transient, measure_response_time
 from thrusters.driver import ThrusterStatus
 
 log = logging.getLogger(__name__)
@@ -61,6 +63,7 @@ async def run_thrust_calibration(
             parameters=params.to_json(),
             abort=abort,
             progress=report,
+            thruster_telemetry=True,
         )
         armed = asyncio.Event()
         supervisor = asyncio.create_task(abort_on_thruster_fault(session, rec, abort, armed))
@@ -296,8 +299,6 @@ def _store_calibration(session: RigSession, run_id: str, table: list[dict], tare
     """Fit the thrust curve (per thruster), measure the thrust lag from the run's step
     responses (``estimation.thrust.response``), and store table + fit + response as a
     result."""
-    from estimation.thrust.curve import fit_thrust_curve
-    from estimation.thrust.response import largest_transient, measure_response_time
 
     store = session.store
     commands = [r["command"] for r in table]

@@ -1,5 +1,6 @@
 """The thrusters' current cut-off: the rig file's ``thrusters.max_current_a`` stops a test
-whose thrusters draw more (the controller's telemetry, read while the run lasts)."""
+whose thrusters draw more (the controller's telemetry, read while the run lasts: the
+run's logged telemetry when fresh, ``daq.thruster_supervisor``, else a query)."""
 
 from __future__ import annotations
 
@@ -21,10 +22,13 @@ async def current_over_limit(session: RigSession) -> tuple[str, dict[str, Any]]:
     assert limit is not None
     while True:
         await asyncio.sleep(port.current_check_s)  # the cut-off's own polling period
-        try:
-            status = await session.live_thrusters.query()
-        except ThrusterError:  # a lost link is the driver's own fault, reported there
-            continue
+        # The telemetry the run logs every tick when it is fresh; else ask the controller.
+        status = session.telemetry.fresh() if session.telemetry is not None else None
+        if status is None:
+            try:
+                status = await session.live_thrusters.query()
+            except ThrusterError:  # a lost link is the driver's own fault, reported there
+                continue
         over = [(i, a) for i, a in enumerate(status.current_a) if a > limit]
         if over:
             i, amps = max(over, key=lambda pair: pair[1])

@@ -13,8 +13,10 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from daq.calibration_law import law_of
 from daq.config import RigConfig
 from daq.procedures.params import ParameterError
+from daq.procedures.thrust_commands import latest_calibration, law_commands, thruster_commands
 from daq.store import Store
 from daq.vocabulary import DRIVE_FIELD
 
@@ -27,8 +29,6 @@ _BISECT_STEPS = 30
 def _commands_for(store: Store, rig: RigConfig, kind: str) -> tuple[Callable[[float], Any], str]:
     """A function turning a drive into commands exactly as the run would (raising
     ``ParameterError`` beyond the calibration), and the calibration's name."""
-    from daq.procedures.thruster_drive import latest_calibration, law_commands, thruster_commands
-
     calibration = latest_calibration(store)  # ParameterError (drive) when there is none
     port = rig.thruster_port()
     max_command = rig.limits.max_thruster_command
@@ -36,8 +36,6 @@ def _commands_for(store: Store, rig: RigConfig, kind: str) -> tuple[Callable[[fl
     if imported is None:
         name = f"calibration run result {calibration['result_id']}"
         return (lambda d: thruster_commands(d, calibration, port, max_command, kind)), name
-    from daq.calibration_law import law_of
-
     law, _ = law_of(store, "imported", imported)
     name = f"imported calibration {imported} at {law.reference_voltage:.3g} V"
     return (lambda d: law_commands(d, law, None, port, max_command, kind)), name

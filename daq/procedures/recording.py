@@ -29,11 +29,12 @@ import sqlalchemy as sa
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
 from daq.sample import Quality, Sample
-from daq.session import Aborted, RigSession
+from daq.session import NO_THRUSTERS, Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import StorageFault, one_line
 from daq.store.run_events import RunAction
 from daq.store.spill import write_back_later
+from thrusters.driver import ThrusterError
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +85,10 @@ class RecordedRun:
         parameters: dict[str, Any],
         abort: AbortSignal,
         progress: ProgressCallback | None = None,
+        thruster_telemetry: bool = False,
     ) -> None:
+        """``thruster_telemetry``: log each thruster's RPM and current as channels
+        (``daq.thruster_supervisor``; a thruster-driven run or a calibration)."""
         self.session = session
         self.kind = kind
         self.parameters = parameters
@@ -98,6 +102,10 @@ class RecordedRun:
         self._pump_task: asyncio.Task | None = None
         self._queue: asyncio.Queue[Sample] | None = None
         self._unlisten: Callable[[], None] | None = None
+        self._telemetry = contextlib.ExitStack()
+        if thruster_telemetry and session.telemetry is None:
+            raise ThrusterError(NO_THRUSTERS)
+        self._thruster_telemetry = thruster_telemetry
 
     @property
     def store(self):
@@ -112,6 +120,8 @@ class RecordedRun:
         channel_names += [
             c.name for c in s.rig.channels if c.kind in ("coil", "discrete") and not c.sim_only
         ]
+        if self._thruster_telemetry and s.telemetry is not None:
+            channel_names += s.telemetry.names
         # Samples kept aside while storage had failed go back first (if it takes them now).
         await asyncio.to_thread(self.store.replay_spills)
         try:
@@ -147,6 +157,8 @@ class RecordedRun:
         self._recorder_task = asyncio.create_task(
             self._recorder.run(), name=f"recorder-{run_id[:8]}"
         )
+        if self._thruster_telemetry and s.telemetry is not None:
+            self._telemetry.enter_context(s.telemetry.logging())
         # The recorder gets every sample: a queue big enough for a long fault, then drops.
         self._recorder_queue = s.acquisition.subscribe(maxsize=100_000, name="run-recorder")
         self._pump_task = asyncio.create_task(self._pump(self._recorder_queue), name="pump")
@@ -177,7 +189,10 @@ class RecordedRun:
             lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST))
             fault = lost or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
-        await self._end_safe()
+        try:
+            await self._end_safe()
+        finally:
+            self._telemetry.close()  # the thrusters' telemetry stops with the run's end
         assert s.acquisition is not None
         if self._queue is not None:
             s.acquisition.unsubscribe(self._queue)

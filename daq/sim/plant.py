@@ -18,8 +18,8 @@ history does not depend on how often anyone reads it. Equations (SI units):
   band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
 * pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum``, stepped with the rest
 
-One module because every channel the simulated PLC serves reads or writes this one state
-(carriage, yaw, weights and their rigging, thrusters, supply), integrated in one step.
+The channels the simulated PLC reads and writes map onto this state in
+``daq.sim.plant_channels``.
 """
 
 from __future__ import annotations
@@ -30,11 +30,11 @@ import random
 from daq.config import RigConfig
 from daq.sim.friction import sign, stick_slip_step
 from daq.sim.pendulum import SimPendulum
+from daq.sim.plant_channels import read_channel, write_channel
 from daq.sim.scenario import Scenario
 from thrusters.config import ThrusterPort
 
 STEP_S = 0.001
-HEARTBEAT_PERIOD_S = 0.01
 
 
 class Plant:
@@ -43,7 +43,8 @@ class Plant:
     def __init__(self, rig: RigConfig, scenario: Scenario | None = None) -> None:
         self.rig = rig
         self.scenario = scenario or Scenario()
-        self._rng = random.Random(self.scenario.seed)
+        #: The sensor noise (load cell, supply voltage), seeded by the scenario.
+        self.sensor_noise = random.Random(self.scenario.seed)
         geo, thr = rig.geometry, self.scenario.thrusters
         #: The rig's thrusters; a rig without [thrusters] gets the default ones, never commanded.
         self.thruster_port = rig.thrusters or ThrusterPort()
@@ -68,8 +69,8 @@ class Plant:
         n = self.thruster_port.count
         self.commands = [0.0] * n
         self.thrusts_n = [0.0] * n
-        self._tow_release_at: float | None = None
-        self._spin_release_at: float | None = None
+        self.tow_release_at: float | None = None
+        self.spin_release_at: float | None = None
         self.tow_release = False
         self.spin_release = False
         #: The free-decay pendulum, when the rig file has one (``daq.sim.pendulum``).
@@ -90,13 +91,14 @@ class Plant:
         self.spin_braked = True
         self.tow_release = False
         self.spin_release = False
-        self._tow_release_at = None
-        self._spin_release_at = None
-        self._hang_weight_at_rest()
+        self.tow_release_at = None
+        self.spin_release_at = None
+        self.hang_weight_at_rest()
         if self.pendulum is not None:
             self.pendulum.reset()
 
-    def _hang_weight_at_rest(self) -> None:
+    def hang_weight_at_rest(self) -> None:
+        """The hung weight back on its support, at rest under the carriage."""
         # The weight rests on its support with the rope just taut until the brake lets go
         # (the PLC drops the support with the brake), so an elastic rope starts unstretched.
         self.weight_supported = True
@@ -154,7 +156,7 @@ class Plant:
             return False
         if not (self.tow_braked and self.spin_braked):
             return False
-        if self._tow_release_at is not None or self._spin_release_at is not None:
+        if self.tow_release_at is not None or self.spin_release_at is not None:
             return False
         k_rope = self.scenario.effects.rope_stiffness_n_per_m
         if k_rope > 0 and self.tow_weight_kg > 0 and not self.weight_supported:
@@ -171,12 +173,12 @@ class Plant:
     # ---- one step ------------------------------------------------------------------------
     def _step(self) -> None:
         t = self.steps * STEP_S
-        if self._tow_release_at is not None and t >= self._tow_release_at:
-            self._tow_release_at = None
+        if self.tow_release_at is not None and t >= self.tow_release_at:
+            self.tow_release_at = None
             self.tow_braked = False
             self.weight_supported = False
-        if self._spin_release_at is not None and t >= self._spin_release_at:
-            self._spin_release_at = None
+        if self.spin_release_at is not None and t >= self.spin_release_at:
+            self.spin_release_at = None
             self.spin_braked = False
         volts = self.loaded_voltage_v()
         alpha = self._thrust_alpha
@@ -236,7 +238,7 @@ class Plant:
             self.velocity_m_s = 0.0
             self.tow_braked = True
             self.tow_release = False
-            self._tow_release_at = None
+            self.tow_release_at = None
             if k_rope == 0:
                 self.weight_velocity_m_s = 0.0
 
@@ -308,96 +310,14 @@ class Plant:
             out.append((rpm, self.thruster_current_a(t)))
         return out
 
-    # ---- channels (what the PLC serves) --------------------------------------------------
+    # ---- channels (what the PLC serves: ``daq.sim.plant_channels``) ----------------------
     def read(self, name: str) -> float | None:
         """SI value of a standard channel, as the PLC would report it now (None: unknown)."""
-        sens = self.scenario.sensors
-        if name == "tow_position":
-            return round(self.position_m * sens.encoder_counts_per_m) / sens.encoder_counts_per_m
-        if name == "yaw_angle":
-            cpr = sens.encoder_counts_per_rad
-            return round(self.yaw_rad * cpr) / cpr
-        if name == "load_cell":
-            force = sum(self.thrusts_n) if self.thrust_stand else 0.0
-            return force + sens.load_cell_offset_n + self._rng.gauss(0.0, sens.load_cell_noise_n)
-        if name == "supply_voltage":
-            return self.loaded_voltage_v() + self._rng.gauss(0.0, sens.supply_voltage_noise_v)
-        if name == "heartbeat":
-            return float(int(self.sim_time_s / HEARTBEAT_PERIOD_S + 1e-9))
-        if name == "plc_clock":
-            return self.sim_time_s
-        bits = {
-            "tow_release": self.tow_release,
-            "spin_release": self.spin_release,
-            "end_of_travel": self.end_of_travel,
-            "estop": self.estop,
-            "sim_thrust_stand": self.thrust_stand,
-            "sim_reset": False,
-            "sim_tow_reversed": self.tow_reversed,
-            "sim_spin_reversed": self.spin_reversed,
-        }
-        if name in bits:
-            return 1.0 if bits[name] else 0.0
-        if name == "sim_tow_weight":
-            return self.tow_weight_kg
-        if name == "sim_spin_weight":
-            return self.spin_weight_kg
-        if name == "sim_carriage_position":
-            return self.position_m
-        if self.pendulum is not None:
-            return self.pendulum.read(name)
-        return None
+        return read_channel(self, name)
 
     def write(self, name: str, value: float) -> bool:
         """Apply a write to a standard channel; False if the plant does not know it."""
-        on = bool(value)
-        t = self.sim_time_s
-        delay = self.scenario.effects.release_delay_s
-        if name == "tow_release":
-            if on and not (self.estop or self.end_of_travel):
-                if not self.tow_release:
-                    self.tow_release = True
-                    self._tow_release_at = t + delay
-            elif not on:
-                self.tow_release, self._tow_release_at, self.tow_braked = False, None, True
-                self.velocity_m_s = 0.0
-        elif name == "spin_release":
-            if on and not self.estop:
-                if not self.spin_release:
-                    self.spin_release = True
-                    self._spin_release_at = t + delay
-            elif not on:
-                self.spin_release, self._spin_release_at, self.spin_braked = False, None, True
-                self.yaw_rate_rad_s = 0.0
-        elif name == "sim_tow_weight":
-            self._check_weight(name, value)
-            self.tow_weight_kg = float(value)
-            if self.tow_braked:
-                self._hang_weight_at_rest()
-        elif name == "sim_spin_weight":
-            self._check_weight(name, value)
-            self.spin_weight_kg = float(value)
-        elif name == "sim_thrust_stand":
-            self.thrust_stand = on
-        elif name == "sim_reset":
-            if on:
-                self.reset()
-        elif name == "sim_carriage_position":  # the operator pushes the carriage there
-            self._check_position(value)
-            self.reset(float(value))
-        elif name == "sim_tow_reversed":
-            self.tow_reversed = on
-            if self.tow_braked:
-                self._hang_weight_at_rest()
-        elif name == "sim_spin_reversed":
-            self.spin_reversed = on
-        elif name == "estop":
-            self.press_estop(on)
-        elif self.pendulum is not None:
-            return self.pendulum.write(name, value, t)
-        else:
-            return False
-        return True
+        return write_channel(self, name, value)
 
     def press_estop(self, pressed: bool = True) -> None:
         """Emergency stop: brakes engage, releases drop, thruster commands go to zero."""
@@ -406,19 +326,6 @@ class Plant:
             self.write("tow_release", 0)
             self.write("spin_release", 0)
             self.commands = [0.0] * len(self.commands)
-
-    def _check_position(self, value: float) -> None:
-        end = self.rig.geometry.end_of_travel_m
-        if not (0.0 <= value < end):
-            raise ValueError(
-                f"sim_carriage_position: {value} m is not allowed; allowed 0 ≤ x < "
-                f"end_of_travel_m ({end:g} m)"
-            )
-
-    @staticmethod
-    def _check_weight(name: str, value: float) -> None:
-        if not (0.0 <= value <= 50.0) or math.isnan(value):
-            raise ValueError(f"{name}: weight must be within 0…50 kg, got {value}")
 
     # ---- closed-form helpers -------------------------------------------------------------
     def steady_tow_speed(self, force_n: float) -> float:

@@ -13,7 +13,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from daq.store.csvio import export_run_csv, export_run_json, import_csv
+    from daq.store.csv_export import export_run_csv, export_run_json
     from daq.store.jobs import JobRepository
     from daq.store.loaded_run import LoadedRun
     from daq.store.migrate import default_database_path, default_database_url
@@ -32,12 +32,11 @@ if TYPE_CHECKING:
     from daq.store.store import Store
 
 #: Where each public name lives; imported on first use, so ``daq.store.run_metadata`` or
-#: ``daq.store.records`` come without SQLAlchemy, and listing runs without numpy and the
-#: estimator's CSV rules (csvio).
+#: ``daq.store.records`` come without SQLAlchemy, and listing runs without numpy. A CSV
+#: import is ``daq.run_import.import_csv`` (it reads with estimation's CSV rules).
 _HOME = {
-    "export_run_csv": "csvio",
-    "export_run_json": "csvio",
-    "import_csv": "csvio",
+    "export_run_csv": "csv_export",
+    "export_run_json": "csv_export",
     "default_database_path": "migrate",
     "default_database_url": "migrate",
     "RecorderStats": "recorder",
@@ -84,5 +83,4 @@ __all__ = [
     "default_database_url",
     "export_run_csv",
     "export_run_json",
-    "import_csv",
 ]

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from daq.store.records import RunInfo, SampleTable
-from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL
+from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL, thruster_telemetry_unit
 
 #: Decimals of the time columns (1 µs; the store keeps start times to the µs as well).
 TIME_DECIMALS = 6
@@ -87,7 +87,7 @@ def _rig_channels(run: RunInfo) -> dict[str, dict[str, Any]]:
 def _channel_info(name: str, spec: dict[str, Any] | None) -> ColumnInfo:
     label = name.replace("_", " ")
     if spec is None:
-        units = POSITION_UNITS.get(name, "")
+        units = POSITION_UNITS.get(name) or thruster_telemetry_unit(name) or ""
         note = "" if units else " (unit unknown: imported without a rig file)"
         return ColumnInfo(name, units, label + note)
     if spec.get("type") == "bool":

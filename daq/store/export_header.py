@@ -5,17 +5,24 @@ attribute (``daq.store.run_attributes``): the kind, vehicle, rig name, drive, th
 parameters as JSON (the signed load, the hung mass, a logged drive's channel), the release
 instant ``release_t_s`` (s on the file's ``t`` axis). An import of such a file takes them
 back, so a run exported here and imported again is the same run without restating it.
+
+A CSV another tool wrote may name its vehicle too: :func:`vehicle_in_header` reads a
+leading ``# vehicle: NAME`` (or ``# Vehicle = NAME``) comment line, or the ``vehicle`` of
+a ``# metadata: {…}`` comment.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 #: The first line's text that marks a towrig export.
 EXPORT_MARK = "towrig run export"
+#: A leading comment line naming the vehicle: ``# vehicle: BENBAM``, ``# Vehicle = X``.
+_VEHICLE_LINE = re.compile(r"#\s*vehicle\s*[:=]\s*(?P<name>\S.*?)\s*$", re.IGNORECASE)
 #: Attributes holding a number (written with ``repr``).
 _NUMBERS = ("release_t_s", "duration_s", "sample_count")
 
@@ -86,3 +93,21 @@ def read_export_header(path: str | Path) -> ExportHeader:
             if sep:
                 attributes[key] = _value(key, text.strip())
     return ExportHeader(attributes)
+
+
+def vehicle_in_header(path: str | Path) -> str | None:
+    """The vehicle a CSV's leading comment lines name (``# vehicle: NAME``, or the
+    ``vehicle`` of a ``# metadata: {…}`` line), whoever wrote the file; None when none does."""
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        for line in f:
+            if not line.startswith("#"):
+                return None
+            if found := _VEHICLE_LINE.match(line.strip()):
+                return found["name"]
+            body = line.lstrip("#").strip()
+            if body.startswith("metadata:"):
+                value = _value("metadata", body.removeprefix("metadata:").strip())
+                named = value.get("vehicle") if isinstance(value, dict) else None
+                if isinstance(named, str) and named.strip():
+                    return named.strip()
+    return None

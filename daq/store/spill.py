@@ -24,6 +24,7 @@ from typing import IO, TYPE_CHECKING, Any
 
 from daq.sample import Quality, Sample
 from daq.store.faults import one_line
+from daq.store.records import RunNotFound
 
 if TYPE_CHECKING:
     from daq.store.store import Store
@@ -196,8 +197,6 @@ def replay_spills(store: Store, directory: Path | None = None) -> list[str]:
 
 
 def _replay_one(store: Store, path: Path) -> bool:
-    from daq.store.records import RunNotFound
-
     try:
         f = open(path, encoding="utf-8")  # noqa: SIM115 - closed below
     except FileNotFoundError:

@@ -1,9 +1,8 @@
 """The run database: runs, samples, events and results behind one URL (SQLite or
-PostgreSQL). The SQL lives here; every write is one transaction.
-
-One module because a run's rows (the run, its samples, its tags) are written together in one
-transaction and read through one query; the events, results, calibrations and exports live
-in their own modules.
+PostgreSQL); every write is one transaction. This module holds the runs' rows (the run and
+its tags); the samples (``daq.store.samples``), events and results (``annotations``) and
+imported calibrations (``calibrations``) are mixed into :class:`Store` from their own
+modules, and the start-up recovery of interrupted runs is ``daq.store.recovery``.
 """
 
 from __future__ import annotations
@@ -23,9 +22,7 @@ from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
 from daq.store.base import (
-    SAMPLE_COLUMNS,
     inserted_id,
-    process_alive,
     process_identity,
     software_version,
 )
@@ -33,13 +30,13 @@ from daq.store.calibrations import ImportedCalibrations
 from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
 from daq.store.records import (
-    DuplicateSample,
     RunInfo,
-    SampleTable,
     to_datetime,
 )
+from daq.store.recovery import recover_interrupted
 from daq.store.run_metadata import check_run_metadata, merge_run_metadata
 from daq.store.run_query import RunFilter, drive_of
+from daq.store.samples import SampleRows
 from daq.store.schema import (
     END_STATUSES,
     events,
@@ -50,15 +47,10 @@ from daq.store.schema import (
 )
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
-from daq.store.spill import default_spill_dir, replay_spills, spilled_ends
+from daq.store.spill import default_spill_dir, replay_spills
 
 if TYPE_CHECKING:
     from daq.store.loaded_run import LoadedRun
-
-#: A run of another host whose process holds no lease is marked interrupted only once its
-#: last sample is this old, s (its process may have lost the lease and still be writing
-#: its own ending: the recorder retries that for up to 30 s).
-OTHER_HOST_GRACE_S = 45.0
 
 
 class NewRun(TypedDict):
@@ -76,7 +68,7 @@ class NewRun(TypedDict):
     metadata: NotRequired[dict[str, Any] | None]
 
 
-class Store(EventsAndResults, ImportedCalibrations):
+class Store(EventsAndResults, ImportedCalibrations, SampleRows):
     """Durable run storage. ``url`` defaults to :func:`default_database_url`; opening
     creates the database if needed, migrates it to the newest schema and writes back the
     spill files of its runs (samples a recorder could not store, see
@@ -382,180 +374,11 @@ class Store(EventsAndResults, ImportedCalibrations):
         with self.engine.connect() as conn:
             return int(conn.execute(query).scalar_one())
 
-    # -- samples ----------------------------------------------------------------------
-    def _insert_rows(
-        self,
-        conn: sa.Connection,
-        run_uuid: str,
-        pk: int,
-        packer: SamplePacker,
-        samples: Sequence[Sample],
-    ) -> int:
-        if not samples:
-            return 0
-        rows = packer.rows(pk, samples)
-        dbapi = conn.dialect.loaded_dbapi
-        try:
-            if self.backend == "postgresql":
-                driver = conn.connection.driver_connection
-                assert driver is not None
-                cursor = driver.cursor()
-                with cursor, cursor.copy(f"COPY samples ({SAMPLE_COLUMNS}) FROM STDIN") as copy:
-                    for row in rows:
-                        copy.write_row(row)
-            else:
-                conn.exec_driver_sql(self._insert_samples_sql, rows)
-        except (sa.exc.IntegrityError, dbapi.IntegrityError) as exc:
-            seqs = [row[1] for row in rows]
-            raise DuplicateSample(
-                f"run {run_uuid}: a sample with seq in {min(seqs)}..{max(seqs)} is already "
-                "stored (seq must be unique per run); nothing from this batch was written"
-            ) from exc
-        conn.execute(
-            sa.update(runs_t)
-            .where(runs_t.c.id == pk)
-            .values(sample_count=runs_t.c.sample_count + len(rows))
-        )
-        return len(rows)
-
-    def add_samples(
-        self, run_id: str, samples: Sequence[Sample], *, skip_existing: bool = False
-    ) -> int:
-        """Store a batch of samples in one transaction; returns how many were stored.
-
-        A seq already stored raises :class:`DuplicateSample` (nothing written), or with
-        ``skip_existing`` is left out (as are repeats within the batch) and the rest stored.
-        """
-        with self.transaction() as conn:
-            pk, packer = self._packer(conn, run_id)
-            if skip_existing and samples:
-                seqs = [s.seq for s in samples]
-                stored = set(
-                    conn.execute(
-                        sa.select(samples_t.c.seq).where(
-                            samples_t.c.run_id == pk,
-                            samples_t.c.seq.between(min(seqs), max(seqs)),
-                        )
-                    ).scalars()
-                )
-                fresh: dict[int, Sample] = {}
-                for sample in samples:
-                    if sample.seq not in stored:
-                        fresh.setdefault(sample.seq, sample)
-                samples = list(fresh.values())
-            return self._insert_rows(conn, run_id, pk, packer, samples)
-
-    def samples(self, run_id: str, *, start_seq: int = 0, limit: int | None = None) -> SampleTable:
-        """A run's samples with ``seq ≥ start_seq`` (at most ``limit``) as numpy columns."""
-        checks.check_limit("start_seq", start_seq, minimum=0)
-        if limit is not None:
-            checks.check_limit("limit", limit, minimum=0)
-        with self.engine.connect() as conn:
-            run = self._resolve(conn, run_id)
-            query = (
-                sa.select(
-                    samples_t.c.seq,
-                    samples_t.c.t_mono,
-                    samples_t.c.t_wall,
-                    samples_t.c.quality,
-                    samples_t.c.stale,
-                    samples_t.c.channel_values,
-                )
-                .where(samples_t.c.run_id == run.id, samples_t.c.seq >= start_seq)
-                .order_by(samples_t.c.seq)
-            )
-            if limit is not None:
-                query = query.limit(limit)
-            rows = conn.execute(query).all()
-        import numpy as np  # here: listing runs starts without it
-
-        packer = SamplePacker(run.channel_names)
-        columns: list[Sequence[Any]] = list(zip(*rows, strict=True)) if rows else [[]] * 6
-        stale = columns[4]
-        return SampleTable(
-            seq=np.array(columns[0], dtype=np.int64),
-            t_mono=np.array(columns[1], dtype=np.float64),
-            t_wall=np.array(columns[2], dtype=np.float64),
-            quality=np.array(columns[3], dtype=np.int64),
-            channels=packer.unpack([bytes(b) for b in columns[5]]),
-            stale=tuple(tuple(s.split(",")) if s else () for s in stale),
-        )
-
-    def sample_count(self, run_id: str) -> int:
-        """How many samples of the run are stored (counted, not cached)."""
-        with self.engine.connect() as conn:
-            run = self._resolve(conn, run_id)
-            return conn.execute(
-                sa.select(sa.func.count()).where(samples_t.c.run_id == run.id)
-            ).scalar_one()
-
-    def last_sample(self, run_id: str) -> Sample | None:
-        """The stored sample with the highest seq (None before the first flush)."""
-        with self.engine.connect() as conn:
-            run = self._resolve(conn, run_id)
-            last = conn.execute(
-                sa.select(sa.func.max(samples_t.c.seq)).where(samples_t.c.run_id == run.id)
-            ).scalar()
-        if last is None:
-            return None
-        return self.samples(run.uuid, start_seq=last, limit=1).sample(0)
-
     # -- start-up and health ------------------------------------------------------------
     def recover_interrupted(self, *, include_live_owners: bool = False) -> list[str]:
         """Mark runs left ``running`` by a process that no longer drives the rig as
-        ``interrupted`` (the reason names that process), stopped at the wall time of their
-        last stored sample (or their start); returns their ids.
-
-        A run recorded on this host is left alone while its process (pid, boot and start
-        time) is alive. One recorded on another host (PostgreSQL) is left alone while its
-        process holds a rig's lease in this database (``daq.rig_lock``), or while its last
-        sample is younger than ``OTHER_HOST_GRACE_S`` (a process that lost its lease may
-        still be writing its own ending); imported runs from another host are left alone.
-        ``include_live_owners`` marks them all. A run whose ending waits in a spill file
-        (its recorder ended it while storage failed) is never marked: the write-back stores
-        that ending.
-        """
-        here = socket.gethostname()
-        recovered: list[str] = []
-        spilled = spilled_ends(self.spill_dir)  # ended, the ending waiting in a side file
-        with self.transaction() as conn:
-            running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
-            holders = None
-            if running and self.backend == "postgresql":
-                from daq.rig_lock.postgres import lease_holders
-
-                holders = lease_holders(conn)
-            for run in running:
-                last_wall = conn.execute(
-                    sa.select(sa.func.max(samples_t.c.t_wall)).where(samples_t.c.run_id == run.id)
-                ).scalar()
-                last = run.started_at if last_wall is None else max(last_wall, run.started_at)
-                owner = f"recording process pid {run.owner_pid} on host {run.owner_host}"
-                if run.owner_host == here or holders is None:
-                    owner_alive = run.owner_host != here or (
-                        run.owner_pid is not None
-                        and process_alive(run.owner_pid, run.owner_boot_id, run.owner_start_ticks)
-                    )
-                    reason = f"{owner} ended without finishing the run"
-                else:
-                    owner_alive = (
-                        (str(run.owner_host)[:24], run.owner_pid) in holders
-                        or run.source != "recorded"
-                        or time.time() - last < OTHER_HOST_GRACE_S
-                    )
-                    reason = f"{owner} no longer holds the rig; it ended without finishing the run"
-                if (owner_alive and not include_live_owners) or run.uuid in spilled:
-                    continue
-                self._finish(conn, run, "interrupted", reason, last)
-                self._insert_event(
-                    conn,
-                    run.id,
-                    "fault",
-                    f"run {run.uuid} interrupted: {reason}; recovered at start-up",
-                    {"owner_host": run.owner_host, "owner_pid": run.owner_pid},
-                )
-                recovered.append(run.uuid)
-        return recovered
+        ``interrupted``; returns their ids (:func:`daq.store.recovery.recover_interrupted`)."""
+        return recover_interrupted(self, include_live_owners=include_live_owners)
 
     def integrity_check(self) -> str:
         """``ok`` when the database is sound (SQLite PRAGMA integrity_check), else the

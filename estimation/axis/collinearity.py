@@ -110,24 +110,26 @@ def partial_correlations(
     """Partial correlation of the sensitivities of each pair in ``names``.
 
     The other parameters held out are the base coefficients, ``fit``'s effects that are not
-    in the pair, and one offset per run.
+    in the pair, and one offset per run. Every column is made orthogonal to the base
+    coefficients and offsets once (one QR); a pair's remaining held effects are then taken
+    out on the Gram matrix of those columns (Frisch–Waugh–Lovell: the same projection).
     """
     params, jac = sensitivities(fit, runs, names)
-    offsets = _offset_columns(runs)
+    base = [i for i, n in enumerate(params) if n in BASE_NAMES]
+    perp = _residualise(jac, np.hstack([jac[:, base], _offset_columns(runs)]))
+    gram = perp.T @ perp
     out: dict[frozenset[str], float] = {}
     for a, b in combinations(dict.fromkeys(names), 2):
-        held = [
-            i
-            for i, n in enumerate(params)
-            if n in BASE_NAMES or (n in fit.effects and n not in (a, b))
-        ]
-        others = np.hstack([jac[:, held], offsets])
-        pair = _residualise(jac[:, [params.index(a), params.index(b)]], others)
-        norms = np.linalg.norm(pair, axis=0)
-        if np.any(norms <= 1e-300):
+        pair = [params.index(a), params.index(b)]
+        held = [params.index(n) for n in fit.effects if n not in (a, b)]
+        g = gram[np.ix_(pair, pair)]
+        if held:
+            cross = gram[np.ix_(held, pair)]
+            g = g - cross.T @ np.linalg.lstsq(gram[np.ix_(held, held)], cross, rcond=None)[0]
+        if g[0, 0] <= 0.0 or g[1, 1] <= 0.0:
             out[frozenset((a, b))] = 0.0  # an effect that does not move this model at all
             continue
-        out[frozenset((a, b))] = float(pair[:, 0] @ pair[:, 1] / (norms[0] * norms[1]))
+        out[frozenset((a, b))] = float(g[0, 1] / np.sqrt(g[0, 0] * g[1, 1]))
     return out
 
 
@@ -139,21 +141,31 @@ def predicted_steps(
     Returns, per combination, the predicted SSE after the step and the start values it
     gives (``fit``'s coefficients and effects, then the combination's). A step that takes a
     bounded effect past its bound leaves that effect at the bound. A linear prediction,
-    used to decide which combinations are worth a converged fit.
+    used to decide which combinations are worth a converged fit. The least squares on
+    [held, added, offsets] is solved by Frisch–Waugh–Lovell: the held parameters and
+    offsets are factored once (QR), each combination solves only its added columns.
     """
     extra = sorted({e for c in combos for e in c if e not in fit.effects})
     params, jac = sensitivities(fit, runs, extra)
-    offsets = _offset_columns(runs)
     residual = np.concatenate(fit.residuals)
     held = [params.index(n) for n in fit.names]
+    q, r = np.linalg.qr(np.hstack([jac[:, held], _offset_columns(runs)]))
+    q_res, q_jac = q.T @ residual, q.T @ jac
+    res_perp, jac_perp = residual - q @ q_res, jac - q @ q_jac
+    gram, moment = jac_perp.T @ jac_perp, jac_perp.T @ res_perp
     out: dict[tuple[str, ...], tuple[float, np.ndarray]] = {}
     for combo in combos:
         free = [e for e in combo if e not in fit.effects]
         while True:
-            cols = held + [params.index(e) for e in free]
-            design = np.hstack([jac[:, cols], offsets])
-            step = np.linalg.lstsq(design, residual, rcond=None)[0]
-            values = np.array([*fit.values, *np.zeros(len(free))]) + step[: len(cols)]
+            cols = [params.index(e) for e in free]
+            delta = (
+                np.linalg.lstsq(gram[np.ix_(cols, cols)], moment[cols], rcond=None)[0]
+                if cols
+                else np.zeros(0)
+            )
+            beta = np.linalg.lstsq(r, q_res - q_jac[:, cols] @ delta, rcond=None)[0]
+            values = np.array([*fit.values, *np.zeros(len(free))])
+            values = values + np.concatenate([beta[: len(held)], delta])
             past = [
                 e
                 for e, v in zip(free, values[len(held) :], strict=True)
@@ -162,7 +174,7 @@ def predicted_steps(
             if not past:
                 break
             free = [e for e in free if e not in past]
-        left = residual - design @ step
+        left = res_perp - jac_perp[:, cols] @ delta
         full = {n: v for n, v in zip([*fit.names, *free], values, strict=True)}
         # an effect the step took past its bound starts at the bound nearest to zero
         start = np.array(
@@ -173,3 +185,16 @@ def predicted_steps(
         )
         out[combo] = (float(left @ left), start)
     return out
+
+
+def variance_inflation(fit: FitResult, runs: Sequence[PreparedRun], name: str) -> float:
+    """VIF of ``name`` in ``fit``: 1/(1 − R²), R² the share of its sensitivity column that
+    the fit's other parameters (and one offset per run) reproduce; ‖col‖²/‖P⊥ col‖².
+    1 for a column orthogonal to the rest, ∞ for one the rest span."""
+    params, jac = sensitivities(fit, runs, ())
+    others = np.hstack(
+        [jac[:, [i for i, n in enumerate(params) if n != name]], _offset_columns(runs)]
+    )
+    column = jac[:, [params.index(name)]]
+    kept = float(np.linalg.norm(_residualise(column, others)))
+    return float(np.linalg.norm(column)) ** 2 / kept**2 if kept > 0 else float("inf")

@@ -7,7 +7,8 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from estimation.axis.crosscheck import LABELS, SPEED_UNITS, UNITS, CrossCheck
+from estimation.axis.crosscheck import CrossCheck
+from estimation.axis.crosscheck_comparison import LABELS, SPEED_UNITS, UNITS
 
 
 def markdown(check: CrossCheck, figures: Sequence[tuple[str, Path]] = ()) -> str:

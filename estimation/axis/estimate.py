@@ -9,6 +9,7 @@ import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
 from estimation.axis.effects import EFFECTS
+from estimation.axis.force_residual import force_residuals, regressor_correlations
 from estimation.axis.model import BASE_NAMES, PreparedRun, prepare
 from estimation.axis.output_error import (
     FitResult,
@@ -28,9 +29,10 @@ from estimation.axis.search import SearchOutcome, candidate_effects
 from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
+from estimation.blas import one_blas_thread
 from estimation.data.runs import RunData, validate_runs
 from estimation.errors import EstimationFailed
-from estimation.stats.diagnostics import force_residuals, ljung_box, regressor_correlations
+from estimation.stats.diagnostics import ljung_box
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
@@ -39,6 +41,7 @@ SEPARABILITY_LIMIT = 0.95
 NOT_DETERMINED_SIGMAS = 2.0
 
 
+@one_blas_thread
 def estimate(
     runs: Sequence[RunData],
     method: str = "output-error",

@@ -239,6 +239,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     vs = np.zeros((n_steps, n_sets, n_runs))
     x = np.zeros((n_sets, n_runs))
     v = np.zeros((n_sets, n_runs))
+    half = 0.5 * h
     for k in range(1, n_steps):
         t0 = (k - 1) * h
         if varying:
@@ -247,9 +248,11 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
         else:
             f0 = fh = f1 = const_force
         a1 = accel(x, v, f0)
-        a2 = accel(x + 0.5 * h * v, v + 0.5 * h * a1, fh)
-        a3 = accel(x + 0.5 * h * (v + 0.5 * h * a1), v + 0.5 * h * a2, fh)
-        a4 = accel(x + h * (v + 0.5 * h * a2), v + h * a3, f1)
+        v2 = v + half * a1  # each stage's velocity, computed once (also its next position)
+        a2 = accel(x + half * v, v2, fh)
+        v3 = v + half * a2
+        a3 = accel(x + half * v2, v3, fh)
+        a4 = accel(x + h * v3, v + h * a3, f1)
         x = x + h * v + h * h / 6.0 * (a1 + a2 + a3)
         v = v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
         xs[k], vs[k] = x, v

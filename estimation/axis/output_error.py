@@ -100,9 +100,12 @@ class _Problem:
         self._key: bytes | None = None
         self._sims = np.zeros(0)
         self._steps = np.zeros(0)
+        #: model velocity per run at the last parameters evaluated (their first set)
+        self.velocities: tuple[np.ndarray, ...] = ()
 
     def model(self, params: np.ndarray, sets: np.ndarray) -> np.ndarray:
         sims = simulate(sets, self.effects, self.runs)
+        self.velocities = tuple(s[1][0] for s in sims)
         x = np.concatenate([s[0] for s in sims], axis=1)
         return x + params[self.n_global :][self.run_index][None, :]
 
@@ -175,7 +178,6 @@ def fit_output_error(
         for name, v, lo, hi in zip(names, params[:ng], lower, upper, strict=False)
         if abs(v - lo) < tol[names.index(name)] or abs(v - hi) < tol[names.index(name)]
     )
-    sims = simulate(params[None, :ng], effects, runs)
     return FitResult(
         effects=effects,
         names=names,
@@ -183,7 +185,7 @@ def fit_output_error(
         **stats,
         offsets=params[ng:].copy(),
         residuals=tuple(np.split(res, prob.starts[1:-1])),
-        velocities=tuple(s[1][0] for s in sims),
+        velocities=prob.velocities,  # of ``params``: evaluated last, by the residual above
         at_bound=at_bound,
     )
 

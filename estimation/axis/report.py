@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from estimation.axis.force_residual import force_residuals
 from estimation.axis.model import PreparedRun, prepare
 from estimation.axis.result import EstimationResult
 from estimation.data.runs import RunData
@@ -31,7 +32,6 @@ from estimation.fit_report import (
     summary_rows,
     write_result_and_markdown,
 )
-from estimation.stats.diagnostics import force_residuals
 
 UNITS = {
     "surge": {

@@ -8,7 +8,15 @@ kept only if, as a whole, it
   within ``AT_NOISE_FLOOR`` of the noise floor the fit implies (structure outside the
   library is never absorbed by an effect that only nibbles at it, see unexplained.py),
 - and has no member at a physical bound or below what the experiment resolves (a delay
-  within the release timing; an effect that moves the fit by less than the position noise).
+  within the release timing; an effect that moves the fit by less than the position noise),
+- and, when leave-one-run-out cannot be formed (fewer than 3 runs), no member whose
+  variance inflation against the model's other parameters exceeds ``VIF_LIMIT``: such a
+  term is > 90 % a combination of M, K_L, K_Q (and the other effects) on these runs, so any
+  small misfit of those (a release instant a few ms off, an undeclared pulley inertia)
+  projects onto it and the in-sample BIC cannot tell the two apart; only a prediction of
+  data the fit did not see can. It is reported as not identified, inseparable from its most
+  correlated parameter, with the run that separates them (two forward tows claimed a
+  0.042 N bias, ρ = 0.98 with K_L, VIF 450, from a 27 ms release offset).
 Whiteness is not a gate: with structure left in the residual, its normalised
 autocorrelation stays near 1 whatever share of it a real effect removes, so "Ljung–Box Q
 must drop" rejected true effects (docs/estimation.md); it decides the ``unexplained`` verdict.
@@ -39,8 +47,10 @@ from estimation.axis.collinearity import (
     independent_shares,
     partial_correlations,
     predicted_steps,
+    variance_inflation,
 )
 from estimation.axis.effects import EFFECTS
+from estimation.axis.force_residual import noise_floor_ratio
 from estimation.axis.materiality import below_resolution
 from estimation.axis.model import BASE_NAMES, PreparedRun
 from estimation.axis.output_error import (
@@ -50,15 +60,18 @@ from estimation.axis.output_error import (
     leave_one_run_out_rmse,
 )
 from estimation.axis.unexplained import NUMERICAL_RMSE
-from estimation.stats.diagnostics import ljung_box, noise_floor_ratio
-from estimation.stats.selection import forward_selection, select_round
+from estimation.stats.diagnostics import ljung_box
+from estimation.stats.selection import BIC_THRESHOLD, forward_selection, select_round
 
-BIC_THRESHOLD = 10.0  # "very strong" evidence: BIC must drop by more than this
 MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the noise floor
 AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
 MIN_INDEPENDENT_SHARE = 1e-3  # below: the effect is a combination of M, K_L, K_Q on these runs
+#: Above this variance inflation a term needs out-of-sample evidence (R² > 0.9 on the other
+#: parameters: its σ is inflated √10 ≈ 3.2×; the conventional "serious collinearity" bound,
+#: Kutner et al., Applied Linear Statistical Models, §10.5).
+VIF_LIMIT = 10.0
 PAIR_EXPERIMENTS = {
     frozenset({"coulomb_friction", "constant_bias"}): (
         "coulomb_friction and constant_bias are collinear when every run moves the same way: "
@@ -135,6 +148,9 @@ class _Search:
         self.steps: list[SearchStep] = []
         self.cv: dict[tuple[str, ...], float | None] = {}
         self.travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
+        #: effect → (the parameter it cannot be told from, the reason): kept by every other
+        #: rule but inseparable without out-of-sample evidence (module doc).
+        self.inseparable: dict[str, tuple[str, str]] = {}
 
     def key(self, combo: Sequence[str]) -> tuple[int, ...]:
         """Library order of a combination (ties are broken towards common effects)."""
@@ -178,7 +194,9 @@ class _Search:
         else:
             cv_new = leave_one_run_out_rmse(self.runs, fit)
             bars = [ref.cv] + ([rival.cv] if rival is not None else [])
-            if cv_new is not None and any(b is not None and cv_new >= b for b in bars):
+            if cv_new is None and (tied := self.tied(fit, combo)):
+                reason = tied
+            elif cv_new is not None and any(b is not None and cv_new >= b for b in bars):
                 reason = "leave-one-run-out error did not drop"
         kept = reason == "kept"
         if kept:
@@ -189,6 +207,27 @@ class _Search:
             )
         )
         return kept
+
+    def tied(self, fit: FitResult, combo: Sequence[str]) -> str | None:
+        """Why a member of ``combo`` is not identified without out-of-sample evidence
+        (variance inflation above ``VIF_LIMIT``), or None; recorded in ``inseparable``."""
+        for effect in combo:
+            vif = variance_inflation(fit, self.runs, effect)
+            if vif <= VIF_LIMIT:
+                continue
+            i = fit.names.index(effect)
+            rho = np.where(np.arange(len(fit.names)) == i, 0.0, np.abs(fit.correlation[i]))
+            j = int(np.argmax(rho))
+            partner = fit.names[j]
+            reason = (
+                f"{effect} not identified: inseparable from {partner} on these runs "
+                f"(VIF {vif:.0f} > {VIF_LIMIT:g}, ρ = {fit.correlation[i, j]:.3f}"
+                f"; too few runs for a leave-one-run-out check): add "
+                f"{EFFECTS[effect].separated_by}"
+            )
+            self.inseparable.setdefault(effect, (partner, reason))
+            return reason
+        return None
 
     def best(
         self,
@@ -306,6 +345,11 @@ def search_effects(
     if chosen is not None and len(chosen.effects) >= 2:  # extend a winning pair
         current = forward_selection(current, extend, first_round=2)
     ambiguous, advice = _ambiguities(search, current.fit, candidates)
+    tied = [
+        (e, p, why) for e, (p, why) in search.inseparable.items() if e not in current.fit.effects
+    ]
+    ambiguous += tuple((e, p) for e, p, _ in tied)
+    advice += tuple(why for _, _, why in tied)
     return SearchOutcome(
         base=base,
         final=current.fit,

@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from estimation.axis.force_residual import force_noise_floor, force_residuals
 from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import FitResult
-from estimation.stats.diagnostics import force_noise_floor, force_residuals, ljung_box
+from estimation.stats.diagnostics import ljung_box
 
 WHITE_P = 1e-3  # Ljung–Box p below this: the residual is not white
 ABOVE_FLOOR = 3.0  # force residual RMS over the fit's own noise floor that counts as structure

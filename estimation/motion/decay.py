@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from estimation.blas import one_blas_thread
 from estimation.errors import EstimationFailed
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
@@ -133,6 +134,7 @@ def release_of(record: Record) -> float:
     return float(t[peak + int(np.nonzero(near)[0][-1])])
 
 
+@one_blas_thread
 def estimate_decay(
     t: np.ndarray,
     x: np.ndarray,

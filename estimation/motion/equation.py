@@ -158,13 +158,16 @@ def integrate(
     x, v = x0.astype(float).copy(), v0.astype(float).copy()
     xs[0], vs[0] = x, v
     frozen = np.zeros_like(x, dtype=bool)
+    half = 0.5 * h
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(1, n_steps):
             f = drive_steps[k - 1][None, :]
             a1 = acceleration(x, v, f, inv, forces)
-            a2 = acceleration(x + 0.5 * h * v, v + 0.5 * h * a1, f, inv, forces)
-            a3 = acceleration(x + 0.5 * h * (v + 0.5 * h * a1), v + 0.5 * h * a2, f, inv, forces)
-            a4 = acceleration(x + h * (v + 0.5 * h * a2), v + h * a3, f, inv, forces)
+            v2 = v + half * a1  # each stage's velocity, computed once (also its next position)
+            a2 = acceleration(x + half * v, v2, f, inv, forces)
+            v3 = v + half * a2
+            a3 = acceleration(x + half * v2, v3, f, inv, forces)
+            a4 = acceleration(x + h * v3, v + h * a3, f, inv, forces)
             x = x + h * v + h * h / 6.0 * (a1 + a2 + a3)
             v = v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
             if k % GUARD_EVERY == 0 or k == n_steps - 1:

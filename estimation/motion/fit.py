@@ -24,10 +24,10 @@ from scipy.signal import savgol_filter
 
 from estimation.errors import EstimationFailed
 from estimation.motion.equation import Coefficient, Track, integrate, stable_step
-from estimation.motion.identify import honest_statistics
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics
+from estimation.stats.identify import honest_statistics
 
 SAVGOL_WINDOW = 7
 

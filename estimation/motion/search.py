@@ -49,9 +49,8 @@ from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitiv
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.stats.diagnostics import position_noise
+from estimation.stats.selection import BIC_THRESHOLD, term_verdict
 
-BIC_THRESHOLD = 10.0
-MATERIAL_NOISE = 1.0  # explained RMS over the position noise σ
 MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
 TRIAL_NFEV = 40  # a trial starts one Gauss–Newton step from its optimum
 RIVALS = 0.9  # |partial correlation| of two candidates' sensitivities: the same direction
@@ -94,20 +93,20 @@ def _extend(fit: MotionFit, term_start: float) -> np.ndarray:
 
 
 def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Step:
-    """The rules of the module doc for ``trial`` = ``current`` + ``term``."""
+    """The rules of the module doc (``stats.selection.term_verdict``) for ``trial`` =
+    ``current`` + ``term``."""
     n = current.n_samples
     gain = trial.bic - current.bic
     explained = float(np.sqrt(max(current.sse - trial.sse, 0.0) / n))
     noise = position_noise(trial.residuals)
-    reason = "kept"
-    if term in trial.not_identified:
-        reason = f"{term} is not identified by these records"
-    elif term in trial.at_bound:
-        reason = f"{term} held at its physical bound"
-    elif not gain < -BIC_THRESHOLD:
-        reason = f"ΔBIC {gain:.1f} ≥ −{BIC_THRESHOLD:g}"
-    elif explained < MATERIAL_NOISE * noise:
-        reason = f"explains {explained:.3g} RMS, below the noise floor {noise:.3g} the fit implies"
+    reason = term_verdict(
+        term,
+        gain,
+        explained,
+        noise,
+        identified=term not in trial.not_identified,
+        at_bound=term in trial.at_bound,
+    )
     return Step(term, round_no, gain, explained, noise, reason == "kept", reason)
 
 

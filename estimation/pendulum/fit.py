@@ -7,11 +7,12 @@ initial state also absorbs an error in the release instant):
     (J_known + α·l²)·φ̈ = −k·sin φ − (β·l² + b)·φ̇ [− γ·l³·|φ̇|·φ̇] [− τ_c·sgn φ̇]
     φ_measured = φ + offset
 
-σ from σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p). The effect search follows ``estimation.axis.search``:
-an effect is kept only when the BIC drops by more than 10, its value is off its physical
-bound, resolvable (> 3σ) and material (its largest torque ≥ 0.5 % of the largest
-restoring torque: below that it cannot be told from an error in the rig geometry), and
-the residual gets whiter (Ljung–Box Q drops).
+σ from σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p) (σ NaN: not identified). An effect is kept by the
+rules every record's search uses (``estimation.stats.selection.term_verdict``): identified,
+off its physical bound, ΔBIC < −10 and material against the noise floor (the residual it
+explains at least the position noise σ). The pendulum's former rules — its largest torque
+≥ 0.5 % of the restoring torque, and "Ljung–Box Q must drop" — are gone: both reject true
+damping on a lightly damped body (docs/estimation.md, *Why the old rules failed*).
 """
 
 from __future__ import annotations
@@ -22,22 +23,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from estimation.axis.materiality import RESOLUTION_SIGMAS
-from estimation.axis.search import (
-    AMBIGUITY_BIC,
-    BIC_THRESHOLD,
-    SearchStep,
-)
+from estimation.axis.search import AMBIGUITY_BIC, SearchStep
 from estimation.pendulum.decay import Decay
 from estimation.pendulum.sim import simulate, step_size
-from estimation.stats.diagnostics import ljung_box
+from estimation.stats.diagnostics import ljung_box, position_noise
 from estimation.stats.fit import FitStatistics, solution_statistics
-from estimation.stats.selection import forward_selection, select_round
+from estimation.stats.selection import (
+    BIC_THRESHOLD,
+    forward_selection,
+    select_round,
+    term_verdict,
+)
 
 BASE_NAMES: tuple[str, ...] = ("added_mass", "linear_damping")
-#: The pendulum's own (older) materiality: an effect's largest torque against the largest
-#: restoring torque. Not yet the noise-floor rule of the axis and decay searches.
-MATERIAL_FRACTION = 0.005
 
 
 @dataclass(frozen=True)
@@ -253,33 +251,17 @@ def _nuisance(fit: PendulumFit) -> np.ndarray:
     return np.column_stack([fit.initial_angle, fit.initial_rate, fit.offsets])
 
 
-def effect_torque_share(effect: str, fit: PendulumFit, decays: Sequence[Decay]) -> float:
-    """Largest torque of the effect over the largest restoring torque, best run."""
-    shares = []
-    for d, rate, offset in zip(decays, fit.rates, fit.offsets, strict=True):
-        restoring = d.plant.stiffness * np.sin(float(np.max(np.abs(d.phi - offset))))
-        if effect == "pivot_dry_friction":
-            torque = abs(fit.value(effect))
-        else:
-            torque = abs(fit.value(effect)) * d.plant.arm**3 * float(np.max(rate**2))
-        shares.append(torque / max(restoring, 1e-12))
-    return max(shares)
-
-
-def _rejection(effect: str, fit: PendulumFit, decays: Sequence[Decay]) -> str | None:
-    """Why a statistically better fit is not a physical finding, or None."""
-    if effect in fit.at_bound:
-        return "value at its physical bound"
-    value, sigma = fit.value(effect), fit.sigma(effect)
-    if not abs(value) > RESOLUTION_SIGMAS * sigma:
-        return f"not resolved: {value:.3g} ± {sigma:.2g} is within {RESOLUTION_SIGMAS:g}σ of 0"
-    share = effect_torque_share(effect, fit, decays)
-    if share < MATERIAL_FRACTION:
-        return (
-            f"not material: at most {share:.2%} of the restoring torque (below "
-            f"{MATERIAL_FRACTION:.1%}, the rig geometry's own uncertainty)"
-        )
-    return None
+def _verdict(effect: str, current: PendulumFit, fit: PendulumFit) -> str:
+    """``term_verdict`` for ``fit`` = ``current`` + ``effect`` ("kept", or why not)."""
+    explained = float(np.sqrt(max(current.sse - fit.sse, 0.0) / fit.n_samples))
+    return term_verdict(
+        effect,
+        fit.bic - current.bic,
+        explained,
+        position_noise(fit.residuals),
+        identified=bool(np.isfinite(fit.sigma(effect))),
+        at_bound=effect in fit.at_bound,
+    )
 
 
 @dataclass(frozen=True)
@@ -330,10 +312,8 @@ def search_effects(
                 reason = f"ΔBIC {gain:.1f} > −{BIC_THRESHOLD:g}"
             elif kept:
                 reason = f"not added this round: {next(iter(kept))[0]} was kept"
-            else:
-                reason = _rejection(effect, fit, decays)
-                if reason is None and not q_new < q_current:
-                    reason = "residual not whiter (Ljung–Box Q did not drop)"
+            elif (verdict := _verdict(effect, current, fit)) != "kept":
+                reason = verdict
             steps.append(
                 SearchStep(
                     effect, gain, None, None, q_current, q_new, reason is None, reason or "kept",
@@ -353,7 +333,7 @@ def search_effects(
             if e != name
             and f.bic - current.bic <= -BIC_THRESHOLD
             and abs(f.bic - current.bic - gain) < AMBIGUITY_BIC
-            and _rejection(e, f, decays) is None
+            and _verdict(e, current, f) == "kept"
         ]
         if twins:
             group = (name, *twins)

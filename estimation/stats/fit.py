@@ -8,7 +8,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from estimation.motion.identify import honest_statistics
+from estimation.stats.identify import honest_statistics
 
 
 class SolutionStatistics(TypedDict):
@@ -27,7 +27,7 @@ def solution_statistics(
     """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
     from cov = σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p), with SSE, n and p; ``residuals`` and
     ``jacobian`` evaluated at the solution. A parameter along a direction the data cannot
-    determine gets σ = NaN (not identified, ``estimation.motion.identify``), never the
+    determine gets σ = NaN (not identified, ``estimation.stats.identify``), never the
     too-small σ of a pseudo-inverse that drops that direction."""
     ident = honest_statistics(residuals, jacobian, n_global)
     return SolutionStatistics(

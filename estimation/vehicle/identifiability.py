@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from estimation.data.runs import RunData
-from estimation.vehicle.description import DOFS, Vehicle6, apply_result_json
+from estimation.vehicle.apply_estimates import apply_result_json
+from estimation.vehicle.description import DOFS, Vehicle6
 from estimation.vehicle.sensitivity import SensitivityReport, analyse
 
 #: Result JSON names → vehicle coefficient kinds.
@@ -43,7 +44,7 @@ class IdentifiabilityError(ValueError):
 
 def plug_results(vehicle: Vehicle6, results: Sequence[Mapping[str, Any]]) -> Vehicle6:
     """The vehicle with each result's identified axis model (value and σ) plugged in
-    (:func:`estimation.vehicle.description.apply_result_json`); one result per axis."""
+    (:func:`estimation.vehicle.apply_estimates.apply_result_json`); one result per axis."""
     seen: dict[str, int] = {}
     for k, doc in enumerate(results):
         where = f"results[{k}]" + (f" (id {doc['result_id']})" if "result_id" in doc else "")

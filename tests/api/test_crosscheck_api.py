@@ -34,6 +34,17 @@ def runs(client) -> dict[str, list[str]]:
     return {"weight": weight, "thrusters": thrusters}
 
 
+def test_the_run_detail_offers_the_thrusters_rpm_and_current_with_units(client, runs):
+    """What the run detail's channel picker lists: a thruster tow's samples carry each
+    thruster's RPM and current with their units; a weight-driven tow's do not."""
+    samples = client.get(f"/api/runs/{runs['thrusters'][0]}/samples", headers=AUTH).json()
+    assert samples["units"]["thruster1_rpm"] == "rpm"
+    assert samples["units"]["thruster2_current"] == "A"
+    assert max(samples["channels"]["thruster1_current"][2:]) > 0  # drawn while thrust was on
+    weight = client.get(f"/api/runs/{runs['weight'][0]}/samples", headers=AUTH).json()
+    assert not any(name.startswith("thruster") for name in weight["channels"])
+
+
 def _rho(estimation: dict) -> float:
     """|ρ(K_L, K_Q)| of a stored estimation document."""
     names = estimation["correlation"]["names"]

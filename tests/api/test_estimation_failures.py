@@ -15,7 +15,8 @@ import pytest
 import estimation
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
-from daq.store import Store, import_csv
+from daq.run_import import import_csv
+from daq.store import Store
 from tests.api.conftest import AUTH, wait_job
 from tests.cli import RigCli
 from tests.integration.test_import_kinds import _tow_csv

@@ -1,15 +1,21 @@
-"""GET /api/runs/{id}/export?format=…: CSV, JSON, NetCDF and Parquet with their media
-types, files that xarray and pandas open with units, 422 naming ``format`` otherwise."""
+"""GET /api/runs/{id}/export?format=…: CSV, JSON, NetCDF, Parquet and MATLAB with their
+media types, files that xarray, pandas and scipy open with units, 422 naming ``format``
+otherwise; the route, its OpenAPI enum, ``GET /api/export-formats`` and ``rig export
+--format`` list every format of ``daq.export_formats.FORMATS``."""
 
 from __future__ import annotations
 
 import io
 import json
 
+import click
 import pandas as pd
 import pytest
 import xarray as xr
+from scipy.io import loadmat
 
+from api.cli.runs import export as export_command
+from daq.export_formats import FORMATS
 from tests.api.conftest import AUTH
 from tests.store.test_export_formats import recorded_tow
 
@@ -33,6 +39,7 @@ def _export(client, run_id: str, fmt: str):
         ("json", "application/json", ".json"),
         ("netcdf", "application/x-netcdf", ".nc"),
         ("parquet", "application/vnd.apache.parquet", ".parquet"),
+        ("mat", "application/x-matlab-data", ".mat"),
     ],
 )
 def test_each_format_has_its_media_type_and_file_name(client, run_id, fmt, media_type, suffix):
@@ -68,5 +75,33 @@ def test_an_unknown_format_is_422_naming_the_field_and_the_allowed_ones(client, 
     assert r.status_code == 422
     problem = r.json()["errors"][0]
     assert problem["field"] == "format" and problem["value"] == "xlsx"
-    assert "'csv', 'json', 'netcdf' or 'parquet'" in problem["allowed"]
+    assert "'csv', 'json', 'netcdf', 'parquet' or 'mat'" in problem["allowed"]
     assert r.json()["detail"].startswith("format: 'xlsx' is not allowed")
+
+
+def test_mat_download_opens_with_scipy_with_units_and_metadata(client, run_id, tmp_path):
+    path = tmp_path / "run.mat"
+    path.write_bytes(_export(client, run_id, "mat").content)
+    mat = loadmat(path, simplify_cells=True)
+    assert mat["units"]["tow_position"] == "m"
+    assert mat["data"]["tow_position"][1] == pytest.approx(0.285)
+    assert mat["metadata"]["run_id"] == run_id and len(mat["data"]["load_cell"]) == 12
+
+
+def test_every_format_of_the_table_is_listed_by_the_api_and_the_cli(client):
+    r = client.get("/api/export-formats", headers=AUTH)
+    assert r.status_code == 200
+    assert r.json() == [f.public() for f in FORMATS.values()]
+    assert client.get("/api/export-formats").status_code == 401
+
+    operation = client.get("/openapi.json").json()["paths"]["/api/runs/{run_id}/export"]["get"]
+    query = next(p for p in operation["parameters"] if p["name"] == "format")
+    assert query["schema"]["enum"] == list(FORMATS)
+    assert set(operation["responses"]["200"]["content"]) == {f.media_type for f in FORMATS.values()}
+    for spec in FORMATS.values():
+        assert f"{spec.name}: {spec.help}" in query["description"]
+
+    option = next(p for p in export_command.params if p.name == "fmt")
+    assert isinstance(option.type, click.Choice) and list(option.type.choices) == list(FORMATS)
+    for spec in FORMATS.values():
+        assert f"{spec.name}: {spec.help}" in (option.help or "")

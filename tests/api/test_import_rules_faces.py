@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from daq.config import DEFAULT_RIG_FILE
-from tests.api.conftest import AUTH
+from tests.api.conftest import AUTH, wait_job
 from tests.cli import RigCli
 from tests.shared_data import shared_file
 
@@ -66,7 +66,7 @@ def test_the_cli_imports_its_own_export_back_without_restating_it(rig, tmp_path)
                 "--release-time", "1.05", "--vehicle", "BENBAM-2").stdout.strip()  # fmt: skip
     rig("export", first, "-o", "out.csv")
     proc = rig("import", "out.csv", "--json")
-    assert proc.stderr.startswith("note: from the file's export header: kind tow, force_n 24.5")
+    assert proc.stderr.startswith("note: from the file's header: kind tow, force_n 24.5")
     again = json.loads(proc.stdout)["run_id"]
     run = json.loads(rig("show", again, "--json").stdout)
     assert (run["kind"], run["vehicle"], run["drive"]) == ("tow", "BENBAM-2", "weight")
@@ -114,3 +114,63 @@ def test_the_sphere_settling_record_takes_its_release_before_the_first_sample(ri
     parameters = json.loads(rig("show", run, "--json").stdout)["parameters"]
     assert parameters["release_time_s"] == pytest.approx(-0.08443)
     assert parameters["end_time_s"] == pytest.approx(2.45 - 0.08443)
+
+
+def test_a_foreign_csv_that_names_its_vehicle_imports_as_that_vehicle(rig, client, tmp_path):
+    """Another tool's CSV naming the vehicle in a leading comment (``# vehicle: NAME``, any
+    case, ':' or '='; or its ``# metadata:`` line) is that vehicle's run, not 'unknown'."""
+    rows = (tmp_path / "tow.csv").read_text()
+    (tmp_path / "named.csv").write_text("# logged by tank-daq 2.1\n# Vehicle = ROV-7\n" + rows)
+    ran = rig("import", "named.csv", "--kind", "tow", "--force", "24.5", "--json")
+    assert "vehicle ROV-7" in ran.stderr
+    shown = json.loads(rig("show", json.loads(ran.stdout)["run_id"], "--json").stdout)
+    assert shown["vehicle"] == "ROV-7"
+    stated = rig("import", "named.csv", "--kind", "tow", "--force", "24.5", "--vehicle", "X2")
+    assert json.loads(rig("show", stated.stdout.strip(), "--json").stdout)["vehicle"] == "X2"
+    plain = rig("import", "tow.csv", "--kind", "tow", "--force", "24.5")
+    assert json.loads(rig("show", plain.stdout.strip(), "--json").stdout)["vehicle"] == "unknown"
+
+    # Over HTTP: Excel's BOM and ';' with decimal commas, the vehicle in the metadata line.
+    body = '\ufeff# metadata: {"vehicle": "Sphere E1"}\n' + rows.replace(",", ";").replace(".", ",")
+    r = client.post("/api/runs/import?kind=tow&force_n=24.5", content=body.encode(),
+                    headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 201, r.text
+    assert r.json()["from_header"] == {"vehicle": "Sphere E1"}
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["vehicle"] == "Sphere E1"
+
+
+#: The _tow record's inertia: 24.5 N accelerating it at 0.1 m/s² (no damping in it).
+TOW_INERTIA_KG = 245.0
+BELOW_OWN = "is below the body's own"
+
+
+def test_a_declared_dry_mass_above_the_fitted_inertia_is_flagged(rig, client, tmp_path):
+    """An import's declared dry mass (or displacement) reaches the estimator as the body's
+    own inertia: an inertia identified below it is flagged as not physical, through the CLI
+    and through HTTP; one below the fitted inertia is not."""
+    heavy = rig("import", "tow.csv", "--kind", "tow", "--force", "24.5", "--dry-mass", "300")
+    out = json.loads(rig("estimate", heavy.stdout.strip(), "--json").stdout)
+    assert out["coefficients"]["inertia"]["value"] == pytest.approx(TOW_INERTIA_KG, rel=0.05)
+    assert any(BELOW_OWN in w and "300" in w for w in out["warnings"]), out["warnings"]
+    light = rig("import", "tow.csv", "--kind", "tow", "--force", "24.5", "--dry-mass", "100")
+    out = json.loads(rig("estimate", light.stdout.strip(), "--json").stdout)
+    assert not any(BELOW_OWN in w for w in out["warnings"])
+    assert "--dry-mass: -3.0 is not allowed" in _error(
+        rig, "tow.csv", "--kind", "tow", "--force", "24.5", "--dry-mass", "-3"
+    )
+
+    body = (tmp_path / "tow.csv").read_bytes()
+    r = client.post("/api/runs/import?kind=tow&force_n=24.5&displacement_kg=280",
+                    content=body, headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 201, r.text
+    run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
+    assert run["parameters"]["displacement_kg"] == 280.0
+    r = client.post("/api/jobs/estimation", json={"run_ids": [run["id"]]}, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=120)
+    assert job["state"] == "completed", job
+    assert any(BELOW_OWN in w and "280" in w for w in job["outcome"]["warnings"])
+    r = client.post("/api/runs/import?kind=spin&torque_nm=2&dry_mass_kg=30", content=body,
+                    headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 422 and r.json()["detail"].startswith("dry_mass_kg: 30.0 is not")

@@ -115,7 +115,7 @@ def test_emergency_stop_pauses_the_queue_and_keeps_its_jobs(client):
 
 
 def test_the_queue_is_bounded_a_start_beyond_it_is_409(client, monkeypatch):
-    monkeypatch.setattr("api.core.jobs.MAX_QUEUED", 2)
+    monkeypatch.setattr("api.core.job_queue.MAX_QUEUED", 2)
     running = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
     wait_job(client, running, states=("running",))
     queued = [client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH) for _ in range(3)]

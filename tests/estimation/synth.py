@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Literal
 
 import numpy as np
 
@@ -152,7 +153,9 @@ PAPER_CURVES = {
 }
 
 
-def paper_curve_runs(axis: str, quantum: float = 1e-4, seconds_after: float = 3.0):
+def paper_curve_runs(
+    axis: Literal["surge", "yaw"], quantum: float = 1e-4, seconds_after: float = 3.0
+):
     """Runs regenerated from seed 000's published first-order fits ẋ = A(1 − e^{−t/T}).
 
     Position x = A(t − T(1 − e^{−t/T})), sampled at 10 Hz, quantized; no hung mass declared

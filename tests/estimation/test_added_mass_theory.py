@@ -24,7 +24,8 @@ from estimation.theory import added_mass as am
 from estimation.theory.compare import compare_added_mass
 from estimation.theory.hull import HullError, parse_hull, predict_added_mass
 from estimation.theory.tank import TankError, blockage
-from estimation.vehicle.description import VehicleError, load_vehicle, parse_vehicle
+from estimation.vehicle.description import VehicleError
+from estimation.vehicle.vehicle_file import load_vehicle, parse_vehicle
 
 RHO = 998.2
 #: Lamb §373: c/a, k1, k2, k'.

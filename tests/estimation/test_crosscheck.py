@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.axis.crosscheck import cross_check
+from estimation.axis.crosscheck import _effects, cross_check
 from estimation.axis.crosscheck_report import markdown, write_crosscheck_report
 from estimation.thrust.curve import ThrustCurve
 from estimation.thrust.drive import curve_draws
@@ -263,3 +263,13 @@ def test_old_documents_without_correlation_still_load():
     t = _old(_doc((145.0, 17.0, 236.0), (2.0, 3.0, 5.0)))
     doc = cross_check(w, t).to_json()
     assert doc["verdict"] == "agree" and doc["undecided"] == [] and doc["combined"] == {}
+
+
+def test_a_term_inseparable_from_k_l_is_an_ambiguous_effect_and_k_l_is_not_one():
+    doc = {
+        "effects": [{"name": "coulomb_friction", "value": 3.0}],
+        "ambiguous": [["constant_bias", "linear_damping"]],
+    }
+    found = _effects(doc)
+    assert set(found) == {"coulomb_friction", "constant_bias"}
+    assert found["coulomb_friction"] == 3.0 and np.isnan(found["constant_bias"])

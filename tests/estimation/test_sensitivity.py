@@ -10,10 +10,11 @@ import pytest
 
 from estimation import estimate
 from estimation.vehicle.ahp import hierarchy
-from estimation.vehicle.description import Vehicle6, load_vehicle
+from estimation.vehicle.description import Vehicle6
 from estimation.vehicle.identifiability import analyse_identified, assess, plug_results, run_speed
 from estimation.vehicle.responses import ResponseError, evaluate
 from estimation.vehicle.sensitivity import SensitivityError, analyse
+from estimation.vehicle.vehicle_file import load_vehicle
 from tests.estimation.synth import tow_set
 
 VEHICLES = Path(__file__).parents[2] / "fixtures" / "vehicles"

@@ -9,23 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimation.vehicle.description import (
-    COEFFICIENT_NAMES,
-    DOFS,
-    VehicleError,
-    apply_estimate,
-    load_vehicle,
-    parse_vehicle,
-)
+from estimation.vehicle.apply_estimates import apply_estimate
+from estimation.vehicle.description import COEFFICIENT_NAMES, DOFS, VehicleError
 from estimation.vehicle.dynamics import (
     SingularAttitude,
     allocation_matrix,
     mass_matrix,
     resisting_force,
-    simulate,
     state_derivative,
-    steady_state,
 )
+from estimation.vehicle.simulation import simulate, steady_state
+from estimation.vehicle.vehicle_file import load_vehicle, parse_vehicle
 
 VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
 ZERO_DAMPING = {f"{k}.{d}": 0.0 for k in ("linear_damping", "quadratic_damping") for d in DOFS}
@@ -70,7 +64,7 @@ def test_allocation_reproduces_seed002_b_matrix(rov):
 def test_fast_right_hand_side_matches_matrix_form(rov):
     """The unrolled simulator equals M⁻¹(τ − Cν − Dν − g) and J(η)ν at a random state,
     with a CG offset, a CB offset and net buoyancy so every term is exercised."""
-    from estimation.vehicle.dynamics import _rhs_factory
+    from estimation.vehicle.simulation import _rhs_factory
 
     rng = np.random.default_rng(3)
     veh = replace(rov, cg_m=(0.01, -0.02, 0.03), cb_m=(-0.01, 0.01, -0.05), buoyancy_n=420.0)
@@ -261,7 +255,7 @@ def test_short_input_pulse_is_not_stepped_over(benbam):
 
 
 def test_apply_result_json_uses_value_and_std(benbam):
-    from estimation.vehicle.description import apply_result_json
+    from estimation.vehicle.apply_estimates import apply_result_json
 
     doc = {
         "axis": "yaw",
@@ -297,7 +291,7 @@ def test_vehicles_are_hashable_values(rov):
 
 
 def test_a_pendulum_result_plugs_in_added_mass_and_damping_of_its_swing_axis(benbam):
-    from estimation.vehicle.description import apply_result_json
+    from estimation.vehicle.apply_estimates import apply_result_json
 
     doc = {
         "analysis": "pendulum",

@@ -230,20 +230,22 @@ def test_decay_terms_in_a_pair_are_recovered(scale):
 
 
 @pytest.mark.slow
-def test_clean_decays_claim_no_term_in_98_percent_of_seeds():
+@pytest.mark.parametrize("scale", list(SCALES))
+def test_clean_decays_claim_no_term_in_98_percent_of_seeds(scale):
     claims = 0
     for seed in range(50):
-        t, x, truth = decay("143kg", seed)
+        t, x, truth = decay(scale, seed)
         r = estimate_decay(t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"])
         claims += bool(r.effects)
     assert claims <= 1
 
 
 @pytest.mark.slow
-def test_clean_tows_claim_no_effect_in_98_percent_of_seeds():
+@pytest.mark.parametrize("scale", list(SCALES))
+def test_clean_tows_claim_no_effect_in_98_percent_of_seeds(scale):
     claims = 0
     for seed in range(50):
-        runs = tow_set("143kg", seed=100 + seed)
+        runs = tow_set(scale, seed=100 + seed)
         claims += bool(estimate(runs, n_bootstrap=0).effects)
     assert claims <= 1
 

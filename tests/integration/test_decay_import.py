@@ -103,7 +103,7 @@ def test_an_exported_decay_imports_back_from_its_own_header(rig, tmp_path):
                 stiffness, "--known-inertia", "10", "--release-time", "1")  # fmt: skip
     rig("export", first, "-o", "back.csv")
     again = RigCli(tmp_path)("import", "back.csv")  # no flags: its header says it all
-    assert "from the file's export header: kind decay, dof heave" in again.stderr
+    assert "from the file's header: kind decay, dof heave" in again.stderr
     second = again.stdout.strip()
     one, two = (printed_json(rig("show", r, "--json"))["parameters"] for r in (first, second))
     for name in ("dof", "stiffness", "known_inertia", "release_time_s"):

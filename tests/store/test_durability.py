@@ -111,8 +111,8 @@ def test_a_run_of_another_host_is_interrupted_once_its_process_holds_no_lease(po
 
     from daq.rig_lock.holder import LockHolder
     from daq.rig_lock.postgres import PG_LOCK_CLASS, lease_holders
+    from daq.store.recovery import OTHER_HOST_GRACE_S
     from daq.store.schema import runs
-    from daq.store.store import OTHER_HOST_GRACE_S
     from tests.waiting import read_until
 
     db_url = postgres_server.create_database()  # SQLite: one host only, its pids say it all

@@ -18,8 +18,9 @@ import xarray as xr
 
 from daq.export_formats import FORMATS, write_export
 from daq.run_data import load_run_data
+from daq.run_import import import_csv
 from daq.sample import Quality, Sample
-from daq.store import LoadedRun, Store, export_run_csv, export_run_json, import_csv
+from daq.store import LoadedRun, Store, export_run_csv, export_run_json
 from estimation.axis.estimate import estimate
 from estimation.data.csv_import import without_comments
 from tests.estimation.synth import tow_set

@@ -17,6 +17,7 @@ from api.core import sixdof as sixdof_common
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import error_responses
 from daq.store import ResultNotFound
+from estimation.vehicle.ahp import Judgement
 from estimation.vehicle.description import COEFFICIENT_NAMES, DOFS
 from estimation.vehicle.responses import RESPONSE_NAMES, RESPONSES
 
@@ -117,7 +118,7 @@ def ahp_weights(body: AHPRequest) -> dict:
         raise ValueError("criteria: give the matrix comparing the groups")
     result = analysis_common.judgement(spec)
     out = result.to_json()
-    if "groups" not in spec:
+    if "groups" not in spec and isinstance(result, Judgement):  # one matrix: a Judgement
         out["weights_by_label"] = dict(zip(result.labels, result.weights, strict=True))
     return out
 

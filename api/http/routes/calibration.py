@@ -145,6 +145,7 @@ async def thrust(
         out = law.estimate(command, volts)
         answer: dict[str, Any] = {"command": command, "force_n": out.to_json()}
     else:
+        assert force_n is not None  # exactly one of the two is given (checked above)
         try:
             out = law.command_for_force(force_n, volts)
         except ValueError as err:

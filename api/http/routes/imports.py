@@ -75,7 +75,7 @@ def _import_metadata(
     """The import's metadata query parameters, checked before the body is read (errors
     name the query parameter)."""
     given = {"operator": operator, "water_temperature_c": water, "notes": notes}
-    metadata = {key: value for key, value in given.items() if value is not None}
+    metadata: dict[str, Any] = {key: value for key, value in given.items() if value is not None}
     if tags:
         metadata["tags"] = [check_tag("tag", t) for t in tags]
     return check_run_metadata(metadata, prefix="") or None
@@ -121,6 +121,14 @@ async def import_run(
         ),
     ] = None,
     weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
+    dry_mass_kg: Annotated[
+        float | None,
+        Query(description="Tow: the body's own mass, kg (estimation flags an inertia below it)."),
+    ] = None,
+    displacement_kg: Annotated[
+        float | None,
+        Query(description="Tow: mass of water the body displaces, kg (a floating body's mass)."),
+    ] = None,
     vehicle: Annotated[
         str | None,
         Query(min_length=1, max_length=200, description="Default: the export's, else unknown."),
@@ -160,7 +168,8 @@ async def import_run(
     request_ = ImportRequest(
         kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
         drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
-        release_time_s=release_time_s, end_time_s=end_time_s, fields=_kind_fields(request),
+        release_time_s=release_time_s, end_time_s=end_time_s, dry_mass_kg=dry_mass_kg,
+        displacement_kg=displacement_kg, fields=_kind_fields(request),
     )  # fmt: skip
     name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:

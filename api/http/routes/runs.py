@@ -12,7 +12,7 @@ import shutil
 import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal, TypedDict
 
 from fastapi import APIRouter, Depends, HTTPException, Query
 from fastapi.responses import FileResponse, Response, StreamingResponse
@@ -29,18 +29,39 @@ from api.http.schemas import (
     RunOut,
     SamplesOut,
     error_responses,
+    file_response,
 )
-from daq.export_formats import FORMATS, export_file_name, write_export
+from daq.export_formats import (
+    FORMATS,
+    FormatInfo,
+    FormatName,
+    export_file_name,
+    formats_help,
+    write_export,
+)
 from daq.procedures.requests import RunMetadataIn
 from daq.store import ResultNotFound, Store
 from daq.store.channel_units import column_infos
-from daq.store.csvio import csv_chunks
+from daq.store.csv_export import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
 from daq.vocabulary import RunKind, RunStatus
 
 router = APIRouter(prefix="/api", tags=["runs"])
-StatusFilter = Literal[tuple(s.value for s in RunStatus)]  # type: ignore[valid-type]
 _READ = error_responses(401, 404, 422)
+
+
+class RunFilters(TypedDict):
+    """The filters ``Store.list_runs`` and ``Store.count_runs`` take (None: any)."""
+
+    kind: str | None
+    status: str | None
+    vehicle: str | None
+    drive: str | None
+    source: str | None
+    tag: str | None
+    search: str | None
+    since: datetime | None
+    until: datetime | None
 
 
 @router.get(
@@ -53,7 +74,7 @@ def list_runs(
     store: StoreDep,
     response: Response,
     kind: Annotated[str | None, Query(description=" | ".join(RunKind))] = None,
-    status: StatusFilter | None = None,
+    status: RunStatus | None = None,
     vehicle: str | None = None,
     drive: Annotated[
         Literal["weight", "thrusters", "none"] | None,
@@ -106,8 +127,8 @@ def list_runs(
         None if until is None else parse_moment("until", until, today=today),
         zone,
     )
-    filters = dict(kind=kind, status=status, vehicle=vehicle, drive=drive, source=source,
-                   tag=tag, search=search, since=low, until=high)  # fmt: skip
+    filters = RunFilters(kind=kind, status=status, vehicle=vehicle, drive=drive, source=source,
+                         tag=tag, search=search, since=low, until=high)  # fmt: skip
     runs = store.list_runs(**filters, limit=limit, offset=offset)
     total = store.count_runs(**filters)
     response.headers["X-Total-Count"] = str(total)
@@ -197,7 +218,7 @@ def _attachment(run_id: str, fmt: str) -> dict[str, str]:
 @router.get(
     "/runs/{run_id}/samples.csv",
     dependencies=[Depends(require_read)],
-    responses={200: {"content": {"text/csv": {}}, "description": "The run as CSV"}} | _READ,
+    responses=file_response({"text/csv": {}}, "The run as CSV") | _READ,
     response_class=StreamingResponse,
 )
 def get_samples_csv(run_id: str, store: StoreDep) -> StreamingResponse:
@@ -210,29 +231,29 @@ def get_samples_csv(run_id: str, store: StoreDep) -> StreamingResponse:
     )
 
 
-_EXPORT_CONTENT = {f.media_type: {} for f in FORMATS.values()}
+_EXPORT_CONTENT: dict[str, dict[str, Any]] = {f.media_type: {} for f in FORMATS.values()}
+
+
+@router.get("/export-formats", dependencies=[Depends(require_read)], responses=error_responses(401))
+def list_export_formats() -> list[FormatInfo]:
+    """The formats ``/runs/{id}/export`` writes: name, suffix, media type, label, help,
+    binary (the browser's export menu is built from this list)."""
+    return [f.public() for f in FORMATS.values()]
 
 
 @router.get(
     "/runs/{run_id}/export",
     dependencies=[Depends(require_read)],
-    responses={200: {"content": _EXPORT_CONTENT, "description": "The run as a file"}} | _READ,
+    responses=file_response(_EXPORT_CONTENT, "The run as a file") | _READ,
     response_class=FileResponse,
 )
 def export_run(
     run_id: str,
     store: StoreDep,
-    fmt: Annotated[
-        Literal["csv", "json", "netcdf", "parquet"],
-        Query(
-            alias="format",
-            description=" | ".join(f"{f.name}: {f.description}" for f in FORMATS.values()),
-        ),
-    ] = "csv",
+    fmt: Annotated[FormatName, Query(alias="format", description=formats_help())] = "csv",
 ) -> Response:
-    """The run as a file to download: CSV (streamed; units and the run in ``#`` comments),
-    JSON, NetCDF-4 (xarray: units per variable, the run as global attributes) or Parquet
-    (pandas: units in the schema, the run in ``df.attrs``)."""
+    """The run as a file to download in a format of ``GET /api/export-formats`` (CSV is
+    streamed)."""
     run = store.get_run(run_id)
     if fmt == "csv":
         return get_samples_csv(run.id, store)
@@ -326,11 +347,11 @@ def _report_figure_route(suffix: str, function_name: str, doc: str) -> None:
 
     report_figure.__name__ = function_name  # the OpenAPI operation id
     report_figure.__doc__ = doc
-    content: dict[str, dict] = {REPORT_SUFFIXES[suffix]: {}}
+    content: dict[str, dict[str, Any]] = {REPORT_SUFFIXES[suffix]: {}}
     router.get(
         f"/results/{{result_id}}/report/{{name}}{suffix}",
         dependencies=[Depends(require_read)],
-        responses={200: {"content": content, "description": "A report plot"}} | _READ,
+        responses=file_response(content, "A report plot") | _READ,
         response_class=Response,
     )(report_figure)
 

@@ -3,11 +3,17 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends
+from typing import Annotated
 
-from api.core.sequence_files import list_sequences
-from api.http.deps import ServiceDep, require_read
+from fastapi import APIRouter, Depends, HTTPException, Query
+from pydantic import Field
+
+from api.core.pretest import DEFAULT_RELEASE_STD_S, predict_sequence
+from api.core.sequence_files import list_sequences, sequence_files
+from api.http.deps import ServiceDep, StoreDep, require_read
 from api.http.schemas import SequenceFileOut, error_responses
+from daq.procedures.params import ParameterError
+from daq.store import ResultNotFound
 
 router = APIRouter(prefix="/api/sequences", tags=["jobs"])
 
@@ -22,3 +28,35 @@ def get_sequences(service: ServiceDep) -> list[dict]:
     """The sequence files (``fixtures/sequences``, then ``$RIG_SEQUENCES_DIR``) with their
     steps labelled and what this rig finds wrong with each (empty ``problems``: it starts)."""
     return list_sequences(service.source.rig)
+
+
+@router.get(
+    "/{name}/uncertainty",
+    dependencies=[Depends(require_read)],
+    responses=error_responses(401, 404, 422),
+)
+def get_sequence_uncertainty(
+    name: str,
+    service: ServiceDep,
+    store: StoreDep,
+    release_std_s: Annotated[
+        float, Query(ge=0, le=1, description="1σ of each release instant, s.")
+    ] = DEFAULT_RELEASE_STD_S,
+    result: Annotated[
+        list[Annotated[int, Field(ge=1, le=2**62)]],
+        Query(max_length=4, description="Estimation result ids to take the models from."),
+    ] = [],  # noqa: B006 - FastAPI copies a default list per request
+) -> dict:
+    """Pre-test: the budget and U (95 %) each coefficient will reach if sequence ``name``
+    is run (its weight-driven tows and spins simulated with the newest stored estimate of
+    each axis, or ``result``, and this rig's declared tolerances; docs/uncertainty.md).
+    Computed in the request (about a second per axis)."""
+    path = sequence_files().get(name)
+    if path is None:
+        raise HTTPException(404, f"no sequence file {name!r}")
+    try:
+        return predict_sequence(store, service.source.rig, path, result, release_std_s)
+    except ResultNotFound as err:
+        raise HTTPException(404, str(err)) from None
+    except (ValueError, ParameterError) as err:
+        raise HTTPException(422, str(err)) from None

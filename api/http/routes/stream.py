@@ -9,7 +9,7 @@ from fastapi.responses import StreamingResponse
 
 from api.core.stream import sse_events
 from api.http.deps import ServiceDep, require_read
-from api.http.schemas import error_responses
+from api.http.schemas import error_responses, file_response
 
 router = APIRouter(prefix="/api", tags=["stream"])
 
@@ -18,13 +18,11 @@ router = APIRouter(prefix="/api", tags=["stream"])
     "/stream",
     dependencies=[Depends(require_read)],
     response_class=StreamingResponse,
-    responses={
-        200: {
-            "content": {"text/event-stream": {}},
-            "description": "Events `sample` (one clock tick, SI), `job` (a job's new state), "
-            "`dropped` (how many events this client missed because it read too slowly).",
-        }
-    }
+    responses=file_response(
+        {"text/event-stream": {}},
+        "Events `sample` (one clock tick, SI), `job` (a job's new state), "
+        "`dropped` (how many events this client missed because it read too slowly).",
+    )
     | error_responses(401, 422),
 )
 async def stream(

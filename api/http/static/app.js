@@ -544,6 +544,7 @@ async function openRun(runId) {
   const { run, events } = shown;
   state.selectedRun = run;
   $("#run-detail").hidden = false;
+  loadExportFormats();
   $("#run-detail-id").textContent = run.id;
   $$("#runs-table tbody tr").forEach((tr) => tr.classList.toggle("selected", tr.dataset.run === run.id));
   showRunMeta(run);
@@ -609,10 +610,19 @@ $("#run-overlays").addEventListener("click", (ev) => {
   state.runPlot.runs = state.runPlot.runs.filter((r) => r.run.id !== id);
   drawRunPlot();
 });
-const EXPORT_SUFFIX = { csv: ".csv", json: ".json", netcdf: ".nc", parquet: ".parquet" };
+// The export menu: the formats of GET /api/export-formats (daq/export_formats.py), once.
+let exportFormats = null;
+async function loadExportFormats() {
+  if (exportFormats) return;
+  exportFormats = await api("GET", "/api/export-formats");
+  $("#export-format").innerHTML = exportFormats
+    .map((f) => `<option value="${esc(f.name)}" title="${esc(f.help)}">${esc(f.label)}</option>`)
+    .join("");
+}
 $("#export-run").onclick = () => {
   const run = state.selectedRun, format = $("#export-format").value;
-  if (run) download(`/api/runs/${run.id}/export?format=${format}`, `run-${run.id.slice(0, 8)}${EXPORT_SUFFIX[format]}`);
+  const spec = (exportFormats || []).find((f) => f.name === format);
+  if (run && spec) download(`/api/runs/${run.id}/export?format=${format}`, `run-${run.id.slice(0, 8)}${spec.suffix}`);
 };
 
 // ---- estimation -----------------------------------------------------------------------------
@@ -679,6 +689,7 @@ function showEstimationJob(job) {
 }
 
 async function renderEstimation(res) {
+  if (typeof renderUncertainty === "function") renderUncertainty(res); // uncertainty.js
   if (typeof renderPendulumEstimation === "function") {
     // pendulum free-decay results (api/http/static/pendulum.js)
     if (res.analysis === "pendulum") return renderPendulumEstimation(res);

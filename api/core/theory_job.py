@@ -1,0 +1,117 @@
+"""Measured beside theory for an estimation job: the rig's vehicle file (its ``[hull]``), the
+runs' water temperature (metadata, else ITTC's 15 °C) and the runs' terminal speeds handed to
+``estimation.theory.measured`` as plain numbers; appended to report.md with a flag when the
+measured added mass is implausible for the hull (seed 000's 113 kg)."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from api.core.sixdof import VehicleNotFound, find_vehicle, vehicle_files
+from api.core.theory import DEFAULT_WATER_TEMP_C
+from api.core.uncertainty_job import rig_of_runs
+from daq.store import Store
+from estimation.theory.hull import predict_added_mass
+from estimation.theory.measured import HullScale, measured_beside_theory, theory_markdown
+from estimation.uncertainty import RepeatAnalysis
+from estimation.water import water_properties
+
+
+def water_temperature(store: Store, run_ids: Sequence[str]) -> tuple[float, str]:
+    """The runs' mean water temperature from their metadata, else ITTC's standard 15 °C."""
+    temps = [
+        float(t)
+        for rid in run_ids
+        if (t := store.get_run(rid).metadata.get("water_temperature_c")) is not None
+    ]
+    if temps:
+        return sum(temps) / len(temps), "run metadata"
+    return DEFAULT_WATER_TEMP_C, "not recorded: ITTC's standard 15 °C"
+
+
+#: The vehicle file's ``[tolerances]`` keys (±a, rectangular).
+VEHICLE_TOLERANCES = ("mass_kg", "yaw_inertia_kg_m2", "displaced_volume_m3", "length_m")
+TEMP = "water_temperature_c"
+
+
+def vehicle_tolerances(path: Path | None) -> dict[str, float]:
+    """Standard uncertainties u = a/√3 of the vehicle file's ``[tolerances]`` (ValueError
+    naming the field for an unknown key or a value that is not a finite number ≥ 0)."""
+    if path is None or not path.is_file():
+        return {}
+    table = tomllib.loads(path.read_text(encoding="utf-8")).get("tolerances", {})
+    out = {}
+    for key, value in table.items():
+        if key not in VEHICLE_TOLERANCES:
+            allowed = ", ".join(VEHICLE_TOLERANCES)
+            raise ValueError(f"{path.name}: tolerances.{key}: got {key!r}, allowed: {allowed}")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
+            raise ValueError(f"{path.name}: tolerances.{key}: got {value!r}, allowed: >= 0")
+        out[key] = float(value) / math.sqrt(3)
+    return out
+
+
+def density_uncertainty(temperature_c: float, half_width_c: float) -> float:
+    """u(ρ) from the water temperature's tolerance ±a (rectangular): |dρ/dT|·a/√3."""
+    if half_width_c <= 0:
+        return 0.0
+    u_t = half_width_c / math.sqrt(3)
+    low = water_properties(max(temperature_c - u_t, 0.0)).density
+    high = water_properties(min(temperature_c + u_t, 40.0)).density
+    return abs(high - low) / 2
+
+
+def theory_document(
+    store: Store,
+    result: dict[str, Any],
+    repeats: RepeatAnalysis,
+    report_dir: str | Path | None = None,
+) -> dict[str, Any]:
+    """{"theory": …}: None (with the reason) when the vehicle file or its hull is missing."""
+    axis, budget = result.get("axis"), result.get("budget")
+    if budget is None or axis not in ("surge", "yaw"):
+        return {"theory": None}
+    rig = rig_of_runs(store, result["runs"])
+    if rig is None:
+        return {"theory": {"missing": "the runs carry no rig file (imported data)"}}
+    try:
+        vehicle = find_vehicle(rig.vehicle.name.lower())
+    except VehicleNotFound as err:
+        return {"theory": {"missing": str(err)}}
+    if vehicle.hull is None:
+        return {"theory": {"missing": f"vehicle {vehicle.name!r} declares no [hull]"}}
+    temp, source = water_temperature(store, result["runs"])
+    water = water_properties(temp)
+    hull = vehicle.hull
+    tol = vehicle_tolerances(vehicle_files().get(rig.vehicle.name.lower()))
+    predicted = predict_added_mass(hull, water.density).added_mass.values
+    hull_scale = HullScale(
+        length_m=hull.length_m,
+        volume_m3=hull.displaced_volume_m3 or hull.primitive_volume_m3,
+        reference_area_m2=hull.reference_area_m2 or hull.frontal_area_m2,
+        body_inertia=vehicle.mass_kg if axis == "surge" else vehicle.inertia_kg_m2[2],
+        predicted_added=predicted.get(axis),
+        u_body=tol.get("mass_kg" if axis == "surge" else "yaw_inertia_kg_m2", 0.0),
+        u_volume=tol.get("displaced_volume_m3", 0.0),
+        u_length=tol.get("length_m", 0.0),
+        u_density=density_uncertainty(temp, budget.get("tolerances", {}).get(TEMP, 0.0)),
+    )
+    coefficients = {
+        n: (c["value"], c["combined_standard_uncertainty"], c["effective_dof"])
+        for n, c in budget["coefficients"].items()
+        if n in ("inertia", "quadratic_damping")
+    }
+    speeds = {
+        rid: s for c in repeats.conditions for rid, s in zip(c.run_ids, c.speeds, strict=True)
+    }
+    doc = measured_beside_theory(axis, coefficients, speeds, water, hull_scale, rig.rig.g)
+    doc["water"]["source"] = source
+    doc["vehicle"] = vehicle.name
+    if report_dir is not None and (Path(report_dir) / "report.md").exists():
+        with (Path(report_dir) / "report.md").open("a", encoding="utf-8") as f:
+            f.write("\n" + theory_markdown(doc))
+    return {"theory": doc}

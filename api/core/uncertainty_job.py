@@ -1,0 +1,80 @@
+"""The uncertainty budget of an estimation job: the rig file's constants and ``[tolerances]``
+handed to ``estimation.uncertainty`` as plain numbers (estimation never reads a rig file).
+
+``screen_repeats`` runs before the fit (so ``exclude_outliers`` can drop a flagged repeat),
+``budget_document`` after it; ``run_estimation`` calls each in one line.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from daq.config import RigConfig, RigConfigError, parse_rig
+from daq.store import Store
+from estimation.axis.result import EstimationResult
+from estimation.data.runs import RunData
+from estimation.uncertainty import Chain, RepeatAnalysis, analyse_repeats, uncertainty_budget
+from estimation.uncertainty.repeats import without_excluded
+from estimation.uncertainty.text import append_to_report
+
+
+def rig_of_runs(store: Store, run_ids: Sequence[str]) -> RigConfig | None:
+    """The rig file the first run was recorded with (None: imported data without one)."""
+    for rid in run_ids:
+        text = store.get_run(rid).rig_toml
+        if text:
+            try:
+                return parse_rig(tomllib.loads(text), f"run {rid} rig file")
+            except (RigConfigError, tomllib.TOMLDecodeError):
+                return None
+    return None
+
+
+def chain_of(rig: RigConfig) -> Chain:
+    """The constants a weight-driven run's drive and inertia were computed with."""
+    geo = rig.geometry
+    return Chain(
+        g=rig.rig.g,
+        pulley_radius_m=geo.pulley_radius_m,
+        pulley_inertia_kg_m2=geo.pulley_inertia_kg_m2,
+        drum_radius_m=geo.spin_drum_radius_m,
+        drum_inertia_kg_m2=geo.spin_drum_inertia_kg_m2,
+    )
+
+
+def tolerances_of(rig: RigConfig | None) -> dict[str, float]:
+    """The rig file's declared tolerances ({} when it has no ``[tolerances]``)."""
+    return {} if rig is None or rig.tolerances is None else rig.tolerances.declared()
+
+
+def screen_repeats(
+    runs: list[RunData], exclude_outliers: bool
+) -> tuple[list[RunData], RepeatAnalysis]:
+    """Conditions and Chauvenet outliers; the runs to fit (flagged ones dropped only when
+    ``exclude_outliers``)."""
+    analysis = analyse_repeats(runs, exclude_outliers)
+    return without_excluded(runs, analysis), analysis
+
+
+def budget_document(
+    store: Store,
+    runs: Sequence[RunData],
+    result: EstimationResult,
+    repeats: RepeatAnalysis,
+    report_dir: str | Path | None = None,
+) -> dict[str, Any]:
+    """{"budget": …, "repeats": …} for the result JSON (budget None for the seed methods,
+    which carry no fit to re-fit); appended to report.md when a report was written."""
+    if result.fit_after is None or result.method != "output-error":
+        return {"budget": None, "repeats": repeats.to_json()}
+    rig = rig_of_runs(store, [r.run_id for r in runs])
+    budget = uncertainty_budget(
+        runs, result, chain_of(rig) if rig else None, tolerances_of(rig), repeats
+    ).to_json()
+    doc = {"budget": budget, "repeats": repeats.to_json()}
+    if report_dir is not None and (Path(report_dir) / "report.md").exists():
+        append_to_report(report_dir, budget, doc["repeats"])
+    return doc

@@ -1,0 +1,59 @@
+"""The error codes the app answers on a route's behalf, declared on that route.
+
+A route's own ``responses=`` names what its handler refuses (404 unknown id, 409 wrong
+state, …). Some codes follow from what the route depends on instead, and are declared here
+from its dependencies and its body, once for every route, so that the OpenAPI document (and
+docs/api.md) says every code a route can answer (``tests/api/test_status_codes.py``):
+
+- 401: the token (``require_read``, ``require_write``);
+- 403: a viewer's token where an operator's is needed (``require_write``);
+- 413: a request body over the route's cap (``api.http.limits.BodyLimit``);
+- 503: the run database is not open (``get_store``: the service not started or stopped).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from fastapi import APIRouter
+from fastapi.dependencies.models import Dependant
+from fastapi.routing import APIRoute
+
+from api.http.deps import get_store, require_read, require_write
+from api.http.schemas import error_responses
+
+#: Codes a dependency adds to every route that uses it.
+BY_DEPENDENCY: dict[Callable[..., Any], tuple[int, ...]] = {
+    require_read: (401,),
+    require_write: (401, 403),
+    get_store: (503,),
+}
+#: Codes a route with a request body gets (the body-size cap).
+WITH_BODY = (413,)
+
+
+def _calls(dependant: Dependant) -> Iterator[Callable[..., Any]]:
+    for dependency in dependant.dependencies:
+        if dependency.call is not None:
+            yield dependency.call
+        yield from _calls(dependency)
+
+
+def app_codes(route: APIRoute) -> set[int]:
+    """The codes the app answers on ``route``'s behalf (module docstring)."""
+    codes = {c for call in _calls(route.dependant) for c in BY_DEPENDENCY.get(call, ())}
+    has_body = route.body_field is not None or "requestBody" in (route.openapi_extra or {})
+    if has_body:
+        codes.update(WITH_BODY)
+    return codes
+
+
+def declare_app_codes(router: APIRouter) -> None:
+    """Add the app's codes to the ``responses`` of every route of ``router`` (before it is
+    included: the OpenAPI document is built from them). Idempotent."""
+    for route in router.routes:
+        if not isinstance(route, APIRoute):
+            continue
+        missing = sorted(c for c in app_codes(route) if c not in route.responses)
+        route.responses.update(error_responses(*missing))

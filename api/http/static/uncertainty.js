@@ -1,0 +1,36 @@
+// Estimation page: the uncertainty budget of each coefficient (ITTC 7.5-02-01-01 / GUM, 95 %)
+// and the repeat-run analysis of a tow/spin result (docs/uncertainty.md), under the
+// coefficients. Rendered from the result's `budget` and `repeats`.
+
+function renderUncertainty(res) {
+  const box = $("#est-uncertainty");
+  if (!box) return;
+  const budget = res.budget;
+  if (!budget) {
+    box.innerHTML = res.method && res.method !== "output-error" && res.analysis !== "pendulum"
+      ? `<p class="muted">No uncertainty budget for ${esc(res.method)} (seed methods are compared, not signed).</p>`
+      : "";
+    return;
+  }
+  const notes = (budget.notes || []).map((n) => `<p class="${n.startsWith("Type B not declared") ? "error" : "muted"}">${esc(n)}</p>`).join("");
+  const tables = Object.entries(budget.coefficients || {}).map(([name, c]) => {
+    const rows = (c.rows || []).map((r) => `<tr${r.combined ? "" : ' class="muted"'}>
+        <td>${esc(r.source)}</td><td>${esc(r.type)}</td>
+        <td>${fmt(r.standard_uncertainty, 3)} ${esc(r.unit)}</td><td>${fmt(r.sensitivity, 3)}</td>
+        <td>${fmt(r.contribution, 3)}</td>
+        <td>${r.combined ? `${(100 * (r.share || 0)).toFixed(1)} %` : "not combined"}</td>
+        <td class="muted">${esc(r.note || "")}</td></tr>`).join("");
+    const dof = c.effective_dof === null ? "∞" : fmt(c.effective_dof, 3);
+    return `<h4 class="est-budget-head"><strong>${esc(name)} = ${esc(c.reported)}</strong>
+        <span class="muted">(95 %, k = ${fmt(c.coverage_factor, 4)}, ν_eff = ${dof}, u_c = ${fmt(c.combined_standard_uncertainty, 3)}; dominant: ${esc(c.dominant_source)})</span></h4>
+      <table class="list est-budget" data-coefficient="${esc(name)}"><thead><tr><th>Source</th><th>Type</th><th>u</th><th>Sensitivity c</th><th>Contribution c·u</th><th>Share</th><th>Note</th></tr></thead>
+      <tbody>${rows}</tbody></table>`;
+  }).join("");
+  const repeats = res.repeats;
+  let rep = "";
+  if (repeats && (repeats.conditions || []).some((c) => c.n > 1)) {
+    rep = `<h4>Repeat runs <span class="muted">(${esc(repeats.outlier_test)})</span></h4>
+      <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>Terminal speed</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${c.n}</td><td>${fmt(c.mean, 5)}</td><td>${c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3)}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
+  }
+  box.innerHTML = `<h3>Uncertainty (ITTC / GUM, 95 %)</h3>${notes}${tables}${rep}`;
+}

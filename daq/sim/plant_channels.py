@@ -1,0 +1,122 @@
+"""The simulated rig's channels as the PLC serves them: each standard channel's reading of
+the plant's state (SI, at the encoder's resolution, with the scenario's sensor noise) and
+what a write to it does (releases with the scenario's delay, weights, the simulation's own
+switches)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from daq.sim.plant import Plant
+
+#: The PLC's heartbeat counter counts up once per this many seconds of simulated time.
+HEARTBEAT_PERIOD_S = 0.01
+
+
+def read_channel(plant: Plant, name: str) -> float | None:
+    """SI value of a standard channel, as the PLC would report it now (None: unknown)."""
+    sens = plant.scenario.sensors
+    if name == "tow_position":
+        return round(plant.position_m * sens.encoder_counts_per_m) / sens.encoder_counts_per_m
+    if name == "yaw_angle":
+        cpr = sens.encoder_counts_per_rad
+        return round(plant.yaw_rad * cpr) / cpr
+    if name == "load_cell":
+        force = sum(plant.thrusts_n) if plant.thrust_stand else 0.0
+        noise = plant.sensor_noise.gauss(0.0, sens.load_cell_noise_n)
+        return force + sens.load_cell_offset_n + noise
+    if name == "supply_voltage":
+        return plant.loaded_voltage_v() + plant.sensor_noise.gauss(0.0, sens.supply_voltage_noise_v)
+    if name == "heartbeat":
+        return float(int(plant.sim_time_s / HEARTBEAT_PERIOD_S + 1e-9))
+    if name == "plc_clock":
+        return plant.sim_time_s
+    bits = {
+        "tow_release": plant.tow_release,
+        "spin_release": plant.spin_release,
+        "end_of_travel": plant.end_of_travel,
+        "estop": plant.estop,
+        "sim_thrust_stand": plant.thrust_stand,
+        "sim_reset": False,
+        "sim_tow_reversed": plant.tow_reversed,
+        "sim_spin_reversed": plant.spin_reversed,
+    }
+    if name in bits:
+        return 1.0 if bits[name] else 0.0
+    if name == "sim_tow_weight":
+        return plant.tow_weight_kg
+    if name == "sim_spin_weight":
+        return plant.spin_weight_kg
+    if name == "sim_carriage_position":
+        return plant.position_m
+    if plant.pendulum is not None:
+        return plant.pendulum.read(name)
+    return None
+
+
+def write_channel(plant: Plant, name: str, value: float) -> bool:
+    """Apply a write to a standard channel; False if the plant does not know it."""
+    on = bool(value)
+    t = plant.sim_time_s
+    delay = plant.scenario.effects.release_delay_s
+    if name == "tow_release":
+        if on and not (plant.estop or plant.end_of_travel):
+            if not plant.tow_release:
+                plant.tow_release = True
+                plant.tow_release_at = t + delay
+        elif not on:
+            plant.tow_release, plant.tow_release_at, plant.tow_braked = False, None, True
+            plant.velocity_m_s = 0.0
+    elif name == "spin_release":
+        if on and not plant.estop:
+            if not plant.spin_release:
+                plant.spin_release = True
+                plant.spin_release_at = t + delay
+        elif not on:
+            plant.spin_release, plant.spin_release_at, plant.spin_braked = False, None, True
+            plant.yaw_rate_rad_s = 0.0
+    elif name == "sim_tow_weight":
+        _check_weight(name, value)
+        plant.tow_weight_kg = float(value)
+        if plant.tow_braked:
+            plant.hang_weight_at_rest()
+    elif name == "sim_spin_weight":
+        _check_weight(name, value)
+        plant.spin_weight_kg = float(value)
+    elif name == "sim_thrust_stand":
+        plant.thrust_stand = on
+    elif name == "sim_reset":
+        if on:
+            plant.reset()
+    elif name == "sim_carriage_position":  # the operator pushes the carriage there
+        _check_position(plant, value)
+        plant.reset(float(value))
+    elif name == "sim_tow_reversed":
+        plant.tow_reversed = on
+        if plant.tow_braked:
+            plant.hang_weight_at_rest()
+    elif name == "sim_spin_reversed":
+        plant.spin_reversed = on
+    elif name == "estop":
+        plant.press_estop(on)
+    elif plant.pendulum is not None:
+        return plant.pendulum.write(name, value, t)
+    else:
+        return False
+    return True
+
+
+def _check_position(plant: Plant, value: float) -> None:
+    end = plant.rig.geometry.end_of_travel_m
+    if not (0.0 <= value < end):
+        raise ValueError(
+            f"sim_carriage_position: {value} m is not allowed; allowed 0 ≤ x < "
+            f"end_of_travel_m ({end:g} m)"
+        )
+
+
+def _check_weight(name: str, value: float) -> None:
+    if not (0.0 <= value <= 50.0) or math.isnan(value):
+        raise ValueError(f"{name}: weight must be within 0…50 kg, got {value}")

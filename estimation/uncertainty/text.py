@@ -1,0 +1,92 @@
+"""The budget and the repeats as text: a Markdown section for report.md and plain lines for
+the CLI, both from the JSON documents (``Budget.to_json``, ``RepeatAnalysis.to_json``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+
+def _g(x: float | None, fmt: str = ".3g") -> str:
+    return "—" if x is None else format(x, fmt)
+
+
+def _dof(x: float | None) -> str:
+    return "∞" if x is None else f"{x:.3g}"
+
+
+def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> str:
+    """## Uncertainty: per coefficient, the reported value ± U and the budget table."""
+    lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
+    lines += [f"**{n}**" for n in budget["notes"]]
+    for name, c in budget["coefficients"].items():
+        lines += [
+            "",
+            f"### {name}: {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
+            f"ν_eff = {_dof(c['effective_dof'])}, u_c = {_g(c['combined_standard_uncertainty'])}; "
+            f"dominant: {c['dominant_source']})",
+            "",
+            "| source | type | u (unit) | sensitivity c | contribution c·u | share | note |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for r in c["rows"]:
+            share = f"{100 * r['share']:.1f} %" if r["combined"] else "not combined"
+            lines.append(
+                f"| {r['source']} | {r['type']} | {_g(r['standard_uncertainty'])} {r['unit']} "
+                f"| {_g(r['sensitivity'])} | {_g(r['contribution'])} | {share} | {r['note']} |"
+            )
+    if repeats is not None:
+        lines += ["", "### Repeat runs", "", f"Outlier test: {repeats['outlier_test']}.", ""]
+        lines += [
+            "| condition | N | terminal speed mean | ± t·s/√N | outliers |",
+            "|---|---|---|---|---|",
+        ]
+        for c in repeats["conditions"]:
+            lines.append(
+                f"| {c['condition']} | {c['n']} | {_g(c['mean'], '.5g')} | "
+                f"{_g(c['repeatability_95'])} | {', '.join(c['outliers']) or '—'} |"
+            )
+        if repeats["excluded"]:
+            lines.append(f"\nLeft out at the user's request: {', '.join(repeats['excluded'])}.")
+        elif repeats["outliers"]:
+            lines.append(
+                f"\nFlagged but kept (ask `--exclude-outliers` to leave them out): "
+                f"{', '.join(repeats['outliers'])}."
+            )
+    return "\n".join(lines) + "\n"
+
+
+def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> list[str]:
+    """Plain lines for the terminal: each coefficient's value ± U, then its budget table."""
+    out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
+    for name, c in budget["coefficients"].items():
+        out.append(
+            f"  {name} = {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
+            f"ν_eff = {_dof(c['effective_dof'])}); dominant: {c['dominant_source']}"
+        )
+        out.append(f"    {'source':<52} {'type':<4} {'u':>10} {'c':>10} {'c·u':>10} {'share':>7}")
+        for r in c["rows"]:
+            share = f"{100 * r['share']:6.1f}%" if r["combined"] else "    —  "
+            out.append(
+                f"    {r['source'][:52]:<52} {r['type']:<4} {_g(r['standard_uncertainty']):>10} "
+                f"{_g(r['sensitivity']):>10} {_g(r['contribution']):>10} {share:>7}"
+            )
+    if repeats is not None:
+        for c in repeats["conditions"]:
+            if c["n"] > 1:
+                out.append(
+                    f"  repeats {c['condition']}: N = {c['n']}, {_g(c['mean'], '.5g')} ± "
+                    f"{_g(c['repeatability_95'])} (t·s/√N)"
+                    + (f", outlier(s) {', '.join(c['outliers'])}" if c["outliers"] else "")
+                )
+        if repeats["excluded"]:
+            out.append(f"  left out (--exclude-outliers): {', '.join(repeats['excluded'])}")
+    return out
+
+
+def append_to_report(folder: str | Path, budget: dict[str, Any], repeats: dict[str, Any]) -> Path:
+    """Append the uncertainty section to ``folder``/report.md (written by the report)."""
+    path = Path(folder) / "report.md"
+    with path.open("a", encoding="utf-8") as f:
+        f.write("\n" + budget_markdown(budget, repeats))
+    return path

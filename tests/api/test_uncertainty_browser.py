@@ -1,0 +1,22 @@
+"""A finished tow estimation on the Estimation page in real headless Chromium shows each
+coefficient's value ± U with its budget table (declared Type B rows, the dominant source)."""
+
+from __future__ import annotations
+
+from tests.api.conftest import completed_tows, estimate_in_page, signed_in_page
+
+
+def test_estimation_page_shows_the_uncertainty_budget(client, service):
+    from playwright.sync_api import expect
+
+    runs = completed_tows(client, (24.5, 83.3))
+    with signed_in_page(service, client) as page:
+        estimate_in_page(page, runs, timeout_ms=120_000)
+        table = page.locator("#est-uncertainty table.est-budget[data-coefficient='inertia']")
+        expect(table).to_contain_text("hung_mass_kg")
+        expect(table).to_contain_text("g_m_s2")
+        expect(table).to_contain_text("bootstrap over runs")
+        head = page.locator("#est-uncertainty h4.est-budget-head").first
+        expect(head).to_contain_text("inertia = ")
+        expect(head).to_contain_text("dominant:")
+        expect(page.locator("#est-uncertainty")).to_contain_text("k = 1.96")

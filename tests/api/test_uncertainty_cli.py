@@ -1,0 +1,39 @@
+"""``rig estimate`` prints the uncertainty budget (and says Type B is not declared for
+imported runs, which carry no rig file); ``rig predict-uncertainty`` predicts U for a planned
+sequence from the stored estimate and refuses an axis it has no model for."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from tests.cli import RigCli
+from tests.estimation.test_report import _numpy_tow
+
+
+def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -> None:
+    _numpy_tow(tmp_path / "tow.csv", 1e-5)
+    rig = RigCli(tmp_path)
+    run = rig("import", "tow.csv", "--kind", "tow", "--force", "24.5").stdout.strip()
+    out = rig("estimate", run, "--no-effects", "--report", "report").stdout
+    assert "uncertainty (95 %, ITTC/GUM):" in out
+    assert "Type B not declared" in out
+    assert "inertia = " in out and "dominant:" in out
+    report = (tmp_path / "report" / "report.md").read_text()
+    assert "## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)" in report
+
+    (tmp_path / "plan.toml").write_text(
+        'name = "plan"\nrepeats = 2\n[[steps]]\nkind = "tow"\nforce_n = 24.5\n'
+        '[[steps]]\nkind = "tow"\nforce_n = 83.3\n'
+    )
+    data = json.loads(rig("predict-uncertainty", "plan.toml", "--json").stdout)
+    inertia = data["axes"]["surge"]["coefficients"]["inertia"]
+    assert data["models"]["surge"][0] > 100  # the stored estimate's m + m_a
+    assert inertia["expanded_uncertainty"] > 0
+    assert {r["source"].split(" ")[0] for r in inertia["rows"]} >= {"hung_mass_kg", "g_m_s2"}
+    # two repeats of each step: the repeat campaigns give the repeatability row
+    assert any(r["source"].startswith("repeatability (2") for r in inertia["rows"])
+
+    (tmp_path / "spins.toml").write_text('[[steps]]\nkind = "spin"\ntorque_nm = 0.907\n')
+    err = rig("predict-uncertainty", "spins.toml", code=2).stderr
+    assert "model: got no stored estimate for yaw" in err
