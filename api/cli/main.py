@@ -322,7 +322,7 @@ def _not_on_this_rig() -> list[tuple[str, str]]:
     for spec in RIG_KINDS.values():
         can = spec.capability(rig)  # with any of its drives
         if not can.available:
-            rows.append((spec.command, str(can.reason)))
+            rows.append((str(spec.command), str(can.reason)))
             continue
         for drive in spec.drives:
             can = spec.capability(rig, drive)

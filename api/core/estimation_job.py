@@ -100,6 +100,7 @@ def run_estimation(
             files = estimator.report(result, runs, Path(report_dir))
             data["report_files"] = [str(p) for p in files]
     if axis:
+        assert repeats is not None
         with fitting(subject, "compute the uncertainty budget of"):
             data |= budget_document(store, runs, result, repeats, report_dir)
             data |= theory_document(store, data, repeats, report_dir)

@@ -45,7 +45,10 @@ def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
     seq = load_sequence(sequence_path, rig)
     out = []
     for step in seq.steps:
+        # checked parameters: the load and the rig's limits are set
         if isinstance(step, TowParameters) and step.drive == "weight" and step.hung_mass_kg:
+            assert step.force_n is not None and step.max_distance_m is not None
+            assert step.max_time_s is not None
             out.append(
                 PlannedRun(
                     "surge",
@@ -57,6 +60,8 @@ def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
                 )
             )
         elif isinstance(step, SpinParameters) and step.drive == "weight" and step.hung_mass_kg:
+            assert step.torque_nm is not None and step.max_angle_rad is not None
+            assert step.max_time_s is not None
             out.append(
                 PlannedRun(
                     "yaw",
