@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import tow_parameters
+from daq.procedures.requests import tow_parameters
 from daq.run_data import thruster_drive
 from daq.session import RigSession, RigSource
 from daq.store import Store

@@ -41,16 +41,50 @@ class OperatorActUnavailable(RuntimeError):
     """The simulated operator cannot play an act: the rig file lacks its sim-only channel."""
 
 
-#: The simulation-only channel each act of the simulated operator writes.
-SIM_CHANNEL = {
-    "hang_tow_weight": "sim_tow_weight",
-    "hang_spin_weight": "sim_spin_weight",
-    "return_carriage": "sim_reset",
-    "mount_thrust_stand": "sim_thrust_stand",
-    "unmount_thrust_stand": "sim_thrust_stand",
-    "mount_pendulum": "sim_pendulum_angle",
-    "pull_pendulum": "sim_pendulum_angle",
+Writes = list[tuple[str, float | bool]]
+
+
+@dataclass(frozen=True)
+class SimulatedAct:
+    """How the simulated operator plays one act: the sim-only channel the rig file must
+    list for it (``channel``) and the registers it writes for an act (``writes``)."""
+
+    channel: str
+    writes: Callable[[OperatorAct], Writes]
+
+
+def _hang(weight: str, reversed_: str) -> Callable[[OperatorAct], Writes]:
+    """A hung weight (kg); a reverse test's rigging too (``sim_reset`` undoes it)."""
+    return lambda act: [(weight, act.value or 0.0)] + ([(reversed_, True)] if act.reverse else [])
+
+
+#: Every act the simulated operator plays, one entry each (the procedures name them; the
+#: registry's entries list theirs, ``KindSpec.acts``).
+SIMULATED_ACTS: dict[str, SimulatedAct] = {
+    "hang_tow_weight": SimulatedAct("sim_tow_weight", _hang("sim_tow_weight", "sim_tow_reversed")),
+    "hang_spin_weight": SimulatedAct(
+        "sim_spin_weight", _hang("sim_spin_weight", "sim_spin_reversed")
+    ),
+    # to the start, or pushed to ``value`` m (a reverse tow's far end)
+    "return_carriage": SimulatedAct(
+        "sim_reset",
+        lambda act: [("sim_carriage_position", act.value)] if act.value else [("sim_reset", True)],
+    ),
+    "mount_thrust_stand": SimulatedAct(
+        "sim_thrust_stand", lambda act: [("sim_thrust_stand", True)]
+    ),
+    "unmount_thrust_stand": SimulatedAct(
+        "sim_thrust_stand", lambda act: [("sim_thrust_stand", False)]
+    ),
+    # the vehicle hangs plumb at rest on the rod
+    "mount_pendulum": SimulatedAct("sim_pendulum_angle", lambda act: [("sim_pendulum_angle", 0.0)]),
+    # pulled out to the angle and held there
+    "pull_pendulum": SimulatedAct(
+        "sim_pendulum_angle", lambda act: [("sim_pendulum_angle", act.value or 0.0)]
+    ),
 }
+#: The simulation-only channel each act of the simulated operator needs.
+SIM_CHANNEL = {name: act.channel for name, act in SIMULATED_ACTS.items()}
 
 
 class SimulatedOperator:
@@ -61,36 +95,17 @@ class SimulatedOperator:
         self._settle_s = settle_s
 
     async def perform(self, act: OperatorAct) -> None:
-        channel = SIM_CHANNEL.get(act.name)
+        played = SIMULATED_ACTS.get(act.name)
+        if played is None:
+            raise ValueError(f"unknown operator act {act.name!r}")
         known = getattr(self._plc, "rig", None)
-        if channel is not None and known is not None and not known.has(channel):
+        if known is not None and not known.has(played.channel):
             raise OperatorActUnavailable(
                 f"simulated operator: cannot {act.name.replace('_', ' ')}: the rig file has no "
-                f"sim_only channel {channel!r} (docs/simulated-rig.md)"
+                f"sim_only channel {played.channel!r} (docs/simulated-rig.md)"
             )
-        if act.name == "hang_tow_weight":
-            await self._plc.write("sim_tow_weight", act.value or 0.0)
-            if act.reverse:  # over the far-end pulley (sim_reset leads it back)
-                await self._plc.write("sim_tow_reversed", True)
-        elif act.name == "hang_spin_weight":
-            await self._plc.write("sim_spin_weight", act.value or 0.0)
-            if act.reverse:  # the cord wound the other way (sim_reset winds it back)
-                await self._plc.write("sim_spin_reversed", True)
-        elif act.name == "return_carriage":  # to the start, or pushed to ``value`` m
-            if act.value:
-                await self._plc.write("sim_carriage_position", act.value)
-            else:
-                await self._plc.write("sim_reset", True)
-        elif act.name == "mount_thrust_stand":
-            await self._plc.write("sim_thrust_stand", True)
-        elif act.name == "unmount_thrust_stand":
-            await self._plc.write("sim_thrust_stand", False)
-        elif act.name == "mount_pendulum":  # the vehicle hangs plumb at rest on the rod
-            await self._plc.write("sim_pendulum_angle", 0.0)
-        elif act.name == "pull_pendulum":  # pulled out to the angle and held there
-            await self._plc.write("sim_pendulum_angle", act.value or 0.0)
-        else:
-            raise ValueError(f"unknown operator act {act.name!r}")
+        for channel, value in played.writes(act):
+            await self._plc.write(channel, value)
         await asyncio.sleep(self._settle_s)
 
 

@@ -54,7 +54,7 @@ LOGGED_DRIVE_UNITS: dict[str, dict[str, float]] = {
     RunKind.SPIN: {f"{unit}·m": scale for unit, scale in _FORCE_UNITS.items()},
 }
 #: The kinds a CSV can be imported as.
-IMPORT_KINDS = (RunKind.TOW, RunKind.SPIN, RunKind.PENDULUM)
+IMPORT_KINDS = tuple(AXES)  # every kind with a position channel
 
 
 class CsvImportError(ValueError):

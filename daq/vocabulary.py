@@ -19,6 +19,8 @@ class RunKind(StrEnum):
     SPIN = "spin"
     PENDULUM = "pendulum"
     THRUST_CALIBRATION = "thrust_calibration"
+    #: A free decay of one degree of freedom, imported (its ``dof`` parameter says which).
+    DECAY = "decay"
 
 
 class RunStatus(StrEnum):
@@ -42,6 +44,8 @@ class Axis(StrEnum):
     YAW = "yaw"
     #: The pendulum's swing (roll or pitch, as the rig file's ``[pendulum]`` says).
     SWING = "swing"
+    #: A free decay's degree of freedom, named by its run's ``dof`` parameter.
+    DOF = "dof"
 
 
 @dataclass(frozen=True)
@@ -71,6 +75,7 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
     RunKind.PENDULUM: AxisTerms(
         Axis.SWING, "pendulum_angle", "rad", "pendulum_release", "pull_pendulum"
     ),
+    RunKind.DECAY: AxisTerms(Axis.DOF, "decay_position", "m or rad", "decay_release", "offset"),
 }
 
 #: The kinds driven by a constant load (weight or thrusters): tow and spin.

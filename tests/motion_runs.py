@@ -7,7 +7,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import spin_parameters, tow_parameters
+from daq.procedures.requests import spin_parameters, tow_parameters
 from daq.session import RigSession
 
 

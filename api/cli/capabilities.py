@@ -14,7 +14,7 @@ def capabilities(rig_file: str | None, as_json: bool) -> None:
     """What the rig can do: each test (and drive), or why not; the safety channels it uses."""
     from daq.capabilities import safety
     from daq.config import load_rig
-    from daq.procedures.kinds import KINDS
+    from daq.procedures.kinds import RIG_KINDS, capabilities
 
     with user_errors():
         rig = load_rig(rig_file)
@@ -22,13 +22,13 @@ def capabilities(rig_file: str | None, as_json: bool) -> None:
         echo_json(
             {
                 "rig": rig.rig.name,
-                "capabilities": {str(k): s.describe_capability(rig) for k, s in KINDS.items()},
+                "capabilities": capabilities(rig),
                 "safety": {name: c.to_json() for name, c in safety(rig).items()},
             }
         )
         return
     click.echo(f"rig {rig.rig.name!r}")
-    for spec in KINDS.values():
+    for spec in RIG_KINDS.values():
         drives: list[str | None] = [*spec.drives] or [None]  # None: the kind's one way
         for drive in drives:
             can = spec.capability(rig, drive)

@@ -20,11 +20,10 @@ from api.cli.common import (
 )
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
-from estimation import METHODS
-from estimation.pendulum.estimate import PENDULUM_METHODS
+from daq.procedures.kinds import all_methods
 from estimation.uncertainty.text import budget_lines
 
-ALL_METHODS = tuple(dict.fromkeys((*METHODS, *PENDULUM_METHODS)))
+ALL_METHODS = all_methods()
 #: How the summary words one item of each list a result may carry.
 _FINDING_LINES: dict[str, Callable[[Any], str]] = {
     "effects": lambda eff: f"effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}",
@@ -93,6 +92,9 @@ def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, 
         if data.get("analysis") == "pendulum":
             _echo_pendulum(data)
             return
+        if "axis" not in data:  # a result with {value, std, unit} coefficients (a decay)
+            _echo_coefficients(data)
+            return
         units = {
             "surge": ("kg", "N·s/m", "N·s²/m²", "m"),
             "yaw": ("kg·m²", "N·m·s/rad", "N·m·s²/rad²", "rad"),
@@ -133,6 +135,22 @@ def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, 
         click.echo(f"  stored as result #{data['result_id']}")
     finally:
         store.close()
+
+
+def _echo_coefficients(data: dict) -> None:
+    """Human summary of a result whose coefficients carry their units: each with its σ
+    ("not identified" when the data do not determine it), the effects kept, warnings."""
+    what = " ".join(str(data[k]) for k in ("dof", "kind") if data.get(k))
+    click.echo(f"{what or 'estimate'} from {len(data['runs'])} run(s)")
+    for name, c in data["coefficients"].items():
+        shown = plus_minus(c) + (" (not identified)" if c.get("std") is None else "")
+        click.echo(f"  {name:<28} {shown} {c.get('unit', '')}")
+    for key in ("effects", "warnings"):
+        for item in data.get(key) or []:
+            click.echo(f"  {key[:-1]}: {item}")
+    if data.get("rmse_before") is not None and data.get("rmse_after") is not None:
+        click.echo(f"  RMSE before {data['rmse_before']:.3g}, after {data['rmse_after']:.3g}")
+    click.echo(f"  stored as result #{data['result_id']}")
 
 
 def _echo_pendulum(data: dict) -> None:

@@ -2,6 +2,8 @@
 
 The import's rules (kind, drive, rig limits, the export's header) are
 ``api.core.run_import``'s, shared with ``POST /api/runs/import``; this is the command's face.
+The kinds offered and each kind's own options (a free decay's ``--dof``) come from the
+registry's import rules (``daq.procedures.kinds.IMPORT_KINDS``).
 """
 
 from __future__ import annotations
@@ -17,15 +19,18 @@ from api.cli.common import (
     open_store,
     user_errors,
 )
+from api.cli.options import request_fields, request_options
+from daq.procedures.kinds import IMPORT_KINDS, import_fields
 
 
 @click.command("import")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
 @click.option(
     "--kind",
-    type=click.Choice(["tow", "spin", "pendulum"]),
-    help="Tow (position in m), spin (angle in rad) or pendulum free decay (angle in rad; "
-    "--rig gives the geometry). Default: the kind a towrig export names in its header.",
+    type=click.Choice([str(k) for k in IMPORT_KINDS]),
+    help="What the file recorded; its position column: "
+    + "; ".join(f"{k}: {s.imports.position}" for k, s in IMPORT_KINDS.items() if s.imports)
+    + ". Default: the kind a towrig export names in its header.",
 )
 @click.option("--force", "force_n", type=float, help="Tow force in N (negative: a reverse tow).")
 @click.option(
@@ -90,6 +95,7 @@ from api.cli.common import (
     type=float,
     help="End of free motion, s on the t axis (default: end_of_travel/brake/carriage at rest).",
 )
+@request_options(import_fields())
 @db_option
 @json_option
 def import_(
@@ -109,6 +115,7 @@ def import_(
     end_time_s,
     db_url,
     as_json,
+    **kind_fields,
 ):
     """Import a CSV (columns t [s] and position [m or rad]; more allowed); prints the new run id.
 
@@ -130,7 +137,7 @@ def import_(
         kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
         drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
         release_time_s=release_time_s, end_time_s=end_time_s, dry_mass_kg=dry_mass_kg,
-        displacement_kg=displacement_kg,
+        displacement_kg=displacement_kg, fields=request_fields(import_fields(), kind_fields),
     )  # fmt: skip
     source = None
     if rig_file:

@@ -170,7 +170,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "predict-uncertainty": (
         "api.cli.uncertainty",
         "predict_uncertainty",
-        "Simulate SEQUENCE's weight-driven tows and spins with the current model and the...",
+        "Simulate SEQUENCE's weight-driven tows and spins with the current model and...",
     ),
     "water": (
         "api.cli.theory",
@@ -180,8 +180,12 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 #: Commands that record or import runs: they take --operator --water-temp --notes --tag
-#: --meta (api.cli.metadata), added here once rather than per command.
-RUN_STARTERS = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "import")
+#: --meta (api.cli.metadata), added here once rather than per command: every procedure
+#: command (one per kind the rig runs, and sequences) and the import.
+RUN_STARTERS = (
+    *(name for name, (module, _, _) in COMMANDS.items() if module == "api.cli.procedures"),
+    "import",
+)
 
 
 def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseException], ...]:
@@ -313,17 +317,17 @@ def _not_on_this_rig() -> list[tuple[str, str]]:
     if not path:
         return []
     from daq.config import RigConfigError, load_rig
-    from daq.procedures.kinds import KINDS
+    from daq.procedures.kinds import RIG_KINDS
 
     try:
         rig = load_rig(path)
     except RigConfigError as err:
         return [(RIG_FILE_ENV, _one_line(err))]
     rows = []
-    for spec in KINDS.values():
+    for spec in RIG_KINDS.values():
         can = spec.capability(rig)  # with any of its drives
         if not can.available:
-            rows.append((spec.command, str(can.reason)))
+            rows.append((str(spec.command), str(can.reason)))
             continue
         for drive in spec.drives:
             can = spec.capability(rig, drive)

@@ -54,6 +54,8 @@ def _click_type(info: FieldInfo, flag: Flag) -> Any:
     if flag.parse is not None:
         return _Parsed(flag.parse, info.description or "a list")
     base = _base_type(info.annotation)
+    if typing.get_origin(base) is typing.Literal:  # one of the listed words
+        return click.Choice([str(word) for word in typing.get_args(base)])
     bounds: dict[str, Any] = {}
     for m in info.metadata:
         if isinstance(m, annotated_types.Ge | annotated_types.Gt):

@@ -1,8 +1,10 @@
-"""Estimation on stored runs (tow/spin or pendulum): load, fit, store the result with its runs.
+"""Estimation on stored runs: load, fit, store the result with its runs.
 
-Shared by ``rig estimate`` and the HTTP API so both give the same JSON, and tell bad input
-(``ValueError`` naming the field, found before fitting) from a fit that failed
-(``EstimationFailure``) the same way.
+Which fit a run takes is its kind's registry entry's estimator (``daq.estimators``: tow
+and spin runs the axis model, pendulum runs the swing, free decays the single-DOF
+equation); nothing here branches on the kind. Shared by ``rig estimate`` and the HTTP API
+so both give the same JSON, and tell bad input (``ValueError`` naming the field, found
+before fitting) from a fit that failed (``EstimationFailure``) the same way.
 """
 
 from __future__ import annotations
@@ -12,77 +14,60 @@ from pathlib import Path
 from typing import Any
 
 from api.core.estimation_failure import fit_subject, fitting
+from api.core.rig_envelope import envelope_of_runs
 from api.core.theory_job import theory_document
 from api.core.uncertainty_job import budget_document, screen_repeats
-from daq.body_mass import with_body_inertia
+from daq.estimators import Estimator
 from daq.procedures.kinds import KINDS
-from daq.run_data import load_run_data
 from daq.store import Store
-from estimation import METHODS
-from estimation.data.runs import RunData
-from estimation.pendulum.data import PendulumRun
-from estimation.pendulum.estimate import PENDULUM_METHODS
 
 
-def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
-    """What the runs call for — "pendulum" or "axis" (tow/spin) — with ``method`` checked.
+def estimator_of(store: Store, run_ids: Sequence[str], method: str) -> Estimator:
+    """The estimator the runs call for, with ``method`` checked.
 
-    Raises ``ValueError`` naming the field for no runs, mixed kinds (a pendulum with a tow,
-    a tow with a spin), or a method the kind
+    Raises ``ValueError`` naming the field for no runs, kinds no estimator takes, mixed
+    kinds (a pendulum with a tow, a tow with a spin: two axes), or a method the estimator
     does not have; ``RunNotFound`` for an unknown id. The API calls this before starting
     the job so such requests are a 422, not a failed job.
     """
     if not run_ids:
         raise ValueError("run_ids: give at least one run id")
-    kinds = {store.get_run(rid).kind for rid in run_ids}
-    estimators = {KINDS[k].estimator if k in KINDS else None for k in kinds}  # type: ignore[index]
-    if "pendulum" in estimators:
-        if estimators != {"pendulum"}:
-            raise ValueError(
-                f"run_ids: got mixed kinds {sorted(kinds)}, allowed: all pendulum runs, "
-                f"or tow/spin runs only"
-            )
-        if method not in PENDULUM_METHODS:
-            raise ValueError(
-                f"method: {method!r} is not allowed for pendulum runs; allowed: "
-                f"{', '.join(PENDULUM_METHODS)}"
-            )
-        return "pendulum"
+    kinds = sorted({store.get_run(rid).kind for rid in run_ids})
     if len(kinds) > 1:  # a tow and a spin are two axes: one fit cannot take both
         raise ValueError(
-            f"run_ids: got mixed kinds {sorted(kinds)}, allowed: runs of one kind (tows of "
-            f"one axis, or spins); estimate each kind on its own"
+            f"run_ids: got mixed kinds {kinds}, allowed: runs of one kind (tows of one axis, "
+            "spins, pendulum runs, decays of one dof); estimate each kind on its own"
         )
-    if method not in METHODS:
+    spec = KINDS.get(kinds[0])  # type: ignore[call-overload]  # a RunKind key matches its str
+    if spec is None or spec.estimator is None:
+        taken = ", ".join(str(k) for k, s in KINDS.items() if s.estimator is not None)
+        raise ValueError(f"run_ids: {kinds[0]} runs are not estimated; allowed: {taken}")
+    estimator: Estimator = spec.estimator
+    if method not in estimator.methods:
         raise ValueError(
-            f"method: {method!r} is not allowed for tow/spin runs; allowed: {', '.join(METHODS)}"
+            f"method: {method!r} is not allowed for {estimator.runs} runs; allowed: "
+            f"{', '.join(estimator.methods)}"
         )
-    return "axis"
+    return estimator
+
+
+def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
+    """The name of the estimator the runs call for ("axis", "pendulum", "decay"), checked
+    as :func:`estimator_of` says."""
+    return estimator_of(store, run_ids, method).name
 
 
 def load_estimation_runs(
     store: Store, run_ids: Sequence[str], method: str
-) -> tuple[str, list[RunData] | list[PendulumRun]]:
-    """The runs as the estimator takes them, checked: ("axis", tow/spin runs) or
-    ("pendulum", free-decay runs).
+) -> tuple[str, list[Any]]:
+    """The runs as their estimator takes them, checked: (estimator name, runs).
 
     Everything a user can get wrong is found here, before anything is fitted: raises
     ``ValueError`` naming the run and field (no applied drive, too few samples after the
     release, mixed axes, …) and ``RunNotFound`` for an unknown id. The API calls it before
     starting the job, so bad input is a 422, never a failed job."""
-    from estimation.data.runs import validate_runs
-
-    if check_estimation_request(store, run_ids, method) == "pendulum":
-        from daq.run_data import load_pendulum_data
-        from estimation.pendulum.estimate import validate_pendulum_runs
-
-        swings = [load_pendulum_data(store, rid) for rid in run_ids]
-        validate_pendulum_runs(swings)
-        return "pendulum", swings
-    # The body's own mass the tow declares: an inertia fitted below it is flagged.
-    runs = [with_body_inertia(load_run_data(store, rid), store.get_run(rid)) for rid in run_ids]
-    validate_runs(runs)
-    return "axis", runs
+    estimator = estimator_of(store, run_ids, method)
+    return estimator.name, estimator.load(store, run_ids)
 
 
 def run_estimation(
@@ -94,57 +79,33 @@ def run_estimation(
     report_dir: str | Path | None = None,
     exclude_outliers: bool = False,
 ) -> dict[str, Any]:
-    """Estimate from stored runs; returns the result JSON (with ``result_id``), with the
-    uncertainty budget and the repeat analysis (``api.core.uncertainty_job``;
-    ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit).
-
-    Tow/spin runs give the axis model (``estimation.axis.estimate``); pendulum free-decay runs
-    give α, β of the swing axis (``estimation.pendulum.estimate``, stored as an "estimation"
-    result with ``"analysis": "pendulum"``). Bad input raises as
-    :func:`load_estimation_runs` says; a fit (or its report) that fails in its numerics
+    """Estimate from stored runs; returns the result JSON (with ``result_id``), stored as an
+    "estimation" result; the axis model's with the uncertainty budget, the repeat analysis
+    and the theory comparison (``api.core.uncertainty_job``, ``api.core.theory_job``;
+    ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit). Bad input raises
+    as :func:`load_estimation_runs` says; a fit (or its report) that fails in its numerics
     raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
     """
-    from api.core.rig_envelope import envelope_of_runs
-    from estimation import estimate
-    from estimation.axis.report import write_report  # matplotlib: load only when estimating
-
-    what, loaded = load_estimation_runs(store, run_ids, method)
-    if what == "pendulum":
-        return _run_pendulum(store, loaded, method, search_effects, report_dir)  # type: ignore[arg-type]
-    runs, repeats = screen_repeats(loaded, exclude_outliers)  # type: ignore[arg-type]
-    subject = fit_subject(runs[0].axis, [r.run_id for r in runs])
+    estimator = estimator_of(store, run_ids, method)
+    runs = estimator.load(store, run_ids)
+    axis = estimator.name == "axis"  # the budget and repeats are the axis model's (for now)
+    repeats = None
+    if axis:
+        runs, repeats = screen_repeats(runs, exclude_outliers)
+    subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
     with fitting(subject):
         envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
-        result = estimate(runs, method=method, search_effects=search_effects, envelope=envelope)
+        result = estimator.fit(runs, method, search_effects, envelope)
         data = result.to_json()
-    if report_dir is not None:
+    if report_dir is not None and estimator.report is not None:
         with fitting(subject, "draw the report of"):
-            data["report_files"] = [str(p) for p in write_report(result, runs, Path(report_dir))]
-    with fitting(subject, "compute the uncertainty budget of"):
-        data |= budget_document(store, runs, result, repeats, report_dir)
-        data |= theory_document(store, data, repeats, report_dir)
-    stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
-    data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
-    return data
-
-
-def _run_pendulum(
-    store: Store,
-    runs: list[PendulumRun],
-    method: str,
-    search_effects: bool,
-    report_dir: str | Path | None,
-) -> dict[str, Any]:
-    from estimation.pendulum.estimate import estimate_pendulum
-    from estimation.pendulum.report import write_pendulum_report
-
-    subject = fit_subject(f"{runs[0].axis} swing", [r.run_id for r in runs])
-    with fitting(subject):
-        result = estimate_pendulum(runs, method=method, search=search_effects)
-        data = result.to_json()
-    if report_dir is not None:
-        with fitting(subject, "draw the report of"):
-            data["report_files"] = [str(p) for p in write_pendulum_report(result, Path(report_dir))]
+            files = estimator.report(result, runs, Path(report_dir))
+            data["report_files"] = [str(p) for p in files]
+    if axis:
+        assert repeats is not None
+        with fitting(subject, "compute the uncertainty budget of"):
+            data |= budget_document(store, runs, result, repeats, report_dir)
+            data |= theory_document(store, data, repeats, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from daq.procedures.drive_check import check_steps, check_thruster_drive
-from daq.procedures.kinds import KINDS
+from daq.procedures.kinds import RIG_KINDS
 from daq.procedures.sequence import parse_sequence
 from daq.store import Store
 
@@ -25,7 +25,7 @@ def procedure_from_request(
         if store is not None:
             check_steps(seq.steps, rig, store)
         return seq, f"sequence {seq.name} ({len(seq.steps) * seq.repeats} runs)"
-    spec = KINDS.get(kind)
+    spec = RIG_KINDS.get(kind)
     if spec is None:
         raise ValueError(f"kind: {kind!r} is not a procedure")
     params = spec.check(request, rig)

@@ -11,7 +11,8 @@ from typing import Any
 
 from api.core.uncertainty_job import chain_of, tolerances_of
 from daq.config import RigConfig
-from daq.procedures.params import SpinParameters, TowParameters
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.procedures.sequence import load_sequence
 from daq.store import Store
 from estimation.uncertainty.pretest import PlannedRig, PlannedRun, predict_uncertainty
@@ -44,7 +45,10 @@ def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
     seq = load_sequence(sequence_path, rig)
     out = []
     for step in seq.steps:
+        # checked parameters: the load and the rig's limits are set
         if isinstance(step, TowParameters) and step.drive == "weight" and step.hung_mass_kg:
+            assert step.force_n is not None and step.max_distance_m is not None
+            assert step.max_time_s is not None
             out.append(
                 PlannedRun(
                     "surge",
@@ -56,6 +60,8 @@ def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
                 )
             )
         elif isinstance(step, SpinParameters) and step.drive == "weight" and step.hung_mass_kg:
+            assert step.torque_nm is not None and step.max_angle_rad is not None
+            assert step.max_time_s is not None
             out.append(
                 PlannedRun(
                     "yaw",

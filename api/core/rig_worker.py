@@ -26,7 +26,7 @@ from api.core.job_requests import procedure_from_request
 from api.core.rig_guard import RigGuard, latching_stop
 from api.core.service import RigService
 from daq.operator import OperatorAct
-from daq.procedures.kinds import KINDS
+from daq.procedures.kinds import KINDS, RIG_KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import Sequence, SequenceControl
@@ -39,7 +39,7 @@ from daq.vocabulary import RunStatus
 log = logging.getLogger(__name__)
 
 #: Jobs that hold the rig: one per run kind, and sequences of them.
-PROCEDURES = (*KINDS, "sequence")
+PROCEDURES = (*RIG_KINDS, "sequence")
 
 
 def run_metadata(job: Job) -> dict[str, Any]:

@@ -35,6 +35,7 @@ from api.http.routes import campaigns as routes_campaigns
 from api.http.routes import crosscheck as routes_crosscheck
 from api.http.routes import imports as routes_imports
 from api.http.routes import jobs as routes_jobs
+from api.http.routes import kinds as routes_kinds
 from api.http.routes import people as routes_people
 from api.http.routes import queue as routes_queue
 from api.http.routes import rig as routes_rig
@@ -231,6 +232,7 @@ def create_app(
     app.add_middleware(SecurityHeaders)  # outermost: on every answer, 413s included
     for module in (
         routes_rig,
+        routes_kinds,
         routes_crosscheck,
         routes_jobs,
         routes_people,

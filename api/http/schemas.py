@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from daq.procedures.kinds import KINDS, all_methods
 from daq.procedures.params import MAX_SEQUENCE_STEPS
 from daq.procedures.requests import _ProcedureRequest, _Strict
 from daq.store.schema import JobState
@@ -97,18 +98,13 @@ class EstimationRequest(_Strict):
     run_ids: list[str] = Field(
         min_length=1, max_length=50, description="Tow or spin run ids, or pendulum run ids."
     )
-    method: Literal[
+    method: Literal[all_methods()] = Field(  # type: ignore[valid-type]
         "output-error",
-        "ls-raw",
-        "ls-curvefit",
-        "ls-steady",
-        "damped-fit",
-        "log-decrement",
-        "equation-error",
-    ] = Field(
-        "output-error",
-        description="output-error for both kinds; ls-* for tow/spin runs; damped-fit, "
-        "log-decrement, equation-error for pendulum runs (checked per kind).",
+        description="Every kind takes output-error; the others per kind ("
+        + "; ".join(
+            f"{k}: {', '.join(s.estimator.methods)}" for k, s in KINDS.items() if s.estimator
+        )
+        + "), checked per run.",
     )
     search_effects: bool = True
 

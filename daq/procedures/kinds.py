@@ -1,49 +1,53 @@
 """The registry of run kinds: each kind is one entry, and every face looks it up.
 
-An entry holds the kind's request model (the API body and the ``rig`` options are
-derived from it), the validator that checks a request against the rig file, the
-procedure that runs it, its axis words (``daq.vocabulary.AXES``), the estimation it
-feeds and its labels. The HTTP routes, the CLI commands, sequences and the job runner
-iterate or index ``KINDS`` instead of branching on the kind.
+An entry holds the kind's labels, its axis words (``daq.vocabulary.AXES``) and, for a kind
+the rig runs, its request model (the API body, the ``rig`` options and the browser's start
+form are derived from it; checked against the rig file it *is* the procedure's frozen
+parameters) and the procedure that runs it; for a kind whose runs are estimated, its
+estimator (``daq.estimators.Estimator``: loader, fit, methods, report); for a kind a CSV
+may be imported as, its import rules (``daq.import_rules.ImportRules``); the operator acts its
+procedure asks for (``daq.operator.SIMULATED_ACTS``). The HTTP routes, the
+CLI commands, sequences, the job runner, the import and ``GET /api/kinds`` iterate or index
+``KINDS`` (``RIG_KINDS``: those the rig runs) instead of branching on the kind.
 
-Adding a kind: write its procedure (a ``run_…`` coroutine) with its parameters and
-validator, add its request model to ``daq.procedures.requests`` and one entry here (and,
-for ``rig --help`` to list it without importing anything, one line in ``api.cli.COMMANDS``).
+Adding a kind the rig runs: write its procedure (a ``run_…`` coroutine), its request model
+in ``daq.procedures.requests`` and one entry here (and, for ``rig --help`` to list it without
+importing anything, one line in ``api.cli.COMMANDS``). A kind that is only imported (a free
+decay) is one entry with its estimator and import rules.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
+
+from pydantic import BaseModel
 
 from daq.capabilities import Capability, Needs, capability
 from daq.config import PENDULUM_CHANNELS
+from daq.decay import DECAY, DECAY_IMPORT
+from daq.estimators import AXIS, PENDULUM, Estimator
+from daq.import_rules import ImportRules, drive_plan, pendulum_plan
 from daq.procedures import requests
-from daq.procedures.params import (
-    CalibrationParameters,
-    ParameterError,
-    PendulumParameters,
-    SpinParameters,
-    TowParameters,
-    calibration_parameters,
-    pendulum_parameters,
-    spin_parameters,
-    tow_parameters,
-)
+from daq.procedures.params import ParameterError
 from daq.vocabulary import AXES, AxisTerms, RunKind
 
 if TYPE_CHECKING:
     from pathlib import Path
-
-    from pydantic import BaseModel
 
     from daq.config import RigConfig
     from daq.procedures.recording import AbortSignal, ProgressCallback
     from daq.procedures.steps import RunOutcome
     from daq.session import RigSession
 
-StepParameters = TowParameters | SpinParameters | CalibrationParameters | PendulumParameters
+StepParameters = (
+    requests.TowRequest
+    | requests.SpinRequest
+    | requests.CalibrationRequest
+    | requests.PendulumRequest
+)
 
 
 #: How a reason names a drive ("tow with thrusters: needs a [thrusters] section").
@@ -94,22 +98,23 @@ class KindSpec:
     kind: RunKind
     #: What the operator reads: "tow test".
     label: str
-    #: One line for ``rig <command> --help``.
+    #: One line for ``rig <command> --help`` (and the browser's form).
     help: str
-    #: The request model (``daq.procedures.requests``): API body and CLI options.
-    request: type[BaseModel]
-    #: Check a request (dict of given fields) against the rig → frozen parameters.
-    validate: Callable[[dict[str, Any], RigConfig], StepParameters]
+    #: The request model (``daq.procedures.requests``): API body, CLI options, browser form;
+    #: ``checked(raw, rig)`` gives the frozen parameters. ``None``: the rig cannot run it.
+    request: type[requests._ProcedureRequest] | None = None
     #: Run the procedure under the rig lock.
-    run: Runner
+    run: Runner = field(default_factory=lambda: _not_on_the_rig)
     #: The job's label from its validated parameters: "tow 4.9 N (thrusters)".
-    describe: Callable[[Any], str]
+    describe: Callable[[Any], str] = str
     #: ``rig <command>``.
-    command: str
+    command: str | None = None
     #: ``POST /api/jobs/<route>``.
-    route: str
-    #: The estimation that takes this kind's runs: "axis" (tow/spin), "pendulum", or none.
-    estimator: Literal["axis", "pendulum"] | None
+    route: str | None = None
+    #: How its runs are estimated (runs sharing an estimator are fitted together).
+    estimator: Estimator | None = None
+    #: How a CSV is imported as this kind (``rig import --kind``); ``None``: not importable.
+    imports: ImportRules | None = None
     #: Write a report of a completed run into a folder → paths written (``--report DIR``),
     #: or ``None`` when the kind has no report of its own.
     report: Callable[[KindOutcome, Path], list[Path]] | None = None
@@ -117,6 +122,9 @@ class KindSpec:
     needs: Needs = field(default_factory=Needs)
     #: Tow/spin: what each drive (``weight``, ``thrusters``) needs on top of ``needs``.
     drives: dict[str, Needs] = field(default_factory=dict)
+    #: The operator acts its procedure asks for (``daq.operator.SIMULATED_ACTS`` plays them
+    #: on the simulated rig; a person does them on a real one).
+    acts: tuple[str, ...] = ()
 
     @property
     def axis(self) -> AxisTerms | None:
@@ -144,7 +152,10 @@ class KindSpec:
         return out
 
     def check(self, raw: dict[str, Any], rig: RigConfig) -> StepParameters:
-        """Refuse (``NotCapable``) what the rig cannot do, then validate the request."""
+        """Refuse (``NotCapable``) what the rig cannot do, then check the request against
+        the rig (``request.checked``) → the frozen parameters."""
+        if self.request is None:
+            raise ParameterError([("kind", str(self.kind), "a kind the rig runs")])
         base = capability(str(self.kind), self.needs, rig)
         if not base.available:
             raise NotCapable("kind", str(self.kind), str(base.reason), rig.rig.name)
@@ -153,12 +164,16 @@ class KindSpec:
             can = self.capability(rig, drive)
             if not can.available:
                 raise NotCapable("drive", drive, str(can.reason), rig.rig.name)
-        return self.validate(raw, rig)
+        return self.request.checked(raw, rig)  # type: ignore[return-value]
 
 
 def capabilities(rig: RigConfig) -> dict[str, dict[str, Any]]:
     """What ``rig`` can do, per run kind (``GET /api/rig`` → ``capabilities``)."""
-    return {str(kind): spec.describe_capability(rig) for kind, spec in KINDS.items()}
+    return {str(kind): spec.describe_capability(rig) for kind, spec in RIG_KINDS.items()}
+
+
+async def _not_on_the_rig(session, params, *, abort, progress) -> KindOutcome:
+    raise ParameterError([("kind", str(params.kind), "a kind the rig runs")])
 
 
 async def _run_motion(session, params, *, abort, progress) -> KindOutcome:
@@ -207,14 +222,15 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             help="Tow test: a weight over the pulley (or the thrusters) pulls the vehicle "
             "along the rail.",
             request=requests.TowRequest,
-            validate=tow_parameters,
             run=_run_motion,
             describe=lambda p: _driven("tow", p.force_n, "N", p.drive),
             command="tow",
             route="tow",
-            estimator="axis",
+            estimator=AXIS,
+            imports=ImportRules("tow position, m", drive_plan),
             needs=Needs(channels=_axis_channels(RunKind.TOW)),
             drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
+            acts=("hang_tow_weight", "return_carriage", "unmount_thrust_stand"),
         ),
         KindSpec(
             kind=RunKind.SPIN,
@@ -222,17 +238,18 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             help="Spin test: constant torque about the vertical axis (weight on the drum, "
             "or thrusters).",
             request=requests.SpinRequest,
-            validate=spin_parameters,
             run=_run_motion,
             describe=lambda p: _driven("spin", p.torque_nm, "N·m", p.drive),
             command="spin",
             route="spin",
-            estimator="axis",
+            estimator=AXIS,
+            imports=ImportRules("spin angle, rad", drive_plan),
             needs=Needs(channels=_axis_channels(RunKind.SPIN), settings=("limits.max_torque_nm",)),
             drives={
                 "weight": Needs(settings=("geometry.spin_drum_radius_m",)),
                 "thrusters": Needs(thrusters=True),
             },
+            acts=("hang_spin_weight", "return_carriage", "unmount_thrust_stand"),
         ),
         KindSpec(
             kind=RunKind.PENDULUM,
@@ -240,13 +257,14 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             help="Pendulum free decay: pull the vehicle out on the pendulum, release, record "
             "the swing.",
             request=requests.PendulumRequest,
-            validate=pendulum_parameters,
             run=_run_pendulum,
             describe=lambda p: f"pendulum {p.start_angle_rad:.3g} rad",
             command="pendulum",
             route="pendulum",
-            estimator="pendulum",
+            estimator=PENDULUM,
+            imports=ImportRules("pendulum angle, rad (--rig gives the geometry)", pendulum_plan),
             needs=Needs(channels=PENDULUM_CHANNELS, pendulum=True),
+            acts=("mount_pendulum", "pull_pendulum"),
         ),
         KindSpec(
             kind=RunKind.THRUST_CALIBRATION,
@@ -254,14 +272,65 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             help="Thrust calibration: step the thrusters on the load cell and fit thrust vs "
             "command.",
             request=requests.CalibrationRequest,
-            validate=calibration_parameters,
             run=_run_calibration,
             describe=lambda p: "thrust calibration",
             command="calibrate-thrusters",
             route="calibration",
-            estimator=None,
             report=_calibration_report,
             needs=Needs(channels=("load_cell",), thrusters=True),
+            acts=("mount_thrust_stand", "unmount_thrust_stand"),
+        ),
+        KindSpec(
+            kind=RunKind.DECAY,
+            label="free decay",
+            help="Free decay: a body released from an offset in one degree of freedom "
+            "(imported: rig import FILE --kind decay --dof heave).",
+            estimator=DECAY,
+            imports=DECAY_IMPORT,
         ),
     )
 }
+
+#: The kinds the rig runs (a procedure, a request model, a route and a command).
+RIG_KINDS: dict[str, KindSpec] = {k: s for k, s in KINDS.items() if s.request is not None}
+#: The kinds a CSV may be imported as (``rig import --kind``, ``POST /api/runs/import``).
+IMPORT_KINDS: dict[str, KindSpec] = {k: s for k, s in KINDS.items() if s.imports is not None}
+
+
+@functools.cache
+def import_fields() -> type[BaseModel]:
+    """One model holding every importable kind's own import fields (a free decay's
+    ``dof``): the ``rig import`` options and the HTTP import's query parameters. Which kind
+    takes which is its import rule's check."""
+    models = [s.imports.fields for s in IMPORT_KINDS.values() if s.imports and s.imports.fields]
+    return type("ImportFields", (*models, BaseModel), {"__doc__": import_fields.__doc__})
+
+
+def all_methods() -> tuple[str, ...]:
+    """Every estimation method some kind's estimator takes (``rig estimate --method``,
+    ``POST /api/jobs/estimation``), each once; which kind takes which is checked per run."""
+    return tuple(
+        dict.fromkeys(m for s in KINDS.values() if s.estimator for m in s.estimator.methods)
+    )
+
+
+def describe_kinds() -> list[dict[str, Any]]:
+    """Every kind as ``GET /api/kinds`` serves it: its labels, the JSON Schema of its start
+    request (``null``: the rig does not run it), its command and route, its estimation
+    methods and its import fields' JSON Schema."""
+    out = []
+    for kind, spec in KINDS.items():
+        out.append(
+            {
+                "kind": str(kind),
+                "label": spec.label,
+                "help": spec.help,
+                "command": spec.command,
+                "route": spec.route,
+                "schema": None if spec.request is None else spec.request.model_json_schema(),
+                "estimator": None if spec.estimator is None else spec.estimator.name,
+                "methods": [] if spec.estimator is None else list(spec.estimator.methods),
+                "import": None if spec.imports is None else spec.imports.to_json(),
+            }
+        )
+    return out

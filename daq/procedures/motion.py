@@ -10,8 +10,10 @@ from __future__ import annotations
 import logging
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress, SpinParameters, TowParameters
+from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.procedures.steps import (
     SPIN,
     TOW,

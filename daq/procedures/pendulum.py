@@ -16,8 +16,9 @@ import math
 from collections import deque
 
 from daq.operator import OperatorAct
-from daq.procedures.params import PendulumParameters, Progress
+from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import PendulumRequest as PendulumParameters
 from daq.procedures.steps import (
     PreconditionFailed,
     RunOutcome,
@@ -86,6 +87,7 @@ async def run_pendulum_decay(
     if pendulum is None:  # pendulum_parameters refuses this before; keep the promise here
         raise PreconditionFailed("the rig file has no [pendulum] section")
     start = params.start_angle_rad
+    assert start is not None  # checked: required
     async with session.locked(f"pendulum {start:.3g} rad"):
         op = session.operator
         report(Progress(0.0, "mounting the vehicle on the pendulum"))
@@ -148,6 +150,8 @@ async def _follow_decay(
     cycle = CycleAmplitude()
     t0: float | None = None
     decades = math.log(abs(held) / params.stop_amplitude_rad)
+    max_time_s = params.max_time_s
+    assert max_time_s is not None  # checked: the rig's default is set
     async for sample in rec.samples():
         if sample.quality & Quality.ERROR:
             continue
@@ -163,12 +167,12 @@ async def _follow_decay(
         shown = "…" if amplitude is None else f"{amplitude:.4f} rad"
         report(
             Progress(
-                0.05 + 0.9 * min(max(elapsed / params.max_time_s, decayed), 1.0),
+                0.05 + 0.9 * min(max(elapsed / max_time_s, decayed), 1.0),
                 f"pendulum: amplitude {shown} after {elapsed:.1f} s",
             )
         )
         if amplitude is not None and amplitude < params.stop_amplitude_rad:
             return f"amplitude {amplitude:.4f} rad < {params.stop_amplitude_rad:g} rad", sample
-        if elapsed >= params.max_time_s:
-            return f"max time {params.max_time_s:g} s", sample
+        if elapsed >= max_time_s:
+            return f"max time {max_time_s:g} s", sample
     raise AssertionError("rec.samples() ends only by raising")

@@ -4,17 +4,60 @@ them from the fields) and the keys a sequence step may hold.
 
 A field's description is both the API's description and the CLI's help; its
 :class:`Flag` says how the command line spells it. Limits that depend on the rig file
-(``max_force_n``, end of travel, …) are checked by ``daq.procedures.params`` against
-the rig, so every face gives the same message naming the field and the allowed range.
+(``max_force_n``, end of travel, …) are checked by the models' own validators when the rig
+is in the validation context: ``TowRequest.checked(raw, rig)`` is
+``model_validate(raw, context={"rig": rig})`` and returns the request, frozen, with the
+rig's defaults filled in: it *is* the procedure's parameters. Without a rig (the HTTP body)
+only the types are checked. Every face gives the same ``ParameterError`` naming the field
+and the allowed range (``daq.procedures.params``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Annotated, Any, Literal
+import math
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import (
+    Field,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from daq.procedures import params as p
+from daq.procedures.params import ParameterError
+from daq.procedures.request_base import (
+    Baseline,
+    Drive,
+    Flag,
+    MaxTime,
+    RunMetadataIn,
+    _ProcedureRequest,
+    _SignedLoad,
+    _Strict,
+    comma_separated_floats,
+    rig_of,
+)
+from daq.vocabulary import RunKind
+
+if TYPE_CHECKING:
+    from daq.config import RigConfig
+
+__all__ = [
+    "CalibrationRequest",
+    "Flag",
+    "PendulumRequest",
+    "RunMetadataIn",
+    "SpinRequest",
+    "TowRequest",
+    "_ProcedureRequest",
+    "_Strict",
+    "calibration_parameters",
+    "comma_separated_floats",
+    "pendulum_parameters",
+    "spin_parameters",
+    "tow_parameters",
+]
 
 THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 #: Most command steps one calibration may sweep (each is held ``settle_s`` plus samples,
@@ -22,76 +65,7 @@ THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 MAX_CALIBRATION_COMMANDS = 50
 
 
-@dataclass(frozen=True)
-class Flag:
-    """How a request field is spelled on the command line.
-
-    ``when_set``: the option is an on/off flag giving the field this value when present
-    (``--thrusters`` → ``drive="thrusters"``); ``help`` then says what the flag does.
-    ``parse`` turns the typed text into the field's value (``--commands 0,0.2`` → a list)."""
-
-    name: str
-    when_set: Any = None
-    help: str | None = None
-    metavar: str | None = None
-    parse: Callable[[str], Any] | None = None
-
-
-def comma_separated_floats(text: str) -> list[float]:
-    """``"0,0.1,0.2"`` → ``[0.0, 0.1, 0.2]`` (``ValueError`` on anything else)."""
-    return [float(part) for part in text.split(",")]
-
-
-class _Strict(BaseModel):
-    """A number must be a JSON number (``"24.5"`` is refused); unknown fields are refused;
-    ``null`` is the field's default."""
-
-    model_config = ConfigDict(strict=True, extra="forbid")
-
-
-class RunMetadataIn(BaseModel):
-    """Free metadata of a run (checked by ``daq.store.run_metadata``): the four keys below
-    and any other lower-case key with a text, number or true/false value. In a PATCH a
-    ``null`` removes the key."""
-
-    model_config = ConfigDict(extra="allow")
-    operator: str | None = Field(None, max_length=200, description="Who ran the test.")
-    water_temperature_c: float | None = Field(None, description="Water temperature, °C (-2…50).")
-    notes: str | None = Field(None, max_length=10_000)
-    tags: list[str] | None = Field(
-        None, max_length=20, description="Tags to find the run by, e.g. ['fins-v2']."
-    )
-
-
-class _ProcedureRequest(_Strict):
-    """What every procedure start takes besides its own parameters (the CLI gives it with
-    ``--operator``, ``--tag``, … from ``api.cli.metadata``, not from this field)."""
-
-    metadata: RunMetadataIn | None = Field(
-        None, description="Stored on every run the procedure records (see PATCH .../metadata)."
-    )
-
-    def parameters(self) -> dict[str, Any]:
-        """The procedure's own parameters, as given (unset ones left out)."""
-        return self.model_dump(exclude_none=True, exclude={"metadata"})
-
-    def run_metadata(self) -> dict[str, Any] | None:
-        """The ``metadata`` object as given (None when absent)."""
-        return None if self.metadata is None else self.metadata.model_dump(exclude_unset=True)
-
-
-Drive = Literal["weight", "thrusters"]
-MaxTime = Annotated[
-    float | None,
-    Field(description="Stop after this many seconds (default 120)."),
-    Flag("--max-time"),
-]
-Baseline = Annotated[
-    float | None, Field(description="Pre-trigger baseline, s."), Flag("--baseline")
-]
-
-
-class TowRequest(_ProcedureRequest):
+class TowRequest(_SignedLoad):
     """A tow test: ``force_n`` or ``weight_kg`` (force = weight × the rig's g); ``drive``
     weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map). A negative
     load is a reverse tow: from the far end back toward the start (far-end pulley)."""
@@ -99,22 +73,27 @@ class TowRequest(_ProcedureRequest):
     force_n: Annotated[
         float | None,
         Field(
+            title="Force (N)",
             description="Towing force in N, 0 < |F| ≤ the rig's max_force_n; negative: a "
-            "reverse tow from the far end (far-end pulley, or thrusters turned round)."
+            "reverse tow from the far end (far-end pulley, or thrusters turned round).",
         ),
         Flag("--force"),
     ] = None
     weight_kg: Annotated[
         float | None,
         Field(
+            title="or hung weight (kg)",
             description="Hung weight in kg (force = weight × the rig's g); negative: hung on "
-            "the far-end pulley (a reverse tow)."
+            "the far-end pulley (a reverse tow).",
         ),
         Flag("--weight"),
     ] = None
     drive: Annotated[
         Drive,
-        Field(description="weight: a hung weight pulls; thrusters: the calibrated thrusters."),
+        Field(
+            title="Drive",
+            description="weight: a hung weight pulls; thrusters: the calibrated thrusters.",
+        ),
         Flag(
             "--thrusters", "thrusters", "Drive the force with the calibrated thrusters (no weight)."
         ),
@@ -122,47 +101,137 @@ class TowRequest(_ProcedureRequest):
     max_distance_m: Annotated[
         float | None,
         Field(
+            title="Max distance (m)",
             description="Stop after this many metres (default: end of travel; a reverse tow: "
-            "its room back to the start)."
+            "its room back to the start).",
         ),
         Flag("--max-distance"),
     ] = None
     max_time_s: MaxTime = None
     baseline_s: Baseline = 1.0
 
+    kind: ClassVar[RunKind] = RunKind.TOW
+    load_field: ClassVar[str] = "force_n"
+    load_unit: ClassVar[str] = "N"
 
-class SpinRequest(_ProcedureRequest):
+    @staticmethod
+    def _lever(rig: RigConfig) -> tuple[float, float, str]:
+        limit, g = rig.limits.max_force_n, rig.rig.g
+        return 1.0, limit, f", max_force_n / g = {limit:g} N / {g:g}"
+
+    @field_validator("force_n")
+    @classmethod
+    def _force(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        high, why = rig.limits.max_force_n, ", rig limit max_force_n"
+        return p.in_range("force_n", value, low=0, high=high, unit="N", why_high=why, signed=True)
+
+    @field_validator("max_distance_m")
+    @classmethod
+    def _distance(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        load = info.data.get("force_n")
+        load = info.data.get("weight_kg") if load is None else load
+        if load is not None and load < 0:  # from the far end back toward the start
+            room = rig.geometry.reverse_travel
+            why = f", a reverse tow's room from {rig.geometry.reverse_start:g} m back to the start"
+        else:
+            room, why = rig.geometry.end_of_travel_m, ", end_of_travel_m"
+        return p.in_range(
+            "max_distance_m", value, low=0, high=room, unit="m", default=room, why_high=why
+        )
+
+    @field_validator("max_time_s")
+    @classmethod
+    def _max_time(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        return value if rig is None else p.max_time(value, rig)
+
+
+class SpinRequest(_SignedLoad):
     """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters.
     A negative load is a reverse spin (the cord wound the other way round the drum)."""
 
     torque_nm: Annotated[
         float | None,
         Field(
+            title="Torque (N·m)",
             description="Torque in N·m, 0 < |τ| ≤ the rig's max_torque_nm; negative: a reverse "
-            "spin (cord wound the other way, or thrusters turned round)."
+            "spin (cord wound the other way, or thrusters turned round).",
         ),
         Flag("--torque"),
     ] = None
     weight_kg: Annotated[
         float | None,
         Field(
+            title="or weight on drum (kg)",
             description="Weight on the drum in kg (τ = weight × g × drum radius); negative: "
-            "the cord wound the other way (a reverse spin)."
+            "the cord wound the other way (a reverse spin).",
         ),
         Flag("--weight"),
     ] = None
     drive: Annotated[
         Drive,
-        Field(description="weight: a weight on the drum turns; thrusters: the thrusters."),
+        Field(
+            title="Drive",
+            description="weight: a weight on the drum turns; thrusters: the thrusters.",
+        ),
         Flag("--thrusters", "thrusters", "Drive the torque with the calibrated thrusters."),
     ] = "weight"
     max_angle_rad: Annotated[
         float | None,
-        Field(description="Stop after this angle, rad (default: cord length)."),
+        Field(
+            title="Max angle (rad)",
+            description="Stop after this angle, rad (default: cord length).",
+        ),
         Flag("--max-angle"),
     ] = None
     max_time_s: MaxTime = None
     baseline_s: Baseline = 1.0
+
+    kind: ClassVar[RunKind] = RunKind.SPIN
+    load_field: ClassVar[str] = "torque_nm"
+    load_unit: ClassVar[str] = "N·m"
+
+    @staticmethod
+    def _lever(rig: RigConfig) -> tuple[float, float, str]:
+        # A rig without a drum radius or torque limit cannot spin (``KindSpec.check``
+        # refuses first, naming what is missing); nan keeps a direct call from crashing.
+        radius = rig.geometry.spin_drum_radius_m or math.nan
+        return radius, rig.limits.max_torque_nm or math.nan, ", max_torque_nm / (g · drum radius)"
+
+    @field_validator("torque_nm")
+    @classmethod
+    def _torque(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        high, why = rig.limits.max_torque_nm or math.nan, ", rig limit max_torque_nm"
+        return p.in_range(
+            "torque_nm", value, low=0, high=high, unit="N·m", why_high=why, signed=True
+        )
+
+    @field_validator("max_angle_rad")
+    @classmethod
+    def _angle(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        most = rig.geometry.spin_max_angle_rad
+        return p.in_range(
+            "max_angle_rad", value, low=0, high=most, unit="rad", default=most,
+            why_high=", spin_max_angle_rad",
+        )  # fmt: skip
+
+    @field_validator("max_time_s")
+    @classmethod
+    def _max_time(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        return value if rig is None else p.max_time(value, rig)
 
 
 class PendulumRequest(_ProcedureRequest):
@@ -171,18 +240,66 @@ class PendulumRequest(_ProcedureRequest):
     start_angle_rad: Annotated[
         float | None,
         Field(
+            title="Start angle (rad)",
             description="Start angle, rad (0 < φ₀ ≤ the rig file's pendulum max_angle_rad); "
-            "required."
+            "required.",
         ),
         Flag("--angle"),
     ] = None
     stop_amplitude_rad: Annotated[
-        float | None,
-        Field(description="Stop once the amplitude over the last full cycle is below this, rad."),
+        float,
+        Field(
+            title="Stop below amplitude (rad)",
+            description="Stop once the amplitude over the last full cycle is below this, rad.",
+        ),
         Flag("--stop-amplitude"),
     ] = 0.005
     max_time_s: MaxTime = None
     baseline_s: Baseline = 1.0
+
+    kind: ClassVar[RunKind] = RunKind.PENDULUM
+
+    @model_validator(mode="before")
+    @classmethod
+    def _has_pendulum(cls, data: Any, info: ValidationInfo) -> Any:
+        rig = rig_of(info)
+        if rig is not None and rig.pendulum is None:
+            why = "a rig file with a [pendulum] section (see docs/pendulum.md)"
+            raise ParameterError([("rig", rig.rig.name, why)])
+        return data
+
+    @field_validator("start_angle_rad")
+    @classmethod
+    def _start(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None or rig.pendulum is None:
+            return value
+        return p.in_range(
+            "start_angle_rad", value, low=0, high=rig.pendulum.max_angle_rad, unit="rad",
+            required=True, why_high=", the rig's pendulum max_angle_rad",
+        )  # fmt: skip
+
+    @field_validator("stop_amplitude_rad")
+    @classmethod
+    def _stop(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None or rig.pendulum is None:
+            return value
+        start = info.data.get("start_angle_rad")
+        high = start if start is not None else rig.pendulum.max_angle_rad
+        stop = p.in_range(
+            "stop_amplitude_rad", value, low=0, high=high, unit="rad", why_high=", start_angle_rad"
+        )
+        if stop is not None and start is not None and stop >= start:
+            why = f"allowed below start_angle_rad ({start:g} rad)"
+            raise ParameterError([("stop_amplitude_rad", stop, why)])
+        return stop
+
+    @field_validator("max_time_s")
+    @classmethod
+    def _max_time(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        return value if rig is None else p.max_time(value, rig, ", rig limit max_run_s")
 
 
 _SWEEP = ",".join(f"{c:g}" for c in THRUST_SWEEP_DEFAULT[:2]) + f",...,{THRUST_SWEEP_DEFAULT[-1]:g}"
@@ -194,6 +311,7 @@ class CalibrationRequest(_ProcedureRequest):
     commands: Annotated[
         list[float] | None,
         Field(
+            title="Commands (fractions, comma separated)",
             max_length=MAX_CALIBRATION_COMMANDS,
             description=f"Command fractions, 0 ≤ c ≤ the rig's max_thruster_command, at most "
             f"{MAX_CALIBRATION_COMMANDS} (default {_SWEEP}); swept up then down, then reversed.",
@@ -201,24 +319,81 @@ class CalibrationRequest(_ProcedureRequest):
         Flag("--commands", metavar="LIST", parse=comma_separated_floats),
     ] = None
     settle_s: Annotated[
-        float | None, Field(description="Settling time per step, s."), Flag("--settle")
+        float, Field(title="Settle (s)", description="Settling time per step, s."), Flag("--settle")
     ] = 1.0
     samples_per_step: Annotated[
-        int | None, Field(description="Samples averaged per step."), Flag("--samples")
+        int,
+        Field(title="Samples per step", description="Samples averaged per step."),
+        Flag("--samples"),
     ] = 10
     tare_samples: Annotated[
-        int | None,
-        Field(description="Samples averaged for the load cell's zero."),
+        int,
+        Field(title="Tare samples", description="Samples averaged for the load cell's zero."),
         Flag("--tare-samples"),
     ] = 20
     reverse: Annotated[
-        bool | None,
-        Field(description="Also sweep the thrusters in reverse."),
+        bool,
+        Field(title="also reverse thrust", description="Also sweep the thrusters in reverse."),
         Flag("--no-reverse", False, "Forward sweep only."),
     ] = True
 
+    kind: ClassVar[RunKind] = RunKind.THRUST_CALIBRATION
 
-def field_default(model: type[BaseModel], name: str) -> Any:
-    """The default a request model declares for ``name`` (``None``: the rig decides)."""
-    info = model.model_fields.get(name)
-    return None if info is None else info.default
+    @property
+    def sweep(self) -> list[float]:
+        """Commands in the order applied: up then down (and the same for reverse)."""
+        up = sorted(set(self.commands or ()))
+        order = up + up[-2::-1]
+        if self.reverse:
+            neg = [-c for c in up if c > 0]
+            order += neg + neg[-2::-1] + [0.0]
+        return order
+
+    def to_json(self) -> dict[str, Any]:
+        return super().to_json() | {"commands": list(self.commands or ()), "sweep": self.sweep}
+
+    @field_validator("commands")
+    @classmethod
+    def _commands(cls, value: list[float] | None, info: ValidationInfo) -> Any:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        cmax = rig.limits.max_thruster_command
+        commands = list(THRUST_SWEEP_DEFAULT) if value is None else value
+        if not commands:
+            raise ParameterError(
+                [("commands", commands, f"a non-empty list of fractions 0 ≤ c ≤ {cmax:g}")]
+            )
+        good: list[float] = []
+        problems: list[p.Problem] = []
+        for i, command in enumerate(commands):
+            try:
+                good.append(_command(f"commands[{i}]", command, cmax))
+            except ParameterError as err:
+                problems += err.problems
+        if problems:
+            raise ParameterError(problems)
+        return sorted(good if 0.0 in good else [*good, 0.0])
+
+    @field_validator("settle_s", "samples_per_step", "tare_samples")
+    @classmethod
+    def _steps(cls, value: float, info: ValidationInfo) -> float:
+        if rig_of(info) is None:
+            return value
+        name = str(info.field_name)
+        if name == "settle_s":
+            return p.in_range(name, value, low=0, high=30, unit="s", low_inclusive=True)
+        return int(p.in_range(name, value, low=1, high=1000, unit="samples", low_inclusive=True))
+
+
+def _command(name: str, value: float, most: float) -> float:
+    """One command of a sweep: a fraction 0 … the rig's ``max_thruster_command``."""
+    unit, why = "(fraction of full thrust)", ", rig limit max_thruster_command"
+    return p.in_range(name, value, low=0, high=most, unit=unit, low_inclusive=True, why_high=why)
+
+
+#: A request (the fields given) checked against the rig → the procedure's parameters.
+tow_parameters = TowRequest.checked
+spin_parameters = SpinRequest.checked
+calibration_parameters = CalibrationRequest.checked
+pendulum_parameters = PendulumRequest.checked

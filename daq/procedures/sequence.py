@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from daq.config import RigConfig
-from daq.procedures.kinds import KINDS, StepParameters
+from daq.procedures.kinds import RIG_KINDS, StepParameters
 from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback
 from daq.procedures.steps import RunOutcome
@@ -83,11 +83,12 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
         raw_steps = []
     for i, raw in enumerate(raw_steps):
         kind = raw.get("kind") if isinstance(raw, dict) else None
-        if not isinstance(kind, str) or kind not in KINDS:
-            problems.append((f"steps[{i}].kind", kind, f"allowed {quoted_kinds()}"))
+        if not isinstance(kind, str) or kind not in RIG_KINDS:
+            problems.append((f"steps[{i}].kind", kind, f"allowed {quoted_kinds(tuple(RIG_KINDS))}"))
             continue
-        spec = KINDS[kind]  # type: ignore[index]  # a RunKind key matches its string
+        spec = RIG_KINDS[kind]  # type: ignore[index]  # a RunKind key matches its string
         given = {k: v for k, v in raw.items() if k != "kind"}
+        assert spec.request is not None  # a kind the rig runs
         unknown = sorted(set(given) - set(spec.request.model_fields))
         if unknown:
             allowed = f"a {kind} step takes kind, " + ", ".join(spec.request.model_fields)
@@ -207,7 +208,7 @@ async def run_sequence(
             # each run says which sequence and step made it (daq.store.run_metadata)
             origin = {"sequence": seq.name[:200], "sequence_step": i + 1}
             session.run_metadata = base_metadata | origin
-            ran = await KINDS[step.kind].run(session, step, abort=control.abort, progress=sub)
+            ran = await RIG_KINDS[step.kind].run(session, step, abort=control.abort, progress=sub)
             outcome = ran.run
             outcomes.append(outcome)
             if outcome.status != RunStatus.COMPLETED:

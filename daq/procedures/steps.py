@@ -11,8 +11,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress, SpinParameters, TowParameters
+from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.sample import Quality, Sample
 from daq.session import RigSession
 from daq.store.faults import one_line
@@ -140,7 +142,10 @@ def return_act(params: TowParameters | SpinParameters, rig: RigConfig) -> Operat
 def check_room(params: TowParameters | SpinParameters, start: float) -> None:
     """A reverse tow travels back toward 0 m: the carriage must start at least its
     distance from there (``PreconditionFailed`` otherwise; nothing recorded)."""
-    if isinstance(params, TowParameters) and params.reverse and start < params.max_distance_m:
+    if not isinstance(params, TowParameters) or not params.reverse:
+        return
+    assert params.max_distance_m is not None  # checked parameters carry the rig's default
+    if start < params.max_distance_m:
         raise PreconditionFailed(
             f"the carriage is at {start:.3f} m: a reverse tow of {params.max_distance_m:g} m "
             "needs it at least that far from the start; push it to the far end of the rail"
@@ -163,6 +168,7 @@ async def follow_motion(
     """
     limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
     max_time_s = params.max_time_s
+    assert limit is not None and max_time_s is not None  # checked: the rig's defaults are set
     t0 = previous_t = None
     async for sample in rec.samples():
         if sample.quality & Quality.ERROR:

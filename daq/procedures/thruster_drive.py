@@ -11,8 +11,10 @@ import asyncio
 import logging
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress, SpinParameters, TowParameters
+from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.procedures.steps import (
     SPIN,
     TOW,

@@ -61,6 +61,12 @@ case(2, "--commands: got 'a,b'", "sixdof", "benbam", "--commands", "a,b")
 case(2, "no vehicle named 'nope'", "sixdof", "nope", "--commands", "0.5,0.5")
 case(2, "no vehicle named 'nope'", "sensitivity", "nope")
 case(2, "no vehicle named 'nope'", "predict-added-mass", "nope")
+SEED_SEQUENCE = str(ROOT / "fixtures" / "sequences" / "seed000-campaign.toml")
+case(2, "file: 'nope.toml' is not allowed (a readable sequence file", "predict-uncertainty",
+     "nope.toml")  # fmt: skip
+case(2, "release_std_s: got -1.0, allowed: 0 … 1 s", "predict-uncertainty", SEED_SEQUENCE,
+     "--release-std", "-1")  # fmt: skip
+case(2, f"no result with id {HUGE}", "predict-uncertainty", SEED_SEQUENCE, "--result", HUGE)
 case(2, f"no result with id {HUGE}", "predict-added-mass", "benbam", "--estimate", HUGE)
 case(2, ": hull: got None, allowed: a [hull] table", "predict-added-mass", "seed002-rov")
 case(2, "--water-temp: got 80.0, allowed: 0 … 40 °C", "predict-added-mass", "benbam",

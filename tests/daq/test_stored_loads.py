@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from daq.config import load_rig
-from daq.procedures.params import spin_parameters, tow_parameters
+from daq.procedures.requests import spin_parameters, tow_parameters
 
 
 @pytest.fixture(scope="module")

@@ -17,8 +17,8 @@ from click.testing import CliRunner
 from api.cli.main import main as rig_cli
 from api.core.estimation_job import run_estimation
 from daq.config import DEFAULT_RIG_FILE
-from daq.procedures.params import pendulum_parameters
 from daq.procedures.pendulum import run_pendulum_decay
+from daq.procedures.requests import pendulum_parameters
 from daq.session import RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store

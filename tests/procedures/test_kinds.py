@@ -16,7 +16,7 @@ from api.cli.options import request_fields, request_options
 from api.cli.procedures import procedure_command
 from api.core.jobs import PROCEDURES
 from api.http.routes.jobs import router
-from daq.procedures.kinds import KINDS
+from daq.procedures.kinds import KINDS, RIG_KINDS
 from daq.procedures.params import ParameterError
 from daq.procedures.requests import Flag
 from daq.procedures.sequence import parse_sequence
@@ -25,8 +25,9 @@ from daq.vocabulary import AXES, Axis, RunKind, RunStatus
 
 def test_every_kind_has_one_entry_a_route_a_command_and_a_job():
     assert list(KINDS) == list(RunKind)
+    assert set(KINDS) - set(RIG_KINDS) == {RunKind.DECAY}  # imported, never run on the rig
     routes = {r.path: r for r in router.routes if "POST" in getattr(r, "methods", ())}
-    for kind, spec in KINDS.items():
+    for kind, spec in RIG_KINDS.items():
         route = routes[f"/api/jobs/{spec.route}"]
         assert route.body_field is not None
         assert route.body_field.field_info.annotation is spec.request
@@ -87,3 +88,19 @@ def test_a_sequence_step_with_a_field_its_kind_does_not_have_is_refused(source):
     ((name, value, allowed),) = err.value.problems
     assert (name, value) == ("steps[1].force_n", 1.0)
     assert "torque_nm" in allowed and "max_angle_rad" in allowed
+
+
+def test_every_act_a_kind_names_is_played_by_the_simulated_operator():
+    """The acts are one table (``daq.operator.SIMULATED_ACTS``): a kind whose procedure asks
+    for an act the simulated operator cannot play fails here, not on the simulated rig."""
+    from daq.operator import SIM_CHANNEL, SIMULATED_ACTS, OperatorAct
+
+    for spec in KINDS.values():
+        for act in spec.acts:
+            assert act in SIMULATED_ACTS, (spec.kind, act)
+    assert {a for s in RIG_KINDS.values() for a in s.acts} == set(SIMULATED_ACTS)
+    assert SIM_CHANNEL["pull_pendulum"] == "sim_pendulum_angle"
+    hang = SIMULATED_ACTS["hang_tow_weight"].writes(OperatorAct("hang_tow_weight", "", 2.5, True))
+    assert hang == [("sim_tow_weight", 2.5), ("sim_tow_reversed", True)]
+    back = SIMULATED_ACTS["return_carriage"].writes(OperatorAct("return_carriage", "", 5.3))
+    assert back == [("sim_carriage_position", 5.3)]

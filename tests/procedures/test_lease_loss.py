@@ -21,7 +21,7 @@ from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.operator import OperatorAct, SimulatedOperator
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.requests import calibration_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.sim.rig import SimulatedRigThread
 from daq.store import Store

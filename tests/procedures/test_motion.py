@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import spin_parameters, tow_parameters
 from daq.procedures.recording import AbortSignal
+from daq.procedures.requests import spin_parameters, tow_parameters
 from daq.run_data import load_run_data
 from daq.session import RigBusy, RigSource
 from daq.store import Store

@@ -17,7 +17,7 @@ import pytest
 
 from daq.config import load_rig
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import tow_parameters
+from daq.procedures.requests import tow_parameters
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost, rig_devices, rig_lock
 from daq.session import RigSession, RigSource
 from daq.store import Store

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import tow_parameters
+from daq.procedures.requests import tow_parameters
 from daq.sample import Quality
 from daq.session import RigSession, RigSource
 from daq.store import Store

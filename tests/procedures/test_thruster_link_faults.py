@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from daq.procedures.calibration import run_thrust_calibration
-from daq.procedures.params import calibration_parameters
+from daq.procedures.requests import calibration_parameters
 from daq.sample import Quality
 from daq.session import RigSession, RigSource
 from daq.sim.rig import SimulatedRigThread

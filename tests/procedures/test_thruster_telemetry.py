@@ -13,7 +13,7 @@ import pytest
 
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import calibration_parameters, tow_parameters
+from daq.procedures.requests import calibration_parameters, tow_parameters
 from daq.store import export_run_csv
 from daq.store.channel_units import column_infos
 from daq.vocabulary import thruster_telemetry_channels

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import tow_parameters
+from daq.procedures.requests import tow_parameters
 from daq.sample import Quality
 from tests.progress_log import ProgressLog
 from tests.waiting import until

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.params import tow_parameters
+from daq.procedures.requests import tow_parameters
 from daq.session import RigSource
 from daq.sim.simtime import START_S, SimClock, SimTimeLoop
 from daq.store import Store

@@ -2,7 +2,9 @@
 
 The import's rules (kind, drive, rig limits, the export's header) are
 ``api.core.run_import``'s, shared with ``rig import``; this is the route's face: the query,
-the streamed body, the parse in a child process (``api.core.csv_upload``).
+the streamed body, the parse in a child process (``api.core.csv_upload``). The kinds and
+each kind's own query parameters (a free decay's ``dof``) are the registry's
+(``daq.procedures.kinds.IMPORT_KINDS``, ``import_fields``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from api.core.run_import import ImportRequest, plan_import
 from api.http.deps import ServiceDep, StoreDep, require_write
 from api.http.schemas import ImportOut, csv_upload_body, error_responses
 from api.http.uploads import save_upload
+from daq.procedures.kinds import IMPORT_KINDS, import_fields
 from daq.procedures.params import ParameterError
 from daq.store.run_metadata import check_run_metadata, check_tag
 
@@ -29,6 +32,25 @@ _IMPORT_BODY = csv_upload_body(
     "CSV with a header: t (s), position (m or rad), more columns allowed "
     "(a drive logged per sample among them, named by drive_column)."
 )
+
+
+ImportKind = Literal[tuple(str(k) for k in IMPORT_KINDS)]  # type: ignore[valid-type]
+
+
+def _kind_parameters() -> list[dict[str, Any]]:
+    """The kinds' own import fields as OpenAPI query parameters (their JSON Schemas)."""
+    schema = import_fields().model_json_schema()
+    return [
+        {"name": name, "in": "query", "required": False, "schema": field,
+         "description": field.get("description", "")}
+        for name, field in schema.get("properties", {}).items()
+    ]  # fmt: skip
+
+
+def _kind_fields(request: Request) -> dict[str, Any]:
+    """The kinds' own import fields the query gives (checked by the kind's rule)."""
+    names = import_fields().model_fields
+    return {k: v for k, v in request.query_params.items() if k in names}
 
 
 #: The stored file name when neither the query nor a multipart part names one.
@@ -65,14 +87,14 @@ def _import_metadata(
     response_model=ImportOut,
     dependencies=[Depends(require_write)],
     responses=error_responses(401, 413, 422),
-    openapi_extra=_IMPORT_BODY,
+    openapi_extra=_IMPORT_BODY | {"parameters": _kind_parameters()},
 )
 async def import_run(
     request: Request,
     store: StoreDep,
     service: ServiceDep,
     kind: Annotated[
-        Literal["tow", "spin", "pendulum"] | None,
+        ImportKind | None,  # type: ignore[valid-type]  # the registry's import kinds
         Query(description="What the CSV recorded (default: what a towrig export's header says)."),
     ] = None,
     force_n: Annotated[
@@ -147,7 +169,7 @@ async def import_run(
         kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
         drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
         release_time_s=release_time_s, end_time_s=end_time_s, dry_mass_kg=dry_mass_kg,
-        displacement_kg=displacement_kg,
+        displacement_kg=displacement_kg, fields=_kind_fields(request),
     )  # fmt: skip
     name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:

@@ -28,7 +28,7 @@ from api.http.schemas import (
     SequenceRequest,
     error_responses,
 )
-from daq.procedures.kinds import KINDS, KindSpec
+from daq.procedures.kinds import RIG_KINDS, KindSpec
 from daq.store.people import User
 from daq.store.schema import JobState
 
@@ -88,7 +88,7 @@ def _start_route(spec: KindSpec) -> None:
     )(start)
 
 
-for _spec in KINDS.values():
+for _spec in RIG_KINDS.values():
     _start_route(_spec)
 
 

@@ -13,12 +13,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from api.core.job_model import JobConflict
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, SequenceRequest, error_responses
-from daq.procedures.kinds import KINDS
+from daq.procedures.kinds import RIG_KINDS
 
 router = APIRouter(prefix="/api/queue", tags=["queue"])
 _CHANGE = error_responses(401, 404, 409, 503)
 #: Job kinds whose request a queued job can have replaced.
-_EDITABLE = (*KINDS, "sequence")
+_EDITABLE = (*RIG_KINDS, "sequence")
 
 
 @router.get(
@@ -45,7 +45,7 @@ def move_job(job_id: str, body: QueueMoveRequest, runner: RunnerDep) -> dict:
 
 def _request_model(kind: str) -> type[BaseModel]:
     """The body a new ``kind`` job is submitted with."""
-    return SequenceRequest if kind == "sequence" else KINDS[kind].request  # type: ignore[index]
+    return SequenceRequest if kind == "sequence" else RIG_KINDS[kind].request  # type: ignore[index, return-value]
 
 
 @router.put(

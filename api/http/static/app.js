@@ -127,6 +127,7 @@ window.addEventListener("hashchange", () => {
 async function refreshRig() {
   try {
     const s = await api("GET", "/api/rig");
+    await ensureStartForms(); // start_forms.js: once, from GET /api/kinds
     state.rig = s;
     state.limits = s.limits || {};
     const ok = s.running && s.connected && !s.device_lost;
@@ -181,12 +182,11 @@ function setLimits() {
 }
 
 // Offer only what the rig can do (GET /api/rig → capabilities); say why the rest is missing.
-const CAPABILITY_OF_FORM = { tow: "tow", spin: "spin", pendulum: "pendulum", calibration: "thrust_calibration" };
 function setCapabilities(caps) {
-  for (const [form, key] of Object.entries(CAPABILITY_OF_FORM)) {
-    const cap = caps[key];
-    const el = $(`#form-${form}`);
-    if (!cap || !el) continue;
+  for (const el of $$(".start-form[data-run-kind]")) {
+    const form = el.dataset.kind;
+    const cap = caps[el.dataset.runKind];
+    if (!cap) continue;
     const tab = $(`.tabs button[data-form=${form}]`);
     if (tab) {
       tab.classList.toggle("unavailable", !cap.available);
@@ -275,19 +275,12 @@ $("#estop-btn").onclick = async () => {
 $("#arm-btn").onclick = () => api("POST", "/api/rig/arm").then(refreshRig).catch((e) => alert(e.message));
 $("#disarm-btn").onclick = () => api("POST", "/api/rig/disarm").then(refreshRig).catch((e) => alert(e.message));
 
-$$(".tabs button").forEach((b) => {
-  b.onclick = () => {
-    $$(".tabs button").forEach((x) => x.classList.toggle("active", x === b));
-    $$(".start-form[data-kind]").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
-  };
-});
-
 function formBody(form) {
   const body = {};
   for (const el of form.elements) {
     if (!el.name || el.value === "" || el.type === "submit") continue;
     if (el.type === "checkbox") body[el.name] = el.checked;
-    else if (el.name === "commands") body.commands = el.value.split(",").map((x) => Number(x.trim()));
+    else if (el.dataset.type === "array") body[el.name] = el.value.split(",").map((x) => Number(x.trim()));
     else if (el.type === "number") body[el.name] = Number(el.value);
     else body[el.name] = el.value;
   }
@@ -337,7 +330,8 @@ function problemField(p) {
   return p.field || ((p.message || "").match(/^([\w.[\]]+):/) || [])[1] || "";
 }
 
-$$(".start-form[data-kind]").forEach((form) => {
+// A start form (start_forms.js renders them): POST /api/jobs/<route>; a 422 marks the fields.
+function attachStart(form) {
   form.addEventListener("submit", async (ev) => {
     ev.preventDefault();
     const errors = $(".errors", form);
@@ -371,7 +365,7 @@ $$(".start-form[data-kind]").forEach((form) => {
       if (err.body && err.body.holder) errors.insertAdjacentHTML("beforeend", `<li>Rig held by ${esc(err.body.holder)}</li>`);
     }
   });
-});
+}
 
 // ---- live stream (SSE read with fetch so the token travels in a header) -----------------
 // The live plot itself is api/http/static/live.js (onSample, resetLive, initLivePlot).
@@ -639,7 +633,8 @@ async function loadEstimationRuns() {
   const query = new URLSearchParams({ status: "completed", limit: 1000 });
   if (search) query.set("search", search);
   try {
-    runs = (await api("GET", `/api/runs?${query}`)).filter((r) => ["tow", "spin", "pendulum"].includes(r.kind));
+    await ensureStartForms(); // the kinds (start_forms.js): those with an estimator are listed
+    runs = (await api("GET", `/api/runs?${query}`)).filter((r) => estimatedKinds().includes(r.kind));
   } catch (err) {
     return;
   }
@@ -706,19 +701,23 @@ async function renderEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
-      return `<tr><td>${k} (${units[k] || ""})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
+      return `<tr><td>${k} (${units[k] || c.unit || ""})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
         ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
     })
     .join("");
-  const unit = res.axis === "yaw" ? "rad" : "m";
+  // a decay names its dof (m for surge/sway/heave, rad for roll/pitch/yaw) instead of an axis
+  const axis = res.axis || `${res.dof} ${res.kind}`;
+  const unit = ["yaw", "roll", "pitch"].includes(res.axis || res.dof) ? "rad" : "m";
   kv($("#est-rmse"), [
-    ["Axis / method", `${res.axis} / ${res.method}`],
+    ["Axis / method", `${axis} / ${res.method || "output-error"}`],
     ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],
     ["RMSE after", `${fmt(res.rmse_after, 3)} ${unit}`],
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
   ]);
   $("#est-effects-list").innerHTML = (res.effects || []).length
-    ? res.effects.map((e) => `<li><strong>${e.name}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`).join("")
+    ? res.effects.map((e) => (typeof e === "string" // a decay lists the kept terms' names
+      ? `<li><strong>${esc(e)}</strong> (value above)</li>`
+      : `<li><strong>${e.name}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`)).join("")
     : "<li>none (the base model explains the data)</li>";
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
   $("#est-ambiguous").innerHTML =

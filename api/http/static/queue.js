@@ -5,7 +5,6 @@
 // FINAL, formBody, metadataBody, problemField, showJob.
 "use strict";
 
-const QUEUE_FORM_OF_KIND = { tow: "tow", spin: "spin", pendulum: "pendulum", thrust_calibration: "calibration" };
 const HISTORY_LIMIT = 25;
 const queueView = { data: null, seen: {}, editing: null, timer: null };
 
@@ -118,12 +117,13 @@ function editQueued(li, job) {
   const request = { ...(job.request || {}) };
   const metadata = request.metadata;
   delete request.metadata;
-  const source = QUEUE_FORM_OF_KIND[job.kind] && $(`#form-${QUEUE_FORM_OF_KIND[job.kind]}`);
+  const source = $(`.start-form[data-run-kind="${job.kind}"]`); // start_forms.js
   let form;
   if (source) {
     form = source.cloneNode(true);
     form.removeAttribute("id");
     form.removeAttribute("data-kind"); // not one of the Rig page's tabs
+    form.removeAttribute("data-run-kind");
     form.hidden = false;
     form.noValidate = true; // the API checks it as a new submission and names the field
     $$(".capability-reason", form).forEach((n) => n.remove());

@@ -1,0 +1,75 @@
+// The Rig page's start forms, rendered from GET /api/kinds: one tab and one form per kind the
+// rig runs, one field per property of the kind's JSON Schema (its request model: the field's
+// name is the request's key, its title the label, its description the tooltip, its default
+// the placeholder). Loaded before app.js; called from refreshRig once the token is known.
+"use strict";
+
+let startKinds = null;
+let servedKinds = [];
+
+// The kinds whose runs the Estimation page offers (those with an estimator).
+function estimatedKinds() {
+  return servedKinds.filter((k) => k.estimator).map((k) => k.kind);
+}
+
+async function ensureStartForms() {
+  if (startKinds) return;
+  const kinds = await api("GET", "/api/kinds");
+  if (startKinds) return; // a concurrent refresh rendered them meanwhile
+  servedKinds = kinds;
+  startKinds = kinds.filter((k) => k.route && k.schema);
+  renderStartForms(startKinds);
+}
+
+// {type, enum} of a property, looking through `anyOf: [{…}, {type: "null"}]`.
+function propertyType(prop) {
+  const options = (prop.anyOf || [prop]).filter((p) => p.type !== "null");
+  return options[0] || {};
+}
+
+function fieldHtml(name, prop) {
+  const t = propertyType(prop);
+  const label = esc(prop.title || name);
+  const tip = prop.description ? ` title="${esc(prop.description)}"` : "";
+  const dflt = prop.default;
+  if (t.type === "boolean") {
+    return `<label${tip}><input name="${name}" type="checkbox"${dflt ? " checked" : ""}> ${label}</label>`;
+  }
+  if (t.enum) {
+    const options = t.enum.map((v) => `<option${v === dflt ? " selected" : ""}>${esc(v)}</option>`).join("");
+    return `<label${tip}>${label} <select name="${name}">${options}</select></label>`;
+  }
+  const shown = Array.isArray(dflt) ? dflt.join(", ") : dflt;
+  const hint = shown === undefined || shown === null ? "" : ` placeholder="${esc(String(shown))}"`;
+  if (t.type === "array") {
+    return `<label${tip}>${label} <input name="${name}" type="text" data-type="array"${hint}></label>`;
+  }
+  const step = t.type === "integer" ? "1" : "any";
+  return `<label${tip}>${label} <input name="${name}" type="number" step="${step}"${hint}></label>`;
+}
+
+function renderStartForms(kinds) {
+  const title = (k) => k.label.charAt(0).toUpperCase() + k.label.slice(1);
+  $("#start-tabs").innerHTML = kinds
+    .map((k, i) => `<button data-form="${k.route}"${i ? "" : ' class="active"'}>${esc(title(k))}</button>`)
+    .join("");
+  $("#start-forms").innerHTML = kinds
+    .map((k, i) => {
+      const fields = Object.entries(k.schema.properties)
+        .filter(([name]) => name !== "metadata") // the Run metadata block below sends it
+        .map(([name, prop]) => fieldHtml(name, prop))
+        .join("\n");
+      return `<form id="form-${k.route}" class="start-form" data-kind="${k.route}" data-run-kind="${k.kind}"${i ? " hidden" : ""}>
+        ${fields}
+        <button type="submit" id="start-${k.route}">Start ${esc(k.label)}</button>
+        <ul class="errors"></ul></form>`;
+    })
+    .join("");
+  $$("#start-tabs button").forEach((b) => {
+    b.onclick = () => {
+      $$("#start-tabs button").forEach((x) => x.classList.toggle("active", x === b));
+      $$(".start-form[data-kind]").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
+    };
+  });
+  $$(".start-form[data-kind]").forEach(attachStart);
+}

@@ -1,0 +1,163 @@
+"""The free-decay kind: a record of one degree of freedom (surge, sway, heave, roll, pitch,
+yaw) released from an offset and left to settle, imported from a CSV (``rig import FILE
+--kind decay --dof heave``) and estimated with the single-DOF equation of motion
+(``estimation.motion.decay.estimate_records``)::
+
+    (M_known + M)·ẍ + B₁·ẋ + [B₂·|ẋ|·ẋ + …] + k·x + [k₃·x³] = 0
+
+A free decay scales every coefficient alike, so it needs one fact from outside: the linear
+stiffness ``stiffness`` (ρ·g·A_w for heave, Δ·g·GM for roll) or the inertia; the body's own
+inertia (``known_inertia``) makes the identified one the added inertia. Everything here is
+what the registry entry (``daq.procedures.kinds``) holds: the import fields and rule, the
+loader and the estimator.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from daq.estimators import Estimator
+from daq.import_rules import ImportRules, Planning, checked_fields, no_drive
+from daq.procedures.params import ParameterError
+from daq.procedures.request_base import Flag
+from daq.vocabulary import AXES, RunKind
+
+if TYPE_CHECKING:
+    from daq.session import RigSource
+    from daq.store import Store
+    from estimation.design.envelope import RigEnvelope
+
+Dof = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
+
+
+class DecayImport(BaseModel):
+    """A free decay's own import fields (``rig import`` options, HTTP query parameters)."""
+
+    model_config = ConfigDict(extra="forbid")
+    dof: Annotated[
+        Dof | None,
+        Field(description="Free decay: the degree of freedom (m for surge/sway/heave, rad for "
+              "roll/pitch/yaw); required for --kind decay."),
+        Flag("--dof"),
+    ] = None  # fmt: skip
+    stiffness: Annotated[
+        float | None,
+        Field(gt=0, description="Free decay: the known linear restoring stiffness, N/m or "
+              "N·m/rad (heave ρ·g·A_w, roll Δ·g·GM); without it the inertia scale is not "
+              "identified."),
+        Flag("--stiffness"),
+    ] = None  # fmt: skip
+    known_inertia: Annotated[
+        float | None,
+        Field(ge=0, description="Free decay: the body's own mass or inertia, kg or kg·m² "
+              "(the identified inertia is then the added one)."),
+        Flag("--known-inertia"),
+    ] = None  # fmt: skip
+
+
+def decay_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
+    """A free decay: no drive; ``dof`` required; the fields checked by :class:`DecayImport`
+    (those not given taken from a towrig export's header)."""
+    no_drive(plan.request, "a free decay")
+    given = {k: v for k, v in plan.request.fields.items() if v is not None}
+    for name in DecayImport.model_fields:  # a towrig export's header restores what it names
+        recorded = plan.header.parameters.get(name)
+        if name not in given and recorded is not None:
+            given[name] = plan.restored[name] = recorded
+    fields = checked_fields(DecayImport, given)
+    if "dof" not in fields:
+        allowed = ", ".join(Dof.__args__)  # type: ignore[attr-defined]
+        raise ParameterError([("dof", None, f"a free decay names its dof: {allowed}")])
+    return {"parameters": fields}, plan.rig
+
+
+@dataclass(frozen=True)
+class DecayRun:
+    """One stored free decay as the fit takes it: ``t`` (s since the first sample), ``x``
+    (m or rad), its dof, the known stiffness and inertia, and the window given at import."""
+
+    run_id: str
+    t: np.ndarray
+    x: np.ndarray
+    dof: str
+    stiffness: float | None
+    known_inertia: float
+    t_release: float | None
+    t_end: float | None
+
+
+def load_decays(store: Store, run_ids: Sequence[str]) -> list[DecayRun]:
+    """The stored decays, checked to be of one dof with one known stiffness and inertia
+    (they are fitted jointly); ``ValueError`` naming the run and field otherwise."""
+    channel = AXES[RunKind.DECAY].position_channel
+    runs = []
+    for rid in run_ids:
+        run = store.get_run(rid)
+        p = run.parameters
+        table = store.samples(run.id)
+        if channel not in table.channels:
+            raise ValueError(f"run {run.id}: no {channel!r} channel in its samples")
+        x = np.asarray(table.channels[channel], dtype=float)
+        good = np.isfinite(x)
+        runs.append(
+            DecayRun(
+                run.id,
+                table.t[good],
+                x[good],
+                str(p.get("dof")),
+                p.get("stiffness"),
+                float(p.get("known_inertia") or 0.0),
+                p.get("release_time_s"),
+                p.get("end_time_s"),
+            )
+        )
+    first = runs[0]
+    for r in runs[1:]:
+        for name in ("dof", "stiffness", "known_inertia"):
+            if getattr(r, name) != getattr(first, name):
+                raise ValueError(
+                    f"run_ids: run {r.run_id} has {name} {getattr(r, name)!r}, run "
+                    f"{first.run_id} {getattr(first, name)!r}; allowed: decays fitted together "
+                    "share their dof, stiffness and known inertia"
+                )
+    return runs
+
+
+def fit_decays(
+    runs: list[DecayRun], method: str, search: bool, envelope: RigEnvelope | None = None
+) -> Any:
+    """The joint fit of the decays (``estimate_records``); ``search``: try the library's
+    candidate terms (quadratic and cubic damping, cubic stiffness, friction, bias).
+    ``envelope`` is not used: a decay's advice names no load."""
+    from estimation.motion.decay import DECAY_CANDIDATES, estimate_records
+    from estimation.motion.records import Record
+
+    first = runs[0]
+    return estimate_records(
+        [Record(r.run_id, r.t, r.x) for r in runs],
+        first.dof,
+        known_inertia=first.known_inertia,
+        stiffness=first.stiffness,
+        t_release={r.run_id: r.t_release for r in runs if r.t_release is not None} or None,
+        t_end={r.run_id: r.t_end for r in runs if r.t_end is not None} or None,
+        candidates=DECAY_CANDIDATES if search else (),
+    )
+
+
+#: Free decays: the single-DOF equation (``estimation.motion``), fitted on the trajectory.
+DECAY = Estimator(
+    name="decay",
+    runs="decay",
+    methods_of=lambda: ("output-error",),
+    load=load_decays,  # type: ignore[arg-type]
+    fit=fit_decays,
+    subject=lambda runs: f"{runs[0].dof} decay",
+)
+
+#: How a CSV becomes a free decay.
+DECAY_IMPORT = ImportRules("x of the named --dof, m or rad", decay_plan, DecayImport)

@@ -1,0 +1,128 @@
+"""Per kind, how its stored runs are estimated: one :class:`Estimator` a registry entry
+(``daq.procedures.kinds``) holds — its loader, its fit, its methods and its report.
+
+Runs of kinds that share an estimator are fitted together (a tow and a spin share the axis
+estimator but are two axes: ``api.core.estimation_job`` refuses to mix them). The estimation
+code is imported when a fit runs, never at import (``rig --help`` stays light).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from daq.store import Store
+    from estimation.design.envelope import RigEnvelope
+
+
+@dataclass(frozen=True)
+class Estimator:
+    """How runs are estimated.
+
+    ``load``: the stored runs as the fit takes them, checked (``ValueError`` naming the
+    run and field, before anything is fitted); ``fit(runs, method, search, envelope)``: the
+    result (``to_json()``; ``envelope``: the rig's tests, ``estimation.design``, so the
+    advice it gives names runs the rig can make; None for imports); ``subject``: what a
+    failed fit names ("surge", "roll swing");
+    ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
+    takes, the first the default (a callable, so the estimation code loads on first use)."""
+
+    name: str
+    #: How messages name its runs: "tow/spin".
+    runs: str
+    methods_of: Callable[[], tuple[str, ...]]
+    load: Callable[[Store, Sequence[str]], list[Any]]
+    fit: Callable[[list[Any], str, bool, RigEnvelope | None], Any]
+    subject: Callable[[list[Any]], str]
+    report: Callable[[Any, list[Any], Path], list[Path]] | None = None
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        return self.methods_of()
+
+
+def _axis_methods() -> tuple[str, ...]:
+    from estimation import METHODS
+
+    return tuple(METHODS)
+
+
+def _axis_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
+    from daq.body_mass import with_body_inertia
+    from daq.run_data import load_run_data
+    from estimation.data.runs import validate_runs
+
+    # The body's own mass the tow declares: an inertia fitted below it is flagged.
+    runs = [with_body_inertia(load_run_data(store, rid), store.get_run(rid)) for rid in run_ids]
+    validate_runs(runs)
+    return runs
+
+
+def _axis_fit(
+    runs: list[Any], method: str, search: bool, envelope: RigEnvelope | None = None
+) -> Any:
+    from estimation import estimate
+
+    return estimate(runs, method=method, search_effects=search, envelope=envelope)
+
+
+def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
+    from estimation.axis.report import write_report  # matplotlib: load only when asked
+
+    return write_report(result, runs, folder)
+
+
+#: Tow and spin runs: the axis model (``estimation.axis.estimate``).
+AXIS = Estimator(
+    name="axis",
+    runs="tow/spin",
+    methods_of=_axis_methods,
+    load=_axis_load,
+    fit=_axis_fit,
+    subject=lambda runs: str(runs[0].axis),
+    report=_axis_report,
+)
+
+
+def _pendulum_methods() -> tuple[str, ...]:
+    from estimation.pendulum.estimate import PENDULUM_METHODS
+
+    return tuple(PENDULUM_METHODS)
+
+
+def _pendulum_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
+    from daq.run_data import load_pendulum_data
+    from estimation.pendulum.estimate import validate_pendulum_runs
+
+    swings = [load_pendulum_data(store, rid) for rid in run_ids]
+    validate_pendulum_runs(swings)
+    return swings
+
+
+def _pendulum_fit(
+    runs: list[Any], method: str, search: bool, envelope: RigEnvelope | None = None
+) -> Any:
+    from estimation.pendulum.estimate import estimate_pendulum
+
+    return estimate_pendulum(runs, method=method, search=search)
+
+
+def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
+    from estimation.pendulum.report import write_pendulum_report
+
+    return write_pendulum_report(result, folder)
+
+
+#: Pendulum free decays: α, β of the swing axis (``estimation.pendulum.estimate``).
+PENDULUM = Estimator(
+    name="pendulum",
+    runs="pendulum",
+    methods_of=_pendulum_methods,
+    load=_pendulum_load,
+    fit=_pendulum_fit,
+    subject=lambda runs: f"{runs[0].axis} swing",
+    report=_pendulum_report,
+)

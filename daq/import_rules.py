@@ -1,0 +1,257 @@
+"""Per kind, how a CSV becomes a run: the rules each registry entry's ``imports`` holds
+(``daq.procedures.kinds``), applied by ``api.core.run_import.plan_import``.
+
+- a pendulum free decay takes no drive nor weight and needs a rig file with ``[pendulum]``;
+- a tow or spin takes its signed load (``force_n``/``torque_nm``, not 0; negative is a
+  reverse run) or a ``drive_column`` logged per sample, not both, and optionally the hung
+  ``weight_kg``; with a rig file, the load is checked against its limit (``max_force_n``,
+  ``max_torque_nm``; the weight against the limit / g) and so is a logged drive's peak;
+  a towrig export's header gives the load, logged drive and hung mass when not stated;
+- a kind with its own import fields (``ImportRules.fields``, a pydantic model: a free
+  decay's ``dof``) has them checked by that model; they are the CLI's options and the
+  HTTP import's query parameters.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from daq.procedures.params import ParameterError
+from daq.vocabulary import DRIVE_FIELD, RunKind
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel
+
+    from daq.session import RigSource
+    from daq.store.export_header import ExportHeader
+
+#: A stated load or weight agrees with an export's header within this fraction (weights
+#: hang to the gram: 1 g is 0.2 % of a 0.5 kg weight).
+AGREE = 0.01
+
+
+@dataclass(frozen=True)
+class ImportRequest:
+    """What the user said about the file (``None``: not said); ``fields``: the kind's own
+    import fields (``ImportRules.fields``) as given."""
+
+    kind: str | None = None
+    force_n: float | None = None
+    torque_nm: float | None = None
+    drive_column: str | None = None
+    drive_unit: str | None = None
+    weight_kg: float | None = None
+    vehicle: str | None = None
+    #: A tow's body: its own mass, and the mass of water it displaces (kg); an inertia
+    #: identified below the body's own mass is flagged (``daq.body_mass``).
+    dry_mass_kg: float | None = None
+    displacement_kg: float | None = None
+    time_unit: str = "s"
+    release_time_s: float | None = None
+    end_time_s: float | None = None
+    fields: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Planning:
+    """What a kind's import rule is given: the request, the file's export header, the
+    header values taken so far (``restored``, filled in), the rig file the data were
+    recorded on and the service's (``default_rig``), and how errors name the rig file."""
+
+    kind: str
+    request: ImportRequest
+    header: ExportHeader
+    restored: dict[str, Any]
+    rig: RigSource | None
+    default_rig: RigSource | None
+    rig_field: str
+
+
+@dataclass(frozen=True)
+class ImportRules:
+    """How a CSV is imported as one kind.
+
+    ``position``: what the file's ``position`` column holds (help text); ``plan``: the
+    ``daq.store.import_csv`` options (``parameters``, a logged drive) and the rig file the
+    run keeps; ``fields``: the kind's own import fields (``None``: none)."""
+
+    position: str
+    plan: Callable[[Planning], tuple[dict[str, Any], RigSource | None]]
+    fields: type[BaseModel] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """What ``GET /api/kinds`` says of the import: the position and the fields' schema."""
+        schema = None if self.fields is None else self.fields.model_json_schema()
+        return {"position": self.position, "schema": schema}
+
+
+def checked_fields(model: type[BaseModel], given: dict[str, Any]) -> dict[str, Any]:
+    """The kind's import fields checked by ``model`` (``ParameterError`` naming each bad
+    one), as a run's parameters (unset ones left out)."""
+    from pydantic import ValidationError
+
+    from daq.procedures.params import problems_of
+
+    try:
+        return model.model_validate(given).model_dump(exclude_none=True)
+    except ValidationError as err:
+        raise ParameterError(problems_of(err)) from None
+
+
+def no_drive(request: ImportRequest, what: str) -> None:
+    """Refuse a drive or weight for a kind that has none (``what``: "a pendulum free decay")."""
+    given = {
+        "force_n": request.force_n,
+        "torque_nm": request.torque_nm,
+        "drive_column": request.drive_column,
+        "weight_kg": request.weight_kg,
+    }
+    for name, value in given.items():
+        if value is not None:
+            raise ValueError(f"{name}: not used by {what} (it has no drive)")
+
+
+def no_fields(plan: Planning) -> None:
+    """Refuse another kind's import fields (``--dof`` on a tow)."""
+    for name, value in plan.request.fields.items():
+        if value is not None:
+            raise ParameterError([(name, value, f"not used by a {plan.kind}")])
+
+
+def pendulum_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
+    """A pendulum free decay: no drive; the rig file's ``[pendulum]`` geometry."""
+    no_drive(plan.request, "a pendulum free decay")
+    no_fields(plan)
+    rig = plan.rig or plan.default_rig
+    if rig is None:
+        raise ValueError(f"{plan.rig_field}: a pendulum import needs the rig file with its "
+                         "[pendulum] geometry")  # fmt: skip
+    if rig.rig.pendulum is None:
+        raise ValueError(f"{plan.rig_field}: rig {rig.rig.rig.name!r} has no [pendulum] section "
+                         "(the pendulum's geometry)")  # fmt: skip
+    return {"parameters": {}}, rig
+
+
+def _limit(kind: str, rig: RigSource | None) -> tuple[str, float, float] | None:
+    """The rig file's limit on the load: (name, value SI, SI load per kg hung)."""
+    if rig is None:
+        return None
+    config = rig.rig
+    if DRIVE_FIELD[kind][0] == "force_n":
+        return "max_force_n", config.limits.max_force_n, config.rig.g
+    torque, radius = config.limits.max_torque_nm, config.geometry.spin_drum_radius_m
+    if torque is None:
+        return None
+    return "max_torque_nm", torque, config.rig.g * (radius or math.nan)
+
+
+def _agrees(given: float, recorded: float) -> bool:
+    return abs(given - recorded) <= AGREE * max(abs(recorded), 1e-12)
+
+
+def drive_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
+    """A tow's or spin's drive: ``parameters`` (signed load, hung mass), ``drive_column``,
+    ``drive_unit`` and ``drive_limit`` for ``import_csv``."""
+    no_fields(plan)
+    kind, request, header, restored, rig = (
+        plan.kind, plan.request, plan.header, plan.restored, plan.rig
+    )  # fmt: skip
+    name, unit = DRIVE_FIELD[kind]
+    other = "torque_nm" if name == "force_n" else "force_n"
+    load: float | None = getattr(request, name)
+    weight, column, drive_unit = request.weight_kg, request.drive_column, request.drive_unit
+    if getattr(request, other) is not None:
+        raise ParameterError([(other, getattr(request, other), f"not used by a {kind}")])
+    if column is not None and load is not None:
+        raise ValueError(f"{name}: not used with drive_column (the drive is logged per sample)")
+    recorded = header.parameters
+    if header.is_export and load is None and column is None:
+        logged = recorded.get("drive_channel")
+        if isinstance(logged, str):  # an imported run's logged drive, exported in SI
+            column = restored["drive_column"] = logged
+            drive_unit = drive_unit or unit
+        elif header.text("drive") == "thrusters":
+            raise ValueError(
+                f"{name}: missing; {header.source()} is thruster-driven: its thrust is rebuilt "
+                f"from the thrusters' calibration, not stored in the file; give {name} or "
+                "drive_column"
+            )
+    if drive_unit is not None and column is None:
+        raise ValueError("drive_unit: only with drive_column")
+    thrusters = header.text("drive") == "thrusters"  # its force_n is only what was asked
+    load = _from_header(name, unit, load, recorded, header, restored, not (column or thrusters))
+    weight = _from_header("hung_mass_kg", "kg", weight, recorded, header, restored, True)
+    limit = _limit(kind, rig)
+    problems: list[tuple[str, Any, str]] = []
+    if load is None and column is None:
+        problems.append((name, None, f"a {kind} needs its applied load: {name} ({unit}; "
+                                     "negative for a reverse run) or drive_column"))  # fmt: skip
+    elif load is not None:
+        high = f"≤ {limit[1]:g} {unit}, rig limit {limit[0]}" if limit else f"< ∞ {unit}"
+        if not (math.isfinite(load) and load != 0 and (limit is None or abs(load) <= limit[1])):
+            problems.append((name, load, f"allowed 0 < |{name}| {high}; negative for a "
+                                         "reverse run"))  # fmt: skip
+    if weight is not None:
+        most = limit[1] / limit[2] if limit else math.inf
+        if not (math.isfinite(weight) and 0 < weight <= most):
+            why = f" kg, rig limit {limit[0]} / g" if limit else ""
+            problems.append(("weight_kg", weight, f"allowed 0 < weight_kg ≤ {most:g}{why}"))
+    if problems:
+        raise ParameterError(problems)
+    parameters: dict[str, Any] = {} if load is None else {name: load}
+    if weight is not None:
+        parameters["hung_mass_kg"] = weight
+    options = {
+        "parameters": parameters,
+        "drive_column": column,
+        "drive_unit": drive_unit,
+        "drive_limit": limit[:2] if limit and column is not None else None,
+    }
+    return options, rig
+
+
+def _from_header(
+    name: str,
+    unit: str,
+    given: float | None,
+    recorded: dict[str, Any],
+    header: ExportHeader,
+    restored: dict[str, Any],
+    wanted: bool,
+) -> float | None:
+    """``given``, else the header's value of ``name`` (when ``wanted``); a given value that
+    disagrees with the header is refused, one that agrees gives way to the recorded one."""
+    value = recorded.get(name)
+    if not wanted or not isinstance(value, int | float) or isinstance(value, bool) or not value:
+        return given
+    field_name = "weight_kg" if name == "hung_mass_kg" else name
+    if given is not None and not _agrees(given, float(value)):
+        raise ValueError(
+            f"{field_name}: {given!r} disagrees with {header.source()}: {name} {value:g} {unit}; "
+            "leave it out to take the header's"
+        )
+    restored[name] = float(value)
+    return float(value)
+
+
+def body_mass(plan: Planning) -> dict[str, float]:
+    """A tow's declared ``dry_mass_kg``/``displacement_kg`` (given, else its export
+    header's), each a finite number > 0; refused for another kind (a spin's or a pendulum's
+    body inertia is in kg·m²)."""
+    from daq.body_mass import BODY_MASS_PARAMETERS
+
+    out: dict[str, float] = {}
+    for name in BODY_MASS_PARAMETERS:
+        given: float | None = getattr(plan.request, name)
+        if given is not None and plan.kind != RunKind.TOW:
+            raise ParameterError([(name, given, "only for a tow (a body's own mass, kg)")])
+        if given is not None and not (math.isfinite(given) and given > 0):
+            raise ParameterError([(name, given, f"allowed 0 < {name} < ∞ kg")])
+        recorded = plan.header.parameters
+        value = _from_header(name, "kg", given, recorded, plan.header, plan.restored, True)
+        if value is not None and plan.kind == RunKind.TOW:
+            out[name] = value
+    return out

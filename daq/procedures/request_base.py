@@ -1,0 +1,220 @@
+"""What every procedure request shares: how a field is spelled on the command line
+(:class:`Flag`), the strict base model with the run's metadata, and the rig in the
+validation context (:func:`rig_of`). The kinds' models are in ``daq.procedures.requests``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Self
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from daq.procedures import params as p
+from daq.procedures.params import ParameterError
+
+if TYPE_CHECKING:
+    from pydantic import ModelWrapValidatorHandler
+
+    from daq.config import RigConfig
+    from daq.vocabulary import RunKind
+
+
+@dataclass(frozen=True)
+class Flag:
+    """How a request field is spelled on the command line.
+
+    ``when_set``: the option is an on/off flag giving the field this value when present
+    (``--thrusters`` → ``drive="thrusters"``); ``help`` then says what the flag does.
+    ``parse`` turns the typed text into the field's value (``--commands 0,0.2`` → a list)."""
+
+    name: str
+    when_set: Any = None
+    help: str | None = None
+    metavar: str | None = None
+    parse: Callable[[str], Any] | None = None
+
+
+def comma_separated_floats(text: str) -> list[float]:
+    """``"0,0.1,0.2"`` → ``[0.0, 0.1, 0.2]`` (``ValueError`` on anything else)."""
+    return [float(part) for part in text.split(",")]
+
+
+class _Strict(BaseModel):
+    """A number must be a JSON number (``"24.5"`` is refused); unknown fields are refused;
+    ``null`` is the field's default."""
+
+    model_config = ConfigDict(strict=True, extra="forbid")
+
+
+class RunMetadataIn(BaseModel):
+    """Free metadata of a run (checked by ``daq.store.run_metadata``): the four keys below
+    and any other lower-case key with a text, number or true/false value. In a PATCH a
+    ``null`` removes the key."""
+
+    model_config = ConfigDict(extra="allow")
+    operator: str | None = Field(None, max_length=200, description="Who ran the test.")
+    water_temperature_c: float | None = Field(None, description="Water temperature, °C (-2…50).")
+    notes: str | None = Field(None, max_length=10_000)
+    tags: list[str] | None = Field(
+        None, max_length=20, description="Tags to find the run by, e.g. ['fins-v2']."
+    )
+
+
+def rig_of(info: ValidationInfo) -> RigConfig | None:
+    """The rig file in the validation context (``None``: check the types only)."""
+    return (info.context or {}).get("rig")
+
+
+class _ProcedureRequest(_Strict):
+    """What every procedure start takes besides its own parameters (the CLI gives it with
+    ``--operator``, ``--tag``, … from ``api.cli.metadata``, not from this field).
+
+    Checked against a rig (:meth:`checked`) it is frozen and is the procedure's parameters."""
+
+    #: Defaults are validated too: the rig fills in those it decides (``None``).
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
+    #: The run kind these parameters run.
+    kind: ClassVar[RunKind]
+
+    metadata: RunMetadataIn | None = Field(
+        None, description="Stored on every run the procedure records (see PATCH .../metadata)."
+    )
+
+    def parameters(self) -> dict[str, Any]:
+        """The procedure's own parameters, as given (unset ones left out)."""
+        return self.model_dump(exclude_none=True, exclude={"metadata"})
+
+    def run_metadata(self) -> dict[str, Any] | None:
+        """The ``metadata`` object as given (None when absent)."""
+        return None if self.metadata is None else self.metadata.model_dump(exclude_unset=True)
+
+    @classmethod
+    def checked(cls, raw: dict[str, Any], rig: RigConfig) -> Self:
+        """``raw`` checked against ``rig`` → the frozen parameters; ``ParameterError``
+        naming every bad field and its allowed range."""
+        try:
+            return cls.model_validate(raw, context={"rig": rig})
+        except ValidationError as err:
+            raise ParameterError(p.problems_of(err)) from None
+
+    def to_json(self) -> dict[str, Any]:
+        """The parameters as a run stores them (with its ``kind``)."""
+        return self.model_dump(exclude={"metadata"}) | {"kind": self.kind}
+
+    @field_validator("baseline_s", check_fields=False)
+    @classmethod
+    def _baseline(cls, value: float, info: ValidationInfo) -> float:
+        if rig_of(info) is None:
+            return value
+        return p.in_range("baseline_s", value, low=0, high=30, unit="s", low_inclusive=True)
+
+
+Drive = Literal["weight", "thrusters"]
+MaxTime = Annotated[
+    float | None,
+    Field(title="Max time (s)", description="Stop after this many seconds (default 120)."),
+    Flag("--max-time"),
+]
+Baseline = Annotated[
+    float, Field(title="Baseline (s)", description="Pre-trigger baseline, s."), Flag("--baseline")
+]
+
+
+class _SignedLoad(_ProcedureRequest):
+    """What a tow's and a spin's parameters share: a signed load (its sign is the test's
+    direction) from a hung weight or from the thrusters, and the request it rounded.
+
+    Checked against a rig, the load field holds the load applied (a hung weight's, to the
+    gram), ``weight_kg`` is cleared and :attr:`hung_mass_kg` is the weight hung."""
+
+    #: The load's field and unit (``force_n``, ``N``).
+    load_field: ClassVar[str]
+    load_unit: ClassVar[str]
+    _hung_mass_kg: float | None = PrivateAttr(None)
+    if TYPE_CHECKING:  # the subclasses' fields the checks read
+        drive: str
+        weight_kg: float | None
+    _requested: dict[str, float] | None = PrivateAttr(None)
+
+    @property
+    def load(self) -> float:
+        """The signed load: the tow's force (N) or the spin's torque (N·m)."""
+        return float(getattr(self, self.load_field))
+
+    @property
+    def hung_mass_kg(self) -> float | None:
+        """The weight hung (positive either way), kg; ``None`` when the thrusters drive."""
+        return self._hung_mass_kg
+
+    @property
+    def requested(self) -> dict[str, float] | None:
+        """What was asked for when the hung weight (to the gram) changed it."""
+        return self._requested
+
+    @property
+    def reverse(self) -> bool:
+        """A reverse test (negative load): a tow from the far end back toward the start, a
+        spin with the cord wound the other way round the drum."""
+        return self.load < 0
+
+    def adjustment(self) -> str | None:
+        """The sentence telling the operator the requested load was rounded, if it was."""
+        return p.adjustment(self.requested, self.hung_mass_kg, f"{self.load:.5g} {self.load_unit}")
+
+    def to_json(self) -> dict[str, Any]:
+        data = super().to_json()
+        del data["weight_kg"]
+        return data | {"hung_mass_kg": self.hung_mass_kg, "requested": self.requested}
+
+    @staticmethod
+    def _lever(rig: RigConfig) -> tuple[float, float, str]:
+        """The load one kg hung gives per g (1 m for a tow, the drum's radius for a spin),
+        the load's limit and how it is named."""
+        raise NotImplementedError
+
+    @field_validator("weight_kg", check_fields=False)
+    @classmethod
+    def _weight(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        radius, high, why = cls._lever(rig)
+        per_kg = rig.rig.g * radius
+        return p.in_range(
+            "weight_kg", value, low=0, high=high / per_kg, unit="kg", why_high=why, signed=True
+        )
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _applied(
+        cls, data: Any, handler: ModelWrapValidatorHandler[Self], info: ValidationInfo
+    ) -> Self:
+        rig = rig_of(info)
+        if rig is None or not isinstance(data, dict):
+            return handler(data)
+        problems = p.load_given(data, cls.load_field, cls.load_unit, cls.kind)
+        try:
+            model = handler(data)
+        except ValidationError as err:
+            raise ParameterError(p.problems_of(err) + problems) from None
+        if problems:
+            raise ParameterError(problems)
+        radius = cls._lever(rig)[0]
+        given = getattr(model, cls.load_field)
+        load, hung, requested = p.applied_load(
+            model.drive, cls.load_field, given, model.weight_kg, rig.rig.g, radius
+        )
+        checked = model.model_copy(update={cls.load_field: load, "weight_kg": None})
+        checked._hung_mass_kg, checked._requested = hung, requested
+        return checked

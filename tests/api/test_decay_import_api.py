@@ -1,0 +1,80 @@
+"""``POST /api/runs/import?kind=decay&dof=…`` and the estimation job on a free decay: the
+kind's own query fields come from the registry (``daq.decay.DecayImport``); bad ones are a
+one-line 422 naming the field. Data: a heave decay integrated by scipy's ``solve_ivp``
+(``tests.integration.test_decay_import.heave_decay``); the rule is issue 20's (added inertia
+within 2 %, damping within 10 %)."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.api.conftest import AUTH, wait_job
+from tests.integration.test_decay_import import heave_decay
+
+CSV = {"Content-Type": "text/csv"}
+
+
+def test_the_http_import_takes_a_decay_and_the_estimation_job_fits_it(client, tmp_path):
+    truth = heave_decay(tmp_path / "heave.csv", 10.0, seed=4)
+    body = (tmp_path / "heave.csv").read_bytes()
+    query = (f"kind=decay&dof=heave&stiffness={truth['stiffness']:g}&known_inertia=10"
+             "&release_time_s=1&filename=heave.csv")  # fmt: skip
+    r = client.post(f"/api/runs/import?{query}", content=body, headers=AUTH | CSV)
+    assert r.status_code == 201, r.text
+    run_id = r.json()["run_id"]
+    run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
+    assert run["kind"] == "decay" and run["channel_names"] == ["decay_position"]
+    assert run["parameters"]["stiffness"] == pytest.approx(truth["stiffness"])
+
+    wrong = {"run_ids": [run_id], "method": "ls-raw"}
+    r = client.post("/api/jobs/estimation", json=wrong, headers=AUTH)
+    assert r.status_code == 422
+    assert "method: 'ls-raw' is not allowed for decay runs; allowed: output-error" in r.text
+
+    body_json = {"run_ids": [run_id], "search_effects": False}
+    r = client.post("/api/jobs/estimation", json=body_json, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=60)
+    assert job["state"] == "completed", job
+    c = job["outcome"]["coefficients"]
+    assert c["inertia"]["value"] == pytest.approx(truth["added"], rel=0.02)
+    assert c["linear_damping"]["value"] == pytest.approx(truth["damping"], rel=0.10)
+
+
+@pytest.mark.parametrize(
+    ("query", "detail"),
+    [
+        ("kind=decay", "dof: missing is not allowed (a free decay names its dof"),
+        ("kind=decay&dof=heave&force_n=3", "force_n: not used by a free decay (it has no drive)"),
+        ("kind=decay&dof=wobble", "dof: 'wobble' is not allowed (Input should be"),
+        ("kind=tow&force_n=3&dof=heave", "dof: 'heave' is not allowed (not used by a tow)"),
+    ],
+)
+def test_the_http_import_names_a_bad_decay_field(client, query, detail):
+    body = b"t,position\n0,0.1\n0.1,0.09\n0.2,0.05\n"
+    r = client.post(f"/api/runs/import?{query}", content=body, headers=AUTH | CSV)
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"].startswith(detail), r.json()
+
+
+def test_the_estimation_page_lists_and_fits_a_decay(service, client, tmp_path):
+    """The Estimation page offers every kind with an estimator (GET /api/kinds), a decay
+    among them, and shows its coefficients with the units the result carries."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import estimate_in_page, signed_in_page
+
+    truth = heave_decay(tmp_path / "heave.csv", 10.0, seed=5)
+    query = f"kind=decay&dof=heave&stiffness={truth['stiffness']:g}&known_inertia=10"
+    r = client.post(f"/api/runs/import?{query}&release_time_s=1",
+                    content=(tmp_path / "heave.csv").read_bytes(), headers=AUTH | CSV)  # fmt: skip
+    assert r.status_code == 201, r.text
+    with signed_in_page(service, client) as page:
+        errors: list[str] = []
+        page.on("pageerror", lambda err: errors.append(str(err)))
+        page.click("nav a[data-page=estimation]")
+        page.uncheck("#est-effects")  # the base model: the truth has no other term
+        estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
+        expect(page.locator("#est-coefs")).to_contain_text("inertia (kg)")
+        expect(page.locator("#est-rmse")).to_contain_text("heave decay")
+        assert errors == []
