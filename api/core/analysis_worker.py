@@ -47,24 +47,47 @@ class AnalysisWorker:
 
     # -- estimation ------------------------------------------------------------------------
     def start_estimation(
-        self, run_ids: list[str], method: str, search_effects: bool, user: str | None = None
+        self,
+        run_ids: list[str],
+        method: str,
+        search_effects: bool,
+        user: str | None = None,
+        exclude_outliers: bool = False,
     ) -> Job:
-        """Run an estimation in the worker thread (never on the clock's loop), for ``user``."""
-        params = {"run_ids": run_ids, "method": method, "search_effects": search_effects}
+        """Run an estimation in the worker thread (never on the clock's loop), for ``user``;
+        ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit."""
+        params = {
+            "run_ids": run_ids,
+            "method": method,
+            "search_effects": search_effects,
+            "exclude_outliers": exclude_outliers,
+        }
         label = f"estimation {method} on {len(run_ids)} run(s)"
         job = self.registry.new("estimation", label, params, user_name=user)
         job.run_ids = list(run_ids)
-        self._start(job, self._run_estimation, job, run_ids, method, search_effects)
+        self._start(
+            job, self._run_estimation, job, run_ids, method, search_effects, exclude_outliers
+        )
         return job
 
     def _run_estimation(
-        self, job: Job, run_ids: list[str], method: str, search_effects: bool
+        self,
+        job: Job,
+        run_ids: list[str],
+        method: str,
+        search_effects: bool,
+        exclude_outliers: bool = False,
     ) -> None:
         from api.core.estimation_job import run_estimation
 
         def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
             data = run_estimation(
-                store, run_ids, method=method, search_effects=search_effects, report_dir=report_dir
+                store,
+                run_ids,
+                method=method,
+                search_effects=search_effects,
+                report_dir=report_dir,
+                exclude_outliers=exclude_outliers,
             )
             result_id = data.get("result_id")
             if result_id is not None:

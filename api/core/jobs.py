@@ -203,9 +203,12 @@ class JobRunner(QueueEdits):
         method: str,
         search_effects: bool,
         user: str | None = None,
+        exclude_outliers: bool = False,
     ) -> Job:
         """Run an estimation in the analysis worker (:class:`AnalysisWorker`)."""
-        return self.analysis.start_estimation(run_ids, method, search_effects, user)
+        return self.analysis.start_estimation(
+            run_ids, method, search_effects, user, exclude_outliers
+        )
 
     def start_crosscheck(
         self,

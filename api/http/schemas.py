@@ -107,6 +107,11 @@ class EstimationRequest(_Strict):
         + "), checked per run.",
     )
     search_effects: bool = True
+    exclude_outliers: bool = Field(
+        False,
+        description="Leave out repeats Chauvenet's criterion flags as outlying (tows and "
+        "spins; docs/uncertainty.md); by default they are flagged and kept.",
+    )
 
 
 class CrossCheckRequest(_Strict):

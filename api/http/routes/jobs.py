@@ -132,7 +132,9 @@ def start_estimation(
     # 422 for bad input (mixed kinds, a method the kind lacks, a run without its drive or
     # too short), so a failed job always means the fit itself failed
     load_estimation_runs(store, run_ids, body.method)
-    started = runner.start_estimation(run_ids, body.method, body.search_effects, user.name)
+    started = runner.start_estimation(
+        run_ids, body.method, body.search_effects, user.name, body.exclude_outliers
+    )
     return started.to_json()
 
 
