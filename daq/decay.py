@@ -28,6 +28,8 @@ from daq.procedures.request_base import Flag
 from daq.vocabulary import AXES, RunKind
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from daq.session import RigSource
     from daq.store import Store
     from estimation.design.envelope import RigEnvelope
@@ -149,6 +151,15 @@ def fit_decays(
     )
 
 
+def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:
+    """The decay report (``estimation.motion.report``): coefficients, evidence, figure."""
+    from estimation.motion.records import Record
+    from estimation.motion.report import write_decay_report  # matplotlib: only when asked
+
+    records = [Record(r.run_id, r.t, r.x) for r in runs]
+    return write_decay_report(result, records, folder, {r.run_id: r.t_end for r in runs})
+
+
 #: Free decays: the single-DOF equation (``estimation.motion``), fitted on the trajectory.
 DECAY = Estimator(
     name="decay",
@@ -157,6 +168,7 @@ DECAY = Estimator(
     load=load_decays,  # type: ignore[arg-type]
     fit=fit_decays,
     subject=lambda runs: f"{runs[0].dof} decay",
+    report=decay_report,  # type: ignore[arg-type]
 )
 
 #: How a CSV becomes a free decay.

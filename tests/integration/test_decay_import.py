@@ -111,3 +111,23 @@ def test_an_exported_decay_imports_back_from_its_own_header(rig, tmp_path):
     fits = [printed_json(rig("estimate", r, "--no-effects", "--json")) for r in (first, second)]
     a, b = (f["coefficients"]["inertia"]["value"] for f in fits)
     assert b == pytest.approx(a, rel=1e-6)
+
+
+def test_rig_estimate_report_of_a_decay_shows_the_fit_and_its_residual(rig, tmp_path):
+    """``--report DIR`` on a free decay (issue 20: the report works for every record that
+    estimates): report.md with the coefficients and the evidence, the figure, and the
+    residual plotted is the fit's own (its RMS is the result's rmse_after)."""
+    import json
+
+    truth = heave_decay(tmp_path / "heave.csv", 10.0, seed=3)
+    run_id = rig("import", "heave.csv", "--kind", "decay", "--dof", "heave", "--stiffness",
+                 f"{truth['stiffness']:g}", "--known-inertia", "10")  # fmt: skip
+    rig("estimate", run_id, "--report", "out")
+    out = tmp_path / "out"
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["decay.png", "decay.svg", "report.md", "result.json"]
+    md = (out / "report.md").read_text(encoding="utf-8")
+    assert "# Free decay of heave" in md and "| inertia |" in md and "![" in md
+    doc = json.loads((out / "result.json").read_text(encoding="utf-8"))
+    assert doc["coefficients"]["inertia"]["value"] == pytest.approx(truth["added"], rel=0.02)
+    assert f"after {doc['rmse_after']:.3g} m" in md

@@ -1,0 +1,119 @@
+"""Free-decay report: result.json, report.md (coefficients with σ, the search's evidence,
+error before/after) and one figure per record: measured x and the fitted model against time
+from release, with the residual beneath (docs/estimation.md, *Free decay*)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from estimation.figures import figure_links, new_figure, run_label, save_figure
+from estimation.fit_report import write_result_and_markdown
+from estimation.motion.decay import DecayResult
+from estimation.motion.records import Record
+
+#: x's unit per DOF.
+POSITION_UNIT = {
+    "surge": "m",
+    "sway": "m",
+    "heave": "m",
+    "roll": "rad",
+    "pitch": "rad",
+    "yaw": "rad",
+}
+
+
+def fitted_window(
+    result: DecayResult, record: Record, t_end: float | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The samples the fit used (``t`` from release, s; measured x) and the model there:
+    x_model = x − residual (``x_eq + ξ``, estimation.motion.fit)."""
+    if result.fit is None:
+        raise ValueError("result: got a result without its fit, allowed: one made by estimate")
+    index = result.runs.index(record.run_id)
+    release = result.release_time_s[record.run_id]
+    t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
+    keep = (t >= release) & (t <= (np.inf if t_end is None else t_end))
+    residual = result.fit.residuals[index]
+    if int(keep.sum()) != residual.size:
+        raise ValueError(
+            f"record {record.run_id}: got {int(keep.sum())} samples in the window, allowed: "
+            f"the {residual.size} the fit used"
+        )
+    return t[keep] - release, x[keep], x[keep] - residual
+
+
+def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, float | None]):
+    unit = POSITION_UNIT.get(result.dof, "m or rad")
+    fig = new_figure(3.6 * len(records))
+    axes = fig.subplots(2 * len(records), 1, sharex=False, height_ratios=[3, 1] * len(records))
+    fig.subplots_adjust(hspace=0.6)
+    for i, record in enumerate(records):
+        t, x, model = fitted_window(result, record, ends.get(record.run_id))
+        top, bottom = axes[2 * i], axes[2 * i + 1]
+        top.plot(t, x, ".", ms=2, color="0.4", label="measured")
+        top.plot(t, model, "-", lw=1.2, color="C0", label="model")
+        top.set_ylabel(f"{result.dof} ({unit})")
+        top.set_title(run_label(i, record.run_id), fontsize=9, loc="left")
+        top.legend(loc="upper right", fontsize=8)
+        bottom.plot(t, x - model, "-", lw=0.8, color="C3")
+        bottom.axhline(0.0, color="0.6", lw=0.6)
+        bottom.set_ylabel(f"residual ({unit})")
+        bottom.set_xlabel("time from release (s)")
+    return fig
+
+
+def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
+    doc = result.to_json()
+    lines = [f"# Free decay of {result.dof}: {', '.join(result.runs)}", ""]
+    lines += ["| coefficient | value | σ | unit |", "|---|---|---|---|"]
+    for name, c in doc["coefficients"].items():
+        std = "not identified" if c["std"] is None else f"{c['std']:.4g}"
+        value = "—" if c["value"] is None else f"{c['value']:.6g}"
+        lines.append(f"| {name} | {value} | {std} | {c['unit']} |")
+    for name, c in doc["known"].items():
+        lines.append(f"| {name} (known) | {c['value']:.6g} | — | {c['unit']} |")
+    unit = POSITION_UNIT.get(result.dof, "")
+    lines += [
+        "",
+        f"Effects kept: {', '.join(result.effects) or 'none'}. RMS error before the search "
+        f"{result.rmse_before:.3g} {unit}, after {result.rmse_after:.3g} {unit} (noise floor "
+        f"{result.noise:.3g} {unit}).",
+    ]
+    if result.natural_period_s is not None:
+        lines.append(f"Natural period {result.natural_period_s:.4g} s.")
+    if result.possibly_biased:
+        lines.append("**The coefficients may be biased**: the residual is not white.")
+    lines += ["", "## Evidence", "", "| term | round | ΔBIC | explained RMS | kept | reason |"]
+    lines.append("|---|---|---|---|---|---|")
+    for s in result.steps:
+        lines.append(
+            f"| {s.term} | {s.round} | {s.delta_bic:.1f} | {s.explained_rms:.3g} | "
+            f"{'yes' if s.accepted else 'no'} | {s.reason} |"
+        )
+    if result.warnings:
+        lines += ["", "## Warnings", "", *(f"- {w}" for w in result.warnings)]
+    return "\n".join([*lines, "", *figure_links(figures)]) + "\n"
+
+
+def write_decay_report(
+    result: DecayResult,
+    records: Sequence[Record],
+    directory: str | Path,
+    ends: Mapping[str, float | None] | None = None,
+) -> list[Path]:
+    """Write result.json, report.md and the ``decay`` figure (PNG and SVG) into directory;
+    ``ends``: each record's end of free motion (s, as given to the fit). The paths written."""
+    if tuple(r.run_id for r in records) != result.runs:
+        raise ValueError(
+            f"records: got {[r.run_id for r in records]}, allowed: the result's runs "
+            f"{list(result.runs)} in the same order"
+        )
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    fig = save_figure(_figure(result, records, ends or {}), out, "decay")
+    figures = [("Measured and fitted free decay, and the residual, per record", fig[0])]
+    written = write_result_and_markdown(out, result.to_json(), _markdown(result, figures))
+    return [*written, *fig]
