@@ -250,11 +250,41 @@ def test_clean_tows_claim_no_effect_in_98_percent_of_seeds(scale):
     assert claims <= 1
 
 
+#: Known gap (issue 20, open): at 143 kg the fit σ of the inertia is too small on these
+#: records — the residual is encoder quantization of a smooth motion sampled without timing
+#: jitter, so it is correlated, and σ̂²(JᵀJ)⁻¹ assumes it white: over the 50 seeds the
+#: inertia's z = (θ̂ − θ)/σ has mean 0.08 and RMS 1.32 (41 of 50 inside 2σ). Strict: it
+#: fails the day the σ accounts for correlated residuals, to be turned into a pass.
+SIGMA_TOO_SMALL = pytest.mark.xfail(
+    strict=True, reason="fit σ assumes white residuals; quantization residuals are correlated"
+)
+
+
 @pytest.mark.slow
-def test_decay_two_sigma_intervals_cover_the_truth():
+@pytest.mark.parametrize(
+    "scale",
+    [pytest.param(s, marks=SIGMA_TOO_SMALL) if s == "143kg" else s for s in SCALES],
+)
+def test_tow_two_sigma_intervals_cover_the_truth(scale):
+    """Rule: with honest σ, |θ̂ − θ| ≤ 2σ holds with p ≈ 0.95 per seed; ≥ 45 of 50 (90 %)
+    fails for a true p = 0.95 with probability ≈ 4 % (binomial), for p ≤ 0.85 in ≥ 88 %."""
+    m, k_l, k_q, _ = SCALES[scale]
+    truth = {"inertia": m, "linear_damping": k_l, "quadratic_damping": k_q}
+    hits = dict.fromkeys(truth, 0)
+    for seed in range(50):
+        r = estimate(tow_set(scale, seed=300 + seed), search_effects=False, n_bootstrap=0)
+        for name, true in truth.items():
+            c = r.coefficients[name]
+            hits[name] += bool(np.isfinite(c.std) and abs(c.value - true) <= 2 * c.std)
+    assert min(hits.values()) >= 45, hits
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scale", list(SCALES))
+def test_decay_two_sigma_intervals_cover_the_truth(scale):
     hits = {"inertia": 0, "linear_damping": 0}
     for seed in range(50):
-        t, x, truth = decay("143kg", 200 + seed, noise=2e-4)
+        t, x, truth = decay(scale, 200 + seed, noise=2e-4)
         r = estimate_decay(t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"])
         for name, true in (("inertia", truth["added"]), ("linear_damping", truth["b1"])):
             c = r.coefficients[name]
