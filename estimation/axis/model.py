@@ -217,18 +217,19 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     # branch costs most)
     forces = [c for c in p.forces if np.any(c.value)]
 
-    # The recorded drive is a zero-order hold (each value until the next sample): its running
-    # integral at the sample instants, so a step takes the drive's exact mean over its span
-    # even when the steps do not line up with the samples (release between two samples).
-    held = {i: _zoh_integral_at_samples(runs[i]) for i in varying}
-
-    def mean_force(step_start: float) -> np.ndarray:
-        f = const_force.copy()
-        for i in varying:
-            r = runs[i]
-            a = step_start + r.t_release + delay
-            f[:, i] += (_zoh_integral(r, held[i], a + h) - _zoh_integral(r, held[i], a)) / h
-        return f
+    # The recorded drive is a zero-order hold (each value until the next sample): each step
+    # takes its exact mean over the step's span (from its running integral at the sample
+    # instants), even when the steps do not line up with the samples (release between two
+    # samples). All steps' means at once, shape (n_steps - 1, S, R): no per-step lookup.
+    step_force = np.broadcast_to(const_force, (n_steps - 1, n_sets, n_runs)).copy()
+    step_start = np.arange(n_steps - 1) * h
+    for i in varying:
+        r = runs[i]
+        cumulative = _zoh_integral_at_samples(r)
+        a = (step_start + r.t_release)[:, None] + delay[None, :]
+        step_force[:, :, i] += (
+            _zoh_integral(r, cumulative, a + h) - _zoh_integral(r, cumulative, a)
+        ) / h
 
     inv_inertia = 1.0 / inertia
 
@@ -239,22 +240,17 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     vs = np.zeros((n_steps, n_sets, n_runs))
     x = np.zeros((n_sets, n_runs))
     v = np.zeros((n_sets, n_runs))
-    half = 0.5 * h
+    half, sixth_h2, sixth_h = 0.5 * h, h * h / 6.0, h / 6.0
     for k in range(1, n_steps):
-        t0 = (k - 1) * h
-        if varying:
-            # the recorded drive is a zero-order hold between samples: its mean over the step
-            f0 = fh = f1 = mean_force(t0)
-        else:
-            f0 = fh = f1 = const_force
-        a1 = accel(x, v, f0)
+        f = step_force[k - 1]  # held over the whole step: one force for the four stages
+        a1 = accel(x, v, f)
         v2 = v + half * a1  # each stage's velocity, computed once (also its next position)
-        a2 = accel(x + half * v, v2, fh)
+        a2 = accel(x + half * v, v2, f)
         v3 = v + half * a2
-        a3 = accel(x + half * v2, v3, fh)
-        a4 = accel(x + h * v3, v + h * a3, f1)
-        x = x + h * v + h * h / 6.0 * (a1 + a2 + a3)
-        v = v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+        a3 = accel(x + half * v2, v3, f)
+        a4 = accel(x + h * v3, v + h * a3, f)
+        x = x + h * v + sixth_h2 * (a1 + a2 + a3)
+        v = v + sixth_h * (a1 + 2 * a2 + 2 * a3 + a4)
         xs[k], vs[k] = x, v
     out = []
     for i, r in enumerate(runs):
