@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import repeat
 
 import numpy as np
 
@@ -224,7 +225,9 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     # takes its exact mean over the step's span (from its running integral at the sample
     # instants), even when the steps do not line up with the samples (release between two
     # samples). All steps' means at once, shape (n_steps - 1, S, R): no per-step lookup.
-    step_force = np.broadcast_to(const_force, (n_steps - 1, n_sets, n_runs)).copy()
+    step_force = np.broadcast_to(const_force, (n_steps - 1, n_sets, n_runs))
+    if varying:
+        step_force = step_force.copy()
     step_start = np.arange(n_steps - 1) * h
     for i in varying:
         r = runs[i]
@@ -255,8 +258,9 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     x = np.zeros((n_sets, n_runs))
     v = np.zeros((n_sets, n_runs))
     half, sixth_h2, sixth_h = 0.5 * h, h * h / 6.0, h / 6.0
-    for k in range(1, n_steps):
-        f = step_force[k - 1]  # held over the whole step: one force for the four stages
+    # constant drives only: the one force array, not a row of a broadcast view per step
+    held_forces = step_force if varying else repeat(const_force, n_steps - 1)
+    for k, f in enumerate(held_forces, start=1):  # f held over the step's four stages
         a1 = accel(x, v, f)
         v2 = v + half * a1  # each stage's velocity, computed once (also its next position)
         a2 = accel(x + half * v, v2, f)
