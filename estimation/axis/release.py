@@ -5,6 +5,7 @@ beside it)."""
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -44,6 +45,7 @@ def fit_release(run: RunData) -> RunData:
     if not np.all(np.isfinite(first.values)):
         return run
 
+    @cache  # the search's best instant is fitted again for the profile below: once is enough
     def rmse(instant: float) -> float:
         fit = fit_output_error([replace(base, t_release=instant)], start=first.values)
         return float(fit.rmse) if np.isfinite(fit.rmse) else np.inf

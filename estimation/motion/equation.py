@@ -64,9 +64,9 @@ def acceleration(
         net = net + c.value * c.term.phi(x, v)
     if held is None:
         return net * inv_inertia
-    moving = v != 0.0
-    direction = np.where(moving, np.sign(v), np.sign(net))
-    stuck = ~moving & (np.abs(net) <= held)
+    still = v == 0.0
+    direction = np.sign(np.where(still, net, v))
+    stuck = still & (np.abs(net) <= held)
     return np.where(stuck, 0.0, (net - held * direction) * inv_inertia)
 
 
