@@ -33,6 +33,7 @@ from daq.operator import OperatorAct, PromptOperator
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from estimation.numbers import finite_or_none
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -44,13 +45,6 @@ SWITCH_INTERVAL_S = 0.0005
 
 class RigUnavailable(RuntimeError):
     """The rig service is not running (not started, failed to open, or stopped)."""
-
-
-def finite_or_none(value: float | None) -> float | None:
-    """JSON has no NaN: unread or non-finite values become ``None``."""
-    if value is None or not math.isfinite(value):
-        return None
-    return float(value)
 
 
 class RigService:

@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2
 
+from estimation.numbers import finite_or_none
+
 COEFFICIENTS: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
 DAMPING = ("linear_damping", "quadratic_damping")
 COMBINED = "damping_at_speed"
@@ -47,14 +49,6 @@ FACTOR_P_MIN = 0.01
 FACTOR_SIGMAS = 3.0
 #: Ratio scatter about k, as a share of |k − 1|, below which k carries the disagreement.
 DOMINANT_SHARE = 0.25
-
-
-def finite_or_none(x: float | None) -> float | None:
-    """``x`` as a float, None when it is None or not finite (JSON has no NaN)."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def verdict(z: float) -> str:

@@ -13,6 +13,7 @@ from estimation.axis.reverse import ReverseTest
 from estimation.axis.search import SearchStep
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
+from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import Whiteness
 
 SCHEMA_VERSION = 1
@@ -27,7 +28,7 @@ class Estimate:
 
     def to_json(self) -> dict[str, float | None]:
         """{value, std} with non-finite numbers as null."""
-        return {"value": _num(self.value), "std": _num(self.std)}
+        return {"value": finite_or_none(self.value), "std": finite_or_none(self.std)}
 
 
 @dataclass(frozen=True)
@@ -43,8 +44,8 @@ class EffectEstimate:
         """{name, value, std, unit}."""
         return {
             "name": self.name,
-            "value": _num(self.value),
-            "std": _num(self.std),
+            "value": finite_or_none(self.value),
+            "std": finite_or_none(self.std),
             "unit": self.unit,
         }
 
@@ -111,36 +112,42 @@ class EstimationResult:
             "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
             "effects": [e.to_json() for e in self.effects],
             "ambiguous": [list(group) for group in self.ambiguous],
-            "rmse_before": _num(self.rmse_before),
-            "rmse_after": _num(self.rmse_after),
-            "rmse_per_run_before": {k: _num(v) for k, v in self.rmse_per_run_before.items()},
-            "rmse_per_run_after": {k: _num(v) for k, v in self.rmse_per_run_after.items()},
+            "rmse_before": finite_or_none(self.rmse_before),
+            "rmse_after": finite_or_none(self.rmse_after),
+            "rmse_per_run_before": {
+                k: finite_or_none(v) for k, v in self.rmse_per_run_before.items()
+            },
+            "rmse_per_run_after": {
+                k: finite_or_none(v) for k, v in self.rmse_per_run_after.items()
+            },
             "correlation": {
                 "names": list(self.correlation_names),
-                "matrix": [[_num(x) for x in row] for row in np.asarray(self.correlation)],
+                "matrix": [
+                    [finite_or_none(x) for x in row] for row in np.asarray(self.correlation)
+                ],
             },
             "warnings": list(self.warnings),
             "advice": list(self.advice),
             "reverse_test": self.reverse_test.to_json() if self.reverse_test else None,
             "diagnostics": {
-                "ljung_box_before": _white(self.whiteness_before),
-                "ljung_box_after": _white(self.whiteness_after),
+                "ljung_box_before": whiteness_json(self.whiteness_before),
+                "ljung_box_after": whiteness_json(self.whiteness_after),
                 "force_rmse_per_run_before": {
-                    k: _num(v) for k, v in self.force_rmse_per_run_before.items()
+                    k: finite_or_none(v) for k, v in self.force_rmse_per_run_before.items()
                 },
                 "force_rmse_per_run_after": {
-                    k: _num(v) for k, v in self.force_rmse_per_run_after.items()
+                    k: finite_or_none(v) for k, v in self.force_rmse_per_run_after.items()
                 },
                 "residual_correlation_before": {
-                    k: _num(v) for k, v in self.residual_correlations.items()
+                    k: finite_or_none(v) for k, v in self.residual_correlations.items()
                 },
             },
             "evidence": {
-                "bic_before": _num(self.fit_before.bic) if self.fit_before else None,
-                "bic_after": _num(self.fit_after.bic) if self.fit_after else None,
-                "cv_rmse_before": _num(self.cv_before),
-                "cv_rmse_after": _num(self.cv_after),
-                "steps": [_step(s) for s in self.steps],
+                "bic_before": finite_or_none(self.fit_before.bic) if self.fit_before else None,
+                "bic_after": finite_or_none(self.fit_after.bic) if self.fit_after else None,
+                "cv_rmse_before": finite_or_none(self.cv_before),
+                "cv_rmse_after": finite_or_none(self.cv_after),
+                "steps": [step_json(s) for s in self.steps],
             },
             "bootstrap": _boot(self.bootstrap),
             "uncertainty": _uncertainty(self.uncertainty),
@@ -150,26 +157,25 @@ class EstimationResult:
         return doc
 
 
-def _num(x: float | None) -> float | None:
-    if x is None:
-        return None
-    x = float(x)
-    return x if np.isfinite(x) else None
+def whiteness_json(w: Whiteness) -> dict[str, Any]:
+    """A Ljung–Box result as the result document writes it (q, lags, p-value)."""
+    return {
+        "q": finite_or_none(w.q_statistic),
+        "lags": w.lags,
+        "p_value": finite_or_none(w.p_value),
+    }
 
 
-def _white(w: Whiteness) -> dict[str, Any]:
-    return {"q": _num(w.q_statistic), "lags": w.lags, "p_value": _num(w.p_value)}
-
-
-def _step(s: SearchStep) -> dict[str, Any]:
+def step_json(s: SearchStep) -> dict[str, Any]:
+    """One effect-search step as the result document writes it."""
     return {
         "round": s.round,
         "effect": s.effect,
-        "delta_bic": _num(s.delta_bic),
-        "cv_rmse_before": _num(s.cv_before),
-        "cv_rmse_after": _num(s.cv_after),
-        "ljung_box_q_before": _num(s.ljung_box_before),
-        "ljung_box_q_after": _num(s.ljung_box_after),
+        "delta_bic": finite_or_none(s.delta_bic),
+        "cv_rmse_before": finite_or_none(s.cv_before),
+        "cv_rmse_after": finite_or_none(s.cv_after),
+        "ljung_box_q_before": finite_or_none(s.ljung_box_before),
+        "ljung_box_q_after": finite_or_none(s.ljung_box_after),
         "accepted": s.accepted,
         "reason": s.reason,
     }
@@ -181,9 +187,9 @@ def _boot(b: Bootstrap | None) -> dict[str, Any] | None:
     return {
         "requested": b.requested,
         "used": b.used,
-        "std": {k: _num(v) for k, v in b.std.items()},
-        "percentile_2_5": {k: _num(v) for k, v in b.low.items()},
-        "percentile_97_5": {k: _num(v) for k, v in b.high.items()},
+        "std": {k: finite_or_none(v) for k, v in b.std.items()},
+        "percentile_2_5": {k: finite_or_none(v) for k, v in b.low.items()},
+        "percentile_97_5": {k: finite_or_none(v) for k, v in b.high.items()},
     }
 
 
@@ -195,10 +201,10 @@ def _uncertainty(u: DriveUncertainty | None) -> dict[str, Any] | None:
         "calibration_draws": u.draws,
         "parameters": {
             n: {
-                "std_fit": _num(u.std_fit[n]),
-                "std_calibration": _num(u.std_calibration[n]),
-                "std_release_timing": _num(u.std_release_timing.get(n, 0.0)),
-                "std_total": _num(total[n]),
+                "std_fit": finite_or_none(u.std_fit[n]),
+                "std_calibration": finite_or_none(u.std_calibration[n]),
+                "std_release_timing": finite_or_none(u.std_release_timing.get(n, 0.0)),
+                "std_total": finite_or_none(total[n]),
             }
             for n in u.std_fit
         },

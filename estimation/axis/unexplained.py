@@ -20,6 +20,7 @@ import numpy as np
 from estimation.axis.force_residual import force_noise_floor, force_residuals
 from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import FitResult
+from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import ljung_box
 
 WHITE_P = 1e-3  # Ljung–Box p below this: the residual is not white
@@ -93,25 +94,21 @@ class Unexplained:
         return {
             "structured": self.structured,
             "coefficients_possibly_biased": self.structured,
-            "ljung_box_p": _num(self.ljung_box_p),
-            "force_rms": _num(self.force_rms),
-            "noise_floor": _num(self.noise_floor),
-            "ratio_to_noise_floor": _num(self.ratio),
-            "correlations": {k: _num(v) for k, v in self.correlations.items()},
+            "ljung_box_p": finite_or_none(self.ljung_box_p),
+            "force_rms": finite_or_none(self.force_rms),
+            "noise_floor": finite_or_none(self.noise_floor),
+            "ratio_to_noise_floor": finite_or_none(self.ratio),
+            "correlations": {k: finite_or_none(v) for k, v in self.correlations.items()},
             "strongest": self.strongest,
             "period": None
             if self.period is None
             else {
                 "domain": self.period.domain,
-                "value": _num(self.period.value),
+                "value": finite_or_none(self.period.value),
                 "unit": self.period.unit,
-                "share": _num(self.period.share),
+                "share": finite_or_none(self.period.share),
             },
         }
-
-
-def _num(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unexplained:

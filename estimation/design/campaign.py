@@ -17,6 +17,7 @@ from typing import Any
 
 from estimation.design.envelope import Candidate, RigEnvelope
 from estimation.design.planner import AxisState, Choice, Decision, decide, state_from_result
+from estimation.numbers import finite_or_none
 
 
 @dataclass(frozen=True)
@@ -140,4 +141,6 @@ class Campaign:
 
 
 def _finite(x: float) -> float | None:
-    return None if x != x or x in (float("inf"), float("-inf")) else round(float(x), 4)
+    """``x`` to 4 decimals for the trail; None when not finite."""
+    value = finite_or_none(x)
+    return None if value is None else round(value, 4)

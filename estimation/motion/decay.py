@@ -25,6 +25,7 @@ from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
+from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 
 WHITE_P = 1e-3  # Ljung–Box p below this: decisively not white (10 lags per record)
@@ -49,7 +50,11 @@ class Coefficient:
 
     def to_json(self) -> dict[str, Any]:
         """{value, std, unit}; a σ that is not known is null."""
-        return {"value": _num(self.value), "std": _num(self.std), "unit": self.unit}
+        return {
+            "value": finite_or_none(self.value),
+            "std": finite_or_none(self.std),
+            "unit": self.unit,
+        }
 
 
 @dataclass(frozen=True)
@@ -91,30 +96,26 @@ class DecayResult:
             "alternatives": {
                 rival: {
                     "coefficients": {k: c.to_json() for k, c in coeffs.items()},
-                    "delta_bic": _num(delta),
+                    "delta_bic": finite_or_none(delta),
                 }
                 for rival, (coeffs, delta) in self.alternatives.items()
             },
             "not_identified": list(self.not_identified),
-            "rmse_before": _num(self.rmse_before),
-            "rmse_after": _num(self.rmse_after),
-            "noise": _num(self.noise),
+            "rmse_before": finite_or_none(self.rmse_before),
+            "rmse_after": finite_or_none(self.rmse_after),
+            "noise": finite_or_none(self.noise),
             "ljung_box": {
-                "q": _num(self.whiteness.q_statistic),
+                "q": finite_or_none(self.whiteness.q_statistic),
                 "lags": self.whiteness.lags,
-                "p_value": _num(self.whiteness.p_value),
+                "p_value": finite_or_none(self.whiteness.p_value),
             },
             "coefficients_possibly_biased": self.possibly_biased,
-            "natural_period_s": _num(self.natural_period_s),
+            "natural_period_s": finite_or_none(self.natural_period_s),
             "warnings": list(self.warnings),
             "evidence": [s.to_json() for s in self.steps],
-            "equilibrium": {k: _num(v) for k, v in self.equilibrium.items()},
-            "release_time_s": {k: _num(v) for k, v in self.release_time_s.items()},
+            "equilibrium": {k: finite_or_none(v) for k, v in self.equilibrium.items()},
+            "release_time_s": {k: finite_or_none(v) for k, v in self.release_time_s.items()},
         }
-
-
-def _num(x: float | None) -> float | None:
-    return None if x is None or not np.isfinite(x) else float(x)
 
 
 def release_of(record: Record) -> float:

@@ -48,6 +48,7 @@ from estimation.errors import EstimationFailed
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitivities
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
+from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import position_noise
 from estimation.stats.selection import BIC_THRESHOLD, term_verdict
 
@@ -73,16 +74,12 @@ class Step:
         return {
             "term": self.term,
             "round": self.round,
-            "delta_bic": _num(self.delta_bic),
-            "explained_rms": _num(self.explained_rms),
-            "noise": _num(self.noise),
+            "delta_bic": finite_or_none(self.delta_bic),
+            "explained_rms": finite_or_none(self.explained_rms),
+            "noise": finite_or_none(self.noise),
             "accepted": self.accepted,
             "reason": self.reason,
         }
-
-
-def _num(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def _extend(fit: MotionFit, term_start: float) -> np.ndarray:

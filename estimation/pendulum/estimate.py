@@ -16,9 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from estimation.axis.result import EffectEstimate, Estimate, _num, _step, _white
+from estimation.axis.result import EffectEstimate, Estimate, step_json, whiteness_json
 from estimation.axis.search import SearchStep
 from estimation.data.runs import validate_run_set
+from estimation.numbers import finite_or_none
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
 from estimation.pendulum.decay import Decay, Peaks, find_peaks, prepare_decay
 from estimation.pendulum.fit import (
@@ -104,27 +105,31 @@ class PendulumResult:
                 rid: p.to_json() | {"release_time_s": start.get(rid)}
                 for rid, p in self.peaks.items()
             },
-            "rmse_before": _num(self.rmse_before),
-            "rmse_after": _num(self.rmse_after),
-            "rmse_per_run_before": {k: _num(v) for k, v in self.rmse_per_run_before.items()},
-            "rmse_per_run_after": {k: _num(v) for k, v in self.rmse_per_run_after.items()},
+            "rmse_before": finite_or_none(self.rmse_before),
+            "rmse_after": finite_or_none(self.rmse_after),
+            "rmse_per_run_before": {
+                k: finite_or_none(v) for k, v in self.rmse_per_run_before.items()
+            },
+            "rmse_per_run_after": {
+                k: finite_or_none(v) for k, v in self.rmse_per_run_after.items()
+            },
             "warnings": list(self.warnings),
             "advice": list(self.advice),
             "geometry": self.geometry,
             "diagnostics": {
-                "ljung_box_before": _white(self.whiteness_before),
-                "ljung_box_after": _white(self.whiteness_after),
+                "ljung_box_before": whiteness_json(self.whiteness_before),
+                "ljung_box_after": whiteness_json(self.whiteness_after),
             },
             "evidence": {
-                "bic_before": _num(self.fit_before.bic),
-                "bic_after": _num(self.fit_after.bic),
-                "steps": [_step(s) for s in self.steps],
+                "bic_before": finite_or_none(self.fit_before.bic),
+                "bic_after": finite_or_none(self.fit_after.bic),
+                "steps": [step_json(s) for s in self.steps],
             },
             "nuisance": {
                 rid: {
-                    "initial_angle": _num(a),
-                    "initial_rate": _num(r),
-                    "offset": _num(o),
+                    "initial_angle": finite_or_none(a),
+                    "initial_rate": finite_or_none(r),
+                    "offset": finite_or_none(o),
                 }
                 for rid, a, r, o in zip(
                     self.runs,

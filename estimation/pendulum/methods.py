@@ -22,7 +22,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from estimation.axis.result import Estimate, _num
+from estimation.axis.result import Estimate
+from estimation.numbers import finite_or_none
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.decay import Decay, Peaks, find_peaks
 from estimation.pendulum.sim import simulate, step_size
@@ -60,9 +61,9 @@ class MethodEstimate:
             ),
             "total_inertia": self.total_inertia.to_json(),
             "total_damping": self.total_damping.to_json(),
-            "signal": {k: _num(v) for k, v in self.signal.items()},
-            "mse": _num(self.mse),
-            "rmse": _num(self.rmse),
+            "signal": {k: finite_or_none(v) for k, v in self.signal.items()},
+            "mse": finite_or_none(self.mse),
+            "rmse": finite_or_none(self.rmse),
             "note": self.note,
             **self.extra,
         }

@@ -41,6 +41,7 @@ from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.result import EstimationResult
 from estimation.data.runs import RunData
 from estimation.motion.terms import LIBRARY
+from estimation.numbers import finite_or_none
 from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
 from estimation.uncertainty.sources import (
     SOURCES,
@@ -79,12 +80,12 @@ class BudgetRow:
             "source": self.source,
             "type": self.kind,
             "unit": self.unit,
-            "standard_uncertainty": _num(self.standard_uncertainty),
-            "sensitivity": _num(self.sensitivity),
-            "contribution": _num(self.contribution),
-            "dof": None if math.isinf(self.dof) else _num(self.dof),
+            "standard_uncertainty": finite_or_none(self.standard_uncertainty),
+            "sensitivity": finite_or_none(self.sensitivity),
+            "contribution": finite_or_none(self.contribution),
+            "dof": None if math.isinf(self.dof) else finite_or_none(self.dof),
             "combined": self.combined,
-            "share": _num(self.share),
+            "share": finite_or_none(self.share),
             "note": self.note,
         }
 
@@ -111,11 +112,11 @@ class CoefficientBudget:
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "value": _num(self.value),
-            "combined_standard_uncertainty": _num(self.combined_std),
-            "effective_dof": None if math.isinf(self.dof) else _num(self.dof),
-            "coverage_factor": _num(self.k),
-            "expanded_uncertainty": _num(self.expanded),
+            "value": finite_or_none(self.value),
+            "combined_standard_uncertainty": finite_or_none(self.combined_std),
+            "effective_dof": None if math.isinf(self.dof) else finite_or_none(self.dof),
+            "coverage_factor": finite_or_none(self.k),
+            "expanded_uncertainty": finite_or_none(self.expanded),
             "coverage": COVERAGE,
             "reported": f"{self.reported_value} ± {self.reported_expanded}",
             "dominant_source": self.dominant,
@@ -142,13 +143,6 @@ class Budget:
             "notes": list(self.notes),
             "coefficients": {k: b.to_json() for k, b in self.coefficients.items()},
         }
-
-
-def _num(x: float | None) -> float | None:
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def effective_dof(contributions: Sequence[float], dofs: Sequence[float]) -> float:

@@ -32,6 +32,7 @@ from scipy import special, stats
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.data.runs import RunData
+from estimation.numbers import finite_or_none
 
 LOAD_TOLERANCE = 0.01
 CHAUVENET_LIMIT = 0.5
@@ -67,17 +68,14 @@ class Condition:
         return float(stats.t.ppf(0.975, self.n - 1) * self.std / math.sqrt(self.n))
 
     def to_json(self) -> dict[str, Any]:
-        def num(x: float) -> float | None:
-            return x if math.isfinite(x) else None
-
         return {
             "condition": self.label,
             "runs": list(self.run_ids),
             "n": self.n,
             "terminal_speeds": list(self.speeds),
-            "mean": num(self.mean),
-            "std": num(self.std),
-            "repeatability_95": num(self.half_width),
+            "mean": finite_or_none(self.mean),
+            "std": finite_or_none(self.std),
+            "repeatability_95": finite_or_none(self.half_width),
             "outliers": list(self.outliers),
         }
 

@@ -7,8 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-import numpy as np
-
+from estimation.numbers import finite_or_none
 from estimation.vehicle.responses import Plan
 
 #: Weight stability: each response's weight is multiplied and divided by this.
@@ -127,14 +126,6 @@ class SensitivityReport:
             "weight_stability": list(self.weight_stability),
             "identifiability": self.identifiability,
         }
-
-
-def finite_or_none(x: float | None) -> float | None:
-    """``x`` as a float, None when it is None or not finite (JSON has no NaN)."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if np.isfinite(x) else None
 
 
 def weight_stability(
