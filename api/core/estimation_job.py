@@ -93,8 +93,8 @@ def run_estimation(
     if axis:
         runs, repeats = screen_repeats(runs, exclude_outliers)
     subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
+    envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
     with fitting(subject):
-        envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
         result = estimator.fit(runs, method, search_effects, envelope)
         data = result.to_json()
     if report_dir is not None and estimator.report is not None:
