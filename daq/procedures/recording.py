@@ -122,9 +122,10 @@ class RecordedRun:
         ]
         if self._thruster_telemetry and s.telemetry is not None:
             channel_names += s.telemetry.names
-        # Samples kept aside while storage had failed go back first (if it takes them now).
-        await asyncio.to_thread(self.store.replay_spills)
         try:
+            # Samples kept aside while storage had failed go back first; a database that
+            # still cannot take them is still failing: no run is started on it.
+            await asyncio.to_thread(self.store.replay_spills, database_errors=True)
             run_id: str = await asyncio.to_thread(
                 self.store.create_run,
                 kind=self.kind,

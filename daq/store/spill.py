@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
+import sqlalchemy as sa
+
 from daq.sample import Quality, Sample
 from daq.store.faults import one_line
 from daq.store.records import RunNotFound
@@ -177,22 +179,31 @@ async def write_back_later(store: Store, path: Path, *, max_delay_s: float = 60.
         delay = min(2 * delay, max_delay_s)
 
 
-def replay_spills(store: Store, directory: Path | None = None) -> list[str]:
+def replay_spills(
+    store: Store, directory: Path | None = None, *, database_errors: bool = False
+) -> list[str]:
     """Write back every side file in ``directory`` whose run is in ``store``; returns their
     run ids. Files of other databases, of live recorders, or that still cannot be written
-    stay for later (logged, never raised)."""
+    stay for later (logged). ``database_errors``: re-raise the database's own failure to
+    take them (OperationalError: full, unreachable; after trying every file): the storage
+    still fails."""
     directory = Path(directory) if directory is not None else store.spill_dir
     try:
         paths = sorted(directory.glob(f"*{SUFFIX}"))
     except OSError:
         return []
     replayed = []
+    failed: sa.exc.OperationalError | None = None
     for path in paths:
         try:
             if _replay_one(store, path):
                 replayed.append(path.stem)
         except Exception as exc:
             log.warning("spill file %s not written back yet: %s", path, one_line(exc))
+            if isinstance(exc, sa.exc.OperationalError):
+                failed = exc
+    if database_errors and failed is not None:
+        raise failed
     return replayed
 
 

@@ -83,11 +83,11 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
         self.pending_ends = PendingEnds()
         self.replay_spills()
 
-    def replay_spills(self) -> list[str]:
+    def replay_spills(self, *, database_errors: bool = False) -> list[str]:
         """Write back the spill files of this database's runs (see :mod:`daq.store.spill`);
-        returns the ids of the runs written back. Never raises: what still cannot be
-        written stays for the next attempt."""
-        return replay_spills(self)
+        returns the ids of the runs written back. What still cannot be written stays for
+        the next attempt; ``database_errors`` re-raises the database's failure to take it."""
+        return replay_spills(self, database_errors=database_errors)
 
     # -- runs -------------------------------------------------------------------------
     def _insert_run(
