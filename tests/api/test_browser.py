@@ -15,6 +15,8 @@ import xarray as xr
 from tests.api.conftest import chromium_page, csp_blocked
 from tests.serve import stop_service, wait_for_service
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 TOKEN = "browser-test-token"
 ROOT = Path(__file__).resolve().parents[2]
 

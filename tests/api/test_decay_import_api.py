@@ -57,6 +57,7 @@ def test_the_http_import_names_a_bad_decay_field(client, query, detail):
     assert r.json()["detail"].startswith(detail), r.json()
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_the_estimation_page_lists_and_fits_a_decay(service, client, tmp_path):
     """The Estimation page offers every kind with an estimator (GET /api/kinds), a decay
     among them, and shows its coefficients with the units the result carries."""

@@ -40,6 +40,7 @@ def _offline(page, base: str) -> list[str]:
     return blocked
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_swagger_ui_renders_with_the_network_blocked(docs_server):
     with chromium_page() as page:
         blocked = _offline(page, docs_server)
@@ -50,6 +51,7 @@ def test_swagger_ui_renders_with_the_network_blocked(docs_server):
         assert blocked == []  # nothing was even asked of another host
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_redoc_renders_with_the_network_blocked(docs_server):
     with chromium_page() as page:
         blocked = _offline(page, docs_server)

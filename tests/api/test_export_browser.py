@@ -4,11 +4,14 @@ MATLAB entry downloads a ``.mat`` that scipy reads back with the run's units and
 
 from __future__ import annotations
 
+import pytest
 from scipy.io import loadmat
 
 from daq.export_formats import FORMATS
 from tests.api.conftest import csp_blocked, signed_in_page
 from tests.store.test_export_formats import recorded_tow
+
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
 
 def test_export_menu_lists_every_format_and_downloads_mat(service, client, tmp_path):

@@ -16,9 +16,12 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import httpx
+import pytest
 
 from tests.serve import stop_service, wait_for_service
 from tests.waiting import read_until
+
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
 ROOT = Path(__file__).resolve().parents[2]
 TOKEN = "queue-test-token"

@@ -4,6 +4,7 @@ accepts) and its import fields; ``rig import`` offers the same kinds and fields.
 
 from __future__ import annotations
 
+import pytest
 from click.testing import CliRunner
 
 from api.cli.imports import import_
@@ -48,6 +49,7 @@ def test_rig_import_offers_the_registrys_kinds_and_their_fields():
     assert "--dof [surge|sway|heave|roll|pitch|yaw]" in text and "--stiffness" in text
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(service, client):
     """One tab and one form per kind the rig runs; every field of the schema (but the
     metadata block's) is an input of that name, labelled by its title; a new field of a

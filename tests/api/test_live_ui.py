@@ -18,6 +18,8 @@ from tests.api.conftest import chromium_page
 from tests.procedures.test_pendulum import fast_rig_file
 from tests.serve import stop_service, wait_healthy
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 ROOT = Path(__file__).resolve().parents[2]
 PENDULUM = {"start_angle_rad": "0.3", "stop_amplitude_rad": "0.12", "max_time_s": "15"}
 # The plotted values of one channel (its key is the trace's `meta`).

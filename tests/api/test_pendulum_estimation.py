@@ -71,6 +71,7 @@ def test_methods_are_checked_per_kind_and_kinds_not_mixed(client, runs):
         assert text in r.json()["detail"]
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_estimation_page_shows_a_pendulum_result(client, service, runs):
     from playwright.sync_api import expect
 

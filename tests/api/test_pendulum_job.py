@@ -45,6 +45,7 @@ def test_pendulum_job_end_to_end_stores_a_completed_decay(client):
     assert status["lock_holder"] is None
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_pendulum_tab_starts_a_decay_from_the_rig_page(client, service):
     from playwright.sync_api import expect
 

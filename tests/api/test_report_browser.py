@@ -9,7 +9,8 @@ import pytest
 
 from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page
 
-pytestmark = pytest.mark.simtime  # its two tows on the simulated rig (paced service)
+# a browser page: the slow lane; its two tows on the simulated rig (paced service)
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
 def test_estimation_page_shows_full_size_report_figures_with_units(client, service):

@@ -91,6 +91,7 @@ def test_the_live_stream_carries_the_rigs_two_channels_and_no_thrusters(live_url
     assert all(not s.get("thrusters") for s in samples)
 
 
+@pytest.mark.slow  # a browser page: the slow lane
 def test_the_page_offers_only_what_the_rig_can_do_and_says_why(live_url):
     from playwright.sync_api import expect
 

@@ -33,6 +33,8 @@ from tests.api.conftest import AUTH, FINAL, TOKEN, wait_job
 from tests.procedures.conftest import hardware_rig_file
 from tests.waiting import read_until
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 ROOT = Path(__file__).resolve().parents[2]
 RIG = str(Path(sys.executable).parent / "rig")  # the installed console script
 TOW = {"force_n": 24.5, "max_time_s": 1.5, "baseline_s": 0.3}

@@ -13,6 +13,8 @@ from daq.store import Store
 from tests.api.conftest import TOKEN, chromium_page
 from tests.store.helpers import new_run
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 
 @pytest.fixture(scope="module")
 def stocked(service, live_url) -> str:

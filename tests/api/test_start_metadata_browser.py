@@ -7,7 +7,8 @@ import pytest
 
 from tests.api.conftest import AUTH, TOKEN, chromium_page
 
-pytestmark = pytest.mark.simtime  # the tow it starts, on the simulated rig (paced service)
+# a browser page: the slow lane; the tow it starts on the simulated rig (paced service)
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
 def test_a_tow_started_from_the_page_carries_the_run_metadata(live_url):

@@ -9,11 +9,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from api.cli.main import main
 from api.http.auth import load_or_create_token, token_path
 from tests.serve import stop_service, wait_healthy
+
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -21,6 +21,8 @@ from pyModbusTCP.server import DataBank, ModbusServer
 from daq.store import Store
 from tests.cli import answer_prompts, printed_json
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 ROOT = Path(__file__).resolve().parents[2]
 RIG = [sys.executable, "-m", "api.cli.main"]
 

@@ -20,6 +20,8 @@ from daq.store import Store
 from tests.cli import run_in_process
 from tests.waiting import wait_until
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 RIG = [sys.executable, "-m", "api.cli.main"]
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -13,6 +13,8 @@ from daq.store import Store
 from tests.estimation.synth import SURGE_TRUTH, Physics, weight_run
 from tests.procedures.test_cli import rig
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 
 def _import_tows(store: Store, tmp_path, forces, seed: int) -> list[str]:
     ids = []

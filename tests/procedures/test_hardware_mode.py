@@ -14,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from pymodbus.client import ModbusTcpClient
 
 from daq.config import load_rig
@@ -22,6 +23,8 @@ from daq.store import Store
 from tests.cli import answer_prompts, printed_json
 from tests.procedures.conftest import hardware_rig_file
 from tests.readings import good
+
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
 ROOT = Path(__file__).resolve().parents[2]
 RIG = [sys.executable, "-m", "api.cli.main"]

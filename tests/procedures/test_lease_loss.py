@@ -29,6 +29,8 @@ from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
 from tests.procedures.test_thruster_link_faults import OutputLog
 from tests.waiting import until
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 #: Longest time from the loss of the lock to zero thrust and the brake on (issue 19).
 SAFE_WITHIN_S = 0.5
 

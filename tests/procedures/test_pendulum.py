@@ -182,6 +182,7 @@ def test_a_sequence_can_hold_pendulum_steps(source):
         parse_sequence({"steps": [{"kind": "pendulum", "start_angle_rad": 0.9}]}, source.rig)
 
 
+@pytest.mark.slow  # `rig` subprocesses on the real stack: the slow lane
 def test_cli_runs_a_decay_and_refuses_bad_input(tmp_path):
     db = f"sqlite:///{tmp_path / 'rig.db'}"
     bad = rig("pendulum", "--angle", "0.9", db=db)

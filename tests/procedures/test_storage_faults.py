@@ -39,6 +39,8 @@ from tests.procedures.conftest import short_rail
 from tests.store.helpers import DbLimits, no_sql
 from tests.waiting import until
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 ROOT = Path(__file__).resolve().parents[2]
 TOW = [sys.executable, "-m", "api.cli.main", "tow", "--force", "2", "--max-time", "40"]
 STORAGE_REASON = "storage failed: SQLite: database or disk is full"

@@ -33,6 +33,8 @@ from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
 from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 ROOT = Path(__file__).resolve().parents[2]
 RIG = [sys.executable, "-m", "api.cli.main"]
 #: Longest time from the fault to zero thrust at the controller.

@@ -17,6 +17,8 @@ from tests.waiting import until
 from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 CHILD = Path(__file__).with_name("thruster_child.py")
 
 
