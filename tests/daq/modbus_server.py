@@ -34,8 +34,9 @@ class MapServer:
                 self.words[ch.kind][ch.address + i] = 0
         self.delay_s = 0.0
         self.fail_reads = False
-        #: The next this-many writes answer after 0.2 s (later than the client's timeout).
+        #: The next this-many writes answer ``slow_write_s`` late (after the client's timeout).
         self.slow_writes = 0
+        self.slow_write_s = 0.2
         #: Like a PLC scan: heartbeat +1 per 10 ms and plc_clock in ms, while True.
         self.heartbeat_running = True
         self.requests = 0
@@ -93,7 +94,7 @@ class MapServer:
             await asyncio.sleep(self.delay_s)  # fault knob: a PLC slow to answer
         if fc in (5, 6, 15, 16) and set_values is not None and self.slow_writes:
             self.slow_writes -= 1
-            await asyncio.sleep(0.2)  # fault knob: this reply later than the client's timeout
+            await asyncio.sleep(self.slow_write_s)  # fault knob: a reply after the timeout
         if fc in _READ_FC:
             if self.fail_reads:
                 return ExcCodes.DEVICE_FAILURE

@@ -197,6 +197,9 @@ async def test_a_write_whose_reply_is_late_is_sent_again(server, plc):
 
 async def test_a_write_that_never_gets_a_reply_in_time_fails_naming_its_attempts(server, plc):
     server.slow_writes = WRITE_ATTEMPTS
+    # No reply while the client tries: a late one taken for a later try's (a loaded host
+    # stretches the tries toward the 0.2 s default) would be a reply, not "never in time".
+    server.slow_write_s = 5.0
     with pytest.raises(
         DeviceError, match=rf"write of 'tow_release'.*\({WRITE_ATTEMPTS} attempts\)"
     ):

@@ -24,14 +24,14 @@ from daq.store import Store
 from tests.procedures.conftest import hardware_rig_file
 from tests.waiting import read_until
 
+pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+
 ROOT = Path(__file__).resolve().parents[2]
 
 HOLD = """
 import sys
 from daq.config import load_rig
 from daq.rig_lock import rig_lock
-
-pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 lock = rig_lock(sys.argv[1], load_rig(sys.argv[2]), "holder-child")
 lock.acquire()
 lock.set_activity("tow 24.5 N, run 3f2a9c1b")
