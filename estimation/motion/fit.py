@@ -230,7 +230,7 @@ def fit_motion(
             f"the {setup.dof} equation with {', '.join(names)}",
             "the simulated motion did not stay finite from any start",
         )
-    stats = honest_statistics(res, prob.jacobian(p), len(names))
+    stats = honest_statistics(res, prob.jacobian(p), len(names), prob.sizes)
     tol = 1e-6 * np.maximum(np.abs(p[: len(names)]), typical * 1e-3)
     at_bound = tuple(
         n
