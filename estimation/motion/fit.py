@@ -244,6 +244,7 @@ def fit_motion(
         names=names,
         values=g.copy(),
         std=stats.std,
+        std_white=stats.std_white,
         correlation=stats.correlation,
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         sse=stats.sse,

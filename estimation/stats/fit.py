@@ -16,6 +16,7 @@ class SolutionStatistics(TypedDict):
     """The fields of :class:`FitStatistics` a least-squares solution gives directly."""
 
     std: np.ndarray
+    std_white: np.ndarray
     correlation: np.ndarray
     sse: float
     n_samples: int
@@ -34,6 +35,7 @@ def solution_statistics(
     ident = honest_statistics(residuals, jacobian, n_global, record_sizes)
     return SolutionStatistics(
         std=ident.std,
+        std_white=ident.std_white,
         correlation=ident.correlation,
         sse=ident.sse,
         n_samples=ident.n_samples,
@@ -57,6 +59,9 @@ class FitStatistics:
     n_samples: int
     n_params: int
     at_bound: tuple[str, ...] = ()  # names whose value sits on a bound
+    #: σ̂²(JᵀJ)⁻¹ alone (white residual): the noise of the samples, which ``std`` never goes
+    #: below; None when the σ did not come from this fit's Jacobian
+    std_white: np.ndarray | None = None
 
     @property
     def bic(self) -> float:
