@@ -256,11 +256,11 @@ def test_clean_tows_claim_no_effect_in_98_percent_of_seeds(scale):
 #: the 50 seeds z = (θ̂ − θ)/σ has mean 0.09 and RMS 1.31 (41 of 50 inside 2σ), with the
 #: within-record serial-correlation σ (``estimation.stats.serial``) as with the white one.
 #: The position error is the encoder's quantization of one smooth motion, a deterministic
-#: function of the run's dither phase: the inertia's error from each run is 1.2–1.6× what
-#: white noise of Q/√12 gives, through correlation between the start and the steady part
-#: of the same run (seconds apart), while the residual left by the fit looks white (lag-1
-#: ρ ≈ −0.1): no estimate from the residual sees it. Strict: it fails the day the σ
-#: accounts for it, to be turned into a pass.
+#: function of the run's dither phase: the inertia's error from a run is 0.7–1.6× (1.32×
+#: over the four) what white noise of Q/√12 gives, through correlation between the start
+#: and the steady part of the same run (seconds apart), while the residual left by the fit
+#: looks white (lag-1 ρ ≈ −0.1): no estimate from the residual sees it (docs/estimation.md).
+#: Strict: it fails the day the σ accounts for it, to be turned into a pass.
 SIGMA_TOO_SMALL = pytest.mark.xfail(
     strict=True,
     reason="quantization of one smooth motion: error correlated across a run, residual white",
