@@ -2,7 +2,8 @@
 
 Minimises Σ_runs Σ_samples (x_meas − x0_run − X(t; θ))², θ = (M, K_L, K_Q, effects...),
 one position offset x0 per run as a nuisance parameter. Standard errors from
-σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p).
+``estimation.stats.fit.solution_statistics`` (never below σ̂²(JᵀJ)⁻¹, σ̂² = SSE/(n − p);
+larger when the residual is correlated within a run).
 """
 
 from __future__ import annotations
@@ -170,7 +171,7 @@ def fit_output_error(
     )
     params, ng = sol.x, prob.n_global
     res = prob.residual(params)
-    stats = solution_statistics(res, prob.jacobian(params), ng)
+    stats = solution_statistics(res, prob.jacobian(params), ng, prob.sizes)
     names = (*BASE_NAMES, *effects)
     tol = 1e-6 * np.maximum(np.abs(params[:ng]), 1.0)
     at_bound = tuple(

@@ -230,7 +230,7 @@ def fit_motion(
             f"the {setup.dof} equation with {', '.join(names)}",
             "the simulated motion did not stay finite from any start",
         )
-    stats = honest_statistics(res, prob.jacobian(p), len(names))
+    stats = honest_statistics(res, prob.jacobian(p), len(names), prob.sizes)
     tol = 1e-6 * np.maximum(np.abs(p[: len(names)]), typical * 1e-3)
     at_bound = tuple(
         n
@@ -244,6 +244,7 @@ def fit_motion(
         names=names,
         values=g.copy(),
         std=stats.std,
+        std_white=stats.std_white,
         correlation=stats.correlation,
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         sse=stats.sse,

@@ -7,7 +7,8 @@ initial state also absorbs an error in the release instant):
     (J_known + α·l²)·φ̈ = −k·sin φ − (β·l² + b)·φ̇ [− γ·l³·|φ̇|·φ̇] [− τ_c·sgn φ̇]
     φ_measured = φ + offset
 
-σ from σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p) (σ NaN: not identified). An effect is kept by the
+σ never below σ̂²(JᵀJ)⁻¹ (σ̂² = SSE/(n − p)), larger when the residual is correlated within
+a run (``estimation.stats.identify``; σ NaN: not identified). An effect is kept by the
 rules every record's search uses (``estimation.stats.selection.term_verdict``): identified,
 off its physical bound, ΔBIC < −10 and material against the noise floor (the residual it
 explains at least the position noise σ). The pendulum's former rules — its largest torque
@@ -224,7 +225,7 @@ def fit_output_error(
     )  # fmt: skip
     params, ng = sol.x, prob.ng
     res = prob.residual(params)
-    stats = solution_statistics(res, prob.jacobian(params), ng)
+    stats = solution_statistics(res, prob.jacobian(params), ng, prob.sizes)
     names = (*BASE_NAMES, *effects)
     at_bound = tuple(
         name

@@ -3,6 +3,7 @@ BIC, RMSE, values by name."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TypedDict
 
@@ -15,6 +16,7 @@ class SolutionStatistics(TypedDict):
     """The fields of :class:`FitStatistics` a least-squares solution gives directly."""
 
     std: np.ndarray
+    std_white: np.ndarray
     correlation: np.ndarray
     sse: float
     n_samples: int
@@ -22,16 +24,18 @@ class SolutionStatistics(TypedDict):
 
 
 def solution_statistics(
-    residuals: np.ndarray, jacobian: np.ndarray, n_global: int
+    residuals: np.ndarray, jacobian: np.ndarray, n_global: int, record_sizes: Sequence[int]
 ) -> SolutionStatistics:
     """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
-    from cov = σ̂²(JᵀJ)⁻¹ with σ̂² = SSE/(n − p), with SSE, n and p; ``residuals`` and
-    ``jacobian`` evaluated at the solution. A parameter along a direction the data cannot
-    determine gets σ = NaN (not identified, ``estimation.stats.identify``), never the
-    too-small σ of a pseudo-inverse that drops that direction."""
-    ident = honest_statistics(residuals, jacobian, n_global)
+    with SSE, n and p; ``residuals`` and ``jacobian`` evaluated at the solution, the records'
+    samples concatenated (``record_sizes`` their counts). σ is the larger of the white
+    σ̂²(JᵀJ)⁻¹ and the within-record serial-correlation sandwich; a parameter along a
+    direction the data cannot determine gets σ = NaN (not identified), never the too-small
+    σ of a pseudo-inverse that drops that direction (``estimation.stats.identify``)."""
+    ident = honest_statistics(residuals, jacobian, n_global, record_sizes)
     return SolutionStatistics(
         std=ident.std,
+        std_white=ident.std_white,
         correlation=ident.correlation,
         sse=ident.sse,
         n_samples=ident.n_samples,
@@ -55,6 +59,9 @@ class FitStatistics:
     n_samples: int
     n_params: int
     at_bound: tuple[str, ...] = ()  # names whose value sits on a bound
+    #: σ̂²(JᵀJ)⁻¹ alone (white residual): the noise of the samples, which ``std`` never goes
+    #: below; None when the σ did not come from this fit's Jacobian
+    std_white: np.ndarray | None = None
 
     @property
     def bic(self) -> float:

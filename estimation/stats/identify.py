@@ -1,20 +1,37 @@
-"""Standard errors that never hide a direction the data cannot determine.
+"""Standard errors that never hide a direction the data cannot determine, and never assume a
+residual whiter than it is.
 
-cov = σ̂²·(JᵀJ)⁻¹ with σ̂² = SSE/(n − p), computed on the column-scaled Jacobian J·D⁻¹
-(D = column norms) by its singular values s_k. A direction with s_k/s_max < ``RANK_TOL``
-is not determined by the data: a finite-difference Jacobian is only good to about 1e-6 of
-its largest column, so a smaller singular value cannot be told from that error. A
-pseudo-inverse would drop such a direction and give every parameter along it a σ that
-is far too small; here each parameter with more than ``NULL_LOADING`` of its unit vector in
-those directions is reported as **not identified** (σ = NaN, written as null), and the σ of
-the others (orthogonal to them) is exact.
+Two covariances of the estimate, both on the column-scaled Jacobian J·D⁻¹ (D = column norms)
+through its singular values s_k:
+
+    white:  cov_w = σ̂²·(JᵀJ)⁻¹,  σ̂² = SSE/(n − p)
+    serial: cov_s = n/(n − p)·(JᵀJ)⁻¹·S·(JᵀJ)⁻¹   (S: the scores' long-run covariance within
+            each record, ``estimation.stats.serial``)
+
+Each parameter's σ is the larger of the two: cov_s accounts for residuals correlated in time
+(an encoder's quantization of a smooth motion, structure no term explains), but its S is an
+estimate from the same residuals, biased low in finite samples (the Bartlett weights shrink
+the autocovariances and the fit has already absorbed the residual along J); where it comes
+out below cov_w the data do not show that the correlation really makes θ̂ more precise than
+white noise would, so the σ the data support is the white one. The correlation matrix is
+cov_s's (the σ then rescale it).
+
+A direction with s_k/s_max < ``RANK_TOL`` is not determined by the data: a finite-difference
+Jacobian is only good to about 1e-6 of its largest column, so a smaller singular value cannot
+be told from that error. A pseudo-inverse would drop such a direction and give every
+parameter along it a σ that is far too small; here each parameter with more than
+``NULL_LOADING`` of its unit vector in those directions is reported as **not identified**
+(σ = NaN, written as null), and the σ of the others (orthogonal to them) is exact.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from estimation.stats.serial import long_run_scores
 
 RANK_TOL = 1e-6
 NULL_LOADING = 0.01
@@ -23,7 +40,8 @@ NULL_LOADING = 0.01
 @dataclass(frozen=True)
 class Identified:
     """σ (NaN where not identified), correlation, and which of the first parameters the data
-    do not determine."""
+    do not determine; ``std_white`` is the white-residual σ the reported one never goes
+    below."""
 
     std: np.ndarray
     correlation: np.ndarray
@@ -31,27 +49,41 @@ class Identified:
     sse: float
     n_samples: int
     n_params: int
+    std_white: np.ndarray
 
 
-def honest_statistics(residuals: np.ndarray, jacobian: np.ndarray, n_global: int) -> Identified:
-    """σ and correlation of the first ``n_global`` parameters (module doc)."""
+def honest_statistics(
+    residuals: np.ndarray,
+    jacobian: np.ndarray,
+    n_global: int,
+    record_sizes: Sequence[int],
+) -> Identified:
+    """σ and correlation of the first ``n_global`` parameters (module doc); ``residuals``
+    and ``jacobian`` are the records' samples concatenated, ``record_sizes`` their counts."""
+    residuals = np.asarray(residuals, dtype=float)
     n, p = residuals.size, jacobian.shape[1]
     sse = float(residuals @ residuals)
     jac = np.nan_to_num(np.asarray(jacobian, dtype=float))
     norms = np.linalg.norm(jac, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
-    _, s, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    scaled = jac / norms
+    _, s, vt = np.linalg.svd(scaled, full_matrices=False)
     keep = s > RANK_TOL * (s[0] if s.size else 0.0)
     null = vt[~keep]
     loading = np.sqrt(np.sum(null**2, axis=0)) if null.size else np.zeros(p)
     lost = loading > NULL_LOADING
     inv = (vt[keep].T / s[keep] ** 2) @ vt[keep]
-    cov = sse / max(n - p, 1) * inv / np.outer(norms, norms)
+    unscale = np.outer(norms, norms)
+    cov_white = sse / max(n - p, 1) * inv / unscale
+    meat = long_run_scores(residuals, scaled, record_sizes)
+    cov_serial = n / max(n - p, 1) * (inv @ meat @ inv) / unscale
     g = n_global
-    std = np.sqrt(np.maximum(np.diag(cov)[:g], 0.0))
-    std = np.where(lost[:g], np.nan, std)
-    denom = np.outer(std, std)
-    ok = np.isfinite(denom) & (denom > 0)
-    corr = np.divide(cov[:g, :g], np.where(ok, denom, 1.0), out=np.eye(g), where=ok)
+    white = np.sqrt(np.maximum(np.diag(cov_white)[:g], 0.0))
+    serial = np.sqrt(np.maximum(np.diag(cov_serial)[:g], 0.0))
+    std = np.where(lost[:g], np.nan, np.maximum(white, serial))
+    std_white = np.where(lost[:g], np.nan, white)
+    denom = np.outer(serial, serial)
+    ok = np.isfinite(np.outer(std, std)) & (denom > 0)
+    corr = np.divide(cov_serial[:g, :g], np.where(ok, denom, 1.0), out=np.eye(g), where=ok)
     corr = np.where(ok | np.eye(g, dtype=bool), corr, np.nan)
-    return Identified(std, corr, lost[:g].copy(), sse, n, p)
+    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white)

@@ -9,7 +9,12 @@ and expanded uncertainty U = k·u_c at 95 %, reported to 2 significant digits (r
 GUM 7.2.6, so the stated U is never smaller than computed) with the value rounded to the
 same decimal place.
 
-Type A (evaluated from the data): the fit's σ (σ̂²(JᵀJ)⁻¹), the run-level bootstrap, the
+Type A (evaluated from the data): the fit's white σ (σ̂²(JᵀJ)⁻¹: the noise of the samples;
+not the estimate's σ with the residual's within-run correlation, ``estimation.stats.serial``:
+a structured residual here is mostly what the declared sources below do to the runs, and
+counting it in the fit's σ too counts them twice — on the 12 kg chain of
+tests/estimation/test_uncertainty_chain.py U of the inertia became 0.22 kg against 0.13 kg
+from a Monte Carlo of the whole chain), the run-level bootstrap, the
 repeatability of repeat campaigns (``estimation.uncertainty.repeats``). All three estimate
 the same random error of θ, so only the largest enters u_c (the others are listed, marked
 "not combined"): adding them would count it two or three times; taking the largest keeps
@@ -251,7 +256,8 @@ def _type_a_rows(
     drive = result.uncertainty
     for i, name in enumerate(fit.names):
         unit = coefficient_unit(name, result.axis)
-        random = [BudgetRow("fit (σ̂²(JᵀJ)⁻¹)", "A", unit, float(fit.std[i]), 1.0, 0.0, dof_fit)]
+        noise = fit.std if fit.std_white is None else fit.std_white
+        random = [BudgetRow("fit (σ̂²(JᵀJ)⁻¹)", "A", unit, float(noise[i]), 1.0, 0.0, dof_fit)]
         if boot is not None and boot.used > 1 and math.isfinite(boot.std.get(name, math.nan)):
             random.append(
                 BudgetRow(

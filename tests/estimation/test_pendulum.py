@@ -78,7 +78,10 @@ def test_dry_friction_is_found_and_removes_the_bias(dry):
     before, after = dry.coefficients_before, dry.coefficients
     # the base model pushes the friction into β (viscous) and misfits the swing
     assert before["linear_damping"].value > 1.2 * BETA
-    assert abs(before["linear_damping"].value - BETA) > 10 * before["linear_damping"].std
+    # and says so beyond its 2σ; its σ is wide (about 2.6 against a bias of 5.5): the base
+    # model's residual is the friction's signature, correlated within each swing, which the
+    # σ now counts (estimation.stats.serial); the white σ put the bias beyond 10σ
+    assert abs(before["linear_damping"].value - BETA) > 2 * before["linear_damping"].std
     assert [e.name for e in dry.effects] == ["pivot_dry_friction"]
     tau = dry.effects[0]
     assert tau.value == pytest.approx(TAU_C, rel=0.02)
