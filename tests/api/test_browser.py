@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
-from tests.api.conftest import chromium_page, csp_blocked
+from tests.api.conftest import csp_blocked
 from tests.serve import stop_service, wait_for_service
 
 TOKEN = "browser-test-token"
@@ -39,8 +39,8 @@ def server(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def page(server):
-    with chromium_page() as pg:
+def page(chromium, server):
+    with chromium.page() as pg:
         yield pg
 
 

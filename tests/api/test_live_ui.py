@@ -14,7 +14,6 @@ from pathlib import Path
 
 import pytest
 
-from tests.api.conftest import chromium_page
 from tests.procedures.test_pendulum import fast_rig_file
 from tests.serve import stop_service, wait_healthy
 
@@ -67,12 +66,12 @@ def serve(tmp_path_factory):
         stop_service(proc)
 
 
-def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(serve):
+def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(chromium, serve):
     from playwright.sync_api import expect
 
     assert serve.link.startswith("http://127.0.0.1:") and "<token>" not in serve.link
     assert serve.link.endswith(f"/#token={serve.token}")
-    with chromium_page() as page:
+    with chromium.page() as page:
         page.goto(serve.link)
         expect(page.locator("#conn-text")).to_contain_text("simulated")
         expect(page.locator("#token-dialog")).to_be_hidden()
@@ -98,10 +97,10 @@ def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(serve):
         assert page.text_content("#token-error") == ""
 
 
-def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_row(serve):
+def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_row(chromium, serve):
     from playwright.sync_api import expect
 
-    with chromium_page() as page:
+    with chromium.page() as page:
         with page.expect_response(lambda r: r.url.endswith("/api/rig")) as first:
             page.goto(serve.url)
         assert first.value.status == 401  # the page asked the API and was told no
@@ -129,10 +128,10 @@ def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_ro
         expect(page.locator("#conn-text")).to_contain_text("simulated")
 
 
-def test_chosen_channels_are_plotted_live_with_units_and_kept(serve):
+def test_chosen_channels_are_plotted_live_with_units_and_kept(chromium, serve):
     from playwright.sync_api import expect
 
-    with chromium_page() as page:
+    with chromium.page() as page:
         page.goto(serve.link)
         expect(page.locator("#conn-text")).to_contain_text("simulated")
         chip = page.locator("#live-channels input[value=pendulum_angle]")

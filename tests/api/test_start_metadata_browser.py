@@ -5,16 +5,16 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, TOKEN, chromium_page
+from tests.api.conftest import AUTH, TOKEN
 
 pytestmark = pytest.mark.simtime  # the tow it starts, on the simulated rig (paced service)
 
 
-def test_a_tow_started_from_the_page_carries_the_run_metadata(live_url):
+def test_a_tow_started_from_the_page_carries_the_run_metadata(chromium, live_url):
     from playwright.sync_api import expect
 
     base = str(live_url.base_url).rstrip("/")
-    with chromium_page() as page:
+    with chromium.page() as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.goto(f"{base}/#token={TOKEN}")
