@@ -14,12 +14,15 @@ from tests.api.conftest import (
     TOKEN,
     completed_tows,
     signed_in_page,
+    simulated_service,
     wait_job,
 )
 from tests.api.conftest import wait_rig_free as rig_free
 
-#: Slow lane: a browser per test, like the other page tests.
-pytestmark = pytest.mark.slow
+#: Slow lane: a browser per test, like the other page tests. The tests are about the pages:
+#: their tows run on the simulated rig in process on simulated time (a paced service), the
+#: real stack behind a page is tests/api/test_browser.py's.
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
 def _post(client, path: str, body: dict) -> dict:
@@ -169,10 +172,10 @@ def test_after_a_restart_with_a_job_queued_the_rig_page_says_why_it_waits_and_re
         return create_app(service, token=TOKEN, report_root=tmp_path / "reports")
 
     url = f"sqlite:///{tmp_path / 'rig.db'}"
-    with TestClient(app_on(RigService(RigSource.load(), url))) as before:
+    with TestClient(app_on(simulated_service(RigSource.load(), url))) as before:
         before.post("/api/queue/pause", headers=AUTH)
         waiting = _post(before, "/api/jobs/tow", SHORT_TOW)
-    service = RigService(RigSource.load(), url)
+    service = simulated_service(RigSource.load(), url)
     with TestClient(app_on(service)) as client, signed_in_page(chromium, service, client) as page:
         expect(page.locator("#queue-summary-paused")).to_contain_text("the service started")
         expect(page.locator("#queue-summary-text")).to_contain_text(waiting["label"])

@@ -3,7 +3,11 @@ coefficient's value ± U with its budget table (declared Type B rows, the domina
 
 from __future__ import annotations
 
+import pytest
+
 from tests.api.conftest import completed_tows, estimate_in_page, signed_in_page
+
+pytestmark = pytest.mark.simtime  # its two tows on the simulated rig (paced service)
 
 
 def test_estimation_page_shows_the_uncertainty_budget(chromium, client, service):
