@@ -8,8 +8,9 @@ import pytest
 
 from tests.api.conftest import AUTH, signed_in_page
 
-#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
-pytestmark = pytest.mark.slow
+#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane). The CSV
+#: imports only stock the tables: imported in a thread (``imports_in_a_thread``).
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("imports_in_a_thread")]
 
 CSV = {"Content-Type": "text/csv"}
 TOW = "t,position\n" + "".join(f"{k / 10:.1f},{0.002 * k * k:.4f}\n" for k in range(60))
@@ -21,7 +22,7 @@ FITS = """sel => {
 
 
 @pytest.fixture(scope="module")
-def imported(client) -> list[str]:
+def imported(client, imports_in_a_thread) -> list[str]:
     ids = []
     for force in (10, 20, 30):
         query = f"kind=tow&force_n={force}&tag=fins-long-name-v2&tag=repeat-{force}"
