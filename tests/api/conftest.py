@@ -229,6 +229,9 @@ class Chromium:
             self._browser = self._playwright.chromium.launch(
                 executable_path=executable, args=self.ARGS
             )
+        except BaseException:
+            self._playwright.stop()  # no driver left behind a browser that did not start
+            raise
         finally:
             asyncio._set_running_loop(None)
 
