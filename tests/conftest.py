@@ -43,6 +43,16 @@ def pytest_asyncio_loop_factories(config: pytest.Config, item: pytest.Item) -> d
     return {"asyncio": asyncio.new_event_loop}
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """A test on a browser page (the ``chromium`` fixture, tests/api/conftest.py) is in the
+    slow lane wherever it is written: a page is the real stack in real time. ``tryfirst``:
+    marked before ``-m`` deselects."""
+    for item in items:
+        if "chromium" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.slow)
+
+
 def require_tool(name: str, why: str) -> str:
     """Path of the executable ``name``; skip (or fail under CI=true) when missing."""
     path = shutil.which(name)

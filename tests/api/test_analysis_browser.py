@@ -1,4 +1,5 @@
-"""The Analysis page in real headless Chromium against a real ``rig serve`` process."""
+"""The Analysis page in real headless Chromium, on the app served by real uvicorn (the
+sensitivity analysis needs no rig; the real ``rig serve`` stack is test_browser.py's)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import json
 
 import pytest
 
-from tests.api.test_browser import TOKEN, page, server  # noqa: F401 (fixtures)
+from tests.api.conftest import signed_in_page
 
 #: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
 pytestmark = pytest.mark.slow
@@ -14,27 +15,27 @@ pytestmark = pytest.mark.slow
 INCONSISTENT = [[1, 5, 1 / 7], [1 / 5, 1, 7], [7, 1 / 7, 1]]
 
 
-def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(server, page):  # noqa: F811
+def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(chromium, client, service):
     from playwright.sync_api import expect
 
-    page.goto(f"{server}#token={TOKEN}")
-    page.click("nav a[data-page=analysis]")
-    expect(page.locator("#an-vehicle option")).not_to_have_count(0)
-    page.select_option("#an-vehicle", "benbam")
-    for name in ("steady_surge_speed", "steady_yaw_rate"):
-        page.check(f"#an-responses input[value={name}]")
-    page.fill("#an-form [name=thresholds]", "0.05")
-    page.click("#an-form button[type=submit]")
-    expect(page.locator("#an-status")).to_contain_text("simulations in", timeout=30_000)
-    expect(page.locator("#an-ranking tbody tr")).to_have_count(18)
-    expect(page.locator("#an-sweep tbody tr")).to_have_count(8)  # 4 thresholds × 2 criteria
-    expect(page.locator("#an-ahp")).to_contain_text("equal weights")
-    first = page.locator("#an-ranking tbody tr").first
-    expect(first).to_contain_text("quadratic_damping")
-    expect(page.locator("#an-bars .main-svg").first).to_be_attached()
-    expect(page.locator("#an-stability")).to_contain_text("response's weight")
+    with signed_in_page(chromium, service, client) as page:
+        page.click("nav a[data-page=analysis]")
+        expect(page.locator("#an-vehicle option")).not_to_have_count(0)
+        page.select_option("#an-vehicle", "benbam")
+        for name in ("steady_surge_speed", "steady_yaw_rate"):
+            page.check(f"#an-responses input[value={name}]")
+        page.fill("#an-form [name=thresholds]", "0.05")
+        page.click("#an-form button[type=submit]")
+        expect(page.locator("#an-status")).to_contain_text("simulations in", timeout=30_000)
+        expect(page.locator("#an-ranking tbody tr")).to_have_count(18)
+        expect(page.locator("#an-sweep tbody tr")).to_have_count(8)  # 4 thresholds × 2 criteria
+        expect(page.locator("#an-ahp")).to_contain_text("equal weights")
+        first = page.locator("#an-ranking tbody tr").first
+        expect(first).to_contain_text("quadratic_damping")
+        expect(page.locator("#an-bars .main-svg").first).to_be_attached()
+        expect(page.locator("#an-stability")).to_contain_text("response's weight")
 
-    ahp = {"name": "mine", "matrix": INCONSISTENT, "labels": ["a", "b", "c"]}
-    page.fill("#an-form [name=ahp]", json.dumps(ahp))
-    page.click("#an-form button[type=submit]")
-    expect(page.locator("#an-status")).to_contain_text("mine: consistency ratio CR")
+        ahp = {"name": "mine", "matrix": INCONSISTENT, "labels": ["a", "b", "c"]}
+        page.fill("#an-form [name=ahp]", json.dumps(ahp))
+        page.click("#an-form button[type=submit]")
+        expect(page.locator("#an-status")).to_contain_text("mine: consistency ratio CR")

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
-from tests.api.conftest import chromium_page, csp_blocked
+from tests.api.conftest import csp_blocked
 from tests.serve import stop_service, wait_for_service
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -41,8 +41,8 @@ def server(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def page(server):
-    with chromium_page() as pg:
+def page(chromium, server):
+    with chromium.page() as pg:
         yield pg
 
 

@@ -13,11 +13,11 @@ from tests.api.conftest import AUTH, signed_in_page, wait_job, wait_rig_free
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
-def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(client, service):
+def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(chromium, client, service):
     from playwright.sync_api import expect
 
     wait_rig_free(client)
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.click("nav a[data-page=queue]")

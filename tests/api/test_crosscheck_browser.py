@@ -10,7 +10,7 @@ import pytest
 from api.core.crosscheck_job import crosscheck_results
 from api.core.estimation_job import run_estimation
 from api.http.app import create_app
-from tests.api.conftest import TOKEN, LiveServer, chromium_page
+from tests.api.conftest import TOKEN, LiveServer
 from tests.procedures.test_crosscheck_cli import _import_tows
 
 #: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
@@ -18,7 +18,7 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def page_url(client, service, tmp_path_factory):
+def page_url(chromium, client, service, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("csv")
     first = _import_tows(service.store, tmp, (24.5, 83.3), seed=1)
     second = _import_tows(service.store, tmp, (14.7, 63.7), seed=2)  # K_L, K_Q separable
@@ -33,7 +33,7 @@ def page_url(client, service, tmp_path_factory):
         for doc in [crosscheck_results(service.store, results[pair[0]], results[pair[1]])]
     }
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as pg:
+    with LiveServer(app) as live, chromium.page() as pg:
         yield pg, live.url, results, first, second, rows
 
 

@@ -57,8 +57,7 @@ def test_the_http_import_names_a_bad_decay_field(client, query, detail):
     assert r.json()["detail"].startswith(detail), r.json()
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_the_estimation_page_lists_and_fits_a_decay(service, client, tmp_path):
+def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, tmp_path):
     """The Estimation page offers every kind with an estimator (GET /api/kinds), a decay
     among them, and shows its coefficients with the units the result carries."""
     from playwright.sync_api import expect
@@ -70,7 +69,7 @@ def test_the_estimation_page_lists_and_fits_a_decay(service, client, tmp_path):
     r = client.post(f"/api/runs/import?{query}&release_time_s=1",
                     content=(tmp_path / "heave.csv").read_bytes(), headers=AUTH | CSV)  # fmt: skip
     assert r.status_code == 201, r.text
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.click("nav a[data-page=estimation]")

@@ -12,7 +12,7 @@ from api.core.service import RigService
 from api.http.app import create_app
 from api.http.static_assets import DOCS_ASSETS_URL
 from daq.session import RigSource
-from tests.api.conftest import TOKEN, LiveServer, chromium_page
+from tests.api.conftest import TOKEN, LiveServer
 
 
 @pytest.fixture(scope="module")
@@ -40,9 +40,8 @@ def _offline(page, base: str) -> list[str]:
     return blocked
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_swagger_ui_renders_with_the_network_blocked(docs_server):
-    with chromium_page() as page:
+def test_swagger_ui_renders_with_the_network_blocked(chromium, docs_server):
+    with chromium.page() as page:
         blocked = _offline(page, docs_server)
         page.goto(docs_server + "/docs")
         page.wait_for_selector(".swagger-ui .opblock")
@@ -51,9 +50,8 @@ def test_swagger_ui_renders_with_the_network_blocked(docs_server):
         assert blocked == []  # nothing was even asked of another host
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_redoc_renders_with_the_network_blocked(docs_server):
-    with chromium_page() as page:
+def test_redoc_renders_with_the_network_blocked(chromium, docs_server):
+    with chromium.page() as page:
         blocked = _offline(page, docs_server)
         page.goto(docs_server + "/redoc")
         page.wait_for_selector(".redoc-wrap [data-section-id]")

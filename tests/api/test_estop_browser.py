@@ -12,7 +12,6 @@ from tests.api.conftest import (
     SHORT_TOW,
     TOKEN,
     LiveServer,
-    chromium_page,
     start_job,
     wait_job,
 )
@@ -21,11 +20,11 @@ from tests.api.conftest import (
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
-def test_the_emergency_stop_button_works_without_a_token(client, service) -> None:
+def test_the_emergency_stop_button_works_without_a_token(chromium, client, service) -> None:
     from playwright.sync_api import expect
 
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as page:
+    with LiveServer(app) as live, chromium.page() as page:
         page.goto(live.url)  # no #token=…: the page cannot read the rig
         expect(page.locator("#token-dialog")).to_be_visible()
         job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})

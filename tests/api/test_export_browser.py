@@ -14,11 +14,11 @@ from tests.store.test_export_formats import recorded_tow
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
 
-def test_export_menu_lists_every_format_and_downloads_mat(service, client, tmp_path):
+def test_export_menu_lists_every_format_and_downloads_mat(chromium, service, client, tmp_path):
     from playwright.sync_api import expect
 
     run_id = recorded_tow(service.store)
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.click("nav a[data-page=runs]")
         page.locator(f"#runs-table tbody tr[data-run='{run_id}']").click()
         expect(page.locator("#run-detail-id")).to_have_text(run_id)

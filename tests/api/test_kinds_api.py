@@ -4,7 +4,6 @@ accepts) and its import fields; ``rig import`` offers the same kinds and fields.
 
 from __future__ import annotations
 
-import pytest
 from click.testing import CliRunner
 
 from api.cli.imports import import_
@@ -49,8 +48,7 @@ def test_rig_import_offers_the_registrys_kinds_and_their_fields():
     assert "--dof [surge|sway|heave|roll|pitch|yaw]" in text and "--stiffness" in text
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(service, client):
+def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(chromium, service, client):
     """One tab and one form per kind the rig runs; every field of the schema (but the
     metadata block's) is an input of that name, labelled by its title; a new field of a
     request model appears without touching the page (the spin's max_angle_rad was never in
@@ -60,7 +58,7 @@ def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(service,
     from tests.api.conftest import signed_in_page
 
     kinds = [k for k in client.get("/api/kinds", headers=AUTH).json() if k["schema"]]
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         expect(page.locator("#start-tabs button")).to_have_count(len(kinds))

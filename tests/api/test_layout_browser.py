@@ -8,8 +8,9 @@ import pytest
 
 from tests.api.conftest import AUTH, signed_in_page
 
-#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
-pytestmark = pytest.mark.slow
+#: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane). The CSV
+#: imports only stock the tables: imported in a thread (``imports_in_a_thread``).
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("imports_in_a_thread")]
 
 CSV = {"Content-Type": "text/csv"}
 TOW = "t,position\n" + "".join(f"{k / 10:.1f},{0.002 * k * k:.4f}\n" for k in range(60))
@@ -21,7 +22,7 @@ FITS = """sel => {
 
 
 @pytest.fixture(scope="module")
-def imported(client) -> list[str]:
+def imported(client, imports_in_a_thread) -> list[str]:
     ids = []
     for force in (10, 20, 30):
         query = f"kind=tow&force_n={force}&tag=fins-long-name-v2&tag=repeat-{force}"
@@ -31,10 +32,10 @@ def imported(client) -> list[str]:
     return ids
 
 
-def test_at_1280_by_800_the_work_fits_the_window(client, service, imported):
+def test_at_1280_by_800_the_work_fits_the_window(chromium, client, service, imported):
     from playwright.sync_api import expect
 
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.set_viewport_size({"width": 1280, "height": 800})
         page.reload()
         expect(page.locator("#job-panel")).to_be_visible()
@@ -53,7 +54,9 @@ def test_at_1280_by_800_the_work_fits_the_window(client, service, imported):
         assert table <= room + 1, (table, room)
 
 
-def test_run_detail_plots_chosen_channels_with_units_and_overlays_a_run(client, service, tmp_path):
+def test_run_detail_plots_chosen_channels_with_units_and_overlays_a_run(
+    chromium, client, service, tmp_path
+):
     from playwright.sync_api import expect
 
     from tests.integration.test_import_kinds import _tow_csv
@@ -69,7 +72,7 @@ def test_run_detail_plots_chosen_channels_with_units_and_overlays_a_run(client, 
         )
         assert r.status_code == 201, r.text
         ids.append(r.json()["run_id"])
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.click("nav a[data-page=runs]")
         page.click(f"#runs-table tbody tr[data-run='{ids[0]}']")
         expect(page.locator("#run-channels input:checked")).to_have_count(1)

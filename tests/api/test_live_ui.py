@@ -1,8 +1,9 @@
-"""The Rig page as a new user meets it, in real headless Chromium against a real ``rig serve``
-process (simulated rig, fast pendulum): the link ``rig serve`` prints opens the UI signed in,
-a first visit without a token asks without an error, the header stays on one row, and the
+"""The Rig page as a new user meets it, in real headless Chromium: against a real ``rig serve``
+process (simulated rig, fast pendulum), the link ``rig serve`` prints opens the UI signed in,
+a first visit without a token asks without an error and the header stays on one row; the
 live plot shows the channel chosen (the pendulum angle moves during a decay) with units,
-1-2-5 ticks and the choice kept across a reload."""
+1-2-5 ticks and the choice kept across a reload. The plot is the page's: its decay runs on the
+fast pendulum rig in process on simulated time (a paced service), not in real time."""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.api.conftest import chromium_page
+from api.core.service import RigService
+from tests.api.conftest import fast_pendulum_service, signed_in_page
 from tests.procedures.test_pendulum import fast_rig_file
 from tests.serve import stop_service, wait_healthy
 
@@ -69,12 +71,12 @@ def serve(tmp_path_factory):
         stop_service(proc)
 
 
-def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(serve):
+def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(chromium, serve):
     from playwright.sync_api import expect
 
     assert serve.link.startswith("http://127.0.0.1:") and "<token>" not in serve.link
     assert serve.link.endswith(f"/#token={serve.token}")
-    with chromium_page() as page:
+    with chromium.page() as page:
         page.goto(serve.link)
         expect(page.locator("#conn-text")).to_contain_text("simulated")
         expect(page.locator("#token-dialog")).to_be_hidden()
@@ -100,10 +102,10 @@ def test_the_token_link_carries_the_token_and_opens_the_ui_signed_in(serve):
         assert page.text_content("#token-error") == ""
 
 
-def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_row(serve):
+def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_row(chromium, serve):
     from playwright.sync_api import expect
 
-    with chromium_page() as page:
+    with chromium.page() as page:
         with page.expect_response(lambda r: r.url.endswith("/api/rig")) as first:
             page.goto(serve.url)
         assert first.value.status == 401  # the page asked the API and was told no
@@ -131,11 +133,16 @@ def test_a_first_visit_asks_for_the_token_without_an_error_and_the_nav_is_one_ro
         expect(page.locator("#conn-text")).to_contain_text("simulated")
 
 
-def test_chosen_channels_are_plotted_live_with_units_and_kept(serve):
+@pytest.fixture(scope="module")
+def service(tmp_path_factory) -> RigService:
+    """The live plot test's rig: the fast pendulum in process on simulated time."""
+    return fast_pendulum_service(tmp_path_factory.mktemp("live-plot"))
+
+
+def test_chosen_channels_are_plotted_live_with_units_and_kept(chromium, client, service):
     from playwright.sync_api import expect
 
-    with chromium_page() as page:
-        page.goto(serve.link)
+    with signed_in_page(chromium, service, client) as page:
         expect(page.locator("#conn-text")).to_contain_text("simulated")
         chip = page.locator("#live-channels input[value=pendulum_angle]")
         expect(chip).to_be_visible()  # every channel of the rig file is offered

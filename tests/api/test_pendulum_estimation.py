@@ -71,11 +71,10 @@ def test_methods_are_checked_per_kind_and_kinds_not_mixed(client, runs):
         assert text in r.json()["detail"]
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_estimation_page_shows_a_pendulum_result(client, service, runs):
+def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs):
     from playwright.sync_api import expect
 
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.click("nav a[data-page=estimation]")
         box = page.locator(f"#est-runs input[value='{runs['pendulum']}']")
         expect(box).to_have_attribute("data-kind", "pendulum")

@@ -45,11 +45,10 @@ def test_pendulum_job_end_to_end_stores_a_completed_decay(client):
     assert status["lock_holder"] is None
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_pendulum_tab_starts_a_decay_from_the_rig_page(client, service):
+def test_pendulum_tab_starts_a_decay_from_the_rig_page(chromium, client, service):
     from playwright.sync_api import expect
 
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.click(".tabs button[data-form=pendulum]")
         form = "#form-pendulum"
         expect(page.locator(form)).to_be_visible()

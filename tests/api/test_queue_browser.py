@@ -14,12 +14,15 @@ from tests.api.conftest import (
     TOKEN,
     completed_tows,
     signed_in_page,
+    simulated_service,
     wait_job,
 )
 from tests.api.conftest import wait_rig_free as rig_free
 
-#: Slow lane: a browser per test, like the other page tests.
-pytestmark = pytest.mark.slow
+#: Slow lane: a browser per test, like the other page tests. The tests are about the pages:
+#: their tows run on the simulated rig in process on simulated time (a paced service), the
+#: real stack behind a page is tests/api/test_browser.py's.
+pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
 def _post(client, path: str, body: dict) -> dict:
@@ -32,14 +35,16 @@ def _queue_ids(client) -> list[str]:
     return [j["id"] for j in client.get("/api/queue", headers=AUTH).json()["jobs"]]
 
 
-def test_queued_jobs_shown_reordered_edited_removed_and_the_paused_queue_resumed(client, service):
+def test_queued_jobs_shown_reordered_edited_removed_and_the_paused_queue_resumed(
+    chromium, client, service
+):
     from playwright.sync_api import expect
 
     rig_free(client)
     client.post("/api/queue/pause", headers=AUTH)  # queued jobs wait: nothing moves
     first = _post(client, "/api/jobs/tow", SHORT_TOW)
     second = _post(client, "/api/jobs/tow", SHORT_TOW | {"force_n": 44.1})
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.set_viewport_size({"width": 1280, "height": 800})
@@ -95,12 +100,14 @@ def test_queued_jobs_shown_reordered_edited_removed_and_the_paused_queue_resumed
         assert not errors, errors
 
 
-def test_history_requeues_a_finished_job_and_a_sequence_starts_from_the_page(client, service):
+def test_history_requeues_a_finished_job_and_a_sequence_starts_from_the_page(
+    chromium, client, service
+):
     from playwright.sync_api import expect
 
     completed_tows(client, [24.5])
     done = client.get("/api/jobs?state=completed&limit=1", headers=AUTH).json()[0]
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.click("nav a[data-page=queue]")
@@ -148,7 +155,9 @@ def test_history_requeues_a_finished_job_and_a_sequence_starts_from_the_page(cli
         assert not errors, errors
 
 
-def test_after_a_restart_with_a_job_queued_the_rig_page_says_why_it_waits_and_resumes(tmp_path):
+def test_after_a_restart_with_a_job_queued_the_rig_page_says_why_it_waits_and_resumes(
+    chromium, tmp_path
+):
     """The issue's case: the service restarts with a job queued; the Rig page said "No job
     yet" and a tow started there waited at "queued (position 2)" with no reason and no
     Resume button."""
@@ -163,11 +172,11 @@ def test_after_a_restart_with_a_job_queued_the_rig_page_says_why_it_waits_and_re
         return create_app(service, token=TOKEN, report_root=tmp_path / "reports")
 
     url = f"sqlite:///{tmp_path / 'rig.db'}"
-    with TestClient(app_on(RigService(RigSource.load(), url))) as before:
+    with TestClient(app_on(simulated_service(RigSource.load(), url))) as before:
         before.post("/api/queue/pause", headers=AUTH)
         waiting = _post(before, "/api/jobs/tow", SHORT_TOW)
-    service = RigService(RigSource.load(), url)
-    with TestClient(app_on(service)) as client, signed_in_page(service, client) as page:
+    service = simulated_service(RigSource.load(), url)
+    with TestClient(app_on(service)) as client, signed_in_page(chromium, service, client) as page:
         expect(page.locator("#queue-summary-paused")).to_contain_text("the service started")
         expect(page.locator("#queue-summary-text")).to_contain_text(waiting["label"])
         page.fill("#form-tow [name=force_n]", "44.1")

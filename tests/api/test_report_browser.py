@@ -13,11 +13,11 @@ from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
-def test_estimation_page_shows_full_size_report_figures_with_units(client, service):
+def test_estimation_page_shows_full_size_report_figures_with_units(chromium, client, service):
     from playwright.sync_api import expect
 
     runs = completed_tows(client, (24.5, 83.3))
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         estimate_in_page(page, runs, timeout_ms=120_000)
 
         fit = page.locator("#est-plots figure").first

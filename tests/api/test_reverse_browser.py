@@ -40,11 +40,11 @@ def service(tmp_path_factory) -> RigService:
     return simulated_service(source, f"sqlite:///{tmp_path_factory.mktemp('reverse') / 'rig.db'}")
 
 
-def test_the_reverse_button_starts_the_reverse_tow(client, service):
+def test_the_reverse_button_starts_the_reverse_tow(chromium, client, service):
     from playwright.sync_api import expect
 
     runs = completed_tows(client, (24.5, 44.1, 83.3), {"max_time_s": 5.0, "baseline_s": 0.5})
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         estimate_in_page(page, runs, timeout_ms=180_000)
         expect(page.locator("#est-ambiguous")).to_contain_text("rig tow --force -83.3")
         button = page.locator("#est-reverse-btn")

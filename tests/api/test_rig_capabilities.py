@@ -11,7 +11,7 @@ import pytest
 
 from api.core.service import RigService
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, chromium_page, simulated_service, start_job, wait_job
+from tests.api.conftest import AUTH, TOKEN, simulated_service, start_job, wait_job
 
 ENCODER_TOW = Path(__file__).resolve().parents[2] / "fixtures/rigs/encoder-tow.toml"
 
@@ -91,11 +91,10 @@ def test_the_live_stream_carries_the_rigs_two_channels_and_no_thrusters(live_url
     assert all(not s.get("thrusters") for s in samples)
 
 
-@pytest.mark.slow  # a browser page: the slow lane
-def test_the_page_offers_only_what_the_rig_can_do_and_says_why(live_url):
+def test_the_page_offers_only_what_the_rig_can_do_and_says_why(chromium, live_url):
     from playwright.sync_api import expect
 
-    with chromium_page() as page:
+    with chromium.page() as page:
         page.goto(f"{live_url.base_url}#token={TOKEN}")
         expect(page.locator("#conn-text")).to_contain_text("Encoder tow rig")
         expect(page.locator(".tabs button[data-form=spin]")).to_have_class("unavailable")

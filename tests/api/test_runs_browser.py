@@ -10,7 +10,7 @@ import pytest
 
 from daq.sample import Sample
 from daq.store import Store
-from tests.api.conftest import TOKEN, chromium_page
+from tests.api.conftest import TOKEN
 from tests.store.helpers import new_run
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -38,10 +38,10 @@ def stocked(service, live_url) -> str:
     return str(live_url.base_url).rstrip("/")
 
 
-def test_runs_page_filters_pages_and_annotates(stocked):
+def test_runs_page_filters_pages_and_annotates(chromium, stocked):
     from playwright.sync_api import expect
 
-    with chromium_page() as page:
+    with chromium.page() as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.goto(f"{stocked}/#token={TOKEN}")

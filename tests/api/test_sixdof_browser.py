@@ -6,16 +6,16 @@ from __future__ import annotations
 import pytest
 
 from api.http.app import create_app
-from tests.api.conftest import TOKEN, LiveServer, chromium_page
+from tests.api.conftest import TOKEN, LiveServer
 
 #: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
 pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def page_url(client, service):
+def page_url(chromium, client, service):
     app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium_page() as pg:
+    with LiveServer(app) as live, chromium.page() as pg:
         yield pg, live.url
 
 

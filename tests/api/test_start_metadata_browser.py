@@ -5,17 +5,17 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, TOKEN, chromium_page
+from tests.api.conftest import AUTH, TOKEN
 
 # a browser page: the slow lane; the tow it starts on the simulated rig (paced service)
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 
-def test_a_tow_started_from_the_page_carries_the_run_metadata(live_url):
+def test_a_tow_started_from_the_page_carries_the_run_metadata(chromium, live_url):
     from playwright.sync_api import expect
 
     base = str(live_url.base_url).rstrip("/")
-    with chromium_page() as page:
+    with chromium.page() as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.goto(f"{base}/#token={TOKEN}")

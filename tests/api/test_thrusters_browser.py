@@ -24,7 +24,7 @@ QUERY = {
 }
 
 
-def test_an_imported_table_is_shown_with_its_current_and_efficiency(client, service):
+def test_an_imported_table_is_shown_with_its_current_and_efficiency(chromium, client, service):
 
     table = shared_file("thrusters", "T200-16V.csv").read_bytes()
     r = client.post(
@@ -34,7 +34,7 @@ def test_an_imported_table_is_shown_with_its_current_and_efficiency(client, serv
     )
     assert r.status_code == 201, r.text
     label = f"imported {r.json()['id']} (T200-16V.csv)"
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.click("nav a[data-page=thrusters]")
         _shows(page, label)
 

@@ -7,14 +7,14 @@ import pytest
 
 from tests.api.conftest import completed_tows, estimate_in_page, signed_in_page
 
-pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+pytestmark = pytest.mark.simtime  # its two tows on the simulated rig (paced service)
 
 
-def test_estimation_page_shows_the_uncertainty_budget(client, service):
+def test_estimation_page_shows_the_uncertainty_budget(chromium, client, service):
     from playwright.sync_api import expect
 
     runs = completed_tows(client, (24.5, 83.3))
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         estimate_in_page(page, runs, timeout_ms=120_000)
         table = page.locator("#est-uncertainty table.est-budget[data-coefficient='inertia']")
         expect(table).to_contain_text("hung_mass_kg")
