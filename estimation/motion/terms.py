@@ -203,6 +203,18 @@ LIBRARY: dict[str, Term] = {
             x_power=1,
         ),
         Term(
+            "sine_restoring",
+            "f = −k·sin x (gravity on a pendulum: k = m·g·l, the restoring moment per sin φ)",
+            ("N/m", "N·m/rad"),
+            "the period lengthens with amplitude like a pendulum's (≈ φ₀²/16 at φ₀ rad)",
+            "a decay released from a clearly larger angle, or the geometry (m, l) known",
+            phi=lambda x, v: -np.sin(x) + np.zeros(np.shape(v)),
+            dphi_dx=lambda x, v: -np.cos(x) + np.zeros(np.shape(v)),
+            lower=0.0,
+            physical="≥ 0: a hanging body is pulled back down",
+            x_power=1,
+        ),
+        Term(
             "cubic_stiffness",
             "f = −k₃·x³ (amplitude-dependent restoring: a wall-sided hull's righting arm, "
             "a mooring that stiffens)",
