@@ -288,7 +288,8 @@ def estimate_pendulum(
     phi0 = np.array([d.phi[0] for d in decays]) - offsets
     records = [d.record() for d in decays]
     base = fit_pendulum(records, (), np.concatenate([start, offsets, phi0, 0.0 * phi0]))
-    final, steps, advice = base, (), []
+    final, advice = base, []
+    steps: tuple[Step, ...] = ()
     ambiguous: tuple[tuple[str, ...], ...] = ()
     if search:
         final, steps, _, rivals = search_terms(records, SETUP, base, CANDIDATES)
