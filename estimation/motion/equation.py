@@ -124,7 +124,7 @@ def _rk4_held(x, v, drive, inv, smooth, friction, h):
     return x + h * v + h * h / 6.0 * (a1 + a2 + a3), v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
 
 
-def friction_step(x, v, drive, inv, smooth, held, h):
+def _friction_step(x, v, drive, inv, smooth, held, h):
     """One step with dry friction of size ``held`` (module doc): stuck, moving, or split
     at a reversal of the velocity."""
     zero = np.zeros_like(v)
@@ -232,7 +232,7 @@ def integrate(
         for k in range(1, n_steps):
             f = drive_steps[k - 1][None, :]
             if held is not None:
-                x, v = friction_step(x, v, f, inv, smooth, np.abs(held), h)
+                x, v = _friction_step(x, v, f, inv, smooth, np.abs(held), h)
                 x, v = np.broadcast_arrays(x, v)
             else:
                 a1 = acceleration(x, v, f, inv, forces)

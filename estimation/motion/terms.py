@@ -52,7 +52,7 @@ class Term:
     grow without limit); ``physical`` says why. ``start_share``: the start value as a share
     of the term's typical size (0: the term starts off); ``start_value``: an absolute one
     (a dimensionless ratio known a priori). ``v_power``/``x_power``: the
-    regressor's degree in ẋ and x (0 with ``sign_of_v``: a force that only flips with the
+    regressor's degree in ẋ and x near rest (0 with ``sign_of_v``: a force that only flips with the
     direction of motion; None: does not depend on it), used to tell when the closed form of
     a constant-force tow applies. ``set_valued_at_rest``: at ẋ = 0 the force takes any value
     up to |θ| that holds the body (dry friction).
