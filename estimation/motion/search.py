@@ -55,7 +55,7 @@ import numpy as np
 
 from estimation.errors import EstimationFailed
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitivities, simulate
-from estimation.motion.records import Record, Setup
+from estimation.motion.records import Record, Setup, known_inertia_of
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import position_noise
@@ -150,8 +150,18 @@ def _profile_start(records, setup, current: MotionFit, own: np.ndarray, term: st
     index = np.repeat(np.arange(nr), [np.size(r.t) for r in records])
     params = np.tile(parameters_of(current), (PROFILE.size, 1))  # (grid, p)
     values = linear * PROFILE
-    sse = np.full(PROFILE.size, np.inf)
-    for _ in range(PROFILE_STEPS):  # chord steps: the current fit's Jacobian throughout
+    low = np.array(
+        [
+            max(-known_inertia_of(r, setup) / r.weight(n) for r in records)
+            if n == "inertia"
+            else LIBRARY[n].lower
+            for n in current.names
+        ]
+    )
+    high = np.array([np.inf if n == "inertia" else LIBRARY[n].upper for n in current.names])
+    best_sse, best = np.full(PROFILE.size, np.inf), params.copy()
+    solve = np.linalg.pinv(own)  # one SVD for every chord step (lstsq per step: 70 ms each)
+    for _ in range(PROFILE_STEPS + 1):  # chord steps: the current fit's Jacobian throughout
         sims = simulate(
             records,
             setup,
@@ -162,12 +172,15 @@ def _profile_start(records, setup, current: MotionFit, own: np.ndarray, term: st
         )
         model = np.concatenate([x for x, _ in sims], axis=1) + params[:, k + index]
         left = measured[None, :] - model
-        sse = np.where(np.isfinite(left).all(axis=1), np.sum(left**2, axis=1), np.inf)
-        moves = np.linalg.lstsq(own, np.nan_to_num(left).T, rcond=None)[0]
-        params = params + moves.T
-    best = int(np.argmin(sse))  # the last simulated point of each chord, as measured
-    p = params[best] - moves[:, best]
-    return np.concatenate([p[:k], [values[best]], p[k:]])
+        inside = np.all((params[:, :k] > low) & (params[:, :k] <= high), axis=1)
+        sse = np.where(inside & np.isfinite(left).all(axis=1), np.sum(left**2, axis=1), np.inf)
+        better = sse < best_sse
+        best_sse, best[better] = np.where(better, sse, best_sse), params[better]
+        params = params + (solve @ np.nan_to_num(left).T).T
+    # each grid point's best simulated state of its chord; the linearised start (factor 1,
+    # before any step) is among them, so the profile never starts worse than it
+    i = int(np.argmin(best_sse))
+    return np.concatenate([best[i, :k], [values[i]], best[i, k:]])
 
 
 def search_terms(

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
+from estimation.blas import one_blas_thread
 from estimation.data.runs import validate_run_set
 from estimation.motion.fit import MotionFit
 from estimation.motion.search import Step, search_terms
@@ -252,6 +253,7 @@ def _warnings(
     return out
 
 
+@one_blas_thread
 def estimate_pendulum(
     runs: Sequence[PendulumRun], method: str = "output-error", search: bool = True
 ) -> PendulumResult:
