@@ -111,7 +111,15 @@ def _force(
     return net
 
 
-def _rk4_held(x, v, drive, inv, smooth, friction, h):
+def _rk4_held(
+    x: np.ndarray,
+    v: np.ndarray,
+    drive: np.ndarray,
+    inv: np.ndarray,
+    smooth: Sequence[Coefficient],
+    friction: np.ndarray,
+    h: float | np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """One RK4 step of length ``h`` (scalar or per entry) with the dry friction's force held
     at ``friction`` (−F_c·direction) through the step."""
     half = 0.5 * h
@@ -124,7 +132,15 @@ def _rk4_held(x, v, drive, inv, smooth, friction, h):
     return x + h * v + h * h / 6.0 * (a1 + a2 + a3), v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
 
 
-def _friction_step(x, v, drive, inv, smooth, held, h):
+def _friction_step(
+    x: np.ndarray,
+    v: np.ndarray,
+    drive: np.ndarray,
+    inv: np.ndarray,
+    smooth: Sequence[Coefficient],
+    held: np.ndarray,
+    h: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """One step with dry friction of size ``held`` (module doc): stuck, moving, or split
     at a reversal of the velocity."""
     zero = np.zeros_like(v)

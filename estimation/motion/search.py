@@ -143,7 +143,14 @@ def _screen(records, setup, current: MotionFit, candidates):
     return predicted, rho, start, own
 
 
-def _profile_start(records, setup, current: MotionFit, own: np.ndarray, term: str, linear):
+def _profile_start(
+    records: Sequence[Record],
+    setup: Setup,
+    current: MotionFit,
+    own: np.ndarray,
+    term: str,
+    linear: float,
+) -> np.ndarray:
     """The trial's start (module doc, *profile*): the full parameter vector."""
     k, nr = len(current.values), len(records)
     measured = np.concatenate([np.asarray(r.x, dtype=float) for r in records])

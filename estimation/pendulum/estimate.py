@@ -55,7 +55,7 @@ PENDULUM_METHODS: tuple[str, ...] = (
 SCHEMA_VERSION = 1
 #: The coefficients the result reports (α, β and the vehicle's candidate terms).
 COEFFICIENTS = (INERTIA, *BASE_TERMS, *(c for c in CANDIDATES if not at_pivot(c)))
-#: α, β and the methods' γ, as every method reports them.
+#: α and β, the fields every method row reports (``MethodEstimate``).
 BASE_NAMES: tuple[str, ...] = (ADDED_MASS, *BASE_TERMS)
 NOT_WHITE_P = 0.01
 RESOLUTION_FLOOR = 2.0  # RMSE within 2× the sample noise: nothing left to resolve
