@@ -180,10 +180,12 @@ def _profile_start(
         model = np.concatenate([x for x, _ in sims], axis=1) + params[:, k + index]
         left = measured[None, :] - model
         inside = np.all((params[:, :k] > low) & (params[:, :k] <= high), axis=1)
-        sse = np.where(inside & np.isfinite(left).all(axis=1), np.sum(left**2, axis=1), np.inf)
+        inside &= np.isfinite(left).all(axis=1)
+        sse = np.where(inside, np.sum(np.where(inside[:, None], left, 0.0) ** 2, axis=1), np.inf)
         better = sse < best_sse
         best_sse, best[better] = np.where(better, sse, best_sse), params[better]
-        params = params + (solve @ np.nan_to_num(left).T).T
+        # a chord that left the bounds stops there (its best is kept)
+        params = np.where(inside[:, None], params + (solve @ np.nan_to_num(left).T).T, params)
     # each grid point's best simulated state of its chord; the linearised start (factor 1,
     # before any step) is among them, so the profile never starts worse than it
     i = int(np.argmin(best_sse))
