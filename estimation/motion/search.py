@@ -21,14 +21,16 @@ those that pass all of:
 
 Before a candidate is fitted, one Gauss–Newton step from the current fit (its sensitivity
 column beside the current model's) predicts its SSE; a candidate predicted to miss rule 1 by
-a wide margin (predicted ΔBIC > 0) is recorded, not fitted. The trial starts from a
-**profile**: the candidate held at ``PROFILE`` × that linearised value (a decade each side),
-the model's own parameters moved by ``PROFILE_STEPS`` chord steps (Gauss–Newton with the
-current fit's Jacobian), all grid points in one vectorized simulation per step; the lowest
-simulated SSE wins. A term whose effect is far from linear in its coefficient
-(dry friction: it sets where the swing stops, and the equilibrium moves with it) otherwise
-starts in the wrong basin — on a pendulum released from two amplitudes the linearised
-F_c (0.14 N·m) converges to 0.25 N·m at 120× the noise, the profile's to the true 0.40.
+a wide margin (predicted ΔBIC > 0) is recorded, not fitted. A trial starts from that
+linearised value, the model's own parameters where the current fit left them; a set-valued
+term (dry friction) starts from a **profile**: the candidate held at ``PROFILE`` × that
+linearised value (a decade each side), the model's own parameters moved by ``PROFILE_STEPS``
+chord steps (Gauss–Newton with the current fit's Jacobian), all grid points in one
+vectorized simulation per step; the lowest simulated SSE wins. Dry friction's effect is far
+from linear in its coefficient (it sets where the swing stops, and the equilibrium moves
+with it): from the linearised value it starts in the wrong basin — on a pendulum released
+from two amplitudes the linearised F_c (0.14 N·m) converges to 0.25 N·m at 120× the noise,
+the profile's to the true 0.40.
 
 Two candidates whose sensitivities, after projecting out the current model, have |ρ| ≥
 ``RIVALS`` explain the same part of the residual: they are **rivals** (quadratic against
@@ -91,6 +93,13 @@ class Step:
             "accepted": self.accepted,
             "reason": self.reason,
         }
+
+
+def _extend(fit: MotionFit, term_start: float) -> np.ndarray:
+    """``fit``'s parameters with one more coefficient (at ``term_start``) after its globals."""
+    p = parameters_of(fit)
+    k = len(fit.values)
+    return np.concatenate([p[:k], [term_start], p[k:]])
 
 
 def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Step:
@@ -256,7 +265,11 @@ def search_terms(
                     records,
                     setup,
                     (*current.effects, term),
-                    start=_profile_start(records, setup, current, own, term, start[term]),
+                    start=(
+                        _profile_start(records, setup, current, own, term, start[term])
+                        if LIBRARY[term].set_valued_at_rest
+                        else _extend(current, start[term])
+                    ),
                     max_nfev=TRIAL_NFEV,
                 )
             except EstimationFailed as err:
