@@ -142,10 +142,10 @@ def _screen(records, setup, current: MotionFit, candidates):
         gain = (perp[:, i] @ res) ** 2 / norms[i] ** 2 if norms[i] > 0 else 0.0
         value = (perp[:, i] @ res) / norms[i] ** 2 if norms[i] > 0 else 0.0
         start[c] = value
-        if share[i] < MIN_INDEPENDENT_SHARE:  # a combination of the model's own parameters
-            predicted[c] = np.nan
         sse = max(current.sse - gain, 1e-300)
         predicted[c] = n * np.log(sse / current.sse) + np.log(n)
+        if share[i] < MIN_INDEPENDENT_SHARE:  # a combination of the model's own parameters
+            predicted[c] = np.nan
         for j in range(i):
             d = norms[i] * norms[j]
             rho[frozenset((c, candidates[j]))] = float(perp[:, i] @ perp[:, j] / d) if d else 0.0
