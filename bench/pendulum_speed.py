@@ -17,31 +17,34 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from bench.timing import timed
+from estimation.motion.search import search_terms
+from estimation.pendulum.configuration import CANDIDATES, SETUP, fit_pendulum
 from estimation.pendulum.decay import find_peaks, prepare_decay
 from estimation.pendulum.estimate import estimate_pendulum
-from estimation.pendulum.fit import fit_output_error, search_effects
 from estimation.pendulum.methods import damped_fit, equation_error, log_decrement
 from tests.estimation.pendulum_synth import ALPHA, BETA, decay
 
 
 def main() -> None:
     out: dict = {"record": "60 s after release at 10 Hz (601 samples)", "cases": {}}
-    for label, tau in (("clean", 0.0), ("pivot_dry_friction", 0.4)):
+    for label, tau in (("clean", 0.0), ("coulomb_friction", 0.4)):
         run = decay(dry_friction=tau, duration=60.0)
         d = prepare_decay(run)
         peaks = find_peaks(d)
-        start = np.array([ALPHA, BETA])
-        nuisance = np.array([[d.phi[0], 0.0, 0.0]])
-        base = fit_output_error([d], start=start, nuisance=nuisance)
+        start = np.array([ALPHA, BETA, 0.0, d.phi[0], 0.0])  # α, β, offset, φ₀, φ̇₀
+        records = [d.record()]
+        base = fit_pendulum(records, start=start)
         out["cases"][label] = {
             "find_peaks": timed(lambda d=d: find_peaks(d), 20),
             "damped-fit": timed(lambda d=d, p=peaks: damped_fit(d, p), 20),
             "log-decrement": timed(lambda d=d, p=peaks: log_decrement(d, p), 20),
             "equation-error": timed(lambda d=d, p=peaks: equation_error(d, p), 20),
             "output-error (base fit)": timed(
-                lambda d=d, s=start, n=nuisance: fit_output_error([d], start=s, nuisance=n), 5
+                lambda r=records, s=start: fit_pendulum(r, start=s), 5
             ),
-            "effect search": timed(lambda d=d, b=base: search_effects([d], b), 3),
+            "effect search": timed(
+                lambda r=records, b=base: search_terms(r, SETUP, b, CANDIDATES), 3
+            ),
             "estimate_pendulum (all)": timed(lambda r=run: estimate_pendulum([r]), 3),
         }
     out["python"] = platform.python_version()

@@ -179,7 +179,7 @@ def _window(r: Record, start: float, end: float | None) -> Record:
     d = r.drive
     if d is not None and np.ndim(d) == 1:
         d = np.asarray(d, dtype=float)[keep]
-    return Record(r.run_id, t[keep], np.asarray(r.x, dtype=float)[keep], d)
+    return replace(r, t=t[keep], x=np.asarray(r.x, dtype=float)[keep], drive=d)
 
 
 def estimate_records(

@@ -2,11 +2,13 @@
 
 Minimises Σ_records Σ_samples (x_meas − x_eq − ξ(t; θ, ξ₀, ξ̇₀))², where ξ solves
 
-    (M_known + M + Σ θ_i·w_i)·ξ̈ = τ(t) + Σ_j θ_j·φ_j(ξ, ξ̇)          (equation.py)
+    (M_known + w_M·M + Σ θ_i·w_i)·ξ̈ = τ(t) + Σ_j w_j·θ_j·φ_j(ξ, ξ̇)          (equation.py)
 
 from the state (ξ₀, ξ̇₀) at each record's first sample: the equilibrium x_eq (a spring is
 anchored there, not at the release point) and the initial state are nuisance parameters
-per record. Known terms (a hydrostatic stiffness) are fixed. σ from ``identify`` (a
+per record. Known terms (a hydrostatic stiffness) are fixed; M_known, the known terms and
+the weights w of the identified coefficients may differ per record (``Record``: a
+pendulum's geometry). σ from ``identify`` (a
 direction the data cannot determine is reported, not dropped). Start values from the
 equation-error least squares on Savitzky–Golay derivatives; every parameter is scaled by its
 typical size, bounded by its term's bounds, and the RK4 step resolves the start model's
@@ -24,7 +26,7 @@ from scipy.signal import savgol_filter
 
 from estimation.errors import EstimationFailed
 from estimation.motion.equation import Coefficient, Track, integrate, stable_step
-from estimation.motion.records import Record, Setup
+from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics
 from estimation.stats.identify import honest_statistics
@@ -75,12 +77,15 @@ def equation_error_start(records: Sequence[Record], setup: Setup, names: Sequenc
         eqs.append(eq)
         init.append((xi[0], v[0]))
         drive = r.drive_at_samples()
-        b = (np.zeros_like(t) if drive is None else drive) - setup.known_inertia * a
-        for n, value in setup.known_terms.items():
+        b = (np.zeros_like(t) if drive is None else drive) - known_inertia_of(r, setup) * a
+        for n, value in known_terms_of(r, setup).items():
             b = b + value * LIBRARY[n].regressor(xi, v, a, 0.0)
         if setup.inertia is not None:
-            b = b - setup.inertia * a
-        cols = [a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, 0.0) for n in names]
+            b = b - setup.inertia * r.weight("inertia") * a
+        cols = [
+            r.weight(n) * (a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, 0.0))
+            for n in names
+        ]
         rows.append(np.column_stack([*cols, np.ones_like(t)]))
         rhs.append(b)
     sol = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
@@ -106,8 +111,15 @@ class _Problem:
             t = np.asarray(r.t, dtype=float)
             d = r.drive_at_samples()
             self.tracks.append(
-                Track(t - t[0], d, setup.known_inertia, 0.0, float(np.ptp(r.x)) or 1.0)
+                Track(t - t[0], d, known_inertia_of(r, setup), 0.0, float(np.ptp(r.x)) or 1.0)
             )
+        #: each identified coefficient's weight per record (ng, R); known terms per record
+        self.weights = np.array([[r.weight(n) for r in records] for n in self.names])
+        self.inertia_weight = np.array([r.weight("inertia") for r in records])
+        known = dict.fromkeys(n for r in records for n in known_terms_of(r, setup))
+        self.known = {
+            n: np.array([known_terms_of(r, setup).get(n, 0.0) for r in records]) for n in known
+        }
         self.sizes = [r.t.size for r in records]
         self.starts = np.concatenate([[0], np.cumsum(self.sizes)])
         self.measured = np.concatenate([np.asarray(r.x, dtype=float) for r in records])
@@ -120,15 +132,19 @@ class _Problem:
 
     def simulate(self, g: np.ndarray, xi0: np.ndarray, v0: np.ndarray):
         """Per record (ξ, ξ̇) at the samples for parameter sets g (S, ng)."""
-        inertia = g[:, self.names.index("inertia")] if "inertia" in self.names else None
-        if inertia is None:
-            inertia = np.full(g.shape[0], float(self.setup.inertia or 0.0))
+        sets = g.shape[0]
+        if "inertia" in self.names:
+            inertia = g[:, [self.names.index("inertia")]] * self.inertia_weight
+        else:
+            inertia = np.full((sets, 1), float(self.setup.inertia or 0.0)) * self.inertia_weight
         coeffs = [
-            Coefficient(LIBRARY[n], g[:, [i]]) for i, n in enumerate(self.names) if n != "inertia"
+            Coefficient(LIBRARY[n], g[:, [i]] * self.weights[i])
+            for i, n in enumerate(self.names)
+            if n != "inertia"
         ]
         coeffs += [
-            Coefficient(LIBRARY[n], np.full((g.shape[0], 1), v))
-            for n, v in self.setup.known_terms.items()
+            Coefficient(LIBRARY[n], np.broadcast_to(v, (sets, self.nr)))
+            for n, v in self.known.items()
         ]
         return integrate(self.tracks, inertia, coeffs, xi0, v0, self.h)
 
@@ -166,11 +182,13 @@ class _Problem:
         return jac
 
 
-def _bounds(setup: Setup, names: Sequence[str], nr: int, typical: np.ndarray):
+def _bounds(records: Sequence[Record], setup: Setup, names: Sequence[str], typical: np.ndarray):
+    nr = len(records)
     lo, hi = [], []
     for n, s in zip(names, typical, strict=True):
-        if n == "inertia":  # the total inertia stays positive
-            lo.append(-setup.known_inertia + 1e-9 * max(s, setup.known_inertia))
+        if n == "inertia":  # the total inertia stays positive on every record
+            low = max(-known_inertia_of(r, setup) / r.weight("inertia") for r in records)
+            lo.append(low + 1e-9 * max(s, -low))
             hi.append(np.inf)
         else:
             lo.append(LIBRARY[n].lower)
@@ -201,7 +219,7 @@ def fit_motion(
         g0 = np.asarray(start, dtype=float)[: len(names)]
         eq0, xi0, v0 = np.split(np.asarray(start, dtype=float)[len(names) :], 3)
         init0 = np.column_stack([xi0, v0])
-    lower, upper = _bounds(setup, names, nr, typical)
+    lower, upper = _bounds(records, setup, names, typical)
     p0 = np.concatenate([g0, eq0, init0[:, 0], init0[:, 1]])
     nudge = np.concatenate([1e-6 * typical, np.zeros(3 * nr)])
     p0 = np.clip(np.where(np.isfinite(p0), p0, 0.0), lower, upper)
@@ -277,35 +295,60 @@ def _typical(records, setup: Setup, names, g0) -> np.ndarray:
             t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
             v, a = derivatives(t, x)
             xi = x - np.median(x[-max(x.size // 5, 3) :])
-            m = setup.known_inertia + abs(
+            m = known_inertia_of(r, setup) + r.weight("inertia") * abs(
                 setup.inertia if setup.inertia is not None else (start if n == "inertia" else 0.0)
             )
             d = r.drive_at_samples()
             force = max(
                 m * float(np.max(np.abs(a))), 0.0 if d is None else float(np.max(np.abs(d)))
             )
-            sizes.append(
+            size = (
                 force / max(float(np.max(np.abs(a))), 1e-12)
                 if n == "inertia"
                 else LIBRARY[n].typical(force, xi, v, a, 0.0)
             )
+            sizes.append(size / r.weight(n))
         out.append(max(max(sizes), abs(start) if np.isfinite(start) else 0.0, 1e-12))
     return np.array(out)
 
 
 def _step(records, setup: Setup, names, g) -> float:
-    """The RK4 step for the start model: resolves its period and damping (equation.py)."""
-    m = setup.known_inertia + (
-        g[names.index("inertia")] if "inertia" in names else (setup.inertia or 0.0)
-    )
-    coef = dict(setup.known_terms) | {
-        n: float(v) for n, v in zip(names, g, strict=True) if n != "inertia"
-    }
-    k = sum(max(v, 0.0) for n, v in coef.items() if LIBRARY[n].x_power == 1)
-    c = sum(max(v, 0.0) for n, v in coef.items() if LIBRARY[n].v_power == 1)
+    """The RK4 step for the start model: resolves its period and damping on every record
+    (equation.py)."""
+    inertia = g[names.index("inertia")] if "inertia" in names else (setup.inertia or 0.0)
     dt = min(float(np.median(np.diff(np.asarray(r.t)))) for r in records)
     driven = any(r.drive is not None for r in records)
-    return stable_step(dt, max(m, 1e-12), 1.5 * k, 1.5 * c, driven)
+    steps = []
+    for r in records:
+        m = known_inertia_of(r, setup) + r.weight("inertia") * inertia
+        coef = [(n, v) for n, v in known_terms_of(r, setup).items()]
+        coef += [(n, r.weight(n) * v) for n, v in zip(names, g, strict=True) if n != "inertia"]
+        k = sum(max(v, 0.0) for n, v in coef if LIBRARY[n].x_power == 1)
+        c = sum(max(v, 0.0) for n, v in coef if LIBRARY[n].v_power == 1)
+        steps.append(stable_step(dt, max(m, 1e-12), 1.5 * k, 1.5 * c, driven))
+    return min(steps)
+
+
+def simulate(
+    records: Sequence[Record],
+    setup: Setup,
+    names: Sequence[str],
+    values: np.ndarray,
+    initial: np.ndarray,
+    step: float = 0.0,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """ξ and ξ̇ at each record's samples for fixed coefficients ``values`` (``names``, as
+    ``names_of`` orders them; (S, ng): S sets at once, each result then (S, n)) from each
+    record's initial state ``initial`` ((S,) R, 2: ξ₀, ξ̇₀), with the RK4 step that resolves
+    the first set's period and damping (``step``: a given one)."""
+    g = np.atleast_2d(np.asarray(values, dtype=float))
+    h = step if step else _step(records, setup, names, g[0])
+    prob = _Problem(records, setup, names, h, np.ones(len(names) + 3 * len(records)))
+    init = np.broadcast_to(np.asarray(initial, dtype=float), (g.shape[0], len(records), 2))
+    sims = prob.simulate(g, init[:, :, 0], init[:, :, 1])
+    if np.ndim(values) == 1:
+        return [(x[0], v[0]) for x, v in sims]
+    return sims
 
 
 def sensitivities(

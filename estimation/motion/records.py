@@ -22,12 +22,26 @@ MIN_SAMPLES = 20
 @dataclass(frozen=True)
 class Record:
     """One record: ``t`` in s (strictly increasing), ``x`` in m or rad, ``drive`` in N or
-    N·m (None: free; a scalar: constant; else one value per sample, held to the next)."""
+    N·m (None: free; a scalar: constant; else one value per sample, held to the next).
+
+    ``known_inertia``/``known_terms``: this record's known parts when they differ between
+    records (None: the setup's). ``weights``: the weight w of each identified coefficient on
+    this record (name → w, ``"inertia"`` included; absent: 1): θ enters the equation as θ·w,
+    so θ keeps the unit its physics has where it acts (a pendulum's vehicle at lever arm l:
+    inertia and linear damping weigh l², quadratic damping l³).
+    """
 
     run_id: str
     t: np.ndarray
     x: np.ndarray
     drive: float | np.ndarray | None = None
+    known_inertia: float | None = None
+    known_terms: Mapping[str, float] | None = None
+    weights: Mapping[str, float] = field(default_factory=dict)
+
+    def weight(self, name: str) -> float:
+        """The weight of the identified coefficient ``name`` on this record (default 1)."""
+        return float(self.weights.get(name, 1.0))
 
     def drive_at_samples(self) -> np.ndarray | None:
         """The drive as one value per sample, or None for a free record."""
@@ -58,17 +72,38 @@ class Setup:
     min_inertia: float | None = None
 
 
+def known_inertia_of(record: Record, setup: Setup) -> float:
+    """The known inertia on ``record`` (kg or kg·m²): its own, else the setup's."""
+    own = record.known_inertia
+    return float(setup.known_inertia if own is None else own)
+
+
+def known_terms_of(record: Record, setup: Setup) -> Mapping[str, float]:
+    """The known terms on ``record``: its own, else the setup's."""
+    own = record.known_terms
+    return setup.known_terms if own is None else own
+
+
 def validate(records: Sequence[Record], setup: Setup) -> None:
     """ValueError naming the record, the field, the value and what is allowed."""
     if setup.dof not in DOFS:
         raise ValueError(f"dof: got {setup.dof!r}, allowed: {', '.join(DOFS)}")
     if not records:
         raise ValueError("records: got 0 records, allowed: at least 1")
-    unknown = [n for n in (*setup.terms, *setup.known_terms) if n not in LIBRARY]
+    known = [n for r in records for n in known_terms_of(r, setup)]
+    unknown = [n for n in (*setup.terms, *setup.known_terms, *known) if n not in LIBRARY]
     if unknown:
         raise ValueError(f"terms: got {unknown}, allowed: {', '.join(LIBRARY)}")
-    if not (np.isfinite(setup.known_inertia) and setup.known_inertia >= 0):
-        raise ValueError(f"known_inertia: got {setup.known_inertia!r}, allowed: >= 0")
+    for r in records:
+        m = known_inertia_of(r, setup)
+        if not (np.isfinite(m) and m >= 0):
+            raise ValueError(f"run {r.run_id!r}: known_inertia: got {m!r}, allowed: >= 0")
+        bad = {n: w for n, w in r.weights.items() if not (np.isfinite(w) and w > 0)}
+        if bad or not set(r.weights) <= {"inertia", *LIBRARY}:
+            raise ValueError(
+                f"run {r.run_id!r}: weights: got {dict(r.weights)}, allowed: "
+                "'inertia' or library terms, each finite and > 0"
+            )
     if setup.inertia is not None and not setup.inertia + setup.known_inertia > 0:
         raise ValueError(f"inertia: got {setup.inertia!r}, allowed: total inertia > 0")
     ids = [r.run_id for r in records]
@@ -100,7 +135,11 @@ def validate(records: Sequence[Record], setup: Setup) -> None:
             )
     free = all(r.drive is None for r in records)
     scale_fixed = setup.inertia is not None or any(
-        LIBRARY[n].x_power is not None or LIBRARY[n].role == "inertia" for n in setup.known_terms
+        any(
+            LIBRARY[n].x_power is not None or LIBRARY[n].role == "inertia"
+            for n in known_terms_of(r, setup)
+        )
+        for r in records
     )
     if free and not scale_fixed:
         raise ValueError(

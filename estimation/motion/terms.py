@@ -52,7 +52,7 @@ class Term:
     grow without limit); ``physical`` says why. ``start_share``: the start value as a share
     of the term's typical size (0: the term starts off); ``start_value``: an absolute one
     (a dimensionless ratio known a priori). ``v_power``/``x_power``: the
-    regressor's degree in ẋ and x (0 with ``sign_of_v``: a force that only flips with the
+    regressor's degree in ẋ and x near rest (0 with ``sign_of_v``: a force that only flips with the
     direction of motion; None: does not depend on it), used to tell when the closed form of
     a constant-force tow applies. ``set_valued_at_rest``: at ẋ = 0 the force takes any value
     up to |θ| that holds the body (dry friction).
@@ -200,6 +200,18 @@ LIBRARY: dict[str, Term] = {
             dphi_dx=lambda x, v: -np.ones(np.broadcast(x, v).shape),
             lower=0.0,
             physical="≥ 0: a restoring force pulls back toward the equilibrium",
+            x_power=1,
+        ),
+        Term(
+            "sine_restoring",
+            "f = −k·sin x (gravity on a pendulum: k = m·g·l, the restoring moment per sin φ)",
+            ("N/m", "N·m/rad"),
+            "the period lengthens with amplitude like a pendulum's (≈ φ₀²/16 at φ₀ rad)",
+            "a decay released from a clearly larger angle, or the geometry (m, l) known",
+            phi=lambda x, v: -np.sin(x) + np.zeros(np.shape(v)),
+            dphi_dx=lambda x, v: -np.cos(x) + np.zeros(np.shape(v)),
+            lower=0.0,
+            physical="≥ 0: a hanging body is pulled back down",
             x_power=1,
         ),
         Term(

@@ -8,23 +8,27 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from estimation.motion.records import Record
+from estimation.pendulum.configuration import record_of
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
-from estimation.pendulum.sim import Plant
 
 MIN_EXTREMA = 3
 
 
 @dataclass(frozen=True)
 class Decay:
-    """One run cut to its free decay: t (s, absolute), φ (rad), the known plant and noise."""
+    """One run cut to its free decay: t (s, absolute), φ (rad), the known geometry, noise."""
 
     run_id: str
     t: np.ndarray
     phi: np.ndarray
     geometry: PendulumGeometry
-    plant: Plant
     noise: float  # rad, 1σ of the sample-to-sample noise (incl. quantization)
     t_release_std: float = 0.0
+
+    def record(self) -> Record:
+        """The decay as a record of the one equation, its geometry as known terms."""
+        return record_of(self.run_id, self.t, self.phi, self.geometry)
 
 
 @dataclass(frozen=True)
@@ -68,16 +72,6 @@ class Peaks:
         }
 
 
-def plant_of(geometry: PendulumGeometry) -> Plant:
-    """The simulator's view of the known rig."""
-    return Plant(
-        known_inertia=geometry.known_inertia(),
-        stiffness=geometry.restoring_stiffness(),
-        pivot_damping=geometry.pivot_damping_nm_s,
-        arm=geometry.pivot_to_vehicle_m,
-    )
-
-
 def noise_level(phi: np.ndarray) -> float:
     """Sample noise (rad, 1σ) from third differences (a smooth swing has none), ≥ 1e-9."""
     d3 = np.diff(phi, 3)
@@ -90,10 +84,7 @@ def noise_level(phi: np.ndarray) -> float:
 def prepare_decay(run: PendulumRun) -> Decay:
     """The samples at and after release, with the known plant and the noise level."""
     t, phi = run.decay()
-    return Decay(
-        run.run_id, t, phi, run.geometry, plant_of(run.geometry), noise_level(phi),
-        run.t_release_std,
-    )  # fmt: skip
+    return Decay(run.run_id, t, phi, run.geometry, noise_level(phi), run.t_release_std)
 
 
 # ---- peaks ---------------------------------------------------------------------------------

@@ -4,7 +4,9 @@ the swing axis, by the thesis's three methods and by output error, with the effe
     (J_t + m_z·l² + J_v + α·l²)·φ̈ = −[(m_z − ρV)·l + m_t·r]·g·sin φ − (β·l² + b)·φ̇
                                      [− γ·l³·|φ̇|·φ̇] [− τ_c·sgn φ̇]
 
-One entry point, ``estimate_pendulum(runs, method, search_effects)``; the result's
+The output error and the effect search are those of every record (``estimation.motion``):
+the pendulum is a configuration of the one equation (``configuration``). One entry point,
+``estimate_pendulum(runs, method, search_effects)``; the result's
 ``to_json()`` is documented in docs/pendulum.md.
 """
 
@@ -16,19 +18,26 @@ from typing import Any
 
 import numpy as np
 
-from estimation.axis.result import EffectEstimate, Estimate, step_json, whiteness_json
-from estimation.axis.search import SearchStep
+from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
+from estimation.blas import one_blas_thread
 from estimation.data.runs import validate_run_set
+from estimation.motion.fit import MotionFit
+from estimation.motion.search import Step, search_terms
+from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
+from estimation.pendulum.configuration import (
+    ADDED_MASS,
+    BASE_TERMS,
+    CANDIDATES,
+    INERTIA,
+    SETUP,
+    at_pivot,
+    fit_pendulum,
+    reported,
+    unit,
+)
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
 from estimation.pendulum.decay import Decay, Peaks, find_peaks, prepare_decay
-from estimation.pendulum.fit import (
-    BASE_NAMES,
-    PENDULUM_EFFECTS,
-    PendulumFit,
-    fit_output_error,
-    search_effects,
-)
 from estimation.pendulum.methods import (
     MethodEstimate,
     damped_fit,
@@ -44,7 +53,10 @@ PENDULUM_METHODS: tuple[str, ...] = (
     "equation-error",
 )
 SCHEMA_VERSION = 1
-UNITS = {"added_mass": "kg", "linear_damping": "N·s/m", "quadratic_damping": "kg/m"}
+#: The coefficients the result reports (α, β and the vehicle's candidate terms).
+COEFFICIENTS = (INERTIA, *BASE_TERMS, *(c for c in CANDIDATES if not at_pivot(c)))
+#: α and β, the fields every method row reports (``MethodEstimate``).
+BASE_NAMES: tuple[str, ...] = (ADDED_MASS, *BASE_TERMS)
 NOT_WHITE_P = 0.01
 RESOLUTION_FLOOR = 2.0  # RMSE within 2× the sample noise: nothing left to resolve
 
@@ -68,12 +80,12 @@ class PendulumResult:
     rmse_per_run_after: dict[str, float]
     whiteness_before: Whiteness
     whiteness_after: Whiteness
-    steps: tuple[SearchStep, ...]
+    steps: tuple[Step, ...]
     warnings: tuple[str, ...]
     advice: tuple[str, ...]
     geometry: dict[str, dict[str, float]]
-    fit_before: PendulumFit = field(repr=False, compare=False)
-    fit_after: PendulumFit = field(repr=False, compare=False)
+    fit_before: MotionFit = field(repr=False, compare=False)
+    fit_after: MotionFit = field(repr=False, compare=False)
     decays: tuple[Decay, ...] = field(default=(), repr=False, compare=False)
 
     def method_estimate(self, method: str, run_id: str | None = None) -> MethodEstimate:
@@ -97,7 +109,7 @@ class PendulumResult:
             "runs": list(self.runs),
             "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
             "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
-            "units": dict(UNITS),
+            "units": {reported(n): unit(n, self.axis) for n in COEFFICIENTS},
             "effects": [e.to_json() for e in self.effects],
             "ambiguous": [list(g) for g in self.ambiguous],
             "methods": [m.to_json() for m in self.methods],
@@ -123,7 +135,7 @@ class PendulumResult:
             "evidence": {
                 "bic_before": finite_or_none(self.fit_before.bic),
                 "bic_after": finite_or_none(self.fit_after.bic),
-                "steps": [step_json(s) for s in self.steps],
+                "steps": [_step_json(s) for s in self.steps],
             },
             "nuisance": {
                 rid: {
@@ -133,9 +145,9 @@ class PendulumResult:
                 }
                 for rid, a, r, o in zip(
                     self.runs,
-                    self.fit_after.initial_angle,
-                    self.fit_after.initial_rate,
-                    self.fit_after.offsets,
+                    self.fit_after.initial[:, 0],
+                    self.fit_after.initial[:, 1],
+                    self.fit_after.equilibrium,
                     strict=True,
                 )
             },
@@ -147,13 +159,27 @@ def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
     return validate_run_set(runs, validate_pendulum_run, "pendulum run", "one swing axis per fit")
 
 
-def _coefficients(fit: PendulumFit) -> dict[str, Estimate]:
-    out = {n: Estimate(fit.value(n), fit.sigma(n)) for n in BASE_NAMES}
-    if "quadratic_damping" in fit.names:
-        out["quadratic_damping"] = Estimate(
-            fit.value("quadratic_damping"), fit.sigma("quadratic_damping")
-        )
-    return out
+def _step_json(s: Step) -> dict[str, Any]:
+    """One search step in the documented keys (docs/pendulum.md, *evidence*)."""
+    doc = s.to_json()
+    return {
+        "round": doc["round"],
+        "effect": doc["term"],
+        "delta_bic": doc["delta_bic"],
+        "ljung_box_q_before": None,  # not a rule of the search: see diagnostics
+        "ljung_box_q_after": None,
+        "explained_rms": doc["explained_rms"],
+        "noise": doc["noise"],
+        "accepted": doc["accepted"],
+        "reason": doc["reason"],
+    }
+
+
+def _coefficients(fit: MotionFit) -> dict[str, Estimate]:
+    """α, β and the vehicle's terms the fit carries, each with its σ (NaN: not identified)."""
+    return {
+        reported(n): Estimate(fit.value(n), fit.sigma(n)) for n in COEFFICIENTS if n in fit.names
+    }
 
 
 def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Estimate]:
@@ -174,7 +200,7 @@ def _warnings(
     methods: Sequence[MethodEstimate],
     peaks: dict[str, Peaks],
     decays: Sequence[Decay],
-    final: PendulumFit,
+    final: MotionFit,
     white_after: Whiteness,
 ) -> list[str]:
     out = []
@@ -215,17 +241,19 @@ def _warnings(
                 f"{white_after.p_value:.2g}, RMSE {final.rmse:.2g} rad vs noise {floor:.2g} rad):"
                 f" an effect outside the library, or the geometry is off"
             )
-    if "pivot_dry_friction" in final.effects:
-        tau = final.value("pivot_dry_friction")
+    for name in (e for e in final.effects if LIBRARY[e].set_valued_at_rest):
+        tau = final.value(name)
         for d in decays:
+            k = d.geometry.restoring_stiffness()
             out.append(
-                f"run {d.run_id}: pivot dry friction τ_c = {tau:.3g} N·m takes "
-                f"4τ_c/k = {4 * tau / d.plant.stiffness:.3g} rad off the swing per cycle and "
-                f"stops the pendulum within ±{tau / d.plant.stiffness:.3g} rad of rest"
+                f"run {d.run_id}: pivot {name} τ_c = {tau:.3g} N·m takes "
+                f"4τ_c/k = {4 * tau / k:.3g} rad off the swing per cycle and "
+                f"stops the pendulum within ±{tau / k:.3g} rad of rest"
             )
     return out
 
 
+@one_blas_thread
 def estimate_pendulum(
     runs: Sequence[PendulumRun], method: str = "output-error", search: bool = True
 ) -> PendulumResult:
@@ -258,19 +286,21 @@ def estimate_pendulum(
             np.mean([m.linear_damping.value for m in fits]),
         ]
     )
-    nuisance = np.array(
-        [
-            [d.phi[0] - m.signal["offset"], 0.0, m.signal["offset"]]
-            for d, m in zip(decays, fits, strict=True)
-        ]
-    )
-    base = fit_output_error(decays, (), start=start, nuisance=nuisance)
+    offsets = np.array([m.signal["offset"] for m in fits])
+    phi0 = np.array([d.phi[0] for d in decays]) - offsets
+    records = [d.record() for d in decays]
+    base = fit_pendulum(records, (), np.concatenate([start, offsets, phi0, 0.0 * phi0]))
+    final, advice = base, []
+    steps: tuple[Step, ...] = ()
+    ambiguous: tuple[tuple[str, ...], ...] = ()
     if search:
-        outcome = search_effects(decays, base)
-        final, steps = outcome.final, outcome.steps
-        ambiguous, advice = outcome.ambiguous, list(outcome.advice)
-    else:
-        final, steps, ambiguous, advice = base, (), (), []
+        final, steps, _, rivals = search_terms(records, SETUP, base, CANDIDATES)
+        ambiguous = tuple(rivals)
+        advice = [
+            f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separated_by}; "
+            f"{b}: {LIBRARY[b].separated_by}"
+            for a, b in rivals
+        ]
     ids = tuple(d.run_id for d in decays)
     rows += _output_error_rows(decays, final)
     white_before, white_after = ljung_box(base.residuals), ljung_box(final.residuals)
@@ -280,26 +310,15 @@ def estimate_pendulum(
             "to confirm "
             + ", ".join(final.effects)
             + ": "
-            + "; ".join(PENDULUM_EFFECTS[e].separated_by for e in final.effects)
+            + "; ".join(LIBRARY[e].separated_by for e in final.effects)
         )
     if method == "output-error":
         coefficients = _coefficients(final)
     else:
         coefficients = _pooled([m for m in rows if m.method == method])
     effects = tuple(
-        EffectEstimate(e, final.value(e), final.sigma(e), PENDULUM_EFFECTS[e].unit)
-        for e in final.effects
-        if e != "quadratic_damping"
+        EffectEstimate(e, final.value(e), final.sigma(e), unit(e, axis)) for e in final.effects
     )
-    if "quadratic_damping" in final.effects:
-        effects += (
-            EffectEstimate(
-                "quadratic_damping",
-                final.value("quadratic_damping"),
-                final.sigma("quadratic_damping"),
-                "kg/m",
-            ),
-        )
     return PendulumResult(
         axis=axis,
         method=method,
@@ -326,7 +345,7 @@ def estimate_pendulum(
     )
 
 
-def _output_error_rows(decays: Sequence[Decay], fit: PendulumFit) -> list[MethodEstimate]:
+def _output_error_rows(decays: Sequence[Decay], fit: MotionFit) -> list[MethodEstimate]:
     """The output-error fit as one row per run (coefficients are joint over runs)."""
     rows = []
     gamma = (
@@ -335,11 +354,11 @@ def _output_error_rows(decays: Sequence[Decay], fit: PendulumFit) -> list[Method
         else None
     )
     for d, res in zip(decays, fit.residuals, strict=True):
-        arm = d.plant.arm
-        alpha = Estimate(fit.value("added_mass"), fit.sigma("added_mass"))
+        g, arm = d.geometry, d.geometry.pivot_to_vehicle_m
+        alpha = Estimate(fit.value(INERTIA), fit.sigma(INERTIA))
         beta = Estimate(fit.value("linear_damping"), fit.sigma("linear_damping"))
-        inertia = Estimate(d.plant.known_inertia + alpha.value * arm**2, alpha.std * arm**2)
-        damping = Estimate(beta.value * arm**2 + d.plant.pivot_damping, beta.std * arm**2)
+        inertia = Estimate(g.known_inertia() + alpha.value * arm**2, alpha.std * arm**2)
+        damping = Estimate(beta.value * arm**2 + g.pivot_damping_nm_s, beta.std * arm**2)
         effects = {e: fit.value(e) for e in fit.effects}
         mse = float(np.mean(res**2))
         rows.append(

@@ -24,9 +24,9 @@ from scipy.signal import savgol_filter
 
 from estimation.axis.result import Estimate
 from estimation.numbers import finite_or_none
+from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.decay import Decay, Peaks, find_peaks
-from estimation.pendulum.sim import simulate, step_size
 
 SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...
 SG_POLYORDER = 4  # ... with a quartic: φ̈ of a sinusoid biased < 0.02 %
@@ -258,9 +258,8 @@ def equation_error(
 
 def _simulated_mse(decay: Decay, alpha: float, beta: float, gamma: float, peaks: Peaks) -> float:
     """e of fixed coefficients: the nonlinear model from the first sample, released at rest."""
-    if not decay.plant.known_inertia + alpha * decay.plant.arm**2 > 0:
+    g = decay.geometry
+    if not g.known_inertia() + alpha * g.pivot_to_vehicle_m**2 > 0:
         return float("nan")
-    h = step_size(decay.t, decay.plant, alpha)
-    phi0 = decay.phi[0] - peaks.offset
-    angle, _ = simulate(decay.plant, decay.t, alpha, beta, gamma, 0.0, phi0, 0.0, h)
-    return float(np.mean((decay.phi - peaks.offset - angle[0]) ** 2))
+    angle, _ = swing(decay.record(), alpha, beta, gamma, decay.phi[0] - peaks.offset)
+    return float(np.mean((decay.phi - peaks.offset - angle) ** 2))

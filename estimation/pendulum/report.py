@@ -27,7 +27,8 @@ from estimation.fit_report import (
     summary_rows,
     write_result_and_markdown,
 )
-from estimation.pendulum.estimate import UNITS, PendulumResult
+from estimation.pendulum.configuration import unit
+from estimation.pendulum.estimate import PendulumResult
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -76,7 +77,7 @@ def rate_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     for ax, which in zip(axes, ("before", "after"), strict=True):
         fit = result.fit_before if which == "before" else result.fit_after
         scale, unit = prefixed(fit.residuals, "rad")
-        for d, res, rate in zip(result.decays, fit.residuals, fit.rates, strict=True):
+        for d, res, rate in zip(result.decays, fit.residuals, fit.velocities, strict=True):
             ax.plot(rate, res / scale, ".", ms=3, label=labels[d.run_id])
         ax.axhline(0.0, color="0.6", lw=0.8)
         ax.set_title(f"{which}: {effects_text(fit.effects)}", loc="left", fontsize=10)
@@ -122,7 +123,7 @@ def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     doc = result.to_json()
     lines = ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
     for name, est in doc["coefficients"].items():
-        lines.append(f"| {name} | {_pm(est)} | {UNITS[name]} |")
+        lines.append(f"| {name} | {_pm(est)} | {unit(name, result.axis)} |")
     return lines + summary_rows(result, "rad", labels)
 
 
@@ -143,7 +144,7 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
     ]
     for name, est in doc["coefficients"].items():
         before = doc["coefficients_before"].get(name)
-        lines.append(f"| {name} | {_pm(before)} | {_pm(est)} | {UNITS[name]} |")
+        lines.append(f"| {name} | {_pm(before)} | {_pm(est)} | {unit(name, result.axis)} |")
     lines += [
         "",
         "## Methods side by side",
@@ -173,13 +174,13 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}",
         "",
-        "| round | effect | ΔBIC | Ljung–Box Q before → after | kept | reason |",
+        "| round | effect | ΔBIC | residual explained vs noise [rad] | kept | reason |",
         "|---|---|---|---|---|---|",
     ]
     for s in result.steps:
         lines.append(
-            f"| {s.round} | {s.effect} | {s.delta_bic:.1f} | {s.ljung_box_before:.1f} → "
-            f"{s.ljung_box_after:.1f} | {'yes' if s.accepted else 'no'} | {s.reason} |"
+            f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
+            f"{s.noise:.2g} | {'yes' if s.accepted else 'no'} | {s.reason} |"
         )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]

@@ -1,5 +1,5 @@
-"""Forward selection of effects, shared by the tow/spin search (``estimation.axis.search``)
-and the pendulum's (``estimation.pendulum.fit``).
+"""Forward selection of effects for the tow/spin search (``estimation.axis.search``); the
+acceptance rule ``term_verdict`` is shared with every record's search (``estimation.motion``).
 
 A *round* tries additions (one effect, or a combination) to the current model: each is
 fitted, in order of a criterion (lower is better, a BIC), and judged by the caller's

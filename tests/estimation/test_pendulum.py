@@ -18,12 +18,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from estimation.motion.fit import simulate
+from estimation.pendulum.configuration import SETUP, swing
 from estimation.pendulum.data import PendulumGeometry, validate_pendulum_run
-from estimation.pendulum.decay import plant_of
+from estimation.pendulum.decay import prepare_decay
 from estimation.pendulum.estimate import PENDULUM_METHODS, estimate_pendulum
 from estimation.pendulum.methods import coefficients_from_signal, thesis_translational
 from estimation.pendulum.report import fit_figure, run_labels, write_pendulum_report
-from estimation.pendulum.sim import simulate, step_size
 from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
 
 TAU_C = 0.4  # N·m: dead band τ_c/k ≈ 6.5 mrad, 4τ_c/k ≈ 26 mrad off the swing per cycle
@@ -47,13 +48,18 @@ def _within(est, truth, rel, sigmas=None):
 
 
 @pytest.mark.parametrize(("tau", "gamma"), [(0.0, 0.0), (TAU_C, 0.0), (0.0, GAMMA)])
-def test_simulator_matches_the_independent_integrator(tau, gamma):
+def test_the_one_equation_configured_as_the_pendulum_matches_the_independent_integrator(tau, gamma):
     run = decay(dry_friction=tau, gamma=gamma, noise=0.0)
-    t, phi = run.decay()
-    plant = plant_of(GEOMETRY)
-    angle, _ = simulate(plant, t, ALPHA, BETA, gamma, tau, phi[0], 0.0, step_size(t, plant, ALPHA))
+    _, phi = run.decay()
+    record = replace(prepare_decay(run).record(), x=phi)
+    names = ("inertia", "linear_damping", "quadratic_damping", "coulomb_friction")
+    ((angle, _),) = simulate(
+        [record], SETUP, names, np.array([ALPHA, BETA, gamma, tau]), np.array([[phi[0], 0.0]])
+    )
     # the reference is quantized to 1e-5 rad: anything beyond ±0.5e-5 is integration error
-    assert np.max(np.abs(angle[0] - phi)) < 1e-5
+    assert np.max(np.abs(angle - phi)) < 1e-5
+    if tau == 0.0:  # the methods' simulation of fixed α, β, γ is the same equation
+        assert np.max(np.abs(swing(record, ALPHA, BETA, gamma, phi[0])[0] - phi)) < 1e-5
 
 
 def test_clean_record_all_methods_recover_alpha_and_beta(clean):
@@ -82,7 +88,7 @@ def test_dry_friction_is_found_and_removes_the_bias(dry):
     # model's residual is the friction's signature, correlated within each swing, which the
     # σ now counts (estimation.stats.serial); the white σ put the bias beyond 10σ
     assert abs(before["linear_damping"].value - BETA) > 2 * before["linear_damping"].std
-    assert [e.name for e in dry.effects] == ["pivot_dry_friction"]
+    assert [e.name for e in dry.effects] == ["coulomb_friction"]
     tau = dry.effects[0]
     assert tau.value == pytest.approx(TAU_C, rel=0.02)
     assert abs(tau.value - TAU_C) < 3 * tau.std + 1e-3 * TAU_C
@@ -91,7 +97,7 @@ def test_dry_friction_is_found_and_removes_the_bias(dry):
     assert dry.rmse_after < dry.rmse_before / 50
     assert dry.whiteness_after.q_statistic < dry.whiteness_before.q_statistic / 10
     kept = [s for s in dry.steps if s.accepted]
-    assert [s.effect for s in kept] == ["pivot_dry_friction"] and kept[0].delta_bic < -10
+    assert [s.term for s in kept] == ["coulomb_friction"] and kept[0].delta_bic < -10
 
 
 def test_equation_error_shows_the_thesis_signature_of_dry_friction(dry):
@@ -119,12 +125,12 @@ def test_two_amplitudes_fit_jointly_with_their_own_offsets():
         decay(dry_friction=TAU_C, amplitude=0.12, run_id="small", seed=8, offset=-0.001),
     ]
     result = estimate_pendulum(runs)
-    assert [e.name for e in result.effects] == ["pivot_dry_friction"]
+    assert [e.name for e in result.effects] == ["coulomb_friction"]
     assert result.effects[0].value == pytest.approx(TAU_C, rel=0.02)
     _within(result.coefficients["added_mass"], ALPHA, 0.005)
-    assert result.fit_after.offsets == pytest.approx([0.002, -0.001], abs=2e-5)
+    assert result.fit_after.equilibrium == pytest.approx([0.002, -0.001], abs=2e-5)
     # two amplitudes given: no advice to repeat the separating experiment
-    assert not any("two clearly different amplitudes" in a for a in result.advice)
+    assert not any(a.startswith("to confirm") for a in result.advice)
 
 
 def test_headline_method_and_unknown_method():
@@ -149,7 +155,7 @@ def test_result_document_and_report(dry, tmp_path):
     assert {m["method"] for m in doc["methods"]} == {
         "output-error", "damped-fit", "log-decrement", "equation-error", "equation-error-linear"
     }  # fmt: skip
-    assert doc["effects"][0]["name"] == "pivot_dry_friction" and doc["effects"][0]["unit"] == "N·m"
+    assert doc["effects"][0]["name"] == "coulomb_friction" and doc["effects"][0]["unit"] == "N·m"
     assert doc["rmse_after"] < doc["rmse_before"]
     assert doc["diagnostics"]["ljung_box_after"]["q"] < doc["diagnostics"]["ljung_box_before"]["q"]
     assert len(doc["peaks"]["p1"]["times"]) >= 3
@@ -159,9 +165,9 @@ def test_result_document_and_report(dry, tmp_path):
         f"{stem}.{ext}" for stem in ("fit", "residual_vs_rate", "peaks") for ext in ("png", "svg")
     }
     text = (tmp_path / "report.md").read_text(encoding="utf-8")
-    assert "pivot_dry_friction" in text and "log-decrement" in text
+    assert "coulomb_friction" in text and "log-decrement" in text
     assert text.index("## Summary") < text.index("## Figures") < text.index("## Methods")
-    assert "effect `pivot_dry_friction`" in text.split("## Figures")[0]
+    assert "effect `coulomb_friction`" in text.split("## Figures")[0]
     assert set(re.findall(r"\]\(([^)]+)\)", text)) == figures  # every figure linked
     with Image.open(tmp_path / "peaks.png") as img:
         assert img.width >= 1500

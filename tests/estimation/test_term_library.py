@@ -17,6 +17,8 @@ from scipy.integrate import solve_ivp
 
 from estimation import RunData, estimate
 from estimation.motion.decay import estimate_decay
+from estimation.motion.fit import fit_motion
+from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY
 
 #: (inertia kg, K_L N·s/m, K_Q N·s²/m², forward drives N) per scale.
@@ -154,8 +156,12 @@ DECAY_EFFECTS = ("quadratic_damping", "cubic_drag", "cubic_stiffness", "coulomb_
 BASE = ("linear_damping", "quadratic_damping", "restoring_spring")
 
 
+#: Restoring terms recovered as the base of a swing (``test_sine_restoring_is_recovered``).
+SWING_TERMS = ("sine_restoring",)
+
+
 def test_every_library_entry_has_a_case():
-    covered = set(TOW_EFFECTS) | set(DECAY_EFFECTS) | set(BASE)
+    covered = set(TOW_EFFECTS) | set(DECAY_EFFECTS) | set(BASE) | set(SWING_TERMS)
     assert set(LIBRARY) <= covered, f"no recovery case for {set(LIBRARY) - covered}"
 
 
@@ -370,3 +376,32 @@ def test_a_tow_recorded_after_its_release_never_reports_a_confident_inertia():
     confident = np.isfinite(inertia.std) and inertia.value > 2 * inertia.std
     assert not confident or abs(inertia.value - SCALES["143kg"][0]) <= 2 * inertia.std
     assert any("inertia is not identified" in w for w in r.warnings)
+
+
+@pytest.mark.parametrize("scale", [pytest.param(s, marks=_slow_unless(s)) for s in SCALES])
+def test_sine_restoring_is_recovered(scale):
+    """A pendulum-like roll swing from 0.5 rad, 1.8 M·φ̈ + b₁·φ̇ + k·sin φ = 0 (M kg·m²), the
+    inertia known: k within 1 %; a linear spring in its place misfits (the period of a swing
+    from φ₀ is ≈ φ₀²/16 = 1.6 % longer than the linear one)."""
+    m = SCALES[scale][0]
+    total, k = 1.8 * m, 4.0 * m
+    b1 = 0.02 * 2 * np.sqrt(total * k)
+    t = np.arange(0.0, 40.0, 0.1)
+    sol = solve_ivp(
+        lambda _t, y: [y[1], -(b1 * y[1] + k * np.sin(y[0])) / total],
+        (0.0, t[-1]),
+        [0.5, 0.0],
+        t_eval=t,
+        rtol=1e-11,
+        atol=1e-13,
+    )
+    x = sol.y[0] + 2e-5 * np.random.default_rng(5).standard_normal(t.size)
+    record = Record("swing", t, x)
+    fits = {
+        term: fit_motion([record], Setup("roll", m, 0.8 * m, {}, ("linear_damping", term)))
+        for term in ("sine_restoring", "restoring_spring")
+    }
+    sine = fits["sine_restoring"]
+    assert sine.value("sine_restoring") == pytest.approx(k, rel=0.01)
+    assert sine.value("linear_damping") == pytest.approx(b1, rel=0.05)
+    assert sine.rmse < 1e-4 < fits["restoring_spring"].rmse

@@ -97,9 +97,9 @@ async def test_undeclared_pivot_friction_is_found_through_the_full_chain(tmp_pat
 
     assert data["analysis"] == "pendulum" and data["axis"] == "surge"
     names = [e["name"] for e in data["effects"]]
-    assert "pivot_dry_friction" in names
-    assert set(names) <= {"pivot_dry_friction", "quadratic_damping"}  # γ is in the plant too
-    tau = next(e for e in data["effects"] if e["name"] == "pivot_dry_friction")
+    assert "coulomb_friction" in names
+    assert set(names) <= {"coulomb_friction", "quadratic_damping"}  # γ is in the plant too
+    tau = next(e for e in data["effects"] if e["name"] == "coulomb_friction")
     assert tau["value"] == pytest.approx(PIVOT_FRICTION_NM, rel=0.1)
     c = data["coefficients"]
     assert c["added_mass"]["value"] == pytest.approx(ALPHA, rel=0.02)
