@@ -3,22 +3,41 @@
 from __future__ import annotations
 
 import subprocess
+import threading
 from collections.abc import Callable
 
 import httpx
 
-from tests.waiting import wait_until
+from tests.waiting import read_until, wait_until
+
+SERVICE_LINE = "rig service: http://127.0.0.1:"
 
 
 def wait_for_service(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
     """The base URL ``rig serve`` printed, once its /api/health answers ok.
 
-    Fails with the process output when it exits first or stays silent past ``timeout_s``.
+    Its output is drained by a thread for the process's whole life (a pipe nobody reads
+    fills at 64 KiB and then blocks the service on its next log line), so a warning printed
+    before the address line, or a silent service, fails here after ``timeout_s`` with the
+    output so far instead of blocking on a read.
     """
-    first = proc.stdout.readline()
-    assert first.startswith("rig service: http://127.0.0.1:"), first + proc.stdout.read()
-    url = first.split()[2]
-    wait_healthy(proc, url, proc.stdout.read, timeout_s=timeout_s)
+    lines: list[str] = []
+
+    def drain() -> None:
+        for line in proc.stdout:
+            lines.append(line)
+
+    threading.Thread(target=drain, daemon=True).start()
+
+    def address() -> str | None:
+        found = [ln for ln in lines if ln.startswith(SERVICE_LINE)]
+        if found:
+            return found[0].split()[2]
+        assert proc.poll() is None, "rig serve exited:\n" + "".join(lines)
+        return None
+
+    url = read_until(address, bool, "rig serve printing its address", timeout_s=timeout_s)
+    wait_healthy(proc, url, lambda: "".join(lines), timeout_s=timeout_s)
     return url
 
 

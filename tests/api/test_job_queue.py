@@ -53,8 +53,7 @@ def served(db_url: str, data_home: Path) -> Iterator[tuple[subprocess.Popen, htt
     # keep reading its log so a chatty service never blocks on a full pipe
     threading.Thread(target=proc.stderr.read, daemon=True).start()
     try:
-        url = wait_for_service(proc)
-        threading.Thread(target=proc.stdout.read, daemon=True).start()
+        url = wait_for_service(proc)  # it drains stdout from then on
         with httpx.Client(base_url=url, headers=AUTH, timeout=30) as client:
             yield proc, client
     finally:
