@@ -34,7 +34,7 @@ def server(tmp_path_factory):
         text=True,
     )
     try:
-        url = wait_for_service(proc, timeout_s=20)
+        url = wait_for_service(proc)
         yield url
     finally:
         stop_service(proc)
