@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from api.core.uncertainty_job import chain_of, tolerances_of
+from daq.axis_budget import chain_of, tolerances_of
 from daq.config import RigConfig
 from daq.procedures.requests import SpinRequest as SpinParameters
 from daq.procedures.requests import TowRequest as TowParameters
