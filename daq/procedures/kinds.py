@@ -11,9 +11,9 @@ CLI commands, sequences, the job runner, the import and ``GET /api/kinds`` itera
 ``KINDS`` (``RIG_KINDS``: those the rig runs) instead of branching on the kind.
 
 Adding a kind the rig runs: write its procedure (a ``run_…`` coroutine), its request model
-in ``daq.procedures.requests`` and one entry here (and, for ``rig --help`` to list it without
-importing anything, one line in ``api.cli.COMMANDS``). A kind that is only imported (a free
-decay) is one entry with its estimator and import rules.
+in ``daq.procedures.requests`` and one entry here (its ``rig`` command, with its help, and
+its HTTP route follow from the entry). A kind that is only imported (a free decay) is one
+entry with its estimator and import rules.
 """
 
 from __future__ import annotations
