@@ -317,7 +317,7 @@ def all_methods() -> tuple[str, ...]:
 def describe_kinds() -> list[dict[str, Any]]:
     """Every kind as ``GET /api/kinds`` serves it: its labels, the JSON Schema of its start
     request (``null``: the rig does not run it), its command and route, its estimation
-    methods and its import fields' JSON Schema."""
+    methods (with how the browser's menu words them) and its import fields' JSON Schema."""
     out = []
     for kind, spec in KINDS.items():
         out.append(
@@ -330,6 +330,7 @@ def describe_kinds() -> list[dict[str, Any]]:
                 "schema": None if spec.request is None else spec.request.model_json_schema(),
                 "estimator": None if spec.estimator is None else spec.estimator.name,
                 "methods": [] if spec.estimator is None else list(spec.estimator.methods),
+                "method_labels": {} if spec.estimator is None else spec.estimator.method_labels,
                 "import": None if spec.imports is None else spec.imports.to_json(),
             }
         )

@@ -677,11 +677,6 @@ async function pollEstimation(jobId) {
   }
 }
 
-const COEF_UNITS = {
-  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²" },
-  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²" },
-};
-
 function showEstimationJob(job) {
   if (job.id !== estimationJobId) return;
   $("#est-status").innerHTML = `<span class="state ${job.state}" id="est-state">${job.state}</span> ${esc(job.progress.message)}`;
@@ -697,7 +692,7 @@ async function renderEstimation(res) {
     clearPendulumEstimation();
   }
   $("#est-result").hidden = false;
-  const units = COEF_UNITS[res.axis] || {};
+  const units = res.units || {}; // an axis result's units; a decay's coefficients carry theirs
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];

@@ -1,21 +1,6 @@
 // Pendulum free-decay results on the estimation page (result JSON with analysis "pendulum").
 // app.js's renderEstimation hands such results here; uses app.js's $, api, esc, fmt, kv, state.
 
-const PENDULUM_METHOD_OPTIONS = [
-  ["damped-fit", "pendulum: damped sinusoid fit (seed 002 lsqcurvefit)"],
-  ["log-decrement", "pendulum: log decrement (component method)"],
-  ["equation-error", "pendulum: equation-error LS"],
-];
-
-(function addPendulumMethods() {
-  const select = document.getElementById("est-method");
-  if (!select) return;
-  for (const [value, label] of PENDULUM_METHOD_OPTIONS) {
-    if ([...select.options].some((o) => o.value === value)) continue;
-    select.append(Object.assign(document.createElement("option"), { value, textContent: label }));
-  }
-})();
-
 function pendulumPm(e) {
   if (!e || e.value === null || e.value === undefined) return "—";
   return e.std === null || e.std === undefined ? fmt(e.value, 5) : `${fmt(e.value, 5)} ± ${fmt(e.std, 2)}`;
