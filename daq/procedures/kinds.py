@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from daq.procedures.recording import AbortSignal, ProgressCallback
     from daq.procedures.steps import RunOutcome
     from daq.session import RigSession
+    from estimation.design.envelope import AxisEnvelope
 
 StepParameters = (
     requests.TowRequest
@@ -125,6 +126,10 @@ class KindSpec:
     #: The operator acts its procedure asks for (``daq.operator.SIMULATED_ACTS`` plays them
     #: on the simulated rig; a person does them on a real one).
     acts: tuple[str, ...] = ()
+    #: For the test planner (``estimation.design``): the axis's loads and travel on ``rig``
+    #: given the thrusters' calibrated (low, high) load (None: none); ``None``: the planner
+    #: does not choose this kind.
+    envelope: Callable[[RigConfig, tuple[float, float] | None], AxisEnvelope] | None = None
 
     @property
     def axis(self) -> AxisTerms | None:
@@ -208,6 +213,35 @@ def _axis_channels(kind: RunKind) -> tuple[str, ...]:
     return (AXES[kind].position_channel, AXES[kind].release_coil)
 
 
+def _tow_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvelope:
+    from estimation.design.envelope import AxisEnvelope
+
+    geometry, limits = rig.geometry, rig.limits
+    return AxisEnvelope(
+        "surge",
+        max_load=float(limits.max_force_n),
+        travel=float(geometry.end_of_travel_m),
+        reverse_travel=float(geometry.reverse_travel),
+        max_rate=float(limits.max_speed_m_s),
+        thruster_range=span,
+    )
+
+
+def _spin_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvelope:
+    from estimation.design.envelope import AxisEnvelope
+
+    geometry, limits = rig.geometry, rig.limits
+    return AxisEnvelope(
+        "yaw",
+        max_load=float(limits.max_torque_nm or 0.0),  # a spin needs it (its ``needs``)
+        travel=float(geometry.spin_max_angle_rad),
+        reverse_travel=float(geometry.spin_max_angle_rad),
+        max_rate=float(limits.max_yaw_rate_rad_s),
+        thruster_range=span,
+        drum_radius_m=geometry.spin_drum_radius_m,
+    )
+
+
 def _driven(name: str, load: float, unit: str, drive: str) -> str:
     return f"{name} {load:.4g} {unit}" + (" (thrusters)" if drive == "thrusters" else "")
 
@@ -231,6 +265,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             needs=Needs(channels=_axis_channels(RunKind.TOW)),
             drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
             acts=("hang_tow_weight", "return_carriage", "unmount_thrust_stand"),
+            envelope=_tow_envelope,
         ),
         KindSpec(
             kind=RunKind.SPIN,
@@ -250,6 +285,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
                 "thrusters": Needs(thrusters=True),
             },
             acts=("hang_spin_weight", "return_carriage", "unmount_thrust_stand"),
+            envelope=_spin_envelope,
         ),
         KindSpec(
             kind=RunKind.PENDULUM,
