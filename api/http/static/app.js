@@ -684,13 +684,15 @@ function showEstimationJob(job) {
   renderEstimation(job.outcome);
 }
 
+// Views of their own for result documents, by the document's `analysis` ({render, clear};
+// pendulum.js registers the pendulum swing's); any other result is drawn by renderEstimation.
+const resultViews = {};
+
 async function renderEstimation(res) {
   if (typeof renderUncertainty === "function") renderUncertainty(res); // uncertainty.js
-  if (typeof renderPendulumEstimation === "function") {
-    // pendulum free-decay results (api/http/static/pendulum.js)
-    if (res.analysis === "pendulum") return renderPendulumEstimation(res);
-    clearPendulumEstimation();
-  }
+  for (const view of Object.values(resultViews)) view.clear();
+  const view = resultViews[res.analysis];
+  if (view) return view.render(res);
   $("#est-result").hidden = false;
   const units = res.units || {}; // an axis result's units; a decay's coefficients carry theirs
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})

@@ -1,5 +1,6 @@
 // Pendulum free-decay results on the estimation page (result JSON with analysis "pendulum").
-// app.js's renderEstimation hands such results here; uses app.js's $, api, esc, fmt, kv, state.
+// Registered in app.js's resultViews, so renderEstimation hands such results here; uses
+// app.js's $, api, esc, fmt, kv, state.
 
 function pendulumPm(e) {
   if (!e || e.value === null || e.value === undefined) return "—";
@@ -74,3 +75,5 @@ function clearPendulumEstimation() {
   const box = document.getElementById("est-pendulum-methods");
   if (box) box.remove();
 }
+
+resultViews.pendulum = { render: renderPendulumEstimation, clear: clearPendulumEstimation };
