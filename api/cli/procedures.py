@@ -118,17 +118,6 @@ def _print_outcome(outcome: Any, as_json: bool) -> None:
         raise SystemExit(1)
 
 
-def _print_calibration(calibration: dict[str, Any] | None) -> None:
-    if not calibration:
-        return
-    click.echo("command   thrust/thruster [N]   supply [V]")
-    for row in calibration["table"]:
-        click.echo(
-            f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
-            + (f"{row['supply_voltage_v']:10.2f}" if row["supply_voltage_v"] is not None else "")
-        )
-
-
 def _report_option(spec: KindSpec) -> Callable[[Callable], Callable]:
     """``--report DIR`` on the commands whose kind writes a report of its own."""
 
@@ -189,8 +178,9 @@ def procedure_command(spec: KindSpec) -> click.Command:
             spec.route,
             as_json,
         )
-        if not as_json and "calibration" in ran.extra:
-            _print_calibration(ran.extra["calibration"])
+        if not as_json and spec.summary is not None:
+            for line in spec.summary(ran):
+                click.echo(line)
         if report_dir is not None:
             _write_report(spec, ran, report_dir)
         _print_outcome(ran, as_json)

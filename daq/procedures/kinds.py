@@ -119,6 +119,8 @@ class KindSpec:
     #: Write a report of a completed run into a folder → paths written (``--report DIR``),
     #: or ``None`` when the kind has no report of its own.
     report: Callable[[KindOutcome, Path], list[Path]] | None = None
+    #: Lines ``rig <command>`` prints above the outcome (a calibration's table), or ``None``.
+    summary: Callable[[KindOutcome], list[str]] | None = None
     #: What the rig file must list for this kind, whatever drives it (``daq.capabilities``).
     needs: Needs = field(default_factory=Needs)
     #: Tow/spin: what each drive (``weight``, ``thrusters``) needs on top of ``needs``.
@@ -206,6 +208,21 @@ def _calibration_report(outcome: KindOutcome, folder: Path) -> list[Path]:
     from estimation.thrust.report import write_calibration_report
 
     return write_calibration_report(outcome.extra["calibration"], folder)
+
+
+def _calibration_table(outcome: KindOutcome) -> list[str]:
+    """Command, thrust per thruster and supply voltage, one row a step (none: no table)."""
+    calibration = outcome.extra.get("calibration")
+    if not calibration:
+        return []
+    lines = ["command   thrust/thruster [N]   supply [V]"]
+    for row in calibration["table"]:
+        supply = row["supply_voltage_v"]
+        lines.append(
+            f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
+            + (f"{supply:10.2f}" if supply is not None else "")
+        )
+    return lines
 
 
 def _axis_channels(kind: RunKind) -> tuple[str, ...]:
@@ -313,6 +330,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             command="calibrate-thrusters",
             route="calibration",
             report=_calibration_report,
+            summary=_calibration_table,
             needs=Needs(channels=("load_cell",), thrusters=True),
             acts=("mount_thrust_stand", "unmount_thrust_stand"),
         ),
