@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from daq.axis_budget import chain_of, tolerances_of
 from daq.config import RigConfig
@@ -48,14 +48,23 @@ def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
     for step in seq.steps:
         if KINDS[step.kind].envelope is None:
             continue
-        signed: Any = step  # a tow's or a spin's request: a signed load on an axis
+        terms, signed = AXES[step.kind], cast(Any, step)  # a tow's or a spin's request
         if signed.drive == "weight" and signed.hung_mass_kg:
             # checked parameters: the load, the travel and the time limit are set
-            load, travel = getattr(signed, signed.load_field), getattr(signed, signed.travel_field)
+            load, travel = (
+                getattr(signed, str(terms.drive_key)),
+                getattr(signed, str(terms.travel_key)),
+            )
             assert load is not None and travel is not None and signed.max_time_s is not None
-            axis = str(AXES[step.kind].axis)
             out.append(
-                PlannedRun(axis, load, signed.hung_mass_kg, travel, signed.max_time_s, seq.repeats)
+                PlannedRun(
+                    str(terms.axis),
+                    load,
+                    signed.hung_mass_kg,
+                    travel,
+                    signed.max_time_s,
+                    seq.repeats,
+                )
             )
     if not out:
         raise ValueError(

@@ -138,11 +138,9 @@ class _SignedLoad(_ProcedureRequest):
     Checked against a rig, the load field holds the load applied (a hung weight's, to the
     gram), ``weight_kg`` is cleared and :attr:`hung_mass_kg` is the weight hung."""
 
-    #: The load's field and unit (``force_n``, ``N``); the field of the travel the run may
-    #: take (``max_distance_m``, m or rad).
+    #: The load's field and unit (``force_n``, ``N``).
     load_field: ClassVar[str]
     load_unit: ClassVar[str]
-    travel_field: ClassVar[str]
     _hung_mass_kg: float | None = PrivateAttr(None)
     if TYPE_CHECKING:  # the subclasses' fields the checks read
         drive: str

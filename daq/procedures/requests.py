@@ -113,7 +113,6 @@ class TowRequest(_SignedLoad):
     kind: ClassVar[RunKind] = RunKind.TOW
     load_field: ClassVar[str] = "force_n"
     load_unit: ClassVar[str] = "N"
-    travel_field: ClassVar[str] = "max_distance_m"
 
     @staticmethod
     def _lever(rig: RigConfig) -> tuple[float, float, str]:
@@ -197,7 +196,6 @@ class SpinRequest(_SignedLoad):
     kind: ClassVar[RunKind] = RunKind.SPIN
     load_field: ClassVar[str] = "torque_nm"
     load_unit: ClassVar[str] = "N·m"
-    travel_field: ClassVar[str] = "max_angle_rad"
 
     @staticmethod
     def _lever(rig: RigConfig) -> tuple[float, float, str]:
