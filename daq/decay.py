@@ -18,10 +18,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.estimators import Estimator
+from daq.estimators import OUTPUT_ERROR, Estimator
 from daq.import_rules import ImportRules, Planning, checked_fields, no_drive
 from daq.procedures.params import ParameterError
 from daq.procedures.request_base import Flag
@@ -29,6 +28,8 @@ from daq.vocabulary import AXES, RunKind
 
 if TYPE_CHECKING:
     from pathlib import Path
+
+    import numpy as np
 
     from daq.session import RigSource
     from daq.store import Store
@@ -96,6 +97,8 @@ class DecayRun:
 def load_decays(store: Store, run_ids: Sequence[str]) -> list[DecayRun]:
     """The stored decays, checked to be of one dof with one known stiffness and inertia
     (they are fitted jointly); ``ValueError`` naming the run and field otherwise."""
+    import numpy as np  # only when a decay is loaded: the registry stays light for ``rig --help``
+
     channel = AXES[RunKind.DECAY].position_channel
     runs = []
     for rid in run_ids:
@@ -165,6 +168,7 @@ DECAY = Estimator(
     name="decay",
     runs="decay",
     methods_of=lambda: ("output-error",),
+    method_labels={"output-error": OUTPUT_ERROR},
     load=load_decays,  # type: ignore[arg-type]
     fit=fit_decays,
     subject=lambda runs: f"{runs[0].dof} decay",

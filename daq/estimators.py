@@ -9,13 +9,17 @@ code is imported when a fit runs, never at import (``rig --help`` stays light).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from daq.store import Store
     from estimation.design.envelope import RigEnvelope
+
+
+#: The method every estimator takes, as the browser's menu words it.
+OUTPUT_ERROR = "output error (joint, default)"
 
 
 @dataclass(frozen=True)
@@ -28,7 +32,15 @@ class Estimator:
     advice it gives names runs the rig can make; None for imports); ``subject``: what a
     failed fit names ("surge", "roll swing");
     ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
-    takes, the first the default (a callable, so the estimation code loads on first use)."""
+    takes, the first the default (a callable, so the estimation code loads on first use),
+    ``method_labels`` how the browser's menu words them.
+
+    What an estimator offers beyond the fit is a field, ``None`` where it offers nothing,
+    so the job calls it without naming the estimator: ``screen(runs, exclude_outliers)`` →
+    (the runs to fit, the screening) before the fit (repeats and Chauvenet outliers);
+    ``budget(store, runs, result, screening, report_dir)`` → the documents added to the
+    result after it (the uncertainty budget and the repeats, which the theory comparison
+    reads)."""
 
     name: str
     #: How messages name its runs: "tow/spin".
@@ -38,6 +50,10 @@ class Estimator:
     fit: Callable[[list[Any], str, bool, RigEnvelope | None], Any]
     subject: Callable[[list[Any]], str]
     report: Callable[[Any, list[Any], Path], list[Path]] | None = None
+    #: method → how the browser's method menu words it (a method missing: its name).
+    method_labels: dict[str, str] = field(default_factory=dict)
+    screen: Callable[[list[Any], bool], tuple[list[Any], Any]] | None = None
+    budget: Callable[[Store, list[Any], Any, Any, str | Path | None], dict[str, Any]] | None = None
 
     @property
     def methods(self) -> tuple[str, ...]:
@@ -69,6 +85,20 @@ def _axis_fit(
     return estimate(runs, method=method, search_effects=search, envelope=envelope)
 
 
+def _axis_screen(runs: list[Any], exclude_outliers: bool) -> tuple[list[Any], Any]:
+    from daq.axis_budget import screen_repeats
+
+    return screen_repeats(runs, exclude_outliers)
+
+
+def _axis_budget(
+    store: Store, runs: list[Any], result: Any, repeats: Any, report_dir: str | Path | None
+) -> dict[str, Any]:
+    from daq.axis_budget import budget_document
+
+    return budget_document(store, runs, result, repeats, report_dir)
+
+
 def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
     from estimation.axis.report import write_report  # matplotlib: load only when asked
 
@@ -84,6 +114,14 @@ AXIS = Estimator(
     fit=_axis_fit,
     subject=lambda runs: str(runs[0].axis),
     report=_axis_report,
+    method_labels={
+        "output-error": OUTPUT_ERROR,
+        "ls-steady": "seed: steady state + curve fit",
+        "ls-curvefit": "seed: curve fit",
+        "ls-raw": "seed: raw differences",
+    },
+    screen=_axis_screen,
+    budget=_axis_budget,
 )
 
 
@@ -125,4 +163,10 @@ PENDULUM = Estimator(
     fit=_pendulum_fit,
     subject=lambda runs: f"{runs[0].axis} swing",
     report=_pendulum_report,
+    method_labels={
+        "output-error": OUTPUT_ERROR,
+        "damped-fit": "pendulum: damped sinusoid fit (seed 002 lsqcurvefit)",
+        "log-decrement": "pendulum: log decrement (component method)",
+        "equation-error": "pendulum: equation-error LS",
+    },
 )

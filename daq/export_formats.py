@@ -10,11 +10,9 @@ writer imports what it needs (pandas, xarray, pyarrow, scipy) when it is called.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
-
-from typing_extensions import TypedDict  # pydantic needs it for a response on Python < 3.12
 
 if TYPE_CHECKING:
     from daq.store.store import Store
@@ -23,8 +21,12 @@ if TYPE_CHECKING:
 Writer = Callable[["Store", str, Path], object]
 
 
-class FormatInfo(TypedDict):
-    """An entry as ``GET /api/export-formats`` lists it (all but the writer)."""
+@dataclass(frozen=True)
+class FormatInfo:
+    """An export format as ``GET /api/export-formats`` lists it: its ``name``
+    (``--format``/``?format=``), the ``suffix`` of its files, its ``media_type``, the
+    ``label`` of the browser's menu entry, a one-line ``help``, and whether it is ``binary``
+    (not for a terminal)."""
 
     name: str
     suffix: str
@@ -35,29 +37,15 @@ class FormatInfo(TypedDict):
 
 
 @dataclass(frozen=True)
-class ExportFormat:
-    """One export format: its ``name`` (``--format``/``?format=``), the ``suffix`` of its
-    files, its ``media_type``, the ``label`` of the browser's menu entry, a one-line
-    ``help``, whether it is ``binary`` (not for a terminal), and its ``writer``."""
+class ExportFormat(FormatInfo):
+    """One export format: what the list shows (:class:`FormatInfo`) and its ``writer``."""
 
-    name: str
-    suffix: str
-    media_type: str
-    label: str
-    help: str
-    binary: bool
     writer: Writer
 
-    def public(self) -> FormatInfo:
-        """The entry as ``GET /api/export-formats`` lists it."""
-        return FormatInfo(
-            name=self.name,
-            suffix=self.suffix,
-            media_type=self.media_type,
-            label=self.label,
-            help=self.help,
-            binary=self.binary,
-        )
+    def public(self) -> dict[str, str | bool]:
+        """The entry as ``GET /api/export-formats`` lists it: the fields of :class:`FormatInfo`
+        (all but the writer)."""
+        return {f.name: getattr(self, f.name) for f in fields(FormatInfo)}
 
 
 def _write_csv(store: Store, run_id: str, path: Path) -> None:

@@ -62,15 +62,30 @@ class AxisTerms:
     weight_act: str  # the operator act that loads the axis
     drive_key: str | None = None  # the run parameter holding the drive, e.g. "force_n"
     drive_unit: str | None = None
+    travel_key: str | None = None  # the parameter limiting the motion, e.g. "max_distance_m"
 
 
 #: kind → axis → position channel → drive key: the one table of axis words.
 AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored strings
     RunKind.TOW: AxisTerms(
-        Axis.SURGE, "tow_position", "m", "tow_release", "hang_tow_weight", "force_n", "N"
+        Axis.SURGE,
+        "tow_position",
+        "m",
+        "tow_release",
+        "hang_tow_weight",
+        "force_n",
+        "N",
+        "max_distance_m",
     ),
     RunKind.SPIN: AxisTerms(
-        Axis.YAW, "yaw_angle", "rad", "spin_release", "hang_spin_weight", "torque_nm", "N·m"
+        Axis.YAW,
+        "yaw_angle",
+        "rad",
+        "spin_release",
+        "hang_spin_weight",
+        "torque_nm",
+        "N·m",
+        "max_angle_rad",
     ),
     RunKind.PENDULUM: AxisTerms(
         Axis.SWING, "pendulum_angle", "rad", "pendulum_release", "pull_pendulum"

@@ -1,5 +1,5 @@
 """Run metadata on the command line: ``--operator --water-temp --notes --tag --meta``,
-added once to every command that records or imports runs (see ``RUN_STARTERS`` in
+added once to every command that records or imports runs (see ``records_runs`` in
 api.cli.main) and read by the procedure runner; ``rig annotate`` changes it afterwards."""
 
 from __future__ import annotations

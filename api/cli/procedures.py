@@ -1,6 +1,6 @@
-"""``rig tow``, ``rig spin``, ``rig pendulum``, ``rig calibrate-thrusters`` (one command
-per run kind of ``daq.procedures.kinds.KINDS``, its options from the kind's request model)
-and ``rig sequence``."""
+"""One ``rig`` command per kind the rig runs (``daq.procedures.kinds.RIG_KINDS``: its name,
+help and options from the kind's entry and request model; ``rig tow``, ``rig spin``, …) and
+``rig sequence``."""
 
 from __future__ import annotations
 
@@ -26,13 +26,13 @@ from api.cli.common import (
 from api.cli.metadata import run_metadata
 from api.cli.options import request_fields, request_options
 from daq.collector import freeze_after_startup
-from daq.procedures.kinds import KINDS, KindSpec
+from daq.procedures.kinds import RIG_KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import StorageFault, one_line
-from daq.vocabulary import RunKind, RunStatus
+from daq.vocabulary import RunStatus
 
 
 def _run_procedure(
@@ -118,17 +118,6 @@ def _print_outcome(outcome: Any, as_json: bool) -> None:
         raise SystemExit(1)
 
 
-def _print_calibration(calibration: dict[str, Any] | None) -> None:
-    if not calibration:
-        return
-    click.echo("command   thrust/thruster [N]   supply [V]")
-    for row in calibration["table"]:
-        click.echo(
-            f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
-            + (f"{row['supply_voltage_v']:10.2f}" if row["supply_voltage_v"] is not None else "")
-        )
-
-
 def _report_option(spec: KindSpec) -> Callable[[Callable], Callable]:
     """``--report DIR`` on the commands whose kind writes a report of its own."""
 
@@ -189,8 +178,9 @@ def procedure_command(spec: KindSpec) -> click.Command:
             spec.route,
             as_json,
         )
-        if not as_json and "calibration" in ran.extra:
-            _print_calibration(ran.extra["calibration"])
+        if not as_json and spec.summary is not None:
+            for line in spec.summary(ran):
+                click.echo(line)
         if report_dir is not None:
             _write_report(spec, ran, report_dir)
         _print_outcome(ran, as_json)
@@ -198,11 +188,18 @@ def procedure_command(spec: KindSpec) -> click.Command:
     return command
 
 
-#: One command per run kind (``api.cli.COMMANDS`` names them for ``rig --help``).
-tow = procedure_command(KINDS[RunKind.TOW])
-spin = procedure_command(KINDS[RunKind.SPIN])
-pendulum = procedure_command(KINDS[RunKind.PENDULUM])
-calibrate_thrusters = procedure_command(KINDS[RunKind.THRUST_CALIBRATION])
+#: One command per kind the rig runs, by its attribute name (``calibrate_thrusters`` for
+#: ``rig calibrate-thrusters``), as ``api.cli.command_table.COMMANDS`` looks them up.
+KIND_COMMANDS: dict[str, click.Command] = {
+    str(spec.command).replace("-", "_"): procedure_command(spec) for spec in RIG_KINDS.values()
+}
+
+
+def __getattr__(name: str) -> click.Command:
+    """``api.cli.procedures.tow`` and the like: the kind's command from :data:`KIND_COMMANDS`."""
+    if name in KIND_COMMANDS:
+        return KIND_COMMANDS[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _print_thrust_fit(fit: dict[str, Any]) -> None:

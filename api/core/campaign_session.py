@@ -8,9 +8,8 @@ import asyncio
 from collections.abc import Callable
 from typing import Any
 
-from daq.procedures.motion import run_motion_test
+from daq.procedures.kinds import KINDS
 from daq.procedures.recording import AbortSignal
-from daq.procedures.requests import spin_parameters, tow_parameters
 from daq.run_data import load_run_data
 from daq.session import RigSession
 from estimation.design.campaign import Campaign
@@ -42,15 +41,19 @@ async def run_campaign(
     entry as it is booked; ``tag`` goes on each run as ``metadata.campaign``. A run that does
     not complete ends the campaign (``outcome``)."""
     store = session.store
+    abort = abort or AbortSignal()
     while (decision := campaign.next()).stop is None:
         choice = decision.choice
         assert choice is not None
         test = choice.test
         raw = {test.field: test.load, "drive": test.drive}
-        make = tow_parameters if test.kind == "tow" else spin_parameters
+        spec = KINDS[test.kind]  # the planner's tests are tows and spins: the kinds' entries
         if tag is not None:
             session.run_metadata = (session.run_metadata or {}) | {"campaign": tag}
-        outcome = await run_motion_test(session, make(raw, session.rig), abort=abort)
+        ran = await spec.run(
+            session, spec.check(raw, session.rig), abort=abort, progress=lambda _: None
+        )
+        outcome = ran.run
         if outcome.status != "completed":
             campaign.outcome = f"{test.command}: {outcome.status} ({outcome.reason})"
             return campaign

@@ -16,7 +16,6 @@ from typing import Any
 from api.core.estimation_failure import fit_subject, fitting
 from api.core.rig_envelope import envelope_of_runs
 from api.core.theory_job import theory_document
-from api.core.uncertainty_job import budget_document, screen_repeats
 from daq.estimators import Estimator
 from daq.procedures.kinds import KINDS
 from daq.store import Store
@@ -35,8 +34,9 @@ def estimator_of(store: Store, run_ids: Sequence[str], method: str) -> Estimator
     kinds = sorted({store.get_run(rid).kind for rid in run_ids})
     if len(kinds) > 1:  # a tow and a spin are two axes: one fit cannot take both
         raise ValueError(
-            f"run_ids: got mixed kinds {kinds}, allowed: runs of one kind (tows of one axis, "
-            "spins, pendulum runs, decays of one dof); estimate each kind on its own"
+            f"run_ids: got mixed kinds {kinds}, allowed: runs of one kind (of "
+            f"{', '.join(str(k) for k, s in KINDS.items() if s.estimator)}); estimate each kind "
+            "on its own"
         )
     spec = KINDS.get(kinds[0])  # type: ignore[call-overload]  # a RunKind key matches its str
     if spec is None or spec.estimator is None:
@@ -52,7 +52,7 @@ def estimator_of(store: Store, run_ids: Sequence[str], method: str) -> Estimator
 
 
 def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
-    """The name of the estimator the runs call for ("axis", "pendulum", "decay"), checked
+    """The name of the estimator the runs call for (``Estimator.name``), checked
     as :func:`estimator_of` says."""
     return estimator_of(store, run_ids, method).name
 
@@ -80,18 +80,17 @@ def run_estimation(
     exclude_outliers: bool = False,
 ) -> dict[str, Any]:
     """Estimate from stored runs; returns the result JSON (with ``result_id``), stored as an
-    "estimation" result; the axis model's with the uncertainty budget, the repeat analysis
-    and the theory comparison (``api.core.uncertainty_job``, ``api.core.theory_job``;
-    ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit). Bad input raises
-    as :func:`load_estimation_runs` says; a fit (or its report) that fails in its numerics
-    raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
+    "estimation" result; with what the estimator offers besides the fit (its ``screen`` of
+    the repeats, where ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit;
+    its uncertainty ``budget``, then the theory comparison, ``api.core.theory_job``).
+    Bad input raises as :func:`load_estimation_runs` says; a fit (or its report) that fails
+    in its numerics raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
     """
     estimator = estimator_of(store, run_ids, method)
     runs = estimator.load(store, run_ids)
-    axis = estimator.name == "axis"  # the budget and repeats are the axis model's (for now)
-    repeats = None
-    if axis:
-        runs, repeats = screen_repeats(runs, exclude_outliers)
+    screening: Any = None  # what the estimator's screen found (repeats, outliers), if it has one
+    if estimator.screen is not None:
+        runs, screening = estimator.screen(runs, exclude_outliers)
     subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
     envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
     with fitting(subject):
@@ -101,11 +100,10 @@ def run_estimation(
         with fitting(subject, "draw the report of"):
             files = estimator.report(result, runs, Path(report_dir))
             data["report_files"] = [str(p) for p in files]
-    if axis:
-        assert repeats is not None
+    if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
-            data |= budget_document(store, runs, result, repeats, report_dir)
-            data |= theory_document(store, data, repeats, report_dir)
+            data |= estimator.budget(store, runs, result, screening, report_dir)
+            data |= theory_document(store, data, screening, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

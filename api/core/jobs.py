@@ -73,6 +73,9 @@ class JobRunner(QueueEdits):
         #: Scratch space where reports are drawn before they are stored in the database.
         self.report_root = report_root or Path(tempfile.mkdtemp(prefix="towrig-reports-"))
         self.rig = RigWorker(service, self.registry)
+        #: Start a validated procedure or queue it: the rig worker's own method
+        #: (:meth:`RigWorker.start_procedure`), for the routes, campaigns and queue edits.
+        self.start_procedure = self.rig.start_procedure
         self.queue: RigQueue = self.rig.queue
         self.analysis = AnalysisWorker(self.registry, self.report_root)
 
@@ -136,21 +139,6 @@ class JobRunner(QueueEdits):
         return self.registry.events(job_id)
 
     # -- procedures and the rig --------------------------------------------------------------
-    def start_procedure(
-        self,
-        kind: str,
-        params: Any,
-        label: str,
-        *,
-        request: dict[str, Any] | None = None,
-        queue: bool = True,
-        user: str | None = None,
-    ) -> Job:
-        """Start a validated procedure or queue it (:meth:`RigWorker.start_procedure`)."""
-        return self.rig.start_procedure(
-            kind, params, label, request=request, queue=queue, user=user
-        )
-
     def abort(self, job_id: str, reason: str = "operator abort (API)") -> Job:
         """Abort a procedure job, queued or on the rig."""
         return self.rig.abort(job_id, reason)

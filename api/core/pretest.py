@@ -7,14 +7,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
-from api.core.uncertainty_job import chain_of, tolerances_of
+from daq.axis_budget import chain_of, tolerances_of
 from daq.config import RigConfig
-from daq.procedures.requests import SpinRequest as SpinParameters
-from daq.procedures.requests import TowRequest as TowParameters
+from daq.procedures.kinds import KINDS
 from daq.procedures.sequence import load_sequence
 from daq.store import Store
+from daq.vocabulary import AXES
 from estimation.uncertainty.pretest import PlannedRig, PlannedRun, predict_uncertainty
 
 #: Release instant σ assumed when no stored run says otherwise, s: the brake write's
@@ -41,34 +41,28 @@ def current_models(store: Store, result_ids: Sequence[int] = ()) -> dict[str, li
 
 
 def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
-    """The weight-driven tows and spins of a sequence file (other steps are not predicted)."""
+    """The weight-driven steps of a sequence file on the planner's axes (the kinds with an
+    ``envelope``: tows and spins); other steps are not predicted."""
     seq = load_sequence(sequence_path, rig)
     out = []
     for step in seq.steps:
-        # checked parameters: the load and the rig's limits are set
-        if isinstance(step, TowParameters) and step.drive == "weight" and step.hung_mass_kg:
-            assert step.force_n is not None and step.max_distance_m is not None
-            assert step.max_time_s is not None
-            out.append(
-                PlannedRun(
-                    "surge",
-                    step.force_n,
-                    step.hung_mass_kg,
-                    step.max_distance_m,
-                    step.max_time_s,
-                    seq.repeats,
-                )
+        if KINDS[step.kind].envelope is None:
+            continue
+        terms, signed = AXES[step.kind], cast(Any, step)  # a tow's or a spin's request
+        if signed.drive == "weight" and signed.hung_mass_kg:
+            # checked parameters: the load, the travel and the time limit are set
+            load, travel = (
+                getattr(signed, str(terms.drive_key)),
+                getattr(signed, str(terms.travel_key)),
             )
-        elif isinstance(step, SpinParameters) and step.drive == "weight" and step.hung_mass_kg:
-            assert step.torque_nm is not None and step.max_angle_rad is not None
-            assert step.max_time_s is not None
+            assert load is not None and travel is not None and signed.max_time_s is not None
             out.append(
                 PlannedRun(
-                    "yaw",
-                    step.torque_nm,
-                    step.hung_mass_kg,
-                    step.max_angle_rad,
-                    step.max_time_s,
+                    str(terms.axis),
+                    load,
+                    signed.hung_mass_kg,
+                    travel,
+                    signed.max_time_s,
                     seq.repeats,
                 )
             )
@@ -98,9 +92,14 @@ def predict_sequence(
             "output-error estimate of each axis the sequence drives (estimate a first campaign, "
             "or name results with --result)"
         )
-    steps = {
-        "surge": abs(rig.channel("tow_position").scale) if rig.has("tow_position") else 1e-4,
-        "yaw": abs(rig.channel("yaw_angle").scale) if rig.has("yaw_angle") else 1e-4,
+    steps = {  # the encoder step of each planned axis's position channel (1e-4 without one)
+        str(AXES[kind].axis): (
+            abs(rig.channel(AXES[kind].position_channel).scale)
+            if rig.has(AXES[kind].position_channel)
+            else 1e-4
+        )
+        for kind, spec in KINDS.items()
+        if spec.envelope is not None
     }
     planned_rig = PlannedRig(
         chain_of(rig), rig.acquisition.rate_hz, steps, release_std_s=release_std_s

@@ -17,6 +17,7 @@ from api.core.job_requests import procedure_from_request
 if TYPE_CHECKING:
     from api.core.job_queue import RigQueue
     from api.core.job_registry import JobRegistry
+    from api.core.rig_worker import RigWorker
     from api.core.service import RigService
 
 
@@ -34,6 +35,7 @@ class QueueEdits:
     service: RigService
     registry: JobRegistry
     queue: RigQueue
+    rig: RigWorker
 
     if TYPE_CHECKING:
 
@@ -41,15 +43,6 @@ class QueueEdits:
         def move(self, job_id: str, position: int) -> dict[str, Any]: ...
         def pause_queue(self, reason: str = ...) -> dict[str, Any]: ...
         def resume_queue(self) -> dict[str, Any]: ...
-        def start_procedure(
-            self,
-            kind: str,
-            params: Any,
-            label: str,
-            *,
-            request: dict[str, Any] | None = ...,
-            user: str | None = ...,
-        ) -> Job: ...
 
     def replace(self, job_id: str, request: dict[str, Any]) -> Job:
         """Give a queued job a new request (its kind's body, validated exactly like a new
@@ -98,7 +91,7 @@ class QueueEdits:
         params, label = procedure_from_request(
             old.kind, request, self.service.source.rig, self.service.store
         )
-        return self.start_procedure(old.kind, params, label, request=request, user=user)
+        return self.rig.start_procedure(old.kind, params, label, request=request, user=user)
 
     def add_stop_marker(self, position: int | None = None, user: str | None = None) -> Job:
         """Put a stop marker in the queue at ``position`` (1 = next; None: at the end): when

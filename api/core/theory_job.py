@@ -13,7 +13,7 @@ from typing import Any
 
 from api.core.sixdof import VehicleNotFound, find_vehicle, vehicle_files
 from api.core.theory import DEFAULT_WATER_TEMP_C
-from api.core.uncertainty_job import rig_of_runs
+from daq.axis_budget import rig_of_runs
 from daq.store import Store
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.measured import HullScale, measured_beside_theory, theory_markdown

@@ -11,9 +11,9 @@ CLI commands, sequences, the job runner, the import and ``GET /api/kinds`` itera
 ``KINDS`` (``RIG_KINDS``: those the rig runs) instead of branching on the kind.
 
 Adding a kind the rig runs: write its procedure (a ``run_…`` coroutine), its request model
-in ``daq.procedures.requests`` and one entry here (and, for ``rig --help`` to list it without
-importing anything, one line in ``api.cli.COMMANDS``). A kind that is only imported (a free
-decay) is one entry with its estimator and import rules.
+in ``daq.procedures.requests`` and one entry here (its ``rig`` command, with its help, and
+its HTTP route follow from the entry). A kind that is only imported (a free decay) is one
+entry with its estimator and import rules.
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from daq.procedures.recording import AbortSignal, ProgressCallback
     from daq.procedures.steps import RunOutcome
     from daq.session import RigSession
+    from estimation.design.envelope import AxisEnvelope
 
 StepParameters = (
     requests.TowRequest
@@ -118,6 +119,8 @@ class KindSpec:
     #: Write a report of a completed run into a folder → paths written (``--report DIR``),
     #: or ``None`` when the kind has no report of its own.
     report: Callable[[KindOutcome, Path], list[Path]] | None = None
+    #: Lines ``rig <command>`` prints above the outcome (a calibration's table), or ``None``.
+    summary: Callable[[KindOutcome], list[str]] | None = None
     #: What the rig file must list for this kind, whatever drives it (``daq.capabilities``).
     needs: Needs = field(default_factory=Needs)
     #: Tow/spin: what each drive (``weight``, ``thrusters``) needs on top of ``needs``.
@@ -125,6 +128,10 @@ class KindSpec:
     #: The operator acts its procedure asks for (``daq.operator.SIMULATED_ACTS`` plays them
     #: on the simulated rig; a person does them on a real one).
     acts: tuple[str, ...] = ()
+    #: For the test planner (``estimation.design``): the axis's loads and travel on ``rig``
+    #: given the thrusters' calibrated (low, high) load (None: none); ``None``: the planner
+    #: does not choose this kind.
+    envelope: Callable[[RigConfig, tuple[float, float] | None], AxisEnvelope] | None = None
 
     @property
     def axis(self) -> AxisTerms | None:
@@ -203,9 +210,53 @@ def _calibration_report(outcome: KindOutcome, folder: Path) -> list[Path]:
     return write_calibration_report(outcome.extra["calibration"], folder)
 
 
+def _calibration_table(outcome: KindOutcome) -> list[str]:
+    """Command, thrust per thruster and supply voltage, one row a step (none: no table)."""
+    calibration = outcome.extra.get("calibration")
+    if not calibration:
+        return []
+    lines = ["command   thrust/thruster [N]   supply [V]"]
+    for row in calibration["table"]:
+        supply = row["supply_voltage_v"]
+        lines.append(
+            f"{row['command']:+7.2f}   {row['thrust_per_thruster_n']:+15.3f}   "
+            + (f"{supply:10.2f}" if supply is not None else "")
+        )
+    return lines
+
+
 def _axis_channels(kind: RunKind) -> tuple[str, ...]:
     """The position channel and release coil a test on ``kind``'s axis reads and writes."""
     return (AXES[kind].position_channel, AXES[kind].release_coil)
+
+
+def _tow_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvelope:
+    from estimation.design.envelope import AxisEnvelope
+
+    geometry, limits = rig.geometry, rig.limits
+    return AxisEnvelope(
+        "surge",
+        max_load=float(limits.max_force_n),
+        travel=float(geometry.end_of_travel_m),
+        reverse_travel=float(geometry.reverse_travel),
+        max_rate=float(limits.max_speed_m_s),
+        thruster_range=span,
+    )
+
+
+def _spin_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvelope:
+    from estimation.design.envelope import AxisEnvelope
+
+    geometry, limits = rig.geometry, rig.limits
+    return AxisEnvelope(
+        "yaw",
+        max_load=float(limits.max_torque_nm or 0.0),  # a spin needs it (its ``needs``)
+        travel=float(geometry.spin_max_angle_rad),
+        reverse_travel=float(geometry.spin_max_angle_rad),
+        max_rate=float(limits.max_yaw_rate_rad_s),
+        thruster_range=span,
+        drum_radius_m=geometry.spin_drum_radius_m,
+    )
 
 
 def _driven(name: str, load: float, unit: str, drive: str) -> str:
@@ -231,6 +282,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             needs=Needs(channels=_axis_channels(RunKind.TOW)),
             drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
             acts=("hang_tow_weight", "return_carriage", "unmount_thrust_stand"),
+            envelope=_tow_envelope,
         ),
         KindSpec(
             kind=RunKind.SPIN,
@@ -250,6 +302,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
                 "thrusters": Needs(thrusters=True),
             },
             acts=("hang_spin_weight", "return_carriage", "unmount_thrust_stand"),
+            envelope=_spin_envelope,
         ),
         KindSpec(
             kind=RunKind.PENDULUM,
@@ -277,6 +330,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             command="calibrate-thrusters",
             route="calibration",
             report=_calibration_report,
+            summary=_calibration_table,
             needs=Needs(channels=("load_cell",), thrusters=True),
             acts=("mount_thrust_stand", "unmount_thrust_stand"),
         ),
@@ -317,7 +371,7 @@ def all_methods() -> tuple[str, ...]:
 def describe_kinds() -> list[dict[str, Any]]:
     """Every kind as ``GET /api/kinds`` serves it: its labels, the JSON Schema of its start
     request (``null``: the rig does not run it), its command and route, its estimation
-    methods and its import fields' JSON Schema."""
+    methods (with how the browser's menu words them) and its import fields' JSON Schema."""
     out = []
     for kind, spec in KINDS.items():
         out.append(
@@ -330,6 +384,7 @@ def describe_kinds() -> list[dict[str, Any]]:
                 "schema": None if spec.request is None else spec.request.model_json_schema(),
                 "estimator": None if spec.estimator is None else spec.estimator.name,
                 "methods": [] if spec.estimator is None else list(spec.estimator.methods),
+                "method_labels": {} if spec.estimator is None else spec.estimator.method_labels,
                 "import": None if spec.imports is None else spec.imports.to_json(),
             }
         )

@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 
 from estimation.axis.force_residual import force_residuals
 from estimation.axis.model import PreparedRun, prepare
-from estimation.axis.result import EstimationResult
+from estimation.axis.result import UNITS, EstimationResult
 from estimation.data.runs import RunData
 from estimation.figures import (
     FitRow,
@@ -32,24 +32,6 @@ from estimation.fit_report import (
     summary_rows,
     write_result_and_markdown,
 )
-
-UNITS = {
-    "surge": {
-        "inertia": "kg",
-        "linear_damping": "N·s/m",
-        "quadratic_damping": "N·s²/m²",
-        "position": "m",
-        "velocity": "m/s",
-    },
-    "yaw": {
-        "inertia": "kg·m²",
-        "linear_damping": "N·m·s/rad",
-        "quadratic_damping": "N·m·s²/rad²",
-        "position": "rad",
-        "velocity": "rad/s",
-    },
-}
-
 
 AXIS_LABELS = {
     "surge": {"position": "position", "velocity": "velocity", "drive": "force", "force": "N"},

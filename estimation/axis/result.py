@@ -19,6 +19,25 @@ from estimation.stats.diagnostics import Whiteness
 SCHEMA_VERSION = 1
 
 
+#: Per axis, the unit of each coefficient and of the position and velocity (SI).
+UNITS = {
+    "surge": {
+        "inertia": "kg",
+        "linear_damping": "N·s/m",
+        "quadratic_damping": "N·s²/m²",
+        "position": "m",
+        "velocity": "m/s",
+    },
+    "yaw": {
+        "inertia": "kg·m²",
+        "linear_damping": "N·m·s/rad",
+        "quadratic_damping": "N·m·s²/rad²",
+        "position": "rad",
+        "velocity": "rad/s",
+    },
+}
+
+
 @dataclass(frozen=True)
 class Estimate:
     """A value with its standard error, in SI units."""
@@ -109,6 +128,7 @@ class EstimationResult:
             "runs": list(self.runs),
             "drive_law": dict(self.drive_laws),
             "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
+            "units": dict(UNITS.get(self.axis, {})),
             "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
             "effects": [e.to_json() for e in self.effects],
             "ambiguous": [list(group) for group in self.ambiguous],

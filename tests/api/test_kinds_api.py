@@ -77,3 +77,25 @@ def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(chromium
         assert options == ["weight", "thrusters"]
         assert page.locator("#form-calibration [name=reverse]").is_checked()
         assert errors == []
+
+
+def test_the_estimation_pages_method_menu_is_rendered_from_the_served_methods(service, client):
+    """Every method a served kind's estimator takes is one entry of the menu, in the served
+    order (the default first), worded by its estimator's method_labels: a new estimator's
+    methods appear without touching the page."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import signed_in_page
+
+    served: dict[str, str] = {}
+    for kind in client.get("/api/kinds", headers=AUTH).json():
+        for method in kind["methods"]:
+            served.setdefault(method, kind["method_labels"].get(method, method))
+    assert {"output-error", "ls-raw", "damped-fit"} <= set(served)
+    with signed_in_page(service, client) as page:
+        page.click("nav a[data-page=estimation]")
+        menu = page.locator("#est-method option")
+        expect(menu).to_have_count(len(served))
+        assert menu.evaluate_all("os => os.map((o) => o.value)") == list(served)
+        assert menu.all_text_contents() == list(served.values())
+        assert page.locator("#est-method").input_value() == "output-error"

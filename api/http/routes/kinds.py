@@ -34,6 +34,9 @@ class KindOut(BaseModel):
     )
     estimator: str | None = Field(description="The fit its runs take (null: none).")
     methods: list[str] = Field(description="Estimation methods, the first the default.")
+    method_labels: dict[str, str] = Field(
+        description="How the browser's method menu words each method (one missing: its name)."
+    )
     import_: KindImportOut | None = Field(
         alias="import", description="How a CSV is imported as this kind (null: it is not)."
     )

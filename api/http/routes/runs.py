@@ -234,8 +234,13 @@ def get_samples_csv(run_id: str, store: StoreDep) -> StreamingResponse:
 _EXPORT_CONTENT: dict[str, dict[str, Any]] = {f.media_type: {} for f in FORMATS.values()}
 
 
-@router.get("/export-formats", dependencies=[Depends(require_read)], responses=error_responses(401))
-def list_export_formats() -> list[FormatInfo]:
+@router.get(
+    "/export-formats",
+    response_model=list[FormatInfo],
+    dependencies=[Depends(require_read)],
+    responses=error_responses(401),
+)
+def list_export_formats() -> list[dict[str, str | bool]]:
     """The formats ``/runs/{id}/export`` writes: name, suffix, media type, label, help,
     binary (the browser's export menu is built from this list)."""
     return [f.public() for f in FORMATS.values()]

@@ -677,11 +677,6 @@ async function pollEstimation(jobId) {
   }
 }
 
-const COEF_UNITS = {
-  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²" },
-  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²" },
-};
-
 function showEstimationJob(job) {
   if (job.id !== estimationJobId) return;
   $("#est-status").innerHTML = `<span class="state ${job.state}" id="est-state">${job.state}</span> ${esc(job.progress.message)}`;
@@ -689,15 +684,17 @@ function showEstimationJob(job) {
   renderEstimation(job.outcome);
 }
 
+// Views of their own for result documents, by the document's `analysis` ({render, clear};
+// pendulum.js registers the pendulum swing's); any other result is drawn by renderEstimation.
+const resultViews = {};
+
 async function renderEstimation(res) {
   if (typeof renderUncertainty === "function") renderUncertainty(res); // uncertainty.js
-  if (typeof renderPendulumEstimation === "function") {
-    // pendulum free-decay results (api/http/static/pendulum.js)
-    if (res.analysis === "pendulum") return renderPendulumEstimation(res);
-    clearPendulumEstimation();
-  }
+  for (const view of Object.values(resultViews)) view.clear();
+  const view = resultViews[res.analysis];
+  if (view) return view.render(res);
   $("#est-result").hidden = false;
-  const units = COEF_UNITS[res.axis] || {};
+  const units = res.units || {}; // an axis result's units; a decay's coefficients carry theirs
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];

@@ -1,20 +1,6 @@
 // Pendulum free-decay results on the estimation page (result JSON with analysis "pendulum").
-// app.js's renderEstimation hands such results here; uses app.js's $, api, esc, fmt, kv, state.
-
-const PENDULUM_METHOD_OPTIONS = [
-  ["damped-fit", "pendulum: damped sinusoid fit (seed 002 lsqcurvefit)"],
-  ["log-decrement", "pendulum: log decrement (component method)"],
-  ["equation-error", "pendulum: equation-error LS"],
-];
-
-(function addPendulumMethods() {
-  const select = document.getElementById("est-method");
-  if (!select) return;
-  for (const [value, label] of PENDULUM_METHOD_OPTIONS) {
-    if ([...select.options].some((o) => o.value === value)) continue;
-    select.append(Object.assign(document.createElement("option"), { value, textContent: label }));
-  }
-})();
+// Registered in app.js's resultViews, so renderEstimation hands such results here; uses
+// app.js's $, api, esc, fmt, kv, state.
 
 function pendulumPm(e) {
   if (!e || e.value === null || e.value === undefined) return "—";
@@ -89,3 +75,5 @@ function clearPendulumEstimation() {
   const box = document.getElementById("est-pendulum-methods");
   if (box) box.remove();
 }
+
+resultViews.pendulum = { render: renderPendulumEstimation, clear: clearPendulumEstimation };

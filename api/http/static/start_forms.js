@@ -1,7 +1,9 @@
-// The Rig page's start forms, rendered from GET /api/kinds: one tab and one form per kind the
-// rig runs, one field per property of the kind's JSON Schema (its request model: the field's
-// name is the request's key, its title the label, its description the tooltip, its default
-// the placeholder). Loaded before app.js; called from refreshRig once the token is known.
+// The Rig page's start forms and the Estimation page's method menu, rendered from
+// GET /api/kinds: one tab and one form per kind the rig runs, one field per property of the
+// kind's JSON Schema (its request model: the field's name is the request's key, its title the
+// label, its description the tooltip, its default the placeholder); one menu entry per method
+// of the kinds' estimators. Loaded before app.js; called from refreshRig once the token is
+// known.
 "use strict";
 
 let startKinds = null;
@@ -19,6 +21,21 @@ async function ensureStartForms() {
   servedKinds = kinds;
   startKinds = kinds.filter((k) => k.route && k.schema);
   renderStartForms(startKinds);
+  renderMethodOptions(kinds);
+}
+
+// The Estimation page's method menu: every method some kind's estimator takes, once, in the
+// order served (each estimator's default first), worded by the estimator's method_labels.
+function renderMethodOptions(kinds) {
+  const select = document.getElementById("est-method");
+  if (!select) return;
+  const labels = new Map();
+  for (const k of kinds) {
+    for (const m of k.methods) if (!labels.has(m)) labels.set(m, (k.method_labels || {})[m] || m);
+  }
+  select.innerHTML = [...labels]
+    .map(([m, label]) => `<option value="${esc(m)}">${esc(label)}</option>`)
+    .join("");
 }
 
 // {type, enum} of a property, looking through `anyOf: [{…}, {type: "null"}]`.

@@ -7,7 +7,7 @@ function renderUncertainty(res) {
   if (!box) return;
   const budget = res.budget;
   if (!budget) {
-    box.innerHTML = res.method && res.method !== "output-error" && res.analysis !== "pendulum"
+    box.innerHTML = res.method && res.method !== "output-error" && "budget" in res // a result that has one
       ? `<p class="muted">No uncertainty budget for ${esc(res.method)} (seed methods are compared, not signed).</p>`
       : "";
     return;

@@ -1,8 +1,10 @@
-"""The uncertainty budget of an estimation job: the rig file's constants and ``[tolerances]``
-handed to ``estimation.uncertainty`` as plain numbers (estimation never reads a rig file).
+"""The axis estimator's repeat screening and uncertainty budget: the rig file's constants
+and ``[tolerances]`` handed to ``estimation.uncertainty`` as plain numbers (estimation never
+reads a rig file).
 
-``screen_repeats`` runs before the fit (so ``exclude_outliers`` can drop a flagged repeat),
-``budget_document`` after it; ``run_estimation`` calls each in one line.
+The axis entry (``daq.estimators.AXIS``) offers them: ``screen_repeats`` runs before the fit
+(so ``exclude_outliers`` can drop a flagged repeat), ``budget_document`` after it; the
+estimation job calls what the entry offers, naming no estimator.
 """
 
 from __future__ import annotations
