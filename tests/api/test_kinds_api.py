@@ -79,7 +79,9 @@ def test_the_rig_pages_start_forms_are_rendered_from_the_served_schemas(chromium
         assert errors == []
 
 
-def test_the_estimation_pages_method_menu_is_rendered_from_the_served_methods(service, client):
+def test_the_estimation_pages_method_menu_is_rendered_from_the_served_methods(
+    chromium, service, client
+):
     """Every method a served kind's estimator takes is one entry of the menu, in the served
     order (the default first), worded by its estimator's method_labels: a new estimator's
     methods appear without touching the page."""
@@ -92,7 +94,7 @@ def test_the_estimation_pages_method_menu_is_rendered_from_the_served_methods(se
         for method in kind["methods"]:
             served.setdefault(method, kind["method_labels"].get(method, method))
     assert {"output-error", "ls-raw", "damped-fit"} <= set(served)
-    with signed_in_page(service, client) as page:
+    with signed_in_page(chromium, service, client) as page:
         page.click("nav a[data-page=estimation]")
         menu = page.locator("#est-method option")
         expect(menu).to_have_count(len(served))
