@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from itertools import combinations
+from threading import Lock
 
 import numpy as np
 
@@ -46,14 +47,39 @@ def _typical_step(name: str, fit: FitResult, runs: Sequence[PreparedRun]) -> flo
     return 1e-4 * max(scale, 1e-12)
 
 
+#: The last sensitivity matrices computed, with the very fit and runs objects they are of
+#: (held, so an identity is never reused) and the effects asked: a search asks the same one
+#: for identifiability, correlations and the predicted steps (each an ODE integration).
+_RECENT: list[tuple[FitResult, Sequence[PreparedRun], tuple[str, ...], tuple]] = []
+_RECENT_KEPT = 4
+_RECENT_LOCK = Lock()
+
+
 def sensitivities(
     fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
 ) -> tuple[tuple[str, ...], np.ndarray]:
     """∂x/∂θ at ``fit`` (its effects, plus ``extra`` effects at zero), stacked over runs.
 
-    Returns the parameter names and a (n_samples, n_params) matrix. A step that leaves a
+    Returns the parameter names and a (n_samples, n_params) matrix (read-only: the same
+    one is returned again for the same fit, runs and ``extra``). A step that leaves a
     parameter's bounds is taken the other way.
     """
+    asked = tuple(extra)
+    with _RECENT_LOCK:
+        for f, r, a, found in _RECENT:
+            if f is fit and r is runs and a == asked:
+                return found
+    result = _sensitivities(fit, runs, asked)
+    result[1].flags.writeable = False
+    with _RECENT_LOCK:
+        _RECENT.insert(0, (fit, runs, asked, result))
+        del _RECENT[_RECENT_KEPT:]
+    return result
+
+
+def _sensitivities(
+    fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
+) -> tuple[tuple[str, ...], np.ndarray]:
     effects = (*fit.effects, *(e for e in extra if e not in fit.effects))
     names = (*BASE_NAMES, *effects)
     values = np.array([fit.value(n) if n in fit.names else 0.0 for n in names])
