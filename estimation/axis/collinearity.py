@@ -12,13 +12,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from itertools import combinations
-from threading import Lock
 
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.axis.output_error import FitResult
+from estimation.axis.recent import Recent
 
 #: |ρ| at or above this: the two effects are structurally the same on these runs.
 COLLINEAR = 0.995
@@ -47,12 +47,9 @@ def _typical_step(name: str, fit: FitResult, runs: Sequence[PreparedRun]) -> flo
     return 1e-4 * max(scale, 1e-12)
 
 
-#: The last sensitivity matrices computed, with the very fit and runs objects they are of
-#: (held, so an identity is never reused) and the effects asked: a search asks the same one
-#: for identifiability, correlations and the predicted steps (each an ODE integration).
-_RECENT: list[tuple[FitResult, Sequence[PreparedRun], tuple[str, ...], tuple]] = []
-_RECENT_KEPT = 4
-_RECENT_LOCK = Lock()
+#: A search asks for the same sensitivity matrix (an ODE integration) to judge
+#: identifiability, correlations and the predicted steps: kept per fit, runs and effects.
+_RECENT: Recent[tuple[tuple[str, ...], np.ndarray]] = Recent()
 
 
 def sensitivities(
@@ -65,16 +62,7 @@ def sensitivities(
     parameter's bounds is taken the other way.
     """
     asked = tuple(extra)
-    with _RECENT_LOCK:
-        for f, r, a, found in _RECENT:
-            if f is fit and r is runs and a == asked:
-                return found
-    result = _sensitivities(fit, runs, asked)
-    result[1].flags.writeable = False
-    with _RECENT_LOCK:
-        _RECENT.insert(0, (fit, runs, asked, result))
-        del _RECENT[_RECENT_KEPT:]
-    return result
+    return _RECENT.get((fit, runs, asked), lambda: _sensitivities(fit, runs, asked))
 
 
 def _sensitivities(
@@ -90,7 +78,9 @@ def _sensitivities(
     sets = np.vstack([values, values + np.diag(steps)])
     sims = simulate(sets, effects, runs)
     x = bounded(np.concatenate([s[0] for s in sims], axis=1), runs)
-    return names, ((x[1:] - x[0]) / steps[:, None]).T
+    jac = ((x[1:] - x[0]) / steps[:, None]).T
+    jac.flags.writeable = False
+    return names, jac
 
 
 def _offset_columns(runs: Sequence[PreparedRun]) -> np.ndarray:
