@@ -55,7 +55,7 @@ def derivatives(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _derivatives(t.tobytes(), x.tobytes())
 
 
-DERIVATIVES_KEPT = 32
+DERIVATIVES_KEPT = 8  # records of one estimate; each entry holds its t and x (as keys)
 
 
 @lru_cache(maxsize=DERIVATIVES_KEPT)
