@@ -18,6 +18,7 @@ import numpy as np
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.axis.output_error import FitResult
+from estimation.axis.recent import Recent
 
 #: |ρ| at or above this: the two effects are structurally the same on these runs.
 COLLINEAR = 0.995
@@ -46,14 +47,27 @@ def _typical_step(name: str, fit: FitResult, runs: Sequence[PreparedRun]) -> flo
     return 1e-4 * max(scale, 1e-12)
 
 
+#: A search asks for the same sensitivity matrix (an ODE integration) to judge
+#: identifiability, correlations and the predicted steps: kept per fit, runs and effects.
+_RECENT: Recent[tuple[tuple[str, ...], np.ndarray]] = Recent()
+
+
 def sensitivities(
     fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
 ) -> tuple[tuple[str, ...], np.ndarray]:
     """∂x/∂θ at ``fit`` (its effects, plus ``extra`` effects at zero), stacked over runs.
 
-    Returns the parameter names and a (n_samples, n_params) matrix. A step that leaves a
+    Returns the parameter names and a (n_samples, n_params) matrix (read-only: the same
+    one is returned again for the same fit, runs and ``extra``). A step that leaves a
     parameter's bounds is taken the other way.
     """
+    asked = tuple(extra)
+    return _RECENT.get((fit, runs, asked), lambda: _sensitivities(fit, runs, asked))
+
+
+def _sensitivities(
+    fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
+) -> tuple[tuple[str, ...], np.ndarray]:
     effects = (*fit.effects, *(e for e in extra if e not in fit.effects))
     names = (*BASE_NAMES, *effects)
     values = np.array([fit.value(n) if n in fit.names else 0.0 for n in names])
@@ -64,7 +78,9 @@ def sensitivities(
     sets = np.vstack([values, values + np.diag(steps)])
     sims = simulate(sets, effects, runs)
     x = bounded(np.concatenate([s[0] for s in sims], axis=1), runs)
-    return names, ((x[1:] - x[0]) / steps[:, None]).T
+    jac = ((x[1:] - x[0]) / steps[:, None]).T
+    jac.flags.writeable = False
+    return names, jac
 
 
 def _offset_columns(runs: Sequence[PreparedRun]) -> np.ndarray:

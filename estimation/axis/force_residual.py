@@ -10,7 +10,13 @@ import numpy as np
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import ParamView, PreparedRun
 from estimation.axis.output_error import FitResult
+from estimation.axis.recent import Recent
 from estimation.stats.diagnostics import position_noise, smoothed_derivatives
+
+#: An estimate reads the same fit's force residual and noise floor more than once (its
+#: unexplained verdict, its per-run RMS, the search's materiality): kept per fit and runs.
+_RESIDUALS: Recent[list[np.ndarray]] = Recent()
+_FLOORS: Recent[float] = Recent()
 
 
 def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndarray]:
@@ -19,12 +25,19 @@ def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndar
     For a position residual r(t) about the model trajectory v(t):
         τ_res ≈ M_tot·r̈ + (K_L + 2K_Q·|v| + 3K_C·v²)·ṙ + k_s·r
     with ṙ, r̈ from smoothed derivatives of r (model derivatives are exact, so fast
-    transients do not bias it).
+    transients do not bias it). Read-only arrays (shared by the calls for the same fit).
     """
-    return [
-        _force_of(fit, r, res, v)
-        for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True)
-    ]
+
+    def compute() -> list[np.ndarray]:
+        out = [
+            _force_of(fit, r, res, v)
+            for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True)
+        ]
+        for f in out:
+            f.flags.writeable = False
+        return out
+
+    return list(_RESIDUALS.get((fit, runs), compute))
 
 
 def _force_of(fit: FitResult, run: PreparedRun, res: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -47,6 +60,10 @@ def force_noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int = 
     white noise at the scatter ``position_noise`` measures (fixed seed: reproducible).
     Only moving samples count, as in ``unexplained``.
     """
+    return _FLOORS.get((fit, runs, draws), lambda: _noise_floor(fit, runs, draws))
+
+
+def _noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int) -> float:
     rng = np.random.default_rng(12345)
     total, count = 0.0, 0
     sigma = position_noise(fit.residuals)

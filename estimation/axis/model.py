@@ -18,7 +18,7 @@ from itertools import repeat
 import numpy as np
 
 from estimation.data.runs import RunData
-from estimation.motion.equation import Coefficient, acceleration, hermite
+from estimation.motion.equation import Coefficient, accelerator, hermite
 from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Term
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
@@ -239,19 +239,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
 
     inv_inertia = 1.0 / inertia
 
-    if any(c.term.set_valued_at_rest for c in forces):
-
-        def accel(x, v, force):
-            return acceleration(x, v, force, inv_inertia, forces)
-
-    else:  # ``acceleration``'s sum, term by term in its order, without its per-call lookups
-        pairs = [(c.value, c.term.phi) for c in forces]
-
-        def accel(x, v, force):
-            net = force
-            for value, phi in pairs:
-                net = net + value * phi(x, v)
-            return net * inv_inertia
+    accel = accelerator(forces, inv_inertia, (n_sets, n_runs))
 
     xs = np.zeros((n_steps, n_sets, n_runs))
     vs = np.zeros((n_steps, n_sets, n_runs))

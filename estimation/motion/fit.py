@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -47,7 +48,26 @@ class MotionFit(FitStatistics):
 
 
 def derivatives(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """ẋ and ẍ at the samples: 7-point Savitzky–Golay on a uniform resampling."""
+    """ẋ and ẍ at the samples: 7-point Savitzky–Golay on a uniform resampling (read-only).
+
+    A fit reads a record's derivatives for its start, its scales and each candidate's
+    typical size (≈ 9 times per ``estimate_decay``; the filter's edge fits cost 1–2 ms):
+    they are computed once per record content (``DERIVATIVES_KEPT`` most recent)."""
+    t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
+    return _derivatives(t.tobytes(), x.tobytes())
+
+
+DERIVATIVES_KEPT = 8  # records of one estimate; each entry holds its t and x (as keys)
+
+
+@lru_cache(maxsize=DERIVATIVES_KEPT)
+def _derivatives(t_bytes: bytes, x_bytes: bytes) -> tuple[np.ndarray, np.ndarray]:
+    d1, d2 = _smoothed(np.frombuffer(t_bytes), np.frombuffer(x_bytes))
+    d1.flags.writeable = d2.flags.writeable = False
+    return d1, d2
+
+
+def _smoothed(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     dt = float(np.median(np.diff(t)))
     grid = np.arange(t[0], t[-1] + 0.5 * dt, dt)
     y = np.interp(grid, t, x)

@@ -48,34 +48,44 @@ class Physics:
         return self.ripple * np.sin(2 * np.pi * x / self.ripple_wavelength) if self.ripple else 0.0
 
 
+def _sign(value: float) -> float:
+    """``np.sign`` of one float (0.0 at zero), without numpy's per-call cost."""
+    return 1.0 if value > 0 else (-1.0 if value < 0 else 0.0)
+
+
 @lru_cache(maxsize=64)
 def _integrate(phys: Physics, total_inertia: float, drive: float, duration: float, dt: float):
+    """RK4 at ``dt`` from rest; scalar Python floats (30 000 steps: numpy scalars cost 4×)."""
     n = int(np.ceil(duration / dt)) + 1
+    bias, spring, rail = phys.bias, phys.spring, (phys.rail_force if phys.ripple else None)
+    k_l, k_q, k_c, coulomb = phys.linear_damping, phys.quadratic_damping, phys.cubic, phys.coulomb
+    held = max(phys.static, phys.coulomb)
 
     def accel(x: float, v: float) -> float:
-        net = drive + phys.bias - phys.spring * x + phys.rail_force(x)
-        net -= phys.linear_damping * v + phys.quadratic_damping * abs(v) * v + phys.cubic * v**3
+        net = drive + bias - spring * x + (rail(x) if rail else 0.0)
+        net -= k_l * v + k_q * abs(v) * v + k_c * v**3
         if v == 0.0:
-            if abs(net) <= max(phys.static, phys.coulomb):
+            if abs(net) <= held:
                 return 0.0
-            return (net - phys.coulomb * np.sign(net)) / total_inertia
-        return (net - phys.coulomb * np.sign(v)) / total_inertia
+            return (net - coulomb * _sign(net)) / total_inertia
+        return (net - coulomb * _sign(v)) / total_inertia
 
-    xs = np.zeros(n)
+    xs = [0.0] * n
     x = v = 0.0
+    half, sixth = 0.5 * dt, dt / 6
     for k in range(1, n):
         a1 = accel(x, v)
-        v2 = v + 0.5 * dt * a1
-        a2 = accel(x + 0.5 * dt * v, v2)
-        v3 = v + 0.5 * dt * a2
-        a3 = accel(x + 0.5 * dt * v2, v3)
+        v2 = v + half * a1
+        a2 = accel(x + half * v, v2)
+        v3 = v + half * a2
+        a3 = accel(x + half * v2, v3)
         v4 = v + dt * a3
         a4 = accel(x + dt * v3, v4)
-        new_v = v + dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-        x = x + dt / 6 * (v + 2 * v2 + 2 * v3 + v4)
-        v = 0.0 if v != 0.0 and np.sign(new_v) != np.sign(v) and phys.coulomb > 0 else new_v
+        new_v = v + sixth * (a1 + 2 * a2 + 2 * a3 + a4)
+        x = x + sixth * (v + 2 * v2 + 2 * v3 + v4)
+        v = 0.0 if v != 0.0 and _sign(new_v) != _sign(v) and coulomb > 0 else new_v
         xs[k] = x
-    return np.arange(n) * dt, xs
+    return np.arange(n) * dt, np.array(xs)
 
 
 def weight_run(
@@ -201,18 +211,20 @@ def thruster_run(
     xs = np.zeros(t_fine.size)
     inertia = phys.inertia
 
-    def accel(v: float, x: float, f: float) -> float:
-        net = f + phys.bias - phys.spring * x + phys.rail_force(x) - phys.linear_damping * v
-        net -= phys.quadratic_damping * abs(v) * v + phys.cubic * v**3
-        if v == 0.0:
-            return (
-                0.0 if abs(net) <= phys.coulomb else (net - phys.coulomb * np.sign(net)) / inertia
-            )
-        return (net - phys.coulomb * np.sign(v)) / inertia
+    bias, spring, rail = phys.bias, phys.spring, (phys.rail_force if phys.ripple else None)
+    k_l, k_q, k_c, coulomb = phys.linear_damping, phys.quadratic_damping, phys.cubic, phys.coulomb
 
+    def accel(v: float, x: float, f: float) -> float:
+        net = f + bias - spring * x + (rail(x) if rail else 0.0) - k_l * v
+        net -= k_q * abs(v) * v + k_c * v**3
+        if v == 0.0:
+            return 0.0 if abs(net) <= coulomb else (net - coulomb * _sign(net)) / inertia
+        return (net - coulomb * _sign(v)) / inertia
+
+    thrust_steps, t_steps = thrust.tolist(), t_fine.tolist()  # Python floats: 4× faster
     for k in range(1, t_fine.size):
-        f = thrust[k - 1]  # held over the step (changes fall on the ms grid)
-        if t_fine[k - 1] < baseline_s:
+        f = thrust_steps[k - 1]  # held over the step (changes fall on the ms grid)
+        if t_steps[k - 1] < baseline_s:
             continue
         a1 = accel(v, x, f)
         a2 = accel(v + 0.5 * fine_dt * a1, x + 0.5 * fine_dt * v, f)
@@ -220,7 +232,7 @@ def thruster_run(
         a4 = accel(v + fine_dt * a3, x + fine_dt * (v + 0.5 * fine_dt * a2), f)
         new_v = v + fine_dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
         x += fine_dt * v + fine_dt**2 / 6 * (a1 + a2 + a3)
-        v = 0.0 if v != 0.0 and np.sign(new_v) != np.sign(v) and phys.coulomb > 0 else new_v
+        v = 0.0 if v != 0.0 and _sign(new_v) != _sign(v) and coulomb > 0 else new_v
         xs[k] = x
     step = round(0.1 / fine_dt)
     t = t_fine[::step]

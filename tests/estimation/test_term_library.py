@@ -10,6 +10,7 @@ in silence.
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 import pytest
@@ -31,22 +32,10 @@ QUANTUM = 1e-4  # m, encoder step
 RATE = 10.0  # Hz
 
 
-def tow_run(
-    i,
-    scale,
-    force,
-    seed,
-    *,
-    coulomb=0.0,
-    bias=0.0,
-    spring=0.0,
-    cubic=0.0,
-    delay=0.0,
-    hung=False,
-    duration=20.0,
-):
-    """One tow from rest at t = 1 s (1 s baseline):
-    (M [+ |F|/g]) ẍ = F + b − F_c·sign(F + b) − K_L ẋ − K_Q |ẋ|ẋ − K_C ẋ³ − k x."""
+@cache
+def _tow_path(scale, force, coulomb, bias, spring, cubic, delay, hung, duration):
+    """Noise-free positions of one tow at the samples (m): the physics of ``tow_run``,
+    integrated once per case (every seed shares it; only the dither differs). Read-only."""
     m, k_l, k_q, _ = SCALES[scale]
     total = m + (abs(force) / STANDARD_GRAVITY if hung else 0.0)
     s = np.sign(force + bias)
@@ -62,9 +51,31 @@ def tow_run(
         rhs, (0.0, tau[-1] + 0.1), [0.0, 0.0], dense_output=True, rtol=1e-10, atol=1e-12
     )
     x = sol.sol(tau)[0]
+    t.flags.writeable = x.flags.writeable = False
+    return t, x
+
+
+def tow_run(
+    i,
+    scale,
+    force,
+    seed,
+    *,
+    coulomb=0.0,
+    bias=0.0,
+    spring=0.0,
+    cubic=0.0,
+    delay=0.0,
+    hung=False,
+    duration=20.0,
+):
+    """One tow from rest at t = 1 s (1 s baseline):
+    (M [+ |F|/g]) ẍ = F + b − F_c·sign(F + b) − K_L ẋ − K_Q |ẋ|ẋ − K_C ẋ³ − k x,
+    dithered by the seed and quantized to the encoder step."""
+    t, x = _tow_path(scale, force, coulomb, bias, spring, cubic, delay, hung, duration)
     rng = np.random.default_rng(seed + i)
     x = np.round((x + rng.uniform(0, QUANTUM)) / QUANTUM) * QUANTUM
-    return RunData(f"run-{i}", "surge", t, x, drive=force, t_release=1.0, hung_mass_kg=None)
+    return RunData(f"run-{i}", "surge", t.copy(), x, drive=force, t_release=1.0, hung_mass_kg=None)
 
 
 def tow_set(scale, seed, reverse=False, **effects):
@@ -87,13 +98,13 @@ def tow_effect(name, scale):
     }[name]
 
 
-def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, noise=2e-5):
-    """A heave-like free decay of (M + 0.8 M) from 0.05 m, hydrostatic k = 40·M:
-    1.8 M ẍ + b₁ẋ + b₂|ẋ|ẋ + b₃ẋ³ + F_c sign ẋ + k x + k₃x³ = 0."""
+@cache
+def _decay_path(scale, b2, b3, k3, fc):
+    """Noise-free samples (t, x) of one free decay (the physics of ``decay``), integrated
+    once per case: every seed shares them, only the noise differs. Read-only arrays."""
     m = SCALES[scale][0]
     total, k = 1.8 * m, 40.0 * m
     b1 = 0.03 * 2 * np.sqrt(total * k)
-
     t = np.arange(0.0, 15.0, 1.0 / 20.0)
     x = np.empty_like(t)
     start, state = 0.0, [0.05, 0.0]
@@ -127,9 +138,20 @@ def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, noise=2e-5):
         start, state = float(sol.t[-1]), [float(sol.y[0, -1]), 0.0]
         if not sol.t_events[0].size:
             break
+    t.flags.writeable = x.flags.writeable = False
+    return t, x
+
+
+def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, noise=2e-5):
+    """A heave-like free decay of (M + 0.8 M) from 0.05 m, hydrostatic k = 40·M:
+    1.8 M ẍ + b₁ẋ + b₂|ẋ|ẋ + b₃ẋ³ + F_c sign ẋ + k x + k₃x³ = 0, with white noise."""
+    m = SCALES[scale][0]
+    total, k = 1.8 * m, 40.0 * m
+    b1 = 0.03 * 2 * np.sqrt(total * k)
+    t, x = _decay_path(scale, b2, b3, k3, fc)
     rng = np.random.default_rng(seed)
     x = x + noise * rng.standard_normal(t.size)
-    return t, x, dict(added=0.8 * m, k=k, b1=b1, known=m)
+    return t.copy(), x, dict(added=0.8 * m, k=k, b1=b1, known=m)
 
 
 def decay_effect(name, scale):
