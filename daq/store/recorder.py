@@ -35,10 +35,10 @@ import sqlalchemy as sa
 
 from daq.sample import Sample
 from daq.store import checks
-from daq.store.faults import StorageFault, describe, one_line
+from daq.store.faults import STORE_RETRY_S, StorageFault, describe, one_line
 from daq.store.records import DuplicateSample
 from daq.store.spill import PendingEvent, SpillFile
-from daq.store.store import STORE_RETRY_S, Store
+from daq.store.store import Store
 
 __all__ = ["STORE_RETRY_S", "RecorderStats", "RunRecorder"]
 
@@ -71,8 +71,8 @@ class RunRecorder:
     dropped and counted, so a stuck database can never exhaust memory or stall the clock).
     ``on_fault`` is called once with a one-line message on the first storage fault;
     unstored samples then also go to the spill file in ``spill_dir`` (default: the
-    store's). ``retry_for_s`` (default: the store's, :data:`STORE_RETRY_S` unless the store
-    was opened with another) bounds how long the end of the run waits on a database that
+    store's). ``retry_for_s`` (default: the store's, :data:`STORE_RETRY_S` unless set
+    otherwise) bounds how long the end of the run waits on a database that
     delays writes before spilling them."""
 
     def __init__(

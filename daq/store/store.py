@@ -21,18 +21,12 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
-from daq.store.base import (
-    inserted_id,
-    process_identity,
-    software_version,
-)
+from daq.store.base import inserted_id, process_identity, software_version
 from daq.store.calibrations import ImportedCalibrations
+from daq.store.faults import STORE_RETRY_S
 from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
-from daq.store.records import (
-    RunInfo,
-    to_datetime,
-)
+from daq.store.records import RunInfo, to_datetime
 from daq.store.recovery import recover_interrupted
 from daq.store.run_metadata import check_run_metadata, merge_run_metadata
 from daq.store.run_query import RunFilter, drive_of
@@ -51,10 +45,6 @@ from daq.store.spill import default_spill_dir, replay_spills
 
 if TYPE_CHECKING:
     from daq.store.loaded_run import LoadedRun
-
-#: How long a run's last samples and its end are retried against a database that
-#: delays them (a held lock, a dropped connection) before they go to the spill file, s.
-STORE_RETRY_S = 30.0
 
 
 class NewRun(TypedDict):
@@ -77,22 +67,16 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
     creates the database if needed, migrates it to the newest schema and writes back the
     spill files of its runs (samples a recorder could not store, see
     :mod:`daq.store.spill`); ``spill_dir`` defaults to :func:`default_spill_dir`.
-    ``retry_for_s`` (default :data:`STORE_RETRY_S`) is how long a run's recorder retries
-    its end against a database that delays it (:class:`daq.store.RunRecorder`).
 
     Runs whose end this process decided but the database has not taken yet
     (``pending_ends``, :mod:`daq.store.pending_ends`) read as they ended, not ``running``."""
 
-    def __init__(
-        self,
-        url: str | None = None,
-        *,
-        spill_dir: str | Path | None = None,
-        retry_for_s: float = STORE_RETRY_S,
-    ) -> None:
+    #: How long a run's recorder retries its end against this database when it delays it, s.
+    retry_for_s: float = STORE_RETRY_S
+
+    def __init__(self, url: str | None = None, *, spill_dir: str | Path | None = None) -> None:
         super().__init__(url)
         self.spill_dir = Path(spill_dir) if spill_dir is not None else default_spill_dir()
-        self.retry_for_s = float(retry_for_s)
         self.pending_ends = PendingEnds()
         self.replay_spills()
 

@@ -11,7 +11,7 @@
 * A write lock held across the end of a run, then released: the run ends ``completed``
   with all its samples and no SQL anywhere.
 
-The lock tests scale the store's limits down (a 0.3 s busy wait, ``Store(retry_for_s=…)``;
+The lock tests scale the store's limits down (a 0.3 s busy wait, ``Store.retry_for_s``;
 the shipped 10 s and 30 s are checked in tests/store/test_storage_faults.py): the same code
 paths, without holding a lock for a minute of real time.
 """
@@ -172,7 +172,8 @@ BUSY_MS, RETRY_S, LOCK_S = 300, 1.0, 4.0
 @pytest.fixture
 def short_limits(tmp_path):
     """A store waiting ``BUSY_MS`` on a lock, its recorders retrying ``RETRY_S``."""
-    store = Store(f"sqlite:///{tmp_path / 'rig.db'}", retry_for_s=RETRY_S)
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    store.retry_for_s = RETRY_S
     DbLimits(store).set(busy_ms=BUSY_MS)
     yield store
     store.close()
@@ -194,7 +195,8 @@ async def _tow_until_braked(session, params) -> asyncio.Task:
 
 
 async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(source, tmp_path, caplog):
-    store = Store(f"sqlite:///{tmp_path / 'rig.db'}", retry_for_s=10 * LOCK_S)  # waits it out
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    store.retry_for_s = 10 * LOCK_S  # the lock is waited out
     DbLimits(store).set(busy_ms=BUSY_MS)
     caplog.set_level(logging.WARNING, logger="daq.store.recorder")
     short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)

@@ -267,10 +267,11 @@ def test_the_default_limits_are_the_documented_10_s_busy_wait_and_30_s_of_retrie
     sqlite_store: Store, tmp_path
 ) -> None:
     """docs/storage.md: the tests that hold a lock past these limits scale them down
-    (``DbLimits``, ``Store(retry_for_s=…)``); the shipped values are checked here."""
+    (``DbLimits``, ``Store.retry_for_s``); the shipped values are checked here."""
     assert RunRecorder(sqlite_store, new_run(sqlite_store)).retry_for_s == STORE_RETRY_S == 30.0
     with sqlite_store.engine.connect() as conn:
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar() == 10_000
-    with Store(f"sqlite:///{tmp_path / 'short.db'}", retry_for_s=2.5) as short:
+    with Store(f"sqlite:///{tmp_path / 'short.db'}") as short:
+        short.retry_for_s = 2.5
         assert RunRecorder(short, new_run(short)).retry_for_s == 2.5  # the store's limit
         assert RunRecorder(short, new_run(short), retry_for_s=1.0).retry_for_s == 1.0
