@@ -11,6 +11,7 @@ the same devices may then open.
 from __future__ import annotations
 
 import asyncio
+import gc
 import time
 from pathlib import Path
 
@@ -62,6 +63,7 @@ def pg_url(postgres_server):
     not what is tested here."""
     url = postgres_server.create_database()
     SimClock.run(_calibrate(url))
+    gc.collect()  # the set-up's garbage goes now, not in a full collection mid-tow
     yield url
     postgres_server.drop_database(url)
 

@@ -9,6 +9,7 @@ reason naming the fault, every sample acquired stored, and the CLI must exit 1 w
 
 from __future__ import annotations
 
+import gc
 import json
 import shutil
 import subprocess
@@ -54,6 +55,7 @@ def calibrated_db(tmp_path_factory) -> Path:
                 assert outcome.status == "completed"
 
     SimClock.run(calibrate())
+    gc.collect()  # the set-up's garbage goes now, not in a full collection mid-exchange
     return path
 
 
