@@ -153,6 +153,9 @@ class ModbusConnection(_Strict):
     #: Back-off bounds of the driver's own reconnect loop.
     reconnect_min_s: Annotated[float, Field(gt=0, le=10)] = 0.1
     reconnect_max_s: Annotated[float, Field(gt=0, le=60)] = 2.0
+    #: How long opening the rig retries a PLC it cannot reach (with that back-off) before
+    #: saying so; raise it for a PLC that is often still booting when a test starts.
+    connect_timeout_s: Annotated[float, Field(gt=0, le=120)] = 3.0
 
     @model_validator(mode="after")
     def _rtu_needs_port(self) -> ModbusConnection:

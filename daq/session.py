@@ -158,9 +158,10 @@ class RigSession:
         self.run_metadata: dict | None = None
 
     # -- lifecycle -------------------------------------------------------------------------
-    async def open(self, *, connect_timeout_s: float = 10.0) -> None:
+    async def open(self, *, connect_timeout_s: float | None = None) -> None:
         """Take the rig (``RigInUse`` if another process drives it), start the simulator
-        (simulated rig), connect the devices, start the clock."""
+        (simulated rig), connect the devices, start the clock. The PLC is retried for
+        ``connect_timeout_s`` (default: the rig file's ``[modbus] connect_timeout_s``)."""
         self._closing = None
         self.lease_fault.arm(self.rig_lock, self._zero_target, self.close)
         await asyncio.to_thread(self.rig_lock.acquire)
@@ -177,6 +178,8 @@ class RigSession:
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
         self.plc = made.plc_client if made else PlcClient(conn)
+        if connect_timeout_s is None:
+            connect_timeout_s = conn.modbus.connect_timeout_s
         await self.plc.connect(timeout_s=connect_timeout_s)
         if conn.thrusters is not None:
             self.telemetry = ThrusterTelemetry(conn.thrusters.count, self._rate_hz, self.clock.now)

@@ -237,17 +237,21 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
     async def zero(self, retries: int = 3) -> bool:
         """Command zero at once (no ramp) and wait for the ACK, retrying up to ``retries``
         times. A ``NAK disarmed`` counts as success (outputs are zero in DISARMED/WDT); if
-        the controller answers but keeps refusing, DISARM is the last resort."""
+        the controller answers but keeps refusing, DISARM is the last resort. On a link
+        already lost when called, a frame without a reply is not retried: the zero is on
+        the line once per call, and the controller's watchdog holds it at zero."""
         self.target = self.output = [0.0] * self.count
         self._last_step_t = self.clock()
         zeros = [0] * self.count
-        answered = False
+        answered, lost = False, self.link_lost
         for attempt in range(retries + 1):
             reply = await self._transact(lambda seq: p.thr_frame(seq, zeros), self._zeros)
             if reply is not None and (reply.kind == "ACK" or reply.reason == "disarmed"):
                 return True
             answered = answered or reply is not None
             log.warning("thrusters: zero attempt %d got %s", attempt + 1, describe_reply(reply))
+            if lost and reply is None:
+                break  # nobody answers: more tries would only wait out more timeouts
         if answered:
             reply = await self._transact(p.disarm_frame, self._zeros)
             return reply is not None and reply.kind == "ACK"

@@ -50,20 +50,11 @@ def serve(
     realtime,
 ):
     """Serve the HTTP API and the browser UI (binds 127.0.0.1 by default)."""
-    import uvicorn
-
-    from api.core.service import RigService, RigUnavailable
-    from api.http.app import create_app
     from daq.session import RigSource
 
+    # A bad rig file or a taken port is said before the app and its analyses are imported.
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
-    token = load_or_create_token()
-    if warning := token_file_warning():
-        click.echo(warning, err=True)
-    service = RigService(
-        source, db_url, ask_operator=ask_operator, realtime=realtime, owner="rig serve"
-    )
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
@@ -71,6 +62,17 @@ def serve(
     except OSError as err:
         fail(f"--host/--port: cannot bind {host}:{port}: {err.strerror}")
     bound_port = sock.getsockname()[1]
+    import uvicorn
+
+    from api.core.service import RigService, RigUnavailable
+    from api.http.app import create_app
+
+    token = load_or_create_token()
+    if warning := token_file_warning():
+        click.echo(warning, err=True)
+    service = RigService(
+        source, db_url, ask_operator=ask_operator, realtime=realtime, owner="rig serve"
+    )
     # The app's lifespan stops the service (rig left safe) before uvicorn re-raises a SIGTERM.
     app = create_app(
         service,

@@ -15,6 +15,11 @@ _SQLITE_RETRYABLE = {"SQLITE_BUSY", "SQLITE_LOCKED"}
 _PG_RETRYABLE_CLASSES = {"08", "40", "55", "57"}
 
 
+#: How long a run's last samples and its end are retried against a database that
+#: delays them (a held lock, a dropped connection) before they go to the spill file, s.
+STORE_RETRY_S = 30.0
+
+
 class StorageFault(RuntimeError):
     """Samples or a run's end could not be stored; the message is one line."""
 

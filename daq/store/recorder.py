@@ -35,16 +35,14 @@ import sqlalchemy as sa
 
 from daq.sample import Sample
 from daq.store import checks
-from daq.store.faults import StorageFault, describe, one_line
+from daq.store.faults import STORE_RETRY_S, StorageFault, describe, one_line
 from daq.store.records import DuplicateSample
 from daq.store.spill import PendingEvent, SpillFile
 from daq.store.store import Store
 
-log = logging.getLogger(__name__)
+__all__ = ["STORE_RETRY_S", "RecorderStats", "RunRecorder"]
 
-#: How long a run's last samples and its end are retried against a database that
-#: delays them (a held lock, a dropped connection) before they go to the spill file, s.
-STORE_RETRY_S = 30.0
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -73,8 +71,9 @@ class RunRecorder:
     dropped and counted, so a stuck database can never exhaust memory or stall the clock).
     ``on_fault`` is called once with a one-line message on the first storage fault;
     unstored samples then also go to the spill file in ``spill_dir`` (default: the
-    store's). ``retry_for_s`` (default :data:`STORE_RETRY_S`) bounds how long the end of
-    the run waits on a database that delays writes before spilling them."""
+    store's). ``retry_for_s`` (default: the store's, :data:`STORE_RETRY_S` unless set
+    otherwise) bounds how long the end of the run waits on a database that
+    delays writes before spilling them."""
 
     def __init__(
         self,
@@ -102,7 +101,7 @@ class RunRecorder:
         self.flush_interval_s = float(flush_interval_s)
         self.max_queue = max_queue
         self.max_batch = max_batch
-        self.retry_for_s = STORE_RETRY_S if retry_for_s is None else float(retry_for_s)
+        self.retry_for_s = float(store.retry_for_s if retry_for_s is None else retry_for_s)
         self.stats = RecorderStats()
         self._queue: deque[Sample] = deque()
         self._events: deque[PendingEvent] = deque()

@@ -21,18 +21,12 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
-from daq.store.base import (
-    inserted_id,
-    process_identity,
-    software_version,
-)
+from daq.store.base import inserted_id, process_identity, software_version
 from daq.store.calibrations import ImportedCalibrations
+from daq.store.faults import STORE_RETRY_S
 from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
-from daq.store.records import (
-    RunInfo,
-    to_datetime,
-)
+from daq.store.records import RunInfo, to_datetime
 from daq.store.recovery import recover_interrupted
 from daq.store.run_metadata import check_run_metadata, merge_run_metadata
 from daq.store.run_query import RunFilter, drive_of
@@ -76,6 +70,9 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
 
     Runs whose end this process decided but the database has not taken yet
     (``pending_ends``, :mod:`daq.store.pending_ends`) read as they ended, not ``running``."""
+
+    #: How long a run's recorder retries its end against this database when it delays it, s.
+    retry_for_s: float = STORE_RETRY_S
 
     def __init__(self, url: str | None = None, *, spill_dir: str | Path | None = None) -> None:
         super().__init__(url)

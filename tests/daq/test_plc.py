@@ -9,9 +9,11 @@ import time
 
 import pytest
 
-from daq.config import load_rig
+from daq.config import ModbusConnection, load_rig
 from daq.plc import WRITE_ATTEMPTS, DeviceError, PlcClient
 from daq.sample import Quality
+from daq.session import RigSession, RigSource
+from daq.store import Store
 from tests.daq.modbus_server import MapServer
 from tests.waiting import until
 
@@ -165,6 +167,29 @@ async def test_connect_timeout_gives_up_with_device_error():
         await plc.connect(timeout_s=0.4)
     assert 0.35 < time.monotonic() - t0 < 1.0
     await plc.close()
+
+
+async def test_opening_a_rig_retries_a_refusing_plc_for_the_rig_files_connect_timeout(
+    tmp_path, monkeypatch
+):
+    """``[modbus] connect_timeout_s`` (3 s by default, README and docs/acquisition.md)
+    bounds how long opening a session retries a PLC that refuses connections; then one
+    DeviceError naming the endpoint and the rig-file settings."""
+    assert ModbusConnection().connect_timeout_s == load_rig().modbus.connect_timeout_s == 3.0
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))  # the rig lock's folder
+    rig = load_rig()
+    closed = _free_port()  # nothing listens there: connections are refused
+    modbus = rig.modbus.model_copy(
+        update={"port": closed, "connect_timeout_s": 0.4, "reconnect_max_s": 0.1}
+    )
+    hardware = rig.rig.model_copy(update={"mode": "hardware"})
+    source = RigSource(rig=rig.model_copy(update={"modbus": modbus, "rig": hardware}), rig_toml="")
+    with Store(f"sqlite:///{tmp_path / 'rig.db'}") as store:
+        t0 = time.monotonic()
+        with pytest.raises(DeviceError, match=rf"127.0.0.1:{closed} .*attempt\(s\) in 0.4 s"):
+            async with RigSession(source, store):
+                pass
+        assert 0.35 < time.monotonic() - t0 < 3.0  # its own limit, not the default's
 
 
 async def test_server_lost_then_back_reconnects_in_the_background(server):

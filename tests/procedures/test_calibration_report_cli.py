@@ -4,6 +4,7 @@ the calibration is run, stored, and its report written where the operator asked.
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -13,6 +14,7 @@ import pytest
 from PIL import Image
 
 from daq.store import Store
+from tests.cli import run_in_process
 
 RIG = [sys.executable, "-m", "api.cli.main"]
 ROOT = Path(__file__).resolve().parents[2]
@@ -57,9 +59,11 @@ def test_calibrate_thrusters_writes_the_report_of_the_stored_calibration(tmp_pat
 
 
 def test_report_into_a_file_is_refused_before_the_rig_moves(tmp_path):
+    """Refused while parsing, before anything is opened: in this process (tests/cli.py)."""
     db, target = f"sqlite:///{tmp_path / 'rig.db'}", tmp_path / "a-file"
     target.write_text("x")
-    done = rig("calibrate-thrusters", "--report", str(target), db=db)
+    argv = ["calibrate-thrusters", "--report", str(target), "--db", db]
+    done = run_in_process(argv, cwd=ROOT, env=dict(os.environ))
     assert done.returncode == 2
     assert "--report" in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "rig.db").exists()  # refused while parsing: nothing opened

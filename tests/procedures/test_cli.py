@@ -31,8 +31,12 @@ ROOT = Path(__file__).resolve().parents[2]
 DRIVING = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "serve", "sim")
 
 
-def rig(*args: str, db: str, timeout: float = 60) -> subprocess.CompletedProcess:
-    if args[0] not in DRIVING:
+def rig(
+    *args: str, db: str, timeout: float = 60, refused: bool = False
+) -> subprocess.CompletedProcess:
+    """``refused``: input the command refuses while parsing, before it opens anything, so
+    it runs in this process like the store's commands (as tests/api/test_cli_edges.py)."""
+    if args[0] not in DRIVING or refused:
         return run_in_process([*args, "--db", db], cwd=ROOT, env=dict(os.environ))
     return subprocess.run(
         [*RIG, *args, "--db", db], capture_output=True, text=True, timeout=timeout, cwd=ROOT
@@ -71,7 +75,8 @@ def _wait_for_samples(db: str, count: int, timeout: float = 20) -> str:
     ],
 )
 def test_bad_input_is_refused_and_writes_nothing(db, args, message):
-    result = rig(*args, db=db)
+    result = rig(*args, db=db, refused=True)
+    assert "Traceback" not in result.stderr, result.stderr
     assert result.returncode == 2, result.stderr
     assert message in result.stderr
     with Store(db) as store:
@@ -96,8 +101,8 @@ def test_bad_rig_file_names_the_field(db, tmp_path):
     )
     bad = tmp_path / "bad.toml"
     bad.write_text(text)
-    result = rig("tow", "--force", "10", "--rig", str(bad), db=db)
-    assert result.returncode == 2
+    result = rig("tow", "--force", "10", "--rig", str(bad), db=db, refused=True)
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
     assert "modbus.transport: Input should be 'tcp' or 'rtu' (got 'udp')" in result.stderr
 
 

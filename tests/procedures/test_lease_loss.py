@@ -11,6 +11,7 @@ the same devices may then open.
 from __future__ import annotations
 
 import asyncio
+import gc
 import time
 from pathlib import Path
 
@@ -24,9 +25,11 @@ from daq.procedures.motion import run_motion_test
 from daq.procedures.requests import calibration_parameters, tow_parameters
 from daq.session import RigSession, RigSource
 from daq.sim.rig import SimulatedRigThread
+from daq.sim.simtime import SimClock
 from daq.store import Store
 from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
 from tests.procedures.test_thruster_link_faults import OutputLog
+from tests.simrig import rig_session
 from tests.waiting import until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -47,9 +50,22 @@ class PlayedOperator:
         await SimulatedOperator(self.session.live_plc).perform(act)
 
 
+async def _calibrate(url: str) -> None:
+    with Store(url) as store:
+        async with rig_session(RigSource.load(), store) as session:
+            params = calibration_parameters(QUICK_CALIBRATION, session.rig)
+            outcome, _ = await run_thrust_calibration(session, params)
+            assert outcome.status == "completed"
+
+
 @pytest.fixture
 def pg_url(postgres_server):
+    """A fresh PostgreSQL database holding one thrust calibration of the simulated rig,
+    recorded in process on simulated time (tests/simrig.py): the thruster tow's set-up,
+    not what is tested here."""
     url = postgres_server.create_database()
+    SimClock.run(_calibrate(url))
+    gc.collect()  # the set-up's garbage goes now, not in a full collection mid-tow
     yield url
     postgres_server.drop_database(url)
 
@@ -76,10 +92,6 @@ async def test_a_terminated_lock_connection_stops_the_tow_and_frees_the_rig(
     with Store(pg_url) as store:
         a = _session(rig_file, store, "service A")
         async with a:
-            params = calibration_parameters(QUICK_CALIBRATION, a.rig)
-            outcome, _ = await run_thrust_calibration(a, params)
-            assert outcome.status == "completed"
-
             outputs = OutputLog(sim)
             tow = tow_parameters(
                 {"force_n": 15.0, "drive": "thrusters", "max_time_s": 30, "baseline_s": 0.3},

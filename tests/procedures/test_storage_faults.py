@@ -10,6 +10,10 @@
   thrusters at zero.
 * A write lock held across the end of a run, then released: the run ends ``completed``
   with all its samples and no SQL anywhere.
+
+The lock tests scale the store's limits down (a 0.3 s busy wait, ``Store.retry_for_s``;
+the shipped 10 s and 30 s are checked in tests/store/test_storage_faults.py): the same code
+paths, without holding a lock for a minute of real time.
 """
 
 from __future__ import annotations
@@ -162,6 +166,21 @@ async def test_a_database_refusing_writes_mid_tow_leaves_the_rig_safe(source, tm
         store.close()
 
 
+#: The scaled-down limits of the lock tests: SQLite's busy wait (ms) and the recorder's
+#: retries of the run's end (s); the lock "across the end" outlasts both by LOCK_S.
+BUSY_MS, RETRY_S, LOCK_S = 300, 1.0, 4.0
+
+
+@pytest.fixture
+def short_limits(tmp_path):
+    """A store waiting ``BUSY_MS`` on a lock, its recorders retrying ``RETRY_S``."""
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    store.retry_for_s = RETRY_S
+    DbLimits(store).set(busy_ms=BUSY_MS)
+    yield store
+    store.close()
+
+
 async def _tow_until_braked(session, params) -> asyncio.Task:
     """Start the tow in a task and return it once its brake came off, then on again at the
     end of travel (the run's end is about to be written)."""
@@ -177,9 +196,10 @@ async def _tow_until_braked(session, params) -> asyncio.Task:
     return task
 
 
-async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
-    source, store, tmp_path, caplog
-):
+async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(source, tmp_path, caplog):
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    store.retry_for_s = 10 * LOCK_S  # the lock is waited out
+    DbLimits(store).set(busy_ms=BUSY_MS)
     caplog.set_level(logging.WARNING, logger="daq.store.recorder")
     short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
     path = Path(store.url.removeprefix("sqlite:///"))
@@ -189,14 +209,15 @@ async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
         task = await _tow_until_braked(session, params)
         await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
 
-        def lock_logged() -> bool:  # after the recorder's 10 s busy wait, then its retries
+        def lock_logged() -> bool:  # after the recorder's busy wait, then its retries
             assert not task.done(), "the run ended while the database was locked"
             return any("database is locked" in r.getMessage() for r in caplog.records)
 
-        await until(lock_logged, "a 'database is locked' warning", timeout_s=60, poll_s=0.1)
+        await until(lock_logged, "a 'database is locked' warning", timeout_s=60, poll_s=0.05)
         blocker.execute("COMMIT")
         blocker.close()
         outcome = await asyncio.wait_for(task, 60)
+    store.close()
 
     assert (outcome.status, outcome.reason) == ("completed", None)
     run = store.get_run(outcome.run_id)
@@ -212,12 +233,14 @@ async def test_a_write_lock_held_across_the_end_of_a_run_is_waited_out(
 
 
 @pytest.mark.slow
-async def test_a_60_s_lock_across_the_end_leaves_the_tow_completed_stopped_when_it_ended(
-    source, store, tmp_path
+async def test_a_lock_outlasting_the_limits_leaves_the_tow_completed_stopped_when_it_ended(
+    source, short_limits
 ):
-    """The issue-19 case with the real limits (10 s busy wait, 30 s of retries): the lock
-    outlasts them, the tow still ends ``completed`` (reads so at once), and when the
-    database takes it the stop time is the end on the rig, not the write."""
+    """The issue-19 case (a 60 s lock against the shipped 10 s busy wait and 30 s of
+    retries), scaled: the lock outlasts the store's limits, the tow still ends
+    ``completed`` while the lock is held (and reads so at once), and when the database
+    takes it the stop time is the end on the rig, not the write."""
+    store = short_limits
     short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
     path = Path(store.url.removeprefix("sqlite:///"))
     blocker = sqlite3.connect(path, isolation_level=None, timeout=30, check_same_thread=False)
@@ -227,11 +250,13 @@ async def test_a_60_s_lock_across_the_end_leaves_the_tow_completed_stopped_when_
         await asyncio.to_thread(blocker.execute, "BEGIN EXCLUSIVE")  # across the end
         locked_at = time.time()
         outcome = await asyncio.wait_for(task, 60)  # it gives up on the database, not the run
+        assert time.time() < locked_at + LOCK_S, "the run waited for the lock to go"
+        assert store.get_run(outcome.run_id, as_stored=True).status == "running"  # not taken
         assert (outcome.status, outcome.reason) == ("completed", None)
         shown = store.get_run(outcome.run_id)
         assert (shown.status, shown.reason) == ("completed", None)
         assert shown.stopped_at.timestamp() < locked_at + 1.0  # the tail, then the end
-        await asyncio.sleep(max(0.0, locked_at + 60 - time.time()))  # the lock's 60 s
+        await asyncio.sleep(max(0.0, locked_at + LOCK_S - time.time()))  # the lock's LOCK_S
         blocker.execute("COMMIT")
         blocker.close()
         taken_at = time.time()
@@ -245,7 +270,7 @@ async def test_a_60_s_lock_across_the_end_leaves_the_tow_completed_stopped_when_
     assert (run.status, run.reason) == ("completed", None)
     # when it ended, not when it was written
     assert run.stopped_at.timestamp() == pytest.approx(shown.stopped_at.timestamp(), abs=1e-5)
-    assert run.stopped_at.timestamp() < taken_at - 50
+    assert run.stopped_at.timestamp() < taken_at - (LOCK_S - 1.0)
     table = store.samples(run.id)
     assert len(table) == run.sample_count and table.t_wall[-1] <= run.stopped_at.timestamp()
     _only_skipped_slots_missing(table)

@@ -9,7 +9,7 @@ reason naming the fault, every sample acquired stored, and the CLI must exit 1 w
 
 from __future__ import annotations
 
-import asyncio
+import gc
 import json
 import shutil
 import subprocess
@@ -24,12 +24,14 @@ import pytest
 from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.requests import calibration_parameters
 from daq.sample import Quality
-from daq.session import RigSession, RigSource
+from daq.session import RigSource
 from daq.sim.rig import SimulatedRigThread
+from daq.sim.simtime import SimClock
 from daq.store import Store
 from tests.cli import printed_json
 from tests.fault_proxies import SerialFaultProxy, TcpCutProxy
 from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
+from tests.simrig import rig_session
 from tests.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
@@ -43,20 +45,19 @@ ZERO_WITHIN_S = 0.5
 
 @pytest.fixture(scope="module")
 def calibrated_db(tmp_path_factory) -> Path:
-    """A database holding one thrust calibration of the simulated rig."""
+    """A database holding one thrust calibration of the simulated rig, recorded in process
+    on simulated time (tests/simrig.py): it is the tows' set-up, not what is tested here."""
     path = tmp_path_factory.mktemp("calibrated") / "rig.db"
 
     async def calibrate() -> None:
         with Store(f"sqlite:///{path}") as store:
-            async with RigSession(RigSource.load(), store) as session:
-                params = calibration_parameters(
-                    QUICK_CALIBRATION,
-                    session.rig,
-                )
+            async with rig_session(RigSource.load(), store) as session:
+                params = calibration_parameters(QUICK_CALIBRATION, session.rig)
                 outcome, _ = await run_thrust_calibration(session, params)
                 assert outcome.status == "completed"
 
-    asyncio.run(calibrate())
+    SimClock.run(calibrate())
+    gc.collect()  # the set-up's garbage goes now, not in a full collection mid-exchange
     return path
 
 

@@ -263,5 +263,15 @@ async def test_a_lock_held_past_the_retry_limit_delays_only_the_bookkeeping(
     assert len(sqlite_store.pending_ends) == 0 and not recorder.spill.path.exists()
 
 
-def test_the_default_retry_limit_is_30_s(sqlite_store: Store) -> None:
+def test_the_default_limits_are_the_documented_10_s_busy_wait_and_30_s_of_retries(
+    sqlite_store: Store, tmp_path
+) -> None:
+    """docs/storage.md: the tests that hold a lock past these limits scale them down
+    (``DbLimits``, ``Store.retry_for_s``); the shipped values are checked here."""
     assert RunRecorder(sqlite_store, new_run(sqlite_store)).retry_for_s == STORE_RETRY_S == 30.0
+    with sqlite_store.engine.connect() as conn:
+        assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar() == 10_000
+    with Store(f"sqlite:///{tmp_path / 'short.db'}") as short:
+        short.retry_for_s = 2.5
+        assert RunRecorder(short, new_run(short)).retry_for_s == 2.5  # the store's limit
+        assert RunRecorder(short, new_run(short), retry_for_s=1.0).retry_for_s == 1.0

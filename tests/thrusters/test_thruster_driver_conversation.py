@@ -128,6 +128,35 @@ async def test_zero_gives_up_after_retries_when_silent(transport: str) -> None:
     peer.assert_done()
 
 
+async def test_zero_on_a_link_already_lost_puts_one_frame_on_the_line_per_call(
+    transport: str,
+) -> None:
+    """Two heartbeats unanswered: the link is lost and the driver sends its zero at once.
+    A zero asked for after that sends one frame, not four; while the link still answered,
+    the same silence was retried (test above)."""
+    peer = controller(
+        transport,
+        [
+            (p.qry_frame(1), p.sta_frame(1, "ARMED", [(0, 0)] * 2)),
+            (p.thr_frame(2, [0, 0]), None),
+            (p.thr_frame(3, [0, 0]), None),  # the second miss: link lost
+            (p.thr_frame(4, [0, 0]), None),  # the zero put on the line at the loss
+            (p.thr_frame(5, [0, 0]), None),  # zero(retries=3): one frame, no retry
+            (p.thr_frame(6, [0, 0]), p.ack_frame(6, "ARMED")),  # the line back: ACKed
+        ],
+    )
+    drv = peer.driver()
+    await drv.open()
+    assert not await drv.heartbeat()
+    assert not await drv.heartbeat()
+    assert drv.fault is not None and drv.fault.kind == "link_lost"
+    assert not await drv.zero(retries=3)
+    assert drv.stats.timeouts == 4
+    assert await drv.zero(retries=3)  # a reply again: zero is confirmed
+    await drv._close_port()
+    peer.assert_done()
+
+
 async def test_zero_counts_nak_disarmed_as_done_and_falls_back_to_disarm_on_stale(
     transport: str,
 ) -> None:
