@@ -1,7 +1,7 @@
 """The shared σ (``estimation.stats.identify.honest_statistics`` with
 ``estimation.stats.serial``) on a model-free problem: a straight line x = a_r + b·t fitted to
 three records (one offset a_r each, a common slope b), whose noise is AR(1) within a record
-and independent across records. The coverage rule is the one of test_term_library: with an
+and independent across records. The coverage rule is the one of test_term_coverage: with an
 honest σ, ≥ 90 % of seeds inside 2σ, and median |z| ≥ 0.34 (not more than ~2× too wide)."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from estimation.stats.serial import long_run_scores
 
 SIZES = (200, 150, 250)
 SLOPE = 0.3
-MEDIAN_ABS_Z_MIN = 0.34  # as in test_term_library: 0.674 − 3 × 0.11
+MEDIAN_ABS_Z_MIN = 0.34  # as in test_term_coverage: 0.674 − 3 × 0.11
 
 
 def _noise(rng, size, rho, sd=1.0):

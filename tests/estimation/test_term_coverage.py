@@ -1,0 +1,104 @@
+"""The 2σ intervals cover the truth: 50 seeds per scale (10, 143, 1000 kg) of tows and decays
+(data: ``tests/estimation/term_cases.py``, solve_ivp), and tows with correlated noise."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from estimation import estimate
+from estimation.motion.decay import estimate_decay
+from tests.estimation.term_cases import (
+    SCALES,
+    decay,
+    tow_set,
+)
+
+SIGMA_TOO_SMALL = pytest.mark.xfail(
+    strict=True,
+    reason="quantization of one smooth motion: error correlated across a run, residual white",
+)
+
+#: An honest σ gives z ~ N(0, 1): median |z| = 0.674, and the median of 50 |z| has sd
+#: √(0.25/50)/(2·φ(0.674)) ≈ 0.11. Below 0.674 − 3·0.11 ≈ 0.34 (p < 0.2 % for an honest σ)
+#: the σ is more than about 2× too large: intervals absurdly wide.
+MEDIAN_ABS_Z_MIN = 0.34
+
+
+def _coverage(fits, truth):
+    """Hits inside 2σ and median |z| per parameter over seeds (σ None/NaN: a miss)."""
+    z = {name: [] for name in truth}
+    for coefficients in fits:
+        for name, true in truth.items():
+            c = coefficients[name]
+            ok = c.std is not None and np.isfinite(c.std) and c.std > 0
+            z[name].append(abs(c.value - true) / c.std if ok else np.inf)
+    hits = {n: int(np.sum(np.array(v) <= 2)) for n, v in z.items()}
+    return hits, {n: float(np.median(v)) for n, v in z.items()}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "scale",
+    [pytest.param(s, marks=SIGMA_TOO_SMALL) if s == "143kg" else s for s in SCALES],
+)
+def test_tow_two_sigma_intervals_cover_the_truth(scale):
+    """Rule: with honest σ, |θ̂ − θ| ≤ 2σ holds with p ≈ 0.95 per seed; ≥ 45 of 50 (90 %)
+    fails for a true p = 0.95 with probability ≈ 4 % (binomial), for p ≤ 0.85 in ≥ 88 %.
+    And not absurdly wide: median |z| ≥ ``MEDIAN_ABS_Z_MIN``."""
+    m, k_l, k_q, _ = SCALES[scale]
+    truth = {"inertia": m, "linear_damping": k_l, "quadratic_damping": k_q}
+    fits = (
+        estimate(tow_set(scale, seed=300 + seed), search_effects=False, n_bootstrap=0)
+        for seed in range(50)
+    )
+    hits, median = _coverage((r.coefficients for r in fits), truth)
+    assert min(median.values()) >= MEDIAN_ABS_Z_MIN, median
+    assert min(hits.values()) >= 45, hits
+
+
+def correlated_noise(size, seed, sd=3e-4, rho=0.8):
+    """AR(1) position noise of standard deviation ``sd`` (m) and lag-1 correlation ``rho``:
+    a sensor behind a first-order low-pass of time constant 0.45 s sampled at 10 Hz
+    (ρ = exp(−0.1/0.45) ≈ 0.8), three encoder steps in size."""
+    rng = np.random.default_rng(seed)
+    noise = np.empty(size)
+    noise[0] = sd * rng.standard_normal()
+    for k in range(1, size):
+        noise[k] = rho * noise[k - 1] + sd * np.sqrt(1 - rho**2) * rng.standard_normal()
+    return noise
+
+
+@pytest.mark.slow
+def test_tow_two_sigma_intervals_cover_the_truth_with_correlated_noise():
+    """The same rules when the position noise is correlated in time (a white-residual σ
+    covers about 22 of 50 here: ``estimation.stats.serial`` is what passes this)."""
+    m, k_l, k_q, _ = SCALES["143kg"]
+    truth = {"inertia": m, "linear_damping": k_l, "quadratic_damping": k_q}
+    fits = []
+    for seed in range(50):
+        runs = [
+            replace(r, position=r.position + correlated_noise(r.t.size, 10_000 + 10 * seed + i))
+            for i, r in enumerate(tow_set("143kg", seed=400 + seed))
+        ]
+        fits.append(estimate(runs, search_effects=False, n_bootstrap=0).coefficients)
+    hits, median = _coverage(fits, truth)
+    assert min(median.values()) >= MEDIAN_ABS_Z_MIN, median
+    assert min(hits.values()) >= 45, hits
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scale", list(SCALES))
+def test_decay_two_sigma_intervals_cover_the_truth(scale):
+    fits, truths = [], []
+    for seed in range(50):
+        t, x, truth = decay(scale, 200 + seed, noise=2e-4)
+        r = estimate_decay(t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"])
+        fits.append(r.coefficients)
+        truths.append({"inertia": truth["added"], "linear_damping": truth["b1"]})
+    assert all(tr == truths[0] for tr in truths)  # one truth per scale
+    hits, median = _coverage(fits, truths[0])
+    assert min(median.values()) >= MEDIAN_ABS_Z_MIN, median
+    assert min(hits.values()) >= 45, hits
