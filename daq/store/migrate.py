@@ -151,7 +151,11 @@ def upgrade_to_head(engine: sa.Engine) -> None:
     from alembic import command
 
     with engine.begin() as connection:
+        # Serialise concurrent first opens of the same database (a CLI and a service, or a
+        # test reading the run a `rig tow` is creating): the second waits for the first's
+        # lock, then reads the revision it wrote and has nothing left to apply.
         if connection.dialect.name == "postgresql":
-            # Serialise concurrent first opens of the same database.
             connection.exec_driver_sql("SELECT pg_advisory_xact_lock(74657273)")
+        elif connection.dialect.name == "sqlite":
+            connection.exec_driver_sql("BEGIN IMMEDIATE")  # the write lock, busy_timeout waits
         command.upgrade(alembic_config(connection), "head")

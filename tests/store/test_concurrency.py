@@ -4,15 +4,38 @@ process-like Store creating and finishing runs never fail or lose rows."""
 from __future__ import annotations
 
 import asyncio
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
+import pytest
 import sqlalchemy as sa
 
 from daq.store import RunRecorder, Store
+from daq.store.migrate import create_engine, current_revision, head_revision
 from tests.store.helpers import make_samples, new_run
 from tests.waiting import until
+
+
+@pytest.mark.slow  # real processes racing: the slow lane
+def test_processes_opening_one_new_database_at_once_all_open_it(tmp_path: Path) -> None:
+    """A CLI and a service (or a test reading the run a `rig tow` creates) opening the same
+    new SQLite file at once: the first migrates, the others wait for its lock and find the
+    schema at head (before, some failed with "table results already exists"; the race
+    needs the opens to overlap, so five new files get four processes each)."""
+    code = "import sys; from daq.store import Store; Store(sys.argv[1])"
+    for n in range(5):
+        url = f"sqlite:///{tmp_path / f'rig{n}.db'}"
+        procs = [
+            subprocess.Popen([sys.executable, "-c", code, url], stderr=subprocess.PIPE, text=True)
+            for _ in range(4)
+        ]
+        errors = [err for p in procs if (err := p.communicate(timeout=60)[1]) and p.returncode]
+        assert errors == [], n
+        assert current_revision(create_engine(url)) == head_revision()
 
 
 def test_concurrent_writers_do_not_fail(db_url: str) -> None:
