@@ -246,7 +246,14 @@ def _in_subprocess(argv: list[str]) -> bool:
     return argv[0] in SUBPROCESS_COMMANDS or any(m in a for a in argv for m in SUBPROCESS_MARKS)
 
 
-@pytest.mark.parametrize(("argv", "code", "expect"), CASES, ids=lambda v: None)
+#: A case run as a real subprocess is the real stack: the slow lane (README, Tests).
+LANED = [
+    pytest.param(*c, marks=pytest.mark.slow) if _in_subprocess(c[0]) else pytest.param(*c)
+    for c in CASES
+]
+
+
+@pytest.mark.parametrize(("argv", "code", "expect"), LANED, ids=lambda v: None)
 def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
     env = os.environ | {"RIG_DATABASE_URL": world["db"], "XDG_DATA_HOME": str(world["tmp"])}
     env.pop(DEBUG_ENV, None)
@@ -278,6 +285,7 @@ def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
         assert leak not in lines[0], err
 
 
+@pytest.mark.slow  # a `rig tow` subprocess on the simulated rig: the slow lane
 def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(world):
     """The note comes before the run; the thruster line says nothing ('NAK disarmed' was
     the close zeroing a controller that was never armed); the run stores both loads."""

@@ -18,6 +18,7 @@ from tests.store.helpers import make_samples, new_run
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
+@pytest.mark.slow  # a recording subprocess killed for real: the slow lane
 def test_sigkill_mid_recording_loses_at_most_one_second(db_url: str) -> None:
     child = subprocess.Popen(
         [sys.executable, "-m", "tests.store.record_child", db_url],
