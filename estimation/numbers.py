@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 
 def finite_or_none(x: float | None) -> float | None:
@@ -11,3 +12,8 @@ def finite_or_none(x: float | None) -> float | None:
         return None
     x = float(x)
     return x if math.isfinite(x) else None
+
+
+def finite_values(values: Mapping[str, float | None]) -> dict[str, float | None]:
+    """Each value of ``values`` by :func:`finite_or_none` (a per-run or per-name table)."""
+    return {k: finite_or_none(v) for k, v in values.items()}

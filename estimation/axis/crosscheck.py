@@ -53,6 +53,7 @@ from estimation.axis.estimate import SEPARABILITY_LIMIT
 from estimation.axis.set_separability import SetSeparability, damping_at, separability
 from estimation.design.advice import separating_load
 from estimation.design.envelope import RigEnvelope
+from estimation.numbers import finite_values
 
 
 @dataclass(frozen=True)
@@ -105,11 +106,11 @@ class CrossCheck:
             "verdict": self.verdict,
             "common_factor": self.factor.to_json() if self.factor else None,
             "effects": {
-                "weight": {k: finite_or_none(v) for k, v in self.effects_weight.items()},
-                "thruster": {k: finite_or_none(v) for k, v in self.effects_thruster.items()},
+                "weight": finite_values(self.effects_weight),
+                "thruster": finite_values(self.effects_thruster),
             },
             "rmse": self.rmse,
-            "supply_voltage_v": {k: finite_or_none(v) for k, v in self.supply.items()},
+            "supply_voltage_v": finite_values(self.supply),
             "diagnosis": list(self.diagnosis),
             "warnings": list(self.warnings),
         }

@@ -13,7 +13,7 @@ from estimation.axis.reverse import ReverseTest
 from estimation.axis.search import SearchStep
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
-from estimation.numbers import finite_or_none
+from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness
 
 SCHEMA_VERSION = 1
@@ -134,12 +134,8 @@ class EstimationResult:
             "ambiguous": [list(group) for group in self.ambiguous],
             "rmse_before": finite_or_none(self.rmse_before),
             "rmse_after": finite_or_none(self.rmse_after),
-            "rmse_per_run_before": {
-                k: finite_or_none(v) for k, v in self.rmse_per_run_before.items()
-            },
-            "rmse_per_run_after": {
-                k: finite_or_none(v) for k, v in self.rmse_per_run_after.items()
-            },
+            "rmse_per_run_before": finite_values(self.rmse_per_run_before),
+            "rmse_per_run_after": finite_values(self.rmse_per_run_after),
             "correlation": {
                 "names": list(self.correlation_names),
                 "matrix": [
@@ -152,15 +148,9 @@ class EstimationResult:
             "diagnostics": {
                 "ljung_box_before": whiteness_json(self.whiteness_before),
                 "ljung_box_after": whiteness_json(self.whiteness_after),
-                "force_rmse_per_run_before": {
-                    k: finite_or_none(v) for k, v in self.force_rmse_per_run_before.items()
-                },
-                "force_rmse_per_run_after": {
-                    k: finite_or_none(v) for k, v in self.force_rmse_per_run_after.items()
-                },
-                "residual_correlation_before": {
-                    k: finite_or_none(v) for k, v in self.residual_correlations.items()
-                },
+                "force_rmse_per_run_before": finite_values(self.force_rmse_per_run_before),
+                "force_rmse_per_run_after": finite_values(self.force_rmse_per_run_after),
+                "residual_correlation_before": finite_values(self.residual_correlations),
             },
             "evidence": {
                 "bic_before": finite_or_none(self.fit_before.bic) if self.fit_before else None,
@@ -207,9 +197,9 @@ def _boot(b: Bootstrap | None) -> dict[str, Any] | None:
     return {
         "requested": b.requested,
         "used": b.used,
-        "std": {k: finite_or_none(v) for k, v in b.std.items()},
-        "percentile_2_5": {k: finite_or_none(v) for k, v in b.low.items()},
-        "percentile_97_5": {k: finite_or_none(v) for k, v in b.high.items()},
+        "std": finite_values(b.std),
+        "percentile_2_5": finite_values(b.low),
+        "percentile_97_5": finite_values(b.high),
     }
 
 

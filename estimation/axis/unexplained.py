@@ -20,7 +20,7 @@ import numpy as np
 from estimation.axis.force_residual import force_noise_floor, force_residuals
 from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import FitResult
-from estimation.numbers import finite_or_none
+from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import ljung_box
 
 WHITE_P = 1e-3  # Ljung–Box p below this: the residual is not white
@@ -98,7 +98,7 @@ class Unexplained:
             "force_rms": finite_or_none(self.force_rms),
             "noise_floor": finite_or_none(self.noise_floor),
             "ratio_to_noise_floor": finite_or_none(self.ratio),
-            "correlations": {k: finite_or_none(v) for k, v in self.correlations.items()},
+            "correlations": finite_values(self.correlations),
             "strongest": self.strongest,
             "period": None
             if self.period is None

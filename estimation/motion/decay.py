@@ -25,7 +25,7 @@ from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
-from estimation.numbers import finite_or_none
+from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 
 WHITE_P = 1e-3  # Ljung–Box p below this: decisively not white (10 lags per record)
@@ -113,8 +113,8 @@ class DecayResult:
             "natural_period_s": finite_or_none(self.natural_period_s),
             "warnings": list(self.warnings),
             "evidence": [s.to_json() for s in self.steps],
-            "equilibrium": {k: finite_or_none(v) for k, v in self.equilibrium.items()},
-            "release_time_s": {k: finite_or_none(v) for k, v in self.release_time_s.items()},
+            "equilibrium": finite_values(self.equilibrium),
+            "release_time_s": finite_values(self.release_time_s),
         }
 
 

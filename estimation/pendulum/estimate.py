@@ -24,7 +24,7 @@ from estimation.data.runs import validate_run_set
 from estimation.motion.fit import MotionFit
 from estimation.motion.search import Step, search_terms
 from estimation.motion.terms import LIBRARY
-from estimation.numbers import finite_or_none
+from estimation.numbers import finite_or_none, finite_values
 from estimation.pendulum.configuration import (
     ADDED_MASS,
     BASE_TERMS,
@@ -119,12 +119,8 @@ class PendulumResult:
             },
             "rmse_before": finite_or_none(self.rmse_before),
             "rmse_after": finite_or_none(self.rmse_after),
-            "rmse_per_run_before": {
-                k: finite_or_none(v) for k, v in self.rmse_per_run_before.items()
-            },
-            "rmse_per_run_after": {
-                k: finite_or_none(v) for k, v in self.rmse_per_run_after.items()
-            },
+            "rmse_per_run_before": finite_values(self.rmse_per_run_before),
+            "rmse_per_run_after": finite_values(self.rmse_per_run_after),
             "warnings": list(self.warnings),
             "advice": list(self.advice),
             "geometry": self.geometry,

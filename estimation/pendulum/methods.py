@@ -23,7 +23,7 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from estimation.axis.result import Estimate
-from estimation.numbers import finite_or_none
+from estimation.numbers import finite_or_none, finite_values
 from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.decay import Decay, Peaks, find_peaks
@@ -61,7 +61,7 @@ class MethodEstimate:
             ),
             "total_inertia": self.total_inertia.to_json(),
             "total_damping": self.total_damping.to_json(),
-            "signal": {k: finite_or_none(v) for k, v in self.signal.items()},
+            "signal": finite_values(self.signal),
             "mse": finite_or_none(self.mse),
             "rmse": finite_or_none(self.rmse),
             "note": self.note,

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from estimation.numbers import finite_or_none
+from estimation.numbers import finite_or_none, finite_values
 from estimation.vehicle.responses import Plan
 
 #: Weight stability: each response's weight is multiplied and divided by this.
@@ -36,13 +36,11 @@ class CoefficientRow:
             "sigma": self.sigma,
             "candidate": self.candidate,
             "keep": self.keep,
-            "s": {k: finite_or_none(v) for k, v in self.s.items()},
-            "sc": {k: finite_or_none(v) for k, v in self.sc.items()},
+            "s": finite_values(self.s),
+            "sc": finite_values(self.sc),
             "composite": finite_or_none(self.composite),
             "max_sc": finite_or_none(self.max_sc),
-            "sigma_change": None
-            if self.sigma_change is None
-            else {k: finite_or_none(v) for k, v in self.sigma_change.items()},
+            "sigma_change": None if self.sigma_change is None else finite_values(self.sigma_change),
         }
 
 
@@ -65,7 +63,7 @@ class SweepRow:
             "threshold": self.threshold,
             "removed": list(self.removed),
             "n_removed": len(self.removed),
-            "errors": {k: finite_or_none(v) for k, v in self.errors.items()},
+            "errors": finite_values(self.errors),
             "max_error": finite_or_none(self.max_error),
             "worst_response": self.worst_response,
             "weighted_error": finite_or_none(self.weighted_error),
