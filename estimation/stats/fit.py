@@ -24,15 +24,23 @@ class SolutionStatistics(TypedDict):
 
 
 def solution_statistics(
-    residuals: np.ndarray, jacobian: np.ndarray, n_global: int, record_sizes: Sequence[int]
+    residuals: np.ndarray,
+    jacobian: np.ndarray,
+    n_global: int,
+    record_sizes: Sequence[int],
+    fitted_positions: np.ndarray | None = None,
+    steps: Sequence[float] = (),
 ) -> SolutionStatistics:
     """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
     with SSE, n and p; ``residuals`` and ``jacobian`` evaluated at the solution, the records'
     samples concatenated (``record_sizes`` their counts). σ is the larger of the white
-    σ̂²(JᵀJ)⁻¹ and the within-record serial-correlation sandwich; a parameter along a
+    σ̂²(JᵀJ)⁻¹, the within-record serial-correlation sandwich and, for records quantized to
+    ``steps``, the quantization of the ``fitted_positions``; a parameter along a
     direction the data cannot determine gets σ = NaN (not identified), never the too-small
     σ of a pseudo-inverse that drops that direction (``estimation.stats.identify``)."""
-    ident = honest_statistics(residuals, jacobian, n_global, record_sizes)
+    ident = honest_statistics(
+        residuals, jacobian, n_global, record_sizes, fitted_positions, steps
+    )
     return SolutionStatistics(
         std=ident.std,
         std_white=ident.std_white,

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.stats.quantization import quantization_scores
 from estimation.stats.serial import long_run_scores
 
 RANK_TOL = 1e-6
@@ -57,9 +58,13 @@ def honest_statistics(
     jacobian: np.ndarray,
     n_global: int,
     record_sizes: Sequence[int],
+    fitted_positions: np.ndarray | None = None,
+    steps: Sequence[float] = (),
 ) -> Identified:
     """σ and correlation of the first ``n_global`` parameters (module doc); ``residuals``
-    and ``jacobian`` are the records' samples concatenated, ``record_sizes`` their counts."""
+    and ``jacobian`` are the records' samples concatenated, ``record_sizes`` their counts;
+    ``fitted_positions`` (the model at the samples) and each record's encoder ``steps``
+    (0: not quantized) add the quantization σ."""
     residuals = np.asarray(residuals, dtype=float)
     n, p = residuals.size, jacobian.shape[1]
     sse = float(residuals @ residuals)
@@ -80,7 +85,14 @@ def honest_statistics(
     g = n_global
     white = np.sqrt(np.maximum(np.diag(cov_white)[:g], 0.0))
     serial = np.sqrt(np.maximum(np.diag(cov_serial)[:g], 0.0))
-    std = np.where(lost[:g], np.nan, np.maximum(white, serial))
+    larger = np.maximum(white, serial)
+    if fitted_positions is not None and len(steps):
+        variance = sse / max(n - p, 1)
+        meat_q = quantization_scores(fitted_positions, scaled, record_sizes, steps, variance)
+        if meat_q is not None:
+            cov_q = (inv @ meat_q @ inv) / unscale
+            larger = np.maximum(larger, np.sqrt(np.maximum(np.diag(cov_q)[:g], 0.0)))
+    std = np.where(lost[:g], np.nan, larger)
     std_white = np.where(lost[:g], np.nan, white)
     denom = np.outer(serial, serial)
     ok = np.isfinite(np.outer(std, std)) & (denom > 0)
