@@ -17,6 +17,7 @@ class SolutionStatistics(TypedDict):
 
     std: np.ndarray
     std_white: np.ndarray
+    std_quantization: np.ndarray | None
     correlation: np.ndarray
     sse: float
     n_samples: int
@@ -38,12 +39,11 @@ def solution_statistics(
     ``steps``, the quantization of the ``fitted_positions``; a parameter along a
     direction the data cannot determine gets σ = NaN (not identified), never the too-small
     σ of a pseudo-inverse that drops that direction (``estimation.stats.identify``)."""
-    ident = honest_statistics(
-        residuals, jacobian, n_global, record_sizes, fitted_positions, steps
-    )
+    ident = honest_statistics(residuals, jacobian, n_global, record_sizes, fitted_positions, steps)
     return SolutionStatistics(
         std=ident.std,
         std_white=ident.std_white,
+        std_quantization=ident.std_quantization,
         correlation=ident.correlation,
         sse=ident.sse,
         n_samples=ident.n_samples,
@@ -70,6 +70,10 @@ class FitStatistics:
     #: σ̂²(JᵀJ)⁻¹ alone (white residual): the noise of the samples, which ``std`` never goes
     #: below; None when the σ did not come from this fit's Jacobian
     std_white: np.ndarray | None = None
+    #: the σ the records' encoder quantization alone gives (``estimation.stats.quantization``),
+    #: which ``std`` never goes below; None when no record is quantized or the σ did not
+    #: come from this fit's Jacobian
+    std_quantization: np.ndarray | None = None
 
     @property
     def bic(self) -> float:

@@ -51,6 +51,9 @@ class Identified:
     n_samples: int
     n_params: int
     std_white: np.ndarray
+    #: the σ of the records' quantization alone (``estimation.stats.quantization``); None
+    #: when no record is on an encoder grid
+    std_quantization: np.ndarray | None = None
 
 
 def honest_statistics(
@@ -85,17 +88,19 @@ def honest_statistics(
     g = n_global
     white = np.sqrt(np.maximum(np.diag(cov_white)[:g], 0.0))
     serial = np.sqrt(np.maximum(np.diag(cov_serial)[:g], 0.0))
-    larger = np.maximum(white, serial)
+    larger, quantization = np.maximum(white, serial), None
     if fitted_positions is not None and len(steps):
         variance = sse / max(n - p, 1)
         meat_q = quantization_scores(fitted_positions, scaled, record_sizes, steps, variance)
         if meat_q is not None:
             cov_q = (inv @ meat_q @ inv) / unscale
-            larger = np.maximum(larger, np.sqrt(np.maximum(np.diag(cov_q)[:g], 0.0)))
+            quantization = np.sqrt(np.maximum(np.diag(cov_q)[:g], 0.0))
+            larger = np.maximum(larger, quantization)
+            quantization = np.where(lost[:g], np.nan, quantization)
     std = np.where(lost[:g], np.nan, larger)
     std_white = np.where(lost[:g], np.nan, white)
     denom = np.outer(serial, serial)
     ok = np.isfinite(np.outer(std, std)) & (denom > 0)
     corr = np.divide(cov_serial[:g, :g], np.where(ok, denom, 1.0), out=np.eye(g), where=ok)
     corr = np.where(ok | np.eye(g, dtype=bool), corr, np.nan)
-    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white)
+    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white, quantization)
