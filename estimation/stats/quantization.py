@@ -25,7 +25,8 @@ with cₖ = cos(2πk x̂/Q), sₖ = sin(2πk x̂/Q), the scores' covariance is
 and the estimate's covariance (JᵀJ)⁻¹·S_q·(JᵀJ)⁻¹ (the first-order change of a least-squares
 fit under a position error δx is (JᵀJ)⁻¹Jᵀδx; Q is far smaller than any scale on which the
 model bends). The K = ``HARMONICS`` first harmonics carry all but 6/(π²K) of the sawtooth's
-variance (1 % at K = 64); the rest is counted as white. σ_w² = max(0, σ̂² − Q²/12) is the
+variance (1 % at K = 64); the rest is counted as white, and so is every harmonic the noise
+has damped below 10⁻⁶ (d_k, which falls with k). σ_w² = max(0, σ̂² − Q²/12) is the
 part of the residual variance the quantizer does not explain (σ̂² = SSE/(n − p)): noise of
 σ_w ≳ Q/2 dithers the quantizer and the error is white again (d_1 < 10⁻⁴).
 
@@ -43,11 +44,15 @@ import numpy as np
 #: Harmonics of the sawtooth followed exactly; the remaining 6/(π²·64) ≈ 1 % of Q²/12 is
 #: counted as white error.
 HARMONICS = 64
+#: A harmonic damped below this by the noise that dithers the encoder is left out (its
+#: share of Q²/12 is counted as white, where it belongs).
+DAMPED = 1e-6
 #: Every successive change must be within this fraction of Q of a whole number of steps
 #: (positions written as decimals carry float rounding far below it).
 ON_GRID_TOLERANCE = 0.01
-#: Fewest non-zero changes from which a step is read.
-MIN_STEPS = 5
+#: Fewest non-zero changes from which a step is read, and how many of the smallest are
+#: searched for the step.
+MIN_STEPS, PROBE = 5, 40
 #: Most counts the smallest change may span (a record faster than this everywhere is one
 #: whose quantization is white: no step is read).
 MAX_STEPS_PER_SAMPLE = 1000
@@ -55,29 +60,33 @@ MAX_STEPS_PER_SAMPLE = 1000
 
 def encoder_step(position: np.ndarray) -> float:
     """Q, the position record's quantization step (m or rad), or 0 when the record is not
-    on a grid: the largest Q = Δ_min/d (Δ_min the smallest non-zero |Δx|, d = 1, 2, … up
-    to ``MAX_STEPS_PER_SAMPLE``) of which every |Δx| is a whole number within
-    ``ON_GRID_TOLERANCE`` — a fast record moves several counts between samples, so its
-    smallest change is a multiple of the step. Off-grid changes pass by chance with
-    probability about (2·tolerance)^(changes), never for ``MIN_STEPS`` or more."""
+    on a grid. On the ``PROBE`` smallest non-zero changes |Δx|: the largest Δ_min/d
+    (d = 1, 2, … up to ``MAX_STEPS_PER_SAMPLE``) of which each is a whole number within
+    ``ON_GRID_TOLERANCE`` (a fast record moves several counts between samples, so its
+    smallest change may be a multiple of the step; off-grid changes pass by chance with
+    probability about (2·tolerance)^changes). Then Q = Σ n·|Δx| / Σ n² by least squares
+    over all changes (n their whole numbers of counts: positions written with few digits
+    make Δ_min alone inexact), and every change must be within the tolerance of n·Q."""
     x = np.asarray(position, dtype=float)
     x = x[np.isfinite(x)]
     if x.size < 2:
         return 0.0
     steps = np.abs(np.diff(x))
-    scale = max(float(np.max(np.abs(x))), 1e-300)
-    moved = steps[steps > 1e-9 * scale]
+    moved = steps[steps > 1e-9 * max(float(np.max(np.abs(x))), 1e-300)]
     if moved.size < MIN_STEPS:
         return 0.0
+    probe = np.sort(moved)[:PROBE]
     divisors = np.arange(1, MAX_STEPS_PER_SAMPLE + 1, dtype=float)
-    probe = moved[: 8 * MIN_STEPS]
-    counts = np.outer(probe, divisors / moved.min())
+    counts = np.outer(probe / probe[0], divisors)
     near = np.all(np.abs(counts - np.round(counts)) <= ON_GRID_TOLERANCE, axis=0)
-    for d in divisors[near]:
-        counts = moved * d / moved.min()
-        if np.max(np.abs(counts - np.round(counts))) <= ON_GRID_TOLERANCE:
-            return float(moved.min() / d)
-    return 0.0
+    if not near.any():
+        return 0.0
+    quantum = float(probe[0] / divisors[near][0])
+    for _ in range(2):  # the second pass with the counts of the refined step
+        n = np.round(moved / quantum)
+        quantum = float(n @ moved / (n @ n))
+    n = np.round(moved / quantum)
+    return quantum if np.max(np.abs(moved / quantum - n)) <= ON_GRID_TOLERANCE else 0.0
 
 
 def quantization_scores(
@@ -111,11 +120,15 @@ def quantization_scores(
             meat += residual_variance * (j.T @ j)
             continue
         noise = max(residual_variance - quantum**2 / 12.0, 0.0)
-        weight = quantum**2 / (2 * np.pi**2 * harmonic**2)
-        weight *= np.exp(-((2 * np.pi * harmonic * np.sqrt(noise) / quantum) ** 2))
-        phase = np.outer(x[block] - x[block][0], 2 * np.pi * harmonic / quantum)
-        root = np.sqrt(weight)
-        scores = j.T @ np.hstack([np.cos(phase) * root, np.sin(phase) * root])
-        meat += scores @ scores.T
+        damping = np.exp(-((2 * np.pi * harmonic * np.sqrt(noise) / quantum) ** 2))
+        kept = int(np.count_nonzero(damping > DAMPED))  # d_k falls with k
+        weight = quantum**2 / (2 * np.pi**2 * harmonic[:kept] ** 2) * damping[:kept]
+        # e^{2πik·x̂/Q} for k = 1…K as powers of the first harmonic, of x̂'s position within
+        # its count (whole counts drop out of an integer harmonic; the arguments stay small)
+        first = np.exp(2j * np.pi * np.mod((x[block] - x[block][0]) / quantum, 1.0))
+        waves = np.cumprod(np.broadcast_to(first[:, None], (size, kept)), axis=1)
+        waves *= np.sqrt(weight)
+        cosine, sine = j.T @ waves.real, j.T @ waves.imag  # Jᵀcₖ, Jᵀsₖ, weighted (real BLAS)
+        meat += cosine @ cosine.T + sine @ sine.T
         meat += (quantum**2 / 12.0 + noise - weight.sum()) * (j.T @ j)
     return meat
