@@ -1,20 +1,25 @@
 """Standard errors that never hide a direction the data cannot determine, and never assume a
 residual whiter than it is.
 
-Two covariances of the estimate, both on the column-scaled Jacobian J·D⁻¹ (D = column norms)
-through its singular values s_k:
+Three covariances of the estimate, all on the column-scaled Jacobian J·D⁻¹ (D = column
+norms) through its singular values s_k:
 
     white:  cov_w = σ̂²·(JᵀJ)⁻¹,  σ̂² = SSE/(n − p)
     serial: cov_s = n/(n − p)·(JᵀJ)⁻¹·S·(JᵀJ)⁻¹   (S: the scores' long-run covariance within
             each record, ``estimation.stats.serial``)
+    quantization: cov_q = (JᵀJ)⁻¹·S_q·(JᵀJ)⁻¹   (S_q: the scores' covariance under the
+            encoder's quantization of the fitted motion, ``estimation.stats.quantization``;
+            only for records on an encoder grid)
 
-Each parameter's σ is the larger of the two: cov_s accounts for residuals correlated in time
-(an encoder's quantization of a smooth motion, structure no term explains), but its S is an
-estimate from the same residuals, biased low in finite samples (the Bartlett weights shrink
-the autocovariances and the fit has already absorbed the residual along J); where it comes
-out below cov_w the data do not show that the correlation really makes θ̂ more precise than
-white noise would, so the σ the data support is the white one. The correlation matrix is
-cov_s's (the σ then rescale it).
+Each parameter's σ is the largest of them: cov_s accounts for residuals correlated in time
+(structure no term explains), but its S is an estimate from the same residuals, biased low
+in finite samples (the Bartlett weights shrink the autocovariances and the fit has already
+absorbed the residual along J); where it comes out below cov_w the data do not show that the
+correlation really makes θ̂ more precise than white noise would, so the σ the data support
+is the white one. cov_q models the same noise of the samples with the correlation one
+unknown phase per record gives a quantized smooth motion, which the fit absorbs and the
+residual does not show. They estimate one error: the largest, not their sum. The
+correlation matrix is cov_s's (the σ then rescale it).
 
 A direction with s_k/s_max < ``RANK_TOL`` is not determined by the data: a finite-difference
 Jacobian is only good to about 1e-6 of its largest column, so a smaller singular value cannot
