@@ -20,6 +20,7 @@ import numpy as np
 from estimation.data.runs import RunData
 from estimation.motion.equation import Coefficient, accelerator, hermite
 from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Term
+from estimation.stats.quantization import encoder_step
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
 RK4_MAX_STEP_S = 0.1  # RK4 error < 1e-6 m on BENBAM-like dynamics (τ ≥ 0.5 s)
@@ -46,6 +47,9 @@ class PreparedRun:
     #: The drive held from the last sample at or before the release until the first kept
     #: sample (per-sample drives; None: ``drive[0]``).
     drive_at_release: float | None = None
+    #: The record's quantization step (m or rad; 0: not on a grid), ``estimation.stats.
+    #: quantization.encoder_step`` of the whole record, baseline included.
+    encoder_step: float = 0.0
 
 
 def prepare(run: RunData) -> PreparedRun:
@@ -72,6 +76,7 @@ def prepare(run: RunData) -> PreparedRun:
         ),
         t_release_std=float(run.t_release_std),
         drive_at_release=_held_at(run, run.t_release),
+        encoder_step=encoder_step(np.asarray(run.position)),
     )
 
 

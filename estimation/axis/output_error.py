@@ -171,7 +171,10 @@ def fit_output_error(
     )
     params, ng = sol.x, prob.n_global
     res = prob.residual(params)
-    stats = solution_statistics(res, prob.jacobian(params), ng, prob.sizes)
+    steps = [r.encoder_step for r in runs]
+    stats = solution_statistics(
+        res, prob.jacobian(params), ng, prob.sizes, prob.measured - res, steps
+    )
     names = (*BASE_NAMES, *effects)
     tol = 1e-6 * np.maximum(np.abs(params[:ng]), 1.0)
     at_bound = tuple(

@@ -8,8 +8,8 @@ from the state (ξ₀, ξ̇₀) at each record's first sample: the equilibrium x
 anchored there, not at the release point) and the initial state are nuisance parameters
 per record. Known terms (a hydrostatic stiffness) are fixed; M_known, the known terms and
 the weights w of the identified coefficients may differ per record (``Record``: a
-pendulum's geometry). σ from ``identify`` (a
-direction the data cannot determine is reported, not dropped). Start values from the
+pendulum's geometry). σ from ``identify``, quantization included (a direction the data
+cannot determine is reported, not dropped). Start values from the
 equation-error least squares on Savitzky–Golay derivatives; every parameter is scaled by its
 typical size, bounded by its term's bounds, and the RK4 step resolves the start model's
 period and damping rate, so a trial far from the data is a large finite misfit.
@@ -31,6 +31,7 @@ from estimation.motion.records import Record, Setup, known_inertia_of, known_ter
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics
 from estimation.stats.identify import honest_statistics
+from estimation.stats.quantization import encoder_step
 
 SAVGOL_WINDOW = 7
 
@@ -268,7 +269,8 @@ def fit_motion(
             f"the {setup.dof} equation with {', '.join(names)}",
             "the simulated motion did not stay finite from any start",
         )
-    stats = honest_statistics(res, prob.jacobian(p), len(names), prob.sizes)
+    fitted, steps = prob.measured - res, [encoder_step(np.asarray(r.x)) for r in records]
+    stats = honest_statistics(res, prob.jacobian(p), len(names), prob.sizes, fitted, steps)
     tol = 1e-6 * np.maximum(np.abs(p[: len(names)]), typical * 1e-3)
     at_bound = tuple(
         n
@@ -283,6 +285,7 @@ def fit_motion(
         values=g.copy(),
         std=stats.std,
         std_white=stats.std_white,
+        std_quantization=stats.std_quantization,
         correlation=stats.correlation,
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         sse=stats.sse,

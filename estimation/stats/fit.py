@@ -17,6 +17,7 @@ class SolutionStatistics(TypedDict):
 
     std: np.ndarray
     std_white: np.ndarray
+    std_quantization: np.ndarray | None
     correlation: np.ndarray
     sse: float
     n_samples: int
@@ -24,18 +25,25 @@ class SolutionStatistics(TypedDict):
 
 
 def solution_statistics(
-    residuals: np.ndarray, jacobian: np.ndarray, n_global: int, record_sizes: Sequence[int]
+    residuals: np.ndarray,
+    jacobian: np.ndarray,
+    n_global: int,
+    record_sizes: Sequence[int],
+    fitted_positions: np.ndarray | None = None,
+    steps: Sequence[float] = (),
 ) -> SolutionStatistics:
     """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
     with SSE, n and p; ``residuals`` and ``jacobian`` evaluated at the solution, the records'
     samples concatenated (``record_sizes`` their counts). σ is the larger of the white
-    σ̂²(JᵀJ)⁻¹ and the within-record serial-correlation sandwich; a parameter along a
+    σ̂²(JᵀJ)⁻¹, the within-record serial-correlation sandwich and, for records quantized to
+    ``steps``, the quantization of the ``fitted_positions``; a parameter along a
     direction the data cannot determine gets σ = NaN (not identified), never the too-small
     σ of a pseudo-inverse that drops that direction (``estimation.stats.identify``)."""
-    ident = honest_statistics(residuals, jacobian, n_global, record_sizes)
+    ident = honest_statistics(residuals, jacobian, n_global, record_sizes, fitted_positions, steps)
     return SolutionStatistics(
         std=ident.std,
         std_white=ident.std_white,
+        std_quantization=ident.std_quantization,
         correlation=ident.correlation,
         sse=ident.sse,
         n_samples=ident.n_samples,
@@ -62,6 +70,10 @@ class FitStatistics:
     #: σ̂²(JᵀJ)⁻¹ alone (white residual): the noise of the samples, which ``std`` never goes
     #: below; None when the σ did not come from this fit's Jacobian
     std_white: np.ndarray | None = None
+    #: the σ the records' encoder quantization alone gives (``estimation.stats.quantization``),
+    #: which ``std`` never goes below; None when no record is quantized or the σ did not
+    #: come from this fit's Jacobian
+    std_quantization: np.ndarray | None = None
 
     @property
     def bic(self) -> float:

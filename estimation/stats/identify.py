@@ -1,20 +1,25 @@
 """Standard errors that never hide a direction the data cannot determine, and never assume a
 residual whiter than it is.
 
-Two covariances of the estimate, both on the column-scaled Jacobian J·D⁻¹ (D = column norms)
-through its singular values s_k:
+Three covariances of the estimate, all on the column-scaled Jacobian J·D⁻¹ (D = column
+norms) through its singular values s_k:
 
     white:  cov_w = σ̂²·(JᵀJ)⁻¹,  σ̂² = SSE/(n − p)
     serial: cov_s = n/(n − p)·(JᵀJ)⁻¹·S·(JᵀJ)⁻¹   (S: the scores' long-run covariance within
             each record, ``estimation.stats.serial``)
+    quantization: cov_q = (JᵀJ)⁻¹·S_q·(JᵀJ)⁻¹   (S_q: the scores' covariance under the
+            encoder's quantization of the fitted motion, ``estimation.stats.quantization``;
+            only for records on an encoder grid)
 
-Each parameter's σ is the larger of the two: cov_s accounts for residuals correlated in time
-(an encoder's quantization of a smooth motion, structure no term explains), but its S is an
-estimate from the same residuals, biased low in finite samples (the Bartlett weights shrink
-the autocovariances and the fit has already absorbed the residual along J); where it comes
-out below cov_w the data do not show that the correlation really makes θ̂ more precise than
-white noise would, so the σ the data support is the white one. The correlation matrix is
-cov_s's (the σ then rescale it).
+Each parameter's σ is the largest of them: cov_s accounts for residuals correlated in time
+(structure no term explains), but its S is an estimate from the same residuals, biased low
+in finite samples (the Bartlett weights shrink the autocovariances and the fit has already
+absorbed the residual along J); where it comes out below cov_w the data do not show that the
+correlation really makes θ̂ more precise than white noise would, so the σ the data support
+is the white one. cov_q models the same noise of the samples with the correlation one
+unknown phase per record gives a quantized smooth motion, which the fit absorbs and the
+residual does not show. They estimate one error: the largest, not their sum. The
+correlation matrix is cov_s's (the σ then rescale it).
 
 A direction with s_k/s_max < ``RANK_TOL`` is not determined by the data: a finite-difference
 Jacobian is only good to about 1e-6 of its largest column, so a smaller singular value cannot
@@ -31,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.stats.quantization import quantization_scores
 from estimation.stats.serial import long_run_scores
 
 RANK_TOL = 1e-6
@@ -50,6 +56,9 @@ class Identified:
     n_samples: int
     n_params: int
     std_white: np.ndarray
+    #: the σ of the records' quantization alone (``estimation.stats.quantization``); None
+    #: when no record is on an encoder grid
+    std_quantization: np.ndarray | None = None
 
 
 def honest_statistics(
@@ -57,9 +66,13 @@ def honest_statistics(
     jacobian: np.ndarray,
     n_global: int,
     record_sizes: Sequence[int],
+    fitted_positions: np.ndarray | None = None,
+    steps: Sequence[float] = (),
 ) -> Identified:
     """σ and correlation of the first ``n_global`` parameters (module doc); ``residuals``
-    and ``jacobian`` are the records' samples concatenated, ``record_sizes`` their counts."""
+    and ``jacobian`` are the records' samples concatenated, ``record_sizes`` their counts;
+    ``fitted_positions`` (the model at the samples) and each record's encoder ``steps``
+    (0: not quantized) add the quantization σ."""
     residuals = np.asarray(residuals, dtype=float)
     n, p = residuals.size, jacobian.shape[1]
     sse = float(residuals @ residuals)
@@ -80,10 +93,19 @@ def honest_statistics(
     g = n_global
     white = np.sqrt(np.maximum(np.diag(cov_white)[:g], 0.0))
     serial = np.sqrt(np.maximum(np.diag(cov_serial)[:g], 0.0))
-    std = np.where(lost[:g], np.nan, np.maximum(white, serial))
+    larger, quantization = np.maximum(white, serial), None
+    if fitted_positions is not None and len(steps):
+        variance = sse / max(n - p, 1)
+        meat_q = quantization_scores(fitted_positions, scaled, record_sizes, steps, variance)
+        if meat_q is not None:
+            cov_q = (inv @ meat_q @ inv) / unscale
+            quantization = np.sqrt(np.maximum(np.diag(cov_q)[:g], 0.0))
+            larger = np.maximum(larger, quantization)
+            quantization = np.where(lost[:g], np.nan, quantization)
+    std = np.where(lost[:g], np.nan, larger)
     std_white = np.where(lost[:g], np.nan, white)
     denom = np.outer(serial, serial)
     ok = np.isfinite(np.outer(std, std)) & (denom > 0)
     corr = np.divide(cov_serial[:g, :g], np.where(ok, denom, 1.0), out=np.eye(g), where=ok)
     corr = np.where(ok | np.eye(g, dtype=bool), corr, np.nan)
-    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white)
+    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white, quantization)

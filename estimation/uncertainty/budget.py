@@ -9,18 +9,10 @@ and expanded uncertainty U = k·u_c at 95 %, reported to 2 significant digits (r
 GUM 7.2.6, so the stated U is never smaller than computed) with the value rounded to the
 same decimal place.
 
-Type A (evaluated from the data): the fit's white σ (σ̂²(JᵀJ)⁻¹: the noise of the samples;
-not the estimate's σ with the residual's within-run correlation, ``estimation.stats.serial``:
-a structured residual here is mostly what the declared sources below do to the runs, and
-counting it in the fit's σ too counts them twice — on the 12 kg chain of
-tests/estimation/test_uncertainty_chain.py U of the inertia became 0.22 kg against 0.13 kg
-from a Monte Carlo of the whole chain), the run-level bootstrap, the
-repeatability of repeat campaigns (``estimation.uncertainty.repeats``). All three estimate
-the same random error of θ, so only the largest enters u_c (the others are listed, marked
-"not combined"): adding them would count it two or three times; taking the largest keeps
-a σ never smaller than the data support. The release-timing refit and the thrust
-calibration draws (``estimation.axis.drive_uncertainty``) are separate random sources and
-enter as they are.
+Type A (evaluated from the data, ``estimation.uncertainty.type_a``): the largest of the
+fit's white σ, the encoder quantization's σ, the run-level bootstrap and the repeatability
+of repeat campaigns (they estimate the same random error: counted once), and the
+release-timing refit and thrust calibration draws (separate random sources).
 
 Type B (declared tolerances, ``estimation.uncertainty.sources``): the sensitivity is a
 central finite difference of a re-fit, c = (θ(x + u) − θ(x − u)) / 2u, with the fit's
@@ -45,9 +37,9 @@ from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.result import EstimationResult
 from estimation.data.runs import RunData
-from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
 from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
+from estimation.uncertainty.rows import BudgetRow
 from estimation.uncertainty.sources import (
     SOURCES,
     Chain,
@@ -57,42 +49,15 @@ from estimation.uncertainty.sources import (
     standard_uncertainty,
     weight_groups,
 )
+from estimation.uncertainty.type_a import type_a_rows
+
+__all__ = ["Budget", "BudgetRow", "CoefficientBudget", "uncertainty_budget"]
 
 COVERAGE = 0.95
 TYPE_B_NOT_DECLARED = (
     "Type B not declared: the rig file has no [tolerances] section, so U covers the Type A "
     "sources only (add [tolerances] to the rig file, README 'Declaring tolerances')"
 )
-
-
-@dataclass(frozen=True)
-class BudgetRow:
-    """One source of one coefficient: u in the source's unit, c = ∂θ/∂x, contribution c·u."""
-
-    source: str
-    kind: str  # "A" or "B"
-    unit: str
-    standard_uncertainty: float
-    sensitivity: float
-    contribution: float  # |c·u|, coefficient unit
-    dof: float  # ν_i (inf: taken as exact)
-    combined: bool = True
-    note: str = ""
-    share: float = 0.0  # (c·u)² / u_c², of the combined sources
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "source": self.source,
-            "type": self.kind,
-            "unit": self.unit,
-            "standard_uncertainty": finite_or_none(self.standard_uncertainty),
-            "sensitivity": finite_or_none(self.sensitivity),
-            "contribution": finite_or_none(self.contribution),
-            "dof": None if math.isinf(self.dof) else finite_or_none(self.dof),
-            "combined": self.combined,
-            "share": finite_or_none(self.share),
-            "note": self.note,
-        }
 
 
 @dataclass(frozen=True)
@@ -240,96 +205,6 @@ def _type_b_rows(
     return rows
 
 
-def coefficient_unit(name: str, axis: str) -> str:
-    """The SI unit of a fitted coefficient or effect on ``axis``."""
-    if name == "inertia":
-        return "kg" if axis == "surge" else "kg·m²"
-    return LIBRARY[name].unit(axis) if name in LIBRARY else ""
-
-
-def _type_a_rows(
-    result: EstimationResult, fit: FitResult, repeat_std: Mapping[str, tuple[float, int]]
-) -> dict[str, list[BudgetRow]]:
-    rows: dict[str, list[BudgetRow]] = {}
-    dof_fit = max(fit.n_samples - fit.n_params, 1)
-    boot = result.bootstrap
-    drive = result.uncertainty
-    for i, name in enumerate(fit.names):
-        unit = coefficient_unit(name, result.axis)
-        noise = fit.std if fit.std_white is None else fit.std_white
-        random = [BudgetRow("fit (σ̂²(JᵀJ)⁻¹)", "A", unit, float(noise[i]), 1.0, 0.0, dof_fit)]
-        if boot is not None and boot.used > 1 and math.isfinite(boot.std.get(name, math.nan)):
-            random.append(
-                BudgetRow(
-                    f"bootstrap over runs ({boot.used} resamples)",
-                    "A",
-                    unit,
-                    boot.std[name],
-                    1.0,
-                    0.0,
-                    max(len(result.runs) - 1, 1),
-                )
-            )
-        if name in repeat_std:
-            s, n = repeat_std[name]
-            random.append(
-                BudgetRow(f"repeatability ({n} repeat campaigns, s/√N)", "A", unit, s, 1, 0, n - 1)
-            )
-        finite = [r for r in random if math.isfinite(r.standard_uncertainty)]
-        largest = max(finite, key=lambda r: r.standard_uncertainty) if finite else None
-        out = []
-        for r in random:
-            used = r is largest
-            note = (
-                "the random error, counted once"
-                if used
-                else "overlaps " + (largest.source if largest else "—") + ": not combined"
-            )
-            out.append(
-                BudgetRow(
-                    r.source,
-                    "A",
-                    r.unit,
-                    r.standard_uncertainty,
-                    1.0,
-                    abs(r.standard_uncertainty) if used else 0.0,
-                    r.dof,
-                    combined=used,
-                    note=note,
-                )
-            )
-        if drive is not None and drive.std_release_timing.get(name, 0.0) > 0:
-            u = drive.std_release_timing[name]
-            out.append(
-                BudgetRow(
-                    "release timing (refit with each release moved by its σ_t)",
-                    "A",
-                    unit,
-                    u,
-                    1.0,
-                    u,
-                    math.inf,
-                    note="σ_t from the release write's bracket and the clock",
-                )
-            )
-        if drive is not None and drive.draws > 1 and drive.std_calibration.get(name, 0.0) > 0:
-            u = drive.std_calibration[name]
-            out.append(
-                BudgetRow(
-                    f"thrust calibration ({drive.draws} curve draws)",
-                    "A",
-                    unit,
-                    u,
-                    1.0,
-                    u,
-                    drive.draws - 1,
-                    note="the calibration fit's covariance",
-                )
-            )
-        rows[name] = out
-    return rows
-
-
 def _finish(name: str, value: float, rows: list[BudgetRow]) -> CoefficientBudget:
     used = [r for r in rows if r.combined and math.isfinite(r.contribution)]
     u_c = float(np.sqrt(sum(r.contribution**2 for r in used)))
@@ -388,7 +263,7 @@ def uncertainty_budget(
         repeat_std, why = repeat_campaign_std(runs, fit, repeats)
         if why:
             notes.append(why)
-    type_a = _type_a_rows(result, fit, repeat_std)
+    type_a = type_a_rows(result, fit, repeat_std)
     budgets = {
         name: _finish(name, fit.value(name), type_a[name] + type_b.get(name, []))
         for name in fit.names

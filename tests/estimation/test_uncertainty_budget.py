@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 
 from daq.config import DEFAULT_RIG_FILE, RigConfigError, parse_rig
-from estimation import RunData
+from estimation import RunData, estimate
 from estimation.theory.measured import HullScale, measured_beside_theory
-from estimation.uncertainty import check_tolerances
+from estimation.uncertainty import check_tolerances, uncertainty_budget
 from estimation.uncertainty.budget import coverage_factor, effective_dof, round_reported
 from estimation.uncertainty.repeats import chauvenet, group_conditions
 from estimation.uncertainty.sources import ToleranceError
+from estimation.uncertainty.type_a import QUANTIZATION
 from estimation.water import water_properties
+from tests.estimation.term_cases import tow_set
 
 
 def test_welch_satterthwaite_and_the_coverage_factor():
@@ -110,3 +112,37 @@ def test_added_mass_and_its_coefficient_carry_the_vehicle_and_water_tolerances()
     assert c_a["expanded_uncertainty"] == pytest.approx(1.96 * rel * c_a["value"], rel=1e-3)
     assert doc["runs"]["r1"]["reynolds"] == pytest.approx(0.5 / water.kinematic_viscosity)
     assert doc["theory"]["ratio"] == pytest.approx(2.0) and doc["theory"]["plausible"]
+
+
+def test_the_encoder_quantization_row_is_the_fits_and_counted_once():
+    """Clean 143 kg tows on a 0.1 mm grid (tests/estimation/term_cases.py): the budget lists
+    the fit's quantization σ beside its white σ, and u_c is the larger of them alone (the
+    same noise of the samples: not root-sum-squared); runs off any grid have no such row."""
+    runs = tow_set("143kg", seed=300)
+    result = estimate(runs, search_effects=False, n_bootstrap=0)
+    fit = result.fit_after
+    assert fit is not None and fit.std_quantization is not None and fit.std_white is not None
+    budget = uncertainty_budget(runs, result, None, None)
+    for i, name in enumerate(fit.names):
+        coefficient = budget.coefficients[name]
+        rows = {r.source: r for r in coefficient.rows}
+        assert rows[QUANTIZATION].standard_uncertainty == pytest.approx(fit.std_quantization[i])
+        larger = max(fit.std_quantization[i], fit.std_white[i])
+        assert coefficient.combined_std == pytest.approx(larger)
+        assert sum(r.combined for r in coefficient.rows) == 1
+    rng = np.random.default_rng(1)
+    off_grid = [
+        RunData(
+            r.run_id,
+            r.axis,
+            r.t,
+            r.position + 2e-5 * rng.standard_normal(r.t.size),
+            r.drive,
+            t_release=r.t_release,
+        )
+        for r in runs
+    ]
+    result = estimate(off_grid, search_effects=False, n_bootstrap=0)
+    assert result.fit_after is not None and result.fit_after.std_quantization is None
+    rows = uncertainty_budget(off_grid, result, None, None).coefficients["inertia"].rows
+    assert QUANTIZATION not in {r.source for r in rows}
