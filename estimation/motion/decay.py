@@ -21,6 +21,7 @@ import numpy as np
 
 from estimation.blas import one_blas_thread
 from estimation.errors import EstimationFailed
+from estimation.motion.envelope import FreeWindow, free_decay_end
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
@@ -77,6 +78,8 @@ class DecayResult:
     steps: tuple[Step, ...]
     equilibrium: dict[str, float]
     release_time_s: dict[str, float]
+    #: Per record, where the fitted free motion ends and why (``envelope.free_decay_end``).
+    window: dict[str, FreeWindow] = field(default_factory=dict)
     ambiguous: tuple[tuple[str, str], ...] = ()
     #: Per rival of a kept term: the final model with the rival in its place (its
     #: coefficients, and its BIC minus the final's).
@@ -115,6 +118,10 @@ class DecayResult:
             "evidence": [s.to_json() for s in self.steps],
             "equilibrium": finite_values(self.equilibrium),
             "release_time_s": finite_values(self.release_time_s),
+            "window": {
+                run: {"release_time_s": self.release_time_s.get(run)} | w.to_json()
+                for run, w in self.window.items()
+            },
         }
 
 
@@ -156,7 +163,8 @@ def estimate_decay(
     drive [N or N·m]). ``known_inertia``: the known part (body's dry inertia, rig);
     ``inertia``: the identified part when known; ``stiffness``: a known linear stiffness
     (N/m or N·m/rad); ``min_inertia``: the smallest identified inertia the body can have.
-    ``t_release``/``t_end``: the free motion's window (default: ``release_of``, last sample).
+    ``t_release``/``t_end``: the free motion's window (default: ``release_of``, and for a
+    free record where its envelope stops being a free decay, ``envelope.free_decay_end``).
     Raises ValueError for unusable input, ``EstimationFailed`` when the numerics fail."""
     record = Record(run_id, np.asarray(t, dtype=float), np.asarray(x, dtype=float), drive)
     return estimate_records(
@@ -206,8 +214,8 @@ def estimate_records(
     for r in records:
         validate([r], Setup(dof, known_inertia, inertia, known, base_terms))
     starts = {r.run_id: (t_release or {}).get(r.run_id, release_of(r)) for r in records}
-    ends = t_end or {}
-    windowed = [_window(r, starts[r.run_id], ends.get(r.run_id)) for r in records]
+    ends = {r.run_id: _end(r, starts[r.run_id], (t_end or {}).get(r.run_id)) for r in records}
+    windowed = [_window(r, starts[r.run_id], ends[r.run_id].end) for r in records]
     validate(windowed, setup)
     base = fit_motion(windowed, setup)
     tried = [c for c in candidates if c not in known and c not in base.names]
@@ -223,7 +231,20 @@ def estimate_records(
         except EstimationFailed:
             continue
         alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
-    return replace(result, alternatives=alternatives)
+    return replace(result, alternatives=alternatives, window=ends)
+
+
+def _end(record: Record, start: float, given: float | None) -> FreeWindow:
+    """Where ``record``'s fitted motion ends: ``given``, else a driven record's last sample,
+    else where its free decay ends (``envelope.free_decay_end``)."""
+    if given is not None:
+        return FreeWindow(float(given), "given")
+    t = np.asarray(record.t, dtype=float)
+    if record.drive is not None:
+        return FreeWindow(float(t[-1]), "end of the record")
+    keep = t >= start
+    x = np.asarray(record.x, dtype=float)[keep]
+    return free_decay_end(t[keep], x, position_noise([x]))
 
 
 def _coefficients(setup: Setup, fit: MotionFit) -> dict[str, Coefficient]:
