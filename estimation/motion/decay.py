@@ -21,7 +21,7 @@ import numpy as np
 
 from estimation.blas import one_blas_thread
 from estimation.errors import EstimationFailed
-from estimation.motion.envelope import FreeWindow, free_decay_end
+from estimation.motion.envelope import FreeWindow, centre, free_decay_end
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
@@ -128,13 +128,12 @@ class DecayResult:
 def release_of(record: Record) -> float:
     """Where a record's free motion starts: its first sample when driven; for a free decay
     the last sample still within 3σ (noise) of the largest excursion from the final rest
-    position before the motion first crosses that rest (a decay is released at its largest
-    offset: the end of a push, or the end of a hold)."""
+    position (``envelope.centre``) before the motion first crosses that rest (a decay is
+    released at its largest offset: the end of a push, or the end of a hold)."""
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     if record.drive is not None:
         return float(t[0])
-    rest = float(np.median(x[-max(x.size // 5, 3) :]))
-    off = x - rest
+    off = x - centre(t, x, position_noise([x]))
     peak = int(np.argmax(np.abs(off)))
     crossing = np.nonzero(np.sign(off[peak:]) != np.sign(off[peak]))[0]
     stop = peak + (int(crossing[0]) if crossing.size else off.size - peak)

@@ -57,7 +57,8 @@ class FreeWindow:
 
 def extrema(t: np.ndarray, x: np.ndarray, swing: float) -> tuple[np.ndarray, np.ndarray]:
     """Times (s) and values of the record's alternating turns, each confirmed by a return of
-    ``swing`` and refined by a parabola through its three samples."""
+    ``swing`` and refined by a parabola through its three samples (a turn at the record's
+    first or last sample is not seen: the motion may go on beyond it)."""
     found: list[int] = []
     hi = lo = 0
     direction = 0  # +1 looking for a maximum, −1 for a minimum, 0 not yet known
@@ -74,18 +75,28 @@ def extrema(t: np.ndarray, x: np.ndarray, swing: float) -> tuple[np.ndarray, np.
             direction, hi = 1, i
     times, values = [], []
     for i in found:
-        if 0 < i < x.size - 1:
-            y0, y1, y2 = x[i - 1], x[i], x[i + 1]
-            curve = y0 - 2 * y1 + y2
-            s = 0.5 * (y0 - y2) / curve if curve != 0 else 0.0
-            s = float(np.clip(s, -1.0, 1.0))
-            step = t[i + 1] - t[i] if s > 0 else t[i] - t[i - 1]
-            times.append(t[i] + s * step)
-            values.append(y1 - 0.25 * (y0 - y2) * s)
-        else:
-            times.append(t[i])
-            values.append(x[i])
+        if not 0 < i < x.size - 1:  # a record's first or last sample is not a seen turn
+            continue
+        y0, y1, y2 = x[i - 1], x[i], x[i + 1]
+        curve = y0 - 2 * y1 + y2
+        s = float(np.clip(0.5 * (y0 - y2) / curve, -1.0, 1.0)) if curve != 0 else 0.0
+        step = t[i + 1] - t[i] if s > 0 else t[i] - t[i - 1]
+        times.append(t[i] + s * step)
+        values.append(y1 - 0.25 * (y0 - y2) * s)
     return np.array(times), np.array(values)
+
+
+def centre(t: np.ndarray, x: np.ndarray, noise: float) -> float:
+    """Where the record's last fifth oscillates about (m or rad): the mean of the midpoints
+    (e_k + 2·e_{k+1} + e_{k+2})/4 of its extrema there (each cancels a linear decay of the
+    envelope), or the median of the last fifth when it is at rest (fewer than 3 extrema). A
+    median of a record that still oscillates is off by up to its amplitude, depending on
+    where in the cycle it ends (KVLCC2 21337: 0.39° of a 3.9° swing)."""
+    tail = slice(-max(x.size // 5, 3), None)
+    _, e = extrema(t[tail], x[tail], SWING_SIGMAS * max(noise, 1e-300))
+    if e.size < 3:
+        return float(np.median(x[tail]))
+    return float(np.mean((e[:-2] + 2 * e[1:-1] + e[2:]) / 4))
 
 
 def _scatter(values: np.ndarray, least: float) -> float:
