@@ -38,6 +38,7 @@ DECAY_CANDIDATES: tuple[str, ...] = (
     "cubic_stiffness",
     "coulomb_friction",
     "constant_bias",
+    "equilibrium_drift",
 )
 
 
