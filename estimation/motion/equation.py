@@ -300,9 +300,12 @@ def integrate(
                     x = np.where(frozen, np.clip(np.nan_to_num(x), -limit, limit), x)
                     v = np.where(frozen, 0.0, v)
             xs[k], vs[k] = x, v
-    if frozen.any():  # the steps before the guard saw it
+    if frozen.any():  # the steps before the guard saw it: x and ẋ both held within the
+        # limit's own scale (|ẋ| ≤ limit/h), else the Hermite read-off carries a velocity of
+        # 1e90 (a softening restoring escapes in finite time, within GUARD_EVERY steps) into
+        # the misfit and the fit's trust region overflows
         xs = np.clip(np.nan_to_num(xs), -limit, limit)
-        vs = np.where(np.isfinite(vs), vs, 0.0)
+        vs = np.clip(np.nan_to_num(vs), -limit / h, limit / h)
     out = []
     for i, tr in enumerate(tracks):
         tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))
