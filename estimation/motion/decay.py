@@ -8,7 +8,9 @@ for heave, Δ·g·GM for roll) or the inertia. The result's warnings name every 
 the data do not determine, every value a body cannot have, and — when the residual is
 decisively not white (Ljung–Box p < ``WHITE_P``) and the coefficients move by more than
 ``MOVED_SIGMAS`` σ when a candidate is added or left out — that the coefficients may be
-biased, whatever the residual's size against the noise floor.
+biased, whatever the residual's size against the noise floor; and every kept term within 2σ
+of zero by the σ that counts the residual's correlation (the information criterion that kept
+it takes the residual as white).
 """
 
 from __future__ import annotations
@@ -334,6 +336,15 @@ def _warnings(setup: Setup, final: MotionFit, white: Whiteness, biased: bool) ->
             out.append(
                 f"{n} sits at its physical bound {final.value(n):.3g}: the data want a "
                 f"value a body cannot have ({LIBRARY[n].physical})"
+            )
+    for n in final.effects:
+        value, std = final.value(n), final.sigma(n)
+        if np.isfinite(std) and abs(value) < 2 * std:
+            out.append(
+                f"{n} = {value:.3g} ± {std:.2g} {LIBRARY[n].unit(setup.dof)} was kept on the "
+                "information criterion, which takes the residual as white, but lies within "
+                "2σ of zero by the σ that counts its correlation: it may be the residual's "
+                f"structure rather than this term ({LIBRARY[n].separated_by})"
             )
     if "inertia" in final.names and setup.min_inertia is not None:
         value = final.value("inertia")
