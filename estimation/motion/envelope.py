@@ -118,7 +118,7 @@ def free_decay_end(t: np.ndarray, x: np.ndarray, noise: float) -> FreeWindow:
         return last
     loss = -np.diff(h)  # L_k, for k = 0 … n−2
     jump = np.diff(loss)  # L_k − L_{k−1}, for k = 1 … n−2
-    sigma_l = _scatter(jump, np.sqrt(1.5) * noise) / np.sqrt(2.0)
+    sigma_l = max(_scatter(jump, 0.0) / np.sqrt(2.0), np.sqrt(1.5) * noise)
     sigma_j = _scatter(jump, np.sqrt(5.0) * noise)
     for k in range(loss.size):
         if loss[k] < -CHANGE_SIGMAS * sigma_l:
