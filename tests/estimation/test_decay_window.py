@@ -80,3 +80,16 @@ def test_a_given_end_is_kept():
     t, x = record("catch")
     r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K, t_end=25.0)
     assert r.window["decay"].end == 25.0 and r.window["decay"].ended_by == "given"
+
+
+def test_the_report_shows_the_window_and_plots_only_the_free_part(tmp_path):
+    from estimation.motion.records import Record
+    from estimation.motion.report import fitted_window, write_decay_report
+
+    t, x = record("catch")
+    r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K, candidates=())
+    write_decay_report(r, [Record("decay", t, x)], tmp_path)
+    text = (tmp_path / "report.md").read_text()
+    assert f"to {r.window['decay'].end:.4g} s (the half-cycle from" in text
+    shown, _, _ = fitted_window(r, Record("decay", t, x))
+    assert shown[-1] + r.release_time_s["decay"] <= r.window["decay"].end
