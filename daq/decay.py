@@ -137,7 +137,8 @@ def fit_decays(
     runs: list[DecayRun], method: str, search: bool, envelope: RigEnvelope | None = None
 ) -> Any:
     """The joint fit of the decays (``estimate_records``); ``search``: try the library's
-    candidate terms (quadratic and cubic damping, cubic stiffness, friction, bias).
+    candidate terms (quadratic and cubic damping, cubic stiffness, friction, bias, equilibrium
+    drift); the window of a run without an end of its own is where its free decay ends.
     ``envelope`` is not used: a decay's advice names no load."""
     from estimation.motion.decay import DECAY_CANDIDATES, estimate_records
     from estimation.motion.records import Record

@@ -8,7 +8,9 @@ for heave, Δ·g·GM for roll) or the inertia. The result's warnings name every 
 the data do not determine, every value a body cannot have, and — when the residual is
 decisively not white (Ljung–Box p < ``WHITE_P``) and the coefficients move by more than
 ``MOVED_SIGMAS`` σ when a candidate is added or left out — that the coefficients may be
-biased, whatever the residual's size against the noise floor.
+biased, whatever the residual's size against the noise floor; and every kept term within 2σ
+of zero by the σ that counts the residual's correlation (the information criterion that kept
+it takes the residual as white).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import numpy as np
 
 from estimation.blas import one_blas_thread
 from estimation.errors import EstimationFailed
+from estimation.motion.envelope import FreeWindow, centre, free_decay_end
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
@@ -37,6 +40,7 @@ DECAY_CANDIDATES: tuple[str, ...] = (
     "cubic_stiffness",
     "coulomb_friction",
     "constant_bias",
+    "equilibrium_drift",
 )
 
 
@@ -77,6 +81,8 @@ class DecayResult:
     steps: tuple[Step, ...]
     equilibrium: dict[str, float]
     release_time_s: dict[str, float]
+    #: Per record, where the fitted free motion ends and why (``envelope.free_decay_end``).
+    window: dict[str, FreeWindow] = field(default_factory=dict)
     ambiguous: tuple[tuple[str, str], ...] = ()
     #: Per rival of a kept term: the final model with the rival in its place (its
     #: coefficients, and its BIC minus the final's).
@@ -115,19 +121,22 @@ class DecayResult:
             "evidence": [s.to_json() for s in self.steps],
             "equilibrium": finite_values(self.equilibrium),
             "release_time_s": finite_values(self.release_time_s),
+            "window": {
+                run: {"release_time_s": self.release_time_s.get(run)} | w.to_json()
+                for run, w in self.window.items()
+            },
         }
 
 
 def release_of(record: Record) -> float:
     """Where a record's free motion starts: its first sample when driven; for a free decay
     the last sample still within 3σ (noise) of the largest excursion from the final rest
-    position before the motion first crosses that rest (a decay is released at its largest
-    offset: the end of a push, or the end of a hold)."""
+    position (``envelope.centre``) before the motion first crosses that rest (a decay is
+    released at its largest offset: the end of a push, or the end of a hold)."""
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     if record.drive is not None:
         return float(t[0])
-    rest = float(np.median(x[-max(x.size // 5, 3) :]))
-    off = x - rest
+    off = x - centre(t, x, position_noise([x]))
     peak = int(np.argmax(np.abs(off)))
     crossing = np.nonzero(np.sign(off[peak:]) != np.sign(off[peak]))[0]
     stop = peak + (int(crossing[0]) if crossing.size else off.size - peak)
@@ -156,7 +165,8 @@ def estimate_decay(
     drive [N or N·m]). ``known_inertia``: the known part (body's dry inertia, rig);
     ``inertia``: the identified part when known; ``stiffness``: a known linear stiffness
     (N/m or N·m/rad); ``min_inertia``: the smallest identified inertia the body can have.
-    ``t_release``/``t_end``: the free motion's window (default: ``release_of``, last sample).
+    ``t_release``/``t_end``: the free motion's window (default: ``release_of``, and for a
+    free record where its envelope stops being a free decay, ``envelope.free_decay_end``).
     Raises ValueError for unusable input, ``EstimationFailed`` when the numerics fail."""
     record = Record(run_id, np.asarray(t, dtype=float), np.asarray(x, dtype=float), drive)
     return estimate_records(
@@ -206,8 +216,8 @@ def estimate_records(
     for r in records:
         validate([r], Setup(dof, known_inertia, inertia, known, base_terms))
     starts = {r.run_id: (t_release or {}).get(r.run_id, release_of(r)) for r in records}
-    ends = t_end or {}
-    windowed = [_window(r, starts[r.run_id], ends.get(r.run_id)) for r in records]
+    ends = {r.run_id: _end(r, starts[r.run_id], (t_end or {}).get(r.run_id)) for r in records}
+    windowed = [_window(r, starts[r.run_id], ends[r.run_id].end) for r in records]
     validate(windowed, setup)
     base = fit_motion(windowed, setup)
     tried = [c for c in candidates if c not in known and c not in base.names]
@@ -223,7 +233,20 @@ def estimate_records(
         except EstimationFailed:
             continue
         alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
-    return replace(result, alternatives=alternatives)
+    return replace(result, alternatives=alternatives, window=ends)
+
+
+def _end(record: Record, start: float, given: float | None) -> FreeWindow:
+    """Where ``record``'s fitted motion ends: ``given``, else a driven record's last sample,
+    else where its free decay ends (``envelope.free_decay_end``)."""
+    if given is not None:
+        return FreeWindow(float(given), "given")
+    t = np.asarray(record.t, dtype=float)
+    if record.drive is not None:
+        return FreeWindow(float(t[-1]), "end of the record")
+    keep = t >= start
+    x = np.asarray(record.x, dtype=float)[keep]
+    return free_decay_end(t[keep], x, position_noise([x]))
 
 
 def _coefficients(setup: Setup, fit: MotionFit) -> dict[str, Coefficient]:
@@ -313,6 +336,15 @@ def _warnings(setup: Setup, final: MotionFit, white: Whiteness, biased: bool) ->
             out.append(
                 f"{n} sits at its physical bound {final.value(n):.3g}: the data want a "
                 f"value a body cannot have ({LIBRARY[n].physical})"
+            )
+    for n in final.effects:
+        value, std = final.value(n), final.sigma(n)
+        if np.isfinite(std) and abs(value) < 2 * std:
+            out.append(
+                f"{n} = {value:.3g} ± {std:.2g} {LIBRARY[n].unit(setup.dof)} was kept on the "
+                "information criterion, which takes the residual as white, but lies within "
+                "2σ of zero by the σ that counts its correlation: it may be the residual's "
+                f"structure rather than this term ({LIBRARY[n].separated_by})"
             )
     if "inertia" in final.names and setup.min_inertia is not None:
         value = final.value("inertia")

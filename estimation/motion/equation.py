@@ -1,12 +1,14 @@
 """The one single-DOF equation of motion, integrated from any initial state.
 
-    (M + M_known + Σ_i θ_i·w_i)·ẍ = τ(t) + Σ_j θ_j·φ_j(x, ẋ)          (terms.py)
+    (M + M_known + Σ_i θ_i·w_i)·ẍ = τ(t) + Σ_j θ_j·φ_j(x, ẋ) + Σ_l θ_l·φ_l(t)   (terms.py)
 
 (M and each θ_j per parameter set and record: a coefficient weighted per record is
 passed as its product with the weight.)
 
 x in m or rad from the equilibrium, τ in N or N·m: constant, held per sample (zero-order
-hold: each step takes the drive's exact mean over its span) or absent (a free decay).
+hold: each step takes the drive's exact mean over its span) or absent (a free decay). A
+term of time (φ_l(t), t from the record's first sample) joins the drive at each step's
+middle (the exact mean over the step of a linear one).
 Parameter sets are rows (S) and records columns (R) of every array, so a finite-difference
 Jacobian costs one vectorized integration. RK4 with a fixed step ``h`` (chosen by the caller
 from the sample period and the dynamics, see ``stable_step``); the state at the samples is
@@ -245,6 +247,7 @@ def integrate(
     span = max(float(tr.tau[-1]) for tr in tracks)
     n_steps = max(int(np.ceil(span / h)) + 2, 3)
     forces = [c for c in coefficients if c.term.role == "force"]
+    ramps = [c for c in coefficients if c.term.role == "time"]
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
     held = None
     for c in forces:
@@ -269,9 +272,15 @@ def integrate(
     frozen = np.zeros_like(x, dtype=bool)
     half = 0.5 * h
     accel = accelerator(forces, inv, x.shape)
+    zero_state = np.zeros(1)
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(1, n_steps):
             f = drive_steps[k - 1][None, :]
+            for c in ramps:  # a force of time: its value at the step's middle (exact mean
+                # for a linear one), like the held drive's mean over the step
+                f = f + c.value * c.term.regressor(
+                    zero_state, zero_state, zero_state, 0.0, np.full(1, (k - 0.5) * h)
+                )
             if held is not None:
                 x, v = _friction_step(x, v, f, inv, smooth, np.abs(held), h)
                 x, v = np.broadcast_arrays(x, v)
@@ -291,9 +300,12 @@ def integrate(
                     x = np.where(frozen, np.clip(np.nan_to_num(x), -limit, limit), x)
                     v = np.where(frozen, 0.0, v)
             xs[k], vs[k] = x, v
-    if frozen.any():  # the steps before the guard saw it
+    if frozen.any():  # the steps before the guard saw it: x and ẋ both held within the
+        # limit's own scale (|ẋ| ≤ limit/h), else the Hermite read-off carries a velocity of
+        # 1e90 (a softening restoring escapes in finite time, within GUARD_EVERY steps) into
+        # the misfit and the fit's trust region overflows
         xs = np.clip(np.nan_to_num(xs), -limit, limit)
-        vs = np.where(np.isfinite(vs), vs, 0.0)
+        vs = np.clip(np.nan_to_num(vs), -limit / h, limit / h)
     out = []
     for i, tr in enumerate(tracks):
         tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))

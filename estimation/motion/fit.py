@@ -100,11 +100,11 @@ def equation_error_start(records: Sequence[Record], setup: Setup, names: Sequenc
         drive = r.drive_at_samples()
         b = (np.zeros_like(t) if drive is None else drive) - known_inertia_of(r, setup) * a
         for n, value in known_terms_of(r, setup).items():
-            b = b + value * LIBRARY[n].regressor(xi, v, a, 0.0)
+            b = b + value * LIBRARY[n].regressor(xi, v, a, 0.0, t - t[0])
         if setup.inertia is not None:
             b = b - setup.inertia * r.weight("inertia") * a
         cols = [
-            r.weight(n) * (a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, 0.0))
+            r.weight(n) * (a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, 0.0, t - t[0]))
             for n in names
         ]
         rows.append(np.column_stack([*cols, np.ones_like(t)]))
@@ -328,7 +328,7 @@ def _typical(records, setup: Setup, names, g0) -> np.ndarray:
             size = (
                 force / max(float(np.max(np.abs(a))), 1e-12)
                 if n == "inertia"
-                else LIBRARY[n].typical(force, xi, v, a, 0.0)
+                else LIBRARY[n].typical(force, xi, v, a, 0.0, t - t[0])
             )
             sizes.append(size / r.weight(n))
         out.append(max(max(sizes), abs(start) if np.isfinite(start) else 0.0, 1e-12))

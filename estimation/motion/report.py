@@ -29,11 +29,14 @@ def fitted_window(
     result: DecayResult, record: Record, t_end: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The samples the fit used (``t`` from release, s; measured x) and the model there:
-    x_model = x − residual (``x_eq + ξ``, estimation.motion.fit)."""
+    x_model = x − residual (``x_eq + ξ``, estimation.motion.fit). ``t_end``: the window's end
+    (default: the one the result used)."""
     if result.fit is None:
         raise ValueError("result: got a result without its fit, allowed: one made by estimate")
     index = result.runs.index(record.run_id)
     release = result.release_time_s[record.run_id]
+    if t_end is None and record.run_id in result.window:
+        t_end = result.window[record.run_id].end
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     keep = (t >= release) & (t <= (np.inf if t_end is None else t_end))
     residual = result.fit.residuals[index]
@@ -82,6 +85,11 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         f"{result.rmse_before:.3g} {unit}, after {result.rmse_after:.3g} {unit} (noise floor "
         f"{result.noise:.3g} {unit}).",
     ]
+    for run, w in result.window.items():
+        lines.append(
+            f"Fitted window of {run}: {result.release_time_s[run]:.4g} s to {w.end:.4g} s "
+            f"({w.ended_by})."
+        )
     if result.natural_period_s is not None:
         lines.append(f"Natural period {result.natural_period_s:.4g} s.")
     if result.possibly_biased:

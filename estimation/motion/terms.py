@@ -2,13 +2,14 @@
 
 Every record (tow, spin, pendulum, free decay of any DOF) is a configuration of
 
-    (M + M_known + Σ_i θ_i·w_i)·ẍ = drive(t) + Σ_j θ_j·φ_j(x, ẋ)
+    (M + M_known + Σ_i θ_i·w_i)·ẍ = drive(t) + Σ_j θ_j·φ_j(x, ẋ) + Σ_l θ_l·φ_l(t)
 
 with x the displacement from the equilibrium (m or rad), M the identified inertia (kg or
 kg·m²), M_known what the rig adds (pulley, drum, hung weight, pendulum rod), w_i the weight
 of an inertia term, θ_j the coefficient of a force term and φ_j its regressor (the force per
 unit coefficient, N or N·m per unit; its sign says which way it acts, so a passive damping
-has θ ≥ 0 and φ = −ẋ). An **entry** carries all of one term's physics: its regressor and
+has θ ≥ 0 and φ = −ẋ; a term of time φ_l(t), t from the record's first fitted sample, acts
+whatever the motion). An **entry** carries all of one term's physics: its regressor and
 the regressor's partial derivatives (the term's stiffness ∂f/∂x and damping ∂f/∂ẋ, used to
 turn a position residual into a force residual), its bounds and physical constraints, how
 its typical size follows from a record, its start value, what separates it from its
@@ -46,7 +47,9 @@ class Term:
     """One entry of the library (see the module doc).
 
     ``role``: "force" (θ·φ(x, ẋ) on the right-hand side), "inertia" (θ·w added to the
-    inertia: the force −θ·w·ẍ) or "timing" (the motion starts θ seconds late).
+    inertia: the force −θ·w·ẍ), "time" (θ·φ(τ) on the right-hand side, τ the time from
+    the record's first fitted sample in s: a force that changes along the record whatever
+    the motion) or "timing" (the motion starts θ seconds late).
     ``units``: the coefficient's unit on a translational and on a rotational DOF.
     ``lower``/``upper``: hard bounds the fit keeps (a damping < 0 would make the simulation
     grow without limit); ``physical`` says why. ``start_share``: the start value as a share
@@ -65,6 +68,7 @@ class Term:
     separated_by: str
     role: str = "force"
     phi: Regressor = _zero
+    phi_t: Callable[[np.ndarray], np.ndarray] | None = None
     dphi_dx: Regressor = _zero
     dphi_dv: Regressor = _zero
     lower: float = -np.inf
@@ -81,40 +85,70 @@ class Term:
         """Unit of the coefficient on ``dof`` (a tow is surge, a spin yaw)."""
         return self.units[1] if DOFS.get(dof, False) else self.units[0]
 
-    def regressor(self, x: np.ndarray, v: np.ndarray, a: np.ndarray, weight: float) -> np.ndarray:
-        """Force per unit coefficient along a trajectory (N or N·m per unit); timing terms
-        have none (zeros)."""
+    def regressor(
+        self,
+        x: np.ndarray,
+        v: np.ndarray,
+        a: np.ndarray,
+        weight: float,
+        tau: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Force per unit coefficient along a trajectory (N or N·m per unit) with ``tau``
+        its sample times from the first (s; needed by a "time" term); timing terms have
+        none (zeros)."""
         if self.role == "inertia":
             return -weight * np.asarray(a, dtype=float)
         if self.role == "timing":
             return np.zeros(np.shape(x))
+        if self.role == "time":
+            if tau is None or self.phi_t is None:
+                raise ValueError(f"{self.name}: a time term needs the sample times (tau)")
+            return self.phi_t(np.asarray(tau, dtype=float)) + np.zeros(np.shape(x))
         return self.phi(np.asarray(x, dtype=float), np.asarray(v, dtype=float))
 
     def largest_force(
-        self, value: float, x: np.ndarray, v: np.ndarray, a: np.ndarray, weight: float
+        self,
+        value: float,
+        x: np.ndarray,
+        v: np.ndarray,
+        a: np.ndarray,
+        weight: float,
+        tau: np.ndarray | None = None,
     ) -> float:
         """Largest |force| the term exerts along a trajectory (N or N·m; 0 for timing)."""
-        reg = self.regressor(x, v, a, weight)
+        reg = self.regressor(x, v, a, weight, tau)
         return abs(value) * float(np.max(np.abs(reg), initial=0.0))
 
     def typical(
-        self, force: float, x: np.ndarray, v: np.ndarray, a: np.ndarray, weight: float
+        self,
+        force: float,
+        x: np.ndarray,
+        v: np.ndarray,
+        a: np.ndarray,
+        weight: float,
+        tau: np.ndarray | None = None,
     ) -> float:
         """The coefficient that makes this term exert ``force`` at its largest along the
         trajectory: its natural scale on this record (timing terms: 0.1 s)."""
         if self.role == "timing":
             return 0.1
-        reg = float(np.max(np.abs(self.regressor(x, v, a, weight)), initial=0.0))
+        reg = float(np.max(np.abs(self.regressor(x, v, a, weight, tau)), initial=0.0))
         return abs(force) / reg if reg > 0 else 1.0
 
     def start(
-        self, force: float, x: np.ndarray, v: np.ndarray, a: np.ndarray, weight: float
+        self,
+        force: float,
+        x: np.ndarray,
+        v: np.ndarray,
+        a: np.ndarray,
+        weight: float,
+        tau: np.ndarray | None = None,
     ) -> float:
         """The coefficient a fit starts from: ``start_value`` (a dimensionless ratio known
         a priori), else ``start_share`` of the term's typical size on this record."""
         if self.start_value is not None:
             return self.start_value
-        return self.start_share * self.typical(force, x, v, a, weight)
+        return self.start_share * self.typical(force, x, v, a, weight, tau)
 
     def in_bounds(self, value: float) -> bool:
         """Whether ``value`` lies within the hard bounds."""
@@ -236,6 +270,20 @@ LIBRARY: dict[str, Term] = {
             lower=0.0,
             physical="≥ 0: drag opposes the motion",
             v_power=3,
+        ),
+        Term(
+            "equilibrium_drift",
+            "f = d·τ (τ from the first fitted sample: the restoring acts about an equilibrium "
+            "x₀ + (d/k)·τ that drifts steadily: a heel growing with a small yaw rate, a "
+            "tether paying out, a sensor's zero creeping)",
+            ("N/s", "N·m/s"),
+            "the mean of the oscillation moves linearly in time; the midpoints of successive "
+            "extrema drift one way",
+            "a decay long enough for the drift to move the mean by more than the noise, or a "
+            "record of the body at rest before the release",
+            role="time",
+            phi_t=lambda tau: tau,
+            x_power=None,
         ),
         Term(
             "release_delay",

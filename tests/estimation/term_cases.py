@@ -90,7 +90,7 @@ def tow_effect(name, scale):
 
 
 @cache
-def _decay_path(scale, b2, b3, k3, fc):
+def _decay_path(scale, b2, b3, k3, fc, drift=0.0):
     """Noise-free samples (t, x) of one free decay (the physics of ``decay``), integrated
     once per case: every seed shares them, only the noise differs. Read-only arrays."""
     m = SCALES[scale][0]
@@ -100,14 +100,14 @@ def _decay_path(scale, b2, b3, k3, fc):
     x = np.empty_like(t)
     start, state = 0.0, [0.05, 0.0]
     while start < t[-1]:  # one half-swing at a time: dry friction's sign is fixed in each
-        pull = -(k * state[0] + k3 * state[0] ** 3)
+        pull = drift * start - (k * state[0] + k3 * state[0] ** 3)
         if abs(pull) <= fc:  # held by dry friction: at rest from here on
             x[t >= start] = state[0]
             break
         s = np.sign(pull)
 
-        def rhs(_t, y, s=s):
-            f = b1 * y[1] + b2 * abs(y[1]) * y[1] + b3 * y[1] ** 3 + fc * s
+        def rhs(t_, y, s=s):
+            f = b1 * y[1] + b2 * abs(y[1]) * y[1] + b3 * y[1] ** 3 + fc * s - drift * t_
             return [y[1], -(f + k * y[0] + k3 * y[0] ** 3) / total]
 
         def turn(_t, y, s=s):
@@ -133,13 +133,13 @@ def _decay_path(scale, b2, b3, k3, fc):
     return t, x
 
 
-def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, noise=2e-5):
+def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, drift=0.0, noise=2e-5):
     """A heave-like free decay of (M + 0.8 M) from 0.05 m, hydrostatic k = 40·M:
-    1.8 M ẍ + b₁ẋ + b₂|ẋ|ẋ + b₃ẋ³ + F_c sign ẋ + k x + k₃x³ = 0, with white noise."""
+    1.8 M ẍ + b₁ẋ + b₂|ẋ|ẋ + b₃ẋ³ + F_c sign ẋ + k x + k₃x³ = d·t, with white noise."""
     m = SCALES[scale][0]
     total, k = 1.8 * m, 40.0 * m
     b1 = 0.03 * 2 * np.sqrt(total * k)
-    t, x = _decay_path(scale, b2, b3, k3, fc)
+    t, x = _decay_path(scale, b2, b3, k3, fc, drift)
     rng = np.random.default_rng(seed)
     x = x + noise * rng.standard_normal(t.size)
     return t.copy(), x, dict(added=0.8 * m, k=k, b1=b1, known=m)
@@ -153,6 +153,8 @@ def decay_effect(name, scale):
         "cubic_drag": ("b3", 40.0 * m),
         "cubic_stiffness": ("k3", 0.3 * 40.0 * m / 0.05**2),
         "coulomb_friction": ("fc", 0.01 * 40.0 * m * 0.05),
+        # the equilibrium moves 5 mm (10 % of the release offset) over the 15 s record
+        "equilibrium_drift": ("drift", 40.0 * m * 0.005 / 15.0),
     }[name]
 
 
@@ -164,7 +166,13 @@ TOW_EFFECTS = (
     "release_delay",
     "drive_inertia",
 )
-DECAY_EFFECTS = ("quadratic_damping", "cubic_drag", "cubic_stiffness", "coulomb_friction")
+DECAY_EFFECTS = (
+    "quadratic_damping",
+    "cubic_drag",
+    "cubic_stiffness",
+    "coulomb_friction",
+    "equilibrium_drift",
+)
 #: Base terms every fit carries (their recovery is checked with each case).
 BASE = ("linear_damping", "quadratic_damping", "restoring_spring")
 

@@ -4,6 +4,8 @@ folder is missing, failed under ``CI=true``."""
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -29,21 +31,20 @@ def _be5(b1: float, b2: float, total: float) -> float:
 
 
 #: The authors' model: A44·φ̈ + B1·φ̇ + B2·|φ̇|·φ̇ + C44(φ) = 0, with C44(φ) hardening
-#: (our cubic stiffness). A published coefficient is compared within its own model.
-PUBLISHED_MODEL = ("quadratic_damping", "cubic_stiffness")
+#: (our cubic stiffness), and for run 21340 a linear trend in φ removed (our equilibrium
+#: drift; the search keeps it there, not on the runs at rest). A published coefficient is
+#: compared within its own model.
+PUBLISHED_MODEL = ("quadratic_damping", "cubic_stiffness", "equilibrium_drift")
+#: Where each run's free decay ends (envelope.free_decay_end): 21340's carriage stops at
+#: ≈ 57 s and a half-cycle then loses 5× the amplitude of the one before; the runs at rest
+#: decay freely to their ends (largest departure from passivity 1.9σ and 2.1σ).
+FREE_UNTIL = {"21337": 68.7, "21338": 188.55, "21340": 56.7}
 
 
-@pytest.mark.parametrize(
-    "run",
-    [
-        "21337",
-        pytest.param("21338", marks=pytest.mark.slow),
-        pytest.param("21340", marks=pytest.mark.slow),
-    ],
-)
-def test_kvlcc2_roll_decay_in_the_published_model(run):
+@cache
+def _published_model(run: str):
     d = _csv("kvlcc2-roll-decay", f"kvlcc2_roll_decay_{run}.csv")
-    r = estimate_decay(
+    return estimate_decay(
         d.t.to_numpy(),
         d.position.to_numpy(),
         "roll",
@@ -53,17 +54,78 @@ def test_kvlcc2_roll_decay_in_the_published_model(run):
         candidates=PUBLISHED_MODEL,
         run_id=run,
     )
+
+
+_RUNS = [
+    "21337",
+    pytest.param("21338", marks=pytest.mark.slow),
+    pytest.param("21340", marks=pytest.mark.slow),
+]
+
+
+@pytest.mark.parametrize("run", _RUNS)
+def test_kvlcc2_roll_decay_in_the_published_model(run):
+    r = _published_model(run)
     c = r.coefficients
     assert c["inertia"].value == pytest.approx(A44, rel=0.15)
-    _, b2_pub, be5_pub = PUBLISHED[run]
+    assert r.window[run].end == pytest.approx(FREE_UNTIL[run], abs=0.1)
+    assert r.to_json()["window"][run]["end_time_s"] == r.window[run].end
     # the amplitude-dependent period: a stiffness term explains it, or it is flagged
     assert "cubic_stiffness" in r.effects or r.possibly_biased
-    b2 = c["quadratic_damping"].value if "quadratic_damping" in c else 0.0
-    be5 = _be5(c["linear_damping"].value, b2, I44 + c["inertia"].value)
-    assert be5 == pytest.approx(be5_pub, rel=0.10)
-    # B2 within 25 % of the published value, or the result says it may be biased
-    assert b2 == pytest.approx(b2_pub, rel=0.25) or r.possibly_biased
+    assert "quadratic_damping" in r.effects
+    be5 = _be5(c["linear_damping"].value, c["quadratic_damping"].value, I44 + c["inertia"].value)
+    assert be5 == pytest.approx(PUBLISHED[run][2], rel=0.10)
+    # a B2 beyond 25 % and beyond its own 2σ of the published value is never silent
+    b2, published = c["quadratic_damping"], PUBLISHED[run][1]
+    off = abs(b2.value - published) > max(0.25 * published, 2 * (b2.std or np.inf))
+    assert not off or r.possibly_biased
     assert r.to_json()["coefficients"]["inertia"]["unit"] == "kg·m²"
+    # a term kept within 2σ of zero (21340's drift: BIC on a residual taken as white) says so
+    for name in r.effects:
+        if abs(c[name].value) < 2 * (c[name].std or 0.0):
+            assert any(w.startswith(f"{name} = ") for w in r.warnings), r.warnings
+
+
+@pytest.mark.parametrize(
+    "run",
+    [
+        "21337",
+        pytest.param(
+            "21338",
+            marks=(
+                pytest.mark.slow,
+                pytest.mark.xfail(
+                    strict=True,
+                    reason="B2 8.5 ± 1.3 over the whole 10°→1.1° decay; its damping below "
+                    "≈ 2.5° is about twice what the published B1 + B2 law gives (see below)",
+                ),
+            ),
+        ),
+        pytest.param("21340", marks=pytest.mark.slow),
+    ],
+)
+def test_kvlcc2_quadratic_damping_within_25_percent_of_the_published(run):
+    """B2 within 25 % of the published value, or — where one decay cannot separate B2 from
+    B1 that well — the published value inside the result's own 2σ interval, and that
+    interval wider than ±25 % (21340 at 15.5 kn: the lift's linear damping dominates,
+    B2 6.99 ± 2.6 against the published 5.1).
+
+    Known gap, strict (21338): the run is a free decay to its end by the passivity rule
+    and its smallest swing, 1.1°, is 110 quantization steps, yet the log decrement per
+    half-cycle rises again from 0.012 at 2.5–3° to 0.015–0.021 at 1.1–2.3° (the published
+    B1, B2 give 0.0055–0.0085 there): one B1 + B2 law cannot follow 10° to 1.1°, the fit
+    over it lowers B2 and raises B1 (1.95), and the result says so (coefficients possibly
+    biased). Fitted with ``t_end`` 40 / 70.75 / 90 / 120 s the same run gives B2 16.8 /
+    15.5 / 13.5 / 11.7 (B1 0.0 / 0.32 / 0.85 / 1.27): the published fit presumably read the
+    larger swings only, and choosing a window to match it would be tuning to the answer."""
+    r = _published_model(run)
+    c = r.coefficients["quadratic_damping"]
+    published = PUBLISHED[run][1]
+    within = c.value == pytest.approx(published, rel=0.25)
+    beyond_the_record = (
+        c.std is not None and 2 * c.std > 0.25 * published and abs(c.value - published) <= 2 * c.std
+    )
+    assert within or beyond_the_record, (c, published)
 
 
 def test_kvlcc2_full_search_reports_its_choice_and_the_conventional_model():
