@@ -4,7 +4,7 @@
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed", "interrupted"];
-const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {}, jobDocs: {} };
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, jobDocs: {} };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
@@ -129,7 +129,6 @@ async function refreshRig() {
     const s = await api("GET", "/api/rig");
     await ensureStartForms(); // start_forms.js: once, from GET /api/kinds
     state.rig = s;
-    state.limits = s.limits || {};
     const ok = s.running && s.connected && !s.device_lost;
     $("#conn-dot").className = "dot " + (ok ? "ok" : "bad");
     $("#conn-text").textContent = ok ? `${s.rig_name}${s.simulated ? " (simulated)" : ""}` : s.error || "device lost";
@@ -165,20 +164,19 @@ async function refreshRig() {
   }
 }
 
+// Each start form's inputs take the rig's limits on their fields (GET /api/rig →
+// field_limits: {kind: {field: {max, min?}}}, declared by the request models' RigLimit; a
+// signed field's min is −max, a negative drive being a reverse test).
 function setLimits() {
-  const l = state.limits;
-  // signed: a negative drive is a reverse test, so the range is −max…max
-  const set = (form, name, max, signed = false) => {
-    const el = $(`#form-${form} [name=${name}]`);
-    if (el && max !== undefined) el.max = max;
-    if (el && max !== undefined && signed) el.min = -max;
-  };
-  set("tow", "force_n", l.max_force_n, true);
-  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined, true);
-  set("tow", "max_time_s", l.max_run_s);
-  set("tow", "max_distance_m", l.end_of_travel_m);
-  set("spin", "torque_nm", l.max_torque_nm, true);
-  set("spin", "max_time_s", l.max_run_s);
+  const limits = (state.rig && state.rig.field_limits) || {};
+  for (const form of $$(".start-form[data-run-kind]")) {
+    for (const [name, range] of Object.entries(limits[form.dataset.runKind] || {})) {
+      const el = form.querySelector(`[name="${name}"]`);
+      if (!el) continue;
+      if (range.max !== undefined) el.max = range.max;
+      if (range.min !== undefined) el.min = range.min;
+    }
+  }
 }
 
 // Offer only what the rig can do (GET /api/rig → capabilities); say why the rest is missing.
