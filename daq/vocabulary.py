@@ -80,6 +80,13 @@ class AxisTerms:
     travel_key: str | None = None  # the parameter limiting the motion, e.g. "max_distance_m"
     end_switch: str | None = None  # the channel a run ends on at the end of travel, if any
     drive_train: DriveTrain | None = None  # what turns with the drive (its inertia adds)
+    rate: str | None = None  # the position's rate the live plot derives, e.g. "speed"
+
+    @property
+    def rate_label(self) -> str | None:
+        """How the live plot names the rate: ``"speed (from position)"``."""
+        source = self.position_channel.rsplit("_", 1)[-1]
+        return None if self.rate is None else f"{self.rate.replace('_', ' ')} (from {source})"
 
 
 #: kind → axis → position channel → drive key: the one table of axis words.
@@ -95,6 +102,7 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
         "max_distance_m",
         end_switch="end_of_travel",
         drive_train=DriveTrain("pulley_inertia_kg_m2", "pulley_radius_m", True, False),
+        rate="speed",
     ),
     RunKind.SPIN: AxisTerms(
         Axis.YAW,
@@ -106,6 +114,7 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
         "N·m",
         "max_angle_rad",
         drive_train=DriveTrain("spin_drum_inertia_kg_m2", "spin_drum_radius_m", False, True),
+        rate="yaw_rate",
     ),
     RunKind.PENDULUM: AxisTerms(
         Axis.SWING, "pendulum_angle", "rad", "pendulum_release", "pull_pendulum"

@@ -11,6 +11,7 @@ from click.testing import CliRunner
 from pydantic import Field
 
 from api.cli.imports import import_
+from daq.capabilities import Needs
 from daq.config import load_rig
 from daq.procedures.kinds import KINDS, RIG_KINDS, KindSpec
 from daq.procedures.request_base import Flag, MaxTime, RigLimit, _ProcedureRequest
@@ -128,8 +129,14 @@ class _LiftRequest(_ProcedureRequest):
 def lift_kind(monkeypatch):
     """A new rig kind in the registry, and nothing else edited."""
     spec = KindSpec(
-        kind="lift", label="lift test", help="Lift.", request=_LiftRequest, route="lift"
-    )  # type: ignore[arg-type]
+        kind="lift",  # type: ignore[arg-type]
+        label="lift test",
+        help="Lift.",
+        request=_LiftRequest,
+        route="lift",
+        drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
+        live=("lift_position", "load_cell"),
+    )
     monkeypatch.setitem(KINDS, "lift", spec)
     monkeypatch.setitem(RIG_KINDS, "lift", spec)
     return spec
@@ -182,3 +189,38 @@ def test_a_new_kinds_rig_limit_reaches_its_start_form_without_other_edits(
         weight = float(page.locator("#form-tow [name=weight_kg]").get_attribute("max") or "nan")
         assert weight == pytest.approx(served["tow"]["weight_kg"]["max"], rel=1e-12)
         assert page.locator("#form-calibration [name=settle_s]").get_attribute("max") is None
+
+
+def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
+    chromium, service, client, lift_kind
+):
+    """The live plot's derived rates and default channels and the cross-check's kinds come
+    from ``GET /api/kinds``: idle, the first kind's (the tow's position and speed); a kind
+    added to the registry only has its own ``live`` channels and, driven by a weight and by
+    the thrusters, is cross-checked."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import signed_in_page
+
+    served = {k["kind"]: k for k in client.get("/api/kinds", headers=AUTH).json()}
+    assert served["tow"]["rate"] == {
+        "key": "speed", "label": "speed (from position)", "unit": "m/s", "of": "tow_position"
+    }  # fmt: skip
+    assert served["spin"]["live"] == ["yaw_angle", "yaw_rate"] and served["spin"]["axis"] == "yaw"
+    with signed_in_page(chromium, service, client) as page:
+        chooser = page.locator("#live-channels")
+        expect(chooser).to_contain_text("speed (from position) m/s")
+        expect(chooser).to_contain_text("yaw rate (from angle) rad/s")
+        expect(page.locator("#live-kind")).to_have_text("tow")
+        checked = chooser.locator("input:checked")
+        expect(checked).to_have_count(2)
+        assert checked.evaluate_all("els => els.map((e) => e.value)") == ["tow_position", "speed"]
+        assert page.evaluate("liveDefaultsOf('lift')") == ["lift_position", "load_cell"]
+        driven = served["tow"]["live"] + served["spin"]["live"] + ["lift_position", "load_cell"]
+        assert page.evaluate("liveDefaultsOf('sequence')") == driven
+        cc = page.evaluate("crosscheckKinds(servedKinds)")
+        assert cc == {
+            "kinds": ["tow", "spin", "lift"],
+            "axes": ["surge", "yaw", None],
+            "estimators": ["axis", "axis", None],
+        }

@@ -523,8 +523,7 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
 
 // The run detail plots any of the run's channels, with units, one row per unit, and other
 // runs overlaid, on the time from each run's release (from its first sample when a run has
-// no release event).
-const DEFAULT_CHANNEL = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" };
+// no release event). It opens on the first channel its kind's live plot shows (GET /api/kinds).
 state.runPlot = { runs: [], channels: [] }; // [{run, samples, release}], chosen channel names
 
 async function runSeries(runId) {
@@ -539,7 +538,7 @@ async function runSeries(runId) {
 
 async function openRun(runId) {
   location.hash = "#runs";
-  const shown = await runSeries(runId);
+  const [shown, kinds] = await Promise.all([runSeries(runId), loadKinds()]); // start_forms.js
   const { run, events } = shown;
   state.selectedRun = run;
   $("#run-detail").hidden = false;
@@ -549,7 +548,7 @@ async function openRun(runId) {
   showRunMeta(run);
   $("#run-annotate-status").textContent = "";
   const names = Object.keys(shown.samples.channels);
-  const first = DEFAULT_CHANNEL[run.kind] || "tow_position";
+  const first = (kinds.find((k) => k.kind === run.kind) || kinds[0]).live[0];
   state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean) };
   $("#run-channels").innerHTML = names
     .map((k) => {
