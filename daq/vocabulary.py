@@ -83,6 +83,12 @@ class AxisTerms:
     rate: str | None = None  # the position's rate the live plot derives, e.g. "speed"
 
     @property
+    def inertia_is_mass(self) -> bool:
+        """The axis translates (surge): its inertia is a mass (kg), which a body's own
+        declared mass (``dry_mass_kg``) bounds from below; a rotation's is in kg·m²."""
+        return self.axis is Axis.SURGE
+
+    @property
     def rate_label(self) -> str | None:
         """How the live plot names the rate: ``"speed (from position)"``."""
         source = self.position_channel.rsplit("_", 1)[-1]

@@ -24,8 +24,6 @@ MEMBERS = frozenset(k.name for k in RunKind)
 DEFINING = {"daq/vocabulary.py", "daq/procedures/kinds.py"}
 #: Branches not yet removed: the module, and what it decides by the kind's name.
 PENDING = {
-    "daq/body_mass.py": "only a tow declares the body's own mass (a tow-only check)",
-    "daq/import_rules.py": "an import's dry mass/displacement is taken for a tow only",
     "daq/store/run_query.py": "a calibration run's source column (store query, SQL side)",
 }
 STATIC = ROOT / "api/http/static"
