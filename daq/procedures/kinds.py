@@ -135,11 +135,21 @@ class KindSpec:
     #: What the live plot shows of its runs by default (``thrusters``: every thruster's
     #: command); ``()``: its axis's position and rate.
     live: tuple[str, ...] = ()
+    #: The parameter a run list shows of its runs, with its unit; ``None``: its axis's drive.
+    shown: tuple[str, str] | None = None
 
     @property
     def axis(self) -> AxisTerms | None:
         """The axis the kind moves (``None`` for a calibration on the load cell)."""
         return AXES.get(self.kind)
+
+    @property
+    def shown_parameter(self) -> tuple[str, str] | None:
+        """The parameter a run list shows (``("force_n", "N")``): ``shown``, else its drive."""
+        terms = self.axis
+        if self.shown is not None or terms is None or terms.drive_key is None:
+            return self.shown
+        return terms.drive_key, str(terms.drive_unit)
 
     @property
     def live_channels(self) -> tuple[str, ...]:
@@ -330,6 +340,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             imports=ImportRules("pendulum angle, rad (--rig gives the geometry)", pendulum_plan),
             needs=Needs(channels=PENDULUM_CHANNELS, pendulum=True),
             acts=("mount_pendulum", "pull_pendulum"),
+            shown=("start_angle_rad", "rad"),
         ),
         KindSpec(
             kind=RunKind.THRUST_CALIBRATION,

@@ -207,6 +207,8 @@ def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
         "key": "speed", "label": "speed (from position)", "unit": "m/s", "of": "tow_position"
     }  # fmt: skip
     assert served["spin"]["live"] == ["yaw_angle", "yaw_rate"] and served["spin"]["axis"] == "yaw"
+    assert served["spin"]["shown"] == {"field": "torque_nm", "unit": "N·m"}  # its drive
+    assert served["pendulum"]["shown"] == {"field": "start_angle_rad", "unit": "rad"}
     with signed_in_page(chromium, service, client) as page:
         chooser = page.locator("#live-channels")
         expect(chooser).to_contain_text("speed (from position) m/s")

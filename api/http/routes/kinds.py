@@ -31,6 +31,11 @@ class KindRateOut(BaseModel):
     of: str = Field(description="The position channel it is the rate of: tow_position.")
 
 
+class KindShownOut(BaseModel):
+    field: str = Field(description="The run parameter: force_n, start_angle_rad.")
+    unit: str = Field(description="Its unit: N, rad.")
+
+
 class KindOut(BaseModel):
     kind: str = Field(description="The run kind as runs store it: tow, spin, …")
     label: str = Field(description="What an operator reads: 'tow test'.")
@@ -57,6 +62,9 @@ class KindOut(BaseModel):
     rate: KindRateOut | None = Field(
         description="The rate the live plot derives from its position (null: none)."
     )
+    shown: KindShownOut | None = Field(
+        description="The parameter a run list shows of its runs (null: none)."
+    )
 
 
 @router.get(
@@ -75,7 +83,7 @@ def get_kinds() -> list[dict[str, Any]]:
 
 
 def _described(spec: KindSpec) -> dict[str, Any]:
-    est, terms = spec.estimator, spec.axis
+    est, terms, shown = spec.estimator, spec.axis, spec.shown_parameter
     rate = None
     if terms is not None and terms.rate is not None:
         unit = f"{terms.unit}/s"
@@ -100,4 +108,5 @@ def _described(spec: KindSpec) -> dict[str, Any]:
         "drives": list(spec.drives),
         "live": list(spec.live_channels),
         "rate": rate,
+        "shown": None if shown is None else {"field": shown[0], "unit": shown[1]},
     }

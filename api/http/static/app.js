@@ -93,12 +93,13 @@ const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&l
 function kv(table, rows) {
   table.innerHTML = rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("");
 }
+// What a run list shows of a run: the parameter its kind names (GET /api/kinds → shown, via
+// start_forms.js's servedKinds: the drive, or the pendulum's start angle), with its unit.
 function load(run) {
-  const p = run.parameters || {};
-  if (p.force_n !== undefined) return `${fmt(p.force_n)} N`;
-  if (p.torque_nm !== undefined) return `${fmt(p.torque_nm)} N·m`;
-  if (p.start_angle_rad !== undefined) return `${fmt(p.start_angle_rad)} rad`;
-  return "";
+  const kind = servedKinds.find((k) => k.kind === run.kind);
+  const shown = kind && kind.shown;
+  const value = shown ? (run.parameters || {})[shown.field] : undefined;
+  return value === undefined ? "" : `${fmt(value)} ${shown.unit}`;
 }
 
 // ---- pages ----------------------------------------------------------------------------
@@ -441,7 +442,7 @@ async function loadRuns() {
   }
   const meta = {};
   try {
-    state.runs = await api("GET", `/api/runs?${params}`, undefined, meta);
+    [state.runs] = await Promise.all([api("GET", `/api/runs?${params}`, undefined, meta), loadKinds()]);
   } catch (err) {
     $("#runs-count").textContent = err.message;
     return;
