@@ -194,10 +194,10 @@ def test_a_new_kinds_rig_limit_reaches_its_start_form_without_other_edits(
 def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
     chromium, service, client, lift_kind
 ):
-    """The live plot's derived rates and default channels and the cross-check's kinds come
-    from ``GET /api/kinds``: idle, the first kind's (the tow's position and speed); a kind
-    added to the registry only has its own ``live`` channels and, driven by a weight and by
-    the thrusters, is cross-checked."""
+    """The live plot's derived rates and default channels, the Runs page's kind filter and
+    the cross-check's kinds come from ``GET /api/kinds``: idle, the first kind's (the tow's
+    position and speed); a kind added to the registry only has its own ``live`` channels, is
+    offered by the filter and, driven by a weight and by the thrusters, is cross-checked."""
     from playwright.sync_api import expect
 
     from tests.api.conftest import signed_in_page
@@ -220,6 +220,9 @@ def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
         assert page.evaluate("liveDefaultsOf('lift')") == ["lift_position", "load_cell"]
         driven = served["tow"]["live"] + served["spin"]["live"] + ["lift_position", "load_cell"]
         assert page.evaluate("liveDefaultsOf('sequence')") == driven
+        kinds = page.locator("#runs-filter select[name=kind] option")  # the Runs page's filter
+        expect(kinds).to_have_count(len(served) + 1)
+        assert kinds.all_text_contents() == ["any", *served]  # the free decay and lift too
         cc = page.evaluate("crosscheckKinds(servedKinds)")
         assert cc == {
             "kinds": ["tow", "spin", "lift"],

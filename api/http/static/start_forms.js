@@ -37,6 +37,16 @@ async function ensureStartForms() {
   startKinds = kinds.filter((k) => k.route && k.schema);
   renderStartForms(startKinds);
   renderMethodOptions(kinds);
+  renderKindFilter(kinds);
+}
+
+// The Runs page's kind filter: "any", then every kind of the registry.
+function renderKindFilter(kinds) {
+  const select = document.querySelector("#runs-filter select[name=kind]");
+  if (!select) return;
+  const chosen = select.value;
+  select.innerHTML = `<option value="">any</option>` + kinds.map((k) => `<option>${esc(k.kind)}</option>`).join("");
+  select.value = chosen;
 }
 
 // The Estimation page's method menu: every method some kind's estimator takes, once, in the
