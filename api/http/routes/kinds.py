@@ -62,6 +62,9 @@ class KindOut(BaseModel):
     rate: KindRateOut | None = Field(
         description="The rate the live plot derives from its position (null: none)."
     )
+    planned: bool = Field(
+        description="The test planner chooses its runs (a campaign's axes are these kinds')."
+    )
     shown: KindShownOut | None = Field(
         description="The parameter a run list shows of its runs (null: none)."
     )
@@ -108,5 +111,6 @@ def _described(spec: KindSpec) -> dict[str, Any]:
         "drives": list(spec.drives),
         "live": list(spec.live_channels),
         "rate": rate,
+        "planned": spec.envelope is not None,
         "shown": None if shown is None else {"field": shown[0], "unit": shown[1]},
     }
