@@ -1,5 +1,6 @@
-"""The body's own inertia a tow declares, for the estimator's physical check (an identified
-inertia m + m_a below the body's own mass m is not physical and is flagged).
+"""The body's own inertia a tow declares (a run on an axis whose inertia is a mass:
+``AxisTerms.inertia_is_mass``), for the estimator's physical check (an identified inertia
+m + m_a below the body's own mass m is not physical and is flagged).
 
 Where it comes from, first found: the run's ``dry_mass_kg`` parameter (an import's
 ``--dry-mass``), its ``displacement_kg`` (``--displacement``: the mass of a floating body,
@@ -15,7 +16,7 @@ from dataclasses import replace
 
 from daq.config import RigConfigError, parse_rig
 from daq.store import RunInfo
-from daq.vocabulary import RunKind
+from daq.vocabulary import AXES
 from estimation.data.runs import RunData
 
 #: Run parameters that declare the body's own mass (kg), in the order they are taken.
@@ -24,7 +25,8 @@ BODY_MASS_PARAMETERS = ("dry_mass_kg", "displacement_kg")
 
 def declared_body_mass(run: RunInfo) -> float | None:
     """The body's own mass (kg) a tow declares (module docstring), else None."""
-    if run.kind != RunKind.TOW:
+    terms = AXES.get(run.kind)
+    if terms is None or not terms.inertia_is_mass:
         return None
     for key in BODY_MASS_PARAMETERS:
         value = run.parameters.get(key)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from daq.procedures.params import ParameterError
-from daq.vocabulary import DRIVE_FIELD, RunKind
+from daq.vocabulary import AXES, DRIVE_FIELD
 
 if TYPE_CHECKING:
     from pydantic import BaseModel
@@ -244,14 +244,16 @@ def body_mass(plan: Planning) -> dict[str, float]:
     from daq.body_mass import BODY_MASS_PARAMETERS
 
     out: dict[str, float] = {}
+    terms = AXES.get(plan.kind)
+    takes_mass = terms is not None and terms.inertia_is_mass  # a tow's surge
     for name in BODY_MASS_PARAMETERS:
         given: float | None = getattr(plan.request, name)
-        if given is not None and plan.kind != RunKind.TOW:
+        if given is not None and not takes_mass:
             raise ParameterError([(name, given, "only for a tow (a body's own mass, kg)")])
         if given is not None and not (math.isfinite(given) and given > 0):
             raise ParameterError([(name, given, f"allowed 0 < {name} < ∞ kg")])
         recorded = plan.header.parameters
         value = _from_header(name, "kg", given, recorded, plan.header, plan.restored, True)
-        if value is not None and plan.kind == RunKind.TOW:
+        if value is not None and takes_mass:
             out[name] = value
     return out

@@ -8,6 +8,8 @@ and the rig file it ran with. ``estimation`` itself never imports this.
 
 Tow, spin and pendulum runs share the time base and the release/end instants
 (``_timeline``); the drive of a thruster-driven run is rebuilt by ``daq.thruster_run_drive``.
+What differs per kind is read from its axis words (``daq.vocabulary.AXES``: position
+channel, release coil, end switch, drive key and drive train), never branched on its name.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from daq.store import RunInfo, SampleTable, Store
 from daq.store.run_events import RunAction, RunEvents
 from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
 from daq.thruster_run_drive import thruster_drive as thruster_drive  # its callers' old path
-from daq.vocabulary import AXES, DRIVEN_KINDS, POSITION_CHANNEL
+from daq.vocabulary import AXES, POSITION_CHANNEL, Axis, DriveTrain
 from estimation.data.runs import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
@@ -157,18 +159,8 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     if t_release_std is None:
         t_release_std = timeline.t_release_std
 
-    drive_inertia = 0.0
-    drum_radius = None
     thrusters = params.get("drive") == "thrusters"
-    if rig is not None:
-        geo = rig.geometry
-        if run.kind == "tow" and thrusters:
-            drive_inertia = 0.0  # no weight, tow line unhooked: the pulley does not turn
-        elif run.kind == "tow":
-            drive_inertia = geo.pulley_inertia_kg_m2 / geo.pulley_radius_m**2
-        else:
-            drive_inertia = geo.spin_drum_inertia_kg_m2
-            drum_radius = geo.spin_drum_radius_m
+    drive_inertia, drum_radius = _drive_train(rig, AXES[run.kind].drive_train, thrusters)
     name = str(AXES[run.kind].drive_key)
     drive = params.get(name)
     logged = _logged_drive(run, table, timeline.good)
@@ -211,6 +203,22 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     )
 
 
+def _drive_train(
+    rig: RigConfig | None, train: DriveTrain | None, thrusters: bool
+) -> tuple[float, float | None]:
+    """The drive train's inertia in axis units (J/r², kg, on a linear axis; J, kg·m²,
+    otherwise) and the drum radius a hung weight acts at (``None`` on a linear axis): from
+    the axis's ``DriveTrain`` and the rig file's geometry; 0 without a rig file, or when the
+    thrusters drive and the train is unhooked."""
+    if rig is None or train is None or (thrusters and not train.turns_with_thrusters):
+        return 0.0, None
+    inertia = float(getattr(rig.geometry, train.inertia_key))
+    radius = getattr(rig.geometry, train.radius_key)
+    if train.linear:
+        return inertia / float(radius) ** 2, None
+    return inertia, radius
+
+
 def _logged_drive(run: RunInfo, table: SampleTable, good: np.ndarray) -> np.ndarray | None:
     """The drive logged per sample (an imported run's ``drive_channel``) at the good
     samples; None when the run has a constant drive."""
@@ -224,10 +232,6 @@ def _logged_drive(run: RunInfo, table: SampleTable, good: np.ndarray) -> np.ndar
     if not np.all(np.isfinite(values)):
         raise ValueError(f"run {run.id}: its logged drive {channel!r} has samples missing")
     return values
-
-
-#: The coil whose rising edge lets each kind of run go.
-RELEASE_COIL = {kind: AXES[kind].release_coil for kind in DRIVEN_KINDS}
 
 
 def _window(
@@ -245,7 +249,8 @@ def _window(
         values = values[timeline.good]
         return values if np.all(np.isfinite(values)) else None
 
-    force = run.parameters.get(str(AXES[run.kind].drive_key))
+    terms = AXES[run.kind]
+    force = run.parameters.get(str(terms.drive_key))
     logged = _logged_drive(run, table, timeline.good)
     if logged is not None:
         force = float(np.mean(logged)) if logged.size else None
@@ -254,8 +259,8 @@ def _window(
         timeline.t,
         position,
         direction=direction,
-        release_coil=channel(RELEASE_COIL[run.kind]),
-        end_switch=channel("end_of_travel") if run.kind == "tow" else None,
+        release_coil=channel(terms.release_coil),
+        end_switch=None if terms.end_switch is None else channel(terms.end_switch),
         t_release=timeline.t_release if timeline.release_source else None,
         release_source=timeline.release_source or "",
         t_end=timeline.t_end if timeline.end_source else None,
@@ -291,7 +296,8 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
     Raises ``ValueError`` naming the run when it cannot be estimated.
     """
     run = store.get_run(run_id)
-    if run.kind != "pendulum":
+    terms = AXES.get(run.kind)
+    if terms is None or terms.axis != Axis.SWING:  # the pendulum's swing, whatever its kind
         raise ValueError(f"run {run.id}: kind {run.kind!r} is not a pendulum free-decay run")
     rig = _rig_of(run)
     if rig is None or rig.pendulum is None:
@@ -299,7 +305,7 @@ def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
             f"run {run.id}: the rig file it ran with has no [pendulum] section (geometry unknown)"
         )
     table = store.samples(run.id)
-    channel = "pendulum_angle"
+    channel = terms.position_channel
     if channel not in table.channels:
         raise ValueError(f"run {run.id}: no {channel!r} channel in its samples")
     timeline = _timeline(store, run, rig, table, channel, end=RunAction.CATCH)

@@ -35,7 +35,7 @@ from daq.sample import Quality, Sample
 from daq.store import Store
 from daq.store.import_checks import check_drive_direction, check_logged_peak, window_times
 from daq.store.run_metadata import check_run_metadata
-from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL, RunKind
+from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL
 from estimation.data.csv_dialect import COMMA, TableDialect, sniff_dialect
 from estimation.data.csv_import import TIME_UNITS, without_comments
 from estimation.data.window import check_time_step
@@ -47,11 +47,13 @@ MAX_IMPORT_ROWS = 1_000_000
 IMPORT_BATCH_ROWS = 50_000
 
 
-#: Units a logged drive column may be in, per kind: to N (tow) or N·m (spin).
+#: Units a logged drive column may be in, per driven kind, with their scale to its drive's SI
+#: unit: a force unit to N (a tow), or a force unit times the lever's metre to N·m (a spin).
 _FORCE_UNITS = {"N": 1.0, "kN": 1000.0, "kgf": 9.80665, "gf": 9.80665e-3, "lbf": 4.4482216152605}
 LOGGED_DRIVE_UNITS: dict[str, dict[str, float]] = {
-    RunKind.TOW: _FORCE_UNITS,
-    RunKind.SPIN: {f"{unit}·m": scale for unit, scale in _FORCE_UNITS.items()},
+    kind: {f"{unit}{lever}": scale for unit, scale in _FORCE_UNITS.items()}
+    for kind, (_, si) in DRIVE_FIELD.items()
+    for lever in (si.removeprefix("N"),)  # "" for N, "·m" for N·m
 }
 #: The kinds a CSV can be imported as.
 IMPORT_KINDS = tuple(AXES)  # every kind with a position channel

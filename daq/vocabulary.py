@@ -1,5 +1,6 @@
 """The words runs are stored and shown with, defined once: run kinds, run statuses and
-the axis each kind moves (its position channel, release coil, weight act and drive).
+the axis each kind moves (its position channel, release coil, end switch, weight act, drive
+and drive train).
 
 ``StrEnum`` members are the strings themselves, so the database, the JSON bodies and the
 CLI keep ``"tow"`` and ``"completed"``. Light on purpose (no pydantic, no numpy): ``rig
@@ -49,6 +50,20 @@ class Axis(StrEnum):
 
 
 @dataclass(frozen=True)
+class DriveTrain:
+    """What turns with a weight-driven axis, named by the rig file's ``[geometry]`` keys: its
+    inertia J (kg·m²) and radius r (m). ``linear``: seen along a linear axis as J/r² (kg: a
+    tow's pulley), else as J about the axis, r then being the lever of a hung weight (m·r²:
+    a spin's drum). ``turns_with_thrusters``: still coupled when the thrusters drive (a
+    tow's line is unhooked and its pulley stands still: False)."""
+
+    inertia_key: str
+    radius_key: str
+    linear: bool
+    turns_with_thrusters: bool
+
+
+@dataclass(frozen=True)
 class AxisTerms:
     """Everything named after the axis a kind moves.
 
@@ -63,6 +78,21 @@ class AxisTerms:
     drive_key: str | None = None  # the run parameter holding the drive, e.g. "force_n"
     drive_unit: str | None = None
     travel_key: str | None = None  # the parameter limiting the motion, e.g. "max_distance_m"
+    end_switch: str | None = None  # the channel a run ends on at the end of travel, if any
+    drive_train: DriveTrain | None = None  # what turns with the drive (its inertia adds)
+    rate: str | None = None  # the position's rate the live plot derives, e.g. "speed"
+
+    @property
+    def inertia_is_mass(self) -> bool:
+        """The axis translates (surge): its inertia is a mass (kg), which a body's own
+        declared mass (``dry_mass_kg``) bounds from below; a rotation's is in kg·m²."""
+        return self.axis is Axis.SURGE
+
+    @property
+    def rate_label(self) -> str | None:
+        """How the live plot names the rate: ``"speed (from position)"``."""
+        source = self.position_channel.rsplit("_", 1)[-1]
+        return None if self.rate is None else f"{self.rate.replace('_', ' ')} (from {source})"
 
 
 #: kind → axis → position channel → drive key: the one table of axis words.
@@ -76,6 +106,9 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
         "force_n",
         "N",
         "max_distance_m",
+        end_switch="end_of_travel",
+        drive_train=DriveTrain("pulley_inertia_kg_m2", "pulley_radius_m", True, False),
+        rate="speed",
     ),
     RunKind.SPIN: AxisTerms(
         Axis.YAW,
@@ -86,6 +119,8 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
         "torque_nm",
         "N·m",
         "max_angle_rad",
+        drive_train=DriveTrain("spin_drum_inertia_kg_m2", "spin_drum_radius_m", False, True),
+        rate="yaw_rate",
     ),
     RunKind.PENDULUM: AxisTerms(
         Axis.SWING, "pendulum_angle", "rad", "pendulum_release", "pull_pendulum"

@@ -1,11 +1,8 @@
 """Request and response models of the HTTP API (they make the OpenAPI document).
 
-Request bodies are strict: a number must be a JSON number (``"24.5"`` is refused),
-unknown fields are refused, and limits are checked by ``daq.procedures.params`` so
-the API and the CLI give the same message naming the field and the allowed range.
-The procedures' request bodies are the run kinds' models (``daq.procedures.requests``,
-one per kind in ``daq.procedures.kinds.KINDS``).
-"""
+Request bodies are strict (``"24.5"`` is not a number, unknown fields are refused); a
+procedure's body is its run kind's request model (``daq.procedures.requests``), whose
+validators check the rig's limits: the API and the CLI name the field and range alike."""
 
 from __future__ import annotations
 
@@ -290,6 +287,9 @@ class RigStatus(BaseModel):
     clock: ClockOut | None = None
     thrusters: ThrustersOut | None = None
     limits: dict[str, float] = {}
+    field_limits: dict[str, dict[str, dict[str, float]]] = Field(
+        {}, description="Per kind: the rig's limit on each field it bounds, {field: {max, min?}}."
+    )
     capabilities: dict[str, CapabilityOut] = Field(
         {},
         description="Per run kind: can this rig run it (tow/spin per drive), and why not.",

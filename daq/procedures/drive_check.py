@@ -15,6 +15,7 @@ from typing import Any
 
 from daq.calibration_law import law_of
 from daq.config import RigConfig
+from daq.procedures.kinds import KINDS
 from daq.procedures.params import ParameterError
 from daq.procedures.thrust_commands import latest_calibration, law_commands, thruster_commands
 from daq.store import Store
@@ -77,7 +78,8 @@ def _reach(commands_for: Callable[[float], Any], limit: float, sign: float) -> f
 def check_thruster_drive(params: Any, rig: RigConfig, store: Store, prefix: str = "") -> None:
     """Refuse (``ParameterError`` naming ``prefix`` + the drive field, e.g.
     ``steps[2].force_n``, with the calibrated range) a thruster-driven tow or spin the
-    newest stored calibration cannot deliver; anything else passes."""
+    newest stored calibration cannot deliver; anything else passes. The range is scanned up
+    to the drive's rig limit, which its request model names (``drive_limit``)."""
     if getattr(params, "drive", None) != "thrusters" or rig.thrusters is None:
         return
     kind = str(params.kind)
@@ -89,7 +91,7 @@ def check_thruster_drive(params: Any, rig: RigConfig, store: Store, prefix: str 
     except ParameterError as err:
         problems = [(f"{prefix}{field}", value, allowed) for field, value, allowed in err.problems]
         if problems and problems[0][0] == f"{prefix}{name}":
-            limit = rig.limits.max_force_n if kind == "tow" else rig.limits.max_torque_nm
+            limit = type(params).drive_limit(rig)
             low = _reach(commands_for, float(limit or 1e3), -1.0)
             high = _reach(commands_for, float(limit or 1e3), 1.0)
             if low is not None and high is not None:
@@ -121,7 +123,8 @@ def calibrated_range(rig: RigConfig, store: Store, kind: str) -> tuple[float, fl
         commands_for, _ = _commands_for(store, rig, kind)
     except ParameterError:
         return None
-    limit = float((rig.limits.max_force_n if kind == "tow" else rig.limits.max_torque_nm) or 1e3)
+    request = KINDS[kind].request
+    limit = float((request.drive_limit(rig) if request is not None else None) or 1e3)
     low, high = _reach(commands_for, limit, -1.0), _reach(commands_for, limit, 1.0)
     if low is None or high is None:
         return None

@@ -132,11 +132,33 @@ class KindSpec:
     #: given the thrusters' calibrated (low, high) load (None: none); ``None``: the planner
     #: does not choose this kind.
     envelope: Callable[[RigConfig, tuple[float, float] | None], AxisEnvelope] | None = None
+    #: What the live plot shows of its runs by default (``thrusters``: every thruster's
+    #: command); ``()``: its axis's position and rate.
+    live: tuple[str, ...] = ()
+    #: The parameter a run list shows of its runs, with its unit; ``None``: its axis's drive.
+    shown: tuple[str, str] | None = None
 
     @property
     def axis(self) -> AxisTerms | None:
         """The axis the kind moves (``None`` for a calibration on the load cell)."""
         return AXES.get(self.kind)
+
+    @property
+    def shown_parameter(self) -> tuple[str, str] | None:
+        """The parameter a run list shows (``("force_n", "N")``): ``shown``, else its drive."""
+        terms = self.axis
+        if self.shown is not None or terms is None or terms.drive_key is None:
+            return self.shown
+        return terms.drive_key, str(terms.drive_unit)
+
+    @property
+    def live_channels(self) -> tuple[str, ...]:
+        """What the live plot shows of its runs by default: ``live``, else its axis's
+        position and the rate derived from it."""
+        terms = self.axis
+        if self.live or terms is None:
+            return self.live
+        return (terms.position_channel, *((terms.rate,) if terms.rate else ()))
 
     def capability(self, rig: RigConfig, drive: str | None = None) -> Capability:
         """Can ``rig`` run this kind (with ``drive``; ``None``: with any of its drives)?"""
@@ -318,6 +340,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             imports=ImportRules("pendulum angle, rad (--rig gives the geometry)", pendulum_plan),
             needs=Needs(channels=PENDULUM_CHANNELS, pendulum=True),
             acts=("mount_pendulum", "pull_pendulum"),
+            shown=("start_angle_rad", "rad"),
         ),
         KindSpec(
             kind=RunKind.THRUST_CALIBRATION,
@@ -333,6 +356,7 @@ KINDS: dict[str, KindSpec] = {  # keyed by RunKind (a str), looked up by stored 
             summary=_calibration_table,
             needs=Needs(channels=("load_cell",), thrusters=True),
             acts=("mount_thrust_stand", "unmount_thrust_stand"),
+            live=("load_cell", "thrusters"),
         ),
         KindSpec(
             kind=RunKind.DECAY,
@@ -366,26 +390,3 @@ def all_methods() -> tuple[str, ...]:
     return tuple(
         dict.fromkeys(m for s in KINDS.values() if s.estimator for m in s.estimator.methods)
     )
-
-
-def describe_kinds() -> list[dict[str, Any]]:
-    """Every kind as ``GET /api/kinds`` serves it: its labels, the JSON Schema of its start
-    request (``null``: the rig does not run it), its command and route, its estimation
-    methods (with how the browser's menu words them) and its import fields' JSON Schema."""
-    out = []
-    for kind, spec in KINDS.items():
-        out.append(
-            {
-                "kind": str(kind),
-                "label": spec.label,
-                "help": spec.help,
-                "command": spec.command,
-                "route": spec.route,
-                "schema": None if spec.request is None else spec.request.model_json_schema(),
-                "estimator": None if spec.estimator is None else spec.estimator.name,
-                "methods": [] if spec.estimator is None else list(spec.estimator.methods),
-                "method_labels": {} if spec.estimator is None else spec.estimator.method_labels,
-                "import": None if spec.imports is None else spec.imports.to_json(),
-            }
-        )
-    return out

@@ -47,12 +47,7 @@ async def run_motion_test(
     axis = TOW if isinstance(params, TowParameters) else SPIN
     if params.drive == "thrusters":
         return await run_thruster_test(session, params, abort=abort, progress=progress)
-    label = (
-        f"tow {params.force_n:.4g} N"
-        if isinstance(params, TowParameters)
-        else f"spin {params.torque_nm:.4g} N·m"
-    )
-    async with session.locked(label):
+    async with session.locked(f"{axis.kind} {params.load:.4g} {params.load_unit}"):
         op = session.operator
         report(Progress(0.0, "returning the vehicle to the start"))
         await session.safe_state()

@@ -1,10 +1,12 @@
 """What every procedure request shares: how a field is spelled on the command line
-(:class:`Flag`), the strict base model with the run's metadata, and the rig in the
-validation context (:func:`rig_of`). The kinds' models are in ``daq.procedures.requests``.
+(:class:`Flag`), which rig-file limit bounds it (:class:`RigLimit`), the strict base model
+with the run's metadata, and the rig in the validation context (:func:`rig_of`). The kinds'
+models are in ``daq.procedures.requests``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Self
@@ -43,6 +45,20 @@ class Flag:
     help: str | None = None
     metavar: str | None = None
     parse: Callable[[str], Any] | None = None
+
+
+@dataclass(frozen=True)
+class RigLimit:
+    """The rig-file limit bounding a request field: ``highest(rig)`` (``None``: the rig file
+    sets none), and with ``signed`` the field may be as negative (a reverse test: −max … max).
+
+    Declared once on the field (``Annotated[..., RigLimit(lambda rig: rig.limits.max_force_n,
+    signed=True)]``): the field's validator checks it, a thruster drive is scanned up to it
+    (``daq.procedures.drive_check``) and ``GET /api/rig`` serves it per kind and field
+    (``field_limits``) as the browser's inputs' ``max`` (and ``min``)."""
+
+    highest: Callable[[RigConfig], float | None]
+    signed: bool = False
 
 
 def comma_separated_floats(text: str) -> list[float]:
@@ -86,6 +102,8 @@ class _ProcedureRequest(_Strict):
     model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
     #: The run kind these parameters run.
     kind: ClassVar[RunKind]
+    #: The field holding the load that drives the run (``force_n``); ``None``: not driven.
+    load_field: ClassVar[str | None] = None
 
     metadata: RunMetadataIn | None = Field(
         None, description="Stored on every run the procedure records (see PATCH .../metadata)."
@@ -108,6 +126,31 @@ class _ProcedureRequest(_Strict):
         except ValidationError as err:
             raise ParameterError(p.problems_of(err)) from None
 
+    @classmethod
+    def rig_limit(cls, name: str, rig: RigConfig) -> float | None:
+        """The limit ``rig`` sets on field ``name`` (its :class:`RigLimit`); ``None``: none."""
+        mark = _rig_limit_of(cls, name)
+        return None if mark is None else mark.highest(rig)
+
+    @classmethod
+    def field_limits(cls, rig: RigConfig) -> dict[str, dict[str, float]]:
+        """``{field: {"max": …, "min"?: …}}`` for every field ``rig`` bounds (``GET /api/rig``
+        → ``field_limits``; ``min`` = −max where the field is signed)."""
+        out: dict[str, dict[str, float]] = {}
+        for name in cls.model_fields:
+            mark = _rig_limit_of(cls, name)
+            high = None if mark is None else mark.highest(rig)
+            if mark is None or high is None or not math.isfinite(high):
+                continue
+            out[name] = {"max": float(high)} | ({"min": -float(high)} if mark.signed else {})
+        return out
+
+    @classmethod
+    def drive_limit(cls, rig: RigConfig) -> float | None:
+        """The rig's limit on the driving load (``max_force_n``, ``max_torque_nm``);
+        ``None``: not driven, or the rig file sets none."""
+        return None if cls.load_field is None else cls.rig_limit(cls.load_field, rig)
+
     def to_json(self) -> dict[str, Any]:
         """The parameters as a run stores them (with its ``kind``)."""
         return self.model_dump(exclude={"metadata"}) | {"kind": self.kind}
@@ -119,12 +162,23 @@ class _ProcedureRequest(_Strict):
             return value
         return p.in_range("baseline_s", value, low=0, high=30, unit="s", low_inclusive=True)
 
+    @field_validator("max_time_s", check_fields=False)
+    @classmethod
+    def _max_time(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        return value if rig is None else p.max_time(value, rig)
+
+
+def _rig_limit_of(model: type[BaseModel], name: str) -> RigLimit | None:
+    return next((m for m in model.model_fields[name].metadata if isinstance(m, RigLimit)), None)
+
 
 Drive = Literal["weight", "thrusters"]
 MaxTime = Annotated[
     float | None,
     Field(title="Max time (s)", description="Stop after this many seconds (default 120)."),
     Flag("--max-time"),
+    RigLimit(lambda rig: rig.limits.max_run_s),
 ]
 Baseline = Annotated[
     float, Field(title="Baseline (s)", description="Pre-trigger baseline, s."), Flag("--baseline")
@@ -177,8 +231,8 @@ class _SignedLoad(_ProcedureRequest):
         del data["weight_kg"]
         return data | {"hung_mass_kg": self.hung_mass_kg, "requested": self.requested}
 
-    @staticmethod
-    def _lever(rig: RigConfig) -> tuple[float, float, str]:
+    @classmethod
+    def _lever(cls, rig: RigConfig) -> tuple[float, float, str]:
         """The load one kg hung gives per g (1 m for a tow, the drum's radius for a spin),
         the load's limit and how it is named."""
         raise NotImplementedError

@@ -31,6 +31,7 @@ from daq.procedures.request_base import (
     Drive,
     Flag,
     MaxTime,
+    RigLimit,
     RunMetadataIn,
     _ProcedureRequest,
     _SignedLoad,
@@ -78,6 +79,7 @@ class TowRequest(_SignedLoad):
             "reverse tow from the far end (far-end pulley, or thrusters turned round).",
         ),
         Flag("--force"),
+        RigLimit(lambda rig: rig.limits.max_force_n, signed=True),
     ] = None
     weight_kg: Annotated[
         float | None,
@@ -87,6 +89,7 @@ class TowRequest(_SignedLoad):
             "the far-end pulley (a reverse tow).",
         ),
         Flag("--weight"),
+        RigLimit(lambda rig: rig.limits.max_force_n / rig.rig.g, signed=True),
     ] = None
     drive: Annotated[
         Drive,
@@ -106,6 +109,7 @@ class TowRequest(_SignedLoad):
             "its room back to the start).",
         ),
         Flag("--max-distance"),
+        RigLimit(lambda rig: rig.geometry.end_of_travel_m),
     ] = None
     max_time_s: MaxTime = None
     baseline_s: Baseline = 1.0
@@ -114,9 +118,9 @@ class TowRequest(_SignedLoad):
     load_field: ClassVar[str] = "force_n"
     load_unit: ClassVar[str] = "N"
 
-    @staticmethod
-    def _lever(rig: RigConfig) -> tuple[float, float, str]:
-        limit, g = rig.limits.max_force_n, rig.rig.g
+    @classmethod
+    def _lever(cls, rig: RigConfig) -> tuple[float, float, str]:
+        limit, g = float(cls.drive_limit(rig) or math.nan), rig.rig.g
         return 1.0, limit, f", max_force_n / g = {limit:g} N / {g:g}"
 
     @field_validator("force_n")
@@ -125,7 +129,7 @@ class TowRequest(_SignedLoad):
         rig = rig_of(info)
         if rig is None:
             return value
-        high, why = rig.limits.max_force_n, ", rig limit max_force_n"
+        high, why = cls.drive_limit(rig) or math.nan, ", rig limit max_force_n"
         return p.in_range("force_n", value, low=0, high=high, unit="N", why_high=why, signed=True)
 
     @field_validator("max_distance_m")
@@ -145,12 +149,6 @@ class TowRequest(_SignedLoad):
             "max_distance_m", value, low=0, high=room, unit="m", default=room, why_high=why
         )
 
-    @field_validator("max_time_s")
-    @classmethod
-    def _max_time(cls, value: float | None, info: ValidationInfo) -> float | None:
-        rig = rig_of(info)
-        return value if rig is None else p.max_time(value, rig)
-
 
 class SpinRequest(_SignedLoad):
     """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters.
@@ -164,6 +162,7 @@ class SpinRequest(_SignedLoad):
             "spin (cord wound the other way, or thrusters turned round).",
         ),
         Flag("--torque"),
+        RigLimit(lambda rig: rig.limits.max_torque_nm, signed=True),
     ] = None
     weight_kg: Annotated[
         float | None,
@@ -197,12 +196,12 @@ class SpinRequest(_SignedLoad):
     load_field: ClassVar[str] = "torque_nm"
     load_unit: ClassVar[str] = "N·m"
 
-    @staticmethod
-    def _lever(rig: RigConfig) -> tuple[float, float, str]:
+    @classmethod
+    def _lever(cls, rig: RigConfig) -> tuple[float, float, str]:
         # A rig without a drum radius or torque limit cannot spin (``KindSpec.check``
         # refuses first, naming what is missing); nan keeps a direct call from crashing.
         radius = rig.geometry.spin_drum_radius_m or math.nan
-        return radius, rig.limits.max_torque_nm or math.nan, ", max_torque_nm / (g · drum radius)"
+        return radius, cls.drive_limit(rig) or math.nan, ", max_torque_nm / (g · drum radius)"
 
     @field_validator("torque_nm")
     @classmethod
@@ -210,7 +209,7 @@ class SpinRequest(_SignedLoad):
         rig = rig_of(info)
         if rig is None:
             return value
-        high, why = rig.limits.max_torque_nm or math.nan, ", rig limit max_torque_nm"
+        high, why = cls.drive_limit(rig) or math.nan, ", rig limit max_torque_nm"
         return p.in_range(
             "torque_nm", value, low=0, high=high, unit="N·m", why_high=why, signed=True
         )
@@ -226,12 +225,6 @@ class SpinRequest(_SignedLoad):
             "max_angle_rad", value, low=0, high=most, unit="rad", default=most,
             why_high=", spin_max_angle_rad",
         )  # fmt: skip
-
-    @field_validator("max_time_s")
-    @classmethod
-    def _max_time(cls, value: float | None, info: ValidationInfo) -> float | None:
-        rig = rig_of(info)
-        return value if rig is None else p.max_time(value, rig)
 
 
 class PendulumRequest(_ProcedureRequest):

@@ -62,12 +62,22 @@ class _Axis:
     release: str
     weight_act: str
     unit: str
+    end_switch: str | None = None
+    travel_key: str = ""  # the parameter limiting the motion: max_distance_m, max_angle_rad
 
     @classmethod
     def of(cls, kind: RunKind) -> _Axis:
         """The axis words of ``kind`` (``daq.vocabulary.AXES``)."""
         terms = AXES[kind]
-        return cls(kind, terms.position_channel, terms.release_coil, terms.weight_act, terms.unit)
+        return cls(
+            kind,
+            terms.position_channel,
+            terms.release_coil,
+            terms.weight_act,
+            terms.unit,
+            terms.end_switch,
+            terms.travel_key or "",
+        )
 
 
 TOW = _Axis.of(RunKind.TOW)
@@ -104,7 +114,7 @@ async def check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> f
     last = samples[-1].channels
     if last.get("estop"):
         raise PreconditionFailed("the emergency stop is pressed: release it before starting a test")
-    if axis is TOW and last.get("end_of_travel"):
+    if axis.end_switch is not None and last.get(axis.end_switch):
         raise PreconditionFailed(
             "the end-of-travel switch is tripped: return the carriage to the start"
         )
@@ -166,7 +176,7 @@ async def follow_motion(
     of free motion (the end-of-travel switch stops the carriage before the sample that
     sees it tripped). Unread ticks are skipped; ``rec.samples()`` aborts on device loss.
     """
-    limit = params.max_distance_m if isinstance(params, TowParameters) else params.max_angle_rad
+    limit = getattr(params, axis.travel_key)  # max_distance_m, max_angle_rad
     max_time_s = params.max_time_s
     assert limit is not None and max_time_s is not None  # checked: the rig's defaults are set
     t0 = previous_t = None
@@ -183,11 +193,11 @@ async def follow_motion(
                 f"{axis.kind}: {travelled:.3f} {axis.unit} in {elapsed:.1f} s",
             )
         )
-        if axis is TOW and sample.channels.get("end_of_travel"):
+        if axis.end_switch is not None and sample.channels.get(axis.end_switch):
             return "end of travel", sample, previous_t if previous_t is not None else t0
         if travelled >= limit:
-            what = "distance" if axis is TOW else "angle"
-            return f"max {what} {limit:g} {axis.unit}", sample, sample.t_mono
+            what = axis.travel_key.rsplit("_", 1)[0].replace("_", " ")  # "max distance"
+            return f"{what} {limit:g} {axis.unit}", sample, sample.t_mono
         if elapsed >= max_time_s:
             return f"max time {max_time_s:g} s", sample, sample.t_mono
         previous_t = sample.t_mono

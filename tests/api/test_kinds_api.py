@@ -4,10 +4,18 @@ accepts) and its import fields; ``rig import`` offers the same kinds and fields.
 
 from __future__ import annotations
 
+from typing import Annotated, ClassVar
+
+import pytest
 from click.testing import CliRunner
+from pydantic import Field
 
 from api.cli.imports import import_
-from daq.procedures.kinds import KINDS
+from daq.capabilities import Needs
+from daq.config import load_rig
+from daq.procedures.kinds import KINDS, RIG_KINDS, KindSpec
+from daq.procedures.request_base import Flag, MaxTime, RigLimit, _ProcedureRequest
+from daq.vocabulary import RunKind
 from tests.api.conftest import AUTH
 
 
@@ -101,3 +109,124 @@ def test_the_estimation_pages_method_menu_is_rendered_from_the_served_methods(
         assert menu.evaluate_all("os => os.map((o) => o.value)") == list(served)
         assert menu.all_text_contents() == list(served.values())
         assert page.locator("#est-method").input_value() == "output-error"
+
+
+class _LiftRequest(_ProcedureRequest):
+    """A kind no face knows of: one signed load bounded by the rig (half its max_force_n)."""
+
+    lift_n: Annotated[
+        float | None,
+        Field(title="Lift (N)", description="Lift, N."),
+        Flag("--lift"),
+        RigLimit(lambda rig: rig.limits.max_force_n / 2, signed=True),
+    ] = None
+    max_time_s: MaxTime = None
+
+    kind: ClassVar[RunKind] = "lift"  # type: ignore[assignment]  # not a RunKind yet
+
+
+@pytest.fixture
+def lift_kind(monkeypatch):
+    """A new rig kind in the registry, and nothing else edited."""
+    spec = KindSpec(
+        kind="lift",  # type: ignore[arg-type]
+        label="lift test",
+        help="Lift.",
+        request=_LiftRequest,
+        route="lift",
+        drives={"weight": Needs(), "thrusters": Needs(thrusters=True)},
+        live=("lift_position", "load_cell"),
+    )
+    monkeypatch.setitem(KINDS, "lift", spec)
+    monkeypatch.setitem(RIG_KINDS, "lift", spec)
+    return spec
+
+
+def test_the_rig_serves_each_kinds_field_limits_from_its_request_model(client, lift_kind):
+    """``GET /api/rig`` → ``field_limits``: the limit each request model's ``RigLimit``
+    declares, for every kind the rig runs (a new kind's too), nothing for an unbounded field."""
+    rig = load_rig()
+    limits, g = rig.limits, rig.rig.g
+    served = client.get("/api/rig", headers=AUTH).json()["field_limits"]
+    assert served["tow"] == {
+        "force_n": {"max": limits.max_force_n, "min": -limits.max_force_n},
+        "weight_kg": pytest.approx(
+            {"max": limits.max_force_n / g, "min": -limits.max_force_n / g}, rel=1e-12
+        ),
+        "max_distance_m": {"max": rig.geometry.end_of_travel_m},
+        "max_time_s": {"max": limits.max_run_s},
+    }
+    assert served["spin"]["torque_nm"] == {
+        "max": limits.max_torque_nm,
+        "min": -limits.max_torque_nm,
+    }
+    assert served["pendulum"] == {"max_time_s": {"max": limits.max_run_s}}
+    assert served["thrust_calibration"] == {}
+    half = limits.max_force_n / 2
+    assert served["lift"] == {
+        "lift_n": {"max": half, "min": -half},
+        "max_time_s": {"max": limits.max_run_s},
+    }
+
+
+def test_a_new_kinds_rig_limit_reaches_its_start_form_without_other_edits(
+    chromium, service, client, lift_kind
+):
+    """The page applies ``field_limits`` to whatever forms the registry rendered: the tow's
+    force is −max…max, and a kind added only to the registry gets its declared limit."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import signed_in_page
+
+    served = client.get("/api/rig", headers=AUTH).json()["field_limits"]
+    with signed_in_page(chromium, service, client) as page:
+        lift = page.locator("#form-lift [name=lift_n]")
+        expect(lift).to_have_attribute("max", f"{served['lift']['lift_n']['max']:g}")
+        expect(lift).to_have_attribute("min", f"{served['lift']['lift_n']['min']:g}")
+        force = page.locator("#form-tow [name=force_n]")
+        expect(force).to_have_attribute("max", f"{served['tow']['force_n']['max']:g}")
+        expect(force).to_have_attribute("min", f"{served['tow']['force_n']['min']:g}")
+        weight = float(page.locator("#form-tow [name=weight_kg]").get_attribute("max") or "nan")
+        assert weight == pytest.approx(served["tow"]["weight_kg"]["max"], rel=1e-12)
+        assert page.locator("#form-calibration [name=settle_s]").get_attribute("max") is None
+
+
+def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
+    chromium, service, client, lift_kind
+):
+    """The live plot's derived rates and default channels, the Runs page's kind filter and
+    the cross-check's kinds come from ``GET /api/kinds``: idle, the first kind's (the tow's
+    position and speed); a kind added to the registry only has its own ``live`` channels, is
+    offered by the filter and, driven by a weight and by the thrusters, is cross-checked."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import signed_in_page
+
+    served = {k["kind"]: k for k in client.get("/api/kinds", headers=AUTH).json()}
+    assert served["tow"]["rate"] == {
+        "key": "speed", "label": "speed (from position)", "unit": "m/s", "of": "tow_position"
+    }  # fmt: skip
+    assert served["spin"]["live"] == ["yaw_angle", "yaw_rate"] and served["spin"]["axis"] == "yaw"
+    assert served["spin"]["shown"] == {"field": "torque_nm", "unit": "N·m"}  # its drive
+    assert served["pendulum"]["shown"] == {"field": "start_angle_rad", "unit": "rad"}
+    assert [k for k, v in served.items() if v["planned"]] == ["tow", "spin"]  # their envelopes
+    with signed_in_page(chromium, service, client) as page:
+        chooser = page.locator("#live-channels")
+        expect(chooser).to_contain_text("speed (from position) m/s")
+        expect(chooser).to_contain_text("yaw rate (from angle) rad/s")
+        expect(page.locator("#live-kind")).to_have_text("tow")
+        checked = chooser.locator("input:checked")
+        expect(checked).to_have_count(2)
+        assert checked.evaluate_all("els => els.map((e) => e.value)") == ["tow_position", "speed"]
+        assert page.evaluate("liveDefaultsOf('lift')") == ["lift_position", "load_cell"]
+        driven = served["tow"]["live"] + served["spin"]["live"] + ["lift_position", "load_cell"]
+        assert page.evaluate("liveDefaultsOf('sequence')") == driven
+        kinds = page.locator("#runs-filter select[name=kind] option")  # the Runs page's filter
+        expect(kinds).to_have_count(len(served) + 1)
+        assert kinds.all_text_contents() == ["any", *served]  # the free decay and lift too
+        cc = page.evaluate("crosscheckKinds(servedKinds)")
+        assert cc == {
+            "kinds": ["tow", "spin", "lift"],
+            "axes": ["surge", "yaw", None],
+            "estimators": ["axis", "axis", None],
+        }

@@ -63,12 +63,14 @@ def test_runs_page_filters_pages_and_annotates(chromium, stocked):
         page.click("#runs-filter button[type=submit]")
         expect(count).to_have_text("1–2 of 2")
         expect(rows.first).to_contain_text("decay")
+        expect(rows.first).to_contain_text("0.2 rad")  # the parameter its kind shows
         page.select_option("#runs-filter select[name=kind]", "")
 
         page.select_option("#runs-filter select[name=source]", "imported")
         page.click("#runs-filter button[type=submit]")
         expect(count).to_have_text("1–1 of 1")
         expect(rows.first).to_contain_text("bench_day1.csv")
+        expect(rows.first.locator("td").nth(3)).to_have_text("5 N")
         page.select_option("#runs-filter select[name=source]", "")
 
         today = date.today().isoformat()  # the browser's and this machine's day

@@ -7,9 +7,11 @@ import asyncio
 import numpy as np
 import pytest
 
+from daq.operator import OperatorAct, PromptOperator
 from daq.procedures.motion import run_motion_test
 from daq.procedures.recording import AbortSignal
 from daq.procedures.requests import spin_parameters, tow_parameters
+from daq.procedures.steps import PreconditionFailed
 from daq.run_data import load_run_data
 from daq.session import RigBusy, RigSource
 from daq.store import Store
@@ -137,3 +139,22 @@ async def test_a_tow_is_stored_the_same_on_sqlite_and_postgresql(db_url, source)
         assert store.sample_count(outcome.run_id) == outcome.samples >= 15
         data = load_run_data(store, outcome.run_id)
         assert data.position[-1] > 0.1 and data.t_release_std < 0.01
+
+
+async def test_a_tow_is_refused_while_its_end_switch_is_tripped(source, store):
+    """The end switch of the tow's axis (``AxisTerms.end_switch``) still tripped at the start
+    (the carriage left where the last tow stopped it) refuses the tow, recording nothing."""
+    short = RigSource(rig=short_rail(source.rig), rig_toml=source.rig_toml)
+    async with rig_session(short, store) as session:
+        params = tow_parameters({"force_n": 83.3, "max_time_s": 10, "baseline_s": 0.3}, session.rig)
+        assert (await run_motion_test(session, params)).status == "completed"  # to the switch
+        played = session.operator
+
+        async def left_on_the_switch(act: OperatorAct) -> None:
+            if act.name != "return_carriage":  # the operator does not return the carriage
+                await played.perform(act)
+
+        session._operator = PromptOperator(left_on_the_switch)
+        with pytest.raises(PreconditionFailed, match="the end-of-travel switch is tripped"):
+            await run_motion_test(session, params)
+    assert len(store.list_runs()) == 1  # the first tow's only

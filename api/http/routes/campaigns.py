@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from fastapi import APIRouter, Depends
 from pydantic import BaseModel, ConfigDict, Field
@@ -12,9 +12,17 @@ from api.core.campaign import CampaignRunner
 from api.core.job_model import JobConflict
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, error_responses
+from daq.procedures.kinds import KINDS
 from estimation.design.campaign import Target
 
 router = APIRouter(prefix="/api/campaigns", tags=["campaigns"])
+
+#: The axes the planner plans: those of the kinds with an ``envelope`` (surge: tows, yaw: spins).
+PLANNED = {str(s.axis.axis): str(k) for k, s in KINDS.items() if s.envelope and s.axis}
+if TYPE_CHECKING:
+    PlannedAxis = str  # a key of PLANNED: what the type checker can know of a computed Literal
+else:
+    PlannedAxis = Literal[tuple(PLANNED)]  # what pydantic checks and the OpenAPI schema lists
 
 
 class CampaignRequest(BaseModel):
@@ -22,8 +30,10 @@ class CampaignRequest(BaseModel):
     target_percent: float = Field(
         1.0, gt=0, lt=100, description="Target 2σ/|θ| on inertia, K_L and K_Q, in %."
     )
-    axes: list[Literal["surge", "yaw"]] = Field(
-        ["surge", "yaw"], min_length=1, description="surge (tows) and/or yaw (spins)."
+    axes: list[PlannedAxis] = Field(
+        list(PLANNED),
+        min_length=1,
+        description=" and/or ".join(f"{axis} ({kind}s)" for axis, kind in PLANNED.items()) + ".",
     )
     max_runs: int = Field(12, ge=1, le=100, description="Budget: runs at most.")
     max_minutes: float = Field(

@@ -1,6 +1,7 @@
 """``GET /api/kinds``: every run kind of the registry (``daq.procedures.kinds``) with the
-JSON Schema of its start request and of its import fields, so a client (the browser's start
-forms among them) renders what each kind takes without a copy of it."""
+JSON Schema of its start request and of its import fields, its axis, drives and what the
+live plot shows of it, so a client (the browser's start forms, method menu, live plot and
+cross-check page among them) renders what each kind takes without a copy of it."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from pydantic import BaseModel, Field
 
 from api.http.deps import require_read
 from api.http.schemas import error_responses
-from daq.procedures.kinds import describe_kinds
+from daq.procedures.kinds import KINDS, KindSpec
 
 router = APIRouter(prefix="/api", tags=["rig"])
 
@@ -21,6 +22,18 @@ class KindImportOut(BaseModel):
     schema_: dict[str, Any] | None = Field(
         alias="schema", description="JSON Schema of the kind's own import fields (null: none)."
     )
+
+
+class KindRateOut(BaseModel):
+    key: str = Field(description="The derived channel: speed, yaw_rate.")
+    label: str = Field(description="How the live plot names it: 'speed (from position)'.")
+    unit: str = Field(description="Its unit: m/s, rad/s.")
+    of: str = Field(description="The position channel it is the rate of: tow_position.")
+
+
+class KindShownOut(BaseModel):
+    field: str = Field(description="The run parameter: force_n, start_angle_rad.")
+    unit: str = Field(description="Its unit: N, rad.")
 
 
 class KindOut(BaseModel):
@@ -40,6 +53,21 @@ class KindOut(BaseModel):
     import_: KindImportOut | None = Field(
         alias="import", description="How a CSV is imported as this kind (null: it is not)."
     )
+    axis: str | None = Field(description="The axis it moves: surge, yaw, … (null: none).")
+    drives: list[str] = Field(description="What may drive it: weight, thrusters (none: []).")
+    live: list[str] = Field(
+        description="What the live plot shows of its runs by default (`thrusters`: every "
+        "thruster's command)."
+    )
+    rate: KindRateOut | None = Field(
+        description="The rate the live plot derives from its position (null: none)."
+    )
+    planned: bool = Field(
+        description="The test planner chooses its runs (a campaign's axes are these kinds')."
+    )
+    shown: KindShownOut | None = Field(
+        description="The parameter a run list shows of its runs (null: none)."
+    )
 
 
 @router.get(
@@ -52,5 +80,37 @@ class KindOut(BaseModel):
 def get_kinds() -> list[dict[str, Any]]:
     """Every run kind: labels, its start request's JSON Schema (field names, types,
     descriptions, defaults; the rig file's limits are checked when a job is submitted),
-    its command and route, its estimation methods and its import fields."""
-    return describe_kinds()
+    its command and route, its estimation methods, its import fields, its axis and drives,
+    and what the live plot shows of its runs."""
+    return [_described(spec) for spec in KINDS.values()]
+
+
+def _described(spec: KindSpec) -> dict[str, Any]:
+    est, terms, shown = spec.estimator, spec.axis, spec.shown_parameter
+    rate = None
+    if terms is not None and terms.rate is not None:
+        unit = f"{terms.unit}/s"
+        rate = {
+            "key": terms.rate,
+            "label": terms.rate_label,
+            "unit": unit,
+            "of": terms.position_channel,
+        }
+    return {
+        "kind": str(spec.kind),
+        "label": spec.label,
+        "help": spec.help,
+        "command": spec.command,
+        "route": spec.route,
+        "schema": None if spec.request is None else spec.request.model_json_schema(),
+        "estimator": None if est is None else est.name,
+        "methods": [] if est is None else list(est.methods),
+        "method_labels": {} if est is None else est.method_labels,
+        "import": None if spec.imports is None else spec.imports.to_json(),
+        "axis": None if terms is None else str(terms.axis),
+        "drives": list(spec.drives),
+        "live": list(spec.live_channels),
+        "rate": rate,
+        "planned": spec.envelope is not None,
+        "shown": None if shown is None else {"field": shown[0], "unit": shown[1]},
+    }

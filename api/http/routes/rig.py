@@ -14,7 +14,7 @@ from api.http.deps import OperatorDep, RunnerDep, ServiceDep, require_read, requ
 from api.http.identity import anyone
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
 from daq.capabilities import safety
-from daq.procedures.kinds import NotCapable, capabilities
+from daq.procedures.kinds import RIG_KINDS, NotCapable, capabilities
 from daq.session import RigSession
 from daq.store.base import software_version
 from daq.store.people import User
@@ -41,6 +41,11 @@ def rig_status(service: RigService, runner: JobRunner) -> dict:
         "g": service.source.rig.rig.g,
     }
     data["limits"] = {k: v for k, v in limits.items() if v is not None}  # unset: not offered
+    data["field_limits"] = {
+        str(kind): spec.request.field_limits(rig)
+        for kind, spec in RIG_KINDS.items()
+        if spec.request is not None
+    }
     data["stream_clients"] = service.broadcaster.client_count
     data["guard"] = RigGuard.of(service).state() if service.store is not None else {}
     return data

@@ -4,7 +4,7 @@
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed", "interrupted"];
-const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, limits: {}, jobDocs: {} };
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, jobDocs: {} };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
@@ -93,12 +93,13 @@ const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&l
 function kv(table, rows) {
   table.innerHTML = rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("");
 }
+// What a run list shows of a run: the parameter its kind names (GET /api/kinds → shown, via
+// start_forms.js's servedKinds: the drive, or the pendulum's start angle), with its unit.
 function load(run) {
-  const p = run.parameters || {};
-  if (p.force_n !== undefined) return `${fmt(p.force_n)} N`;
-  if (p.torque_nm !== undefined) return `${fmt(p.torque_nm)} N·m`;
-  if (p.start_angle_rad !== undefined) return `${fmt(p.start_angle_rad)} rad`;
-  return "";
+  const kind = servedKinds.find((k) => k.kind === run.kind);
+  const shown = kind && kind.shown;
+  const value = shown ? (run.parameters || {})[shown.field] : undefined;
+  return value === undefined ? "" : `${fmt(value)} ${shown.unit}`;
 }
 
 // ---- pages ----------------------------------------------------------------------------
@@ -129,7 +130,6 @@ async function refreshRig() {
     const s = await api("GET", "/api/rig");
     await ensureStartForms(); // start_forms.js: once, from GET /api/kinds
     state.rig = s;
-    state.limits = s.limits || {};
     const ok = s.running && s.connected && !s.device_lost;
     $("#conn-dot").className = "dot " + (ok ? "ok" : "bad");
     $("#conn-text").textContent = ok ? `${s.rig_name}${s.simulated ? " (simulated)" : ""}` : s.error || "device lost";
@@ -165,20 +165,19 @@ async function refreshRig() {
   }
 }
 
+// Each start form's inputs take the rig's limits on their fields (GET /api/rig →
+// field_limits: {kind: {field: {max, min?}}}, declared by the request models' RigLimit; a
+// signed field's min is −max, a negative drive being a reverse test).
 function setLimits() {
-  const l = state.limits;
-  // signed: a negative drive is a reverse test, so the range is −max…max
-  const set = (form, name, max, signed = false) => {
-    const el = $(`#form-${form} [name=${name}]`);
-    if (el && max !== undefined) el.max = max;
-    if (el && max !== undefined && signed) el.min = -max;
-  };
-  set("tow", "force_n", l.max_force_n, true);
-  set("tow", "weight_kg", l.max_force_n && l.g ? l.max_force_n / l.g : undefined, true);
-  set("tow", "max_time_s", l.max_run_s);
-  set("tow", "max_distance_m", l.end_of_travel_m);
-  set("spin", "torque_nm", l.max_torque_nm, true);
-  set("spin", "max_time_s", l.max_run_s);
+  const limits = (state.rig && state.rig.field_limits) || {};
+  for (const form of $$(".start-form[data-run-kind]")) {
+    for (const [name, range] of Object.entries(limits[form.dataset.runKind] || {})) {
+      const el = form.querySelector(`[name="${name}"]`);
+      if (!el) continue;
+      if (range.max !== undefined) el.max = range.max;
+      if (range.min !== undefined) el.min = range.min;
+    }
+  }
 }
 
 // Offer only what the rig can do (GET /api/rig → capabilities); say why the rest is missing.
@@ -443,7 +442,7 @@ async function loadRuns() {
   }
   const meta = {};
   try {
-    state.runs = await api("GET", `/api/runs?${params}`, undefined, meta);
+    [state.runs] = await Promise.all([api("GET", `/api/runs?${params}`, undefined, meta), loadKinds()]);
   } catch (err) {
     $("#runs-count").textContent = err.message;
     return;
@@ -525,8 +524,7 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
 
 // The run detail plots any of the run's channels, with units, one row per unit, and other
 // runs overlaid, on the time from each run's release (from its first sample when a run has
-// no release event).
-const DEFAULT_CHANNEL = { spin: "yaw_angle", thrust_calibration: "load_cell", pendulum: "pendulum_angle" };
+// no release event). It opens on the first channel its kind's live plot shows (GET /api/kinds).
 state.runPlot = { runs: [], channels: [] }; // [{run, samples, release}], chosen channel names
 
 async function runSeries(runId) {
@@ -541,7 +539,7 @@ async function runSeries(runId) {
 
 async function openRun(runId) {
   location.hash = "#runs";
-  const shown = await runSeries(runId);
+  const [shown, kinds] = await Promise.all([runSeries(runId), loadKinds()]); // start_forms.js
   const { run, events } = shown;
   state.selectedRun = run;
   $("#run-detail").hidden = false;
@@ -551,7 +549,7 @@ async function openRun(runId) {
   showRunMeta(run);
   $("#run-annotate-status").textContent = "";
   const names = Object.keys(shown.samples.channels);
-  const first = DEFAULT_CHANNEL[run.kind] || "tow_position";
+  const first = (kinds.find((k) => k.kind === run.kind) || kinds[0]).live[0];
   state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean) };
   $("#run-channels").innerHTML = names
     .map((k) => {

@@ -51,7 +51,7 @@ async function campaignCall(method, path, body) {
 $("#campaign-form").addEventListener("submit", (ev) => {
   ev.preventDefault();
   const f = ev.target;
-  const axes = ["surge", "yaw"].filter((a) => f.elements[`axis-${a}`].checked);
+  const axes = $$("#campaign-axes input:checked").map((i) => i.value);
   campaignCall("POST", "/api/campaigns", {
     target_percent: Number(f.elements.target_percent.value),
     axes,
@@ -64,8 +64,19 @@ function onCampaignJobEvent(job) {
   if (!campaignView.job || campaignView.job.id === job.id || !FINAL.includes(job.state)) showCampaign(job);
 }
 
+// One box per axis the planner plans: those of the kinds it chooses (GET /api/kinds → planned).
+function renderCampaignAxes(kinds) {
+  const box = $("#campaign-axes");
+  if (box.childElementCount) return; // rendered once: keep what the user ticked
+  box.innerHTML = kinds
+    .filter((k) => k.planned && k.axis)
+    .map((k) => `<label><input name="axis-${esc(k.axis)}" value="${esc(k.axis)}" type="checkbox" checked> ${esc(k.axis)} (${esc(k.kind)}s)</label>`)
+    .join("");
+}
+
 async function loadCampaign() {
   try {
+    renderCampaignAxes(await loadKinds()); // start_forms.js
     const all = await api("GET", "/api/campaigns");
     if (!campaignView.job || !all.some((j) => j.id === campaignView.job.id)) showCampaign(all[0] || null);
   } catch (err) {

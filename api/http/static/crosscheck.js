@@ -9,10 +9,23 @@ const CC_UNITS = {
 };
 const CC_SPEED_UNITS = { surge: "m/s", yaw: "rad/s" };
 
+// What a cross-check compares (GET /api/kinds): runs of the kinds both a weight and the
+// thrusters drive, and estimation results on their axes from their estimator (a result that
+// names its analysis names the estimator: a pendulum's swing may be a surge too).
+function crosscheckKinds(kinds) {
+  const both = kinds.filter((k) => ["weight", "thrusters"].every((d) => k.drives.includes(d)));
+  return {
+    kinds: both.map((k) => k.kind),
+    axes: both.map((k) => k.axis),
+    estimators: both.map((k) => k.estimator),
+  };
+}
+
 async function crosscheckLoad() {
   try {
-    const results = (await api("GET", "/api/results?kind=estimation")).filter((r) =>
-      ["surge", "yaw"].includes((r.data || {}).axis) && r.data.analysis !== "pendulum",
+    const cc = crosscheckKinds(await loadKinds()); // start_forms.js
+    const results = (await api("GET", "/api/results?kind=estimation")).filter(
+      (r) => cc.axes.includes((r.data || {}).axis) && (!r.data.analysis || cc.estimators.includes(r.data.analysis)),
     );
     const option = (r) => {
       const draws = ((r.data.uncertainty || {}).calibration_draws || 0) > 0;
@@ -22,7 +35,7 @@ async function crosscheckLoad() {
     const thrusters = results.filter((r) => (r.data.uncertainty || {}).calibration_draws > 0);
     $("#cc-weight").innerHTML = (weight.length ? weight : results).map(option).join("");
     $("#cc-thrusters").innerHTML = (thrusters.length ? thrusters : results).map(option).join("");
-    const runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => ["tow", "spin"].includes(r.kind));
+    const runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => cc.kinds.includes(r.kind));
     $("#cc-runs tbody").innerHTML = runs
       .map((r) => {
         const drive = (r.parameters || {}).drive || "weight";

@@ -1,21 +1,27 @@
-// Rig page live plot: any channel the rig file defines (with its unit), the derived speed
-// and yaw rate, and the thruster commands; one row per unit, 1-2-5 ticks. The channels shown
-// by default depend on the running job's kind; the user's choice is kept per kind in
-// localStorage. Loaded before app.js, whose stream calls onSample() and whose start
-// buttons call resetLive(); it reads app.js's `state` (rig status, current job).
+// Rig page live plot: any channel the rig file defines (with its unit), the rates derived
+// from the axes' positions, and the thruster commands; one row per unit, 1-2-5 ticks. The
+// channels shown by default depend on the running job's kind (its registry entry's `live`
+// and `rate`, GET /api/kinds via start_forms.js's `servedKinds`); the user's choice is kept
+// per kind in localStorage. Loaded before app.js, whose stream calls onSample() and whose
+// start buttons call resetLive(); it reads app.js's `state` (rig status, current job).
 "use strict";
 
 const LIVE_POINTS = 600; // one minute at 10 Hz
 const LIVE_STORE = "rig-live-channels"; // {kind: [channel keys]}
 const LIVE_KIND_STORE = "rig-live-kind"; // the kind whose choice was shown last
-// What matters for each kind of test (keys that the rig lacks are dropped).
-const LIVE_DEFAULTS = {
-  tow: ["tow_position", "speed"],
-  spin: ["yaw_angle", "yaw_rate"],
-  pendulum: ["pendulum_angle"],
-  thrust_calibration: ["load_cell", "thrusters"],
-  sequence: ["tow_position", "speed", "yaw_angle", "yaw_rate"],
-};
+// What matters for each kind of test (keys that the rig lacks are dropped): its served
+// `live`; a sequence's, those of every kind a weight or the thrusters drive; a kind not
+// served, the first kind's. `null`: the kinds are not served yet.
+function liveDefaultsOf(kind) {
+  if (!servedKinds.length) return null;
+  const served = servedKinds.find((k) => k.kind === kind);
+  if (served) return served.live;
+  if (kind === "sequence") return servedKinds.filter((k) => k.drives.length).flatMap((k) => k.live);
+  return servedKinds[0].live;
+}
+const liveKnows = (kind) => kind === "sequence" || servedKinds.some((k) => k.kind === kind);
+// The rates derived from the axes' positions: [{key, label, unit, of}], each once.
+const liveRates = () => servedKinds.map((k) => k.rate).filter((r, i, all) => r && all.findIndex((o) => o && o.key === r.key) === i);
 const live = {
   channels: [], // [{key, label, unit}] in chooser order
   signature: "",
@@ -34,8 +40,7 @@ function liveChannelList() {
   const names = Object.keys(units);
   if (!names.length) return [];
   const list = names.map((k) => ({ key: k, label: k.replace(/_/g, " "), unit: units[k] }));
-  if ("tow_position" in units) list.push({ key: "speed", label: "speed (from position)", unit: "m/s" });
-  if ("yaw_angle" in units) list.push({ key: "yaw_rate", label: "yaw rate (from angle)", unit: "rad/s" });
+  for (const r of liveRates()) if (r.of in units) list.push({ key: r.key, label: r.label, unit: r.unit });
   const n = ((state.rig && state.rig.thrusters && state.rig.thrusters.output) || []).length;
   for (let i = 0; i < n; i += 1) list.push({ key: `thruster_${i + 1}`, label: `thruster ${i + 1} command`, unit: "fraction" });
   return list;
@@ -43,7 +48,7 @@ function liveChannelList() {
 
 function liveDefaults(kind) {
   const keys = new Set(live.channels.map((c) => c.key));
-  const wanted = (LIVE_DEFAULTS[kind] || LIVE_DEFAULTS.tow).flatMap((k) =>
+  const wanted = (liveDefaultsOf(kind) || []).flatMap((k) =>
     k === "thrusters" ? live.channels.filter((c) => c.key.startsWith("thruster_")).map((c) => c.key) : [k],
   );
   return wanted.filter((k) => keys.has(k));
@@ -77,7 +82,7 @@ function liveRenderChooser() {
     )
     .join("");
   $$("input", box).forEach((i) => (i.onchange = liveChosen));
-  const name = (live.kind || "tow").replace(/_/g, " ");
+  const name = (live.kind || "").replace(/_/g, " ");
   $("#live-kind").textContent = name;
 }
 
@@ -91,15 +96,16 @@ function liveChosen() {
 
 // Channel list (from the rig status) and the running job's kind, checked on every sample.
 function liveSync() {
+  if (!servedKinds.length) return; // the kinds' defaults are not known yet
   const channels = liveChannelList();
   const signature = channels.map((c) => `${c.key}:${c.unit}`).join(",");
   let kind = live.kind;
   const job = state.job;
   if (job && job.id !== live.jobId && !FINAL.includes(job.state)) {
     live.jobId = job.id; // a job started: show what matters for its kind
-    if (LIVE_DEFAULTS[job.kind]) kind = job.kind;
+    if (liveKnows(job.kind)) kind = job.kind;
   }
-  if (!kind) kind = localStorage.getItem(LIVE_KIND_STORE) || "tow";
+  if (!kind) kind = localStorage.getItem(LIVE_KIND_STORE) || servedKinds[0].kind;
   if (signature !== live.signature) {
     live.signature = signature;
     live.channels = channels;
@@ -118,8 +124,7 @@ function onSample(s) {
   const prev = live.last;
   const dt = prev ? s.t_mono - prev.t_mono : 0;
   const rate = (k) => (dt > 0 && v[k] != null && prev.channels[k] != null ? (v[k] - prev.channels[k]) / dt : null);
-  v.speed = rate("tow_position");
-  v.yaw_rate = rate("yaw_angle");
+  for (const r of liveRates()) v[r.key] = rate(r.of);
   live.last = s;
   live.buffer.push({ t: s.t_mono - live.t0, v });
   if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);

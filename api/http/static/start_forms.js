@@ -3,11 +3,27 @@
 // kind's JSON Schema (its request model: the field's name is the request's key, its title the
 // label, its description the tooltip, its default the placeholder); one menu entry per method
 // of the kinds' estimators. Loaded before app.js; called from refreshRig once the token is
-// known.
+// known. The other pages read the served kinds too (`servedKinds`, or await `loadKinds()`):
+// the live plot what to show of a kind's runs, the cross-check page which kinds it compares.
 "use strict";
 
 let startKinds = null;
 let servedKinds = [];
+let kindsRequest = null;
+
+// GET /api/kinds once (again after a failure): every kind of the registry, in order.
+function loadKinds() {
+  if (!kindsRequest) {
+    kindsRequest = api("GET", "/api/kinds").then(
+      (kinds) => (servedKinds = kinds),
+      (err) => {
+        kindsRequest = null;
+        throw err;
+      },
+    );
+  }
+  return kindsRequest;
+}
 
 // The kinds whose runs the Estimation page offers (those with an estimator).
 function estimatedKinds() {
@@ -16,12 +32,21 @@ function estimatedKinds() {
 
 async function ensureStartForms() {
   if (startKinds) return;
-  const kinds = await api("GET", "/api/kinds");
+  const kinds = await loadKinds();
   if (startKinds) return; // a concurrent refresh rendered them meanwhile
-  servedKinds = kinds;
   startKinds = kinds.filter((k) => k.route && k.schema);
   renderStartForms(startKinds);
   renderMethodOptions(kinds);
+  renderKindFilter(kinds);
+}
+
+// The Runs page's kind filter: "any", then every kind of the registry.
+function renderKindFilter(kinds) {
+  const select = document.querySelector("#runs-filter select[name=kind]");
+  if (!select) return;
+  const chosen = select.value;
+  select.innerHTML = `<option value="">any</option>` + kinds.map((k) => `<option>${esc(k.kind)}</option>`).join("");
+  select.value = chosen;
 }
 
 // The Estimation page's method menu: every method some kind's estimator takes, once, in the
