@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import sqlite3
 import subprocess
 import sys
 import time
@@ -19,6 +18,7 @@ import xarray as xr
 
 from daq.store import Store
 from tests.cli import run_in_process
+from tests.conftest import copy_sqlite
 from tests.waiting import wait_until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -65,12 +65,9 @@ def recorded_tow(tmp_path_factory) -> tuple[Path, str]:
 
 @pytest.fixture
 def db_with_tow(recorded_tow, db) -> tuple[str, str]:
-    """``db`` holding a copy of the recorded tow (SQLite's backup: WAL content included),
-    and the tow's run id."""
+    """``db`` holding a copy of the recorded tow, and the tow's run id."""
     source, run_id = recorded_tow
-    with sqlite3.connect(source) as src, sqlite3.connect(db.removeprefix("sqlite:///")) as dst:
-        src.backup(dst)
-    return db, run_id
+    return copy_sqlite(source, Path(db.removeprefix("sqlite:///"))), run_id
 
 
 def _wait_for_samples(db: str, count: int, timeout: float = 20) -> str:
