@@ -6,7 +6,10 @@ missing, but with ``CI=true`` they fail, so CI can never go green by skipping th
 
 ``db_url`` gives a fresh, empty database on each backend: SQLite, and PostgreSQL from
 ``$RIG_TEST_POSTGRES_URL`` if set, else a throwaway cluster started from the installed
-server binaries (tests/pg.py).
+server binaries (tests/pg.py). ``head_db_url`` gives one already migrated to the newest
+revision, copied from a database migrated once per session (SQLite's backup, PostgreSQL's
+``CREATE DATABASE … TEMPLATE``): for tests of what a store does, not of how it is made
+(running every migration again costs 0.1-0.2 s a test).
 
 Lanes and workers (pyproject.toml): ``pytest`` runs the fast lane (``-m 'not slow'``) on
 two xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled by module
@@ -24,7 +27,9 @@ from __future__ import annotations
 import asyncio
 import os
 import shutil
+import sqlite3
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -95,6 +100,42 @@ def db_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
         return
     server: PostgresServer = request.getfixturevalue("postgres_server")
     url = server.create_database()
+    try:
+        yield url
+    finally:
+        server.drop_database(url)
+
+
+@pytest.fixture(scope="session")
+def sqlite_head_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An SQLite database migrated to head, once for the session (copy it, never open it)."""
+    from daq.store import Store
+
+    path = tmp_path_factory.mktemp("head") / "rig.db"
+    Store(f"sqlite:///{path}").close()
+    return path
+
+
+def copy_sqlite(source: Path, path: Path) -> str:
+    """URL of a new SQLite database at ``path``, a copy of ``source`` (SQLite's backup: what
+    is still in its write-ahead log is copied too)."""
+    original, copy = sqlite3.connect(source), sqlite3.connect(path)
+    try:
+        original.backup(copy)
+    finally:
+        original.close()
+        copy.close()
+    return f"sqlite:///{path}"
+
+
+@pytest.fixture(params=BACKENDS)
+def head_db_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
+    """URL of a fresh database already migrated to head on each backend."""
+    if request.param == "sqlite":
+        yield copy_sqlite(request.getfixturevalue("sqlite_head_template"), tmp_path / "rig.db")
+        return
+    server: PostgresServer = request.getfixturevalue("postgres_server")
+    url = server.create_database(at_head=True)
     try:
         yield url
     finally:

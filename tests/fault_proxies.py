@@ -13,14 +13,7 @@ import time
 import tty
 
 #: What the serial proxy does with each line in one direction.
-MODES = ("pass", "drop", "corrupt", "garbage")
-
-
-def _corrupt(line: bytes) -> bytes:
-    """The same frame with a wrong CRC (the four hex digits before the line end)."""
-    body = line.rstrip(b"\r\n")
-    crc = b"0000" if body[-4:] != b"0000" else b"FFFF"
-    return body[:-4] + crc + b"\r\n"
+MODES = ("pass", "drop", "garbage")
 
 
 def _garbage(line: bytes) -> bytes:
@@ -104,9 +97,7 @@ class SerialFaultProxy:
                     self._write(self._master, _garbage(line))
         if mode == "drop":
             return
-        if mode == "corrupt":
-            line = _corrupt(line)
-        elif mode == "garbage":
+        if mode == "garbage":
             line = _garbage(line)
         self._write(self._up if from_host else self._master, line)
 

@@ -56,6 +56,7 @@ class PostgresServer:
     bin_dir: Path | None = None
     run_as: list[str] = field(default_factory=list)
     _engine: sa.Engine | None = None
+    _head_template: str | None = None
 
     def url(self, database: str) -> str:
         """SQLAlchemy URL of ``database`` on this server."""
@@ -66,12 +67,25 @@ class PostgresServer:
             self._engine = sa.create_engine(self.admin_url, isolation_level="AUTOCOMMIT")
         return self._engine
 
-    def create_database(self, prefix: str = "towrig_test") -> str:
-        """Create an empty database; returns its URL."""
+    def create_database(self, prefix: str = "towrig_test", *, at_head: bool = False) -> str:
+        """Create an empty database (``at_head``: a copy of one migrated to the newest
+        revision, ``CREATE DATABASE … TEMPLATE``); returns its URL."""
         name = f"{prefix}_{uuid.uuid4().hex[:12]}"
+        template = self._head() if at_head else "template0"
         with self._admin().connect() as conn:
-            conn.exec_driver_sql(f'CREATE DATABASE "{name}" TEMPLATE template0')
+            conn.exec_driver_sql(f'CREATE DATABASE "{name}" TEMPLATE "{template}"')
         return self.url(name)
+
+    def _head(self) -> str:
+        """The name of this server's database migrated to head, made on first use (a
+        template must have no connections while it is copied: the store is closed)."""
+        if self._head_template is None:
+            from daq.store import Store
+
+            url = self.create_database("towrig_head")
+            Store(url).close()
+            self._head_template = str(sa.make_url(url).database)
+        return self._head_template
 
     def drop_database(self, url: str) -> None:
         """Drop the database of ``url`` (closing its connections)."""
@@ -81,6 +95,10 @@ class PostgresServer:
 
     def stop(self) -> None:
         """Stop the server (if this object started it) and remove its folder."""
+        ours = self.base_dir is not None and self.bin_dir is not None
+        if not ours and self._head_template is not None:  # on a server that stays up
+            self.drop_database(self.url(self._head_template))
+        self._head_template = None  # (ours goes with its cluster)
         if self._engine is not None:
             self._engine.dispose()
         if self.base_dir is None or self.bin_dir is None:

@@ -17,6 +17,7 @@ import pytest
 
 from api.core.service import RigService
 from tests.api.conftest import fast_pendulum_service, signed_in_page
+from tests.cli import run_in_process
 from tests.procedures.test_pendulum import fast_rig_file
 from tests.serve import stop_service, wait_healthy
 
@@ -61,9 +62,10 @@ def serve(tmp_path_factory):
         token = (tmp / "towrig" / "api-token").read_text().strip()
         assert not any(token in line for line in lines), lines  # never in its output
         port = lines[0].split()[2].rstrip("/").rsplit(":", 1)[1]
-        link = subprocess.run(  # the link, printed only when asked for
-            [*cmd, "token", "--link", "--port", port], env=env, capture_output=True, text=True
-        ).stdout.strip()
+        # the link, printed only when asked for (a light command: in this process, tests/cli.py)
+        asked = run_in_process(["token", "--link", "--port", port], cwd=ROOT, env=env)
+        assert asked.returncode == 0, asked.stderr
+        link = asked.stdout.strip()
         service = Serve(proc, lines, token, link)
         wait_healthy(proc, service.url, (tmp / "stderr.txt").read_text, timeout_s=20)
         yield service

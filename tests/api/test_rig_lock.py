@@ -1,7 +1,8 @@
 """One rig, one driver across processes: while the service drives the rig, a ``rig tow`` or
 a second ``rig serve`` (real subprocesses) on the same rig file is refused in one line that
 names the holder, whatever database each records to, and the service's run goes on
-undisturbed to ``completed``. On SQLite and PostgreSQL.
+undisturbed to ``completed``. On SQLite and PostgreSQL (the refused ``rig serve`` process on
+SQLite: the host lock that refuses it is taken first whatever the database).
 
 The rig file says hardware and points at a simulated rig running in this process (a
 simulated rig file would start a simulator of its own in each process: no shared device).
@@ -138,13 +139,6 @@ def test_two_services_cannot_drive_one_rig_whatever_their_databases(db_url, rig_
             second.start()
         second.stop()
         assert first.running and first.session.rig_lock.held
-
-        served = _rig("serve", "--port", "0", "--rig", str(rig_file), "--db", db_url,
-                      "--no-realtime")  # fmt: skip
-        assert served.returncode == 1, served.stdout + served.stderr
-        lines = served.stderr.strip().splitlines()
-        assert len(lines) == 1 and _refusal("rig serve").fullmatch(lines[0]), served.stderr
-        assert "rig service: http" not in served.stdout  # nothing announced
     finally:
         first.stop()
     # Stopping gives the rig back: the next service opens it.
@@ -154,6 +148,25 @@ def test_two_services_cannot_drive_one_rig_whatever_their_databases(db_url, rig_
         assert third.running
     finally:
         third.stop()
+
+
+def test_a_second_rig_serve_is_refused_in_one_line_announcing_nothing(rig_file, tmp_path):
+    """The ``rig serve`` process on SQLite only: a second process on this host is refused by
+    the host lock, taken before the PostgreSQL part whatever the database
+    (``daq.rig_lock``); the services above meet the lease on both backends."""
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    first = RigService(RigSource.load(rig_file), db, owner="rig serve")
+    first.start()
+    try:
+        served = _rig("serve", "--port", "0", "--rig", str(rig_file), "--db", db,
+                      "--no-realtime")  # fmt: skip
+        assert served.returncode == 1, served.stdout + served.stderr
+        lines = served.stderr.strip().splitlines()
+        assert len(lines) == 1 and _refusal("rig serve").fullmatch(lines[0]), served.stderr
+        assert "rig service: http" not in served.stdout  # nothing announced
+        assert first.running and first.session.rig_lock.held
+    finally:
+        first.stop()
 
 
 def test_a_lost_lock_ends_the_service_job_and_frees_the_rig(rig_file, postgres_server):

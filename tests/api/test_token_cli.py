@@ -49,27 +49,37 @@ def test_rig_serve_is_a_command_with_safe_defaults():
     assert "--open-read" in result.output and "--cors-origin" in result.output
 
 
-def test_rig_serve_never_prints_the_token_only_where_to_find_it(tmp_path, monkeypatch):
-    """Its output lands in service logs: the address, the token file and 'rig token'."""
+def test_rig_serve_banner_names_what_it_serves_never_the_token_and_ctrl_c_stops_it(
+    tmp_path, monkeypatch
+):
+    """One ``rig serve`` process, as a person runs it. Its output lands in service logs: the
+    address, the rig file, the scenario and the database (a password masked), where the
+    token is and 'rig token', never the token. Ctrl-C (SIGINT) stops it with exit 0 and a
+    line saying the rig was left safe, not 'error: interrupted'."""
     env = os.environ | {"XDG_DATA_HOME": str(tmp_path), "PYTHONUNBUFFERED": "1"}
     env.pop("RIG_API_TOKEN", None)
     env["RIG_SPILL_DIR"] = str(tmp_path / "spill")
+    db = f"sqlite:///{tmp_path}/lab.db"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "api.cli.serve", "--port", "0"],
-        cwd=ROOT,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+        [sys.executable, "-m", "api.cli.serve", "--port", "0", "--db", db],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
     try:
-        first = proc.stdout.readline()
-        assert first.startswith("rig service: http://127.0.0.1:"), first + proc.stderr.read()
-        url = first.split()[2]
+        lines = [proc.stdout.readline() for _ in range(3)]
+        assert lines[0].startswith("rig service: http://127.0.0.1:"), lines
+        url = lines[0].split()[2]
         wait_healthy(proc, url, proc.stderr.read, timeout_s=30)
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(30)
     finally:
         stop_service(proc)
-    output = first + proc.stdout.read() + proc.stderr.read()  # (it has exited)
+    assert lines[1].startswith("rig file: the default (BENBAM); scenario: the default")
+    assert lines[2].strip() == f"database: {db}"
+    errors = proc.stderr.read()
+    assert code == 0, errors
+    assert "error:" not in errors and "rig service stopped: thrusters at zero" in errors
+
+    output = "".join(lines) + proc.stdout.read() + errors  # (it has exited)
     secret = (tmp_path / "towrig" / "api-token").read_text().strip()
     assert len(secret) >= 32 and secret not in output, output
     assert "#token=" not in output and "rig token --link" in output, output
@@ -84,29 +94,3 @@ def test_rig_token_link_carries_the_token_for_the_browser(tmp_path, monkeypatch)
     monkeypatch.setenv("RIG_API_TOKEN", "a/b+c")
     result = CliRunner().invoke(main, ["token", "--link"])
     assert result.output.strip() == "http://127.0.0.1:8000/#token=a%2Fb%2Bc"
-
-
-def test_rig_serve_says_what_it_serves_and_ctrl_c_is_a_normal_stop(tmp_path):
-    """The banner names the rig file, the scenario and the database (a password masked);
-    Ctrl-C (SIGINT) stops it with exit 0 and a line saying the rig was left safe, not
-    'error: interrupted'."""
-    env = os.environ | {"XDG_DATA_HOME": str(tmp_path), "PYTHONUNBUFFERED": "1"}
-    env["RIG_SPILL_DIR"] = str(tmp_path / "spill")
-    db = f"sqlite:///{tmp_path}/lab.db"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "api.cli.serve", "--port", "0", "--db", db],
-        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        lines = [proc.stdout.readline() for _ in range(3)]
-        url = lines[0].split()[2]
-        wait_healthy(proc, url, proc.stderr.read, timeout_s=30)
-        proc.send_signal(signal.SIGINT)
-        code = proc.wait(30)
-    finally:
-        stop_service(proc)
-    assert lines[1].startswith("rig file: the default (BENBAM); scenario: the default")
-    assert lines[2].strip() == f"database: {db}"
-    errors = proc.stderr.read()
-    assert code == 0, errors
-    assert "error:" not in errors and "rig service stopped: thrusters at zero" in errors

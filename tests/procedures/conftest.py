@@ -10,6 +10,7 @@ import pytest
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from tests.conftest import copy_sqlite
 from tests.simrig import rig_session
 from tests.waiting import until
 
@@ -48,8 +49,9 @@ async def until_thrust_on(session: RigSession, *, timeout_s: float) -> None:
 
 
 @pytest.fixture
-def store(tmp_path):
-    s = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+def store(tmp_path, sqlite_head_template):
+    """An open Store on a fresh SQLite database (at head: tests/conftest.py)."""
+    s = Store(copy_sqlite(sqlite_head_template, tmp_path / "rig.db"))
     yield s
     s.close()
 

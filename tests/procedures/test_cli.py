@@ -18,6 +18,7 @@ import xarray as xr
 
 from daq.store import Store
 from tests.cli import run_in_process
+from tests.conftest import copy_sqlite
 from tests.waiting import wait_until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -46,6 +47,27 @@ def rig(
 @pytest.fixture
 def db(tmp_path) -> str:
     return f"sqlite:///{tmp_path / 'rig.db'}"
+
+
+#: The tow the store's commands are tried on (exported, shown, imported back, estimated).
+RECORDED_TOW = ("tow", "--force", "44.1", "--max-time", "2", "--baseline", "0.5", "--json")
+
+
+@pytest.fixture(scope="module")
+def recorded_tow(tmp_path_factory) -> tuple[Path, str]:
+    """A database holding one tow recorded by a real ``rig tow`` subprocess, and its run id:
+    recorded once for the module, each test works on its own copy (``db_with_tow``)."""
+    path = tmp_path_factory.mktemp("recorded") / "rig.db"
+    result = rig(*RECORDED_TOW, db=f"sqlite:///{path}")
+    assert result.returncode == 0, result.stderr
+    return path, json.loads(result.stdout)["run_id"]
+
+
+@pytest.fixture
+def db_with_tow(recorded_tow, db) -> tuple[str, str]:
+    """``db`` holding a copy of the recorded tow, and the tow's run id."""
+    source, run_id = recorded_tow
+    return copy_sqlite(source, Path(db.removeprefix("sqlite:///"))), run_id
 
 
 def _wait_for_samples(db: str, count: int, timeout: float = 20) -> str:
@@ -159,10 +181,8 @@ def test_a_signal_aborts_the_run_cleanly_and_records_the_brake(db, sig):
         assert last is not None and last.channels["tow_release"] == 0
 
 
-def test_runs_show_export_import_round_trip(db, tmp_path):
-    result = rig("tow", "--force", "44.1", "--max-time", "2", "--baseline", "0.3", "--json", db=db)
-    assert result.returncode == 0, result.stderr
-    run_id = json.loads(result.stdout)["run_id"]
+def test_runs_show_export_import_round_trip(db_with_tow, tmp_path):
+    db, run_id = db_with_tow
     listed = json.loads(rig("runs", "--json", db=db).stdout)
     assert [r["id"] for r in listed] == [run_id]
     shown = json.loads(rig("show", run_id[:8], "--json", db=db).stdout)
@@ -219,13 +239,11 @@ def _estimate(run_id: str, db: str) -> dict:
 
 
 @pytest.mark.slow
-def test_an_export_imported_back_estimates_the_same_coefficients(db, tmp_path):
+def test_an_export_imported_back_estimates_the_same_coefficients(db_with_tow, tmp_path):
     """Through the real CLI: a simulated-rig tow, exported, imported as a lab's file would
     be (no events: its tow_release/end_of_travel columns carry the window) and estimated."""
-    recorded = rig("tow", "--force", "44.1", "--max-time", "2", "--baseline", "0.5", db=db)
-    assert recorded.returncode == 0, recorded.stderr
+    db, run_id = db_with_tow
     with Store(db) as store:
-        run_id = store.list_runs()[0].id
         hung = store.get_run(run_id).parameters["hung_mass_kg"]
     csv_path = tmp_path / "tow.csv"
     assert rig("export", run_id, "-o", str(csv_path), db=db).returncode == 0

@@ -185,7 +185,7 @@ def test_a_sequence_can_hold_pendulum_steps(source):
 @pytest.mark.slow  # `rig` subprocesses on the real stack: the slow lane
 def test_cli_runs_a_decay_and_refuses_bad_input(tmp_path):
     db = f"sqlite:///{tmp_path / 'rig.db'}"
-    bad = rig("pendulum", "--angle", "0.9", db=db)
+    bad = rig("pendulum", "--angle", "0.9", db=db, refused=True)  # while parsing: in process
     assert bad.returncode == 2 and "--angle: 0.9 is not allowed" in bad.stderr
     rig_file = str(fast_rig_file(tmp_path))
     done = rig(

@@ -5,6 +5,12 @@ simulated rig's, reached through fault-injecting proxies: a pty↔pty proxy on t
 serial line and a TCP proxy in front of the PLC. Each fault hits once the thrust is on; the
 controller's own outputs (the emulator's) must be zero within 0.5 s, the run aborted with a
 reason naming the fault, every sample acquired stored, and the CLI must exit 1 with its JSON.
+
+One fault per way the link is lost end to end: replies missing (the host's timeouts), the
+controller hearing nothing or only noise (its watchdog too), noise where replies were, the
+PLC gone, the simulator killed. Replies with a bad CRC end the same way as missing ones once
+the driver has counted them: that count is tested over a real pty in process
+(tests/thrusters/test_thruster_driver_emulator.py, link lost after bad replies).
 """
 
 from __future__ import annotations
@@ -169,7 +175,6 @@ def _thrust(raw: bytes) -> bool:
 
 FAULTS = {
     "replies dropped": {"to_host": "drop"},
-    "replies corrupted": {"to_host": "corrupt"},
     "controller silent": {"to_host": "drop", "to_controller": "drop"},
     "garbage both ways": {"to_host": "garbage", "to_controller": "garbage"},
     "PLC lost": None,
@@ -178,8 +183,6 @@ FAULTS = {
 REASONS = {
     "replies dropped": f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "
     "(no reply within ack_timeout_s)",
-    "replies corrupted": f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "
-    "(bad CRC)",
     "controller silent": f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "
     "(no reply within ack_timeout_s)",
     "garbage both ways": f"thruster link lost: {LINK_LOST_AFTER} consecutive replies missing "

@@ -22,6 +22,12 @@ pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README,
 CHILD = Path(__file__).with_name("thruster_child.py")
 
 
+#: The child-process tests (signals, SIGKILL) on the serial line only: how a process ends
+#: is the process's, and the frames it sends on the way are the ones this module's
+#: in-process tests prove on both transports. (The atexit fallback writes raw bytes: both.)
+ON_THE_SERIAL_LINE = pytest.mark.parametrize("served", ["pty"], indirect=True)
+
+
 @pytest.fixture(params=["pty", "socket"])
 async def served(request) -> AsyncIterator[tuple[ThrusterControllerEmulator, str]]:
     seen: list[tuple[float, list[float]]] = []
@@ -144,6 +150,7 @@ async def _watchdog_tripped(emu: ThrusterControllerEmulator) -> None:
     await until(lambda: emu.state == "WDT", "the controller's watchdog tripping", timeout_s=2)
 
 
+@ON_THE_SERIAL_LINE
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 async def test_signal_zeroes_and_acks_before_the_process_exits(served, sig) -> None:
     emu, url = served
@@ -160,6 +167,7 @@ async def test_signal_zeroes_and_acks_before_the_process_exits(served, sig) -> N
     assert emu.stats.watchdog_trips == 0, "zeroed by the driver, not by the watchdog"
 
 
+@ON_THE_SERIAL_LINE
 async def test_sigkill_leaves_it_to_the_controller_watchdog(served) -> None:
     emu, url = served
     proc = await _start_child(url, "signals")
