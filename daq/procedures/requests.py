@@ -25,6 +25,12 @@ from pydantic import (
 )
 
 from daq.procedures import params as p
+from daq.procedures.calibration_request import (
+    MAX_CALIBRATION_COMMANDS,
+    THRUST_SWEEP_DEFAULT,
+    CalibrationRequest,
+    calibration_parameters,
+)
 from daq.procedures.params import ParameterError
 from daq.procedures.request_base import (
     Baseline,
@@ -45,6 +51,8 @@ if TYPE_CHECKING:
     from daq.config import RigConfig
 
 __all__ = [
+    "MAX_CALIBRATION_COMMANDS",
+    "THRUST_SWEEP_DEFAULT",
     "CalibrationRequest",
     "Flag",
     "PendulumRequest",
@@ -59,11 +67,6 @@ __all__ = [
     "spin_parameters",
     "tow_parameters",
 ]
-
-THRUST_SWEEP_DEFAULT = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
-#: Most command steps one calibration may sweep (each is held ``settle_s`` plus samples,
-#: up and down, both directions): longer sweeps are split into several calibrations.
-MAX_CALIBRATION_COMMANDS = 50
 
 
 class TowRequest(_SignedLoad):
@@ -295,98 +298,7 @@ class PendulumRequest(_ProcedureRequest):
         return value if rig is None else p.max_time(value, rig, ", rig limit max_run_s")
 
 
-_SWEEP = ",".join(f"{c:g}" for c in THRUST_SWEEP_DEFAULT[:2]) + f",...,{THRUST_SWEEP_DEFAULT[-1]:g}"
-
-
-class CalibrationRequest(_ProcedureRequest):
-    """A thrust calibration sweep (commands as fractions of full thrust)."""
-
-    commands: Annotated[
-        list[float] | None,
-        Field(
-            title="Commands (fractions, comma separated)",
-            max_length=MAX_CALIBRATION_COMMANDS,
-            description=f"Command fractions, 0 ≤ c ≤ the rig's max_thruster_command, at most "
-            f"{MAX_CALIBRATION_COMMANDS} (default {_SWEEP}); swept up then down, then reversed.",
-        ),
-        Flag("--commands", metavar="LIST", parse=comma_separated_floats),
-    ] = None
-    settle_s: Annotated[
-        float, Field(title="Settle (s)", description="Settling time per step, s."), Flag("--settle")
-    ] = 1.0
-    samples_per_step: Annotated[
-        int,
-        Field(title="Samples per step", description="Samples averaged per step."),
-        Flag("--samples"),
-    ] = 10
-    tare_samples: Annotated[
-        int,
-        Field(title="Tare samples", description="Samples averaged for the load cell's zero."),
-        Flag("--tare-samples"),
-    ] = 20
-    reverse: Annotated[
-        bool,
-        Field(title="also reverse thrust", description="Also sweep the thrusters in reverse."),
-        Flag("--no-reverse", False, "Forward sweep only."),
-    ] = True
-
-    kind: ClassVar[RunKind] = RunKind.THRUST_CALIBRATION
-
-    @property
-    def sweep(self) -> list[float]:
-        """Commands in the order applied: up then down (and the same for reverse)."""
-        up = sorted(set(self.commands or ()))
-        order = up + up[-2::-1]
-        if self.reverse:
-            neg = [-c for c in up if c > 0]
-            order += neg + neg[-2::-1] + [0.0]
-        return order
-
-    def to_json(self) -> dict[str, Any]:
-        return super().to_json() | {"commands": list(self.commands or ()), "sweep": self.sweep}
-
-    @field_validator("commands")
-    @classmethod
-    def _commands(cls, value: list[float] | None, info: ValidationInfo) -> Any:
-        rig = rig_of(info)
-        if rig is None:
-            return value
-        cmax = rig.limits.max_thruster_command
-        commands = list(THRUST_SWEEP_DEFAULT) if value is None else value
-        if not commands:
-            raise ParameterError(
-                [("commands", commands, f"a non-empty list of fractions 0 ≤ c ≤ {cmax:g}")]
-            )
-        good: list[float] = []
-        problems: list[p.Problem] = []
-        for i, command in enumerate(commands):
-            try:
-                good.append(_command(f"commands[{i}]", command, cmax))
-            except ParameterError as err:
-                problems += err.problems
-        if problems:
-            raise ParameterError(problems)
-        return sorted(good if 0.0 in good else [*good, 0.0])
-
-    @field_validator("settle_s", "samples_per_step", "tare_samples")
-    @classmethod
-    def _steps(cls, value: float, info: ValidationInfo) -> float:
-        if rig_of(info) is None:
-            return value
-        name = str(info.field_name)
-        if name == "settle_s":
-            return p.in_range(name, value, low=0, high=30, unit="s", low_inclusive=True)
-        return int(p.in_range(name, value, low=1, high=1000, unit="samples", low_inclusive=True))
-
-
-def _command(name: str, value: float, most: float) -> float:
-    """One command of a sweep: a fraction 0 … the rig's ``max_thruster_command``."""
-    unit, why = "(fraction of full thrust)", ", rig limit max_thruster_command"
-    return p.in_range(name, value, low=0, high=most, unit=unit, low_inclusive=True, why_high=why)
-
-
 #: A request (the fields given) checked against the rig → the procedure's parameters.
 tow_parameters = TowRequest.checked
 spin_parameters = SpinRequest.checked
-calibration_parameters = CalibrationRequest.checked
 pendulum_parameters = PendulumRequest.checked

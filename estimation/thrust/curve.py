@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq, least_squares
 
+from estimation.thrust import MIN_POINTS_PER_SIDE
+
 #: Physical bounds of the parameters (gain_f, dead_f, exp_f, gain_r, dead_r, exp_r,
 #: hysteresis): gains > 0, dead bands ≥ 0, exponents 0.2 … 3. The fit narrows the dead
 #: bands and the hysteresis to the commands' span; parameter draws stay inside these.
@@ -166,10 +168,11 @@ def fit_thrust_curve(
         raise ValueError(f"force: got shape {f.shape} vs command {u.shape}, allowed: same 1-D")
     if not (np.all(np.isfinite(u)) and np.all(np.isfinite(f))):
         raise ValueError("command/force: got NaN/inf, allowed: finite values")
-    if np.count_nonzero(u > 0) < 4 or np.count_nonzero(u < 0) < 4:
+    forward, reverse = np.count_nonzero(u > 0), np.count_nonzero(u < 0)
+    if min(forward, reverse) < MIN_POINTS_PER_SIDE:
         raise ValueError(
-            f"command: got {np.count_nonzero(u > 0)} forward and {np.count_nonzero(u < 0)} "
-            "reverse points, allowed: at least 4 on each side"
+            f"command: got {forward} forward and {reverse} reverse points, "
+            f"allowed: at least {MIN_POINTS_PER_SIDE} on each side"
         )
     s = np.zeros_like(u) if directions is None else sweep_signs(u, directions)
     kf, df, pf = _side_guess(u[u > 0], f[u > 0])

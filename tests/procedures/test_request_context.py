@@ -66,8 +66,8 @@ def test_cross_field_rules_read_the_other_fields_and_the_rig():
         PendulumRequest.checked({"start_angle_rad": 0.2}, plain)
     reverse = TowRequest.checked({"force_n": -24.5}, RIG)
     assert reverse.max_distance_m == pytest.approx(RIG.geometry.reverse_travel)
-    sweep = CalibrationRequest.checked({"commands": [0.4, 0.2]}, RIG)
-    assert sweep.commands == [0.0, 0.2, 0.4] and sweep.sweep[:3] == [0.0, 0.2, 0.4]
+    sweep = CalibrationRequest.checked({"commands": [0.4, 0.2, 0.6]}, RIG)
+    assert sweep.commands == [0.0, 0.2, 0.4, 0.6] and sweep.sweep[:4] == [0.0, 0.2, 0.4, 0.6]
 
 
 def test_the_json_schema_of_every_rig_kind_is_its_request_and_nothing_derived():
@@ -76,3 +76,16 @@ def test_the_json_schema_of_every_rig_kind_is_its_request_and_nothing_derived():
         props = spec.request.model_json_schema()["properties"]
         assert "hung_mass_kg" not in props and "requested" not in props and "kind" not in props
         assert "metadata" in props
+
+
+@pytest.mark.parametrize(
+    ("raw", "field"),
+    [({"reverse": False}, "reverse"), ({"commands": [0.2, 0.4]}, "commands")],
+)
+def test_a_sweep_the_per_side_curve_could_not_fit_is_refused_before_it_runs(raw, field):
+    """The curve needs ``MIN_POINTS_PER_SIDE`` points per side: a forward-only sweep, or two
+    commands (three points a side), used to run the whole sweep and then fail in the fit."""
+    with pytest.raises(ParameterError) as caught:
+        CalibrationRequest.checked(raw, RIG)
+    assert [p[0] for p in caught.value.problems] == [field]
+    assert CalibrationRequest.checked({"commands": [0.2, 0.4, 0.6]}, RIG).reverse

@@ -95,7 +95,12 @@ async def test_controller_silent_mid_calibration_aborts_it_and_the_thrust_ends(s
     the controller's outputs are zero by its own watchdog (it hears nothing, the host's zero
     included), all in simulated time: each unanswered frame costs the reply timeout."""
     params = calibration_parameters(
-        {"commands": [0.0, 0.3, 0.6], "settle_s": 2.0, "samples_per_step": 3, "tare_samples": 5},
+        {
+            "commands": [0.0, 0.2, 0.4, 0.6],
+            "settle_s": 2.0,
+            "samples_per_step": 3,
+            "tare_samples": 5,
+        },
         session.rig,
     )
     task = asyncio.create_task(run_thrust_calibration(session, params))
