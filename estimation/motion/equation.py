@@ -10,7 +10,9 @@ hold: each step takes the drive's exact mean over its span) or absent (a free de
 Parameter sets are rows (S) and records columns (R) of every array, so a finite-difference
 Jacobian costs one vectorized integration. RK4 with a fixed step ``h`` (chosen by the caller
 from the sample period and the dynamics, see ``stable_step``); the state at the samples is
-read off the step grid by cubic Hermite interpolation.
+read off the step grid by cubic Hermite interpolation. The step loop runs compiled
+(``kernel.step_grid``: the same arithmetic, 10–25× less CPU); a term whose regressor has no
+compiled form steps in NumPy here (``_numpy_grid``), with the same result.
 
 Dry friction (a set-valued term) is integrated exactly as the pendulum's own simulator did:
 within a step its force is constant, −F_c·sign of the motion at the step's start; a step in
@@ -31,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.motion.kernel import step_grid
 from estimation.motion.terms import Regressor, Term
 
 #: A trajectory beyond this multiple of the record's range is a diverged trial: frozen.
@@ -262,6 +265,29 @@ def integrate(
     for i, tr in enumerate(tracks):
         if tr.drive is not None:
             drive_steps[:, i] = _mean_drive(tr, h, n_steps)
+    compiled = step_grid(
+        x0, v0, drive_steps[:-1, None, :], inv, forces, True, h, n_steps, limit, GUARD_EVERY
+    )
+    if compiled is not None:
+        xs, vs, frozen_any = compiled
+    else:
+        xs, vs, frozen_any = _numpy_grid(
+            x0, v0, drive_steps, inv, forces, smooth, held, h, n_steps, limit
+        )
+    if frozen_any:  # the steps before the guard saw it
+        xs = np.clip(np.nan_to_num(xs), -limit, limit)
+        vs = np.where(np.isfinite(vs), vs, 0.0)
+    out = []
+    for i, tr in enumerate(tracks):
+        tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))
+        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
+    return out
+
+
+def _numpy_grid(x0, v0, drive_steps, inv, forces, smooth, held, h, n_steps, limit):
+    """``integrate``'s step grid in NumPy, for terms the compiled loop has no form for
+    (``kernel.py``): the same steps and guard."""
+    n_sets, n_tracks = x0.shape
     xs = np.empty((n_steps, n_sets, n_tracks))
     vs = np.empty((n_steps, n_sets, n_tracks))
     x, v = x0.astype(float).copy(), v0.astype(float).copy()
@@ -291,11 +317,4 @@ def integrate(
                     x = np.where(frozen, np.clip(np.nan_to_num(x), -limit, limit), x)
                     v = np.where(frozen, 0.0, v)
             xs[k], vs[k] = x, v
-    if frozen.any():  # the steps before the guard saw it
-        xs = np.clip(np.nan_to_num(xs), -limit, limit)
-        vs = np.where(np.isfinite(vs), vs, 0.0)
-    out = []
-    for i, tr in enumerate(tracks):
-        tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))
-        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
-    return out
+    return xs, vs, bool(frozen.any())
