@@ -65,7 +65,7 @@ def form_of(term: Term) -> Form | None:
     try:
         with np.errstate(all="ignore"):
             phi = np.broadcast_to(np.asarray(term.phi(x, v), dtype=float), x.shape)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, ArithmeticError):
         return None
     if not np.all(np.isfinite(phi)):
         return None
@@ -110,8 +110,8 @@ def step_grid(
     ``x0``/``v0``/``inv_inertia`` (S, R); ``drive`` broadcasts to (K − 1, S, R) (the force
     held over each step); ``forces``: the force terms in the order they are summed (the
     set-valued ones are dry friction: held in the acceleration, or stepped exactly with
-    ``exact_friction``); ``limit`` (R,): where a
-    state counts as diverged (with ``freeze_every``)."""
+    ``exact_friction``); ``limit`` (R,): where a state counts as diverged (checked every
+    ``freeze_every`` steps); ``nan_stop_every``: see ``compiled.py``."""
     shape = np.shape(x0)
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
     forms = forms_of([c.term for c in smooth])
