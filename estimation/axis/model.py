@@ -19,6 +19,7 @@ import numpy as np
 
 from estimation.data.runs import RunData
 from estimation.motion.equation import Coefficient, accelerator, hermite
+from estimation.motion.kernel import step_grid
 from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Term
 from estimation.stats.quantization import encoder_step
 
@@ -243,9 +244,41 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
         ) / h
 
     inv_inertia = 1.0 / inertia
+    grid = step_grid(
+        np.zeros((n_sets, n_runs)),
+        np.zeros((n_sets, n_runs)),
+        step_force,
+        inv_inertia,
+        forces,
+        False,
+        h,
+        n_steps,
+        nan_stop_every=NAN_CHECK_EVERY,
+    )
+    if grid is not None:
+        xs, vs, _ = grid
+    else:
+        xs, vs = _numpy_grid(step_force, const_force, bool(varying), inv_inertia, forces, h)
+    out = []
+    for i, r in enumerate(runs):
+        tau = np.maximum(r.t[None, :] - r.t_release - delay[:, None], 0.0)
+        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
+    return out
 
+
+def _numpy_grid(
+    step_force: np.ndarray,
+    const_force: np.ndarray,
+    varying: bool,
+    inv_inertia: np.ndarray,
+    forces: Sequence[Coefficient],
+    h: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``_simulate_ode``'s step grid in NumPy, for terms the compiled loop has no form for
+    (``estimation.motion.kernel``): the same steps."""
+    n_steps = step_force.shape[0] + 1
+    n_sets, n_runs = inv_inertia.shape
     accel = accelerator(forces, inv_inertia, (n_sets, n_runs))
-
     xs = np.zeros((n_steps, n_sets, n_runs))
     vs = np.zeros((n_steps, n_sets, n_runs))
     x = np.zeros((n_sets, n_runs))
@@ -266,11 +299,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
         if k % NAN_CHECK_EVERY == 0 and np.isnan(v).all() and np.isnan(x).all():
             xs[k + 1 :] = vs[k + 1 :] = np.nan  # NaN stays NaN in every later step
             break
-    out = []
-    for i, r in enumerate(runs):
-        tau = np.maximum(r.t[None, :] - r.t_release - delay[:, None], 0.0)
-        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
-    return out
+    return xs, vs
 
 
 #: A simulated position beyond this multiple of the measured travel is a diverged trial.

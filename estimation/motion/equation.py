@@ -12,7 +12,9 @@ middle (the exact mean over the step of a linear one).
 Parameter sets are rows (S) and records columns (R) of every array, so a finite-difference
 Jacobian costs one vectorized integration. RK4 with a fixed step ``h`` (chosen by the caller
 from the sample period and the dynamics, see ``stable_step``); the state at the samples is
-read off the step grid by cubic Hermite interpolation.
+read off the step grid by cubic Hermite interpolation. The step loop runs compiled
+(``kernel.step_grid``: the same arithmetic, 10–25× less CPU); a term whose regressor has no
+compiled form steps in NumPy here (``_numpy_grid``), with the same result.
 
 Dry friction (a set-valued term) is integrated exactly as the pendulum's own simulator did:
 within a step its force is constant, −F_c·sign of the motion at the step's start; a step in
@@ -33,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.motion.kernel import step_grid
 from estimation.motion.terms import Regressor, Term
 
 #: A trajectory beyond this multiple of the record's range is a diverged trial: frozen.
@@ -247,7 +250,6 @@ def integrate(
     span = max(float(tr.tau[-1]) for tr in tracks)
     n_steps = max(int(np.ceil(span / h)) + 2, 3)
     forces = [c for c in coefficients if c.term.role == "force"]
-    ramps = [c for c in coefficients if c.term.role == "time"]
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
     held = None
     for c in forces:
@@ -265,6 +267,38 @@ def integrate(
     for i, tr in enumerate(tracks):
         if tr.drive is not None:
             drive_steps[:, i] = _mean_drive(tr, h, n_steps)
+    drive = drive_steps[:-1, None, :]  # (K − 1, 1, R): the force held over each step
+    middles = (np.arange(1, n_steps) - 0.5) * h
+    zeros = np.zeros_like(middles)
+    for c in coefficients:
+        if c.term.role == "time":  # a force of time: its value at the step's middle (the
+            # exact mean of a linear one), like the held drive's mean over the step
+            ramp = c.term.regressor(zeros, zeros, zeros, 0.0, middles)
+            drive = drive + np.asarray(c.value)[None, :, :] * ramp[:, None, None]
+    compiled = step_grid(x0, v0, drive, inv, forces, True, h, n_steps, limit, GUARD_EVERY)
+    if compiled is not None:
+        xs, vs, frozen_any = compiled
+    else:
+        xs, vs, frozen_any = _numpy_grid(
+            x0, v0, drive, inv, forces, smooth, held, h, n_steps, limit
+        )
+    if frozen_any:  # the steps before the guard saw it: x and ẋ both held within the
+        # limit's own scale (|ẋ| ≤ limit/h), else the Hermite read-off carries a velocity of
+        # 1e90 (a softening restoring escapes in finite time, within GUARD_EVERY steps) into
+        # the misfit and the fit's trust region overflows
+        xs = np.clip(np.nan_to_num(xs), -limit, limit)
+        vs = np.clip(np.nan_to_num(vs), -limit / h, limit / h)
+    out = []
+    for i, tr in enumerate(tracks):
+        tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))
+        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
+    return out
+
+
+def _numpy_grid(x0, v0, drive, inv, forces, smooth, held, h, n_steps, limit):
+    """``integrate``'s step grid in NumPy, for terms the compiled loop has no form for
+    (``kernel.py``): the same steps and guard."""
+    n_sets, n_tracks = x0.shape
     xs = np.empty((n_steps, n_sets, n_tracks))
     vs = np.empty((n_steps, n_sets, n_tracks))
     x, v = x0.astype(float).copy(), v0.astype(float).copy()
@@ -272,15 +306,9 @@ def integrate(
     frozen = np.zeros_like(x, dtype=bool)
     half = 0.5 * h
     accel = accelerator(forces, inv, x.shape)
-    zero_state = np.zeros(1)
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(1, n_steps):
-            f = drive_steps[k - 1][None, :]
-            for c in ramps:  # a force of time: its value at the step's middle (exact mean
-                # for a linear one), like the held drive's mean over the step
-                f = f + c.value * c.term.regressor(
-                    zero_state, zero_state, zero_state, 0.0, np.full(1, (k - 0.5) * h)
-                )
+            f = drive[k - 1]
             if held is not None:
                 x, v = _friction_step(x, v, f, inv, smooth, np.abs(held), h)
                 x, v = np.broadcast_arrays(x, v)
@@ -300,14 +328,4 @@ def integrate(
                     x = np.where(frozen, np.clip(np.nan_to_num(x), -limit, limit), x)
                     v = np.where(frozen, 0.0, v)
             xs[k], vs[k] = x, v
-    if frozen.any():  # the steps before the guard saw it: x and ẋ both held within the
-        # limit's own scale (|ẋ| ≤ limit/h), else the Hermite read-off carries a velocity of
-        # 1e90 (a softening restoring escapes in finite time, within GUARD_EVERY steps) into
-        # the misfit and the fit's trust region overflows
-        xs = np.clip(np.nan_to_num(xs), -limit, limit)
-        vs = np.clip(np.nan_to_num(vs), -limit / h, limit / h)
-    out = []
-    for i, tr in enumerate(tracks):
-        tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))
-        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
-    return out
+    return xs, vs, bool(frozen.any())

@@ -23,7 +23,6 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import savgol_filter
 
 from estimation.errors import EstimationFailed
 from estimation.motion.equation import Coefficient, Track, integrate, stable_step
@@ -32,6 +31,7 @@ from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics
 from estimation.stats.identify import honest_statistics
 from estimation.stats.quantization import encoder_step
+from estimation.stats.smoothing import savgol
 
 SAVGOL_WINDOW = 7
 
@@ -76,8 +76,8 @@ def _smoothed(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if w < 5:
         d1 = np.gradient(x, t)
         return d1, np.gradient(d1, t)
-    d1 = savgol_filter(y, w, 2, deriv=1, delta=dt)
-    d2 = savgol_filter(y, w, 2, deriv=2, delta=dt)
+    d1 = savgol(y, w, 2, deriv=1, delta=dt)
+    d2 = savgol(y, w, 2, deriv=2, delta=dt)
     return np.interp(t, grid, d1), np.interp(t, grid, d2)
 
 

@@ -8,8 +8,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
 from scipy.stats import chi2
+
+from estimation.stats.smoothing import savgol
 
 
 @dataclass(frozen=True)
@@ -50,8 +51,8 @@ def smoothed_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.n
         d1 = np.gradient(y, t) if t.size > 1 else np.zeros_like(y)
         return d1, np.gradient(d1, t) if t.size > 1 else np.zeros_like(y)
     yy = np.interp(grid, t, y)
-    d1 = savgol_filter(yy, 7, 2, deriv=1, delta=dt)
-    d2 = savgol_filter(yy, 7, 2, deriv=2, delta=dt)
+    d1 = savgol(yy, 7, 2, deriv=1, delta=dt)
+    d2 = savgol(yy, 7, 2, deriv=2, delta=dt)
     return np.interp(t, grid, d1), np.interp(t, grid, d2)
 
 
