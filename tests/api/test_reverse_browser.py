@@ -52,6 +52,10 @@ def test_the_reverse_button_starts_the_reverse_tow(chromium, client, service):
         expect(page.locator("#est-reverse code")).to_have_text("rig tow --force -83.3")
         button.click()
         expect(page.locator("#est-reverse-status")).to_contain_text("started: tow -83.3 N")
+        # the event stream may report the estimation's completion after the poll did: that
+        # late report must not redraw the result and clear what the user started from it
+        page.evaluate("async () => onJobEvent(await api('GET', `/api/jobs/${estimationJobId}`))")
+        expect(page.locator("#est-reverse-status")).to_contain_text("started: tow -83.3 N")
 
     jobs = client.get("/api/jobs", headers=AUTH).json()
     reverse = next(j for j in jobs if j["label"].startswith("tow -83.3"))

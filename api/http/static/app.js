@@ -675,10 +675,16 @@ async function pollEstimation(jobId) {
   }
 }
 
+// The job whose result is drawn: the poll and the event stream both report its completion,
+// and a late second report must not redraw it (that would clear what the user started from it,
+// e.g. the reverse button's status).
+let estimationDrawn = null;
+
 function showEstimationJob(job) {
   if (job.id !== estimationJobId) return;
   $("#est-status").innerHTML = `<span class="state ${job.state}" id="est-state">${job.state}</span> ${esc(job.progress.message)}`;
-  if (job.state !== "completed" || !job.outcome) return;
+  if (job.state !== "completed" || !job.outcome || estimationDrawn === job.id) return;
+  estimationDrawn = job.id;
   renderEstimation(job.outcome);
 }
 
