@@ -12,7 +12,7 @@ revision, copied from a database migrated once per session (SQLite's backup, Pos
 (running every migration again costs 0.1-0.2 s a test).
 
 Lanes and workers (pyproject.toml): ``pytest`` runs the fast lane (``-m 'not slow'``) on
-two xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled by module
+three xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled by module
 (``--dist loadscope``), so module-scoped fixtures (recorded runs, servers) are built once.
 
 Simulated time: a test or module marked ``simtime`` runs its async fixtures and tests on

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import gc
 import time
 
 import pytest
 import serial
 from pymodbus.client import ModbusTcpClient
 
+from daq.collector import hold_full_collections
 from daq.config import load_rig
 from daq.registers import decode
 from daq.sim.rig import SimulatedRigThread
@@ -44,10 +46,17 @@ def test_thread_runner_serves_modbus_and_thrusters_on_the_stand():
             stand = RIG.channel("sim_thrust_stand")
             assert not client.write_coil(stand.address, True, device_id=1).isError()
             idle = read_load_cell(client)
-            assert send(line, protocol.arm_frame(1)).kind == "ACK"
-            for seq in range(2, 7):  # 0.6 s of thrust = 4 lag time constants
-                assert send(line, protocol.thr_frame(seq, [500, 500])).kind == "ACK"
-                time.sleep(0.12)  # paced like a host, each frame within the 0.4 s watchdog
+            # this test is the host: like the driver (daq.collector), no full collection
+            # while armed, whose pause in a loaded worker would miss the 0.4 s watchdog
+            gc.collect()
+            hold_full_collections(True)
+            try:
+                assert send(line, protocol.arm_frame(1)).kind == "ACK"
+                for seq in range(2, 7):  # 0.6 s of thrust = 4 lag time constants
+                    assert send(line, protocol.thr_frame(seq, [500, 500])).kind == "ACK"
+                    time.sleep(0.12)  # paced like a host, each frame within the watchdog
+            finally:
+                hold_full_collections(False)
             thrust = read_load_cell(client) - idle
             expected = 2 * sim.plant.static_thrust_n(0.5, sim.plant.loaded_voltage_v())
             assert thrust == pytest.approx(expected, rel=0.08)
