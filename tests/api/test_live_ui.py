@@ -188,6 +188,10 @@ def test_chosen_channels_are_plotted_live_with_units_and_kept(chromium, client, 
             f"() => ({final})(document.querySelector('#job-state'))", timeout=40_000
         )
         assert page.text_content("#job-state") == "completed", page.text_content("#job-panel")
+        # a stale report of the job still running (a status poll answered before its end,
+        # read after the stream's final event) does not bring the panel back
+        page.evaluate("() => showJob({ ...state.job, state: 'running' })")
+        assert page.text_content("#job-state") == "completed"
 
         page.reload()  # the choice for pendulum tests is kept
         expect(page.locator("#live-kind")).to_have_text("pendulum")

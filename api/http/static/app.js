@@ -225,6 +225,10 @@ function setCapabilities(caps) {
 function showJob(job) {
   if (!job) return;
   if (job.kind === "estimation") return showEstimationJob(job);
+  // a job never leaves a final state: a report of it still running that arrives after its
+  // end (a status poll answered before the end, read after the stream's final event) is stale
+  const ended = state.job && state.job.id === job.id && FINAL.includes(state.job.state);
+  if (ended && !FINAL.includes(job.state)) return;
   state.job = job;
   const pct = Math.round(100 * (job.progress.fraction || 0));
   const act = job.operator_act;
