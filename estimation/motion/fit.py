@@ -28,12 +28,10 @@ from estimation.errors import EstimationFailed
 from estimation.motion.equation import Coefficient, Track, integrate, stable_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY
+from estimation.stats.diagnostics import smoothed_derivatives
 from estimation.stats.fit import FitStatistics
 from estimation.stats.identify import honest_statistics
 from estimation.stats.quantization import encoder_step
-from estimation.stats.smoothing import savgol
-
-SAVGOL_WINDOW = 7
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -63,22 +61,9 @@ DERIVATIVES_KEPT = 8  # records of one estimate; each entry holds its t and x (a
 
 @lru_cache(maxsize=DERIVATIVES_KEPT)
 def _derivatives(t_bytes: bytes, x_bytes: bytes) -> tuple[np.ndarray, np.ndarray]:
-    d1, d2 = _smoothed(np.frombuffer(t_bytes), np.frombuffer(x_bytes))
+    d1, d2 = smoothed_derivatives(np.frombuffer(t_bytes), np.frombuffer(x_bytes))
     d1.flags.writeable = d2.flags.writeable = False
     return d1, d2
-
-
-def _smoothed(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    dt = float(np.median(np.diff(t)))
-    grid = np.arange(t[0], t[-1] + 0.5 * dt, dt)
-    y = np.interp(grid, t, x)
-    w = min(SAVGOL_WINDOW, grid.size - (1 - grid.size % 2))
-    if w < 5:
-        d1 = np.gradient(x, t)
-        return d1, np.gradient(d1, t)
-    d1 = savgol(y, w, 2, deriv=1, delta=dt)
-    d2 = savgol(y, w, 2, deriv=2, delta=dt)
-    return np.interp(t, grid, d1), np.interp(t, grid, d2)
 
 
 def names_of(setup: Setup, effects: Sequence[str]) -> tuple[str, ...]:

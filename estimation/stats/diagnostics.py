@@ -12,6 +12,8 @@ from scipy.stats import chi2
 
 from estimation.stats.smoothing import savgol
 
+SAVGOL_WINDOW = 7  # samples of the derivative filter
+
 
 @dataclass(frozen=True)
 class Whiteness:
@@ -43,16 +45,20 @@ def smoothed_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.n
     """First and second time derivative of samples y(t) at the sample times.
 
     Resampled to a uniform grid (irregular timestamps would otherwise read as noise),
-    smoothed by a 7-point Savitzky–Golay filter and mapped back.
+    smoothed by a quadratic Savitzky–Golay filter of ``SAVGOL_WINDOW`` points (the largest
+    odd window the grid holds, at least 5; else finite differences) and mapped back.
     """
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.1
+    if t.size < 2:
+        return np.zeros_like(y), np.zeros_like(y)
+    dt = float(np.median(np.diff(t)))
     grid = np.arange(t[0], t[-1] + 0.5 * dt, dt)
-    if grid.size < 7:
-        d1 = np.gradient(y, t) if t.size > 1 else np.zeros_like(y)
-        return d1, np.gradient(d1, t) if t.size > 1 else np.zeros_like(y)
+    w = min(SAVGOL_WINDOW, grid.size - (1 - grid.size % 2))
+    if w < 5:
+        d1 = np.gradient(y, t)
+        return d1, np.gradient(d1, t)
     yy = np.interp(grid, t, y)
-    d1 = savgol(yy, 7, 2, deriv=1, delta=dt)
-    d2 = savgol(yy, 7, 2, deriv=2, delta=dt)
+    d1 = savgol(yy, w, 2, deriv=1, delta=dt)
+    d2 = savgol(yy, w, 2, deriv=2, delta=dt)
     return np.interp(t, grid, d1), np.interp(t, grid, d2)
 
 
