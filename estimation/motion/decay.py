@@ -24,6 +24,7 @@ import numpy as np
 from estimation.blas import one_blas_thread
 from estimation.errors import EstimationFailed
 from estimation.motion.envelope import FreeWindow, centre, free_decay_end
+from estimation.motion.equivalent import EquivalentDamping, damping_over_swings, equivalent_damping
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
@@ -87,7 +88,18 @@ class DecayResult:
     #: Per rival of a kept term: the final model with the rival in its place (its
     #: coefficients, and its BIC minus the final's).
     alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
+    #: B_e over the swings the records cover (``motion.equivalent``).
+    equivalent: tuple[EquivalentDamping, ...] = ()
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
+
+    def equivalent_damping(self, amplitude: float) -> EquivalentDamping | None:
+        """B_e at ``amplitude`` (m or rad) at the natural frequency (``motion.equivalent``);
+        None without a fit or a period."""
+        if self.fit is None or self.natural_period_s is None:
+            return None
+        known = {n: c.value for n, c in self.known.items() if n != "inertia"}
+        omega = 2 * np.pi / self.natural_period_s
+        return equivalent_damping(self.fit, known, self.dof, amplitude, omega)
 
     def to_json(self) -> dict[str, Any]:
         """The result document (docs/estimation.md, *Free decay*)."""
@@ -117,6 +129,7 @@ class DecayResult:
             },
             "coefficients_possibly_biased": self.possibly_biased,
             "natural_period_s": finite_or_none(self.natural_period_s),
+            "equivalent_linear_damping": [e.to_json() for e in self.equivalent],
             "warnings": list(self.warnings),
             "evidence": [s.to_json() for s in self.steps],
             "equilibrium": finite_values(self.equilibrium),
@@ -233,7 +246,10 @@ def estimate_records(
         except EstimationFailed:
             continue
         alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
-    return replace(result, alternatives=alternatives, window=ends)
+    equivalent = damping_over_swings(
+        final, known, dof, result.natural_period_s, [r.t for r in windowed]
+    )
+    return replace(result, alternatives=alternatives, window=ends, equivalent=equivalent)
 
 
 def _end(record: Record, start: float, given: float | None) -> FreeWindow:

@@ -92,6 +92,12 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         )
     if result.natural_period_s is not None:
         lines.append(f"Natural period {result.natural_period_s:.4g} s.")
+    if result.equivalent:
+        lines += ["", "| amplitude | equivalent linear damping B_e | σ |", "|---|---|---|"]
+        for e in result.equivalent:
+            std = "not identified" if e.std is None else f"{e.std:.3g}"
+            lines.append(f"| {e.amplitude:.4g} {unit} | {e.value:.4g} {e.unit} | {std} |")
+        lines.append("")
     if result.possibly_biased:
         lines.append("**The coefficients may be biased**: the residual is not white.")
     lines += ["", "## Evidence", "", "| term | round | ΔBIC | explained RMS | kept | reason |"]

@@ -33,6 +33,7 @@ DOFS: dict[str, bool] = {
     "pitch": True,
     "yaw": True,
 }
+EQUIVALENT_SAMPLES = 4096  # phases per cycle of ``Term.equivalent_damping`` (midpoint rule)
 STANDARD_GRAVITY = 9.80665  # m/s², scales the drive_inertia term (k·|τ|/g)
 
 Regressor = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -149,6 +150,20 @@ class Term:
         if self.start_value is not None:
             return self.start_value
         return self.start_share * self.typical(force, x, v, a, weight, tau)
+
+    def equivalent_damping(self, amplitude: float, omega: float) -> float:
+        """Equivalent linear damping per unit coefficient at ``amplitude`` (m or rad) and
+        ``omega`` (rad/s): the energy the term takes out of x = a·cos ωt over one cycle,
+        E = −∮ φ(x, ẋ)·ẋ dt, divided by what a unit linear damping takes, π·a²·ω
+        (harmonic balance; ITTC 7.5-02-07-04.5's B_e): 1 for linear damping,
+        8/(3π)·ω·a for quadratic, 3/4·ω²·a² for cubic drag, 4/(π·ω·a) for dry friction,
+        0 for a restoring term and for terms that are not forces of the motion."""
+        if self.role != "force" or amplitude <= 0 or omega <= 0:
+            return 0.0
+        phase = (np.arange(EQUIVALENT_SAMPLES) + 0.5) * (2 * np.pi / EQUIVALENT_SAMPLES)
+        x, v = amplitude * np.cos(phase), -amplitude * omega * np.sin(phase)
+        work = float(np.mean(self.phi(x, v) * v)) * (2 * np.pi / omega)
+        return -work / (np.pi * amplitude**2 * omega)
 
     def in_bounds(self, value: float) -> bool:
         """Whether ``value`` lies within the hard bounds."""

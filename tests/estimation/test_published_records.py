@@ -25,16 +25,22 @@ def _csv(folder: str, name: str) -> pd.DataFrame:
     return pd.read_csv(shared_file("real", folder, name))
 
 
-def _be5(b1: float, b2: float, total: float) -> float:
-    """Be5 = B1 + 8/(3π)·ω0·φa·B2 at φa = 5°."""
-    return b1 + 8 / (3 * np.pi) * np.sqrt(C44 / total) * np.deg2rad(5) * b2
+def _be5(result) -> float:
+    """Be5: the equivalent linear damping at φa = 5° (the authors': B1 + 8/(3π)·ω0·φa·B2;
+    the result's sums every kept damping term the same way, ``motion.equivalent``)."""
+    return result.equivalent_damping(np.deg2rad(5)).value
 
 
 #: The authors' model: A44·φ̈ + B1·φ̇ + B2·|φ̇|·φ̇ + C44(φ) = 0, with C44(φ) hardening
 #: (our cubic stiffness), and for run 21340 a linear trend in φ removed (our equilibrium
-#: drift; the search keeps it there, not on the runs at rest). A published coefficient is
-#: compared within its own model.
-PUBLISHED_MODEL = ("quadratic_damping", "cubic_stiffness", "equilibrium_drift")
+#: drift; the search keeps it there, not on the runs at rest), and the library's term for a
+#: loss per half-cycle that does not depend on amplitude (dry friction): run 21338's swings
+#: below 4° lose 0.008–0.013° per half-cycle more than the published B1, B2 give, at every
+#: amplitude alike (docs/estimation.md); the search keeps it on that run only. A published
+#: coefficient is compared within its own model.
+PUBLISHED_MODEL = ("quadratic_damping", "cubic_stiffness", "equilibrium_drift", "coulomb_friction")
+#: Where the data separate dry friction from B2 (the 10° → 1.1° decay), and where not.
+KEEPS_FRICTION = {"21337": False, "21338": True, "21340": False}
 #: Where each run's free decay ends (envelope.free_decay_end): 21340's carriage stops at
 #: ≈ 57 s and a half-cycle then loses 5× the amplitude of the one before; the runs at rest
 #: decay freely to their ends (largest departure from passivity 1.9σ and 2.1σ).
@@ -73,8 +79,9 @@ def test_kvlcc2_roll_decay_in_the_published_model(run):
     # the amplitude-dependent period: a stiffness term explains it, or it is flagged
     assert "cubic_stiffness" in r.effects or r.possibly_biased
     assert "quadratic_damping" in r.effects
-    be5 = _be5(c["linear_damping"].value, c["quadratic_damping"].value, I44 + c["inertia"].value)
-    assert be5 == pytest.approx(PUBLISHED[run][2], rel=0.10)
+    assert ("coulomb_friction" in r.effects) is KEEPS_FRICTION[run], r.steps
+    assert ("quadratic_damping", "coulomb_friction") not in r.ambiguous or not KEEPS_FRICTION[run]
+    assert _be5(r) == pytest.approx(PUBLISHED[run][2], rel=0.10)
     # a B2 beyond 25 % and beyond its own 2σ of the published value is never silent
     b2, published = c["quadratic_damping"], PUBLISHED[run][1]
     off = abs(b2.value - published) > max(0.25 * published, 2 * (b2.std or np.inf))
@@ -86,38 +93,18 @@ def test_kvlcc2_roll_decay_in_the_published_model(run):
             assert any(w.startswith(f"{name} = ") for w in r.warnings), r.warnings
 
 
-@pytest.mark.parametrize(
-    "run",
-    [
-        "21337",
-        pytest.param(
-            "21338",
-            marks=(
-                pytest.mark.slow,
-                pytest.mark.xfail(
-                    strict=True,
-                    reason="B2 8.5 ± 1.3 over the whole 10°→1.1° decay; its damping below "
-                    "≈ 2.5° is about twice what the published B1 + B2 law gives (see below)",
-                ),
-            ),
-        ),
-        pytest.param("21340", marks=pytest.mark.slow),
-    ],
-)
+@pytest.mark.parametrize("run", _RUNS)
 def test_kvlcc2_quadratic_damping_within_25_percent_of_the_published(run):
     """B2 within 25 % of the published value, or — where one decay cannot separate B2 from
     B1 that well — the published value inside the result's own 2σ interval, and that
     interval wider than ±25 % (21340 at 15.5 kn: the lift's linear damping dominates,
     B2 6.99 ± 2.6 against the published 5.1).
 
-    Known gap, strict (21338): the run is a free decay to its end by the passivity rule
-    and its smallest swing, 1.1°, is 110 quantization steps, yet the log decrement per
-    half-cycle rises again from 0.012 at 2.5–3° to 0.015–0.021 at 1.1–2.3° (the published
-    B1, B2 give 0.0055–0.0085 there): one B1 + B2 law cannot follow 10° to 1.1°, the fit
-    over it lowers B2 and raises B1 (1.95), and the result says so (coefficients possibly
-    biased). Fitted with ``t_end`` 40 / 70.75 / 90 / 120 s the same run gives B2 16.8 /
-    15.5 / 13.5 / 11.7 (B1 0.0 / 0.32 / 0.85 / 1.27): the published fit presumably read the
-    larger swings only, and choosing a window to match it would be tuning to the answer."""
+    Run 21338 decays from 10° to 1.1° over 190 s: below 4° its swings lose a nearly
+    constant 0.008–0.013° per half-cycle more than the published B1 + B2 law gives, the
+    signature of a loss that does not depend on amplitude. Without the library's dry
+    friction the fit over the whole run lowers B2 to 8.5 and raises B1 to 1.95; with it
+    (kept by the rivals rule on the effective sample size, ``motion.search``) B2 is 14.6."""
     r = _published_model(run)
     c = r.coefficients["quadratic_damping"]
     published = PUBLISHED[run][1]
