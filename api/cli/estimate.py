@@ -123,6 +123,7 @@ def summary_lines(data: dict) -> list[str]:
             f"  RMSE before {data['rmse_before']:.3g} {unit}, after {data['rmse_after']:.3g} {unit}"
         )
     lines += [_window_line(run_id, w) for run_id, w in (data.get("windows") or {}).items()]
+    lines += _equivalent_lines(data.get("equivalent_linear_damping") or [])
     if data.get("budget"):
         lines += [f"  {line}" for line in budget_lines(data["budget"], data.get("repeats"))]
     lines += _theory_lines(data.get("theory"))
@@ -142,6 +143,15 @@ def _method_lines(methods: list[dict], units: dict[str, str]) -> list[str]:
         e = "" if m.get("mse") is None else f"  e {m['mse']:.3g}"
         lines.append(f"  {m['method']:<22} {m['run_id'][:8]:<10} {values}{e}")
     return lines
+
+
+def _equivalent_lines(rows: list[dict]) -> list[str]:
+    """A decay's equivalent linear damping B_e at the amplitudes its swings cover."""
+    if not rows:
+        return []
+    unit = rows[0]["unit"]
+    shown = ", ".join(f"{plus_minus(r)} at {r['amplitude']:.3g}" for r in rows)
+    return [f"  equivalent linear damping B_e ({unit}) by amplitude: {shown}"]
 
 
 def _window_line(run_id: str, w: dict) -> str:
