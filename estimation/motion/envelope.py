@@ -25,6 +25,15 @@ reading the extrema with the record's noise σ gives (L: three extrema with weig
 p = 3·10⁻⁷ per half-cycle, ≈ 10⁻⁴ over the few hundred half-cycles of a long record.
 The window then ends at the extremum that starts the offending half-cycle.
 
+3. **Comes to rest**: from some sample on, the record stays within ``REST_SIGMAS``·σ of where
+   it ends for at least a full period (twice the median spacing of its turns). Dry friction
+   holds a body where a swing ends; a free oscillation of that period cannot stay still
+   that long unless its amplitude is below the noise. The window ends at the first sample
+   of the rest: what follows holds only where the body was held, and fitting it makes the
+   misfit jump with the swing on which the model sticks (a decay with quadratic damping and
+   dry friction, 40 % of its record at rest, converged with both coefficients 20 % low;
+   ending at the rest, within 0.6 %).
+
 Extrema are found with hysteresis: a turn counts once the record has come back from it by
 ``SWING_SIGMAS``·σ (10σ: n Gaussian samples range over about ±4σ for n ≈ 10⁴, so noise
 alone at rest makes no turn), and each is read by a parabola through the three samples
@@ -41,6 +50,7 @@ CHANGE_SIGMAS = 5.0  # a departure of the envelope from passivity beyond this is
 SWING_SIGMAS = 10.0  # a turn of the record counts once it has come back this many σ
 MAD_TO_SIGMA = 1.4826  # σ of a normal distribution per median absolute deviation
 MIN_HALF_CYCLES = 4  # fewer: no envelope to read, the whole record is kept
+REST_SIGMAS = 5.0  # within this many σ of the final position: at rest (±4σ: 10⁴ samples)
 
 
 @dataclass(frozen=True)
@@ -111,8 +121,8 @@ def free_decay_end(t: np.ndarray, x: np.ndarray, noise: float) -> FreeWindow:
     """Where the free decay in (t [s], x [m or rad]) from its release ends (module doc);
     ``noise``: the record's position σ. The record's last sample when nothing ends it."""
     t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
-    last = FreeWindow(float(t[-1]), "end of the record")
     when, e = extrema(t, x, SWING_SIGMAS * max(noise, 1e-300))
+    last = _rest(t, x, noise, when) or FreeWindow(float(t[-1]), "end of the record")
     h = np.abs(np.diff(e)) / 2
     if h.size < MIN_HALF_CYCLES:
         return last
@@ -135,3 +145,20 @@ def free_decay_end(t: np.ndarray, x: np.ndarray, noise: float) -> FreeWindow:
             )
             return FreeWindow(float(when[k + 1]), why)
     return last
+
+
+def _rest(t: np.ndarray, x: np.ndarray, noise: float, turns: np.ndarray) -> FreeWindow | None:
+    """Where the record comes to rest (rule 3 of the module doc), or None."""
+    if turns.size < 2 or noise <= 0:
+        return None
+    period = 2.0 * float(np.median(np.diff(turns)))
+    final = float(np.median(x[t >= t[-1] - period / 2]))
+    moving = np.nonzero(np.abs(x - final) > REST_SIGMAS * noise)[0]
+    first = int(moving[-1]) + 1 if moving.size else 0
+    if first >= t.size or t[-1] - t[first] < period:
+        return None
+    return FreeWindow(
+        float(t[first]),
+        f"the body came to rest at t = {t[first]:.3g} s: it stays within {REST_SIGMAS:g}σ of "
+        f"{final:.4g} for {t[-1] - t[first]:.3g} s, more than a period ({period:.3g} s)",
+    )
