@@ -29,6 +29,7 @@ from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
 
 TAU_C = 0.4  # N·m: dead band τ_c/k ≈ 6.5 mrad, 4τ_c/k ≈ 26 mrad off the swing per cycle
 GAMMA = 40.0  # kg/m
+KAPPA = 150.0  # N·s³/m³: at the 0.23 m/s peak ≈ 1.8 N, the size of GAMMA's 2.1 N
 
 
 @pytest.fixture(scope="module")
@@ -117,6 +118,59 @@ def test_quadratic_damping_is_found_not_dry_friction():
     assert result.rmse_after < result.rmse_before / 20
     eq = result.method_estimate("equation-error").quadratic_damping
     assert eq.value > 0
+    # cubic drag is tried too: it fits the same direction, so it is named, not also kept
+    assert result.ambiguous == (("quadratic_damping", "cubic_drag"),)
+    assert "cubic_drag" not in result.coefficients
+    assert any("quadratic_damping and cubic_drag" in a for a in result.advice)
+
+
+def _cubic_claim(result):
+    """The effects claimed and the cubic drag's estimate (None when not the one claim)."""
+    names = [e.name for e in result.effects]
+    return names, (result.coefficients["cubic_drag"] if names == ["cubic_drag"] else None)
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+def test_cubic_drag_is_found_and_names_quadratic_damping_its_rival(seed):
+    result = estimate_pendulum([decay(cubic_drag=KAPPA, seed=seed)])
+    names, kappa = _cubic_claim(result)
+    assert names == ["cubic_drag"]
+    # the issue's criterion (within 10 %) and an honest σ (the truth within 3σ)
+    _within(kappa, KAPPA, 0.10, 3)
+    _within(result.coefficients["added_mass"], ALPHA, 0.005)
+    _within(result.coefficients["linear_damping"], BETA, 0.01)
+    assert result.rmse_after < result.rmse_before / 20
+    # rivals: the quadratic law passes the rules alone but is beaten, named and not kept
+    assert result.ambiguous == (("cubic_drag", "quadratic_damping"),)
+    assert "quadratic_damping" not in result.coefficients
+    doc = result.to_json()
+    assert doc["units"]["cubic_drag"] == "N·s³/m³"
+    assert doc["effects"] == [
+        {"name": "cubic_drag", "value": kappa.value, "std": kappa.std, "unit": "N·s³/m³"}
+    ]
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+def test_clean_records_claim_no_effect(seed):
+    result = estimate_pendulum([decay(seed=seed)])
+    assert result.effects == () and result.ambiguous == ()
+    assert {s.term for s in result.steps} == {
+        "quadratic_damping", "coulomb_friction", "cubic_drag"
+    }  # fmt: skip
+
+
+@pytest.mark.slow
+def test_cubic_drag_and_clean_records_over_50_seeds():
+    """Clean data claim an effect in ≤ 2 % of 50 seeds (BIC's 150:1 odds and the
+    materiality rule together); a cubic drag is found in every seed within 10 %, its 2σ
+    interval covering the truth in ≥ 90 % (a Gaussian estimate's 2σ covers 95 %)."""
+    seeds = range(100, 150)
+    claims = sum(bool(estimate_pendulum([decay(seed=s)]).effects) for s in seeds)
+    assert claims <= 1
+    found = [_cubic_claim(estimate_pendulum([decay(cubic_drag=KAPPA, seed=s)])) for s in seeds]
+    assert all(names == ["cubic_drag"] for names, _ in found)
+    assert all(abs(k.value - KAPPA) <= 0.1 * KAPPA for _, k in found)
+    assert sum(abs(k.value - KAPPA) <= 2 * k.std for _, k in found) >= 45
 
 
 def test_two_amplitudes_fit_jointly_with_their_own_offsets():
