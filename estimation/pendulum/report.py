@@ -118,6 +118,10 @@ def _pm(est: dict | None) -> str:
     return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
 
 
+def _q(q: float | None) -> str:
+    return "—" if q is None else f"{q:.1f}"
+
+
 def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     """Coefficients ± σ (headline method, after the effects), effects, RMSE, warnings, runs."""
     doc = result.to_json()
@@ -174,13 +178,20 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}",
         "",
-        "| round | effect | ΔBIC | residual explained vs noise [rad] | kept | reason |",
-        "|---|---|---|---|---|---|",
+        "Whiteness is a verdict, not a rule of the search: a term is kept on ΔBIC, "
+        "identifiability and the residual it explains against the noise floor; each step's "
+        "Ljung–Box Q is evidence beside them (—: the search did not return that fit, "
+        "docs/pendulum.md).",
+        "",
+        "| round | effect | ΔBIC | residual explained vs noise [rad] | Ljung–Box Q | kept "
+        "| reason |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for s in result.steps:
+    for s, w in zip(result.steps, result.step_whiteness, strict=True):
         lines.append(
             f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
-            f"{s.noise:.2g} | {'yes' if s.accepted else 'no'} | {s.reason} |"
+            f"{s.noise:.2g} | {_q(w.q_before)} → {_q(w.q_after)} | "
+            f"{'yes' if s.accepted else 'no'} | {s.reason} |"
         )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]

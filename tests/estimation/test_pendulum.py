@@ -173,6 +173,59 @@ def test_cubic_drag_and_clean_records_over_50_seeds():
     assert sum(abs(k.value - KAPPA) <= 2 * k.std for _, k in found) >= 45
 
 
+def _steps(result, round_no=None):
+    steps = result.to_json()["evidence"]["steps"]
+    return [s for s in steps if round_no is None or s["round"] == round_no]
+
+
+def test_each_step_reports_the_ljung_box_q_of_the_fits_it_compares(dry):
+    doc = dry.to_json()
+    q_base = doc["diagnostics"]["ljung_box_before"]["q"]
+    q_final = doc["diagnostics"]["ljung_box_after"]["q"]
+    (kept,) = [s for s in _steps(dry) if s["accepted"]]
+    assert kept["effect"] == "coulomb_friction" and kept["round"] == 1
+    # the kept term's trial is the final model: the friction's signature leaves the residual
+    assert (kept["ljung_box_q_before"], kept["ljung_box_q_after"]) == (q_base, q_final)
+    assert q_final < q_base / 100
+    # every round-1 step is judged against the base, round 2 against the model that kept it
+    assert {s["ljung_box_q_before"] for s in _steps(dry, 1)} == {q_base}
+    assert _steps(dry, 2) and {s["ljung_box_q_before"] for s in _steps(dry, 2)} == {q_final}
+    # a candidate its linearised step screened out was never fitted: no Q after
+    for s in _steps(dry):
+        if s["reason"].startswith("not fitted"):
+            assert s["ljung_box_q_after"] is None
+
+
+def test_a_candidate_fitted_and_rejected_in_the_last_round_reports_its_trials_q():
+    # a quadratic drag 400× below GAMMA: fitted (its linearised step promises ΔBIC < 0)
+    result = estimate_pendulum([decay(gamma=0.1)])
+    fitted = [s for s in _steps(result) if not s["reason"].startswith("not fitted")]
+    assert fitted
+    for s in fitted:
+        assert s["ljung_box_q_before"] is not None and s["ljung_box_q_after"] is not None
+        assert s["ljung_box_q_after"] != s["ljung_box_q_before"]
+
+
+def test_two_kept_terms_leave_the_intermediate_models_q_unknown(tmp_path):
+    result = estimate_pendulum([decay(dry_friction=TAU_C, gamma=GAMMA)])
+    assert [e.name for e in result.effects] == ["coulomb_friction", "quadratic_damping"]
+    doc = result.to_json()
+    q_base = doc["diagnostics"]["ljung_box_before"]["q"]
+    q_final = doc["diagnostics"]["ljung_box_after"]["q"]
+    (first,) = [s for s in _steps(result, 1) if s["accepted"]]
+    (second,) = [s for s in _steps(result, 2) if s["effect"] == "quadratic_damping"]
+    (rival,) = [s for s in _steps(result, 2) if s["effect"] == "cubic_drag"]
+    # the model with friction alone is not returned by the search (and not refitted)
+    assert (first["ljung_box_q_before"], first["ljung_box_q_after"]) == (q_base, None)
+    assert (second["ljung_box_q_before"], second["ljung_box_q_after"]) == (None, q_final)
+    # the rival passed the rules but lost: its trial is not returned either
+    assert rival["accepted"] and rival["ljung_box_q_after"] is None
+    assert q_final < q_base / 100
+    write_pendulum_report(result, tmp_path)
+    text = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert f"| {q_base:.1f} → — |" in text and f"| — → {q_final:.1f} |" in text
+
+
 def test_two_amplitudes_fit_jointly_with_their_own_offsets():
     runs = [
         decay(dry_friction=TAU_C, amplitude=0.25, run_id="big", offset=0.002),
@@ -222,6 +275,9 @@ def test_result_document_and_report(dry, tmp_path):
     assert "coulomb_friction" in text and "log-decrement" in text
     assert text.index("## Summary") < text.index("## Figures") < text.index("## Methods")
     assert "effect `coulomb_friction`" in text.split("## Figures")[0]
+    assert "Whiteness is a verdict, not a rule of the search" in text
+    (kept,) = [s for s in doc["evidence"]["steps"] if s["accepted"]]
+    assert f"{kept['ljung_box_q_before']:.1f} → {kept['ljung_box_q_after']:.1f}" in text
     assert set(re.findall(r"\]\(([^)]+)\)", text)) == figures  # every figure linked
     with Image.open(tmp_path / "peaks.png") as img:
         assert img.width >= 1500
