@@ -143,6 +143,9 @@ def test_cubic_drag_is_found_and_names_quadratic_damping_its_rival(seed):
     # rivals: the quadratic law passes the rules alone but is beaten, named and not kept
     assert result.ambiguous == (("cubic_drag", "quadratic_damping"),)
     assert "quadratic_damping" not in result.coefficients
+    # the advice names an experiment a pendulum can do (not only a tow's higher force)
+    (advice,) = [a for a in result.advice if a.startswith("cubic_drag and quadratic_damping")]
+    assert "decay released from a clearly larger amplitude" in advice
     doc = result.to_json()
     assert doc["units"]["cubic_drag"] == "N·s³/m³"
     assert doc["effects"] == [
