@@ -46,19 +46,26 @@ def _q(fit: MotionFit | None) -> float | None:
     return None if fit is None else ljung_box(fit.residuals).q_statistic
 
 
+def chosen(step: Step, base: MotionFit, final: MotionFit) -> bool:
+    """Whether ``step`` is the one whose term its round added to the model (a step that
+    passed the rules can still lose to a better candidate or to its rival)."""
+    added = final.effects[len(base.effects) :]  # one per round that kept a term, in order
+    return step.round <= len(added) and added[step.round - 1] == step.term
+
+
 def step_whiteness(
     steps: Sequence[Step], base: MotionFit, final: MotionFit, rejected: Sequence[MotionFit]
 ) -> tuple[StepWhiteness, ...]:
     """Q before/after of each search step (module doc) from ``search_terms``'s results:
     the base fit, the final fit and ``rejected`` (the trials rejected in the last round)."""
-    chosen = final.effects[len(base.effects) :]  # one per round that kept a term, in order
-    model = {1: base, len(chosen) + 1: final}  # the current model of round r, where known
+    rounds = len(final.effects) - len(base.effects) + 1  # the last: nothing left to keep
+    model = {1: base, rounds: final}  # the current model of round r, where known
     last_trials = {e: t for t in rejected for e in t.effects if e not in final.effects}
     out = []
     for s in steps:
-        if s.round <= len(chosen) and chosen[s.round - 1] == s.term:
+        if chosen(s, base, final):
             after = model.get(s.round + 1)
-        elif s.round == len(chosen) + 1:
+        elif s.round == rounds:
             after = last_trials.get(s.term)
         else:
             after = None

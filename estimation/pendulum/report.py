@@ -29,6 +29,7 @@ from estimation.fit_report import (
 )
 from estimation.pendulum.configuration import unit
 from estimation.pendulum.estimate import PendulumResult
+from estimation.pendulum.evidence import chosen
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -188,10 +189,11 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         "|---|---|---|---|---|---|---|",
     ]
     for s, w in zip(result.steps, result.step_whiteness, strict=True):
+        kept = chosen(s, result.fit_before, result.fit_after)
+        verdict = "yes" if kept else "passed, not chosen" if s.accepted else "no"
         lines.append(
             f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
-            f"{s.noise:.2g} | {_q(w.q_before)} → {_q(w.q_after)} | "
-            f"{'yes' if s.accepted else 'no'} | {s.reason} |"
+            f"{s.noise:.2g} | {_q(w.q_before)} → {_q(w.q_after)} | {verdict} | {s.reason} |"
         )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]

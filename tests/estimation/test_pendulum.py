@@ -226,7 +226,8 @@ def test_two_kept_terms_leave_the_intermediate_models_q_unknown(tmp_path):
     assert q_final < q_base / 100
     write_pendulum_report(result, tmp_path)
     text = (tmp_path / "report.md").read_text(encoding="utf-8")
-    assert f"| {q_base:.1f} → — |" in text and f"| — → {q_final:.1f} |" in text
+    assert f"| {q_base:.1f} → — | yes |" in text and f"| — → {q_final:.1f} | yes |" in text
+    assert "| cubic_drag |" in text and "| — → — | passed, not chosen |" in text
 
 
 def test_two_amplitudes_fit_jointly_with_their_own_offsets():
