@@ -279,7 +279,8 @@ LIBRARY: dict[str, Term] = {
             "f = −K_C·ẋ³",
             ("N·s³/m³", "N·m·s³/rad³"),
             "steady-speed residual growing like ẋ³ (largest at the highest force)",
-            "a run at a clearly higher force (e.g. 1.5× the largest)",
+            "a run at a clearly higher force (e.g. 1.5× the largest), or a decay released "
+            "from a clearly larger amplitude (the laws part at the highest speed)",
             phi=lambda x, v: -(v**3),
             dphi_dv=lambda x, v: -3.0 * v**2,
             lower=0.0,

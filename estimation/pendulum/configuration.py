@@ -1,6 +1,6 @@
 """The pendulum as a configuration of the one equation of motion (``estimation.motion``).
 
-    (J_known + α·l²)·φ̈ = −k·sin φ − (β·l² + b)·φ̇ [− γ·l³·|φ̇|·φ̇] [− τ_c·sgn φ̇]
+    (J_known + α·l²)·φ̈ = −k·sin φ − (β·l² + b)·φ̇ [− γ·l³·|φ̇|·φ̇] [− κ·l⁴·φ̇³] [− τ_c·sgn φ̇]
 
 x = φ (rad), a rotation about the horizontal pivot. What the rig's geometry gives is known,
 per record (each run carries its own geometry, so runs on different rods fit jointly):
@@ -11,12 +11,13 @@ per record (each run carries its own geometry, so runs on different rods fit joi
 - the pivot's measured viscous torque b (a known part of ``linear_damping``).
 
 Identified: α (the identified inertia), β (``linear_damping``) and the library candidates
-γ (``quadratic_damping``) and τ_c (``coulomb_friction``). **Weights** (``Record.weights``):
-the vehicle sits at lever arm l and moves at l·φ̇, so a term of its hydrodynamics whose
-force grows like |ẋ|^(p−1)·ẋ (the entry's ``v_power`` p ≥ 1) exerts the moment
-θ·l^(p+1)·|φ̇|^(p−1)·φ̇ — weight l^(p+1) — and its inertia weighs l²; a term whose force does
-not grow with speed (dry friction, p = 0) is the pivot's own moment: weight 1. So α, β, γ
-keep the vehicle's translational units (kg, N·s/m, N·s²/m² = kg/m) and τ_c is in N·m.
+(``CANDIDATES``): γ (``quadratic_damping``), τ_c (``coulomb_friction``), κ (``cubic_drag``).
+**Weights** (``Record.weights``): the vehicle sits at lever arm l and moves at l·φ̇, so a
+term of its hydrodynamics whose force grows like |ẋ|^(p−1)·ẋ (the entry's ``v_power``
+p ≥ 1) exerts the moment θ·l^(p+1)·|φ̇|^(p−1)·φ̇ — weight l^(p+1) — and its inertia weighs
+l²; a term whose force does not grow with speed (dry friction, p = 0) is the pivot's own
+moment: weight 1. So α, β, γ, κ keep the vehicle's translational units (kg, N·s/m,
+N·s²/m² = kg/m, N·s³/m³) and τ_c is in N·m.
 """
 
 from __future__ import annotations
@@ -32,9 +33,22 @@ from estimation.pendulum.data import PendulumGeometry
 
 #: φ is a rotation (about the pivot): the equation's coefficients are per rad.
 PIVOT_DOF = "roll"
-#: Identified in every fit besides the inertia; the effect search's candidates.
+#: Identified in every fit besides the inertia.
 BASE_TERMS: tuple[str, ...] = ("linear_damping",)
-CANDIDATES: tuple[str, ...] = ("quadratic_damping", "coulomb_friction")
+#: The effect search's candidates, in library order (the earlier of two rivals is the
+#: conventional one): every force entry the geometry carries — the vehicle's damping, a
+#: force growing with speed (``v_power`` ≥ 1, weight l^(p+1)), and the pivot's dry friction
+#: (set-valued at rest, weight 1). Not tried: restoring terms (gravity's moment is known from
+#: the geometry, ``sine_restoring``), a constant moment (it only moves the equilibrium, which
+#: each run fits), terms of time, inertia or timing (a pendulum has no drive and no
+#: release delay to fit).
+CANDIDATES: tuple[str, ...] = tuple(
+    name
+    for name, entry in LIBRARY.items()
+    if name not in BASE_TERMS
+    and entry.role == "force"
+    and ((entry.v_power or 0) >= 1 or entry.set_valued_at_rest)
+)
 SETUP = Setup(PIVOT_DOF, terms=BASE_TERMS)
 #: The identified inertia's name in the equation and in the pendulum's result.
 INERTIA, ADDED_MASS = "inertia", "added_mass"

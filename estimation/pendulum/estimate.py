@@ -38,6 +38,7 @@ from estimation.pendulum.configuration import (
 )
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
 from estimation.pendulum.decay import Decay, Peaks, find_peaks, prepare_decay
+from estimation.pendulum.evidence import StepWhiteness, step_json, step_whiteness
 from estimation.pendulum.methods import (
     MethodEstimate,
     damped_fit,
@@ -81,6 +82,8 @@ class PendulumResult:
     whiteness_before: Whiteness
     whiteness_after: Whiteness
     steps: tuple[Step, ...]
+    #: Ljung–Box Q before/after each of ``steps`` (``evidence``): a verdict, not a rule
+    step_whiteness: tuple[StepWhiteness, ...]
     warnings: tuple[str, ...]
     advice: tuple[str, ...]
     geometry: dict[str, dict[str, float]]
@@ -131,7 +134,9 @@ class PendulumResult:
             "evidence": {
                 "bic_before": finite_or_none(self.fit_before.bic),
                 "bic_after": finite_or_none(self.fit_after.bic),
-                "steps": [_step_json(s) for s in self.steps],
+                "steps": [
+                    step_json(s, w) for s, w in zip(self.steps, self.step_whiteness, strict=True)
+                ],
             },
             "nuisance": {
                 rid: {
@@ -153,22 +158,6 @@ class PendulumResult:
 def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
     """Validate runs for a joint fit; returns their common swing axis."""
     return validate_run_set(runs, validate_pendulum_run, "pendulum run", "one swing axis per fit")
-
-
-def _step_json(s: Step) -> dict[str, Any]:
-    """One search step in the documented keys (docs/pendulum.md, *evidence*)."""
-    doc = s.to_json()
-    return {
-        "round": doc["round"],
-        "effect": doc["term"],
-        "delta_bic": doc["delta_bic"],
-        "ljung_box_q_before": None,  # not a rule of the search: see diagnostics
-        "ljung_box_q_after": None,
-        "explained_rms": doc["explained_rms"],
-        "noise": doc["noise"],
-        "accepted": doc["accepted"],
-        "reason": doc["reason"],
-    }
 
 
 def _coefficients(fit: MotionFit) -> dict[str, Estimate]:
@@ -288,9 +277,10 @@ def estimate_pendulum(
     base = fit_pendulum(records, (), np.concatenate([start, offsets, phi0, 0.0 * phi0]))
     final, advice = base, []
     steps: tuple[Step, ...] = ()
+    rejected: tuple[MotionFit, ...] = ()
     ambiguous: tuple[tuple[str, ...], ...] = ()
     if search:
-        final, steps, _, rivals = search_terms(records, SETUP, base, CANDIDATES)
+        final, steps, rejected, rivals = search_terms(records, SETUP, base, CANDIDATES)
         ambiguous = tuple(rivals)
         advice = [
             f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separated_by}; "
@@ -332,6 +322,7 @@ def estimate_pendulum(
         whiteness_before=white_before,
         whiteness_after=white_after,
         steps=tuple(steps),
+        step_whiteness=step_whiteness(steps, base, final, rejected),
         warnings=tuple(warnings),
         advice=tuple(advice),
         geometry={r.run_id: asdict(r.geometry) for r in runs},

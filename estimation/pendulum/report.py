@@ -29,6 +29,7 @@ from estimation.fit_report import (
 )
 from estimation.pendulum.configuration import unit
 from estimation.pendulum.estimate import PendulumResult
+from estimation.pendulum.evidence import chosen
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -118,6 +119,10 @@ def _pm(est: dict | None) -> str:
     return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
 
 
+def _q(q: float | None) -> str:
+    return "—" if q is None else f"{q:.1f}"
+
+
 def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     """Coefficients ± σ (headline method, after the effects), effects, RMSE, warnings, runs."""
     doc = result.to_json()
@@ -174,13 +179,21 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}",
         "",
-        "| round | effect | ΔBIC | residual explained vs noise [rad] | kept | reason |",
-        "|---|---|---|---|---|---|",
+        "Whiteness is a verdict, not a rule of the search: a term is kept on ΔBIC, "
+        "identifiability and the residual it explains against the noise floor; each step's "
+        "Ljung–Box Q is evidence beside them (—: the search did not return that fit, "
+        "docs/pendulum.md).",
+        "",
+        "| round | effect | ΔBIC | residual explained vs noise [rad] | Ljung–Box Q | kept "
+        "| reason |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for s in result.steps:
+    for s, w in zip(result.steps, result.step_whiteness, strict=True):
+        kept = chosen(s, result.fit_before, result.fit_after)
+        verdict = "yes" if kept else "passed, not chosen" if s.accepted else "no"
         lines.append(
             f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
-            f"{s.noise:.2g} | {'yes' if s.accepted else 'no'} | {s.reason} |"
+            f"{s.noise:.2g} | {_q(w.q_before)} → {_q(w.q_after)} | {verdict} | {s.reason} |"
         )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]

@@ -3,7 +3,7 @@
 solve_ivp (RK45, tight tolerances) of
 
     (J_t + m_z·l² + J_v + α·l²)·φ̈ = −[(m_z − ρV)·l + m_t·r]·g·sin φ − (β·l² + b)·φ̇
-                                     − γ·l³·|φ̇|·φ̇ − τ_c·sgn φ̇
+                                     − γ·l³·|φ̇|·φ̇ − κ·l⁴·φ̇³ − τ_c·sgn φ̇
 
 integrated half-swing by half-swing: an event at φ̇ = 0 ends each one; the pendulum sticks
 there for good when |k·sin φ| ≤ τ_c. Sampled at 10 Hz, encoder-quantized, with noise.
@@ -39,6 +39,7 @@ def decay(
     alpha: float = ALPHA,
     beta: float = BETA,
     gamma: float = 0.0,
+    cubic_drag: float = 0.0,
     dry_friction: float = 0.0,
     amplitude: float = 0.25,
     duration: float = 40.0,
@@ -49,13 +50,15 @@ def decay(
     run_id: str = "p1",
     t_release: float = 1.0,
 ) -> PendulumRun:
-    """One run: held at ``amplitude`` for ``t_release`` s, then released."""
+    """One run: held at ``amplitude`` for ``t_release`` s, then released; ``gamma`` (kg/m)
+    and ``cubic_drag`` (κ, N·s³/m³) are the vehicle's, at lever arm l."""
     g = geometry
     arm = g.pivot_to_vehicle_m
     inertia = g.known_inertia() + alpha * arm**2
     k = g.restoring_stiffness()
     c = beta * arm**2 + g.pivot_damping_nm_s
     q = gamma * arm**3
+    cube = cubic_drag * arm**4
     t_end = t_release + duration
     times, angles = [np.array([t_release])], [np.array([amplitude])]
     state, t0 = np.array([amplitude, 0.0]), t_release
@@ -67,7 +70,7 @@ def decay(
 
         def rhs(_t, y, sign=sign):
             return [y[1], (-k * np.sin(y[0]) - c * y[1] - q * abs(y[1]) * y[1]
-                           - dry_friction * sign) / inertia]  # fmt: skip
+                           - cube * y[1] ** 3 - dry_friction * sign) / inertia]  # fmt: skip
 
         def turn(_t, y):
             return y[1]

@@ -29,6 +29,7 @@ from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
 
 TAU_C = 0.4  # N·m: dead band τ_c/k ≈ 6.5 mrad, 4τ_c/k ≈ 26 mrad off the swing per cycle
 GAMMA = 40.0  # kg/m
+KAPPA = 150.0  # N·s³/m³: at the 0.23 m/s peak ≈ 1.8 N, the size of GAMMA's 2.1 N
 
 
 @pytest.fixture(scope="module")
@@ -117,6 +118,116 @@ def test_quadratic_damping_is_found_not_dry_friction():
     assert result.rmse_after < result.rmse_before / 20
     eq = result.method_estimate("equation-error").quadratic_damping
     assert eq.value > 0
+    # cubic drag is tried too: it fits the same direction, so it is named, not also kept
+    assert result.ambiguous == (("quadratic_damping", "cubic_drag"),)
+    assert "cubic_drag" not in result.coefficients
+    assert any("quadratic_damping and cubic_drag" in a for a in result.advice)
+
+
+def _cubic_claim(result):
+    """The effects claimed and the cubic drag's estimate (None when not the one claim)."""
+    names = [e.name for e in result.effects]
+    return names, (result.coefficients["cubic_drag"] if names == ["cubic_drag"] else None)
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+def test_cubic_drag_is_found_and_names_quadratic_damping_its_rival(seed):
+    result = estimate_pendulum([decay(cubic_drag=KAPPA, seed=seed)])
+    names, kappa = _cubic_claim(result)
+    assert names == ["cubic_drag"]
+    # the issue's criterion (within 10 %) and an honest σ (the truth within 3σ)
+    _within(kappa, KAPPA, 0.10, 3)
+    _within(result.coefficients["added_mass"], ALPHA, 0.005)
+    _within(result.coefficients["linear_damping"], BETA, 0.01)
+    assert result.rmse_after < result.rmse_before / 20
+    # rivals: the quadratic law passes the rules alone but is beaten, named and not kept
+    assert result.ambiguous == (("cubic_drag", "quadratic_damping"),)
+    assert "quadratic_damping" not in result.coefficients
+    # the advice names an experiment a pendulum can do (not only a tow's higher force)
+    (advice,) = [a for a in result.advice if a.startswith("cubic_drag and quadratic_damping")]
+    assert "decay released from a clearly larger amplitude" in advice
+    doc = result.to_json()
+    assert doc["units"]["cubic_drag"] == "N·s³/m³"
+    assert doc["effects"] == [
+        {"name": "cubic_drag", "value": kappa.value, "std": kappa.std, "unit": "N·s³/m³"}
+    ]
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+def test_clean_records_claim_no_effect(seed):
+    result = estimate_pendulum([decay(seed=seed)])
+    assert result.effects == () and result.ambiguous == ()
+    assert {s.term for s in result.steps} == {
+        "quadratic_damping", "coulomb_friction", "cubic_drag"
+    }  # fmt: skip
+
+
+@pytest.mark.slow
+def test_cubic_drag_and_clean_records_over_50_seeds():
+    """Clean data claim an effect in ≤ 2 % of 50 seeds (BIC's 150:1 odds and the
+    materiality rule together); a cubic drag is found in every seed within 10 %, its 2σ
+    interval covering the truth in ≥ 90 % (a Gaussian estimate's 2σ covers 95 %)."""
+    seeds = range(100, 150)
+    claims = sum(bool(estimate_pendulum([decay(seed=s)]).effects) for s in seeds)
+    assert claims <= 1
+    found = [_cubic_claim(estimate_pendulum([decay(cubic_drag=KAPPA, seed=s)])) for s in seeds]
+    assert all(names == ["cubic_drag"] for names, _ in found)
+    assert all(abs(k.value - KAPPA) <= 0.1 * KAPPA for _, k in found)
+    assert sum(abs(k.value - KAPPA) <= 2 * k.std for _, k in found) >= 45
+
+
+def _steps(result, round_no=None):
+    steps = result.to_json()["evidence"]["steps"]
+    return [s for s in steps if round_no is None or s["round"] == round_no]
+
+
+def test_each_step_reports_the_ljung_box_q_of_the_fits_it_compares(dry):
+    doc = dry.to_json()
+    q_base = doc["diagnostics"]["ljung_box_before"]["q"]
+    q_final = doc["diagnostics"]["ljung_box_after"]["q"]
+    (kept,) = [s for s in _steps(dry) if s["accepted"]]
+    assert kept["effect"] == "coulomb_friction" and kept["round"] == 1
+    # the kept term's trial is the final model: the friction's signature leaves the residual
+    assert (kept["ljung_box_q_before"], kept["ljung_box_q_after"]) == (q_base, q_final)
+    assert q_final < q_base / 100
+    # every round-1 step is judged against the base, round 2 against the model that kept it
+    assert {s["ljung_box_q_before"] for s in _steps(dry, 1)} == {q_base}
+    assert _steps(dry, 2) and {s["ljung_box_q_before"] for s in _steps(dry, 2)} == {q_final}
+    # a candidate its linearised step screened out was never fitted: no Q after
+    for s in _steps(dry):
+        if s["reason"].startswith("not fitted"):
+            assert s["ljung_box_q_after"] is None
+
+
+def test_a_candidate_fitted_and_rejected_in_the_last_round_reports_its_trials_q():
+    # a quadratic drag 400× below GAMMA: fitted (its linearised step promises ΔBIC < 0)
+    result = estimate_pendulum([decay(gamma=0.1)])
+    fitted = [s for s in _steps(result) if not s["reason"].startswith("not fitted")]
+    assert fitted
+    for s in fitted:
+        assert s["ljung_box_q_before"] is not None and s["ljung_box_q_after"] is not None
+        assert s["ljung_box_q_after"] != s["ljung_box_q_before"]
+
+
+def test_two_kept_terms_leave_the_intermediate_models_q_unknown(tmp_path):
+    result = estimate_pendulum([decay(dry_friction=TAU_C, gamma=GAMMA)])
+    assert [e.name for e in result.effects] == ["coulomb_friction", "quadratic_damping"]
+    doc = result.to_json()
+    q_base = doc["diagnostics"]["ljung_box_before"]["q"]
+    q_final = doc["diagnostics"]["ljung_box_after"]["q"]
+    (first,) = [s for s in _steps(result, 1) if s["accepted"]]
+    (second,) = [s for s in _steps(result, 2) if s["effect"] == "quadratic_damping"]
+    (rival,) = [s for s in _steps(result, 2) if s["effect"] == "cubic_drag"]
+    # the model with friction alone is not returned by the search (and not refitted)
+    assert (first["ljung_box_q_before"], first["ljung_box_q_after"]) == (q_base, None)
+    assert (second["ljung_box_q_before"], second["ljung_box_q_after"]) == (None, q_final)
+    # the rival passed the rules but lost: its trial is not returned either
+    assert rival["accepted"] and rival["ljung_box_q_after"] is None
+    assert q_final < q_base / 100
+    write_pendulum_report(result, tmp_path)
+    text = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert f"| {q_base:.1f} → — | yes |" in text and f"| — → {q_final:.1f} | yes |" in text
+    assert "| cubic_drag |" in text and "| — → — | passed, not chosen |" in text
 
 
 def test_two_amplitudes_fit_jointly_with_their_own_offsets():
@@ -168,6 +279,9 @@ def test_result_document_and_report(dry, tmp_path):
     assert "coulomb_friction" in text and "log-decrement" in text
     assert text.index("## Summary") < text.index("## Figures") < text.index("## Methods")
     assert "effect `coulomb_friction`" in text.split("## Figures")[0]
+    assert "Whiteness is a verdict, not a rule of the search" in text
+    (kept,) = [s for s in doc["evidence"]["steps"] if s["accepted"]]
+    assert f"{kept['ljung_box_q_before']:.1f} → {kept['ljung_box_q_after']:.1f}" in text
     assert set(re.findall(r"\]\(([^)]+)\)", text)) == figures  # every figure linked
     with Image.open(tmp_path / "peaks.png") as img:
         assert img.width >= 1500
