@@ -23,9 +23,7 @@ MEMBERS = frozenset(k.name for k in RunKind)
 #: Where the kinds' words are defined: the one place that may name them.
 DEFINING = {"daq/vocabulary.py", "daq/procedures/kinds.py"}
 #: Branches not yet removed: the module, and what it decides by the kind's name.
-PENDING = {
-    "daq/store/run_query.py": "a calibration run's source column (store query, SQL side)",
-}
+PENDING: dict[str, str] = {}
 STATIC = ROOT / "api/http/static"
 
 
