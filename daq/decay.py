@@ -164,6 +164,13 @@ def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:
     return write_decay_report(result, records, folder, {r.run_id: r.t_end for r in runs})
 
 
+def decay_units() -> dict[str, dict[str, str]]:
+    """Per dof, the unit of its position x (its coefficients carry their own units)."""
+    from estimation.motion.terms import DOFS
+
+    return {dof: {"position": "rad" if rotates else "m"} for dof, rotates in DOFS.items()}
+
+
 #: Free decays: the single-DOF equation (``estimation.motion``), fitted on the trajectory.
 DECAY = Estimator(
     name="decay",
@@ -174,6 +181,7 @@ DECAY = Estimator(
     fit=fit_decays,
     subject=lambda runs: f"{runs[0].dof} decay",
     report=decay_report,  # type: ignore[arg-type]
+    units_of=decay_units,
 )
 
 #: How a CSV becomes a free decay.

@@ -40,7 +40,9 @@ class Estimator:
     (the runs to fit, the screening) before the fit (repeats and Chauvenet outliers);
     ``budget(store, runs, result, screening, report_dir)`` → the documents added to the
     result after it (the uncertainty budget and the repeats, which the theory comparison
-    reads)."""
+    reads); ``units_of()`` → per axis (or dof) its results may be on, the unit of each
+    quantity they report (``{"surge": {"inertia": "kg", …, "position": "m"}}``; a page
+    shows them beside the result's numbers, ``GET /api/kinds``)."""
 
     name: str
     #: How messages name its runs: "tow/spin".
@@ -54,6 +56,7 @@ class Estimator:
     method_labels: dict[str, str] = field(default_factory=dict)
     screen: Callable[[list[Any], bool], tuple[list[Any], Any]] | None = None
     budget: Callable[[Store, list[Any], Any, Any, str | Path | None], dict[str, Any]] | None = None
+    units_of: Callable[[], dict[str, dict[str, str]]] = dict
 
     @property
     def methods(self) -> tuple[str, ...]:
@@ -64,6 +67,13 @@ def _axis_methods() -> tuple[str, ...]:
     from estimation import METHODS
 
     return tuple(METHODS)
+
+
+def _axis_units() -> dict[str, dict[str, str]]:
+    from estimation.axis.crosscheck_comparison import UNITS as COMPARED
+    from estimation.axis.result import UNITS
+
+    return {axis: UNITS[axis] | COMPARED[axis] for axis in UNITS}
 
 
 def _axis_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
@@ -122,6 +132,7 @@ AXIS = Estimator(
     },
     screen=_axis_screen,
     budget=_axis_budget,
+    units_of=_axis_units,
 )
 
 

@@ -1,12 +1,13 @@
 """No code branches on a run kind's name (issue 21): what differs per kind is an attribute
-of its registry entry (``daq.procedures.kinds``) or of its axis words (``daq.vocabulary``),
-so a new kind is one entry, not an ``if kind == "tow"`` in every face.
+of its registry entry (``daq.procedures.kinds``) or of its axis words (``daq.vocabulary``;
+in ``estimation``, which may not import them, ``estimation.data.driven_axes``), so a new
+kind is one entry, not an ``if kind == "tow"`` in every face.
 
 Python: a comparison (``==``, ``!=``, ``in``, ``is``) against a run kind's name
-(``"tow"``, ``RunKind.SPIN``, ``("tow", "spin")``) in ``daq`` or ``api``, outside the two
-modules that define the words. The browser's scripts: a run kind's name in quotes, or as an
-object key, in code (comments aside). Modules that still branch are listed in ``PENDING``
-with why; one that no longer does must leave the list (the test says so).
+(``"tow"``, ``RunKind.SPIN``, ``("tow", "spin")``) in ``daq``, ``api`` or ``estimation``,
+outside the modules that define the words. The browser's scripts: a run kind's name in
+quotes, or as an object key, in code (comments aside). Modules that still branch are listed
+in ``PENDING`` with why; one that no longer does must leave the list (the test says so).
 """
 
 from __future__ import annotations
@@ -21,11 +22,9 @@ ROOT = Path(__file__).resolve().parents[1]
 NAMES = frozenset(str(k) for k in RunKind)
 MEMBERS = frozenset(k.name for k in RunKind)
 #: Where the kinds' words are defined: the one place that may name them.
-DEFINING = {"daq/vocabulary.py", "daq/procedures/kinds.py"}
+DEFINING = {"daq/vocabulary.py", "daq/procedures/kinds.py", "estimation/data/driven_axes.py"}
 #: Branches not yet removed: the module, and what it decides by the kind's name.
-PENDING = {
-    "daq/store/run_query.py": "a calibration run's source column (store query, SQL side)",
-}
+PENDING: dict[str, str] = {}
 STATIC = ROOT / "api/http/static"
 
 
@@ -68,7 +67,7 @@ def js_kind_names(source: str) -> list[int]:
 
 def _python_modules() -> dict[str, Path]:
     out = {}
-    for top in ("daq", "api"):
+    for top in ("daq", "api", "estimation"):
         for path in sorted((ROOT / top).rglob("*.py")):
             rel = path.relative_to(ROOT).as_posix()
             if rel not in DEFINING and "/migrations/" not in rel:

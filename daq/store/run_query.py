@@ -12,18 +12,20 @@ from daq.store import checks
 from daq.store.run_metadata import check_tag
 from daq.store.schema import RUN_DRIVES, RUN_SOURCES, RUN_STATUSES, run_tags, vehicles
 from daq.store.schema import runs as runs_t
+from daq.vocabulary import FIXED_DRIVE
 
 #: Longest free-text search accepted.
 MAX_SEARCH_CHARS = 200
 
 
 def drive_of(kind: str, parameters: dict) -> str | None:
-    """What moved the vehicle in a run: its ``drive`` parameter, thrusters for a thrust
-    calibration, a weight when a hung mass is given, else None (a pendulum)."""
+    """What moved the vehicle in a run: its ``drive`` parameter, else its kind's one drive
+    (``FIXED_DRIVE``: thrusters for a thrust calibration), else a weight when a hung mass
+    is given, else None (a pendulum)."""
     if parameters.get("drive") in RUN_DRIVES:
         return parameters["drive"]
-    if kind == "thrust_calibration":
-        return "thrusters"
+    if kind in FIXED_DRIVE:
+        return FIXED_DRIVE[kind]
     return "weight" if parameters.get("hung_mass_kg") is not None else None
 
 

@@ -117,10 +117,9 @@ class CrossCheck:
 
 
 def _check(name: str, doc: Any) -> None:
-    if isinstance(doc, dict) and doc.get("analysis") == "pendulum":
-        raise ValueError(
-            f"{name}: a pendulum free-decay analysis; allowed: a tow or spin estimation result"
-        )
+    analysis = doc.get("analysis") if isinstance(doc, dict) else None
+    if analysis is not None:  # another estimator's result (the axis estimator names none)
+        raise ValueError(f"{name}: a {analysis} analysis; allowed: a tow or spin estimation result")
     if not isinstance(doc, dict) or not isinstance(doc.get("coefficients"), dict):
         raise ValueError(
             f"{name}: not an estimation result (no 'coefficients'); allowed: a stored "

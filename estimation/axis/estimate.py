@@ -152,8 +152,7 @@ def _within(test: ReverseTest | None, envelope: RigEnvelope | None) -> ReverseTe
     calibrated reach); None when the rig cannot run a reverse test at all."""
     if test is None or envelope is None:
         return test
-    axis = "surge" if test.kind == "tow" else "yaw"
-    env = envelope.axis(axis)
+    env = envelope.axis(test.axis)
     if env is None or env.reverse_travel is None:
         return None
     reach = env.max_load
@@ -162,7 +161,8 @@ def _within(test: ReverseTest | None, envelope: RigEnvelope | None) -> ReverseTe
             return None
         reach = min(reach, abs(env.thruster_range[0] if test.drive < 0 else env.thruster_range[1]))
     drive = float(np.sign(test.drive) * min(abs(test.drive), reach))
-    return replace(test, drive=drive) if envelope.allows(axis, drive, test.drive_kind) else None
+    allowed = envelope.allows(test.axis, drive, test.drive_kind)
+    return replace(test, drive=drive) if allowed else None
 
 
 def _coefficients(fit: FitResult) -> dict[str, Estimate]:

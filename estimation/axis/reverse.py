@@ -2,18 +2,20 @@
 
 On runs that all move one way, ``−F_c·sign(v)`` and ``+b`` are the same constant force:
 the estimator reports them ambiguous. A run with the opposite drive flips the friction but
-not the bias. :func:`suggest_reverse_test` names that run: its kind, its signed drive and the
-``rig`` command (and the ``POST /api/jobs/<kind>`` body) that records it.
+not the bias. :func:`suggest_reverse_test` names that run: its axis, its signed drive and the
+``rig`` command (and the ``POST /api/jobs/<route>`` body) that records it, in the axis's
+words (``estimation.data.driven_axes``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
+from estimation.data.driven_axes import DrivenAxis, driven_axis
 from estimation.data.runs import RunData
 
 #: The pair a reverse run separates.
@@ -22,29 +24,36 @@ FRICTION_AND_BIAS = frozenset({"coulomb_friction", "constant_bias"})
 
 @dataclass(frozen=True)
 class ReverseTest:
-    """A tow or spin with the drive opposite to every run estimated.
+    """A run on ``axis`` with the drive opposite to every run estimated.
 
-    ``drive``: N (tow) or N·m (spin), signed; ``thrusters``: driven by the thrusters (the
-    runs were), else by a hung weight."""
+    ``drive``: N (surge) or N·m (yaw), signed; ``thrusters``: driven by the thrusters (the
+    runs were), else by a hung weight. Its kind, field and command are the axis's words
+    (``estimation.data.driven_axes``)."""
 
-    kind: Literal["tow", "spin"]
+    axis: str
     drive: float
     thrusters: bool
 
     @property
+    def words(self) -> DrivenAxis:
+        return driven_axis(self.axis)
+
+    @property
+    def kind(self) -> str:
+        return self.words.kind
+
+    @property
     def field(self) -> str:
-        return "force_n" if self.kind == "tow" else "torque_nm"
+        return self.words.load_field
 
     @property
     def command(self) -> str:
         """``rig tow --force -83.3`` (``--thrusters`` when thruster-driven)."""
-        flag = "--force" if self.kind == "tow" else "--torque"
-        thrusters = " --thrusters" if self.thrusters else ""
-        return f"rig {self.kind} {flag} {self.drive:.4g}{thrusters}"
+        return self.words.command_line(self.drive, self.drive_kind)
 
     def request(self) -> dict[str, Any]:
-        """The body of ``POST /api/jobs/<kind>`` that starts it."""
-        return {self.field: float(f"{self.drive:.4g}"), "drive": self.drive_kind}
+        """The body of ``POST /api/jobs/<route>`` that starts it."""
+        return self.words.request(self.drive, self.drive_kind)
 
     @property
     def drive_kind(self) -> str:
@@ -54,7 +63,7 @@ class ReverseTest:
         return {
             "kind": self.kind,
             "command": self.command,
-            "route": f"/api/jobs/{self.kind}",
+            "route": f"/api/jobs/{self.words.route}",
             "request": self.request(),
         }
 
@@ -82,5 +91,4 @@ def opposite_run(axis: str, runs: Sequence[RunData]) -> ReverseTest | None:
         return None
     thrusters = all(r.drive_law is not None for r in runs)
     size = min(abs(d) for d in drives) if thrusters else max(abs(d) for d in drives)
-    kind: Literal["tow", "spin"] = "tow" if axis == "surge" else "spin"
-    return ReverseTest(kind, -signs.pop() * size, thrusters)
+    return ReverseTest(axis, -signs.pop() * size, thrusters)

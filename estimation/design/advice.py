@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from estimation.data.driven_axes import driven_axis
 from estimation.design.envelope import Candidate, RigEnvelope
 
 
@@ -42,8 +43,8 @@ def different_force_advice(
     axis: str, drives: Sequence[float], rho: float, envelope: RigEnvelope | None
 ) -> str:
     """K_L and K_Q poorly separated: the run at a clearly different load, within the rig."""
-    unit = "N" if axis == "surge" else "N·m"
-    what = "force" if axis == "surge" else "torque"
+    words = driven_axis(axis)
+    unit, what = words.load_unit, words.load_name
     shown = ", ".join(f"{d:.3g}" for d in drives)
     head = (
         f"K_L and K_Q are not separable from one {what} (ρ = {rho:.3f})"
@@ -79,7 +80,7 @@ def reverse_advice(
 ) -> str:
     """Friction vs bias ambiguous: the reverse run if none was recorded (``command``: the
     one to run), else what the reverse runs lack; never a reverse run the rig cannot do."""
-    kind = "tow" if axis == "surge" else "spin"
+    kind = driven_axis(axis).kind
     head = "coulomb_friction and constant_bias are not separated"
     if both_ways(drives):
         back = [abs(d) for d in drives if d < 0]

@@ -12,6 +12,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from estimation.data.driven_axes import driven_axis
+
 Axis = Literal["surge", "yaw"]
 #: Magnitudes offered per direction and drive: a geometric grid from the largest load down.
 GRID_POINTS = 8
@@ -38,16 +40,16 @@ class AxisEnvelope:
     drum_radius_m: float | None = None
 
     @property
-    def kind(self) -> Literal["tow", "spin"]:
-        return "tow" if self.axis == "surge" else "spin"
+    def kind(self) -> str:
+        return driven_axis(self.axis).kind
 
     @property
     def load_field(self) -> str:
-        return "force_n" if self.axis == "surge" else "torque_nm"
+        return driven_axis(self.axis).load_field
 
     @property
     def unit(self) -> str:
-        return "N" if self.axis == "surge" else "N·m"
+        return driven_axis(self.axis).load_unit
 
 
 @dataclass(frozen=True)
@@ -60,25 +62,23 @@ class Candidate:
 
     @property
     def kind(self) -> str:
-        return "tow" if self.axis == "surge" else "spin"
+        return driven_axis(self.axis).kind
 
     @property
     def field(self) -> str:
-        return "force_n" if self.axis == "surge" else "torque_nm"
+        return driven_axis(self.axis).load_field
 
     @property
     def command(self) -> str:
         """The ``rig`` command that records it."""
-        flag = "--force" if self.axis == "surge" else "--torque"
-        thrusters = " --thrusters" if self.drive == "thrusters" else ""
-        return f"rig {self.kind} {flag} {self.load:.4g}{thrusters}"
+        return driven_axis(self.axis).command_line(self.load, self.drive)
 
     def request(self) -> dict[str, Any]:
-        """The body of ``POST /api/jobs/<kind>``."""
-        return {self.field: float(f"{self.load:.4g}"), "drive": self.drive}
+        """The body of ``POST /api/jobs/<route>``."""
+        return driven_axis(self.axis).request(self.load, self.drive)
 
     def describe(self) -> str:
-        unit = "N" if self.axis == "surge" else "N·m"
+        unit = driven_axis(self.axis).load_unit
         way = "reverse " if self.load < 0 else ""
         by = "the thrusters" if self.drive == "thrusters" else "a hung weight"
         return f"{way}{self.kind} at {self.load:.4g} {unit} driven by {by}"

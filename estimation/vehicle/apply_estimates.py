@@ -78,17 +78,16 @@ def apply_result_json(
     and ``coefficients`` {inertia, linear_damping, quadratic_damping: {value, std}}) into
     the vehicle with :func:`apply_estimate`; σ comes along where the result has one.
 
-    A pendulum free-decay result (``"analysis": "pendulum"``) gives the swing axis's
-    ``added_mass`` and ``linear_damping`` (and ``quadratic_damping`` when its effect search
-    found it; otherwise the vehicle's value stays)."""
+    A result giving the ``added_mass`` (a pendulum free decay's) gives it with the swing
+    axis's ``linear_damping`` (and ``quadratic_damping`` when its effect search found it;
+    otherwise the vehicle's value stays): the inertia is the body's plus the added mass."""
     axis = doc.get("axis") if isinstance(doc, Mapping) else None
     if axis not in DOFS:
         raise VehicleError(source, "axis", axis, "one of " + ", ".join(DOFS))
     coefficients = doc.get("coefficients")
     if not isinstance(coefficients, Mapping):
         raise VehicleError(source, "coefficients", coefficients, "a table of {value, std}")
-    pendulum = doc.get("analysis") == "pendulum"
-    if pendulum:
+    if "added_mass" in coefficients:
         coefficients = dict(coefficients)
         added = coefficients.pop("added_mass", None)
         if isinstance(added, Mapping) and is_finite(added.get("value")):

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from estimation.data.driven_axes import DRIVEN_AXES
 from estimation.data.runs import RunData
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6
@@ -33,8 +34,8 @@ RESULT_KINDS = {
     "linear_damping": "linear_damping",
     "quadratic_damping": "quadratic_damping",
 }
-#: Axes the rig can identify (tow = surge, spin = yaw).
-MEASURED_AXES = ("surge", "yaw")
+#: Axes the rig can identify: those its tows and spins drive (``driven_axes``).
+MEASURED_AXES = tuple(DRIVEN_AXES)
 HIGH_CORRELATION = 0.9
 
 
@@ -226,9 +227,9 @@ def _next_test(
     k_l, k_q = vehicle.linear_damping[i], vehicle.quadratic_damping[i]
     crossover = k_l / k_q if k_q > 0 else None
     speeds = [float(s) for s in run_speeds.get(axis, ()) if np.isfinite(s)]
-    spin = axis == "yaw"
-    drive = "torque" if spin else "force"
-    run = "spin" if spin else "tow"
+    words = DRIVEN_AXES.get(axis)  # None: an axis the rig does not drive
+    drive = words.load_name if words is not None else "load"
+    run = words.kind if words is not None else "run"
     if axis not in MEASURED_AXES:
         test = (
             "not measured: values are placeholders (the rig identifies "

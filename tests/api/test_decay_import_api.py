@@ -6,6 +6,8 @@ within 2 %, damping within 10 %)."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from tests.api.conftest import AUTH, wait_job
@@ -77,4 +79,6 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
         expect(page.locator("#est-coefs")).to_contain_text("inertia (kg)")
         expect(page.locator("#est-rmse")).to_contain_text("heave decay")
+        rmse = page.locator("#est-rmse tr", has_text="RMSE after").locator("td").nth(1)
+        expect(rmse).to_have_text(re.compile(r"^\S+ m$"))  # a heave's position: m
         assert errors == []

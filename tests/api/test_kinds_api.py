@@ -42,6 +42,24 @@ def test_every_kind_is_served_with_its_request_schema_and_import_fields(client):
     assert "heave" in fields["dof"]["anyOf"][0]["enum"]
 
 
+def test_each_kind_serves_the_units_of_its_estimators_results(client):
+    """``units``: per axis (or dof) an estimate may be on, what the result pages label its
+    numbers with; tows and spins share the axis estimator, so both serve both axes."""
+    served = {k["kind"]: k["units"] for k in client.get("/api/kinds", headers=AUTH).json()}
+    surge = {
+        "inertia": "kg", "linear_damping": "N·s/m", "quadratic_damping": "N·s²/m²",
+        "damping_at_speed": "N·s/m", "position": "m", "velocity": "m/s",
+    }  # fmt: skip
+    assert served["tow"]["surge"] == surge and served["spin"] == served["tow"]
+    yaw = served["spin"]["yaw"]
+    assert (yaw["inertia"], yaw["damping_at_speed"], yaw["velocity"]) == (
+        "kg·m²", "N·m·s/rad", "rad/s",
+    )  # fmt: skip
+    assert served["decay"]["heave"] == {"position": "m"}
+    assert served["decay"]["roll"] == {"position": "rad"}
+    assert served["pendulum"] == {} and served["thrust_calibration"] == {}
+
+
 def test_a_served_schema_is_the_body_the_route_validates(client):
     schema = client.get("/api/kinds", headers=AUTH).json()[0]["schema"]
     assert "colour" not in schema["properties"]
@@ -224,6 +242,9 @@ def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
         kinds = page.locator("#runs-filter select[name=kind] option")  # the Runs page's filter
         expect(kinds).to_have_count(len(served) + 1)
         assert kinds.all_text_contents() == ["any", *served]  # the free decay and lift too
+        units = page.evaluate("axisUnits()")  # the result pages' units, merged per axis
+        assert units["yaw"] == served["spin"]["units"]["yaw"]  # the decay's adds, never drops
+        assert units["roll"] == {"position": "rad"}
         cc = page.evaluate("crosscheckKinds(servedKinds)")
         assert cc == {
             "kinds": ["tow", "spin", "lift"],

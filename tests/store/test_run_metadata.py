@@ -83,6 +83,15 @@ def test_bad_metadata_is_refused_naming_the_field_and_nothing_is_stored(
     assert store.get_run(run_id).metadata == {}
 
 
+def test_a_kind_with_one_drive_is_stored_with_it(store: Store) -> None:
+    """A thrust calibration names no drive in its parameters; its kind's one drive
+    (``daq.vocabulary.FIXED_DRIVE``) is its stored drive, so the drive filter finds it."""
+    calibration = new_run(store, kind="thrust_calibration", parameters={"commands": [0.1, 0.2]})
+    hung = new_run(store, parameters={"force_n": 9.8, "hung_mass_kg": 1.0})
+    assert (store.get_run(calibration).drive, store.get_run(hung).drive) == ("thrusters", "weight")
+    assert {r.id for r in store.list_runs(drive="thrusters")} == {calibration}
+
+
 def test_total_and_paging_agree(store: Store) -> None:
     made = [new_run(store) for _ in range(5)]
     pages = [store.list_runs(limit=2, offset=o) for o in (0, 2, 4)]

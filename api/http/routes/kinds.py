@@ -1,7 +1,8 @@
 """``GET /api/kinds``: every run kind of the registry (``daq.procedures.kinds``) with the
-JSON Schema of its start request and of its import fields, its axis, drives and what the
-live plot shows of it, so a client (the browser's start forms, method menu, live plot and
-cross-check page among them) renders what each kind takes without a copy of it."""
+JSON Schema of its start request and of its import fields, its axis, drives, what the
+live plot shows of it and the units of its estimates, so a client (the browser's start
+forms, method menu, live plot, estimation and cross-check pages among them) renders what
+each kind takes without a copy of it."""
 
 from __future__ import annotations
 
@@ -68,6 +69,11 @@ class KindOut(BaseModel):
     shown: KindShownOut | None = Field(
         description="The parameter a run list shows of its runs (null: none)."
     )
+    units: dict[str, dict[str, str]] = Field(
+        description="Per axis (or dof) its estimator's results may be on, the unit of each "
+        "quantity they report: {surge: {inertia: kg, linear_damping: N·s/m, …, position: m, "
+        "velocity: m/s}} ({}: none, or its results carry their own)."
+    )
 
 
 @router.get(
@@ -113,4 +119,5 @@ def _described(spec: KindSpec) -> dict[str, Any]:
         "rate": rate,
         "planned": spec.envelope is not None,
         "shown": None if shown is None else {"field": shown[0], "unit": shown[1]},
+        "units": {} if est is None else est.units_of(),
     }

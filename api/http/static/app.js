@@ -701,6 +701,8 @@ async function renderEstimation(res) {
   for (const view of Object.values(resultViews)) view.clear();
   const view = resultViews[res.analysis];
   if (view) return view.render(res);
+  // the position's unit on the result's axis (a decay's dof), from its estimator's units
+  const unit = ((await axisUnits())[res.axis || res.dof] || {}).position || ""; // start_forms.js
   $("#est-result").hidden = false;
   const units = res.units || {}; // an axis result's units; a decay's coefficients carry theirs
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
@@ -710,9 +712,7 @@ async function renderEstimation(res) {
         ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
     })
     .join("");
-  // a decay names its dof (m for surge/sway/heave, rad for roll/pitch/yaw) instead of an axis
-  const axis = res.axis || `${res.dof} ${res.kind}`;
-  const unit = ["yaw", "roll", "pitch"].includes(res.axis || res.dof) ? "rad" : "m";
+  const axis = res.axis || `${res.dof} ${res.kind}`; // a decay names its dof instead of an axis
   kv($("#est-rmse"), [
     ["Axis / method", `${axis} / ${res.method || "output-error"}`],
     ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],

@@ -3,11 +3,6 @@
 "use strict";
 
 const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q", damping_at_speed: "K_L + K_Q·|v|" };
-const CC_UNITS = {
-  surge: { inertia: "kg", linear_damping: "N·s/m", quadratic_damping: "N·s²/m²", damping_at_speed: "N·s/m" },
-  yaw: { inertia: "kg·m²", linear_damping: "N·m·s/rad", quadratic_damping: "N·m·s²/rad²", damping_at_speed: "N·m·s/rad" },
-};
-const CC_SPEED_UNITS = { surge: "m/s", yaw: "rad/s" };
 
 // What a cross-check compares (GET /api/kinds): runs of the kinds both a weight and the
 // thrusters drive, and estimation results on their axes from their estimator (a result that
@@ -54,7 +49,7 @@ $("#cc-compare").onclick = async () => {
   if (!w || !t) return ($("#cc-status").textContent = "Pick two stored estimation results.");
   $("#cc-status").textContent = "Comparing…";
   try {
-    crosscheckRender(await api("POST", "/api/crosscheck", { weight_result_id: w, thruster_result_id: t }));
+    await crosscheckRender(await api("POST", "/api/crosscheck", { weight_result_id: w, thruster_result_id: t }));
     $("#cc-status").textContent = "";
   } catch (err) {
     $("#cc-status").textContent = err.message;
@@ -75,7 +70,7 @@ $("#cc-estimate").onclick = async () => {
     }
     $("#cc-status").innerHTML = `<span class="state ${job.state}" id="cc-state">${job.state}</span> ${esc(job.error || job.progress.message)}`;
     if (job.state === "completed") {
-      crosscheckRender(job.outcome);
+      await crosscheckRender(job.outcome);
       crosscheckLoad();
     }
   } catch (err) {
@@ -83,14 +78,14 @@ $("#cc-estimate").onclick = async () => {
   }
 };
 
-function crosscheckRender(res) {
+async function crosscheckRender(res) {
+  const units = (await axisUnits())[res.axis] || {}; // start_forms.js
   $("#cc-result").hidden = false;
-  const units = CC_UNITS[res.axis] || {};
   $("#cc-title").textContent = `${res.axis}: weight result #${res.weight_result_id} vs thruster result #${res.thruster_result_id} — ${res.verdict}`;
   const pm = (s) => `${fmt(s.value, 5)} ± ${fmt(s.std, 2)}`;
   // Stored cross-checks from before "combined" / "undecided" existed have neither key.
   const rows = { ...res.coefficients, ...(res.combined || {}) };
-  const label = (k, c) => CC_LABELS[k] + (c.speed != null ? ` at |v| = ${fmt(c.speed, 3)} ${CC_SPEED_UNITS[res.axis] || ""}` : "");
+  const label = (k, c) => CC_LABELS[k] + (c.speed != null ? ` at |v| = ${fmt(c.speed, 3)} ${units.velocity || ""}` : "");
   // An undecided coefficient's z is computed, not judged: shown in parentheses, reason on hover.
   $("#cc-table tbody").innerHTML = Object.entries(rows)
     .map(

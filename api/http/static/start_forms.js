@@ -4,7 +4,8 @@
 // label, its description the tooltip, its default the placeholder); one menu entry per method
 // of the kinds' estimators. Loaded before app.js; called from refreshRig once the token is
 // known. The other pages read the served kinds too (`servedKinds`, or await `loadKinds()`):
-// the live plot what to show of a kind's runs, the cross-check page which kinds it compares.
+// the live plot what to show of a kind's runs, the cross-check page which kinds it compares,
+// both result pages the units of an axis's estimates (`axisUnits()`).
 "use strict";
 
 let startKinds = null;
@@ -23,6 +24,16 @@ function loadKinds() {
     );
   }
   return kindsRequest;
+}
+
+// Per axis (or a decay's dof), the unit of each quantity an estimate on it reports, from the
+// kinds' estimators (GET /api/kinds → units): {surge: {inertia: "kg", position: "m", …}}.
+async function axisUnits() {
+  const merged = {};
+  for (const kind of await loadKinds()) {
+    for (const [axis, units] of Object.entries(kind.units || {})) merged[axis] = { ...merged[axis], ...units };
+  }
+  return merged;
 }
 
 // The kinds whose runs the Estimation page offers (those with an estimator).
