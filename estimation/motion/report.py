@@ -100,12 +100,19 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         lines.append("")
     if result.possibly_biased:
         lines.append("**The coefficients may be biased**: the residual is not white.")
-    lines += ["", "## Evidence", "", "| term | round | ΔBIC | explained RMS | kept | reason |"]
-    lines.append("|---|---|---|---|---|---|")
+    lines += [
+        "",
+        "## Evidence",
+        "",
+        "| term | round | ΔBIC | explained RMS | Ljung–Box Q | kept | reason |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for s in result.steps:
+        verdict = "yes" if s.added else "passed, not chosen" if s.accepted else "no"
+        q = " → ".join("—" if not np.isfinite(v) else f"{v:.1f}" for v in (s.q_before, s.q_after))
         lines.append(
-            f"| {s.term} | {s.round} | {s.delta_bic:.1f} | {s.explained_rms:.3g} | "
-            f"{'yes' if s.accepted else 'no'} | {s.reason} |"
+            f"| {s.term} | {s.round} | {s.delta_bic:.1f} | {s.explained_rms:.3g} | {q} | "
+            f"{verdict} | {s.reason} |"
         )
     if result.warnings:
         lines += ["", "## Warnings", "", *(f"- {w}" for w in result.warnings)]

@@ -65,7 +65,7 @@ from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitiv
 from estimation.motion.records import Record, Setup, known_inertia_of
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
-from estimation.stats.diagnostics import position_noise
+from estimation.stats.diagnostics import ljung_box, position_noise
 from estimation.stats.selection import BIC_THRESHOLD, term_verdict
 
 MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
@@ -77,7 +77,10 @@ PROFILE_STEPS = 4  # chord (fixed-Jacobian Gauss–Newton) steps of the model's 
 
 @dataclass(frozen=True)
 class Step:
-    """Evidence for one candidate: its ΔBIC, the residual it explains, the verdict."""
+    """Evidence for one candidate: its ΔBIC, the residual it explains, the verdict
+    (``accepted``: it passed the rules; ``added``: its round added it to the model — of
+    the terms that pass in a round one is added), and the Ljung–Box Q of the round's
+    model and of the trial (NaN: not fitted) — evidence beside the rules, not one of them."""
 
     term: str
     round: int
@@ -86,6 +89,9 @@ class Step:
     noise: float  # m or rad
     accepted: bool
     reason: str
+    q_before: float = np.nan
+    q_after: float = np.nan
+    added: bool = False
 
     def to_json(self) -> dict:
         """The step as plain numbers."""
@@ -96,7 +102,10 @@ class Step:
             "explained_rms": finite_or_none(self.explained_rms),
             "noise": finite_or_none(self.noise),
             "accepted": self.accepted,
+            "added": self.added,
             "reason": self.reason,
+            "ljung_box_q_before": finite_or_none(self.q_before),
+            "ljung_box_q_after": finite_or_none(self.q_after),
         }
 
 
@@ -122,7 +131,8 @@ def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Ste
         identified=term not in trial.not_identified,
         at_bound=term in trial.at_bound,
     )
-    return Step(term, round_no, gain, explained, noise, reason == "kept", reason)
+    q_after = ljung_box(trial.residuals).q_statistic
+    return Step(term, round_no, gain, explained, noise, reason == "kept", reason, q_after=q_after)
 
 
 def effective_samples(fit: MotionFit) -> float:
@@ -212,7 +222,8 @@ def search_terms(
     """Forward selection (module doc): the final fit, every step, the fits of the candidates
     rejected against the final model (to tell whether its coefficients move), and the
     rival pairs (kept term, its rival)."""
-    current, steps, round_no = base, [], 1
+    current, round_no = base, 1
+    steps: list[Step] = []
     rejected_last: list[MotionFit] = []
     rivals: list[tuple[str, str]] = []
     rival_of: dict[str, str] = {}  # a candidate still tried, and the kept term it rivals
@@ -220,6 +231,7 @@ def search_terms(
     order = {c: i for i, c in enumerate(candidates)}
     while remaining:
         predicted, rho, start, own = _screen(records, setup, current, remaining)
+        first = len(steps)
         kept: list[tuple[MotionFit, str]] = []
         rejected_last = []
         for term in remaining:
@@ -289,6 +301,8 @@ def search_terms(
                 kept.append((trial, term))
             else:
                 rejected_last.append(trial)
+        q_now = ljung_box(current.residuals).q_statistic
+        steps[first:] = [replace(s, q_before=q_now) for s in steps[first:]]
         if not kept:
             break
         best, chosen = min(kept, key=lambda k: k[0].bic)
@@ -300,6 +314,7 @@ def search_terms(
                 break
         current = best
         rejected_last = []
+        steps[first:] = [_verdict_of_round(s, chosen) for s in steps[first:]]
         if chosen in rival_of:  # the data separated a rival pair: both are kept
             rivals.remove((rival_of.pop(chosen), chosen))
         for c in sorted(remaining, key=order.__getitem__):
@@ -309,6 +324,16 @@ def search_terms(
         remaining = [c for c in remaining if c != chosen]
         round_no += 1
     return current, tuple(steps), tuple(rejected_last), tuple(rivals)
+
+
+def _verdict_of_round(step: Step, chosen: str) -> Step:
+    """``step`` once its round has added ``chosen``: added, or — when it passed the rules
+    too — said to have lost to it."""
+    if step.term == chosen:
+        return replace(step, added=True)
+    if step.accepted:
+        return replace(step, reason=f"passed the rules; {chosen} was added this round")
+    return step
 
 
 def _judge_rival(current: MotionFit, trial: MotionFit, step: Step, kept: str) -> Step:

@@ -38,7 +38,7 @@ from estimation.pendulum.configuration import (
 )
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
 from estimation.pendulum.decay import Decay, Peaks, find_peaks, prepare_decay
-from estimation.pendulum.evidence import StepWhiteness, step_json, step_whiteness
+from estimation.pendulum.evidence import step_json
 from estimation.pendulum.methods import (
     MethodEstimate,
     damped_fit,
@@ -82,8 +82,6 @@ class PendulumResult:
     whiteness_before: Whiteness
     whiteness_after: Whiteness
     steps: tuple[Step, ...]
-    #: Ljung–Box Q before/after each of ``steps`` (``evidence``): a verdict, not a rule
-    step_whiteness: tuple[StepWhiteness, ...]
     warnings: tuple[str, ...]
     advice: tuple[str, ...]
     geometry: dict[str, dict[str, float]]
@@ -134,9 +132,7 @@ class PendulumResult:
             "evidence": {
                 "bic_before": finite_or_none(self.fit_before.bic),
                 "bic_after": finite_or_none(self.fit_after.bic),
-                "steps": [
-                    step_json(s, w) for s, w in zip(self.steps, self.step_whiteness, strict=True)
-                ],
+                "steps": [step_json(s) for s in self.steps],
             },
             "nuisance": {
                 rid: {
@@ -277,10 +273,9 @@ def estimate_pendulum(
     base = fit_pendulum(records, (), np.concatenate([start, offsets, phi0, 0.0 * phi0]))
     final, advice = base, []
     steps: tuple[Step, ...] = ()
-    rejected: tuple[MotionFit, ...] = ()
     ambiguous: tuple[tuple[str, ...], ...] = ()
     if search:
-        final, steps, rejected, rivals = search_terms(records, SETUP, base, CANDIDATES)
+        final, steps, _, rivals = search_terms(records, SETUP, base, CANDIDATES)
         ambiguous = tuple(rivals)
         advice = [
             f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separated_by}; "
@@ -322,7 +317,6 @@ def estimate_pendulum(
         whiteness_before=white_before,
         whiteness_after=white_after,
         steps=tuple(steps),
-        step_whiteness=step_whiteness(steps, base, final, rejected),
         warnings=tuple(warnings),
         advice=tuple(advice),
         geometry={r.run_id: asdict(r.geometry) for r in runs},

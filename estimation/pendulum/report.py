@@ -29,7 +29,6 @@ from estimation.fit_report import (
 )
 from estimation.pendulum.configuration import unit
 from estimation.pendulum.estimate import PendulumResult
-from estimation.pendulum.evidence import chosen
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -119,8 +118,8 @@ def _pm(est: dict | None) -> str:
     return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
 
 
-def _q(q: float | None) -> str:
-    return "—" if q is None else f"{q:.1f}"
+def _q(q: float) -> str:
+    return "—" if not np.isfinite(q) else f"{q:.1f}"
 
 
 def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
@@ -181,19 +180,18 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         "",
         "Whiteness is a verdict, not a rule of the search: a term is kept on ΔBIC, "
         "identifiability and the residual it explains against the noise floor; each step's "
-        "Ljung–Box Q is evidence beside them (—: the search did not return that fit, "
+        "Ljung–Box Q is evidence beside them (—: the candidate was not fitted, "
         "docs/pendulum.md).",
         "",
         "| round | effect | ΔBIC | residual explained vs noise [rad] | Ljung–Box Q | kept "
         "| reason |",
         "|---|---|---|---|---|---|---|",
     ]
-    for s, w in zip(result.steps, result.step_whiteness, strict=True):
-        kept = chosen(s, result.fit_before, result.fit_after)
-        verdict = "yes" if kept else "passed, not chosen" if s.accepted else "no"
+    for s in result.steps:
+        verdict = "yes" if s.added else "passed, not chosen" if s.accepted else "no"
         lines.append(
             f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
-            f"{s.noise:.2g} | {_q(w.q_before)} → {_q(w.q_after)} | {verdict} | {s.reason} |"
+            f"{s.noise:.2g} | {_q(s.q_before)} → {_q(s.q_after)} | {verdict} | {s.reason} |"
         )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]

@@ -74,3 +74,7 @@ def test_a_rival_is_not_added_beside_the_term_the_data_hold(truth_terms):
     assert r.effects == truth_terms
     (value,) = kw.values()
     assert r.coefficients[truth_terms[0]].value == pytest.approx(value, rel=0.02)
+    # the evidence: the added step's trial whitened the residual; Q is evidence, not a rule
+    (added,) = [s for s in r.steps if s.added]
+    assert added.term == truth_terms[0] and added.q_after < added.q_before / 10
+    assert all(s.added == (s.term in r.effects) for s in r.steps if s.accepted)

@@ -185,7 +185,7 @@ def test_each_step_reports_the_ljung_box_q_of_the_fits_it_compares(dry):
     doc = dry.to_json()
     q_base = doc["diagnostics"]["ljung_box_before"]["q"]
     q_final = doc["diagnostics"]["ljung_box_after"]["q"]
-    (kept,) = [s for s in _steps(dry) if s["accepted"]]
+    (kept,) = [s for s in _steps(dry) if s["added"]]
     assert kept["effect"] == "coulomb_friction" and kept["round"] == 1
     # the kept term's trial is the final model: the friction's signature leaves the residual
     assert (kept["ljung_box_q_before"], kept["ljung_box_q_after"]) == (q_base, q_final)
@@ -209,25 +209,28 @@ def test_a_candidate_fitted_and_rejected_in_the_last_round_reports_its_trials_q(
         assert s["ljung_box_q_after"] != s["ljung_box_q_before"]
 
 
-def test_two_kept_terms_leave_the_intermediate_models_q_unknown(tmp_path):
+def test_two_kept_terms_report_the_intermediate_models_q(tmp_path):
     result = estimate_pendulum([decay(dry_friction=TAU_C, gamma=GAMMA)])
     assert [e.name for e in result.effects] == ["coulomb_friction", "quadratic_damping"]
     doc = result.to_json()
     q_base = doc["diagnostics"]["ljung_box_before"]["q"]
     q_final = doc["diagnostics"]["ljung_box_after"]["q"]
-    (first,) = [s for s in _steps(result, 1) if s["accepted"]]
+    (first,) = [s for s in _steps(result, 1) if s["added"]]
     (second,) = [s for s in _steps(result, 2) if s["effect"] == "quadratic_damping"]
     (rival,) = [s for s in _steps(result, 2) if s["effect"] == "cubic_drag"]
-    # the model with friction alone is not returned by the search (and not refitted)
-    assert (first["ljung_box_q_before"], first["ljung_box_q_after"]) == (q_base, None)
-    assert (second["ljung_box_q_before"], second["ljung_box_q_after"]) == (None, q_final)
-    # the rival passed the rules but lost: its trial is not returned either
-    assert rival["accepted"] and rival["ljung_box_q_after"] is None
-    assert q_final < q_base / 100
+    # the model with friction alone is round 1's trial and round 2's model
+    assert first["ljung_box_q_before"] == q_base and second["ljung_box_q_after"] == q_final
+    assert first["ljung_box_q_after"] == second["ljung_box_q_before"]
+    assert q_final < first["ljung_box_q_after"] < q_base
+    # the rival passed the rules but lost: its trial's Q is there, and it was not added
+    assert rival["accepted"] and not rival["added"] and rival["ljung_box_q_after"] is not None
+    assert rival["reason"] == "passed the rules; quadratic_damping was added this round"
     write_pendulum_report(result, tmp_path)
     text = (tmp_path / "report.md").read_text(encoding="utf-8")
-    assert f"| {q_base:.1f} → — | yes |" in text and f"| — → {q_final:.1f} | yes |" in text
-    assert "| cubic_drag |" in text and "| — → — | passed, not chosen |" in text
+    mid = first["ljung_box_q_after"]
+    assert f"| {q_base:.1f} → {mid:.1f} | yes |" in text
+    assert f"| {mid:.1f} → {q_final:.1f} | yes |" in text
+    assert "| cubic_drag |" in text and " | passed, not chosen |" in text
 
 
 def test_two_amplitudes_fit_jointly_with_their_own_offsets():
