@@ -23,14 +23,7 @@ Before a candidate is fitted, one Gauss–Newton step from the current fit (its 
 column beside the current model's) predicts its SSE; a candidate predicted to miss rule 1 by
 a wide margin (predicted ΔBIC > 0) is recorded, not fitted. A trial starts from that
 linearised value, the model's own parameters where the current fit left them; a set-valued
-term (dry friction) starts from a **profile**: the candidate held at ``PROFILE`` × that
-linearised value (a decade each side), the model's own parameters moved by ``PROFILE_STEPS``
-chord steps (Gauss–Newton with the current fit's Jacobian), all grid points in one
-vectorized simulation per step; the lowest simulated SSE wins. Dry friction's effect is far
-from linear in its coefficient (it sets where the swing stops, and the equilibrium moves
-with it): from the linearised value it starts in the wrong basin — on a pendulum released
-from two amplitudes the linearised F_c (0.14 N·m) converges to 0.25 N·m at 120× the noise,
-the profile's to the true 0.40.
+term (dry friction) starts from a **profile** (``motion.profile``).
 
 Two candidates whose sensitivities, after projecting out the current model, have |ρ| ≥
 ``RIVALS`` explain the same part of the residual: they are **rivals** (quadratic against
@@ -48,6 +41,13 @@ that does not depend on amplitude, dry friction's, from one that grows with it, 
 damping's: KVLCC2 run 21338; the shorter runs 21337 and 21340 do not). A pair the data
 separate is kept and no longer reported as ambiguous; one they do not, is.
 
+**Backward check.** When a round keeps nothing, every kept term is judged again by rules
+1–3 against the final model without it (refitted from the final's values): a term kept
+early whose work a later term took over (quadratic damping kept first on a decay whose
+damping is cubic, before its rival cubic drag joined it) no longer passes and is removed,
+the one costing least first, until every kept term passes. Forward selection alone never
+revisits an early choice.
+
 Whiteness is a verdict on the final model, not a gate (``estimate``): when a structured
 residual remains, its normalised autocorrelation stays near 1 whatever share of it a real
 term removes, so "Ljung–Box Q must drop" rejects true terms (KVLCC2's quadratic damping).
@@ -61,8 +61,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitivities, simulate
-from estimation.motion.records import Record, Setup, known_inertia_of
+from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitivities
+from estimation.motion.profile import extend, profile_start
+from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import ljung_box, position_noise
@@ -71,8 +72,6 @@ from estimation.stats.selection import BIC_THRESHOLD, term_verdict
 MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
 TRIAL_NFEV = 40  # a trial starts one Gauss–Newton step from its optimum
 RIVALS = 0.9  # |partial correlation| of two candidates' sensitivities: the same direction
-PROFILE = np.geomspace(0.1, 10.0, 21)  # trial starts, × the linearised value (1 included)
-PROFILE_STEPS = 4  # chord (fixed-Jacobian Gauss–Newton) steps of the model's own parameters
 
 
 @dataclass(frozen=True)
@@ -107,13 +106,6 @@ class Step:
             "ljung_box_q_before": finite_or_none(self.q_before),
             "ljung_box_q_after": finite_or_none(self.q_after),
         }
-
-
-def _extend(fit: MotionFit, term_start: float) -> np.ndarray:
-    """``fit``'s parameters with one more coefficient (at ``term_start``) after its globals."""
-    p = parameters_of(fit)
-    k = len(fit.values)
-    return np.concatenate([p[:k], [term_start], p[k:]])
 
 
 def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Step:
@@ -165,55 +157,6 @@ def _screen(records, setup, current: MotionFit, candidates):
             d = norms[i] * norms[j]
             rho[frozenset((c, candidates[j]))] = float(perp[:, i] @ perp[:, j] / d) if d else 0.0
     return predicted, rho, start, own
-
-
-def _profile_start(
-    records: Sequence[Record],
-    setup: Setup,
-    current: MotionFit,
-    own: np.ndarray,
-    term: str,
-    linear: float,
-) -> np.ndarray:
-    """The trial's start (module doc, *profile*): the full parameter vector."""
-    k, nr = len(current.values), len(records)
-    measured = np.concatenate([np.asarray(r.x, dtype=float) for r in records])
-    index = np.repeat(np.arange(nr), [np.size(r.t) for r in records])
-    params = np.tile(parameters_of(current), (PROFILE.size, 1))  # (grid, p)
-    values = linear * PROFILE
-    low = np.array(
-        [
-            max(-known_inertia_of(r, setup) / r.weight(n) for r in records)
-            if n == "inertia"
-            else LIBRARY[n].lower
-            for n in current.names
-        ]
-    )
-    high = np.array([np.inf if n == "inertia" else LIBRARY[n].upper for n in current.names])
-    best_sse, best = np.full(PROFILE.size, np.inf), params.copy()
-    solve = np.linalg.pinv(own)  # one SVD for every chord step (lstsq per step: 70 ms each)
-    for _ in range(PROFILE_STEPS + 1):  # chord steps: the current fit's Jacobian throughout
-        sims = simulate(
-            records,
-            setup,
-            (*current.names, term),
-            np.column_stack([params[:, :k], values]),
-            np.stack([params[:, k + nr : k + 2 * nr], params[:, k + 2 * nr :]], axis=-1),
-            step=current.step,
-        )
-        model = np.concatenate([x for x, _ in sims], axis=1) + params[:, k + index]
-        left = measured[None, :] - model
-        inside = np.all((params[:, :k] > low) & (params[:, :k] <= high), axis=1)
-        inside &= np.isfinite(left).all(axis=1)
-        sse = np.where(inside, np.sum(np.where(inside[:, None], left, 0.0) ** 2, axis=1), np.inf)
-        better = sse < best_sse
-        best_sse, best[better] = np.where(better, sse, best_sse), params[better]
-        # a chord that left the bounds stops there (its best is kept)
-        params = np.where(inside[:, None], params + (solve @ np.nan_to_num(left).T).T, params)
-    # each grid point's best simulated state of its chord; the linearised start (factor 1,
-    # before any step) is among them, so the profile never starts worse than it
-    i = int(np.argmin(best_sse))
-    return np.concatenate([best[i, :k], [values[i]], best[i, k:]])
 
 
 def search_terms(
@@ -284,9 +227,9 @@ def search_terms(
                     setup,
                     (*current.effects, term),
                     start=(
-                        _profile_start(records, setup, current, own, term, start[term])
+                        profile_start(records, setup, current, own, term, start[term])
                         if LIBRARY[term].set_valued_at_rest
-                        else _extend(current, start[term])
+                        else extend(current, start[term])
                     ),
                     max_nfev=TRIAL_NFEV,
                 )
@@ -323,7 +266,33 @@ def search_terms(
                 rivals.append((chosen, c))
         remaining = [c for c in remaining if c != chosen]
         round_no += 1
-    return current, tuple(steps), tuple(rejected_last), tuple(rivals)
+    current, removed = _backward(records, setup, current, steps, round_no)
+    rivals = [(kept, rival) for kept, rival in rivals if kept in current.effects]
+    return current, tuple(steps), (*rejected_last, *removed), tuple(rivals)
+
+
+def _backward(records, setup, final: MotionFit, steps: list[Step], round_no: int):
+    """The backward check (module doc): the final fit without the terms that no longer pass,
+    and the fits each removal left (nested in the final: evidence the coefficients move).
+    Each removal is recorded in ``steps`` as round ``round_no``."""
+    removed: list[MotionFit] = []
+    while True:
+        failing = []
+        for term in final.effects:
+            start = np.delete(parameters_of(final), final.names.index(term))
+            rest = tuple(e for e in final.effects if e != term)
+            try:
+                without = fit_motion(records, setup, rest, start=start, max_nfev=TRIAL_NFEV)
+            except EstimationFailed:
+                continue
+            again = judge(without, final, term, round_no)
+            if not again.accepted:
+                failing.append((final.bic - without.bic, again, without))
+        if not failing:
+            return final, removed
+        _, again, final = min(failing, key=lambda f: f[0])
+        removed.append(final)
+        steps.append(replace(again, reason=f"removed in the backward check: {again.reason}"))
 
 
 def _verdict_of_round(step: Step, chosen: str) -> Step:
