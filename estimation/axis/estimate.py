@@ -251,7 +251,9 @@ def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -
         sample = [runs[i] for i in pick]
         if len(_distinct_drives(sample)) < min(2, len(_distinct_drives(runs))):
             continue
-        draws.append(fit_output_error(sample, fit.effects, start=fit.values).values)
+        # only the values are kept: the refit's quantization σ is not computed
+        refit = fit_output_error(sample, fit.effects, start=fit.values, quantization_sigma=False)
+        draws.append(refit.values)
     names = fit.names
     if not draws:
         nan = dict.fromkeys(names, float("nan"))

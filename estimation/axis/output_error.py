@@ -144,10 +144,14 @@ def fit_output_error(
     effects: Sequence[str] = (),
     start: np.ndarray | None = None,
     max_nfev: int = 200,
+    quantization_sigma: bool = True,
 ) -> FitResult:
     """Fit (M, K_L, K_Q, effects) and one offset per run to all runs' positions jointly.
 
     ``max_nfev`` caps the model evaluations (the effect search screens with a low cap).
+    ``quantization_sigma``: False for a refit whose σ is discarded (a bootstrap draw, a
+    leave-one-run-out refit): the encoder's quantization σ (its costliest part) is not
+    computed, so ``std`` lacks it and ``std_quantization`` is None.
     """
     effects = tuple(effects)
     prob = _Problem(runs, effects)
@@ -175,7 +179,7 @@ def fit_output_error(
     )
     params, ng = sol.x, prob.n_global
     res = prob.residual(params)
-    steps = [r.encoder_step for r in runs]
+    steps = [r.encoder_step for r in runs] if quantization_sigma else []
     stats = solution_statistics(
         res, prob.jacobian(params), ng, prob.sizes, prob.measured - res, steps
     )
@@ -232,7 +236,9 @@ def leave_one_run_out_rmse(runs: Sequence[PreparedRun], fit: FitResult) -> float
     sq, count = 0.0, 0
     for i in range(len(runs)):
         train = [r for j, r in enumerate(runs) if j != i]
-        sub = fit_output_error(train, fit.effects, start=fit.values, max_nfev=LORO_NFEV)
+        sub = fit_output_error(
+            train, fit.effects, start=fit.values, max_nfev=LORO_NFEV, quantization_sigma=False
+        )
         res = predict_run(sub, runs[i])
         sq += float(res @ res)
         count += res.size

@@ -31,3 +31,31 @@ def test_a_candidate_at_zero_ties_with_the_model_without_it_and_is_no_drop():
     # a bare "<" on round-off called one of them a drop; a resolved drop is still one
     assert not loro_dropped(cv_base * (1 - 1e-14), cv_base)
     assert loro_dropped(cv_base * (1 - 10 * LORO_RESOLUTION), cv_base)
+
+
+def test_bootstrap_and_leave_one_run_out_refits_skip_the_quantization_sigma(monkeypatch):
+    """Their σ is discarded (only values and predictions are kept): the quantization σ is
+    not computed for them, and their values are those of a refit that computes it."""
+    import estimation.stats.identify as identify
+    from estimation.axis.estimate import _bootstrap
+
+    runs = [prepare(r) for r in tow_set(seed=4)]
+    fit = fit_output_error(runs)
+    assert fit.std_quantization is not None  # the reported fit carries it
+    calls: list[int] = []
+    real = identify.quantization_scores
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(identify, "quantization_scores", counted)
+    boot = _bootstrap(runs, fit, 6, 0)
+    assert boot.used >= 3
+    assert leave_one_run_out_rmse(runs, fit) is not None
+    assert calls == []
+    train = runs[1:]
+    with_sigma = fit_output_error(train, start=fit.values)
+    without = fit_output_error(train, start=fit.values, quantization_sigma=False)
+    assert calls == [1] and without.std_quantization is None
+    np.testing.assert_array_equal(without.values, with_sigma.values)
