@@ -237,6 +237,23 @@ def _local_rates(p: ParamView, run: PreparedRun) -> tuple[np.ndarray, np.ndarray
     return stiffness.max(axis=1), damping.max(axis=1)
 
 
+def _coarsest_step(runs: Sequence[PreparedRun]) -> float:
+    """``RK4_MAX_STEP_S``, or the sample step of a per-sample drive (s)."""
+    base = RK4_MAX_STEP_S
+    if any(r.constant_drive is None for r in runs):  # one step per held thrust sample
+        base = min(base, min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1))
+    return base
+
+
+def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:
+    """Whether ``values`` need ``integration_step``'s finest step (or finer): within 2× of
+    the limit past which a trial counts as diverged, a fit may rest on it, not on the data."""
+    if closed_form_applies(effects, runs):
+        return False
+    h, unresolved = integration_step(ParamView(np.atleast_2d(values), effects), runs)
+    return bool(unresolved.any()) or h <= _coarsest_step(runs) / 2**MAX_HALVINGS * (1 + 1e-9)
+
+
 def integration_step(p: ParamView, runs: Sequence[PreparedRun]) -> tuple[float, np.ndarray]:
     """The RK4 step (s) for the parameter sets of ``p`` on ``runs``, and which sets it cannot
     resolve (bool, (S,)).
@@ -244,16 +261,12 @@ def integration_step(p: ParamView, runs: Sequence[PreparedRun]) -> tuple[float, 
     ``RK4_MAX_STEP_S``, or the sample step of a per-sample drive (one step per held value),
     halved until it resolves each set's natural period and damping rate on each run
     (``motion.equation.stable_step`` on the forces linearised over the run's range,
-    ``_local_rates``): h·c/M ≤ 0.5, well inside RK4's real-axis stability limit ≈ 2.785.
-    Halving (not any smaller step) keeps the step of a set that moves slightly, so a
-    finite-difference Jacobian's sets share it and a trial's grid changes only where its
-    rates need it. A set that needs more than ``MAX_HALVINGS`` halvings is not integrated
-    (``_simulate_ode`` makes it a diverged trial): never with an unstable step. Before,
-    the step was the sample step whatever the rates: the ship2d record's fit sat at
-    K_Q ≈ 1930 N·s²/m² with h·c/M ≈ 4.7 at the model's peak speed."""
-    base = RK4_MAX_STEP_S
-    if any(r.constant_drive is None for r in runs):  # one step per held thrust sample
-        base = min(base, min(float(np.median(np.diff(r.t))) for r in runs if r.t.size > 1))
+    ``_local_rates``): h·c/M ≤ 0.5, inside RK4's real-axis stability limit ≈ 2.785. Halving
+    keeps the step of a set that moves slightly (a finite-difference Jacobian's sets share
+    it). A set needing more than ``MAX_HALVINGS`` halvings is not integrated (a diverged
+    trial), never with an unstable step. With the sample step alone the ship2d record's
+    fit sat at K_Q ≈ 1930 N·s²/m², h·c/M ≈ 4.7 at the model's peak speed."""
+    base = _coarsest_step(runs)
     needed = np.full(p.theta.shape[0], base)
     for r in runs:
         stiffness, damping = _local_rates(p, r)
