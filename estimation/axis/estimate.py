@@ -311,8 +311,8 @@ def _build(
         )
     if at_step_limit(final.values, final.effects, prepared):
         warnings.append(
-            "the fitted damping is so fast for the inertia that the simulation needs its "
-            "finest step (the velocity settles within 1/32 of a sample): the fit may rest "
+            "the fitted damping or stiffness is so fast for the inertia that the simulation "
+            "needs its finest step (the motion settles within 1/32 of a sample): the fit may rest "
             "on that limit rather than on the data, and the inertia is not determined"
         )
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None

@@ -68,8 +68,8 @@ def _derivatives(t_bytes: bytes, x_bytes: bytes) -> tuple[np.ndarray, np.ndarray
 
 def record_step(x: np.ndarray) -> float:
     """The record's encoder step (``estimation.stats.quantization.encoder_step``, m or rad):
-    every fit of a search reads it for its quantization σ (≈ 1 ms each), so it is read once
-    per record content (``DERIVATIVES_KEPT`` most recent), as ``derivatives`` are."""
+    every fit of a search reads it for its quantization σ (0.1–0.2 ms each on the published
+    decays), so it is read once per record content (``DERIVATIVES_KEPT`` most recent)."""
     return _record_step(np.asarray(x, dtype=float).tobytes())
 
 
