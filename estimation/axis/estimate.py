@@ -10,7 +10,7 @@ import numpy as np
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
-from estimation.axis.model import BASE_NAMES, PreparedRun, prepare
+from estimation.axis.model import BASE_NAMES, PreparedRun, at_step_limit, prepare
 from estimation.axis.output_error import (
     FitResult,
     evaluate_parameters,
@@ -251,7 +251,9 @@ def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -
         sample = [runs[i] for i in pick]
         if len(_distinct_drives(sample)) < min(2, len(_distinct_drives(runs))):
             continue
-        draws.append(fit_output_error(sample, fit.effects, start=fit.values).values)
+        # only the values are kept: the refit's quantization σ is not computed
+        refit = fit_output_error(sample, fit.effects, start=fit.values, quantization_sigma=False)
+        draws.append(refit.values)
     names = fit.names
     if not draws:
         nan = dict.fromkeys(names, float("nan"))
@@ -306,6 +308,12 @@ def _build(
             )
             + "; the model starts from rest there, so the record lacks the acceleration that "
             "determines the inertia: give the true release (a record with the at-rest samples)"
+        )
+    if at_step_limit(final.values, final.effects, prepared):
+        warnings.append(
+            "the fitted damping or stiffness is so fast for the inertia that the simulation "
+            "needs its finest step (the motion settles within 1/32 of a sample): the fit may rest "
+            "on that limit rather than on the data, and the inertia is not determined"
         )
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):

@@ -3,7 +3,8 @@
 Every single effect and every pair of effects is a candidate combination; a combination is
 kept only if, as a whole, it
 - lowers the BIC by more than ``BIC_THRESHOLD`` ("very strong" evidence),
-- lowers the leave-one-run-out prediction error,
+- lowers the leave-one-run-out prediction error (by more than the refits' own tolerance,
+  ``output_error.loro_dropped``: a smaller drop is round-off),
 - cuts the error materially: halves the RMSE, or brings the force-domain residual to
   within ``AT_NOISE_FLOOR`` of the noise floor the fit implies (structure outside the
   library is never absorbed by an effect that only nibbles at it, see unexplained.py),
@@ -58,6 +59,7 @@ from estimation.axis.output_error import (
     effect_start,
     fit_output_error,
     leave_one_run_out_rmse,
+    loro_dropped,
 )
 from estimation.axis.unexplained import NUMERICAL_RMSE
 from estimation.stats.diagnostics import ljung_box
@@ -196,7 +198,9 @@ class _Search:
             bars = [ref.cv] + ([rival.cv] if rival is not None else [])
             if cv_new is None and (tied := self.tied(fit, combo)):
                 reason = tied
-            elif cv_new is not None and any(b is not None and cv_new >= b for b in bars):
+            elif cv_new is not None and any(
+                b is not None and not loro_dropped(cv_new, b) for b in bars
+            ):
                 reason = "leave-one-run-out error did not drop"
         kept = reason == "kept"
         if kept:

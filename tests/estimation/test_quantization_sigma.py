@@ -85,3 +85,36 @@ def test_encoder_step_is_read_from_a_record_on_a_grid():
     assert encoder_step(fast + 1e-5 * rng.standard_normal(t.size)) == 0.0  # not on a grid
     assert encoder_step(np.r_[np.zeros(50), np.full(50, 1e-4)]) == 0.0  # one change
     assert encoder_step(np.zeros(10)) == 0.0
+
+
+def test_a_search_reads_each_records_encoder_step_once(monkeypatch):
+    """``fit_motion`` needs each record's step for the quantization σ of every fit a search
+    makes; the record does not change between them, so the step is read once (≈ 1 ms each)
+    and every fit still carries the quantization σ."""
+    from scipy.integrate import solve_ivp
+
+    import estimation.motion.fit as motion_fit
+    from estimation.motion.records import Record, Setup
+
+    t = np.arange(0.0, 20.0, 0.1)
+    sol = solve_ivp(
+        lambda _t, y: [y[1], -(0.4 * y[1] + 40.0 * y[0]) / 10.0],
+        (0.0, t[-1]),
+        [0.05, 0.0],
+        t_eval=t,
+        rtol=1e-10,
+        atol=1e-12,
+    )
+    record = Record("decay", t, 1e-4 * np.round(sol.y[0] / 1e-4))
+    reads: list[float] = []
+
+    def counted(x):
+        reads.append(encoder_step(x))
+        return reads[-1]
+
+    monkeypatch.setattr(motion_fit, "encoder_step", counted)
+    motion_fit._record_step.cache_clear()
+    setup = Setup("heave")
+    fits = [motion_fit.fit_motion([record], setup, effects) for effects in ((), ("cubic_drag",))]
+    assert reads == [pytest.approx(1e-4, rel=1e-6)]
+    assert all(f.std_quantization is not None for f in fits)
