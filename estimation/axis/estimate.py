@@ -10,6 +10,7 @@ import numpy as np
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
+from estimation.axis.integration_step import MAX_HALVINGS
 from estimation.axis.model import BASE_NAMES, PreparedRun, at_step_limit, prepare
 from estimation.axis.output_error import (
     FitResult,
@@ -312,8 +313,9 @@ def _build(
     if at_step_limit(final.values, final.effects, prepared):
         warnings.append(
             "the fitted damping or stiffness is so fast for the inertia that the simulation "
-            "needs its finest step (the motion settles within 1/32 of a sample): the fit may rest "
-            "on that limit rather than on the data, and the inertia is not determined"
+            f"needs its finest step (the motion settles within 1/{2 ** (MAX_HALVINGS - 1)} of a "
+            "sample): the fit may rest on that limit rather than on the data, and the inertia is "
+            "not determined"
         )
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):

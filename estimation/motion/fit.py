@@ -19,19 +19,17 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from estimation.errors import EstimationFailed
 from estimation.motion.equation import Coefficient, Track, integrate, stable_step
+from estimation.motion.readings import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY
-from estimation.stats.diagnostics import smoothed_derivatives
 from estimation.stats.fit import FitStatistics
 from estimation.stats.identify import honest_statistics
-from estimation.stats.quantization import encoder_step
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -44,38 +42,6 @@ class MotionFit(FitStatistics):
     velocities: tuple[np.ndarray, ...]  # model ξ̇ at the samples
     not_identified: tuple[str, ...] = ()
     step: float = 0.0  # RK4 step, s
-
-
-def derivatives(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """ẋ and ẍ at the samples: 7-point Savitzky–Golay on a uniform resampling (read-only).
-
-    A fit reads a record's derivatives for its start, its scales and each candidate's
-    typical size (≈ 9 times per ``estimate_decay``; the filter's edge fits cost 1–2 ms):
-    they are computed once per record content (``DERIVATIVES_KEPT`` most recent)."""
-    t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
-    return _derivatives(t.tobytes(), x.tobytes())
-
-
-DERIVATIVES_KEPT = 8  # records of one estimate; each entry holds its t and x (as keys)
-
-
-@lru_cache(maxsize=DERIVATIVES_KEPT)
-def _derivatives(t_bytes: bytes, x_bytes: bytes) -> tuple[np.ndarray, np.ndarray]:
-    d1, d2 = smoothed_derivatives(np.frombuffer(t_bytes), np.frombuffer(x_bytes))
-    d1.flags.writeable = d2.flags.writeable = False
-    return d1, d2
-
-
-def record_step(x: np.ndarray) -> float:
-    """The record's encoder step (``estimation.stats.quantization.encoder_step``, m or rad):
-    every fit of a search reads it for its quantization σ (0.1–0.2 ms each on the published
-    decays), so it is read once per record content (``DERIVATIVES_KEPT`` most recent)."""
-    return _record_step(np.asarray(x, dtype=float).tobytes())
-
-
-@lru_cache(maxsize=DERIVATIVES_KEPT)
-def _record_step(x_bytes: bytes) -> float:
-    return encoder_step(np.frombuffer(x_bytes))
 
 
 def names_of(setup: Setup, effects: Sequence[str]) -> tuple[str, ...]:
@@ -334,18 +300,25 @@ def _typical(records, setup: Setup, names, g0) -> np.ndarray:
 
 def _step(records, setup: Setup, names, g) -> float:
     """The RK4 step for the start model: resolves its period and damping on every record
-    (equation.py)."""
+    (equation.py), each term's stiffness −∂f/∂x and damping −∂f/∂ẋ taken at their largest
+    over the record's range (0 and its peak |x − median|, 0 and its peak |ẋ|): a quadratic
+    damping's rate is 2·B₂·|ẋ|/M, a cubic stiffness's 3·k₃·x²."""
     inertia = g[names.index("inertia")] if "inertia" in names else (setup.inertia or 0.0)
     dt = min(float(np.median(np.diff(np.asarray(r.t)))) for r in records)
     driven = any(r.drive is not None for r in records)
     steps = []
     for r in records:
+        x = np.asarray(r.x, dtype=float)
+        reach = float(np.max(np.abs(x - np.median(x))))
+        speed = float(np.max(np.abs(derivatives(np.asarray(r.t, dtype=float), x)[0])))
+        xs, vs = (a.ravel() for a in np.meshgrid([0.0, reach, -reach], [0.0, speed, -speed]))
         m = known_inertia_of(r, setup) + r.weight("inertia") * inertia
         coef = [(n, v) for n, v in known_terms_of(r, setup).items()]
         coef += [(n, r.weight(n) * v) for n, v in zip(names, g, strict=True) if n != "inertia"]
-        k = sum(max(v, 0.0) for n, v in coef if LIBRARY[n].x_power == 1)
-        c = sum(max(v, 0.0) for n, v in coef if LIBRARY[n].v_power == 1)
-        steps.append(stable_step(dt, max(m, 1e-12), 1.5 * k, 1.5 * c, driven))
+        k = np.zeros(xs.size) - sum((v * LIBRARY[n].dphi_dx(xs, vs) for n, v in coef), 0.0)
+        c = np.zeros(xs.size) - sum((v * LIBRARY[n].dphi_dv(xs, vs) for n, v in coef), 0.0)
+        stiffness, damping = max(float(np.max(k)), 0.0), max(float(np.max(c)), 0.0)
+        steps.append(stable_step(dt, max(m, 1e-12), 1.5 * stiffness, 1.5 * damping, driven))
     return min(steps)
 
 

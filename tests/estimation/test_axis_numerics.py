@@ -8,13 +8,8 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from estimation.axis.model import (
-    ParamView,
-    at_step_limit,
-    integration_step,
-    prepare,
-    simulate,
-)
+from estimation.axis.integration_step import integration_step
+from estimation.axis.model import ParamView, at_step_limit, prepare, simulate
 from estimation.axis.output_error import (
     LORO_RESOLUTION,
     fit_output_error,

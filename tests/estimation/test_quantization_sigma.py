@@ -94,6 +94,7 @@ def test_a_search_reads_each_records_encoder_step_once(monkeypatch):
     from scipy.integrate import solve_ivp
 
     import estimation.motion.fit as motion_fit
+    import estimation.motion.readings as readings
     from estimation.motion.records import Record, Setup
 
     t = np.arange(0.0, 20.0, 0.1)
@@ -112,8 +113,8 @@ def test_a_search_reads_each_records_encoder_step_once(monkeypatch):
         reads.append(encoder_step(x))
         return reads[-1]
 
-    monkeypatch.setattr(motion_fit, "encoder_step", counted)
-    motion_fit._record_step.cache_clear()
+    monkeypatch.setattr(readings, "encoder_step", counted)
+    readings._record_step.cache_clear()
     setup = Setup("heave")
     fits = [motion_fit.fit_motion([record], setup, effects) for effects in ((), ("cubic_drag",))]
     assert reads == [pytest.approx(1e-4, rel=1e-6)]
