@@ -81,4 +81,10 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         expect(page.locator("#est-rmse")).to_contain_text("heave decay")
         rmse = page.locator("#est-rmse tr", has_text="RMSE after").locator("td").nth(1)
         expect(rmse).to_have_text(re.compile(r"^\S+ m$"))  # a heave's position: m
+        # the equivalent linear damping over the swings: five amplitudes in m, B_e in N·s/m
+        expect(page.locator("#est-equivalent")).to_be_visible()
+        rows = page.locator("#est-equivalent tbody tr")
+        expect(rows).to_have_count(5)
+        expect(rows.first).to_contain_text(" m")
+        expect(rows.first).to_contain_text("N·s/m")
         assert errors == []

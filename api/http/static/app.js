@@ -712,6 +712,12 @@ async function renderEstimation(res) {
         ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
     })
     .join("");
+  // a decay's equivalent linear damping over the swings it covers (docs/estimation.md)
+  const equivalent = res.equivalent_linear_damping || [];
+  $("#est-equivalent").hidden = !equivalent.length;
+  $("#est-equivalent tbody").innerHTML = equivalent
+    .map((e) => `<tr><td>${fmt(e.amplitude, 3)} ${esc(unit)}</td><td>${fmt(e.value, 4)} ${esc(e.unit)}</td><td>± ${fmt(e.std, 2)}</td></tr>`)
+    .join("");
   const axis = res.axis || `${res.dof} ${res.kind}`; // a decay names its dof instead of an axis
   kv($("#est-rmse"), [
     ["Axis / method", `${axis} / ${res.method || "output-error"}`],
