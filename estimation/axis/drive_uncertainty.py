@@ -55,7 +55,7 @@ def release_timing(runs: Sequence[RunData], fit: FitResult) -> dict[str, float]:
             continue
         moved = list(prepared)
         moved[i] = replace(prepared[i], t_release=prepared[i].t_release + run.t_release_std)
-        refit = fit_output_error(moved, fit.effects, start=fit.values)
+        refit = fit_output_error(moved, fit.effects, start=fit.values, quantization_sigma=False)
         if np.all(np.isfinite(refit.values)):
             shifts.append(refit.values - fit.values)
     total = np.sqrt(np.sum(np.square(shifts), axis=0)) if shifts else np.zeros(len(fit.names))
@@ -76,7 +76,12 @@ def drive_uncertainty(runs: Sequence[RunData], fit: FitResult) -> DriveUncertain
             r if r.drive_draws is None else replace(r, drive=r.drive_draws[k], drive_draws=None)
             for r in runs
         ]
-        refit = fit_output_error([prepare(r) for r in alternative], fit.effects, start=fit.values)
+        refit = fit_output_error(
+            [prepare(r) for r in alternative],
+            fit.effects,
+            start=fit.values,
+            quantization_sigma=False,
+        )
         values.append(refit.values)
     spread = np.std(np.array(values), axis=0, ddof=1)
     return DriveUncertainty(

@@ -41,13 +41,15 @@ def fit_release(run: RunData) -> RunData:
     base = prepare(replace(run, t_release=low))
     if base.t.size < 8 or not high > low:
         return run
-    first = fit_output_error([replace(base, t_release=found.t_release)])
+    first = fit_output_error([replace(base, t_release=found.t_release)], quantization_sigma=False)
     if not np.all(np.isfinite(first.values)):
         return run
 
     @cache  # the search's best instant is fitted again for the profile below: once is enough
     def rmse(instant: float) -> float:
-        fit = fit_output_error([replace(base, t_release=instant)], start=first.values)
+        fit = fit_output_error(
+            [replace(base, t_release=instant)], start=first.values, quantization_sigma=False
+        )
         return float(fit.rmse) if np.isfinite(fit.rmse) else np.inf
 
     best = minimize_scalar(rmse, bounds=(low, high), method="bounded", options={"xatol": 1e-4})

@@ -155,7 +155,8 @@ def _type_b_sensitivity(
         values = []
         for delta in (u, -u):
             moved = [prepare(r) for r in perturbed(runs, chain, source, delta, only)]
-            values.append(fit_output_error(moved, fit.effects, start=fit.values).values)
+            refit = fit_output_error(moved, fit.effects, start=fit.values, quantization_sigma=False)
+            values.append(refit.values)
         out.append((values[0] - values[1]) / (2 * u))
     return out
 

@@ -208,6 +208,7 @@ def repeat_campaign_std(
     values = []
     for k in range(n):
         campaign = [prepare(g[k]) for g in groups]
-        values.append(fit_output_error(campaign, fit.effects, start=fit.values).values)
+        refit = fit_output_error(campaign, fit.effects, start=fit.values, quantization_sigma=False)
+        values.append(refit.values)
     std = np.std(np.array(values), axis=0, ddof=1) / math.sqrt(n)
     return {name: (float(s), n) for name, s in zip(fit.names, std, strict=True)}, ""
