@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2
 
+from estimation.motion.terms import units_of
 from estimation.numbers import finite_or_none
 
 COEFFICIENTS: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
@@ -24,20 +25,10 @@ LABELS = {
     COMBINED: "K_L + K_Q·|v|",
 }
 UNITS = {
-    "surge": {
-        "inertia": "kg",
-        "linear_damping": "N·s/m",
-        "quadratic_damping": "N·s²/m²",
-        COMBINED: "N·s/m",
-    },
-    "yaw": {
-        "inertia": "kg·m²",
-        "linear_damping": "N·m·s/rad",
-        "quadratic_damping": "N·m·s²/rad²",
-        COMBINED: "N·m·s/rad",
-    },
+    axis: {**units_of(axis), COMBINED: units_of(axis)["linear_damping"]}
+    for axis in ("surge", "yaw")
 }
-SPEED_UNITS = {"surge": "m/s", "yaw": "rad/s"}
+SPEED_UNITS = {axis: units["velocity"] for axis, units in UNITS.items()}
 #: Two sets that both cannot separate K_L from K_Q are compared on their damping only when
 #: their speeds differ by less than this share (each fixes D(|v|) at its own speed only).
 SAME_SPEED = 0.25

@@ -13,6 +13,7 @@ from estimation.axis.reverse import ReverseTest
 from estimation.axis.search import SearchStep
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
+from estimation.motion.terms import units_of
 from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness
 
@@ -20,22 +21,7 @@ SCHEMA_VERSION = 1
 
 
 #: Per axis, the unit of each coefficient and of the position and velocity (SI).
-UNITS = {
-    "surge": {
-        "inertia": "kg",
-        "linear_damping": "N·s/m",
-        "quadratic_damping": "N·s²/m²",
-        "position": "m",
-        "velocity": "m/s",
-    },
-    "yaw": {
-        "inertia": "kg·m²",
-        "linear_damping": "N·m·s/rad",
-        "quadratic_damping": "N·m·s²/rad²",
-        "position": "rad",
-        "velocity": "rad/s",
-    },
-}
+UNITS = {axis: units_of(axis) for axis in ("surge", "yaw")}
 
 
 @dataclass(frozen=True)

@@ -13,16 +13,10 @@ from estimation.figures import figure_links, new_figure, run_label, save_figure
 from estimation.fit_report import write_result_and_markdown
 from estimation.motion.decay import DecayResult
 from estimation.motion.records import Record
+from estimation.motion.terms import DOFS, units_of
 
 #: x's unit per DOF.
-POSITION_UNIT = {
-    "surge": "m",
-    "sway": "m",
-    "heave": "m",
-    "roll": "rad",
-    "pitch": "rad",
-    "yaw": "rad",
-}
+POSITION_UNIT = {dof: units_of(dof)["position"] for dof in DOFS}
 
 
 def fitted_window(

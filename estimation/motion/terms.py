@@ -19,7 +19,7 @@ over entries; none of them names one.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -313,6 +313,18 @@ LIBRARY: dict[str, Term] = {
         ),
     )
 }
+
+
+def units_of(dof: str, names: Sequence[str] = ("linear_damping", "quadratic_damping")) -> dict:
+    """SI units on ``dof`` of the inertia, of the library entries ``names``, and of the
+    position and velocity: the one table every result, report and page reads."""
+    rotational = DOFS[dof]
+    return {
+        "inertia": "kg·m²" if rotational else "kg",
+        **{n: LIBRARY[n].unit(dof) for n in names},
+        "position": "rad" if rotational else "m",
+        "velocity": "rad/s" if rotational else "m/s",
+    }
 
 
 def term(name: str) -> Term:
