@@ -290,7 +290,7 @@ def _backward(records, setup, final: MotionFit, steps: list[Step], round_no: int
                 failing.append((final.bic - without.bic, again, without))
         if not failing:
             return final, removed
-        _, again, final = min(failing, key=lambda f: f[0])
+        _, again, final = max(failing, key=lambda f: f[0])  # the cheapest to leave out
         removed.append(final)
         steps.append(replace(again, reason=f"removed in the backward check: {again.reason}"))
 
