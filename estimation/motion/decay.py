@@ -28,7 +28,7 @@ from estimation.motion.equivalent import EquivalentDamping, damping_over_swings,
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
-from estimation.motion.terms import DOFS, LIBRARY
+from estimation.motion.terms import DOFS, LIBRARY, units_of
 from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 
@@ -109,6 +109,9 @@ class DecayResult:
             "runs": list(self.runs),
             "coefficients": {k: c.to_json() for k, c in self.coefficients.items()},
             "known": {k: c.to_json() for k, c in self.known.items()},
+            "units": units_of(
+                self.dof, [n for n in (*self.coefficients, *self.known) if n in LIBRARY]
+            ),
             "effects": list(self.effects),
             "ambiguous": [list(p) for p in self.ambiguous],
             "alternatives": {

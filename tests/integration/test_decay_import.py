@@ -13,6 +13,7 @@ the added roll inertia within 15 % of 19.0 kg·m² (from the records' periods, R
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -97,6 +98,7 @@ def test_the_published_kvlcc2_roll_decay_imports_and_estimates_over_the_cli(rig)
     # B_e over the swings, in the document's order and unit (N·m·s/rad on roll)
     (line,) = [x for x in text.splitlines() if "equivalent linear damping" in x]
     assert "(N·m·s/rad)" in line and line.count(" at ") == len(data["equivalent_linear_damping"])
+    assert data["units"]["position"] == "rad" and re.search(r"RMSE before \S+ rad, after", text)
 
 
 def test_an_exported_decay_imports_back_from_its_own_header(rig, tmp_path):
