@@ -289,6 +289,10 @@ def _build(
 ) -> EstimationResult:
     """The result document of ``outcome`` (base and final fit, the search's evidence)."""
     base, final = outcome.base, outcome.final
+    moving = {r.run_id: v for r in runs if (v := speed_at_release(r)) is not None}
+    limited = at_step_limit(final.values, final.effects, prepared)
+    # what the data cannot determine has no σ, wherever the fit is read (budget, effects)
+    final = final.without_sigma(final.names if limited else ("inertia",) if moving else ())
     ids = tuple(r.run_id for r in runs)
     effects = tuple(
         EffectEstimate(
@@ -298,10 +302,8 @@ def _build(
     )
     warnings = separability_warnings(final, prepared, reverse, envelope, axis)
     warnings += physical_warnings(final, runs)
-    moving = {r.run_id: v for r in runs if (v := speed_at_release(r)) is not None}
     coefficients = _coefficients(final)
     if moving:  # the model starts at rest: what the fit says of the inertia is not data
-        coefficients["inertia"] = Estimate(coefficients["inertia"].value, float("nan"))
         warnings.append(
             "inertia is not identified: "
             + ", ".join(
@@ -310,12 +312,12 @@ def _build(
             + "; the model starts from rest there, so the record lacks the acceleration that "
             "determines the inertia: give the true release (a record with the at-rest samples)"
         )
-    if at_step_limit(final.values, final.effects, prepared):
+    if limited:
         warnings.append(
             "the fitted damping or stiffness is so fast for the inertia that the simulation "
             f"needs its finest step (the motion settles within 1/{2 ** (MAX_HALVINGS - 1)} of a "
-            "sample): the fit may rest on that limit rather than on the data, and the inertia is "
-            "not determined"
+            "sample): the fit may rest on that limit rather than on the data, so no coefficient "
+            "is identified (no σ is given)"
         )
     unexplained = characterise(final, prepared, axis) if method == "output-error" else None
     if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):

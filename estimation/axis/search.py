@@ -220,12 +220,15 @@ class _Search:
             if vif <= VIF_LIMIT:
                 continue
             i = fit.names.index(effect)
-            rho = np.where(np.arange(len(fit.names)) == i, 0.0, np.abs(fit.correlation[i]))
-            j = int(np.argmax(rho))
+            # a parameter the fit cannot determine has no correlation (NaN): not a partner
+            row = np.nan_to_num(np.abs(fit.correlation[i]), nan=-1.0)
+            j = int(np.argmax(np.where(np.arange(len(fit.names)) == i, -1.0, row)))
             partner = fit.names[j]
+            rho = fit.correlation[i, j]
+            shown = f"ρ = {rho:.3f}" if np.isfinite(rho) else "ρ unknown: no σ"
             reason = (
                 f"{effect} not identified: inseparable from {partner} on these runs "
-                f"(VIF {vif:.0f} > {VIF_LIMIT:g}, ρ = {fit.correlation[i, j]:.3f}"
+                f"(VIF {vif:.0f} > {VIF_LIMIT:g}, {shown}"
                 f"; too few runs for a leave-one-run-out check): add "
                 f"{EFFECTS[effect].separated_by}"
             )

@@ -3,9 +3,9 @@ BIC, RMSE, values by name."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import TypedDict
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass, replace
+from typing import Self, TypedDict
 
 import numpy as np
 
@@ -97,3 +97,24 @@ class FitStatistics:
     def sigma(self, name: str) -> float:
         """Standard error of a fitted value (0 when absent)."""
         return float(self.std[self.names.index(name)]) if name in self.names else 0.0
+
+    def without_sigma(self, names: Collection[str]) -> Self:
+        """This fit with ``names`` not identified: their σ (every form) and correlations
+        unknown (NaN), for what the data cannot determine although the Jacobian gives a
+        number (a record that starts moving, a fit held by the simulator's limit)."""
+        lost = np.isin(np.array(self.names), list(names))
+        if not lost.any():
+            return self
+        gone = lost[:, None] | lost[None, :]
+        correlation = np.where(gone & ~np.eye(lost.size, dtype=bool), np.nan, self.correlation)
+        return replace(
+            self,
+            std=np.where(lost, np.nan, self.std),
+            std_white=None if self.std_white is None else np.where(lost, np.nan, self.std_white),
+            std_quantization=(
+                None
+                if self.std_quantization is None
+                else np.where(lost, np.nan, self.std_quantization)
+            ),
+            correlation=correlation,
+        )

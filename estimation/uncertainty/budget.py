@@ -88,7 +88,11 @@ class CoefficientBudget:
             "coverage_factor": finite_or_none(self.k),
             "expanded_uncertainty": finite_or_none(self.expanded),
             "coverage": COVERAGE,
-            "reported": f"{self.reported_value} ± {self.reported_expanded}",
+            "reported": (
+                f"{self.reported_value} ± {self.reported_expanded}"
+                if math.isfinite(self.expanded)
+                else f"{self.reported_value} (not identified: no U)"
+            ),
             "dominant_source": self.dominant,
             "rows": [r.to_json() for r in self.rows],
         }
@@ -209,11 +213,13 @@ def _type_b_rows(
 def _finish(name: str, value: float, rows: list[BudgetRow]) -> CoefficientBudget:
     used = [r for r in rows if r.combined and math.isfinite(r.contribution)]
     u_c = float(np.sqrt(sum(r.contribution**2 for r in used)))
+    if any(r.combined and not math.isfinite(r.contribution) for r in rows):
+        u_c = math.nan  # a source that counts has no value (the coefficient is not identified)
     dof = effective_dof([r.contribution for r in used], [r.dof for r in used])
     k = coverage_factor(dof)
     shared = tuple(
         BudgetRow(
-            **{**r.__dict__, "share": (r.contribution / u_c) ** 2 if r.combined and u_c else 0}
+            **{**r.__dict__, "share": (r.contribution / u_c) ** 2 if r.combined and u_c > 0 else 0}
         )
         for r in rows
     )

@@ -20,6 +20,9 @@ def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = Non
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
     lines += [f"**{n}**" for n in budget["notes"]]
     for name, c in budget["coefficients"].items():
+        if c["expanded_uncertainty"] is None:  # not identified: no budget to show
+            lines += ["", f"### {name}: {c['reported']}"]
+            continue
         lines += [
             "",
             f"### {name}: {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
@@ -60,6 +63,9 @@ def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) 
     """Plain lines for the terminal: each coefficient's value ± U, then its budget table."""
     out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
     for name, c in budget["coefficients"].items():
+        if c["expanded_uncertainty"] is None:  # not identified: no budget to show
+            out.append(f"  {name} = {c['reported']}")
+            continue
         out.append(
             f"  {name} = {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
             f"ν_eff = {_dof(c['effective_dof'])}); dominant: {c['dominant_source']}"

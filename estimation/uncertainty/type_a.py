@@ -35,6 +35,8 @@ from estimation.motion.terms import LIBRARY
 from estimation.uncertainty.rows import BudgetRow
 
 QUANTIZATION = "encoder quantization (step Q, one unknown phase per run)"
+FIT_ROW = "fit (σ̂²(JᵀJ)⁻¹)"
+NOT_IDENTIFIED = "not identified by these runs: no σ, so no U"
 
 
 def coefficient_unit(name: str, axis: str) -> str:
@@ -53,8 +55,13 @@ def type_a_rows(
     drive = result.uncertainty
     for i, name in enumerate(fit.names):
         unit = coefficient_unit(name, result.axis)
+        if not math.isfinite(float(fit.std[i])):  # the data do not determine it: no U at all
+            rows[name] = [
+                BudgetRow(FIT_ROW, "A", unit, math.nan, 1.0, math.nan, dof_fit, note=NOT_IDENTIFIED)
+            ]
+            continue
         noise = fit.std if fit.std_white is None else fit.std_white
-        random = [BudgetRow("fit (σ̂²(JᵀJ)⁻¹)", "A", unit, float(noise[i]), 1.0, 0.0, dof_fit)]
+        random = [BudgetRow(FIT_ROW, "A", unit, float(noise[i]), 1.0, 0.0, dof_fit)]
         if fit.std_quantization is not None:
             random.append(
                 BudgetRow(QUANTIZATION, "A", unit, float(fit.std_quantization[i]), 1, 0, dof_fit)

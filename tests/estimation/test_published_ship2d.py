@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 from estimation import RunData, estimate
+from estimation.uncertainty.budget import uncertainty_budget
 from tests.shared_data import shared_file
 
 
@@ -42,6 +43,14 @@ def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
     # the tow model cannot follow this record: its fit runs to the finest step the simulator
     # takes (a faster trial counts as diverged) and the result says the inertia is not seen
     assert any("finest step" in w for w in r.warnings)
+    # a fit held by that limit determines nothing: no σ anywhere, and no U in the budget
+    # (K_Q came out 4003 ± 0.01 N·s²/m², a σ from the wall, not from the data)
+    doc = r.to_json()
+    assert all(c["std"] is None for c in doc["coefficients"].values())
+    assert all(e["std"] is None for e in doc["effects"])
+    budget = uncertainty_budget([run], r, None, None).to_json()["coefficients"]
+    assert all(c["expanded_uncertainty"] is None for c in budget.values())
+    assert all(c["reported"].endswith("(not identified: no U)") for c in budget.values())
 
 
 @pytest.mark.slow
