@@ -86,7 +86,11 @@ def speed_at_release(run: RunData) -> float | None:
     there, else None. A tow or spin starts from rest: x − x₀ = c·τ² near the release. A
     parabola x = a + b·τ + c·τ² over the first ``REST_CHECK_SAMPLES`` samples after it
     gives b with its σ; b beyond REST_CHECK_SIGMAS σ and REST_CHECK_SHARE of the run's
-    largest speed means the record starts after the release (already moving)."""
+    largest speed, and the way the run goes, means the record starts after the release
+    (already moving). A slope against the run's direction is not motion at the release (a
+    tow from rest never starts backwards under its pull): it is the parabola bending to a
+    start that lags the release — a thrust that ramps up, the motion growing like τ³ (every
+    thruster tow of tests/integration/test_hil_chain.py gave b −0.017 to −0.033 m/s)."""
     t = np.asarray(run.t, dtype=float)
     x = np.asarray(run.position, dtype=float)
     after = np.nonzero((t >= run.t_release) & run.window())[0][:REST_CHECK_SAMPLES]
@@ -105,6 +109,7 @@ def speed_at_release(run: RunData) -> float | None:
     moving = np.nonzero(run.window() & (t > run.t_release))[0]
     top = float(np.max(np.abs(np.diff(x[moving]) / np.diff(t[moving])), initial=0.0))
     b = float(coef[1])
-    if abs(b) > REST_CHECK_SIGMAS * sigma and abs(b) > REST_CHECK_SHARE * top:
+    way = np.sign(x[moving[-1]] - x[after[0]]) if moving.size else 0.0
+    if b * way > REST_CHECK_SIGMAS * sigma and b * way > REST_CHECK_SHARE * top:
         return b
     return None

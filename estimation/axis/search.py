@@ -42,9 +42,9 @@ from itertools import combinations
 
 import numpy as np
 
+from estimation.axis.ambiguity import AMBIGUITY_BIC, ambiguities
 from estimation.axis.collinearity import (
     COLLINEAR,
-    NEAR_COLLINEAR,
     independent_shares,
     partial_correlations,
     predicted_steps,
@@ -53,10 +53,9 @@ from estimation.axis.collinearity import (
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import noise_floor_ratio
 from estimation.axis.materiality import below_resolution
-from estimation.axis.model import BASE_NAMES, PreparedRun
+from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import (
     FitResult,
-    effect_start,
     fit_output_error,
     leave_one_run_out_rmse,
     loro_dropped,
@@ -68,18 +67,11 @@ from estimation.stats.selection import BIC_THRESHOLD, forward_selection, select_
 MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the noise floor
 AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
-AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
 MIN_INDEPENDENT_SHARE = 1e-3  # below: the effect is a combination of M, K_L, K_Q on these runs
 #: Above this variance inflation a term needs out-of-sample evidence (R² > 0.9 on the other
 #: parameters: its σ is inflated √10 ≈ 3.2×; the conventional "serious collinearity" bound,
 #: Kutner et al., Applied Linear Statistical Models, §10.5).
 VIF_LIMIT = 10.0
-PAIR_EXPERIMENTS = {
-    frozenset({"coulomb_friction", "constant_bias"}): (
-        "coulomb_friction and constant_bias are collinear when every run moves the same way: "
-        "add a reverse tow/spin (opposite force) or a free-decay run"
-    ),
-}
 
 
 @dataclass(frozen=True)
@@ -116,20 +108,6 @@ def candidate_effects(runs_declared_mass: bool) -> list[str]:
     """Effects worth trying: an inertia term (the hung weight's) only when the hung mass is
     not declared (declared, its weight is 0 and the term could not act)."""
     return [e for e in EFFECTS if EFFECTS[e].role != "inertia" or not runs_declared_mass]
-
-
-def _start(fit: FitResult, effects: Sequence[str], runs: Sequence[PreparedRun]) -> np.ndarray:
-    """``fit``'s values, with each effect it lacks at a small physical start value."""
-    names = (*BASE_NAMES, *effects)
-    return np.array([fit.value(n) if n in fit.names else effect_start(n, runs) for n in names])
-
-
-def _separating_advice(group: Sequence[str]) -> str:
-    key = frozenset(group)
-    if key in PAIR_EXPERIMENTS:
-        return PAIR_EXPERIMENTS[key]
-    parts = "; ".join(f"{e}: {EFFECTS[e].separated_by}" for e in group)
-    return f"{' and '.join(group)} explain the data equally: to separate them — {parts}"
 
 
 @dataclass(frozen=True)
@@ -351,7 +329,7 @@ def search_effects(
 
     if chosen is not None and len(chosen.effects) >= 2:  # extend a winning pair
         current = forward_selection(current, extend, first_round=2)
-    ambiguous, advice = _ambiguities(search, current.fit, candidates)
+    ambiguous, advice = ambiguities(runs, current.fit, candidates)
     tied = [
         (e, p, why) for e, (p, why) in search.inseparable.items() if e not in current.fit.effects
     ]
@@ -366,37 +344,3 @@ def search_effects(
         ambiguous=ambiguous,
         advice=advice,
     )
-
-
-def _ambiguities(
-    search: _Search, final: FitResult, candidates: Sequence[str]
-) -> tuple[tuple[tuple[str, ...], ...], tuple[str, ...]]:
-    """Groups of effects the runs cannot tell apart from each kept effect, with advice."""
-    if not final.effects:
-        return (), ()
-    others = [c for c in candidates if c not in final.effects]
-    rho = partial_correlations(final, search.runs, [*final.effects, *others])
-    groups, advice = [], []
-    for kept in final.effects:
-        twins = []
-        for c in others:
-            r = abs(rho[frozenset((kept, c))])
-            if r >= NEAR_COLLINEAR and _explains_alike(search, final, kept, c, r < COLLINEAR):
-                twins.append(c)
-        if twins:
-            group = (kept, *twins)
-            groups.append(group)
-            advice.append(_separating_advice(group))
-    return tuple(groups), tuple(advice)
-
-
-def _explains_alike(
-    search: _Search, final: FitResult, kept: str, other: str, compare_bic: bool
-) -> bool:
-    """A converged fit with ``other`` in place of ``kept`` is physical (inside its bounds,
-    material) and, unless the two are collinear, explains the data as well."""
-    effects = tuple(other if e == kept else e for e in final.effects)
-    swap = fit_output_error(search.runs, effects, start=_start(final, effects, search.runs))
-    if other in swap.at_bound or below_resolution(other, swap, search.runs):
-        return False  # e.g. an aiding force cannot be dry friction
-    return not compare_bic or abs(swap.bic - final.bic) < AMBIGUITY_BIC

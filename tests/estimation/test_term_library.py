@@ -143,6 +143,35 @@ def test_a_tow_recorded_after_its_release_never_reports_a_confident_inertia():
     assert any("inertia is not identified" in w for w in r.warnings)
 
 
+@pytest.mark.parametrize("scale", list(SCALES))
+def test_a_tow_whose_thrust_ramps_up_after_the_release_starts_from_rest(scale):
+    """Thrust commanded per sample (held to the next, as the drive is logged), rising over
+    0.4 s from the release (x grows like τ³ at first): the body is at rest at the release,
+    so the inertia is identified (σ given, within 2 %) and no warning says the record starts
+    moving — the parabola of the start-at-rest check bends to such a start with a slope
+    against the run's direction."""
+    m, k_l, k_q, drives = SCALES[scale]
+    t = np.arange(0.0, 20.0, 0.1)
+    runs = []
+    for i, force in enumerate(drives):
+        drive = force * np.clip(np.round((t - 1.0) / 0.1) * 0.1 / 0.4, 0.0, 1.0)
+
+        def rhs(tt, y, drive=drive):
+            f = drive[min(int(np.floor(tt / 0.1 + 1e-9)), drive.size - 1)]
+            return [y[1], (f - k_l * y[1] - k_q * abs(y[1]) * y[1]) / m]
+
+        sol = solve_ivp(
+            rhs, (0.0, t[-1]), [0.0, 0.0], t_eval=t, rtol=1e-10, atol=1e-12, max_step=0.01
+        )
+        rng = np.random.default_rng(40 + i)
+        x = np.round((sol.y[0] + rng.uniform(0, 1e-4)) / 1e-4) * 1e-4
+        runs.append(RunData(f"ramp-{i}", "surge", t, x, drive=drive, t_release=1.0))
+    r = estimate(runs, n_bootstrap=0)
+    inertia = r.coefficients["inertia"]
+    assert np.isfinite(inertia.std) and inertia.value == pytest.approx(m, rel=0.02)
+    assert not any("already moving at its release" in w for w in r.warnings), r.warnings
+
+
 @pytest.mark.parametrize("scale", [pytest.param(s, marks=_slow_unless(s)) for s in SCALES])
 def test_sine_restoring_is_recovered(scale):
     """A pendulum-like roll swing from 0.5 rad, 1.8 M·φ̈ + b₁·φ̇ + k·sin φ = 0 (M kg·m²), the
