@@ -52,6 +52,15 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+class NoReply(ThrusterError):
+    """The controller did not answer within ``ack_timeout_s``."""
+
+
+#: Queries that open the link before a silent controller is reported (each waits
+#: ``ack_timeout_s``: 0.5 s at the default 0.1 s; the port is open, nothing moves).
+OPEN_QUERY_ATTEMPTS = 5
+
+
 class ThrusterDriver(LinkSupervision, ExitSafety):
     """Driver for the thruster controller named in the rig file's ``[thrusters]`` section.
 
@@ -132,7 +141,7 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         self.inhibited = None
         self._clear_fault()
         try:
-            await self.query()
+            await self._first_query()
         except ThrusterError as err:
             await self._close_port()
             raise ThrusterError(
@@ -190,10 +199,23 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         self.target = self.output = [0.0] * self.count
         self._expect_ack(await self._transact(p.disarm_frame, self._zeros), "disarm")
 
+    async def _first_query(self) -> ThrusterStatus:
+        """The query that opens the link, asked up to ``OPEN_QUERY_ATTEMPTS`` times while
+        nothing answers: a controller may miss the first frame after its port opens (a
+        board that resets on the open, a loaded host). A wrong answer is not asked again."""
+        for attempt in range(1, OPEN_QUERY_ATTEMPTS):
+            try:
+                return await self.query()
+            except NoReply:
+                log.warning("thrusters: no reply to the opening query (attempt %d)", attempt)
+        return await self.query()
+
     async def query(self) -> ThrusterStatus:
         """Controller state and measured RPM/current per thruster."""
         reply = await self._transact(p.qry_frame)
-        if reply is None or reply.kind != "STA":
+        if reply is None:
+            raise NoReply(f"query: controller at {self._link.url} gave {describe_reply(reply)}")
+        if reply.kind != "STA":
             raise ThrusterError(
                 f"query: controller at {self._link.url} gave {describe_reply(reply)}"
             )

@@ -16,7 +16,7 @@ from thruster_helpers import (
 )
 
 from thrusters import protocol as p
-from thrusters.driver import ThrusterDriver, ThrusterError
+from thrusters.driver import OPEN_QUERY_ATTEMPTS, ThrusterDriver, ThrusterError
 
 STA_IDLE = p.sta_frame(1, "DISARMED", [(0, 0), (0, 0)])
 
@@ -294,14 +294,42 @@ async def test_close_still_zeroes_when_an_arm_went_unanswered(transport: str) ->
 
 
 async def test_in_memory_silence_costs_the_reply_timeout_on_the_links_clock() -> None:
-    """A silent controller makes the link wait its full ack_timeout_s, counted on the
-    in-memory clock rather than slept."""
-    peer = ExpectedProtocol([(p.qry_frame(1), None)])
+    """A silent controller makes the link wait its full ack_timeout_s for each opening
+    query, counted on the in-memory clock rather than slept."""
+    attempts = OPEN_QUERY_ATTEMPTS
+    peer = ExpectedProtocol([(p.qry_frame(seq), None) for seq in range(1, attempts + 1)])
     drv = peer.driver()
-    with pytest.raises(ThrusterError, match="query"):
+    with pytest.raises(ThrusterError, match=r"query: controller at .* gave no reply"):
         await drv.open()
-    assert drv.stats.timeouts == 1
-    assert peer.t >= thruster_port(peer.url).ack_timeout_s
+    assert drv.stats.timeouts == attempts
+    assert peer.t >= attempts * thruster_port(peer.url).ack_timeout_s
+    peer.assert_done()
+
+
+@BOTH
+async def test_a_controller_that_misses_the_first_query_after_the_open_is_asked_again(
+    transport: str,
+) -> None:
+    """A board that resets when its port opens (or a loaded host) misses the first frame:
+    the opening query is asked again, and the link opens."""
+    peer = controller(
+        transport,
+        [
+            (p.qry_frame(1), None),
+            (p.qry_frame(2), p.sta_frame(2, "DISARMED", [(0, 0), (0, 0)])),
+        ],
+    )
+    drv = peer.driver()
+    await drv.open()
+    assert drv.state == "DISARMED" and drv.stats.timeouts == 1
+    await drv._close_port()
+    peer.assert_done()
+
+
+async def test_a_wrong_answer_to_the_opening_query_is_not_asked_again() -> None:
+    peer = ExpectedProtocol([(p.qry_frame(1), p.sta_frame(1, "DISARMED", [(0, 0)] * 3))])
+    with pytest.raises(ThrusterError, match=r"reports 3 thrusters, rig file thrusters\.count"):
+        await peer.driver().open()
     peer.assert_done()
 
 
