@@ -32,6 +32,7 @@ from thrusters.link import LinkStats, SerialLink
 from thrusters.link_supervision import LinkSupervision
 from thrusters.status import (
     LINK_LOST_AFTER,
+    NoReply,
     OutputStep,
     ThrusterError,
     ThrusterFault,
@@ -50,10 +51,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-
-class NoReply(ThrusterError):
-    """The controller did not answer within ``ack_timeout_s``."""
 
 
 #: Queries that open the link before a silent controller is reported (each waits
@@ -200,9 +197,8 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         self._expect_ack(await self._transact(p.disarm_frame, self._zeros), "disarm")
 
     async def _first_query(self) -> ThrusterStatus:
-        """The query that opens the link, asked up to ``OPEN_QUERY_ATTEMPTS`` times while
-        nothing answers: a controller may miss the first frame after its port opens (a
-        board that resets on the open, a loaded host). A wrong answer is not asked again."""
+        """``query`` asked up to ``OPEN_QUERY_ATTEMPTS`` times while nothing answers (a board
+        that resets when its port opens, a loaded host); a wrong answer is not asked again."""
         for attempt in range(1, OPEN_QUERY_ATTEMPTS):
             try:
                 return await self.query()

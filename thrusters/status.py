@@ -23,6 +23,10 @@ class ThrusterError(RuntimeError):
     """The controller refused or did not answer an operator-level request."""
 
 
+class NoReply(ThrusterError):
+    """The controller did not answer within ``ack_timeout_s``."""
+
+
 @dataclass(frozen=True, slots=True)
 class ThrusterFault:
     """Why thrust can no longer be trusted: the link was lost or the controller's watchdog

@@ -164,8 +164,12 @@ def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, t
         position = table.channels["tow_position"]
         assert position[0] == pytest.approx(0.0, abs=1e-4)  # the baseline at rest
         assert 0.4 <= position[-1] < 0.4 + CART_SPEED_M_S * 0.5  # braked soon after 0.4 m
-        assert set(table.channels["tow_release"][:3]) == {0.0}  # released after the baseline
-        assert 1.0 in set(table.channels["tow_release"])
+        # released after the baseline: the first samples are at rest, the release comes
+        # later (how many samples a 0.3 s baseline holds depends on the host's timing: a
+        # rehearsal under load recorded two, not three)
+        release = list(table.channels["tow_release"])
+        assert release[0] == 0.0 and 1.0 in release
+        assert position[release.index(1.0) - 1] == pytest.approx(0.0, abs=1e-4)
 
 
 @pytest.mark.parametrize("port", ["{tmp}/no-such-tty", "nonsense://thrusters"])
