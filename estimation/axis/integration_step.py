@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from estimation.motion.equation import stable_step
+from estimation.motion.equation import range_rates, stable_step
 
 if TYPE_CHECKING:
     from estimation.axis.model import ParamView, PreparedRun
@@ -25,17 +25,12 @@ MAX_HALVINGS = 4
 
 
 def _local_rates(p: ParamView, run: PreparedRun) -> tuple[np.ndarray, np.ndarray]:
-    """The force terms' largest stiffness −Σ θ·∂φ/∂x and damping −Σ θ·∂φ/∂ẋ over the run's
-    range (x in 0, ±peak excursion; ẋ in 0, ±peak speed), per parameter set, each (S,)."""
-    xs = np.array([0.0, run.peak_excursion, -run.peak_excursion])[:, None]
-    vs = np.array([0.0, run.peak_speed, -run.peak_speed])[None, :]
-    xs, vs = (np.broadcast_to(a, (3, 3)).ravel() for a in (xs, vs))
-    stiffness = np.zeros((p.theta.shape[0], xs.size))
-    damping = np.zeros_like(stiffness)
-    for c in p.forces:
-        stiffness -= c.value * c.term.dphi_dx(xs, vs)[None, :]
-        damping -= c.value * c.term.dphi_dv(xs, vs)[None, :]
-    return stiffness.max(axis=1), damping.max(axis=1)
+    """The force terms' largest stiffness and damping over the run's range (its peak
+    excursion and speed, ``motion.equation.range_rates``), per parameter set, each (S,)."""
+    sets = p.theta.shape[0]
+    forces = [(c.term, np.broadcast_to(c.value, (sets, 1))[:, 0]) for c in p.forces]
+    stiffness, damping = range_rates(forces, run.peak_excursion, run.peak_speed)
+    return np.broadcast_to(stiffness, (sets,)), np.broadcast_to(damping, (sets,))
 
 
 def coarsest_step(runs: Sequence[PreparedRun]) -> float:

@@ -218,6 +218,23 @@ def _mean_drive(track: Track, h: float, n_steps: int) -> np.ndarray:
     return np.diff(at) / h
 
 
+def range_rates(
+    terms: Sequence[tuple[Term, np.ndarray | float]], reach: float, speed: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The largest stiffness −Σ θ·∂φ/∂x and damping −Σ θ·∂φ/∂ẋ of ``terms`` (entry,
+    coefficient: a number, or one per parameter set) over x ∈ {0, ±reach}, ẋ ∈ {0, ±speed}:
+    each term's rate at the record's range (a quadratic damping's 2·B₂·|ẋ|, a cubic
+    stiffness's 3·k₃·x²), per parameter set (the trailing axis reduced)."""
+    xs, vs = (a.ravel() for a in np.meshgrid([0.0, reach, -reach], [0.0, speed, -speed]))
+    stiffness = np.zeros(xs.size)
+    damping = np.zeros(xs.size)
+    for term, value in terms:
+        theta = np.asarray(value, dtype=float)[..., None]
+        stiffness = stiffness - theta * term.dphi_dx(xs, vs)
+        damping = damping - theta * term.dphi_dv(xs, vs)
+    return stiffness.max(axis=-1), damping.max(axis=-1)
+
+
 def stable_step(
     sample_step: float, inertia: float, stiffness: float, damping: float, driven: bool
 ) -> float:

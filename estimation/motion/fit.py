@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from estimation.errors import EstimationFailed
-from estimation.motion.equation import Coefficient, Track, integrate, stable_step
+from estimation.motion.equation import Coefficient, Track, integrate, range_rates, stable_step
 from estimation.motion.readings import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY
@@ -311,13 +311,11 @@ def _step(records, setup: Setup, names, g) -> float:
         x = np.asarray(r.x, dtype=float)
         reach = float(np.max(np.abs(x - np.median(x))))
         speed = float(np.max(np.abs(derivatives(np.asarray(r.t, dtype=float), x)[0])))
-        xs, vs = (a.ravel() for a in np.meshgrid([0.0, reach, -reach], [0.0, speed, -speed]))
         m = known_inertia_of(r, setup) + r.weight("inertia") * inertia
         coef = [(n, v) for n, v in known_terms_of(r, setup).items()]
         coef += [(n, r.weight(n) * v) for n, v in zip(names, g, strict=True) if n != "inertia"]
-        k = np.zeros(xs.size) - sum((v * LIBRARY[n].dphi_dx(xs, vs) for n, v in coef), 0.0)
-        c = np.zeros(xs.size) - sum((v * LIBRARY[n].dphi_dv(xs, vs) for n, v in coef), 0.0)
-        stiffness, damping = max(float(np.max(k)), 0.0), max(float(np.max(c)), 0.0)
+        k, c = range_rates([(LIBRARY[n], v) for n, v in coef], reach, speed)
+        stiffness, damping = max(float(k), 0.0), max(float(c), 0.0)
         steps.append(stable_step(dt, max(m, 1e-12), 1.5 * stiffness, 1.5 * damping, driven))
     return min(steps)
 
