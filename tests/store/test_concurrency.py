@@ -95,16 +95,24 @@ async def test_postgres_connections_killed_mid_recording_lose_nothing(
         samples = make_samples(0, 300)
         database = sa.make_url(url).database
         admin = sa.create_engine(postgres_server.admin_url, isolation_level="AUTOCOMMIT")
+        others = f"FROM pg_stat_activity WHERE datname = '{database}' AND pid <> pg_backend_pid()"
+
+        def recorder_connected() -> bool:
+            with admin.connect() as conn:
+                return conn.exec_driver_sql(f"SELECT count(*) {others}").scalar() >= 1
+
         for i, sample in enumerate(samples):
             recorder.put(sample)
             await asyncio.sleep(0.002)  # paced: the kills land while samples still arrive
             if i in (100, 150):
+                # a loaded host may not have (re)connected the recorder yet: kill it once
+                # it has a connection (a rehearsal beside a busy process killed none)
+                await until(recorder_connected, "the recorder connected to the database")
                 with admin.connect() as conn:
                     if i == 150:
                         conn.exec_driver_sql(f'ALTER DATABASE "{database}" ALLOW_CONNECTIONS false')
                     killed = conn.exec_driver_sql(
-                        "SELECT count(pg_terminate_backend(pid)) FROM pg_stat_activity "
-                        f"WHERE datname = '{database}' AND pid <> pg_backend_pid()"
+                        f"SELECT count(pg_terminate_backend(pid)) {others}"
                     ).scalar()
                 assert killed >= 1
             if i == 250:
