@@ -5,6 +5,7 @@ result.json + report.md pair."""
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
@@ -80,6 +81,28 @@ def error_before_after(result: FitSummary, unit: str, labels: Mapping[str, str])
     ]
     lines.append(f"| **all** | {result.rmse_before:.4g} | {result.rmse_after:.4g} |")
     return lines
+
+
+class SearchStep(Protocol):
+    """What the evidence table reads of a search step (``estimation.motion.search.Step``)."""
+
+    @property
+    def q_before(self) -> float: ...
+    @property
+    def q_after(self) -> float: ...
+    @property
+    def accepted(self) -> bool: ...
+    @property
+    def added(self) -> bool: ...
+
+
+def step_cells(step: SearchStep) -> tuple[str, str]:
+    """A search step's "Ljung–Box Q before → after" (— where not fitted) and its verdict:
+    yes (added), passed, not chosen (passed the rules, lost its round), or no."""
+    pair = (step.q_before, step.q_after)
+    q = " → ".join("—" if not math.isfinite(v) else f"{v:.1f}" for v in pair)
+    verdict = "yes" if step.added else "passed, not chosen" if step.accepted else "no"
+    return q, verdict
 
 
 def write_result_and_markdown(out: Path, doc: dict[str, Any], markdown: str) -> list[Path]:

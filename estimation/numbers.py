@@ -1,9 +1,11 @@
-"""Numbers for JSON documents, which have no NaN or infinity."""
+"""Numbers for JSON documents, which have no NaN or infinity, and a value with its σ and unit."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
 
 
 def finite_or_none(x: float | None) -> float | None:
@@ -17,3 +19,20 @@ def finite_or_none(x: float | None) -> float | None:
 def finite_values(values: Mapping[str, float | None]) -> dict[str, float | None]:
     """Each value of ``values`` by :func:`finite_or_none` (a per-run or per-name table)."""
     return {k: finite_or_none(v) for k, v in values.items()}
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """A value with its σ (None: not identified by the data), in SI units."""
+
+    value: float
+    std: float | None
+    unit: str
+
+    def to_json(self) -> dict[str, Any]:
+        """{value, std, unit}; a σ that is not known is null."""
+        return {
+            "value": finite_or_none(self.value),
+            "std": finite_or_none(self.std),
+            "unit": self.unit,
+        }

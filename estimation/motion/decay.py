@@ -29,7 +29,7 @@ from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
 from estimation.motion.terms import DOFS, LIBRARY, units_of
-from estimation.numbers import finite_or_none, finite_values
+from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 
 WHITE_P = 1e-3  # Ljung–Box p below this: decisively not white (10 lags per record)
@@ -43,23 +43,6 @@ DECAY_CANDIDATES: tuple[str, ...] = (
     "constant_bias",
     "equilibrium_drift",
 )
-
-
-@dataclass(frozen=True)
-class Coefficient:
-    """A value with its σ (None: not identified by the data), in SI units."""
-
-    value: float
-    std: float | None
-    unit: str
-
-    def to_json(self) -> dict[str, Any]:
-        """{value, std, unit}; a σ that is not known is null."""
-        return {
-            "value": finite_or_none(self.value),
-            "std": finite_or_none(self.std),
-            "unit": self.unit,
-        }
 
 
 @dataclass(frozen=True)

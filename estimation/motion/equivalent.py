@@ -22,28 +22,20 @@ import numpy as np
 
 from estimation.motion.fit import MotionFit
 from estimation.motion.terms import LIBRARY
-from estimation.numbers import finite_or_none
+from estimation.numbers import Coefficient, finite_or_none
 
 AMPLITUDES = 5  # amplitudes reported, geometric from the smallest swing to the largest
 
 
 @dataclass(frozen=True)
-class EquivalentDamping:
-    """B_e at one amplitude (m or rad), with σ (None: a term it sums is not identified)."""
+class EquivalentDamping(Coefficient):
+    """B_e at ``amplitude`` (m or rad), with σ (None: a term it sums is not identified)."""
 
     amplitude: float
-    value: float
-    std: float | None
-    unit: str
 
     def to_json(self) -> dict[str, Any]:
         """{amplitude, value, std, unit}."""
-        return {
-            "amplitude": finite_or_none(self.amplitude),
-            "value": finite_or_none(self.value),
-            "std": finite_or_none(self.std),
-            "unit": self.unit,
-        }
+        return {"amplitude": finite_or_none(self.amplitude)} | super().to_json()
 
 
 def equivalent_damping(
@@ -62,7 +54,8 @@ def equivalent_damping(
     if np.all(np.isfinite(std)):
         cov = np.outer(std, std) * fit.correlation[np.ix_(used, used)]
         sigma = float(np.sqrt(max(per_unit[used] @ cov @ per_unit[used], 0.0)))
-    return EquivalentDamping(amplitude, value, sigma, LIBRARY["linear_damping"].unit(dof))
+    unit = LIBRARY["linear_damping"].unit(dof)
+    return EquivalentDamping(value, sigma, unit, amplitude=amplitude)
 
 
 def swing_range(fit: MotionFit, period: float, times: Sequence[np.ndarray]) -> tuple[float, float]:

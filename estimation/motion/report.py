@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from estimation.figures import figure_links, new_figure, run_label, save_figure
-from estimation.fit_report import write_result_and_markdown
+from estimation.fit_report import step_cells, write_result_and_markdown
 from estimation.motion.decay import DecayResult
 from estimation.motion.records import Record
 from estimation.motion.terms import DOFS, units_of
@@ -102,8 +102,7 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for s in result.steps:
-        verdict = "yes" if s.added else "passed, not chosen" if s.accepted else "no"
-        q = " → ".join("—" if not np.isfinite(v) else f"{v:.1f}" for v in (s.q_before, s.q_after))
+        q, verdict = step_cells(s)
         lines.append(
             f"| {s.term} | {s.round} | {s.delta_bic:.1f} | {s.explained_rms:.3g} | {q} | "
             f"{verdict} | {s.reason} |"

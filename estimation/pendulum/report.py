@@ -24,6 +24,7 @@ from estimation.figures import (
 from estimation.fit_report import (
     effects_found,
     error_before_after,
+    step_cells,
     summary_rows,
     write_result_and_markdown,
 )
@@ -118,10 +119,6 @@ def _pm(est: dict | None) -> str:
     return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
 
 
-def _q(q: float) -> str:
-    return "—" if not np.isfinite(q) else f"{q:.1f}"
-
-
 def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     """Coefficients ± σ (headline method, after the effects), effects, RMSE, warnings, runs."""
     doc = result.to_json()
@@ -188,10 +185,10 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         "|---|---|---|---|---|---|---|",
     ]
     for s in result.steps:
-        verdict = "yes" if s.added else "passed, not chosen" if s.accepted else "no"
+        q, verdict = step_cells(s)
         lines.append(
             f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
-            f"{s.noise:.2g} | {_q(s.q_before)} → {_q(s.q_after)} | {verdict} | {s.reason} |"
+            f"{s.noise:.2g} | {q} | {verdict} | {s.reason} |"
         )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]
