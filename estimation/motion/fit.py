@@ -271,9 +271,19 @@ def parameters_of(fit: MotionFit) -> np.ndarray:
     return np.concatenate([fit.values, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
 
 
-def _typical(records, setup: Setup, names, g0) -> np.ndarray:
+def _typical(records, setup: Setup, names, g0, inertia: float = 0.0) -> np.ndarray:
     """Each coefficient's natural size on these records: the one whose force equals the
-    record's typical force (inertia × acceleration, or the drive)."""
+    record's typical force (inertia × acceleration, or the drive). The inertia is the known
+    one, else the identified one: its start in ``g0``, else ``inertia`` (a model's fitted
+    value, when ``names`` are terms added to it). Without it a free decay whose whole
+    inertia is identified has no force to size a candidate by, and every candidate's
+    sensitivity vanished (issue 31: an 80 kg buoy's quadratic damping "not identified")."""
+    if setup.inertia is not None:
+        identified = float(setup.inertia)
+    elif "inertia" in names:
+        identified = float(g0[list(names).index("inertia")])
+    else:
+        identified = float(inertia)
     out = []
     for n, start in zip(names, g0, strict=True):
         sizes = []
@@ -281,9 +291,7 @@ def _typical(records, setup: Setup, names, g0) -> np.ndarray:
             t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
             v, a = derivatives(t, x)
             xi = x - np.median(x[-max(x.size // 5, 3) :])
-            m = known_inertia_of(r, setup) + r.weight("inertia") * abs(
-                setup.inertia if setup.inertia is not None else (start if n == "inertia" else 0.0)
-            )
+            m = known_inertia_of(r, setup) + r.weight("inertia") * abs(identified)
             d = r.drive_at_samples()
             force = max(
                 m * float(np.max(np.abs(a))), 0.0 if d is None else float(np.max(np.abs(d)))
@@ -352,7 +360,13 @@ def sensitivities(
     typical = np.concatenate(
         [
             np.maximum(np.abs(fit.values), 1e-12),
-            _typical(records, setup, extra, np.zeros(len(extra))),
+            _typical(
+                records,
+                setup,
+                extra,
+                np.zeros(len(extra)),
+                fit.value("inertia") if "inertia" in fit.names else 0.0,
+            ),
         ]
     )
     amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0

@@ -136,3 +136,52 @@ def test_a_numerical_failure_in_a_tow_fit_is_estimation_failed(monkeypatch):
         estimate([run], n_bootstrap=0)
     with pytest.raises(ValueError, match="method"):  # bad input stays a ValueError
         estimate([run], method="magic")
+
+
+def _released_at_first_sample(t, x, rate=20.0):
+    """The record without its 1 s hold: the first sample is the release (issue 31)."""
+    keep = t >= 1.0 - 0.5 / rate
+    return t[keep], x[keep]
+
+
+@pytest.mark.parametrize("scale", _scales())
+@pytest.mark.parametrize("hold", [True, False], ids=["with-hold", "from-first-sample"])
+def test_decay_whose_whole_inertia_is_identified_finds_its_damping_law(scale, hold):
+    """A heave decay whose inertia is all identified (no dry mass given, the stiffness
+    given): quadratic damping found within 5 %, nothing else, whether the record holds the
+    body before the release or starts at it. Each candidate's size came from the known
+    inertia alone, zero here, and every candidate was called "not identified": the result
+    was a linear damping 3× its truth with the residual 13× the noise floor, unflagged."""
+    mass = MASSES[scale]
+    total, k = 1.8 * mass, 40.0 * mass
+    b1, b2 = 0.03 * 2 * np.sqrt(total * k), 4.0 * mass
+    t, x = decay_record(total, b1, b2, k, x0=0.05, noise=2e-5)
+    if not hold:
+        t, x = _released_at_first_sample(t, x)
+    r = estimate_decay(t, x, "heave", stiffness=k)
+    assert r.effects == ("quadratic_damping",)
+    assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.05)
+    assert r.coefficients["inertia"].value == pytest.approx(total, rel=0.01)
+    assert not r.possibly_biased
+    assert not any("reverse" in w for w in r.warnings)  # no force to reverse on a decay
+
+
+@pytest.mark.parametrize("scale", _scales())
+def test_a_decay_reports_its_period_and_damping_ratio_with_sigma(scale):
+    """T₀ = 2π√(M/k) and ζ = B_e/(2Mω₀) of a linear decay, each within 2σ (+1 %) of the
+    truth, printed beside the raw coefficients."""
+    mass = MASSES[scale]
+    total, k = 1.8 * mass, 40.0 * mass
+    b1 = 0.03 * 2 * np.sqrt(total * k)
+    t, x = decay_record(total, b1, 0.0, k, x0=0.05, noise=2e-5)
+    r = estimate_decay(t, x, "heave", known_inertia=mass, stiffness=k)
+    found = {c.name.split(" at ")[0]: c for c in r.well_determined}
+    period, ratio = found["natural period T₀"], found["damping ratio ζ"]
+    assert period.unit == "s" and period.std is not None and ratio.std is not None
+    assert (
+        abs(period.value - 2 * np.pi * np.sqrt(total / k)) <= 2 * period.std + 0.01 * period.value
+    )
+    assert abs(ratio.value - 0.03) <= 2 * ratio.std + 0.01 * 0.03
+    assert [c["name"] for c in r.to_json()["well_determined"]] == [
+        c.name for c in r.well_determined
+    ]
