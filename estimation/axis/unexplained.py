@@ -2,11 +2,13 @@
 
 After the effect search, the residual should be what the encoder and the clock leave: white
 and at the noise floor the fit itself implies (``diagnostics.force_noise_floor``). When it is
-neither — Ljung–Box rejects whiteness AND the force-domain residual is well above that
-floor — something outside the effect library acts on the vehicle. It is characterised, not
-fitted: its correlation with position, velocity, time since release and acceleration, and
-the dominant period of a sinusoid in position or in time (the share of the force residual it
-explains, from a least-squares periodogram, per run with its own amplitude and phase).
+neither — the force-domain residual is well above that floor, decisively
+(``stats.misfit.structured``: by Ljung–Box, or by its excess on the effective sample size,
+which a short record can reach) — something outside the effect library acts on the vehicle.
+It is characterised, not fitted: its correlation with position, velocity, time since release
+and acceleration, and the dominant period of a sinusoid in position or in time (the share of
+the force residual it explains, from a least-squares periodogram, per run with its own
+amplitude and phase).
 """
 
 from __future__ import annotations
@@ -22,9 +24,8 @@ from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import FitResult
 from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import ljung_box
+from estimation.stats.misfit import effective_sample_size, structured
 
-WHITE_P = 1e-3  # Ljung–Box p below this: the residual is not white
-ABOVE_FLOOR = 3.0  # force residual RMS over the fit's own noise floor that counts as structure
 NUMERICAL_RMSE = 1e-7  # an RMSE below this share of the travel is round-off, not structure
 PERIODIC_SHARE = 0.3  # a sinusoid explaining this share of the residual is called periodic
 N_FREQUENCIES = 300
@@ -121,7 +122,9 @@ def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unex
     p_value = ljung_box(fit.residuals).p_value
     travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
     numerical = fit.rmse <= NUMERICAL_RMSE * travel  # noise-free data: round-off is no force
-    structured = p_value < WHITE_P and force_rms > ABOVE_FLOOR * floor and not numerical
+    moving_forces = [f[m] for f, m in zip(forces, moving, strict=True)]
+    ratio = force_rms / floor if floor > 0 else float("inf")
+    flagged = structured(p_value, ratio, effective_sample_size(moving_forces)) and not numerical
     coords = _coordinates(fit, runs)
     correlations = {
         name: _pearson(pooled, np.concatenate([c[m] for c, m in zip(cols, moving, strict=True)]))
@@ -130,11 +133,11 @@ def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unex
     along = {"position": [np.asarray(r.x) for r in runs], "time": coords["time"]}
     period = _dominant_period(forces, along, moving, axis)
     strongest = None
-    if structured:
+    if flagged:
         strongest = max(correlations, key=lambda k: abs(correlations[k]))
         if period is not None and period.share >= max(PERIODIC_SHARE, correlations[strongest] ** 2):
             strongest = period.domain
-    return Unexplained(structured, p_value, force_rms, floor, correlations, period, strongest)
+    return Unexplained(flagged, p_value, force_rms, floor, correlations, period, strongest)
 
 
 def _coordinates(fit: FitResult, runs: Sequence[PreparedRun]) -> dict[str, list[np.ndarray]]:

@@ -67,6 +67,7 @@ from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
 from estimation.stats.diagnostics import ljung_box, position_noise
+from estimation.stats.misfit import effective_sample_size
 from estimation.stats.selection import BIC_THRESHOLD, term_verdict
 
 MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
@@ -128,11 +129,8 @@ def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Ste
 
 
 def effective_samples(fit: MotionFit) -> float:
-    """n·(1 − r₁)/(1 + r₁) from the pooled lag-1 autocorrelation r₁ of the residual."""
-    num = sum(float(r[:-1] @ r[1:]) for r in fit.residuals)
-    den = sum(float(r @ r) for r in fit.residuals)
-    r1 = min(max(num / den, 0.0), 0.999) if den > 0 else 0.0
-    return fit.n_samples * (1 - r1) / (1 + r1)
+    """The fit's residual's effective sample size (``stats.misfit.effective_sample_size``)."""
+    return effective_sample_size(fit.residuals)
 
 
 def _screen(records, setup, current: MotionFit, candidates):
