@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
 
 from estimation.axis.result import EffectEstimate
+from estimation.motion.well_determined import Combination
 
 
 class FitSummary(Protocol):
@@ -94,6 +95,17 @@ class SearchStep(Protocol):
     def accepted(self) -> bool: ...
     @property
     def added(self) -> bool: ...
+
+
+def well_determined_rows(combinations: Sequence[Combination]) -> list[str]:
+    """A table of what the data determine well (``motion.well_determined``), or nothing."""
+    if not combinations:
+        return []
+    lines = ["", "| what the record determines well | value ± σ | unit |", "|---|---|---|"]
+    for c in combinations:
+        shown = f"{c.value:.5g}" + ("" if c.std is None else f" ± {c.std:.2g}")
+        lines.append(f"| {c.name} | {shown} | {c.unit or '—'} |")
+    return [*lines, ""]
 
 
 def step_cells(step: SearchStep) -> tuple[str, str]:

@@ -115,6 +115,10 @@ def summary_lines(data: dict) -> list[str]:
     for name, c in data["coefficients"].items():
         shown = plus_minus(c) + (" (not identified)" if c.get("std") is None else "")
         lines.append(f"  {name:<28} {shown} {c.get('unit') or units.get(name, '')}")
+    lines += [  # what the record determines well, beside the raw coefficients
+        f"  {c['name']:<28} {plus_minus(c)} {c['unit']}".rstrip()
+        for c in data.get("well_determined") or []
+    ]
     lines += _method_lines(data.get("methods") or [], units)
     lines += _finding_lines(data, ("effects", "ambiguous", "warnings", "advice"))
     if data.get("rmse_before") is not None and data.get("rmse_after") is not None:

@@ -40,6 +40,7 @@ from estimation.design.advice import (
 )
 from estimation.design.envelope import RigEnvelope
 from estimation.errors import EstimationFailed
+from estimation.motion.well_determined import Combination, drives_of, terminal_speed
 from estimation.stats.diagnostics import ljung_box
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
@@ -353,9 +354,25 @@ def _build(
         windows={r.run_id: r.window_report() for r in runs},
         drive_laws={r.run_id: r.drive_law for r in runs if r.drive_law},
         unexplained=unexplained,
+        well_determined=_well_determined(final, runs, axis),
         fit_before=base,
         fit_after=final,
     )
+
+
+def _well_determined(final: FitResult, runs: Sequence[RunData], axis: str) -> tuple:
+    """The terminal speed at each constant drive the runs hold (a thruster run's drive at
+    its end), ``motion.well_determined``: known when K_L and K_Q alone are not."""
+    held = {}
+    for r in runs:
+        d = np.asarray(r.drive, dtype=float)
+        held[r.run_id] = float(d) if d.ndim == 0 else float(np.median(d[-max(d.size // 5, 1) :]))
+    found: list[Combination] = []
+    for drive in drives_of(held):
+        speed = terminal_speed(final.names, final.values, final.std, final.correlation, drive, axis)
+        if speed is not None:
+            found.append(speed)
+    return tuple(found)
 
 
 def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:

@@ -30,6 +30,7 @@ from estimation.fit_report import (
     effects_found,
     error_before_after,
     summary_rows,
+    well_determined_rows,
     write_result_and_markdown,
 )
 
@@ -115,7 +116,7 @@ def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
     ]
     for name, est in result.coefficients.items():
         lines.append(f"| {name} | {est.value:.5g} ± {est.std:.2g} | {units[name]} |")
-    return lines + summary_rows(result, unit, labels)
+    return lines + well_determined_rows(result.well_determined) + summary_rows(result, unit, labels)
 
 
 def _markdown(

@@ -14,6 +14,7 @@ from estimation.axis.search import SearchStep
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.terms import units_of
+from estimation.motion.well_determined import Combination
 from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness
 
@@ -102,6 +103,8 @@ class EstimationResult:
     unexplained: Unexplained | None = None
     #: The reverse run that separates friction from bias, when they are ambiguous.
     reverse_test: ReverseTest | None = None
+    #: Combinations the data determine well (``motion.well_determined``): terminal speeds.
+    well_determined: tuple[Combination, ...] = ()
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
 
@@ -117,6 +120,7 @@ class EstimationResult:
             "units": dict(UNITS.get(self.axis, {})),
             "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
             "effects": [e.to_json() for e in self.effects],
+            "well_determined": [c.to_json() for c in self.well_determined],
             "ambiguous": [list(group) for group in self.ambiguous],
             "rmse_before": finite_or_none(self.rmse_before),
             "rmse_after": finite_or_none(self.rmse_after),

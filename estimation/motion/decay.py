@@ -7,8 +7,9 @@ decay scales every coefficient alike, so it needs one fact from outside: a stiff
 for heave, Δ·g·GM for roll) or the inertia. The result's warnings name every coefficient
 the data do not determine, every value a body cannot have, and — when the residual is
 decisively not white (Ljung–Box p < ``WHITE_P``) and the coefficients move by more than
-``MOVED_SIGMAS`` σ when a candidate is added or left out — that the coefficients may be
-biased, whatever the residual's size against the noise floor; and every kept term within 2σ
+``MOVED_SIGMAS`` σ when a candidate is added or left out, or when the residual is structured
+by the rule every record shares (``stats.misfit``: well above the noise floor, decisively) —
+that the coefficients may be biased; and every kept term within 2σ
 of zero by the σ that counts the residual's correlation (the information criterion that kept
 it takes the residual as white).
 """
@@ -29,10 +30,11 @@ from estimation.motion.fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
 from estimation.motion.terms import DOFS, LIBRARY, units_of
+from estimation.motion.well_determined import Combination, damping_ratio, natural_period
 from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
+from estimation.stats.misfit import WHITE_P, effective_sample_size, structured
 
-WHITE_P = 1e-3  # Ljung–Box p below this: decisively not white (10 lags per record)
 MOVED_SIGMAS = 2.0  # a coefficient that moves more than this when a term is tried is fragile
 #: Candidates tried on a decay after the base (damping, then restoring, then friction).
 DECAY_CANDIDATES: tuple[str, ...] = (
@@ -73,6 +75,8 @@ class DecayResult:
     alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
     #: B_e over the swings the records cover (``motion.equivalent``).
     equivalent: tuple[EquivalentDamping, ...] = ()
+    #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
+    well_determined: tuple[Combination, ...] = ()
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
 
     def equivalent_damping(self, amplitude: float) -> EquivalentDamping | None:
@@ -116,6 +120,7 @@ class DecayResult:
             "coefficients_possibly_biased": self.possibly_biased,
             "natural_period_s": finite_or_none(self.natural_period_s),
             "equivalent_linear_damping": [e.to_json() for e in self.equivalent],
+            "well_determined": [c.to_json() for c in self.well_determined],
             "warnings": list(self.warnings),
             "evidence": [s.to_json() for s in self.steps],
             "equilibrium": finite_values(self.equilibrium),
@@ -235,7 +240,41 @@ def estimate_records(
     equivalent = damping_over_swings(
         final, known, dof, result.natural_period_s, [r.t for r in windowed]
     )
-    return replace(result, alternatives=alternatives, window=ends, equivalent=equivalent)
+    return replace(
+        result,
+        alternatives=alternatives,
+        window=ends,
+        equivalent=equivalent,
+        well_determined=_well_determined(setup, final, equivalent),
+    )
+
+
+def _well_determined(
+    setup: Setup, final: MotionFit, equivalent: Sequence[EquivalentDamping]
+) -> tuple[Combination, ...]:
+    """The natural period with its σ and the damping ratio at the middle swing amplitude
+    (``motion.well_determined``)."""
+
+    def part(name: str, known: float | None) -> tuple[float, float | None]:
+        if known is not None:
+            return float(known), 0.0
+        s = final.sigma(name)
+        return final.value(name), (float(s) if np.isfinite(s) else None)
+
+    m, m_std = part("inertia", setup.inertia)
+    k, k_std = part("restoring_spring", setup.known_terms.get("restoring_spring"))
+    rho = 0.0
+    if "inertia" in final.names and "restoring_spring" in final.names:
+        rho = float(
+            final.correlation[final.names.index("inertia"), final.names.index("restoring_spring")]
+        )
+    total = setup.known_inertia + m
+    out = [natural_period(total, m_std, k, k_std, rho if np.isfinite(rho) else 0.0)]
+    if out[0] is not None and equivalent:
+        middle = equivalent[len(equivalent) // 2]
+        omega = 2 * np.pi / out[0].value
+        out.append(damping_ratio(middle, middle.amplitude, total, omega, setup.dof))
+    return tuple(c for c in out if c is not None)
 
 
 def _end(record: Record, start: float, given: float | None) -> FreeWindow:
@@ -276,11 +315,29 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])
     white = ljung_box(final.residuals)
     moved = _moved(final, [base, *rejected])
-    biased = white.p_value < WHITE_P and moved
-    warnings = _warnings(setup, final, white, biased)
+    noise = position_noise(final.residuals)
+    ratio = final.rmse / noise if noise > 0 else float("inf")
+    misfit = structured(white.p_value, ratio, effective_sample_size(final.residuals))
+    fragile = white.p_value < WHITE_P and moved
+    biased = fragile or misfit
+    free = all(r.drive is None for r in records)
+    # one sentence on the residual, whichever rules flag it
+    warnings = _warnings(setup, final, white, fragile and not misfit, free)
+    if misfit:
+        moved_too = (
+            f"; the coefficients move by more than {MOVED_SIGMAS:g}σ when a term is added or "
+            "left out"
+            if fragile
+            else ""
+        )
+        warnings.append(
+            f"the residual is {ratio:.1f}× the noise floor the fit implies (Ljung–Box p = "
+            f"{white.p_value:.2g}){moved_too}: the record holds motion no kept term explains, "
+            "so the coefficients may be biased by it"
+        )
     warnings += [
         f"{a} and {b} explain the same part of the residual on these records (rivals): "
-        f"{a} is reported; to separate them — {LIBRARY[b].separated_by}"
+        f"{a} is reported; to separate them — {LIBRARY[b].separation(free)}"
         for a, b in rivals
     ]
     total_m = setup.known_inertia + (
@@ -301,7 +358,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         not_identified=final.not_identified,
         rmse_before=base.rmse,
         rmse_after=final.rmse,
-        noise=position_noise(final.residuals),
+        noise=noise,
         whiteness=white,
         possibly_biased=biased,
         natural_period_s=period,
@@ -325,10 +382,12 @@ def _moved(final: MotionFit, others: Sequence[MotionFit]) -> bool:
     return False
 
 
-def _warnings(setup: Setup, final: MotionFit, white: Whiteness, biased: bool) -> list[str]:
+def _warnings(
+    setup: Setup, final: MotionFit, white: Whiteness, biased: bool, free: bool
+) -> list[str]:
     out = []
     for n in final.not_identified:
-        hint = LIBRARY[n].separated_by if n in LIBRARY else "a forced run or a known stiffness"
+        hint = LIBRARY[n].separation(free) if n in LIBRARY else "a forced run or a known stiffness"
         out.append(
             f"{n} is not identified by these records: no σ is given; add a record that "
             f"excites it ({hint})"
@@ -346,7 +405,7 @@ def _warnings(setup: Setup, final: MotionFit, white: Whiteness, biased: bool) ->
                 f"{n} = {value:.3g} ± {std:.2g} {LIBRARY[n].unit(setup.dof)} was kept on the "
                 "information criterion, which takes the residual as white, but lies within "
                 "2σ of zero by the σ that counts its correlation: it may be the residual's "
-                f"structure rather than this term ({LIBRARY[n].separated_by})"
+                f"structure rather than this term ({LIBRARY[n].separation(free)})"
             )
     if "inertia" in final.names and setup.min_inertia is not None:
         value = final.value("inertia")

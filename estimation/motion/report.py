@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from estimation.figures import figure_links, new_figure, run_label, save_figure
-from estimation.fit_report import step_cells, write_result_and_markdown
+from estimation.fit_report import step_cells, well_determined_rows, write_result_and_markdown
 from estimation.motion.decay import DecayResult
 from estimation.motion.records import Record
 from estimation.motion.terms import DOFS, units_of
@@ -84,8 +84,7 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
             f"Fitted window of {run}: {result.release_time_s[run]:.4g} s to {w.end:.4g} s "
             f"({w.ended_by})."
         )
-    if result.natural_period_s is not None:
-        lines.append(f"Natural period {result.natural_period_s:.4g} s.")
+    lines += well_determined_rows(result.well_determined)
     if result.equivalent:
         lines += ["", "| amplitude | equivalent linear damping B_e | σ |", "|---|---|---|"]
         for e in result.equivalent:
@@ -93,7 +92,7 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
             lines.append(f"| {e.amplitude:.4g} {unit} | {e.value:.4g} {e.unit} | {std} |")
         lines.append("")
     if result.possibly_biased:
-        lines.append("**The coefficients may be biased**: the residual is not white.")
+        lines.append("**The coefficients may be biased** (warnings below say why).")
     lines += [
         "",
         "## Evidence",

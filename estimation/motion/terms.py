@@ -59,7 +59,9 @@ class Term:
     regressor's degree in ẋ and x near rest (0 with ``sign_of_v``: a force that only flips with the
     direction of motion; None: does not depend on it), used to tell when the closed form of
     a constant-force tow applies. ``set_valued_at_rest``: at ẋ = 0 the force takes any value
-    up to |θ| that holds the body (dry friction).
+    up to |θ| that holds the body (dry friction). ``separated_by``: the run that tells the
+    term from its rivals on a driven record (a tow, a spin); ``separated_in_decay``: on a free
+    decay, where no force can be reversed or changed (empty: the same advice).
     """
 
     name: str
@@ -80,6 +82,7 @@ class Term:
     x_power: int | None = None
     v_power: int | None = None
     sign_of_v: bool = False
+    separated_in_decay: str = ""
     set_valued_at_rest: bool = False
 
     def unit(self, dof: str) -> str:
@@ -165,6 +168,10 @@ class Term:
         work = float(np.mean(self.phi(x, v) * v)) * (2 * np.pi / omega)
         return -work / (np.pi * amplitude**2 * omega)
 
+    def separation(self, free_decay: bool) -> str:
+        """What tells this term apart from its rivals, on a free decay or a driven record."""
+        return (self.separated_in_decay or self.separated_by) if free_decay else self.separated_by
+
     def in_bounds(self, value: float) -> bool:
         """Whether ``value`` lies within the hard bounds."""
         return bool(self.lower <= value <= self.upper)
@@ -189,6 +196,10 @@ LIBRARY: dict[str, Term] = {
             physical="≥ 0: a passive body takes energy out of the motion",
             v_power=1,
             start_share=0.3,
+            separated_in_decay=(
+                "decays released from clearly different amplitudes (linear damping takes the same"
+                " share of every swing, whatever its size)"
+            ),
         ),
         Term(
             "quadratic_damping",
@@ -201,6 +212,9 @@ LIBRARY: dict[str, Term] = {
             lower=0.0,
             physical="≥ 0: drag opposes the motion",
             v_power=2,
+            separated_in_decay=(
+                "decays released from clearly different amplitudes, the largest well above this one"
+            ),
         ),
         Term(
             "coulomb_friction",
@@ -216,6 +230,10 @@ LIBRARY: dict[str, Term] = {
             v_power=0,
             sign_of_v=True,
             set_valued_at_rest=True,
+            separated_in_decay=(
+                "a decay that runs down to small swings (dry friction's loss per half-cycle does "
+                "not shrink with the amplitude), or one released from a clearly larger amplitude"
+            ),
         ),
         Term(
             "constant_bias",
@@ -225,6 +243,10 @@ LIBRARY: dict[str, Term] = {
             "a reverse tow/spin (opposite force)",
             phi=lambda x, v: np.ones(np.broadcast(x, v).shape),
             v_power=0,
+            separated_in_decay=(
+                "a record of the body at rest before its release (on a free decay a constant "
+                "force only moves the equilibrium)"
+            ),
         ),
         Term(
             "drive_inertia",
@@ -250,6 +272,7 @@ LIBRARY: dict[str, Term] = {
             lower=0.0,
             physical="≥ 0: a restoring force pulls back toward the equilibrium",
             x_power=1,
+            separated_in_decay="a known stiffness (heave ρ·g·A_w, roll Δ·g·GM) or a known inertia",
         ),
         Term(
             "sine_restoring",
@@ -286,6 +309,10 @@ LIBRARY: dict[str, Term] = {
             lower=0.0,
             physical="≥ 0: drag opposes the motion",
             v_power=3,
+            separated_in_decay=(
+                "a decay released from a clearly larger amplitude (the laws part at the highest "
+                "speed)"
+            ),
         ),
         Term(
             "equilibrium_drift",

@@ -278,8 +278,8 @@ def estimate_pendulum(
         final, steps, _, rivals = search_terms(records, SETUP, base, CANDIDATES)
         ambiguous = tuple(rivals)
         advice = [
-            f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separated_by}; "
-            f"{b}: {LIBRARY[b].separated_by}"
+            f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separation(True)}; "
+            f"{b}: {LIBRARY[b].separation(True)}"
             for a, b in rivals
         ]
     ids = tuple(d.run_id for d in decays)
@@ -291,7 +291,7 @@ def estimate_pendulum(
             "to confirm "
             + ", ".join(final.effects)
             + ": "
-            + "; ".join(LIBRARY[e].separated_by for e in final.effects)
+            + "; ".join(LIBRARY[e].separation(True) for e in final.effects)
         )
     if method == "output-error":
         coefficients = _coefficients(final)

@@ -181,3 +181,50 @@ def test_tencate_whole_record_never_confident_below_the_sphere():
     if m < 1.979e-3:
         assert not (np.isfinite(s) and m > 2 * s)
         assert any("below the body's own" in w for w in r.warnings)
+
+
+def test_tencate_whole_record_is_flagged_structured():
+    """The wall slows the sphere after ≈ 2.5 s, which no model term has: fitted to its end,
+    the 24-point record's residual is ≈ 10× the noise floor, and is flagged although
+    Ljung–Box cannot reach p < 1e-3 on so few points (``stats.misfit``)."""
+    d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
+    run = RunData(
+        "E1",
+        "surge",
+        d.t.to_numpy(),
+        d.position.to_numpy(),
+        drive=0.0026004,
+        t_release=0.0,
+        body_inertia=0.001979,
+    )
+    r = estimate([run], n_bootstrap=0)
+    assert r.unexplained is not None and r.unexplained.structured
+    assert r.unexplained.ratio > 3
+    assert any("still structured" in w for w in r.warnings)
+
+
+def test_tencate_terminal_speed_is_known_though_its_drag_law_is_not():
+    """K_L and K_Q trade along one steady balance (neither known alone); the speed they
+    give at the net weight is printed with its σ, and matches the record's own slope over
+    its plateau (1.06–2.44 s, README) within 2σ + 1 %; published u∞ 0.038 m/s within 15 %."""
+    d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
+    run = RunData(
+        "E1",
+        "surge",
+        d.t.to_numpy(),
+        d.position.to_numpy(),
+        drive=0.0026004,
+        t_release=0.0,
+        t_end=2.45,
+        body_inertia=0.001979,
+    )
+    r = estimate([run], n_bootstrap=0)
+    (speed,) = r.well_determined
+    t, x = d.t.to_numpy(), d.position.to_numpy()
+    plateau = (t >= 1.06) & (t <= 2.44)
+    slope = np.polyfit(t[plateau], x[plateau], 1)[0]
+    assert speed.unit == "m/s" and speed.std is not None
+    assert speed.std < 0.03 * speed.value
+    assert abs(speed.value - slope) <= 2 * speed.std + 0.01 * slope
+    assert speed.value == pytest.approx(0.038, rel=0.15)
+    assert r.to_json()["well_determined"][0]["name"] == "terminal speed at 0.0026 N"

@@ -1,0 +1,149 @@
+"""What a record determines well, printed beside the raw coefficients.
+
+The raw coefficients of a fit can be poorly determined one by one while a combination of
+them is known closely: a settling sphere's K_L and K_Q trade against each other along one
+steady force balance, yet the speed it settles at is read off the record's slope; a decay's
+inertia and stiffness give its period, and its damping terms share the energy per cycle.
+
+- **Terminal speed** at a constant drive τ (N or N·m), from the steady balance of every
+  kept force term that depends on velocity alone,
+
+      τ + Σ_j θ_j·φ_j(0, u∞) = 0,      ∂u∞/∂θ_j = φ_j(u∞) / (τ + Σ θ φ)'(u∞)·(−1),
+
+  (none when a kept term depends on position or time: a spring holds the body, it does
+  not settle at a speed). σ by the delta method from the fit's covariance; a term without
+  σ leaves the speed without one.
+- **Natural period** T₀ = 2π·√(M/k) with σ from the inertia's and stiffness's σ and their
+  correlation (a known one exact), and the **damping ratio** ζ(a) = B_e(a)/(2·M·ω₀) at a
+  swing amplitude a (``motion.equivalent``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.optimize import brentq
+
+from estimation.motion.terms import DOFS, LIBRARY
+from estimation.numbers import Coefficient
+
+#: A speed search doubles its upper bracket at most this many times from the first guess.
+MAX_DOUBLINGS = 60
+
+
+@dataclass(frozen=True)
+class Combination(Coefficient):
+    """A well-determined combination of coefficients: what it is, value ± σ, unit."""
+
+    name: str
+
+    def to_json(self) -> dict[str, Any]:
+        """{name, value, std, unit}."""
+        return {"name": self.name} | super().to_json()
+
+
+def _covariance(std: np.ndarray, correlation: np.ndarray) -> np.ndarray | None:
+    if not np.all(np.isfinite(std)) or not np.all(np.isfinite(correlation)):
+        return None
+    return np.outer(std, std) * correlation
+
+
+def terminal_speed(
+    names: Sequence[str],
+    values: np.ndarray,
+    std: np.ndarray,
+    correlation: np.ndarray,
+    drive: float,
+    dof: str,
+) -> Combination | None:
+    """The steady speed a constant ``drive`` reaches under the fitted force terms (module
+    doc), or None when the model has no steady speed (a position or time term is kept, no
+    damping, or the drive does not overcome a dry friction)."""
+    terms = [(i, LIBRARY[n]) for i, n in enumerate(names) if n in LIBRARY]
+    if drive == 0 or any(
+        t.role == "time" or (t.role == "force" and t.x_power is not None) for _, t in terms
+    ):
+        return None
+    used = [(i, t) for i, t in terms if t.role == "force" and t.v_power is not None]
+    if not any(t.v_power and values[i] > 0 for i, t in used):
+        return None
+    way = float(np.sign(drive))
+
+    def balance(u: float) -> float:  # drive + Σ θ φ along the drive's direction
+        v = np.array([way * u])
+        return way * (drive + sum(values[i] * float(t.phi(np.zeros(1), v)[0]) for i, t in used))
+
+    tiny = 1e-12
+    if balance(tiny) <= 0:
+        return None
+    high = 1e-3
+    for _ in range(MAX_DOUBLINGS):
+        if balance(high) < 0:
+            break
+        high *= 2.0
+    else:
+        return None
+    u = brentq(balance, tiny, high, xtol=1e-15, rtol=1e-12)
+    h = 1e-6 * u
+    slope = (balance(u + h) - balance(u - h)) / (2 * h)
+    unit = "rad/s" if DOFS[dof] else "m/s"
+    idx = [i for i, _ in used]
+    cov = _covariance(std[idx], correlation[np.ix_(idx, idx)])
+    sigma = None
+    if cov is not None and slope < 0:
+        grad = np.array(
+            [-way * float(t.phi(np.zeros(1), np.array([way * u]))[0]) / slope for _, t in used]
+        )
+        sigma = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    force_unit = "N·m" if DOFS[dof] else "N"
+    return Combination(way * u, sigma, unit, name=f"terminal speed at {drive:.4g} {force_unit}")
+
+
+def natural_period(
+    inertia: float,
+    inertia_std: float | None,
+    stiffness: float,
+    stiffness_std: float | None,
+    correlation: float = 0.0,
+) -> Combination | None:
+    """T₀ = 2π·√(M/k) [s] with σ: (σ_T/T)² = ¼·[(σ_M/M)² + (σ_k/k)² − 2ρ·(σ_M/M)(σ_k/k)]
+    (a σ of 0 for a known value; None when either is not identified)."""
+    if not (inertia > 0 and stiffness > 0):
+        return None
+    period = 2 * np.pi * np.sqrt(inertia / stiffness)
+    sigma = None
+    if inertia_std is not None and stiffness_std is not None:
+        rm, rk = inertia_std / inertia, stiffness_std / stiffness
+        rel2 = 0.25 * (rm**2 + rk**2 - 2 * correlation * rm * rk)
+        sigma = float(period * np.sqrt(max(rel2, 0.0)))
+    return Combination(float(period), sigma, "s", name="natural period T₀")
+
+
+def damping_ratio(
+    equivalent: Coefficient, amplitude: float, inertia: float, omega: float, dof: str
+) -> Combination | None:
+    """ζ(a) = B_e(a)/(2·M·ω₀) at ``amplitude`` (m or rad) with σ from B_e's alone (the
+    inertia's and ω₀'s relative σ are a fraction of it on a decay, ``motion.equivalent``)."""
+    if not (inertia > 0 and omega > 0):
+        return None
+    scale = 1.0 / (2 * inertia * omega)
+    unit = "rad" if DOFS[dof] else "m"
+    shown = f"{np.rad2deg(amplitude):.3g}°" if DOFS[dof] else f"{amplitude:.3g} {unit}"
+    return Combination(
+        equivalent.value * scale,
+        None if equivalent.std is None else equivalent.std * scale,
+        "",
+        name=f"damping ratio ζ at {shown}",
+    )
+
+
+def drives_of(drives: Mapping[str, float]) -> list[float]:
+    """The distinct constant drives of a set of runs (N or N·m), in order of size."""
+    out: list[float] = []
+    for d in sorted(drives.values(), key=abs):
+        if np.isfinite(d) and d != 0 and not any(abs(d - e) <= 1e-9 * abs(e) for e in out):
+            out.append(float(d))
+    return out
