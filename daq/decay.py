@@ -15,7 +15,7 @@ loader and the estimator.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -61,6 +61,20 @@ class DecayImport(BaseModel):
               "(the identified inertia is then the added one)."),
         Flag("--known-inertia"),
     ] = None  # fmt: skip
+    stiffness_tolerance: Annotated[
+        float | None,
+        Field(ge=0, allow_inf_nan=False, description="Free decay: the half-width within "
+              "which --stiffness is known (rectangular), N/m or N·m/rad; a Type B row of the "
+              "uncertainty budget (without it the stiffness is taken as exact)."),
+        Flag("--stiffness-tolerance"),
+    ] = None  # fmt: skip
+    known_inertia_tolerance: Annotated[
+        float | None,
+        Field(ge=0, allow_inf_nan=False, description="Free decay: the half-width within "
+              "which --known-inertia is known (rectangular), kg or kg·m²; a Type B row of "
+              "the uncertainty budget."),
+        Flag("--known-inertia-tolerance"),
+    ] = None  # fmt: skip
 
 
 def decay_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
@@ -92,6 +106,8 @@ class DecayRun:
     known_inertia: float
     t_release: float | None
     t_end: float | None
+    #: Declared half-widths of the given inputs (``estimation.uncertainty.motion_budget``).
+    tolerances: dict[str, float] = field(default_factory=dict)
 
 
 def load_decays(store: Store, run_ids: Sequence[str]) -> list[DecayRun]:
@@ -119,11 +135,16 @@ def load_decays(store: Store, run_ids: Sequence[str]) -> list[DecayRun]:
                 float(p.get("known_inertia") or 0.0),
                 p.get("release_time_s"),
                 p.get("end_time_s"),
+                {
+                    name: float(p[f"{name}_tolerance"])
+                    for name in ("stiffness", "known_inertia")
+                    if p.get(f"{name}_tolerance") is not None
+                },
             )
         )
     first = runs[0]
     for r in runs[1:]:
-        for name in ("dof", "stiffness", "known_inertia"):
+        for name in ("dof", "stiffness", "known_inertia", "tolerances"):
             if getattr(r, name) != getattr(first, name):
                 raise ValueError(
                     f"run_ids: run {r.run_id} has {name} {getattr(r, name)!r}, run "
@@ -155,6 +176,16 @@ def fit_decays(
     )
 
 
+def decay_budget(
+    store: Store, runs: list[DecayRun], result: Any, screening: Any, report_dir: str | Path | None
+) -> dict[str, Any]:
+    """{"budget": …}: the GUM budget of the decay's coefficients with the tolerances
+    declared at import (``estimation.uncertainty.motion_budget``)."""
+    from estimation.uncertainty.motion_budget import motion_budget
+
+    return {"budget": motion_budget(result, runs[0].tolerances).to_json()}
+
+
 def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:
     """The decay report (``estimation.motion.report``): coefficients, evidence, figure."""
     from estimation.motion.records import Record
@@ -181,6 +212,7 @@ DECAY = Estimator(
     fit=fit_decays,
     subject=lambda runs: f"{runs[0].dof} decay",
     report=decay_report,  # type: ignore[arg-type]
+    budget=decay_budget,  # type: ignore[arg-type]
     units_of=decay_units,
 )
 

@@ -78,6 +78,10 @@ class DecayResult:
     #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
     well_determined: tuple[Combination, ...] = ()
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
+    #: What the fit was given: the equation's setup and the records as windowed (a refit
+    #: with a declared input moved, ``estimation.uncertainty.motion_budget``).
+    setup: Setup | None = field(default=None, repr=False, compare=False)
+    records: tuple[Record, ...] = field(default=(), repr=False, compare=False)
 
     def equivalent_damping(self, amplitude: float) -> EquivalentDamping | None:
         """B_e at ``amplitude`` (m or rad) at the natural frequency (``motion.equivalent``);
@@ -246,6 +250,8 @@ def estimate_records(
         window=ends,
         equivalent=equivalent,
         well_determined=_well_determined(setup, final, equivalent),
+        setup=setup,
+        records=tuple(windowed),
     )
 
 

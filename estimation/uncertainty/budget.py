@@ -210,7 +210,9 @@ def _type_b_rows(
     return rows
 
 
-def _finish(name: str, value: float, rows: list[BudgetRow]) -> CoefficientBudget:
+def coefficient_budget(name: str, value: float, rows: list[BudgetRow]) -> CoefficientBudget:
+    """One coefficient's budget from its rows: u_c of the combined rows (NaN when one has no
+    value), ν_eff, k and U = k·u_c, and U as reported."""
     used = [r for r in rows if r.combined and math.isfinite(r.contribution)]
     u_c = float(np.sqrt(sum(r.contribution**2 for r in used)))
     if any(r.combined and not math.isfinite(r.contribution) for r in rows):
@@ -272,7 +274,7 @@ def uncertainty_budget(
             notes.append(why)
     type_a = type_a_rows(result, fit, repeat_std)
     budgets = {
-        name: _finish(name, fit.value(name), type_a[name] + type_b.get(name, []))
+        name: coefficient_budget(name, fit.value(name), type_a[name] + type_b.get(name, []))
         for name in fit.names
     }
     return Budget(budgets, bool(declared), tuple(notes), declared)

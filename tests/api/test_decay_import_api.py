@@ -41,6 +41,36 @@ def test_the_http_import_takes_a_decay_and_the_estimation_job_fits_it(client, tm
     c = job["outcome"]["coefficients"]
     assert c["inertia"]["value"] == pytest.approx(truth["added"], rel=0.02)
     assert c["linear_damping"]["value"] == pytest.approx(truth["damping"], rel=0.10)
+    budget = job["outcome"]["budget"]["coefficients"]
+    assert set(budget) == set(c)  # every coefficient of a decay carries U (issue 31)
+    inertia = budget["inertia"]
+    assert abs(inertia["value"] - truth["added"]) <= inertia["expanded_uncertainty"]
+    assert not job["outcome"]["budget"]["type_b_declared"]
+
+
+def test_a_declared_stiffness_tolerance_is_a_type_b_row_of_a_decays_budget(client, tmp_path):
+    """A free decay scales every coefficient alike: the stiffness known to ±2 % (u = 2 %/√3)
+    puts ≈ 1.15 % of the whole inertia M into the added inertia's u_c (∂A/∂k = M/k)."""
+    truth = heave_decay(tmp_path / "heave.csv", 10.0, seed=4)
+    k = truth["stiffness"]
+    query = (f"kind=decay&dof=heave&stiffness={k:g}&known_inertia=10&release_time_s=1"
+             f"&stiffness_tolerance={0.02 * k:g}&filename=heave.csv")  # fmt: skip
+    r = client.post(
+        f"/api/runs/import?{query}",
+        content=(tmp_path / "heave.csv").read_bytes(),
+        headers=AUTH | CSV,
+    )
+    assert r.status_code == 201, r.text
+    body_json = {"run_ids": [r.json()["run_id"]], "search_effects": False}
+    r = client.post("/api/jobs/estimation", json=body_json, headers=AUTH)
+    job = wait_job(client, r.json()["id"], timeout_s=60)
+    assert job["state"] == "completed", job
+    budget = job["outcome"]["budget"]
+    assert budget["type_b_declared"]
+    rows = {row["type"]: row for row in budget["coefficients"]["inertia"]["rows"]}
+    total = 10.0 + budget["coefficients"]["inertia"]["value"]
+    assert rows["B"]["contribution"] == pytest.approx(total * 0.02 / 3**0.5, rel=0.05)
+    assert budget["coefficients"]["inertia"]["dominant_source"].startswith("stiffness")
 
 
 @pytest.mark.parametrize(
@@ -50,6 +80,7 @@ def test_the_http_import_takes_a_decay_and_the_estimation_job_fits_it(client, tm
         ("kind=decay&dof=heave&force_n=3", "force_n: not used by a free decay (it has no drive)"),
         ("kind=decay&dof=wobble", "dof: 'wobble' is not allowed (Input should be"),
         ("kind=tow&force_n=3&dof=heave", "dof: 'heave' is not allowed (not used by a tow)"),
+        ("kind=decay&dof=heave&stiffness_tolerance=-1", "stiffness_tolerance: '-1' is not allowed"),
     ],
 )
 def test_the_http_import_names_a_bad_decay_field(client, query, detail):

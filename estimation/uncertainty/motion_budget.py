@@ -1,0 +1,134 @@
+"""The uncertainty budget of a single-DOF record's estimate (a free decay), in the same GUM /
+ITTC 7.5-02-01-01 form as a tow's (``estimation.uncertainty.budget``): rows, u_c, ν_eff by
+Welch–Satterthwaite, k = t_0.975(ν_eff), U = k·u_c, reported to two digits rounded up.
+
+**Type A**: the fit's σ (its serial-correlation σ, never below the white one), with
+ν = n_eff − p degrees of freedom, n_eff the residual's effective sample size
+(``stats.misfit``): a correlated residual holds fewer independent samples than it has
+points, and the t-factor widens with it (KVLCC2's roll decays: n 1335, n_eff 74).
+**Type B**: the inputs the estimate was given as known — the linear ``stiffness`` (ρ·g·A_w,
+Δ·g·GM) and the ``known_inertia`` — with a declared half-width a (rectangular, u = a/√3);
+the sensitivity c = ∂θ/∂x is a central difference of two re-fits with the final model's
+terms, ν = ∞. A free decay scales every coefficient alike, so a stiffness known to 1 % makes
+every identified coefficient uncertain by about 1 % whatever the record.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+
+import numpy as np
+
+from estimation.errors import EstimationFailed
+from estimation.motion.decay import DecayResult
+from estimation.motion.fit import fit_motion, parameters_of
+from estimation.motion.records import Setup
+from estimation.motion.search import TRIAL_NFEV
+from estimation.motion.terms import DOFS
+from estimation.stats.misfit import effective_sample_size
+from estimation.uncertainty.budget import Budget, coefficient_budget
+from estimation.uncertainty.rows import BudgetRow
+
+#: The inputs of a decay a tolerance can be declared for: (meaning, unit on a
+#: translational DOF, on a rotational one).
+DECLARABLE: dict[str, tuple[str, str, str]] = {
+    "stiffness": ("the given linear restoring stiffness", "N/m", "N·m/rad"),
+    "known_inertia": ("the given mass or inertia of the body", "kg", "kg·m²"),
+}
+FIT_ROW = "fit (σ; ν = n_eff − p)"
+NOT_DECLARED = (
+    "Type B not declared: the stiffness and known inertia are taken as exact, so U covers the "
+    "fit alone (declare their half-widths at import: --stiffness-tolerance, "
+    "--known-inertia-tolerance)"
+)
+
+
+def _moved(setup: Setup, source: str, delta: float) -> Setup | None:
+    """``setup`` with the declared input ``source`` moved by ``delta`` (None: not given)."""
+    if source == "stiffness":
+        known = dict(setup.known_terms)
+        if "restoring_spring" not in known:
+            return None
+        known["restoring_spring"] += delta
+        return replace(setup, known_terms=known)
+    return replace(setup, known_inertia=setup.known_inertia + delta)
+
+
+def motion_budget(result: DecayResult, tolerances: Mapping[str, float] | None = None) -> Budget:
+    """The budget of every identified coefficient of ``result`` (module doc); ``tolerances``:
+    declared half-widths by ``DECLARABLE`` name. ``ValueError`` naming the field for an
+    unknown name or a negative half-width."""
+    fit, setup = result.fit, result.setup
+    if fit is None or setup is None:
+        raise ValueError("result: got an estimate without its fit, allowed: a fitted decay")
+    declared = {}
+    for name, half_width in (tolerances or {}).items():
+        if name not in DECLARABLE:
+            raise ValueError(f"tolerances.{name}: unknown, allowed: {', '.join(DECLARABLE)}")
+        if not (math.isfinite(half_width) and half_width >= 0):
+            raise ValueError(f"tolerances.{name}: got {half_width!r}, allowed: a finite ≥ 0")
+        if half_width > 0:
+            declared[name] = float(half_width)
+    n_eff = effective_sample_size(fit.residuals)
+    dof_fit = max(n_eff - fit.n_params, 1.0)
+    units = {**{n: c.unit for n, c in result.coefficients.items()}}
+    rows: dict[str, list[BudgetRow]] = {
+        n: [
+            BudgetRow(
+                FIT_ROW,
+                "A",
+                units.get(n, ""),
+                float(fit.std[i]) if math.isfinite(float(fit.std[i])) else math.nan,
+                1.0,
+                float(fit.std[i]) if math.isfinite(float(fit.std[i])) else math.nan,
+                dof_fit,
+                note=f"n = {fit.n_samples}, n_eff = {n_eff:.0f}, p = {fit.n_params}"
+                if math.isfinite(float(fit.std[i]))
+                else "not identified by these records: no σ, so no U",
+            )
+        ]
+        for i, n in enumerate(fit.names)
+    }
+    notes = [] if declared else [NOT_DECLARED]
+    rotational = DOFS[setup.dof]
+    for source, half_width in declared.items():
+        meaning, unit_t, unit_r = DECLARABLE[source]
+        unit = unit_r if rotational else unit_t
+        u = half_width / math.sqrt(3.0)
+        refits = []
+        for delta in (u, -u):
+            moved = _moved(setup, source, delta)
+            if moved is None:
+                break
+            try:
+                refit = fit_motion(
+                    result.records,
+                    moved,
+                    fit.effects,
+                    start=parameters_of(fit),
+                    max_nfev=TRIAL_NFEV,
+                )
+            except EstimationFailed:
+                break
+            refits.append(refit.values)
+        if len(refits) != 2:
+            notes.append(f"{source}: declared, but not an input of this estimate (not given)")
+            continue
+        slope = (np.asarray(refits[0]) - np.asarray(refits[1])) / (2 * u)
+        for i, n in enumerate(fit.names):
+            rows[n].append(
+                BudgetRow(
+                    f"{source} (±{half_width:g} {unit}, rectangular)",
+                    "B",
+                    unit,
+                    u,
+                    float(slope[i]),
+                    abs(float(slope[i]) * u),
+                    math.inf,
+                    note=meaning,
+                )
+            )
+    budgets = {n: coefficient_budget(n, fit.value(n), rows[n]) for n in fit.names}
+    return Budget(budgets, bool(declared), tuple(notes), declared)
