@@ -202,12 +202,17 @@ def separability_warnings(
                     f"{a} and {b} are not separable by these runs (ρ = {rho:.3f}): add {hint}"
                 )
     if "quadratic_damping" in fit.at_bound:
-        run = f": run `{reverse.command}`" if reverse is not None else ""
-        ask = "" if both_ways(signed_drives(runs)) else f" or add a reverse run{run}"
+        # a reverse run is advice only where the rig can make one (a recorded run's envelope)
+        ask = (
+            f" or add a reverse run: run `{reverse.command}`"
+            if reverse is not None and envelope is not None and not both_ways(signed_drives(runs))
+            else ""
+        )
         out.append(
-            "quadratic_damping sits at its lower bound 0: the drag law is bending the wrong "
-            "way, the signature of dry (Coulomb) friction the model lacks (seed 002's negative "
-            f"K_Q); enable the effect search{ask}"
+            "quadratic_damping sits at its lower bound 0: over these runs the drag grows no "
+            "faster than linearly with speed — a flow at low Reynolds number (a small or slow "
+            "body: the linear damping carries the drag), or a dry friction the model lacks "
+            f"pulling the law the other way; enable the effect search{ask}"
         )
     return out
 
