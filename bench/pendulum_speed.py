@@ -17,8 +17,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from bench.timing import timed
-from estimation.motion.search import search_terms
-from estimation.pendulum.configuration import CANDIDATES, SETUP, fit_pendulum
+from estimation.motion.decay import estimate_records
+from estimation.motion.fit import fit_motion
+from estimation.pendulum.configuration import CANDIDATES, PIVOT_DOF, SETUP
 from estimation.pendulum.decay import find_peaks, prepare_decay
 from estimation.pendulum.estimate import estimate_pendulum
 from estimation.pendulum.methods import damped_fit, equation_error, log_decrement
@@ -33,17 +34,19 @@ def main() -> None:
         peaks = find_peaks(d)
         start = np.array([ALPHA, BETA, 0.0, d.phi[0], 0.0])  # α, β, offset, φ₀, φ̇₀
         records = [d.record()]
-        base = fit_pendulum(records, start=start)
         out["cases"][label] = {
             "find_peaks": timed(lambda d=d: find_peaks(d), 20),
             "damped-fit": timed(lambda d=d, p=peaks: damped_fit(d, p), 20),
             "log-decrement": timed(lambda d=d, p=peaks: log_decrement(d, p), 20),
             "equation-error": timed(lambda d=d, p=peaks: equation_error(d, p), 20),
             "output-error (base fit)": timed(
-                lambda r=records, s=start: fit_pendulum(r, start=s), 5
+                lambda r=records, s=start: fit_motion(r, SETUP, start=s), 5
             ),
-            "effect search": timed(
-                lambda r=records, b=base: search_terms(r, SETUP, b, CANDIDATES), 3
+            "one engine (window, search, rules)": timed(
+                lambda r=records: estimate_records(
+                    r, PIVOT_DOF, restoring_known=True, candidates=CANDIDATES
+                ),
+                3,
             ),
             "estimate_pendulum (all)": timed(lambda r=run: estimate_pendulum([r]), 3),
         }

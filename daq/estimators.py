@@ -159,6 +159,13 @@ def _pendulum_fit(
     return estimate_pendulum(runs, method=method, search=search)
 
 
+def _pendulum_budget(
+    store: Store, runs: list[Any], result: Any, screening: Any, report_dir: str | Path | None
+) -> dict[str, Any]:
+    """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
+    return {"budget": result.budget().to_json() if result.method == "output-error" else None}
+
+
 def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
     from estimation.pendulum.report import write_pendulum_report
 
@@ -174,9 +181,10 @@ PENDULUM = Estimator(
     fit=_pendulum_fit,
     subject=lambda runs: f"{runs[0].axis} swing",
     report=_pendulum_report,
+    budget=_pendulum_budget,
     method_labels={
         "output-error": OUTPUT_ERROR,
-        "damped-fit": "pendulum: damped sinusoid fit (seed 002 lsqcurvefit)",
+        "damped-fit": "pendulum: damped sinusoid fit (least squares)",
         "log-decrement": "pendulum: log decrement (component method)",
         "equation-error": "pendulum: equation-error LS",
     },

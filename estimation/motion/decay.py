@@ -27,7 +27,7 @@ from estimation.errors import EstimationFailed
 from estimation.motion.envelope import FreeWindow, centre, free_decay_end
 from estimation.motion.equivalent import EquivalentDamping, damping_over_swings, equivalent_damping
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
-from estimation.motion.records import Record, Setup, validate
+from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of, validate
 from estimation.motion.search import TRIAL_NFEV, Step, search_terms
 from estimation.motion.terms import DOFS, LIBRARY, units_of
 from estimation.motion.well_determined import Combination, damping_ratio, natural_period
@@ -78,6 +78,8 @@ class DecayResult:
     #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
     well_determined: tuple[Combination, ...] = ()
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
+    #: The base model's fit (before the search).
+    base: MotionFit | None = field(default=None, repr=False, compare=False)
     #: What the fit was given: the equation's setup and the records as windowed (a refit
     #: with a declared input moved, ``estimation.uncertainty.motion_budget``).
     setup: Setup | None = field(default=None, repr=False, compare=False)
@@ -89,8 +91,12 @@ class DecayResult:
         if self.fit is None or self.natural_period_s is None:
             return None
         known = {n: c.value for n, c in self.known.items() if n != "inertia"}
+        weights = None
+        if self.records and self.setup is not None:  # the first record's parts and weights
+            known = dict(known_terms_of(self.records[0], self.setup))
+            weights = self.records[0].weights
         omega = 2 * np.pi / self.natural_period_s
-        return equivalent_damping(self.fit, known, self.dof, amplitude, omega)
+        return equivalent_damping(self.fit, known, self.dof, amplitude, omega, weights)
 
     def to_json(self) -> dict[str, Any]:
         """The result document (docs/estimation.md, *Free decay*)."""
@@ -212,13 +218,16 @@ def estimate_records(
     t_release: Mapping[str, float] | None = None,
     t_end: Mapping[str, float] | None = None,
     candidates: Sequence[str] = DECAY_CANDIDATES,
+    restoring_known: bool = False,
 ) -> DecayResult:
-    """``estimate_decay`` for several records of one DOF fitted jointly."""
+    """``estimate_decay`` for several records of one DOF fitted jointly.
+    ``restoring_known``: each record carries its own restoring term among its known terms
+    (a pendulum's gravity moment from its geometry), so none is identified or given here."""
     known = dict(known_terms or {})
     base_terms: tuple[str, ...] = ("linear_damping",)
     if stiffness is not None:
         known["restoring_spring"] = float(stiffness)
-    else:
+    elif not restoring_known:
         base_terms = (*base_terms, "restoring_spring")
     setup = Setup(dof, float(known_inertia), inertia, known, base_terms, min_inertia)
     for r in records:
@@ -241,41 +250,50 @@ def estimate_records(
         except EstimationFailed:
             continue
         alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
+    first = windowed[0]
     equivalent = damping_over_swings(
-        final, known, dof, result.natural_period_s, [r.t for r in windowed]
+        final,
+        {**known_terms_of(first, setup)},
+        dof,
+        result.natural_period_s,
+        [r.t for r in windowed],
+        weights=first.weights,
     )
     return replace(
         result,
         alternatives=alternatives,
         window=ends,
         equivalent=equivalent,
-        well_determined=_well_determined(setup, final, equivalent),
+        well_determined=_well_determined(setup, first, final, equivalent),
         setup=setup,
         records=tuple(windowed),
+        base=base,
     )
 
 
 def _well_determined(
-    setup: Setup, final: MotionFit, equivalent: Sequence[EquivalentDamping]
+    setup: Setup, record: Record, final: MotionFit, equivalent: Sequence[EquivalentDamping]
 ) -> tuple[Combination, ...]:
     """The natural period with its σ and the damping ratio at the middle swing amplitude
-    (``motion.well_determined``)."""
+    (``motion.well_determined``), on ``record`` (the first: its known parts and weights)."""
 
-    def part(name: str, known: float | None) -> tuple[float, float | None]:
-        if known is not None:
-            return float(known), 0.0
-        s = final.sigma(name)
-        return final.value(name), (float(s) if np.isfinite(s) else None)
+    def sigma(name: str) -> float | None:
+        if name not in final.names:
+            return 0.0  # known
+        s = final.sigma(name) * record.weight(name)
+        return float(s) if np.isfinite(s) else None
 
-    m, m_std = part("inertia", setup.inertia)
-    k, k_std = part("restoring_spring", setup.known_terms.get("restoring_spring"))
+    total, k = inertia_and_stiffness(setup, record, final)
     rho = 0.0
     if "inertia" in final.names and "restoring_spring" in final.names:
         rho = float(
             final.correlation[final.names.index("inertia"), final.names.index("restoring_spring")]
         )
-    total = setup.known_inertia + m
-    out = [natural_period(total, m_std, k, k_std, rho if np.isfinite(rho) else 0.0)]
+    out = [
+        natural_period(
+            total, sigma("inertia"), k, sigma("restoring_spring"), rho if np.isfinite(rho) else 0.0
+        )
+    ]
     if out[0] is not None and equivalent:
         middle = equivalent[len(equivalent) // 2]
         omega = 2 * np.pi / out[0].value
@@ -346,14 +364,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         f"{a} is reported; to separate them — {LIBRARY[b].separation(free)}"
         for a, b in rivals
     ]
-    total_m = setup.known_inertia + (
-        final.value("inertia") if "inertia" in final.names else float(setup.inertia or 0.0)
-    )
-    k = (
-        setup.known_terms.get("restoring_spring")
-        if "restoring_spring" in setup.known_terms
-        else final.value("restoring_spring")
-    )
+    total_m, k = inertia_and_stiffness(setup, records[0], final)
     period = 2 * np.pi * np.sqrt(total_m / k) if k and k > 0 and total_m > 0 else None
     return DecayResult(
         dof=setup.dof,
@@ -375,6 +386,19 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         ambiguous=tuple(rivals),
         fit=final,
     )
+
+
+def inertia_and_stiffness(setup: Setup, record: Record, final: MotionFit) -> tuple[float, float]:
+    """The whole inertia M (kg or kg·m²) and linear stiffness k (N/m or N·m/rad) on
+    ``record``: known parts and identified ones with the record's weights (a pendulum's
+    α·l²); the stiffness is the given or fitted spring, else gravity's moment per rad."""
+    identified = final.value("inertia") if "inertia" in final.names else setup.inertia or 0.0
+    total = known_inertia_of(record, setup) + record.weight("inertia") * float(identified)
+    known = known_terms_of(record, setup)
+    k = known.get("restoring_spring", known.get("sine_restoring"))
+    if k is None:
+        k = final.value("restoring_spring") * record.weight("restoring_spring")
+    return float(total), float(k)
 
 
 def _moved(final: MotionFit, others: Sequence[MotionFit]) -> bool:

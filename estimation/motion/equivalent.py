@@ -39,14 +39,22 @@ class EquivalentDamping(Coefficient):
 
 
 def equivalent_damping(
-    fit: MotionFit, known: Mapping[str, float], dof: str, amplitude: float, omega: float
+    fit: MotionFit,
+    known: Mapping[str, float],
+    dof: str,
+    amplitude: float,
+    omega: float,
+    weights: Mapping[str, float] | None = None,
 ) -> EquivalentDamping:
-    """B_e of ``fit`` plus its ``known`` terms at ``amplitude`` and ``omega`` (rad/s)."""
+    """B_e of ``fit`` plus its ``known`` terms at ``amplitude`` and ``omega`` (rad/s); an
+    identified coefficient counts with its record's ``weight`` (a pendulum's vehicle term
+    at lever arm l: B_e is then the pivot's, in N·m·s/rad)."""
 
     def per_unit_of(name: str) -> float:
         return LIBRARY[name].equivalent_damping(amplitude, omega) if name in LIBRARY else 0.0
 
-    per_unit = np.array([per_unit_of(n) for n in fit.names])
+    w = weights or {}
+    per_unit = np.array([per_unit_of(n) * float(w.get(n, 1.0)) for n in fit.names])
     value = float(per_unit @ fit.values) + sum(v * per_unit_of(n) for n, v in known.items())
     used = np.nonzero(per_unit)[0]
     std = fit.std[used]
@@ -75,9 +83,10 @@ def damping_over_swings(
     dof: str,
     period: float | None,
     times: Sequence[np.ndarray],
+    weights: Mapping[str, float] | None = None,
 ) -> tuple[EquivalentDamping, ...]:
     """B_e at ``AMPLITUDES`` amplitudes spanning the swings the records cover (none when
-    the motion has no period)."""
+    the motion has no period); ``weights`` as ``equivalent_damping``'s."""
     if period is None or not np.isfinite(period) or period <= 0:
         return ()
     small, large = swing_range(fit, period, times)
@@ -85,6 +94,6 @@ def damping_over_swings(
         return ()
     omega = 2 * np.pi / period
     return tuple(
-        equivalent_damping(fit, known, dof, float(a), omega)
+        equivalent_damping(fit, known, dof, float(a), omega, weights)
         for a in np.geomspace(small, large, AMPLITUDES)
     )

@@ -11,7 +11,8 @@ per record (each run carries its own geometry, so runs on different rods fit joi
 - the pivot's measured viscous torque b (a known part of ``linear_damping``).
 
 Identified: α (the identified inertia), β (``linear_damping``) and the library candidates
-(``CANDIDATES``): γ (``quadratic_damping``), τ_c (``coulomb_friction``), κ (``cubic_drag``).
+(``CANDIDATES``, a free decay's): γ (``quadratic_damping``), κ (``cubic_drag``), τ_c
+(``coulomb_friction``), k₃ (``cubic_stiffness``), the equilibrium's drift.
 **Weights** (``Record.weights``): the vehicle sits at lever arm l and moves at l·φ̇, so a
 term of its hydrodynamics whose force grows like |ẋ|^(p−1)·ẋ (the entry's ``v_power``
 p ≥ 1) exerts the moment θ·l^(p+1)·|φ̇|^(p−1)·φ̇ — weight l^(p+1) — and its inertia weighs
@@ -22,11 +23,10 @@ N·s²/m² = kg/m, N·s³/m³) and τ_c is in N·m.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
-from estimation.motion.fit import MotionFit, fit_motion, simulate
+from estimation.motion.decay import DECAY_CANDIDATES
+from estimation.motion.fit import simulate
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.pendulum.data import PendulumGeometry
@@ -35,24 +35,17 @@ from estimation.pendulum.data import PendulumGeometry
 PIVOT_DOF = "roll"
 #: Identified in every fit besides the inertia.
 BASE_TERMS: tuple[str, ...] = ("linear_damping",)
-#: The effect search's candidates, in library order (the earlier of two rivals is the
-#: conventional one): every force entry the geometry carries — the vehicle's damping, a
-#: force growing with speed (``v_power`` ≥ 1, weight l^(p+1)), and the pivot's dry friction
-#: (set-valued at rest, weight 1). Not tried: restoring terms (gravity's moment is known from
-#: the geometry, ``sine_restoring``), a constant moment (it only moves the equilibrium, which
-#: each run fits), terms of time, inertia or timing (a pendulum has no drive and no
-#: release delay to fit).
-CANDIDATES: tuple[str, ...] = tuple(
-    name
-    for name, entry in LIBRARY.items()
-    if name not in BASE_TERMS
-    and entry.role == "force"
-    and ((entry.v_power or 0) >= 1 or entry.set_valued_at_rest)
-)
+#: The effect search's candidates: those of every free decay (``motion.decay``), so a
+#: pendulum and a decay of the same record give the same answer. The vehicle's damping
+#: grows with speed (``v_power`` ≥ 1, weight l^(p+1)); the rest are the pivot's moments
+#: (weight 1): dry friction, a restoring the geometry does not give (``cubic_stiffness``:
+#: a hull's righting arm that hardens where gravity's sin φ softens), a drifting
+#: equilibrium; a constant moment only moves the equilibrium each run fits, and the
+#: screen leaves it out.
+CANDIDATES: tuple[str, ...] = DECAY_CANDIDATES
 SETUP = Setup(PIVOT_DOF, terms=BASE_TERMS)
 #: The identified inertia's name in the equation and in the pendulum's result.
 INERTIA, ADDED_MASS = "inertia", "added_mass"
-MAX_NFEV = 200
 
 
 def at_pivot(name: str) -> bool:
@@ -100,14 +93,6 @@ def record_of(run_id: str, t: np.ndarray, phi: np.ndarray, geometry: PendulumGeo
         },
         weights={n: weight(n, arm) for n in names},
     )
-
-
-def fit_pendulum(
-    records: Sequence[Record], effects: Sequence[str] = (), start: np.ndarray | None = None
-) -> MotionFit:
-    """Output-error fit of α, β (and ``effects``) and per record the offset (x_eq), φ₀, φ̇₀
-    (``estimation.motion.fit.fit_motion``); ``start``: the full parameter vector."""
-    return fit_motion(records, SETUP, effects, start=start, max_nfev=MAX_NFEV)
 
 
 def swing(

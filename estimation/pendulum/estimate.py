@@ -13,7 +13,7 @@ the pendulum is a configuration of the one equation (``configuration``). One ent
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -21,8 +21,10 @@ import numpy as np
 from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
 from estimation.blas import one_blas_thread
 from estimation.data.runs import validate_run_set
+from estimation.errors import EstimationFailed
+from estimation.motion.decay import DecayResult, estimate_records
 from estimation.motion.fit import MotionFit
-from estimation.motion.search import Step, search_terms
+from estimation.motion.search import Step
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none, finite_values
 from estimation.pendulum.configuration import (
@@ -30,9 +32,8 @@ from estimation.pendulum.configuration import (
     BASE_TERMS,
     CANDIDATES,
     INERTIA,
-    SETUP,
+    PIVOT_DOF,
     at_pivot,
-    fit_pendulum,
     reported,
     unit,
 )
@@ -46,6 +47,8 @@ from estimation.pendulum.methods import (
     log_decrement,
 )
 from estimation.stats.diagnostics import Whiteness, ljung_box
+from estimation.uncertainty.budget import Budget
+from estimation.uncertainty.motion_budget import motion_budget
 
 PENDULUM_METHODS: tuple[str, ...] = (
     "output-error",
@@ -54,12 +57,14 @@ PENDULUM_METHODS: tuple[str, ...] = (
     "equation-error",
 )
 SCHEMA_VERSION = 1
+GEOMETRY_EXACT = (
+    "Type B not declared: the rig file's pendulum geometry (rod, arm, buoyancy) is taken as "
+    "exact, so U covers the fit alone"
+)
 #: The coefficients the result reports (α, β and the vehicle's candidate terms).
 COEFFICIENTS = (INERTIA, *BASE_TERMS, *(c for c in CANDIDATES if not at_pivot(c)))
 #: α and β, the fields every method row reports (``MethodEstimate``).
 BASE_NAMES: tuple[str, ...] = (ADDED_MASS, *BASE_TERMS)
-NOT_WHITE_P = 0.01
-RESOLUTION_FLOOR = 2.0  # RMSE within 2× the sample noise: nothing left to resolve
 
 
 @dataclass(frozen=True)
@@ -88,6 +93,23 @@ class PendulumResult:
     fit_before: MotionFit = field(repr=False, compare=False)
     fit_after: MotionFit = field(repr=False, compare=False)
     decays: tuple[Decay, ...] = field(default=(), repr=False, compare=False)
+    #: The one engine's result (``motion.decay``): B_e, what is well determined, the budget.
+    motion: DecayResult | None = field(default=None, repr=False, compare=False)
+
+    def budget(self) -> Budget:
+        """The GUM budget of the output-error coefficients (``uncertainty.motion_budget``,
+        the one engine's), named and in the units this result reports them."""
+        if self.motion is None or self.motion.fit is None:
+            raise ValueError("result: got a pendulum estimate without its fit")
+        names = self.motion.fit.names
+        b = motion_budget(self.motion, units={n: unit(n, self.axis) for n in names})
+        return replace(
+            b,
+            notes=(GEOMETRY_EXACT,),
+            coefficients={
+                reported(n): replace(c, name=reported(n)) for n, c in b.coefficients.items()
+            },
+        )
 
     def method_estimate(self, method: str, run_id: str | None = None) -> MethodEstimate:
         """The row of ``method`` (on ``run_id``, default the first run)."""
@@ -110,7 +132,7 @@ class PendulumResult:
             "runs": list(self.runs),
             "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
             "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
-            "units": {reported(n): unit(n, self.axis) for n in COEFFICIENTS},
+            "units": {reported(n): unit(n, self.axis) for n in COEFFICIENTS} | {"position": "rad"},
             "effects": [e.to_json() for e in self.effects],
             "ambiguous": [list(g) for g in self.ambiguous],
             "methods": [m.to_json() for m in self.methods],
@@ -124,6 +146,13 @@ class PendulumResult:
             "rmse_per_run_after": finite_values(self.rmse_per_run_after),
             "warnings": list(self.warnings),
             "advice": list(self.advice),
+            "equivalent_linear_damping": [
+                e.to_json() for e in (self.motion.equivalent if self.motion else ())
+            ],
+            "well_determined": [
+                c.to_json() for c in (self.motion.well_determined if self.motion else ())
+            ],
+            "coefficients_possibly_biased": bool(self.motion and self.motion.possibly_biased),
             "geometry": self.geometry,
             "diagnostics": {
                 "ljung_box_before": whiteness_json(self.whiteness_before),
@@ -182,7 +211,6 @@ def _warnings(
     peaks: dict[str, Peaks],
     decays: Sequence[Decay],
     final: MotionFit,
-    white_after: Whiteness,
 ) -> list[str]:
     out = []
     for m in methods:
@@ -191,8 +219,7 @@ def _warnings(
             out.append(
                 f"equation-error γ = {q.value:.4g} ± {q.std:.2g} kg/m < 0 on run {m.run_id}: "
                 f"the signature of dry friction in the pivot (least squares puts sgn φ̇ into a "
-                f"too-large β, {m.linear_damping.value:.4g} N·s/m, and a negative γ; seed 002 "
-                f"§7.2)"
+                f"too-large β, {m.linear_damping.value:.4g} N·s/m, and a negative γ)"
             )
     for rid, p in peaks.items():
         if p.decays_linearly:
@@ -207,20 +234,6 @@ def _warnings(
                 f"run {d.run_id}: the damped sinusoid misses the record (RMSE {fit.rmse:.2g} rad,"
                 f" {fit.rmse / d.noise:.0f}× the sample noise): its σ understates the error "
                 f"(sin φ, dry friction or quadratic drag are outside that model)"
-            )
-    if white_after.p_value < NOT_WHITE_P:
-        floor = max(d.noise for d in decays)
-        if final.rmse <= RESOLUTION_FLOOR * floor:
-            out.append(
-                f"output-error residual not white (Ljung–Box p = {white_after.p_value:.2g}) but "
-                f"at the sensor's resolution (RMSE {final.rmse:.2g} rad vs noise/quantization "
-                f"{floor:.2g} rad): quantization of a slow or stopped swing, no effect to resolve"
-            )
-        else:
-            out.append(
-                f"output-error residual still not white (Ljung–Box p = "
-                f"{white_after.p_value:.2g}, RMSE {final.rmse:.2g} rad vs noise {floor:.2g} rad):"
-                f" an effect outside the library, or the geometry is off"
             )
     for name in (e for e in final.effects if LIBRARY[e].set_valued_at_rest):
         tau = final.value(name)
@@ -260,32 +273,25 @@ def estimate_pendulum(
             equation_error(d, p),
             equation_error(d, p, quadratic=False),
         ]
-    fits = [m for m in rows if m.method == "damped-fit"]
-    start = np.array(
-        [
-            np.mean([m.added_mass.value for m in fits]),
-            np.mean([m.linear_damping.value for m in fits]),
-        ]
-    )
-    offsets = np.array([m.signal["offset"] for m in fits])
-    phi0 = np.array([d.phi[0] for d in decays]) - offsets
     records = [d.record() for d in decays]
-    base = fit_pendulum(records, (), np.concatenate([start, offsets, phi0, 0.0 * phi0]))
-    final, advice = base, []
-    steps: tuple[Step, ...] = ()
-    ambiguous: tuple[tuple[str, ...], ...] = ()
-    if search:
-        final, steps, _, rivals = search_terms(records, SETUP, base, CANDIDATES)
-        ambiguous = tuple(rivals)
-        advice = [
-            f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separation(True)}; "
-            f"{b}: {LIBRARY[b].separation(True)}"
-            for a, b in rivals
-        ]
+    # the one engine of every single-DOF record: window, search, rules, flags, B_e, U
+    motion = estimate_records(
+        records, PIVOT_DOF, restoring_known=True, candidates=CANDIDATES if search else ()
+    )
+    if motion.base is None or motion.fit is None:
+        raise EstimationFailed("the pendulum's fit returned no model")
+    base, final = motion.base, motion.fit
+    steps: tuple[Step, ...] = motion.steps
+    ambiguous: tuple[tuple[str, ...], ...] = tuple(motion.ambiguous)
+    advice = [
+        f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separation(True)}; "
+        f"{b}: {LIBRARY[b].separation(True)}"
+        for a, b in motion.ambiguous
+    ]
     ids = tuple(d.run_id for d in decays)
     rows += _output_error_rows(decays, final)
     white_before, white_after = ljung_box(base.residuals), ljung_box(final.residuals)
-    warnings = _warnings(rows, peaks, decays, final, white_after)
+    warnings = [*_warnings(rows, peaks, decays, final), *motion.warnings]
     if final.effects and len({round(float(np.max(np.abs(d.phi))), 2) for d in decays}) < 2:
         advice.append(
             "to confirm "
@@ -323,6 +329,7 @@ def estimate_pendulum(
         fit_before=base,
         fit_after=final,
         decays=tuple(decays),
+        motion=motion,
     )
 
 

@@ -26,6 +26,7 @@ from estimation.fit_report import (
     error_before_after,
     step_cells,
     summary_rows,
+    well_determined_rows,
     write_result_and_markdown,
 )
 from estimation.pendulum.configuration import unit
@@ -125,7 +126,8 @@ def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     lines = ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
     for name, est in doc["coefficients"].items():
         lines.append(f"| {name} | {_pm(est)} | {unit(name, result.axis)} |")
-    return lines + summary_rows(result, "rad", labels)
+    known = result.motion.well_determined if result.motion else ()
+    return lines + well_determined_rows(known) + summary_rows(result, "rad", labels)
 
 
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:

@@ -56,10 +56,15 @@ def _moved(setup: Setup, source: str, delta: float) -> Setup | None:
     return replace(setup, known_inertia=setup.known_inertia + delta)
 
 
-def motion_budget(result: DecayResult, tolerances: Mapping[str, float] | None = None) -> Budget:
+def motion_budget(
+    result: DecayResult,
+    tolerances: Mapping[str, float] | None = None,
+    units: Mapping[str, str] | None = None,
+) -> Budget:
     """The budget of every identified coefficient of ``result`` (module doc); ``tolerances``:
-    declared half-widths by ``DECLARABLE`` name. ``ValueError`` naming the field for an
-    unknown name or a negative half-width."""
+    declared half-widths by ``DECLARABLE`` name; ``units``: a coefficient's unit where the
+    result's own is not the one reported (a pendulum's vehicle terms). ``ValueError``
+    naming the field for an unknown name or a negative half-width."""
     fit, setup = result.fit, result.setup
     if fit is None or setup is None:
         raise ValueError("result: got an estimate without its fit, allowed: a fitted decay")
@@ -73,7 +78,7 @@ def motion_budget(result: DecayResult, tolerances: Mapping[str, float] | None = 
             declared[name] = float(half_width)
     n_eff = effective_sample_size(fit.residuals)
     dof_fit = max(n_eff - fit.n_params, 1.0)
-    units = {**{n: c.unit for n, c in result.coefficients.items()}}
+    units = {**{n: c.unit for n, c in result.coefficients.items()}, **(units or {})}
     rows: dict[str, list[BudgetRow]] = {
         n: [
             BudgetRow(
