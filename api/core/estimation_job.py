@@ -103,7 +103,8 @@ def run_estimation(
     if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
             data |= estimator.budget(store, runs, result, screening, report_dir)
-            data |= theory_document(store, data, screening, report_dir)
+            if screening is not None:  # the hull's theory compares a tow or spin's repeats
+                data |= theory_document(store, data, screening, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
     return data

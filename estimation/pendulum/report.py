@@ -53,15 +53,18 @@ def run_labels(result: PendulumResult) -> dict[str, str]:
 
 def fit_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     """The fit over the measurements (:func:`estimation.figures.fit_over_measurements`)."""
+    # the samples fitted: each swing as the engine windowed it (it ends where the body
+    # comes to rest), on the time from its release
+    fitted = result.motion.records if result.motion else [d.record() for d in result.decays]
     rows = [
         FitRow(
             labels[d.run_id],
-            d.t - d.t[0],
-            d.phi,
+            np.asarray(r.t, dtype=float) - d.t[0],
+            np.asarray(r.x, dtype=float),
             result.fit_before.residuals[i],
             result.fit_after.residuals[i],
         )
-        for i, d in enumerate(result.decays)
+        for i, (d, r) in enumerate(zip(result.decays, fitted, strict=True))
     ]
     title = (
         f"pendulum, {result.method}: before = {effects_text(result.fit_before.effects)} "

@@ -19,7 +19,7 @@ import pytest
 from PIL import Image
 
 from estimation.motion.fit import simulate
-from estimation.pendulum.configuration import SETUP, swing
+from estimation.pendulum.configuration import CANDIDATES, SETUP, swing
 from estimation.pendulum.data import PendulumGeometry, validate_pendulum_run
 from estimation.pendulum.decay import prepare_decay
 from estimation.pendulum.estimate import PENDULUM_METHODS, estimate_pendulum
@@ -97,8 +97,13 @@ def test_dry_friction_is_found_and_removes_the_bias(dry):
     _within(after["linear_damping"], BETA, 0.01)
     assert dry.rmse_after < dry.rmse_before / 50
     assert dry.whiteness_after.q_statistic < dry.whiteness_before.q_statistic / 10
-    kept = [s for s in dry.steps if s.accepted]
+    # added: a cubic stiffness (a free decay's candidate, which a pendulum now shares) may
+    # pass the rules in round 1 against the base model, but friction wins the round and
+    # nothing is left for it after (a term that passes and loses says so in its reason)
+    kept = [s for s in dry.steps if s.added]
     assert [s.term for s in kept] == ["coulomb_friction"] and kept[0].delta_bic < -10
+    lost = [s for s in dry.steps if s.accepted and not s.added]
+    assert all("coulomb_friction was added this round" in s.reason for s in lost)
 
 
 def test_equation_error_shows_the_thesis_signature_of_dry_friction(dry):
@@ -157,9 +162,7 @@ def test_cubic_drag_is_found_and_names_quadratic_damping_its_rival(seed):
 def test_clean_records_claim_no_effect(seed):
     result = estimate_pendulum([decay(seed=seed)])
     assert result.effects == () and result.ambiguous == ()
-    assert {s.term for s in result.steps} == {
-        "quadratic_damping", "coulomb_friction", "cubic_drag"
-    }  # fmt: skip
+    assert {s.term for s in result.steps} == set(CANDIDATES)  # a free decay's candidates
 
 
 @pytest.mark.slow
@@ -221,7 +224,10 @@ def test_two_kept_terms_report_the_intermediate_models_q(tmp_path):
     # the model with friction alone is round 1's trial and round 2's model
     assert first["ljung_box_q_before"] == q_base and second["ljung_box_q_after"] == q_final
     assert first["ljung_box_q_after"] == second["ljung_box_q_before"]
-    assert q_final < first["ljung_box_q_after"] < q_base
+    # Q is evidence, not a rule: the final model leaves far less structure than the base;
+    # friction alone may raise the normalised autocorrelation of what it leaves (the
+    # quadratic drag's signature, once friction's is gone)
+    assert q_final < q_base / 10
     # the rival passed the rules but lost: its trial's Q is there, and it was not added
     assert rival["accepted"] and not rival["added"] and rival["ljung_box_q_after"] is not None
     assert rival["reason"] == "passed the rules; quadratic_damping was added this round"
@@ -283,7 +289,7 @@ def test_result_document_and_report(dry, tmp_path):
     assert text.index("## Summary") < text.index("## Figures") < text.index("## Methods")
     assert "effect `coulomb_friction`" in text.split("## Figures")[0]
     assert "Whiteness is a verdict, not a rule of the search" in text
-    (kept,) = [s for s in doc["evidence"]["steps"] if s["accepted"]]
+    (kept,) = [s for s in doc["evidence"]["steps"] if s["added"]]
     assert f"{kept['ljung_box_q_before']:.1f} → {kept['ljung_box_q_after']:.1f}" in text
     assert set(re.findall(r"\]\(([^)]+)\)", text)) == figures  # every figure linked
     with Image.open(tmp_path / "peaks.png") as img:

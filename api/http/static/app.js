@@ -692,6 +692,14 @@ function showEstimationJob(job) {
   renderEstimation(job.outcome);
 }
 
+// What the record determines well beside the raw coefficients (terminal speed, period,
+// damping ratio: docs/estimation.md), as rows under the coefficients, every kind alike.
+function wellDeterminedRows(res) {
+  return (res.well_determined || [])
+    .map((c) => `<tr class="est-known"><td><em>${esc(c.name)}</em>${c.unit ? ` (${esc(c.unit)})` : ""}</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td></tr>`)
+    .join("");
+}
+
 // Views of their own for result documents, by the document's `analysis` ({render, clear};
 // pendulum.js registers the pendulum swing's); any other result is drawn by renderEstimation.
 const resultViews = {};
@@ -708,10 +716,10 @@ async function renderEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
-      return `<tr><td>${k} (${units[k] || c.unit || ""})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
+      return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
         ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
     })
-    .join("");
+    .join("") + wellDeterminedRows(res);
   // a decay's equivalent linear damping over the swings it covers (docs/estimation.md)
   const equivalent = res.equivalent_linear_damping || [];
   $("#est-equivalent").hidden = !equivalent.length;

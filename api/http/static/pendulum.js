@@ -22,10 +22,10 @@ async function renderPendulumEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
-      return `<tr><td>${k} (${esc(units[k] || "")})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
+      return `<tr><td>${esc(k)} (${esc(units[k] || "")})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
         ${before ? `<td class="muted">before effects: ${pendulumPm(before)}</td>` : ""}</tr>`;
     })
-    .join("");
+    .join("") + wellDeterminedRows(res); // app.js
   const lb = (res.diagnostics || {});
   kv($("#est-rmse"), [
     ["Analysis / headline", `pendulum free decay, ${res.axis} / ${res.method}`],
