@@ -11,8 +11,13 @@ def _g(x: float | None, fmt: str = ".3g") -> str:
     return "—" if x is None else format(x, fmt)
 
 
+#: ν_eff at or above this prints as ∞: k is then 1.960 to four digits (a budget that a
+#: declared, exactly known Type B source dominates reaches 10¹⁰).
+DOF_SHOWN_AS_INFINITE = 1e4
+
+
 def _dof(x: float | None) -> str:
-    return "∞" if x is None else f"{x:.3g}"
+    return "∞" if x is None or x >= DOF_SHOWN_AS_INFINITE else f"{x:.3g}"
 
 
 def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> str:

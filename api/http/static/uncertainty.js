@@ -20,7 +20,8 @@ function renderUncertainty(res) {
         <td>${fmt(r.contribution, 3)}</td>
         <td>${r.combined ? `${(100 * (r.share || 0)).toFixed(1)} %` : "not combined"}</td>
         <td class="muted">${esc(r.note || "")}</td></tr>`).join("");
-    const dof = c.effective_dof === null ? "∞" : fmt(c.effective_dof, 3);
+    // ν_eff ≥ 10⁴ is ∞ to k's four digits (estimation/uncertainty/text.py says the same)
+    const dof = c.effective_dof === null || c.effective_dof >= 1e4 ? "∞" : fmt(c.effective_dof, 3);
     return `<h4 class="est-budget-head"><strong>${esc(name)} = ${esc(c.reported)}</strong>
         <span class="muted">(95 %, k = ${fmt(c.coverage_factor, 4)}, ν_eff = ${dof}, u_c = ${fmt(c.combined_standard_uncertainty, 3)}; dominant: ${esc(c.dominant_source)})</span></h4>
       <table class="list est-budget" data-coefficient="${esc(name)}"><thead><tr><th>Source</th><th>Type</th><th>u</th><th>Sensitivity c</th><th>Contribution c·u</th><th>Share</th><th>Note</th></tr></thead>
