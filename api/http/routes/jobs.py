@@ -11,7 +11,7 @@ from fastapi import APIRouter, Depends, Query
 
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
-from api.core.jobs import LIST_LIMIT, JobRunner
+from api.core.jobs import JobRunner
 from api.core.service import RigService
 from api.http.deps import (
     OperatorDep,
@@ -21,6 +21,7 @@ from api.http.deps import (
     require_read,
     require_write,
 )
+from api.http.paging import JobsLimit, Offset
 from api.http.schemas import (
     EstimationRequest,
     JobEventOut,
@@ -146,8 +147,8 @@ def start_estimation(
 )
 def list_jobs(
     runner: RunnerDep,
-    limit: Annotated[int, Query(ge=1, le=LIST_LIMIT, description="At most this many.")] = 100,
-    offset: Annotated[int, Query(ge=0, description="Skip this many of the newest.")] = 0,
+    limit: JobsLimit = 100,
+    offset: Offset = 0,
     state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
 ) -> list[dict]:
     """This rig's jobs, newest first, from the database (so they outlive a restart)."""

@@ -1,0 +1,48 @@
+"""Room to record: the free space where a run's rows and spill files go, checked before a
+run is accepted, so a full disk refuses the start instead of failing the run."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import sqlalchemy as sa
+
+from daq.store.faults import StorageFull, database_name
+
+if TYPE_CHECKING:
+    from daq.store.store import Store
+
+#: Least free space a run needs where it is stored, bytes: a 10-minute tow at 100 Hz is
+#: ~6 MB of rows; this leaves room for the WAL, the spill file and a few runs more.
+MIN_FREE_BYTES = 64 * 1024 * 1024
+
+
+def _existing(path: Path) -> Path:
+    """``path``, else its nearest folder that exists (where it would be made)."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path("/")
+
+
+def free_space(store: Store) -> list[tuple[str, Path, int]]:
+    """(how messages name it, folder, free bytes) of each place a run writes to: a SQLite
+    database's folder and the spill folder (a server's disk is the server's to watch)."""
+    places: list[tuple[str, Path]] = []
+    url = sa.make_url(store.url)
+    database = (url.database or "").removeprefix("file:").split("?")[0]
+    if url.get_backend_name() == "sqlite" and database not in ("", ":memory:"):
+        places.append((f"the folder of {database_name(url)}", Path(database).expanduser().parent))
+    places.append(("the spill folder ($RIG_SPILL_DIR)", store.spill_dir))
+    return [(name, path, shutil.disk_usage(_existing(path)).free) for name, path in places]
+
+
+def check_room(store: Store, min_free_bytes: int | None = None) -> None:
+    """Raise :class:`StorageFull` when a place a run writes to has less than
+    ``min_free_bytes`` free (default ``store.min_free_bytes``)."""
+    least = store.min_free_bytes if min_free_bytes is None else min_free_bytes
+    for name, _, free in free_space(store):
+        if free < least:
+            raise StorageFull(database_name(sa.make_url(store.url)), name, free, least)
