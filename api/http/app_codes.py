@@ -9,8 +9,8 @@ docs/api.md) says every code a route can answer (``tests/api/test_status_codes.p
 - 403: a viewer's token where an operator's is needed (``require_write``);
 - 413: a request body over the route's cap (``api.http.limits.BodyLimit``);
 - 503: the run database is not open (``get_store``: the service not started or stopped),
-  or it cannot be reached or written (``daq.store.faults.StorageUnavailable``, on every
-  route that reads the service, its jobs, its store or a user's token).
+  or it cannot be reached or written (``daq.store.faults.StorageUnavailable``); a route
+  that reads the database without ``get_store`` declares its 503 itself.
 """
 
 from __future__ import annotations
@@ -22,16 +22,14 @@ from fastapi import APIRouter
 from fastapi.dependencies.models import Dependant
 from fastapi.routing import APIRoute
 
-from api.http.deps import get_runner, get_service, get_store, require_read, require_write
+from api.http.deps import get_store, require_read, require_write
 from api.http.schemas import error_responses
 
 #: Codes a dependency adds to every route that uses it.
 BY_DEPENDENCY: dict[Callable[..., Any], tuple[int, ...]] = {
-    require_read: (401, 503),
-    require_write: (401, 403, 503),
+    require_read: (401,),
+    require_write: (401, 403),
     get_store: (503,),
-    get_service: (503,),
-    get_runner: (503,),
 }
 #: Codes a route with a request body gets (the body-size cap).
 WITH_BODY = (413,)

@@ -143,7 +143,7 @@ def start_estimation(
     "",
     response_model=list[JobOut],
     dependencies=[Depends(require_read)],
-    responses=error_responses(401),
+    responses=error_responses(401, 503),  # 503: the jobs' database unreachable
 )
 def list_jobs(
     runner: RunnerDep,
@@ -159,7 +159,7 @@ def list_jobs(
     "/{job_id}",
     response_model=JobOut,
     dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404),
+    responses=error_responses(401, 404, 503),
 )
 def get_job(job_id: str, runner: RunnerDep) -> dict:
     """State, progress, run ids and outcome of one job."""
@@ -170,7 +170,7 @@ def get_job(job_id: str, runner: RunnerDep) -> dict:
     "/{job_id}/events",
     response_model=list[JobEventOut],
     dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404),
+    responses=error_responses(401, 404, 503),
 )
 def job_events(job_id: str, runner: RunnerDep) -> list[dict]:
     """The job's stored progress: each change of state or message, oldest first."""
