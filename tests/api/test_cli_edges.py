@@ -319,3 +319,20 @@ def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(
         run = store.get_run(json.loads(proc.stdout)["run_id"])
     assert run.parameters["requested"] == {"force_n": 10.0}
     assert run.parameters["force_n"] == pytest.approx(9.996)
+
+
+def test_a_cli_tow_while_the_disk_is_full_is_refused_before_the_rig_opens(world, monkeypatch):
+    """Less free space than a run needs where it would be stored: exit 1 in one line naming
+    the place (no host path), its free bytes and the threshold; no run is made."""
+    monkeypatch.setattr(Store, "min_free_bytes", 2**62)  # more than any disk has free
+    env = os.environ | {"RIG_DATABASE_URL": world["db"], "XDG_DATA_HOME": str(world["tmp"])}
+    with Store(world["db"]) as store:
+        before = len(store.list_runs(limit=1000))
+    proc = run_in_process(["tow", "--force", "9.8"], cwd=world["tmp"], env=env)
+    assert proc.returncode == 1, proc.stderr
+    (line,) = proc.stderr.strip().splitlines()
+    assert line.startswith("error: storage full (SQLite rig.db): the folder of SQLite rig.db has ")
+    assert line.endswith(f" bytes free, under the {2**62} bytes a run needs; free some space first")
+    assert str(world["tmp"]) not in line
+    with Store(world["db"]) as store:
+        assert len(store.list_runs(limit=1000)) == before
