@@ -101,6 +101,9 @@ def _refuse_when_full(store: Any) -> None:
     except StorageFault as err:
         store.close()
         fail(str(err), code=1)
+    except ValueError as err:  # $RIG_MIN_FREE_BYTES set to something else than bytes
+        store.close()
+        fail(str(err))
 
 
 def _refuse_after_estop(store: Any, source: RigSource) -> None:

@@ -3,6 +3,7 @@ run is accepted, so a full disk refuses the start instead of failing the run."""
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,6 +18,23 @@ if TYPE_CHECKING:
 #: Least free space a run needs where it is stored, bytes: a 10-minute tow at 100 Hz is
 #: ~6 MB of rows; this leaves room for the WAL, the spill file and a few runs more.
 MIN_FREE_BYTES = 64 * 1024 * 1024
+#: Sets another threshold, bytes (0 turns the check off).
+MIN_FREE_ENV = "RIG_MIN_FREE_BYTES"
+
+
+def min_free_bytes() -> int:
+    """``$RIG_MIN_FREE_BYTES`` if set, else ``MIN_FREE_BYTES``; ``ValueError`` naming the
+    variable for anything but a whole number ≥ 0."""
+    text = os.environ.get(MIN_FREE_ENV, "").strip()
+    if not text:
+        return MIN_FREE_BYTES
+    value = int(text) if text.isdigit() else -1
+    if value < 0:
+        raise ValueError(
+            f"{MIN_FREE_ENV}: {text!r} is not allowed (allowed: a whole number of bytes ≥ 0; "
+            "0 turns the free-space check off)"
+        )
+    return value
 
 
 def _existing(path: Path) -> Path:
@@ -39,10 +57,12 @@ def free_space(store: Store) -> list[tuple[str, Path, int]]:
     return [(name, path, shutil.disk_usage(_existing(path)).free) for name, path in places]
 
 
-def check_room(store: Store, min_free_bytes: int | None = None) -> None:
-    """Raise :class:`StorageFull` when a place a run writes to has less than
-    ``min_free_bytes`` free (default ``store.min_free_bytes``)."""
-    least = store.min_free_bytes if min_free_bytes is None else min_free_bytes
+def check_room(store: Store, least: int | None = None) -> None:
+    """Raise :class:`StorageFull` when a place a run writes to has less than ``least``
+    bytes free (default :func:`min_free_bytes`)."""
+    least = min_free_bytes() if least is None else least
+    if least == 0:
+        return
     for name, _, free in free_space(store):
         if free < least:
             raise StorageFull(database_name(sa.make_url(store.url)), name, free, least)

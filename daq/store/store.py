@@ -24,7 +24,6 @@ from daq.store.annotations import EventsAndResults
 from daq.store.base import inserted_id, process_identity, software_version
 from daq.store.calibrations import ImportedCalibrations
 from daq.store.faults import STORE_RETRY_S
-from daq.store.free_space import MIN_FREE_BYTES
 from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
 from daq.store.records import RunInfo, to_datetime
@@ -74,8 +73,6 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
 
     #: How long a run's recorder retries its end against this database when it delays it, s.
     retry_for_s: float = STORE_RETRY_S
-    #: Least free space a run needs where it is stored, bytes (``daq.store.free_space``).
-    min_free_bytes: int = MIN_FREE_BYTES
 
     def __init__(self, url: str | None = None, *, spill_dir: str | Path | None = None) -> None:
         super().__init__(url)

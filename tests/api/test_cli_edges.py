@@ -321,11 +321,11 @@ def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(
     assert run.parameters["force_n"] == pytest.approx(9.996)
 
 
-def test_a_cli_tow_while_the_disk_is_full_is_refused_before_the_rig_opens(world, monkeypatch):
+def test_a_cli_tow_while_the_disk_is_full_is_refused_before_the_rig_opens(world):
     """Less free space than a run needs where it would be stored: exit 1 in one line naming
     the place (no host path), its free bytes and the threshold; no run is made."""
-    monkeypatch.setattr(Store, "min_free_bytes", 2**62)  # more than any disk has free
     env = os.environ | {"RIG_DATABASE_URL": world["db"], "XDG_DATA_HOME": str(world["tmp"])}
+    env["RIG_MIN_FREE_BYTES"] = str(2**62)  # more than any disk has free
     with Store(world["db"]) as store:
         before = len(store.list_runs(limit=1000))
     proc = run_in_process(["tow", "--force", "9.8"], cwd=world["tmp"], env=env)

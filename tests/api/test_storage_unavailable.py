@@ -78,14 +78,12 @@ def test_paging_out_of_range_is_422_naming_the_parameter(client, path, query):
     assert problem["message"].startswith(f"{name}: {value!r} is not allowed")
 
 
-def test_a_start_while_the_disk_is_full_is_refused_at_submission(client, service):
+def test_a_start_while_the_disk_is_full_is_refused_at_submission(client, monkeypatch):
     wait_rig_free(client)
     before = client.get("/api/jobs", headers=AUTH).json()
-    service.store.min_free_bytes = 2**62  # more than any disk has free
-    try:
-        r = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
-    finally:
-        del service.store.min_free_bytes  # back to the class's threshold
+    monkeypatch.setenv("RIG_MIN_FREE_BYTES", str(2**62))  # more than any disk has free
+    r = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
+    monkeypatch.delenv("RIG_MIN_FREE_BYTES")
     assert r.status_code == 503, r.text
     detail = r.json()["detail"]
     assert detail.startswith("storage full (SQLite rig.db): the folder of SQLite rig.db has ")
