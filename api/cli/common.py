@@ -133,24 +133,18 @@ def check_database_folder(db_url: str | None) -> None:
     made on first use."""
     if not db_url:
         return
-    from pathlib import Path
-
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
+    from daq.store.faults import sqlite_file
+
     try:
-        url = make_url(db_url)
+        file = sqlite_file(make_url(db_url))
     except ArgumentError:
         return  # Store says what is wrong with the URL
-    database = url.database or ""
-    if url.get_backend_name() != "sqlite" or database in ("", ":memory:"):
-        return
-    if database.startswith("file:"):
-        return
-    folder = Path(database).expanduser().parent
-    if not folder.is_dir():
+    if file is not None and not file.parent.is_dir():
         fail(
-            f"--db: the folder {folder} of database {Path(database).name} does not exist "
+            f"--db: the folder {file.parent} of database {file.name} does not exist "
             "(allowed: a SQLite file in an existing folder; create the folder first)"
         )
 

@@ -120,14 +120,20 @@ _STATEMENT_ERRORS = (
 )
 
 
+def sqlite_file(url: sa.URL) -> Path | None:
+    """The file of a SQLite URL (None: not SQLite, or in memory)."""
+    name = (url.database or "").removeprefix("file:").split("?")[0]
+    if url.get_backend_name() != "sqlite" or name in ("", ":memory:"):
+        return None
+    return Path(name).expanduser()
+
+
 def database_name(url: sa.URL) -> str:
     """How messages name a database: a SQLite file by its name (no folder), a server's by
     its URL with the password masked."""
     if url.get_backend_name() == "sqlite":
-        name = (url.database or "").removeprefix("file:").split("?")[0]
-        return (
-            f"SQLite {Path(name).name or 'in memory'}" if name != ":memory:" else "SQLite in memory"
-        )
+        file = sqlite_file(url)
+        return f"SQLite {file.name}" if file is not None else "SQLite in memory"
     return url.render_as_string(hide_password=True)
 
 

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import sqlalchemy as sa
 
-from daq.store.faults import StorageFull, database_name
+from daq.store.faults import StorageFull, database_name, sqlite_file
 
 if TYPE_CHECKING:
     from daq.store.store import Store
@@ -50,9 +50,8 @@ def free_space(store: Store) -> list[tuple[str, Path, int]]:
     database's folder and the spill folder (a server's disk is the server's to watch)."""
     places: list[tuple[str, Path]] = []
     url = sa.make_url(store.url)
-    database = (url.database or "").removeprefix("file:").split("?")[0]
-    if url.get_backend_name() == "sqlite" and database not in ("", ":memory:"):
-        places.append((f"the folder of {database_name(url)}", Path(database).expanduser().parent))
+    if (file := sqlite_file(url)) is not None:
+        places.append((f"the folder of {database_name(url)}", file.parent))
     places.append(("the spill folder ($RIG_SPILL_DIR)", store.spill_dir))
     return [(name, path, shutil.disk_usage(_existing(path)).free) for name, path in places]
 
