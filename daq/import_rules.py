@@ -6,6 +6,8 @@
   reverse run) or a ``drive_column`` logged per sample, not both, and optionally the hung
   ``weight_kg``; with a rig file, the load is checked against its limit (``max_force_n``,
   ``max_torque_nm``; the weight against the limit / g) and so is a logged drive's peak;
+  without one, against a physical bound (``PHYSICAL_LIMITS``: 1 MN, 1 MN·m, 100 t hung):
+  ``--force 1e308`` is a typo, not a tow, and would overflow the fit;
   a towrig export's header gives the load, logged drive and hung mass when not stated;
 - a kind with its own import fields (``ImportRules.fields``, a pydantic model: a free
   decay's ``dof``) has them checked by that model; they are the CLI's options and the
@@ -27,6 +29,12 @@ if TYPE_CHECKING:
 
     from daq.session import RigSource
     from daq.store.export_header import ExportHeader
+
+#: Without a rig file, the most any tow tank applies or hangs (SI): a load or mass beyond
+#: it is refused at the import, not found by the fit's numerics (``--force 1e308``).
+PHYSICAL_LIMITS = {"force_n": 1e6, "torque_nm": 1e6}
+#: The heaviest body or hung weight an import takes without a rig file, kg (100 t).
+PHYSICAL_MAX_KG = 1e5
 
 #: A stated load or weight agrees with an export's header within this fraction (weights
 #: hang to the gram: 1 g is 0.2 % of a 0.5 kg weight).
@@ -148,6 +156,14 @@ def _limit(kind: str, rig: RigSource | None) -> tuple[str, float, float] | None:
     return "max_torque_nm", torque, config.rig.g * (radius or math.nan)
 
 
+def _load_bound(name: str, unit: str, limit: tuple[str, float, float] | None) -> tuple[float, str]:
+    """The largest |load| and how the refusal says it: the rig limit, else physics."""
+    if limit is not None:
+        return limit[1], f"≤ {limit[1]:g} {unit}, rig limit {limit[0]}"
+    most = PHYSICAL_LIMITS[name]
+    return most, f"≤ {most:g} {unit}, a physical bound without a rig file"
+
+
 def _agrees(given: float, recorded: float) -> bool:
     return abs(given - recorded) <= AGREE * max(abs(recorded), 1e-12)
 
@@ -190,14 +206,14 @@ def drive_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
         problems.append((name, None, f"a {kind} needs its applied load: {name} ({unit}; "
                                      "negative for a reverse run) or drive_column"))  # fmt: skip
     elif load is not None:
-        high = f"≤ {limit[1]:g} {unit}, rig limit {limit[0]}" if limit else f"< ∞ {unit}"
-        if not (math.isfinite(load) and load != 0 and (limit is None or abs(load) <= limit[1])):
+        most_load, high = _load_bound(name, unit, limit)
+        if not (math.isfinite(load) and load != 0 and abs(load) <= most_load):
             problems.append((name, load, f"allowed 0 < |{name}| {high}; negative for a "
                                          "reverse run"))  # fmt: skip
     if weight is not None:
-        most = limit[1] / limit[2] if limit else math.inf
+        most = limit[1] / limit[2] if limit else PHYSICAL_MAX_KG
         if not (math.isfinite(weight) and 0 < weight <= most):
-            why = f" kg, rig limit {limit[0]} / g" if limit else ""
+            why = f" kg, rig limit {limit[0]} / g" if limit else " kg, a physical bound"
             problems.append(("weight_kg", weight, f"allowed 0 < weight_kg ≤ {most:g}{why}"))
     if problems:
         raise ParameterError(problems)
@@ -239,8 +255,8 @@ def _from_header(
 
 def body_mass(plan: Planning) -> dict[str, float]:
     """A tow's declared ``dry_mass_kg``/``displacement_kg`` (given, else its export
-    header's), each a finite number > 0; refused for another kind (a spin's or a pendulum's
-    body inertia is in kg·m²)."""
+    header's), each a number in 0 < m ≤ ``PHYSICAL_MAX_KG``; refused for another kind (a
+    spin's or a pendulum's body inertia is in kg·m²)."""
     from daq.body_mass import BODY_MASS_PARAMETERS
 
     out: dict[str, float] = {}
@@ -250,8 +266,9 @@ def body_mass(plan: Planning) -> dict[str, float]:
         given: float | None = getattr(plan.request, name)
         if given is not None and not takes_mass:
             raise ParameterError([(name, given, "only for a tow (a body's own mass, kg)")])
-        if given is not None and not (math.isfinite(given) and given > 0):
-            raise ParameterError([(name, given, f"allowed 0 < {name} < ∞ kg")])
+        if given is not None and not (math.isfinite(given) and 0 < given <= PHYSICAL_MAX_KG):
+            bound = f"allowed 0 < {name} ≤ {PHYSICAL_MAX_KG:g} kg, a physical bound"
+            raise ParameterError([(name, given, bound)])
         recorded = plan.header.parameters
         value = _from_header(name, "kg", given, recorded, plan.header, plan.restored, True)
         if value is not None and takes_mass:

@@ -127,22 +127,43 @@ def user_errors():
         fail(err.args[0] if err.args else str(err))
 
 
+def check_database_folder(db_url: str | None) -> None:
+    """Exit 2 when ``--db`` names a SQLite file whose folder does not exist (a typo would
+    otherwise create folders and record there); only the default database's folder is
+    made on first use."""
+    if not db_url:
+        return
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    from daq.store.faults import sqlite_file
+
+    try:
+        file = sqlite_file(make_url(db_url))
+    except ArgumentError:
+        return  # Store says what is wrong with the URL
+    if file is not None and not file.parent.is_dir():
+        fail(
+            f"--db: the folder {file.parent} of database {file.name} does not exist "
+            "(allowed: a SQLite file in an existing folder; create the folder first)"
+        )
+
+
 def open_store(db_url: str | None):
     """Open the database; runs left ``running`` by a dead process become ``interrupted``."""
     from daq.store import Store
 
+    check_database_folder(db_url)
     with user_errors():
         try:
             store = Store(db_url)
         except Exception as err:  # a bad URL or unreachable server
             fail(f"--db: cannot open the database: {_database_error(err)}")
-    from sqlalchemy.exc import SQLAlchemyError
-
-    from daq.store.faults import describe
+    from daq.store.faults import StorageUnavailable, describe
 
     try:
         recovered = store.recover_interrupted()  # only runs whose owning process is gone
-    except (SQLAlchemyError, OSError) as err:  # storage failing: reads still work
+    except (StorageUnavailable, OSError) as err:  # storage failing: reads still work
         click.echo(
             f"warning: runs left running by a dead process not marked: storage failed: "
             f"{describe(err).message}",

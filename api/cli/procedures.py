@@ -8,7 +8,6 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 import click
-from sqlalchemy.exc import SQLAlchemyError
 
 from api.cli.common import (
     ProgressView,
@@ -31,7 +30,7 @@ from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
-from daq.store.faults import StorageFault, one_line
+from daq.store.faults import StorageFault, StorageUnavailable, one_line
 from daq.vocabulary import RunStatus
 
 
@@ -53,6 +52,7 @@ def _run_procedure(
         click.echo(f"note: {flag_names(click.get_current_context(silent=True), note)}", err=True)
     store = open_store(db_url)
     _refuse_after_estop(store, source)
+    _refuse_when_full(store)
 
     async def main(abort: AbortSignal) -> Any:
         from daq.operator import OperatorActUnavailable
@@ -68,6 +68,8 @@ def _run_procedure(
                     session.add_fault_listener(abort.set)
                     freeze_after_startup()  # full GC passes skip what start-up loaded
                     return await body(session, params, abort, view)
+            except StorageUnavailable as err:  # outside a run (its start, say)
+                fail(f"storage failed: {one_line(err)}", code=1)
             except (
                 PreconditionFailed,
                 RigInUse,
@@ -83,13 +85,25 @@ def _run_procedure(
                 fail(str(err), code=1)
             except ParameterError as err:  # checks that need the rig's state (a calibration)
                 fail(flag_names(click.get_current_context(silent=True), "; ".join(err.lines())))
-            except SQLAlchemyError as err:  # storage failed outside a run (its start, say)
-                fail(f"storage failed: {one_line(err)}", code=1)
 
     try:
         return run_with_signals(main)
     finally:
         store.close()
+
+
+def _refuse_when_full(store: Any) -> None:
+    """Exit 1 (nothing opened) while the disk the run would be stored on is full."""
+    from daq.store.free_space import check_room
+
+    try:
+        check_room(store)
+    except StorageFault as err:
+        store.close()
+        fail(str(err), code=1)
+    except ValueError as err:  # $RIG_MIN_FREE_BYTES set to something else than bytes
+        store.close()
+        fail(str(err))
 
 
 def _refuse_after_estop(store: Any, source: RigSource) -> None:

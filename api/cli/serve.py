@@ -6,7 +6,21 @@ import socket
 
 import click
 
-from api.cli.common import db_option, fail, rig_option, scenario_option, user_errors
+from api.cli.common import (
+    check_database_folder,
+    db_option,
+    fail,
+    rig_option,
+    scenario_option,
+    user_errors,
+)
+from api.http.address_file import (
+    DEFAULT_HOST,
+    DEFAULT_PORT,
+    publish_address,
+    published_address,
+    withdraw_address,
+)
 from api.http.auth import TOKEN_ENV, load_or_create_token, token_file_warning, token_path
 
 
@@ -55,6 +69,7 @@ def serve(
     # A bad rig file or a taken port is said before the app and its analyses are imported.
     with user_errors():
         source = RigSource.load(rig_file, scenario_file)
+    check_database_folder(db_url)
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
@@ -102,16 +117,19 @@ def serve(
     click.echo(f"database: {_shown_url(service.store.url if service.store else db_url)}")
     # Never the token itself: this output ends up in service logs.
     click.echo(f"API token: from {where}; send 'Authorization: Bearer <token>'")
-    link = "rig token --link" + ("" if bound_port == 8000 else f" --port {bound_port}")
-    click.echo(f"browser UI: open the link '{link}' prints, or paste the token into the page")
+    click.echo(
+        "browser UI: open the link 'rig token --link' prints, or paste the token into the page"
+    )
     if host not in ("127.0.0.1", "localhost", "::1"):
         click.echo(f"warning: listening on {host}: reachable from other machines", err=True)
     server = uvicorn.Server(config)
+    publish_address(host, bound_port)  # for `rig token --link`
     try:
         server.run(sockets=[sock])
     except KeyboardInterrupt:  # Ctrl-C is how a person stops it: a normal shutdown
         pass
     finally:
+        withdraw_address()
         service.stop()  # (already done by the lifespan, unless uvicorn never started)
     click.echo("rig service stopped: thrusters at zero, brakes on, rig released", err=True)
 
@@ -148,16 +166,24 @@ def _token_from_env() -> bool:
     help="Print the browser UI's address with the token in it instead (open it once: the "
     "page keeps the token and takes it out of the address bar).",
 )  # fmt: skip
-@click.option("--host", default="127.0.0.1", show_default=True, help="With --link: the address.")
 @click.option(
-    "--port", default=8000, show_default=True, type=click.IntRange(1, 65535),
-    help="With --link: the port 'rig serve' listens on.",
+    "--host", default=None,
+    help=f"With --link: the address (default: the running 'rig serve''s, else {DEFAULT_HOST}).",
+)  # fmt: skip
+@click.option(
+    "--port", default=None, type=click.IntRange(1, 65535),
+    help=f"With --link: the port (default: the one the running 'rig serve' listens on, "
+    f"else {DEFAULT_PORT}).",
 )  # fmt: skip
 def token(link, host, port):
     """Print the API's bearer token (created on first use; or set RIG_API_TOKEN). 'rig serve'
     never prints it, so it stays out of service logs."""
     secret = load_or_create_token()
-    click.echo(ui_link(host, port, secret) if link else secret)
+    if link:
+        served_host, served_port = published_address() or (DEFAULT_HOST, DEFAULT_PORT)
+        click.echo(ui_link(host or served_host, port or served_port, secret))
+    else:
+        click.echo(secret)
     if warning := token_file_warning():
         click.echo(warning, err=True)
 

@@ -33,6 +33,7 @@ from daq.procedures.sequence import Sequence, SequenceControl
 from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
 from daq.store.faults import StorageFault, one_line
+from daq.store.free_space import check_room
 from daq.store.schema import JOB_ACTIVE, JOB_FINAL, JobState
 from daq.vocabulary import RunStatus
 
@@ -87,12 +88,15 @@ class RigWorker:
         jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409).
         The request's ``metadata`` goes on every run it records (checked here: 422 first).
         ``user`` asked for it: refused while an emergency stop is unacknowledged or someone
-        else holds the rig (``api.core.rig_guard``)."""
+        else holds the rig (``api.core.rig_guard``), and while the disk a run would be
+        stored on is full (``StorageFull``, → 503)."""
         from daq.store.run_metadata import check_run_metadata
 
         check_run_metadata((request or {}).get("metadata"))
         session = self.service.require_session()
         RigGuard.of(self.service).check_start(user)
+        if self.service.store is not None:  # a full disk refuses the start (503), not the run
+            check_room(self.service.store)
         parameters = params.to_json()
         note = getattr(params, "adjustment", lambda: None)()
         fields = {"notes": [note] if note else [], "request": request, "params": params}

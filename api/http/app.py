@@ -51,6 +51,7 @@ from daq.procedures.kinds import NotCapable
 from daq.procedures.params import ParameterError
 from daq.store import AmbiguousRunId, RunNotFound
 from daq.store.base import software_version
+from daq.store.faults import StorageUnavailable
 
 log = logging.getLogger(__name__)
 STATIC_DIR = Path(__file__).parent / "static"
@@ -143,6 +144,13 @@ def _install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RigUnavailable)
     async def unavailable(request: Request, exc: RigUnavailable) -> JSONResponse:
+        return _error(503, str(exc))
+
+    @app.exception_handler(StorageUnavailable)
+    async def storage_unavailable(request: Request, exc: StorageUnavailable) -> JSONResponse:
+        # Any route: the database down, full or read-only is the service unavailable, said
+        # in one line naming the database (no traceback, no SQL, no password, no host path).
+        log.warning("%s %s: %s", request.method, request.url.path, exc)
         return _error(503, str(exc))
 
     @app.exception_handler(ValueError)

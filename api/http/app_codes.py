@@ -8,7 +8,9 @@ docs/api.md) says every code a route can answer (``tests/api/test_status_codes.p
 - 401: the token (``require_read``, ``require_write``);
 - 403: a viewer's token where an operator's is needed (``require_write``);
 - 413: a request body over the route's cap (``api.http.limits.BodyLimit``);
-- 503: the run database is not open (``get_store``: the service not started or stopped).
+- 503: the run database is not open (``get_store``: the service not started or stopped),
+  or it cannot be reached or written (``daq.store.faults.StorageUnavailable``); a route
+  that reads the database without ``get_store`` declares its 503 itself.
 """
 
 from __future__ import annotations

@@ -24,14 +24,12 @@ import math
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
-import sqlalchemy as sa
-
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
 from daq.sample import Quality, Sample
 from daq.session import NO_THRUSTERS, Aborted, RigSession
 from daq.store import RunRecorder
-from daq.store.faults import StorageFault, one_line
+from daq.store.faults import StorageFault, StorageUnavailable, one_line
 from daq.store.run_events import RunAction
 from daq.store.spill import write_back_later
 from thrusters.driver import ThrusterError
@@ -137,7 +135,7 @@ class RecordedRun:
                 scenario_toml=s.source.scenario_toml,
                 metadata=s.run_metadata,
             )
-        except (sa.exc.SQLAlchemyError, OSError) as exc:  # no run, no release: one line
+        except (StorageUnavailable, OSError) as exc:  # no run, no release: one line
             await s.safe_state()
             raise StorageFault(
                 f"storage failed: {one_line(exc)}; the run was not started"

@@ -19,7 +19,8 @@ The lease has two parts:
 It is **renewed** every ``RENEW_INTERVAL_S`` by a thread of its own (the PostgreSQL
 connection queried, the lock files checked). A renewal that fails is a **lost lease**:
 ``on_lost(reason)`` is called once, from that thread, with a reason beginning
-``rig lock lost`` — :class:`daq.session.RigSession` treats it like a lost PLC (thrusters to
+``rig lock lost`` (naming a lock file by its name, never a host path) —
+:class:`daq.session.RigSession` treats it like a lost PLC (thrusters to
 zero, brakes on, the run aborted naming the lost lock, devices released).
 """
 
@@ -127,9 +128,11 @@ class RigLease:
                     try:
                         got = lock.acquire(self.me)
                     except OSError as err:
+                        why = err.strerror or str(err)
                         raise RigLockError(
-                            f"cannot take the rig lock: {err} (set {LOCK_DIR_ENV} to a "
-                            "folder every process driving the rig can write)"
+                            f"cannot take the rig lock: its lock folder cannot be used "
+                            f"({why}; set {LOCK_DIR_ENV} to a folder every process driving "
+                            "the rig can write)"
                         ) from err
                     if not got:
                         raise RigInUse(self.rig_name, lock.holder(), str(lock.device))
@@ -220,7 +223,7 @@ class RigLease:
                 try:
                     why = lock.verify(self.me)
                 except OSError as err:
-                    why = f"its lock file {lock.path} cannot be checked ({err})"
+                    why = f"its lock file {lock.shown} cannot be checked ({err.strerror})"
                 if why is not None:
                     return f"{lock.device}: {why}"
         if self.pg is not None:

@@ -9,7 +9,13 @@ Two kernel objects per device, both released by the kernel however the holder en
 * an **``flock``** on ``<lock folder>/<device>.lock`` (mode 0600), which also holds the
   holder's description (JSON) for whoever is refused. The holder checks on every renewal
   that the path still names the file it locked; a deleted file is made again (the socket
-  kept the device meanwhile), one locked by someone else is a lost lease.
+  kept the device meanwhile), one locked by someone else is a lost lease. A folder deleted
+  under the holder (``rm -rf "$RIG_LOCK_DIR"``) is made again too; while it cannot be, the
+  socket alone keeps the device and the next renewal tries again — the file is a
+  description and a guard across namespaces, the socket is the lock.
+
+Messages name a lock file by its name in the lock folder, never by its absolute path (they
+reach ``/api/rig``, a job's error and a run's reason).
 
 The lock folder is ``$RIG_LOCK_DIR`` if set, else ``/run/towrig`` if it exists and is
 writable (an administrator may create it), else ``/tmp/towrig-locks`` (created mode 1777
@@ -21,6 +27,7 @@ from __future__ import annotations
 import errno
 import fcntl
 import json
+import logging
 import os
 import re
 import socket
@@ -30,6 +37,8 @@ from pathlib import Path
 
 from daq.rig_lock.devices import Device
 from daq.rig_lock.holder import LockHolder
+
+log = logging.getLogger(__name__)
 
 LOCK_DIR_ENV = "RIG_LOCK_DIR"
 SYSTEM_LOCK_DIR = Path("/run/towrig")
@@ -115,29 +124,45 @@ class HostLock:
             if self._names(fd):
                 return fd
             os.close(fd)  # unlinked or replaced after we opened it: try the new one
-        raise OSError(f"cannot lock {self.path}: it keeps being replaced")
+        raise OSError(f"cannot lock {self.path.name}: it keeps being replaced")
 
     def _names(self, fd: int) -> bool:
         """Whether the lock path names the file open as ``fd``."""
         try:
             on_disk = os.stat(self.path)
-        except FileNotFoundError:
+        except (FileNotFoundError, NotADirectoryError):  # gone, or its folder replaced
             return False
         mine = os.fstat(fd)
         return (on_disk.st_dev, on_disk.st_ino) == (mine.st_dev, mine.st_ino)
 
     def verify(self, holder: LockHolder) -> str | None:
-        """A renewal: None while the device is ours; a file deleted under us is made again
-        (the socket kept the device meanwhile); one someone else locked is why it is lost."""
+        """A renewal: None while the device is ours; a file (or its whole folder) deleted
+        under us is made again — while it cannot be, the socket keeps the device and the
+        next renewal tries again; a file someone else locked is why it is lost."""
         if self._fd is None or self._names(self._fd):
             return None
-        fd = self._lock_file()
+        try:
+            _ensure_dir(self.path.parent)
+            fd = self._lock_file()
+        except OSError as err:
+            log.warning(
+                "rig lock: cannot make %s again in the lock folder (%s); the device stays "
+                "held by its socket",
+                self.path.name,
+                err.strerror or type(err).__name__,
+            )
+            return None
         if fd is None:
-            return f"its lock file {self.path} was replaced and locked by another process"
+            return f"its lock file {self.shown} was replaced and locked by another process"
         os.close(self._fd)
         self._fd = fd
         self.publish(holder)
         return None
+
+    @property
+    def shown(self) -> str:
+        """The lock file as messages name it: its name in the lock folder, no host path."""
+        return f"{self.path.name} (in the lock folder)"
 
     def publish(self, holder: LockHolder) -> None:
         if self._fd is not None:

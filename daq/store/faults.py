@@ -1,10 +1,18 @@
 """Database errors in a sentence: which ones a retry can cure, and a one-line message
-(no SQL, no parameters, no blobs) for the operator, the job and the run's reason."""
+(no SQL, no parameters, no blobs) for the operator, the job and the run's reason.
+
+The store's boundary (:func:`guard_engine`, installed on every engine the store opens)
+turns a database that cannot be reached or written — a server down, a dropped
+connection, a full disk, a read-only or corrupt file — into one error,
+:class:`StorageUnavailable`, naming the database (a URL with its password masked, or a
+SQLite file's name: never a host path), so callers catch that, not SQLAlchemy's errors.
+"""
 
 from __future__ import annotations
 
 import errno
 from dataclasses import dataclass
+from pathlib import Path
 
 import sqlalchemy as sa
 
@@ -22,6 +30,43 @@ STORE_RETRY_S = 30.0
 
 class StorageFault(RuntimeError):
     """Samples or a run's end could not be stored; the message is one line."""
+
+
+class StorageUnavailable(StorageFault, sa.exc.OperationalError):
+    """The database named ``database`` cannot be reached or written; ``error`` says why in
+    one line and whether a retry may help. Still a SQLAlchemy ``OperationalError`` (with
+    the driver's error as ``orig``), so code that retries database errors goes on working."""
+
+    def __init__(
+        self, database: str, error: StorageError, orig: BaseException | None = None
+    ) -> None:
+        sa.exc.OperationalError.__init__(self, None, None, orig or RuntimeError(error.message))
+        self.database = database
+        self.error = error
+        self.args = (f"database {database} unavailable: {error.message}",)
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+    def __reduce__(self) -> tuple:  # crosses to worker processes as itself
+        return (type(self), (self.database, self.error))
+
+
+class StorageFull(StorageUnavailable):
+    """Less free space than a run needs (``daq.store.free_space``) in ``place``: the
+    database's folder or the spill folder, named without a host path."""
+
+    def __init__(self, database: str, place: str, free_bytes: int, min_free_bytes: int) -> None:
+        message = (
+            f"storage full ({database}): {place} has {free_bytes} bytes free, under the "
+            f"{min_free_bytes} bytes a run needs; free some space first"
+        )
+        super().__init__(database, StorageError(message, False))
+        self.place, self.free_bytes, self.min_free_bytes = place, free_bytes, min_free_bytes
+        self.args = (message,)
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.database, self.place, self.free_bytes, self.min_free_bytes))
 
 
 @dataclass(frozen=True)
@@ -44,6 +89,8 @@ def describe(exc: BaseException) -> StorageError:
     (a fault): a full disk, an I/O error, a read-only or corrupt database, and anything
     unknown.
     """
+    if isinstance(exc, StorageUnavailable):
+        return exc.error
     orig: BaseException = exc
     if isinstance(exc, sa.exc.DBAPIError) and exc.orig is not None:
         orig = exc.orig
@@ -62,6 +109,56 @@ def describe(exc: BaseException) -> StorageError:
         why = "disk full" if orig.errno == errno.ENOSPC else (orig.strerror or str(orig))
         return StorageError(f"file system: {why}", False)
     return StorageError(f"{type(orig).__name__}: {_first_line(str(orig))}", False)
+
+
+#: Errors of the statement itself (a bug or a bad value), not of the storage: left as they are.
+_STATEMENT_ERRORS = (
+    sa.exc.IntegrityError,
+    sa.exc.ProgrammingError,
+    sa.exc.DataError,
+    sa.exc.NotSupportedError,
+)
+
+
+def sqlite_file(url: sa.URL) -> Path | None:
+    """The file of a SQLite URL (None: not SQLite, or in memory)."""
+    name = (url.database or "").removeprefix("file:").split("?")[0]
+    if url.get_backend_name() != "sqlite" or name in ("", ":memory:"):
+        return None
+    return Path(name).expanduser()
+
+
+def database_name(url: sa.URL) -> str:
+    """How messages name a database: a SQLite file by its name (no folder), a server's by
+    its URL with the password masked."""
+    if url.get_backend_name() == "sqlite":
+        file = sqlite_file(url)
+        return f"SQLite {file.name}" if file is not None else "SQLite in memory"
+    return url.render_as_string(hide_password=True)
+
+
+def unavailable(exc: BaseException, database: str) -> StorageUnavailable | None:
+    """``exc`` as :class:`StorageUnavailable` when it is the storage failing (not the
+    statement), else None."""
+    if isinstance(exc, StorageUnavailable):
+        return exc
+    if not isinstance(exc, sa.exc.DBAPIError) or isinstance(exc, _STATEMENT_ERRORS):
+        return None
+    return StorageUnavailable(database, describe(exc), exc.orig)
+
+
+def guard_engine(engine: sa.Engine) -> sa.Engine:
+    """Install the store's boundary on ``engine``: its storage failures are raised as
+    :class:`StorageUnavailable` (a connection pool's liveness probe is left alone)."""
+    database = database_name(engine.url)
+
+    def translate(context: sa.engine.ExceptionContext) -> BaseException | None:
+        if context.is_pre_ping:
+            return None
+        return unavailable(context.sqlalchemy_exception or context.original_exception, database)
+
+    sa.event.listen(engine, "handle_error", translate)
+    return engine
 
 
 def one_line(exc: BaseException) -> str:

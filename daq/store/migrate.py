@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import sqlalchemy as sa
 
 from daq.data_dir import default_database_path
+from daq.store.faults import guard_engine
 
 if TYPE_CHECKING:  # alembic is imported only when a database needs migrating (or asked)
     from alembic.config import Config
@@ -56,7 +57,8 @@ def _create_private(path: Path) -> None:
 def create_engine(url: str) -> sa.Engine:
     """An engine for ``url``; SQLite gets WAL, synchronous=NORMAL, foreign keys and a
     busy timeout, and the folder of its file is created; a new database file is private
-    to its owner (0600, with its -wal and -shm files)."""
+    to its owner (0600, with its -wal and -shm files). Its storage failures are raised as
+    ``daq.store.faults.StorageUnavailable`` (``guard_engine``)."""
     try:
         parsed = sa.make_url(url)
     except sa.exc.ArgumentError as exc:
@@ -72,9 +74,10 @@ def create_engine(url: str) -> sa.Engine:
             parsed, connect_args={"check_same_thread": False}, json_serializer=_json_text
         )
         sa.event.listen(engine, "connect", _set_sqlite_pragmas)
-        return engine
+        return guard_engine(engine)
     if parsed.get_backend_name() == "postgresql":
-        return sa.create_engine(parsed, pool_pre_ping=True, json_serializer=_json_text)
+        engine = sa.create_engine(parsed, pool_pre_ping=True, json_serializer=_json_text)
+        return guard_engine(engine)
     raise ValueError(
         f"database URL {url!r}: backend {parsed.get_backend_name()!r} is not supported; "
         "use sqlite:/// or postgresql+psycopg://"

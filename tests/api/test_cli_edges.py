@@ -80,6 +80,17 @@ case(2, "--salinity: got 50.0, allowed: 0 … 42 g/kg", "water", "--temp", "15",
 case(2, "File 'nope.csv' does not exist", "import", "nope.csv", "--kind", "tow", "--force", "1")
 case(2, "no header with a 't' column", "import", RIG, "--kind", "tow", "--force", "1")
 case(2, "--force: missing is not allowed", "import", "{csv}", "--kind", "tow")
+case(2, "--force: 1e+308 is not allowed (allowed 0 < |--force| ≤ 1e+06 N, a physical bound "
+     "without a rig file", "import", "{csv}", "--kind", "tow", "--force", "1e308")  # fmt: skip
+case(2, "--force: 1e+308 is not allowed (allowed 0 < |--force| ≤ 100 N, rig limit max_force_n",
+     "import", "{csv}", "--kind", "tow", "--force", "1e308", "--rig", RIG)  # fmt: skip
+case(2, "--torque: -1e+300 is not allowed (allowed 0 < |--torque| ≤ 1e+06 N·m, a physical "
+     "bound", "import", "{csv}", "--kind", "spin", "--torque", "-1e300")  # fmt: skip
+case(2, "--weight: 1e+200 is not allowed (allowed 0 < --weight ≤ 100000 kg, a physical bound",
+     "import", "{csv}", "--kind", "tow", "--force", "5", "--weight", "1e200")  # fmt: skip
+case(2, "--dry-mass: 1e+300 is not allowed (allowed 0 < --dry-mass ≤ 100000 kg, a physical "
+     "bound", "import", "{csv}", "--kind", "tow", "--force", "5",
+     "--dry-mass", "1e300")  # fmt: skip
 case(2, "--output: cannot use /etc/passwd/x.csv", "export", "{run}", "-o", "/etc/passwd/x.csv")
 case(
     2, "--output: cannot use /etc/passwd/x.nc", "export", "{run}", "--format", "netcdf",
@@ -166,6 +177,10 @@ case(2, "--db: cannot open the database: connection failed", "runs", "--db", "{p
 case(2, "--db: cannot open the database", "show", "{run}", "--db", "{pg}")
 case(2, "--db: cannot open the database: connection failed", "jobs", "--db", "{pg}")
 case(2, "--db: cannot open the database: connection failed", "queue", "--db", "{pg}")
+MISSING_DB = "sqlite:///{tmp}/missing/dir/x.db"  # its folder does not exist: never made
+for argv in (["tow", "--force", "9.8"], ["runs"], ["serve", "--port", "0"]):
+    case(2, "--db: the folder {tmp}/missing/dir of database x.db does not exist", *argv,
+         "--db", MISSING_DB)  # fmt: skip
 case(2, "'--state': 'sleeping' is not one of", "jobs", "--state", "sleeping")
 case(2, "--modbus-port: cannot listen on 127.0.0.1:{busy}", "sim", "--modbus-port", "{busy}")
 case(2, "--host/--port: cannot bind 127.0.0.1:{busy}", "serve", "--port", "{busy}", "--db", "{db}")
@@ -283,6 +298,7 @@ def test_bad_input_is_one_line_never_a_traceback(world, argv, code, expect):
     assert returncode == code, (returncode, err)
     for leak in ("sqlite:", "secret", "Store(", "site-packages", "/work/"):
         assert leak not in lines[0], err
+    assert not (world["tmp"] / "missing").exists()  # a --db folder is never made
 
 
 @pytest.mark.slow  # a `rig tow` subprocess on the simulated rig: the slow lane
@@ -303,3 +319,20 @@ def test_a_weight_driven_tow_states_the_rounding_and_leaves_the_thrusters_quiet(
         run = store.get_run(json.loads(proc.stdout)["run_id"])
     assert run.parameters["requested"] == {"force_n": 10.0}
     assert run.parameters["force_n"] == pytest.approx(9.996)
+
+
+def test_a_cli_tow_while_the_disk_is_full_is_refused_before_the_rig_opens(world):
+    """Less free space than a run needs where it would be stored: exit 1 in one line naming
+    the place (no host path), its free bytes and the threshold; no run is made."""
+    env = os.environ | {"RIG_DATABASE_URL": world["db"], "XDG_DATA_HOME": str(world["tmp"])}
+    env["RIG_MIN_FREE_BYTES"] = str(2**62)  # more than any disk has free
+    with Store(world["db"]) as store:
+        before = len(store.list_runs(limit=1000))
+    proc = run_in_process(["tow", "--force", "9.8"], cwd=world["tmp"], env=env)
+    assert proc.returncode == 1, proc.stderr
+    (line,) = proc.stderr.strip().splitlines()
+    assert line.startswith("error: storage full (SQLite rig.db): the folder of SQLite rig.db has ")
+    assert line.endswith(f" bytes free, under the {2**62} bytes a run needs; free some space first")
+    assert str(world["tmp"]) not in line
+    with Store(world["db"]) as store:
+        assert len(store.list_runs(limit=1000)) == before

@@ -13,7 +13,10 @@ the module's rig; ``tests/api/test_people.py`` covers it).
 
 from __future__ import annotations
 
+import contextlib
 import re
+import socket
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +26,7 @@ from fastapi.testclient import TestClient
 from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
+from daq.store.migrate import create_engine
 from daq.store.people import UserRepository
 from tests.api.conftest import AUTH, TOKEN, wait_rig_free
 
@@ -132,12 +136,36 @@ def test_every_operation_is_documented_with_the_codes_its_route_declares(client)
     assert not problems, "\n".join(problems)
 
 
+@contextlib.contextmanager
+def database_down(service: RigService) -> Iterator[None]:
+    """The module's service with its database unreachable (a PostgreSQL URL on a port
+    bound and never listening): ``daq.store.faults.StorageUnavailable`` on every read."""
+    with socket.socket() as closed:
+        closed.bind(("127.0.0.1", 0))
+        working = service.store.engine
+        url = f"postgresql+psycopg://rig:secret@127.0.0.1:{closed.getsockname()[1]}/rig"
+        service.store.engine = create_engine(url)
+        try:
+            yield
+        finally:
+            service.store.engine.dispose()
+            service.store.engine = working
+
+
 def test_every_reachable_documented_code_is_answered_and_nothing_undeclared(
-    client, viewer, stopped
+    client, viewer, stopped, service
 ):
     wait_rig_free(client)
     undeclared: list[str] = []
     missed: list[str] = []
+    # The database down first (every probe below needs it up): what a GET answers then must
+    # be declared, and a 503 declared must be drawn by it or by a stopped service.
+    with database_down(service):
+        down = {
+            path: client.get(_url(path), headers=AUTH).status_code
+            for method, path, _ in _operations(client.app)
+            if method == "get" and path != "/api/stream"
+        }
     for method, path, op in _operations(client.app):
         if (method, path) in NOT_SENT:
             continue
@@ -169,8 +197,13 @@ def test_every_reachable_documented_code_is_answered_and_nothing_undeclared(
             r = stopped.get(url, headers=AUTH)
             if str(r.status_code) not in declared | {"200"}:
                 undeclared.append(f"GET {path} (service stopped): {r.status_code} {r.text[:120]}")
-            elif r.status_code != 503 and "503" in declared:
-                missed.append(f"GET {path} (service stopped): {r.status_code}, expected 503")
+            if str(down[path]) not in declared | {"200"}:
+                undeclared.append(f"GET {path} (database down): {down[path]}")
+            elif 503 not in (r.status_code, down[path]) and "503" in declared:
+                missed.append(
+                    f"GET {path} (service stopped, database down): {r.status_code} and "
+                    f"{down[path]}, expected 503"
+                )
     assert not undeclared, "answered but not declared:\n" + "\n".join(undeclared)
     assert not missed, "declared but not answered:\n" + "\n".join(missed)
 

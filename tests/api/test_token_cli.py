@@ -69,6 +69,11 @@ def test_rig_serve_banner_names_what_it_serves_never_the_token_and_ctrl_c_stops_
         assert lines[0].startswith("rig service: http://127.0.0.1:"), lines
         url = lines[0].split()[2]
         wait_healthy(proc, url, proc.stderr.read, timeout_s=30)
+        # `rig token --link` links the port this service took (--port 0), unasked.
+        with monkeypatch.context() as here:
+            here.setenv("XDG_DATA_HOME", str(tmp_path))
+            here.delenv("RIG_API_TOKEN", raising=False)
+            link = CliRunner().invoke(main, ["token", "--link"])
         proc.send_signal(signal.SIGINT)
         code = proc.wait(30)
     finally:
@@ -84,13 +89,38 @@ def test_rig_serve_banner_names_what_it_serves_never_the_token_and_ctrl_c_stops_
     assert len(secret) >= 32 and secret not in output, output
     assert "#token=" not in output and "rig token --link" in output, output
     assert str(tmp_path / "towrig" / "api-token") in output  # where to find it
-    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))  # the service's token file
-    monkeypatch.delenv("RIG_API_TOKEN", raising=False)
-    link = CliRunner().invoke(main, ["token", "--link", "--port", url.rsplit(":", 1)[1][:-1]])
     assert link.output.strip() == f"{url}#token={secret}"  # only when asked for
+    assert not (tmp_path / "towrig" / "api-address").exists()  # withdrawn when it stopped
+
+
+def test_rig_token_link_takes_the_running_services_port_unless_told(tmp_path, monkeypatch):
+    """The address a running service published beside its token file: its port (and host)
+    unless --port/--host say otherwise; a file whose service is gone, or none, is 8000."""
+    from api.http.address_file import address_path, publish_address, withdraw_address
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    monkeypatch.setenv("RIG_API_TOKEN", "tok")
+
+    def link(*args: str) -> str:
+        result = CliRunner().invoke(main, ["token", "--link", *args])
+        assert result.exit_code == 0, result.output
+        return result.output.strip()
+
+    publish_address("0.0.0.0", 8765)  # this process stands for the service
+    assert link() == "http://127.0.0.1:8765/#token=tok"
+    assert link("--port", "9001") == "http://127.0.0.1:9001/#token=tok"
+    assert link("--host", "lab-pc") == "http://lab-pc:8765/#token=tok"
+    withdraw_address()
+    assert not address_path().exists()
+    assert link() == "http://127.0.0.1:8000/#token=tok"
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    address_path().write_text(f'{{"host": "127.0.0.1", "port": 8765, "pid": {dead.stdout}}}')
+    assert link() == "http://127.0.0.1:8000/#token=tok"  # its service is gone
 
 
 def test_rig_token_link_carries_the_token_for_the_browser(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))  # no service's address here
     monkeypatch.setenv("RIG_API_TOKEN", "a/b+c")
     result = CliRunner().invoke(main, ["token", "--link"])
     assert result.output.strip() == "http://127.0.0.1:8000/#token=a%2Fb%2Bc"

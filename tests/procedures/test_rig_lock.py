@@ -154,6 +154,37 @@ def test_deleting_the_lock_file_does_not_let_a_second_driver_in(tmp_path, own_lo
         _end(child)
 
 
+def test_deleting_the_lock_folder_keeps_the_lease_and_the_device(tmp_path, own_lock_dir):
+    """``rm -rf "$RIG_LOCK_DIR"`` under a holder: no lost lease (the socket keeps the
+    device), a second driver is refused, and the folder and file are made again; while
+    the folder cannot be made (a file in its place) the lease still holds."""
+    import shutil
+
+    rig = load_rig(_hardware_rig(tmp_path))
+    lease = rig_lock(f"sqlite:///{tmp_path}/a.db", rig, "rig serve")
+    lost: list[str] = []
+    lease.on_lost = lost.append
+    with lease:
+        path = lease.host_locks[0].path
+        shutil.rmtree(own_lock_dir)
+        read_until(lambda: path.exists(), bool, "the lock folder and file made again")
+        own_lock_dir.rename(tmp_path / "gone")
+        own_lock_dir.write_text("")  # the folder cannot be made while this is here
+        # A renewal with no folder at all (the renewal thread's own ones too): still held.
+        assert [lock.verify(lease.me) for lock in lease.host_locks] == [None, None]
+        assert lease.held and lost == []
+        second = rig_lock(f"sqlite:///{tmp_path}/b.db", rig, "rig tow")
+        with pytest.raises(RigInUse, match="is in use by"):  # (no file says by whom)
+            second.acquire()
+        own_lock_dir.unlink()
+        read_until(lambda: path.exists(), bool, "the lock file made again")
+        assert lease.held and lost == []
+        with pytest.raises(RigInUse, match="is in use by `rig serve`"):
+            second.acquire()
+        lease.check()
+    assert lost == []
+
+
 async def test_a_sigkilled_holder_does_not_block_the_next_run(tmp_path):
     """The rig of a simulated session is its own simulator, so the holder here is on a
     hardware rig file's devices, and the next run on them is checked at the lease."""
@@ -258,9 +289,10 @@ def test_a_lock_file_taken_over_under_the_holder_is_a_lost_lease(tmp_path):
         finally:
             os.close(intruder)
         assert lost == [
-            f"rig lock lost: {lease.devices[0]}: its lock file {path} was replaced and "
-            "locked by another process"
+            f"rig lock lost: {lease.devices[0]}: its lock file {path.name} (in the lock "
+            "folder) was replaced and locked by another process"
         ]
+        assert str(tmp_path) not in lost[0]  # no host path in a run's reason or /api/rig
         with pytest.raises(RigLockLost, match="was replaced and locked"):
             lease.check()  # a session's next procedure is refused too
 

@@ -99,7 +99,7 @@ def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, t
         text=True,
         timeout=180,
         cwd=ROOT,
-        env=os.environ | {"RIG_SPILL_DIR": str(spill)},
+        env=os.environ | {"RIG_SPILL_DIR": str(spill), "RIG_MIN_FREE_BYTES": "0"},  # starts
     )
     assert result.returncode == 1, result.stderr
     assert "Traceback" not in result.stderr and "INSERT" not in result.stderr, result.stderr
@@ -114,12 +114,25 @@ def test_a_full_disk_stops_the_tow_and_no_acquired_sample_is_lost(small_tmpfs, t
         text=True,
         timeout=180,
         cwd=ROOT,
-        env=os.environ | {"RIG_SPILL_DIR": str(spill)},
+        env=os.environ | {"RIG_SPILL_DIR": str(spill), "RIG_MIN_FREE_BYTES": "0"},
     )
     assert again.returncode == 1, again.stderr
     assert "Traceback" not in again.stderr and "sqlalche.me" not in again.stderr, again.stderr
     errors = [line for line in again.stderr.splitlines() if line.startswith("error: ")]
     assert errors == [f"error: {STORAGE_REASON}; the run was not started"], again.stderr
+    checked = subprocess.run(  # with the free-space check on: refused before the rig opens
+        [*TOW, "--rig", str(rig_file), "--db", db],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=ROOT,
+        env=os.environ | {"RIG_SPILL_DIR": str(spill)},
+    )
+    refusal = [line for line in checked.stderr.splitlines() if line.startswith("error: ")]
+    assert checked.returncode == 1 and len(refusal) == 1, checked.stderr
+    assert refusal[0].startswith(
+        "error: storage full (SQLite rig.db): the folder of SQLite rig.db has "
+    ), checked.stderr
     filler.unlink()  # space returns; the next open writes the kept samples back
     with Store(db, spill_dir=spill) as store:
         run = store.get_run(outcome["run_id"])

@@ -18,7 +18,7 @@ import pytest
 import sqlalchemy as sa
 
 from daq.store import RunRecorder, Store
-from daq.store.faults import describe, one_line
+from daq.store.faults import StorageUnavailable, describe, one_line
 from daq.store.recorder import STORE_RETRY_S
 from daq.store.spill import read_spill
 from tests.store.helpers import DbLimits, held_write_lock, make_samples, new_run, no_sql
@@ -158,9 +158,11 @@ def test_database_errors_read_as_one_line_and_say_whether_a_retry_helps(
     limits = DbLimits(sqlite_store)
     run_id = new_run(sqlite_store)
     limits.fill()
-    with pytest.raises(sa.exc.OperationalError) as full:
+    with pytest.raises(StorageUnavailable) as full:  # the store's boundary: one error
         sqlite_store.add_samples(run_id, make_samples(0, 500))
-    assert "INSERT INTO samples" in str(full.value)  # what used to reach the operator
+    assert isinstance(full.value, sa.exc.OperationalError)  # what retry rules look at
+    # Not "(sqlite3.OperationalError) … [SQL: INSERT INTO samples …]": the database by name.
+    assert str(full.value) == "database SQLite rig.db unavailable: SQLite: database or disk is full"
     assert describe(full.value).message == "SQLite: database or disk is full"
     assert not describe(full.value).retryable
     no_sql(one_line(full.value))

@@ -66,7 +66,7 @@ def start_campaign(body: CampaignRequest, runner: RunnerDep, user: OperatorDep) 
     "",
     response_model=list[JobOut],
     dependencies=[Depends(require_read)],
-    responses=error_responses(401),
+    responses=error_responses(401, 503),  # 503: the jobs' database unreachable
 )
 def list_campaigns(runner: RunnerDep) -> list[dict]:
     """The campaigns, newest first, each with its trail."""
@@ -84,7 +84,7 @@ def _campaign(runner, job_id: str):
     "/{job_id}",
     response_model=JobOut,
     dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404, 409),
+    responses=error_responses(401, 404, 409, 503),
 )
 def get_campaign(job_id: str, runner: RunnerDep) -> dict:
     """One campaign: target, budget, used, outcome, the run pending and the trail."""

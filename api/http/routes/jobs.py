@@ -11,7 +11,7 @@ from fastapi import APIRouter, Depends, Query
 
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
-from api.core.jobs import LIST_LIMIT, JobRunner
+from api.core.jobs import JobRunner
 from api.core.service import RigService
 from api.http.deps import (
     OperatorDep,
@@ -21,6 +21,7 @@ from api.http.deps import (
     require_read,
     require_write,
 )
+from api.http.paging import JobsLimit, Offset
 from api.http.schemas import (
     EstimationRequest,
     JobEventOut,
@@ -142,12 +143,12 @@ def start_estimation(
     "",
     response_model=list[JobOut],
     dependencies=[Depends(require_read)],
-    responses=error_responses(401),
+    responses=error_responses(401, 503),  # 503: the jobs' database unreachable
 )
 def list_jobs(
     runner: RunnerDep,
-    limit: Annotated[int, Query(ge=1, le=LIST_LIMIT, description="At most this many.")] = 100,
-    offset: Annotated[int, Query(ge=0, description="Skip this many of the newest.")] = 0,
+    limit: JobsLimit = 100,
+    offset: Offset = 0,
     state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
 ) -> list[dict]:
     """This rig's jobs, newest first, from the database (so they outlive a restart)."""
@@ -158,7 +159,7 @@ def list_jobs(
     "/{job_id}",
     response_model=JobOut,
     dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404),
+    responses=error_responses(401, 404, 503),
 )
 def get_job(job_id: str, runner: RunnerDep) -> dict:
     """State, progress, run ids and outcome of one job."""
@@ -169,7 +170,7 @@ def get_job(job_id: str, runner: RunnerDep) -> dict:
     "/{job_id}/events",
     response_model=list[JobEventOut],
     dependencies=[Depends(require_read)],
-    responses=error_responses(401, 404),
+    responses=error_responses(401, 404, 503),
 )
 def job_events(job_id: str, runner: RunnerDep) -> list[dict]:
     """The job's stored progress: each change of state or message, oldest first."""

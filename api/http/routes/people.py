@@ -12,13 +12,14 @@ from __future__ import annotations
 import asyncio
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Query, Request
+from fastapi import APIRouter, Depends, Request
 from pydantic import BaseModel, ConfigDict, Field
 
 from api.core.job_model import iso_time
 from api.core.rig_guard import MAX_REASON, RigGuard
 from api.http.deps import OperatorDep, ServiceDep, require_read
 from api.http.identity import known_user
+from api.http.paging import EventsLimit
 from api.http.schemas import error_responses
 from daq.store.people import User
 
@@ -118,7 +119,7 @@ async def release_rig(
 async def rig_events(
     request: Request,
     service: ServiceDep,
-    limit: Annotated[int, Query(ge=1, le=500, description="At most this many.")] = 50,
+    limit: EventsLimit = 50,
 ) -> list[dict]:
     """The rig's safety log, newest first: emergency stops, acknowledgements, holds and
     releases, each naming who."""

@@ -65,7 +65,7 @@ def health(request: Request, service: ServiceDep) -> dict:
     "/rig",
     response_model=RigStatus,
     dependencies=[Depends(require_read)],
-    responses=error_responses(401),
+    responses=error_responses(401, 503),  # 503: the safety log's database unreachable
 )
 def get_rig(service: ServiceDep, runner: RunnerDep) -> dict:
     """Connected, armed, stale channels, current values, lock holder, device loss, clock;

@@ -23,6 +23,7 @@ from api.core.job_model import without_report_files
 from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.run_cache import EndedRunCache
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
+from api.http.paging import Offset, RunsLimit, SamplesLimit
 from api.http.schemas import (
     EventOut,
     ResultOut,
@@ -114,8 +115,8 @@ def list_runs(
             "offset: IANA name (Europe/Oslo), UTC or ±HH:MM. Default UTC.",
         ),
     ] = None,
-    limit: Annotated[int, Query(ge=1, le=1000)] = 100,
-    offset: Annotated[int, Query(ge=0, le=1_000_000)] = 0,
+    limit: RunsLimit = 100,
+    offset: Offset = 0,
 ) -> list[dict]:
     """Stored runs, newest first, a page at a time: the ``X-Total-Count`` header gives how
     many match the filters, ``X-Next-Offset`` the ``offset`` of the next page (absent on
@@ -181,7 +182,7 @@ def get_samples(
     run_id: str,
     store: StoreDep,
     start_seq: Annotated[int, Query(ge=0, le=2**62)] = 0,
-    limit: Annotated[int, Query(ge=1, le=100_000)] = 1000,
+    limit: SamplesLimit = 1000,
 ) -> dict:
     """A page of samples (columns; SI units; null when a channel was not read)."""
     run = store.get_run(run_id)
