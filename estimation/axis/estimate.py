@@ -42,6 +42,7 @@ from estimation.design.envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.motion.well_determined import Combination, drives_of, terminal_speed
 from estimation.stats.diagnostics import ljung_box
+from estimation.stats.misfit import lag_one
 
 METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
@@ -295,7 +296,11 @@ def _build(
 ) -> EstimationResult:
     """The result document of ``outcome`` (base and final fit, the search's evidence)."""
     base, final = outcome.base, outcome.final
-    moving = {r.run_id: v for r in runs if (v := speed_at_release(r)) is not None}
+    moving = {
+        r.run_id: v
+        for r, res in zip(runs, final.residuals, strict=True)
+        if (v := speed_at_release(r, lag_one(res))) is not None
+    }
     limited = at_step_limit(final.values, final.effects, prepared)
     # what the data cannot determine has no σ, wherever the fit is read (budget, effects)
     final = final.without_sigma(final.names if limited else ("inertia",) if moving else ())

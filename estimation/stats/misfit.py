@@ -31,15 +31,19 @@ WHITE_P = 1e-3
 ABOVE_FLOOR = 3.0
 
 
-def effective_sample_size(residuals: Sequence[np.ndarray]) -> float:
-    """n·(1 − r₁)/(1 + r₁) from the pooled lag-1 autocorrelation r₁ of the residuals
-    (r₁ clipped to [0, 0.999]: a negative one does not add information)."""
+def lag_one(*residuals: np.ndarray) -> float:
+    """The pooled lag-1 autocorrelation r₁ of the residuals, clipped to [0, 0.999] (a
+    negative one does not add information)."""
     arrays = [np.asarray(r, dtype=float) for r in residuals]
-    n = sum(r.size for r in arrays)
     num = sum(float(r[:-1] @ r[1:]) for r in arrays if r.size > 1)
     den = sum(float(r @ r) for r in arrays)
-    r1 = min(max(num / den, 0.0), 0.999) if den > 0 else 0.0
-    return n * (1 - r1) / (1 + r1)
+    return min(max(num / den, 0.0), 0.999) if den > 0 else 0.0
+
+
+def effective_sample_size(residuals: Sequence[np.ndarray]) -> float:
+    """n·(1 − r₁)/(1 + r₁) from the pooled lag-1 autocorrelation r₁ of the residuals."""
+    r1 = lag_one(*residuals)
+    return sum(np.asarray(r).size for r in residuals) * (1 - r1) / (1 + r1)
 
 
 def excess_p(ratio: float, n_eff: float) -> float:
