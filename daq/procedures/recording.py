@@ -8,6 +8,9 @@ sample the clock produced is flushed before the status is written.
 Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
 abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
 storage; samples the database did not take wait in a spill file (docs/storage.md).
+Every sample the clock lost (late, missed, bad: ``daq.sample_losses``) is counted: each
+gap is a ``samples_lost`` event, and a hole longer than the kind tolerates aborts the run
+with a reason beginning ``samples lost``.
 So is losing the lease on the rig's devices (``daq.rig_lock``): the session calls the
 run's abort signal with a reason beginning ``rig lock lost``, and that is how the run ends
 whatever else failed after the devices were released. A database that refuses the new run
@@ -29,11 +32,13 @@ import sqlalchemy as sa
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
 from daq.sample import Quality, Sample
+from daq.sample_losses import SAMPLES_LOST, LossTracker, loss_reason
 from daq.session import NO_THRUSTERS, Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import StorageFault, one_line
-from daq.store.run_events import RunAction
+from daq.store.run_events import Gap, RunAction
 from daq.store.spill import write_back_later
+from daq.vocabulary import AXES
 from thrusters.driver import ThrusterError
 
 log = logging.getLogger(__name__)
@@ -45,6 +50,9 @@ DEVICE_LOST = "device lost"
 
 #: Clock periods the ending waits for a sample read after the safe state (its last state).
 SAFE_SAMPLE_PERIODS = 3
+
+#: How long the ending waits for the PLC to answer again when its safe state failed, s.
+SAFE_RETRY_S = 2.0
 
 #: Background write-backs of spill files (a reference keeps each task alive).
 _WRITE_BACKS: set[asyncio.Task] = set()
@@ -103,6 +111,14 @@ class RecordedRun:
         self._queue: asyncio.Queue[Sample] | None = None
         self._unlisten: Callable[[], None] | None = None
         self._telemetry = contextlib.ExitStack()
+        terms = AXES.get(kind)
+        #: The longest hole without a good sample this kind tolerates (s; None: any).
+        self.loss_tolerance_s = None if terms is None else terms.loss_tolerance_s
+        self._position = None if terms is None else terms.position_channel
+        self._device_clock = any(c.name == "plc_clock" for c in session.rig.channels)
+        self.losses = LossTracker(1.0 / session.rig.acquisition.rate_hz)
+        #: Set (the abort reason) once a hole beyond the tolerance ends the run.
+        self.lost: str | None = None
         if thruster_telemetry and session.telemetry is None:
             raise ThrusterError(NO_THRUSTERS)
         self._thruster_telemetry = thruster_telemetry
@@ -169,7 +185,35 @@ class RecordedRun:
     async def _pump(self, queue: asyncio.Queue[Sample]) -> None:
         assert self._recorder is not None
         while True:
-            self._recorder.put(await queue.get())
+            sample = await queue.get()
+            self._count_loss(sample)
+            self._recorder.put(sample)
+
+    def _count_loss(self, sample: Sample) -> None:
+        """Feed ``sample`` to the loss count: a gap it closes becomes an event, and a hole
+        beyond the kind's tolerance aborts the run (once)."""
+        value = sample.channels.get(self._position or "")
+        nan = value is not None and math.isnan(value)
+        reason = loss_reason(sample.quality, nan, device_clock=self._device_clock)
+        closed = self.losses.feed(sample.seq, sample.t_mono, reason)
+        if closed is not None:
+            self._loss_event(closed)
+        gap = closed or self.losses.open_gap
+        hole = closed.hole_s if closed is not None else self.losses.hole_s(sample.t_mono)
+        limit = self.loss_tolerance_s
+        if gap is not None and limit is not None and hole > limit and self.lost is None:
+            lost = (
+                f"{SAMPLES_LOST}: {gap.count} in {hole:.1f} s at {gap.at_s:.1f} s "
+                f"({gap.reason}); a {self.kind} tolerates at most {limit:g} s"
+            )
+            acq = self.session.acquisition
+            if acq is not None and acq.device_lost.is_set():  # said as a lost device, too
+                lost = f"{self._device_lost_reason()}; {lost}"
+            self.lost = lost  # this run's ending; the operator's signal stays unset
+
+    def _loss_event(self, gap: Gap) -> None:
+        assert self._recorder is not None
+        self._recorder.add_event("fault", gap.describe(), gap.event_data())
 
     async def __aexit__(self, exc_type, exc, tb) -> bool:
         s = self.session
@@ -187,7 +231,7 @@ class RecordedRun:
             self._unlisten()
         assert self._recorder is not None
         if self.status != "completed":
-            lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST))
+            lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST, SAMPLES_LOST))
             fault = lost or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
         try:
@@ -203,7 +247,11 @@ class RecordedRun:
         assert self._pump_task and self._recorder_task
         self._pump_task.cancel()
         while not self._recorder_queue.empty():
-            self._recorder.put(self._recorder_queue.get_nowait())
+            sample = self._recorder_queue.get_nowait()
+            self._count_loss(sample)
+            self._recorder.put(sample)
+        if (open_gap := self.losses.finish()) is not None:  # the run ended in it
+            self._loss_event(open_gap)
         # Flush the rest and write the end once (retried; a storage fault makes it
         # ``aborted`` naming storage; unstored samples wait in the spill file).
         self.status, self.reason = await self._recorder.end(self.status, self.reason)
@@ -223,9 +271,17 @@ class RecordedRun:
     async def _end_safe(self) -> None:
         """Every ending the same way: brakes engaged and thrusters zero, a ``safe`` event
         saying so (or what failed), and one sample read after it, so the run's last state
-        shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods)."""
+        shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods). A safe
+        state the PLC did not take (a stall) is made again at its next good read, within
+        :data:`SAFE_RETRY_S`."""
         s = self.session
         safe = await s.safe_state()
+        if safe is not None and safe.errors and self._queue is not None:
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(SAFE_RETRY_S):
+                    while (await self._queue.get()).quality & Quality.ERROR:
+                        pass
+                    safe = await s.safe_state()
         done = s.clock.now()
         if safe is None:  # the session made the rig safe itself as it released the devices
             await self.event("safe", "safe state: made as the devices were released")
@@ -279,6 +335,8 @@ class RecordedRun:
                     raise Aborted(self._device_lost_reason())
                 continue
             sample = get.result()
+            if self.lost is not None:  # a hole beyond the tolerance (named, device lost too)
+                raise Aborted(self.lost)
             if acq.device_lost.is_set():
                 raise Aborted(self._device_lost_reason())
             if sample.channels.get("estop", 0.0) and not math.isnan(
