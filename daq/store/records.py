@@ -76,6 +76,15 @@ class RunInfo:
     imported_at: datetime | None = None
     #: Operator, water temperature, notes, tags, free keys (daq.store.run_metadata).
     metadata: dict[str, Any] = field(default_factory=dict)
+    #: What the run lost ("7 samples lost in 0.9 s at 12.3 s", from its ``samples_lost``
+    #: events; ``daq.sample_losses``), None: nothing (or not looked up, as in run lists).
+    samples_lost: str | None = None
+
+    @property
+    def summary(self) -> str:
+        """How the run ended and what it lost: "completed, 7 samples lost in 0.9 s at 12.3 s"."""
+        ending = self.status + (f" ({self.reason})" if self.reason else "")
+        return ending + (f", {self.samples_lost}" if self.samples_lost else "")
 
     @property
     def duration_s(self) -> float | None:
@@ -106,6 +115,8 @@ class RunInfo:
             "source_file": self.source_file,
             "imported_at": _iso(self.imported_at),
             "metadata": self.metadata,
+            "samples_lost": self.samples_lost,
+            "summary": self.summary,
         }
         if include_toml:
             out["rig_toml"] = self.rig_toml
