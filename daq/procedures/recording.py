@@ -213,7 +213,7 @@ class RecordedRun:
 
     def _loss_event(self, gap: Gap) -> None:
         assert self._recorder is not None
-        self._recorder.add_event("fault", gap.describe(), gap.event_data())
+        self._recorder.add_event("samples_lost", gap.describe(), gap.event_data())
 
     async def __aexit__(self, exc_type, exc, tb) -> bool:
         s = self.session

@@ -56,7 +56,7 @@ def test_a_run_that_ends_in_a_gap_keeps_it_open_ended():
 def test_gaps_round_trip_through_the_run_events_in_time_order():
     gaps = _feed([(0, None), (1, "stale channel"), (2, None), (3, "PLC read failed")]).gaps
     events = [
-        EventInfo(i, "r", None, "fault", g.describe(), g.event_data())  # type: ignore[arg-type]
+        EventInfo(i, "r", None, "samples_lost", g.describe(), g.event_data())  # type: ignore[arg-type]
         for i, g in enumerate(reversed(gaps))
     ]
     assert RunEvents.of(events).losses == tuple(gaps)
