@@ -80,16 +80,15 @@ def _timeline(
     """
     clock = table.channels.get("plc_clock")
     good, gaps = trusted_samples(table, channel, device_clock=clock is not None)
-    usable = clock is not None
-    if usable and not (
-        np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0)  # type: ignore[index]
+    if clock is not None and not (
+        np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0)
     ):
-        usable = False  # the host's time base: a late slot's time stamp is not trusted
+        clock = None  # the host's time base: a late slot's time stamp is not trusted
         good, gaps = trusted_samples(table, channel, device_clock=False)
     t_host = table.t_mono[good]
     t = t_host
     clock_step = 0.0
-    if usable and clock is not None:
+    if clock is not None:
         t = clock[good]
         # One count of the PLC clock (the rig file's scale; ms on BENBAM).
         clock_step = abs(rig.channel("plc_clock").scale) if rig is not None else 1e-3
