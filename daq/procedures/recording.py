@@ -186,7 +186,10 @@ class RecordedRun:
         assert self._recorder is not None
         while True:
             sample = await queue.get()
-            self._count_loss(sample)
+            try:
+                self._count_loss(sample)
+            except Exception:  # counting must never cost the recorder a sample
+                log.exception("run %s: counting lost samples failed", self.run_id)
             self._recorder.put(sample)
 
     def _count_loss(self, sample: Sample) -> None:

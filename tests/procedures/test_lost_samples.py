@@ -6,6 +6,7 @@ hole beyond a tow's tolerance aborts the run safely, and a campaign repeats such
 from __future__ import annotations
 
 import asyncio
+import os
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ from daq.sample import Quality
 from daq.session import RigSession
 from daq.store.run_events import RunEvents
 from estimation.design.campaign import Campaign, Target
+from tests.cli import run_in_process
 
 pytestmark = pytest.mark.simtime
 
@@ -50,7 +52,7 @@ async def _tow_with_stall(session: RigSession, ticks: int):
     return outcome
 
 
-async def test_a_short_stall_is_named_on_the_run_and_left_out_of_the_fit(session, store):
+async def test_a_short_stall_is_named_on_the_run_and_left_out_of_the_fit(session, store, tmp_path):
     outcome = await _tow_with_stall(session, 3)  # a 0.4 s hole: within a tow's 0.5 s
     assert outcome.status == "completed"
     run = store.get_run(outcome.run_id)
@@ -60,6 +62,8 @@ async def test_a_short_stall_is_named_on_the_run_and_left_out_of_the_fit(session
     assert run.samples_lost == f"3 samples lost in 0.4 s at {gap.at_s:.1f} s"
     assert run.summary == f"completed, {run.samples_lost}"
     assert run.to_json()["summary"] == run.summary
+    shown = run_in_process(["show", run.id, "--db", store.url], cwd=tmp_path, env=dict(os.environ))
+    assert f"status     {run.summary}\n" in shown.stdout
     # the loader leaves them out and says where; the fit's times have a hole there
     data = load_run_data(store, run.id)
     (out,) = data.window_report().left_out
