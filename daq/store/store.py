@@ -318,7 +318,7 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
             run = self._resolve(conn, run_id_or_unique_prefix)
             row = conn.execute(self._run_query().where(runs_t.c.id == run.id)).one()
         lost = losses_text(RunEvents.of(self.events(row.uuid)).losses)  # its gap events
-        info = replace(self._run_info(row), samples_lost=lost)
+        info = replace(self._run_info(row), samples_lost=lost, losses_read=True)
         return info if as_stored else self.pending_ends.apply(info)
 
     def load(self, run_id_or_unique_prefix: str) -> LoadedRun:

@@ -62,6 +62,7 @@ async def test_a_short_stall_is_named_on_the_run_and_left_out_of_the_fit(session
     assert run.samples_lost == f"3 samples lost in 0.4 s at {gap.at_s:.1f} s"
     assert run.summary == f"completed, {run.samples_lost}"
     assert run.to_json()["summary"] == run.summary
+    assert "summary" not in store.list_runs()[0].to_json()  # a list does not read events
     shown = run_in_process(["show", run.id, "--db", store.url], cwd=tmp_path, env=dict(os.environ))
     assert f"status     {run.summary}\n" in shown.stdout
     # the loader leaves them out and says where; the fit's times have a hole there
