@@ -31,6 +31,7 @@ import sqlalchemy as sa
 
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
+from daq.safe_state import RELEASE_CHANNELS, SafeState
 from daq.sample import Quality, Sample
 from daq.sample_losses import SAMPLES_LOST, LossTracker, loss_reason
 from daq.session import NO_THRUSTERS, Aborted, RigSession
@@ -279,12 +280,8 @@ class RecordedRun:
         :data:`SAFE_RETRY_S`."""
         s = self.session
         safe = await s.safe_state()
-        if safe is not None and safe.errors and self._queue is not None:
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(SAFE_RETRY_S):
-                    while (await self._queue.get()).quality & Quality.ERROR:
-                        pass
-                    safe = await s.safe_state()
+        if safe is not None and self._unbraked(safe) and await self._plc_answers():
+            safe = await s.safe_state()  # the brakes the stalled PLC did not take, now
         done = s.clock.now()
         if safe is None:  # the session made the rig safe itself as it released the devices
             await self.event("safe", "safe state: made as the devices were released")
@@ -305,6 +302,23 @@ class RecordedRun:
             async with asyncio.timeout(SAFE_SAMPLE_PERIODS * period):
                 while (await self._queue.get()).t_mono <= done:
                     pass
+
+    def _unbraked(self, safe: SafeState) -> bool:
+        """A brake of the rig the safe state did not engage (its PLC write failed)."""
+        rig = self.session.rig
+        return any(rig.has(n) and n not in safe.brakes_engaged for n in RELEASE_CHANNELS)
+
+    async def _plc_answers(self) -> bool:
+        """Whether the PLC gives a good read within :data:`SAFE_RETRY_S`."""
+        if self._queue is None:
+            return False
+        try:
+            async with asyncio.timeout(SAFE_RETRY_S):
+                while (await self._queue.get()).quality & Quality.ERROR:
+                    pass
+        except TimeoutError:
+            return False
+        return True
 
     @property
     def samples_stored(self) -> int:
