@@ -120,6 +120,7 @@ class RecordedRun:
         self.losses = LossTracker(1.0 / session.rig.acquisition.rate_hz)
         #: Set (the abort reason) once a hole beyond the tolerance ends the run.
         self.lost: str | None = None
+        self._lost_since = math.inf  # host time the hole began, s
         if thruster_telemetry and session.telemetry is None:
             raise ThrusterError(NO_THRUSTERS)
         self._thruster_telemetry = thruster_telemetry
@@ -214,6 +215,18 @@ class RecordedRun:
             if acq is not None and acq.device_lost.is_set():  # said as a lost device, too
                 lost = f"{self._device_lost_reason()}; {lost}"
             self.lost = lost  # this run's ending; the operator's signal stays unset
+            self._lost_since = gap.t_first if gap.t_before is None else gap.t_before
+
+    def _fault_meanwhile(self) -> str | None:
+        """What a device said went wrong since the hole that ends the run began (an abort
+        signal's reason, or the thrusters' link or watchdog fault), if anything: a host
+        stall that loses samples also trips the thrusters' watchdog, and that is said."""
+        if self.abort.is_set():
+            return self.abort.reason
+        fault = getattr(self.session.thrusters, "fault", None)
+        if fault is not None and fault.t_detected >= self._lost_since:
+            return str(fault.reason)
+        return None
 
     def _loss_event(self, gap: Gap) -> None:
         assert self._recorder is not None
@@ -225,6 +238,8 @@ class RecordedRun:
             self.status, self.reason = "completed", None
         elif isinstance(exc, Aborted):
             self.status, self.reason = "aborted", exc.reason
+            if exc.reason == self.lost and (said := self._fault_meanwhile()) is not None:
+                self.reason = f"{said}; {self.lost}"  # the device's own words first
         elif isinstance(exc, asyncio.CancelledError):
             self.status, self.reason = "aborted", self.abort.reason or "cancelled"
         else:
@@ -235,7 +250,7 @@ class RecordedRun:
             self._unlisten()
         assert self._recorder is not None
         if self.status != "completed":
-            lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST, SAMPLES_LOST))
+            lost = str(self.reason).startswith((DEVICE_LOST, LOCK_LOST)) or self.lost is not None
             fault = lost or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
         try:
