@@ -32,7 +32,7 @@ def trusted_samples(
     nothing_lost = not np.any(table.quality & int(flags)) and np.all(np.isfinite(values))
     if nothing_lost and np.all(np.diff(table.seq) == 1):  # the common case, without a loop
         return np.ones(len(table), dtype=bool), ()
-    tracker = LossTracker(period_of(table))
+    tracker = LossTracker()
     good = np.zeros(len(table), dtype=bool)
     for i in range(len(table)):
         reason = loss_reason(
@@ -42,15 +42,6 @@ def trusted_samples(
         good[i] = reason is None
     tracker.finish()
     return good, tuple(tracker.gaps)
-
-
-def period_of(table: SampleTable) -> float:
-    """The clock's period (s): the median time per clock slot (0.1 s with one sample)."""
-    if len(table) < 2:
-        return 0.1
-    per_slot = np.diff(table.t_mono) / np.maximum(np.diff(table.seq), 1)
-    period = float(np.median(per_slot))
-    return period if period > 0 else 0.1
 
 
 class TooMuchLeftOut(ValueError):

@@ -14,7 +14,7 @@ loss_tolerance_s``); a longer one aborts the run (:data:`SAMPLES_LOST`).
 
 from __future__ import annotations
 
-import math
+from dataclasses import replace
 
 from daq.sample import Quality
 from daq.store.run_events import Gap
@@ -47,16 +47,12 @@ def loss_reason(quality: int, value_nan: bool = False, *, device_clock: bool = F
 
 
 class LossTracker:
-    """Coalesces lost samples into gaps, fed one sample (or missed slot) at a time.
-
-    ``period_s`` is the clock's period (s); it dates missed slots between two samples.
-    :meth:`feed` returns the gaps a good sample closes; :meth:`finish` the one still open.
+    """Coalesces lost samples into gaps, fed one sample at a time (slots the clock skipped
+    are found from ``seq`` and dated evenly between their neighbours). :meth:`feed` returns
+    the gap a good sample closes; :meth:`finish` the one still open at the end.
     """
 
-    def __init__(self, period_s: float) -> None:
-        if not (math.isfinite(period_s) and period_s > 0):
-            raise ValueError(f"period_s: got {period_s!r}, allowed: > 0 s")
-        self.period_s = period_s
+    def __init__(self) -> None:
         self.t0: float | None = None  # the first sample's time, s
         self.last_good: float | None = None
         self._seq: int | None = None
@@ -88,7 +84,7 @@ class LossTracker:
         closed = self._open
         if closed is not None:
             self._open = None
-            closed = Gap(**{**closed.__dict__, "t_after": t})
+            closed = replace(closed, t_after=t)
             self.gaps.append(closed)
         return closed
 
@@ -116,14 +112,8 @@ class LossTracker:
             )
             return
         reasons = gap.reasons if why in gap.reasons else (*gap.reasons, why)
-        self._open = Gap(
-            **{
-                **gap.__dict__,
-                "seq_last": seq_last,
-                "t_last": t_last,
-                "count": gap.count + count,
-                "reasons": reasons,
-            }
+        self._open = replace(
+            gap, seq_last=seq_last, t_last=t_last, count=gap.count + count, reasons=reasons
         )
 
     def hole_s(self, now: float) -> float:

@@ -117,7 +117,7 @@ class RecordedRun:
         self.loss_tolerance_s = None if terms is None else terms.loss_tolerance_s
         self._position = None if terms is None else terms.position_channel
         self._device_clock = any(c.name == "plc_clock" for c in session.rig.channels)
-        self.losses = LossTracker(1.0 / session.rig.acquisition.rate_hz)
+        self.losses = LossTracker()
         #: Set (the abort reason) once a hole beyond the tolerance ends the run.
         self.lost: str | None = None
         self._lost_since = math.inf  # host time the hole began, s

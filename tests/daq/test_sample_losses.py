@@ -12,7 +12,7 @@ from daq.store.run_events import RunEvents, losses_text
 
 def _feed(rows: list[tuple[int, str | None]], period: float = 0.1) -> LossTracker:
     """Samples (seq, reason) at seq·period s from t = 10 s."""
-    tracker = LossTracker(period)
+    tracker = LossTracker()
     for seq, reason in rows:
         tracker.feed(seq, 10.0 + seq * period, reason)
     tracker.finish()
@@ -44,7 +44,7 @@ def test_skipped_slots_are_lost_samples_dated_between_their_neighbours():
 
 
 def test_a_run_that_ends_in_a_gap_keeps_it_open_ended():
-    tracker = LossTracker(0.1)
+    tracker = LossTracker()
     for seq in range(3):
         tracker.feed(seq, seq * 0.1, None)
     tracker.feed(3, 0.3, "PLC read failed")
