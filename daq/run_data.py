@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from daq.config import RigConfig, RigConfigError, parse_rig
-from daq.sample import Quality
+from daq.fit_exclusions import left_out, trusted_samples
 from daq.store import RunInfo, SampleTable, Store
-from daq.store.run_events import RunAction, RunEvents
+from daq.store.run_events import Gap, RunAction, RunEvents
 from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
 from daq.thruster_run_drive import thruster_drive as thruster_drive  # its callers' old path
 from daq.vocabulary import AXES, POSITION_CHANNEL, Axis, DriveTrain
@@ -57,6 +57,8 @@ class _Timeline:
     #: recorded (the release defaults to the first sample, the end to the last).
     release_source: str | None = None
     end_source: str | None = None
+    #: The samples left out (value or time untrusted: ``daq.sample_losses``), host times.
+    gaps: tuple[Gap, ...] = ()
 
 
 def _timeline(
@@ -76,12 +78,17 @@ def _timeline(
     offset of the least-delayed samples; ``t_release_std`` combines the write's bracket,
     the offset's spread and the clock's step.
     """
-    good = np.isfinite(table.channels[channel]) & ((table.quality & int(Quality.ERROR)) == 0)
+    clock = table.channels.get("plc_clock")
+    good, gaps = trusted_samples(table, channel, device_clock=clock is not None)
+    if clock is not None and not (
+        np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0)
+    ):
+        clock = None  # the host's time base: a late slot's time stamp is not trusted
+        good, gaps = trusted_samples(table, channel, device_clock=False)
     t_host = table.t_mono[good]
     t = t_host
-    clock = table.channels.get("plc_clock")
     clock_step = 0.0
-    if clock is not None and np.all(np.isfinite(clock[good])) and np.all(np.diff(clock[good]) > 0):
+    if clock is not None:
         t = clock[good]
         # One count of the PLC clock (the rig file's scale; ms on BENBAM).
         clock_step = abs(rig.channel("plc_clock").scale) if rig is not None else 1e-3
@@ -131,6 +138,7 @@ def _timeline(
         events,
         release_source,
         end_source,
+        gaps,
     )
 
 
@@ -154,6 +162,10 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     t, position = timeline.t, table.channels[channel][timeline.good]
     params = run.parameters
     keep, window, t_release_std = _window(run, table, timeline, position)
+    window = replace(
+        window,
+        left_out=left_out(run, table, timeline.gaps, timeline.offset, window, int(keep.sum())),
+    )
     t, position = t[keep], position[keep]
     t_release, t_end = window.t_release, window.t_end
     if t_release_std is None:

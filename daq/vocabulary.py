@@ -81,6 +81,9 @@ class AxisTerms:
     end_switch: str | None = None  # the channel a run ends on at the end of travel, if any
     drive_train: DriveTrain | None = None  # what turns with the drive (its inertia adds)
     rate: str | None = None  # the position's rate the live plot derives, e.g. "speed"
+    #: The longest hole without a good sample a run of this axis tolerates, s (a longer
+    #: one aborts it: ``daq.sample_losses``); None: any (nothing is fitted to the motion).
+    loss_tolerance_s: float | None = None
 
     @property
     def inertia_is_mass(self) -> bool:
@@ -109,6 +112,9 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
         end_switch="end_of_travel",
         drive_train=DriveTrain("pulley_inertia_kg_m2", "pulley_radius_m", True, False),
         rate="speed",
+        # 2/3 of the shortest time constant M/(dF/dv) of BENBAM's tows (~0.73 s at 44 N):
+        # a longer hole can hide most of the acceleration that fixes the inertia.
+        loss_tolerance_s=0.5,
     ),
     RunKind.SPIN: AxisTerms(
         Axis.YAW,
@@ -121,9 +127,17 @@ AXES: dict[str, AxisTerms] = {  # keyed by RunKind (a str), looked up by stored 
         "max_angle_rad",
         drive_train=DriveTrain("spin_drum_inertia_kg_m2", "spin_drum_radius_m", False, True),
         rate="yaw_rate",
+        # a spin's time constant I/(dQ/dω) is longer (~2 s at 1 N·m): 0.5 s stays well inside
+        loss_tolerance_s=0.5,
     ),
     RunKind.PENDULUM: AxisTerms(
-        Axis.SWING, "pendulum_angle", "rad", "pendulum_release", "pull_pendulum"
+        Axis.SWING,
+        "pendulum_angle",
+        "rad",
+        "pendulum_release",
+        "pull_pendulum",
+        # its turning points fix the amplitude's decay: a hole over 2 samples can hide one
+        loss_tolerance_s=0.25,
     ),
     RunKind.DECAY: AxisTerms(Axis.DOF, "decay_position", "m or rad", "decay_release", "offset"),
 }

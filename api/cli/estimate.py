@@ -21,6 +21,7 @@ from api.cli.common import (
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from daq.procedures.kinds import KINDS, all_methods
+from estimation.data.left_out import LeftOut
 from estimation.uncertainty.text import budget_lines
 
 ALL_METHODS = all_methods()
@@ -127,6 +128,11 @@ def summary_lines(data: dict) -> list[str]:
             f"  RMSE before {data['rmse_before']:.3g} {unit}, after {data['rmse_after']:.3g} {unit}"
         )
     lines += [_window_line(run_id, w) for run_id, w in (data.get("windows") or {}).items()]
+    lines += [
+        f"  run {run_id[:8]}: {_left_out_text(gap)}"
+        for run_id, w in (data.get("windows") or {}).items()
+        for gap in w.get("left_out") or []
+    ]
     lines += _equivalent_lines(data.get("equivalent_linear_damping") or [])
     if data.get("budget"):
         lines += [f"  {line}" for line in budget_lines(data["budget"], data.get("repeats"))]
@@ -172,6 +178,11 @@ def _window_line(run_id: str, w: dict) -> str:
         f"{w['samples_dropped_before']} before, {w['samples_dropped_after']} after, "
         f"{w['spikes_dropped']} spike(s)"
     )
+
+
+def _left_out_text(gap: dict) -> str:
+    """ "4 samples left out at 12.3–12.7 s (PLC read failed)" (``estimation.data.left_out``)."""
+    return LeftOut(gap["start_s"], gap["end_s"], gap["count"], gap["reason"]).describe()
 
 
 def _theory_lines(theory: dict | None) -> list[str]:

@@ -177,7 +177,7 @@ def show(run_id, db_url, as_json):
             return
         click.echo(f"run        {run.id}")
         click.echo(f"kind       {run.kind}   {_summary(run.parameters)}   drive {run.drive or '—'}")
-        click.echo(f"status     {run.status}" + (f" ({run.reason})" if run.reason else ""))
+        click.echo(f"status     {run.summary}")  # how it ended, and what it lost
         click.echo(f"vehicle    {run.vehicle} on {run.rig_name}")
         if run.source == "imported":
             click.echo(f"imported   {_when(run.imported_at)} from {run.source_file}")

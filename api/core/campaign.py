@@ -8,8 +8,10 @@ campaign on its run. When the run is done the campaign loads the axis's runs, es
 them with the rig's envelope (so the advice in the stored result is the planner's), stores
 that result, books the run and updates its trail: the job's ``outcome`` carries the trail
 (each choice, why, the uncertainty before and after) and is published on the live stream
-at every step. It ends ``completed`` at the target or the budget (``outcome.outcome`` says
-which), ``aborted`` when stopped or when one of its runs did not complete.
+at every step. A run that lost samples is not fitted: the same test runs again and the trail
+says why (``campaign_session.repeat_if_damaged``). It ends ``completed`` at the target or the
+budget (``outcome.outcome`` says which), ``aborted`` when stopped or when one of its runs did
+not complete.
 """
 
 from __future__ import annotations
@@ -164,6 +166,18 @@ class CampaignRunner:
                     runner.remove(item.id)
                 campaign.outcome = "stopped by the operator"
                 return "aborted", f"stopped by the operator while job {item.id} waited"
+            if ended.run_ids:
+                from api.core.campaign_session import repeat_if_damaged  # loads the estimators
+
+                damaged, repeated = repeat_if_damaged(
+                    service.store, campaign, choice, ended.run_ids[-1]
+                )
+                if damaged:  # samples lost: the test runs again, this run is not fitted
+                    if repeated is None:
+                        return "aborted", f"{campaign.outcome}: campaign stopped"
+                    repeated |= {"instructions": what, "job_id": item.id}
+                    runner.registry.update(job, outcome=campaign.to_json())
+                    continue
             if ended.state != JobState.COMPLETED or not ended.run_ids:
                 campaign.outcome = f"job {item.id} ended {ended.state}"
                 return "aborted", f"job {item.id} ({label}) ended {ended.state}: campaign stopped"

@@ -8,9 +8,11 @@ import asyncio
 from collections.abc import Callable
 from typing import Any
 
+from daq.fit_exclusions import TooMuchLeftOut
 from daq.procedures.kinds import KINDS
 from daq.procedures.recording import AbortSignal
 from daq.run_data import load_run_data
+from daq.sample_losses import SAMPLES_LOST
 from daq.session import RigSession
 from estimation.design.campaign import Campaign
 
@@ -29,6 +31,33 @@ def run_seconds(store: Any, run_id: str) -> float:
     return float(t[-1] - t[0])
 
 
+def damage_of(store: Any, run_id: str) -> str | None:
+    """Why a run is repeated rather than fitted (None: fit it): it was aborted for lost
+    samples, its lost samples leave too little to fit, or it lost samples in its free
+    motion (``daq.fit_exclusions``)."""
+    run = store.get_run(run_id)
+    if run.status != "completed":
+        return run.reason if run.reason and SAMPLES_LOST in run.reason else None
+    try:
+        window = load_run_data(store, run_id).window_report()
+    except TooMuchLeftOut as err:
+        return str(err)
+    return "; ".join(g.describe() for g in window.left_out if g.in_motion) or None
+
+
+def repeat_if_damaged(
+    store: Any, campaign: Campaign, choice: Any, run_id: str
+) -> tuple[bool, dict | None]:
+    """(damaged, its trail entry): a damaged run is booked as a repeat (``Campaign.repeat``;
+    the entry is None when the campaign gives up, ``outcome`` says why); a run fine to fit
+    is (False, None), nothing booked."""
+    damage = damage_of(store, run_id)
+    if damage is None:
+        return False, None
+    seconds = store.get_run(run_id).duration_s or 0.0
+    return True, campaign.repeat(choice, run_id, seconds, damage)
+
+
 async def run_campaign(
     session: RigSession,
     campaign: Campaign,
@@ -38,8 +67,9 @@ async def run_campaign(
     tag: str | None = None,
 ) -> Campaign:
     """Run ``campaign`` to its target or budget on ``session``; ``on_entry`` gets each trail
-    entry as it is booked; ``tag`` goes on each run as ``metadata.campaign``. A run that does
-    not complete ends the campaign (``outcome``)."""
+    entry as it is booked; ``tag`` goes on each run as ``metadata.campaign``. A run that lost
+    samples is repeated (``repeat_if_damaged``); another run that does not complete ends
+    the campaign (``outcome``)."""
     store = session.store
     abort = abort or AbortSignal()
     while (decision := campaign.next()).stop is None:
@@ -54,6 +84,15 @@ async def run_campaign(
             session, spec.check(raw, session.rig), abort=abort, progress=lambda _: None
         )
         outcome = ran.run
+        damaged, repeated = await asyncio.to_thread(
+            repeat_if_damaged, store, campaign, choice, outcome.run_id
+        )
+        if damaged:  # samples lost: the test runs again, this run is not fitted
+            if repeated is None:  # damaged too often: the campaign stops (outcome)
+                return campaign
+            if on_entry is not None:
+                on_entry(repeated)
+            continue
         if outcome.status != "completed":
             campaign.outcome = f"{test.command}: {outcome.status} ({outcome.reason})"
             return campaign

@@ -8,6 +8,9 @@ sample the clock produced is flushed before the status is written.
 Storage failing (disk full, I/O error) is a fault like a lost PLC: the recorder sets the
 abort signal, the run stops safely and ends ``aborted`` with a one-line reason naming
 storage; samples the database did not take wait in a spill file (docs/storage.md).
+Every sample the clock lost (late, missed, bad: ``daq.sample_losses``) is counted: each
+gap is a ``samples_lost`` event, and a hole longer than the kind tolerates aborts the run
+with a reason beginning ``samples lost``.
 So is losing the lease on the rig's devices (``daq.rig_lock``): the session calls the
 run's abort signal with a reason beginning ``rig lock lost``, and that is how the run ends
 whatever else failed after the devices were released. A database that refuses the new run
@@ -26,12 +29,15 @@ from typing import Any
 
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
+from daq.safe_state import RELEASE_CHANNELS, SafeState
 from daq.sample import Quality, Sample
+from daq.sample_losses import SAMPLES_LOST, LossTracker, loss_reason
 from daq.session import NO_THRUSTERS, Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import StorageFault, StorageUnavailable, one_line
-from daq.store.run_events import RunAction
+from daq.store.run_events import Gap, RunAction
 from daq.store.spill import write_back_later
+from daq.vocabulary import AXES
 from thrusters.driver import ThrusterError
 
 log = logging.getLogger(__name__)
@@ -43,6 +49,9 @@ DEVICE_LOST = "device lost"
 
 #: Clock periods the ending waits for a sample read after the safe state (its last state).
 SAFE_SAMPLE_PERIODS = 3
+
+#: How long the ending waits for the PLC to answer again when its safe state failed, s.
+SAFE_RETRY_S = 2.0
 
 #: Background write-backs of spill files (a reference keeps each task alive).
 _WRITE_BACKS: set[asyncio.Task] = set()
@@ -101,6 +110,15 @@ class RecordedRun:
         self._queue: asyncio.Queue[Sample] | None = None
         self._unlisten: Callable[[], None] | None = None
         self._telemetry = contextlib.ExitStack()
+        terms = AXES.get(kind)
+        #: The longest hole without a good sample this kind tolerates (s; None: any).
+        self.loss_tolerance_s = None if terms is None else terms.loss_tolerance_s
+        self._position = None if terms is None else terms.position_channel
+        self._device_clock = any(c.name == "plc_clock" for c in session.rig.channels)
+        self.losses = LossTracker()
+        #: Set (the abort reason) once a hole beyond the tolerance ends the run.
+        self.lost: str | None = None
+        self._lost_since = math.inf  # host time the hole began, s
         if thruster_telemetry and session.telemetry is None:
             raise ThrusterError(NO_THRUSTERS)
         self._thruster_telemetry = thruster_telemetry
@@ -167,7 +185,50 @@ class RecordedRun:
     async def _pump(self, queue: asyncio.Queue[Sample]) -> None:
         assert self._recorder is not None
         while True:
-            self._recorder.put(await queue.get())
+            sample = await queue.get()
+            try:
+                self._count_loss(sample)
+            except Exception:  # counting must never cost the recorder a sample
+                log.exception("run %s: counting lost samples failed", self.run_id)
+            self._recorder.put(sample)
+
+    def _count_loss(self, sample: Sample) -> None:
+        """Feed ``sample`` to the loss count: a gap it closes becomes an event, and a hole
+        beyond the kind's tolerance aborts the run (once)."""
+        value = sample.channels.get(self._position or "")
+        nan = value is not None and math.isnan(value)
+        reason = loss_reason(sample.quality, nan, device_clock=self._device_clock)
+        closed = self.losses.feed(sample.seq, sample.t_mono, reason)
+        if closed is not None:
+            self._loss_event(closed)
+        gap = closed or self.losses.open_gap
+        hole = closed.hole_s if closed is not None else self.losses.hole_s(sample.t_mono)
+        limit = self.loss_tolerance_s
+        if gap is not None and limit is not None and hole > limit and self.lost is None:
+            lost = (
+                f"{SAMPLES_LOST}: {gap.count} in {hole:.1f} s at {gap.at_s:.1f} s "
+                f"({gap.reason}); a {self.kind} tolerates at most {limit:g} s"
+            )
+            acq = self.session.acquisition
+            if acq is not None and acq.device_lost.is_set():  # said as a lost device, too
+                lost = f"{self._device_lost_reason()}; {lost}"
+            self.lost = lost  # this run's ending; the operator's signal stays unset
+            self._lost_since = gap.t_first if gap.t_before is None else gap.t_before
+
+    def _fault_meanwhile(self) -> str | None:
+        """What a device said went wrong since the hole that ends the run began (an abort
+        signal's reason, or the thrusters' link or watchdog fault), if anything: a host
+        stall that loses samples also trips the thrusters' watchdog, and that is said."""
+        if self.abort.is_set():
+            return self.abort.reason
+        fault = getattr(self.session.thrusters, "fault", None)
+        if fault is not None and fault.t_detected >= self._lost_since:
+            return str(fault.reason)
+        return None
+
+    def _loss_event(self, gap: Gap) -> None:
+        assert self._recorder is not None
+        self._recorder.add_event("samples_lost", gap.describe(), gap.event_data())
 
     async def __aexit__(self, exc_type, exc, tb) -> bool:
         s = self.session
@@ -175,6 +236,8 @@ class RecordedRun:
             self.status, self.reason = "completed", None
         elif isinstance(exc, Aborted):
             self.status, self.reason = "aborted", exc.reason
+            if exc.reason == self.lost and (said := self._fault_meanwhile()) is not None:
+                self.reason = f"{said}; {self.lost}"  # the device's own words first
         elif isinstance(exc, asyncio.CancelledError):
             self.status, self.reason = "aborted", self.abort.reason or "cancelled"
         else:
@@ -185,7 +248,7 @@ class RecordedRun:
             self._unlisten()
         assert self._recorder is not None
         if self.status != "completed":
-            lost = (self.reason or "").startswith((DEVICE_LOST, LOCK_LOST))
+            lost = str(self.reason).startswith((DEVICE_LOST, LOCK_LOST)) or self.lost is not None
             fault = lost or self._recorder.fault is not None
             await self.event("fault" if fault else "operator", f"run {self.status}: {self.reason}")
         try:
@@ -201,7 +264,11 @@ class RecordedRun:
         assert self._pump_task and self._recorder_task
         self._pump_task.cancel()
         while not self._recorder_queue.empty():
-            self._recorder.put(self._recorder_queue.get_nowait())
+            sample = self._recorder_queue.get_nowait()
+            self._count_loss(sample)
+            self._recorder.put(sample)
+        if (open_gap := self.losses.finish()) is not None:  # the run ended in it
+            self._loss_event(open_gap)
         # Flush the rest and write the end once (retried; a storage fault makes it
         # ``aborted`` naming storage; unstored samples wait in the spill file).
         self.status, self.reason = await self._recorder.end(self.status, self.reason)
@@ -221,9 +288,13 @@ class RecordedRun:
     async def _end_safe(self) -> None:
         """Every ending the same way: brakes engaged and thrusters zero, a ``safe`` event
         saying so (or what failed), and one sample read after it, so the run's last state
-        shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods)."""
+        shows the brake engaged (at most :data:`SAFE_SAMPLE_PERIODS` clock periods). A safe
+        state the PLC did not take (a stall) is made again at its next good read, within
+        :data:`SAFE_RETRY_S`."""
         s = self.session
         safe = await s.safe_state()
+        if safe is not None and self._unbraked(safe) and await self._plc_answers():
+            safe = await s.safe_state()  # the brakes the stalled PLC did not take, now
         done = s.clock.now()
         if safe is None:  # the session made the rig safe itself as it released the devices
             await self.event("safe", "safe state: made as the devices were released")
@@ -244,6 +315,23 @@ class RecordedRun:
             async with asyncio.timeout(SAFE_SAMPLE_PERIODS * period):
                 while (await self._queue.get()).t_mono <= done:
                     pass
+
+    def _unbraked(self, safe: SafeState) -> bool:
+        """A brake of the rig the safe state did not engage (its PLC write failed)."""
+        rig = self.session.rig
+        return any(rig.has(n) and n not in safe.brakes_engaged for n in RELEASE_CHANNELS)
+
+    async def _plc_answers(self) -> bool:
+        """Whether the PLC gives a good read within :data:`SAFE_RETRY_S`."""
+        if self._queue is None:
+            return False
+        try:
+            async with asyncio.timeout(SAFE_RETRY_S):
+                while (await self._queue.get()).quality & Quality.ERROR:
+                    pass
+        except TimeoutError:
+            return False
+        return True
 
     @property
     def samples_stored(self) -> int:
@@ -277,6 +365,8 @@ class RecordedRun:
                     raise Aborted(self._device_lost_reason())
                 continue
             sample = get.result()
+            if self.lost is not None:  # a hole beyond the tolerance (named, device lost too)
+                raise Aborted(self.lost)
             if acq.device_lost.is_set():
                 raise Aborted(self._device_lost_reason())
             if sample.channels.get("estop", 0.0) and not math.isnan(

@@ -76,6 +76,17 @@ class RunInfo:
     imported_at: datetime | None = None
     #: Operator, water temperature, notes, tags, free keys (daq.store.run_metadata).
     metadata: dict[str, Any] = field(default_factory=dict)
+    #: What the run lost ("7 samples lost in 0.9 s at 12.3 s", from its ``samples_lost``
+    #: events; ``daq.sample_losses``), None: nothing, or not ``losses_read``.
+    samples_lost: str | None = None
+    #: The events were read for ``samples_lost`` (``Store.get_run``; run lists do not).
+    losses_read: bool = False
+
+    @property
+    def summary(self) -> str:
+        """How the run ended and what it lost: "completed, 7 samples lost in 0.9 s at 12.3 s"."""
+        ending = self.status + (f" ({self.reason})" if self.reason else "")
+        return ending + (f", {self.samples_lost}" if self.samples_lost else "")
 
     @property
     def duration_s(self) -> float | None:
@@ -107,6 +118,8 @@ class RunInfo:
             "imported_at": _iso(self.imported_at),
             "metadata": self.metadata,
         }
+        if self.losses_read:  # a list does not read them: its runs say nothing of losses
+            out |= {"samples_lost": self.samples_lost, "summary": self.summary}
         if include_toml:
             out["rig_toml"] = self.rig_toml
             out["scenario_toml"] = self.scenario_toml

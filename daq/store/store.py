@@ -12,6 +12,7 @@ import socket
 import time
 import uuid
 from collections.abc import Sequence
+from dataclasses import replace
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NotRequired, TypedDict, Unpack
@@ -28,6 +29,7 @@ from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
 from daq.store.records import RunInfo, to_datetime
 from daq.store.recovery import recover_interrupted
+from daq.store.run_events import RunEvents, losses_text
 from daq.store.run_metadata import check_run_metadata, merge_run_metadata
 from daq.store.run_query import RunFilter, drive_of
 from daq.store.samples import SampleRows
@@ -315,7 +317,8 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
         with self.engine.connect() as conn:
             run = self._resolve(conn, run_id_or_unique_prefix)
             row = conn.execute(self._run_query().where(runs_t.c.id == run.id)).one()
-        info = self._run_info(row)
+        lost = losses_text(RunEvents.of(self.events(row.uuid)).losses)  # its gap events
+        info = replace(self._run_info(row), samples_lost=lost, losses_read=True)
         return info if as_stored else self.pending_ends.apply(info)
 
     def load(self, run_id_or_unique_prefix: str) -> LoadedRun:

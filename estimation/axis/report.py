@@ -143,6 +143,13 @@ def _markdown(
     for group, advice in zip(result.ambiguous, result.advice, strict=False):
         lines.append(f"- ambiguous: {', '.join(group)} — {advice}")
     lines += error_before_after(result, units["position"], labels)
+    left_out = [
+        f"- {labels.get(rid, rid)}: {gap.describe()}"
+        for rid, w in result.windows.items()
+        for gap in w.left_out
+    ]
+    if left_out:  # samples whose value or time could not be trusted: holes in the fit
+        lines += ["", "## Samples left out", "", *left_out]
     ev = doc["evidence"]
     cv = [f"{x:.4g}" if x is not None else "n/a" for x in (result.cv_before, result.cv_after)]
     lines += [

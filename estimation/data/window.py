@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from estimation.data.left_out import LeftOut
+
 if TYPE_CHECKING:
     from estimation.data.runs import RunData
 
@@ -58,6 +60,8 @@ class WindowReport:
     spikes_dropped: int  # isolated encoder glitches
     #: The first sample's time on the run's clock (release and end above are on it too).
     record_start: float = 0.0
+    #: Samples left out because their value or time cannot be trusted (the loader's list).
+    left_out: tuple[LeftOut, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """{release_time_s, end_time_s (the run's clock, e.g. the PLC's), release_from_start_s,
@@ -74,6 +78,7 @@ class WindowReport:
             "samples_dropped_before": int(self.dropped_before),
             "samples_dropped_after": int(self.dropped_after),
             "spikes_dropped": int(self.spikes_dropped),
+            "left_out": [gap.to_json() for gap in self.left_out],
         }
 
 

@@ -19,6 +19,9 @@ from estimation.design.envelope import Candidate, RigEnvelope
 from estimation.design.planner import AxisState, Choice, Decision, decide, state_from_result
 from estimation.numbers import finite_or_none
 
+#: How many times in a row a campaign repeats a test whose runs are damaged.
+MAX_REPEATS = 2
+
 
 @dataclass(frozen=True)
 class Target:
@@ -55,6 +58,9 @@ class Campaign:
     outcome: str | None = None
     #: The test queued and not yet booked (its description, why, the operator's acts, job).
     pending: dict[str, Any] | None = None
+    #: A test whose run was damaged (samples lost), to run again before planning on.
+    again: Choice | None = None
+    repeats: int = 0
 
     def __post_init__(self) -> None:
         missing = [a for a in self.target.axes if self.envelope.axis(a) is None]
@@ -72,7 +78,10 @@ class Campaign:
         return [rid for _, rid in self.runs[axis]]
 
     def next(self) -> Decision:
-        """The next test, or the reason to stop (recorded as ``outcome``)."""
+        """The next test (a damaged run's again first), or the reason to stop (recorded as
+        ``outcome``)."""
+        if self.again is not None:
+            return Decision(stop=None, choice=self.again)
         decision = decide(
             self.states,
             self.envelope,
@@ -87,9 +96,42 @@ class Campaign:
             self.outcome = decision.stop
         return decision
 
+    def repeat(self, choice: Choice, run_id: str, seconds: float, damage: str) -> dict | None:
+        """A run of ``choice`` was damaged (``damage`` says how): it is not fitted, its tank
+        time counts and the test runs again (the trail entry says why, returned); None when
+        the test was already repeated ``MAX_REPEATS`` times (``outcome`` says so)."""
+        if self.repeats >= MAX_REPEATS:
+            self.again = None
+            self.outcome = (
+                f"{choice.test.describe()}: damaged {MAX_REPEATS + 1} times in a row "
+                f"(last: run {run_id}: {damage})"
+            )
+            return None
+        self.repeats += 1
+        self.again = choice
+        self.minutes_used += (seconds + self.envelope.reset_s) / 60
+        axis = choice.test.axis
+        entry = {
+            "n": len(self.trail) + 1,
+            "axis": axis,
+            "test": choice.test.describe(),
+            "command": choice.test.command,
+            "request": choice.test.request(),
+            "why": f"repeated, not fitted: run {run_id}: {damage}",
+            "run_id": run_id,
+            "repeated": True,
+            "run_s": round(seconds, 2),
+            "tank_minutes": round(self.minutes_used, 2),
+            "before": self.status(axis),
+            "after": self.status(axis),
+        }
+        self.trail.append(entry)
+        return entry
+
     def recorded(self, choice: Choice, run_id: str, seconds: float, result: object) -> dict:
         """Book a finished run (``seconds`` on the rig) and the axis's new fit ``result``
         (an ``EstimationResult``); returns the trail entry."""
+        self.again, self.repeats = None, 0
         axis = choice.test.axis
         before = self.status(axis)
         self.runs[axis].append((choice.test, run_id))

@@ -34,6 +34,9 @@ def test_run_by_unique_prefix_and_with_rig_file(client, tow_job):
     run = client.get(f"/api/runs/{run_id[:8]}?include_toml=true", headers=AUTH).json()
     assert run["id"] == run_id
     assert "[rig]" in run["rig_toml"]
+    # how it ended and what it lost (a busy machine may skip a slot: it is said, not hidden)
+    lost = run["samples_lost"]
+    assert run["summary"] == "completed" + (f", {lost}" if lost else "")
 
 
 def test_samples_are_paged_and_pages_join_up(client, tow_job):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.design.campaign import Campaign, Target
+from estimation.design.campaign import MAX_REPEATS, Campaign, Target
 from estimation.design.envelope import AxisEnvelope, Candidate, RigEnvelope
 from estimation.design.information import predict
 from estimation.design.planner import AxisState, choose, decide
@@ -114,3 +114,17 @@ def test_an_axis_the_rig_cannot_test_is_refused_naming_the_field():
         Campaign(Target(0.01, ("surge", "yaw")), tow_only)
     with pytest.raises(ValueError, match="target: got 0, allowed: 0 < target < 1"):
         Target(0.0)
+
+
+def test_a_damaged_run_is_repeated_not_booked_and_given_up_after_max_repeats():
+    campaign = Campaign(Target(0.01, ("surge",)), RigEnvelope((SURGE,)))
+    opening = campaign.next().choice
+    assert opening is not None
+    for n in range(1, MAX_REPEATS + 1):
+        entry = campaign.repeat(opening, f"run{n}", 10.0, "3 samples left out")
+        assert entry is not None and entry["repeated"] and entry["n"] == n
+        assert entry["why"] == f"repeated, not fitted: run run{n}: 3 samples left out"
+        assert campaign.next().choice == opening  # the same test again, not a new plan
+    assert campaign.runs_used == 0 and campaign.minutes_used > 0  # tank time spent, no fit
+    assert campaign.repeat(opening, "run9", 10.0, "a 0.7 s hole") is None
+    assert campaign.outcome is not None and "damaged 3 times in a row" in campaign.outcome

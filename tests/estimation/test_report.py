@@ -14,6 +14,7 @@ from estimation import estimate
 from estimation.axis.model import prepare
 from estimation.axis.report import fit_figure, force_figure, run_labels, write_report
 from estimation.data.csv_import import run_from_csv
+from estimation.data.left_out import LeftOut
 from estimation.figures import DPI, TIME_LABEL, FitRow
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
@@ -175,3 +176,21 @@ def test_report_draws_a_release_found_from_motion_and_refined_across_a_sample(tm
 def test_a_fit_row_with_mismatched_samples_names_them():
     with pytest.raises(ValueError, match="run 1: one value per sample needed; got t 3, "):
         FitRow("run 1", np.zeros(3), np.zeros(3), np.zeros(2), np.zeros(3))
+
+
+def test_the_report_lists_the_samples_a_fit_left_out(surge, tmp_path):
+    runs, result = surge
+    first = result.runs[0]
+    hole = LeftOut(12.3, 12.7, 4, "PLC read failed", in_motion=True)
+    windows = dict(result.windows) | {first: replace(result.windows[first], left_out=(hole,))}
+    write_report(replace(result, windows=windows), runs, tmp_path / "out")
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "## Samples left out" in md
+    assert f"({first[:8]}), " in md.split("## Samples left out")[1].splitlines()[2]
+    assert (
+        md.split("## Samples left out")[1]
+        .splitlines()[2]
+        .endswith(": 4 samples left out at 12.3–12.7 s (PLC read failed)")
+    )
+    doc = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert doc["windows"][first]["left_out"] == [hole.to_json()]

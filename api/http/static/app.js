@@ -485,7 +485,7 @@ function showRunMeta(run) {
   const known = ["operator", "water_temperature_c", "notes", "tags"];
   kv($("#run-meta"), [
     ["Kind", run.kind],
-    ["Status", run.status + (run.reason ? ` (${run.reason})` : "")],
+    ["Status", run.summary || run.status + (run.reason ? ` (${run.reason})` : "")],
     ["Drive", run.drive || "—"],
     ["Load", load(run)],
     ["Source", run.source === "imported" ? `imported ${new Date(run.imported_at).toLocaleString()} from ${run.source_file}` : "recorded"],

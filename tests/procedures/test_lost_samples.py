@@ -1,0 +1,110 @@
+"""A run says what it lost, and a fit never uses it: the simulated PLC stops answering for a
+few ticks mid weight tow (in process, simulated time), the stored run names the gap (event
++ summary), the loader leaves the samples out and says where, `rig estimate` prints it, a
+hole beyond a tow's tolerance aborts the run safely, and a campaign repeats such a run."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+
+import numpy as np
+import pytest
+
+from api.cli.estimate import summary_lines
+from api.core.campaign_session import damage_of, run_campaign
+from api.core.rig_envelope import envelope_of
+from daq.procedures.motion import run_motion_test
+from daq.procedures.requests import tow_parameters
+from daq.run_data import load_run_data
+from daq.sample import Quality
+from daq.session import RigSession
+from daq.store.run_events import RunEvents
+from estimation.design.campaign import Campaign, Target
+from tests.cli import run_in_process
+
+pytestmark = pytest.mark.simtime
+
+
+async def _stall_once(session: RigSession, ticks: int, *, moving: int = 10) -> None:
+    """After ``moving`` samples with the tow's brake released, the PLC stops answering until
+    ``ticks`` clock ticks have failed, then answers again (once)."""
+    assert session.acquisition is not None
+    queue = session.acquisition.subscribe(maxsize=100_000, name="test-stall")
+    try:
+        released = 0
+        while released < moving:
+            released += (await queue.get()).channels.get("tow_release") == 1
+        session.sim.plc.faults.drop = True
+        failed = 0
+        while failed < ticks:
+            failed += bool((await queue.get()).quality & Quality.ERROR)
+        session.sim.plc.faults.drop = False
+    finally:
+        session.acquisition.unsubscribe(queue)
+
+
+async def _tow_with_stall(session: RigSession, ticks: int):
+    params = tow_parameters({"force_n": 44.1, "max_time_s": 4.0, "baseline_s": 0.5}, session.rig)
+    stall = asyncio.create_task(_stall_once(session, ticks))
+    outcome = await run_motion_test(session, params)
+    await asyncio.wait_for(stall, 5)
+    return outcome
+
+
+async def test_a_short_stall_is_named_on_the_run_and_left_out_of_the_fit(session, store, tmp_path):
+    outcome = await _tow_with_stall(session, 3)  # a 0.4 s hole: within a tow's 0.5 s
+    assert outcome.status == "completed"
+    run = store.get_run(outcome.run_id)
+    (gap,) = RunEvents.of(store.events(run.id)).losses
+    assert (gap.count, gap.reasons) == (3, ("PLC read failed",))
+    assert gap.hole_s == pytest.approx(0.4, abs=0.06)
+    assert run.samples_lost == f"3 samples lost in 0.4 s at {gap.at_s:.1f} s"
+    assert run.summary == f"completed, {run.samples_lost}"
+    assert run.to_json()["summary"] == run.summary
+    assert "summary" not in store.list_runs()[0].to_json()  # a list does not read events
+    shown = run_in_process(["show", run.id, "--db", store.url], cwd=tmp_path, env=dict(os.environ))
+    assert f"status     {run.summary}\n" in shown.stdout
+    # the loader leaves them out and says where; the fit's times have a hole there
+    data = load_run_data(store, run.id)
+    (out,) = data.window_report().left_out
+    assert (out.count, out.reason, out.in_motion) == (3, "PLC read failed", True)
+    at = f"{out.start_s:.1f}–{out.end_s:.1f} s"
+    assert out.describe() == f"3 samples left out at {at} (PLC read failed)"
+    step = np.diff(data.t)
+    assert np.count_nonzero(step > 0.35) == 1 and step.max() == pytest.approx(0.4, abs=0.06)
+    # `rig estimate` says so (the window report rides into the result document as is)
+    doc = {"runs": [run.id], "coefficients": {}, "result_id": 1}
+    doc["windows"] = {run.id: data.window_report().to_json()}
+    assert f"  run {run.id[:8]}: {out.describe()}" in summary_lines(doc)
+    # a campaign does not fit it
+    assert damage_of(store, run.id) == out.describe()
+
+
+async def test_a_stall_beyond_a_tows_tolerance_aborts_it_safely_naming_the_hole(session, store):
+    outcome = await _tow_with_stall(session, 10)  # ~1 s without a reply
+    assert outcome.status == "aborted"
+    assert "samples lost: " in outcome.reason and "a tow tolerates at most 0.5 s" in outcome.reason
+    run = store.get_run(outcome.run_id)
+    assert run.reason == outcome.reason
+    (gap,) = RunEvents.of(store.events(run.id)).losses
+    assert gap.count >= 6 and gap.hole_s > 0.5 and gap.reasons == ("PLC read failed",)
+    assert run.summary.startswith(f"aborted ({run.reason}), {gap.count} samples lost in")
+    (safe,) = [e for e in store.events(run.id) if e.kind == "safe"]
+    assert safe.data is not None and "tow_release" in safe.data["brakes_engaged"]
+    assert await session.plc.read("tow_release") == 0
+    assert damage_of(store, run.id) == run.reason
+
+
+@pytest.mark.slow  # its fit of the repeated tow: about 40 s
+async def test_a_campaign_repeats_a_tow_that_lost_samples_instead_of_fitting_it(session, store):
+    campaign = Campaign(Target(0.01, ("surge",), max_runs=1), envelope_of(session.rig))
+    entries: list[dict] = []
+    stall = asyncio.create_task(_stall_once(session, 10))
+    await run_campaign(session, campaign, on_entry=entries.append)
+    await asyncio.wait_for(stall, 5)
+    repeated, fitted = entries
+    assert repeated["repeated"] and "samples lost" in repeated["why"]
+    assert fitted["request"] == repeated["request"] and fitted["run_id"] != repeated["run_id"]
+    assert campaign.run_ids("surge") == [fitted["run_id"]]  # the damaged run is not fitted
+    assert campaign.outcome == "budget: 1 of 1 runs used"
