@@ -29,12 +29,8 @@ ALL_METHODS = all_methods()
 ESTIMATORS = tuple({s.estimator.name: s.estimator for s in KINDS.values() if s.estimator}.values())
 #: How the summary words one item of each list a result may carry.
 _FINDING_LINES: dict[str, Callable[[Any], str]] = {
-    # an effect with its value (an axis fit) or the name of a term kept (a free decay)
-    "effects": lambda eff: (
-        f"effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}"
-        if isinstance(eff, dict)
-        else f"effect {eff} (value above)"
-    ),
+    # an effect with its value, every estimator's alike
+    "effects": lambda eff: f"effect {eff['name']:<21} {plus_minus(eff)} {eff['unit']}",
     "ambiguous": lambda group: f"ambiguous: {' / '.join(group)}",
     "warnings": lambda warning: f"warning: {warning}",
     "advice": lambda advice: f"advice: {advice}",

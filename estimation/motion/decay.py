@@ -109,7 +109,8 @@ class DecayResult:
             "units": units_of(
                 self.dof, [n for n in (*self.coefficients, *self.known) if n in LIBRARY]
             ),
-            "effects": list(self.effects),
+            # every result's effects alike: {name, value, std, unit} (the faces read one shape)
+            "effects": [{"name": e} | self.coefficients[e].to_json() for e in self.effects],
             "ambiguous": [list(p) for p in self.ambiguous],
             "alternatives": {
                 rival: {

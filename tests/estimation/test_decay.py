@@ -164,6 +164,9 @@ def test_decay_whose_whole_inertia_is_identified_finds_its_damping_law(scale, ho
     assert r.coefficients["inertia"].value == pytest.approx(total, rel=0.01)
     assert not r.possibly_biased
     assert not any("reverse" in w for w in r.warnings)  # no force to reverse on a decay
+    # the effects in the shape every result has (the faces read one shape)
+    (effect,) = r.to_json()["effects"]
+    assert effect == {"name": "quadratic_damping"} | r.coefficients["quadratic_damping"].to_json()
 
 
 @pytest.mark.parametrize("scale", _scales())

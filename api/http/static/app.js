@@ -734,9 +734,7 @@ async function renderEstimation(res) {
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
   ]);
   $("#est-effects-list").innerHTML = (res.effects || []).length
-    ? res.effects.map((e) => (typeof e === "string" // a decay lists the kept terms' names
-      ? `<li><strong>${esc(e)}</strong> (value above)</li>`
-      : `<li><strong>${e.name}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`)).join("")
+    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`).join("")
     : "<li>none (the base model explains the data)</li>";
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
   $("#est-ambiguous").innerHTML =
