@@ -360,11 +360,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
             f"{white.p_value:.2g}){moved_too}: the record holds motion no kept term explains, "
             "so the coefficients may be biased by it"
         )
-    warnings += [
-        f"{a} and {b} explain the same part of the residual on these records (rivals): "
-        f"{a} is reported; to separate them — {LIBRARY[b].separation(free)}"
-        for a, b in rivals
-    ]
+    warnings += rival_sentences(rivals, free)
     total_m, k = inertia_and_stiffness(setup, records[0], final)
     period = 2 * np.pi * np.sqrt(total_m / k) if k and k > 0 and total_m > 0 else None
     return DecayResult(
@@ -387,6 +383,15 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         ambiguous=tuple(rivals),
         fit=final,
     )
+
+
+def rival_sentences(rivals: Sequence[tuple[str, str]], free: bool) -> list[str]:
+    """One warning per rival pair (kept term, its rival): what separates them."""
+    return [
+        f"{a} and {b} explain the same part of the residual on these records (rivals): "
+        f"{a} is reported; to separate them — {LIBRARY[b].separation(free)}"
+        for a, b in rivals
+    ]
 
 
 def inertia_and_stiffness(setup: Setup, record: Record, final: MotionFit) -> tuple[float, float]:

@@ -22,7 +22,7 @@ from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
 from estimation.blas import one_blas_thread
 from estimation.data.runs import validate_run_set
 from estimation.errors import EstimationFailed
-from estimation.motion.decay import DecayResult, estimate_records
+from estimation.motion.decay import DecayResult, estimate_records, rival_sentences
 from estimation.motion.fit import MotionFit
 from estimation.motion.search import Step
 from estimation.motion.terms import LIBRARY
@@ -279,7 +279,7 @@ def estimate_pendulum(
         records, PIVOT_DOF, restoring_known=True, candidates=CANDIDATES if search else ()
     )
     if motion.base is None or motion.fit is None:
-        raise EstimationFailed("the pendulum's fit returned no model")
+        raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")
     base, final = motion.base, motion.fit
     steps: tuple[Step, ...] = motion.steps
     ambiguous: tuple[tuple[str, ...], ...] = tuple(motion.ambiguous)
@@ -291,7 +291,12 @@ def estimate_pendulum(
     ids = tuple(d.run_id for d in decays)
     rows += _output_error_rows(decays, final)
     white_before, white_after = ljung_box(base.residuals), ljung_box(final.residuals)
-    warnings = [*_warnings(rows, peaks, decays, final), *motion.warnings]
+    # the engine's warnings, less its rival sentences: the advice below words those
+    rival = set(rival_sentences(motion.ambiguous, True))
+    warnings = [
+        *_warnings(rows, peaks, decays, final),
+        *(w for w in motion.warnings if w not in rival),
+    ]
     if final.effects and len({round(float(np.max(np.abs(d.phi))), 2) for d in decays}) < 2:
         advice.append(
             "to confirm "
