@@ -138,21 +138,25 @@ def test_kvlcc2_full_search_reports_its_choice_and_the_conventional_model():
     assert doc["kind"] == "decay" and doc["dof"] == "roll"
 
 
-def test_tencate_sphere_settling():
-    """Net weight 2.6004 mN; sphere 1.979 g; m + ρV/2 = 2.836 g; u∞ = 0.038 m/s. The record
-    starts 0.084 s after the release (t = 0) and the wall slows the sphere after ≈ 2.5 s
-    (README: ``--end-time 2.45``)."""
+def _tencate(**window) -> RunData:
+    """Ten Cate E1 as a tow: the net weight 2.6004 mN pulls the 1.979 g sphere (README)."""
     d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
-    run = RunData(
+    return RunData(
         "E1",
         "surge",
         d.t.to_numpy(),
         d.position.to_numpy(),
         drive=0.0026004,
-        t_release=0.0,
-        t_end=2.45,
         body_inertia=0.001979,
+        **window,
     )
+
+
+def test_tencate_sphere_settling():
+    """Net weight 2.6004 mN; sphere 1.979 g; m + ρV/2 = 2.836 g; u∞ = 0.038 m/s. The record
+    starts 0.084 s after the release (t = 0) and the wall slows the sphere after ≈ 2.5 s
+    (README: ``--end-time 2.45``)."""
+    run = _tencate(t_release=0.0, t_end=2.45)
     r = estimate([run], n_bootstrap=0)
     c = r.coefficients
     k_l, k_q, force = c["linear_damping"].value, c["quadratic_damping"].value, 0.0026004
@@ -166,16 +170,7 @@ def test_tencate_sphere_settling():
 
 
 def test_tencate_whole_record_never_confident_below_the_sphere():
-    d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
-    run = RunData(
-        "E1",
-        "surge",
-        d.t.to_numpy(),
-        d.position.to_numpy(),
-        drive=0.0026004,
-        t_release=float(d.t.iloc[0]),
-        body_inertia=0.001979,
-    )
+    run = _tencate(t_release=float(_csv("tencate-sphere-settling", "tencate_E1_tow.csv").t.iloc[0]))
     r = estimate([run], n_bootstrap=0)
     m, s = r.coefficients["inertia"].value, r.coefficients["inertia"].std
     if m < 1.979e-3:
@@ -187,16 +182,7 @@ def test_tencate_whole_record_is_flagged_structured():
     """The wall slows the sphere after ≈ 2.5 s, which no model term has: fitted to its end,
     the 24-point record's residual is ≈ 10× the noise floor, and is flagged although
     Ljung–Box cannot reach p < 1e-3 on so few points (``stats.misfit``)."""
-    d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
-    run = RunData(
-        "E1",
-        "surge",
-        d.t.to_numpy(),
-        d.position.to_numpy(),
-        drive=0.0026004,
-        t_release=0.0,
-        body_inertia=0.001979,
-    )
+    run = _tencate(t_release=0.0)
     r = estimate([run], n_bootstrap=0)
     assert r.unexplained is not None and r.unexplained.structured
     assert r.unexplained.ratio > 3
@@ -207,20 +193,10 @@ def test_tencate_terminal_speed_is_known_though_its_drag_law_is_not():
     """K_L and K_Q trade along one steady balance (neither known alone); the speed they
     give at the net weight is printed with its σ, and matches the record's own slope over
     its plateau (1.06–2.44 s, README) within 2σ + 1 %; published u∞ 0.038 m/s within 15 %."""
-    d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
-    run = RunData(
-        "E1",
-        "surge",
-        d.t.to_numpy(),
-        d.position.to_numpy(),
-        drive=0.0026004,
-        t_release=0.0,
-        t_end=2.45,
-        body_inertia=0.001979,
-    )
+    run = _tencate(t_release=0.0, t_end=2.45)
     r = estimate([run], n_bootstrap=0)
     (speed,) = r.well_determined
-    t, x = d.t.to_numpy(), d.position.to_numpy()
+    t, x = run.t, run.position
     plateau = (t >= 1.06) & (t <= 2.44)
     slope = np.polyfit(t[plateau], x[plateau], 1)[0]
     assert speed.unit == "m/s" and speed.std is not None
