@@ -110,20 +110,29 @@ class Campaign:
         self.repeats += 1
         self.again = choice
         self.minutes_used += (seconds + self.envelope.reset_s) / 60
-        axis = choice.test.axis
+        now = self.status(choice.test.axis)
+        return self._book(
+            choice, run_id, seconds, f"repeated, not fitted: run {run_id}: {damage}", now,
+            repeated=True,
+        )  # fmt: skip
+
+    def _book(
+        self, choice: Choice, run_id: str, seconds: float, why: str, before: dict, **extra: Any
+    ) -> dict:
+        """Append the trail entry of a run of ``choice`` and return it."""
         entry = {
             "n": len(self.trail) + 1,
-            "axis": axis,
+            "axis": choice.test.axis,
             "test": choice.test.describe(),
             "command": choice.test.command,
             "request": choice.test.request(),
-            "why": f"repeated, not fitted: run {run_id}: {damage}",
+            "why": why,
             "run_id": run_id,
-            "repeated": True,
+            **extra,
             "run_s": round(seconds, 2),
             "tank_minutes": round(self.minutes_used, 2),
-            "before": self.status(axis),
-            "after": self.status(axis),
+            "before": before,
+            "after": self.status(choice.test.axis),
         }
         self.trail.append(entry)
         return entry
@@ -137,22 +146,14 @@ class Campaign:
         self.runs[axis].append((choice.test, run_id))
         self.minutes_used += (seconds + self.envelope.reset_s) / 60
         self.states[axis] = state_from_result(result, [c for c, _ in self.runs[axis]])
-        entry = {
-            "n": len(self.trail) + 1,
-            "axis": axis,
-            "test": choice.test.describe(),
-            "command": choice.test.command,
-            "request": choice.test.request(),
-            "why": choice.why,
-            "run_id": run_id,
-            "run_s": round(seconds, 2),
-            "tank_minutes": round(self.minutes_used, 2),
-            "predicted_after": _finite(choice.predicted_after),
-            "before": before,
-            "after": self.status(axis),
-        }
-        self.trail.append(entry)
-        return entry
+        return self._book(
+            choice,
+            run_id,
+            seconds,
+            choice.why,
+            before,
+            predicted_after=_finite(choice.predicted_after),
+        )
 
     def status(self, axis: str) -> dict[str, Any]:
         """2σ/|θ| in % per target coefficient and what is unresolved, for the trail."""
