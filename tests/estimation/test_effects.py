@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
+from estimation.design.envelope import AxisEnvelope, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set
 
 
@@ -64,12 +65,18 @@ def test_coulomb_on_one_way_tows_is_reported_ambiguous_with_bias():
 
 
 def test_drag_law_at_its_bound_on_one_way_tows_names_the_reverse_run_to_record():
-    # Strong dry friction, no effect search: the drag law bends the wrong way to 0.
+    # Strong dry friction, no effect search: the drag law bends the wrong way to 0. On a
+    # rig that can tow in reverse (its envelope) the warning names the run to record; on
+    # runs without a rig (an import: a sphere settling in oil) it names none.
     runs = tow_set(Physics(*SURGE_TRUTH, coulomb=20.0), seed=8)
-    doc = estimate(runs, n_bootstrap=0, search_effects=False).to_json()
+    rig = RigEnvelope((AxisEnvelope("surge", 100.0, 5.5, 5.3, max_rate=1.0),), g=9.8)
+    doc = estimate(runs, n_bootstrap=0, search_effects=False, envelope=rig).to_json()
     (warning,) = [w for w in doc["warnings"] if w.startswith("quadratic_damping sits at")]
     assert doc["reverse_test"]["request"] == {"force_n": -83.3, "drive": "weight"}
     assert warning.endswith(f"run `{doc['reverse_test']['command']}`")
+    bare = estimate(runs, n_bootstrap=0, search_effects=False).to_json()
+    (warning,) = [w for w in bare["warnings"] if w.startswith("quadratic_damping sits at")]
+    assert "reverse" not in warning
     # With a reverse tow among the runs there is nothing to suggest.
     both = tow_set(Physics(*SURGE_TRUTH, coulomb=20.0), seed=8, drives=(24.5, -44.1, 83.3, -4.9))
     assert estimate(both, n_bootstrap=0, search_effects=False).to_json()["reverse_test"] is None
