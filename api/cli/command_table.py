@@ -88,6 +88,11 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
         "crosscheck",
         "Estimate weight-driven and thruster-driven runs of one axis (or take two...",
     ),
+    "warm-up": (
+        "api.cli.warm_up",
+        "warm_up",
+        "Compile the estimator's kernels now (5-9 s of CPU once per install), so the...",
+    ),
     "sim": (
         "api.cli.sim",
         "sim",

@@ -44,6 +44,16 @@ def _source(run) -> str:
     return f"imported {run.source_file or ''}".strip() if run.source == "imported" else "recorded"
 
 
+def aligned(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    """A plain table: each column as wide as its widest cell, two spaces apart, trailing
+    blanks cut (rich's table cost ~0.25 s of CPU to import and lay out 50 rows)."""
+    widths = [max(len(cell) for cell in column) for column in zip(header, *rows, strict=True)]
+    return "\n".join(
+        "  ".join(cell.ljust(w) for cell, w in zip(line, widths, strict=True)).rstrip()
+        for line in (header, *rows)
+    )
+
+
 class _Moment(click.ParamType):
     """A day (YYYY-MM-DD, today, yesterday) or a date-time, in this machine's time zone."""
 
@@ -123,28 +133,25 @@ def runs(
         if as_json:
             echo_json([r.to_json() for r in found])
             return
-        from rich.console import Console
-        from rich.table import Table
-
-        table = Table(
-            "run", "kind", "drive", "input", "status", "recorded", "samples", "vehicle",
-            "source", "tags", box=None,
-        )  # fmt: skip
-        for r in found:
-            status_text = r.status + (f" ({r.reason})" if r.reason else "")
-            table.add_row(
+        rows = [
+            (
                 r.id[:8],
                 r.kind,
                 r.drive or "—",
                 _summary(r.parameters),
-                status_text,
+                r.status + (f" ({r.reason})" if r.reason else ""),
                 _when(r.started_at),
                 str(r.sample_count),
                 r.vehicle,
                 _source(r),
                 ", ".join(r.metadata.get("tags", [])),
             )
-        Console(width=None if sys.stdout.isatty() else 200).print(table)
+            for r in found
+        ]
+        header = ("run", "kind", "drive", "input", "status", "recorded", "samples", "vehicle",
+                  "source", "tags")  # fmt: skip
+        if found:
+            click.echo(aligned(header, rows))
         if not found and not total:
             click.echo("no runs found (none stored yet? try `rig tow --force 24.5`)", err=True)
         elif offset + len(found) < total or offset:

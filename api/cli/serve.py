@@ -21,6 +21,7 @@ from api.http.address_file import (
     published_address,
     withdraw_address,
 )
+from api.cli.warm_up import warm_up_in_background
 from api.http.auth import TOKEN_ENV, load_or_create_token, token_file_warning, token_path
 
 
@@ -107,6 +108,7 @@ def serve(
         app.state.runner.close()
         bad_db = f"cannot open database {db_url or '(default)'}: {err}"
         fail(str(err) if isinstance(err, RigUnavailable) else bad_db, code=1)
+    warming = warm_up_in_background()  # the first estimate should not wait 5-9 s for a compiler
     shown = f"[{host}]" if ":" in host else host
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "
@@ -131,6 +133,9 @@ def serve(
     finally:
         withdraw_address()
         service.stop()  # (already done by the lifespan, unless uvicorn never started)
+        if warming.poll() is None:  # stopped within seconds: the next start compiles
+            warming.kill()
+        warming.wait()
     click.echo("rig service stopped: thrusters at zero, brakes on, rig released", err=True)
 
 

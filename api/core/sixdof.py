@@ -9,15 +9,18 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
 from estimation.vehicle.dynamics import allocation_matrix
-from estimation.vehicle.simulation import Trajectory, simulate, steady_state
 from estimation.vehicle.vehicle_file import load_vehicle
+
+if TYPE_CHECKING:  # the simulation (scipy.integrate) is loaded when one is run, not by an
+    # estimate that only looks a vehicle file up
+    from estimation.vehicle.simulation import Trajectory
 
 #: The vehicles that come with the project.
 FIXTURE_VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
@@ -144,6 +147,8 @@ def run(
 ) -> tuple[Trajectory, dict[str, Any]]:
     """Simulate with constant inputs; the trajectory and a JSON summary (steady values,
     final pose, applied τ, trajectory decimated to ≤ ``max_points`` samples)."""
+    from estimation.vehicle.simulation import simulate, steady_state
+
     if commands is None and force is None and eta0 is None and nu0 is None:
         raise ValueError(
             "commands: got None, allowed: per-thruster commands or a force (6 values) "

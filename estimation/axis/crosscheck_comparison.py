@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import chdtrc
 
 from estimation.motion.terms import units_of
 from estimation.numbers import finite_or_none
@@ -184,7 +184,7 @@ def common_factor(comparisons: list[Comparison]) -> CommonFactor | None:
     k = float(np.sum(w * ratios) / np.sum(w))
     stat = float(np.sum(w * (np.array(ratios) - k) ** 2))
     dof = len(ratios) - 1
-    p = float(chi2.sf(stat, dof)) if dof > 0 else 1.0
+    p = float(chdtrc(dof, stat)) if dof > 0 else 1.0  # χ² survival (scipy.stats.chi2.sf)
     # The calibration's share of σ is common to all ratios (one drive scale): averaging does
     # not shrink it, so σ_k is never taken below the best single ratio's σ.
     std = max(float(1.0 / math.sqrt(np.sum(w))), float(min(sigmas)))

@@ -13,12 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import savgol_filter
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit import FitStatistics, solution_statistics
+from estimation.stats.smoothing import savgol
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
 #: least_squares' xtol, ftol and gtol of every output-error fit (the leave-one-run-out refits
@@ -50,8 +50,8 @@ def _equation_error_guess(runs: Sequence[PreparedRun]) -> np.ndarray:
             continue
         t, x = r.t[moving], r.x[moving]
         dt = float(np.median(np.diff(t)))
-        v = savgol_filter(x, 9, 2, deriv=1, delta=dt)
-        a = savgol_filter(x, 9, 2, deriv=2, delta=dt)
+        v = savgol(x, 9, 2, deriv=1, delta=dt)
+        a = savgol(x, 9, 2, deriv=2, delta=dt)
         rows.append(np.column_stack([a, v, np.abs(v) * v]))
         rhs.append(r.drive[moving] - r.extra_inertia * a)
     if not rows:

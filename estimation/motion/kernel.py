@@ -91,6 +91,14 @@ def _per_state(value: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return np.broadcast_to(np.asarray(value, dtype=float), shape)
 
 
+def _plain(value: object) -> np.ndarray:
+    """A writable C-ordered float array (a copy only when needed): numba compiles one
+    machine-code version per argument type, and a read-only view (``np.broadcast_to``) is
+    another type than a writable array, so every call passes the one type
+    ``warm_up`` compiles."""
+    return np.require(np.asarray(value, dtype=float), requirements=["C", "W"])
+
+
 def step_grid(
     x0: np.ndarray,
     v0: np.ndarray,
@@ -128,21 +136,21 @@ def step_grid(
         coef[j] = _per_state(c.value, shape)
     xs, vs = np.empty((n_steps, *shape)), np.empty((n_steps, *shape))
     frozen = compiled.integrate_grid(
-        np.ascontiguousarray(x0, dtype=float),
-        np.ascontiguousarray(v0, dtype=float),
-        np.ascontiguousarray(np.broadcast_to(drive, (n_steps - 1, *shape)), dtype=float),
-        np.ascontiguousarray(_per_state(inv_inertia, shape)),
-        np.abs(held) if exact_friction else held,
+        _plain(x0),
+        _plain(v0),
+        _plain(np.broadcast_to(drive, (n_steps - 1, *shape))),
+        _plain(_per_state(inv_inertia, shape)),
+        _plain(np.abs(held) if exact_friction else held),
         bool(dry),
         bool(exact_friction),
         coef,
-        np.array([f.scale for f in forms]),
+        _plain([f.scale for f in forms]),
         np.array([f.x_code for f in forms], dtype=np.int64),
         np.array([f.v_code for f in forms], dtype=np.int64),
         float(h),
-        np.full(shape[1], np.inf) if limit is None else np.asarray(limit, dtype=float),
-        freeze_every,
-        nan_stop_every,
+        np.full(shape[1], np.inf) if limit is None else _plain(limit),
+        int(freeze_every),
+        int(nan_stop_every),
         xs,
         vs,
     )

@@ -20,13 +20,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import savgol_filter
 
 from estimation.axis.result import Estimate
 from estimation.numbers import finite_or_none, finite_values
 from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.decay import Decay, Peaks, find_peaks
+from estimation.stats.smoothing import savgol
 
 SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...
 SG_POLYORDER = 4  # ... with a quartic: φ̈ of a sinusoid biased < 0.02 %
@@ -214,8 +214,8 @@ def equation_error(
     dt = float(np.median(np.diff(decay.t)))
     grid = np.arange(decay.t[0], decay.t[-1] + 0.5 * dt, dt)
     y = np.interp(grid, decay.t, decay.phi) - peaks.offset
-    d1 = savgol_filter(y, window, SG_POLYORDER, deriv=1, delta=dt)
-    d2 = savgol_filter(y, window, SG_POLYORDER, deriv=2, delta=dt)
+    d1 = savgol(y, window, SG_POLYORDER, deriv=1, delta=dt)
+    d2 = savgol(y, window, SG_POLYORDER, deriv=2, delta=dt)
     half = window // 2
     last = min(np.searchsorted(grid, peaks.times[-1] + 0.5 * peaks.half_period), grid.size - half)
     use = slice(half, max(last, half + 5))

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import chdtrc
 
 from estimation.stats.smoothing import savgol
 
@@ -37,7 +37,8 @@ def ljung_box(residuals: Sequence[np.ndarray], max_lag: int = 10) -> Whiteness:
         rho = np.array([float(r[:-k] @ r[k:]) / denom for k in range(1, h + 1)])
         q_total += n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, h + 1))))
         lags_total += h
-    p = float(chi2.sf(q_total, lags_total)) if lags_total else 1.0
+    # χ² survival function (scipy.stats.chi2.sf calls chdtrc; scipy.stats costs ~0.4 s to import)
+    p = float(chdtrc(lags_total, q_total)) if lags_total else 1.0
     return Whiteness(q_total, lags_total, p)
 
 

@@ -1,22 +1,27 @@
-"""Savitzky–Golay filtering as one fixed linear operator: SciPy's coefficients and edges.
+"""Savitzky–Golay filtering as one fixed linear operator: SciPy's filter, in NumPy.
 
 ``scipy.signal.savgol_filter(mode="interp")`` convolves the interior with
 ``savgol_coeffs`` and, on every call, fits a polynomial to each end's window by least
 squares (``polyfit``, twice per call): ~0.5 ms per record and derivative, a quarter of a
 tow search's CPU once its integrator was compiled (the force residual and its noise floor
-filter every run several times per fit). The filter is linear in the samples, so each end's
-rows are fixed for a window, order, derivative and step: they are computed once here, by
-filtering the identity with ``savgol_filter`` itself, and applied as a matrix product; the
-interior is the same convolution. Equal to ``savgol_filter`` to rounding
-(``tests/estimation/test_smoothing.py``).
+filter every run several times per fit). The filter is linear in the samples: sample i of
+a window of w is the derivative at i of the degree-``order`` polynomial fitted by least
+squares to the window, i.e. row i of the w × w operator D·V⁺ (V the Vandermonde matrix of
+the window's positions, D the derivative of its powers at each position; positions scaled
+to [−1, 1] about the window's middle, which keeps V well conditioned). The middle row is
+the interior's convolution (SciPy's ``savgol_coeffs``), the first and last w // 2 rows are
+the two ends (SciPy's edge fits). It is built once per window, order, derivative and step,
+in NumPy: importing ``scipy.signal`` costs ~1 s of CPU (it imports ``scipy.stats``), more
+than the search it serves. Equal to ``savgol_filter`` to rounding, nearer the exact
+derivative than it at the ends of long windows (``tests/estimation/test_smoothing.py``).
 """
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import savgol_coeffs, savgol_filter
 
 _KEPT = 32  # (window, order, derivative, step) operators in use at once: a few per estimate
 
@@ -24,10 +29,15 @@ _KEPT = 32  # (window, order, derivative, step) operators in use at once: a few 
 @lru_cache(maxsize=_KEPT)
 def _operator(window: int, order: int, deriv: int, delta: float):
     """Convolution coefficients and the rows of the two ends (half × window each)."""
-    coeffs = savgol_coeffs(window, order, deriv=deriv, delta=delta)
-    ends = savgol_filter(np.eye(window), window, order, deriv=deriv, delta=delta, axis=0)
     half = window // 2
-    head, tail = ends[:half].copy(), ends[window - half :].copy()
+    at = (np.arange(window, dtype=float) - half) / max(half, 1)  # in [−1, 1]: well conditioned
+    powers = np.arange(order + 1)
+    fit = np.linalg.pinv(at[:, None] ** powers)  # (order + 1, window): samples → coefficients
+    falling = np.array([math.perm(k, deriv) for k in powers], dtype=float)  # d^m u^k / du^m
+    shifted = np.clip(powers - deriv, 0, None)
+    rows = (falling * at[:, None] ** shifted) @ fit / (delta * max(half, 1)) ** deriv
+    coeffs = rows[half][::-1].copy()  # np.convolve flips its kernel
+    head, tail = rows[:half].copy(), rows[window - half :].copy()
     for a in (coeffs, head, tail):
         a.flags.writeable = False
     return coeffs, head, tail
@@ -38,7 +48,9 @@ def savgol(y: np.ndarray, window: int, order: int, deriv: int = 0, delta: float 
     1-D array: the filtered samples (derivative ``deriv`` per ``delta``, y's unit per s^deriv
     when ``delta`` is the sample step in s)."""
     y = np.asarray(y, dtype=float)
-    if y.ndim != 1 or y.size <= window:  # nothing between the ends: SciPy's own path
+    if y.ndim != 1 or y.size < window or window % 2 == 0 or order >= window:
+        from scipy.signal import savgol_filter  # SciPy's own path, and its errors
+
         return savgol_filter(y, window, order, deriv=deriv, delta=delta)
     coeffs, head, tail = _operator(int(window), int(order), int(deriv), float(delta))
     half = window // 2

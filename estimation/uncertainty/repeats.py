@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import special, stats
+from scipy import special
 
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
@@ -65,7 +65,7 @@ class Condition:
         """t_0.975(N−1)·s/√N: the 95 % repeatability of the mean."""
         if self.n < 2:
             return math.nan
-        return float(stats.t.ppf(0.975, self.n - 1) * self.std / math.sqrt(self.n))
+        return float(special.stdtrit(self.n - 1, 0.975) * self.std / math.sqrt(self.n))
 
     def to_json(self) -> dict[str, Any]:
         return {

@@ -112,6 +112,7 @@ case(2, "nope.toml: cannot read rig file", "serve", "--rig", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "capabilities", "--rig", "nope.toml")
 case(2, "--ahp: ", "sensitivity", "benbam", "--ahp", RIG)
 case(2, "cannot use /etc/passwd/towrig", "token", "{xdg:/etc/passwd}")
+case(2, "Got unexpected extra argument (now)", "warm-up", "now")
 # -- values: flags, not API field names --------------------------------------------------
 case(2, "--force: 0.0 is not allowed (allowed 0 < |--force| ≤", "tow", "--force", "0")
 case(2, "--weight: 0.0001 is not allowed", "tow", "--weight", "0.0001")

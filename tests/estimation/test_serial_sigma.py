@@ -79,3 +79,36 @@ def test_no_lag_crosses_a_record_boundary():
 def test_record_sizes_that_do_not_add_up_are_refused():
     with pytest.raises(ValueError, match="record_sizes: sum 5, allowed: 6"):
         long_run_scores(np.zeros(6), np.ones((6, 1)), [2, 3])
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.6, 0.95])
+def test_long_run_scores_are_statsmodels_newey_west(rho):
+    """The NumPy Newey–West (the estimate path does not import statsmodels and pandas) is
+    statsmodels' ``S_nw_panel`` with Bartlett weights, record by record, prewhitened and
+    recoloured as the module doc says, to rounding."""
+    from statsmodels.stats.sandwich_covariance import S_nw_panel, weights_bartlett
+
+    from estimation.stats.serial import bartlett_bandwidth, lag_one_autocorrelation
+
+    rng = np.random.default_rng(3)
+    sizes = (*SIZES, 2, 4)  # and records too short for a lag
+    # AR(1) smoothed over 8 samples: correlation that prewhitening leaves, so L > 1
+    residual = np.concatenate([np.convolve(_noise(rng, n, rho), np.ones(8))[:n] for n in sizes])
+    jacobian = rng.standard_normal((residual.size, 3))
+    scores = jacobian * residual[:, None]
+    expected = np.zeros((3, 3))
+    lags_used = []
+    for a, b in itertools.pairwise(np.cumsum((0, *sizes))):
+        e, g = residual[a:b], scores[a:b]
+        if b - a < 3:
+            expected += g.T @ g
+            continue
+        r = lag_one_autocorrelation(e)
+        lags = bartlett_bandwidth(lag_one_autocorrelation(e[1:] - r * e[:-1]), b - a - 1)
+        lags_used.append(lags)
+        white = g[1:] - r * g[:-1]
+        expected += S_nw_panel(white, weights_bartlett(lags), [(0, b - a - 1)]) / (1 - r) ** 2
+    np.testing.assert_allclose(
+        long_run_scores(residual, jacobian, sizes), expected, rtol=1e-12, atol=0
+    )
+    assert max(lags_used) > 1  # the lagged sums are exercised

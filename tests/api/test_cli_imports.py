@@ -1,0 +1,75 @@
+"""What a ``rig`` command imports in a fresh process: only what it uses (issue 33). Each
+package left out is CPU saved on every call (``python -X importtime``): statsmodels with
+pandas ~1 s, scipy.signal with scipy.stats ~1 s, scipy.integrate ~0.3 s. A real subprocess:
+what a process imports is the behaviour."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from daq.run_import import import_csv
+from daq.store import Store
+from tests.integration.test_import_kinds import _tow_csv
+
+#: Prints the modules the command loaded when the process ends (after ``sys.exit``).
+PROBE = (
+    "import atexit, json, sys\n"
+    "atexit.register(lambda: print(json.dumps(sorted(sys.modules)), file=sys.stderr))\n"
+    "from api.cli.main import main\n"
+    "sys.argv[0] = 'rig'\n"
+    "main()\n"
+)
+#: Never loaded by an estimate (pandas and statsmodels: notebooks' and tests' tools).
+NOT_FOR_AN_ESTIMATE = (
+    "statsmodels", "pandas", "scipy.stats", "scipy.signal", "scipy.integrate", "matplotlib",
+    "fastapi", "pymodbus",
+)  # fmt: skip
+#: Never loaded by ``rig --help`` (it lists commands from a table) nor ``rig runs`` (a plain
+#: table: rich's cost ~0.25 s of CPU for 50 rows, 15 s for 7,000).
+NOT_FOR_A_LIST = (
+    "numpy", "scipy", "pandas", "numba", "matplotlib", "fastapi", "pymodbus", "rich",
+)  # fmt: skip
+
+
+def _loaded(tmp_path: Path, *argv: str) -> set[str]:
+    env = os.environ | {"RIG_DATABASE_URL": f"sqlite:///{tmp_path}/rig.db",
+                        "XDG_DATA_HOME": str(tmp_path), "RIG_API_TOKEN": "t"}  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-c", PROBE, *argv], cwd=tmp_path, env=env, capture_output=True,
+        text=True, timeout=300, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    return set(json.loads(proc.stderr.strip().splitlines()[-1]))
+
+
+@pytest.mark.slow
+def test_an_estimate_imports_no_statsmodels_pandas_or_scipy_stats(tmp_path):
+    store = Store(f"sqlite:///{tmp_path}/rig.db")
+    ids = []
+    for mean, seed in ((20.0, 1), (45.0, 2)):
+        _tow_csv(tmp_path / f"tow{seed}.csv", mean, seed)
+        run = import_csv(store, tmp_path / f"tow{seed}.csv", kind="tow",
+                         parameters={"force_n": mean})  # fmt: skip
+        ids.append(run)
+    store.close()
+    loaded = _loaded(tmp_path, "estimate", *ids)
+    assert "estimation.axis.search" in loaded  # it did search for effects
+    assert [m for m in NOT_FOR_AN_ESTIMATE if m in loaded] == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("argv", [("--help",), ("runs",)])
+def test_help_and_the_run_list_import_no_numerics_nor_rich(tmp_path, argv):
+    if argv == ("runs",):
+        store = Store(f"sqlite:///{tmp_path}/rig.db")
+        _tow_csv(tmp_path / "tow.csv", 20.0, 1)
+        import_csv(store, tmp_path / "tow.csv", kind="tow", parameters={"force_n": 20.0})
+        store.close()
+    loaded = _loaded(tmp_path, *argv)
+    assert [m for m in NOT_FOR_A_LIST if m in loaded] == []
