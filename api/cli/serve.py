@@ -14,6 +14,7 @@ from api.cli.common import (
     scenario_option,
     user_errors,
 )
+from api.cli.warm_up import warm_up_in_background
 from api.http.address_file import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -21,7 +22,6 @@ from api.http.address_file import (
     published_address,
     withdraw_address,
 )
-from api.cli.warm_up import warm_up_in_background
 from api.http.auth import TOKEN_ENV, load_or_create_token, token_file_warning, token_path
 
 
