@@ -24,6 +24,9 @@ def test_a_result_is_found_again_downloaded_and_compared(chromium, client, servi
         page.set_viewport_size({"width": 1366, "height": 768})
         estimate_in_page(page, runs, timeout_ms=120_000)
         first = client.get("/api/results?kind=estimation&limit=1", headers=AUTH).json()[0]
+        # the fresh result is listed at once, before any reload
+        fresh = page.locator(f"#results-table tbody tr[data-result='{first['id']}']")
+        expect(fresh).to_be_visible()
         # a second result of the same runs, made by a lab tool (no effect search)
         body = {"run_ids": runs, "search_effects": False}
         made = client.post("/api/jobs/estimation", json=body, headers=AUTH)

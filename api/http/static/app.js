@@ -696,6 +696,7 @@ function showEstimationJob(job) {
   if (job.state !== "completed" || !job.outcome || estimationDrawn === job.id) return;
   estimationDrawn = job.id;
   renderEstimation(job.outcome);
+  if (typeof loadResults === "function") loadResults(); // results.js: the new one is listed
 }
 
 // What the record determines well beside the raw coefficients (terminal speed, period,
