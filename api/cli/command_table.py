@@ -38,6 +38,11 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
         "show",
         "Show one run: configuration, how it ended, events and results (id or unique...",
     ),
+    "results": (
+        "api.cli.results",
+        "results",
+        "List stored results, newest first, or compare two or more (--compare).",
+    ),
     "annotate": (
         "api.cli.runs",
         "annotate",

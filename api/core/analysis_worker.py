@@ -25,6 +25,8 @@ log = logging.getLogger(__name__)
 
 #: Report figures a result serves (the raster for the page, the vector beside it): media types.
 REPORT_SUFFIXES = {".png": "image/png", ".svg": "image/svg+xml"}
+#: The report's text, stored beside its figures so the report can be downloaded later.
+REPORT_TEXT = ("report.md", "text/markdown; charset=utf-8")
 #: Job kinds this worker runs.
 ANALYSES = ("estimation", "crosscheck")
 
@@ -174,12 +176,21 @@ class AnalysisWorker:
             for suffix in REPORT_SUFFIXES
             for p in sorted(Path(folder).glob(f"*{suffix}"))
         ]
-        self.registry.repo.save_report_files(result_id, files)
+        text = Path(folder) / REPORT_TEXT[0]
+        extra = [(text.name, REPORT_TEXT[1], text.read_bytes())] if text.is_file() else []
+        self.registry.repo.save_report_files(result_id, files + extra)
         return sorted({Path(name).stem for name, _, _ in files})
 
     def report_names(self, result_id: int) -> list[str]:
         """Names of the report figures stored with ``result_id``."""
-        return sorted({Path(name).stem for name in self.registry.repo.report_names(result_id)})
+        names = self.registry.repo.report_names(result_id)
+        return sorted({Path(n).stem for n in names if Path(n).suffix in REPORT_SUFFIXES})
+
+    def report_contents(self, result_id: int) -> list[tuple[str, bytes]]:
+        """Every stored file of a result's report (report.md and the figures), by name."""
+        stored = ((n, self.registry.repo.report_file(result_id, n))
+                  for n in self.registry.repo.report_names(result_id))  # fmt: skip
+        return [(name, found[1]) for name, found in stored if found is not None]
 
     def report_file(
         self, result_id: int, name: str, suffix: str = ".png"

@@ -216,6 +216,10 @@ class JobRunner(QueueEdits):
         """Names of the report figures stored with ``result_id``."""
         return self.analysis.report_names(result_id)
 
+    def report_contents(self, result_id: int) -> builtins.list[tuple[str, bytes]]:
+        """Every stored file of a result's report (report.md and the figures), by name."""
+        return self.analysis.report_contents(result_id)
+
     def report_file(
         self, result_id: int, name: str, suffix: str = ".png"
     ) -> tuple[str, bytes] | None:

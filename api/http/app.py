@@ -38,6 +38,7 @@ from api.http.routes import jobs as routes_jobs
 from api.http.routes import kinds as routes_kinds
 from api.http.routes import people as routes_people
 from api.http.routes import queue as routes_queue
+from api.http.routes import results as routes_results
 from api.http.routes import rig as routes_rig
 from api.http.routes import runs as routes_runs
 from api.http.routes import sequences as routes_sequences
@@ -249,6 +250,7 @@ def create_app(
         routes_users,
         routes_sequences,
         routes_runs,
+        routes_results,
         routes_imports,
         routes_stream,
         routes_sixdof,

@@ -15,7 +15,13 @@ from api.core.jobs import LIST_LIMIT
 #: The largest ``offset`` any list takes (a million rows skipped; 64-bit OFFSETs overflow).
 MAX_OFFSET = 1_000_000
 #: The most rows one page of each list holds.
-PAGE_SIZES = {"runs": 1000, "jobs": LIST_LIMIT, "rig events": 500, "samples": 100_000}
+PAGE_SIZES = {
+    "runs": 1000,
+    "jobs": LIST_LIMIT,
+    "rig events": 500,
+    "samples": 100_000,
+    "results": 500,
+}
 
 Offset = Annotated[
     int,
@@ -32,3 +38,4 @@ RunsLimit = Annotated[int, _limit("runs")]
 JobsLimit = Annotated[int, _limit("jobs")]
 EventsLimit = Annotated[int, _limit("rig events")]
 SamplesLimit = Annotated[int, _limit("samples")]
+ResultsLimit = Annotated[int, _limit("results")]

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from datetime import datetime
 
 import sqlalchemy as sa
 
 from daq.store import checks
 from daq.store.base import StoreBase, created_stamp, inserted_id
 from daq.store.records import EventInfo, ResultInfo, ResultNotFound, to_datetime
-from daq.store.schema import events, result_runs, results
+from daq.store.schema import events, result_runs, results, vehicles
 from daq.store.schema import runs as runs_t
 
 #: The largest id a result can have (SQLite and PostgreSQL integer keys are 64-bit).
@@ -101,6 +102,68 @@ class EventsAndResults(StoreBase):
         if kind is not None:
             query = query.where(results.c.kind == checks.check_kind("kind", kind))
         return self._fetch_results(query, run_id)
+
+    def list_results(
+        self,
+        *,
+        run_id: str | None = None,
+        vehicle: str | None = None,
+        kind: str | None = None,
+        since: datetime | None = None,
+        until: datetime | None = None,
+        limit: int = 100,
+        offset: int = 0,
+    ) -> list[ResultInfo]:
+        """A page of results, newest first: of a run (id or prefix), made from runs of a
+        vehicle, of a kind, created in [since, until) (aware datetimes)."""
+        query = self._results_where(sa.select(results), run_id, vehicle, kind, since, until)
+        query = query.order_by(results.c.created_at.desc(), results.c.id.desc())
+        return self._fetch_results(query.limit(limit).offset(offset))
+
+    def count_results(
+        self,
+        *,
+        run_id: str | None = None,
+        vehicle: str | None = None,
+        kind: str | None = None,
+        since: datetime | None = None,
+        until: datetime | None = None,
+    ) -> int:
+        """How many results :meth:`list_results` pages through with these filters."""
+        query = sa.select(sa.func.count()).select_from(results)
+        query = self._results_where(query, run_id, vehicle, kind, since, until)
+        with self.engine.connect() as conn:
+            return int(conn.execute(query).scalar_one())
+
+    def _results_where(
+        self,
+        query: sa.Select,
+        run_id: str | None,
+        vehicle: str | None,
+        kind: str | None,
+        since: datetime | None,
+        until: datetime | None,
+    ) -> sa.Select:
+        if kind is not None:
+            query = query.where(results.c.kind == checks.check_kind("kind", kind))
+        if run_id is not None:
+            with self.engine.connect() as conn:
+                pk = self._resolve(conn, run_id).id
+            linked = sa.select(result_runs.c.result_id).where(result_runs.c.run_id == pk)
+            query = query.where(results.c.id.in_(linked))
+        if vehicle is not None:
+            of_vehicle = (
+                sa.select(result_runs.c.result_id)
+                .join(runs_t, runs_t.c.id == result_runs.c.run_id)
+                .join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
+                .where(vehicles.c.name == vehicle)
+            )
+            query = query.where(results.c.id.in_(of_vehicle))
+        if since is not None:
+            query = query.where(results.c.created_at >= since.timestamp())
+        if until is not None:
+            query = query.where(results.c.created_at < until.timestamp())
+        return query
 
     def result(self, result_id: int | str) -> ResultInfo:
         """One result by id; ``ResultNotFound`` names the id (also for one no row can have:

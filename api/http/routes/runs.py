@@ -1,9 +1,9 @@
 """Run routes: list with filters, one run, samples (JSON paged, CSV streamed), export
-(CSV, JSON, NetCDF, Parquet), events, results; estimation/calibration results and report
-plots. The CSV import is ``api.http.routes.imports``.
+(CSV, JSON, NetCDF, Parquet), events. The CSV import is ``api.http.routes.imports``; the
+results made from runs are ``api.http.routes.results``.
 
-One module because every route here is under /api/runs or /api/results and shares the id
-resolution (404 for unknown or malformed ids) and the error bodies.
+One module because every route here is under /api/runs and shares the id resolution (404
+for unknown or malformed ids) and the error bodies.
 """
 
 from __future__ import annotations
@@ -14,19 +14,16 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any, Literal, TypedDict
 
-from fastapi import APIRouter, Depends, HTTPException, Query
+from fastapi import APIRouter, Depends, Query
 from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
-from api.core.job_model import without_report_files
-from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.run_cache import EndedRunCache
-from api.http.deps import RunnerDep, StoreDep, require_read, require_write
+from api.http.deps import StoreDep, require_read, require_write
 from api.http.paging import Offset, RunsLimit, SamplesLimit
 from api.http.schemas import (
     EventOut,
-    ResultOut,
     RunOut,
     SamplesOut,
     error_responses,
@@ -41,7 +38,7 @@ from daq.export_formats import (
     write_export,
 )
 from daq.procedures.requests import RunMetadataIn
-from daq.store import ResultNotFound, Store
+from daq.store import Store
 from daq.store.channel_units import column_infos
 from daq.store.csv_export import csv_chunks
 from daq.store.day_window import parse_moment, parse_tz, start_window
@@ -286,85 +283,3 @@ def export_run(
 def get_events(run_id: str, store: StoreDep) -> list[dict]:
     """Operator actions, faults and limit trips of the run, in time order."""
     return [e.to_json() for e in store.events(store.get_run(run_id).id)]
-
-
-@router.get(
-    "/runs/{run_id}/results",
-    response_model=list[ResultOut],
-    dependencies=[Depends(require_read)],
-    responses=_READ,
-)
-def get_run_results(run_id: str, store: StoreDep, runner: RunnerDep) -> list[dict]:
-    """Estimation and calibration results made from this run."""
-    return [_result_json(r, runner) for r in store.results(store.get_run(run_id).id)]
-
-
-# ---- results ----------------------------------------------------------------------------------
-def _result_json(result, runner: JobRunner) -> dict:
-    data = without_report_files(result.to_json())
-    data["report_plots"] = runner.report_names(result.id)
-    return data
-
-
-@router.get(
-    "/results",
-    response_model=list[ResultOut],
-    dependencies=[Depends(require_read)],
-    responses=error_responses(401, 422),
-)
-def list_results(
-    store: StoreDep,
-    runner: RunnerDep,
-    kind: Literal["estimation", "calibration"] | None = None,
-) -> list[dict]:
-    """Estimation and calibration results, newest first."""
-    return [_result_json(r, runner) for r in reversed(store.results(kind=kind))]
-
-
-def _find_result(store: Store, result_id: int):
-    try:
-        return store.result(result_id)
-    except ResultNotFound as err:
-        raise HTTPException(404, str(err)) from None
-
-
-@router.get(
-    "/results/{result_id}",
-    response_model=ResultOut,
-    dependencies=[Depends(require_read)],
-    responses=_READ,
-)
-def get_result(result_id: int, store: StoreDep, runner: RunnerDep) -> dict:
-    """One result (estimation JSON of issue 4, or a thrust calibration with its inverse map)."""
-    return _result_json(_find_result(store, result_id), runner)
-
-
-def _report_figure_route(suffix: str, function_name: str, doc: str) -> None:
-    """``GET /api/results/{result_id}/report/{name}<suffix>``: a stored report figure (from
-    the database, so it outlives the service) in the format ``suffix`` names."""
-
-    def report_figure(result_id: int, name: str, store: StoreDep, runner: RunnerDep) -> Response:
-        _find_result(store, result_id)
-        found = runner.report_file(result_id, name, suffix)
-        if found is None:
-            raise HTTPException(404, f"result {result_id} has no report plot named {name!r}")
-        media_type, content = found
-        return Response(content, media_type=media_type)
-
-    report_figure.__name__ = function_name  # the OpenAPI operation id
-    report_figure.__doc__ = doc
-    content: dict[str, dict[str, Any]] = {REPORT_SUFFIXES[suffix]: {}}
-    router.get(
-        f"/results/{{result_id}}/report/{{name}}{suffix}",
-        dependencies=[Depends(require_read)],
-        responses=file_response(content, "A report plot") | _READ,
-        response_class=Response,
-    )(report_figure)
-
-
-_report_figure_route(
-    ".png", "get_report_plot", "A report figure as a 150 dpi PNG (names in ``report_plots``)."
-)
-_report_figure_route(
-    ".svg", "get_report_svg", "The same report figure as SVG (vector, its labels as text)."
-)

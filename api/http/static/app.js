@@ -103,10 +103,15 @@ function load(run) {
 }
 
 // ---- pages ----------------------------------------------------------------------------
+// Hash words shown on another page: #results/12 is a stored result on the Estimation page
+// (results.js registers its loader as pageLoaders.results).
+const pageAliases = { results: "estimation" };
 function showPage() {
-  const page = (location.hash.replace("#", "").split("&")[0] || "rig");
+  const word = location.hash.replace("#", "").split(/[&/]/)[0] || "rig";
+  const page = pageAliases[word] || word;
   $$(".page").forEach((s) => (s.hidden = s.id !== `page-${page}`));
   $$("nav a").forEach((a) => a.classList.toggle("active", a.dataset.page === page));
+  if (word !== page && pageLoaders[word]) pageLoaders[word]();
   if (page === "runs") loadRuns();
   if (page === "estimation") loadEstimationRuns();
   if (page === "thrusters") loadCalibration();
@@ -570,6 +575,7 @@ async function openRun(runId) {
   $("#run-events").innerHTML = events
     .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
     .join("");
+  if (typeof showRunResults === "function") showRunResults(run.id); // results.js
 }
 
 function drawRunPlot() {
@@ -690,6 +696,7 @@ function showEstimationJob(job) {
   if (job.state !== "completed" || !job.outcome || estimationDrawn === job.id) return;
   estimationDrawn = job.id;
   renderEstimation(job.outcome);
+  if (typeof loadResults === "function") loadResults(); // results.js: the new one is listed
 }
 
 // What the record determines well beside the raw coefficients (terminal speed, period,
