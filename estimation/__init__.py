@@ -17,7 +17,8 @@ if TYPE_CHECKING:
     from estimation.axis.result import EffectEstimate, Estimate, EstimationResult
     from estimation.data.runs import RunData
     from estimation.errors import EstimationFailed
-    from estimation.motion.decay import DecayResult, estimate_decay, estimate_records
+    from estimation.motion.decay import estimate_decay, estimate_records
+    from estimation.motion.decay_result import DecayResult
     from estimation.thrust.curve import ThrustCurve, fit_thrust_curve
 
 #: Where each public name lives: imported from there on first use.
@@ -29,7 +30,7 @@ _HOME = {
     "EstimationResult": "axis.result",
     "RunData": "data.runs",
     "EstimationFailed": "errors",
-    "DecayResult": "motion.decay",
+    "DecayResult": "motion.decay_result",
     "estimate_decay": "motion.decay",
     "estimate_records": "motion.decay",
     "ThrustCurve": "thrust.curve",

@@ -40,7 +40,7 @@ from estimation.design.advice import (
 )
 from estimation.design.envelope import RigEnvelope
 from estimation.errors import EstimationFailed
-from estimation.motion.well_determined import Combination, drives_of, terminal_speed
+from estimation.motion.well_determined import terminal_speeds
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
 
@@ -371,18 +371,12 @@ def _build(
 
 
 def _well_determined(final: FitResult, runs: Sequence[RunData], axis: str) -> tuple:
-    """The terminal speed at each constant drive the runs hold (a thruster run's drive at
-    its end), ``motion.well_determined``: known when K_L and K_Q alone are not."""
+    """The terminal speed at each constant drive (a thruster run's at its end)."""
     held = {}
     for r in runs:
         d = np.asarray(r.drive, dtype=float)
         held[r.run_id] = float(d) if d.ndim == 0 else float(np.median(d[-max(d.size // 5, 1) :]))
-    found: list[Combination] = []
-    for drive in drives_of(held):
-        speed = terminal_speed(final.names, final.values, final.std, final.correlation, drive, axis)
-        if speed is not None:
-            found.append(speed)
-    return tuple(found)
+    return terminal_speeds(final.names, final.values, final.std, final.correlation, held, axis)
 
 
 def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:

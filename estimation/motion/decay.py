@@ -17,21 +17,21 @@ it takes the residual as white).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import replace
 
 import numpy as np
 
 from estimation.blas import one_blas_thread
 from estimation.errors import EstimationFailed
+from estimation.motion.decay_result import DecayResult
 from estimation.motion.envelope import FreeWindow, centre, free_decay_end
-from estimation.motion.equivalent import EquivalentDamping, damping_over_swings, equivalent_damping
+from estimation.motion.equivalent import damping_over_swings
 from estimation.motion.fit import MotionFit, fit_motion, parameters_of
-from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of, validate
-from estimation.motion.search import TRIAL_NFEV, Step, search_terms
-from estimation.motion.terms import DOFS, LIBRARY, units_of
-from estimation.motion.well_determined import Combination, damping_ratio, natural_period
-from estimation.numbers import Coefficient, finite_or_none, finite_values
+from estimation.motion.records import Record, Setup, known_terms_of, validate
+from estimation.motion.search import TRIAL_NFEV, search_terms
+from estimation.motion.terms import DOFS, LIBRARY
+from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
+from estimation.numbers import Coefficient
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 from estimation.stats.misfit import WHITE_P, effective_sample_size, structured
 
@@ -45,102 +45,6 @@ DECAY_CANDIDATES: tuple[str, ...] = (
     "constant_bias",
     "equilibrium_drift",
 )
-
-
-@dataclass(frozen=True)
-class DecayResult:
-    """What one estimate of a DOF's equation produced; ``to_json()`` is its document."""
-
-    dof: str
-    runs: tuple[str, ...]
-    coefficients: dict[str, Coefficient]
-    known: dict[str, Coefficient]
-    effects: tuple[str, ...]
-    not_identified: tuple[str, ...]
-    rmse_before: float
-    rmse_after: float
-    noise: float
-    whiteness: Whiteness
-    possibly_biased: bool
-    natural_period_s: float | None
-    warnings: tuple[str, ...]
-    steps: tuple[Step, ...]
-    equilibrium: dict[str, float]
-    release_time_s: dict[str, float]
-    #: Per record, where the fitted free motion ends and why (``envelope.free_decay_end``).
-    window: dict[str, FreeWindow] = field(default_factory=dict)
-    ambiguous: tuple[tuple[str, str], ...] = ()
-    #: Per rival of a kept term: the final model with the rival in its place (its
-    #: coefficients, and its BIC minus the final's).
-    alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
-    #: B_e over the swings the records cover (``motion.equivalent``).
-    equivalent: tuple[EquivalentDamping, ...] = ()
-    #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
-    well_determined: tuple[Combination, ...] = ()
-    fit: MotionFit | None = field(default=None, repr=False, compare=False)
-    #: The base model's fit (before the search).
-    base: MotionFit | None = field(default=None, repr=False, compare=False)
-    #: What the fit was given: the equation's setup and the records as windowed (a refit
-    #: with a declared input moved, ``estimation.uncertainty.motion_budget``).
-    setup: Setup | None = field(default=None, repr=False, compare=False)
-    records: tuple[Record, ...] = field(default=(), repr=False, compare=False)
-
-    def equivalent_damping(self, amplitude: float) -> EquivalentDamping | None:
-        """B_e at ``amplitude`` (m or rad) at the natural frequency (``motion.equivalent``);
-        None without a fit or a period."""
-        if self.fit is None or self.natural_period_s is None:
-            return None
-        known = {n: c.value for n, c in self.known.items() if n != "inertia"}
-        weights = None
-        if self.records and self.setup is not None:  # the first record's parts and weights
-            known = dict(known_terms_of(self.records[0], self.setup))
-            weights = self.records[0].weights
-        omega = 2 * np.pi / self.natural_period_s
-        return equivalent_damping(self.fit, known, self.dof, amplitude, omega, weights)
-
-    def to_json(self) -> dict[str, Any]:
-        """The result document (docs/estimation.md, *Free decay*)."""
-        return {
-            "kind": "decay",
-            "dof": self.dof,
-            "runs": list(self.runs),
-            "coefficients": {k: c.to_json() for k, c in self.coefficients.items()},
-            "known": {k: c.to_json() for k, c in self.known.items()},
-            "units": units_of(
-                self.dof, [n for n in (*self.coefficients, *self.known) if n in LIBRARY]
-            ),
-            # every result's effects alike: {name, value, std, unit} (the faces read one shape)
-            "effects": [{"name": e} | self.coefficients[e].to_json() for e in self.effects],
-            "ambiguous": [list(p) for p in self.ambiguous],
-            "alternatives": {
-                rival: {
-                    "coefficients": {k: c.to_json() for k, c in coeffs.items()},
-                    "delta_bic": finite_or_none(delta),
-                }
-                for rival, (coeffs, delta) in self.alternatives.items()
-            },
-            "not_identified": list(self.not_identified),
-            "rmse_before": finite_or_none(self.rmse_before),
-            "rmse_after": finite_or_none(self.rmse_after),
-            "noise": finite_or_none(self.noise),
-            "ljung_box": {
-                "q": finite_or_none(self.whiteness.q_statistic),
-                "lags": self.whiteness.lags,
-                "p_value": finite_or_none(self.whiteness.p_value),
-            },
-            "coefficients_possibly_biased": self.possibly_biased,
-            "natural_period_s": finite_or_none(self.natural_period_s),
-            "equivalent_linear_damping": [e.to_json() for e in self.equivalent],
-            "well_determined": [c.to_json() for c in self.well_determined],
-            "warnings": list(self.warnings),
-            "evidence": [s.to_json() for s in self.steps],
-            "equilibrium": finite_values(self.equilibrium),
-            "release_time_s": finite_values(self.release_time_s),
-            "window": {
-                run: {"release_time_s": self.release_time_s.get(run)} | w.to_json()
-                for run, w in self.window.items()
-            },
-        }
 
 
 def release_of(record: Record) -> float:
@@ -265,41 +169,11 @@ def estimate_records(
         alternatives=alternatives,
         window=ends,
         equivalent=equivalent,
-        well_determined=_well_determined(setup, first, final, equivalent),
+        well_determined=decay_combinations(setup, first, final, equivalent),
         setup=setup,
         records=tuple(windowed),
         base=base,
     )
-
-
-def _well_determined(
-    setup: Setup, record: Record, final: MotionFit, equivalent: Sequence[EquivalentDamping]
-) -> tuple[Combination, ...]:
-    """The natural period with its σ and the damping ratio at the middle swing amplitude
-    (``motion.well_determined``), on ``record`` (the first: its known parts and weights)."""
-
-    def sigma(name: str) -> float | None:
-        if name not in final.names:
-            return 0.0  # known
-        s = final.sigma(name) * record.weight(name)
-        return float(s) if np.isfinite(s) else None
-
-    total, k = inertia_and_stiffness(setup, record, final)
-    rho = 0.0
-    if "inertia" in final.names and "restoring_spring" in final.names:
-        rho = float(
-            final.correlation[final.names.index("inertia"), final.names.index("restoring_spring")]
-        )
-    out = [
-        natural_period(
-            total, sigma("inertia"), k, sigma("restoring_spring"), rho if np.isfinite(rho) else 0.0
-        )
-    ]
-    if out[0] is not None and equivalent:
-        middle = equivalent[len(equivalent) // 2]
-        omega = 2 * np.pi / out[0].value
-        out.append(damping_ratio(middle, middle.amplitude, total, omega, setup.dof))
-    return tuple(c for c in out if c is not None)
 
 
 def _end(record: Record, start: float, given: float | None) -> FreeWindow:
@@ -392,19 +266,6 @@ def rival_sentences(rivals: Sequence[tuple[str, str]], free: bool) -> list[str]:
         f"{a} is reported; to separate them — {LIBRARY[b].separation(free)}"
         for a, b in rivals
     ]
-
-
-def inertia_and_stiffness(setup: Setup, record: Record, final: MotionFit) -> tuple[float, float]:
-    """The whole inertia M (kg or kg·m²) and linear stiffness k (N/m or N·m/rad) on
-    ``record``: known parts and identified ones with the record's weights (a pendulum's
-    α·l²); the stiffness is the given or fitted spring, else gravity's moment per rad."""
-    identified = final.value("inertia") if "inertia" in final.names else setup.inertia or 0.0
-    total = known_inertia_of(record, setup) + record.weight("inertia") * float(identified)
-    known = known_terms_of(record, setup)
-    k = known.get("restoring_spring", known.get("sine_restoring"))
-    if k is None:
-        k = final.value("restoring_spring") * record.weight("restoring_spring")
-    return float(total), float(k)
 
 
 def _moved(final: MotionFit, others: Sequence[MotionFit]) -> bool:

@@ -11,7 +11,7 @@ import numpy as np
 
 from estimation.figures import figure_links, new_figure, run_label, save_figure
 from estimation.fit_report import step_cells, well_determined_rows, write_result_and_markdown
-from estimation.motion.decay import DecayResult
+from estimation.motion.decay_result import DecayResult
 from estimation.motion.records import Record
 from estimation.motion.terms import DOFS, units_of
 

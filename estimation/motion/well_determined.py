@@ -27,6 +27,9 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from estimation.motion.equivalent import EquivalentDamping
+from estimation.motion.fit import MotionFit
+from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.numbers import Coefficient
 
@@ -140,10 +143,62 @@ def damping_ratio(
     )
 
 
-def drives_of(drives: Mapping[str, float]) -> list[float]:
-    """The distinct constant drives of a set of runs (N or N·m), in order of size."""
-    out: list[float] = []
+def terminal_speeds(
+    names: Sequence[str],
+    values: np.ndarray,
+    std: np.ndarray,
+    correlation: np.ndarray,
+    drives: Mapping[str, float],
+    dof: str,
+) -> tuple[Combination, ...]:
+    """``terminal_speed`` at each distinct constant drive of ``drives`` (per run, N or
+    N·m), in order of size; drives without a steady speed are left out."""
+    distinct: list[float] = []
     for d in sorted(drives.values(), key=abs):
-        if np.isfinite(d) and d != 0 and not any(abs(d - e) <= 1e-9 * abs(e) for e in out):
-            out.append(float(d))
-    return out
+        if np.isfinite(d) and d != 0 and not any(abs(d - e) <= 1e-9 * abs(e) for e in distinct):
+            distinct.append(float(d))
+    found = (terminal_speed(names, values, std, correlation, d, dof) for d in distinct)
+    return tuple(c for c in found if c is not None)
+
+
+def inertia_and_stiffness(setup: Setup, record: Record, final: MotionFit) -> tuple[float, float]:
+    """The whole inertia M (kg or kg·m²) and linear stiffness k (N/m or N·m/rad) on
+    ``record``: known parts and identified ones with the record's weights (a pendulum's
+    α·l²); the stiffness is the given or fitted spring, else gravity's moment per rad."""
+    identified = final.value("inertia") if "inertia" in final.names else setup.inertia or 0.0
+    total = known_inertia_of(record, setup) + record.weight("inertia") * float(identified)
+    known = known_terms_of(record, setup)
+    k = known.get("restoring_spring", known.get("sine_restoring"))
+    if k is None:
+        k = final.value("restoring_spring") * record.weight("restoring_spring")
+    return float(total), float(k)
+
+
+def decay_combinations(
+    setup: Setup, record: Record, final: MotionFit, equivalent: Sequence[EquivalentDamping]
+) -> tuple[Combination, ...]:
+    """The natural period with its σ and the damping ratio at the middle swing amplitude
+    (``motion.well_determined``), on ``record`` (the first: its known parts and weights)."""
+
+    def sigma(name: str) -> float | None:
+        if name not in final.names:
+            return 0.0  # known
+        s = final.sigma(name) * record.weight(name)
+        return float(s) if np.isfinite(s) else None
+
+    total, k = inertia_and_stiffness(setup, record, final)
+    rho = 0.0
+    if "inertia" in final.names and "restoring_spring" in final.names:
+        rho = float(
+            final.correlation[final.names.index("inertia"), final.names.index("restoring_spring")]
+        )
+    out = [
+        natural_period(
+            total, sigma("inertia"), k, sigma("restoring_spring"), rho if np.isfinite(rho) else 0.0
+        )
+    ]
+    if out[0] is not None and equivalent:
+        middle = equivalent[len(equivalent) // 2]
+        omega = 2 * np.pi / out[0].value
+        out.append(damping_ratio(middle, middle.amplitude, total, omega, setup.dof))
+    return tuple(c for c in out if c is not None)

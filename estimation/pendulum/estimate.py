@@ -22,7 +22,8 @@ from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
 from estimation.blas import one_blas_thread
 from estimation.data.runs import validate_run_set
 from estimation.errors import EstimationFailed
-from estimation.motion.decay import DecayResult, estimate_records, rival_sentences
+from estimation.motion.decay import estimate_records, rival_sentences
+from estimation.motion.decay_result import DecayResult
 from estimation.motion.fit import MotionFit
 from estimation.motion.search import Step
 from estimation.motion.terms import LIBRARY

@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.decay import DecayResult
+from estimation.motion.decay_result import DecayResult
 from estimation.motion.fit import fit_motion, parameters_of
 from estimation.motion.records import Setup
 from estimation.motion.search import TRIAL_NFEV

@@ -1,0 +1,116 @@
+"""The result of a single-DOF record's estimate (``motion.decay.estimate_records``): the
+coefficients with σ, what the search kept and why, the window, B_e and what the record
+determines well, and its JSON document (docs/estimation.md, *Free decay*)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from estimation.motion.envelope import FreeWindow
+from estimation.motion.equivalent import EquivalentDamping, equivalent_damping
+from estimation.motion.fit import MotionFit
+from estimation.motion.records import Record, Setup, known_terms_of
+from estimation.motion.search import Step
+from estimation.motion.terms import LIBRARY, units_of
+from estimation.motion.well_determined import Combination
+from estimation.numbers import Coefficient, finite_or_none, finite_values
+from estimation.stats.diagnostics import Whiteness
+
+
+@dataclass(frozen=True)
+class DecayResult:
+    """What one estimate of a DOF's equation produced; ``to_json()`` is its document."""
+
+    dof: str
+    runs: tuple[str, ...]
+    coefficients: dict[str, Coefficient]
+    known: dict[str, Coefficient]
+    effects: tuple[str, ...]
+    not_identified: tuple[str, ...]
+    rmse_before: float
+    rmse_after: float
+    noise: float
+    whiteness: Whiteness
+    possibly_biased: bool
+    natural_period_s: float | None
+    warnings: tuple[str, ...]
+    steps: tuple[Step, ...]
+    equilibrium: dict[str, float]
+    release_time_s: dict[str, float]
+    #: Per record, where the fitted free motion ends and why (``envelope.free_decay_end``).
+    window: dict[str, FreeWindow] = field(default_factory=dict)
+    ambiguous: tuple[tuple[str, str], ...] = ()
+    #: Per rival of a kept term: the final model with the rival in its place (its
+    #: coefficients, and its BIC minus the final's).
+    alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
+    #: B_e over the swings the records cover (``motion.equivalent``).
+    equivalent: tuple[EquivalentDamping, ...] = ()
+    #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
+    well_determined: tuple[Combination, ...] = ()
+    fit: MotionFit | None = field(default=None, repr=False, compare=False)
+    #: The base model's fit (before the search).
+    base: MotionFit | None = field(default=None, repr=False, compare=False)
+    #: What the fit was given: the equation's setup and the records as windowed (a refit
+    #: with a declared input moved, ``estimation.uncertainty.motion_budget``).
+    setup: Setup | None = field(default=None, repr=False, compare=False)
+    records: tuple[Record, ...] = field(default=(), repr=False, compare=False)
+
+    def equivalent_damping(self, amplitude: float) -> EquivalentDamping | None:
+        """B_e at ``amplitude`` (m or rad) at the natural frequency (``motion.equivalent``);
+        None without a fit or a period."""
+        if self.fit is None or self.natural_period_s is None:
+            return None
+        known = {n: c.value for n, c in self.known.items() if n != "inertia"}
+        weights = None
+        if self.records and self.setup is not None:  # the first record's parts and weights
+            known = dict(known_terms_of(self.records[0], self.setup))
+            weights = self.records[0].weights
+        omega = 2 * np.pi / self.natural_period_s
+        return equivalent_damping(self.fit, known, self.dof, amplitude, omega, weights)
+
+    def to_json(self) -> dict[str, Any]:
+        """The result document (docs/estimation.md, *Free decay*)."""
+        return {
+            "kind": "decay",
+            "dof": self.dof,
+            "runs": list(self.runs),
+            "coefficients": {k: c.to_json() for k, c in self.coefficients.items()},
+            "known": {k: c.to_json() for k, c in self.known.items()},
+            "units": units_of(
+                self.dof, [n for n in (*self.coefficients, *self.known) if n in LIBRARY]
+            ),
+            # every result's effects alike: {name, value, std, unit} (the faces read one shape)
+            "effects": [{"name": e} | self.coefficients[e].to_json() for e in self.effects],
+            "ambiguous": [list(p) for p in self.ambiguous],
+            "alternatives": {
+                rival: {
+                    "coefficients": {k: c.to_json() for k, c in coeffs.items()},
+                    "delta_bic": finite_or_none(delta),
+                }
+                for rival, (coeffs, delta) in self.alternatives.items()
+            },
+            "not_identified": list(self.not_identified),
+            "rmse_before": finite_or_none(self.rmse_before),
+            "rmse_after": finite_or_none(self.rmse_after),
+            "noise": finite_or_none(self.noise),
+            "ljung_box": {
+                "q": finite_or_none(self.whiteness.q_statistic),
+                "lags": self.whiteness.lags,
+                "p_value": finite_or_none(self.whiteness.p_value),
+            },
+            "coefficients_possibly_biased": self.possibly_biased,
+            "natural_period_s": finite_or_none(self.natural_period_s),
+            "equivalent_linear_damping": [e.to_json() for e in self.equivalent],
+            "well_determined": [c.to_json() for c in self.well_determined],
+            "warnings": list(self.warnings),
+            "evidence": [s.to_json() for s in self.steps],
+            "equilibrium": finite_values(self.equilibrium),
+            "release_time_s": finite_values(self.release_time_s),
+            "window": {
+                run: {"release_time_s": self.release_time_s.get(run)} | w.to_json()
+                for run, w in self.window.items()
+            },
+        }
