@@ -41,6 +41,8 @@ T = TypeVar("T")
 #: The GIL switch interval while serving: a busy HTTP thread then delays the clock's
 #: thread by at most ~0.5 ms instead of CPython's default 5 ms.
 SWITCH_INTERVAL_S = 0.0005
+#: SCHED_FIFO priority of the in-process simulated rig in real-time mode (the clock: 10).
+SIMULATOR_PRIORITY = 5
 
 
 class RigUnavailable(RuntimeError):
@@ -168,6 +170,8 @@ class RigService:
             self._ready.set()
             return
         self.session = session
+        if self.realtime_active:
+            await self._raise_simulator(session)
         forward = asyncio.create_task(self._forward_samples(), name="stream-forward")
         self._ready.set()
         stop = asyncio.ensure_future(self._stop.wait())
@@ -190,6 +194,16 @@ class RigService:
             self.session = None
         if session.lease_lost is not None:
             await self._stop.wait()  # keep the loop for whoever is still finishing a job
+
+    async def _raise_simulator(self, session: RigSession) -> None:
+        """Run the in-process simulated rig's thread SCHED_FIFO too (below the clock): it
+        stands in for a PLC with its own CPU, and at normal priority a busy host starved it
+        past the Modbus read timeout, so a real-time clock lost polls (issue 35)."""
+        from daq.acquisition import set_realtime
+        from daq.sim.rig import SimulatedRigThread
+
+        if isinstance(session.sim, SimulatedRigThread):
+            await asyncio.to_thread(session.sim.call, set_realtime, SIMULATOR_PRIORITY)
 
     async def _ask(self, act: OperatorAct) -> None:
         if self.operator_hook is None:
