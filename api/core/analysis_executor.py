@@ -21,7 +21,6 @@ at ``store_url`` and returns the outcome (docs/api.md, "Analysis workers").
 from __future__ import annotations
 
 import concurrent.futures
-import contextlib
 import multiprocessing
 import os
 import threading
@@ -30,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
+from daq.priority import lower_priority
 from daq.store import Store
 
 #: Niceness of the analysis worker process: the rig's process and the clock come first.
@@ -83,23 +83,24 @@ class AnalysisExecutor(Protocol):
 
 def _fit(task: AnalysisTask, store: Store) -> AnalysisOutcome:
     folder = task.report_dir
-    where = {"pid": os.getpid(), "niceness": os.getpriority(os.PRIO_PROCESS, 0)}
+    pid, niceness = os.getpid(), os.getpriority(os.PRIO_PROCESS, 0)
+    reports: tuple[tuple[int, Path], ...] = ()
     if task.kind == "estimation":
         from api.core.estimation_job import run_estimation
 
         data = run_estimation(store, report_dir=folder, **task.params)
         result_id = data.get("result_id")
-        reports = () if result_id is None else ((result_id, folder),)
-        return AnalysisOutcome(data, result_id, "estimation done", reports=reports, **where)
+        if result_id is not None:
+            reports = ((result_id, folder),)
+        return AnalysisOutcome(data, result_id, "estimation done", pid, niceness, reports=reports)
     from api.core.crosscheck_job import crosscheck_runs
 
     data = crosscheck_runs(store, report_dir=folder, **task.params)
     sides = (("weight_estimation", "weight"), ("thruster_estimation", "thrusters"))
-    reports = ((data["result_id"], folder),) + tuple(
-        (data[key]["result_id"], folder / side) for key, side in sides
-    )
+    reports = ((data["result_id"], folder),)
+    reports += tuple((data[key]["result_id"], folder / side) for key, side in sides)
     message = f"cross-check done: {data['verdict']}"
-    return AnalysisOutcome(data, data["result_id"], message, reports=reports, **where)
+    return AnalysisOutcome(data, data["result_id"], message, pid, niceness, reports=reports)
 
 
 def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutcome:
@@ -131,11 +132,6 @@ def shared_database(url: str) -> bool:
     return not (url.startswith("sqlite") and (":memory:" in url or url.rstrip("/") == "sqlite:"))
 
 
-def _lower_priority() -> None:
-    with contextlib.suppress(OSError):
-        os.nice(ANALYSIS_NICENESS)
-
-
 class ProcessExecutor:
     """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started at the first
     task and kept for the next ones (its imports and compiled fits stay warm). A worker
@@ -153,7 +149,8 @@ class ProcessExecutor:
                 self._pool = concurrent.futures.ProcessPoolExecutor(
                     1,
                     mp_context=multiprocessing.get_context("spawn"),
-                    initializer=_lower_priority,
+                    initializer=lower_priority,
+                    initargs=(ANALYSIS_NICENESS,),
                 )
             return self._pool
 

@@ -30,6 +30,7 @@ from daq.clock import clock_of
 from daq.collector import freeze_after_startup
 from daq.devices import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
+from daq.priority import SIMULATOR_PRIORITY, realtime_process
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
@@ -41,8 +42,6 @@ T = TypeVar("T")
 #: The GIL switch interval while serving: a busy HTTP thread then delays the clock's
 #: thread by at most ~0.5 ms instead of CPython's default 5 ms.
 SWITCH_INTERVAL_S = 0.0005
-#: SCHED_FIFO priority of the in-process simulated rig in real-time mode (the clock: 10).
-SIMULATOR_PRIORITY = 5
 
 
 class RigUnavailable(RuntimeError):
@@ -172,6 +171,7 @@ class RigService:
         self.session = session
         if self.realtime_active:
             await self._raise_simulator(session)
+            realtime_process()  # a thread holding the GIL must not wait behind other work
         forward = asyncio.create_task(self._forward_samples(), name="stream-forward")
         self._ready.set()
         stop = asyncio.ensure_future(self._stop.wait())
