@@ -103,9 +103,8 @@ def main() -> None:
             stats0 = (stats.ticks, stats.skipped_slots, stats.overruns, stats.failed_polls)
             dropped0 = dict(stats.dropped)
             loads, streams = ctx.Queue(), ctx.Queue()
-            load = ctx.Process(
-                target=_load, args=(url, f"/api/runs/{run_id}", args.rate, args.seconds, loads)
-            )
+            path = f"/api/runs/{run_id}"
+            load = ctx.Process(target=_load, args=(url, path, args.rate, args.seconds, loads))
             stream = ctx.Process(target=_stream, args=(url, args.seconds, streams))
             with busy_neighbours(args.busy, args.seconds + 120):
                 load.start()
@@ -119,7 +118,7 @@ def main() -> None:
                         time.sleep(1.0)  # host pacing: let a refused start clear
                 for queue, name in ((loads, "load"), (streams, "stream")):
                     try:
-                        got = queue.get(timeout=args.seconds + 90 if name == "load" else 120)
+                        got = queue.get(timeout=args.seconds + 300 if name == "load" else 120)
                     except Exception as err:  # queue.Empty: the child died or hung
                         harness.append(f"no {name} report: {type(err).__name__}")
                         continue

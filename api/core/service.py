@@ -30,7 +30,7 @@ from daq.clock import clock_of
 from daq.collector import freeze_after_startup
 from daq.devices import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
-from daq.priority import SIMULATOR_PRIORITY, realtime_process
+from daq.priority import SIMULATOR_PRIORITY
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
@@ -171,7 +171,6 @@ class RigService:
         self.session = session
         if self.realtime_active:
             await self._raise_simulator(session)
-            realtime_process()  # a thread holding the GIL must not wait behind other work
         forward = asyncio.create_task(self._forward_samples(), name="stream-forward")
         self._ready.set()
         stop = asyncio.ensure_future(self._stop.wait())
