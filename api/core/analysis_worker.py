@@ -118,7 +118,9 @@ class AnalysisWorker:
             outcome = self.executor_for(store).run(task)
             if outcome.error is not None:
                 if not outcome.bad_input:
-                    log.error("%s job %s failed: %s", kind, job.id, outcome.traceback or outcome.error)
+                    log.error(
+                        "%s job %s failed: %s", kind, job.id, outcome.traceback or outcome.error
+                    )
                 update(job, state=JobState.FAILED, message=outcome.message, error=outcome.error)
                 return
             for result_id, folder in outcome.reports:
