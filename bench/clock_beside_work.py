@@ -4,7 +4,7 @@ Runs the service as ``rig serve`` does (uvicorn, the rig thread, the simulated r
 real-time mode unless ``--no-realtime``), records one tow, then starts two busy neighbours
 (``while True: pass``, bounded in time, killed at the end) and estimates that tow over and
 over through the API while the clock ticks ``--ticks`` times (each job fits in the analysis
-worker process at nice 10, one all the time; the last one is waited for once the
+worker process at nice 5, one all the time; the last one is waited for once the
 neighbours are gone). Prints one JSON document: the clock's lateness p50/p99/max, skipped
 slots, failed polls and queue drops over that window, the estimation jobs and how they ended, the
 worker's pid beside the service's, and the service's resident memory before and after.
@@ -73,7 +73,7 @@ def main() -> None:
             started = 0
             with busy_neighbours(args.busy, bound_s):
                 # An estimation runs all through the window: a new one as soon as one ends
-                # (at nice 10 beside two busy processes it may take the whole window).
+                # (at nice 5 beside two busy processes it may take the whole window).
                 while stats.ticks - start[0] < args.ticks:
                     if job_id is None or http.get(f"/api/jobs/{job_id}").json()["state"] in FINAL:
                         if job_id is not None:

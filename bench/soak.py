@@ -193,7 +193,7 @@ def main() -> None:
 def _tow_and_estimate(
     http, ended: dict[str, int], estimations: list[str], run_ids: list[str]
 ) -> None:
-    """One tow; every fifth one estimated (in the analysis worker, at nice 10) unless the
+    """One tow; every fifth one estimated (in the analysis worker, at nice 5) unless the
     last estimation is still running: not waited for, its ending is read at the end."""
     job = http.post("/api/jobs/tow", json=TOW).json()
     done = wait_job(http, job["id"], FINAL, timeout_s=120)

@@ -32,8 +32,11 @@ from typing import Any, Literal, Protocol
 from daq.priority import lower_priority
 from daq.store import Store
 
-#: Niceness of the analysis worker process: the rig's process and the clock come first.
-ANALYSIS_NICENESS = 10
+#: Niceness of the analysis worker process: the rig's process and the clock come first. Not
+#: 10: beside three processes at normal priority (a test run's workers, a busy host) a fit at
+#: 10 gets ~4 % of the machine and a 10 s fit takes minutes; the clock does not share the
+#: worker's GIL, and in real-time mode no niceness can delay it.
+ANALYSIS_NICENESS = 5
 
 AnalysisKind = Literal["estimation", "crosscheck"]
 
