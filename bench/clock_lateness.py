@@ -3,10 +3,12 @@
 600 ticks at 10 Hz (one minute): lateness = actual tick start - its absolute
 deadline. The simulator runs out of the clock's process (``rig sim`` subprocess, the
 default) or in a background thread with its own loop (``--thread``,
-``SimulatedRigThread``); it is never on the clock's loop. A tow runs during the
+``SimulatedRigThread``); it is never on the clock's loop, and the subprocess runs
+SCHED_FIFO (a PLC has its own CPU: a busy host must not starve it). A tow runs during the
 measurement (2.5 kg hung weight) so the plant integrates while being polled, and
 every sample goes through a subscriber queue into a RunRecorder (SQLite WAL), as in
-a real run. Target: p99 <= 2 ms.
+a real run. Target: p99 <= 2 ms, no skipped slot, no failed poll. (The clock beside an
+estimation job and busy neighbours, in the service: ``bench/clock_beside_work.py``.)
 
 Prints one JSON document.  Usage: ``.venv/bin/python bench/clock_lateness.py [--ticks 600]``
 """
@@ -81,7 +83,9 @@ async def measure(rig: RigConfig, rate_hz: float, ticks: int, realtime: bool) ->
         "skipped_slots": acq.stats.skipped_slots,
         "failed_polls": acq.stats.failed_polls,
         "samples_stored": stored,
-        "pass": pct(99) <= TARGET_P99_S and acq.stats.skipped_slots == 0,
+        "pass": pct(99) <= TARGET_P99_S
+        and acq.stats.skipped_slots == 0
+        and acq.stats.failed_polls == 0,
     }
 
 
@@ -106,7 +110,9 @@ def main() -> None:
             sim = stack.enter_context(SimulatedRigThread(rig))
             conn, where = sim.connection_rig(), "SimulatedRigThread (own thread and loop)"
         else:
-            proc = stack.enter_context(RigSimProcess())
+            # SCHED_FIFO: a stand-in for a PLC with its own CPU. At normal priority a loaded
+            # host starved it past the 50 ms read timeout (19-46 failed polls, issue 35).
+            proc = stack.enter_context(RigSimProcess(realtime=True))
             conn, where = proc.connection_rig(rig), "rig sim subprocess"
         result = {"normal_priority": asyncio.run(measure(conn, args.rate_hz, args.ticks, False))}
         if not args.no_realtime:

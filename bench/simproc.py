@@ -1,4 +1,5 @@
-"""Benchmark plumbing: the simulated rig in its own process, and a baud-paced pty link.
+"""Benchmark plumbing: the simulated rig in its own process, a baud-paced pty link, and
+busy neighbours.
 
 ``RigSimProcess`` runs ``rig sim`` (the product's standalone simulator) as a
 subprocess and parses its ready line, so the simulator never shares a core's GIL
@@ -17,6 +18,7 @@ import subprocess
 import sys
 import time
 import tty
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Self
 
@@ -51,6 +53,23 @@ class _ChildProcess:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class BusyProcess(_ChildProcess):
+    """A neighbour that keeps one core busy (``while True: pass``) for at most ``seconds``
+    (it ends itself then, should the bench die first), at normal priority."""
+
+    def __init__(self, seconds: float) -> None:
+        code = f"import time\nend = time.monotonic() + {seconds!r}\n"
+        code += "while time.monotonic() < end: pass"
+        self.proc = subprocess.Popen([sys.executable, "-c", code])
+
+
+@contextlib.contextmanager
+def busy_neighbours(count: int, seconds: float) -> Iterator[list[BusyProcess]]:
+    """``count`` :class:`BusyProcess` es for the ``with`` block (killed at its end)."""
+    with contextlib.ExitStack() as stack:
+        yield [stack.enter_context(BusyProcess(seconds)) for _ in range(count)]
 
 
 class RigSimProcess(_ChildProcess):

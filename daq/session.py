@@ -31,7 +31,7 @@ from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
 from daq.rig_lock import RigLease, rig_lock
-from daq.safe_state import RELEASE_CHANNELS, SafeState
+from daq.safe_state import RELEASE_CHANNELS, SafeState, engage_brake
 from daq.sample import Sample
 from daq.store import Store
 from daq.thruster_supervisor import ThrusterTelemetry, supervise_thrusters
@@ -326,11 +326,11 @@ class RigSession:
             for name in RELEASE_CHANNELS:
                 if not self.rig.has(name):
                     continue
-                try:
-                    await self.plc.write(name, False)
+                failed = await engage_brake(self.plc, name, self.clock)  # retried
+                if failed is None:
                     engaged.append(name)
-                except Exception as err:
-                    errors.append(f"{name}: {err}")
+                else:
+                    errors.append(f"{name}: {failed}")
         if errors:
             log.warning("safe state incomplete: %s", "; ".join(errors))
         return SafeState(tuple(engaged), zero, tuple(errors))

@@ -1,6 +1,7 @@
-"""The analysis worker: estimations and cross-checks as jobs, one at a time, in one worker
-thread (never on the rig's loop, never on an HTTP thread), and the report figures they draw,
-stored in the database with their result.
+"""The analysis worker: estimations and cross-checks as jobs, one at a time, and the report
+figures they draw, stored in the database with their result. A job thread writes the job's
+states; the fit itself runs where the executor says (``api.core.analysis_executor``): in a
+worker process at lower priority, never in the rig's process (in-memory SQLite aside).
 
 A job here needs no rig: it starts ``running`` at once, ends ``completed`` with its outcome
 and result id or ``failed`` with the error, and cannot be aborted once started.
@@ -11,11 +12,12 @@ from __future__ import annotations
 import concurrent.futures
 import logging
 import shutil
+import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from api.core.analysis_executor import AnalysisExecutor, AnalysisKind, AnalysisTask, executor_for
 from api.core.job_model import Job, without_report_files
 from api.core.job_registry import JobRegistry
 from daq.store import Store
@@ -30,22 +32,27 @@ REPORT_TEXT = ("report.md", "text/markdown; charset=utf-8")
 #: Job kinds this worker runs.
 ANALYSES = ("estimation", "crosscheck")
 
-#: ``fit(store, report_dir)`` → (outcome, result id, closing message).
-Fit = Callable[[Store, Path], tuple[dict[str, Any], int | None, str]]
-
 
 class AnalysisWorker:
-    """Runs estimation and cross-check jobs of ``registry`` in its thread; drawn reports go
-    to ``report_root`` first, then into the database."""
+    """Runs estimation and cross-check jobs of ``registry``, one at a time, through its
+    executor; drawn reports go to ``report_root`` first, then into the database."""
 
     def __init__(self, registry: JobRegistry, report_root: Path) -> None:
         self.registry = registry
         self.report_root = report_root
+        #: Where fits run (:mod:`api.core.analysis_executor`); made at the first job.
+        self.executor: AnalysisExecutor | None = None
+        self._executor_lock = threading.Lock()
+        # One job at a time; this thread only waits for the executor and writes the registry.
         self._pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="estimate")
 
     def close(self) -> None:
-        """Drop the jobs not started, wait for the one running."""
+        """Drop the jobs not started, wait for the one running, end the worker process."""
         self._pool.shutdown(wait=True, cancel_futures=True)
+        with self._executor_lock:
+            executor, self.executor = self.executor, None
+        if executor is not None:
+            executor.close()
 
     # -- estimation ------------------------------------------------------------------------
     def start_estimation(
@@ -56,7 +63,7 @@ class AnalysisWorker:
         user: str | None = None,
         exclude_outliers: bool = False,
     ) -> Job:
-        """Run an estimation in the worker thread (never on the clock's loop), for ``user``;
+        """Run an estimation in the analysis worker (never in the rig's process), for ``user``;
         ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit."""
         params = {
             "run_ids": run_ids,
@@ -67,36 +74,8 @@ class AnalysisWorker:
         label = f"estimation {method} on {len(run_ids)} run(s)"
         job = self.registry.new("estimation", label, params, user_name=user)
         job.run_ids = list(run_ids)
-        self._start(
-            job, self._run_estimation, job, run_ids, method, search_effects, exclude_outliers
-        )
+        self._start(job, "estimation", "fitting", params)
         return job
-
-    def _run_estimation(
-        self,
-        job: Job,
-        run_ids: list[str],
-        method: str,
-        search_effects: bool,
-        exclude_outliers: bool = False,
-    ) -> None:
-        from api.core.estimation_job import run_estimation
-
-        def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
-            data = run_estimation(
-                store,
-                run_ids,
-                method=method,
-                search_effects=search_effects,
-                report_dir=report_dir,
-                exclude_outliers=exclude_outliers,
-            )
-            result_id = data.get("result_id")
-            if result_id is not None:
-                self.adopt_report(result_id, report_dir)
-            return data, result_id, "estimation done"
-
-        self._run(job, "estimation", "fitting", fit)
 
     # -- cross-check -------------------------------------------------------------------------
     def start_crosscheck(
@@ -106,7 +85,7 @@ class AnalysisWorker:
         search_effects: bool = True,
         user: str | None = None,
     ) -> Job:
-        """Estimate both sets of runs and cross-check them, in the worker thread."""
+        """Estimate both sets of runs and cross-check them, in the analysis worker."""
         params = {
             "weight_runs": weight_runs,
             "thruster_runs": thruster_runs,
@@ -115,57 +94,61 @@ class AnalysisWorker:
         label = f"cross-check {len(weight_runs)} weight vs {len(thruster_runs)} thruster run(s)"
         job = self.registry.new("crosscheck", label, params, user_name=user)
         job.run_ids = list(dict.fromkeys([*weight_runs, *thruster_runs]))
-        self._start(job, self._run_crosscheck, job, params)
+        self._start(job, "crosscheck", "fitting both sets", params)
         return job
 
-    def _run_crosscheck(self, job: Job, params: dict[str, Any]) -> None:
-        from api.core.crosscheck_job import crosscheck_runs
-
-        def fit(store: Store, report_dir: Path) -> tuple[dict[str, Any], int | None, str]:
-            data = crosscheck_runs(store, **params, report_dir=report_dir)
-            self.adopt_report(data["result_id"], report_dir)
-            sides = (("weight_estimation", "weight"), ("thruster_estimation", "thrusters"))
-            for key, side in sides:
-                self.adopt_report(data[key]["result_id"], report_dir / side)
-            return data, data["result_id"], f"cross-check done: {data['verdict']}"
-
-        self._run(job, "cross-check", "fitting both sets", fit)
-
-    # -- the worker thread -------------------------------------------------------------------
-    def _start(self, job: Job, work: Callable[..., None], *args: Any) -> None:
-        """Store the new ``job``, hand ``work(*args)`` to the worker thread, publish the job."""
+    # -- the job thread ------------------------------------------------------------------
+    def _start(self, job: Job, kind: AnalysisKind, message: str, params: dict[str, Any]) -> None:
+        """Store the new ``job``, hand it to the job thread, publish the job."""
         self.registry.save(job, event=True)
-        self._pool.submit(work, *args)
+        self._pool.submit(self._run, job, kind, message, params)
         self.registry.publish(job)
 
-    def _run(self, job: Job, what: str, message: str, fit: Fit) -> None:
-        """Run ``fit(store, report_dir)`` as ``job``: ``running`` with ``message``, then
-        ``completed`` with the outcome, result id and message ``fit`` returns, or ``failed``
-        with the error (logged unless it is bad input). The report folder goes and the finish
-        time is stored either way."""
+    def _run(self, job: Job, kind: AnalysisKind, message: str, params: dict[str, Any]) -> None:
+        """Run the analysis as ``job`` through the executor: ``running`` with ``message``,
+        then ``completed`` with the outcome, result id and closing message, or ``failed``
+        with the error (logged with the worker's traceback unless it is bad input). The
+        report figures go into the database, the report folder goes and the finish time is
+        stored either way."""
         store = self.registry.service.store
         assert store is not None
         update = self.registry.update
         update(job, state=JobState.RUNNING, started_at=time.time(), message=message)
         report_dir = self.report_root / f"job-{job.id}"
         try:
-            data, result_id, done = fit(store, report_dir)
-            data = without_report_files(data)  # scratch paths; the figures are stored
+            task = AnalysisTask(kind, params, store.url, report_dir)
+            outcome = self.executor_for(store).run(task)
+            if outcome.error is not None:
+                if not outcome.bad_input:
+                    log.error(
+                        "%s job %s failed: %s", kind, job.id, outcome.traceback or outcome.error
+                    )
+                update(job, state=JobState.FAILED, message=outcome.message, error=outcome.error)
+                return
+            for result_id, folder in outcome.reports:
+                self.adopt_report(result_id, folder)
             update(
                 job,
                 state=JobState.COMPLETED,
                 fraction=1.0,
-                outcome=data,
-                result_id=result_id,
-                message=done,
+                outcome=without_report_files(outcome.data or {}),  # the figures are stored
+                result_id=outcome.result_id,
+                message=outcome.message,
             )
-        except Exception as err:
-            if not isinstance(err, ValueError | KeyError):
-                log.exception("%s job %s failed", what, job.id)
+        except Exception as err:  # the registry or the report store, not the fit
+            log.exception("%s job %s failed", kind, job.id)
             update(job, state=JobState.FAILED, message=f"error: {err}", error=str(err))
         finally:
             shutil.rmtree(report_dir, ignore_errors=True)
             update(job, finished_at=time.time())
+
+    def executor_for(self, store: Store) -> AnalysisExecutor:
+        """The executor of this worker: ``executor`` if set, else (made once) a worker process
+        for a database other processes can open, the job thread for in-memory SQLite."""
+        with self._executor_lock:
+            if self.executor is None:
+                self.executor = executor_for(store)
+            return self.executor
 
     # -- report files (in the database) ------------------------------------------------------
     def adopt_report(self, result_id: int, folder: Path) -> list[str]:

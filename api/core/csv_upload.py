@@ -10,9 +10,7 @@ SQLite) falls back to a worker thread.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import multiprocessing
-import os
 from collections.abc import AsyncIterator
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -20,6 +18,7 @@ from typing import Any
 
 from starlette.concurrency import run_in_threadpool
 
+from daq.priority import lower_priority
 from daq.run_import import import_csv
 from daq.store import Store
 
@@ -35,11 +34,6 @@ async def save_stream(chunks: AsyncIterator[bytes], path: Path) -> int:
             f.write(chunk)
             size += len(chunk)
     return size
-
-
-def _lower_priority() -> None:
-    with contextlib.suppress(OSError):
-        os.nice(IMPORT_NICENESS)
 
 
 def _import(url: str, path: Path, kind: str, options: dict[str, Any]) -> tuple[str, int]:
@@ -69,7 +63,10 @@ async def import_file(store: Store, path: Path, *, kind: str, **options: Any) ->
 
         return await run_in_threadpool(local)
     pool = ProcessPoolExecutor(
-        1, mp_context=multiprocessing.get_context("spawn"), initializer=_lower_priority
+        1,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=lower_priority,  # normal scheduling: a real-time service thread starts it
+        initargs=(IMPORT_NICENESS,),
     )
     try:
         return await asyncio.wrap_future(pool.submit(_import, store.url, path, kind, options))

@@ -6,8 +6,8 @@
   whether the queue may start the next one (a start callback hands it to the rig worker);
 * :class:`~api.core.rig_worker.RigWorker` — procedures on the rig's loop, the operator
   bridge, the controls of a running job and the emergency stop;
-* :class:`~api.core.analysis_worker.AnalysisWorker` — estimations and cross-checks in one
-  worker thread, and their report figures.
+* :class:`~api.core.analysis_worker.AnalysisWorker` — estimations and cross-checks one at a
+  time, fitted in a worker process (``api.core.analysis_executor``), and their report figures.
 
 States are :class:`daq.store.schema.JobState`: ``queued → running ⇄ waiting_for_operator |
 paused → completed | aborted | failed``, ``interrupted`` when the service died while the job

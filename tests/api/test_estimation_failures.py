@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import estimation
+from api.core.analysis_executor import ThreadExecutor
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from daq.run_import import import_csv
@@ -131,6 +132,9 @@ def test_the_api_tells_a_failed_fit_from_bad_input(client, tmp_path, monkeypatch
     assert r.status_code == 201, r.text
     run = r.json()["run_id"]
     monkeypatch.setattr(estimation, "estimate", _broken_fit(NUMERIC[0]))
+    # the fit patched above runs in this process (the service's runs it in a worker process)
+    analysis = client.app.state.runner.analysis
+    monkeypatch.setattr(analysis, "executor", ThreadExecutor(client.app.state.service.store))
     r = client.post("/api/jobs/estimation", json={"run_ids": [run]}, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=60)

@@ -1,0 +1,197 @@
+"""Where an analysis job's fit runs: the seam between the job registry and the fitting.
+
+An analysis (an estimation, a cross-check) is an :class:`AnalysisTask` (what to fit, the
+database it reads and stores into, where to draw its report); running it gives an
+:class:`AnalysisOutcome` (the result document and id, or the error), which
+:class:`api.core.analysis_worker.AnalysisWorker` writes into the job registry.
+:func:`run_analysis` is the one function that turns a task into its outcome; an
+:class:`AnalysisExecutor` says where it runs:
+
+* :class:`ProcessExecutor` (the service's): in a spawned worker process at niceness
+  ``ANALYSIS_NICENESS``, so a fit (170 MB, seconds of CPU, full garbage collections) never
+  shares the GIL, the memory or the CPU priority of the rig's process;
+* :class:`ThreadExecutor`: in the calling thread, on the service's own ``Store`` (a database
+  no other process can open: in-memory SQLite; and tests that patch the fit in process).
+
+A remote executor (Dask distributed, a PostgreSQL-backed queue) is a third class with the
+same two methods: it ships the task (plain data) to a machine that can open the database
+at ``store_url`` and returns the outcome (docs/api.md, "Analysis workers").
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import multiprocessing
+import os
+import threading
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Protocol
+
+from daq.priority import lower_priority
+from daq.store import Store
+
+#: Niceness of the analysis worker process: the rig's process and the clock come first. Not
+#: 10: beside three processes at normal priority (a test run's workers, a busy host) a fit at
+#: 10 gets ~4 % of the machine and a 10 s fit takes minutes; the clock does not share the
+#: worker's GIL, and in real-time mode no niceness can delay it.
+ANALYSIS_NICENESS = 5
+
+AnalysisKind = Literal["estimation", "crosscheck"]
+
+
+@dataclass(frozen=True)
+class AnalysisTask:
+    """One analysis to run: ``kind`` with ``params`` (the keyword arguments of
+    ``run_estimation`` or ``crosscheck_runs`` besides the store and the report folder),
+    on the database at ``store_url``, its report figures drawn into ``report_dir``."""
+
+    kind: AnalysisKind
+    params: dict[str, Any]
+    store_url: str
+    report_dir: Path
+
+
+@dataclass(frozen=True)
+class AnalysisOutcome:
+    """How an analysis ended: ``data`` (the result document, scratch paths included) and
+    ``result_id`` with the closing ``message``, or ``error`` (one line; ``bad_input`` for a
+    ValueError/KeyError naming a field, else ``traceback`` for the log). ``reports`` are the
+    (result id, folder) pairs whose figures belong to a stored result; ``pid`` and
+    ``niceness`` say where it ran."""
+
+    data: dict[str, Any] | None
+    result_id: int | None
+    message: str
+    pid: int
+    niceness: int
+    error: str | None = None
+    bad_input: bool = False
+    traceback: str | None = None
+    reports: tuple[tuple[int, Path], ...] = field(default=())
+
+
+class AnalysisExecutor(Protocol):
+    """Runs analysis tasks somewhere and hands back their outcomes."""
+
+    def run(self, task: AnalysisTask) -> AnalysisOutcome:
+        """Run ``task`` to its end (blocks the calling thread); never raises for a failed fit."""
+        ...
+
+    def close(self) -> None:
+        """Wait for the task running, release the workers."""
+        ...
+
+
+def _fit(task: AnalysisTask, store: Store) -> AnalysisOutcome:
+    folder = task.report_dir
+    pid, niceness = os.getpid(), os.getpriority(os.PRIO_PROCESS, 0)
+    reports: tuple[tuple[int, Path], ...] = ()
+    if task.kind == "estimation":
+        from api.core.estimation_job import run_estimation
+
+        data = run_estimation(store, report_dir=folder, **task.params)
+        result_id = data.get("result_id")
+        if result_id is not None:
+            reports = ((result_id, folder),)
+        return AnalysisOutcome(data, result_id, "estimation done", pid, niceness, reports=reports)
+    from api.core.crosscheck_job import crosscheck_runs
+
+    data = crosscheck_runs(store, report_dir=folder, **task.params)
+    sides = (("weight_estimation", "weight"), ("thruster_estimation", "thrusters"))
+    reports = ((data["result_id"], folder),)
+    reports += tuple((data[key]["result_id"], folder / side) for key, side in sides)
+    message = f"cross-check done: {data['verdict']}"
+    return AnalysisOutcome(data, data["result_id"], message, pid, niceness, reports=reports)
+
+
+def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutcome:
+    """Run ``task`` on ``store`` (default: a ``Store`` opened on ``task.store_url`` and
+    closed after); a failure is an outcome with its error, never an exception."""
+    own = store is None
+    try:
+        db = Store(task.store_url) if store is None else store
+        try:
+            return _fit(task, db)
+        finally:
+            if own:
+                db.close()
+    except Exception as err:
+        return AnalysisOutcome(
+            None,
+            None,
+            f"error: {err}",
+            pid=os.getpid(),
+            niceness=os.getpriority(os.PRIO_PROCESS, 0),
+            error=str(err),
+            bad_input=isinstance(err, ValueError | KeyError),
+            traceback=traceback.format_exc(),
+        )
+
+
+def shared_database(url: str) -> bool:
+    """Can another process open the database at ``url``? (Not in-memory SQLite.)"""
+    return not (url.startswith("sqlite") and (":memory:" in url or url.rstrip("/") == "sqlite:"))
+
+
+class ProcessExecutor:
+    """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started at the first
+    task and kept for the next ones (its imports and compiled fits stay warm). A worker
+    that dies (killed, out of memory) fails its task with one line and is replaced."""
+
+    def __init__(self) -> None:
+        self._pool: concurrent.futures.ProcessPoolExecutor | None = None
+        self._lock = threading.Lock()
+        #: (pid, niceness) of the worker process that ran the last task.
+        self.worker: tuple[int, int] | None = None
+
+    def _workers(self) -> concurrent.futures.ProcessPoolExecutor:
+        with self._lock:
+            if self._pool is None:
+                self._pool = concurrent.futures.ProcessPoolExecutor(
+                    1,
+                    mp_context=multiprocessing.get_context("spawn"),
+                    initializer=lower_priority,
+                    initargs=(ANALYSIS_NICENESS,),
+                )
+            return self._pool
+
+    def run(self, task: AnalysisTask) -> AnalysisOutcome:
+        pool = self._workers()
+        try:
+            outcome = pool.submit(run_analysis, task).result()
+            self.worker = (outcome.pid, outcome.niceness)
+            return outcome
+        except concurrent.futures.process.BrokenProcessPool as err:
+            with self._lock:
+                if self._pool is pool:
+                    self._pool = None
+            pool.shutdown(wait=False, cancel_futures=True)
+            line = f"the analysis worker process ended before the {task.kind} did ({err})"
+            return AnalysisOutcome(None, None, f"error: {line}", os.getpid(), 0, error=line)
+
+    def close(self) -> None:
+        with self._lock:
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+class ThreadExecutor:
+    """Runs tasks in the calling thread on ``store`` (a database only this process can open,
+    or a test that patches the fit in this process)."""
+
+    def __init__(self, store: Store) -> None:
+        self.store = store
+
+    def run(self, task: AnalysisTask) -> AnalysisOutcome:
+        return run_analysis(task, self.store)
+
+    def close(self) -> None:
+        """Nothing to release: tasks ran in their callers' threads."""
+
+
+def executor_for(store: Store) -> AnalysisExecutor:
+    """A worker process for a database others can open, else the calling thread."""
+    return ProcessExecutor() if shared_database(store.url) else ThreadExecutor(store)
