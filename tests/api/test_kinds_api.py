@@ -38,7 +38,9 @@ def test_every_kind_is_served_with_its_request_schema_and_import_fields(client):
     assert decay["schema"] is None and decay["route"] is None  # imported, not run on the rig
     assert decay["methods"] == ["output-error"]
     fields = decay["import"]["schema"]["properties"]
-    assert set(fields) == {"dof", "stiffness", "known_inertia"}
+    assert set(fields) == {
+        "dof", "stiffness", "known_inertia", "stiffness_tolerance", "known_inertia_tolerance"
+    }  # fmt: skip
     assert "heave" in fields["dof"]["anyOf"][0]["enum"]
 
 
