@@ -9,7 +9,8 @@ a time, the same way for the recorder (events of the run, ``daq.procedures.recor
 and for the loader (what a fit leaves out, ``daq.run_data``).
 
 How long a hole a run tolerates is declared per kind (``daq.vocabulary.AxisTerms.
-loss_tolerance_s``); a longer one aborts the run (:data:`SAMPLES_LOST`).
+loss_tolerance_s``); a longer one of the devices' making aborts the run (:data:`SAMPLES_LOST`;
+a busy host's skipped slots are named and left out, ``HOST_SIDE``).
 """
 
 from __future__ import annotations
@@ -30,6 +31,17 @@ MISSED_SLOT = "slot missed"
 NAN_VALUE = "NaN value"
 #: How the reason of a run aborted for a hole beyond its kind's tolerance begins.
 SAMPLES_LOST = "samples lost"
+#: Reasons that are the host's, not the rig's: the PC was late (a slot skipped, a late host
+#: stamp). Named, counted and left out of the fit like any loss, but they do not abort a
+#: run: the devices answered and the rig is safe; a hole they leave that is too long for the
+#: fit makes the loader refuse the run instead (``daq.fit_exclusions``).
+HOST_SIDE = frozenset({MISSED_SLOT, "late slot, no device clock"})
+
+
+def device_side(gap: Gap) -> bool:
+    """Whether ``gap`` holds a loss the rig's devices caused (a failed read, a stale channel,
+    a NaN value), which aborts a run past its kind's tolerance."""
+    return any(reason not in HOST_SIDE for reason in gap.reasons)
 
 
 def loss_reason(quality: int, value_nan: bool = False, *, device_clock: bool = False) -> str | None:

@@ -31,7 +31,7 @@ from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
 from daq.safe_state import RELEASE_CHANNELS, SafeState
 from daq.sample import Quality, Sample
-from daq.sample_losses import SAMPLES_LOST, LossTracker, loss_reason
+from daq.sample_losses import SAMPLES_LOST, LossTracker, device_side, loss_reason
 from daq.session import NO_THRUSTERS, Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import StorageFault, StorageUnavailable, one_line
@@ -203,7 +203,7 @@ class RecordedRun:
             self._loss_event(closed)
         gap = closed or self.losses.open_gap
         hole = closed.hole_s if closed is not None else self.losses.hole_s(sample.t_mono)
-        limit = self.loss_tolerance_s
+        limit = self.loss_tolerance_s if gap is not None and device_side(gap) else None
         if gap is not None and limit is not None and hole > limit and self.lost is None:
             lost = (
                 f"{SAMPLES_LOST}: {gap.count} in {hole:.1f} s at {gap.at_s:.1f} s "
