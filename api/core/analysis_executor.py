@@ -31,6 +31,7 @@ from typing import Any, Literal, Protocol
 
 from daq.priority import lower_priority
 from daq.store import Store
+from daq.store.migrate import shared_by_processes
 
 #: Niceness of the analysis worker process: the rig's process and the clock come first. Not
 #: 10: beside three processes at normal priority (a test run's workers, a busy host) a fit at
@@ -130,11 +131,6 @@ def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutc
         )
 
 
-def shared_database(url: str) -> bool:
-    """Can another process open the database at ``url``? (Not in-memory SQLite.)"""
-    return not (url.startswith("sqlite") and (":memory:" in url or url.rstrip("/") == "sqlite:"))
-
-
 class ProcessExecutor:
     """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started at the first
     task and kept for the next ones (its imports and compiled fits stay warm). A worker
@@ -194,4 +190,4 @@ class ThreadExecutor:
 
 def executor_for(store: Store) -> AnalysisExecutor:
     """A worker process for a database others can open, else the calling thread."""
-    return ProcessExecutor() if shared_database(store.url) else ThreadExecutor(store)
+    return ProcessExecutor() if shared_by_processes(store.url) else ThreadExecutor(store)

@@ -21,6 +21,7 @@ from starlette.concurrency import run_in_threadpool
 from daq.priority import lower_priority
 from daq.run_import import import_csv
 from daq.store import Store
+from daq.store.migrate import shared_by_processes
 
 #: Niceness of the import process: it yields the CPU to the service and the clock.
 IMPORT_NICENESS = 10
@@ -45,17 +46,12 @@ def _import(url: str, path: Path, kind: str, options: dict[str, Any]) -> tuple[s
         store.close()
 
 
-def _shared(url: str) -> bool:
-    """Can another process open this database?"""
-    return not (url.startswith("sqlite") and (":memory:" in url or url.rstrip("/") == "sqlite:"))
-
-
 async def import_file(store: Store, path: Path, *, kind: str, **options: Any) -> tuple[str, int]:
     """Import ``path`` as a completed run; returns (run id, sample count).
 
     ``options``: the keyword arguments of ``daq.store.import_csv`` (parameters, vehicle,
     time_unit, release_time_s, end_time_s)."""
-    if not _shared(store.url):
+    if not shared_by_processes(store.url):
 
         def local() -> tuple[str, int]:
             run_id = import_csv(store, path, kind=kind, **options)

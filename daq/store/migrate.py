@@ -54,6 +54,11 @@ def _create_private(path: Path) -> None:
         os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o600))
 
 
+def shared_by_processes(url: str) -> bool:
+    """Can another process open the database at ``url``? (Not an in-memory SQLite.)"""
+    return not (url.startswith("sqlite") and (":memory:" in url or url.rstrip("/") == "sqlite:"))
+
+
 def create_engine(url: str) -> sa.Engine:
     """An engine for ``url``; SQLite gets WAL, synchronous=NORMAL, foreign keys and a
     busy timeout, and the folder of its file is created; a new database file is private
