@@ -158,7 +158,7 @@ def estimate_records(
     first = windowed[0]
     equivalent = damping_over_swings(
         final,
-        {**known_terms_of(first, setup)},
+        known_terms_of(first, setup),
         dof,
         result.natural_period_s,
         [r.t for r in windowed],

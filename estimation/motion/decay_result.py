@@ -59,17 +59,17 @@ class DecayResult:
     records: tuple[Record, ...] = field(default=(), repr=False, compare=False)
 
     def equivalent_damping(self, amplitude: float) -> EquivalentDamping | None:
-        """B_e at ``amplitude`` (m or rad) at the natural frequency (``motion.equivalent``);
-        None without a fit or a period."""
-        if self.fit is None or self.natural_period_s is None:
+        """B_e at ``amplitude`` (m or rad) at the natural frequency (``motion.equivalent``),
+        with the first record's known terms and weights, as ``equivalent`` has it; None
+        without a fit, its records or a period."""
+        if self.fit is None or self.setup is None or not self.records:
             return None
-        known = {n: c.value for n, c in self.known.items() if n != "inertia"}
-        weights = None
-        if self.records and self.setup is not None:  # the first record's parts and weights
-            known = dict(known_terms_of(self.records[0], self.setup))
-            weights = self.records[0].weights
+        if self.natural_period_s is None:
+            return None
+        first = self.records[0]
         omega = 2 * np.pi / self.natural_period_s
-        return equivalent_damping(self.fit, known, self.dof, amplitude, omega, weights)
+        known = known_terms_of(first, self.setup)
+        return equivalent_damping(self.fit, known, self.dof, amplitude, omega, first.weights)
 
     def to_json(self) -> dict[str, Any]:
         """The result document (docs/estimation.md, *Free decay*)."""

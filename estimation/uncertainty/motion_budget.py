@@ -78,7 +78,7 @@ def motion_budget(
             declared[name] = float(half_width)
     n_eff = effective_sample_size(fit.residuals)
     dof_fit = max(n_eff - fit.n_params, 1.0)
-    units = {**{n: c.unit for n, c in result.coefficients.items()}, **(units or {})}
+    units = {n: c.unit for n, c in result.coefficients.items()} | dict(units or {})
     rows: dict[str, list[BudgetRow]] = {
         n: [
             BudgetRow(
