@@ -133,7 +133,7 @@ def imports_in_a_thread() -> Iterator[None]:
     from api.core import csv_upload
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(csv_upload, "_shared", lambda url: False)
+        patch.setattr(csv_upload, "shared_by_processes", lambda url: False)
         yield
 
 
