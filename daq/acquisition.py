@@ -27,7 +27,6 @@ import contextlib
 import dataclasses
 import logging
 import math
-import os
 import sys
 from collections import deque
 from collections.abc import Callable
@@ -36,6 +35,7 @@ from typing import Protocol
 
 from daq.clock import REAL_CLOCK, Clock
 from daq.plc import Reading
+from daq.priority import restore_scheduling, scheduling, set_realtime
 from daq.sample import Quality, Sample
 
 log = logging.getLogger(__name__)
@@ -111,7 +111,7 @@ class Acquisition:
         #: Time and waiting (``daq.clock``); a simulated clock is on time without spinning.
         self.clock = clock
         self.spin_s = 0.0 if clock.simulated else spin_s
-        #: Ask the OS for real-time scheduling of the clock's thread (see ``set_realtime``).
+        #: Ask the OS for real-time scheduling of the clock's thread (``daq.priority``).
         self.realtime = realtime
         #: Channels of other devices added to each sample as they stand at the read (the
         #: thrusters' telemetry, ``daq.thruster_supervisor``); never waited on, and never
@@ -179,7 +179,7 @@ class Acquisition:
         if self._running:
             raise RuntimeError("this Acquisition is already running")
         self._running, self._stopping = True, False
-        saved = _scheduling() if self.realtime else None
+        saved = scheduling() if self.realtime else None
         if self.realtime:
             set_realtime()
         period = self.period_s
@@ -232,7 +232,7 @@ class Acquisition:
             self._running = False
             sys.setswitchinterval(switch_interval)
             if saved is not None:
-                _restore_scheduling(saved)
+                restore_scheduling(saved)
 
     async def _tick(self, seq: int, overrun: bool) -> Sample:
         quality = Quality.OVERRUN if overrun else Quality.OK
@@ -255,46 +255,6 @@ class Acquisition:
         if quality & Quality.ERROR:
             self.stats.failed_polls += 1
         return Sample(seq, t_mono, t_wall, channels, quality, tuple(stale))
-
-
-def set_realtime(priority: int = 10) -> bool:
-    """Schedule the calling thread SCHED_FIFO at ``priority`` (1-99), else at niceness -10.
-
-    On a busy machine a normal-priority clock wakes up to a few ms late (the
-    scheduler runs someone else first). A real-time thread preempts normal work at
-    once; the clock only spins ``spin_s`` per tick, so it cannot starve the machine.
-    Only the calling thread runs real-time: the policy is set with
-    ``SCHED_RESET_ON_FORK``, so threads it starts later (the event loop's worker threads,
-    the thruster link's) and child processes start at normal priority (checked in
-    ``tests/daq/test_collector.py``). The niceness fallback is inherited by threads it starts.
-    Needs CAP_SYS_NICE (or root); returns False, with a warning, when refused.
-    """
-    if not 1 <= priority <= 99:
-        raise ValueError(f"priority must be within 1..99, got {priority!r}")
-    try:
-        policy = os.SCHED_FIFO | getattr(os, "SCHED_RESET_ON_FORK", 0)
-        os.sched_setscheduler(0, policy, os.sched_param(priority))
-        return True
-    except (OSError, AttributeError) as err:
-        first = err
-    try:
-        os.setpriority(os.PRIO_PROCESS, 0, -10)
-    except OSError as err:
-        log.warning("acquisition clock stays at normal priority: %s; %s", first, err)
-        return False
-    log.warning("acquisition clock: no SCHED_FIFO (%s); running at niceness -10", first)
-    return True
-
-
-def _scheduling() -> tuple[int, os.sched_param, int]:
-    return os.sched_getscheduler(0), os.sched_getparam(0), os.getpriority(os.PRIO_PROCESS, 0)
-
-
-def _restore_scheduling(saved: tuple[int, os.sched_param, int]) -> None:
-    policy, param, niceness = saved
-    with contextlib.suppress(OSError):
-        os.sched_setscheduler(0, policy, param)
-        os.setpriority(os.PRIO_PROCESS, 0, niceness)
 
 
 def _resolve(fut: asyncio.Future) -> None:

@@ -30,6 +30,13 @@ from daq.devices import open_thruster_driver
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
+from daq.priority import (
+    SIMULATOR_PRIORITY,
+    Scheduling,
+    restore_scheduling,
+    scheduling,
+    set_realtime,
+)
 from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState, engage_brake
 from daq.sample import Sample
@@ -109,7 +116,9 @@ class RigSession:
     (``daq.clock``; real time by default). ``devices`` makes the PLC client and thruster
     driver instead of the rig file's own (``daq.devices.DeviceFactory``; tests pass
     ``daq.sim.inprocess.open_inprocess_rig`` with a simulated clock); what it returns is
-    kept as ``sim`` and closed with the session.
+    kept as ``sim`` and closed with the session. ``realtime``: while open, the thread that
+    opened it (the clock's loop) runs SCHED_FIFO and the in-process simulated rig's thread
+    just below it (``daq.priority``; quietly normal where the OS refuses).
     """
 
     def __init__(
@@ -122,8 +131,13 @@ class RigSession:
         owner: str | None = None,
         clock: Clock = REAL_CLOCK,
         devices: DeviceFactory | None = None,
+        realtime: bool = False,
     ) -> None:
         self.source = source
+        self.realtime = realtime
+        #: Whether the OS granted real-time scheduling at ``open`` (with ``realtime``).
+        self.realtime_active = False
+        self._scheduling: Scheduling | None = None
         self.clock = clock
         self._devices = devices
         self.rig = source.rig
@@ -177,6 +191,8 @@ class RigSession:
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
+        if self.realtime:
+            await self._raise_priorities()
         self.plc = made.plc_client if made else PlcClient(conn)
         if connect_timeout_s is None:
             connect_timeout_s = conn.modbus.connect_timeout_s
@@ -236,8 +252,22 @@ class RigSession:
                 await asyncio.to_thread(self.sim.close)
             self.sim = None
         self._has_rig = self._shutting = False
+        if self._scheduling is not None:
+            restore_scheduling(self._scheduling)
+            self._scheduling, self.realtime_active = None, False
         hold_full_collections(False)
         await asyncio.to_thread(self.rig_lock.release)
+
+    async def _raise_priorities(self) -> None:
+        """The clock's loop thread SCHED_FIFO, and the simulated rig's thread below it: it
+        stands in for a PLC with its own CPU, and at normal priority, sharing the GIL, a busy
+        host starved it past the Modbus read timeout for 0.1-0.4 s at a time (a `rig
+        pendulum` aborted for 0.5 s of failed reads in CI at load 6)."""
+        self._scheduling = scheduling()
+        self.realtime_active = set_realtime(warn=False)
+        sim = self.sim
+        if self.realtime_active and self._devices is None and sim is not None:  # its thread
+            await asyncio.to_thread(sim.call, set_realtime, SIMULATOR_PRIORITY)
 
     @property
     def lease_lost(self) -> str | None:

@@ -62,7 +62,9 @@ def _run_procedure(
 
         with ProgressView(not as_json, title) as view:
             try:
-                async with RigSession(source, store) as session:
+                # Real-time where the OS allows, as `rig serve`: on a busy PC the clock and
+                # the simulated PLC keep their time (daq.priority).
+                async with RigSession(source, store, realtime=True) as session:
                     session.run_metadata = run_metadata()  # --operator, --tag, … (cli_metadata)
                     # A lost lease stops whatever the procedure waits on (a run, a prompt).
                     session.add_fault_listener(abort.set)

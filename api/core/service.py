@@ -30,7 +30,6 @@ from daq.clock import clock_of
 from daq.collector import freeze_after_startup
 from daq.devices import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
-from daq.priority import SIMULATOR_PRIORITY
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
@@ -146,10 +145,6 @@ class RigService:
 
     async def _run(self) -> None:
         self._stop = asyncio.Event()
-        if self.realtime:
-            from daq.acquisition import set_realtime
-
-            self.realtime_active = set_realtime()
         operator = PromptOperator(self._ask) if self.ask_operator else None
         assert self.store is not None
         session = RigSession(
@@ -160,6 +155,7 @@ class RigService:
             owner=self.owner,
             clock=clock_of(asyncio.get_running_loop()),
             devices=self._devices,
+            realtime=self.realtime,
         )
         try:
             await session.open()
@@ -169,8 +165,7 @@ class RigService:
             self._ready.set()
             return
         self.session = session
-        if self.realtime_active:
-            await self._raise_simulator(session)
+        self.realtime_active = session.realtime_active
         forward = asyncio.create_task(self._forward_samples(), name="stream-forward")
         self._ready.set()
         stop = asyncio.ensure_future(self._stop.wait())
@@ -193,16 +188,6 @@ class RigService:
             self.session = None
         if session.lease_lost is not None:
             await self._stop.wait()  # keep the loop for whoever is still finishing a job
-
-    async def _raise_simulator(self, session: RigSession) -> None:
-        """Run the in-process simulated rig's thread SCHED_FIFO too (below the clock): it
-        stands in for a PLC with its own CPU, and at normal priority a busy host starved it
-        past the Modbus read timeout, so a real-time clock lost polls (issue 35)."""
-        from daq.acquisition import set_realtime
-        from daq.sim.rig import SimulatedRigThread
-
-        if isinstance(session.sim, SimulatedRigThread):
-            await asyncio.to_thread(session.sim.call, set_realtime, SIMULATOR_PRIORITY)
 
     async def _ask(self, act: OperatorAct) -> None:
         if self.operator_hook is None:

@@ -3,11 +3,14 @@
 The mechanism, on the simulated rig: arming holds generation-2 collections off (young ones
 go on), disarming gives the thresholds back and full collections resume under the same
 load. The pause it saves is measured by ``bench/gc_pause.py``. And the real-time clock's
-policy stays on its own thread (``set_realtime``'s docstring).
+policy stays on its own thread (``set_realtime``'s docstring); a rig session opened real-time
+(``rig serve``, every test command) raises the simulated PLC's thread too, and gives the
+clock's thread its scheduling back when it closes.
 """
 
 from __future__ import annotations
 
+import asyncio
 import gc
 import os
 import threading
@@ -15,8 +18,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from daq.acquisition import set_realtime
 from daq.collector import HELD_THRESHOLD, full_collections_held
+from daq.priority import SIMULATOR_PRIORITY, set_realtime
+from daq.session import RigSession, RigSource
 
 
 def _survivors(rounds: int = 300) -> list[list[list[int]]]:
@@ -94,6 +98,28 @@ def test_threads_a_real_time_thread_starts_run_at_normal_priority():
     if seen["clock"] != os.SCHED_FIFO:
         pytest.skip("SCHED_FIFO refused here (needs CAP_SYS_NICE)")
     assert seen["child"] == os.SCHED_OTHER  # SCHED_RESET_ON_FORK: not inherited
+
+
+@pytest.mark.slow  # the simulated rig's own thread over a real socket
+async def test_a_real_time_session_raises_the_simulated_plc_and_gives_the_clock_back(store):
+    """The simulated PLC stands in for a device with its own CPU: sharing the GIL at normal
+    priority, a busy host starved its thread past the 50 ms read timeout (a `rig pendulum`
+    aborted for 0.5 s of failed reads in CI). Open real-time, it runs SCHED_FIFO just below
+    the clock; closed, the clock's thread runs as before."""
+    before = (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0))
+    async with RigSession(RigSource.load(), store, realtime=True) as session:
+        if not session.realtime_active:
+            if os.environ.get("CI") == "true":
+                pytest.fail("SCHED_FIFO refused under CI (it runs as root)")
+            pytest.skip("SCHED_FIFO refused here (needs CAP_SYS_NICE)")
+        sim = session.sim
+        assert sim is not None
+        policy = await asyncio.to_thread(sim.call, os.sched_getscheduler, 0)
+        param = await asyncio.to_thread(sim.call, os.sched_getparam, 0)
+        assert policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
+        assert param.sched_priority == SIMULATOR_PRIORITY
+        assert os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
+    assert (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0)) == before
 
 
 def test_a_test_command_freezes_the_heap_once_the_rig_is_open(tmp_path, monkeypatch):
