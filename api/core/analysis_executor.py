@@ -9,7 +9,10 @@ database it reads and stores into, where to draw its report); running it gives a
 
 * :class:`ProcessExecutor` (the service's): in a spawned worker process at niceness
   ``ANALYSIS_NICENESS``, so a fit (170 MB, seconds of CPU, full garbage collections) never
-  shares the GIL, the memory or the CPU priority of the rig's process;
+  shares the GIL, the memory or the CPU priority of the rig's process. One per process
+  (:func:`shared_process_executor`), started with the service (:meth:`ProcessExecutor.start`:
+  the fitting and report modules imported while the rig records, ~1.3 s of CPU a spawned
+  worker otherwise spends on the first estimate) and kept while the process lives;
 * :class:`ThreadExecutor`: in the calling thread, on the service's own ``Store`` (a database
   no other process can open: in-memory SQLite; and tests that patch the fit in process).
 
@@ -131,14 +134,24 @@ def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutc
         )
 
 
+def _start_worker() -> None:
+    """The worker process's start: lower its priority, then import what every analysis
+    runs (the fits, the report's figures), so no task waits for it."""
+    lower_priority(ANALYSIS_NICENESS)
+    import api.core.crosscheck_job
+    import api.core.estimation_job  # noqa: F401
+
+
 class ProcessExecutor:
-    """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started at the first
-    task and kept for the next ones (its imports and compiled fits stay warm). A worker
-    that dies (killed, out of memory) fails its task with one line and is replaced."""
+    """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started by
+    :meth:`start` or the first task and kept for the next ones (its imports and compiled
+    fits stay warm). A worker that dies (killed, out of memory) fails its task with one
+    line and is replaced."""
 
     def __init__(self) -> None:
         self._pool: concurrent.futures.ProcessPoolExecutor | None = None
         self._lock = threading.Lock()
+        self._started: concurrent.futures.Future[int] | None = None
         #: (pid, niceness) of the worker process that ran the last task.
         self.worker: tuple[int, int] | None = None
 
@@ -146,12 +159,28 @@ class ProcessExecutor:
         with self._lock:
             if self._pool is None:
                 self._pool = concurrent.futures.ProcessPoolExecutor(
-                    1,
-                    mp_context=multiprocessing.get_context("spawn"),
-                    initializer=lower_priority,
-                    initargs=(ANALYSIS_NICENESS,),
+                    1, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker
                 )
             return self._pool
+
+    def start(self) -> None:
+        """Start the worker process now, in the background (it imports while the caller
+        goes on); idempotent while the worker lives."""
+        pool = self._workers()
+        with self._lock:
+            if self._started is None:
+                self._started = pool.submit(os.getpid)
+
+    @property
+    def started(self) -> bool:
+        """Whether a worker process was started (and not since closed or lost)."""
+        return self._started is not None
+
+    def worker_pid(self, timeout_s: float = 60.0) -> int:
+        """The pid of the worker process :meth:`start` started (starting it if need be)."""
+        self.start()
+        assert self._started is not None
+        return self._started.result(timeout_s)
 
     def run(self, task: AnalysisTask) -> AnalysisOutcome:
         pool = self._workers()
@@ -162,14 +191,14 @@ class ProcessExecutor:
         except concurrent.futures.process.BrokenProcessPool as err:
             with self._lock:
                 if self._pool is pool:
-                    self._pool = None
+                    self._pool, self._started = None, None
             pool.shutdown(wait=False, cancel_futures=True)
             line = f"the analysis worker process ended before the {task.kind} did ({err})"
             return AnalysisOutcome(None, None, f"error: {line}", os.getpid(), 0, error=line)
 
     def close(self) -> None:
         with self._lock:
-            pool, self._pool = self._pool, None
+            pool, self._pool, self._started = self._pool, None, None
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
 
@@ -188,6 +217,17 @@ class ThreadExecutor:
         """Nothing to release: tasks ran in their callers' threads."""
 
 
+_SHARED = ProcessExecutor()
+
+
+def shared_process_executor() -> ProcessExecutor:
+    """This process's analysis worker: one per process, whatever the services started in it
+    (``rig serve`` starts one; a test session many, each reusing the warm worker). Its
+    process ends with this one (``concurrent.futures`` joins it at exit, after the task
+    running)."""
+    return _SHARED
+
+
 def executor_for(store: Store) -> AnalysisExecutor:
-    """A worker process for a database others can open, else the calling thread."""
-    return ProcessExecutor() if shared_by_processes(store.url) else ThreadExecutor(store)
+    """The process's worker for a database others can open, else the calling thread."""
+    return shared_process_executor() if shared_by_processes(store.url) else ThreadExecutor(store)

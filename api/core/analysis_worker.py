@@ -17,7 +17,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-from api.core.analysis_executor import AnalysisExecutor, AnalysisKind, AnalysisTask, executor_for
+from api.core.analysis_executor import (
+    AnalysisExecutor,
+    AnalysisKind,
+    AnalysisTask,
+    ProcessExecutor,
+    executor_for,
+    shared_process_executor,
+)
 from api.core.job_model import Job, without_report_files
 from api.core.job_registry import JobRegistry
 from daq.store import Store
@@ -46,12 +53,21 @@ class AnalysisWorker:
         # One job at a time; this thread only waits for the executor and writes the registry.
         self._pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="estimate")
 
+    def start(self, store: Store) -> None:
+        """Start the executor's worker with the service (``ProcessExecutor.start``), so the
+        first estimate finds its fitting code imported."""
+        executor = self.executor_for(store)
+        if isinstance(executor, ProcessExecutor):
+            executor.start()
+
     def close(self) -> None:
-        """Drop the jobs not started, wait for the one running, end the worker process."""
+        """Drop the jobs not started and wait for the one running. The process's shared
+        worker stays for the next service of this process (``shared_process_executor``);
+        an executor of this worker's own (a test's) is closed."""
         self._pool.shutdown(wait=True, cancel_futures=True)
         with self._executor_lock:
             executor, self.executor = self.executor, None
-        if executor is not None:
+        if executor is not None and executor is not shared_process_executor():
             executor.close()
 
     # -- estimation ------------------------------------------------------------------------

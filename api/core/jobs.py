@@ -98,8 +98,11 @@ class JobRunner(QueueEdits):
         return self.queue.running
 
     def open(self) -> None:
-        """After the service started: mark jobs a dead service left running ``interrupted``
-        and take back the queue, paused until an operator resumes it."""
+        """After the service started: mark jobs a dead service left running ``interrupted``,
+        take back the queue, paused until an operator resumes it, and start the analysis
+        worker (its imports overlap the first test, not the first estimate)."""
+        if self.service.store is not None:
+            self.analysis.start(self.service.store)
         recovered = self.repo.recover_interrupted(self.rig_name)
         if recovered:
             log.warning("marked %d job(s) interrupted: %s", len(recovered), ", ".join(recovered))
