@@ -174,8 +174,8 @@ class InProcessRig:
     def close(self) -> None:
         """Thrusters to zero and both brakes on, as the simulator does when it stops."""
         self.plant.set_commands([0.0] * self.plant.thruster_port.count)
-        self.plant.write("tow_release", 0)
-        self.plant.write("spin_release", 0)
+        self.plant.engage_tow_brake()
+        self.plant.engage_spin_brake()
 
 
 def open_inprocess_rig(rig: RigConfig, scenario: Scenario | None, clock: Clock) -> InProcessRig:
