@@ -31,8 +31,8 @@ class Thrusters(Protocol):
 
     #: Why commands are held at zero (e.g. ``"sensor data stale"``), or None.
     inhibited: str | None
-    #: The first fault since arming (link lost, watchdog trip), or None.
-    fault: ThrusterFault | None
+    @property
+    def fault(self) -> ThrusterFault | None: ...  # the first since arming (link lost, watchdog)
 
     @property
     def confirmed(self) -> tuple[float, ...]: ...  # outputs the controller last confirmed
