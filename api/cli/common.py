@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import re
@@ -81,7 +82,8 @@ def fail(message: str, code: int = 2) -> None:
         if sys.exc_info()[1] is not None:
             traceback.print_exc()
         else:
-            traceback.print_stack(sys._getframe(1))
+            here = inspect.currentframe()
+            traceback.print_stack(here.f_back if here is not None else None)
     parts = [line.strip() for line in str(message).splitlines() if line.strip()]
     click.echo(f"error: {'; '.join(parts)}", err=True)
     sys.exit(code)

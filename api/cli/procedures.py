@@ -34,7 +34,7 @@ from daq.store.faults import StorageFault, StorageUnavailable, one_line
 from daq.vocabulary import RunStatus
 
 
-def _run_procedure(
+def run_procedure(
     rig_file: str | None,
     scenario_file: str | None,
     db_url: str | None,
@@ -183,7 +183,7 @@ def procedure_command(spec: KindSpec) -> click.Command:
     @json_option
     def command(rig_file, scenario_file, db_url, as_json, report_dir=None, **values):
         given = request_fields(request, values)
-        ran = _run_procedure(
+        ran = run_procedure(
             rig_file,
             scenario_file,
             db_url,
@@ -256,7 +256,7 @@ def sequence(file, rest_s, rig_file, scenario_file, db_url, as_json):
     async def body(session, seq, abort, view):
         return await run_sequence(session, seq, control=SequenceControl(abort=abort), progress=view)
 
-    outcome = _run_procedure(rig_file, scenario_file, db_url, validate, body, "sequence", as_json)
+    outcome = run_procedure(rig_file, scenario_file, db_url, validate, body, "sequence", as_json)
     if as_json:
         echo_json(outcome.to_json())
     else:

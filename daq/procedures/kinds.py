@@ -103,7 +103,7 @@ class KindSpec:
     help: str
     #: The request model (``daq.procedures.requests``): API body, CLI options, browser form;
     #: ``checked(raw, rig)`` gives the frozen parameters. ``None``: the rig cannot run it.
-    request: type[requests._ProcedureRequest] | None = None
+    request: type[requests.ProcedureRequest] | None = None
     #: Run the procedure under the rig lock.
     run: Runner = field(default_factory=lambda: _not_on_the_rig)
     #: The job's label from its validated parameters: "tow 4.9 N (thrusters)".

@@ -20,9 +20,9 @@ from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.requests import PendulumRequest as PendulumParameters
 from daq.procedures.steps import (
+    Axis,
     PreconditionFailed,
     RunOutcome,
-    _Axis,
     baseline_then_release,
     check_ready,
     engage_and_log_stop,
@@ -33,7 +33,7 @@ from daq.session import RigSession
 from daq.store.run_events import RunAction
 from daq.vocabulary import RunKind
 
-PENDULUM = _Axis.of(RunKind.PENDULUM)
+PENDULUM = Axis.of(RunKind.PENDULUM)
 
 
 class CycleAmplitude:
