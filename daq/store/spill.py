@@ -23,10 +23,8 @@ from datetime import datetime
 from pathlib import Path
 from typing import IO, Any, Protocol
 
-import sqlalchemy as sa
-
 from daq.sample import Quality, Sample
-from daq.store.faults import one_line
+from daq.store.faults import StorageUnavailable, one_line
 from daq.store.pending_ends import PendingEnds
 from daq.store.records import EventInfo, RunInfo, RunNotFound
 
@@ -214,7 +212,7 @@ def replay_spills(
     """Write back every side file in ``directory`` whose run is in ``store``; returns their
     run ids. Files of other databases, of live recorders, or that still cannot be written
     stay for later (logged). ``database_errors``: re-raise the database's own failure to
-    take them (OperationalError: full, unreachable; after trying every file): the storage
+    take them (:class:`StorageUnavailable`: full, unreachable; after trying every file): the storage
     still fails."""
     directory = Path(directory) if directory is not None else store.spill_dir
     try:
@@ -222,14 +220,14 @@ def replay_spills(
     except OSError:
         return []
     replayed = []
-    failed: sa.exc.OperationalError | None = None
+    failed: StorageUnavailable | None = None
     for path in paths:
         try:
             if _replay_one(store, path):
                 replayed.append(path.stem)
         except Exception as exc:
             log.warning("spill file %s not written back yet: %s", path, one_line(exc))
-            if isinstance(exc, sa.exc.OperationalError):
+            if isinstance(exc, StorageUnavailable):
                 failed = exc
     if database_errors and failed is not None:
         raise failed
