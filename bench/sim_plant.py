@@ -25,7 +25,7 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.sim.plant import STEP_S, Plant
 from daq.sim.plant_channels import write_channel
-from daq.sim.rig import SimulatedRigThread
+from daq.sim.simulated_rig import SimulatedRigThread
 
 
 def plant_speed(seconds: float) -> dict:

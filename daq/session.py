@@ -26,7 +26,7 @@ from daq.acquisition import Acquisition
 from daq.clock import REAL_CLOCK, Clock
 from daq.collector import hold_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
-from daq.devices import open_thruster_driver
+from daq.device_protocols import open_thruster_driver
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
@@ -38,9 +38,9 @@ from daq.thruster_supervisor import ThrusterTelemetry, supervise_thrusters
 from thrusters.driver import ThrusterDriver, ThrusterError
 
 if TYPE_CHECKING:
-    from daq.devices import DeviceFactory, RigDevices, Thrusters
-    from daq.sim.rig import SimulatedRigThread
+    from daq.device_protocols import DeviceFactory, RigDevices, Thrusters
     from daq.sim.scenario import Scenario
+    from daq.sim.simulated_rig import SimulatedRigThread
 
 log = logging.getLogger(__name__)
 
@@ -107,7 +107,7 @@ class RigSession:
 
     ``clock`` is the time of the acquisition clock, the supervisor and the procedures
     (``daq.clock``; real time by default). ``devices`` makes the PLC client and thruster
-    driver instead of the rig file's own (``daq.devices.DeviceFactory``; tests pass
+    driver instead of the rig file's own (``daq.device_protocols.DeviceFactory``; tests pass
     ``daq.sim.inprocess.open_inprocess_rig`` with a simulated clock); what it returns is
     kept as ``sim`` and closed with the session.
     """
@@ -171,7 +171,7 @@ class RigSession:
         if self._devices is not None:
             made = self.sim = self._devices(self.rig, self.source.scenario, self.clock)
         elif self.simulated:
-            from daq.sim.rig import SimulatedRigThread
+            from daq.sim.simulated_rig import SimulatedRigThread
 
             sim = SimulatedRigThread(self.rig, self.source.scenario)
             self.sim = sim

@@ -6,8 +6,8 @@ over 400 lines.
 Layers: ``estimation`` (science on arrays) and ``thrusters`` (the controller) import no other
 package of ours; ``daq`` (devices, runs, storage) imports no ``api``; ``api`` is the top.
 Within ``daq``: the store imports nothing of ``estimation`` (it stores runs; reading other
-tools' CSVs is ``daq.run_import``), and the loader and the store import neither the
-procedures nor the thruster driver (what they share is ``thrusters.config``).
+tools' CSVs is ``daq.csv_import``), and the loader and the store import neither the
+procedures nor the thruster driver (what they share is ``thrusters.settings``).
 Imports anywhere in a module count, inside functions too; those under ``if TYPE_CHECKING:``
 are for the type checker only and do not.
 """
@@ -144,7 +144,7 @@ def test_an_import_against_the_layers_is_found():
         "estimation.data.csv_dialect": {"daq.vocabulary", "estimation.data.window"},
         "thrusters.driver": {"api.core.jobs"},
         "daq.run_data": {"estimation.data.runs", "api.http.app"},
-        "api.cli.main": {"daq.store", "estimation.axis", "thrusters.config"},
+        "api.cli.main": {"daq.store", "estimation.axis", "thrusters.settings"},
     }
     assert _against_the_layers(graph) == [
         "daq.run_data imports api.http.app",
@@ -194,11 +194,11 @@ def test_the_data_path_imports_no_procedure_driver_or_estimation_code():
 
 def test_forbidden_edges_are_found_directly_and_through_other_modules():
     graph = {
-        "daq.store.csvio": {"estimation.data.csv_dialect", "daq.store.records"},
-        "daq.store.records": set(),
-        "daq.run_data": {"daq.procedures.thruster_drive", "daq.middle", "thrusters.config"},
+        "daq.store.csvio": {"estimation.data.csv_dialect", "daq.store.run_records"},
+        "daq.store.run_records": set(),
+        "daq.run_data": {"daq.procedures.thruster_drive", "daq.middle", "thrusters.settings"},
         "daq.middle": {"thrusters.driver"},
-        "daq.run_database": {"daq.procedures.steps"},  # a name that only starts like one
+        "daq.run_database": {"daq.procedures.axis_steps"},  # a name that only starts like one
     }
     assert _forbidden_edges(graph) == [
         "daq.run_data → daq.middle → thrusters.driver",

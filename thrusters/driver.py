@@ -25,10 +25,10 @@ from concurrent.futures import ThreadPoolExecutor
 import serial
 
 from thrusters import protocol as p
-from thrusters.config import MAX_SLEW_INTERVAL_S, CommandLimits, ThrusterPort
 from thrusters.exit_safety import ExitSafety
 from thrusters.link import LinkStats, SerialLink
 from thrusters.link_supervision import LinkSupervisor
+from thrusters.settings import MAX_SLEW_INTERVAL_S, CommandLimits, ThrusterPort
 from thrusters.status import (
     LINK_LOST_AFTER,
     NoReply,

@@ -110,7 +110,7 @@ def user_errors():
     """Turn bad rig files, bad parameters and unknown or ambiguous ids into one clear
     message naming the CLI flag, and exit 2."""
     from daq.procedures.params import ParameterError
-    from daq.store.records import AmbiguousRunId
+    from daq.store.run_records import AmbiguousRunId
 
     ctx = click.get_current_context(silent=True)
     try:

@@ -1,4 +1,4 @@
-"""One ``rig`` command per kind the rig runs (``daq.procedures.kinds.RIG_KINDS``: its name,
+"""One ``rig`` command per kind the rig runs (``daq.procedures.run_kinds.RIG_KINDS``: its name,
 help and options from the kind's entry and request model; ``rig tow``, ``rig spin``, …) and
 ``rig sequence``."""
 
@@ -25,9 +25,9 @@ from api.cli.common import (
 from api.cli.metadata import run_metadata
 from api.cli.options import request_fields, request_options
 from daq.collector import freeze_after_startup
-from daq.procedures.kinds import RIG_KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
+from daq.procedures.run_kinds import RIG_KINDS, KindSpec
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import StorageFault, StorageUnavailable, one_line
@@ -57,7 +57,7 @@ def run_procedure(
     async def main(abort: AbortSignal) -> Any:
         from daq.operator import OperatorActUnavailable
         from daq.plc import DeviceError
-        from daq.procedures.steps import PreconditionFailed
+        from daq.procedures.axis_steps import PreconditionFailed
         from thrusters.driver import ThrusterError
 
         with ProgressView(not as_json, title) as view:
@@ -110,7 +110,7 @@ def _refuse_after_estop(store: Any, source: RigSource) -> None:
     """Exit 1 (nothing opened) while the rig's emergency stop is not acknowledged
     (``rig ack-estop``): the command line moves the rig no sooner than the API."""
     from api.core.rig_guard import RigGuard
-    from daq.store.people import RigEventLog
+    from daq.store.users import RigEventLog
 
     guard = RigGuard(RigEventLog(store, source.rig.rig.name))
     if guard.estop() is not None:

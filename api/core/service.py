@@ -28,7 +28,7 @@ from typing import Any, TypeVar
 from api.core.stream import Broadcaster
 from daq.clock import clock_of
 from daq.collector import freeze_after_startup
-from daq.devices import DeviceFactory
+from daq.device_protocols import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
 from daq.priority import SIMULATOR_PRIORITY
 from daq.rig_lock import RigInUse
@@ -199,7 +199,7 @@ class RigService:
         stands in for a PLC with its own CPU, and at normal priority a busy host starved it
         past the Modbus read timeout, so a real-time clock lost polls (issue 35)."""
         from daq.acquisition import set_realtime
-        from daq.sim.rig import SimulatedRigThread
+        from daq.sim.simulated_rig import SimulatedRigThread
 
         if isinstance(session.sim, SimulatedRigThread):
             await asyncio.to_thread(session.sim.call, set_realtime, SIMULATOR_PRIORITY)

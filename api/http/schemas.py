@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.procedures.kinds import KINDS, all_methods
 from daq.procedures.params import MAX_SEQUENCE_STEPS
 from daq.procedures.requests import ProcedureRequest, StrictRequest
+from daq.procedures.run_kinds import KINDS, all_methods
 from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 

@@ -11,7 +11,7 @@ from pydantic import Field, ValidationInfo, field_validator
 
 from daq.procedures import params as p
 from daq.procedures.params import ParameterError
-from daq.procedures.request_base import Flag, ProcedureRequest, comma_separated_floats, rig_of
+from daq.procedures.procedure_request import Flag, ProcedureRequest, comma_separated_floats, rig_of
 from daq.vocabulary import RunKind
 from estimation.thrust import MIN_POINTS_PER_SIDE
 

@@ -16,10 +16,7 @@ import math
 from collections import deque
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress
-from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.procedures.requests import PendulumRequest as PendulumParameters
-from daq.procedures.steps import (
+from daq.procedures.axis_steps import (
     Axis,
     PreconditionFailed,
     RunOutcome,
@@ -28,6 +25,9 @@ from daq.procedures.steps import (
     engage_and_log_stop,
     run_outcome,
 )
+from daq.procedures.params import Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import PendulumRequest as PendulumParameters
 from daq.sample import Quality, Sample
 from daq.session import RigSession
 from daq.store.run_events import RunAction

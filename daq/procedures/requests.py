@@ -32,7 +32,7 @@ from daq.procedures.calibration_request import (
     calibration_parameters,
 )
 from daq.procedures.params import ParameterError
-from daq.procedures.request_base import (
+from daq.procedures.procedure_request import (
     Baseline,
     Drive,
     Flag,

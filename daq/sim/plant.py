@@ -16,7 +16,7 @@ history does not depend on how often anyone reads it. Equations (SI units):
   − τ_c sgn ω`` (the weight term drops once the cord has run out)
 * thruster i: ``T_ss = F_fs · s^p · (V/V_nom)^q`` with ``s = (|u| − d)/(1 − d)`` above the dead
   band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
-* pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum``, stepped with the rest
+* pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum_plant``, stepped with the rest
 
 The channels the simulated PLC reads and writes map onto this state in
 ``daq.sim.plant_channels``.
@@ -29,9 +29,9 @@ import random
 
 from daq.config import RigConfig
 from daq.sim.friction import sign, stick_slip_step
-from daq.sim.pendulum import SimPendulum
+from daq.sim.pendulum_plant import SimPendulum
 from daq.sim.scenario import Scenario
-from thrusters.config import ThrusterPort
+from thrusters.settings import ThrusterPort
 
 STEP_S = 0.001
 
@@ -72,7 +72,7 @@ class Plant:
         self.spin_release_at: float | None = None
         self.tow_release = False
         self.spin_release = False
-        #: The free-decay pendulum, when the rig file has one (``daq.sim.pendulum``).
+        #: The free-decay pendulum, when the rig file has one (``daq.sim.pendulum_plant``).
         self.pendulum = SimPendulum(rig, self.scenario) if rig.pendulum is not None else None
         self.reset()
 

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from daq.store.channel_units import ColumnInfo, column_infos
-from daq.store.records import EventInfo, ResultInfo, RunInfo, SampleTable
 from daq.store.run_attributes import Attribute, release_time, run_attributes
+from daq.store.run_records import EventInfo, ResultInfo, RunInfo, SampleTable
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -12,7 +12,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from daq.store.base import process_alive
+from daq.store.database import process_alive
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
 from daq.store.spill import spilled_ends

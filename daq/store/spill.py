@@ -26,7 +26,7 @@ from typing import IO, Any, Protocol
 from daq.sample import Quality, Sample
 from daq.store.faults import StorageUnavailable, one_line
 from daq.store.pending_ends import PendingEnds
-from daq.store.records import EventInfo, RunInfo, RunNotFound
+from daq.store.run_records import EventInfo, RunInfo, RunNotFound
 
 log = logging.getLogger(__name__)
 

@@ -22,16 +22,16 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
-from daq.store.base import inserted_id, process_identity, software_version
 from daq.store.calibrations import ImportedCalibrations
+from daq.store.database import inserted_id, process_identity, software_version
 from daq.store.faults import STORE_RETRY_S
 from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
-from daq.store.records import RunInfo, to_datetime
 from daq.store.recovery import interrupted_runs
 from daq.store.run_events import RunEvents, losses_text
 from daq.store.run_metadata import check_run_metadata, merge_run_metadata
 from daq.store.run_query import RunFilter, drive_of
+from daq.store.run_records import RunInfo, to_datetime
 from daq.store.samples import SampleRows
 from daq.store.schema import (
     END_STATUSES,

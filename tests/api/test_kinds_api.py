@@ -11,10 +11,10 @@ from click.testing import CliRunner
 from pydantic import Field
 
 from api.cli.imports import import_
-from daq.capabilities import Needs
 from daq.config import load_rig
-from daq.procedures.kinds import KINDS, RIG_KINDS, KindSpec
-from daq.procedures.request_base import Flag, MaxTime, ProcedureRequest, RigLimit
+from daq.procedures.procedure_request import Flag, MaxTime, ProcedureRequest, RigLimit
+from daq.procedures.run_kinds import KINDS, RIG_KINDS, KindSpec
+from daq.rig_capabilities import Needs
 from daq.vocabulary import RunKind
 from tests.api.conftest import AUTH
 

@@ -12,7 +12,7 @@ from daq.config import RigConfig, RigConfigError, load_rig, parse_rig
 from daq.registers import encode
 from daq.sim.plant import Plant
 from daq.sim.plant_channels import read_channel, write_channel
-from daq.sim.plc import SimulatedPLC
+from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario, parse_scenario
 from tests.sim.test_plc import UNIT, read_si, tcp_client
 from tests.waiting import until

@@ -29,9 +29,9 @@ from api.http.schemas import (
     SequenceRequest,
     error_responses,
 )
-from daq.procedures.kinds import RIG_KINDS, KindSpec
-from daq.store.people import User
+from daq.procedures.run_kinds import RIG_KINDS, KindSpec
 from daq.store.schema import JobState
+from daq.store.users import User
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 403, 409, 422, 423, 503)

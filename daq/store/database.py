@@ -16,7 +16,7 @@ from daq.store import checks
 from daq.store.faults import DatabaseNotOpened, opening_reason
 from daq.store.migrate import create_engine, default_database_url, upgrade_to_head
 from daq.store.packing import SamplePacker
-from daq.store.records import AmbiguousRunId, RunNotFound
+from daq.store.run_records import AmbiguousRunId, RunNotFound
 from daq.store.schema import runs as runs_t
 
 SAMPLE_COLUMNS = "run_id, seq, t_mono, t_wall, quality, stale, channel_values"

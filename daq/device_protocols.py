@@ -22,8 +22,8 @@ if TYPE_CHECKING:
     from daq.config import RigConfig
     from daq.plc import PlcClient
     from daq.sim.scenario import Scenario
-    from thrusters.config import CommandLimits, ThrusterPort
     from thrusters.driver import OutputStep, ThrusterFault, ThrusterStatus
+    from thrusters.settings import CommandLimits, ThrusterPort
 
 
 class Thrusters(Protocol):
@@ -31,6 +31,7 @@ class Thrusters(Protocol):
 
     #: Why commands are held at zero (e.g. ``"sensor data stale"``), or None.
     inhibited: str | None
+
     @property
     def fault(self) -> ThrusterFault | None: ...  # the first since arming (link lost, watchdog)
 

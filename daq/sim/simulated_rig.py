@@ -21,7 +21,7 @@ from typing import Any
 
 from daq.config import RigConfig
 from daq.sim.plant import Plant
-from daq.sim.plc import SimulatedPLC
+from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario
 from thrusters.emulator import ThrusterControllerEmulator
 
