@@ -129,7 +129,7 @@ def import_(
     was: kind, load, hung weight, release and vehicle come from its header."""
     from api.cli.metadata import run_metadata
     from api.core.imports import ImportRequest, plan_import
-    from daq.csv_import import import_csv
+    from daq.csv_to_store import import_csv
     from daq.procedures.params import ParameterError
 
     ctx = click.get_current_context()

@@ -110,7 +110,7 @@ def _refuse_after_estop(store: Any, source: RigSource) -> None:
     """Exit 1 (nothing opened) while the rig's emergency stop is not acknowledged
     (``rig ack-estop``): the command line moves the rig no sooner than the API."""
     from api.core.rig_guard import RigGuard
-    from daq.store.users import RigEventLog
+    from daq.store.people_and_safety_log import RigEventLog
 
     guard = RigGuard(RigEventLog(store, source.rig.rig.name))
     if guard.estop() is not None:

@@ -12,7 +12,7 @@ them; a given release or vehicle overrides it. A tow may declare the body's own
 does not (before the rig file's, then ``unknown``).
 
 What needs the samples (the drive's sign against the motion, one-row files, window times
-within the ``t`` range) is checked by ``daq.csv_import.import_csv`` while it parses.
+within the ``t`` range) is checked by ``daq.csv_to_store.import_csv`` while it parses.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ __all__ = ["IMPORT_KINDS", "ImportPlan", "ImportRequest", "plan_import"]
 
 @dataclass(frozen=True)
 class ImportPlan:
-    """The import to make: ``kind``, the keyword arguments of ``daq.csv_import.import_csv``
+    """The import to make: ``kind``, the keyword arguments of ``daq.csv_to_store.import_csv``
     (``options``) and what the file's export header supplied (``from_header``)."""
 
     kind: str

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
 #: Where each public name lives; imported on first use, so ``daq.store.run_metadata`` or
 #: ``daq.store.run_records`` come without SQLAlchemy, and listing runs without numpy. A CSV
-#: import is ``daq.csv_import.import_csv`` (it reads with estimation's CSV rules).
+#: import is ``daq.csv_to_store.import_csv`` (it reads with estimation's CSV rules).
 _HOME = {
     "export_run_csv": "csv_export",
     "export_run_json": "csv_export",

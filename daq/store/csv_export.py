@@ -3,7 +3,7 @@
 An exported CSV opens with ``#`` comment lines (the run's description, ``# metadata: {…}``
 and ``# units: t=s, …, tow_position=m``), then has columns ``t`` (s since the first sample),
 ``seq``, ``t_mono``, ``t_wall``, ``quality`` and one column per channel (SI; empty = not
-read), each number at its channel's resolution. ``daq.csv_import`` reads such a file back
+read), each number at its channel's resolution. ``daq.csv_to_store`` reads such a file back
 as the same run.
 """
 

@@ -16,7 +16,7 @@ import pyarrow.parquet as pq
 import pytest
 import xarray as xr
 
-from daq.csv_import import import_csv
+from daq.csv_to_store import import_csv
 from daq.export_formats import FORMATS, write_export
 from daq.run_data import load_run_data
 from daq.sample import Quality, Sample

@@ -1,4 +1,4 @@
-"""An import checks what it is told (``api.core.imports`` and ``daq.csv_import.import_csv``):
+"""An import checks what it is told (``api.core.imports`` and ``daq.csv_to_store.import_csv``):
 a towrig export imports back from its own header, the rig file's limits and the direction
 of motion bound the drive, one-row files are refused, and a release may precede the record."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from api.core.imports import ImportRequest, plan_import
-from daq.csv_import import CsvImportError, import_csv
+from daq.csv_to_store import CsvImportError, import_csv
 from daq.procedures.params import ParameterError
 from daq.run_data import load_run_data
 from daq.session import RigSource

@@ -11,7 +11,7 @@ import sqlalchemy as sa
 
 from daq.store import Store
 from daq.store.migrate import alembic_config, create_engine, current_revision, head_revision
-from daq.store.users import (
+from daq.store.people_and_safety_log import (
     ESTOP,
     ESTOP_ACK,
     HOLD,

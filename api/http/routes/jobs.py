@@ -30,8 +30,8 @@ from api.http.schemas import (
     error_responses,
 )
 from daq.procedures.run_kinds import RIG_KINDS, KindSpec
+from daq.store.people_and_safety_log import User
 from daq.store.schema import JobState
-from daq.store.users import User
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 403, 409, 422, 423, 503)

@@ -17,7 +17,7 @@ from daq.procedures.run_kinds import RIG_KINDS, NotCapable, capabilities
 from daq.rig_capabilities import safety
 from daq.session import RigSession
 from daq.store.database import software_version
-from daq.store.users import User
+from daq.store.people_and_safety_log import User
 
 router = APIRouter(prefix="/api", tags=["rig"])
 
