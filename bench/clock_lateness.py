@@ -105,7 +105,7 @@ def main() -> None:
     t0 = time.monotonic()
     with contextlib.ExitStack() as stack:
         if args.thread:
-            from daq.sim.rig import SimulatedRigThread
+            from daq.sim.simulated_rig import SimulatedRigThread
 
             sim = stack.enter_context(SimulatedRigThread(rig))
             conn, where = sim.connection_rig(), "SimulatedRigThread (own thread and loop)"

@@ -24,17 +24,18 @@ from pymodbus.client import ModbusTcpClient
 
 from daq.config import load_rig
 from daq.sim.plant import STEP_S, Plant
-from daq.sim.rig import SimulatedRigThread
+from daq.sim.plant_channels import write_channel
+from daq.sim.simulated_rig import SimulatedRigThread
 
 
 def plant_speed(seconds: float) -> dict:
     rig = load_rig()
     plant = Plant(rig)
     plant.advance(0.0)
-    plant.write("sim_tow_weight", 0.5)
-    plant.write("sim_spin_weight", 0.5)
-    plant.write("tow_release", 1)
-    plant.write("spin_release", 1)
+    write_channel(plant, "sim_tow_weight", 0.5)
+    write_channel(plant, "sim_spin_weight", 0.5)
+    write_channel(plant, "tow_release", 1)
+    write_channel(plant, "spin_release", 1)
     plant.set_commands([0.3, 0.2])
     t0 = time.process_time()
     plant.advance(seconds)

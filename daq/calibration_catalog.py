@@ -18,7 +18,7 @@ from typing import Any
 from daq.calibration_law import at_reference_voltage, law_of
 from daq.store import Store
 from daq.store.calibrations import CalibrationInfo
-from daq.store.records import ResultInfo
+from daq.store.run_records import ResultInfo
 from estimation.thrust.calibration_import import STAND_UNITS
 
 #: How many of the newest runs are searched for a recorded supply voltage.

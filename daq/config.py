@@ -22,7 +22,7 @@ from pydantic import (
 )
 
 from daq.tolerances import Tolerances
-from thrusters.config import ThrusterPort
+from thrusters.settings import ThrusterPort
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_RIG_FILE = PACKAGE_ROOT / "fixtures" / "rigs" / "benbam.toml"
@@ -45,7 +45,7 @@ REGISTER_WIDTH: dict[str, int] = {
 }
 
 #: Channel names the code knows (see README, "Register map"). A rig file lists only those
-#: its rig has; what the rig can do follows from them (``daq.capabilities``).
+#: its rig has; what the rig can do follows from them (``daq.rig_capabilities``).
 STANDARD_CHANNELS = (
     "tow_position",
     "yaw_angle",
@@ -95,7 +95,7 @@ class Geometry(_Strict):
     #: Rotational inertia of the tow pulley (adds J/r² to the towed mass).
     pulley_inertia_kg_m2: NonNegativeFloat = 0.0
     #: Radius the spin weight's cord acts at; a rig without a spin drum leaves it out
-    #: (weight-driven spin tests then need it, see ``daq.capabilities``).
+    #: (weight-driven spin tests then need it, see ``daq.rig_capabilities``).
     spin_drum_radius_m: PositiveFloat | None = None
     spin_drum_inertia_kg_m2: NonNegativeFloat = 0.0
     #: Largest yaw angle the spin cord allows before it is fully unwound.

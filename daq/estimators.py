@@ -1,5 +1,5 @@
 """Per kind, how its stored runs are estimated: one :class:`Estimator` a registry entry
-(``daq.procedures.kinds``) holds — its loader, its fit, its methods and its report.
+(``daq.procedures.run_kinds``) holds — its loader, its fit, its methods and its report.
 
 Runs of kinds that share an estimator are fitted together (a tow and a spin share the axis
 estimator but are two axes: ``api.core.estimation_job`` refuses to mix them). The estimation

@@ -1,5 +1,5 @@
 """Per kind, how a CSV becomes a run: the rules each registry entry's ``imports`` holds
-(``daq.procedures.kinds``), applied by ``api.core.run_import.plan_import``.
+(``daq.procedures.run_kinds``), applied by ``api.core.imports.plan_import``.
 
 - a pendulum free decay takes no drive nor weight and needs a rig file with ``[pendulum]``;
 - a tow or spin takes its signed load (``force_n``/``torque_nm``, not 0; negative is a

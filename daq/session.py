@@ -26,7 +26,7 @@ from daq.acquisition import Acquisition
 from daq.clock import REAL_CLOCK, Clock
 from daq.collector import hold_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
-from daq.devices import open_thruster_driver
+from daq.device_protocols import open_thruster_driver
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
@@ -45,9 +45,9 @@ from daq.thruster_supervisor import ThrusterTelemetry, supervise_thrusters
 from thrusters.driver import ThrusterDriver, ThrusterError
 
 if TYPE_CHECKING:
-    from daq.devices import DeviceFactory, RigDevices, Thrusters
-    from daq.sim.rig import SimulatedRigThread
+    from daq.device_protocols import DeviceFactory, RigDevices, Thrusters
     from daq.sim.scenario import Scenario
+    from daq.sim.simulated_rig import SimulatedRigThread
 
 log = logging.getLogger(__name__)
 
@@ -114,7 +114,7 @@ class RigSession:
 
     ``clock`` is the time of the acquisition clock, the supervisor and the procedures
     (``daq.clock``; real time by default). ``devices`` makes the PLC client and thruster
-    driver instead of the rig file's own (``daq.devices.DeviceFactory``; tests pass
+    driver instead of the rig file's own (``daq.device_protocols.DeviceFactory``; tests pass
     ``daq.sim.inprocess.open_inprocess_rig`` with a simulated clock); what it returns is
     kept as ``sim`` and closed with the session. ``realtime``: while open, the thread that
     opened it (the clock's loop) runs SCHED_FIFO and the in-process simulated rig's thread
@@ -182,17 +182,18 @@ class RigSession:
         self._has_rig = True
         conn = self.rig
         made = None
+        thread: SimulatedRigThread | None = None
         if self._devices is not None:
             made = self.sim = self._devices(self.rig, self.source.scenario, self.clock)
         elif self.simulated:
-            from daq.sim.rig import SimulatedRigThread
+            from daq.sim.simulated_rig import SimulatedRigThread
 
-            sim = SimulatedRigThread(self.rig, self.source.scenario)
+            sim = thread = SimulatedRigThread(self.rig, self.source.scenario)
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
         if self.realtime:
-            await self._raise_priorities()
+            await self._raise_priorities(thread)
         self.plc = made.plc_client if made else PlcClient(conn)
         if connect_timeout_s is None:
             connect_timeout_s = conn.modbus.connect_timeout_s
@@ -258,15 +259,14 @@ class RigSession:
         hold_full_collections(False)
         await asyncio.to_thread(self.rig_lock.release)
 
-    async def _raise_priorities(self) -> None:
+    async def _raise_priorities(self, sim: SimulatedRigThread | None) -> None:
         """The clock's loop thread SCHED_FIFO, and the simulated rig's thread below it: it
         stands in for a PLC with its own CPU, and at normal priority, sharing the GIL, a busy
         host starved it past the Modbus read timeout for 0.1-0.4 s at a time (a `rig
         pendulum` aborted for 0.5 s of failed reads in CI at load 6)."""
         self._scheduling = scheduling()
         self.realtime_active = set_realtime(warn=False)
-        sim = self.sim
-        if self.realtime_active and self._devices is None and sim is not None:  # its thread
+        if self.realtime_active and sim is not None:
             await asyncio.to_thread(sim.call, set_realtime, SIMULATOR_PRIORITY)
 
     @property

@@ -17,7 +17,7 @@ from daq.store.run_events import RunEvents
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from estimation.thrust.drive import Steps, ThrustLayout, drive_from_steps, rebuild_drive
 from estimation.thrust.law import ThrustLaw
-from thrusters.config import MAX_SLEW_INTERVAL_S
+from thrusters.settings import MAX_SLEW_INTERVAL_S
 
 
 def rebuilt_thruster_drive(

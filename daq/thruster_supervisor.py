@@ -21,7 +21,7 @@ import math
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Protocol
 
-from daq.devices import Thrusters
+from daq.device_protocols import Thrusters
 from daq.sample import Quality, Sample
 from daq.vocabulary import thruster_telemetry_channels
 from thrusters.driver import ThrusterDriver, ThrusterError, ThrusterStatus

@@ -3,8 +3,8 @@ it measured at a command (tests/integration/test_hil_chain.py, bench/hil_drive_f
 
 from __future__ import annotations
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.requests import calibration_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.session import RigSession
 
 #: Steps up to 0.8 with 1 s to settle: the commands the comparisons drive at are measured.

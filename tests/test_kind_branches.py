@@ -1,5 +1,5 @@
 """No code branches on a run kind's name (issue 21): what differs per kind is an attribute
-of its registry entry (``daq.procedures.kinds``) or of its axis words (``daq.vocabulary``;
+of its registry entry (``daq.procedures.run_kinds``) or of its axis words (``daq.vocabulary``;
 in ``estimation``, which may not import them, ``estimation.data.driven_axes``), so a new
 kind is one entry, not an ``if kind == "tow"`` in every face.
 
@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 NAMES = frozenset(str(k) for k in RunKind)
 MEMBERS = frozenset(k.name for k in RunKind)
 #: Where the kinds' words are defined: the one place that may name them.
-DEFINING = {"daq/vocabulary.py", "daq/procedures/kinds.py", "estimation/data/driven_axes.py"}
+DEFINING = {"daq/vocabulary.py", "daq/procedures/run_kinds.py", "estimation/data/driven_axes.py"}
 #: Branches not yet removed: the module, and what it decides by the kind's name.
 PENDING: dict[str, str] = {}
 STATIC = ROOT / "api/http/static"

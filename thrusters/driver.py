@@ -14,7 +14,6 @@ driven from one event loop; what it reports (errors, faults, status, output step
 from __future__ import annotations
 
 import asyncio
-import atexit
 import contextlib
 import dataclasses
 import logging
@@ -26,10 +25,10 @@ from concurrent.futures import ThreadPoolExecutor
 import serial
 
 from thrusters import protocol as p
-from thrusters.config import MAX_SLEW_INTERVAL_S, CommandLimits, ThrusterPort
 from thrusters.exit_safety import ExitSafety
 from thrusters.link import LinkStats, SerialLink
-from thrusters.link_supervision import LinkSupervision
+from thrusters.link_supervision import LinkSupervisor
+from thrusters.settings import MAX_SLEW_INTERVAL_S, CommandLimits, ThrusterPort
 from thrusters.status import (
     LINK_LOST_AFTER,
     NoReply,
@@ -58,7 +57,7 @@ log = logging.getLogger(__name__)
 OPEN_QUERY_ATTEMPTS = 5
 
 
-class ThrusterDriver(LinkSupervision, ExitSafety):
+class ThrusterDriver:
     """Driver for the thruster controller named in the rig file's ``[thrusters]`` section.
 
     ``port`` overrides ``cfg.port`` (needed when the rig file says ``"sim"``: the simulated
@@ -109,12 +108,51 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         #: link's thread saw them; when no reply came, when this driver saw the timeout).
         self.last_bracket: tuple[float, float] = (self._t_confirmed, self._t_confirmed)
         self._output_logs: list[list[OutputStep]] = []
-        self._signal_task: asyncio.Task[None] | None = None
-        #: Frames in a row without a valid reply.
-        self.missed_replies = 0
-        #: The first fault since the last ``arm()`` (link lost, watchdog trip), or None.
-        self.fault: ThrusterFault | None = None
-        self._fault_event: asyncio.Event | None = None
+        #: Lost-link and watchdog detection (the fault a run waits for).
+        self.supervisor = LinkSupervisor(clock)
+        #: Zero on SIGINT/SIGTERM and at interpreter exit.
+        self.exit_safety = ExitSafety(self)
+
+    @property
+    def is_open(self) -> bool:
+        return self._link.is_open
+
+    @property
+    def fault(self) -> ThrusterFault | None:
+        """The first fault since the last ``arm()`` (link lost, watchdog trip), or None."""
+        return self.supervisor.fault
+
+    @property
+    def missed_replies(self) -> int:
+        """Frames in a row without a valid reply."""
+        return self.supervisor.missed_replies
+
+    @property
+    def link_lost(self) -> bool:
+        return self.supervisor.link_lost
+
+    async def wait_fault(self) -> ThrusterFault:
+        """Wait until the link is lost or the controller's watchdog trips (since the last
+        ``arm()``) and return that fault."""
+        return await self.supervisor.wait_fault()
+
+    def install_signal_handlers(
+        self,
+        loop: asyncio.AbstractEventLoop | None = None,
+        *,
+        then: Callable[[int], None] | None = None,
+    ) -> None:
+        """On SIGINT/SIGTERM: zero, disarm and close, then ``then(signum)`` (default:
+        re-raise the signal); see :class:`thrusters.exit_safety.ExitSafety`."""
+        self.exit_safety.install_signal_handlers(loop, then=then)
+
+    def write_zero_frames(self) -> None:
+        """Write zero and DISARM frames synchronously on the link, awaiting no reply: the
+        last resort at interpreter exit (``thrusters.exit_safety``)."""
+        self._seq = p.next_seq(self._seq)
+        self._link.write_raw(p.thr_frame(self._seq, [0] * self.count))
+        self._seq = p.next_seq(self._seq)
+        self._link.write_raw(p.disarm_frame(self._seq))
 
     @property
     def stats(self) -> LinkStats:
@@ -134,7 +172,7 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
             raise ThrusterError(
                 f"thruster controller: thrusters.port: cannot open {self._link.url!r}: {err}"
             ) from err
-        atexit.register(self._zero_at_exit)
+        self.exit_safety.register_at_exit()
         self.inhibited = None
         self._clear_fault()
         try:
@@ -166,7 +204,7 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         await self._close_port()
 
     async def _close_port(self) -> None:
-        atexit.unregister(self._zero_at_exit)
+        self.exit_safety.unregister_at_exit()
         if self._executor is not None:
             await self._run(self._link.close)
             self._executor.shutdown(wait=False)
@@ -373,12 +411,20 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
             # Only the watchdog takes the controller out of ARMED without our DISARM.
             self.state = "WDT"
         if was_armed and self.state == "WDT":
-            self._set_fault(
+            self.supervisor.report(
                 "watchdog",
                 "thruster controller watchdog tripped (heartbeats lost): "
                 "thrust went to zero mid-run",
+                self._t_confirmed,
+                self._confirmed,
             )
-        self._supervise(reply, before)
+        armed = self.state == "ARMED"
+        t_confirmed, confirmed = self._t_confirmed, self._confirmed
+        after = self._link.stats
+        if self.supervisor.observe(
+            reply, before, after, armed=armed, t_confirmed=t_confirmed, confirmed=confirmed
+        ):
+            self.inhibited = "thruster link lost"
         if reply is not None and reply.kind == "ACK" and outputs is not None:
             self._confirm(outputs, t_sent, t_reply)
         elif reply is not None and reply.reason == "disarmed":
@@ -390,6 +436,11 @@ class ThrusterDriver(LinkSupervision, ExitSafety):
         """In the link's thread: the reply and its send/reply times, read together (the next
         frame, queued behind this one, must not overwrite the times first)."""
         return self._link.transact(raw, seq), self._link.last_bracket
+
+    def _clear_fault(self) -> None:
+        self.supervisor.clear()
+        if self.inhibited == "thruster link lost":
+            self.inhibited = None
 
     def _expect_ack(self, reply: p.Reply | None, what: str) -> None:
         if reply is None or reply.kind != "ACK":

@@ -125,7 +125,7 @@ class ThrusterControllerEmulator:
 
     def exchange(self, raw: bytes) -> bytes:
         """In process (no port): handle the complete lines of ``raw`` as if they had come
-        down the line and return what the controller answers (``thrusters.inprocess``)."""
+        down the line and return what the controller answers (``thrusters.inprocess_link``)."""
         replies = _Collected()
         self._feed(raw, replies)  # type: ignore[arg-type]
         return bytes(replies.data)

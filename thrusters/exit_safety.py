@@ -1,51 +1,59 @@
 """The thruster driver's last lines of defence: zero and disarm on SIGINT/SIGTERM, and
 zero frames written synchronously at interpreter exit when the driver was never closed.
 
-A mixin of ``ThrusterDriver``: it uses the driver's link, sequence number, ``close()`` and
-``inhibited`` flag, and adds nothing else to its state but the signal task.
+A collaborator of ``ThrusterDriver`` with its own state (the signal task, whether the exit
+hook is registered); it uses only the driver's public face (:class:`Zeroable`).
 """
 
 from __future__ import annotations
 
 import asyncio
+import atexit
 import logging
 import os
 import signal
-from collections.abc import Awaitable, Callable
-from typing import TYPE_CHECKING
-
-from thrusters import protocol as p
-
-if TYPE_CHECKING:
-    from thrusters.link import SerialLink
+from collections.abc import Callable
+from typing import Protocol
 
 log = logging.getLogger("thrusters.driver")
 
 
-class ExitSafety:
-    """Zero on signals and at exit (see the module docstring)."""
+class Zeroable(Protocol):
+    """What exit safety needs of a driver."""
 
-    _link: SerialLink
-    _seq: int
-    count: int
+    #: Why commands are held at zero, or None.
     inhibited: str | None
-    _signal_task: asyncio.Task[None] | None
-    #: The driver's own: command zero, disarm, close the port (never raises).
-    close: Callable[[], Awaitable[None]]
 
     @property
-    def is_open(self) -> bool:
-        return self._link.is_open
+    def is_open(self) -> bool: ...
 
-    def _zero_at_exit(self) -> None:
+    async def close(self) -> None:
+        """Command zero, disarm, close the port (never raises)."""
+
+    def write_zero_frames(self) -> None:
+        """Write zero and DISARM frames synchronously, awaiting no reply."""
+
+
+class ExitSafety:
+    """Zero on signals and at exit (see the module docstring) for ``driver``."""
+
+    def __init__(self, driver: Zeroable) -> None:
+        self.driver = driver
+        self._signal_task: asyncio.Task[None] | None = None
+
+    def register_at_exit(self) -> None:
+        """Write zero frames at interpreter exit unless :meth:`unregister_at_exit` first."""
+        atexit.register(self.zero_at_exit)
+
+    def unregister_at_exit(self) -> None:
+        atexit.unregister(self.zero_at_exit)
+
+    def zero_at_exit(self) -> None:
         """Last resort at interpreter exit: write zero and DISARM frames synchronously."""
-        if not self.is_open:
+        if not self.driver.is_open:
             return
         try:
-            self._seq = p.next_seq(self._seq)
-            self._link.write_raw(p.thr_frame(self._seq, [0] * self.count))
-            self._seq = p.next_seq(self._seq)
-            self._link.write_raw(p.disarm_frame(self._seq))
+            self.driver.write_zero_frames()
             log.warning("thrusters: zero frame written at exit (driver was not closed)")
         except Exception as err:
             log.error("thrusters: zero at exit failed: %s", err)
@@ -68,13 +76,13 @@ class ExitSafety:
     ) -> None:
         if self._signal_task is None:
             log.warning("thrusters: signal %d: zeroing before exit", sig)
-            self.inhibited = "shutting down"
+            self.driver.inhibited = "shutting down"
             self._signal_task = loop.create_task(self._shutdown(loop, sig, then))
 
     async def _shutdown(
         self, loop: asyncio.AbstractEventLoop, sig: int, then: Callable[[int], None] | None
     ) -> None:
-        await self.close()
+        await self.driver.close()
         if then is not None:
             then(sig)
             return

@@ -66,7 +66,7 @@ def _print_entry(entry: dict[str, Any]) -> None:
 @json_option
 def campaign(relative, axes, max_runs, max_minutes, rig_file, scenario_file, db_url, as_json):
     """Measure until certain: the planner picks each test, stops at the target or budget."""
-    from api.cli.procedures import _run_procedure
+    from api.cli.procedures import run_procedure
     from api.core.campaign_session import run_campaign
     from api.core.rig_envelope import envelope_of
     from estimation.design.campaign import Campaign, Target
@@ -87,7 +87,7 @@ def campaign(relative, axes, max_runs, max_minutes, rig_file, scenario_file, db_
         tag = uuid.uuid4().hex[:12]
         return await run_campaign(session, plan, abort=abort, on_entry=printer, tag=tag)
 
-    done = _run_procedure(rig_file, scenario_file, db_url, validate, body, "campaign", as_json)
+    done = run_procedure(rig_file, scenario_file, db_url, validate, body, "campaign", as_json)
     if as_json:
         echo_json(done.to_json())
     else:

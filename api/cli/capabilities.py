@@ -12,9 +12,9 @@ from api.cli.common import echo_json, json_option, rig_option, user_errors
 @json_option
 def capabilities(rig_file: str | None, as_json: bool) -> None:
     """What the rig can do: each test (and drive), or why not; the safety channels it uses."""
-    from daq.capabilities import safety
     from daq.config import load_rig
-    from daq.procedures.kinds import RIG_KINDS, capabilities
+    from daq.procedures.run_kinds import RIG_KINDS, capabilities
+    from daq.rig_capabilities import safety
 
     with user_errors():
         rig = load_rig(rig_file)

@@ -1,6 +1,6 @@
 """The ``rig`` command table: every command's module, attribute and short help, so that
 ``rig --help`` lists them and a command's module is imported only when it runs. The run
-kinds' commands come from their registry entries (``daq.procedures.kinds``); the others are
+kinds' commands come from their registry entries (``daq.procedures.run_kinds``); the others are
 listed here."""
 
 from __future__ import annotations
@@ -164,7 +164,7 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
 def _kind_commands() -> dict[str, tuple[str, str, str]]:
     """``rig <command>`` of each kind the rig runs, as its registry entry names and helps it
     (the registry is read on first use: ``rig token`` never loads it)."""
-    from daq.procedures.kinds import RIG_KINDS
+    from daq.procedures.run_kinds import RIG_KINDS
 
     return {
         str(spec.command): (

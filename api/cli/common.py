@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import re
@@ -81,7 +82,8 @@ def fail(message: str, code: int = 2) -> None:
         if sys.exc_info()[1] is not None:
             traceback.print_exc()
         else:
-            traceback.print_stack(sys._getframe(1))
+            here = inspect.currentframe()
+            traceback.print_stack(here.f_back if here is not None else None)
     parts = [line.strip() for line in str(message).splitlines() if line.strip()]
     click.echo(f"error: {'; '.join(parts)}", err=True)
     sys.exit(code)
@@ -108,7 +110,7 @@ def user_errors():
     """Turn bad rig files, bad parameters and unknown or ambiguous ids into one clear
     message naming the CLI flag, and exit 2."""
     from daq.procedures.params import ParameterError
-    from daq.store.records import AmbiguousRunId
+    from daq.store.run_records import AmbiguousRunId
 
     ctx = click.get_current_context(silent=True)
     try:
@@ -133,15 +135,9 @@ def check_database_folder(db_url: str | None) -> None:
     made on first use."""
     if not db_url:
         return
-    from sqlalchemy.engine import make_url
-    from sqlalchemy.exc import ArgumentError
+    from daq.store.faults import sqlite_file_of
 
-    from daq.store.faults import sqlite_file
-
-    try:
-        file = sqlite_file(make_url(db_url))
-    except ArgumentError:
-        return  # Store says what is wrong with the URL
+    file = sqlite_file_of(db_url)  # None for a URL the store cannot read: it says why
     if file is not None and not file.parent.is_dir():
         fail(
             f"--db: the folder {file.parent} of database {file.name} does not exist "
@@ -152,14 +148,14 @@ def check_database_folder(db_url: str | None) -> None:
 def open_store(db_url: str | None):
     """Open the database; runs left ``running`` by a dead process become ``interrupted``."""
     from daq.store import Store
+    from daq.store.faults import StorageUnavailable, describe, opening_reason
 
     check_database_folder(db_url)
     with user_errors():
         try:
             store = Store(db_url)
-        except Exception as err:  # a bad URL or unreachable server
-            fail(f"--db: cannot open the database: {_database_error(err)}")
-    from daq.store.faults import StorageUnavailable, describe
+        except Exception as err:  # a bad URL or unreachable server (DatabaseNotOpened)
+            fail(f"--db: cannot open the database: {opening_reason(err)}")
 
     try:
         recovered = store.recover_interrupted()  # only runs whose owning process is gone
@@ -176,15 +172,6 @@ def open_store(db_url: str | None):
             err=True,
         )
     return store
-
-
-def _database_error(err: Exception) -> str:
-    """The driver's reason, on one line, without the URL (it may hold a password) or
-    SQLAlchemy's wrapper text."""
-    text = str(getattr(err, "orig", None) or err)
-    text = re.sub(r"\(Background on this error at: [^)]*\)", "", text)
-    text = re.sub(r"\w+://\S*", "<URL>", text)
-    return " ".join(text.split())
 
 
 def report_folder(path: str | None) -> str | None:

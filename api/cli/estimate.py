@@ -20,7 +20,7 @@ from api.cli.common import (
 )
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
-from daq.procedures.kinds import KINDS, all_methods
+from daq.procedures.run_kinds import KINDS, all_methods
 from estimation.data.left_out import LeftOut
 from estimation.uncertainty.text import budget_lines
 

@@ -1,9 +1,9 @@
 """``rig import``: a CSV recorded elsewhere (or a towrig export) as a completed run.
 
 The import's rules (kind, drive, rig limits, the export's header) are
-``api.core.run_import``'s, shared with ``POST /api/runs/import``; this is the command's face.
+``api.core.imports``'s, shared with ``POST /api/runs/import``; this is the command's face.
 The kinds offered and each kind's own options (a free decay's ``--dof``) come from the
-registry's import rules (``daq.procedures.kinds.IMPORT_KINDS``).
+registry's import rules (``daq.procedures.run_kinds.IMPORT_KINDS``).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from api.cli.common import (
     user_errors,
 )
 from api.cli.options import request_fields, request_options
-from daq.procedures.kinds import IMPORT_KINDS, import_fields
+from daq.procedures.run_kinds import IMPORT_KINDS, import_fields
 
 
 @click.command("import")
@@ -128,9 +128,9 @@ def import_(
     with the recorded motion is refused. A towrig export (rig export) imports back as it
     was: kind, load, hung weight, release and vehicle come from its header."""
     from api.cli.metadata import run_metadata
-    from api.core.run_import import ImportRequest, plan_import
+    from api.core.imports import ImportRequest, plan_import
+    from daq.csv_to_store import import_csv
     from daq.procedures.params import ParameterError
-    from daq.run_import import import_csv
 
     ctx = click.get_current_context()
     request = ImportRequest(

@@ -12,11 +12,11 @@ from api.cli.common import db_option, echo_json, json_option, open_store
 from daq.store.schema import JobState
 
 if TYPE_CHECKING:  # imported where used: `rig --help` stays light
-    from daq.store.jobs import JobRepository
+    from daq.store.job_repository import JobRepository
 
 
 def _when(unix_s: float | None) -> str:
-    from daq.store.records import to_datetime
+    from daq.store.run_records import to_datetime
 
     moment = to_datetime(unix_s)
     return moment.astimezone().strftime("%Y-%m-%d %H:%M:%S") if moment else "—"
@@ -57,7 +57,7 @@ def _show_jobs(
 ) -> None:
     """Print the job rows ``read`` takes from the database: JSON, or a table whose first
     column is ``first`` (``empty`` on stderr when there are none)."""
-    from daq.store.jobs import JobRepository
+    from daq.store.job_repository import JobRepository
 
     store = open_store(db_url)
     try:

@@ -37,7 +37,7 @@ def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseEx
 
 #: Bad input (exit 2): unknown or ambiguous ids, bad rig files, bad parameters.
 USER_ERRORS = (
-    ("daq.store.records", ("RunNotFound", "ResultNotFound", "AmbiguousRunId")),
+    ("daq.store.run_records", ("RunNotFound", "ResultNotFound", "AmbiguousRunId")),
     ("daq.config", ("RigConfigError",)),
     ("daq.procedures.params", ("ParameterError",)),
 )
@@ -154,7 +154,7 @@ def _not_on_this_rig() -> list[tuple[str, str]]:
     if not path:
         return []
     from daq.config import RigConfigError, load_rig
-    from daq.procedures.kinds import RIG_KINDS
+    from daq.procedures.run_kinds import RIG_KINDS
 
     try:
         rig = load_rig(path)

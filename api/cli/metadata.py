@@ -70,8 +70,8 @@ def metadata_from_options(
 def with_run_metadata(command: click.Command) -> click.Command:
     """``command`` with the metadata options; their checked values go to
     :func:`run_metadata` before the command body runs (nothing starts on bad input)."""
-    if getattr(command, "_takes_run_metadata", False):
-        return command
+    if any(param.name in NAMES for param in command.params):
+        return command  # it has them already
     command.params.extend(metadata_options())
     body = command.callback
     assert body is not None
@@ -84,7 +84,6 @@ def with_run_metadata(command: click.Command) -> click.Command:
         return body(*args, **kwargs)
 
     command.callback = checked_first
-    command._takes_run_metadata = True  # type: ignore[attr-defined]
     return command
 
 

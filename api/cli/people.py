@@ -43,7 +43,7 @@ def user() -> None:
 @json_option
 def add(name, role, db_url, as_json):
     """Add user NAME and print its token once (only its SHA-256 is stored)."""
-    from daq.store.people import UserRepository, check_user_name
+    from daq.store.people_and_safety_log import UserRepository, check_user_name
 
     try:
         check_user_name(name, "NAME")
@@ -70,8 +70,8 @@ def add(name, role, db_url, as_json):
 @json_option
 def list_users(db_url, as_json):
     """List the users (name, role, when added); never a token."""
-    from daq.store.people import UserRepository
-    from daq.store.records import to_datetime
+    from daq.store.people_and_safety_log import UserRepository
+    from daq.store.run_records import to_datetime
 
     store = open_store(db_url)
     try:
@@ -92,7 +92,7 @@ def list_users(db_url, as_json):
 @db_option
 def remove(name, db_url):
     """Remove user NAME: its token stops working at once."""
-    from daq.store.people import UserRepository
+    from daq.store.people_and_safety_log import UserRepository
 
     store = open_store(db_url)
     try:
@@ -106,7 +106,7 @@ def remove(name, db_url):
 
 def _acting(store: Any, user_name: str) -> Any:
     """The operator ``user_name`` names (exit 2 naming --user otherwise)."""
-    from daq.store.people import User, UserRepository
+    from daq.store.people_and_safety_log import User, UserRepository
 
     if user_name == "default":
         return User("default", "operator")
@@ -126,7 +126,7 @@ def _guard_command(rig_file, db_url, user_name, change) -> None:
     from api.core.job_model import JobConflict
     from api.core.rig_guard import RigGuard
     from daq.config import DEFAULT_RIG_FILE, load_rig
-    from daq.store.people import RigEventLog
+    from daq.store.people_and_safety_log import RigEventLog
 
     with user_errors():
         rig = load_rig(rig_file or DEFAULT_RIG_FILE)

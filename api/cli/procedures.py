@@ -1,4 +1,4 @@
-"""One ``rig`` command per kind the rig runs (``daq.procedures.kinds.RIG_KINDS``: its name,
+"""One ``rig`` command per kind the rig runs (``daq.procedures.run_kinds.RIG_KINDS``: its name,
 help and options from the kind's entry and request model; ``rig tow``, ``rig spin``, …) and
 ``rig sequence``."""
 
@@ -25,16 +25,16 @@ from api.cli.common import (
 from api.cli.metadata import run_metadata
 from api.cli.options import request_fields, request_options
 from daq.collector import freeze_after_startup
-from daq.procedures.kinds import RIG_KINDS, KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
+from daq.procedures.run_kinds import RIG_KINDS, KindSpec
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import StorageFault, StorageUnavailable, one_line
 from daq.vocabulary import RunStatus
 
 
-def _run_procedure(
+def run_procedure(
     rig_file: str | None,
     scenario_file: str | None,
     db_url: str | None,
@@ -57,7 +57,7 @@ def _run_procedure(
     async def main(abort: AbortSignal) -> Any:
         from daq.operator import OperatorActUnavailable
         from daq.plc import DeviceError
-        from daq.procedures.steps import PreconditionFailed
+        from daq.procedures.axis_steps import PreconditionFailed
         from thrusters.driver import ThrusterError
 
         with ProgressView(not as_json, title) as view:
@@ -112,7 +112,7 @@ def _refuse_after_estop(store: Any, source: RigSource) -> None:
     """Exit 1 (nothing opened) while the rig's emergency stop is not acknowledged
     (``rig ack-estop``): the command line moves the rig no sooner than the API."""
     from api.core.rig_guard import RigGuard
-    from daq.store.people import RigEventLog
+    from daq.store.people_and_safety_log import RigEventLog
 
     guard = RigGuard(RigEventLog(store, source.rig.rig.name))
     if guard.estop() is not None:
@@ -185,7 +185,7 @@ def procedure_command(spec: KindSpec) -> click.Command:
     @json_option
     def command(rig_file, scenario_file, db_url, as_json, report_dir=None, **values):
         given = request_fields(request, values)
-        ran = _run_procedure(
+        ran = run_procedure(
             rig_file,
             scenario_file,
             db_url,
@@ -258,7 +258,7 @@ def sequence(file, rest_s, rig_file, scenario_file, db_url, as_json):
     async def body(session, seq, abort, view):
         return await run_sequence(session, seq, control=SequenceControl(abort=abort), progress=view)
 
-    outcome = _run_procedure(rig_file, scenario_file, db_url, validate, body, "sequence", as_json)
+    outcome = run_procedure(rig_file, scenario_file, db_url, validate, body, "sequence", as_json)
     if as_json:
         echo_json(outcome.to_json())
     else:

@@ -143,9 +143,9 @@ def _shown_url(url: str | None) -> str:
     """A database URL as it may be shown in a log: its password masked."""
     if not url:
         return "(default)"
-    from sqlalchemy.engine import make_url
+    from daq.store.faults import shown_url
 
-    return make_url(url).render_as_string(hide_password=True)
+    return shown_url(url)
 
 
 def ui_link(host: str, port: int, token: str) -> str:

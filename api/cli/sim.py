@@ -17,8 +17,8 @@ from typing import Any
 import click
 
 from daq.config import RigConfig, RigConfigError, load_rig
-from daq.sim.rig import SimEndpoints, SimulatedRig
 from daq.sim.scenario import load_scenario
+from daq.sim.simulated_rig import SimEndpoints, SimulatedRig
 
 
 def ready_line(rig: RigConfig, ep: SimEndpoints) -> dict[str, Any]:

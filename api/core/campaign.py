@@ -20,6 +20,7 @@ import contextlib
 import logging
 import threading
 import time
+import weakref
 from typing import TYPE_CHECKING, Any
 
 from api.core.job_model import Job, JobConflict
@@ -52,6 +53,11 @@ def instructions(test: Candidate, g: float, drum_radius_m: float | None) -> str:
     return f"{test.describe()}: hang {kg:.3f} kg {where}"
 
 
+#: Each job runner's campaigns, kept as long as the runner lives.
+_RUNNERS: weakref.WeakKeyDictionary[JobRunner, CampaignRunner] = weakref.WeakKeyDictionary()
+_RUNNERS_LOCK = threading.Lock()
+
+
 class CampaignRunner:
     """The campaigns of one ``JobRunner`` (one per runner: :meth:`of`)."""
 
@@ -61,10 +67,11 @@ class CampaignRunner:
 
     @classmethod
     def of(cls, runner: JobRunner) -> CampaignRunner:
-        existing = getattr(runner, "_campaigns", None)
-        if existing is None:
-            existing = cls(runner)
-            runner._campaigns = existing  # type: ignore[attr-defined]
+        """The one ``CampaignRunner`` of ``runner`` (made on first use)."""
+        with _RUNNERS_LOCK:
+            existing = _RUNNERS.get(runner)
+            if existing is None:
+                existing = _RUNNERS[runner] = cls(runner)
         return existing
 
     def start(self, target: Target, user: str | None = None) -> Job:

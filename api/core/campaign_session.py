@@ -9,8 +9,8 @@ from collections.abc import Callable
 from typing import Any
 
 from daq.fit_exclusions import TooMuchLeftOut
-from daq.procedures.kinds import KINDS
 from daq.procedures.recording import AbortSignal
+from daq.procedures.run_kinds import KINDS
 from daq.run_data import load_run_data
 from daq.sample_losses import SAMPLES_LOST
 from daq.session import RigSession

@@ -18,8 +18,8 @@ from typing import Any
 
 from starlette.concurrency import run_in_threadpool
 
+from daq.csv_to_store import import_csv
 from daq.priority import lower_priority
-from daq.run_import import import_csv
 from daq.store import Store
 from daq.store.migrate import shared_by_processes
 

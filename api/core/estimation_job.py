@@ -17,7 +17,7 @@ from api.core.estimation_failure import fit_subject, fitting
 from api.core.rig_envelope import envelope_of_runs
 from api.core.theory_job import theory_document
 from daq.estimators import Estimator
-from daq.procedures.kinds import KINDS
+from daq.procedures.run_kinds import KINDS
 from daq.store import Store
 
 

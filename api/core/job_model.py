@@ -10,7 +10,7 @@ from typing import Any
 
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import SequenceControl
-from daq.store.records import to_datetime
+from daq.store.run_records import to_datetime
 from daq.store.schema import JobState
 
 

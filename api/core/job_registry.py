@@ -17,7 +17,7 @@ from typing import Any
 from api.core.job_model import Job, JobNotFound
 from api.core.service import RigService
 from daq.store.faults import one_line
-from daq.store.jobs import JobRepository
+from daq.store.job_repository import JobRepository
 from daq.store.schema import JOB_FINAL, JobState
 
 log = logging.getLogger(__name__)

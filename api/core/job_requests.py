@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from daq.procedures.drive_check import check_steps, check_thruster_drive
-from daq.procedures.kinds import RIG_KINDS
+from daq.procedures.run_kinds import RIG_KINDS
 from daq.procedures.sequence import parse_sequence
 from daq.store import Store
 

@@ -41,7 +41,7 @@ from api.core.job_registry import LIST_LIMIT, JobRegistry
 from api.core.queue_edits import QueueEdits
 from api.core.rig_worker import PROCEDURES, RigWorker
 from api.core.service import RigService
-from daq.store.jobs import JobRepository
+from daq.store.job_repository import JobRepository
 from daq.store.schema import JOB_ACTIVE, JOB_FINAL
 
 log = logging.getLogger(__name__)

@@ -11,7 +11,7 @@ from typing import Any, cast
 
 from daq.axis_budget import chain_of, tolerances_of
 from daq.config import RigConfig
-from daq.procedures.kinds import KINDS
+from daq.procedures.run_kinds import KINDS
 from daq.procedures.sequence import load_sequence
 from daq.store import Store
 from daq.vocabulary import AXES

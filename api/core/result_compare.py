@@ -13,7 +13,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from daq.store.records import ResultInfo
+from daq.store.run_records import ResultInfo
 
 #: How many results one comparison takes.
 MIN_COMPARED, MAX_COMPARED = 2, 12

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from daq.config import RigConfig
-from daq.procedures.kinds import KINDS
+from daq.procedures.run_kinds import KINDS
 from daq.store import Store
 from estimation.design.envelope import RigEnvelope
 

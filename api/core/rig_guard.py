@@ -20,7 +20,7 @@ from typing import Any
 
 from api.core.job_model import JobConflict, iso_time
 from api.core.service import RigService, RigUnavailable
-from daq.store.people import ESTOP, ESTOP_ACK, HOLD, RELEASE, RigEventLog, User
+from daq.store.people_and_safety_log import ESTOP, ESTOP_ACK, HOLD, RELEASE, RigEventLog, User
 
 log = logging.getLogger(__name__)
 

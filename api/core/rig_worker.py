@@ -26,9 +26,9 @@ from api.core.job_requests import procedure_from_request
 from api.core.rig_guard import RigGuard, latching_stop
 from api.core.service import RigService
 from daq.operator import OperatorAct
-from daq.procedures.kinds import KINDS, RIG_KINDS
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal
+from daq.procedures.run_kinds import KINDS, RIG_KINDS
 from daq.procedures.sequence import Sequence, SequenceControl
 from daq.rig_lock import RigLockLost
 from daq.session import Aborted, RigBusy
@@ -173,9 +173,9 @@ class RigWorker:
         return report
 
     async def _run_procedure(self, job: Job, params: Any) -> None:
+        from daq.procedures.axis_steps import PreconditionFailed
         from daq.procedures.params import ParameterError
         from daq.procedures.sequence import run_sequence
-        from daq.procedures.steps import PreconditionFailed
 
         update = self.registry.update
         session = self.service.require_session()

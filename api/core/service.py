@@ -28,7 +28,7 @@ from typing import Any, TypeVar
 from api.core.stream import Broadcaster
 from daq.clock import clock_of
 from daq.collector import freeze_after_startup
-from daq.devices import DeviceFactory
+from daq.device_protocols import DeviceFactory
 from daq.operator import OperatorAct, PromptOperator
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource

@@ -16,7 +16,7 @@ from api.core.jobs import JobRunner
 from api.core.service import RigService, RigUnavailable
 from api.http.identity import known_user, operator
 from daq.store import Store
-from daq.store.people import User
+from daq.store.people_and_safety_log import User
 
 bearer = HTTPBearer(
     auto_error=False,

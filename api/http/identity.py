@@ -13,7 +13,7 @@ from typing import Any
 from fastapi import HTTPException, Request
 
 from api.http.auth import presented_token
-from daq.store.people import User, UserRepository
+from daq.store.people_and_safety_log import User, UserRepository
 
 #: The user the service's own token (``rig token``, ``RIG_API_TOKEN``) acts as.
 DEFAULT_USER = User("default", "operator")

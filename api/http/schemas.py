@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.procedures.kinds import KINDS, all_methods
 from daq.procedures.params import MAX_SEQUENCE_STEPS
-from daq.procedures.requests import _ProcedureRequest, _Strict
+from daq.procedures.requests import ProcedureRequest, StrictRequest
+from daq.procedures.run_kinds import KINDS, all_methods
 from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 
@@ -79,7 +79,7 @@ class SequenceStep(BaseModel):
     kind: str = Field(description=" | ".join(RunKind))
 
 
-class SequenceRequest(_ProcedureRequest):
+class SequenceRequest(ProcedureRequest):
     """A sequence, the same content as a sequence TOML file."""
 
     name: str | None = Field(None, max_length=200)
@@ -91,7 +91,7 @@ class SequenceRequest(_ProcedureRequest):
     )
 
 
-class EstimationRequest(_Strict):
+class EstimationRequest(StrictRequest):
     run_ids: list[str] = Field(
         min_length=1, max_length=50, description="Tow or spin run ids, or pendulum run ids."
     )
@@ -111,7 +111,7 @@ class EstimationRequest(_Strict):
     )
 
 
-class CrossCheckRequest(_Strict):
+class CrossCheckRequest(StrictRequest):
     """Two stored estimation results of one axis: weight-driven and thruster-driven."""
 
     weight_result_id: int = Field(
@@ -122,7 +122,7 @@ class CrossCheckRequest(_Strict):
     )
 
 
-class CrossCheckJobRequest(_Strict):
+class CrossCheckJobRequest(StrictRequest):
     """Weight-driven and thruster-driven runs of one axis, estimated and cross-checked."""
 
     weight_runs: list[str] = Field(min_length=1, max_length=50, description="Run ids.")
@@ -221,7 +221,7 @@ class SequenceFileOut(BaseModel):
     )
 
 
-class QueueMoveRequest(_Strict):
+class QueueMoveRequest(StrictRequest):
     position: int = Field(description="New place in the queue, 1 = next to run.")
 
 

@@ -11,7 +11,7 @@ from pydantic import Field, ValidationInfo, field_validator
 
 from daq.procedures import params as p
 from daq.procedures.params import ParameterError
-from daq.procedures.request_base import Flag, _ProcedureRequest, comma_separated_floats, rig_of
+from daq.procedures.procedure_request import Flag, ProcedureRequest, comma_separated_floats, rig_of
 from daq.vocabulary import RunKind
 from estimation.thrust import MIN_POINTS_PER_SIDE
 
@@ -24,7 +24,7 @@ MAX_CALIBRATION_COMMANDS = 50
 _SWEEP = ",".join(f"{c:g}" for c in THRUST_SWEEP_DEFAULT[:2]) + f",...,{THRUST_SWEEP_DEFAULT[-1]:g}"
 
 
-class CalibrationRequest(_ProcedureRequest):
+class CalibrationRequest(ProcedureRequest):
     """A thrust calibration sweep (commands as fractions of full thrust)."""
 
     commands: Annotated[

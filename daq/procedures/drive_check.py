@@ -15,8 +15,8 @@ from typing import Any
 
 from daq.calibration_law import law_of
 from daq.config import RigConfig
-from daq.procedures.kinds import KINDS
 from daq.procedures.params import ParameterError
+from daq.procedures.run_kinds import KINDS
 from daq.procedures.thrust_commands import latest_calibration, law_commands, thruster_commands
 from daq.store import Store
 from daq.vocabulary import DRIVE_FIELD

@@ -10,11 +10,7 @@ from __future__ import annotations
 import logging
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress
-from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.procedures.requests import SpinRequest as SpinParameters
-from daq.procedures.requests import TowRequest as TowParameters
-from daq.procedures.steps import (
+from daq.procedures.axis_steps import (
     SPIN,
     TOW,
     PreconditionFailed,
@@ -27,6 +23,10 @@ from daq.procedures.steps import (
     return_act,
     run_outcome,
 )
+from daq.procedures.params import Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.procedures.thruster_drive import run_thruster_test
 from daq.session import Aborted, RigSession
 from daq.store.run_events import RunAction

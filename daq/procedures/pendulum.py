@@ -16,24 +16,24 @@ import math
 from collections import deque
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress
-from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.procedures.requests import PendulumRequest as PendulumParameters
-from daq.procedures.steps import (
+from daq.procedures.axis_steps import (
+    Axis,
     PreconditionFailed,
     RunOutcome,
-    _Axis,
     baseline_then_release,
     check_ready,
     engage_and_log_stop,
     run_outcome,
 )
+from daq.procedures.params import Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import PendulumRequest as PendulumParameters
 from daq.sample import Quality, Sample
 from daq.session import RigSession
 from daq.store.run_events import RunAction
 from daq.vocabulary import RunKind
 
-PENDULUM = _Axis.of(RunKind.PENDULUM)
+PENDULUM = Axis.of(RunKind.PENDULUM)
 
 
 class CycleAmplitude:

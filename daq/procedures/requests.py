@@ -32,16 +32,16 @@ from daq.procedures.calibration_request import (
     calibration_parameters,
 )
 from daq.procedures.params import ParameterError
-from daq.procedures.request_base import (
+from daq.procedures.procedure_request import (
     Baseline,
     Drive,
     Flag,
     MaxTime,
+    ProcedureRequest,
     RigLimit,
     RunMetadataIn,
-    _ProcedureRequest,
-    _SignedLoad,
-    _Strict,
+    SignedLoadRequest,
+    StrictRequest,
     comma_separated_floats,
     rig_of,
 )
@@ -56,11 +56,11 @@ __all__ = [
     "CalibrationRequest",
     "Flag",
     "PendulumRequest",
+    "ProcedureRequest",
     "RunMetadataIn",
     "SpinRequest",
+    "StrictRequest",
     "TowRequest",
-    "_ProcedureRequest",
-    "_Strict",
     "calibration_parameters",
     "comma_separated_floats",
     "pendulum_parameters",
@@ -69,7 +69,7 @@ __all__ = [
 ]
 
 
-class TowRequest(_SignedLoad):
+class TowRequest(SignedLoadRequest):
     """A tow test: ``force_n`` or ``weight_kg`` (force = weight × the rig's g); ``drive``
     weight|thrusters (thrusters: ``force_n`` through the calibrated inverse map). A negative
     load is a reverse tow: from the far end back toward the start (far-end pulley)."""
@@ -153,7 +153,7 @@ class TowRequest(_SignedLoad):
         )
 
 
-class SpinRequest(_SignedLoad):
+class SpinRequest(SignedLoadRequest):
     """A spin test: ``torque_nm`` or ``weight_kg`` on the drum; ``drive`` weight|thrusters.
     A negative load is a reverse spin (the cord wound the other way round the drum)."""
 
@@ -230,7 +230,7 @@ class SpinRequest(_SignedLoad):
         )  # fmt: skip
 
 
-class PendulumRequest(_ProcedureRequest):
+class PendulumRequest(ProcedureRequest):
     """A pendulum free-decay test (needs a rig file with a ``[pendulum]`` section)."""
 
     start_angle_rad: Annotated[

@@ -29,10 +29,10 @@ from pathlib import Path
 from typing import Any
 
 from daq.config import RigConfig
-from daq.procedures.kinds import RIG_KINDS, StepParameters
+from daq.procedures.axis_steps import RunOutcome
 from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback
-from daq.procedures.steps import RunOutcome
+from daq.procedures.run_kinds import RIG_KINDS, StepParameters
 from daq.session import Aborted, RigSession
 from daq.vocabulary import RunStatus, quoted_kinds
 

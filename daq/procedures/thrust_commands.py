@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from daq.procedures.params import ParameterError
 from daq.store import Store
 from daq.vocabulary import DRIVE_FIELD
-from thrusters.config import ThrusterPort
+from thrusters.settings import ThrusterPort
 
 if TYPE_CHECKING:
     from estimation.thrust.law import ThrustLaw

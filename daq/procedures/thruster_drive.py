@@ -11,11 +11,7 @@ import asyncio
 import logging
 
 from daq.operator import OperatorAct
-from daq.procedures.params import Progress
-from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
-from daq.procedures.requests import SpinRequest as SpinParameters
-from daq.procedures.requests import TowRequest as TowParameters
-from daq.procedures.steps import (
+from daq.procedures.axis_steps import (
     SPIN,
     TOW,
     RunOutcome,
@@ -26,6 +22,10 @@ from daq.procedures.steps import (
     return_act,
     run_outcome,
 )
+from daq.procedures.params import Progress
+from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
+from daq.procedures.requests import SpinRequest as SpinParameters
+from daq.procedures.requests import TowRequest as TowParameters
 from daq.procedures.thrust_commands import (
     latest_calibration,
     law_commands,

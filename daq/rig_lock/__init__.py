@@ -1,7 +1,7 @@
 """One rig, one driver: a lease on the rig's devices, held across processes and hosts.
 
 Every process that opens a rig's devices (``rig serve``, ``rig tow``, …) first takes the
-lease on the devices its rig file points at (``daq.rig_lock.devices``: PLC address and
+lease on the devices its rig file points at (``daq.rig_lock.leased_devices``: PLC address and
 unit, serial ports — not the rig's name, not the database), before any device is touched,
 and holds it until its session is closed. A second process is refused at once, naming the
 device and who holds it::
@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING
 
 import sqlalchemy as sa
 
-from daq.rig_lock.devices import Device, rig_devices
 from daq.rig_lock.holder import (
     LOCK_LOST,
     LockHolder,
@@ -45,6 +44,7 @@ from daq.rig_lock.holder import (
     program_name,
     this_process,
 )
+from daq.rig_lock.leased_devices import Device, rig_devices
 from daq.rig_lock.local import LOCK_DIR_ENV, HostLock, lock_dir
 from daq.rig_lock.postgres import PgLease
 

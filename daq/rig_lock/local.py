@@ -35,8 +35,8 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-from daq.rig_lock.devices import Device
 from daq.rig_lock.holder import LockHolder
+from daq.rig_lock.leased_devices import Device
 
 log = logging.getLogger(__name__)
 

@@ -17,8 +17,8 @@ import threading
 
 import sqlalchemy as sa
 
-from daq.rig_lock.devices import Device
 from daq.rig_lock.holder import LockHolder
+from daq.rig_lock.leased_devices import Device
 
 #: First half of every advisory-lock key: "towr" (the second half is the device's).
 PG_LOCK_CLASS = int.from_bytes(b"towr", "big") & 0x7FFFFFFF

@@ -30,12 +30,12 @@ from daq.clock import Clock
 from daq.config import RigConfig
 from daq.plc import PlcClient
 from daq.sim.plant import Plant
-from daq.sim.plc import SimulatedPLC
-from daq.sim.rig import SimulatedRig, takes_one_argument
+from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario
+from daq.sim.simulated_rig import SimulatedRig, takes_one_argument
 from thrusters.driver import ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
-from thrusters.inprocess import InProcessLink
+from thrusters.inprocess_link import InProcessLink
 
 _BITS = {1: "coil", 2: "discrete", 5: "coil", 15: "coil"}
 
@@ -153,7 +153,7 @@ class InProcessModbus:
 @dataclass
 class InProcessRig:
     """The plant, the simulated devices and the host's clients on one clock (a
-    ``daq.devices.RigDevices``; a session keeps it as ``session.sim``)."""
+    ``daq.device_protocols.RigDevices``; a session keeps it as ``session.sim``)."""
 
     plant: Plant
     plc: SimulatedPLC
@@ -174,8 +174,8 @@ class InProcessRig:
     def close(self) -> None:
         """Thrusters to zero and both brakes on, as the simulator does when it stops."""
         self.plant.set_commands([0.0] * self.plant.thruster_port.count)
-        self.plant.write("tow_release", 0)
-        self.plant.write("spin_release", 0)
+        self.plant.engage_tow_brake()
+        self.plant.engage_spin_brake()
 
 
 def open_inprocess_rig(rig: RigConfig, scenario: Scenario | None, clock: Clock) -> InProcessRig:

@@ -16,7 +16,7 @@ history does not depend on how often anyone reads it. Equations (SI units):
   − τ_c sgn ω`` (the weight term drops once the cord has run out)
 * thruster i: ``T_ss = F_fs · s^p · (V/V_nom)^q`` with ``s = (|u| − d)/(1 − d)`` above the dead
   band d (reverse × ratio), and ``Ṫ = (T_ss − T)/τ_T``
-* pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum``, stepped with the rest
+* pendulum (rig files with ``[pendulum]``): ``daq.sim.pendulum_plant``, stepped with the rest
 
 The channels the simulated PLC reads and writes map onto this state in
 ``daq.sim.plant_channels``.
@@ -29,10 +29,9 @@ import random
 
 from daq.config import RigConfig
 from daq.sim.friction import sign, stick_slip_step
-from daq.sim.pendulum import SimPendulum
-from daq.sim.plant_channels import read_channel, write_channel
+from daq.sim.pendulum_plant import SimPendulum
 from daq.sim.scenario import Scenario
-from thrusters.config import ThrusterPort
+from thrusters.settings import ThrusterPort
 
 STEP_S = 0.001
 
@@ -73,7 +72,7 @@ class Plant:
         self.spin_release_at: float | None = None
         self.tow_release = False
         self.spin_release = False
-        #: The free-decay pendulum, when the rig file has one (``daq.sim.pendulum``).
+        #: The free-decay pendulum, when the rig file has one (``daq.sim.pendulum_plant``).
         self.pendulum = SimPendulum(rig, self.scenario) if rig.pendulum is not None else None
         self.reset()
 
@@ -310,21 +309,23 @@ class Plant:
             out.append((rpm, self.thruster_current_a(t)))
         return out
 
-    # ---- channels (what the PLC serves: ``daq.sim.plant_channels``) ----------------------
-    def read(self, name: str) -> float | None:
-        """SI value of a standard channel, as the PLC would report it now (None: unknown)."""
-        return read_channel(self, name)
+    # ---- brakes and stop (the channels the PLC serves: ``daq.sim.plant_channels``) -------
+    def engage_tow_brake(self) -> None:
+        """Drop the tow release: the brake holds the carriage at once (speed 0 m/s)."""
+        self.tow_release, self.tow_release_at, self.tow_braked = False, None, True
+        self.velocity_m_s = 0.0
 
-    def write(self, name: str, value: float) -> bool:
-        """Apply a write to a standard channel; False if the plant does not know it."""
-        return write_channel(self, name, value)
+    def engage_spin_brake(self) -> None:
+        """Drop the spin release: the brake holds the turntable at once (0 rad/s)."""
+        self.spin_release, self.spin_release_at, self.spin_braked = False, None, True
+        self.yaw_rate_rad_s = 0.0
 
     def press_estop(self, pressed: bool = True) -> None:
         """Emergency stop: brakes engage, releases drop, thruster commands go to zero."""
         self.estop = pressed
         if pressed:
-            self.write("tow_release", 0)
-            self.write("spin_release", 0)
+            self.engage_tow_brake()
+            self.engage_spin_brake()
             self.commands = [0.0] * len(self.commands)
 
     # ---- closed-form helpers -------------------------------------------------------------

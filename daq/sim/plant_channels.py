@@ -6,10 +6,8 @@ switches)."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from daq.sim.plant import Plant
+from daq.sim.plant import Plant
 
 #: The PLC's heartbeat counter counts up once per this many seconds of simulated time.
 HEARTBEAT_PERIOD_S = 0.01
@@ -67,16 +65,14 @@ def write_channel(plant: Plant, name: str, value: float) -> bool:
                 plant.tow_release = True
                 plant.tow_release_at = t + delay
         elif not on:
-            plant.tow_release, plant.tow_release_at, plant.tow_braked = False, None, True
-            plant.velocity_m_s = 0.0
+            plant.engage_tow_brake()
     elif name == "spin_release":
         if on and not plant.estop:
             if not plant.spin_release:
                 plant.spin_release = True
                 plant.spin_release_at = t + delay
         elif not on:
-            plant.spin_release, plant.spin_release_at, plant.spin_braked = False, None, True
-            plant.yaw_rate_rad_s = 0.0
+            plant.engage_spin_brake()
     elif name == "sim_tow_weight":
         _check_weight(name, value)
         plant.tow_weight_kg = float(value)

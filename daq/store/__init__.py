@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from daq.store.csv_export import export_run_csv, export_run_json
-    from daq.store.jobs import JobRepository
+    from daq.store.job_repository import JobRepository
     from daq.store.loaded_run import LoadedRun
     from daq.store.migrate import default_database_path, default_database_url
     from daq.store.recorder import RecorderStats, RunRecorder
-    from daq.store.records import (
+    from daq.store.run_records import (
         AmbiguousRunId,
         DuplicateSample,
         EventInfo,
@@ -32,8 +32,8 @@ if TYPE_CHECKING:
     from daq.store.store import Store
 
 #: Where each public name lives; imported on first use, so ``daq.store.run_metadata`` or
-#: ``daq.store.records`` come without SQLAlchemy, and listing runs without numpy. A CSV
-#: import is ``daq.run_import.import_csv`` (it reads with estimation's CSV rules).
+#: ``daq.store.run_records`` come without SQLAlchemy, and listing runs without numpy. A CSV
+#: import is ``daq.csv_to_store.import_csv`` (it reads with estimation's CSV rules).
 _HOME = {
     "export_run_csv": "csv_export",
     "export_run_json": "csv_export",
@@ -44,13 +44,13 @@ _HOME = {
     "END_STATUSES": "schema",
     "RUN_STATUSES": "schema",
     "JobState": "schema",
-    "JobRepository": "jobs",
+    "JobRepository": "job_repository",
     "LoadedRun": "loaded_run",
     "Store": "store",
     **dict.fromkeys(
         ("AmbiguousRunId", "DuplicateSample", "EventInfo", "ResultInfo", "ResultNotFound",
          "RunInfo", "RunNotFound", "SampleTable"),
-        "records",
+        "run_records",
     ),
 }  # fmt: skip
 

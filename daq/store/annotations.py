@@ -10,8 +10,8 @@ from datetime import datetime
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.base import StoreBase, created_stamp, inserted_id
-from daq.store.records import EventInfo, ResultInfo, ResultNotFound, to_datetime
+from daq.store.database import StoreBase, created_stamp, inserted_id
+from daq.store.run_records import EventInfo, ResultInfo, ResultNotFound, to_datetime
 from daq.store.schema import events, result_runs, results, vehicles
 from daq.store.schema import runs as runs_t
 

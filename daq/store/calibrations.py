@@ -9,8 +9,8 @@ from typing import Any
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.base import StoreBase, created_stamp, inserted_id
-from daq.store.records import to_datetime
+from daq.store.database import StoreBase, created_stamp, inserted_id
+from daq.store.run_records import to_datetime
 from daq.store.schema import thrust_calibrations
 
 #: The largest id a calibration can have (64-bit keys).

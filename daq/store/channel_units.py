@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from daq.store.records import RunInfo, SampleTable
+from daq.store.run_records import RunInfo, SampleTable
 from daq.vocabulary import AXES, DRIVE_FIELD, LOGGED_DRIVE_CHANNEL, thruster_telemetry_unit
 
 #: Decimals of the time columns (1 µs; the store keeps start times to the µs as well).

@@ -3,7 +3,7 @@
 An exported CSV opens with ``#`` comment lines (the run's description, ``# metadata: {…}``
 and ``# units: t=s, …, tow_position=m``), then has columns ``t`` (s since the first sample),
 ``seq``, ``t_mono``, ``t_wall``, ``quality`` and one column per channel (SI; empty = not
-read), each number at its channel's resolution. ``daq.run_import`` reads such a file back
+read), each number at its channel's resolution. ``daq.csv_to_store`` reads such a file back
 as the same run.
 """
 
@@ -18,8 +18,8 @@ from typing import TextIO
 
 from daq.store.channel_units import at_resolution, column_infos, table_at_resolution, units_line
 from daq.store.export_header import EXPORT_MARK
-from daq.store.records import EventInfo, RunInfo
 from daq.store.run_attributes import MULTILINE, release_time, run_attributes
+from daq.store.run_records import EventInfo, RunInfo
 from daq.store.store import Store
 
 #: A line of an export starting with this is a comment (``estimation.data.csv_dialect``

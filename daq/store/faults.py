@@ -11,6 +11,7 @@ SQLite file's name: never a host path), so callers catch that, not SQLAlchemy's 
 from __future__ import annotations
 
 import errno
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +31,12 @@ STORE_RETRY_S = 30.0
 
 class StorageFault(RuntimeError):
     """Samples or a run's end could not be stored; the message is one line."""
+
+
+class DatabaseNotOpened(StorageFault):
+    """The store could not open its database: a bad URL, a missing driver, a server that
+    cannot be reached. The message is the driver's reason on one line, any URL in it
+    masked (it may hold a password)."""
 
 
 class StorageUnavailable(StorageFault, sa.exc.OperationalError):
@@ -159,6 +166,29 @@ def guard_engine(engine: sa.Engine) -> sa.Engine:
 
     sa.event.listen(engine, "handle_error", translate)
     return engine
+
+
+def opening_reason(exc: BaseException) -> str:
+    """Why a database could not be opened: the driver's reason (not SQLAlchemy's wrapper
+    text, nor its help link) on one line, every URL in it shown as ``<URL>``."""
+    text = str(getattr(exc, "orig", None) or exc)
+    text = re.sub(r"\(Background on this error at: [^)]*\)", "", text)
+    text = re.sub(r"\w+://\S*", "<URL>", text)
+    return " ".join(text.split())
+
+
+def sqlite_file_of(url: str) -> Path | None:
+    """The file a database URL names (None: not SQLite, in memory, or not a URL the store
+    can read; opening it says what is wrong)."""
+    try:
+        return sqlite_file(sa.make_url(url))
+    except sa.exc.ArgumentError:
+        return None
+
+
+def shown_url(url: str) -> str:
+    """A database URL as a log may show it: its password masked."""
+    return sa.make_url(url).render_as_string(hide_password=True)
 
 
 def one_line(exc: BaseException) -> str:

@@ -15,14 +15,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from daq.store.channel_units import ColumnInfo, column_infos
-from daq.store.records import EventInfo, ResultInfo, RunInfo, SampleTable
 from daq.store.run_attributes import Attribute, release_time, run_attributes
+from daq.store.run_records import EventInfo, ResultInfo, RunInfo, SampleTable
 
 if TYPE_CHECKING:
     import pandas as pd
     import xarray as xr
-
-    from daq.store.store import Store
 
 #: Name and description of the time-from-release coordinate (present when the release
 #: is known: a recorded release event, or ``release_time_s`` given at import).
@@ -43,17 +41,6 @@ class LoadedRun:
     samples: SampleTable
     events: tuple[EventInfo, ...]
     results: tuple[ResultInfo, ...]
-
-    @classmethod
-    def from_store(cls, store: Store, run_id: str) -> LoadedRun:
-        """Read the run (id or unique prefix) from ``store``."""
-        info = store.get_run(run_id)
-        return cls(
-            info,
-            store.samples(info.id),
-            tuple(store.events(info.id)),
-            tuple(store.results(info.id)),
-        )
 
     @property
     def id(self) -> str:

@@ -15,7 +15,7 @@ import dataclasses
 import threading
 from dataclasses import dataclass
 
-from daq.store.records import RunInfo, to_datetime
+from daq.store.run_records import RunInfo, to_datetime
 
 
 @dataclass(frozen=True)

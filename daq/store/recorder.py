@@ -36,7 +36,7 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.faults import STORE_RETRY_S, StorageFault, describe, one_line
-from daq.store.records import DuplicateSample
+from daq.store.run_records import DuplicateSample
 from daq.store.spill import PendingEvent, SpillFile
 from daq.store.store import Store
 

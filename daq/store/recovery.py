@@ -1,21 +1,21 @@
-"""Runs left ``running`` by a process that no longer drives the rig, marked ``interrupted``
-when a store opens (``Store.recover_interrupted``)."""
+"""Which runs left ``running`` belong to a process that no longer drives the rig: the store
+marks them ``interrupted`` when it opens (``Store.recover_interrupted`` writes the endings;
+this module only decides, so it needs no store)."""
 
 from __future__ import annotations
 
 import socket
 import time
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import sqlalchemy as sa
 
-from daq.store.base import process_alive
+from daq.store.database import process_alive
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
 from daq.store.spill import spilled_ends
-
-if TYPE_CHECKING:
-    from daq.store.store import Store
 
 #: A run of another host whose process holds no lease is marked interrupted only once its
 #: last sample is this old, s (its process may have lost the lease and still be writing
@@ -23,10 +23,30 @@ if TYPE_CHECKING:
 OTHER_HOST_GRACE_S = 45.0
 
 
-def recover_interrupted(store: Store, *, include_live_owners: bool = False) -> list[str]:
-    """Mark runs left ``running`` by a process that no longer drives the rig as
-    ``interrupted`` (the reason names that process), stopped at the wall time of their
-    last stored sample (or their start); returns their ids.
+@dataclass(frozen=True)
+class Interruption:
+    """A run to end as ``interrupted``: its row, the reason (naming its process), the stop
+    time (unix s: its last stored sample, or its start) and the fault event to record."""
+
+    run: sa.Row[Any]
+    reason: str
+    stopped_at: float
+
+    @property
+    def event_message(self) -> str:
+        return f"run {self.run.uuid} interrupted: {self.reason}; recovered at start-up"
+
+    @property
+    def event_data(self) -> dict[str, Any]:
+        return {"owner_host": self.run.owner_host, "owner_pid": self.run.owner_pid}
+
+
+def interrupted_runs(
+    conn: sa.Connection, backend: str, spill_dir: Path, *, include_live_owners: bool = False
+) -> list[Interruption]:
+    """The runs left ``running`` by a process that no longer drives the rig, read on
+    ``conn`` (the caller's transaction, which ends them); ``backend`` is the dialect name
+    and ``spill_dir`` the store's folder of spill files.
 
     A run recorded on this host is left alone while its process (pid, boot and start
     time) is alive. One recorded on another host (PostgreSQL) is left alone while its
@@ -38,43 +58,34 @@ def recover_interrupted(store: Store, *, include_live_owners: bool = False) -> l
     that ending.
     """
     here = socket.gethostname()
-    recovered: list[str] = []
-    spilled = spilled_ends(store.spill_dir)  # ended, the ending waiting in a side file
-    with store.transaction() as conn:
-        running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
-        holders = None
-        if running and store.backend == "postgresql":
-            from daq.rig_lock.postgres import lease_holders
+    found: list[Interruption] = []
+    spilled = spilled_ends(spill_dir)  # ended, the ending waiting in a side file
+    running = conn.execute(sa.select(runs_t).where(runs_t.c.status == "running")).all()
+    holders = None
+    if running and backend == "postgresql":
+        from daq.rig_lock.postgres import lease_holders
 
-            holders = lease_holders(conn)
-        for run in running:
-            last_wall = conn.execute(
-                sa.select(sa.func.max(samples_t.c.t_wall)).where(samples_t.c.run_id == run.id)
-            ).scalar()
-            last = run.started_at if last_wall is None else max(last_wall, run.started_at)
-            owner = f"recording process pid {run.owner_pid} on host {run.owner_host}"
-            if run.owner_host == here or holders is None:
-                owner_alive = run.owner_host != here or (
-                    run.owner_pid is not None
-                    and process_alive(run.owner_pid, run.owner_boot_id, run.owner_start_ticks)
-                )
-                reason = f"{owner} ended without finishing the run"
-            else:
-                owner_alive = (
-                    (str(run.owner_host)[:24], run.owner_pid) in holders
-                    or run.source != "recorded"
-                    or time.time() - last < OTHER_HOST_GRACE_S
-                )
-                reason = f"{owner} no longer holds the rig; it ended without finishing the run"
-            if (owner_alive and not include_live_owners) or run.uuid in spilled:
-                continue
-            store._finish(conn, run, "interrupted", reason, last)
-            store._insert_event(
-                conn,
-                run.id,
-                "fault",
-                f"run {run.uuid} interrupted: {reason}; recovered at start-up",
-                {"owner_host": run.owner_host, "owner_pid": run.owner_pid},
+        holders = lease_holders(conn)
+    for run in running:
+        last_wall = conn.execute(
+            sa.select(sa.func.max(samples_t.c.t_wall)).where(samples_t.c.run_id == run.id)
+        ).scalar()
+        last = run.started_at if last_wall is None else max(last_wall, run.started_at)
+        owner = f"recording process pid {run.owner_pid} on host {run.owner_host}"
+        if run.owner_host == here or holders is None:
+            owner_alive = run.owner_host != here or (
+                run.owner_pid is not None
+                and process_alive(run.owner_pid, run.owner_boot_id, run.owner_start_ticks)
             )
-            recovered.append(run.uuid)
-    return recovered
+            reason = f"{owner} ended without finishing the run"
+        else:
+            owner_alive = (
+                (str(run.owner_host)[:24], run.owner_pid) in holders
+                or run.source != "recorded"
+                or time.time() - last < OTHER_HOST_GRACE_S
+            )
+            reason = f"{owner} no longer holds the rig; it ended without finishing the run"
+        if (owner_alive and not include_live_owners) or run.uuid in spilled:
+            continue
+        found.append(Interruption(run, reason, last))
+    return found

@@ -12,8 +12,8 @@ import json
 from collections.abc import Sequence
 from typing import Any
 
-from daq.store.records import EventInfo, RunInfo
 from daq.store.run_events import RunEvents
+from daq.store.run_records import EventInfo, RunInfo
 
 Attribute = str | int | float
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from daq.store.records import EventInfo
+from daq.store.run_records import EventInfo
 
 
 class RunAction(StrEnum):

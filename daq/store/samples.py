@@ -10,9 +10,9 @@ import sqlalchemy as sa
 
 from daq.sample import Sample
 from daq.store import checks
-from daq.store.base import SAMPLE_COLUMNS, StoreBase
+from daq.store.database import SAMPLE_COLUMNS, StoreBase
 from daq.store.packing import SamplePacker
-from daq.store.records import DuplicateSample, SampleTable
+from daq.store.run_records import DuplicateSample, SampleTable
 from daq.store.schema import runs as runs_t
 from daq.store.schema import samples as samples_t
 

@@ -17,23 +17,50 @@ import fcntl
 import json
 import logging
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
-
-import sqlalchemy as sa
+from typing import IO, Any, Protocol
 
 from daq.sample import Quality, Sample
-from daq.store.faults import one_line
-from daq.store.records import RunNotFound
-
-if TYPE_CHECKING:
-    from daq.store.store import Store
+from daq.store.faults import StorageUnavailable, one_line
+from daq.store.pending_ends import PendingEnds
+from daq.store.run_records import EventInfo, RunInfo, RunNotFound
 
 log = logging.getLogger(__name__)
 
 SUFFIX = ".jsonl"
+
+
+class SpillTarget(Protocol):
+    """What a write-back needs of the store it writes into (:class:`daq.store.Store`)."""
+
+    spill_dir: Path
+    pending_ends: PendingEnds
+
+    def get_run(self, run_id_or_unique_prefix: str, *, as_stored: bool = False) -> RunInfo: ...
+    def add_samples(
+        self, run_id: str, samples: Sequence[Sample], *, skip_existing: bool = False
+    ) -> int: ...
+    def events(self, run_id: str | None = None, *, limit: int | None = None) -> list[EventInfo]: ...
+    def add_event(
+        self,
+        run_id: str | None,
+        kind: str,
+        message: str,
+        data: dict | None = None,
+        *,
+        t_wall: float | None = None,
+    ) -> None: ...
+    def finish_run(
+        self,
+        run_id: str,
+        status: str,
+        reason: str | None = None,
+        *,
+        stopped_at: datetime | float | None = None,
+    ) -> None: ...
 
 
 def default_spill_dir() -> Path:
@@ -168,7 +195,7 @@ def spilled_ends(directory: Path) -> set[str]:
     return found
 
 
-async def write_back_later(store: Store, path: Path, *, max_delay_s: float = 60.0) -> None:
+async def write_back_later(store: SpillTarget, path: Path, *, max_delay_s: float = 60.0) -> None:
     """Retry :func:`replay_spills` (1 s doubling to ``max_delay_s``) until ``path`` is
     written back: a long-lived process (``rig serve``) ends a run as soon as storage
     allows, without waiting for the next run or a restart."""
@@ -180,12 +207,12 @@ async def write_back_later(store: Store, path: Path, *, max_delay_s: float = 60.
 
 
 def replay_spills(
-    store: Store, directory: Path | None = None, *, database_errors: bool = False
+    store: SpillTarget, directory: Path | None = None, *, database_errors: bool = False
 ) -> list[str]:
     """Write back every side file in ``directory`` whose run is in ``store``; returns their
     run ids. Files of other databases, of live recorders, or that still cannot be written
     stay for later (logged). ``database_errors``: re-raise the database's own failure to
-    take them (OperationalError: full, unreachable; after trying every file): the storage
+    take them (:class:`StorageUnavailable`: full, unreachable; after trying every file): the storage
     still fails."""
     directory = Path(directory) if directory is not None else store.spill_dir
     try:
@@ -193,21 +220,21 @@ def replay_spills(
     except OSError:
         return []
     replayed = []
-    failed: sa.exc.OperationalError | None = None
+    failed: StorageUnavailable | None = None
     for path in paths:
         try:
             if _replay_one(store, path):
                 replayed.append(path.stem)
         except Exception as exc:
             log.warning("spill file %s not written back yet: %s", path, one_line(exc))
-            if isinstance(exc, sa.exc.OperationalError):
+            if isinstance(exc, StorageUnavailable):
                 failed = exc
     if database_errors and failed is not None:
         raise failed
     return replayed
 
 
-def _replay_one(store: Store, path: Path) -> bool:
+def _replay_one(store: SpillTarget, path: Path) -> bool:
     try:
         f = open(path, encoding="utf-8")  # noqa: SIM115 - closed below
     except FileNotFoundError:

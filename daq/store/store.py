@@ -22,16 +22,16 @@ import sqlalchemy as sa
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.annotations import EventsAndResults
-from daq.store.base import inserted_id, process_identity, software_version
 from daq.store.calibrations import ImportedCalibrations
+from daq.store.database import inserted_id, process_identity, software_version
 from daq.store.faults import STORE_RETRY_S
 from daq.store.packing import SamplePacker
 from daq.store.pending_ends import PendingEnds
-from daq.store.records import RunInfo, to_datetime
-from daq.store.recovery import recover_interrupted
+from daq.store.recovery import interrupted_runs
 from daq.store.run_events import RunEvents, losses_text
 from daq.store.run_metadata import check_run_metadata, merge_run_metadata
 from daq.store.run_query import RunFilter, drive_of
+from daq.store.run_records import RunInfo, to_datetime
 from daq.store.samples import SampleRows
 from daq.store.schema import (
     END_STATUSES,
@@ -326,7 +326,9 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
         ``.to_pandas()``, ``.to_xarray()``, ``.to_netcdf(path)``, ``.to_parquet(path)``."""
         from daq.store.loaded_run import LoadedRun
 
-        return LoadedRun.from_store(self, run_id_or_unique_prefix)
+        info = self.get_run(run_id_or_unique_prefix)
+        events, results = tuple(self.events(info.id)), tuple(self.results(info.id))
+        return LoadedRun(info, self.samples(info.id), events, results)
 
     def stored_metadata(self, run_id: str) -> dict[str, Any] | None:
         """The metadata of the run with exactly this uuid ({} when none, None when there
@@ -377,8 +379,16 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
     # -- start-up and health ------------------------------------------------------------
     def recover_interrupted(self, *, include_live_owners: bool = False) -> list[str]:
         """Mark runs left ``running`` by a process that no longer drives the rig as
-        ``interrupted``; returns their ids (:func:`daq.store.recovery.recover_interrupted`)."""
-        return recover_interrupted(self, include_live_owners=include_live_owners)
+        ``interrupted``, each with a fault event; returns their ids (which runs:
+        :func:`daq.store.recovery.interrupted_runs`)."""
+        with self.transaction() as conn:
+            found = interrupted_runs(
+                conn, self.backend, self.spill_dir, include_live_owners=include_live_owners
+            )
+            for run in found:
+                self._finish(conn, run.run, "interrupted", run.reason, run.stopped_at)
+                self._insert_event(conn, run.run.id, "fault", run.event_message, run.event_data)
+        return [run.run.uuid for run in found]
 
     def integrity_check(self) -> str:
         """``ok`` when the database is sound (SQLite PRAGMA integrity_check), else the

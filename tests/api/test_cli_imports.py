@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from daq.run_import import import_csv
+from daq.csv_to_store import import_csv
 from daq.store import Store
 from tests.integration.test_import_kinds import _tow_csv
 

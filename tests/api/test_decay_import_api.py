@@ -1,5 +1,5 @@
 """``POST /api/runs/import?kind=decay&dof=…`` and the estimation job on a free decay: the
-kind's own query fields come from the registry (``daq.decay.DecayImport``); bad ones are a
+kind's own query fields come from the registry (``daq.decay_import.DecayImport``); bad ones are a
 one-line 422 naming the field. Data: a heave decay integrated by scipy's ``solve_ivp``
 (``tests.integration.test_decay_import.heave_decay``); the rule is issue 20's (added inertia
 within 2 %, damping within 10 %)."""

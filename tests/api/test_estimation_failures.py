@@ -16,7 +16,7 @@ import estimation
 from api.core.analysis_executor import ThreadExecutor
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
-from daq.run_import import import_csv
+from daq.csv_to_store import import_csv
 from daq.store import Store
 from tests.api.conftest import AUTH, wait_job
 from tests.cli import RigCli

@@ -1,5 +1,5 @@
 """``rig import`` and ``POST /api/runs/import`` apply the same import rules
-(``api.core.run_import``): a load over the rig file's limit or against the motion is one
+(``api.core.imports``): a load over the rig file's limit or against the motion is one
 line naming the flag or query parameter, a one-row file is refused, a release before the
 first sample is taken, and an export imports back from its own header."""
 

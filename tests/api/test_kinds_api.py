@@ -11,10 +11,10 @@ from click.testing import CliRunner
 from pydantic import Field
 
 from api.cli.imports import import_
-from daq.capabilities import Needs
 from daq.config import load_rig
-from daq.procedures.kinds import KINDS, RIG_KINDS, KindSpec
-from daq.procedures.request_base import Flag, MaxTime, RigLimit, _ProcedureRequest
+from daq.procedures.procedure_request import Flag, MaxTime, ProcedureRequest, RigLimit
+from daq.procedures.run_kinds import KINDS, RIG_KINDS, KindSpec
+from daq.rig_capabilities import Needs
 from daq.vocabulary import RunKind
 from tests.api.conftest import AUTH
 
@@ -131,7 +131,7 @@ def test_the_estimation_pages_method_menu_is_rendered_from_the_served_methods(
         assert page.locator("#est-method").input_value() == "output-error"
 
 
-class _LiftRequest(_ProcedureRequest):
+class _LiftRequest(ProcedureRequest):
     """A kind no face knows of: one signed load bounded by the rig (half its max_force_n)."""
 
     lift_n: Annotated[

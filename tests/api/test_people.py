@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from api.cli.main import main
-from daq.store.people import UserRepository
+from daq.store.people_and_safety_log import UserRepository
 from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
 from tests.waiting import read_until
 
@@ -155,7 +155,7 @@ def test_a_queued_job_of_another_user_waits_while_the_rig_is_held(client, tokens
 
 def test_the_command_line_refuses_a_test_after_an_unacknowledged_stop(tmp_path) -> None:
     from daq.store import Store
-    from daq.store.people import ESTOP, RigEventLog
+    from daq.store.people_and_safety_log import ESTOP, RigEventLog
 
     db = f"sqlite:///{tmp_path}/rig.db"
     with Store(db) as store:
@@ -170,7 +170,7 @@ def test_the_command_line_refuses_a_test_after_an_unacknowledged_stop(tmp_path) 
 def test_a_stop_the_log_cannot_record_still_refuses_motion(client, tokens, monkeypatch) -> None:
     """The stop never waits for the database; if the safety log refuses the write, motion
     stays refused (from memory) until an operator acknowledges."""
-    from daq.store.people import ESTOP, RigEventLog
+    from daq.store.people_and_safety_log import ESTOP, RigEventLog
 
     written = RigEventLog.add
 

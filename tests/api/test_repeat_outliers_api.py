@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from daq.run_import import import_csv
+from daq.csv_to_store import import_csv
 from tests.api.conftest import AUTH, wait_job
 from tests.estimation.synth import SURGE_TRUTH, Physics, weight_run
 

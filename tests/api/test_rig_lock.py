@@ -28,7 +28,7 @@ from api.http.app import create_app
 from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.operator import OperatorAct, SimulatedOperator
 from daq.session import RigSource
-from daq.sim.rig import SimulatedRigThread
+from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
 from tests.api.conftest import AUTH, FINAL, TOKEN, wait_job
 from tests.procedures.conftest import hardware_rig_file

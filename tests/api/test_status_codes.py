@@ -27,7 +27,7 @@ from api.core.service import RigService
 from api.http.app import create_app
 from daq.session import RigSource
 from daq.store.migrate import create_engine
-from daq.store.people import UserRepository
+from daq.store.people_and_safety_log import UserRepository
 from tests.api.conftest import AUTH, TOKEN, wait_rig_free
 
 pytestmark = pytest.mark.simtime

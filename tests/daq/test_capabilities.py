@@ -1,5 +1,5 @@
 """What a rig can do follows from the channels and sections its rig file lists
-(``daq.capabilities`` + ``KindSpec.needs``), and a request it cannot do is refused in one
+(``daq.rig_capabilities`` + ``KindSpec.needs``), and a request it cannot do is refused in one
 line naming what is missing, before anything is opened."""
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ from pathlib import Path
 
 import pytest
 
-from daq.capabilities import safety
 from daq.config import load_rig, parse_rig
-from daq.procedures.kinds import KINDS, RIG_KINDS, NotCapable, capabilities
 from daq.procedures.params import ParameterError
+from daq.procedures.run_kinds import KINDS, RIG_KINDS, NotCapable, capabilities
 from daq.procedures.sequence import parse_sequence
+from daq.rig_capabilities import safety
 from tests.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,8 +6,8 @@ import pytest
 
 from daq.sample import Quality
 from daq.sample_losses import LossTracker, loss_reason
-from daq.store.records import EventInfo
 from daq.store.run_events import RunEvents, losses_text
+from daq.store.run_records import EventInfo
 
 
 def _feed(rows: list[tuple[int, str | None]], period: float = 0.1) -> LossTracker:

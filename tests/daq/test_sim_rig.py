@@ -17,7 +17,7 @@ from daq.acquisition import Acquisition
 from daq.config import RigConfig, load_rig
 from daq.plc import PlcClient
 from daq.sample import Quality
-from daq.sim.rig import SimulatedRig, SimulatedRigThread
+from daq.sim.simulated_rig import SimulatedRig, SimulatedRigThread
 
 
 def _pointed(rig: RigConfig, **modbus) -> RigConfig:

@@ -11,7 +11,7 @@ import pytest
 
 from api.cli.options import request_fields
 from api.cli.procedures import KIND_COMMANDS
-from daq.procedures.kinds import KINDS
+from daq.procedures.run_kinds import KINDS
 from daq.vocabulary import AXES, DRIVEN_KINDS
 from estimation.data.driven_axes import DRIVEN_AXES, driven_axis
 

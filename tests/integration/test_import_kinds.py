@@ -187,8 +187,8 @@ def test_a_half_scale_pendulum_decay_imports_and_estimates_its_coefficients(
 def test_a_spin_takes_its_logged_torque_per_sample_in_si(tmp_path: Path) -> None:
     """``N*m`` reads as N·m, kgf·m is scaled to N·m, and the estimator's drive is the
     column at each sample (not a constant)."""
+    from daq.csv_to_store import import_csv
     from daq.run_data import load_run_data
-    from daq.run_import import import_csv
 
     t = np.arange(0.0, 6.0, 0.1)
     angle = np.where(t < 1.0, 0.0, 0.2 * (t - 1.0) ** 2)

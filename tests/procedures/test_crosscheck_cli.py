@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from daq.run_import import import_csv
+from daq.csv_to_store import import_csv
 from daq.store import Store
 from tests.estimation.synth import SURGE_TRUTH, Physics, weight_run
 from tests.procedures.test_cli import rig

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.requests import calibration_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.session import RigSource
 from tests.procedures.conftest import QUICK_CALIBRATION
 from tests.simrig import rig_session

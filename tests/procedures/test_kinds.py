@@ -16,9 +16,9 @@ from api.cli.options import request_fields, request_options
 from api.cli.procedures import procedure_command
 from api.core.jobs import PROCEDURES
 from api.http.routes.jobs import router
-from daq.procedures.kinds import KINDS, RIG_KINDS
 from daq.procedures.params import ParameterError
 from daq.procedures.requests import Flag
+from daq.procedures.run_kinds import KINDS, RIG_KINDS
 from daq.procedures.sequence import parse_sequence
 from daq.vocabulary import AXES, Axis, RunKind, RunStatus
 

@@ -20,12 +20,12 @@ import sqlalchemy as sa
 
 from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.operator import OperatorAct, SimulatedOperator
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.requests import calibration_parameters, tow_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.session import RigSession, RigSource
-from daq.sim.rig import SimulatedRigThread
 from daq.sim.simtime import SimClock
+from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
 from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
 from tests.procedures.test_thruster_link_faults import OutputLog

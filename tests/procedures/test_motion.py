@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from daq.operator import OperatorAct, PromptOperator
+from daq.procedures.axis_steps import PreconditionFailed
 from daq.procedures.motion import run_motion_test
 from daq.procedures.recording import AbortSignal
 from daq.procedures.requests import spin_parameters, tow_parameters
-from daq.procedures.steps import PreconditionFailed
 from daq.run_data import load_run_data
 from daq.session import RigBusy, RigSource
 from daq.store import Store

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from daq.config import DEFAULT_RIG_FILE, RigConfig
+from daq.procedures.axis_steps import PreconditionFailed
 from daq.procedures.params import ParameterError
 from daq.procedures.pendulum import CycleAmplitude, run_pendulum_decay
 from daq.procedures.recording import AbortSignal
 from daq.procedures.requests import pendulum_parameters
 from daq.procedures.sequence import parse_sequence
-from daq.procedures.steps import PreconditionFailed
 from daq.run_data import load_pendulum_data
 from daq.session import RigSource
 from daq.sim.scenario import Scenario

@@ -10,9 +10,9 @@ import pytest
 from pydantic import ValidationError
 
 from daq.config import DEFAULT_RIG_FILE, load_rig
-from daq.procedures.kinds import RIG_KINDS
 from daq.procedures.params import ParameterError
 from daq.procedures.requests import CalibrationRequest, PendulumRequest, TowRequest
+from daq.procedures.run_kinds import RIG_KINDS
 
 RIG = load_rig(DEFAULT_RIG_FILE)  # BENBAM: max_force_n 100, end_of_travel_m 5.5, g 9.8
 

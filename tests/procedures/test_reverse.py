@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from daq.operator import OperatorAct, PromptOperator
-from daq.procedures.calibration import run_thrust_calibration
+from daq.procedures.axis_steps import PreconditionFailed
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError
 from daq.procedures.requests import calibration_parameters, spin_parameters, tow_parameters
-from daq.procedures.steps import PreconditionFailed
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.run_data import load_run_data
 from tests.procedures.conftest import QUICK_CALIBRATION
 from tests.readings import good

@@ -27,12 +27,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.requests import calibration_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.sample import Quality
 from daq.session import RigSource
-from daq.sim.rig import SimulatedRigThread
 from daq.sim.simtime import SimClock
+from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
 from tests.cli import printed_json
 from tests.fault_proxies import SerialFaultProxy, TcpCutProxy

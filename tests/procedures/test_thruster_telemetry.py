@@ -11,9 +11,9 @@ import math
 import numpy as np
 import pytest
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.requests import calibration_parameters, tow_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.store import export_run_csv
 from daq.store.channel_units import column_infos
 from daq.vocabulary import thruster_telemetry_channels

@@ -9,11 +9,11 @@ import asyncio
 import numpy as np
 import pytest
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
 from daq.procedures.requests import calibration_parameters, tow_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.procedures.thruster_drive import STALE_ZEROED
 from daq.run_data import load_run_data
 from daq.sim.scenario import ThrusterModel

@@ -8,10 +8,10 @@ import asyncio
 import numpy as np
 import pytest
 
-from daq.procedures.calibration import run_thrust_calibration
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError
 from daq.procedures.requests import calibration_parameters, spin_parameters
+from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.sample import Quality
 from tests.procedures.conftest import until_thrust_on
 from tests.readings import good

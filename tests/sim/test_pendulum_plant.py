@@ -11,7 +11,8 @@ import pytest
 from daq.config import RigConfig, RigConfigError, load_rig, parse_rig
 from daq.registers import encode
 from daq.sim.plant import Plant
-from daq.sim.plc import SimulatedPLC
+from daq.sim.plant_channels import read_channel, write_channel
+from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario, parse_scenario
 from tests.sim.test_plc import UNIT, read_si, tcp_client
 from tests.waiting import until
@@ -38,8 +39,8 @@ def formula(rig: RigConfig, scenario: Scenario) -> tuple[float, float, float]:
 def swing(plant: Plant, start_rad: float, seconds: float, every_s: float = 0.01) -> np.ndarray:
     """Pull out, release, and return rows (t, angle, energy) every ``every_s``."""
     plant.advance(0.0)
-    plant.write("sim_pendulum_angle", start_rad)
-    plant.write("pendulum_release", 1)
+    write_channel(plant, "sim_pendulum_angle", start_rad)
+    write_channel(plant, "pendulum_release", 1)
     rows = []
     for _ in range(round(seconds / every_s)):
         plant.advance(every_s)
@@ -106,34 +107,39 @@ def test_energy_never_increases():
 def test_swinging_pendulum_is_integrated_and_a_caught_one_is_quiescent():
     plant = Plant(RIG)
     plant.advance(0.0)
-    plant.write("sim_pendulum_angle", 0.3)
+    write_channel(plant, "sim_pendulum_angle", 0.3)
     plant.advance(1.0)
-    assert plant.read("pendulum_angle") == pytest.approx(0.3, abs=1e-4)  # held by the latch
-    assert plant.read("sim_pendulum_angle") == pytest.approx(0.3)
-    plant.write("pendulum_release", 1)
+    assert read_channel(plant, "pendulum_angle") == pytest.approx(
+        0.3, abs=1e-4
+    )  # held by the latch
+    assert read_channel(plant, "sim_pendulum_angle") == pytest.approx(0.3)
+    write_channel(plant, "pendulum_release", 1)
     plant.advance(2.0)
-    swung = plant.read("pendulum_angle")
+    swung = read_channel(plant, "pendulum_angle")
     assert swung < 0.29  # released: it swings, nothing skipped the integration
-    plant.write("pendulum_release", 0)
+    write_channel(plant, "pendulum_release", 0)
     caught = plant.pendulum.angle_rad
     steps = plant.steps
     plant.advance(1.0)
     assert plant.pendulum.angle_rad == caught and plant.steps == steps + 1000
-    assert plant.read("sim_pendulum_angle") == pytest.approx(caught)  # held where caught
+    assert read_channel(plant, "sim_pendulum_angle") == pytest.approx(caught)  # held where caught
     with pytest.raises(ValueError, match=r"sim_pendulum_angle: must be within ±0\.5 rad"):
-        plant.write("sim_pendulum_angle", 0.8)
-    plant.write("pendulum_release", 1)
-    plant.write("sim_reset", 1)  # everything back to the start: hanging plumb, latched
-    assert plant.read("pendulum_angle") == 0.0 and plant.read("pendulum_release") == 0.0
+        write_channel(plant, "sim_pendulum_angle", 0.8)
+    write_channel(plant, "pendulum_release", 1)
+    write_channel(plant, "sim_reset", 1)  # everything back to the start: hanging plumb, latched
+    assert (
+        read_channel(plant, "pendulum_angle") == 0.0
+        and read_channel(plant, "pendulum_release") == 0.0
+    )
 
 
 def test_encoder_resolution_and_noise_come_from_the_scenario():
     plant = Plant(RIG, parse_scenario({"sensors": {"pendulum_counts_per_rad": 100}}))
-    plant.write("sim_pendulum_angle", 0.1234)
-    assert plant.read("pendulum_angle") == pytest.approx(0.12)
+    write_channel(plant, "sim_pendulum_angle", 0.1234)
+    assert read_channel(plant, "pendulum_angle") == pytest.approx(0.12)
     noisy = Plant(RIG, parse_scenario({"sensors": {"pendulum_angle_noise_rad": 0.01}}))
-    noisy.write("sim_pendulum_angle", 0.1)
-    readings = [noisy.read("pendulum_angle") for _ in range(400)]
+    write_channel(noisy, "sim_pendulum_angle", 0.1)
+    readings = [read_channel(noisy, "pendulum_angle") for _ in range(400)]
     assert np.std(readings) == pytest.approx(0.01, rel=0.2)
 
 

@@ -9,6 +9,7 @@ import pytest
 
 from daq.config import RigConfigError, load_rig
 from daq.sim.plant import Plant
+from daq.sim.plant_channels import read_channel, write_channel
 from daq.sim.scenario import SCENARIO_DIR, Scenario, load_scenario, parse_scenario
 
 RIG = load_rig()
@@ -27,12 +28,12 @@ def plant(scenario: Scenario | str | None = None) -> Plant:
 
 def tow(p: Plant, kg: float, seconds: float, *, every_s: float = 0.1) -> list[tuple[float, float]]:
     """Hang ``kg``, release, and record (t, encoder position) at 10 Hz like the PLC."""
-    p.write("sim_tow_weight", kg)
-    p.write("tow_release", 1)
-    out = [(p.sim_time_s, p.read("tow_position"))]
+    write_channel(p, "sim_tow_weight", kg)
+    write_channel(p, "tow_release", 1)
+    out = [(p.sim_time_s, read_channel(p, "tow_position"))]
     for _ in range(round(seconds / every_s)):
         p.advance(every_s)
-        out.append((p.sim_time_s, p.read("tow_position")))
+        out.append((p.sim_time_s, read_channel(p, "tow_position")))
     return out
 
 
@@ -59,20 +60,20 @@ def test_steady_tow_speeds_match_seed_000_within_10_percent():
 
 def test_spin_steady_rate_matches_seed_000_first_torque():
     p = plant()
-    p.write("sim_spin_weight", 0.5)
-    p.write("spin_release", 1)
+    write_channel(p, "sim_spin_weight", 0.5)
+    write_channel(p, "spin_release", 1)
     p.advance(20.0)
     # 4.12 ω² + 0.119 ω = 0.454 N·m → 0.318 rad/s; the paper's fit says 0.31.
     assert p.yaw_rate_rad_s == pytest.approx(0.31, rel=0.10)
-    assert p.read("yaw_angle") > 4.0
+    assert read_channel(p, "yaw_angle") > 4.0
 
 
 def test_brake_holds_until_release():
     p = plant()
-    p.write("sim_tow_weight", 8.5)
+    write_channel(p, "sim_tow_weight", 8.5)
     p.advance(2.0)
-    assert p.position_m == 0.0 and p.read("tow_position") == 0.0
-    p.write("tow_release", 1)
+    assert p.position_m == 0.0 and read_channel(p, "tow_position") == 0.0
+    write_channel(p, "tow_release", 1)
     p.advance(0.5)
     assert p.position_m > 0.01
 
@@ -81,21 +82,21 @@ def test_end_of_travel_stops_the_carriage_and_engages_the_brake():
     p = plant()
     samples = tow(p, 8.5, seconds=16.0)
     eot = RIG.geometry.end_of_travel_m
-    assert p.end_of_travel and p.read("end_of_travel") == 1.0
-    assert p.velocity_m_s == 0.0 and p.tow_braked and p.read("tow_release") == 0.0
+    assert p.end_of_travel and read_channel(p, "end_of_travel") == 1.0
+    assert p.velocity_m_s == 0.0 and p.tow_braked and read_channel(p, "tow_release") == 0.0
     assert eot <= p.position_m < eot + 0.001
     assert samples[-1][1] == samples[-20][1], "carriage moved after the switch tripped"
-    p.write("tow_release", 1)  # refused while the switch is tripped
+    write_channel(p, "tow_release", 1)  # refused while the switch is tripped
     p.advance(1.0)
-    assert p.read("tow_release") == 0.0 and p.velocity_m_s == 0.0
-    p.write("sim_reset", 1)
-    assert p.read("tow_position") == 0.0 and not p.end_of_travel and p.tow_braked
+    assert read_channel(p, "tow_release") == 0.0 and p.velocity_m_s == 0.0
+    write_channel(p, "sim_reset", 1)
+    assert read_channel(p, "tow_position") == 0.0 and not p.end_of_travel and p.tow_braked
 
 
 def test_cord_runs_out_and_the_vehicle_coasts_down():
     p = plant()
-    p.write("sim_spin_weight", 8.5)
-    p.write("spin_release", 1)
+    write_channel(p, "sim_spin_weight", 8.5)
+    write_channel(p, "spin_release", 1)
     p.advance(60.0)
     assert p.cord_out
     rate = p.yaw_rate_rad_s
@@ -105,11 +106,11 @@ def test_cord_runs_out_and_the_vehicle_coasts_down():
 
 def test_without_drive_a_moving_carriage_only_slows_down():
     p = plant()
-    p.write("tow_release", 1)
+    write_channel(p, "tow_release", 1)
     p.advance(0.01)
     p.velocity_m_s = 0.5
     p.yaw_rate_rad_s = 0.0
-    p.write("spin_release", 1)
+    write_channel(p, "spin_release", 1)
     p.yaw_rate_rad_s = 1.0
     speeds, rates = [], []
     for _ in range(200):
@@ -125,8 +126,8 @@ def test_kinetic_energy_never_exceeds_the_work_of_the_weight():
     p = plant()
     kg = 4.5
     mass = 143.26 + kg + RIG.geometry.pulley_inertia_kg_m2 / RIG.geometry.pulley_radius_m**2
-    p.write("sim_tow_weight", kg)
-    p.write("tow_release", 1)
+    write_channel(p, "sim_tow_weight", kg)
+    write_channel(p, "tow_release", 1)
     for _ in range(50):
         p.advance(0.1)
         kinetic = 0.5 * mass * p.velocity_m_s**2
@@ -136,8 +137,8 @@ def test_kinetic_energy_never_exceeds_the_work_of_the_weight():
 def test_polling_does_not_change_the_physics():
     one, many = plant(), plant()
     for p in (one, many):
-        p.write("sim_tow_weight", 2.5)
-        p.write("tow_release", 1)
+        write_channel(p, "sim_tow_weight", 2.5)
+        write_channel(p, "tow_release", 1)
     one.advance(3.0)
     for _ in range(300):
         many.advance(0.01)
@@ -148,18 +149,18 @@ def test_polling_does_not_change_the_physics():
 def test_encoder_resolution_quantizes_position():
     p = plant(parse_scenario({"sensors": {"encoder_counts_per_m": 1000}}))
     tow(p, 2.5, seconds=1.0)
-    x = p.read("tow_position")
+    x = read_channel(p, "tow_position")
     assert x == pytest.approx(round(x * 1000) / 1000, abs=1e-12)
     assert abs(x - p.position_m) <= 0.0005 + 1e-12
 
 
 # ---- thrust stand -------------------------------------------------------------------------
 def stand_reading(p: Plant, commands: list[float], seconds: float = 1.5, n: int = 40) -> float:
-    p.write("sim_thrust_stand", 1)
+    write_channel(p, "sim_thrust_stand", 1)
     p.set_commands(commands)
     p.advance(seconds)
     offset = p.scenario.sensors.load_cell_offset_n
-    return sum(p.read("load_cell") for _ in range(n)) / n - offset
+    return sum(read_channel(p, "load_cell") for _ in range(n)) / n - offset
 
 
 def test_thrust_stand_dead_band_asymmetry_concavity_and_lag():
@@ -186,18 +187,18 @@ def test_thrust_falls_with_supply_voltage():
     sagging = plant(parse_scenario({"sensors": {"supply_voltage_v": 13.0}}))
     low = stand_reading(sagging, [0.7, 0.7])
     assert low < 0.8 * full
-    assert sagging.read("supply_voltage") < 13.0
+    assert read_channel(sagging, "supply_voltage") < 13.0
 
 
 def test_thrusters_drive_the_free_vehicle():
     p = plant()
-    p.write("tow_release", 1)
-    p.write("spin_release", 1)
+    write_channel(p, "tow_release", 1)
+    write_channel(p, "spin_release", 1)
     p.set_commands([0.5, 0.5])
     p.advance(3.0)
     assert p.velocity_m_s > 0.1 and abs(p.yaw_rate_rad_s) < 1e-9
-    p.write("sim_reset", 1)
-    p.write("spin_release", 1)
+    write_channel(p, "sim_reset", 1)
+    write_channel(p, "spin_release", 1)
     p.set_commands([0.5, -0.5])
     p.advance(3.0)
     assert p.yaw_rate_rad_s > 0.05 and p.position_m == 0.0
@@ -227,8 +228,8 @@ def test_bias_current_pushes_even_without_a_weight():
 def test_tether_torsion_holds_back_the_spin():
     def angle(name: str) -> float:
         p = plant(name)
-        p.write("sim_spin_weight", 0.5)
-        p.write("spin_release", 1)
+        write_channel(p, "sim_spin_weight", 0.5)
+        write_channel(p, "spin_release", 1)
         p.advance(20.0)
         return p.yaw_rad
 
@@ -238,8 +239,8 @@ def test_tether_torsion_holds_back_the_spin():
 def test_elastic_rope_makes_the_carriage_surge():
     def speed_reversals(name: str) -> int:
         p = plant(name)
-        p.write("sim_tow_weight", 2.5)
-        p.write("tow_release", 1)
+        write_channel(p, "sim_tow_weight", 2.5)
+        write_channel(p, "tow_release", 1)
         speeds = []
         for _ in range(200):
             p.advance(0.02)
@@ -298,10 +299,10 @@ def test_bad_scenario_names_field_value_and_range(tmp_path):
 def test_each_effect_moves_the_spin_test_the_expected_way(scenario, direction):
     def angle_after(name: str) -> float:
         p = plant(name)
-        p.write("sim_spin_weight", 1.0)
-        p.write("spin_release", 1)
+        write_channel(p, "sim_spin_weight", 1.0)
+        write_channel(p, "spin_release", 1)
         p.advance(12.0)
-        return p.read("yaw_angle")
+        return read_channel(p, "yaw_angle")
 
     change = angle_after(scenario) - angle_after("clean")
     assert change * direction > 0.05, f"{scenario}: yaw angle changed by {change:+.3f} rad"
@@ -316,11 +317,11 @@ def test_a_weight_over_the_far_end_pulley_mirrors_the_tow(scenario):
     def travel(reverse: bool) -> tuple[float, float]:
         p = plant(scenario)
         start = RIG.geometry.reverse_start if reverse else 0.0
-        p.write("sim_carriage_position", start)
-        assert p.position_m == start and p.read("sim_tow_reversed") == 0
-        p.write("sim_tow_weight", 2.5)
-        p.write("sim_tow_reversed", 1 if reverse else 0)
-        p.write("tow_release", 1)
+        write_channel(p, "sim_carriage_position", start)
+        assert p.position_m == start and read_channel(p, "sim_tow_reversed") == 0
+        write_channel(p, "sim_tow_weight", 2.5)
+        write_channel(p, "sim_tow_reversed", 1 if reverse else 0)
+        write_channel(p, "tow_release", 1)
         p.advance(8.0)
         return p.position_m - start, p.velocity_m_s
 
@@ -337,15 +338,15 @@ def test_a_weight_over_the_far_end_pulley_mirrors_the_tow(scenario):
 
 def test_a_cord_wound_the_other_way_turns_the_vehicle_negative_until_it_runs_out():
     p = plant()
-    p.write("sim_spin_weight", 2.5)
-    p.write("sim_spin_reversed", 1)
-    p.write("spin_release", 1)
+    write_channel(p, "sim_spin_weight", 2.5)
+    write_channel(p, "sim_spin_reversed", 1)
+    write_channel(p, "spin_release", 1)
     p.advance(3.0)
     assert p.yaw_rad < -1.0 and p.yaw_rate_rad_s < 0 and not p.cord_out
-    p.write("sim_reset", 1)  # returning the vehicle rigs the cord the normal way again
-    assert p.read("sim_spin_reversed") == 0 and p.read("sim_tow_reversed") == 0
+    write_channel(p, "sim_reset", 1)  # returning the vehicle rigs the cord the normal way again
+    assert read_channel(p, "sim_spin_reversed") == 0 and read_channel(p, "sim_tow_reversed") == 0
 
 
 def test_the_carriage_cannot_be_pushed_past_the_switch():
     with pytest.raises(ValueError, match=r"sim_carriage_position: 5\.5 m is not allowed"):
-        plant().write("sim_carriage_position", RIG.geometry.end_of_travel_m)
+        write_channel(plant(), "sim_carriage_position", RIG.geometry.end_of_travel_m)

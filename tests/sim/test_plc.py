@@ -12,7 +12,7 @@ from pymodbus.exceptions import ModbusException
 from daq.config import load_rig
 from daq.registers import decode, encode
 from daq.sim.plant import Plant
-from daq.sim.plc import SimulatedPLC
+from daq.sim.plc_server import SimulatedPLC
 from tests.waiting import until
 
 RIG = load_rig()

@@ -12,7 +12,7 @@ from pymodbus.client import ModbusTcpClient
 from daq.collector import hold_full_collections
 from daq.config import load_rig
 from daq.registers import decode
-from daq.sim.rig import SimulatedRigThread
+from daq.sim.simulated_rig import SimulatedRigThread
 from tests.waiting import wait_until
 from thrusters import protocol
 

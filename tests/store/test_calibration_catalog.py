@@ -17,7 +17,7 @@ from tests.store.helpers import new_run
 
 T200 = Path(__file__).resolve().parents[2] / "fixtures" / "calibrations" / "t200-bollard.csv"
 T200_SPEC = ImportSpec("PWM (µs)", "Force (Kg f)", "kgf", CommandUnit("pwm_us"), "Voltage (V)")
-#: A measured calibration's table as the procedure stores it (daq.procedures.calibration).
+#: A measured calibration's table as the procedure stores it (daq.procedures.thrust_calibration).
 MEASURED_TABLE = [
     {"command": u, "direction": "up", "thrust_per_thruster_n": 40.0 * u, "supply_voltage_v": 15.8}
     for u in (-0.8, -0.6, -0.4, -0.2, 0.2, 0.4, 0.6, 0.8)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from daq.run_import import CsvImportError, import_csv
+from daq.csv_to_store import CsvImportError, import_csv
 from daq.store import DuplicateSample, Store, export_run_csv, export_run_json
 from tests.store.helpers import make_samples, new_run
 
@@ -170,7 +170,7 @@ def test_a_failure_late_in_the_import_rolls_everything_back(store: Store, tmp_pa
 def test_an_import_over_the_row_limit_is_refused_naming_the_line(
     store: Store, tmp_path, monkeypatch
 ) -> None:
-    monkeypatch.setattr("daq.run_import.MAX_IMPORT_ROWS", 5)
+    monkeypatch.setattr("daq.csv_to_store.MAX_IMPORT_ROWS", 5)
     path = tmp_path / "long.csv"
     path.write_text("t,position\n" + "".join(f"{i / 10},0.0\n" for i in range(6)))
     with pytest.raises(CsvImportError, match=r"line 7: more than 5 data rows \(the import limit\)"):
@@ -184,7 +184,7 @@ def test_an_import_over_the_row_limit_is_refused_naming_the_line(
 def test_a_long_import_is_written_in_batches_and_a_late_failure_ends_it_aborted(
     store: Store, tmp_path, monkeypatch
 ) -> None:
-    monkeypatch.setattr("daq.run_import.IMPORT_BATCH_ROWS", 4)
+    monkeypatch.setattr("daq.csv_to_store.IMPORT_BATCH_ROWS", 4)
     path = tmp_path / "long.csv"
     path.write_text("t,position\n" + "".join(f"{i / 10},{i / 100}\n" for i in range(10)))
     transactions = []

@@ -16,9 +16,9 @@ import pyarrow.parquet as pq
 import pytest
 import xarray as xr
 
+from daq.csv_to_store import import_csv
 from daq.export_formats import FORMATS, write_export
 from daq.run_data import load_run_data
-from daq.run_import import import_csv
 from daq.sample import Quality, Sample
 from daq.store import LoadedRun, Store, export_run_csv, export_run_json
 from estimation.axis.estimate import estimate

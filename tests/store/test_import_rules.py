@@ -1,4 +1,4 @@
-"""An import checks what it is told (``api.core.run_import`` and ``daq.run_import.import_csv``):
+"""An import checks what it is told (``api.core.imports`` and ``daq.csv_to_store.import_csv``):
 a towrig export imports back from its own header, the rig file's limits and the direction
 of motion bound the drive, one-row files are refused, and a release may precede the record."""
 
@@ -9,10 +9,10 @@ import io
 import numpy as np
 import pytest
 
-from api.core.run_import import ImportRequest, plan_import
+from api.core.imports import ImportRequest, plan_import
+from daq.csv_to_store import CsvImportError, import_csv
 from daq.procedures.params import ParameterError
 from daq.run_data import load_run_data
-from daq.run_import import CsvImportError, import_csv
 from daq.session import RigSource
 from daq.store import Store, export_run_csv
 from tests.store.helpers import HUNG_WEIGHT_TOW, benbam_tow_run

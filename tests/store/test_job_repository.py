@@ -1,6 +1,7 @@
-"""The job queue's storage (``daq.store.jobs``) on SQLite and PostgreSQL, in process: a job
-left running by a dead process is ``interrupted`` at the next start, a queued one keeps its
-place, and an estimation's report files read back byte for byte from a reopened database.
+"""The job queue's storage (``daq.store.job_repository``) on SQLite and PostgreSQL, in
+process: a job left running by a dead process is ``interrupted`` at the next start, a
+queued one keeps its place, and an estimation's report files read back byte for byte from
+a reopened database.
 
 The real service killed and restarted over these rows is tests/api/test_job_queue.py."""
 
@@ -12,7 +13,7 @@ import time
 import sqlalchemy as sa
 
 from daq.store import Store
-from daq.store.jobs import INTERRUPTED_REASON, JobRepository
+from daq.store.job_repository import INTERRUPTED_REASON, JobRepository
 from daq.store.schema import JobState, jobs
 from tests.store.helpers import new_run
 

@@ -11,7 +11,7 @@ import sqlalchemy as sa
 
 from daq.store import Store
 from daq.store.migrate import alembic_config, create_engine, current_revision, head_revision
-from daq.store.people import (
+from daq.store.people_and_safety_log import (
     ESTOP,
     ESTOP_ACK,
     HOLD,
@@ -76,7 +76,7 @@ def test_a_database_of_revision_0005_upgrades_with_its_jobs_unnamed(db_url: str)
         )
     with Store(db_url) as store:
         assert current_revision(engine) == head_revision() == "0006"
-        from daq.store.jobs import JobRepository
+        from daq.store.job_repository import JobRepository
 
         row = JobRepository(store).get("j1")
         assert (row["label"], row["user_name"]) == ("tow 5 N", None)

@@ -6,8 +6,8 @@ from datetime import UTC, datetime
 
 import pytest
 
-from daq.store.records import EventInfo
 from daq.store.run_events import Halt, Release, RunAction, RunEvents, ThrustStep
+from daq.store.run_records import EventInfo
 from tests.store.helpers import new_run
 
 

@@ -277,3 +277,27 @@ def test_the_default_limits_are_the_documented_10_s_busy_wait_and_30_s_of_retrie
         short.retry_for_s = 2.5
         assert RunRecorder(short, new_run(short)).retry_for_s == 2.5  # the store's limit
         assert RunRecorder(short, new_run(short), retry_for_s=1.0).retry_for_s == 1.0
+
+
+def _closed_port() -> int:
+    """A local TCP port nothing listens on (bound, never listening)."""
+    import socket
+
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    sock.close()
+    return port
+
+
+def test_a_database_that_cannot_be_opened_is_the_stores_own_error():
+    """Callers catch the store's error, never SQLAlchemy's; its message is the driver's
+    reason without the URL (a password never shows)."""
+    from daq.store.faults import DatabaseNotOpened, StorageFault
+
+    with pytest.raises(DatabaseNotOpened) as caught:
+        Store(f"postgresql+psycopg://rig:secret@127.0.0.1:{_closed_port()}/rig")
+    assert isinstance(caught.value, StorageFault)
+    assert not isinstance(caught.value, sa.exc.SQLAlchemyError)
+    assert "connection failed" in str(caught.value) and "secret" not in str(caught.value)
+    assert "Background on this error" not in str(caught.value)

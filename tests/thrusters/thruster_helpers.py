@@ -11,9 +11,9 @@ import tty
 from collections.abc import Callable
 
 from daq.config import Limits, load_rig
-from thrusters.config import ThrusterPort
 from thrusters.driver import ThrusterDriver
 from thrusters.link import READ_SLICE_S, SerialLink
+from thrusters.settings import ThrusterPort
 
 RIG = load_rig()
 

@@ -12,7 +12,7 @@ from api.core.campaign import CampaignRunner
 from api.core.job_model import JobConflict
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, error_responses
-from daq.procedures.kinds import KINDS
+from daq.procedures.run_kinds import KINDS
 from estimation.design.campaign import Target
 
 router = APIRouter(prefix="/api/campaigns", tags=["campaigns"])

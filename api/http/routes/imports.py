@@ -1,10 +1,10 @@
 """``POST /api/runs/import``: a CSV recorded elsewhere (or a towrig export) as a completed run.
 
 The import's rules (kind, drive, rig limits, the export's header) are
-``api.core.run_import``'s, shared with ``rig import``; this is the route's face: the query,
+``api.core.imports``'s, shared with ``rig import``; this is the route's face: the query,
 the streamed body, the parse in a child process (``api.core.csv_upload``). The kinds and
 each kind's own query parameters (a free decay's ``dof``) are the registry's
-(``daq.procedures.kinds.IMPORT_KINDS``, ``import_fields``).
+(``daq.procedures.run_kinds.IMPORT_KINDS``, ``import_fields``).
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Depends, Query, Request
 
 from api.core.csv_upload import import_file
-from api.core.run_import import ImportRequest, plan_import
+from api.core.imports import ImportRequest, plan_import
 from api.http.deps import ServiceDep, StoreDep, require_write
 from api.http.schemas import ImportOut, csv_upload_body, error_responses
 from api.http.uploads import save_upload
-from daq.procedures.kinds import IMPORT_KINDS, import_fields
 from daq.procedures.params import ParameterError
+from daq.procedures.run_kinds import IMPORT_KINDS, import_fields
 from daq.store.run_metadata import check_run_metadata, check_tag
 
 router = APIRouter(prefix="/api", tags=["runs"])
@@ -163,7 +163,7 @@ async def import_run(
     stored with the rig file the service runs with (its ``[pendulum]`` geometry). A constant
     load whose sign disagrees with the recorded motion is refused; a towrig export imports
     back as it was (kind, load, hung weight, release, vehicle from its header, listed in
-    ``from_header``). The rules are ``api.core.run_import``'s, shared with ``rig import``."""
+    ``from_header``). The rules are ``api.core.imports``'s, shared with ``rig import``."""
     metadata = _import_metadata(operator, water_temperature_c, notes, tag)
     request_ = ImportRequest(
         kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,

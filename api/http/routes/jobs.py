@@ -29,8 +29,8 @@ from api.http.schemas import (
     SequenceRequest,
     error_responses,
 )
-from daq.procedures.kinds import RIG_KINDS, KindSpec
-from daq.store.people import User
+from daq.procedures.run_kinds import RIG_KINDS, KindSpec
+from daq.store.people_and_safety_log import User
 from daq.store.schema import JobState
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])

@@ -1,4 +1,4 @@
-"""``GET /api/kinds``: every run kind of the registry (``daq.procedures.kinds``) with the
+"""``GET /api/kinds``: every run kind of the registry (``daq.procedures.run_kinds``) with the
 JSON Schema of its start request and of its import fields, its axis, drives, what the
 live plot shows of it and the units of its estimates, so a client (the browser's start
 forms, method menu, live plot, estimation and cross-check pages among them) renders what
@@ -13,7 +13,7 @@ from pydantic import BaseModel, Field
 
 from api.http.deps import require_read
 from api.http.schemas import error_responses
-from daq.procedures.kinds import KINDS, KindSpec
+from daq.procedures.run_kinds import KINDS, KindSpec
 
 router = APIRouter(prefix="/api", tags=["rig"])
 

@@ -21,7 +21,7 @@ from api.http.deps import OperatorDep, ServiceDep, require_read
 from api.http.identity import known_user
 from api.http.paging import EventsLimit
 from api.http.schemas import error_responses
-from daq.store.people import User
+from daq.store.people_and_safety_log import User
 
 router = APIRouter(prefix="/api", tags=["people"])
 

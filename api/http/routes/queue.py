@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from api.core.job_model import JobConflict
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, SequenceRequest, error_responses
-from daq.procedures.kinds import RIG_KINDS
+from daq.procedures.run_kinds import RIG_KINDS
 
 router = APIRouter(prefix="/api/queue", tags=["queue"])
 _CHANGE = error_responses(401, 404, 409, 503)

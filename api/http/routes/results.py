@@ -23,7 +23,7 @@ from api.http.paging import Offset, ResultsLimit
 from api.http.schemas import ResultOut, error_responses, file_response
 from daq.store import ResultNotFound, Store
 from daq.store.day_window import parse_moment, parse_tz, start_window
-from daq.store.records import ResultInfo
+from daq.store.run_records import ResultInfo
 
 router = APIRouter(prefix="/api", tags=["results"])
 _READ = error_responses(401, 404, 422)

@@ -13,11 +13,11 @@ from api.core.service import RigService
 from api.http.deps import OperatorDep, RunnerDep, ServiceDep, require_read, require_write
 from api.http.identity import anyone
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
-from daq.capabilities import safety
-from daq.procedures.kinds import RIG_KINDS, NotCapable, capabilities
+from daq.procedures.run_kinds import RIG_KINDS, NotCapable, capabilities
+from daq.rig_capabilities import safety
 from daq.session import RigSession
-from daq.store.base import software_version
-from daq.store.people import User
+from daq.store.database import software_version
+from daq.store.people_and_safety_log import User
 
 router = APIRouter(prefix="/api", tags=["rig"])
 

@@ -12,8 +12,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from api.http.deps import Credentials, StoreDep
 from api.http.identity import DEFAULT_USER, known_user
 from api.http.schemas import error_responses
-from daq.store.people import User, UserExists, UserRepository, check_user_name
-from daq.store.records import to_datetime
+from daq.store.people_and_safety_log import User, UserExists, UserRepository, check_user_name
+from daq.store.run_records import to_datetime
 
 router = APIRouter(prefix="/api/users", tags=["people"])
 _ADMIN = error_responses(401, 403)

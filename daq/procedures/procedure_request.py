@@ -66,7 +66,7 @@ def comma_separated_floats(text: str) -> list[float]:
     return [float(part) for part in text.split(",")]
 
 
-class _Strict(BaseModel):
+class StrictRequest(BaseModel):
     """A number must be a JSON number (``"24.5"`` is refused); unknown fields are refused;
     ``null`` is the field's default."""
 
@@ -92,7 +92,7 @@ def rig_of(info: ValidationInfo) -> RigConfig | None:
     return (info.context or {}).get("rig")
 
 
-class _ProcedureRequest(_Strict):
+class ProcedureRequest(StrictRequest):
     """What every procedure start takes besides its own parameters (the CLI gives it with
     ``--operator``, ``--tag``, … from ``api.cli.metadata``, not from this field).
 
@@ -185,7 +185,7 @@ Baseline = Annotated[
 ]
 
 
-class _SignedLoad(_ProcedureRequest):
+class SignedLoadRequest(ProcedureRequest):
     """What a tow's and a spin's parameters share: a signed load (its sign is the test's
     direction) from a hung weight or from the thrusters, and the request it rounded.
 

@@ -18,7 +18,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from daq.store.base import StoreBase
+from daq.store.database import StoreBase
 from daq.store.schema import USER_ROLES, rig_events, users
 
 #: A user's name: what jobs, runs and the safety log show.

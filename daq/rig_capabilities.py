@@ -1,7 +1,7 @@
 """What a rig can do, from what its rig file lists.
 
 A rig file lists only the channels (and sections) its rig has. Each run kind says what it
-needs (``KindSpec.needs`` in ``daq.procedures.kinds``, a ``Needs``); this module checks a
+needs (``KindSpec.needs`` in ``daq.procedures.run_kinds``, a ``Needs``); this module checks a
 need against a rig and words what is missing ("spin: needs channel spin_release"). The
 safety channels are not needed by any kind: they are used when present, and ``safety``
 says what the rig does without each one.

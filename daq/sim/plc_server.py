@@ -36,6 +36,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 from daq.config import Channel, RigConfig
 from daq.registers import decode, encode
 from daq.sim.plant import Plant
+from daq.sim.plant_channels import read_channel, write_channel
 
 _KIND_OF_FC = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input"}
 _KIND_OF_FC.update({fc: "holding" for fc in (3, 6, 16, 22, 23)})
@@ -164,7 +165,7 @@ class SimulatedPLC:
         for ch in self._by_kind[kind]:
             if ch.address + ch.width <= address or ch.address >= end:
                 continue
-            value = self.plant.read(ch.name)
+            value = read_channel(self.plant, ch.name)
             if value is None:
                 continue  # a channel the plant does not model keeps what was written
             if kind in _BIT_KINDS:
@@ -184,12 +185,12 @@ class SimulatedPLC:
             if ch.address + ch.width <= address or ch.address >= end:
                 continue
             if kind in _BIT_KINDS:
-                self.plant.write(ch.name, 1.0 if values[ch.address - address] else 0.0)
+                write_channel(self.plant, ch.name, 1.0 if values[ch.address - address] else 0.0)
                 continue
             words = []
             for a in range(ch.address, ch.address + ch.width):
                 words.append(values[a - address] if address <= a < end else registers[a - start])
-            self.plant.write(ch.name, decode(ch, words))
+            write_channel(self.plant, ch.name, decode(ch, words))
 
     # ---- fault hook on the byte stream ----------------------------------------------------
     def _trace_packet(self, sending: bool, data: bytes) -> bytes:

@@ -8,7 +8,7 @@ yaw) released from an offset and left to settle, imported from a CSV (``rig impo
 A free decay scales every coefficient alike, so it needs one fact from outside: the linear
 stiffness ``stiffness`` (ρ·g·A_w for heave, Δ·g·GM for roll) or the inertia; the body's own
 inertia (``known_inertia``) makes the identified one the added inertia. Everything here is
-what the registry entry (``daq.procedures.kinds``) holds: the import fields and rule, the
+what the registry entry (``daq.procedures.run_kinds``) holds: the import fields and rule, the
 loader and the estimator.
 """
 
@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from daq.estimators import OUTPUT_ERROR, Estimator
 from daq.import_rules import ImportRules, Planning, checked_fields, no_drive
 from daq.procedures.params import ParameterError
-from daq.procedures.request_base import Flag
+from daq.procedures.procedure_request import Flag
 from daq.vocabulary import AXES, RunKind
 
 if TYPE_CHECKING:

@@ -18,10 +18,10 @@ from collections.abc import Callable
 from typing import Any
 
 from daq.operator import OperatorAct
+from daq.procedures.axis_steps import RunOutcome
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.requests import CalibrationRequest as CalibrationParameters
-from daq.procedures.steps import RunOutcome
 from daq.procedures.thruster_faults import abort_on_thruster_fault
 from daq.session import RigSession
 from daq.store.run_events import RunAction, RunEvents

@@ -25,21 +25,21 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from pydantic import BaseModel
 
-from daq.capabilities import Capability, Needs, capability
 from daq.config import PENDULUM_CHANNELS
-from daq.decay import DECAY, DECAY_IMPORT
+from daq.decay_import import DECAY, DECAY_IMPORT
 from daq.estimators import AXIS, PENDULUM, Estimator
 from daq.import_rules import ImportRules, drive_plan, pendulum_plan
 from daq.procedures import requests
 from daq.procedures.params import ParameterError
+from daq.rig_capabilities import Capability, Needs, capability
 from daq.vocabulary import AXES, AxisTerms, RunKind
 
 if TYPE_CHECKING:
     from pathlib import Path
 
     from daq.config import RigConfig
+    from daq.procedures.axis_steps import RunOutcome
     from daq.procedures.recording import AbortSignal, ProgressCallback
-    from daq.procedures.steps import RunOutcome
     from daq.session import RigSession
     from estimation.design.envelope import AxisEnvelope
 
@@ -103,7 +103,7 @@ class KindSpec:
     help: str
     #: The request model (``daq.procedures.requests``): API body, CLI options, browser form;
     #: ``checked(raw, rig)`` gives the frozen parameters. ``None``: the rig cannot run it.
-    request: type[requests._ProcedureRequest] | None = None
+    request: type[requests.ProcedureRequest] | None = None
     #: Run the procedure under the rig lock.
     run: Runner = field(default_factory=lambda: _not_on_the_rig)
     #: The job's label from its validated parameters: "tow 4.9 N (thrusters)".
@@ -121,7 +121,7 @@ class KindSpec:
     report: Callable[[KindOutcome, Path], list[Path]] | None = None
     #: Lines ``rig <command>`` prints above the outcome (a calibration's table), or ``None``.
     summary: Callable[[KindOutcome], list[str]] | None = None
-    #: What the rig file must list for this kind, whatever drives it (``daq.capabilities``).
+    #: What the rig file must list for this kind, whatever drives it (``daq.rig_capabilities``).
     needs: Needs = field(default_factory=Needs)
     #: Tow/spin: what each drive (``weight``, ``thrusters``) needs on top of ``needs``.
     drives: dict[str, Needs] = field(default_factory=dict)
@@ -218,7 +218,7 @@ async def _run_pendulum(session, params, *, abort, progress) -> KindOutcome:
 
 
 async def _run_calibration(session, params, *, abort, progress) -> KindOutcome:
-    from daq.procedures.calibration import run_thrust_calibration
+    from daq.procedures.thrust_calibration import run_thrust_calibration
 
     outcome, calibration = await run_thrust_calibration(
         session, params, abort=abort, progress=progress

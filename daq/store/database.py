@@ -13,9 +13,10 @@ from typing import Self
 import sqlalchemy as sa
 
 from daq.store import checks
+from daq.store.faults import DatabaseNotOpened, opening_reason
 from daq.store.migrate import create_engine, default_database_url, upgrade_to_head
 from daq.store.packing import SamplePacker
-from daq.store.records import AmbiguousRunId, RunNotFound
+from daq.store.run_records import AmbiguousRunId, RunNotFound
 from daq.store.schema import runs as runs_t
 
 SAMPLE_COLUMNS = "run_id, seq, t_mono, t_wall, quality, stale, channel_values"
@@ -103,8 +104,11 @@ class StoreBase:
 
     def __init__(self, url: str | None = None) -> None:
         self.url = url or default_database_url()
-        self.engine = create_engine(self.url)
-        upgrade_to_head(self.engine)
+        try:
+            self.engine = create_engine(self.url)
+            upgrade_to_head(self.engine)
+        except sa.exc.SQLAlchemyError as err:  # a bad URL, no driver, no server
+            raise DatabaseNotOpened(opening_reason(err)) from err
         self.backend = self.engine.dialect.name
         mark = "?" if self.backend == "sqlite" else "%s"
         self._insert_samples_sql = (

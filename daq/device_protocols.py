@@ -22,8 +22,8 @@ if TYPE_CHECKING:
     from daq.config import RigConfig
     from daq.plc import PlcClient
     from daq.sim.scenario import Scenario
-    from thrusters.config import CommandLimits, ThrusterPort
     from thrusters.driver import OutputStep, ThrusterFault, ThrusterStatus
+    from thrusters.settings import CommandLimits, ThrusterPort
 
 
 class Thrusters(Protocol):
@@ -31,8 +31,9 @@ class Thrusters(Protocol):
 
     #: Why commands are held at zero (e.g. ``"sensor data stale"``), or None.
     inhibited: str | None
-    #: The first fault since arming (link lost, watchdog trip), or None.
-    fault: ThrusterFault | None
+
+    @property
+    def fault(self) -> ThrusterFault | None: ...  # the first since arming (link lost, watchdog)
 
     @property
     def confirmed(self) -> tuple[float, ...]: ...  # outputs the controller last confirmed

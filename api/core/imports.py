@@ -12,7 +12,7 @@ them; a given release or vehicle overrides it. A tow may declare the body's own
 does not (before the rig file's, then ``unknown``).
 
 What needs the samples (the drive's sign against the motion, one-row files, window times
-within the ``t`` range) is checked by ``daq.run_import.import_csv`` while it parses.
+within the ``t`` range) is checked by ``daq.csv_to_store.import_csv`` while it parses.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from daq.import_rules import ImportRequest, Planning, body_mass
-from daq.procedures.kinds import IMPORT_KINDS, KINDS
 from daq.procedures.params import ParameterError
+from daq.procedures.run_kinds import IMPORT_KINDS, KINDS
 from daq.store.export_header import ExportHeader, read_export_header, vehicle_in_header
 
 if TYPE_CHECKING:
@@ -34,7 +34,7 @@ __all__ = ["IMPORT_KINDS", "ImportPlan", "ImportRequest", "plan_import"]
 
 @dataclass(frozen=True)
 class ImportPlan:
-    """The import to make: ``kind``, the keyword arguments of ``daq.run_import.import_csv``
+    """The import to make: ``kind``, the keyword arguments of ``daq.csv_to_store.import_csv``
     (``options``) and what the file's export header supplied (``from_header``)."""
 
     kind: str

@@ -56,7 +56,11 @@ class RunOutcome:
 
 
 @dataclass(frozen=True)
-class _Axis:
+class Axis:
+    """The words of one axis a procedure releases and stops (``daq.vocabulary.AXES``):
+    position channel, release coil, weight actuator, unit, end switch and the parameter
+    that limits its travel."""
+
     kind: str
     position: str
     release: str
@@ -66,7 +70,7 @@ class _Axis:
     travel_key: str = ""  # the parameter limiting the motion: max_distance_m, max_angle_rad
 
     @classmethod
-    def of(cls, kind: RunKind) -> _Axis:
+    def of(cls, kind: RunKind) -> Axis:
         """The axis words of ``kind`` (``daq.vocabulary.AXES``)."""
         terms = AXES[kind]
         return cls(
@@ -80,8 +84,8 @@ class _Axis:
         )
 
 
-TOW = _Axis.of(RunKind.TOW)
-SPIN = _Axis.of(RunKind.SPIN)
+TOW = Axis.of(RunKind.TOW)
+SPIN = Axis.of(RunKind.SPIN)
 
 
 async def _settled_samples(session: RigSession, seconds: float, abort: AbortSignal) -> list[Sample]:
@@ -104,7 +108,7 @@ async def _settled_samples(session: RigSession, seconds: float, abort: AbortSign
     return got
 
 
-async def check_ready(session: RigSession, axis: _Axis, abort: AbortSignal) -> float:
+async def check_ready(session: RigSession, axis: Axis, abort: AbortSignal) -> float:
     """Vehicle at rest, switch clear, no e-stop; returns the start position."""
     samples = await _settled_samples(session, 0.5, abort)
     if len(samples) < 2:
@@ -164,7 +168,7 @@ def check_room(params: TowParameters | SpinParameters, start: float) -> None:
 
 async def follow_motion(
     rec: RecordedRun,
-    axis: _Axis,
+    axis: Axis,
     start: float,
     params: TowParameters | SpinParameters,
     report: ProgressCallback,

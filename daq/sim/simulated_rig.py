@@ -21,7 +21,7 @@ from typing import Any
 
 from daq.config import RigConfig
 from daq.sim.plant import Plant
-from daq.sim.plc import SimulatedPLC
+from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario
 from thrusters.emulator import ThrusterControllerEmulator
 
@@ -132,8 +132,8 @@ class SimulatedRig:
     async def stop(self) -> None:
         """Stop serving; thrusters go to zero and both brakes engage."""
         self.plant.set_commands([0.0] * self.plant.thruster_port.count)
-        self.plant.write("tow_release", 0)
-        self.plant.write("spin_release", 0)
+        self.plant.engage_tow_brake()
+        self.plant.engage_spin_brake()
         await self.plc.stop()
         if self.thrusters is not None:
             await self.thrusters.stop()

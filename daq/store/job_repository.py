@@ -11,7 +11,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from daq.store.base import StoreBase, process_alive, process_identity
+from daq.store.database import StoreBase, process_alive, process_identity
 from daq.store.schema import JOB_FINAL, JobState, job_events, jobs, report_files
 
 #: Columns a caller sets (the owner columns are filled in by ``save``).
