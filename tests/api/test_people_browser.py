@@ -50,6 +50,7 @@ def test_a_viewer_sees_their_name_and_disabled_controls_with_the_reason(
         for button in (tow, page.locator("#arm-btn"), page.locator("#abort-btn")):
             expect(button).to_be_disabled()
             expect(button).to_have_attribute("title", reason)
+        expect(page.locator("#role-note")).to_contain_text(reason)  # seen without hovering
         expect(page.locator("#estop-btn")).to_be_enabled()  # anyone may stop the rig
         status = page.locator("#status-table")
         expect(status.locator("tr", has_text="Thrusters").locator("td").nth(1)).to_have_text(

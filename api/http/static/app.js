@@ -156,7 +156,7 @@ async function refreshRig() {
       ["PLC connected", s.connected ? "yes" : "NO"],
       ["Device lost", s.device_lost ? "YES" : "no"],
       ["Thrusters", thrustersText(s)],
-      ["Rig", whoHoldsTheRig(s)],
+      ["Rig access", whoHoldsTheRig(s)],
       ["Stale channels", (s.stale_channels || []).join(", ") || "none"],
       ["Clock", `${fmt(clock.rate_hz)} Hz, p99 lateness ${fmt((clock.lateness_p99_s || 0) * 1000, 3)} ms`],
     ]);

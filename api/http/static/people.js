@@ -48,7 +48,10 @@ function showUser(user) {
   people.user = user;
   $("#who").hidden = !user;
   $("#sign-out").hidden = !user;
+  // a viewer reads why the controls are greyed without hovering each one
+  $("#role-note").hidden = !user || user.role === "operator";
   if (!user) return;
+  $("#role-note").textContent = `${viewerReason(user)}. You can watch the rig, read runs and results, and press the emergency stop.`;
   $("#who-name").textContent = user.name;
   $("#who-role").textContent = user.role;
   $("#who").title = user.role === "operator" ? "operator: may start, stop and change tests" : viewerReason(user);
