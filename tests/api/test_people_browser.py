@@ -2,7 +2,8 @@
 role, every control that starts or changes something disabled with the reason as its
 tooltip (the emergency stop stays live), who started each past job, and an emergency stop
 in a technician's words; after a thrust calibration the Thrusters page reads as a thrust
-stand (RPM, power, efficiency in g/W, the response time with its σ, N/kgf/lbf)."""
+stand (RPM, power, efficiency in g/W, the response time with its σ, N/kgf/lbf); a job asked
+to stop shows "stopping" before the service answers."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from tests.api.conftest import (
     signed_in_page,
     start_job,
     wait_job,
+    wait_rig_free,
 )
 from tests.api.test_submission_checks import QUICK_CALIBRATION
 
@@ -125,3 +127,22 @@ def _js(value: float, digits: int) -> str:
     """``value`` as the page's ``fmt`` prints it: ``digits`` significant figures, no
     trailing zeros (for values below 10**digits, where neither uses an exponent)."""
     return f"{value:.{digits}g}"
+
+
+def test_a_job_asked_to_stop_shows_stopping_at_once(chromium, client, service) -> None:
+    from playwright.sync_api import expect
+
+    wait_rig_free(client)
+    job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
+    wait_job(client, job_id, states=("running",))
+    with signed_in_page(chromium, service, client) as page:
+        expect(page.locator("#job-state")).to_have_text("running")
+        expect(page.locator("#job-user")).to_contain_text("started by default at ")
+        held: list = []  # the abort request, answered only once "stopping" was seen
+        page.route("**/api/jobs/*/abort", lambda route: held.append(route))
+        page.click("#abort-btn")
+        expect(page.locator("#job-state")).to_have_text("stopping")
+        assert len(held) == 1
+        held[0].continue_()
+        expect(page.locator("#job-state")).to_have_text("aborted")
+    assert wait_job(client, job_id)["state"] == "aborted"
