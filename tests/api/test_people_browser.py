@@ -112,6 +112,9 @@ def test_the_thrusters_page_reads_as_a_thrust_stand_after_a_calibration(
             f"± {_js(response['std_s'], 2)} s"
         )
         expect(figures).to_contain_text(f"90 % settling{_js(response['settle_90_s'], 3)} s")
+        live = page.locator("#stand-live")  # the live stream's supply voltage and commands
+        expect(live).to_contain_text(re.compile(r"supply voltage \d+\.\d\d V"))
+        expect(live).to_contain_text("thruster 1 command 0")
         for plot in ("#cal-plot", "#cal-rpm-plot", "#cal-power-plot"):
             expect(page.locator(f"{plot} .main-svg").first).to_be_visible()
 

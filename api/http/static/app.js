@@ -451,7 +451,10 @@ async function stream() {
           }
           if (!data) continue;
           const obj = JSON.parse(data);
-          if (kind === "sample") onSample(obj);
+          if (kind === "sample") {
+            onSample(obj);
+            if (typeof onStandSample === "function") onStandSample(obj); // thrusters.js
+          }
           else if (kind === "job") {
             if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
             else state.jobDocs[obj.id] = obj;

@@ -143,4 +143,29 @@ async function loadCalibrationList() {
     .join("");
 }
 
+// Live readouts while the page is shown (app.js's stream calls this with each sample): the
+// rig's channels in volts (supply) and newtons (load cell, in the chosen unit) and each
+// thruster's command. RPM and current are not streamed: the controller reports them at each
+// calibration step, and the table holds them.
+function onStandSample(sample) {
+  if ($("#page-thrusters").hidden) return;
+  const units = (state.rig && state.rig.units) || {};
+  const readings = [];
+  for (const [name, value] of Object.entries(sample.channels || {})) {
+    if (typeof value !== "number") continue;
+    const label = name.replace(/_/g, " ");
+    if (units[name] === "V") readings.push([label, `${value.toFixed(2)} V`]);
+    else if (units[name] === "N") readings.push([label, `${fmt(inUnit(value), 4)} ${stand.unit}`]);
+  }
+  (sample.thrusters || []).forEach((u, i) => readings.push([`thruster ${i + 1} command`, fmt(u, 3)]));
+  const box = $("#stand-live");
+  box.textContent = "Live: ";
+  for (const [label, text] of readings) {
+    const span = document.createElement("span");
+    span.className = "reading";
+    span.textContent = `${label} ${text}`;
+    box.append(span);
+  }
+}
+
 pageLoaders.thrusters = loadCalibration;
