@@ -1,6 +1,7 @@
 """The Thrusters page in real headless Chromium shows an imported thrust-stand table as the
-calibration in force (named ``imported N (file)``, with its current and efficiency), and
-lists every calibration, measured and imported."""
+calibration in force (named ``imported N (file)``, with its supply once, its current and
+its efficiency in g/W as a thrust stand prints it), and lists every calibration, measured
+and imported."""
 
 from __future__ import annotations
 
@@ -43,13 +44,14 @@ def _shows(page, label: str) -> None:
     from playwright.sync_api import expect
 
     expect(page.locator("#cal-status")).to_contain_text(f"Newest calibration: {label}")
-    expect(page.locator("#cal-status")).to_contain_text("at 16 V")
+    expect(page.locator("#cal-status")).to_contain_text("at 16.0 V.")
     rows = page.locator("#cal-table tbody tr")
     expect(rows).to_have_count(201)
-    # The last row is full forward: 23.83 A, 51.44 N / 381.28 W = 0.1349 N/W.
+    # The last row is full forward: 23.83 A, 51.44 N / 381.28 W = 0.1349 N/W = 13.76 g/W.
     last = rows.last.locator("td")
     expect(last.nth(4)).to_have_text("23.83")
-    expect(last.nth(5)).to_have_text("0.135")
+    expect(last.nth(6)).to_have_text("381.3")
+    expect(last.nth(7)).to_have_text("13.8")
     listed = page.locator("#cal-list tbody tr").first.locator("td")
     expect(listed.nth(0)).to_have_text(label)
     expect(listed.nth(1)).to_have_text("imported")

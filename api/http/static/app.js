@@ -4,7 +4,7 @@
 const $ = (sel, root = document) => root.querySelector(sel);
 const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 const FINAL = ["completed", "aborted", "failed", "interrupted"];
-const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, jobDocs: {} };
+const state = { token: null, rig: null, job: null, runs: [], selectedRun: null, jobDocs: {}, stopping: new Set() };
 // Pages defined in their own scripts register a loader here: pageLoaders.name = () => {...}
 const pageLoaders = {};
 
@@ -51,9 +51,18 @@ $("#token-form").addEventListener("submit", async (ev) => {
   }
 });
 
+// A refusal in a technician's words: an unacknowledged emergency stop names the button that
+// acknowledges it, not the API route (the service's text is for API clients).
+function refusalText(body) {
+  if (body.holder !== "emergency stop") return body.detail;
+  const stop = state.rig && state.rig.guard && state.rig.guard.estop;
+  const when = stop ? ` (pressed ${localTime(stop.at)})` : "";
+  return `The rig will not move: the emergency stop${when} is not acknowledged yet. An operator checks the rig, then presses "Acknowledge emergency stop" on the Rig page.`;
+}
+
 class ApiError extends Error {
   constructor(status, body) {
-    super(body.detail || `HTTP ${status}`);
+    super(refusalText(body) || `HTTP ${status}`);
     this.status = status;
     this.body = body;
   }
@@ -89,6 +98,8 @@ async function download(path, filename) {
 
 const fmt = (v, digits = 4) =>
   v === null || v === undefined ? "—" : typeof v === "number" ? Number(v.toPrecision(digits)).toString() : String(v);
+// A time the API gives (ISO 8601, UTC) as the reader's local date and time; "—" for none.
+const localTime = (iso) => (iso ? new Date(iso).toLocaleString() : "—");
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
 function kv(table, rows) {
   table.innerHTML = rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("");
@@ -114,7 +125,6 @@ function showPage() {
   if (word !== page && pageLoaders[word]) pageLoaders[word]();
   if (page === "runs") loadRuns();
   if (page === "estimation") loadEstimationRuns();
-  if (page === "thrusters") loadCalibration();
   if (page === "rig") Plotly.Plots.resize("live-plot");
   if (pageLoaders[page]) pageLoaders[page]();
 }
@@ -145,8 +155,8 @@ async function refreshRig() {
       ["Mode", s.simulated ? "simulated" : "hardware"],
       ["PLC connected", s.connected ? "yes" : "NO"],
       ["Device lost", s.device_lost ? "YES" : "no"],
-      ["Thrusters", `${s.armed ? "armed" : "disarmed"} (${s.thrusters ? s.thrusters.state : "—"})`],
-      ["Rig lock", s.lock_holder || "free"],
+      ["Thrusters", thrustersText(s)],
+      ["Rig access", whoHoldsTheRig(s)],
       ["Stale channels", (s.stale_channels || []).join(", ") || "none"],
       ["Clock", `${fmt(clock.rate_hz)} Hz, p99 lateness ${fmt((clock.lateness_p99_s || 0) * 1000, 3)} ms`],
     ]);
@@ -156,6 +166,7 @@ async function refreshRig() {
     setLimits();
     setCapabilities(s.capabilities || {});
     renderGuard(s.guard || {}); // guard.js: e-stop to acknowledge, who holds the rig
+    if (typeof refreshUser === "function") refreshUser(); // people.js: who is signed in
     if (s.current_job) showJob(s.current_job);
     // The job shown left the rig but its ending never reached the page (an event lost
     // while the stream reconnected): ask for it, so it is never left showing "running".
@@ -168,6 +179,26 @@ async function refreshRig() {
     $("#conn-dot").className = "dot bad";
     $("#conn-text").textContent = err.status === 401 ? "waiting for the API token" : err.message;
   }
+}
+
+// The thrusters' state in words: armed or disarmed, and the controller's state only when it
+// says more (a fault, a lost link), never "disarmed (DISARMED)".
+function thrustersText(s) {
+  const t = s.thrusters;
+  if (!t || t.state === "absent") return "none on this rig";
+  const armed = s.armed ? "armed" : "disarmed";
+  const said = String(t.state || "").toLowerCase().replace(/_/g, " ");
+  return !said || said === armed ? armed : `${armed} — controller ${said}`;
+}
+
+// Who may move the rig now, the same words the start form uses when it refuses: an
+// unacknowledged emergency stop, a hold, the job on the rig, or free.
+function whoHoldsTheRig(s) {
+  const guard = s.guard || {};
+  if (guard.estop) return `stopped: emergency stop at ${localTime(guard.estop.at)}, not acknowledged`;
+  if (guard.hold) return `held by ${guard.hold.by || "no token"} since ${localTime(guard.hold.at)}: ${guard.hold.message}`;
+  if (s.current_job) return `busy: ${s.current_job.label}`;
+  return s.lock_holder ? `busy: ${s.lock_holder}` : "free";
 }
 
 // Each start form's inputs take the rig's limits on their fields (GET /api/rig →
@@ -227,6 +258,16 @@ function setCapabilities(caps) {
 }
 
 // ---- jobs ---------------------------------------------------------------------------------
+// A job or campaign asked to stop shows "stopping" at once, until its ending arrives (a
+// campaign lets the run on the rig finish, which can take a minute).
+function shownState(job) {
+  if (FINAL.includes(job.state)) {
+    state.stopping.delete(job.id);
+    return job.state;
+  }
+  return state.stopping.has(job.id) ? "stopping" : job.state;
+}
+
 function showJob(job) {
   if (!job) return;
   if (job.kind === "estimation") return showEstimationJob(job);
@@ -239,7 +280,8 @@ function showJob(job) {
   const act = job.operator_act;
   const runs = job.run_ids.map((r) => `<a href="#runs" data-run="${r}">${r.slice(0, 8)}</a>`).join(", ");
   $("#job-panel").innerHTML = `
-    <p><strong>${esc(job.label)}</strong> <span class="state ${job.state}" id="job-state">${job.state}</span></p>
+    <p><strong>${esc(job.label)}</strong> <span class="state ${shownState(job)}" id="job-state">${shownState(job)}</span>
+      <span class="muted" id="job-user">started by ${esc(job.user || "—")}${job.started_at ? ` at ${esc(localTime(job.started_at))}` : ""}</span></p>
     <div class="progress"><div style="width:${pct}%"></div></div>
     <p id="job-message">${esc(job.progress.message)}</p>
     ${act ? `<div class="operator" id="operator-act"><strong>Operator:</strong> ${act.reverse ? `<span class="tag">reverse rigging</span>` : ""}${esc(act.instruction)}
@@ -266,9 +308,12 @@ function openRunSoon(runId) {
 $("#abort-btn").onclick = async () => {
   const job = (state.rig && state.rig.current_job) || state.job;
   if (!job || FINAL.includes(job.state)) return alert("No test is running.");
+  state.stopping.add(job.id);
+  if (state.job && state.job.id === job.id) showJob(state.job);
   try {
     showJob(await api("POST", `/api/jobs/${job.id}/abort`));
   } catch (err) {
+    state.stopping.delete(job.id);
     alert(err.message);
   }
 };
@@ -370,7 +415,7 @@ function attachStart(form) {
         if (input) input.classList.add("invalid");
         if (key) $("#run-metadata").open = true;
       }
-      if (err.body && err.body.holder) errors.insertAdjacentHTML("beforeend", `<li>Rig held by ${esc(err.body.holder)}</li>`);
+      if (err.body && err.body.holder && err.body.holder !== "emergency stop") errors.insertAdjacentHTML("beforeend", `<li>Rig held by ${esc(err.body.holder)}</li>`);
     }
   });
 }
@@ -406,7 +451,10 @@ async function stream() {
           }
           if (!data) continue;
           const obj = JSON.parse(data);
-          if (kind === "sample") onSample(obj);
+          if (kind === "sample") {
+            onSample(obj);
+            if (typeof onStandSample === "function") onStandSample(obj); // thrusters.js
+          }
           else if (kind === "job") {
             if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
             else state.jobDocs[obj.id] = obj;
@@ -853,73 +901,6 @@ $("#lightbox").addEventListener("click", closeLightbox);
 document.addEventListener("keydown", (e) => {
   if (e.key === "Escape") closeLightbox();
 });
-
-// ---- thrusters --------------------------------------------------------------------------------
-function thrust(p, u) {
-  const fwd = Math.max(u - p.forward_dead_band, 0);
-  const rev = Math.max(-u - p.reverse_dead_band, 0);
-  return p.forward_gain * fwd ** p.forward_exponent - p.reverse_gain * rev ** p.reverse_exponent;
-}
-function commandFor(p, f) {
-  if (f > 0) return p.forward_dead_band + (f / p.forward_gain) ** (1 / p.forward_exponent);
-  if (f < 0) return -(p.reverse_dead_band + (-f / p.reverse_gain) ** (1 / p.reverse_exponent));
-  return 0;
-}
-
-async function loadCalibration() {
-  let cal;
-  try {
-    cal = await api("GET", "/api/calibration/latest");
-  } catch (err) {
-    $("#cal-status").textContent = err.status === 404 ? "No thrust calibration yet: start one on the Rig page." : err.message;
-    return;
-  }
-  const data = cal.data;
-  const table = data.table || [];
-  const volts = cal.voltages_v.length ? ` at ${cal.voltages_v.join(", ")} V` : "";
-  $("#cal-status").textContent = `Newest calibration: ${cal.label} of ${new Date(cal.created_at).toLocaleString()}${volts}.`;
-  const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
-  $("#cal-table tbody").innerHTML = table
-    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(r.thrust_per_thruster_n, 4)}</td><td>${cell(r.supply_voltage_v, 4)}</td><td>${cell(r.current_a, 4)}</td><td>${cell(r.efficiency_n_per_w, 3)}</td></tr>`)
-    .join("");
-  loadCalibrationList();
-  const traces = [
-    { x: table.map((r) => r.command), y: table.map((r) => r.thrust_per_thruster_n), mode: "markers", name: "measured" },
-  ];
-  const fit = data.fit && data.fit.parameters;
-  $("#cal-params tbody").innerHTML = Object.entries(fit || {})
-    .map(([k, v]) => `<tr><td>${k}${v.unit ? ` (${esc(v.unit)})` : ""}</td><td>${fmt(v.value, 5)}</td><td>± ${fmt(v.std, 3)}</td></tr>`)
-    .join("") + (data.fit ? `<tr><td>RMSE (N)</td><td>${fmt(data.fit.rmse_n, 3)}</td><td></td></tr>` : "");
-  const p = fit ? Object.fromEntries(Object.entries(fit).map(([k, v]) => [k, v.value])) : null;
-  if (p) {
-    const [lo, hi] = data.fit.command_range || [-1, 1];
-    const us = Array.from({ length: 201 }, (_, i) => lo + ((hi - lo) * i) / 200);
-    traces.push({ x: us, y: us.map((u) => thrust(p, u)), mode: "lines", name: "fit" });
-    const fs = us.map((u) => thrust(p, u));
-    const fmin = Math.min(...fs);
-    const fmax = Math.max(...fs);
-    const forces = Array.from({ length: 201 }, (_, i) => fmin + ((fmax - fmin) * i) / 200);
-    Plotly.newPlot(
-      "cal-inverse-plot",
-      [{ x: forces, y: forces.map((f) => commandFor(p, f)), mode: "lines", name: "inverse map" }],
-      { title: { text: "Inverse map: force → command" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "thrust per thruster (N)" } }, yaxis: { title: { text: "command" } } },
-      { responsive: true, displaylogo: false },
-    );
-  }
-  Plotly.newPlot(
-    "cal-plot",
-    traces,
-    { title: { text: "Thrust curve" }, margin: { t: 40, r: 20, b: 40, l: 60 }, xaxis: { title: { text: "command (fraction)" } }, yaxis: { title: { text: "thrust per thruster (N)" } } },
-    { responsive: true, displaylogo: false },
-  );
-}
-
-async function loadCalibrationList() {
-  const all = await api("GET", "/api/calibrations");
-  $("#cal-list tbody").innerHTML = all
-    .map((c) => `<tr><td>${esc(c.label)}</td><td>${c.source === "run" ? "measured" : "imported"}</td><td>${new Date(c.created_at).toLocaleString()}</td><td>${c.rows}</td><td>${c.voltages_v.map((v) => fmt(v, 3)).join(", ") || "—"}</td><td>${esc(c.channels.join(", ")) || "—"}</td></tr>`)
-    .join("");
-}
 
 // ---- start ------------------------------------------------------------------------------------
 function refreshAll() {

@@ -29,13 +29,25 @@ function showCampaign(job) {
       <td>${sigmaText(e.before)}</td><td>${sigmaText(e.after)}${e.after.unresolved.length ? `<br><span class="muted">${esc(e.after.unresolved.join("; "))}</span>` : ""}</td>
       <td>${e.tank_minutes.toFixed(1)}</td></tr>`)
     .join("");
-  box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${job.state}" id="campaign-state">${job.state}</span>
-      ${running ? `<button type="button" id="campaign-stop">Stop the campaign</button>` : ""}</p>
+  const shown = shownState(job); // app.js: "stopping" once asked, until it ends
+  const stopping = shown === "stopping"
+    ? ` <span class="muted" id="campaign-stopping">no further test; the run on the rig finishes first</span>` : "";
+  box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${shown}" id="campaign-state">${shown}</span>${stopping}
+      <span class="muted">started by ${esc(job.user || "—")}</span>
+      ${running && shown !== "stopping" ? `<button type="button" id="campaign-stop">Stop the campaign</button>` : ""}</p>
     <p class="muted" id="campaign-summary">${c.runs_used || 0} of ${c.max_runs} runs · ${(c.tank_minutes || 0).toFixed(1)} of ${c.max_minutes} tank min${c.outcome ? ` · <strong>${esc(c.outcome)}</strong>` : ""}</p>
     ${pending}
     <table class="list" id="campaign-trail"><thead><tr><th>#</th><th>Test</th><th>Why</th><th>2σ before</th><th>2σ after</th><th>Tank min</th></tr></thead><tbody>${rows}</tbody></table>`;
   const stop = $("#campaign-stop");
-  if (stop) stop.onclick = () => campaignCall("POST", `/api/campaigns/${job.id}/stop`);
+  if (stop) {
+    stop.onclick = async () => {
+      state.stopping.add(job.id);
+      showCampaign(job);
+      if (await campaignCall("POST", `/api/campaigns/${job.id}/stop`)) return;
+      state.stopping.delete(job.id); // refused: it is not stopping
+      showCampaign(campaignView.job);
+    };
+  }
 }
 
 async function campaignCall(method, path, body) {
@@ -43,8 +55,10 @@ async function campaignCall(method, path, body) {
   try {
     const job = await api(method, path, body);
     showCampaign(job);
+    return true;
   } catch (err) {
     $("#campaign-error").textContent = err.message;
+    return false;
   }
 }
 

@@ -24,7 +24,7 @@ async function crosscheckLoad() {
     );
     const option = (r) => {
       const draws = ((r.data.uncertainty || {}).calibration_draws || 0) > 0;
-      return `<option value="${r.id}" data-thrusters="${draws}">#${r.id} ${esc(r.data.axis)}, ${r.data.runs.length} run(s)${draws ? ", thruster-driven" : ""} — ${esc(r.created_at.slice(0, 16))}</option>`;
+      return `<option value="${r.id}" data-thrusters="${draws}">#${r.id} ${esc(r.data.axis)}, ${r.data.runs.length} run(s)${draws ? ", thruster-driven" : ""} — ${esc(localTime(r.created_at))}</option>`;
     };
     const weight = results.filter((r) => !((r.data.uncertainty || {}).calibration_draws > 0));
     const thrusters = results.filter((r) => (r.data.uncertainty || {}).calibration_draws > 0);

@@ -1,5 +1,6 @@
 // The rig's guard on the Rig page: an emergency stop waiting for an operator's
-// acknowledgement, and who holds the rig (GET /api/rig → guard). app.js calls renderGuard.
+// acknowledgement, and who holds the rig (GET /api/rig → guard), in a technician's words
+// with local times. app.js calls renderGuard.
 "use strict";
 
 function renderGuard(guard) {
@@ -7,12 +8,12 @@ function renderGuard(guard) {
   if (!panel) return;
   const stop = guard.estop;
   const hold = guard.hold;
-  const who = (e) => esc(e.by || "no token");
+  const who = (e) => esc(e.by || "someone without a sign-in");
   panel.innerHTML = `
-    ${stop ? `<p class="error" id="estop-latched"><strong>Emergency stop</strong> at ${esc(stop.at)} (${who(stop)}):
-      the rig refuses motion until an operator acknowledges it.</p>
+    ${stop ? `<p class="error" id="estop-latched"><strong>Emergency stop</strong> pressed ${esc(localTime(stop.at))} by ${who(stop)}:
+      the rig refuses motion until an operator has checked it and acknowledges the stop.</p>
       <button id="estop-ack-btn">Acknowledge emergency stop</button>` : ""}
-    ${hold ? `<p id="hold-state"><strong>Held by ${who(hold)}</strong> since ${esc(hold.at)}: ${esc(hold.message)}</p>
+    ${hold ? `<p id="hold-state"><strong>Held by ${who(hold)}</strong> since ${esc(localTime(hold.at))}: ${esc(hold.message)}</p>
       <button id="release-btn">Release hold</button>`
       : `<button id="hold-btn" title="Refuse starts by anyone else while you work at the tank">Hold the rig…</button>`}`;
   const act = (id, run) => {

@@ -45,7 +45,7 @@ function showQueue(q) {
   $("#queue-stop").disabled = q.paused;
   const r = q.running;
   $("#queue-running").innerHTML = r
-    ? `<p>On the rig: <strong>${esc(r.label)}</strong> <span class="state ${r.state}">${r.state}</span> <span class="muted">${esc(r.progress.message)}</span></p>`
+    ? `<p>On the rig: <strong>${esc(r.label)}</strong> <span class="state ${shownState(r)}">${shownState(r)}</span> <span class="muted">${esc(r.user || "—")} · ${esc(r.progress.message)}</span></p>`
     : `<p class="muted">The rig is free.</p>`;
   $("#queue-empty").hidden = q.jobs.length > 0;
   const list = $("#queue-list");
@@ -61,7 +61,7 @@ function showQueue(q) {
     }
     const li = document.createElement("li");
     li.dataset.job = job.id;
-    li.innerHTML = `<div><strong class="queue-label">${esc(job.label)}</strong> <span class="muted">#${job.position}</span></div>
+    li.innerHTML = `<div><strong class="queue-label">${esc(job.label)}</strong> <span class="muted">#${job.position} · queued by <span class="queue-user">${esc(job.user || "—")}</span></span></div>
       <div class="params">${paramsText(job)}</div>
       <div class="row">
         <button type="button" data-act="up" ${i === 0 ? "disabled" : ""} title="Move up">↑</button>
@@ -225,8 +225,9 @@ async function loadHistory() {
   $("#history-status").textContent = past.length ? "" : "No finished tests yet.";
   $("#history-table tbody").innerHTML = past
     .map((j) => `<tr data-job="${j.id}"><td><strong>${esc(j.label)}</strong></td><td>${paramsText(j)}</td>
+      <td>${esc(j.user || "—")}</td>
       <td><span class="state ${j.state}">${j.state}</span>${j.error ? ` <span class="muted">${esc(j.error)}</span>` : ""}</td>
-      <td>${j.finished_at ? new Date(j.finished_at).toLocaleString() : "—"}</td>
+      <td>${localTime(j.finished_at)}</td>
       <td>${j.run_ids.map((r) => `<code>${r.slice(0, 8)}</code>`).join(" ") || "—"}</td>
       <td><button type="button" data-requeue="${j.id}" title="Submit the same request again">Re-queue</button></td></tr>`)
     .join("");

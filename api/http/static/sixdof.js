@@ -33,7 +33,7 @@ async function sixdofLoadEstimates() {
     $("#sixdof-estimates").innerHTML = results
       .filter((r) => ["surge", "sway", "heave", "roll", "pitch", "yaw"].includes((r.data || {}).axis))
       .slice(0, 20)
-      .map((r) => `<label><input type="checkbox" value="${r.id}"> #${r.id} ${esc(r.data.axis)} (${r.data.analysis ? `${esc(r.data.analysis)}, ` : ""}${esc(r.data.method || "")}, ${esc(r.created_at.slice(0, 16))})</label>`)
+      .map((r) => `<label><input type="checkbox" value="${r.id}"> #${r.id} ${esc(r.data.axis)} (${r.data.analysis ? `${esc(r.data.analysis)}, ` : ""}${esc(r.data.method || "")}, ${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';
   } catch (err) {
     $("#sixdof-estimates").textContent = err.message;
