@@ -12,7 +12,7 @@ import re
 import pytest
 
 from api.http.app import create_app
-from daq.store.people import UserRepository
+from daq.store.people_and_safety_log import UserRepository
 from tests.api.conftest import (
     AUTH,
     TOKEN,
