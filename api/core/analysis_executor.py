@@ -23,6 +23,7 @@ at ``store_url`` and returns the outcome (docs/api.md, "Analysis workers").
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures
 import multiprocessing
 import os
@@ -218,6 +219,9 @@ class ThreadExecutor:
 
 
 _SHARED = ProcessExecutor()
+# Closed before the interpreter tears its modules down (else the pool's finaliser runs on a
+# half-finalised ``multiprocessing`` and prints an ignored AttributeError at every exit).
+atexit.register(_SHARED.close)
 
 
 def shared_process_executor() -> ProcessExecutor:
