@@ -171,7 +171,7 @@ def fit_output_error(
         bounds=(lower, upper),
         method="trf",
         x_scale="jac",
-        tr_solver="lsmr",
+        tr_solver="exact",
         xtol=REFIT_TOLERANCE,
         ftol=REFIT_TOLERANCE,
         gtol=REFIT_TOLERANCE,
