@@ -579,10 +579,11 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
   }
 });
 
-// The run detail plots any of the run's channels, with units, one row per unit, and other
-// runs overlaid, on the time from each run's release (from its first sample when a run has
-// no release event). It opens on the first channel its kind's live plot shows (GET /api/kinds).
-state.runPlot = { runs: [], channels: [] }; // [{run, samples, release}], chosen channel names
+// The run detail plots any of the run's channels, with units, one row per unit, against time
+// from each run's release or against another channel, with other runs overlaid and named in
+// the legend (run_plot.js builds the series). It opens on the first channel its kind's live
+// plot shows (GET /api/kinds), against time.
+state.runPlot = { runs: [], channels: [], x: TIME_AXIS }; // [{run, samples, release, name}], y channels, x
 
 async function runSeries(runId) {
   const [run, samples, events] = await Promise.all([
@@ -591,7 +592,7 @@ async function runSeries(runId) {
     api("GET", `/api/runs/${runId}/events`),
   ]);
   const released = events.find((e) => e.data && e.data.action === "release" && e.data.t_mono !== undefined);
-  return { run, samples, events, release: released ? released.data.t_mono : null };
+  return { run, samples, events, release: released ? released.data.t_mono : null, name: runName(run, load(run)) };
 }
 
 async function openRun(runId) {
@@ -607,51 +608,45 @@ async function openRun(runId) {
   $("#run-annotate-status").textContent = "";
   const names = Object.keys(shown.samples.channels);
   const first = (kinds.find((k) => k.kind === run.kind) || kinds[0]).live[0];
-  state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean) };
+  state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean), x: TIME_AXIS };
+  const unitOf = (k) => shownUnit(shown.samples.units[k]);
   $("#run-channels").innerHTML = names
     .map((k) => {
-      const unit = shown.samples.units[k] || "";
       const on = state.runPlot.channels.includes(k) ? "checked" : "";
-      return `<label class="chip"><input type="checkbox" value="${esc(k)}" ${on}>${esc(k.replace(/_/g, " "))} <span class="muted">${esc(unit)}</span></label>`;
+      return `<label class="chip"><input type="checkbox" value="${esc(k)}" ${on}>${esc(channelLabel(k))} <span class="muted">${esc(unitOf(k))}</span></label>`;
     })
+    .join("");
+  $("#run-x").innerHTML = `<option value="${TIME_AXIS}">time [s]</option>` + names
+    .map((k) => `<option value="${esc(k)}">${esc(withUnit(channelLabel(k), unitOf(k)))}</option>`)
     .join("");
   $("#run-overlay-pick").innerHTML = `<option value="">—</option>` + state.runs
     .filter((r) => r.id !== run.id)
-    .map((r) => `<option value="${r.id}">${r.id.slice(0, 8)} ${esc(r.kind)} ${esc(load(r))}</option>`)
+    .map((r) => `<option value="${esc(r.id)}">${esc(runName(r, load(r)))}</option>`)
     .join("");
   drawRunPlot();
   $("#run-events").innerHTML = events
-    .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
+    .map((e) => `<li><span class="tag">${esc(e.kind)}</span>${esc(new Date(e.time).toLocaleTimeString())} — ${esc(e.message)}</li>`)
     .join("");
   if (typeof showRunResults === "function") showRunResults(run.id); // results.js
 }
 
 function drawRunPlot() {
-  const { runs, channels } = state.runPlot;
-  const fromRelease = runs.every((r) => r.release !== null);
-  const series = [];
-  for (const [i, r] of runs.entries()) {
-    const s = r.samples;
-    const t0 = fromRelease ? r.release : s.t_mono[0];
-    const x = s.t_mono.map((t) => t - t0);
-    for (const k of channels) {
-      if (!(k in s.channels)) continue;
-      const unit = s.units[k] === "1" ? "" : s.units[k] || "";
-      const label = k.replace(/_/g, " ");
-      const who = runs.length > 1 ? ` · ${r.run.id.slice(0, 8)}${i === 0 ? "" : " (overlay)"}` : "";
-      series.push({ x, y: s.channels[k], name: `${label}${unit ? ` [${unit}]` : ""}${who}`, label, unit, key: `${r.run.id}:${k}` });
-    }
-  }
+  const { runs, channels, x } = state.runPlot;
+  const { series, xTitle, mode, missing } = runPlotSeries(runs, channels, x);
   $("#run-overlays").innerHTML = runs
     .slice(1)
-    .map((r) => `<span class="tag">${r.run.id.slice(0, 8)} <button type="button" data-drop="${r.run.id}" title="Remove the overlay">×</button></span>`)
+    .map((r) => `<span class="tag">${esc(r.name)} <button type="button" data-drop="${esc(r.run.id)}" title="Remove the overlay">×</button></span>`)
     .join("");
-  const xTitle = fromRelease ? "time from release [s]" : "time from first sample [s]";
-  unitRowsPlot("run-plot", series, { xTitle, empty: "Choose channels above", revision: runs[0] && runs[0].run.id });
+  $("#run-plot-note").textContent = missing.length ? `Not plotted (no ${channelLabel(x)} channel): ${missing.join(", ")}` : "";
+  unitRowsPlot("run-plot", series, { xTitle, mode, empty: "Choose channels above", revision: `${runs[0] && runs[0].run.id}:${x}` });
 }
 
 $("#run-channels").addEventListener("change", () => {
   state.runPlot.channels = $$("#run-channels input:checked").map((i) => i.value);
+  drawRunPlot();
+});
+$("#run-x").addEventListener("change", (ev) => {
+  state.runPlot.x = ev.target.value;
   drawRunPlot();
 });
 $("#run-overlay-pick").addEventListener("change", async (ev) => {
