@@ -75,3 +75,5 @@ function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above"
   }
   Plotly.react(element, traces, layout, { responsive: true, displaylogo: false });
 }
+
+if (typeof module !== "undefined") module.exports = { niceAxis };
