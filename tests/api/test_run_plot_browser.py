@@ -44,6 +44,7 @@ def test_a_channel_against_another_with_two_runs_overlaid(chromium, client, serv
         expect(page.locator("#run-channels input:checked")).to_have_count(1)
         page.check("#run-channels input[value=drive_force]")
         page.select_option("#run-x", "drive_force")  # tow position against drive force
+        expect(page.locator("#run-channels input[value=drive_force]")).to_be_disabled()
         page.select_option("#run-overlay-pick", ids[1])
         expect(page.locator("#run-overlays .tag")).to_have_count(1)
         page.wait_for_function(f"() => {PLOT}.data && {PLOT}.data.length === 2")
@@ -57,8 +58,12 @@ def test_a_channel_against_another_with_two_runs_overlaid(chromium, client, serv
             assert x == force  # each run's own drive force on x
         SHOTS.mkdir(exist_ok=True)
         page.locator("#run-plot").screenshot(path=str(SHOTS / "run-plot-y-against-x.png"))
+        page.locator("#run-x").scroll_into_view_if_needed()
+        page.screenshot(path=str(SHOTS / "run-page-1366.png"))
 
         page.select_option("#run-x", "time")
         page.wait_for_function(f"() => {PLOT}.data.every(t => t.mode === 'lines')")
+        expect(page.locator("#run-channels input[value=drive_force]")).to_be_enabled()
+        assert len(page.evaluate(f"{PLOT}.data")) == 4  # both channels of both runs
         assert page.evaluate(f"{PLOT}.layout.xaxis.title.text").startswith("time from ")
         page.locator("#run-plot").screenshot(path=str(SHOTS / "run-plot-overlay-time.png"))

@@ -633,6 +633,10 @@ function drawRunPlot() {
     .slice(1)
     .map((r) => `<span class="tag">${esc(r.name)} <button type="button" data-drop="${esc(r.run.id)}" title="Remove the overlay">×</button></span>`)
     .join("");
+  for (const box of $$("#run-channels input")) {
+    box.disabled = box.value === x; // the x axis is not also a y
+    box.closest("label").title = box.disabled ? "on the X axis" : "";
+  }
   $("#run-plot-note").textContent = missing.length ? `Not plotted (no ${channelLabel(x)} channel): ${missing.join(", ")}` : "";
   unitRowsPlot("run-plot", series, { xTitle, mode, empty: "Choose channels above", revision: `${runs[0] && runs[0].run.id}:${x}` });
 }
