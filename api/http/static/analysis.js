@@ -34,7 +34,7 @@ async function analysisLoad() {
     $("#an-estimates").innerHTML = results
       .filter((r) => (r.data || {}).axis)
       .slice(0, 20)
-      .map((r) => `<label><input type="checkbox" value="${r.id}"> #${r.id} ${esc(r.data.axis)}${r.data.analysis ? ` ${esc(r.data.analysis)}` : ""} (${esc(localTime(r.created_at))})</label>`)
+      .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.data.axis)}${r.data.analysis ? ` ${esc(r.data.analysis)}` : ""} (${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';
   } catch (err) {
     $("#an-estimates").textContent = err.message;
@@ -85,28 +85,28 @@ function analysisShow(out) {
   $("#an-reference tbody").innerHTML = names
     .map((n, i) => {
       const r = out.reference[n];
-      return `<tr><td>${short[i]}</td><td>${esc(n)}</td><td>${fmt(r.value)} ${esc(r.unit)}</td>
-        <td>${fmt(out.weights[n], 3)}</td><td>${esc(r.mode)}</td></tr>`;
+      return `<tr><td>${esc(short[i])}</td><td>${esc(n)}</td><td>${esc(fmt(r.value))} ${esc(r.unit)}</td>
+        <td>${esc(fmt(out.weights[n], 3))}</td><td>${esc(r.mode)}</td></tr>`;
     })
     .join("");
   $("#an-ahp").textContent = out.ahp
     ? `AHP weights, consistency ratio CR = ${fmt(out.ahp.cr, 3)} (accepted below 0.1)`
     : "equal weights (no AHP matrices given)";
   $("#an-ranking thead").innerHTML = `<tr><th>Coefficient</th><th>Value</th><th>σ</th><th>Composite</th>
-    ${short.map((s) => `<th>S ${s}</th>`).join("")}${short.map((s) => `<th>Sc ${s}</th>`).join("")}</tr>`;
+    ${short.map((s) => `<th>S ${esc(s)}</th>`).join("")}${short.map((s) => `<th>Sc ${esc(s)}</th>`).join("")}</tr>`;
   $("#an-ranking tbody").innerHTML = out.ranking
     .map((row) => `<tr><td>${esc(row.name)}${row.keep ? " <span class=\"muted\">(keep)</span>" : ""}</td>
-      <td>${fmt(row.value)}</td><td>${row.sigma === null ? "—" : fmt(row.sigma, 3)}</td><td>${pct(row.composite)}</td>
-      ${names.map((n) => `<td>${row.s[n] === null ? "—" : fmt(row.s[n], 3)}</td>`).join("")}
-      ${names.map((n) => `<td>${pct(row.sc[n])}</td>`).join("")}</tr>`)
+      <td>${esc(fmt(row.value))}</td><td>${esc(row.sigma === null ? "—" : fmt(row.sigma, 3))}</td><td>${esc(pct(row.composite))}</td>
+      ${names.map((n) => `<td>${esc(row.s[n] === null ? "—" : fmt(row.s[n], 3))}</td>`).join("")}
+      ${names.map((n) => `<td>${esc(pct(row.sc[n]))}</td>`).join("")}</tr>`)
     .join("");
   $("#an-zero").textContent = out.zero.length ? `Already zero (not candidates): ${out.zero.join(", ")}` : "";
   $("#an-sweep thead").innerHTML = `<tr><th>Criterion</th><th>Threshold</th><th>Removed</th><th>Max error</th><th>Worst</th>
-    ${short.map((s) => `<th>${s}</th>`).join("")}</tr>`;
+    ${short.map((s) => `<th>${esc(s)}</th>`).join("")}</tr>`;
   $("#an-sweep tbody").innerHTML = out.sweep
-    .map((s) => `<tr title="${esc(s.removed.join(", "))}"><td>${esc(s.criterion)}</td><td>${fmt(s.threshold, 4)}</td>
-      <td>${s.n_removed}</td><td>${pct(s.max_error)}</td><td>${esc(s.worst_response)}</td>
-      ${names.map((n) => `<td>${pct(s.errors[n])}</td>`).join("")}</tr>`)
+    .map((s) => `<tr title="${esc(s.removed.join(", "))}"><td>${esc(s.criterion)}</td><td>${esc(fmt(s.threshold, 4))}</td>
+      <td>${esc(s.n_removed)}</td><td>${esc(pct(s.max_error))}</td><td>${esc(s.worst_response)}</td>
+      ${names.map((n) => `<td>${esc(pct(s.errors[n]))}</td>`).join("")}</tr>`)
     .join("");
   // bar chart: each coefficient's composite index split into its per-response parts Sc·Y
   const coefs = out.ranking.map((r) => r.name);
@@ -133,17 +133,17 @@ function analysisShow(out) {
     : `<p class="muted">${esc(next.reason || "")}</p>`;
   if (next.unmeasured) $("#an-next").innerHTML += `<p class="muted">${esc(next.unmeasured)}</p>`;
   $("#an-ident tbody").innerHTML = (ident.coefficients || [])
-    .map((c) => `<tr><td>${esc(c.name)}</td><td>${fmt(c.value)}</td><td>${fmt(c.sigma, 3)}</td>
-      <td>${pct(c.relative_sigma)}</td><td>${pct(c.weighted)}</td></tr>`)
+    .map((c) => `<tr><td>${esc(c.name)}</td><td>${esc(fmt(c.value))}</td><td>${esc(fmt(c.sigma, 3))}</td>
+      <td>${esc(pct(c.relative_sigma))}</td><td>${esc(pct(c.weighted))}</td></tr>`)
     .join("") || '<tr><td colspan="5" class="muted">no σ: plug in estimation results</td></tr>';
   $("#an-correlations").innerHTML = (ident.correlations || [])
-    .map((c) => `<li>${esc(c.a)} ↔ ${esc(c.b)}: ρ = ${fmt(c.rho, 3)}</li>`)
+    .map((c) => `<li>${esc(c.a)} ↔ ${esc(c.b)}: ρ = ${esc(fmt(c.rho, 3))}</li>`)
     .join("");
   const flips = out.weight_stability || [];
   $("#an-stability").innerHTML = flips.length
     ? `<p>Doubling or halving one response's weight changes these removals (composite rule):</p><ul>${flips
-      .map((f) => `<li>${esc(f.response)} ×${fmt(f.factor, 2)} at ${fmt(f.threshold, 4)}: ${[
-        ...f.now_removed.map((n) => `+${esc(n)}`), ...f.now_kept.map((n) => `−${esc(n)}`)].join(", ")}</li>`)
+      .map((f) => `<li>${esc(f.response)} ×${esc(fmt(f.factor, 2))} at ${esc(fmt(f.threshold, 4))}: ${esc([
+        ...f.now_removed.map((n) => `+${n}`), ...f.now_kept.map((n) => `−${n}`)].join(", "))}</li>`)
       .join("")}</ul>`
     : "<p class=\"muted\">Doubling or halving any response's weight changes no removal.</p>";
   $("#an-notes").innerHTML = out.notes.map((n) => `<li>${esc(n)}</li>`).join("");

@@ -96,11 +96,7 @@ async function download(path, filename) {
   setTimeout(() => URL.revokeObjectURL(url), 5000);
 }
 
-const fmt = (v, digits = 4) =>
-  v === null || v === undefined ? "—" : typeof v === "number" ? Number(v.toPrecision(digits)).toString() : String(v);
-// A time the API gives (ISO 8601, UTC) as the reader's local date and time; "—" for none.
-const localTime = (iso) => (iso ? new Date(iso).toLocaleString() : "—");
-const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
+// fmt, localTime (format.js) and esc (markup.js) are shared by every page.
 function kv(table, rows) {
   table.innerHTML = rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("");
 }
@@ -278,11 +274,11 @@ function showJob(job) {
   state.job = job;
   const pct = Math.round(100 * (job.progress.fraction || 0));
   const act = job.operator_act;
-  const runs = job.run_ids.map((r) => `<a href="#runs" data-run="${r}">${r.slice(0, 8)}</a>`).join(", ");
+  const runs = job.run_ids.map((r) => `<a href="#runs" data-run="${esc(r)}">${esc(r.slice(0, 8))}</a>`).join(", ");
   $("#job-panel").innerHTML = `
-    <p><strong>${esc(job.label)}</strong> <span class="state ${shownState(job)}" id="job-state">${shownState(job)}</span>
+    <p><strong>${esc(job.label)}</strong> <span class="state ${esc(shownState(job))}" id="job-state">${esc(shownState(job))}</span>
       <span class="muted" id="job-user">started by ${esc(job.user || "—")}${job.started_at ? ` at ${esc(localTime(job.started_at))}` : ""}</span></p>
-    <div class="progress"><div style="width:${pct}%"></div></div>
+    <div class="progress"><div style="width:${esc(pct)}%"></div></div>
     <p id="job-message">${esc(job.progress.message)}</p>
     ${act ? `<div class="operator" id="operator-act"><strong>Operator:</strong> ${act.reverse ? `<span class="tag">reverse rigging</span>` : ""}${esc(act.instruction)}
         <button id="confirm-btn">Done — continue</button></div>` : ""}
@@ -511,9 +507,9 @@ async function loadRuns() {
   $("#runs-next").disabled = !meta.headers.get("X-Next-Offset");
   $("#runs-table tbody").innerHTML = state.runs
     .map(
-      (r) => `<tr data-run="${r.id}"><td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${r.drive || "—"}</td><td>${load(r)}</td>
-      <td><span class="state ${r.status}">${r.status}</span>${r.reason ? ` <span class="muted">${esc(r.reason)}</span>` : ""}</td>
-      <td>${new Date(r.started_at).toLocaleString()}</td><td>${fmt(r.duration_s, 3)} s</td><td>${r.sample_count}</td><td>${esc(r.vehicle)}</td>
+      (r) => `<tr data-run="${esc(r.id)}"><td><code>${esc(r.id.slice(0, 8))}</code></td><td>${esc(r.kind)}</td><td>${esc(r.drive || "—")}</td><td>${esc(load(r))}</td>
+      <td><span class="state ${esc(r.status)}">${esc(r.status)}</span>${r.reason ? ` <span class="muted">${esc(r.reason)}</span>` : ""}</td>
+      <td>${esc(new Date(r.started_at).toLocaleString())}</td><td>${esc(fmt(r.duration_s, 3))} s</td><td>${esc(r.sample_count)}</td><td>${esc(r.vehicle)}</td>
       <td>${source(r)}</td><td>${tags(r)}</td></tr>`,
     )
     .join("");
@@ -579,10 +575,11 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
   }
 });
 
-// The run detail plots any of the run's channels, with units, one row per unit, and other
-// runs overlaid, on the time from each run's release (from its first sample when a run has
-// no release event). It opens on the first channel its kind's live plot shows (GET /api/kinds).
-state.runPlot = { runs: [], channels: [] }; // [{run, samples, release}], chosen channel names
+// The run detail plots any of the run's channels, with units, one row per unit, against time
+// from each run's release or against another channel, with other runs overlaid and named in
+// the legend (run_plot.js builds the series). It opens on the first channel its kind's live
+// plot shows (GET /api/kinds), against time.
+state.runPlot = { runs: [], channels: [], x: TIME_AXIS }; // [{run, samples, release, name}], y channels, x
 
 async function runSeries(runId) {
   const [run, samples, events] = await Promise.all([
@@ -591,7 +588,7 @@ async function runSeries(runId) {
     api("GET", `/api/runs/${runId}/events`),
   ]);
   const released = events.find((e) => e.data && e.data.action === "release" && e.data.t_mono !== undefined);
-  return { run, samples, events, release: released ? released.data.t_mono : null };
+  return { run, samples, events, release: released ? released.data.t_mono : null, name: runName(run, load(run)) };
 }
 
 async function openRun(runId) {
@@ -607,51 +604,49 @@ async function openRun(runId) {
   $("#run-annotate-status").textContent = "";
   const names = Object.keys(shown.samples.channels);
   const first = (kinds.find((k) => k.kind === run.kind) || kinds[0]).live[0];
-  state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean) };
+  state.runPlot = { runs: [shown], channels: [names.includes(first) ? first : names[0]].filter(Boolean), x: TIME_AXIS };
+  const unitOf = (k) => shownUnit(shown.samples.units[k]);
   $("#run-channels").innerHTML = names
     .map((k) => {
-      const unit = shown.samples.units[k] || "";
       const on = state.runPlot.channels.includes(k) ? "checked" : "";
-      return `<label class="chip"><input type="checkbox" value="${esc(k)}" ${on}>${esc(k.replace(/_/g, " "))} <span class="muted">${esc(unit)}</span></label>`;
+      return `<label class="chip"><input type="checkbox" value="${esc(k)}" ${esc(on)}>${esc(channelLabel(k))} <span class="muted">${esc(unitOf(k))}</span></label>`;
     })
+    .join("");
+  $("#run-x").innerHTML = `<option value="${esc(TIME_AXIS)}">time [s]</option>` + names
+    .map((k) => `<option value="${esc(k)}">${esc(withUnit(channelLabel(k), unitOf(k)))}</option>`)
     .join("");
   $("#run-overlay-pick").innerHTML = `<option value="">—</option>` + state.runs
     .filter((r) => r.id !== run.id)
-    .map((r) => `<option value="${r.id}">${r.id.slice(0, 8)} ${esc(r.kind)} ${esc(load(r))}</option>`)
+    .map((r) => `<option value="${esc(r.id)}">${esc(runName(r, load(r)))}</option>`)
     .join("");
   drawRunPlot();
   $("#run-events").innerHTML = events
-    .map((e) => `<li><span class="tag">${e.kind}</span>${new Date(e.time).toLocaleTimeString()} — ${esc(e.message)}</li>`)
+    .map((e) => `<li><span class="tag">${esc(e.kind)}</span>${esc(new Date(e.time).toLocaleTimeString())} — ${esc(e.message)}</li>`)
     .join("");
   if (typeof showRunResults === "function") showRunResults(run.id); // results.js
 }
 
 function drawRunPlot() {
-  const { runs, channels } = state.runPlot;
-  const fromRelease = runs.every((r) => r.release !== null);
-  const series = [];
-  for (const [i, r] of runs.entries()) {
-    const s = r.samples;
-    const t0 = fromRelease ? r.release : s.t_mono[0];
-    const x = s.t_mono.map((t) => t - t0);
-    for (const k of channels) {
-      if (!(k in s.channels)) continue;
-      const unit = s.units[k] === "1" ? "" : s.units[k] || "";
-      const label = k.replace(/_/g, " ");
-      const who = runs.length > 1 ? ` · ${r.run.id.slice(0, 8)}${i === 0 ? "" : " (overlay)"}` : "";
-      series.push({ x, y: s.channels[k], name: `${label}${unit ? ` [${unit}]` : ""}${who}`, label, unit, key: `${r.run.id}:${k}` });
-    }
-  }
+  const { runs, channels, x } = state.runPlot;
+  const { series, xTitle, mode, missing } = runPlotSeries(runs, channels, x);
   $("#run-overlays").innerHTML = runs
     .slice(1)
-    .map((r) => `<span class="tag">${r.run.id.slice(0, 8)} <button type="button" data-drop="${r.run.id}" title="Remove the overlay">×</button></span>`)
+    .map((r) => `<span class="tag">${esc(r.name)} <button type="button" data-drop="${esc(r.run.id)}" title="Remove the overlay">×</button></span>`)
     .join("");
-  const xTitle = fromRelease ? "time from release [s]" : "time from first sample [s]";
-  unitRowsPlot("run-plot", series, { xTitle, empty: "Choose channels above", revision: runs[0] && runs[0].run.id });
+  for (const box of $$("#run-channels input")) {
+    box.disabled = box.value === x; // the x axis is not also a y
+    box.closest("label").title = box.disabled ? "on the X axis" : "";
+  }
+  $("#run-plot-note").textContent = missing.length ? `Not plotted (no ${channelLabel(x)} channel): ${missing.join(", ")}` : "";
+  unitRowsPlot("run-plot", series, { xTitle, mode, empty: "Choose channels above", revision: `${runs[0] && runs[0].run.id}:${x}` });
 }
 
 $("#run-channels").addEventListener("change", () => {
   state.runPlot.channels = $$("#run-channels input:checked").map((i) => i.value);
+  drawRunPlot();
+});
+$("#run-x").addEventListener("change", (ev) => {
+  state.runPlot.x = ev.target.value;
   drawRunPlot();
 });
 $("#run-overlay-pick").addEventListener("change", async (ev) => {
@@ -697,9 +692,9 @@ async function loadEstimationRuns() {
   const checked = new Set($$("#est-runs input:checked").map((i) => i.value));
   $("#est-runs tbody").innerHTML = runs
     .map(
-      (r) => `<tr><td><input type="checkbox" value="${r.id}" data-kind="${r.kind}" ${checked.has(r.id) ? "checked" : ""}></td>
-      <td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${r.drive || "—"}</td><td>${load(r)}</td>
-      <td>${new Date(r.started_at).toLocaleString()}</td><td>${esc(r.vehicle)}</td><td>${source(r)}</td><td>${tags(r)}</td></tr>`,
+      (r) => `<tr><td><input type="checkbox" value="${esc(r.id)}" data-kind="${esc(r.kind)}" ${checked.has(r.id) ? "checked" : ""}></td>
+      <td><code>${esc(r.id.slice(0, 8))}</code></td><td>${esc(r.kind)}</td><td>${esc(r.drive || "—")}</td><td>${esc(load(r))}</td>
+      <td>${esc(new Date(r.started_at).toLocaleString())}</td><td>${esc(r.vehicle)}</td><td>${source(r)}</td><td>${tags(r)}</td></tr>`,
     )
     .join("");
 }
@@ -740,7 +735,7 @@ let estimationDrawn = null;
 
 function showEstimationJob(job) {
   if (job.id !== estimationJobId) return;
-  $("#est-status").innerHTML = `<span class="state ${job.state}" id="est-state">${job.state}</span> ${esc(job.progress.message)}`;
+  $("#est-status").innerHTML = `<span class="state ${esc(job.state)}" id="est-state">${esc(job.state)}</span> ${esc(job.progress.message)}`;
   if (job.state !== "completed" || !job.outcome || estimationDrawn === job.id) return;
   estimationDrawn = job.id;
   renderEstimation(job.outcome);
@@ -751,7 +746,7 @@ function showEstimationJob(job) {
 // damping ratio: docs/estimation.md), as rows under the coefficients, every kind alike.
 function wellDeterminedRows(res) {
   return (res.well_determined || [])
-    .map((c) => `<tr class="est-known"><td><em>${esc(c.name)}</em>${c.unit ? ` (${esc(c.unit)})` : ""}</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td></tr>`)
+    .map((c) => `<tr class="est-known"><td><em>${esc(c.name)}</em>${c.unit ? ` (${esc(c.unit)})` : ""}</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td></tr>`)
     .join("");
 }
 
@@ -771,15 +766,15 @@ async function renderEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
-      return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
-        ${before ? `<td class="muted">before effects: ${fmt(before.value, 5)}</td>` : ""}</tr>`;
+      return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
+        ${before ? `<td class="muted">before effects: ${esc(fmt(before.value, 5))}</td>` : ""}</tr>`;
     })
     .join("") + wellDeterminedRows(res);
   // a decay's equivalent linear damping over the swings it covers (docs/estimation.md)
   const equivalent = res.equivalent_linear_damping || [];
   $("#est-equivalent").hidden = !equivalent.length;
   $("#est-equivalent tbody").innerHTML = equivalent
-    .map((e) => `<tr><td>${fmt(e.amplitude, 3)} ${esc(unit)}</td><td>${fmt(e.value, 4)} ${esc(e.unit)}</td><td>± ${fmt(e.std, 2)}</td></tr>`)
+    .map((e) => `<tr><td>${esc(fmt(e.amplitude, 3))} ${esc(unit)}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>± ${esc(fmt(e.std, 2))}</td></tr>`)
     .join("");
   const axis = res.axis || `${res.dof} ${res.kind}`; // a decay names its dof instead of an axis
   kv($("#est-rmse"), [
@@ -789,7 +784,7 @@ async function renderEstimation(res) {
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
   ]);
   $("#est-effects-list").innerHTML = (res.effects || []).length
-    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${fmt(e.value, 4)} ± ${fmt(e.std, 3)} ${esc(e.unit)}</li>`).join("")
+    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${esc(fmt(e.value, 4))} ± ${esc(fmt(e.std, 3))} ${esc(e.unit)}</li>`).join("")
     : "<li>none (the base model explains the data)</li>";
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
   $("#est-ambiguous").innerHTML =

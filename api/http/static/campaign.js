@@ -1,6 +1,6 @@
 // Queue page, Campaign card: start a campaign (target 2σ in %, axes, budget), watch its trail
 // live — each test it chose, why, the operator's acts, 2σ before → after — and stop it.
-// Live from app.js's job events (onCampaignJobEvent); uses app.js's $, api, esc, FINAL.
+// Live from app.js's job events (onCampaignJobEvent); uses app.js's $, api, FINAL and esc (markup.js).
 "use strict";
 
 const campaignView = { job: null };
@@ -9,7 +9,7 @@ const COEFFS = [["inertia", "M"], ["linear_damping", "K_L"], ["quadratic_damping
 function sigmaText(status) {
   const pct = (status && status.two_sigma_percent) || {};
   if (!Object.keys(pct).length) return `<span class="muted">no fit yet</span>`;
-  return COEFFS.map(([k, s]) => `${s} ${pct[k] == null ? "—" : `${Number(pct[k]).toPrecision(2)} %`}`).join(" · ");
+  return COEFFS.map(([k, s]) => `${esc(s)} ${pct[k] == null ? "—" : `${Number(pct[k]).toPrecision(2)} %`}`).join(" · ");
 }
 
 function showCampaign(job) {
@@ -25,17 +25,17 @@ function showCampaign(job) {
     ? `<p id="campaign-pending"><strong>Now:</strong> ${esc(c.pending.instructions)} <span class="muted">— ${esc(c.pending.why)}</span></p>`
     : "";
   const rows = (c.trail || [])
-    .map((e) => `<tr><td>${e.n}</td><td>${esc(e.test)}<br><code>${esc(e.command)}</code></td><td class="muted">${esc(e.why)}</td>
+    .map((e) => `<tr><td>${esc(e.n)}</td><td>${esc(e.test)}<br><code>${esc(e.command)}</code></td><td class="muted">${esc(e.why)}</td>
       <td>${sigmaText(e.before)}</td><td>${sigmaText(e.after)}${e.after.unresolved.length ? `<br><span class="muted">${esc(e.after.unresolved.join("; "))}</span>` : ""}</td>
       <td>${e.tank_minutes.toFixed(1)}</td></tr>`)
     .join("");
   const shown = shownState(job); // app.js: "stopping" once asked, until it ends
   const stopping = shown === "stopping"
     ? ` <span class="muted" id="campaign-stopping">no further test; the run on the rig finishes first</span>` : "";
-  box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${shown}" id="campaign-state">${shown}</span>${stopping}
+  box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${esc(shown)}" id="campaign-state">${esc(shown)}</span>${stopping}
       <span class="muted">started by ${esc(job.user || "—")}</span>
       ${running && shown !== "stopping" ? `<button type="button" id="campaign-stop">Stop the campaign</button>` : ""}</p>
-    <p class="muted" id="campaign-summary">${c.runs_used || 0} of ${c.max_runs} runs · ${(c.tank_minutes || 0).toFixed(1)} of ${c.max_minutes} tank min${c.outcome ? ` · <strong>${esc(c.outcome)}</strong>` : ""}</p>
+    <p class="muted" id="campaign-summary">${esc(c.runs_used || 0)} of ${esc(c.max_runs)} runs · ${(c.tank_minutes || 0).toFixed(1)} of ${esc(c.max_minutes)} tank min${c.outcome ? ` · <strong>${esc(c.outcome)}</strong>` : ""}</p>
     ${pending}
     <table class="list" id="campaign-trail"><thead><tr><th>#</th><th>Test</th><th>Why</th><th>2σ before</th><th>2σ after</th><th>Tank min</th></tr></thead><tbody>${rows}</tbody></table>`;
   const stop = $("#campaign-stop");

@@ -24,7 +24,7 @@ async function crosscheckLoad() {
     );
     const option = (r) => {
       const draws = ((r.data.uncertainty || {}).calibration_draws || 0) > 0;
-      return `<option value="${r.id}" data-thrusters="${draws}">#${r.id} ${esc(r.data.axis)}, ${r.data.runs.length} run(s)${draws ? ", thruster-driven" : ""} — ${esc(localTime(r.created_at))}</option>`;
+      return `<option value="${esc(r.id)}" data-thrusters="${esc(draws)}">#${esc(r.id)} ${esc(r.data.axis)}, ${r.data.runs.length} run(s)${draws ? ", thruster-driven" : ""} — ${esc(localTime(r.created_at))}</option>`;
     };
     const weight = results.filter((r) => !((r.data.uncertainty || {}).calibration_draws > 0));
     const thrusters = results.filter((r) => (r.data.uncertainty || {}).calibration_draws > 0);
@@ -34,8 +34,8 @@ async function crosscheckLoad() {
     $("#cc-runs tbody").innerHTML = runs
       .map((r) => {
         const drive = (r.parameters || {}).drive || "weight";
-        return `<tr><td><input type="checkbox" name="cc-w" value="${r.id}"></td><td><input type="checkbox" name="cc-t" value="${r.id}"></td>
-        <td><code>${r.id.slice(0, 8)}</code></td><td>${r.kind}</td><td>${esc(drive)}</td><td>${load(r)}</td></tr>`;
+        return `<tr><td><input type="checkbox" name="cc-w" value="${esc(r.id)}"></td><td><input type="checkbox" name="cc-t" value="${esc(r.id)}"></td>
+        <td><code>${esc(r.id.slice(0, 8))}</code></td><td>${esc(r.kind)}</td><td>${esc(drive)}</td><td>${esc(load(r))}</td></tr>`;
       })
       .join("");
   } catch (err) {
@@ -64,11 +64,11 @@ $("#cc-estimate").onclick = async () => {
   try {
     let job = await api("POST", "/api/jobs/crosscheck", { weight_runs: weight, thruster_runs: thrusters });
     while (!FINAL.includes(job.state)) {
-      $("#cc-status").innerHTML = `<span class="state ${job.state}">${job.state}</span> ${esc(job.progress.message)}`;
+      $("#cc-status").innerHTML = `<span class="state ${esc(job.state)}">${esc(job.state)}</span> ${esc(job.progress.message)}`;
       await new Promise((res) => setTimeout(res, 500));
       job = await api("GET", `/api/jobs/${job.id}`);
     }
-    $("#cc-status").innerHTML = `<span class="state ${job.state}" id="cc-state">${job.state}</span> ${esc(job.error || job.progress.message)}`;
+    $("#cc-status").innerHTML = `<span class="state ${esc(job.state)}" id="cc-state">${esc(job.state)}</span> ${esc(job.error || job.progress.message)}`;
     if (job.state === "completed") {
       await crosscheckRender(job.outcome);
       crosscheckLoad();
@@ -89,9 +89,9 @@ async function crosscheckRender(res) {
   // An undecided coefficient's z is computed, not judged: shown in parentheses, reason on hover.
   $("#cc-table tbody").innerHTML = Object.entries(rows)
     .map(
-      ([k, c]) => `<tr><td>${esc(label(k, c))} (${units[k] || ""})</td><td>${pm(c.weight)}</td><td>${pm(c.thruster)}</td>
-      <td>${fmt(c.difference, 3)}</td><td>${c.verdict === "undecided" ? `(${fmt(c.z, 3)})` : fmt(c.z, 3)}</td>
-      <td class="verdict ${c.verdict}" title="${esc(c.reason || "")}">${c.verdict === "undecided" ? "<b>undecided</b>" : c.verdict}</td></tr>`,
+      ([k, c]) => `<tr><td>${esc(label(k, c))} (${esc(units[k] || "")})</td><td>${esc(pm(c.weight))}</td><td>${esc(pm(c.thruster))}</td>
+      <td>${esc(fmt(c.difference, 3))}</td><td>${esc(c.verdict === "undecided" ? `(${fmt(c.z, 3)})` : fmt(c.z, 3))}</td>
+      <td class="verdict ${esc(c.verdict)}" title="${esc(c.reason || "")}">${c.verdict === "undecided" ? "<b>undecided</b>" : esc(c.verdict)}</td></tr>`,
     )
     .join("");
   const f = res.common_factor;

@@ -1,6 +1,6 @@
 // Pendulum free-decay results on the estimation page (result JSON with analysis "pendulum").
 // Registered in app.js's resultViews, so renderEstimation hands such results here; uses
-// app.js's $, api, esc, fmt, kv, state.
+// app.js's $, api, kv, state; esc (markup.js), fmt (format.js).
 
 function pendulumPm(e) {
   if (!e || e.value === null || e.value === undefined) return "—";
@@ -22,8 +22,8 @@ async function renderPendulumEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
-      return `<tr><td>${esc(k)} (${esc(units[k] || "")})</td><td>${fmt(c.value, 5)}</td><td>± ${fmt(c.std, 3)}</td>
-        ${before ? `<td class="muted">before effects: ${pendulumPm(before)}</td>` : ""}</tr>`;
+      return `<tr><td>${esc(k)} (${esc(units[k] || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
+        ${before ? `<td class="muted">before effects: ${esc(pendulumPm(before))}</td>` : ""}</tr>`;
     })
     .join("") + wellDeterminedRows(res); // app.js
   const lb = (res.diagnostics || {});
@@ -35,14 +35,14 @@ async function renderPendulumEstimation(res) {
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
   ]);
   $("#est-effects-list").innerHTML = (res.effects || []).length
-    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${pendulumPm(e)} ${esc(e.unit)}</li>`).join("")
+    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${esc(pendulumPm(e))} ${esc(e.unit)}</li>`).join("")
     : "<li>none (the base model explains the data)</li>";
   pendulumBox("est-pendulum-methods").innerHTML = `<h4>Methods side by side</h4>
     <table class="list"><thead><tr><th>Run</th><th>Method</th><th>α (kg)</th><th>β (N·s/m)</th><th>γ (kg/m)</th><th>e (rad²)</th></tr></thead><tbody>
     ${(res.methods || [])
       .map(
-        (m) => `<tr><td><code>${esc(m.run_id.slice(0, 8))}</code></td><td>${esc(m.method)}</td><td>${pendulumPm(m.added_mass)}</td>
-        <td>${pendulumPm(m.linear_damping)}</td><td>${pendulumPm(m.quadratic_damping)}</td><td>${fmt(m.mse, 3)}</td></tr>`,
+        (m) => `<tr><td><code>${esc(m.run_id.slice(0, 8))}</code></td><td>${esc(m.method)}</td><td>${esc(pendulumPm(m.added_mass))}</td>
+        <td>${esc(pendulumPm(m.linear_damping))}</td><td>${esc(pendulumPm(m.quadratic_damping))}</td><td>${esc(fmt(m.mse, 3))}</td></tr>`,
       )
       .join("")}</tbody></table>`;
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));

@@ -28,8 +28,10 @@ function niceAxis(lo, hi, target = 5) {
 // ---- rows ------------------------------------------------------------------------------------
 const ROW_PX = 190;
 const DASHES = ["solid", "dash", "dot", "dashdot"];
+const SYMBOLS = ["circle", "square", "diamond", "triangle-up"];
 
-function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above", revision } = {}) {
+// mode: "lines" against time, "markers" for one channel against another.
+function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above", revision, mode = "lines" } = {}) {
   const units = [...new Set(series.map((s) => s.unit))];
   const rows = Math.max(units.length, 1);
   const gap = 0.06;
@@ -50,8 +52,9 @@ function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above"
     const ys = [];
     for (const [i, s] of inRow.entries()) {
       ys.push(...s.y.filter((v) => v !== null && v !== undefined));
-      // equal values stay visible: each line of a row its own dash
-      traces.push({ x: s.x, y: s.y, name: s.name, meta: s.key, mode: "lines", yaxis: ref, line: { dash: DASHES[i % 4] } });
+      // equal values stay visible: each line of a row its own dash (marker symbol)
+      const look = mode === "lines" ? { line: { dash: DASHES[i % 4] } } : { marker: { size: 4, symbol: SYMBOLS[i % 4] } };
+      traces.push({ x: s.x, y: s.y, name: s.name, meta: s.key, mode, yaxis: ref, ...look });
     }
     const labels = [...new Set(inRow.map((s) => s.label))];
     const name = labels.length === 1 ? labels[0] : unit === "fraction" ? "command" : "";
@@ -72,3 +75,5 @@ function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above"
   }
   Plotly.react(element, traces, layout, { responsive: true, displaylogo: false });
 }
+
+if (typeof module !== "undefined") module.exports = { niceAxis };

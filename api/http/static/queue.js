@@ -1,7 +1,7 @@
 // Queue page and the Rig page's queue summary: the rig's queue (reorder, edit, remove, run
 // now, stop after the current job, resume, with the reason it is paused), sequence files to
 // start, and the history of past jobs with re-queue. Live from app.js's job events
-// (onQueueJobEvent) and a poll of GET /api/queue. Uses app.js's $, $$, api, esc, fmt, state,
+// (onQueueJobEvent) and a poll of GET /api/queue. Uses esc (markup.js), fmt (format.js), app.js's $, $$, api, state,
 // FINAL, formBody, metadataBody, problemField, showJob.
 "use strict";
 
@@ -45,7 +45,7 @@ function showQueue(q) {
   $("#queue-stop").disabled = q.paused;
   const r = q.running;
   $("#queue-running").innerHTML = r
-    ? `<p>On the rig: <strong>${esc(r.label)}</strong> <span class="state ${shownState(r)}">${shownState(r)}</span> <span class="muted">${esc(r.user || "—")} · ${esc(r.progress.message)}</span></p>`
+    ? `<p>On the rig: <strong>${esc(r.label)}</strong> <span class="state ${esc(shownState(r))}">${esc(shownState(r))}</span> <span class="muted">${esc(r.user || "—")} · ${esc(r.progress.message)}</span></p>`
     : `<p class="muted">The rig is free.</p>`;
   $("#queue-empty").hidden = q.jobs.length > 0;
   const list = $("#queue-list");
@@ -61,7 +61,7 @@ function showQueue(q) {
     }
     const li = document.createElement("li");
     li.dataset.job = job.id;
-    li.innerHTML = `<div><strong class="queue-label">${esc(job.label)}</strong> <span class="muted">#${job.position} · queued by <span class="queue-user">${esc(job.user || "—")}</span></span></div>
+    li.innerHTML = `<div><strong class="queue-label">${esc(job.label)}</strong> <span class="muted">#${esc(job.position)} · queued by <span class="queue-user">${esc(job.user || "—")}</span></span></div>
       <div class="params">${paramsText(job)}</div>
       <div class="row">
         <button type="button" data-act="up" ${i === 0 ? "disabled" : ""} title="Move up">↑</button>
@@ -186,7 +186,7 @@ async function loadSequences() {
         .map((s) => {
           const steps = s.steps.map((st) => `<li>${esc(st.kind)}: ${st.parameters_labelled.map((p) => esc(`${p.label} ${p.shown}`)).join("; ")}</li>`).join("");
           const problems = s.problems.map((p) => `<li>${esc(p)}</li>`).join("");
-          return `<li data-file="${esc(s.file)}"><strong>${esc(s.name)}</strong> <span class="muted">${s.runs} run(s), ${fmt(s.rest_s)} s rest</span>
+          return `<li data-file="${esc(s.file)}"><strong>${esc(s.name)}</strong> <span class="muted">${esc(s.runs)} run(s), ${esc(fmt(s.rest_s))} s rest</span>
             <button type="button" data-start="${esc(s.file)}" ${s.problems.length ? "disabled" : ""}>Start sequence</button>
             <details><summary class="muted">${s.steps.length} step(s)</summary><ol>${steps}</ol></details>
             ${problems ? `<ul class="errors">${problems}</ul>` : ""}</li>`;
@@ -224,12 +224,12 @@ async function loadHistory() {
   const past = jobs.filter((j) => FINAL.includes(j.state) && j.request);
   $("#history-status").textContent = past.length ? "" : "No finished tests yet.";
   $("#history-table tbody").innerHTML = past
-    .map((j) => `<tr data-job="${j.id}"><td><strong>${esc(j.label)}</strong></td><td>${paramsText(j)}</td>
+    .map((j) => `<tr data-job="${esc(j.id)}"><td><strong>${esc(j.label)}</strong></td><td>${paramsText(j)}</td>
       <td>${esc(j.user || "—")}</td>
-      <td><span class="state ${j.state}">${j.state}</span>${j.error ? ` <span class="muted">${esc(j.error)}</span>` : ""}</td>
-      <td>${localTime(j.finished_at)}</td>
-      <td>${j.run_ids.map((r) => `<code>${r.slice(0, 8)}</code>`).join(" ") || "—"}</td>
-      <td><button type="button" data-requeue="${j.id}" title="Submit the same request again">Re-queue</button></td></tr>`)
+      <td><span class="state ${esc(j.state)}">${esc(j.state)}</span>${j.error ? ` <span class="muted">${esc(j.error)}</span>` : ""}</td>
+      <td>${esc(localTime(j.finished_at))}</td>
+      <td>${j.run_ids.map((r) => `<code>${esc(r.slice(0, 8))}</code>`).join(" ") || "—"}</td>
+      <td><button type="button" data-requeue="${esc(j.id)}" title="Submit the same request again">Re-queue</button></td></tr>`)
     .join("");
 }
 

@@ -3,7 +3,7 @@
 // so a pendulum's goes to pendulum.js), its report downloaded as a zip or its JSON, and two or
 // more compared side by side (GET /api/results/compare). The URL hash names the open result
 // (#results/12), so a reload shows it again. The run page lists a run's results (showRunResults).
-// Uses app.js's $, $$, api, download, esc, fmt, renderEstimation, pageLoaders, TZ.
+// Uses esc (markup.js), fmt (format.js), app.js's $, $$, api, download, renderEstimation, pageLoaders, TZ.
 
 const RESULTS_PAGE = 20;
 const resultsState = { offset: 0, open: null };
@@ -34,7 +34,7 @@ async function loadResults() {
     .map(
       (r) => `<tr data-result="${Number(r.id)}"${r.id === resultsState.open ? ' class="selected"' : ""}>
       <td><input type="checkbox" value="${Number(r.id)}" aria-label="compare result ${Number(r.id)}"></td>
-      <td>${resultLink(r.id)}</td><td>${esc(r.kind)}</td><td>${new Date(r.created_at).toLocaleString()}</td>
+      <td>${resultLink(r.id)}</td><td>${esc(r.kind)}</td><td>${esc(new Date(r.created_at).toLocaleString())}</td>
       <td>${esc(resultWhat(r))}</td><td>${r.run_ids.map((id) => `<code>${esc(id.slice(0, 8))}</code>`).join(" ")}</td>
       <td><button type="button" class="result-zip">report.zip</button> <button type="button" class="result-json">JSON</button></td></tr>`,
     )
@@ -83,10 +83,10 @@ async function compareResults() {
   const heads = cmp.results
     .map((r, i) => `<th>#${Number(r.id)} value ± U</th>${i ? `<th title="|a−b|/√(σa²+σb²)">#${Number(r.id)} − #${Number(ref)} (σ)</th>` : ""}`)
     .join("");
-  const cell = (c) => (c ? `${fmt(c.value, 5)} ± ${fmt(c.U, 3)} <span class="muted">(${esc(c.U_from)})</span>` : "—");
+  const cell = (c) => (c ? `${esc(fmt(c.value, 5))} ± ${esc(fmt(c.U, 3))} <span class="muted">(${esc(c.U_from)})</span>` : "—");
   const body = cmp.coefficients
     .map((row) => `<tr data-coefficient="${esc(row.coefficient)}"><td>${esc(row.coefficient)}${row.unit ? ` (${esc(row.unit)})` : ""}</td>${row.cells
-      .map((c, i) => `<td>${cell(c)}</td>${i ? `<td class="difference${row.difference_sigma[i] >= 2 ? " error" : ""}">${fmt(row.difference_sigma[i], 3)}</td>` : ""}`)
+      .map((c, i) => `<td>${cell(c)}</td>${i ? `<td class="difference${row.difference_sigma[i] >= 2 ? " error" : ""}">${esc(fmt(row.difference_sigma[i], 3))}</td>` : ""}`)
       .join("")}</tr>`)
     .join("");
   box.innerHTML = `<h3>Comparison</h3><table class="list" id="results-compare-table"><thead><tr><th>Coefficient</th>${heads}</tr></thead><tbody>${body}</tbody></table>
@@ -105,7 +105,7 @@ async function showRunResults(runId) {
     return;
   }
   list.innerHTML = found.length
-    ? found.map((r) => `<li>${resultLink(r.id)} ${esc(r.kind)} — ${esc(resultWhat(r))}, made ${new Date(r.created_at).toLocaleString()}</li>`).join("")
+    ? found.map((r) => `<li>${resultLink(r.id)} ${esc(r.kind)} — ${esc(resultWhat(r))}, made ${esc(new Date(r.created_at).toLocaleString())}</li>`).join("")
     : `<li class="muted">none yet</li>`;
 }
 

@@ -33,7 +33,7 @@ async function sixdofLoadEstimates() {
     $("#sixdof-estimates").innerHTML = results
       .filter((r) => ["surge", "sway", "heave", "roll", "pitch", "yaw"].includes((r.data || {}).axis))
       .slice(0, 20)
-      .map((r) => `<label><input type="checkbox" value="${r.id}"> #${r.id} ${esc(r.data.axis)} (${r.data.analysis ? `${esc(r.data.analysis)}, ` : ""}${esc(r.data.method || "")}, ${esc(localTime(r.created_at))})</label>`)
+      .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.data.axis)} (${r.data.analysis ? `${esc(r.data.analysis)}, ` : ""}${esc(r.data.method || "")}, ${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';
   } catch (err) {
     $("#sixdof-estimates").textContent = err.message;
@@ -52,11 +52,11 @@ async function sixdofVehicle(name) {
   sixdof.detail = detail;
   const v = sixdof.detail.vehicle;
   $("#sixdof-commands").innerHTML = v.thrusters
-    .map((t, i) => `<label>${esc(t.name)} <input name="u${i}" type="number" step="any" value="0"
-       min="${-t.max_command}" max="${t.max_command}" title="|u| ≤ ${t.max_command}"></label>`)
+    .map((t, i) => `<label>${esc(t.name)} <input name="u${esc(i)}" type="number" step="any" value="0"
+       min="${esc(-t.max_command)}" max="${esc(t.max_command)}" title="|u| ≤ ${esc(t.max_command)}"></label>`)
     .join("");
   $("#sixdof-force").innerHTML = SIXDOF_FORCE
-    .map((label, i) => `<label>${label} <input name="f${i}" type="number" step="any" value="0"></label>`)
+    .map((label, i) => `<label>${esc(label)} <input name="f${esc(i)}" type="number" step="any" value="0"></label>`)
     .join("");
   kv($("#sixdof-params"), [
     ["Vehicle", v.name],
@@ -68,13 +68,13 @@ async function sixdofVehicle(name) {
   const dofs = sixdof.detail.dofs;
   const c = v.coefficients;
   $("#sixdof-coefs tbody").innerHTML = dofs
-    .map((d) => `<tr><td>${d}</td><td>${fmt(c[`added_mass.${d}`])}</td><td>${fmt(v.total_inertia[d])}</td>
-      <td>${fmt(c[`linear_damping.${d}`])}</td><td>${fmt(c[`quadratic_damping.${d}`])}</td></tr>`)
+    .map((d) => `<tr><td>${esc(d)}</td><td>${esc(fmt(c[`added_mass.${d}`]))}</td><td>${esc(fmt(v.total_inertia[d]))}</td>
+      <td>${esc(fmt(c[`linear_damping.${d}`]))}</td><td>${esc(fmt(c[`quadratic_damping.${d}`]))}</td></tr>`)
     .join("");
   const rows = ["X", "Y", "Z", "K", "M", "N"];
   $("#sixdof-alloc thead").innerHTML = `<tr><th></th>${v.thrusters.map((t) => `<th>${esc(t.name)}</th>`).join("")}</tr>`;
   $("#sixdof-alloc tbody").innerHTML = sixdof.detail.allocation_matrix
-    .map((row, i) => `<tr><td>${rows[i]}</td>${row.map((x) => `<td>${fmt(x, 4)}</td>`).join("")}</tr>`)
+    .map((row, i) => `<tr><td>${esc(rows[i])}</td>${row.map((x) => `<td>${esc(fmt(x, 4))}</td>`).join("")}</tr>`)
     .join("");
 }
 

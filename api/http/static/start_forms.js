@@ -86,25 +86,25 @@ function fieldHtml(name, prop) {
   const tip = prop.description ? ` title="${esc(prop.description)}"` : "";
   const dflt = prop.default;
   if (t.type === "boolean") {
-    return `<label${tip}><input name="${name}" type="checkbox"${dflt ? " checked" : ""}> ${label}</label>`;
+    return `<label${tip}><input name="${esc(name)}" type="checkbox"${dflt ? " checked" : ""}> ${label}</label>`;
   }
   if (t.enum) {
     const options = t.enum.map((v) => `<option${v === dflt ? " selected" : ""}>${esc(v)}</option>`).join("");
-    return `<label${tip}>${label} <select name="${name}">${options}</select></label>`;
+    return `<label${tip}>${label} <select name="${esc(name)}">${options}</select></label>`;
   }
   const shown = Array.isArray(dflt) ? dflt.join(", ") : dflt;
   const hint = shown === undefined || shown === null ? "" : ` placeholder="${esc(String(shown))}"`;
   if (t.type === "array") {
-    return `<label${tip}>${label} <input name="${name}" type="text" data-type="array"${hint}></label>`;
+    return `<label${tip}>${label} <input name="${esc(name)}" type="text" data-type="array"${hint}></label>`;
   }
   const step = t.type === "integer" ? "1" : "any";
-  return `<label${tip}>${label} <input name="${name}" type="number" step="${step}"${hint}></label>`;
+  return `<label${tip}>${label} <input name="${esc(name)}" type="number" step="${esc(step)}"${hint}></label>`;
 }
 
 function renderStartForms(kinds) {
   const title = (k) => k.label.charAt(0).toUpperCase() + k.label.slice(1);
   $("#start-tabs").innerHTML = kinds
-    .map((k, i) => `<button data-form="${k.route}"${i ? "" : ' class="active"'}>${esc(title(k))}</button>`)
+    .map((k, i) => `<button data-form="${esc(k.route)}"${i ? "" : ' class="active"'}>${esc(title(k))}</button>`)
     .join("");
   $("#start-forms").innerHTML = kinds
     .map((k, i) => {
@@ -112,9 +112,9 @@ function renderStartForms(kinds) {
         .filter(([name]) => name !== "metadata") // the Run metadata block below sends it
         .map(([name, prop]) => fieldHtml(name, prop))
         .join("\n");
-      return `<form id="form-${k.route}" class="start-form" data-kind="${k.route}" data-run-kind="${k.kind}"${i ? " hidden" : ""}>
+      return `<form id="form-${esc(k.route)}" class="start-form" data-kind="${esc(k.route)}" data-run-kind="${esc(k.kind)}"${i ? " hidden" : ""}>
         ${fields}
-        <button type="submit" id="start-${k.route}">Start ${esc(k.label)}</button>
+        <button type="submit" id="start-${esc(k.route)}">Start ${esc(k.label)}</button>
         <ul class="errors"></ul></form>`;
     })
     .join("");

@@ -1,7 +1,7 @@
 // The Thrusters page as a thrust stand: the newest calibration (GET /api/calibration/latest)
 // as a Tyto user reads it — RPM, electrical power, efficiency (g/W) and the response time
 // with its σ; thrust against command, RPM and power in N, kgf or lbf; the fitted curve and
-// its inverse map; every calibration stored. Uses app.js's $, $$, api, esc, fmt, localTime,
+// its inverse map; every calibration stored. Uses esc (markup.js), fmt, localTime, voltageText (format.js), app.js's $, $$, api,
 // pageLoaders.
 "use strict";
 
@@ -26,16 +26,7 @@ function commandFor(p, f) {
   return 0;
 }
 
-// A calibration's supply voltages once: the steps' readings are noisy ("15.711000000000002,
-// 15.69…"), so one value to 0.1 V, or the range when they differ by more than that.
-function voltageText(volts) {
-  const v = (volts || []).filter((x) => typeof x === "number" && Number.isFinite(x));
-  if (!v.length) return "";
-  const lo = Math.min(...v);
-  const hi = Math.max(...v);
-  if (hi - lo < 0.15) return `${((lo + hi) / 2).toFixed(1)} V`;
-  return `${lo.toFixed(1)}–${hi.toFixed(1)} V`;
-}
+// voltageText (format.js): a calibration's supply voltages once.
 
 // The figures a thrust stand prints, from the calibration's rows and response.
 function standFigures(data) {
@@ -94,12 +85,12 @@ function drawStand() {
   kv($("#cal-stand-table"), standFigures(data));
   const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
   $("#cal-table tbody").innerHTML = table
-    .map((r) => `<tr><td>${fmt(r.command, 3)}</td><td>${esc(r.direction || "—")}</td><td>${fmt(inUnit(r.thrust_per_thruster_n), 4)}</td><td>${cell(r.supply_voltage_v, 3)}</td><td>${cell(r.current_a, 4)}</td><td>${cell(r.rpm, 4)}</td><td>${cell(r.power_w, 4)}</td><td>${cell(gramsPerWatt(r.efficiency_n_per_w), 3)}</td></tr>`)
+    .map((r) => `<tr><td>${esc(fmt(r.command, 3))}</td><td>${esc(r.direction || "—")}</td><td>${esc(fmt(inUnit(r.thrust_per_thruster_n), 4))}</td><td>${esc(cell(r.supply_voltage_v, 3))}</td><td>${esc(cell(r.current_a, 4))}</td><td>${esc(cell(r.rpm, 4))}</td><td>${esc(cell(r.power_w, 4))}</td><td>${esc(cell(gramsPerWatt(r.efficiency_n_per_w), 3))}</td></tr>`)
     .join("");
   const fit = data.fit && data.fit.parameters;
   $("#cal-params tbody").innerHTML = Object.entries(fit || {})
-    .map(([k, v]) => `<tr><td>${esc(k)}${v.unit ? ` (${esc(v.unit)})` : ""}</td><td>${fmt(v.value, 5)}</td><td>± ${fmt(v.std, 3)}</td></tr>`)
-    .join("") + (data.fit ? `<tr><td>RMSE (N)</td><td>${fmt(data.fit.rmse_n, 3)}</td><td></td></tr>` : "");
+    .map(([k, v]) => `<tr><td>${esc(k)}${v.unit ? ` (${esc(v.unit)})` : ""}</td><td>${esc(fmt(v.value, 5))}</td><td>± ${esc(fmt(v.std, 3))}</td></tr>`)
+    .join("") + (data.fit ? `<tr><td>RMSE (N)</td><td>${esc(fmt(data.fit.rmse_n, 3))}</td><td></td></tr>` : "");
   const ys = table.map((r) => inUnit(r.thrust_per_thruster_n));
   const yTitle = `thrust per thruster (${unit})`;
   const layout = (title, xTitle) => ({ title: { text: title }, margin: { t: 40, r: 20, b: 45, l: 60 }, xaxis: { title: { text: xTitle } }, yaxis: { title: { text: yTitle } }, showlegend: false });
@@ -139,7 +130,7 @@ $("#cal-units").addEventListener("change", (ev) => {
 async function loadCalibrationList() {
   const all = await api("GET", "/api/calibrations");
   $("#cal-list tbody").innerHTML = all
-    .map((c) => `<tr><td>${esc(c.label)}</td><td>${c.source === "run" ? "measured" : "imported"}</td><td>${esc(localTime(c.created_at))}</td><td>${c.rows}</td><td>${esc(voltageText(c.voltages_v)) || "—"}</td><td>${esc(c.channels.join(", ")) || "—"}</td></tr>`)
+    .map((c) => `<tr><td>${esc(c.label)}</td><td>${c.source === "run" ? "measured" : "imported"}</td><td>${esc(localTime(c.created_at))}</td><td>${esc(c.rows)}</td><td>${esc(voltageText(c.voltages_v)) || "—"}</td><td>${esc(c.channels.join(", ")) || "—"}</td></tr>`)
     .join("");
 }
 

@@ -16,14 +16,14 @@ function renderUncertainty(res) {
   const tables = Object.entries(budget.coefficients || {}).map(([name, c]) => {
     const rows = (c.rows || []).map((r) => `<tr${r.combined ? "" : ' class="muted"'}>
         <td>${esc(r.source)}</td><td>${esc(r.type)}</td>
-        <td>${fmt(r.standard_uncertainty, 3)} ${esc(r.unit)}</td><td>${fmt(r.sensitivity, 3)}</td>
-        <td>${fmt(r.contribution, 3)}</td>
+        <td>${esc(fmt(r.standard_uncertainty, 3))} ${esc(r.unit)}</td><td>${esc(fmt(r.sensitivity, 3))}</td>
+        <td>${esc(fmt(r.contribution, 3))}</td>
         <td>${r.combined ? `${(100 * (r.share || 0)).toFixed(1)} %` : "not combined"}</td>
         <td class="muted">${esc(r.note || "")}</td></tr>`).join("");
     // ν_eff ≥ 10⁴ is ∞ to k's four digits (estimation/uncertainty/text.py says the same)
     const dof = c.effective_dof === null || c.effective_dof >= 1e4 ? "∞" : fmt(c.effective_dof, 3);
     return `<h4 class="est-budget-head"><strong>${esc(name)} = ${esc(c.reported)}</strong>
-        <span class="muted">(95 %, k = ${fmt(c.coverage_factor, 4)}, ν_eff = ${dof}, u_c = ${fmt(c.combined_standard_uncertainty, 3)}; dominant: ${esc(c.dominant_source)})</span></h4>
+        <span class="muted">(95 %, k = ${esc(fmt(c.coverage_factor, 4))}, ν_eff = ${esc(dof)}, u_c = ${esc(fmt(c.combined_standard_uncertainty, 3))}; dominant: ${esc(c.dominant_source)})</span></h4>
       <table class="list est-budget" data-coefficient="${esc(name)}"><thead><tr><th>Source</th><th>Type</th><th>u</th><th>Sensitivity c</th><th>Contribution c·u</th><th>Share</th><th>Note</th></tr></thead>
       <tbody>${rows}</tbody></table>`;
   }).join("");
@@ -31,7 +31,7 @@ function renderUncertainty(res) {
   let rep = "";
   if (repeats && (repeats.conditions || []).some((c) => c.n > 1)) {
     rep = `<h4>Repeat runs <span class="muted">(${esc(repeats.outlier_test)})</span></h4>
-      <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>Terminal speed</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${c.n}</td><td>${fmt(c.mean, 5)}</td><td>${c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3)}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
+      <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>Terminal speed</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${esc(c.n)}</td><td>${esc(fmt(c.mean, 5))}</td><td>${esc(c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3))}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
   }
   box.innerHTML = `<h3>Uncertainty (ITTC / GUM, 95 %)</h3>${notes}${tables}${rep}`;
 }

@@ -1,0 +1,70 @@
+// The run detail's plot as data, no DOM (app.js draws it with plots.js): the chosen channels
+// of one or more runs against time from each run's release, or against another channel
+// ("Y against X", e.g. thrust against RPM), each line named by its channel and, when runs
+// are overlaid, by its run. Unit-tested without a browser (tests/api/static/*.test.js).
+"use strict";
+
+// The x axis of a run plot when no channel is chosen for it.
+const TIME_AXIS = "time";
+
+/** A channel as the plots name it: "drive_force" → "drive force". */
+function channelLabel(name) {
+  return String(name).replace(/_/g, " ");
+}
+
+/** A unit as an axis prints it: "" for none or the dimensionless "1". */
+function shownUnit(unit) {
+  return unit === "1" ? "" : unit || "";
+}
+
+/** An axis title or legend entry: "drive force [N]", or the bare label without a unit. */
+function withUnit(label, unit) {
+  return unit ? `${label} [${unit}]` : label;
+}
+
+/** A run as a legend names it: short id, kind and load, e.g. "3f2a9c1e tow 30 N". */
+function runName(run, loadText = "") {
+  return [String(run.id).slice(0, 8), run.kind, loadText].filter(Boolean).join(" ");
+}
+
+/**
+ * The series of a run plot (plots.js `unitRowsPlot`) and its x-axis title.
+ * runs: [{run, samples: {t_mono [s], channels, units}, release: t_mono [s] or null, name}];
+ * channels: the y channels; x: TIME_AXIS or a channel name. With time on x each run starts
+ * at its release (at its first sample when any run has none). A run without the x channel
+ * is left out and listed in `missing` by name.
+ */
+function runPlotSeries(runs, channels, x = TIME_AXIS) {
+  const series = [];
+  const missing = [];
+  const byTime = x === TIME_AXIS;
+  const fromRelease = runs.every((r) => r.release !== null && r.release !== undefined);
+  let xTitle = fromRelease ? "time from release [s]" : "time from first sample [s]";
+  if (!byTime) {
+    const owner = runs.find((r) => x in r.samples.channels);
+    xTitle = withUnit(channelLabel(x), owner ? shownUnit(owner.samples.units[x]) : "");
+  }
+  for (const r of runs) {
+    const s = r.samples;
+    let xs;
+    if (byTime) {
+      const t0 = fromRelease ? r.release : s.t_mono[0];
+      xs = s.t_mono.map((t) => t - t0);
+    } else if (x in s.channels) {
+      xs = s.channels[x];
+    } else {
+      missing.push(r.name);
+      continue;
+    }
+    for (const k of channels) {
+      if (!(k in s.channels) || k === x) continue;
+      const unit = shownUnit(s.units[k]);
+      const label = channelLabel(k);
+      const who = runs.length > 1 ? ` · ${r.name}` : "";
+      series.push({ x: xs, y: s.channels[k], name: `${withUnit(label, unit)}${who}`, label, unit, key: `${r.run.id}:${k}` });
+    }
+  }
+  return { series, xTitle, mode: byTime ? "lines" : "markers", missing };
+}
+
+if (typeof module !== "undefined") module.exports = { TIME_AXIS, channelLabel, shownUnit, withUnit, runName, runPlotSeries };

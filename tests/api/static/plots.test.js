@@ -1,0 +1,21 @@
+// The plots' axes (api/http/static/plots.js) without a browser: ticks on 1-2-5 steps.
+"use strict";
+const test = require("node:test");
+const assert = require("node:assert/strict");
+const { niceAxis } = require("../../../api/http/static/plots.js");
+
+test("about five ticks on a 1-2-5 step, the range just past the outer ticks", () => {
+  const a = niceAxis(0.13, 3.17);
+  assert.equal(a.dtick, 1);
+  assert.equal(a.tickformat, ".0f");
+  assert.ok(a.range[0] < 0 && a.range[0] > -0.2 && a.range[1] > 4 && a.range[1] < 4.2, a.range);
+  assert.equal(niceAxis(0, 0.9).dtick, 0.2);
+  assert.equal(niceAxis(0, 0.9).tickformat, ".1f");
+  assert.equal(niceAxis(-20, 230).dtick, 50);
+});
+
+test("a flat series still gets an axis; no numbers give none", () => {
+  const flat = niceAxis(5, 5);
+  assert.ok(flat.range[0] < 5 && flat.range[1] > 5, flat.range);
+  assert.equal(niceAxis(NaN, 1), null);
+});
