@@ -50,6 +50,7 @@ around it (the sampled maximum of a 27-sample period misses the true one by up t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -133,7 +134,7 @@ def pieces(t: np.ndarray) -> list[slice]:
     step = np.diff(t)
     cuts = np.nonzero(step > GAP_STEPS * float(np.median(step)))[0] + 1
     bounds = [0, *cuts.tolist(), t.size]
-    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    return [slice(a, b) for a, b in pairwise(bounds)]
 
 
 def free_decay_end(t: np.ndarray, x: np.ndarray, noise: float) -> FreeWindow:
