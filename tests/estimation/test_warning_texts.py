@@ -42,3 +42,11 @@ def test_runs_without_a_rig_file_are_not_asked_for_its_tolerances_section():
     assert "--rig FILE" in note and "has no [tolerances] section" not in note
     (note,) = uncertainty_budget(runs, result, Chain(g=9.81), None).notes
     assert "the rig file has no [tolerances] section" in note
+
+
+def test_response_descriptions_use_no_internal_words():
+    """What a user reads of a response names the manoeuvre, not the project's seed papers
+    ("seed 004's Ds")."""
+    from estimation.vehicle.response_measures import RESPONSES
+
+    assert [r.name for r in RESPONSES if "seed" in r.description.lower()] == []
