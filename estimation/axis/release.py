@@ -128,6 +128,10 @@ def speed_at_release(run: RunData, serial: float = 0.0) -> float | None:
        speed (24-point tows from rest called moving in 11 of 12 runs). b beyond
        REST_CHECK_SIGMAS σ and REST_CHECK_SHARE of the run's largest speed, the way the run
        goes, means the record starts after the release (already moving).
+       A record that begins after its release (the release before its first sample) has
+       no start in it to bound: its first ``REST_CHECK_SAMPLES`` are read whatever their
+       spacing (ten Cate E1, 24 points, first 0.084 s after the release: 0.031 m/s of its
+       0.034 m/s terminal speed, called moving).
     3. Fewer than ``REST_CHECK_MIN_SAMPLES`` in that span: the release sample and the two
        after it decide (``_three_sample_speed``): their parabola's slope while the second
        step is still well within the acceleration, else (the steps span it) the first
@@ -160,7 +164,9 @@ def speed_at_release(run: RunData, serial: float = 0.0) -> float | None:
     way = float(np.sign(x[moving[-1]] - x[after[0]]))
     tau_all = t[after] - run.t_release
     mean = np.abs(x[after] - x[after[0]]) / np.where(tau_all > 0, tau_all, np.inf)
-    span = after[:REST_CHECK_SAMPLES][mean[:REST_CHECK_SAMPLES] <= REST_CHECK_SPAN_SHARE * top]
+    span = after[:REST_CHECK_SAMPLES]
+    if t[after[0]] <= run.t_release:  # the record holds its start: read only its parabola
+        span = span[mean[:REST_CHECK_SAMPLES] <= REST_CHECK_SPAN_SHARE * top]
     if span.size < REST_CHECK_MIN_SAMPLES:
         return _three_sample_speed(t[after[:3]], x[after[:3]], way, top, _position_step(x))
     tau = t[span] - run.t_release

@@ -89,3 +89,28 @@ def test_a_dense_record_cut_while_still_accelerating_is_called_moving():
         cut = replace(run, t=run.t[keep], position=run.position[keep], t_release=1.2)
         speed = speed_at_release(cut)
         assert speed is not None and speed == pytest.approx(run.drive / 143.26 * 0.2, rel=0.15)
+
+
+def test_ten_cate_e1_begins_after_its_release_and_is_called_moving():
+    """The published settling sphere E1 (24 points, first 0.084 s after the release at
+    t = 0) is at 0.031 m/s of its 0.034 m/s terminal speed there: a record that begins after
+    its release has no start to bound, so its first samples are read as they are."""
+    import pandas as pd
+
+    from estimation import RunData
+    from tests.shared_data import shared_file
+
+    d = pd.read_csv(shared_file("real", "tencate-sphere-settling", "tencate_E1_tow.csv"))
+    run = RunData("E1", "surge", d.t.to_numpy(), d.position.to_numpy(), drive=0.0026004)
+    assert speed_at_release(run) == pytest.approx(0.031, rel=0.1)
+
+
+def test_sparse_tows_from_rest_keep_their_inertia():
+    """The estimate of four 24-point tows from rest at 143 kg: no run is called moving, and
+    the inertia keeps its σ and lands on its truth (it was left without σ: "already moving
+    at its release")."""
+    rng = np.random.default_rng(7)
+    r = estimate([_sparse(run, rng, 1) for run in tow_set("143kg", 0)], n_bootstrap=0)
+    assert not any("already moving" in w for w in r.warnings), r.warnings
+    inertia = r.coefficients["inertia"]
+    assert np.isfinite(inertia.std) and inertia.value == pytest.approx(143.26, rel=0.01)
