@@ -242,9 +242,11 @@ def physical_warnings(fit: FitResult, runs: Sequence[RunData]) -> list[str]:
             "(a record that starts after the release, or a missed acceleration, gives this)"
         )
     if "linear_damping" in fit.at_bound:
-        out.append(
-            "linear_damping sits at its bound 0: the data want a negative damping, which a "
-            "passive body cannot have"
+        out.append(  # the causes a record can have (never "a negative damping")
+            "linear_damping sits at its bound 0 (held there, not identified): over these "
+            "runs the drag grows faster than linearly with speed, or a force the model lacks "
+            "(a wall or the tank's end slowing the body, a misread release) bends the law; "
+            "runs at lower speeds would show the linear part"
         )
     return out
 

@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from estimation.blas import one_blas_thread
+from estimation.data.window import encoder_quantum
 from estimation.errors import EstimationFailed
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.envelope import FreeWindow, centre, free_decay_end
@@ -47,19 +48,32 @@ DECAY_CANDIDATES: tuple[str, ...] = (
 )
 
 
+#: A sample within this many σ (noise) of the largest excursion is still at the release …
+RELEASE_NOISE_SIGMAS = 3.0
+#: … or within this many encoder steps of it (a one-count flicker of a held body).
+RELEASE_QUANTA = 1.5
+
+
 def release_of(record: Record) -> float:
     """Where a record's free motion starts: its first sample when driven; for a free decay
-    the last sample still within 3σ (noise) of the largest excursion from the final rest
-    position (``envelope.centre``) before the motion first crosses that rest (a decay is
-    released at its largest offset: the end of a push, or the end of a hold)."""
+    the last sample still near the largest excursion from the final rest position
+    (``envelope.centre``) before the motion first crosses that rest (a decay is released at
+    its largest offset: the end of a push, or the end of a hold). Near: within
+    max(RELEASE_NOISE_SIGMAS·σ, RELEASE_QUANTA encoder steps). The encoder step counts
+    because a held body's encoder may flicker one count: that count is then the largest
+    excursion, and within 3σ alone (σ below a count on a clean encoder) the release was put
+    at the flicker, the held samples after it fitted as motion (seven, 0.35 s, of a 20 Hz
+    record); a released body leaves the hold by many counts within a sample or two."""
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     if record.drive is not None:
         return float(t[0])
-    off = x - centre(t, x, position_noise([x]))
+    noise = position_noise([x])
+    off = x - centre(t, x, noise)
     peak = int(np.argmax(np.abs(off)))
     crossing = np.nonzero(np.sign(off[peak:]) != np.sign(off[peak]))[0]
     stop = peak + (int(crossing[0]) if crossing.size else off.size - peak)
-    near = np.abs(off[peak:stop]) >= abs(off[peak]) - 3.0 * position_noise([x])
+    tolerance = max(RELEASE_NOISE_SIGMAS * noise, RELEASE_QUANTA * encoder_quantum(x))
+    near = np.abs(off[peak:stop]) >= abs(off[peak]) - tolerance
     return float(t[peak + int(np.nonzero(near)[0][-1])])
 
 

@@ -58,6 +58,12 @@ TYPE_B_NOT_DECLARED = (
     "Type B not declared: the rig file has no [tolerances] section, so U covers the Type A "
     "sources only (add [tolerances] to the rig file, README 'Declaring tolerances')"
 )
+#: The same for runs that came without a rig file (imported data): no section to add to.
+TYPE_B_NO_RIG_FILE = (
+    "Type B not declared: these runs came without a rig file, so the drive and the rig's "
+    "constants are taken as exact and U covers the Type A sources only (import them with "
+    "--rig FILE whose [tolerances] declare them, README 'Declaring tolerances')"
+)
 
 
 @dataclass(frozen=True)
@@ -255,7 +261,9 @@ def uncertainty_budget(
 ) -> Budget:
     """The budget of every coefficient of ``result`` (an output-error estimate of ``runs``).
 
-    ``chain``: the rig constants the runs' drives were computed with; ``tolerances``: the
+    ``chain``: the rig constants the runs' drives were computed with (None: runs without a
+    rig file, e.g. imported; the note then says so rather than ask for a section of a
+    file that does not exist); ``tolerances``: the
     declared half-widths by ``SOURCES`` name (None or empty: Type B not declared, a note
     says so). ``repeats``: the repeat analysis of the runs (its repeat campaigns give the
     repeatability row)."""
@@ -264,8 +272,8 @@ def uncertainty_budget(
         raise ValueError("result: got an estimate without its fit, allowed: an output-error fit")
     declared = check_tolerances(tolerances or {})
     notes: list[str] = []
-    if not declared:
-        notes.append(TYPE_B_NOT_DECLARED)
+    if not declared:  # advice only the user can act on: a rig file exists, or it does not
+        notes.append(TYPE_B_NOT_DECLARED if chain is not None else TYPE_B_NO_RIG_FILE)
     runs = as_fitted(runs, result)
     chain = chain or Chain(g=9.81)
     type_b = _type_b_rows(runs, fit, chain, declared, notes) if declared else {}

@@ -171,7 +171,7 @@ RESPONSES: tuple[Response, ...] = (
         "m",
         "turn",
         "steady turning-circle diameter 2·√(u²+v²)/|r| under combined surge force and yaw "
-        "torque (seed 004's Ds)",
+        "torque (Ds of the turning-circle manoeuvre)",
         _turn_diameter,
     ),
     Response(

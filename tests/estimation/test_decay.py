@@ -215,3 +215,21 @@ def test_every_coefficient_of_a_decay_carries_u_that_covers_its_truth(scale):
     assert share["inertia"] == pytest.approx(total / (0.8 * mass) * 0.01 / 3**0.5, rel=0.05)
     with pytest.raises(ValueError, match=r"tolerances\.stiffness: got -1"):
         motion_budget(r, {"stiffness": -1.0})
+
+
+def test_a_one_count_flicker_in_the_hold_is_not_the_release():
+    """A heave decay logged by a 0.1 mm encoder (no other noise), held 1 s at its offset,
+    whose encoder flickers one count outwards 0.4 s before the release: the flicker was
+    the largest excursion, and the release was put there (eight held samples fitted as
+    motion). Within 1.5 encoder steps of the peak is still the hold, so the release is the
+    true one and the damping law is found."""
+    mass = MASSES["143kg"]
+    total, k = 1.8 * mass, 40.0 * mass
+    b1, b2 = 0.03 * 2 * np.sqrt(total * k), 4.0 * mass
+    t, x = decay_record(total, b1, b2, k, x0=0.05)
+    step = 1e-4
+    x = np.round(x / step) * step
+    x[np.searchsorted(t, 1.0) - 8] += step  # one count out, on the still body
+    r = estimate_decay(t, x, "heave", stiffness=k)
+    assert r.release_time_s["decay"] == pytest.approx(1.0, abs=0.026)
+    assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.05)

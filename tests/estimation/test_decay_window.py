@@ -117,3 +117,28 @@ def test_a_decay_whose_swings_stay_above_the_noise_does_not_rest():
     field, b2 = decay_effect("quadratic_damping", "143kg")
     t, x, _ = decay("143kg", seed=40, **{field: b2})
     assert free_decay_end(t, x, 2e-5).ended_by == "end of the record"
+
+
+def _dropout(t, x, start=6.0, length=1.2):
+    """The record with ``length`` s of samples from ``start`` lost (a logging dropout)."""
+    keep = ~((t > start) & (t < start + length))
+    return t[keep], x[keep]
+
+
+def test_a_dropout_is_not_read_as_energy_taken_out():
+    """A 1.2 s dropout (about a period) in a clean decay: the half-cycle read across it
+    spans turns never seen, and was called "energy was taken out" (the window ended at
+    5.7 s of 30). The envelope is read piece by piece, so the whole record is fitted and
+    the quadratic damping comes out within 5 %."""
+    t, x = _dropout(*record())
+    assert free_decay_end(t, x, 2e-5).ended_by == "end of the record"
+    r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K)
+    assert r.window["decay"].end == t[-1]
+    assert r.coefficients["quadratic_damping"].value == pytest.approx(B2, rel=0.05)
+
+
+def test_a_catch_after_a_dropout_still_ends_the_decay():
+    """Reading the envelope piece by piece still sees energy taken out after a gap."""
+    t, x = _dropout(*record("catch"))
+    window = free_decay_end(t, x, 2e-5)
+    assert "taken out" in window.ended_by and window.end > 7.2

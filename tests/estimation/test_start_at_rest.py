@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
+from estimation.axis.release import speed_at_release
 from tests.estimation.term_cases import tow_set
 
 
@@ -48,3 +49,68 @@ def test_a_tow_recorded_from_after_its_release_is_called_moving():
     r = estimate(cut, n_bootstrap=0)
     assert any("already moving at its release" in w for w in r.warnings), r.warnings
     assert not np.isfinite(r.coefficients["inertia"].std)
+
+
+def _sparse(run, rng, baseline):
+    """``run`` kept at 24 irregular instants: ``baseline`` samples up to its release, then 23
+    drawn at random from the rest of its 20 s (about one per 0.8 s)."""
+    idx = np.sort(rng.choice(np.arange(11, run.t.size), 23, replace=False))
+    idx = np.concatenate([np.arange(11 - baseline, 11), idx])
+    return replace(run, t=run.t[idx], position=run.position[idx])
+
+
+@pytest.mark.parametrize("scale", ["10kg", "143kg", "1000kg"])
+@pytest.mark.parametrize("baseline", [1, 2], ids=["from-the-release", "one-held-sample"])
+def test_a_sparse_record_that_starts_at_rest_is_not_called_moving(scale, baseline):
+    """24 irregular points per tow, from rest: seven samples spanned the whole acceleration
+    and their parabola's slope was read as a speed at the release (11 of 12 runs); the
+    parabola now reads only samples well below the top speed."""
+    rng = np.random.default_rng(7)
+    runs = [_sparse(r, rng, baseline) for seed in range(4) for r in tow_set(scale, seed)]
+    assert all(r.t.size <= 30 for r in runs)
+    assert [speed_at_release(r) for r in runs] == [None] * len(runs)
+
+
+def test_a_drive_ahead_of_its_log_is_a_lag_not_a_moving_start():
+    """The 143 kg tows whose pull began 0.15 s before the logged release (the log lags the
+    drive; the held samples before it are in the record): a lag, so the inertia keeps its σ
+    and no run is called "already moving" (three of four were, at 0.03–0.1 m/s)."""
+    r = estimate(tow_set("143kg", 0, delay=-0.15), n_bootstrap=0)
+    assert not any("already moving" in w for w in r.warnings), r.warnings
+    assert np.isfinite(r.coefficients["inertia"].std)
+
+
+def test_a_dense_record_cut_while_still_accelerating_is_called_moving():
+    """The 143 kg tows recorded from 0.2 s after their release (still accelerating, speed
+    ≈ F/M·0.2 s): too few samples stay below 30 % of the top speed for the parabola, and the
+    three first samples' parabola gives the speed at the release within 15 %."""
+    for run in tow_set("143kg", 0):
+        keep = run.t >= 1.2
+        cut = replace(run, t=run.t[keep], position=run.position[keep], t_release=1.2)
+        speed = speed_at_release(cut)
+        assert speed is not None and speed == pytest.approx(run.drive / 143.26 * 0.2, rel=0.15)
+
+
+def test_ten_cate_e1_begins_after_its_release_and_is_called_moving():
+    """The published settling sphere E1 (24 points, first 0.084 s after the release at
+    t = 0) is at 0.031 m/s of its 0.034 m/s terminal speed there: a record that begins after
+    its release has no start to bound, so its first samples are read as they are."""
+    import pandas as pd
+
+    from estimation import RunData
+    from tests.shared_data import shared_file
+
+    d = pd.read_csv(shared_file("real", "tencate-sphere-settling", "tencate_E1_tow.csv"))
+    run = RunData("E1", "surge", d.t.to_numpy(), d.position.to_numpy(), drive=0.0026004)
+    assert speed_at_release(run) == pytest.approx(0.031, rel=0.1)
+
+
+def test_sparse_tows_from_rest_keep_their_inertia():
+    """The estimate of four 24-point tows from rest at 143 kg: no run is called moving, and
+    the inertia keeps its σ and lands on its truth (it was left without σ: "already moving
+    at its release")."""
+    rng = np.random.default_rng(7)
+    r = estimate([_sparse(run, rng, 1) for run in tow_set("143kg", 0)], n_bootstrap=0)
+    assert not any("already moving" in w for w in r.warnings), r.warnings
+    inertia = r.coefficients["inertia"]
+    assert np.isfinite(inertia.std) and inertia.value == pytest.approx(143.26, rel=0.01)

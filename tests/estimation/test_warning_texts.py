@@ -1,0 +1,52 @@
+"""Warnings name a cause the record's kind can have, in the words of the rig and the user
+(issue 31): no "negative damping, which a passive body cannot have", no internal words, no
+reverse run for a decay, the DOF as imported."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from estimation import estimate
+from estimation.axis.estimate import physical_warnings
+from estimation.uncertainty import uncertainty_budget
+from estimation.uncertainty.sources import Chain
+from tests.estimation.term_cases import tow_set
+
+
+def test_a_linear_damping_at_its_bound_names_causes_a_record_can_have():
+    """K_L held at 0 is a drag that grows faster than linearly over the tested speeds (a
+    settling sphere at high Re) or a force the model lacks, never "a negative damping, which
+    a passive body cannot have" (no body was asked to have one)."""
+    fit = SimpleNamespace(
+        names=("inertia", "linear_damping", "quadratic_damping"),
+        std=np.array([1.0, 0.1, 1.0]),
+        at_bound=("linear_damping",),
+        value=lambda n: 143.0,
+        sigma=lambda n: 1.0,
+    )
+    (text,) = physical_warnings(fit, tow_set("143kg", 0))
+    assert "passive body" not in text and "negative damping" not in text
+    assert "faster than linearly with speed" in text and "a force the model lacks" in text
+
+
+def test_runs_without_a_rig_file_are_not_asked_for_its_tolerances_section():
+    """Imported runs (no rig file: no chain) were told "the rig file has no [tolerances]
+    section … add [tolerances] to the rig file" of a file they never had; they are told to
+    import with a rig file that declares them. Runs with a rig file keep the old advice."""
+    runs = tow_set("143kg", seed=300)
+    result = estimate(runs, search_effects=False, n_bootstrap=0)
+    (note,) = uncertainty_budget(runs, result, None, None).notes
+    assert note.startswith("Type B not declared: these runs came without a rig file")
+    assert "--rig FILE" in note and "has no [tolerances] section" not in note
+    (note,) = uncertainty_budget(runs, result, Chain(g=9.81), None).notes
+    assert "the rig file has no [tolerances] section" in note
+
+
+def test_response_descriptions_use_no_internal_words():
+    """What a user reads of a response names the manoeuvre, not the project's seed papers
+    ("seed 004's Ds")."""
+    from estimation.vehicle.response_measures import RESPONSES
+
+    assert [r.name for r in RESPONSES if "seed" in r.description.lower()] == []
