@@ -32,7 +32,7 @@ from daq.sim.inprocess import open_inprocess_rig  # noqa: E402
 from daq.sim.simtime import SimClock  # noqa: E402
 from daq.store import Store  # noqa: E402
 from estimation import estimate  # noqa: E402
-from estimation.design.campaign import Campaign, Target  # noqa: E402
+from estimation.design.campaign_state import Campaign, Target  # noqa: E402
 from estimation.design.planner import state_from_result  # noqa: E402
 
 SCENARIOS = {"clean": "clean.toml", "dry-friction": "coulomb-friction.toml"}

@@ -20,7 +20,7 @@ import numpy as np
 
 from bench.timing import timed
 from estimation import estimate
-from estimation.axis.crosscheck import cross_check
+from estimation.axis.drive_crosscheck import cross_check
 from estimation.thrust.curve import ThrustCurve
 from estimation.thrust.drive import DRIVE_DRAWS, curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set

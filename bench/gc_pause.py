@@ -75,7 +75,7 @@ async def _child(mode: str, seconds: float, heap: int) -> dict[str, Any]:
     import tempfile
 
     import api.http.app  # noqa: F401 - what a service process holds
-    import estimation.axis.estimate  # noqa: F401
+    import estimation.axis.tow_estimate  # noqa: F401
     from daq import collector
     from daq import session as session_module
     from daq.session import RigSession, RigSource

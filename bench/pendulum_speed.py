@@ -17,12 +17,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from bench.timing import timed
-from estimation.motion.decay import estimate_records
-from estimation.motion.fit import fit_motion
+from estimation.motion.decay_estimate import estimate_records
+from estimation.motion.output_error_fit import fit_motion
 from estimation.pendulum.configuration import CANDIDATES, PIVOT_DOF, SETUP
-from estimation.pendulum.decay import find_peaks, prepare_decay
-from estimation.pendulum.estimate import estimate_pendulum
 from estimation.pendulum.methods import damped_fit, equation_error, log_decrement
+from estimation.pendulum.pendulum_estimate import estimate_pendulum
+from estimation.pendulum.swing_extrema import find_peaks, prepare_decay
 from tests.estimation.pendulum_synth import ALPHA, BETA, decay
 
 

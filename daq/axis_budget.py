@@ -17,7 +17,7 @@ from typing import Any
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.store import Store
 from estimation.axis.result import EstimationResult
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.uncertainty import Chain, RepeatAnalysis, analyse_repeats, uncertainty_budget
 from estimation.uncertainty.repeats import without_excluded
 from estimation.uncertainty.text import append_to_report

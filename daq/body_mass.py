@@ -17,7 +17,7 @@ from dataclasses import replace
 from daq.config import RigConfigError, parse_rig
 from daq.store import RunInfo
 from daq.vocabulary import AXES
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 
 #: Run parameters that declare the body's own mass (kg), in the order they are taken.
 BODY_MASS_PARAMETERS = ("dry_mass_kg", "displacement_kg")

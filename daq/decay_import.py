@@ -1,7 +1,7 @@
 """The free-decay kind: a record of one degree of freedom (surge, sway, heave, roll, pitch,
 yaw) released from an offset and left to settle, imported from a CSV (``rig import FILE
 --kind decay --dof heave``) and estimated with the single-DOF equation of motion
-(``estimation.motion.decay.estimate_records``)::
+(``estimation.motion.decay_estimate.estimate_records``)::
 
     (M_known + M)·ẍ + B₁·ẋ + [B₂·|ẋ|·ẋ + …] + k·x + [k₃·x³] = 0
 
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
     from daq.session import RigSource
     from daq.store import Store
-    from estimation.design.envelope import RigEnvelope
+    from estimation.design.planning_envelope import RigEnvelope
 
 Dof = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
 
@@ -161,7 +161,7 @@ def fit_decays(
     candidate terms (quadratic and cubic damping, cubic stiffness, friction, bias, equilibrium
     drift); the window of a run without an end of its own is where its free decay ends.
     ``envelope`` is not used: a decay's advice names no load."""
-    from estimation.motion.decay import DECAY_CANDIDATES, estimate_records
+    from estimation.motion.decay_estimate import DECAY_CANDIDATES, estimate_records
     from estimation.motion.records import Record
 
     first = runs[0]
@@ -187,9 +187,9 @@ def decay_budget(
 
 
 def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:
-    """The decay report (``estimation.motion.report``): coefficients, evidence, figure."""
+    """The decay report (``estimation.motion.decay_report``): coefficients, evidence, figure."""
+    from estimation.motion.decay_report import write_decay_report  # matplotlib: only when asked
     from estimation.motion.records import Record
-    from estimation.motion.report import write_decay_report  # matplotlib: only when asked
 
     records = [Record(r.run_id, r.t, r.x) for r in runs]
     return write_decay_report(result, records, folder, {r.run_id: r.t_end for r in runs})

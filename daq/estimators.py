@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from daq.store import Store
-    from estimation.design.envelope import RigEnvelope
+    from estimation.design.planning_envelope import RigEnvelope
 
 
 #: The method every estimator takes, as the browser's menu words it.
@@ -79,7 +79,7 @@ def _axis_units() -> dict[str, dict[str, str]]:
 def _axis_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
     from daq.body_mass import with_body_inertia
     from daq.run_data import load_run_data
-    from estimation.data.runs import validate_runs
+    from estimation.data.run_arrays import validate_runs
 
     # The body's own mass the tow declares: an inertia fitted below it is flagged.
     runs = [with_body_inertia(load_run_data(store, rid), store.get_run(rid)) for rid in run_ids]
@@ -110,12 +110,12 @@ def _axis_budget(
 
 
 def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
-    from estimation.axis.report import write_report  # matplotlib: load only when asked
+    from estimation.axis.tow_report import write_report  # matplotlib: load only when asked
 
     return write_report(result, runs, folder)
 
 
-#: Tow and spin runs: the axis model (``estimation.axis.estimate``).
+#: Tow and spin runs: the axis model (``estimation.axis.tow_estimate``).
 AXIS = Estimator(
     name="axis",
     runs="tow/spin",
@@ -137,14 +137,14 @@ AXIS = Estimator(
 
 
 def _pendulum_methods() -> tuple[str, ...]:
-    from estimation.pendulum.estimate import PENDULUM_METHODS
+    from estimation.pendulum.pendulum_estimate import PENDULUM_METHODS
 
     return tuple(PENDULUM_METHODS)
 
 
 def _pendulum_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
     from daq.run_data import load_pendulum_data
-    from estimation.pendulum.estimate import validate_pendulum_runs
+    from estimation.pendulum.pendulum_estimate import validate_pendulum_runs
 
     swings = [load_pendulum_data(store, rid) for rid in run_ids]
     validate_pendulum_runs(swings)
@@ -154,7 +154,7 @@ def _pendulum_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
 def _pendulum_fit(
     runs: list[Any], method: str, search: bool, envelope: RigEnvelope | None = None
 ) -> Any:
-    from estimation.pendulum.estimate import estimate_pendulum
+    from estimation.pendulum.pendulum_estimate import estimate_pendulum
 
     return estimate_pendulum(runs, method=method, search=search)
 
@@ -167,12 +167,12 @@ def _pendulum_budget(
 
 
 def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
-    from estimation.pendulum.report import write_pendulum_report
+    from estimation.pendulum.pendulum_report import write_pendulum_report
 
     return write_pendulum_report(result, folder)
 
 
-#: Pendulum free decays: α, β of the swing axis (``estimation.pendulum.estimate``).
+#: Pendulum free decays: α, β of the swing axis (``estimation.pendulum.pendulum_estimate``).
 PENDULUM = Estimator(
     name="pendulum",
     runs="pendulum",

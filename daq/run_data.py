@@ -1,4 +1,4 @@
-"""Stored runs as the estimators see them (``estimation.data.runs.RunData``, and
+"""Stored runs as the estimators see them (``estimation.data.run_arrays.RunData``, and
 ``estimation.pendulum.data.PendulumRun`` for pendulum free-decay runs).
 
 The bridge between storage and estimation: picks the position channel of the
@@ -27,7 +27,7 @@ from daq.store.run_events import Gap, RunAction, RunEvents
 from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
 from daq.thruster_run_drive import thruster_drive as thruster_drive  # its callers' old path
 from daq.vocabulary import AXES, POSITION_CHANNEL, Axis, DriveTrain
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.data.window import WindowReport, find_window
 from estimation.pendulum.data import PendulumGeometry, PendulumRun
 

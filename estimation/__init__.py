@@ -13,26 +13,26 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from estimation.axis.estimate import METHODS, estimate
     from estimation.axis.result import EffectEstimate, Estimate, EstimationResult
-    from estimation.data.runs import RunData
+    from estimation.axis.tow_estimate import METHODS, estimate
+    from estimation.data.run_arrays import RunData
     from estimation.errors import EstimationFailed
-    from estimation.motion.decay import estimate_decay, estimate_records
+    from estimation.motion.decay_estimate import estimate_decay, estimate_records
     from estimation.motion.decay_result import DecayResult
     from estimation.thrust.curve import ThrustCurve, fit_thrust_curve
 
 #: Where each public name lives: imported from there on first use.
 _HOME = {
-    "METHODS": "axis.estimate",
-    "estimate": "axis.estimate",
+    "METHODS": "axis.tow_estimate",
+    "estimate": "axis.tow_estimate",
     "EffectEstimate": "axis.result",
     "Estimate": "axis.result",
     "EstimationResult": "axis.result",
-    "RunData": "data.runs",
+    "RunData": "data.run_arrays",
     "EstimationFailed": "errors",
     "DecayResult": "motion.decay_result",
-    "estimate_decay": "motion.decay",
-    "estimate_records": "motion.decay",
+    "estimate_decay": "motion.decay_estimate",
+    "estimate_records": "motion.decay_estimate",
     "ThrustCurve": "thrust.curve",
     "fit_thrust_curve": "thrust.curve",
 }

@@ -85,7 +85,8 @@ def error_before_after(result: FitSummary, unit: str, labels: Mapping[str, str])
 
 
 class SearchStep(Protocol):
-    """What the evidence table reads of a search step (``estimation.motion.search.Step``)."""
+    """What the evidence table reads of a search step
+    (``estimation.motion.term_selection.Step``)."""
 
     @property
     def q_before(self) -> float: ...

@@ -69,7 +69,7 @@ def campaign(relative, axes, max_runs, max_minutes, rig_file, scenario_file, db_
     from api.cli.procedures import run_procedure
     from api.core.campaign_session import run_campaign
     from api.core.rig_envelope import envelope_of
-    from estimation.design.campaign import Campaign, Target
+    from estimation.design.campaign_state import Campaign, Target
 
     def validate(source):
         from daq.procedures.params import ParameterError

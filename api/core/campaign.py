@@ -28,8 +28,8 @@ from api.core.job_requests import procedure_from_request
 from api.core.rig_envelope import envelope_of
 from daq.store.faults import one_line
 from daq.store.schema import JOB_FINAL, JobState
-from estimation.design.campaign import Campaign, Target
-from estimation.design.envelope import Candidate
+from estimation.design.campaign_state import Campaign, Target
+from estimation.design.planning_envelope import Candidate
 
 if TYPE_CHECKING:
     from api.core.jobs import JobRunner

@@ -14,7 +14,7 @@ from daq.procedures.run_kinds import KINDS
 from daq.run_data import load_run_data
 from daq.sample_losses import SAMPLES_LOST
 from daq.session import RigSession
-from estimation.design.campaign import Campaign
+from estimation.design.campaign_state import Campaign
 
 
 def fit_axis(store: Any, run_ids: list[str], campaign: Campaign) -> Any:

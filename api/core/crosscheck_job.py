@@ -15,7 +15,7 @@ from api.core.estimation_job import run_estimation
 from api.core.rig_envelope import envelope_of_runs
 from daq.store import ResultNotFound, RunNotFound, Store
 from daq.store.run_events import RunEvents
-from estimation.axis.crosscheck import cross_check
+from estimation.axis.drive_crosscheck import cross_check
 
 
 def _estimation(store: Store, result_id: int, field: str) -> dict[str, Any]:

@@ -1,7 +1,7 @@
 """Pre-test uncertainty of a planned sequence (``rig predict-uncertainty``, ``POST
 /api/uncertainty/predict``): the sequence checked against the rig file, each axis's current
 model taken from the newest stored output-error estimate (or the results named), and
-``estimation.uncertainty.pretest`` run on plain numbers."""
+``estimation.uncertainty.planned_uncertainty`` run on plain numbers."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from daq.procedures.run_kinds import KINDS
 from daq.procedures.sequence import load_sequence
 from daq.store import Store
 from daq.vocabulary import AXES
-from estimation.uncertainty.pretest import PlannedRig, PlannedRun, predict_uncertainty
+from estimation.uncertainty.planned_uncertainty import PlannedRig, PlannedRun, predict_uncertainty
 
 #: Release instant σ assumed when no stored run says otherwise, s: the brake write's
 #: bracket on the simulated rig's Modbus (a few ms); ``release_std_s`` overrides it.

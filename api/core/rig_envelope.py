@@ -5,7 +5,7 @@ from __future__ import annotations
 from daq.config import RigConfig
 from daq.procedures.run_kinds import KINDS
 from daq.store import Store
-from estimation.design.envelope import RigEnvelope
+from estimation.design.planning_envelope import RigEnvelope
 
 #: Time between runs that counts as tank time: carriage back, weights changed, water settling
 #: (the seed campaign's ``rest_s``).

@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from daq.procedures.axis_steps import RunOutcome
     from daq.procedures.recording import AbortSignal, ProgressCallback
     from daq.session import RigSession
-    from estimation.design.envelope import AxisEnvelope
+    from estimation.design.planning_envelope import AxisEnvelope
 
 StepParameters = (
     requests.TowRequest
@@ -227,7 +227,7 @@ async def _run_calibration(session, params, *, abort, progress) -> KindOutcome:
 
 
 def _calibration_report(outcome: KindOutcome, folder: Path) -> list[Path]:
-    from estimation.thrust.report import write_calibration_report
+    from estimation.thrust.calibration_report import write_calibration_report
 
     return write_calibration_report(outcome.extra["calibration"], folder)
 
@@ -253,7 +253,7 @@ def _axis_channels(kind: RunKind) -> tuple[str, ...]:
 
 
 def _tow_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvelope:
-    from estimation.design.envelope import AxisEnvelope
+    from estimation.design.planning_envelope import AxisEnvelope
 
     geometry, limits = rig.geometry, rig.limits
     return AxisEnvelope(
@@ -267,7 +267,7 @@ def _tow_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvel
 
 
 def _spin_envelope(rig: RigConfig, span: tuple[float, float] | None) -> AxisEnvelope:
-    from estimation.design.envelope import AxisEnvelope
+    from estimation.design.planning_envelope import AxisEnvelope
 
     geometry, limits = rig.geometry, rig.limits
     return AxisEnvelope(

@@ -1,7 +1,7 @@
 """One coefficient compared between a weight-driven and a thruster-driven estimation result
 (values ± σ_total, difference, z = Δ / √(σ₁² + σ₂²) and its verdict), and the common factor
 k = thruster/weight fitted across the coefficients (weighted mean, χ² test of one factor):
-what ``estimation.axis.crosscheck`` diagnoses from."""
+what ``estimation.axis.drive_crosscheck`` diagnoses from."""
 
 from __future__ import annotations
 

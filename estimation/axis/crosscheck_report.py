@@ -7,8 +7,8 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from estimation.axis.crosscheck import CrossCheck
 from estimation.axis.crosscheck_comparison import LABELS, SPEED_UNITS, UNITS
+from estimation.axis.drive_crosscheck import CrossCheck
 
 
 def markdown(check: CrossCheck, figures: Sequence[tuple[str, Path]] = ()) -> str:

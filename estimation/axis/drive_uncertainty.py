@@ -21,7 +21,7 @@ import numpy as np
 
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 
 
 @dataclass(frozen=True)

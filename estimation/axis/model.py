@@ -18,7 +18,7 @@ from itertools import repeat
 import numpy as np
 
 from estimation.axis.integration_step import MAX_HALVINGS, coarsest_step, integration_step
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.motion.equation import Coefficient, accelerator, hermite
 from estimation.motion.kernel import step_grid
 from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Term

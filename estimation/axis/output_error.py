@@ -2,7 +2,7 @@
 
 Minimises Σ_runs Σ_samples (x_meas − x0_run − X(t; θ))², θ = (M, K_L, K_Q, effects...),
 one position offset x0 per run as a nuisance parameter. Standard errors from
-``estimation.stats.fit.solution_statistics`` (never below σ̂²(JᵀJ)⁻¹, σ̂² = SSE/(n − p);
+``estimation.stats.fit_statistics.solution_statistics`` (never below σ̂²(JᵀJ)⁻¹, σ̂² = SSE/(n − p);
 larger when the residual is correlated within a run).
 """
 
@@ -17,7 +17,7 @@ from scipy.optimize import least_squares
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
 from estimation.motion.terms import LIBRARY
-from estimation.stats.fit import FitStatistics, solution_statistics
+from estimation.stats.fit_statistics import FitStatistics, solution_statistics
 from estimation.stats.smoothing import savgol
 
 BASE_LOWER = (1e-6, 0.0, 0.0)

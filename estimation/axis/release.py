@@ -12,7 +12,7 @@ from scipy.optimize import minimize_scalar
 
 from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.data.window import encoder_quantum, noise_threshold
 
 #: Releases found in the data (not recorded) that the fit itself refines.

@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty
+from estimation.axis.effect_search import SearchStep
 from estimation.axis.output_error import FitResult
 from estimation.axis.reverse import ReverseTest
-from estimation.axis.search import SearchStep
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.terms import units_of

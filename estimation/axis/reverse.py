@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from estimation.data.driven_axes import DrivenAxis, driven_axis
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 
 #: The pair a reverse run separates.
 FRICTION_AND_BIAS = frozenset({"coulomb_friction", "constant_bias"})

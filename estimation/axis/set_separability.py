@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-from estimation.axis.estimate import SEPARABILITY_LIMIT
+from estimation.axis.tow_estimate import SEPARABILITY_LIMIT
 
 #: The estimator's warning for a set driven at one force / torque only.
 _ONE_LEVEL = re.compile(r"K_L and K_Q are not separable from one (force|torque|drive)")

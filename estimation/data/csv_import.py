@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from estimation.data.csv_dialect import COMMENT, TableDialect, sniff_dialect
-from estimation.data.runs import RunData, validate_run
+from estimation.data.run_arrays import RunData, validate_run
 from estimation.data.window import check_time_step, windowed_run
 
 #: Seconds per unit of the time column.

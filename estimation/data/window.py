@@ -26,7 +26,7 @@ import numpy as np
 from estimation.data.left_out import LeftOut
 
 if TYPE_CHECKING:
-    from estimation.data.runs import RunData
+    from estimation.data.run_arrays import RunData
 
 #: Longest median sample step accepted as seconds (the rig samples at 10 Hz: 0.1 s).
 MAX_MEDIAN_STEP_S = 1.0

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from estimation.data.driven_axes import driven_axis
-from estimation.design.envelope import Candidate, RigEnvelope
+from estimation.design.planning_envelope import Candidate, RigEnvelope
 
 
 def separating_load(

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.design.envelope import AxisEnvelope, Candidate
+from estimation.design.planning_envelope import AxisEnvelope, Candidate
 
 PARAMETERS = ("inertia", "linear_damping", "quadratic_damping", "coulomb_friction", "constant_bias")
 #: Integration step, s (semi-implicit Euler; BENBAM's time constants are ≥ 1 s).

@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from estimation.design.envelope import Candidate, RigEnvelope
 from estimation.design.information import PARAMETERS, predict
+from estimation.design.planning_envelope import Candidate, RigEnvelope
 
 BASE = PARAMETERS[:3]
 FRICTION_PAIR = frozenset({"coulomb_friction", "constant_bias"})

@@ -1,4 +1,4 @@
-"""The result of a single-DOF record's estimate (``motion.decay.estimate_records``): the
+"""The result of a single-DOF record's estimate (``motion.decay_estimate.estimate_records``): the
 coefficients with σ, what the search kept and why, the window, B_e and what the record
 determines well, and its JSON document (docs/estimation.md, *Free decay*)."""
 
@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from estimation.motion.envelope import FreeWindow
+from estimation.motion.decay_end import FreeWindow
 from estimation.motion.equivalent import EquivalentDamping, equivalent_damping
-from estimation.motion.fit import MotionFit
+from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.records import Record, Setup, known_terms_of
-from estimation.motion.search import Step
+from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.numbers import Coefficient, finite_or_none, finite_values

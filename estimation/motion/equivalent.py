@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from estimation.motion.fit import MotionFit
+from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import Coefficient, finite_or_none
 

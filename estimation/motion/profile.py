@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from estimation.motion.fit import MotionFit, parameters_of, simulate
+from estimation.motion.output_error_fit import MotionFit, parameters_of, simulate
 from estimation.motion.records import Record, Setup, known_inertia_of
 from estimation.motion.terms import LIBRARY
 

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from estimation.motion.equivalent import EquivalentDamping
-from estimation.motion.fit import MotionFit
+from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.numbers import Coefficient

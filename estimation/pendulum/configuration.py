@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimation.motion.decay import DECAY_CANDIDATES
-from estimation.motion.fit import simulate
+from estimation.motion.decay_estimate import DECAY_CANDIDATES
+from estimation.motion.output_error_fit import simulate
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.pendulum.data import PendulumGeometry
@@ -35,7 +35,7 @@ from estimation.pendulum.data import PendulumGeometry
 PIVOT_DOF = "roll"
 #: Identified in every fit besides the inertia.
 BASE_TERMS: tuple[str, ...] = ("linear_damping",)
-#: The effect search's candidates: those of every free decay (``motion.decay``), so a
+#: The effect search's candidates: those of every free decay (``motion.decay_estimate``), so a
 #: pendulum and a decay of the same record give the same answer. The vehicle's damping
 #: grows with speed (``v_power`` ≥ 1, weight l^(p+1)); the rest are the pivot's moments
 #: (weight 1): dry friction, a restoring the geometry does not give (``cubic_stiffness``:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.data.runs import field_error, validate_series
+from estimation.data.run_arrays import field_error, validate_series
 
 SWING_AXES: tuple[str, ...] = ("surge", "sway", "heave")
 MIN_DECAY_SAMPLES = 20

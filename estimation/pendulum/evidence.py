@@ -1,7 +1,7 @@
 """The pendulum's search steps in its documented keys (docs/pendulum.md, *evidence*).
 
 Each step carries the Ljung–Box Q of its round's model and of its trial
-(``estimation.motion.search.Step``): evidence beside ΔBIC and the materiality figures that a
+(``estimation.motion.term_selection.Step``): evidence beside ΔBIC and the materiality figures that a
 reader can compare with a tow's, never the reason a term was kept or rejected (whiteness is
 a verdict on the final model: with structure left in the residual its normalised
 autocorrelation stays near 1 whatever share a true term removes). Q after is null for a
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from estimation.motion.search import Step
+from estimation.motion.term_selection import Step
 
 
 def step_json(s: Step) -> dict[str, Any]:

@@ -25,7 +25,7 @@ from estimation.axis.result import Estimate
 from estimation.numbers import finite_or_none, finite_values
 from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
-from estimation.pendulum.decay import Decay, Peaks, find_peaks
+from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks
 from estimation.stats.smoothing import savgol
 
 SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...

@@ -1,4 +1,4 @@
-"""Forward selection of effects for the tow/spin search (``estimation.axis.search``); the
+"""Forward selection of effects for the tow/spin search (``estimation.axis.effect_search``); the
 acceptance rule ``term_verdict`` is shared with every record's search (``estimation.motion``).
 
 A *round* tries additions (one effect, or a combination) to the current model: each is

@@ -36,7 +36,7 @@ from scipy import special
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.result import EstimationResult
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.numbers import finite_or_none
 from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
 from estimation.uncertainty.rows import BudgetRow

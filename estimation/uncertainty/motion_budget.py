@@ -23,9 +23,9 @@ import numpy as np
 
 from estimation.errors import EstimationFailed
 from estimation.motion.decay_result import DecayResult
-from estimation.motion.fit import fit_motion, parameters_of
+from estimation.motion.output_error_fit import fit_motion, parameters_of
 from estimation.motion.records import Setup
-from estimation.motion.search import TRIAL_NFEV
+from estimation.motion.term_selection import TRIAL_NFEV
 from estimation.motion.terms import DOFS
 from estimation.stats.misfit import effective_sample_size
 from estimation.uncertainty.budget import Budget, coefficient_budget

@@ -31,7 +31,7 @@ from scipy import special
 
 from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.numbers import finite_or_none
 
 LOAD_TOLERANCE = 0.01

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.errors import FieldError
 
 

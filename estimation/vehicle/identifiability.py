@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from estimation.data.driven_axes import DRIVEN_AXES
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6
 from estimation.vehicle.sensitivity import SensitivityReport, analyse

@@ -59,7 +59,7 @@ def test_an_estimate_imports_no_statsmodels_pandas_or_scipy_stats(tmp_path):
         ids.append(run)
     store.close()
     loaded = _loaded(tmp_path, "estimate", *ids)
-    assert "estimation.axis.search" in loaded  # it did search for effects
+    assert "estimation.axis.effect_search" in loaded  # it did search for effects
     assert [m for m in NOT_FOR_AN_ESTIMATE if m in loaded] == []
 
 

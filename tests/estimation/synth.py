@@ -16,7 +16,7 @@ from typing import Literal
 
 import numpy as np
 
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 
 G_RIG = 9.8
 SURGE_TRUTH = (143.26, 20.16, 241.14)

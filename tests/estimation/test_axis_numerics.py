@@ -16,7 +16,7 @@ from estimation.axis.output_error import (
     leave_one_run_out_rmse,
     loro_dropped,
 )
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 
@@ -42,7 +42,7 @@ def test_bootstrap_and_leave_one_run_out_refits_skip_the_quantization_sigma(monk
     """Their σ is discarded (only values and predictions are kept): the quantization σ is
     not computed for them, and their values are those of a refit that computes it."""
     import estimation.stats.identify as identify
-    from estimation.axis.estimate import _bootstrap
+    from estimation.axis.tow_estimate import _bootstrap
 
     runs = [prepare(r) for r in tow_set(seed=4)]
     fit = fit_output_error(runs)

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.axis.crosscheck import _effects, cross_check
 from estimation.axis.crosscheck_report import markdown, write_crosscheck_report
-from estimation.design.envelope import AxisEnvelope, RigEnvelope
+from estimation.axis.drive_crosscheck import _effects, cross_check
+from estimation.design.planning_envelope import AxisEnvelope, RigEnvelope
 from estimation.thrust.curve import ThrustCurve
 from estimation.thrust.drive import curve_draws
 from tests.estimation.synth import SURGE_TRUTH, Physics, thruster_run, tow_set

@@ -11,7 +11,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from estimation.errors import EstimationFailed
-from estimation.motion.decay import estimate_decay
+from estimation.motion.decay_estimate import estimate_decay
 
 
 def decay_record(
@@ -123,7 +123,7 @@ def test_estimation_failed_is_not_bad_input():
 def test_a_numerical_failure_in_a_tow_fit_is_estimation_failed(monkeypatch):
     """Valid runs whose fit fails numerically (scipy raises ValueError for non-finite
     residuals) are not reported as bad input."""
-    import estimation.axis.estimate as axis_estimate
+    import estimation.axis.tow_estimate as axis_estimate
     from estimation import RunData, estimate
 
     def broken(*_args, **_kwargs):

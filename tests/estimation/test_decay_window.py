@@ -1,4 +1,4 @@
-"""Where a free decay ends (``estimation.motion.envelope``), on decays from scipy's solve_ivp
+"""Where a free decay ends (``estimation.motion.decay_end``), on decays from scipy's solve_ivp
 (not the project's integrator): a clean decay is kept to its end, an outside event that
 takes or brings energy ends it, and the fit then reads only the free part."""
 
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from estimation.motion.decay import estimate_decay
-from estimation.motion.envelope import free_decay_end
+from estimation.motion.decay_end import free_decay_end
+from estimation.motion.decay_estimate import estimate_decay
 from tests.estimation.term_cases import SCALES, decay, decay_effect
 
 TOTAL, B1, B2, K = 1.8, 0.12, 0.4, 40.0  # kg, N·s/m, N·s²/m², N/m: period 1.33 s, ζ ≈ 0.007
@@ -84,8 +84,8 @@ def test_a_given_end_is_kept():
 
 
 def test_the_report_shows_the_window_and_plots_only_the_free_part(tmp_path):
+    from estimation.motion.decay_report import fitted_window, write_decay_report
     from estimation.motion.records import Record
-    from estimation.motion.report import fitted_window, write_decay_report
 
     t, x = record("catch")
     r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K, candidates=())

@@ -13,7 +13,7 @@ import pytest
 
 from estimation import estimate
 from estimation.design.advice import different_force_advice, reverse_advice, separating_hint
-from estimation.design.envelope import AxisEnvelope, RigEnvelope
+from estimation.design.planning_envelope import AxisEnvelope, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.design.campaign import MAX_REPEATS, Campaign, Target
-from estimation.design.envelope import AxisEnvelope, Candidate, RigEnvelope
+from estimation.design.campaign_state import MAX_REPEATS, Campaign, Target
 from estimation.design.information import predict
 from estimation.design.planner import AxisState, choose, decide
+from estimation.design.planning_envelope import AxisEnvelope, Candidate, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, tow_set
 
 SURGE = AxisEnvelope("surge", 100.0, 5.5, 5.3, max_rate=1.0)

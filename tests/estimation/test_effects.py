@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.design.envelope import AxisEnvelope, RigEnvelope
+from estimation.design.planning_envelope import AxisEnvelope, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from tests.estimation.synth import Physics, tow_set
 
 #: (inertia kg, K_L N·s/m, K_Q N·s²/m², forward drives N) per scale.

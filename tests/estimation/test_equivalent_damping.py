@@ -1,5 +1,5 @@
 """Equivalent linear damping (``motion.equivalent``, ``Term.equivalent_damping``) and the
-rivals rule that lets a long decay keep two damping terms (``motion.search``), on records
+rivals rule that lets a long decay keep two damping terms (``motion.term_selection``), on records
 from scipy's ``solve_ivp`` (``term_cases``), never our integrator."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimation.motion.decay import estimate_decay
+from estimation.motion.decay_estimate import estimate_decay
 from estimation.motion.terms import LIBRARY
 from tests.estimation.term_cases import SCALES, decay, decay_effect
 

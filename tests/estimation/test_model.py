@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimation.axis.model import constant_force_response, prepare, simulate
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 
 
 def _runs(drives):

@@ -18,13 +18,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from estimation.motion.fit import simulate
+from estimation.motion.output_error_fit import simulate
 from estimation.pendulum.configuration import CANDIDATES, SETUP, swing
 from estimation.pendulum.data import PendulumGeometry, validate_pendulum_run
-from estimation.pendulum.decay import prepare_decay
-from estimation.pendulum.estimate import PENDULUM_METHODS, estimate_pendulum
 from estimation.pendulum.methods import coefficients_from_signal, thesis_translational
-from estimation.pendulum.report import fit_figure, run_labels, write_pendulum_report
+from estimation.pendulum.pendulum_estimate import PENDULUM_METHODS, estimate_pendulum
+from estimation.pendulum.pendulum_report import fit_figure, run_labels, write_pendulum_report
+from estimation.pendulum.swing_extrema import prepare_decay
 from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay
 
 TAU_C = 0.4  # N·m: dead band τ_c/k ≈ 6.5 mrad, 4τ_c/k ≈ 26 mrad off the swing per cycle

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from estimation import RunData, estimate
-from estimation.motion.decay import estimate_decay
+from estimation.motion.decay_estimate import estimate_decay
 from tests.shared_data import shared_file
 
 #: KVLCC2 1:68, loading condition 166 (kvlcc2-roll-decay/README.md): I44 = Δ·KXX², C44 = Δ·g·GM.
@@ -104,7 +104,7 @@ def test_kvlcc2_quadratic_damping_within_25_percent_of_the_published(run):
     constant 0.008–0.013° per half-cycle more than the published B1 + B2 law gives, the
     signature of a loss that does not depend on amplitude. Without the library's dry
     friction the fit over the whole run lowers B2 to 8.5 and raises B1 to 1.95; with it
-    (kept by the rivals rule on the effective sample size, ``motion.search``) B2 is 14.6."""
+    (kept by the rivals rule on the effective sample size, ``motion.term_selection``) B2 is 14.6."""
     r = _published_model(run)
     c = r.coefficients["quadratic_damping"]
     published = PUBLISHED[run][1]
@@ -232,7 +232,7 @@ def test_kvlcc2_gives_one_answer_by_the_pendulum_and_the_decay_route(run):
     rule set, so the added inertia agrees within the two U and B_e(5°) within 2σ of their
     difference, and both lie within the published values (A44 19.0 ± 15 %, Be5 ± 10 %)."""
     from estimation.pendulum.data import PendulumGeometry, PendulumRun
-    from estimation.pendulum.estimate import estimate_pendulum
+    from estimation.pendulum.pendulum_estimate import estimate_pendulum
     from estimation.uncertainty.motion_budget import motion_budget
 
     d = _csv("kvlcc2-roll-decay", f"kvlcc2_roll_decay_{run}.csv")

@@ -93,7 +93,7 @@ def test_a_search_reads_each_records_encoder_step_once(monkeypatch):
     and every fit still carries the quantization σ."""
     from scipy.integrate import solve_ivp
 
-    import estimation.motion.fit as motion_fit
+    import estimation.motion.output_error_fit as motion_fit
     import estimation.motion.readings as readings
     from estimation.motion.records import Record, Setup
 

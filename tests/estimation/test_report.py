@@ -12,7 +12,7 @@ from PIL import Image
 
 from estimation import estimate
 from estimation.axis.model import prepare
-from estimation.axis.report import fit_figure, force_figure, run_labels, write_report
+from estimation.axis.tow_report import fit_figure, force_figure, run_labels, write_report
 from estimation.data.csv_import import run_from_csv
 from estimation.data.left_out import LeftOut
 from estimation.figures import DPI, TIME_LABEL, FitRow

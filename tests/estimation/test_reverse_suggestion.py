@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from estimation.axis.reverse import suggest_reverse_test
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 
 AMBIGUOUS = [("coulomb_friction", "constant_bias")]
 T = np.arange(0.0, 5.0, 0.1)

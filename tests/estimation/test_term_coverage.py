@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.motion.decay import estimate_decay
+from estimation.motion.decay_estimate import estimate_decay
 from tests.estimation.term_cases import (
     SCALES,
     decay,

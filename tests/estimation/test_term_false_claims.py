@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from estimation import estimate
-from estimation.motion.decay import estimate_decay
+from estimation.motion.decay_estimate import estimate_decay
 from tests.estimation.term_cases import (
     SCALES,
     decay,

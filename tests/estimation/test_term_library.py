@@ -16,8 +16,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from estimation import RunData, estimate
-from estimation.motion.decay import estimate_decay
-from estimation.motion.fit import fit_motion
+from estimation.motion.decay_estimate import estimate_decay
+from estimation.motion.output_error_fit import fit_motion
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from tests.estimation.term_cases import (

@@ -10,8 +10,8 @@ import pytest
 from PIL import Image
 
 from estimation.figures import DPI
+from estimation.thrust.calibration_report import write_calibration_report
 from estimation.thrust.curve import fit_thrust_curve
-from estimation.thrust.report import write_calibration_report
 
 
 @pytest.fixture

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from estimation import estimate
-from estimation.axis.estimate import physical_warnings
+from estimation.axis.tow_estimate import physical_warnings
 from estimation.uncertainty import uncertainty_budget
 from estimation.uncertainty.sources import Chain
 from tests.estimation.term_cases import tow_set

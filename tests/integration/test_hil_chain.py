@@ -105,7 +105,7 @@ def _show(label: str, doc: dict) -> None:
 
 
 def markdown_of(doc: dict) -> str:
-    from estimation.axis.crosscheck import cross_check
+    from estimation.axis.drive_crosscheck import cross_check
 
     check = cross_check(
         doc["weight_estimation"],

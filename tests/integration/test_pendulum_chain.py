@@ -1,10 +1,10 @@
 """Pendulum free decay through the full chain, with dry friction in the pivot nobody declared.
 
 simulated rig (scenario: pivot Coulomb friction) → run_pendulum_decay over Modbus TCP →
-acquisition clock → SQLite → daq.run_data.load_pendulum_data → estimation.pendulum.estimate (via
-the same ``run_estimation`` the CLI and the API use). The estimator knows only the rig
-file's geometry; it must name the pivot friction, size it, and return the scenario's
-surge added mass and damping. Run with ``-s`` to see the figures.
+acquisition clock → SQLite → daq.run_data.load_pendulum_data →
+estimation.pendulum.pendulum_estimate (via the same ``run_estimation`` the CLI and the API
+use). The estimator knows only the rig file's geometry; it must name the pivot friction,
+size it, and return the scenario's surge added mass and damping. Run with ``-s`` to see the figures.
 """
 
 from __future__ import annotations

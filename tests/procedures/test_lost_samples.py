@@ -20,7 +20,7 @@ from daq.run_data import load_run_data
 from daq.sample import Quality
 from daq.session import RigSession
 from daq.store.run_events import RunEvents
-from estimation.design.campaign import Campaign, Target
+from estimation.design.campaign_state import Campaign, Target
 from tests.cli import run_in_process
 
 pytestmark = pytest.mark.simtime

@@ -21,7 +21,7 @@ from daq.export_formats import FORMATS, write_export
 from daq.run_data import load_run_data
 from daq.sample import Quality, Sample
 from daq.store import LoadedRun, Store, export_run_csv, export_run_json
-from estimation.axis.estimate import estimate
+from estimation.axis.tow_estimate import estimate
 from estimation.data.csv_import import without_comments
 from tests.estimation.synth import tow_set
 from tests.store.helpers import BENBAM_TOML, benbam_tow_run

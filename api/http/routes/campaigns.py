@@ -13,7 +13,7 @@ from api.core.job_model import JobConflict
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, error_responses
 from daq.procedures.run_kinds import KINDS
-from estimation.design.campaign import Target
+from estimation.design.campaign_state import Target
 
 router = APIRouter(prefix="/api/campaigns", tags=["campaigns"])
 

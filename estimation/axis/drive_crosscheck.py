@@ -49,10 +49,10 @@ from estimation.axis.crosscheck_comparison import (
     finite_or_none,
 )
 from estimation.axis.effects import EFFECTS
-from estimation.axis.estimate import SEPARABILITY_LIMIT
 from estimation.axis.set_separability import SetSeparability, damping_at, separability
+from estimation.axis.tow_estimate import SEPARABILITY_LIMIT
 from estimation.design.advice import separating_load
-from estimation.design.envelope import RigEnvelope
+from estimation.design.planning_envelope import RigEnvelope
 from estimation.numbers import finite_values
 
 

@@ -15,8 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from estimation.design.envelope import Candidate, RigEnvelope
 from estimation.design.planner import AxisState, Choice, Decision, decide, state_from_result
+from estimation.design.planning_envelope import Candidate, RigEnvelope
 from estimation.numbers import finite_or_none
 
 #: How many times in a row a campaign repeats a test whose runs are damaged.

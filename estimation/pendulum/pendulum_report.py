@@ -30,7 +30,7 @@ from estimation.fit_report import (
     write_result_and_markdown,
 )
 from estimation.pendulum.configuration import unit
-from estimation.pendulum.estimate import PendulumResult
+from estimation.pendulum.pendulum_estimate import PendulumResult
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 

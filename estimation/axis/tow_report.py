@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from estimation.axis.force_residual import force_residuals
 from estimation.axis.model import PreparedRun, prepare
 from estimation.axis.result import UNITS, EstimationResult
-from estimation.data.runs import RunData
+from estimation.data.run_arrays import RunData
 from estimation.figures import (
     FitRow,
     effects_text,

@@ -8,6 +8,8 @@ from dataclasses import replace
 import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
+from estimation.axis.effect_search import SearchOutcome, candidate_effects
+from estimation.axis.effect_search import search_effects as search_effects_fn
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
 from estimation.axis.integration_step import MAX_HALVINGS
@@ -26,19 +28,17 @@ from estimation.axis.reverse import (
     opposite_run,
     suggest_reverse_test,
 )
-from estimation.axis.search import SearchOutcome, candidate_effects
-from estimation.axis.search import search_effects as search_effects_fn
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.blas import one_blas_thread
-from estimation.data.runs import RunData, validate_runs
+from estimation.data.run_arrays import RunData, validate_runs
 from estimation.design.advice import (
     both_ways,
     different_force_advice,
     reverse_advice,
     separating_hint,
 )
-from estimation.design.envelope import RigEnvelope
+from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.motion.well_determined import terminal_speeds
 from estimation.stats.diagnostics import ljung_box

@@ -20,12 +20,12 @@ import numpy as np
 
 from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
 from estimation.blas import one_blas_thread
-from estimation.data.runs import validate_run_set
+from estimation.data.run_arrays import validate_run_set
 from estimation.errors import EstimationFailed
-from estimation.motion.decay import estimate_records, rival_sentences
+from estimation.motion.decay_estimate import estimate_records, rival_sentences
 from estimation.motion.decay_result import DecayResult
-from estimation.motion.fit import MotionFit
-from estimation.motion.search import Step
+from estimation.motion.output_error_fit import MotionFit
+from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none, finite_values
 from estimation.pendulum.configuration import (
@@ -39,7 +39,6 @@ from estimation.pendulum.configuration import (
     unit,
 )
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
-from estimation.pendulum.decay import Decay, Peaks, find_peaks, prepare_decay
 from estimation.pendulum.evidence import step_json
 from estimation.pendulum.methods import (
     MethodEstimate,
@@ -47,6 +46,7 @@ from estimation.pendulum.methods import (
     equation_error,
     log_decrement,
 )
+from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.stats.diagnostics import Whiteness, ljung_box
 from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.motion_budget import motion_budget
@@ -94,7 +94,8 @@ class PendulumResult:
     fit_before: MotionFit = field(repr=False, compare=False)
     fit_after: MotionFit = field(repr=False, compare=False)
     decays: tuple[Decay, ...] = field(default=(), repr=False, compare=False)
-    #: The one engine's result (``motion.decay``): B_e, what is well determined, the budget.
+    #: The one engine's result (``motion.decay_estimate``): B_e, what is well determined,
+    #: the budget.
     motion: DecayResult | None = field(default=None, repr=False, compare=False)
 
     def budget(self) -> Budget:

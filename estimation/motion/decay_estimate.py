@@ -2,7 +2,7 @@
 
     (M_known + M)·ẍ + B₁·ẋ + [B₂·|ẋ|·ẋ + B₃·ẋ³ + F_c·sign ẋ] + k·x + [k₃·x³] = τ(t)
 
-(terms in brackets are library candidates, kept by the rules of ``motion.search``). A free
+(terms in brackets are library candidates, kept by the rules of ``motion.term_selection``). A free
 decay scales every coefficient alike, so it needs one fact from outside: a stiffness (ρ·g·A_w
 for heave, Δ·g·GM for roll) or the inertia. The result's warnings name every coefficient
 the data do not determine, every value a body cannot have, and — when the residual is
@@ -24,12 +24,12 @@ import numpy as np
 from estimation.blas import one_blas_thread
 from estimation.data.window import encoder_quantum
 from estimation.errors import EstimationFailed
+from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
 from estimation.motion.decay_result import DecayResult
-from estimation.motion.envelope import FreeWindow, centre, free_decay_end
 from estimation.motion.equivalent import damping_over_swings
-from estimation.motion.fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Record, Setup, known_terms_of, validate
-from estimation.motion.search import TRIAL_NFEV, search_terms
+from estimation.motion.term_selection import TRIAL_NFEV, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.numbers import Coefficient

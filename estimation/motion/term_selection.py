@@ -61,7 +61,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.fit import MotionFit, fit_motion, parameters_of, sensitivities
+from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of, sensitivities
 from estimation.motion.profile import extend, profile_start
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from estimation.axis.estimate import estimate
-from estimation.data.runs import RunData
+from estimation.axis.tow_estimate import estimate
+from estimation.data.run_arrays import RunData
 from estimation.errors import FieldError
 from estimation.uncertainty.budget import Budget, uncertainty_budget
 from estimation.uncertainty.repeats import analyse_repeats

@@ -23,8 +23,8 @@ def fitted_window(
     result: DecayResult, record: Record, t_end: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The samples the fit used (``t`` from release, s; measured x) and the model there:
-    x_model = x − residual (``x_eq + ξ``, estimation.motion.fit). ``t_end``: the window's end
-    (default: the one the result used)."""
+    x_model = x − residual (``x_eq + ξ``, estimation.motion.output_error_fit). ``t_end``: the
+    window's end (default: the one the result used)."""
     if result.fit is None:
         raise ValueError("result: got a result without its fit, allowed: one made by estimate")
     index = result.runs.index(record.run_id)

@@ -28,7 +28,7 @@ from estimation.motion.equation import Coefficient, Track, integrate, range_rate
 from estimation.motion.readings import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY
-from estimation.stats.fit import FitStatistics
+from estimation.stats.fit_statistics import FitStatistics
 from estimation.stats.identify import honest_statistics
 
 
