@@ -38,7 +38,6 @@ FORBIDDEN = {
 CIRCLES_PENDING = [
     ["estimation.axis.integration_step", "estimation.axis.model"],
     ["estimation.data.run_arrays", "estimation.data.window"],
-    ["estimation.motion.equation", "estimation.motion.kernel"],
 ]
 #: Private names used across modules not yet removed: ``module: what it touches``. Only
 #: estimation's may wait here (the lead, issue 34); daq, thrusters and api have none.

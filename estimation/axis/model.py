@@ -19,9 +19,9 @@ import numpy as np
 
 from estimation.axis.integration_step import MAX_HALVINGS, coarsest_step, integration_step
 from estimation.data.run_arrays import RunData
-from estimation.motion.equation import Coefficient, accelerator, hermite
+from estimation.motion.equation import accelerator, hermite
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Term
+from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Coefficient, Term
 from estimation.stats.diagnostics import smoothed_derivatives
 from estimation.stats.quantization import encoder_step
 

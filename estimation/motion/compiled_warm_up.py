@@ -17,9 +17,8 @@ import time
 
 import numpy as np
 
-from estimation.motion.equation import Coefficient
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import LIBRARY
+from estimation.motion.terms import LIBRARY, Coefficient
 
 #: A smooth term and a set-valued one: the loop's branches all take the same signature.
 _TERMS = ("linear_damping", "quadratic_damping", "coulomb_friction")

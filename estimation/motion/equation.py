@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import Regressor, Term
+from estimation.motion.terms import Coefficient, Regressor, Term
 
 #: A trajectory beyond this multiple of the record's range is a diverged trial: frozen.
 STATE_LIMIT = 1e3
@@ -50,15 +50,6 @@ STEPS_PER_PERIOD = 60
 GUARD_EVERY = 8
 #: RK4 is stable for h·c/M ≲ 2.7; keep a margin on the damping's own rate.
 DAMPING_STEP = 0.5
-
-
-@dataclass(frozen=True)
-class Coefficient:
-    """A term with its coefficient for every parameter set, shape (S, 1), or per parameter
-    set and record, shape (S, R)."""
-
-    term: Term
-    value: np.ndarray
 
 
 def acceleration(

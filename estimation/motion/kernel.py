@@ -13,14 +13,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from estimation.motion.terms import Term
-
-if TYPE_CHECKING:
-    from estimation.motion.equation import Coefficient
+from estimation.motion.terms import Coefficient, Term
 
 Basis = Callable[[np.ndarray], np.ndarray]
 

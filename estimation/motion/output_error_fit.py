@@ -24,10 +24,10 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from estimation.errors import EstimationFailed
-from estimation.motion.equation import Coefficient, Track, integrate, range_rates, stable_step
+from estimation.motion.equation import Track, integrate, range_rates, stable_step
 from estimation.motion.readings import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
-from estimation.motion.terms import LIBRARY
+from estimation.motion.terms import LIBRARY, Coefficient
 from estimation.stats.fit_statistics import FitStatistics
 from estimation.stats.identify import honest_statistics
 

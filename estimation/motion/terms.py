@@ -177,6 +177,15 @@ class Term:
         return bool(self.lower <= value <= self.upper)
 
 
+@dataclass(frozen=True)
+class Coefficient:
+    """A term with its coefficient for every parameter set, shape (S, 1), or per parameter
+    set and record, shape (S, R)."""
+
+    term: Term
+    value: np.ndarray
+
+
 def _sign(x: np.ndarray, v: np.ndarray) -> np.ndarray:
     return -np.sign(v)
 

@@ -18,10 +18,11 @@ import pytest
 ESTIMATE_LIKE = """
 import json
 import numpy as np
-from estimation.axis.model import prepare, simulate
+from estimation.axis.model import simulate
+from estimation.axis.model import prepare
 from estimation.motion import compiled
-from estimation.motion.equation import Coefficient, Track, integrate
-from estimation.motion.terms import LIBRARY
+from estimation.motion.equation import Track, integrate
+from estimation.motion.terms import Coefficient, LIBRARY
 from tests.estimation.term_cases import tow_set
 
 runs = [prepare(r) for r in tow_set("10kg", 0)]

@@ -12,9 +12,9 @@ import pytest
 
 from estimation.axis.model import prepare, simulate
 from estimation.motion import kernel
-from estimation.motion.equation import Coefficient, Track, integrate
+from estimation.motion.equation import Track, integrate
 from estimation.motion.kernel import V_BASIS, X_BASIS, form_of
-from estimation.motion.terms import LIBRARY, Term
+from estimation.motion.terms import LIBRARY, Coefficient, Term
 from tests.estimation.term_cases import tow_set
 
 FORCE_TERMS = [name for name, t in LIBRARY.items() if t.role == "force"]
