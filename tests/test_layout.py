@@ -37,7 +37,6 @@ FORBIDDEN = {
 #: its modules. Only estimation's may wait here; the lead (issue 34) empties this list.
 CIRCLES_PENDING = [
     ["estimation.axis.integration_step", "estimation.axis.model"],
-    ["estimation.data.run_arrays", "estimation.data.window"],
 ]
 #: Private names used across modules not yet removed: ``module: what it touches``. Only
 #: estimation's may wait here (the lead, issue 34); daq, thrusters and api have none.

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 
 from estimation.data.csv_dialect import COMMENT, TableDialect, sniff_dialect
-from estimation.data.run_arrays import RunData, validate_run
-from estimation.data.window import check_time_step, windowed_run
+from estimation.data.run_arrays import RunData, validate_run, windowed_run
+from estimation.data.window import check_time_step
 
 #: Seconds per unit of the time column.
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 
-from estimation.data.window import WindowReport, check_time_step
+from estimation.data.window import WindowReport, check_time_step, find_window
 
 Axis = Literal["surge", "yaw"]
 AXES: tuple[str, ...] = ("surge", "yaw")
@@ -190,3 +190,37 @@ def validate_series(run_id: str, t, values, name: str, finite: str) -> np.ndarra
     if t.size > 1 and np.any(np.diff(t) <= 0):
         raise field_error(run_id, "t", "non-increasing", "strictly increasing sample times")
     return t
+
+
+def windowed_run(
+    run: RunData,
+    *,
+    release_coil: np.ndarray | None = None,
+    end_switch: np.ndarray | None = None,
+    release_known: bool = False,
+    end_known: bool = False,
+) -> RunData:
+    """``run`` with its window found (``find_window``): spikes removed from its samples,
+    ``t_release``/``t_end`` set unless ``release_known``/``end_known`` (then the run's own
+    are kept and reported as "given"), and the report in ``run.window_found``."""
+    drive = np.asarray(run.drive, dtype=float)
+    keep, report, release_std = find_window(
+        run.t,
+        run.position,
+        direction=float(np.sign(np.mean(drive))),
+        release_coil=release_coil,
+        end_switch=end_switch,
+        t_release=run.t_release if release_known else None,
+        t_end=run.t_end if end_known else None,
+    )
+    return replace(
+        run,
+        t=np.asarray(run.t, dtype=float)[keep],
+        position=np.asarray(run.position, dtype=float)[keep],
+        drive=drive[keep] if drive.ndim else run.drive,
+        drive_draws=None if run.drive_draws is None else np.asarray(run.drive_draws)[:, keep],
+        t_release=report.t_release,
+        t_end=report.t_end,
+        t_release_std=run.t_release_std if release_std is None else release_std,
+        window_found=report,
+    )

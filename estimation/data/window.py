@@ -18,15 +18,12 @@ finds what to fit from the recording's own signals, preferring what was recorded
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from estimation.data.left_out import LeftOut
-
-if TYPE_CHECKING:
-    from estimation.data.run_arrays import RunData
 
 #: Longest median sample step accepted as seconds (the rig samples at 10 Hz: 0.1 s).
 MAX_MEDIAN_STEP_S = 1.0
@@ -321,37 +318,3 @@ def _before_rest(t: np.ndarray, x: np.ndarray, rest: int) -> float:
         if v_last < 0.5 * v_prev:
             last -= 1
     return float(t[max(last, 0)])
-
-
-def windowed_run(
-    run: RunData,
-    *,
-    release_coil: np.ndarray | None = None,
-    end_switch: np.ndarray | None = None,
-    release_known: bool = False,
-    end_known: bool = False,
-) -> RunData:
-    """``run`` with its window found (``find_window``): spikes removed from its samples,
-    ``t_release``/``t_end`` set unless ``release_known``/``end_known`` (then the run's own
-    are kept and reported as "given"), and the report in ``run.window_found``."""
-    drive = np.asarray(run.drive, dtype=float)
-    keep, report, release_std = find_window(
-        run.t,
-        run.position,
-        direction=float(np.sign(np.mean(drive))),
-        release_coil=release_coil,
-        end_switch=end_switch,
-        t_release=run.t_release if release_known else None,
-        t_end=run.t_end if end_known else None,
-    )
-    return replace(
-        run,
-        t=np.asarray(run.t, dtype=float)[keep],
-        position=np.asarray(run.position, dtype=float)[keep],
-        drive=drive[keep] if drive.ndim else run.drive,
-        drive_draws=None if run.drive_draws is None else np.asarray(run.drive_draws)[:, keep],
-        t_release=report.t_release,
-        t_end=report.t_end,
-        t_release_std=run.t_release_std if release_std is None else release_std,
-        window_found=report,
-    )

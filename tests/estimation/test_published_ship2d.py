@@ -58,7 +58,7 @@ def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
 def test_ship2d_with_the_release_found_in_the_data_never_overflows():
     """The import path: the release found from the motion onset and refined by the fit,
     then the effect search; before, both overflowed ("array must not contain infs")."""
-    from estimation.data.window import windowed_run
+    from estimation.data.run_arrays import windowed_run
 
     run = _ship2d_run()
     r = estimate([windowed_run(run)], n_bootstrap=0)
