@@ -24,8 +24,8 @@ import numpy as np
 
 from bench.timing import timed
 from estimation import estimate
-from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
+from estimation.axis.prepared_run import prepare
 from estimation.motion.decay_estimate import estimate_decay
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 

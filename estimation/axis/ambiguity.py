@@ -12,8 +12,9 @@ import numpy as np
 from estimation.axis.collinearity import COLLINEAR, NEAR_COLLINEAR, partial_correlations
 from estimation.axis.effects import EFFECTS
 from estimation.axis.materiality import below_resolution
-from estimation.axis.model import BASE_NAMES, PreparedRun
+from estimation.axis.model import BASE_NAMES
 from estimation.axis.output_error import FitResult, effect_start, fit_output_error
+from estimation.axis.prepared_run import PreparedRun
 
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
 PAIR_EXPERIMENTS = {

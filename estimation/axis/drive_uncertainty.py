@@ -19,8 +19,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
+from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 
 

@@ -53,13 +53,13 @@ from estimation.axis.collinearity import (
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import noise_floor_ratio
 from estimation.axis.materiality import below_resolution
-from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import (
     FitResult,
     fit_output_error,
     leave_one_run_out_rmse,
     loro_dropped,
 )
+from estimation.axis.prepared_run import PreparedRun
 from estimation.axis.unexplained import NUMERICAL_RMSE
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.selection import BIC_THRESHOLD, forward_selection, select_round

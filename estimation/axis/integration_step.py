@@ -5,14 +5,13 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
+from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.equation import range_rates, stable_step
-
-if TYPE_CHECKING:
-    from estimation.axis.model import ParamView, PreparedRun
+from estimation.motion.terms import Coefficient
 
 RK4_MAX_STEP_S = 0.1  # RK4 error < 1e-6 m on BENBAM-like dynamics (τ ≥ 0.5 s)
 #: Most halvings of that step (or of a driven record's sample step) ``integration_step``
@@ -24,7 +23,22 @@ RK4_MAX_STEP_S = 0.1  # RK4 error < 1e-6 m on BENBAM-like dynamics (τ ≥ 0.5 s
 MAX_HALVINGS = 4
 
 
-def _local_rates(p: ParamView, run: PreparedRun) -> tuple[np.ndarray, np.ndarray]:
+class StepParameters(Protocol):
+    """What the step reads of S parameter sets (``axis.model.ParamView``): the matrix,
+    shape (S, G), its force terms and the total inertia of each set on a run."""
+
+    @property
+    def theta(self) -> np.ndarray: ...
+
+    @property
+    def forces(self) -> Sequence[Coefficient]: ...
+
+    def total_inertia(self, run: PreparedRun) -> np.ndarray:
+        """M + M_drive + Σ θ_i·w_i per parameter set (kg or kg·m²), shape (S,)."""
+        ...
+
+
+def _local_rates(p: StepParameters, run: PreparedRun) -> tuple[np.ndarray, np.ndarray]:
     """The force terms' largest stiffness and damping over the run's range (its peak
     excursion and speed, ``motion.equation.range_rates``), per parameter set, each (S,)."""
     sets = p.theta.shape[0]
@@ -41,7 +55,7 @@ def coarsest_step(runs: Sequence[PreparedRun]) -> float:
     return base
 
 
-def integration_step(p: ParamView, runs: Sequence[PreparedRun]) -> tuple[float, np.ndarray]:
+def integration_step(p: StepParameters, runs: Sequence[PreparedRun]) -> tuple[float, np.ndarray]:
     """The RK4 step (s) for the parameter sets of ``p`` on ``runs``, and which sets it cannot
     resolve (bool, (S,)).
 

@@ -14,8 +14,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.model import PreparedRun, simulate
+from estimation.axis.model import simulate
 from estimation.axis.output_error import FitResult
+from estimation.axis.prepared_run import PreparedRun
 from estimation.stats.diagnostics import position_noise
 
 RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one

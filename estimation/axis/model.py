@@ -12,90 +12,20 @@ by finite differences cost one vectorized call.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from itertools import repeat
 
 import numpy as np
 
 from estimation.axis.integration_step import MAX_HALVINGS, coarsest_step, integration_step
-from estimation.data.run_arrays import RunData
+from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.equation import accelerator, hermite
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import LIBRARY, STANDARD_GRAVITY, Coefficient, Term
-from estimation.stats.diagnostics import smoothed_derivatives
-from estimation.stats.quantization import encoder_step
+from estimation.motion.terms import LIBRARY, Coefficient, Term
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
-BASELINE_KEPT_S = 0.0  # at-rest samples carry a fixed quantization error: not fitted
 #: Steps between two checks whether every parameter set has diverged to NaN (a trial step
 #: of a fit far from the data): the remaining steps are NaN, so they are not integrated.
 NAN_CHECK_EVERY = 16
-
-
-@dataclass(frozen=True)
-class PreparedRun:
-    """The usable part of a run, in arrays the simulators read."""
-
-    run_id: str
-    t: np.ndarray
-    x: np.ndarray
-    drive: np.ndarray  # per sample
-    constant_drive: float | None
-    t_release: float
-    extra_inertia: float
-    mean_abs_drive: float
-    weight_equivalent: float  # |τ|/g when the hung weight is undeclared, else 0 (drive_inertia)
-    t_release_std: float = 0.0  # 1σ uncertainty of the release instant, s
-    #: The drive held from the last sample at or before the release until the first kept
-    #: sample (per-sample drives; None: ``drive[0]``).
-    drive_at_release: float | None = None
-    #: The record's quantization step (m or rad; 0: not on a grid), ``estimation.stats.
-    #: quantization.encoder_step`` of the whole record, baseline included.
-    encoder_step: float = 0.0
-    #: The largest smoothed |velocity| (m/s or rad/s) and displacement from the release
-    #: (m or rad) of the kept samples: where ``integration_step`` linearises the forces.
-    peak_speed: float = 0.0
-    peak_excursion: float = 0.0
-
-
-def prepare(run: RunData) -> PreparedRun:
-    """Cut a run to its usable window and precompute what the simulators need."""
-    keep = run.window() & (np.asarray(run.t) > run.t_release - BASELINE_KEPT_S)
-    t = np.asarray(run.t, dtype=float)[keep]
-    drive = run.drive_at_samples()[keep]
-    moving = t > run.t_release
-    const = float(np.asarray(run.drive)) if run.is_constant_drive() else None
-    mean_abs = float(np.mean(np.abs(drive[moving]))) if moving.any() else 0.0
-    x = np.asarray(run.position, dtype=float)[keep]
-    speed = smoothed_derivatives(t, x)[0] if t.size > 1 else np.zeros(1)
-    return PreparedRun(
-        run_id=run.run_id,
-        t=t,
-        x=x,
-        drive=drive,
-        constant_drive=const,
-        t_release=float(run.t_release),
-        extra_inertia=run.declared_extra_inertia(),
-        mean_abs_drive=mean_abs,
-        weight_equivalent=(
-            mean_abs / STANDARD_GRAVITY
-            if const is not None and not run.hung_mass_declared()
-            else 0.0
-        ),
-        t_release_std=float(run.t_release_std),
-        drive_at_release=_held_at(run, run.t_release),
-        encoder_step=encoder_step(np.asarray(run.position)),
-        peak_speed=float(np.max(np.abs(speed), initial=0.0)),
-        peak_excursion=float(np.ptp(x)) if x.size else 0.0,
-    )
-
-
-def _held_at(run: RunData, instant: float) -> float | None:
-    """The per-sample drive held at ``instant`` (the last sample at or before it)."""
-    if run.is_constant_drive():
-        return None
-    before = np.nonzero(np.asarray(run.t) <= instant)[0]
-    return float(run.drive_at_samples()[before[-1]]) if before.size else None
 
 
 class ParamView:

@@ -15,7 +15,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.model import BASE_NAMES, PreparedRun, bounded, simulate
+from estimation.axis.model import BASE_NAMES, bounded, simulate
+from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit_statistics import FitStatistics, solution_statistics
 from estimation.stats.smoothing import savgol

@@ -10,8 +10,8 @@ from functools import cache
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
+from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 from estimation.data.window import encoder_quantum, noise_threshold
 

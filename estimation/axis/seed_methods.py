@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import OptimizeWarning, curve_fit
 
-from estimation.axis.model import BASE_NAMES, PreparedRun
+from estimation.axis.model import BASE_NAMES
+from estimation.axis.prepared_run import PreparedRun
 
 TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
 

@@ -13,13 +13,14 @@ from estimation.axis.effect_search import search_effects as search_effects_fn
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
 from estimation.axis.integration_step import MAX_HALVINGS
-from estimation.axis.model import BASE_NAMES, PreparedRun, at_step_limit, prepare
+from estimation.axis.model import BASE_NAMES, at_step_limit
 from estimation.axis.output_error import (
     FitResult,
     evaluate_parameters,
     fit_output_error,
     leave_one_run_out_rmse,
 )
+from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.axis.release import fit_release, speed_at_release
 from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
 from estimation.axis.reverse import (

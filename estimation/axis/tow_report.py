@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from estimation.axis.force_residual import force_residuals
-from estimation.axis.model import PreparedRun, prepare
+from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.axis.result import UNITS, EstimationResult
 from estimation.data.run_arrays import RunData
 from estimation.figures import (

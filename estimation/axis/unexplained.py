@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from estimation.axis.force_residual import force_noise_floor, force_residuals
-from estimation.axis.model import PreparedRun
 from estimation.axis.output_error import FitResult
+from estimation.axis.prepared_run import PreparedRun
 from estimation.numbers import finite_or_none, finite_values
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import effective_sample_size, structured

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-from estimation.axis.model import prepare
 from estimation.axis.output_error import FitResult, fit_output_error
+from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 from estimation.numbers import finite_or_none
 

@@ -19,7 +19,7 @@ ESTIMATE_LIKE = """
 import json
 import numpy as np
 from estimation.axis.model import simulate
-from estimation.axis.model import prepare
+from estimation.axis.prepared_run import prepare
 from estimation.motion import compiled
 from estimation.motion.equation import Track, integrate
 from estimation.motion.terms import Coefficient, LIBRARY

@@ -10,7 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from estimation.axis.model import prepare, simulate
+from estimation.axis.model import simulate
+from estimation.axis.prepared_run import prepare
 from estimation.motion import kernel
 from estimation.motion.equation import Track, integrate
 from estimation.motion.kernel import V_BASIS, X_BASIS, form_of

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from estimation.axis.model import constant_force_response, prepare, simulate
+from estimation.axis.model import constant_force_response, simulate
+from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 
 

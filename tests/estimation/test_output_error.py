@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
+from estimation.axis.prepared_run import prepare
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set
 
 TRUTH = {"surge": np.array(SURGE_TRUTH), "yaw": np.array(YAW_TRUTH)}

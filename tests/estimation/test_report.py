@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 
 from estimation import estimate
-from estimation.axis.model import prepare
+from estimation.axis.prepared_run import prepare
 from estimation.axis.tow_report import fit_figure, force_figure, run_labels, write_report
 from estimation.data.csv_import import run_from_csv
 from estimation.data.left_out import LeftOut

@@ -18,8 +18,8 @@ from scipy import stats
 from scipy.integrate import solve_ivp
 
 from estimation import RunData, estimate
-from estimation.axis.model import prepare
 from estimation.axis.output_error import fit_output_error
+from estimation.axis.prepared_run import prepare
 from estimation.uncertainty import Chain, analyse_repeats, uncertainty_budget, without_excluded
 
 TOLERANCES = {
