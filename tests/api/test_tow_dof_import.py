@@ -101,3 +101,23 @@ def test_runs_of_different_dofs_are_not_fitted_together() -> None:
         validate_runs([_run("a", "heave"), _run("b", None)])
     with pytest.raises(ValueError, match=r"run 'a': dof: got 'roll', allowed: heave, surge"):
         validate_runs([_run("a", "roll")])
+
+
+def test_a_heave_tow_result_is_plugged_into_the_vehicles_heave_not_its_surge() -> None:
+    from estimation.vehicle.apply_estimates import apply_result_json
+    from estimation.vehicle.vehicle_file import load_vehicle
+
+    vehicle = load_vehicle(Path(__file__).resolve().parents[2] / "fixtures/vehicles/benbam.toml")
+    doc = {
+        "axis": "surge",
+        "dof": "heave",
+        "coefficients": {
+            "inertia": {"value": 300.0, "std": 4.0},
+            "linear_damping": {"value": 20.0, "std": 1.0},
+            "quadratic_damping": {"value": 50.0, "std": 2.0},
+        },
+    }
+    plugged = apply_result_json(vehicle, doc, "result 1")
+    assert plugged.total_inertia("heave") == pytest.approx(300.0)
+    assert plugged.coefficients()["linear_damping.heave"] == pytest.approx(20.0)
+    assert plugged.total_inertia("surge") == pytest.approx(vehicle.total_inertia("surge"))
