@@ -44,8 +44,9 @@ class DecayImport(BaseModel):
     model_config = ConfigDict(extra="forbid")
     dof: Annotated[
         Dof | None,
-        Field(description="Free decay: the degree of freedom (m for surge/sway/heave, rad for "
-              "roll/pitch/yaw); required for --kind decay."),
+        Field(description="The degree of freedom (m for surge/sway/heave, rad for "
+              "roll/pitch/yaw); required for --kind decay; a tow's heave, surge (default) or "
+              "sway, the name its results and reports use."),
         Flag("--dof"),
     ] = None  # fmt: skip
     stiffness: Annotated[

@@ -122,11 +122,32 @@ def no_drive(request: ImportRequest, what: str) -> None:
             raise ValueError(f"{name}: not used by {what} (it has no drive)")
 
 
-def no_fields(plan: Planning) -> None:
-    """Refuse another kind's import fields (``--dof`` on a tow)."""
+def no_fields(plan: Planning, *, allowed: tuple[str, ...] = ()) -> None:
+    """Refuse another kind's import fields (``--stiffness`` on a tow), all but ``allowed``."""
     for name, value in plan.request.fields.items():
-        if value is not None:
+        if value is not None and name not in allowed:
             raise ParameterError([(name, value, f"not used by a {plan.kind}")])
+
+
+#: The degrees of freedom a tow may be imported as (``--dof``; default surge): the tow's
+#: equation along another straight line, e.g. a sphere settling under its weight (heave).
+TOW_DOFS: tuple[str, ...] = ("heave", "surge", "sway")
+
+
+def tow_dof(plan: Planning) -> dict[str, str]:
+    """A tow's ``dof`` as a run parameter: given (``--dof``), else its export header's;
+    none when neither says (the default, surge). ``ParameterError`` naming ``dof``, the
+    value and :data:`TOW_DOFS` for any other."""
+    dof = plan.request.fields.get("dof")
+    recorded = plan.header.parameters.get("dof")
+    if dof is None and isinstance(recorded, str):
+        dof = plan.restored["dof"] = recorded
+    if dof is None:
+        return {}
+    if dof not in TOW_DOFS:
+        allowed = ", ".join(TOW_DOFS)
+        raise ParameterError([("dof", dof, f"allowed {allowed} for a tow (default surge)")])
+    return {"dof": str(dof)}
 
 
 def pendulum_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
@@ -170,8 +191,10 @@ def _agrees(given: float, recorded: float) -> bool:
 
 def drive_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
     """A tow's or spin's drive: ``parameters`` (signed load, hung mass), ``drive_column``,
-    ``drive_unit`` and ``drive_limit`` for ``import_csv``."""
-    no_fields(plan)
+    ``drive_unit`` and ``drive_limit`` for ``import_csv``; a tow's ``dof`` (:func:`tow_dof`)."""
+    terms = AXES.get(plan.kind)
+    linear = terms is not None and terms.inertia_is_mass  # a tow's straight line
+    no_fields(plan, allowed=("dof",) if linear else ())
     kind, request, header, restored, rig = (
         plan.kind, plan.request, plan.header, plan.restored, plan.rig
     )  # fmt: skip
@@ -220,6 +243,8 @@ def drive_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
     parameters: dict[str, Any] = {} if load is None else {name: load}
     if weight is not None:
         parameters["hung_mass_kg"] = weight
+    if linear:
+        parameters |= tow_dof(plan)
     options = {
         "parameters": parameters,
         "drive_column": column,

@@ -212,6 +212,7 @@ def load_run_data(store: Store, run_id: str) -> RunData:
         drive_draws=draws,
         window_found=window,
         drive_law=drive_law if thrusters else None,
+        dof=params.get("dof"),  # a tow imported as heave or sway (``rig import --dof``)
     )
 
 

@@ -105,7 +105,8 @@ def summary_lines(data: dict) -> list[str]:
     sections they carry): what was fitted, each coefficient ± σ with its unit ("not
     identified" when the data do not determine it), the methods side by side, the findings,
     the error before and after, the windows, the uncertainty budget, the theory, the id."""
-    what = " ".join(str(data[k]) for k in ("analysis", "axis", "dof", "kind") if data.get(k))
+    named = ("analysis", "dof", "kind") if data.get("dof") else ("analysis", "axis", "kind")
+    what = " ".join(str(data[k]) for k in named if data.get(k))  # a tow's heave, not surge
     method = f", method {data['method']}" if data.get("method") else ""
     lines = [f"{what or 'estimate'} from {len(data['runs'])} run(s){method}"]
     units = data.get("units") or {}

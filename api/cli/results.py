@@ -63,7 +63,8 @@ def results(run_id, vehicle, kind, limit, compare, compare_ids, db_url, as_json)
         if as_json:
             return echo_json([r.to_json() for r in found])
         for r in found:
-            what = " / ".join(str(r.data[k]) for k in ("axis", "method") if r.data.get(k))
+            named = ("dof" if r.data.get("dof") else "axis", "method")  # a tow's heave
+            what = " / ".join(str(r.data[k]) for k in named if r.data.get(k))
             runs = " ".join(i[:8] for i in r.run_ids)
             click.echo(
                 f"#{r.id:<5} {r.kind:<12} {r.created_at:%Y-%m-%d %H:%M}  {what or '—':<28} {runs}"

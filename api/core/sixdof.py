@@ -120,7 +120,7 @@ def apply_results(vehicle: Vehicle6, results: Sequence[tuple[int, dict]]) -> tup
     applied = []
     for result_id, data in results:
         vehicle = apply_result_json(vehicle, data, f"result {result_id}")
-        axis = data["axis"]
+        axis = data.get("dof") or data["axis"]  # a tow imported as heave plugs into heave
         applied.append(
             {
                 "result_id": result_id,

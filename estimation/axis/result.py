@@ -105,8 +105,16 @@ class EstimationResult:
     reverse_test: ReverseTest | None = None
     #: Combinations the data determine well (``motion.well_determined``): terminal speeds.
     well_determined: tuple[Combination, ...] = ()
+    #: The degree of freedom as imported (``RunData.dof``: a tow imported as ``heave``);
+    #: None: the axis itself. Headings and texts name it (``subject``).
+    dof: str | None = None
     fit_before: FitResult | None = field(default=None, repr=False, compare=False)
     fit_after: FitResult | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def subject(self) -> str:
+        """What the fit is of, in the user's words: the imported dof, else the axis."""
+        return self.dof or self.axis
 
     def to_json(self) -> dict[str, Any]:
         """The JSON document (see docs/estimation.md for the schema)."""
@@ -154,6 +162,8 @@ class EstimationResult:
             "windows": {k: w.to_json() for k, w in self.windows.items()},
             "unexplained": self.unexplained.to_json() if self.unexplained else None,
         }
+        if self.dof is not None:  # imported as another straight line (a tow's heave)
+            doc["dof"] = self.dof
         return doc
 
 

@@ -76,14 +76,15 @@ def estimate(
     axis = validate_runs(runs)
     if method != "output-error":
         runs = [fit_release(r) for r in runs]
-        return _seed_result(axis, method, runs, [prepare(r) for r in runs])
+        return replace(_seed_result(axis, method, runs, list(map(prepare, runs))), dof=runs[0].dof)
     try:
-        return _output_error(axis, runs, search_effects, n_bootstrap, seed, envelope)
+        result = _output_error(axis, runs, search_effects, n_bootstrap, seed, envelope)
     except NUMERICAL_FAILURES as err:  # the runs were valid: the numerics failed
         ids = ", ".join(r.run_id for r in runs)
         raise EstimationFailed(
-            f"the {axis} model to runs {ids}", f"{type(err).__name__}: {err}"
+            f"the {runs[0].dof_name} model to runs {ids}", f"{type(err).__name__}: {err}"
         ) from err
+    return replace(result, dof=runs[0].dof)  # one per fit: what the texts call the axis
 
 
 #: What a fit of valid runs can raise when its numerics fail (scipy's optimisers say

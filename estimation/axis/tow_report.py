@@ -69,7 +69,7 @@ def fit_figure(
     ]
     unit = units["position"]
     title = (
-        f"{result.axis}, {result.method}: before = {effects_text(before.effects)} "
+        f"{result.subject}, {result.method}: before = {effects_text(before.effects)} "
         f"(RMSE {result.rmse_before:.3g} {unit}), after = "
         f"{effects_text(after.effects)} (RMSE {result.rmse_after:.3g} {unit})"
     )
@@ -98,7 +98,7 @@ def force_figure(
         ax.set_ylabel(f"{names['drive']} residual [{unit}]")
     axes[1].legend(loc="best", fontsize=8)
     fig.suptitle(
-        f"{result.axis}: force-domain residual vs velocity (a pattern = a missing effect)",
+        f"{result.subject}: force-domain residual vs velocity (a pattern = a missing effect)",
         fontsize=11,
     )
     return fig
@@ -124,7 +124,7 @@ def _markdown(
 ) -> str:
     units = UNITS[result.axis]
     doc = result.to_json()
-    lines = [f"# Estimation report — {result.axis}, {result.method}", ""]
+    lines = [f"# Estimation report — {result.subject}, {result.method}", ""]
     lines += _summary(result, labels)
     lines += figure_links(figures)
     lines += [

@@ -12,6 +12,9 @@ from estimation.data.window import WindowReport, check_time_step, find_window
 
 Axis = Literal["surge", "yaw"]
 AXES: tuple[str, ...] = ("surge", "yaw")
+#: The degrees of freedom a linear (``surge``-axis) run may be imported as: the same
+#: equation of motion along another straight line (a settling sphere falls in heave).
+LINEAR_DOFS: tuple[str, ...] = ("heave", "surge", "sway")
 MIN_MOVING_SAMPLES = 5
 
 
@@ -55,6 +58,14 @@ class RunData:
     #: The vehicle's own mass (kg; or its displacement, or its dry inertia in kg·m² for yaw)
     #: when known: an identified inertia (m + m_a) below it is flagged as not physical.
     body_inertia: float | None = None
+    #: The degree of freedom as imported (a tow's ``heave``, ``surge`` or ``sway``): what
+    #: results, reports and warnings call the axis. None: the axis itself.
+    dof: str | None = None
+
+    @property
+    def dof_name(self) -> str:
+        """The axis in the user's words: the imported ``dof``, else ``axis``."""
+        return self.dof or self.axis
 
     def window_report(self) -> WindowReport:
         """The window as fitted: the found one, or one built from the given instants."""
@@ -147,6 +158,9 @@ def validate_run(run: RunData) -> None:
         raise field_error(
             rid, "t_release", run.t_release, f"a time ≤ {t[-1]:g} s (the last sample)"
         )
+    if run.dof is not None and (run.axis != "surge" or run.dof not in LINEAR_DOFS):
+        allowed = ", ".join(LINEAR_DOFS) if run.axis == "surge" else "None (a spin is yaw)"
+        raise field_error(rid, "dof", run.dof, allowed)
     if run.body_inertia is not None and not run.body_inertia > 0:
         raise field_error(rid, "body_inertia", run.body_inertia, "> 0 or None")
     moving = np.count_nonzero((t > run.t_release) & run.window())
@@ -157,8 +171,13 @@ def validate_run(run: RunData) -> None:
 
 
 def validate_runs(runs: Sequence[RunData]) -> str:
-    """Validate a set of runs for a joint fit; returns their common axis."""
-    return validate_run_set(runs, validate_run, "run", "one axis per fit")
+    """Validate a set of runs for a joint fit (one axis, one imported dof); returns their
+    common axis."""
+    axis = validate_run_set(runs, validate_run, "run", "one axis per fit")
+    dofs = sorted({run.dof_name for run in runs})
+    if len(dofs) != 1:
+        raise ValueError(f"runs: dof: got mixed dofs {dofs}, allowed: one dof per fit")
+    return axis
 
 
 def validate_run_set(runs: Sequence, validate_one, what: str, one_axis: str) -> str:

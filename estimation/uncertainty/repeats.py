@@ -165,7 +165,7 @@ def analyse_repeats(runs: Sequence[RunData], exclude_outliers: bool = False) -> 
         flagged = chauvenet(speeds)
         drive = "weight" if members[0].is_constant_drive() else "thrusters"
         unit = "N" if members[0].axis == "surge" else "N·m"
-        label = f"{members[0].axis}, {drive}, {_load(members[0]):+.4g} {unit}"
+        label = f"{members[0].dof_name}, {drive}, {_load(members[0]):+.4g} {unit}"
         conditions.append(
             Condition(
                 label,

@@ -82,6 +82,8 @@ def apply_result_json(
     axis's ``linear_damping`` (and ``quadratic_damping`` when its effect search found it;
     otherwise the vehicle's value stays): the inertia is the body's plus the added mass."""
     axis = doc.get("axis") if isinstance(doc, Mapping) else None
+    if axis is not None and doc.get("dof"):  # a tow imported as heave: the heave's model
+        axis = doc["dof"]
     if axis not in DOFS:
         raise VehicleError(source, "axis", axis, "one of " + ", ".join(DOFS))
     coefficients = doc.get("coefficients")

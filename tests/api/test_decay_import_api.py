@@ -79,7 +79,8 @@ def test_a_declared_stiffness_tolerance_is_a_type_b_row_of_a_decays_budget(clien
         ("kind=decay", "dof: missing is not allowed (a free decay names its dof"),
         ("kind=decay&dof=heave&force_n=3", "force_n: not used by a free decay (it has no drive)"),
         ("kind=decay&dof=wobble", "dof: 'wobble' is not allowed (Input should be"),
-        ("kind=tow&force_n=3&dof=heave", "dof: 'heave' is not allowed (not used by a tow)"),
+        ("kind=tow&force_n=3&stiffness=2", "stiffness: '2' is not allowed (not used by a tow)"),
+        ("kind=spin&torque_nm=3&dof=heave", "dof: 'heave' is not allowed (not used by a spin)"),
         ("kind=decay&dof=heave&stiffness_tolerance=-1", "stiffness_tolerance: '-1' is not allowed"),
     ],
 )

@@ -75,8 +75,8 @@ def test_rig_import_decay_refuses_what_a_decay_does_not_take(rig, tmp_path):
         (["--kind", "decay"], "--dof: missing is not allowed (a free decay names its --dof"),
         (["--kind", "decay", "--dof", "heave", "--force", "3"],
          "--force: not used by a free decay (it has no drive)"),
-        (["--kind", "tow", "--force", "3", "--dof", "heave"],
-         "--dof: 'heave' is not allowed (not used by a tow)"),
+        (["--kind", "tow", "--force", "3", "--dof", "roll"],
+         "--dof: 'roll' is not allowed (allowed heave, surge, sway for a tow"),
         (["--kind", "decay", "--dof", "wobble"], "'wobble' is not one of"),
         (["--kind", "decay", "--dof", "heave", "--stiffness", "-4"], "x>0"),
     ]  # fmt: skip

@@ -776,7 +776,8 @@ async function renderEstimation(res) {
   $("#est-equivalent tbody").innerHTML = equivalent
     .map((e) => `<tr><td>${esc(fmt(e.amplitude, 3))} ${esc(unit)}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>± ${esc(fmt(e.std, 2))}</td></tr>`)
     .join("");
-  const axis = res.axis || `${res.dof} ${res.kind}`; // a decay names its dof instead of an axis
+  // a tow imported as heave names its dof; a decay names its dof instead of an axis
+  const axis = res.axis ? res.dof || res.axis : `${res.dof} ${res.kind}`;
   kv($("#est-rmse"), [
     ["Axis / method", `${axis} / ${res.method || "output-error"}`],
     ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],

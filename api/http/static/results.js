@@ -9,7 +9,7 @@ const RESULTS_PAGE = 20;
 const resultsState = { offset: 0, open: null };
 
 const resultLink = (id) => `<a href="#results/${Number(id)}" class="result-link">#${Number(id)}</a>`;
-const resultWhat = (r) => [r.data.axis || r.data.dof || r.data.analysis, r.data.method].filter(Boolean).join(" / ") || "—";
+const resultWhat = (r) => [r.data.dof || r.data.axis || r.data.analysis, r.data.method].filter(Boolean).join(" / ") || "—";
 
 async function loadResults() {
   const params = new URLSearchParams({ limit: RESULTS_PAGE, offset: resultsState.offset, tz: TZ });
