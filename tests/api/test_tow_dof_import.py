@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimation.data.runs import RunData, validate_runs
+from estimation.data.run_arrays import RunData, validate_runs
 from tests.api.conftest import AUTH
 from tests.cli import RigCli
 from tests.shared_data import shared_file
