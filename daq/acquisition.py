@@ -3,7 +3,9 @@
 Slot ``k`` is due at ``t0 + k / rate_hz`` (monotonic time), so the clock never
 drifts however long each read takes. The clock sleeps on the event loop to about
 ``spin_s`` before the deadline, then yields in a tight loop until it is due,
-which keeps lateness well under a millisecond on an idle loop.
+which keeps lateness well under a millisecond on an idle loop. The spin is at most
+``MAX_SPIN_SHARE`` of the period: a real-time clock spinning 2 ms of every 2 ms slot
+(500 Hz) held a whole core of the 2-core rig PC above every normal process.
 
 A tick that runs long, or a wake-up the OS delays, makes the clock skip every slot
 whose deadline is more than half a period gone (``seq`` jumps, the next Sample
@@ -39,6 +41,9 @@ from daq.priority import restore_scheduling, scheduling, set_realtime
 from daq.sample import Quality, Sample
 
 log = logging.getLogger(__name__)
+
+#: The largest share of each period the clock spins before its deadline (module doc).
+MAX_SPIN_SHARE = 0.05
 
 
 class Sampler(Protocol):
@@ -110,7 +115,7 @@ class Acquisition:
             raise ValueError(f"device_lost_after_s must be > 0 s, got {self.device_lost_after_s!r}")
         #: Time and waiting (``daq.clock``); a simulated clock is on time without spinning.
         self.clock = clock
-        self.spin_s = 0.0 if clock.simulated else spin_s
+        self.spin_s = 0.0 if clock.simulated else min(spin_s, MAX_SPIN_SHARE * self.period_s)
         #: Ask the OS for real-time scheduling of the clock's thread (``daq.priority``).
         self.realtime = realtime
         #: Channels of other devices added to each sample as they stand at the read (the

@@ -12,6 +12,7 @@ import time
 import pytest
 
 from daq.acquisition import Acquisition
+from daq.plc import Reading
 from daq.sample import Quality, Sample
 
 
@@ -97,3 +98,30 @@ async def test_a_frozen_plc_scan_marks_samples_stale_by_name(server, plc):
     assert late.stale == ("heartbeat", "plc_clock")
     assert not math.isnan(late.channels["heartbeat"])  # stale values are still reported
     assert not acq.device_lost.is_set()
+
+
+class _InstantPlc:
+    """A PLC that answers at once: the clock's own cost is all the CPU a tick takes."""
+
+    channel_names = ("tow_position",)
+
+    async def read_all(self) -> dict[str, Reading]:
+        return {"tow_position": Reading(1.0, time.monotonic())}
+
+
+async def test_a_500_hz_clock_spins_a_small_share_of_each_period():
+    """Spinning the last 2 ms before each deadline, a 500 Hz clock spun its whole 2 ms period:
+    real-time, it held a core of the 2-core rig PC above every other process (in CI a 500 Hz
+    tow starved another test's simulated devices). At most ``MAX_SPIN_SHARE`` of a period."""
+    acq = Acquisition(_InstantPlc(), rate_hz=500.0)
+    q = acq.subscribe(maxsize=2000)
+    runner = asyncio.create_task(acq.run())
+    await _collect(q, 10)
+    cpu0, wall0 = time.thread_time(), time.monotonic()
+    await _collect(q, 500)  # one second of slots
+    cpu, wall = time.thread_time() - cpu0, time.monotonic() - wall0
+    acq.stop()
+    await runner
+    # Before: 29 % of the wall time (and half the slots skipped); now 3.5 % on an idle machine.
+    assert cpu < 0.15 * wall, f"the clock's thread used {cpu:.2f} s of CPU in {wall:.2f} s"
+    assert acq.spin_s == pytest.approx(0.05 * 0.002)
