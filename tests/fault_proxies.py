@@ -12,6 +12,8 @@ import threading
 import time
 import tty
 
+from daq.priority import SIMULATOR_PRIORITY, set_realtime
+
 #: What the serial proxy does with each line in one direction.
 MODES = ("pass", "drop", "garbage")
 
@@ -19,6 +21,12 @@ MODES = ("pass", "drop", "garbage")
 def _garbage(line: bytes) -> bytes:
     """Noise of the line's length with no frame in it (no ``$``)."""
     return bytes((b * 7 + 3) % 94 + 33 for b in line.rstrip(b"\r\n")).replace(b"$", b"%") + b"\r\n"
+
+
+def _as_device() -> None:
+    """A proxy stands in for the rig's wiring: its thread runs real-time where the OS allows,
+    as the simulated devices behind it do (a loaded test box must not delay the bytes)."""
+    set_realtime(SIMULATOR_PRIORITY, warn=False)
 
 
 class SerialFaultProxy:
@@ -69,6 +77,7 @@ class SerialFaultProxy:
             os.close(fd)
 
     def _run(self) -> None:
+        _as_device()
         pending = {self._master: b"", self._up: b""}
         while True:
             ready, _, _ = select.select([*pending, self._stop_r], [], [])
@@ -136,6 +145,7 @@ class TcpCutProxy:
             self.cut()
 
     def _accept(self) -> None:
+        _as_device()
         while True:
             try:
                 client, _ = self._listener.accept()
@@ -153,6 +163,7 @@ class TcpCutProxy:
 
     @staticmethod
     def _pipe(src: socket.socket, dst: socket.socket) -> None:
+        _as_device()
         try:
             while data := src.recv(4096):
                 dst.sendall(data)

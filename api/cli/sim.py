@@ -17,6 +17,7 @@ from typing import Any
 import click
 
 from daq.config import RigConfig, RigConfigError, load_rig
+from daq.priority import SIMULATOR_PRIORITY, set_realtime
 from daq.sim.scenario import load_scenario
 from daq.sim.simulated_rig import SimEndpoints, SimulatedRig
 
@@ -63,6 +64,9 @@ def ready_line(rig: RigConfig, ep: SimEndpoints) -> dict[str, Any]:
 
 
 async def _serve(sim: SimulatedRig) -> None:
+    # It stands in for devices with their own CPU: real-time where the OS allows (as the
+    # session raises its in-process simulator), so a busy host does not make it answer late.
+    set_realtime(SIMULATOR_PRIORITY, warn=False)
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
