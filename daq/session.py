@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import math
 from collections.abc import AsyncIterator, Sequence
@@ -192,8 +193,7 @@ class RigSession:
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
-        if self.realtime:
-            await self._raise_priorities(thread)
+        await self._raise_priorities(thread)
         self.plc = made.plc_client if made else PlcClient(conn)
         if connect_timeout_s is None:
             connect_timeout_s = conn.modbus.connect_timeout_s
@@ -260,14 +260,17 @@ class RigSession:
         await asyncio.to_thread(self.rig_lock.release)
 
     async def _raise_priorities(self, sim: SimulatedRigThread | None) -> None:
-        """The clock's loop thread SCHED_FIFO, and the simulated rig's thread below it: it
-        stands in for a PLC with its own CPU, and at normal priority, sharing the GIL, a busy
-        host starved it past the Modbus read timeout for 0.1-0.4 s at a time (a `rig
-        pendulum` aborted for 0.5 s of failed reads in CI at load 6)."""
-        self._scheduling = scheduling()
-        self.realtime_active = set_realtime(warn=False)
-        if self.realtime_active and sim is not None:
-            await asyncio.to_thread(sim.call, set_realtime, SIMULATOR_PRIORITY)
+        """With ``realtime``, the clock's loop thread SCHED_FIFO; and always (where the OS
+        allows) the simulated rig's thread at ``SIMULATOR_PRIORITY``: it stands in for a PLC
+        with its own CPU, and at normal priority, sharing the GIL, a busy host starved it
+        past the Modbus read timeout for 0.1-0.4 s at a time (a `rig pendulum` aborted for
+        0.5 s of failed reads in CI at load 6; a service's spin release write failed)."""
+        if self.realtime:
+            self._scheduling = scheduling()
+            self.realtime_active = set_realtime(warn=False)
+        if sim is not None:
+            quiet = functools.partial(set_realtime, warn=False)
+            await asyncio.to_thread(sim.call, quiet, SIMULATOR_PRIORITY)
 
     @property
     def lease_lost(self) -> str | None:

@@ -136,7 +136,9 @@ def test_a_job_asked_to_stop_shows_stopping_at_once(chromium, client, service) -
     from playwright.sync_api import expect
 
     wait_rig_free(client)
-    job_id = start_job(client, "/api/jobs/tow", {"force_n": 10.0, "max_time_s": 30})
+    # A slow tow (2 N) that runs until it is aborted: a faster one reached the end of the
+    # rail before a loaded box had opened the page.
+    job_id = start_job(client, "/api/jobs/tow", {"force_n": 2.0, "max_time_s": 120})
     wait_job(client, job_id, states=("running",))
     with signed_in_page(chromium, service, client) as page:
         expect(page.locator("#job-state")).to_have_text("running")
