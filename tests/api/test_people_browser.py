@@ -8,6 +8,7 @@ asked to stop shows "stopping" before the service answers."""
 from __future__ import annotations
 
 import re
+import time
 
 import pytest
 
@@ -146,7 +147,10 @@ def test_a_job_asked_to_stop_shows_stopping_at_once(chromium, client, service) -
         held: list = []  # the abort request, answered only once "stopping" was seen
         page.route("**/api/jobs/*/abort", lambda route: held.append(route))
         page.click("#abort-btn")
-        expect(page.locator("#job-state")).to_have_text("stopping")
+        expect(page.locator("#job-state")).to_have_text("stopping")  # shown before the request
+        deadline = time.monotonic() + 10  # the page shows "stopping" before it sends
+        while not held and time.monotonic() < deadline:
+            page.wait_for_timeout(50)  # Playwright dispatches the route handler meanwhile
         assert len(held) == 1
         held[0].continue_()
         expect(page.locator("#job-state")).to_have_text("aborted")
