@@ -24,7 +24,7 @@ log = logging.getLogger(__name__)
 #: The OS scheduling of a thread as found: (policy, its parameter, niceness).
 Scheduling = tuple[int, os.sched_param, int]
 
-#: SCHED_FIFO priority of the in-process simulated rig's thread in real-time mode: below the
+#: SCHED_FIFO priority of the simulated rig's thread (where the OS allows): below the
 #: clock's (10, :func:`set_realtime`), above the process's other threads.
 SIMULATOR_PRIORITY = 5
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import functools
 import logging
 import math
 from collections.abc import AsyncIterator, Sequence
@@ -31,13 +30,7 @@ from daq.device_protocols import open_thruster_driver
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
-from daq.priority import (
-    SIMULATOR_PRIORITY,
-    Scheduling,
-    restore_scheduling,
-    scheduling,
-    set_realtime,
-)
+from daq.priority import Scheduling, restore_scheduling, scheduling, set_realtime
 from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState, engage_brake
 from daq.sample import Sample
@@ -118,8 +111,8 @@ class RigSession:
     driver instead of the rig file's own (``daq.device_protocols.DeviceFactory``; tests pass
     ``daq.sim.inprocess.open_inprocess_rig`` with a simulated clock); what it returns is
     kept as ``sim`` and closed with the session. ``realtime``: while open, the thread that
-    opened it (the clock's loop) runs SCHED_FIFO and the in-process simulated rig's thread
-    just below it (``daq.priority``; quietly normal where the OS refuses).
+    opened it (the clock's loop) runs SCHED_FIFO (``daq.priority``; quietly normal where the
+    OS refuses); the in-process simulated rig's thread raises itself just below it.
     """
 
     def __init__(
@@ -183,17 +176,18 @@ class RigSession:
         self._has_rig = True
         conn = self.rig
         made = None
-        thread: SimulatedRigThread | None = None
         if self._devices is not None:
             made = self.sim = self._devices(self.rig, self.source.scenario, self.clock)
         elif self.simulated:
             from daq.sim.simulated_rig import SimulatedRigThread
 
-            sim = thread = SimulatedRigThread(self.rig, self.source.scenario)
+            sim = SimulatedRigThread(self.rig, self.source.scenario)
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
-        await self._raise_priorities(thread)
+        if self.realtime:
+            self._scheduling = scheduling()
+            self.realtime_active = set_realtime(warn=False)
         self.plc = made.plc_client if made else PlcClient(conn)
         if connect_timeout_s is None:
             connect_timeout_s = conn.modbus.connect_timeout_s
@@ -258,19 +252,6 @@ class RigSession:
             self._scheduling, self.realtime_active = None, False
         hold_full_collections(False)
         await asyncio.to_thread(self.rig_lock.release)
-
-    async def _raise_priorities(self, sim: SimulatedRigThread | None) -> None:
-        """With ``realtime``, the clock's loop thread SCHED_FIFO; and always (where the OS
-        allows) the simulated rig's thread at ``SIMULATOR_PRIORITY``: it stands in for a PLC
-        with its own CPU, and at normal priority, sharing the GIL, a busy host starved it
-        past the Modbus read timeout for 0.1-0.4 s at a time (a `rig pendulum` aborted for
-        0.5 s of failed reads in CI at load 6; a service's spin release write failed)."""
-        if self.realtime:
-            self._scheduling = scheduling()
-            self.realtime_active = set_realtime(warn=False)
-        if sim is not None:
-            quiet = functools.partial(set_realtime, warn=False)
-            await asyncio.to_thread(sim.call, quiet, SIMULATOR_PRIORITY)
 
     @property
     def lease_lost(self) -> str | None:

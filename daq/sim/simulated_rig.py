@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from daq.config import RigConfig
+from daq.priority import SIMULATOR_PRIORITY, set_realtime
 from daq.sim.plant import Plant
 from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario
@@ -176,6 +177,10 @@ class SimulatedRigThread:
             raise
 
     def _run(self) -> None:
+        # It stands in for devices with their own CPU: real-time just below the clock where
+        # the OS allows (at normal priority, sharing the GIL, a busy host starved it past the
+        # Modbus read timeout for 0.1-0.4 s at a time: issue 35, CI's `rig pendulum`).
+        set_realtime(SIMULATOR_PRIORITY, warn=False)
         asyncio.set_event_loop(self._loop)
         self._loop.run_forever()
 

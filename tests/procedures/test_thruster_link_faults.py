@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daq.priority import SIMULATOR_PRIORITY, set_realtime
 from daq.procedures.requests import calibration_parameters
 from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.sample import Quality
@@ -197,9 +196,6 @@ def test_fault_during_a_thruster_tow_zeroes_the_thrust_and_aborts(
     fault, calibrated_db, tmp_path, record_property
 ):
     with SimulatedRigThread(RigSource.load().rig) as sim:
-        # The stand-in devices run real-time as `rig sim` and the session's simulator do:
-        # the real-time `rig tow` must not out-wait devices a loaded box delays.
-        sim.call(set_realtime, SIMULATOR_PRIORITY)
         outputs = OutputLog(sim)
         line = SerialFaultProxy(sim.endpoints.thruster_serial_port)
         plc = TcpCutProxy((sim.endpoints.host, sim.endpoints.port))
