@@ -1,6 +1,6 @@
 """Storage failing during and at the end of a run, on the simulated rig.
 
-* A full disk (a 2 MB tmpfs holding the SQLite database; needs root to mount: skipped on a
+* A full disk (an 8 MB tmpfs holding the SQLite database; needs root to mount: skipped on a
   laptop, required under CI=true) stops a 500 Hz tow safely; the CLI prints its JSON and
   exits 1 (no traceback); a tow started while the disk is still full is refused in one
   line, exit 1; once space returns, the next open of the store writes back
@@ -58,14 +58,19 @@ def _only_skipped_slots_missing(table) -> None:
 
 @pytest.fixture
 def small_tmpfs(tmp_path) -> Path:
-    """A 2 MB tmpfs (unmounted afterwards)."""
+    """An 8 MB tmpfs (unmounted afterwards).
+
+    Once the filler goes, it has room to write back all a tow kept aside: on a loaded
+    machine the abort comes later and 2 MB could not take it (the write-back then fails
+    with the disk full again, correctly, and the spill file stays).
+    """
     mount = tmp_path / "tmpfs"
     mount.mkdir()
     if os.geteuid() != 0:
         if IN_CI:
             pytest.fail("mounting a tmpfs needs root (required when CI=true)")
         pytest.skip("mounting a tmpfs needs root")
-    subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(mount)], check=True)
+    subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8m", "tmpfs", str(mount)], check=True)
     try:
         yield mount
     finally:
