@@ -12,6 +12,7 @@ from typing import Any, Protocol
 
 from estimation.axis.result import EffectEstimate
 from estimation.motion.well_determined import Combination
+from estimation.stats.acceptance_rules import RuleSet
 
 
 class FitSummary(Protocol):
@@ -107,6 +108,19 @@ def well_determined_rows(combinations: Sequence[Combination]) -> list[str]:
         shown = f"{c.value:.5g}" + ("" if c.std is None else f" ± {c.std:.2g}")
         lines.append(f"| {c.name} | {shown} | {c.unit or '—'} |")
     return [*lines, ""]
+
+
+def rule_lines(rules: RuleSet) -> list[str]:
+    """The rules that judged every candidate, and those this kind leaves out with why."""
+    applied = ", ".join(r.name for r in rules.rules)
+    return [
+        f"Each candidate was judged, in order, by: {applied} (each rule's statement is in "
+        "result.json, `acceptance_rules`; docs/estimation.md, *Selection rules*). Not "
+        "applied to this kind of record:",
+        "",
+        *(f"- {name}: {why}" for name, why in rules.omitted.items()),
+        "",
+    ]
 
 
 def step_cells(step: SearchStep) -> tuple[str, str]:

@@ -1,28 +1,26 @@
 """Effect search over subsets of the library, judged as combinations.
 
 Every single effect and every pair of effects is a candidate combination; a combination is
-kept only if, as a whole, it
-- lowers the BIC by more than ``BIC_THRESHOLD`` ("very strong" evidence),
-- lowers the leave-one-run-out prediction error (by more than the refits' own tolerance,
-  ``output_error.loro_dropped``: a smaller drop is round-off),
-- cuts the error materially: halves the RMSE, or brings the force-domain residual to
-  within ``AT_NOISE_FLOOR`` of the noise floor the fit implies (structure outside the
-  library is never absorbed by an effect that only nibbles at it, see unexplained.py),
-- and has no member at a physical bound or below what the experiment resolves (a delay
-  within the release timing; an effect that moves the fit by less than the position noise),
-- and, when leave-one-run-out cannot be formed (fewer than 3 runs), no member whose
-  variance inflation against the model's other parameters exceeds ``VIF_LIMIT``: such a
-  term is > 90 % a combination of M, K_L, K_Q (and the other effects) on these runs, so any
-  small misfit of those (a release instant a few ms off, an undeclared pulley inertia)
-  projects onto it and the in-sample BIC cannot tell the two apart; only a prediction of
-  data the fit did not see can. It is reported as not identified, inseparable from its most
-  correlated parameter, with the run that separates them (two forward tows claimed a
-  0.042 N bias, ρ = 0.98 with K_L, VIF 450, from a 27 ms release offset).
+kept only if, as a whole, it passes the tow's acceptance rules (``TOW_RULES`` in
+``estimation.stats.acceptance_rules``, the one rule set of every record kind): the error is
+not already round-off; ΔBIC below −``BIC_THRESHOLD``; a pair beats the best single by
+another ``BIC_THRESHOLD``; no member at its physical bound or below what the experiment
+resolves (``materiality``); the error cut materially (halved, or the force-domain residual
+brought near the noise floor: structure outside the library is never absorbed by an effect
+that only nibbles at it, see unexplained.py); and the check on data the fit did not see:
+the leave-one-run-out error drops (by more than the refits' own tolerance,
+``output_error.loro_dropped``), or, when it cannot be formed (fewer than 3 runs), no member's
+variance inflation against the model's other parameters exceeds ``VIF_LIMIT``: such a
+term is > 90 % a combination of M, K_L, K_Q (and the other effects) on these runs, so any
+small misfit of those (a release instant a few ms off, an undeclared pulley inertia)
+projects onto it and the in-sample BIC cannot tell the two apart; only a prediction of
+data the fit did not see can. It is reported as not identified, inseparable from its most
+correlated parameter, with the run that separates them (two forward tows claimed a
+0.042 N bias, ρ = 0.98 with K_L, VIF 450, from a 27 ms release offset).
 Whiteness is not a gate: with structure left in the residual, its normalised
 autocorrelation stays near 1 whatever share of it a real effect removes, so "Ljung–Box Q
 must drop" rejected true effects (docs/estimation.md); it decides the ``unexplained`` verdict.
-A pair wins over the best single only by beating it on every count as well (BIC by another
-``BIC_THRESHOLD``, leave-one-run-out error); a winning pair is
+A pair must also beat the best single's leave-one-run-out error; a winning pair is
 extended one effect at a time under the same rules (triples and beyond).
 
 One Gauss–Newton step from the reference fit (one sensitivity matrix for all candidates)
@@ -60,14 +58,17 @@ from estimation.axis.output_error import (
     loro_dropped,
 )
 from estimation.axis.prepared_run import PreparedRun
-from estimation.axis.unexplained import NUMERICAL_RMSE
+from estimation.stats.acceptance_rules import (
+    BIC_THRESHOLD,
+    SEPARABLE,
+    TOW_RULES,
+    Rival,
+    Trial,
+)
 from estimation.stats.diagnostics import ljung_box
-from estimation.stats.selection import BIC_THRESHOLD, forward_selection, select_round
+from estimation.stats.selection import forward_selection, select_round
 
-MATERIAL_CUT = 0.5  # kept effects halve the RMSE unless they bring it to the noise floor
-AT_NOISE_FLOOR = 2.0  # force-domain residual within 2× the floor the fit implies
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit
-MIN_INDEPENDENT_SHARE = 1e-3  # below: the effect is a combination of M, K_L, K_Q on these runs
 #: Above this variance inflation a term needs out-of-sample evidence (R² > 0.9 on the other
 #: parameters: its σ is inflated √10 ≈ 3.2×; the conventional "serious collinearity" bound,
 #: Kutner et al., Applied Linear Statistical Models, §10.5).
@@ -151,35 +152,31 @@ class _Search:
         """
         gain = fit.bic - ref.fit.bic
         q_new = ljung_box(fit.residuals).q_statistic
-        cv_new: float | None = None
-        reason = "kept"
-        at_bound = [e for e in combo if e in fit.at_bound]
-        if ref.fit.rmse <= NUMERICAL_RMSE * self.travel:
-            reason = "the error is already at round-off: nothing left to explain"
-        elif gain > -BIC_THRESHOLD:
-            reason = f"ΔBIC {gain:.1f} > −{BIC_THRESHOLD:g}"
-        elif rival is not None and fit.bic >= rival.fit.bic - BIC_THRESHOLD:
-            reason = f"not better than the best single effect by ΔBIC {BIC_THRESHOLD:g}"
-        elif at_bound:
-            reason = f"{', '.join(at_bound)} at its physical bound"
-        elif below := [b for b in (below_resolution(e, fit, self.runs) for e in combo) if b]:
-            reason = "; ".join(below)
-        elif fit.rmse > (1 - MATERIAL_CUT) * ref.fit.rmse and (
-            noise_floor_ratio(fit, self.runs) > AT_NOISE_FLOOR
-        ):
-            reason = (
-                f"error not cut materially (RMSE −{1 - fit.rmse / ref.fit.rmse:.1%}, "
-                "residual still above the noise floor)"
-            )
-        else:
-            cv_new = leave_one_run_out_rmse(self.runs, fit)
+        out_of_sample: list[float | None] = [None]  # the LORO error, once computed
+
+        def check_out_of_sample() -> str | None:
+            cv_new = out_of_sample[0] = leave_one_run_out_rmse(self.runs, fit)
             bars = [ref.cv] + ([rival.cv] if rival is not None else [])
-            if cv_new is None and (tied := self.tied(fit, combo)):
-                reason = tied
-            elif cv_new is not None and any(
-                b is not None and not loro_dropped(cv_new, b) for b in bars
-            ):
-                reason = "leave-one-run-out error did not drop"
+            if cv_new is None:
+                return self.tied(fit, combo)
+            if any(b is not None and not loro_dropped(cv_new, b) for b in bars):
+                return "leave-one-run-out error did not drop"
+            return None
+
+        trial = Trial(
+            combo,
+            ref.fit,
+            fit,
+            self.travel,
+            rival=None if rival is None else Rival("the best single effect", rival.fit),
+            unresolved=lambda: [
+                b for b in (below_resolution(e, fit, self.runs) for e in combo) if b
+            ],
+            floor_ratio=lambda: noise_floor_ratio(fit, self.runs),
+            out_of_sample=check_out_of_sample,
+        )
+        reason = TOW_RULES.verdict(trial)
+        cv_new = out_of_sample[0]
         kept = reason == "kept"
         if kept:
             self.cv[fit.effects] = cv_new
@@ -275,22 +272,13 @@ class _Search:
         """The candidates these runs can tell from inertia, K_L and K_Q (the rest are
         recorded as not identifiable: no fit could pin them down)."""
         shares = independent_shares(base, self.runs, candidates)
-        kept = [e for e in candidates if shares[e] >= MIN_INDEPENDENT_SHARE]
+        kept = []
         for e in candidates:
-            if e not in kept:
-                self.steps.append(
-                    SearchStep(
-                        e,
-                        0.0,
-                        None,
-                        None,
-                        0.0,
-                        0.0,
-                        False,
-                        f"not identifiable on these runs: {shares[e]:.1%} of its effect is "
-                        "not already a change of inertia, K_L or K_Q",
-                    )
-                )
+            why = SEPARABLE.verdict(e, shares[e], "inertia, K_L or K_Q")
+            if why is None:
+                kept.append(e)
+            else:
+                self.steps.append(SearchStep(e, 0.0, None, None, 0.0, 0.0, False, why))
         return kept
 
     def reference(self, fit: FitResult) -> _Reference:

@@ -17,12 +17,11 @@ from estimation.axis.effects import EFFECTS
 from estimation.axis.model import simulate
 from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
+from estimation.stats.acceptance_rules import MATERIAL_NOISE, NUMERICAL_SHARE
 from estimation.stats.diagnostics import position_noise
 
 RESOLUTION_SIGMAS = 3.0  # a delay within 3σ of the release timing's resolution is not one
 DELAY_STEP_FRACTION = 0.01  # nor one below 1 % of the sample step (release known exactly)
-MATERIAL_NOISE = 1.0  # an effect must move the fit by at least the floor (motion_floor)
-NUMERICAL_SHARE = 1e-7  # of the travel: round-off, as unexplained.NUMERICAL_RMSE
 
 
 def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndarray) -> float:

@@ -16,6 +16,7 @@ from estimation.data.window import WindowReport
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.numbers import finite_or_none, finite_values
+from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import Whiteness
 
 SCHEMA_VERSION = 1
@@ -157,6 +158,7 @@ class EstimationResult:
                 "cv_rmse_after": finite_or_none(self.cv_after),
                 "steps": [step_json(s) for s in self.steps],
             },
+            "acceptance_rules": TOW_RULES.to_json(),
             "bootstrap": _boot(self.bootstrap),
             "uncertainty": _uncertainty(self.uncertainty),
             "windows": {k: w.to_json() for k, w in self.windows.items()},

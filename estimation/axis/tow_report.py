@@ -29,10 +29,12 @@ from estimation.figures import (
 from estimation.fit_report import (
     effects_found,
     error_before_after,
+    rule_lines,
     summary_rows,
     well_determined_rows,
     write_result_and_markdown,
 )
+from estimation.stats.acceptance_rules import TOW_RULES
 
 AXIS_LABELS = {
     "surge": {"position": "position", "velocity": "velocity", "drive": "force", "force": "N"},
@@ -159,6 +161,7 @@ def _markdown(
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}; "
         f"leave-one-run-out RMSE {cv[0]} → {cv[1]} {units['position']}",
         "",
+        *rule_lines(TOW_RULES),
         "| round | effect | ΔBIC | LORO RMSE after | Ljung–Box Q before → after | kept | reason |",
         "|---|---|---|---|---|---|---|",
     ]

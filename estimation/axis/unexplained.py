@@ -23,10 +23,10 @@ from estimation.axis.force_residual import force_noise_floor, force_residuals
 from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
 from estimation.numbers import finite_or_none, finite_values
+from estimation.stats.acceptance_rules import NUMERICAL_SHARE
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import effective_sample_size, structured
 
-NUMERICAL_RMSE = 1e-7  # an RMSE below this share of the travel is round-off, not structure
 PERIODIC_SHARE = 0.3  # a sinusoid explaining this share of the residual is called periodic
 N_FREQUENCIES = 300
 
@@ -121,7 +121,7 @@ def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unex
     floor = force_noise_floor(fit, runs)
     p_value = ljung_box(fit.residuals).p_value
     travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
-    numerical = fit.rmse <= NUMERICAL_RMSE * travel  # noise-free data: round-off is no force
+    numerical = fit.rmse <= NUMERICAL_SHARE * travel  # noise-free data: round-off is no force
     moving_forces = [f[m] for f, m in zip(forces, moving, strict=True)]
     ratio = force_rms / floor if floor > 0 else float("inf")
     flagged = structured(p_value, ratio, effective_sample_size(moving_forces)) and not numerical

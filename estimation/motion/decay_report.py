@@ -10,10 +10,16 @@ from pathlib import Path
 import numpy as np
 
 from estimation.figures import figure_links, new_figure, run_label, save_figure
-from estimation.fit_report import step_cells, well_determined_rows, write_result_and_markdown
+from estimation.fit_report import (
+    rule_lines,
+    step_cells,
+    well_determined_rows,
+    write_result_and_markdown,
+)
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.records import Record
 from estimation.motion.terms import DOFS, units_of
+from estimation.stats.acceptance_rules import DECAY_RULES
 
 #: x's unit per DOF.
 POSITION_UNIT = {dof: units_of(dof)["position"] for dof in DOFS}
@@ -97,6 +103,7 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         "",
         "## Evidence",
         "",
+        *rule_lines(DECAY_RULES),
         "| term | round | ΔBIC | explained RMS | Ljung–Box Q | kept | reason |",
         "|---|---|---|---|---|---|---|",
     ]

@@ -17,6 +17,7 @@ from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.numbers import Coefficient, finite_or_none, finite_values
+from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness
 
 
@@ -107,6 +108,7 @@ class DecayResult:
             "well_determined": [c.to_json() for c in self.well_determined],
             "warnings": list(self.warnings),
             "evidence": [s.to_json() for s in self.steps],
+            "acceptance_rules": DECAY_RULES.to_json(),
             "equilibrium": finite_values(self.equilibrium),
             "release_time_s": finite_values(self.release_time_s),
             "window": {

@@ -2,28 +2,19 @@
 
 Forward selection from the base model: each round fits every remaining candidate to
 convergence (from the current fit, the new term at its start value) and keeps the best of
-those that pass all of:
-
-1. **Information criterion.** ΔBIC = n·ln(SSE₁/SSE₀) + Δp·ln n < −``BIC_THRESHOLD`` (10:
-   "very strong" evidence, posterior odds > 150:1, Kass & Raftery 1995). BIC penalises a
-   parameter by ln n, so it does not grow more permissive with longer records as a fixed
-   χ² level would.
-2. **Identified and physical.** The new coefficient is determined by the data (no direction
-   of the Jacobian it loads is lost, ``identify``) and is not held at a bound its physics
-   sets (a damping pushed to 0 wants a negative value a passive body cannot have).
-3. **Material against the noise floor.** The residual the term explains,
-   √((SSE₀ − SSE₁)/n), is at least the position noise σ the fit implies (third differences,
-   ``stats.diagnostics.position_noise``): a term that changes the trajectory by less than
-   the instrument's own scatter is not a physical finding however many samples make it
-   "significant". Not measured against the drive or the restoring force: on a lightly
-   damped body every damping term is ~1 % of the restoring torque (KVLCC2), which a
-   drive-relative rule can never accept.
+those that pass the decay's acceptance rules, ``DECAY_RULES`` of the one rule set
+(``estimation.stats.acceptance_rules``, where each rule states its reason): the error is
+not round-off; the new coefficient is identified (no lost Jacobian direction) and not held
+at its physical bound; ΔBIC < −``BIC_THRESHOLD``; the residual it explains is at least the
+position noise σ the fit implies (never measured against the drive or the restoring force:
+on a lightly damped body every damping term is ~1 % of the restoring torque, KVLCC2); and a
+rival of a kept term beats that term alone on n_eff (below).
 
 Before a candidate is fitted, one Gauss–Newton step from the current fit (its sensitivity
-column beside the current model's) predicts its SSE; a candidate predicted to miss rule 1 by
-a wide margin (predicted ΔBIC > 0) is recorded, not fitted. A trial starts from that
-linearised value, the model's own parameters where the current fit left them; a set-valued
-term (dry friction) starts from a **profile** (``motion.profile``).
+column beside the current model's) predicts its SSE; a candidate predicted to miss the
+information criterion by a wide margin (predicted ΔBIC > 0) is recorded, not fitted. A trial
+starts from that linearised value, the model's own parameters where the current fit left
+them; a set-valued term (dry friction) starts from a **profile** (``motion.profile``).
 
 Two candidates whose sensitivities, after projecting out the current model, have |ρ| ≥
 ``RIVALS`` explain the same part of the residual: they are **rivals** (quadratic against
@@ -41,8 +32,8 @@ that does not depend on amplitude, dry friction's, from one that grows with it, 
 damping's: KVLCC2 run 21338; the shorter runs 21337 and 21340 do not). A pair the data
 separate is kept and no longer reported as ambiguous; one they do not, is.
 
-**Backward check.** When a round keeps nothing, every kept term is judged again by rules
-1–3 against the final model without it (refitted from the final's values): a term kept
+**Backward check.** When a round keeps nothing, every kept term is judged again by the
+rules against the final model without it (refitted from the final's values): a term kept
 early whose work a later term took over (quadratic damping kept first on a decay whose
 damping is cubic, before its rival cubic drag joined it) no longer passes and is removed,
 the one costing least first, until every kept term passes. Forward selection alone never
@@ -66,11 +57,18 @@ from estimation.motion.profile import extend, profile_start
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import finite_or_none
-from estimation.stats.diagnostics import ljung_box, position_noise
+from estimation.stats.acceptance_rules import (
+    BIC_THRESHOLD,
+    DECAY_RULES,
+    SEPARABLE,
+    Rival,
+    Trial,
+)
+from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import effective_sample_size
-from estimation.stats.selection import BIC_THRESHOLD, term_verdict
 
-MIN_INDEPENDENT_SHARE = 1e-3  # below: the term is a combination of the model's parameters
+#: The model's own parameters, in the words of the screen's reason (``SEPARABLE``).
+SETUP_PARAMETERS = "the model's own parameters (a constant force only moves a spring's equilibrium)"
 TRIAL_NFEV = 40  # a trial starts one Gauss–Newton step from its optimum
 RIVALS = 0.9  # |partial correlation| of two candidates' sensitivities: the same direction
 
@@ -109,23 +107,36 @@ class Step:
         }
 
 
-def judge(current: MotionFit, trial: MotionFit, term: str, round_no: int) -> Step:
-    """The rules of the module doc (``stats.selection.term_verdict``) for ``trial`` =
-    ``current`` + ``term``."""
-    n = current.n_samples
-    gain = trial.bic - current.bic
-    explained = float(np.sqrt(max(current.sse - trial.sse, 0.0) / n))
-    noise = position_noise(trial.residuals)
-    reason = term_verdict(
-        term,
-        gain,
-        explained,
-        noise,
-        identified=term not in trial.not_identified,
-        at_bound=term in trial.at_bound,
+def judge(
+    records: Sequence[Record],
+    current: MotionFit,
+    trial: MotionFit,
+    term: str,
+    round_no: int,
+    rival: str | None = None,
+) -> Step:
+    """``DECAY_RULES`` (``stats.acceptance_rules``) for ``trial`` = ``current`` + ``term``;
+    ``rival``: the kept term ``term`` rivals (the pair must beat it alone on n_eff)."""
+    evidence = Trial(
+        (term,),
+        current,
+        trial,
+        max((float(np.ptp(r.x)) for r in records), default=0.0),
+        not_identified=trial.not_identified,
+        rival=None if rival is None else Rival(f"{rival} alone", current),
     )
+    reason = DECAY_RULES.verdict(evidence)
     q_after = ljung_box(trial.residuals).q_statistic
-    return Step(term, round_no, gain, explained, noise, reason == "kept", reason, q_after=q_after)
+    return Step(
+        term,
+        round_no,
+        evidence.delta_bic,
+        evidence.explained_rms,
+        evidence.noise,
+        reason == "kept",
+        reason,
+        q_after=q_after,
+    )
 
 
 def effective_samples(fit: MotionFit) -> float:
@@ -140,7 +151,7 @@ def _screen(records, setup, current: MotionFit, candidates):
     perp = cols - q @ (q.T @ cols)
     res = np.concatenate(current.residuals)
     n = current.n_samples
-    predicted, rho, start = {}, {}, {}
+    predicted, rho, start, unseparable = {}, {}, {}, {}
     norms = np.linalg.norm(perp, axis=0)
     share = norms / np.maximum(np.linalg.norm(cols, axis=0), 1e-300)
     for i, c in enumerate(candidates):
@@ -149,12 +160,13 @@ def _screen(records, setup, current: MotionFit, candidates):
         start[c] = value
         sse = max(current.sse - gain, 1e-300)
         predicted[c] = n * np.log(sse / current.sse) + np.log(n)
-        if share[i] < MIN_INDEPENDENT_SHARE:  # a combination of the model's own parameters
-            predicted[c] = np.nan
+        why = SEPARABLE.verdict(c, float(share[i]), SETUP_PARAMETERS)
+        if why is not None:  # a combination of the model's own parameters
+            unseparable[c] = why
         for j in range(i):
             d = norms[i] * norms[j]
             rho[frozenset((c, candidates[j]))] = float(perp[:, i] @ perp[:, j] / d) if d else 0.0
-    return predicted, rho, start, own
+    return predicted, rho, start, own, unseparable
 
 
 def search_terms(
@@ -171,25 +183,13 @@ def search_terms(
     remaining = [c for c in candidates if c not in base.names]
     order = {c: i for i, c in enumerate(candidates)}
     while remaining:
-        predicted, rho, start, own = _screen(records, setup, current, remaining)
+        predicted, rho, start, own, unseparable = _screen(records, setup, current, remaining)
         first = len(steps)
         kept: list[tuple[MotionFit, str]] = []
         rejected_last = []
         for term in remaining:
-            if np.isnan(predicted[term]):
-                steps.append(
-                    Step(
-                        term,
-                        round_no,
-                        np.nan,
-                        0.0,
-                        0.0,
-                        False,
-                        f"{term} is not identified by these records: its effect is "
-                        "a change of the model's own parameters (e.g. a constant "
-                        "force only moves a spring's equilibrium)",
-                    )
-                )
+            if term in unseparable:
+                steps.append(Step(term, round_no, np.nan, 0.0, 0.0, False, unseparable[term]))
                 continue
             if not LIBRARY[term].in_bounds(start[term]):
                 steps.append(
@@ -234,9 +234,7 @@ def search_terms(
             except EstimationFailed as err:
                 steps.append(Step(term, round_no, np.nan, 0.0, 0.0, False, err.why))
                 continue
-            step = judge(current, trial, term, round_no)
-            if step.accepted and term in rival_of:
-                step = _judge_rival(current, trial, step, rival_of[term])
+            step = judge(records, current, trial, term, round_no, rival_of.get(term))
             steps.append(step)
             if step.accepted:
                 kept.append((trial, term))
@@ -283,7 +281,7 @@ def _backward(records, setup, final: MotionFit, steps: list[Step], round_no: int
                 without = fit_motion(records, setup, rest, start=start, max_nfev=TRIAL_NFEV)
             except EstimationFailed:
                 continue
-            again = judge(without, final, term, round_no)
+            again = judge(records, without, final, term, round_no)
             if not again.accepted:
                 failing.append((final.bic - without.bic, again, without))
         if not failing:
@@ -301,16 +299,3 @@ def _verdict_of_round(step: Step, chosen: str) -> Step:
     if step.accepted:
         return replace(step, reason=f"passed the rules; {chosen} was added this round")
     return step
-
-
-def _judge_rival(current: MotionFit, trial: MotionFit, step: Step, kept: str) -> Step:
-    """A rival of a kept term (module doc, *rivals*) joins it only when the pair beats the
-    kept term alone by ``BIC_THRESHOLD`` on the trial residual's effective sample size."""
-    gain = step.delta_bic * effective_samples(trial) / trial.n_samples
-    if gain < -BIC_THRESHOLD:
-        return step
-    reason = (
-        f"rival of {kept}: ΔBIC {gain:.1f} on the residual's effective sample size is not "
-        f"below −{BIC_THRESHOLD:g}, so the data do not separate the two"
-    )
-    return replace(step, accepted=False, reason=reason)

@@ -47,6 +47,7 @@ from estimation.pendulum.methods import (
     log_decrement,
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
+from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness, ljung_box
 from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.motion_budget import motion_budget
@@ -165,6 +166,7 @@ class PendulumResult:
                 "bic_after": finite_or_none(self.fit_after.bic),
                 "steps": [step_json(s) for s in self.steps],
             },
+            "acceptance_rules": DECAY_RULES.to_json(),
             "nuisance": {
                 rid: {
                     "initial_angle": finite_or_none(a),

@@ -24,6 +24,7 @@ from estimation.figures import (
 from estimation.fit_report import (
     effects_found,
     error_before_after,
+    rule_lines,
     step_cells,
     summary_rows,
     well_determined_rows,
@@ -31,6 +32,7 @@ from estimation.fit_report import (
 )
 from estimation.pendulum.configuration import unit
 from estimation.pendulum.pendulum_estimate import PendulumResult
+from estimation.stats.acceptance_rules import DECAY_RULES
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -180,10 +182,9 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}",
         "",
-        "Whiteness is a verdict, not a rule of the search: a term is kept on ΔBIC, "
-        "identifiability and the residual it explains against the noise floor; each step's "
-        "Ljung–Box Q is evidence beside them (—: the candidate was not fitted, "
-        "docs/pendulum.md).",
+        *rule_lines(DECAY_RULES),
+        "Whiteness is a verdict, not a rule of the search: each step's Ljung–Box Q is "
+        "evidence beside the rules (—: the candidate was not fitted, docs/pendulum.md).",
         "",
         "| round | effect | ΔBIC | residual explained vs noise [rad] | Ljung–Box Q | kept "
         "| reason |",

@@ -1,5 +1,6 @@
-"""Forward selection of effects for the tow/spin search (``estimation.axis.effect_search``); the
-acceptance rule ``term_verdict`` is shared with every record's search (``estimation.motion``).
+"""The mechanics of a forward search (``estimation.axis.effect_search`` uses them): rounds of
+trials and the choice among the kept ones. What a trial must pass is the one rule set of
+every record kind, ``estimation.stats.acceptance_rules``.
 
 A *round* tries additions (one effect, or a combination) to the current model: each is
 fitted, in order of a criterion (lower is better, a BIC), and judged by the caller's
@@ -70,37 +71,3 @@ def forward_selection(
     while (chosen := extend(current, round_no)) is not None:
         current, round_no = chosen, round_no + 1
     return current
-
-
-#: ΔBIC below −10: "very strong" evidence (posterior odds > 150:1, Kass & Raftery 1995).
-BIC_THRESHOLD = 10.0
-#: A kept term explains at least this many times the position noise σ (RMS).
-MATERIAL_NOISE = 1.0
-
-
-def term_verdict(
-    term: str,
-    delta_bic: float,
-    explained_rms: float,
-    noise: float,
-    *,
-    identified: bool = True,
-    at_bound: bool = False,
-) -> str:
-    """The shared rules for one term added to a model of any record ("kept", or why not):
-    identified by the data (no lost Jacobian direction), not held at its physical bound,
-    ΔBIC < −``BIC_THRESHOLD``, and material against the noise floor — the residual it
-    explains, √((SSE₀ − SSE₁)/n), is at least ``MATERIAL_NOISE`` × the position noise σ
-    (m or rad; never against a drive or a restoring torque: on a lightly damped body every
-    damping term is ~1 % of the restoring torque, docs/estimation.md)."""
-    if not identified:
-        return f"{term} is not identified by these records"
-    if at_bound:
-        return f"{term} held at its physical bound"
-    if not delta_bic < -BIC_THRESHOLD:
-        return f"ΔBIC {delta_bic:.1f} ≥ −{BIC_THRESHOLD:g}"
-    if explained_rms < MATERIAL_NOISE * noise:
-        return (
-            f"explains {explained_rms:.3g} RMS, below the noise floor {noise:.3g} the fit implies"
-        )
-    return "kept"

@@ -130,4 +130,6 @@ def test_one_noise_free_run_claims_no_effect_it_cannot_identify():
     doc = estimate([RunData("u", "surge", t, x, 10.0, t_release=0.95)], n_bootstrap=0).to_json()
     assert doc["effects"] == []
     steps = doc["evidence"]["steps"]
-    assert "constant_bias" in {s["effect"] for s in steps if "not identifiable" in s["reason"]}
+    assert "constant_bias" in {
+        s["effect"] for s in steps if "not identified by these records" in s["reason"]
+    }

@@ -1,9 +1,9 @@
-"""The forward-selection routine both effect searches run (estimation.stats.selection), on
+"""The forward-selection routine of the tow search (estimation.stats.selection), on
 a toy model: a set of effects whose criterion is a table lookup."""
 
 from __future__ import annotations
 
-from estimation.stats.selection import forward_selection, select_round, term_verdict
+from estimation.stats.selection import forward_selection, select_round
 
 #: Criterion (lower is better) of each model, by its effects in the order added.
 CRITERION = {(): 100.0, ("a",): 60.0, ("b",): 61.0, ("c",): 90.0, ("a", "c"): 40.0}
@@ -71,13 +71,3 @@ def test_forward_selection_extends_until_a_round_keeps_nothing():
 
     assert forward_selection((), extend) == ("a", "c")
     assert rounds == [1, 2, 3]
-
-
-def test_one_verdict_for_every_search_measures_a_term_against_the_noise_not_the_drive():
-    # a damping that is ~1 % of a restoring torque but moves the motion 15x the noise (KVLCC2)
-    assert term_verdict("quadratic_damping", -315.0, 1.7e-3, 1.1e-4) == "kept"
-    # many samples make a tiny term "significant"; it still moves the fit less than the noise
-    assert term_verdict("cubic_drag", -40.0, 0.5e-4, 1.1e-4).startswith("explains 5e-05 RMS")
-    assert term_verdict("cubic_drag", -9.0, 1e-3, 1e-4) == "ΔBIC -9.0 ≥ −10"
-    assert "not identified" in term_verdict("b", -50.0, 1.0, 0.1, identified=False)
-    assert "physical bound" in term_verdict("b", -50.0, 1.0, 0.1, at_bound=True)
