@@ -25,9 +25,10 @@ from api.cli.common import (
 from api.cli.metadata import run_metadata
 from api.cli.options import request_fields, request_options
 from daq.collector import freeze_after_startup
+from daq.procedures.kind_spec import KindSpec
 from daq.procedures.params import ParameterError
 from daq.procedures.recording import AbortSignal
-from daq.procedures.run_kinds import RIG_KINDS, KindSpec
+from daq.procedures.run_kinds import RIG_KINDS
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost
 from daq.session import RigSession, RigSource
 from daq.store.faults import StorageFault, StorageUnavailable, one_line

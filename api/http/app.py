@@ -48,8 +48,8 @@ from api.http.routes import theory as routes_theory
 from api.http.routes import users as routes_users
 from api.http.security import SecurityHeaders, TokenFirst
 from api.http.static_assets import app_with_offline_docs, compress_static
+from daq.procedures.kind_spec import NotCapable
 from daq.procedures.params import ParameterError
-from daq.procedures.run_kinds import NotCapable
 from daq.store import AmbiguousRunId, RunNotFound
 from daq.store.database import software_version
 from daq.store.faults import StorageUnavailable

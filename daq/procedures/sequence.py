@@ -31,8 +31,9 @@ from typing import Any
 from daq.config import RigConfig
 from daq.procedures.axis_steps import RunOutcome
 from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress
+from daq.procedures.procedure_request import ProcedureRequest
 from daq.procedures.recording import AbortSignal, ProgressCallback
-from daq.procedures.run_kinds import RIG_KINDS, StepParameters
+from daq.procedures.run_kinds import RIG_KINDS
 from daq.session import Aborted, RigSession
 from daq.vocabulary import RunStatus, quoted_kinds
 
@@ -40,7 +41,7 @@ from daq.vocabulary import RunStatus, quoted_kinds
 @dataclass(frozen=True)
 class Sequence:
     name: str
-    steps: tuple[StepParameters, ...]
+    steps: tuple[ProcedureRequest, ...]
     rest_s: float = 0.0
     repeats: int = 1
 
@@ -68,7 +69,7 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
             (unknown[0], data[unknown[0]], "allowed keys: name, rest_s, repeats, steps")
         )
     raw_steps = data.get("steps")
-    steps: list[StepParameters] = []
+    steps: list[ProcedureRequest] = []
     if not isinstance(raw_steps, list) or not raw_steps:
         problems.append(("steps", raw_steps, "a non-empty list of [[steps]] tables"))
         raw_steps = []

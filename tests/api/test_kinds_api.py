@@ -12,8 +12,9 @@ from pydantic import Field
 
 from api.cli.imports import import_
 from daq.config import load_rig
+from daq.procedures.kind_spec import KindSpec
 from daq.procedures.procedure_request import Flag, MaxTime, ProcedureRequest, RigLimit
-from daq.procedures.run_kinds import KINDS, RIG_KINDS, KindSpec
+from daq.procedures.run_kinds import KINDS, RIG_KINDS
 from daq.rig_capabilities import Needs
 from daq.vocabulary import RunKind
 from tests.api.conftest import AUTH
@@ -150,6 +151,7 @@ def lift_kind(monkeypatch):
     """A new rig kind in the registry, and nothing else edited."""
     spec = KindSpec(
         kind="lift",  # type: ignore[arg-type]
+        rank=60,
         label="lift test",
         help="Lift.",
         request=_LiftRequest,

@@ -15,8 +15,9 @@ from pathlib import Path
 import pytest
 
 from daq.config import load_rig, parse_rig
+from daq.procedures.kind_spec import NotCapable
 from daq.procedures.params import ParameterError
-from daq.procedures.run_kinds import KINDS, RIG_KINDS, NotCapable, capabilities
+from daq.procedures.run_kinds import KINDS, RIG_KINDS, capabilities
 from daq.procedures.sequence import parse_sequence
 from daq.rig_capabilities import safety
 from tests.cli import run_in_process

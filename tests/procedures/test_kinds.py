@@ -104,3 +104,27 @@ def test_every_act_a_kind_names_is_played_by_the_simulated_operator():
     assert hang == [("sim_tow_weight", 2.5), ("sim_tow_reversed", True)]
     back = SIMULATED_ACTS["return_carriage"].writes(OperatorAct("return_carriage", "", 5.3))
     assert back == [("sim_carriage_position", 5.3)]
+
+
+def test_a_kind_is_a_module_the_registry_discovers(tmp_path, monkeypatch):
+    """A new kind is one file in daq/procedures/kinds: the registry (run_kinds.py) finds
+    it without an edit and orders every kind by rank."""
+    import sys
+
+    from daq.procedures import kinds
+    from daq.procedures.run_kinds import discover_kinds
+
+    extra = tmp_path / "towed_array_kind.py"
+    extra.write_text(
+        "from daq.procedures.kind_spec import KindSpec\n"
+        "from daq.vocabulary import RunKind\n"
+        "SPEC = KindSpec(kind=RunKind.DECAY, rank=15, label='towed array', help='x')\n",
+        encoding="utf-8",
+    )
+    monkeypatch.setattr(kinds, "__path__", [*kinds.__path__, str(tmp_path)])
+    monkeypatch.delitem(sys.modules, "daq.procedures.kinds.towed_array_kind", raising=False)
+    labels = [spec.label for spec in discover_kinds()]
+    assert labels[:3] == ["tow test", "towed array", "spin test"]
+    assert labels.count("towed array") == 1 and len(labels) == len(KINDS) + 1
+    ranks = [spec.rank for spec in KINDS.values()]
+    assert ranks == sorted(set(ranks))  # one place in every list per kind

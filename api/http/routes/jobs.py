@@ -29,7 +29,8 @@ from api.http.schemas import (
     SequenceRequest,
     error_responses,
 )
-from daq.procedures.run_kinds import RIG_KINDS, KindSpec
+from daq.procedures.kind_spec import KindSpec
+from daq.procedures.run_kinds import RIG_KINDS
 from daq.store.people_and_safety_log import User
 from daq.store.schema import JobState
 

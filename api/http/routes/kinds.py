@@ -13,7 +13,8 @@ from pydantic import BaseModel, Field
 
 from api.http.deps import require_read
 from api.http.schemas import error_responses
-from daq.procedures.run_kinds import KINDS, KindSpec
+from daq.procedures.kind_spec import KindSpec
+from daq.procedures.run_kinds import KINDS
 
 router = APIRouter(prefix="/api", tags=["rig"])
 

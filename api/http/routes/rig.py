@@ -13,7 +13,8 @@ from api.core.service import RigService
 from api.http.deps import OperatorDep, RunnerDep, ServiceDep, require_read, require_write
 from api.http.identity import anyone
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
-from daq.procedures.run_kinds import RIG_KINDS, NotCapable, capabilities
+from daq.procedures.kind_spec import NotCapable
+from daq.procedures.run_kinds import RIG_KINDS, capabilities
 from daq.rig_capabilities import safety
 from daq.session import RigSession
 from daq.store.database import software_version
