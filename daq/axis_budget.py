@@ -4,7 +4,8 @@ reads a rig file).
 
 The axis entry (``daq.estimators.AXIS``) offers them: ``screen_repeats`` runs before the fit
 (so ``exclude_outliers`` can drop a flagged repeat), ``budget_document`` after it; the
-estimation job calls what the entry offers, naming no estimator.
+estimation job calls what the entry offers, naming no estimator. A campaign stops on the
+budget's U (``fitted_budget``).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from daq.store import Store
 from estimation.axis.result import EstimationResult
 from estimation.data.run_arrays import RunData
 from estimation.uncertainty import Chain, RepeatAnalysis, analyse_repeats, uncertainty_budget
+from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.repeats import without_excluded
 from estimation.uncertainty.text import append_to_report
 
@@ -61,6 +63,22 @@ def screen_repeats(
     return without_excluded(runs, analysis), analysis
 
 
+def fitted_budget(
+    store: Store,
+    runs: Sequence[RunData],
+    result: EstimationResult,
+    repeats: RepeatAnalysis | None = None,
+) -> Budget | None:
+    """The uncertainty budget of an output-error ``result`` of ``runs`` with the rig file's
+    constants and tolerances (None for the seed methods, which carry no fit to re-fit)."""
+    if result.fit_after is None or result.method != "output-error":
+        return None
+    rig = rig_of_runs(store, [r.run_id for r in runs])
+    return uncertainty_budget(
+        runs, result, chain_of(rig) if rig else None, tolerances_of(rig), repeats
+    )
+
+
 def budget_document(
     store: Store,
     runs: Sequence[RunData],
@@ -70,12 +88,10 @@ def budget_document(
 ) -> dict[str, Any]:
     """{"budget": …, "repeats": …} for the result JSON (budget None for the seed methods,
     which carry no fit to re-fit); appended to report.md when a report was written."""
-    if result.fit_after is None or result.method != "output-error":
+    fitted = fitted_budget(store, runs, result, repeats)
+    if fitted is None:
         return {"budget": None, "repeats": repeats.to_json()}
-    rig = rig_of_runs(store, [r.run_id for r in runs])
-    budget = uncertainty_budget(
-        runs, result, chain_of(rig) if rig else None, tolerances_of(rig), repeats
-    ).to_json()
+    budget = fitted.to_json()
     doc = {"budget": budget, "repeats": repeats.to_json()}
     if report_dir is not None and (Path(report_dir) / "report.md").exists():
         append_to_report(report_dir, budget, doc["repeats"])

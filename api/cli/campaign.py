@@ -12,7 +12,7 @@ from api.cli.common import db_option, echo_json, json_option, rig_option, scenar
 
 
 def parse_target(text: str) -> float:
-    """``1%`` or ``1`` → 0.01 (a 2σ/|θ| target in percent); ``click.BadParameter`` outside
+    """``1%`` or ``1`` → 0.01 (a U/|θ| target in percent); ``click.BadParameter`` outside
     0 < target < 100 %."""
     raw = text.strip().removesuffix("%").strip()
     try:
@@ -28,10 +28,10 @@ def _print_entry(entry: dict[str, Any]) -> None:
     after = entry["after"]
     sigma = ", ".join(
         f"{k} {v:.3g} %" if v is not None else f"{k} —"
-        for k, v in after["two_sigma_percent"].items()
+        for k, v in after["expanded_percent"].items()
     )
     click.echo(f"{entry['n']}. {entry['command']}  ({entry['why']})")
-    click.echo(f"   2σ after: {sigma}; {entry['tank_minutes']:.1f} tank min")
+    click.echo(f"   U after: {sigma}; {entry['tank_minutes']:.1f} tank min")
     if after["unresolved"]:
         click.echo(f"   unresolved: {'; '.join(after['unresolved'])}")
 
@@ -43,7 +43,8 @@ def _print_entry(entry: dict[str, Any]) -> None:
     default="1%",
     callback=lambda ctx, param, value: parse_target(value),
     show_default=True,
-    help="2σ/|θ| target on inertia, K_L and K_Q, in percent.",
+    help="U/|θ| target on inertia, K_L and K_Q, in percent (U: the expanded uncertainty of "
+    "the GUM budget, 95 %, with the rig file's tolerances).",
 )
 @click.option(
     "--axis",

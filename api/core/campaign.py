@@ -26,10 +26,12 @@ from typing import TYPE_CHECKING, Any
 from api.core.job_model import Job, JobConflict
 from api.core.job_requests import procedure_from_request
 from api.core.rig_envelope import envelope_of
+from daq.axis_budget import fitted_budget
 from daq.store.faults import one_line
 from daq.store.schema import JOB_FINAL, JobState
 from estimation.design.campaign_state import Campaign, Target
 from estimation.design.planning_envelope import Candidate
+from estimation.uncertainty.budget import Budget
 
 if TYPE_CHECKING:
     from api.core.jobs import JobRunner
@@ -86,7 +88,7 @@ class CampaignRunner:
         envelope = envelope_of(service.source.rig, store)
         campaign = Campaign(target, envelope)  # ValueError: axes the rig cannot test
         label = (
-            f"campaign to 2σ ≤ {target.relative * 100:g} % on {' + '.join(target.axes)} "
+            f"campaign to U ≤ {target.relative * 100:g} % on {' + '.join(target.axes)} "
             f"(≤ {target.max_runs} runs, ≤ {target.max_minutes:g} tank min)"
         )
         params = {
@@ -189,9 +191,9 @@ class CampaignRunner:
                 campaign.outcome = f"job {item.id} ended {ended.state}"
                 return "aborted", f"job {item.id} ({label}) ended {ended.state}: campaign stopped"
             run_id = ended.run_ids[-1]
-            result, seconds = self._estimate(campaign, test.axis, run_id)
+            result, budget, seconds = self._estimate(campaign, test.axis, run_id)
             campaign.pending = None
-            entry = campaign.recorded(choice, run_id, seconds, result)
+            entry = campaign.recorded(choice, run_id, seconds, result, budget)
             entry["instructions"] = what
             entry["job_id"] = item.id
             runner.registry.update(job, outcome=campaign.to_json(), run_ids=[*job.run_ids, run_id])
@@ -203,9 +205,11 @@ class CampaignRunner:
                 return None
         return item
 
-    def _estimate(self, campaign: Campaign, axis: str, run_id: str) -> tuple[Any, float]:
-        """The axis's fit on its runs and ``run_id`` (stored as a result), and the run's
-        duration on the rig, s."""
+    def _estimate(
+        self, campaign: Campaign, axis: str, run_id: str
+    ) -> tuple[Any, Budget | None, float]:
+        """The axis's fit on its runs and ``run_id`` with its uncertainty budget (stored as a
+        result), and the run's duration on the rig, s."""
         from api.core.estimation_job import load_estimation_runs
         from estimation import estimate
 
@@ -214,6 +218,8 @@ class CampaignRunner:
         ids = [*campaign.run_ids(axis), run_id]
         _, runs = load_estimation_runs(store, ids, "output-error")
         result = estimate(runs, n_bootstrap=0, envelope=campaign.envelope)  # type: ignore[arg-type]
-        store.add_result(ids, "estimation", result.to_json() | {"campaign": True})
+        budget = fitted_budget(store, runs, result)
+        extra = {"campaign": True, "budget": None if budget is None else budget.to_json()}
+        store.add_result(ids, "estimation", result.to_json() | extra)
         t = runs[-1].t
-        return result, float(t[-1] - t[0])
+        return result, budget, float(t[-1] - t[0])

@@ -8,6 +8,7 @@ import asyncio
 from collections.abc import Callable
 from typing import Any
 
+from daq.axis_budget import fitted_budget
 from daq.fit_exclusions import TooMuchLeftOut
 from daq.procedures.recording import AbortSignal
 from daq.procedures.run_kinds import KINDS
@@ -15,14 +16,17 @@ from daq.run_data import load_run_data
 from daq.sample_losses import SAMPLES_LOST
 from daq.session import RigSession
 from estimation.design.campaign_state import Campaign
+from estimation.uncertainty.budget import Budget
 
 
-def fit_axis(store: Any, run_ids: list[str], campaign: Campaign) -> Any:
-    """The axis fit of ``run_ids`` with the campaign's envelope (advice within the rig)."""
+def fit_axis(store: Any, run_ids: list[str], campaign: Campaign) -> tuple[Any, Budget | None]:
+    """The axis fit of ``run_ids`` with the campaign's envelope (advice within the rig), and
+    its uncertainty budget (the campaign stops on its U)."""
     from estimation import estimate
 
     runs = [load_run_data(store, r) for r in run_ids]
-    return estimate(runs, n_bootstrap=0, envelope=campaign.envelope)
+    result = estimate(runs, n_bootstrap=0, envelope=campaign.envelope)
+    return result, fitted_budget(store, runs, result)
 
 
 def run_seconds(store: Any, run_id: str) -> float:
@@ -100,9 +104,9 @@ async def run_campaign(
             campaign.outcome = f"{test.command}: {outcome.status} ({outcome.reason})"
             return campaign
         ids = [*campaign.run_ids(test.axis), outcome.run_id]
-        result = await asyncio.to_thread(fit_axis, store, ids, campaign)
+        result, budget = await asyncio.to_thread(fit_axis, store, ids, campaign)
         seconds = await asyncio.to_thread(run_seconds, store, outcome.run_id)
-        entry = campaign.recorded(choice, outcome.run_id, seconds, result)
+        entry = campaign.recorded(choice, outcome.run_id, seconds, result, budget)
         if on_entry is not None:
             on_entry(entry)
     return campaign

@@ -7,7 +7,8 @@ loops::
 
     while (d := campaign.next()).stop is None:
         run_id, seconds = record(d.choice.test)          # on the rig
-        campaign.recorded(d.choice, run_id, seconds, estimate(campaign.run_ids(axis)))
+        result = estimate(campaign.run_ids(axis))
+        campaign.recorded(d.choice, run_id, seconds, result, budget_of(result))
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 from estimation.design.planner import AxisState, Choice, Decision, decide, state_from_result
 from estimation.design.planning_envelope import Candidate, RigEnvelope
 from estimation.numbers import finite_or_none
+from estimation.uncertainty.budget import Budget
 
 #: How many times in a row a campaign repeats a test whose runs are damaged.
 MAX_REPEATS = 2
@@ -25,7 +27,8 @@ MAX_REPEATS = 2
 
 @dataclass(frozen=True)
 class Target:
-    """2σ/|θ| ≤ ``relative`` on M, K_L, K_Q of every axis in ``axes``, ambiguities resolved;
+    """U/|θ| ≤ ``relative`` on M, K_L, K_Q of every axis in ``axes`` (U: the expanded
+    uncertainty of the GUM budget, 95 %), ambiguities resolved;
     within ``max_runs`` runs and ``max_minutes`` tank minutes (runs + resets)."""
 
     relative: float = 0.01
@@ -137,15 +140,23 @@ class Campaign:
         self.trail.append(entry)
         return entry
 
-    def recorded(self, choice: Choice, run_id: str, seconds: float, result: object) -> dict:
+    def recorded(
+        self,
+        choice: Choice,
+        run_id: str,
+        seconds: float,
+        result: object,
+        budget: Budget | None = None,
+    ) -> dict:
         """Book a finished run (``seconds`` on the rig) and the axis's new fit ``result``
-        (an ``EstimationResult``); returns the trail entry."""
+        (an ``EstimationResult``) with its uncertainty ``budget`` (None: U = 2σ); returns
+        the trail entry."""
         self.again, self.repeats = None, 0
         axis = choice.test.axis
         before = self.status(axis)
         self.runs[axis].append((choice.test, run_id))
         self.minutes_used += (seconds + self.envelope.reset_s) / 60
-        self.states[axis] = state_from_result(result, [c for c, _ in self.runs[axis]])
+        self.states[axis] = state_from_result(result, [c for c, _ in self.runs[axis]], budget)
         return self._book(
             choice,
             run_id,
@@ -156,16 +167,20 @@ class Campaign:
         )
 
     def status(self, axis: str) -> dict[str, Any]:
-        """2σ/|θ| in % per target coefficient and what is unresolved, for the trail."""
+        """U/|θ| in % per target coefficient and what is unresolved, for the trail."""
         state = self.states.get(axis)
         if state is None:
-            return {"two_sigma_percent": {}, "unresolved": ["no fit yet"]}
+            return {"expanded_percent": {}, "unresolved": ["no fit yet"]}
         ratios = state.ratios(self.target.relative)
         percent = {n: _finite(r * self.target.relative * 100) for n, r in ratios.items()}
+        floor = state.floor(self.target.relative)
         return {
-            "two_sigma_percent": percent,
+            "expanded_percent": percent,
             "unresolved": state.unresolved(),
             "correlated": state.correlated(),
+            "type_b_above_target": {
+                n: _finite(f * self.target.relative * 100) for n, f in floor.items() if f > 1.0
+            },
         }
 
     def to_json(self) -> dict[str, Any]:

@@ -1,8 +1,17 @@
 """The next test: the run that most reduces what stands between the estimate and its target.
 
 State of one axis (:class:`AxisState`): the latest fit (values, σ, correlations, ambiguous
-groups, position RMSE σ_x) and the tests recorded. Target: 2σ/|θ| ≤ ``relative`` for M, K_L,
-K_Q, every σ finite, and no ambiguous group (two effect sets explaining the runs alike).
+groups, position RMSE σ_x), its uncertainty budget (``estimation.uncertainty.budget``) and the
+tests recorded. Target: U/|θ| ≤ ``relative`` for M, K_L, K_Q — U the expanded uncertainty a
+lab signs (GUM, 95 %), not the fit's 2σ — every σ finite, and no ambiguous group (two effect
+sets explaining the runs alike). U = k·√(u_A² + u_B²): the Type A part (the fit σ and the
+sources that shrink with it) scales with the fit σ a run is predicted to leave,
+u_A' = u_A·σ'/σ; the Type B part (the declared tolerances) is held where the budget put it.
+That is a prediction, not a floor: a Type B contribution c·u depends on the design through
+its sensitivity (with two tows a 0.2 % force error moves a K_L that carries 5 % of the drag
+by 4 %; runs at other speeds shrink that), so no campaign is stopped as out of reach; the
+trail names the coefficients whose Type B alone is above the target (``floor``). Without
+a budget U is 2σ.
 
 Criterion. The information of the recorded runs under the current model,
 I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
@@ -11,12 +20,12 @@ For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. 
 - friction and bias ambiguous → of the candidates predicted to bring their |ρ| under 0.9,
   the one with the largest reduction of the target ratio per tank minute (below); if none
   does, the one bringing |ρ| lowest (a reverse run decorrelates them);
-- otherwise → the largest reduction of the worst target ratio max_i 2·√C_ii/|θ_i|/target
+- otherwise → the largest reduction of the worst target ratio max_i U_i(C)/|θ_i|/target
   per tank minute (run + reset), a minimax (A-type) design on the target coefficients.
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
-Stopping rule (``decide``): the target is met on every axis (marginal 2σ/|θ| ≤ target, every
-σ finite, no ambiguous group left), or the next run does not fit the budget (runs, tank
+Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
+finite, no ambiguous group left), or the next run does not fit the budget (runs, tank
 minutes).
 """
 
@@ -29,6 +38,7 @@ import numpy as np
 
 from estimation.design.information import PARAMETERS, predict
 from estimation.design.planning_envelope import Candidate, RigEnvelope
+from estimation.uncertainty.budget import Budget
 
 BASE = PARAMETERS[:3]
 FRICTION_PAIR = frozenset({"coulomb_friction", "constant_bias"})
@@ -52,14 +62,35 @@ class AxisState:
     ambiguous: tuple[tuple[str, ...], ...]
     rmse: float
     recorded: tuple[Candidate, ...]
+    #: Per coefficient, from the budget: u_A/σ (the Type A sources over the fit σ, ≥ 1),
+    #: u_B (the declared tolerances, the coefficient's unit) and the coverage factor k.
+    #: Absent (no budget): 1, 0 and 2, so U = 2σ.
+    type_a_scale: Mapping[str, float] = field(default_factory=dict)
+    type_b: Mapping[str, float] = field(default_factory=dict)
+    coverage: Mapping[str, float] = field(default_factory=dict)
+
+    def expanded(self, name: str, std: float) -> float:
+        """U of ``name`` were its fit σ ``std``: k·√((u_A/σ·std)² + u_B²)."""
+        a, b = self.type_a_scale.get(name, 1.0), self.type_b.get(name, 0.0)
+        return self.coverage.get(name, 2.0) * float(np.hypot(a * std, b))
 
     def ratios(self, relative: float) -> dict[str, float]:
-        """2σ/|θ| over the target, per target coefficient (NaN σ → inf)."""
+        """U/|θ| over the target, per target coefficient (NaN σ → inf)."""
         out = {}
         for n in BASE:
             v, s = self.values.get(n, np.nan), self.std.get(n, np.nan)
             ok = np.isfinite(s) and np.isfinite(v) and v != 0
-            out[n] = float(2 * s / abs(v) / relative) if ok else float("inf")
+            out[n] = float(self.expanded(n, s) / abs(v) / relative) if ok else float("inf")
+        return out
+
+    def floor(self, relative: float) -> dict[str, float]:
+        """k·u_B/|θ| over the target, per target coefficient: U with the Type A part gone
+        (above 1: the declared tolerances alone miss the target on this design)."""
+        out = {}
+        for n in BASE:
+            v = self.values.get(n, np.nan)
+            ok = np.isfinite(v) and v != 0
+            out[n] = float(self.expanded(n, 0.0) / abs(v) / relative) if ok else 0.0
         return out
 
     def unresolved(self) -> list[str]:
@@ -97,8 +128,11 @@ class Decision:
     status: dict[str, dict] = field(default_factory=dict)
 
 
-def state_from_result(result: object, recorded: Sequence[Candidate]) -> AxisState:
-    """The planner's view of an ``estimation.axis.result.EstimationResult``."""
+def state_from_result(
+    result: object, recorded: Sequence[Candidate], budget: Budget | None = None
+) -> AxisState:
+    """The planner's view of an ``estimation.axis.result.EstimationResult`` and its
+    uncertainty ``budget`` (None: none, U = 2σ)."""
     r = result  # duck-typed: an EstimationResult
     values = {n: e.value for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
     std = {n: e.std for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
@@ -112,6 +146,14 @@ def state_from_result(result: object, recorded: Sequence[Candidate]) -> AxisStat
         for j, b in enumerate(names)
         if i < j and np.isfinite(corr[i, j])
     }
+    scale, type_b, coverage = {}, {}, {}
+    for n, b in (budget.coefficients if budget is not None else {}).items():
+        used = [row for row in b.rows if row.combined]
+        u_a = float(np.sqrt(sum(row.contribution**2 for row in used if row.kind == "A")))
+        type_b[n] = float(np.sqrt(sum(row.contribution**2 for row in used if row.kind == "B")))
+        sigma = std.get(n, np.nan)
+        scale[n] = max(u_a / sigma, 1.0) if np.isfinite(sigma) and sigma > 0 else 1.0
+        coverage[n] = b.k if np.isfinite(b.k) else 2.0
     return AxisState(
         axis=r.axis,  # type: ignore[attr-defined]
         values=values,
@@ -120,6 +162,9 @@ def state_from_result(result: object, recorded: Sequence[Candidate]) -> AxisStat
         ambiguous=tuple(tuple(g) for g in r.ambiguous),  # type: ignore[attr-defined]
         rmse=float(r.fit_after.rmse),  # type: ignore[attr-defined]
         recorded=tuple(recorded),
+        type_a_scale=scale,
+        type_b=type_b,
+        coverage=coverage,
     )
 
 
@@ -156,9 +201,12 @@ def _fit_scale(state: AxisState, model_cov: np.ndarray) -> float:
     return float(np.median(ratios)) if ratios else 1.0
 
 
-def _worst(cov: np.ndarray, theta: np.ndarray, relative: float) -> float:
+def _worst(cov: np.ndarray, state: AxisState, relative: float) -> float:
+    """The worst U/|θ| over the target were the fit's covariance ``cov``."""
     sig = np.sqrt(np.clip(np.diag(cov)[:3], 0, None))
-    return float(np.max(2 * sig / np.maximum(np.abs(theta[:3]), 1e-12) / relative))
+    theta = np.maximum(np.abs(_theta(state)[:3]), 1e-12)
+    ratios = zip(BASE, sig, theta, strict=True)
+    return max(state.expanded(n, float(s)) / t / relative for n, s, t in ratios)
 
 
 def _rho(cov: np.ndarray, a: str, b: str) -> float:
@@ -193,7 +241,7 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     theta = _theta(state)
     base_info = _information(state, env, state.recorded) + _prior(env, state.axis)
     k = _fit_scale(state, _covariance(base_info))
-    before = _worst(k * _covariance(base_info), theta, relative)
+    before = _worst(k * _covariance(base_info), state, relative)
     pair = _pair_to_separate(state)
     other_way = _other_way(state, env)
     scored = []
@@ -205,7 +253,7 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
             continue
         minutes = (p.duration_s + env.reset_s) / 60
         cov = k * _covariance(base_info + p.information / max(state.rmse, 1e-9) ** 2)
-        after = _worst(cov, theta, relative)
+        after = _worst(cov, state, relative)
         gain = -(before - after) / minutes
         if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
             rho = _rho(cov, *pair)
@@ -250,7 +298,8 @@ def opening(env: RigEnvelope, axis: str, done: Sequence[Candidate]) -> Candidate
 
 
 def axis_status(state: AxisState | None, relative: float) -> dict:
-    """``{"ratios", "unresolved", "reached"}`` of one axis (no fit: not reached)."""
+    """``{"ratios", "unresolved", "reached"}`` of one axis (no fit: not reached); the
+    ratios are U/|θ| over the target."""
     if state is None:
         return {"ratios": {}, "unresolved": ["no fit yet"], "reached": False}
     ratios = state.ratios(relative)

@@ -26,7 +26,7 @@ def test_a_campaign_runs_its_choices_as_jobs_and_keeps_the_trail(client, service
     assert doc["outcome"] in ("target", "budget: 2 of 2 runs used"), doc["outcome"]
     first, second = trail
     assert first["before"]["unresolved"] == ["no fit yet"]
-    assert set(first["after"]["two_sigma_percent"]) == {
+    assert set(first["after"]["expanded_percent"]) == {
         "inertia",
         "linear_damping",
         "quadratic_damping",

@@ -22,7 +22,7 @@ def test_a_one_run_campaign_runs_the_planners_opening_and_stops_at_its_budget(tm
     # the opening: the rig file's largest force (100 N), a hung weight, forward
     assert entry["request"] == {"force_n": 100.0, "drive": "weight"}
     assert entry["before"]["unresolved"] == ["no fit yet"]
-    assert set(entry["after"]["two_sigma_percent"]) == {
+    assert set(entry["after"]["expanded_percent"]) == {
         "inertia",
         "linear_damping",
         "quadratic_damping",

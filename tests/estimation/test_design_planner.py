@@ -53,9 +53,10 @@ def test_predicted_sigma_agrees_with_the_fit_on_independent_runs(axis, truth, dr
     assert np.all((ratio > 0.8) & (ratio < 1.25)), (predicted, fitted)
 
 
-def _state(recorded, ambiguous=(), std=(0.5, 0.5, 2.0), axis="surge") -> AxisState:
+def _state(recorded, ambiguous=(), std=(0.5, 0.5, 2.0), axis="surge", **budget) -> AxisState:
     values = dict(zip(("inertia", "linear_damping", "quadratic_damping"), SURGE_TRUTH, strict=True))
     return AxisState(
+        **budget,
         axis=axis,
         values=values,
         std=dict(zip(values, std, strict=True)),
@@ -106,6 +107,28 @@ def test_stops_at_the_target_and_at_the_budget():
     decision = decide({"surge": ambiguous}, RIG, 0.01, runs_used=2, minutes_used=2.0,
                       max_runs=10, max_minutes=60.0, done={})  # fmt: skip
     assert decision.stop is None  # σ met but an ambiguity left: not done
+
+
+def test_the_target_is_the_expanded_uncertainty_not_the_fit_sigma():
+    """A fit whose 2σ meets 1 % is not done while U — the Type A sources beyond the fit σ and
+    the declared tolerances' Type B — does not; the planner predicts U with the Type B part
+    held, so a run is not credited with shrinking it."""
+    both_ways = [Candidate("surge", 100.0), Candidate("surge", -50.0)]
+    inertia = SURGE_TRUTH[0]
+    met = dict(std=(0.1, 0.05, 0.5))  # 2σ/|θ| well under 1 % on all three
+    args = dict(runs_used=2, minutes_used=2.0, max_runs=10, max_minutes=60.0, done={})
+    assert decide({"surge": _state(both_ways, **met)}, RIG, 0.01, **args).stop == "target"
+    # Type A twice the fit σ on the inertia (repeatability, release timing): U misses 1 %
+    wider = _state(both_ways, **met, type_a_scale={"inertia": 0.006 * inertia / 0.1})
+    assert wider.ratios(0.01)["inertia"] > 1.0
+    assert decide({"surge": wider}, RIG, 0.01, **args).stop is None  # measure on
+    # the tolerances alone give U = 1.4 % of the inertia: the trail says so, the planner
+    # predicts no run below it
+    stuck = _state(both_ways, std=(2.0, 2.0, 5.0), type_b={"inertia": 0.007 * inertia})
+    assert stuck.floor(0.01)["inertia"] == pytest.approx(1.4)
+    choice = choose(stuck, RIG, 0.01)
+    assert choice is not None and choice.predicted_after >= 1.4
+    assert decide({"surge": stuck}, RIG, 0.01, **args).stop is None
 
 
 def test_an_axis_the_rig_cannot_test_is_refused_naming_the_field():
