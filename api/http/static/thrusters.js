@@ -1,9 +1,14 @@
 // The Thrusters page as a thrust stand: the newest calibration (GET /api/calibration/latest)
 // as a Tyto user reads it — RPM, electrical power, efficiency (g/W) and the response time
 // with its σ; thrust against command, RPM and power in N, kgf or lbf; the fitted curve and
-// its inverse map; every calibration stored. Uses esc (markup.js), fmt, localTime, voltageText (format.js), app.js's $, $$, api,
-// pageLoaders.
-"use strict";
+// its inverse map; every calibration stored.
+import { api } from "./api.js";
+import { $, $$, kv } from "./dom.js";
+import { fmt, localTime, voltageText } from "./format.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
+import { state } from "./state.js";
+import { onSample } from "./stream.js";
 
 const STANDARD_GRAVITY = 9.80665; // m/s², kgf → N
 //: Thrust units offered: newtons per unit, and the label.
@@ -134,7 +139,7 @@ async function loadCalibrationList() {
     .join("");
 }
 
-// Live readouts while the page is shown (app.js's stream calls this with each sample): the
+// Live readouts while the page is shown (the stream's samples, stream.js): the
 // rig's channels in volts (supply) and newtons (load cell, in the chosen unit) and each
 // thruster's command. RPM and current are not streamed: the controller reports them at each
 // calibration step, and the table holds them.
@@ -159,4 +164,5 @@ function onStandSample(sample) {
   }
 }
 
-pageLoaders.thrusters = loadCalibration;
+onSample(onStandSample);
+onPage("thrusters", loadCalibration);
