@@ -192,7 +192,7 @@ def test_every_answer_forbids_framing_and_the_ui_page_has_a_content_security_pol
     assert "default-src 'self'" in policy and "unsafe-eval" not in policy
     assert page.headers["x-frame-options"] == "DENY"
     assert page.headers["x-content-type-options"] == "nosniff"
-    for path in ("/api/health", "/static/app.js", "/api/runs", "/docs"):
+    for path in ("/api/health", "/static/main.js", "/api/runs", "/docs"):
         r = client.get(path)
         assert "frame-ancestors 'none'" in r.headers["content-security-policy"], path
         assert r.headers["x-frame-options"] == "DENY", path

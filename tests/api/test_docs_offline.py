@@ -62,7 +62,7 @@ def test_redoc_renders_with_the_network_blocked(chromium, docs_server):
 
 @pytest.mark.parametrize(
     "path",
-    ["/static/plotly.min.js", "/static/app.js", f"{DOCS_ASSETS_URL}/swagger-ui-bundle.js",
+    ["/static/plotly.min.js", "/static/estimation.js", f"{DOCS_ASSETS_URL}/swagger-ui-bundle.js",
      f"{DOCS_ASSETS_URL}/redoc.standalone.js"],
 )  # fmt: skip
 def test_static_bundles_are_gzipped(docs_server, path):

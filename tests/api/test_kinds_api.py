@@ -240,16 +240,27 @@ def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
         checked = chooser.locator("input:checked")
         expect(checked).to_have_count(2)
         assert checked.evaluate_all("els => els.map((e) => e.value)") == ["tow_position", "speed"]
-        assert page.evaluate("liveDefaultsOf('lift')") == ["lift_position", "load_cell"]
+        assert page.evaluate("import('/static/live.js').then((m) => m.liveDefaultsOf('lift'))") == [
+            "lift_position",
+            "load_cell",
+        ]
         driven = served["tow"]["live"] + served["spin"]["live"] + ["lift_position", "load_cell"]
-        assert page.evaluate("liveDefaultsOf('sequence')") == driven
+        assert (
+            page.evaluate("import('/static/live.js').then((m) => m.liveDefaultsOf('sequence'))")
+            == driven
+        )
         kinds = page.locator("#runs-filter select[name=kind] option")  # the Runs page's filter
         expect(kinds).to_have_count(len(served) + 1)
         assert kinds.all_text_contents() == ["any", *served]  # the free decay and lift too
-        units = page.evaluate("axisUnits()")  # the result pages' units, merged per axis
+        units = page.evaluate(
+            "import('/static/start_forms.js').then((m) => m.axisUnits())"
+        )  # the result pages' units, merged per axis
         assert units["yaw"] == served["spin"]["units"]["yaw"]  # the decay's adds, never drops
         assert units["roll"] == {"position": "rad"}
-        cc = page.evaluate("crosscheckKinds(servedKinds)")
+        cc = page.evaluate(
+            "Promise.all([import('/static/crosscheck.js'), import('/static/start_forms.js')])"
+            ".then(([cc, kinds]) => cc.crosscheckKinds(kinds.servedKinds))"
+        )
         assert cc == {
             "kinds": ["tow", "spin", "lift"],
             "axes": ["surge", "yaw", None],

@@ -198,7 +198,10 @@ def test_chosen_channels_are_plotted_live_with_units_and_kept(chromium, client, 
         assert page.text_content("#job-state") == "completed", page.text_content("#job-panel")
         # a stale report of the job still running (a status poll answered before its end,
         # read after the stream's final event) does not bring the panel back
-        page.evaluate("() => showJob({ ...state.job, state: 'running' })")
+        page.evaluate(
+            "() => Promise.all([import('/static/jobs.js'), import('/static/state.js')])"
+            ".then(([jobs, { state }]) => jobs.showJob({ ...state.job, state: 'running' }))"
+        )
         assert page.text_content("#job-state") == "completed"
 
         page.reload()  # the choice for pendulum tests is kept

@@ -53,7 +53,11 @@ def test_estimation_page_shows_full_size_report_figures_with_units(chromium, cli
         # Two redraws racing (a job update and its result arrive together): the figures stay
         # once each, in the report's order.
         result = client.get("/api/results?kind=estimation", headers=AUTH).json()[0]
-        page.evaluate("id => Promise.all([showReportPlots(id), showReportPlots(id)])", result["id"])
+        page.evaluate(
+            "id => import('/static/estimation.js')"
+            ".then((m) => Promise.all([m.showReportPlots(id), m.showReportPlots(id)]))",
+            result["id"],
+        )
         # (a redraw the stream started meanwhile may still be fetching: wait for the page
         # to settle on its figures, then check there is each once, in order)
         expect(page.locator("#est-plots figcaption")).to_have_count(len(result["report_plots"]))

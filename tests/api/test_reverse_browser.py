@@ -54,7 +54,14 @@ def test_the_reverse_button_starts_the_reverse_tow(chromium, client, service):
         expect(page.locator("#est-reverse-status")).to_contain_text("started: tow -83.3 N")
         # the event stream may report the estimation's completion after the poll did: that
         # late report must not redraw the result and clear what the user started from it
-        page.evaluate("async () => onJobEvent(await api('GET', `/api/jobs/${estimationJobId}`))")
+        estimation = next(
+            j for j in client.get("/api/jobs", headers=AUTH).json() if j["kind"] == "estimation"
+        )
+        page.evaluate(
+            "id => Promise.all([import('/static/stream.js'), import('/static/api.js')])"
+            ".then(async ([s, a]) => s.jobEvent(await a.api('GET', `/api/jobs/${id}`)))",
+            estimation["id"],
+        )
         expect(page.locator("#est-reverse-status")).to_contain_text("started: tow -83.3 N")
 
     jobs = client.get("/api/jobs", headers=AUTH).json()

@@ -1,7 +1,11 @@
 // Analysis page: sensitivity of a vehicle's coefficients (seed 004) on the 6-DOF model:
 // ranking by knock-out index, threshold sweep of the reduced model, AHP weights,
 // identifiability of the plugged-in estimates and the next test to run.
-"use strict";
+import { api } from "./api.js";
+import { $, $$ } from "./dom.js";
+import { fmt, localTime } from "./format.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
 
 const analysis = { ready: false, responses: [] };
 const ANALYSIS_PLOT = { responsive: true, displaylogo: false };
@@ -149,4 +153,4 @@ function analysisShow(out) {
   $("#an-notes").innerHTML = out.notes.map((n) => `<li>${esc(n)}</li>`).join("");
 }
 
-pageLoaders.analysis = analysisLoad;
+onPage("analysis", analysisLoad);

@@ -1,7 +1,15 @@
 // Queue page, Campaign card: start a campaign (target 2σ in %, axes, budget), watch its trail
 // live — each test it chose, why, the operator's acts, 2σ before → after — and stop it.
-// Live from app.js's job events (onCampaignJobEvent); uses app.js's $, api, FINAL and esc (markup.js).
-"use strict";
+// Live from the stream's campaign jobs (stream.js).
+import { api } from "./api.js";
+import { $, $$ } from "./dom.js";
+import { shownState } from "./jobs.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
+import { queueAction } from "./queue.js";
+import { loadKinds } from "./start_forms.js";
+import { FINAL, state } from "./state.js";
+import { onJob } from "./stream.js";
 
 const campaignView = { job: null };
 const COEFFS = [["inertia", "M"], ["linear_damping", "K_L"], ["quadratic_damping", "K_Q"]];
@@ -29,7 +37,7 @@ function showCampaign(job) {
       <td>${sigmaText(e.before)}</td><td>${sigmaText(e.after)}${e.after.unresolved.length ? `<br><span class="muted">${esc(e.after.unresolved.join("; "))}</span>` : ""}</td>
       <td>${e.tank_minutes.toFixed(1)}</td></tr>`)
     .join("");
-  const shown = shownState(job); // app.js: "stopping" once asked, until it ends
+  const shown = shownState(job); // jobs.js: "stopping" once asked, until it ends
   const stopping = shown === "stopping"
     ? ` <span class="muted" id="campaign-stopping">no further test; the run on the rig finishes first</span>` : "";
   box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${esc(shown)}" id="campaign-state">${esc(shown)}</span>${stopping}
@@ -99,8 +107,7 @@ async function loadCampaign() {
 }
 
 $("#queue-marker").onclick = () => queueAction("POST", "/api/queue/stop-marker", {});
-const queueLoader = pageLoaders.queue;
-pageLoaders.queue = () => {
-  queueLoader();
-  loadCampaign();
-};
+onJob((job) => {
+  if (job.kind === "campaign") onCampaignJobEvent(job);
+});
+onPage("queue", loadCampaign);

@@ -1,13 +1,20 @@
 // Cross-check page: two stored estimation results (or runs estimated now), the coefficients
 // side by side with z and verdict, the common factor, the diagnosis and an error-bar plot.
-"use strict";
+import { api } from "./api.js";
+import { $, $$, kv } from "./dom.js";
+import { fmt, localTime } from "./format.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
+import { load } from "./run_text.js";
+import { axisUnits, loadKinds } from "./start_forms.js";
+import { FINAL } from "./state.js";
 
 const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q", damping_at_speed: "K_L + K_Q·|v|" };
 
 // What a cross-check compares (GET /api/kinds): runs of the kinds both a weight and the
 // thrusters drive, and estimation results on their axes from their estimator (a result that
 // names its analysis names the estimator: a pendulum's swing may be a surge too).
-function crosscheckKinds(kinds) {
+export function crosscheckKinds(kinds) {
   const both = kinds.filter((k) => ["weight", "thrusters"].every((d) => k.drives.includes(d)));
   return {
     kinds: both.map((k) => k.kind),
@@ -129,4 +136,4 @@ async function crosscheckRender(res) {
   );
 }
 
-pageLoaders.crosscheck = crosscheckLoad;
+onPage("crosscheck", crosscheckLoad);

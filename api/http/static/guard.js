@@ -1,7 +1,11 @@
 // The rig's guard on the Rig page: an emergency stop waiting for an operator's
 // acknowledgement, and who holds the rig (GET /api/rig → guard), in a technician's words
-// with local times. app.js calls renderGuard.
-"use strict";
+// with local times, drawn with each rig status (rig.js).
+import { api } from "./api.js";
+import { $ } from "./dom.js";
+import { localTime } from "./format.js";
+import { esc } from "./markup.js";
+import { onRigStatus, refreshRig } from "./rig.js";
 
 function renderGuard(guard) {
   const panel = $("#guard-panel");
@@ -34,3 +38,5 @@ function renderGuard(guard) {
     }
   });
 }
+
+onRigStatus((s) => renderGuard(s.guard || {}));

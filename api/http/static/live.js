@@ -2,9 +2,15 @@
 // from the axes' positions, and the thruster commands; one row per unit, 1-2-5 ticks. The
 // channels shown by default depend on the running job's kind (its registry entry's `live`
 // and `rate`, GET /api/kinds via start_forms.js's `servedKinds`); the user's choice is kept
-// per kind in localStorage. Loaded before app.js, whose stream calls onSample() and whose
-// start buttons call resetLive(); it reads app.js's `state` (rig status, current job).
-"use strict";
+// per kind in localStorage. Fed by the stream's samples (stream.js); a started test calls
+// resetLive(); it reads the page's `state` (rig status, current job).
+import { $, $$ } from "./dom.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
+import { unitRowsPlot } from "./plots.js";
+import { servedKinds } from "./start_forms.js";
+import { FINAL, state } from "./state.js";
+import { onSample } from "./stream.js";
 
 const LIVE_POINTS = 600; // one minute at 10 Hz
 const LIVE_STORE = "rig-live-channels"; // {kind: [channel keys]}
@@ -12,7 +18,7 @@ const LIVE_KIND_STORE = "rig-live-kind"; // the kind whose choice was shown last
 // What matters for each kind of test (keys that the rig lacks are dropped): its served
 // `live`; a sequence's, those of every kind a weight or the thrusters drive; a kind not
 // served, the first kind's. `null`: the kinds are not served yet.
-function liveDefaultsOf(kind) {
+export function liveDefaultsOf(kind) {
   if (!servedKinds.length) return null;
   const served = servedKinds.find((k) => k.kind === kind);
   if (served) return served.live;
@@ -115,7 +121,7 @@ function liveSync() {
 }
 
 // ---- samples -------------------------------------------------------------------------------
-function onSample(s) {
+function liveSample(s) {
   live.count += 1;
   $("#live-count").textContent = String(live.count);
   if (live.t0 === null) live.t0 = s.t_mono;
@@ -148,7 +154,7 @@ function liveRequestDraw() {
   }, Math.max(LIVE_REDRAW_MS, liveDrawMs));
 }
 
-function resetLive() {
+export function resetLive() {
   live.last = null;
 }
 
@@ -168,7 +174,7 @@ function liveDraw() {
   unitRowsPlot("live-plot", series, { xTitle: "time [s]", empty, revision: "live" });
 }
 
-function initLivePlot() {
+export function initLivePlot() {
   $("#live-defaults").onclick = () => {
     const saved = liveSaved();
     delete saved[live.kind];
@@ -177,3 +183,6 @@ function initLivePlot() {
   };
   liveDraw();
 }
+
+onSample(liveSample);
+onPage("rig", () => Plotly.Plots.resize("live-plot"));

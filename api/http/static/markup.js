@@ -2,13 +2,10 @@
 // error that goes into markup (innerHTML, insertAdjacentHTML) passes through esc; plain text
 // goes in with textContent. tests/api/static/escaping.test.js scans the scripts for markup
 // that interpolates anything else. No DOM: unit-tested with node --test.
-"use strict";
 
 const ENTITIES = { "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" };
 
 /** A value as text safe inside markup and in a quoted attribute (either quote): & < > " ' escaped. */
-function esc(value) {
+export function esc(value) {
   return String(value).replace(/[&<>"']/g, (c) => ENTITIES[c]);
 }
-
-if (typeof module !== "undefined") module.exports = { esc };

@@ -1,6 +1,9 @@
 // Pendulum free-decay results on the estimation page (result JSON with analysis "pendulum").
-// Registered in app.js's resultViews, so renderEstimation hands such results here; uses
-// app.js's $, api, kv, state; esc (markup.js), fmt (format.js).
+// Registered in estimation.js's resultViews, so renderEstimation hands such results here.
+import { $, kv } from "./dom.js";
+import { resultViews, showReportPlots, wellDeterminedRows } from "./estimation.js";
+import { fmt } from "./format.js";
+import { esc } from "./markup.js";
 
 function pendulumPm(e) {
   if (!e || e.value === null || e.value === undefined) return "—";
@@ -25,7 +28,7 @@ async function renderPendulumEstimation(res) {
       return `<tr><td>${esc(k)} (${esc(units[k] || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
         ${before ? `<td class="muted">before effects: ${esc(pendulumPm(before))}</td>` : ""}</tr>`;
     })
-    .join("") + wellDeterminedRows(res); // app.js
+    .join("") + wellDeterminedRows(res); // estimation.js
   const lb = (res.diagnostics || {});
   kv($("#est-rmse"), [
     ["Analysis / headline", `pendulum free decay, ${res.axis} / ${res.method}`],

@@ -1,7 +1,10 @@
 // Who is signed in (GET /api/whoami) in the header, with a sign-out; for a viewer, every
 // control that starts, stops or changes something is disabled with the reason as its
-// tooltip, however and whenever the page draws it. Uses app.js's $, $$, api, state, askToken.
-"use strict";
+// tooltip, however and whenever the page draws it.
+import { api } from "./api.js";
+import { $, $$ } from "./dom.js";
+import { onRigStatus } from "./rig.js";
+import { state } from "./state.js";
 
 // The controls that need role operator (the API answers 403 to a viewer). The emergency
 // stop is not among them: anyone may press it.
@@ -58,7 +61,7 @@ function showUser(user) {
   lockForRole();
 }
 
-// Called by app.js after each status poll: ask who we are once per token.
+// Called after each status poll (rig.js): ask who we are once per token.
 async function refreshUser() {
   if (people.token === state.token) return;
   const asked = state.token;
@@ -80,3 +83,8 @@ $("#sign-out").onclick = () => {
   // a page drawn for one role is not left to another: reload it unlocked, asking a token
   location.reload();
 };
+
+// Each rig status: who is signed in (asked once per token; not awaited by the status poll).
+onRigStatus(() => {
+  refreshUser();
+});

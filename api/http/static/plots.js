@@ -1,11 +1,11 @@
 // Plots with one row per unit, shared by the live plot (live.js) and the run detail
-// (app.js): each series {x, y, name, label, unit, key} goes in the row of its unit; a row is
+// (runs.js): each series {x, y, name, label, unit, key} goes in the row of its unit; a row is
 // titled by its channel when it holds one, and its y axis steps on 1-2-5 values.
 
 // ---- axis ticks --------------------------------------------------------------------------
 // A 1-2-5 step giving about `target` intervals over [lo, hi], and a range just beyond the
 // outer ticks.
-function niceAxis(lo, hi, target = 5) {
+export function niceAxis(lo, hi, target = 5) {
   if (!Number.isFinite(lo) || !Number.isFinite(hi)) return null;
   if (hi - lo < 1e-12) {
     const pad = Math.max(Math.abs(lo) * 0.05, 1e-3);
@@ -31,7 +31,7 @@ const DASHES = ["solid", "dash", "dot", "dashdot"];
 const SYMBOLS = ["circle", "square", "diamond", "triangle-up"];
 
 // mode: "lines" against time, "markers" for one channel against another.
-function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above", revision, mode = "lines" } = {}) {
+export function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above", revision, mode = "lines" } = {}) {
   const units = [...new Set(series.map((s) => s.unit))];
   const rows = Math.max(units.length, 1);
   const gap = 0.06;
@@ -75,5 +75,3 @@ function unitRowsPlot(element, series, { xTitle, empty = "Choose channels above"
   }
   Plotly.react(element, traces, layout, { responsive: true, displaylogo: false });
 }
-
-if (typeof module !== "undefined") module.exports = { niceAxis };

@@ -1,9 +1,17 @@
 // Queue page and the Rig page's queue summary: the rig's queue (reorder, edit, remove, run
 // now, stop after the current job, resume, with the reason it is paused), sequence files to
-// start, and the history of past jobs with re-queue. Live from app.js's job events
-// (onQueueJobEvent) and a poll of GET /api/queue. Uses esc (markup.js), fmt (format.js), app.js's $, $$, api, state,
-// FINAL, formBody, metadataBody, problemField, showJob.
-"use strict";
+// start, and the history of past jobs with re-queue. Live from the stream's job events
+// (onQueueJobEvent) and a poll of GET /api/queue.
+import { api } from "./api.js";
+import { $, $$ } from "./dom.js";
+import { fmt, localTime } from "./format.js";
+import { formBody, problemField } from "./forms.js";
+import { showJob, shownState } from "./jobs.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
+import { metadataBody } from "./run_metadata.js";
+import { FINAL } from "./state.js";
+import { onJob } from "./stream.js";
 
 const HISTORY_LIMIT = 25;
 const queueView = { data: null, seen: {}, editing: null, timer: null };
@@ -74,7 +82,7 @@ function showQueue(q) {
   }
 }
 
-async function queueAction(method, path, body) {
+export async function queueAction(method, path, body) {
   $("#queue-error").textContent = "";
   try {
     const q = await api(method, path, body);
@@ -256,10 +264,13 @@ function onQueueJobEvent(job) {
   }, 150);
 }
 
-pageLoaders.queue = () => {
+onJob((job) => {
+  if (job.kind !== "estimation" && job.kind !== "campaign") onQueueJobEvent(job);
+});
+onPage("queue", () => {
   refreshQueue();
   loadSequences();
   loadHistory();
-};
+});
 refreshQueue();
 setInterval(refreshQueue, 2000); // pauses and edits by other clients send no job event

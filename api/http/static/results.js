@@ -3,7 +3,12 @@
 // so a pendulum's goes to pendulum.js), its report downloaded as a zip or its JSON, and two or
 // more compared side by side (GET /api/results/compare). The URL hash names the open result
 // (#results/12), so a reload shows it again. The run page lists a run's results (showRunResults).
-// Uses esc (markup.js), fmt (format.js), app.js's $, $$, api, download, renderEstimation, pageLoaders, TZ.
+import { api, download } from "./api.js";
+import { $, $$ } from "./dom.js";
+import { onFreshResult, renderEstimation } from "./estimation.js";
+import { fmt, TIME_ZONE } from "./format.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
 
 const RESULTS_PAGE = 20;
 const resultsState = { offset: 0, open: null };
@@ -12,7 +17,7 @@ const resultLink = (id) => `<a href="#results/${Number(id)}" class="result-link"
 const resultWhat = (r) => [r.data.dof || r.data.axis || r.data.analysis, r.data.method].filter(Boolean).join(" / ") || "—";
 
 async function loadResults() {
-  const params = new URLSearchParams({ limit: RESULTS_PAGE, offset: resultsState.offset, tz: TZ });
+  const params = new URLSearchParams({ limit: RESULTS_PAGE, offset: resultsState.offset, tz: TIME_ZONE });
   for (const el of $("#results-filter").elements) {
     if (el.name && el.value.trim()) params.set(el.name, el.value.trim());
   }
@@ -64,7 +69,7 @@ async function openStoredResult(id) {
     $("#est-status").textContent += ": a thrust calibration, shown on the Thrusters page.";
     return;
   }
-  await renderEstimation({ ...stored.data, result_id: stored.id }); // app.js
+  await renderEstimation({ ...stored.data, result_id: stored.id }); // estimation.js
 }
 
 // Ticked results side by side: per coefficient value ± U (budget U, else 2σ) and each
@@ -94,7 +99,7 @@ async function compareResults() {
 }
 
 // The run page's list of the results made from a run, each opening in the list above.
-async function showRunResults(runId) {
+export async function showRunResults(runId) {
   const list = $("#run-results");
   list.innerHTML = "";
   let found;
@@ -124,8 +129,9 @@ $("#results-next").onclick = () => {
 };
 $("#results-compare").onclick = compareResults;
 
-pageLoaders.estimation = loadResults; // #results/… shows the Estimation page: this runs too
-pageLoaders.results = () => {
+onFreshResult(() => loadResults()); // a fresh estimation is listed
+onPage("estimation", loadResults); // #results/… shows the Estimation page: this runs too
+onPage("results", () => {
   const id = Number(location.hash.split("/")[1]);
   if (Number.isInteger(id) && id > 0) openStoredResult(id);
-};
+});

@@ -1,29 +1,28 @@
-// The run detail's plot as data, no DOM (app.js draws it with plots.js): the chosen channels
+// The run detail's plot as data, no DOM (runs.js draws it with plots.js): the chosen channels
 // of one or more runs against time from each run's release, or against another channel
 // ("Y against X", e.g. thrust against RPM), each line named by its channel and, when runs
 // are overlaid, by its run. Unit-tested without a browser (tests/api/static/*.test.js).
-"use strict";
 
 // The x axis of a run plot when no channel is chosen for it.
-const TIME_AXIS = "time";
+export const TIME_AXIS = "time";
 
 /** A channel as the plots name it: "drive_force" → "drive force". */
-function channelLabel(name) {
+export function channelLabel(name) {
   return String(name).replace(/_/g, " ");
 }
 
 /** A unit as an axis prints it: "" for none or the dimensionless "1". */
-function shownUnit(unit) {
+export function shownUnit(unit) {
   return unit === "1" ? "" : unit || "";
 }
 
 /** An axis title or legend entry: "drive force [N]", or the bare label without a unit. */
-function withUnit(label, unit) {
+export function withUnit(label, unit) {
   return unit ? `${label} [${unit}]` : label;
 }
 
 /** A run as a legend names it: short id, kind and load, e.g. "3f2a9c1e tow 30 N". */
-function runName(run, loadText = "") {
+export function runName(run, loadText = "") {
   return [String(run.id).slice(0, 8), run.kind, loadText].filter(Boolean).join(" ");
 }
 
@@ -34,7 +33,7 @@ function runName(run, loadText = "") {
  * at its release (at its first sample when any run has none). A run without the x channel
  * is left out and listed in `missing` by name.
  */
-function runPlotSeries(runs, channels, x = TIME_AXIS) {
+export function runPlotSeries(runs, channels, x = TIME_AXIS) {
   const series = [];
   const missing = [];
   const byTime = x === TIME_AXIS;
@@ -66,5 +65,3 @@ function runPlotSeries(runs, channels, x = TIME_AXIS) {
   }
   return { series, xTitle, mode: byTime ? "lines" : "markers", missing };
 }
-
-if (typeof module !== "undefined") module.exports = { TIME_AXIS, channelLabel, shownUnit, withUnit, runName, runPlotSeries };

@@ -1,6 +1,10 @@
 // 6-DOF page: pick a vehicle, give per-thruster commands and/or a body force, simulate,
 // plot u v w / p q r and the x–y track; the allocation matrix of the vehicle.
-"use strict";
+import { api } from "./api.js";
+import { $, $$, kv } from "./dom.js";
+import { fmt, localTime } from "./format.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
 
 const sixdof = { vehicles: null, detail: null, estimates: [] };
 const SIXDOF_FORCE = ["X (N)", "Y (N)", "Z (N)", "K (N·m)", "M (N·m)", "N (N·m)"];
@@ -133,4 +137,4 @@ async function sixdofRun(ev) {
   );
 }
 
-pageLoaders.sixdof = sixdofLoad;
+onPage("sixdof", sixdofLoad);

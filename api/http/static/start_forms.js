@@ -2,18 +2,21 @@
 // GET /api/kinds: one tab and one form per kind the rig runs, one field per property of the
 // kind's JSON Schema (its request model: the field's name is the request's key, its title the
 // label, its description the tooltip, its default the placeholder); one menu entry per method
-// of the kinds' estimators. Loaded before app.js; called from refreshRig once the token is
-// known. The other pages read the served kinds too (`servedKinds`, or await `loadKinds()`):
+// of the kinds' estimators. Rendered by refreshRig (rig.js) once the token is known; a start
+// form is sent by start_requests.js. The other pages read the served kinds too (`servedKinds`,
+// or await `loadKinds()`):
 // the live plot what to show of a kind's runs, the cross-check page which kinds it compares,
 // both result pages the units of an axis's estimates (`axisUnits()`).
-"use strict";
+import { api } from "./api.js";
+import { $, $$ } from "./dom.js";
+import { esc } from "./markup.js";
 
 let startKinds = null;
-let servedKinds = [];
+export let servedKinds = [];
 let kindsRequest = null;
 
 // GET /api/kinds once (again after a failure): every kind of the registry, in order.
-function loadKinds() {
+export function loadKinds() {
   if (!kindsRequest) {
     kindsRequest = api("GET", "/api/kinds").then(
       (kinds) => (servedKinds = kinds),
@@ -28,7 +31,7 @@ function loadKinds() {
 
 // Per axis (or a decay's dof), the unit of each quantity an estimate on it reports, from the
 // kinds' estimators (GET /api/kinds → units): {surge: {inertia: "kg", position: "m", …}}.
-async function axisUnits() {
+export async function axisUnits() {
   const merged = {};
   for (const kind of await loadKinds()) {
     for (const [axis, units] of Object.entries(kind.units || {})) merged[axis] = { ...merged[axis], ...units };
@@ -37,11 +40,11 @@ async function axisUnits() {
 }
 
 // The kinds whose runs the Estimation page offers (those with an estimator).
-function estimatedKinds() {
+export function estimatedKinds() {
   return servedKinds.filter((k) => k.estimator).map((k) => k.kind);
 }
 
-async function ensureStartForms() {
+export async function ensureStartForms() {
   if (startKinds) return;
   const kinds = await loadKinds();
   if (startKinds) return; // a concurrent refresh rendered them meanwhile
@@ -124,5 +127,4 @@ function renderStartForms(kinds) {
       $$(".start-form[data-kind]").forEach((f) => (f.hidden = f.dataset.kind !== b.dataset.form));
     };
   });
-  $$(".start-form[data-kind]").forEach(attachStart);
 }

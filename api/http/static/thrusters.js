@@ -1,62 +1,19 @@
 // The Thrusters page as a thrust stand: the newest calibration (GET /api/calibration/latest)
 // as a Tyto user reads it — RPM, electrical power, efficiency (g/W) and the response time
 // with its σ; thrust against command, RPM and power in N, kgf or lbf; the fitted curve and
-// its inverse map; every calibration stored. Uses esc (markup.js), fmt, localTime, voltageText (format.js), app.js's $, $$, api,
-// pageLoaders.
-"use strict";
+// its inverse map; every calibration stored.
+import { api } from "./api.js";
+import { $, $$, kv } from "./dom.js";
+import { fmt, localTime, voltageText } from "./format.js";
+import { esc } from "./markup.js";
+import { onPage } from "./pages.js";
+import { state } from "./state.js";
+import { onSample } from "./stream.js";
+import { THRUST_UNITS, commandFor, gramsPerWatt, inThrustUnit, standFigures, thrust } from "./thrust_stand.js";
 
-const STANDARD_GRAVITY = 9.80665; // m/s², kgf → N
-//: Thrust units offered: newtons per unit, and the label.
-const THRUST_UNITS = { N: 1, kgf: STANDARD_GRAVITY, lbf: 4.4482216152605 };
 const stand = { cal: null, unit: localStorage.getItem("rig-thrust-unit") || "N" };
 if (!(stand.unit in THRUST_UNITS)) stand.unit = "N";
-
-const inUnit = (newtons) => (newtons === null || newtons === undefined ? null : newtons / THRUST_UNITS[stand.unit]);
-// Efficiency as a thrust stand prints it: grams-force per watt, from N/W.
-const gramsPerWatt = (nPerW) => (nPerW === null || nPerW === undefined ? null : (nPerW / STANDARD_GRAVITY) * 1000);
-
-function thrust(p, u) {
-  const fwd = Math.max(u - p.forward_dead_band, 0);
-  const rev = Math.max(-u - p.reverse_dead_band, 0);
-  return p.forward_gain * fwd ** p.forward_exponent - p.reverse_gain * rev ** p.reverse_exponent;
-}
-function commandFor(p, f) {
-  if (f > 0) return p.forward_dead_band + (f / p.forward_gain) ** (1 / p.forward_exponent);
-  if (f < 0) return -(p.reverse_dead_band + (-f / p.reverse_gain) ** (1 / p.reverse_exponent));
-  return 0;
-}
-
-// voltageText (format.js): a calibration's supply voltages once.
-
-// The figures a thrust stand prints, from the calibration's rows and response.
-function standFigures(data) {
-  const rows = data.table || [];
-  const at = (pick) => rows.reduce((best, r) => (best === null || pick(r, best) ? r : best), null);
-  const fwd = at((r, b) => r.thrust_per_thruster_n > b.thrust_per_thruster_n);
-  const rev = at((r, b) => r.thrust_per_thruster_n < b.thrust_per_thruster_n);
-  // near zero thrust |F|/P divides two small noisy numbers (hundreds of g/W at command 0):
-  // the best efficiency is read where the thruster works, at ≥ 20 % of its largest thrust
-  const largest = Math.max(...rows.map((r) => Math.abs(r.thrust_per_thruster_n)));
-  const working = rows.filter((r) => typeof r.efficiency_n_per_w === "number" && Math.abs(r.thrust_per_thruster_n) >= 0.2 * largest);
-  const best = working.reduce((b, r) => (b === null || r.efficiency_n_per_w > b.efficiency_n_per_w ? r : b), null);
-  const out = [];
-  const unit = stand.unit;
-  if (fwd) out.push(["Largest forward thrust", `${fmt(inUnit(fwd.thrust_per_thruster_n), 4)} ${unit} at command ${fmt(fwd.command, 3)}`]);
-  if (rev && rev.thrust_per_thruster_n < 0) out.push(["Largest reverse thrust", `${fmt(inUnit(rev.thrust_per_thruster_n), 4)} ${unit} at command ${fmt(rev.command, 3)}`]);
-  if (fwd && typeof fwd.rpm === "number") out.push(["RPM at largest thrust", fmt(fwd.rpm, 4)]);
-  if (fwd && typeof fwd.current_a === "number") out.push(["Current at largest thrust", `${fmt(fwd.current_a, 3)} A`]);
-  if (fwd && typeof fwd.power_w === "number") out.push(["Electrical power at largest thrust", `${fmt(fwd.power_w, 4)} W`]);
-  if (fwd && typeof fwd.efficiency_n_per_w === "number") out.push(["Efficiency at largest thrust", `${fmt(gramsPerWatt(fwd.efficiency_n_per_w), 3)} g/W`]);
-  if (best) out.push(["Best efficiency (≥ 20 % of largest thrust)", `${fmt(gramsPerWatt(best.efficiency_n_per_w), 3)} g/W at command ${fmt(best.command, 3)}`]);
-  const resp = data.response;
-  if (resp && typeof resp.time_constant_s === "number") {
-    out.push(["Response time τ (first-order lag)", `${fmt(resp.time_constant_s, 3)} ± ${fmt(resp.std_s, 2)} s (σ)`]);
-    out.push(["90 % settling", `${fmt(resp.settle_90_s, 3)} s (τ·ln 10, from ${resp.transients} steps)`]);
-  } else {
-    out.push(["Response time", "not measured (imported table, or too few steps)"]);
-  }
-  return out;
-}
+const inUnit = (newtons) => inThrustUnit(newtons, stand.unit);
 
 async function loadCalibration() {
   let cal;
@@ -82,7 +39,7 @@ function drawStand() {
   $$("#cal-units input").forEach((i) => (i.checked = i.value === unit));
   $$(".thrust-unit").forEach((el) => (el.textContent = unit));
   $("#cal-stand").hidden = false;
-  kv($("#cal-stand-table"), standFigures(data));
+  kv($("#cal-stand-table"), standFigures(data, stand.unit));
   const cell = (v, digits) => (v === undefined || v === null ? "—" : fmt(v, digits));
   $("#cal-table tbody").innerHTML = table
     .map((r) => `<tr><td>${esc(fmt(r.command, 3))}</td><td>${esc(r.direction || "—")}</td><td>${esc(fmt(inUnit(r.thrust_per_thruster_n), 4))}</td><td>${esc(cell(r.supply_voltage_v, 3))}</td><td>${esc(cell(r.current_a, 4))}</td><td>${esc(cell(r.rpm, 4))}</td><td>${esc(cell(r.power_w, 4))}</td><td>${esc(cell(gramsPerWatt(r.efficiency_n_per_w), 3))}</td></tr>`)
@@ -134,7 +91,7 @@ async function loadCalibrationList() {
     .join("");
 }
 
-// Live readouts while the page is shown (app.js's stream calls this with each sample): the
+// Live readouts while the page is shown (the stream's samples, stream.js): the
 // rig's channels in volts (supply) and newtons (load cell, in the chosen unit) and each
 // thruster's command. RPM and current are not streamed: the controller reports them at each
 // calibration step, and the table holds them.
@@ -159,4 +116,5 @@ function onStandSample(sample) {
   }
 }
 
-pageLoaders.thrusters = loadCalibration;
+onSample(onStandSample);
+onPage("thrusters", loadCalibration);

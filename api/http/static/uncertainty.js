@@ -1,8 +1,11 @@
 // Estimation page: the uncertainty budget of each coefficient (ITTC 7.5-02-01-01 / GUM, 95 %)
 // and the repeat-run analysis of a tow/spin result (docs/uncertainty.md), under the
 // coefficients. Rendered from the result's `budget` and `repeats`.
+import { $ } from "./dom.js";
+import { fmt } from "./format.js";
+import { esc } from "./markup.js";
 
-function renderUncertainty(res) {
+export function renderUncertainty(res) {
   const box = $("#est-uncertainty");
   if (!box) return;
   const budget = res.budget;

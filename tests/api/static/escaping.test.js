@@ -1,14 +1,14 @@
 // The one escaping path (api/http/static/markup.js) and the scan that keeps every script on
 // it: a value from the user, the database or an error reaches innerHTML only through esc.
-"use strict";
-const test = require("node:test");
-const assert = require("node:assert/strict");
-const fs = require("node:fs");
-const path = require("node:path");
-const { esc } = require("../../../api/http/static/markup.js");
-const { scanScript } = require("./markup_scan.js");
+import test from "node:test";
+import assert from "node:assert/strict";
+import fs from "node:fs";
+import path from "node:path";
+import { fileURLToPath } from "node:url";
+import { esc } from "../../../api/http/static/markup.js";
+import { scanScript } from "./markup_scan.js";
 
-const STATIC = path.join(__dirname, "../../../api/http/static");
+const STATIC = fileURLToPath(new URL("../../../api/http/static/", import.meta.url));
 const scripts = fs.readdirSync(STATIC).filter((f) => f.endsWith(".js") && f !== "plotly.min.js");
 
 test("esc escapes what could open a tag, an entity or leave a quoted attribute", () => {

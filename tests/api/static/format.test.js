@@ -1,9 +1,8 @@
 // Values as the pages print them (api/http/static/format.js), without a browser.
-"use strict";
 process.env.TZ = "Europe/Berlin"; // local times are the reader's: UTC+1 in January
-const test = require("node:test");
-const assert = require("node:assert/strict");
-const { fmt, localTime, voltageText } = require("../../../api/http/static/format.js");
+import test from "node:test";
+import assert from "node:assert/strict";
+import { fmt, localTime, voltageText } from "../../../api/http/static/format.js";
 
 test("numbers to a few significant digits without float noise", () => {
   assert.equal(fmt(0.28500000000000003), "0.285");

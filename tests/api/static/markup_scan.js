@@ -9,20 +9,21 @@
 //   xs.map((x) => a).join(…)     with a (or every template of a block body) one of these
 //   a name in MARKUP_NAMES       (of that script) a value holding markup built by scanned templates
 // Anything else — a field of a run, a job label, an error text — is a finding.
-"use strict";
 
 /**
  * Per script, the names whose values hold markup already escaped where they were built (from
  * templates this scan checks, or from esc): helpers by their callee, variables by their name.
  */
 const MARKUP_NAMES = {
-  "app.js": ["tags", "source", "runs", "wellDeterminedRows"], // tags, file, run links, rows
   "campaign.js": ["stopping", "pending", "rows", "sigmaText"], // badge, next test, trail, 2σ cells
   "crosscheck.js": ["option"], // a stored result as an <option>
+  "estimation.js": ["tags", "source", "wellDeterminedRows"], // run_text.js's cells, rows
   "guard.js": ["who"], // esc(who pressed or holds)
-  "pendulum.js": ["wellDeterminedRows"], // app.js's rows of what the data determine well
+  "jobs.js": ["runs"], // the job's run links
+  "pendulum.js": ["wellDeterminedRows"], // estimation.js's rows of what the data determine well
   "queue.js": ["paramsText", "waiting", "steps", "problems"], // parameter chips, summary, lists
   "results.js": ["resultLink", "heads", "body", "cell"], // links, the comparison's cells
+  "runs.js": ["tags", "source"], // run_text.js's cells
   "start_forms.js": ["label", "tip", "options", "hint", "fields"], // a form's escaped pieces
   "uncertainty.js": ["notes", "tables", "rep", "rows"], // the budget's parts
 };
@@ -257,4 +258,4 @@ function scanScript(source, file) {
   return findings;
 }
 
-module.exports = { scanScript, checkExpression, templatesOf, isMarkup, MARKUP_NAMES };
+export { scanScript, checkExpression, templatesOf, isMarkup, MARKUP_NAMES, readTemplate, regexAt, skipRegex, skipString };

@@ -1,8 +1,7 @@
 // The plots' axes (api/http/static/plots.js) without a browser: ticks on 1-2-5 steps.
-"use strict";
-const test = require("node:test");
-const assert = require("node:assert/strict");
-const { niceAxis } = require("../../../api/http/static/plots.js");
+import test from "node:test";
+import assert from "node:assert/strict";
+import { niceAxis } from "../../../api/http/static/plots.js";
 
 test("about five ticks on a 1-2-5 step, the range just past the outer ticks", () => {
   const a = niceAxis(0.13, 3.17);

@@ -1,9 +1,8 @@
 // The run plot's series (api/http/static/run_plot.js) without a browser: Y against X with
 // units on the axes, overlaid runs named in the legend, time from each run's release.
-"use strict";
-const test = require("node:test");
-const assert = require("node:assert/strict");
-const { TIME_AXIS, runName, runPlotSeries, withUnit, shownUnit } = require("../../../api/http/static/run_plot.js");
+import test from "node:test";
+import assert from "node:assert/strict";
+import { TIME_AXIS, runName, runPlotSeries, withUnit, shownUnit } from "../../../api/http/static/run_plot.js";
 
 function shown(id, kind, rpm, thrust, release = null) {
   const t = rpm.map((_, i) => 100 + i * 0.1);

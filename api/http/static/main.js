@@ -1,0 +1,61 @@
+// towrig browser UI, the one entry module index.html loads: plain ES modules talking to the
+// same HTTP API as any lab tool. Importing the page modules wires their pages (api.js reads
+// the token first); then the live plot is drawn, the rig polled and the stream opened.
+import { api, askToken, initToken } from "./api.js";
+import { $ } from "./dom.js";
+import { initLivePlot } from "./live.js";
+import { showPage } from "./pages.js";
+import { refreshRig } from "./rig.js";
+import { state } from "./state.js";
+import { stream } from "./stream.js";
+// the pages: each registers its loaders, listeners and controls when imported
+import "./analysis.js";
+import "./campaign.js";
+import "./crosscheck.js";
+import "./estimation.js";
+import "./guard.js";
+import "./jobs.js";
+import "./pendulum.js";
+import "./people.js";
+import "./queue.js";
+import "./results.js";
+import "./runs.js";
+import "./sixdof.js";
+import "./start_requests.js";
+import "./thrusters.js";
+
+function refreshAll() {
+  refreshRig();
+  showPage();
+}
+
+$("#token-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  state.token = $("#token-input").value.trim();
+  $("#token-error").textContent = "";
+  localStorage.setItem("rig-token", state.token);
+  try {
+    await api("GET", "/api/rig");
+    $("#token-dialog").hidden = true;
+    refreshAll();
+  } catch (err) {
+    askToken(err.message);
+  }
+});
+
+window.addEventListener("hashchange", () => {
+  if (/token=/.test(location.hash)) {
+    // the link `rig serve` prints, opened in a tab that shows the page already
+    initToken();
+    $("#token-dialog").hidden = true;
+    $("#token-error").textContent = "";
+    return refreshAll();
+  }
+  showPage();
+});
+
+initLivePlot();
+window.addEventListener("load", showPage);
+refreshRig();
+setInterval(refreshRig, 2000);
+stream();

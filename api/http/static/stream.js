@@ -1,0 +1,75 @@
+// The rig's live stream (GET /api/stream, server-sent events read with fetch so the token
+// travels in a header): samples and job updates, handed to the modules that subscribed
+// (onSample, onJob). Reconnects after a drop; asks for a token on a 401.
+import { authHeaders, tokenRefused } from "./api.js";
+import { FINAL, state } from "./state.js";
+
+const sampleListeners = [];
+const jobListeners = [];
+
+/** Calls `listener(sample)` for every sample the stream sends ({seq, t_mono, channels, …}). */
+export function onSample(listener) {
+  sampleListeners.push(listener);
+}
+
+/** Calls `listener(job)` for every job update (a whole job document), in registration order;
+ * each listener picks the jobs it shows (by kind, by state). */
+export function onJob(listener) {
+  jobListeners.push(listener);
+}
+
+/** Hands a job document to every job listener, as the stream does. */
+export function jobEvent(job) {
+  for (const listener of jobListeners) listener(job);
+}
+
+export async function stream() {
+  for (;;) {
+    try {
+      const used = state.token;
+      const r = await fetch("/api/stream?max_hz=10", { headers: authHeaders() });
+      if (r.status === 401) {
+        tokenRefused(used, (await r.json().catch(() => ({}))).detail);
+        await new Promise((res) => setTimeout(res, 3000));
+        continue;
+      }
+      const reader = r.body.getReader();
+      const decoder = new TextDecoder();
+      let buf = "";
+      for (;;) {
+        const { value, done } = await reader.read();
+        if (done) break;
+        buf += decoder.decode(value, { stream: true });
+        let i;
+        while ((i = buf.indexOf("\n\n")) >= 0) {
+          const block = buf.slice(0, i);
+          buf = buf.slice(i + 2);
+          let kind = "message";
+          let data = "";
+          for (const line of block.split("\n")) {
+            if (line.startsWith("event: ")) kind = line.slice(7);
+            else if (line.startsWith("data: ")) data += line.slice(6);
+          }
+          if (!data) continue;
+          const obj = JSON.parse(data);
+          if (kind === "sample") {
+            for (const listener of sampleListeners) listener(obj);
+          }
+          else if (kind === "job") {
+            if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
+            else state.jobDocs[obj.id] = obj;
+            jobEvent(obj);
+          } else if (kind === "job_progress" && state.jobDocs[obj.id]) {
+            // only the progress changed: the stream sends it without the rest of the job
+            const job = { ...state.jobDocs[obj.id], state: obj.state, progress: obj.progress };
+            state.jobDocs[obj.id] = job;
+            jobEvent(job);
+          }
+        }
+      }
+    } catch (err) {
+      console.warn("stream", err);
+    }
+    await new Promise((res) => setTimeout(res, 2000));
+  }
+}

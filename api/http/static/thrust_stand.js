@@ -1,0 +1,56 @@
+// A thrust stand's arithmetic, no DOM (unit-tested with node --test): thrust units, efficiency
+// in g/W, the fitted thrust law and its inverse, the figures the Thrusters page prints.
+import { fmt } from "./format.js";
+
+/** Standard gravity [m/s²]: kgf → N, g/W → N/W. */
+const STANDARD_GRAVITY = 9.80665;
+/** The thrust units offered: newtons per unit, by label. */
+export const THRUST_UNITS = { N: 1, kgf: STANDARD_GRAVITY, lbf: 4.4482216152605 };
+/** A thrust [N] in `unit` (a key of THRUST_UNITS); null for none. */
+export const inThrustUnit = (newtons, unit) => (newtons === null || newtons === undefined ? null : newtons / THRUST_UNITS[unit]);
+/** Efficiency as a thrust stand prints it: grams-force per watt [g/W], from N/W; null for none. */
+export const gramsPerWatt = (nPerW) => (nPerW === null || nPerW === undefined ? null : (nPerW / STANDARD_GRAVITY) * 1000);
+
+/** The fitted thrust law: thrust [N] of one thruster at command `u` (dead bands, gains and
+ * exponents per direction, `p` as GET /api/calibration/latest gives them). */
+export function thrust(p, u) {
+  const fwd = Math.max(u - p.forward_dead_band, 0);
+  const rev = Math.max(-u - p.reverse_dead_band, 0);
+  return p.forward_gain * fwd ** p.forward_exponent - p.reverse_gain * rev ** p.reverse_exponent;
+}
+/** The inverse map: the command giving thrust `f` [N] under the law `p`. */
+export function commandFor(p, f) {
+  if (f > 0) return p.forward_dead_band + (f / p.forward_gain) ** (1 / p.forward_exponent);
+  if (f < 0) return -(p.reverse_dead_band + (-f / p.reverse_gain) ** (1 / p.reverse_exponent));
+  return 0;
+}
+
+/** The figures a thrust stand prints, as [label, text] rows, from the calibration's rows and
+ * response, thrusts in `unit`. */
+export function standFigures(data, unit) {
+  const rows = data.table || [];
+  const at = (pick) => rows.reduce((best, r) => (best === null || pick(r, best) ? r : best), null);
+  const fwd = at((r, b) => r.thrust_per_thruster_n > b.thrust_per_thruster_n);
+  const rev = at((r, b) => r.thrust_per_thruster_n < b.thrust_per_thruster_n);
+  // near zero thrust |F|/P divides two small noisy numbers (hundreds of g/W at command 0):
+  // the best efficiency is read where the thruster works, at ≥ 20 % of its largest thrust
+  const largest = Math.max(...rows.map((r) => Math.abs(r.thrust_per_thruster_n)));
+  const working = rows.filter((r) => typeof r.efficiency_n_per_w === "number" && Math.abs(r.thrust_per_thruster_n) >= 0.2 * largest);
+  const best = working.reduce((b, r) => (b === null || r.efficiency_n_per_w > b.efficiency_n_per_w ? r : b), null);
+  const out = [];
+  if (fwd) out.push(["Largest forward thrust", `${fmt(inThrustUnit(fwd.thrust_per_thruster_n, unit), 4)} ${unit} at command ${fmt(fwd.command, 3)}`]);
+  if (rev && rev.thrust_per_thruster_n < 0) out.push(["Largest reverse thrust", `${fmt(inThrustUnit(rev.thrust_per_thruster_n, unit), 4)} ${unit} at command ${fmt(rev.command, 3)}`]);
+  if (fwd && typeof fwd.rpm === "number") out.push(["RPM at largest thrust", fmt(fwd.rpm, 4)]);
+  if (fwd && typeof fwd.current_a === "number") out.push(["Current at largest thrust", `${fmt(fwd.current_a, 3)} A`]);
+  if (fwd && typeof fwd.power_w === "number") out.push(["Electrical power at largest thrust", `${fmt(fwd.power_w, 4)} W`]);
+  if (fwd && typeof fwd.efficiency_n_per_w === "number") out.push(["Efficiency at largest thrust", `${fmt(gramsPerWatt(fwd.efficiency_n_per_w), 3)} g/W`]);
+  if (best) out.push(["Best efficiency (≥ 20 % of largest thrust)", `${fmt(gramsPerWatt(best.efficiency_n_per_w), 3)} g/W at command ${fmt(best.command, 3)}`]);
+  const resp = data.response;
+  if (resp && typeof resp.time_constant_s === "number") {
+    out.push(["Response time τ (first-order lag)", `${fmt(resp.time_constant_s, 3)} ± ${fmt(resp.std_s, 2)} s (σ)`]);
+    out.push(["90 % settling", `${fmt(resp.settle_90_s, 3)} s (τ·ln 10, from ${resp.transients} steps)`]);
+  } else {
+    out.push(["Response time", "not measured (imported table, or too few steps)"]);
+  }
+  return out;
+}
