@@ -7,11 +7,13 @@ lab signs (GUM, 95 %), not the fit's 2σ — every σ finite, and no ambiguous g
 sets explaining the runs alike). U = k·√(u_A² + u_B²): the Type A part (the fit σ and the
 sources that shrink with it) scales with the fit σ a run is predicted to leave,
 u_A' = u_A·σ'/σ; the Type B part (the declared tolerances) is held where the budget put it.
-That is a prediction, not a floor: a Type B contribution c·u depends on the design through
-its sensitivity (with two tows a 0.2 % force error moves a K_L that carries 5 % of the drag
-by 4 %; runs at other speeds shrink that), so no campaign is stopped as out of reach; the
-trail names the coefficients whose Type B alone is above the target (``floor``). Without
-a budget U is 2σ.
+A Type B contribution c·u moves with the design only through its sensitivity, which the
+planner does not model, so when Type B alone is above the target (``floor``) no run the
+planner can choose brings U under it: the campaign stops as out of reach, naming the
+coefficient and the tolerance that dominates it (on the BENBAM rig file the ±5 g of each
+hung weight gives K_L 3.70 % of surge after the 8 seed tows and after 12 campaign tows, and
+28 % of yaw: a weight error is a constant force that runs at other speeds read as linear
+damping). Without a budget U is 2σ.
 
 Criterion. The information of the recorded runs under the current model,
 I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
@@ -25,8 +27,8 @@ For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. 
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
-finite, no ambiguous group left), or the next run does not fit the budget (runs, tank
-minutes).
+finite, no ambiguous group left), it is out of reach (Type B alone above it), or the next
+run does not fit the budget (runs, tank minutes).
 """
 
 from __future__ import annotations
@@ -68,6 +70,8 @@ class AxisState:
     type_a_scale: Mapping[str, float] = field(default_factory=dict)
     type_b: Mapping[str, float] = field(default_factory=dict)
     coverage: Mapping[str, float] = field(default_factory=dict)
+    #: The Type B source with the largest contribution, per coefficient ("" when none).
+    type_b_source: Mapping[str, str] = field(default_factory=dict)
 
     def expanded(self, name: str, std: float) -> float:
         """U of ``name`` were its fit σ ``std``: k·√((u_A/σ·std)² + u_B²)."""
@@ -85,7 +89,7 @@ class AxisState:
 
     def floor(self, relative: float) -> dict[str, float]:
         """k·u_B/|θ| over the target, per target coefficient: U with the Type A part gone
-        (above 1: the declared tolerances alone miss the target on this design)."""
+        (above 1: the declared tolerances alone miss the target)."""
         out = {}
         for n in BASE:
             v = self.values.get(n, np.nan)
@@ -146,11 +150,13 @@ def state_from_result(
         for j, b in enumerate(names)
         if i < j and np.isfinite(corr[i, j])
     }
-    scale, type_b, coverage = {}, {}, {}
+    scale, type_b, coverage, source = {}, {}, {}, {}
     for n, b in (budget.coefficients if budget is not None else {}).items():
         used = [row for row in b.rows if row.combined]
         u_a = float(np.sqrt(sum(row.contribution**2 for row in used if row.kind == "A")))
-        type_b[n] = float(np.sqrt(sum(row.contribution**2 for row in used if row.kind == "B")))
+        rows_b = [row for row in used if row.kind == "B"]
+        type_b[n] = float(np.sqrt(sum(row.contribution**2 for row in rows_b)))
+        source[n] = max(rows_b, key=lambda row: row.contribution).source if rows_b else ""
         sigma = std.get(n, np.nan)
         scale[n] = max(u_a / sigma, 1.0) if np.isfinite(sigma) and sigma > 0 else 1.0
         coverage[n] = b.k if np.isfinite(b.k) else 2.0
@@ -165,6 +171,7 @@ def state_from_result(
         type_a_scale=scale,
         type_b=type_b,
         coverage=coverage,
+        type_b_source=source,
     )
 
 
@@ -308,6 +315,24 @@ def axis_status(state: AxisState | None, relative: float) -> dict:
     return {"ratios": ratios, "unresolved": unresolved, "reached": reached}
 
 
+def _out_of_reach(states: Mapping[str, AxisState | None], relative: float) -> str | None:
+    """Why the target cannot be met (Type B alone above it on some coefficient), or None."""
+    for axis, state in states.items():
+        if state is None:
+            continue
+        floor = state.floor(relative)
+        worst = max(floor, key=floor.__getitem__, default=None)
+        if worst is not None and floor[worst] > 1.0:
+            return (
+                f"target out of reach: on {axis} the declared tolerances alone give {worst} "
+                f"U = {floor[worst] * relative * 100:.2g} % of its value, above the "
+                f"{relative * 100:g} % target, and more runs do not shrink them (dominant: "
+                f"{state.type_b_source.get(worst) or 'Type B'}); declare that tolerance "
+                "tighter if it can be, or set a target above it"
+            )
+    return None
+
+
 def decide(
     states: Mapping[str, AxisState | None],
     env: RigEnvelope,
@@ -324,6 +349,8 @@ def decide(
     status = {a: axis_status(s, relative) for a, s in states.items()}
     if all(s["reached"] for s in status.values()):
         return Decision("target", status=status)
+    if out_of_reach := _out_of_reach(states, relative):
+        return Decision(out_of_reach, status=status)
     if runs_used >= max_runs:
         return Decision(f"budget: {runs_used} of {max_runs} runs used", status=status)
     pending = [a for a, s in status.items() if not s["reached"]]

@@ -20,10 +20,13 @@ def test_a_campaign_runs_its_choices_as_jobs_and_keeps_the_trail(client, service
     assert job["kind"] == "campaign" and job["state"] == "completed", job
     doc = job["outcome"]
     trail = doc["trail"]
-    # a budget of 2 runs: the target (2σ ≤ 1 %, all separated) is not reachable with one
-    # tow, so the campaign made exactly two and said which limit stopped it
+    # a budget of 2 runs: the target (U ≤ 1 %, all separated) is not reachable with one
+    # tow, so the campaign made exactly two and said which limit stopped it (the rig
+    # file's ±5 g hung weights alone give K_L's U 3.7 %: out of reach)
     assert doc["runs_used"] == 2 and len(trail) == 2, doc
-    assert doc["outcome"] in ("target", "budget: 2 of 2 runs used"), doc["outcome"]
+    assert doc["outcome"] in ("target", "budget: 2 of 2 runs used") or doc["outcome"].startswith(
+        "target out of reach: on surge the declared tolerances alone give linear_damping"
+    ), doc["outcome"]
     first, second = trail
     assert first["before"]["unresolved"] == ["no fit yet"]
     assert set(first["after"]["expanded_percent"]) == {

@@ -1,5 +1,5 @@
 """A campaign in real headless Chromium: started from the Queue page's Campaign card, its
-trail (each test, why, 2σ before → after) shown as it runs and its ending shown; a stop
+trail (each test, why, U before → after) shown as it runs and its ending shown; a stop
 marker added from the Queue page."""
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(chromium, c
         expect(page.locator("#campaign-state")).to_have_text("running")
         expect(rows.nth(0)).to_contain_text("rig tow --force")
         expect(rows.nth(0)).to_contain_text("no fit yet")  # before the first run
-        expect(rows.nth(0)).to_contain_text("K_Q")  # 2σ after it
+        expect(rows.nth(0)).to_contain_text("K_Q")  # U after it
         expect(rows).to_have_count(2, timeout=60_000)
         expect(page.locator("#campaign-state")).to_have_text("completed", timeout=60_000)
         expect(page.locator("#campaign-summary")).to_contain_text("2 of 2 runs")

@@ -112,7 +112,7 @@ def test_stops_at_the_target_and_at_the_budget():
 def test_the_target_is_the_expanded_uncertainty_not_the_fit_sigma():
     """A fit whose 2σ meets 1 % is not done while U — the Type A sources beyond the fit σ and
     the declared tolerances' Type B — does not; the planner predicts U with the Type B part
-    held, so a run is not credited with shrinking it."""
+    held, and stops when Type B alone misses the target."""
     both_ways = [Candidate("surge", 100.0), Candidate("surge", -50.0)]
     inertia = SURGE_TRUTH[0]
     met = dict(std=(0.1, 0.05, 0.5))  # 2σ/|θ| well under 1 % on all three
@@ -122,13 +122,26 @@ def test_the_target_is_the_expanded_uncertainty_not_the_fit_sigma():
     wider = _state(both_ways, **met, type_a_scale={"inertia": 0.006 * inertia / 0.1})
     assert wider.ratios(0.01)["inertia"] > 1.0
     assert decide({"surge": wider}, RIG, 0.01, **args).stop is None  # measure on
-    # the tolerances alone give U = 1.4 % of the inertia: the trail says so, the planner
-    # predicts no run below it
-    stuck = _state(both_ways, std=(2.0, 2.0, 5.0), type_b={"inertia": 0.007 * inertia})
+    # the tolerances alone give U = 1.4 % of the inertia: no run the planner can choose
+    # brings U under 1 %, so it stops and names the tolerance to tighten
+    stuck = _state(
+        both_ways,
+        std=(2.0, 2.0, 5.0),
+        type_b={"inertia": 0.007 * inertia},
+        type_b_source={"inertia": "hung_mass_kg (±0.005 kg, rectangular)"},
+    )
     assert stuck.floor(0.01)["inertia"] == pytest.approx(1.4)
     choice = choose(stuck, RIG, 0.01)
-    assert choice is not None and choice.predicted_after >= 1.4
-    assert decide({"surge": stuck}, RIG, 0.01, **args).stop is None
+    assert choice is not None and choice.predicted_after >= 1.4  # predicted with it held
+    assert decide({"surge": stuck}, RIG, 0.01, **args).stop == (
+        "target out of reach: on surge the declared tolerances alone give inertia U = 1.4 % "
+        "of its value, above the 1 % target, and more runs do not shrink them (dominant: "
+        "hung_mass_kg (±0.005 kg, rectangular)); declare that tolerance tighter if it can "
+        "be, or set a target above it"
+    )
+    # within reach (Type B alone 0.8 %), the campaign measures on
+    reachable = _state(both_ways, std=(2.0, 2.0, 5.0), type_b={"inertia": 0.004 * inertia})
+    assert decide({"surge": reachable}, RIG, 0.01, **args).stop is None
 
 
 def test_an_axis_the_rig_cannot_test_is_refused_naming_the_field():

@@ -1,5 +1,6 @@
-// Queue page, Campaign card: start a campaign (target 2σ in %, axes, budget), watch its trail
-// live — each test it chose, why, the operator's acts, 2σ before → after — and stop it.
+// Queue page, Campaign card: start a campaign (target U in %, the expanded uncertainty of the
+// GUM budget; axes, budget), watch its trail live — each test it chose, why, the operator's
+// acts, U before → after and what the declared tolerances alone leave — and stop it.
 // Live from the stream's campaign jobs (stream.js).
 import { api } from "./api.js";
 import { $, $$ } from "./dom.js";
@@ -15,9 +16,14 @@ const campaignView = { job: null };
 const COEFFS = [["inertia", "M"], ["linear_damping", "K_L"], ["quadratic_damping", "K_Q"]];
 
 function sigmaText(status) {
-  const pct = (status && status.two_sigma_percent) || {};
+  const pct = (status && status.expanded_percent) || {};
   if (!Object.keys(pct).length) return `<span class="muted">no fit yet</span>`;
-  return COEFFS.map(([k, s]) => `${esc(s)} ${pct[k] == null ? "—" : `${Number(pct[k]).toPrecision(2)} %`}`).join(" · ");
+  const shown = COEFFS.map(([k, s]) => `${esc(s)} ${pct[k] == null ? "—" : `${Number(pct[k]).toPrecision(2)} %`}`).join(" · ");
+  const typeB = Object.entries(status.type_b_above_target || {});
+  if (!typeB.length) return shown;
+  const names = Object.fromEntries(COEFFS);
+  const limited = typeB.map(([k, v]) => `${esc(names[k] || k)} ${v == null ? "—" : `${Number(v).toPrecision(2)} %`}`).join(", ");
+  return `${shown}<br><span class="muted">tolerances alone: ${limited}</span>`;
 }
 
 function showCampaign(job) {
@@ -45,7 +51,7 @@ function showCampaign(job) {
       ${running && shown !== "stopping" ? `<button type="button" id="campaign-stop">Stop the campaign</button>` : ""}</p>
     <p class="muted" id="campaign-summary">${esc(c.runs_used || 0)} of ${esc(c.max_runs)} runs · ${(c.tank_minutes || 0).toFixed(1)} of ${esc(c.max_minutes)} tank min${c.outcome ? ` · <strong>${esc(c.outcome)}</strong>` : ""}</p>
     ${pending}
-    <table class="list" id="campaign-trail"><thead><tr><th>#</th><th>Test</th><th>Why</th><th>2σ before</th><th>2σ after</th><th>Tank min</th></tr></thead><tbody>${rows}</tbody></table>`;
+    <table class="list" id="campaign-trail"><thead><tr><th>#</th><th>Test</th><th>Why</th><th>U before</th><th>U after</th><th>Tank min</th></tr></thead><tbody>${rows}</tbody></table>`;
   const stop = $("#campaign-stop");
   if (stop) {
     stop.onclick = async () => {

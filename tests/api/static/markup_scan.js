@@ -15,7 +15,7 @@
  * templates this scan checks, or from esc): helpers by their callee, variables by their name.
  */
 const MARKUP_NAMES = {
-  "campaign.js": ["stopping", "pending", "rows", "sigmaText"], // badge, next test, trail, 2σ cells
+  "campaign.js": ["stopping", "pending", "rows", "sigmaText", "shown", "limited"], // badge, next test, trail, U cells
   "crosscheck.js": ["option"], // a stored result as an <option>
   "estimation.js": ["tags", "source", "wellDeterminedRows"], // run_text.js's cells, rows
   "guard.js": ["who"], // esc(who pressed or holds)
