@@ -19,7 +19,7 @@ a copy of the table:
   S in kg/kg.
 
 At 10, 15 and 20 °C these give the ITTC table's fresh-water values to the table's last digit
-(tests/estimation/test_water.py).
+(tests/estimation/theory/test_water.py).
 
 References: ITTC Recommended Procedure 7.5-02-01-03 (2011); Tanaka M. et al. (2001)
 Metrologia 38, 301–309; Huber M. L. et al. (2009) J. Phys. Chem. Ref. Data 38, 101–125

@@ -8,7 +8,7 @@ a suggested run (the reverse test, the planner's candidates, the advice) reads t
 words, so no module branches on ``"tow"``. ``estimation`` imports nothing of the rig
 (``tests/test_layout.py``), so this table restates the registry's words
 (``daq.procedures.kinds``, ``daq.vocabulary.AXES``) from the estimator's side;
-``tests/estimation/test_driven_axes.py`` fails when the two disagree.
+``tests/estimation/data/test_driven_axes.py`` fails when the two disagree.
 """
 
 from __future__ import annotations

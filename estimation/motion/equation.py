@@ -21,7 +21,7 @@ within a step its force is constant, −F_c·sign of the motion at the step's st
 which the velocity reverses is split at the reversal (found by one Newton step), where the
 body sticks while the other forces stay within F_c, else goes on the other way. Stepping
 over a reversal with RK4 instead costs O(h²·2F_c/M) per reversal: on a lightly damped
-pendulum (tests/estimation/test_pendulum.py) 30× the sample noise and a 2.5 % bias in F_c.
+pendulum (tests/estimation/pendulum/test_pendulum.py) 30× the sample noise and a 2.5 % bias in F_c.
 
 Overflow is stopped where it starts: a trial parameter set whose state leaves
 ``STATE_LIMIT`` × the record's own range is frozen there (its misfit is then large and
@@ -43,7 +43,7 @@ STATE_LIMIT = 1e3
 #: RK4 steps per natural period: the phase error is ≈ (ωh)⁴/120 per radian of motion,
 #: 1.0e-6 at 60 steps: over the 30 rad of a 40 s pendulum decay released from 0.25 rad,
 #: 8e-6 rad against the record's 2e-5 rad noise (24 steps: 1.9e-5 rad, the noise itself;
-#: tests/estimation/test_pendulum.py checks the match to solve_ivp within 1e-5 rad).
+#: tests/estimation/pendulum/test_pendulum.py checks the match to solve_ivp within 1e-5 rad).
 STEPS_PER_PERIOD = 60
 #: Steps between two checks for a diverged trial (RK4 cannot overflow from the limit in
 #: fewer unless h·|λ| > 10⁴⁰ᐟ⁸; a non-finite state met later is frozen all the same).

@@ -15,11 +15,11 @@ boundary) by Newey and West's (1987) Bartlett-kernel estimator after AR(1) prewh
 
 (the arithmetic of ``statsmodels.stats.sandwich_covariance.S_nw_panel`` with
 ``weights_bartlett``, written here in NumPy so an estimate does not import statsmodels and
-pandas; tests/estimation/test_serial.py checks the two agree; the Bartlett weights keep S
-positive semi-definite.) Prewhitening removes most of the Bartlett estimator's downward bias on
-strongly correlated residuals, where a truncated kernel alone sums too little of the
-correlation (on tows with AR(1) noise of ρ = 0.8 the 2σ coverage of the damping was 44/50
-without it, 47/50 with it).
+pandas; tests/estimation/stats/test_serial_sigma.py checks the two agree; the Bartlett
+weights keep S positive semi-definite.) Prewhitening removes most of the Bartlett
+estimator's downward bias on strongly correlated residuals, where a truncated kernel
+alone sums too little of the correlation (on tows with AR(1) noise of ρ = 0.8 the 2σ
+coverage of the damping was 44/50 without it, 47/50 with it).
 
 The sample lag-1 autocorrelation of a residual with its mean removed is biased low by about
 (1 + 3ρ)/n (Kendall 1954; Marriott and Pope 1954), and the recolouring 1/(1 − ρ)² magnifies

@@ -13,7 +13,7 @@ the interior's convolution (SciPy's ``savgol_coeffs``), the first and last w // 
 the two ends (SciPy's edge fits). It is built once per window, order, derivative and step,
 in NumPy: importing ``scipy.signal`` costs ~1 s of CPU (it imports ``scipy.stats``), more
 than the search it serves. Equal to ``savgol_filter`` to rounding, nearer the exact
-derivative than it at the ends of long windows (``tests/estimation/test_smoothing.py``).
+derivative than it at the ends of long windows (``tests/estimation/stats/test_smoothing.py``).
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ central finite difference of a re-fit, c = (θ(x + u) − θ(x − u)) / 2u, wit
 own model and effects. Chosen over a Monte Carlo through the fit because it costs two
 re-fits per source (a Monte Carlo needs hundreds for a stable spread), is deterministic,
 and gives the per-source sensitivity the ITTC table asks for; the Monte Carlo is used in
-the tests to check it (tests/estimation/test_uncertainty_chain.py). Declared tolerances
+the tests to check it (tests/estimation/uncertainty/test_uncertainty_chain.py). Declared tolerances
 are taken as exactly known: ν_i = ∞.
 """
 

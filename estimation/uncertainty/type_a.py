@@ -9,14 +9,14 @@ the data support.
   residual's within-run correlation (``estimation.stats.serial``): a structured residual
   here is mostly what the declared Type B sources do to the runs, and counting it in the
   fit's σ too counts them twice — on the 12 kg chain of
-  tests/estimation/test_uncertainty_chain.py U of the inertia became 0.22 kg against
+  tests/estimation/uncertainty/test_uncertainty_chain.py U of the inertia became 0.22 kg against
   0.13 kg from a Monte Carlo of the whole chain;
 * the encoder's quantization (``estimation.stats.quantization``): the same sample error
   (its variance is Q²/12 plus the residual's excess noise) with the correlation that one
   unknown phase per run puts into it, which the residual cannot show. It comes from the
   encoder step and the fitted motion, not from the residual, so no Type B source is in
   it; it is the fit's σ where it is the larger (slow motion, little noise to dither the
-  encoder: the 143 kg tows of tests/estimation/test_term_coverage.py);
+  encoder: the 143 kg tows of tests/estimation/term_search/test_term_coverage.py);
 * the run-level bootstrap;
 * the repeatability of repeat campaigns (``estimation.uncertainty.repeats``).
 

@@ -149,7 +149,7 @@ def test_blockage_ratio_and_flag():
 
 
 def test_the_vehicle_file_carries_its_hull_and_names_a_bad_one():
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     benbam = load_vehicle(root / "fixtures" / "vehicles" / "benbam.toml")
     assert benbam.hull is not None and benbam.hull.shape == "spheroid"
     # Neutral at 30 kg: the declared volume is the primitive's within 0.1 %.

@@ -17,7 +17,7 @@ from estimation.vehicle.sensitivity import SensitivityError, analyse
 from estimation.vehicle.vehicle_file import load_vehicle
 from tests.estimation.synth import tow_set
 
-VEHICLES = Path(__file__).parents[2] / "fixtures" / "vehicles"
+VEHICLES = Path(__file__).parents[3] / "fixtures" / "vehicles"
 #: Surge model of the decoupled test body: K_L·u + K_Q·u² = F at steady state.
 MASS, K_L, K_Q, FORCE = 10.0, 5.0, 20.0, 10.0
 

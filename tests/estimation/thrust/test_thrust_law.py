@@ -14,7 +14,7 @@ import pytest
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec, read_calibration_csv
 from estimation.thrust.law import identify_thrust_law
 
-T200 = Path(__file__).resolve().parents[2] / "fixtures" / "calibrations" / "t200-bollard.csv"
+T200 = Path(__file__).resolve().parents[3] / "fixtures" / "calibrations" / "t200-bollard.csv"
 SPEC = ImportSpec(
     command_column="PWM (µs)",
     thrust_column="Force (Kg f)",

@@ -21,7 +21,7 @@ from estimation.vehicle.dynamics import (
 from estimation.vehicle.simulation import simulate, steady_state
 from estimation.vehicle.vehicle_file import load_vehicle, parse_vehicle
 
-VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
+VEHICLES = Path(__file__).resolve().parents[3] / "fixtures" / "vehicles"
 ZERO_DAMPING = {f"{k}.{d}": 0.0 for k in ("linear_damping", "quadratic_damping") for d in DOFS}
 
 

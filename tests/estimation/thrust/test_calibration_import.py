@@ -19,7 +19,7 @@ from estimation.thrust.calibration_import import (
 )
 from tests.shared_data import shared_file
 
-T200 = Path(__file__).resolve().parents[2] / "fixtures" / "calibrations" / "t200-bollard.csv"
+T200 = Path(__file__).resolve().parents[3] / "fixtures" / "calibrations" / "t200-bollard.csv"
 PWM = CommandUnit("pwm_us", 1500, 400)
 SPEC = ImportSpec("PWM (µs)", "Force (Kg f)", "kgf", PWM, "Voltage (V)")
 

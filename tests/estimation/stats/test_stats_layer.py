@@ -7,7 +7,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-STATS = Path(__file__).resolve().parents[2] / "estimation" / "stats"
+STATS = Path(__file__).resolve().parents[3] / "estimation" / "stats"
 
 
 def _imports(path: Path) -> set[str]:

@@ -1,0 +1,1 @@
+"""Run arrays, windows and imports (estimation/data)."""

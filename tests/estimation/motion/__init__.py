@@ -1,0 +1,1 @@
+"""The single-DOF equation (estimation/motion): free decays, their windows and warnings."""

@@ -1,0 +1,1 @@
+"""The pendulum route (estimation/pendulum)."""

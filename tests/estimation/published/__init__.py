@@ -1,0 +1,1 @@
+"""Published records nobody here wrote (../shared/data/real)."""

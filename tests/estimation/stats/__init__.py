@@ -1,0 +1,1 @@
+"""The statistics layer (estimation/stats): rules, σ, whiteness, misfit."""

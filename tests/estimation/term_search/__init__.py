@@ -1,0 +1,1 @@
+"""The term library across record kinds and scales: recovery, false claims, coverage."""

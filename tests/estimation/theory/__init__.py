@@ -1,0 +1,1 @@
+"""Water properties and added-mass theory (estimation/water.py, estimation/theory)."""

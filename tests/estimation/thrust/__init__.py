@@ -1,0 +1,1 @@
+"""Thrust curves and laws (estimation/thrust), from synthetic and published tables."""

@@ -1,0 +1,1 @@
+"""The tow and spin engine (estimation/axis): fits, effects, release, reports."""

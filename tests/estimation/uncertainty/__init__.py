@@ -1,0 +1,1 @@
+"""The GUM budget (estimation/uncertainty)."""

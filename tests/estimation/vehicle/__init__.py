@@ -1,0 +1,1 @@
+"""The 6-DOF vehicle and its sensitivity (estimation/vehicle)."""
