@@ -78,7 +78,10 @@ def _load(url: str, path: str, rate: float, seconds: float, out) -> None:
                 elif delay < -0.01:
                     late_sends += 1
                 tasks.append(asyncio.create_task(one()))
-            await asyncio.wait_for(asyncio.gather(*tasks), timeout=30)
+            try:  # every request has its own 5 s time-out; this bounds the pool's queue
+                await asyncio.wait_for(asyncio.gather(*tasks), timeout=30)
+            except TimeoutError:  # report what did not finish rather than no report at all
+                errors["unfinished 30 s after the last send"] = sum(not t.done() for t in tasks)
             elapsed = time.perf_counter() - start
         return {
             "requests": n,

@@ -32,6 +32,9 @@ TOKEN = "bench-token"
 TARGET_RSS_GROWTH_MB = 20.0
 TOW = {"force_n": 24.5, "max_time_s": 4.0, "baseline_s": 0.5}
 FINAL = ("completed", "aborted", "failed", "interrupted")
+#: How long after its last tow the soak waits for the load and stream processes' reports
+#: (the load's requests time out in 5 s and it reports 30 s after its last send at most).
+REPORT_WAIT_S = 120.0
 
 
 def rss_mb() -> float:
@@ -118,7 +121,7 @@ def main() -> None:
                         time.sleep(1.0)  # host pacing: let a refused start clear
                 for queue, name in ((loads, "load"), (streams, "stream")):
                     try:
-                        got = queue.get(timeout=args.seconds + 300 if name == "load" else 120)
+                        got = queue.get(timeout=REPORT_WAIT_S)
                     except Exception as err:  # queue.Empty: the child died or hung
                         harness.append(f"no {name} report: {type(err).__name__}")
                         continue
