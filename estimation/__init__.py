@@ -13,7 +13,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from estimation.axis.result import EffectEstimate, Estimate, EstimationResult
+    from estimation.axis.result import EffectEstimate, EstimationResult
     from estimation.axis.tow_estimate import METHODS, estimate
     from estimation.data.run_arrays import RunData
     from estimation.errors import EstimationFailed
@@ -26,7 +26,6 @@ _HOME = {
     "METHODS": "axis.tow_estimate",
     "estimate": "axis.tow_estimate",
     "EffectEstimate": "axis.result",
-    "Estimate": "axis.result",
     "EstimationResult": "axis.result",
     "RunData": "data.run_arrays",
     "EstimationFailed": "errors",
@@ -49,7 +48,6 @@ __all__ = [
     "METHODS",
     "DecayResult",
     "EffectEstimate",
-    "Estimate",
     "EstimationFailed",
     "EstimationResult",
     "RunData",

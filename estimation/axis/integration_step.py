@@ -11,7 +11,7 @@ import numpy as np
 
 from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.equation import range_rates, stable_step
-from estimation.motion.terms import Coefficient
+from estimation.motion.terms import TermValues
 
 RK4_MAX_STEP_S = 0.1  # RK4 error < 1e-6 m on BENBAM-like dynamics (τ ≥ 0.5 s)
 #: Most halvings of that step (or of a driven record's sample step) ``integration_step``
@@ -31,7 +31,7 @@ class StepParameters(Protocol):
     def theta(self) -> np.ndarray: ...
 
     @property
-    def forces(self) -> Sequence[Coefficient]: ...
+    def forces(self) -> Sequence[TermValues]: ...
 
     def total_inertia(self, run: PreparedRun) -> np.ndarray:
         """M + M_drive + Σ θ_i·w_i per parameter set (kg or kg·m²), shape (S,)."""

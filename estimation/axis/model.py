@@ -20,7 +20,7 @@ from estimation.axis.integration_step import MAX_HALVINGS, coarsest_step, integr
 from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.equation import accelerator, hermite
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import LIBRARY, Coefficient, Term
+from estimation.motion.terms import LIBRARY, Term, TermValues
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
 #: Steps between two checks whether every parameter set has diverged to NaN (a trial step
@@ -30,13 +30,13 @@ NAN_CHECK_EVERY = 16
 
 class ParamView:
     """A (S, G) parameter matrix read as the equation's parts: the inertia column and one
-    ``Coefficient`` per library entry (base damping, then effects), grouped by role."""
+    ``TermValues`` per library entry (base damping, then effects), grouped by role."""
 
     def __init__(self, theta: np.ndarray, effects: Sequence[str]) -> None:
         self.theta = theta
         self.inertia = theta[:, 0]
         entries = [LIBRARY[name] for name in (*BASE_NAMES[1:], *effects)]
-        self.terms = [Coefficient(t, theta[:, [i + 1]]) for i, t in enumerate(entries)]
+        self.terms = [TermValues(t, theta[:, [i + 1]]) for i, t in enumerate(entries)]
         self.forces = [c for c in self.terms if c.term.role == "force"]
         self.inertias = [c for c in self.terms if c.term.role == "inertia"]
         self.timings = [c for c in self.terms if c.term.role == "timing"]
@@ -218,7 +218,7 @@ def _numpy_grid(
     const_force: np.ndarray,
     varying: bool,
     inv_inertia: np.ndarray,
-    forces: Sequence[Coefficient],
+    forces: Sequence[TermValues],
     h: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``_simulate_ode``'s step grid in NumPy, for terms the compiled loop has no form for

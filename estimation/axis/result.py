@@ -15,7 +15,7 @@ from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
-from estimation.numbers import finite_or_none, finite_values
+from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import Whiteness
 
@@ -24,18 +24,6 @@ SCHEMA_VERSION = 1
 
 #: Per axis, the unit of each coefficient and of the position and velocity (SI).
 UNITS = {axis: units_of(axis) for axis in ("surge", "yaw")}
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """A value with its standard error, in SI units."""
-
-    value: float
-    std: float
-
-    def to_json(self) -> dict[str, float | None]:
-        """{value, std} with non-finite numbers as null."""
-        return {"value": finite_or_none(self.value), "std": finite_or_none(self.std)}
 
 
 @dataclass(frozen=True)
@@ -75,8 +63,8 @@ class EstimationResult:
     axis: str
     method: str
     runs: tuple[str, ...]
-    coefficients: dict[str, Estimate]
-    coefficients_before: dict[str, Estimate]
+    coefficients: dict[str, Coefficient]
+    coefficients_before: dict[str, Coefficient]
     effects: tuple[EffectEstimate, ...]
     ambiguous: tuple[tuple[str, ...], ...]
     rmse_before: float

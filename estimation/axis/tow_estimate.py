@@ -22,7 +22,7 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.axis.release import fit_release, speed_at_release
-from estimation.axis.result import Bootstrap, EffectEstimate, Estimate, EstimationResult
+from estimation.axis.result import Bootstrap, EffectEstimate, EstimationResult
 from estimation.axis.reverse import (
     FRICTION_AND_BIAS,
     ReverseTest,
@@ -41,7 +41,9 @@ from estimation.design.advice import (
 )
 from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
+from estimation.motion.terms import units_of
 from estimation.motion.well_determined import terminal_speeds
+from estimation.numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
 
@@ -170,8 +172,13 @@ def _within(test: ReverseTest | None, envelope: RigEnvelope | None) -> ReverseTe
     return replace(test, drive=drive) if allowed else None
 
 
-def _coefficients(fit: FitResult) -> dict[str, Estimate]:
-    return {n: Estimate(fit.value(n), float(fit.std[fit.names.index(n)])) for n in BASE_NAMES}
+def _coefficients(fit: FitResult, axis: str) -> dict[str, Coefficient]:
+    """M, K_L and K_Q with their σ (NaN: not identified) and units on ``axis``."""
+    units = units_of(axis)
+    return {
+        n: Coefficient(fit.value(n), float(fit.std[fit.names.index(n)]), units[n])
+        for n in BASE_NAMES
+    }
 
 
 def _distinct_drives(runs: Sequence[PreparedRun]) -> list[float]:
@@ -317,7 +324,7 @@ def _build(
     )
     warnings = separability_warnings(final, prepared, reverse, envelope, axis)
     warnings += physical_warnings(final, runs)
-    coefficients = _coefficients(final)
+    coefficients = _coefficients(final, axis)
     if moving:  # the model starts at rest: what the fit says of the inertia is not data
         warnings.append(
             "inertia is not identified: "
@@ -343,7 +350,7 @@ def _build(
         method=method,
         runs=ids,
         coefficients=coefficients,
-        coefficients_before=_coefficients(base),
+        coefficients_before=_coefficients(base, axis),
         effects=effects,
         ambiguous=tuple(outcome.ambiguous),
         rmse_before=base.rmse,

@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import LIBRARY, Coefficient
+from estimation.motion.terms import LIBRARY, TermValues
 
 #: A smooth term and a set-valued one: the loop's branches all take the same signature.
 _TERMS = ("linear_damping", "quadratic_damping", "coulomb_friction")
@@ -28,7 +28,7 @@ def warm_up() -> float:
     """Compile the RK4 loop, or load it from numba's cache; returns the CPU seconds spent."""
     start = time.process_time()
     one = np.ones((1, 1))
-    forces = [Coefficient(LIBRARY[name], one) for name in _TERMS]
+    forces = [TermValues(LIBRARY[name], one) for name in _TERMS]
     for exact_friction in (False, True):
         grid = step_grid(
             np.zeros((1, 1)), one, np.ones((1, 1, 1)), one, forces, exact_friction, 0.01, 3,

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimation.motion.kernel import step_grid
-from estimation.motion.terms import Coefficient, Regressor, Term
+from estimation.motion.terms import Regressor, Term, TermValues
 
 #: A trajectory beyond this multiple of the record's range is a diverged trial: frozen.
 STATE_LIMIT = 1e3
@@ -57,7 +57,7 @@ def acceleration(
     v: np.ndarray,
     drive: np.ndarray,
     inv_inertia: np.ndarray,
-    forces: Sequence[Coefficient],
+    forces: Sequence[TermValues],
 ) -> np.ndarray:
     """ẍ of the equation for states (x, v) under ``drive`` (all broadcast together).
 
@@ -73,7 +73,7 @@ def _constant(term: Term) -> bool:
 
 
 def accelerator(
-    forces: Sequence[Coefficient], inv_inertia: np.ndarray, shape: tuple[int, ...]
+    forces: Sequence[TermValues], inv_inertia: np.ndarray, shape: tuple[int, ...]
 ) -> Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
     """``acceleration`` for fixed coefficients as a function of (x, v, drive) on states of
     ``shape``: the terms' lookups and the constant regressors' forces are done once, not in
@@ -122,7 +122,7 @@ def hermite(
 
 
 def _force(
-    x: np.ndarray, v: np.ndarray, drive: np.ndarray, smooth: Sequence[Coefficient]
+    x: np.ndarray, v: np.ndarray, drive: np.ndarray, smooth: Sequence[TermValues]
 ) -> np.ndarray:
     """The drive plus every single-valued term's force at (x, v) (N or N·m)."""
     net = drive
@@ -136,7 +136,7 @@ def _rk4_held(
     v: np.ndarray,
     drive: np.ndarray,
     inv: np.ndarray,
-    smooth: Sequence[Coefficient],
+    smooth: Sequence[TermValues],
     friction: np.ndarray,
     h: float | np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -157,7 +157,7 @@ def _friction_step(
     v: np.ndarray,
     drive: np.ndarray,
     inv: np.ndarray,
-    smooth: Sequence[Coefficient],
+    smooth: Sequence[TermValues],
     held: np.ndarray,
     h: float,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -243,7 +243,7 @@ def stable_step(
 def integrate(
     tracks: Sequence[Track],
     inertia: np.ndarray,
-    coefficients: Sequence[Coefficient],
+    coefficients: Sequence[TermValues],
     x0: np.ndarray,
     v0: np.ndarray,
     h: float,

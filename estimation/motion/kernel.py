@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from estimation.motion.terms import Coefficient, Term
+from estimation.motion.terms import Term, TermValues
 
 Basis = Callable[[np.ndarray], np.ndarray]
 
@@ -100,7 +100,7 @@ def step_grid(
     v0: np.ndarray,
     drive: np.ndarray,
     inv_inertia: np.ndarray,
-    forces: Sequence[Coefficient],
+    forces: Sequence[TermValues],
     exact_friction: bool,
     h: float,
     n_steps: int,

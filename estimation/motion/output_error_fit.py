@@ -27,7 +27,7 @@ from estimation.errors import EstimationFailed
 from estimation.motion.equation import Track, integrate, range_rates, stable_step
 from estimation.motion.readings import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
-from estimation.motion.terms import LIBRARY, Coefficient
+from estimation.motion.terms import LIBRARY, TermValues
 from estimation.stats.fit_statistics import FitStatistics
 from estimation.stats.identify import honest_statistics
 
@@ -122,12 +122,12 @@ class _Problem:
         else:
             inertia = np.full((sets, 1), float(self.setup.inertia or 0.0)) * self.inertia_weight
         coeffs = [
-            Coefficient(LIBRARY[n], g[:, [i]] * self.weights[i])
+            TermValues(LIBRARY[n], g[:, [i]] * self.weights[i])
             for i, n in enumerate(self.names)
             if n != "inertia"
         ]
         coeffs += [
-            Coefficient(LIBRARY[n], np.broadcast_to(v, (sets, self.nr)))
+            TermValues(LIBRARY[n], np.broadcast_to(v, (sets, self.nr)))
             for n, v in self.known.items()
         ]
         return integrate(self.tracks, inertia, coeffs, xi0, v0, self.h)

@@ -178,7 +178,7 @@ class Term:
 
 
 @dataclass(frozen=True)
-class Coefficient:
+class TermValues:
     """A term with its coefficient for every parameter set, shape (S, 1), or per parameter
     set and record, shape (S, R)."""
 

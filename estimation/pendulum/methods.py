@@ -21,8 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from estimation.axis.result import Estimate
-from estimation.numbers import finite_or_none, finite_values
+from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks
@@ -32,17 +31,32 @@ SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...
 SG_POLYORDER = 4  # ... with a quartic: φ̈ of a sinusoid biased < 0.02 %
 
 
+#: The unit of each coefficient a method row reports (the swing is a straight line).
+ROW_UNITS = {
+    "added_mass": "kg",
+    "linear_damping": "N·s/m",
+    "quadratic_damping": "N·s²/m²",
+    "total_inertia": "kg·m²",
+    "total_damping": "N·m·s/rad",
+}
+
+
+def row_value(name: str, value: float, std: float) -> Coefficient:
+    """``value`` ± ``std`` of the row's coefficient ``name`` in its unit (``ROW_UNITS``)."""
+    return Coefficient(value, std, ROW_UNITS[name])
+
+
 @dataclass(frozen=True)
 class MethodEstimate:
     """One method on one run: α (kg), β (N·s/m), γ (kg/m) or None, with σ; e and RMSE (rad)."""
 
     method: str
     run_id: str
-    added_mass: Estimate
-    linear_damping: Estimate
-    quadratic_damping: Estimate | None
-    total_inertia: Estimate  # J (kg·m²) about the pivot
-    total_damping: Estimate  # c (N·m·s) about the pivot
+    added_mass: Coefficient
+    linear_damping: Coefficient
+    quadratic_damping: Coefficient | None
+    total_inertia: Coefficient  # J (kg·m²) about the pivot
+    total_damping: Coefficient  # c (N·m·s/rad) about the pivot
     signal: dict[str, float]
     mse: float  # the thesis's e: mean squared deviation of the model's angle (rad²)
     rmse: float
@@ -72,7 +86,7 @@ class MethodEstimate:
 # ---- signal → coefficients -----------------------------------------------------------------
 def coefficients_from_signal(
     decay_rate: float, omega: float, cov: np.ndarray, geometry: PendulumGeometry
-) -> tuple[Estimate, Estimate, Estimate, Estimate]:
+) -> tuple[Coefficient, Coefficient, Coefficient, Coefficient]:
     """(J, c, α, β) with σ from K (1/s), ω (rad/s) and their 2×2 covariance."""
     k = geometry.restoring_stiffness()
     arm = geometry.pivot_to_vehicle_m
@@ -88,10 +102,10 @@ def coefficients_from_signal(
     alpha = (inertia - geometry.known_inertia()) / arm**2
     beta = (damping - geometry.pivot_damping_nm_s) / arm**2
     return (
-        Estimate(inertia, sj),
-        Estimate(damping, sc),
-        Estimate(alpha, sj / arm**2),
-        Estimate(beta, sc / arm**2),
+        row_value("total_inertia", inertia, sj),
+        row_value("total_damping", damping, sc),
+        row_value("added_mass", alpha, sj / arm**2),
+        row_value("linear_damping", beta, sc / arm**2),
     )
 
 
@@ -244,14 +258,19 @@ def equation_error(
         g_q = np.zeros(p)
         g_q[0], g_q[i3] = k / th3, -k * theta[0] / th3**2
         q_val = k * float(theta[0]) / th3 / arm**3
-        quad = Estimate(q_val, float(np.sqrt(max(g_q @ cov @ g_q, 0.0))) / arm**3)
-    alpha = Estimate((inertia - geometry.known_inertia()) / arm**2, sj / arm**2)
-    beta = Estimate((damping - geometry.pivot_damping_nm_s) / arm**2, sc / arm**2)
+        quad = row_value(
+            "quadratic_damping", q_val, float(np.sqrt(max(g_q @ cov @ g_q, 0.0))) / arm**3
+        )
+    alpha = row_value("added_mass", (inertia - geometry.known_inertia()) / arm**2, sj / arm**2)
+    beta = row_value(
+        "linear_damping", (damping - geometry.pivot_damping_nm_s) / arm**2, sc / arm**2
+    )
     mse = _simulated_mse(decay, alpha.value, beta.value, quad.value if quad else 0.0, peaks)
     name = "equation-error" if quadratic else "equation-error-linear"
     note = f"Savitzky–Golay window {window} samples ({window * dt:.2f} s ≈ period/6), order 4"
     return MethodEstimate(
-        name, decay.run_id, alpha, beta, quad, Estimate(inertia, sj), Estimate(damping, sc),
+        name, decay.run_id, alpha, beta, quad, row_value("total_inertia", inertia, sj),
+        row_value("total_damping", damping, sc),
         signal, mse, float(np.sqrt(mse)), note, {"savgol_window": window},
     )  # fmt: skip
 

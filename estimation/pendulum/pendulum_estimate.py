@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from estimation.axis.result import EffectEstimate, Estimate, whiteness_json
+from estimation.axis.result import EffectEstimate, whiteness_json
 from estimation.blas import one_blas_thread
 from estimation.data.run_arrays import validate_run_set
 from estimation.errors import EstimationFailed
@@ -27,7 +27,7 @@ from estimation.motion.decay_result import DecayResult
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY
-from estimation.numbers import finite_or_none, finite_values
+from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.pendulum.configuration import (
     ADDED_MASS,
     BASE_TERMS,
@@ -45,6 +45,7 @@ from estimation.pendulum.methods import (
     damped_fit,
     equation_error,
     log_decrement,
+    row_value,
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.stats.acceptance_rules import DECAY_RULES
@@ -76,8 +77,8 @@ class PendulumResult:
     axis: str
     method: str
     runs: tuple[str, ...]
-    coefficients: dict[str, Estimate]
-    coefficients_before: dict[str, Estimate]
+    coefficients: dict[str, Coefficient]
+    coefficients_before: dict[str, Coefficient]
     effects: tuple[EffectEstimate, ...]
     ambiguous: tuple[tuple[str, ...], ...]
     methods: tuple[MethodEstimate, ...]
@@ -189,24 +190,28 @@ def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
     return validate_run_set(runs, validate_pendulum_run, "pendulum run", "one swing axis per fit")
 
 
-def _coefficients(fit: MotionFit) -> dict[str, Estimate]:
-    """α, β and the vehicle's terms the fit carries, each with its σ (NaN: not identified)."""
+def _coefficients(fit: MotionFit, axis: str) -> dict[str, Coefficient]:
+    """α, β and the vehicle's terms the fit carries, each with its σ (NaN: not identified)
+    and its unit along the swing ``axis``."""
     return {
-        reported(n): Estimate(fit.value(n), fit.sigma(n)) for n in COEFFICIENTS if n in fit.names
+        reported(n): Coefficient(fit.value(n), fit.sigma(n), unit(n, axis))
+        for n in COEFFICIENTS
+        if n in fit.names
     }
 
 
-def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Estimate]:
+def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Coefficient]:
     """Inverse-variance mean of one method's α and β over runs."""
     out = {}
     for name in BASE_NAMES:
         est = [getattr(m, name) for m in rows]
-        w = np.array([1 / e.std**2 if e.std > 0 else 0.0 for e in est])
+        w = np.array([1 / e.std**2 if e.std is not None and e.std > 0 else 0.0 for e in est])
         vals = np.array([e.value for e in est])
         if w.sum() > 0:
-            out[name] = Estimate(float(w @ vals / w.sum()), float(1 / np.sqrt(w.sum())))
+            mean, std = float(w @ vals / w.sum()), float(1 / np.sqrt(w.sum()))
         else:
-            out[name] = Estimate(float(vals.mean()), float("nan"))
+            mean, std = float(vals.mean()), float("nan")
+        out[name] = Coefficient(mean, std, est[0].unit)
     return out
 
 
@@ -219,7 +224,9 @@ def _warnings(
     out = []
     for m in methods:
         q = m.quadratic_damping
-        if m.method == "equation-error" and q is not None and q.value < -2 * q.std:
+        if m.method != "equation-error" or q is None or q.std is None:
+            continue
+        if q.value < -2 * q.std:
             out.append(
                 f"equation-error γ = {q.value:.4g} ± {q.std:.2g} kg/m < 0 on run {m.run_id}: "
                 f"the signature of dry friction in the pivot (least squares puts sgn φ̇ into a "
@@ -309,7 +316,7 @@ def estimate_pendulum(
             + "; ".join(LIBRARY[e].separation(True) for e in final.effects)
         )
     if method == "output-error":
-        coefficients = _coefficients(final)
+        coefficients = _coefficients(final, axis)
     else:
         coefficients = _pooled([m for m in rows if m.method == method])
     effects = tuple(
@@ -320,7 +327,7 @@ def estimate_pendulum(
         method=method,
         runs=ids,
         coefficients=coefficients,
-        coefficients_before=_coefficients(base),
+        coefficients_before=_coefficients(base, axis),
         effects=effects,
         ambiguous=tuple(ambiguous),
         methods=tuple(rows),
@@ -346,16 +353,24 @@ def _output_error_rows(decays: Sequence[Decay], fit: MotionFit) -> list[MethodEs
     """The output-error fit as one row per run (coefficients are joint over runs)."""
     rows = []
     gamma = (
-        Estimate(fit.value("quadratic_damping"), fit.sigma("quadratic_damping"))
+        row_value(
+            "quadratic_damping", fit.value("quadratic_damping"), fit.sigma("quadratic_damping")
+        )
         if "quadratic_damping" in fit.names
         else None
     )
     for d, res in zip(decays, fit.residuals, strict=True):
         g, arm = d.geometry, d.geometry.pivot_to_vehicle_m
-        alpha = Estimate(fit.value(INERTIA), fit.sigma(INERTIA))
-        beta = Estimate(fit.value("linear_damping"), fit.sigma("linear_damping"))
-        inertia = Estimate(g.known_inertia() + alpha.value * arm**2, alpha.std * arm**2)
-        damping = Estimate(beta.value * arm**2 + g.pivot_damping_nm_s, beta.std * arm**2)
+        alpha = row_value("added_mass", fit.value(INERTIA), fit.sigma(INERTIA))
+        beta = row_value("linear_damping", fit.value("linear_damping"), fit.sigma("linear_damping"))
+        inertia = row_value(
+            "total_inertia", g.known_inertia() + alpha.value * arm**2, fit.sigma(INERTIA) * arm**2
+        )
+        damping = row_value(
+            "total_damping",
+            beta.value * arm**2 + g.pivot_damping_nm_s,
+            fit.sigma("linear_damping") * arm**2,
+        )
         effects = {e: fit.value(e) for e in fit.effects}
         mse = float(np.mean(res**2))
         rows.append(

@@ -22,13 +22,13 @@ from estimation.axis.model import simulate
 from estimation.axis.prepared_run import prepare
 from estimation.motion import compiled
 from estimation.motion.equation import Track, integrate
-from estimation.motion.terms import Coefficient, LIBRARY
+from estimation.motion.terms import LIBRARY, TermValues
 from tests.estimation.term_cases import tow_set
 
 runs = [prepare(r) for r in tow_set("10kg", 0)]
 simulate(np.array([[10.0, 2.0, 15.0, 0.1]]), ("coulomb_friction",), runs)
 tau = np.arange(0.0, 2.0, 0.05)
-forces = [Coefficient(LIBRARY[n], np.array([[v]])) for n, v in
+forces = [TermValues(LIBRARY[n], np.array([[v]])) for n, v in
           (("restoring_spring", 40.0), ("quadratic_damping", 0.4), ("coulomb_friction", 0.1))]
 integrate([Track(tau, None, 2.0, 1.0, 0.3)], np.array([[3.0]]), forces,
           np.array([[0.2]]), np.array([[0.0]]), 0.02)

@@ -15,7 +15,7 @@ from estimation.axis.prepared_run import prepare
 from estimation.motion import kernel
 from estimation.motion.equation import Track, integrate
 from estimation.motion.kernel import V_BASIS, X_BASIS, form_of
-from estimation.motion.terms import LIBRARY, Coefficient, Term
+from estimation.motion.terms import LIBRARY, Term, TermValues
 from tests.estimation.term_cases import tow_set
 
 FORCE_TERMS = [name for name, t in LIBRARY.items() if t.role == "force"]
@@ -76,9 +76,9 @@ def test_the_compiled_loop_steps_each_term_as_numpy_does(monkeypatch, name):
     three parameter sets (one with the term off): the same trajectories."""
     sets = _sets([0.0, 0.7, 2.5])
     coefficients = [
-        Coefficient(LIBRARY["restoring_spring"], _sets([40.0, 40.0, 40.0])),
-        Coefficient(LIBRARY["linear_damping"], _sets([0.4, 0.4, 0.4])),
-        Coefficient(LIBRARY[name], sets),
+        TermValues(LIBRARY["restoring_spring"], _sets([40.0, 40.0, 40.0])),
+        TermValues(LIBRARY["linear_damping"], _sets([0.4, 0.4, 0.4])),
+        TermValues(LIBRARY[name], sets),
     ]
     x0 = np.array([[0.2, 0.0], [0.2, 0.0], [-0.1, 0.05]])
     v0 = np.array([[0.0, 0.0], [0.3, 0.0], [0.0, -0.2]])
@@ -91,8 +91,8 @@ def test_a_diverging_trial_is_frozen_alike(monkeypatch):
     """A negative damping far beyond the data (a trial step): both loops freeze it at the
     divergence limit (1e3 × the record's range) alike, and it stays finite."""
     coefficients = [
-        Coefficient(LIBRARY["restoring_spring"], _sets([40.0, 40.0])),
-        Coefficient(LIBRARY["linear_damping"], _sets([0.4, -300.0])),
+        TermValues(LIBRARY["restoring_spring"], _sets([40.0, 40.0])),
+        TermValues(LIBRARY["linear_damping"], _sets([0.4, -300.0])),
     ]
     x0, v0 = np.full((2, 2), 0.2), np.zeros((2, 2))
     compiled, numpy = _integrate_both(monkeypatch, coefficients, x0, v0)

@@ -62,7 +62,7 @@ def test_report_writes_json_markdown_and_figures(surge, tmp_path):
                 "rmse_after", "runs"):  # fmt: skip
         assert key in doc
     for key in ("inertia", "linear_damping", "quadratic_damping"):
-        assert set(doc["coefficients"][key]) == {"value", "std"}
+        assert set(doc["coefficients"][key]) == {"value", "std", "unit"}
     assert doc["effects"][0]["name"] == "coulomb_friction" and doc["effects"][0]["unit"] == "N"
     md = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     assert "coulomb_friction" in md and "| **all** |" in md and "ambiguous" in md
