@@ -8,7 +8,6 @@ import functools
 import socket
 import threading
 from collections.abc import Callable, Iterable, Iterator
-from pathlib import Path
 from typing import Any, ClassVar
 
 import httpx
@@ -102,14 +101,32 @@ SERVICE_PACE = 10.0
 
 
 @pytest.fixture(scope="module")
-def service(request: pytest.FixtureRequest, tmp_path_factory) -> RigService:
-    """The rig service of the module: in a ``simtime`` module the simulated rig in process on
-    simulated time (paced: ``SERVICE_PACE``), otherwise over Modbus TCP and a pty in real
-    time."""
-    db = tmp_path_factory.mktemp("api") / "rig.db"
-    if request.node.get_closest_marker("simtime") is None:
-        return RigService(RigSource.load(), f"sqlite:///{db}")
-    return simulated_service(RigSource.load(), f"sqlite:///{db}")
+def service(request: pytest.FixtureRequest, tmp_path_factory) -> Iterator[RigService]:
+    """The rig service of the module, defined here once: in a ``simtime`` module the simulated
+    rig in process on simulated time (paced: ``SERVICE_PACE``), otherwise over Modbus TCP and
+    a pty in real time. A module's ``rig_service`` marker builds it, always in process on
+    simulated time, from ``rig`` (a rig file, or ``"fast-pendulum"``: the fast pendulum's,
+    ``tests.procedures.test_pendulum.fast_rig_file``), ``scenario`` (a scenario file) and
+    ``spill`` (True: a spill folder of its own, ``RIG_SPILL_DIR``)."""
+    folder = tmp_path_factory.mktemp("api")
+    db = f"sqlite:///{folder / 'rig.db'}"
+    marker = request.node.get_closest_marker("rig_service")
+    if marker is None:
+        if request.node.get_closest_marker("simtime") is None:
+            yield RigService(RigSource.load(), db)
+        else:
+            yield simulated_service(RigSource.load(), db)
+        return
+    rig = marker.kwargs.get("rig")
+    if rig == "fast-pendulum":
+        from tests.procedures.test_pendulum import fast_rig_file
+
+        rig = fast_rig_file(folder)
+    source = RigSource.load(rig, scenario_file=marker.kwargs.get("scenario"))
+    with pytest.MonkeyPatch.context() as patch:
+        if marker.kwargs.get("spill"):
+            patch.setenv("RIG_SPILL_DIR", str(folder / "spill"))
+        yield simulated_service(source, db)
 
 
 def simulated_service(source: RigSource, store_url: str, **options: Any) -> RigService:
@@ -306,13 +323,3 @@ def completed_tows(client, forces: Iterable[float], body: dict = SHORT_TOW) -> l
         assert job["state"] == "completed", job
         runs += job["run_ids"]
     return runs
-
-
-def fast_pendulum_service(folder: Path) -> RigService:
-    """A rig service on the simulated rig (in process, simulated time) with the fast pendulum
-    rig file (``tests.procedures.test_pendulum.fast_rig_file``) and a database in ``folder``."""
-    from tests.procedures.test_pendulum import fast_rig_file
-
-    return simulated_service(
-        RigSource.load(fast_rig_file(folder)), f"sqlite:///{folder / 'rig.db'}"
-    )

@@ -15,13 +15,13 @@ from pathlib import Path
 
 import pytest
 
-from api.core.service import RigService
-from tests.api.conftest import fast_pendulum_service, signed_in_page
+from tests.api.conftest import signed_in_page
 from tests.cli import run_in_process
 from tests.procedures.test_pendulum import fast_rig_file
 from tests.serve import stop_service, wait_healthy
 
-pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
+# real stack in real time: the slow lane (README, Tests); the fast pendulum's rig service
+pytestmark = [pytest.mark.slow, pytest.mark.rig_service(rig="fast-pendulum")]
 
 ROOT = Path(__file__).resolve().parents[2]
 PENDULUM = {"start_angle_rad": "0.3", "stop_amplitude_rad": "0.12", "max_time_s": "15"}
@@ -141,12 +141,6 @@ def _header_is_one_row(page) -> None:
         assert header < 60, (width, header)  # one row, not two
         assert max(tops) - min(tops) < 10, (width, tops)
         assert page.evaluate("document.documentElement.scrollWidth") <= width
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
-    """The live plot test's rig: the fast pendulum in process on simulated time."""
-    return fast_pendulum_service(tmp_path_factory.mktemp("live-plot"))
 
 
 def test_chosen_channels_are_plotted_live_with_units_and_kept(chromium, client, service):

@@ -5,22 +5,17 @@ from __future__ import annotations
 
 import pytest
 
-from api.core.service import RigService
 from tests.api.conftest import (
     AUTH,
     SHORT_TOW,
-    fast_pendulum_service,
     signed_in_page,
     start_job,
     wait_job,
 )
 
+pytestmark = pytest.mark.rig_service(rig="fast-pendulum")
+
 ALPHA = 143.26 - 30.0  # kg: the scenario's surge inertia minus BENBAM's dry mass
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
-    return fast_pendulum_service(tmp_path_factory.mktemp("pendulum-estimation"))
 
 
 @pytest.fixture(scope="module")

@@ -5,13 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from api.core.service import RigService
-from tests.api.conftest import AUTH, fast_pendulum_service, signed_in_page, start_job, wait_job
+from tests.api.conftest import AUTH, signed_in_page, start_job, wait_job
 
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
-    return fast_pendulum_service(tmp_path_factory.mktemp("pendulum-api"))
+pytestmark = pytest.mark.rig_service(rig="fast-pendulum")
 
 
 def test_bad_pendulum_requests_are_422_naming_the_field(client):

@@ -9,35 +9,18 @@ from pathlib import Path
 
 import pytest
 
-from api.core.service import RigService
-from daq.session import RigSource
-from daq.sim.scenario import load_scenario
 from tests.api.conftest import (
     AUTH,
     completed_tows,
     estimate_in_page,
     signed_in_page,
-    simulated_service,
     wait_job,
 )
 
-#: Slow lane: three tows (in process, simulated time), an estimation and the reverse tow it
-#: starts.
-pytestmark = pytest.mark.slow
-
 SCENARIO = Path(__file__).resolve().parents[2] / "fixtures/scenarios/friction-and-current.toml"
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
-    base = RigSource.load()
-    source = RigSource(
-        rig=base.rig,
-        rig_toml=base.rig_toml,
-        scenario=load_scenario(SCENARIO),
-        scenario_toml=SCENARIO.read_text(),
-    )
-    return simulated_service(source, f"sqlite:///{tmp_path_factory.mktemp('reverse') / 'rig.db'}")
+#: Slow lane: three tows (in process, simulated time, the scenario's plant), an estimation
+#: and the reverse tow it starts.
+pytestmark = [pytest.mark.slow, pytest.mark.rig_service(scenario=SCENARIO)]
 
 
 def test_the_reverse_button_starts_the_reverse_tow(chromium, client, service):

@@ -9,17 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from api.core.service import RigService
-from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, simulated_service, start_job, wait_job
+from tests.api.conftest import AUTH, TOKEN, start_job, wait_job
 
 ENCODER_TOW = Path(__file__).resolve().parents[2] / "fixtures/rigs/encoder-tow.toml"
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
-    db = tmp_path_factory.mktemp("api-minimal") / "rig.db"
-    return simulated_service(RigSource.load(ENCODER_TOW), f"sqlite:///{db}")
+pytestmark = pytest.mark.rig_service(rig=ENCODER_TOW)
 
 
 def test_get_rig_lists_capabilities_with_reasons_and_the_safety_channels(client):

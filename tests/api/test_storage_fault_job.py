@@ -8,12 +8,9 @@ from __future__ import annotations
 
 import pytest
 
-from api.core.service import RigService
-from daq.session import RigSource
 from tests.api.conftest import (
     AUTH,
     SHORT_TOW,
-    simulated_service,
     start_job,
     wait_job,
     wait_job_until,
@@ -21,15 +18,9 @@ from tests.api.conftest import (
 from tests.store.helpers import DbLimits, no_sql
 from tests.waiting import read_until
 
+pytestmark = pytest.mark.rig_service(spill=True)
+
 REASON = "storage failed: SQLite: attempt to write a readonly database"
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory) -> RigService:
-    root = tmp_path_factory.mktemp("api-storage")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("RIG_SPILL_DIR", str(root / "spill"))
-        yield simulated_service(RigSource.load(), f"sqlite:///{root / 'rig.db'}")
 
 
 def test_storage_failing_mid_tow_aborts_the_job_in_one_line_and_leaves_the_rig_safe(
