@@ -25,10 +25,11 @@ PROBE = (
     "sys.argv[0] = 'rig'\n"
     "main()\n"
 )
-#: Never loaded by an estimate (pandas and statsmodels: notebooks' and tests' tools).
+#: Never loaded by an estimate (pandas and statsmodels: notebooks' and tests' tools); nor,
+#: by a tow's, the pendulum's estimator (``--method`` lists its methods by name only).
 NOT_FOR_AN_ESTIMATE = (
     "statsmodels", "pandas", "scipy.stats", "scipy.signal", "scipy.integrate", "matplotlib",
-    "fastapi", "pymodbus",
+    "fastapi", "pymodbus", "estimation.pendulum.pendulum_estimate",
 )  # fmt: skip
 #: Never loaded by ``rig --help`` (it lists commands from a table) nor ``rig runs`` (a plain
 #: table: rich's cost ~0.25 s of CPU for 50 rows, 15 s for 7,000).
