@@ -137,9 +137,9 @@ AXIS = Estimator(
 
 
 def _pendulum_methods() -> tuple[str, ...]:
-    from estimation.pendulum.pendulum_estimate import PENDULUM_METHODS
+    from estimation.pendulum import PENDULUM_METHODS  # not the estimation: a list of names
 
-    return tuple(PENDULUM_METHODS)
+    return PENDULUM_METHODS
 
 
 def _pendulum_load(store: Store, run_ids: Sequence[str]) -> list[Any]:

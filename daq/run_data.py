@@ -24,8 +24,6 @@ from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.fit_exclusions import left_out, trusted_samples
 from daq.store import RunInfo, SampleTable, Store
 from daq.store.run_events import Gap, RunAction, RunEvents
-from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
-from daq.thruster_run_drive import thruster_drive as thruster_drive  # its callers' old path
 from daq.vocabulary import AXES, POSITION_CHANNEL, Axis, DriveTrain
 from estimation.data.run_arrays import RunData
 from estimation.data.window import WindowReport, find_window
@@ -183,6 +181,9 @@ def load_run_data(store: Store, run_id: str) -> RunData:
     hung = params.get("hung_mass_kg")
     draws = None
     if thrusters:
+        # the thrust law (SciPy's interpolation): imported for thruster-driven runs only
+        from daq.thruster_run_drive import confirmed_steps, modelled_steps, rebuilt_thruster_drive
+
         if rig is None:
             raise ValueError(f"run {run.id}: a thruster-driven run needs the rig file it ran with")
         volts = table.channels.get("supply_voltage")

@@ -1,21 +1,43 @@
 """The ``rig`` command table: every command's module, attribute and short help, so that
 ``rig --help`` lists them and a command's module is imported only when it runs. The run
-kinds' commands come from their registry entries (``daq.procedures.run_kinds``); the others are
-listed here."""
+kinds' commands are built from their registry entries (``daq.procedures.run_kinds``), which
+:data:`RIG_KIND_COMMANDS` lists for the help without importing the registry (its request models
+cost ~0.4 s of CPU per ``rig --help``); tests/api/test_cli_edges.py checks the two agree."""
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Iterator, Mapping
-
-import click
+from collections.abc import Mapping
 
 #: The module holding the procedure commands: one per kind the rig runs (derived from its
 #: registry entry, ``api.cli.procedures``) and ``rig sequence``.
 PROCEDURES_MODULE = "api.cli.procedures"
+#: The command of each kind the rig runs, in the registry's order, as :data:`OTHER_COMMANDS`
+#: lists the others (``api.cli.procedures`` builds them from the registry entries).
+RIG_KIND_COMMANDS: dict[str, tuple[str, str, str]] = {
+    "tow": (
+        PROCEDURES_MODULE,
+        "tow",
+        "Tow test: a weight over the pulley (or the thrusters) pulls the vehicle along...",
+    ),
+    "spin": (
+        PROCEDURES_MODULE,
+        "spin",
+        "Spin test: constant torque about the vertical axis (weight on the drum, or...",
+    ),
+    "pendulum": (
+        PROCEDURES_MODULE,
+        "pendulum",
+        "Pendulum free decay: pull the vehicle out on the pendulum, release, record...",
+    ),
+    "calibrate-thrusters": (
+        PROCEDURES_MODULE,
+        "calibrate_thrusters",
+        "Thrust calibration: step the thrusters on the load cell and fit thrust vs...",
+    ),
+}
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing
 #: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py) of the
-#: commands that are not a run kind's; :data:`COMMANDS` adds those from the registry.
+#: commands that are not a run kind's.
 OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
     "sequence": (
         "api.cli.procedures",
@@ -161,39 +183,8 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 
-def _kind_commands() -> dict[str, tuple[str, str, str]]:
-    """``rig <command>`` of each kind the rig runs, as its registry entry names and helps it
-    (the registry is read on first use: ``rig token`` never loads it)."""
-    from daq.procedures.run_kinds import RIG_KINDS
-
-    return {
-        str(spec.command): (
-            PROCEDURES_MODULE,
-            str(spec.command).replace("-", "_"),
-            click.Command(spec.command, help=spec.help).get_short_help_str(80),
-        )
-        for spec in RIG_KINDS.values()
-    }
-
-
-class _Commands(Mapping[str, tuple[str, str, str]]):
-    """Every command, the kinds' first: name → (module, attribute, short help)."""
-
-    @functools.cached_property
-    def _table(self) -> dict[str, tuple[str, str, str]]:
-        return _kind_commands() | OTHER_COMMANDS
-
-    def __getitem__(self, name: str) -> tuple[str, str, str]:
-        return OTHER_COMMANDS[name] if name in OTHER_COMMANDS else self._table[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._table)
-
-    def __len__(self) -> int:
-        return len(self._table)
-
-
-COMMANDS: Mapping[str, tuple[str, str, str]] = _Commands()
+#: Every command, the kinds' first: name → (module, attribute, short help).
+COMMANDS: Mapping[str, tuple[str, str, str]] = RIG_KIND_COMMANDS | OTHER_COMMANDS
 
 
 def records_runs(name: str, module: str) -> bool:

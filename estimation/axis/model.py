@@ -33,7 +33,7 @@ class ParamView:
     ``TermValues`` per library entry (base damping, then effects), grouped by role."""
 
     def __init__(self, theta: np.ndarray, effects: Sequence[str]) -> None:
-        self.theta = theta
+        self.theta, self.effects = theta, tuple(effects)
         self.inertia = theta[:, 0]
         entries = [LIBRARY[name] for name in (*BASE_NAMES[1:], *effects)]
         self.terms = [TermValues(t, theta[:, [i + 1]]) for i, t in enumerate(entries)]
@@ -47,6 +47,10 @@ class ParamView:
         for c in self.inertias:
             total = total + c.value[:, 0] * run.weight_equivalent
         return total
+
+    def rows(self, rows: slice) -> ParamView:
+        """The view of the parameter sets ``theta[rows]``."""
+        return ParamView(self.theta[rows], self.effects)
 
     def delay(self) -> np.ndarray:
         """Σ of the timing terms (s), shape (S,)."""
@@ -157,11 +161,19 @@ def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[Pre
     return bool(unresolved.any()) or h <= coarsest_step(runs) / 2**MAX_HALVINGS * (1 + 1e-9)
 
 
-def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.ndarray, np.ndarray]]:
-    h, unresolved = integration_step(p, runs)
-    delay = p.delay()
-    span = max(float(r.t[-1] - r.t_release) for r in runs) - min(0.0, float(delay.min()))
+def _simulate_ode(
+    every: ParamView, runs: Sequence[PreparedRun], rows: slice
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    h, unresolved = integration_step(every, runs)
+    span = max(float(r.t[-1] - r.t_release) for r in runs) - min(0.0, float(every.delay().min()))
     n_steps = max(int(np.ceil(span / h)) + 2, 3)
+    # terms that are zero in every set exert nothing: skipped (dry friction's set-valued
+    # branch costs most)
+    active = [bool(np.any(c.value)) for c in every.forces]
+    # The sets of ``rows`` only, on the step, grid and terms chosen for every set above:
+    # each set's steps are its own, so its path is the same whichever sets run beside it.
+    p, unresolved = every.rows(rows), unresolved[rows]
+    delay = p.delay()
     n_sets, n_runs = p.theta.shape[0], len(runs)
     inertia = np.empty((n_sets, n_runs))
     const_force = np.zeros((n_sets, n_runs))
@@ -169,9 +181,7 @@ def _simulate_ode(p: ParamView, runs: Sequence[PreparedRun]) -> list[tuple[np.nd
     for i, r in enumerate(runs):
         inertia[:, i] = p.total_inertia(r)
         const_force[:, i] = r.constant_drive or 0.0
-    # terms that are zero in every set exert nothing: skipped (dry friction's set-valued
-    # branch costs most)
-    forces = [c for c in p.forces if np.any(c.value)]
+    forces = [c for c, on in zip(p.forces, active, strict=True) if on]
 
     # The recorded drive is a zero-order hold (each value until the next sample): each step
     # takes its exact mean over the step's span (from its running integral at the sample
@@ -262,17 +272,23 @@ def bounded(x: np.ndarray, runs: Sequence[PreparedRun]) -> np.ndarray:
 
 
 def simulate(
-    theta: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]
+    theta: np.ndarray,
+    effects: Sequence[str],
+    runs: Sequence[PreparedRun],
+    rows: slice = slice(None),
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Displacement from the release position and velocity, per run, shape (S, n_samples).
 
     ``theta`` has one row per parameter set: inertia, K_L, K_Q, then one column per effect.
+    ``rows``: simulate only the sets ``theta[rows]``, on the RK4 step and grid all the
+    sets of ``theta`` would share (a finite-difference Jacobian's perturbed sets after its
+    centre's residual: the same numbers as simulating them all at once).
     """
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
     p = ParamView(theta, effects)
     if closed_form_applies(effects, runs):
-        return _simulate_closed(p, runs)
+        return _simulate_closed(p.rows(rows), runs)
     # A trial parameter set far from the data (e.g. an effect search's first step on a
     # short run) can diverge; its non-finite residual rejects it, so no warning is needed.
     with np.errstate(over="ignore", invalid="ignore"):
-        return _simulate_ode(p, runs)
+        return _simulate_ode(p, runs, rows)

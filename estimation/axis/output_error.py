@@ -106,34 +106,44 @@ class _Problem:
         self._key: bytes | None = None
         self._sims = np.zeros(0)
         self._steps = np.zeros(0)
+        self._sets = np.zeros((0, self.n_global))
         #: model velocity per run at the last parameters evaluated (their first set)
         self.velocities: tuple[np.ndarray, ...] = ()
 
-    def model(self, params: np.ndarray, sets: np.ndarray) -> np.ndarray:
-        sims = simulate(sets, self.effects, self.runs)
-        self.velocities = tuple(s[1][0] for s in sims)
-        x = np.concatenate([s[0] for s in sims], axis=1)
-        return x + params[self.n_global :][self.run_index][None, :]
+    def model(
+        self, params: np.ndarray, sets: np.ndarray, rows: slice
+    ) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """Positions of the sets ``sets[rows]`` (on the step all of ``sets`` share), with
+        each run's offset, and the velocity per run of the first of them. Bounded: an
+        unstable trial comes back as a large, finite misfit where it starts (1e3 × the
+        measured travel), so no overflow reaches the optimiser."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            sims = simulate(sets, self.effects, self.runs, rows)
+            x = np.concatenate([s[0] for s in sims], axis=1)
+            x = bounded(x + params[self.n_global :][self.run_index][None, :], self.runs)
+        return x, tuple(s[1][0] for s in sims)
 
-    def _evaluate(self, params: np.ndarray) -> np.ndarray:
-        """Model for the parameters and each finite-difference perturbation (one call)."""
+    def _evaluate(self, params: np.ndarray, perturbed: bool) -> np.ndarray:
+        """Model for the parameters (row 0) and, with ``perturbed``, each finite-difference
+        perturbation: those only when the Jacobian asks (a rejected trial step never does),
+        on the step the centre's residual was simulated with."""
         key = params.tobytes()
         if key != self._key:
             g = params[: self.n_global]
             self._steps = 1e-6 * np.maximum(np.abs(g), 1e-3)
-            sets = np.vstack([g, g + np.diag(self._steps)])
-            # an unstable trial step comes back as a large, finite misfit: bounded where it
-            # starts (1e3 × the measured travel), so no overflow reaches the optimiser
-            with np.errstate(over="ignore", invalid="ignore"):
-                self._sims = bounded(self.model(params, sets), self.runs)
+            self._sets = np.vstack([g, g + np.diag(self._steps)])
+            self._sims, self.velocities = self.model(params, self._sets, slice(0, 1))
             self._key = key
+        if perturbed and self._sims.shape[0] == 1:
+            perturbations, _ = self.model(params, self._sets, slice(1, None))
+            self._sims = np.vstack([self._sims, perturbations])
         return self._sims
 
     def residual(self, params: np.ndarray) -> np.ndarray:
-        return self.measured - self._evaluate(params)[0]
+        return self.measured - self._evaluate(params, perturbed=False)[0]
 
     def jacobian(self, params: np.ndarray) -> np.ndarray:
-        sims = self._evaluate(params)
+        sims = self._evaluate(params, perturbed=True)
         jac = np.zeros((self.measured.size, params.size))
         jac[:, : self.n_global] = -((sims[1:] - sims[0]) / self._steps[:, None]).T
         jac[np.arange(self.measured.size), self.n_global + self.run_index] = -1.0

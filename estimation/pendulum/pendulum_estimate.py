@@ -28,6 +28,7 @@ from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY
 from estimation.numbers import Coefficient, finite_or_none, finite_values
+from estimation.pendulum import PENDULUM_METHODS
 from estimation.pendulum.configuration import (
     ADDED_MASS,
     BASE_TERMS,
@@ -53,12 +54,6 @@ from estimation.stats.diagnostics import Whiteness, ljung_box
 from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.motion_budget import motion_budget
 
-PENDULUM_METHODS: tuple[str, ...] = (
-    "output-error",
-    "damped-fit",
-    "log-decrement",
-    "equation-error",
-)
 SCHEMA_VERSION = 1
 GEOMETRY_EXACT = (
     "Type B not declared: the rig file's pendulum geometry (rod, arm, buoyancy) is taken as "

@@ -21,7 +21,9 @@ from pathlib import Path
 import click
 import pytest
 
+from api.cli.command_table import RIG_KIND_COMMANDS
 from api.cli.main import COMMANDS, DEBUG_ENV, main
+from daq.procedures.run_kinds import RIG_KINDS
 from daq.store import Store
 from tests.cli import run_in_process
 from tests.store.helpers import new_run
@@ -252,6 +254,14 @@ def test_the_lazy_help_table_matches_each_command():
         command = getattr(importlib.import_module(module), attr)
         assert command.name == name
         assert short == command.get_short_help_str(limit=80), name
+
+
+def test_the_help_lists_each_kind_the_registry_runs_in_its_order():
+    """``rig --help`` lists the kinds' commands from a table (the registry costs ~0.4 s of
+    CPU to import): a kind added to or dropped from the registry must be in it, in order."""
+    listed = list(RIG_KIND_COMMANDS)
+    assert listed == [str(spec.command) for spec in RIG_KINDS.values()]
+    assert list(COMMANDS)[: len(listed)] == listed
 
 
 #: Cases run as real subprocesses: they reach a device, bind or connect to a port, or

@@ -25,16 +25,21 @@ PROBE = (
     "sys.argv[0] = 'rig'\n"
     "main()\n"
 )
-#: Never loaded by an estimate (pandas and statsmodels: notebooks' and tests' tools).
+#: Never loaded by an estimate (pandas and statsmodels: notebooks' and tests' tools); nor,
+#: by a tow's, the pendulum's estimator (``--method`` lists its methods by name only).
 NOT_FOR_AN_ESTIMATE = (
     "statsmodels", "pandas", "scipy.stats", "scipy.signal", "scipy.integrate", "matplotlib",
-    "fastapi", "pymodbus",
+    "fastapi", "pymodbus", "estimation.pendulum.pendulum_estimate",
 )  # fmt: skip
 #: Never loaded by ``rig --help`` (it lists commands from a table) nor ``rig runs`` (a plain
 #: table: rich's cost ~0.25 s of CPU for 50 rows, 15 s for 7,000).
 NOT_FOR_A_LIST = (
     "numpy", "scipy", "pandas", "numba", "matplotlib", "fastapi", "pymodbus", "rich",
 )  # fmt: skip
+#: Nor by ``rig --help``, which reads no database and no registry: SQLAlchemy ~0.5 s of CPU,
+#: the run-kind registry's request models (pydantic, the rig file's schema) ~0.4 s.
+NOT_FOR_THE_HELP = (*NOT_FOR_A_LIST, "sqlalchemy", "pydantic", "daq.config",
+                    "daq.procedures.run_kinds")  # fmt: skip
 
 
 def _loaded(tmp_path: Path, *argv: str) -> set[str]:
@@ -61,15 +66,24 @@ def test_an_estimate_imports_no_statsmodels_pandas_or_scipy_stats(tmp_path):
     loaded = _loaded(tmp_path, "estimate", *ids)
     assert "estimation.axis.effect_search" in loaded  # it did search for effects
     assert [m for m in NOT_FOR_AN_ESTIMATE if m in loaded] == []
+    # weight-driven imports: no thruster drive to rebuild, so no thrust law (SciPy's splines)
+    assert [m for m in ("daq.thruster_run_drive", "scipy.interpolate") if m in loaded] == []
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("argv", [("--help",), ("runs",)])
-def test_help_and_the_run_list_import_no_numerics_nor_rich(tmp_path, argv):
+@pytest.mark.parametrize(
+    ("argv", "never"),
+    [(("--help",), NOT_FOR_THE_HELP), (("runs",), NOT_FOR_A_LIST),
+     (("estimate", "--help"), NOT_FOR_AN_ESTIMATE)],
+)  # fmt: skip
+def test_help_the_run_list_and_the_estimate_command_import_only_what_they_use(
+    tmp_path, argv, never
+):
+    """The fast lane's guard (the estimate itself is timed above, in the slow lane):
+    ``rig estimate --help`` loads the estimate command's modules, as every estimate does."""
     if argv == ("runs",):
         store = Store(f"sqlite:///{tmp_path}/rig.db")
         _tow_csv(tmp_path / "tow.csv", 20.0, 1)
         import_csv(store, tmp_path / "tow.csv", kind="tow", parameters={"force_n": 20.0})
         store.close()
     loaded = _loaded(tmp_path, *argv)
-    assert [m for m in NOT_FOR_A_LIST if m in loaded] == []
+    assert [m for m in never if m in loaded] == []

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from daq.config import DEFAULT_RIG_FILE, load_rig
-from daq.run_data import thruster_drive
+from daq.thruster_run_drive import thruster_drive
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 
 CURVE = ThrustCurve(

@@ -14,7 +14,8 @@ from daq.calibration_law import import_calibration, law_of
 from daq.procedures.motion import run_motion_test
 from daq.procedures.params import ParameterError
 from daq.procedures.requests import tow_parameters
-from daq.run_data import load_run_data, thruster_drive
+from daq.run_data import load_run_data
+from daq.thruster_run_drive import thruster_drive
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec
 
 pytestmark = pytest.mark.simtime

@@ -19,10 +19,11 @@ import pytest
 from PIL import Image
 
 from estimation.motion.output_error_fit import simulate
+from estimation.pendulum import PENDULUM_METHODS
 from estimation.pendulum.configuration import CANDIDATES, SETUP, swing
 from estimation.pendulum.data import PendulumGeometry, validate_pendulum_run
 from estimation.pendulum.methods import coefficients_from_signal, thesis_translational
-from estimation.pendulum.pendulum_estimate import PENDULUM_METHODS, estimate_pendulum
+from estimation.pendulum.pendulum_estimate import estimate_pendulum
 from estimation.pendulum.pendulum_report import fit_figure, run_labels, write_pendulum_report
 from estimation.pendulum.swing_extrema import prepare_decay
 from tests.estimation.pendulum_synth import ALPHA, BETA, GEOMETRY, decay

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from estimation import estimate
+from estimation.axis.model import simulate
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
+from estimation.data.run_arrays import RunData
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, Physics, tow_set
 
 TRUTH = {"surge": np.array(SURGE_TRUTH), "yaw": np.array(YAW_TRUTH)}
@@ -79,3 +81,25 @@ def test_samples_after_t_end_are_ignored():
     assert (
         estimate(braked, search_effects=False, n_bootstrap=0).rmse_after > 100 * doc["rmse_after"]
     )
+
+
+def test_a_trial_step_integrates_the_centre_only_the_jacobian_its_perturbations(monkeypatch):
+    """The finite-difference sets (3 + effects of them) are integrated only for a Jacobian:
+    a residual (a trial step the fit may reject) integrates one set, not 1 + 3 + effects."""
+    t = np.arange(0.0, 15.0, 0.05)
+    drive = 40.0 + 10.0 * np.sin(2 * np.pi * 0.3 * t)
+    blank = prepare(RunData("w", "surge", t, np.zeros_like(t), drive, t_release=1.0))
+    x = np.zeros_like(t)  # at rest until the release, then the model's path
+    x[t.size - blank.t.size :] = simulate(np.array([SURGE_TRUTH]), (), [blank])[0][0][0]
+    noise = np.random.default_rng(3).normal(0.0, 1e-4, t.size)
+    run = prepare(RunData("w", "surge", t, x + noise, drive, t_release=1.0))
+    calls: list[int] = []
+
+    def counting(*args):  # theta, effects, runs[, rows]
+        calls.append(len(np.atleast_2d(args[0])[args[3] if len(args) > 3 else slice(None)]))
+        return simulate(*args)
+
+    monkeypatch.setattr("estimation.axis.output_error.simulate", counting)
+    fit = fit_output_error([run], (), start=1.2 * np.array(SURGE_TRUTH))
+    assert set(calls) == {1, 3}, calls  # the centre alone, or its 3 perturbations
+    assert fit.values[0] == pytest.approx(SURGE_TRUTH[0], rel=0.05)
