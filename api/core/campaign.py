@@ -191,6 +191,10 @@ class CampaignRunner:
                 campaign.outcome = f"job {item.id} ended {ended.state}"
                 return "aborted", f"job {item.id} ({label}) ended {ended.state}: campaign stopped"
             run_id = ended.run_ids[-1]
+            fitting = f"estimating {test.axis} with run {run_id} and its uncertainty budget"
+            campaign.pending = {"test": test.describe(), "why": "the planner needs the new fit",
+                                "instructions": fitting, "job_id": item.id}  # fmt: skip
+            runner.registry.update(job, outcome=campaign.to_json(), message=fitting)
             result, budget, seconds = self._estimate(campaign, test.axis, run_id)
             campaign.pending = None
             entry = campaign.recorded(choice, run_id, seconds, result, budget)
