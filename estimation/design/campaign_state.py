@@ -7,8 +7,8 @@ loops::
 
     while (d := campaign.next()).stop is None:
         run_id, seconds = record(d.choice.test)          # on the rig
-        result = estimate(campaign.run_ids(axis))
-        campaign.recorded(d.choice, run_id, seconds, result, budget_of(result))
+        result = estimate(campaign.run_ids(axis))              # and its GUM budget:
+        campaign.recorded(d.choice, run_id, seconds, result, budget)  # U, not 2σ
 """
 
 from __future__ import annotations

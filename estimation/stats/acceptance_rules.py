@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Protocol
 
 import numpy as np
@@ -67,17 +68,17 @@ class Trial:
     floor_ratio: Callable[[], float] | None = None
     out_of_sample: Callable[[], str | None] | None = None
 
-    @property
+    @cached_property
     def delta_bic(self) -> float:
         """BIC of the trial minus the current model's."""
         return self.fit.bic - self.current.bic
 
-    @property
+    @cached_property
     def explained_rms(self) -> float:
         """√((SSE₀ − SSE₁)/n): the residual the candidate explains (m or rad)."""
         return float(np.sqrt(max(self.current.sse - self.fit.sse, 0.0) / self.current.n_samples))
 
-    @property
+    @cached_property
     def noise(self) -> float:
         """Position noise σ the trial implies (``stats.diagnostics.position_noise``)."""
         return position_noise(self.fit.residuals)
