@@ -43,13 +43,17 @@ from daq.store.migrate import shared_by_processes
 #: worker's GIL, and in real-time mode no niceness can delay it.
 ANALYSIS_NICENESS = 5
 
-AnalysisKind = Literal["estimation", "crosscheck"]
+#: What an analysis task fits: an estimation job, a cross-check job, or a campaign's fit of
+#: one axis after its run (``api.core.campaign_fit``; its outcome's ``data["fit"]`` is the
+#: ``AxisFit``).
+AnalysisKind = Literal["estimation", "crosscheck", "campaign_fit"]
 
 
 @dataclass(frozen=True)
 class AnalysisTask:
     """One analysis to run: ``kind`` with ``params`` (the keyword arguments of
-    ``run_estimation`` or ``crosscheck_runs`` besides the store and the report folder),
+    ``run_estimation``, ``crosscheck_runs`` or ``fit_campaign_axis`` besides the store and
+    the report folder),
     on the database at ``store_url``, its report figures drawn into ``report_dir``."""
 
     kind: AnalysisKind
@@ -101,6 +105,11 @@ def _fit(task: AnalysisTask, store: Store) -> AnalysisOutcome:
         if result_id is not None:
             reports = ((result_id, folder),)
         return AnalysisOutcome(data, result_id, "estimation done", pid, niceness, reports=reports)
+    if task.kind == "campaign_fit":
+        from api.core.campaign_fit import fit_campaign_axis
+
+        fit = fit_campaign_axis(store, **task.params)
+        return AnalysisOutcome({"fit": fit}, fit.result_id, "fitted", pid, niceness)
     from api.core.crosscheck_job import crosscheck_runs
 
     data = crosscheck_runs(store, report_dir=folder, **task.params)
@@ -139,6 +148,7 @@ def _start_worker() -> None:
     """The worker process's start: lower its priority, then import what every analysis
     runs (the fits, the report's figures), so no task waits for it."""
     lower_priority(ANALYSIS_NICENESS)
+    import api.core.campaign_fit
     import api.core.crosscheck_job
     import api.core.estimation_job  # noqa: F401
 

@@ -21,19 +21,19 @@ import logging
 import threading
 import time
 import weakref
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from api.core.job_model import Job, JobConflict
 from api.core.job_requests import procedure_from_request
 from api.core.rig_envelope import envelope_of
-from daq.axis_budget import fitted_budget
 from daq.store.faults import one_line
 from daq.store.schema import JOB_FINAL, JobState
 from estimation.design.campaign_state import Campaign, Target
+from estimation.design.planner import Choice
 from estimation.design.planning_envelope import Candidate
-from estimation.uncertainty.budget import Budget
 
 if TYPE_CHECKING:
+    from api.core.campaign_fit import AxisFit
     from api.core.jobs import JobRunner
 
 log = logging.getLogger(__name__)
@@ -66,6 +66,10 @@ class CampaignRunner:
     def __init__(self, runner: JobRunner) -> None:
         self.runner = runner
         self._stops: dict[str, threading.Event] = {}
+        self._threads: dict[str, threading.Thread] = {}
+        #: Set when the service stops: campaigns end "aborted: the service stopped".
+        self._closing = False
+        runner.before_close.append(self.close)
 
     @classmethod
     def of(cls, runner: JobRunner) -> CampaignRunner:
@@ -101,9 +105,10 @@ class CampaignRunner:
         job.outcome = campaign.to_json()
         self.runner.registry.save(job, event=True)
         stop = self._stops[job.id] = threading.Event()
-        threading.Thread(
+        thread = self._threads[job.id] = threading.Thread(
             target=self._run, args=(job, campaign, stop), name=f"campaign-{job.id}", daemon=True
-        ).start()
+        )
+        thread.start()
         return job
 
     def stop(self, job_id: str) -> Job:
@@ -117,6 +122,22 @@ class CampaignRunner:
             raise JobConflict(f"campaign {job_id} has ended ({job.state})")
         event.set()
         return job
+
+    def close(self, timeout_s: float = 30.0) -> None:
+        """The service stops (after its jobs on the rig were aborted): every campaign ends
+        with that reason, and its thread has written its ending before the registry closes
+        (a fit running finishes first, up to ``timeout_s``)."""
+        self._closing = True
+        for event in list(self._stops.values()):
+            event.set()
+        deadline = time.monotonic() + timeout_s
+        for job_id, thread in list(self._threads.items()):
+            thread.join(max(0.0, deadline - time.monotonic()))
+            if thread.is_alive():
+                log.warning("campaign %s ran %.0f s past the service stop", job_id, timeout_s)
+
+    def _stopped_why(self) -> str:
+        return "the service stopped" if self._closing else "stopped by the operator"
 
     # -- the loop (its own thread) ---------------------------------------------------------
     def _run(self, job: Job, campaign: Campaign, stop: threading.Event) -> None:
@@ -137,14 +158,15 @@ class CampaignRunner:
             )
         finally:
             self._stops.pop(job.id, None)
+            self._threads.pop(job.id, None)
 
     def _loop(self, job: Job, campaign: Campaign, stop: threading.Event) -> tuple[str, str]:
         runner, service = self.runner, self.runner.service
         rig = service.source.rig
         while True:
             if stop.is_set():
-                campaign.outcome = "stopped by the operator"
-                return "aborted", "stopped by the operator"
+                campaign.outcome = self._stopped_why()
+                return "aborted", campaign.outcome
             decision = campaign.next()
             if decision.stop is not None:
                 return "completed", f"done: {decision.stop}"
@@ -173,8 +195,8 @@ class CampaignRunner:
             if ended is None:  # its queued test never ran: out of the queue with it
                 with contextlib.suppress(JobConflict):
                     runner.remove(item.id)
-                campaign.outcome = "stopped by the operator"
-                return "aborted", f"stopped by the operator while job {item.id} waited"
+                campaign.outcome = self._stopped_why()
+                return "aborted", f"{campaign.outcome} while job {item.id} waited"
             if ended.run_ids:
                 from api.core.campaign_session import repeat_if_damaged  # loads the estimators
 
@@ -195,9 +217,9 @@ class CampaignRunner:
             campaign.pending = {"test": test.describe(), "why": "the planner needs the new fit",
                                 "instructions": fitting, "job_id": item.id}  # fmt: skip
             runner.registry.update(job, outcome=campaign.to_json(), message=fitting)
-            result, budget, seconds = self._estimate(campaign, test.axis, run_id)
+            fit = self._fit(campaign, choice, run_id)
             campaign.pending = None
-            entry = campaign.recorded(choice, run_id, seconds, result, budget)
+            entry = campaign.recorded(choice, run_id, fit.run_s, fit.state)
             entry["instructions"] = what
             entry["job_id"] = item.id
             runner.registry.update(job, outcome=campaign.to_json(), run_ids=[*job.run_ids, run_id])
@@ -209,21 +231,12 @@ class CampaignRunner:
                 return None
         return item
 
-    def _estimate(
-        self, campaign: Campaign, axis: str, run_id: str
-    ) -> tuple[Any, Budget | None, float]:
-        """The axis's fit on its runs and ``run_id`` with its uncertainty budget (stored as a
-        result), and the run's duration on the rig, s."""
-        from api.core.estimation_job import load_estimation_runs
-        from estimation import estimate
+    def _fit(self, campaign: Campaign, choice: Choice, run_id: str) -> AxisFit:
+        """The axis's fit on its runs and ``run_id`` with its uncertainty budget, stored as a
+        result: in the analysis worker process, never in the rig's (``campaign_fit``)."""
+        from api.core.campaign_session import campaign_fit_task, fit_outcome
 
         store = self.runner.service.store
         assert store is not None
-        ids = [*campaign.run_ids(axis), run_id]
-        _, runs = load_estimation_runs(store, ids, "output-error")
-        result = estimate(runs, n_bootstrap=0, envelope=campaign.envelope)  # type: ignore[arg-type]
-        budget = fitted_budget(store, runs, result)
-        extra = {"campaign": True, "budget": None if budget is None else budget.to_json()}
-        store.add_result(ids, "estimation", result.to_json() | extra)
-        t = runs[-1].t
-        return result, budget, float(t[-1] - t[0])
+        task = campaign_fit_task(store, campaign, choice, run_id, store_result=True)
+        return fit_outcome(self.runner.analysis.executor_for(store).run(task))

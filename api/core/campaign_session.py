@@ -5,10 +5,13 @@ chosen test run directly on the session instead of through the job queue."""
 from __future__ import annotations
 
 import asyncio
+import tempfile
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
-from daq.axis_budget import fitted_budget
+from api.core.analysis_executor import AnalysisOutcome, AnalysisTask, ProcessExecutor, executor_for
+from api.core.campaign_fit import AxisFit
 from daq.fit_exclusions import TooMuchLeftOut
 from daq.procedures.recording import AbortSignal
 from daq.procedures.run_kinds import KINDS
@@ -16,23 +19,32 @@ from daq.run_data import load_run_data
 from daq.sample_losses import SAMPLES_LOST
 from daq.session import RigSession
 from estimation.design.campaign_state import Campaign
-from estimation.uncertainty.budget import Budget
+from estimation.design.planner import Choice
 
 
-def fit_axis(store: Any, run_ids: list[str], campaign: Campaign) -> tuple[Any, Budget | None]:
-    """The axis fit of ``run_ids`` with the campaign's envelope (advice within the rig), and
-    its uncertainty budget (the campaign stops on its U)."""
-    from estimation import estimate
-
-    runs = [load_run_data(store, r) for r in run_ids]
-    result = estimate(runs, n_bootstrap=0, envelope=campaign.envelope)
-    return result, fitted_budget(store, runs, result)
+class CampaignFitFailed(RuntimeError):
+    """A campaign's fit of an axis failed (the analysis outcome's one line)."""
 
 
-def run_seconds(store: Any, run_id: str) -> float:
-    """A run's duration on the rig: first to last sample, s."""
-    t = load_run_data(store, run_id).t
-    return float(t[-1] - t[0])
+def campaign_fit_task(
+    store: Any, campaign: Campaign, choice: Choice, run_id: str, *, store_result: bool
+) -> AnalysisTask:
+    """The analysis task that fits ``choice``'s axis with its runs and ``run_id``."""
+    params = {
+        "run_ids": [*campaign.run_ids(choice.test.axis), run_id],
+        "envelope": campaign.envelope,
+        "recorded": campaign.tests_after(choice),
+        "store_result": store_result,
+    }
+    return AnalysisTask("campaign_fit", params, store.url, Path(tempfile.gettempdir()))
+
+
+def fit_outcome(outcome: AnalysisOutcome) -> AxisFit:
+    """The ``AxisFit`` of a campaign fit's outcome; ``CampaignFitFailed`` with its error."""
+    if outcome.error is not None or outcome.data is None:
+        raise CampaignFitFailed(outcome.error or "the fit returned nothing")
+    fit: AxisFit = outcome.data["fit"]
+    return fit
 
 
 def damage_of(store: Any, run_id: str) -> str | None:
@@ -79,6 +91,11 @@ async def run_campaign(
     the campaign (``outcome``)."""
     store = session.store
     abort = abort or AbortSignal()
+    # The fits run where analyses run: a worker process at lower priority for a database
+    # other processes can open, never beside the clock in this process (in-memory aside).
+    executor = executor_for(store)
+    if isinstance(executor, ProcessExecutor):
+        executor.start()  # its imports overlap the first run
     while (decision := campaign.next()).stop is None:
         choice = decision.choice
         assert choice is not None
@@ -103,10 +120,9 @@ async def run_campaign(
         if outcome.status != "completed":
             campaign.outcome = f"{test.command}: {outcome.status} ({outcome.reason})"
             return campaign
-        ids = [*campaign.run_ids(test.axis), outcome.run_id]
-        result, budget = await asyncio.to_thread(fit_axis, store, ids, campaign)
-        seconds = await asyncio.to_thread(run_seconds, store, outcome.run_id)
-        entry = campaign.recorded(choice, outcome.run_id, seconds, result, budget)
+        task = campaign_fit_task(store, campaign, choice, outcome.run_id, store_result=False)
+        fit = fit_outcome(await asyncio.to_thread(executor.run, task))
+        entry = campaign.recorded(choice, outcome.run_id, fit.run_s, fit.state)
         if on_entry is not None:
             on_entry(entry)
     return campaign

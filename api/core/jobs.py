@@ -31,6 +31,7 @@ import contextlib
 import logging
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -78,6 +79,10 @@ class JobRunner(QueueEdits):
         self.start_procedure = self.rig.start_procedure
         self.queue: RigQueue = self.rig.queue
         self.analysis = AnalysisWorker(self.registry, self.report_root)
+        #: Called by :meth:`close` once the rig is free, before the analysis worker and
+        #: the registry close: parts that run in threads of their own (campaigns) end
+        #: and write their ending here.
+        self.before_close: list[Callable[[], None]] = []
 
     @property
     def jobs(self) -> dict[str, Job]:
@@ -127,6 +132,8 @@ class JobRunner(QueueEdits):
                 self.abort(job.id, "service stopped")
         if not self.queue.idle.wait(timeout_s):
             log.warning("a job still held the rig %.0f s after the service stopped", timeout_s)
+        for close in self.before_close:
+            close()
         self.analysis.close()
         self.registry.close()
         if self._own_report_root:

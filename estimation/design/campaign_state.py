@@ -6,9 +6,10 @@ the rig service's campaign job (``api.core.campaign``) or ``bench/campaign_effic
 loops::
 
     while (d := campaign.next()).stop is None:
-        run_id, seconds = record(d.choice.test)          # on the rig
-        result = estimate(campaign.run_ids(axis))              # and its GUM budget:
-        campaign.recorded(d.choice, run_id, seconds, result, budget)  # U, not 2σ
+        run_id, seconds = record(d.choice.test)               # on the rig
+        result, budget = estimate(campaign.run_ids(axis) + [run_id])  # and its GUM budget
+        state = state_from_result(result, campaign.tests_after(d.choice), budget)
+        campaign.recorded(d.choice, run_id, seconds, state)   # U, not 2σ
 """
 
 from __future__ import annotations
@@ -16,10 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from estimation.design.planner import AxisState, Choice, Decision, decide, state_from_result
+from estimation.design.planner import AxisState, Choice, Decision, decide
 from estimation.design.planning_envelope import Candidate, RigEnvelope
 from estimation.numbers import finite_or_none
-from estimation.uncertainty.budget import Budget
 
 #: How many times in a row a campaign repeats a test whose runs are damaged.
 MAX_REPEATS = 2
@@ -140,23 +140,20 @@ class Campaign:
         self.trail.append(entry)
         return entry
 
-    def recorded(
-        self,
-        choice: Choice,
-        run_id: str,
-        seconds: float,
-        result: object,
-        budget: Budget | None = None,
-    ) -> dict:
-        """Book a finished run (``seconds`` on the rig) and the axis's new fit ``result``
-        (an ``EstimationResult``) with its uncertainty ``budget`` (None: U = 2σ); returns
-        the trail entry."""
+    def tests_after(self, choice: Choice) -> tuple[Candidate, ...]:
+        """The tests behind the axis's fit once ``choice``'s run is booked, in order."""
+        return (*(c for c, _ in self.runs[choice.test.axis]), choice.test)
+
+    def recorded(self, choice: Choice, run_id: str, seconds: float, state: AxisState) -> dict:
+        """Book a finished run (``seconds`` on the rig) and the axis's new fit as the
+        planner sees it (``state_from_result`` of the fit with ``tests_after(choice)`` and
+        its uncertainty budget); returns the trail entry."""
         self.again, self.repeats = None, 0
         axis = choice.test.axis
         before = self.status(axis)
         self.runs[axis].append((choice.test, run_id))
         self.minutes_used += (seconds + self.envelope.reset_s) / 60
-        self.states[axis] = state_from_result(result, [c for c, _ in self.runs[axis]], budget)
+        self.states[axis] = state
         return self._book(
             choice,
             run_id,

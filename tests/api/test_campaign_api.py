@@ -99,3 +99,57 @@ def test_a_campaign_is_refused_after_an_emergency_stop_until_acknowledged(client
     assert r.status_code == 409 and "emergency stop" in r.json()["detail"], r.text
     assert client.post("/api/estop/ack", json={"note": "checked"}, headers=AUTH).status_code == 200
     client.post("/api/queue/resume", headers=AUTH)
+
+
+def test_a_campaigns_fit_runs_in_the_analysis_worker_process(client, monkeypatch) -> None:
+    """The fit after each run (seconds of CPU, 170 MB) runs where estimation jobs run: in
+    the niced worker process, never in the rig service's process beside the clock."""
+    import os
+
+    from api.core.analysis_executor import ANALYSIS_NICENESS
+    from tests.api.test_analysis_process import Watching
+
+    analysis = client.app.state.runner.analysis
+    watched = Watching(analysis.executor_for(client.app.state.service.store))
+    monkeypatch.setattr(analysis, "executor", watched)
+    wait_rig_free(client)
+    body = {"target_percent": 1, "axes": ["surge"], "max_runs": 1, "max_minutes": 30}
+    job = wait_job(
+        client, client.post("/api/campaigns", json=body, headers=AUTH).json()["id"], timeout_s=240
+    )
+    assert job["state"] == "completed" and job["outcome"]["runs_used"] == 1, job
+    [outcome] = watched.outcomes
+    assert outcome.error is None, outcome.traceback
+    assert outcome.pid != os.getpid() and outcome.niceness >= ANALYSIS_NICENESS
+    fit = outcome.data["fit"]
+    stored = client.app.state.service.store.result(fit.result_id)
+    assert list(stored.run_ids) == job["run_ids"] and stored.data["campaign"] is True
+    assert set(fit.state.values) >= {"inertia", "linear_damping", "quadratic_damping"}
+
+
+def test_a_service_that_stops_ends_its_campaign_saying_so(tmp_path, caplog) -> None:
+    """Stopping the service ends a running campaign ``aborted: the service stopped`` and
+    its ending is stored before the job registry closes (no write after it closed)."""
+    import logging
+
+    from fastapi.testclient import TestClient
+
+    from api.http.app import create_app
+    from daq.session import RigSource
+    from daq.store import Store
+    from daq.store.job_repository import JobRepository
+    from tests.api.conftest import TOKEN, simulated_service
+
+    url = f"sqlite:///{tmp_path / 'rig.db'}"
+    service = simulated_service(RigSource.load(), url)
+    with caplog.at_level(logging.WARNING), TestClient(create_app(service, token=TOKEN)) as c:
+        c.post("/api/queue/pause", headers=AUTH)  # its first tow waits in the queue
+        body = {"axes": ["surge"], "max_runs": 5}
+        job_id = c.post("/api/campaigns", json=body, headers=AUTH).json()["id"]
+        wait_job(c, job_id, states=("running",))
+    with Store(url) as store:
+        row = JobRepository(store).get(job_id)
+    assert row is not None
+    assert row["state"] == "aborted", row
+    assert row["message"].startswith("the service stopped"), row
+    assert "cannot schedule new futures" not in caplog.text
