@@ -19,6 +19,9 @@ class EstimationFailed(RuntimeError):
         self.what = what
         self.why = why
 
+    def __reduce__(self) -> tuple[type, tuple[str, str]]:  # crosses to a worker and back
+        return type(self), (self.what, self.why)
+
 
 class FieldError(ValueError):
     """A quantity that describes nothing physical: one line naming the field, the value
@@ -27,6 +30,9 @@ class FieldError(ValueError):
     def __init__(self, field_name: str, value: object, allowed: str) -> None:
         self.field, self.value, self.allowed = field_name, value, allowed
         super().__init__(f"{field_name}: got {value!r}, allowed: {allowed}")
+
+    def __reduce__(self) -> tuple[type, tuple[str, object, str]]:  # crosses processes
+        return type(self), (self.field, self.value, self.allowed)
 
 
 def positive(field_name: str, value: float, error: type[FieldError] = FieldError) -> float:

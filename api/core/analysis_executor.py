@@ -27,11 +27,13 @@ import atexit
 import concurrent.futures
 import multiprocessing
 import os
+import pickle
 import threading
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, Protocol, TypeVar
 
 from daq.priority import lower_priority
 from daq.store import Store
@@ -46,6 +48,8 @@ ANALYSIS_NICENESS = 5
 #: What an analysis task fits: an estimation job, a cross-check job, or a campaign's fit of
 #: one axis after its run (``api.core.campaign_fit``; its outcome's ``data["fit"]`` is the
 #: ``AxisFit``).
+T = TypeVar("T")
+
 AnalysisKind = Literal["estimation", "crosscheck", "campaign_fit"]
 
 
@@ -86,6 +90,14 @@ class AnalysisExecutor(Protocol):
 
     def run(self, task: AnalysisTask) -> AnalysisOutcome:
         """Run ``task`` to its end (blocks the calling thread); never raises for a failed fit."""
+        ...
+
+    def call(self, store_url: str | None, fn: Callable[..., T], /, *args: Any) -> T:
+        """``fn(store, *args)`` where analyses run, on the database at ``store_url``
+        (``fn(*args)`` for None): its value, or its exception raised here (``portable``).
+        For the work a route answers at once but that costs CPU (an export, a sensitivity
+        study, a 6-DOF simulation, a cross-check's figure): ``fn`` is a module-level
+        function (or a ``partial`` of one), its arguments and value plain data."""
         ...
 
     def close(self) -> None:
@@ -142,6 +154,31 @@ def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutc
             bad_input=isinstance(err, ValueError | KeyError),
             traceback=traceback.format_exc(),
         )
+
+
+def portable(err: Exception) -> Exception:
+    """``err`` as it can cross a process boundary: itself when it survives pickling, else
+    the nearest built-in class with its one line (a ``ValueError`` naming a field stays a
+    ``ValueError``, so the faces answer it as bad input)."""
+    try:
+        pickle.loads(pickle.dumps(err))
+        return err
+    except Exception:
+        base = next(c for c in (ValueError, KeyError, OSError, RuntimeError, Exception)
+                    if isinstance(err, c))  # fmt: skip
+        return base(str(err))
+
+
+def call_on_store(store_url: str | None, fn: Callable[..., T], args: tuple[Any, ...]) -> T:
+    """``fn(store, *args)`` on a ``Store`` opened on ``store_url`` (closed after), or
+    ``fn(*args)`` for None: what a worker process runs for :meth:`AnalysisExecutor.call`."""
+    try:
+        if store_url is None:
+            return fn(*args)
+        with Store(store_url) as store:
+            return fn(store, *args)
+    except Exception as err:
+        raise portable(err) from None
 
 
 def _start_worker() -> None:
@@ -207,6 +244,18 @@ class ProcessExecutor:
             line = f"the analysis worker process ended before the {task.kind} did ({err})"
             return AnalysisOutcome(None, None, f"error: {line}", os.getpid(), 0, error=line)
 
+    def call(self, store_url: str | None, fn: Callable[..., T], /, *args: Any) -> T:
+        pool = self._workers()
+        try:
+            return pool.submit(call_on_store, store_url, fn, args).result()
+        except concurrent.futures.process.BrokenProcessPool as err:
+            with self._lock:
+                if self._pool is pool:
+                    self._pool, self._started = None, None
+            pool.shutdown(wait=False, cancel_futures=True)
+            name = getattr(fn, "__name__", "analysis")
+            raise RuntimeError(f"the analysis worker process ended before {name} did") from err
+
     def close(self) -> None:
         with self._lock:
             pool, self._pool, self._started = self._pool, None, None
@@ -223,6 +272,9 @@ class ThreadExecutor:
 
     def run(self, task: AnalysisTask) -> AnalysisOutcome:
         return run_analysis(task, self.store)
+
+    def call(self, store_url: str | None, fn: Callable[..., T], /, *args: Any) -> T:
+        return fn(*args) if store_url is None else fn(self.store, *args)
 
     def close(self) -> None:
         """Nothing to release: tasks ran in their callers' threads."""

@@ -180,3 +180,9 @@ def run(
         "trajectory": traj.to_json(every=every),
     }
     return traj, summary
+
+
+def simulated_summary(vehicle: Vehicle6, duration_s: float, **options: Any) -> dict[str, Any]:
+    """The JSON summary of :func:`run` alone (what crosses back from the analysis worker
+    process: the trajectory object stays there)."""
+    return run(vehicle, duration_s, **options)[1]

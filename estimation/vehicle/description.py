@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
+from functools import partial
 from types import MappingProxyType
 from typing import Any, TypeGuard
 
@@ -90,6 +91,12 @@ class Vehicle6:
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", MappingProxyType(dict(self.sigma)))
         _validate(self)
+
+    def __reduce__(self) -> tuple[partial[Vehicle6], tuple[()]]:
+        """Pickled (for the analysis worker process) with ``sigma`` as a plain dict: a
+        read-only mapping does not pickle."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return partial(type(self), **values | {"sigma": dict(self.sigma)}), ()
 
     @property
     def weight_n(self) -> float:

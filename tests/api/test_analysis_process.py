@@ -75,3 +75,80 @@ def test_a_fit_that_fails_in_the_worker_is_an_outcome_naming_the_run(client, wat
     assert outcome.pid != os.getpid()
     assert outcome.bad_input and outcome.result_id is None
     assert "0123abcd" in (outcome.error or "")
+
+
+class Calls(Watching):
+    """The runner's executor, recording the function of each ``call``."""
+
+    def __init__(self, inner: AnalysisExecutor) -> None:
+        super().__init__(inner)
+        self.called: list[str] = []
+
+    def call(self, store_url, fn, /, *args):
+        target = getattr(fn, "func", fn)  # a partial's function
+        self.called.append(f"{target.__module__}.{target.__qualname__}")
+        return self.inner.call(store_url, fn, *args)
+
+
+def where_it_runs() -> tuple[int, int]:
+    """(pid, niceness) of the process that runs this."""
+    return os.getpid(), os.getpriority(os.PRIO_PROCESS, 0)
+
+
+def fails_naming_a_field(_store) -> None:
+    from estimation.errors import FieldError
+
+    raise FieldError("delta", -1.0, "0 < delta ≤ 0.5")
+
+
+class Unpicklable(ValueError):
+    def __init__(self, field_name: str, why: str) -> None:
+        super().__init__(f"{field_name}: {why}")
+
+
+def fails_unpicklable(_store) -> None:
+    raise Unpicklable("thresholds", "not increasing")
+
+
+def test_a_call_runs_in_the_niced_worker_and_its_errors_come_back_as_they_were(client):
+    """``call``: the work a route answers at once runs in the worker process, and the
+    error it raises reaches the route as the same class (a field error stays a 422)."""
+    from estimation.errors import FieldError
+
+    store = client.app.state.service.store
+    executor = shared_process_executor()
+    pid, niceness = executor.call(None, where_it_runs)
+    assert pid != os.getpid() and niceness > os.getpriority(os.PRIO_PROCESS, 0)
+    with pytest.raises(FieldError, match=r"delta: got -1\.0, allowed: 0 < delta ≤ 0\.5"):
+        executor.call(store.url, fails_naming_a_field)
+    # a class that cannot be rebuilt from its message comes back as its built-in base
+    with pytest.raises(ValueError, match="thresholds: not increasing") as raised:
+        executor.call(store.url, fails_unpicklable)
+    assert type(raised.value) is ValueError
+
+
+def test_exports_studies_simulations_and_crosschecks_run_in_the_worker(
+    client, tow_job, monkeypatch
+):
+    """What a route computes at once (a NetCDF/Parquet/MAT export, a sensitivity study, a
+    6-DOF simulation, a cross-check's comparison and figure) runs through the analysis
+    executor — in the worker process — never in the rig's process."""
+    analysis = client.app.state.runner.analysis
+    calls = Calls(analysis.executor_for(client.app.state.service.store))
+    monkeypatch.setattr(analysis, "executor", calls)
+    run_id = tow_job["run_ids"][0]
+    r = client.get(f"/api/runs/{run_id}/export?format=parquet", headers=AUTH)
+    assert r.status_code == 200 and r.content[:4] == b"PAR1", r.text[:200]
+    r = client.post("/api/analysis/sensitivity", json={"vehicle": "seed002-rov"}, headers=AUTH)
+    assert r.status_code == 200, r.text
+    body = {"vehicle": "seed002-rov", "force": [10, 0, 0, 0, 0, 0], "duration_s": 2.0}
+    r = client.post("/api/sixdof/simulate", json=body, headers=AUTH)
+    assert r.status_code == 200 and r.json()["samples"] > 1, r.text
+    assert calls.called == [
+        "daq.export_formats.write_export",
+        "api.core.analysis.analyse_vehicle",
+        "api.core.sixdof.simulated_summary",
+    ]
+    r = client.get(f"/api/runs/{run_id}/export?format=nosuch", headers=AUTH)
+    assert r.status_code == 422  # refused before any work is shipped
+    assert len(calls.called) == 3

@@ -7,6 +7,7 @@ runs in the request (a worker thread), not as a job.
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException
@@ -14,7 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from api.core import analysis as analysis_common
 from api.core import sixdof as sixdof_common
-from api.http.deps import StoreDep, require_read, require_write
+from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import error_responses
 from daq.store import ResultNotFound
 from estimation.vehicle.ahp import Judgement
@@ -128,24 +129,26 @@ def ahp_weights(body: AHPRequest) -> dict:
     dependencies=[Depends(require_write)],
     responses=error_responses(401, 404, 422),
 )
-def sensitivity(body: SensitivityRequest, store: StoreDep) -> dict:
+def sensitivity(body: SensitivityRequest, store: StoreDep, runner: RunnerDep) -> dict:
     """S, Sc, composite ranking, joint threshold sweep, ±σ changes, identifiability ranking
-    and the next test for a vehicle (docs/sensitivity.md)."""
+    and the next test for a vehicle (docs/sensitivity.md). Computed in the analysis worker
+    process, not the rig's."""
+    study = partial(
+        analysis_common.analyse_vehicle,
+        vehicle_name=body.vehicle,
+        estimates=body.estimates,
+        responses=body.responses,
+        weights=body.weights,
+        ahp=body.ahp.model_dump(exclude_none=True) if body.ahp else None,
+        thresholds=body.thresholds,
+        keep=body.keep,
+        delta=body.delta,
+        forces=body.forces,
+        distance_time_s=body.distance_time_s,
+        max_evaluations=MAX_EVALUATIONS,
+        time_limit_s=TIME_LIMIT_S,
+    )
     try:
-        return analysis_common.analyse_vehicle(
-            store,
-            body.vehicle,
-            estimates=body.estimates,
-            responses=body.responses,
-            weights=body.weights,
-            ahp=body.ahp.model_dump(exclude_none=True) if body.ahp else None,
-            thresholds=body.thresholds,
-            keep=body.keep,
-            delta=body.delta,
-            forces=body.forces,
-            distance_time_s=body.distance_time_s,
-            max_evaluations=MAX_EVALUATIONS,
-            time_limit_s=TIME_LIMIT_S,
-        )
+        return runner.analysis.executor_for(store).call(store.url, study)
     except (sixdof_common.VehicleNotFound, ResultNotFound) as err:
         raise HTTPException(404, str(err)) from None

@@ -4,6 +4,7 @@ compare them as a job; list stored cross-checks."""
 from __future__ import annotations
 
 import tempfile
+from functools import partial
 from pathlib import Path
 
 from fastapi import APIRouter, Depends
@@ -34,11 +35,15 @@ async def crosscheck(body: CrossCheckRequest, store: StoreDep, runner: RunnerDep
     cross-checked answers that stored result (``reused: true``), never a second copy."""
     from api.core.crosscheck_job import crosscheck_results
 
-    def work() -> dict:
+    def work() -> dict:  # the comparison and its figure in the analysis worker process
         with tempfile.TemporaryDirectory(dir=runner.report_root) as folder:
-            data = crosscheck_results(
-                store, body.weight_result_id, body.thruster_result_id, report_dir=folder
+            comparison = partial(
+                crosscheck_results,
+                weight_result_id=body.weight_result_id,
+                thruster_result_id=body.thruster_result_id,
+                report_dir=folder,
             )
+            data = runner.analysis.executor_for(store).call(store.url, comparison)
             if not data.get("reused"):
                 runner.adopt_report(data["result_id"], Path(folder))
         data.pop("report_files", None)

@@ -20,7 +20,7 @@ from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
 from api.core.run_cache import EndedRunCache
-from api.http.deps import StoreDep, require_read, require_write
+from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.paging import Offset, RunsLimit, SamplesLimit
 from api.http.schemas import (
     EventOut,
@@ -253,16 +253,20 @@ def list_export_formats() -> list[dict[str, str | bool]]:
 def export_run(
     run_id: str,
     store: StoreDep,
+    runner: RunnerDep,
     fmt: Annotated[FormatName, Query(alias="format", description=formats_help())] = "csv",
 ) -> Response:
     """The run as a file to download in a format of ``GET /api/export-formats`` (CSV is
-    streamed)."""
+    streamed). The file is written in the analysis worker process, not the rig's."""
     run = store.get_run(run_id)
     if fmt == "csv":
         return get_samples_csv(run.id, store)
     folder = tempfile.mkdtemp(prefix="rig-export-")
+    target = Path(folder) / export_file_name(run.id, fmt)
     try:
-        path = write_export(store, run.id, fmt, Path(folder) / export_file_name(run.id, fmt))
+        path = runner.analysis.executor_for(store).call(
+            store.url, write_export, run.id, fmt, target
+        )
     except BaseException:
         shutil.rmtree(folder, ignore_errors=True)
         raise

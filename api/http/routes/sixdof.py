@@ -5,13 +5,14 @@ surge/yaw estimation results plugged in)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import partial
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel, ConfigDict, Field
 
 from api.core import sixdof as sixdof_common
-from api.http.deps import StoreDep, require_read, require_write
+from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import error_responses
 from daq.store import ResultNotFound, Store
 from estimation.vehicle.description import Vehicle6
@@ -106,15 +107,17 @@ def get_vehicle(name: str) -> dict:
     dependencies=[Depends(require_write)],
     responses=error_responses(401, 404, 422),
 )
-def simulate_sixdof(body: SimulateRequest, store: StoreDep) -> dict:
-    """Simulate the vehicle; the trajectory (≤ 2000 samples), steady values, final pose."""
+def simulate_sixdof(body: SimulateRequest, store: StoreDep, runner: RunnerDep) -> dict:
+    """Simulate the vehicle; the trajectory (≤ 2000 samples), steady values, final pose
+    (integrated in the analysis worker process, not the rig's)."""
     if body.duration_s / body.dt > MAX_SAMPLES:
         raise ValueError(
             f"dt: got {body.dt!r}, allowed: ≥ duration_s / {MAX_SAMPLES} "
             f"({body.duration_s / MAX_SAMPLES:g} s for {body.duration_s:g} s)"
         )
     vehicle, applied = vehicle_with_estimates(store, body.vehicle, body.estimates)
-    _, summary = sixdof_common.run(
+    simulation = partial(
+        sixdof_common.simulated_summary,
         vehicle,
         body.duration_s,
         commands=body.commands,
@@ -124,6 +127,7 @@ def simulate_sixdof(body: SimulateRequest, store: StoreDep) -> dict:
         nu0=body.nu0,
         max_evaluations=MAX_EVALUATIONS,
     )
+    summary = runner.analysis.executor_for(store).call(None, simulation)
     summary["applied_estimates"] = applied
     summary["coefficients"] = vehicle.coefficients()
     return summary
