@@ -5,7 +5,7 @@ the command: interpreter start, imports, loading the runs, the search and the re
 three kinds of record, each in the same temporary database and the same run of this script:
 
 * ``tows``: four tows recorded on the simulated rig in process, on simulated time
-  (``tests.simrig``; 24.5–83.3 N, as an operator would run them),
+  (``tests.support.simrig``; 24.5–83.3 N, as an operator would run them),
 * ``kvlcc2``: the published KVLCC2 roll decay 21337 (``../shared/data/real/kvlcc2-roll-decay``,
   ``rig import --kind decay --dof roll``, its README's C44 and I44),
 * ``ship2d``: the 2D section in waves (``../shared/data/real/ship2d-regular-waves``, its
@@ -79,8 +79,8 @@ def record_tows(db_url: str) -> list[str]:
     from daq.session import RigSource
     from daq.sim.simtime import SimClock
     from daq.store import Store
-    from tests.motion_runs import completed_runs
-    from tests.simrig import rig_session
+    from tests.support.motion_runs import completed_runs
+    from tests.support.simrig import rig_session
 
     async def record() -> list[str]:
         store = Store(db_url)

@@ -35,7 +35,7 @@ from daq.session import RigSession, RigSource
 from daq.store import Store
 from daq.store.run_events import RunEvents
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
-from tests.hil_calibration import calibrate_for_hil, measured_thrust_n
+from tests.support.hil_calibration import calibrate_for_hil, measured_thrust_n
 
 COMMAND = 0.4  # every thruster, as calibrated
 RAMP_S = 0.6  # after thrust-on: the slew-limited ramp and the lag

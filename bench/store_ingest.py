@@ -131,7 +131,7 @@ def main() -> None:
     parser.add_argument(
         "--postgres-temp",
         action="store_true",
-        help="also measure a throwaway local PostgreSQL cluster (tests/pg.py)",
+        help="also measure a throwaway local PostgreSQL cluster (tests/support/pg.py)",
     )
     args = parser.parse_args()
     names = channel_names(args.channels)
@@ -151,7 +151,7 @@ def main() -> None:
     if args.postgres_url:
         result["postgresql"] = measure(args.postgres_url, samples, names, args.batch_size)
     elif args.postgres_temp:
-        from tests.pg import start_postgres
+        from tests.support.pg import start_postgres
 
         server = start_postgres()
         try:

@@ -6,7 +6,7 @@ missing, but with ``CI=true`` they fail, so CI can never go green by skipping th
 
 ``db_url`` gives a fresh, empty database on each backend: SQLite, and PostgreSQL from
 ``$RIG_TEST_POSTGRES_URL`` if set, else a throwaway cluster started from the installed
-server binaries (tests/pg.py). ``head_db_url`` gives one already migrated to the newest
+server binaries (tests/support/pg.py). ``head_db_url`` gives one already migrated to the newest
 revision, copied from a database migrated once per session (SQLite's backup, PostgreSQL's
 ``CREATE DATABASE … TEMPLATE``): for tests of what a store does, not of how it is made
 (running every migration again costs 0.1-0.2 s a test).
@@ -17,7 +17,7 @@ three xdist workers; ``pytest -m ""`` runs everything (CI). Tests are scheduled 
 
 Simulated time: a test or module marked ``simtime`` runs its async fixtures and tests on
 ``daq.sim.simtime.SimTimeLoop`` (``pytest_asyncio_loop_factories`` below), where
-``tests/simrig.py`` and the API's ``service`` fixture put the simulated rig in process. The
+``tests/support/simrig.py`` and the API's ``service`` fixture put the simulated rig in process. The
 few modules that prove the real stack (Modbus TCP/RTU, the thruster pty, ``rig``
 subprocesses, the browser, the fault proxies) run in real time.
 """
@@ -34,7 +34,7 @@ from pathlib import Path
 import pytest
 
 from daq.sim.simtime import SimTimeLoop
-from tests.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
+from tests.support.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 

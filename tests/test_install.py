@@ -21,7 +21,7 @@ import httpx
 import pytest
 
 from tests.conftest import IN_CI
-from tests.serve import stop_service, wait_for_service
+from tests.support.serve import stop_service, wait_for_service
 
 ROOT = Path(__file__).resolve().parents[1]
 TOKEN = "install-test-token"

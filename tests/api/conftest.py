@@ -21,7 +21,7 @@ from daq.session import RigSource
 from daq.sim.inprocess import open_inprocess_rig
 from daq.sim.simtime import SimTimeLoop
 from tests.conftest import require_tool
-from tests.waiting import read_until, wait_until
+from tests.support.waiting import read_until, wait_until
 
 TOKEN = "test-token-123"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}

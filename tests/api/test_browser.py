@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 
 from tests.api.conftest import csp_blocked
-from tests.serve import stop_service, wait_for_service
+from tests.support.serve import stop_service, wait_for_service
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

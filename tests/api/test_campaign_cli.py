@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from tests.cli import RigCli
+from tests.support.cli import RigCli
 
 #: Slow lane: one real-time tow on the simulated rig and its fit (about 20 s).
 pytestmark = pytest.mark.slow

@@ -4,7 +4,7 @@ a device or the run failed), never a traceback.
 
 Cases that reach a device, a port or the data folder run as real subprocesses; the others
 (bad ids, files and values: refused before anything opens) run in this process, answered
-as a fresh process would answer (tests/cli.py ``run_in_process``): one interpreter start per
+as a fresh process would answer (tests/support/cli.py ``run_in_process``): one interpreter start per
 case cost about 0.5 s of CPU (2 s importing SciPy)."""
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from api.cli.command_table import RIG_KIND_COMMANDS
 from api.cli.main import COMMANDS, DEBUG_ENV, main
 from daq.procedures.run_kinds import RIG_KINDS
 from daq.store import Store
-from tests.cli import run_in_process
 from tests.store.helpers import new_run
+from tests.support.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]
 BENBAM = ROOT / "fixtures" / "rigs" / "benbam.toml"

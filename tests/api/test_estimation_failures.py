@@ -19,9 +19,9 @@ from api.core.estimation_job import run_estimation
 from daq.csv_to_store import import_csv
 from daq.store import Store
 from tests.api.conftest import AUTH, wait_job
-from tests.cli import RigCli
 from tests.integration.test_import_kinds import _tow_csv
-from tests.shared_data import shared_file
+from tests.support.cli import RigCli
+from tests.support.shared_data import shared_file
 
 CSV = {"Content-Type": "text/csv"}
 #: What the numerics raise when a fit breaks down (numpy with seterr, scipy, linalg).

@@ -14,8 +14,8 @@ import pytest
 
 from daq.config import DEFAULT_RIG_FILE
 from tests.api.conftest import AUTH, wait_job
-from tests.cli import RigCli
-from tests.shared_data import shared_file
+from tests.support.cli import RigCli
+from tests.support.shared_data import shared_file
 
 pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
 

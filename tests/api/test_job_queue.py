@@ -20,8 +20,8 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.serve import stop_service, wait_for_service
-from tests.waiting import read_until
+from tests.support.serve import stop_service, wait_for_service
+from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

@@ -17,7 +17,7 @@ from tests.api.conftest import (
     wait_job_until,
     wait_rig_free,
 )
-from tests.waiting import read_until
+from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.simtime
 

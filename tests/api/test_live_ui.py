@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 from tests.api.conftest import signed_in_page
-from tests.cli import run_in_process
 from tests.procedures.test_pendulum import fast_rig_file
-from tests.serve import stop_service, wait_healthy
+from tests.support.cli import run_in_process
+from tests.support.serve import stop_service, wait_healthy
 
 # real stack in real time: the slow lane (README, Tests); the fast pendulum's rig service
 pytestmark = [pytest.mark.slow, pytest.mark.rig_service(rig="fast-pendulum")]
@@ -62,7 +62,8 @@ def serve(tmp_path_factory):
         token = (tmp / "towrig" / "api-token").read_text().strip()
         assert not any(token in line for line in lines), lines  # never in its output
         port = lines[0].split()[2].rstrip("/").rsplit(":", 1)[1]
-        # the link, printed only when asked for (a light command: in this process, tests/cli.py)
+        # the link, printed only when asked for (a light command: in this process,
+        # tests/support/cli.py)
         asked = run_in_process(["token", "--link", "--port", port], cwd=ROOT, env=env)
         assert asked.returncode == 0, asked.stderr
         link = asked.stdout.strip()

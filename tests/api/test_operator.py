@@ -8,7 +8,7 @@ from fastapi.testclient import TestClient
 from api.http.app import create_app
 from daq.session import RigSource
 from tests.api.conftest import AUTH, TOKEN, moving_for, simulated_service, wait_job, wait_job_until
-from tests.waiting import read_until
+from tests.support.waiting import read_until
 
 
 @pytest.fixture(scope="module")

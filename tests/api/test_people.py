@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from api.cli.main import main
 from daq.store.people_and_safety_log import UserRepository
 from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
-from tests.waiting import read_until
+from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.simtime
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tests.cli import RigCli
 from tests.estimation.tow.test_report import _numpy_tow
+from tests.support.cli import RigCli
 
 
 def test_a_report_for_a_release_found_from_the_motion(tmp_path: Path) -> None:

@@ -32,7 +32,7 @@ from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
 from tests.api.conftest import AUTH, FINAL, TOKEN, wait_job
 from tests.procedures.conftest import hardware_rig_file
-from tests.waiting import read_until
+from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.cli import RigCli
+from tests.support.cli import RigCli
 
 CSV = "t,position\n0,0\n0.1,0.01\n0.2,0.03\n"
 

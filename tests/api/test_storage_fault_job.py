@@ -16,7 +16,7 @@ from tests.api.conftest import (
     wait_job_until,
 )
 from tests.store.helpers import DbLimits, no_sql
-from tests.waiting import read_until
+from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.rig_service(spill=True)
 

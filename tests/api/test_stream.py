@@ -13,7 +13,7 @@ import time
 import pytest
 
 from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
-from tests.waiting import wait_until
+from tests.support.waiting import wait_until
 
 pytestmark = pytest.mark.simtime
 

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec, read_calibration_csv
-from tests.cli import RigCli
 from tests.estimation.motor_thruster import KGF, calibration_csv, full_thrust_n, thrust_n
+from tests.support.cli import RigCli
 
 CALIBRATED = (10.0, 12.0, 14.0, 18.0, 20.0)
 

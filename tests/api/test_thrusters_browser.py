@@ -10,7 +10,7 @@ from urllib.parse import urlencode
 import pytest
 
 from tests.api.conftest import AUTH, signed_in_page
-from tests.shared_data import shared_file
+from tests.support.shared_data import shared_file
 
 #: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
 pytestmark = pytest.mark.slow

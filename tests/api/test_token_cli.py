@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from api.cli.main import main
 from api.http.auth import load_or_create_token, token_path
-from tests.serve import stop_service, wait_healthy
+from tests.support.serve import stop_service, wait_healthy
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

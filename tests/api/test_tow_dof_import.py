@@ -11,8 +11,8 @@ import pytest
 
 from estimation.data.run_arrays import RunData, validate_runs
 from tests.api.conftest import AUTH
-from tests.cli import RigCli
-from tests.shared_data import shared_file
+from tests.support.cli import RigCli
+from tests.support.shared_data import shared_file
 
 pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
 

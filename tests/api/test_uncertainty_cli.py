@@ -7,8 +7,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tests.cli import RigCli
 from tests.estimation.tow.test_report import _numpy_tow
+from tests.support.cli import RigCli
 
 
 def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ from daq.acquisition import Acquisition
 from daq.plc import Reading
 from daq.sample import Quality, Sample
 from daq.sim.simtime import SimClock
-from tests.waiting import until
+from tests.support.waiting import until
 
 pytestmark = pytest.mark.simtime
 

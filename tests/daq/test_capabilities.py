@@ -20,7 +20,7 @@ from daq.procedures.params import ParameterError
 from daq.procedures.run_kinds import KINDS, RIG_KINDS, capabilities
 from daq.procedures.sequence import parse_sequence
 from daq.rig_capabilities import safety
-from tests.cli import run_in_process
+from tests.support.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]
 BENBAM = ROOT / "fixtures/rigs/benbam.toml"

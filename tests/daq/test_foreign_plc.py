@@ -20,7 +20,7 @@ import pytest
 from pyModbusTCP.server import DataBank, ModbusServer
 
 from daq.store import Store
-from tests.cli import answer_prompts, printed_json
+from tests.support.cli import answer_prompts, printed_json
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

@@ -15,7 +15,7 @@ from daq.sample import Quality
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from tests.daq.modbus_server import MapServer
-from tests.waiting import until
+from tests.support.waiting import until
 
 
 def _free_port() -> int:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from daq.config import RigConfigError, load_rig
-from tests.cli import run_in_process
+from tests.support.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]
 BENBAM = ROOT / "fixtures/rigs/benbam.toml"

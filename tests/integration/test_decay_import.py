@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from tests.cli import RigCli, RigCliText, printed_json
-from tests.shared_data import shared_file
+from tests.support.cli import RigCli, RigCliText, printed_json
+from tests.support.shared_data import shared_file
 
 #: KVLCC2 1:68 (kvlcc2-roll-decay/README.md): I44 = Δ·KXX² kg·m², C44 = Δ·g·GM N·m/rad.
 I44, C44, A44 = 115.74281, 821.96, 19.0

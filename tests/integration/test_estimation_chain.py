@@ -14,8 +14,8 @@ from api.core.estimation_job import run_estimation
 from daq.session import RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
-from tests.motion_runs import completed_runs
-from tests.simrig import rig_session
+from tests.support.motion_runs import completed_runs
+from tests.support.simrig import rig_session
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]

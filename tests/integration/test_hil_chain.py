@@ -21,9 +21,9 @@ from daq.session import RigSource
 from daq.sim.simtime import SimClock
 from daq.store import Store
 from estimation.axis.crosscheck_report import markdown
-from tests.hil_calibration import calibrate_for_hil, measured_thrust_n
-from tests.motion_runs import completed_runs
-from tests.simrig import rig_session
+from tests.support.hil_calibration import calibrate_for_hil, measured_thrust_n
+from tests.support.motion_runs import completed_runs
+from tests.support.simrig import rig_session
 
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 

@@ -17,9 +17,9 @@ from scipy.integrate import solve_ivp
 from api.core.estimation_job import run_estimation
 from daq.config import DEFAULT_RIG_FILE, load_rig
 from daq.store import Store, export_run_csv
-from tests.cli import RigCliText
 from tests.estimation import pendulum_synth
 from tests.estimation.pendulum_synth import PendulumGeometry
+from tests.support.cli import RigCliText
 
 #: Surge truth (seed 000): inertia kg, linear N·s/m, quadratic N·s²/m².
 TRUTH = {"inertia": 143.26, "linear_damping": 20.16, "quadratic_damping": 241.14}

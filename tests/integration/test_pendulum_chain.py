@@ -23,7 +23,7 @@ from daq.procedures.requests import pendulum_parameters
 from daq.session import RigSource
 from daq.sim.scenario import parse_scenario
 from daq.store import Store
-from tests.simrig import rig_session
+from tests.support.simrig import rig_session
 
 #: Slow lane: real-time runs on the simulated rig, then full estimations (minutes).
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]

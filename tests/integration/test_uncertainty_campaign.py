@@ -15,8 +15,8 @@ from api.core.estimation_job import load_estimation_runs, run_estimation
 from api.core.pretest import predict_sequence
 from daq.session import RigSource
 from daq.store import Store
-from tests.motion_runs import completed_runs
-from tests.simrig import rig_session
+from tests.support.motion_runs import completed_runs
+from tests.support.simrig import rig_session
 
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 

@@ -1,5 +1,5 @@
 """A rig session on the simulated rig (in process on simulated time in a ``simtime`` module,
-else Modbus TCP + a thruster pty in real time: tests/simrig.py) and a temp SQLite store."""
+else Modbus TCP + a thruster pty in real time: tests/support/simrig.py) and a temp SQLite store."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from daq.config import RigConfig
 from daq.session import RigSession, RigSource
 from daq.store import Store
 from tests.conftest import copy_sqlite
-from tests.simrig import rig_session
-from tests.waiting import until
+from tests.support.simrig import rig_session
+from tests.support.waiting import until
 
 #: A short thrust calibration of the simulated rig (parameters, before the rig's checks).
 QUICK_CALIBRATION = {

@@ -14,7 +14,7 @@ import pytest
 from PIL import Image
 
 from daq.store import Store
-from tests.cli import run_in_process
+from tests.support.cli import run_in_process
 
 RIG = [sys.executable, "-m", "api.cli.main"]
 ROOT = Path(__file__).resolve().parents[2]
@@ -59,7 +59,7 @@ def test_calibrate_thrusters_writes_the_report_of_the_stored_calibration(tmp_pat
 
 
 def test_report_into_a_file_is_refused_before_the_rig_moves(tmp_path):
-    """Refused while parsing, before anything is opened: in this process (tests/cli.py)."""
+    """Refused while parsing, before anything is opened: in this process (tests/support/cli.py)."""
     db, target = f"sqlite:///{tmp_path / 'rig.db'}", tmp_path / "a-file"
     target.write_text("x")
     argv = ["calibrate-thrusters", "--report", str(target), "--db", db]

@@ -17,9 +17,9 @@ import pytest
 import xarray as xr
 
 from daq.store import Store
-from tests.cli import run_in_process
 from tests.conftest import copy_sqlite
-from tests.waiting import wait_until
+from tests.support.cli import run_in_process
+from tests.support.waiting import wait_until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 #: Commands that drive the rig: real subprocesses here. The store's commands (runs, show,
-#: export, import, estimate) run in this process as a fresh one would (tests/cli.py).
+#: export, import, estimate) run in this process as a fresh one would (tests/support/cli.py).
 DRIVING = ("tow", "spin", "pendulum", "calibrate-thrusters", "sequence", "serve", "sim")
 
 

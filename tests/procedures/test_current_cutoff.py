@@ -10,7 +10,7 @@ from daq.procedures.requests import calibration_parameters
 from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.session import RigSource
 from tests.procedures.conftest import QUICK_CALIBRATION
-from tests.simrig import rig_session
+from tests.support.simrig import rig_session
 
 pytestmark = pytest.mark.simtime
 

@@ -20,9 +20,9 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.registers import encode
 from daq.store import Store
-from tests.cli import answer_prompts, printed_json
 from tests.procedures.conftest import hardware_rig_file
-from tests.readings import good
+from tests.support.cli import answer_prompts, printed_json
+from tests.support.readings import good
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

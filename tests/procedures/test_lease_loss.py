@@ -29,8 +29,8 @@ from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
 from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
 from tests.procedures.test_thruster_link_faults import OutputLog
-from tests.simrig import rig_session
-from tests.waiting import until
+from tests.support.simrig import rig_session
+from tests.support.waiting import until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
@@ -61,7 +61,7 @@ async def _calibrate(url: str) -> None:
 @pytest.fixture
 def pg_url(postgres_server):
     """A fresh PostgreSQL database holding one thrust calibration of the simulated rig,
-    recorded in process on simulated time (tests/simrig.py): the thruster tow's set-up,
+    recorded in process on simulated time (tests/support/simrig.py): the thruster tow's set-up,
     not what is tested here."""
     url = postgres_server.create_database()
     SimClock.run(_calibrate(url))

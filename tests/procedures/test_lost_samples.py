@@ -21,7 +21,7 @@ from daq.sample import Quality
 from daq.session import RigSession
 from daq.store.run_events import RunEvents
 from estimation.design.campaign_state import Campaign, Target
-from tests.cli import run_in_process
+from tests.support.cli import run_in_process
 
 pytestmark = pytest.mark.simtime
 

@@ -22,10 +22,10 @@ from daq.session import RigSource
 from daq.sim.scenario import Scenario
 from daq.store import Store
 from tests.procedures.test_cli import rig
-from tests.progress_log import ProgressLog
-from tests.simrig import rig_session
 from tests.store.helpers import new_run
-from tests.waiting import next_samples
+from tests.support.progress_log import ProgressLog
+from tests.support.simrig import rig_session
+from tests.support.waiting import next_samples
 
 pytestmark = pytest.mark.simtime
 

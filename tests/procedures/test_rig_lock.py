@@ -21,9 +21,9 @@ from daq.procedures.requests import tow_parameters
 from daq.rig_lock import RigInUse, RigLockError, RigLockLost, rig_devices, rig_lock
 from daq.session import RigSession, RigSource
 from daq.store import Store
-from tests.cli import run_in_process
 from tests.procedures.conftest import hardware_rig_file
-from tests.waiting import read_until
+from tests.support.cli import run_in_process
+from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
@@ -256,7 +256,7 @@ def test_a_sigkilled_cli_tow_shows_interrupted_at_the_next_rig_runs(tmp_path):
         tow.wait(10)
     finally:
         _end(tow)
-    # `rig runs` opens the database as a fresh process would (tests/cli.py): in this one
+    # `rig runs` opens the database as a fresh process would (tests/support/cli.py): in this one
     listed = run_in_process(["runs", "--db", db, "--json"], cwd=ROOT, env=dict(os.environ))
     assert listed.returncode == 0, listed.stderr
     (shown,) = json.loads(listed.stdout)

@@ -9,7 +9,7 @@ import pytest
 
 from daq.procedures.params import ParameterError
 from daq.procedures.sequence import SequenceControl, load_sequence, parse_sequence, run_sequence
-from tests.progress_log import ProgressLog
+from tests.support.progress_log import ProgressLog
 
 pytestmark = pytest.mark.simtime
 

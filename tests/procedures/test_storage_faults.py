@@ -41,7 +41,7 @@ from daq.store.spill import SUFFIX
 from tests.conftest import IN_CI
 from tests.procedures.conftest import short_rail
 from tests.store.helpers import DbLimits, no_sql
-from tests.waiting import until
+from tests.support.waiting import until
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

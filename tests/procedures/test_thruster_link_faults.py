@@ -34,11 +34,11 @@ from daq.session import RigSource
 from daq.sim.simtime import SimClock
 from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
-from tests.cli import printed_json
-from tests.fault_proxies import SerialFaultProxy, TcpCutProxy
 from tests.procedures.conftest import QUICK_CALIBRATION, hardware_rig_file
-from tests.simrig import rig_session
-from tests.waiting import wait_until
+from tests.support.cli import printed_json
+from tests.support.fault_proxies import SerialFaultProxy, TcpCutProxy
+from tests.support.simrig import rig_session
+from tests.support.waiting import wait_until
 from thrusters.driver import LINK_LOST_AFTER
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -52,7 +52,7 @@ ZERO_WITHIN_S = 0.5
 @pytest.fixture(scope="module")
 def calibrated_db(tmp_path_factory) -> Path:
     """A database holding one thrust calibration of the simulated rig, recorded in process
-    on simulated time (tests/simrig.py): it is the tows' set-up, not what is tested here."""
+    on simulated time (tests/support/simrig.py): it is the tows' set-up, not what is tested here."""
     path = tmp_path_factory.mktemp("calibrated") / "rig.db"
 
     async def calibrate() -> None:

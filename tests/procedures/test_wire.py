@@ -14,8 +14,8 @@ import numpy as np
 from daq.procedures.motion import run_motion_test
 from daq.procedures.requests import tow_parameters
 from daq.sample import Quality
-from tests.progress_log import ProgressLog
-from tests.waiting import until
+from tests.support.progress_log import ProgressLog
+from tests.support.waiting import until
 
 
 async def test_plc_lost_mid_run_aborts_keeps_samples_and_reconnects(session, store):

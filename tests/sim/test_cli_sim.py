@@ -16,7 +16,7 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.registers import decode
 from tests.conftest import require_tool
-from tests.waiting import wait_until
+from tests.support.waiting import wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 RIG_SIM = [sys.executable, "-c", "from api.cli.main import main; main()", "sim"]

@@ -15,7 +15,7 @@ from daq.sim.plant_channels import read_channel, write_channel
 from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario, parse_scenario
 from tests.sim.test_plc import UNIT, read_si, tcp_client
-from tests.waiting import until
+from tests.support.waiting import until
 
 RIG = load_rig()
 LINEAR_ONLY = parse_scenario({"surge": {"quadratic_damping": 0.0}})

@@ -13,7 +13,7 @@ from daq.config import load_rig
 from daq.registers import decode, encode
 from daq.sim.plant import Plant
 from daq.sim.plc_server import SimulatedPLC
-from tests.waiting import until
+from tests.support.waiting import until
 
 RIG = load_rig()
 UNIT = RIG.modbus.unit_id

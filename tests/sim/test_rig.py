@@ -13,7 +13,7 @@ from daq.collector import hold_full_collections
 from daq.config import load_rig
 from daq.registers import decode
 from daq.sim.simulated_rig import SimulatedRigThread
-from tests.waiting import wait_until
+from tests.support.waiting import wait_until
 from thrusters import protocol
 
 RIG = load_rig()

@@ -15,7 +15,7 @@ from daq.procedures.requests import tow_parameters
 from daq.session import RigSource
 from daq.sim.simtime import START_S, SimClock, SimTimeLoop
 from daq.store import Store
-from tests.simrig import rig_session
+from tests.support.simrig import rig_session
 
 pytestmark = pytest.mark.simtime
 

@@ -12,8 +12,8 @@ from daq.calibration_catalog import calibrations, latest, measured_supply, volta
 from daq.calibration_law import import_calibration, law_of
 from daq.sample import Quality, Sample
 from estimation.thrust.calibration_import import CommandUnit, ImportSpec
-from tests.shared_data import shared_file
 from tests.store.helpers import new_run
+from tests.support.shared_data import shared_file
 
 T200 = Path(__file__).resolve().parents[2] / "fixtures" / "calibrations" / "t200-bollard.csv"
 T200_SPEC = ImportSpec("PWM (µs)", "Force (Kg f)", "kgf", CommandUnit("pwm_us"), "Voltage (V)")

@@ -17,7 +17,7 @@ import sqlalchemy as sa
 from daq.store import RunRecorder, Store
 from daq.store.migrate import create_engine, current_revision, head_revision
 from tests.store.helpers import make_samples, new_run
-from tests.waiting import until
+from tests.support.waiting import until
 
 
 @pytest.mark.slow  # real processes racing: the slow lane

@@ -114,7 +114,7 @@ def test_a_run_of_another_host_is_interrupted_once_its_process_holds_no_lease(po
     from daq.rig_lock.postgres import PG_LOCK_CLASS, lease_holders
     from daq.store.recovery import OTHER_HOST_GRACE_S
     from daq.store.schema import runs
-    from tests.waiting import read_until
+    from tests.support.waiting import read_until
 
     db_url = postgres_server.create_database()  # SQLite: one host only, its pids say it all
     with Store(db_url) as store:

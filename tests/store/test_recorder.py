@@ -13,7 +13,7 @@ import pytest
 from daq.sample import Sample
 from daq.store import RunRecorder, Store
 from tests.store.helpers import make_samples, new_run
-from tests.waiting import until
+from tests.support.waiting import until
 
 
 @pytest.mark.simtime

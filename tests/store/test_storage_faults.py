@@ -22,7 +22,7 @@ from daq.store.faults import StorageUnavailable, describe, one_line
 from daq.store.recorder import STORE_RETRY_S
 from daq.store.spill import read_spill
 from tests.store.helpers import DbLimits, held_write_lock, make_samples, new_run, no_sql
-from tests.waiting import until
+from tests.support.waiting import until
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from thruster_helpers import FakeClock, limits, thruster_port
 
-from tests.waiting import until
+from tests.support.waiting import until
 from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
 

@@ -9,7 +9,7 @@ from collections.abc import AsyncIterator
 import pytest
 import serial
 
-from tests.waiting import until
+from tests.support.waiting import until
 from thrusters import protocol as p
 from thrusters.emulator import ThrusterControllerEmulator
 

@@ -12,7 +12,7 @@ import pytest
 
 from estimation import RunData, estimate
 from estimation.motion.decay_estimate import estimate_decay
-from tests.shared_data import shared_file
+from tests.support.shared_data import shared_file
 
 #: KVLCC2 1:68, loading condition 166 (kvlcc2-roll-decay/README.md): I44 = Δ·KXX², C44 = Δ·g·GM.
 I44, C44 = 115.74281, 821.96

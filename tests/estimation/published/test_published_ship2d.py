@@ -11,7 +11,7 @@ import pytest
 
 from estimation import RunData, estimate
 from estimation.uncertainty.budget import uncertainty_budget
-from tests.shared_data import shared_file
+from tests.support.shared_data import shared_file
 
 
 def _csv(folder: str, name: str) -> pd.DataFrame:

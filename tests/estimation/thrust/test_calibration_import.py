@@ -17,7 +17,7 @@ from estimation.thrust.calibration_import import (
     ImportSpec,
     read_calibration_csv,
 )
-from tests.shared_data import shared_file
+from tests.support.shared_data import shared_file
 
 T200 = Path(__file__).resolve().parents[3] / "fixtures" / "calibrations" / "t200-bollard.csv"
 PWM = CommandUnit("pwm_us", 1500, 400)

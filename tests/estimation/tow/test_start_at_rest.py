@@ -98,7 +98,7 @@ def test_ten_cate_e1_begins_after_its_release_and_is_called_moving():
     import pandas as pd
 
     from estimation import RunData
-    from tests.shared_data import shared_file
+    from tests.support.shared_data import shared_file
 
     d = pd.read_csv(shared_file("real", "tencate-sphere-settling", "tencate_E1_tow.csv"))
     run = RunData("E1", "surge", d.t.to_numpy(), d.position.to_numpy(), drive=0.0026004)

@@ -10,7 +10,7 @@ import pytest
 
 from tests.conftest import IN_CI
 
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+SHARED_DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 
 
 def shared_file(*parts: str) -> Path:

@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import httpx
 
-from tests.waiting import read_until, wait_until
+from tests.support.waiting import read_until, wait_until
 
 SERVICE_LINE = "rig service: http://127.0.0.1:"
 

@@ -7,7 +7,7 @@ unix socket inside that folder (no TCP port is taken). As root it runs them as t
 
 Command line (for CI scripts)::
 
-    python -m tests.pg            # runs a fresh server until Ctrl-C, printing its admin URL
+    python -m tests.support.pg            # runs a fresh server until Ctrl-C, printing its admin URL
 """
 
 from __future__ import annotations
