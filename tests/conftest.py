@@ -30,11 +30,15 @@ import shutil
 import sqlite3
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from daq.sim.simtime import SimTimeLoop
 from tests.support.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
+
+if TYPE_CHECKING:
+    from daq.store import Store
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
@@ -128,10 +132,19 @@ def copy_sqlite(source: Path, path: Path) -> str:
     return f"sqlite:///{path}"
 
 
-@pytest.fixture(params=BACKENDS)
-def head_db_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
-    """URL of a fresh database already migrated to head on each backend."""
-    if request.param == "sqlite":
+@pytest.fixture
+def store_backend() -> str:
+    """The backend of ``store``: SQLite, except in folders whose conftest parametrises it
+    over ``BACKENDS`` (tests/store: what a store does holds on both)."""
+    return "sqlite"
+
+
+@pytest.fixture
+def head_db_url(
+    request: pytest.FixtureRequest, store_backend: str, tmp_path: Path
+) -> Iterator[str]:
+    """URL of a fresh database already migrated to head on ``store_backend``."""
+    if store_backend == "sqlite":
         yield copy_sqlite(request.getfixturevalue("sqlite_head_template"), tmp_path / "rig.db")
         return
     server: PostgresServer = request.getfixturevalue("postgres_server")
@@ -140,3 +153,12 @@ def head_db_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]
         yield url
     finally:
         server.drop_database(url)
+
+
+@pytest.fixture
+def store(head_db_url: str) -> Iterator[Store]:
+    """An open Store on a fresh database at head (``head_db_url``), closed after the test."""
+    from daq.store import Store
+
+    with Store(head_db_url) as opened:
+        yield opened

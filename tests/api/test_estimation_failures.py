@@ -17,7 +17,6 @@ from api.core.analysis_executor import ThreadExecutor
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from daq.csv_to_store import import_csv
-from daq.store import Store
 from tests.api.conftest import AUTH, wait_job
 from tests.integration.test_import_kinds import _tow_csv
 from tests.support.cli import RigCli
@@ -38,13 +37,6 @@ def _broken_fit(err: Exception):
         raise err
 
     return estimate
-
-
-@pytest.fixture
-def store(tmp_path: Path):
-    store = Store(f"sqlite:///{tmp_path}/rig.db")
-    yield store
-    store.close()
 
 
 @pytest.mark.parametrize("err", NUMERIC, ids=lambda e: type(e).__name__)

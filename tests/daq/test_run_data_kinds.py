@@ -20,13 +20,6 @@ RIG = load_rig()
 DT, RELEASE, SWITCH = 0.1, 10, 40
 
 
-@pytest.fixture
-def store(tmp_path):
-    s = Store(f"sqlite:///{tmp_path / 'rig.db'}")
-    yield s
-    s.close()
-
-
 def _stored(store: Store, kind: str, parameters: dict, switch: str | None = None) -> str:
     """A run of ``kind``: its axis accelerates from the release, its release coil set then;
     with ``switch``, that channel rises at sample ``SWITCH`` (the axis still moving)."""

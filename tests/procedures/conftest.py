@@ -9,8 +9,6 @@ import pytest
 
 from daq.config import RigConfig
 from daq.session import RigSession, RigSource
-from daq.store import Store
-from tests.conftest import copy_sqlite
 from tests.support.simrig import rig_session
 from tests.support.waiting import until
 
@@ -46,14 +44,6 @@ async def until_thrust_on(session: RigSession, *, timeout_s: float) -> None:
     """Until the simulated thruster controller's outputs are not all zero."""
     thrusters = session.sim.thrusters
     await until(lambda: any(thrusters.outputs), "the thrust on", timeout_s=timeout_s)
-
-
-@pytest.fixture
-def store(tmp_path, sqlite_head_template):
-    """An open Store on a fresh SQLite database (at head: tests/conftest.py)."""
-    s = Store(copy_sqlite(sqlite_head_template, tmp_path / "rig.db"))
-    yield s
-    s.close()
 
 
 @pytest.fixture

@@ -1,17 +1,15 @@
-"""Storage tests run against SQLite and a real PostgreSQL server (the ``db_url`` fixture of
-tests/conftest.py: a fresh, empty database on each backend; ``store``: one at head)."""
+"""Storage tests run against SQLite and a real PostgreSQL server: every test here that uses
+``store`` (tests/conftest.py: a fresh database at head) runs once on each backend, and
+``db_url`` gives a fresh, empty database on each."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 
-from daq.store import Store
+from tests.conftest import BACKENDS
 
 
-@pytest.fixture
-def store(head_db_url: str) -> Iterator[Store]:
-    """An open Store on a fresh database (migrated to head: ``head_db_url``)."""
-    with Store(head_db_url) as opened:
-        yield opened
+def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
+    """``store_backend`` over every backend for the tests of this folder."""
+    if "store_backend" in metafunc.fixturenames:
+        metafunc.parametrize("store_backend", BACKENDS)

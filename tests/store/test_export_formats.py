@@ -34,12 +34,6 @@ T0_WALL = 1_795_000_000.123456
 RELEASE_AFTER_S = 0.35
 
 
-@pytest.fixture
-def store(tmp_path) -> Store:
-    with Store(f"sqlite:///{tmp_path / 'rig.db'}") as opened:
-        yield opened
-
-
 def recorded_tow(store: Store, count: int = 12, *, release: bool = True) -> str:
     """A completed tow on BENBAM's rig file: encoder counts of 10 µm (stored as doubles
     like 0.28500000000000003), a load cell in mN counts (24.016000000000002) with one

@@ -11,15 +11,8 @@ import pytest
 from scipy.io import loadmat
 
 from daq.export_formats import write_export
-from daq.store import Store
 from daq.store.mat_export import MAX_FIELD, matlab_field
 from tests.store.test_export_formats import CHANNELS, recorded_tow
-
-
-@pytest.fixture
-def store(tmp_path) -> Store:
-    with Store(f"sqlite:///{tmp_path / 'rig.db'}") as opened:
-        yield opened
 
 
 def test_mat_reads_back_with_channels_units_and_metadata_of_the_stored_run(store, tmp_path):
