@@ -1,40 +1,71 @@
 """The ``rig`` command table: every command's module, attribute and short help, so that
 ``rig --help`` lists them and a command's module is imported only when it runs. The run
-kinds' commands are built from their registry entries (``daq.procedures.run_kinds``), which
-:data:`RIG_KIND_COMMANDS` lists for the help without importing the registry (its request models
-cost ~0.4 s of CPU per ``rig --help``); tests/api/test_cli_edges.py checks the two agree."""
+kinds' commands are read from their kind modules (``daq/procedures/kinds/*.py``: the
+``command``, ``help`` and ``rank`` literals of each ``SPEC``) without importing them — the
+registry's request models cost ~0.4 s of CPU per ``rig --help`` — so a new kind is listed
+without an edit here; tests/api/test_cli_edges.py checks the table against the registry."""
 
 from __future__ import annotations
 
+import ast
+import importlib.util
 from collections.abc import Mapping
+from pathlib import Path
 
 #: The module holding the procedure commands: one per kind the rig runs (derived from its
 #: registry entry, ``api.cli.procedures``) and ``rig sequence``.
 PROCEDURES_MODULE = "api.cli.procedures"
-#: The command of each kind the rig runs, in the registry's order, as :data:`OTHER_COMMANDS`
-#: lists the others (``api.cli.procedures`` builds them from the registry entries).
-RIG_KIND_COMMANDS: dict[str, tuple[str, str, str]] = {
-    "tow": (
-        PROCEDURES_MODULE,
-        "tow",
-        "Tow test: a weight over the pulley (or the thrusters) pulls the vehicle along...",
-    ),
-    "spin": (
-        PROCEDURES_MODULE,
-        "spin",
-        "Spin test: constant torque about the vertical axis (weight on the drum, or...",
-    ),
-    "pendulum": (
-        PROCEDURES_MODULE,
-        "pendulum",
-        "Pendulum free decay: pull the vehicle out on the pendulum, release, record...",
-    ),
-    "calibrate-thrusters": (
-        PROCEDURES_MODULE,
-        "calibrate_thrusters",
-        "Thrust calibration: step the thrusters on the load cell and fit thrust vs...",
-    ),
-}
+#: The package whose modules are the run kinds (``daq.procedures.run_kinds`` discovers them).
+KINDS_PACKAGE = "daq.procedures.kinds"
+
+
+def _spec_literals(path: Path) -> dict[str, object] | None:
+    """The literal keyword arguments of ``SPEC = KindSpec(...)`` in ``path`` (None when the
+    module holds no ``SPEC``); a keyword whose value is not a literal is left out."""
+    for node in ast.parse(path.read_text(encoding="utf-8"), str(path)).body:
+        if (
+            isinstance(node, ast.Assign)
+            and any(isinstance(t, ast.Name) and t.id == "SPEC" for t in node.targets)
+            and isinstance(node.value, ast.Call)
+        ):
+            out: dict[str, object] = {}
+            for keyword in node.value.keywords:
+                if keyword.arg is None:
+                    continue
+                try:
+                    out[keyword.arg] = ast.literal_eval(keyword.value)
+                except ValueError:  # a name or a call: present, not a literal
+                    out[keyword.arg] = keyword.value
+            return out
+    return None
+
+
+def kind_commands() -> dict[str, tuple[str, str, str]]:
+    """The command of each kind the rig runs (its ``SPEC`` has a ``request`` and a
+    ``command``), in rank order: name → (module, attribute, short help)."""
+    from click.utils import make_default_short_help
+
+    spec = importlib.util.find_spec(KINDS_PACKAGE)
+    folders = spec.submodule_search_locations if spec is not None else None
+    found: list[tuple[int, str, str]] = []
+    for folder in folders or ():
+        for path in sorted(Path(folder).glob("*.py")):
+            literals = _spec_literals(path)
+            if literals is None or literals.get("request") is None:
+                continue
+            command, text, rank = (
+                literals.get("command"),
+                literals.get("help"),
+                literals.get("rank"),
+            )
+            if isinstance(command, str) and isinstance(text, str) and isinstance(rank, int):
+                found.append((rank, command, text))
+    return {
+        command: (PROCEDURES_MODULE, command.replace("-", "_"), make_default_short_help(text, 80))
+        for _, command, text in sorted(found)
+    }
+
+
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing
 #: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py) of the
 #: commands that are not a run kind's.
@@ -184,7 +215,7 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
 
 
 #: Every command, the kinds' first: name → (module, attribute, short help).
-COMMANDS: Mapping[str, tuple[str, str, str]] = RIG_KIND_COMMANDS | OTHER_COMMANDS
+COMMANDS: Mapping[str, tuple[str, str, str]] = kind_commands() | OTHER_COMMANDS
 
 
 def records_runs(name: str, module: str) -> bool:

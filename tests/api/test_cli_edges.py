@@ -10,6 +10,7 @@ case cost about 0.5 s of CPU (2 s importing SciPy)."""
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 import os
 import re
@@ -21,7 +22,7 @@ from pathlib import Path
 import click
 import pytest
 
-from api.cli.command_table import RIG_KIND_COMMANDS
+from api.cli.command_table import PROCEDURES_MODULE, kind_commands
 from api.cli.main import COMMANDS, DEBUG_ENV, main
 from daq.procedures.run_kinds import RIG_KINDS
 from daq.store import Store
@@ -257,11 +258,42 @@ def test_the_lazy_help_table_matches_each_command():
 
 
 def test_the_help_lists_each_kind_the_registry_runs_in_its_order():
-    """``rig --help`` lists the kinds' commands from a table (the registry costs ~0.4 s of
-    CPU to import): a kind added to or dropped from the registry must be in it, in order."""
-    listed = list(RIG_KIND_COMMANDS)
-    assert listed == [str(spec.command) for spec in RIG_KINDS.values()]
-    assert list(COMMANDS)[: len(listed)] == listed
+    """``rig --help`` reads the kinds' commands from their modules' source (the registry
+    costs ~0.4 s of CPU to import): exactly the kinds the registry runs, in its order, each
+    with its command's own short help."""
+    listed = kind_commands()
+    assert list(listed) == [str(spec.command) for spec in RIG_KINDS.values()]
+    assert list(COMMANDS)[: len(listed)] == list(listed)
+    for spec in RIG_KINDS.values():
+        _, attr, short = listed[str(spec.command)]
+        command = getattr(importlib.import_module(PROCEDURES_MODULE), attr)
+        assert short == command.get_short_help_str(limit=80)
+
+
+def test_a_kind_module_dropped_in_is_listed_without_an_edit_to_the_table(monkeypatch, tmp_path):
+    """A new kind is a module of daq/procedures/kinds: ``rig --help`` lists its command,
+    at its rank, with no edit to the command table."""
+    import shutil
+
+    from api.cli import command_table
+
+    folder = tmp_path / "kinds"
+    shutil.copytree(Path(importlib.import_module("daq.procedures.kinds").__path__[0]), folder)
+    (folder / "manual_kind.py").write_text(
+        'SPEC = KindSpec(kind="manual", rank=35, command="drive-one",\n'
+        '    help="Drive one thruster by hand for a while.", request=requests.ManualRequest)\n'
+    )
+    found = importlib.util.find_spec(command_table.KINDS_PACKAGE)
+    assert found is not None
+    monkeypatch.setattr(found, "submodule_search_locations", [str(folder)])
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: found)
+    listed = command_table.kind_commands()
+    assert list(listed).index("drive-one") == list(listed).index("pendulum") + 1
+    assert listed["drive-one"] == (
+        PROCEDURES_MODULE,
+        "drive_one",
+        "Drive one thruster by hand for a while.",
+    )
 
 
 #: Cases run as real subprocesses: they reach a device, bind or connect to a port, or
