@@ -7,7 +7,7 @@ the "decay" cases a free heave decay through ``estimate_decay`` (its own term se
 Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
 quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet
 (``effect_search_cpu_met``). The estimator runs its fits on one BLAS thread
-(``estimation/blas.py``): OpenBLAS's worker threads only spun on these small problems.
+(``estimation/blas_threads.py``): OpenBLAS's worker threads only spun on these small problems.
 Run: .venv/bin/python bench/estimation_speed.py
 """
 

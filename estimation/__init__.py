@@ -2,7 +2,7 @@
 
 Works on runs as arrays plus metadata (``RunData``); imports nothing from the device side.
 The names below are imported on first use (``__getattr__``), so a process that needs one
-light submodule (``estimation.numbers``, ``estimation.scale``) does not load SciPy's
+light submodule (``estimation.report_numbers``, ``estimation.scale``) does not load SciPy's
 signal, statistics and optimisation stacks with it: ``rig tow`` starts about a second
 sooner.
 """

@@ -43,7 +43,7 @@ def _spec_literals(path: Path) -> dict[str, object] | None:
 def kind_commands() -> dict[str, tuple[str, str, str]]:
     """The command of each kind the rig runs (its ``SPEC`` has a ``request`` and a
     ``command``), in rank order: name → (module, attribute, short help)."""
-    from click.utils import make_default_short_help
+    import click
 
     spec = importlib.util.find_spec(KINDS_PACKAGE)
     folders = spec.submodule_search_locations if spec is not None else None
@@ -60,10 +60,11 @@ def kind_commands() -> dict[str, tuple[str, str, str]]:
             )
             if isinstance(command, str) and isinstance(text, str) and isinstance(rank, int):
                 found.append((rank, command, text))
-    return {
-        command: (PROCEDURES_MODULE, command.replace("-", "_"), make_default_short_help(text, 80))
-        for _, command, text in sorted(found)
-    }
+    return {  # the short help as click shortens the command's own help
+        name: (PROCEDURES_MODULE, name.replace("-", "_"),
+               click.Command(name, help=about).get_short_help_str(80))
+        for _, name, about in sorted(found)
+    }  # fmt: skip
 
 
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing

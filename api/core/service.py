@@ -33,7 +33,7 @@ from daq.operator import OperatorAct, PromptOperator
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")

@@ -16,10 +16,10 @@ from itertools import combinations
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
+from estimation.axis.fit_memo import Recent
 from estimation.axis.model import BASE_NAMES, bounded, simulate
 from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
-from estimation.axis.recent import Recent
 
 #: |ρ| at or above this: the two effects are structurally the same on these runs.
 COLLINEAR = 0.995

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.special import chdtrc
 
 from estimation.motion.terms import units_of
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 
 COEFFICIENTS: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
 DAMPING = ("linear_damping", "quadratic_damping")

@@ -53,7 +53,7 @@ from estimation.axis.set_separability import SetSeparability, damping_at, separa
 from estimation.axis.tow_estimate import SEPARABILITY_LIMIT
 from estimation.design.advice import separating_load
 from estimation.design.planning_envelope import RigEnvelope
-from estimation.numbers import finite_values
+from estimation.report_numbers import finite_values
 
 
 @dataclass(frozen=True)

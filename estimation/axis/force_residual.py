@@ -8,10 +8,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
+from estimation.axis.fit_memo import Recent
 from estimation.axis.model import ParamView
 from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
-from estimation.axis.recent import Recent
 from estimation.stats.diagnostics import position_noise, smoothed_derivatives
 
 #: An estimate reads the same fit's force residual and noise floor more than once (its

@@ -15,7 +15,7 @@ from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
-from estimation.numbers import Coefficient, finite_or_none, finite_values
+from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import Whiteness
 

@@ -31,7 +31,7 @@ from estimation.axis.reverse import (
 )
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
-from estimation.blas import one_blas_thread
+from estimation.blas_threads import one_blas_thread
 from estimation.data.run_arrays import RunData, validate_runs
 from estimation.design.advice import (
     both_ways,
@@ -43,7 +43,7 @@ from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import terminal_speeds
-from estimation.numbers import Coefficient
+from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
 

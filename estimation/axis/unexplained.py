@@ -22,7 +22,7 @@ import numpy as np
 from estimation.axis.force_residual import force_noise_floor, force_residuals
 from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
-from estimation.numbers import finite_or_none, finite_values
+from estimation.report_numbers import finite_or_none, finite_values
 from estimation.stats.acceptance_rules import NUMERICAL_SHARE
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import effective_sample_size, structured

@@ -19,7 +19,7 @@ from typing import Any
 
 from estimation.design.planner import AxisState, Choice, Decision, decide
 from estimation.design.planning_envelope import Candidate, RigEnvelope
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 
 #: How many times in a row a campaign repeats a test whose runs are damaged.
 MAX_REPEATS = 2

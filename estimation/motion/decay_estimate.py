@@ -21,7 +21,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from estimation.blas import one_blas_thread
+from estimation.blas_threads import one_blas_thread
 from estimation.data.window import encoder_quantum
 from estimation.errors import EstimationFailed
 from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
@@ -32,7 +32,7 @@ from estimation.motion.records import Record, Setup, known_terms_of, validate
 from estimation.motion.term_selection import TRIAL_NFEV, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
-from estimation.numbers import Coefficient
+from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 from estimation.stats.misfit import WHITE_P, effective_sample_size, structured
 

@@ -16,7 +16,7 @@ from estimation.motion.records import Record, Setup, known_terms_of
 from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
-from estimation.numbers import Coefficient, finite_or_none, finite_values
+from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness
 

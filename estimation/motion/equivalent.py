@@ -22,7 +22,7 @@ import numpy as np
 
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import LIBRARY
-from estimation.numbers import Coefficient, finite_or_none
+from estimation.report_numbers import Coefficient, finite_or_none
 
 AMPLITUDES = 5  # amplitudes reported, geometric from the smallest swing to the largest
 

@@ -25,7 +25,7 @@ from scipy.optimize import least_squares
 
 from estimation.errors import EstimationFailed
 from estimation.motion.equation import Track, integrate, range_rates, stable_step
-from estimation.motion.readings import derivatives, record_step
+from estimation.motion.record_derivatives import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY, TermValues
 from estimation.stats.fit_statistics import FitStatistics

@@ -56,7 +56,7 @@ from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters
 from estimation.motion.profile import extend, profile_start
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 from estimation.stats.acceptance_rules import (
     BIC_THRESHOLD,
     DECAY_RULES,

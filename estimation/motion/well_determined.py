@@ -31,7 +31,7 @@ from estimation.motion.equivalent import EquivalentDamping
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import DOFS, LIBRARY
-from estimation.numbers import Coefficient
+from estimation.report_numbers import Coefficient
 
 #: A speed search doubles its upper bracket at most this many times from the first guess.
 MAX_DOUBLINGS = 60

@@ -21,10 +21,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks
+from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.smoothing import savgol
 
 SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from estimation.axis.result import EffectEstimate, whiteness_json
-from estimation.blas import one_blas_thread
+from estimation.blas_threads import one_blas_thread
 from estimation.data.run_arrays import validate_run_set
 from estimation.errors import EstimationFailed
 from estimation.motion.decay_estimate import estimate_records, rival_sentences
@@ -27,7 +27,6 @@ from estimation.motion.decay_result import DecayResult
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY
-from estimation.numbers import Coefficient, finite_or_none, finite_values
 from estimation.pendulum import PENDULUM_METHODS
 from estimation.pendulum.configuration import (
     ADDED_MASS,
@@ -49,6 +48,7 @@ from estimation.pendulum.methods import (
     row_value,
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
+from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness, ljung_box
 from estimation.uncertainty.budget import Budget

@@ -37,7 +37,7 @@ from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.axis.result import EstimationResult
 from estimation.data.run_arrays import RunData
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
 from estimation.uncertainty.rows import BudgetRow
 from estimation.uncertainty.sources import (

@@ -32,7 +32,7 @@ from scipy import special
 from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 
 LOAD_TOLERANCE = 0.01
 CHAUVENET_LIMIT = 0.5

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from estimation.numbers import finite_or_none
+from estimation.report_numbers import finite_or_none
 
 
 @dataclass(frozen=True)

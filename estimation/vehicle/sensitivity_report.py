@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from estimation.numbers import finite_or_none, finite_values
+from estimation.report_numbers import finite_or_none, finite_values
 from estimation.vehicle.responses import Plan
 
 #: Weight stability: each response's weight is multiplied and divided by this.

@@ -21,8 +21,8 @@ from daq.config import load_rig
 from daq.registers import encode
 from daq.store import Store
 from tests.procedures.conftest import hardware_rig_file
+from tests.support.channel_readings import good
 from tests.support.cli import answer_prompts, printed_json
-from tests.support.readings import good
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 

@@ -16,8 +16,8 @@ from daq.run_data import load_run_data
 from daq.session import RigBusy, RigSource
 from daq.store import Store
 from tests.procedures.conftest import short_rail
+from tests.support.channel_readings import good
 from tests.support.progress_log import ProgressLog
-from tests.support.readings import good
 from tests.support.simrig import rig_session
 from tests.support.waiting import next_samples, until
 

@@ -15,7 +15,7 @@ from daq.procedures.requests import calibration_parameters, spin_parameters, tow
 from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.run_data import load_run_data
 from tests.procedures.conftest import QUICK_CALIBRATION
-from tests.support.readings import good
+from tests.support.channel_readings import good
 
 pytestmark = pytest.mark.simtime
 

@@ -19,7 +19,7 @@ from daq.run_data import load_run_data
 from daq.sim.scenario import ThrusterModel
 from estimation.thrust.curve import CalibratedThrust, ThrustCurve
 from tests.procedures.conftest import QUICK_CALIBRATION, until_thrust_on
-from tests.support.readings import good
+from tests.support.channel_readings import good
 from thrusters.driver import LINK_LOST_AFTER
 
 pytestmark = pytest.mark.simtime

@@ -14,7 +14,7 @@ from daq.procedures.requests import calibration_parameters, spin_parameters
 from daq.procedures.thrust_calibration import run_thrust_calibration
 from daq.sample import Quality
 from tests.procedures.conftest import until_thrust_on
-from tests.support.readings import good
+from tests.support.channel_readings import good
 from tests.support.waiting import until
 from thrusters.driver import LINK_LOST_AFTER
 

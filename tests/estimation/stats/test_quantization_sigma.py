@@ -94,7 +94,7 @@ def test_a_search_reads_each_records_encoder_step_once(monkeypatch):
     from scipy.integrate import solve_ivp
 
     import estimation.motion.output_error_fit as motion_fit
-    import estimation.motion.readings as readings
+    import estimation.motion.record_derivatives as readings
     from estimation.motion.records import Record, Setup
 
     t = np.arange(0.0, 20.0, 0.1)
