@@ -13,8 +13,9 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from estimation.axis import METHODS
     from estimation.axis.result import EffectEstimate, EstimationResult
-    from estimation.axis.tow_estimate import METHODS, estimate
+    from estimation.axis.tow_estimate import estimate
     from estimation.data.run_arrays import RunData
     from estimation.errors import EstimationFailed
     from estimation.motion.decay_estimate import estimate_decay, estimate_records
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
 
 #: Where each public name lives: imported from there on first use.
 _HOME = {
-    "METHODS": "axis.tow_estimate",
+    "METHODS": "axis",
     "estimate": "axis.tow_estimate",
     "EffectEstimate": "axis.result",
     "EstimationResult": "axis.result",

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from estimation.axis import METHODS
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
 from estimation.axis.effect_search import SearchOutcome, candidate_effects
 from estimation.axis.effect_search import search_effects as search_effects_fn
@@ -47,7 +48,6 @@ from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
 
-METHODS: tuple[str, ...] = ("output-error", "ls-raw", "ls-curvefit", "ls-steady")
 SEPARABILITY_LIMIT = 0.95
 #: A coefficient within this many σ of zero is not determined by the data (its 95 %
 #: interval holds zero: not even its sign is known).

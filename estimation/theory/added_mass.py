@@ -34,8 +34,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from scipy.special import elliprd
-
 from estimation.errors import FieldError, positive
 
 #: The six degrees of freedom, body frame (x the body's length axis).
@@ -104,6 +102,8 @@ def ellipsoid_integrals(a: float, b: float, c: float) -> tuple[float, float, flo
     s = max(a, b, c)
     a, b, c = a / s, b / s, c / s
     abc = a * b * c
+    from scipy.special import elliprd  # a hull's added mass only: not at every import
+
     alpha = 2.0 / 3.0 * abc * float(elliprd(b * b, c * c, a * a))
     beta = 2.0 / 3.0 * abc * float(elliprd(a * a, c * c, b * b))
     gamma = 2.0 / 3.0 * abc * float(elliprd(a * a, b * b, c * c))

@@ -14,7 +14,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq, least_squares
 
 from estimation.thrust import MIN_POINTS_PER_SIDE
 
@@ -184,6 +183,8 @@ def fit_thrust_curve(
     upper = np.minimum(PARAMETER_UPPER, [np.inf, span, np.inf, np.inf, span, np.inf, span])
     if not np.any(s):
         lower[6], upper[6] = -1e-12, 1e-12
+    from scipy.optimize import least_squares  # the service's process has no use for it
+
     sol = least_squares(
         lambda p: _model(p, u, s) - f,
         np.clip(p0, lower, upper),
@@ -295,4 +296,6 @@ class CalibratedThrust:
 
         if miss(lo) * miss(hi) > 0:  # the correction moves the force out of reach there
             return guess
+        from scipy.optimize import brentq
+
         return float(brentq(miss, lo, hi, xtol=1e-9))

@@ -32,8 +32,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
-from scipy.optimize import brentq
 
 from estimation.thrust.curve import CalibratedThrust, fit_thrust_curve
 
@@ -123,6 +121,8 @@ class ThrustLaw:
         flat_v = v.ravel()
         if not self.identified:
             return (table[0][which] * (flat_v / v_lo) ** q).reshape(u.shape)
+        from scipy.interpolate import PchipInterpolator  # loaded by the first thruster run
+
         inside = np.clip(flat_v, v_lo, v_hi)
         out = np.empty_like(inside)
         for k in range(commands.size):
@@ -213,6 +213,8 @@ class ThrustLaw:
             return float(self.force(u, v)) - force
 
         a, b = sorted((0.0, end))
+        from scipy.optimize import brentq
+
         u = float(brentq(miss, a, b, xtol=1e-9))
         step = 1e-3 * (hi - lo)
         slope = abs(float(self.force(u + step, v) - self.force(u - step, v))) / (2 * step)
