@@ -34,6 +34,11 @@ RIG_KIND_COMMANDS: dict[str, tuple[str, str, str]] = {
         "calibrate_thrusters",
         "Thrust calibration: step the thrusters on the load cell and fit thrust vs...",
     ),
+    "manual-thrust": (
+        PROCEDURES_MODULE,
+        "manual_thrust",
+        "Manual thrust: hold one thruster at a command for a bounded time on the...",
+    ),
 }
 #: name → (module, attribute, its short help as ``rig --help`` lists it without importing
 #: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py) of the
