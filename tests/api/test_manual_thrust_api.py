@@ -123,7 +123,8 @@ def test_manual_thrust_runs_one_thruster_and_returns_to_zero_when_its_time_is_up
 
 def test_a_page_that_falls_silent_stops_the_thrust(client, service):
     _arm(client)
-    job_id = start_job(client, MANUAL, {"thruster": 1, "command": 0.5, "duration_s": 30})
+    # 60 s of the rig's time (6 s of the host's at the paced simulation) outlast the 3 s
+    job_id = start_job(client, MANUAL, {"thruster": 1, "command": 0.5, "duration_s": 60})
     assert client.post(f"/api/jobs/{job_id}/alive", headers=AUTH).status_code == 200
     _thrust_on(client, job_id, 1)
     job = wait_job(client, job_id, timeout_s=30)  # no further keep-alive: 3 s, then aborted

@@ -114,8 +114,10 @@ def test_the_thrusters_page_reads_as_a_thrust_stand_after_a_calibration(
         )
         expect(figures).to_contain_text(f"90 % settling{_js(response['settle_90_s'], 3)} s")
         live = page.locator("#stand-live")  # the live stream's supply voltage and commands
-        expect(live).to_contain_text(re.compile(r"supply voltage \d+\.\d\d V"))
-        expect(live).to_contain_text("thruster 1 command 0")
+        expect(live).to_contain_text(re.compile(r"supply voltage \d+\.\d V"))
+        first = page.locator("#stand-live-table tbody tr").first.locator("td")
+        expect(first.nth(0)).to_have_text("thruster 1")
+        expect(first.nth(1)).to_have_text("0")  # its command, idle after the sweep
         for plot in ("#cal-plot", "#cal-rpm-plot", "#cal-power-plot"):
             expect(page.locator(f"{plot} .main-svg").first).to_be_visible()
 
