@@ -89,6 +89,10 @@ def test_rpm_current_and_power_are_live_during_a_sweep(chromium, client, service
         expect(row.nth(4)).to_have_text(re.compile(r"^1\d(\.\d+)? V$"))  # the supply, once
         expect(row.nth(5)).to_have_text(POWERED)
         expect(_live_row(page, 2).nth(2)).to_have_text(TURNING)
+        plot = page.locator("#stand-live-plot")  # the last minute's RPM and power
+        expect(plot.locator(".main-svg").first).to_be_visible()
+        expect(plot).to_contain_text("thruster 1 RPM [rpm]")
+        expect(plot).to_contain_text("thruster 2 power [W]")
         SHOTS.mkdir(exist_ok=True)
         page.screenshot(path=str(SHOTS / "thrusters-sweep-1366.png"))
         assert wait_job(client, job_id, timeout_s=120)["state"] == "completed"

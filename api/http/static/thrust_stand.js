@@ -115,3 +115,18 @@ export function manualLimitsText(limits) {
   if (d.max !== undefined) parts.push(`duration up to ${fmt(d.max, 3)} s`);
   return parts.length ? `Limits: ${parts.join("; ")}.` : "";
 }
+
+/** What the live stand plot draws (plots.js unitRowsPlot: one row per unit): each
+ * thruster's RPM and electrical power over `buffer` ([{t [s], rows: liveStand(…)}], oldest
+ * first); none for a rig without thrusters. */
+export function standSeries(buffer, count) {
+  const t = buffer.map((p) => p.t);
+  const out = [];
+  for (const [key, label, unit] of [["rpm", "RPM", "rpm"], ["power_w", "power", "W"]]) {
+    for (let i = 0; i < count; i += 1) {
+      const y = buffer.map((p) => (p.rows[i] ? p.rows[i][key] : null));
+      out.push({ x: t, y, name: `thruster ${i + 1} ${label} [${unit}]`, label, unit, key: `thruster${i + 1}_${key}` });
+    }
+  }
+  return out;
+}

@@ -10,7 +10,8 @@ import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { state } from "./state.js";
 import { onSample } from "./stream.js";
-import { THRUST_UNITS, commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, standFigures, thrust } from "./thrust_stand.js";
+import { unitRowsPlot } from "./plots.js";
+import { THRUST_UNITS, commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, standFigures, standSeries, thrust } from "./thrust_stand.js";
 import "./manual_thrust.js";
 
 const stand = { cal: null, unit: localStorage.getItem("rig-thrust-unit") || "N" };
@@ -96,10 +97,20 @@ async function loadCalibrationList() {
 // Live readouts while the page is shown (the stream's samples, stream.js): the rig's
 // channels in volts (supply) and newtons (load cell, in the chosen unit), and per thruster
 // its command, the RPM and current its controller reports while a run logs them (a
-// calibration's sweep, a manual run) and the electrical power V·I (thrust_stand.js).
+// calibration's sweep, a manual run) and the electrical power V·I (thrust_stand.js), as
+// numbers and as a plot of the last minute.
+const LIVE_POINTS = 600; // one minute at 10 Hz
+const LIVE_REDRAW_MS = 500;
+const live = { buffer: [], t0: null, timer: null };
+
 function onStandSample(sample) {
-  if ($("#page-thrusters").hidden) return;
   const units = (state.rig && state.rig.units) || {};
+  const count = ((state.rig && state.rig.thrusters && state.rig.thrusters.output) || []).length;
+  if (live.t0 === null) live.t0 = sample.t_mono;
+  live.buffer.push({ t: sample.t_mono - live.t0, rows: liveStand(sample, units, count) });
+  if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);
+  if ($("#page-thrusters").hidden) return;
+  if (live.timer === null) live.timer = setTimeout(drawLive, LIVE_REDRAW_MS);
   const readings = [];
   for (const [name, value] of Object.entries(sample.channels || {})) {
     if (typeof value !== "number") continue;
@@ -115,11 +126,19 @@ function onStandSample(sample) {
     span.textContent = `${label} ${text}`;
     box.append(span);
   }
-  const count = ((state.rig && state.rig.thrusters && state.rig.thrusters.output) || []).length;
   $("#stand-live-table").hidden = !count;
-  $("#stand-live-table tbody").innerHTML = liveStand(sample, units, count)
+  $("#stand-live-table tbody").innerHTML = live.buffer[live.buffer.length - 1].rows
     .map((row) => `<tr>${liveStandCells(row).map((text) => `<td>${esc(text)}</td>`).join("")}</tr>`)
     .join("");
+}
+
+// The last minute's RPM and power per thruster, redrawn at most every LIVE_REDRAW_MS.
+function drawLive() {
+  live.timer = null;
+  if ($("#page-thrusters").hidden) return;
+  const count = live.buffer.length ? live.buffer[live.buffer.length - 1].rows.length : 0;
+  $("#stand-live-plot").hidden = !count;
+  if (count) unitRowsPlot("stand-live-plot", standSeries(live.buffer, count), { xTitle: "time [s]", revision: "stand-live" });
 }
 
 onSample(onStandSample);

@@ -3,7 +3,7 @@
 import assert from "node:assert/strict";
 import test from "node:test";
 import {
-  commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, manualBlocked, manualLimitsText, standFigures, thrust,
+  commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, manualBlocked, manualLimitsText, standFigures, standSeries, thrust,
 } from "../../../api/http/static/thrust_stand.js";
 
 const LAW = {
@@ -96,4 +96,14 @@ test("manual control states the rig's limits", () => {
   const text = manualLimitsText({ command: { max: 0.8, min: -0.8 }, duration_s: { max: 60 }, thruster: { max: 2 } });
   assert.equal(text, "Limits: command -0.8 … 0.8 (fraction of full thrust, the rig's max_thruster_command); duration up to 60 s.");
   assert.equal(manualLimitsText(undefined), "");
+});
+
+test("the live stand plot: each thruster's RPM and power against time, one row per unit", () => {
+  const at = (t, rpm, amps) => ({ t, rows: liveStand({ channels: { supply_voltage: 16, thruster1_rpm: rpm, thruster1_current: amps } }, UNITS, 1) });
+  const series = standSeries([at(0, 0, 0), at(0.1, 1200, 2), at(0.2, null, null)], 1);
+  assert.deepEqual(series.map((s) => [s.name, s.unit]), [["thruster 1 RPM [rpm]", "rpm"], ["thruster 1 power [W]", "W"]]);
+  assert.deepEqual(series[0].x, [0, 0.1, 0.2]);
+  assert.deepEqual(series[0].y, [0, 1200, null]);
+  assert.deepEqual(series[1].y, [0, 32, null]); // 16 V × 2 A; a gap stays a gap
+  assert.deepEqual(standSeries([], 0), []);
 });
