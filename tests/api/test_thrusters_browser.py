@@ -86,7 +86,7 @@ def test_rpm_current_and_power_are_live_during_a_sweep(chromium, client, service
         row = _live_row(page, 1)
         expect(row.nth(2)).to_have_text(TURNING)
         expect(row.nth(3)).to_have_text(re.compile(r"^[\d.]+ A$"))
-        expect(row.nth(4)).to_have_text(re.compile(r"^1\d(\.\d+)? V$"))  # the supply, once
+        expect(row.nth(4)).to_have_text(re.compile(r"^1\d\.\d V$"))  # the supply, to 0.1 V
         expect(row.nth(5)).to_have_text(POWERED)
         expect(_live_row(page, 2).nth(2)).to_have_text(TURNING)
         plot = page.locator("#stand-live-plot")  # the last minute's RPM and power

@@ -60,7 +60,7 @@ onRigStatus(async (s) => {
   setLimits((s.field_limits || {})[kind.kind] || {});
   const reason = running() ? "" : manualBlocked(s, await role(), (s.capabilities || {})[kind.kind]);
   $("#manual-start").disabled = running() || !!reason;
-  $("#manual-start").title = reason;
+  if (!$("#manual-start").dataset.roleLocked) $("#manual-start").title = reason; // people.js words a viewer's
   $("#manual-stop").disabled = !running();
   const absent = !s.thrusters || s.thrusters.state === "absent";
   $("#manual-arm").disabled = absent || s.armed || !!s.current_job;

@@ -1,6 +1,6 @@
 // A thrust stand's arithmetic, no DOM (unit-tested with node --test): thrust units, efficiency
 // in g/W, the fitted thrust law and its inverse, the figures the Thrusters page prints.
-import { fmt, reading } from "./format.js";
+import { fmt, reading, voltageText } from "./format.js";
 
 /** Standard gravity [m/s²]: kgf → N, g/W → N/W. */
 const STANDARD_GRAVITY = 9.80665;
@@ -87,7 +87,7 @@ export const liveStandCells = (row) => [
   row.command === null ? "—" : fmt(row.command, 3),
   reading(row.rpm, "rpm", 4),
   reading(row.current_a, "A", 3),
-  reading(row.voltage_v, "V", 3),
+  row.voltage_v === null ? "—" : voltageText([row.voltage_v]),
   reading(row.power_w, "W", 3),
 ];
 

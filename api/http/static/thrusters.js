@@ -5,7 +5,7 @@
 // one thruster under manual control (manual_thrust.js).
 import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
-import { fmt, localTime, reading, voltageText } from "./format.js";
+import { fmt, localTime, voltageText } from "./format.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { state } from "./state.js";
@@ -115,7 +115,7 @@ function onStandSample(sample) {
   for (const [name, value] of Object.entries(sample.channels || {})) {
     if (typeof value !== "number") continue;
     const label = name.replace(/_/g, " ");
-    if (units[name] === "V") readings.push([label, reading(value, "V")]);
+    if (units[name] === "V") readings.push([label, voltageText([value])]);
     else if (units[name] === "N") readings.push([label, `${fmt(inUnit(value), 4)} ${stand.unit}`]);
   }
   const box = $("#stand-live");

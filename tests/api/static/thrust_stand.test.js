@@ -71,11 +71,13 @@ test("live readout: each thruster's RPM, current, the supply and P = V·I, forma
   assert.ok(Math.abs(rows[0].power_w - 15.711 * 3.2149) < 1e-9);
   assert.deepEqual(liveStandCells(rows[0]), ["thruster 1", "0.3", "2480 rpm", "3.21 A", "15.7 V", "50.5 W"]);
   assert.deepEqual(liveStandCells(rows[1]), ["thruster 2", "0", "0 rpm", "0 A", "15.7 V", "0 W"]);
+  // the supply as every voltage of the page: to 0.1 V (voltageText), "16.0 V", not "16 V"
+  assert.equal(liveStandCells(liveStand({ channels: { supply_voltage: 16.01 } }, UNITS, 1)[0])[4], "16.0 V");
 });
 
 test("live readout outside a logged run: no telemetry, no power, never NaN", () => {
   const rows = liveStand({ channels: { supply_voltage: 16, thruster1_rpm: null }, thrusters: [0] }, UNITS, 1);
-  assert.deepEqual(liveStandCells(rows[0]), ["thruster 1", "0", "—", "—", "16 V", "—"]);
+  assert.deepEqual(liveStandCells(rows[0]), ["thruster 1", "0", "—", "—", "16.0 V", "—"]);
   const bare = liveStand({ channels: {} }, {}, 1);
   assert.deepEqual(liveStandCells(bare[0]), ["thruster 1", "—", "—", "—", "—", "—"]);
 });
