@@ -75,6 +75,10 @@ def test_the_stream_carries_rpm_current_and_voltage_during_a_calibration(client,
         raise AssertionError("no sample with the thrusters turning within 60 s")
 
     channels = asyncio.run(first_turning_sample())["channels"]
+    # the sweep armed the thrusters, yet a manual run is never queued behind it
+    r = client.post(MANUAL, json={"command": 0.2}, headers=AUTH)
+    assert r.status_code == 409, r.text
+    assert r.json()["detail"].startswith("rig is busy: thrust calibration holds the rig lock")
     for name in ("thruster1_rpm", "thruster2_rpm", "thruster1_current", "thruster2_current"):
         assert isinstance(channels[name], float), (name, channels)
     assert channels["thruster1_current"] > 0 and channels["supply_voltage"] > 10

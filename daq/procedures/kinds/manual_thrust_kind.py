@@ -25,8 +25,14 @@ async def _run_manual(session, params, *, abort, progress) -> KindOutcome:
     return KindOutcome(await run_manual_thrust(session, params, abort=abort, progress=progress))
 
 
-def _not_armed(session: RigSession) -> str | None:
-    """A remote start of thrust is two deliberate acts: arm, then start."""
+def _not_now(session: RigSession) -> str | None:
+    """A remote start of thrust is two deliberate acts, arm then start, and happens now or
+    not at all: never queued behind another job to start later, unattended."""
+    if session.lock_holder is not None:
+        return (
+            f"rig is busy: {session.lock_holder} holds the rig lock; a manual thrust run "
+            "starts now or not at all (never queued)"
+        )
     return None if session.armed else NOT_ARMED
 
 
@@ -47,5 +53,5 @@ SPEC = KindSpec(
     acts=("mount_thrust_stand",),
     live=("load_cell", "thrusters"),
     shown=("command", "fraction"),
-    refusal=_not_armed,
+    refusal=_not_now,
 )
