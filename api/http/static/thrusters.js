@@ -132,13 +132,15 @@ function onStandSample(sample) {
     .join("");
 }
 
-// The last minute's RPM and power per thruster, redrawn at most every LIVE_REDRAW_MS.
+// The last minute's RPM and power per thruster, redrawn at most every LIVE_REDRAW_MS; no
+// blank plot while no run logs the telemetry (outside a sweep or a manual run).
 function drawLive() {
   live.timer = null;
   if ($("#page-thrusters").hidden) return;
   const count = live.buffer.length ? live.buffer[live.buffer.length - 1].rows.length : 0;
-  $("#stand-live-plot").hidden = !count;
-  if (count) unitRowsPlot("stand-live-plot", standSeries(live.buffer, count), { xTitle: "time [s]", revision: "stand-live" });
+  const logged = live.buffer.some((p) => p.rows.some((r) => r.rpm !== null));
+  $("#stand-live-plot").hidden = !count || !logged;
+  if (count && logged) unitRowsPlot("stand-live-plot", standSeries(live.buffer, count), { xTitle: "time [s]", revision: "stand-live" });
 }
 
 onSample(onStandSample);
