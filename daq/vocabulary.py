@@ -20,6 +20,8 @@ class RunKind(StrEnum):
     SPIN = "spin"
     PENDULUM = "pendulum"
     THRUST_CALIBRATION = "thrust_calibration"
+    #: One thruster held at a command for a bounded time on the thrust stand (by hand).
+    MANUAL_THRUST = "manual_thrust"
     #: A free decay of one degree of freedom, imported (its ``dof`` parameter says which).
     DECAY = "decay"
 
@@ -151,9 +153,13 @@ DRIVE_FIELD: dict[str, tuple[str, str]] = {
     kind: (str(AXES[kind].drive_key), str(AXES[kind].drive_unit)) for kind in DRIVEN_KINDS
 }
 #: What moves the vehicle in every run of a kind that has one drive only (the store's
-#: ``runs.drive``): a thrust calibration steps the thrusters. Other kinds name theirs in
-#: their ``drive`` parameter (a hung weight when a mass is given, else none: a pendulum).
-FIXED_DRIVE: dict[str, str] = {RunKind.THRUST_CALIBRATION: "thrusters"}
+#: ``runs.drive``): a thrust calibration and a manual thrust run drive the thrusters. Other
+#: kinds name theirs in their ``drive`` parameter (a hung weight when a mass is given, else
+#: none: a pendulum).
+FIXED_DRIVE: dict[str, str] = {
+    RunKind.THRUST_CALIBRATION: "thrusters",
+    RunKind.MANUAL_THRUST: "thrusters",
+}
 #: Per driven kind: the channel an imported run's logged drive (one value per sample, in
 #: the drive's SI unit) is stored as; the run's ``drive_channel`` parameter names it.
 LOGGED_DRIVE_CHANNEL: dict[str, str] = {RunKind.TOW: "drive_force", RunKind.SPIN: "drive_torque"}

@@ -88,13 +88,17 @@ class RigWorker:
         jobs already queued). With ``queue=False`` a busy rig is ``JobConflict`` (→ 409).
         The request's ``metadata`` goes on every run it records (checked here: 422 first).
         ``user`` asked for it: refused while an emergency stop is unacknowledged or someone
-        else holds the rig (``api.core.rig_guard``), and while the disk a run would be
-        stored on is full (``StorageFull``, → 503)."""
+        else holds the rig (``api.core.rig_guard``), while the rig's state refuses the kind
+        (its ``KindSpec.refusal``: → 409), and while the disk a run would be stored on is
+        full (``StorageFull``, → 503)."""
         from daq.store.run_metadata import check_run_metadata
 
         check_run_metadata((request or {}).get("metadata"))
         session = self.service.require_session()
         RigGuard.of(self.service).check_start(user)
+        spec = RIG_KINDS.get(kind)
+        if spec is not None and spec.refusal is not None and (why := spec.refusal(session)):
+            raise JobConflict(why)  # the rig's state (thrusters not armed), not a parameter
         if self.service.store is not None:  # a full disk refuses the start (503), not the run
             check_room(self.service.store)
         parameters = params.to_json()

@@ -33,6 +33,8 @@ from daq.operator import OperatorAct, PromptOperator
 from daq.rig_lock import RigInUse
 from daq.session import RigSession, RigSource
 from daq.store import Store
+from daq.thruster_supervisor import ThrusterTelemetry
+from daq.vocabulary import thruster_telemetry_unit
 from estimation.report_numbers import finite_or_none
 
 log = logging.getLogger(__name__)
@@ -41,6 +43,15 @@ T = TypeVar("T")
 #: The GIL switch interval while serving: a busy HTTP thread then delays the clock's
 #: thread by at most ~0.5 ms instead of CPython's default 5 ms.
 SWITCH_INTERVAL_S = 0.0005
+
+
+def telemetry_units(telemetry: ThrusterTelemetry | None) -> dict[str, str]:
+    """The unit of each thruster telemetry channel (``thruster1_rpm``: ``rpm``,
+    ``thruster1_current``: ``A``); samples carry them while a run logs them (a calibration,
+    a thruster-driven test, a manual thrust run). ``{}`` for a rig without thrusters."""
+    if telemetry is None:
+        return {}
+    return {name: str(thruster_telemetry_unit(name)) for name in telemetry.names}
 
 
 class RigUnavailable(RuntimeError):
@@ -282,7 +293,9 @@ class RigService:
             "device_lost": acq.device_lost.is_set(),
             "lock_holder": session.lock_holder,
             "armed": session.thrust.armed,
-            "units": {c.name: c.unit for c in session.rig.channels if not c.sim_only},
+            # the rig's channels, and the thrusters' telemetry a run logs into its samples
+            "units": {c.name: c.unit for c in session.rig.channels if not c.sim_only}
+            | telemetry_units(session.telemetry),
             "sample": None
             if latest is None
             else {

@@ -283,7 +283,12 @@ class RigStatus(BaseModel):
     current_job: JobOut | None = None
     sample: SampleOut | None = None
     stale_channels: list[str] = []
-    units: dict[str, str] = Field({}, description="Unit of each channel, from the rig file.")
+    units: dict[str, str] = Field(
+        {},
+        description="Unit of each channel, from the rig file, and of the thrusters' telemetry "
+        "channels (thruster1_rpm: rpm, thruster1_current: A) samples carry while a run logs "
+        "them.",
+    )
     clock: ClockOut | None = None
     thrusters: ThrustersOut | None = None
     limits: dict[str, float] = {}

@@ -113,6 +113,10 @@ class KindSpec:
     live: tuple[str, ...] = ()
     #: The parameter a run list shows of its runs, with its unit; ``None``: its axis's drive.
     shown: tuple[str, str] | None = None
+    #: Why the open rig may not start it now, from the rig's state (a manual thrust run: the
+    #: thrusters not armed), or None; asked when a job is submitted (HTTP 409). ``None``:
+    #: nothing beyond the rig lock, the emergency stop and the hold every start is under.
+    refusal: Callable[[RigSession], str | None] | None = None
 
     @property
     def axis(self) -> AxisTerms | None:

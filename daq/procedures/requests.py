@@ -55,6 +55,7 @@ __all__ = [
     "THRUST_SWEEP_DEFAULT",
     "CalibrationRequest",
     "Flag",
+    "ManualThrustRequest",
     "PendulumRequest",
     "ProcedureRequest",
     "RunMetadataIn",
@@ -63,6 +64,7 @@ __all__ = [
     "TowRequest",
     "calibration_parameters",
     "comma_separated_floats",
+    "manual_thrust_parameters",
     "pendulum_parameters",
     "spin_parameters",
     "tow_parameters",
@@ -298,7 +300,96 @@ class PendulumRequest(ProcedureRequest):
         return value if rig is None else p.max_time(value, rig, ", rig limit max_run_s")
 
 
+#: Longest a manual thrust run may hold its command, s (the rig's ``max_run_s`` if shorter).
+MAX_MANUAL_THRUST_S = 60.0
+
+
+def _thruster_count(rig: RigConfig) -> int:
+    return rig.thrusters.count if rig.thrusters is not None else 0
+
+
+def _manual_seconds(rig: RigConfig) -> float:
+    return min(MAX_MANUAL_THRUST_S, rig.limits.max_run_s)
+
+
+class ManualThrustRequest(ProcedureRequest):
+    """One thruster held at a command for a bounded time on the thrust stand, by hand: a
+    dead-man, back to zero when the time ends (or on abort, emergency stop, a link fault)."""
+
+    thruster: Annotated[
+        int,
+        Field(
+            title="Thruster",
+            description="Which thruster, 1 … the rig's thrusters.count (as in thruster1_rpm).",
+        ),
+        Flag("--thruster"),
+        RigLimit(lambda rig: _thruster_count(rig) or None),
+    ] = 1
+    command: Annotated[
+        float | None,
+        Field(
+            title="Command (fraction)",
+            description="Command as a fraction of full thrust, |c| ≤ the rig's "
+            "max_thruster_command; negative: reverse thrust. Required.",
+        ),
+        Flag("--command"),
+        RigLimit(lambda rig: rig.limits.max_thruster_command, signed=True),
+    ] = None
+    duration_s: Annotated[
+        float,
+        Field(
+            title="Duration (s)",
+            description=f"How long the command is held, s (at most {MAX_MANUAL_THRUST_S:g} s, "
+            "or the rig's max_run_s); then the thruster goes back to zero.",
+        ),
+        Flag("--duration"),
+        RigLimit(_manual_seconds),
+    ] = 5.0
+
+    kind: ClassVar[RunKind] = RunKind.MANUAL_THRUST
+
+    @field_validator("thruster")
+    @classmethod
+    def _thruster(cls, value: int, info: ValidationInfo) -> int:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        count = _thruster_count(rig)
+        if not 1 <= value <= count:
+            why = f"allowed 1 ≤ thruster ≤ {count} (the rig's thrusters.count)"
+            raise ParameterError([("thruster", value, why)])
+        return value
+
+    @field_validator("command")
+    @classmethod
+    def _command(cls, value: float | None, info: ValidationInfo) -> float | None:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        most = rig.limits.max_thruster_command
+        return p.in_range(
+            "command", value, low=-most, high=most, unit="(fraction of full thrust)",
+            low_inclusive=True, required=True, why_high=", rig limit max_thruster_command",
+        )  # fmt: skip
+
+    @field_validator("duration_s")
+    @classmethod
+    def _duration(cls, value: float, info: ValidationInfo) -> float:
+        rig = rig_of(info)
+        if rig is None:
+            return value
+        most = _manual_seconds(rig)
+        why = f", at most {MAX_MANUAL_THRUST_S:g} s or the rig's max_run_s"
+        return p.in_range("duration_s", value, low=0, high=most, unit="s", why_high=why)
+
+    def commands(self, count: int) -> list[float]:
+        """Per thruster (``count`` of them): ``command`` for the chosen one, 0 elsewhere."""
+        chosen = float(self.command or 0.0)
+        return [chosen if i == self.thruster else 0.0 for i in range(1, count + 1)]
+
+
 #: A request (the fields given) checked against the rig → the procedure's parameters.
 tow_parameters = TowRequest.checked
 spin_parameters = SpinRequest.checked
 pendulum_parameters = PendulumRequest.checked
+manual_thrust_parameters = ManualThrustRequest.checked

@@ -112,6 +112,14 @@ case(
 )
 case(2, "nope.toml: cannot read rig file", "pendulum", "--angle", "0.2", "--rig", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "calibrate-thrusters", "--rig", "nope.toml")
+case(
+    2,
+    "--command: 0.9 is not allowed (allowed -0.8 ≤ --command ≤ 0.8 (fraction of full thrust), "
+    "rig limit max_thruster_command)",
+    "manual-thrust", "--command", "0.9",
+)  # fmt: skip
+case(2, "--thruster: 3 is not allowed (allowed 1 ≤ --thruster ≤ 2", "manual-thrust",
+     "--thruster", "3", "--command", "0.2")  # fmt: skip
 case(2, "nope.toml: cannot read rig file", "sim", "--rig", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "serve", "--rig", "nope.toml")
 case(2, "nope.toml: cannot read rig file", "capabilities", "--rig", "nope.toml")

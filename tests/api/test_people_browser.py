@@ -55,6 +55,14 @@ def test_a_viewer_sees_their_name_and_disabled_controls_with_the_reason(
             expect(button).to_have_attribute("title", reason)
         expect(page.locator("#role-note")).to_contain_text(reason)  # seen without hovering
         expect(page.locator("#estop-btn")).to_be_enabled()  # anyone may stop the rig
+        page.click("nav a[data-page=thrusters]")  # the manual thrust control, the same
+        for button in ("#manual-arm", "#manual-start"):
+            expect(page.locator(button)).to_be_disabled()
+            expect(page.locator(button)).to_have_attribute("title", reason)
+        expect(page.locator("#manual-reason")).to_have_text(
+            "You are signed in with role viewer: driving a thruster needs role operator."
+        )
+        page.click("nav a[data-page=rig]")
         status = page.locator("#status-table")
         expect(status.locator("tr", has_text="Thrusters").locator("td").nth(1)).to_have_text(
             "disarmed"
@@ -114,8 +122,10 @@ def test_the_thrusters_page_reads_as_a_thrust_stand_after_a_calibration(
         )
         expect(figures).to_contain_text(f"90 % settling{_js(response['settle_90_s'], 3)} s")
         live = page.locator("#stand-live")  # the live stream's supply voltage and commands
-        expect(live).to_contain_text(re.compile(r"supply voltage \d+\.\d\d V"))
-        expect(live).to_contain_text("thruster 1 command 0")
+        expect(live).to_contain_text(re.compile(r"supply voltage \d+\.\d V"))  # to 0.1 V
+        first = page.locator("#stand-live-table tbody tr").first.locator("td")
+        expect(first.nth(0)).to_have_text("thruster 1")
+        expect(first.nth(1)).to_have_text("0")  # its command, idle after the sweep
         for plot in ("#cal-plot", "#cal-rpm-plot", "#cal-power-plot"):
             expect(page.locator(f"{plot} .main-svg").first).to_be_visible()
 

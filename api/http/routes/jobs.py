@@ -212,6 +212,22 @@ _control_route(
 
 
 @router.post(
+    "/{job_id}/alive",
+    response_model=JobOut,
+    dependencies=[Depends(require_write)],
+    responses=_CONTROL,
+)
+def keep_job_alive(job_id: str, runner: RunnerDep) -> dict:
+    """The dead-man of a procedure job: once called, call again within 3 s
+    (``api.core.deadman.DEADMAN_S``) or the job is aborted (the page that started a manual
+    thrust run says so every second; a closed tab or a lost network stops the thrust). 409
+    for a job that ended or is not a procedure."""
+    from api.core.deadman import keep_alive
+
+    return keep_alive(runner, job_id).to_json()
+
+
+@router.post(
     "/{job_id}/requeue",
     status_code=202,
     response_model=JobOut,

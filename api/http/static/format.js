@@ -26,3 +26,10 @@ export function voltageText(volts) {
   if (hi - lo < 0.15) return `${((lo + hi) / 2).toFixed(1)} V`;
   return `${lo.toFixed(1)}–${hi.toFixed(1)} V`;
 }
+
+/** A live reading with its unit to `digits` significant digits ("15.7 V", "2480 rpm",
+ * "-3.2 A"); "—" for none or a value that is not a finite number. */
+export function reading(v, unit, digits = 3) {
+  if (typeof v !== "number" || !Number.isFinite(v)) return "—";
+  return `${fmt(v, digits)} ${unit}`;
+}

@@ -19,6 +19,7 @@ const OPERATOR_ONLY = [
   "#campaign-form button[type=submit]", "#campaign-stop",
   "#est-run", "#est-reverse-btn", "#cc-compare", "#cc-estimate",
   "#an-form button[type=submit]", "#sixdof-form button[type=submit]",
+  "#manual-form button",
 ].join(", ");
 
 const people = { user: null, token: undefined };

@@ -1,7 +1,8 @@
-// The Thrusters page as a thrust stand: the newest calibration (GET /api/calibration/latest)
-// as a Tyto user reads it — RPM, electrical power, efficiency (g/W) and the response time
-// with its σ; thrust against command, RPM and power in N, kgf or lbf; the fitted curve and
-// its inverse map; every calibration stored.
+// The Thrusters page as a thrust stand: live RPM, current, supply and power per thruster; the
+// newest calibration (GET /api/calibration/latest) as a Tyto user reads it — RPM, electrical
+// power, efficiency (g/W) and the response time with its σ; thrust against command, RPM and
+// power in N, kgf or lbf; the fitted curve and its inverse map; every calibration stored; and
+// one thruster under manual control (manual_thrust.js).
 import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt, localTime, voltageText } from "./format.js";
@@ -9,7 +10,9 @@ import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { state } from "./state.js";
 import { onSample } from "./stream.js";
-import { THRUST_UNITS, commandFor, gramsPerWatt, inThrustUnit, standFigures, thrust } from "./thrust_stand.js";
+import { unitRowsPlot } from "./plots.js";
+import { THRUST_UNITS, commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, standFigures, standSeries, thrust } from "./thrust_stand.js";
+import "./manual_thrust.js";
 
 const stand = { cal: null, unit: localStorage.getItem("rig-thrust-unit") || "N" };
 if (!(stand.unit in THRUST_UNITS)) stand.unit = "N";
@@ -91,21 +94,30 @@ async function loadCalibrationList() {
     .join("");
 }
 
-// Live readouts while the page is shown (the stream's samples, stream.js): the
-// rig's channels in volts (supply) and newtons (load cell, in the chosen unit) and each
-// thruster's command. RPM and current are not streamed: the controller reports them at each
-// calibration step, and the table holds them.
+// Live readouts while the page is shown (the stream's samples, stream.js): the rig's
+// channels in volts (supply) and newtons (load cell, in the chosen unit), and per thruster
+// its command, the RPM and current its controller reports while a run logs them (a
+// calibration's sweep, a manual run) and the electrical power V·I (thrust_stand.js), as
+// numbers and as a plot of the last minute.
+const LIVE_POINTS = 600; // one minute at 10 Hz
+const LIVE_REDRAW_MS = 500;
+const live = { buffer: [], t0: null, timer: null };
+
 function onStandSample(sample) {
-  if ($("#page-thrusters").hidden) return;
   const units = (state.rig && state.rig.units) || {};
+  const count = ((state.rig && state.rig.thrusters && state.rig.thrusters.output) || []).length;
+  if (live.t0 === null) live.t0 = sample.t_mono;
+  live.buffer.push({ t: sample.t_mono - live.t0, rows: liveStand(sample, units, count) });
+  if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);
+  if ($("#page-thrusters").hidden) return;
+  if (live.timer === null) live.timer = setTimeout(drawLive, LIVE_REDRAW_MS);
   const readings = [];
   for (const [name, value] of Object.entries(sample.channels || {})) {
     if (typeof value !== "number") continue;
     const label = name.replace(/_/g, " ");
-    if (units[name] === "V") readings.push([label, `${value.toFixed(2)} V`]);
+    if (units[name] === "V") readings.push([label, voltageText([value])]);
     else if (units[name] === "N") readings.push([label, `${fmt(inUnit(value), 4)} ${stand.unit}`]);
   }
-  (sample.thrusters || []).forEach((u, i) => readings.push([`thruster ${i + 1} command`, fmt(u, 3)]));
   const box = $("#stand-live");
   box.textContent = "Live: ";
   for (const [label, text] of readings) {
@@ -114,6 +126,21 @@ function onStandSample(sample) {
     span.textContent = `${label} ${text}`;
     box.append(span);
   }
+  $("#stand-live-table").hidden = !count;
+  $("#stand-live-table tbody").innerHTML = live.buffer[live.buffer.length - 1].rows
+    .map((row) => `<tr>${liveStandCells(row).map((text) => `<td>${esc(text)}</td>`).join("")}</tr>`)
+    .join("");
+}
+
+// The last minute's RPM and power per thruster, redrawn at most every LIVE_REDRAW_MS; no
+// blank plot while no run logs the telemetry (outside a sweep or a manual run).
+function drawLive() {
+  live.timer = null;
+  if ($("#page-thrusters").hidden) return;
+  const count = live.buffer.length ? live.buffer[live.buffer.length - 1].rows.length : 0;
+  const logged = live.buffer.some((p) => p.rows.some((r) => r.rpm !== null));
+  $("#stand-live-plot").hidden = !count || !logged;
+  if (count && logged) unitRowsPlot("stand-live-plot", standSeries(live.buffer, count), { xTitle: "time [s]", revision: "stand-live" });
 }
 
 onSample(onStandSample);

@@ -2,7 +2,7 @@
 process.env.TZ = "Europe/Berlin"; // local times are the reader's: UTC+1 in January
 import test from "node:test";
 import assert from "node:assert/strict";
-import { fmt, localTime, voltageText } from "../../../api/http/static/format.js";
+import { fmt, localTime, reading, voltageText } from "../../../api/http/static/format.js";
 
 test("numbers to a few significant digits without float noise", () => {
   assert.equal(fmt(0.28500000000000003), "0.285");
@@ -30,4 +30,13 @@ test("a calibration's supply voltages once: one value or a range, to 0.1 V", () 
   assert.equal(voltageText([15.7, null, "x", NaN]), "15.7 V");
   assert.equal(voltageText([]), "");
   assert.equal(voltageText(undefined), "");
+});
+
+test("a live reading with its unit, never NaN or float noise", () => {
+  assert.equal(reading(15.711000000000002, "V"), "15.7 V");
+  assert.equal(reading(2480.4, "rpm", 4), "2480 rpm");
+  assert.equal(reading(-3.2149, "A"), "-3.21 A");
+  assert.equal(reading(NaN, "A"), "—");
+  assert.equal(reading(null, "W"), "—");
+  assert.equal(reading(undefined, "W"), "—");
 });

@@ -2,7 +2,9 @@
 // g/W, the thrust law and its inverse, and the figures a thrust stand prints.
 import assert from "node:assert/strict";
 import test from "node:test";
-import { commandFor, gramsPerWatt, inThrustUnit, standFigures, thrust } from "../../../api/http/static/thrust_stand.js";
+import {
+  commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, manualBlocked, manualLimitsText, standFigures, standSeries, thrust,
+} from "../../../api/http/static/thrust_stand.js";
 
 const LAW = {
   forward_dead_band: 0.05, forward_gain: 40, forward_exponent: 1.5,
@@ -56,4 +58,54 @@ test("thrusts in the chosen unit; a calibration without steps says its response 
   assert.equal(figures["Largest forward thrust"], "3.059 kgf at command 1");
   assert.equal(figures["Response time"], "not measured (imported table, or too few steps)");
   assert.deepEqual(standFigures({ table: [] }, "N"), [["Response time", "not measured (imported table, or too few steps)"]]);
+});
+
+const UNITS = { load_cell: "N", supply_voltage: "V", thruster1_rpm: "rpm", thruster1_current: "A" };
+
+test("live readout: each thruster's RPM, current, the supply and P = V·I, formatted once", () => {
+  const sample = {
+    channels: { supply_voltage: 15.711000000000002, load_cell: 9.9, thruster1_rpm: 2480.4, thruster1_current: 3.2149, thruster2_rpm: 0, thruster2_current: 0 },
+    thrusters: [0.30000000000000004, 0],
+  };
+  const rows = liveStand(sample, UNITS, 2);
+  assert.ok(Math.abs(rows[0].power_w - 15.711 * 3.2149) < 1e-9);
+  assert.deepEqual(liveStandCells(rows[0]), ["thruster 1", "0.3", "2480 rpm", "3.21 A", "15.7 V", "50.5 W"]);
+  assert.deepEqual(liveStandCells(rows[1]), ["thruster 2", "0", "0 rpm", "0 A", "15.7 V", "0 W"]);
+  // the supply as every voltage of the page: to 0.1 V (voltageText), "16.0 V", not "16 V"
+  assert.equal(liveStandCells(liveStand({ channels: { supply_voltage: 16.01 } }, UNITS, 1)[0])[4], "16.0 V");
+});
+
+test("live readout outside a logged run: no telemetry, no power, never NaN", () => {
+  const rows = liveStand({ channels: { supply_voltage: 16, thruster1_rpm: null }, thrusters: [0] }, UNITS, 1);
+  assert.deepEqual(liveStandCells(rows[0]), ["thruster 1", "0", "—", "—", "16.0 V", "—"]);
+  const bare = liveStand({ channels: {} }, {}, 1);
+  assert.deepEqual(liveStandCells(bare[0]), ["thruster 1", "—", "—", "—", "—", "—"]);
+});
+
+const READY = { armed: true, current_job: null, guard: { estop: null } };
+
+test("manual control: off with the reason, on only for an operator on an armed, free rig", () => {
+  assert.equal(manualBlocked(READY, "operator", { available: true }), "");
+  assert.match(manualBlocked(READY, "viewer", { available: true }), /role viewer: driving a thruster needs role operator/);
+  assert.match(manualBlocked({ ...READY, armed: false }, "operator"), /disarmed: arm them first/);
+  assert.match(manualBlocked({ ...READY, current_job: { label: "thrust calibration" } }, "operator"), /busy: thrust calibration/);
+  assert.match(manualBlocked({ ...READY, guard: { estop: { at: "x" } } }, "operator"), /emergency stop is not acknowledged/);
+  assert.match(manualBlocked(READY, "operator", { available: false, reason: "needs a [thrusters] section" }), /cannot: needs a \[thrusters\] section/);
+  assert.match(manualBlocked(null, "operator"), /Waiting/);
+});
+
+test("manual control states the rig's limits", () => {
+  const text = manualLimitsText({ command: { max: 0.8, min: -0.8 }, duration_s: { max: 60 }, thruster: { max: 2 } });
+  assert.equal(text, "Limits: command -0.8 … 0.8 (fraction of full thrust, the rig's max_thruster_command); duration up to 60 s.");
+  assert.equal(manualLimitsText(undefined), "");
+});
+
+test("the live stand plot: each thruster's RPM and power against time, one row per unit", () => {
+  const at = (t, rpm, amps) => ({ t, rows: liveStand({ channels: { supply_voltage: 16, thruster1_rpm: rpm, thruster1_current: amps } }, UNITS, 1) });
+  const series = standSeries([at(0, 0, 0), at(0.1, 1200, 2), at(0.2, null, null)], 1);
+  assert.deepEqual(series.map((s) => [s.name, s.unit]), [["thruster 1 RPM [rpm]", "rpm"], ["thruster 1 power [W]", "W"]]);
+  assert.deepEqual(series[0].x, [0, 0.1, 0.2]);
+  assert.deepEqual(series[0].y, [0, 1200, null]);
+  assert.deepEqual(series[1].y, [0, 32, null]); // 16 V × 2 A; a gap stays a gap
+  assert.deepEqual(standSeries([], 0), []);
 });
