@@ -8,6 +8,7 @@ import { $, $$ } from "./dom.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { unitRowsPlot } from "./plots.js";
+import { channelLabel } from "./run_plot.js";
 import { servedKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
 import { onSample } from "./stream.js";
@@ -45,7 +46,7 @@ function liveChannelList() {
   const units = (state.rig && state.rig.units) || {};
   const names = Object.keys(units);
   if (!names.length) return [];
-  const list = names.map((k) => ({ key: k, label: k.replace(/_/g, " "), unit: units[k] }));
+  const list = names.map((k) => ({ key: k, label: channelLabel(k), unit: units[k] }));
   for (const r of liveRates()) if (r.of in units) list.push({ key: r.key, label: r.label, unit: r.unit });
   const n = ((state.rig && state.rig.thrusters && state.rig.thrusters.output) || []).length;
   for (let i = 0; i < n; i += 1) list.push({ key: `thruster_${i + 1}`, label: `thruster ${i + 1} command`, unit: "fraction" });

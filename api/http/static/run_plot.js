@@ -6,8 +6,14 @@
 // The x axis of a run plot when no channel is chosen for it.
 export const TIME_AXIS = "time";
 
-/** A channel as the plots name it: "drive_force" → "drive force". */
+/**
+ * A channel as the plots name it: "drive_force" → "drive force"; a thruster's telemetry
+ * by what it measures, its unit shown beside it: "thruster1_rpm" → "thruster 1 speed",
+ * "thruster2_current" → "thruster 2 current".
+ */
 export function channelLabel(name) {
+  const telemetry = /^thruster(\d+)_(rpm|current)$/.exec(String(name));
+  if (telemetry) return `thruster ${telemetry[1]} ${telemetry[2] === "rpm" ? "speed" : "current"}`;
   return String(name).replace(/_/g, " ");
 }
 

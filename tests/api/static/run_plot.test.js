@@ -2,7 +2,7 @@
 // units on the axes, overlaid runs named in the legend, time from each run's release.
 import test from "node:test";
 import assert from "node:assert/strict";
-import { TIME_AXIS, runName, runPlotSeries, withUnit, shownUnit } from "../../../api/http/static/run_plot.js";
+import { TIME_AXIS, channelLabel, runName, runPlotSeries, withUnit, shownUnit } from "../../../api/http/static/run_plot.js";
 
 function shown(id, kind, rpm, thrust, release = null) {
   const t = rpm.map((_, i) => 100 + i * 0.1);
@@ -65,4 +65,11 @@ test("against time each run starts at its release, else at its first sample", ()
   const first = runPlotSeries([a, b], ["thrust"]);
   assert.equal(first.xTitle, "time from first sample [s]");
   assert.deepEqual(first.series[0].x.map((t) => Math.round(t * 10) / 10), [0, 0.1, 0.2]);
+});
+
+test("a thruster's telemetry is named by what it measures, its unit not repeated", () => {
+  assert.equal(channelLabel("thruster1_rpm"), "thruster 1 speed");
+  assert.equal(channelLabel("thruster12_current"), "thruster 12 current");
+  assert.equal(channelLabel("drive_force"), "drive force");
+  assert.equal(channelLabel("thruster_rpm_note"), "thruster rpm note");
 });
