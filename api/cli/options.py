@@ -9,6 +9,7 @@ field's description. An on/off flag (``--thrusters``) sets the field to ``when_s
 
 from __future__ import annotations
 
+import enum
 import types
 import typing
 from collections.abc import Callable
@@ -56,6 +57,8 @@ def _click_type(info: FieldInfo, flag: Flag) -> Any:
     base = _base_type(info.annotation)
     if typing.get_origin(base) is typing.Literal:  # one of the listed words
         return click.Choice([str(word) for word in typing.get_args(base)])
+    if isinstance(base, type) and issubclass(base, enum.Enum):  # one of its values
+        return click.Choice([str(member.value) for member in base])
     bounds: dict[str, Any] = {}
     for m in info.metadata:
         if isinstance(m, annotated_types.Ge | annotated_types.Gt):

@@ -22,9 +22,11 @@ from api.cli.common import (
     open_store,
     user_errors,
 )
+from api.cli.options import request_fields, request_options
+from api.core.run_filter import RunFilter
 from daq.export_formats import FORMATS, export_file_name, formats_help, write_export
 from daq.parameter_labels import labelled
-from daq.vocabulary import AXES, RunKind, RunStatus
+from daq.vocabulary import AXES
 
 
 def _when(value: datetime | None) -> str:
@@ -54,74 +56,28 @@ def aligned(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
     )
 
 
-class _Moment(click.ParamType):
-    """A day (YYYY-MM-DD, today, yesterday) or a date-time, in this machine's time zone."""
-
-    name = "DAY"
-
-    def convert(self, value, param, ctx):
-        from daq.store.day_window import parse_moment
-
-        if not isinstance(value, str):
-            return value
-        try:
-            return parse_moment("", value)
-        except ValueError as err:
-            self.fail(str(err).removeprefix(": "), param, ctx)
-
-
 @click.command("runs")
-@click.option(
-    "--kind",
-    type=click.Choice([k.value for k in RunKind]),
-    help="Only runs of this kind.",
-)
-@click.option(
-    "--status",
-    type=click.Choice([s.value for s in RunStatus]),
-    help="Only this status.",
-)
-@click.option(
-    "--drive",
-    type=click.Choice(["weight", "thrusters", "none"]),
-    help="What moved the vehicle (none: nothing, e.g. a pendulum).",
-)
-@click.option(
-    "--source", type=click.Choice(["recorded", "imported"]), help="Recorded here or imported."
-)
-@click.option("--vehicle", help="Only runs of this vehicle.")
-@click.option("--tag", metavar="TAG", help="Only runs with this tag.")
-@click.option(
-    "--search",
-    metavar="TEXT",
-    help="Text in the metadata (operator, notes, tags, keys), vehicle, imported file or id.",
-)
-@click.option(
-    "--since",
-    type=_Moment(),
-    help="Started on or after this day (YYYY-MM-DD, today, yesterday; local) or date-time.",
-)
-@click.option(
-    "--until",
-    type=_Moment(),
-    help="Started on or before this day (the whole day included; local) or date-time.",
-)
+@request_options(RunFilter)
 @click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
 @click.option(
     "--offset", type=click.IntRange(0), default=0, show_default=True, help="Skip this many."
 )
 @db_option
 @json_option
-def runs(
-    kind, status, drive, source, vehicle, tag, search, since, until, limit, offset, db_url,
-    as_json,
-):  # fmt: skip
+def runs(limit, offset, db_url, as_json, **chosen):
     """List stored runs, newest first."""
-    from daq.store.day_window import start_window
+    from pydantic import ValidationError
 
-    low, high = start_window(since, until, datetime.now().astimezone().tzinfo)
-    filters = dict(kind=kind, status=status, vehicle=vehicle, drive=drive, source=source,
-                   tag=tag, search=search, since=low, until=high)  # fmt: skip
+    from daq.procedures.params import ParameterError, problems_of
+
+    ctx = click.get_current_context()
+    try:  # the filters as GET /api/runs takes them (api.core.run_filter), days local here
+        run_filter = RunFilter(**request_fields(RunFilter, chosen))
+        filters = run_filter.store_filters(datetime.now().astimezone().tzinfo)
+    except ValidationError as err:  # one line per field: too long, …
+        fail(flag_names(ctx, str(ParameterError(problems_of(err)))))
+    except ValueError as err:  # a day, a date-time or a zone that is none of the forms
+        fail(flag_names(ctx, str(err)))
     store = open_store(db_url)
     try:
         with user_errors():
@@ -129,7 +85,7 @@ def runs(
                 found = store.list_runs(**filters, limit=limit, offset=offset)
                 total = store.count_runs(**filters)
             except ValueError as err:
-                fail(flag_names(click.get_current_context(), str(err)))
+                fail(flag_names(ctx, str(err)))
         if as_json:
             echo_json([r.to_json() for r in found])
             return

@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import shutil
 import tempfile
-from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Any, Literal, TypedDict
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Query
 from fastapi.responses import FileResponse, Response, StreamingResponse
@@ -20,6 +19,7 @@ from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
 from api.core.run_cache import EndedRunCache
+from api.core.run_filter import RunFilter
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.paging import Offset, RunsLimit, SamplesLimit
 from api.http.schemas import (
@@ -41,25 +41,9 @@ from daq.procedures.requests import RunMetadataIn
 from daq.store import Store
 from daq.store.channel_units import column_infos
 from daq.store.csv_export import csv_chunks
-from daq.store.day_window import parse_moment, parse_tz, start_window
-from daq.vocabulary import RunKind, RunStatus
 
 router = APIRouter(prefix="/api", tags=["runs"])
 _READ = error_responses(401, 404, 422)
-
-
-class RunFilters(TypedDict):
-    """The filters ``Store.list_runs`` and ``Store.count_runs`` take (None: any)."""
-
-    kind: str | None
-    status: str | None
-    vehicle: str | None
-    drive: str | None
-    source: str | None
-    tag: str | None
-    search: str | None
-    since: datetime | None
-    until: datetime | None
 
 
 @router.get(
@@ -71,62 +55,14 @@ class RunFilters(TypedDict):
 def list_runs(
     store: StoreDep,
     response: Response,
-    kind: Annotated[str | None, Query(description=" | ".join(RunKind))] = None,
-    status: RunStatus | None = None,
-    vehicle: str | None = None,
-    drive: Annotated[
-        Literal["weight", "thrusters", "none"] | None,
-        Query(description="What moved the vehicle; none = nothing (a pendulum)."),
-    ] = None,
-    source: Annotated[
-        Literal["recorded", "imported"] | None, Query(description="Recorded here or imported.")
-    ] = None,
-    tag: Annotated[str | None, Query(max_length=40, description="Runs with this tag.")] = None,
-    search: Annotated[
-        str | None,
-        Query(
-            max_length=200,
-            description="Text in the metadata (operator, notes, tags, free keys), the "
-            "vehicle, the imported file's name or the start of the run id.",
-        ),
-    ] = None,
-    since: Annotated[
-        str | None,
-        Query(
-            description="Started on or after: a day YYYY-MM-DD (from its midnight in tz), "
-            "'today', or an ISO 8601 date-time."
-        ),
-    ] = None,
-    until: Annotated[
-        str | None,
-        Query(
-            description="Started on or before: a day YYYY-MM-DD (the whole day in tz, "
-            "included), 'today', or an ISO 8601 date-time (included)."
-        ),
-    ] = None,
-    tz: Annotated[
-        str | None,
-        Query(
-            max_length=64,
-            description="Time zone of since/until days and of date-times without an "
-            "offset: IANA name (Europe/Oslo), UTC or ±HH:MM. Default UTC.",
-        ),
-    ] = None,
+    run_filter: Annotated[RunFilter, Query()],
     limit: RunsLimit = 100,
     offset: Offset = 0,
 ) -> list[dict]:
     """Stored runs, newest first, a page at a time: the ``X-Total-Count`` header gives how
     many match the filters, ``X-Next-Offset`` the ``offset`` of the next page (absent on
-    the last)."""
-    zone = parse_tz("tz", tz)
-    today = datetime.now(zone or UTC).date()
-    low, high = start_window(
-        None if since is None else parse_moment("since", since, today=today),
-        None if until is None else parse_moment("until", until, today=today),
-        zone,
-    )
-    filters = RunFilters(kind=kind, status=status, vehicle=vehicle, drive=drive, source=source,
-                         tag=tag, search=search, since=low, until=high)  # fmt: skip
+    the last). The filters are ``api.core.run_filter.RunFilter``'s (``rig runs`` too)."""
+    filters = run_filter.store_filters()
     runs = store.list_runs(**filters, limit=limit, offset=offset)
     total = store.count_runs(**filters)
     response.headers["X-Total-Count"] = str(total)
