@@ -3,7 +3,9 @@
 The search tries every single effect and every pair (and extends a winning pair); the
 "pair" case needs two effects at once (dry friction and a current, reverse runs in the set),
 the "outside_library" case a force periodic along the rail that must be flagged, not fitted;
-the "decay" cases a free heave decay through ``estimate_decay`` (its own term search).
+the "decay" cases a free heave decay through ``estimate_decay``, the "pendulum" cases a
+60 s pendulum swing (clean, and with pivot dry friction) through ``estimate_pendulum``
+(the decay's engine with the pendulum's methods beside it): the bench times every kind.
 Prints one JSON document. Targets: joint fit < 0.2 s; effect search with pairs ≤ 1 s on a
 quiet machine (floor 3 s). ``cpu_median_s`` is CPU time, for a machine that is not quiet
 (``effect_search_cpu_met``). The estimator runs its fits on one BLAS thread
@@ -27,6 +29,8 @@ from estimation import estimate
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.motion.decay_estimate import estimate_decay
+from estimation.pendulum.pendulum_estimate import estimate_pendulum
+from tests.estimation.pendulum_synth import decay as pendulum_decay
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 
@@ -99,6 +103,16 @@ def main() -> None:
         entry = timed(decay, 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_decay_{name}"] = entry
+    for name, tau in (("clean", 0.0), ("coulomb_friction", 0.4)):
+        swing = pendulum_decay(dry_friction=tau, duration=60.0)
+        found = [e.name for e in estimate_pendulum([swing]).effects]
+
+        def pendulum(run: object = swing) -> object:
+            return estimate_pendulum([run])
+
+        entry = timed(pendulum, 3)
+        entry["effects_found"] = found
+        cases[f"full_effect_search_pendulum_{name}"] = entry
     cases["estimate_with_40_bootstrap_clean"] = timed(lambda: estimate(clean), 3)
     searches_run = [v for k, v in cases.items() if k.startswith("full_effect")]
     worst_search = max(v["median_s"] for v in searches_run)
