@@ -1,8 +1,10 @@
 """A campaign in real headless Chromium: started from the Queue page's Campaign card, its
 trail (each test, why, U before → after) shown as it runs and its ending shown; a stop
-marker added from the Queue page."""
+marker added from the Queue page; a campaign stopped from the card."""
 
 from __future__ import annotations
+
+import time
 
 import pytest
 
@@ -56,3 +58,37 @@ def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(chromium, c
         client.post("/api/queue/resume", headers=AUTH)
         assert errors == []
     wait_job(client, job["id"])
+
+
+def test_a_campaign_stopped_from_the_page_says_stopping_at_once_then_how_it_ended(
+    chromium, client, service
+):
+    """Stop the campaign: the card says "stopping" and why it waits (the run on the rig
+    finishes first) before the service answers, then the campaign's ending with its reason;
+    the tow it had started completes and is kept."""
+    from playwright.sync_api import expect
+
+    wait_rig_free(client)
+    with signed_in_page(chromium, service, client) as page:
+        page.click("nav a[data-page=queue]")
+        form = page.locator("#campaign-form")
+        form.locator("[name=axis-yaw]").uncheck()
+        form.locator("[name=max_runs]").fill("4")
+        form.locator("button[type=submit]").click()
+        expect(page.locator("#campaign-pending")).to_contain_text("hang", timeout=60_000)
+        held: list = []  # the stop request, answered only once "stopping" was seen
+        page.route("**/api/campaigns/*/stop", lambda route: held.append(route))
+        page.click("#campaign-stop")
+        expect(page.locator("#campaign-state")).to_have_text("stopping")
+        expect(page.locator("#campaign-stopping")).to_contain_text("the run on the rig finishes")
+        expect(page.locator("#campaign-stop")).to_have_count(0)  # asked once, not twice
+        deadline = time.monotonic() + 10  # the page shows "stopping" before it sends
+        while not held and time.monotonic() < deadline:
+            page.wait_for_timeout(50)  # Playwright dispatches the route handler meanwhile
+        assert len(held) == 1
+        held[0].continue_()
+        expect(page.locator("#campaign-state")).to_have_text("aborted", timeout=90_000)
+        expect(page.locator("#campaign-summary")).to_contain_text("stopped by the operator")
+    job = client.get("/api/campaigns", headers=AUTH).json()[0]
+    assert job["state"] == "aborted" and job["outcome"]["outcome"] == "stopped by the operator"
+    assert job["outcome"]["runs_used"] <= 1  # no further test after the stop

@@ -45,7 +45,7 @@ function showCampaign(job) {
     .join("");
   const shown = shownState(job); // jobs.js: "stopping" once asked, until it ends
   const stopping = shown === "stopping"
-    ? ` <span class="muted" id="campaign-stopping">no further test; the run on the rig finishes first</span>` : "";
+    ? ` <span class="muted" id="campaign-stopping">no further test; the run on the rig finishes first ·</span>` : "";
   box.innerHTML = `<p><strong>${esc(job.label)}</strong> <span class="state ${esc(shown)}" id="campaign-state">${esc(shown)}</span>${stopping}
       <span class="muted">started by ${esc(job.user || "—")}</span>
       ${running && shown !== "stopping" ? `<button type="button" id="campaign-stop">Stop the campaign</button>` : ""}</p>
