@@ -25,6 +25,12 @@ if TYPE_CHECKING:
 
 NAN = math.nan
 
+#: The columns of a ``sample_blocks`` row, in the order :meth:`Block.row` gives them.
+BLOCK_COLUMNS = (
+    "run_id", "first_seq", "last_seq", "sample_count", "level", "t_wall_max", "stale",
+    "seq", "t_mono", "t_wall", "quality", "channel_values",
+)  # fmt: skip
+
 #: Most samples one block holds (≈ 7 MB at ten channels): a batch or a merge that would
 #: hold more is stored as several blocks, so a window reads at most this much around it.
 BLOCK_MAX_SAMPLES = 65_536
@@ -85,27 +91,27 @@ class Block:
         ends = range(size, len(self) + size, size)
         return [self.take(np.arange(end - size, min(end, len(self)))) for end in ends]
 
-    def row(self, run_pk: int) -> dict[str, Any]:
-        """The ``sample_blocks`` row of this block (at most :data:`BLOCK_MAX_SAMPLES`)."""
+    def row(self, run_pk: int) -> tuple[Any, ...]:
+        """The ``sample_blocks`` row of this block (at most :data:`BLOCK_MAX_SAMPLES`), its
+        values in :data:`BLOCK_COLUMNS` order."""
         import numpy as np
 
         read = self.t_wall[~np.isnan(self.t_wall)]
-        return {
-            "run_id": run_pk,
-            "first_seq": int(self.seq[0]),
-            "last_seq": int(self.seq[-1]),
-            "sample_count": len(self),
-            "level": self.level,
-            "t_wall_max": float(read.max()) if read.size else None,
-            "stale": json.dumps({str(i): list(n) for i, n in self.stale.items()})
-            if self.stale
-            else None,
-            "seq": self.seq.astype("<i8").tobytes(),
-            "t_mono": self.t_mono.astype("<f8").tobytes(),
-            "t_wall": self.t_wall.astype("<f8").tobytes(),
-            "quality": self.quality.astype("<i8").tobytes(),
-            "channel_values": self.values.astype("<f8").tobytes(),
-        }
+        stale = {str(i): list(names) for i, names in self.stale.items()}
+        return (
+            run_pk,
+            int(self.seq[0]),
+            int(self.seq[-1]),
+            len(self),
+            self.level,
+            float(read.max()) if read.size else None,
+            json.dumps(stale) if stale else None,
+            self.seq.astype("<i8").tobytes(),
+            self.t_mono.astype("<f8").tobytes(),
+            self.t_wall.astype("<f8").tobytes(),
+            self.quality.astype("<i8").tobytes(),
+            self.values.astype("<f8").tobytes(),
+        )
 
     @classmethod
     def from_row(cls, row: Any, width: int) -> Block:

@@ -12,16 +12,17 @@ long run reads as a few arrays.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import sqlalchemy as sa
 
 from daq.sample import Sample
 from daq.store import checks
 from daq.store.database import StoreBase
-from daq.store.packing import Block, SamplePacker
+from daq.store.packing import BLOCK_COLUMNS, Block, SamplePacker
 from daq.store.run_records import DuplicateSample, SampleTable
-from daq.store.schema import runs as runs_t
 from daq.store.schema import sample_blocks as blocks_t
 
 #: How many blocks of one level are merged into one block of the next level.
@@ -40,15 +41,58 @@ def _seq_list(seqs: Sequence[int], shown: int = 5) -> str:
     return text + (f" and {len(seqs) - shown} more" if len(seqs) > shown else "")
 
 
+@dataclass(frozen=True)
+class BatchSql:
+    """The statements a batch runs, as the driver's SQL in its parameter style: a recorder
+    writes a batch every flush, and SQLAlchemy building each statement again cost more
+    than the database did."""
+
+    #: Take the run's turn to write (:meth:`SampleRows._lock_run`): (pk,) or (key, pk).
+    lock: str
+    #: The stored blocks whose seq range meets (pk, low, high), whole, in seq order.
+    overlapping: str
+    #: One block row, the values in ``BLOCK_COLUMNS`` order.
+    insert: str
+    #: Add (count, pk) to the run's ``sample_count``.
+    count: str
+    #: first_seq, sample_count, level of (pk)'s newest (limit) blocks, newest first.
+    newest: str
+
+    @classmethod
+    def of(cls, backend: str) -> BatchSql:
+        """The statements for ``backend`` (``sqlite`` or ``postgresql``)."""
+        mark = "?" if backend == "sqlite" else "%s"
+        columns = ", ".join(BLOCK_COLUMNS)
+        lock = (
+            f"SELECT pg_advisory_xact_lock({mark}, {mark})"
+            if backend == "postgresql"
+            else f"UPDATE runs SET sample_count = sample_count WHERE id = {mark}"
+        )
+        return cls(
+            lock=lock,
+            overlapping=f"SELECT {columns} FROM sample_blocks WHERE run_id = {mark} "
+            f"AND last_seq >= {mark} AND first_seq <= {mark} ORDER BY first_seq",
+            insert=f"INSERT INTO sample_blocks ({columns}) "
+            f"VALUES ({', '.join([mark] * len(BLOCK_COLUMNS))})",
+            count=f"UPDATE runs SET sample_count = sample_count + {mark} WHERE id = {mark}",
+            newest=f"SELECT first_seq, sample_count, level FROM sample_blocks "
+            f"WHERE run_id = {mark} ORDER BY first_seq DESC LIMIT {mark}",
+        )
+
+
 class SampleRows(StoreBase):
     """The samples part of :class:`daq.store.Store`."""
+
+    @functools.cached_property
+    def _batch_sql(self) -> BatchSql:
+        return BatchSql.of(self.backend)
 
     def _blocks(self, conn: sa.Connection, where: sa.ColumnElement[bool]) -> Sequence[sa.Row]:
         """The blocks matching ``where``, whole, in seq order."""
         return conn.execute(sa.select(blocks_t).where(where).order_by(blocks_t.c.first_seq)).all()
 
     def _write_block(self, conn: sa.Connection, pk: int, block: Block) -> None:
-        conn.execute(sa.insert(blocks_t), [part.row(pk) for part in block.chunks()])
+        conn.exec_driver_sql(self._batch_sql.insert, [part.row(pk) for part in block.chunks()])
 
     def _store_batch(
         self,
@@ -65,12 +109,12 @@ class SampleRows(StoreBase):
             return 0
         import numpy as np
 
+        sql = self._batch_sql
         block = packer.block(samples)
         self._lock_run(conn, pk)
         low, high = int(block.seq[0]), int(block.seq[-1])
         repeated = block.seq[1:] == block.seq[:-1]
-        overlapping = (blocks_t.c.last_seq >= low) & (blocks_t.c.first_seq <= high)
-        stored = self._blocks(conn, (blocks_t.c.run_id == pk) & overlapping)
+        stored = conn.exec_driver_sql(sql.overlapping, (pk, low, high)).all()
         neighbours = [Block.from_row(row, packer.width) for row in stored]
         clash = np.zeros(len(block), dtype=bool)
         if neighbours:
@@ -97,11 +141,7 @@ class SampleRows(StoreBase):
             block = Block.joined([*neighbours, block], max(b.level for b in neighbours))
         self._write_block(conn, pk, block)
         added = len(block) - sum(len(b) for b in neighbours)
-        conn.execute(
-            sa.update(runs_t)
-            .where(runs_t.c.id == pk)
-            .values(sample_count=runs_t.c.sample_count + added)
-        )
+        conn.exec_driver_sql(sql.count, (added, pk))
         while self._merge_newest(conn, pk, packer.width):
             pass  # 16 blocks of level 0 make the 16th of level 1, which may complete a set
         return added
@@ -111,26 +151,15 @@ class SampleRows(StoreBase):
         writer of the run slips in between: PostgreSQL a transaction advisory lock on the
         run, SQLite the database's write lock (taken by a write: an update that changes
         nothing)."""
-        if self.backend == "postgresql":
-            conn.execute(sa.select(sa.func.pg_advisory_xact_lock(RUN_WRITE_LOCK, pk)))
-        else:
-            conn.execute(
-                sa.update(runs_t)
-                .where(runs_t.c.id == pk)
-                .values(sample_count=runs_t.c.sample_count)
-            )
+        lock = self._batch_sql.lock
+        conn.exec_driver_sql(lock, (RUN_WRITE_LOCK, pk) if self.backend == "postgresql" else (pk,))
 
     def _merge_newest(self, conn: sa.Connection, pk: int, width: int) -> bool:
         """Merge the run's newest :data:`MERGE_FAN_IN` blocks into one of the next level
         when they are all of one level and together fit in a block; True if merged."""
         from daq.store.packing import BLOCK_MAX_SAMPLES
 
-        newest = conn.execute(
-            sa.select(*_BLOCK_META)
-            .where(blocks_t.c.run_id == pk)
-            .order_by(blocks_t.c.first_seq.desc())
-            .limit(MERGE_FAN_IN)
-        ).all()
+        newest = conn.exec_driver_sql(self._batch_sql.newest, (pk, MERGE_FAN_IN)).all()
         if (
             len(newest) < MERGE_FAN_IN
             or len({row.level for row in newest}) > 1
