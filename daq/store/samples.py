@@ -1,9 +1,9 @@
 """The samples of runs, stored in blocks (``sample_blocks``, :mod:`daq.store.packing`): a
 batch is one block written in one transaction, and read back as numpy columns.
 
-A batch locks its run's row first (so two writers of one run take turns), refuses a seq
-already stored (or, asked to, leaves it out), and rewrites any stored block whose seq
-range it overlaps together with it, so a run's blocks never overlap. As a run grows, its
+A batch first takes its run's turn to write (so two writers of one run take turns),
+refuses a seq already stored (or, asked to, leaves it out), and rewrites any stored block
+whose seq range it overlaps together with it, so a run's blocks never overlap. As a run grows, its
 newest :data:`MERGE_FAN_IN` blocks are merged into one once they are all of the same
 level and together hold at most ``BLOCK_MAX_SAMPLES``: a recorder's flushes of a few
 samples become blocks of thousands (each sample is rewritten about three times), so a
