@@ -368,11 +368,11 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
 
     def count_runs(self, **filters: Any) -> int:
         """How many runs :meth:`list_runs` with these filters finds, without paging."""
-        query = RunFilter(**filters).where(
-            sa.select(sa.func.count())
-            .select_from(runs_t)
-            .join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
-        )
+        where = RunFilter(**filters)
+        query = sa.select(sa.func.count()).select_from(runs_t)
+        if where.reads_vehicle:  # else counted from an index, not by reading every run
+            query = query.join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
+        query = where.where(query)
         with self.engine.connect() as conn:
             return int(conn.execute(query).scalar_one())
 
