@@ -4,6 +4,10 @@ Prints one JSON document. Samples are built before timing; the timed part is
 ``Store.add_samples`` (packing + executemany/COPY + commit), batch after batch, plus a
 read-back check that every sample arrived. ``sqlite.recorder`` is the same through a
 RunRecorder (put from the event loop, flushes in a worker thread) with the worst loop lag.
+``sqlite.raw_executemany`` is the rate to compare with: the plain ``sqlite3`` module
+inserting the same samples as ready-made rows, one per sample (seq, times, quality, stale,
+channels packed as one float64 BLOB, built before timing), same pragmas and batches, one
+commit per batch; ``ratios`` divide the store's and the recorder's rates by it.
 
     .venv/bin/python bench/store_ingest.py [--samples N] [--batch-size B] [--channels C]
                                            [--postgres-url URL | --postgres-temp]
@@ -16,6 +20,8 @@ import asyncio
 import json
 import math
 import platform
+import sqlite3
+import struct
 import sys
 import tempfile
 import time
@@ -80,6 +86,41 @@ def measure(url: str, samples: list[Sample], names: list[str], batch_size: int) 
         }
 
 
+def measure_raw(path: str, samples: list[Sample], names: list[str], batch_size: int) -> dict:
+    """Insert ``samples`` with the plain sqlite3 module, one row per sample, the rows built
+    (channels packed) before timing: ``batch_size`` rows per executemany and commit."""
+    pack = struct.Struct(f"<{len(names)}d").pack
+    rows = [
+        (1, s.seq, s.t_mono, s.t_wall, int(s.quality), ",".join(s.stale) or None,
+         pack(*[s.channels[n] for n in names]))
+        for s in samples
+    ]  # fmt: skip
+    db = sqlite3.connect(path)
+    try:
+        db.execute("PRAGMA journal_mode=WAL")
+        db.execute("PRAGMA synchronous=NORMAL")
+        db.execute(
+            "CREATE TABLE samples (run_id INTEGER, seq INTEGER, t_mono REAL, t_wall REAL, "
+            "quality INTEGER, stale TEXT, channel_values BLOB, PRIMARY KEY (run_id, seq)) "
+            "WITHOUT ROWID"
+        )
+        started = time.perf_counter()
+        for i in range(0, len(rows), batch_size):
+            with db:
+                db.executemany(
+                    "INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?)", rows[i : i + batch_size]
+                )
+        seconds = time.perf_counter() - started
+    finally:
+        db.close()
+    return {
+        "samples": len(samples),
+        "seconds": round(seconds, 4),
+        "samples_per_s": round(len(samples) / seconds),
+        "batch_size": batch_size,
+    }
+
+
 def measure_recorder(url: str, samples: list[Sample], names: list[str]) -> dict:
     """Push ``samples`` through a RunRecorder (put → batched flush in a worker thread) and
     time until ``close()`` returns; also the worst event-loop lag seen meanwhile."""
@@ -142,6 +183,12 @@ def main() -> None:
         sqlite["recorder"] = measure_recorder(
             f"sqlite:///{folder}/recorder.db", samples[:200_000], names
         )
+        raw = measure_raw(f"{folder}/raw.db", samples, names, args.batch_size)
+        sqlite["raw_executemany"] = raw
+        sqlite["ratios"] = {
+            "store_to_raw": round(sqlite["samples_per_s"] / raw["samples_per_s"], 2),
+            "recorder_to_raw": round(sqlite["recorder"]["samples_per_s"] / raw["samples_per_s"], 2),
+        }
     result = {
         "benchmark": "store_ingest",
         "channels": len(names),

@@ -19,8 +19,6 @@ from daq.store.packing import SamplePacker
 from daq.store.run_records import AmbiguousRunId, RunNotFound
 from daq.store.schema import runs as runs_t
 
-SAMPLE_COLUMNS = "run_id, seq, t_mono, t_wall, quality, stale, channel_values"
-
 
 def inserted_id(result: sa.CursorResult) -> int:
     """The primary key of the row an INSERT added."""
@@ -110,10 +108,6 @@ class StoreBase:
         except sa.exc.SQLAlchemyError as err:  # a bad URL, no driver, no server
             raise DatabaseNotOpened(opening_reason(err)) from err
         self.backend = self.engine.dialect.name
-        mark = "?" if self.backend == "sqlite" else "%s"
-        self._insert_samples_sql = (
-            f"INSERT INTO samples ({SAMPLE_COLUMNS}) VALUES ({', '.join([mark] * 7)})"
-        )
         self._packers: dict[str, tuple[int, SamplePacker]] = {}
 
     # -- plumbing ---------------------------------------------------------------------
@@ -165,10 +159,12 @@ class StoreBase:
             )
         return rows[0]
 
-    def _packer(self, conn: sa.Connection, run_id: str) -> tuple[int, SamplePacker]:
+    def _packer(self, run_id: str) -> tuple[int, SamplePacker]:
+        """The primary key and packer of a run (read once per store: they never change)."""
         cached = self._packers.get(run_id)
         if cached is None:
-            row = self._resolve(conn, run_id)
+            with self.engine.connect() as conn:
+                row = self._resolve(conn, run_id)
             cached = (row.id, SamplePacker(row.channel_names))
             self._packers[row.uuid] = cached
         return cached

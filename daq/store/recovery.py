@@ -14,7 +14,7 @@ import sqlalchemy as sa
 
 from daq.store.database import process_alive
 from daq.store.schema import runs as runs_t
-from daq.store.schema import samples as samples_t
+from daq.store.schema import sample_blocks
 from daq.store.spill import spilled_ends
 
 #: A run of another host whose process holds no lease is marked interrupted only once its
@@ -68,7 +68,9 @@ def interrupted_runs(
         holders = lease_holders(conn)
     for run in running:
         last_wall = conn.execute(
-            sa.select(sa.func.max(samples_t.c.t_wall)).where(samples_t.c.run_id == run.id)
+            sa.select(sa.func.max(sample_blocks.c.t_wall_max)).where(
+                sample_blocks.c.run_id == run.id
+            )
         ).scalar()
         last = run.started_at if last_wall is None else max(last_wall, run.started_at)
         owner = f"recording process pid {run.owner_pid} on host {run.owner_host}"

@@ -50,8 +50,14 @@ class RunFilter:
     since: datetime | None = None
     until: datetime | None = None
 
+    @property
+    def reads_vehicle(self) -> bool:
+        """Whether the filter reads the vehicle's name (``vehicle``, ``search``)."""
+        return self.vehicle is not None or self.search is not None
+
     def where(self, query: sa.Select) -> sa.Select:
-        """``query`` (which joins ``vehicles``) narrowed to the matching runs."""
+        """``query`` (which joins ``vehicles`` when :attr:`reads_vehicle`) narrowed to the
+        matching runs."""
         c = runs_t.c
         if self.kind is not None:
             query = query.where(c.kind == checks.check_kind("kind", self.kind))

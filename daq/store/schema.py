@@ -2,9 +2,9 @@
 Alembic revisions follow.
 
 Times are stored as Unix seconds (float64) so SQLite and PostgreSQL behave the same;
-the Python API hands out aware UTC datetimes. A sample is one row with fixed columns and
-its channel values packed as a little-endian float64 BLOB in the run's channel order
-(``runs.channel_names``), which keeps ingest fast and the table independent of the rig.
+the Python API hands out aware UTC datetimes. Samples are stored in blocks, a row per
+batch holding each column as an array (``sample_blocks``): ingest is one row per flush,
+reading a long run concatenates a few arrays, and the table does not depend on the rig.
 """
 
 from __future__ import annotations
@@ -114,17 +114,29 @@ run_tags = sa.Table(
     sa.Column("tag", sa.String(40), primary_key=True, index=True),
 )
 
-samples = sa.Table(
-    "samples",
+#: A run's samples in blocks (revision 0007): one row per stored batch (merged into larger
+#: blocks as the run grows, ``daq.store.samples``), each column a little-endian array
+#: (``daq.store.packing``): ``seq`` int64, ``t_mono``/``t_wall`` float64 s, ``quality``
+#: int64 flags, ``channel_values`` float64 channel after channel in the run's channel order
+#: (``runs.channel_names``); ``stale`` is JSON {index in the block: [stale channel names]}
+#: of the samples that had any, NULL when none. Blocks of a run never overlap in seq:
+#: ``first_seq``..``last_seq`` bound theirs; ``t_wall_max`` is the latest wall time in it.
+sample_blocks = sa.Table(
+    "sample_blocks",
     metadata,
     sa.Column("run_id", sa.ForeignKey("runs.id", ondelete="CASCADE"), primary_key=True),
-    sa.Column("seq", sa.BigInteger, primary_key=True, autoincrement=False),
-    sa.Column("t_mono", sa.Float(precision=53), nullable=False),
-    sa.Column("t_wall", sa.Float(precision=53), nullable=False),
-    sa.Column("quality", sa.Integer, nullable=False),
-    sa.Column("stale", sa.Text, nullable=True),  # comma-separated channel names, NULL if none
+    sa.Column("first_seq", sa.BigInteger, primary_key=True, autoincrement=False),
+    sa.Column("last_seq", sa.BigInteger, nullable=False),
+    sa.Column("sample_count", sa.Integer, nullable=False),
+    sa.Column("level", sa.SmallInteger, nullable=False),
+    sa.Column("t_wall_max", sa.Float(precision=53), nullable=True),
+    sa.Column("stale", sa.Text, nullable=True),
+    sa.Column("seq", sa.LargeBinary, nullable=False),
+    sa.Column("t_mono", sa.LargeBinary, nullable=False),
+    sa.Column("t_wall", sa.LargeBinary, nullable=False),
+    sa.Column("quality", sa.LargeBinary, nullable=False),
     sa.Column("channel_values", sa.LargeBinary, nullable=False),
-    sqlite_with_rowid=False,
+    sa.Index("ix_sample_blocks_run_id_last_seq", "run_id", "last_seq"),
 )
 
 events = sa.Table(

@@ -39,10 +39,10 @@ from daq.store.schema import (
     results,
     rigs,
     run_tags,
+    sample_blocks,
     vehicles,
 )
 from daq.store.schema import runs as runs_t
-from daq.store.schema import samples as samples_t
 from daq.store.spill import default_spill_dir, replay_spills
 
 if TYPE_CHECKING:
@@ -244,7 +244,7 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
         with self.transaction() as conn:
             run_uuid, pk = self._insert_run(conn, **header)
             packer = SamplePacker(checks.check_channel_names(run["channel_names"]))
-            self._insert_rows(conn, run_uuid, pk, packer, samples)
+            self._store_batch(conn, run_uuid, pk, packer, samples)
             row = conn.execute(sa.select(runs_t).where(runs_t.c.id == pk)).one()
             self._finish(conn, row, status, reason, stopped_at)
         return run_uuid
@@ -265,7 +265,7 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
             for start in range(0, len(samples), batch_rows):
                 with self.transaction() as conn:
                     chunk = samples[start : start + batch_rows]
-                    self._insert_rows(conn, run_uuid, pk, packer, chunk)
+                    self._store_batch(conn, run_uuid, pk, packer, chunk)
         except Exception as exc:
             self.finish_run(run_uuid, "aborted", f"import failed: {exc}", stopped_at=stopped_at)
             raise
@@ -368,11 +368,11 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
 
     def count_runs(self, **filters: Any) -> int:
         """How many runs :meth:`list_runs` with these filters finds, without paging."""
-        query = RunFilter(**filters).where(
-            sa.select(sa.func.count())
-            .select_from(runs_t)
-            .join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
-        )
+        where = RunFilter(**filters)
+        query = sa.select(sa.func.count()).select_from(runs_t)
+        if where.reads_vehicle:  # else counted from an index, not by reading every run
+            query = query.join(vehicles, vehicles.c.id == runs_t.c.vehicle_id)
+        query = where.where(query)
         with self.engine.connect() as conn:
             return int(conn.execute(query).scalar_one())
 
@@ -401,9 +401,13 @@ class Store(EventsAndResults, ImportedCalibrations, SampleRows):
             return "ok"
 
     def stats(self) -> dict[str, Any]:
-        """Row counts per table (for status pages)."""
+        """Row counts per table (for status pages); ``samples``: the samples stored (in
+        ``sample_blocks`` rows, counted too)."""
         with self.engine.connect() as conn:
-            return {
+            counts = {
                 t.name: conn.execute(sa.select(sa.func.count()).select_from(t)).scalar_one()
-                for t in (runs_t, samples_t, events, results)
+                for t in (runs_t, sample_blocks, events, results)
             }
+            total = sa.select(sa.func.coalesce(sa.func.sum(sample_blocks.c.sample_count), 0))
+            counts["samples"] = int(conn.execute(total).scalar_one())
+        return counts

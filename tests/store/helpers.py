@@ -106,7 +106,7 @@ class DbLimits:
 @contextmanager
 def held_write_lock(store: Store) -> Iterator[None]:
     """Another connection holds the write lock (SQLite ``BEGIN EXCLUSIVE``, PostgreSQL
-    ``LOCK TABLE samples, runs``) until the block ends."""
+    ``LOCK TABLE sample_blocks, runs``) until the block ends."""
     if store.backend == "sqlite":
         path = sa.make_url(store.url).database
         blocker = sqlite3.connect(path, isolation_level=None)
@@ -120,7 +120,7 @@ def held_write_lock(store: Store) -> Iterator[None]:
     engine = sa.create_engine(store.url)
     try:
         with engine.begin() as conn:
-            conn.exec_driver_sql("LOCK TABLE samples, runs, events IN ACCESS EXCLUSIVE MODE")
+            conn.exec_driver_sql("LOCK TABLE sample_blocks, runs, events IN ACCESS EXCLUSIVE MODE")
             yield
     finally:
         engine.dispose()

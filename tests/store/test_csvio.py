@@ -202,7 +202,7 @@ def test_a_long_import_is_written_in_batches_and_a_late_failure_ends_it_aborted(
     assert len(transactions) == 5  # the run, 3 batches of ≤ 4, the finish
 
     calls = []
-    insert = store._insert_rows
+    insert = store._store_batch
 
     def fail_second(*args, **kwargs):
         calls.append(1)
@@ -210,7 +210,7 @@ def test_a_long_import_is_written_in_batches_and_a_late_failure_ends_it_aborted(
             raise OSError("disk full")
         return insert(*args, **kwargs)
 
-    monkeypatch.setattr(store, "_insert_rows", fail_second)
+    monkeypatch.setattr(store, "_store_batch", fail_second)
     with pytest.raises(OSError, match="disk full"):
         import_csv(store, path, kind="tow", parameters={"force_n": 5.0})
     failed = [r for r in store.list_runs() if r.id != run_id]

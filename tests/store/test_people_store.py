@@ -75,7 +75,7 @@ def test_a_database_of_revision_0005_upgrades_with_its_jobs_unnamed(db_url: str)
             )
         )
     with Store(db_url) as store:
-        assert current_revision(engine) == head_revision() == "0006"
+        assert current_revision(engine) == head_revision() != "0005"
         from daq.store.job_repository import JobRepository
 
         row = JobRepository(store).get("j1")

@@ -91,7 +91,7 @@ def test_put_never_blocks_and_a_full_queue_drops_and_counts(store: Store) -> Non
             conn.exec_driver_sql("BEGIN EXCLUSIVE")
         else:
             conn.exec_driver_sql("BEGIN")
-            conn.exec_driver_sql("LOCK TABLE samples, events, runs IN ACCESS EXCLUSIVE MODE")
+            conn.exec_driver_sql("LOCK TABLE sample_blocks, events, runs IN ACCESS EXCLUSIVE MODE")
         putter = threading.Thread(
             target=lambda: [recorder.put(sample) for sample in make_samples(0, 150)]
         )

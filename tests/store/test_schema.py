@@ -15,7 +15,7 @@ from daq.store.migrate import (
     upgrade_to_head,
 )
 
-TABLES = {"rigs", "vehicles", "runs", "samples", "events", "results", "result_runs"}
+TABLES = {"rigs", "vehicles", "runs", "sample_blocks", "events", "results", "result_runs"}
 
 
 def test_opening_an_empty_database_upgrades_it_to_head(db_url: str) -> None:
@@ -28,17 +28,24 @@ def test_opening_an_empty_database_upgrades_it_to_head(db_url: str) -> None:
     inspector = sa.inspect(engine)
     assert set(inspector.get_table_names()) >= TABLES
     assert current_revision(engine) == head_revision()
-    sample_columns = {c["name"] for c in inspector.get_columns("samples")}
-    assert sample_columns == {
+    block_columns = [c["name"] for c in inspector.get_columns("sample_blocks")]
+    assert block_columns == [
         "run_id",
+        "first_seq",
+        "last_seq",
+        "sample_count",
+        "level",
+        "t_wall_max",
+        "stale",
         "seq",
         "t_mono",
         "t_wall",
         "quality",
-        "stale",
         "channel_values",
-    }
-    assert inspector.get_pk_constraint("samples")["constrained_columns"] == ["run_id", "seq"]
+    ]
+    primary_key = inspector.get_pk_constraint("sample_blocks")["constrained_columns"]
+    assert primary_key == ["run_id", "first_seq"]
+    assert "samples" not in inspector.get_table_names()  # one row per sample is gone
     engine.dispose()
 
 
