@@ -18,8 +18,8 @@ from daq.procedures.axis_steps import RunOutcome, run_outcome
 from daq.procedures.params import Progress
 from daq.procedures.recording import AbortSignal, ProgressCallback, RecordedRun
 from daq.procedures.requests import ManualThrustRequest
-from daq.procedures.thruster_faults import abort_on_thruster_fault, end_thrust
-from daq.session import Aborted, RigSession
+from daq.procedures.thruster_faults import supervised_thrust
+from daq.session import RigSession
 from daq.store.run_events import RunAction
 
 log = logging.getLogger(__name__)
@@ -59,19 +59,8 @@ async def run_manual_thrust(
         try:
             async with rec:
                 report(Progress(0.0, "arming the thrusters", extra={"run_id": rec.run_id}))
-                with session.live_thrusters.recording_outputs() as steps:
-                    armed = asyncio.Event()
-                    supervisor = asyncio.create_task(
-                        abort_on_thruster_fault(session, rec, abort, armed)
-                    )
-                    try:
-                        await _hold(session, rec, params, report, armed)
-                    except BaseException:
-                        await end_thrust(session, rec, steps, supervisor)
-                        raise
-                    failure = await end_thrust(session, rec, steps, supervisor)
-                    if failure:
-                        raise Aborted(failure)
+                async with supervised_thrust(session, rec, abort) as armed:
+                    await _hold(session, rec, params, report, armed)
                 await rec.record_for(TAIL_S)
         except Exception:
             if rec.status is None:  # the run was never stored: nothing to report

@@ -34,9 +34,9 @@ from daq.procedures.thrust_commands import (
 from daq.procedures.thruster_faults import (
     STALE_ZEROED,
     abort_on_thruster_fault,
-    end_thrust,
+    supervised_thrust,
 )
-from daq.session import Aborted, RigSession
+from daq.session import RigSession
 from daq.store.run_events import RunAction
 from daq.vocabulary import DRIVE_FIELD
 
@@ -149,21 +149,10 @@ async def run_thruster_test(
         )
         try:
             async with rec:
-                with session.live_thrusters.recording_outputs() as steps:
-                    armed = asyncio.Event()
-                    supervisor = asyncio.create_task(
-                        abort_on_thruster_fault(session, rec, abort, armed, on_stale_zeroing=True)
+                async with supervised_thrust(session, rec, abort, on_stale_zeroing=True) as armed:
+                    await _drive_with_thrusters(
+                        session, rec, axis, params, commands, start, report, armed
                     )
-                    try:
-                        await _drive_with_thrusters(
-                            session, rec, axis, params, commands, start, report, armed
-                        )
-                    except BaseException:
-                        await end_thrust(session, rec, steps, supervisor)
-                        raise
-                    failure = await end_thrust(session, rec, steps, supervisor)
-                    if failure:
-                        raise Aborted(failure)
                 await rec.record_for(0.3)
         except Exception:
             if rec.status is None:  # the run was never stored: nothing to report

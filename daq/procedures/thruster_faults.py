@@ -9,12 +9,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections.abc import AsyncIterator
 from typing import Any, cast
 
 from daq.procedures.current_cutoff import current_over_limit
 from daq.procedures.recording import AbortSignal, RecordedRun
 from daq.sample import Quality, Sample
-from daq.session import RigSession
+from daq.session import Aborted, RigSession
 from daq.store.run_events import RunAction
 
 log = logging.getLogger(__name__)
@@ -122,3 +123,27 @@ async def end_thrust(
     except Exception as err:
         log.error("thrust_steps not stored: %s", err)
     return failure
+
+
+@contextlib.asynccontextmanager
+async def supervised_thrust(
+    session: RigSession, rec: RecordedRun, abort: AbortSignal, *, on_stale_zeroing: bool = False
+) -> AsyncIterator[asyncio.Event]:
+    """The thrusters under a run's body: the outputs it confirms are recorded, a thruster
+    fault aborts it (:func:`abort_on_thruster_fault`, ``on_stale_zeroing`` as there), and
+    however the body ends the thrusters are zeroed and disarmed (:func:`end_thrust`); a
+    body that ended well but left them armed is aborted with that reason. Yields the event
+    the body sets once it has armed them."""
+    with session.live_thrusters.recording_outputs() as steps:
+        armed = asyncio.Event()
+        supervisor = asyncio.create_task(
+            abort_on_thruster_fault(session, rec, abort, armed, on_stale_zeroing=on_stale_zeroing)
+        )
+        try:
+            yield armed
+        except BaseException:
+            await end_thrust(session, rec, steps, supervisor)
+            raise
+        failure = await end_thrust(session, rec, steps, supervisor)
+        if failure:
+            raise Aborted(failure)
