@@ -177,7 +177,10 @@ def test_deleting_the_lock_folder_keeps_the_lease_and_the_device(tmp_path, own_l
         with pytest.raises(RigInUse, match="is in use by"):  # (no file says by whom)
             second.acquire()
         own_lock_dir.unlink()
-        read_until(lambda: path.exists(), bool, "the lock file made again")
+        # made again and naming its holder (an empty file reads "it is just starting")
+        read_until(
+            lambda: path.read_text() if path.exists() else "", bool, "the lock file made again"
+        )
         assert lease.held and lost == []
         with pytest.raises(RigInUse, match="is in use by `rig serve`"):
             second.acquire()
