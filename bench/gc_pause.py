@@ -82,7 +82,7 @@ async def _child(mode: str, seconds: float, heap: int) -> dict[str, Any]:
     from daq.store import Store
 
     if mode == "plain":  # the session arms without holding full collections off
-        session_module.hold_full_collections = lambda held: None  # type: ignore[assignment]
+        session_module.hold_full_collections = lambda *held: None  # type: ignore[assignment]
     full: list[float] = []
     young = 0
     started: dict[str, float] = {}

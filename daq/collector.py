@@ -8,10 +8,14 @@ drives a rig (``rig serve`` and the test commands such as ``rig tow``):
 * :func:`freeze_after_startup`: once the rig is open, everything loaded so far (modules,
   the session, the simulator) moves to the permanent generation, which no collection
   walks; a full collection then only sees what was made since.
-* :func:`hold_full_collections` while the thrusters are armed: the generation-2 threshold
-  is raised out of reach (young collections, ~1 ms, go on, so short-lived cycles are still
-  freed); disarming restores the threshold and full collections resume at their usual
-  rhythm. Cyclic garbage that survives two young collections waits until then.
+* :func:`hold_full_collections` while the thrusters are armed and while a run records: the
+  generation-2 threshold is raised out of reach (young collections, ~1 ms, go on, so
+  short-lived cycles are still freed); when the last reason ends (disarmed, the run
+  stored) the threshold returns and full collections resume at their usual rhythm. Cyclic
+  garbage that survives two young collections waits until then. A run with no thrust
+  needs it too: a full collection started by a normal-priority thread (an HTTP request)
+  holds the GIL while the loaded host preempts that thread, and the real-time clock waits
+  for the GIL; a tow in the rehearsal of 6a050e9 lost 4 slots (0.4 s) so.
 
 ``bench/gc_pause.py`` measures the longest pause of a driving process under load with
 and without these measures.
@@ -28,8 +32,12 @@ log = logging.getLogger(__name__)
 #: The generation-2 threshold while held: full collections are never due (C int max).
 HELD_THRESHOLD = 2**31 - 1
 
+#: Why full collections are held (e.g. "thrusters armed", "run <id> recording").
+ARMED = "thrusters armed"
+
 _lock = threading.Lock()
 _saved: tuple[int, int, int] | None = None
+_reasons: set[str] = set()
 
 
 def freeze_after_startup() -> None:
@@ -39,17 +47,30 @@ def freeze_after_startup() -> None:
     log.debug("gc: %d objects frozen after start-up", gc.get_freeze_count())
 
 
-def hold_full_collections(held: bool) -> None:
-    """``True``: no full collection until released (thrusters armed); ``False``: the
-    thresholds as they were before (thrusters disarmed). Idempotent both ways."""
+def hold_full_collections(held: bool, reason: str = ARMED) -> None:
+    """``True``: no full collection until ``reason`` is released (thrusters armed, a run
+    recording); ``False``: release ``reason``, and once no reason is left the thresholds
+    are as they were before. Idempotent both ways."""
     global _saved
     with _lock:
-        if held and _saved is None:
+        if held:
+            _reasons.add(reason)
+        else:
+            _reasons.discard(reason)
+        if _reasons and _saved is None:
             _saved = gc.get_threshold()
             gc.set_threshold(_saved[0], _saved[1], HELD_THRESHOLD)
-        elif not held and _saved is not None:
+        elif not _reasons and _saved is not None:
             gc.set_threshold(*_saved)
             _saved = None
+
+
+def release_all_full_collections() -> None:
+    """Drop every reason at once (the session closes): the thresholds as they were."""
+    with _lock:
+        reasons = list(_reasons)
+    for reason in reasons:
+        hold_full_collections(False, reason)
 
 
 def full_collections_held() -> bool:

@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from daq.sample import Quality
-from daq.sample_losses import LossTracker, loss_reason
+from daq.sample_losses import LossTracker, hole_text, loss_reason
 from daq.store import RunInfo, SampleTable
 from daq.store.run_events import Gap
 from daq.vocabulary import AXES
@@ -78,7 +78,8 @@ def left_out(
         lost += g.count
         if limit is not None and g.hole_s > limit:
             raise TooMuchLeftOut(
-                f"run {run.id}: {out.describe()}: a {g.hole_s:.1f} s hole in its free motion, "
+                f"run {run.id}: {out.describe()}: a {hole_text(g.hole_s, limit)} hole in its free "
+                f"motion, "
                 f"longer than a {run.kind} tolerates ({limit:g} s); repeat the run"
             )
     if lost > MAX_LEFT_OUT_SHARE * (lost + kept):

@@ -1,11 +1,11 @@
 """CPU priorities around the rig's process: the simulated PLC beside the clock's real-time
 thread, and the helper processes the service starts.
 
-The acquisition clock's thread runs SCHED_FIFO (:func:`set_realtime`); the
-in-process simulated rig runs just below it (``SIMULATOR_PRIORITY``: it stands in for a PLC
-with its own CPU). Work that may wait (fits, reports, imports) runs in helper processes at
-normal scheduling and positive niceness (:func:`lower_priority`), whatever the thread that
-started them ran at.
+The acquisition clock's thread runs SCHED_FIFO (:func:`set_realtime`); the thruster
+line's I/O thread just below it (``THRUSTER_LINK_PRIORITY``), and the in-process simulated
+rig below that (``SIMULATOR_PRIORITY``: it stands in for a PLC with its own CPU). Work that
+may wait (fits, reports, imports) runs in helper processes at normal scheduling and
+positive niceness (:func:`lower_priority`), whatever the thread that started them ran at.
 
 Tried and left out (issue 35): every other thread of the service SCHED_FIFO at priority 1.
 Beside an estimation and two busy processes it cut the clock's p99 lateness from 4.3 to
@@ -27,6 +27,13 @@ Scheduling = tuple[int, os.sched_param, int]
 #: SCHED_FIFO priority of the simulated rig's thread (where the OS allows): below the
 #: clock's (10, :func:`set_realtime`), above the process's other threads.
 SIMULATOR_PRIORITY = 5
+
+#: SCHED_FIFO priority of the thruster line's I/O thread in a real-time session: just below
+#: the clock. The heartbeat is decided on the clock's loop, but the frame goes out from this
+#: thread; at normal priority a loaded host held it back 0.4 s and the controller's watchdog
+#: tripped mid-calibration (rehearsal R11 of issue 35). The thread only blocks on the line
+#: (one frame and its reply per tick), so it cannot take a core from anyone.
+THRUSTER_LINK_PRIORITY = 8
 
 
 def lower_priority(niceness: int) -> None:

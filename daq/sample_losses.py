@@ -38,6 +38,15 @@ SAMPLES_LOST = "samples lost"
 HOST_SIDE = frozenset({MISSED_SLOT, "late slot, no device clock"})
 
 
+def hole_text(hole_s: float, limit_s: float) -> str:
+    """``hole_s`` (s) written with the fewest decimals (1-3) that show it longer than
+    ``limit_s``: "0.53 s", never "0.5 s hole, longer than 0.5 s"."""
+    for decimals in (1, 2):
+        if round(hole_s, decimals) > limit_s:
+            return f"{hole_s:.{decimals}f} s"
+    return f"{hole_s:.3f} s"
+
+
 def device_side(gap: Gap) -> bool:
     """Whether ``gap`` holds a loss the rig's devices caused (a failed read, a stale channel,
     a NaN value), which aborts a run past its kind's tolerance."""

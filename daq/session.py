@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import math
 from collections.abc import AsyncIterator, Sequence
@@ -24,13 +25,19 @@ from typing import TYPE_CHECKING
 
 from daq.acquisition import Acquisition
 from daq.clock import REAL_CLOCK, Clock
-from daq.collector import hold_full_collections
+from daq.collector import hold_full_collections, release_all_full_collections
 from daq.config import DEFAULT_RIG_FILE, RigConfig, load_rig
 from daq.device_protocols import open_thruster_driver
 from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
-from daq.priority import Scheduling, restore_scheduling, scheduling, set_realtime
+from daq.priority import (
+    THRUSTER_LINK_PRIORITY,
+    Scheduling,
+    restore_scheduling,
+    scheduling,
+    set_realtime,
+)
 from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState, engage_brake
 from daq.sample import Sample
@@ -204,7 +211,13 @@ class RigSession:
         if conn.thrusters is not None:  # a rig without [thrusters] opens no serial port
             driver = made.driver if made and made.driver else None
             driver = driver or open_thruster_driver(conn.thrusters, conn.limits)
-            await driver.open()
+            # The line's I/O thread follows the clock into real time, just below it.
+            link_setup = (
+                functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
+                if self.realtime_active
+                else None
+            )
+            await driver.open(io_thread_setup=link_setup)
             self.thrusters = driver  # only an open driver is zeroed and closed later
             self._tasks.append(
                 asyncio.create_task(supervise_thrusters(self), name="thruster-supervisor")
@@ -250,7 +263,7 @@ class RigSession:
         if self._scheduling is not None:
             restore_scheduling(self._scheduling)
             self._scheduling, self.realtime_active = None, False
-        hold_full_collections(False)
+        release_all_full_collections()
         await asyncio.to_thread(self.rig_lock.release)
 
     @property

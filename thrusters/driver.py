@@ -161,9 +161,13 @@ class ThrusterDriver:
 
     # ---- life cycle -------------------------------------------------------------------
 
-    async def open(self) -> None:
-        """Open the port and query the controller; ThrusterError if it does not answer."""
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="thrusters")
+    async def open(self, *, io_thread_setup: Callable[[], object] | None = None) -> None:
+        """Open the port and query the controller; ThrusterError if it does not answer.
+        ``io_thread_setup`` runs first in the thread that does the line's blocking I/O (a
+        real-time session raises that thread's scheduling there: ``daq.priority``)."""
+        self._executor = ThreadPoolExecutor(
+            max_workers=1, thread_name_prefix="thrusters", initializer=io_thread_setup
+        )
         try:
             await self._run(self._link.open)
         except (OSError, serial.SerialException, ValueError) as err:  # ValueError: bad URL

@@ -27,11 +27,12 @@ import math
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
+from daq.collector import hold_full_collections
 from daq.procedures.params import Progress
 from daq.rig_lock import LOCK_LOST
 from daq.safe_state import RELEASE_CHANNELS, SafeState
 from daq.sample import Quality, Sample
-from daq.sample_losses import SAMPLES_LOST, LossTracker, device_side, loss_reason
+from daq.sample_losses import SAMPLES_LOST, LossTracker, device_side, hole_text, loss_reason
 from daq.session import NO_THRUSTERS, Aborted, RigSession
 from daq.store import RunRecorder
 from daq.store.faults import StorageFault, StorageUnavailable, one_line
@@ -109,6 +110,8 @@ class RecordedRun:
         self._pump_task: asyncio.Task | None = None
         self._queue: asyncio.Queue[Sample] | None = None
         self._unlisten: Callable[[], None] | None = None
+        #: The reason this run holds full garbage collections off (``daq.collector``).
+        self._collections_held_for = ""
         self._telemetry = contextlib.ExitStack()
         terms = AXES.get(kind)
         #: The longest hole without a good sample this kind tolerates (s; None: any).
@@ -159,6 +162,10 @@ class RecordedRun:
                 f"storage failed: {one_line(exc)}; the run was not started"
             ) from None
         self.run_id = run_id
+        # No full garbage collection while the run records (``daq.collector``): one started
+        # by another thread holds the GIL the real-time clock needs.
+        self._collections_held_for = f"run {run_id} recording"
+        hold_full_collections(True, self._collections_held_for)
         # Losing the lease on the rig stops the run like a lost PLC (the session makes the
         # rig safe and releases it; the abort signal ends the run naming the lost lock).
         self._unlisten = s.add_fault_listener(self.abort.set)
@@ -206,7 +213,7 @@ class RecordedRun:
         limit = self.loss_tolerance_s if gap is not None and device_side(gap) else None
         if gap is not None and limit is not None and hole > limit and self.lost is None:
             lost = (
-                f"{SAMPLES_LOST}: {gap.count} in {hole:.1f} s at {gap.at_s:.1f} s "
+                f"{SAMPLES_LOST}: {gap.count} in {hole_text(hole, limit)} at {gap.at_s:.1f} s "
                 f"({gap.reason}); a {self.kind} tolerates at most {limit:g} s"
             )
             acq = self.session.acquisition
@@ -231,6 +238,12 @@ class RecordedRun:
         self._recorder.add_event("samples_lost", gap.describe(), gap.event_data())
 
     async def __aexit__(self, exc_type, exc, tb) -> bool:
+        try:
+            return await self._end_run(exc)
+        finally:  # the run is stored (or spilled): full collections may resume
+            hold_full_collections(False, self._collections_held_for)
+
+    async def _end_run(self, exc: BaseException | None) -> bool:
         s = self.session
         if exc is None:
             self.status, self.reason = "completed", None

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from daq.sample import Quality
-from daq.sample_losses import LossTracker, loss_reason
+from daq.sample_losses import LossTracker, hole_text, loss_reason
 from daq.store.run_events import RunEvents, losses_text
 from daq.store.run_records import EventInfo
 
@@ -83,3 +83,11 @@ def test_gaps_round_trip_through_the_run_events_in_time_order():
 )
 def test_each_quality_flag_names_its_reason(quality, nan, clock, reason):
     assert loss_reason(quality, nan, device_clock=clock) == reason
+
+
+def test_a_hole_just_over_its_limit_is_written_longer_than_the_limit():
+    """Not "a 0.5 s hole, longer than a tow tolerates (0.5 s)" (the rehearsal of 6a050e9)."""
+    assert hole_text(0.503, 0.5) == "0.503 s"
+    assert hole_text(0.53, 0.5) == "0.53 s"
+    assert hole_text(0.9, 0.5) == "0.9 s"
+    assert hole_text(1.35, 1.0) == "1.4 s"

@@ -19,7 +19,8 @@ from collections.abc import Iterator
 import pytest
 
 from daq.collector import HELD_THRESHOLD, full_collections_held
-from daq.priority import SIMULATOR_PRIORITY, set_realtime
+from daq.priority import SIMULATOR_PRIORITY, THRUSTER_LINK_PRIORITY, set_realtime
+from daq.procedures.recording import AbortSignal, RecordedRun
 from daq.session import RigSession, RigSource
 
 
@@ -67,6 +68,23 @@ async def test_armed_thrusters_hold_full_collections_off_until_disarmed(session,
     kept += _survivors()
     assert 2 in collections.generations  # the same load: full collections are back
     del kept
+
+
+async def test_a_recording_run_holds_full_collections_off_even_without_thrust(session):
+    """A tow has no thrust, but its clock still needs the GIL: a full collection started by
+    another thread (an HTTP request) under load held it 0.4 s and the tow lost 4 slots (the
+    rehearsal of 6a050e9). Holds are counted by reason: disarming inside a run keeps the
+    run's hold, and the run's end gives the thresholds back."""
+    before = gc.get_threshold()
+    run = RecordedRun(session, kind="tow", parameters={}, abort=AbortSignal())
+    async with run:
+        assert full_collections_held()
+        await session.arm_thrusters()
+        await session.disarm_thrusters()
+        assert full_collections_held(), "disarming released the run's hold"
+        assert gc.get_threshold() == (before[0], before[1], HELD_THRESHOLD)
+    assert run.status == "completed"
+    assert not full_collections_held() and gc.get_threshold() == before
 
 
 async def test_closing_the_session_while_armed_gives_the_thresholds_back(source, store):
@@ -119,6 +137,14 @@ async def test_a_real_time_session_raises_the_simulated_plc_and_gives_the_clock_
         assert policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
         assert param.sched_priority == SIMULATOR_PRIORITY
         assert os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
+        # The thruster line's frames go out from the driver's I/O thread: real-time too, just
+        # below the clock (at normal priority a loaded host held a heartbeat back 0.4 s).
+        (link,) = [t for t in threading.enumerate() if t.name.startswith("thrusters")]
+        assert link.native_id is not None
+        link_policy = os.sched_getscheduler(link.native_id)
+        link_param = os.sched_getparam(link.native_id)
+        assert link_policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
+        assert link_param.sched_priority == THRUSTER_LINK_PRIORITY
     assert (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0)) == before
 
 
