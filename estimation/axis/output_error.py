@@ -12,7 +12,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, bounded, simulate
@@ -175,6 +174,8 @@ def fit_output_error(
     p0 = np.clip(np.concatenate([g0, offsets0]), lower, upper)
     on_lower = np.isfinite(lower) & (p0 <= lower)
     p0 = np.where(on_lower, lower + 1e-9 + 1e-6 * np.abs(np.nan_to_num(lower)), p0)
+    from scipy.optimize import least_squares  # here: the service imports this module's types
+
     sol = least_squares(
         prob.residual,
         p0,

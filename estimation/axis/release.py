@@ -8,7 +8,6 @@ from dataclasses import replace
 from functools import cache
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
@@ -52,6 +51,8 @@ def fit_release(run: RunData) -> RunData:
             [replace(base, t_release=instant)], start=first.values, quantization_sigma=False
         )
         return float(fit.rmse) if np.isfinite(fit.rmse) else np.inf
+
+    from scipy.optimize import minimize_scalar  # here: the service imports this module
 
     best = minimize_scalar(rmse, bounds=(low, high), method="bounded", options={"xatol": 1e-4})
     instant = float(best.x) if best.success and best.fun <= rmse(found.t_release) else None

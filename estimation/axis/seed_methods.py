@@ -18,7 +18,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import OptimizeWarning, curve_fit
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
@@ -80,6 +79,8 @@ def ls_raw(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
 
 def first_order_fit(run: PreparedRun) -> tuple[float, float]:
     """Fit ẋ = A(1 − e^{−t/T}) to the difference velocities of one run; returns (A, T)."""
+    from scipy.optimize import OptimizeWarning, curve_fit  # the service imports this module
+
     _, _, _, _, tau_v, v = _differences(run)
     t_mid = tau_v - 0.5 * np.diff(np.concatenate([[0.0], tau_v]))
     a0 = float(np.mean(v[-max(v.size // 4, 1) :]))

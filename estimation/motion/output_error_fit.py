@@ -21,7 +21,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from estimation.errors import EstimationFailed
 from estimation.motion.equation import Track, integrate, range_rates, stable_step
@@ -213,6 +212,8 @@ def fit_motion(
         [typical, np.full(nr, amp), np.full(nr, amp), np.full(nr, max(speed, 1e-12))]
     )
     prob = _Problem(records, setup, names, h, scale)
+    from scipy.optimize import least_squares  # here: the service imports this module's types
+
     sol = least_squares(
         prob.residual,
         p0,

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
 
 from estimation.motion.equivalent import EquivalentDamping
 from estimation.motion.output_error_fit import MotionFit
@@ -89,6 +88,8 @@ def terminal_speed(
         high *= 2.0
     else:
         return None
+    from scipy.optimize import brentq  # here: the service imports this module's types
+
     u = brentq(balance, tiny, high, xtol=1e-15, rtol=1e-12)
     h = 1e-6 * u
     slope = (balance(u + h) - balance(u - h)) / (2 * h)

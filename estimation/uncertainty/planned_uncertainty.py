@@ -23,7 +23,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from estimation.axis.tow_estimate import estimate
 from estimation.data.run_arrays import RunData
@@ -81,6 +80,9 @@ def simulate_planned(
         return travel - sign * y[0]
 
     end.terminal = True  # type: ignore[attr-defined]
+    from scipy.integrate import solve_ivp  # here: the service imports this module for its
+    # request types, and never plans in its own process
+
     sol = solve_ivp(
         rhs, (0, run.max_time_s), [0, 0], events=end, dense_output=True, rtol=1e-9, atol=1e-12
     )

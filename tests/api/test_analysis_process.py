@@ -9,32 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from api.core.analysis_executor import (
-    AnalysisExecutor,
-    AnalysisOutcome,
-    AnalysisTask,
-    shared_process_executor,
-)
+from api.core.analysis_executor import AnalysisTask, shared_process_executor
 from tests.api.conftest import AUTH, wait_job
+from tests.support.analysis_watch import Calls, Watching
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
 pytestmark = pytest.mark.simtime
-
-
-class Watching:
-    """The runner's executor, recording the outcome of each task it runs."""
-
-    def __init__(self, inner: AnalysisExecutor) -> None:
-        self.inner = inner
-        self.outcomes: list[AnalysisOutcome] = []
-
-    def run(self, task: AnalysisTask) -> AnalysisOutcome:
-        outcome = self.inner.run(task)
-        self.outcomes.append(outcome)
-        return outcome
-
-    def close(self) -> None:
-        self.inner.close()
 
 
 @pytest.fixture
@@ -75,19 +55,6 @@ def test_a_fit_that_fails_in_the_worker_is_an_outcome_naming_the_run(client, wat
     assert outcome.pid != os.getpid()
     assert outcome.bad_input and outcome.result_id is None
     assert "0123abcd" in (outcome.error or "")
-
-
-class Calls(Watching):
-    """The runner's executor, recording the function of each ``call``."""
-
-    def __init__(self, inner: AnalysisExecutor) -> None:
-        super().__init__(inner)
-        self.called: list[str] = []
-
-    def call(self, store_url, fn, /, *args):
-        target = getattr(fn, "func", fn)  # a partial's function
-        self.called.append(f"{target.__module__}.{target.__qualname__}")
-        return self.inner.call(store_url, fn, *args)
 
 
 def where_it_runs() -> tuple[int, int]:

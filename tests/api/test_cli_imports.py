@@ -87,3 +87,24 @@ def test_help_the_run_list_and_the_estimate_command_import_only_what_they_use(
         store.close()
     loaded = _loaded(tmp_path, *argv)
     assert [m for m in never if m in loaded] == []
+
+
+#: Never loaded by the rig service's own process: the fits, simulations and plans that use
+#: them run in the analysis worker (api.core.analysis_executor). scipy.optimize with the
+#: linear algebra it pulls in is +23 MB resident on every `rig serve` (docs/api.md, Memory).
+NOT_FOR_THE_SERVICE = (
+    "scipy.optimize", "scipy.integrate", "scipy.linalg", "scipy.signal", "scipy.stats",
+    "statsmodels", "pandas", "matplotlib", "numba",
+)  # fmt: skip
+
+
+def test_the_service_process_imports_no_optimizer_integrator_or_plotting(tmp_path):
+    probe = "import json, sys\nimport api.http.app\nprint(json.dumps(sorted(sys.modules)))\n"
+    proc = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, capture_output=True, text=True,
+        timeout=300, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    loaded = set(json.loads(proc.stdout.strip().splitlines()[-1]))
+    assert "api.core.campaign" in loaded  # it did load the routes that plan and fit
+    assert [m for m in NOT_FOR_THE_SERVICE if m in loaded] == []

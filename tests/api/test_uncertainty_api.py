@@ -4,6 +4,7 @@ estimates named in the request; 404 for an unknown file, 422 naming an axis with
 from __future__ import annotations
 
 from tests.api.conftest import AUTH
+from tests.support.analysis_watch import Calls
 
 SURGE = {"inertia": 143.26, "linear_damping": 20.16, "quadratic_damping": 241.14}
 YAW = {"inertia": 7.97, "linear_damping": 0.119, "quadratic_damping": 4.12}
@@ -18,8 +19,11 @@ def _stored(store, run_ids, axis, values):
     return store.add_result(run_ids, "estimation", doc)
 
 
-def test_pretest_route_predicts_u_for_the_seed_campaign(client, tow_job):
+def test_pretest_route_predicts_u_for_the_seed_campaign(client, tow_job, monkeypatch):
     store = client.app.state.service.store
+    analysis = client.app.state.runner.analysis
+    calls = Calls(analysis.executor_for(store))
+    monkeypatch.setattr(analysis, "executor", calls)
     surge = _stored(store, tow_job["run_ids"], "surge", SURGE)
     yaw = _stored(store, tow_job["run_ids"], "yaw", YAW)
     url = "/api/sequences/seed000-campaign/uncertainty"
@@ -27,6 +31,7 @@ def test_pretest_route_predicts_u_for_the_seed_campaign(client, tow_job):
     assert r.status_code == 200, r.text
     axes = r.json()["axes"]
     inertia = axes["surge"]["coefficients"]["inertia"]
+    assert calls.called == ["api.core.pretest.predict_sequence"]  # in the worker process
     assert inertia["reported"].startswith("143.")
     assert 0.1 < inertia["expanded_uncertainty"] < 5  # the declared Type B sources' size
     assert axes["yaw"]["coefficients"]["inertia"]["dominant_source"].startswith("spin_drum")

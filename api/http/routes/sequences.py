@@ -10,7 +10,7 @@ from pydantic import Field
 
 from api.core.pretest import DEFAULT_RELEASE_STD_S, predict_sequence
 from api.core.sequence_files import list_sequences, sequence_files
-from api.http.deps import ServiceDep, StoreDep, require_read
+from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read
 from api.http.schemas import SequenceFileOut, error_responses
 from daq.procedures.params import ParameterError
 from daq.store import ResultNotFound
@@ -39,6 +39,7 @@ def get_sequence_uncertainty(
     name: str,
     service: ServiceDep,
     store: StoreDep,
+    runner: RunnerDep,
     release_std_s: Annotated[
         float, Query(ge=0, le=1, description="1σ of each release instant, s.")
     ] = DEFAULT_RELEASE_STD_S,
@@ -50,12 +51,14 @@ def get_sequence_uncertainty(
     """Pre-test: the budget and U (95 %) each coefficient will reach if sequence ``name``
     is run (its weight-driven tows and spins simulated with the newest stored estimate of
     each axis, or ``result``, and this rig's declared tolerances; docs/uncertainty.md).
-    Computed in the request (about a second per axis)."""
+    Computed in the analysis worker process, not the rig's (about a second per axis)."""
     path = sequence_files().get(name)
     if path is None:
         raise HTTPException(404, f"no sequence file {name!r}")
     try:
-        return predict_sequence(store, service.source.rig, path, result, release_std_s)
+        return runner.analysis.executor_for(store).call(
+            store.url, predict_sequence, service.source.rig, path, result, release_std_s
+        )
     except ResultNotFound as err:
         raise HTTPException(404, str(err)) from None
     except (ValueError, ParameterError) as err:
