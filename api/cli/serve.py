@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+from typing import TYPE_CHECKING
 
 import click
 
@@ -23,6 +24,9 @@ from api.http.address_file import (
     withdraw_address,
 )
 from api.http.auth import TOKEN_ENV, load_or_create_token, token_file_warning, token_path
+
+if TYPE_CHECKING:
+    from api.core.jobs import JobRunner
 
 
 @click.command()
@@ -52,6 +56,12 @@ from api.http.auth import TOKEN_ENV, load_or_create_token, token_file_warning, t
     "--realtime/--no-realtime", default=True, show_default=True,
     help="Run the clock's thread SCHED_FIFO (needs CAP_SYS_NICE; falls back with a warning).",
 )  # fmt: skip
+@click.option(
+    "--analysis-workers", metavar="ADDRESS", envvar="RIG_ANALYSIS_WORKERS", default=None,
+    help="Run estimations, cross-checks, exports and studies on the Dask distributed cluster "
+    "whose scheduler is at ADDRESS (tcp://host:8786; needs the 'cluster' extra; env "
+    "RIG_ANALYSIS_WORKERS). Default: one worker process on this machine.",
+)  # fmt: skip
 def serve(
     rig_file,
     scenario_file,
@@ -63,6 +73,7 @@ def serve(
     cors_origins,
     ask_operator,
     realtime,
+    analysis_workers,
 ):
     """Serve the HTTP API and the browser UI (binds 127.0.0.1 by default)."""
     from daq.session import RigSource
@@ -97,6 +108,8 @@ def serve(
         cors_origins=cors_origins,
         allowed_hosts=[host, *allow_hosts],
     )
+    if analysis_workers:
+        use_cluster(app.state.runner, analysis_workers, sock)
     # Configures logging: before the rig opens, so the device loggers keep their levels.
     config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on")
     # Open the rig (and take its lock) before announcing anything: a rig another process
@@ -195,3 +208,21 @@ def token(link, host, port):
 
 if __name__ == "__main__":  # ``python -m api.cli.serve`` (what the browser test starts)
     serve()
+
+
+def use_cluster(runner: JobRunner, address: str, sock: socket.socket) -> None:
+    """Send the service's analyses to the Dask cluster at ``address``; exit 2 with one line
+    when the extra is not installed or no scheduler answers there."""
+    try:
+        from api.core.cluster_executor import ClusterUnavailable, DaskExecutor
+    except ImportError:
+        sock.close()
+        runner.close()
+        fail("--analysis-workers: needs the cluster extra: pip install 'towrig[cluster]'")
+        return
+    try:
+        runner.analysis.executor = DaskExecutor(address)
+    except ClusterUnavailable as err:
+        sock.close()
+        runner.close()
+        fail(str(err))

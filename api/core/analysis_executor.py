@@ -16,9 +16,9 @@ database it reads and stores into, where to draw its report); running it gives a
 * :class:`ThreadExecutor`: in the calling thread, on the service's own ``Store`` (a database
   no other process can open: in-memory SQLite; and tests that patch the fit in process).
 
-A remote executor (Dask distributed, a PostgreSQL-backed queue) is a third class with the
-same two methods: it ships the task (plain data) to a machine that can open the database
-at ``store_url`` and returns the outcome (docs/api.md, "Analysis workers").
+* :class:`api.core.cluster_executor.DaskExecutor` (``rig serve --analysis-workers``): on a
+  Dask distributed cluster's workers, other machines that can open the database at
+  ``store_url`` (docs/api.md, "Analysis workers").
 """
 
 from __future__ import annotations
