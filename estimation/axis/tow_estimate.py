@@ -43,7 +43,7 @@ from estimation.design.advice import (
 from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.motion.terms import units_of
-from estimation.motion.well_determined import terminal_speeds
+from estimation.motion.well_determined import drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
@@ -382,12 +382,18 @@ def _build(
 
 
 def _well_determined(final: FitResult, runs: Sequence[RunData], axis: str) -> tuple:
-    """The terminal speed at each constant drive (a thruster run's at its end)."""
+    """The terminal speed at each constant drive (a thruster run's at its end), then the
+    drag at each speed a run reached (the model's at the end of its window)."""
     held = {}
     for r in runs:
         d = np.asarray(r.drive, dtype=float)
         held[r.run_id] = float(d) if d.ndim == 0 else float(np.median(d[-max(d.size // 5, 1) :]))
-    return terminal_speeds(final.names, final.values, final.std, final.correlation, held, axis)
+    args = (final.names, final.values, final.std, final.correlation)
+    reached = [float(v[-1]) for v in final.velocities if v.size]
+    return (
+        *terminal_speeds(*args, held, axis),
+        *drags_at_speeds(*args, reached, axis),
+    )
 
 
 def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:
