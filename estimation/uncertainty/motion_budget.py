@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
+from estimation.kind_advice import advice_for
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.output_error_fit import fit_motion, parameters_of
 from estimation.motion.records import Setup
@@ -40,8 +41,7 @@ DECLARABLE: dict[str, tuple[str, str, str]] = {
 FIT_ROW = "fit (σ; ν = n_eff − p)"
 NOT_DECLARED = (
     "Type B not declared: the stiffness and known inertia are taken as exact, so U covers the "
-    "fit alone (declare their half-widths at import: --stiffness-tolerance, "
-    "--known-inertia-tolerance)"
+    f"fit alone ({advice_for('decay').declare_tolerances})"
 )
 
 
