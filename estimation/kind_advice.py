@@ -34,14 +34,14 @@ ADVICE: dict[str, KindAdvice] = {
             "tow",
             "a reverse tow (opposite force)",
             "the carriage's rails or the tow line's pulleys",
-            "add [tolerances] to the rig file (README 'Declaring tolerances')",
+            "add [tolerances] to the rig file, README 'Declaring tolerances'",
             "set `repeats` ≥ 3 in the sequence",
         ),
         KindAdvice(
             "spin",
             "a reverse spin (opposite torque)",
             "the turntable's bearing or the cord's drum",
-            "add [tolerances] to the rig file (README 'Declaring tolerances')",
+            "add [tolerances] to the rig file, README 'Declaring tolerances'",
             "set `repeats` ≥ 3 in the sequence",
         ),
         KindAdvice(
@@ -55,15 +55,15 @@ ADVICE: dict[str, KindAdvice] = {
             "pendulum",
             None,
             "the pivot",
-            "add [tolerances] to the rig file (README 'Declaring tolerances')",
+            "add [tolerances] to the rig file, README 'Declaring tolerances'",
             "record ≥ 3 decays from the same release angle and estimate them together",
         ),
         KindAdvice(
             "import",
             "an opposite drive (the body moved the other way)",
             "a guide, carriage or bearing the body touches (none for a body free in the fluid)",
-            "import the runs again with --rig FILE whose [tolerances] declare them (README "
-            "'Declaring tolerances')",
+            "import the runs again with --rig FILE whose [tolerances] declare them, README "
+            "'Declaring tolerances'",
             "import ≥ 3 records of the same condition and estimate them together",
         ),
     )
