@@ -61,7 +61,7 @@ ADVICE: dict[str, KindAdvice] = {
         KindAdvice(
             "import",
             "an opposite drive (the body moved the other way)",
-            "a guide, carriage or bearing the body touches (none for a body free in the fluid)",
+            "a guide, carriage or bearing the body touches; none acts on a body free in the fluid",
             "import the runs again with --rig FILE whose [tolerances] declare them, README "
             "'Declaring tolerances'",
             "import ≥ 3 records of the same condition and estimate them together",
