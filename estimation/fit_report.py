@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from estimation.axis.result import EffectEstimate
+from estimation.motion.equivalent import EquivalentDamping
 from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
 
@@ -112,10 +113,15 @@ def value_and_sigma(value: float | None, std: float | None, digits: int = 5) -> 
     return f"{value:.{digits}g} ± {std:.2g}"
 
 
-def determined_section(combinations: Sequence[Combination]) -> list[str]:
+def determined_section(
+    combinations: Sequence[Combination],
+    equivalent: Sequence[EquivalentDamping] = (),
+    amplitude_unit: str = "",
+) -> list[str]:
     """The report's first section, "What the record determines": each well-determined
-    combination (``motion.well_determined``) with its σ, before any raw coefficient; a
-    line saying there is none when the result has none."""
+    combination (``motion.well_determined``) with its σ, before any raw coefficient, then a
+    decay's or a swing's B_e at each amplitude (``amplitude_unit``: m or rad); a line saying
+    there is none when the result has none."""
     lines = ["## What the record determines", ""]
     if not combinations:
         return [
@@ -134,7 +140,14 @@ def determined_section(combinations: Sequence[Combination]) -> list[str]:
     ]
     for c in combinations:
         lines.append(f"| {c.name} | {value_and_sigma(c.value, c.std)} | {c.unit or '—'} |")
-    return [*lines, ""]
+    lines.append("")
+    if equivalent:  # B_e over the swings, at the amplitudes of the damping ratios above
+        lines += ["| amplitude | equivalent linear damping B_e | unit |", "|---|---|---|"]
+        for e in equivalent:
+            shown = value_and_sigma(e.value, e.std, 4)
+            lines.append(f"| {e.amplitude:.4g} {amplitude_unit} | {shown} | {e.unit} |")
+        lines.append("")
+    return lines
 
 
 def rule_lines(rules: RuleSet) -> list[str]:

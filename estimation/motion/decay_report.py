@@ -14,7 +14,6 @@ from estimation.fit_report import (
     determined_section,
     rule_lines,
     step_cells,
-    value_and_sigma,
     write_result_and_markdown,
 )
 from estimation.motion.decay_result import DecayResult
@@ -73,13 +72,7 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
     doc = result.to_json()
     unit = POSITION_UNIT.get(result.dof, "")
     lines = [f"# Free decay of {result.dof}: {', '.join(result.runs)}", ""]
-    lines += determined_section(result.well_determined)
-    if result.equivalent:  # B_e over the swings, as the damping ratios above
-        lines += ["| amplitude | equivalent linear damping B_e | unit |", "|---|---|---|"]
-        for e in result.equivalent:
-            shown = value_and_sigma(e.value, e.std, 4)
-            lines.append(f"| {e.amplitude:.4g} {unit} | {shown} | {e.unit} |")
-        lines.append("")
+    lines += determined_section(result.well_determined, result.equivalent, unit)
     lines += ["## Coefficients", ""]
     lines += ["| coefficient | value | σ | unit |", "|---|---|---|---|"]
     for name, c in doc["coefficients"].items():

@@ -142,7 +142,11 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
     lines = [
         f"# Pendulum free-decay report — {result.axis}, headline method {result.method}",
         "",
-        *determined_section(result.motion.well_determined if result.motion else ()),
+        *(
+            determined_section(result.motion.well_determined, result.motion.equivalent, "rad")
+            if result.motion
+            else determined_section(())
+        ),
         *_summary(result, labels),
         *(figure_links(figures) if figures else []),
         "## Coefficients of the vehicle (headline)",

@@ -94,7 +94,7 @@ def test_a_decay_carries_its_period_frequency_and_a_damping_ratio_at_each_amplit
 
 def test_a_pendulum_swing_reports_what_it_determines_first():
     """A pendulum's result carries T₀, ω₀ and ζ (the one engine's), and its report opens with
-    them, before any raw coefficient."""
+    them and B_e at the same amplitudes, before any raw coefficient."""
     r = estimate_pendulum([pendulum_decay()])
     assert r.motion is not None
     names = [c.name for c in r.motion.well_determined]
@@ -103,6 +103,8 @@ def test_a_pendulum_swing_reports_what_it_determines_first():
     md = pendulum_markdown(r)
     assert re.findall(r"^## .*", md, re.M)[0] == "## What the record determines"
     assert md.index("natural frequency ω₀") < md.index("## Summary")
+    # B_e at the amplitudes of the damping ratios, in the same section
+    assert r.motion.equivalent and md.index("equivalent linear damping B_e") < md.index("## Sum")
 
 
 def _tencate() -> RunData:
