@@ -145,7 +145,10 @@ def determined_section(
         lines += ["| amplitude | equivalent linear damping B_e | unit |", "|---|---|---|"]
         for e in equivalent:
             shown = value_and_sigma(e.value, e.std, 4)
-            lines.append(f"| {e.amplitude:.4g} {amplitude_unit} | {shown} | {e.unit} |")
+            where = f"{e.amplitude:.4g} {amplitude_unit}"
+            if amplitude_unit == "rad":  # as the damping ratios name it
+                where += f" ({math.degrees(e.amplitude):.3g}°)"
+            lines.append(f"| {where} | {shown} | {e.unit} |")
         lines.append("")
     return lines
 
