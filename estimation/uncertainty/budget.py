@@ -113,6 +113,9 @@ class Budget:
     type_b_declared: bool
     notes: tuple[str, ...] = ()
     tolerances: dict[str, float] = field(default_factory=dict)
+    #: The same for the combinations the record determines well, by name (a decay's T₀, ω₀,
+    #: ζ: ``motion.well_determined``); empty where the budget has none.
+    combinations: dict[str, CoefficientBudget] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -123,6 +126,7 @@ class Budget:
             "tolerances": dict(self.tolerances),
             "notes": list(self.notes),
             "coefficients": {k: b.to_json() for k, b in self.coefficients.items()},
+            "combinations": {k: b.to_json() for k, b in self.combinations.items()},
         }
 
 

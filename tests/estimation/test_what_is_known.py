@@ -92,6 +92,38 @@ def test_a_decay_carries_its_period_frequency_and_a_damping_ratio_at_each_amplit
     assert md.index("natural frequency ω₀") < md.index("| inertia")
 
 
+def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_them():
+    """The decay's budget gives T₀, ω₀ and ζ a U (k·u_c, ν = n_eff − p) covering the truth;
+    a stiffness known to 1 % moves every coefficient by ≈ 1 % (a decay scales M, B and k
+    alike) but not T₀ nor ζ: its row there is a tiny share, and the budget's JSON, the
+    terminal lines and the markdown list them."""
+    from estimation.uncertainty.motion_budget import motion_budget
+    from estimation.uncertainty.text import budget_lines, budget_markdown
+
+    mass = 143.0
+    total, k = 1.8 * mass, 40.0 * mass
+    b1 = 0.03 * 2 * np.sqrt(total * k)
+    t, x = _linear_decay(total, b1, k, x0=0.05, noise=2e-5)
+    r = estimate_decay(t, x, "heave", known_inertia=mass, stiffness=k)
+    budget = motion_budget(r, {"stiffness": 0.01 * k})
+    truth = {
+        "natural period T₀": 2 * np.pi * np.sqrt(total / k),
+        "natural frequency ω₀": np.sqrt(k / total),
+    }
+    assert set(budget.combinations) == {c.name for c in r.well_determined}
+    for name, c in budget.combinations.items():
+        assert np.isfinite(c.expanded) and c.expanded > 0, name
+        assert abs(c.value - truth.get(name, 0.03)) <= c.expanded + 0.01 * abs(c.value), name
+        (row,) = [row for row in c.rows if row.kind == "B"]
+        assert row.share < 0.01, (name, row.share)
+    inertia_b = next(row for row in budget.coefficients["inertia"].rows if row.kind == "B")
+    assert inertia_b.share > 0.5  # the same tolerance dominates the raw coefficient
+    doc = budget.to_json()
+    assert set(doc["combinations"]) == set(budget.combinations)
+    assert any(line.startswith("  natural period T₀ = ") for line in budget_lines(doc))
+    assert "### natural period T₀: " in budget_markdown(doc)
+
+
 def test_a_pendulum_swing_reports_what_it_determines_first():
     """A pendulum's result carries T₀, ω₀ and ζ (the one engine's), and its report opens with
     them and B_e at the same amplitudes, before any raw coefficient."""
