@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from estimation.axis.result import EffectEstimate
+from estimation.motion.equivalent import EquivalentDamping
 from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
 
@@ -38,7 +39,8 @@ def summary_rows(result: FitSummary, unit: str, labels: Mapping[str, str]) -> li
     """The summary table's rows after the coefficients (effects, RMSE in ``unit``, warnings),
     the warnings in full, then which run each figure label stands for."""
     lines = [
-        f"| effect `{e.name}` | {e.value:.5g} ± {e.std:.2g} | {e.unit} |" for e in result.effects
+        f"| effect `{e.name}` | {value_and_sigma(e.value, e.std)} | {e.unit} |"
+        for e in result.effects
     ]
     if not result.effects:
         lines.append("| effects found | none (the base model explains the data) | |")
@@ -61,7 +63,9 @@ def effects_found(effects: tuple[EffectEstimate, ...], digits: int) -> list[str]
     """The "Effects found" section: each effect's value ± σ (``digits`` significant)."""
     lines = ["", "## Effects found", ""]
     if effects:
-        lines += [f"- `{e.name}` = {e.value:.{digits}g} ± {e.std:.2g} {e.unit}" for e in effects]
+        lines += [
+            f"- `{e.name}` = {value_and_sigma(e.value, e.std, digits)} {e.unit}" for e in effects
+        ]
     else:
         lines.append("- none (the base model explains the data)")
     return lines
@@ -99,15 +103,54 @@ class SearchStep(Protocol):
     def added(self) -> bool: ...
 
 
-def well_determined_rows(combinations: Sequence[Combination]) -> list[str]:
-    """A table of what the data determine well (``motion.well_determined``), or nothing."""
+def value_and_sigma(value: float | None, std: float | None, digits: int = 5) -> str:
+    """``value ± σ`` (``digits`` significant), "… (not identified)" without a finite σ,
+    "—" without a value."""
+    if value is None or not math.isfinite(value):
+        return "—"
+    if std is None or not math.isfinite(std):
+        return f"{value:.{digits}g} (not identified)"
+    return f"{value:.{digits}g} ± {std:.2g}"
+
+
+def determined_section(
+    combinations: Sequence[Combination],
+    equivalent: Sequence[EquivalentDamping] = (),
+    amplitude_unit: str = "",
+) -> list[str]:
+    """The report's first section, "What the record determines": each well-determined
+    combination (``motion.well_determined``) with its σ, before any raw coefficient, then a
+    decay's or a swing's B_e at each amplitude (``amplitude_unit``: m or rad); a line saying
+    there is none when the result has none."""
+    lines = ["## What the record determines", ""]
     if not combinations:
-        return []
-    lines = ["", "| what the record determines well | value ± σ | unit |", "|---|---|---|"]
+        return [
+            *lines,
+            "No combination of the coefficients is determined better than they are "
+            "(no terminal speed, drag at a tested speed or natural period: see below).",
+            "",
+        ]
+    lines += [
+        "Read these first: combinations of the raw coefficients (below) that the record "
+        "determines closely even where the coefficients alone are not (σ by the delta method "
+        "from the fit's covariance; docs/estimation.md, *What the record determines well*).",
+        "",
+        "| quantity | value ± σ | unit |",
+        "|---|---|---|",
+    ]
     for c in combinations:
-        shown = f"{c.value:.5g}" + ("" if c.std is None else f" ± {c.std:.2g}")
-        lines.append(f"| {c.name} | {shown} | {c.unit or '—'} |")
-    return [*lines, ""]
+        lines.append(f"| {c.name} | {value_and_sigma(c.value, c.std)} | {c.unit or '—'} |")
+    lines.append("")
+    if equivalent:  # B_e over the swings, at the amplitudes of the damping ratios above
+        lines += ["| amplitude | equivalent linear damping B_e | unit |", "|---|---|---|"]
+        for e in equivalent:
+            shown = value_and_sigma(e.value, e.std, 4)
+            where = f"{e.amplitude:.4g} {amplitude_unit}"
+            if amplitude_unit == "rad":  # as the damping ratios name it
+                where += f" ({math.degrees(e.amplitude):.3g}°)"
+            lines.append(f"| {where} | {shown} | {e.unit} |")
+        lines.append("")
+    return lines
 
 
 def rule_lines(rules: RuleSet) -> list[str]:

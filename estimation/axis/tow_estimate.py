@@ -33,6 +33,7 @@ from estimation.axis.reverse import (
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.unexplained import characterise
 from estimation.blas_threads import one_blas_thread
+from estimation.data.driven_axes import driven_axis
 from estimation.data.run_arrays import RunData, validate_runs
 from estimation.design.advice import (
     both_ways,
@@ -42,8 +43,9 @@ from estimation.design.advice import (
 )
 from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
+from estimation.kind_advice import advice_for
 from estimation.motion.terms import units_of
-from estimation.motion.well_determined import terminal_speeds
+from estimation.motion.well_determined import drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
@@ -191,9 +193,11 @@ def separability_warnings(
     reverse: ReverseTest | None = None,
     envelope: RigEnvelope | None = None,
     axis: str = "surge",
+    searched: bool = True,
 ) -> list[str]:
     """Warnings for coefficient pairs with |ρ| > 0.95, naming the run that would separate them
-    (``reverse``: the reverse run to name when K_Q sits at its bound)."""
+    (``reverse``: the reverse run to name when K_Q sits at its bound; ``searched``: whether
+    the effect search ran)."""
     out = []
     drives = _distinct_drives(runs)
     n = len(fit.names)
@@ -212,19 +216,32 @@ def separability_warnings(
                     f"{a} and {b} are not separable by these runs (ρ = {rho:.3f}): add {hint}"
                 )
     if "quadratic_damping" in fit.at_bound:
-        # a reverse run is advice only where the rig can make one (a recorded run's envelope)
-        ask = (
-            f" or add a reverse run: run `{reverse.command}`"
-            if reverse is not None and envelope is not None and not both_ways(signed_drives(runs))
-            else ""
-        )
-        out.append(
-            "quadratic_damping sits at its lower bound 0: over these runs the drag grows no "
-            "faster than linearly with speed — a flow at low Reynolds number (a small or slow "
-            "body: the linear damping carries the drag), or a dry friction the model lacks "
-            f"pulling the law the other way; enable the effect search{ask}"
-        )
+        out.append(_linear_drag_warning(axis, searched, runs, reverse, envelope))
     return out
+
+
+def _linear_drag_warning(
+    axis: str,
+    searched: bool,
+    runs: Sequence[PreparedRun],
+    reverse: ReverseTest | None,
+    envelope: RigEnvelope | None,
+) -> str:
+    """K_Q held at 0: its causes on this kind of record (``kind_advice``: a rig's tow or
+    spin, or runs imported without a rig file) and only the advice that kind can take."""
+    kind = advice_for("import" if envelope is None else driven_axis(axis).kind)
+    steps = [] if searched else ["estimate again with the effect search on (the default)"]
+    # a reverse run is advice only where the rig can make one (a recorded run's envelope)
+    if reverse is not None and envelope is not None and not both_ways(signed_drives(runs)):
+        steps.append(f"add {kind.reverse_run}: run `{reverse.command}`")
+    elif searched:
+        steps.append("runs at clearly higher speeds would show whether the drag turns quadratic")
+    return (
+        "quadratic_damping sits at its lower bound 0: over these runs the drag grows no "
+        "faster than linearly with speed — a flow at low Reynolds number (a small or slow "
+        "body: the linear damping carries the drag), or a dry friction the model lacks "
+        f"({kind.dry_friction}) pulling the law the other way; " + "; or ".join(steps)
+    )
 
 
 def physical_warnings(fit: FitResult, runs: Sequence[RunData]) -> list[str]:
@@ -322,7 +339,9 @@ def _build(
         )
         for e in final.effects
     )
-    warnings = separability_warnings(final, prepared, reverse, envelope, axis)
+    warnings = separability_warnings(
+        final, prepared, reverse, envelope, axis, searched=outcome.searched
+    )
     warnings += physical_warnings(final, runs)
     coefficients = _coefficients(final, axis)
     if moving:  # the model starts at rest: what the fit says of the inertia is not data
@@ -382,12 +401,18 @@ def _build(
 
 
 def _well_determined(final: FitResult, runs: Sequence[RunData], axis: str) -> tuple:
-    """The terminal speed at each constant drive (a thruster run's at its end)."""
+    """The terminal speed at each constant drive (a thruster run's at its end), then the
+    drag at each speed a run reached (the model's at the end of its window)."""
     held = {}
     for r in runs:
         d = np.asarray(r.drive, dtype=float)
         held[r.run_id] = float(d) if d.ndim == 0 else float(np.median(d[-max(d.size // 5, 1) :]))
-    return terminal_speeds(final.names, final.values, final.std, final.correlation, held, axis)
+    args = (final.names, final.values, final.std, final.correlation)
+    reached = [float(v[-1]) for v in final.velocities if v.size]
+    return (
+        *terminal_speeds(*args, held, axis),
+        *drags_at_speeds(*args, reached, axis),
+    )
 
 
 def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:

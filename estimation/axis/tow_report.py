@@ -27,11 +27,12 @@ from estimation.figures import (
     signed,
 )
 from estimation.fit_report import (
+    determined_section,
     effects_found,
     error_before_after,
     rule_lines,
     summary_rows,
-    well_determined_rows,
+    value_and_sigma,
     write_result_and_markdown,
 )
 from estimation.stats.acceptance_rules import TOW_RULES
@@ -117,8 +118,8 @@ def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
         "|---|---|---|",
     ]
     for name, est in result.coefficients.items():
-        lines.append(f"| {name} | {est.value:.5g} ± {est.std:.2g} | {units[name]} |")
-    return lines + well_determined_rows(result.well_determined) + summary_rows(result, unit, labels)
+        lines.append(f"| {name} | {value_and_sigma(est.value, est.std)} | {units[name]} |")
+    return lines + summary_rows(result, unit, labels)
 
 
 def _markdown(
@@ -127,6 +128,7 @@ def _markdown(
     units = UNITS[result.axis]
     doc = result.to_json()
     lines = [f"# Estimation report — {result.subject}, {result.method}", ""]
+    lines += determined_section(result.well_determined)
     lines += _summary(result, labels)
     lines += figure_links(figures)
     lines += [
@@ -138,8 +140,8 @@ def _markdown(
     for name, after in result.coefficients.items():
         before = result.coefficients_before[name]
         lines.append(
-            f"| {name} | {before.value:.6g} ± {before.std:.2g} | "
-            f"{after.value:.6g} ± {after.std:.2g} | {units[name]} |"
+            f"| {name} | {value_and_sigma(before.value, before.std, 6)} | "
+            f"{value_and_sigma(after.value, after.std, 6)} | {units[name]} |"
         )
     lines += effects_found(result.effects, digits=6)
     for group, advice in zip(result.ambiguous, result.advice, strict=False):

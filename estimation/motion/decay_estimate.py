@@ -293,6 +293,22 @@ def _moved(final: MotionFit, others: Sequence[MotionFit]) -> bool:
     return False
 
 
+def _at_bound_sentence(name: str, value: float) -> str:
+    """A term held at its bound, with the causes a free record can have: a damping held at
+    0 means the records lose less energy than any positive value takes out."""
+    term = LIBRARY[name]
+    if term.role == "force" and term.v_power is not None:
+        cause = (
+            "the records lose less energy than any positive value of it takes out: energy "
+            "put in by something the model lacks (a carriage, a wave or a mooring still "
+            "moving the body, a zero that drifts), or another kept term taking its part"
+        )
+    else:
+        cause = f"the records want a value beyond it ({term.physical}); another kept term may "
+        cause += "take its part, or a force the model lacks acts"
+    return f"{name} sits at its bound {value:.3g} (held there, not identified): {cause}"
+
+
 def _warnings(
     setup: Setup, final: MotionFit, white: Whiteness, biased: bool, free: bool
 ) -> list[str]:
@@ -305,10 +321,7 @@ def _warnings(
         )
     for n in final.at_bound:
         if n in LIBRARY:
-            out.append(
-                f"{n} sits at its physical bound {final.value(n):.3g}: the data want a "
-                f"value a body cannot have ({LIBRARY[n].physical})"
-            )
+            out.append(_at_bound_sentence(n, final.value(n)))
     for n in final.effects:
         value, std = final.value(n), final.sigma(n)
         if np.isfinite(std) and abs(value) < 2 * std:

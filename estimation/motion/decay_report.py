@@ -11,9 +11,9 @@ import numpy as np
 
 from estimation.figures import figure_links, new_figure, run_label, save_figure
 from estimation.fit_report import (
+    determined_section,
     rule_lines,
     step_cells,
-    well_determined_rows,
     write_result_and_markdown,
 )
 from estimation.motion.decay_result import DecayResult
@@ -70,7 +70,10 @@ def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, f
 
 def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
     doc = result.to_json()
+    unit = POSITION_UNIT.get(result.dof, "")
     lines = [f"# Free decay of {result.dof}: {', '.join(result.runs)}", ""]
+    lines += determined_section(result.well_determined, result.equivalent, unit)
+    lines += ["## Coefficients", ""]
     lines += ["| coefficient | value | σ | unit |", "|---|---|---|---|"]
     for name, c in doc["coefficients"].items():
         std = "not identified" if c["std"] is None else f"{c['std']:.4g}"
@@ -78,7 +81,6 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         lines.append(f"| {name} | {value} | {std} | {c['unit']} |")
     for name, c in doc["known"].items():
         lines.append(f"| {name} (known) | {c['value']:.6g} | — | {c['unit']} |")
-    unit = POSITION_UNIT.get(result.dof, "")
     lines += [
         "",
         f"Effects kept: {', '.join(result.effects) or 'none'}. RMS error before the search "
@@ -90,13 +92,6 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
             f"Fitted window of {run}: {result.release_time_s[run]:.4g} s to {w.end:.4g} s "
             f"({w.ended_by})."
         )
-    lines += well_determined_rows(result.well_determined)
-    if result.equivalent:
-        lines += ["", "| amplitude | equivalent linear damping B_e | σ |", "|---|---|---|"]
-        for e in result.equivalent:
-            std = "not identified" if e.std is None else f"{e.std:.3g}"
-            lines.append(f"| {e.amplitude:.4g} {unit} | {e.value:.4g} {e.unit} | {std} |")
-        lines.append("")
     if result.possibly_biased:
         lines.append("**The coefficients may be biased** (warnings below say why).")
     lines += [

@@ -13,9 +13,15 @@ inertia and stiffness give its period, and its damping terms share the energy pe
   (none when a kept term depends on position or time: a spring holds the body, it does
   not settle at a speed). σ by the delta method from the fit's covariance; a term without
   σ leaves the speed without one.
+- **Drag at a tested speed** u (m/s or rad/s, the speed a run reached, taken as given):
+  D(u) = −Σ_j θ_j·φ_j(0, u) over the kept terms that depend on velocity alone (N or N·m,
+  signed like u: the force the motion meets); linear in θ, so σ_D² = gᵀ·C·g with
+  g_j = −φ_j(0, u) and C = diag(σ)·R·diag(σ) the fit's covariance (exact: no
+  linearisation).
 - **Natural period** T₀ = 2π·√(M/k) with σ from the inertia's and stiffness's σ and their
-  correlation (a known one exact), and the **damping ratio** ζ(a) = B_e(a)/(2·M·ω₀) at a
-  swing amplitude a (``motion.equivalent``).
+  correlation (a known one exact), the **natural frequency** ω₀ = 2π/T₀ (σ_ω/ω₀ = σ_T/T₀),
+  and the **damping ratio** ζ(a) = B_e(a)/(2·M·ω₀) at each swing amplitude a the
+  equivalent damping is given at (``motion.equivalent``).
 """
 
 from __future__ import annotations
@@ -106,6 +112,51 @@ def terminal_speed(
     return Combination(way * u, sigma, unit, name=f"terminal speed at {drive:.4g} {force_unit}")
 
 
+def drag_at_speed(
+    names: Sequence[str],
+    values: np.ndarray,
+    std: np.ndarray,
+    correlation: np.ndarray,
+    speed: float,
+    dof: str,
+) -> Combination | None:
+    """D(u) = −Σ θ_j·φ_j(0, u) at the tested ``speed`` u (m/s or rad/s) over the kept force
+    terms that depend on velocity alone, with σ_D² = gᵀ·C·g, g_j = −φ_j(0, u) (module doc);
+    None at u = 0 or without such a term. N (a line) or N·m (a rotation)."""
+    used = [
+        (i, t)
+        for i, n in enumerate(names)
+        if (t := LIBRARY.get(n)) is not None and t.role == "force" and t.v_power is not None
+    ]
+    if not used or not np.isfinite(speed) or speed == 0:
+        return None
+    grad = np.array([-float(t.phi(np.zeros(1), np.array([speed]))[0]) for _, t in used])
+    idx = [i for i, _ in used]
+    drag = float(grad @ values[idx])
+    cov = _covariance(std[idx], correlation[np.ix_(idx, idx)])
+    sigma = None if cov is None else float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    speed_unit, force_unit = ("rad/s", "N·m") if DOFS[dof] else ("m/s", "N")
+    return Combination(drag, sigma, force_unit, name=f"drag at {speed:.4g} {speed_unit}")
+
+
+def drags_at_speeds(
+    names: Sequence[str],
+    values: np.ndarray,
+    std: np.ndarray,
+    correlation: np.ndarray,
+    speeds: Sequence[float],
+    dof: str,
+) -> tuple[Combination, ...]:
+    """``drag_at_speed`` at each distinct tested speed (the speed each run reached, m/s or
+    rad/s), in order of size; speeds within 1 % of one already given are left out."""
+    distinct: list[float] = []
+    for u in sorted((float(u) for u in speeds if np.isfinite(u) and u != 0), key=abs):
+        if not any(abs(u - w) <= 0.01 * abs(w) for w in distinct):
+            distinct.append(u)
+    found = (drag_at_speed(names, values, std, correlation, u, dof) for u in distinct)
+    return tuple(c for c in found if c is not None)
+
+
 def natural_period(
     inertia: float,
     inertia_std: float | None,
@@ -124,6 +175,13 @@ def natural_period(
         rel2 = 0.25 * (rm**2 + rk**2 - 2 * correlation * rm * rk)
         sigma = float(period * np.sqrt(max(rel2, 0.0)))
     return Combination(float(period), sigma, "s", name="natural period T₀")
+
+
+def natural_frequency(period: Combination) -> Combination:
+    """ω₀ = 2π/T₀ [rad/s] with σ_ω = ω₀·σ_T/T₀ (first order in σ_T/T₀)."""
+    omega = 2 * np.pi / period.value
+    sigma = None if period.std is None else omega * period.std / period.value
+    return Combination(float(omega), sigma, "rad/s", name="natural frequency ω₀")
 
 
 def damping_ratio(
@@ -178,8 +236,9 @@ def inertia_and_stiffness(setup: Setup, record: Record, final: MotionFit) -> tup
 def decay_combinations(
     setup: Setup, record: Record, final: MotionFit, equivalent: Sequence[EquivalentDamping]
 ) -> tuple[Combination, ...]:
-    """The natural period with its σ and the damping ratio at the middle swing amplitude
-    (``motion.well_determined``), on ``record`` (the first: its known parts and weights)."""
+    """The natural period and frequency with their σ and the damping ratio at each swing
+    amplitude of ``equivalent`` (``motion.well_determined``), on ``record`` (the first: its
+    known parts and weights)."""
 
     def sigma(name: str) -> float | None:
         if name not in final.names:
@@ -198,8 +257,9 @@ def decay_combinations(
             total, sigma("inertia"), k, sigma("restoring_spring"), rho if np.isfinite(rho) else 0.0
         )
     ]
-    if out[0] is not None and equivalent:
-        middle = equivalent[len(equivalent) // 2]
-        omega = 2 * np.pi / out[0].value
-        out.append(damping_ratio(middle, middle.amplitude, total, omega, setup.dof))
+    period = out[0]
+    if period is not None:
+        out.append(natural_frequency(period))
+        omega = 2 * np.pi / period.value
+        out += [damping_ratio(e, e.amplitude, total, omega, setup.dof) for e in equivalent]
     return tuple(c for c in out if c is not None)

@@ -22,12 +22,12 @@ from estimation.figures import (
     save_figure,
 )
 from estimation.fit_report import (
+    determined_section,
     effects_found,
     error_before_after,
     rule_lines,
     step_cells,
     summary_rows,
-    well_determined_rows,
     write_result_and_markdown,
 )
 from estimation.pendulum.configuration import unit
@@ -131,8 +131,7 @@ def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
     lines = ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
     for name, est in doc["coefficients"].items():
         lines.append(f"| {name} | {_pm(est)} | {unit(name, result.axis)} |")
-    known = result.motion.well_determined if result.motion else ()
-    return lines + well_determined_rows(known) + summary_rows(result, "rad", labels)
+    return lines + summary_rows(result, "rad", labels)
 
 
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
@@ -143,6 +142,11 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
     lines = [
         f"# Pendulum free-decay report — {result.axis}, headline method {result.method}",
         "",
+        *(
+            determined_section(result.motion.well_determined, result.motion.equivalent, "rad")
+            if result.motion
+            else determined_section(())
+        ),
         *_summary(result, labels),
         *(figure_links(figures) if figures else []),
         "## Coefficients of the vehicle (headline)",

@@ -37,6 +37,7 @@ from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.axis.result import EstimationResult
 from estimation.data.run_arrays import RunData
+from estimation.kind_advice import advice_for
 from estimation.report_numbers import finite_or_none
 from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
 from estimation.uncertainty.rows import BudgetRow
@@ -56,13 +57,13 @@ __all__ = ["Budget", "BudgetRow", "CoefficientBudget", "uncertainty_budget"]
 COVERAGE = 0.95
 TYPE_B_NOT_DECLARED = (
     "Type B not declared: the rig file has no [tolerances] section, so U covers the Type A "
-    "sources only (add [tolerances] to the rig file, README 'Declaring tolerances')"
+    f"sources only ({advice_for('tow').declare_tolerances})"
 )
 #: The same for runs that came without a rig file (imported data): no section to add to.
 TYPE_B_NO_RIG_FILE = (
     "Type B not declared: these runs came without a rig file, so the drive and the rig's "
-    "constants are taken as exact and U covers the Type A sources only (import them with "
-    "--rig FILE whose [tolerances] declare them, README 'Declaring tolerances')"
+    "constants are taken as exact and U covers the Type A sources only "
+    f"({advice_for('import').declare_tolerances})"
 )
 
 
@@ -112,6 +113,9 @@ class Budget:
     type_b_declared: bool
     notes: tuple[str, ...] = ()
     tolerances: dict[str, float] = field(default_factory=dict)
+    #: The same for the combinations the record determines well, by name (a decay's T₀, ω₀,
+    #: ζ: ``motion.well_determined``); empty where the budget has none.
+    combinations: dict[str, CoefficientBudget] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -122,6 +126,7 @@ class Budget:
             "tolerances": dict(self.tolerances),
             "notes": list(self.notes),
             "coefficients": {k: b.to_json() for k, b in self.coefficients.items()},
+            "combinations": {k: b.to_json() for k, b in self.combinations.items()},
         }
 
 
@@ -275,11 +280,13 @@ def uncertainty_budget(
     if not declared:  # advice only the user can act on: a rig file exists, or it does not
         notes.append(TYPE_B_NOT_DECLARED if chain is not None else TYPE_B_NO_RIG_FILE)
     runs = as_fitted(runs, result)
+    imported = chain is None
     chain = chain or Chain(g=9.81)
     type_b = _type_b_rows(runs, fit, chain, declared, notes) if declared else {}
     repeat_std: dict[str, tuple[float, int]] = {}
     if repeats is not None:
-        repeat_std, why = repeat_campaign_std(runs, fit, repeats)
+        kind = advice_for("import" if imported else "tow")
+        repeat_std, why = repeat_campaign_std(runs, fit, repeats, kind)
         if why:
             notes.append(why)
     type_a = type_a_rows(result, fit, repeat_std)

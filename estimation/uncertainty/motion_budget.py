@@ -22,11 +22,14 @@ from dataclasses import replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
+from estimation.kind_advice import advice_for
 from estimation.motion.decay_result import DecayResult
-from estimation.motion.output_error_fit import fit_motion, parameters_of
-from estimation.motion.records import Setup
+from estimation.motion.equivalent import equivalent_damping
+from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.records import Setup, known_terms_of
 from estimation.motion.term_selection import TRIAL_NFEV
 from estimation.motion.terms import DOFS
+from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.stats.misfit import effective_sample_size
 from estimation.uncertainty.budget import Budget, coefficient_budget
 from estimation.uncertainty.rows import BudgetRow
@@ -40,8 +43,7 @@ DECLARABLE: dict[str, tuple[str, str, str]] = {
 FIT_ROW = "fit (σ; ν = n_eff − p)"
 NOT_DECLARED = (
     "Type B not declared: the stiffness and known inertia are taken as exact, so U covers the "
-    "fit alone (declare their half-widths at import: --stiffness-tolerance, "
-    "--known-inertia-tolerance)"
+    f"fit alone ({advice_for('decay').declare_tolerances})"
 )
 
 
@@ -97,6 +99,11 @@ def motion_budget(
         for i, n in enumerate(fit.names)
     }
     notes = [] if declared else [NOT_DECLARED]
+    combination_rows: dict[str, list[BudgetRow]] = {
+        c.name: [_fit_row(c.unit, c.std, dof_fit, fit.n_samples, n_eff, fit.n_params)]
+        for c in result.well_determined
+    }
+    moved_combinations: list[dict[str, float]] = []
     rotational = DOFS[setup.dof]
     for source, half_width in declared.items():
         meaning, unit_t, unit_r = DECLARABLE[source]
@@ -118,9 +125,27 @@ def motion_budget(
             except EstimationFailed:
                 break
             refits.append(refit.values)
+            moved_combinations.append(_combinations_on(moved, result, refit))
         if len(refits) != 2:
             notes.append(f"{source}: declared, but not an input of this estimate (not given)")
+            moved_combinations.clear()
             continue
+        for c in result.well_determined:  # a decay scales M, B and k alike: T₀ and ζ stay
+            up, down = (m.get(c.name, math.nan) for m in moved_combinations)
+            c_slope = (up - down) / (2 * u)
+            combination_rows[c.name].append(
+                BudgetRow(
+                    f"{source} (±{half_width:g} {unit}, rectangular)",
+                    "B",
+                    unit,
+                    u,
+                    c_slope,
+                    abs(c_slope * u),
+                    math.inf,
+                    note=meaning,
+                )
+            )
+        moved_combinations.clear()
         slope = (np.asarray(refits[0]) - np.asarray(refits[1])) / (2 * u)
         for i, n in enumerate(fit.names):
             rows[n].append(
@@ -136,4 +161,45 @@ def motion_budget(
                 )
             )
     budgets = {n: coefficient_budget(n, fit.value(n), rows[n]) for n in fit.names}
-    return Budget(budgets, bool(declared), tuple(notes), declared)
+    combinations = {
+        c.name: coefficient_budget(c.name, c.value, combination_rows[c.name])
+        for c in result.well_determined
+    }
+    return Budget(budgets, bool(declared), tuple(notes), declared, combinations)
+
+
+def _fit_row(
+    unit: str, std: float | None, dof_fit: float, n: int, n_eff: float, p: int
+) -> BudgetRow:
+    """The Type A row of a combination: its delta-method σ (``motion.well_determined``)
+    with the fit's ν = n_eff − p."""
+    known = std is not None and math.isfinite(std)
+    sigma = float(std) if known and std is not None else math.nan
+    return BudgetRow(
+        FIT_ROW,
+        "A",
+        unit,
+        sigma,
+        1.0,
+        sigma,
+        dof_fit,
+        note=f"n = {n}, n_eff = {n_eff:.0f}, p = {p}"
+        if known
+        else "not identified by these records: no σ, so no U",
+    )
+
+
+def _combinations_on(setup: Setup, result: DecayResult, fit: MotionFit) -> dict[str, float]:
+    """The result's well-determined combinations recomputed on ``fit`` with ``setup`` (a
+    re-fit with a declared input moved), at the same amplitudes, by name."""
+    first = result.records[0]
+    total, k = inertia_and_stiffness(setup, first, fit)
+    if not (total > 0 and k > 0):
+        return {}
+    omega = float(np.sqrt(k / total))
+    known = known_terms_of(first, setup)
+    equivalent = [
+        equivalent_damping(fit, known, setup.dof, e.amplitude, omega, first.weights)
+        for e in result.equivalent
+    ]
+    return {c.name: c.value for c in decay_combinations(setup, first, fit, equivalent)}

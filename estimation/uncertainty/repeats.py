@@ -32,6 +32,7 @@ from scipy import special
 from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
+from estimation.kind_advice import ADVICE, KindAdvice
 from estimation.report_numbers import finite_or_none
 
 LOAD_TOLERANCE = 0.01
@@ -186,13 +187,17 @@ def without_excluded(runs: Sequence[RunData], analysis: RepeatAnalysis) -> list[
 
 
 def repeat_campaign_std(
-    runs: Sequence[RunData], fit: FitResult, analysis: RepeatAnalysis
+    runs: Sequence[RunData],
+    fit: FitResult,
+    analysis: RepeatAnalysis,
+    advice: KindAdvice = ADVICE["tow"],
 ) -> tuple[dict[str, tuple[float, int]], str]:
     """Repeatability of each coefficient from N repeat campaigns (``runs`` as fitted, their
     releases refined): campaign k takes the k-th
     repeat of every condition and is fitted on its own; u = s/√N with ν = N − 1 (the
     standard deviation of the mean of N campaigns, ITTC 7.5-02-01-01 §2.4).
-    Returns ({name: (u, N)}, a note when it cannot be evaluated)."""
+    Returns ({name: (u, N)}, a note when it cannot be evaluated, whose advice is
+    ``advice``'s: a rig's sequence, or more imported records)."""
     index = {r.run_id: r for r in runs}
     groups = [[index[i] for i in c.run_ids if i in index] for c in analysis.conditions]
     groups = [g for g in groups if g]
@@ -200,8 +205,8 @@ def repeat_campaign_std(
     if n < 2:
         return {}, (
             "repeatability not evaluated: no condition was run more than once (ITTC names "
-            "run-to-run scatter the largest source in practice; set `repeats` ≥ 3 in the "
-            "sequence, ≥ 5 for Chauvenet's criterion to be able to flag an outlier)"
+            f"run-to-run scatter the largest source in practice; {advice.repeat_runs}, ≥ 5 "
+            "for Chauvenet's criterion to be able to flag an outlier)"
             if n < 2 and not any(len(g) > 1 for g in groups)
             else "repeatability not evaluated: some conditions were run only once"
         )

@@ -20,11 +20,18 @@ def _dof(x: float | None) -> str:
     return "∞" if x is None or x >= DOF_SHOWN_AS_INFINITE else f"{x:.3g}"
 
 
+def _budgeted(budget: dict[str, Any]) -> dict[str, Any]:
+    """Every budgeted quantity of a budget document: the coefficients, then the
+    combinations the record determines well (a decay's T₀, ω₀, ζ), by name."""
+    return {**budget["coefficients"], **(budget.get("combinations") or {})}
+
+
 def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> str:
-    """## Uncertainty: per coefficient, the reported value ± U and the budget table."""
+    """## Uncertainty: per coefficient (and well-determined combination), the reported
+    value ± U and the budget table."""
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
     lines += [f"**{n}**" for n in budget["notes"]]
-    for name, c in budget["coefficients"].items():
+    for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None:  # not identified: no budget to show
             lines += ["", f"### {name}: {c['reported']}"]
             continue
@@ -65,9 +72,10 @@ def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = Non
 
 
 def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> list[str]:
-    """Plain lines for the terminal: each coefficient's value ± U, then its budget table."""
+    """Plain lines for the terminal: each coefficient's (and well-determined combination's)
+    value ± U, then its budget table."""
     out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
-    for name, c in budget["coefficients"].items():
+    for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None:  # not identified: no budget to show
             out.append(f"  {name} = {c['reported']}")
             continue

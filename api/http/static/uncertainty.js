@@ -16,7 +16,9 @@ export function renderUncertainty(res) {
     return;
   }
   const notes = (budget.notes || []).map((n) => `<p class="${n.startsWith("Type B not declared") ? "error" : "muted"}">${esc(n)}</p>`).join("");
-  const tables = Object.entries(budget.coefficients || {}).map(([name, c]) => {
+  // the coefficients, then the combinations the record determines well (a decay's T₀, ζ)
+  const budgeted = { ...(budget.coefficients || {}), ...(budget.combinations || {}) };
+  const tables = Object.entries(budgeted).map(([name, c]) => {
     const rows = (c.rows || []).map((r) => `<tr${r.combined ? "" : ' class="muted"'}>
         <td>${esc(r.source)}</td><td>${esc(r.type)}</td>
         <td>${esc(fmt(r.standard_uncertainty, 3))} ${esc(r.unit)}</td><td>${esc(fmt(r.sensitivity, 3))}</td>

@@ -50,3 +50,33 @@ def test_response_descriptions_use_no_internal_words():
     from estimation.vehicle.response_measures import RESPONSES
 
     assert [r.name for r in RESPONSES if "seed" in r.description.lower()] == []
+
+
+def test_imported_runs_are_told_to_import_repeats_not_to_edit_a_sequence():
+    """Runs without a rig file were told to "set `repeats` ≥ 3 in the sequence" they never
+    ran; they are told to import repeated records (``kind_advice``). A rig's runs keep the
+    sequence advice."""
+    from estimation.uncertainty.repeats import analyse_repeats
+
+    runs = tow_set("143kg", seed=300)
+    result = estimate(runs, search_effects=False, n_bootstrap=0)
+    repeats = analyse_repeats(runs)
+    notes = uncertainty_budget(runs, result, None, None, repeats).notes
+    (note,) = [n for n in notes if n.startswith("repeatability not evaluated")]
+    assert "sequence" not in note and "import ≥ 3 records of the same condition" in note
+    notes = uncertainty_budget(runs, result, Chain(g=9.81), None, repeats).notes
+    assert any("`repeats` ≥ 3 in the sequence" in n for n in notes)
+
+
+def test_the_advice_table_knows_every_kind_and_names_a_wrong_one():
+    """Decays and pendulum swings have no drive to reverse; each kind says where a dry
+    friction can act on it; an unknown kind is refused naming the kinds there are."""
+    import pytest
+
+    from estimation.kind_advice import ADVICE, advice_for
+
+    assert sorted(ADVICE) == ["decay", "import", "pendulum", "spin", "tow"]
+    assert advice_for("decay").reverse_run is None and advice_for("pendulum").reverse_run is None
+    assert "pivot" in advice_for("pendulum").dry_friction
+    with pytest.raises(ValueError, match="kind: got 'sphere', allowed: tow, spin, decay"):
+        advice_for("sphere")
