@@ -20,7 +20,7 @@ import click
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-from daq.procedures.requests import Flag
+from daq.procedures.procedure_request import Flag
 
 
 def _flag(info: FieldInfo) -> Flag | None:
