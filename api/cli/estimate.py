@@ -11,6 +11,7 @@ from api.cli.common import (
     db_option,
     echo_json,
     fail,
+    flag_names,
     json_option,
     open_store,
     plus_minus,
@@ -18,15 +19,13 @@ from api.cli.common import (
     report_option,
     user_errors,
 )
+from api.cli.options import request_fields, request_options
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
-from daq.procedures.run_kinds import KINDS, all_methods
+from api.core.estimation_request import EstimationRequest
 from estimation.data.left_out import LeftOut
 from estimation.uncertainty.text import budget_lines
 
-ALL_METHODS = all_methods()
-#: Each estimator once (tow and spin share the axis model's).
-ESTIMATORS = tuple({s.estimator.name: s.estimator for s in KINDS.values() if s.estimator}.values())
 #: How the summary words one item of each list a result may carry.
 _FINDING_LINES: dict[str, Callable[[Any], str]] = {
     # an effect with its value, every estimator's alike
@@ -44,35 +43,24 @@ def _finding_lines(data: dict, lists: tuple[str, ...]) -> list[str]:
 
 @click.command("estimate")
 @click.argument("run_ids", nargs=-1, required=True, metavar="RUN_ID...")
-@click.option(
-    "--method",
-    type=click.Choice(ALL_METHODS),
-    default="output-error",
-    show_default=True,
-    help="output-error (joint over runs, default); "
-    + "; ".join(
-        f"for {e.runs} runs also {', '.join(e.methods[1:])}" for e in ESTIMATORS if e.methods[1:]
-    )
-    + " (a pendulum's methods are all reported; this picks the headline).",
-)
-@click.option(
-    "--no-effects",
-    is_flag=True,
-    help="Fit the base model only; skip the search for missing effects.",
-)
-@click.option(
-    "--exclude-outliers",
-    is_flag=True,
-    help="Leave repeats that Chauvenet's criterion flags out of the fit (they are always "
-    "reported; without this flag they stay in).",
-)
+@request_options(EstimationRequest)
 @report_option("Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.")
 @db_option
 @json_option
-def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, as_json):
+def estimate(run_ids, report_dir, db_url, as_json, **options):
     """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
     vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
     the error before and after."""
+    from pydantic import ValidationError
+
+    from daq.procedures.params import ParameterError, problems_of
+
+    try:  # the request as POST /api/jobs/estimation takes it (api.core.estimation_request)
+        request = EstimationRequest(
+            run_ids=list(run_ids), **request_fields(EstimationRequest, options)
+        )
+    except ValidationError as err:  # one line per field, named as the command line has it
+        fail(flag_names(click.get_current_context(), str(ParameterError(problems_of(err)))))
     report_folder(report_dir)
     store = open_store(db_url)
     try:
@@ -80,11 +68,11 @@ def estimate(run_ids, method, no_effects, exclude_outliers, report_dir, db_url, 
             try:
                 data = run_estimation(
                     store,
-                    run_ids,
-                    method=method,
-                    search_effects=not no_effects,
+                    request.run_ids,
+                    method=request.method,
+                    search_effects=request.search_effects,
                     report_dir=report_dir,
-                    exclude_outliers=exclude_outliers,
+                    exclude_outliers=request.exclude_outliers,
                 )
             except ValueError as err:  # bad input, found before fitting
                 fail(str(err))

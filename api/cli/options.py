@@ -88,7 +88,7 @@ def request_options(model: type[BaseModel]) -> Callable[[F], F]:
         if flag is None:
             continue
         if flag.when_set is not None:
-            option = click.option(flag.name, name, is_flag=True, help=flag.help)
+            option = click.option(flag.name, name, is_flag=True, help=flag.help or info.description)
         else:
             default = info.default
             option = click.option(

@@ -12,7 +12,6 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from daq.procedures.params import MAX_SEQUENCE_STEPS
 from daq.procedures.requests import ProcedureRequest, StrictRequest
-from daq.procedures.run_kinds import KINDS, all_methods
 from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 
@@ -88,26 +87,6 @@ class SequenceRequest(ProcedureRequest):
     steps: list[SequenceStep] = Field(
         max_length=MAX_SEQUENCE_STEPS,
         description=f"[{{kind, ...the step's parameters}}]; at most {MAX_SEQUENCE_STEPS} steps.",
-    )
-
-
-class EstimationRequest(StrictRequest):
-    run_ids: list[str] = Field(
-        min_length=1, max_length=50, description="Tow or spin run ids, or pendulum run ids."
-    )
-    method: Literal[all_methods()] = Field(  # type: ignore[valid-type]
-        "output-error",
-        description="Every kind takes output-error; the others per kind ("
-        + "; ".join(
-            f"{k}: {', '.join(s.estimator.methods)}" for k, s in KINDS.items() if s.estimator
-        )
-        + "), checked per run.",
-    )
-    search_effects: bool = True
-    exclude_outliers: bool = Field(
-        False,
-        description="Leave out repeats Chauvenet's criterion flags as outlying (tows and "
-        "spins; docs/uncertainty.md); by default they are flagged and kept.",
     )
 
 

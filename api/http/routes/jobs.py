@@ -9,6 +9,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query
 
+from api.core.estimation_request import EstimationRequest
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
 from api.core.jobs import JobRunner
@@ -23,7 +24,6 @@ from api.http.deps import (
 )
 from api.http.paging import JobsLimit, Offset
 from api.http.schemas import (
-    EstimationRequest,
     JobEventOut,
     JobOut,
     SequenceRequest,
