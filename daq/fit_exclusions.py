@@ -78,9 +78,8 @@ def left_out(
         lost += g.count
         if limit is not None and g.hole_s > limit:
             raise TooMuchLeftOut(
-                f"run {run.id}: {out.describe()}: a {hole_text(g.hole_s, limit)} hole in its free "
-                f"motion, "
-                f"longer than a {run.kind} tolerates ({limit:g} s); repeat the run"
+                f"run {run.id}: {out.describe()}: a {hole_text(g.hole_s, limit)} hole in its "
+                f"free motion, longer than a {run.kind} tolerates ({limit:g} s); repeat the run"
             )
     if lost > MAX_LEFT_OUT_SHARE * (lost + kept):
         raise TooMuchLeftOut(

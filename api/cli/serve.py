@@ -206,10 +206,6 @@ def token(link, host, port):
         click.echo(warning, err=True)
 
 
-if __name__ == "__main__":  # ``python -m api.cli.serve`` (what the browser test starts)
-    serve()
-
-
 def use_cluster(runner: JobRunner, address: str, sock: socket.socket) -> None:
     """Send the service's analyses to the Dask cluster at ``address``; exit 2 with one line
     when the extra is not installed or no scheduler answers there."""
@@ -226,3 +222,7 @@ def use_cluster(runner: JobRunner, address: str, sock: socket.socket) -> None:
         sock.close()
         runner.close()
         fail(str(err))
+
+
+if __name__ == "__main__":  # ``python -m api.cli.serve`` (what the browser test starts)
+    serve()
