@@ -174,6 +174,7 @@ class _Search:
             ],
             floor_ratio=lambda: noise_floor_ratio(fit, self.runs),
             out_of_sample=check_out_of_sample,
+            times=tuple(r.t for r in self.runs),
         )
         reason = TOW_RULES.verdict(trial)
         cv_new = out_of_sample[0]

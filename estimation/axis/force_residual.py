@@ -67,7 +67,7 @@ def force_noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int = 
 def _noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int) -> float:
     rng = np.random.default_rng(12345)
     total, count = 0.0, 0
-    sigma = position_noise(fit.residuals)
+    sigma = position_noise(fit.residuals, [r.t for r in runs])
     for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True):
         moving = r.t > r.t_release
         for _ in range(draws):

@@ -77,7 +77,7 @@ def motion_floor(fit: FitResult, runs: Sequence[PreparedRun]) -> float:
     )
     timing = float(np.sqrt(np.mean(v**2))) if v.size else 0.0
     travel = max((float(np.ptp(r.x)) for r in runs), default=0.0)
-    return max(position_noise(fit.residuals), timing, NUMERICAL_SHARE * travel)
+    return max(position_noise(fit.residuals, [r.t for r in runs]), timing, NUMERICAL_SHARE * travel)
 
 
 def effect_motion_rms(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> float:

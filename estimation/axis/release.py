@@ -13,6 +13,7 @@ from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 from estimation.data.window import encoder_quantum, noise_threshold
+from estimation.stats.misfit import ar1_inflation
 
 #: Releases found in the data (not recorded) that the fit itself refines.
 FOUND_RELEASES = ("release coil", "motion onset")
@@ -92,6 +93,9 @@ REST_CHECK_EXTEND_SHARE = 0.5
 #: … else moving only if the first step's mean speed is this share of the second's (from
 #: rest ≈ 0.4–0.6 when the first step spans the acceleration; a body already at speed ≈ 1).
 REST_CHECK_STEADY = 0.8
+#: The residual's lag-1 autocorrelation counted at most this in the slope's σ (an
+#: inflation of 199: beyond it a smooth residual would hide any speed at the release).
+REST_CHECK_MAX_SERIAL = 0.99
 
 
 def rest_before_release(run: RunData) -> bool:
@@ -151,7 +155,8 @@ def speed_at_release(run: RunData, serial: float = 0.0) -> float | None:
     ``serial``: the lag-1 autocorrelation r₁ of the run's residual about the fitted model.
     Seven samples of a correlated noise look like a smooth drift, which the parabola takes as
     a slope while its own residual stays small: b's σ is widened by the AR(1) variance
-    inflation √((1 + r₁)/(1 − r₁)) (1000 kg tows with ρ 0.9 noise of 3 mm were called
+    inflation √((1 + r₁)/(1 − r₁)) (``stats.misfit.ar1_inflation``; r₁ at most
+    ``REST_CHECK_MAX_SERIAL``) (1000 kg tows with ρ 0.9 noise of 3 mm were called
     "moving at the release" in 2 of 6 seeds, their inertia then not identified)."""
     t = np.asarray(run.t, dtype=float)
     x = np.asarray(run.position, dtype=float)
@@ -176,8 +181,8 @@ def speed_at_release(run: RunData, serial: float = 0.0) -> float | None:
     res = x[span] - design @ coef
     dof = max(span.size - 3, 1)
     cov = float(res @ res) / dof * np.linalg.pinv(design.T @ design)
-    r1 = min(max(serial, 0.0), 0.99)
-    sigma = float(np.sqrt(max(cov[1, 1], 0.0) * (1 + r1) / (1 - r1)))
+    inflation = ar1_inflation(min(serial, REST_CHECK_MAX_SERIAL))
+    sigma = float(np.sqrt(max(cov[1, 1], 0.0) * inflation))
     # the encoder's step is the floor of what a slope over these samples can show
     sigma = max(sigma, _position_step(x) / max(float(np.ptp(tau)), 1e-12))
     b = float(coef[1])

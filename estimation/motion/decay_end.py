@@ -108,13 +108,22 @@ def extrema(t: np.ndarray, x: np.ndarray, swing: float) -> tuple[np.ndarray, np.
 def centre(t: np.ndarray, x: np.ndarray, noise: float) -> float:
     """Where the record's last fifth oscillates about (m or rad): the mean of the midpoints
     (e_k + 2·e_{k+1} + e_{k+2})/4 of its extrema there (each cancels a linear decay of the
-    envelope), or the median of the last fifth when it is at rest (fewer than 3 extrema). A
-    median of a record that still oscillates is off by up to its amplitude, depending on
-    where in the cycle it ends (KVLCC2 21337: 0.39° of a 3.9° swing)."""
+    envelope), or the median of the last fifth when it is at rest (within ``REST_SIGMAS``·σ
+    of that median, or fewer than 3 samples). A median of a record that still oscillates is
+    off by up to its amplitude, depending on where in the cycle it ends (KVLCC2 21337: 0.39°
+    of a 3.9° swing). A last fifth that still moves but holds fewer than 3 extrema (a sparse
+    record: 6 of 30 irregular points over four periods) is read with the record's last 3
+    extrema instead: its median was 0.01 m off a 0.05 m decay, a swing then looked larger
+    than the release and the release was put 0.75 s into the record."""
     tail = slice(-max(x.size // 5, 3), None)
-    _, e = extrema(t[tail], x[tail], SWING_SIGMAS * max(noise, 1e-300))
+    swing = SWING_SIGMAS * max(noise, 1e-300)
+    _, e = extrema(t[tail], x[tail], swing)
+    rest = float(np.median(x[tail]))
+    if e.size < 3 and np.max(np.abs(x[tail] - rest)) > REST_SIGMAS * noise:
+        _, e = extrema(t, x, swing)
+        e = e[-3:]
     if e.size < 3:
-        return float(np.median(x[tail]))
+        return rest
     return float(np.mean((e[:-2] + 2 * e[1:-1] + e[2:]) / 4))
 
 

@@ -67,7 +67,7 @@ def release_of(record: Record) -> float:
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     if record.drive is not None:
         return float(t[0])
-    noise = position_noise([x])
+    noise = position_noise([x], [t])
     off = x - centre(t, x, noise)
     peak = int(np.argmax(np.abs(off)))
     crossing = np.nonzero(np.sign(off[peak:]) != np.sign(off[peak]))[0]
@@ -200,7 +200,7 @@ def _end(record: Record, start: float, given: float | None) -> FreeWindow:
         return FreeWindow(float(t[-1]), "end of the record")
     keep = t >= start
     x = np.asarray(record.x, dtype=float)[keep]
-    return free_decay_end(t[keep], x, position_noise([x]))
+    return free_decay_end(t[keep], x, position_noise([x], [t[keep]]))
 
 
 def _coefficients(setup: Setup, fit: MotionFit) -> dict[str, Coefficient]:
@@ -228,7 +228,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])
     white = ljung_box(final.residuals)
     moved = _moved(final, [base, *rejected])
-    noise = position_noise(final.residuals)
+    noise = position_noise(final.residuals, [r.t for r in records])
     ratio = final.rmse / noise if noise > 0 else float("inf")
     misfit = structured(white.p_value, ratio, effective_sample_size(final.residuals))
     fragile = white.p_value < WHITE_P and moved

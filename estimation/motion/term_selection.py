@@ -124,6 +124,7 @@ def judge(
         max((float(np.ptp(r.x)) for r in records), default=0.0),
         not_identified=trial.not_identified,
         rival=None if rival is None else Rival(f"{rival} alone", current),
+        times=tuple(np.asarray(r.t, dtype=float) for r in records),
     )
     reason = DECAY_RULES.verdict(evidence)
     q_after = ljung_box(trial.residuals).q_statistic

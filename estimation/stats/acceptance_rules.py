@@ -53,6 +53,7 @@ class Trial:
     check refits every run).
 
     ``travel``: the largest range of the motion over the records (m or rad).
+    ``times``: each record's sample times (s) for the position noise (None: uniform).
     ``unresolved()``: why members are below what the experiment resolves (empty: none).
     ``floor_ratio()``: the residual against the noise floor the fit implies (force domain).
     ``out_of_sample()``: why a check on data the fit did not see fails, or None.
@@ -67,6 +68,7 @@ class Trial:
     unresolved: Callable[[], list[str]] | None = None
     floor_ratio: Callable[[], float] | None = None
     out_of_sample: Callable[[], str | None] | None = None
+    times: tuple[np.ndarray, ...] | None = None
 
     @cached_property
     def delta_bic(self) -> float:
@@ -81,7 +83,7 @@ class Trial:
     @cached_property
     def noise(self) -> float:
         """Position noise σ the trial implies (``stats.diagnostics.position_noise``)."""
-        return position_noise(self.fit.residuals)
+        return position_noise(self.fit.residuals, self.times)
 
 
 class Rule(Protocol):

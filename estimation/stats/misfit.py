@@ -11,7 +11,7 @@ on the residual's *effective* sample size,
 
 (r₁: the pooled lag-1 autocorrelation; the AR(1) variance inflation). The second test is what
 a short record can reach: Ljung–Box needs tens of lags' worth of samples for p < 1e-3, which
-a 24-point digitized record never has (ten Cate E1's whole record sits at 10× its floor);
+a 24-point digitized record never has (ten Cate E1's whole record sits at 12.7× its floor);
 counting on n_eff rather than n keeps a long, smoothly correlated residual from passing it
 on sample count alone. Neither test alone flags a residual at the floor: a quantized
 encoder's residual at a steady speed is never white (its error repeats with the fraction of
@@ -40,10 +40,18 @@ def lag_one(*residuals: np.ndarray) -> float:
     return min(max(num / den, 0.0), 0.999) if den > 0 else 0.0
 
 
+def ar1_inflation(r1: float) -> float:
+    """(1 + r₁)/(1 − r₁): the factor by which an AR(1) residual of lag-1 autocorrelation
+    r₁ inflates the variance of a mean over it (n_eff = n / this), r₁ clipped to
+    [0, 0.999] as ``lag_one`` clips it."""
+    r1 = min(max(float(r1), 0.0), 0.999)
+    return (1 + r1) / (1 - r1)
+
+
 def effective_sample_size(residuals: Sequence[np.ndarray]) -> float:
     """n·(1 − r₁)/(1 + r₁) from the pooled lag-1 autocorrelation r₁ of the residuals."""
-    r1 = lag_one(*residuals)
-    return sum(np.asarray(r).size for r in residuals) * (1 - r1) / (1 + r1)
+    size = sum(np.asarray(r).size for r in residuals)
+    return size / ar1_inflation(lag_one(*residuals))
 
 
 def excess_p(ratio: float, n_eff: float) -> float:

@@ -180,8 +180,9 @@ def test_tencate_whole_record_never_confident_below_the_sphere():
 
 def test_tencate_whole_record_is_flagged_structured():
     """The wall slows the sphere after ≈ 2.5 s, which no model term has: fitted to its end,
-    the 24-point record's residual is ≈ 10× the noise floor, and is flagged although
-    Ljung–Box cannot reach p < 1e-3 on so few points (``stats.misfit``)."""
+    the 24-point record's residual is ≈ 12× the noise floor (read by divided differences on
+    its irregular sample times), and is flagged although Ljung–Box cannot reach p < 1e-3 on
+    so few points (``stats.misfit``)."""
     run = _tencate(t_release=0.0)
     r = estimate([run], n_bootstrap=0)
     assert r.unexplained is not None and r.unexplained.structured

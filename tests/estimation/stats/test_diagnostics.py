@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from estimation.stats.diagnostics import ljung_box
+from estimation.stats.diagnostics import ljung_box, position_noise, third_differences
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 
@@ -39,3 +39,23 @@ def test_base_residual_points_at_the_missing_effect(physics_kw, regressor):
 def test_clean_data_residual_correlates_with_nothing():
     doc = estimate(tow_set(seed=32), n_bootstrap=0).to_json()["diagnostics"]
     assert max(abs(v) for v in doc["residual_correlation_before"].values()) < 0.2
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_position_noise_of_an_irregular_record_is_its_scatter_not_its_trend(seed):
+    """30 samples at irregular instants (a digitized or sparse record) of a parabola plus
+    white noise of 0.1 mm: the noise is the scatter, within the spread 20 third differences
+    allow (σ of a 20-sample RMS ≈ 16 %; the lower quartile of one window is that window).
+    Plain Δ³ of irregular samples cancels not even a straight line and read the parabola as
+    0.5 m of "noise"."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 10.0, 30))
+    x = 0.3 + 2.0 * t - 0.7 * t**2 + 1e-4 * rng.standard_normal(t.size)
+    assert 0.6e-4 < position_noise([x], [t]) < 1.5e-4
+
+
+def test_third_differences_on_a_uniform_grid_are_the_plain_ones_scaled():
+    """On a uniform grid the divided differences are ±Δ³r/√20 (var Δ³r = 20σ²)."""
+    r = np.random.default_rng(3).standard_normal(50)
+    d = third_differences(0.05 * np.arange(50) + 2.0, r)
+    assert np.allclose(np.abs(d), np.abs(np.diff(r, 3)) / np.sqrt(20.0), rtol=1e-9)

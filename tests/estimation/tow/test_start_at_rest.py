@@ -114,3 +114,20 @@ def test_sparse_tows_from_rest_keep_their_inertia():
     assert not any("already moving" in w for w in r.warnings), r.warnings
     inertia = r.coefficients["inertia"]
     assert np.isfinite(inertia.std) and inertia.value == pytest.approx(143.26, rel=0.01)
+
+
+@pytest.mark.parametrize("scale", ["10kg", "143kg", "1000kg"])
+def test_a_sparse_record_of_a_lagged_drive_is_not_called_moving(scale):
+    """24 irregular points of tows whose pull began 0.1 or 0.3 s before the logged release,
+    with two held samples (t = 0 and 0.5 s) before the motion: the record shows the rest,
+    so a speed at the logged release is a lag (rule 1), however sparse the rest of it. Two
+    seeds per lag (each check is a few ms; 2 lags × 2 seeds × 4 drives = 16 runs a scale)."""
+    runs = []
+    for lag in (0.1, 0.3):
+        for seed in (0, 1):
+            rng = np.random.default_rng(seed)
+            for run in tow_set(scale, seed, delay=-lag):
+                idx = np.r_[0, 5, np.sort(rng.choice(np.arange(11, run.t.size), 22, False))]
+                runs.append(replace(run, t=run.t[idx], position=run.position[idx]))
+    assert all(r.t.size <= 30 for r in runs)
+    assert [speed_at_release(r) for r in runs] == [None] * len(runs)
