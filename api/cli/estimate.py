@@ -11,7 +11,6 @@ from api.cli.common import (
     db_option,
     echo_json,
     fail,
-    flag_names,
     json_option,
     open_store,
     plus_minus,
@@ -19,7 +18,7 @@ from api.cli.common import (
     report_option,
     user_errors,
 )
-from api.cli.options import request_fields, request_options
+from api.cli.options import request_from, request_options
 from api.core.estimation_failure import EstimationFailure
 from api.core.estimation_job import run_estimation
 from api.core.estimation_request import EstimationRequest
@@ -51,16 +50,8 @@ def estimate(run_ids, report_dir, db_url, as_json, **options):
     """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
     vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
     the error before and after."""
-    from pydantic import ValidationError
-
-    from daq.procedures.params import ParameterError, problems_of
-
-    try:  # the request as POST /api/jobs/estimation takes it (api.core.estimation_request)
-        request = EstimationRequest(
-            run_ids=list(run_ids), **request_fields(EstimationRequest, options)
-        )
-    except ValidationError as err:  # one line per field, named as the command line has it
-        fail(flag_names(click.get_current_context(), str(ParameterError(problems_of(err)))))
+    # the request as POST /api/jobs/estimation takes it (api.core.estimation_request)
+    request = request_from(EstimationRequest, options, run_ids=list(run_ids))
     report_folder(report_dir)
     store = open_store(db_url)
     try:

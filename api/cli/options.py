@@ -20,6 +20,8 @@ import click
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
+from api.cli.common import fail, flag_names
+from daq.procedures.params import ParameterError, problems_of
 from daq.procedures.procedure_request import Flag
 
 
@@ -78,6 +80,8 @@ def _click_type(info: FieldInfo, flag: Flag) -> Any:
 
 #: A click command, or the function a command is being built from.
 F = TypeVar("F", bound=Callable[..., Any])
+#: A request model.
+M = TypeVar("M", bound=BaseModel)
 
 
 def request_options(model: type[BaseModel]) -> Callable[[F], F]:
@@ -90,15 +94,17 @@ def request_options(model: type[BaseModel]) -> Callable[[F], F]:
         if flag.when_set is not None:
             option = click.option(flag.name, name, is_flag=True, help=flag.help or info.description)
         else:
-            default = info.default
+            # a required field has no default at all (click ≥ 8.3 takes None as one)
+            default = {} if info.is_required() else {"default": info.default}
             option = click.option(
                 flag.name,
                 name,
                 type=_click_type(info, flag),
-                default=default,
-                show_default=default is not None,
+                required=info.is_required(),
+                show_default=default.get("default") is not None,
                 metavar=flag.metavar,
                 help=flag.help or info.description,
+                **default,
             )
         options.append(option)
 
@@ -124,3 +130,17 @@ def request_fields(model: type[BaseModel], values: dict[str, Any]) -> dict[str, 
         elif value is not None:
             given[name] = value
     return given
+
+
+def request_from(model: type[M], values: dict[str, Any], **given: Any) -> M:
+    """The request ``model`` from the options' ``values`` plus ``given`` fields (an argument),
+    exactly as its route takes it; a bad value exits 2 with one line per field, each named as
+    the command line spells it (``--temp: …``)."""
+    from pydantic import ValidationError
+
+    try:
+        return model(**given, **request_fields(model, values))
+    except ValidationError as err:
+        ctx = click.get_current_context(silent=True)
+        fail(flag_names(ctx, str(ParameterError(problems_of(err)))))
+        raise  # not reached: fail exits

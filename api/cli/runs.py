@@ -22,7 +22,7 @@ from api.cli.common import (
     open_store,
     user_errors,
 )
-from api.cli.options import request_fields, request_options
+from api.cli.options import request_from, request_options
 from api.core.run_filter import RunFilter
 from daq.export_formats import FORMATS, export_file_name, formats_help, write_export
 from daq.parameter_labels import labelled
@@ -66,16 +66,11 @@ def aligned(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
 @json_option
 def runs(limit, offset, db_url, as_json, **chosen):
     """List stored runs, newest first."""
-    from pydantic import ValidationError
-
-    from daq.procedures.params import ParameterError, problems_of
-
     ctx = click.get_current_context()
-    try:  # the filters as GET /api/runs takes them (api.core.run_filter), days local here
-        run_filter = RunFilter(**request_fields(RunFilter, chosen))
+    # the filters as GET /api/runs takes them (api.core.run_filter), days local here
+    run_filter = request_from(RunFilter, chosen)
+    try:
         filters = run_filter.store_filters(datetime.now().astimezone().tzinfo)
-    except ValidationError as err:  # one line per field: too long, …
-        fail(flag_names(ctx, str(ParameterError(problems_of(err)))))
     except ValueError as err:  # a day, a date-time or a zone that is none of the forms
         fail(flag_names(ctx, str(err)))
     store = open_store(db_url)

@@ -5,29 +5,19 @@ from __future__ import annotations
 
 import click
 
-from api.cli.common import db_option, echo_json, estimate_option, fail, json_option, open_store
+from api.cli.common import (
+    db_option,
+    echo_json,
+    estimate_option,
+    fail,
+    flag_names,
+    json_option,
+    open_store,
+)
+from api.cli.options import request_from, request_options
 from api.core import sixdof as sixdof_common
 from api.core import theory as theory_common
 from daq.store import ResultNotFound
-
-_temp_option = click.option(
-    "--water-temp",
-    "temperature_c",
-    type=float,
-    default=theory_common.DEFAULT_WATER_TEMP_C,
-    show_default=True,
-    metavar="C",
-    help="Water temperature, °C (0–40; ITTC's standard 15 °C by default).",
-)
-_salinity_option = click.option(
-    "--salinity",
-    "salinity_g_kg",
-    type=float,
-    default=0.0,
-    show_default=True,
-    metavar="G_PER_KG",
-    help="Absolute salinity, g/kg (0 = fresh water, 35.165 = standard sea water).",
-)
 
 
 def _stored(result_ids: tuple[int, ...], db_url: str | None) -> list[tuple[int, dict]]:
@@ -50,22 +40,17 @@ def _num(x: float | None, digits: int = 4) -> str:
 
 
 @click.command("water")
-@click.option(
-    "--temp", "temperature_c", type=float, required=True, metavar="C", help="Temperature, °C."
-)
-@_salinity_option
-@click.option("--speed", "speed_m_s", type=float, metavar="M_PER_S",
-              help="Speed, m/s (with --length: print Re = UL/ν and Fr = U/√(gL)).")  # fmt: skip
-@click.option("--length", "length_m", type=float, metavar="M", help="Body length, m.")
-@click.option("--g", "g", type=float, default=9.80665, show_default=True,
-              help="Local gravity for Fr, m/s².")  # fmt: skip
+@request_options(theory_common.WaterQuery)
 @json_option
-def water(temperature_c, salinity_g_kg, speed_m_s, length_m, g, as_json):
+def water(as_json, **options):
     """Water density and viscosity at a temperature (ITTC 7.5-02-01-03 formulas)."""
+    query = request_from(theory_common.WaterQuery, options)
     try:
-        out = theory_common.water(temperature_c, salinity_g_kg, speed_m_s, length_m, g)
+        out = theory_common.water(
+            query.temp_c, query.salinity_g_kg, query.speed_m_s, query.length_m, query.g
+        )
     except ValueError as err:
-        fail(_flags(str(err), temperature="--temp"))
+        fail(flag_names(click.get_current_context(), str(err)))
     if as_json:
         echo_json(out)
         return
@@ -83,54 +68,34 @@ def water(temperature_c, salinity_g_kg, speed_m_s, length_m, g, as_json):
         )
 
 
-def _flags(message: str, temperature: str = "--water-temp") -> str:
-    """Field names of the science as the options that set them."""
-    for name, flag in (
-        ("temperature_c", temperature),
-        ("salinity_g_kg", "--salinity"),
-        ("tank_width_m/water_depth_m", "--tank-width/--water-depth"),
-        ("tank_width_m", "--tank-width"),
-        ("water_depth_m", "--water-depth"),
-        ("speed_m_s/length_m", "--speed/--length"),
-        ("speed_m_s", "--speed"),
-        ("length_m", "--length"),
-        ("g", "--g"),
-    ):
-        if message.startswith(name + ":"):
-            return flag + message[len(name) :]
-    return message
-
-
 @click.command("predict-added-mass")
 @click.argument("vehicle")
-@_temp_option
-@_salinity_option
-@click.option("--tank-width", "tank_width_m", type=float, metavar="M",
-              help="Tank width, m (with --water-depth: report the blockage ratio).")  # fmt: skip
-@click.option("--water-depth", "water_depth_m", type=float, metavar="M",
-              help="Water depth, m.")  # fmt: skip
+@request_options(theory_common.AddedMassQuery)
 @estimate_option("Compare a stored surge/yaw/pendulum estimation result (repeatable).")
 @db_option
 @json_option
-def predict_added_mass(
-    vehicle, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, estimates, db_url,
-    as_json,
-):  # fmt: skip
+def predict_added_mass(vehicle, estimates, db_url, as_json, **options):
     """Predict VEHICLE's added mass per DOF from its [hull] (a name from fixtures/vehicles
     or $RIG_VEHICLES_DIR, or a .toml file), beside its file's values (or stored estimates),
     with the ratio."""
+    query = request_from(theory_common.AddedMassQuery, options)
     try:
         veh = sixdof_common.find_vehicle(vehicle, allow_path=True)
         applied: list = []
         if estimates:
             veh, applied = sixdof_common.apply_results(veh, _stored(estimates, db_url))
         out = theory_common.predict(
-            veh, temperature_c, salinity_g_kg, tank_width_m, water_depth_m, applied=applied
+            veh,
+            query.water_temp_c,
+            query.salinity_g_kg,
+            query.tank_width_m,
+            query.water_depth_m,
+            applied=applied,
         )
     except (KeyError, ResultNotFound) as err:
         fail(str(err.args[0]) if err.args else str(err))
     except ValueError as err:
-        fail(_flags(str(err)))
+        fail(flag_names(click.get_current_context(), str(err)))
     if as_json:
         echo_json(out)
         return

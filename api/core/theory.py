@@ -5,17 +5,75 @@ holds (measured or placeholder), with the ratio, the verdict and the blockage.""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Annotated, Any
 
+from pydantic import BaseModel, Field
+
+from daq.procedures.procedure_request import Flag
 from estimation import scale
 from estimation.theory.compare import DEFAULT_BAND, compare_added_mass
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.tank import blockage
 from estimation.vehicle.description import DOFS, Vehicle6
-from estimation.water import water_properties
+from estimation.water import SALINITY_RANGE_G_KG, TEMPERATURE_RANGE_C, water_properties
 
 #: Water temperature used when none is given: ITTC's standard temperature for fresh water.
 DEFAULT_WATER_TEMP_C = 15.0
+
+_T_LOW, _T_HIGH = TEMPERATURE_RANGE_C
+_S_LOW, _S_HIGH = SALINITY_RANGE_G_KG
+_SALINITY = Field(
+    ge=_S_LOW, le=_S_HIGH,
+    description="Absolute salinity, g/kg (0 = fresh water, 35.165 = standard sea water).",
+)  # fmt: skip
+
+
+class WaterQuery(BaseModel):
+    """The water asked about, declared once for ``GET /api/water`` and ``rig water``."""
+
+    temp_c: Annotated[
+        float,
+        Field(ge=_T_LOW, le=_T_HIGH, description="Water temperature, °C."),
+        Flag("--temp", metavar="C"),
+    ]
+    salinity_g_kg: Annotated[float, _SALINITY, Flag("--salinity", metavar="G_PER_KG")] = 0.0
+    speed_m_s: Annotated[
+        float | None,
+        Field(
+            ge=-100, le=100, description="Speed, m/s (with a body length: Re = UL/ν, Fr = U/√(gL))."
+        ),
+        Flag("--speed", metavar="M_PER_S"),
+    ] = None
+    length_m: Annotated[
+        float | None,
+        Field(gt=0, le=1000, description="Body length, m."),
+        Flag("--length", metavar="M"),
+    ] = None
+    g: Annotated[
+        float, Field(gt=0, le=30, description="Local gravity for Fr, m/s²."), Flag("--g")
+    ] = scale.STANDARD_GRAVITY
+
+
+class AddedMassQuery(BaseModel):
+    """The water and the tank of an added-mass prediction, declared once for
+    ``GET /api/vehicles/{name}/added-mass`` and ``rig predict-added-mass``."""
+
+    water_temp_c: Annotated[
+        float,
+        Field(ge=_T_LOW, le=_T_HIGH, description="Water temperature, °C (ITTC standard: 15)."),
+        Flag("--water-temp", metavar="C"),
+    ] = DEFAULT_WATER_TEMP_C
+    salinity_g_kg: Annotated[float, _SALINITY, Flag("--salinity", metavar="G_PER_KG")] = 0.0
+    tank_width_m: Annotated[
+        float | None,
+        Field(gt=0, le=1000, description="Tank width, m (with water_depth_m: the blockage)."),
+        Flag("--tank-width", metavar="M"),
+    ] = None
+    water_depth_m: Annotated[
+        float | None,
+        Field(gt=0, le=1000, description="Water depth, m."),
+        Flag("--water-depth", metavar="M"),
+    ] = None
 
 
 class NoHull(ValueError):
