@@ -50,12 +50,12 @@ class _Parsed(click.ParamType):
         try:
             return self.parse(value)
         except ValueError:
-            self.fail(f"got {value!r}; allowed {self.name}", param, ctx)
+            self.fail(f"got {value!r}; allowed: {self.name}", param, ctx)
 
 
 def _click_type(info: FieldInfo, flag: Flag) -> Any:
     if flag.parse is not None:
-        return _Parsed(flag.parse, info.description or "a list")
+        return _Parsed(flag.parse, f"the form {flag.metavar}" if flag.metavar else "a list")
     base = _base_type(info.annotation)
     if typing.get_origin(base) is typing.Literal:  # one of the listed words
         return click.Choice([str(word) for word in typing.get_args(base)])

@@ -6,41 +6,32 @@ from __future__ import annotations
 import click
 
 from api.cli.common import db_option, echo_json, estimate_option, fail, json_option, open_store
+from api.cli.options import request_from, request_options
 from api.core import sixdof as sixdof_common
 from daq.store import ResultNotFound
 
 
-def _numbers(text: str | None, option: str) -> list[float] | None:
-    if text is None:
-        return None
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        fail(f"{option}: got {text!r}, allowed: comma-separated numbers, e.g. 0.5,0.5")
-    return None  # pragma: no cover - fail() exits
-
-
 @click.command("sixdof")
 @click.argument("vehicle")
-@click.option("--commands", metavar="U1,U2,...", help="One command per thruster (held constant).")
-@click.option("--force", metavar="X,Y,Z,K,M,N", help="Generalized body force (N, N·m).")
-@click.option("--duration", "duration_s", type=float, default=30.0, show_default=True,
-              help="Simulated time, s.")  # fmt: skip
-@click.option("--dt", type=float, default=0.01, show_default=True, help="Output step, s.")
+@request_options(sixdof_common.SimulateRequest)
 @estimate_option("Plug a stored surge/yaw estimation result in (repeatable).")
 @db_option
 @json_option
-def sixdof(vehicle, commands, force, duration_s, dt, estimates, db_url, as_json):
+def sixdof(vehicle, estimates, db_url, as_json, **options):
     """Simulate VEHICLE (a name from fixtures/vehicles or $RIG_VEHICLES_DIR, or a .toml
     file) with (M_RB + M_A) ν̇ + C(ν)ν + D(ν)ν + g(η) = τ; print the steady ν (body
     frame: x forward, y starboard, z down) and, with --json, the trajectory."""
+    # the request as POST /api/sixdof/simulate takes it (api.core.sixdof.SimulateRequest)
+    request = request_from(
+        sixdof_common.SimulateRequest, options, vehicle=vehicle, estimates=list(estimates)
+    )
     try:
-        veh = sixdof_common.find_vehicle(vehicle, allow_path=True)
-        if estimates:
+        veh = sixdof_common.find_vehicle(request.vehicle, allow_path=True)
+        if request.estimates:
             store = open_store(db_url)
             try:
                 found = []
-                for result_id in estimates:
+                for result_id in request.estimates:
                     result = store.result(result_id)
                     if result.kind != "estimation":
                         fail(f"--estimate: result {result_id} is a {result.kind!r} result")
@@ -50,10 +41,11 @@ def sixdof(vehicle, commands, force, duration_s, dt, estimates, db_url, as_json)
             veh, _ = sixdof_common.apply_results(veh, found)
         _, summary = sixdof_common.run(
             veh,
-            duration_s,
-            commands=_numbers(commands, "--commands"),
-            force=_numbers(force, "--force"),
-            dt=dt,
+            request.duration_s,
+            commands=request.commands,
+            force=request.force,
+            dt=request.dt,
+            max_evaluations=sixdof_common.MAX_EVALUATIONS,
         )
     except (KeyError, ResultNotFound) as err:
         fail(str(err.args[0]) if err.args else str(err))

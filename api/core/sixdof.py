@@ -9,10 +9,13 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from daq.procedures.params import ParameterError
+from daq.procedures.procedure_request import Flag, comma_separated_floats
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
 from estimation.vehicle.dynamics import allocation_matrix
@@ -29,6 +32,61 @@ VEHICLES_DIR_ENV = "RIG_VEHICLES_DIR"
 #: Trajectories sent back hold at most this many samples.
 MAX_POINTS = 2000
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
+
+
+#: Longest simulation one request runs, s.
+MAX_DURATION_S = 600.0
+#: Most samples one simulation may produce (duration_s / dt).
+MAX_SAMPLES = 200_000
+#: Right-hand-side evaluations one request may cost (≈ 5 s): a violent input is refused.
+MAX_EVALUATIONS = 1_000_000
+_Force = Annotated[float, Field(ge=-1e5, le=1e5)]
+_Pose = Annotated[float, Field(ge=-1e4, le=1e4)]
+_Speed = Annotated[float, Field(ge=-100, le=100)]
+
+
+class SimulateRequest(BaseModel):
+    """A 6-DOF simulation from rest (or from ``eta0``/``nu0``) with constant inputs."""
+
+    model_config = ConfigDict(strict=True, extra="forbid")
+
+    vehicle: str = Field(description="Vehicle name (GET /api/vehicles), e.g. 'seed002-rov'.")
+    commands: Annotated[
+        list[Annotated[float, Field(ge=-1e6, le=1e6)]] | None,
+        Flag("--commands", metavar="U1,U2,...", parse=comma_separated_floats),
+    ] = Field(None, description="One command per thruster (|u| ≤ its max_command), held constant.")
+    force: Annotated[
+        Annotated[list[_Force], Field(min_length=6, max_length=6)] | None,
+        Flag("--force", metavar="X,Y,Z,K,M,N", parse=comma_separated_floats),
+    ] = Field(
+        None, description="Generalized body force X, Y, Z (N), K, M, N (N·m); adds to commands."
+    )
+    duration_s: Annotated[float, Flag("--duration")] = Field(
+        30.0, gt=0, le=MAX_DURATION_S, description="Simulated time, s."
+    )
+    dt: Annotated[float, Flag("--dt")] = Field(
+        0.01, ge=0.001, le=1.0, description="Output sample step, s."
+    )
+    eta0: Annotated[list[_Pose], Field(min_length=6, max_length=6)] | None = Field(
+        None, description="Initial x, y, z (m), φ, θ, ψ (rad), earth frame (NED)."
+    )
+    nu0: Annotated[list[_Speed], Field(min_length=6, max_length=6)] | None = Field(
+        None, description="Initial u, v, w (m/s), p, q, r (rad/s), body frame."
+    )
+    estimates: list[Annotated[int, Field(ge=1, le=2**62)]] = Field(
+        default_factory=list,
+        max_length=12,
+        description="Stored estimation result ids to plug in (surge/yaw …), in order.",
+    )
+
+    @model_validator(mode="after")
+    def _bounded_samples(self) -> SimulateRequest:
+        """At most ``MAX_SAMPLES`` output samples (named as the field ``dt``)."""
+        if self.duration_s / self.dt > MAX_SAMPLES:
+            shortest = self.duration_s / MAX_SAMPLES
+            allowed = f"≥ duration_s / {MAX_SAMPLES} = {shortest:g} s for {self.duration_s:g} s"
+            raise ParameterError([("dt", self.dt, allowed)])
+        return self
 
 
 class VehicleNotFound(KeyError):

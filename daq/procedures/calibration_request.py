@@ -35,7 +35,7 @@ class CalibrationRequest(ProcedureRequest):
             description=f"Command fractions, 0 ≤ c ≤ the rig's max_thruster_command, at most "
             f"{MAX_CALIBRATION_COMMANDS} (default {_SWEEP}); swept up then down, then reversed.",
         ),
-        Flag("--commands", metavar="LIST", parse=comma_separated_floats),
+        Flag("--commands", metavar="C1,C2,...", parse=comma_separated_floats),
     ] = None
     settle_s: Annotated[
         float, Field(title="Settle (s)", description="Settling time per step, s."), Flag("--settle")

@@ -6,10 +6,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from functools import partial
-from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException
-from pydantic import BaseModel, ConfigDict, Field
 
 from api.core import sixdof as sixdof_common
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
@@ -18,42 +16,6 @@ from daq.store import ResultNotFound, Store
 from estimation.vehicle.description import Vehicle6
 
 router = APIRouter(prefix="/api", tags=["sixdof"])
-#: Longest simulation the API runs, s.
-MAX_DURATION_S = 600.0
-#: Most samples one simulation may produce (duration_s / dt).
-MAX_SAMPLES = 200_000
-#: Right-hand-side evaluations one request may cost (≈ 5 s): a violent input is refused.
-MAX_EVALUATIONS = 1_000_000
-_Force = Annotated[float, Field(ge=-1e5, le=1e5)]
-_Pose = Annotated[float, Field(ge=-1e4, le=1e4)]
-_Speed = Annotated[float, Field(ge=-100, le=100)]
-
-
-class SimulateRequest(BaseModel):
-    """A 6-DOF simulation from rest (or from ``eta0``/``nu0``) with constant inputs."""
-
-    model_config = ConfigDict(strict=True, extra="forbid")
-
-    vehicle: str = Field(description="Vehicle name (GET /api/vehicles), e.g. 'seed002-rov'.")
-    commands: list[Annotated[float, Field(ge=-1e6, le=1e6)]] | None = Field(
-        None, description="One command per thruster (|u| ≤ its max_command), held constant."
-    )
-    force: Annotated[list[_Force], Field(min_length=6, max_length=6)] | None = Field(
-        None, description="Generalized body force X, Y, Z (N), K, M, N (N·m); adds to commands."
-    )
-    duration_s: float = Field(gt=0, le=MAX_DURATION_S, description="Simulated time, s.")
-    dt: float = Field(0.01, ge=0.001, le=1.0, description="Output sample step, s.")
-    eta0: Annotated[list[_Pose], Field(min_length=6, max_length=6)] | None = Field(
-        None, description="Initial x, y, z (m), φ, θ, ψ (rad), earth frame (NED)."
-    )
-    nu0: Annotated[list[_Speed], Field(min_length=6, max_length=6)] | None = Field(
-        None, description="Initial u, v, w (m/s), p, q, r (rad/s), body frame."
-    )
-    estimates: list[Annotated[int, Field(ge=1, le=2**62)]] = Field(
-        default_factory=list,
-        max_length=12,
-        description="Stored estimation result ids to plug in (surge/yaw …), in order.",
-    )
 
 
 def vehicle_with_estimates(
@@ -107,14 +69,12 @@ def get_vehicle(name: str) -> dict:
     dependencies=[Depends(require_write)],
     responses=error_responses(401, 404, 422),
 )
-def simulate_sixdof(body: SimulateRequest, store: StoreDep, runner: RunnerDep) -> dict:
+def simulate_sixdof(
+    body: sixdof_common.SimulateRequest, store: StoreDep, runner: RunnerDep
+) -> dict:
     """Simulate the vehicle; the trajectory (≤ 2000 samples), steady values, final pose
-    (integrated in the analysis worker process, not the rig's)."""
-    if body.duration_s / body.dt > MAX_SAMPLES:
-        raise ValueError(
-            f"dt: got {body.dt!r}, allowed: ≥ duration_s / {MAX_SAMPLES} "
-            f"({body.duration_s / MAX_SAMPLES:g} s for {body.duration_s:g} s)"
-        )
+    (integrated in the analysis worker process, not the rig's). The body is
+    ``api.core.sixdof.SimulateRequest`` (``rig sixdof``'s options too)."""
     vehicle, applied = vehicle_with_estimates(store, body.vehicle, body.estimates)
     simulation = partial(
         sixdof_common.simulated_summary,
@@ -125,7 +85,7 @@ def simulate_sixdof(body: SimulateRequest, store: StoreDep, runner: RunnerDep) -
         dt=body.dt,
         eta0=body.eta0,
         nu0=body.nu0,
-        max_evaluations=MAX_EVALUATIONS,
+        max_evaluations=sixdof_common.MAX_EVALUATIONS,
     )
     summary = runner.analysis.executor_for(store).call(None, simulation)
     summary["applied_estimates"] = applied
