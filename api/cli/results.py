@@ -3,9 +3,21 @@ side by side (``--compare``), as ``GET /api/results`` and ``GET /api/results/com
 
 from __future__ import annotations
 
+from datetime import datetime
+
 import click
 
-from api.cli.common import db_option, echo_json, fail, json_option, open_store, user_errors
+from api.cli.common import (
+    db_option,
+    echo_json,
+    fail,
+    flag_names,
+    json_option,
+    open_store,
+    user_errors,
+)
+from api.cli.options import request_from, request_options
+from api.core.result_filter import ResultFilter
 
 
 def _pm(cell: dict | None) -> str:
@@ -16,9 +28,7 @@ def _pm(cell: dict | None) -> str:
 
 
 @click.command("results")
-@click.option("--run", "run_id", metavar="RUN", help="Made from this run (id or prefix).")
-@click.option("--vehicle", help="Made from runs of this vehicle.")
-@click.option("--kind", type=click.Choice(["estimation", "calibration"]))
+@request_options(ResultFilter)
 @click.option("--limit", type=click.IntRange(1, 500), default=50, show_default=True)
 @click.option(
     "--compare",
@@ -29,7 +39,7 @@ def _pm(cell: dict | None) -> str:
 @click.argument("compare_ids", metavar="[IDS]...", nargs=-1, type=click.IntRange(1))
 @db_option
 @json_option
-def results(run_id, vehicle, kind, limit, compare, compare_ids, db_url, as_json):
+def results(limit, compare, compare_ids, db_url, as_json, **chosen):
     """List stored results, newest first, or compare two or more (--compare)."""
     from api.core.result_compare import MAX_COMPARED, MIN_COMPARED, compare_results
 
@@ -58,8 +68,14 @@ def results(run_id, vehicle, kind, limit, compare, compare_ids, db_url, as_json)
                     row["coefficient"].ljust(24) + cells + "".join(d.ljust(14) for d in diffs)
                 )
             return None
+        # the filters as GET /api/results takes them (api.core.result_filter), days local
+        result_filter = request_from(ResultFilter, chosen)
         with user_errors():
-            found = store.list_results(run_id=run_id, vehicle=vehicle, kind=kind, limit=limit)
+            try:
+                filters = result_filter.store_filters(datetime.now().astimezone().tzinfo)
+                found = store.list_results(**filters, limit=limit)
+            except ValueError as err:  # a day, a date-time or a zone none of the forms
+                fail(flag_names(click.get_current_context(), str(err)))
         if as_json:
             return echo_json([r.to_json() for r in found])
         for r in found:

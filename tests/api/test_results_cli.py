@@ -49,3 +49,22 @@ def test_results_are_listed_and_compared(rig) -> None:
     assert "--compare" in rig("results", "--compare", str(first), code=2).stderr
     assert "no result with id 999" in rig("results", "--compare", str(first), "999", code=2).stderr
     assert "without --compare" in rig("results", "12", "13", code=2).stderr
+
+
+def test_results_take_the_routes_filters_by_day_and_kind(rig) -> None:
+    """The filters are GET /api/results' (api.core.result_filter): a day window in this
+    computer's zone and the kind, refused in one line naming the option."""
+    run = rig("import", "day1.csv", "--kind", "tow", "--force", "10").stdout.strip()
+    store = Store(rig.db)
+    try:
+        made = store.add_result([run], "estimation", _doc(10.0, 0.3))
+    finally:
+        store.close()
+    assert [r["id"] for r in json.loads(rig("results", "--since", "today", "--json").stdout)] == [
+        made
+    ]
+    assert json.loads(rig("results", "--until", "yesterday", "--json").stdout) == []
+    assert json.loads(rig("results", "--kind", "calibration", "--json").stdout) == []
+    assert (
+        "--since: 'someday' is not allowed" in rig("results", "--since", "someday", code=2).stderr
+    )

@@ -8,8 +8,7 @@ as an id.
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, HTTPException, Query
 from fastapi.responses import Response
@@ -18,11 +17,11 @@ from api.core.job_model import without_report_files
 from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.report_archive import archive_name, report_zip
 from api.core.result_compare import compare_results, parse_ids
+from api.core.result_filter import ResultFilter
 from api.http.deps import RunnerDep, StoreDep, require_read
 from api.http.paging import Offset, ResultsLimit
 from api.http.schemas import ResultOut, error_responses, file_response
 from daq.store import ResultNotFound, Store
-from daq.store.day_window import parse_moment, parse_tz, start_window
 from daq.store.run_records import ResultInfo
 
 router = APIRouter(prefix="/api", tags=["results"])
@@ -63,40 +62,15 @@ def list_results(
     store: StoreDep,
     runner: RunnerDep,
     response: Response,
-    kind: Literal["estimation", "calibration"] | None = None,
-    run: Annotated[
-        str | None, Query(max_length=36, description="Made from this run (id or prefix).")
-    ] = None,
-    vehicle: Annotated[
-        str | None, Query(max_length=200, description="Made from runs of this vehicle.")
-    ] = None,
-    since: Annotated[
-        str | None,
-        Query(description="Made on or after: a day YYYY-MM-DD, 'today', or ISO 8601."),
-    ] = None,
-    until: Annotated[
-        str | None,
-        Query(description="Made on or before: a day YYYY-MM-DD (whole day), or ISO 8601."),
-    ] = None,
-    tz: Annotated[
-        str | None,
-        Query(max_length=64, description="Time zone of since/until (IANA, UTC, ±HH:MM)."),
-    ] = None,
+    result_filter: Annotated[ResultFilter, Query()],
     limit: ResultsLimit = 100,
     offset: Offset = 0,
 ) -> list[dict]:
     """Estimation and calibration results, newest first, a page at a time (paged in the
     database): ``X-Total-Count`` says how many match, ``X-Next-Offset`` where the next page
-    starts (absent on the last). An unknown ``run`` is a 404 naming it."""
-    zone = parse_tz("tz", tz)
-    today = datetime.now(zone or UTC).date()
-    low, high = start_window(
-        None if since is None else parse_moment("since", since, today=today),
-        None if until is None else parse_moment("until", until, today=today),
-        zone,
-    )
-    filters: dict[str, Any] = {"run_id": run, "vehicle": vehicle, "kind": kind,
-                               "since": low, "until": high}  # fmt: skip
+    starts (absent on the last). An unknown ``run`` is a 404 naming it. The filters are
+    ``api.core.result_filter.ResultFilter``'s (``rig results`` too)."""
+    filters = result_filter.store_filters()
     found = store.list_results(**filters, limit=limit, offset=offset)
     total = store.count_results(**filters)
     response.headers["X-Total-Count"] = str(total)
