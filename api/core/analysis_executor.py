@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import atexit
 import concurrent.futures
+import io
 import multiprocessing
 import os
 import pickle
@@ -157,11 +158,22 @@ def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutc
 
 
 def portable(err: Exception) -> Exception:
-    """``err`` as it can cross a process boundary: itself when it survives pickling, else
-    the nearest built-in class with its one line (a ``ValueError`` naming a field stays a
-    ``ValueError``, so the faces answer it as bad input)."""
+    """``err`` as it can cross a process boundary: itself, alone (its cause, context and
+    traceback dropped), when it survives plain pickling, else the nearest built-in class
+    with its one line (a ``ValueError`` naming a field stays a ``ValueError``, so the faces
+    answer it as bad input).
+
+    Plain pickling, whatever the process has installed: once ``dask`` is imported (xarray
+    imports it for a NetCDF export when the cluster extra is installed) tblib pickles
+    exceptions with their whole chain, and a class in that chain that the receiving side
+    cannot rebuild broke the worker pool (a rehearsal's BrokenProcessPool)."""
+    err.__cause__ = err.__context__ = err.__traceback__ = None
     try:
-        pickle.loads(pickle.dumps(err))
+        buffer = io.BytesIO()
+        pickler = pickle.Pickler(buffer)
+        pickler.dispatch_table = {}  # each class's own reduce, not copyreg's (tblib's)
+        pickler.dump(err)
+        pickle.loads(buffer.getvalue())
         return err
     except Exception:
         base = next(c for c in (ValueError, KeyError, OSError, RuntimeError, Exception)
@@ -178,7 +190,8 @@ def call_on_store(store_url: str | None, fn: Callable[..., T], args: tuple[Any, 
         with Store(store_url) as store:
             return fn(store, *args)
     except Exception as err:
-        raise portable(err) from None
+        failure = portable(err)
+    raise failure  # outside the handler, so nothing is chained to it
 
 
 def _start_worker() -> None:
