@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from estimation import RunData, estimate
+from estimation import estimate
 from estimation.axis.tow_report import write_report
 from estimation.motion.decay_estimate import estimate_decay
 from estimation.motion.decay_report import write_decay_report
@@ -18,7 +18,7 @@ from estimation.pendulum.pendulum_estimate import estimate_pendulum
 from estimation.pendulum.pendulum_report import pendulum_markdown
 from tests.estimation.pendulum_synth import decay as pendulum_decay
 from tests.estimation.synth import Physics, tow_set
-from tests.support.shared_data import shared_file
+from tests.support.shared_data import tencate_e1
 
 #: (inertia, K_L, K_Q) of a tow (kg, N·s/m, N·s²/m²) and a spin (kg·m², N·m·s/rad, N·m·s²/rad²).
 TRUTH = {"surge": (143.26, 20.16, 241.14), "yaw": (7.97, 0.119, 4.12)}
@@ -139,29 +139,11 @@ def test_a_pendulum_swing_reports_what_it_determines_first():
     assert r.motion.equivalent and md.index("equivalent linear damping B_e") < md.index("## Sum")
 
 
-def _tencate() -> RunData:
-    """Ten Cate E1 to 2.45 s (before the wall slows it), imported as a heave tow."""
-    import pandas as pd
-
-    d = pd.read_csv(shared_file("real", "tencate-sphere-settling", "tencate_E1_tow.csv"))
-    return RunData(
-        "E1",
-        "surge",
-        d.t.to_numpy(),
-        d.position.to_numpy(),
-        drive=0.0026004,
-        body_inertia=0.001979,
-        t_release=0.0,
-        t_end=2.45,
-        dof="heave",
-    )
-
-
 def test_the_settling_sphere_report_opens_with_its_terminal_speed(tmp_path):
     """K_L and K_Q are each unknown, but the report's first section prints the terminal speed
     with its σ, within 1.5 % of the record's own final slope (1.06–2.44 s); no text says
     surge, seed, nan, or asks to enable a search that ran."""
-    run = _tencate()
+    run = tencate_e1(t_release=0.0, t_end=2.45, dof="heave")
     r = estimate([run], n_bootstrap=0)
     write_report(r, [run], tmp_path)
     md = (tmp_path / "report.md").read_text(encoding="utf-8")

@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from estimation import RunData, estimate
+from estimation import estimate
 from estimation.motion.decay_estimate import estimate_decay
-from tests.support.shared_data import shared_file
+from tests.support.shared_data import shared_file, tencate_e1
 
 #: KVLCC2 1:68, loading condition 166 (kvlcc2-roll-decay/README.md): I44 = Δ·KXX², C44 = Δ·g·GM.
 I44, C44 = 115.74281, 821.96
@@ -138,25 +138,11 @@ def test_kvlcc2_full_search_reports_its_choice_and_the_conventional_model():
     assert doc["kind"] == "decay" and doc["dof"] == "roll"
 
 
-def _tencate(**window) -> RunData:
-    """Ten Cate E1 as a tow: the net weight 2.6004 mN pulls the 1.979 g sphere (README)."""
-    d = _csv("tencate-sphere-settling", "tencate_E1_tow.csv")
-    return RunData(
-        "E1",
-        "surge",
-        d.t.to_numpy(),
-        d.position.to_numpy(),
-        drive=0.0026004,
-        body_inertia=0.001979,
-        **window,
-    )
-
-
 def test_tencate_sphere_settling():
     """Net weight 2.6004 mN; sphere 1.979 g; m + ρV/2 = 2.836 g; u∞ = 0.038 m/s. The record
     starts 0.084 s after the release (t = 0) and the wall slows the sphere after ≈ 2.5 s
     (README: ``--end-time 2.45``)."""
-    run = _tencate(t_release=0.0, t_end=2.45)
+    run = tencate_e1(t_release=0.0, t_end=2.45)
     r = estimate([run], n_bootstrap=0)
     c = r.coefficients
     k_l, k_q, force = c["linear_damping"].value, c["quadratic_damping"].value, 0.0026004
@@ -170,7 +156,8 @@ def test_tencate_sphere_settling():
 
 
 def test_tencate_whole_record_never_confident_below_the_sphere():
-    run = _tencate(t_release=float(_csv("tencate-sphere-settling", "tencate_E1_tow.csv").t.iloc[0]))
+    first = float(_csv("tencate-sphere-settling", "tencate_E1_tow.csv").t.iloc[0])
+    run = tencate_e1(t_release=first)
     r = estimate([run], n_bootstrap=0)
     m, s = r.coefficients["inertia"].value, r.coefficients["inertia"].std
     if m < 1.979e-3:
@@ -183,7 +170,7 @@ def test_tencate_whole_record_is_flagged_structured():
     the 24-point record's residual is ≈ 12× the noise floor (read by divided differences on
     its irregular sample times), and is flagged although Ljung–Box cannot reach p < 1e-3 on
     so few points (``stats.misfit``)."""
-    run = _tencate(t_release=0.0)
+    run = tencate_e1(t_release=0.0)
     r = estimate([run], n_bootstrap=0)
     assert r.unexplained is not None and r.unexplained.structured
     assert r.unexplained.ratio > 3
@@ -194,7 +181,7 @@ def test_tencate_terminal_speed_is_known_though_its_drag_law_is_not():
     """K_L and K_Q trade along one steady balance (neither known alone); the speed they
     give at the net weight is printed with its σ, and matches the record's own slope over
     its plateau (1.06–2.44 s, README) within 2σ + 1 %; published u∞ 0.038 m/s within 15 %."""
-    run = _tencate(t_release=0.0, t_end=2.45)
+    run = tencate_e1(t_release=0.0, t_end=2.45)
     r = estimate([run], n_bootstrap=0)
     speed, _drag = r.well_determined  # the drag at the speed reached follows
     t, x = run.t, run.position
