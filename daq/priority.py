@@ -1,9 +1,9 @@
 """CPU priorities around the rig's process: the simulated PLC beside the clock's real-time
 thread, and the helper processes the service starts.
 
-The acquisition clock's thread runs SCHED_FIFO (:func:`set_realtime`); the thruster
-line's I/O thread just below it (``THRUSTER_LINK_PRIORITY``), and the in-process simulated
-rig below that (``SIMULATOR_PRIORITY``: it stands in for a PLC with its own CPU). Work that
+The acquisition clock's thread runs SCHED_FIFO (:func:`set_realtime`); the in-process
+simulated rig just below it (``SIMULATOR_PRIORITY``: it stands in for a PLC with its own
+CPU), and the thruster line's I/O thread below that (``THRUSTER_LINK_PRIORITY``). Work that
 may wait (fits, reports, imports) runs in helper processes at normal scheduling and
 positive niceness (:func:`lower_priority`), whatever the thread that started them ran at.
 
@@ -28,12 +28,14 @@ Scheduling = tuple[int, os.sched_param, int]
 #: clock's (10, :func:`set_realtime`), above the process's other threads.
 SIMULATOR_PRIORITY = 5
 
-#: SCHED_FIFO priority of the thruster line's I/O thread in a real-time session: just below
-#: the clock. The heartbeat is decided on the clock's loop, but the frame goes out from this
-#: thread; at normal priority a loaded host held it back 0.4 s and the controller's watchdog
-#: tripped mid-calibration (rehearsal R11 of issue 35). The thread only blocks on the line
-#: (one frame and its reply per tick), so it cannot take a core from anyone.
-THRUSTER_LINK_PRIORITY = 8
+#: SCHED_FIFO priority of the thruster line's I/O thread in a real-time session: above every
+#: normal thread, below the clock and the simulated devices (which stand in for hardware with
+#: its own CPU; on a real rig nothing else runs real-time). The heartbeat is decided on the
+#: clock's loop, but the frame goes out from this thread; at normal priority a loaded host
+#: held it back 0.4 s and the controller's watchdog tripped mid-calibration (rehearsal R11 of
+#: issue 35). The thread only blocks on the line (one frame and its reply per tick), so it
+#: cannot take a core from anyone.
+THRUSTER_LINK_PRIORITY = 4
 
 
 def lower_priority(niceness: int) -> None:

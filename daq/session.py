@@ -211,7 +211,7 @@ class RigSession:
         if conn.thrusters is not None:  # a rig without [thrusters] opens no serial port
             driver = made.driver if made and made.driver else None
             driver = driver or open_thruster_driver(conn.thrusters, conn.limits)
-            # The line's I/O thread follows the clock into real time, just below it.
+            # The line's I/O thread follows the clock into real time, below the simulated rig.
             link_setup = (
                 functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
                 if self.realtime_active

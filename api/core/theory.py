@@ -66,7 +66,9 @@ class AddedMassQuery(BaseModel):
     salinity_g_kg: Annotated[float, _SALINITY, Flag("--salinity", metavar="G_PER_KG")] = 0.0
     tank_width_m: Annotated[
         float | None,
-        Field(gt=0, le=1000, description="Tank width, m (with the water depth: the blockage ratio)."),
+        Field(
+            gt=0, le=1000, description="Tank width, m (with the water depth: the blockage ratio)."
+        ),
         Flag("--tank-width", metavar="M"),
     ] = None
     water_depth_m: Annotated[

@@ -137,8 +137,8 @@ async def test_a_real_time_session_raises_the_simulated_plc_and_gives_the_clock_
         assert policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
         assert param.sched_priority == SIMULATOR_PRIORITY
         assert os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
-        # The thruster line's frames go out from the driver's I/O thread: real-time too, just
-        # below the clock (at normal priority a loaded host held a heartbeat back 0.4 s).
+        # The thruster line's frames go out from the driver's I/O thread: real-time too, below
+        # the simulated devices (at normal priority a loaded host held a heartbeat back 0.4 s).
         (link,) = [t for t in threading.enumerate() if t.name.startswith("thrusters")]
         assert link.native_id is not None
         link_policy = os.sched_getscheduler(link.native_id)
