@@ -30,6 +30,7 @@ import multiprocessing
 import os
 import pickle
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -194,9 +195,26 @@ def call_on_store(store_url: str | None, fn: Callable[..., T], args: tuple[Any, 
     raise failure  # outside the handler, so nothing is chained to it
 
 
+#: How often the worker looks whether the process that started it still lives, s.
+PARENT_CHECK_S = 1.0
+
+
+def _exit_with(parent: int) -> None:
+    """End this worker once ``parent`` is gone: a service killed with SIGKILL (or out of
+    memory) cannot shut its pool down, and its idle worker (85-385 MB) would live on."""
+    while True:
+        time.sleep(PARENT_CHECK_S)
+        if os.getppid() != parent:
+            os._exit(0)
+
+
 def _start_worker() -> None:
-    """The worker process's start: lower its priority, then import what every analysis
-    runs (the fits, the report's figures), so no task waits for it."""
+    """The worker process's start: watch the process that started it, lower its priority,
+    then import what every analysis runs (the fits, the report's figures), so no task waits
+    for it."""
+    threading.Thread(
+        target=_exit_with, args=(os.getppid(),), name="parent-watch", daemon=True
+    ).start()
     lower_priority(ANALYSIS_NICENESS)
     import api.core.campaign_fit
     import api.core.crosscheck_job

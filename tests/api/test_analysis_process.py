@@ -131,3 +131,41 @@ def test_exports_studies_simulations_and_crosschecks_run_in_the_worker(
     r = client.get(f"/api/runs/{run_id}/export?format=nosuch", headers=AUTH)
     assert r.status_code == 422  # refused before any work is shipped
     assert len(calls.called) == 3
+
+
+WORKER_OF_A_KILLED_SERVICE = (
+    "from api.core.analysis_executor import ProcessExecutor\n"
+    "import time\n"
+    "print(ProcessExecutor().worker_pid(), flush=True)\n"
+    "time.sleep(120)\n"
+)
+
+
+def test_the_worker_of_a_killed_service_ends_with_it():
+    """A service killed with SIGKILL cannot shut its pool down; its worker notices the
+    parent is gone within PARENT_CHECK_S and ends (rehearsals left a dozen such workers)."""
+    import signal
+    import subprocess
+    import sys
+
+    from tests.support.waiting import wait_until
+
+    service = subprocess.Popen(
+        [sys.executable, "-c", WORKER_OF_A_KILLED_SERVICE], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert service.stdout is not None
+        worker = int(service.stdout.readline())
+        os.kill(worker, 0)  # alive
+    finally:
+        service.send_signal(signal.SIGKILL)
+        service.wait(10)
+
+    def gone() -> bool:  # exited: no such process, or a zombie its new parent has not reaped
+        try:
+            state = Path(f"/proc/{worker}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except FileNotFoundError:
+            return True
+        return state in ("Z", "X")
+
+    wait_until(gone, "the worker process ended", timeout_s=15)
