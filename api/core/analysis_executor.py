@@ -29,6 +29,7 @@ import io
 import multiprocessing
 import os
 import pickle
+import signal
 import threading
 import time
 import traceback
@@ -205,7 +206,7 @@ def _exit_with(parent: int) -> None:
     while True:
         time.sleep(PARENT_CHECK_S)
         if os.getppid() != parent:
-            os._exit(0)
+            os.kill(os.getpid(), signal.SIGTERM)  # the default action: the process ends
 
 
 def _start_worker() -> None:
