@@ -212,16 +212,16 @@ def use_cluster(runner: JobRunner, address: str, sock: socket.socket) -> None:
     try:
         from api.core.cluster_executor import ClusterUnavailable, DaskExecutor
     except ImportError:
-        sock.close()
-        runner.close()
-        fail("--analysis-workers: needs the cluster extra: pip install 'towrig[cluster]'")
-        return
-    try:
-        runner.analysis.executor = DaskExecutor(address)
-    except ClusterUnavailable as err:
-        sock.close()
-        runner.close()
-        fail(str(err))
+        message = "--analysis-workers: needs the cluster extra: pip install 'towrig[cluster]'"
+    else:
+        try:
+            runner.analysis.executor = DaskExecutor(address)
+            return
+        except ClusterUnavailable as err:
+            message = str(err)
+    sock.close()
+    runner.close()
+    fail(message)
 
 
 if __name__ == "__main__":  # ``python -m api.cli.serve`` (what the browser test starts)

@@ -110,8 +110,6 @@ class RecordedRun:
         self._pump_task: asyncio.Task | None = None
         self._queue: asyncio.Queue[Sample] | None = None
         self._unlisten: Callable[[], None] | None = None
-        #: The reason this run holds full garbage collections off (``daq.collector``).
-        self._collections_held_for = ""
         self._telemetry = contextlib.ExitStack()
         terms = AXES.get(kind)
         #: The longest hole without a good sample this kind tolerates (s; None: any).
@@ -164,7 +162,6 @@ class RecordedRun:
         self.run_id = run_id
         # No full garbage collection while the run records (``daq.collector``): one started
         # by another thread holds the GIL the real-time clock needs.
-        self._collections_held_for = f"run {run_id} recording"
         hold_full_collections(True, self._collections_held_for)
         # Losing the lease on the rig stops the run like a lost PLC (the session makes the
         # rig safe and releases it; the abort signal ends the run naming the lost lock).
@@ -236,6 +233,11 @@ class RecordedRun:
     def _loss_event(self, gap: Gap) -> None:
         assert self._recorder is not None
         self._recorder.add_event("samples_lost", gap.describe(), gap.event_data())
+
+    @property
+    def _collections_held_for(self) -> str:
+        """The reason this run holds full garbage collections off (``daq.collector``)."""
+        return f"run {self.run_id} recording"
 
     async def __aexit__(self, exc_type, exc, tb) -> bool:
         try:
