@@ -5,7 +5,15 @@ from __future__ import annotations
 
 import click
 
-from api.cli.common import db_option, echo_json, estimate_option, fail, json_option, open_store
+from api.cli.common import (
+    db_option,
+    echo_json,
+    estimate_option,
+    fail,
+    flag_names,
+    json_option,
+    open_store,
+)
 from api.cli.options import request_from, request_options
 from api.core import sixdof as sixdof_common
 from daq.store import ResultNotFound
@@ -30,12 +38,7 @@ def sixdof(vehicle, estimates, db_url, as_json, **options):
         if request.estimates:
             store = open_store(db_url)
             try:
-                found = []
-                for result_id in request.estimates:
-                    result = store.result(result_id)
-                    if result.kind != "estimation":
-                        fail(f"--estimate: result {result_id} is a {result.kind!r} result")
-                    found.append((result_id, result.data))
+                found = sixdof_common.stored_estimates(store, request.estimates)
             finally:
                 store.close()
             veh, _ = sixdof_common.apply_results(veh, found)
@@ -50,7 +53,7 @@ def sixdof(vehicle, estimates, db_url, as_json, **options):
     except (KeyError, ResultNotFound) as err:
         fail(str(err.args[0]) if err.args else str(err))
     except ValueError as err:
-        fail(str(err))
+        fail(flag_names(click.get_current_context(), str(err)))
     if as_json:
         echo_json(summary)
         return

@@ -24,13 +24,7 @@ def _stored(result_ids: tuple[int, ...], db_url: str | None) -> list[tuple[int, 
     """The stored estimation results (id, data) for ``--estimate``."""
     store = open_store(db_url)
     try:
-        found = []
-        for result_id in result_ids:
-            result = store.result(result_id)
-            if result.kind != "estimation":
-                fail(f"--estimate: result {result_id} is a {result.kind!r} result")
-            found.append((result_id, result.data))
-        return found
+        return sixdof_common.stored_estimates(store, result_ids)
     finally:
         store.close()
 

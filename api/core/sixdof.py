@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from daq.procedures.params import ParameterError
 from daq.procedures.procedure_request import Flag, comma_separated_floats
+from daq.store import Store
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
 from estimation.vehicle.dynamics import allocation_matrix
@@ -171,6 +172,21 @@ def vehicle_detail(name: str) -> dict[str, Any]:
         "vehicle": v.to_json(),
         "allocation_matrix": allocation_matrix(v).tolist(),
     }
+
+
+def stored_estimates(store: Store, result_ids: Sequence[int]) -> list[tuple[int, dict]]:
+    """The stored estimation results (id, data) to plug in, in order: ``ResultNotFound``
+    for an unknown id, ``ValueError`` naming the field for a result of another kind."""
+    found = []
+    for result_id in result_ids:
+        result = store.result(result_id)
+        if result.kind != "estimation":
+            raise ValueError(
+                f"estimates: result {result_id} is a {result.kind!r} result, "
+                "allowed: estimation results"
+            )
+        found.append((result_id, result.data))
+    return found
 
 
 def apply_results(vehicle: Vehicle6, results: Sequence[tuple[int, dict]]) -> tuple[Vehicle6, list]:

@@ -70,6 +70,12 @@ def test_simulate_plugs_in_a_stored_estimate(client, tow_job):
     assert out["steady"]["nu"]["u"] == pytest.approx(expected, rel=1e-4)
     missing = client.post("/api/sixdof/simulate", json=body | {"estimates": [999999]}, headers=AUTH)
     assert missing.status_code == 404
+    calibration = store.add_result(tow_job["run_ids"], "calibration", {"thrusters": []})
+    other = client.post(
+        "/api/sixdof/simulate", json=body | {"estimates": [calibration]}, headers=AUTH
+    )
+    assert other.status_code == 422
+    assert f"estimates: result {calibration} is a 'calibration' result" in other.text
 
 
 @pytest.mark.parametrize(

@@ -28,18 +28,10 @@ def vehicle_with_estimates(
         vehicle = sixdof_common.find_vehicle(name)
     except sixdof_common.VehicleNotFound as err:
         raise HTTPException(404, str(err)) from None
-    results = []
-    for result_id in estimates:
-        try:
-            found = store.result(result_id)
-        except ResultNotFound as err:
-            raise HTTPException(404, str(err)) from None
-        if found.kind != "estimation":
-            raise ValueError(
-                f"estimates: result {result_id} is a {found.kind!r} result, "
-                "allowed: estimation results"
-            )
-        results.append((result_id, found.data))
+    try:
+        results = sixdof_common.stored_estimates(store, estimates)
+    except ResultNotFound as err:
+        raise HTTPException(404, str(err)) from None
     return sixdof_common.apply_results(vehicle, results)
 
 
