@@ -82,7 +82,7 @@ def decay_plan(plan: Planning) -> tuple[dict[str, Any], RigSource | None]:
     """A free decay: no drive; ``dof`` required; the fields checked by :class:`DecayImport`
     (those not given taken from a towrig export's header)."""
     no_drive(plan.request, "a free decay")
-    given = {k: v for k, v in plan.request.fields.items() if v is not None}
+    given = {k: v for k, v in plan.fields.items() if v is not None}
     for name in DecayImport.model_fields:  # a towrig export's header restores what it names
         recorded = plan.header.parameters.get(name)
         if name not in given and recorded is not None:

@@ -18,15 +18,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
 
 from daq.procedures.params import ParameterError
+from daq.procedures.procedure_request import Flag
 from daq.vocabulary import AXES, DRIVE_FIELD
 
 if TYPE_CHECKING:
-    from pydantic import BaseModel
-
     from daq.session import RigSource
     from daq.store.export_header import ExportHeader
 
@@ -41,36 +42,95 @@ PHYSICAL_MAX_KG = 1e5
 AGREE = 0.01
 
 
-@dataclass(frozen=True)
-class ImportRequest:
-    """What the user said about the file (``None``: not said); ``fields``: the kind's own
-    import fields (``ImportRules.fields``) as given."""
+class ImportRequest(BaseModel):
+    """What the user said about the file (``None``: not said), one declaration for
+    ``rig import``'s options and ``POST /api/runs/import``'s query (``Flag``: the option);
+    the kind's allowed words are the registry's (``api.core.imports.ImportQuery``)."""
 
+    model_config = ConfigDict(frozen=True)
+
+    #: What the file recorded (``None``: the kind a towrig export's header names); the
+    #: allowed words are the registry's (``api.core.imports.ImportQuery`` narrows it).
     kind: str | None = None
-    force_n: float | None = None
-    torque_nm: float | None = None
-    drive_column: str | None = None
-    drive_unit: str | None = None
-    weight_kg: float | None = None
-    vehicle: str | None = None
+    force_n: Annotated[
+        float | None,
+        Field(description="Tow force, N (tow runs; negative: a reverse tow)."),
+        Flag("--force"),
+    ] = None
+    torque_nm: Annotated[
+        float | None,
+        Field(description="Spin torque, N·m (spin runs; negative: a reverse spin)."),
+        Flag("--torque"),
+    ] = None
+    drive_column: Annotated[
+        str | None,
+        Field(min_length=1, max_length=200,
+              description="Column of the force (tow) or torque (spin) logged per sample, "
+              "instead of a constant force or torque."),
+        Flag("--drive-column", metavar="NAME"),
+    ] = None  # fmt: skip
+    drive_unit: Annotated[
+        str | None,
+        Field(max_length=20,
+              description="Unit of the drive column: N, kN, kgf, gf, lbf (tow); N·m (or N*m), "
+              "kgf·m, … (spin). Default N or N·m."),
+        Flag("--drive-unit", metavar="UNIT"),
+    ] = None  # fmt: skip
+    weight_kg: Annotated[
+        float | None,
+        Field(description="Hung weight, kg, if known (estimation accounts for its inertia)."),
+        Flag("--weight"),
+    ] = None
     #: A tow's body: its own mass, and the mass of water it displaces (kg); an inertia
     #: identified below the body's own mass is flagged (``daq.body_mass``).
-    dry_mass_kg: float | None = None
-    displacement_kg: float | None = None
-    time_unit: str = "s"
-    release_time_s: float | None = None
-    end_time_s: float | None = None
-    fields: dict[str, Any] = field(default_factory=dict)
+    dry_mass_kg: Annotated[
+        float | None,
+        Field(description="Tow: the body's own mass, kg (estimation flags an inertia below it)."),
+        Flag("--dry-mass"),
+    ] = None
+    displacement_kg: Annotated[
+        float | None,
+        Field(description="Tow: the mass of water the body displaces, kg (a floating body's "
+              "own mass)."),
+        Flag("--displacement"),
+    ] = None  # fmt: skip
+    vehicle: Annotated[
+        str | None,
+        Field(min_length=1, max_length=200,
+              description="Vehicle name (default: the export's, else the rig file's, else "
+              "'unknown')."),
+        Flag("--vehicle"),
+    ] = None  # fmt: skip
+    time_unit: Annotated[
+        Literal["s", "ms", "us"],
+        Field(description="Unit of the t column (a median step over 1 s is refused as not "
+              "seconds)."),
+        Flag("--time-unit"),
+    ] = "s"  # fmt: skip
+    release_time_s: Annotated[
+        float | None,
+        Field(description="Brake release, s on the t axis (default: found from the release "
+              "coil or the motion)."),
+        Flag("--release-time"),
+    ] = None  # fmt: skip
+    end_time_s: Annotated[
+        float | None,
+        Field(description="End of free motion, s on the t axis (default: end_of_travel, the "
+              "brake or the carriage at rest)."),
+        Flag("--end-time"),
+    ] = None  # fmt: skip
 
 
 @dataclass(frozen=True)
 class Planning:
-    """What a kind's import rule is given: the request, the file's export header, the
+    """What a kind's import rule is given: the request, the kind's own import fields as
+    given (``fields``: ``ImportRules.fields``), the file's export header, the
     header values taken so far (``restored``, filled in), the rig file the data were
     recorded on and the service's (``default_rig``), and how errors name the rig file."""
 
     kind: str
     request: ImportRequest
+    fields: dict[str, Any]
     header: ExportHeader
     restored: dict[str, Any]
     rig: RigSource | None
@@ -124,7 +184,7 @@ def no_drive(request: ImportRequest, what: str) -> None:
 
 def no_fields(plan: Planning, *, allowed: tuple[str, ...] = ()) -> None:
     """Refuse another kind's import fields (``--stiffness`` on a tow), all but ``allowed``."""
-    for name, value in plan.request.fields.items():
+    for name, value in plan.fields.items():
         if value is not None and name not in allowed:
             raise ParameterError([(name, value, f"not used by a {plan.kind}")])
 
@@ -138,7 +198,7 @@ def tow_dof(plan: Planning) -> dict[str, str]:
     """A tow's ``dof`` as a run parameter: given (``--dof``), else its export header's;
     none when neither says (the default, surge). ``ParameterError`` naming ``dof``, the
     value and :data:`TOW_DOFS` for any other."""
-    dof = plan.request.fields.get("dof")
+    dof = plan.fields.get("dof")
     recorded = plan.header.parameters.get("dof")
     if dof is None and isinstance(recorded, str):
         dof = plan.restored["dof"] = recorded

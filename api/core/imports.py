@@ -1,6 +1,6 @@
 """The rules of a CSV import, one place for ``rig import`` and ``POST /api/runs/import``.
 
-:func:`plan_import` turns what the user said (:class:`ImportRequest`), the file and the rig
+:func:`plan_import` turns what the user said (:class:`ImportQuery`), the file and the rig
 file into the run's kind, parameters, origin and window times, or refuses naming the field
 (``ParameterError``/``ValueError``: exit 2, 422). The kind is given or named by a towrig
 export's own header (``daq.store.export_header``); each kind's own rules (its drive, its
@@ -19,17 +19,38 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal
+
+from pydantic import Field
 
 from daq.import_rules import ImportRequest, Planning, body_mass
 from daq.procedures.params import ParameterError
+from daq.procedures.procedure_request import Flag
 from daq.procedures.run_kinds import IMPORT_KINDS, KINDS
 from daq.store.export_header import ExportHeader, read_export_header, vehicle_in_header
 
 if TYPE_CHECKING:
     from daq.session import RigSource
 
-__all__ = ["IMPORT_KINDS", "ImportPlan", "ImportRequest", "plan_import"]
+__all__ = ["IMPORT_KINDS", "ImportPlan", "ImportQuery", "plan_import"]
+
+#: The registry's importable kinds, as the query's and the option's allowed words.
+ImportKind = Literal[tuple(str(k) for k in IMPORT_KINDS)]  # type: ignore[valid-type]
+
+
+class ImportQuery(ImportRequest):
+    """What the user said about the file: ``rig import``'s options and
+    ``POST /api/runs/import``'s query parameters, each declared once (``daq.import_rules``),
+    and the kind, one of the registry's importable kinds."""
+
+    kind: Annotated[
+        ImportKind | None,  # type: ignore[valid-type]  # the registry's import kinds
+        Field(description="What the file recorded; its position column: "
+              + "; ".join(f"{k}: {s.imports.position}" for k, s in IMPORT_KINDS.items()
+                          if s.imports)
+              + ". Default: the kind a towrig export names in its header."),
+        Flag("--kind"),
+    ] = None  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -44,13 +65,15 @@ class ImportPlan:
 
 def plan_import(
     path: str | Path,
-    request: ImportRequest,
+    request: ImportQuery,
     *,
+    fields: dict[str, Any] | None = None,
     rig: RigSource | None = None,
     pendulum_rig: RigSource | None = None,
     rig_field: str = "rig",
 ) -> ImportPlan:
-    """The import of ``path`` as ``request`` says, checked (module docstring).
+    """The import of ``path`` as ``request`` says, checked (module docstring);
+    ``fields``: the kind's own import fields as given (``import_fields()``, a decay's ``dof``).
 
     ``rig``: the rig file the data were recorded on (limits, drive-train inertia, vehicle);
     ``pendulum_rig``: where a pendulum's geometry comes from when ``rig`` is not given (the
@@ -65,7 +88,7 @@ def plan_import(
     }
     rules = KINDS[kind].imports  # type: ignore[index]  # a RunKind key matches its string
     assert rules is not None  # _kind allows the importable kinds only
-    planning = Planning(kind, request, header, restored, rig, pendulum_rig, rig_field)
+    planning = Planning(kind, request, fields or {}, header, restored, rig, pendulum_rig, rig_field)
     planned, rig = rules.plan(planning)
     options |= planned
     options["parameters"] |= body_mass(planning)

@@ -2,7 +2,9 @@
 
 The import's rules (kind, drive, rig limits, the export's header) are
 ``api.core.imports``'s, shared with ``rig import``; this is the route's face: the query,
-the streamed body, the parse in a child process (``api.core.csv_upload``). The kinds and
+the streamed body, the parse in a child process (``api.core.csv_upload``). The query
+parameters of the file's facts are ``api.core.imports.ImportQuery``'s, as ``rig import``'s
+options are. The kinds and
 each kind's own query parameters (a free decay's ``dof``) are the registry's
 (``daq.procedures.run_kinds.IMPORT_KINDS``, ``import_fields``).
 """
@@ -12,17 +14,17 @@ from __future__ import annotations
 import re
 import tempfile
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Query, Request
 
 from api.core.csv_upload import import_file
-from api.core.imports import ImportRequest, plan_import
+from api.core.imports import ImportQuery, plan_import
 from api.http.deps import ServiceDep, StoreDep, require_write
 from api.http.schemas import ImportOut, csv_upload_body, error_responses
 from api.http.uploads import save_upload
 from daq.procedures.params import ParameterError
-from daq.procedures.run_kinds import IMPORT_KINDS, import_fields
+from daq.procedures.run_kinds import import_fields
 from daq.store.run_metadata import check_run_metadata, check_tag
 
 router = APIRouter(prefix="/api", tags=["runs"])
@@ -32,9 +34,6 @@ _IMPORT_BODY = csv_upload_body(
     "CSV with a header: t (s), position (m or rad), more columns allowed "
     "(a drive logged per sample among them, named by drive_column)."
 )
-
-
-ImportKind = Literal[tuple(str(k) for k in IMPORT_KINDS)]  # type: ignore[valid-type]
 
 
 def _kind_parameters() -> list[dict[str, Any]]:
@@ -93,58 +92,8 @@ async def import_run(
     request: Request,
     store: StoreDep,
     service: ServiceDep,
-    kind: Annotated[
-        ImportKind | None,  # type: ignore[valid-type]  # the registry's import kinds
-        Query(description="What the CSV recorded (default: what a towrig export's header says)."),
-    ] = None,
-    force_n: Annotated[
-        float | None, Query(description="Tow force, N (tow runs; negative: a reverse tow).")
-    ] = None,
-    torque_nm: Annotated[
-        float | None, Query(description="Torque, N·m (spin runs; negative: a reverse spin).")
-    ] = None,
-    drive_column: Annotated[
-        str | None,
-        Query(
-            min_length=1,
-            max_length=200,
-            description="Column of the force (tow) or torque (spin) logged per sample, "
-            "instead of force_n/torque_nm.",
-        ),
-    ] = None,
-    drive_unit: Annotated[
-        str | None,
-        Query(
-            max_length=20,
-            description="Unit of drive_column: N, kN, kgf, gf, lbf (tow); N·m, kgf·m, … "
-            "(spin). Default N or N·m.",
-        ),
-    ] = None,
-    weight_kg: Annotated[float | None, Query(description="Hung weight, kg (optional).")] = None,
-    dry_mass_kg: Annotated[
-        float | None,
-        Query(description="Tow: the body's own mass, kg (estimation flags an inertia below it)."),
-    ] = None,
-    displacement_kg: Annotated[
-        float | None,
-        Query(description="Tow: mass of water the body displaces, kg (a floating body's mass)."),
-    ] = None,
-    vehicle: Annotated[
-        str | None,
-        Query(min_length=1, max_length=200, description="Default: the export's, else unknown."),
-    ] = None,
+    query: Annotated[ImportQuery, Query()],
     filename: Annotated[str, Query(min_length=1, max_length=200)] = DEFAULT_NAME,
-    time_unit: Annotated[
-        Literal["s", "ms", "us"], Query(description="Unit of the t column.")
-    ] = "s",
-    release_time_s: Annotated[
-        float | None,
-        Query(description="Brake release, s on the t axis (default: found in the data)."),
-    ] = None,
-    end_time_s: Annotated[
-        float | None,
-        Query(description="End of free motion, s on the t axis (default: found in the data)."),
-    ] = None,
     operator: Annotated[str | None, Query(description="Run metadata: who ran the test.")] = None,
     water_temperature_c: Annotated[
         float | None, Query(description="Run metadata: water temperature, °C (-2…50).")
@@ -165,12 +114,6 @@ async def import_run(
     back as it was (kind, load, hung weight, release, vehicle from its header, listed in
     ``from_header``). The rules are ``api.core.imports``'s, shared with ``rig import``."""
     metadata = _import_metadata(operator, water_temperature_c, notes, tag)
-    request_ = ImportRequest(
-        kind=kind, force_n=force_n, torque_nm=torque_nm, drive_column=drive_column,
-        drive_unit=drive_unit, weight_kg=weight_kg, vehicle=vehicle, time_unit=time_unit,
-        release_time_s=release_time_s, end_time_s=end_time_s, dry_mass_kg=dry_mass_kg,
-        displacement_kg=displacement_kg, fields=_kind_fields(request),
-    )  # fmt: skip
     name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
         path = Path(folder) / name  # a name, never a path: it stays in the folder
@@ -180,7 +123,13 @@ async def import_run(
             name = _safe_name(base, "the multipart part's filename")
             path = path.rename(Path(folder) / name)  # a name: it stays in the folder
         try:
-            plan = plan_import(path, request_, pendulum_rig=service.source, rig_field="kind")
+            plan = plan_import(
+                path,
+                query,
+                fields=_kind_fields(request),
+                pendulum_rig=service.source,
+                rig_field="kind",
+            )
             run_id, samples = await import_file(
                 store, path, kind=plan.kind, metadata=metadata, **plan.options
             )

@@ -1,0 +1,59 @@
+"""An operation's parameters are declared once, on its request model (``Field``: the
+range and the help; ``Flag``: the option): the route's query parameters and the command's
+options are derived from it, so the two faces cannot drift apart in name, help or range."""
+
+from __future__ import annotations
+
+import click
+import pytest
+from pydantic import BaseModel
+
+from api.cli.main import main
+from api.core.imports import ImportQuery
+from api.core.result_filter import ResultFilter
+from api.core.run_filter import RunFilter
+from api.core.theory import AddedMassQuery, WaterQuery
+from daq.procedures.procedure_request import Flag
+
+#: (model, the route's method and path, the command) of each operation taking a query.
+OPERATIONS = [
+    (ImportQuery, "post", "/api/runs/import", "import"),
+    (RunFilter, "get", "/api/runs", "runs"),
+    (ResultFilter, "get", "/api/results", "results"),
+    (WaterQuery, "get", "/api/water", "water"),
+    (AddedMassQuery, "get", "/api/vehicles/{name}/added-mass", "predict-added-mass"),
+]
+
+
+def _flags(model: type[BaseModel]) -> dict[str, tuple[Flag, str | None]]:
+    return {
+        name: (flag, info.description)
+        for name, info in model.model_fields.items()
+        for flag in info.metadata
+        if isinstance(flag, Flag)
+    }
+
+
+@pytest.mark.parametrize(
+    ("model", "method", "path", "command"), OPERATIONS, ids=[op[3] for op in OPERATIONS]
+)
+def test_route_and_command_take_each_field_of_the_model_with_its_help(
+    client, model, method, path, command
+):
+    parameters = {
+        p["name"]: p
+        for p in client.get("/openapi.json").json()["paths"][path][method]["parameters"]
+        if p["in"] == "query"
+    }
+    with click.Context(main) as ctx:
+        cmd = main.get_command(ctx, command)
+    assert cmd is not None
+    options = {o.name: o for o in cmd.params if isinstance(o, click.Option)}
+    fields = _flags(model)
+    assert fields, f"{model.__name__} declares no option"
+    for name, (flag, description) in fields.items():
+        assert name in parameters, f"{path} has no query parameter {name}"
+        assert parameters[name].get("description") == description, name
+        option = options[name]
+        assert flag.name in option.opts, (name, option.opts)
+        assert option.help == (flag.help or description), name
