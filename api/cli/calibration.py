@@ -4,124 +4,41 @@ or the command for a force)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from api.cli.common import db_option, echo_json, fail, flag_names, json_option, open_store
-from estimation.thrust.calibration_import import COMMAND_UNITS, THRUST_UNITS, stand_columns
+from api.cli.options import request_from, request_options
+from api.core.calibration_queries import StandTableQuery, ThrustQuery
 
 
 @click.command("import-calibration")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
-@click.option(
-    "--command-column",
-    "command_column",
-    default="1",
-    show_default=True,
-    help="Header (or 1-based number) of the command column.",
-)
-@click.option(
-    "--command-unit",
-    "command_unit",
-    type=click.Choice(COMMAND_UNITS),
-    default="fraction",
-    show_default=True,
-    help="pwm_us (with --pwm-neutral/--pwm-span), permille, fraction (−1 … 1) or volts "
-    "(with --full-scale).",
-)
-@click.option("--pwm-neutral", "pwm_neutral_us", type=float, default=1500.0, show_default=True)
-@click.option(
-    "--pwm-span",
-    "pwm_span_us",
-    type=float,
-    default=400.0,
-    show_default=True,
-    help="µs from neutral to full command.",
-)
-@click.option(
-    "--full-scale", "full_scale_v", type=float, help="Command voltage of full command (volts)."
-)
-@click.option(
-    "--thrust-column",
-    "thrust_column",
-    default="2",
-    show_default=True,
-    help="Header (or 1-based number) of the thrust column.",
-)
-@click.option(
-    "--thrust-unit",
-    "thrust_unit",
-    type=click.Choice(list(THRUST_UNITS)),
-    default="N",
-    show_default=True,
-)
-@click.option(
-    "--voltage-column", "voltage_column", help="Header (or number) of the supply-voltage column."
-)
-@click.option(
-    "--voltage",
-    "voltage_v",
-    type=float,
-    help="Supply voltage of the whole table, V (when it has no voltage column).",
-)
-@click.option(
-    "--current-column", "current_column", help="Header (or number) of a current column (A)."
-)
-@click.option("--rpm-column", "rpm_column", help="Header (or number) of an RPM column (rev/min).")
-@click.option(
-    "--power-column", "power_column", help="Header (or number) of an electrical power column (W)."
-)
-@click.option("--name", help="Name to store it under (default: the file name).")
+@request_options(StandTableQuery)
 @db_option
 @json_option
-def import_calibration(
-    file,
-    command_column,
-    command_unit,
-    pwm_neutral_us,
-    pwm_span_us,
-    full_scale_v,
-    thrust_column,
-    thrust_unit,
-    voltage_column,
-    voltage_v,
-    current_column,
-    rpm_column,
-    power_column,
-    name,
-    db_url,
-    as_json,
-):
+def import_calibration(file, db_url, as_json, **options):
     """Import a thrust-stand calibration table (CSV: command, thrust, optional supply
     voltage; `,` or `;` separated, decimal commas and Excel's BOM read); prints its id and
     the thrust law identified from it. Current, RPM and power columns are kept when named or
     when their header says what they are (`Current (A)`, `RPM`, `Power (W)`), with the
     efficiency (N/W) derived from them. No run is needed: thruster-driven tests and `rig
     thrust` use the newest calibration, imported or measured."""
-    from pathlib import Path
-
     from daq.calibration_law import import_calibration as store_table
-    from estimation.thrust.calibration_import import CommandUnit, ImportSpec
 
     ctx = click.get_current_context()
+    # the query POST /api/calibrations/import takes (api.core.calibration_queries)
+    query = request_from(StandTableQuery, options)
     try:
-        spec = ImportSpec(
-            command_column=command_column,
-            thrust_column=thrust_column,
-            thrust_unit=thrust_unit,
-            command=CommandUnit(command_unit, pwm_neutral_us, pwm_span_us, full_scale_v),
-            voltage_column=voltage_column,
-            voltage_v=voltage_v,
-            extra_columns=stand_columns(
-                current_a=current_column, rpm=rpm_column, power_w=power_column
-            ),
-        )
+        spec = query.spec()
         data = Path(file).read_bytes()
     except ValueError as err:
         fail(flag_names(ctx, str(err)))
     store = open_store(db_url)
     try:
         try:
-            summary = store_table(store, data, spec, name or Path(file).name)
+            summary = store_table(store, data, spec, query.name or Path(file).name)
         except ValueError as err:
             fail(f"{Path(file).name}: {flag_names(ctx, str(err))}")
     finally:
@@ -151,15 +68,7 @@ def import_calibration(
 
 
 @click.command("thrust")
-@click.option("--command", "command", type=float, help="Command (fraction −1 … 1): give the force.")
-@click.option("--force", "force_n", type=float, help="Force per thruster, N: give the command.")
-@click.option(
-    "--voltage",
-    "volts",
-    type=click.FloatRange(0, 1000, min_open=True),
-    help="Supply voltage, V (default: the supply the rig recorded last, else the "
-    "calibration's reference voltage; the output says which).",
-)
+@request_options(ThrustQuery)
 @click.option(
     "--calibration",
     "calibration_id",
@@ -168,20 +77,19 @@ def import_calibration(
 )
 @db_option
 @json_option
-def thrust(command, force_n, volts, calibration_id, db_url, as_json):
+def thrust(calibration_id, db_url, as_json, **options):
     """Thrust law of the stored calibration: the force ± σ at --command and --voltage, or the
     command ± σ for --force at --voltage (refused beyond what full command delivers)."""
-    import math
-
     from daq.calibration_catalog import voltage_for
     from daq.calibration_law import NoCalibration, law_of
 
-    if (command is None) == (force_n is None):
-        fail("--command or --force: give exactly one")
-    if command is not None and not (math.isfinite(command) and -1 <= command <= 1):
-        fail(f"--command: got {command:g}, allowed: −1 … 1 (fraction of full command)")
-    if force_n is not None and not math.isfinite(force_n):
-        fail(f"--force: got {force_n}, allowed: a finite force in N")
+    ctx = click.get_current_context()
+    # the query GET /api/thrust takes (api.core.calibration_queries)
+    query = request_from(ThrustQuery, options)
+    try:
+        query.check()
+    except ValueError as err:
+        _fail_naming_flags(ctx, err)
     source, key = None, None
     if calibration_id is not None:
         source, _, key = calibration_id.rpartition(":")
@@ -196,32 +104,34 @@ def thrust(command, force_n, volts, calibration_id, db_url, as_json):
             fail(f"--calibration: {err}" if calibration_id else str(err))
         except ValueError as err:
             fail(f"calibration {info_name(source, key)}: {err}")
-        v, voltage_source = voltage_for(store, law.reference_voltage, volts)
+        v, voltage_source = voltage_for(store, law.reference_voltage, query.voltage_v)
     finally:
         store.close()
     try:
-        if command is not None:
-            out = law.estimate(command, v)
-            answer = {"command": command, "force_n": out.to_json()}
-            text = f"{out.value:.4g} ± {out.std:.2g} N at command {command:g}, {v:g} V"
-        else:
-            out = law.command_for_force(force_n, v)
-            answer = {"force_n": force_n, "command": out.to_json()}
-            text = f"command {out.value:.4g} ± {out.std:.2g} for {force_n:g} N at {v:g} V"
+        answer = query.answer(law, v)
     except ValueError as err:  # beyond what full command delivers at that voltage
-        fail(f"--force: {str(err).removeprefix('force: ')}")
-    answer |= {
-        "voltage_v": v,
-        "voltage_source": voltage_source,
-        "calibration": info,
-        "voltage_law": out.voltage_law,
-    }
+        _fail_naming_flags(ctx, err)
+    given, found = ("command", "force_n") if query.command is not None else ("force_n", "command")
+    out = answer[found]
+    text = (
+        f"{out['value']:.4g} ± {out['std']:.2g} N at command {query.command:g}, {v:g} V"
+        if given == "command"
+        else f"command {out['value']:.4g} ± {out['std']:.2g} for {query.force_n:g} N at {v:g} V"
+    )
+    answer |= {"voltage_v": v, "voltage_source": voltage_source, "calibration": info}
     if as_json:
         echo_json(answer)
     else:
         click.echo(text)
         click.echo(f"supply: {voltage_source}")
-        click.echo(f"calibration: {info['label']}; {out.voltage_law}")
+        click.echo(f"calibration: {info['label']}; {answer['voltage_law']}")
+
+
+def _fail_naming_flags(ctx: click.Context, err: ValueError) -> None:
+    """Exit 2 with ``err``, its leading field names spelled as options (the rest is prose
+    that may use the same words: "command 0.125")."""
+    fields, _, rest = str(err).partition(": ")
+    fail(f"{flag_names(ctx, fields)}: {rest}")
 
 
 @click.command("calibrations")

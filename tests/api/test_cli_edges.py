@@ -166,7 +166,14 @@ case(
     "--command-unit",
     "volts",
 )
-case(2, "--voltage: got 0, allowed: 0 < V ≤ 1000", "import-calibration", "{csv}", "--voltage", "0")
+case(
+    2,
+    "'--voltage': 0.0 is not in the range 0<x<=1000",
+    "import-calibration",
+    "{csv}",
+    "--voltage",
+    "0",
+)
 case(
     2,
     "run.csv: line 2, column 'position': got 0, allowed: a command within full reverse",
@@ -181,7 +188,7 @@ case(
     "--voltage",
     "12",
 )
-case(2, "--command: got 1.5, allowed: −1 … 1", "thrust", "--command", "1.5")
+case(2, "'--command': 1.5 is not in the range -1<=x<=1", "thrust", "--command", "1.5")
 case(2, "--command or --force: give exactly one", "thrust")
 case(2, "no thrust calibration stored", "thrust", "--force", "10")
 case(

@@ -9,6 +9,7 @@ import pytest
 from pydantic import BaseModel
 
 from api.cli.main import main
+from api.core.calibration_queries import StandTableQuery, ThrustQuery
 from api.core.imports import ImportQuery
 from api.core.result_filter import ResultFilter
 from api.core.run_filter import RunFilter
@@ -18,6 +19,8 @@ from daq.procedures.procedure_request import Flag
 #: (model, the route's method and path, the command) of each operation taking a query.
 OPERATIONS = [
     (ImportQuery, "post", "/api/runs/import", "import"),
+    (StandTableQuery, "post", "/api/calibrations/import", "import-calibration"),
+    (ThrustQuery, "get", "/api/thrust", "thrust"),
     (RunFilter, "get", "/api/runs", "runs"),
     (ResultFilter, "get", "/api/results", "results"),
     (WaterQuery, "get", "/api/water", "water"),

@@ -3,20 +3,22 @@ thrust law for a force or a command (``rig import-calibration``, ``rig thrust``)
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from starlette.concurrency import run_in_threadpool
 
+from api.core.calibration_queries import StandTableQuery, ThrustQuery
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import csv_upload_body, error_responses
 from api.http.uploads import upload_bytes
 from daq.calibration_catalog import calibrations, latest, voltage_for
 from daq.calibration_law import NoCalibration, import_calibration, law_of
-from estimation.thrust.calibration_import import CommandUnit, ImportSpec, stand_columns
 
 router = APIRouter(prefix="/api", tags=["calibration"])
+
+#: The stored name of a table when the query names none.
+DEFAULT_NAME = "upload.csv"
 
 _TABLE_BODY = csv_upload_body(
     "CSV with a header: a command column, a thrust column and optionally "
@@ -35,35 +37,14 @@ _TABLE_BODY = csv_upload_body(
 async def import_table(
     request: Request,
     store: StoreDep,
-    command_column: Annotated[str, Query(max_length=200, description="Header or number.")] = "1",
-    command_unit: Annotated[
-        Literal["pwm_us", "permille", "fraction", "volts"], Query()
-    ] = "fraction",
-    pwm_neutral_us: float = 1500.0,
-    pwm_span_us: float = 400.0,
-    full_scale_v: float | None = None,
-    thrust_column: Annotated[str, Query(max_length=200)] = "2",
-    thrust_unit: Annotated[Literal["N", "kgf", "gf", "lbf"], Query()] = "N",
-    voltage_column: Annotated[str | None, Query(max_length=200)] = None,
-    voltage_v: float | None = None,
-    current_column: Annotated[str | None, Query(max_length=200)] = None,
-    rpm_column: Annotated[str | None, Query(max_length=200)] = None,
-    power_column: Annotated[str | None, Query(max_length=200)] = None,
-    name: Annotated[str, Query(min_length=1, max_length=200)] = "upload.csv",
+    query: Annotated[StandTableQuery, Query()],
 ) -> dict[str, Any]:
     """Store a thrust-stand table as a calibration (no run needed) and return the thrust
     law identified from it (``{id, name, rows, law}``). Current, RPM and power columns are
     kept when named, or when their header says what they are (``Current (A)``, ``RPM``,
     ``Power (W)``); efficiency (N/W) is derived from them."""
-    spec = ImportSpec(
-        command_column=command_column,
-        thrust_column=thrust_column,
-        thrust_unit=thrust_unit,
-        command=CommandUnit(command_unit, pwm_neutral_us, pwm_span_us, full_scale_v),
-        voltage_column=voltage_column,
-        voltage_v=voltage_v,
-        extra_columns=stand_columns(current_a=current_column, rpm=rpm_column, power_w=power_column),
-    )
+    spec = query.spec()
+    name = query.name or DEFAULT_NAME
     body = await upload_bytes(request)  # capped by api.http.limits.BodyLimit (UPLOAD_PATHS)
     try:
         return await run_in_threadpool(import_calibration, store, body, spec, name)
@@ -109,51 +90,20 @@ def latest_calibration(store: StoreDep) -> dict[str, Any]:
 )
 async def thrust(
     store: StoreDep,
-    command: Annotated[
-        float | None, Query(ge=-1, le=1, description="Command, fraction: give the force.")
-    ] = None,
-    force_n: Annotated[
-        float | None, Query(description="Force per thruster, N: give the command.")
-    ] = None,
-    voltage_v: Annotated[
-        float | None,
-        Query(
-            gt=0,
-            le=1000,
-            description="Supply voltage (default: the supply the rig recorded last, else the "
-            "calibration's reference voltage; ``voltage_source`` says which).",
-        ),
-    ] = None,
+    query: Annotated[ThrustQuery, Query()],
     source: Annotated[Literal["imported", "run"] | None, Query()] = None,
     calibration_id: Annotated[int | None, Query(ge=1)] = None,
 ) -> dict[str, Any]:
     """The thrust law of the newest calibration (or ``source`` + ``calibration_id``): force
     ± σ at ``command`` and ``voltage_v``, or the command ± σ for ``force_n`` (422 naming the
     largest force full command delivers at that voltage when it is beyond)."""
-    if (command is None) == (force_n is None):
-        raise ValueError("command or force_n: give exactly one")
-    if force_n is not None and not math.isfinite(force_n):
-        raise ValueError(f"force_n: got {force_n}, allowed: a finite force in N")
+    query.check()
     try:
         law, info = await run_in_threadpool(law_of, store, source, calibration_id)
     except NoCalibration as err:
         raise HTTPException(404, str(err)) from None
     volts, voltage_source = await run_in_threadpool(
-        voltage_for, store, law.reference_voltage, voltage_v
+        voltage_for, store, law.reference_voltage, query.voltage_v
     )
-    if command is not None:
-        out = law.estimate(command, volts)
-        answer: dict[str, Any] = {"command": command, "force_n": out.to_json()}
-    else:
-        assert force_n is not None  # exactly one of the two is given (checked above)
-        try:
-            out = law.command_for_force(force_n, volts)
-        except ValueError as err:
-            raise ValueError(f"force_n: {str(err).removeprefix('force: ')}") from None
-        answer = {"force_n": force_n, "command": out.to_json()}
-    return answer | {
-        "voltage_v": volts,
-        "voltage_source": voltage_source,
-        "calibration": info,
-        "voltage_law": out.voltage_law,
-    }
+    answer = query.answer(law, volts)
+    return answer | {"voltage_v": volts, "voltage_source": voltage_source, "calibration": info}
