@@ -17,10 +17,10 @@ from api.cli.common import (
 from api.cli.options import request_from, request_options
 from api.core import sixdof as sixdof_common
 from api.core import theory as theory_common
-from daq.store import ResultNotFound
+from daq.store import ResultInfo, ResultNotFound
 
 
-def _stored(result_ids: tuple[int, ...], db_url: str | None) -> list[tuple[int, dict]]:
+def _stored(result_ids: tuple[int, ...], db_url: str | None) -> list[ResultInfo]:
     """The stored estimation results (id, data) for ``--estimate``."""
     store = open_store(db_url)
     try:

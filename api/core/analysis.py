@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from api.core.sixdof import find_vehicle
+from api.core.sixdof import find_vehicle, stored_estimates
 from daq.run_data import load_run_data
 from daq.store import Store
 from estimation.vehicle.ahp import Hierarchy, Judgement, hierarchy, judge
@@ -21,14 +21,8 @@ def stored_results(
     a ValueError naming it."""
     docs: list[dict[str, Any]] = []
     speeds: dict[str, list[float]] = {}  # axis → end speeds, m/s or rad/s
-    for result_id in result_ids:
-        found = store.result(result_id)
-        if found.kind != "estimation":
-            raise ValueError(
-                f"estimates: result {result_id} is a {found.kind!r} result, "
-                "allowed: estimation results"
-            )
-        doc = dict(found.data) | {"result_id": result_id}
+    for found in stored_estimates(store, result_ids):
+        doc = dict(found.data) | {"result_id": found.id}
         docs.append(doc)
         for run_id in found.run_ids:
             try:

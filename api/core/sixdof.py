@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from daq.procedures.params import ParameterError
 from daq.procedures.procedure_request import Flag, comma_separated_floats
-from daq.store import Store
+from daq.store import ResultInfo, Store
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
 from estimation.vehicle.dynamics import allocation_matrix
@@ -174,8 +174,8 @@ def vehicle_detail(name: str) -> dict[str, Any]:
     }
 
 
-def stored_estimates(store: Store, result_ids: Sequence[int]) -> list[tuple[int, dict]]:
-    """The stored estimation results (id, data) to plug in, in order: ``ResultNotFound``
+def stored_estimates(store: Store, result_ids: Sequence[int]) -> list[ResultInfo]:
+    """The stored estimation results named by ``estimates``, in order: ``ResultNotFound``
     for an unknown id, ``ValueError`` naming the field for a result of another kind."""
     found = []
     for result_id in result_ids:
@@ -185,14 +185,14 @@ def stored_estimates(store: Store, result_ids: Sequence[int]) -> list[tuple[int,
                 f"estimates: result {result_id} is a {result.kind!r} result, "
                 "allowed: estimation results"
             )
-        found.append((result_id, result.data))
+        found.append(result)
     return found
 
 
-def apply_results(vehicle: Vehicle6, results: Sequence[tuple[int, dict]]) -> tuple[Vehicle6, list]:
-    """Plug stored estimation results (id, data) into the vehicle, in order."""
+def apply_results(vehicle: Vehicle6, results: Sequence[ResultInfo]) -> tuple[Vehicle6, list]:
+    """Plug stored estimation results into the vehicle, in order."""
     applied = []
-    for result_id, data in results:
+    for result_id, data in ((r.id, r.data) for r in results):
         vehicle = apply_result_json(vehicle, data, f"result {result_id}")
         axis = data.get("dof") or data["axis"]  # a tow imported as heave plugs into heave
         applied.append(
