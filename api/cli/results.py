@@ -18,6 +18,7 @@ from api.cli.common import (
 )
 from api.cli.options import request_from, request_options
 from api.core.result_filter import ResultFilter
+from api.core.result_subject import subject
 
 
 def _pm(cell: dict | None) -> str:
@@ -77,14 +78,11 @@ def results(limit, compare, compare_ids, db_url, as_json, **chosen):
             except ValueError as err:  # a day, a date-time or a zone none of the forms
                 fail(flag_names(click.get_current_context(), str(err)))
         if as_json:
-            return echo_json([r.to_json() for r in found])
+            return echo_json([r.to_json() | {"subject": subject(r.kind, r.data)} for r in found])
         for r in found:
-            named = ("dof" if r.data.get("dof") else "axis", "method")  # a tow's heave
-            what = " / ".join(str(r.data[k]) for k in named if r.data.get(k))
+            what = subject(r.kind, r.data)
             runs = " ".join(i[:8] for i in r.run_ids)
-            click.echo(
-                f"#{r.id:<5} {r.kind:<12} {r.created_at:%Y-%m-%d %H:%M}  {what or '—':<28} {runs}"
-            )
+            click.echo(f"#{r.id:<5} {r.kind:<12} {r.created_at:%Y-%m-%d %H:%M}  {what:<32} {runs}")
         return None
     finally:
         store.close()

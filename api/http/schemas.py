@@ -370,6 +370,9 @@ class ResultOut(BaseModel):
     run_ids: list[str]
     software_version: str
     data: dict[str, Any]
+    subject: str = Field(
+        "—", description="What it is of: the record and method (surge tow / output-error)."
+    )
     report_plots: list[str] = Field([], description="Names for GET .../report/{name}.png")
 
 

@@ -18,6 +18,7 @@ from api.core.jobs import REPORT_SUFFIXES, JobRunner
 from api.core.report_archive import archive_name, report_zip
 from api.core.result_compare import compare_results, parse_ids
 from api.core.result_filter import ResultFilter
+from api.core.result_subject import subject
 from api.http.deps import RunnerDep, StoreDep, require_read
 from api.http.paging import Offset, ResultsLimit
 from api.http.schemas import ResultOut, error_responses, file_response
@@ -30,6 +31,7 @@ _READ = error_responses(401, 404, 422)
 
 def _result_json(result: ResultInfo, runner: JobRunner) -> dict:
     data = without_report_files(result.to_json())
+    data["subject"] = subject(result.kind, result.data)
     data["report_plots"] = runner.report_names(result.id)
     return data
 

@@ -14,7 +14,6 @@ const RESULTS_PAGE = 20;
 const resultsState = { offset: 0, open: null };
 
 const resultLink = (id) => `<a href="#results/${Number(id)}" class="result-link">#${Number(id)}</a>`;
-const resultWhat = (r) => [r.data.dof || r.data.axis || r.data.analysis, r.data.method].filter(Boolean).join(" / ") || "—";
 
 async function loadResults() {
   const params = new URLSearchParams({ limit: RESULTS_PAGE, offset: resultsState.offset, tz: TIME_ZONE });
@@ -40,7 +39,7 @@ async function loadResults() {
       (r) => `<tr data-result="${Number(r.id)}"${r.id === resultsState.open ? ' class="selected"' : ""}>
       <td><input type="checkbox" value="${Number(r.id)}" aria-label="compare result ${Number(r.id)}"></td>
       <td>${resultLink(r.id)}</td><td>${esc(r.kind)}</td><td>${esc(new Date(r.created_at).toLocaleString())}</td>
-      <td>${esc(resultWhat(r))}</td><td>${r.run_ids.map((id) => `<code>${esc(id.slice(0, 8))}</code>`).join(" ")}</td>
+      <td>${esc(r.subject)}</td><td>${r.run_ids.map((id) => `<code>${esc(id.slice(0, 8))}</code>`).join(" ")}</td>
       <td><button type="button" class="result-zip">report.zip</button> <button type="button" class="result-json">JSON</button></td></tr>`,
     )
     .join("");
@@ -110,7 +109,7 @@ export async function showRunResults(runId) {
     return;
   }
   list.innerHTML = found.length
-    ? found.map((r) => `<li>${resultLink(r.id)} ${esc(r.kind)} — ${esc(resultWhat(r))}, made ${esc(new Date(r.created_at).toLocaleString())}</li>`).join("")
+    ? found.map((r) => `<li>${resultLink(r.id)} ${esc(r.kind)} — ${esc(r.subject)}, made ${esc(new Date(r.created_at).toLocaleString())}</li>`).join("")
     : `<li class="muted">none yet</li>`;
 }
 
