@@ -1,5 +1,6 @@
 """A finished tow estimation on the Estimation page in real headless Chromium shows each
-coefficient's value ± U with its budget table (declared Type B rows, the dominant source)."""
+coefficient's value ± U in a summary table and its budget table (declared Type B rows, the
+dominant source)."""
 
 from __future__ import annotations
 
@@ -24,3 +25,7 @@ def test_estimation_page_shows_the_uncertainty_budget(chromium, client, service)
         expect(head).to_contain_text("inertia = ")
         expect(head).to_contain_text("dominant:")
         expect(page.locator("#est-uncertainty")).to_contain_text("k = 1.96")
+        # read first: one summary row per quantity, value ± U and its dominant source
+        summary = page.locator("#est-uncertainty table.est-budget-summary tr[data-quantity='inertia']")
+        expect(summary).to_contain_text("±")
+        expect(summary).to_be_visible()

@@ -102,6 +102,7 @@ export async function renderEstimation(res) {
   renderUncertainty(res);
   for (const view of Object.values(resultViews)) view.clear();
   const view = resultViews[res.analysis];
+  $("#est-fit-plot").hidden = false;
   if (view) return view.render(res);
   // the position's unit on the result's axis (a decay's dof), from its estimator's units
   const unit = ((await axisUnits())[res.axis || res.dof] || {}).position || "";
@@ -123,7 +124,7 @@ export async function renderEstimation(res) {
   // a tow imported as heave names its dof; a decay names its dof instead of an axis
   const axis = res.axis ? res.dof || res.axis : `${res.dof} ${res.kind}`;
   kv($("#est-rmse"), [
-    ["Axis / method", `${axis} / ${res.method || "output-error"}`],
+    ["Record / method", `${axis} / ${res.method || "output-error"}`],
     ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],
     ["RMSE after", `${fmt(res.rmse_after, 3)} ${unit}`],
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
@@ -137,9 +138,12 @@ export async function renderEstimation(res) {
     [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
   showReverseButton(res.reverse_test);
   const perRun = Object.keys(res.rmse_per_run_before || {});
+  // a result without per-run residuals (a free decay's) draws no empty chart
+  $("#est-fit-plot").hidden = !perRun.length;
+  if (!perRun.length) Plotly.purge("est-fit-plot");
   // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
   const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
-  Plotly.newPlot(
+  if (perRun.length) Plotly.newPlot(
     "est-fit-plot",
     [
       { x: runLabels, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },

@@ -1,6 +1,7 @@
 // Estimation page: the uncertainty budget of each coefficient (ITTC 7.5-02-01-01 / GUM, 95 %)
 // and the repeat-run analysis of a tow/spin result (docs/uncertainty.md), under the
-// coefficients. Rendered from the result's `budget` and `repeats`.
+// coefficients: a summary row per quantity (value ± U, k, ν_eff, u_c, dominant source), then each
+// quantity's sources (folded when there are more than three). From the result's `budget` and `repeats`.
 import { $ } from "./dom.js";
 import { fmt } from "./format.js";
 import { esc } from "./markup.js";
@@ -18,25 +19,33 @@ export function renderUncertainty(res) {
   const notes = (budget.notes || []).map((n) => `<p class="${n.startsWith("Type B not declared") ? "error" : "muted"}">${esc(n)}</p>`).join("");
   // the coefficients, then the combinations the record determines well (a decay's T₀, ζ)
   const budgeted = { ...(budget.coefficients || {}), ...(budget.combinations || {}) };
-  const tables = Object.entries(budgeted).map(([name, c]) => {
+  // ν_eff ≥ 10⁴ is ∞ to k's four digits (estimation/uncertainty/text.py says the same)
+  const dofOf = (c) => (c.effective_dof === null || c.effective_dof >= 1e4 ? "∞" : fmt(c.effective_dof, 3));
+  const entries = Object.entries(budgeted);
+  // one summary row per quantity, read first; each quantity's sources in its own table below
+  // (folded when there are many: a decay's T₀ and ζ at every amplitude)
+  const summary = `<table class="list est-budget-summary"><thead><tr><th>Quantity</th><th>Value ± U (95 %)</th><th>k</th><th>ν_eff</th><th>u_c</th><th>Dominant source</th></tr></thead><tbody>${entries
+    .map(([name, c]) => `<tr data-quantity="${esc(name)}"><td>${esc(name)}</td><td><strong>${esc(c.reported)}</strong></td><td>${esc(fmt(c.coverage_factor, 4))}</td><td>${esc(dofOf(c))}</td><td>${esc(fmt(c.combined_standard_uncertainty, 3))}</td><td>${esc(c.dominant_source)}</td></tr>`)
+    .join("")}</tbody></table>`;
+  const tables = entries.map(([name, c]) => {
     const rows = (c.rows || []).map((r) => `<tr${r.combined ? "" : ' class="muted"'}>
         <td>${esc(r.source)}</td><td>${esc(r.type)}</td>
         <td>${esc(fmt(r.standard_uncertainty, 3))} ${esc(r.unit)}</td><td>${esc(fmt(r.sensitivity, 3))}</td>
         <td>${esc(fmt(r.contribution, 3))}</td>
         <td>${r.combined ? `${(100 * (r.share || 0)).toFixed(1)} %` : "not combined"}</td>
         <td class="muted">${esc(r.note || "")}</td></tr>`).join("");
-    // ν_eff ≥ 10⁴ is ∞ to k's four digits (estimation/uncertainty/text.py says the same)
-    const dof = c.effective_dof === null || c.effective_dof >= 1e4 ? "∞" : fmt(c.effective_dof, 3);
     return `<h4 class="est-budget-head"><strong>${esc(name)} = ${esc(c.reported)}</strong>
-        <span class="muted">(95 %, k = ${esc(fmt(c.coverage_factor, 4))}, ν_eff = ${esc(dof)}, u_c = ${esc(fmt(c.combined_standard_uncertainty, 3))}; dominant: ${esc(c.dominant_source)})</span></h4>
+        <span class="muted">(95 %, k = ${esc(fmt(c.coverage_factor, 4))}, ν_eff = ${esc(dofOf(c))}, u_c = ${esc(fmt(c.combined_standard_uncertainty, 3))}; dominant: ${esc(c.dominant_source)})</span></h4>
       <table class="list est-budget" data-coefficient="${esc(name)}"><thead><tr><th>Source</th><th>Type</th><th>u</th><th>Sensitivity c</th><th>Contribution c·u</th><th>Share</th><th>Note</th></tr></thead>
       <tbody>${rows}</tbody></table>`;
   }).join("");
+  const folded = entries.length > 3;
+  const details = `<details class="est-budget-details"${folded ? "" : " open"}><summary>Sources of each quantity's uncertainty (${entries.length} budgets)</summary>${tables}</details>`;
   const repeats = res.repeats;
   let rep = "";
   if (repeats && (repeats.conditions || []).some((c) => c.n > 1)) {
     rep = `<h4>Repeat runs <span class="muted">(${esc(repeats.outlier_test)})</span></h4>
       <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>Terminal speed</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${esc(c.n)}</td><td>${esc(fmt(c.mean, 5))}</td><td>${esc(c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3))}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
   }
-  box.innerHTML = `<h3>Uncertainty (ITTC / GUM, 95 %)</h3>${notes}${tables}${rep}`;
+  box.innerHTML = `<h3>Uncertainty (ITTC / GUM, 95 %)</h3>${notes}${summary}${details}${rep}`;
 }

@@ -25,7 +25,7 @@ const MARKUP_NAMES = {
   "results.js": ["resultLink", "heads", "body", "cell"], // links, the comparison's cells
   "runs.js": ["tags", "source"], // run_text.js's cells
   "start_forms.js": ["label", "tip", "options", "hint", "fields"], // a form's escaped pieces
-  "uncertainty.js": ["notes", "tables", "rep", "rows"], // the budget's parts
+  "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows"], // the budget's parts
 };
 
 // ---- a small lexer: template literals with their interpolations, strings, comments, regexes
