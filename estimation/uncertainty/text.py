@@ -26,11 +26,23 @@ def _budgeted(budget: dict[str, Any]) -> dict[str, Any]:
     return {**budget["coefficients"], **(budget.get("combinations") or {})}
 
 
+def _summary_row(c: dict[str, Any]) -> tuple[str, str, str, str, str]:
+    """(value ± U, k, ν_eff, u_c, dominant source) of one budgeted quantity, as printed."""
+    if c["expanded_uncertainty"] is None:  # not identified: no budget
+        return c["reported"], "—", "—", "—", "—"
+    return (c["reported"], _g(c["coverage_factor"], ".3f"), _dof(c["effective_dof"]),
+            _g(c["combined_standard_uncertainty"]), c["dominant_source"])  # fmt: skip
+
+
 def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> str:
-    """## Uncertainty: per coefficient (and well-determined combination), the reported
-    value ± U and the budget table."""
+    """## Uncertainty: a summary table (per coefficient and well-determined combination,
+    value ± U, k, ν_eff, u_c and the dominant source), then each one's budget table."""
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
     lines += [f"**{n}**" for n in budget["notes"]]
+    lines += ["", "| quantity | value ± U (95 %) | k | ν_eff | u_c | dominant source |",
+              "|---|---|---|---|---|---|"]  # fmt: skip
+    lines += [f"| {name} | " + " | ".join(_summary_row(c)) + " |"
+              for name, c in _budgeted(budget).items()]  # fmt: skip
     for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None:  # not identified: no budget to show
             lines += ["", f"### {name}: {c['reported']}"]
@@ -72,12 +84,18 @@ def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = Non
 
 
 def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> list[str]:
-    """Plain lines for the terminal: each coefficient's (and well-determined combination's)
-    value ± U, then its budget table."""
+    """Plain lines for the terminal: one summary line per coefficient (and well-determined
+    combination) — value ± U, k, ν_eff, the dominant source — then the budget table of each
+    one with more than one source (a single source is its summary line again)."""
     out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
-    for name, c in _budgeted(budget).items():
-        if c["expanded_uncertainty"] is None:  # not identified: no budget to show
-            out.append(f"  {name} = {c['reported']}")
+    budgeted = _budgeted(budget)
+    width = max((len(name) for name in budgeted), default=8) + 2
+    out.append(f"  {'quantity':<{width}} {'value ± U':<24} {'k':>6} {'ν_eff':>6}  dominant source")
+    for name, c in budgeted.items():
+        reported, k, dof, _, dominant = _summary_row(c)
+        out.append(f"  {name:<{width}} {reported:<24} {k:>6} {dof:>6}  {dominant}")
+    for name, c in budgeted.items():
+        if c["expanded_uncertainty"] is None or len(c["rows"]) < 2:
             continue
         out.append(
             f"  {name} = {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "

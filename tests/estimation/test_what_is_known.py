@@ -122,6 +122,13 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     assert set(doc["combinations"]) == set(budget.combinations)
     assert any(line.startswith("  natural period T₀ = ") for line in budget_lines(doc))
     assert "### natural period T₀: " in budget_markdown(doc)
+    # the terminal reads a summary line per quantity first; a budget of one source (the fit
+    # alone, nothing declared) is that line again, so it prints no table of its own
+    fit_only = budget_lines(motion_budget(r).to_json())
+    summary = [line for line in fit_only if line.startswith("  natural period T₀ ")]
+    assert len(summary) == 1 and "±" in summary[0] and "fit" in summary[0]
+    assert not any(line.lstrip().startswith("source ") for line in fit_only)
+    assert "| natural period T₀ | " in budget_markdown(doc)  # the report's summary table
 
 
 def test_a_pendulum_swing_reports_what_it_determines_first():
