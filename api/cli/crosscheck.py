@@ -8,6 +8,7 @@ from api.cli.common import (
     db_option,
     echo_json,
     fail,
+    flag_names,
     json_option,
     number,
     open_store,
@@ -16,59 +17,55 @@ from api.cli.common import (
     report_option,
     user_errors,
 )
+from api.cli.options import request_from, request_options
 from api.core.crosscheck_job import crosscheck_results, crosscheck_runs
+from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from estimation.axis.crosscheck_comparison import LABELS
 
 
 @click.command("crosscheck")
-@click.option(
-    "--weight", "weight_runs", multiple=True, metavar="RUN", help="A weight-driven run (repeat)."
-)
-@click.option(
-    "--thrusters",
-    "thruster_runs",
-    multiple=True,
-    metavar="RUN",
-    help="A thruster-driven run (repeat).",
-)
-@click.option(
-    "--results",
-    nargs=2,
-    type=int,
-    default=None,
-    metavar="WEIGHT_RESULT_ID THRUSTER_RESULT_ID",
-    help="Compare two stored estimation results instead (no fitting).",
-)
-@click.option("--no-effects", is_flag=True, help="Estimate the base model only (with --weight).")
+@request_options(CrossCheckJobRequest, required=False)
+@request_options(CrossCheckRequest, required=False)
 @report_option("Write report.md and the figure crosscheck.png/.svg here.")
 @db_option
 @json_option
-def crosscheck(weight_runs, thruster_runs, results, no_effects, report_dir, db_url, as_json):
+def crosscheck(report_dir, db_url, as_json, **options):
     """Estimate weight-driven and thruster-driven runs of one axis (or take two stored
     estimation results) and compare the coefficients in σ units; a disagreement points
     at the thrust calibration or at an effect."""
-    if results and (weight_runs or thruster_runs):
-        fail("--results: give either --results or --weight/--thrusters runs, not both")
-    if not results and not (weight_runs and thruster_runs):
-        fail("--weight and --thrusters: give at least one run of each (or --results A B)")
+    # POST /api/jobs/crosscheck's body, or POST /api/crosscheck's (api.core.crosscheck_requests)
+    results = options["weight_result_id"] is not None or options["thruster_result_id"] is not None
+    if results and (options["weight_runs"] or options["thruster_runs"]):
+        fail("--weight-result/--thruster-result: give two results or --weight/--thrusters runs, "
+             "not both")  # fmt: skip
+    if not results and not (options["weight_runs"] and options["thruster_runs"]):
+        fail("--weight and --thrusters: give at least one run of each (or --weight-result ID "
+             "--thruster-result ID)")  # fmt: skip
+    pair = request_from(CrossCheckRequest, options) if results else None
+    runs = None if results else request_from(CrossCheckJobRequest, options)
     report_folder(report_dir)
     store = open_store(db_url)
     try:
         with user_errors():
             try:
-                if results:
-                    data = crosscheck_results(store, *results, report_dir=report_dir)
-                else:
-                    data = crosscheck_runs(
+                if pair is not None:
+                    data = crosscheck_results(
                         store,
-                        list(weight_runs),
-                        list(thruster_runs),
-                        search_effects=not no_effects,
+                        pair.weight_result_id,
+                        pair.thruster_result_id,
                         report_dir=report_dir,
                     )
-            except ValueError as err:  # the API's field names are the order of --results
-                message = str(err).replace("weight_result_id", "--results (first)")
-                fail(message.replace("thruster_result_id", "--results (second)"))
+                else:
+                    assert runs is not None
+                    data = crosscheck_runs(
+                        store,
+                        runs.weight_runs,
+                        runs.thruster_runs,
+                        search_effects=runs.search_effects,
+                        report_dir=report_dir,
+                    )
+            except ValueError as err:  # named as the command line spells it
+                fail(flag_names(click.get_current_context(), str(err)))
         if as_json:
             echo_json(data)
             return

@@ -84,8 +84,16 @@ F = TypeVar("F", bound=Callable[..., Any])
 M = TypeVar("M", bound=BaseModel)
 
 
-def request_options(model: type[BaseModel]) -> Callable[[F], F]:
-    """A decorator adding one option per flagged field of ``model`` (in field order)."""
+def _element(annotation: Any) -> Any:
+    """``list[str]`` → ``str``; ``None`` for anything but a list."""
+    base = _base_type(annotation)
+    return typing.get_args(base)[0] if typing.get_origin(base) is list else None
+
+
+def request_options(model: type[BaseModel], *, required: bool = True) -> Callable[[F], F]:
+    """A decorator adding one option per flagged field of ``model`` (in field order): a list
+    field is a repeatable option. ``required=False``: no option is required on the command
+    line (a command offering two requests checks the one the user chose)."""
     options = []
     for name, info in model.model_fields.items():
         flag = _flag(info)
@@ -93,6 +101,16 @@ def request_options(model: type[BaseModel]) -> Callable[[F], F]:
             continue
         if flag.when_set is not None:
             option = click.option(flag.name, name, is_flag=True, help=flag.help or info.description)
+        elif flag.parse is None and (element := _element(info.annotation)) is not None:
+            option = click.option(
+                flag.name,
+                name,
+                type=element,
+                multiple=True,
+                required=required and info.is_required(),
+                metavar=flag.metavar,
+                help=(flag.help or info.description or "") + " (repeatable)",
+            )
         else:
             # a required field has no default at all (click ≥ 8.3 takes None as one)
             default = {} if info.is_required() else {"default": info.default}
@@ -100,7 +118,7 @@ def request_options(model: type[BaseModel]) -> Callable[[F], F]:
                 flag.name,
                 name,
                 type=_click_type(info, flag),
-                required=info.is_required(),
+                required=required and info.is_required(),
                 show_default=default.get("default") is not None,
                 metavar=flag.metavar,
                 help=flag.help or info.description,
@@ -127,6 +145,9 @@ def request_fields(model: type[BaseModel], values: dict[str, Any]) -> dict[str, 
         if flag.when_set is not None:
             if value:
                 given[name] = flag.when_set
+        elif isinstance(value, tuple):  # a repeatable option: given when repeated at least once
+            if value:
+                given[name] = list(value)
         elif value is not None:
             given[name] = value
     return given

@@ -1,6 +1,7 @@
 """Cross-check on stored results or runs: compare, store (kind ``crosscheck``), report.
 
-Shared by ``rig crosscheck`` and the HTTP API so both give the same JSON.
+Shared by ``rig crosscheck`` and the HTTP API so both give the same JSON; what each takes is
+``api.core.crosscheck_requests``'.
 """
 
 from __future__ import annotations

@@ -90,25 +90,6 @@ class SequenceRequest(ProcedureRequest):
     )
 
 
-class CrossCheckRequest(StrictRequest):
-    """Two stored estimation results of one axis: weight-driven and thruster-driven."""
-
-    weight_result_id: int = Field(
-        ge=1, le=2**53, description="Estimation result of weight-driven runs."
-    )
-    thruster_result_id: int = Field(
-        ge=1, le=2**53, description="Estimation result of thruster-driven runs."
-    )
-
-
-class CrossCheckJobRequest(StrictRequest):
-    """Weight-driven and thruster-driven runs of one axis, estimated and cross-checked."""
-
-    weight_runs: list[str] = Field(min_length=1, max_length=50, description="Run ids.")
-    thruster_runs: list[str] = Field(min_length=1, max_length=50, description="Run ids.")
-    search_effects: bool = True
-
-
 # ---- jobs --------------------------------------------------------------------------------
 class JobProgress(BaseModel):
     fraction: float = Field(description="0..1")

@@ -57,7 +57,15 @@ case(2, f"no result with id {HUGE}", "results", "--compare", HUGE, "1")
 case(2, "no run with id 'zzz'", "estimate", "{run}", "zzz")
 case(2, "no run with id 'zzz'", "crosscheck", "--weight", "zzz", "--thrusters", "{run}")
 case(2, "matches several runs", "crosscheck", "--weight", "{ambiguous}", "--thrusters", "{run}")
-case(2, "--results (first): " + HUGE, "crosscheck", "--results", HUGE, "1")
+case(
+    2,
+    f"'--weight-result': {HUGE} is not in the range",
+    "crosscheck",
+    "--weight-result",
+    HUGE,
+    "--thruster-result",
+    "1",
+)
 case(  # refused as POST /api/sixdof/simulate refuses it: ids are at most 2^62
     2, f"--estimate[0]: {HUGE} is not allowed", "sixdof", "benbam", "--commands", "0.5,0.5",
     "--estimate", HUGE,

@@ -10,6 +10,7 @@ from pydantic import BaseModel
 
 from api.cli.main import main
 from api.core.calibration_queries import StandTableQuery, ThrustQuery
+from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from api.core.imports import ImportQuery
 from api.core.result_filter import ResultFilter
 from api.core.run_filter import RunFilter
@@ -37,6 +38,34 @@ def _flags(model: type[BaseModel]) -> dict[str, tuple[Flag, str | None]]:
     }
 
 
+#: (model, the route's method and path, the command) of operations taking a JSON body.
+BODIES = [
+    (CrossCheckRequest, "post", "/api/crosscheck", "crosscheck"),
+    (CrossCheckJobRequest, "post", "/api/jobs/crosscheck", "crosscheck"),
+]
+
+
+def _command(name: str) -> dict[str, click.Option]:
+    with click.Context(main) as ctx:
+        cmd = main.get_command(ctx, name)
+    assert cmd is not None
+    return {o.name: o for o in cmd.params if isinstance(o, click.Option) and o.name}
+
+
+@pytest.mark.parametrize(("model", "method", "path", "command"), BODIES, ids=[b[2] for b in BODIES])
+def test_route_body_and_command_take_each_field_of_the_model_with_its_help(
+    client, model, method, path, command
+):
+    spec = client.get("/openapi.json").json()
+    ref = spec["paths"][path][method]["requestBody"]["content"]["application/json"]["schema"]
+    assert ref["$ref"].rsplit("/", 1)[-1] == model.__name__  # the body is the model itself
+    options = _command(command)
+    for name, (flag, description) in _flags(model).items():
+        option = options[name]
+        assert flag.name in option.opts, (name, option.opts)
+        assert (option.help or "").startswith(flag.help or description or ""), name
+
+
 @pytest.mark.parametrize(
     ("model", "method", "path", "command"), OPERATIONS, ids=[op[3] for op in OPERATIONS]
 )
@@ -48,10 +77,7 @@ def test_route_and_command_take_each_field_of_the_model_with_its_help(
         for p in client.get("/openapi.json").json()["paths"][path][method]["parameters"]
         if p["in"] == "query"
     }
-    with click.Context(main) as ctx:
-        cmd = main.get_command(ctx, command)
-    assert cmd is not None
-    options = {o.name: o for o in cmd.params if isinstance(o, click.Option)}
+    options = _command(command)
     fields = _flags(model)
     assert fields, f"{model.__name__} declares no option"
     for name, (flag, description) in fields.items():

@@ -71,8 +71,9 @@ def test_crosscheck_runs_then_stored_results(stored, tmp_path):
 
     done = rig(
         "crosscheck",
-        "--results",
+        "--weight-result",
         str(doc["weight_result_id"]),
+        "--thruster-result",
         str(doc["thruster_result_id"]),
         db=db,
     )
@@ -85,9 +86,11 @@ def test_crosscheck_input_errors(stored):
     db, first, _ = stored
     done = rig("crosscheck", "--weight", first[0], db=db)
     assert done.returncode == 2 and "give at least one run of each" in done.stderr
-    done = rig("crosscheck", "--results", "999", "1", db=db)
+    done = rig("crosscheck", "--weight-result", "999", "--thruster-result", "1", db=db)
     assert done.returncode == 2
-    assert "--results (first): 999 is not allowed" in done.stderr  # the flag, not the field
+    assert "--weight-result: 999 is not allowed" in done.stderr  # the flag, not the field
+    done = rig("crosscheck", "--weight-result", "1", "--weight", first[0], db=db)
+    assert done.returncode == 2 and "not both" in done.stderr
 
 
 def test_thruster_tow_without_a_calibration_is_refused(tmp_path):

@@ -10,14 +10,9 @@ from pathlib import Path
 from fastapi import APIRouter, Depends
 from starlette.concurrency import run_in_threadpool
 
+from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from api.http.deps import OperatorDep, RunnerDep, StoreDep, require_read, require_write
-from api.http.schemas import (
-    CrossCheckJobRequest,
-    CrossCheckRequest,
-    JobOut,
-    ResultOut,
-    error_responses,
-)
+from api.http.schemas import JobOut, ResultOut, error_responses
 
 router = APIRouter(prefix="/api", tags=["crosscheck"])
 
