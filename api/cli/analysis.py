@@ -13,14 +13,16 @@ from api.cli.common import (
     echo_json,
     estimate_option,
     fail,
+    flag_names,
     json_option,
     number,
     open_store,
 )
+from api.cli.options import request_from, request_options
 from api.core import analysis as analysis_common
 from api.core import sixdof as sixdof_common
+from api.core.sensitivity_request import SensitivityRequest
 from daq.store import ResultNotFound
-from estimation.vehicle.responses import RESPONSE_NAMES
 
 
 def _pct(x: float | None) -> str:
@@ -115,23 +117,7 @@ def _print(out: dict) -> None:
 @click.command("sensitivity")
 @click.argument("vehicle")
 @estimate_option("Plug a stored estimation result in (repeatable, one per axis).")
-@click.option(
-    "--response",
-    "responses",
-    type=click.Choice(RESPONSE_NAMES),
-    multiple=True,
-    help="Response to use (repeatable; default every one the vehicle can do).",
-)
-@click.option(
-    "--threshold",
-    "thresholds",
-    type=float,
-    multiple=True,
-    help="Extra composite threshold (repeatable; 0.005, 0.0075, 0.01 always).",
-)
-@click.option(
-    "--keep", multiple=True, metavar="NAME", help="Coefficient never removed (repeatable)."
-)
+@request_options(SensitivityRequest)
 @click.option(
     "--weight",
     "weight_pairs",
@@ -145,52 +131,41 @@ def _print(out: dict) -> None:
     type=click.Path(dir_okay=False, exists=True),
     help="JSON file of judgement matrices over the responses (docs/sensitivity.md).",
 )
-@click.option("--delta", type=float, default=0.01, show_default=True, help="Relative step of S.")
-@click.option(
-    "--distance-time",
-    "distance_time_s",
-    type=float,
-    default=None,
-    help="t of distance_at_t, s (default: 3 surge time constants).",
-)
 @db_option
 @json_option
-def sensitivity(
-    vehicle,
-    estimates,
-    responses,
-    thresholds,
-    keep,
-    weight_pairs,
-    ahp_file,
-    delta,
-    distance_time_s,
-    db_url,
-    as_json,
-):
+def sensitivity(vehicle, estimates, weight_pairs, ahp_file, db_url, as_json, **options):
     """Rank VEHICLE's coefficients (a name from fixtures/vehicles or $RIG_VEHICLES_DIR, or a
     .toml file) by their effect on standard manoeuvres, sweep thresholds for a reduced model,
     and suggest the test that would pin down the most uncertain one."""
-    store = open_store(db_url) if estimates else None
+    ahp = _ahp_judgements(ahp_file) if ahp_file else None
+    # the body POST /api/analysis/sensitivity takes (api.core.sensitivity_request)
+    request = request_from(
+        SensitivityRequest,
+        options,
+        vehicle=vehicle,
+        estimates=list(estimates),
+        weights=_weights(weight_pairs),
+        ahp=ahp,
+    )
+    store = open_store(db_url) if request.estimates else None
     try:
-        ahp = _ahp_judgements(ahp_file) if ahp_file else None
         out = analysis_common.analyse_vehicle(
             store,
-            vehicle,
-            estimates=estimates,
-            responses=list(responses) or None,
-            weights=_weights(weight_pairs),
-            ahp=ahp,
-            thresholds=thresholds,
-            keep=keep,
-            delta=delta,
-            distance_time_s=distance_time_s,
+            request.vehicle,
+            estimates=request.estimates,
+            responses=request.responses,
+            weights=request.weights,
+            ahp=request.ahp.model_dump(exclude_none=True) if request.ahp else None,
+            thresholds=request.thresholds,
+            keep=request.keep,
+            delta=request.delta,
+            distance_time_s=request.distance_time_s,
             allow_path=True,
         )
     except (sixdof_common.VehicleNotFound, ResultNotFound) as err:
         fail(str(err))
     except (ValueError, json.JSONDecodeError) as err:
-        fail(str(err))
+        fail(flag_names(click.get_current_context(), str(err)))
     finally:
         if store is not None:
             store.close()

@@ -13,7 +13,7 @@ import enum
 import types
 import typing
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import annotated_types
 import click
@@ -85,9 +85,19 @@ M = TypeVar("M", bound=BaseModel)
 
 
 def _element(annotation: Any) -> Any:
-    """``list[str]`` → ``str``; ``None`` for anything but a list."""
+    """``list[str]`` → ``str`` (``list[Annotated[float, …]]`` → ``float``: its range is the
+    model's to check); ``None`` for anything but a list."""
     base = _base_type(annotation)
-    return typing.get_args(base)[0] if typing.get_origin(base) is list else None
+    if typing.get_origin(base) is not list:
+        return None
+    element = typing.get_args(base)[0]
+    return typing.get_args(element)[0] if typing.get_origin(element) is Annotated else element
+
+
+def _repeatable(help_text: str) -> str:
+    """The help of a repeatable option: its text, then "Repeatable."."""
+    text = help_text.rstrip()
+    return f"{text}{' ' if text.endswith('.') else '. ' if text else ''}Repeatable."
 
 
 def request_options(model: type[BaseModel], *, required: bool = True) -> Callable[[F], F]:
@@ -109,7 +119,7 @@ def request_options(model: type[BaseModel], *, required: bool = True) -> Callabl
                 multiple=True,
                 required=required and info.is_required(),
                 metavar=flag.metavar,
-                help=(flag.help or info.description or "") + " (repeatable)",
+                help=_repeatable(flag.help or info.description or ""),
             )
         else:
             # a required field has no default at all (click ≥ 8.3 takes None as one)

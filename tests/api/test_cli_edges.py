@@ -70,7 +70,9 @@ case(  # refused as POST /api/sixdof/simulate refuses it: ids are at most 2^62
     2, f"--estimate[0]: {HUGE} is not allowed", "sixdof", "benbam", "--commands", "0.5,0.5",
     "--estimate", HUGE,
 )  # fmt: skip
-case(2, f"no result with id {HUGE}", "sensitivity", "benbam", "--estimate", HUGE)
+case(  # refused as POST /api/analysis/sensitivity refuses it: ids are at most 2^62
+    2, f"--estimate[0]: {HUGE} is not allowed", "sensitivity", "benbam", "--estimate", HUGE
+)
 case(
     2,
     "'--commands': got 'a,b'; allowed: the form U1,U2,...",

@@ -14,6 +14,7 @@ from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from api.core.imports import ImportQuery
 from api.core.result_filter import ResultFilter
 from api.core.run_filter import RunFilter
+from api.core.sensitivity_request import SensitivityRequest
 from api.core.theory import AddedMassQuery, WaterQuery
 from daq.procedures.procedure_request import Flag
 
@@ -42,6 +43,7 @@ def _flags(model: type[BaseModel]) -> dict[str, tuple[Flag, str | None]]:
 BODIES = [
     (CrossCheckRequest, "post", "/api/crosscheck", "crosscheck"),
     (CrossCheckJobRequest, "post", "/api/jobs/crosscheck", "crosscheck"),
+    (SensitivityRequest, "post", "/api/analysis/sensitivity", "sensitivity"),
 ]
 
 
