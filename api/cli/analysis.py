@@ -149,19 +149,7 @@ def sensitivity(vehicle, estimates, weight_pairs, ahp_file, db_url, as_json, **o
     )
     store = open_store(db_url) if request.estimates else None
     try:
-        out = analysis_common.analyse_vehicle(
-            store,
-            request.vehicle,
-            estimates=request.estimates,
-            responses=request.responses,
-            weights=request.weights,
-            ahp=request.ahp.model_dump(exclude_none=True) if request.ahp else None,
-            thresholds=request.thresholds,
-            keep=request.keep,
-            delta=request.delta,
-            distance_time_s=request.distance_time_s,
-            allow_path=True,
-        )
+        out = analysis_common.analyse_vehicle(store, request, allow_path=True)
     except (sixdof_common.VehicleNotFound, ResultNotFound) as err:
         fail(str(err))
     except (ValueError, json.JSONDecodeError) as err:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from api.core.sensitivity_request import SensitivityRequest
 from api.core.sixdof import find_vehicle, stored_estimates
 from daq.run_data import load_run_data
 from daq.store import Store
@@ -49,40 +50,34 @@ def judgement(spec: Mapping[str, Any]) -> Judgement | Hierarchy:
 
 def analyse_vehicle(
     store: Store | None,
-    vehicle_name: str,
+    request: SensitivityRequest,
     *,
-    estimates: Sequence[int] = (),
-    responses: Sequence[str] | None = None,
-    weights: Mapping[str, float] | None = None,
-    ahp: Mapping[str, Any] | None = None,
-    thresholds: Sequence[float] = (),
-    keep: Sequence[str] = (),
-    delta: float = 0.01,
-    forces: Mapping[str, float] | None = None,
-    distance_time_s: float | None = None,
     allow_path: bool = False,
     max_evaluations: int | None = None,
     time_limit_s: float | None = None,
 ) -> dict[str, Any]:
-    """The full analysis of a vehicle (with stored estimates plugged in) as JSON."""
-    if weights and ahp:
+    """The full analysis ``request`` asks for, of a vehicle (with stored estimates plugged
+    in), as JSON; ``allow_path``: the vehicle may be a file's path (the command line)."""
+    if request.weights and request.ahp:
         raise ValueError("weights: give either weights or ahp judgement matrices, not both")
+    vehicle_name, estimates = request.vehicle, request.estimates
     vehicle = find_vehicle(vehicle_name, allow_path=allow_path)
     if estimates and store is None:
         raise ValueError("estimates: stored results need a database")
     docs, speeds = stored_results(store, estimates) if store and estimates else ([], {})
-    chosen = judgement(ahp) if ahp else weights
+    ahp = request.ahp.model_dump(exclude_none=True) if request.ahp else None
+    chosen = judgement(ahp) if ahp else request.weights
     report = analyse_identified(
         vehicle,
         docs,
         run_speeds=speeds,
-        responses=responses,
+        responses=request.responses,
         weights=chosen,
-        delta=delta,
-        thresholds=thresholds,
-        keep=keep,
-        forces=forces,
-        distance_time_s=distance_time_s,
+        delta=request.delta,
+        thresholds=request.thresholds,
+        keep=request.keep,
+        forces=request.forces,
+        distance_time_s=request.distance_time_s,
         max_evaluations=max_evaluations,
         time_limit_s=time_limit_s,
     )

@@ -60,16 +60,7 @@ def sensitivity(body: SensitivityRequest, store: StoreDep, runner: RunnerDep) ->
     process, not the rig's."""
     study = partial(
         analysis_common.analyse_vehicle,
-        vehicle_name=body.vehicle,
-        estimates=body.estimates,
-        responses=body.responses,
-        weights=body.weights,
-        ahp=body.ahp.model_dump(exclude_none=True) if body.ahp else None,
-        thresholds=body.thresholds,
-        keep=body.keep,
-        delta=body.delta,
-        forces=body.forces,
-        distance_time_s=body.distance_time_s,
+        request=body,
         max_evaluations=MAX_EVALUATIONS,
         time_limit_s=TIME_LIMIT_S,
     )
