@@ -179,19 +179,47 @@ def _theta(state: AxisState) -> np.ndarray:
     return np.array([float(state.values.get(n, 0.0)) for n in PARAMETERS])
 
 
-def _information(state: AxisState, env: RigEnvelope, tests: Sequence[Candidate]) -> np.ndarray:
+def fitted_terms(state: AxisState) -> tuple[str, ...]:
+    """The planner's parameters the fit estimated: the base and the modelled effects it
+    found (``FRICTION_PAIR``); its σ are conditional on every term it left out."""
+    return (*BASE, *(n for n in PARAMETERS[3:] if n in state.values))
+
+
+def planned_terms(state: AxisState) -> tuple[str, ...]:
+    """The parameters a candidate's information is judged on: the fitted ones and the
+    modelled effects the runs suspect — one in an ambiguous group (the estimator could not
+    rule it out), or friction and bias while every run went one way (the runs cannot tell
+    them apart nor from zero). A term neither found nor suspected is held at zero: a clean
+    axis is planned on its base model, so its runs are not bought to pin a term it lacks."""
+    suspected = {n for group in state.ambiguous for n in group}
+    if len({np.sign(t.load) for t in state.recorded}) == 1:
+        suspected |= FRICTION_PAIR
+    fitted = fitted_terms(state)
+    return (*fitted, *(n for n in PARAMETERS[3:] if n in suspected and n not in fitted))
+
+
+def _information(
+    state: AxisState, env: RigEnvelope, tests: Sequence[Candidate], terms: Sequence[str]
+) -> np.ndarray:
+    """Σ Jᵀ·J/σ_x² of ``tests`` over ``terms`` (the other parameters held at their values)."""
     axis = env.axis(state.axis)
     assert axis is not None
     theta = _theta(state)
     info = sum((predict(theta, axis, t, env.g).information for t in tests), start=np.zeros((5, 5)))
-    return info / max(state.rmse, 1e-9) ** 2
+    return _restricted(info, terms) / max(state.rmse, 1e-9) ** 2
 
 
-def _prior(env: RigEnvelope, axis: str) -> np.ndarray:
-    """A weak prior on friction and bias (σ = the largest load): keeps I invertible when
-    every run went one way, without deciding anything."""
+def _restricted(info: np.ndarray, terms: Sequence[str]) -> np.ndarray:
+    """The rows and columns of ``terms`` of a 5×5 information over ``PARAMETERS``."""
+    index = [PARAMETERS.index(n) for n in terms]
+    return info[np.ix_(index, index)]
+
+
+def _prior(env: RigEnvelope, axis: str, terms: Sequence[str]) -> np.ndarray:
+    """A weak prior on friction and bias (σ = the largest load) among ``terms``: keeps I
+    invertible when every run went one way, without deciding anything."""
     load = env.axis(axis).max_load  # type: ignore[union-attr]
-    return np.diag([0.0, 0.0, 0.0, 1 / load**2, 1 / load**2])
+    return np.diag([0.0 if n in BASE else 1 / load**2 for n in terms])
 
 
 def _covariance(info: np.ndarray) -> np.ndarray:
@@ -209,15 +237,25 @@ def _fit_scale(state: AxisState, model_cov: np.ndarray) -> float:
 
 
 def _worst(cov: np.ndarray, state: AxisState, relative: float) -> float:
-    """The worst U/|θ| over the target were the fit's covariance ``cov``."""
+    """The worst U/|θ| over the target were the fit's covariance ``cov`` (base first)."""
     sig = np.sqrt(np.clip(np.diag(cov)[:3], 0, None))
     theta = np.maximum(np.abs(_theta(state)[:3]), 1e-12)
     ratios = zip(BASE, sig, theta, strict=True)
     return max(state.expanded(n, float(s)) / t / relative for n, s, t in ratios)
 
 
-def _rho(cov: np.ndarray, a: str, b: str) -> float:
-    i, j = PARAMETERS.index(a), PARAMETERS.index(b)
+def _progress(before: float, after: float) -> float:
+    """What a run buys on the worst target ratio: ln(before) − ln(after), both capped
+    below at 1 (the target: a run that goes below it buys nothing more). U falls like
+    1/√(information), so the log is what each run's information divides; the absolute
+    reduction favoured the shortest run whenever the ratio was far above 1 (every
+    candidate then removes nearly all of it), which ran a fast reverse tow before the
+    slow one that separates dry friction from K_L."""
+    return float(np.log(max(before, 1.0)) - np.log(max(after, 1.0)))
+
+
+def _rho(cov: np.ndarray, terms: Sequence[str], a: str, b: str) -> float:
+    i, j = terms.index(a), terms.index(b)
     return float(abs(cov[i, j]) / np.sqrt(max(cov[i, i] * cov[j, j], 1e-300)))
 
 
@@ -246,8 +284,10 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     if axis_env is None:
         return None
     theta = _theta(state)
-    base_info = _information(state, env, state.recorded) + _prior(env, state.axis)
-    k = _fit_scale(state, _covariance(base_info))
+    fitted, terms = list(fitted_terms(state)), list(planned_terms(state))
+    fitted_info = _information(state, env, state.recorded, fitted)
+    k = _fit_scale(state, _covariance(fitted_info + _prior(env, state.axis, fitted)))
+    base_info = _information(state, env, state.recorded, terms) + _prior(env, state.axis, terms)
     before = _worst(k * _covariance(base_info), state, relative)
     pair = _pair_to_separate(state)
     other_way = _other_way(state, env)
@@ -259,11 +299,12 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         if not p.moves or p.peak_rate > axis_env.max_rate:
             continue
         minutes = (p.duration_s + env.reset_s) / 60
-        cov = k * _covariance(base_info + p.information / max(state.rmse, 1e-9) ** 2)
+        added = _restricted(p.information, terms) / max(state.rmse, 1e-9) ** 2
+        cov = k * _covariance(base_info + added)
         after = _worst(cov, state, relative)
-        gain = -(before - after) / minutes
+        gain = -_progress(before, after) / minutes
         if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
-            rho = _rho(cov, *pair)
+            rho = _rho(cov, terms, *pair)
             key = (0.0, gain) if rho < SEPARATED else (rho, minutes)
         else:
             key = (gain, minutes)
@@ -275,8 +316,8 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         why = (
             f"{pair[0]} and {pair[1]} are not yet separated: of {len(scored)} tests the rig "
             f"can run, this one is predicted to bring |ρ| under {SEPARATED} ("
-            f"{_rho(cov, *pair):.2f}) with the largest reduction of the worst target ratio per "
-            f"tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| lowest"
+            f"{_rho(cov, terms, *pair):.2f}) with the largest reduction of the worst target "
+            f"ratio per tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| lowest"
         )
     else:
         way = (
