@@ -19,7 +19,7 @@ import pytest
 from estimation import estimate
 from estimation.design.campaign_state import MAX_REPEATS, Campaign, Target
 from estimation.design.information import predict
-from estimation.design.planner import AxisState, choose, decide
+from estimation.design.planner import BASE, AxisState, choose, decide, planned_terms
 from estimation.design.planning_envelope import AxisEnvelope, Candidate, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, tow_set
 
@@ -80,6 +80,30 @@ def test_friction_vs_bias_ambiguity_picks_a_reverse_run_that_separates_them():
     choice = choose(state, RIG, 0.01)
     assert choice is not None and choice.test.load < 0
     assert "not yet separated" in choice.why
+
+
+def test_suspected_dry_friction_buys_the_slow_run_that_separates_it_from_linear_damping():
+    """The dry-friction campaign after a fast tow each way: the estimator could not tell
+    friction (and a bias) from K_L. The planner judges candidates with them in its model,
+    so it runs a slow tow (friction is a larger share of the drag there), not another fast
+    one predicted from a model without them (main ran −100 N, then −30 N anyway)."""
+    recorded = [Candidate("surge", 100.0), Candidate("surge", -67.3)]
+    suspected = [("constant_bias", "linear_damping"), ("coulomb_friction", "linear_damping")]
+    state = _state(recorded, ambiguous=suspected, std=(0.77, 0.33, 0.67))
+    assert set(planned_terms(state)) == {*BASE, "coulomb_friction", "constant_bias"}
+    choice = choose(state, RIG, 0.01)
+    assert choice is not None and abs(choice.test.load) < 0.35 * SURGE.max_load
+    assert choice.predicted_after > 1.0  # honest: one run does not pin five terms to 1 %
+
+
+def test_a_clean_axis_is_planned_on_its_base_model_and_one_way_runs_suspect_friction():
+    both_ways = [Candidate("surge", 100.0), Candidate("surge", -50.0)]
+    assert planned_terms(_state(both_ways)) == BASE
+    found = AxisState(**{**_state(both_ways).__dict__, "values": {
+        **_state(both_ways).values, "coulomb_friction": 3.0}})  # fmt: skip
+    assert planned_terms(found) == (*BASE, "coulomb_friction")
+    one_way = _state([Candidate("surge", 100.0)])
+    assert planned_terms(one_way) == (*BASE, "coulomb_friction", "constant_bias")
 
 
 def test_no_reverse_candidate_on_a_rig_without_one():
