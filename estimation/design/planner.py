@@ -15,15 +15,25 @@ hung weight gives K_L 3.70 % of surge after the 8 seed tows and after 12 campaig
 28 % of yaw: a weight error is a constant force that runs at other speeds read as linear
 damping). Without a budget U is 2σ.
 
-Criterion. The information of the recorded runs under the current model,
-I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
-k = median_i(σ_fit,i² / (I₀⁻¹)_ii) (the fit knows residual structure the model does not).
-For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. Then
+Criterion. The terms a run's information is judged on (``planned_terms``) are M, K_L, K_Q,
+the modelled effects (F_c, b) the fit found, and those it suspects: in an ambiguous group,
+or friction and bias while every run went one way; a term neither found nor suspected is
+held at zero, so a clean axis is planned on its base model. The information of the
+recorded runs, I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``) over those terms,
+is scaled to the fit by k = median_i(σ_fit,i² / (I_fit⁻¹)_ii) with I_fit over the terms the
+fit estimated (``fitted_terms``): its σ are conditional on the terms it left out, so
+calibrating them against a model with more terms free made k swing by 10⁵ between runs
+and the predictions wildly optimistic. For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the
+covariance after it. Then
 - friction and bias ambiguous → of the candidates predicted to bring their |ρ| under 0.9,
-  the one with the largest reduction of the target ratio per tank minute (below); if none
+  the one with the most progress on the target ratio per tank minute (below); if none
   does, the one bringing |ρ| lowest (a reverse run decorrelates them);
-- otherwise → the largest reduction of the worst target ratio max_i U_i(C)/|θ_i|/target
-  per tank minute (run + reset), a minimax (A-type) design on the target coefficients.
+- otherwise → the most progress on the worst target ratio max_i U_i(C)/|θ_i|/target per
+  tank minute (run + reset), a minimax (A-type) design on the target coefficients.
+Progress is ln(before) − ln(after), each capped below at 1 (``_progress``): U falls like
+1/√(information), and the absolute reduction bought the shortest run whenever the ratio
+was far above 1 — on the dry-friction scenario a fast tow, where only a slow one separates
+F_c from K_L.
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
@@ -317,7 +327,8 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
             f"{pair[0]} and {pair[1]} are not yet separated: of {len(scored)} tests the rig "
             f"can run, this one is predicted to bring |ρ| under {SEPARATED} ("
             f"{_rho(cov, terms, *pair):.2f}) with the largest reduction of the worst target "
-            f"ratio per tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| lowest"
+            f"ratio's log per tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| "
+            "lowest"
         )
     else:
         way = (
@@ -328,7 +339,8 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         why = (
             f"the worst target ratio is {before:.2f} (1 = target met); {way}{len(scored)} "
             f"tests the rig can run{' the other way' if other_way is not None else ''}, this "
-            f"one is predicted to bring it to {after:.2f}, the largest reduction per tank minute"
+            f"one is predicted to bring it to {after:.2f}, the largest reduction of its log "
+            "per tank minute"
         )
     return Choice(best, why, before, after, minutes)
 
