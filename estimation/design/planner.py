@@ -37,8 +37,8 @@ F_c from K_L.
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
-finite, no ambiguous group left), it is out of reach (Type B alone above it), or the next
-run does not fit the budget (runs, tank minutes).
+finite, no ambiguous group left), it is out of reach (Type B alone above it, judged once no
+fit is ambiguous), or the next run does not fit the budget (runs, tank minutes).
 """
 
 from __future__ import annotations
@@ -369,7 +369,13 @@ def axis_status(state: AxisState | None, relative: float) -> dict:
 
 
 def _out_of_reach(states: Mapping[str, AxisState | None], relative: float) -> str | None:
-    """Why the target cannot be met (Type B alone above it on some coefficient), or None."""
+    """Why the target cannot be met (Type B alone above it on some coefficient), or None.
+    Not while a fit is ambiguous: its coefficients (and the floor computed at them) may be
+    far off — on the dry-friction scenario K_L was 59 % off, friction not yet told from it,
+    when the floor first passed the target — so the campaign measures on until the
+    estimator tells its models apart, and then stops with coefficients worth reporting."""
+    if any(state is not None and state.ambiguous for state in states.values()):
+        return None
     for axis, state in states.items():
         if state is None:
             continue

@@ -163,6 +163,11 @@ def test_the_target_is_the_expanded_uncertainty_not_the_fit_sigma():
         "hung_mass_kg (±0.005 kg, rectangular)); declare that tolerance tighter if it can "
         "be, or set a target above it"
     )
+    # while the fit is ambiguous its floor is judged at coefficients that may be far off:
+    # measure on until the estimator tells its models apart, then stop out of reach
+    unsure = AxisState(**{**stuck.__dict__, "ambiguous": (("coulomb_friction", "linear_damping"),)})
+    decision = decide({"surge": unsure}, RIG, 0.01, **args)
+    assert decision.stop is None and decision.choice is not None
     # within reach (Type B alone 0.8 %), the campaign measures on
     reachable = _state(both_ways, std=(2.0, 2.0, 5.0), type_b={"inertia": 0.004 * inertia})
     assert decide({"surge": reachable}, RIG, 0.01, **args).stop is None
