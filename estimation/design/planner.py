@@ -38,7 +38,7 @@ While every run of an axis went one way, only the other way's candidates are con
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
 finite, no ambiguous group left), it is out of reach (Type B alone above it, judged once no
-fit is ambiguous), or the next run does not fit the budget (runs, tank minutes).
+fit is ambiguous nor one-way), or the next run does not fit the budget (runs, tank minutes).
 """
 
 from __future__ import annotations
@@ -368,13 +368,19 @@ def axis_status(state: AxisState | None, relative: float) -> dict:
     return {"ratios": ratios, "unresolved": unresolved, "reached": reached}
 
 
-def _out_of_reach(states: Mapping[str, AxisState | None], relative: float) -> str | None:
+def _out_of_reach(
+    states: Mapping[str, AxisState | None], env: RigEnvelope, relative: float
+) -> str | None:
     """Why the target cannot be met (Type B alone above it on some coefficient), or None.
-    Not while a fit is ambiguous: its coefficients (and the floor computed at them) may be
-    far off — on the dry-friction scenario K_L was 59 % off, friction not yet told from it,
-    when the floor first passed the target — so the campaign measures on until the
-    estimator tells its models apart, and then stops with coefficients worth reporting."""
-    if any(state is not None and state.ambiguous for state in states.values()):
+    Not while a fit is ambiguous or an axis's runs all went one way on a rig that can
+    reverse (friction and a bias are one constant then): its coefficients, and the floor
+    computed at them, may be far off — on the dry-friction scenario surge K_L was 59 % off
+    and yaw's inertia 0.96 % (U 0.68 %) when the floor first passed the target — so the
+    campaign measures on until its models are told apart, then stops with coefficients
+    worth reporting."""
+    unsettled = [s for s in states.values() if s is not None and s.ambiguous]
+    unsettled += [s for s in states.values() if s is not None and _other_way(s, env) is not None]
+    if unsettled:
         return None
     for axis, state in states.items():
         if state is None:
@@ -408,7 +414,7 @@ def decide(
     status = {a: axis_status(s, relative) for a, s in states.items()}
     if all(s["reached"] for s in status.values()):
         return Decision("target", status=status)
-    if out_of_reach := _out_of_reach(states, relative):
+    if out_of_reach := _out_of_reach(states, env, relative):
         return Decision(out_of_reach, status=status)
     if runs_used >= max_runs:
         return Decision(f"budget: {runs_used} of {max_runs} runs used", status=status)

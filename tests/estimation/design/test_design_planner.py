@@ -168,6 +168,10 @@ def test_the_target_is_the_expanded_uncertainty_not_the_fit_sigma():
     unsure = AxisState(**{**stuck.__dict__, "ambiguous": (("coulomb_friction", "linear_damping"),)})
     decision = decide({"surge": unsure}, RIG, 0.01, **args)
     assert decision.stop is None and decision.choice is not None
+    one_way = AxisState(**{**stuck.__dict__, "recorded": (Candidate("surge", 100.0),)})
+    decision = decide({"surge": one_way}, RIG, 0.01, **args)  # friction and bias one constant
+    assert decision.stop is None and decision.choice is not None
+    assert decision.choice.test.load < 0
     # within reach (Type B alone 0.8 %), the campaign measures on
     reachable = _state(both_ways, std=(2.0, 2.0, 5.0), type_b={"inertia": 0.004 * inertia})
     assert decide({"surge": reachable}, RIG, 0.01, **args).stop is None
