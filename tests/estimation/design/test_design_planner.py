@@ -96,6 +96,22 @@ def test_suspected_dry_friction_buys_the_slow_run_that_separates_it_from_linear_
     assert choice.predicted_after > 1.0  # honest: one run does not pin five terms to 1 %
 
 
+def test_with_type_b_above_the_target_runs_are_judged_on_what_they_can_change():
+    """A campaign out of reach measures on only to settle its models: with the floor inside
+    U every candidate's progress is nearly nil and the fastest tow won; judged on the Type A
+    part it is the slow run it would choose without the tolerance. Its reported prediction
+    keeps the Type B part."""
+    recorded = [Candidate("surge", 100.0), Candidate("surge", -67.3)]
+    suspected = [("constant_bias", "linear_damping"), ("coulomb_friction", "linear_damping")]
+    state = _state(recorded, ambiguous=suspected, std=(0.77, 0.33, 0.67))
+    stuck = AxisState(**{**state.__dict__, "type_b": {"inertia": 0.2 * SURGE_TRUTH[0]}})
+    assert stuck.floor(0.01)["inertia"] > 1.0
+    choice, free = choose(stuck, RIG, 0.01), choose(state, RIG, 0.01)
+    assert choice is not None and free is not None and choice.test == free.test
+    assert abs(choice.test.load) < 0.35 * SURGE.max_load
+    assert choice.predicted_after >= stuck.floor(0.01)["inertia"]
+
+
 def test_a_clean_axis_is_planned_on_its_base_model_and_one_way_runs_suspect_friction():
     both_ways = [Candidate("surge", 100.0), Candidate("surge", -50.0)]
     assert planned_terms(_state(both_ways)) == BASE
