@@ -4,7 +4,8 @@ On the in-process simulated rig in simulated time (``daq.sim.inprocess``), for t
 and the dry-friction scenario: (a) ``fixtures/sequences/seed000-campaign.toml`` as it
 stands, then both axes estimated; (b) a campaign (``estimation.design``) with target U ≤ 1 %
 (the expanded uncertainty of the GUM budget with the rig file's tolerances) on inertia, K_L
-and K_Q of surge and yaw, ambiguities resolved. Tank minutes = the
+and K_Q of surge and yaw, ambiguities resolved. Each fit's U and its error against the
+scenario's coefficients are reported (``within_U``: every |error| ≤ U). Tank minutes = the
 simulated run durations (first to last sample) + the rest between runs (the sequence's
 ``rest_s`` = the campaign's reset time, 30 s) after every run.
 
@@ -53,14 +54,34 @@ def _seconds(store: Store, run_id: str) -> float:
     return float(t[-1] - t[0])
 
 
-def _summary(store: Store, ids: list[str], relative: float) -> dict[str, Any]:
-    """U/|θ| in % of the fit of ``ids`` (the budget's U), what is unresolved, the effects."""
+def _truth(source: RigSource, axis: str) -> dict[str, float]:
+    """The scenario's M, K_L, K_Q of ``axis`` (SI)."""
+    scenario = source.scenario
+    assert scenario is not None
+    if axis == "surge":
+        s = scenario.surge
+        return {"inertia": s.inertia_kg, "linear_damping": s.linear_damping,
+                "quadratic_damping": s.quadratic_damping}  # fmt: skip
+    y = scenario.yaw
+    return {"inertia": y.inertia_kg_m2, "linear_damping": y.linear_damping,
+            "quadratic_damping": y.quadratic_damping}  # fmt: skip
+
+
+def _summary(
+    store: Store, ids: list[str], relative: float, truth: dict[str, float]
+) -> dict[str, Any]:
+    """U/|θ| in % of the fit of ``ids`` (the budget's U), its error against the scenario's
+    ``truth`` in %, whether |error| ≤ U, what is unresolved, the effects."""
     runs = [load_run_data(store, r) for r in ids]
     result = estimate(runs, n_bootstrap=0)
     state = state_from_result(result, [], fitted_budget(store, runs, result))
     ratios = state.ratios(relative)
+    expanded = {n: r * relative * 100 for n, r in ratios.items()}
+    error = {n: (state.values[n] / t - 1) * 100 for n, t in truth.items()}
     return {
-        "expanded_percent": {n: round(r * relative * 100, 4) for n, r in ratios.items()},
+        "expanded_percent": {n: round(u, 4) for n, u in expanded.items()},
+        "error_percent": {n: round(e, 4) for n, e in error.items()},
+        "within_U": all(abs(error[n]) <= expanded[n] for n in truth),
         "unresolved": state.unresolved(),
         "effects": [e.name for e in result.effects],
     }
@@ -79,7 +100,7 @@ async def _seed(source: RigSource, store: Store, relative: float) -> dict[str, A
     axes = {}
     for kind, axis in (("tow", "surge"), ("spin", "yaw")):
         mine = [r for r, k in zip(ids, kinds, strict=True) if k == kind]
-        axes[axis] = _summary(store, mine, relative)
+        axes[axis] = _summary(store, mine, relative, _truth(source, axis))
     return {
         "runs": len(ids),
         "tank_minutes": round((seconds + REST_S * len(ids)) / 60, 2),
@@ -96,7 +117,10 @@ async def _campaign(source: RigSource, store: Store, relative: float) -> dict[st
         "runs": doc["runs_used"],
         "tank_minutes": doc["tank_minutes"],
         "outcome": doc["outcome"],
-        "axes": {a: _summary(store, campaign.run_ids(a), relative) for a in campaign.target.axes},
+        "axes": {
+            a: _summary(store, campaign.run_ids(a), relative, _truth(source, a))
+            for a in campaign.target.axes
+        },
         "trail": [
             {k: e[k] for k in ("axis", "test", "run_s", "tank_minutes", "after")}
             for e in doc["trail"]

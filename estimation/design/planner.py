@@ -15,26 +15,36 @@ hung weight gives K_L 3.70 % of surge after the 8 seed tows and after 12 campaig
 28 % of yaw: a weight error is a constant force that runs at other speeds read as linear
 damping). Without a budget U is 2σ.
 
-Criterion. The information of the recorded runs under the current model,
-I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``), is scaled to the fit by
-k = median_i(σ_fit,i² / (I₀⁻¹)_ii) (the fit knows residual structure the model does not).
-For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the covariance after it. Then
+Criterion. The terms a run's information is judged on (``planned_terms``) are M, K_L, K_Q,
+the modelled effects (F_c, b) the fit found, and those it suspects: in an ambiguous group,
+or friction and bias while every run went one way; a term neither found nor suspected is
+held at zero, so a clean axis is planned on its base model. The information of the
+recorded runs, I₀ = Σ Jᵣᵀ·Jᵣ / σ_x² (``estimation.design.information``) over those terms,
+is scaled to the fit by k = median_i(σ_fit,i² / (I_fit⁻¹)_ii) with I_fit over the terms the
+fit estimated (``fitted_terms``): its σ are conditional on the terms it left out, so
+calibrating them against a model with more terms free made k swing by 10⁵ between runs
+and the predictions wildly optimistic. For a candidate c, C_c = k·(I₀ + I_c)⁻¹ predicts the
+covariance after it. Then
 - friction and bias ambiguous → of the candidates predicted to bring their |ρ| under 0.9,
-  the one with the largest reduction of the target ratio per tank minute (below); if none
+  the one with the most progress on the target ratio per tank minute (below); if none
   does, the one bringing |ρ| lowest (a reverse run decorrelates them);
-- otherwise → the largest reduction of the worst target ratio max_i U_i(C)/|θ_i|/target
-  per tank minute (run + reset), a minimax (A-type) design on the target coefficients.
+- otherwise → the most progress on the worst target ratio max_i U_i(C)/|θ_i|/target per
+  tank minute (run + reset), a minimax (A-type) design on the target coefficients.
+Progress is ln(before) − ln(after), each capped below at 1 (``_progress``): U falls like
+1/√(information), and the absolute reduction bought the shortest run whenever the ratio
+was far above 1 — on the dry-friction scenario a fast tow, where only a slow one separates
+F_c from K_L.
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
-finite, no ambiguous group left), it is out of reach (Type B alone above it), or the next
-run does not fit the budget (runs, tank minutes).
+finite, no ambiguous group left), it is out of reach (Type B alone above it, judged once no
+fit is ambiguous nor one-way), or the next run does not fit the budget (runs, tank minutes).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -179,19 +189,47 @@ def _theta(state: AxisState) -> np.ndarray:
     return np.array([float(state.values.get(n, 0.0)) for n in PARAMETERS])
 
 
-def _information(state: AxisState, env: RigEnvelope, tests: Sequence[Candidate]) -> np.ndarray:
+def fitted_terms(state: AxisState) -> tuple[str, ...]:
+    """The planner's parameters the fit estimated: the base and the modelled effects it
+    found (``FRICTION_PAIR``); its σ are conditional on every term it left out."""
+    return (*BASE, *(n for n in PARAMETERS[3:] if n in state.values))
+
+
+def planned_terms(state: AxisState) -> tuple[str, ...]:
+    """The parameters a candidate's information is judged on: the fitted ones and the
+    modelled effects the runs suspect — one in an ambiguous group (the estimator could not
+    rule it out), or friction and bias while every run went one way (the runs cannot tell
+    them apart nor from zero). A term neither found nor suspected is held at zero: a clean
+    axis is planned on its base model, so its runs are not bought to pin a term it lacks."""
+    suspected = {n for group in state.ambiguous for n in group}
+    if len({np.sign(t.load) for t in state.recorded}) == 1:
+        suspected |= FRICTION_PAIR
+    fitted = fitted_terms(state)
+    return (*fitted, *(n for n in PARAMETERS[3:] if n in suspected and n not in fitted))
+
+
+def _information(
+    state: AxisState, env: RigEnvelope, tests: Sequence[Candidate], terms: Sequence[str]
+) -> np.ndarray:
+    """Σ Jᵀ·J/σ_x² of ``tests`` over ``terms`` (the other parameters held at their values)."""
     axis = env.axis(state.axis)
     assert axis is not None
     theta = _theta(state)
     info = sum((predict(theta, axis, t, env.g).information for t in tests), start=np.zeros((5, 5)))
-    return info / max(state.rmse, 1e-9) ** 2
+    return _restricted(info, terms) / max(state.rmse, 1e-9) ** 2
 
 
-def _prior(env: RigEnvelope, axis: str) -> np.ndarray:
-    """A weak prior on friction and bias (σ = the largest load): keeps I invertible when
-    every run went one way, without deciding anything."""
+def _restricted(info: np.ndarray, terms: Sequence[str]) -> np.ndarray:
+    """The rows and columns of ``terms`` of a 5×5 information over ``PARAMETERS``."""
+    index = [PARAMETERS.index(n) for n in terms]
+    return info[np.ix_(index, index)]
+
+
+def _prior(env: RigEnvelope, axis: str, terms: Sequence[str]) -> np.ndarray:
+    """A weak prior on friction and bias (σ = the largest load) among ``terms``: keeps I
+    invertible when every run went one way, without deciding anything."""
     load = env.axis(axis).max_load  # type: ignore[union-attr]
-    return np.diag([0.0, 0.0, 0.0, 1 / load**2, 1 / load**2])
+    return np.diag([0.0 if n in BASE else 1 / load**2 for n in terms])
 
 
 def _covariance(info: np.ndarray) -> np.ndarray:
@@ -209,15 +247,25 @@ def _fit_scale(state: AxisState, model_cov: np.ndarray) -> float:
 
 
 def _worst(cov: np.ndarray, state: AxisState, relative: float) -> float:
-    """The worst U/|θ| over the target were the fit's covariance ``cov``."""
+    """The worst U/|θ| over the target were the fit's covariance ``cov`` (base first)."""
     sig = np.sqrt(np.clip(np.diag(cov)[:3], 0, None))
     theta = np.maximum(np.abs(_theta(state)[:3]), 1e-12)
     ratios = zip(BASE, sig, theta, strict=True)
     return max(state.expanded(n, float(s)) / t / relative for n, s, t in ratios)
 
 
-def _rho(cov: np.ndarray, a: str, b: str) -> float:
-    i, j = PARAMETERS.index(a), PARAMETERS.index(b)
+def _progress(before: float, after: float) -> float:
+    """What a run buys on the worst target ratio: ln(before) − ln(after), both capped
+    below at 1 (the target: a run that goes below it buys nothing more). U falls like
+    1/√(information), so the log is what each run's information divides; the absolute
+    reduction favoured the shortest run whenever the ratio was far above 1 (every
+    candidate then removes nearly all of it), which ran a fast reverse tow before the
+    slow one that separates dry friction from K_L."""
+    return float(np.log(max(before, 1.0)) - np.log(max(after, 1.0)))
+
+
+def _rho(cov: np.ndarray, terms: Sequence[str], a: str, b: str) -> float:
+    i, j = terms.index(a), terms.index(b)
     return float(abs(cov[i, j]) / np.sqrt(max(cov[i, i] * cov[j, j], 1e-300)))
 
 
@@ -239,6 +287,17 @@ def _other_way(state: AxisState, env: RigEnvelope) -> float | None:
     return -float(signs.pop())
 
 
+def _judged(state: AxisState, relative: float) -> AxisState:
+    """The state a run's progress is judged on: ``state``, or without its Type B when that
+    alone is above the target. The campaign then measures only to settle its models
+    (``_out_of_reach``), and a run changes only the Type A part: judged on U with the floor
+    in it, every candidate's progress is nearly nil and the shortest won (a fast reverse
+    spin that left yaw K_L 8.7 % off on the dry-friction scenario)."""
+    if max(state.floor(relative).values(), default=0.0) <= 1.0:
+        return state
+    return replace(state, type_b={})
+
+
 def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None:
     """The best next test on ``state.axis`` (module docstring); None when the rig offers
     none that moves the body within its rate limit."""
@@ -246,9 +305,13 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     if axis_env is None:
         return None
     theta = _theta(state)
-    base_info = _information(state, env, state.recorded) + _prior(env, state.axis)
-    k = _fit_scale(state, _covariance(base_info))
+    fitted, terms = list(fitted_terms(state)), list(planned_terms(state))
+    fitted_info = _information(state, env, state.recorded, fitted)
+    k = _fit_scale(state, _covariance(fitted_info + _prior(env, state.axis, fitted)))
+    base_info = _information(state, env, state.recorded, terms) + _prior(env, state.axis, terms)
     before = _worst(k * _covariance(base_info), state, relative)
+    judged = _judged(state, relative)
+    judged_before = _worst(k * _covariance(base_info), judged, relative)
     pair = _pair_to_separate(state)
     other_way = _other_way(state, env)
     scored = []
@@ -259,11 +322,12 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         if not p.moves or p.peak_rate > axis_env.max_rate:
             continue
         minutes = (p.duration_s + env.reset_s) / 60
-        cov = k * _covariance(base_info + p.information / max(state.rmse, 1e-9) ** 2)
+        added = _restricted(p.information, terms) / max(state.rmse, 1e-9) ** 2
+        cov = k * _covariance(base_info + added)
         after = _worst(cov, state, relative)
-        gain = -(before - after) / minutes
+        gain = -_progress(judged_before, _worst(cov, judged, relative)) / minutes
         if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
-            rho = _rho(cov, *pair)
+            rho = _rho(cov, terms, *pair)
             key = (0.0, gain) if rho < SEPARATED else (rho, minutes)
         else:
             key = (gain, minutes)
@@ -275,8 +339,9 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         why = (
             f"{pair[0]} and {pair[1]} are not yet separated: of {len(scored)} tests the rig "
             f"can run, this one is predicted to bring |ρ| under {SEPARATED} ("
-            f"{_rho(cov, *pair):.2f}) with the largest reduction of the worst target ratio per "
-            f"tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| lowest"
+            f"{_rho(cov, terms, *pair):.2f}) with the largest reduction of the worst target "
+            f"ratio's log per tank minute ({before:.2f} → {after:.2f}), or else to bring |ρ| "
+            "lowest"
         )
     else:
         way = (
@@ -287,7 +352,8 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
         why = (
             f"the worst target ratio is {before:.2f} (1 = target met); {way}{len(scored)} "
             f"tests the rig can run{' the other way' if other_way is not None else ''}, this "
-            f"one is predicted to bring it to {after:.2f}, the largest reduction per tank minute"
+            f"one is predicted to bring it to {after:.2f}, the largest reduction of its log "
+            "per tank minute"
         )
     return Choice(best, why, before, after, minutes)
 
@@ -315,8 +381,20 @@ def axis_status(state: AxisState | None, relative: float) -> dict:
     return {"ratios": ratios, "unresolved": unresolved, "reached": reached}
 
 
-def _out_of_reach(states: Mapping[str, AxisState | None], relative: float) -> str | None:
-    """Why the target cannot be met (Type B alone above it on some coefficient), or None."""
+def _out_of_reach(
+    states: Mapping[str, AxisState | None], env: RigEnvelope, relative: float
+) -> str | None:
+    """Why the target cannot be met (Type B alone above it on some coefficient), or None.
+    Not while a fit is ambiguous or an axis's runs all went one way on a rig that can
+    reverse (friction and a bias are one constant then): its coefficients, and the floor
+    computed at them, may be far off — on the dry-friction scenario surge K_L was 59 % off
+    and yaw's inertia 0.96 % (U 0.68 %) when the floor first passed the target — so the
+    campaign measures on until its models are told apart, then stops with coefficients
+    worth reporting."""
+    unsettled = [s for s in states.values() if s is not None and s.ambiguous]
+    unsettled += [s for s in states.values() if s is not None and _other_way(s, env) is not None]
+    if unsettled:
+        return None
     for axis, state in states.items():
         if state is None:
             continue
@@ -349,7 +427,7 @@ def decide(
     status = {a: axis_status(s, relative) for a, s in states.items()}
     if all(s["reached"] for s in status.values()):
         return Decision("target", status=status)
-    if out_of_reach := _out_of_reach(states, relative):
+    if out_of_reach := _out_of_reach(states, env, relative):
         return Decision(out_of_reach, status=status)
     if runs_used >= max_runs:
         return Decision(f"budget: {runs_used} of {max_runs} runs used", status=status)

@@ -19,7 +19,7 @@ import pytest
 from estimation import estimate
 from estimation.design.campaign_state import MAX_REPEATS, Campaign, Target
 from estimation.design.information import predict
-from estimation.design.planner import AxisState, choose, decide
+from estimation.design.planner import BASE, AxisState, choose, decide, planned_terms
 from estimation.design.planning_envelope import AxisEnvelope, Candidate, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, tow_set
 
@@ -82,6 +82,46 @@ def test_friction_vs_bias_ambiguity_picks_a_reverse_run_that_separates_them():
     assert "not yet separated" in choice.why
 
 
+def test_suspected_dry_friction_buys_the_slow_run_that_separates_it_from_linear_damping():
+    """The dry-friction campaign after a fast tow each way: the estimator could not tell
+    friction (and a bias) from K_L. The planner judges candidates with them in its model,
+    so it runs a slow tow (friction is a larger share of the drag there), not another fast
+    one predicted from a model without them (main ran −100 N, then −30 N anyway)."""
+    recorded = [Candidate("surge", 100.0), Candidate("surge", -67.3)]
+    suspected = [("constant_bias", "linear_damping"), ("coulomb_friction", "linear_damping")]
+    state = _state(recorded, ambiguous=suspected, std=(0.77, 0.33, 0.67))
+    assert set(planned_terms(state)) == {*BASE, "coulomb_friction", "constant_bias"}
+    choice = choose(state, RIG, 0.01)
+    assert choice is not None and abs(choice.test.load) < 0.35 * SURGE.max_load
+    assert choice.predicted_after > 1.0  # honest: one run does not pin five terms to 1 %
+
+
+def test_with_type_b_above_the_target_runs_are_judged_on_what_they_can_change():
+    """A campaign out of reach measures on only to settle its models: with the floor inside
+    U every candidate's progress is nearly nil and the fastest tow won; judged on the Type A
+    part it is the slow run it would choose without the tolerance. Its reported prediction
+    keeps the Type B part."""
+    recorded = [Candidate("surge", 100.0), Candidate("surge", -67.3)]
+    suspected = [("constant_bias", "linear_damping"), ("coulomb_friction", "linear_damping")]
+    state = _state(recorded, ambiguous=suspected, std=(0.77, 0.33, 0.67))
+    stuck = AxisState(**{**state.__dict__, "type_b": {"inertia": 0.2 * SURGE_TRUTH[0]}})
+    assert stuck.floor(0.01)["inertia"] > 1.0
+    choice, free = choose(stuck, RIG, 0.01), choose(state, RIG, 0.01)
+    assert choice is not None and free is not None and choice.test == free.test
+    assert abs(choice.test.load) < 0.35 * SURGE.max_load
+    assert choice.predicted_after >= stuck.floor(0.01)["inertia"]
+
+
+def test_a_clean_axis_is_planned_on_its_base_model_and_one_way_runs_suspect_friction():
+    both_ways = [Candidate("surge", 100.0), Candidate("surge", -50.0)]
+    assert planned_terms(_state(both_ways)) == BASE
+    found = AxisState(**{**_state(both_ways).__dict__, "values": {
+        **_state(both_ways).values, "coulomb_friction": 3.0}})  # fmt: skip
+    assert planned_terms(found) == (*BASE, "coulomb_friction")
+    one_way = _state([Candidate("surge", 100.0)])
+    assert planned_terms(one_way) == (*BASE, "coulomb_friction", "constant_bias")
+
+
 def test_no_reverse_candidate_on_a_rig_without_one():
     forward_only = RigEnvelope((AxisEnvelope("surge", 100.0, 5.5, None, max_rate=1.0),))
     assert all(c.load > 0 for c in forward_only.candidates("surge"))
@@ -139,6 +179,15 @@ def test_the_target_is_the_expanded_uncertainty_not_the_fit_sigma():
         "hung_mass_kg (±0.005 kg, rectangular)); declare that tolerance tighter if it can "
         "be, or set a target above it"
     )
+    # while the fit is ambiguous its floor is judged at coefficients that may be far off:
+    # measure on until the estimator tells its models apart, then stop out of reach
+    unsure = AxisState(**{**stuck.__dict__, "ambiguous": (("coulomb_friction", "linear_damping"),)})
+    decision = decide({"surge": unsure}, RIG, 0.01, **args)
+    assert decision.stop is None and decision.choice is not None
+    one_way = AxisState(**{**stuck.__dict__, "recorded": (Candidate("surge", 100.0),)})
+    decision = decide({"surge": one_way}, RIG, 0.01, **args)  # friction and bias one constant
+    assert decision.stop is None and decision.choice is not None
+    assert decision.choice.test.load < 0
     # within reach (Type B alone 0.8 %), the campaign measures on
     reachable = _state(both_ways, std=(2.0, 2.0, 5.0), type_b={"inertia": 0.004 * inertia})
     assert decide({"surge": reachable}, RIG, 0.01, **args).stop is None
