@@ -26,6 +26,8 @@ def test_estimation_page_shows_the_uncertainty_budget(chromium, client, service)
         expect(head).to_contain_text("dominant:")
         expect(page.locator("#est-uncertainty")).to_contain_text("k = 1.96")
         # read first: one summary row per quantity, value ± U and its dominant source
-        summary = page.locator("#est-uncertainty table.est-budget-summary tr[data-quantity='inertia']")
+        summary = page.locator(
+            "#est-uncertainty table.est-budget-summary tr[data-quantity='inertia']"
+        )
         expect(summary).to_contain_text("±")
         expect(summary).to_be_visible()
