@@ -9,19 +9,8 @@ from typing import Any
 import click
 
 from api.cli.common import db_option, echo_json, json_option, rig_option, scenario_option
-
-
-def parse_target(text: str) -> float:
-    """``1%`` or ``1`` → 0.01 (a U/|θ| target in percent); ``click.BadParameter`` outside
-    0 < target < 100 %."""
-    raw = text.strip().removesuffix("%").strip()
-    try:
-        percent = float(raw)
-    except ValueError:
-        raise click.BadParameter(f"{text!r} is not a percentage (e.g. 1%)") from None
-    if not 0 < percent < 100:
-        raise click.BadParameter(f"{text!r}: allowed 0 < target < 100 %")
-    return percent / 100
+from api.cli.options import request_from, request_options
+from api.core.campaign_request import CampaignRequest
 
 
 def _print_entry(entry: dict[str, Any]) -> None:
@@ -37,50 +26,32 @@ def _print_entry(entry: dict[str, Any]) -> None:
 
 
 @click.command("campaign")
-@click.option(
-    "--target",
-    "relative",
-    default="1%",
-    callback=lambda ctx, param, value: parse_target(value),
-    show_default=True,
-    help="U/|θ| target on inertia, K_L and K_Q, in percent (U: the expanded uncertainty of "
-    "the GUM budget, 95 %, with the rig file's tolerances).",
-)
-@click.option(
-    "--axis",
-    "axes",
-    type=click.Choice(["surge", "yaw"]),
-    multiple=True,
-    help="surge (tows) and/or yaw (spins); default both the rig can test.",
-)
-@click.option("--max-runs", type=click.IntRange(1, 100), default=12, show_default=True)
-@click.option(
-    "--max-minutes",
-    type=click.FloatRange(0, 1440, min_open=True),
-    default=60.0,
-    show_default=True,
-    help="Budget in tank minutes (runs + 30 s reset each).",
-)
+@request_options(CampaignRequest)
 @rig_option
 @scenario_option
 @db_option
 @json_option
-def campaign(relative, axes, max_runs, max_minutes, rig_file, scenario_file, db_url, as_json):
+def campaign(rig_file, scenario_file, db_url, as_json, **options):
     """Measure until certain: the planner picks each test, stops at the target or budget."""
     from api.cli.procedures import run_procedure
     from api.core.campaign_session import run_campaign
     from api.core.rig_envelope import envelope_of
-    from estimation.design.campaign_state import Campaign, Target
+    from estimation.design.campaign_state import Campaign
+
+    # the body POST /api/campaigns takes (api.core.campaign_request)
+    request = request_from(CampaignRequest, options)
 
     def validate(source):
         from daq.procedures.params import ParameterError
 
-        chosen = tuple(axes) or tuple(a.axis for a in envelope_of(source.rig).axes)
-        target = Target(relative, chosen, max_runs, max_minutes)
+        envelope = envelope_of(source.rig)
+        target = request.target(envelope)
         try:
-            return Campaign(target, envelope_of(source.rig))
+            return Campaign(target, envelope)
         except ValueError as err:  # an axis the rig cannot test: named as --axis
-            raise ParameterError([("axes", list(chosen), str(err).split(": ", 1)[-1])]) from None
+            raise ParameterError(
+                [("axes", list(target.axes), str(err).split(": ", 1)[-1])]
+            ) from None
 
     async def body(session, plan, abort, view):
         plan.envelope = envelope_of(session.rig, session.store)  # with the thrusters' range

@@ -112,6 +112,8 @@ def request_options(model: type[BaseModel], *, required: bool = True) -> Callabl
         if flag.when_set is not None:
             option = click.option(flag.name, name, is_flag=True, help=flag.help or info.description)
         elif flag.parse is None and (element := _element(info.annotation)) is not None:
+            if typing.get_origin(element) is typing.Literal:  # one of the listed words
+                element = click.Choice([str(word) for word in typing.get_args(element)])
             option = click.option(
                 flag.name,
                 name,

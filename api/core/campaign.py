@@ -23,12 +23,13 @@ import time
 import weakref
 from typing import TYPE_CHECKING
 
+from api.core.campaign_request import CampaignRequest
 from api.core.job_model import Job, JobConflict
 from api.core.job_requests import procedure_from_request
 from api.core.rig_envelope import envelope_of
 from daq.store.faults import one_line
 from daq.store.schema import JOB_FINAL, JobState
-from estimation.design.campaign_state import Campaign, Target
+from estimation.design.campaign_state import Campaign
 from estimation.design.planner import Choice
 from estimation.design.planning_envelope import Candidate
 
@@ -80,16 +81,17 @@ class CampaignRunner:
                 existing = _RUNNERS[runner] = cls(runner)
         return existing
 
-    def start(self, target: Target, user: str | None = None) -> Job:
-        """Start a campaign for ``user``; ``ValueError`` naming the field when the rig cannot
-        test an axis asked for; the refusal of a start (an unacknowledged emergency stop, a
-        hold by someone else) at once, as for any test."""
+    def start(self, request: CampaignRequest, user: str | None = None) -> Job:
+        """Start the campaign ``request`` asks for, for ``user``; ``ValueError`` naming the
+        field when the rig cannot test an axis asked for; the refusal of a start (an
+        unacknowledged emergency stop, a hold by someone else) at once, as for any test."""
         from api.core.rig_guard import RigGuard
 
         service = self.runner.service
         RigGuard.of(service).check_start(user)
         store = service.store
         envelope = envelope_of(service.source.rig, store)
+        target = request.target(envelope)
         campaign = Campaign(target, envelope)  # ValueError: axes the rig cannot test
         label = (
             f"campaign to U ≤ {target.relative * 100:g} % on {' + '.join(target.axes)} "

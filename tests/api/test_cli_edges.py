@@ -122,7 +122,10 @@ case(
 )  # fmt: skip
 case(2, "--report: cannot use /etc/passwd/r", "estimate", "{run}", "--report", "/etc/passwd/r")
 case(2, "FILE: 'nope.toml' is not allowed", "sequence", "nope.toml")
-case(2, "'--target': '0%': allowed 0 < target < 100 %", "campaign", "--target", "0%")
+case(
+    2, "--target: 0.0 is not allowed (Input should be greater than 0)", "campaign", "--target", "0%"
+)
+case(2, "'--target': got 'abc'; allowed: the form N%", "campaign", "--target", "abc")
 case(2, "--axis: ['yaw'] is not allowed (the rig cannot test yaw)", "campaign",
      "--axis", "yaw", "--rig", str(ROOT / "fixtures/rigs/encoder-tow.toml"))  # fmt: skip
 case(2, "nope.toml: cannot read rig file", "tow", "--force", "10", "--rig", "nope.toml")

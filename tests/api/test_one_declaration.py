@@ -10,6 +10,7 @@ from pydantic import BaseModel
 
 from api.cli.main import main
 from api.core.calibration_queries import StandTableQuery, ThrustQuery
+from api.core.campaign_request import CampaignRequest
 from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from api.core.imports import ImportQuery
 from api.core.result_filter import ResultFilter
@@ -44,6 +45,7 @@ BODIES = [
     (CrossCheckRequest, "post", "/api/crosscheck", "crosscheck"),
     (CrossCheckJobRequest, "post", "/api/jobs/crosscheck", "crosscheck"),
     (SensitivityRequest, "post", "/api/analysis/sensitivity", "sensitivity"),
+    (CampaignRequest, "post", "/api/campaigns", "campaign"),
 ]
 
 

@@ -3,50 +3,15 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal
-
 from fastapi import APIRouter, Depends
-from pydantic import BaseModel, ConfigDict, Field
 
 from api.core.campaign import CampaignRunner
+from api.core.campaign_request import CampaignRequest
 from api.core.job_model import JobConflict
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, error_responses
-from daq.procedures.run_kinds import KINDS
-from estimation.design.campaign_state import Target
 
 router = APIRouter(prefix="/api/campaigns", tags=["campaigns"])
-
-#: The axes the planner plans: those of the kinds with an ``envelope`` (surge: tows, yaw: spins).
-PLANNED = {str(s.axis.axis): str(k) for k, s in KINDS.items() if s.envelope and s.axis}
-if TYPE_CHECKING:
-    PlannedAxis = str  # a key of PLANNED: what the type checker can know of a computed Literal
-else:
-    PlannedAxis = Literal[tuple(PLANNED)]  # what pydantic checks and the OpenAPI schema lists
-
-
-class CampaignRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    target_percent: float = Field(
-        1.0, gt=0, lt=100, description="Target 2σ/|θ| on inertia, K_L and K_Q, in %."
-    )
-    axes: list[PlannedAxis] = Field(
-        list(PLANNED),
-        min_length=1,
-        description=" and/or ".join(f"{axis} ({kind}s)" for axis, kind in PLANNED.items()) + ".",
-    )
-    max_runs: int = Field(12, ge=1, le=100, description="Budget: runs at most.")
-    max_minutes: float = Field(
-        60.0, gt=0, le=24 * 60, description="Budget: tank minutes (runs + resets) at most."
-    )
-
-    def target(self) -> Target:
-        return Target(
-            self.target_percent / 100,
-            tuple(dict.fromkeys(self.axes)),
-            self.max_runs,
-            self.max_minutes,
-        )
 
 
 @router.post(
@@ -57,9 +22,10 @@ class CampaignRequest(BaseModel):
     responses=error_responses(401, 403, 409, 422, 423, 503),
 )
 def start_campaign(body: CampaignRequest, runner: RunnerDep, user: OperatorDep) -> dict:
-    """Start a campaign: each test it chooses is queued as a tow/spin job (metadata
+    """Start a campaign (the body is ``rig campaign``'s options, ``api.core.campaign_request``):
+    each test it chooses is queued as a tow/spin job (metadata
     ``campaign``); its trail is the job's ``outcome`` (live on the stream)."""
-    return CampaignRunner.of(runner).start(body.target(), user.name).to_json()
+    return CampaignRunner.of(runner).start(body, user.name).to_json()
 
 
 @router.get(
