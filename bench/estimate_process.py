@@ -39,7 +39,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench.cli_startup import RIG  # noqa: E402  (``rig`` as a fresh process)
+from bench.cli_startup import RIG, bench_env, compiled_source  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "real"
 #: kvlcc2-roll-decay/README.md: C44 = Δ·g·GM [N·m/rad], I44 = Δ·KXX² [kg·m²].
@@ -109,23 +109,21 @@ def main() -> None:
         "--only", nargs="*", choices=("tows", "kvlcc2", "ship2d"), help="Only these cases."
     )
     opts = parser.parse_args()
-    src = opts.src.resolve() if opts.src else ROOT
     with tempfile.TemporaryDirectory() as tmp:
+        src = compiled_source(opts.src.resolve() if opts.src else None, tmp)
         db_url = f"sqlite:///{tmp}/rig.db"
-        env = os.environ | {
+        env = bench_env(dict(os.environ)) | {
             "RIG_DATABASE_URL": db_url,
             "XDG_DATA_HOME": tmp,
             "RIG_API_TOKEN": "bench",
             "PYTHONPATH": str(src),
         }
-        if opts.src:  # leave no byte code in another checkout
-            env["PYTHONPYCACHEPREFIX"] = f"{tmp}/pycache"
         subprocess.run([*RIG, "runs"], env=env, cwd=tmp, capture_output=True, check=True)
         cases = {"tows": record_tows(db_url)}
         cases["kvlcc2"] = [imported(KVLCC2, env, tmp)]
         cases["ship2d"] = [imported(SHIP2D, env, tmp)]
         cases = {k: v for k, v in cases.items() if not opts.only or k in opts.only}
-        out: dict = {"source": str(src), "runs": opts.runs}
+        out: dict = {"source": str(opts.src or ROOT), "runs": opts.runs}
         base = medians([sys.executable, "-c", "pass"], env, tmp, opts.runs)
         out["python_c_pass"] = base
         out["commands"] = {}

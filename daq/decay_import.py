@@ -22,8 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from daq.estimators import OUTPUT_ERROR, Estimator
 from daq.import_rules import ImportRules, Planning, checked_fields, no_drive
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
-from daq.procedures.procedure_request import Flag
 from daq.vocabulary import AXES, RunKind
 
 if TYPE_CHECKING:

@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
-from daq.procedures.procedure_request import Flag
 from daq.vocabulary import AXES, DRIVE_FIELD
 
 if TYPE_CHECKING:

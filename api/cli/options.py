@@ -21,8 +21,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
 from api.cli.common import fail, flag_names
-from daq.procedures.params import ParameterError, problems_of
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 
 
 def _flag(info: FieldInfo) -> Flag | None:
@@ -170,6 +169,8 @@ def request_from(model: type[M], values: dict[str, Any], **given: Any) -> M:
     exactly as its route takes it; a bad value exits 2 with one line per field, each named as
     the command line spells it (``--temp: …``)."""
     from pydantic import ValidationError
+
+    from daq.procedures.params import ParameterError, problems_of  # only to word a refusal
 
     try:
         return model(**given, **request_fields(model, values))

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from estimation.thrust.calibration_import import (
     COMMAND_UNITS,
     THRUST_UNITS,

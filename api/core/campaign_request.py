@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field
 
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from daq.procedures.requests import StrictRequest
 from daq.procedures.run_kinds import KINDS
 from estimation.design.campaign_state import Target

@@ -9,7 +9,7 @@ from typing import Annotated
 
 from pydantic import Field
 
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from daq.procedures.requests import StrictRequest
 
 

@@ -9,7 +9,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, Field
 
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from daq.store.day_window import parse_moment, parse_tz, start_window
 
 _DAY_HELP = "a day YYYY-MM-DD (local midnight in tz), 'today', 'yesterday' or an ISO 8601 date-time"

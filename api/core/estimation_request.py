@@ -8,7 +8,8 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from daq.procedures.procedure_request import Flag, StrictRequest
+from daq.procedures.flag import Flag
+from daq.procedures.procedure_request import StrictRequest
 from daq.procedures.run_kinds import KINDS, all_methods
 
 #: The methods each estimator offers beside output-error, in words.

@@ -24,8 +24,8 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 from pydantic import Field
 
 from daq.import_rules import ImportRequest, Planning, body_mass
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
-from daq.procedures.procedure_request import Flag
 from daq.procedures.run_kinds import IMPORT_KINDS, KINDS
 from daq.store.export_header import ExportHeader, read_export_header, vehicle_in_header
 

@@ -9,7 +9,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field
 
 from api.core.day_filter import DayFilter
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 
 
 class ResultFilter(DayFilter):

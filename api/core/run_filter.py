@@ -11,7 +11,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field
 
 from api.core.day_filter import DayFilter
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from daq.vocabulary import RunKind, RunStatus
 
 

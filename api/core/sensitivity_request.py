@@ -9,7 +9,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from estimation.vehicle.description import COEFFICIENT_NAMES, DOFS
 from estimation.vehicle.responses import RESPONSE_NAMES
 

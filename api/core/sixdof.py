@@ -14,8 +14,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
-from daq.procedures.procedure_request import Flag, comma_separated_floats
+from daq.procedures.procedure_request import comma_separated_floats
 from daq.store import ResultInfo, Store
 from estimation.vehicle.apply_estimates import apply_result_json
 from estimation.vehicle.description import DOFS, Vehicle6, VehicleError

@@ -9,7 +9,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, Field
 
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 from estimation import scale
 from estimation.theory.compare import DEFAULT_BAND, compare_added_mass
 from estimation.theory.hull import predict_added_mass

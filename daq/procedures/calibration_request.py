@@ -10,8 +10,9 @@ from typing import Annotated, Any, ClassVar
 from pydantic import Field, ValidationInfo, field_validator
 
 from daq.procedures import params as p
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
-from daq.procedures.procedure_request import Flag, ProcedureRequest, comma_separated_floats, rig_of
+from daq.procedures.procedure_request import ProcedureRequest, comma_separated_floats, rig_of
 from daq.vocabulary import RunKind
 from estimation.thrust import MIN_POINTS_PER_SIDE
 

@@ -1,7 +1,7 @@
-"""What every procedure request shares: how a field is spelled on the command line
-(:class:`Flag`), which rig-file limit bounds it (:class:`RigLimit`), the strict base model
-with the run's metadata, and the rig in the validation context (:func:`rig_of`). The kinds'
-models are in ``daq.procedures.requests``.
+"""What every procedure request shares: which rig-file limit bounds a field
+(:class:`RigLimit`), the strict base model with the run's metadata, and the rig in the
+validation context (:func:`rig_of`). How a field is spelled on the command line is
+``daq.procedures.flag``; the kinds' models are in ``daq.procedures.requests``.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pydantic import (
 )
 
 from daq.procedures import params as p
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
 
 if TYPE_CHECKING:
@@ -30,21 +31,6 @@ if TYPE_CHECKING:
 
     from daq.config import RigConfig
     from daq.vocabulary import RunKind
-
-
-@dataclass(frozen=True)
-class Flag:
-    """How a request field is spelled on the command line.
-
-    ``when_set``: the option is an on/off flag giving the field this value when present
-    (``--thrusters`` → ``drive="thrusters"``); ``help`` then says what the flag does.
-    ``parse`` turns the typed text into the field's value (``--commands 0,0.2`` → a list)."""
-
-    name: str
-    when_set: Any = None
-    help: str | None = None
-    metavar: str | None = None
-    parse: Callable[[str], Any] | None = None
 
 
 @dataclass(frozen=True)

@@ -31,11 +31,11 @@ from daq.procedures.calibration_request import (
     CalibrationRequest,
     calibration_parameters,
 )
+from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
 from daq.procedures.procedure_request import (
     Baseline,
     Drive,
-    Flag,
     MaxTime,
     ProcedureRequest,
     RigLimit,

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import time
-import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib import metadata as importlib_metadata
@@ -33,6 +32,8 @@ def software_version() -> str:
         return importlib_metadata.version("towrig")
     except importlib_metadata.PackageNotFoundError:
         pass
+    import tomllib  # here: only a checkout without installed metadata reads it (~10 ms)
+
     from daq.config import PACKAGE_ROOT  # here: daq.config imports pydantic
 
     try:

@@ -12,8 +12,9 @@ from pydantic import Field
 
 from api.cli.imports import import_
 from daq.config import load_rig
+from daq.procedures.flag import Flag
 from daq.procedures.kind_spec import KindSpec
-from daq.procedures.procedure_request import Flag, MaxTime, ProcedureRequest, RigLimit
+from daq.procedures.procedure_request import MaxTime, ProcedureRequest, RigLimit
 from daq.procedures.run_kinds import KINDS, RIG_KINDS
 from daq.rig_capabilities import Needs
 from daq.vocabulary import RunKind

@@ -17,7 +17,7 @@ from api.core.result_filter import ResultFilter
 from api.core.run_filter import RunFilter
 from api.core.sensitivity_request import SensitivityRequest
 from api.core.theory import AddedMassQuery, WaterQuery
-from daq.procedures.procedure_request import Flag
+from daq.procedures.flag import Flag
 
 #: (model, the route's method and path, the command) of each operation taking a query.
 OPERATIONS = [
