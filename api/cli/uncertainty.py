@@ -6,43 +6,29 @@ from __future__ import annotations
 import click
 
 from api.cli.common import db_option, echo_json, fail, json_option, open_store, rig_option
-from api.core.pretest import DEFAULT_RELEASE_STD_S, predict_sequence
+from api.cli.options import request_from, request_options
+from api.core.pretest import PretestQuery, predict_sequence
 from daq.config import load_rig
 from estimation.uncertainty.text import budget_lines
 
 
 @click.command("predict-uncertainty")
 @click.argument("sequence", type=click.Path(dir_okay=False))
-@click.option(
-    "--result",
-    "result_ids",
-    type=int,
-    multiple=True,
-    metavar="RESULT_ID",
-    help="Stored estimation result(s) to take each axis's model from (default: the newest "
-    "output-error estimate of each axis).",
-)
-@click.option(
-    "--release-std",
-    "release_std_s",
-    type=float,
-    default=DEFAULT_RELEASE_STD_S,
-    show_default=True,
-    metavar="S",
-    help="1σ of each release instant, s.",
-)
+@request_options(PretestQuery)
 @rig_option
 @db_option
 @json_option
-def predict_uncertainty(sequence, result_ids, release_std_s, rig_file, db_url, as_json):
+def predict_uncertainty(sequence, rig_file, db_url, as_json, **options):
     """Simulate SEQUENCE's weight-driven tows and spins with the current model and the rig
     file's declared tolerances, and print the budget and U (95 %) each coefficient will
     reach."""
+    # the query GET /api/sequences/{name}/uncertainty takes (api.core.pretest.PretestQuery)
+    query = request_from(PretestQuery, options)
     rig = load_rig(rig_file)
     store = open_store(db_url)
     try:
         try:
-            data = predict_sequence(store, rig, sequence, result_ids, release_std_s)
+            data = predict_sequence(store, rig, sequence, query.result, query.release_std_s)
         except ValueError as err:
             fail(str(err))
     finally:
@@ -50,7 +36,7 @@ def predict_uncertainty(sequence, result_ids, release_std_s, rig_file, db_url, a
     if as_json:
         echo_json(data)
         return
-    click.echo(f"pre-test prediction for {data['sequence']} (release σ {release_std_s:g} s)")
+    click.echo(f"pre-test prediction for {data['sequence']} (release σ {query.release_std_s:g} s)")
     for axis, budget in data["axes"].items():
         click.echo(f"{axis} (model {', '.join(f'{v:.4g}' for v in data['models'][axis])}):")
         for line in budget_lines(budget):

@@ -7,10 +7,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Annotated, Any, cast
+
+from pydantic import BaseModel, ConfigDict, Field
 
 from daq.axis_budget import chain_of, tolerances_of
 from daq.config import RigConfig
+from daq.procedures.flag import Flag
 from daq.procedures.run_kinds import KINDS
 from daq.procedures.sequence import load_sequence
 from daq.store import Store
@@ -20,6 +23,26 @@ from estimation.uncertainty.planned_uncertainty import PlannedRig, PlannedRun, p
 #: Release instant σ assumed when no stored run says otherwise, s: the brake write's
 #: bracket on the simulated rig's Modbus (a few ms); ``release_std_s`` overrides it.
 DEFAULT_RELEASE_STD_S = 0.002
+
+
+class PretestQuery(BaseModel):
+    """What a pre-test prediction takes, declared once: ``GET
+    /api/sequences/{name}/uncertainty``'s query and ``rig predict-uncertainty``'s options."""
+
+    model_config = ConfigDict(frozen=True)
+
+    release_std_s: Annotated[
+        float,
+        Field(ge=0, le=1, description="1σ of each release instant, s."),
+        Flag("--release-std", metavar="S"),
+    ] = DEFAULT_RELEASE_STD_S
+    result: Annotated[
+        list[Annotated[int, Field(ge=1, le=2**62)]],
+        Field(default_factory=list, max_length=4,
+              description="Stored estimation results to take each axis's model from "
+              "(default: the newest output-error estimate of each axis)."),
+        Flag("--result", metavar="RESULT_ID"),
+    ]  # fmt: skip
 
 
 def current_models(store: Store, result_ids: Sequence[int] = ()) -> dict[str, list[float]]:

@@ -87,9 +87,10 @@ case(2, "no vehicle named 'nope'", "predict-added-mass", "nope")
 SEED_SEQUENCE = str(ROOT / "fixtures" / "sequences" / "seed000-campaign.toml")
 case(2, "file: 'nope.toml' is not allowed (a readable sequence file", "predict-uncertainty",
      "nope.toml")  # fmt: skip
-case(2, "release_std_s: got -1.0, allowed: 0 … 1 s", "predict-uncertainty", SEED_SEQUENCE,
+case(2, "'--release-std': -1.0 is not in the range 0<=x<=1", "predict-uncertainty", SEED_SEQUENCE,
      "--release-std", "-1")  # fmt: skip
-case(2, f"no result with id {HUGE}", "predict-uncertainty", SEED_SEQUENCE, "--result", HUGE)
+case(2, f"--result[0]: {HUGE} is not allowed", "predict-uncertainty", SEED_SEQUENCE, "--result",
+     HUGE)  # fmt: skip
 case(2, f"no result with id {HUGE}", "predict-added-mass", "benbam", "--estimate", HUGE)
 case(2, ": hull: got None, allowed: a [hull] table", "predict-added-mass", "seed002-rov")
 case(2, "'--water-temp': 80.0 is not in the range 0.0<=x<=40.0", "predict-added-mass", "benbam",

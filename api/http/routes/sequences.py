@@ -6,9 +6,8 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException, Query
-from pydantic import Field
 
-from api.core.pretest import DEFAULT_RELEASE_STD_S, predict_sequence
+from api.core.pretest import PretestQuery, predict_sequence
 from api.core.sequence_files import list_sequences, sequence_files
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read
 from api.http.schemas import SequenceFileOut, error_responses
@@ -40,24 +39,24 @@ def get_sequence_uncertainty(
     service: ServiceDep,
     store: StoreDep,
     runner: RunnerDep,
-    release_std_s: Annotated[
-        float, Query(ge=0, le=1, description="1σ of each release instant, s.")
-    ] = DEFAULT_RELEASE_STD_S,
-    result: Annotated[
-        list[Annotated[int, Field(ge=1, le=2**62)]],
-        Query(max_length=4, description="Estimation result ids to take the models from."),
-    ] = [],  # noqa: B006 - FastAPI copies a default list per request
+    query: Annotated[PretestQuery, Query()],
 ) -> dict:
     """Pre-test: the budget and U (95 %) each coefficient will reach if sequence ``name``
     is run (its weight-driven tows and spins simulated with the newest stored estimate of
-    each axis, or ``result``, and this rig's declared tolerances; docs/uncertainty.md).
+    each axis, or ``result``, and this rig's declared tolerances; docs/uncertainty.md; the
+    query is ``rig predict-uncertainty``'s options, ``api.core.pretest.PretestQuery``).
     Computed in the analysis worker process, not the rig's (about a second per axis)."""
     path = sequence_files().get(name)
     if path is None:
         raise HTTPException(404, f"no sequence file {name!r}")
     try:
         return runner.analysis.executor_for(store).call(
-            store.url, predict_sequence, service.source.rig, path, result, release_std_s
+            store.url,
+            predict_sequence,
+            service.source.rig,
+            path,
+            query.result,
+            query.release_std_s,
         )
     except ResultNotFound as err:
         raise HTTPException(404, str(err)) from None
