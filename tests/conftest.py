@@ -53,6 +53,22 @@ def pytest_asyncio_loop_factories(config: pytest.Config, item: pytest.Item) -> d
 
 
 @pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """The xdist controller compiles the estimator's RK4 loop into numba's cache
+    (``estimation.motion.compiled_warm_up``) before it starts the workers (xdist's own
+    ``pytest_sessionstart`` is ``trylast``). On a fresh clone the cache is empty, and every
+    worker, analysis worker and ``rig serve`` warm-up that integrates before the first
+    compile is written compiled it again: three cold workers at once took 58 s of CPU,
+    one compile then two cache loads 22 s. From a warm cache this loads in ~1 s."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return  # a worker, or one process (-n 0): it compiles at most once anyway
+    from estimation.motion.compiled_warm_up import warm_up
+
+    warm_up()
+
+
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """A test on a browser page (the ``chromium`` fixture, tests/api/conftest.py) is in the
     slow lane wherever it is written: a page is the real stack in real time. ``tryfirst``:
