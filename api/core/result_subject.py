@@ -1,31 +1,36 @@
-"""What a stored result is of, in a few words — ``surge tow / output-error``, ``roll free
-decay``, ``pendulum swing (surge) / output-error``, ``thrust calibration`` — read from its
+"""What a stored result is of, in a few words — ``surge tow test / output-error``, ``roll free
+decay``, ``surge pendulum free-decay test / output-error``, ``thrust calibration`` — read from its
 kind and document in this one place, so the results list on the page (``GET /api/results``'
 ``subject``) and ``rig results`` name a result alike and never by guessing at its shape."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from daq.vocabulary import AXES
 
+#: What a result of a kind other than an estimation is of.
+OTHER_RESULTS: dict[str, Callable[[Mapping[str, Any]], str]] = {
+    "calibration": lambda data: "thrust calibration",
+    "crosscheck": lambda data: f"{data.get('axis', '')} cross-check".strip(),
+}
+
 
 def subject(kind: str, data: Mapping[str, Any]) -> str:
-    """The result's subject: the record it was made of (test and degree of freedom) and the
-    method; ``—`` when the document names neither."""
-    method = data.get("method")
-    if kind == "calibration":
-        return "thrust calibration"
-    if kind == "crosscheck":
-        return f"{data.get('axis', '')} cross-check".strip()
-    if data.get("analysis") == "pendulum":
-        record = f"pendulum swing ({data.get('axis')})"
-    elif data.get("kind") == "decay":
-        record = f"{data.get('dof')} free decay"
-    elif kinds := [k for k, terms in AXES.items() if terms.axis == data.get("axis")]:
-        # a tow or a spin, on the line its dof names (a settling sphere: a heave tow)
-        record = f"{data.get('dof') or data['axis']} {kinds[0]}"
+    """The result's subject: the record it was made of — the line it moved along (its
+    ``dof``, else its ``axis``) and the run kind's label from the registry — and the method;
+    ``—`` when the document names neither."""
+    if kind in OTHER_RESULTS:
+        return OTHER_RESULTS[kind](data)
+    from daq.procedures.run_kinds import KINDS  # the labels (only a list needs them)
+
+    recorded = data.get("analysis") or data.get("kind")  # a pendulum's, a decay's document
+    if recorded not in KINDS:  # a tow's or a spin's names its axis
+        recorded = next((k for k, t in AXES.items() if t.axis == data.get("axis")), None)
+    if recorded in KINDS:
+        line = data.get("dof") or data.get("axis")  # a settling sphere's tow: heave
+        record = " ".join(str(p) for p in (line, KINDS[recorded].label) if p)
     else:
         record = str(data.get("analysis") or "")
-    return " / ".join(part for part in (record, method) if part) or "—"
+    return " / ".join(part for part in (record, data.get("method")) if part) or "—"

@@ -352,7 +352,7 @@ class ResultOut(BaseModel):
     software_version: str
     data: dict[str, Any]
     subject: str = Field(
-        "—", description="What it is of: the record and method (surge tow / output-error)."
+        "—", description="What it is of: the record and method (surge tow test / output-error)."
     )
     report_plots: list[str] = Field([], description="Names for GET .../report/{name}.png")
 

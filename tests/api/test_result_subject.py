@@ -10,12 +10,12 @@ from tests.api.conftest import AUTH
 
 #: (kind, document as its producer stores it (the keys that say what it is), subject).
 STORED = [
-    ("estimation", {"axis": "surge", "method": "output-error"}, "surge tow / output-error"),
+    ("estimation", {"axis": "surge", "method": "output-error"}, "surge tow test / output-error"),
     ("estimation", {"axis": "surge", "dof": "heave", "method": "output-error"},
-     "heave tow / output-error"),
-    ("estimation", {"axis": "yaw", "method": "equation-error"}, "yaw spin / equation-error"),
+     "heave tow test / output-error"),
+    ("estimation", {"axis": "yaw", "method": "equation-error"}, "yaw spin test / equation-error"),
     ("estimation", {"analysis": "pendulum", "axis": "surge", "method": "output-error"},
-     "pendulum swing (surge) / output-error"),
+     "surge pendulum free-decay test / output-error"),
     ("estimation", {"kind": "decay", "dof": "roll"}, "roll free decay"),
     ("calibration", {"thrusters": []}, "thrust calibration"),
     ("crosscheck", {"axis": "surge"}, "surge cross-check"),
@@ -35,6 +35,6 @@ def test_the_results_list_and_one_result_carry_the_subject(client, tow_job):
     listed = client.get("/api/results", params={"run": tow_job["run_ids"][0]}, headers=AUTH)
     assert listed.status_code == 200, listed.text
     mine = next(r for r in listed.json() if r["id"] == result_id)
-    assert mine["subject"] == "pendulum swing (surge) / output-error"
+    assert mine["subject"] == "surge pendulum free-decay test / output-error"
     one = client.get(f"/api/results/{result_id}", headers=AUTH).json()
     assert one["subject"] == mine["subject"]

@@ -38,7 +38,7 @@ def test_results_are_listed_and_compared(rig) -> None:
     listed = json.loads(rig("results", "--json", "--run", run[:8]).stdout)
     assert [r["id"] for r in listed] == [first]
     text = rig("results").stdout
-    assert f"#{second}" in text.splitlines()[0] and "surge tow / output-error" in text
+    assert f"#{second}" in text.splitlines()[0] and "surge tow test / output-error" in text
 
     compared = json.loads(rig("results", "--compare", str(first), str(second), "--json").stdout)
     (row,) = compared["coefficients"]

@@ -47,7 +47,7 @@ def test_a_settling_sphere_imported_as_heave_is_heave_in_every_text(rig) -> None
     assert report.splitlines()[0] == "# Estimation report — heave, output-error"
     assert "| heave, weight, +0.0026 N |" in report  # the repeats' condition
     listed = rig("results").stdout  # the stored result as `rig results` lists it
-    assert "heave / output-error" in listed
+    assert "heave tow test / output-error" in listed
     texts = [summary, report, listed, *doc["warnings"], *doc["advice"]]
     assert not [t for t in texts if "surge" in t.lower()]
 
