@@ -37,10 +37,12 @@ _json_text = functools.partial(json.dumps, ensure_ascii=False)
 def _set_sqlite_pragmas(dbapi_connection, _record) -> None:
     cursor = dbapi_connection.cursor()
     try:
+        # the busy timeout first: switching a new file to WAL waits for the lock of a process
+        # migrating it, which under load can hold it past the driver's default 5 s
+        cursor.execute("PRAGMA busy_timeout=10000")
         cursor.execute("PRAGMA journal_mode=WAL")
         cursor.execute("PRAGMA synchronous=NORMAL")
         cursor.execute("PRAGMA foreign_keys=ON")
-        cursor.execute("PRAGMA busy_timeout=10000")
     finally:
         cursor.close()
 

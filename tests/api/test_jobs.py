@@ -152,9 +152,17 @@ def test_rig_status_reports_values_clock_and_limits(client):
 
 
 def test_sequence_pauses_between_steps_and_resumes(client):
-    step = {"kind": "tow", "force_n": 4.9, "max_time_s": 0.5, "baseline_s": 0.0}
+    # a first step long enough to be seen running (3 s simulated, 0.3 s at the service's pace)
+    step = {"kind": "tow", "force_n": 4.9, "max_time_s": 3.0, "baseline_s": 0.0}
     body = {"name": "api test", "rest_s": 0.2, "steps": [step, step]}
     job_id = start_job(client, "/api/jobs/sequence", body)
+    # paused while its first step runs (a pause that lands before it starts holds it there)
+    wait_job_until(
+        client,
+        job_id,
+        lambda job: (job.get("progress") or {}).get("message", "").startswith("step 1/2"),
+        "the first step running",
+    )
     assert client.post(f"/api/jobs/{job_id}/pause", headers=AUTH).status_code == 200
     paused = wait_job(client, job_id, states=("paused", *("completed", "aborted", "failed")))
     assert paused["state"] == "paused", paused
