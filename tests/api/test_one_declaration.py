@@ -20,6 +20,9 @@ from api.core.sensitivity_request import SensitivityRequest
 from api.core.theory import AddedMassQuery, WaterQuery
 from daq.procedures.flag import Flag
 
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
+pytestmark = pytest.mark.simtime
+
 #: (model, the route's method and path, the command) of each operation taking a query.
 OPERATIONS = [
     (ImportQuery, "post", "/api/runs/import", "import"),

@@ -8,6 +8,9 @@ import pytest
 from api.core.result_subject import subject
 from tests.api.conftest import AUTH
 
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
+pytestmark = pytest.mark.simtime
+
 #: (kind, document as its producer stores it (the keys that say what it is), subject).
 STORED = [
     ("estimation", {"axis": "surge", "method": "output-error"}, "surge tow test / output-error"),
