@@ -41,27 +41,25 @@ def crosscheck(report_dir, db_url, as_json, **options):
     if not results and not (options["weight_runs"] and options["thruster_runs"]):
         fail("--weight and --thrusters: give at least one run of each (or --weight-result ID "
              "--thruster-result ID)")  # fmt: skip
-    pair = request_from(CrossCheckRequest, options) if results else None
-    runs = None if results else request_from(CrossCheckJobRequest, options)
+    request = request_from(CrossCheckRequest if results else CrossCheckJobRequest, options)
     report_folder(report_dir)
     store = open_store(db_url)
     try:
         with user_errors():
             try:
-                if pair is not None:
+                if isinstance(request, CrossCheckRequest):
                     data = crosscheck_results(
                         store,
-                        pair.weight_result_id,
-                        pair.thruster_result_id,
+                        request.weight_result_id,
+                        request.thruster_result_id,
                         report_dir=report_dir,
                     )
                 else:
-                    assert runs is not None
                     data = crosscheck_runs(
                         store,
-                        runs.weight_runs,
-                        runs.thruster_runs,
-                        search_effects=runs.search_effects,
+                        request.weight_runs,
+                        request.thruster_runs,
+                        search_effects=request.search_effects,
                         report_dir=report_dir,
                     )
             except ValueError as err:  # named as the command line spells it
