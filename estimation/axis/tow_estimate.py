@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -45,7 +45,7 @@ from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
 from estimation.motion.terms import units_of
-from estimation.motion.well_determined import drags_at_speeds, terminal_speeds
+from estimation.motion.well_determined import Combination, drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
@@ -394,25 +394,33 @@ def _build(
         windows={r.run_id: r.window_report() for r in runs},
         drive_laws={r.run_id: r.drive_law for r in runs if r.drive_law},
         unexplained=unexplained,
-        well_determined=_well_determined(final, runs, axis),
+        well_determined=well_determined(final, *combination_conditions(final, runs), axis),
         fit_before=base,
         fit_after=final,
     )
 
 
-def _well_determined(final: FitResult, runs: Sequence[RunData], axis: str) -> tuple:
-    """The terminal speed at each constant drive (a thruster run's at its end), then the
-    drag at each speed a run reached (the model's at the end of its window)."""
+def combination_conditions(
+    final: FitResult, runs: Sequence[RunData]
+) -> tuple[dict[str, float], list[float]]:
+    """What a tow's well-determined combinations are evaluated at: each run's constant drive
+    (a thruster run's at its end; N or N·m), and the speed each run reached (the model's at
+    the end of its window; m/s or rad/s)."""
     held = {}
     for r in runs:
         d = np.asarray(r.drive, dtype=float)
         held[r.run_id] = float(d) if d.ndim == 0 else float(np.median(d[-max(d.size // 5, 1) :]))
-    args = (final.names, final.values, final.std, final.correlation)
-    reached = [float(v[-1]) for v in final.velocities if v.size]
-    return (
-        *terminal_speeds(*args, held, axis),
-        *drags_at_speeds(*args, reached, axis),
-    )
+    return held, [float(v[-1]) for v in final.velocities if v.size]
+
+
+def well_determined(
+    fit: FitResult, drives: Mapping[str, float], speeds: Sequence[float], axis: str
+) -> tuple[Combination, ...]:
+    """The terminal speed at each of the ``drives``, then the drag at each of the
+    ``speeds`` (``combination_conditions``), under ``fit``'s coefficients. The budget evaluates
+    them at the same conditions on each re-fit with a declared input moved."""
+    args = (fit.names, fit.values, fit.std, fit.correlation)
+    return (*terminal_speeds(*args, drives, axis), *drags_at_speeds(*args, speeds, axis))
 
 
 def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:

@@ -36,6 +36,7 @@ from scipy import special
 from estimation.axis.output_error import FitResult, fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.axis.result import EstimationResult
+from estimation.axis.tow_estimate import combination_conditions, well_determined
 from estimation.data.run_arrays import RunData
 from estimation.kind_advice import advice_for
 from estimation.report_numbers import finite_or_none
@@ -50,7 +51,7 @@ from estimation.uncertainty.sources import (
     standard_uncertainty,
     weight_groups,
 )
-from estimation.uncertainty.type_a import type_a_rows
+from estimation.uncertainty.type_a import combination_rows, type_a_rows
 
 __all__ = ["Budget", "BudgetRow", "CoefficientBudget", "uncertainty_budget"]
 
@@ -163,33 +164,47 @@ def round_reported(value: float, expanded: float, digits: int = 2) -> tuple[str,
 
 
 def _type_b_sensitivity(
-    runs: Sequence[RunData], fit: FitResult, chain: Chain, source: str, u: float
-) -> list[np.ndarray]:
-    """∂θ/∂x per independent input of ``source`` (one per hung weight for weights)."""
+    runs: Sequence[RunData],
+    result: EstimationResult,
+    fit: FitResult,
+    chain: Chain,
+    source: str,
+    u: float,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """∂θ/∂x per independent input of ``source`` (one per hung weight for weights), and
+    the same for the result's well-determined combinations, each recomputed on the re-fit
+    at the conditions the result gives it at (the nominal drives and reached speeds: a
+    terminal speed is a function of the coefficients at a stated drive)."""
     groups: list[list[int]] = weight_groups(runs) if SOURCES[source].per_weight else [[]]
+    conditions = combination_conditions(fit, runs)
+    named = [c.name for c in result.well_determined]
     out = []
     for only in groups:
-        values = []
+        values, combined = [], []
         for delta in (u, -u):
             moved = [prepare(r) for r in perturbed(runs, chain, source, delta, only)]
             refit = fit_output_error(moved, fit.effects, start=fit.values, quantization_sigma=False)
             values.append(refit.values)
-        out.append((values[0] - values[1]) / (2 * u))
+            again = {c.name: c.value for c in well_determined(refit, *conditions, runs[0].axis)}
+            combined.append(np.array([again.get(n, math.nan) for n in named]))
+        out.append(((values[0] - values[1]) / (2 * u), (combined[0] - combined[1]) / (2 * u)))
     return out
 
 
 def _type_b_rows(
     runs: Sequence[RunData],
+    result: EstimationResult,
     fit: FitResult,
     chain: Chain,
     tolerances: Mapping[str, float],
     notes: list[str],
 ) -> dict[str, list[BudgetRow]]:
-    """Type B rows per coefficient; a declared input that reaches no run is named in
-    ``notes`` instead (a thrust calibration in a weight-driven estimate, the water
-    temperature, which enters only ρ and ν)."""
+    """Type B rows per coefficient and per well-determined combination (by name); a
+    declared input that reaches no run is named in ``notes`` instead (a thrust calibration
+    in a weight-driven estimate, the water temperature, which enters only ρ and ν)."""
     axis = runs[0].axis
-    rows: dict[str, list[BudgetRow]] = {n: [] for n in fit.names}
+    names = (*fit.names, *(c.name for c in result.well_determined))
+    rows: dict[str, list[BudgetRow]] = {n: [] for n in names}
     idle = []
     for name, half_width in tolerances.items():
         source = SOURCES[name]
@@ -199,8 +214,11 @@ def _type_b_rows(
         if not reaches(runs, chain, name, u):
             idle.append(f"{name} (±{half_width:g} {source.unit}: {source.meaning})")
             continue
-        grads = _type_b_sensitivity(runs, fit, chain, name, u)
-        for i, coef in enumerate(fit.names):
+        grads = [
+            np.concatenate([g, c])
+            for g, c in _type_b_sensitivity(runs, result, fit, chain, name, u)
+        ]
+        for i, coef in enumerate(names):
             parts = np.array([g[i] for g in grads])
             contribution = float(np.sqrt(np.sum((parts * u) ** 2)))
             note = source.meaning
@@ -282,7 +300,7 @@ def uncertainty_budget(
     runs = as_fitted(runs, result)
     imported = chain is None
     chain = chain or Chain(g=9.81)
-    type_b = _type_b_rows(runs, fit, chain, declared, notes) if declared else {}
+    type_b = _type_b_rows(runs, result, fit, chain, declared, notes) if declared else {}
     repeat_std: dict[str, tuple[float, int]] = {}
     if repeats is not None:
         kind = advice_for("import" if imported else "tow")
@@ -294,4 +312,9 @@ def uncertainty_budget(
         name: coefficient_budget(name, fit.value(name), type_a[name] + type_b.get(name, []))
         for name in fit.names
     }
-    return Budget(budgets, bool(declared), tuple(notes), declared)
+    fit_rows = combination_rows(result, fit, runs, max(fit.n_samples - fit.n_params, 1))
+    combinations = {
+        c.name: coefficient_budget(c.name, c.value, [fit_rows[c.name], *type_b.get(c.name, [])])
+        for c in result.well_determined
+    }
+    return Budget(budgets, bool(declared), tuple(notes), declared, combinations)

@@ -27,15 +27,19 @@ The release-timing refit and the thrust calibration draws
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 from estimation.axis.output_error import FitResult
 from estimation.axis.result import EstimationResult
+from estimation.axis.tow_estimate import combination_conditions, well_determined
+from estimation.data.run_arrays import RunData
 from estimation.motion.terms import LIBRARY
 from estimation.uncertainty.rows import BudgetRow
 
 QUANTIZATION = "encoder quantization (step Q, one unknown phase per run)"
 FIT_ROW = "fit (σ̂²(JᵀJ)⁻¹)"
+COMBINATION_ROW = "fit (delta method: the coefficients' σ̂²(JᵀJ)⁻¹ or quantization σ)"
 NOT_IDENTIFIED = "not identified by these runs: no σ, so no U"
 
 
@@ -44,6 +48,35 @@ def coefficient_unit(name: str, axis: str) -> str:
     if name == "inertia":
         return "kg" if axis == "surge" else "kg·m²"
     return LIBRARY[name].unit(axis) if name in LIBRARY else ""
+
+
+def combination_rows(
+    result: EstimationResult, fit: FitResult, runs: Sequence[RunData], dof_fit: float
+) -> dict[str, BudgetRow]:
+    """The Type A row of each well-determined combination (a tow's terminal speed, its drag
+    at a tested speed), by name: its delta-method σ (``motion.well_determined``) through the
+    fit's correlation and, as for the coefficients, the larger of the white σ and the
+    encoder quantization's σ (the serial-correlation σ would count the declared Type B
+    sources twice, module doc). The bootstrap, release-timing and calibration draws are
+    kept per raw coefficient only, so they are not in it (docs/uncertainty.md)."""
+    forms = [f for f in (fit.std_white, fit.std_quantization) if f is not None] or [fit.std]
+    sigmas: dict[str, list[float]] = {}
+    for std in forms:
+        conditions = combination_conditions(fit, runs)
+        for c in well_determined(replace(fit, std=std), *conditions, result.axis):
+            if c.std is not None:
+                sigmas.setdefault(c.name, []).append(c.std)
+    out = {}
+    for c in result.well_determined:
+        found = [s for s in sigmas.get(c.name, []) if math.isfinite(s)]
+        if c.std is None or not math.isfinite(c.std) or not found:
+            out[c.name] = BudgetRow(
+                COMBINATION_ROW, "A", c.unit, math.nan, 1.0, math.nan, dof_fit, note=NOT_IDENTIFIED
+            )
+        else:
+            u = max(found)
+            out[c.name] = BudgetRow(COMBINATION_ROW, "A", c.unit, u, 1.0, u, dof_fit)
+    return out
 
 
 def type_a_rows(

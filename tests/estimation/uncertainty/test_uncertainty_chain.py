@@ -20,6 +20,7 @@ from scipy.integrate import solve_ivp
 from estimation import RunData, estimate
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
+from estimation.axis.tow_estimate import combination_conditions, well_determined
 from estimation.uncertainty import Chain, analyse_repeats, uncertainty_budget, without_excluded
 
 TOLERANCES = {
@@ -104,10 +105,15 @@ def test_budget_agrees_with_a_monte_carlo_of_the_chain(scale):
     result = estimate(nominal, search_effects=False, n_bootstrap=0)
     budget = uncertainty_budget(nominal, result, CHAIN, TOLERANCES, analyse_repeats(nominal))
     fit = result.fit_after
-    draws = []
+    conditions = combination_conditions(fit, nominal)
+    draws, combined = [], []
     for _ in range(150):
         runs = _campaign(coef, masses, rng)
-        draws.append(fit_output_error([prepare(r) for r in runs], (), start=fit.values).values)
+        draw = fit_output_error([prepare(r) for r in runs], (), start=fit.values)
+        draws.append(draw.values)
+        # the terminal speeds and drags at the campaign's own conditions (fixed drives and
+        # speeds): their truth is fixed as the coefficients' is, so their spread is their error
+        combined.append([c.value for c in well_determined(draw, *conditions, "surge")])
     spread = np.std(draws, axis=0, ddof=1)
     for i, name in enumerate(fit.names):
         c = budget.coefficients[name]
@@ -115,6 +121,14 @@ def test_budget_agrees_with_a_monte_carlo_of_the_chain(scale):
         print(f"{scale} {name}: budget U {c.expanded:.4g}, Monte Carlo U {u_mc:.4g}")
         assert c.expanded == pytest.approx(u_mc, rel=0.20), name
     assert budget.type_b_declared
+    # what the record determines well carries a U by the same rule, and it holds
+    assert list(budget.combinations) == [c.name for c in result.well_determined]
+    assert {n.split(" at ")[0] for n in budget.combinations} == {"terminal speed", "drag"}
+    spread = np.std(combined, axis=0, ddof=1)
+    for name, u_mc in zip(budget.combinations, 1.96 * spread, strict=True):
+        c = budget.combinations[name]
+        print(f"{scale} {name}: budget U {c.expanded:.4g}, Monte Carlo U {u_mc:.4g}")
+        assert c.expanded == pytest.approx(u_mc, rel=0.20), name
 
 
 @pytest.mark.slow
