@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from api.core.estimation_failure import fit_subject, fitting
+from api.core.result_subject import subject as result_subject
 from api.core.rig_envelope import envelope_of_runs
 from api.core.theory_job import theory_document
 from daq.estimators import Estimator
@@ -107,4 +108,5 @@ def run_estimation(
                 data |= theory_document(store, data, screening, report_dir)
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
+    data["subject"] = result_subject("estimation", stored)  # as GET /api/results names it
     return data

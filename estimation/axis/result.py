@@ -17,7 +17,7 @@ from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import TOW_RULES
-from estimation.stats.diagnostics import Whiteness
+from estimation.stats.diagnostics import Whiteness, whiteness_json
 
 SCHEMA_VERSION = 1
 
@@ -155,15 +155,6 @@ class EstimationResult:
         if self.dof is not None:  # imported as another straight line (a tow's heave)
             doc["dof"] = self.dof
         return doc
-
-
-def whiteness_json(w: Whiteness) -> dict[str, Any]:
-    """A Ljung–Box result as the result document writes it (q, lags, p-value)."""
-    return {
-        "q": finite_or_none(w.q_statistic),
-        "lags": w.lags,
-        "p_value": finite_or_none(w.p_value),
-    }
 
 
 def step_json(s: SearchStep) -> dict[str, Any]:

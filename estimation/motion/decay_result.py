@@ -18,7 +18,7 @@ from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.stats.diagnostics import Whiteness
+from estimation.stats.diagnostics import Whiteness, ljung_box, whiteness_json
 
 
 @dataclass(frozen=True)
@@ -97,10 +97,12 @@ class DecayResult:
             "rmse_before": finite_or_none(self.rmse_before),
             "rmse_after": finite_or_none(self.rmse_after),
             "noise": finite_or_none(self.noise),
-            "ljung_box": {
-                "q": finite_or_none(self.whiteness.q_statistic),
-                "lags": self.whiteness.lags,
-                "p_value": finite_or_none(self.whiteness.p_value),
+            # every result's residual test alike: the base model's, then the final one's
+            "diagnostics": {
+                "ljung_box_before": (
+                    whiteness_json(ljung_box(self.base.residuals)) if self.base else None
+                ),
+                "ljung_box_after": whiteness_json(self.whiteness),
             },
             "coefficients_possibly_biased": self.possibly_biased,
             "natural_period_s": finite_or_none(self.natural_period_s),

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from estimation.axis.result import EffectEstimate, whiteness_json
+from estimation.axis.result import EffectEstimate
 from estimation.blas_threads import one_blas_thread
 from estimation.data.run_arrays import validate_run_set
 from estimation.errors import EstimationFailed
@@ -50,7 +50,7 @@ from estimation.pendulum.methods import (
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.stats.diagnostics import Whiteness, ljung_box
+from estimation.stats.diagnostics import Whiteness, ljung_box, whiteness_json
 from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.motion_budget import motion_budget
 

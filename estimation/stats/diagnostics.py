@@ -6,10 +6,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.special import chdtrc
 
+from estimation.report_numbers import finite_or_none
 from estimation.stats.smoothing import savgol
 
 SAVGOL_WINDOW = 7  # samples of the derivative filter
@@ -109,3 +111,12 @@ def position_noise(
             if w.size >= NOISE_WINDOW // 2:
                 estimates.append(float(np.sqrt(np.mean(w**2))))
     return float(np.percentile(estimates, NOISE_QUANTILE)) if estimates else 0.0
+
+
+def whiteness_json(w: Whiteness) -> dict[str, Any]:
+    """A Ljung–Box result as the result document writes it (q, lags, p-value)."""
+    return {
+        "q": finite_or_none(w.q_statistic),
+        "lags": w.lags,
+        "p_value": finite_or_none(w.p_value),
+    }

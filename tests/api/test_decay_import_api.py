@@ -110,7 +110,7 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         page.uncheck("#est-effects")  # the base model: the truth has no other term
         estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
         expect(page.locator("#est-coefs")).to_contain_text("inertia (kg)")
-        expect(page.locator("#est-rmse")).to_contain_text("heave decay")
+        expect(page.locator("#est-rmse")).to_contain_text("heave free decay")
         rmse = page.locator("#est-rmse tr", has_text="RMSE after").locator("td").nth(1)
         expect(rmse).to_have_text(re.compile(r"^\S+ m$"))  # a heave's position: m
         # the equivalent linear damping over the swings: five amplitudes in m, B_e in N·s/m

@@ -1,7 +1,7 @@
 // The Estimation page: the runs to estimate from, the estimation job (polled and streamed),
 // its result — coefficients, what the data determine well, effects, warnings, the uncertainty
 // budget (uncertainty.js), the reverse test it asks for, the report's figures (full width,
-// click for full size). Result documents with a view of their own register in resultViews.
+// click for full size). One renderer draws every kind's result (renderEstimation).
 import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt } from "./format.js";
@@ -13,6 +13,7 @@ import { load, source, tags } from "./run_text.js";
 import { axisUnits, ensureStartForms, estimatedKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
 import { onJob } from "./stream.js";
+import { drawMethods, peaksChart, valuePm } from "./swing_sections.js";
 import { renderUncertainty } from "./uncertainty.js";
 
 async function loadEstimationRuns() {
@@ -94,56 +95,65 @@ export function wellDeterminedRows(res) {
     .join("");
 }
 
-// Views of their own for result documents, by the document's `analysis` ({render, clear};
-// pendulum.js registers the pendulum swing's); any other result is drawn by renderEstimation.
-export const resultViews = {};
-
+// Every result document — a tow's, a spin's, a free decay's, a pendulum's — is drawn here by
+// one renderer: the parts every document has (coefficients ± σ, what the record determines
+// well, effects, RMSE, warnings, the budget), then each section the document carries (a decay's
+// equivalent damping, a swing's methods and peaks, a tow's reverse run), never by its kind.
 export async function renderEstimation(res) {
   renderUncertainty(res);
-  for (const view of Object.values(resultViews)) view.clear();
-  const view = resultViews[res.analysis];
-  $("#est-fit-plot").hidden = false;
-  if (view) return view.render(res);
-  // the position's unit on the result's axis (a decay's dof), from its estimator's units
-  const unit = ((await axisUnits())[res.axis || res.dof] || {}).position || "";
   $("#est-result").hidden = false;
-  const units = res.units || {}; // an axis result's units; a decay's coefficients carry theirs
+  const units = res.units || {};
+  // the position's unit: the document's own, else its axis's or dof's (start_forms.js)
+  const unit = units.position || ((await axisUnits())[res.axis || res.dof] || {}).position || "";
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
       return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
-        ${before ? `<td class="muted">before effects: ${esc(fmt(before.value, 5))}</td>` : ""}</tr>`;
+        ${before ? `<td class="muted">before effects: ${esc(valuePm(before))}</td>` : ""}</tr>`;
     })
     .join("") + wellDeterminedRows(res);
-  // a decay's equivalent linear damping over the swings it covers (docs/estimation.md)
+  // the equivalent linear damping over the swings a decay covers (docs/estimation.md)
   const equivalent = res.equivalent_linear_damping || [];
   $("#est-equivalent").hidden = !equivalent.length;
   $("#est-equivalent tbody").innerHTML = equivalent
     .map((e) => `<tr><td>${esc(fmt(e.amplitude, 3))} ${esc(unit)}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>± ${esc(fmt(e.std, 2))}</td></tr>`)
     .join("");
-  // a tow imported as heave names its dof; a decay names its dof instead of an axis
-  const axis = res.axis ? res.dof || res.axis : `${res.dof} ${res.kind}`;
+  const diagnostics = res.diagnostics || {};
+  const q = (w) => fmt((w || {}).q, 3);
   kv($("#est-rmse"), [
-    ["Record / method", `${axis} / ${res.method || "output-error"}`],
+    ["Subject", res.subject || res.dof || res.axis || "—"],
     ["RMSE before", `${fmt(res.rmse_before, 3)} ${unit}`],
     ["RMSE after", `${fmt(res.rmse_after, 3)} ${unit}`],
+    ["Ljung–Box Q (before → after)", `${q(diagnostics.ljung_box_before)} → ${q(diagnostics.ljung_box_after)}`],
     ["Runs", (res.runs || []).map((r) => r.slice(0, 8)).join(", ")],
   ]);
   $("#est-effects-list").innerHTML = (res.effects || []).length
-    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${esc(fmt(e.value, 4))} ± ${esc(fmt(e.std, 3))} ${esc(e.unit)}</li>`).join("")
+    ? res.effects.map((e) => `<li><strong>${esc(e.name)}</strong>: ${esc(valuePm(e))} ${esc(e.unit)}</li>`).join("")
     : "<li>none (the base model explains the data)</li>";
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
   $("#est-ambiguous").innerHTML =
     (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
     [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
+  drawMethods(res);
   showReverseButton(res.reverse_test);
+  drawFitChart(res, unit);
+  await showReportPlots(res.result_id);
+}
+
+// The chart above the report's figures: a swing's peaks where the document has them, else the
+// residual RMSE per run where it has that; hidden otherwise (no empty chart).
+function drawFitChart(res, unit) {
+  const peaks = peaksChart(res, unit);
   const perRun = Object.keys(res.rmse_per_run_before || {});
-  // a result without per-run residuals (a free decay's) draws no empty chart
-  $("#est-fit-plot").hidden = !perRun.length;
-  if (!perRun.length) Plotly.purge("est-fit-plot");
+  $("#est-fit-plot").hidden = !peaks && !perRun.length;
+  if (peaks) {
+    Plotly.newPlot("est-fit-plot", peaks.traces, peaks.layout, { responsive: true, displaylogo: false });
+    return;
+  }
+  if (!perRun.length) return Plotly.purge("est-fit-plot");
   // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
   const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
-  if (perRun.length) Plotly.newPlot(
+  Plotly.newPlot(
     "est-fit-plot",
     [
       { x: runLabels, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },
@@ -152,7 +162,6 @@ export async function renderEstimation(res) {
     { title: { text: "Residual RMSE per run (the fits themselves are in the report figures below)" }, margin: { t: 40, r: 20, b: 60, l: 60 }, yaxis: { title: { text: `residual RMSE (${unit})` } }, barmode: "group" },
     { responsive: true, displaylogo: false },
   );
-  await showReportPlots(res.result_id);
 }
 
 // The reverse tow/spin the estimator asks for (friction ≈ bias), as a button that starts it

@@ -15,7 +15,6 @@ import "./crosscheck.js";
 import "./estimation.js";
 import "./guard.js";
 import "./jobs.js";
-import "./pendulum.js";
 import "./people.js";
 import "./queue.js";
 import "./results.js";

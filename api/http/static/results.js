@@ -1,6 +1,6 @@
 // Stored results on the Estimation page: a list filtered by kind, run, vehicle and day (paged by
 // the API), each reopened in the page's result card as a fresh one is drawn (renderEstimation,
-// so a pendulum's goes to pendulum.js), its report downloaded as a zip or its JSON, and two or
+// one renderer for every kind), its report downloaded as a zip or its JSON, and two or
 // more compared side by side (GET /api/results/compare). The URL hash names the open result
 // (#results/12), so a reload shows it again. The run page lists a run's results (showRunResults).
 import { api, download } from "./api.js";

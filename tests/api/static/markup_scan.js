@@ -20,7 +20,6 @@ const MARKUP_NAMES = {
   "estimation.js": ["tags", "source", "wellDeterminedRows"], // run_text.js's cells, rows
   "guard.js": ["who"], // esc(who pressed or holds)
   "jobs.js": ["runs"], // the job's run links
-  "pendulum.js": ["wellDeterminedRows"], // estimation.js's rows of what the data determine well
   "queue.js": ["paramsText", "waiting", "steps", "problems"], // parameter chips, summary, lists
   "results.js": ["resultLink", "heads", "body", "cell"], // links, the comparison's cells
   "runs.js": ["tags", "source"], // run_text.js's cells
