@@ -81,13 +81,11 @@ def estimate(run_ids, report_dir, db_url, as_json, **options):
 def summary_lines(data: dict) -> list[str]:
     """A result document in words, section by section as the document has them (no
     estimator is named: an axis fit, a pendulum's swing and a free decay differ in which
-    sections they carry): what was fitted, each coefficient ± σ with its unit ("not
+    sections they carry): its subject, each coefficient ± σ with its unit ("not
     identified" when the data do not determine it), the methods side by side, the findings,
     the error before and after, the windows, the uncertainty budget, the theory, the id."""
-    named = ("analysis", "dof", "kind") if data.get("dof") else ("analysis", "axis", "kind")
-    what = " ".join(str(data[k]) for k in named if data.get(k))  # a tow's heave, not surge
-    method = f", method {data['method']}" if data.get("method") else ""
-    lines = [f"{what or 'estimate'} from {len(data['runs'])} run(s){method}"]
+    # what it is of in GET /api/results' words (``api.core.result_subject``): a tow's heave
+    lines = [f"{data.get('subject') or 'estimate'} from {len(data['runs'])} run(s)"]
     units = data.get("units") or {}
     for name, c in data["coefficients"].items():
         shown = plus_minus(c) + (" (not identified)" if c.get("std") is None else "")

@@ -43,7 +43,7 @@ def test_a_settling_sphere_imported_as_heave_is_heave_in_every_text(rig) -> None
     assert shown["parameters"]["dof"] == "heave"
     summary, doc, report = _estimate(rig, run_id, "rep")
     assert doc["dof"] == "heave"
-    assert summary.splitlines()[0].startswith("heave from 1 run(s)")
+    assert summary.splitlines()[0].startswith("heave tow test / output-error from 1 run(s)")
     assert report.splitlines()[0] == "# Estimation report — heave, output-error"
     assert "| heave, weight, +0.0026 N |" in report  # the repeats' condition
     listed = rig("results").stdout  # the stored result as `rig results` lists it
@@ -58,7 +58,7 @@ def test_a_tow_without_dof_is_imported_and_reported_as_surge_as_before(rig) -> N
     assert "dof" not in json.loads(rig("show", run_id, "--json").stdout)["parameters"]
     summary, doc, report = _estimate(rig, run_id, "rep")
     assert "dof" not in doc and doc["axis"] == "surge"
-    assert summary.splitlines()[0].startswith("surge from 1 run(s)")
+    assert summary.splitlines()[0].startswith("surge tow test / output-error from 1 run(s)")
     assert report.splitlines()[0] == "# Estimation report — surge, output-error"
 
 

@@ -94,7 +94,7 @@ def test_the_published_kvlcc2_roll_decay_imports_and_estimates_over_the_cli(rig)
     assert inertia["unit"] == "kg·m²"
     assert inertia["value"] == pytest.approx(A44, rel=0.15)
     text = rig("estimate", run_id, "--no-effects")
-    assert text.startswith("roll decay from 1 run(s)") and "inertia" in text
+    assert text.startswith("roll free decay from 1 run(s)") and "inertia" in text
     # B_e over the swings, in the document's order and unit (N·m·s/rad on roll)
     (line,) = [x for x in text.splitlines() if "equivalent linear damping" in x]
     assert "(N·m·s/rad)" in line and line.count(" at ") == len(data["equivalent_linear_damping"])
