@@ -59,7 +59,7 @@ def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, f
         top.plot(t, x, ".", ms=2, color="0.4", label="measured")
         top.plot(t, model, "-", lw=1.2, color="C0", label="model")
         top.set_ylabel(f"{result.dof} ({unit})")
-        top.set_title(run_label(i, record.run_id), fontsize=9, loc="left")
+        top.set_title(run_label(i + 1, record.run_id), fontsize=9, loc="left")  # as the page
         top.legend(loc="upper right", fontsize=8)
         bottom.plot(t, x - model, "-", lw=0.8, color="C3")
         bottom.axhline(0.0, color="0.6", lw=0.6)

@@ -194,6 +194,21 @@ def test_a_decay_reports_its_period_and_damping_ratio_with_sigma(scale):
     ]
 
 
+def test_the_decay_figure_numbers_its_records_as_every_face_does(tmp_path):
+    """The report's figure labels the first record "run 1", as the page, the tow and
+    pendulum figures and report.md do (it said "run 0")."""
+    from estimation.motion.decay_report import write_decay_report
+
+    mass = MASSES["143kg"]
+    t, x = decay_record(1.8 * mass, 30.0, 0.0, 40.0 * mass, x0=0.05, noise=2e-5)
+    r = estimate_decay(
+        t, x, "heave", known_inertia=mass, stiffness=40.0 * mass, run_id="a1b2c3d4e5"
+    )
+    written = write_decay_report(r, r.records, tmp_path)
+    svg = next(p for p in written if p.suffix == ".svg").read_text()
+    assert "run 1 (a1b2c3d4)" in svg and "run 0" not in svg
+
+
 @pytest.mark.parametrize("scale", _scales())
 def test_every_coefficient_of_a_decay_carries_u_that_covers_its_truth(scale):
     """The GUM budget of a decay (``uncertainty.motion_budget``): U = k·u_c on every
