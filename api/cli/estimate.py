@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -107,7 +108,7 @@ def summary_lines(data: dict) -> list[str]:
         for run_id, w in (data.get("windows") or {}).items()
         for gap in w.get("left_out") or []
     ]
-    lines += _equivalent_lines(data.get("equivalent_linear_damping") or [])
+    lines += _equivalent_lines(data.get("equivalent_linear_damping") or [], units)
     if data.get("budget"):
         lines += [f"  {line}" for line in budget_lines(data["budget"], data.get("repeats"))]
     lines += _theory_lines(data.get("theory"))
@@ -129,12 +130,19 @@ def _method_lines(methods: list[dict], units: dict[str, str]) -> list[str]:
     return lines
 
 
-def _equivalent_lines(rows: list[dict]) -> list[str]:
-    """A decay's equivalent linear damping B_e at the amplitudes its swings cover."""
+def _equivalent_lines(rows: list[dict], units: dict[str, str]) -> list[str]:
+    """A decay's equivalent linear damping B_e at the amplitudes its swings cover, each
+    amplitude in the position's unit and, in rad, in degrees too (as the damping ratios and
+    report.md name them)."""
     if not rows:
         return []
-    unit = rows[0]["unit"]
-    shown = ", ".join(f"{plus_minus(r)} at {r['amplitude']:.3g}" for r in rows)
+    unit, position = rows[0]["unit"], units.get("position", "")
+
+    def where(amplitude: float) -> str:
+        degrees = f" ({math.degrees(amplitude):.3g}°)" if position == "rad" else ""
+        return f"{amplitude:.3g} {position}".rstrip() + degrees
+
+    shown = ", ".join(f"{plus_minus(r)} at {where(r['amplitude'])}" for r in rows)
     return [f"  equivalent linear damping B_e ({unit}) by amplitude: {shown}"]
 
 

@@ -3,6 +3,8 @@ on the simulated rig with a fast pendulum rig file (the scenario's surge coeffic
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from tests.api.conftest import (
@@ -85,6 +87,10 @@ def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs
         expect(page.locator("#est-rmse")).to_contain_text(subject)
         expect(page.locator("#est-rmse")).to_contain_text("rad")
         expect(page.locator("#est-effects-list")).to_contain_text("quadratic_damping")
+        # B_e's amplitudes in rad and in degrees, as the damping ratios above are named
+        expect(page.locator("#est-equivalent tbody tr").first).to_contain_text(
+            re.compile(r"^\S+ rad \(\S+°\)")
+        )
         expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
         # The peaks plot on the time from the release, as the report (not the run's clock).
         layout = page.evaluate("() => document.getElementById('est-fit-plot').layout")

@@ -98,6 +98,9 @@ def test_the_published_kvlcc2_roll_decay_imports_and_estimates_over_the_cli(rig)
     # B_e over the swings, in the document's order and unit (N·m·s/rad on roll)
     (line,) = [x for x in text.splitlines() if "equivalent linear damping" in x]
     assert "(N·m·s/rad)" in line and line.count(" at ") == len(data["equivalent_linear_damping"])
+    # each amplitude in rad and in degrees, as the damping ratios are named (ζ at 4.14°)
+    first = data["equivalent_linear_damping"][0]["amplitude"]
+    assert f"at {first:.3g} rad ({np.degrees(first):.3g}°)" in line
     assert data["units"]["position"] == "rad" and re.search(r"RMSE before \S+ rad, after", text)
 
 

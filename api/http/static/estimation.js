@@ -116,7 +116,7 @@ export async function renderEstimation(res) {
   const equivalent = res.equivalent_linear_damping || [];
   $("#est-equivalent").hidden = !equivalent.length;
   $("#est-equivalent tbody").innerHTML = equivalent
-    .map((e) => `<tr><td>${esc(fmt(e.amplitude, 3))} ${esc(unit)}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>± ${esc(fmt(e.std, 2))}</td></tr>`)
+    .map((e) => `<tr><td>${esc(amplitudeText(e.amplitude, unit))}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>± ${esc(fmt(e.std, 2))}</td></tr>`)
     .join("");
   const diagnostics = res.diagnostics || {};
   const q = (w) => fmt((w || {}).q, 3);
@@ -138,6 +138,13 @@ export async function renderEstimation(res) {
   showReverseButton(res.reverse_test);
   drawFitChart(res, unit);
   await showReportPlots(res.result_id);
+}
+
+// A swing's amplitude in its unit, and in degrees when that is rad (the damping ratios are
+// named in degrees, as report.md gives both).
+function amplitudeText(amplitude, unit) {
+  const degrees = unit === "rad" && Number.isFinite(amplitude) ? ` (${fmt((amplitude * 180) / Math.PI, 3)}°)` : "";
+  return `${fmt(amplitude, 3)} ${unit}${degrees}`;
 }
 
 // The chart above the report's figures: a swing's peaks where the document has them, else the
