@@ -7,7 +7,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from daq.procedures.motion import run_motion_test
-from daq.procedures.requests import spin_parameters, tow_parameters
+from daq.procedures.requests import SpinRequest, TowRequest, spin_parameters, tow_parameters
 from daq.session import RigSession
 
 
@@ -18,6 +18,7 @@ async def completed_runs(
     with the request's other fields ``raw``; each must complete. Their run ids in order."""
     ids = []
     for drive in drives:
+        params: TowRequest | SpinRequest
         if kind == "tow":
             params = tow_parameters(raw | {"force_n": drive}, session.rig)
         else:
