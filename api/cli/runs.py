@@ -159,7 +159,7 @@ def _annotate_options(command):
     from api.cli.metadata import metadata_options
 
     command.params[1:1] = [
-        *metadata_options(tag_help="Add a tag (repeat for more)."),
+        *metadata_options(),
         click.Option(["--untag"], multiple=True, metavar="TAG", help="Remove a tag."),
         click.Option(
             ["--unset"], multiple=True, metavar="KEY", help="Remove a key (e.g. notes, ballast)."

@@ -137,7 +137,7 @@ def test_an_import_takes_metadata_from_query_parameters(client):
     assert [x["id"] for x in _runs(client, "tag=repeat&source=imported")] == [run["id"]]
 
     before = client.get("/api/runs?limit=1", headers=AUTH).headers["X-Total-Count"]
-    for bad, field in (("water_temperature_c=80", "water_temperature_c: 80.0"),
+    for bad, field in (("water_temperature_c=80", "water_temperature_c: '80'"),
                        ("tag=two%20words", "tag: 'two words'")):  # fmt: skip
         r = client.post(f"/api/runs/import?{query}&{bad}", content=csv, headers=headers)
         assert r.status_code == 422 and r.json()["detail"].startswith(field), r.text
