@@ -31,9 +31,10 @@ def metadata_from_options(ctx: click.Context | None, given: dict[str, Any]) -> d
     ends the command with one line naming the flag."""
     query = request_from(RunMetadataQuery, {k: v for k, v in given.items() if k in NAMES})
     try:
-        return query.metadata()
+        checked = query.metadata()
     except ValueError as err:
         fail(flag_names(ctx, str(err)))
+    return checked
 
 
 def with_run_metadata(command: click.Command) -> click.Command:
