@@ -208,7 +208,7 @@ case(2, "--command or --force: give exactly one", "thrust")
 case(2, "no thrust calibration stored", "thrust", "--force", "10")
 case(
     2,
-    "--calibration: got 'x:1', allowed: ID or run:ID",
+    "--calibration: 'x:1' is not allowed (ID or run:ID, e.g. 3 or run:12)",
     "thrust",
     "--force",
     "1",
