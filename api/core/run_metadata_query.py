@@ -23,6 +23,7 @@ from daq.store.run_metadata import (
     check_tag,
     parse_meta_pair,
 )
+from estimation.water import SALINITY_RANGE_G_KG
 
 #: Fields that are no metadata key of their own: the tags and the free ``KEY=VALUE`` pairs.
 _LISTS = ("tag", "meta")
@@ -44,6 +45,13 @@ class RunMetadataQuery(BaseModel):
         Field(ge=WATER_TEMPERATURE_RANGE_C[0], le=WATER_TEMPERATURE_RANGE_C[1],
               allow_inf_nan=False, description="Water temperature, °C."),
         Flag("--water-temp", metavar="°C"),
+    ] = None  # fmt: skip
+    salinity_g_kg: Annotated[
+        float | None,
+        Field(ge=SALINITY_RANGE_G_KG[0], le=SALINITY_RANGE_G_KG[1], allow_inf_nan=False,
+              description="Absolute salinity of the tank's water, g/kg (0 = fresh water, "
+              "35.165 = standard sea water)."),
+        Flag("--salinity", metavar="G_PER_KG"),
     ] = None  # fmt: skip
     notes: Annotated[
         str | None,
