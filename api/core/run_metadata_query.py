@@ -61,8 +61,8 @@ class RunMetadataQuery(BaseModel):
     tag: Annotated[
         list[str],
         Field(max_length=MAX_TAGS,
-              description="A tag to find the run by (e.g. fins-v2); on an import it replaces "
-              "the file's tags."),
+              description="A tag to find the run by, e.g. fins-v2 (an import's replace the "
+              "file's tags; rig annotate adds them)."),
         Flag("--tag", metavar="TAG"),
     ] = []  # fmt: skip
     meta: Annotated[
