@@ -33,9 +33,12 @@ def _cell(text: str) -> str:
 
 
 def _number(value: float) -> str:
-    """``2**53 - 1`` as ``2^53 − 1`` (an id's bound), other integers as they are, 0.5 as 0.5."""
+    """``2**53 - 1`` as ``2^53 − 1`` and ``2**62`` as ``2^62`` (an id's bound), other
+    integers as they are, 0.5 as 0.5."""
     if isinstance(value, int):
-        if value > 10**6 and (value + 1).bit_length() != value.bit_length():
+        if value > 10**6 and value & (value - 1) == 0:
+            return f"2^{value.bit_length() - 1}"
+        if value > 10**6 and value & (value + 1) == 0:
             return f"2^{value.bit_length()} − 1"
         return str(value)
     return f"{value:g}"
@@ -97,8 +100,12 @@ def parameter_table(model: type[BaseModel]) -> str:
 
 
 def _model(path: str) -> type[BaseModel]:
+    """The model a marker names: a class, or a function returning one (a model the registry
+    builds, ``daq.procedures.run_kinds.import_fields``)."""
     module, _, name = path.rpartition(".")
     found = getattr(importlib.import_module(module), name)
+    if not isinstance(found, type) and callable(found):
+        found = found()
     if not (isinstance(found, type) and issubclass(found, BaseModel)):
         raise ValueError(f"{path} is not a pydantic model")
     return found

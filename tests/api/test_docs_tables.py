@@ -9,7 +9,10 @@ from typing import Annotated
 from pydantic import BaseModel, Field
 
 from api.cli.docs_tables import DOCS, parameter_table, rendered
+from api.core.estimation_request import EstimationRequest
+from api.core.sixdof import SimulateRequest
 from daq.procedures.flag import Flag
+from daq.procedures.run_kinds import RIG_KINDS
 from tests.api.test_one_declaration import BODIES, OPERATIONS
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -23,7 +26,10 @@ def test_the_committed_tables_are_the_ones_the_models_make():
 
 def test_every_operation_declared_once_has_its_table_in_the_api_docs():
     text = (ROOT / "docs/api.md").read_text(encoding="utf-8")
-    for model, *_ in OPERATIONS + BODIES:
+    kinds = [spec.request for spec in RIG_KINDS.values() if spec.request is not None]
+    for model in (
+        [m for m, *_ in OPERATIONS + BODIES] + kinds + [EstimationRequest, SimulateRequest]
+    ):
         marker = f"<!-- parameters: {model.__module__}.{model.__name__} -->"
         assert marker in text, model.__name__
 
