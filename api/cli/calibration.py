@@ -10,7 +10,7 @@ import click
 
 from api.cli.common import db_option, echo_json, fail, flag_names, json_option, open_store
 from api.cli.options import request_from, request_options
-from api.core.calibration_queries import StandTableQuery, ThrustQuery
+from api.core.calibration_queries import CalibrationChoice, StandTableQuery, ThrustQuery
 
 
 @click.command("import-calibration")
@@ -69,15 +69,10 @@ def import_calibration(file, db_url, as_json, **options):
 
 @click.command("thrust")
 @request_options(ThrustQuery)
-@click.option(
-    "--calibration",
-    "calibration_id",
-    help="Imported calibration id, or run:ID for a calibration run's result "
-    "(default: the newest of both).",
-)
+@request_options(CalibrationChoice)
 @db_option
 @json_option
-def thrust(calibration_id, db_url, as_json, **options):
+def thrust(db_url, as_json, **options):
     """Thrust law of the stored calibration: the force ± σ at --command and --voltage, or the
     command ± σ for --force at --voltage (refused beyond what full command delivers)."""
     from daq.calibration_catalog import voltage_for
@@ -86,24 +81,19 @@ def thrust(calibration_id, db_url, as_json, **options):
     ctx = click.get_current_context()
     # the query GET /api/thrust takes (api.core.calibration_queries)
     query = request_from(ThrustQuery, options)
+    choice = request_from(CalibrationChoice, options)
     try:
         query.check()
     except ValueError as err:
         _fail_naming_flags(ctx, err)
-    source, key = None, None
-    if calibration_id is not None:
-        source, _, key = calibration_id.rpartition(":")
-        source = {"": "imported", "run": "run", "imported": "imported"}.get(source)
-        if source is None or not key.isdigit():
-            fail(f"--calibration: got {calibration_id!r}, allowed: ID or run:ID")
     store = open_store(db_url)
     try:
         try:
-            law, info = law_of(store, source, key)
+            law, info = law_of(store, choice.source, choice.calibration_id)
         except NoCalibration as err:
-            fail(f"--calibration: {err}" if calibration_id else str(err))
+            fail(f"--calibration: {err}" if choice.calibration else str(err))
         except ValueError as err:
-            fail(f"calibration {info_name(source, key)}: {err}")
+            fail(f"calibration {choice.label()}: {err}")
         v, voltage_source = voltage_for(store, law.reference_voltage, query.voltage_v)
     finally:
         store.close()
@@ -163,7 +153,3 @@ def calibrations(db_url, as_json):
             f"{c['created_at'][:19]}  {c['label']}: {c['rows']} rows at {volts} V, "
             f"commands {lo:g} … {hi:g}{extra}"
         )
-
-
-def info_name(source: str | None, key: str | None) -> str:
-    return "newest" if key is None else f"{source} {key}"

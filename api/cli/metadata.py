@@ -1,69 +1,39 @@
-"""Run metadata on the command line: ``--operator --water-temp --notes --tag --meta``,
-added once to every command that records or imports runs (see ``records_runs`` in
-api.cli.main) and read by the procedure runner; ``rig annotate`` changes it afterwards."""
+"""Run metadata on the command line: the options of
+``api.core.run_metadata_query.RunMetadataQuery`` (``--operator --water-temp --notes --tag
+--meta``, the query parameters of ``POST /api/runs/import``), added once to every command
+that records or imports runs (see ``records_runs`` in api.cli.command_table) and read by the
+procedure runner; ``rig annotate`` changes it afterwards."""
 
 from __future__ import annotations
 
 import functools
-import re
 from typing import Any
 
 import click
 
 from api.cli.common import fail, flag_names
-from daq.store.run_metadata import check_run_metadata, parse_meta_pair
+from api.cli.options import model_options, request_from
+from api.core.run_metadata_query import RunMetadataQuery
 
 #: Where the checked metadata waits in ``click.Context.meta`` for the run to start.
 CONTEXT_KEY = "rig.run_metadata"
+#: The options' parameter names (the model's fields).
+NAMES = tuple(RunMetadataQuery.model_fields)
 
 
-def metadata_options(*, tag_help: str = "Tag the run (repeat for more tags).") -> list:
-    """Fresh click options for the four known keys and free ``--meta KEY=VALUE``."""
-    return [
-        click.Option(["--operator"], metavar="NAME", help="Who runs the test."),
-        click.Option(
-            ["--water-temp", "water_temperature_c"],
-            type=float,
-            metavar="°C",
-            help="Water temperature, °C (-2 to 50).",
-        ),
-        click.Option(["--notes"], metavar="TEXT", help="Free notes on the run."),
-        click.Option(["--tag", "tags"], multiple=True, metavar="TAG", help=tag_help),
-        click.Option(
-            ["--meta", "meta"],
-            multiple=True,
-            metavar="KEY=VALUE",
-            help="Any other key, e.g. --meta ballast=B3 (numbers stay numbers).",
-        ),
-    ]
+def metadata_options() -> list[click.Option]:
+    """Fresh click options, one per field of :class:`RunMetadataQuery`."""
+    return model_options(RunMetadataQuery)
 
 
-NAMES = ("operator", "water_temperature_c", "notes", "tags", "meta")
-
-
-def metadata_from_options(
-    ctx: click.Context | None, given: dict[str, Any], *, allow_null: bool = False
-) -> dict[str, Any]:
+def metadata_from_options(ctx: click.Context | None, given: dict[str, Any]) -> dict[str, Any]:
     """The checked metadata of the options given (unset options left out); a bad value
     ends the command with one line naming the flag."""
-    known = {k: v for k, v in given.items() if k in NAMES[:3] and v is not None}
-    if given.get("tags"):
-        known["tags"] = list(given["tags"])
-    free: dict[str, Any] = {}
+    query = request_from(RunMetadataQuery, {k: v for k, v in given.items() if k in NAMES})
     try:
-        for pair in given.get("meta") or ():
-            key, value = parse_meta_pair(pair)
-            free[key] = value
+        checked = query.metadata()
     except ValueError as err:
-        fail(f"--meta {err}")
-    try:
-        checked = check_run_metadata(known, prefix="")
-    except ValueError as err:
-        fail(re.sub(r"--tag\[\d+\]", "--tag", flag_names(ctx, str(err))))
-    try:
-        checked |= check_run_metadata(free, prefix="--meta ", allow_null=allow_null)
-    except ValueError as err:
-        fail(str(err))
+        fail(flag_names(ctx, str(err)))
     return checked
 
 

@@ -99,23 +99,24 @@ def _repeatable(help_text: str) -> str:
     return f"{text}{' ' if text.endswith('.') else '. ' if text else ''}Repeatable."
 
 
-def request_options(model: type[BaseModel], *, required: bool = True) -> Callable[[F], F]:
-    """A decorator adding one option per flagged field of ``model`` (in field order): a list
-    field is a repeatable option. ``required=False``: no option is required on the command
-    line (a command offering two requests checks the one the user chose)."""
+def model_options(model: type[BaseModel], *, required: bool = True) -> list[click.Option]:
+    """One click option per flagged field of ``model`` (in field order): a list field is a
+    repeatable option. ``required=False``: no option is required on the command line (a
+    command offering two requests checks the one the user chose)."""
     options = []
     for name, info in model.model_fields.items():
         flag = _flag(info)
         if flag is None:
             continue
         if flag.when_set is not None:
-            option = click.option(flag.name, name, is_flag=True, help=flag.help or info.description)
+            option = click.Option(
+                [flag.name, name], is_flag=True, help=flag.help or info.description
+            )
         elif flag.parse is None and (element := _element(info.annotation)) is not None:
             if typing.get_origin(element) is typing.Literal:  # one of the listed words
                 element = click.Choice([str(word) for word in typing.get_args(element)])
-            option = click.option(
-                flag.name,
-                name,
+            option = click.Option(
+                [flag.name, name],
                 type=element,
                 multiple=True,
                 required=required and info.is_required(),
@@ -125,9 +126,8 @@ def request_options(model: type[BaseModel], *, required: bool = True) -> Callabl
         else:
             # a required field has no default at all (click ≥ 8.3 takes None as one)
             default = {} if info.is_required() else {"default": info.default}
-            option = click.option(
-                flag.name,
-                name,
+            option = click.Option(
+                [flag.name, name],
                 type=_click_type(info, flag),
                 required=required and info.is_required(),
                 show_default=default.get("default") is not None,
@@ -136,10 +136,20 @@ def request_options(model: type[BaseModel], *, required: bool = True) -> Callabl
                 **default,
             )
         options.append(option)
+    return options
+
+
+def request_options(model: type[BaseModel], *, required: bool = True) -> Callable[[F], F]:
+    """A decorator adding :func:`model_options` to a command (or the function a command is
+    being built from), before the options declared below it."""
 
     def decorate(command: F) -> F:
-        for option in reversed(options):
-            command = option(command)
+        options = model_options(model, required=required)
+        if isinstance(command, click.Command):
+            command.params.extend(options)
+        else:  # click.option's way: the command is built from this list, reversed
+            params = command.__dict__.setdefault("__click_params__", [])
+            params.extend(reversed(options))
         return command
 
     return decorate

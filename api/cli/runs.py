@@ -23,8 +23,9 @@ from api.cli.common import (
     user_errors,
 )
 from api.cli.options import request_from, request_options
+from api.core.export_request import ExportQuery
 from api.core.run_filter import RunFilter
-from daq.export_formats import FORMATS, export_file_name, formats_help, write_export
+from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.parameter_labels import labelled
 from daq.vocabulary import AXES
 
@@ -159,7 +160,7 @@ def _annotate_options(command):
     from api.cli.metadata import metadata_options
 
     command.params[1:1] = [
-        *metadata_options(tag_help="Add a tag (repeat for more)."),
+        *metadata_options(),
         click.Option(["--untag"], multiple=True, metavar="TAG", help="Remove a tag."),
         click.Option(
             ["--unset"], multiple=True, metavar="KEY", help="Remove a key (e.g. notes, ballast)."
@@ -209,14 +210,7 @@ def annotate(run_id, untag, unset, db_url, as_json, **given):
 
 @click.command("export")
 @click.argument("run_id")
-@click.option(
-    "--format",
-    "fmt",
-    type=click.Choice(list(FORMATS)),
-    default="csv",
-    show_default=True,
-    help=formats_help() + ".",
-)
+@request_options(ExportQuery)
 @click.option(
     "-o",
     "--output",
@@ -226,8 +220,10 @@ def annotate(run_id, untag, unset, db_url, as_json, **given):
     + " need it on a terminal).",
 )
 @db_option
-def export(run_id, fmt, output, db_url):
+def export(run_id, output, db_url, **options):
     """Export a run with its units and metadata, in a format of --format."""
+    # the query GET /api/runs/{id}/export takes (api.core.export_request)
+    fmt = request_from(ExportQuery, options).format
     store = open_store(db_url)
     try:
         with user_errors():

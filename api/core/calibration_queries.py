@@ -1,15 +1,16 @@
 """What a thrust-stand table import and a thrust-law question take, each parameter declared
 once (range, help, option) for ``POST /api/calibrations/import`` and ``rig
 import-calibration`` (:class:`StandTableQuery`), ``GET /api/thrust`` and ``rig thrust``
-(:class:`ThrustQuery`)."""
+(:class:`ThrustQuery`, and which calibration answers: :class:`CalibrationChoice`)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from daq.procedures.flag import Flag
+from daq.procedures.params import ParameterError
 from estimation.thrust.calibration_import import (
     COMMAND_UNITS,
     THRUST_UNITS,
@@ -161,3 +162,54 @@ class ThrustQuery(BaseModel):
         except ValueError as err:
             raise ValueError(f"force_n: {str(err).removeprefix('force: ')}") from None
         return {"force_n": self.force_n, "command": out.to_json(), "voltage_law": out.voltage_law}
+
+
+#: How ``calibration`` names one: an imported table's id, or ``run:`` and a result's id.
+CALIBRATION_FORM = "ID or run:ID, e.g. 3 or run:12"
+
+
+class CalibrationChoice(BaseModel):
+    """Which stored thrust calibration answers (default: the newest, imported or measured):
+    ``calibration`` as ``rig thrust --calibration`` and ``GET /api/thrust?calibration=``
+    spell it, read once into ``source`` and ``calibration_id`` (which the route also takes
+    as they are)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    calibration: Annotated[
+        str | None,
+        Field(max_length=40,
+              description="Imported calibration id, or run:ID for a calibration run's result "
+              "(default: the newest of both)."),
+        Flag("--calibration", metavar="ID|run:ID"),
+    ] = None  # fmt: skip
+    source: Annotated[
+        Literal["imported", "run"] | None,
+        Field(description="What calibration_id numbers (the long form of calibration)."),
+    ] = None
+    calibration_id: Annotated[
+        int | None,
+        Field(ge=1, description="The calibration's id (with source; the long form of "
+              "calibration)."),
+    ] = None  # fmt: skip
+
+    @model_validator(mode="before")
+    @classmethod
+    def _read_calibration(cls, given: Any) -> Any:
+        """``calibration`` (``3``, ``imported:3``, ``run:12``) → ``source``, ``calibration_id``."""
+        if not isinstance(given, dict) or given.get("calibration") is None:
+            return given
+        text = given["calibration"]
+        if given.get("source") is not None or given.get("calibration_id") is not None:
+            raise ParameterError([("calibration", text, "give it or source with "
+                                   "calibration_id, not both")])  # fmt: skip
+        prefix, _, key = str(text).rpartition(":")
+        source = {"": "imported", "imported": "imported", "run": "run"}.get(prefix.strip())
+        key = key.strip()
+        if source is None or not key.isdigit() or int(key) < 1:
+            raise ParameterError([("calibration", text, CALIBRATION_FORM)])
+        return given | {"source": source, "calibration_id": int(key)}
+
+    def label(self) -> str:
+        """How errors name the calibration asked for (``newest``, ``run 12``)."""
+        return "newest" if self.calibration_id is None else f"{self.source} {self.calibration_id}"

@@ -104,6 +104,10 @@ def _install_error_handlers(app: FastAPI) -> None:
             return _error(422, invalid_json["message"], errors=[invalid_json])
         problems = []
         for e in exc.errors():
+            raised = (e.get("ctx") or {}).get("error")
+            if isinstance(raised, ParameterError):  # a model's validator named its fields
+                problems += raised.to_json()
+                continue
             loc = [str(p) for p in e.get("loc", ()) if p not in ("body", "query", "path")]
             field = ".".join(loc) or "body"
             value = None if e.get("type") == "missing" else _json_safe(e.get("input"))

@@ -25,6 +25,12 @@ from pydantic import (
 from daq.procedures import params as p
 from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
+from daq.store.run_metadata import (
+    MAX_NOTES_CHARS,
+    MAX_TAGS,
+    MAX_TEXT_CHARS,
+    WATER_TEMPERATURE_RANGE_C,
+)
 
 if TYPE_CHECKING:
     from pydantic import ModelWrapValidatorHandler
@@ -65,11 +71,14 @@ class RunMetadataIn(BaseModel):
     ``null`` removes the key."""
 
     model_config = ConfigDict(extra="allow")
-    operator: str | None = Field(None, max_length=200, description="Who ran the test.")
-    water_temperature_c: float | None = Field(None, description="Water temperature, °C (-2…50).")
-    notes: str | None = Field(None, max_length=10_000)
+    operator: str | None = Field(None, max_length=MAX_TEXT_CHARS, description="Who ran the test.")
+    water_temperature_c: float | None = Field(
+        None,
+        description="Water temperature, °C ({:g}…{:g}).".format(*WATER_TEMPERATURE_RANGE_C),
+    )
+    notes: str | None = Field(None, max_length=MAX_NOTES_CHARS)
     tags: list[str] | None = Field(
-        None, max_length=20, description="Tags to find the run by, e.g. ['fins-v2']."
+        None, max_length=MAX_TAGS, description="Tags to find the run by, e.g. ['fins-v2']."
     )
 
 

@@ -46,6 +46,11 @@ def test_import_then_ask_the_law_for_force_and_command(client):
         "label": f"imported {made['id']} (t200)",
     }
     assert at14["voltage_source"] == "14 V, as given"
+    named = client.get(f"/api/thrust?command=1&voltage_v=14&calibration={made['id']}",
+                       headers=AUTH).json()  # fmt: skip
+    assert named["calibration"] == at14["calibration"] and named["force_n"] == at14["force_n"]
+    missing = client.get("/api/thrust?command=1&calibration=run:999999", headers=AUTH)
+    assert missing.status_code == 404, missing.text
     assert "identified" in at14["voltage_law"]
     force14 = at14["force_n"]
     assert 0 < force14["std"] < 0.05 * force14["value"]

@@ -49,8 +49,9 @@ for cmd in ("show", "export", "estimate"):
     case(2, "matches several runs", cmd, "{ambiguous}")
 case(2, "no run with id 'zzz'", "export", "zzz")
 case(2, "no run with id 'zzz'", "annotate", "zzz", "--notes", "x")
-case(2, "--meta 'novalue' is not allowed; use KEY=VALUE", "annotate", "{run}", "--meta", "novalue")
-case(2, "--water-temp: 80.0 is not allowed; use -2", "tow", "--force", "10", "--water-temp", "80")
+case(2, "--meta: 'novalue' is not allowed; use KEY=VALUE", "annotate", "{run}", "--meta", "novalue")
+case(2, "'--water-temp': 80.0 is not in the range -2.0<=x<=50.0", "tow", "--force", "10",
+     "--water-temp", "80")  # fmt: skip
 case(2, "--since: '23/11' is not allowed", "runs", "--since", "23/11")
 case(2, "no run with id 'zzz'", "results", "--run", "zzz")
 case(2, f"no result with id {HUGE}", "results", "--compare", HUGE, "1")
@@ -207,7 +208,7 @@ case(2, "--command or --force: give exactly one", "thrust")
 case(2, "no thrust calibration stored", "thrust", "--force", "10")
 case(
     2,
-    "--calibration: got 'x:1', allowed: ID or run:ID",
+    "--calibration: 'x:1' is not allowed (ID or run:ID, e.g. 3 or run:12)",
     "thrust",
     "--force",
     "1",

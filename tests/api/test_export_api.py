@@ -101,7 +101,7 @@ def test_every_format_of_the_table_is_listed_by_the_api_and_the_cli(client):
     for spec in FORMATS.values():
         assert f"{spec.name}: {spec.help}" in query["description"]
 
-    option = next(p for p in export_command.params if p.name == "fmt")
+    option = next(p for p in export_command.params if p.name == "format")
     assert isinstance(option.type, click.Choice) and list(option.type.choices) == list(FORMATS)
     for spec in FORMATS.values():
         assert f"{spec.name}: {spec.help}" in (option.help or "")

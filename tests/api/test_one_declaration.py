@@ -6,19 +6,25 @@ from __future__ import annotations
 
 import click
 import pytest
+from click.testing import CliRunner
 from pydantic import BaseModel
 
+from api.cli.command_table import COMMANDS, records_runs
 from api.cli.main import main
-from api.core.calibration_queries import StandTableQuery, ThrustQuery
+from api.core.calibration_queries import CalibrationChoice, StandTableQuery, ThrustQuery
 from api.core.campaign_request import CampaignRequest
 from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
+from api.core.export_request import ExportQuery
 from api.core.imports import ImportQuery
 from api.core.pretest import PretestQuery
 from api.core.result_filter import ResultFilter
 from api.core.run_filter import RunFilter
+from api.core.run_metadata_query import RunMetadataQuery
 from api.core.sensitivity_request import SensitivityRequest
 from api.core.theory import AddedMassQuery, WaterQuery
 from daq.procedures.flag import Flag
+from daq.procedures.run_kinds import import_fields
+from tests.api.conftest import AUTH
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
 pytestmark = pytest.mark.simtime
@@ -33,7 +39,21 @@ OPERATIONS = [
     (WaterQuery, "get", "/api/water", "water"),
     (AddedMassQuery, "get", "/api/vehicles/{name}/added-mass", "predict-added-mass"),
     (PretestQuery, "get", "/api/sequences/{name}/uncertainty", "predict-uncertainty"),
+    (RunMetadataQuery, "post", "/api/runs/import", "import"),
+    (ExportQuery, "get", "/api/runs/{run_id}/export", "export"),
+    (CalibrationChoice, "get", "/api/thrust", "thrust"),
 ]
+
+#: (the route's method and path, the command, its models, what only one face takes: the
+#: route's query parameters and the command's options that are no request field).
+WHOLE = [
+    (("post", "/api/runs/import"), "import", (ImportQuery, RunMetadataQuery, import_fields()),
+     {"filename"}, {"rig_file", "db_url", "as_json"}),
+    (("get", "/api/runs/{run_id}/export"), "export", (ExportQuery,), set(),
+     {"output", "db_url"}),
+    (("get", "/api/thrust"), "thrust", (ThrustQuery, CalibrationChoice), set(),
+     {"db_url", "as_json"}),
+]  # fmt: skip
 
 
 def _flags(model: type[BaseModel]) -> dict[str, tuple[Flag, str | None]]:
@@ -95,3 +115,46 @@ def test_route_and_command_take_each_field_of_the_model_with_its_help(
         option = options[name]
         assert flag.name in option.opts, (name, option.opts)
         assert (option.help or "").startswith(flag.help or description or ""), name
+
+
+@pytest.mark.parametrize(("route", "command", "models", "route_only", "command_only"), WHOLE,
+                         ids=[w[1] for w in WHOLE])  # fmt: skip
+def test_no_parameter_of_the_route_or_option_of_the_command_is_declared_beside_its_models(
+    client, route, command, models, route_only, command_only
+):
+    """A query parameter or an option written by hand next to the model is a second
+    declaration that can drift: every one is a model's field, or says why it is one face's."""
+    method, path = route
+    spec = client.get("/openapi.json").json()["paths"][path][method]["parameters"]
+    declared = {name for model in models for name in model.model_fields}
+    assert {p["name"] for p in spec if p["in"] == "query"} - declared == route_only
+    flagged = {name for model in models for name in _flags(model)}
+    assert set(_command(command)) - flagged == command_only
+
+
+#: Every command that records or imports runs, and the one that annotates them afterwards.
+RECORDING = [name for name, (module, _, _) in COMMANDS.items() if records_runs(name, module)]
+
+
+@pytest.mark.parametrize("command", [*RECORDING, "annotate"])
+def test_each_command_recording_runs_takes_the_run_metadata_options_of_the_model(command):
+    options = _command(command)
+    for name, (flag, description) in _flags(RunMetadataQuery).items():
+        assert flag.name in options[name].opts, (command, name)
+        assert (options[name].help or "").startswith(flag.help or description or ""), name
+
+
+@pytest.mark.parametrize(
+    ("query", "argv"),
+    [
+        ("force_n=1&calibration=x:1", ["thrust", "--force", "1", "--calibration", "x:1"]),
+        ("force_n=1&calibration=run:0", ["thrust", "--force", "1", "--calibration", "run:0"]),
+    ],
+)
+def test_a_bad_calibration_is_refused_alike_by_the_route_and_the_command(client, query, argv):
+    r = client.get(f"/api/thrust?{query}", headers=AUTH)
+    assert r.status_code == 422, r.text
+    said = CliRunner().invoke(main, argv)
+    assert said.exit_code == 2
+    assert said.output.strip() == f"error: --{r.json()['detail']}"
+    assert "is not allowed (ID or run:ID" in r.json()["detail"]

@@ -126,19 +126,23 @@ def test_an_import_takes_metadata_from_query_parameters(client):
     csv += "t,position\n0,0\n0.1,0.01\n0.2,0.03\n"
     headers = AUTH | {"Content-Type": "text/csv"}
     query = "kind=tow&force_n=10&filename=annotated.csv"
-    meta = "operator=Grace&water_temperature_c=12.5&tag=fins-v2&tag=repeat"
+    meta = ("operator=Grace&water_temperature_c=12.5&salinity_g_kg=35&tag=fins-v2&tag=repeat"
+            "&meta=depth_m=1.5&meta=ballast=B4")  # fmt: skip
     r = client.post(f"/api/runs/import?{query}&{meta}", content=csv, headers=headers)
     assert r.status_code == 201, r.text
     run = client.get(f"/api/runs/{r.json()['run_id']}", headers=AUTH).json()
     # the query parameters replace the file's keys they name; the file's others stay
-    expected = {"operator": "Grace", "notes": "from the file", "ballast": "B3",
-                "water_temperature_c": 12.5, "tags": ["fins-v2", "repeat"]}  # fmt: skip
+    expected = {"operator": "Grace", "notes": "from the file", "ballast": "B4", "depth_m": 1.5,
+                "water_temperature_c": 12.5, "salinity_g_kg": 35.0,
+                "tags": ["fins-v2", "repeat"]}  # fmt: skip
     assert run["metadata"] == expected
     assert [x["id"] for x in _runs(client, "tag=repeat&source=imported")] == [run["id"]]
 
     before = client.get("/api/runs?limit=1", headers=AUTH).headers["X-Total-Count"]
-    for bad, field in (("water_temperature_c=80", "water_temperature_c: 80.0"),
-                       ("tag=two%20words", "tag: 'two words'")):  # fmt: skip
+    for bad, field in (("water_temperature_c=80", "water_temperature_c: '80'"),
+                       ("tag=two%20words", "tag: 'two words'"),
+                       ("meta=novalue", "meta: 'novalue' is not allowed; use KEY=VALUE"),
+                       ("meta=Bad=1", "meta Bad: this key is not allowed")):  # fmt: skip
         r = client.post(f"/api/runs/import?{query}&{bad}", content=csv, headers=headers)
         assert r.status_code == 422 and r.json()["detail"].startswith(field), r.text
     assert client.get("/api/runs?limit=1", headers=AUTH).headers["X-Total-Count"] == before

@@ -71,7 +71,10 @@ def test_import_with_metadata_then_find_annotate_show_and_export(rig, tmp_path: 
 
 def test_bad_metadata_and_filters_end_in_one_line_naming_the_flag(rig) -> None:
     for argv, expect in (
-        (["--water-temp", "99"], "error: --water-temp: 99.0 is not allowed; use -2"),
+        (
+            ["--water-temp", "99"],
+            "error: Invalid value for '--water-temp': 99.0 is not in the range -2.0<=x<=50.0",
+        ),
         (["--tag", "two words"], "error: --tag: 'two words' is not allowed"),
         (["--meta", "Bad=1"], "error: --meta Bad: this key is not allowed"),
         (["--operator", " "], "error: --operator: ' ' is not allowed"),

@@ -3,12 +3,12 @@ thrust law for a force or a command (``rig import-calibration``, ``rig thrust``)
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from starlette.concurrency import run_in_threadpool
 
-from api.core.calibration_queries import StandTableQuery, ThrustQuery
+from api.core.calibration_queries import CalibrationChoice, StandTableQuery, ThrustQuery
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import csv_upload_body, error_responses
 from api.http.uploads import upload_bytes
@@ -91,15 +91,15 @@ def latest_calibration(store: StoreDep) -> dict[str, Any]:
 async def thrust(
     store: StoreDep,
     query: Annotated[ThrustQuery, Query()],
-    source: Annotated[Literal["imported", "run"] | None, Query()] = None,
-    calibration_id: Annotated[int | None, Query(ge=1)] = None,
+    choice: Annotated[CalibrationChoice, Query()],
 ) -> dict[str, Any]:
-    """The thrust law of the newest calibration (or ``source`` + ``calibration_id``): force
-    ± σ at ``command`` and ``voltage_v``, or the command ± σ for ``force_n`` (422 naming the
-    largest force full command delivers at that voltage when it is beyond)."""
+    """The thrust law of the newest calibration (or the one ``calibration`` names, as ``rig
+    thrust --calibration``): force ± σ at ``command`` and ``voltage_v``, or the command ± σ
+    for ``force_n`` (422 naming the largest force full command delivers at that voltage
+    when it is beyond)."""
     query.check()
     try:
-        law, info = await run_in_threadpool(law_of, store, source, calibration_id)
+        law, info = await run_in_threadpool(law_of, store, choice.source, choice.calibration_id)
     except NoCalibration as err:
         raise HTTPException(404, str(err)) from None
     volts, voltage_source = await run_in_threadpool(

@@ -3,8 +3,9 @@
 The import's rules (kind, drive, rig limits, the export's header) are
 ``api.core.imports``'s, shared with ``rig import``; this is the route's face: the query,
 the streamed body, the parse in a child process (``api.core.csv_upload``). The query
-parameters of the file's facts are ``api.core.imports.ImportQuery``'s, as ``rig import``'s
-options are. The kinds and
+parameters of the file's facts are ``api.core.imports.ImportQuery``'s, those of the run's
+metadata ``api.core.run_metadata_query.RunMetadataQuery``'s, as ``rig import``'s options
+are. The kinds and
 each kind's own query parameters (a free decay's ``dof``) are the registry's
 (``daq.procedures.run_kinds.IMPORT_KINDS``, ``import_fields``).
 """
@@ -20,12 +21,12 @@ from fastapi import APIRouter, Depends, Query, Request
 
 from api.core.csv_upload import import_file
 from api.core.imports import ImportQuery, plan_import
+from api.core.run_metadata_query import RunMetadataQuery
 from api.http.deps import ServiceDep, StoreDep, require_write
 from api.http.schemas import ImportOut, csv_upload_body, error_responses
 from api.http.uploads import save_upload
 from daq.procedures.params import ParameterError
 from daq.procedures.run_kinds import import_fields
-from daq.store.run_metadata import check_run_metadata, check_tag
 
 router = APIRouter(prefix="/api", tags=["runs"])
 
@@ -68,18 +69,6 @@ def _safe_name(filename: str, field: str = "filename") -> str:
     return re.sub(r"[^A-Za-z0-9._-]", "_", filename)
 
 
-def _import_metadata(
-    operator: str | None, water: float | None, notes: str | None, tags: list[str] | None
-) -> dict | None:
-    """The import's metadata query parameters, checked before the body is read (errors
-    name the query parameter)."""
-    given = {"operator": operator, "water_temperature_c": water, "notes": notes}
-    metadata: dict[str, Any] = {key: value for key, value in given.items() if value is not None}
-    if tags:
-        metadata["tags"] = [check_tag("tag", t) for t in tags]
-    return check_run_metadata(metadata, prefix="") or None
-
-
 @router.post(
     "/runs/import",
     status_code=201,
@@ -93,27 +82,23 @@ async def import_run(
     store: StoreDep,
     service: ServiceDep,
     query: Annotated[ImportQuery, Query()],
+    run_metadata: Annotated[RunMetadataQuery, Query()],
     filename: Annotated[str, Query(min_length=1, max_length=200)] = DEFAULT_NAME,
-    operator: Annotated[str | None, Query(description="Run metadata: who ran the test.")] = None,
-    water_temperature_c: Annotated[
-        float | None, Query(description="Run metadata: water temperature, °C (-2…50).")
-    ] = None,
-    notes: Annotated[str | None, Query(description="Run metadata: free notes.")] = None,
-    tag: Annotated[list[str] | None, Query(description="Run metadata: a tag (repeatable).")] = None,
 ) -> dict:
     """Import a CSV recorded elsewhere as a completed run (body = the CSV text, at most
     ``max_upload_bytes`` and ``MAX_IMPORT_ROWS`` rows; parsed in a separate process).
 
     Estimation finds the release and the end of free motion from the
     ``tow_release``/``spin_release``/``end_of_travel`` columns when present, else from the
-    motion; ``release_time_s``/``end_time_s`` override that. ``operator``,
-    ``water_temperature_c``, ``notes`` and ``tag`` update the file's ``# metadata:`` line.
+    motion; ``release_time_s``/``end_time_s`` override that. The run metadata parameters
+    (``operator``, ``tag``, ``meta``, …: ``RunMetadataQuery``, ``rig import``'s options too)
+    update the file's ``# metadata:`` line.
     ``drive_column`` names a drive logged per sample. A pendulum decay (angle in rad) is
     stored with the rig file the service runs with (its ``[pendulum]`` geometry). A constant
     load whose sign disagrees with the recorded motion is refused; a towrig export imports
     back as it was (kind, load, hung weight, release, vehicle from its header, listed in
     ``from_header``). The rules are ``api.core.imports``'s, shared with ``rig import``."""
-    metadata = _import_metadata(operator, water_temperature_c, notes, tag)
+    metadata = run_metadata.metadata() or None  # checked before the body is read
     name = _safe_name(filename)
     with tempfile.TemporaryDirectory(prefix="rig-import-") as folder:
         path = Path(folder) / name  # a name, never a path: it stays in the folder

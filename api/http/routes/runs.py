@@ -18,6 +18,7 @@ from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
+from api.core.export_request import ExportQuery
 from api.core.run_cache import EndedRunCache
 from api.core.run_filter import RunFilter
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
@@ -29,14 +30,7 @@ from api.http.schemas import (
     error_responses,
     file_response,
 )
-from daq.export_formats import (
-    FORMATS,
-    FormatInfo,
-    FormatName,
-    export_file_name,
-    formats_help,
-    write_export,
-)
+from daq.export_formats import FORMATS, FormatInfo, export_file_name, write_export
 from daq.procedures.requests import RunMetadataIn
 from daq.store import Store
 from daq.store.channel_units import column_infos
@@ -190,10 +184,12 @@ def export_run(
     run_id: str,
     store: StoreDep,
     runner: RunnerDep,
-    fmt: Annotated[FormatName, Query(alias="format", description=formats_help())] = "csv",
+    query: Annotated[ExportQuery, Query()],
 ) -> Response:
     """The run as a file to download in a format of ``GET /api/export-formats`` (CSV is
-    streamed). The file is written in the analysis worker process, not the rig's."""
+    streamed). The file is written in the analysis worker process, not the rig's. The query
+    is ``rig export``'s options (``api.core.export_request.ExportQuery``)."""
+    fmt = query.format
     run = store.get_run(run_id)
     if fmt == "csv":
         return get_samples_csv(run.id, store)

@@ -1,0 +1,138 @@
+"""The parameter tables of the docs, made from the request models: ``python -m
+api.cli.docs_tables`` rewrites, in each file it is given (default: docs/api.md), the table
+between ``<!-- parameters: package.module.Model -->`` and ``<!-- /parameters -->`` from that
+model's fields (name, option, type and range, default, help), so adding an option to an
+operation is one edit in its model and a run of this module; ``--check`` only says which
+files differ (exit 1), as ``tests/api/test_docs_tables.py`` does.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from daq.procedures.flag import Flag
+
+#: The files holding tables, from the repository's root.
+DOCS = (Path("docs/api.md"),)
+_TABLE = re.compile(
+    r"(?P<open><!-- parameters: (?P<model>[\w.]+) -->\n).*?(?P<close><!-- /parameters -->)",
+    re.DOTALL,
+)
+_BOUNDS = (("minimum", "≥"), ("exclusiveMinimum", ">"), ("maximum", "≤"), ("exclusiveMaximum", "<"))
+
+
+def _cell(text: str) -> str:
+    """``text`` as one Markdown table cell (``|`` escaped, one line)."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _number(value: float) -> str:
+    """``2**53 - 1`` as ``2^53 − 1`` and ``2**62`` as ``2^62`` (an id's bound), other
+    integers as they are, 0.5 as 0.5."""
+    if isinstance(value, int):
+        if value > 10**6 and value & (value - 1) == 0:
+            return f"2^{value.bit_length() - 1}"
+        if value > 10**6 and value & (value + 1) == 0:
+            return f"2^{value.bit_length()} − 1"
+        return str(value)
+    return f"{value:g}"
+
+
+def _kind(schema: dict[str, Any], defs: dict[str, Any]) -> str:
+    """A field's JSON Schema (``defs``: the model's ``$defs``) as words: ``number ≥ 0, ≤ 42``,
+    ``one of csv, json``, ``list of text (≤ 20 items)``."""
+    options = [s for s in schema.get("anyOf", [schema]) if s.get("type") != "null"]
+    if len(options) != 1:
+        return " or ".join(_kind(s, defs) for s in options)
+    one = options[0]
+    if "$ref" in one:
+        one = defs.get(one["$ref"].rsplit("/", 1)[-1], {}) | {
+            k: v for k, v in one.items() if k != "$ref"
+        }
+    if "enum" in one:
+        return "one of " + ", ".join(map(str, one["enum"]))
+    if "const" in one:
+        return str(one["const"])
+    kind = {"number": "number", "integer": "integer", "string": "text", "boolean": "true/false",
+            "array": "list", "object": "object"}.get(one.get("type", ""), "value")  # fmt: skip
+    if kind == "list" and "items" in one:
+        kind = f"list of {_kind(one['items'], defs)}"
+    bounds = [f"{sign} {_number(one[key])}" for key, sign in _BOUNDS if key in one]
+    lengths = [f"≤ {one[k]} {'items' if k == 'maxItems' else 'characters'}"
+               for k in ("maxLength", "maxItems") if k in one]  # fmt: skip
+    return " ".join([kind, ", ".join(bounds)]).strip() + (
+        f" ({', '.join(lengths)})" if lengths else ""
+    )
+
+
+def _flag(model: type[BaseModel], name: str) -> Flag | None:
+    return next((m for m in model.model_fields[name].metadata if isinstance(m, Flag)), None)
+
+
+def parameter_table(model: type[BaseModel]) -> str:
+    """The Markdown table of ``model``'s fields: the query or body field, the command's
+    option, its type and range, its default and its help (a list field's option repeats)."""
+    schema_of = model.model_json_schema()
+    properties, defs = schema_of.get("properties", {}), schema_of.get("$defs", {})
+    rows = ["| field | option | type and range | default | what |", "|---|---|---|---|---|"]
+    for name, info in model.model_fields.items():
+        schema = properties.get(name, {})
+        kind = _kind(schema, defs)
+        flag = _flag(model, name)
+        option = "—" if flag is None else f"`{flag.name}`"
+        if flag is not None and kind.startswith("list") and flag.parse is flag.when_set is None:
+            option += " (repeatable)"
+        if info.is_required():
+            default = "required"
+        elif schema.get("default") in (None, [], {}):
+            default = "—"
+        else:
+            default = f"`{schema['default']}`"
+        what = (flag.help if flag is not None and flag.help else None) or info.description or ""
+        rows.append(f"| `{name}` | {option} | {_cell(kind)} | {_cell(default)} | {_cell(what)} |")
+    return "\n".join(rows) + "\n"
+
+
+def _model(path: str) -> type[BaseModel]:
+    """The model a marker names: a class, or a function returning one (a model the registry
+    builds, ``daq.procedures.run_kinds.import_fields``)."""
+    module, _, name = path.rpartition(".")
+    found = getattr(importlib.import_module(module), name)
+    if not isinstance(found, type) and callable(found):
+        found = found()
+    if not (isinstance(found, type) and issubclass(found, BaseModel)):
+        raise ValueError(f"{path} is not a pydantic model")
+    return found
+
+
+def rendered(text: str) -> str:
+    """``text`` with every marked table made again from its model."""
+    return _TABLE.sub(lambda m: m["open"] + parameter_table(_model(m["model"])) + m["close"], text)
+
+
+def main(argv: list[str]) -> int:
+    """Rewrite the tables of the files given (default :data:`DOCS`); ``--check``: exit 1
+    naming each file whose tables differ, write nothing."""
+    check = "--check" in argv
+    files = [Path(a) for a in argv if a != "--check"] or list(DOCS)
+    stale = []
+    for path in files:
+        text = path.read_text(encoding="utf-8")
+        new = rendered(text)
+        if new != text:
+            stale.append(path)
+            if not check:
+                path.write_text(new, encoding="utf-8")
+    for path in stale:
+        print(f"{path}: {'differs from its models' if check else 'tables rewritten'}")
+    return 1 if check and stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
