@@ -1,7 +1,8 @@
 """Measured beside theory for an estimation job: the rig's vehicle file (its ``[hull]``), the
-runs' water temperature (metadata, else ITTC's 15 °C) and the runs' terminal speeds handed to
-``estimation.theory.measured`` as plain numbers; appended to report.md with a flag when the
-measured added mass is implausible for the hull (seed 000's 113 kg)."""
+runs' water (temperature and salinity from their metadata, else ITTC's 15 °C fresh water)
+and the runs' terminal speeds handed to ``estimation.theory.measured`` as plain numbers;
+appended to report.md with a flag when the measured added mass is implausible for the hull
+(seed 000's 113 kg)."""
 
 from __future__ import annotations
 
@@ -21,21 +22,23 @@ from estimation.uncertainty import RepeatAnalysis
 from estimation.water import water_properties
 
 
-def water_temperature(store: Store, run_ids: Sequence[str]) -> tuple[float, str]:
-    """The runs' mean water temperature from their metadata, else ITTC's standard 15 °C."""
-    temps = [
-        float(t)
-        for rid in run_ids
-        if (t := store.get_run(rid).metadata.get("water_temperature_c")) is not None
-    ]
-    if temps:
-        return sum(temps) / len(temps), "run metadata"
-    return DEFAULT_WATER_TEMP_C, "not recorded: ITTC's standard 15 °C"
+def water_of_runs(store: Store, run_ids: Sequence[str]) -> tuple[float, float, str]:
+    """The runs' water: their mean recorded temperature (°C; else ITTC's standard 15 °C), their
+    mean recorded absolute salinity (g/kg; else fresh water, 0), and where each came from."""
+    metadata = [store.get_run(rid).metadata for rid in run_ids]
+    temps = [float(t) for m in metadata if (t := m.get(TEMP)) is not None]
+    salts = [float(s) for m in metadata if (s := m.get(SALINITY)) is not None]
+    temp = sum(temps) / len(temps) if temps else DEFAULT_WATER_TEMP_C
+    salinity = sum(salts) / len(salts) if salts else 0.0
+    source = "run metadata" if temps else "not recorded: ITTC's standard 15 °C"
+    source += "; salinity from run metadata" if salts else "; fresh water (no salinity recorded)"
+    return temp, salinity, source
 
 
 #: The vehicle file's ``[tolerances]`` keys (±a, rectangular).
 VEHICLE_TOLERANCES = ("mass_kg", "yaw_inertia_kg_m2", "displaced_volume_m3", "length_m")
 TEMP = "water_temperature_c"
+SALINITY = "salinity_g_kg"
 
 
 def vehicle_tolerances(path: Path | None) -> dict[str, float]:
@@ -55,13 +58,14 @@ def vehicle_tolerances(path: Path | None) -> dict[str, float]:
     return out
 
 
-def density_uncertainty(temperature_c: float, half_width_c: float) -> float:
-    """u(ρ) from the water temperature's tolerance ±a (rectangular): |dρ/dT|·a/√3."""
+def density_uncertainty(temperature_c: float, half_width_c: float, salinity_g_kg: float) -> float:
+    """u(ρ) from the water temperature's tolerance ±a (rectangular): |dρ/dT|·a/√3, at the
+    water's salinity (g/kg)."""
     if half_width_c <= 0:
         return 0.0
     u_t = half_width_c / math.sqrt(3)
-    low = water_properties(max(temperature_c - u_t, 0.0)).density
-    high = water_properties(min(temperature_c + u_t, 40.0)).density
+    low = water_properties(max(temperature_c - u_t, 0.0), salinity_g_kg).density
+    high = water_properties(min(temperature_c + u_t, 40.0), salinity_g_kg).density
     return abs(high - low) / 2
 
 
@@ -84,8 +88,8 @@ def theory_document(
         return {"theory": {"missing": str(err)}}
     if vehicle.hull is None:
         return {"theory": {"missing": f"vehicle {vehicle.name!r} declares no [hull]"}}
-    temp, source = water_temperature(store, result["runs"])
-    water = water_properties(temp)
+    temp, salinity, source = water_of_runs(store, result["runs"])
+    water = water_properties(temp, salinity)
     hull = vehicle.hull
     tol = vehicle_tolerances(vehicle_files().get(rig.vehicle.name.lower()))
     predicted = predict_added_mass(hull, water.density).added_mass.values
@@ -98,7 +102,7 @@ def theory_document(
         u_body=tol.get("mass_kg" if axis == "surge" else "yaw_inertia_kg_m2", 0.0),
         u_volume=tol.get("displaced_volume_m3", 0.0),
         u_length=tol.get("length_m", 0.0),
-        u_density=density_uncertainty(temp, budget.get("tolerances", {}).get(TEMP, 0.0)),
+        u_density=density_uncertainty(temp, budget.get("tolerances", {}).get(TEMP, 0.0), salinity),
     )
     coefficients = {
         n: (c["value"], c["combined_standard_uncertainty"], c["effective_dof"])

@@ -106,3 +106,24 @@ def test_http_compares_a_stored_estimate(client, tow_job):
     assert surge["verdict"]["plausible"] is True
     missing = client.get("/api/vehicles/benbam/added-mass?estimates=999999999", headers=AUTH)
     assert missing.status_code == 404
+
+
+def test_the_theory_comparison_takes_the_runs_recorded_salinity(tmp_path):
+    """A sea-water tank's runs (salinity recorded with them, ``--salinity``) are compared in
+    sea water: ρ from the temperature and the salinity, not fresh water's; runs without it
+    are fresh water at their recorded or ITTC's 15 °C."""
+    from api.core.theory_job import water_of_runs
+    from daq.store import Store
+    from estimation.water import water_properties
+    from tests.store.helpers import new_run
+
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    sea = [new_run(store) for _ in range(2)]
+    for rid, temp in zip(sea, (19.0, 21.0), strict=True):
+        store.set_run_metadata(rid, {"water_temperature_c": temp, "salinity_g_kg": 35.165})
+    temp, salinity, source = water_of_runs(store, sea)
+    assert (temp, salinity) == (20.0, 35.165) and "salinity from run metadata" in source
+    assert water_properties(temp, salinity).density == pytest.approx(1024.8, abs=0.1)
+    fresh = water_of_runs(store, [new_run(store)])
+    assert fresh[:2] == (15.0, 0.0) and "fresh water" in fresh[2]
+    store.close()
