@@ -18,12 +18,12 @@ from daq.store.run_metadata import (
     MAX_NOTES_CHARS,
     MAX_TAGS,
     MAX_TEXT_CHARS,
+    SALINITY_RANGE_G_KG,
     WATER_TEMPERATURE_RANGE_C,
     check_run_metadata,
     check_tag,
     parse_meta_pair,
 )
-from estimation.water import SALINITY_RANGE_G_KG
 
 #: Fields that are no metadata key of their own: the tags and the free ``KEY=VALUE`` pairs.
 _LISTS = ("tag", "meta")

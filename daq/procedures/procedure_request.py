@@ -29,6 +29,7 @@ from daq.store.run_metadata import (
     MAX_NOTES_CHARS,
     MAX_TAGS,
     MAX_TEXT_CHARS,
+    SALINITY_RANGE_G_KG,
     WATER_TEMPERATURE_RANGE_C,
 )
 
@@ -66,7 +67,7 @@ class StrictRequest(BaseModel):
 
 
 class RunMetadataIn(BaseModel):
-    """Free metadata of a run (checked by ``daq.store.run_metadata``): the four keys below
+    """Free metadata of a run (checked by ``daq.store.run_metadata``): the keys below
     and any other lower-case key with a text, number or true/false value. In a PATCH a
     ``null`` removes the key."""
 
@@ -75,6 +76,11 @@ class RunMetadataIn(BaseModel):
     water_temperature_c: float | None = Field(
         None,
         description="Water temperature, °C ({:g}…{:g}).".format(*WATER_TEMPERATURE_RANGE_C),
+    )
+    salinity_g_kg: float | None = Field(
+        None,
+        description="Absolute salinity of the water, g/kg ({:g}…{:g}; 0 fresh water, 35.165 "
+        "standard sea water).".format(*SALINITY_RANGE_G_KG),
     )
     notes: str | None = Field(None, max_length=MAX_NOTES_CHARS)
     tags: list[str] | None = Field(

@@ -3,12 +3,13 @@ key/value a lab wants to keep — checked here once for the store, the API and t
 
 A run's ``metadata`` is one flat JSON object::
 
-    {"operator": "Ada", "water_temperature_c": 18.5, "notes": "new fins",
-     "tags": ["fins-v2", "baseline"], "ballast": "B3", "depth_m": 1.2}
+    {"operator": "Ada", "water_temperature_c": 18.5, "salinity_g_kg": 35.165,
+     "notes": "new fins", "tags": ["fins-v2", "baseline"], "ballast": "B3", "depth_m": 1.2}
 
-The four known keys have their own rules; any other key is a lower-case name and its
-value a string, number or boolean. Messages name the field (``metadata.tags``) with the
-given value and what is allowed.
+The known keys have their own rules (the theory comparison computes the water's ρ from
+the temperature and salinity); any other key is a lower-case name and its value a string,
+number or boolean. Messages name the field
+(``metadata.tags``) with the given value and what is allowed.
 """
 
 from __future__ import annotations
@@ -19,12 +20,15 @@ from typing import Any
 
 #: Water temperature range a lab tank can have, °C (sea water freezes at -1.9 °C).
 WATER_TEMPERATURE_RANGE_C = (-2.0, 50.0)
+#: Absolute salinity a lab tank's water can have, g/kg: fresh water to the saltiest sea
+#: water (the Red Sea's ≈ 41); the water model (``estimation.water``) covers the same.
+SALINITY_RANGE_G_KG = (0.0, 42.0)
 MAX_TAGS = 20
 MAX_TAG_CHARS = 40
 MAX_NOTES_CHARS = 10_000
 MAX_TEXT_CHARS = 200
 MAX_EXTRA_KEYS = 30
-KNOWN_KEYS = ("operator", "water_temperature_c", "notes", "tags")
+KNOWN_KEYS = ("operator", "water_temperature_c", "salinity_g_kg", "notes", "tags")
 #: Where a run came from, added by the job runner and sequences (who started it, the job,
 #: the sequence and its step): not counted against the free keys a person may add.
 ORIGIN_KEYS = ("started_by", "job_id", "sequence", "sequence_step")
@@ -64,11 +68,28 @@ def check_water_temperature(field: str, value: object) -> float:
     return float(value)
 
 
+def check_salinity(field: str, value: object) -> float:
+    """A finite number within :data:`SALINITY_RANGE_G_KG` (g/kg)."""
+    low, high = SALINITY_RANGE_G_KG
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not (math.isfinite(value) and low <= value <= high)
+    ):
+        raise ValueError(
+            f"{field}: {value!r} is not allowed; use {low:g} ≤ salinity_g_kg ≤ {high:g} g/kg "
+            "(0 fresh water, 35.165 standard sea water)"
+        )
+    return float(value)
+
+
 def _value(field: str, key: str, value: object) -> Any:
     if key == "operator":
         return _text(field, value, MAX_TEXT_CHARS)
     if key == "water_temperature_c":
         return check_water_temperature(field, value)
+    if key == "salinity_g_kg":
+        return check_salinity(field, value)
     if key == "notes":
         return _text(field, value, MAX_NOTES_CHARS)
     if key == "tags":

@@ -70,10 +70,17 @@ def test_bad_metadata_is_refused_naming_the_field_before_anything_runs(client):
         ({"tags": ["two words"]}, "metadata.tags[0]"),
         ({"Bad-Key": 1}, "metadata.Bad-Key"),
         ({"depth": [1, 2]}, "metadata.depth"),
+        (
+            {"salinity_g_kg": 50},
+            "metadata.salinity_g_kg: 50.0 is not allowed; use 0 ≤ salinity_g_kg ≤ 42",
+        ),
     ):
         r = client.patch(f"/api/runs/{run_id}/metadata", json=body, headers=AUTH)
         assert r.status_code == 422 and field in r.json()["detail"], r.text
     assert client.patch("/api/runs/0000dead/metadata", json={}, headers=AUTH).status_code == 404
+    # a sea-water tank's salinity is a known key (the theory comparison's ρ reads it)
+    r = client.patch(f"/api/runs/{run_id}/metadata", json={"salinity_g_kg": 35.165}, headers=AUTH)
+    assert r.status_code == 200 and r.json()["metadata"]["salinity_g_kg"] == 35.165, r.text
 
 
 def test_imported_runs_are_marked_and_keep_the_recorded_start(client):

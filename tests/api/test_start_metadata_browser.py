@@ -25,6 +25,7 @@ def test_a_tow_started_from_the_page_carries_the_run_metadata(chromium, live_url
         page.click("#run-metadata summary")
         meta.locator("[name=operator]").fill("Grace")
         meta.locator("[name=tags]").fill("fins-v2, page")
+        meta.locator("[name=salinity_g_kg]").fill("35.165")  # a sea-water tank
 
         # an out-of-range temperature: the API's 422 shown by that field, nothing started
         meta.locator("[name=water_temperature_c]").fill("80")
@@ -44,10 +45,12 @@ def test_a_tow_started_from_the_page_carries_the_run_metadata(chromium, live_url
         run = live_url.get(f"/api/runs/{run_id}", headers=AUTH).json()
         job = live_url.get("/api/jobs?limit=1", headers=AUTH).json()[0]
         origin = {"started_by": "default", "job_id": job["id"]}  # who and which job
-        assert run["metadata"] == {"operator": "Grace", "tags": ["fins-v2", "page"]} | origin
+        stored = {"operator": "Grace", "salinity_g_kg": 35.165, "tags": ["fins-v2", "page"]}
+        assert run["metadata"] == stored | origin
 
         page.reload()  # the operator is remembered for the next test, the tags are not
         page.click("#run-metadata summary")
         expect(meta.locator("[name=operator]")).to_have_value("Grace")
+        expect(meta.locator("[name=salinity_g_kg]")).to_have_value("35.165")  # the same tank
         expect(meta.locator("[name=tags]")).to_have_value("")
         assert not errors, errors

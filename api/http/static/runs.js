@@ -58,9 +58,17 @@ $("#runs-next").onclick = () => {
   loadRuns();
 };
 
+// "18.5 °C, 35.165 g/kg" (a sea-water tank), "18.5 °C" (fresh water), or "—".
+function waterText(m) {
+  const parts = [];
+  if (m.water_temperature_c !== undefined) parts.push(`${m.water_temperature_c} °C`);
+  if (m.salinity_g_kg !== undefined) parts.push(`${m.salinity_g_kg} g/kg`);
+  return parts.join(", ") || "—";
+}
+
 function showRunMeta(run) {
   const m = run.metadata || {};
-  const known = ["operator", "water_temperature_c", "notes", "tags"];
+  const known = ["operator", "water_temperature_c", "salinity_g_kg", "notes", "tags"];
   kv($("#run-meta"), [
     ["Kind", run.kind],
     ["Status", run.summary || run.status + (run.reason ? ` (${run.reason})` : "")],
@@ -73,7 +81,7 @@ function showRunMeta(run) {
     ["Samples", run.sample_count],
     ["Rig / vehicle", `${run.rig_name} / ${run.vehicle}`],
     ["Operator", m.operator || "—"],
-    ["Water", m.water_temperature_c === undefined ? "—" : `${m.water_temperature_c} °C`],
+    ["Water", waterText(m)],
     ["Notes", m.notes || "—"],
     ["Tags", (m.tags || []).join(", ") || "—"],
     ...Object.entries(m).filter(([k]) => !known.includes(k)).map(([k, v]) => [k, String(v)]),
@@ -90,6 +98,7 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
   const body = {
     operator: f.operator.value.trim() || null,
     water_temperature_c: f.water_temperature_c.value === "" ? null : Number(f.water_temperature_c.value),
+    salinity_g_kg: f.salinity_g_kg.value === "" ? null : Number(f.salinity_g_kg.value),
     notes: f.notes.value.trim() || null,
     tags: f.tags.value.split(",").map((t) => t.trim()).filter(Boolean),
   };
