@@ -19,7 +19,7 @@ from daq.store import Store
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.measured import HullScale, measured_beside_theory, theory_markdown
 from estimation.uncertainty import RepeatAnalysis
-from estimation.water import water_properties
+from estimation.water import WaterError, water_properties
 
 
 def water_of_runs(store: Store, run_ids: Sequence[str]) -> tuple[float, float, str]:
@@ -89,7 +89,12 @@ def theory_document(
     if vehicle.hull is None:
         return {"theory": {"missing": f"vehicle {vehicle.name!r} declares no [hull]"}}
     temp, salinity, source = water_of_runs(store, result["runs"])
-    water = water_properties(temp, salinity)
+    try:
+        water = water_properties(temp, salinity)
+    except WaterError as err:  # a tank the formulas do not cover (recorded at 45 °C)
+        return {
+            "theory": {"missing": f"the runs' water ({source}) is outside the water model: {err}"}
+        }
     hull = vehicle.hull
     tol = vehicle_tolerances(vehicle_files().get(rig.vehicle.name.lower()))
     predicted = predict_added_mass(hull, water.density).added_mass.values

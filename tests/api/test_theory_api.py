@@ -127,3 +127,20 @@ def test_the_theory_comparison_takes_the_runs_recorded_salinity(tmp_path):
     fresh = water_of_runs(store, [new_run(store)])
     assert fresh[:2] == (15.0, 0.0) and "fresh water" in fresh[2]
     store.close()
+
+
+def test_runs_recorded_in_water_the_model_does_not_cover_are_not_compared(tmp_path):
+    """A tank at 45 °C (the metadata allows up to 50 °C; the water formulas cover 0–40 °C):
+    the estimate says why it has no theory comparison instead of failing in its middle."""
+    from api.core.theory_job import theory_document
+    from daq.store import Store
+    from tests.store.helpers import BENBAM_TOML, new_run
+
+    store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
+    rid = new_run(store, rig_toml=BENBAM_TOML)
+    store.set_run_metadata(rid, {"water_temperature_c": 45.0})
+    budget = {"coefficients": {}, "tolerances": {}}
+    doc = theory_document(store, {"axis": "surge", "budget": budget, "runs": [rid]}, None)
+    missing = doc["theory"]["missing"]
+    assert "outside the water model" in missing and "temperature_c: got 45.0" in missing
+    store.close()
