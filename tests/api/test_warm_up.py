@@ -52,3 +52,23 @@ def test_after_warm_up_an_estimate_loads_the_compiled_loop_and_compiles_nothing(
     assert said.startswith("estimator kernels ready (")
     counted = json.loads(_run([sys.executable, "-c", ESTIMATE_LIKE], env).splitlines()[-1])
     assert counted == {"hits": counted["hits"], "misses": 0} and counted["hits"] >= 1
+
+
+def test_the_services_warm_up_stays_in_its_session_out_of_its_ctrl_c():
+    """``rig serve``'s background warm-up runs in the service's session, where its nice 19
+    counts (a session of its own is a scheduling group of its own on Linux: the compile then
+    took as much CPU as the service), and in its own process group, so the terminal's Ctrl-C
+    to the service is not its."""
+    from api.cli.warm_up import warm_up_in_background
+
+    proc = warm_up_in_background()
+    try:
+        assert os.getsid(proc.pid) == os.getsid(0)
+        assert os.getpgid(proc.pid) == proc.pid != os.getpgid(0)
+        autogroup = f"/proc/{proc.pid}/autogroup"
+        if os.path.exists(autogroup):  # Linux with autogroup scheduling: the same group
+            with open(autogroup) as mine, open("/proc/self/autogroup") as ours:
+                assert mine.read().split()[0] == ours.read().split()[0]
+    finally:
+        proc.kill()
+        proc.wait()
