@@ -106,7 +106,7 @@ def run_estimation(
             data |= estimator.budget(store, runs, result, screening, report_dir)
             if screening is not None:  # the hull's theory compares a tow or spin's repeats
                 data |= theory_document(store, data, screening, report_dir)
+    data["subject"] = result_subject("estimation", data)  # as GET /api/results names it
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)
-    data["subject"] = result_subject("estimation", stored)  # as GET /api/results names it
     return data

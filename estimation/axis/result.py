@@ -17,7 +17,7 @@ from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import TOW_RULES
-from estimation.stats.diagnostics import Whiteness, whiteness_json
+from estimation.stats.diagnostics import Whiteness
 
 SCHEMA_VERSION = 1
 
@@ -133,8 +133,8 @@ class EstimationResult:
             "advice": list(self.advice),
             "reverse_test": self.reverse_test.to_json() if self.reverse_test else None,
             "diagnostics": {
-                "ljung_box_before": whiteness_json(self.whiteness_before),
-                "ljung_box_after": whiteness_json(self.whiteness_after),
+                "ljung_box_before": self.whiteness_before.to_json(),
+                "ljung_box_after": self.whiteness_after.to_json(),
                 "force_rmse_per_run_before": finite_values(self.force_rmse_per_run_before),
                 "force_rmse_per_run_after": finite_values(self.force_rmse_per_run_after),
                 "residual_correlation_before": finite_values(self.residual_correlations),

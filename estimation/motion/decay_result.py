@@ -18,7 +18,7 @@ from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.stats.diagnostics import Whiteness, ljung_box, whiteness_json
+from estimation.stats.diagnostics import Whiteness, ljung_box
 
 
 @dataclass(frozen=True)
@@ -100,9 +100,9 @@ class DecayResult:
             # every result's residual test alike: the base model's, then the final one's
             "diagnostics": {
                 "ljung_box_before": (
-                    whiteness_json(ljung_box(self.base.residuals)) if self.base else None
+                    ljung_box(self.base.residuals).to_json() if self.base else None
                 ),
-                "ljung_box_after": whiteness_json(self.whiteness),
+                "ljung_box_after": self.whiteness.to_json(),
             },
             "coefficients_possibly_biased": self.possibly_biased,
             "natural_period_s": finite_or_none(self.natural_period_s),

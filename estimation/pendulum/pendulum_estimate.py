@@ -50,7 +50,7 @@ from estimation.pendulum.methods import (
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.stats.diagnostics import Whiteness, ljung_box, whiteness_json
+from estimation.stats.diagnostics import Whiteness, ljung_box
 from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.motion_budget import motion_budget
 
@@ -154,8 +154,8 @@ class PendulumResult:
             "coefficients_possibly_biased": bool(self.motion and self.motion.possibly_biased),
             "geometry": self.geometry,
             "diagnostics": {
-                "ljung_box_before": whiteness_json(self.whiteness_before),
-                "ljung_box_after": whiteness_json(self.whiteness_after),
+                "ljung_box_before": self.whiteness_before.to_json(),
+                "ljung_box_after": self.whiteness_after.to_json(),
             },
             "evidence": {
                 "bic_before": finite_or_none(self.fit_before.bic),

@@ -4,6 +4,7 @@ equation is ``estimation.axis.force_residual``)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -11,7 +12,6 @@ from typing import Any
 import numpy as np
 from scipy.special import chdtrc
 
-from estimation.report_numbers import finite_or_none
 from estimation.stats.smoothing import savgol
 
 SAVGOL_WINDOW = 7  # samples of the derivative filter
@@ -24,6 +24,15 @@ class Whiteness:
     q_statistic: float
     lags: int
     p_value: float
+
+    def to_json(self) -> dict[str, Any]:
+        """{q, lags, p_value} as every result document writes them (null: not computed)."""
+        q, p = float(self.q_statistic), float(self.p_value)
+        return {
+            "q": q if math.isfinite(q) else None,
+            "lags": self.lags,
+            "p_value": p if math.isfinite(p) else None,
+        }
 
 
 def ljung_box(residuals: Sequence[np.ndarray], max_lag: int = 10) -> Whiteness:
@@ -111,12 +120,3 @@ def position_noise(
             if w.size >= NOISE_WINDOW // 2:
                 estimates.append(float(np.sqrt(np.mean(w**2))))
     return float(np.percentile(estimates, NOISE_QUANTILE)) if estimates else 0.0
-
-
-def whiteness_json(w: Whiteness) -> dict[str, Any]:
-    """A Ljung–Box result as the result document writes it (q, lags, p-value)."""
-    return {
-        "q": finite_or_none(w.q_statistic),
-        "lags": w.lags,
-        "p_value": finite_or_none(w.p_value),
-    }

@@ -207,7 +207,13 @@ async def test_server_lost_then_back_reconnects_in_the_background(server):
         assert not plc.connected
         await asyncio.sleep(0.3)  # the server away while the background attempts fail
         await server.start()  # same port
-        await until(lambda: plc.connected, "reconnected in the background", timeout_s=2)
+        # the transport reports connected inside pymodbus' connect(), one loop turn before
+        # the background loop gets its answer and counts the reconnect: wait for both
+        await until(
+            lambda: plc.connected and plc.stats.reconnects > 0,
+            "reconnected in the background",
+            timeout_s=2,
+        )
         assert plc.stats.reconnects == 1
         assert (await plc.read_all())["tow_position"].value == pytest.approx(0.5)
     finally:
