@@ -98,12 +98,12 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
         "List stored results, newest first, or compare two or more (--compare).",
     ),
     "annotate": (
-        "api.cli.runs",
+        "api.cli.metadata",
         "annotate",
-        "Set a run's metadata: operator, water temperature, notes, tags, free keys.",
+        "Set a run's metadata: operator, water (°C, g/kg), notes, tags, free keys.",
     ),
     "export": (
-        "api.cli.runs",
+        "api.cli.export",
         "export",
         "Export a run with its units and metadata, in a format of --format.",
     ),

@@ -2,7 +2,7 @@
 ``api.core.run_metadata_query.RunMetadataQuery`` (``--operator --water-temp --notes --tag
 --meta``, the query parameters of ``POST /api/runs/import``), added once to every command
 that records or imports runs (see ``records_runs`` in api.cli.command_table) and read by the
-procedure runner; ``rig annotate`` changes it afterwards."""
+procedure runner; ``rig annotate`` (here) changes it afterwards."""
 
 from __future__ import annotations
 
@@ -11,7 +11,15 @@ from typing import Any
 
 import click
 
-from api.cli.common import fail, flag_names
+from api.cli.common import (
+    db_option,
+    echo_json,
+    fail,
+    flag_names,
+    json_option,
+    open_store,
+    user_errors,
+)
 from api.cli.options import model_options, request_from
 from api.core.run_metadata_query import RunMetadataQuery
 
@@ -61,3 +69,51 @@ def run_metadata() -> dict[str, Any] | None:
     """The metadata the running command was given (None when none)."""
     ctx = click.get_current_context(silent=True)
     return None if ctx is None else ctx.meta.get(CONTEXT_KEY)
+
+
+def _annotate_options(command):
+    command.params[1:1] = [
+        *metadata_options(),
+        click.Option(["--untag"], multiple=True, metavar="TAG", help="Remove a tag."),
+        click.Option(
+            ["--unset"], multiple=True, metavar="KEY", help="Remove a key (e.g. notes, ballast)."
+        ),
+    ]
+    return command
+
+
+@_annotate_options
+@click.command("annotate")
+@click.argument("run_id")
+@db_option
+@json_option
+def annotate(run_id, untag, unset, db_url, as_json, **given):
+    """Set a run's metadata: operator, water (°C, g/kg), notes, tags, free keys.
+
+    Options given replace the stored values; --tag adds, --untag and --unset remove. Works
+    on any run, recorded or imported; prints the metadata as stored."""
+    ctx = click.get_current_context()
+    changes = metadata_from_options(ctx, given)
+    store = open_store(db_url)
+    try:
+        with user_errors():
+            run = store.get_run(run_id)
+        for key in unset:
+            changes[key] = None
+        if "tags" in changes or untag:
+            tags = [t for t in run.metadata.get("tags", []) if t not in untag]
+            changes["tags"] = list(dict.fromkeys([*tags, *changes.get("tags", [])])) or None
+        if not changes:
+            fail("nothing to change: give --operator, --water-temp, --salinity, --notes, --tag, "
+                 "--untag, --meta or --unset")  # fmt: skip
+        try:
+            run = store.set_run_metadata(run.id, changes)
+        except ValueError as err:
+            fail(flag_names(ctx, str(err)).replace("metadata.", "--unset ", 1))
+        if as_json:
+            echo_json(run.metadata)
+        else:
+            for key, value in run.metadata.items():
+                click.echo(f"{key}: {', '.join(value) if key == 'tags' else value}")
+    finally:
+        store.close()

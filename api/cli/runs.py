@@ -1,13 +1,11 @@
-"""``rig runs``, ``rig show``, ``rig annotate``, ``rig export``: the stored runs (``rig import`` is
-in ``api.cli.imports``).
-
-One module because the commands on stored runs share the run-id resolution, the one-line
-errors and the table output.
+"""``rig runs`` and ``rig show``: the stored runs, listed and one in full (``rig annotate`` is in
+``api.cli.metadata``, ``rig export`` in ``api.cli.export``, ``rig import`` in
+``api.cli.imports``: each builds its options from its model when its module is imported, which
+a listing does not need).
 """
 
 from __future__ import annotations
 
-import sys
 from datetime import datetime
 from typing import Any
 
@@ -23,9 +21,7 @@ from api.cli.common import (
     user_errors,
 )
 from api.cli.options import request_from, request_options
-from api.core.export_request import ExportQuery
 from api.core.run_filter import RunFilter
-from daq.export_formats import FORMATS, export_file_name, write_export
 from daq.parameter_labels import labelled
 from daq.vocabulary import AXES
 
@@ -154,103 +150,3 @@ def show(run_id, db_url, as_json):
             click.echo(f"  result #{r.id} {r.kind} ({_when(r.created_at)})")
     finally:
         store.close()
-
-
-def _annotate_options(command):
-    from api.cli.metadata import metadata_options
-
-    command.params[1:1] = [
-        *metadata_options(),
-        click.Option(["--untag"], multiple=True, metavar="TAG", help="Remove a tag."),
-        click.Option(
-            ["--unset"], multiple=True, metavar="KEY", help="Remove a key (e.g. notes, ballast)."
-        ),
-    ]
-    return command
-
-
-@_annotate_options
-@click.command("annotate")
-@click.argument("run_id")
-@db_option
-@json_option
-def annotate(run_id, untag, unset, db_url, as_json, **given):
-    """Set a run's metadata: operator, water temperature, notes, tags, free keys.
-
-    Options given replace the stored values; --tag adds, --untag and --unset remove. Works
-    on any run, recorded or imported; prints the metadata as stored."""
-    from api.cli.metadata import metadata_from_options
-
-    ctx = click.get_current_context()
-    changes = metadata_from_options(ctx, given)
-    store = open_store(db_url)
-    try:
-        with user_errors():
-            run = store.get_run(run_id)
-        for key in unset:
-            changes[key] = None
-        if "tags" in changes or untag:
-            tags = [t for t in run.metadata.get("tags", []) if t not in untag]
-            changes["tags"] = list(dict.fromkeys([*tags, *changes.get("tags", [])])) or None
-        if not changes:
-            fail("nothing to change: give --operator, --water-temp, --notes, --tag, --untag, "
-                 "--meta or --unset")  # fmt: skip
-        try:
-            run = store.set_run_metadata(run.id, changes)
-        except ValueError as err:
-            fail(flag_names(ctx, str(err)).replace("metadata.", "--unset ", 1))
-        if as_json:
-            echo_json(run.metadata)
-        else:
-            for key, value in run.metadata.items():
-                click.echo(f"{key}: {', '.join(value) if key == 'tags' else value}")
-    finally:
-        store.close()
-
-
-@click.command("export")
-@click.argument("run_id")
-@request_options(ExportQuery)
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(dir_okay=False, writable=True),
-    help="File to write (default: stdout; "
-    + ", ".join(f.name for f in FORMATS.values() if f.binary)
-    + " need it on a terminal).",
-)
-@db_option
-def export(run_id, output, db_url, **options):
-    """Export a run with its units and metadata, in a format of --format."""
-    # the query GET /api/runs/{id}/export takes (api.core.export_request)
-    fmt = request_from(ExportQuery, options).format
-    store = open_store(db_url)
-    try:
-        with user_errors():
-            run = store.get_run(run_id)
-        binary = FORMATS[fmt].binary
-        if output:
-            write_export(store, run.id, fmt, output)
-            click.echo(f"wrote {output}", err=True)
-        elif binary and sys.stdout.isatty():
-            fail(
-                f"--output: a file is needed for --format {fmt} (binary), e.g. -o "
-                + export_file_name(run.id, fmt)
-            )
-        else:
-            _to_stdout(store, run.id, fmt)
-    finally:
-        store.close()
-
-
-def _to_stdout(store, run_id: str, fmt: str) -> None:
-    """Write the export to a temporary file (HDF5 needs to seek), then to stdout."""
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    with tempfile.TemporaryDirectory(prefix="rig-export-") as folder:
-        path = write_export(store, run_id, fmt, Path(folder) / export_file_name(run_id, fmt))
-        with open(path, "rb") as f:
-            shutil.copyfileobj(f, sys.stdout.buffer)
-        sys.stdout.buffer.flush()

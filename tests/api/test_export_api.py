@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 from scipy.io import loadmat
 
-from api.cli.runs import export as export_command
+from api.cli.export import export as export_command
 from daq.export_formats import FORMATS
 from tests.api.conftest import AUTH
 from tests.store.test_export_formats import recorded_tow
