@@ -167,6 +167,7 @@ def _type_b_sensitivity(
     runs: Sequence[RunData],
     result: EstimationResult,
     fit: FitResult,
+    conditions: tuple[Mapping[str, float], Sequence[float]],
     chain: Chain,
     source: str,
     u: float,
@@ -176,7 +177,6 @@ def _type_b_sensitivity(
     at the conditions the result gives it at (the nominal drives and reached speeds: a
     terminal speed is a function of the coefficients at a stated drive)."""
     groups: list[list[int]] = weight_groups(runs) if SOURCES[source].per_weight else [[]]
-    conditions = combination_conditions(fit, runs)
     named = [c.name for c in result.well_determined]
     out = []
     for only in groups:
@@ -195,6 +195,7 @@ def _type_b_rows(
     runs: Sequence[RunData],
     result: EstimationResult,
     fit: FitResult,
+    conditions: tuple[Mapping[str, float], Sequence[float]],
     chain: Chain,
     tolerances: Mapping[str, float],
     notes: list[str],
@@ -216,7 +217,7 @@ def _type_b_rows(
             continue
         grads = [
             np.concatenate([g, c])
-            for g, c in _type_b_sensitivity(runs, result, fit, chain, name, u)
+            for g, c in _type_b_sensitivity(runs, result, fit, conditions, chain, name, u)
         ]
         for i, coef in enumerate(names):
             parts = np.array([g[i] for g in grads])
@@ -300,7 +301,9 @@ def uncertainty_budget(
     runs = as_fitted(runs, result)
     imported = chain is None
     chain = chain or Chain(g=9.81)
-    type_b = _type_b_rows(runs, result, fit, chain, declared, notes) if declared else {}
+    # the drives and reached speeds the combinations are stated at: one for every re-fit
+    conditions = combination_conditions(fit, runs)
+    type_b = _type_b_rows(runs, result, fit, conditions, chain, declared, notes) if declared else {}
     repeat_std: dict[str, tuple[float, int]] = {}
     if repeats is not None:
         kind = advice_for("import" if imported else "tow")
@@ -312,7 +315,7 @@ def uncertainty_budget(
         name: coefficient_budget(name, fit.value(name), type_a[name] + type_b.get(name, []))
         for name in fit.names
     }
-    fit_rows = combination_rows(result, fit, runs, max(fit.n_samples - fit.n_params, 1))
+    fit_rows = combination_rows(result, fit, conditions, max(fit.n_samples - fit.n_params, 1))
     combinations = {
         c.name: coefficient_budget(c.name, c.value, [fit_rows[c.name], *type_b.get(c.name, [])])
         for c in result.well_determined

@@ -32,8 +32,7 @@ from dataclasses import replace
 
 from estimation.axis.output_error import FitResult
 from estimation.axis.result import EstimationResult
-from estimation.axis.tow_estimate import combination_conditions, well_determined
-from estimation.data.run_arrays import RunData
+from estimation.axis.tow_estimate import well_determined
 from estimation.motion.terms import LIBRARY
 from estimation.uncertainty.rows import BudgetRow
 
@@ -51,7 +50,10 @@ def coefficient_unit(name: str, axis: str) -> str:
 
 
 def combination_rows(
-    result: EstimationResult, fit: FitResult, runs: Sequence[RunData], dof_fit: float
+    result: EstimationResult,
+    fit: FitResult,
+    conditions: tuple[Mapping[str, float], Sequence[float]],
+    dof_fit: float,
 ) -> dict[str, BudgetRow]:
     """The Type A row of each well-determined combination (a tow's terminal speed, its drag
     at a tested speed), by name: its delta-method σ (``motion.well_determined``) through the
@@ -62,7 +64,6 @@ def combination_rows(
     forms = [f for f in (fit.std_white, fit.std_quantization) if f is not None] or [fit.std]
     sigmas: dict[str, list[float]] = {}
     for std in forms:
-        conditions = combination_conditions(fit, runs)
         for c in well_determined(replace(fit, std=std), *conditions, result.axis):
             if c.std is not None:
                 sigmas.setdefault(c.name, []).append(c.std)
