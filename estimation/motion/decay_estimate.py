@@ -262,6 +262,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         rmse_after=final.rmse,
         noise=noise,
         whiteness=white,
+        whiteness_before=ljung_box(base.residuals),
         possibly_biased=biased,
         natural_period_s=period,
         warnings=tuple(warnings),

@@ -18,7 +18,7 @@ from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.stats.diagnostics import Whiteness, ljung_box
+from estimation.stats.diagnostics import Whiteness
 
 
 @dataclass(frozen=True)
@@ -35,6 +35,8 @@ class DecayResult:
     rmse_after: float
     noise: float
     whiteness: Whiteness
+    #: The base model's (before the search), as every result reports both.
+    whiteness_before: Whiteness
     possibly_biased: bool
     natural_period_s: float | None
     warnings: tuple[str, ...]
@@ -99,9 +101,7 @@ class DecayResult:
             "noise": finite_or_none(self.noise),
             # every result's residual test alike: the base model's, then the final one's
             "diagnostics": {
-                "ljung_box_before": (
-                    ljung_box(self.base.residuals).to_json() if self.base else None
-                ),
+                "ljung_box_before": self.whiteness_before.to_json(),
                 "ljung_box_after": self.whiteness.to_json(),
             },
             "coefficients_possibly_biased": self.possibly_biased,
