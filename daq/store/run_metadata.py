@@ -54,31 +54,23 @@ def check_tag(field: str, value: object) -> str:
     return value
 
 
-def check_water_temperature(field: str, value: object) -> float:
-    """A finite number within :data:`WATER_TEMPERATURE_RANGE_C`."""
-    low, high = WATER_TEMPERATURE_RANGE_C
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(
-            f"{field}: {value!r} is not allowed; use a number {low:g} ≤ T ≤ {high:g} °C"
-        )
-    if not (math.isfinite(value) and low <= value <= high):
-        raise ValueError(
-            f"{field}: {value!r} is not allowed; use {low:g} ≤ water_temperature_c ≤ {high:g} °C"
-        )
-    return float(value)
+#: The known keys that are numbers in a range: (low, high), unit, and what the range means.
+NUMBER_KEYS: dict[str, tuple[tuple[float, float], str, str]] = {
+    "water_temperature_c": (WATER_TEMPERATURE_RANGE_C, "°C", ""),
+    "salinity_g_kg": (SALINITY_RANGE_G_KG, "g/kg", " (0 fresh water, 35.165 standard sea water)"),
+}
 
 
-def check_salinity(field: str, value: object) -> float:
-    """A finite number within :data:`SALINITY_RANGE_G_KG` (g/kg)."""
-    low, high = SALINITY_RANGE_G_KG
+def check_number(field: str, key: str, value: object) -> float:
+    """``value`` of the known number ``key`` (:data:`NUMBER_KEYS`): finite, within its range."""
+    (low, high), unit, meaning = NUMBER_KEYS[key]
     if (
         isinstance(value, bool)
         or not isinstance(value, int | float)
         or not (math.isfinite(value) and low <= value <= high)
     ):
         raise ValueError(
-            f"{field}: {value!r} is not allowed; use {low:g} ≤ salinity_g_kg ≤ {high:g} g/kg "
-            "(0 fresh water, 35.165 standard sea water)"
+            f"{field}: {value!r} is not allowed; use {low:g} ≤ {key} ≤ {high:g} {unit}{meaning}"
         )
     return float(value)
 
@@ -86,10 +78,8 @@ def check_salinity(field: str, value: object) -> float:
 def _value(field: str, key: str, value: object) -> Any:
     if key == "operator":
         return _text(field, value, MAX_TEXT_CHARS)
-    if key == "water_temperature_c":
-        return check_water_temperature(field, value)
-    if key == "salinity_g_kg":
-        return check_salinity(field, value)
+    if key in NUMBER_KEYS:
+        return check_number(field, key, value)
     if key == "notes":
         return _text(field, value, MAX_NOTES_CHARS)
     if key == "tags":
