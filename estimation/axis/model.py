@@ -12,20 +12,15 @@ by finite differences cost one vectorized call.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from itertools import repeat
 
 import numpy as np
 
 from estimation.axis.integration_step import MAX_HALVINGS, coarsest_step, integration_step
 from estimation.axis.prepared_run import PreparedRun
-from estimation.motion.equation import accelerator, hermite
-from estimation.motion.kernel import step_grid
+from estimation.motion.equation import Track, integrate
 from estimation.motion.terms import LIBRARY, Term, TermValues
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
-#: Steps between two checks whether every parameter set has diverged to NaN (a trial step
-#: of a fit far from the data): the remaining steps are NaN, so they are not integrated.
-NAN_CHECK_EVERY = 16
 
 
 class ParamView:
@@ -138,20 +133,6 @@ def _simulate_closed(
     return out
 
 
-def _zoh_integral_at_samples(r: PreparedRun) -> np.ndarray:
-    """∫ drive dt from the first sample to each sample (drive held until the next one)."""
-    return np.concatenate([[0.0], np.cumsum(r.drive[:-1] * np.diff(r.t))])
-
-
-def _zoh_integral(r: PreparedRun, cumulative: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """∫ drive dt from the first kept sample to ``t`` (held drive; before the first kept
-    sample the drive held at the release, after the last one the last value)."""
-    j = np.clip(np.searchsorted(r.t, t, side="right") - 1, 0, r.t.size - 1)
-    inside = cumulative[j] + r.drive[j] * (t - r.t[j])
-    early = r.drive[0] if r.drive_at_release is None else r.drive_at_release
-    return np.where(t < r.t[0], early * (t - r.t[0]), inside)
-
-
 def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:
     """Whether ``values`` need ``integration_step``'s finest step (or finer): within 2× of
     the limit past which a trial counts as diverged, a fit may rest on it, not on the data."""
@@ -161,102 +142,41 @@ def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[Pre
     return bool(unresolved.any()) or h <= coarsest_step(runs) / 2**MAX_HALVINGS * (1 + 1e-9)
 
 
+def _tracks(runs: Sequence[PreparedRun]) -> list[Track]:
+    """Each run as the one integrator reads it: τ from its release (held at rest before
+    it), its drive per sample and the drive held at the release, its travel as the scale
+    of the divergence guard. M_drive and the hung weight's inertia are in the total inertia
+    ``ParamView.total_inertia`` passes, not here."""
+    return [
+        Track(
+            r.t - r.t_release,
+            r.drive,
+            scale=float(np.ptp(r.x)) or 1.0,
+            drive_before=r.drive_at_release,
+        )
+        for r in runs
+    ]
+
+
 def _simulate_ode(
     every: ParamView, runs: Sequence[PreparedRun], rows: slice
 ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """From rest at each set's release (the run's, later by the timing terms) by the one
+    integrator (``motion.equation.integrate``), on the step ``integration_step`` chooses for
+    every set: the sets of ``rows`` only, so each set's path is the same whichever sets run
+    beside it."""
     h, unresolved = integration_step(every, runs)
-    span = max(float(r.t[-1] - r.t_release) for r in runs) - min(0.0, float(every.delay().min()))
-    n_steps = max(int(np.ceil(span / h)) + 2, 3)
+    p = every.rows(rows)
+    n_sets = p.theta.shape[0]
+    inertia = np.column_stack([p.total_inertia(r) for r in runs])
     # terms that are zero in every set exert nothing: skipped (dry friction's set-valued
     # branch costs most)
-    active = [bool(np.any(c.value)) for c in every.forces]
-    # The sets of ``rows`` only, on the step, grid and terms chosen for every set above:
-    # each set's steps are its own, so its path is the same whichever sets run beside it.
-    p, unresolved = every.rows(rows), unresolved[rows]
-    delay = p.delay()
-    n_sets, n_runs = p.theta.shape[0], len(runs)
-    inertia = np.empty((n_sets, n_runs))
-    const_force = np.zeros((n_sets, n_runs))
-    varying = [i for i, r in enumerate(runs) if r.constant_drive is None]
-    for i, r in enumerate(runs):
-        inertia[:, i] = p.total_inertia(r)
-        const_force[:, i] = r.constant_drive or 0.0
-    forces = [c for c, on in zip(p.forces, active, strict=True) if on]
-
-    # The recorded drive is a zero-order hold (each value until the next sample): each step
-    # takes its exact mean over the step's span (from its running integral at the sample
-    # instants), even when the steps do not line up with the samples (release between two
-    # samples). All steps' means at once, shape (n_steps - 1, S, R): no per-step lookup.
-    step_force = np.broadcast_to(const_force, (n_steps - 1, n_sets, n_runs))
-    if varying:
-        step_force = step_force.copy()
-    step_start = np.arange(n_steps - 1) * h
-    for i in varying:
-        r = runs[i]
-        cumulative = _zoh_integral_at_samples(r)
-        a = (step_start + r.t_release)[:, None] + delay[None, :]
-        step_force[:, :, i] += (
-            _zoh_integral(r, cumulative, a + h) - _zoh_integral(r, cumulative, a)
-        ) / h
-
-    inv_inertia = 1.0 / inertia
-    inv_inertia[unresolved] = np.nan  # no step resolves them here: a diverged trial
-    grid = step_grid(
-        np.zeros((n_sets, n_runs)),
-        np.zeros((n_sets, n_runs)),
-        step_force,
-        inv_inertia,
-        forces,
-        False,
-        h,
-        n_steps,
-        nan_stop_every=NAN_CHECK_EVERY,
-    )
-    if grid is not None:
-        xs, vs, _ = grid
-    else:
-        xs, vs = _numpy_grid(step_force, const_force, bool(varying), inv_inertia, forces, h)
-    out = []
-    for i, r in enumerate(runs):
-        tau = np.maximum(r.t[None, :] - r.t_release - delay[:, None], 0.0)
-        out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
-    return out
-
-
-def _numpy_grid(
-    step_force: np.ndarray,
-    const_force: np.ndarray,
-    varying: bool,
-    inv_inertia: np.ndarray,
-    forces: Sequence[TermValues],
-    h: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """``_simulate_ode``'s step grid in NumPy, for terms the compiled loop has no form for
-    (``estimation.motion.kernel``): the same steps."""
-    n_steps = step_force.shape[0] + 1
-    n_sets, n_runs = inv_inertia.shape
-    accel = accelerator(forces, inv_inertia, (n_sets, n_runs))
-    xs = np.zeros((n_steps, n_sets, n_runs))
-    vs = np.zeros((n_steps, n_sets, n_runs))
-    x = np.zeros((n_sets, n_runs))
-    v = np.zeros((n_sets, n_runs))
-    half, sixth_h2, sixth_h = 0.5 * h, h * h / 6.0, h / 6.0
-    # constant drives only: the one force array, not a row of a broadcast view per step
-    held_forces = step_force if varying else repeat(const_force, n_steps - 1)
-    for k, f in enumerate(held_forces, start=1):  # f held over the step's four stages
-        a1 = accel(x, v, f)
-        v2 = v + half * a1  # each stage's velocity, computed once (also its next position)
-        a2 = accel(x + half * v, v2, f)
-        v3 = v + half * a2
-        a3 = accel(x + half * v2, v3, f)
-        a4 = accel(x + h * v3, v + h * a3, f)
-        # written straight into the step grid (the new state is a view of it)
-        x = np.add(x + h * v, sixth_h2 * (a1 + a2 + a3), out=xs[k])
-        v = np.add(v, sixth_h * (a1 + 2 * a2 + 2 * a3 + a4), out=vs[k])
-        if k % NAN_CHECK_EVERY == 0 and np.isnan(v).all() and np.isnan(x).all():
-            xs[k + 1 :] = vs[k + 1 :] = np.nan  # NaN stays NaN in every later step
-            break
-    return xs, vs
+    forces = [c for c, e in zip(p.forces, every.forces, strict=True) if np.any(e.value)]
+    rest = np.zeros((n_sets, len(runs)))
+    return integrate(
+        _tracks(runs), inertia, forces, rest, rest, h,
+        shift=p.delay(), unresolved=unresolved[rows],
+    )  # fmt: skip
 
 
 #: A simulated position beyond this multiple of the measured travel is a diverged trial.

@@ -9,16 +9,11 @@ A force term enters as ``c·X(x)·V(v)``: a constant and two basis functions cho
 (``kernel.X_BASIS``, ``kernel.V_BASIS``; ``kernel.form_of`` reads them off the term's own
 regressor, so the physics stays in the library entry). Each state steps by RK4 with the
 drive held over the step; dry friction (the set-valued terms, of size ``held``; ``dry``:
-there are some) either
+there are some) is constant through a step, and the step is split where the velocity
+reverses (``equation.py``'s module doc).
 
-* held in the acceleration: holds the body while the net force stays within ``held``
-  and otherwise opposes the motion, evaluated at every stage (the axis simulator), or
-* ``exact``: is constant through a step, and the step is split where the velocity
-  reverses (``equation.py``'s module doc: the pendulum's exact stepping).
-
-Guards: ``freeze_every`` > 0 holds a diverged state (non-finite, or beyond ``limit`` of its
-record) at the limit every that many steps and at the last (``equation.integrate``);
-``nan_stop_every`` > 0 fills the rest with NaN once every state is NaN (``axis.model``).
+Guard: every ``freeze_every`` steps and at the last, a diverged state (non-finite, or
+beyond ``limit`` of its record) is held at the limit (``equation.integrate``).
 
 numba is imported with this module, which ``kernel.step_grid`` loads on the first
 integration (importing numba costs ~0.3 s of CPU: a command that does not estimate never
@@ -94,39 +89,23 @@ def _force(x, v, ctx, coef, scale, xcode, vcode):
     return net
 
 
-@njit(cache=True, inline="always")
-def _stage(x, v, friction, ctx, dry, exact, coef, scale, xcode, vcode):
-    """ẍ at one RK4 stage. ``exact``: the friction force ``friction`` (−F_c·direction) held
-    through the step; else with ``dry``: dry friction of size ``held`` holds the body while
-    the net force stays within it, and otherwise opposes the motion."""
-    inv, held = ctx[1], ctx[2]
-    net = _force(x, v, ctx, coef, scale, xcode, vcode)
-    if exact:
-        return (net + friction) * inv
-    if not dry:
-        return net * inv
-    still = v == 0.0
-    direction = _sign(net if still else v)
-    if still and abs(net) <= held:
-        return 0.0
-    return (net - held * direction) * inv
-
-
 @njit(cache=True)
-def _rk4(x, v, h, friction, ctx, dry, exact, coef, scale, xcode, vcode):
-    """One RK4 step of length ``h`` from (x, v)."""
+def _rk4(x, v, h, friction, ctx, coef, scale, xcode, vcode):
+    """One RK4 step of length ``h`` from (x, v), the friction force ``friction``
+    (−F_c·direction) held through it."""
+    inv = ctx[1]
     half = 0.5 * h
-    a1 = _stage(x, v, friction, ctx, dry, exact, coef, scale, xcode, vcode)
+    a1 = (_force(x, v, ctx, coef, scale, xcode, vcode) + friction) * inv
     v2 = v + half * a1
-    a2 = _stage(x + half * v, v2, friction, ctx, dry, exact, coef, scale, xcode, vcode)
+    a2 = (_force(x + half * v, v2, ctx, coef, scale, xcode, vcode) + friction) * inv
     v3 = v + half * a2
-    a3 = _stage(x + half * v2, v3, friction, ctx, dry, exact, coef, scale, xcode, vcode)
-    a4 = _stage(x + h * v3, v + h * a3, friction, ctx, dry, exact, coef, scale, xcode, vcode)
+    a3 = (_force(x + half * v2, v3, ctx, coef, scale, xcode, vcode) + friction) * inv
+    a4 = (_force(x + h * v3, v + h * a3, ctx, coef, scale, xcode, vcode) + friction) * inv
     return x + h * v + h * h / 6.0 * (a1 + a2 + a3), v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
 
 
 @njit(cache=True)
-def _friction_step(x, v, h, ctx, stepped, coef, scale, xcode, vcode):
+def _friction_step(x, v, h, ctx, coef, scale, xcode, vcode):
     """One step with dry friction of size ``held``: stuck, moving, or split at a reversal
     of the velocity (``equation._friction_step``, per state)."""
     inv, held = ctx[1], ctx[2]
@@ -136,26 +115,23 @@ def _friction_step(x, v, h, ctx, stepped, coef, scale, xcode, vcode):
         return x, 0.0
     direction = _sign(pull) if still else _sign(v)
     f = -held * direction
-    x1, v1 = _rk4(x, v, h, f, ctx, stepped, stepped, coef, scale, xcode, vcode)
+    x1, v1 = _rk4(x, v, h, f, ctx, coef, scale, xcode, vcode)
     if v1 * direction < 0:  # split at every reversal, also at F_c = 0 (equation.py)
         h1 = h * min(max(abs(v) / max(abs(v) + abs(v1), 1e-300), 0.0), 1.0)
-        xa, va = _rk4(x, v, h1, f, ctx, stepped, stepped, coef, scale, xcode, vcode)
+        xa, va = _rk4(x, v, h1, f, ctx, coef, scale, xcode, vcode)
         aa = (_force(xa, va, ctx, coef, scale, xcode, vcode) + f) * inv
         h1 = min(max(h1 - va / (np.inf if aa == 0 else aa), 0.0), h)
-        xa, _ = _rk4(x, v, h1, f, ctx, stepped, stepped, coef, scale, xcode, vcode)
+        xa, _ = _rk4(x, v, h1, f, ctx, coef, scale, xcode, vcode)
         pull = _force(xa, 0.0, ctx, coef, scale, xcode, vcode)
         if abs(pull) <= held:
             return xa, 0.0
-        return _rk4(
-            xa, 0.0, h - h1, -held * _sign(pull), ctx, stepped, stepped, coef, scale, xcode, vcode
-        )
+        return _rk4(xa, 0.0, h - h1, -held * _sign(pull), ctx, coef, scale, xcode, vcode)
     return x1, v1
 
 
 @njit(cache=True)
 def integrate_grid(
-    x0, v0, drive, inv, held, dry, exact, coef, scale, xcode, vcode, h, limit, freeze_every,
-    nan_stop_every, xs, vs,
+    x0, v0, drive, inv, held, dry, coef, scale, xcode, vcode, h, limit, freeze_every, xs, vs,
 ):  # fmt: skip
     """Fill the step grid ``xs``/``vs`` (K, S, R) from the states (x0, v0) (S, R) under the
     per-step drive (K − 1, S, R); returns whether a diverged state was frozen (module doc).
@@ -169,20 +145,19 @@ def integrate_grid(
     vs[0] = v
     frozen = np.zeros((n_sets, n_tracks), dtype=np.bool_)
     any_frozen = False
-    stepped = dry and exact  # dry friction stepped exactly (a bool, not a literal)
     for k in range(1, n_steps):
         for s in range(n_sets):
             for r in range(n_tracks):
                 ctx = (drive[k - 1, s, r], inv[s, r], held[s, r], s, r)
-                if stepped:
+                if dry:
                     x[s, r], v[s, r] = _friction_step(
-                        x[s, r], v[s, r], h, ctx, stepped, coef, scale, xcode, vcode
+                        x[s, r], v[s, r], h, ctx, coef, scale, xcode, vcode
                     )
                 else:
                     x[s, r], v[s, r] = _rk4(
-                        x[s, r], v[s, r], h, 0.0, ctx, dry, stepped, coef, scale, xcode, vcode
+                        x[s, r], v[s, r], h, 0.0, ctx, coef, scale, xcode, vcode
                     )
-        if freeze_every > 0 and (k % freeze_every == 0 or k == n_steps - 1):
+        if k % freeze_every == 0 or k == n_steps - 1:
             bad = False
             for s in range(n_sets):
                 for r in range(n_tracks):
@@ -197,11 +172,6 @@ def integrate_grid(
                             v[s, r] = 0.0
         xs[k] = x
         vs[k] = v
-        stop = nan_stop_every > 0 and k % nan_stop_every == 0
-        if stop and np.isnan(v).all() and np.isnan(x).all():  # NaN stays NaN from here on
-            xs[k + 1 :] = np.nan
-            vs[k + 1 :] = np.nan
-            break
     return any_frozen
 
 

@@ -1,4 +1,6 @@
-"""The one single-DOF equation of motion, integrated from any initial state.
+"""The one single-DOF equation of motion, integrated from any initial state: every record
+kind's simulator (free decays and pendulums from a fitted state, tows and spins from rest at
+their release, ``axis.model``).
 
     (M + M_known + Σ_i θ_i·w_i)·ẍ = τ(t) + Σ_j θ_j·φ_j(x, ẋ) + Σ_l θ_l·φ_l(t)   (terms.py)
 
@@ -23,9 +25,15 @@ body sticks while the other forces stay within F_c, else goes on the other way. 
 over a reversal with RK4 instead costs O(h²·2F_c/M) per reversal: on a lightly damped
 pendulum (tests/estimation/pendulum/test_pendulum.py) 30× the sample noise and a 2.5 % bias in F_c.
 
+A record starts at τ = 0 (``Track``): a free record at its first fitted sample, from the
+state the caller gives; a tow at its release, from rest, with its samples before it held
+there. A parameter set may start later (``shift``: a tow's fitted release delay), with the
+drive read from its own start.
+
 Overflow is stopped where it starts: a trial parameter set whose state leaves
 ``STATE_LIMIT`` × the record's own range is frozen there (its misfit is then large and
-finite), so no inf or NaN reaches a fit.
+finite), so no inf or NaN reaches a fit; a set the caller's step cannot resolve
+(``unresolved``) is not integrated and sits at that limit from the start.
 """
 
 from __future__ import annotations
@@ -52,21 +60,6 @@ GUARD_EVERY = 8
 DAMPING_STEP = 0.5
 
 
-def acceleration(
-    x: np.ndarray,
-    v: np.ndarray,
-    drive: np.ndarray,
-    inv_inertia: np.ndarray,
-    forces: Sequence[TermValues],
-) -> np.ndarray:
-    """ẍ of the equation for states (x, v) under ``drive`` (all broadcast together).
-
-    A set-valued term at rest (dry friction) holds the body while the other forces stay
-    within its coefficient, else it opposes the way they push.
-    """
-    return accelerator(forces, inv_inertia, np.broadcast(x, v).shape)(x, v, drive)
-
-
 def _constant(term: Term) -> bool:
     """A regressor that depends on neither x nor ẋ (a bias): one value for a whole run."""
     return term.x_power is None and term.v_power in (None, 0) and not term.sign_of_v
@@ -75,16 +68,14 @@ def _constant(term: Term) -> bool:
 def accelerator(
     forces: Sequence[TermValues], inv_inertia: np.ndarray, shape: tuple[int, ...]
 ) -> Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
-    """``acceleration`` for fixed coefficients as a function of (x, v, drive) on states of
-    ``shape``: the terms' lookups and the constant regressors' forces are done once, not in
-    each of the integrator's four stages per step (the sum keeps its order and its values)."""
-    held = None
+    """ẍ of the equation as a function of (x, v, drive) on states of ``shape``, for fixed
+    single-valued ``forces`` (dry friction is stepped apart: ``_friction_step``): the terms'
+    lookups and the constant regressors' forces are done once, not in each of the
+    integrator's four stages per step (the sum keeps its order and its values)."""
     parts: list[tuple[np.ndarray, Regressor | None]] = []
     zero = np.zeros(shape)
     for c in forces:
-        if c.term.set_valued_at_rest:
-            held = c.value if held is None else held + c.value
-        elif _constant(c.term):
+        if _constant(c.term):
             parts.append((c.value * c.term.phi(zero, zero), None))
         else:
             parts.append((c.value, c.term.phi))
@@ -93,12 +84,7 @@ def accelerator(
         net = drive
         for value, phi in parts:
             net = net + (value if phi is None else value * phi(x, v))
-        if held is None:
-            return net * inv_inertia
-        still = v == 0.0
-        direction = np.sign(np.where(still, net, v))
-        stuck = still & (np.abs(net) <= held)
-        return np.where(stuck, 0.0, (net - held * direction) * inv_inertia)
+        return net * inv_inertia
 
     return accel
 
@@ -188,25 +174,32 @@ def _friction_step(
 
 @dataclass(frozen=True)
 class Track:
-    """One record as the integrator reads it: sample times from its own start, the drive
-    held per sample (None: free), the known inertia and the inertia terms' weight."""
+    """One record as the integrator reads it: sample times from its start, the drive held
+    per sample (None: free), the known inertia and the inertia terms' weight.
 
-    tau: np.ndarray  # s, from the first fitted sample (0)
+    The start is τ = 0: a free record's first fitted sample, a tow's release (its samples
+    before it have τ < 0 and read the state at the start: held at rest)."""
+
+    tau: np.ndarray  # s, from the start (0)
     drive: np.ndarray | None  # N or N·m per sample (zero-order hold), None: no drive
     known_inertia: float = 0.0
     weight: float = 0.0
     scale: float = 1.0  # the record's own range of x (m or rad): the divergence guard
+    #: The drive held before the first sample (N or N·m; None: the first sample's).
+    drive_before: float | None = None
 
 
-def _mean_drive(track: Track, h: float, n_steps: int) -> np.ndarray:
-    """The held drive's mean over each step [k·h, (k + 1)·h] (last value beyond the record)."""
+def _mean_drive(track: Track, edges: np.ndarray, h: float) -> np.ndarray:
+    """The held drive's mean over each step between consecutive ``edges`` (τ, s; steps along
+    the first axis): ``drive_before`` before the first sample, the last value beyond it."""
     assert track.drive is not None
     t, f = track.tau, track.drive
-    edges = np.arange(n_steps + 1) * h
     j = np.clip(np.searchsorted(t, edges, side="right") - 1, 0, t.size - 1)
     cumulative = np.concatenate([[0.0], np.cumsum(f[:-1] * np.diff(t))])
     at = cumulative[j] + f[j] * (edges - t[j])
-    return np.diff(at) / h
+    if track.drive_before is not None:
+        at = np.where(edges < t[0], track.drive_before * (edges - t[0]), at)
+    return np.diff(at, axis=0) / h
 
 
 def range_rates(
@@ -247,15 +240,22 @@ def integrate(
     x0: np.ndarray,
     v0: np.ndarray,
     h: float,
+    *,
+    shift: np.ndarray | None = None,
+    unresolved: np.ndarray | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """x and ẋ at each track's samples, per parameter set: a list of (S, n) pairs.
 
-    ``inertia`` (S,) or (S, R) is M; ``x0``/``v0`` (S, R) the state at each track's first
-    sample.
+    ``inertia`` (S,) or (S, R) is M; ``x0``/``v0`` (S, R) the state at each track's start.
+    ``shift`` (S,): each set's start later by this much (s; a tow's fitted release delay):
+    its drive is read from there and its samples before it read the start state.
+    ``unresolved`` (S,): sets no step ``h`` resolves (``stable_step``): not integrated, a
+    diverged trial from the start (held at the limit at every sample).
     """
     n_sets, n_tracks = x0.shape
     inertia = np.broadcast_to(np.reshape(inertia, (n_sets, -1)), (n_sets, n_tracks))
-    span = max(float(tr.tau[-1]) for tr in tracks)
+    later = np.zeros(1) if shift is None else np.asarray(shift, dtype=float)
+    span = max(float(tr.tau[-1]) for tr in tracks) - min(0.0, float(later.min()))
     n_steps = max(int(np.ceil(span / h)) + 2, 3)
     forces = [c for c in coefficients if c.term.role == "force"]
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
@@ -270,26 +270,31 @@ def integrate(
             if c.term.role == "inertia":
                 total[:, i] += c.value[:, min(i, c.value.shape[1] - 1)] * tr.weight
     inv = 1.0 / np.maximum(total, 1e-300)
+    skipped = np.zeros(n_sets, dtype=bool) if unresolved is None else np.asarray(unresolved)
+    inv[skipped] = 0.0  # not integrated: their grid is overwritten below
     limit = np.array([STATE_LIMIT * max(tr.scale, 1e-12) for tr in tracks])
-    drive_steps = np.zeros((n_steps, n_tracks))
+    # the step edges on each set's own time (K, S or 1): the drive and the forces of time
+    edges = (np.arange(n_steps) * h)[:, None] + later[None, :]
+    drive = np.zeros((n_steps - 1, edges.shape[1], n_tracks))
     for i, tr in enumerate(tracks):
         if tr.drive is not None:
-            drive_steps[:, i] = _mean_drive(tr, h, n_steps)
-    drive = drive_steps[:-1, None, :]  # (K − 1, 1, R): the force held over each step
-    middles = (np.arange(1, n_steps) - 0.5) * h
+            drive[:, :, i] = _mean_drive(tr, edges, h)
+    middles = 0.5 * (edges[1:] + edges[:-1])
     zeros = np.zeros_like(middles)
     for c in coefficients:
         if c.term.role == "time":  # a force of time: its value at the step's middle (the
             # exact mean of a linear one), like the held drive's mean over the step
             ramp = c.term.regressor(zeros, zeros, zeros, 0.0, middles)
-            drive = drive + np.asarray(c.value)[None, :, :] * ramp[:, None, None]
-    compiled = step_grid(x0, v0, drive, inv, forces, True, h, n_steps, limit, GUARD_EVERY)
+            drive = drive + np.asarray(c.value)[None, :, :] * ramp[:, :, None]
+    compiled = step_grid(x0, v0, drive, inv, forces, h, n_steps, limit, GUARD_EVERY)
     if compiled is not None:
         xs, vs, frozen_any = compiled
     else:
         xs, vs, frozen_any = _numpy_grid(
             x0, v0, drive, inv, forces, smooth, held, h, n_steps, limit
         )
+    if skipped.any():
+        xs[:, skipped, :], vs[:, skipped, :] = limit, 0.0
     if frozen_any:  # the steps before the guard saw it: x and ẋ both held within the
         # limit's own scale (|ẋ| ≤ limit/h), else the Hermite read-off carries a velocity of
         # 1e90 (a softening restoring escapes in finite time, within GUARD_EVERY steps) into
@@ -298,7 +303,8 @@ def integrate(
         vs = np.clip(np.nan_to_num(vs), -limit / h, limit / h)
     out = []
     for i, tr in enumerate(tracks):
-        tau = np.broadcast_to(tr.tau[None, :], (n_sets, tr.tau.size))
+        tau = np.maximum(tr.tau[None, :] - later[:, None], 0.0)  # held at the start before it
+        tau = np.broadcast_to(tau, (n_sets, tr.tau.size))
         out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
     return out
 
@@ -313,7 +319,7 @@ def _numpy_grid(x0, v0, drive, inv, forces, smooth, held, h, n_steps, limit):
     xs[0], vs[0] = x, v
     frozen = np.zeros_like(x, dtype=bool)
     half = 0.5 * h
-    accel = accelerator(forces, inv, x.shape)
+    accel = accelerator(smooth, inv, x.shape)
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(1, n_steps):
             f = drive[k - 1]

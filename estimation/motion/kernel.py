@@ -101,21 +101,18 @@ def step_grid(
     drive: np.ndarray,
     inv_inertia: np.ndarray,
     forces: Sequence[TermValues],
-    exact_friction: bool,
     h: float,
     n_steps: int,
-    limit: np.ndarray | None = None,
-    freeze_every: int = 0,
-    nan_stop_every: int = 0,
+    limit: np.ndarray,
+    freeze_every: int,
 ) -> tuple[np.ndarray, np.ndarray, bool] | None:
     """The states (K, S, R) on the step grid by the compiled loop, and whether a diverged
     state was frozen; None when a term has no compiled form (the caller steps in NumPy).
 
     ``x0``/``v0``/``inv_inertia`` (S, R); ``drive`` broadcasts to (K − 1, S, R) (the force
     held over each step); ``forces``: the force terms in the order they are summed (the
-    set-valued ones are dry friction: held in the acceleration, or stepped exactly with
-    ``exact_friction``); ``limit`` (R,): where a state counts as diverged (checked every
-    ``freeze_every`` steps); ``nan_stop_every``: see ``compiled.py``."""
+    set-valued ones are dry friction, stepped exactly: ``equation.py``); ``limit`` (R,):
+    where a state counts as diverged (checked every ``freeze_every`` steps)."""
     shape = np.shape(x0)
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
     forms = forms_of([c.term for c in smooth])
@@ -136,17 +133,15 @@ def step_grid(
         _plain(v0),
         _plain(np.broadcast_to(drive, (n_steps - 1, *shape))),
         _plain(_per_state(inv_inertia, shape)),
-        _plain(np.abs(held) if exact_friction else held),
+        _plain(np.abs(held)),
         bool(dry),
-        bool(exact_friction),
         coef,
         _plain([f.scale for f in forms]),
         np.array([f.x_code for f in forms], dtype=np.int64),
         np.array([f.v_code for f in forms], dtype=np.int64),
         float(h),
-        np.full(shape[1], np.inf) if limit is None else _plain(limit),
+        _plain(limit),
         int(freeze_every),
-        int(nan_stop_every),
         xs,
         vs,
     )
