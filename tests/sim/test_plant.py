@@ -146,6 +146,19 @@ def test_polling_does_not_change_the_physics():
     assert one.position_m == many.position_m and one.velocity_m_s == many.velocity_m_s
 
 
+def test_the_plant_clock_keeps_the_host_time_it_is_advanced_to():
+    """A clock tick at a whole number of ms (12.3 s after the start) finds the plant there,
+    not a step behind: 12.3 / 0.001 is 12299.999… in floating point. A step behind, the PLC
+    clock read 1 ms early and a release written then let the brake go 1 ms early, which a
+    campaign on the clean scenario fitted as a release delay of −1.1 ms."""
+    p = Plant(RIG)
+    p.advance_to(1000.0)
+    for k in range(1, 300):
+        ms = 100 * k + 7 * (k % 3)  # 10 Hz ticks and whole-ms instants between them
+        p.advance_to(1000.0 + ms / 1000)
+        assert p.steps == ms
+
+
 def test_encoder_resolution_quantizes_position():
     p = plant(parse_scenario({"sensors": {"encoder_counts_per_m": 1000}}))
     tow(p, 2.5, seconds=1.0)
