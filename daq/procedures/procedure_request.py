@@ -80,14 +80,14 @@ def metadata_key_fields(*, checked_by_model: bool) -> dict[str, Any]:
             kind = float
             low, high = key.number_range
             rule = {"ge": low, "le": high, "allow_inf_nan": False}
-        if not checked_by_model:  # said in the schema ("maxLength", "minimum", …) only
-            rule = {"json_schema_extra": {_SCHEMA[k]: v for k, v in rule.items() if k in _SCHEMA}}
-        described = Field(description=key.description)
         option = Flag(key.option, metavar=key.metavar)
-        fields[key.name] = (
-            Annotated[Annotated[kind, Field(**rule)] | None, described, option],
-            None,
-        )
+        if checked_by_model:  # on the field, where the options read it (a click range)
+            field = Annotated[kind | None, Field(description=key.description, **rule), option]
+        else:  # said in the schema ("maxLength", "minimum", …) only
+            words = {_SCHEMA[k]: v for k, v in rule.items() if k in _SCHEMA}
+            said = Annotated[kind, Field(json_schema_extra=words)]
+            field = Annotated[said | None, Field(description=key.description), option]
+        fields[key.name] = (field, None)
     return fields
 
 
