@@ -32,7 +32,8 @@ def depth_declared(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_a_key_added_to_the_table_reaches_the_store_both_models_the_options_and_the_docs():
     # the store: checked with its range and unit, no longer a free key
     assert check_run_metadata({"depth_m": 1}) == {"depth_m": 1.0}
-    with pytest.raises(ValueError, match=r"^metadata\.depth_m: 12 is not allowed; use 0 ≤ depth_m ≤ 10 m$"):  # fmt: skip
+    refused = r"^metadata\.depth_m: 12 is not allowed; use 0 ≤ depth_m ≤ 10 m$"
+    with pytest.raises(ValueError, match=refused):
         check_run_metadata({"depth_m": 12})
     assert not is_free_key("depth_m") and is_free_key("ballast")
 
