@@ -1,6 +1,7 @@
 """Run metadata on the command line: the options of
-``api.core.run_metadata_query.RunMetadataQuery`` (``--operator --water-temp --notes --tag
---meta``, the query parameters of ``POST /api/runs/import``), added once to every command
+``api.core.run_metadata_query.RunMetadataQuery`` (the known keys of
+``daq.store.run_metadata.KNOWN``, ``--tag`` and ``--meta``; the query parameters of ``POST
+/api/runs/import``), added once to every command
 that records or imports runs (see ``records_runs`` in api.cli.command_table) and read by the
 procedure runner; ``rig annotate`` (here) changes it afterwards."""
 
