@@ -74,7 +74,7 @@ def metadata_key_fields(*, checked_by_model: bool) -> dict[str, Any]:
     for key in run_metadata.KNOWN:
         rule: dict[str, Any]
         if key.number_range is None:
-            kind: type = str
+            kind: Any = str
             rule = {"min_length": 1, "max_length": key.max_chars}
         else:
             kind = float
@@ -82,13 +82,18 @@ def metadata_key_fields(*, checked_by_model: bool) -> dict[str, Any]:
             rule = {"ge": low, "le": high, "allow_inf_nan": False}
         option = Flag(key.option, metavar=key.metavar)
         if checked_by_model:  # on the field, where the options read it (a click range)
-            field = Annotated[kind | None, Field(description=key.description, **rule), option]
+            field = _annotated(kind | None, Field(description=key.description, **rule), option)
         else:  # said in the schema ("maxLength", "minimum", …) only
             words = {_SCHEMA[k]: v for k, v in rule.items() if k in _SCHEMA}
-            said = Annotated[kind, Field(json_schema_extra=words)]
-            field = Annotated[said | None, Field(description=key.description), option]
+            said = _annotated(kind, Field(json_schema_extra=words))
+            field = _annotated(said | None, Field(description=key.description), option)
         fields[key.name] = (field, None)
     return fields
+
+
+def _annotated(kind: Any, *marks: Any) -> Any:
+    """``Annotated[kind, *marks]`` made at run time (a type checker reads only written ones)."""
+    return Annotated[(kind, *marks)]
 
 
 #: A field's rule as JSON Schema words.
