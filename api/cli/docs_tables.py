@@ -86,6 +86,19 @@ def _repeats(kind: str, flag: Flag) -> bool:
     return kind.startswith("list") and flag.parse is flag.when_set is None
 
 
+#: The unit a field's name ends in (``max_time_s``), as its option's placeholder (``S``).
+_UNITS = ("s", "m", "n", "nm", "kg", "rad", "v", "us", "hz")
+
+
+def _placeholder(name: str, kind: str) -> str:
+    """An option's placeholder when its flag has no metavar: the unit its field's name ends
+    in (``max_time_s`` → ``S``), ``N`` for a count, else the name (``THRUSTER``)."""
+    unit = name.rsplit("_", 1)[-1]
+    if "_" in name and unit in _UNITS:
+        return unit.upper()
+    return "N" if kind.startswith("integer") else name.upper()
+
+
 def option_list(models: list[type[BaseModel]]) -> str:
     """The options of ``models`` as a command's synopsis, in field order: ``--force N`` when
     required, ``[--notes TEXT]`` when not, ``[--thrusters]`` for an on/off flag and
@@ -103,7 +116,7 @@ def option_list(models: list[type[BaseModel]]) -> str:
             word = flag.name
             if flag.when_set is None:
                 choices = kind.removeprefix("list of ").removeprefix("one of ").split(", ")
-                some = "|".join(choices) if "one of " in kind else name.upper()
+                some = "|".join(choices) if "one of " in kind else _placeholder(name, kind)
                 word += f" {flag.metavar or some}"
             word = word if info.is_required() else f"[{word}]"
             words.append(word + ("…" if _repeats(kind, flag) else ""))

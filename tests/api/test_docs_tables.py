@@ -58,11 +58,13 @@ def test_a_row_says_the_option_the_range_the_default_and_the_help_of_its_field()
 class _Choice(BaseModel):
     unit: Annotated[Literal["s", "ms"], Field(description="Unit."), Flag("--unit")]
     fast: Annotated[bool, Field(description="Fast."), Flag("--fast", when_set=True)] = False
+    repeats: Annotated[int, Field(ge=1, description="Repeats."), Flag("--repeats")] = 1
+    label: Annotated[str, Field(description="Label."), Flag("--label")] = "x"
 
 
 def test_an_option_list_is_the_synopsis_of_its_models_options():
-    assert option_list([_Toy]) == "[--depth DEPTH_M] [--tag TAG]…"
-    assert option_list([_Choice, _Toy]) == "--unit s\\|ms [--fast] [--depth DEPTH_M] [--tag TAG]…"
+    assert option_list([_Toy]) == "[--depth M] [--tag TAG]…"
+    assert option_list([_Choice]) == "--unit s\\|ms [--fast] [--repeats N] [--label LABEL]"
 
 
 def test_the_command_table_lists_the_run_metadata_options_from_their_model():
