@@ -1,6 +1,8 @@
 """What every procedure request shares: which rig-file limit bounds a field
-(:class:`RigLimit`), the strict base model with the run's metadata, and the rig in the
-validation context (:func:`rig_of`). How a field is spelled on the command line is
+(:class:`RigLimit`), the strict base model with the run's metadata (``RunMetadataIn``,
+its fields made from the known keys of ``daq.store.run_metadata.KNOWN`` by
+:func:`metadata_key_fields`, as the metadata options' are), and the rig in the validation
+context (:func:`rig_of`). How a field is spelled on the command line is
 ``daq.procedures.flag``; the kinds' models are in ``daq.procedures.requests``.
 """
 
