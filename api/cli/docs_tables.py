@@ -1,9 +1,12 @@
-"""The parameter tables of the docs, made from the request models: ``python -m
-api.cli.docs_tables`` rewrites, in each file it is given (default: docs/api.md), the table
-between ``<!-- parameters: package.module.Model -->`` and ``<!-- /parameters -->`` from that
-model's fields (name, option, type and range, default, help), so adding an option to an
-operation is one edit in its model and a run of this module; ``--check`` only says which
-files differ (exit 1), as ``tests/api/test_docs_tables.py`` does.
+"""The parameter tables and option lists of the docs, made from the request models:
+``python -m api.cli.docs_tables`` rewrites, in each file it is given (default: docs/api.md
+and README.md), the table between ``<!-- parameters: package.module.Model -->`` and
+``<!-- /parameters -->`` from that model's fields (name, option, type and range, default,
+help), and the code span between ``<!-- options: package.module.Model … -->`` and
+``<!-- /options -->`` (inline, in a command table's row) with the options of those models
+(``[--operator NAME] … [--tag TAG]…``), so adding an option to an operation is one edit in
+its model and a run of this module; ``--check`` only says which files differ (exit 1), as
+``tests/api/test_docs_tables.py`` does.
 """
 
 from __future__ import annotations
@@ -19,10 +22,13 @@ from pydantic import BaseModel
 from daq.procedures.flag import Flag
 
 #: The files holding tables, from the repository's root.
-DOCS = (Path("docs/api.md"),)
+DOCS = (Path("docs/api.md"), Path("README.md"))
 _TABLE = re.compile(
     r"(?P<open><!-- parameters: (?P<model>[\w.]+) -->\n).*?(?P<close><!-- /parameters -->)",
     re.DOTALL,
+)
+_OPTIONS = re.compile(
+    r"(?P<open><!-- options: (?P<models>[\w. ]+?) -->)`[^`\n]*`(?P<close><!-- /options -->)"
 )
 _BOUNDS = (("minimum", "≥"), ("exclusiveMinimum", ">"), ("maximum", "≤"), ("exclusiveMaximum", "<"))
 
@@ -75,6 +81,48 @@ def _flag(model: type[BaseModel], name: str) -> Flag | None:
     return next((m for m in model.model_fields[name].metadata if isinstance(m, Flag)), None)
 
 
+def _repeats(kind: str, flag: Flag) -> bool:
+    """A list field whose option is given once per item (``--tag A --tag B``)."""
+    return kind.startswith("list") and flag.parse is flag.when_set is None
+
+
+#: The unit a field's name ends in (``max_time_s``), as its option's placeholder (``S``).
+_UNITS = ("s", "m", "n", "nm", "kg", "rad", "v", "us", "hz")
+
+
+def _placeholder(name: str, kind: str) -> str:
+    """An option's placeholder when its flag has no metavar: the unit its field's name ends
+    in (``max_time_s`` → ``S``), ``N`` for a count, else the name (``THRUSTER``)."""
+    unit = name.rsplit("_", 1)[-1]
+    if "_" in name and unit in _UNITS:
+        return unit.upper()
+    return "N" if kind.startswith("integer") else name.upper()
+
+
+def option_list(models: list[type[BaseModel]]) -> str:
+    """The options of ``models`` as a command's synopsis, in field order: ``--force N`` when
+    required, ``[--notes TEXT]`` when not, ``[--thrusters]`` for an on/off flag and
+    ``[--tag TAG]…`` for a repeatable one; ``--kind tow\\|spin`` for a choice without a
+    metavar (``|`` escaped: the list is a Markdown table's cell)."""
+    words = []
+    for model in models:
+        schema_of = model.model_json_schema()
+        properties, defs = schema_of.get("properties", {}), schema_of.get("$defs", {})
+        for name, info in model.model_fields.items():
+            flag = _flag(model, name)
+            if flag is None:
+                continue
+            kind = _kind(properties.get(name, {}), defs)
+            word = flag.name
+            if flag.when_set is None:
+                choices = kind.removeprefix("list of ").removeprefix("one of ").split(", ")
+                some = "|".join(choices) if "one of " in kind else _placeholder(name, kind)
+                word += f" {flag.metavar or some}"
+            word = word if info.is_required() else f"[{word}]"
+            words.append(word + ("…" if _repeats(kind, flag) else ""))
+    return " ".join(words).replace("|", "\\|")  # a table cell's | is escaped
+
+
 def parameter_table(model: type[BaseModel]) -> str:
     """The Markdown table of ``model``'s fields: the query or body field, the command's
     option, its type and range, its default and its help (a list field's option repeats)."""
@@ -86,7 +134,7 @@ def parameter_table(model: type[BaseModel]) -> str:
         kind = _kind(schema, defs)
         flag = _flag(model, name)
         option = "—" if flag is None else f"`{flag.name}`"
-        if flag is not None and kind.startswith("list") and flag.parse is flag.when_set is None:
+        if flag is not None and _repeats(kind, flag):
             option += " (repeatable)"
         if info.is_required():
             default = "required"
@@ -112,8 +160,14 @@ def _model(path: str) -> type[BaseModel]:
 
 
 def rendered(text: str) -> str:
-    """``text`` with every marked table made again from its model."""
-    return _TABLE.sub(lambda m: m["open"] + parameter_table(_model(m["model"])) + m["close"], text)
+    """``text`` with every marked table and option list made again from its models."""
+    text = _TABLE.sub(lambda m: m["open"] + parameter_table(_model(m["model"])) + m["close"], text)
+    return _OPTIONS.sub(
+        lambda m: (
+            f"{m['open']}`{option_list([_model(n) for n in m['models'].split()])}`" + m["close"]
+        ),
+        text,
+    )
 
 
 def main(argv: list[str]) -> int:

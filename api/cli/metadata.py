@@ -1,6 +1,7 @@
 """Run metadata on the command line: the options of
-``api.core.run_metadata_query.RunMetadataQuery`` (``--operator --water-temp --notes --tag
---meta``, the query parameters of ``POST /api/runs/import``), added once to every command
+``api.core.run_metadata_query.RunMetadataQuery`` (the known keys of
+``daq.store.run_metadata.KNOWN``, ``--tag`` and ``--meta``; the query parameters of ``POST
+/api/runs/import``), added once to every command
 that records or imports runs (see ``records_runs`` in api.cli.command_table) and read by the
 procedure runner; ``rig annotate`` (here) changes it afterwards."""
 
@@ -104,8 +105,9 @@ def annotate(run_id, untag, unset, db_url, as_json, **given):
             tags = [t for t in run.metadata.get("tags", []) if t not in untag]
             changes["tags"] = list(dict.fromkeys([*tags, *changes.get("tags", [])])) or None
         if not changes:
-            fail("nothing to change: give --operator, --water-temp, --salinity, --notes, --tag, "
-                 "--untag, --meta or --unset")  # fmt: skip
+            flags = [p.opts[0] for p in ctx.command.params if isinstance(p, click.Option)]
+            ways = [f for f in flags if f not in ("--db", "--json")]
+            fail(f"nothing to change: give {', '.join(ways[:-1])} or {ways[-1]}")
         try:
             run = store.set_run_metadata(run.id, changes)
         except ValueError as err:

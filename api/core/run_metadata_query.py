@@ -1,81 +1,66 @@
 """A run's metadata as a person gives it when recording or importing (:class:`RunMetadataQuery`):
-each key declared once (range, help, option) for the options of every command that records
-or imports runs (``rig tow``, …, ``rig import``; ``rig annotate`` too) and the query
-parameters of ``POST /api/runs/import``. The rules of the stored metadata (tags, free keys)
-are ``daq.store.run_metadata``'s; a JSON body gives the same keys as an object
-(``daq.procedures.procedure_request.RunMetadataIn``).
+the options of every command that records or imports runs (``rig tow``, …, ``rig import``;
+``rig annotate`` too) and the query parameters of ``POST /api/runs/import``. Its known keys
+(range, help, option) are made from their one declaration, ``daq.store.run_metadata.KNOWN``,
+as the JSON object's are (``daq.procedures.procedure_request.RunMetadataIn``); here only the
+tags (``--tag``, repeated) and the free keys (``--meta KEY=VALUE``) are added.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from daq.procedures.flag import Flag
+from daq.procedures.procedure_request import metadata_key_fields
 from daq.store.run_metadata import (
     MAX_EXTRA_KEYS,
-    MAX_NOTES_CHARS,
     MAX_TAGS,
-    MAX_TEXT_CHARS,
-    SALINITY_RANGE_G_KG,
-    WATER_TEMPERATURE_RANGE_C,
     check_run_metadata,
     check_tag,
     parse_meta_pair,
 )
 
-#: Fields that are no metadata key of their own: the tags and the free ``KEY=VALUE`` pairs.
-_LISTS = ("tag", "meta")
+#: The fields that are no metadata key of their own: the tags and the free ``KEY=VALUE``
+#: pairs (``create_model``'s ``(annotation, default)``).
+_LIST_FIELDS: dict[str, Any] = {
+    "tag": (
+        Annotated[
+            list[str],
+            Field(max_length=MAX_TAGS,
+                  description="A tag to find the run by, e.g. fins-v2 (an import's replace "
+                  "the file's tags; rig annotate adds them)."),
+            Flag("--tag", metavar="TAG"),
+        ],
+        [],
+    ),
+    "meta": (
+        Annotated[
+            list[str],
+            Field(max_length=MAX_EXTRA_KEYS,
+                  description="Any other key as KEY=VALUE, e.g. ballast=B3 (numbers stay "
+                  "numbers)."),
+            Flag("--meta", metavar="KEY=VALUE"),
+        ],
+        [],
+    ),
+}  # fmt: skip
 
 
-class RunMetadataQuery(BaseModel):
-    """Who ran the test, the water temperature, notes, tags and free keys; every other field
-    is stored under its own name (a free key with the store's rules)."""
+class _RunMetadataOptions(BaseModel):
+    """Who ran the test, the water, notes, tags and free keys; every other field is stored
+    under its own name (a known key of ``daq.store.run_metadata.KNOWN``)."""
 
     model_config = ConfigDict(frozen=True)
-
-    operator: Annotated[
-        str | None,
-        Field(min_length=1, max_length=MAX_TEXT_CHARS, description="Who runs the test."),
-        Flag("--operator", metavar="NAME"),
-    ] = None
-    water_temperature_c: Annotated[
-        float | None,
-        Field(ge=WATER_TEMPERATURE_RANGE_C[0], le=WATER_TEMPERATURE_RANGE_C[1],
-              allow_inf_nan=False, description="Water temperature, °C."),
-        Flag("--water-temp", metavar="°C"),
-    ] = None  # fmt: skip
-    salinity_g_kg: Annotated[
-        float | None,
-        Field(ge=SALINITY_RANGE_G_KG[0], le=SALINITY_RANGE_G_KG[1], allow_inf_nan=False,
-              description="Absolute salinity of the tank's water, g/kg (0 = fresh water, "
-              "35.165 = standard sea water)."),
-        Flag("--salinity", metavar="G_PER_KG"),
-    ] = None  # fmt: skip
-    notes: Annotated[
-        str | None,
-        Field(min_length=1, max_length=MAX_NOTES_CHARS, description="Free notes on the run."),
-        Flag("--notes", metavar="TEXT"),
-    ] = None
-    tag: Annotated[
-        list[str],
-        Field(max_length=MAX_TAGS,
-              description="A tag to find the run by, e.g. fins-v2 (an import's replace the "
-              "file's tags; rig annotate adds them)."),
-        Flag("--tag", metavar="TAG"),
-    ] = []  # fmt: skip
-    meta: Annotated[
-        list[str],
-        Field(max_length=MAX_EXTRA_KEYS,
-              description="Any other key as KEY=VALUE, e.g. ballast=B3 (numbers stay numbers)."),
-        Flag("--meta", metavar="KEY=VALUE"),
-    ] = []  # fmt: skip
+    if TYPE_CHECKING:  # the fields made below that this class reads
+        tag: list[str]
+        meta: list[str]
 
     def metadata(self) -> dict[str, Any]:
         """The run's metadata as stored (texts stripped, tags without repeats; unset keys
         left out); ``ValueError`` naming the field, the value and what is allowed."""
-        given = self.model_dump(exclude_none=True, exclude=set(_LISTS))
+        given = self.model_dump(exclude_none=True, exclude=set(_LIST_FIELDS))
         if self.tag:
             given["tags"] = [check_tag("tag", t) for t in self.tag]
         checked = check_run_metadata(given, prefix="")
@@ -87,3 +72,21 @@ class RunMetadataQuery(BaseModel):
                 raise ValueError(f"meta: {err}") from None
             free[key] = value
         return checked | check_run_metadata(free, prefix="meta ")
+
+
+def run_metadata_query_model() -> type[_RunMetadataOptions]:
+    """The model of the metadata options, made from the known keys as declared now."""
+    return create_model(
+        "RunMetadataQuery",
+        __base__=_RunMetadataOptions,
+        __module__=__name__,
+        __doc__=_RunMetadataOptions.__doc__,
+        **metadata_key_fields(checked_by_model=True),
+        **_LIST_FIELDS,
+    )
+
+
+if TYPE_CHECKING:  # the type checker sees the base; the fields are made from the table
+    RunMetadataQuery = _RunMetadataOptions
+else:
+    RunMetadataQuery = run_metadata_query_model()

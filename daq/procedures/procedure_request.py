@@ -1,6 +1,8 @@
 """What every procedure request shares: which rig-file limit bounds a field
-(:class:`RigLimit`), the strict base model with the run's metadata, and the rig in the
-validation context (:func:`rig_of`). How a field is spelled on the command line is
+(:class:`RigLimit`), the strict base model with the run's metadata (``RunMetadataIn``,
+its fields made from the known keys of ``daq.store.run_metadata.KNOWN`` by
+:func:`metadata_key_fields`, as the metadata options' are), and the rig in the validation
+context (:func:`rig_of`). How a field is spelled on the command line is
 ``daq.procedures.flag``; the kinds' models are in ``daq.procedures.requests``.
 """
 
@@ -18,6 +20,7 @@ from pydantic import (
     PrivateAttr,
     ValidationError,
     ValidationInfo,
+    create_model,
     field_validator,
     model_validator,
 )
@@ -25,13 +28,8 @@ from pydantic import (
 from daq.procedures import params as p
 from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
-from daq.store.run_metadata import (
-    MAX_NOTES_CHARS,
-    MAX_TAGS,
-    MAX_TEXT_CHARS,
-    SALINITY_RANGE_G_KG,
-    WATER_TEMPERATURE_RANGE_C,
-)
+from daq.store import run_metadata
+from daq.store.run_metadata import MAX_TAGS
 
 if TYPE_CHECKING:
     from pydantic import ModelWrapValidatorHandler
@@ -66,26 +64,74 @@ class StrictRequest(BaseModel):
     model_config = ConfigDict(strict=True, extra="forbid")
 
 
-class RunMetadataIn(BaseModel):
-    """Free metadata of a run (checked by ``daq.store.run_metadata``): the keys below
-    and any other lower-case key with a text, number or true/false value. In a PATCH a
-    ``null`` removes the key."""
+def metadata_key_fields(*, checked_by_model: bool) -> dict[str, Any]:
+    """The known metadata keys (``daq.store.run_metadata.KNOWN``, read now) as optional fields
+    for ``create_model``, each with its help, its range or length and its option (``Flag``).
+
+    ``checked_by_model``: the model checks the range and length (a query parameter or an
+    option, whose error names it: ``water_temperature_c: '80' is not allowed; Input should
+    be …``); else its JSON Schema only states them and the store's check gives the error
+    (``metadata.water_temperature_c: 80 is not allowed; use -2 ≤ …``)."""
+    fields: dict[str, Any] = {}
+    for key in run_metadata.KNOWN:
+        rule: dict[str, Any]
+        if key.number_range is None:
+            kind: Any = str
+            rule = {"min_length": 1, "max_length": key.max_chars}
+        else:
+            kind = float
+            low, high = key.number_range
+            rule = {"ge": low, "le": high, "allow_inf_nan": False}
+        option = Flag(key.option, metavar=key.metavar)
+        if checked_by_model:  # on the field, where the options read it (a click range)
+            field = _annotated(kind | None, Field(description=key.description, **rule), option)
+        else:  # said in the schema ("maxLength", "minimum", …) only
+            words = {_SCHEMA[k]: v for k, v in rule.items() if k in _SCHEMA}
+            said = _annotated(kind, Field(json_schema_extra=words))
+            field = _annotated(said | None, Field(description=key.description), option)
+        fields[key.name] = (field, None)
+    return fields
+
+
+def _annotated(kind: Any, *marks: Any) -> Any:
+    """``Annotated[kind, *marks]`` made at run time (a type checker reads only written ones)."""
+    return Annotated[(kind, *marks)]
+
+
+#: A field's rule as JSON Schema words.
+_SCHEMA = {"ge": "minimum", "le": "maximum", "min_length": "minLength", "max_length": "maxLength"}
+
+
+class _RunMetadataObject(BaseModel):
+    """Free metadata of a run, the ``metadata`` object of a procedure request and the body
+    of ``PATCH .../metadata`` (checked by ``daq.store.run_metadata``): the keys below and
+    any other lower-case key with a text, number or true/false value. In a PATCH a ``null``
+    removes the key."""
 
     model_config = ConfigDict(extra="allow")
-    operator: str | None = Field(None, max_length=MAX_TEXT_CHARS, description="Who ran the test.")
-    water_temperature_c: float | None = Field(
-        None,
-        description="Water temperature, °C ({:g}…{:g}).".format(*WATER_TEMPERATURE_RANGE_C),
+
+
+def run_metadata_model() -> type[_RunMetadataObject]:
+    """The model of the ``metadata`` object, made from the known keys as declared now."""
+    return create_model(
+        "RunMetadataIn",
+        __base__=_RunMetadataObject,
+        __module__=__name__,
+        __doc__=_RunMetadataObject.__doc__,
+        **metadata_key_fields(checked_by_model=False),
+        tags=(
+            list[str] | None,
+            Field(
+                None, max_length=MAX_TAGS, description="Tags to find the run by, e.g. ['fins-v2']."
+            ),
+        ),
     )
-    salinity_g_kg: float | None = Field(
-        None,
-        description="Absolute salinity of the water, g/kg ({:g}…{:g}; 0 fresh water, 35.165 "
-        "standard sea water).".format(*SALINITY_RANGE_G_KG),
-    )
-    notes: str | None = Field(None, max_length=MAX_NOTES_CHARS)
-    tags: list[str] | None = Field(
-        None, max_length=MAX_TAGS, description="Tags to find the run by, e.g. ['fins-v2']."
-    )
+
+
+if TYPE_CHECKING:  # the type checker sees the base; the fields are made from the table
+    RunMetadataIn = _RunMetadataObject
+else:
+    RunMetadataIn = run_metadata_model()
 
 
 def rig_of(info: ValidationInfo) -> RigConfig | None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from typing import Any
 
 #: Water temperature range a lab tank can have, °C (sea water freezes at -1.9 °C).
@@ -28,7 +29,6 @@ MAX_TAG_CHARS = 40
 MAX_NOTES_CHARS = 10_000
 MAX_TEXT_CHARS = 200
 MAX_EXTRA_KEYS = 30
-KNOWN_KEYS = ("operator", "water_temperature_c", "salinity_g_kg", "notes", "tags")
 #: Where a run came from, added by the job runner and sequences (who started it, the job,
 #: the sequence and its step): not counted against the free keys a person may add.
 ORIGIN_KEYS = ("started_by", "job_id", "sequence", "sequence_step")
@@ -54,34 +54,77 @@ def check_tag(field: str, value: object) -> str:
     return value
 
 
-#: The known keys that are numbers in a range: (low, high), unit, and what the range means.
-NUMBER_KEYS: dict[str, tuple[tuple[float, float], str, str]] = {
-    "water_temperature_c": (WATER_TEMPERATURE_RANGE_C, "°C", ""),
-    "salinity_g_kg": (SALINITY_RANGE_G_KG, "g/kg", " (0 fresh water, 35.165 standard sea water)"),
-}
+@dataclass(frozen=True)
+class MetadataKey:
+    """A known key with its own rule, declared once: a text of at most ``max_chars``
+    characters, or a finite number within ``number_range`` (in ``unit``). The store's check
+    (:func:`check_run_metadata`), the JSON object of procedure requests and of ``PATCH
+    .../metadata`` (``daq.procedures.procedure_request.RunMetadataIn``), the query and the
+    commands' options (``api.core.run_metadata_query.RunMetadataQuery``: ``option``,
+    ``metavar``) and the docs' tables all follow from it."""
+
+    name: str
+    #: What it is, without its unit: "Water temperature".
+    what: str
+    #: The command's option (``--water-temp``) and its placeholder in ``--help``.
+    option: str
+    metavar: str
+    max_chars: int = MAX_TEXT_CHARS
+    number_range: tuple[float, float] | None = None
+    unit: str = ""
+    #: What values in the range mean, said after the unit: "0 = fresh water, …".
+    meaning: str = ""
+
+    @property
+    def description(self) -> str:
+        """The help: "Absolute salinity of the tank's water, g/kg (0 = fresh water, …)."."""
+        unit = f", {self.unit}" if self.unit else ""
+        meaning = f" ({self.meaning})" if self.meaning else ""
+        return f"{self.what}{unit}{meaning}."
+
+    def check(self, field: str, value: object) -> Any:
+        """``value`` checked (a text stripped, a number as float); ``ValueError`` naming
+        ``field``, the value and what is allowed."""
+        if self.number_range is None:
+            return _text(field, value, self.max_chars)
+        low, high = self.number_range
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not (math.isfinite(value) and low <= value <= high)
+        ):
+            meaning = f" ({self.meaning})" if self.meaning else ""
+            raise ValueError(
+                f"{field}: {value!r} is not allowed; use {low:g} ≤ {self.name} ≤ {high:g} "
+                f"{self.unit}{meaning}"
+            )
+        return float(value)
 
 
-def check_number(field: str, key: str, value: object) -> float:
-    """``value`` of the known number ``key`` (:data:`NUMBER_KEYS`): finite, within its range."""
-    (low, high), unit, meaning = NUMBER_KEYS[key]
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | float)
-        or not (math.isfinite(value) and low <= value <= high)
-    ):
-        raise ValueError(
-            f"{field}: {value!r} is not allowed; use {low:g} ≤ {key} ≤ {high:g} {unit}{meaning}"
-        )
-    return float(value)
+#: The known keys besides ``tags`` (a list: ``tags`` in JSON, ``--tag`` repeated), in the
+#: order the models, the options and the docs list them: adding a key here is the one edit
+#: (``tests/api/test_metadata_keys.py`` adds one and follows it everywhere).
+KNOWN: tuple[MetadataKey, ...] = (
+    MetadataKey("operator", "Who runs the test", "--operator", "NAME"),
+    MetadataKey("water_temperature_c", "Water temperature", "--water-temp", "°C",
+                number_range=WATER_TEMPERATURE_RANGE_C, unit="°C"),
+    MetadataKey("salinity_g_kg", "Absolute salinity of the tank's water", "--salinity",
+                "G_PER_KG", number_range=SALINITY_RANGE_G_KG, unit="g/kg",
+                meaning="0 = fresh water, 35.165 = standard sea water"),
+    MetadataKey("notes", "Free notes on the run", "--notes", "TEXT", max_chars=MAX_NOTES_CHARS),
+)  # fmt: skip
+
+
+def is_free_key(key: str) -> bool:
+    """A key a person added (counted against :data:`MAX_EXTRA_KEYS`): no known key, no
+    origin key."""
+    return key != "tags" and key not in ORIGIN_KEYS and all(k.name != key for k in KNOWN)
 
 
 def _value(field: str, key: str, value: object) -> Any:
-    if key == "operator":
-        return _text(field, value, MAX_TEXT_CHARS)
-    if key in NUMBER_KEYS:
-        return check_number(field, key, value)
-    if key == "notes":
-        return _text(field, value, MAX_NOTES_CHARS)
+    known = next((k for k in KNOWN if k.name == key), None)
+    if known is not None:
+        return known.check(field, value)
     if key == "tags":
         if not isinstance(value, list | tuple) or len(value) > MAX_TAGS:
             raise ValueError(
@@ -115,7 +158,7 @@ def check_run_metadata(
                 f"{prefix}{key}: this key is not allowed; use a lower-case name of 1-40 "
                 "letters, digits or '_' starting with a letter (e.g. 'ballast')"
             )
-        extra += key not in KNOWN_KEYS + ORIGIN_KEYS
+        extra += is_free_key(key)
         if extra > MAX_EXTRA_KEYS:
             raise ValueError(f"{prefix}{key}: more than {MAX_EXTRA_KEYS} free keys on a run")
         if item is None and allow_null:
@@ -133,7 +176,7 @@ def merge_run_metadata(current: dict[str, Any], changes: dict[str, Any]) -> dict
             merged.pop(key, None)
         else:
             merged[key] = value
-    extra = [k for k in merged if k not in KNOWN_KEYS + ORIGIN_KEYS]
+    extra = [k for k in merged if is_free_key(k)]
     if len(extra) > MAX_EXTRA_KEYS:
         raise ValueError(f"metadata: {len(extra)} free keys; at most {MAX_EXTRA_KEYS} on a run")
     return merged

@@ -50,6 +50,8 @@ for cmd in ("show", "export", "estimate"):
 case(2, "no run with id 'zzz'", "export", "zzz")
 case(2, "no run with id 'zzz'", "annotate", "zzz", "--notes", "x")
 case(2, "--meta: 'novalue' is not allowed; use KEY=VALUE", "annotate", "{run}", "--meta", "novalue")
+case(2, "nothing to change: give --operator, --water-temp, --salinity, --notes, --tag, --meta, "
+     "--untag or --unset", "annotate", "{run}")  # fmt: skip
 case(2, "'--water-temp': 80.0 is not in the range -2.0<=x<=50.0", "tow", "--force", "10",
      "--water-temp", "80")  # fmt: skip
 case(2, "--since: '23/11' is not allowed", "runs", "--since", "23/11")
