@@ -24,6 +24,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +116,14 @@ def _ship2d() -> dict[str, Any]:
     return _tow_case([run])
 
 
+def _tencate() -> dict[str, Any]:
+    return _tow_case([tencate_e1(t_release=0.0, t_end=2.45)])
+
+
+def _synthetic_tows(scale: str, reverse: bool = False, **physics: float) -> dict[str, Any]:
+    return _tow_case(term_cases.tow_set(scale, 7, reverse=reverse, **physics))
+
+
 def _synthetic_decay(scale: str, **physics: float) -> dict[str, Any]:
     t, x, truth = term_cases.decay(scale, 7, **physics)
     return _decay_case(
@@ -125,23 +134,18 @@ def _synthetic_decay(scale: str, **physics: float) -> dict[str, Any]:
 def cases() -> dict[str, Callable[[], dict[str, Any]]]:
     """Every pinned case by name (the published ones first)."""
     out: dict[str, Callable[[], dict[str, Any]]] = {
-        f"kvlcc2_{run}_decay": (lambda run=run: _kvlcc2_decay(run))
-        for run in ("21337", "21338", "21340")
+        f"kvlcc2_{run}_decay": partial(_kvlcc2_decay, run) for run in ("21337", "21338", "21340")
     }
     out["kvlcc2_21337_pendulum"] = _kvlcc2_pendulum
-    out["tencate_e1_tow"] = lambda: _tow_case([tencate_e1(t_release=0.0, t_end=2.45)])
+    out["tencate_e1_tow"] = partial(_tencate)
     out["ship2d_tow"] = _ship2d
     for scale in term_cases.SCALES:
-        out[f"tows_{scale}_clean"] = lambda s=scale: _tow_case(term_cases.tow_set(s, 7))
-        keyword, value, _ = term_cases.tow_effect("coulomb_friction", scale)
-        out[f"tows_{scale}_coulomb"] = lambda s=scale, k=keyword, v=value: _tow_case(
-            term_cases.tow_set(s, 7, reverse=True, **{k: v})
-        )
-        out[f"decay_{scale}_clean"] = lambda s=scale: _synthetic_decay(s)
-        keyword, value = term_cases.decay_effect("quadratic_damping", scale)
-        out[f"decay_{scale}_quadratic"] = lambda s=scale, k=keyword, v=value: _synthetic_decay(
-            s, **{k: v}
-        )
+        friction, value, _ = term_cases.tow_effect("coulomb_friction", scale)
+        damping, b2 = term_cases.decay_effect("quadratic_damping", scale)
+        out[f"tows_{scale}_clean"] = partial(_synthetic_tows, scale)
+        out[f"tows_{scale}_coulomb"] = partial(_synthetic_tows, scale, True, **{friction: value})
+        out[f"decay_{scale}_clean"] = partial(_synthetic_decay, scale)
+        out[f"decay_{scale}_quadratic"] = partial(_synthetic_decay, scale, **{damping: b2})
     return out
 
 
