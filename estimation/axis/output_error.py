@@ -2,8 +2,9 @@
 
 Minimises Σ_runs Σ_samples (x_meas − x0_run − X(t; θ))², θ = (M, K_L, K_Q, effects...),
 one position offset x0 per run as a nuisance parameter. Standard errors from
-``estimation.stats.fit_statistics.solution_statistics`` (never below σ̂²(JᵀJ)⁻¹, σ̂² = SSE/(n − p);
-larger when the residual is correlated within a run).
+``estimation.stats.identify.honest_statistics``, as every kind's (never below σ̂²(JᵀJ)⁻¹,
+σ̂² = SSE/(n − p); larger when the residual is correlated within a run; NaN along a
+direction the data cannot determine).
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from estimation.axis.effects import EFFECTS
 from estimation.axis.model import BASE_NAMES, bounded, simulate
 from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.terms import LIBRARY
-from estimation.stats.fit_statistics import FitStatistics, solution_statistics
+from estimation.stats.fit_statistics import FitStatistics
+from estimation.stats.identify import honest_statistics
 from estimation.stats.smoothing import savgol
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
@@ -192,7 +194,7 @@ def fit_output_error(
     params, ng = sol.x, prob.n_global
     res = prob.residual(params)
     steps = [r.encoder_step for r in runs] if quantization_sigma else []
-    stats = solution_statistics(
+    stats = honest_statistics(
         res, prob.jacobian(params), ng, prob.sizes, prob.measured - res, steps
     )
     names = (*BASE_NAMES, *effects)
@@ -206,7 +208,13 @@ def fit_output_error(
         effects=effects,
         names=names,
         values=params[:ng].copy(),
-        **stats,
+        std=stats.std,
+        std_white=stats.std_white,
+        std_quantization=stats.std_quantization,
+        correlation=stats.correlation,
+        sse=stats.sse,
+        n_samples=stats.n_samples,
+        n_params=stats.n_params,
         offsets=params[ng:].copy(),
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         velocities=prob.velocities,  # of ``params``: evaluated last, by the residual above

@@ -3,52 +3,11 @@ BIC, RMSE, values by name."""
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Collection
 from dataclasses import dataclass, replace
-from typing import Self, TypedDict
+from typing import Self
 
 import numpy as np
-
-from estimation.stats.identify import honest_statistics
-
-
-class SolutionStatistics(TypedDict):
-    """The fields of :class:`FitStatistics` a least-squares solution gives directly."""
-
-    std: np.ndarray
-    std_white: np.ndarray
-    std_quantization: np.ndarray | None
-    correlation: np.ndarray
-    sse: float
-    n_samples: int
-    n_params: int
-
-
-def solution_statistics(
-    residuals: np.ndarray,
-    jacobian: np.ndarray,
-    n_global: int,
-    record_sizes: Sequence[int],
-    fitted_positions: np.ndarray | None = None,
-    steps: Sequence[float] = (),
-) -> SolutionStatistics:
-    """σ and correlation of the first ``n_global`` parameters of a least-squares solution,
-    with SSE, n and p; ``residuals`` and ``jacobian`` evaluated at the solution, the records'
-    samples concatenated (``record_sizes`` their counts). σ is the larger of the white
-    σ̂²(JᵀJ)⁻¹, the within-record serial-correlation sandwich and, for records quantized to
-    ``steps``, the quantization of the ``fitted_positions``; a parameter along a
-    direction the data cannot determine gets σ = NaN (not identified), never the too-small
-    σ of a pseudo-inverse that drops that direction (``estimation.stats.identify``)."""
-    ident = honest_statistics(residuals, jacobian, n_global, record_sizes, fitted_positions, steps)
-    return SolutionStatistics(
-        std=ident.std,
-        std_white=ident.std_white,
-        std_quantization=ident.std_quantization,
-        correlation=ident.correlation,
-        sse=ident.sse,
-        n_samples=ident.n_samples,
-        n_params=ident.n_params,
-    )
 
 
 @dataclass(frozen=True, kw_only=True)
