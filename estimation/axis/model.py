@@ -15,9 +15,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from estimation.axis.integration_step import MAX_HALVINGS, coarsest_step, integration_step
 from estimation.axis.prepared_run import PreparedRun
-from estimation.motion.equation import Track, integrate
+from estimation.motion import equation
+from estimation.motion.equation import Track, integrate, integration_step
 from estimation.motion.terms import LIBRARY, Term, TermValues
 
 BASE_NAMES: tuple[str, ...] = ("inertia", "linear_damping", "quadratic_damping")
@@ -134,12 +134,26 @@ def _simulate_closed(
 
 
 def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:
-    """Whether ``values`` need ``integration_step``'s finest step (or finer): within 2× of
-    the limit past which a trial counts as diverged, a fit may rest on it, not on the data."""
+    """Whether ``values`` need the one integrator's finest step or nearly
+    (``motion.equation.at_step_limit``): a fit there may rest on it, not on the data."""
     if closed_form_applies(effects, runs):
         return False
-    h, unresolved = integration_step(ParamView(np.atleast_2d(values), effects), runs)
-    return bool(unresolved.any()) or h <= coarsest_step(runs) / 2**MAX_HALVINGS * (1 + 1e-9)
+    p = ParamView(np.atleast_2d(values), effects)
+    return equation.at_step_limit(_tracks(runs), _inertia(p, runs), p.forces)
+
+
+def step_of(
+    theta: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]
+) -> tuple[float, np.ndarray]:
+    """The one integrator's RK4 step (s) for the parameter sets ``theta`` (S, G) on ``runs``,
+    and which sets it cannot resolve (``motion.equation.integration_step``)."""
+    p = ParamView(np.atleast_2d(theta), effects)
+    return integration_step(_tracks(runs), _inertia(p, runs), p.forces)
+
+
+def _inertia(p: ParamView, runs: Sequence[PreparedRun]) -> np.ndarray:
+    """Each set's total inertia on each run (kg or kg·m²), shape (S, R)."""
+    return np.column_stack([p.total_inertia(r) for r in runs])
 
 
 def _tracks(runs: Sequence[PreparedRun]) -> list[Track]:
@@ -153,6 +167,8 @@ def _tracks(runs: Sequence[PreparedRun]) -> list[Track]:
             r.drive,
             scale=float(np.ptp(r.x)) or 1.0,
             drive_before=r.drive_at_release,
+            reach=r.peak_excursion,
+            speed=r.peak_speed,
         )
         for r in runs
     ]
@@ -162,21 +178,21 @@ def _simulate_ode(
     every: ParamView, runs: Sequence[PreparedRun], rows: slice
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """From rest at each set's release (the run's, later by the timing terms) by the one
-    integrator (``motion.equation.integrate``), on the step ``integration_step`` chooses for
-    every set: the sets of ``rows`` only, so each set's path is the same whichever sets run
+    integrator (``motion.equation.integrate``), on the step it chooses for every set of
+    ``every``: the sets of ``rows`` only, so each set's path is the same whichever sets run
     beside it."""
-    h, unresolved = integration_step(every, runs)
+    tracks = _tracks(runs)
+    h, unresolved = integration_step(tracks, _inertia(every, runs), every.forces)
     p = every.rows(rows)
     n_sets = p.theta.shape[0]
-    inertia = np.column_stack([p.total_inertia(r) for r in runs])
+    inertia = _inertia(p, runs)
     # terms that are zero in every set exert nothing: skipped (dry friction's set-valued
     # branch costs most)
     forces = [c for c, e in zip(p.forces, every.forces, strict=True) if np.any(e.value)]
     rest = np.zeros((n_sets, len(runs)))
     return integrate(
-        _tracks(runs), inertia, forces, rest, rest, h,
-        shift=p.delay(), unresolved=unresolved[rows],
-    )  # fmt: skip
+        tracks, inertia, forces, rest, rest, h, shift=p.delay(), unresolved=unresolved[rows]
+    )
 
 
 #: A simulated position beyond this multiple of the measured travel is a diverged trial.

@@ -13,7 +13,6 @@ from estimation.axis.effect_search import SearchOutcome, candidate_effects
 from estimation.axis.effect_search import search_effects as search_effects_fn
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
-from estimation.axis.integration_step import MAX_HALVINGS
 from estimation.axis.model import BASE_NAMES, at_step_limit
 from estimation.axis.output_error import (
     FitResult,
@@ -44,6 +43,7 @@ from estimation.design.advice import (
 from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
+from estimation.motion.equation import SETTLES_WITHIN
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination, drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
@@ -356,7 +356,7 @@ def _build(
     if limited:
         warnings.append(
             "the fitted damping or stiffness is so fast for the inertia that the simulation "
-            f"needs its finest step (the motion settles within 1/{2 ** (MAX_HALVINGS - 1)} of a "
+            f"needs its finest step (the motion settles within 1/{SETTLES_WITHIN} of a "
             "sample): the fit may rest on that limit rather than on the data, so no coefficient "
             "is identified (no σ is given)"
         )

@@ -12,9 +12,11 @@ hold: each step takes the drive's exact mean over its span) or absent (a free de
 term of time (φ_l(t), t from the record's first sample) joins the drive at each step's
 middle (the exact mean over the step of a linear one).
 Parameter sets are rows (S) and records columns (R) of every array, so a finite-difference
-Jacobian costs one vectorized integration. RK4 with a fixed step ``h`` (chosen by the caller
-from the sample period and the dynamics, see ``stable_step``); the state at the samples is
-read off the step grid by cubic Hermite interpolation. The step loop runs compiled
+Jacobian costs one vectorized integration. RK4 on one fixed step per integration, chosen
+for the sets it integrates (``integration_step``: the sample period of a held drive, else
+0.1 s, refined to resolve every set's period and damping rate; a set whose motion settles
+within 1/8 of a sample is not integrated); the state at the samples is read off the step
+grid by cubic Hermite interpolation. The step loop runs compiled
 (``kernel.step_grid``: the same arithmetic, 10–25× less CPU); a term whose regressor has no
 compiled form steps in NumPy here (``_numpy_grid``), with the same result.
 
@@ -56,8 +58,22 @@ STEPS_PER_PERIOD = 60
 #: Steps between two checks for a diverged trial (RK4 cannot overflow from the limit in
 #: fewer unless h·|λ| > 10⁴⁰ᐟ⁸; a non-finite state met later is frozen all the same).
 GUARD_EVERY = 8
-#: RK4 is stable for h·c/M ≲ 2.7; keep a margin on the damping's own rate.
-DAMPING_STEP = 0.5
+#: Steps per damping time constant M/c: h·c/M ≤ 0.25, RK4's local error (h·c/M)⁵/120 ≈ 8e-6
+#: of the transient per step and far inside its stability limit (h·c/M ≈ 2.785). A heavily
+#: damped tow integrated so stays within 1e-6 m of solve_ivp over 1.9 m at 10–1000 kg
+#: (tests/estimation/tow/test_axis_numerics.py); at h·c/M = 0.5 the 10 kg one was 2.7e-6 m
+#: off. (The tows' step used to be a power-of-two fraction of the sample period at 0.5,
+#: which landed between 0.25 and 0.5.)
+DAMPING_STEP = 0.25
+#: The coarsest step where no period or damping limits it (s): RK4's error < 1e-6 m on
+#: BENBAM-like tows (time constants ≥ 0.5 s).
+MAX_STEP_S = 0.1
+#: A damping time constant M/c under 1/``SETTLES_WITHIN`` of a sample is one no sampled
+#: record resolves: the motion settles within it. The finest step is the one such a set
+#: needs, ``DAMPING_STEP``/``SETTLES_WITHIN`` of a sample (``integration_step``); a period
+#: that needs it spans under 2 samples. (A floor 4× finer left the ship2d fit on the limit
+#: as well, at 4× the time.)
+SETTLES_WITHIN = 8
 
 
 def _constant(term: Term) -> bool:
@@ -187,6 +203,10 @@ class Track:
     scale: float = 1.0  # the record's own range of x (m or rad): the divergence guard
     #: The drive held before the first sample (N or N·m; None: the first sample's).
     drive_before: float | None = None
+    #: The record's largest excursion (m or rad) and speed (m/s or rad/s): where the step
+    #: linearises the forces (``integration_step``).
+    reach: float = 0.0
+    speed: float = 0.0
 
 
 def _mean_drive(track: Track, edges: np.ndarray, h: float) -> np.ndarray:
@@ -223,8 +243,9 @@ def stable_step(
     sample_step: float, inertia: float, stiffness: float, damping: float, driven: bool
 ) -> float:
     """A step that resolves the natural period (``STEPS_PER_PERIOD``) and the damping's rate
-    (h ≤ ``DAMPING_STEP``·M/c) of the start values, and the held drive's samples when
-    ``driven`` (s). A free record may step over samples: Hermite interpolation reads them."""
+    (h ≤ ``DAMPING_STEP``·M/c) of one parameter set on one record, and the held drive's
+    samples when ``driven`` (s). A free record may step over samples: Hermite interpolation
+    reads them."""
     h = sample_step if driven else np.inf
     if stiffness > 0 and inertia > 0:
         h = min(h, 2 * np.pi * np.sqrt(inertia / stiffness) / STEPS_PER_PERIOD)
@@ -233,13 +254,64 @@ def stable_step(
     return float(min(h, 10 * sample_step))
 
 
+def sample_step(tracks: Sequence[Track]) -> float:
+    """The records' finest median sample interval (s)."""
+    return min(float(np.median(np.diff(tr.tau))) for tr in tracks if tr.tau.size > 1)
+
+
+def finest_step(tracks: Sequence[Track]) -> float:
+    """The finest step ``integration_step`` takes (s): ``DAMPING_STEP``/``SETTLES_WITHIN``
+    of a sample."""
+    return DAMPING_STEP * sample_step(tracks) / SETTLES_WITHIN
+
+
+def integration_step(
+    tracks: Sequence[Track], inertia: np.ndarray, forces: Sequence[TermValues]
+) -> tuple[float, np.ndarray]:
+    """The RK4 step (s) for S parameter sets on R records, and which sets it cannot resolve
+    (bool, (S,)): every integration's, chosen for the sets it integrates.
+
+    The coarsest step is a per-sample drive's sample interval (one step per held value),
+    else ``MAX_STEP_S`` (or 10 samples, if fewer). Below it, the largest step that resolves
+    every set's natural period and damping rate on every record (``stable_step`` on the
+    forces linearised over the record's reach and speed, ``range_rates``). A set that
+    needs a finer step than ``finest_step`` settles within 1/``SETTLES_WITHIN`` of a sample,
+    which no sampled record resolves: it is not integrated (a diverged trial, far from the data),
+    never with an unstable step. ``inertia`` (S, R) is each set's total inertia; the
+    forces' values broadcast to (S, R)."""
+    n_sets, n_tracks = inertia.shape
+    dt = sample_step(tracks)
+    per_sample = any(tr.drive is not None and np.ptp(tr.drive) > 0 for tr in tracks)
+    base = dt if per_sample else min(MAX_STEP_S, 10 * dt)
+    needed = np.full(n_sets, base)
+    for i, tr in enumerate(tracks):
+        rates = [(c.term, np.broadcast_to(c.value, (n_sets, n_tracks))[:, i]) for c in forces]
+        stiffness, damping = range_rates(rates, tr.reach, tr.speed)
+        stiffness = np.broadcast_to(stiffness, (n_sets,))
+        damping = np.broadcast_to(damping, (n_sets,))
+        for s in range(n_sets):
+            found = stable_step(base, float(inertia[s, i]), stiffness[s], damping[s], False)
+            needed[s] = min(needed[s], found)
+    unresolved = ~(needed >= finest_step(tracks))  # NaN rates (a trial of NaN) too
+    return float(np.min(needed[~unresolved], initial=base)), unresolved
+
+
+def at_step_limit(
+    tracks: Sequence[Track], inertia: np.ndarray, forces: Sequence[TermValues]
+) -> bool:
+    """Whether the sets need a step within 2× of the finest ``integration_step`` resolves:
+    a fit there may rest on that limit, not on the data."""
+    h, unresolved = integration_step(tracks, inertia, forces)
+    return bool(unresolved.any()) or h < 2 * finest_step(tracks)
+
+
 def integrate(
     tracks: Sequence[Track],
     inertia: np.ndarray,
     coefficients: Sequence[TermValues],
     x0: np.ndarray,
     v0: np.ndarray,
-    h: float,
+    h: float | None = None,
     *,
     shift: np.ndarray | None = None,
     unresolved: np.ndarray | None = None,
@@ -247,16 +319,16 @@ def integrate(
     """x and ẋ at each track's samples, per parameter set: a list of (S, n) pairs.
 
     ``inertia`` (S,) or (S, R) is M; ``x0``/``v0`` (S, R) the state at each track's start.
+    ``h``: the RK4 step (s); None: ``integration_step``'s for these sets. A set it cannot
+    resolve (``unresolved`` (S,) with a given ``h``: the caller chose the step for more sets
+    than it integrates, a finite-difference Jacobian's centre before its perturbations) is
+    not integrated but held at the divergence limit at every sample (a diverged trial).
     ``shift`` (S,): each set's start later by this much (s; a tow's fitted release delay):
     its drive is read from there and its samples before it read the start state.
-    ``unresolved`` (S,): sets no step ``h`` resolves (``stable_step``): not integrated, a
-    diverged trial from the start (held at the limit at every sample).
     """
     n_sets, n_tracks = x0.shape
     inertia = np.broadcast_to(np.reshape(inertia, (n_sets, -1)), (n_sets, n_tracks))
     later = np.zeros(1) if shift is None else np.asarray(shift, dtype=float)
-    span = max(float(tr.tau[-1]) for tr in tracks) - min(0.0, float(later.min()))
-    n_steps = max(int(np.ceil(span / h)) + 2, 3)
     forces = [c for c in coefficients if c.term.role == "force"]
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
     held = None
@@ -269,8 +341,12 @@ def integrate(
         for c in coefficients:
             if c.term.role == "inertia":
                 total[:, i] += c.value[:, min(i, c.value.shape[1] - 1)] * tr.weight
-    inv = 1.0 / np.maximum(total, 1e-300)
+    if h is None:
+        h, unresolved = integration_step(tracks, total, forces)
+    span = max(float(tr.tau[-1]) for tr in tracks) - min(0.0, float(later.min()))
+    n_steps = max(int(np.ceil(span / h)) + 2, 3)
     skipped = np.zeros(n_sets, dtype=bool) if unresolved is None else np.asarray(unresolved)
+    inv = 1.0 / np.maximum(total, 1e-300)
     inv[skipped] = 0.0  # not integrated: their grid is overwritten below
     limit = np.array([STATE_LIMIT * max(tr.scale, 1e-12) for tr in tracks])
     # the step edges on each set's own time (K, S or 1): the drive and the forces of time

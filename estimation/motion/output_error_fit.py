@@ -11,8 +11,9 @@ the weights w of the identified coefficients may differ per record (``Record``: 
 pendulum's geometry). σ from ``identify``, quantization included (a direction the data
 cannot determine is reported, not dropped). Start values from the
 equation-error least squares on Savitzky–Golay derivatives; every parameter is scaled by its
-typical size, bounded by its term's bounds, and the RK4 step resolves the start model's
-period and damping rate, so a trial far from the data is a large finite misfit.
+typical size, bounded by its term's bounds; the integrator's step resolves each trial's
+period and damping rate (``equation.integration_step``), and a trial far from the data is a
+large finite misfit.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.equation import Track, integrate, range_rates, stable_step
+from estimation.motion.equation import Track, integrate
 from estimation.motion.record_derivatives import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY, TermValues
@@ -40,7 +41,6 @@ class MotionFit(FitStatistics):
     displacements: tuple[np.ndarray, ...]  # model ξ at the samples
     velocities: tuple[np.ndarray, ...]  # model ξ̇ at the samples
     not_identified: tuple[str, ...] = ()
-    step: float = 0.0  # RK4 step, s
 
 
 def names_of(setup: Setup, effects: Sequence[str]) -> tuple[str, ...]:
@@ -83,18 +83,24 @@ class _Problem:
         records: Sequence[Record],
         setup: Setup,
         names: Sequence[str],
-        h: float,
         scale: np.ndarray,
     ) -> None:
         self.scale = scale  # typical size of every parameter (globals, x_eq, ξ₀, ξ̇₀)
-        self.setup, self.names, self.h = setup, tuple(names), h
+        self.setup, self.names = setup, tuple(names)
         self.ng, self.nr = len(self.names), len(records)
         self.tracks = []
         for r in records:
-            t = np.asarray(r.t, dtype=float)
-            d = r.drive_at_samples()
+            t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
             self.tracks.append(
-                Track(t - t[0], d, known_inertia_of(r, setup), 0.0, float(np.ptp(r.x)) or 1.0)
+                Track(
+                    t - t[0],
+                    r.drive_at_samples(),
+                    known_inertia_of(r, setup),
+                    0.0,
+                    float(np.ptp(x)) or 1.0,
+                    reach=float(np.max(np.abs(x - np.median(x)))),
+                    speed=float(np.max(np.abs(derivatives(t, x)[0]))),
+                )
             )
         #: each identified coefficient's weight per record (ng, R); known terms per record
         self.weights = np.array([[r.weight(n) for r in records] for n in self.names])
@@ -129,7 +135,7 @@ class _Problem:
             TermValues(LIBRARY[n], np.broadcast_to(v, (sets, self.nr)))
             for n, v in self.known.items()
         ]
-        return integrate(self.tracks, inertia, coeffs, xi0, v0, self.h)
+        return integrate(self.tracks, inertia, coeffs, xi0, v0)
 
     def _evaluate(self, p: np.ndarray) -> None:
         key = p.tobytes()
@@ -207,11 +213,10 @@ def fit_motion(
     nudge = np.concatenate([1e-6 * typical, np.zeros(3 * nr)])
     p0 = np.clip(np.where(np.isfinite(p0), p0, 0.0), lower, upper)
     p0 = np.where(np.isfinite(lower) & (p0 <= lower), lower + nudge, p0)
-    h = _step(records, setup, names, p0[: len(names)])
     scale = np.concatenate(
         [typical, np.full(nr, amp), np.full(nr, amp), np.full(nr, max(speed, 1e-12))]
     )
-    prob = _Problem(records, setup, names, h, scale)
+    prob = _Problem(records, setup, names, scale)
     from scipy.optimize import least_squares  # here: the service imports this module's types
 
     sol = least_squares(
@@ -263,7 +268,6 @@ def fit_motion(
         not_identified=tuple(
             n for n, lost in zip(names, stats.not_identified, strict=True) if lost
         ),
-        step=h,
     )
 
 
@@ -307,43 +311,19 @@ def _typical(records, setup: Setup, names, g0, inertia: float = 0.0) -> np.ndarr
     return np.array(out)
 
 
-def _step(records, setup: Setup, names, g) -> float:
-    """The RK4 step for the start model: resolves its period and damping on every record
-    (equation.py), each term's stiffness −∂f/∂x and damping −∂f/∂ẋ taken at their largest
-    over the record's range (0 and its peak |x − median|, 0 and its peak |ẋ|): a quadratic
-    damping's rate is 2·B₂·|ẋ|/M, a cubic stiffness's 3·k₃·x²."""
-    inertia = g[names.index("inertia")] if "inertia" in names else (setup.inertia or 0.0)
-    dt = min(float(np.median(np.diff(np.asarray(r.t)))) for r in records)
-    driven = any(r.drive is not None for r in records)
-    steps = []
-    for r in records:
-        x = np.asarray(r.x, dtype=float)
-        reach = float(np.max(np.abs(x - np.median(x))))
-        speed = float(np.max(np.abs(derivatives(np.asarray(r.t, dtype=float), x)[0])))
-        m = known_inertia_of(r, setup) + r.weight("inertia") * inertia
-        coef = [(n, v) for n, v in known_terms_of(r, setup).items()]
-        coef += [(n, r.weight(n) * v) for n, v in zip(names, g, strict=True) if n != "inertia"]
-        k, c = range_rates([(LIBRARY[n], v) for n, v in coef], reach, speed)
-        stiffness, damping = max(float(k), 0.0), max(float(c), 0.0)
-        steps.append(stable_step(dt, max(m, 1e-12), 1.5 * stiffness, 1.5 * damping, driven))
-    return min(steps)
-
-
 def simulate(
     records: Sequence[Record],
     setup: Setup,
     names: Sequence[str],
     values: np.ndarray,
     initial: np.ndarray,
-    step: float = 0.0,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """ξ and ξ̇ at each record's samples for fixed coefficients ``values`` (``names``, as
     ``names_of`` orders them; (S, ng): S sets at once, each result then (S, n)) from each
-    record's initial state ``initial`` ((S,) R, 2: ξ₀, ξ̇₀), with the RK4 step that resolves
-    the first set's period and damping (``step``: a given one)."""
+    record's initial state ``initial`` ((S,) R, 2: ξ₀, ξ̇₀), on the one step the
+    integrator chooses for all the sets."""
     g = np.atleast_2d(np.asarray(values, dtype=float))
-    h = step if step else _step(records, setup, names, g[0])
-    prob = _Problem(records, setup, names, h, np.ones(len(names) + 3 * len(records)))
+    prob = _Problem(records, setup, names, np.ones(len(names) + 3 * len(records)))
     init = np.broadcast_to(np.asarray(initial, dtype=float), (g.shape[0], len(records), 2))
     sims = prob.simulate(g, init[:, :, 0], init[:, :, 1])
     if np.ndim(values) == 1:
@@ -373,7 +353,7 @@ def sensitivities(
     amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
     nr = len(records)
     scale = np.concatenate([typical, np.full(2 * nr, amp), np.full(nr, amp)])
-    prob = _Problem(records, setup, names, fit.step, scale)
+    prob = _Problem(records, setup, names, scale)
     p = np.concatenate([g, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
     jac = -prob.jacobian(p)
     k, ng = len(extra), len(fit.values)

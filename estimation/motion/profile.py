@@ -63,7 +63,6 @@ def profile_start(
             (*current.names, term),
             np.column_stack([params[:, :k], values]),
             np.stack([params[:, k + nr : k + 2 * nr], params[:, k + 2 * nr :]], axis=-1),
-            step=current.step,
         )
         model = np.concatenate([x for x, _ in sims], axis=1) + params[:, k + index]
         left = measured[None, :] - model

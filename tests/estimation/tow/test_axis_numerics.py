@@ -8,8 +8,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from estimation.axis.integration_step import integration_step
-from estimation.axis.model import ParamView, at_step_limit, simulate
+from estimation.axis.model import at_step_limit, simulate, step_of
 from estimation.axis.output_error import (
     LORO_RESOLUTION,
     fit_output_error,
@@ -117,7 +116,7 @@ def test_a_heavily_damped_tow_is_integrated_with_a_stable_step(inertia):
         t_release=RELEASE_S,
     )
     prepared = prepare(run)
-    h, unresolved = integration_step(ParamView(np.atleast_2d(truth), ()), [prepared])
+    h, unresolved = step_of(np.atleast_2d(truth), (), [prepared])
     assert not unresolved.any() and not at_step_limit(np.array(truth), (), [prepared])
     assert h * 2 * truth[2] * DAMPED_SPEED * 1.3 / inertia < 2.785  # peak speed ≈ 1.3 v∞
     simulated = simulate(np.array(truth), (), [prepared])[0][0][0]
