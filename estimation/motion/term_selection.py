@@ -7,8 +7,14 @@ those that pass the decay's acceptance rules, ``DECAY_RULES`` of the one rule se
 not round-off; the new coefficient is identified (no lost Jacobian direction) and not held
 at its physical bound; ΔBIC < −``BIC_THRESHOLD``; the residual it explains is at least the
 position noise σ the fit implies (never measured against the drive or the restoring force:
-on a lightly damped body every damping term is ~1 % of the restoring torque, KVLCC2); and a
-rival of a kept term beats that term alone on n_eff (below).
+on a lightly damped body every damping term is ~1 % of the restoring torque, KVLCC2); a
+rival of a kept term beats that term alone on n_eff (below); and, last (it refits every
+record), with ≥ 3 records the leave-one-record-out error drops: each record predicted by the
+shared coefficients refitted on the others, only its own equilibrium and initial state
+fitted (``output_error_fit.leave_one_record_out``), pooled, below the current model's by
+more than the refits resolve (``stats.out_of_sample.loro_dropped``, the tows' rule). A term
+whose coefficient one record alone carries (a drift in one record of three) passes every
+in-sample rule and predicts the others worse. With fewer records the rule is not applied.
 
 Before a candidate is fitted, one Gauss–Newton step from the current fit (its sensitivity
 column beside the current model's) predicts its SSE; a candidate predicted to miss the
@@ -46,13 +52,20 @@ term removes, so "Ljung–Box Q must drop" rejects true terms (KVLCC2's quadrati
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of, sensitivities
+from estimation.motion.output_error_fit import (
+    HeldOut,
+    MotionFit,
+    fit_motion,
+    leave_one_record_out,
+    parameters_of,
+    sensitivities,
+)
 from estimation.motion.profile import extend, profile_start
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY
@@ -66,6 +79,7 @@ from estimation.stats.acceptance_rules import (
 )
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import effective_sample_size
+from estimation.stats.out_of_sample import loro_dropped
 
 #: The model's own parameters, in the words of the screen's reason (``SEPARABLE``).
 SETUP_PARAMETERS = "the model's own parameters (a constant force only moves a spring's equilibrium)"
@@ -78,7 +92,9 @@ class Step:
     """Evidence for one candidate: its ΔBIC, the residual it explains, the verdict
     (``accepted``: it passed the rules; ``added``: its round added it to the model — of
     the terms that pass in a round one is added), and the Ljung–Box Q of the round's
-    model and of the trial (NaN: not fitted) — evidence beside the rules, not one of them."""
+    model and of the trial (NaN: not fitted) — evidence beside the rules, not one of them —
+    and the leave-one-record-out RMSE of both (NaN: not computed, the rule not reached or
+    fewer than 3 records)."""
 
     term: str
     round: int
@@ -90,6 +106,8 @@ class Step:
     q_before: float = np.nan
     q_after: float = np.nan
     added: bool = False
+    loro_before: float = np.nan  # leave-one-record-out RMSE, m or rad (NaN: not computed)
+    loro_after: float = np.nan
 
     def to_json(self) -> dict:
         """The step as plain numbers."""
@@ -104,7 +122,53 @@ class Step:
             "reason": self.reason,
             "ljung_box_q_before": finite_or_none(self.q_before),
             "ljung_box_q_after": finite_or_none(self.q_after),
+            "leave_one_record_out_rmse_before": finite_or_none(self.loro_before),
+            "leave_one_record_out_rmse_after": finite_or_none(self.loro_after),
         }
+
+
+class HeldOutErrors:
+    """The leave-one-record-out errors of the fits one search judges (``leave_one_record_out``),
+    each computed once: a round's model is the bar of every candidate in it."""
+
+    def __init__(self, records: Sequence[Record], setup: Setup) -> None:
+        self.records, self.setup = records, setup
+        self._done: dict[tuple[tuple[str, ...], bytes], HeldOut | None] = {}
+
+    def of(self, fit: MotionFit) -> HeldOut | None:
+        """``fit``'s check (None: fewer than 3 records); raises ``EstimationFailed``."""
+        key = (fit.names, parameters_of(fit).tobytes())
+        if key not in self._done:
+            self._done[key] = leave_one_record_out(self.records, self.setup, fit)
+        return self._done[key]
+
+    def check(
+        self, current: MotionFit, trial: MotionFit, seen: list[float]
+    ) -> Callable[[], str | None]:
+        """The rule's question for ``trial`` against ``current``: why its held-out error
+        does not drop by more than the refits resolve, or None (fewer than 3 records: not
+        applied). ``seen`` receives the two pooled RMSEs once computed."""
+
+        def verdict() -> str | None:
+            try:
+                bar, new = self.of(current), self.of(trial)
+            except EstimationFailed as err:
+                return f"leave-one-record-out refit failed: {err.why}"
+            if bar is None or new is None:
+                return None
+            seen[:] = [bar.rmse, new.rmse]
+            if loro_dropped(new.rmse, bar.rmse):
+                return None
+            folds = ", ".join(
+                f"{r.run_id} {b:.3g} → {n:.3g}"
+                for r, b, n in zip(self.records, bar.per_record, new.per_record, strict=True)
+            )
+            return (
+                f"leave-one-record-out error did not drop (RMSE {bar.rmse:.4g} → "
+                f"{new.rmse:.4g}; per record {folds})"
+            )
+
+        return verdict
 
 
 def judge(
@@ -114,9 +178,12 @@ def judge(
     term: str,
     round_no: int,
     rival: str | None = None,
+    held_out: HeldOutErrors | None = None,
 ) -> Step:
     """``DECAY_RULES`` (``stats.acceptance_rules``) for ``trial`` = ``current`` + ``term``;
-    ``rival``: the kept term ``term`` rivals (the pair must beat it alone on n_eff)."""
+    ``rival``: the kept term ``term`` rivals (the pair must beat it alone on n_eff);
+    ``held_out``: the search's leave-one-record-out errors (None: the rule is not asked)."""
+    seen: list[float] = []
     evidence = Trial(
         (term,),
         current,
@@ -124,10 +191,12 @@ def judge(
         max((float(np.ptp(r.x)) for r in records), default=0.0),
         not_identified=trial.not_identified,
         rival=None if rival is None else Rival(f"{rival} alone", current),
+        out_of_sample=None if held_out is None else held_out.check(current, trial, seen),
         times=tuple(np.asarray(r.t, dtype=float) for r in records),
     )
     reason = DECAY_RULES.verdict(evidence)
     q_after = ljung_box(trial.residuals).q_statistic
+    loro_before, loro_after = seen or (np.nan, np.nan)
     return Step(
         term,
         round_no,
@@ -137,6 +206,8 @@ def judge(
         reason == "kept",
         reason,
         q_after=q_after,
+        loro_before=loro_before,
+        loro_after=loro_after,
     )
 
 
@@ -183,6 +254,7 @@ def search_terms(
     rival_of: dict[str, str] = {}  # a candidate still tried, and the kept term it rivals
     remaining = [c for c in candidates if c not in base.names]
     order = {c: i for i, c in enumerate(candidates)}
+    held_out = HeldOutErrors(records, setup)
     while remaining:
         predicted, rho, start, own, unseparable = _screen(records, setup, current, remaining)
         first = len(steps)
@@ -235,7 +307,7 @@ def search_terms(
             except EstimationFailed as err:
                 steps.append(Step(term, round_no, np.nan, 0.0, 0.0, False, err.why))
                 continue
-            step = judge(records, current, trial, term, round_no, rival_of.get(term))
+            step = judge(records, current, trial, term, round_no, rival_of.get(term), held_out)
             steps.append(step)
             if step.accepted:
                 kept.append((trial, term))
@@ -263,12 +335,14 @@ def search_terms(
                 rivals.append((chosen, c))
         remaining = [c for c in remaining if c != chosen]
         round_no += 1
-    current, removed = _backward(records, setup, current, steps, round_no)
+    current, removed = _backward(records, setup, current, steps, round_no, held_out)
     rivals = [(kept, rival) for kept, rival in rivals if kept in current.effects]
     return current, tuple(steps), (*rejected_last, *removed), tuple(rivals)
 
 
-def _backward(records, setup, final: MotionFit, steps: list[Step], round_no: int):
+def _backward(
+    records, setup, final: MotionFit, steps: list[Step], round_no: int, held_out: HeldOutErrors
+):
     """The backward check (module doc): the final fit without the terms that no longer pass,
     and the fits each removal left (nested in the final: evidence the coefficients move).
     Each removal is recorded in ``steps`` as round ``round_no``."""
@@ -282,7 +356,7 @@ def _backward(records, setup, final: MotionFit, steps: list[Step], round_no: int
                 without = fit_motion(records, setup, rest, start=start, max_nfev=TRIAL_NFEV)
             except EstimationFailed:
                 continue
-            again = judge(records, without, final, term, round_no)
+            again = judge(records, without, final, term, round_no, held_out=held_out)
             if not again.accepted:
                 failing.append((final.bic - without.bic, again, without))
         if not failing:
