@@ -2,8 +2,9 @@
 more, a term is kept only when the shared coefficients refitted without each record predict
 it better (``DECAY_RULES``' out-of-sample rule, ``output_error_fit.leave_one_record_out``).
 
-The records are heave decays from scipy's solve_ivp (``tests.estimation.term_cases.decay``,
-not our integrator), 143 kg body + 114 kg added, k = 5730 N/m, 0.05 m, 20 µm noise.
+The records are from scipy's solve_ivp, not our integrator: heave decays
+(``tests.estimation.term_cases.decay``: 143 kg body + 114 kg added, k = 5730 N/m, 0.05 m,
+20 µm noise) and pendulum swings (``tests.estimation.pendulum_synth``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,9 @@ import pytest
 
 from estimation.motion.decay_estimate import estimate_records
 from estimation.motion.records import Record
+from estimation.pendulum.pendulum_estimate import estimate_pendulum
 from estimation.stats.out_of_sample import loro_dropped
+from tests.estimation import pendulum_synth
 from tests.estimation.term_cases import decay, decay_effect
 
 
@@ -58,6 +61,23 @@ def test_a_true_quadratic_damping_predicts_every_held_out_record():
     assert loro_dropped(step.loro_after, step.loro_before)
     assert result.effects == ("quadratic_damping",)
     assert result.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.05)
+
+
+def test_pendulum_swings_from_three_amplitudes_each_predicted_from_the_other_two():
+    """Pivot dry friction and the vehicle's quadratic drag, released from 0.25, 0.18 and
+    0.12 rad: each held-out amplitude is predicted by the coefficients the other two give,
+    so both true terms pass the rule, each lowering the held-out error, at their truth."""
+    runs = [
+        pendulum_synth.decay(gamma=40.0, dry_friction=0.4, amplitude=a, run_id=f"a{i}", seed=7 + i)
+        for i, a in enumerate((0.25, 0.18, 0.12))
+    ]
+    result = estimate_pendulum(runs)
+    assert sorted(e.name for e in result.effects) == ["coulomb_friction", "quadratic_damping"]
+    kept = [s for s in result.steps if s.added]
+    assert len(kept) == 2 and all(loro_dropped(s.loro_after, s.loro_before) for s in kept)
+    values = {e.name: e.value for e in result.effects}
+    assert values["coulomb_friction"] == pytest.approx(0.4, rel=0.02)
+    assert values["quadratic_damping"] == pytest.approx(40.0, rel=0.05)
 
 
 def test_with_two_records_the_check_is_not_formed_and_says_so():
