@@ -272,18 +272,20 @@ class OutOfSample:
     """The kind's check on data the fit did not see: with ≥ ``LORO_MIN_RUNS`` runs (records)
     each is predicted by the shared coefficients refitted on the others, and the pooled error
     must drop by more than the refits resolve (``out_of_sample.loro_dropped``); ``held_out``
-    names what is left out, ``fewer`` what stands for the check with fewer."""
+    names what is left out, ``judged`` which two models are compared, ``fewer`` what stands
+    for the check with fewer."""
 
     held_out: str = "run"
     fewer: str = "no member's variance inflation exceeds 10"
+    judged: str = "with the candidate than without it"
     name: str = "out of sample"
 
     @property
     def statement(self) -> str:
         return (
-            f"the leave-one-{self.held_out}-out prediction error drops by more than the "
-            f"refits resolve ({LORO_RESOLUTION:.0e} of itself; ≥ {LORO_MIN_RUNS} "
-            f"{self.held_out}s); with fewer {self.held_out}s {self.fewer}"
+            f"with ≥ {LORO_MIN_RUNS} {self.held_out}s, the leave-one-{self.held_out}-out "
+            f"prediction error is lower by more than the refits resolve ({LORO_RESOLUTION:.0e} "
+            f"of itself) {self.judged}; with fewer {self.held_out}s {self.fewer}"
         )
 
     def verdict(self, trial: Trial) -> str | None:
@@ -340,10 +342,17 @@ DECAY_RULES = RuleSet(
         BeatsRival(effective=True),
         OutOfSample(
             "record",
-            "it is not applied, nor the tows' variance-inflation bound in its place (a decay "
-            "sweeps its amplitude, which separates B₁ from B₂, and a true quadratic "
-            "damping's VIF is 70 on KVLCC2 run 21337): the backward check and the "
-            "possibly-biased verdict guard the decay",
+            judged=(
+                "with each kept term than without it, judged on the final model in the "
+                "backward check (a forward step compares two models that may both lack a true "
+                "term, and a true term may predict only beside its partner)"
+            ),
+            fewer=(
+                "it is not applied, nor the tows' variance-inflation bound in its place (a "
+                "decay sweeps its amplitude, which separates B₁ from B₂, and a true quadratic "
+                "damping's VIF is 70 on KVLCC2 run 21337): the backward check and the "
+                "possibly-biased verdict guard the decay"
+            ),
         ),
     ),
     {
