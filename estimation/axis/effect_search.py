@@ -9,7 +9,7 @@ resolves (``materiality``); the error cut materially (halved, or the force-domai
 brought near the noise floor: structure outside the library is never absorbed by an effect
 that only nibbles at it, see unexplained.py); and the check on data the fit did not see:
 the leave-one-run-out error drops (by more than the refits' own tolerance,
-``output_error.loro_dropped``), or, when it cannot be formed (fewer than 3 runs), no member's
+``stats.out_of_sample.loro_dropped``), or, when it cannot be formed (fewer than 3 runs), no member's
 variance inflation against the model's other parameters exceeds ``VIF_LIMIT``: such a
 term is > 90 % a combination of M, K_L, K_Q (and the other effects) on these runs, so any
 small misfit of those (a release instant a few ms off, an undeclared pulley inertia)
@@ -55,7 +55,6 @@ from estimation.axis.output_error import (
     FitResult,
     fit_output_error,
     leave_one_run_out_rmse,
-    loro_dropped,
 )
 from estimation.axis.prepared_run import PreparedRun
 from estimation.stats.acceptance_rules import (
@@ -66,6 +65,7 @@ from estimation.stats.acceptance_rules import (
     Trial,
 )
 from estimation.stats.diagnostics import ljung_box
+from estimation.stats.out_of_sample import loro_dropped
 from estimation.stats.selection import forward_selection, select_round
 
 FAR_BEHIND = 0.5  # predicted gain below half a kept one's (both predicted): not worth a fit

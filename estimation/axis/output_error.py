@@ -20,13 +20,10 @@ from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.terms import LIBRARY
 from estimation.stats.fit_statistics import FitStatistics
 from estimation.stats.identify import honest_statistics
+from estimation.stats.out_of_sample import LORO_MIN_RUNS, LORO_NFEV, REFIT_TOLERANCE, pooled_rmse
 from estimation.stats.smoothing import savgol
 
 BASE_LOWER = (1e-6, 0.0, 0.0)
-#: least_squares' xtol, ftol and gtol of every output-error fit (the leave-one-run-out refits
-#: included): a fit stops when a step changes the parameters or the cost by less than this
-#: relative amount, so what it returns is known to about this much and no better.
-REFIT_TOLERANCE = 1e-10
 
 
 @dataclass(frozen=True)
@@ -229,40 +226,18 @@ def predict_run(fit: FitResult, run: PreparedRun) -> np.ndarray:
     return res - np.mean(res)
 
 
-LORO_NFEV = 40  # each refit starts at the all-runs optimum, a small step away
-
-
-#: Relative resolution of a leave-one-run-out RMSE: √``REFIT_TOLERANCE``. Each refit stops
-#: when the cost S changes by less than ftol·S; S is quadratic in the parameters' error δθ
-#: near the optimum, so δθ is only pinned to where ½δθᵀHδθ ≈ ftol·S, and a held-out run's
-#: residual (not at its own minimum) moves linearly with δθ: its RMSE is known to about
-#: √(2·ftol) ≈ √ftol of itself. (Measured: a friction held at its bound 0 predicts exactly as
-#: the model without it; their two leave-one-run-out RMSEs differed by 9e-8 of themselves.)
-LORO_RESOLUTION = float(np.sqrt(REFIT_TOLERANCE))
-
-
-def loro_dropped(cv_new: float, cv_bar: float) -> bool:
-    """Whether the leave-one-run-out RMSE ``cv_new`` is below ``cv_bar`` by more than the
-    refits resolve (``LORO_RESOLUTION`` of it). A smaller difference says only where the
-    refits stopped: a candidate whose coefficient is ~0 predicts as the model without it,
-    the two RMSEs agree to round-off, and a bare ``<`` decided the verdict at random."""
-    return cv_new < cv_bar * (1.0 - LORO_RESOLUTION)
-
-
 def leave_one_run_out_rmse(runs: Sequence[PreparedRun], fit: FitResult) -> float | None:
     """Leave-one-run-out prediction RMSE (m or rad); None with fewer than 3 runs."""
-    if len(runs) < 3:
+    if len(runs) < LORO_MIN_RUNS:
         return None
-    sq, count = 0.0, 0
+    held_out = []
     for i in range(len(runs)):
         train = [r for j, r in enumerate(runs) if j != i]
         sub = fit_output_error(
             train, fit.effects, start=fit.values, max_nfev=LORO_NFEV, quantization_sigma=False
         )
-        res = predict_run(sub, runs[i])
-        sq += float(res @ res)
-        count += res.size
-    return float(np.sqrt(sq / count))
+        held_out.append(predict_run(sub, runs[i]))
+    return pooled_rmse(held_out)
 
 
 def evaluate_parameters(

@@ -30,6 +30,11 @@ from estimation.motion.records import Record, Setup, known_inertia_of, known_ter
 from estimation.motion.terms import LIBRARY, TermValues
 from estimation.stats.fit_statistics import FitStatistics
 from estimation.stats.identify import honest_statistics
+from estimation.stats.out_of_sample import LORO_MIN_RUNS, LORO_NFEV, REFIT_TOLERANCE, pooled_rmse
+
+#: least_squares' xtol, ftol and gtol of a reported fit (its leave-one-record-out refits use
+#: ``stats.out_of_sample.REFIT_TOLERANCE``: their error is judged to √ of it).
+FIT_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -186,19 +191,16 @@ def _bounds(records: Sequence[Record], setup: Setup, names: Sequence[str], typic
     return np.array(lo + [-np.inf] * (3 * nr)), np.array(hi + inf)
 
 
-def fit_motion(
+def _solve(
     records: Sequence[Record],
     setup: Setup,
-    effects: Sequence[str] = (),
-    start: np.ndarray | None = None,
-    max_nfev: int = 100,
-) -> MotionFit:
-    """Fit the identified coefficients and each record's x_eq, ξ₀, ξ̇₀ (module doc).
-
-    ``start``: full parameter vector of a previous fit (globals then nuisances) to go on
-    from; new effects then start at their ``start_share`` of their typical size.
-    """
-    names = names_of(setup, effects)
+    names: Sequence[str],
+    start: np.ndarray | None,
+    max_nfev: int,
+    tolerance: float,
+) -> tuple[_Problem, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The joint least squares (``fit_motion``): its problem, the solution (globals, x_eq,
+    ξ₀, ξ̇₀), the bounds and each coefficient's typical size."""
     nr = len(records)
     g0, eq0, init0 = equation_error_start(records, setup, names)
     amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
@@ -226,12 +228,28 @@ def fit_motion(
         bounds=(lower, upper),
         method="trf",
         x_scale=prob.scale,
-        xtol=1e-9,
-        ftol=1e-9,
-        gtol=1e-9,
+        xtol=tolerance,
+        ftol=tolerance,
+        gtol=tolerance,
         max_nfev=max_nfev,
     )
-    p = sol.x
+    return prob, sol.x, lower, upper, typical
+
+
+def fit_motion(
+    records: Sequence[Record],
+    setup: Setup,
+    effects: Sequence[str] = (),
+    start: np.ndarray | None = None,
+    max_nfev: int = 100,
+) -> MotionFit:
+    """Fit the identified coefficients and each record's x_eq, ξ₀, ξ̇₀ (module doc).
+
+    ``start``: full parameter vector of a previous fit (globals then nuisances) to go on
+    from; new effects then start at their ``start_share`` of their typical size.
+    """
+    names = names_of(setup, effects)
+    prob, p, lower, upper, typical = _solve(records, setup, names, start, max_nfev, FIT_TOLERANCE)
     res = prob.residual(p)
     if not np.all(np.isfinite(res)):
         raise EstimationFailed(
@@ -274,6 +292,82 @@ def fit_motion(
 def parameters_of(fit: MotionFit) -> np.ndarray:
     """The full parameter vector of ``fit`` (globals, x_eq, ξ₀, ξ̇₀) to restart from."""
     return np.concatenate([fit.values, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """A leave-one-record-out check: the pooled RMSE of the held-out records' predictions
+    and each fold's (m or rad; in the records' order)."""
+
+    rmse: float
+    per_record: tuple[float, ...]
+
+
+def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit) -> HeldOut | None:
+    """Each record predicted by the shared coefficients refitted on the others (None with
+    fewer than ``LORO_MIN_RUNS`` records).
+
+    Per fold: ``fit``'s coefficients and the other records' nuisances are refitted from
+    ``fit``'s optimum (``LORO_NFEV`` evaluations, ``REFIT_TOLERANCE``); the held-out record
+    is then simulated with those coefficients fixed, fitting only its own x_eq, ξ₀, ξ̇₀
+    (``predict_record``). Raises ``EstimationFailed`` when a refit or a prediction does
+    not stay finite."""
+    nr = len(records)
+    if nr < LORO_MIN_RUNS:
+        return None
+    p, ng = parameters_of(fit), len(fit.names)
+    held_out = []
+    for i in range(nr):
+        train = [r for j, r in enumerate(records) if j != i]
+        start = np.delete(p, [ng + i, ng + nr + i, ng + 2 * nr + i])
+        prob, sub, *_ = _solve(train, setup, fit.names, start, LORO_NFEV, REFIT_TOLERANCE)
+        if not np.all(np.isfinite(prob.residual(sub))):
+            raise EstimationFailed(
+                f"the {setup.dof} equation with {', '.join(fit.names)} without record "
+                f"{records[i].run_id}",
+                "the refitted motion did not stay finite",
+            )
+        nuisance = np.array([fit.equilibrium[i], *fit.initial[i]])
+        held_out.append(predict_record(records, i, setup, fit.names, sub[:ng], nuisance))
+    per_record = tuple(float(np.sqrt(np.mean(r**2))) for r in held_out)
+    return HeldOut(pooled_rmse(held_out), per_record)
+
+
+def predict_record(
+    records: Sequence[Record],
+    index: int,
+    setup: Setup,
+    names: Sequence[str],
+    values: np.ndarray,
+    nuisance: np.ndarray,
+) -> np.ndarray:
+    """Residual of ``records[index]`` under fixed coefficients ``values`` (``names``),
+    fitting only its own x_eq, ξ₀, ξ̇₀ (``nuisance``: their start) to ``REFIT_TOLERANCE``."""
+    record, ng = records[index], len(names)
+    amp = float(np.ptp(np.asarray(record.x))) or 1.0
+    speed = float(np.ptp(derivatives(np.asarray(record.t), np.asarray(record.x))[0]))
+    scale = np.concatenate([np.maximum(np.abs(values), 1e-12), [amp, amp, max(speed, 1e-12)]])
+    prob = _Problem([record], setup, names, scale)
+    from scipy.optimize import least_squares  # here: the service imports this module's types
+
+    sol = least_squares(
+        lambda q: prob.residual(np.concatenate([values, q])),
+        np.asarray(nuisance, dtype=float),
+        jac=lambda q: prob.jacobian(np.concatenate([values, q]))[:, ng:],
+        method="trf",
+        x_scale=scale[ng:],
+        xtol=REFIT_TOLERANCE,
+        ftol=REFIT_TOLERANCE,
+        gtol=REFIT_TOLERANCE,
+        max_nfev=LORO_NFEV,
+    )
+    res = prob.residual(np.concatenate([values, sol.x]))
+    if not np.all(np.isfinite(res)):
+        raise EstimationFailed(
+            f"record {record.run_id} predicted by the {setup.dof} equation with {', '.join(names)}",
+            "the predicted motion did not stay finite",
+        )
+    return res
 
 
 def _typical(records, setup: Setup, names, g0, inertia: float = 0.0) -> np.ndarray:

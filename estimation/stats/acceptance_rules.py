@@ -24,6 +24,7 @@ import numpy as np
 from estimation.stats.diagnostics import position_noise
 from estimation.stats.fit_statistics import FitStatistics
 from estimation.stats.misfit import effective_sample_size
+from estimation.stats.out_of_sample import LORO_MIN_RUNS, LORO_RESOLUTION
 
 #: ΔBIC below −10: "very strong" evidence (posterior odds > 150:1, Kass & Raftery 1995).
 BIC_THRESHOLD = 10.0
@@ -268,13 +269,24 @@ class MaterialCut:
 
 @dataclass(frozen=True)
 class OutOfSample:
-    """The kind's check on data the fit did not see."""
+    """The kind's check on data the fit did not see: with ≥ ``LORO_MIN_RUNS`` runs (records)
+    each is predicted by the shared coefficients refitted on the others, and the pooled error
+    must drop by more than the refits resolve (``out_of_sample.loro_dropped``); ``held_out``
+    names what is left out, ``judged`` which two models are compared, ``fewer`` what stands
+    for the check with fewer."""
 
+    held_out: str = "run"
+    fewer: str = "no member's variance inflation exceeds 10"
+    judged: str = "with the candidate than without it"
     name: str = "out of sample"
-    statement: str = (
-        "the leave-one-run-out error drops (≥ 3 runs); with fewer runs no member's variance "
-        "inflation exceeds 10"
-    )
+
+    @property
+    def statement(self) -> str:
+        return (
+            f"with ≥ {LORO_MIN_RUNS} {self.held_out}s, the leave-one-{self.held_out}-out "
+            f"prediction error is lower by more than the refits resolve ({LORO_RESOLUTION:.0e} "
+            f"of itself) {self.judged}; with fewer {self.held_out}s {self.fewer}"
+        )
 
     def verdict(self, trial: Trial) -> str | None:
         return trial.out_of_sample() if trial.out_of_sample is not None else None
@@ -328,6 +340,20 @@ DECAY_RULES = RuleSet(
         StrongEvidence(),
         AboveNoise(),
         BeatsRival(effective=True),
+        OutOfSample(
+            "record",
+            judged=(
+                "with each kept term than without it, judged on the final model in the "
+                "backward check (a forward step compares two models that may both lack a true "
+                "term, and a true term may predict only beside its partner)"
+            ),
+            fewer=(
+                "it is not applied, nor the tows' variance-inflation bound in its place (a "
+                "decay sweeps its amplitude, which separates B₁ from B₂, and a true quadratic "
+                "damping's VIF is 70 on KVLCC2 run 21337): the backward check and the "
+                "possibly-biased verdict guard the decay"
+            ),
+        ),
     ),
     {
         "resolved": (
@@ -337,12 +363,6 @@ DECAY_RULES = RuleSet(
         "material cut": (
             "a decay's residual is its own noise plus what no library term explains; the "
             "misfit verdict on the final model speaks for the rest"
-        ),
-        "out of sample": (
-            "not built for a decay yet: its analogue (fit part of the amplitude range, "
-            "predict the rest) does not exist, and the variance-inflation gate would reject a "
-            "true quadratic damping (VIF 70 on KVLCC2 run 21337); the backward check and the "
-            "possibly-biased verdict guard a decay instead"
         ),
     },
 )

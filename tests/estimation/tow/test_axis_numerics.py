@@ -9,14 +9,10 @@ import numpy as np
 import pytest
 
 from estimation.axis.model import at_step_limit, simulate, step_of
-from estimation.axis.output_error import (
-    LORO_RESOLUTION,
-    fit_output_error,
-    leave_one_run_out_rmse,
-    loro_dropped,
-)
+from estimation.axis.output_error import fit_output_error, leave_one_run_out_rmse
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
+from estimation.stats.out_of_sample import LORO_RESOLUTION, loro_dropped
 from tests.estimation.synth import SURGE_TRUTH, Physics, tow_set
 
 
