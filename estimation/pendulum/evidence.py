@@ -24,6 +24,10 @@ def step_json(s: Step) -> dict[str, Any]:
         "delta_bic": doc["delta_bic"],
         "ljung_box_q_before": doc["ljung_box_q_before"],
         "ljung_box_q_after": doc["ljung_box_q_after"],
+        # the leave-one-run-out RMSE of the model without and with the term, under the
+        # key a tow's step has it (null: fewer than 3 runs, or the rule not reached)
+        "cv_rmse_before": doc["leave_one_record_out_rmse_before"],
+        "cv_rmse_after": doc["leave_one_record_out_rmse_after"],
         "explained_rms": doc["explained_rms"],
         "noise": doc["noise"],
         "accepted": doc["accepted"],

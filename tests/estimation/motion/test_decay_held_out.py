@@ -80,6 +80,11 @@ def test_pendulum_swings_from_three_amplitudes_each_predicted_from_the_other_two
     assert sorted(e.name for e in result.effects) == ["coulomb_friction", "quadratic_damping"]
     kept = [s for s in result.steps if s.added]
     assert len(kept) == 2 and all(loro_dropped(s.loro_after, s.loro_before) for s in kept)
+    # the pendulum's document gives them under a tow step's keys
+    written = [s for s in result.to_json()["evidence"]["steps"] if s["added"]]
+    assert [(s["cv_rmse_before"], s["cv_rmse_after"]) for s in written] == [
+        (s.loro_before, s.loro_after) for s in kept
+    ]
     values = {e.name: e.value for e in result.effects}
     assert values["coulomb_friction"] == pytest.approx(0.4, rel=0.02)
     assert values["quadratic_damping"] == pytest.approx(40.0, rel=0.05)
