@@ -83,12 +83,16 @@ def metadata_key_fields(*, checked_by_model: bool) -> dict[str, Any]:
             low, high = key.number_range
             rule = {"ge": low, "le": high, "allow_inf_nan": False}
         option = Flag(key.option, metavar=key.metavar)
+        # the label and unit a form shows it with (the pages build their inputs from these)
+        shown: dict[str, Any] = {"title": key.title, "description": key.description}
+        if key.unit:
+            shown["json_schema_extra"] = {"unit": key.unit}
         if checked_by_model:  # on the field, where the options read it (a click range)
-            field = _annotated(kind | None, Field(description=key.description, **rule), option)
+            field = _annotated(kind | None, Field(**shown, **rule), option)
         else:  # said in the schema ("maxLength", "minimum", …) only
             words = {_SCHEMA[k]: v for k, v in rule.items() if k in _SCHEMA}
             said = _annotated(kind, Field(json_schema_extra=words))
-            field = _annotated(said | None, Field(description=key.description), option)
+            field = _annotated(said | None, Field(**shown), option)
         fields[key.name] = (field, None)
     return fields
 
@@ -122,7 +126,10 @@ def run_metadata_model() -> type[_RunMetadataObject]:
         tags=(
             list[str] | None,
             Field(
-                None, max_length=MAX_TAGS, description="Tags to find the run by, e.g. ['fins-v2']."
+                None,
+                max_length=MAX_TAGS,
+                title="Tags",
+                description="Tags to find the run by, e.g. ['fins-v2'].",
             ),
         ),
     )

@@ -74,6 +74,14 @@ class MetadataKey:
     unit: str = ""
     #: What values in the range mean, said after the unit: "0 = fresh water, …".
     meaning: str = ""
+    #: A form's label, short ("Salinity"; default: ``what``); its unit is added.
+    label: str = ""
+
+    @property
+    def title(self) -> str:
+        """A form's label with the unit: "Salinity (g/kg)"."""
+        label = self.label or self.what
+        return f"{label} ({self.unit})" if self.unit else label
 
     @property
     def description(self) -> str:
@@ -105,13 +113,14 @@ class MetadataKey:
 #: order the models, the options and the docs list them: adding a key here is the one edit
 #: (``tests/api/test_metadata_keys.py`` adds one and follows it everywhere).
 KNOWN: tuple[MetadataKey, ...] = (
-    MetadataKey("operator", "Who runs the test", "--operator", "NAME"),
+    MetadataKey("operator", "Who runs the test", "--operator", "NAME", label="Operator"),
     MetadataKey("water_temperature_c", "Water temperature", "--water-temp", "°C",
                 number_range=WATER_TEMPERATURE_RANGE_C, unit="°C"),
     MetadataKey("salinity_g_kg", "Absolute salinity of the tank's water", "--salinity",
                 "G_PER_KG", number_range=SALINITY_RANGE_G_KG, unit="g/kg",
-                meaning="0 = fresh water, 35.165 = standard sea water"),
-    MetadataKey("notes", "Free notes on the run", "--notes", "TEXT", max_chars=MAX_NOTES_CHARS),
+                meaning="0 = fresh water, 35.165 = standard sea water", label="Salinity"),
+    MetadataKey("notes", "Free notes on the run", "--notes", "TEXT", max_chars=MAX_NOTES_CHARS,
+                label="Notes"),
 )  # fmt: skip
 
 

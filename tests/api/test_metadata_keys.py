@@ -1,6 +1,7 @@
 """A known run-metadata key is declared once (``daq.store.run_metadata.KNOWN``): one more
 entry there reaches the store's check, the JSON ``metadata`` object, the import query and
-the commands' options, and the docs' table, each with its range, unit and help."""
+the commands' options, the pages' inputs (made from the object's schema) and the docs'
+table, each with its range, unit and help."""
 
 from __future__ import annotations
 
@@ -41,6 +42,8 @@ def test_a_key_added_to_the_table_reaches_the_store_both_models_the_options_and_
     body = run_metadata_model()
     schema = body.model_json_schema()["properties"]["depth_m"]
     assert schema["description"] == "Depth of the vehicle's centre, m."
+    # … and the label and unit the pages make its input with (api/http/static/run_metadata.js)
+    assert (schema["title"], schema["unit"]) == ("Depth of the vehicle's centre (m)", "m")
     assert {"type": "number", "minimum": 0.0, "maximum": 10.0} in schema["anyOf"]
     assert body.model_validate({"depth_m": 1.5}).model_dump(exclude_unset=True) == {"depth_m": 1.5}
 

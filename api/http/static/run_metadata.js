@@ -1,41 +1,70 @@
-// The Rig page's run metadata block (operator, water temperature and salinity, notes, tags),
-// sent as `metadata` with every start (metadataBody); operator and the water are remembered
-// in localStorage (many tests in a row).
-import { $ } from "./dom.js";
+// The metadata a person gives a run (operator, the water, notes, tags …), with the inputs
+// the start requests' `metadata` object declares (GET /api/kinds → a start request's JSON
+// Schema, $defs.RunMetadataIn: the known keys of daq/store/run_metadata.py, each with its
+// label, unit, range and help), so a key declared there appears here with nothing written
+// twice: the Rig page's block, sent with every start (metadataBody), and the Runs page's
+// form that edits a stored run's (runs.js). What a person sets once for many tests (all
+// but the notes and tags) is remembered in localStorage.
+import { $, $$ } from "./dom.js";
+import { fieldHtml, formBody } from "./forms.js";
 
 export const metaForm = $("#form-metadata");
-const META_REMEMBERED = ["operator", "water_temperature_c", "salinity_g_kg"];
-for (const name of META_REMEMBERED) {
-  const saved = localStorage.getItem(`rig-meta-${name}`);
-  if (saved !== null) metaForm.elements[name].value = saved;
+/** What differs from run to run: not remembered for the next test. */
+const PER_RUN = new Set(["notes", "tags"]);
+/** The known keys' JSON Schema properties, in their declared order (set by renderMetadataForms). */
+export let metadataKeys = {};
+
+/** The `metadata` object's properties in a kind's start-request schema. */
+function metadataProperties(kind) {
+  const defs = kind.schema.$defs || {};
+  const ref = ((kind.schema.properties.metadata || {}).anyOf || []).find((p) => p.$ref);
+  return ref ? defs[ref.$ref.split("/").pop()].properties : {};
 }
 
+/** The inputs of both metadata forms, from the start kinds (GET /api/kinds): once. */
+export function renderMetadataForms(kinds) {
+  const kind = kinds.find((k) => k.schema && k.schema.properties.metadata);
+  if (!kind) return;
+  metadataKeys = metadataProperties(kind);
+  const inputs = Object.entries(metadataKeys).map(([name, prop]) => fieldHtml(name, prop)).join("\n");
+  for (const holder of $$(".metadata-fields")) holder.innerHTML = inputs;
+  for (const name of Object.keys(metadataKeys)) {
+    const saved = PER_RUN.has(name) ? null : localStorage.getItem(`rig-meta-${name}`);
+    if (saved !== null) metaForm.elements[name].value = saved;
+  }
+  showMetadataSummary();
+}
+
+/** The Rig page's block as the `metadata` of a start request (undefined: nothing given). */
 export function metadataBody() {
-  const f = metaForm.elements;
-  const m = {};
-  if (f.operator.value.trim()) m.operator = f.operator.value.trim();
-  if (f.water_temperature_c.value !== "") m.water_temperature_c = Number(f.water_temperature_c.value);
-  if (f.salinity_g_kg.value !== "") m.salinity_g_kg = Number(f.salinity_g_kg.value);
-  if (f.notes.value.trim()) m.notes = f.notes.value.trim();
-  const tags = f.tags.value.split(",").map((t) => t.trim()).filter(Boolean);
-  if (tags.length) m.tags = tags;
+  const m = formBody(metaForm);
+  for (const [k, v] of Object.entries(m)) if (typeof v === "string") m[k] = v.trim() || undefined;
+  for (const k of Object.keys(m)) if (m[k] === undefined || (Array.isArray(m[k]) && !m[k].length)) delete m[k];
   return Object.keys(m).length ? m : undefined;
 }
 
+/** A run's metadata in words: "Grace · 18.5 °C · 35.165 g/kg · fins-v2, repeat" (the known
+ * keys in their order, each number with its unit; notes left out). */
+export function metadataText(m) {
+  return Object.entries(metadataKeys)
+    .filter(([name]) => name !== "notes" && m[name] !== undefined && m[name] !== null)
+    .map(([name, prop]) => (Array.isArray(m[name]) ? m[name].join(", ") : `${m[name]}${prop.unit ? ` ${prop.unit}` : ""}`))
+    .filter(Boolean)
+    .join(" · ");
+}
+
 function showMetadataSummary() {
-  const m = metadataBody() || {};
-  const parts = [m.operator, m.water_temperature_c === undefined ? "" : `${m.water_temperature_c} °C`,
-    m.salinity_g_kg === undefined ? "" : `${m.salinity_g_kg} g/kg`, (m.tags || []).join(", ")].filter(Boolean);
-  $("#run-metadata-summary").textContent = parts.length ? `(${parts.join(" · ")})` : "(none)";
+  const text = metadataText(metadataBody() || {});
+  $("#run-metadata-summary").textContent = text ? `(${text})` : "(none)";
 }
 
 metaForm.addEventListener("submit", (ev) => ev.preventDefault());
 metaForm.addEventListener("input", () => {
-  for (const name of META_REMEMBERED) {
+  for (const name of Object.keys(metadataKeys)) {
+    if (PER_RUN.has(name)) continue;
     const value = metaForm.elements[name].value.trim();
     if (value) localStorage.setItem(`rig-meta-${name}`, value);
     else localStorage.removeItem(`rig-meta-${name}`);
   }
   showMetadataSummary();
 });
-showMetadataSummary();

@@ -3,6 +3,7 @@
 // channels against time or another channel with other runs overlaid (run_plot.js).
 import { api, download } from "./api.js";
 import { $, $$, kv } from "./dom.js";
+import { formBody } from "./forms.js";
 import { fmt, TIME_ZONE } from "./format.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
@@ -10,7 +11,8 @@ import { unitRowsPlot } from "./plots.js";
 import { showRunResults } from "./results.js";
 import { TIME_AXIS, channelLabel, runName, runPlotSeries, shownUnit, withUnit } from "./run_plot.js";
 import { load, source, tags } from "./run_text.js";
-import { loadKinds } from "./start_forms.js";
+import { metadataKeys } from "./run_metadata.js";
+import { ensureStartForms, loadKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
 import { onJob } from "./stream.js";
 
@@ -58,17 +60,20 @@ $("#runs-next").onclick = () => {
   loadRuns();
 };
 
-// "18.5 °C, 35.165 g/kg" (a sea-water tank), "18.5 °C" (fresh water), or "—".
-function waterText(m) {
-  const parts = [];
-  if (m.water_temperature_c !== undefined) parts.push(`${m.water_temperature_c} °C`);
-  if (m.salinity_g_kg !== undefined) parts.push(`${m.salinity_g_kg} g/kg`);
-  return parts.join(", ") || "—";
+// A known metadata key's row label ("Water temperature": its title without the unit) and
+// its value with the unit ("18.5 °C"), or "—".
+function keyLabel(prop) {
+  return prop.unit ? prop.title.replace(` (${prop.unit})`, "") : prop.title;
+}
+
+function keyValue(value, prop) {
+  if (value === undefined || value === null || (Array.isArray(value) && !value.length)) return "—";
+  return Array.isArray(value) ? value.join(", ") : `${value}${prop.unit ? ` ${prop.unit}` : ""}`;
 }
 
 function showRunMeta(run) {
   const m = run.metadata || {};
-  const known = ["operator", "water_temperature_c", "salinity_g_kg", "notes", "tags"];
+  const known = Object.keys(metadataKeys); // run_metadata.js: the metadata object's keys
   kv($("#run-meta"), [
     ["Kind", run.kind],
     ["Status", run.summary || run.status + (run.reason ? ` (${run.reason})` : "")],
@@ -80,29 +85,24 @@ function showRunMeta(run) {
     ["Duration", `${fmt(run.duration_s, 4)} s`],
     ["Samples", run.sample_count],
     ["Rig / vehicle", `${run.rig_name} / ${run.vehicle}`],
-    ["Operator", m.operator || "—"],
-    ["Water", waterText(m)],
-    ["Notes", m.notes || "—"],
-    ["Tags", (m.tags || []).join(", ") || "—"],
+    ...Object.entries(metadataKeys).map(([name, prop]) => [keyLabel(prop), keyValue(m[name], prop)]),
     ...Object.entries(m).filter(([k]) => !known.includes(k)).map(([k, v]) => [k, String(v)]),
   ]);
   const form = $("#run-annotate");
-  for (const name of known) form.elements[name].value = name === "tags" ? (m.tags || []).join(", ") : (m[name] ?? "");
+  for (const name of known) form.elements[name].value = Array.isArray(m[name]) ? m[name].join(", ") : (m[name] ?? "");
 }
 
 $("#run-annotate").addEventListener("submit", async (ev) => {
   ev.preventDefault();
   const run = state.selectedRun;
   if (!run) return;
-  const f = ev.target.elements;
-  const body = {
-    operator: f.operator.value.trim() || null,
-    water_temperature_c: f.water_temperature_c.value === "" ? null : Number(f.water_temperature_c.value),
-    salinity_g_kg: f.salinity_g_kg.value === "" ? null : Number(f.salinity_g_kg.value),
-    notes: f.notes.value.trim() || null,
-    tags: f.tags.value.split(",").map((t) => t.trim()).filter(Boolean),
-  };
-  if (!body.tags.length) body.tags = null;
+  // every known key: its value, or null to remove it (PATCH semantics)
+  const given = formBody(ev.target);
+  const body = {};
+  for (const name of Object.keys(metadataKeys)) {
+    const v = typeof given[name] === "string" ? given[name].trim() : given[name];
+    body[name] = v === undefined || v === "" || (Array.isArray(v) && !v.length) ? null : v;
+  }
   try {
     state.selectedRun = await api("PATCH", `/api/runs/${run.id}/metadata`, body);
     showRunMeta(state.selectedRun);
@@ -131,7 +131,8 @@ async function runSeries(runId) {
 
 export async function openRun(runId) {
   location.hash = "#runs";
-  const [shown, kinds] = await Promise.all([runSeries(runId), loadKinds()]); // start_forms.js
+  // start_forms.js: the kinds, and the metadata form's inputs made from them
+  const [shown, kinds] = await Promise.all([runSeries(runId), loadKinds(), ensureStartForms()]);
   const { run, events } = shown;
   state.selectedRun = run;
   $("#run-detail").hidden = false;

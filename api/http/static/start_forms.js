@@ -9,7 +9,9 @@
 // both result pages the units of an axis's estimates (`axisUnits()`).
 import { api } from "./api.js";
 import { $, $$ } from "./dom.js";
+import { fieldHtml } from "./forms.js";
 import { esc } from "./markup.js";
+import { renderMetadataForms } from "./run_metadata.js";
 
 let startKinds = null;
 export let servedKinds = [];
@@ -50,6 +52,7 @@ export async function ensureStartForms() {
   if (startKinds) return; // a concurrent refresh rendered them meanwhile
   startKinds = kinds.filter((k) => k.route && k.schema);
   renderStartForms(startKinds);
+  renderMetadataForms(startKinds);
   renderMethodOptions(kinds);
   renderKindFilter(kinds);
 }
@@ -75,33 +78,6 @@ function renderMethodOptions(kinds) {
   select.innerHTML = [...labels]
     .map(([m, label]) => `<option value="${esc(m)}">${esc(label)}</option>`)
     .join("");
-}
-
-// {type, enum} of a property, looking through `anyOf: [{…}, {type: "null"}]`.
-function propertyType(prop) {
-  const options = (prop.anyOf || [prop]).filter((p) => p.type !== "null");
-  return options[0] || {};
-}
-
-function fieldHtml(name, prop) {
-  const t = propertyType(prop);
-  const label = esc(prop.title || name);
-  const tip = prop.description ? ` title="${esc(prop.description)}"` : "";
-  const dflt = prop.default;
-  if (t.type === "boolean") {
-    return `<label${tip}><input name="${esc(name)}" type="checkbox"${dflt ? " checked" : ""}> ${label}</label>`;
-  }
-  if (t.enum) {
-    const options = t.enum.map((v) => `<option${v === dflt ? " selected" : ""}>${esc(v)}</option>`).join("");
-    return `<label${tip}>${label} <select name="${esc(name)}">${options}</select></label>`;
-  }
-  const shown = Array.isArray(dflt) ? dflt.join(", ") : dflt;
-  const hint = shown === undefined || shown === null ? "" : ` placeholder="${esc(String(shown))}"`;
-  if (t.type === "array") {
-    return `<label${tip}>${label} <input name="${esc(name)}" type="text" data-type="array"${hint}></label>`;
-  }
-  const step = t.type === "integer" ? "1" : "any";
-  return `<label${tip}>${label} <input name="${esc(name)}" type="number" step="${esc(step)}"${hint}></label>`;
 }
 
 function renderStartForms(kinds) {

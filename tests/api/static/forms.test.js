@@ -2,7 +2,7 @@
 // browser: a form is anything with `elements`.
 import assert from "node:assert/strict";
 import test from "node:test";
-import { formBody, problemField } from "../../../api/http/static/forms.js";
+import { fieldHtml, formBody, problemField } from "../../../api/http/static/forms.js";
 
 const input = (name, value, type = "text", extra = {}) => ({ name, value, type, dataset: {}, ...extra });
 
@@ -14,11 +14,18 @@ test("a form's filled inputs as the request body, typed", () => {
       input("drive", "weight", "select-one"),
       input("reverse", "on", "checkbox", { checked: false }),
       input("commands", "0.1, 0.5,1", "text", { dataset: { type: "array" } }),
+      input("tags", "fins-v2, ,repeat ", "text", { dataset: { type: "texts" } }),
       input("", "x"), // no name
       input("go", "Start", "submit"),
     ],
   };
-  assert.deepEqual(formBody(form), { force_n: 24.5, drive: "weight", reverse: false, commands: [0.1, 0.5, 1] });
+  assert.deepEqual(formBody(form), {
+    force_n: 24.5,
+    drive: "weight",
+    reverse: false,
+    commands: [0.1, 0.5, 1],
+    tags: ["fins-v2", "repeat"],
+  });
 });
 
 test("the field a 422 names: its field, else the start of its message", () => {
@@ -27,4 +34,22 @@ test("the field a 422 names: its field, else the start of its message", () => {
   assert.equal(problemField({ message: "steps[2]: out of range" }), "steps[2]");
   assert.equal(problemField({ message: "the rig is held" }), "");
   assert.equal(problemField({}), "");
+});
+
+test("a schema property as an input: a text of its length, a list of texts, a range said in the tooltip", () => {
+  const nullable = (t) => ({ anyOf: [t, { type: "null" }] });
+  const text = fieldHtml("operator", { ...nullable({ type: "string", maxLength: 200 }), title: "Operator" });
+  assert.match(text, /^<label>Operator <input name="operator" type="text" maxlength="200"><\/label>$/);
+  const tags = fieldHtml("tags", { ...nullable({ type: "array", items: { type: "string" } }), title: "Tags" });
+  assert.match(tags, /data-type="texts" placeholder="comma separated"/);
+  const water = {
+    ...nullable({ type: "number", minimum: -2, maximum: 50 }),
+    title: "Water temperature (°C)",
+    description: "Water temperature, °C.",
+    unit: "°C",
+  };
+  assert.equal(
+    fieldHtml("water_temperature_c", water),
+    '<label title="Water temperature, °C. (-2 to 50 °C)">Water temperature (°C) <input name="water_temperature_c" type="number" step="any"></label>',
+  );
 });

@@ -18,12 +18,14 @@ const MARKUP_NAMES = {
   "campaign.js": ["stopping", "pending", "rows", "sigmaText", "shown", "limited"], // badge, next test, trail, U cells
   "crosscheck.js": ["option"], // a stored result as an <option>
   "estimation.js": ["tags", "source", "wellDeterminedRows"], // run_text.js's cells, rows
+  "forms.js": ["label", "tip", "options", "hint", "length", "listed"], // a field's escaped pieces
   "guard.js": ["who"], // esc(who pressed or holds)
   "jobs.js": ["runs"], // the job's run links
   "queue.js": ["paramsText", "waiting", "steps", "problems"], // parameter chips, summary, lists
   "results.js": ["resultLink", "heads", "body", "cell"], // links, the comparison's cells
+  "run_metadata.js": ["inputs"], // the metadata object's fields (forms.js's fieldHtml)
   "runs.js": ["tags", "source"], // run_text.js's cells
-  "start_forms.js": ["label", "tip", "options", "hint", "fields"], // a form's escaped pieces
+  "start_forms.js": ["fields"], // a form's fields (forms.js's fieldHtml)
   "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows"], // the budget's parts
 };
 
