@@ -239,24 +239,26 @@ def range_rates(
     return stiffness.max(axis=-1), damping.max(axis=-1)
 
 
-def stable_step(
-    sample_step: float, inertia: float, stiffness: float, damping: float, driven: bool
-) -> float:
-    """A step that resolves the natural period (``STEPS_PER_PERIOD``) and the damping's rate
-    (h ≤ ``DAMPING_STEP``·M/c) of one parameter set on one record, and the held drive's
-    samples when ``driven`` (s). A free record may step over samples: Hermite interpolation
-    reads them."""
-    h = sample_step if driven else np.inf
-    if stiffness > 0 and inertia > 0:
-        h = min(h, 2 * np.pi * np.sqrt(inertia / stiffness) / STEPS_PER_PERIOD)
-    if damping > 0 and inertia > 0:
-        h = min(h, DAMPING_STEP * inertia / damping)
-    return float(min(h, 10 * sample_step))
+def stable_step(inertia: np.ndarray, stiffness: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """The largest step that resolves the natural period (``STEPS_PER_PERIOD`` steps) and the
+    damping's rate (h ≤ ``DAMPING_STEP``·M/c) of each parameter set (s; arrays broadcast):
+    inf where neither limits it, NaN for a set with a non-finite inertia or rate."""
+    m, k, c = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (inertia, stiffness, damping))
+    )
+    h = np.full(m.shape, np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where(
+            (k > 0) & (m > 0), np.minimum(h, 2 * np.pi * np.sqrt(m / k) / STEPS_PER_PERIOD), h
+        )
+        h = np.where((c > 0) & (m > 0), np.minimum(h, DAMPING_STEP * m / c), h)
+    return np.where(np.isfinite(m) & np.isfinite(k) & np.isfinite(c), h, np.nan)
 
 
 def sample_step(tracks: Sequence[Track]) -> float:
-    """The records' finest median sample interval (s)."""
-    return min(float(np.median(np.diff(tr.tau))) for tr in tracks if tr.tau.size > 1)
+    """The records' finest median sample interval (s; ``MAX_STEP_S`` without two samples)."""
+    steps = [float(np.median(np.diff(tr.tau))) for tr in tracks if tr.tau.size > 1]
+    return min(steps, default=MAX_STEP_S)
 
 
 def finest_step(tracks: Sequence[Track]) -> float:
@@ -287,12 +289,8 @@ def integration_step(
     for i, tr in enumerate(tracks):
         rates = [(c.term, np.broadcast_to(c.value, (n_sets, n_tracks))[:, i]) for c in forces]
         stiffness, damping = range_rates(rates, tr.reach, tr.speed)
-        stiffness = np.broadcast_to(stiffness, (n_sets,))
-        damping = np.broadcast_to(damping, (n_sets,))
-        for s in range(n_sets):
-            found = stable_step(base, float(inertia[s, i]), stiffness[s], damping[s], False)
-            needed[s] = min(needed[s], found)
-    unresolved = ~(needed >= finest_step(tracks))  # NaN rates (a trial of NaN) too
+        needed = np.minimum(needed, stable_step(inertia[:, i], stiffness, damping))
+    unresolved = ~(needed >= finest_step(tracks))  # a set of NaN too
     return float(np.min(needed[~unresolved], initial=base)), unresolved
 
 
