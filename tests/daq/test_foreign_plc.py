@@ -167,15 +167,18 @@ def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, t
         # released after the baseline: the first samples are at rest, the release comes
         # later (how many samples a 0.3 s baseline holds depends on the host's timing: a
         # rehearsal under load recorded two, not three)
-        release = list(table.channels["tow_release"])
-        assert release[0] == 0.0 and 1.0 in release
-        # every position read before the release is at rest (the baseline); a poll that
-        # failed under load stores NaN, flagged, and the run names the loss (the rehearsal of
-        # 1b81e7e's parent saw one right before the release, CI at c75c4f1 the first sample)
-        before = position[: release.index(1.0)]
-        read = np.isfinite(before)
+        # a poll that failed under load stores NaN in every channel of its sample, flagged,
+        # and the run names the loss (the rehearsal of 1b81e7e's parent saw one right before
+        # the release, CI at c75c4f1 and the rehearsal of 9a467e6 the first sample)
+        release = table.channels["tow_release"]
+        released = release[np.isfinite(release)]
+        assert released[0] == 0.0 and 1.0 in released
+        first = int(np.flatnonzero(release == 1.0)[0])
+        # every position read before the release is at rest (the baseline)
+        before = position[:first]
+        read = np.isfinite(before) & np.isfinite(release[:first])
         assert read.any() and np.allclose(before[read], 0.0, atol=1e-4), before
-        assert all(table.quality[: release.index(1.0)][~read] != 0)
+        assert all(table.quality[:first][~read] != 0)
         if not read.all():
             assert any("lost" in m and "PLC read failed" in m for m in events), events
 
