@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -59,6 +60,19 @@ class Identified:
     #: the σ of the records' quantization alone (``estimation.stats.quantization``); None
     #: when no record is on an encoder grid
     std_quantization: np.ndarray | None = None
+
+    def fit_fields(self) -> dict[str, Any]:
+        """The fields every fit reports from these statistics (``FitStatistics``'s σ,
+        correlation, SSE, n and p), for its constructor."""
+        return {
+            "std": self.std,
+            "std_white": self.std_white,
+            "std_quantization": self.std_quantization,
+            "correlation": self.correlation,
+            "sse": self.sse,
+            "n_samples": self.n_samples,
+            "n_params": self.n_params,
+        }
 
 
 def honest_statistics(
