@@ -213,3 +213,19 @@ def test_a_damaged_run_is_repeated_not_booked_and_given_up_after_max_repeats():
     assert campaign.runs_used == 0 and campaign.minutes_used > 0  # tank time spent, no fit
     assert campaign.repeat(opening, "run9", 10.0, "a 0.7 s hole") is None
     assert campaign.outcome is not None and "damaged 3 times in a row" in campaign.outcome
+
+
+def test_an_axis_whose_models_are_not_told_apart_is_measured_before_one_out_of_reach():
+    """The stop "out of reach" waits until every axis's models are told apart, so the next
+    run goes to the one-way surge, not to yaw, whose K_L U the tolerances alone hold at
+    32 %: no run shrinks that, and ranked on it yaw took every choice until the budget ran
+    out (the clean campaign with the rig file's tolerances, ten spins at 5 N·m)."""
+    args = dict(runs_used=3, minutes_used=3.0, max_runs=12, max_minutes=60.0, done={})
+    both_ways = [Candidate("yaw", 5.0), Candidate("yaw", -3.365)]
+    yaw = _state(both_ways, axis="yaw", std=(2.0, 2.0, 5.0),
+                 type_b={"linear_damping": 0.16 * SURGE_TRUTH[1]})  # fmt: skip
+    assert yaw.floor(0.01)["linear_damping"] > 30
+    surge = _state([Candidate("surge", 100.0)], std=(2.0, 2.0, 5.0))
+    decision = decide({"surge": surge, "yaw": yaw}, RIG, 0.01, **args)
+    assert decision.stop is None and decision.choice is not None
+    assert decision.choice.test.axis == "surge" and decision.choice.test.load < 0
