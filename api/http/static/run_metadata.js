@@ -35,11 +35,21 @@ export function renderMetadataForms(kinds) {
   showMetadataSummary();
 }
 
+/** Each known key as a metadata form gives it: texts trimmed, numbers as numbers, a list of
+ * texts split at commas; null where the form leaves it empty. */
+export function metadataGiven(form) {
+  const given = formBody(form);
+  const out = {};
+  for (const name of Object.keys(metadataKeys)) {
+    const v = typeof given[name] === "string" ? given[name].trim() : given[name];
+    out[name] = v === undefined || v === "" || (Array.isArray(v) && !v.length) ? null : v;
+  }
+  return out;
+}
+
 /** The Rig page's block as the `metadata` of a start request (undefined: nothing given). */
 export function metadataBody() {
-  const m = formBody(metaForm);
-  for (const [k, v] of Object.entries(m)) if (typeof v === "string") m[k] = v.trim() || undefined;
-  for (const k of Object.keys(m)) if (m[k] === undefined || (Array.isArray(m[k]) && !m[k].length)) delete m[k];
+  const m = Object.fromEntries(Object.entries(metadataGiven(metaForm)).filter(([, v]) => v !== null));
   return Object.keys(m).length ? m : undefined;
 }
 

@@ -3,7 +3,6 @@
 // channels against time or another channel with other runs overlaid (run_plot.js).
 import { api, download } from "./api.js";
 import { $, $$, kv } from "./dom.js";
-import { formBody } from "./forms.js";
 import { fmt, TIME_ZONE } from "./format.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
@@ -11,7 +10,7 @@ import { unitRowsPlot } from "./plots.js";
 import { showRunResults } from "./results.js";
 import { TIME_AXIS, channelLabel, runName, runPlotSeries, shownUnit, withUnit } from "./run_plot.js";
 import { load, source, tags } from "./run_text.js";
-import { metadataKeys } from "./run_metadata.js";
+import { metadataGiven, metadataKeys } from "./run_metadata.js";
 import { ensureStartForms, loadKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
 import { onJob } from "./stream.js";
@@ -96,13 +95,7 @@ $("#run-annotate").addEventListener("submit", async (ev) => {
   ev.preventDefault();
   const run = state.selectedRun;
   if (!run) return;
-  // every known key: its value, or null to remove it (PATCH semantics)
-  const given = formBody(ev.target);
-  const body = {};
-  for (const name of Object.keys(metadataKeys)) {
-    const v = typeof given[name] === "string" ? given[name].trim() : given[name];
-    body[name] = v === undefined || v === "" || (Array.isArray(v) && !v.length) ? null : v;
-  }
+  const body = metadataGiven(ev.target); // a key left empty is null: PATCH removes it
   try {
     state.selectedRun = await api("PATCH", `/api/runs/${run.id}/metadata`, body);
     showRunMeta(state.selectedRun);
