@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, ConfigDict, Field
 
 from daq.procedures.flag import Flag
-from daq.procedures.procedure_request import metadata_key_fields
+from daq.procedures.procedure_request import known_keys_model
 from daq.store.run_metadata import (
     MAX_EXTRA_KEYS,
     MAX_TAGS,
@@ -76,13 +76,8 @@ class _RunMetadataOptions(BaseModel):
 
 def run_metadata_query_model() -> type[_RunMetadataOptions]:
     """The model of the metadata options, made from the known keys as declared now."""
-    return create_model(
-        "RunMetadataQuery",
-        __base__=_RunMetadataOptions,
-        __module__=__name__,
-        __doc__=_RunMetadataOptions.__doc__,
-        **metadata_key_fields(checked_by_model=True),
-        **_LIST_FIELDS,
+    return known_keys_model(
+        "RunMetadataQuery", _RunMetadataOptions, checked_by_model=True, **_LIST_FIELDS
     )
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Self
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Self, TypeVar
 
 from pydantic import (
     BaseModel,
@@ -102,6 +102,8 @@ def _annotated(kind: Any, *marks: Any) -> Any:
     return Annotated[(kind, *marks)]
 
 
+_Model = TypeVar("_Model", bound=BaseModel)
+
 #: A field's rule as JSON Schema words.
 _SCHEMA = {"ge": "minimum", "le": "maximum", "min_length": "minLength", "max_length": "maxLength"}
 
@@ -115,14 +117,28 @@ class _RunMetadataObject(BaseModel):
     model_config = ConfigDict(extra="allow")
 
 
+def known_keys_model(
+    name: str, base: type[_Model], *, checked_by_model: bool, **more: Any
+) -> type[_Model]:
+    """The model ``name`` on ``base`` (its methods and doc) with the known keys' fields as
+    declared now (``metadata_key_fields``) and ``more`` (``create_model``'s
+    ``(annotation, default)`` per field): both metadata models are made by it."""
+    return create_model(
+        name,
+        __base__=base,
+        __module__=base.__module__,
+        __doc__=base.__doc__,
+        **metadata_key_fields(checked_by_model=checked_by_model),
+        **more,
+    )
+
+
 def run_metadata_model() -> type[_RunMetadataObject]:
     """The model of the ``metadata`` object, made from the known keys as declared now."""
-    return create_model(
+    return known_keys_model(
         "RunMetadataIn",
-        __base__=_RunMetadataObject,
-        __module__=__name__,
-        __doc__=_RunMetadataObject.__doc__,
-        **metadata_key_fields(checked_by_model=False),
+        _RunMetadataObject,
+        checked_by_model=False,
         tags=(
             list[str] | None,
             Field(
