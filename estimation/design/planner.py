@@ -381,6 +381,12 @@ def axis_status(state: AxisState | None, relative: float) -> dict:
     return {"ratios": ratios, "unresolved": unresolved, "reached": reached}
 
 
+def _unsettled(state: AxisState, env: RigEnvelope) -> bool:
+    """The axis's models are not yet told apart: its fit is ambiguous, or every run went one
+    way on a rig that can reverse (friction and a bias are one constant then)."""
+    return bool(state.ambiguous) or _other_way(state, env) is not None
+
+
 def _out_of_reach(
     states: Mapping[str, AxisState | None], env: RigEnvelope, relative: float
 ) -> str | None:
@@ -391,9 +397,7 @@ def _out_of_reach(
     and yaw's inertia 0.96 % (U 0.68 %) when the floor first passed the target — so the
     campaign measures on until its models are told apart, then stops with coefficients
     worth reporting."""
-    unsettled = [s for s in states.values() if s is not None and s.ambiguous]
-    unsettled += [s for s in states.values() if s is not None and _other_way(s, env) is not None]
-    if unsettled:
+    if any(s is not None and _unsettled(s, env) for s in states.values()):
         return None
     for axis, state in states.items():
         if state is None:
@@ -419,9 +423,8 @@ def _urgency(state: AxisState, env: RigEnvelope, relative: float) -> tuple[bool,
     floor above the target in it, an axis out of reach won every choice: on the clean
     scenario with the rig file's tolerances, yaw (K_L U 32.5 %) took ten spins that moved U
     by 0.01 % while surge, one-way, held the stop off until the budget ran out."""
-    unsettled = state.ambiguous or _other_way(state, env) is not None
     judged = _judged(state, relative).ratios(relative)
-    return bool(unsettled), bool(state.unresolved()), max(judged.values(), default=0.0)
+    return _unsettled(state, env), bool(state.unresolved()), max(judged.values(), default=0.0)
 
 
 def decide(
