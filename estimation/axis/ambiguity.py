@@ -13,8 +13,9 @@ from estimation.axis.collinearity import COLLINEAR, NEAR_COLLINEAR, partial_corr
 from estimation.axis.effects import EFFECTS
 from estimation.axis.materiality import below_resolution
 from estimation.axis.model import BASE_NAMES
-from estimation.axis.output_error import FitResult, effect_start, fit_output_error
+from estimation.axis.output_error import effect_start, fit_output_error
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.output_error_fit import MotionFit
 
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
 PAIR_EXPERIMENTS = {
@@ -25,7 +26,7 @@ PAIR_EXPERIMENTS = {
 }
 
 
-def start_from(fit: FitResult, effects: Sequence[str], runs: Sequence[PreparedRun]) -> np.ndarray:
+def start_from(fit: MotionFit, effects: Sequence[str], runs: Sequence[PreparedRun]) -> np.ndarray:
     """``fit``'s values, with each effect it lacks at a small physical start value."""
     names = (*BASE_NAMES, *effects)
     return np.array([fit.value(n) if n in fit.names else effect_start(n, runs) for n in names])
@@ -40,7 +41,7 @@ def _separating_advice(group: Sequence[str]) -> str:
 
 
 def ambiguities(
-    runs: Sequence[PreparedRun], final: FitResult, candidates: Sequence[str]
+    runs: Sequence[PreparedRun], final: MotionFit, candidates: Sequence[str]
 ) -> tuple[tuple[tuple[str, ...], ...], tuple[str, ...]]:
     """Groups of effects the runs cannot tell apart from each kept effect, with advice."""
     if not final.effects:
@@ -62,7 +63,7 @@ def ambiguities(
 
 
 def _explains_alike(
-    runs: Sequence[PreparedRun], final: FitResult, kept: str, other: str, compare_bic: bool
+    runs: Sequence[PreparedRun], final: MotionFit, kept: str, other: str, compare_bic: bool
 ) -> bool:
     """A converged fit with ``other`` in place of ``kept`` is physical (inside its bounds,
     material) and, unless the two are collinear, explains the data as well."""

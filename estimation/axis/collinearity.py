@@ -17,9 +17,9 @@ import numpy as np
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.fit_memo import Recent
-from estimation.axis.model import BASE_NAMES, bounded, simulate
-from estimation.axis.output_error import FitResult
+from estimation.axis.model import BASE_NAMES, simulate
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.output_error_fit import MotionFit
 
 #: |ρ| at or above this: the two effects are structurally the same on these runs.
 COLLINEAR = 0.995
@@ -27,7 +27,7 @@ COLLINEAR = 0.995
 NEAR_COLLINEAR = 0.9
 
 
-def _typical_step(name: str, fit: FitResult, runs: Sequence[PreparedRun]) -> float:
+def _typical_step(name: str, fit: MotionFit, runs: Sequence[PreparedRun]) -> float:
     """A finite-difference step small against the parameter's plausible size: an effect's
     typical size is its entry's own (the coefficient that exerts the smallest drive along
     the fitted motion), a base coefficient's its fitted value."""
@@ -54,7 +54,7 @@ _RECENT: Recent[tuple[tuple[str, ...], np.ndarray]] = Recent()
 
 
 def sensitivities(
-    fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
+    fit: MotionFit, runs: Sequence[PreparedRun], extra: Sequence[str]
 ) -> tuple[tuple[str, ...], np.ndarray]:
     """∂x/∂θ at ``fit`` (its effects, plus ``extra`` effects at zero), stacked over runs.
 
@@ -67,7 +67,7 @@ def sensitivities(
 
 
 def _sensitivities(
-    fit: FitResult, runs: Sequence[PreparedRun], extra: Sequence[str]
+    fit: MotionFit, runs: Sequence[PreparedRun], extra: Sequence[str]
 ) -> tuple[tuple[str, ...], np.ndarray]:
     effects = (*fit.effects, *(e for e in extra if e not in fit.effects))
     names = (*BASE_NAMES, *effects)
@@ -78,7 +78,7 @@ def _sensitivities(
             steps[i] = -steps[i]
     sets = np.vstack([values, values + np.diag(steps)])
     sims = simulate(sets, effects, runs)
-    x = bounded(np.concatenate([s[0] for s in sims], axis=1), runs)
+    x = np.concatenate([s[0] for s in sims], axis=1)  # finite: the engine's guard
     jac = ((x[1:] - x[0]) / steps[:, None]).T
     jac.flags.writeable = False
     return names, jac
@@ -101,7 +101,7 @@ def _residualise(columns: np.ndarray, others: np.ndarray) -> np.ndarray:
 
 
 def independent_shares(
-    fit: FitResult, runs: Sequence[PreparedRun], names: Sequence[str]
+    fit: MotionFit, runs: Sequence[PreparedRun], names: Sequence[str]
 ) -> dict[str, float]:
     """Share of each effect's sensitivity that ``fit``'s own parameters cannot mimic.
 
@@ -122,7 +122,7 @@ def independent_shares(
 
 
 def partial_correlations(
-    fit: FitResult, runs: Sequence[PreparedRun], names: Sequence[str]
+    fit: MotionFit, runs: Sequence[PreparedRun], names: Sequence[str]
 ) -> dict[frozenset[str], float]:
     """Partial correlation of the sensitivities of each pair in ``names``.
 
@@ -151,7 +151,7 @@ def partial_correlations(
 
 
 def predicted_steps(
-    fit: FitResult, runs: Sequence[PreparedRun], combos: Sequence[tuple[str, ...]]
+    fit: MotionFit, runs: Sequence[PreparedRun], combos: Sequence[tuple[str, ...]]
 ) -> dict[tuple[str, ...], tuple[float, np.ndarray]]:
     """One Gauss–Newton step from ``fit`` for each combination of added effects.
 
@@ -204,7 +204,7 @@ def predicted_steps(
     return out
 
 
-def variance_inflation(fit: FitResult, runs: Sequence[PreparedRun], name: str) -> float:
+def variance_inflation(fit: MotionFit, runs: Sequence[PreparedRun], name: str) -> float:
     """VIF of ``name`` in ``fit``: 1/(1 − R²), R² the share of its sensitivity column that
     the fit's other parameters (and one offset per run) reproduce; ‖col‖²/‖P⊥ col‖².
     1 for a column orthogonal to the rest, ∞ for one the rest span."""

@@ -19,9 +19,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from estimation.axis.output_error import FitResult, fit_output_error
+from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
+from estimation.motion.output_error_fit import MotionFit
 
 
 @dataclass(frozen=True)
@@ -46,7 +47,7 @@ class DriveUncertainty:
         }
 
 
-def release_timing(runs: Sequence[RunData], fit: FitResult) -> dict[str, float]:
+def release_timing(runs: Sequence[RunData], fit: MotionFit) -> dict[str, float]:
     """σ_rel per parameter: refit with each run's release moved by its ``t_release_std``."""
     prepared = [prepare(r) for r in runs]
     shifts = []
@@ -62,7 +63,7 @@ def release_timing(runs: Sequence[RunData], fit: FitResult) -> dict[str, float]:
     return {n: float(s) for n, s in zip(fit.names, total, strict=True)}
 
 
-def drive_uncertainty(runs: Sequence[RunData], fit: FitResult) -> DriveUncertainty:
+def drive_uncertainty(runs: Sequence[RunData], fit: MotionFit) -> DriveUncertainty:
     """Refit ``fit``'s model (same effects) once per drive draw; σ_cal is the spread."""
     std_fit = {n: float(s) for n, s in zip(fit.names, fit.std, strict=True)}
     timing = release_timing(runs, fit)

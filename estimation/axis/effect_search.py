@@ -52,7 +52,7 @@ from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import noise_floor_ratio
 from estimation.axis.materiality import below_resolution
 from estimation.axis.output_error import (
-    FitResult,
+    MotionFit,
     fit_output_error,
     leave_one_run_out_rmse,
 )
@@ -94,8 +94,8 @@ class SearchStep:
 class SearchOutcome:
     """Base fit, final fit, the steps taken and the ambiguities found."""
 
-    base: FitResult
-    final: FitResult
+    base: MotionFit
+    final: MotionFit
     cv_base: float | None
     cv_final: float | None
     steps: tuple[SearchStep, ...]
@@ -115,7 +115,7 @@ def candidate_effects(runs_declared_mass: bool) -> list[str]:
 class _Reference:
     """What a combination must beat: a fit, its LORO error and its Ljung–Box Q."""
 
-    fit: FitResult
+    fit: MotionFit
     cv: float | None
     q: float
 
@@ -141,7 +141,7 @@ class _Search:
         self,
         ref: _Reference,
         combo: tuple[str, ...],
-        fit: FitResult,
+        fit: MotionFit,
         round_no: int,
         rival: _Reference | None = None,
     ) -> bool:
@@ -188,7 +188,7 @@ class _Search:
         )
         return kept
 
-    def tied(self, fit: FitResult, combo: Sequence[str]) -> str | None:
+    def tied(self, fit: MotionFit, combo: Sequence[str]) -> str | None:
         """Why a member of ``combo`` is not identified without out-of-sample evidence
         (variance inflation above ``VIF_LIMIT``), or None; recorded in ``inseparable``."""
         for effect in combo:
@@ -218,7 +218,7 @@ class _Search:
         combos: Sequence[tuple[str, ...]],
         round_no: int,
         rival: _Reference | None = None,
-    ) -> FitResult | None:
+    ) -> MotionFit | None:
         """The kept combination with the lowest BIC (library order within AMBIGUITY_BIC).
 
         A combination is fitted to convergence only when one Gauss–Newton step from the
@@ -234,7 +234,7 @@ class _Search:
             for c, (sse, _) in predicted.items()
         }
 
-        def fit(c: tuple[str, ...], kept: Mapping[tuple[str, ...], FitResult]) -> FitResult | None:
+        def fit(c: tuple[str, ...], kept: Mapping[tuple[str, ...], MotionFit]) -> MotionFit | None:
             bic = bics[c]
             best_gain = min((bics[k] - ref.fit.bic for k in kept), default=0.0)
             why = None
@@ -269,7 +269,7 @@ class _Search:
         )
         return None if chosen is None else chosen[1]
 
-    def identifiable(self, base: FitResult, candidates: Sequence[str]) -> list[str]:
+    def identifiable(self, base: MotionFit, candidates: Sequence[str]) -> list[str]:
         """The candidates these runs can tell from inertia, K_L and K_Q (the rest are
         recorded as not identifiable: no fit could pin them down)."""
         shares = independent_shares(base, self.runs, candidates)
@@ -282,14 +282,14 @@ class _Search:
                 self.steps.append(SearchStep(e, 0.0, None, None, 0.0, 0.0, False, why))
         return kept
 
-    def reference(self, fit: FitResult) -> _Reference:
+    def reference(self, fit: MotionFit) -> _Reference:
         """``fit`` as the model the next combinations must beat."""
         cv = self.cv.get(fit.effects)
         return _Reference(fit, cv, ljung_box(fit.residuals).q_statistic)
 
 
 def search_effects(
-    runs: Sequence[PreparedRun], base: FitResult, candidates: Sequence[str]
+    runs: Sequence[PreparedRun], base: MotionFit, candidates: Sequence[str]
 ) -> SearchOutcome:
     """Subset search of effects over ``candidates`` starting from ``base`` (module doc)."""
     search = _Search(runs, candidates)

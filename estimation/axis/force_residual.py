@@ -10,8 +10,8 @@ import numpy as np
 from estimation.axis.effects import EFFECTS
 from estimation.axis.fit_memo import Recent
 from estimation.axis.model import ParamView
-from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.output_error_fit import MotionFit
 from estimation.stats.diagnostics import position_noise, smoothed_derivatives
 
 #: An estimate reads the same fit's force residual and noise floor more than once (its
@@ -20,7 +20,7 @@ _RESIDUALS: Recent[list[np.ndarray]] = Recent()
 _FLOORS: Recent[float] = Recent()
 
 
-def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndarray]:
+def force_residuals(fit: MotionFit, runs: Sequence[PreparedRun]) -> list[np.ndarray]:
     """Force-domain residual per run (N or N·m): the force the model misses, linearised.
 
     For a position residual r(t) about the model trajectory v(t):
@@ -41,7 +41,7 @@ def force_residuals(fit: FitResult, runs: Sequence[PreparedRun]) -> list[np.ndar
     return list(_RESIDUALS.get((fit, runs), compute))
 
 
-def _force_of(fit: FitResult, run: PreparedRun, res: np.ndarray, v: np.ndarray) -> np.ndarray:
+def _force_of(fit: MotionFit, run: PreparedRun, res: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The linearised force of one run's position residual ``res`` (see force_residuals):
     each term's own stiffness −θ·∂φ/∂x and damping −θ·∂φ/∂v along the model motion."""
     d1, d2 = smoothed_derivatives(run.t, res)
@@ -54,7 +54,7 @@ def _force_of(fit: FitResult, run: PreparedRun, res: np.ndarray, v: np.ndarray) 
     return p.total_inertia(run)[0] * d2 + damping * d1 + stiffness * res
 
 
-def force_noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int = 4) -> float:
+def force_noise_floor(fit: MotionFit, runs: Sequence[PreparedRun], draws: int = 4) -> float:
     """RMS force residual that white position noise of each run's own σ would produce.
 
     The fit implies this floor: the same derivative filter and model terms applied to
@@ -64,7 +64,7 @@ def force_noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int = 
     return _FLOORS.get((fit, runs, draws), lambda: _noise_floor(fit, runs, draws))
 
 
-def _noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int) -> float:
+def _noise_floor(fit: MotionFit, runs: Sequence[PreparedRun], draws: int) -> float:
     rng = np.random.default_rng(12345)
     total, count = 0.0, 0
     sigma = position_noise(fit.residuals, [r.t for r in runs])
@@ -77,7 +77,7 @@ def _noise_floor(fit: FitResult, runs: Sequence[PreparedRun], draws: int) -> flo
     return float(np.sqrt(total / count)) if count else 0.0
 
 
-def noise_floor_ratio(fit: FitResult, runs: Sequence[PreparedRun]) -> float:
+def noise_floor_ratio(fit: MotionFit, runs: Sequence[PreparedRun]) -> float:
     """Pooled RMS force residual of the moving samples over the noise floor the fit implies
     (≈ 1 when only noise is left)."""
     forces = np.concatenate(
@@ -89,7 +89,7 @@ def noise_floor_ratio(fit: FitResult, runs: Sequence[PreparedRun]) -> float:
 
 
 def regressor_correlations(
-    fit: FitResult, runs: Sequence[PreparedRun], force_res: Sequence[np.ndarray]
+    fit: MotionFit, runs: Sequence[PreparedRun], force_res: Sequence[np.ndarray]
 ) -> dict[str, float]:
     """Partial correlation of the pooled force residual with each effect's regressor.
 
@@ -100,7 +100,7 @@ def regressor_correlations(
     base: list[np.ndarray] = []
     regressors = [e for e in EFFECTS if EFFECTS[e].role != "timing"]
     cols: dict[str, list[np.ndarray]] = {k: [] for k in regressors}
-    for r, offset, v in zip(runs, fit.offsets, fit.velocities, strict=True):
+    for r, offset, v in zip(runs, fit.equilibrium, fit.velocities, strict=True):
         a = np.gradient(v, r.t) if r.t.size > 1 else np.zeros_like(v)
         base.append(np.column_stack([a, v, np.abs(v) * v]))
         for name in regressors:

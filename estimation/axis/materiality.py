@@ -15,8 +15,8 @@ import numpy as np
 
 from estimation.axis.effects import EFFECTS
 from estimation.axis.model import simulate
-from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.output_error_fit import MotionFit
 from estimation.stats.acceptance_rules import MATERIAL_NOISE, NUMERICAL_SHARE
 from estimation.stats.diagnostics import position_noise
 
@@ -33,7 +33,7 @@ def _effect_force(effect: str, value: float, run: PreparedRun, velocity: np.ndar
     )
 
 
-def below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> str | None:
+def below_resolution(effect: str, fit: MotionFit, runs: Sequence[PreparedRun]) -> str | None:
     """Why an effect is too small to be a physical finding, or None.
 
     - a release delay is a start-time offset; when the release instant itself is only known
@@ -67,7 +67,7 @@ def below_resolution(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -
     return None
 
 
-def motion_floor(fit: FitResult, runs: Sequence[PreparedRun]) -> float:
+def motion_floor(fit: MotionFit, runs: Sequence[PreparedRun]) -> float:
     """What the data cannot resolve in the motion (m or rad): the largest of the position
     noise σ the fit implies, the motion a release error of RESOLUTION_SIGMAS × its σ
     produces (RMS of v·3σ_t: the release instant is only known that well), and round-off
@@ -80,7 +80,7 @@ def motion_floor(fit: FitResult, runs: Sequence[PreparedRun]) -> float:
     return max(position_noise(fit.residuals, [r.t for r in runs]), timing, NUMERICAL_SHARE * travel)
 
 
-def effect_motion_rms(effect: str, fit: FitResult, runs: Sequence[PreparedRun]) -> float:
+def effect_motion_rms(effect: str, fit: MotionFit, runs: Sequence[PreparedRun]) -> float:
     """RMS (m or rad) of the change in the fitted motion when ``effect`` is set to 0."""
     values = fit.values.copy()
     values[fit.names.index(effect)] = float(

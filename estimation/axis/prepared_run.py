@@ -39,6 +39,7 @@ class PreparedRun:
     #: (m or rad) of the kept samples: where ``integration_step`` linearises the forces.
     peak_speed: float = 0.0
     peak_excursion: float = 0.0
+    dof: str = "surge"  # the DOF it moved along, as imported (a spin: yaw)
 
 
 def prepare(run: RunData) -> PreparedRun:
@@ -70,6 +71,7 @@ def prepare(run: RunData) -> PreparedRun:
         encoder_step=encoder_step(np.asarray(run.position)),
         peak_speed=float(np.max(np.abs(speed), initial=0.0)),
         peak_excursion=float(np.ptp(x)) if x.size else 0.0,
+        dof=run.dof_name,
     )
 
 

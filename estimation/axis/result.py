@@ -9,10 +9,10 @@ import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty
 from estimation.axis.effect_search import SearchStep
-from estimation.axis.output_error import FitResult
 from estimation.axis.reverse import ReverseTest
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
+from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
@@ -97,8 +97,8 @@ class EstimationResult:
     #: The degree of freedom as imported (``RunData.dof``: a tow imported as ``heave``);
     #: None: the axis itself. Headings and texts name it (``subject``).
     dof: str | None = None
-    fit_before: FitResult | None = field(default=None, repr=False, compare=False)
-    fit_after: FitResult | None = field(default=None, repr=False, compare=False)
+    fit_before: MotionFit | None = field(default=None, repr=False, compare=False)
+    fit_after: MotionFit | None = field(default=None, repr=False, compare=False)
 
     @property
     def subject(self) -> str:

@@ -15,7 +15,7 @@ from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
 from estimation.axis.model import BASE_NAMES, at_step_limit
 from estimation.axis.output_error import (
-    FitResult,
+    MotionFit,
     evaluate_parameters,
     fit_output_error,
     leave_one_run_out_rmse,
@@ -174,7 +174,7 @@ def _within(test: ReverseTest | None, envelope: RigEnvelope | None) -> ReverseTe
     return replace(test, drive=drive) if allowed else None
 
 
-def _coefficients(fit: FitResult, axis: str) -> dict[str, Coefficient]:
+def _coefficients(fit: MotionFit, axis: str) -> dict[str, Coefficient]:
     """M, K_L and K_Q with their σ (NaN: not identified) and units on ``axis``."""
     units = units_of(axis)
     return {
@@ -188,7 +188,7 @@ def _distinct_drives(runs: Sequence[PreparedRun]) -> list[float]:
 
 
 def separability_warnings(
-    fit: FitResult,
+    fit: MotionFit,
     runs: Sequence[PreparedRun],
     reverse: ReverseTest | None = None,
     envelope: RigEnvelope | None = None,
@@ -244,7 +244,7 @@ def _linear_drag_warning(
     )
 
 
-def physical_warnings(fit: FitResult, runs: Sequence[RunData]) -> list[str]:
+def physical_warnings(fit: MotionFit, runs: Sequence[RunData]) -> list[str]:
     """A coefficient the data do not determine (σ NaN), an inertia below the body's own,
     a damping held at its bound 0 is named (values a body cannot have are never silent)."""
     out = [
@@ -277,7 +277,7 @@ def physical_warnings(fit: FitResult, runs: Sequence[RunData]) -> list[str]:
     return out
 
 
-def _bootstrap(runs: Sequence[PreparedRun], fit: FitResult, n: int, seed: int) -> Bootstrap:
+def _bootstrap(runs: Sequence[PreparedRun], fit: MotionFit, n: int, seed: int) -> Bootstrap:
     rng = np.random.default_rng(seed)
     draws: list[np.ndarray] = []
     if len(runs) < 2:  # resampling one run only repeats it
@@ -401,7 +401,7 @@ def _build(
 
 
 def combination_conditions(
-    final: FitResult, runs: Sequence[RunData]
+    final: MotionFit, runs: Sequence[RunData]
 ) -> tuple[dict[str, float], list[float]]:
     """What a tow's well-determined combinations are evaluated at: each run's constant drive
     (a thruster run's at its end; N or N·m), and the speed each run reached (the model's at
@@ -414,7 +414,7 @@ def combination_conditions(
 
 
 def well_determined(
-    fit: FitResult, drives: Mapping[str, float], speeds: Sequence[float], axis: str
+    fit: MotionFit, drives: Mapping[str, float], speeds: Sequence[float], axis: str
 ) -> tuple[Combination, ...]:
     """The terminal speed at each of the ``drives``, then the drag at each of the
     ``speeds`` (``combination_conditions``), under ``fit``'s coefficients. The budget evaluates
@@ -435,7 +435,7 @@ def _seed_result(axis, method, runs, prepared) -> EstimationResult:
     else:
         fit = evaluate_parameters(prepared, np.r_[1e-9, ls.values[1:]], ls.std, ls.correlation)
         warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
-    fit = FitResult(**{**fit.__dict__, "values": ls.values})
+    fit = MotionFit(**{**fit.__dict__, "values": ls.values})
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())
     result = _build(axis, method, runs, prepared, outcome, None)
     return EstimationResult(**{**result.__dict__, "warnings": (*warnings, *result.warnings)})

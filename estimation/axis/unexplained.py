@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from estimation.axis.force_residual import force_noise_floor, force_residuals
-from estimation.axis.output_error import FitResult
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.output_error_fit import MotionFit
 from estimation.report_numbers import finite_or_none, finite_values
 from estimation.stats.acceptance_rules import NUMERICAL_SHARE
 from estimation.stats.diagnostics import ljung_box
@@ -112,7 +112,7 @@ class Unexplained:
         }
 
 
-def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unexplained:
+def characterise(fit: MotionFit, runs: Sequence[PreparedRun], axis: str) -> Unexplained:
     """Flag and describe what ``fit`` leaves unexplained in ``runs`` (module doc)."""
     forces = force_residuals(fit, runs)
     moving = [r.t > r.t_release for r in runs]
@@ -140,12 +140,12 @@ def characterise(fit: FitResult, runs: Sequence[PreparedRun], axis: str) -> Unex
     return Unexplained(flagged, p_value, force_rms, floor, correlations, period, strongest)
 
 
-def _coordinates(fit: FitResult, runs: Sequence[PreparedRun]) -> dict[str, list[np.ndarray]]:
+def _coordinates(fit: MotionFit, runs: Sequence[PreparedRun]) -> dict[str, list[np.ndarray]]:
     """Per run: displacement since release, model velocity, time since release, acceleration."""
     out: dict[str, list[np.ndarray]] = {
         k: [] for k in ("position", "velocity", "time", "acceleration")
     }
-    for r, offset, v in zip(runs, fit.offsets, fit.velocities, strict=True):
+    for r, offset, v in zip(runs, fit.equilibrium, fit.velocities, strict=True):
         out["position"].append(r.x - offset)
         out["velocity"].append(v)
         out["time"].append(r.t - r.t_release)

@@ -303,6 +303,22 @@ def at_step_limit(
     return bool(unresolved.any()) or h < 2 * finest_step(tracks)
 
 
+def total_inertia(
+    tracks: Sequence[Track], inertia: np.ndarray, coefficients: Sequence[TermValues]
+) -> np.ndarray:
+    """M + M_known + Σ θ_i·w of the inertia terms, per set and track (S, R; kg or kg·m²):
+    ``inertia`` (S,) or (S, R) the identified part."""
+    n_sets = np.shape(inertia)[0]
+    inertia = np.broadcast_to(np.reshape(inertia, (n_sets, -1)), (n_sets, len(tracks)))
+    total = np.empty((n_sets, len(tracks)))
+    for i, tr in enumerate(tracks):
+        total[:, i] = inertia[:, i] + tr.known_inertia
+        for c in coefficients:
+            if c.term.role == "inertia":
+                total[:, i] += c.value[:, min(i, c.value.shape[1] - 1)] * tr.weight
+    return total
+
+
 def integrate(
     tracks: Sequence[Track],
     inertia: np.ndarray,
@@ -325,7 +341,6 @@ def integrate(
     its drive is read from there and its samples before it read the start state.
     """
     n_sets, n_tracks = x0.shape
-    inertia = np.broadcast_to(np.reshape(inertia, (n_sets, -1)), (n_sets, n_tracks))
     later = np.zeros(1) if shift is None else np.asarray(shift, dtype=float)
     forces = [c for c in coefficients if c.term.role == "force"]
     smooth = [c for c in forces if not c.term.set_valued_at_rest]
@@ -333,12 +348,7 @@ def integrate(
     for c in forces:
         if c.term.set_valued_at_rest:
             held = c.value if held is None else held + c.value
-    total = np.empty((n_sets, n_tracks))
-    for i, tr in enumerate(tracks):
-        total[:, i] = inertia[:, i] + tr.known_inertia
-        for c in coefficients:
-            if c.term.role == "inertia":
-                total[:, i] += c.value[:, min(i, c.value.shape[1] - 1)] * tr.weight
+    total = total_inertia(tracks, inertia, coefficients)
     if h is None:
         h, unresolved = integration_step(tracks, total, forces)
     span = max(float(tr.tau[-1]) for tr in tracks) - min(0.0, float(later.min()))

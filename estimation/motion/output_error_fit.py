@@ -24,7 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.equation import Track, integrate
+from estimation.motion import constant_pull
+from estimation.motion.equation import (
+    STATE_LIMIT,
+    Track,
+    integrate,
+    integration_step,
+    total_inertia,
+)
 from estimation.motion.record_derivatives import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY, TermValues
@@ -41,8 +48,9 @@ FIT_TOLERANCE = 1e-9
 class MotionFit(FitStatistics):
     """A converged fit: coefficients with σ (NaN: not identified), nuisances, trajectories."""
 
-    equilibrium: np.ndarray  # per record, m or rad
-    initial: np.ndarray  # (R, 2): ξ₀ (m or rad), ξ̇₀ (m/s or rad/s)
+    equilibrium: np.ndarray  # per record, m or rad (a record at rest: where it rests)
+    initial: np.ndarray  # (R, 2): ξ₀ (m or rad), ξ̇₀ (m/s or rad/s); 0 for one at rest
+    free: np.ndarray  # per record: starts free (its ξ₀, ξ̇₀ fitted), else at rest
     displacements: tuple[np.ndarray, ...]  # model ξ at the samples
     velocities: tuple[np.ndarray, ...]  # model ξ̇ at the samples
     not_identified: tuple[str, ...] = ()
@@ -54,34 +62,76 @@ def names_of(setup: Setup, effects: Sequence[str]) -> tuple[str, ...]:
     return (*head, *setup.terms, *effects)
 
 
+def rest_of(record: Record) -> float:
+    """Where the record's ξ = 0 starts out (m or rad): a record at rest, the median of its
+    samples up to the release (its first sample without any); a free one, the median of its
+    last fifth (where a decay settles)."""
+    x = np.asarray(record.x, dtype=float)
+    if record.released_at is None:
+        return float(np.median(x[-max(x.size // 5, 3) :]))
+    held = x[np.asarray(record.t) <= record.released_at]
+    return float(np.median(held)) if held.size else float(x[0])
+
+
 def equation_error_start(records: Sequence[Record], setup: Setup, names: Sequence[str]):
-    """Coefficients, equilibria and initial states from least squares on derivatives."""
+    """Coefficients, equilibria and initial states (ξ₀, ξ̇₀; zeros for a record at rest)
+    from least squares on derivatives, over each record's moving samples; a free record's
+    equilibrium error is one more (bias) column."""
     rows, rhs, eqs, init = [], [], [], []
+    any_free = any(r.free for r in records)
     for r in records:
         t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
         v, a = derivatives(t, x)
-        eq = float(np.median(x[-max(x.size // 5, 3) :]))
+        eq = rest_of(r)
         xi = x - eq
         eqs.append(eq)
-        init.append((xi[0], v[0]))
+        init.append((xi[0], v[0]) if r.free else (0.0, 0.0))
         drive = r.drive_at_samples()
         b = (np.zeros_like(t) if drive is None else drive) - known_inertia_of(r, setup) * a
         for n, value in known_terms_of(r, setup).items():
-            b = b + value * LIBRARY[n].regressor(xi, v, a, 0.0, t - t[0])
+            b = b + value * LIBRARY[n].regressor(xi, v, a, r.hung_weight, t - t[0])
         if setup.inertia is not None:
             b = b - setup.inertia * r.weight("inertia") * a
         cols = [
-            r.weight(n) * (a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, 0.0, t - t[0]))
+            r.weight(n)
+            * (a if n == "inertia" else -LIBRARY[n].regressor(xi, v, a, r.hung_weight, t - t[0]))
             for n in names
         ]
-        rows.append(np.column_stack([*cols, np.ones_like(t)]))
-        rhs.append(b)
+        if any_free:
+            cols.append(np.ones_like(t) if r.free else np.zeros_like(t))
+        moving = slice(None) if r.free else t > r.released_at
+        rows.append(np.column_stack(cols)[moving])
+        rhs.append(b[moving])
     sol = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
     return sol[: len(names)], np.array(eqs), np.array(init, dtype=float)
 
 
+def track_of(record: Record, setup: Setup) -> Track:
+    """The record as the integrator reads it: τ from its start (its first sample, or its
+    release: held at rest before it), its drive, its known inertia, the weight of the
+    inertia terms, its range (the divergence guard) and where the step linearises the
+    forces (its largest excursion from ``rest_of`` and its largest speed)."""
+    t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
+    start = t[0] if record.released_at is None else record.released_at
+    return Track(
+        t - start,
+        record.drive_at_samples(),
+        known_inertia_of(record, setup),
+        record.hung_weight,
+        float(np.ptp(x)) or 1.0,
+        drive_before=record.drive_before,
+        reach=float(np.max(np.abs(x - rest_of(record)))),
+        speed=float(np.max(np.abs(derivatives(t, x)[0]))),
+    )
+
+
 class _Problem:
-    """Residuals and Jacobian of the joint fit (globals, then x_eq, ξ₀, ξ̇₀ per record)."""
+    """Residuals and Jacobian of the joint fit: the identified coefficients, then x_eq per
+    record, then ξ₀ and ξ̇₀ per free record (a record at rest starts at ξ = ξ̇ = 0).
+
+    The residual integrates the parameters alone; the Jacobian's finite-difference sets
+    follow only when it is asked for (a rejected trial step never is), on the step chosen
+    for all of them, so each set's path is the same whichever sets run beside it."""
 
     def __init__(
         self,
@@ -91,22 +141,11 @@ class _Problem:
         scale: np.ndarray,
     ) -> None:
         self.scale = scale  # typical size of every parameter (globals, x_eq, ξ₀, ξ̇₀)
-        self.setup, self.names = setup, tuple(names)
+        self.records, self.setup, self.names = tuple(records), setup, tuple(names)
         self.ng, self.nr = len(self.names), len(records)
-        self.tracks = []
-        for r in records:
-            t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
-            self.tracks.append(
-                Track(
-                    t - t[0],
-                    r.drive_at_samples(),
-                    known_inertia_of(r, setup),
-                    0.0,
-                    float(np.ptp(x)) or 1.0,
-                    reach=float(np.max(np.abs(x - np.median(x)))),
-                    speed=float(np.max(np.abs(derivatives(t, x)[0]))),
-                )
-            )
+        self.free = np.array([r.free for r in records])
+        self.nf = int(self.free.sum())
+        self.tracks = [track_of(r, setup) for r in records]
         #: each identified coefficient's weight per record (ng, R); known terms per record
         self.weights = np.array([[r.weight(n) for r in records] for n in self.names])
         self.inertia_weight = np.array([r.weight("inertia") for r in records])
@@ -114,18 +153,35 @@ class _Problem:
         self.known = {
             n: np.array([known_terms_of(r, setup).get(n, 0.0) for r in records]) for n in known
         }
+        terms = [LIBRARY[n] for n in (*self.names, *self.known) if n != "inertia"]
+        self.closed = constant_pull.applies(records, terms)
         self.sizes = [r.t.size for r in records]
         self.starts = np.concatenate([[0], np.cumsum(self.sizes)])
         self.measured = np.concatenate([np.asarray(r.x, dtype=float) for r in records])
         self.index = np.repeat(np.arange(self.nr), self.sizes)
+        self.limit = STATE_LIMIT * (max(float(np.ptp(np.asarray(r.x))) for r in records) + 1.0)
         self._key: bytes | None = None
+        # the last parameters evaluated: their sets, steps and simulated (ξ, ξ̇) (S, n)
+        self.x = self.v = self.eq = self.sets = self.x0 = self.v0 = np.zeros((0, 0))
+        self.g_steps = self.x_step = self.v_step = np.zeros(0)
+        self.h: float | None = None
+        self.unresolved: np.ndarray | None = None
 
     def split(self, p: np.ndarray):
-        ng, nr = self.ng, self.nr
-        return p[:ng], p[ng : ng + nr], p[ng + nr : ng + 2 * nr], p[ng + 2 * nr :]
+        """Globals, x_eq (R), ξ₀ and ξ̇₀ (per free record) of the parameter vector."""
+        ng, nr, nf = self.ng, self.nr, self.nf
+        return p[:ng], p[ng : ng + nr], p[ng + nr : ng + nr + nf], p[ng + nr + nf :]
 
-    def simulate(self, g: np.ndarray, xi0: np.ndarray, v0: np.ndarray):
-        """Per record (ξ, ξ̇) at the samples for parameter sets g (S, ng)."""
+    def state(self, xi0: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every record's start state (S, R) from the free records' (S, F): rest elsewhere."""
+        x = np.zeros((np.shape(xi0)[0], self.nr))
+        v = np.zeros_like(x)
+        x[:, self.free], v[:, self.free] = xi0, v0
+        return x, v
+
+    def parts(self, g: np.ndarray) -> tuple[np.ndarray, list[TermValues], np.ndarray]:
+        """The identified inertia (S, R), every term's values (S, R) and each set's delay
+        (s, (S,): the timing terms) of the parameter sets ``g`` (S, ng)."""
         sets = g.shape[0]
         if "inertia" in self.names:
             inertia = g[:, [self.names.index("inertia")]] * self.inertia_weight
@@ -140,55 +196,144 @@ class _Problem:
             TermValues(LIBRARY[n], np.broadcast_to(v, (sets, self.nr)))
             for n, v in self.known.items()
         ]
-        return integrate(self.tracks, inertia, coeffs, xi0, v0)
+        delay = np.zeros(sets)
+        for c in coeffs:
+            if c.term.role == "timing":
+                delay = delay + c.value[:, 0]
+        return inertia, coeffs, delay
 
-    def _evaluate(self, p: np.ndarray) -> None:
+    def step(self, g: np.ndarray) -> tuple[float, np.ndarray]:
+        """The integrator's step for the sets ``g`` (S, ng) and which it cannot resolve."""
+        inertia, coeffs, _ = self.parts(g)
+        total = total_inertia(self.tracks, inertia, coeffs)
+        return integration_step(self.tracks, total, [c for c in coeffs if c.term.role == "force"])
+
+    def simulate(
+        self,
+        g: np.ndarray,
+        xi0: np.ndarray,
+        v0: np.ndarray,
+        h: float | None = None,
+        unresolved: np.ndarray | None = None,
+        every: np.ndarray | None = None,
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per record (ξ, ξ̇) at the samples for parameter sets g (S, ng) from the free
+        records' start states (S, F); on step ``h`` (None: the one for these sets), finite
+        and within the divergence limit. A force term that is zero in every set of
+        ``every`` (default ``g``: the sets the step was chosen for) is skipped: it exerts
+        nothing (dry friction's set-valued branch costs most)."""
+        inertia, coeffs, delay = self.parts(g)
+        _, all_values, _ = self.parts(g if every is None else every)
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self.closed:
+                total = total_inertia(self.tracks, inertia, coeffs)
+                sims = constant_pull.pull_response(self.records, total, coeffs, delay)
+            else:
+                active = [
+                    c
+                    for c, e in zip(coeffs, all_values, strict=True)
+                    if c.term.role != "force" or np.any(e.value)
+                ]
+                x0, v0_ = self.state(xi0, v0)
+                sims = integrate(
+                    self.tracks,
+                    inertia,
+                    active,
+                    x0,
+                    v0_,
+                    h,
+                    shift=delay if np.any(delay) else None,
+                    unresolved=unresolved,
+                )
+        lim = self.limit
+        return [
+            (np.clip(np.nan_to_num(x, nan=lim, posinf=lim, neginf=-lim), -lim, lim), v)
+            for x, v in sims
+        ]
+
+    def _evaluate(self, p: np.ndarray, perturbed: bool) -> None:
+        """The model at ``p`` (row 0) and, with ``perturbed``, each finite-difference set:
+        every coefficient, then all free records' ξ₀, then their ξ̇₀."""
         key = p.tobytes()
-        if key == self._key:
-            return
-        g, eq, xi0, v0 = self.split(p)
-        self.g_steps = 1e-6 * np.maximum(np.abs(g), self.scale[: self.ng] * 1e-3)
-        self.x_step = 1e-6 * np.maximum(np.abs(xi0), self.scale[self.ng + self.nr :][: self.nr])
-        self.v_step = 1e-6 * np.maximum(np.abs(v0), self.scale[self.ng + 2 * self.nr :])
-        sets = np.vstack([g, g + np.diag(self.g_steps), g, g])
-        x0 = np.vstack([xi0] * (self.ng + 1) + [xi0 + self.x_step, xi0])
-        vv = np.vstack([v0] * (self.ng + 2) + [v0 + self.v_step])
-        sims = self.simulate(sets, x0, vv)
+        if key != self._key:
+            g, eq, xi0, v0 = self.split(p)
+            self.g_steps = 1e-6 * np.maximum(np.abs(g), self.scale[: self.ng] * 1e-3)
+            ng, nr, nf = self.ng, self.nr, self.nf
+            self.x_step = 1e-6 * np.maximum(np.abs(xi0), self.scale[ng + nr : ng + nr + nf])
+            self.v_step = 1e-6 * np.maximum(np.abs(v0), self.scale[ng + nr + nf :])
+            extra = 2 if nf else 0
+            self.sets = np.vstack([g, g + np.diag(self.g_steps), *([g] * extra)])
+            self.x0 = np.vstack([xi0] * (ng + 1) + ([xi0 + self.x_step, xi0] if nf else []))
+            self.v0 = np.vstack([v0] * (ng + 1) + ([v0, v0 + self.v_step] if nf else []))
+            self.h, self.unresolved = (None, None) if self.closed else self.step(self.sets)
+            self._simulate_rows(slice(0, 1))
+            self.eq = eq
+            self._key = key
+        if perturbed and self.x.shape[0] == 1:
+            x, v = self.x, self.v
+            self._simulate_rows(slice(1, None))
+            self.x, self.v = np.vstack([x, self.x]), np.vstack([v, self.v])
+
+    def _simulate_rows(self, rows: slice) -> None:
+        unresolved = None if self.unresolved is None else self.unresolved[rows]
+        sims = self.simulate(
+            self.sets[rows], self.x0[rows], self.v0[rows], self.h, unresolved, self.sets
+        )
         self.x = np.concatenate([s[0] for s in sims], axis=1)
         self.v = np.concatenate([s[1] for s in sims], axis=1)
-        self.model = self.x[0] + eq[self.index]
-        self._key = key
+
+    @property
+    def model(self) -> np.ndarray:
+        """The modelled positions at the last parameters evaluated (m or rad)."""
+        return self.x[0] + self.eq[self.index]
 
     def residual(self, p: np.ndarray) -> np.ndarray:
-        self._evaluate(p)
+        self._evaluate(p, perturbed=False)
         return self.measured - self.model
 
     def jacobian(self, p: np.ndarray) -> np.ndarray:
-        self._evaluate(p)
-        ng, nr, rows = self.ng, self.nr, np.arange(self.measured.size)
+        self._evaluate(p, perturbed=True)
+        ng, nr, nf = self.ng, self.nr, self.nf
+        rows = np.arange(self.measured.size)
         jac = np.zeros((self.measured.size, p.size))
         jac[:, :ng] = -((self.x[1 : ng + 1] - self.x[0]) / self.g_steps[:, None]).T
         jac[rows, ng + self.index] = -1.0
-        jac[rows, ng + nr + self.index] = -(self.x[ng + 1] - self.x[0]) / self.x_step[self.index]
-        jac[rows, ng + 2 * nr + self.index] = (
-            -(self.x[ng + 2] - self.x[0]) / self.v_step[self.index]
-        )
+        if nf:
+            # free record k's own ξ₀/ξ̇₀ column: its samples only
+            slot = np.cumsum(self.free) - 1
+            own = self.free[self.index]
+            at = rows[own]
+            k = slot[self.index[own]]
+            jac[at, ng + nr + k] = -(self.x[ng + 1, own] - self.x[0, own]) / self.x_step[k]
+            jac[at, ng + nr + nf + k] = -(self.x[ng + 2, own] - self.x[0, own]) / self.v_step[k]
         return jac
 
 
 def _bounds(records: Sequence[Record], setup: Setup, names: Sequence[str], typical: np.ndarray):
-    nr = len(records)
+    """The coefficients' bounds (the total inertia stays positive on every record; each
+    term's own), then none on the nuisances."""
+    nuisances = len(records) + 2 * sum(r.free for r in records)
     lo, hi = [], []
     for n, s in zip(names, typical, strict=True):
-        if n == "inertia":  # the total inertia stays positive on every record
+        if n == "inertia":
             low = max(-known_inertia_of(r, setup) / r.weight("inertia") for r in records)
             lo.append(low + 1e-9 * max(s, -low))
             hi.append(np.inf)
         else:
             lo.append(LIBRARY[n].lower)
             hi.append(LIBRARY[n].upper)
-    inf = [np.inf] * (3 * nr)
-    return np.array(lo + [-np.inf] * (3 * nr)), np.array(hi + inf)
+    return np.array(lo + [-np.inf] * nuisances), np.array(hi + [np.inf] * nuisances)
+
+
+def _nuisance_scale(records: Sequence[Record]) -> np.ndarray:
+    """Typical sizes of x_eq (R), ξ₀ and ξ̇₀ (per free record): the records' largest range
+    and largest speed."""
+    amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
+    speed = max(float(np.ptp(derivatives(np.asarray(r.t), np.asarray(r.x))[0])) for r in records)
+    nf = sum(r.free for r in records)
+    return np.concatenate(
+        [np.full(len(records), amp), np.full(nf, amp), np.full(nf, max(speed, 1e-12))]
+    )
 
 
 def _solve(
@@ -200,25 +345,24 @@ def _solve(
     tolerance: float,
 ) -> tuple[_Problem, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The joint least squares (``fit_motion``): its problem, the solution (globals, x_eq,
-    ξ₀, ξ̇₀), the bounds and each coefficient's typical size."""
-    nr = len(records)
+    ξ₀, ξ̇₀), the bounds and each coefficient's typical size. ``start``: the globals, or
+    the whole vector, to start from (else the equation-error least squares)."""
+    ng = len(names)
+    free = np.array([r.free for r in records])
     g0, eq0, init0 = equation_error_start(records, setup, names)
-    amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
-    speed = max(float(np.ptp(derivatives(np.asarray(r.t), np.asarray(r.x))[0])) for r in records)
     typical = _typical(records, setup, names, g0)
+    nuisances = np.concatenate([eq0, init0[free, 0], init0[free, 1]])
     if start is not None:
-        g0 = np.asarray(start, dtype=float)[: len(names)]
-        eq0, xi0, v0 = np.split(np.asarray(start, dtype=float)[len(names) :], 3)
-        init0 = np.column_stack([xi0, v0])
+        start = np.asarray(start, dtype=float)
+        g0 = start[:ng]
+        if start.size > ng:
+            nuisances = start[ng:]
     lower, upper = _bounds(records, setup, names, typical)
-    p0 = np.concatenate([g0, eq0, init0[:, 0], init0[:, 1]])
-    nudge = np.concatenate([1e-6 * typical, np.zeros(3 * nr)])
+    p0 = np.concatenate([g0, nuisances])
+    nudge = np.concatenate([1e-6 * typical, np.zeros(nuisances.size)])
     p0 = np.clip(np.where(np.isfinite(p0), p0, 0.0), lower, upper)
     p0 = np.where(np.isfinite(lower) & (p0 <= lower), lower + nudge, p0)
-    scale = np.concatenate(
-        [typical, np.full(nr, amp), np.full(nr, amp), np.full(nr, max(speed, 1e-12))]
-    )
-    prob = _Problem(records, setup, names, scale)
+    prob = _Problem(records, setup, names, np.concatenate([typical, _nuisance_scale(records)]))
     from scipy.optimize import least_squares  # here: the service imports this module's types
 
     sol = least_squares(
@@ -242,11 +386,14 @@ def fit_motion(
     effects: Sequence[str] = (),
     start: np.ndarray | None = None,
     max_nfev: int = 100,
+    quantization_sigma: bool = True,
 ) -> MotionFit:
-    """Fit the identified coefficients and each record's x_eq, ξ₀, ξ̇₀ (module doc).
+    """Fit the identified coefficients and each record's nuisances (module doc).
 
-    ``start``: full parameter vector of a previous fit (globals then nuisances) to go on
-    from; new effects then start at their ``start_share`` of their typical size.
+    ``start``: the globals, or the full parameter vector of a previous fit
+    (``parameters_of``), to go on from. ``quantization_sigma``: False for a refit whose σ
+    is discarded (a bootstrap draw, a leave-one-out refit): the quantization σ, the
+    costliest part, is not computed (``std_quantization`` None).
     """
     names = names_of(setup, effects)
     prob, p, lower, upper, typical = _solve(records, setup, names, start, max_nfev, FIT_TOLERANCE)
@@ -256,16 +403,26 @@ def fit_motion(
             f"the {setup.dof} equation with {', '.join(names)}",
             "the simulated motion did not stay finite from any start",
         )
-    fitted, steps = prob.measured - res, [record_step(r.x) for r in records]
+    fitted = prob.measured - res
+    steps = (
+        [record_step(r.x) if r.quantum is None else r.quantum for r in records]
+        if quantization_sigma
+        else []
+    )
     stats = honest_statistics(res, prob.jacobian(p), len(names), prob.sizes, fitted, steps)
-    tol = 1e-6 * np.maximum(np.abs(p[: len(names)]), typical * 1e-3)
+    # at a bound: within 1e-6 of the coefficient's typical size (or its value) of it (the
+    # trust region approaches a bound it rests on without reaching it: a K_Q of 7e-8 against
+    # a typical 1.8 kg/m is a drag law pinned at 0)
+    tol = 1e-6 * np.maximum(np.abs(p[: len(names)]), typical)
     at_bound = tuple(
         n
         for n, v, lo, hi, e in zip(names, p, lower, upper, tol, strict=False)
         if abs(v - lo) < e or abs(v - hi) < e
     )
     g, eq, xi0, v0 = prob.split(p)
-    prob._evaluate(p)
+    prob.residual(p)
+    initial = np.zeros((len(records), 2))
+    initial[prob.free] = np.column_stack([xi0, v0])
     return MotionFit(
         effects=tuple(effects),
         names=names,
@@ -274,7 +431,8 @@ def fit_motion(
         residuals=tuple(np.split(res, prob.starts[1:-1])),
         at_bound=at_bound,
         equilibrium=eq.copy(),
-        initial=np.column_stack([xi0, v0]),
+        initial=initial,
+        free=prob.free.copy(),
         displacements=tuple(np.split(prob.x[0], prob.starts[1:-1])),
         velocities=tuple(np.split(prob.v[0], prob.starts[1:-1])),
         not_identified=tuple(
@@ -283,9 +441,11 @@ def fit_motion(
     )
 
 
-def parameters_of(fit: MotionFit) -> np.ndarray:
-    """The full parameter vector of ``fit`` (globals, x_eq, ξ₀, ξ̇₀) to restart from."""
-    return np.concatenate([fit.values, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
+def parameters_of(fit: MotionFit | _Subset) -> np.ndarray:
+    """The full parameter vector of ``fit`` (globals, x_eq, then ξ₀ and ξ̇₀ of the free
+    records) to restart from."""
+    free = fit.free
+    return np.concatenate([fit.values, fit.equilibrium, fit.initial[free, 0], fit.initial[free, 1]])
 
 
 @dataclass(frozen=True)
@@ -303,17 +463,17 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
 
     Per fold: ``fit``'s coefficients and the other records' nuisances are refitted from
     ``fit``'s optimum (``LORO_NFEV`` evaluations, ``REFIT_TOLERANCE``); the held-out record
-    is then simulated with those coefficients fixed, fitting only its own x_eq, ξ₀, ξ̇₀
+    is then simulated with those coefficients fixed, fitting only its own nuisances
     (``predict_record``). Raises ``EstimationFailed`` when a refit or a prediction does
     not stay finite."""
     nr = len(records)
     if nr < LORO_MIN_RUNS:
         return None
-    p, ng = parameters_of(fit), len(fit.names)
+    ng = len(fit.names)
     held_out = []
     for i in range(nr):
         train = [r for j, r in enumerate(records) if j != i]
-        start = np.delete(p, [ng + i, ng + nr + i, ng + 2 * nr + i])
+        start = parameters_of(_Subset(fit, [j for j in range(nr) if j != i]))
         prob, sub, *_ = _solve(train, setup, fit.names, start, LORO_NFEV, REFIT_TOLERANCE)
         if not np.all(np.isfinite(prob.residual(sub))):
             raise EstimationFailed(
@@ -321,27 +481,44 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
                 f"{records[i].run_id}",
                 "the refitted motion did not stay finite",
             )
-        nuisance = np.array([fit.equilibrium[i], *fit.initial[i]])
-        held_out.append(predict_record(records, i, setup, fit.names, sub[:ng], nuisance))
+        held_out.append(predict_record(records[i], setup, fit.names, sub[:ng], fit, i))
     per_record = tuple(float(np.sqrt(np.mean(r**2))) for r in held_out)
     return HeldOut(pooled_rmse(held_out), per_record)
 
 
+class _Subset:
+    """``fit``'s coefficients with the nuisances of the records ``keep`` only."""
+
+    def __init__(self, fit: MotionFit, keep: Sequence[int]) -> None:
+        self.values = fit.values
+        self.equilibrium = fit.equilibrium[list(keep)]
+        self.initial = fit.initial[list(keep)]
+        self.free = fit.free[list(keep)]
+
+
 def predict_record(
-    records: Sequence[Record],
-    index: int,
+    record: Record,
     setup: Setup,
     names: Sequence[str],
     values: np.ndarray,
-    nuisance: np.ndarray,
+    fit: MotionFit | None = None,
+    index: int = 0,
 ) -> np.ndarray:
-    """Residual of ``records[index]`` under fixed coefficients ``values`` (``names``),
-    fitting only its own x_eq, ξ₀, ξ̇₀ (``nuisance``: their start) to ``REFIT_TOLERANCE``."""
-    record, ng = records[index], len(names)
-    amp = float(np.ptp(np.asarray(record.x))) or 1.0
-    speed = float(np.ptp(derivatives(np.asarray(record.t), np.asarray(record.x))[0]))
-    scale = np.concatenate([np.maximum(np.abs(values), 1e-12), [amp, amp, max(speed, 1e-12)]])
+    """Residual of ``record`` under fixed coefficients ``values`` (``names``), fitting only
+    its own nuisances (x_eq; ξ₀, ξ̇₀ when free) to ``REFIT_TOLERANCE``, from ``fit``'s for
+    the record at ``index`` (else the equation-error start's)."""
+    ng = len(names)
+    if fit is None:
+        _, eq0, init0 = equation_error_start([record], setup, names)
+        state = init0[0]
+    else:
+        eq0, state = fit.equilibrium[[index]], fit.initial[index]
+    nuisance = np.concatenate([eq0, state if record.free else []])
+    scale = np.concatenate([np.maximum(np.abs(values), 1e-12), _nuisance_scale([record])])
     prob = _Problem([record], setup, names, scale)
+    if not record.free:  # its one nuisance, the rest position, enters linearly: the mean
+        res = prob.residual(np.concatenate([values, [0.0]]))
+        return res - np.mean(res)
     from scipy.optimize import least_squares  # here: the service imports this module's types
 
     sol = least_squares(
@@ -383,7 +560,7 @@ def _typical(records, setup: Setup, names, g0, inertia: float = 0.0) -> np.ndarr
         for r in records:
             t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
             v, a = derivatives(t, x)
-            xi = x - np.median(x[-max(x.size // 5, 3) :])
+            xi = x - rest_of(r)
             m = known_inertia_of(r, setup) + r.weight("inertia") * abs(identified)
             d = r.drive_at_samples()
             force = max(
@@ -392,7 +569,7 @@ def _typical(records, setup: Setup, names, g0, inertia: float = 0.0) -> np.ndarr
             size = (
                 force / max(float(np.max(np.abs(a))), 1e-12)
                 if n == "inertia"
-                else LIBRARY[n].typical(force, xi, v, a, 0.0, t - t[0])
+                else LIBRARY[n].typical(force, xi, v, a, r.hung_weight, t - t[0])
             )
             sizes.append(size / r.weight(n))
         out.append(max(max(sizes), abs(start) if np.isfinite(start) else 0.0, 1e-12))
@@ -404,19 +581,46 @@ def simulate(
     setup: Setup,
     names: Sequence[str],
     values: np.ndarray,
-    initial: np.ndarray,
+    initial: np.ndarray | None = None,
+    rows: slice = slice(None),
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """ξ and ξ̇ at each record's samples for fixed coefficients ``values`` (``names``, as
     ``names_of`` orders them; (S, ng): S sets at once, each result then (S, n)) from each
-    record's initial state ``initial`` ((S,) R, 2: ξ₀, ξ̇₀), on the one step the
-    integrator chooses for all the sets."""
+    record's initial state ``initial`` ((S,) R, 2: ξ₀, ξ̇₀; a record at rest ignores its
+    own; None: every record at rest), on the one step the integrator chooses for all the
+    sets; ``rows``: only the sets ``values[rows]`` on that step (a finite-difference
+    Jacobian's perturbed sets after its centre: the same numbers as all at once)."""
     g = np.atleast_2d(np.asarray(values, dtype=float))
-    prob = _Problem(records, setup, names, np.ones(len(names) + 3 * len(records)))
-    init = np.broadcast_to(np.asarray(initial, dtype=float), (g.shape[0], len(records), 2))
-    sims = prob.simulate(g, init[:, :, 0], init[:, :, 1])
+    nr = len(records)
+    prob = _Problem(records, setup, names, np.ones(len(names) + nr + 2 * nr))
+    if initial is None:
+        initial = np.zeros((nr, 2))
+    init = np.broadcast_to(np.asarray(initial, dtype=float), (g.shape[0], nr, 2))
+    free = prob.free
+    h, unresolved = (None, None) if prob.closed else prob.step(g)
+    sims = prob.simulate(
+        g[rows],
+        init[rows][:, free, 0],
+        init[rows][:, free, 1],
+        h,
+        None if unresolved is None else unresolved[rows],
+        g,
+    )
     if np.ndim(values) == 1:
         return [(x[0], v[0]) for x, v in sims]
     return sims
+
+
+def step_of(
+    records: Sequence[Record], setup: Setup, names: Sequence[str], values: np.ndarray
+) -> tuple[float | None, np.ndarray]:
+    """The integrator's step (s) for the parameter sets ``values`` (S, ng) on these records
+    and which sets it cannot resolve (``equation.integration_step``); None: the closed form
+    (``constant_pull``) applies, no step."""
+    prob = _Problem(records, setup, names, np.ones(len(names) + 3 * len(records)))
+    if prob.closed:
+        return None, np.zeros(np.shape(values)[0], dtype=bool)
+    return prob.step(np.atleast_2d(np.asarray(values, dtype=float)))
 
 
 def sensitivities(
@@ -439,10 +643,9 @@ def sensitivities(
         ]
     )
     amp = max(float(np.ptp(np.asarray(r.x))) for r in records) or 1.0
-    nr = len(records)
-    scale = np.concatenate([typical, np.full(2 * nr, amp), np.full(nr, amp)])
-    prob = _Problem(records, setup, names, scale)
-    p = np.concatenate([g, fit.equilibrium, fit.initial[:, 0], fit.initial[:, 1]])
+    nuisances = len(records) + 2 * sum(r.free for r in records)
+    prob = _Problem(records, setup, names, np.concatenate([typical, np.full(nuisances, amp)]))
+    p = np.concatenate([g, parameters_of(fit)[len(fit.values) :]])
     jac = -prob.jacobian(p)
     k, ng = len(extra), len(fit.values)
     own = np.delete(jac, np.arange(ng, ng + k), axis=1)

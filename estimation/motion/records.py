@@ -2,6 +2,8 @@
 
 A record is any sampled motion x(t) of one DOF with an optional drive: a free decay
 released from an offset (no drive), a forced record (drive per sample) or a constant pull.
+It starts either *free* (from the state the fit gives at its first sample) or *at rest at
+its release* (a tow or a spin: held at the position it rests at until ``released_at``).
 Its setup says what is known (rig or body inertia, a stiffness from hydrostatics) and what
 the fit identifies.
 """
@@ -29,6 +31,13 @@ class Record:
     this record (name → w, ``"inertia"`` included; absent: 1): θ enters the equation as θ·w,
     so θ keeps the unit its physics has where it acts (a pendulum's vehicle at lever arm l:
     inertia and linear damping weigh l², quadratic damping l³).
+
+    ``released_at``: the release instant (s, on ``t``'s clock) of a record at rest before
+    it (its samples up to it read the rest position); None: free from its first sample.
+    ``drive_before``: the drive held before the first sample (None: the first sample's).
+    ``hung_weight``: |τ|/g of a hung weight whose mass is not declared (kg): the weight of
+    the inertia-role terms (``drive_inertia``). ``quantum``: the position's quantization
+    step (m or rad; None: read off ``x``, ``record_derivatives.record_step``).
     """
 
     run_id: str
@@ -38,6 +47,15 @@ class Record:
     known_inertia: float | None = None
     known_terms: Mapping[str, float] | None = None
     weights: Mapping[str, float] = field(default_factory=dict)
+    released_at: float | None = None
+    drive_before: float | None = None
+    hung_weight: float = 0.0
+    quantum: float | None = None
+
+    @property
+    def free(self) -> bool:
+        """Whether the record starts free (its initial state fitted), not at rest."""
+        return self.released_at is None
 
     def weight(self, name: str) -> float:
         """The weight of the identified coefficient ``name`` on this record (default 1)."""

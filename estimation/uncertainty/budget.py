@@ -33,12 +33,13 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-from estimation.axis.output_error import FitResult, fit_output_error
+from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.axis.result import EstimationResult
 from estimation.axis.tow_estimate import combination_conditions, well_determined
 from estimation.data.run_arrays import RunData
 from estimation.kind_advice import advice_for
+from estimation.motion.output_error_fit import MotionFit
 from estimation.report_numbers import finite_or_none
 from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
 from estimation.uncertainty.rows import BudgetRow
@@ -166,7 +167,7 @@ def round_reported(value: float, expanded: float, digits: int = 2) -> tuple[str,
 def _type_b_sensitivity(
     runs: Sequence[RunData],
     result: EstimationResult,
-    fit: FitResult,
+    fit: MotionFit,
     conditions: tuple[Mapping[str, float], Sequence[float]],
     chain: Chain,
     source: str,
@@ -194,7 +195,7 @@ def _type_b_sensitivity(
 def _type_b_rows(
     runs: Sequence[RunData],
     result: EstimationResult,
-    fit: FitResult,
+    fit: MotionFit,
     conditions: tuple[Mapping[str, float], Sequence[float]],
     chain: Chain,
     tolerances: Mapping[str, float],

@@ -29,10 +29,11 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-from estimation.axis.output_error import FitResult, fit_output_error
+from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 from estimation.kind_advice import ADVICE, KindAdvice
+from estimation.motion.output_error_fit import MotionFit
 from estimation.report_numbers import finite_or_none
 
 LOAD_TOLERANCE = 0.01
@@ -188,7 +189,7 @@ def without_excluded(runs: Sequence[RunData], analysis: RepeatAnalysis) -> list[
 
 def repeat_campaign_std(
     runs: Sequence[RunData],
-    fit: FitResult,
+    fit: MotionFit,
     analysis: RepeatAnalysis,
     advice: KindAdvice = ADVICE["tow"],
 ) -> tuple[dict[str, tuple[float, int]], str]:

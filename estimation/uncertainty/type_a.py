@@ -30,9 +30,9 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
-from estimation.axis.output_error import FitResult
 from estimation.axis.result import EstimationResult
 from estimation.axis.tow_estimate import well_determined
+from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import LIBRARY
 from estimation.uncertainty.rows import BudgetRow
 
@@ -51,7 +51,7 @@ def coefficient_unit(name: str, axis: str) -> str:
 
 def combination_rows(
     result: EstimationResult,
-    fit: FitResult,
+    fit: MotionFit,
     conditions: tuple[Mapping[str, float], Sequence[float]],
     dof_fit: float,
 ) -> dict[str, BudgetRow]:
@@ -81,7 +81,7 @@ def combination_rows(
 
 
 def type_a_rows(
-    result: EstimationResult, fit: FitResult, repeat_std: Mapping[str, tuple[float, int]]
+    result: EstimationResult, fit: MotionFit, repeat_std: Mapping[str, tuple[float, int]]
 ) -> dict[str, list[BudgetRow]]:
     rows: dict[str, list[BudgetRow]] = {}
     dof_fit = max(fit.n_samples - fit.n_params, 1)

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from estimation.axis.model import constant_force_response, simulate
+from estimation.axis.model import simulate
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
+from estimation.motion.constant_pull import constant_force_response
 
 
 def _runs(drives):

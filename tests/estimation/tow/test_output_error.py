@@ -94,12 +94,14 @@ def test_a_trial_step_integrates_the_centre_only_the_jacobian_its_perturbations(
     noise = np.random.default_rng(3).normal(0.0, 1e-4, t.size)
     run = prepare(RunData("w", "surge", t, x + noise, drive, t_release=1.0))
     calls: list[int] = []
+    from estimation.motion import output_error_fit
 
-    def counting(*args):  # theta, effects, runs[, rows]
-        calls.append(len(np.atleast_2d(args[0])[args[3] if len(args) > 3 else slice(None)]))
-        return simulate(*args)
+    def counting(tracks, inertia, coefficients, x0, *args, **kwargs):
+        calls.append(x0.shape[0])  # parameter sets integrated at once
+        return integrate(tracks, inertia, coefficients, x0, *args, **kwargs)
 
-    monkeypatch.setattr("estimation.axis.output_error.simulate", counting)
+    integrate = output_error_fit.integrate
+    monkeypatch.setattr(output_error_fit, "integrate", counting)
     fit = fit_output_error([run], (), start=1.2 * np.array(SURGE_TRUTH))
     assert set(calls) == {1, 3}, calls  # the centre alone, or its 3 perturbations
     assert fit.values[0] == pytest.approx(SURGE_TRUTH[0], rel=0.05)
