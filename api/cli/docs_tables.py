@@ -4,8 +4,9 @@ and README.md), the table between ``<!-- parameters: package.module.Model -->`` 
 ``<!-- /parameters -->`` from that model's fields (name, option, type and range, default,
 help), and the code span between ``<!-- options: package.module.Model … -->`` and
 ``<!-- /options -->`` (inline, in a command table's row) with the options of those models
-(``[--operator NAME] … [--tag TAG]…``), so adding an option to an operation is one edit in
-its model and a run of this module; ``--check`` only says which files differ (exit 1), as
+(``[--operator NAME] … [--tag TAG]…``, ``--command C | --force N`` for a model's
+``exactly_one_of``), so adding an option to an operation is one edit in its model and a run
+of this module; ``--check`` only says which files differ (exit 1), as
 ``tests/api/test_docs_tables.py`` does.
 """
 
