@@ -54,27 +54,27 @@ class DecayImport(BaseModel):
         Field(gt=0, description="Free decay: the known linear restoring stiffness, N/m or "
               "N·m/rad (heave ρ·g·A_w, roll Δ·g·GM); without it the inertia scale is not "
               "identified."),
-        Flag("--stiffness"),
+        Flag("--stiffness", metavar="K"),
     ] = None  # fmt: skip
     known_inertia: Annotated[
         float | None,
         Field(ge=0, description="Free decay: the body's own mass or inertia, kg or kg·m² "
               "(the identified inertia is then the added one)."),
-        Flag("--known-inertia"),
+        Flag("--known-inertia", metavar="M"),
     ] = None  # fmt: skip
     stiffness_tolerance: Annotated[
         float | None,
         Field(ge=0, allow_inf_nan=False, description="Free decay: the half-width within "
               "which --stiffness is known (rectangular), N/m or N·m/rad; a Type B row of the "
               "uncertainty budget (without it the stiffness is taken as exact)."),
-        Flag("--stiffness-tolerance"),
+        Flag("--stiffness-tolerance", metavar="HALF_WIDTH"),
     ] = None  # fmt: skip
     known_inertia_tolerance: Annotated[
         float | None,
         Field(ge=0, allow_inf_nan=False, description="Free decay: the half-width within "
               "which --known-inertia is known (rectangular), kg or kg·m²; a Type B row of "
               "the uncertainty budget."),
-        Flag("--known-inertia-tolerance"),
+        Flag("--known-inertia-tolerance", metavar="HALF_WIDTH"),
     ] = None  # fmt: skip
 
 

@@ -4,8 +4,9 @@ and README.md), the table between ``<!-- parameters: package.module.Model -->`` 
 ``<!-- /parameters -->`` from that model's fields (name, option, type and range, default,
 help), and the code span between ``<!-- options: package.module.Model … -->`` and
 ``<!-- /options -->`` (inline, in a command table's row) with the options of those models
-(``[--operator NAME] … [--tag TAG]…``), so adding an option to an operation is one edit in
-its model and a run of this module; ``--check`` only says which files differ (exit 1), as
+(``[--operator NAME] … [--tag TAG]…``, ``--command C | --force N`` for a model's
+``exactly_one_of``), so adding an option to an operation is one edit in its model and a run
+of this module; ``--check`` only says which files differ (exit 1), as
 ``tests/api/test_docs_tables.py`` does.
 """
 
@@ -20,6 +21,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from daq.procedures.flag import Flag
+from daq.procedures.procedure_request import required_by_check
 
 #: The files holding tables, from the repository's root.
 DOCS = (Path("docs/api.md"), Path("README.md"))
@@ -92,23 +94,37 @@ _UNITS = ("s", "m", "n", "nm", "kg", "rad", "v", "us", "hz")
 
 def _placeholder(name: str, kind: str) -> str:
     """An option's placeholder when its flag has no metavar: the unit its field's name ends
-    in (``max_time_s`` → ``S``), ``N`` for a count, else the name (``THRUSTER``)."""
+    in (``max_time_s`` → ``S``), ``COLUMN`` for a table's column (``thrust_column``), ``N``
+    for a count, else the name (``THRUSTER``)."""
     unit = name.rsplit("_", 1)[-1]
     if "_" in name and unit in _UNITS:
         return unit.upper()
+    if "_" in name and unit == "column":
+        return "COLUMN"
     return "N" if kind.startswith("integer") else name.upper()
+
+
+def _required(model: type[BaseModel], name: str) -> bool:
+    """Whether field ``name`` must be given: required by the model, or by the rig check
+    although its default is ``None`` (``RequiredByCheck``: manual thrust's ``--command``)."""
+    return model.model_fields[name].is_required() or required_by_check(model, name)
 
 
 def option_list(models: list[type[BaseModel]]) -> str:
     """The options of ``models`` as a command's synopsis, in field order: ``--force N`` when
     required, ``[--notes TEXT]`` when not, ``[--thrusters]`` for an on/off flag and
     ``[--tag TAG]…`` for a repeatable one; ``--kind tow\\|spin`` for a choice without a
-    metavar (``|`` escaped: the list is a Markdown table's cell)."""
-    words = []
+    metavar; the fields a model gives exactly one of (its ``exactly_one_of``) as one
+    alternative where the first of them is, ``--command C \\| --force N`` (``|`` escaped:
+    the list is a Markdown table's cell)."""
+    words: list[str] = []
     for model in models:
         schema_of = model.model_json_schema()
         properties, defs = schema_of.get("properties", {}), schema_of.get("$defs", {})
-        for name, info in model.model_fields.items():
+        one_of: tuple[str, ...] = getattr(model, "exactly_one_of", ())
+        alternatives: list[str] = []
+        where = 0
+        for name in model.model_fields:
             flag = _flag(model, name)
             if flag is None:
                 continue
@@ -118,8 +134,15 @@ def option_list(models: list[type[BaseModel]]) -> str:
                 choices = kind.removeprefix("list of ").removeprefix("one of ").split(", ")
                 some = "|".join(choices) if "one of " in kind else _placeholder(name, kind)
                 word += f" {flag.metavar or some}"
-            word = word if info.is_required() else f"[{word}]"
-            words.append(word + ("…" if _repeats(kind, flag) else ""))
+            repeats = "…" if _repeats(kind, flag) else ""
+            if name in one_of:
+                if not alternatives:  # the group stands where its first field is
+                    where = len(words)
+                alternatives.append(word + repeats)
+                continue
+            words.append((word if _required(model, name) else f"[{word}]") + repeats)
+        if alternatives:
+            words.insert(where, " | ".join(alternatives))
     return " ".join(words).replace("|", "\\|")  # a table cell's | is escaped
 
 
@@ -136,7 +159,7 @@ def parameter_table(model: type[BaseModel]) -> str:
         option = "—" if flag is None else f"`{flag.name}`"
         if flag is not None and _repeats(kind, flag):
             option += " (repeatable)"
-        if info.is_required():
+        if _required(model, name):
             default = "required"
         elif schema.get("default") in (None, [], {}):
             default = "—"

@@ -5,7 +5,7 @@ import-calibration`` (:class:`StandTableQuery`), ``GET /api/thrust`` and ``rig t
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -122,11 +122,14 @@ class ThrustQuery(BaseModel):
     ``force_n`` (exactly one), at the supply ``voltage_v``."""
 
     model_config = ConfigDict(frozen=True)
+    #: Exactly one of these fields is given (:meth:`check`; the docs' ``--command C |
+    #: --force N``).
+    exactly_one_of: ClassVar[tuple[str, ...]] = ("command", "force_n")
 
     command: Annotated[
         float | None,
         Field(ge=-1, le=1, description="Command, fraction of full command: give the force."),
-        Flag("--command"),
+        Flag("--command", metavar="C"),
     ] = None
     force_n: Annotated[
         float | None,
@@ -142,9 +145,10 @@ class ThrustQuery(BaseModel):
     ] = None  # fmt: skip
 
     def check(self) -> None:
-        """``ValueError`` naming both fields unless exactly one of them is given."""
-        if (self.command is None) == (self.force_n is None):
-            raise ValueError("command or force_n: give exactly one")
+        """``ValueError`` naming the fields of :attr:`exactly_one_of` unless exactly one of
+        them is given."""
+        if sum(getattr(self, name) is not None for name in self.exactly_one_of) != 1:
+            raise ValueError(f"{' or '.join(self.exactly_one_of)}: give exactly one")
 
     def answer(self, law: ThrustLaw, volts: float) -> dict[str, Any]:
         """The law's answer at ``volts``: the given quantity as given, the other as

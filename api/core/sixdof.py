@@ -66,7 +66,7 @@ class SimulateRequest(BaseModel):
     duration_s: Annotated[float, Flag("--duration")] = Field(
         30.0, gt=0, le=MAX_DURATION_S, description="Simulated time, s."
     )
-    dt: Annotated[float, Flag("--dt")] = Field(
+    dt: Annotated[float, Flag("--dt", metavar="S")] = Field(
         0.01, ge=0.001, le=1.0, description="Output sample step, s."
     )
     eta0: Annotated[list[_Pose], Field(min_length=6, max_length=6)] | None = Field(

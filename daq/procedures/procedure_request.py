@@ -1,9 +1,10 @@
 """What every procedure request shares: which rig-file limit bounds a field
-(:class:`RigLimit`), the strict base model with the run's metadata (``RunMetadataIn``,
-its fields made from the known keys of ``daq.store.run_metadata.KNOWN`` by
-:func:`metadata_key_fields`, as the metadata options' are), and the rig in the validation
-context (:func:`rig_of`). How a field is spelled on the command line is
-``daq.procedures.flag``; the kinds' models are in ``daq.procedures.requests``.
+(:class:`RigLimit`), which field the rig check requires (:class:`RequiredByCheck`), the
+strict base model with the run's metadata (``RunMetadataIn``, its fields made from the
+known keys of ``daq.store.run_metadata.KNOWN`` by :func:`metadata_key_fields`, as the
+metadata options' are), and the rig in the validation context (:func:`rig_of`). How a
+field is spelled on the command line is ``daq.procedures.flag``; the kinds' models are in
+``daq.procedures.requests``.
 """
 
 from __future__ import annotations
@@ -50,6 +51,20 @@ class RigLimit:
 
     highest: Callable[[RigConfig], float | None]
     signed: bool = False
+
+
+@dataclass(frozen=True)
+class RequiredByCheck:
+    """The field must be given although its default is ``None``: the rig check
+    (:meth:`ProcedureRequest.checked`) refuses it missing, naming the range the rig allows
+    (a model-required field would be refused before that, with no range). Declared once on
+    the field (``Annotated[float | None, …, RequiredByCheck()]``): its validator reads it
+    (:func:`required_by_check`) and the docs' option lists show its option unbracketed."""
+
+
+def required_by_check(model: type[BaseModel], name: str) -> bool:
+    """Whether field ``name`` of ``model`` carries :class:`RequiredByCheck`."""
+    return any(isinstance(m, RequiredByCheck) for m in model.model_fields[name].metadata)
 
 
 def comma_separated_floats(text: str) -> list[float]:

@@ -38,11 +38,13 @@ from daq.procedures.procedure_request import (
     Drive,
     MaxTime,
     ProcedureRequest,
+    RequiredByCheck,
     RigLimit,
     RunMetadataIn,
     SignedLoadRequest,
     StrictRequest,
     comma_separated_floats,
+    required_by_check,
     rig_of,
 )
 from daq.vocabulary import RunKind
@@ -243,6 +245,7 @@ class PendulumRequest(ProcedureRequest):
             "required.",
         ),
         Flag("--angle"),
+        RequiredByCheck(),
     ] = None
     stop_amplitude_rad: Annotated[
         float,
@@ -274,7 +277,8 @@ class PendulumRequest(ProcedureRequest):
             return value
         return p.in_range(
             "start_angle_rad", value, low=0, high=rig.pendulum.max_angle_rad, unit="rad",
-            required=True, why_high=", the rig's pendulum max_angle_rad",
+            required=required_by_check(cls, "start_angle_rad"),
+            why_high=", the rig's pendulum max_angle_rad",
         )  # fmt: skip
 
     @field_validator("stop_amplitude_rad")
@@ -332,8 +336,9 @@ class ManualThrustRequest(ProcedureRequest):
             description="Command as a fraction of full thrust, |c| ≤ the rig's "
             "max_thruster_command; negative: reverse thrust. Required.",
         ),
-        Flag("--command"),
+        Flag("--command", metavar="C"),
         RigLimit(lambda rig: rig.limits.max_thruster_command, signed=True),
+        RequiredByCheck(),
     ] = None
     duration_s: Annotated[
         float,
@@ -369,7 +374,8 @@ class ManualThrustRequest(ProcedureRequest):
         most = rig.limits.max_thruster_command
         return p.in_range(
             "command", value, low=-most, high=most, unit="(fraction of full thrust)",
-            low_inclusive=True, required=True, why_high=", rig limit max_thruster_command",
+            low_inclusive=True, required=required_by_check(cls, "command"),
+            why_high=", rig limit max_thruster_command",
         )  # fmt: skip
 
     @field_validator("duration_s")

@@ -4,18 +4,21 @@ the generator, never by a hand edit."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
+import click
 from pydantic import BaseModel, Field
 
 from api.cli.docs_tables import DOCS, option_list, parameter_table, rendered
+from api.cli.main import main
 from api.core.estimation_request import EstimationRequest
 from api.core.sixdof import SimulateRequest
 from daq.procedures.flag import Flag
-from daq.procedures.procedure_request import RunMetadataIn
-from daq.procedures.run_kinds import RIG_KINDS
-from tests.api.test_one_declaration import BODIES, OPERATIONS
+from daq.procedures.procedure_request import RequiredByCheck, RunMetadataIn
+from daq.procedures.run_kinds import RIG_KINDS, import_fields
+from tests.api.test_one_declaration import BODIES, OPERATIONS, _flags
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -65,6 +68,84 @@ class _Choice(BaseModel):
 def test_an_option_list_is_the_synopsis_of_its_models_options():
     assert option_list([_Toy]) == "[--depth M] [--tag TAG]…"
     assert option_list([_Choice]) == "--unit s\\|ms [--fast] [--repeats N] [--label LABEL]"
+
+
+class _Either(BaseModel):
+    exactly_one_of: ClassVar[tuple[str, ...]] = ("command", "force_n")
+
+    thrust_column: Annotated[str, Flag("--thrust-column")] = "2"
+    command: Annotated[float | None, Flag("--command", metavar="C")] = None
+    force_n: Annotated[float | None, Flag("--force")] = None
+    angle_rad: Annotated[float | None, Flag("--angle"), RequiredByCheck()] = None
+
+
+def test_an_option_list_shows_alternatives_and_what_the_rig_check_requires():
+    """The fields a model gives exactly one of are one alternative, unbracketed, where the
+    first of them is; a field the rig check requires is unbracketed though its default is
+    None (and its table row says required); a column's placeholder is COLUMN."""
+    assert (
+        option_list([_Either]) == "[--thrust-column COLUMN] --command C \\| --force N --angle RAD"
+    )
+    assert parameter_table(_Either).splitlines()[-1].split(" | ")[3] == "required"
+
+
+def _models_made_into_options() -> list[type[BaseModel]]:
+    """Every request model some command's options are made from."""
+    kinds = [spec.request for spec in RIG_KINDS.values() if spec.request is not None]
+    return [m for m, *_ in OPERATIONS + BODIES] + kinds + [
+        EstimationRequest, SimulateRequest, import_fields()
+    ]  # fmt: skip
+
+
+_SPAN = re.compile(r"<!-- options: [\w. ]+ -->`[^`\n]*`<!-- /options -->")
+
+
+def _command(words: list[str]) -> click.Command:
+    """The command ``rig WORDS…`` names (a group's subcommand when it is one)."""
+    command: click.Command = main
+    for word in words:
+        if not isinstance(command, click.Group):
+            break
+        with click.Context(command) as ctx:
+            found = command.get_command(ctx, word)
+        assert found is not None, f"no command rig {' '.join(words)}"
+        command = found
+    return command
+
+
+def _listed_by_hand(cell: str) -> list[tuple[click.Command, str]]:
+    """(command, option) for each option a command table's first cell lists by hand,
+    outside the generated spans: in a synopsis (`rig thrust --command U`) or bracketed after
+    one (`[--json]`, the option of the synopsis before it)."""
+    listed = []
+    command = None
+    for span in re.findall(r"`([^`]*)`", _SPAN.sub("`<generated>`", cell)):
+        if span.startswith("rig "):
+            command = _command(re.findall(r"(?<!-)\b[a-z][\w-]*", span.removeprefix("rig ")))
+            listed += [(command, o) for o in re.findall(r"(?<![\w-])--[\w-]+", span)]
+        elif command is not None:
+            listed += [(command, o) for o in re.findall(r"\[(--[\w-]+)", span)]
+    return listed
+
+
+def test_no_command_row_lists_by_hand_an_option_a_model_makes():
+    """A command's options made from a request model are listed by the generator (an
+    ``options`` span naming the model), never by hand: a hand-written copy had kept
+    ``rig sixdof --commands … | --force …`` (both may be given) and lost ``--dt``. Each
+    option a row still lists by hand is one the command takes."""
+    made = {(name, flag.name) for m in _models_made_into_options()
+            for name, (flag, _) in _flags(m).items()}  # fmt: skip
+    for path in DOCS:
+        for row in (ROOT / path).read_text(encoding="utf-8").splitlines():
+            if not row.startswith("| `rig "):  # a command's row (not a route's)
+                continue
+            for command, option in _listed_by_hand(row.split(" | ")[0]):
+                taken = [p for p in command.params if option in getattr(p, "opts", ())]
+                assert taken, f"{path}: rig {command.name} takes no {option}"
+                assert (taken[0].name, option) not in made, (
+                    f"{path}: rig {command.name} lists {option} by hand; its model makes it: "
+                    "name the model in an options span"
+                )
 
 
 def test_the_command_table_lists_the_run_metadata_options_from_their_model():
