@@ -1,7 +1,7 @@
 """Which effects these runs cannot tell apart from a kept one, and the experiment that
 would (``search`` module doc, *ambiguity*): a candidate whose sensitivity is collinear
-with a kept effect's (``collinearity.COLLINEAR``), or nearly so and whose fully converged fit
-in its place explains the data alike (BIC within ``AMBIGUITY_BIC``)."""
+with a kept effect's (``motion.identifiability.COLLINEAR``), or nearly so and whose fully
+converged fit in its place explains the data alike (BIC within ``AMBIGUITY_BIC``)."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from estimation.axis.collinearity import COLLINEAR, NEAR_COLLINEAR, partial_correlations
 from estimation.axis.effects import EFFECTS
 from estimation.axis.materiality import below_resolution
-from estimation.axis.model import BASE_NAMES
+from estimation.axis.model import BASE_NAMES, records_of, setup_of
 from estimation.axis.output_error import effect_start, fit_output_error
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.identifiability import COLLINEAR, NEAR_COLLINEAR, partial_correlations
 from estimation.motion.output_error_fit import MotionFit
 
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
@@ -47,7 +47,7 @@ def ambiguities(
     if not final.effects:
         return (), ()
     others = [c for c in candidates if c not in final.effects]
-    rho = partial_correlations(final, runs, [*final.effects, *others])
+    rho = partial_correlations(records_of(runs), setup_of(runs), final, [*final.effects, *others])
     groups, advice = [], []
     for kept in final.effects:
         twins = []

@@ -28,8 +28,9 @@ predicts each combination's error; only combinations predicted to help are fitte
 convergence and judged, so the verdict never rests on a partly converged fit.
 
 Two effects are *ambiguous* when their sensitivities are collinear on these runs
-(``collinearity.COLLINEAR``), or nearly so and fully converged fits with either one explain
-the data alike (BIC within ``AMBIGUITY_BIC``). A collinear pair is never fitted together.
+(``motion.identifiability.COLLINEAR``), or nearly so and fully converged fits with either
+one explain the data alike (BIC within ``AMBIGUITY_BIC``). A collinear pair is never fitted
+together.
 """
 
 from __future__ import annotations
@@ -41,22 +42,23 @@ from itertools import combinations
 import numpy as np
 
 from estimation.axis.ambiguity import AMBIGUITY_BIC, ambiguities
-from estimation.axis.collinearity import (
-    COLLINEAR,
-    independent_shares,
-    partial_correlations,
-    predicted_steps,
-    variance_inflation,
-)
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import noise_floor_ratio
 from estimation.axis.materiality import below_resolution
+from estimation.axis.model import records_of, setup_of
 from estimation.axis.output_error import (
     MotionFit,
     fit_output_error,
     leave_one_run_out_rmse,
 )
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.identifiability import (
+    COLLINEAR,
+    independent_shares,
+    partial_correlations,
+    predicted_steps,
+    variance_inflation,
+)
 from estimation.stats.acceptance_rules import (
     BIC_THRESHOLD,
     SEPARABLE,
@@ -125,6 +127,8 @@ class _Search:
 
     def __init__(self, runs: Sequence[PreparedRun], candidates: Sequence[str]) -> None:
         self.runs = runs
+        #: the runs as the one equation reads them (records, setup)
+        self.equation = (records_of(runs), setup_of(runs))
         self.order = {e: i for i, e in enumerate(candidates)}
         self.steps: list[SearchStep] = []
         self.cv: dict[tuple[str, ...], float | None] = {}
@@ -192,7 +196,7 @@ class _Search:
         """Why a member of ``combo`` is not identified without out-of-sample evidence
         (variance inflation above ``VIF_LIMIT``), or None; recorded in ``inseparable``."""
         for effect in combo:
-            vif = variance_inflation(fit, self.runs, effect)
+            vif = variance_inflation(*self.equation, fit, effect)
             if vif <= VIF_LIMIT:
                 continue
             i = fit.names.index(effect)
@@ -226,12 +230,12 @@ class _Search:
         and a gain within ``FAR_BEHIND`` of a kept one; the others are recorded with their
         predicted ΔBIC.
         """
-        predicted = predicted_steps(ref.fit, self.runs, combos)
+        predicted = predicted_steps(*self.equation, ref.fit, combos)
         gate = ref.fit.bic if rival is None else min(ref.fit.bic, rival.fit.bic - BIC_THRESHOLD)
         n = ref.fit.n_samples
         bics = {
             c: n * np.log(max(sse, 1e-300) / n) + (ref.fit.n_params + len(c)) * np.log(n)
-            for c, (sse, _) in predicted.items()
+            for c, (sse, _, _) in predicted.items()
         }
 
         def fit(c: tuple[str, ...], kept: Mapping[tuple[str, ...], MotionFit]) -> MotionFit | None:
@@ -272,7 +276,7 @@ class _Search:
     def identifiable(self, base: MotionFit, candidates: Sequence[str]) -> list[str]:
         """The candidates these runs can tell from inertia, K_L and K_Q (the rest are
         recorded as not identifiable: no fit could pin them down)."""
-        shares = independent_shares(base, self.runs, candidates)
+        shares = independent_shares(*self.equation, base, candidates)
         kept = []
         for e in candidates:
             why = SEPARABLE.verdict(e, shares[e], "inertia, K_L or K_Q")
@@ -297,7 +301,7 @@ def search_effects(
         base, leave_one_run_out_rmse(runs, base), ljung_box(base.residuals).q_statistic
     )
     candidates = search.identifiable(base, candidates)
-    rho = partial_correlations(base, runs, candidates)
+    rho = partial_correlations(*search.equation, base, candidates)
     single = search.best(start, [(e,) for e in candidates], 1)
     pairs = [p for p in combinations(candidates, 2) if abs(rho[frozenset(p)]) < COLLINEAR]
     rival = search.reference(single) if single is not None else None
@@ -307,7 +311,7 @@ def search_effects(
     def extend(ref: _Reference, round_no: int) -> _Reference | None:
         """One more effect on a winning pair or larger (triples and beyond)."""
         rest = [e for e in candidates if e not in ref.fit.effects]
-        rho = partial_correlations(ref.fit, runs, [*ref.fit.effects, *rest])
+        rho = partial_correlations(*search.equation, ref.fit, [*ref.fit.effects, *rest])
         separable = [
             (e,)
             for e in rest

@@ -8,9 +8,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from estimation.axis.effects import EFFECTS
-from estimation.axis.fit_memo import Recent
 from estimation.axis.model import ParamView
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.fit_memo import Recent
 from estimation.motion.output_error_fit import MotionFit
 from estimation.stats.diagnostics import position_noise, smoothed_derivatives
 

@@ -13,11 +13,13 @@ by finite differences cost one vectorized call.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
 
 import numpy as np
 
 from estimation.axis.prepared_run import PreparedRun
 from estimation.motion import equation, output_error_fit
+from estimation.motion.fit_memo import Recent
 from estimation.motion.output_error_fit import names_of
 from estimation.motion.records import Record, Setup
 from estimation.motion.terms import LIBRARY, TermValues
@@ -62,10 +64,25 @@ def record_of(run: PreparedRun) -> Record:
     )
 
 
+#: The records of the last few run sets, by identity: the identifiability module keeps its
+#: sensitivities per records object, so one run set must give one records object.
+_RECORDS: Recent[tuple[Record, ...]] = Recent(size=8)
+
+
+def records_of(runs: Sequence[PreparedRun]) -> tuple[Record, ...]:
+    """``record_of`` of every run, the same tuple again for the same ``runs`` object."""
+    return _RECORDS.get((runs,), lambda: tuple(record_of(r) for r in runs))
+
+
 def setup_of(runs: Sequence[PreparedRun]) -> Setup:
     """The equation of a tow or spin set: the whole inertia and the base damping identified,
-    nothing known but each run's drive train."""
-    return Setup(dof=runs[0].dof if runs else "surge", terms=BASE_NAMES[1:])
+    nothing known but each run's drive train (one object per DOF)."""
+    return _setup(runs[0].dof if runs else "surge")
+
+
+@cache
+def _setup(dof: str) -> Setup:
+    return Setup(dof=dof, terms=BASE_NAMES[1:])
 
 
 def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:

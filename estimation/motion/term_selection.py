@@ -12,10 +12,11 @@ rival of a kept term beats that term alone on n_eff (below). The last rule, out 
 (it refits every record), is asked in the backward check (below), not of a forward step.
 
 Before a candidate is fitted, one Gauss–Newton step from the current fit (its sensitivity
-column beside the current model's) predicts its SSE; a candidate predicted to miss the
-information criterion by a wide margin (predicted ΔBIC > 0) is recorded, not fitted. A trial
-starts from that linearised value, the model's own parameters where the current fit left
-them; a set-valued term (dry friction) starts from a **profile** (``motion.profile``).
+column beside the current model's, ``motion.identifiability``: every kind's) predicts its
+SSE; a candidate predicted to miss the information criterion by a wide margin (predicted
+ΔBIC > 0) is recorded, not fitted. A trial starts from that linearised value, the model's
+own parameters where the current fit left them; a set-valued term (dry friction) starts from
+a **profile** (``motion.profile``).
 
 Two candidates whose sensitivities, after projecting out the current model, have |ρ| ≥
 ``RIVALS`` explain the same part of the residual: they are **rivals** (quadratic against
@@ -64,13 +65,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
+from estimation.motion.identifiability import (
+    independent_shares,
+    partial_correlations,
+    predicted_steps,
+    sensitivities,
+)
 from estimation.motion.output_error_fit import (
     HeldOut,
     MotionFit,
     fit_motion,
     leave_one_record_out,
     parameters_of,
-    sensitivities,
 )
 from estimation.motion.profile import extend, profile_start
 from estimation.motion.records import Record, Setup
@@ -224,27 +230,25 @@ def effective_samples(fit: MotionFit) -> float:
 
 
 def _screen(records, setup, current: MotionFit, candidates):
-    """Predicted ΔBIC of each candidate and the partial correlation of each pair."""
-    own, cols = sensitivities(records, setup, current, candidates)
-    q, _ = np.linalg.qr(own)
-    perp = cols - q @ (q.T @ cols)
-    res = np.concatenate(current.residuals)
+    """Per candidate (``motion.identifiability``, every kind's): its predicted ΔBIC and
+    start after one Gauss–Newton step from the current fit (the value the step wanted, when
+    past its bound), the partial correlation of each pair, the current model's own
+    sensitivities (coefficients, then nuisances) and why a candidate is a combination of
+    them (``SEPARABLE``)."""
+    shares = independent_shares(records, setup, current, candidates)
+    rho = partial_correlations(records, setup, current, candidates)
+    steps = predicted_steps(records, setup, current, [(c,) for c in candidates])
+    _, jac, nuisance = sensitivities(records, setup, current, candidates)
+    own = np.hstack([jac[:, : len(current.names)], nuisance])
     n = current.n_samples
-    predicted, rho, start, unseparable = {}, {}, {}, {}
-    norms = np.linalg.norm(perp, axis=0)
-    share = norms / np.maximum(np.linalg.norm(cols, axis=0), 1e-300)
-    for i, c in enumerate(candidates):
-        gain = (perp[:, i] @ res) ** 2 / norms[i] ** 2 if norms[i] > 0 else 0.0
-        value = (perp[:, i] @ res) / norms[i] ** 2 if norms[i] > 0 else 0.0
-        start[c] = value
-        sse = max(current.sse - gain, 1e-300)
-        predicted[c] = n * np.log(sse / current.sse) + np.log(n)
-        why = SEPARABLE.verdict(c, float(share[i]), SETUP_PARAMETERS)
+    predicted, start, unseparable = {}, {}, {}
+    for c in candidates:
+        sse, values, wanted = steps[(c,)]
+        predicted[c] = n * np.log(max(sse, 1e-300) / current.sse) + np.log(n)
+        start[c] = wanted.get(c, float(values[-1]))
+        why = SEPARABLE.verdict(c, shares[c], SETUP_PARAMETERS)
         if why is not None:  # a combination of the model's own parameters
             unseparable[c] = why
-        for j in range(i):
-            d = norms[i] * norms[j]
-            rho[frozenset((c, candidates[j]))] = float(perp[:, i] @ perp[:, j] / d) if d else 0.0
     return predicted, rho, start, own, unseparable
 
 
