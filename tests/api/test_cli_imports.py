@@ -136,3 +136,13 @@ def test_the_run_list_walks_its_loaded_modules_in_no_full_collection(tmp_path):
     probed = _probed(tmp_path, "runs")
     assert "sqlalchemy" in probed["modules"]  # it did load the store
     assert probed["full"] == 0
+
+
+#: Nor by ``rig show``: one run builds no filter options (pydantic, ~0.1 s of CPU).
+NOT_FOR_ONE_RUN = (*NOT_FOR_A_LIST, "pydantic", "api.cli.options")
+
+
+def test_showing_a_run_imports_no_filter_options_nor_pydantic(tmp_path):
+    loaded = _loaded(tmp_path, "show", _one_stored_tow(tmp_path))
+    assert "sqlalchemy" in loaded  # it did read the run
+    assert [m for m in NOT_FOR_ONE_RUN if m in loaded] == []
