@@ -17,6 +17,9 @@ drives a rig (``rig serve`` and the test commands such as ``rig tow``):
   holds the GIL while the loaded host preempts that thread, and the real-time clock waits
   for the GIL; a tow in the rehearsal of 6a050e9 lost 4 slots (0.4 s) so.
 
+Every ``rig`` command also loads its modules and opens its store under
+:func:`no_collections_while_loading` (start-up CPU, not pauses: issue 33).
+
 ``bench/gc_pause.py`` measures the longest pause of a driving process under load with
 and without these measures.
 """
@@ -26,6 +29,8 @@ from __future__ import annotations
 import gc
 import logging
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +43,23 @@ ARMED = "thrusters armed"
 _lock = threading.Lock()
 _saved: tuple[int, int, int] | None = None
 _reasons: set[str] = set()
+
+
+@contextmanager
+def no_collections_while_loading() -> Iterator[None]:
+    """No collection while a command loads its modules or opens the store, and what they
+    made frozen after (``gc.freeze``): it lives to the end of the process, so walking it,
+    then and in every later full collection, is waste (~0.1 s of ``rig runs``'s CPU, a
+    full collection ~0.04 s of it; issue 33). The collector is on again afterwards if it
+    was before."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if was_enabled:
+            gc.enable()
 
 
 def freeze_after_startup() -> None:

@@ -88,7 +88,7 @@ OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
     "runs": ("api.cli.runs", "runs", "List stored runs, newest first."),
     "show": (
-        "api.cli.runs",
+        "api.cli.show",
         "show",
         "Show one run: configuration, how it ended, events and results (id or unique...",
     ),

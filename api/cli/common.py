@@ -147,15 +147,18 @@ def check_database_folder(db_url: str | None) -> None:
 
 def open_store(db_url: str | None):
     """Open the database; runs left ``running`` by a dead process become ``interrupted``."""
-    from daq.store import Store
-    from daq.store.faults import StorageUnavailable, describe, opening_reason
+    from daq.collector import no_collections_while_loading
 
-    check_database_folder(db_url)
-    with user_errors():
-        try:
-            store = Store(db_url)
-        except Exception as err:  # a bad URL or unreachable server (DatabaseNotOpened)
-            fail(f"--db: cannot open the database: {opening_reason(err)}")
+    with no_collections_while_loading():  # the store's modules and SQLAlchemy load here
+        from daq.store import Store
+        from daq.store.faults import StorageUnavailable, describe, opening_reason
+
+        check_database_folder(db_url)
+        with user_errors():
+            try:
+                store = Store(db_url)
+            except Exception as err:  # a bad URL or unreachable server (DatabaseNotOpened)
+                fail(f"--db: cannot open the database: {opening_reason(err)}")
 
     try:
         recovered = store.recover_interrupted()  # only runs whose owning process is gone

@@ -23,6 +23,7 @@ import click
 
 from api.cli.command_table import COMMANDS, records_runs
 from api.cli.common import DEBUG_ENV, RIG_FILE_ENV
+from daq.collector import no_collections_while_loading
 
 
 def _loaded(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> tuple[type[BaseException], ...]:
@@ -64,7 +65,8 @@ class RigGroup(click.Group):
         if entry is None:
             return None
         module, attr, _ = entry
-        command = getattr(importlib.import_module(module), attr)
+        with no_collections_while_loading():
+            command = getattr(importlib.import_module(module), attr)
         if records_runs(cmd_name, module):
             from api.cli.metadata import with_run_metadata
 

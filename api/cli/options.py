@@ -174,6 +174,21 @@ def request_fields(model: type[BaseModel], values: dict[str, Any]) -> dict[str, 
     return given
 
 
+def _defaults_need_no_check(model: type[BaseModel]) -> bool:
+    """Whether validating no input would only take the field defaults: no field is required
+    or validates its default, and no model validator runs. Then a deferred model
+    (``defer_build``, e.g. the list filters: ~0.06 s of CPU to build) is not built for a
+    command given none of its options."""
+    decorators = model.__pydantic_decorators__
+    if decorators.model_validators or decorators.root_validators:
+        return False
+    every = bool(model.model_config.get("validate_default"))
+    return not any(
+        info.is_required() or info.validate_default or (every and info.validate_default is None)
+        for info in model.model_fields.values()
+    )
+
+
 def request_from(model: type[M], values: dict[str, Any], **given: Any) -> M:
     """The request ``model`` from the options' ``values`` plus ``given`` fields (an argument),
     exactly as its route takes it; a bad value exits 2 with one line per field, each named as
@@ -182,8 +197,11 @@ def request_from(model: type[M], values: dict[str, Any], **given: Any) -> M:
 
     from daq.procedures.params import ParameterError, problems_of  # only to word a refusal
 
+    fields = request_fields(model, values)
+    if not given and not fields and _defaults_need_no_check(model):
+        return model.model_construct()  # what validating no input gives, without building it
     try:
-        return model(**given, **request_fields(model, values))
+        return model(**given, **fields)
     except ValidationError as err:
         ctx = click.get_current_context(silent=True)
         fail(flag_names(ctx, str(ParameterError(problems_of(err)))))

@@ -1,5 +1,5 @@
-"""``rig runs`` and ``rig show``: the stored runs, listed and one in full (``rig annotate`` is in
-``api.cli.metadata``, ``rig export`` in ``api.cli.export``, ``rig import`` in
+"""``rig runs``: the stored runs, listed (``rig show`` is in ``api.cli.show``, ``rig annotate``
+in ``api.cli.metadata``, ``rig export`` in ``api.cli.export``, ``rig import`` in
 ``api.cli.imports``: each builds its options from its model when its module is imported, which
 a listing does not need).
 """
@@ -7,7 +7,6 @@ a listing does not need).
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
 
 import click
 
@@ -21,22 +20,8 @@ from api.cli.common import (
     user_errors,
 )
 from api.cli.options import request_from, request_options
+from api.cli.show import input_summary, local_time
 from api.core.run_filter import RunFilter
-from daq.parameter_labels import labelled
-from daq.vocabulary import AXES
-
-
-def _when(value: datetime | None) -> str:
-    return value.astimezone().strftime("%Y-%m-%d %H:%M:%S") if value else "—"
-
-
-def _summary(params: dict[str, Any]) -> str:
-    for key, unit in ((a.drive_key, a.drive_unit) for a in AXES.values() if a.drive_key):
-        if params.get(key) is not None:
-            return f"{params[key]:.4g} {unit}"
-    if params.get("sweep"):
-        return f"{len(params['sweep'])} steps"
-    return ""
 
 
 def _source(run) -> str:
@@ -86,9 +71,9 @@ def runs(limit, offset, db_url, as_json, **chosen):
                 r.id[:8],
                 r.kind,
                 r.drive or "—",
-                _summary(r.parameters),
+                input_summary(r.parameters),
                 r.status + (f" ({r.reason})" if r.reason else ""),
-                _when(r.started_at),
+                local_time(r.started_at),
                 str(r.sample_count),
                 r.vehicle,
                 _source(r),
@@ -108,45 +93,5 @@ def runs(limit, offset, db_url, as_json, **chosen):
             )
             shown = f"{offset + 1}-{offset + len(found)}" if found else "none"
             click.echo(f"runs {shown} of {total}{more}", err=True)
-    finally:
-        store.close()
-
-
-@click.command("show")
-@click.argument("run_id")
-@db_option
-@json_option
-def show(run_id, db_url, as_json):
-    """Show one run: configuration, how it ended, events and results (id or unique prefix)."""
-    store = open_store(db_url)
-    try:
-        with user_errors():
-            run = store.get_run(run_id)
-        events = store.events(run.id)
-        results = store.results(run.id)
-        if as_json:
-            data = run.to_json()
-            data["events"] = [e.to_json() for e in events]
-            data["results"] = [r.to_json() for r in results]
-            echo_json(data)
-            return
-        click.echo(f"run        {run.id}")
-        click.echo(f"kind       {run.kind}   {_summary(run.parameters)}   drive {run.drive or '—'}")
-        click.echo(f"status     {run.summary}")  # how it ended, and what it lost
-        click.echo(f"vehicle    {run.vehicle} on {run.rig_name}")
-        if run.source == "imported":
-            click.echo(f"imported   {_when(run.imported_at)} from {run.source_file}")
-        click.echo(f"recorded   {_when(run.started_at)}   stopped {_when(run.stopped_at)}")
-        click.echo(f"samples    {run.sample_count}   channels {', '.join(run.channel_names)}")
-        for i, p in enumerate(labelled(run.parameters)):
-            click.echo(f"{'parameters' if i == 0 else '':<10} {p.text}")
-        for key, value in run.metadata.items():
-            shown = ", ".join(value) if key == "tags" else value
-            click.echo(f"{key:<10} {shown}" if len(key) <= 10 else f"{key} {shown}")
-        click.echo(f"software   {run.software_version}")
-        for e in events:
-            click.echo(f"  {_when(e.time)}  {e.kind:<8} {e.message}")
-        for r in results:
-            click.echo(f"  result #{r.id} {r.kind} ({_when(r.created_at)})")
     finally:
         store.close()
