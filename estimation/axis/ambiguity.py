@@ -1,6 +1,6 @@
 """Which effects these runs cannot tell apart from a kept one, and the experiment that
 would (``search`` module doc, *ambiguity*): a candidate whose sensitivity is collinear
-with a kept effect's (``motion.identifiability.COLLINEAR``), or nearly so and whose fully
+with a kept effect's (``motion.term_separation.COLLINEAR``), or nearly so and whose fully
 converged fit in its place explains the data alike (BIC within ``AMBIGUITY_BIC``)."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from estimation.axis.materiality import below_resolution
 from estimation.axis.model import BASE_NAMES, records_of, setup_of
 from estimation.axis.output_error import effect_start, fit_output_error
 from estimation.axis.prepared_run import PreparedRun
-from estimation.motion.identifiability import COLLINEAR, NEAR_COLLINEAR, partial_correlations
 from estimation.motion.output_error_fit import MotionFit
+from estimation.motion.term_separation import COLLINEAR, NEAR_COLLINEAR, partial_correlations
 
 AMBIGUITY_BIC = 2.0  # converged fits whose BIC differ by less than this explain the data alike
 PAIR_EXPERIMENTS = {

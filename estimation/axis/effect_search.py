@@ -28,7 +28,7 @@ predicts each combination's error; only combinations predicted to help are fitte
 convergence and judged, so the verdict never rests on a partly converged fit.
 
 Two effects are *ambiguous* when their sensitivities are collinear on these runs
-(``motion.identifiability.COLLINEAR``), or nearly so and fully converged fits with either
+(``motion.term_separation.COLLINEAR``), or nearly so and fully converged fits with either
 one explain the data alike (BIC within ``AMBIGUITY_BIC``). A collinear pair is never fitted
 together.
 """
@@ -52,7 +52,7 @@ from estimation.axis.output_error import (
     leave_one_run_out_rmse,
 )
 from estimation.axis.prepared_run import PreparedRun
-from estimation.motion.identifiability import (
+from estimation.motion.term_separation import (
     COLLINEAR,
     independent_shares,
     partial_correlations,

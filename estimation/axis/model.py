@@ -64,7 +64,7 @@ def record_of(run: PreparedRun) -> Record:
     )
 
 
-#: The records of the last few run sets, by identity: the identifiability module keeps its
+#: The records of the last few run sets, by identity: the term-separation module keeps its
 #: sensitivities per records object, so one run set must give one records object.
 _RECORDS: Recent[tuple[Record, ...]] = Recent(size=8)
 

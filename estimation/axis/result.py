@@ -13,6 +13,7 @@ from estimation.axis.reverse import ReverseTest
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.output_error_fit import MotionFit
+from estimation.motion.record_bootstrap import Bootstrap
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
@@ -43,17 +44,6 @@ class EffectEstimate:
             "std": finite_or_none(self.std),
             "unit": self.unit,
         }
-
-
-@dataclass(frozen=True)
-class Bootstrap:
-    """Run-level bootstrap: runs resampled with replacement and refitted."""
-
-    requested: int
-    used: int
-    std: dict[str, float]
-    low: dict[str, float]  # 2.5 % percentile
-    high: dict[str, float]  # 97.5 % percentile
 
 
 @dataclass(frozen=True)
@@ -147,7 +137,7 @@ class EstimationResult:
                 "steps": [step_json(s) for s in self.steps],
             },
             "acceptance_rules": TOW_RULES.to_json(),
-            "bootstrap": _boot(self.bootstrap),
+            "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "uncertainty": _uncertainty(self.uncertainty),
             "windows": {k: w.to_json() for k, w in self.windows.items()},
             "unexplained": self.unexplained.to_json() if self.unexplained else None,
@@ -169,18 +159,6 @@ def step_json(s: SearchStep) -> dict[str, Any]:
         "ljung_box_q_after": finite_or_none(s.ljung_box_after),
         "accepted": s.accepted,
         "reason": s.reason,
-    }
-
-
-def _boot(b: Bootstrap | None) -> dict[str, Any] | None:
-    if b is None:
-        return None
-    return {
-        "requested": b.requested,
-        "used": b.used,
-        "std": finite_values(b.std),
-        "percentile_2_5": finite_values(b.low),
-        "percentile_97_5": finite_values(b.high),
     }
 
 

@@ -13,7 +13,7 @@ from estimation.axis.effect_search import SearchOutcome, candidate_effects
 from estimation.axis.effect_search import search_effects as search_effects_fn
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
-from estimation.axis.model import BASE_NAMES, at_step_limit
+from estimation.axis.model import BASE_NAMES, at_step_limit, records_of, setup_of
 from estimation.axis.output_error import (
     MotionFit,
     evaluate_parameters,
@@ -22,7 +22,7 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.axis.release import fit_release, speed_at_release
-from estimation.axis.result import Bootstrap, EffectEstimate, EstimationResult
+from estimation.axis.result import EffectEstimate, EstimationResult
 from estimation.axis.reverse import (
     FRICTION_AND_BIAS,
     ReverseTest,
@@ -44,6 +44,7 @@ from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
 from estimation.motion.equation import SETTLES_WITHIN
+from estimation.motion.record_bootstrap import Bootstrap, record_bootstrap
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination, drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
@@ -278,36 +279,18 @@ def physical_warnings(fit: MotionFit, runs: Sequence[RunData]) -> list[str]:
 
 
 def _bootstrap(runs: Sequence[PreparedRun], fit: MotionFit, n: int, seed: int) -> Bootstrap:
-    rng = np.random.default_rng(seed)
-    draws: list[np.ndarray] = []
-    if len(runs) < 2:  # resampling one run only repeats it
-        n = 0
-    for _ in range(n):
-        pick = rng.integers(0, len(runs), len(runs))
-        sample = [runs[i] for i in pick]
-        if len(_distinct_drives(sample)) < min(2, len(_distinct_drives(runs))):
-            continue
-        # only the values are kept: the refit's quantization σ is not computed
-        refit = fit_output_error(sample, fit.effects, start=fit.values, quantization_sigma=False)
-        draws.append(refit.values)
-    names = fit.names
-    if not draws:
-        nan = dict.fromkeys(names, float("nan"))
-        return Bootstrap(n, 0, nan, nan, nan)
-    arr = np.array(draws)
-    return Bootstrap(
-        requested=n,
-        used=len(draws),
-        std={
-            k: float(v)
-            for k, v in zip(
-                names,
-                arr.std(axis=0, ddof=1) if len(draws) > 1 else np.full(len(names), np.nan),
-                strict=True,
-            )
-        },
-        low={k: float(v) for k, v in zip(names, np.percentile(arr, 2.5, axis=0), strict=True)},
-        high={k: float(v) for k, v in zip(names, np.percentile(arr, 97.5, axis=0), strict=True)},
+    """The one record bootstrap (``motion.record_bootstrap``) of the runs; a draw with fewer
+    distinct drives than the runs have (up to 2) is skipped: K_L and K_Q trade freely on it."""
+    records = records_of(runs)
+    level = {id(rec): round(run.mean_abs_drive, 6) for rec, run in zip(records, runs, strict=True)}
+    needed = min(2, len(_distinct_drives(runs)))
+    return record_bootstrap(
+        records,
+        setup_of(runs),
+        fit,
+        n,
+        seed,
+        usable=lambda sample: len({level[id(r)] for r in sample}) >= needed,
     )
 
 

@@ -28,6 +28,7 @@ from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import damping_over_swings
 from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.record_bootstrap import DEFAULT_DRAWS, record_bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of, validate
 from estimation.motion.term_selection import TRIAL_NFEV, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
@@ -77,7 +78,6 @@ def release_of(record: Record) -> float:
     return float(t[peak + int(np.nonzero(near)[0][-1])])
 
 
-@one_blas_thread
 def estimate_decay(
     t: np.ndarray,
     x: np.ndarray,
@@ -125,6 +125,7 @@ def _window(r: Record, start: float, end: float | None) -> Record:
     return replace(r, t=t[keep], x=np.asarray(r.x, dtype=float)[keep], drive=d)
 
 
+@one_blas_thread
 def estimate_records(
     records: Sequence[Record],
     dof: str,
@@ -138,10 +139,16 @@ def estimate_records(
     t_end: Mapping[str, float] | None = None,
     candidates: Sequence[str] = DECAY_CANDIDATES,
     restoring_known: bool = False,
+    n_bootstrap: int = DEFAULT_DRAWS,
+    seed: int = 0,
 ) -> DecayResult:
     """``estimate_decay`` for several records of one DOF fitted jointly.
     ``restoring_known``: each record carries its own restoring term among its known terms
-    (a pendulum's gravity moment from its geometry), so none is identified or given here."""
+    (a pendulum's gravity moment from its geometry), so none is identified or given here.
+    ``n_bootstrap``: draws of the record-level bootstrap (``motion.record_bootstrap``, as a
+    tow set's) when there are two records or more; 0: none."""
+    if n_bootstrap < 0:
+        raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     known = dict(known_terms or {})
     base_terms: tuple[str, ...] = ("linear_damping",)
     if stiffness is not None:
@@ -178,8 +185,14 @@ def estimate_records(
         [r.t for r in windowed],
         weights=first.weights,
     )
+    boot = (
+        record_bootstrap(windowed, setup, final, n_bootstrap, seed)
+        if n_bootstrap and len(windowed) >= 2
+        else None
+    )
     return replace(
         result,
+        bootstrap=boot,
         alternatives=alternatives,
         window=ends,
         equivalent=equivalent,

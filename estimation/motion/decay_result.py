@@ -12,6 +12,7 @@ import numpy as np
 from estimation.motion.decay_end import FreeWindow
 from estimation.motion.equivalent import EquivalentDamping, equivalent_damping
 from estimation.motion.output_error_fit import MotionFit
+from estimation.motion.record_bootstrap import Bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of
 from estimation.motion.term_selection import Step
 from estimation.motion.terms import LIBRARY, units_of
@@ -53,6 +54,8 @@ class DecayResult:
     equivalent: tuple[EquivalentDamping, ...] = ()
     #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
     well_determined: tuple[Combination, ...] = ()
+    #: The record-level bootstrap (two records or more), as a tow set's.
+    bootstrap: Bootstrap | None = None
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
     #: The base model's fit (before the search).
     base: MotionFit | None = field(default=None, repr=False, compare=False)
@@ -108,6 +111,7 @@ class DecayResult:
             "natural_period_s": finite_or_none(self.natural_period_s),
             "equivalent_linear_damping": [e.to_json() for e in self.equivalent],
             "well_determined": [c.to_json() for c in self.well_determined],
+            "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "warnings": list(self.warnings),
             "evidence": [s.to_json() for s in self.steps],
             "acceptance_rules": DECAY_RULES.to_json(),

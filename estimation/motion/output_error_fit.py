@@ -441,11 +441,13 @@ def fit_motion(
     )
 
 
-def parameters_of(fit: MotionFit | _Subset) -> np.ndarray:
+def parameters_of(fit: MotionFit, records: Sequence[int] | None = None) -> np.ndarray:
     """The full parameter vector of ``fit`` (globals, x_eq, then ξ₀ and ξ̇₀ of the free
-    records) to restart from."""
-    free = fit.free
-    return np.concatenate([fit.values, fit.equilibrium, fit.initial[free, 0], fit.initial[free, 1]])
+    records) to restart from; ``records``: of the fit's records at these indices only, in
+    this order (repeats allowed: a leave-one-out fold, a bootstrap draw)."""
+    keep = np.arange(len(fit.equilibrium)) if records is None else np.asarray(records, dtype=int)
+    eq, initial, free = fit.equilibrium[keep], fit.initial[keep], fit.free[keep]
+    return np.concatenate([fit.values, eq, initial[free, 0], initial[free, 1]])
 
 
 @dataclass(frozen=True)
@@ -473,7 +475,7 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
     held_out = []
     for i in range(nr):
         train = [r for j, r in enumerate(records) if j != i]
-        start = parameters_of(_Subset(fit, [j for j in range(nr) if j != i]))
+        start = parameters_of(fit, [j for j in range(nr) if j != i])
         prob, sub, *_ = _solve(train, setup, fit.names, start, LORO_NFEV, REFIT_TOLERANCE)
         if not np.all(np.isfinite(prob.residual(sub))):
             raise EstimationFailed(
@@ -484,16 +486,6 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
         held_out.append(predict_record(records[i], setup, fit.names, sub[:ng], fit, i))
     per_record = tuple(float(np.sqrt(np.mean(r**2))) for r in held_out)
     return HeldOut(pooled_rmse(held_out), per_record)
-
-
-class _Subset:
-    """``fit``'s coefficients with the nuisances of the records ``keep`` only."""
-
-    def __init__(self, fit: MotionFit, keep: Sequence[int]) -> None:
-        self.values = fit.values
-        self.equilibrium = fit.equilibrium[list(keep)]
-        self.initial = fit.initial[list(keep)]
-        self.free = fit.free[list(keep)]
 
 
 def predict_record(

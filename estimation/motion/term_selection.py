@@ -12,7 +12,7 @@ rival of a kept term beats that term alone on n_eff (below). The last rule, out 
 (it refits every record), is asked in the backward check (below), not of a forward step.
 
 Before a candidate is fitted, one Gauss–Newton step from the current fit (its sensitivity
-column beside the current model's, ``motion.identifiability``: every kind's) predicts its
+column beside the current model's, ``motion.term_separation``: every kind's) predicts its
 SSE; a candidate predicted to miss the information criterion by a wide margin (predicted
 ΔBIC > 0) is recorded, not fitted. A trial starts from that linearised value, the model's
 own parameters where the current fit left them; a set-valued term (dry friction) starts from
@@ -65,12 +65,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion.identifiability import (
-    independent_shares,
-    partial_correlations,
-    predicted_steps,
-    sensitivities,
-)
 from estimation.motion.output_error_fit import (
     HeldOut,
     MotionFit,
@@ -80,6 +74,12 @@ from estimation.motion.output_error_fit import (
 )
 from estimation.motion.profile import extend, profile_start
 from estimation.motion.records import Record, Setup
+from estimation.motion.term_separation import (
+    independent_shares,
+    partial_correlations,
+    predicted_steps,
+    sensitivities,
+)
 from estimation.motion.terms import LIBRARY
 from estimation.report_numbers import finite_or_none
 from estimation.stats.acceptance_rules import (
@@ -230,7 +230,7 @@ def effective_samples(fit: MotionFit) -> float:
 
 
 def _screen(records, setup, current: MotionFit, candidates):
-    """Per candidate (``motion.identifiability``, every kind's): its predicted ΔBIC and
+    """Per candidate (``motion.term_separation``, every kind's): its predicted ΔBIC and
     start after one Gauss–Newton step from the current fit (the value the step wanted, when
     past its bound), the partial correlation of each pair, the current model's own
     sensitivities (coefficients, then nuisances) and why a candidate is a combination of

@@ -152,6 +152,11 @@ class PendulumResult:
                 c.to_json() for c in (self.motion.well_determined if self.motion else ())
             ],
             "coefficients_possibly_biased": bool(self.motion and self.motion.possibly_biased),
+            "bootstrap": (
+                self.motion.bootstrap.to_json(reported)
+                if self.motion and self.motion.bootstrap
+                else None
+            ),
             "geometry": self.geometry,
             "diagnostics": {
                 "ljung_box_before": self.whiteness_before.to_json(),

@@ -1,0 +1,96 @@
+"""The record-level bootstrap of the one fit, every record kind's (tows and spins, pendulums
+and free decays): the records resampled with replacement and refitted, σ and the 2.5/97.5 %
+percentiles of the draws per coefficient.
+
+Each draw is ``fit_motion`` of the resampled records with the final model's terms, from its
+coefficients and each record's own nuisances, its quantization σ not computed (only the
+values are kept). A sample the kind cannot fit meaningfully is skipped
+(``usable``: a tow set with fewer distinct drives than its data, where K_L and K_Q trade
+freely). One record resampled only repeats itself: no draws. The spread of the draws is the
+between-record scatter the fit's σ assumes away: a σ well below it says the records disagree
+more than their noise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.records import Record, Setup
+from estimation.report_numbers import finite_values
+
+#: Draws of an estimate's bootstrap unless asked otherwise.
+DEFAULT_DRAWS = 40
+#: Function evaluations of one draw (a draw starts from the final coefficients).
+DRAW_NFEV = 200
+
+
+@dataclass(frozen=True)
+class Bootstrap:
+    """Record-level bootstrap: records resampled with replacement and refitted."""
+
+    requested: int
+    used: int
+    std: dict[str, float]
+    low: dict[str, float]  # 2.5 % percentile
+    high: dict[str, float]  # 97.5 % percentile
+
+    def to_json(self, name: Callable[[str], str] | None = None) -> dict[str, Any]:
+        """The document's ``bootstrap`` object (non-finite values as null), each coefficient
+        under ``name(coefficient)`` (the kind's own name for it; default its own)."""
+
+        def named(values: dict[str, float]) -> dict[str, float | None]:
+            return finite_values({(name or str)(k): v for k, v in values.items()})
+
+        return {
+            "requested": self.requested,
+            "used": self.used,
+            "std": named(self.std),
+            "percentile_2_5": named(self.low),
+            "percentile_97_5": named(self.high),
+        }
+
+
+def record_bootstrap(
+    records: Sequence[Record],
+    setup: Setup,
+    fit: MotionFit,
+    n: int,
+    seed: int = 0,
+    usable: Callable[[Sequence[Record]], bool] | None = None,
+) -> Bootstrap:
+    """``n`` draws of the records refitted with ``fit``'s terms (module doc)."""
+    rng = np.random.default_rng(seed)
+    draws: list[np.ndarray] = []
+    requested = n if len(records) >= 2 else 0
+    for _ in range(requested):
+        pick = rng.integers(0, len(records), len(records))
+        sample = [records[i] for i in pick]
+        if usable is not None and not usable(sample):
+            continue
+        refit = fit_motion(
+            sample,
+            setup,
+            fit.effects,
+            start=parameters_of(fit, pick.tolist()),
+            max_nfev=DRAW_NFEV,
+            quantization_sigma=False,
+        )
+        draws.append(refit.values)
+    names = fit.names
+    if not draws:
+        nan = dict.fromkeys(names, float("nan"))
+        return Bootstrap(requested, 0, nan, nan, nan)
+    arr = np.array(draws)
+    std = arr.std(axis=0, ddof=1) if len(draws) > 1 else np.full(len(names), np.nan)
+    return Bootstrap(
+        requested=requested,
+        used=len(draws),
+        std={k: float(v) for k, v in zip(names, std, strict=True)},
+        low={k: float(v) for k, v in zip(names, np.percentile(arr, 2.5, axis=0), strict=True)},
+        high={k: float(v) for k, v in zip(names, np.percentile(arr, 97.5, axis=0), strict=True)},
+    )

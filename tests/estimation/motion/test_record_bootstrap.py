@@ -1,0 +1,53 @@
+"""The record-level bootstrap is every kind's (issue 31, item 2): free decays and pendulum
+swings with two records or more carry the one a tow set has (``motion.record_bootstrap``).
+
+Records from scipy's solve_ivp (``tests.estimation.term_cases.decay``: a 143 kg heave
+decay, 20 µm noise), not our integrator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from estimation.motion.decay_estimate import estimate_records
+from estimation.motion.records import Record
+from tests.estimation.term_cases import decay
+
+
+def _records(n: int) -> tuple[list[Record], dict]:
+    records, truth = [], {}
+    for seed in range(1, n + 1):
+        t, x, truth = decay("143kg", seed)
+        records.append(Record(f"r{seed}", t, x))
+    return records, truth
+
+
+def test_a_decay_of_three_records_carries_the_bootstrap_of_its_coefficients():
+    """Three records of one body: each draw refits a resample; the spread of the added mass
+    over the draws is the records' scatter, of the order of the fit's own σ (they differ
+    only by their white noise), and its 95 % interval holds the estimate."""
+    records, truth = _records(3)
+    result = estimate_records(
+        records, "heave", known_inertia=truth["known"], stiffness=truth["k"], n_bootstrap=12
+    )
+    boot = result.bootstrap
+    assert boot is not None and boot.requested == 12 and boot.used == 12
+    added = result.coefficients["inertia"]
+    assert boot.low["inertia"] <= added.value <= boot.high["inertia"]
+    assert 0.1 * added.std < boot.std["inertia"] < 10 * added.std
+    doc = result.to_json()["bootstrap"]
+    assert doc["used"] == 12 and doc["std"]["inertia"] == boot.std["inertia"]
+
+
+def test_one_record_has_no_bootstrap_and_zero_draws_are_allowed_but_not_fewer():
+    records, truth = _records(2)
+    one = estimate_records(records[:1], "heave", known_inertia=truth["known"], stiffness=truth["k"])
+    assert one.bootstrap is None and one.to_json()["bootstrap"] is None
+    none = estimate_records(
+        records, "heave", known_inertia=truth["known"], stiffness=truth["k"], n_bootstrap=0
+    )
+    assert none.bootstrap is None
+    assert np.isfinite(none.coefficients["inertia"].value)
+    with pytest.raises(ValueError, match="n_bootstrap: got -1, allowed: >= 0"):
+        estimate_records(records, "heave", stiffness=truth["k"], n_bootstrap=-1)
