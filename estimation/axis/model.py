@@ -88,7 +88,7 @@ def _setup(dof: str) -> Setup:
 def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:
     """Whether ``values`` need the one integrator's finest step or nearly
     (``motion.equation.at_step_limit``): a fit there may rest on it, not on the data."""
-    records, setup = [record_of(r) for r in runs], setup_of(runs)
+    records, setup = records_of(runs), setup_of(runs)
     h, unresolved = output_error_fit.step_of(
         records, setup, names_of(setup, effects), np.atleast_2d(values)
     )
@@ -105,7 +105,7 @@ def step_of(
     sets ``theta`` (S, G) on ``runs``, and which sets it cannot resolve."""
     setup = setup_of(runs)
     return output_error_fit.step_of(
-        [record_of(r) for r in runs], setup, names_of(setup, effects), np.atleast_2d(theta)
+        records_of(runs), setup, names_of(setup, effects), np.atleast_2d(theta)
     )
 
 
@@ -127,5 +127,5 @@ def simulate(
     setup = setup_of(runs)
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
     return output_error_fit.simulate(
-        [record_of(r) for r in runs], setup, names_of(setup, effects), theta, rows=rows
+        records_of(runs), setup, names_of(setup, effects), theta, rows=rows
     )

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from estimation.axis.model import record_of, setup_of, simulate
+from estimation.axis.model import records_of, setup_of, simulate
 from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.output_error_fit import (
     MotionFit,
@@ -95,7 +95,7 @@ def fit_output_error(
     effects = tuple(effects)
     g0 = initial_guess(runs, effects) if start is None else np.asarray(start, dtype=float)
     return fit_motion(
-        [record_of(r) for r in runs],
+        records_of(runs),
         setup_of(runs),
         effects,
         start=g0,
@@ -107,7 +107,7 @@ def fit_output_error(
 def leave_one_run_out_rmse(runs: Sequence[PreparedRun], fit: MotionFit) -> float | None:
     """Leave-one-run-out prediction RMSE (m or rad; ``leave_one_record_out``); None with
     fewer than 3 runs."""
-    held = leave_one_record_out([record_of(r) for r in runs], setup_of(runs), fit)
+    held = leave_one_record_out(records_of(runs), setup_of(runs), fit)
     return None if held is None else held.rmse
 
 

@@ -1,5 +1,6 @@
-"""A run as the tow/spin simulators read it: its usable window in arrays, with what the
-step size and the inertia need (drive train, weight equivalent, peak speed and excursion)."""
+"""A run as a tow or spin fit reads it: its usable window in arrays, with what the inertia
+and the start values need (drive train, weight equivalent, mean drive, encoder step); the
+one equation's record of it is ``axis.model.record_of``."""
 
 from __future__ import annotations
 
@@ -9,7 +10,6 @@ import numpy as np
 
 from estimation.data.run_arrays import RunData
 from estimation.motion.terms import STANDARD_GRAVITY
-from estimation.stats.diagnostics import smoothed_derivatives
 from estimation.stats.quantization import encoder_step
 
 BASELINE_KEPT_S = 0.0  # at-rest samples carry a fixed quantization error: not fitted
@@ -35,10 +35,6 @@ class PreparedRun:
     #: The record's quantization step (m or rad; 0: not on a grid), ``estimation.stats.
     #: quantization.encoder_step`` of the whole record, baseline included.
     encoder_step: float = 0.0
-    #: The largest smoothed |velocity| (m/s or rad/s) and displacement from the release
-    #: (m or rad) of the kept samples: where ``integration_step`` linearises the forces.
-    peak_speed: float = 0.0
-    peak_excursion: float = 0.0
     dof: str = "surge"  # the DOF it moved along, as imported (a spin: yaw)
 
 
@@ -51,7 +47,6 @@ def prepare(run: RunData) -> PreparedRun:
     const = float(np.asarray(run.drive)) if run.is_constant_drive() else None
     mean_abs = float(np.mean(np.abs(drive[moving]))) if moving.any() else 0.0
     x = np.asarray(run.position, dtype=float)[keep]
-    speed = smoothed_derivatives(t, x)[0] if t.size > 1 else np.zeros(1)
     return PreparedRun(
         run_id=run.run_id,
         t=t,
@@ -69,8 +64,6 @@ def prepare(run: RunData) -> PreparedRun:
         t_release_std=float(run.t_release_std),
         drive_at_release=_held_at(run, run.t_release),
         encoder_step=encoder_step(np.asarray(run.position)),
-        peak_speed=float(np.max(np.abs(speed), initial=0.0)),
-        peak_excursion=float(np.ptp(x)) if x.size else 0.0,
         dof=run.dof_name,
     )
 

@@ -1,19 +1,24 @@
-"""Output-error fit of the one equation to records of one DOF, from any initial state.
+"""The one output-error fit of the one equation, every record kind's: tows and spins,
+pendulums and free decays, records of one DOF fitted jointly.
 
 Minimises Σ_records Σ_samples (x_meas − x_eq − ξ(t; θ, ξ₀, ξ̇₀))², where ξ solves
 
     (M_known + w_M·M + Σ θ_i·w_i)·ξ̈ = τ(t) + Σ_j w_j·θ_j·φ_j(ξ, ξ̇)          (equation.py)
 
-from the state (ξ₀, ξ̇₀) at each record's first sample: the equilibrium x_eq (a spring is
-anchored there, not at the release point) and the initial state are nuisance parameters
-per record. Known terms (a hydrostatic stiffness) are fixed; M_known, the known terms and
-the weights w of the identified coefficients may differ per record (``Record``: a
-pendulum's geometry). σ from ``identify``, quantization included (a direction the data
-cannot determine is reported, not dropped). Start values from the
-equation-error least squares on Savitzky–Golay derivatives; every parameter is scaled by its
-typical size, bounded by its term's bounds; the integrator's step resolves each trial's
-period and damping rate (``equation.integration_step``), and a trial far from the data is a
-large finite misfit.
+from each record's start: a *free* record (a decay, a pendulum) from the state (ξ₀, ξ̇₀)
+at its first sample, its equilibrium x_eq (a spring is anchored there, not at the release
+point) and initial state nuisance parameters; a record *at rest until its release* (a tow,
+a spin) from ξ = ξ̇ = 0 at ``released_at`` (later by the timing terms), its one nuisance the
+position it rests at. Known terms (a hydrostatic stiffness) are fixed; M_known, the known
+terms and the weights w of the identified coefficients may differ per record (``Record``:
+a pendulum's geometry, a tow's drive train and hung weight). σ from ``identify``,
+quantization included (a direction the data cannot determine is reported, not dropped).
+Start values from the equation-error least squares on Savitzky–Golay derivatives (or the
+caller's: a tow's own, ``axis.output_error.initial_guess``); every parameter is scaled by
+its typical size, bounded by its term's bounds; the integrator's step resolves each
+trial's period and damping rate (``equation.integration_step``), the closed form of a
+constant pull (``constant_pull``) replaces it when it applies, and a trial far from the
+data is a large finite misfit.
 """
 
 from __future__ import annotations
