@@ -42,6 +42,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -208,6 +209,24 @@ class Track:
     reach: float = 0.0
     speed: float = 0.0
 
+    # A fit integrates its tracks hundreds of times: what depends on the track alone is
+    # computed on the first integration and kept (the arrays are never written to).
+    @cached_property
+    def sample_interval(self) -> float | None:
+        """The median sample interval (s); None with fewer than two samples."""
+        return float(np.median(np.diff(self.tau))) if self.tau.size > 1 else None
+
+    @cached_property
+    def varying_drive(self) -> bool:
+        """Whether the drive changes from sample to sample (not absent or constant)."""
+        return self.drive is not None and bool(np.ptp(self.drive) > 0)
+
+    @cached_property
+    def drive_integral(self) -> np.ndarray:
+        """The held drive's integral from the first sample to each sample (N·s or N·m·s)."""
+        assert self.drive is not None
+        return np.concatenate([[0.0], np.cumsum(self.drive[:-1] * np.diff(self.tau))])
+
 
 def _mean_drive(track: Track, edges: np.ndarray, h: float) -> np.ndarray:
     """The held drive's mean over each step between consecutive ``edges`` (τ, s; steps along
@@ -215,8 +234,7 @@ def _mean_drive(track: Track, edges: np.ndarray, h: float) -> np.ndarray:
     assert track.drive is not None
     t, f = track.tau, track.drive
     j = np.clip(np.searchsorted(t, edges, side="right") - 1, 0, t.size - 1)
-    cumulative = np.concatenate([[0.0], np.cumsum(f[:-1] * np.diff(t))])
-    at = cumulative[j] + f[j] * (edges - t[j])
+    at = track.drive_integral[j] + f[j] * (edges - t[j])
     if track.drive_before is not None:
         at = np.where(edges < t[0], track.drive_before * (edges - t[0]), at)
     return np.diff(at, axis=0) / h
@@ -229,14 +247,27 @@ def range_rates(
     coefficient: a number, or one per parameter set) over x ∈ {0, ±reach}, ẋ ∈ {0, ±speed}:
     each term's rate at the record's range (a quadratic damping's 2·B₂·|ẋ|, a cubic
     stiffness's 3·k₃·x²), per parameter set (the trailing axis reduced)."""
-    xs, vs = (a.ravel() for a in np.meshgrid([0.0, reach, -reach], [0.0, speed, -speed]))
-    stiffness = np.zeros(xs.size)
-    damping = np.zeros(xs.size)
+    stiffness = np.zeros(9)
+    damping = np.zeros(9)
     for term, value in terms:
         theta = np.asarray(value, dtype=float)[..., None]
-        stiffness = stiffness - theta * term.dphi_dx(xs, vs)
-        damping = damping - theta * term.dphi_dv(xs, vs)
+        dphi_dx, dphi_dv = _rates_at_range(term, reach, speed)
+        stiffness = stiffness - theta * dphi_dx
+        damping = damping - theta * dphi_dv
     return stiffness.max(axis=-1), damping.max(axis=-1)
+
+
+@lru_cache(maxsize=256)
+def _rates_at_range(term: Term, reach: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """∂φ/∂x and ∂φ/∂ẋ of ``term`` at the 9 states of ``range_rates`` (read-only: shared)."""
+    xs, vs = (a.ravel() for a in np.meshgrid([0.0, reach, -reach], [0.0, speed, -speed]))
+    rates = (
+        np.broadcast_to(term.dphi_dx(xs, vs), xs.shape),
+        np.broadcast_to(term.dphi_dv(xs, vs), xs.shape),
+    )
+    for a in rates:
+        a.flags.writeable = False
+    return rates
 
 
 def stable_step(inertia: np.ndarray, stiffness: np.ndarray, damping: np.ndarray) -> np.ndarray:
@@ -257,7 +288,7 @@ def stable_step(inertia: np.ndarray, stiffness: np.ndarray, damping: np.ndarray)
 
 def sample_step(tracks: Sequence[Track]) -> float:
     """The records' finest median sample interval (s; ``MAX_STEP_S`` without two samples)."""
-    steps = [float(np.median(np.diff(tr.tau))) for tr in tracks if tr.tau.size > 1]
+    steps = [tr.sample_interval for tr in tracks if tr.sample_interval is not None]
     return min(steps, default=MAX_STEP_S)
 
 
@@ -283,7 +314,7 @@ def integration_step(
     forces' values broadcast to (S, R)."""
     n_sets, n_tracks = inertia.shape
     dt = sample_step(tracks)
-    per_sample = any(tr.drive is not None and np.ptp(tr.drive) > 0 for tr in tracks)
+    per_sample = any(tr.varying_drive for tr in tracks)
     base = dt if per_sample else min(MAX_STEP_S, 10 * dt)
     needed = np.full(n_sets, base)
     for i, tr in enumerate(tracks):
