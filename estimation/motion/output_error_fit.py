@@ -134,9 +134,9 @@ class _Problem:
     """Residuals and Jacobian of the joint fit: the identified coefficients, then x_eq per
     record, then ξ₀ and ξ̇₀ per free record (a record at rest starts at ξ = ξ̇ = 0).
 
-    The residual integrates the parameters alone; the Jacobian's finite-difference sets
-    follow only when it is asked for (a rejected trial step never is), on the step chosen
-    for all of them, so each set's path is the same whichever sets run beside it."""
+    A parameter vector is integrated once with all its finite-difference sets, on the step
+    chosen for all of them (one vectorized integration: cheaper than the centre first and
+    its sets on demand, ``bench/estimation_speed.py``)."""
 
     def __init__(
         self,
@@ -166,11 +166,16 @@ class _Problem:
         self.index = np.repeat(np.arange(self.nr), self.sizes)
         self.limit = STATE_LIMIT * (max(float(np.ptp(np.asarray(r.x))) for r in records) + 1.0)
         self._key: bytes | None = None
-        # the last parameters evaluated: their sets, steps and simulated (ξ, ξ̇) (S, n)
-        self.x = self.v = self.eq = self.sets = self.x0 = self.v0 = np.zeros((0, 0))
-        self.g_steps = self.x_step = self.v_step = np.zeros(0)
-        self.h: float | None = None
-        self.unresolved: np.ndarray | None = None
+        # the last parameters evaluated: their finite-difference steps, simulated (ξ, ξ̇)
+        # of every set (S, n) and equilibria
+        self.x = self.v = np.zeros((0, 0))
+        self.eq = self.g_steps = self.x_step = self.v_step = np.zeros(0)
+        # the Jacobian's fixed layout: every sample's row; a free record's samples, their
+        # rows and the record's slot among the free ones
+        self._rows_all = np.arange(self.measured.size)
+        self._free_mask = self.free[self.index]
+        self._free_rows = self._rows_all[self._free_mask]
+        self._free_slot = (np.cumsum(self.free) - 1)[self.index[self._free_mask]]
 
     def split(self, p: np.ndarray):
         """Globals, x_eq (R), ξ₀ and ξ̇₀ (per free record) of the parameter vector."""
@@ -209,7 +214,9 @@ class _Problem:
 
     def step(self, g: np.ndarray) -> tuple[float, np.ndarray]:
         """The integrator's step for the sets ``g`` (S, ng) and which it cannot resolve."""
-        inertia, coeffs, _ = self.parts(g)
+        return self._step(*self.parts(g)[:2])
+
+    def _step(self, inertia: np.ndarray, coeffs: list[TermValues]) -> tuple[float, np.ndarray]:
         total = total_inertia(self.tracks, inertia, coeffs)
         return integration_step(self.tracks, total, [c for c in coeffs if c.term.role == "force"])
 
@@ -218,37 +225,33 @@ class _Problem:
         g: np.ndarray,
         xi0: np.ndarray,
         v0: np.ndarray,
-        h: float | None = None,
-        unresolved: np.ndarray | None = None,
-        every: np.ndarray | None = None,
+        rows: slice = slice(None),
     ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Per record (ξ, ξ̇) at the samples for parameter sets g (S, ng) from the free
-        records' start states (S, F); on step ``h`` (None: the one for these sets), finite
-        and within the divergence limit. A force term that is zero in every set of
-        ``every`` (default ``g``: the sets the step was chosen for) is skipped: it exerts
-        nothing (dry friction's set-valued branch costs most)."""
+        """Per record (ξ, ξ̇) at the samples of the parameter sets ``g[rows]`` (g: (S, ng))
+        from the free records' start states (S, F), on the step chosen for all of ``g``
+        (so each set's path is the same whichever sets run beside it), finite and within
+        the divergence limit. A force term that is zero in every set of ``g`` is skipped:
+        it exerts nothing (dry friction's set-valued branch costs most)."""
         inertia, coeffs, delay = self.parts(g)
-        _, all_values, _ = self.parts(g if every is None else every)
         with np.errstate(over="ignore", invalid="ignore"):
             if self.closed:
-                total = total_inertia(self.tracks, inertia, coeffs)
-                sims = constant_pull.pull_response(self.records, total, coeffs, delay)
+                total = total_inertia(self.tracks, inertia[rows], self._rows(coeffs, rows))
+                sims = constant_pull.pull_response(
+                    self.records, total, self._rows(coeffs, rows), delay[rows]
+                )
             else:
-                active = [
-                    c
-                    for c, e in zip(coeffs, all_values, strict=True)
-                    if c.term.role != "force" or np.any(e.value)
-                ]
-                x0, v0_ = self.state(xi0, v0)
+                h, unresolved = self._step(inertia, coeffs)
+                active = [c for c in coeffs if c.term.role != "force" or np.any(c.value)]
+                x0, v0_ = self.state(xi0[rows], v0[rows])
                 sims = integrate(
                     self.tracks,
-                    inertia,
-                    active,
+                    inertia[rows],
+                    self._rows(active, rows),
                     x0,
                     v0_,
                     h,
-                    shift=delay if np.any(delay) else None,
-                    unresolved=unresolved,
+                    shift=delay[rows] if np.any(delay) else None,
+                    unresolved=unresolved[rows],
                 )
         lim = self.limit
         return [
@@ -256,36 +259,32 @@ class _Problem:
             for x, v in sims
         ]
 
-    def _evaluate(self, p: np.ndarray, perturbed: bool) -> None:
-        """The model at ``p`` (row 0) and, with ``perturbed``, each finite-difference set:
-        every coefficient, then all free records' ξ₀, then their ξ̇₀."""
-        key = p.tobytes()
-        if key != self._key:
-            g, eq, xi0, v0 = self.split(p)
-            self.g_steps = 1e-6 * np.maximum(np.abs(g), self.scale[: self.ng] * 1e-3)
-            ng, nr, nf = self.ng, self.nr, self.nf
-            self.x_step = 1e-6 * np.maximum(np.abs(xi0), self.scale[ng + nr : ng + nr + nf])
-            self.v_step = 1e-6 * np.maximum(np.abs(v0), self.scale[ng + nr + nf :])
-            extra = 2 if nf else 0
-            self.sets = np.vstack([g, g + np.diag(self.g_steps), *([g] * extra)])
-            self.x0 = np.vstack([xi0] * (ng + 1) + ([xi0 + self.x_step, xi0] if nf else []))
-            self.v0 = np.vstack([v0] * (ng + 1) + ([v0, v0 + self.v_step] if nf else []))
-            self.h, self.unresolved = (None, None) if self.closed else self.step(self.sets)
-            self._simulate_rows(slice(0, 1))
-            self.eq = eq
-            self._key = key
-        if perturbed and self.x.shape[0] == 1:
-            x, v = self.x, self.v
-            self._simulate_rows(slice(1, None))
-            self.x, self.v = np.vstack([x, self.x]), np.vstack([v, self.v])
+    @staticmethod
+    def _rows(coeffs: list[TermValues], rows: slice) -> list[TermValues]:
+        return [TermValues(c.term, c.value[rows]) for c in coeffs]
 
-    def _simulate_rows(self, rows: slice) -> None:
-        unresolved = None if self.unresolved is None else self.unresolved[rows]
-        sims = self.simulate(
-            self.sets[rows], self.x0[rows], self.v0[rows], self.h, unresolved, self.sets
-        )
+    def _evaluate(self, p: np.ndarray) -> None:
+        """The model at ``p`` (row 0) and every finite-difference set (each coefficient,
+        then all free records' ξ₀, then their ξ̇₀), in one integration: a parameter vector
+        is integrated once, whether the fit asks for its residual, its Jacobian or both
+        (an accepted trial step asks for both)."""
+        key = p.tobytes()
+        if key == self._key:
+            return
+        g, eq, xi0, v0 = self.split(p)
+        self.g_steps = 1e-6 * np.maximum(np.abs(g), self.scale[: self.ng] * 1e-3)
+        ng, nr, nf = self.ng, self.nr, self.nf
+        self.x_step = 1e-6 * np.maximum(np.abs(xi0), self.scale[ng + nr : ng + nr + nf])
+        self.v_step = 1e-6 * np.maximum(np.abs(v0), self.scale[ng + nr + nf :])
+        extra = 2 if nf else 0
+        sets = np.vstack([g, g + np.diag(self.g_steps), *([g] * extra)])
+        x0 = np.vstack([xi0] * (ng + 1) + ([xi0 + self.x_step, xi0] if nf else []))
+        v0s = np.vstack([v0] * (ng + 1) + ([v0, v0 + self.v_step] if nf else []))
+        sims = self.simulate(sets, x0, v0s)
         self.x = np.concatenate([s[0] for s in sims], axis=1)
         self.v = np.concatenate([s[1] for s in sims], axis=1)
+        self.eq = eq
+        self._key = key
 
     @property
     def model(self) -> np.ndarray:
@@ -293,22 +292,18 @@ class _Problem:
         return self.x[0] + self.eq[self.index]
 
     def residual(self, p: np.ndarray) -> np.ndarray:
-        self._evaluate(p, perturbed=False)
+        self._evaluate(p)
         return self.measured - self.model
 
     def jacobian(self, p: np.ndarray) -> np.ndarray:
-        self._evaluate(p, perturbed=True)
+        self._evaluate(p)
         ng, nr, nf = self.ng, self.nr, self.nf
-        rows = np.arange(self.measured.size)
         jac = np.zeros((self.measured.size, p.size))
         jac[:, :ng] = -((self.x[1 : ng + 1] - self.x[0]) / self.g_steps[:, None]).T
-        jac[rows, ng + self.index] = -1.0
-        if nf:
-            # free record k's own ξ₀/ξ̇₀ column: its samples only
-            slot = np.cumsum(self.free) - 1
-            own = self.free[self.index]
-            at = rows[own]
-            k = slot[self.index[own]]
+        jac[self._rows_all, ng + self.index] = -1.0
+        if nf:  # free record k's own ξ₀/ξ̇₀ columns: its samples only
+            at, k = self._free_rows, self._free_slot
+            own = slice(None) if nf == nr else self._free_mask
             jac[at, ng + nr + k] = -(self.x[ng + 1, own] - self.x[0, own]) / self.x_step[k]
             jac[at, ng + nr + nf + k] = -(self.x[ng + 2, own] - self.x[0, own]) / self.v_step[k]
         return jac
@@ -593,16 +588,7 @@ def simulate(
     if initial is None:
         initial = np.zeros((nr, 2))
     init = np.broadcast_to(np.asarray(initial, dtype=float), (g.shape[0], nr, 2))
-    free = prob.free
-    h, unresolved = (None, None) if prob.closed else prob.step(g)
-    sims = prob.simulate(
-        g[rows],
-        init[rows][:, free, 0],
-        init[rows][:, free, 1],
-        h,
-        None if unresolved is None else unresolved[rows],
-        g,
-    )
+    sims = prob.simulate(g, init[:, prob.free, 0], init[:, prob.free, 1], rows)
     if np.ndim(values) == 1:
         return [(x[0], v[0]) for x, v in sims]
     return sims

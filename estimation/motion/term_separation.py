@@ -44,7 +44,8 @@ def sensitivities(
     columns (n_samples, n_nuisances), read-only: the same ones are returned again for the
     same fit, records (the same objects) and ``extra``.
     """
-    asked = tuple(dict.fromkeys(e for e in extra if e not in fit.names))
+    wanted = set(extra) - set(fit.names)
+    asked = tuple(n for n in LIBRARY if n in wanted)  # one order: one cache entry
     return _RECENT.get(
         (fit, records, setup, asked), lambda: _sensitivities(records, setup, fit, asked)
     )

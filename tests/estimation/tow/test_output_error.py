@@ -83,9 +83,10 @@ def test_samples_after_t_end_are_ignored():
     )
 
 
-def test_a_trial_step_integrates_the_centre_only_the_jacobian_its_perturbations(monkeypatch):
-    """The finite-difference sets (3 + effects of them) are integrated only for a Jacobian:
-    a residual (a trial step the fit may reject) integrates one set, not 1 + 3 + effects."""
+def test_each_parameter_vector_is_integrated_once_with_all_its_jacobian_sets(monkeypatch):
+    """The one fit integrates a parameter vector and its finite-difference sets (3 + effects
+    of them) in one vectorized call, and never again for the same vector, whether the
+    optimiser asks for its residual, its Jacobian or both."""
     t = np.arange(0.0, 15.0, 0.05)
     drive = 40.0 + 10.0 * np.sin(2 * np.pi * 0.3 * t)
     blank = prepare(RunData("w", "surge", t, np.zeros_like(t), drive, t_release=1.0))
@@ -94,14 +95,26 @@ def test_a_trial_step_integrates_the_centre_only_the_jacobian_its_perturbations(
     noise = np.random.default_rng(3).normal(0.0, 1e-4, t.size)
     run = prepare(RunData("w", "surge", t, x + noise, drive, t_release=1.0))
     calls: list[int] = []
+    vectors: set[bytes] = set()
     from estimation.motion import output_error_fit
 
     def counting(tracks, inertia, coefficients, x0, *args, **kwargs):
         calls.append(x0.shape[0])  # parameter sets integrated at once
         return integrate(tracks, inertia, coefficients, x0, *args, **kwargs)
 
+    def seen(method):
+        def wrapped(self, p):
+            vectors.add(np.asarray(p).tobytes())
+            return method(self, p)
+
+        return wrapped
+
     integrate = output_error_fit.integrate
+    problem = output_error_fit._Problem
     monkeypatch.setattr(output_error_fit, "integrate", counting)
+    monkeypatch.setattr(problem, "residual", seen(problem.residual))
+    monkeypatch.setattr(problem, "jacobian", seen(problem.jacobian))
     fit = fit_output_error([run], (), start=1.2 * np.array(SURGE_TRUTH))
-    assert set(calls) == {1, 3}, calls  # the centre alone, or its 3 perturbations
+    assert set(calls) == {4}, calls  # the vector and its 3 perturbations, together
+    assert len(calls) == len(vectors)  # once per vector the optimiser asked about
     assert fit.values[0] == pytest.approx(SURGE_TRUTH[0], rel=0.05)
