@@ -95,6 +95,7 @@ def summary_lines(data: dict) -> list[str]:
         f"  {c['name']:<28} {plus_minus(c)} {c['unit']}".rstrip()
         for c in data.get("well_determined") or []
     ]
+    lines += _bootstrap_lines(data.get("bootstrap"), units)
     lines += _method_lines(data.get("methods") or [], units)
     lines += _finding_lines(data, ("effects", "ambiguous", "warnings", "advice"))
     if data.get("rmse_before") is not None and data.get("rmse_after") is not None:
@@ -114,6 +115,19 @@ def summary_lines(data: dict) -> list[str]:
     lines += _theory_lines(data.get("theory"))
     lines.append(f"  stored as result #{data['result_id']}")
     return lines
+
+
+def _bootstrap_lines(boot: dict | None, units: dict[str, str]) -> list[str]:
+    """The record-level bootstrap's spread of each coefficient (every kind's, with two
+    records or more: ``estimation.motion.record_bootstrap``), beside the fit's σ above."""
+    if not boot or not boot.get("used"):
+        return []
+    spread = ", ".join(
+        f"{name} {std:.2g}{' ' + units[name] if units.get(name) else ''}"
+        for name, std in (boot.get("std") or {}).items()
+        if std is not None
+    )
+    return [f"  bootstrap σ ({boot['used']} of {boot['requested']} draws): {spread}"]
 
 
 def _method_lines(methods: list[dict], units: dict[str, str]) -> list[str]:
