@@ -375,7 +375,12 @@ class RigSession:
             raise ThrusterError(NO_THRUSTERS)
         self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=True)
         hold_full_collections(True)  # no 0.1-0.3 s full GC pass while thrust may flow
-        await self.thrusters.arm()
+        try:
+            await self.thrusters.arm()
+        except BaseException:  # refused or unanswered: not armed, and never said to be
+            self.thrust = ThrustTarget([0.0] * self.thruster_count, armed=False)
+            hold_full_collections(False)
+            raise
 
     async def disarm_thrusters(self) -> None:
         if self.thrusters is None:

@@ -53,6 +53,7 @@ from daq.procedures.params import ParameterError
 from daq.store import AmbiguousRunId, RunNotFound
 from daq.store.database import software_version
 from daq.store.faults import StorageUnavailable
+from thrusters.status import ThrusterError
 
 log = logging.getLogger(__name__)
 STATIC_DIR = Path(__file__).parent / "static"
@@ -169,6 +170,13 @@ def _install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(TimeoutError)
     async def timeout(request: Request, exc: TimeoutError) -> JSONResponse:
         return _error(503, f"the rig did not answer in time: {exc}")
+
+    @app.exception_handler(ThrusterError)
+    async def thrusters_refused(request: Request, exc: ThrusterError) -> JSONResponse:
+        # The controller refused or did not answer (arm, disarm): the rig cannot do it now,
+        # said in one line naming the controller; the driver left the outputs at zero.
+        log.warning("%s %s: %s", request.method, request.url.path, exc)
+        return _error(503, f"thrusters: {exc}")
 
 
 def create_app(

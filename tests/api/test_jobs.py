@@ -140,6 +140,25 @@ def test_arm_and_disarm_thrusters(client):
     assert r.json()["thrusters"]["state"] == "DISARMED"
 
 
+def test_arming_a_controller_that_does_not_answer_is_a_503_naming_it(client, service):
+    """The simulated thruster controller falls silent: arming is refused in one line naming
+    the controller (a documented 503, not a 500 with a traceback) and the rig stays
+    disarmed; once it answers again, arming works."""
+    wait_rig_free(client)
+    emulator = service.session.sim.thrusters
+    emulator.silent = True  # it hears nothing and says nothing
+    try:
+        r = client.post("/api/rig/arm", headers=AUTH)
+    finally:
+        emulator.silent = False
+    assert r.status_code == 503, r.text
+    assert r.json()["detail"].startswith("thrusters: arm: controller at ")
+    assert "gave no reply" in r.json()["detail"]
+    assert client.get("/api/rig", headers=AUTH).json()["armed"] is False
+    assert client.post("/api/rig/arm", headers=AUTH).status_code == 200
+    assert client.post("/api/rig/disarm", headers=AUTH).json()["armed"] is False
+
+
 def test_rig_status_reports_values_clock_and_limits(client):
     status = client.get("/api/rig", headers=AUTH).json()
     assert status["running"] and status["connected"] and status["simulated"]
