@@ -18,7 +18,7 @@ from functools import cache
 import numpy as np
 
 from estimation.axis.prepared_run import PreparedRun
-from estimation.motion import equation, output_error_fit
+from estimation.motion import output_error_fit
 from estimation.motion.fit_memo import Recent
 from estimation.motion.output_error_fit import names_of
 from estimation.motion.records import Record, Setup
@@ -87,15 +87,11 @@ def _setup(dof: str) -> Setup:
 
 def at_step_limit(values: np.ndarray, effects: Sequence[str], runs: Sequence[PreparedRun]) -> bool:
     """Whether ``values`` need the one integrator's finest step or nearly
-    (``motion.equation.at_step_limit``): a fit there may rest on it, not on the data."""
-    records, setup = records_of(runs), setup_of(runs)
-    h, unresolved = output_error_fit.step_of(
-        records, setup, names_of(setup, effects), np.atleast_2d(values)
+    (``motion.output_error_fit.at_step_limit``): a fit there may rest on it, not on the data."""
+    setup = setup_of(runs)
+    return output_error_fit.at_step_limit(
+        records_of(runs), setup, names_of(setup, effects), np.atleast_2d(values)
     )
-    if h is None:
-        return False
-    tracks = [output_error_fit.track_of(r, setup) for r in records]
-    return bool(unresolved.any()) or h < 2 * equation.finest_step(tracks)
 
 
 def step_of(

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimation.errors import EstimationFailed
-from estimation.motion import constant_pull
+from estimation.motion import constant_pull, equation
 from estimation.motion.equation import (
     STATE_LIMIT,
     Track,
@@ -592,6 +592,20 @@ def simulate(
     if np.ndim(values) == 1:
         return [(x[0], v[0]) for x, v in sims]
     return sims
+
+
+def at_step_limit(
+    records: Sequence[Record], setup: Setup, names: Sequence[str], values: np.ndarray
+) -> bool:
+    """Whether the parameter sets ``values`` (S, ng) need the integrator's finest step or
+    nearly (``equation.at_step_limit``): a fit there may rest on it, not on the data; never
+    in the closed form (``constant_pull``), which has no step."""
+    prob = _Problem(records, setup, names, np.ones(len(names) + 3 * len(records)))
+    if prob.closed:
+        return False
+    inertia, coeffs, _ = prob.parts(np.atleast_2d(np.asarray(values, dtype=float)))
+    forces = [c for c in coeffs if c.term.role == "force"]
+    return equation.at_step_limit(prob.tracks, total_inertia(prob.tracks, inertia, coeffs), forces)
 
 
 def step_of(
