@@ -12,6 +12,7 @@ from typing import Any, Protocol
 
 from estimation.axis.result import EffectEstimate
 from estimation.motion.equivalent import EquivalentDamping
+from estimation.motion.term_search import Step
 from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
 
@@ -89,20 +90,6 @@ def error_before_after(result: FitSummary, unit: str, labels: Mapping[str, str])
     return lines
 
 
-class SearchStep(Protocol):
-    """What the evidence table reads of a search step
-    (``estimation.motion.term_selection.Step``)."""
-
-    @property
-    def q_before(self) -> float: ...
-    @property
-    def q_after(self) -> float: ...
-    @property
-    def accepted(self) -> bool: ...
-    @property
-    def added(self) -> bool: ...
-
-
 def value_and_sigma(value: float | None, std: float | None, digits: int = 5) -> str:
     """``value ± σ`` (``digits`` significant), "… (not identified)" without a finite σ,
     "—" without a value."""
@@ -166,13 +153,41 @@ def rule_lines(rules: RuleSet) -> list[str]:
     ]
 
 
-def step_cells(step: SearchStep) -> tuple[str, str]:
-    """A search step's "Ljung–Box Q before → after" (— where not fitted) and its verdict:
-    yes (added), passed, not chosen (passed the rules, lost its round), or no."""
-    pair = (step.q_before, step.q_after)
-    q = " → ".join("—" if not math.isfinite(v) else f"{v:.1f}" for v in pair)
-    verdict = "yes" if step.added else "passed, not chosen" if step.accepted else "no"
-    return q, verdict
+def evidence_table(rules: RuleSet, steps: Sequence[Step], unit: str) -> list[str]:
+    """The search's evidence, every kind alike: the rules that judged each trial (and those
+    the kind leaves out), then one row per step: ΔBIC, the residual it explains against the
+    position noise, the leave-one-record-out RMSE without → with it, the Ljung–Box Q of the
+    round's model → the trial's (— where not fitted or not computed) and the verdict: yes
+    (added), passed, not chosen (passed the rules, lost its round), no, or the backward
+    check's kept or removed."""
+
+    def pair(a: float, b: float, fmt: str) -> str:
+        return " → ".join("—" if not math.isfinite(v) else format(v, fmt) for v in (a, b))
+
+    lines = [
+        *rule_lines(rules),
+        "Whiteness is a verdict, not a rule of the search: each step's Ljung–Box Q is "
+        "evidence beside the rules (docs/estimation.md, *Selection rules*).",
+        "",
+        f"| round | trial | ΔBIC | explained vs noise [{unit}] | leave-one-record-out RMSE "
+        f"[{unit}] | Ljung–Box Q | kept | reason |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for s in steps:
+        if s.backward:
+            verdict = "kept (backward check)" if s.accepted else "removed (backward check)"
+        else:
+            verdict = "yes" if s.added else "passed, not chosen" if s.accepted else "no"
+        delta = "—" if not math.isfinite(s.delta_bic) else f"{s.delta_bic:.1f}"
+        explained = (
+            "—" if not math.isfinite(s.explained_rms) else f"{s.explained_rms:.3g} vs {s.noise:.3g}"
+        )
+        lines.append(
+            f"| {s.round} | {s.term} | {delta} | {explained} | "
+            f"{pair(s.loro_before, s.loro_after, '.4g')} | {pair(s.q_before, s.q_after, '.1f')} "
+            f"| {verdict} | {s.reason} |"
+        )
+    return lines
 
 
 def write_result_and_markdown(out: Path, doc: dict[str, Any], markdown: str) -> list[Path]:

@@ -8,12 +8,12 @@ from typing import Any
 import numpy as np
 
 from estimation.axis.drive_uncertainty import DriveUncertainty
-from estimation.axis.effect_search import SearchStep
 from estimation.axis.reverse import ReverseTest
 from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.record_bootstrap import Bootstrap
+from estimation.motion.term_search import Step
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
@@ -70,7 +70,7 @@ class EstimationResult:
     residual_correlations: dict[str, float]
     force_rmse_per_run_before: dict[str, float] = field(default_factory=dict)
     force_rmse_per_run_after: dict[str, float] = field(default_factory=dict)
-    steps: tuple[SearchStep, ...] = ()
+    steps: tuple[Step, ...] = ()
     cv_before: float | None = None
     cv_after: float | None = None
     bootstrap: Bootstrap | None = None
@@ -134,7 +134,7 @@ class EstimationResult:
                 "bic_after": finite_or_none(self.fit_after.bic) if self.fit_after else None,
                 "cv_rmse_before": finite_or_none(self.cv_before),
                 "cv_rmse_after": finite_or_none(self.cv_after),
-                "steps": [step_json(s) for s in self.steps],
+                "steps": [s.to_json() for s in self.steps],
             },
             "acceptance_rules": TOW_RULES.to_json(),
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
@@ -145,21 +145,6 @@ class EstimationResult:
         if self.dof is not None:  # imported as another straight line (a tow's heave)
             doc["dof"] = self.dof
         return doc
-
-
-def step_json(s: SearchStep) -> dict[str, Any]:
-    """One effect-search step as the result document writes it."""
-    return {
-        "round": s.round,
-        "effect": s.effect,
-        "delta_bic": finite_or_none(s.delta_bic),
-        "cv_rmse_before": finite_or_none(s.cv_before),
-        "cv_rmse_after": finite_or_none(s.cv_after),
-        "ljung_box_q_before": finite_or_none(s.ljung_box_before),
-        "ljung_box_q_after": finite_or_none(s.ljung_box_after),
-        "accepted": s.accepted,
-        "reason": s.reason,
-    }
 
 
 def _uncertainty(u: DriveUncertainty | None) -> dict[str, Any] | None:

@@ -9,8 +9,6 @@ import numpy as np
 
 from estimation.axis import METHODS
 from estimation.axis.drive_uncertainty import DriveUncertainty, drive_uncertainty
-from estimation.axis.effect_search import SearchOutcome, candidate_effects
-from estimation.axis.effect_search import search_effects as search_effects_fn
 from estimation.axis.effects import EFFECTS
 from estimation.axis.force_residual import force_residuals, regressor_correlations
 from estimation.axis.model import BASE_NAMES, at_step_limit, records_of, setup_of
@@ -30,6 +28,7 @@ from estimation.axis.reverse import (
     suggest_reverse_test,
 )
 from estimation.axis.seed_methods import SEED_METHODS
+from estimation.axis.tow_search import candidate_effects, tow_search
 from estimation.axis.unexplained import characterise
 from estimation.blas_threads import one_blas_thread
 from estimation.data.driven_axes import driven_axis
@@ -45,6 +44,7 @@ from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
 from estimation.motion.equation import SETTLES_WITHIN
 from estimation.motion.record_bootstrap import Bootstrap, record_bootstrap
+from estimation.motion.term_search import SearchOutcome, search_terms
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination, drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
@@ -119,7 +119,13 @@ def _output_error(
     if search_effects:
         # drive_inertia is a candidate only for weight-driven runs without a declared weight
         declared = all(r.hung_mass_declared() or not r.is_constant_drive() for r in runs)
-        outcome = search_effects_fn(prepared, base, candidate_effects(declared))
+        outcome = search_terms(
+            records_of(prepared),
+            setup_of(prepared),
+            base,
+            candidate_effects(declared),
+            tow_search(prepared),
+        )
     else:
         cv = leave_one_run_out_rmse(prepared, base)
         outcome = SearchOutcome(

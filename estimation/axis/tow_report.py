@@ -30,7 +30,7 @@ from estimation.fit_report import (
     determined_section,
     effects_found,
     error_before_after,
-    rule_lines,
+    evidence_table,
     summary_rows,
     value_and_sigma,
     write_result_and_markdown,
@@ -163,16 +163,8 @@ def _markdown(
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}; "
         f"leave-one-run-out RMSE {cv[0]} → {cv[1]} {units['position']}",
         "",
-        *rule_lines(TOW_RULES),
-        "| round | effect | ΔBIC | LORO RMSE after | Ljung–Box Q before → after | kept | reason |",
-        "|---|---|---|---|---|---|---|",
+        *evidence_table(TOW_RULES, result.steps, units["position"]),
     ]
-    for s in result.steps:
-        cv_s = "—" if s.cv_after is None else f"{s.cv_after:.4g}"
-        lines.append(
-            f"| {s.round} | {s.effect} | {s.delta_bic:.1f} | {cv_s} | {s.ljung_box_before:.1f} → "
-            f"{s.ljung_box_after:.1f} | {'yes' if s.accepted else 'no'} | {s.reason} |"
-        )
     return "\n".join(lines) + "\n"
 
 

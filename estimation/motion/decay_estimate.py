@@ -2,8 +2,8 @@
 
     (M_known + M)·ẍ + B₁·ẋ + [B₂·|ẋ|·ẋ + B₃·ẋ³ + F_c·sign ẋ] + k·x + [k₃·x³] = τ(t)
 
-(terms in brackets are library candidates, kept by the rules of ``motion.term_selection``). A free
-decay scales every coefficient alike, so it needs one fact from outside: a stiffness (ρ·g·A_w
+(terms in brackets are library candidates, kept by the one search, ``motion.term_search``).
+A free decay scales every coefficient alike, so it needs one fact from outside: a stiffness (ρ·g·A_w
 for heave, Δ·g·GM for roll) or the inertia. The result's warnings name every coefficient
 the data do not determine, every value a body cannot have, and — when the residual is
 decisively not white (Ljung–Box p < ``WHITE_P``) and the coefficients move by more than
@@ -23,20 +23,22 @@ import numpy as np
 
 from estimation.blas_threads import one_blas_thread
 from estimation.data.window import encoder_quantum
-from estimation.errors import EstimationFailed
 from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import damping_over_swings
-from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.output_error_fit import MotionFit, fit_motion
 from estimation.motion.record_bootstrap import DEFAULT_DRAWS, record_bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of, validate
-from estimation.motion.term_selection import TRIAL_NFEV, search_terms
+from estimation.motion.term_search import KindSearch, SearchOutcome, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.report_numbers import Coefficient
+from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 from estimation.stats.misfit import WHITE_P, effective_sample_size, structured
 
+#: The model's own parameters, in the words of the screen's reason (``SEPARABLE``).
+SETUP_PARAMETERS = "the model's own parameters (a constant force only moves a spring's equilibrium)"
 MOVED_SIGMAS = 2.0  # a coefficient that moves more than this when a term is tried is fragile
 #: Candidates tried on a decay after the base (damping, then restoring, then friction).
 DECAY_CANDIDATES: tuple[str, ...] = (
@@ -164,18 +166,14 @@ def estimate_records(
     validate(windowed, setup)
     base = fit_motion(windowed, setup)
     tried = [c for c in candidates if c not in known and c not in base.names]
-    final, steps, rejected, rivals = search_terms(windowed, setup, base, tried)
-    result = _result(setup, windowed, base, final, steps, rejected, starts, rivals)
-    alternatives = {}
-    for kept, rival in rivals:
-        swapped = tuple(rival if e == kept else e for e in final.effects)
-        start = parameters_of(final)
-        start[list(final.names).index(kept)] = 0.0
-        try:
-            alt = fit_motion(windowed, setup, swapped, start=start, max_nfev=TRIAL_NFEV)
-        except EstimationFailed:
-            continue
-        alternatives[rival] = (_coefficients(setup, alt), alt.bic - final.bic)
+    free = all(r.drive is None for r in windowed)
+    outcome = search_terms(windowed, setup, base, tried, decay_search(free))
+    final = outcome.final
+    result = _result(setup, windowed, outcome, starts)
+    alternatives = {
+        other: (_coefficients(setup, alt), alt.bic - final.bic)
+        for other, alt in outcome.alternatives.items()
+    }
     first = windowed[0]
     equivalent = damping_over_swings(
         final,
@@ -229,7 +227,15 @@ def _coefficients(setup: Setup, fit: MotionFit) -> dict[str, Coefficient]:
     }
 
 
-def _result(setup, records, base, final, steps, rejected, starts, rivals) -> DecayResult:
+def decay_search(free: bool) -> KindSearch:
+    """A decay's or pendulum's part of the one search (``motion.term_search``): its rules,
+    pairs in the first round as every kind's, the words for its model's own parameters.
+    ``free``: the records are free decays (no drive: the advice that separates terms)."""
+    return KindSearch(DECAY_RULES, pairs=True, own_parameters=SETUP_PARAMETERS, free=free)
+
+
+def _result(setup, records, outcome: SearchOutcome, starts) -> DecayResult:
+    base, final = outcome.base, outcome.final
     rotational = DOFS[setup.dof]
     units = {
         n: LIBRARY[n].unit(setup.dof) for n in (*final.names, *setup.known_terms) if n != "inertia"
@@ -240,7 +246,7 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
     if setup.inertia is not None:
         known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])
     white = ljung_box(final.residuals)
-    moved = _moved(final, [base, *rejected])
+    moved = _moved(final, [base, *outcome.rejected])
     noise = position_noise(final.residuals, [r.t for r in records])
     ratio = final.rmse / noise if noise > 0 else float("inf")
     misfit = structured(white.p_value, ratio, effective_sample_size(final.residuals))
@@ -261,7 +267,6 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
             f"{white.p_value:.2g}){moved_too}: the record holds motion no kept term explains, "
             "so the coefficients may be biased by it"
         )
-    warnings += rival_sentences(rivals, free)
     total_m, k = inertia_and_stiffness(setup, records[0], final)
     period = 2 * np.pi * np.sqrt(total_m / k) if k and k > 0 and total_m > 0 else None
     return DecayResult(
@@ -279,21 +284,15 @@ def _result(setup, records, base, final, steps, rejected, starts, rivals) -> Dec
         possibly_biased=biased,
         natural_period_s=period,
         warnings=tuple(warnings),
-        steps=steps,
+        steps=outcome.steps,
+        cv_before=outcome.cv_base,
+        cv_after=outcome.cv_final,
+        advice=outcome.advice,
         equilibrium={r.run_id: float(e) for r, e in zip(records, final.equilibrium, strict=True)},
         release_time_s=dict(starts),
-        ambiguous=tuple(rivals),
+        ambiguous=outcome.ambiguous,
         fit=final,
     )
-
-
-def rival_sentences(rivals: Sequence[tuple[str, str]], free: bool) -> list[str]:
-    """One warning per rival pair (kept term, its rival): what separates them."""
-    return [
-        f"{a} and {b} explain the same part of the residual on these records (rivals): "
-        f"{a} is reported; to separate them — {LIBRARY[b].separation(free)}"
-        for a, b in rivals
-    ]
 
 
 def _moved(final: MotionFit, others: Sequence[MotionFit]) -> bool:

@@ -12,8 +12,7 @@ import numpy as np
 from estimation.figures import figure_links, new_figure, run_label, save_figure
 from estimation.fit_report import (
     determined_section,
-    rule_lines,
-    step_cells,
+    evidence_table,
     write_result_and_markdown,
 )
 from estimation.motion.decay_result import DecayResult
@@ -98,16 +97,8 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         "",
         "## Evidence",
         "",
-        *rule_lines(DECAY_RULES),
-        "| term | round | ΔBIC | explained RMS | Ljung–Box Q | kept | reason |",
-        "|---|---|---|---|---|---|---|",
+        *evidence_table(DECAY_RULES, result.steps, unit),
     ]
-    for s in result.steps:
-        q, verdict = step_cells(s)
-        lines.append(
-            f"| {s.term} | {s.round} | {s.delta_bic:.1f} | {s.explained_rms:.3g} | {q} | "
-            f"{verdict} | {s.reason} |"
-        )
     if result.warnings:
         lines += ["", "## Warnings", "", *(f"- {w}" for w in result.warnings)]
     return "\n".join([*lines, "", *figure_links(figures)]) + "\n"

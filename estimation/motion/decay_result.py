@@ -14,7 +14,7 @@ from estimation.motion.equivalent import EquivalentDamping, equivalent_damping
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.record_bootstrap import Bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of
-from estimation.motion.term_selection import Step
+from estimation.motion.term_search import Step
 from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
@@ -46,7 +46,12 @@ class DecayResult:
     release_time_s: dict[str, float]
     #: Per record, where the fitted free motion ends and why (``envelope.free_decay_end``).
     window: dict[str, FreeWindow] = field(default_factory=dict)
-    ambiguous: tuple[tuple[str, str], ...] = ()
+    #: Groups of terms the records cannot tell apart (a kept term first) and what would.
+    ambiguous: tuple[tuple[str, ...], ...] = ()
+    advice: tuple[str, ...] = ()
+    #: Leave-one-record-out RMSE of the base and final models (None: fewer than 3 records).
+    cv_before: float | None = None
+    cv_after: float | None = None
     #: Per rival of a kept term: the final model with the rival in its place (its
     #: coefficients, and its BIC minus the final's).
     alternatives: dict[str, tuple[dict[str, Coefficient], float]] = field(default_factory=dict)
@@ -113,7 +118,14 @@ class DecayResult:
             "well_determined": [c.to_json() for c in self.well_determined],
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "warnings": list(self.warnings),
-            "evidence": [s.to_json() for s in self.steps],
+            "advice": list(self.advice),
+            "evidence": {
+                "bic_before": finite_or_none(self.base.bic) if self.base else None,
+                "bic_after": finite_or_none(self.fit.bic) if self.fit else None,
+                "cv_rmse_before": finite_or_none(self.cv_before),
+                "cv_rmse_after": finite_or_none(self.cv_after),
+                "steps": [s.to_json() for s in self.steps],
+            },
             "acceptance_rules": DECAY_RULES.to_json(),
             "equilibrium": finite_values(self.equilibrium),
             "release_time_s": finite_values(self.release_time_s),

@@ -41,6 +41,8 @@ def profile_start(
 ) -> np.ndarray:
     """The trial's start (module doc, *profile*): the full parameter vector."""
     k, nr = len(current.values), len(records)
+    free = np.asarray(current.free, dtype=bool)  # records whose ξ₀, ξ̇₀ are nuisances
+    nf = int(np.count_nonzero(free))
     measured = np.concatenate([np.asarray(r.x, dtype=float) for r in records])
     index = np.repeat(np.arange(nr), [np.size(r.t) for r in records])
     params = np.tile(parameters_of(current), (PROFILE.size, 1))  # (grid, p)
@@ -57,12 +59,15 @@ def profile_start(
     best_sse, best = np.full(PROFILE.size, np.inf), params.copy()
     solve = np.linalg.pinv(own)  # one SVD for every chord step (lstsq per step: 70 ms each)
     for _ in range(PROFILE_STEPS + 1):  # chord steps: the current fit's Jacobian throughout
+        initial = np.zeros((PROFILE.size, nr, 2))  # a record at rest ignores its own
+        initial[:, free, 0] = params[:, k + nr : k + nr + nf]
+        initial[:, free, 1] = params[:, k + nr + nf :]
         sims = simulate(
             records,
             setup,
             (*current.names, term),
             np.column_stack([params[:, :k], values]),
-            np.stack([params[:, k + nr : k + 2 * nr], params[:, k + 2 * nr :]], axis=-1),
+            initial,
         )
         model = np.concatenate([x for x, _ in sims], axis=1) + params[:, k + index]
         left = measured[None, :] - model

@@ -26,7 +26,7 @@ from estimation.motion.terms import LIBRARY
 
 #: |ρ| at or above this: the two terms are structurally the same on these records.
 COLLINEAR = 0.995
-#: |ρ| at or above this: close enough that converged fits must decide (effect_search.py).
+#: |ρ| at or above this: close enough that converged fits must decide (``term_search``).
 NEAR_COLLINEAR = 0.9
 
 #: A search asks for the same sensitivity matrix (an ODE integration) to judge

@@ -22,10 +22,10 @@ from estimation.axis.result import EffectEstimate
 from estimation.blas_threads import one_blas_thread
 from estimation.data.run_arrays import validate_run_set
 from estimation.errors import EstimationFailed
-from estimation.motion.decay_estimate import estimate_records, rival_sentences
+from estimation.motion.decay_estimate import estimate_records
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.output_error_fit import MotionFit
-from estimation.motion.term_selection import Step
+from estimation.motion.term_search import Step
 from estimation.motion.terms import LIBRARY
 from estimation.pendulum import PENDULUM_METHODS
 from estimation.pendulum.configuration import (
@@ -39,7 +39,6 @@ from estimation.pendulum.configuration import (
     unit,
 )
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
-from estimation.pendulum.evidence import step_json
 from estimation.pendulum.methods import (
     MethodEstimate,
     damped_fit,
@@ -165,7 +164,7 @@ class PendulumResult:
             "evidence": {
                 "bic_before": finite_or_none(self.fit_before.bic),
                 "bic_after": finite_or_none(self.fit_after.bic),
-                "steps": [step_json(s) for s in self.steps],
+                "steps": [s.to_json() for s in self.steps],
             },
             "acceptance_rules": DECAY_RULES.to_json(),
             "nuisance": {
@@ -294,20 +293,11 @@ def estimate_pendulum(
     base, final = motion.base, motion.fit
     steps: tuple[Step, ...] = motion.steps
     ambiguous: tuple[tuple[str, ...], ...] = tuple(motion.ambiguous)
-    advice = [
-        f"{a} and {b} explain the data alike — {a}: {LIBRARY[a].separation(True)}; "
-        f"{b}: {LIBRARY[b].separation(True)}"
-        for a, b in motion.ambiguous
-    ]
+    advice = list(motion.advice)
     ids = tuple(d.run_id for d in decays)
     rows += _output_error_rows(decays, final)
     white_before, white_after = ljung_box(base.residuals), ljung_box(final.residuals)
-    # the engine's warnings, less its rival sentences: the advice below words those
-    rival = set(rival_sentences(motion.ambiguous, True))
-    warnings = [
-        *_warnings(rows, peaks, decays, final),
-        *(w for w in motion.warnings if w not in rival),
-    ]
+    warnings = [*_warnings(rows, peaks, decays, final), *motion.warnings]
     if final.effects and len({round(float(np.max(np.abs(d.phi))), 2) for d in decays}) < 2:
         advice.append(
             "to confirm "

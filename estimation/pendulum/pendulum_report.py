@@ -25,8 +25,7 @@ from estimation.fit_report import (
     determined_section,
     effects_found,
     error_before_after,
-    rule_lines,
-    step_cells,
+    evidence_table,
     summary_rows,
     write_result_and_markdown,
 )
@@ -186,20 +185,8 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
         f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}",
         "",
-        *rule_lines(DECAY_RULES),
-        "Whiteness is a verdict, not a rule of the search: each step's Ljung–Box Q is "
-        "evidence beside the rules (—: the candidate was not fitted, docs/pendulum.md).",
-        "",
-        "| round | effect | ΔBIC | residual explained vs noise [rad] | Ljung–Box Q | kept "
-        "| reason |",
-        "|---|---|---|---|---|---|---|",
+        *evidence_table(DECAY_RULES, result.steps, "rad"),
     ]
-    for s in result.steps:
-        q, verdict = step_cells(s)
-        lines.append(
-            f"| {s.round} | {s.term} | {s.delta_bic:.1f} | {s.explained_rms:.2g} vs "
-            f"{s.noise:.2g} | {q} | {verdict} | {s.reason} |"
-        )
     if result.advice:
         lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]
     return "\n".join(lines) + "\n"

@@ -58,6 +58,8 @@ class Trial:
     ``unresolved()``: why members are below what the experiment resolves (empty: none).
     ``floor_ratio()``: the residual against the noise floor the fit implies (force domain).
     ``out_of_sample()``: why a check on data the fit did not see fails, or None.
+    ``stage``: "forward" (a trial added to the current model) or "backward" (a kept term
+    judged again against the final model without it).
     """
 
     terms: tuple[str, ...]
@@ -70,6 +72,7 @@ class Trial:
     floor_ratio: Callable[[], float] | None = None
     out_of_sample: Callable[[], str | None] | None = None
     times: tuple[np.ndarray, ...] | None = None
+    stage: str = "forward"
 
     @cached_property
     def delta_bic(self) -> float:
@@ -273,11 +276,15 @@ class OutOfSample:
     each is predicted by the shared coefficients refitted on the others, and the pooled error
     must drop by more than the refits resolve (``out_of_sample.loro_dropped``); ``held_out``
     names what is left out, ``judged`` which two models are compared, ``fewer`` what stands
-    for the check with fewer."""
+    for the check with fewer; ``forward``: asked of a forward step too, not only in the
+    backward check; ``variance_inflation``: with fewer records the variance-inflation
+    bound stands in (``motion.term_search.VIF_LIMIT``)."""
 
     held_out: str = "run"
     fewer: str = "no member's variance inflation exceeds 10"
     judged: str = "with the candidate than without it"
+    forward: bool = True
+    variance_inflation: bool = True
     name: str = "out of sample"
 
     @property
@@ -289,6 +296,8 @@ class OutOfSample:
         )
 
     def verdict(self, trial: Trial) -> str | None:
+        if trial.stage == "forward" and not self.forward:
+            return None
         return trial.out_of_sample() if trial.out_of_sample is not None else None
 
 
@@ -306,13 +315,19 @@ class RuleSet:
                 return why
         return "kept"
 
+    @property
+    def variance_inflation_stands_in(self) -> bool:
+        """With fewer records than a leave-one-out check needs, the variance-inflation
+        bound stands in for it (its ``OutOfSample`` rule says so)."""
+        return any(isinstance(r, OutOfSample) and r.variance_inflation for r in self.rules)
+
     def to_json(self) -> dict[str, Any]:
         """{"applied": [{"name", "statement"}], "omitted": {name: why}} for every result."""
         applied = [{"name": r.name, "statement": r.statement} for r in self.rules]
         return {"applied": applied, "omitted": dict(self.omitted)}
 
 
-#: Tows and spins (``estimation.axis.effect_search``).
+#: Tows and spins (``estimation.motion.term_search``, as every kind's search).
 TOW_RULES = RuleSet(
     (
         RoundOff(),
@@ -331,7 +346,7 @@ TOW_RULES = RuleSet(
         "above the noise": "judged per member, with the release timing, by 'resolved'",
     },
 )
-#: Free decays and pendulums (``estimation.motion.term_selection``).
+#: Free decays and pendulums (``estimation.motion.term_search``).
 DECAY_RULES = RuleSet(
     (
         RoundOff(),
@@ -342,6 +357,8 @@ DECAY_RULES = RuleSet(
         BeatsRival(effective=True),
         OutOfSample(
             "record",
+            forward=False,
+            variance_inflation=False,
             judged=(
                 "with each kept term than without it, judged on the final model in the "
                 "backward check (a forward step compares two models that may both lack a true "

@@ -27,7 +27,7 @@ from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import equivalent_damping
 from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Setup, known_terms_of
-from estimation.motion.term_selection import TRIAL_NFEV
+from estimation.motion.term_search import TRIAL_NFEV
 from estimation.motion.terms import DOFS
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.stats.misfit import effective_sample_size

@@ -85,7 +85,7 @@ def test_an_estimate_imports_no_statsmodels_pandas_or_scipy_stats(tmp_path):
         ids.append(run)
     store.close()
     loaded = _loaded(tmp_path, "estimate", *ids)
-    assert "estimation.axis.effect_search" in loaded  # it did search for effects
+    assert "estimation.motion.term_search" in loaded  # it did search for effects
     assert [m for m in NOT_FOR_AN_ESTIMATE if m in loaded] == []
     # weight-driven imports: no thruster drive to rebuild, so no thrust law (SciPy's splines)
     assert [m for m in ("daq.thruster_run_drive", "scipy.interpolate") if m in loaded] == []

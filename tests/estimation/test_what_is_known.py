@@ -179,6 +179,6 @@ def test_a_decay_that_gains_energy_is_told_causes_a_decay_can_have():
     )
     (held,) = [w for w in r.warnings if w.startswith("linear_damping sits at its bound")]
     assert "energy put in" in held
-    texts = [*r.warnings, *(str(s["reason"]) for s in r.to_json()["evidence"])]
+    texts = [*r.warnings, *(str(s["reason"]) for s in r.to_json()["evidence"]["steps"])]
     for word in ("reverse", "tow", "seed 0", "a body cannot have"):
         assert not any(word in text for text in texts), word

@@ -55,9 +55,10 @@ def _report(label: str, result: dict, truth: dict) -> None:
         print(f"  {name:<18} {c['value']:10.4f} ± {c['std']:.4f}  (truth {true})")
     print(f"  rmse before {result['rmse_before']:.3e}  after {result['rmse_after']:.3e}")
     for step in result.get("evidence", {}).get("steps", []):
+        delta = "—" if step["delta_bic"] is None else f"{step['delta_bic']:8.1f}"
         print(
-            f"  tried {step['effect']:<17} ΔBIC {step['delta_bic']:8.1f}"
-            f"  cv {step['cv_rmse_before']:.3e} → {step['cv_rmse_after']}"
+            f"  tried {step['effect']:<17} ΔBIC {delta}"
+            f"  cv {step['cv_rmse_before']} → {step['cv_rmse_after']}"
             f"  {'kept' if step['accepted'] else step['reason']}"
         )
 

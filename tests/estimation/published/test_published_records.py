@@ -104,7 +104,7 @@ def test_kvlcc2_quadratic_damping_within_25_percent_of_the_published(run):
     constant 0.008–0.013° per half-cycle more than the published B1 + B2 law gives, the
     signature of a loss that does not depend on amplitude. Without the library's dry
     friction the fit over the whole run lowers B2 to 8.5 and raises B1 to 1.95; with it
-    (kept by the rivals rule on the effective sample size, ``motion.term_selection``) B2 is 14.6."""
+    (kept by the rivals rule on the effective sample size, ``motion.term_search``) B2 is 14.6."""
     r = _published_model(run)
     c = r.coefficients["quadratic_damping"]
     published = PUBLISHED[run][1]
