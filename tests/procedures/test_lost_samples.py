@@ -135,16 +135,16 @@ async def test_a_stall_within_a_spins_tolerance_at_one_of_its_writes_does_not_fa
         await session.clock.sleep(0.3)
         faults.drop = False
 
-    async def stalled_write(name: str, written: float | bool) -> None:
+    async def stalled_write(name: str, written: float | bool, **options: float) -> None:
         if name == channel and bool(written) == bool(value):
             seen.append(written)
             if len(seen) == nth:
                 t0 = session.clock.now()
                 stalls.append(asyncio.ensure_future(stall()))
-                await write(name, written)
+                await write(name, written, **options)
                 took.append(session.clock.now() - t0)
                 return
-        await write(name, written)
+        await write(name, written, **options)
 
     stalls: list[asyncio.Future[None]] = []
     took: list[float] = []
