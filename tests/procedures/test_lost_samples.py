@@ -3,11 +3,13 @@ few ticks mid weight tow (in process, simulated time), the stored run names the 
 + summary), the loader leaves the samples out and says where, `rig estimate` prints it, a
 hole beyond a tow's tolerance aborts the run safely, and a campaign repeats such a run. A
 stall within the tolerance that meets one of a spin's writes (the operator's act, the
-release, the stop) does not fail it either."""
+release, the stop) or its readiness check does not fail it either; a PLC that stays silent
+still fails the check."""
 
 from __future__ import annotations
 
 import asyncio
+import math
 import os
 
 import numpy as np
@@ -16,6 +18,7 @@ import pytest
 from api.cli.estimate import summary_lines
 from api.core.campaign_session import damage_of, run_campaign
 from api.core.rig_envelope import envelope_of
+from daq.procedures.axis_steps import PreconditionFailed
 from daq.procedures.motion import run_motion_test
 from daq.procedures.requests import spin_parameters, tow_parameters
 from daq.run_data import load_run_data
@@ -156,3 +159,53 @@ async def test_a_stall_within_a_spins_tolerance_at_one_of_its_writes_does_not_fa
     (waited,) = took  # the write went through once the PLC answered again
     assert waited == pytest.approx(0.3, abs=0.11), took
     assert await session.plc.read("spin_release") == 0  # the brake engaged at the end
+
+
+def _stall_at_the_readiness_check(session: RigSession, monkeypatch, stall_s: float) -> list[float]:
+    """The PLC stops answering for ``stall_s`` (for good: ``math.inf``) as the procedure's
+    readiness check subscribes to the clock; returns the instants it began and ended."""
+    faults, acq = session.sim.plc.faults, session.acquisition
+    assert acq is not None
+    subscribe = acq.subscribe
+    instants: list[float] = []
+
+    async def stall() -> None:
+        instants.append(session.clock.now())
+        faults.drop = True
+        if stall_s != math.inf:
+            await session.clock.sleep(stall_s)
+            faults.drop = False
+            instants.append(session.clock.now())
+
+    def stalling_subscribe(maxsize: int = 1000, *, name: str | None = None):
+        if name == "readiness-check":
+            tasks.append(asyncio.ensure_future(stall()))
+        return subscribe(maxsize, name=name)
+
+    tasks: list[asyncio.Future[None]] = []
+    monkeypatch.setattr(acq, "subscribe", stalling_subscribe)
+    return instants
+
+
+async def test_a_stall_within_a_spins_tolerance_at_its_readiness_check_does_not_fail_it(
+    session, store, monkeypatch
+):
+    """0.45 s without a reply from the start of the check's 0.5 s window (it used to end the
+    job "no fresh data from the PLC: check the connection")."""
+    instants = _stall_at_the_readiness_check(session, monkeypatch, 0.45)
+    params = spin_parameters({"torque_nm": 0.454, "max_time_s": 1.0}, session.rig)
+    outcome = await run_motion_test(session, params)
+    assert outcome.status == "completed", outcome.reason
+    began, ended = instants
+    assert ended - began == pytest.approx(0.45)
+
+
+async def test_a_plc_silent_at_the_readiness_check_still_fails_it_once_lost(session, monkeypatch):
+    instants = _stall_at_the_readiness_check(session, monkeypatch, math.inf)
+    params = spin_parameters({"torque_nm": 0.454, "max_time_s": 1.0}, session.rig)
+    with pytest.raises(PreconditionFailed, match="no fresh data from the PLC"):
+        await run_motion_test(session, params)
+    assert session.acquisition is not None and session.acquisition.device_lost.is_set()
+    waited = session.clock.now() - instants[0]  # the window, then a lost device's time
+    assert waited == pytest.approx(0.5 + session.acquisition.device_lost_after_s, abs=0.11)
+    session.sim.plc.faults.drop = False
