@@ -32,8 +32,11 @@ from daq.config import Channel, RigConfig
 from daq.sample import Quality
 from daq.unwrap import CounterUnwrapper
 
-#: Tries of one write before it fails (a write sets a value: repeating it is harmless).
-WRITE_ATTEMPTS = 3
+#: How long a write keeps trying (its reply late or lost, the link reconnecting) before it
+#: fails, s. A write sets a value, so repeating it is harmless. Longer than the hole any run
+#: tolerates in its samples (``daq.vocabulary.AxisTerms.loss_tolerance_s``, at most 0.5 s):
+#: a PLC stall a run rides through never fails its release, its stop or an operator's act.
+WRITE_WITHIN_S = 1.0
 
 _RAW_RANGE = {
     "uint16": (0, 0xFFFF),
@@ -224,9 +227,12 @@ class PlcClient:
             delay = min(2 * delay, self.modbus.reconnect_max_s)
 
     # ---- requests ------------------------------------------------------------------
-    def _fail(self, what: str | ReadBlock, err: object, *, link: bool = True) -> DeviceError:
-        """Count a failed request; ``link`` = the link failed (timeout, disconnect)."""
-        self.stats.errors += 1
+    def _fail(
+        self, what: str | ReadBlock, err: object, *, link: bool = True, counted: bool = False
+    ) -> DeviceError:
+        """Count a failed request (unless already ``counted``); ``link`` = the link failed
+        (timeout, disconnect)."""
+        self.stats.errors += 0 if counted else 1
         if isinstance(what, ReadBlock):
             what = f"read of {what.describe()}"
         if isinstance(err, BaseException):
@@ -331,8 +337,13 @@ class PlcClient:
         self._last[name] = reading
         return reading.value
 
-    async def write(self, name: str, value: float | bool) -> None:
-        """Write a coil (bool) or holding register (SI value) by channel name."""
+    async def write(
+        self, name: str, value: float | bool, *, within_s: float = WRITE_WITHIN_S
+    ) -> None:
+        """Write a coil (bool) or holding register (SI value) by channel name. A write whose
+        reply is late or lost, or that finds the link reconnecting, is tried again one
+        ``timeout_s`` apart for ``within_s`` s (``WRITE_WITHIN_S``); then ``DeviceError``
+        naming the tries."""
         ch = self.rig.channel(name)
         what = f"write of {name!r} ({ch.kind} address {ch.address})"
         if ch.kind in ("input", "discrete"):
@@ -343,30 +354,36 @@ class PlcClient:
             words: list[int] | None = None
         else:
             words = registers.encode(ch, _check_range(ch, float(value)))
-        # A write sets a value, so sending it again is harmless: a reply lost or late once
-        # (a busy PLC or host) must not fail a release or a brake.
-        for attempt in range(1, WRITE_ATTEMPTS + 1):
-            if not self.connected:
-                raise self._fail(what, "not connected (reconnecting in the background)")
-            dev = self.modbus.unit_id
-            assert self._client is not None  # connected
-            try:
-                if words is None:
-                    rr = await self._client.write_coil(ch.address, bool(value), device_id=dev)
-                elif len(words) == 1:
-                    rr = await self._client.write_register(ch.address, words[0], device_id=dev)
-                else:
-                    rr = await self._client.write_registers(ch.address, words, device_id=dev)
-                break
-            except (TimeoutError, ModbusException) as err:
-                if attempt == WRITE_ATTEMPTS or not self.connected:
-                    raise self._fail(what, f"{err} ({attempt} attempts)") from None
-                self.stats.errors += 1
-                # Let a late reply arrive while nothing waits for it (it would otherwise be
-                # taken for the next try's reply and fail it on the transaction id).
-                await asyncio.sleep(self.modbus.timeout_s)
-            except OSError as err:
-                raise self._fail(what, err) from None
+        # A busy PLC or host stalls the link for a few tenths of a second (and pymodbus drops
+        # it after a few timeouts in a row): the write waits that out, as the run's samples do.
+        give_up_at = self.clock.now() + within_s
+        tries = 0
+        while True:
+            error = "not connected (reconnecting in the background)"
+            sent = self.connected  # a request went out (and failed, below: counted)
+            if sent:
+                tries += 1
+                dev = self.modbus.unit_id
+                assert self._client is not None  # connected
+                try:
+                    if words is None:
+                        rr = await self._client.write_coil(ch.address, bool(value), device_id=dev)
+                    elif len(words) == 1:
+                        rr = await self._client.write_register(ch.address, words[0], device_id=dev)
+                    else:
+                        rr = await self._client.write_registers(ch.address, words, device_id=dev)
+                    break
+                except (TimeoutError, ModbusException, OSError) as err:
+                    self.stats.errors += 1
+                    error = str(err) or type(err).__name__
+            else:
+                self._ensure_reconnecting()
+            if self.clock.now() + self.modbus.timeout_s > give_up_at:
+                tried = f"{error} ({tries} tries in {within_s:g} s)"
+                raise self._fail(what, tried, counted=sent) from None
+            # Let a late reply arrive while nothing waits for it (it would otherwise be
+            # taken for the next try's reply and fail it on the transaction id).
+            await self.clock.sleep(self.modbus.timeout_s)
         if rr.isError():
             raise self._fail(what, f"exception response {rr}", link=False)
 

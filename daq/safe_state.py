@@ -16,8 +16,8 @@ RELEASE_CHANNELS = ("tow_release", "spin_release")
 #: How long the safe state keeps writing a brake that fails (a late reply, a PLC that
 #: reconnects) before it gives up and the run's ending says so, s.
 BRAKE_RETRY_S = 2.0
-#: Pause between two tries of a failed brake write (each try is itself up to
-#: ``daq.plc.WRITE_ATTEMPTS`` requests), s.
+#: Pause between two tries of a failed brake write (each try is itself a write that keeps
+#: trying for what is left of ``BRAKE_RETRY_S``), s.
 BRAKE_RETRY_PAUSE_S = 0.05
 
 
@@ -27,23 +27,24 @@ class BrakeCoils(Protocol):
     @property
     def connected(self) -> bool: ...
 
-    async def write(self, name: str, value: float | bool) -> None: ...
+    async def write(self, name: str, value: float | bool, *, within_s: float) -> None: ...
 
 
 async def engage_brake(
     plc: BrakeCoils, name: str, clock: Clock, *, within_s: float = BRAKE_RETRY_S
 ) -> str | None:
     """Clear the release coil ``name`` (the brake engages), trying again while it fails for
-    up to ``within_s`` s (waiting out a reconnect too). ``None`` once written, else the last
-    failure in one line (logged as a warning, never with a traceback): the safety path
-    escalates by saying so in the run's ending, not by raising."""
+    up to ``within_s`` s (waiting out a reconnect too; each write keeps trying for what is
+    left of that window, no longer). ``None`` once written, else the last failure in one
+    line (logged as a warning, never with a traceback): the safety path escalates by saying
+    so in the run's ending, not by raising."""
     give_up_at = clock.now() + within_s
     tries = 0
     while True:
         tries += 1
         try:
             if plc.connected:
-                await plc.write(name, False)
+                await plc.write(name, False, within_s=max(0.0, give_up_at - clock.now()))
                 if tries > 1:
                     log.warning("brake %s engaged at try %d", name, tries)
                 return None

@@ -89,22 +89,32 @@ SPIN = Axis.of(RunKind.SPIN)
 
 
 async def _settled_samples(session: RigSession, seconds: float, abort: AbortSignal) -> list[Sample]:
-    assert session.acquisition is not None
-    queue = session.acquisition.subscribe(maxsize=1000, name="readiness-check")
+    """The good samples (neither ERROR nor STALE) of the next ``seconds``. Fewer than two
+    (the PLC stalled) and the wait goes on until two came or the acquisition's
+    ``device_lost_after_s`` more have passed: a stall the run itself would ride through
+    does not fail the check before it."""
+    acq = session.acquisition
+    assert acq is not None
+    queue = acq.subscribe(maxsize=1000, name="readiness-check")
     got: list[Sample] = []
     try:
         loop = asyncio.get_running_loop()
         end = loop.time() + seconds
-        while loop.time() < end:
-            abort.check()
-            try:
-                sample = await asyncio.wait_for(queue.get(), timeout=max(0.05, end - loop.time()))
-            except TimeoutError:
+        late = end + acq.device_lost_after_s
+        while True:
+            now = loop.time()
+            if now >= end and (len(got) >= 2 or now >= late):
                 break
+            abort.check()
+            wait = max(0.05, (end if now < end else late) - now)
+            try:
+                sample = await asyncio.wait_for(queue.get(), timeout=wait)
+            except TimeoutError:
+                continue
             if not sample.quality & (Quality.ERROR | Quality.STALE):
                 got.append(sample)
     finally:
-        session.acquisition.unsubscribe(queue)
+        acq.unsubscribe(queue)
     return got
 
 

@@ -64,7 +64,8 @@ def test_a_paused_queue_holds_new_jobs_which_are_edited_run_now_and_requeued(cli
     assert stop["paused"] and stop["running"]["id"] == spin["id"]
     on_rig = client.put(f"/api/queue/{spin['id']}", json={"torque_nm": 0.3}, headers=AUTH)
     assert on_rig.status_code == 409, on_rig.text
-    assert wait_job(client, spin["id"])["state"] == "completed"
+    ended = wait_job(client, spin["id"])
+    assert ended["state"] == "completed", ended  # a failed job names why: its error
     wait_rig_free(client)
     queue = _queue(client)
     assert queue["paused"] and [j["id"] for j in queue["jobs"]] == [tow["id"]], queue

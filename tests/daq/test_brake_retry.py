@@ -24,11 +24,14 @@ class FlakyCoils:
         self.connected = True
         self.written: list[tuple[str, float | bool]] = []
         self.tries = 0
+        #: The time each write was given to keep trying, s.
+        self.windows: list[float] = []
 
-    async def write(self, name: str, value: float | bool) -> None:
+    async def write(self, name: str, value: float | bool, *, within_s: float) -> None:
         self.tries += 1
+        self.windows.append(within_s)
         if self.tries <= self.failures:
-            raise DeviceError(f"PLC write of {name!r} (coil address 0): timed out (3 attempts)")
+            raise DeviceError(f"PLC write of {name!r} (coil address 0): timed out (9 tries in 1 s)")
         self.written.append((name, value))
 
 
@@ -51,5 +54,8 @@ async def test_a_brake_that_never_engages_is_one_line_after_the_retry_window(cap
     assert failed is not None and "\n" not in failed
     assert "timed out" in failed and "brake not engaged after" in failed
     assert plc.tries > 10 and plc.written == []
+    # each write keeps trying for what is left of the window, not a window of its own
+    assert plc.windows[0] == pytest.approx(BRAKE_RETRY_S)
+    assert plc.windows == sorted(plc.windows, reverse=True) and plc.windows[-1] < 0.1
     assert [r.exc_info for r in caplog.records] == [None] * len(caplog.records)
     assert any("tow_release" in r.getMessage() for r in caplog.records)
