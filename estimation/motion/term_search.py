@@ -20,7 +20,7 @@ beat (the current model; a pair, the best single too), and its predicted gain is
 choice below may prefer it). Trials
 are fitted in order of predicted BIC and judged by the kind's rules; of those kept, the
 lowest BIC is added — unless an earlier one in library order (the conventional term) is
-within ``AMBIGUITY_BIC`` of it, or rivals it and is not beaten by ``BIC_THRESHOLD`` on the
+within ``TIE_BIC`` of it, or rivals it and is not beaten by ``BIC_THRESHOLD`` on the
 residual's effective sample size n_eff = n·(1 − r₁)/(1 + r₁) (BIC counts every sample as
 independent: two alternatives that fit one direction differ by the residual's structure).
 A kind that lists pairs (tows and spins: dry friction and a bias act together, and neither
@@ -44,12 +44,14 @@ or whose coefficient one record alone carries, is removed (the cheapest first) u
 kept term passes. Forward selection alone never revisits an early choice.
 
 **Ambiguity.** A kept term and a candidate the records cannot tell apart are reported
-together with the experiment that would separate them: a rival the data did not separate,
-and a candidate near-collinear with a kept term (|ρ| ≥ ``RIVALS`` on the final model) whose
-converged fit in its place is physical and explains the data alike (BIC within
-``AMBIGUITY_BIC``; collinear ones always); and, where the kind's out-of-sample rule falls back
-to variance inflation (fewer than 3 records), a term kept by every other rule but more than
-``VIF_LIMIT`` a combination of the model's parameters.
+together with the experiment that would separate them: a candidate near-collinear with a
+kept term (|ρ| ≥ ``RIVALS`` on the final model) whose converged fit in its place is physical
+(inside its bounds, resolved) and not separated from it — their BIC differ by less than
+``BIC_THRESHOLD`` on n_eff, the rivals rule of the choice, so a term the choice says the
+records separated is never also called ambiguous (collinear ones, |ρ| ≥ ``COLLINEAR``,
+always are); and, where the kind's out-of-sample rule falls back to variance inflation
+(fewer than 3 records), a term kept by every other rule but more than ``VIF_LIMIT`` a
+combination of the model's parameters.
 
 Whiteness is a verdict on the final model, not a gate: with structure left in the residual,
 its normalised autocorrelation stays near 1 whatever share of it a true term removes, so
@@ -61,6 +63,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from itertools import combinations
 from typing import Any
 
@@ -101,8 +104,8 @@ from estimation.stats.out_of_sample import loro_dropped
 #: |partial ρ| of two candidates' sensitivities at or above which they explain the same part
 #: of the residual (rivals; a kept term's near-twin).
 RIVALS = NEAR_COLLINEAR
-#: Converged fits whose BIC differ by less than this explain the data alike.
-AMBIGUITY_BIC = 2.0
+#: Kept trials whose BIC differ by less than this tie: the earlier in library order is added.
+TIE_BIC = 2.0
 #: A trial predicted to gain less than this share of a kept one's is not worth a fit.
 FAR_BEHIND = 0.5
 #: Above this variance inflation a term needs out-of-sample evidence (R² > 0.9 on the other
@@ -330,6 +333,7 @@ class _Search:
         """The kind's rules for ``trial`` = ``current`` + ``terms``; ``rival``: a model it must
         also beat (named, fit); ``stage``: "forward" or "backward" (the check)."""
         seen: list[float] = []
+        unresolved, floor_ratio = self.kind.unresolved, self.kind.floor_ratio
         evidence = Trial(
             terms,
             current,
@@ -337,14 +341,8 @@ class _Search:
             self.travel,
             not_identified=trial.not_identified,
             rival=None if rival is None else Rival(rival[0], rival[1]),
-            unresolved=(
-                None
-                if self.kind.unresolved is None
-                else (lambda: self.kind.unresolved(terms, trial))  # type: ignore[misc]
-            ),
-            floor_ratio=(
-                None if self.kind.floor_ratio is None else (lambda: self.kind.floor_ratio(trial))  # type: ignore[misc]
-            ),
+            unresolved=None if unresolved is None else partial(unresolved, terms, trial),
+            floor_ratio=None if floor_ratio is None else partial(floor_ratio, trial),
             out_of_sample=lambda: self.out_of_sample(current, trial, terms, rival, seen),
             times=self.times,
             stage=stage,
@@ -518,7 +516,7 @@ class _Search:
             if self.key(trial) >= self.key(best):
                 break
             gap = kept[trial].bic - fit.bic
-            if gap < AMBIGUITY_BIC or (_rivals(trial, best, rho) and gap * scale < BIC_THRESHOLD):
+            if gap < TIE_BIC or (_rivals(trial, best, rho) and gap * scale < BIC_THRESHOLD):
                 return trial
         return best
 
