@@ -13,7 +13,7 @@ from estimation.axis.unexplained import Unexplained
 from estimation.data.window import WindowReport
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.record_bootstrap import Bootstrap
-from estimation.motion.term_search import Step
+from estimation.motion.term_search import Step, evidence_json
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
@@ -129,13 +129,9 @@ class EstimationResult:
                 "force_rmse_per_run_after": finite_values(self.force_rmse_per_run_after),
                 "residual_correlation_before": finite_values(self.residual_correlations),
             },
-            "evidence": {
-                "bic_before": finite_or_none(self.fit_before.bic) if self.fit_before else None,
-                "bic_after": finite_or_none(self.fit_after.bic) if self.fit_after else None,
-                "cv_rmse_before": finite_or_none(self.cv_before),
-                "cv_rmse_after": finite_or_none(self.cv_after),
-                "steps": [s.to_json() for s in self.steps],
-            },
+            "evidence": evidence_json(
+                self.fit_before, self.fit_after, self.cv_before, self.cv_after, self.steps
+            ),
             "acceptance_rules": TOW_RULES.to_json(),
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "uncertainty": _uncertainty(self.uncertainty),

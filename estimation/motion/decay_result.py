@@ -14,7 +14,7 @@ from estimation.motion.equivalent import EquivalentDamping, equivalent_damping
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.record_bootstrap import Bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of
-from estimation.motion.term_search import Step
+from estimation.motion.term_search import Step, evidence_json
 from estimation.motion.terms import LIBRARY, units_of
 from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
@@ -119,13 +119,9 @@ class DecayResult:
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "warnings": list(self.warnings),
             "advice": list(self.advice),
-            "evidence": {
-                "bic_before": finite_or_none(self.base.bic) if self.base else None,
-                "bic_after": finite_or_none(self.fit.bic) if self.fit else None,
-                "cv_rmse_before": finite_or_none(self.cv_before),
-                "cv_rmse_after": finite_or_none(self.cv_after),
-                "steps": [s.to_json() for s in self.steps],
-            },
+            "evidence": evidence_json(
+                self.base, self.fit, self.cv_before, self.cv_after, self.steps
+            ),
             "acceptance_rules": DECAY_RULES.to_json(),
             "equilibrium": finite_values(self.equilibrium),
             "release_time_s": finite_values(self.release_time_s),

@@ -704,6 +704,24 @@ def search_terms(
     )
 
 
+def evidence_json(
+    before: MotionFit | None,
+    after: MotionFit | None,
+    cv_before: float | None,
+    cv_after: float | None,
+    steps: Sequence[Step],
+) -> dict[str, Any]:
+    """A result's ``evidence``, every kind alike: the BIC and leave-one-record-out RMSE of the
+    models before and after the search (None where not formed) and every step."""
+    return {
+        "bic_before": None if before is None else finite_or_none(before.bic),
+        "bic_after": None if after is None else finite_or_none(after.bic),
+        "cv_rmse_before": finite_or_none(cv_before),
+        "cv_rmse_after": finite_or_none(cv_after),
+        "steps": [s.to_json() for s in steps],
+    }
+
+
 def _rivals(a: Sequence[str], b: Sequence[str], rho: dict[frozenset[str], float]) -> bool:
     """Two trials are rivals when they differ by one term each and those two are."""
     only_a, only_b = set(a) - set(b), set(b) - set(a)

@@ -25,7 +25,7 @@ from estimation.errors import EstimationFailed
 from estimation.motion.decay_estimate import estimate_records
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.output_error_fit import MotionFit
-from estimation.motion.term_search import Step
+from estimation.motion.term_search import Step, evidence_json
 from estimation.motion.terms import LIBRARY
 from estimation.pendulum import PENDULUM_METHODS
 from estimation.pendulum.configuration import (
@@ -161,11 +161,13 @@ class PendulumResult:
                 "ljung_box_before": self.whiteness_before.to_json(),
                 "ljung_box_after": self.whiteness_after.to_json(),
             },
-            "evidence": {
-                "bic_before": finite_or_none(self.fit_before.bic),
-                "bic_after": finite_or_none(self.fit_after.bic),
-                "steps": [s.to_json() for s in self.steps],
-            },
+            "evidence": evidence_json(
+                self.fit_before,
+                self.fit_after,
+                None if self.motion is None else self.motion.cv_before,
+                None if self.motion is None else self.motion.cv_after,
+                self.steps,
+            ),
             "acceptance_rules": DECAY_RULES.to_json(),
             "nuisance": {
                 rid: {
