@@ -169,7 +169,7 @@ def evidence_table(rules: RuleSet, steps: Sequence[Step], unit: str) -> list[str
         "Whiteness is a verdict, not a rule of the search: each step's Ljung–Box Q is "
         "evidence beside the rules (docs/estimation.md, *Selection rules*).",
         "",
-        f"| round | trial | ΔBIC | explained vs noise [{unit}] | leave-one-record-out RMSE "
+        f"| round | trial | ΔBIC | explained vs noise [{unit}] | leave-one-out RMSE "
         f"[{unit}] | Ljung–Box Q | kept | reason |",
         "|---|---|---|---|---|---|---|---|",
     ]
