@@ -27,7 +27,7 @@ from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import damping_over_swings
 from estimation.motion.output_error_fit import MotionFit, fit_motion
-from estimation.motion.record_bootstrap import DEFAULT_DRAWS, record_bootstrap
+from estimation.motion.record_bootstrap import DEFAULT_DRAWS, MIN_RECORDS, record_bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of, validate
 from estimation.motion.term_search import KindSearch, SearchOutcome, search_terms
 from estimation.motion.terms import DOFS, LIBRARY
@@ -148,7 +148,7 @@ def estimate_records(
     ``restoring_known``: each record carries its own restoring term among its known terms
     (a pendulum's gravity moment from its geometry), so none is identified or given here.
     ``n_bootstrap``: draws of the record-level bootstrap (``motion.record_bootstrap``, as a
-    tow set's) when there are two records or more; 0: none."""
+    tow set's) when there are three records or more (``MIN_RECORDS``); 0: none."""
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     known = dict(known_terms or {})
@@ -185,7 +185,7 @@ def estimate_records(
     )
     boot = (
         record_bootstrap(windowed, setup, final, n_bootstrap, seed)
-        if n_bootstrap and len(windowed) >= 2
+        if n_bootstrap and len(windowed) >= MIN_RECORDS
         else None
     )
     return replace(

@@ -59,7 +59,7 @@ class DecayResult:
     equivalent: tuple[EquivalentDamping, ...] = ()
     #: Combinations the data determine well (``motion.well_determined``): T₀, ζ.
     well_determined: tuple[Combination, ...] = ()
-    #: The record-level bootstrap (two records or more), as a tow set's.
+    #: The record-level bootstrap (three records or more), as a tow set's.
     bootstrap: Bootstrap | None = None
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
     #: The base model's fit (before the search).

@@ -5,11 +5,14 @@ percentiles of the draws per coefficient.
 Each draw is ``fit_motion`` of the resampled records with the final model's terms, from its
 coefficients and each record's own nuisances, its quantization σ not computed (only the
 values are kept). A sample the kind cannot fit meaningfully is skipped (``usable``: a tow
-set with fewer distinct drives than its data, where K_L and K_Q trade freely). One record
-resampled only repeats itself: no draws. A resample drawn again (the same records in the
-same order: 4 of 40 draws of 4 records, 19 of 3) reuses its refit. The spread of the draws
-is the between-record scatter the fit's σ assumes away: a σ well below it says the records
-disagree more than their noise.
+set with fewer distinct drives than its data, where K_L and K_Q trade freely). Fewer than
+``MIN_RECORDS`` records: no draws — two records have three distinct resamples, two of them
+one record twice, and a tow pair only one usable (the set itself): its "spread" of 0 would
+claim a precision the records do not have. Fewer than ``MIN_DISTINCT`` distinct resamples
+among the usable draws: no spread either, for the same reason. A resample drawn again (the
+same records in the same order: 4 of 40 draws of 4 records, 19 of 3) reuses its refit. The
+spread of the draws is the between-record scatter the fit's σ assumes away: a σ well below
+it says the records disagree more than their noise.
 """
 
 from __future__ import annotations
@@ -28,6 +31,10 @@ from estimation.report_numbers import finite_values
 DEFAULT_DRAWS = 40
 #: Function evaluations of one draw (a draw starts from the final coefficients).
 DRAW_NFEV = 200
+#: Records a resampling needs (module doc).
+MIN_RECORDS = 3
+#: Distinct resamples (sets of records, in any order) a spread needs (module doc).
+MIN_DISTINCT = 3
 
 
 @dataclass(frozen=True)
@@ -67,8 +74,9 @@ def record_bootstrap(
     """``n`` draws of the records refitted with ``fit``'s terms (module doc)."""
     rng = np.random.default_rng(seed)
     draws: list[np.ndarray] = []
-    requested = n if len(records) >= 2 else 0
+    requested = n if len(records) >= MIN_RECORDS else 0
     done: dict[tuple[int, ...], np.ndarray] = {}  # a resample drawn again: its refit, reused
+    kinds: set[tuple[int, ...]] = set()  # the distinct resamples used (sets, any order)
     for _ in range(requested):
         pick = tuple(int(i) for i in rng.integers(0, len(records), len(records)))
         sample = [records[i] for i in pick]
@@ -84,7 +92,10 @@ def record_bootstrap(
                 quantization_sigma=False,
             ).values
         draws.append(done[pick])
+        kinds.add(tuple(sorted(pick)))
     names = fit.names
+    if len(kinds) < MIN_DISTINCT:
+        draws = []
     if not draws:
         nan = dict.fromkeys(names, float("nan"))
         return Bootstrap(requested, 0, nan, nan, nan)

@@ -105,10 +105,16 @@ export async function renderEstimation(res) {
   const units = res.units || {};
   // the position's unit: the document's own, else its axis's or dof's (start_forms.js)
   const unit = units.position || ((await axisUnits())[res.axis || res.dof] || {}).position || "";
+  // the record-level bootstrap's spread beside the fit's σ, every kind that has one
+  const boot = res.bootstrap && res.bootstrap.used ? res.bootstrap : null;
+  $("#est-coefs thead tr").innerHTML =
+    "<th>Coefficient</th><th>Value</th><th>± σ</th>" +
+    (boot ? `<th title="each coefficient's spread over fits to runs drawn with replacement (docs/estimation.md)">Bootstrap σ [2.5–97.5 %] (${esc(boot.used)} of ${esc(boot.requested)} draws)</th>` : "");
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = (res.coefficients_before || {})[k];
       return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
+        ${boot ? `<td>${esc(bootstrapText(boot, k))}</td>` : ""}
         ${before ? `<td class="muted">before effects: ${esc(valuePm(before))}</td>` : ""}</tr>`;
     })
     .join("") + wellDeterminedRows(res);
@@ -138,6 +144,15 @@ export async function renderEstimation(res) {
   showReverseButton(res.reverse_test);
   drawFitChart(res, unit);
   await showReportPlots(res.result_id);
+}
+
+// One coefficient's bootstrap: "± σ [low … high]", "—" where the draws gave none.
+function bootstrapText(boot, name) {
+  const std = (boot.std || {})[name];
+  if (std === null || std === undefined) return "—";
+  const low = (boot.percentile_2_5 || {})[name];
+  const high = (boot.percentile_97_5 || {})[name];
+  return `± ${fmt(std, 3)} [${fmt(low, 4)} … ${fmt(high, 4)}]`;
 }
 
 // A swing's amplitude in its unit, and in degrees when that is rad (the damping ratios are

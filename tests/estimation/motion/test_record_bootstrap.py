@@ -1,5 +1,6 @@
 """The record-level bootstrap is every kind's (issue 31, item 2): free decays and pendulum
-swings with two records or more carry the one a tow set has (``motion.record_bootstrap``).
+swings with three records or more carry the one a tow set has (``motion.record_bootstrap``);
+two records, or a tow pair, have none: their few resamples give a spread of ~0.
 
 Records from scipy's solve_ivp (``tests.estimation.term_cases.decay``: a 143 kg heave
 decay, 20 µm noise), not our integrator.
@@ -44,6 +45,8 @@ def test_one_record_has_no_bootstrap_and_zero_draws_are_allowed_but_not_fewer():
     records, truth = _records(2)
     one = estimate_records(records[:1], "heave", known_inertia=truth["known"], stiffness=truth["k"])
     assert one.bootstrap is None and one.to_json()["bootstrap"] is None
+    two = estimate_records(records, "heave", known_inertia=truth["known"], stiffness=truth["k"])
+    assert two.bootstrap is None  # three resamples, two of them one record twice
     none = estimate_records(
         records, "heave", known_inertia=truth["known"], stiffness=truth["k"], n_bootstrap=0
     )
@@ -51,3 +54,17 @@ def test_one_record_has_no_bootstrap_and_zero_draws_are_allowed_but_not_fewer():
     assert np.isfinite(none.coefficients["inertia"].value)
     with pytest.raises(ValueError, match="n_bootstrap: got -1, allowed: >= 0"):
         estimate_records(records, "heave", stiffness=truth["k"], n_bootstrap=-1)
+
+
+def test_a_tow_pair_resamples_only_to_itself_and_claims_no_spread():
+    """Two tows at different loads: the only usable resample is the pair itself (one load
+    twice cannot separate K_L from K_Q), so every draw is the same fit; a σ of ~0 from it
+    would claim a precision the runs do not have. None is given, and the budget has no
+    bootstrap row."""
+    from estimation import estimate
+    from tests.estimation.synth import tow_set
+
+    runs = tow_set(seed=3)[:2]
+    doc = estimate(runs, n_bootstrap=20).to_json()
+    assert doc["bootstrap"]["used"] == 0
+    assert all(v is None for v in doc["bootstrap"]["std"].values())
