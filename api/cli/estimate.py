@@ -118,7 +118,7 @@ def summary_lines(data: dict) -> list[str]:
 
 
 def _bootstrap_lines(boot: dict | None, units: dict[str, str]) -> list[str]:
-    """The record-level bootstrap's spread of each coefficient (every kind's, with two
+    """The record-level bootstrap's spread of each coefficient (every kind's, with three
     records or more: ``estimation.motion.record_bootstrap``), beside the fit's σ above."""
     if not boot or not boot.get("used"):
         return []
