@@ -72,6 +72,15 @@ def effects_found(effects: tuple[EffectEstimate, ...], digits: int) -> list[str]
     return lines
 
 
+def ambiguity_lines(groups: Sequence[Sequence[str]], advice: Sequence[str]) -> list[str]:
+    """Under "Effects found", every kind alike: each group of terms the records cannot tell
+    apart with the experiment that would (the search gives one advice per group, in order),
+    then any further advice the kind adds."""
+    lines = [f"- ambiguous: {', '.join(g)} — {a}" for g, a in zip(groups, advice, strict=False)]
+    lines += [f"- ambiguous: {', '.join(g)}" for g in groups[len(advice) :]]
+    return lines + [f"- advice: {a}" for a in advice[len(groups) :]]
+
+
 def error_before_after(result: FitSummary, unit: str, labels: Mapping[str, str]) -> list[str]:
     """The "Error before and after" table: RMSE in ``unit`` per run and over all runs."""
     lines = [

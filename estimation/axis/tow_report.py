@@ -27,6 +27,7 @@ from estimation.figures import (
     signed,
 )
 from estimation.fit_report import (
+    ambiguity_lines,
     determined_section,
     effects_found,
     error_before_after,
@@ -144,8 +145,7 @@ def _markdown(
             f"{value_and_sigma(after.value, after.std, 6)} | {units[name]} |"
         )
     lines += effects_found(result.effects, digits=6)
-    for group, advice in zip(result.ambiguous, result.advice, strict=False):
-        lines.append(f"- ambiguous: {', '.join(group)} — {advice}")
+    lines += ambiguity_lines(result.ambiguous, result.advice)
     lines += error_before_after(result, units["position"], labels)
     left_out = [
         f"- {labels.get(rid, rid)}: {gap.describe()}"

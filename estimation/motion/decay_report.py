@@ -11,6 +11,7 @@ import numpy as np
 
 from estimation.figures import figure_links, new_figure, run_label, save_figure
 from estimation.fit_report import (
+    ambiguity_lines,
     determined_section,
     evidence_table,
     write_result_and_markdown,
@@ -86,6 +87,8 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         f"{result.rmse_before:.3g} {unit}, after {result.rmse_after:.3g} {unit} (noise floor "
         f"{result.noise:.3g} {unit}).",
     ]
+    if ambiguous := ambiguity_lines(result.ambiguous, result.advice):
+        lines += ["", *ambiguous, ""]
     for run, w in result.window.items():
         lines.append(
             f"Fitted window of {run}: {result.release_time_s[run]:.4g} s to {w.end:.4g} s "

@@ -22,6 +22,7 @@ from estimation.figures import (
     save_figure,
 )
 from estimation.fit_report import (
+    ambiguity_lines,
     determined_section,
     effects_found,
     error_before_after,
@@ -174,8 +175,7 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
             f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | — | — |"
         )
     lines += effects_found(result.effects, digits=5)
-    for group in result.ambiguous:
-        lines.append(f"- ambiguous: {', '.join(group)}")
+    lines += ambiguity_lines(result.ambiguous, result.advice)
     wb, wa = doc["diagnostics"]["ljung_box_before"], doc["diagnostics"]["ljung_box_after"]
     ev = doc["evidence"]
     lines += error_before_after(result, "rad", labels)
@@ -187,8 +187,6 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         "",
         *evidence_table(DECAY_RULES, result.steps, "rad"),
     ]
-    if result.advice:
-        lines += ["", "## Advice", ""] + [f"- {a}" for a in result.advice]
     return "\n".join(lines) + "\n"
 
 
