@@ -109,8 +109,11 @@ class RepeatAnalysis:
         }
 
 
-def chauvenet(values: Sequence[float]) -> list[bool]:
-    """True for each value Chauvenet's criterion rejects: N·erfc(|z|/√2) < ½ (N ≥ 3)."""
+def chauvenet(values: Sequence[float], floor: Sequence[float] | None = None) -> list[bool]:
+    """True for each value Chauvenet's criterion rejects: N·erfc(|z|/√2) < ½ (N ≥ 3).
+    ``floor``: per value, a deviation from the mean no larger than it is not flagged (the
+    repeats then agree within how well that value is read; the criterion alone flags a
+    value of 13 % of sets of five that differ by noise only). None: no floor."""
     x = np.asarray(values, dtype=float)
     n = x.size
     if n < 3 or not np.all(np.isfinite(x)):
@@ -118,8 +121,12 @@ def chauvenet(values: Sequence[float]) -> list[bool]:
     s = float(np.std(x, ddof=1))
     if s == 0:
         return [False] * n
-    z = np.abs(x - x.mean()) / s
-    return [bool(n * special.erfc(zi / math.sqrt(2)) < CHAUVENET_LIMIT) for zi in z]
+    deviation = np.abs(x - x.mean())
+    least = np.zeros(n) if floor is None else np.asarray(floor, dtype=float)
+    return [
+        bool(n * special.erfc(d / s / math.sqrt(2)) < CHAUVENET_LIMIT and d > f)
+        for d, f in zip(deviation, least, strict=True)
+    ]
 
 
 def within_tolerance(sizes: Sequence[float], tolerance: float) -> list[list[int]]:
