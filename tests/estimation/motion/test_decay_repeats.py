@@ -16,6 +16,7 @@ import pytest
 
 from estimation.motion.decay_estimate import estimate_records
 from estimation.motion.records import Record
+from estimation.uncertainty.motion_budget import motion_budget
 from estimation.uncertainty.repeats import analyse_repeats
 from tests.estimation.term_cases import decay, tow_set
 
@@ -104,3 +105,26 @@ def test_a_decay_s_repeats_document_has_a_tow_set_s_shape():
     assert decay_doc.keys() == tow_doc.keys()
     assert decay_doc["conditions"][0].keys() == tow_doc["conditions"][0].keys()
     assert decay_doc["quantity"] != tow_doc["quantity"]
+
+
+def _random_rows(result):
+    """The fit's and the repeatability's rows of the linear damping's budget."""
+    rows = motion_budget(result).coefficients["linear_damping"].rows
+    return {r.source.split(" (")[0]: r for r in rows}
+
+
+def test_the_budget_takes_the_repeatability_as_a_type_a_row():
+    """Five clean repeats: a repeatability row (5 campaigns of one record each, ν = 4) beside
+    the fit's, the two estimating one random error, so exactly one is combined. With r3's
+    30 % more damping kept in the fit the campaigns' B₁ are b₁ four times and 1.3·b₁ once:
+    s/√5 = 0.3·b₁/5 (s = d/√5 for one of five off by d), above the fit's σ, and it is the
+    row combined."""
+    clean, _ = _estimate({}, {}, {}, {}, {})
+    rows = _random_rows(clean)
+    assert rows["repeatability"].dof == 4
+    assert rows["repeatability"].combined != rows["fit"].combined
+    flagged, truth = _estimate({}, {}, {"damping": 1.3}, {}, {})
+    rows = _random_rows(flagged)
+    repeat, fit = rows["repeatability"], rows["fit"]
+    assert repeat.standard_uncertainty == pytest.approx(0.3 * truth["b1"] / 5, rel=0.02)
+    assert repeat.combined and not fit.combined and fit.contribution == 0
