@@ -115,7 +115,7 @@ def theory_document(
         if n in ("inertia", "quadratic_damping")
     }
     speeds = {
-        rid: s for c in repeats.conditions for rid, s in zip(c.run_ids, c.speeds, strict=True)
+        rid: s for c in repeats.conditions for rid, s in zip(c.run_ids, c.values, strict=True)
     }
     doc = measured_beside_theory(axis, coefficients, speeds, water, hull_scale, rig.rig.g)
     doc["water"]["source"] = source

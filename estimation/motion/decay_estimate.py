@@ -24,6 +24,7 @@ import numpy as np
 from estimation.blas_threads import one_blas_thread
 from estimation.data.window import encoder_quantum
 from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
+from estimation.motion.decay_repeats import analyse_decay_repeats, outlier_warnings
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import damping_over_swings
 from estimation.motion.output_error_fit import MotionFit, fit_motion
@@ -143,12 +144,15 @@ def estimate_records(
     restoring_known: bool = False,
     n_bootstrap: int = DEFAULT_DRAWS,
     seed: int = 0,
+    exclude_outliers: bool = False,
 ) -> DecayResult:
     """``estimate_decay`` for several records of one DOF fitted jointly.
     ``restoring_known``: each record carries its own restoring term among its known terms
     (a pendulum's gravity moment from its geometry), so none is identified or given here.
     ``n_bootstrap``: draws of the record-level bootstrap (``motion.record_bootstrap``, as a
-    tow set's) when there are three records or more (``MIN_RECORDS``); 0: none."""
+    tow set's) when there are three records or more (``MIN_RECORDS``); 0: none. The free
+    records' repeats are compared (``motion.decay_repeats``): a Chauvenet outlier is named in
+    the warnings and kept in the fit, or left out with ``exclude_outliers``."""
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     known = dict(known_terms or {})
@@ -163,6 +167,11 @@ def estimate_records(
     starts = {r.run_id: (t_release or {}).get(r.run_id, release_of(r)) for r in records}
     ends = {r.run_id: _end(r, starts[r.run_id], (t_end or {}).get(r.run_id)) for r in records}
     windowed = [_window(r, starts[r.run_id], ends[r.run_id].end) for r in records]
+    repeats = analyse_decay_repeats(windowed, dof, exclude_outliers)
+    if repeats.excluded:
+        windowed = [r for r in windowed if r.run_id not in repeats.excluded]
+        starts = {r.run_id: starts[r.run_id] for r in windowed}
+        ends = {r.run_id: ends[r.run_id] for r in windowed}
     validate(windowed, setup)
     base = fit_motion(windowed, setup)
     tried = [c for c in candidates if c not in known and c not in base.names]
@@ -190,6 +199,8 @@ def estimate_records(
     )
     return replace(
         result,
+        warnings=(*result.warnings, *outlier_warnings(repeats)),
+        repeats=repeats,
         bootstrap=boot,
         alternatives=alternatives,
         window=ends,

@@ -20,6 +20,7 @@ from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness
+from estimation.stats.repeatability import RepeatAnalysis
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,9 @@ class DecayResult:
     well_determined: tuple[Combination, ...] = ()
     #: The record-level bootstrap (three records or more), as a tow set's.
     bootstrap: Bootstrap | None = None
+    #: The free records' repeats and Chauvenet outliers (``motion.decay_repeats``), in the
+    #: shape of a tow set's.
+    repeats: RepeatAnalysis | None = None
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
     #: The base model's fit (before the search).
     base: MotionFit | None = field(default=None, repr=False, compare=False)
@@ -117,6 +121,7 @@ class DecayResult:
             "equivalent_linear_damping": [e.to_json() for e in self.equivalent],
             "well_determined": [c.to_json() for c in self.well_determined],
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
+            "repeats": self.repeats.to_json() if self.repeats else None,
             "warnings": list(self.warnings),
             "advice": list(self.advice),
             "evidence": evidence_json(

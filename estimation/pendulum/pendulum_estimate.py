@@ -156,6 +156,10 @@ class PendulumResult:
                 if self.motion and self.motion.bootstrap
                 else None
             ),
+            # the runs' repeats, a decay's and a tow set's shape (``motion.decay_repeats``)
+            "repeats": self.motion.repeats.to_json()
+            if self.motion and self.motion.repeats
+            else None,
             "geometry": self.geometry,
             "diagnostics": {
                 "ljung_box_before": self.whiteness_before.to_json(),

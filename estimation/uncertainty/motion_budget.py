@@ -6,6 +6,11 @@ Welch–Satterthwaite, k = t_0.975(ν_eff), U = k·u_c, reported to two digits r
 ν = n_eff − p degrees of freedom, n_eff the residual's effective sample size
 (``stats.misfit``): a correlated residual holds fewer independent samples than it has
 points, and the t-factor widens with it (KVLCC2's roll decays: n 1335, n_eff 74).
+With repeat records (``motion.decay_repeats``: every condition released N ≥ 2 times) a
+second Type A row, the **repeatability**, as a tow's (``uncertainty.repeats``): campaign k
+takes the k-th record of every condition and is refitted on its own; u = s/√N, ν = N − 1.
+The fit's σ and the repeatability estimate the same random error: only the larger enters
+u_c, the other is listed "overlaps …: not combined" (docs/uncertainty.md).
 **Type B**: the inputs the estimate was given as known — the linear ``stiffness`` (ρ·g·A_w,
 Δ·g·GM) and the ``known_inertia`` — with a declared half-width a (rectangular, u = a/√3);
 the sensitivity c = ∂θ/∂x is a central difference of two re-fits with the final model's
@@ -99,6 +104,12 @@ def motion_budget(
         for i, n in enumerate(fit.names)
     }
     notes = [] if declared else [NOT_DECLARED]
+    repeat_std, why = _repeatability(result, fit, setup)
+    if why:
+        notes.append(why)
+    for i, n in enumerate(fit.names):
+        if n in repeat_std and math.isfinite(float(fit.std[i])):
+            rows[n] = _larger_counted(rows[n][0], repeat_std[n], units.get(n, ""))
     combination_rows: dict[str, list[BudgetRow]] = {
         c.name: [_fit_row(c.unit, c.std, dof_fit, fit.n_samples, n_eff, fit.n_params)]
         for c in result.well_determined
@@ -203,3 +214,51 @@ def _combinations_on(setup: Setup, result: DecayResult, fit: MotionFit) -> dict[
         for e in result.equivalent
     ]
     return {c.name: c.value for c in decay_combinations(setup, first, fit, equivalent)}
+
+
+def _repeatability(
+    result: DecayResult, fit: MotionFit, setup: Setup
+) -> tuple[dict[str, tuple[float, int]], str]:
+    """{name: (s/√N, N)} from N repeat campaigns of ``result``'s records (module doc), and a
+    note when repeats exist but cannot be evaluated ({} and "" without repeats)."""
+    repeats = result.repeats
+    if repeats is None or not repeats.repeated:
+        return {}, ""
+    index = {r.run_id: i for i, r in enumerate(result.records)}
+    groups = [[index[r] for r in c.run_ids if r in index] for c in repeats.conditions]
+    groups = [g for g in groups if g]
+    n = min(len(g) for g in groups)
+    if n < 2:
+        return {}, "repeatability not evaluated: some conditions were released only once"
+    values = []
+    for k in range(n):
+        members = [g[k] for g in groups]
+        try:
+            refit = fit_motion(
+                [result.records[i] for i in members],
+                setup,
+                fit.effects,
+                start=parameters_of(fit, members),
+                max_nfev=TRIAL_NFEV,
+            )
+        except EstimationFailed:
+            return {}, f"repeatability not evaluated: repeat campaign {k + 1} did not fit"
+        values.append([refit.value(name) for name in fit.names])
+    std = np.std(np.array(values), axis=0, ddof=1) / math.sqrt(n)
+    return {name: (float(u), n) for name, u in zip(fit.names, std, strict=True)}, ""
+
+
+def _larger_counted(fit_row: BudgetRow, repeat: tuple[float, int], unit: str) -> list[BudgetRow]:
+    """The fit row and the repeatability row, the larger combined, the other listed."""
+    u, n = repeat
+    repeat_row = BudgetRow(
+        f"repeatability ({n} repeat campaigns, s/√N)", "A", unit, u, 1.0, u, n - 1
+    )
+    largest = max((fit_row, repeat_row), key=lambda r: r.standard_uncertainty)
+    overlaps = f"overlaps {largest.source}: not combined"
+    return [
+        replace(r, contribution=0.0, combined=False, note=overlaps)
+        if r is not largest
+        else replace(r, note=r.note or "the random error, counted once")
+        for r in (fit_row, repeat_row)
+    ]

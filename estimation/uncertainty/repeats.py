@@ -1,5 +1,6 @@
-"""Repeat runs: which runs were made at the same condition, how well they repeat, and
-which repeat is an outlier (ITTC 7.5-02-01-01 §2.4, repeat tests; Chauvenet's criterion).
+"""Repeat tows and spins: which runs were made at the same condition, how well they repeat,
+and which repeat is an outlier (ITTC 7.5-02-01-01 §2.4; the statistics and Chauvenet's
+criterion are every kind's, ``estimation.stats.repeatability``).
 
 Same condition: same axis, same way of driving (hung weight or thrusters), same direction,
 and loads within ``LOAD_TOLERANCE`` (relative) of each other. A weight hung again is the
@@ -9,102 +10,33 @@ on it.
 
 The quantity compared between repeats is the run's terminal speed: the slope of a straight
 line through the last third of its fitted window (m/s, rad/s), what the load produces.
-Repeatability per condition: mean ± t_0.975(N−1)·s/√N.
-
-Outliers: Chauvenet's criterion, the test ITTC 7.5-02-01-01 names for single outliers: a
-repeat whose deviation |x_i − x̄|/s has a two-sided normal probability P with N·P < ½ is
-flagged. With s taken over all N repeats (as ITTC describes it) no |z| can exceed
-(N − 1)/√N, so the criterion can flag nothing below N = 5 (N = 4: 1.50 against the 1.53 it
-needs): plan ≥ 5 repeats where an outlier must be caught. A flagged run is left in the
-estimate unless the user asks to exclude it.
+A flagged run is left in the estimate unless the user asks to exclude it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import replace
 
 import numpy as np
-from scipy import special
 
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.data.run_arrays import RunData
 from estimation.kind_advice import ADVICE, KindAdvice
 from estimation.motion.output_error_fit import MotionFit
-from estimation.report_numbers import finite_or_none
+from estimation.motion.terms import units_of
+from estimation.stats.repeatability import (
+    Condition,
+    RepeatAnalysis,
+    chauvenet,
+    within_tolerance,
+)
 
 LOAD_TOLERANCE = 0.01
-CHAUVENET_LIMIT = 0.5
-
-
-@dataclass(frozen=True)
-class Condition:
-    """The repeats of one condition and their terminal speeds (m/s or rad/s)."""
-
-    label: str
-    run_ids: tuple[str, ...]
-    speeds: tuple[float, ...]
-    outliers: tuple[str, ...]
-
-    @property
-    def n(self) -> int:
-        return len(self.run_ids)
-
-    @property
-    def mean(self) -> float:
-        return float(np.mean(self.speeds))
-
-    @property
-    def std(self) -> float:
-        """s, the sample standard deviation (NaN for one run)."""
-        return float(np.std(self.speeds, ddof=1)) if self.n > 1 else math.nan
-
-    @property
-    def half_width(self) -> float:
-        """t_0.975(N−1)·s/√N: the 95 % repeatability of the mean."""
-        if self.n < 2:
-            return math.nan
-        return float(special.stdtrit(self.n - 1, 0.975) * self.std / math.sqrt(self.n))
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "condition": self.label,
-            "runs": list(self.run_ids),
-            "n": self.n,
-            "terminal_speeds": list(self.speeds),
-            "mean": finite_or_none(self.mean),
-            "std": finite_or_none(self.std),
-            "repeatability_95": finite_or_none(self.half_width),
-            "outliers": list(self.outliers),
-        }
-
-
-@dataclass(frozen=True)
-class RepeatAnalysis:
-    """The conditions of a set of runs, the outliers found and whether they were left out."""
-
-    conditions: tuple[Condition, ...]
-    excluded: tuple[str, ...] = ()
-
-    @property
-    def outliers(self) -> tuple[str, ...]:
-        return tuple(r for c in self.conditions for r in c.outliers)
-
-    @property
-    def repeated(self) -> bool:
-        return any(c.n > 1 for c in self.conditions)
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "load_tolerance": LOAD_TOLERANCE,
-            "outlier_test": "Chauvenet (N·P(|z| ≥ z_i) < 0.5; can flag only when N ≥ 5)",
-            "conditions": [c.to_json() for c in self.conditions],
-            "outliers": list(self.outliers),
-            "excluded": list(self.excluded),
-        }
+QUANTITY = "terminal speed"
+SAME_CONDITION = "same axis, drive (weight or thrusters) and direction; loads within the tolerance"
 
 
 def _load(run: RunData) -> float:
@@ -124,19 +56,6 @@ def terminal_speed(run: RunData) -> float:
     return float(np.polyfit(t[tail], x[tail], 1)[0])
 
 
-def chauvenet(values: Sequence[float]) -> list[bool]:
-    """True for each value Chauvenet's criterion rejects: N·erfc(|z|/√2) < ½ (N ≥ 3)."""
-    x = np.asarray(values, dtype=float)
-    n = x.size
-    if n < 3 or not np.all(np.isfinite(x)):
-        return [False] * n
-    s = float(np.std(x, ddof=1))
-    if s == 0:
-        return [False] * n
-    z = np.abs(x - x.mean()) / s
-    return [bool(n * special.erfc(zi / math.sqrt(2)) < CHAUVENET_LIMIT) for zi in z]
-
-
 def group_conditions(runs: Sequence[RunData]) -> list[list[int]]:
     """Run indices per condition (same axis, drive kind, direction; load within 1 %)."""
     keyed: dict[tuple[str, bool, float], list[int]] = {}
@@ -144,16 +63,8 @@ def group_conditions(runs: Sequence[RunData]) -> list[list[int]]:
         keyed.setdefault((r.axis, r.is_constant_drive(), math.copysign(1, _load(r))), []).append(i)
     groups: list[list[int]] = []
     for members in keyed.values():
-        members = sorted(members, key=lambda i: abs(_load(runs[i])))
-        current = [members[0]]
-        for i in members[1:]:
-            first = abs(_load(runs[current[0]]))
-            if abs(abs(_load(runs[i])) - first) <= LOAD_TOLERANCE * max(first, 1e-12):
-                current.append(i)
-            else:
-                groups.append(current)
-                current = [i]
-        groups.append(current)
+        loads = [abs(_load(runs[i])) for i in members]
+        groups += [[members[j] for j in g] for g in within_tolerance(loads, LOAD_TOLERANCE)]
     return [sorted(g) for g in sorted(groups, key=lambda g: (runs[g[0]].axis, _load(runs[g[0]])))]
 
 
@@ -174,11 +85,17 @@ def analyse_repeats(runs: Sequence[RunData], exclude_outliers: bool = False) -> 
                 tuple(r.run_id for r in members),
                 tuple(speeds),
                 tuple(r.run_id for r, f in zip(members, flagged, strict=True) if f),
+                units_of(members[0].axis, ())["velocity"],
             )
         )
-    analysis = RepeatAnalysis(tuple(conditions))
+    analysis = RepeatAnalysis(
+        tuple(conditions),
+        quantity=QUANTITY,
+        same_condition=SAME_CONDITION,
+        tolerance=LOAD_TOLERANCE,
+    )
     if exclude_outliers:
-        analysis = RepeatAnalysis(analysis.conditions, analysis.outliers)
+        analysis = replace(analysis, excluded=analysis.outliers)
     return analysis
 
 

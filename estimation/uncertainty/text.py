@@ -64,8 +64,9 @@ def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = Non
             )
     if repeats is not None:
         lines += ["", "### Repeat runs", "", f"Outlier test: {repeats['outlier_test']}.", ""]
+        quantity = repeats.get("quantity") or "terminal speed"  # documents before it was named
         lines += [
-            "| condition | N | terminal speed mean | ± t·s/√N | outliers |",
+            f"| condition | N | {quantity} (mean) | ± t·s/√N | outliers |",
             "|---|---|---|---|---|",
         ]
         for c in repeats["conditions"]:

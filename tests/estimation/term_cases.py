@@ -90,15 +90,15 @@ def tow_effect(name, scale):
 
 
 @cache
-def _decay_path(scale, b2, b3, k3, fc, drift=0.0):
+def _decay_path(scale, b2, b3, k3, fc, drift=0.0, damping=1.0, release=0.05):
     """Noise-free samples (t, x) of one free decay (the physics of ``decay``), integrated
     once per case: every seed shares them, only the noise differs. Read-only arrays."""
     m = SCALES[scale][0]
     total, k = 1.8 * m, 40.0 * m
-    b1 = 0.03 * 2 * np.sqrt(total * k)
+    b1 = damping * 0.03 * 2 * np.sqrt(total * k)
     t = np.arange(0.0, 15.0, 1.0 / 20.0)
     x = np.empty_like(t)
-    start, state = 0.0, [0.05, 0.0]
+    start, state = 0.0, [release, 0.0]
     while start < t[-1]:  # one half-swing at a time: dry friction's sign is fixed in each
         pull = drift * start - (k * state[0] + k3 * state[0] ** 3)
         if abs(pull) <= fc:  # held by dry friction: at rest from here on
@@ -133,13 +133,16 @@ def _decay_path(scale, b2, b3, k3, fc, drift=0.0):
     return t, x
 
 
-def decay(scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, drift=0.0, noise=2e-5):
-    """A heave-like free decay of (M + 0.8 M) from 0.05 m, hydrostatic k = 40·M:
-    1.8 M ẍ + b₁ẋ + b₂|ẋ|ẋ + b₃ẋ³ + F_c sign ẋ + k x + k₃x³ = d·t, with white noise."""
+def decay(
+    scale, seed, *, b2=0.0, b3=0.0, k3=0.0, fc=0.0, drift=0.0, noise=2e-5, damping=1.0, release=0.05
+):
+    """A heave-like free decay of (M + 0.8 M) from ``release`` (0.05 m), hydrostatic
+    k = 40·M: 1.8 M ẍ + b₁ẋ + b₂|ẋ|ẋ + b₃ẋ³ + F_c sign ẋ + k x + k₃x³ = d·t, with white
+    noise; b₁ = ``damping`` × 3 % of critical."""
     m = SCALES[scale][0]
     total, k = 1.8 * m, 40.0 * m
-    b1 = 0.03 * 2 * np.sqrt(total * k)
-    t, x = _decay_path(scale, b2, b3, k3, fc, drift)
+    b1 = damping * 0.03 * 2 * np.sqrt(total * k)
+    t, x = _decay_path(scale, b2, b3, k3, fc, drift, damping, release)
     rng = np.random.default_rng(seed)
     x = x + noise * rng.standard_normal(t.size)
     return t.copy(), x, dict(added=0.8 * m, k=k, b1=b1, known=m)

@@ -45,7 +45,7 @@ export function renderUncertainty(res) {
   let rep = "";
   if (repeats && (repeats.conditions || []).some((c) => c.n > 1)) {
     rep = `<h4>Repeat runs <span class="muted">(${esc(repeats.outlier_test)})</span></h4>
-      <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>Terminal speed</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${esc(c.n)}</td><td>${esc(fmt(c.mean, 5))}</td><td>${esc(c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3))}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
+      <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>${esc(repeats.quantity || "terminal speed")} (mean)</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${esc(c.n)}</td><td>${esc(fmt(c.mean, 5))}</td><td>${esc(c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3))}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
   }
   box.innerHTML = `<h3>Uncertainty (ITTC / GUM, 95 %)</h3>${notes}${summary}${details}${rep}`;
 }

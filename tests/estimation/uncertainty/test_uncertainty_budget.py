@@ -11,10 +11,11 @@ import pytest
 
 from daq.config import DEFAULT_RIG_FILE, RigConfigError, parse_rig
 from estimation import RunData, estimate
+from estimation.stats.repeatability import chauvenet
 from estimation.theory.measured import HullScale, measured_beside_theory
 from estimation.uncertainty import check_tolerances, uncertainty_budget
 from estimation.uncertainty.budget import coverage_factor, effective_dof, round_reported
-from estimation.uncertainty.repeats import chauvenet, group_conditions
+from estimation.uncertainty.repeats import group_conditions
 from estimation.uncertainty.sources import ToleranceError
 from estimation.uncertainty.type_a import QUANTIZATION
 from estimation.water import water_properties
