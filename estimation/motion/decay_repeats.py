@@ -133,7 +133,9 @@ def outlier_warnings(analysis: RepeatAnalysis) -> list[str]:
             fate = (
                 "left out of the fit (exclude_outliers)"
                 if run in analysis.excluded
-                else "kept in the fit (exclude_outliers leaves it out)"
+                else "kept in the fit: look for what differed in that release (a touch, a "
+                "wave left in the tank, a loose fitting) and estimate without it if it is "
+                "faulty"
             )
             out.append(
                 f"record {run} is an outlier among the repeats of '{c.label}': logarithmic "
