@@ -37,7 +37,7 @@ from estimation.motion.terms import DOFS
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.stats.misfit import effective_sample_size
 from estimation.uncertainty.budget import Budget, coefficient_budget
-from estimation.uncertainty.rows import BudgetRow
+from estimation.uncertainty.rows import BudgetRow, counted_once, repeatability_row
 
 #: The inputs of a decay a tolerance can be declared for: (meaning, unit on a
 #: translational DOF, on a rotational one).
@@ -109,7 +109,9 @@ def motion_budget(
         notes.append(why)
     for i, n in enumerate(fit.names):
         if n in repeat_std and math.isfinite(float(fit.std[i])):
-            rows[n] = _larger_counted(rows[n][0], repeat_std[n], units.get(n, ""))
+            rows[n] = counted_once(
+                [rows[n][0], repeatability_row(units.get(n, ""), *repeat_std[n])]
+            )
     combination_rows: dict[str, list[BudgetRow]] = {
         c.name: [_fit_row(c.unit, c.std, dof_fit, fit.n_samples, n_eff, fit.n_params)]
         for c in result.well_determined
@@ -246,19 +248,3 @@ def _repeatability(
         values.append([refit.value(name) for name in fit.names])
     std = np.std(np.array(values), axis=0, ddof=1) / math.sqrt(n)
     return {name: (float(u), n) for name, u in zip(fit.names, std, strict=True)}, ""
-
-
-def _larger_counted(fit_row: BudgetRow, repeat: tuple[float, int], unit: str) -> list[BudgetRow]:
-    """The fit row and the repeatability row, the larger combined, the other listed."""
-    u, n = repeat
-    repeat_row = BudgetRow(
-        f"repeatability ({n} repeat campaigns, s/√N)", "A", unit, u, 1.0, u, n - 1
-    )
-    largest = max((fit_row, repeat_row), key=lambda r: r.standard_uncertainty)
-    overlaps = f"overlaps {largest.source}: not combined"
-    return [
-        replace(r, contribution=0.0, combined=False, note=overlaps)
-        if r is not largest
-        else replace(r, note=r.note or "the random error, counted once")
-        for r in (fit_row, repeat_row)
-    ]

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 from estimation.report_numbers import finite_or_none
@@ -37,3 +38,28 @@ class BudgetRow:
             "share": finite_or_none(self.share),
             "note": self.note,
         }
+
+
+def repeatability_row(unit: str, s: float, n: int) -> BudgetRow:
+    """The Type A row of N repeat campaigns: u = s/√N (``s`` already divided), ν = N − 1."""
+    return BudgetRow(f"repeatability ({n} repeat campaigns, s/√N)", "A", unit, s, 1.0, 0.0, n - 1)
+
+
+def counted_once(rows: Sequence[BudgetRow]) -> list[BudgetRow]:
+    """Type A rows that estimate the same random error (the fit's σ, the quantization, a
+    bootstrap, the repeatability): the largest finite one is combined, each other listed as
+    overlapping it, not combined (docs/uncertainty.md)."""
+    finite = [r for r in rows if math.isfinite(r.standard_uncertainty)]
+    largest = max(finite, key=lambda r: r.standard_uncertainty) if finite else None
+    overlaps = "overlaps " + (largest.source if largest else "—") + ": not combined"
+    return [
+        replace(
+            r,
+            contribution=abs(r.sensitivity * r.standard_uncertainty),
+            combined=True,
+            note=r.note or "the random error, counted once",
+        )
+        if r is largest
+        else replace(r, contribution=0.0, combined=False, note=overlaps)
+        for r in rows
+    ]

@@ -34,7 +34,7 @@ from estimation.axis.result import EstimationResult
 from estimation.axis.tow_estimate import well_determined
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import LIBRARY
-from estimation.uncertainty.rows import BudgetRow
+from estimation.uncertainty.rows import BudgetRow, counted_once, repeatability_row
 
 QUANTIZATION = "encoder quantization (step Q, one unknown phase per run)"
 FIT_ROW = "fit (σ̂²(JᵀJ)⁻¹)"
@@ -114,32 +114,8 @@ def type_a_rows(
             )
         if name in repeat_std:
             s, n = repeat_std[name]
-            random.append(
-                BudgetRow(f"repeatability ({n} repeat campaigns, s/√N)", "A", unit, s, 1, 0, n - 1)
-            )
-        finite = [r for r in random if math.isfinite(r.standard_uncertainty)]
-        largest = max(finite, key=lambda r: r.standard_uncertainty) if finite else None
-        out = []
-        for r in random:
-            used = r is largest
-            note = (
-                "the random error, counted once"
-                if used
-                else "overlaps " + (largest.source if largest else "—") + ": not combined"
-            )
-            out.append(
-                BudgetRow(
-                    r.source,
-                    "A",
-                    r.unit,
-                    r.standard_uncertainty,
-                    1.0,
-                    abs(r.standard_uncertainty) if used else 0.0,
-                    r.dof,
-                    combined=used,
-                    note=note,
-                )
-            )
+            random.append(repeatability_row(unit, s, n))
+        out = counted_once(random)
         if drive is not None and drive.std_release_timing.get(name, 0.0) > 0:
             u = drive.std_release_timing[name]
             out.append(
