@@ -246,7 +246,6 @@ class _Round:
 
     predicted: dict[tuple[str, ...], float]  # trial → predicted BIC
     linear: dict[tuple[str, ...], dict[str, float]]  # trial → its terms' linearised values
-    wanted: dict[tuple[str, ...], dict[str, float]]  # terms a step wanted past their bound
     rho: dict[frozenset[str], float]
     own: np.ndarray  # the current model's own sensitivities (coefficients, nuisances)
 
@@ -295,16 +294,15 @@ class _Search:
         _, jac, nuisance = sensitivities(records, setup, current, tried)
         own = np.hstack([jac[:, : len(current.names)], nuisance])
         n = current.n_samples
-        predicted, linears, wanted = {}, {}, {}
+        predicted, linears = {}, {}
         for trial in trials:
             sse, values, past = steps[trial]
             gain = n * np.log(max(sse, 1e-300) / current.sse) + len(trial) * np.log(n)
             predicted[trial] = current.bic + gain
             added = values[-len(trial) :]
             linear = {t: past.get(t, float(v)) for t, v in zip(trial, added, strict=True)}
-            wanted[trial] = {t: v for t, v in linear.items() if not LIBRARY[t].in_bounds(v)}
             linears[trial] = linear
-        return _Round(predicted, linears, wanted, rho, own), trials
+        return _Round(predicted, linears, rho, own), trials
 
     def _start(
         self, current: MotionFit, own: np.ndarray, trial: tuple[str, ...], linear: dict[str, float]
@@ -479,8 +477,9 @@ class _Search:
     ) -> str | None:
         """Why ``trial`` is not worth a converged fit (module doc), or None. ``bar``: the
         BIC it must beat, and whose it is."""
-        if wanted := screen.wanted[trial]:
-            term, value = next(iter(wanted.items()))
+        past = [(t, v) for t, v in screen.linear[trial].items() if not LIBRARY[t].in_bounds(v)]
+        if past:
+            term, value = past[0]
             return (
                 f"not fitted: a linearised step wants {term} = {value:.3g}, beyond its "
                 f"physical bound ({LIBRARY[term].physical or 'its bounds'})"
