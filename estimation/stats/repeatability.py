@@ -18,14 +18,16 @@ estimate unless the user asks to exclude it.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from scipy import special
 
 from estimation.report_numbers import finite_or_none
+
+Repeat = TypeVar("Repeat")
 
 CHAUVENET_LIMIT = 0.5
 OUTLIER_TEST = "Chauvenet (N·P(|z| ≥ z_i) < 0.5; can flag only when N ≥ 5)"
@@ -143,3 +145,21 @@ def within_tolerance(sizes: Sequence[float], tolerance: float) -> list[list[int]
                 continue
         groups.append([i])
     return groups
+
+
+def campaign_repeatability(
+    groups: Sequence[Sequence[Repeat]],
+    names: Sequence[str],
+    refit: Callable[[list[Repeat]], np.ndarray],
+) -> tuple[dict[str, tuple[float, int]], int]:
+    """Each coefficient's repeatability from N repeat campaigns: campaign k takes the k-th
+    repeat of every condition (``groups``) and is refitted on its own (``refit``: the
+    coefficients ``names``); u = s/√N with ν = N − 1, the standard deviation of the mean of N
+    campaigns (ITTC 7.5-02-01-01 §2.4). Returns ({name: (u, N)}, N); {} when N < 2 (some
+    condition was run once)."""
+    n = min((len(g) for g in groups if g), default=0)
+    if n < 2:
+        return {}, n
+    values = np.array([list(refit([g[k] for g in groups if g])) for k in range(n)])
+    std = np.std(values, axis=0, ddof=1) / math.sqrt(n)
+    return {name: (float(u), n) for name, u in zip(names, std, strict=True)}, n

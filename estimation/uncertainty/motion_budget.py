@@ -36,6 +36,7 @@ from estimation.motion.term_search import TRIAL_NFEV
 from estimation.motion.terms import DOFS
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.stats.misfit import effective_sample_size
+from estimation.stats.repeatability import campaign_repeatability
 from estimation.uncertainty.budget import Budget, coefficient_budget
 from estimation.uncertainty.rows import BudgetRow, counted_once, repeatability_row
 
@@ -228,23 +229,20 @@ def _repeatability(
         return {}, ""
     index = {r.run_id: i for i, r in enumerate(result.records)}
     groups = [[index[r] for r in c.run_ids if r in index] for c in repeats.conditions]
-    groups = [g for g in groups if g]
-    n = min(len(g) for g in groups)
+
+    def refit(members: list[int]) -> np.ndarray:
+        return fit_motion(
+            [result.records[i] for i in members],
+            setup,
+            fit.effects,
+            start=parameters_of(fit, members),
+            max_nfev=TRIAL_NFEV,
+        ).values
+
+    try:
+        spread, n = campaign_repeatability(groups, fit.names, refit)
+    except EstimationFailed as err:
+        return {}, f"repeatability not evaluated: a repeat campaign did not fit ({err.why})"
     if n < 2:
         return {}, "repeatability not evaluated: some conditions were released only once"
-    values = []
-    for k in range(n):
-        members = [g[k] for g in groups]
-        try:
-            refit = fit_motion(
-                [result.records[i] for i in members],
-                setup,
-                fit.effects,
-                start=parameters_of(fit, members),
-                max_nfev=TRIAL_NFEV,
-            )
-        except EstimationFailed:
-            return {}, f"repeatability not evaluated: repeat campaign {k + 1} did not fit"
-        values.append([refit.value(name) for name in fit.names])
-    std = np.std(np.array(values), axis=0, ddof=1) / math.sqrt(n)
-    return {name: (float(u), n) for name, u in zip(fit.names, std, strict=True)}, ""
+    return spread, ""

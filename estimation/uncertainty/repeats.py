@@ -30,6 +30,7 @@ from estimation.motion.terms import units_of
 from estimation.stats.repeatability import (
     Condition,
     RepeatAnalysis,
+    campaign_repeatability,
     chauvenet,
     within_tolerance,
 )
@@ -119,19 +120,20 @@ def repeat_campaign_std(
     index = {r.run_id: r for r in runs}
     groups = [[index[i] for i in c.run_ids if i in index] for c in analysis.conditions]
     groups = [g for g in groups if g]
-    n = min((len(g) for g in groups), default=0)
-    if n < 2:
-        return {}, (
-            "repeatability not evaluated: no condition was run more than once (ITTC names "
-            f"run-to-run scatter the largest source in practice; {advice.repeat_runs}, ≥ 5 "
-            "for Chauvenet's criterion to be able to flag an outlier)"
-            if n < 2 and not any(len(g) > 1 for g in groups)
-            else "repeatability not evaluated: some conditions were run only once"
-        )
-    values = []
-    for k in range(n):
-        campaign = [prepare(g[k]) for g in groups]
-        refit = fit_output_error(campaign, fit.effects, start=fit.values, quantization_sigma=False)
-        values.append(refit.values)
-    std = np.std(np.array(values), axis=0, ddof=1) / math.sqrt(n)
-    return {name: (float(s), n) for name, s in zip(fit.names, std, strict=True)}, ""
+
+    def refit(campaign: list[RunData]) -> np.ndarray:
+        prepared = [prepare(r) for r in campaign]
+        return fit_output_error(
+            prepared, fit.effects, start=fit.values, quantization_sigma=False
+        ).values
+
+    spread, n = campaign_repeatability(groups, fit.names, refit)
+    if n >= 2:
+        return spread, ""
+    return {}, (
+        "repeatability not evaluated: no condition was run more than once (ITTC names "
+        f"run-to-run scatter the largest source in practice; {advice.repeat_runs}, ≥ 5 "
+        "for Chauvenet's criterion to be able to flag an outlier)"
+        if not any(len(g) > 1 for g in groups)
+        else "repeatability not evaluated: some conditions were run only once"
+    )
