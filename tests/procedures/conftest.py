@@ -27,13 +27,18 @@ def short_rail(rig: RigConfig, end_of_travel_m: float = 0.5) -> RigConfig:
     return rig.model_copy(update={"geometry": geometry})
 
 
-def hardware_rig_file(folder: Path, modbus_port: int, thruster_port: str) -> Path:
+def hardware_rig_file(
+    folder: Path, modbus_port: int, thruster_port: str, *, plc_timeout_s: float | None = None
+) -> Path:
     """BENBAM's rig file in ``folder`` with mode = "hardware", its PLC on loopback
     ``modbus_port`` and its thruster controller on ``thruster_port`` (a running `rig sim`,
-    or proxies in front of one)."""
+    or proxies in front of one); ``plc_timeout_s`` in place of its ``modbus.timeout_s``."""
     text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
     text = text.replace('mode = "simulated"', 'mode = "hardware"')
     text = text.replace("port = 5020", f"port = {modbus_port}")
+    if plc_timeout_s is not None:
+        assert "timeout_s = 0.05\n" in text
+        text = text.replace("timeout_s = 0.05\n", f"timeout_s = {plc_timeout_s}\n", 1)
     text = text.replace('port = "sim"', f'port = "{thruster_port}"')
     path = folder / "hw.toml"
     path.write_text(text)
