@@ -26,12 +26,9 @@ the condition's amplitude (δ of a nonlinear damping changes as the swing decays
 best read (largest over the noise). A record with fewer than two half-cycle heights has no
 δ (NaN): its condition is then not tested for outliers. Driven records are not compared.
 
-Outliers: Chauvenet's criterion, the tows' (``stats.repeatability.chauvenet``), with a
-floor: a record whose δ is within ``READING_SIGMAS`` (3) of its own σ_δ of the group's mean
-is not flagged. σ_δ is the position noise carried through the reading of the extrema;
-repeats that differ by that alone (five noise seeds of one decay: s = 0.07 % of δ) are not
-repeats that disagree, yet the criterion alone flags one in 13 % of such sets of five (its
-threshold |z| ≥ 1.645 of at most 1.79 is met by chance).
+Outliers: Chauvenet's criterion with its reading floor, every kind's
+(``stats.repeatability.chauvenet``); a record's reading σ_δ is the position noise carried
+through the reading of the extrema (five noise seeds of one decay: s = 0.07 % of δ).
 """
 
 from __future__ import annotations
@@ -55,8 +52,6 @@ from estimation.stats.repeatability import (
 
 AMPLITUDE_TOLERANCE = 0.02
 FIRST_CYCLES = 3
-#: A δ within this many of its own σ_δ of the group's mean is not an outlier (module doc).
-READING_SIGMAS = 3.0
 QUANTITY = "logarithmic decrement over the first 3 cycles"
 SAME_CONDITION = (
     "one dof and setup; free records whose release amplitudes |x(release) − x_eq| agree "
@@ -103,7 +98,7 @@ def analyse_decay_repeats(
         members = [free[i] for i in group]
         read = [log_decrement(r) for r in members]
         values = [v for v, _ in read]
-        flagged = chauvenet(values, [READING_SIGMAS * sigma for _, sigma in read])
+        flagged = chauvenet(values, [sigma for _, sigma in read])
         released = f"{amplitudes[group[0]]:.4g} {position}"
         conditions.append(
             Condition(

@@ -13,6 +13,12 @@ flagged. With s taken over all N repeats (as ITTC describes it) no |z| can excee
 (N − 1)/√N, so the criterion can flag nothing below N = 5 (N = 4: 1.50 against the 1.53 it
 needs): plan ≥ 5 repeats where an outlier must be caught. A flagged repeat is left in the
 estimate unless the user asks to exclude it.
+
+The criterion alone flags a repeat in 13 % of sets of five that differ by reading noise only
+(its threshold |z| ≥ 1.645 of at most 1.79 is met by chance). So each kind also gives every
+value's reading σ (how well the record itself determines it: the position noise carried
+through), and a value within ``READING_SIGMAS`` of its own σ of the mean is not flagged:
+repeats that agree within how well they are read do not disagree.
 """
 
 from __future__ import annotations
@@ -30,7 +36,12 @@ from estimation.report_numbers import finite_or_none
 Repeat = TypeVar("Repeat")
 
 CHAUVENET_LIMIT = 0.5
-OUTLIER_TEST = "Chauvenet (N·P(|z| ≥ z_i) < 0.5; can flag only when N ≥ 5)"
+#: A value within this many of its own reading σ of its condition's mean is not an outlier.
+READING_SIGMAS = 3.0
+OUTLIER_TEST = (
+    f"Chauvenet (N·P(|z| ≥ z_i) < 0.5, and beyond {READING_SIGMAS:g} σ of the value's own "
+    "reading; can flag only when N ≥ 5)"
+)
 
 
 @dataclass(frozen=True)
@@ -111,11 +122,10 @@ class RepeatAnalysis:
         }
 
 
-def chauvenet(values: Sequence[float], floor: Sequence[float] | None = None) -> list[bool]:
-    """True for each value Chauvenet's criterion rejects: N·erfc(|z|/√2) < ½ (N ≥ 3).
-    ``floor``: per value, a deviation from the mean no larger than it is not flagged (the
-    repeats then agree within how well that value is read; the criterion alone flags a
-    value of 13 % of sets of five that differ by noise only). None: no floor."""
+def chauvenet(values: Sequence[float], reading_sigma: Sequence[float] | None = None) -> list[bool]:
+    """True for each value Chauvenet's criterion rejects: N·erfc(|z|/√2) < ½ (N ≥ 3), and
+    farther from the mean than ``READING_SIGMAS`` of its own ``reading_sigma`` (module doc;
+    None: no floor)."""
     x = np.asarray(values, dtype=float)
     n = x.size
     if n < 3 or not np.all(np.isfinite(x)):
@@ -124,7 +134,9 @@ def chauvenet(values: Sequence[float], floor: Sequence[float] | None = None) -> 
     if s == 0:
         return [False] * n
     deviation = np.abs(x - x.mean())
-    least = np.zeros(n) if floor is None else np.asarray(floor, dtype=float)
+    # an unknown reading σ (NaN) sets no floor
+    read = np.zeros(n) if reading_sigma is None else np.nan_to_num(np.asarray(reading_sigma))
+    least = READING_SIGMAS * read
     return [
         bool(n * special.erfc(d / s / math.sqrt(2)) < CHAUVENET_LIMIT and d > f)
         for d, f in zip(deviation, least, strict=True)

@@ -9,8 +9,10 @@ more) and far above how well a load is set (to the gram), so the grouping does n
 on it.
 
 The quantity compared between repeats is the run's terminal speed: the slope of a straight
-line through the last third of its fitted window (m/s, rad/s), what the load produces.
-A flagged run is left in the estimate unless the user asks to exclude it.
+line through the last third of its fitted window (m/s, rad/s), what the load produces. Its
+reading σ (Chauvenet's floor, ``stats.repeatability``) is the position noise σ_x carried
+through that slope, σ_x/√Σ(t − t̄)²: repeats that differ by reading noise alone are not
+outliers. A flagged run is left in the estimate unless the user asks to exclude it.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from estimation.data.run_arrays import RunData
 from estimation.kind_advice import ADVICE, KindAdvice
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import units_of
+from estimation.stats.diagnostics import position_noise
 from estimation.stats.repeatability import (
     Condition,
     RepeatAnalysis,
@@ -44,17 +47,21 @@ def _load(run: RunData) -> float:
     return float(np.mean(run.drive_at_samples()))
 
 
-def terminal_speed(run: RunData) -> float:
-    """Slope of a line through the last third of the fitted window (m/s or rad/s)."""
-    t, x = np.asarray(run.t), np.asarray(run.position)
+def terminal_speed(run: RunData) -> tuple[float, float]:
+    """(slope, its reading σ) of a line through the last third of the fitted window (m/s or
+    rad/s; module doc); NaN with fewer than 2 samples there."""
+    t, x = np.asarray(run.t, dtype=float), np.asarray(run.position, dtype=float)
     keep = (t > run.t_release) & run.window()
     t, x = t[keep], x[keep]
     if t.size < 3:
-        return math.nan
+        return math.nan, math.nan
     tail = t >= t[0] + (t[-1] - t[0]) * 2 / 3
     if np.count_nonzero(tail) < 2:
-        return math.nan
-    return float(np.polyfit(t[tail], x[tail], 1)[0])
+        return math.nan, math.nan
+    t, x = t[tail], x[tail]
+    slope = float(np.polyfit(t, x, 1)[0])
+    spread = float(np.sum((t - t.mean()) ** 2))
+    return slope, position_noise([x], [t]) / math.sqrt(spread) if spread > 0 else math.nan
 
 
 def group_conditions(runs: Sequence[RunData]) -> list[list[int]]:
@@ -75,8 +82,9 @@ def analyse_repeats(runs: Sequence[RunData], exclude_outliers: bool = False) -> 
     conditions = []
     for group in group_conditions(runs):
         members = [runs[i] for i in group]
-        speeds = [terminal_speed(r) for r in members]
-        flagged = chauvenet(speeds)
+        read = [terminal_speed(r) for r in members]
+        speeds = [v for v, _ in read]
+        flagged = chauvenet(speeds, [sigma for _, sigma in read])
         drive = "weight" if members[0].is_constant_drive() else "thrusters"
         unit = "N" if members[0].axis == "surge" else "N·m"
         label = f"{members[0].dof_name}, {drive}, {_load(members[0]):+.4g} {unit}"

@@ -15,10 +15,11 @@ from estimation.stats.repeatability import chauvenet
 from estimation.theory.measured import HullScale, measured_beside_theory
 from estimation.uncertainty import check_tolerances, uncertainty_budget
 from estimation.uncertainty.budget import coverage_factor, effective_dof, round_reported
-from estimation.uncertainty.repeats import group_conditions
+from estimation.uncertainty.repeats import analyse_repeats, group_conditions, terminal_speed
 from estimation.uncertainty.sources import ToleranceError
 from estimation.uncertainty.type_a import QUANTIZATION
 from estimation.water import water_properties
+from tests.estimation.synth import SURGE_TRUTH, Physics, weight_run
 from tests.estimation.term_cases import tow_set
 
 
@@ -80,6 +81,22 @@ def test_chauvenet_flags_only_the_outlying_repeat():
     assert chauvenet(speeds) == [False] * 6 + [True]
     assert chauvenet([0.5, 0.6]) == [False, False]  # two repeats cannot say which is wrong
     assert chauvenet([0.5, 0.501, 0.499]) == [False, False, False]
+
+
+def test_repeats_that_differ_by_reading_noise_alone_are_not_outliers():
+    """Five repeats of one BENBAM tow that differ only in their noise and clock jitter, 50
+    seeds: the criterion alone flags a repeat in several sets (about 13 %), the tows' rule
+    with each terminal speed's reading σ as its floor in none; a wrong weight 4 % heavier is
+    still flagged (test_uncertainty_chain)."""
+    alone = floored = 0
+    for seed in range(50):
+        rng = np.random.default_rng(seed)
+        runs = [weight_run(Physics(*SURGE_TRUTH), 44.1, run_id=f"r{k}", rng=rng) for k in range(5)]
+        speeds = [terminal_speed(r)[0] for r in runs]
+        alone += any(chauvenet(speeds))
+        floored += bool(analyse_repeats(runs).outliers)
+    assert alone >= 3, f"the criterion alone flagged {alone} of 50 sets"
+    assert floored == 0, f"{floored} of 50 sets of noise-only repeats had an outlier"
 
 
 def test_added_mass_and_its_coefficient_carry_the_vehicle_and_water_tolerances():
