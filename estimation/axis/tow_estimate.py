@@ -408,8 +408,7 @@ def well_determined(
     """The terminal speed at each of the ``drives``, then the drag at each of the
     ``speeds`` (``combination_conditions``), under ``fit``'s coefficients. The budget evaluates
     them at the same conditions on each re-fit with a declared input moved."""
-    args = (fit.names, fit.values, fit.std, fit.correlation)
-    return (*terminal_speeds(*args, drives, axis), *drags_at_speeds(*args, speeds, axis))
+    return (*terminal_speeds(fit, drives, axis), *drags_at_speeds(fit, speeds, axis))
 
 
 def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[str, float]:

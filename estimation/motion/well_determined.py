@@ -11,13 +11,15 @@ inertia and stiffness give its period, and its damping terms share the energy pe
       τ + Σ_j θ_j·φ_j(0, u∞) = 0,      ∂u∞/∂θ_j = φ_j(u∞) / (τ + Σ θ φ)'(u∞)·(−1),
 
   (none when a kept term depends on position or time: a spring holds the body, it does
-  not settle at a speed). σ by the delta method from the fit's covariance; a term without
-  σ leaves the speed without one.
+  not settle at a speed). σ by the delta method from the fit's covariance
+  (``FitStatistics.combination_std``): known even when the terms it combines are not
+  identified one by one, as long as the data determine the combination (a settling sphere's
+  K_L and K_Q trade along the steady balance that fixes its speed).
 - **Drag at a tested speed** u (m/s or rad/s, the speed a run reached, taken as given):
   D(u) = −Σ_j θ_j·φ_j(0, u) over the kept terms that depend on velocity alone (N or N·m,
   signed like u: the force the motion meets); linear in θ, so σ_D² = gᵀ·C·g with
-  g_j = −φ_j(0, u) and C = diag(σ)·R·diag(σ) the fit's covariance (exact: no
-  linearisation).
+  g_j = −φ_j(0, u) and C the fit's covariance (exact: no linearisation; determined or not
+  as the terminal speed).
 - **Natural period** T₀ = 2π·√(M/k) with σ from the inertia's and stiffness's σ and their
   correlation (a known one exact), the **natural frequency** ω₀ = 2π/T₀ (σ_ω/ω₀ = σ_T/T₀),
   and the **damping ratio** ζ(a) = B_e(a)/(2·M·ω₀) at each swing amplitude a the
@@ -37,6 +39,7 @@ from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import DOFS, LIBRARY
 from estimation.report_numbers import Coefficient
+from estimation.stats.fit_statistics import FitStatistics
 
 #: A speed search doubles its upper bracket at most this many times from the first guess.
 MAX_DOUBLINGS = 60
@@ -53,24 +56,12 @@ class Combination(Coefficient):
         return {"name": self.name} | super().to_json()
 
 
-def _covariance(std: np.ndarray, correlation: np.ndarray) -> np.ndarray | None:
-    if not np.all(np.isfinite(std)) or not np.all(np.isfinite(correlation)):
-        return None
-    return np.outer(std, std) * correlation
-
-
-def terminal_speed(
-    names: Sequence[str],
-    values: np.ndarray,
-    std: np.ndarray,
-    correlation: np.ndarray,
-    drive: float,
-    dof: str,
-) -> Combination | None:
-    """The steady speed a constant ``drive`` reaches under the fitted force terms (module
+def terminal_speed(fit: FitStatistics, drive: float, dof: str) -> Combination | None:
+    """The steady speed a constant ``drive`` reaches under ``fit``'s force terms (module
     doc), or None when the model has no steady speed (a position or time term is kept, no
     damping, or the drive does not overcome a dry friction)."""
-    terms = [(i, LIBRARY[n]) for i, n in enumerate(names) if n in LIBRARY]
+    values = fit.values
+    terms = [(i, LIBRARY[n]) for i, n in enumerate(fit.names) if n in LIBRARY]
     if drive == 0 or any(
         t.role == "time" or (t.role == "force" and t.x_power is not None) for _, t in terms
     ):
@@ -100,52 +91,38 @@ def terminal_speed(
     h = 1e-6 * u
     slope = (balance(u + h) - balance(u - h)) / (2 * h)
     unit = "rad/s" if DOFS[dof] else "m/s"
-    idx = [i for i, _ in used]
-    cov = _covariance(std[idx], correlation[np.ix_(idx, idx)])
     sigma = None
-    if cov is not None and slope < 0:
-        grad = np.array(
-            [-way * float(t.phi(np.zeros(1), np.array([way * u]))[0]) / slope for _, t in used]
-        )
-        sigma = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    if slope < 0:
+        grad = np.zeros(len(fit.names))
+        for i, t in used:
+            grad[i] = -way * float(t.phi(np.zeros(1), np.array([way * u]))[0]) / slope
+        sigma = fit.combination_std(grad)
     force_unit = "N·m" if DOFS[dof] else "N"
     return Combination(way * u, sigma, unit, name=f"terminal speed at {drive:.4g} {force_unit}")
 
 
-def drag_at_speed(
-    names: Sequence[str],
-    values: np.ndarray,
-    std: np.ndarray,
-    correlation: np.ndarray,
-    speed: float,
-    dof: str,
-) -> Combination | None:
-    """D(u) = −Σ θ_j·φ_j(0, u) at the tested ``speed`` u (m/s or rad/s) over the kept force
-    terms that depend on velocity alone, with σ_D² = gᵀ·C·g, g_j = −φ_j(0, u) (module doc);
-    None at u = 0 or without such a term. N (a line) or N·m (a rotation)."""
+def drag_at_speed(fit: FitStatistics, speed: float, dof: str) -> Combination | None:
+    """D(u) = −Σ θ_j·φ_j(0, u) at the tested ``speed`` u (m/s or rad/s) over ``fit``'s kept
+    force terms that depend on velocity alone, with σ_D² = gᵀ·C·g, g_j = −φ_j(0, u) (module
+    doc); None at u = 0 or without such a term. N (a line) or N·m (a rotation)."""
     used = [
         (i, t)
-        for i, n in enumerate(names)
+        for i, n in enumerate(fit.names)
         if (t := LIBRARY.get(n)) is not None and t.role == "force" and t.v_power is not None
     ]
     if not used or not np.isfinite(speed) or speed == 0:
         return None
-    grad = np.array([-float(t.phi(np.zeros(1), np.array([speed]))[0]) for _, t in used])
-    idx = [i for i, _ in used]
-    drag = float(grad @ values[idx])
-    cov = _covariance(std[idx], correlation[np.ix_(idx, idx)])
-    sigma = None if cov is None else float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    grad = np.zeros(len(fit.names))
+    for i, t in used:
+        grad[i] = -float(t.phi(np.zeros(1), np.array([speed]))[0])
+    drag = float(grad @ fit.values)
+    sigma = fit.combination_std(grad)
     speed_unit, force_unit = ("rad/s", "N·m") if DOFS[dof] else ("m/s", "N")
     return Combination(drag, sigma, force_unit, name=f"drag at {speed:.4g} {speed_unit}")
 
 
 def drags_at_speeds(
-    names: Sequence[str],
-    values: np.ndarray,
-    std: np.ndarray,
-    correlation: np.ndarray,
-    speeds: Sequence[float],
-    dof: str,
+    fit: FitStatistics, speeds: Sequence[float], dof: str
 ) -> tuple[Combination, ...]:
     """``drag_at_speed`` at each distinct tested speed (the speed each run reached, m/s or
     rad/s), in order of size; speeds within 1 % of one already given are left out."""
@@ -153,7 +130,7 @@ def drags_at_speeds(
     for u in sorted((float(u) for u in speeds if np.isfinite(u) and u != 0), key=abs):
         if not any(abs(u - w) <= 0.01 * abs(w) for w in distinct):
             distinct.append(u)
-    found = (drag_at_speed(names, values, std, correlation, u, dof) for u in distinct)
+    found = (drag_at_speed(fit, u, dof) for u in distinct)
     return tuple(c for c in found if c is not None)
 
 
@@ -203,12 +180,7 @@ def damping_ratio(
 
 
 def terminal_speeds(
-    names: Sequence[str],
-    values: np.ndarray,
-    std: np.ndarray,
-    correlation: np.ndarray,
-    drives: Mapping[str, float],
-    dof: str,
+    fit: FitStatistics, drives: Mapping[str, float], dof: str
 ) -> tuple[Combination, ...]:
     """``terminal_speed`` at each distinct constant drive of ``drives`` (per run, N or
     N·m), in order of size; drives without a steady speed are left out."""
@@ -216,7 +188,7 @@ def terminal_speeds(
     for d in sorted(drives.values(), key=abs):
         if np.isfinite(d) and d != 0 and not any(abs(d - e) <= 1e-9 * abs(e) for e in distinct):
             distinct.append(float(d))
-    found = (terminal_speed(names, values, std, correlation, d, dof) for d in distinct)
+    found = (terminal_speed(fit, d, dof) for d in distinct)
     return tuple(c for c in found if c is not None)
 
 

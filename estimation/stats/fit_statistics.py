@@ -9,6 +9,46 @@ from typing import Self
 
 import numpy as np
 
+#: A combination whose scaled gradient has more than this share of its length along the
+#: directions the data do not determine is not determined either (``stats.identify``'s
+#: ``NULL_LOADING``, the rule for one parameter).
+COMBINATION_NULL_LOADING = 0.01
+
+
+@dataclass(frozen=True)
+class Combinations:
+    """What σ of a combination Σ g_i·θ_i of a fit's coefficients needs (``stats.identify``):
+    the coefficients' covariance C (the pseudo-inverse's where the data leave a direction
+    undetermined; NaN rows for coefficients whose σ was withdrawn), the undetermined
+    directions (rows, in the column-scaled coordinates θ·D) and the column scales D."""
+
+    covariance: np.ndarray
+    null: np.ndarray
+    scale: np.ndarray
+
+    def std(self, gradient: np.ndarray) -> float | None:
+        """σ = √(gᵀ·C·g), or None when the combination is not determined: its scaled gradient
+        g/D loads the undetermined directions by more than ``COMBINATION_NULL_LOADING`` of
+        its length, or it takes a coefficient whose σ was withdrawn."""
+        g = np.asarray(gradient, dtype=float)
+        used = np.flatnonzero(g)
+        if used.size == 0:
+            return 0.0
+        scaled = g / self.scale
+        if self.null.size and np.linalg.norm(self.null @ scaled) > (
+            COMBINATION_NULL_LOADING * np.linalg.norm(scaled)
+        ):
+            return None
+        c = self.covariance[np.ix_(used, used)]
+        if not np.all(np.isfinite(c)):
+            return None
+        return float(np.sqrt(max(g[used] @ c @ g[used], 0.0)))
+
+    def without(self, lost: np.ndarray) -> Combinations:
+        """These with the coefficients ``lost`` (bool per coefficient) withdrawn."""
+        gone = lost[:, None] | lost[None, :]
+        return replace(self, covariance=np.where(gone, np.nan, self.covariance))
+
 
 @dataclass(frozen=True, kw_only=True)
 class FitStatistics:
@@ -33,6 +73,13 @@ class FitStatistics:
     #: which ``std`` never goes below; None when no record is quantized or the σ did not
     #: come from this fit's Jacobian
     std_quantization: np.ndarray | None = None
+    #: σ of combinations of the coefficients (a terminal speed); None when the σ did not
+    #: come from this fit's Jacobian
+    combinations: Combinations | None = None
+
+    def combination_std(self, gradient: np.ndarray) -> float | None:
+        """σ of Σ g_i·θ_i over ``names`` (``Combinations.std``); None when not determined."""
+        return None if self.combinations is None else self.combinations.std(gradient)
 
     @property
     def bic(self) -> float:
@@ -76,4 +123,5 @@ class FitStatistics:
                 else np.where(lost, np.nan, self.std_quantization)
             ),
             correlation=correlation,
+            combinations=None if self.combinations is None else self.combinations.without(lost),
         )

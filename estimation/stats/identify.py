@@ -27,6 +27,12 @@ be told from that error. A pseudo-inverse would drop such a direction and give e
 parameter along it a σ that is far too small; here each parameter with more than
 ``NULL_LOADING`` of its unit vector in those directions is reported as **not identified**
 (σ = NaN, written as null), and the σ of the others (orthogonal to them) is exact.
+The same holds for a combination Σ g_i·θ_i of the parameters (a terminal speed, a drag at
+a speed): its σ² = gᵀ·C·g (C = D_σ·R·D_σ, the σ above and cov_s's correlation, the
+pseudo-inverse's on the determined directions) is given when its scaled gradient g·D⁻¹ has
+no more than ``NULL_LOADING`` of its length in those directions (``Combinations``), even
+when every θ_i it combines is not identified alone (a settling sphere's K_L and K_Q trade
+along the one steady balance its record shows; the speed it settles at is known).
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from estimation.stats.fit_statistics import Combinations
 from estimation.stats.quantization import quantization_scores
 from estimation.stats.serial import long_run_scores
 
@@ -60,6 +67,8 @@ class Identified:
     #: the σ of the records' quantization alone (``estimation.stats.quantization``); None
     #: when no record is on an encoder grid
     std_quantization: np.ndarray | None = None
+    #: σ of combinations of the parameters (module doc)
+    combinations: Combinations | None = None
 
     def fit_fields(self) -> dict[str, Any]:
         """The fields every fit reports from these statistics (``FitStatistics``'s σ,
@@ -68,6 +77,7 @@ class Identified:
             "std": self.std,
             "std_white": self.std_white,
             "std_quantization": self.std_quantization,
+            "combinations": self.combinations,
             "correlation": self.correlation,
             "sse": self.sse,
             "n_samples": self.n_samples,
@@ -122,4 +132,6 @@ def honest_statistics(
     ok = np.isfinite(np.outer(std, std)) & (denom > 0)
     corr = np.divide(cov_serial[:g, :g], np.where(ok, denom, 1.0), out=np.eye(g), where=ok)
     corr = np.where(ok | np.eye(g, dtype=bool), corr, np.nan)
-    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white, quantization)
+    every = np.divide(cov_serial[:g, :g], denom, out=np.eye(g), where=denom > 0)
+    combinations = Combinations(np.outer(larger, larger) * every, null[:, :g], norms[:g].copy())
+    return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white, quantization, combinations)

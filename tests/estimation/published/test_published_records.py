@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from estimation import estimate
+from estimation.data.run_arrays import windowed_run
 from estimation.motion.decay_estimate import estimate_decay
 from tests.support.shared_data import shared_file, tencate_e1
 
@@ -211,6 +212,22 @@ _KVLCC2_AS_PENDULUM = dict(
     pivot_damping_nm_s=0.0,
     g=9.81,
 )
+
+
+def test_tencate_as_its_readme_imports_it_still_knows_its_terminal_speed():
+    """Imported as the README says (``--end-time 2.45``, no release time: found from the
+    motion), the record's first samples leave the inertia and both drag terms not identified
+    one by one; the terminal speed they combine into is still determined, and is printed
+    with its σ, within 2σ + 1 % of the record's own plateau slope."""
+    run = windowed_run(tencate_e1(t_end=2.45), end_known=True)
+    r = estimate([run], n_bootstrap=0)
+    assert {"linear_damping", "quadratic_damping"} <= set(r.fit_after.not_identified)
+    speed = r.well_determined[0]
+    t, x = run.t, run.position
+    plateau = (t >= 1.06) & (t <= 2.44)
+    slope = np.polyfit(t[plateau], x[plateau], 1)[0]
+    assert speed.std is not None and 0 < speed.std < 0.03 * speed.value
+    assert abs(speed.value - slope) <= 2 * speed.std + 0.01 * slope
 
 
 @pytest.mark.parametrize("run", _RUNS)
