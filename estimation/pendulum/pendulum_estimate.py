@@ -284,6 +284,8 @@ def estimate_pendulum(
         raise ValueError(f"method: got {method!r}, allowed: {', '.join(PENDULUM_METHODS)}")
     axis = validate_pendulum_runs(runs)
     decays = [prepare_decay(r) for r in runs]
+    # each run's extrema first: a run without swings is refused naming it, before any fit
+    found = {d.run_id: find_peaks(d) for d in decays}
     # the one engine of every single-DOF record: window, repeats, search, rules, flags, B_e, U
     motion = estimate_records(
         [d.record() for d in decays],
@@ -295,11 +297,10 @@ def estimate_pendulum(
     if motion.base is None or motion.fit is None:
         raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")
     decays = [d for d in decays if d.run_id in motion.runs]  # a left-out repeat: no method
-    peaks: dict[str, Peaks] = {}
+    peaks: dict[str, Peaks] = {d.run_id: found[d.run_id] for d in decays}
     rows: list[MethodEstimate] = []
     for d in decays:
-        p = find_peaks(d)
-        peaks[d.run_id] = p
+        p = peaks[d.run_id]
         rows += [
             damped_fit(d, p),
             log_decrement(d, p),
