@@ -156,12 +156,17 @@ def load_decays(store: Store, run_ids: Sequence[str]) -> list[DecayRun]:
 
 
 def fit_decays(
-    runs: list[DecayRun], method: str, search: bool, envelope: RigEnvelope | None = None
+    runs: list[DecayRun],
+    method: str,
+    search: bool,
+    envelope: RigEnvelope | None = None,
+    exclude_outliers: bool = False,
 ) -> Any:
     """The joint fit of the decays (``estimate_records``); ``search``: try the library's
     candidate terms (quadratic and cubic damping, cubic stiffness, friction, bias, equilibrium
-    drift); the window of a run without an end of its own is where its free decay ends.
-    ``envelope`` is not used: a decay's advice names no load."""
+    drift); the window of a run without an end of its own is where its free decay ends;
+    ``exclude_outliers``: leave out a repeat Chauvenet's criterion flags (its result's
+    ``runs`` are then the others). ``envelope`` is not used: a decay's advice names no load."""
     from estimation.motion.decay_estimate import DECAY_CANDIDATES, estimate_records
     from estimation.motion.records import Record
 
@@ -174,6 +179,7 @@ def fit_decays(
         t_release={r.run_id: r.t_release for r in runs if r.t_release is not None} or None,
         t_end={r.run_id: r.t_end for r in runs if r.t_end is not None} or None,
         candidates=DECAY_CANDIDATES if search else (),
+        exclude_outliers=exclude_outliers,
     )
 
 

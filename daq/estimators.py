@@ -27,17 +27,21 @@ class Estimator:
     """How runs are estimated.
 
     ``load``: the stored runs as the fit takes them, checked (``ValueError`` naming the
-    run and field, before anything is fitted); ``fit(runs, method, search, envelope)``: the
-    result (``to_json()``; ``envelope``: the rig's tests, ``estimation.design``, so the
-    advice it gives names runs the rig can make; None for imports); ``subject``: what a
-    failed fit names ("surge", "roll swing");
+    run and field, before anything is fitted); ``fit(runs, method, search, envelope,
+    exclude_outliers)``: the result (``to_json()``, its ``runs`` those actually fitted;
+    ``envelope``: the rig's tests, ``estimation.design``, so the advice it gives names runs
+    the rig can make; None for imports; ``exclude_outliers``: leave out the repeats
+    Chauvenet's criterion flags, every estimator alike); ``subject``: what a failed fit
+    names ("surge", "roll swing");
     ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
     takes, the first the default (a callable, so the estimation code loads on first use),
     ``method_labels`` how the browser's menu words them.
 
     What an estimator offers beyond the fit is a field, ``None`` where it offers nothing,
     so the job calls it without naming the estimator: ``screen(runs, exclude_outliers)`` →
-    (the runs to fit, the screening) before the fit (repeats and Chauvenet outliers);
+    (the runs to fit, the screening) before the fit (a tow set's repeats and Chauvenet
+    outliers, read from the runs as loaded; a decay's are read from its windowed records
+    inside its fit);
     ``budget(store, runs, result, screening, report_dir)`` → the documents added to the
     result after it (the uncertainty budget and the repeats, which the theory comparison
     reads); ``units_of()`` → per axis (or dof) its results may be on, the unit of each
@@ -49,7 +53,7 @@ class Estimator:
     runs: str
     methods_of: Callable[[], tuple[str, ...]]
     load: Callable[[Store, Sequence[str]], list[Any]]
-    fit: Callable[[list[Any], str, bool, RigEnvelope | None], Any]
+    fit: Callable[[list[Any], str, bool, RigEnvelope | None, bool], Any]
     subject: Callable[[list[Any]], str]
     report: Callable[[Any, list[Any], Path], list[Path]] | None = None
     #: method → how the browser's method menu words it (a method missing: its name).
@@ -88,8 +92,14 @@ def _axis_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
 
 
 def _axis_fit(
-    runs: list[Any], method: str, search: bool, envelope: RigEnvelope | None = None
+    runs: list[Any],
+    method: str,
+    search: bool,
+    envelope: RigEnvelope | None = None,
+    exclude_outliers: bool = False,
 ) -> Any:
+    """The axis fit; ``exclude_outliers`` is already applied: ``_axis_screen`` left the
+    flagged runs out before it (the budget and the theory read that screening)."""
     from estimation import estimate
 
     return estimate(runs, method=method, search_effects=search, envelope=envelope)
@@ -152,11 +162,15 @@ def _pendulum_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
 
 
 def _pendulum_fit(
-    runs: list[Any], method: str, search: bool, envelope: RigEnvelope | None = None
+    runs: list[Any],
+    method: str,
+    search: bool,
+    envelope: RigEnvelope | None = None,
+    exclude_outliers: bool = False,
 ) -> Any:
     from estimation.pendulum.pendulum_estimate import estimate_pendulum
 
-    return estimate_pendulum(runs, method=method, search=search)
+    return estimate_pendulum(runs, method=method, search=search, exclude_outliers=exclude_outliers)
 
 
 def _pendulum_budget(

@@ -49,8 +49,8 @@ def _finding_lines(data: dict, lists: tuple[str, ...]) -> list[str]:
 @json_option
 def estimate(run_ids, report_dir, db_url, as_json, **options):
     """Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β of the
-    vehicle to pendulum free-decay runs), trace the residual to missing effects, and report
-    the error before and after."""
+    vehicle to pendulum free-decay runs, or a free decay's single-DOF equation), trace the
+    residual to missing effects, and report the error before and after."""
     # the request as POST /api/jobs/estimation takes it (api.core.estimation_request)
     request = request_from(EstimationRequest, options, run_ids=list(run_ids))
     report_folder(report_dir)

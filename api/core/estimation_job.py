@@ -81,9 +81,10 @@ def run_estimation(
     exclude_outliers: bool = False,
 ) -> dict[str, Any]:
     """Estimate from stored runs; returns the result JSON (with ``result_id``), stored as an
-    "estimation" result; with what the estimator offers besides the fit (its ``screen`` of
-    the repeats, where ``exclude_outliers`` leaves Chauvenet-flagged repeats out of the fit;
-    its uncertainty ``budget``, then the theory comparison, ``api.core.theory_job``).
+    "estimation" result of the runs actually fitted; ``exclude_outliers`` leaves the repeats
+    Chauvenet's criterion flags out of every estimator's fit (a tow set's in its ``screen``,
+    a decay's or pendulum's in its fit); with what the estimator offers besides the fit (its
+    uncertainty ``budget``, then the theory comparison, ``api.core.theory_job``).
     Bad input raises as :func:`load_estimation_runs` says; a fit (or its report) that fails
     in its numerics raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
     """
@@ -95,8 +96,10 @@ def run_estimation(
     subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
     envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
     with fitting(subject):
-        result = estimator.fit(runs, method, search_effects, envelope)
+        result = estimator.fit(runs, method, search_effects, envelope, exclude_outliers)
         data = result.to_json()
+    fitted = set(result.runs)  # a repeat the fit left out is named in its repeats, not here
+    runs = [r for r in runs if r.run_id in fitted]
     if report_dir is not None and estimator.report is not None:
         with fitting(subject, "draw the report of"):
             files = estimator.report(result, runs, Path(report_dir))

@@ -44,6 +44,7 @@ class EstimationRequest(StrictRequest):
         bool, Flag("--exclude-outliers", when_set=True)
     ] = Field(
         False,
-        description="Leave out repeats Chauvenet's criterion flags as outlying (tows and "
-        "spins; docs/uncertainty.md); by default they are flagged and kept.",
+        description="Leave out repeats Chauvenet's criterion flags as outlying (tows, spins, "
+        "pendulums and free decays; docs/uncertainty.md); by default they are flagged and "
+        "kept. The result names what was left out and why.",
     )  # fmt: skip

@@ -1,6 +1,7 @@
-"""Free-decay report: result.json, report.md (coefficients with σ, the search's evidence,
-error before/after) and one figure per record: measured x and the fitted model against time
-from release, with the residual beneath (docs/estimation.md, *Free decay*)."""
+"""Free-decay report: result.json, report.md (coefficients with σ, the repeats and any left
+out, the search's evidence, error before/after) and one figure per fitted record: measured x
+and the fitted model against time from release, with the residual beneath
+(docs/estimation.md, *Free decay*)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from estimation.motion.decay_result import DecayResult
 from estimation.motion.records import Record
 from estimation.motion.terms import DOFS, units_of
 from estimation.stats.acceptance_rules import DECAY_RULES
+from estimation.uncertainty.text import repeats_markdown
 
 #: x's unit per DOF.
 POSITION_UNIT = {dof: units_of(dof)["position"] for dof in DOFS}
@@ -96,6 +98,8 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         )
     if result.possibly_biased:
         lines.append("**The coefficients may be biased** (warnings below say why).")
+    if result.repeats is not None and result.repeats.repeated:  # what was compared, left out
+        lines += ["", *repeats_markdown(doc["repeats"])]
     lines += [
         "",
         "## Evidence",

@@ -265,37 +265,48 @@ def _warnings(
 
 @one_blas_thread
 def estimate_pendulum(
-    runs: Sequence[PendulumRun], method: str = "output-error", search: bool = True
+    runs: Sequence[PendulumRun],
+    method: str = "output-error",
+    search: bool = True,
+    exclude_outliers: bool = False,
 ) -> PendulumResult:
     """α, β of the vehicle from free-decay runs, all methods side by side, effects searched.
 
     ``method`` picks the headline coefficients: "output-error" (default: nonlinear model,
     joint over runs, after the effect search), or "damped-fit", "log-decrement",
     "equation-error" (pooled over runs by inverse variance). The effect search always
-    runs on the output-error fit when ``search`` is true.
+    runs on the output-error fit when ``search`` is true. The runs' repeats are compared as
+    every decay's (``motion.decay_repeats``): a Chauvenet outlier is named in the warnings and
+    kept, or with ``exclude_outliers`` left out of every method (the result's ``runs`` are
+    then the others).
     """
     if method not in PENDULUM_METHODS:
         raise ValueError(f"method: got {method!r}, allowed: {', '.join(PENDULUM_METHODS)}")
     axis = validate_pendulum_runs(runs)
     decays = [prepare_decay(r) for r in runs]
-    peaks: dict[str, Peaks] = {}
+    # each run's extrema first: a run without swings is refused naming it, before any fit
+    found = {d.run_id: find_peaks(d) for d in decays}
+    # the one engine of every single-DOF record: window, repeats, search, rules, flags, B_e, U
+    motion = estimate_records(
+        [d.record() for d in decays],
+        PIVOT_DOF,
+        restoring_known=True,
+        candidates=CANDIDATES if search else (),
+        exclude_outliers=exclude_outliers,
+    )
+    if motion.base is None or motion.fit is None:
+        raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")
+    decays = [d for d in decays if d.run_id in motion.runs]  # a left-out repeat: no method
+    peaks: dict[str, Peaks] = {d.run_id: found[d.run_id] for d in decays}
     rows: list[MethodEstimate] = []
     for d in decays:
-        p = find_peaks(d)
-        peaks[d.run_id] = p
+        p = peaks[d.run_id]
         rows += [
             damped_fit(d, p),
             log_decrement(d, p),
             equation_error(d, p),
             equation_error(d, p, quadratic=False),
         ]
-    records = [d.record() for d in decays]
-    # the one engine of every single-DOF record: window, search, rules, flags, B_e, U
-    motion = estimate_records(
-        records, PIVOT_DOF, restoring_known=True, candidates=CANDIDATES if search else ()
-    )
-    if motion.base is None or motion.fit is None:
-        raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")
     base, final = motion.base, motion.fit
     steps: tuple[Step, ...] = motion.steps
     ambiguous: tuple[tuple[str, ...], ...] = tuple(motion.ambiguous)
@@ -337,7 +348,7 @@ def estimate_pendulum(
         steps=tuple(steps),
         warnings=tuple(warnings),
         advice=tuple(advice),
-        geometry={r.run_id: asdict(r.geometry) for r in runs},
+        geometry={d.run_id: asdict(d.geometry) for d in decays},
         fit_before=base,
         fit_after=final,
         decays=tuple(decays),

@@ -33,6 +33,7 @@ from estimation.fit_report import (
 from estimation.pendulum.configuration import unit
 from estimation.pendulum.pendulum_estimate import PendulumResult
 from estimation.stats.acceptance_rules import DECAY_RULES
+from estimation.uncertainty.text import repeats_markdown
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -135,8 +136,8 @@ def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
 
 
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
-    """The Markdown report: summary table, figures, methods side by side, effects, error
-    before/after, evidence."""
+    """The Markdown report: summary table, figures, methods side by side, the repeats (and
+    any left out), effects, error before/after, evidence."""
     doc = result.to_json()
     labels = run_labels(result) if result.decays else {r: r for r in result.runs}
     lines = [
@@ -174,6 +175,8 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
             else f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
             f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | — | — |"
         )
+    if doc["repeats"] is not None and any(c["n"] > 1 for c in doc["repeats"]["conditions"]):
+        lines += ["", *repeats_markdown(doc["repeats"])]  # what was compared, left out
     lines += effects_found(result.effects, digits=5)
     lines += ambiguity_lines(result.ambiguous, result.advice)
     wb, wa = doc["diagnostics"]["ljung_box_before"], doc["diagnostics"]["ljung_box_after"]

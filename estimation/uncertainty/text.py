@@ -63,25 +63,46 @@ def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = Non
                 f"| {_g(r['sensitivity'])} | {_g(r['contribution'])} | {share} | {r['note']} |"
             )
     if repeats is not None:
-        lines += ["", "### Repeat runs", "", f"Outlier test: {repeats['outlier_test']}.", ""]
-        quantity = repeats.get("quantity") or "terminal speed"  # documents before it was named
-        lines += [
-            f"| condition | N | {quantity} (mean) | ± t·s/√N | outliers |",
-            "|---|---|---|---|---|",
-        ]
-        for c in repeats["conditions"]:
-            lines.append(
-                f"| {c['condition']} | {c['n']} | {_g(c['mean'], '.5g')} | "
-                f"{_g(c['repeatability_95'])} | {', '.join(c['outliers']) or '—'} |"
-            )
-        if repeats["excluded"]:
-            lines.append(f"\nLeft out at the user's request: {', '.join(repeats['excluded'])}.")
-        elif repeats["outliers"]:
-            lines.append(
-                f"\nFlagged but kept (ask `--exclude-outliers` to leave them out): "
-                f"{', '.join(repeats['outliers'])}."
-            )
+        lines += ["", *repeats_markdown(repeats, "###")]
     return "\n".join(lines) + "\n"
+
+
+def _with_unit(value: str, unit: str | None) -> str:
+    """``value`` with its unit (none for a dimensionless "1")."""
+    return value if not unit or unit == "1" or value == "—" else f"{value} {unit}"
+
+
+def repeats_markdown(repeats: dict[str, Any], heading: str = "##") -> list[str]:
+    """The repeats document (``RepeatAnalysis.to_json``) as report.md lines: per condition N,
+    the mean of the compared quantity with its unit, t·s/√N and the outliers, each marked
+    left out or kept; then which were left out of the fit (every kind's, tows to decays)."""
+    lines = [f"{heading} Repeat runs", "", f"Outlier test: {repeats['outlier_test']}.", ""]
+    quantity = repeats.get("quantity") or "terminal speed"  # documents before it was named
+    excluded = set(repeats["excluded"])
+    lines += [
+        f"| condition | N | {quantity} (mean) | ± t·s/√N | outliers |",
+        "|---|---|---|---|---|",
+    ]
+    for c in repeats["conditions"]:
+        unit = c.get("unit")
+        flagged = ", ".join(
+            f"{r} ({'left out' if r in excluded else 'kept'})" for r in c["outliers"]
+        )
+        lines.append(
+            f"| {c['condition']} | {c['n']} | {_with_unit(_g(c['mean'], '.5g'), unit)} | "
+            f"{_with_unit(_g(c['repeatability_95']), unit)} | {flagged or '—'} |"
+        )
+    if repeats["excluded"]:
+        lines.append(
+            f"\nLeft out of the fit at the user's request (exclude_outliers): "
+            f"{', '.join(repeats['excluded'])}."
+        )
+    elif repeats["outliers"]:
+        lines.append(
+            f"\nFlagged but kept (ask `--exclude-outliers` to leave them out): "
+            f"{', '.join(repeats['outliers'])}."
+        )
+    return lines
 
 
 def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> list[str]:

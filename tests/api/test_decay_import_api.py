@@ -93,7 +93,8 @@ def test_the_http_import_names_a_bad_decay_field(client, query, detail):
 
 def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, tmp_path):
     """The Estimation page offers every kind with an estimator (GET /api/kinds), a decay
-    among them, and shows its coefficients with the units the result carries."""
+    among them, sends its "leave out flagged repeats" box as ``exclude_outliers``, and shows
+    its coefficients with the units the result carries."""
     from playwright.sync_api import expect
 
     from tests.api.conftest import estimate_in_page, signed_in_page
@@ -108,7 +109,12 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         page.on("pageerror", lambda err: errors.append(str(err)))
         page.click("nav a[data-page=estimation]")
         page.uncheck("#est-effects")  # the base model: the truth has no other term
-        estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
+        page.check("#est-exclude")  # the request's exclude_outliers, every kind's
+        with page.expect_request(
+            lambda req: req.method == "POST" and req.url.endswith("/api/jobs/estimation")
+        ) as request:
+            estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
+        assert request.value.post_data_json["exclude_outliers"] is True
         expect(page.locator("#est-coefs")).to_contain_text("inertia (kg)")
         expect(page.locator("#est-rmse")).to_contain_text("heave free decay")
         rmse = page.locator("#est-rmse tr", has_text="RMSE after").locator("td").nth(1)

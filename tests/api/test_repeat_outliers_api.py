@@ -51,6 +51,8 @@ def test_a_flagged_repeat_is_left_out_only_when_the_request_says_so(client, tmp_
     assert dropped["parameters"]["exclude_outliers"] is True
     assert dropped["outcome"]["repeats"]["excluded"] == [wrong]
     assert wrong not in dropped["outcome"]["runs"]
+    stored = client.get(f"/api/results/{dropped['outcome']['result_id']}", headers=AUTH).json()
+    assert stored["run_ids"] == [r for r in run_ids if r != wrong]  # the runs fitted
     inertia = dropped["outcome"]["coefficients"]["inertia"]["value"]
     assert abs(inertia - SURGE_TRUTH[0]) < abs(
         kept["outcome"]["coefficients"]["inertia"]["value"] - SURGE_TRUTH[0]

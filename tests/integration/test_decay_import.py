@@ -27,11 +27,14 @@ from tests.support.shared_data import shared_file
 I44, C44, A44 = 115.74281, 821.96, 19.0
 
 
-def heave_decay(path: Path, body_kg: float, seed: int = 1) -> dict[str, float]:
+def heave_decay(
+    path: Path, body_kg: float, seed: int = 1, damping_scale: float = 1.0
+) -> dict[str, float]:
     """A heave decay released from 5 % of the body's scale length at t = 1 s, 50 Hz for
-    ~12 periods, 0.1 mm noise; returns the truth (added mass, damping, stiffness)."""
+    ~12 periods, 0.1 mm noise; returns the truth (added mass, damping, stiffness).
+    ``damping_scale``: the linear damping × this (1: 4 % of critical)."""
     added, stiffness = 0.2 * body_kg, 40.0 * body_kg  # ω ≈ 5.8 rad/s at every scale
-    damping = 0.04 * 2 * np.sqrt(stiffness * (body_kg + added))  # 4 % of critical
+    damping = damping_scale * 0.04 * 2 * np.sqrt(stiffness * (body_kg + added))
     x0 = 0.05 * (body_kg / 1000.0) ** (1 / 3)
     mass = body_kg + added
 

@@ -48,6 +48,7 @@ $("#est-run").onclick = async () => {
       run_ids: runIds,
       method: $("#est-method").value,
       search_effects: $("#est-effects").checked,
+      exclude_outliers: $("#est-exclude").checked,
     });
     estimationJobId = job.id;
     showEstimationJob(job);

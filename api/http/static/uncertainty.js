@@ -1,5 +1,5 @@
 // Estimation page: the uncertainty budget of each coefficient (ITTC 7.5-02-01-01 / GUM, 95 %)
-// and the repeat-run analysis of a tow/spin result (docs/uncertainty.md), under the
+// and the repeat-run analysis of every kind's result (docs/uncertainty.md), under the
 // coefficients: a summary row per quantity (value ± U, k, ν_eff, u_c, dominant source), then each
 // quantity's sources (folded when there are more than three). From the result's `budget` and `repeats`.
 import { $ } from "./dom.js";
@@ -11,9 +11,9 @@ export function renderUncertainty(res) {
   if (!box) return;
   const budget = res.budget;
   if (!budget) {
-    box.innerHTML = res.method && res.method !== "output-error" && "budget" in res // a result that has one
+    box.innerHTML = (res.method && res.method !== "output-error" && "budget" in res // a result that has one
       ? `<p class="muted">No uncertainty budget for ${esc(res.method)} (seed methods are compared, not signed).</p>`
-      : "";
+      : "") + repeatsMarkup(res.repeats); // what was compared and left out, with or without a budget
     return;
   }
   const notes = (budget.notes || []).map((n) => `<p class="${n.startsWith("Type B not declared") ? "error" : "muted"}">${esc(n)}</p>`).join("");
@@ -41,11 +41,45 @@ export function renderUncertainty(res) {
   }).join("");
   const folded = entries.length > 3;
   const details = `<details class="est-budget-details"${folded ? "" : " open"}><summary>Sources of each quantity's uncertainty (${entries.length} budgets)</summary>${tables}</details>`;
-  const repeats = res.repeats;
-  let rep = "";
-  if (repeats && (repeats.conditions || []).some((c) => c.n > 1)) {
-    rep = `<h4>Repeat runs <span class="muted">(${esc(repeats.outlier_test)})</span></h4>
-      <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>${esc(repeats.quantity || "terminal speed")} (mean)</th><th>± t·s/√N</th><th>Outliers</th></tr></thead><tbody>${repeats.conditions.map((c) => `<tr><td>${esc(c.condition)}</td><td>${esc(c.n)}</td><td>${esc(fmt(c.mean, 5))}</td><td>${esc(c.repeatability_95 === null ? "—" : fmt(c.repeatability_95, 3))}</td><td>${esc((c.outliers || []).join(", ") || "—")}</td></tr>`).join("")}</tbody></table>`;
-  }
+  const rep = repeatsMarkup(res.repeats);
   box.innerHTML = `<h3>Uncertainty (ITTC / GUM, 95 %)</h3>${notes}${summary}${details}${rep}`;
+}
+
+// A run as the page names it elsewhere (the Runs row): its id's first 8 characters.
+const shortId = (id) => `<code title="${esc(id)}">${esc(String(id).slice(0, 8))}</code>`;
+// A value with its unit; none for a dimensionless "1" (a decay's logarithmic decrement).
+const withUnit = (text, unit) => (unit && unit !== "1" && text !== "—" ? `${text} ${unit}` : text);
+
+/** The repeats document (every kind's shape, docs/uncertainty.md) as the page draws it: per
+ * condition N, each repeat's value (an outlier in bold, marked left out of the fit or kept),
+ * their mean ± t·s/√N with the unit, then which were left out; "" without a repeated
+ * condition. */
+export function repeatsMarkup(repeats) {
+  if (!repeats || !(repeats.conditions || []).some((c) => c.n > 1)) return "";
+  const excluded = new Set(repeats.excluded || []);
+  const fate = (r) => (excluded.has(r) ? "left out of the fit" : "kept in the fit");
+  const each = (c) =>
+    c.runs
+      .map((r, i) =>
+        (c.outliers || []).includes(r)
+          ? `<strong class="${excluded.has(r) ? "est-left-out" : "est-kept-outlier"}">${shortId(r)} ${esc(fmt(c.values[i], 4))} (outlier, ${esc(fate(r))})</strong>`
+          : `${shortId(r)} ${esc(fmt(c.values[i], 4))}`,
+      )
+      .join(", ");
+  const rows = repeats.conditions
+    .map(
+      (c) => `<tr${(c.outliers || []).length ? ' class="est-outlier"' : ""}><td>${esc(c.condition)}</td><td>${esc(c.n)}</td>
+        <td>${each(c)}</td><td>${esc(withUnit(fmt(c.mean, 5), c.unit))}</td><td>${esc(withUnit(fmt(c.repeatability_95, 3), c.unit))}</td></tr>`,
+    )
+    .join("");
+  const quantity = repeats.quantity || "terminal speed"; // documents before it was named
+  const left = [...excluded];
+  const outliers = repeats.outliers || [];
+  const note = left.length
+    ? `<p id="est-left-out">Left out of the fit at the user's request: ${left.map((r) => shortId(r)).join(", ")} (the mean and t·s/√N are of all N repeats).</p>`
+    : outliers.length
+      ? `<p class="muted" id="est-left-out">Flagged but kept in the fit: ${outliers.map((r) => shortId(r)).join(", ")}; tick “leave out flagged repeats” to fit without them.</p>`
+      : "";
+  return `<h4>Repeat runs <span class="muted">(${esc(repeats.outlier_test)})</span></h4>
+    <table class="list" id="est-repeats"><thead><tr><th>Condition</th><th>N</th><th>${esc(quantity)}, each repeat</th><th>Mean</th><th>± t·s/√N</th></tr></thead><tbody>${rows}</tbody></table>${note}`;
 }

@@ -26,7 +26,8 @@ const MARKUP_NAMES = {
   "run_metadata.js": ["inputs"], // the metadata object's fields (forms.js's fieldHtml)
   "runs.js": ["tags", "source"], // run_text.js's cells
   "start_forms.js": ["fields"], // a form's fields (forms.js's fieldHtml)
-  "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows"], // the budget's parts
+  // the budget's parts; the repeats table, its runs (esc'd ids) and its note
+  "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows", "repeatsMarkup", "shortId", "each", "note"],
 };
 
 // ---- a small lexer: template literals with their interpolations, strings, comments, regexes

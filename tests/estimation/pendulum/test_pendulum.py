@@ -371,3 +371,30 @@ def test_bad_input_names_the_field():
         estimate_pendulum([replace(run, axis="roll")])
     with pytest.raises(ValueError, match=r"run_id: got duplicates"):
         estimate_pendulum([run, run])
+
+
+def test_a_flagged_swing_is_left_out_of_every_method_when_asked(tmp_path):
+    """Five swings from one angle, p2 with 30 % more β (its logarithmic decrement 0.89
+    against the others' 0.69): Chauvenet flags it either way; kept, it pulls β 4 % off;
+    with ``exclude_outliers`` no method fits it, the result's runs, rows, peaks and geometry
+    are the other four, β is theirs, and the warning and the report name it left out."""
+    runs = [
+        decay(beta=BETA * (1.3 if i == 2 else 1.0), seed=20 + i, run_id=f"p{i}") for i in range(5)
+    ]
+    kept = estimate_pendulum(runs, search=False)
+    assert kept.motion.repeats.outliers == ("p2",) and kept.motion.repeats.excluded == ()
+    assert "p2" in kept.runs
+    assert kept.coefficients["linear_damping"].value > 1.02 * BETA
+    dropped = estimate_pendulum(runs, search=False, exclude_outliers=True)
+    four = ("p0", "p1", "p3", "p4")
+    assert dropped.runs == four and dropped.motion.repeats.excluded == ("p2",)
+    assert {m.run_id for m in dropped.methods} == set(four)
+    assert tuple(dropped.peaks) == four and tuple(dropped.geometry) == four
+    assert dropped.to_json()["repeats"]["excluded"] == ["p2"]
+    _within(dropped.coefficients["linear_damping"], BETA, 0.002)
+    (warning,) = [w for w in dropped.warnings if "outlier among the repeats" in w]
+    assert warning.startswith("record p2 is an outlier") and "left out of the fit" in warning
+    write_pendulum_report(dropped, tmp_path)
+    report = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert "p2 (left out)" in report
+    assert "Left out of the fit at the user's request (exclude_outliers): p2." in report
