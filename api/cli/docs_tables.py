@@ -6,7 +6,9 @@ help), and the code span between ``<!-- options: package.module.Model … -->`` 
 ``<!-- /options -->`` (inline, in a command table's row) with the options of those models
 (``[--operator NAME] … [--tag TAG]…``, ``--command C | --force N`` for a model's
 ``exactly_one_of``), so adding an option to an operation is one edit in its model and a run
-of this module; ``--check`` only says which files differ (exit 1), as
+of this module. A command with no request model (``rig serve``) is named ``cli:serve`` in
+the span (``cli:user.add`` for ``rig user add``): its options are read from its click
+command, where they are declared. ``--check`` only says which files differ (exit 1), as
 ``tests/api/test_docs_tables.py`` does.
 """
 
@@ -18,6 +20,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import click
 from pydantic import BaseModel
 
 from daq.procedures.flag import Flag
@@ -30,8 +33,13 @@ _TABLE = re.compile(
     re.DOTALL,
 )
 _OPTIONS = re.compile(
-    r"(?P<open><!-- options: (?P<models>[\w. ]+?) -->)`[^`\n]*`(?P<close><!-- /options -->)"
+    r"(?P<open><!-- options: (?P<models>[\w.: -]+?) -->)`[^`\n]*`(?P<close><!-- /options -->)"
 )
+#: A span's name of a command without a request model: ``cli:`` and its words, dotted.
+_CLI = "cli:"
+#: The options a command's span leaves out: said once for every command (README, "Command
+#: line": "Commands that touch storage take ``--db URL``").
+_SAID_ONCE = frozenset({"db_url"})
 _BOUNDS = (("minimum", "≥"), ("exclusiveMinimum", ">"), ("maximum", "≤"), ("exclusiveMaximum", "<"))
 
 
@@ -110,6 +118,54 @@ def _required(model: type[BaseModel], name: str) -> bool:
     return model.model_fields[name].is_required() or required_by_check(model, name)
 
 
+def _click_word(option: click.Option) -> str:
+    """One click option as a synopsis word: ``--host HOST`` (its metavar, else its choices,
+    ``FILE`` for a file, ``N`` for a count, else its name), ``[--rtu]`` for an on/off flag,
+    ``[--realtime|--no-realtime]`` for a pair, ``…`` after a repeatable one."""
+    name = next((o for o in option.opts if o.startswith("--")), option.opts[0])
+    if option.is_flag:
+        word = "|".join([name, *option.secondary_opts])
+    else:
+        kind = "integer" if isinstance(option.type, click.types.IntParamType) else ""
+        if option.metavar:
+            some = option.metavar
+        elif isinstance(option.type, click.Choice):
+            some = "|".join(map(str, option.type.choices))
+        elif isinstance(option.type, click.Path):
+            path = option.type
+            some = "FILE" if not path.dir_okay else "DIR" if not path.file_okay else "PATH"
+        else:
+            some = _placeholder(option.name or name.lstrip("-"), kind)
+        word = f"{name} {some}"
+    return (word if option.required else f"[{word}]") + ("…" if option.multiple else "")
+
+
+def _command(path: str) -> click.Command:
+    """The click command a ``cli:`` name means (``cli:user.add``: ``rig user add``)."""
+    from api.cli.main import main as rig  # only to read a command's options
+
+    command: click.Command = rig
+    for word in path.removeprefix(_CLI).split("."):
+        found = None
+        if isinstance(command, click.Group):
+            with click.Context(command) as ctx:
+                found = command.get_command(ctx, word)
+        if found is None:
+            raise ValueError(f"{path}: rig has no command {word!r} there")
+        command = found
+    return command
+
+
+def command_words(command: click.Command) -> list[str]:
+    """The options of ``command`` as synopsis words, in their order, but ``--db``
+    (:data:`_SAID_ONCE`) and hidden ones."""
+    return [
+        _click_word(p)
+        for p in command.params
+        if isinstance(p, click.Option) and not p.hidden and p.name not in _SAID_ONCE
+    ]
+
+
 def option_list(models: list[type[BaseModel]]) -> str:
     """The options of ``models`` as a command's synopsis, in field order: ``--force N`` when
     required, ``[--notes TEXT]`` when not, ``[--thrusters]`` for an on/off flag and
@@ -146,6 +202,18 @@ def option_list(models: list[type[BaseModel]]) -> str:
     return " ".join(words).replace("|", "\\|")  # a table cell's | is escaped
 
 
+def span_options(names: list[str]) -> str:
+    """The synopsis a span's ``names`` make: request models' options (:func:`option_list`)
+    and ``cli:`` commands' (:func:`command_words`), in the order named."""
+    parts = [
+        " ".join(command_words(_command(n))).replace("|", "\\|")
+        if n.startswith(_CLI)
+        else option_list([_model(n)])
+        for n in names
+    ]
+    return " ".join(p for p in parts if p)
+
+
 def parameter_table(model: type[BaseModel]) -> str:
     """The Markdown table of ``model``'s fields: the query or body field, the command's
     option, its type and range, its default and its help (a list field's option repeats)."""
@@ -161,7 +229,7 @@ def parameter_table(model: type[BaseModel]) -> str:
             option += " (repeatable)"
         if _required(model, name):
             default = "required"
-        elif schema.get("default") in (None, [], {}):
+        elif schema.get("default") in (None, [], {}, ""):
             default = "—"
         else:
             default = f"`{schema['default']}`"
@@ -186,10 +254,7 @@ def rendered(text: str) -> str:
     """``text`` with every marked table and option list made again from its models."""
     text = _TABLE.sub(lambda m: m["open"] + parameter_table(_model(m["model"])) + m["close"], text)
     return _OPTIONS.sub(
-        lambda m: (
-            f"{m['open']}`{option_list([_model(n) for n in m['models'].split()])}`" + m["close"]
-        ),
-        text,
+        lambda m: f"{m['open']}`{span_options(m['models'].split())}`" + m["close"], text
     )
 
 

@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from api.cli.common import db_option, echo_json, json_option, open_store
-from daq.store.schema import JobState
+from api.cli.options import request_from, request_options
+from api.core.job_filter import JobFilter
 
 if TYPE_CHECKING:  # imported where used: `rig --help` stays light
     from daq.store.job_repository import JobRepository
@@ -73,12 +74,13 @@ def _show_jobs(
 
 
 @click.command("jobs")
-@click.option("--state", type=click.Choice([s.value for s in JobState]), help="Only this state.")
+@request_options(JobFilter)
 @click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
 @db_option
 @json_option
-def jobs(state, limit, db_url, as_json):
+def jobs(limit, db_url, as_json, **chosen):
     """List jobs stored in the database (every service's, across restarts), newest first."""
+    state = request_from(JobFilter, chosen).state  # as GET /api/jobs takes it
     _show_jobs(
         db_url,
         lambda repo: repo.list_jobs(None, state=state, limit=limit),

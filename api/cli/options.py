@@ -130,7 +130,7 @@ def model_options(model: type[BaseModel], *, required: bool = True) -> list[clic
                 [flag.name, name],
                 type=_click_type(info, flag),
                 required=required and info.is_required(),
-                show_default=default.get("default") is not None,
+                show_default=default.get("default") not in (None, ""),  # "" says nothing
                 metavar=flag.metavar,
                 help=flag.help or info.description,
                 **default,

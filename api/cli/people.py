@@ -14,6 +14,8 @@ from typing import Any
 import click
 
 from api.cli.common import db_option, echo_json, fail, json_option, open_store, rig_option
+from api.cli.options import request_from, request_options
+from api.core.people import AckIn, HoldIn, ReleaseIn
 
 user_option = click.option(
     "--user",
@@ -145,31 +147,35 @@ def _guard_command(rig_file, db_url, user_name, change) -> None:
     click.echo(f"{rig.rig.name}: {event['message']} ({event['user_name']})")
 
 
+# The options after --user are the request body's (api.core.people), as the route takes it.
 @click.command("ack-estop")
 @user_option
-@click.option("--note", default="", help="What was checked before motion is allowed again.")
+@request_options(AckIn)
 @rig_option
 @db_option
-def ack_estop(user_name, note, rig_file, db_url):
+def ack_estop(user_name, rig_file, db_url, **chosen):
     """Acknowledge an emergency stop: the rig takes starts again (named in the log)."""
+    note = request_from(AckIn, chosen).note
     _guard_command(rig_file, db_url, user_name, lambda g, u: g.acknowledge(u, note))
 
 
 @click.command("hold")
 @user_option
-@click.option("--reason", required=True, help="Why, e.g. 'rigging the vehicle'.")
+@request_options(HoldIn)
 @rig_option
 @db_option
-def hold(user_name, reason, rig_file, db_url):
+def hold(user_name, rig_file, db_url, **chosen):
     """Hold the rig for local work: remote starts by anyone else are refused (423)."""
+    reason = request_from(HoldIn, chosen).reason
     _guard_command(rig_file, db_url, user_name, lambda g, u: g.take_hold(u, reason))
 
 
 @click.command("release")
 @user_option
-@click.option("--override", is_flag=True, help="Release another operator's hold (logged).")
+@request_options(ReleaseIn)
 @rig_option
 @db_option
-def release(user_name, override, rig_file, db_url):
+def release(user_name, rig_file, db_url, **chosen):
     """Release the hold of the rig (its holder, or another operator with --override)."""
+    override = request_from(ReleaseIn, chosen).override
     _guard_command(rig_file, db_url, user_name, lambda g, u: g.release(u, override))

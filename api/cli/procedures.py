@@ -24,6 +24,7 @@ from api.cli.common import (
 )
 from api.cli.metadata import run_metadata
 from api.cli.options import request_fields, request_options
+from api.core.sequence_request import SequenceRequest
 from daq.collector import freeze_after_startup
 from daq.procedures.kind_spec import KindSpec
 from daq.procedures.params import ParameterError
@@ -229,31 +230,25 @@ def _print_thrust_fit(fit: dict[str, Any]) -> None:
 
 @click.command("sequence")
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option(
-    "--rest",
-    "rest_s",
-    type=float,
-    default=None,
-    help="Override the file's rest time between runs, s.",
-)
+@request_options(SequenceRequest)  # what the file's own may be overridden by: --rest
 @rig_option
 @scenario_option
 @db_option
 @json_option
-def sequence(file, rest_s, rig_file, scenario_file, db_url, as_json):
+def sequence(file, rig_file, scenario_file, db_url, as_json, **chosen):
     """Run a sequence file (tows, spins, calibrations; repeats and rest time)."""
     from daq.procedures.sequence import SequenceControl, load_sequence, run_sequence
+
+    rest_s = chosen.get("rest_s")
 
     def validate(source: RigSource):
         seq = load_sequence(file, source.rig)
         if rest_s is not None:
             from dataclasses import replace
 
-            from daq.procedures.params import ParameterError
+            from daq.procedures.params import check_rest
 
-            if not 0 <= rest_s <= 3600:
-                raise ParameterError([("rest_s", rest_s, "allowed 0 ≤ rest_s ≤ 3600 s")])
-            seq = replace(seq, rest_s=rest_s)
+            seq = replace(seq, rest_s=check_rest(rest_s))
         return seq
 
     async def body(session, seq, abort, view):

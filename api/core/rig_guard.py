@@ -20,6 +20,7 @@ from typing import Any
 
 from api.core.job_model import JobConflict, iso_time
 from api.core.service import RigService, RigUnavailable
+from daq.procedures.params import ParameterError
 from daq.store.people_and_safety_log import ESTOP, ESTOP_ACK, HOLD, RELEASE, RigEventLog, User
 
 log = logging.getLogger(__name__)
@@ -44,12 +45,10 @@ def _when(event: dict[str, Any]) -> str:
 
 
 def check_reason(reason: Any) -> str:
-    """A hold's reason: 1 to ``MAX_REASON`` characters; ``ValueError`` naming ``reason``."""
+    """A hold's reason: 1 to ``MAX_REASON`` characters; ``ParameterError`` naming ``reason``."""
     if not isinstance(reason, str) or not reason.strip() or len(reason) > MAX_REASON:
-        raise ValueError(
-            f"reason: {reason!r} is not allowed (allowed 1-{MAX_REASON} characters saying "
-            "why the rig is held, e.g. 'rigging the vehicle')"
-        )
+        allowed = f"allowed 1-{MAX_REASON} characters saying why the rig is held, e.g. "
+        raise ParameterError([("reason", reason, allowed + "'rigging the vehicle'")])
     return reason.strip()
 
 

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
-from daq.procedures.params import MAX_SEQUENCE_STEPS
-from daq.procedures.requests import ProcedureRequest, StrictRequest
+from daq.procedures.requests import StrictRequest
 from daq.store.schema import JobState
 from daq.vocabulary import RunKind
 
@@ -70,24 +69,6 @@ def csv_upload_body(description: str) -> dict[str, Any]:
     read from the request stream rather than parsed by FastAPI."""
     content = {"text/csv": {"schema": {"type": "string"}}}
     return {"requestBody": {"required": True, "content": content, "description": description}}
-
-
-# ---- procedures -------------------------------------------------------------------------
-class SequenceStep(BaseModel):
-    model_config = ConfigDict(extra="allow")
-    kind: str = Field(description=" | ".join(RunKind))
-
-
-class SequenceRequest(ProcedureRequest):
-    """A sequence, the same content as a sequence TOML file."""
-
-    name: str | None = Field(None, max_length=200)
-    rest_s: float | None = None
-    repeats: int | None = None
-    steps: list[SequenceStep] = Field(
-        max_length=MAX_SEQUENCE_STEPS,
-        description=f"[{{kind, ...the step's parameters}}]; at most {MAX_SEQUENCE_STEPS} steps.",
-    )
 
 
 # ---- jobs --------------------------------------------------------------------------------

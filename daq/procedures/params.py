@@ -22,6 +22,8 @@ if TYPE_CHECKING:
 
 #: Most steps one sequence may list (``repeats`` multiplies them, at most 100).
 MAX_SEQUENCE_STEPS = 100
+#: Longest rest between a sequence's runs, s.
+MAX_REST_S = 3600
 #: Weights are hung (and known) to the gram: the force or torque recorded with a run is
 #: what that weight gives, so the estimator's drive matches the rig's.
 WEIGHT_RESOLUTION_KG = 0.001
@@ -57,6 +59,14 @@ class ParameterError(ValueError):
             }
             for (name, value, allowed), line in zip(self.problems, self.lines(), strict=True)
         ]
+
+
+def check_rest(rest: Any) -> float:
+    """A sequence's rest between runs: a number 0 … ``MAX_REST_S`` s (a file's ``rest_s``,
+    the body's, ``rig sequence --rest``); ``ParameterError`` naming ``rest_s``."""
+    if isinstance(rest, bool) or not isinstance(rest, int | float) or not 0 <= rest <= MAX_REST_S:
+        raise ParameterError([("rest_s", rest, f"allowed 0 ≤ rest_s ≤ {MAX_REST_S} s")])
+    return float(rest)
 
 
 def _json_safe(value: Any) -> bool:

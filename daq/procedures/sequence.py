@@ -30,7 +30,7 @@ from typing import Any
 
 from daq.config import RigConfig
 from daq.procedures.axis_steps import RunOutcome
-from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress
+from daq.procedures.params import MAX_SEQUENCE_STEPS, ParameterError, Progress, check_rest
 from daq.procedures.procedure_request import ProcedureRequest
 from daq.procedures.recording import AbortSignal, ProgressCallback
 from daq.procedures.run_kinds import RIG_KINDS
@@ -58,8 +58,10 @@ def parse_sequence(data: dict[str, Any], rig: RigConfig, source: str = "sequence
     """Validate a sequence dictionary; ``ParameterError`` names ``steps[i].field``."""
     problems: list[tuple[str, Any, str]] = []
     rest = data.get("rest_s", 0.0)
-    if isinstance(rest, bool) or not isinstance(rest, int | float) or not 0 <= rest <= 3600:
-        problems.append(("rest_s", rest, "allowed 0 ≤ rest_s ≤ 3600 s"))
+    try:
+        rest = check_rest(rest)
+    except ParameterError as err:
+        problems += err.problems
     repeats = data.get("repeats", 1)
     if isinstance(repeats, bool) or not isinstance(repeats, int) or not 1 <= repeats <= 100:
         problems.append(("repeats", repeats, "allowed whole number 1 ≤ repeats ≤ 100"))

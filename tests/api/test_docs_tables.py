@@ -11,7 +11,7 @@ from typing import Annotated, ClassVar, Literal
 import click
 from pydantic import BaseModel, Field
 
-from api.cli.docs_tables import DOCS, option_list, parameter_table, rendered
+from api.cli.docs_tables import DOCS, command_words, option_list, parameter_table, rendered
 from api.cli.main import main
 from api.core.estimation_request import EstimationRequest
 from api.core.sixdof import SimulateRequest
@@ -89,6 +89,35 @@ def test_an_option_list_shows_alternatives_and_what_the_rig_check_requires():
     assert parameter_table(_Either).splitlines()[-1].split(" | ")[3] == "required"
 
 
+@click.command()
+@click.option("--rig", "rig_file", metavar="FILE")
+@click.option("--scenario", type=click.Path(dir_okay=False))
+@click.option("--db", "db_url", metavar="URL")
+@click.option("--port", type=click.IntRange(0, 65535), default=8000)
+@click.option("--host", default="127.0.0.1")
+@click.option("--role", type=click.Choice(["operator", "viewer"]), required=True)
+@click.option("--allow-host", "allow_hosts", multiple=True, metavar="NAME")
+@click.option("--open-read", is_flag=True)
+@click.option("--realtime/--no-realtime", default=True)
+@click.option("--secret", hidden=True)
+def _serve_like(**_: object) -> None:
+    """A command without a request model."""
+
+
+def test_a_command_without_a_model_has_its_options_read_from_its_click_command():
+    """``cli:serve`` in a span: each option as click declares it (its metavar, else its
+    choices, FILE, N or its name), but ``--db`` (said once for every command) and hidden
+    ones; a hand-written copy of ``rig serve``'s had lost --ask-operator and --realtime."""
+    assert command_words(_serve_like) == [
+        "[--rig FILE]", "[--scenario FILE]", "[--port N]", "[--host HOST]",
+        "--role operator|viewer", "[--allow-host NAME]…", "[--open-read]",
+        "[--realtime|--no-realtime]",
+    ]  # fmt: skip
+    row = next(r for r in (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+               if r.startswith("| `rig serve`"))  # fmt: skip
+    assert "<!-- options: cli:serve -->" in row and "--realtime\\|--no-realtime" in row
+
+
 def _models_made_into_options() -> list[type[BaseModel]]:
     """Every request model some command's options are made from."""
     kinds = [spec.request for spec in RIG_KINDS.values() if spec.request is not None]
@@ -97,7 +126,7 @@ def _models_made_into_options() -> list[type[BaseModel]]:
     ]  # fmt: skip
 
 
-_SPAN = re.compile(r"<!-- options: [\w. ]+ -->`[^`\n]*`<!-- /options -->")
+_SPAN = re.compile(r"<!-- options: [\w.: -]+ -->`[^`\n]*`<!-- /options -->")
 
 
 def _command(words: list[str]) -> click.Command:

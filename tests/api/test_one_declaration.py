@@ -16,11 +16,14 @@ from api.core.campaign_request import CampaignRequest
 from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from api.core.export_request import ExportQuery
 from api.core.imports import ImportQuery
+from api.core.job_filter import JobFilter
+from api.core.people import AckIn, HoldIn, ReleaseIn
 from api.core.pretest import PretestQuery
 from api.core.result_filter import ResultFilter
 from api.core.run_filter import RunFilter
 from api.core.run_metadata_query import RunMetadataQuery
 from api.core.sensitivity_request import SensitivityRequest
+from api.core.sequence_request import SequenceRequest
 from api.core.theory import AddedMassQuery, WaterQuery
 from daq.procedures.flag import Flag
 from daq.procedures.run_kinds import import_fields
@@ -42,6 +45,7 @@ OPERATIONS = [
     (RunMetadataQuery, "post", "/api/runs/import", "import"),
     (ExportQuery, "get", "/api/runs/{run_id}/export", "export"),
     (CalibrationChoice, "get", "/api/thrust", "thrust"),
+    (JobFilter, "get", "/api/jobs", "jobs"),
 ]
 
 #: (the route's method and path, the command, its models, what only one face takes: the
@@ -53,6 +57,8 @@ WHOLE = [
      {"output", "db_url"}),
     (("get", "/api/thrust"), "thrust", (ThrustQuery, CalibrationChoice), set(),
      {"db_url", "as_json"}),
+    (("get", "/api/jobs"), "jobs", (JobFilter,), {"limit", "offset"},
+     {"limit", "db_url", "as_json"}),
 ]  # fmt: skip
 
 
@@ -71,6 +77,10 @@ BODIES = [
     (CrossCheckJobRequest, "post", "/api/jobs/crosscheck", "crosscheck"),
     (SensitivityRequest, "post", "/api/analysis/sensitivity", "sensitivity"),
     (CampaignRequest, "post", "/api/campaigns", "campaign"),
+    (SequenceRequest, "post", "/api/jobs/sequence", "sequence"),
+    (AckIn, "post", "/api/estop/ack", "ack-estop"),
+    (HoldIn, "post", "/api/rig/hold", "hold"),
+    (ReleaseIn, "post", "/api/rig/release", "release"),
 ]
 
 
@@ -86,8 +96,9 @@ def test_route_body_and_command_take_each_field_of_the_model_with_its_help(
     client, model, method, path, command
 ):
     spec = client.get("/openapi.json").json()
-    ref = spec["paths"][path][method]["requestBody"]["content"]["application/json"]["schema"]
-    assert ref["$ref"].rsplit("/", 1)[-1] == model.__name__  # the body is the model itself
+    schema = spec["paths"][path][method]["requestBody"]["content"]["application/json"]["schema"]
+    refs = [s["$ref"] for s in schema.get("anyOf", [schema]) if "$ref" in s]  # optional: anyOf
+    assert [r.rsplit("/", 1)[-1] for r in refs] == [model.__name__]  # the body is the model
     options = _command(command)
     for name, (flag, description) in _flags(model).items():
         option = options[name]
@@ -158,3 +169,26 @@ def test_a_bad_calibration_is_refused_alike_by_the_route_and_the_command(client,
     assert said.exit_code == 2
     assert said.output.strip() == f"error: --{r.json()['detail']}"
     assert "is not allowed (ID or run:ID" in r.json()["detail"]
+
+
+def test_a_bad_hold_reason_is_refused_alike_by_the_route_and_the_command(client):
+    """One rule (``check_reason``) on the model both faces validate: the route's 422 and the
+    command's line say the same (the route had said pydantic's words for an empty one)."""
+    r = client.post("/api/rig/hold", json={"reason": " "}, headers=AUTH)
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"].startswith("reason: ' ' is not allowed (allowed 1-200 characters")
+    said = CliRunner().invoke(main, ["hold", "--user", "default", "--reason", " "])
+    assert said.exit_code == 2
+    assert said.output.strip() == f"error: --{r.json()['detail']}"
+
+
+def test_a_sequence_rest_out_of_range_is_refused_by_the_route_and_the_command(client):
+    """The body's ``rest_s`` is refused in a sequence file's words; ``rig sequence --rest``
+    takes the same range from the same field."""
+    body = {"rest_s": 3601, "steps": [{"kind": "tow", "force_n": 4.9}]}
+    r = client.post("/api/jobs/sequence", json=body, headers=AUTH)
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"] == "rest_s: 3601 is not allowed (allowed 0 ≤ rest_s ≤ 3600 s)"
+    said = CliRunner().invoke(main, ["sequence", "any.toml", "--rest", "3601"])
+    assert said.exit_code == 2
+    assert "'--rest': 3601.0 is not in the range 0<=x<=3600" in said.output

@@ -10,9 +10,11 @@ from typing import Annotated
 from fastapi import APIRouter, Depends, Query
 
 from api.core.estimation_request import EstimationRequest
+from api.core.job_filter import JobFilter
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
 from api.core.jobs import JobRunner
+from api.core.sequence_request import SequenceRequest
 from api.core.service import RigService
 from api.http.deps import (
     OperatorDep,
@@ -26,13 +28,11 @@ from api.http.paging import JobsLimit, Offset
 from api.http.schemas import (
     JobEventOut,
     JobOut,
-    SequenceRequest,
     error_responses,
 )
 from daq.procedures.kind_spec import KindSpec
 from daq.procedures.run_kinds import RIG_KINDS
 from daq.store.people_and_safety_log import User
-from daq.store.schema import JobState
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 _START = error_responses(401, 403, 409, 422, 423, 503)
@@ -148,11 +148,13 @@ def start_estimation(
 )
 def list_jobs(
     runner: RunnerDep,
+    job_filter: Annotated[JobFilter, Query()],
     limit: JobsLimit = 100,
     offset: Offset = 0,
-    state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
 ) -> list[dict]:
-    """This rig's jobs, newest first, from the database (so they outlive a restart)."""
+    """This rig's jobs, newest first, from the database (so they outlive a restart). The
+    filters are ``api.core.job_filter.JobFilter``'s (``rig jobs`` too)."""
+    state = job_filter.state
     return [j.to_json() for j in runner.list(limit=limit, offset=offset, state=state)]
 
 

@@ -13,10 +13,11 @@ import asyncio
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Request
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from api.core.job_model import iso_time
-from api.core.rig_guard import MAX_REASON, RigGuard
+from api.core.people import AckIn, HoldIn, ReleaseIn
+from api.core.rig_guard import RigGuard
 from api.http.deps import OperatorDep, ServiceDep, require_read
 from api.http.identity import known_user
 from api.http.paging import EventsLimit
@@ -24,26 +25,6 @@ from api.http.schemas import error_responses
 from daq.store.people_and_safety_log import User
 
 router = APIRouter(prefix="/api", tags=["people"])
-
-
-class _Body(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class AckIn(_Body):
-    note: str = Field("", max_length=MAX_REASON, description="What was checked, optional.")
-
-
-class HoldIn(_Body):
-    reason: str = Field(
-        min_length=1, max_length=MAX_REASON, description="Why, e.g. 'rigging the vehicle'."
-    )
-
-
-class ReleaseIn(_Body):
-    override: bool = Field(
-        False, description="Release another operator's hold (logged as an override)."
-    )
 
 
 class GuardOut(BaseModel):

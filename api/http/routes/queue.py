@@ -11,8 +11,9 @@ from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from api.core.job_model import JobConflict
+from api.core.sequence_request import SequenceRequest
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
-from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, SequenceRequest, error_responses
+from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, error_responses
 from daq.procedures.run_kinds import RIG_KINDS
 
 router = APIRouter(prefix="/api/queue", tags=["queue"])
