@@ -145,8 +145,11 @@ def estimate_records(
     n_bootstrap: int = DEFAULT_DRAWS,
     seed: int = 0,
     exclude_outliers: bool = False,
+    subject: str | None = None,
 ) -> DecayResult:
     """``estimate_decay`` for several records of one DOF fitted jointly.
+    ``subject``: what the records are of in the user's words, as the repeats' condition
+    names it ("surge swing"; default "<dof> free decay").
     ``restoring_known``: each record carries its own restoring term among its known terms
     (a pendulum's gravity moment from its geometry), so none is identified or given here.
     ``n_bootstrap``: draws of the record-level bootstrap (``motion.record_bootstrap``, as a
@@ -167,7 +170,8 @@ def estimate_records(
     starts = {r.run_id: (t_release or {}).get(r.run_id, release_of(r)) for r in records}
     ends = {r.run_id: _end(r, starts[r.run_id], (t_end or {}).get(r.run_id)) for r in records}
     windowed = [_window(r, starts[r.run_id], ends[r.run_id].end) for r in records]
-    repeats = analyse_decay_repeats(windowed, dof, exclude_outliers)
+    subject = subject or f"{dof} free decay"
+    repeats = analyse_decay_repeats(windowed, dof, subject, exclude_outliers)
     if repeats.excluded:
         windowed = [r for r in windowed if r.run_id not in repeats.excluded]
         starts = {r.run_id: starts[r.run_id] for r in windowed}

@@ -84,11 +84,12 @@ def log_decrement(record: Record) -> tuple[float, float]:
 
 
 def analyse_decay_repeats(
-    records: Sequence[Record], dof: str, exclude_outliers: bool = False
+    records: Sequence[Record], dof: str, subject: str, exclude_outliers: bool = False
 ) -> RepeatAnalysis:
     """Conditions, repeatability of δ and Chauvenet outliers of the free ``records``
-    (windowed from their release); ``exclude_outliers`` records that the flagged ones are
-    left out (the caller drops them)."""
+    (windowed from their release), each condition named by ``subject`` ("heave free
+    decay"); ``exclude_outliers`` records that the flagged ones are left out (the caller
+    drops them)."""
     free = [r for r in records if r.drive is None]
     amplitudes = [release_amplitude(r) for r in free]
     position = units_of(dof, ())["position"]
@@ -102,7 +103,7 @@ def analyse_decay_repeats(
         released = f"{amplitudes[group[0]]:.4g} {position}"
         conditions.append(
             Condition(
-                f"{dof} free decay, released {released} from equilibrium",
+                f"{subject}, released {released} from equilibrium",
                 tuple(r.run_id for r in members),
                 tuple(values),
                 tuple(r.run_id for r, f in zip(members, flagged, strict=True) if f),

@@ -293,6 +293,7 @@ def estimate_pendulum(
         restoring_known=True,
         candidates=CANDIDATES if search else (),
         exclude_outliers=exclude_outliers,
+        subject=f"{axis} swing",
     )
     if motion.base is None or motion.fit is None:
         raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")

@@ -394,6 +394,9 @@ def test_a_flagged_swing_is_left_out_of_every_method_when_asked(tmp_path):
     _within(dropped.coefficients["linear_damping"], BETA, 0.002)
     (warning,) = [w for w in dropped.warnings if "outlier among the repeats" in w]
     assert warning.startswith("record p2 is an outlier") and "left out of the fit" in warning
+    # the condition names the swing, not the pivot's rotation the engine fits
+    (condition,) = dropped.motion.repeats.conditions
+    assert condition.label.startswith(f"{dropped.axis} swing, released ")
     write_pendulum_report(dropped, tmp_path)
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "p2 (left out)" in report
