@@ -1,11 +1,10 @@
-"""The axis estimator's repeat screening and uncertainty budget: the rig file's constants
-and ``[tolerances]`` handed to ``estimation.uncertainty`` as plain numbers (estimation never
-reads a rig file).
+"""The axis estimator's uncertainty budget: the rig file's constants and ``[tolerances]``
+handed to ``estimation.uncertainty`` as plain numbers (estimation never reads a rig file).
 
-The axis entry (``daq.estimators.AXIS``) offers them: ``screen_repeats`` runs before the fit
-(so ``exclude_outliers`` can drop a flagged repeat), ``budget_document`` after it; the
-estimation job calls what the entry offers, naming no estimator. A campaign stops on the
-budget's U (``fitted_budget``).
+The axis entry (``daq.estimators.AXIS``) offers ``budget_document`` after its fit (which
+compared the repeats and left out the flagged ones when asked, as every estimator's does);
+the estimation job calls what the entry offers, naming no estimator. A campaign stops on
+the budget's U (``fitted_budget``).
 """
 
 from __future__ import annotations
@@ -19,9 +18,9 @@ from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.store import Store
 from estimation.axis.result import EstimationResult
 from estimation.data.run_arrays import RunData
-from estimation.uncertainty import Chain, RepeatAnalysis, analyse_repeats, uncertainty_budget
+from estimation.stats.repeatability import RepeatAnalysis
+from estimation.uncertainty import Chain, uncertainty_budget
 from estimation.uncertainty.budget import Budget
-from estimation.uncertainty.repeats import without_excluded
 from estimation.uncertainty.text import append_to_report
 
 
@@ -54,15 +53,6 @@ def tolerances_of(rig: RigConfig | None) -> dict[str, float]:
     return {} if rig is None or rig.tolerances is None else rig.tolerances.declared()
 
 
-def screen_repeats(
-    runs: list[RunData], exclude_outliers: bool
-) -> tuple[list[RunData], RepeatAnalysis]:
-    """Conditions and Chauvenet outliers; the runs to fit (flagged ones dropped only when
-    ``exclude_outliers``)."""
-    analysis = analyse_repeats(runs, exclude_outliers)
-    return without_excluded(runs, analysis), analysis
-
-
 def fitted_budget(
     store: Store,
     runs: Sequence[RunData],
@@ -83,16 +73,16 @@ def budget_document(
     store: Store,
     runs: Sequence[RunData],
     result: EstimationResult,
-    repeats: RepeatAnalysis,
     report_dir: str | Path | None = None,
 ) -> dict[str, Any]:
-    """{"budget": …, "repeats": …} for the result JSON (budget None for the seed methods,
-    which carry no fit to re-fit); appended to report.md when a report was written."""
-    fitted = fitted_budget(store, runs, result, repeats)
+    """{"budget": …} for the result JSON (None for the seed methods, which carry no fit to
+    re-fit), its repeatability from the result's repeats; appended to report.md, with the
+    repeats, when a report was written."""
+    fitted = fitted_budget(store, runs, result, result.repeats)
     if fitted is None:
-        return {"budget": None, "repeats": repeats.to_json()}
+        return {"budget": None}
     budget = fitted.to_json()
-    doc = {"budget": budget, "repeats": repeats.to_json()}
     if report_dir is not None and (Path(report_dir) / "report.md").exists():
-        append_to_report(report_dir, budget, doc["repeats"])
-    return doc
+        repeats = result.repeats.to_json() if result.repeats else None
+        append_to_report(report_dir, budget, repeats)
+    return {"budget": budget}

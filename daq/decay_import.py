@@ -184,7 +184,7 @@ def fit_decays(
 
 
 def decay_budget(
-    store: Store, runs: list[DecayRun], result: Any, screening: Any, report_dir: str | Path | None
+    store: Store, runs: list[DecayRun], result: Any, report_dir: str | Path | None
 ) -> dict[str, Any]:
     """{"budget": …}: the GUM budget of the decay's coefficients with the tolerances
     declared at import (``estimation.uncertainty.motion_budget``)."""

@@ -38,15 +38,14 @@ class Estimator:
     ``method_labels`` how the browser's menu words them.
 
     What an estimator offers beyond the fit is a field, ``None`` where it offers nothing,
-    so the job calls it without naming the estimator: ``screen(runs, exclude_outliers)`` →
-    (the runs to fit, the screening) before the fit (a tow set's repeats and Chauvenet
-    outliers, read from the runs as loaded; a decay's are read from its windowed records
-    inside its fit);
-    ``budget(store, runs, result, screening, report_dir)`` → the documents added to the
-    result after it (the uncertainty budget and the repeats, which the theory comparison
-    reads); ``units_of()`` → per axis (or dof) its results may be on, the unit of each
-    quantity they report (``{"surge": {"inertia": "kg", …, "position": "m"}}``; a page
-    shows them beside the result's numbers, ``GET /api/kinds``)."""
+    so the job calls it without naming the estimator:
+    ``budget(store, runs, result, report_dir)`` → the documents added to the result after
+    it (the uncertainty budget, which the theory comparison reads); ``compares_theory``:
+    its results are compared with the hull's theory (``api.core.theory_job``: a tow or
+    spin's added mass and damping); ``units_of()`` → per axis (or dof) its results may be
+    on, the unit of each quantity they report (``{"surge": {"inertia": "kg", …,
+    "position": "m"}}``; a page shows them beside the result's numbers,
+    ``GET /api/kinds``)."""
 
     name: str
     #: How messages name its runs: "tow/spin".
@@ -58,8 +57,8 @@ class Estimator:
     report: Callable[[Any, list[Any], Path], list[Path]] | None = None
     #: method → how the browser's method menu words it (a method missing: its name).
     method_labels: dict[str, str] = field(default_factory=dict)
-    screen: Callable[[list[Any], bool], tuple[list[Any], Any]] | None = None
-    budget: Callable[[Store, list[Any], Any, Any, str | Path | None], dict[str, Any]] | None = None
+    budget: Callable[[Store, list[Any], Any, str | Path | None], dict[str, Any]] | None = None
+    compares_theory: bool = False
     units_of: Callable[[], dict[str, dict[str, str]]] = dict
 
     @property
@@ -98,25 +97,23 @@ def _axis_fit(
     envelope: RigEnvelope | None = None,
     exclude_outliers: bool = False,
 ) -> Any:
-    """The axis fit; ``exclude_outliers`` is already applied: ``_axis_screen`` left the
-    flagged runs out before it (the budget and the theory read that screening)."""
     from estimation import estimate
 
-    return estimate(runs, method=method, search_effects=search, envelope=envelope)
-
-
-def _axis_screen(runs: list[Any], exclude_outliers: bool) -> tuple[list[Any], Any]:
-    from daq.axis_budget import screen_repeats
-
-    return screen_repeats(runs, exclude_outliers)
+    return estimate(
+        runs,
+        method=method,
+        search_effects=search,
+        envelope=envelope,
+        exclude_outliers=exclude_outliers,
+    )
 
 
 def _axis_budget(
-    store: Store, runs: list[Any], result: Any, repeats: Any, report_dir: str | Path | None
+    store: Store, runs: list[Any], result: Any, report_dir: str | Path | None
 ) -> dict[str, Any]:
     from daq.axis_budget import budget_document
 
-    return budget_document(store, runs, result, repeats, report_dir)
+    return budget_document(store, runs, result, report_dir)
 
 
 def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
@@ -140,8 +137,8 @@ AXIS = Estimator(
         "ls-curvefit": "seed: curve fit",
         "ls-raw": "seed: raw differences",
     },
-    screen=_axis_screen,
     budget=_axis_budget,
+    compares_theory=True,
     units_of=_axis_units,
 )
 
@@ -174,7 +171,7 @@ def _pendulum_fit(
 
 
 def _pendulum_budget(
-    store: Store, runs: list[Any], result: Any, screening: Any, report_dir: str | Path | None
+    store: Store, runs: list[Any], result: Any, report_dir: str | Path | None
 ) -> dict[str, Any]:
     """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
     return {"budget": result.budget().to_json() if result.method == "output-error" else None}

@@ -90,9 +90,6 @@ def run_estimation(
     """
     estimator = estimator_of(store, run_ids, method)
     runs = estimator.load(store, run_ids)
-    screening: Any = None  # what the estimator's screen found (repeats, outliers), if it has one
-    if estimator.screen is not None:
-        runs, screening = estimator.screen(runs, exclude_outliers)
     subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
     envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
     with fitting(subject):
@@ -106,9 +103,9 @@ def run_estimation(
             data["report_files"] = [str(p) for p in files]
     if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
-            data |= estimator.budget(store, runs, result, screening, report_dir)
-            if screening is not None:  # the hull's theory compares a tow or spin's repeats
-                data |= theory_document(store, data, screening, report_dir)
+            data |= estimator.budget(store, runs, result, report_dir)
+            if estimator.compares_theory:
+                data |= theory_document(store, data, result.repeats, report_dir)
     data["subject"] = result_subject("estimation", data)  # as GET /api/results names it
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)

@@ -16,9 +16,9 @@ from api.core.sixdof import VehicleNotFound, find_vehicle, vehicle_files
 from api.core.theory import DEFAULT_WATER_TEMP_C
 from daq.axis_budget import rig_of_runs
 from daq.store import Store
+from estimation.stats.repeatability import RepeatAnalysis
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.measured import HullScale, measured_beside_theory, theory_markdown
-from estimation.uncertainty import RepeatAnalysis
 from estimation.water import WaterError, water_properties
 
 
@@ -72,7 +72,7 @@ def density_uncertainty(temperature_c: float, half_width_c: float, salinity_g_kg
 def theory_document(
     store: Store,
     result: dict[str, Any],
-    repeats: RepeatAnalysis,
+    repeats: RepeatAnalysis | None,
     report_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """{"theory": …}: None (with the reason) when the vehicle file or its hull is missing."""
@@ -114,9 +114,8 @@ def theory_document(
         for n, c in budget["coefficients"].items()
         if n in ("inertia", "quadratic_damping")
     }
-    speeds = {
-        rid: s for c in repeats.conditions for rid, s in zip(c.run_ids, c.values, strict=True)
-    }
+    conditions = repeats.conditions if repeats is not None else ()
+    speeds = {rid: s for c in conditions for rid, s in zip(c.run_ids, c.values, strict=True)}
     doc = measured_beside_theory(axis, coefficients, speeds, water, hull_scale, rig.rig.g)
     doc["water"]["source"] = source
     doc["vehicle"] = vehicle.name

@@ -19,6 +19,7 @@ from estimation.motion.well_determined import Combination
 from estimation.report_numbers import Coefficient, finite_or_none, finite_values
 from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import Whiteness
+from estimation.stats.repeatability import RepeatAnalysis
 
 SCHEMA_VERSION = 1
 
@@ -84,6 +85,8 @@ class EstimationResult:
     reverse_test: ReverseTest | None = None
     #: Combinations the data determine well (``motion.well_determined``): terminal speeds.
     well_determined: tuple[Combination, ...] = ()
+    #: The runs' repeats and Chauvenet outliers (``axis.tow_repeats``), every kind's shape.
+    repeats: RepeatAnalysis | None = None
     #: The degree of freedom as imported (``RunData.dof``: a tow imported as ``heave``);
     #: None: the axis itself. Headings and texts name it (``subject``).
     dof: str | None = None
@@ -136,6 +139,7 @@ class EstimationResult:
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "uncertainty": _uncertainty(self.uncertainty),
             "windows": {k: w.to_json() for k, w in self.windows.items()},
+            "repeats": self.repeats.to_json() if self.repeats else None,
             "unexplained": self.unexplained.to_json() if self.unexplained else None,
         }
         if self.dof is not None:  # imported as another straight line (a tow's heave)

@@ -28,6 +28,7 @@ from estimation.axis.reverse import (
     suggest_reverse_test,
 )
 from estimation.axis.seed_methods import SEED_METHODS
+from estimation.axis.tow_repeats import LOOK_FOR, analyse_tow_repeats, without_excluded
 from estimation.axis.tow_search import candidate_effects, tow_search
 from estimation.axis.unexplained import characterise
 from estimation.blas_threads import one_blas_thread
@@ -50,6 +51,7 @@ from estimation.motion.well_determined import Combination, drags_at_speeds, term
 from estimation.report_numbers import Coefficient
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
+from estimation.stats.repeatability import outlier_warnings
 
 SEPARABILITY_LIMIT = 0.95
 #: A coefficient within this many σ of zero is not determined by the data (its 95 %
@@ -65,6 +67,7 @@ def estimate(
     n_bootstrap: int = 40,
     seed: int = 0,
     envelope: RigEnvelope | None = None,
+    exclude_outliers: bool = False,
 ) -> EstimationResult:
     """Estimate inertia, K_L and K_Q of one axis from runs, with σ, effects and evidence.
 
@@ -72,24 +75,32 @@ def estimate(
     ``method``: "output-error" (default, joint fit of all runs' positions) or one of the
     seed's "ls-raw", "ls-curvefit", "ls-steady". Effect search and the run-level bootstrap
     apply to output-error only. ``envelope``: what the rig can run
-    (``estimation.design``); the advice then names only tests within it.
+    (``estimation.design``); the advice then names only tests within it. The runs' repeats
+    are compared (``axis.tow_repeats``): a Chauvenet outlier is named in the warnings and
+    kept in the fit, or left out with ``exclude_outliers``, as a decay's.
     """
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}, allowed: {', '.join(METHODS)}")
     if n_bootstrap < 0:
         raise ValueError(f"n_bootstrap: got {n_bootstrap}, allowed: >= 0")
     axis = validate_runs(runs)
+    repeats = analyse_tow_repeats(runs, exclude_outliers)
+    runs = without_excluded(runs, repeats)
+    found = (*outlier_warnings(repeats, "run", LOOK_FOR),)
     if method != "output-error":
         runs = [fit_release(r) for r in runs]
-        return replace(_seed_result(axis, method, runs, list(map(prepare, runs))), dof=runs[0].dof)
-    try:
-        result = _output_error(axis, runs, search_effects, n_bootstrap, seed, envelope)
-    except NUMERICAL_FAILURES as err:  # the runs were valid: the numerics failed
-        ids = ", ".join(r.run_id for r in runs)
-        raise EstimationFailed(
-            f"the {runs[0].dof_name} model to runs {ids}", f"{type(err).__name__}: {err}"
-        ) from err
-    return replace(result, dof=runs[0].dof)  # one per fit: what the texts call the axis
+        result = _seed_result(axis, method, runs, list(map(prepare, runs)))
+    else:
+        try:
+            result = _output_error(axis, runs, search_effects, n_bootstrap, seed, envelope)
+        except NUMERICAL_FAILURES as err:  # the runs were valid: the numerics failed
+            ids = ", ".join(r.run_id for r in runs)
+            raise EstimationFailed(
+                f"the {runs[0].dof_name} model to runs {ids}", f"{type(err).__name__}: {err}"
+            ) from err
+    # one dof per fit: what the texts call the axis
+    warnings = (*result.warnings, *found)
+    return replace(result, dof=runs[0].dof, repeats=repeats, warnings=warnings)
 
 
 #: What a fit of valid runs can raise when its numerics fail (scipy's optimisers say

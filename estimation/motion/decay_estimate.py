@@ -24,7 +24,7 @@ import numpy as np
 from estimation.blas_threads import one_blas_thread
 from estimation.data.window import encoder_quantum
 from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
-from estimation.motion.decay_repeats import analyse_decay_repeats, outlier_warnings
+from estimation.motion.decay_repeats import LOOK_FOR, analyse_decay_repeats
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import damping_over_swings
 from estimation.motion.output_error_fit import MotionFit, fit_motion
@@ -37,6 +37,7 @@ from estimation.report_numbers import Coefficient
 from estimation.stats.acceptance_rules import DECAY_RULES
 from estimation.stats.diagnostics import Whiteness, ljung_box, position_noise
 from estimation.stats.misfit import WHITE_P, effective_sample_size, structured
+from estimation.stats.repeatability import outlier_warnings
 
 #: The model's own parameters, in the words of the screen's reason (``SEPARABLE``).
 SETUP_PARAMETERS = "the model's own parameters (a constant force only moves a spring's equilibrium)"
@@ -203,7 +204,7 @@ def estimate_records(
     )
     return replace(
         result,
-        warnings=(*result.warnings, *outlier_warnings(repeats)),
+        warnings=(*result.warnings, *outlier_warnings(repeats, "record", LOOK_FOR)),
         repeats=repeats,
         bootstrap=boot,
         alternatives=alternatives,

@@ -53,6 +53,8 @@ from estimation.stats.repeatability import (
 AMPLITUDE_TOLERANCE = 0.02
 FIRST_CYCLES = 3
 QUANTITY = "logarithmic decrement over the first 3 cycles"
+#: What a kept outlier's warning asks to look for (``stats.repeatability.outlier_warnings``).
+LOOK_FOR = "that release (a touch, a wave left in the tank, a loose fitting)"
 SAME_CONDITION = (
     "one dof and setup; free records whose release amplitudes |x(release) − x_eq| agree "
     "within the tolerance"
@@ -117,25 +119,3 @@ def analyse_decay_repeats(
         tolerance=AMPLITUDE_TOLERANCE,
     )
     return replace(analysis, excluded=analysis.outliers) if exclude_outliers else analysis
-
-
-def outlier_warnings(analysis: RepeatAnalysis) -> list[str]:
-    """One sentence per flagged record: its δ, its condition's mean and s, kept or left out."""
-    out = []
-    for c in analysis.conditions:
-        for run, value in zip(c.run_ids, c.values, strict=True):
-            if run not in c.outliers:
-                continue
-            fate = (
-                "left out of the fit (exclude_outliers)"
-                if run in analysis.excluded
-                else "kept in the fit: look for what differed in that release (a touch, a "
-                "wave left in the tank, a loose fitting) and estimate without it if it is "
-                "faulty"
-            )
-            out.append(
-                f"record {run} is an outlier among the repeats of '{c.label}': logarithmic "
-                f"decrement {value:.4g} against their mean {c.mean:.4g} (s = {c.std:.2g}, "
-                f"N = {c.n}; Chauvenet's criterion): {fate}"
-            )
-    return out

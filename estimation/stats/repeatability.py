@@ -175,3 +175,27 @@ def campaign_repeatability(
     values = np.array([list(refit([g[k] for g in groups if g])) for k in range(n)])
     std = np.std(values, axis=0, ddof=1) / math.sqrt(n)
     return {name: (float(u), n) for name, u in zip(names, std, strict=True)}, n
+
+
+def outlier_warnings(analysis: RepeatAnalysis, noun: str, look_for: str) -> list[str]:
+    """One sentence per flagged repeat (a ``noun``: "record", "run"): its value of the
+    analysis's quantity, its condition's mean and s, and whether it was left out of the fit
+    or kept (then what to ``look_for`` in it: "that release (a touch, …)")."""
+    out = []
+    for c in analysis.conditions:
+        unit = f" {c.unit}" if c.unit and c.unit != "1" else ""
+        for run, value in zip(c.run_ids, c.values, strict=True):
+            if run not in c.outliers:
+                continue
+            fate = (
+                "left out of the fit (exclude_outliers)"
+                if run in analysis.excluded
+                else f"kept in the fit: look for what differed in {look_for} and estimate "
+                "without it if it is faulty"
+            )
+            out.append(
+                f"{noun} {run} is an outlier among the repeats of '{c.label}': "
+                f"{analysis.quantity} {value:.4g}{unit} against their mean {c.mean:.4g}{unit} "
+                f"(s = {c.std:.2g}, N = {c.n}; Chauvenet's criterion): {fate}"
+            )
+    return out

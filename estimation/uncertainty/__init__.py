@@ -1,9 +1,9 @@
 """Uncertainty of the estimated coefficients in the ITTC 7.5-02-01-01 / GUM form: budgets
-(Type A and declared Type B sources), repeat runs and outliers, and pre-test prediction.
+(Type A and declared Type B sources, the repeatability of repeat runs), and pre-test
+prediction.
 See docs/uncertainty.md."""
 
 from estimation.uncertainty.budget import Budget, CoefficientBudget, uncertainty_budget
-from estimation.uncertainty.repeats import RepeatAnalysis, analyse_repeats, without_excluded
 from estimation.uncertainty.sources import SOURCES, Chain, check_tolerances
 
 __all__ = [
@@ -11,9 +11,6 @@ __all__ = [
     "Budget",
     "Chain",
     "CoefficientBudget",
-    "RepeatAnalysis",
-    "analyse_repeats",
     "check_tolerances",
     "uncertainty_budget",
-    "without_excluded",
 ]

@@ -28,7 +28,6 @@ from estimation.axis.tow_estimate import estimate
 from estimation.data.run_arrays import RunData
 from estimation.errors import FieldError
 from estimation.uncertainty.budget import Budget, uncertainty_budget
-from estimation.uncertainty.repeats import analyse_repeats
 from estimation.uncertainty.sources import Chain
 
 
@@ -127,5 +126,5 @@ def predict_uncertainty(
             for k in range(p.repeats)
         ]
         result = estimate(runs, search_effects=False, n_bootstrap=0)
-        out[axis] = uncertainty_budget(runs, result, rig.chain, tolerances, analyse_repeats(runs))
+        out[axis] = uncertainty_budget(runs, result, rig.chain, tolerances, result.repeats)
     return out

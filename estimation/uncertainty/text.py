@@ -143,7 +143,9 @@ def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) 
     return out
 
 
-def append_to_report(folder: str | Path, budget: dict[str, Any], repeats: dict[str, Any]) -> Path:
+def append_to_report(
+    folder: str | Path, budget: dict[str, Any], repeats: dict[str, Any] | None
+) -> Path:
     """Append the uncertainty section to ``folder``/report.md (written by the report)."""
     path = Path(folder) / "report.md"
     with path.open("a", encoding="utf-8") as f:

@@ -14,10 +14,10 @@ import math
 
 import pytest
 
+from estimation.axis.tow_repeats import analyse_tow_repeats
 from estimation.motion.decay_estimate import estimate_records
 from estimation.motion.records import Record
 from estimation.uncertainty.motion_budget import motion_budget
-from estimation.uncertainty.repeats import analyse_repeats
 from tests.estimation.term_cases import decay, tow_set
 
 ZETA = 0.03  # term_cases.decay's damping ratio
@@ -101,7 +101,7 @@ def test_a_decay_s_repeats_document_has_a_tow_set_s_shape():
     keys, at the top and per condition."""
     result, _ = _estimate({}, {})
     decay_doc = result.to_json()["repeats"]
-    tow_doc = analyse_repeats(tow_set("143kg", 0)).to_json()
+    tow_doc = analyse_tow_repeats(tow_set("143kg", 0)).to_json()
     assert decay_doc.keys() == tow_doc.keys()
     assert decay_doc["conditions"][0].keys() == tow_doc["conditions"][0].keys()
     assert decay_doc["quantity"] != tow_doc["quantity"]

@@ -56,11 +56,11 @@ def test_imported_runs_are_told_to_import_repeats_not_to_edit_a_sequence():
     """Runs without a rig file were told to "set `repeats` ≥ 3 in the sequence" they never
     ran; they are told to import repeated records (``kind_advice``). A rig's runs keep the
     sequence advice."""
-    from estimation.uncertainty.repeats import analyse_repeats
+    from estimation.axis.tow_repeats import analyse_tow_repeats
 
     runs = tow_set("143kg", seed=300)
     result = estimate(runs, search_effects=False, n_bootstrap=0)
-    repeats = analyse_repeats(runs)
+    repeats = analyse_tow_repeats(runs)
     notes = uncertainty_budget(runs, result, None, None, repeats).notes
     (note,) = [n for n in notes if n.startswith("repeatability not evaluated")]
     assert "sequence" not in note and "import ≥ 3 records of the same condition" in note

@@ -11,11 +11,11 @@ import pytest
 
 from daq.config import DEFAULT_RIG_FILE, RigConfigError, parse_rig
 from estimation import RunData, estimate
+from estimation.axis.tow_repeats import analyse_tow_repeats, group_conditions, terminal_speed
 from estimation.stats.repeatability import chauvenet
 from estimation.theory.measured import HullScale, measured_beside_theory
 from estimation.uncertainty import check_tolerances, uncertainty_budget
 from estimation.uncertainty.budget import coverage_factor, effective_dof, round_reported
-from estimation.uncertainty.repeats import analyse_repeats, group_conditions, terminal_speed
 from estimation.uncertainty.sources import ToleranceError
 from estimation.uncertainty.type_a import QUANTIZATION
 from estimation.water import water_properties
@@ -94,7 +94,7 @@ def test_repeats_that_differ_by_reading_noise_alone_are_not_outliers():
         runs = [weight_run(Physics(*SURGE_TRUTH), 44.1, run_id=f"r{k}", rng=rng) for k in range(5)]
         speeds = [terminal_speed(r)[0] for r in runs]
         alone += any(chauvenet(speeds))
-        floored += bool(analyse_repeats(runs).outliers)
+        floored += bool(analyse_tow_repeats(runs).outliers)
     assert alone >= 3, f"the criterion alone flagged {alone} of 50 sets"
     assert floored == 0, f"{floored} of 50 sets of noise-only repeats had an outlier"
 

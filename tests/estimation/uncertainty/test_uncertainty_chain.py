@@ -21,7 +21,8 @@ from estimation import RunData, estimate
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.axis.tow_estimate import combination_conditions, well_determined
-from estimation.uncertainty import Chain, analyse_repeats, uncertainty_budget, without_excluded
+from estimation.axis.tow_repeats import analyse_tow_repeats
+from estimation.uncertainty import Chain, uncertainty_budget
 
 TOLERANCES = {
     "hung_mass_kg": 0.005,
@@ -103,7 +104,7 @@ def test_budget_agrees_with_a_monte_carlo_of_the_chain(scale):
     rng = np.random.default_rng(7)
     nominal = _campaign(coef, masses, rng)
     result = estimate(nominal, search_effects=False, n_bootstrap=0)
-    budget = uncertainty_budget(nominal, result, CHAIN, TOLERANCES, analyse_repeats(nominal))
+    budget = uncertainty_budget(nominal, result, CHAIN, TOLERANCES, analyse_tow_repeats(nominal))
     fit = result.fit_after
     conditions = combination_conditions(fit, nominal)
     draws, combined = [], []
@@ -168,7 +169,8 @@ def test_repeat_campaigns_give_the_repeatability_row_and_an_outlier_is_flagged()
     """Four repeats of each BENBAM tow and a fifth of the 2.5 kg tow in which the weight hung
     was 0.1 kg heavier than logged (a wrong weight: 4 % more force). Chauvenet flags that
     run alone (with N = 5 it can: max |z| = (N − 1)/√N = 1.79 > 1.64); it stays in unless
-    excluded; the repeat campaigns give the repeatability row with ν = N − 1 = 3."""
+    excluded (the estimate's warnings name it either way); the repeat campaigns give the
+    repeatability row with ν = N − 1 = 3."""
     coef, masses = SCALES["BENBAM"]
     rng = np.random.default_rng(5)
     runs = []
@@ -179,14 +181,19 @@ def test_repeat_campaigns_give_the_repeatability_row_and_an_outlier_is_flagged()
     truth["mass"][1] = 0.1
     wrong = _tow(1, coef, masses[1], truth, rng)
     runs.append(replace(wrong, run_id="tow1-wrong"))
-    analysis = analyse_repeats(runs)
-    assert analysis.outliers == ("tow1-wrong",)
+    flagged = estimate(runs, search_effects=False, n_bootstrap=0)
+    analysis = flagged.repeats
+    assert analysis is not None and analysis.outliers == ("tow1-wrong",)
     assert [c.n for c in analysis.conditions] == [4, 5, 4, 4]
-    kept = analyse_repeats(runs, exclude_outliers=True)
-    assert kept.excluded == ("tow1-wrong",)
-    fitted = without_excluded(runs, kept)
-    assert len(fitted) == 16
-    result = estimate(fitted, search_effects=False, n_bootstrap=0)
+    assert "tow1-wrong" in flagged.runs
+    (warning,) = [w for w in flagged.warnings if "outlier among the repeats" in w]
+    assert warning.startswith("run tow1-wrong is an outlier") and "kept in the fit" in warning
+    result = estimate(runs, search_effects=False, n_bootstrap=0, exclude_outliers=True)
+    kept = result.repeats
+    assert kept is not None and kept.excluded == ("tow1-wrong",)
+    assert len(result.runs) == 16 and "tow1-wrong" not in result.runs
+    assert any("left out of the fit" in w for w in result.warnings)
+    fitted = [r for r in runs if r.run_id in result.runs]
     budget = uncertainty_budget(fitted, result, CHAIN, TOLERANCES, kept)
     rows = {r.source: r for r in budget.coefficients["inertia"].rows}
     repeat = next(r for s, r in rows.items() if s.startswith("repeatability (4 repeat"))
