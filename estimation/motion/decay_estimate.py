@@ -23,15 +23,22 @@ import numpy as np
 
 from estimation.blas_threads import one_blas_thread
 from estimation.data.window import encoder_quantum
+from estimation.design.decay_information import (
+    AMPLITUDE_FACTORS,
+    PlannedRelease,
+    best_release,
+    next_releases,
+    release_advice,
+)
 from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
-from estimation.motion.decay_repeats import LOOK_FOR, analyse_decay_repeats
+from estimation.motion.decay_repeats import LOOK_FOR, analyse_decay_repeats, release_amplitude
 from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import damping_over_swings
 from estimation.motion.output_error_fit import MotionFit, fit_motion
 from estimation.motion.record_bootstrap import DEFAULT_DRAWS, MIN_RECORDS, record_bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of, validate
 from estimation.motion.term_search import KindSearch, SearchOutcome, search_terms
-from estimation.motion.terms import DOFS, LIBRARY
+from estimation.motion.terms import DOFS, LIBRARY, units_of
 from estimation.motion.well_determined import decay_combinations, inertia_and_stiffness
 from estimation.report_numbers import Coefficient
 from estimation.stats.acceptance_rules import DECAY_RULES
@@ -147,10 +154,13 @@ def estimate_records(
     seed: int = 0,
     exclude_outliers: bool = False,
     subject: str | None = None,
+    names: Mapping[str, str] | None = None,
 ) -> DecayResult:
     """``estimate_decay`` for several records of one DOF fitted jointly.
     ``subject``: what the records are of in the user's words, as the repeats' condition
-    names it ("surge swing"; default "<dof> free decay").
+    names it ("surge swing"; default "<dof> free decay"); ``names``: what the result calls
+    the engine's coefficients where it differs (a pendulum's inertia is its added mass).
+    Free records get the next release to run (``design.decay_information``).
     ``restoring_known``: each record carries its own restoring term among its known terms
     (a pendulum's gravity moment from its geometry), so none is identified or given here.
     ``n_bootstrap``: draws of the record-level bootstrap (``motion.record_bootstrap``, as a
@@ -202,8 +212,11 @@ def estimate_records(
         if n_bootstrap and len(windowed) >= MIN_RECORDS
         else None
     )
+    planned, advice = _next_release(windowed, setup, final, names or {}) if free else ((), None)
     return replace(
         result,
+        advice=(*result.advice, *([advice] if advice else [])),
+        next_release=planned,
         warnings=(*result.warnings, *outlier_warnings(repeats, "record", LOOK_FOR)),
         repeats=repeats,
         bootstrap=boot,
@@ -215,6 +228,25 @@ def estimate_records(
         records=tuple(windowed),
         base=base,
     )
+
+
+def _next_release(
+    records: Sequence[Record],
+    setup: Setup,
+    final: MotionFit,
+    names: Mapping[str, str],
+) -> tuple[tuple[PlannedRelease, ...], str | None]:
+    """Each coefficient's σ predicted after one more record released from each of
+    ``AMPLITUDE_FACTORS`` × the largest release so far, and the sentence naming the best."""
+    largest = max(release_amplitude(r) for r in records)
+    if not largest > 0:
+        return (), None
+    unit = units_of(setup.dof, ())["position"]
+    amplitudes = [f * largest for f in AMPLITUDE_FACTORS]
+    planned = next_releases(records, setup, final, amplitudes, unit)
+    chosen = best_release(planned, final.values)
+    named = names.get(chosen[1], chosen[1]) if chosen else ""
+    return planned, release_advice(planned, final.values, largest, named)
 
 
 def _end(record: Record, start: float, given: float | None) -> FreeWindow:

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from estimation.design.decay_information import PlannedRelease
 from estimation.motion.decay_end import FreeWindow
 from estimation.motion.equivalent import EquivalentDamping, equivalent_damping
 from estimation.motion.output_error_fit import MotionFit
@@ -65,6 +66,9 @@ class DecayResult:
     #: The free records' repeats and Chauvenet outliers (``motion.decay_repeats``), in the
     #: shape of a tow set's.
     repeats: RepeatAnalysis | None = None
+    #: Each coefficient's σ predicted after one more record released from each of a few
+    #: amplitudes (``design.decay_information``; free records only).
+    next_release: tuple[PlannedRelease, ...] = ()
     fit: MotionFit | None = field(default=None, repr=False, compare=False)
     #: The base model's fit (before the search).
     base: MotionFit | None = field(default=None, repr=False, compare=False)
@@ -122,6 +126,7 @@ class DecayResult:
             "well_determined": [c.to_json() for c in self.well_determined],
             "bootstrap": self.bootstrap.to_json() if self.bootstrap else None,
             "repeats": self.repeats.to_json() if self.repeats else None,
+            "next_release": [p.to_json() for p in self.next_release],
             "warnings": list(self.warnings),
             "advice": list(self.advice),
             "evidence": evidence_json(

@@ -160,6 +160,9 @@ class PendulumResult:
             "repeats": self.motion.repeats.to_json()
             if self.motion and self.motion.repeats
             else None,
+            "next_release": [
+                p.to_json(reported) for p in (self.motion.next_release if self.motion else ())
+            ],
             "geometry": self.geometry,
             "diagnostics": {
                 "ljung_box_before": self.whiteness_before.to_json(),
@@ -294,6 +297,7 @@ def estimate_pendulum(
         candidates=CANDIDATES if search else (),
         exclude_outliers=exclude_outliers,
         subject=f"{axis} swing",
+        names={INERTIA: reported(INERTIA)},
     )
     if motion.base is None or motion.fit is None:
         raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")

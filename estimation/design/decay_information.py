@@ -1,0 +1,161 @@
+"""What the next free decay would teach: each coefficient's σ predicted after one more record
+released from a chosen amplitude, from the fit the records already have (the one engine's
+model and Jacobian), as the tow planner predicts a tow's (``design.information``).
+
+The planned record is the first record's setting (its sample times from its release, its
+known terms and weights) released at rest from x_eq + A. Its information on the
+coefficients θ is
+
+    I_A = J_θᵀ·(1 − P_ν)·J_θ / σ²,   J = ∂ξ(t_k)/∂(θ, ν) by central differences,
+
+where ν are the record's own nuisances (its rest position, initial angle and rate: fitted
+for every record, so projected out, P_ν = J_ν(J_νᵀJ_ν)⁻¹J_νᵀ) and σ² the fit's residual
+variance SSE/(n − p). The records already fitted give I_0 the same way from the fit's own
+Jacobian, and (I_0 + I_A)⁻¹ is the white σ after the new record; each coefficient's is then
+scaled by the ratio of its reported σ to its white σ now (the serial correlation and
+quantization the records show, ``stats.identify``, taken to persist). That is how far one
+more record released from A would shrink each σ if the model holds. Candidates: the
+records' largest release amplitude times ``AMPLITUDE_FACTORS``; the advice names the one
+that shrinks the least-determined coefficient (largest σ/|θ|) the most.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from estimation.motion.output_error_fit import MotionFit, sensitivities, simulate
+from estimation.motion.records import Record, Setup
+from estimation.report_numbers import finite_or_none
+
+#: Release amplitudes tried, as multiples of the largest the records have: one smaller,
+#: the same again (a repeat), and two larger.
+AMPLITUDE_FACTORS = (0.5, 1.0, 1.5, 2.0)
+#: Relative step of the central differences (of each coefficient's size).
+DIFF_STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class PlannedRelease:
+    """One more record released from ``amplitude`` (m or rad): each coefficient's σ now and
+    predicted after it (``names`` order), and the coefficient the advice is about."""
+
+    amplitude: float
+    unit: str
+    names: tuple[str, ...]
+    std_now: np.ndarray
+    std_after: np.ndarray
+
+    def to_json(self, name: Callable[[str], str] = str) -> dict[str, Any]:
+        """{amplitude, unit, std_now: {name: σ}, std_after: {name: σ}}; ``name``: what the
+        result calls each coefficient."""
+
+        def by_name(std: np.ndarray) -> dict[str, float | None]:
+            return {name(n): finite_or_none(s) for n, s in zip(self.names, std, strict=True)}
+
+        return {
+            "amplitude": finite_or_none(self.amplitude),
+            "unit": self.unit,
+            "std_now": by_name(self.std_now),
+            "std_after": by_name(self.std_after),
+        }
+
+
+def planned_record(template: Record, amplitude: float, setup: Setup, fit: MotionFit) -> Record:
+    """``template``'s setting released at rest from its rest position + ``amplitude``: its
+    samples from its first, the model's motion under ``fit``'s coefficients (noise-free)."""
+    t = np.asarray(template.t, dtype=float) - float(template.t[0])
+    base = replace(template, run_id="planned", t=t, x=np.zeros_like(t), released_at=None)
+    ((xi, _),) = simulate([base], setup, fit.names, fit.values, np.array([[amplitude, 0.0]]))
+    return replace(base, x=xi)
+
+
+def _information(record: Record, setup: Setup, fit: MotionFit, amplitude: float) -> np.ndarray:
+    """I_A·σ² on ``fit``'s coefficients (module doc): the record's rest position, initial
+    angle and rate projected out."""
+    ng = len(fit.names)
+    h = DIFF_STEP * np.maximum(np.abs(fit.values), 1e-12)
+    sets = np.repeat(fit.values[None, :], 2 * ng + 1, axis=0)
+    for i in range(ng):
+        sets[1 + 2 * i, i] += h[i]
+        sets[2 + 2 * i, i] -= h[i]
+    start = np.array([[[amplitude, 0.0]]])
+    ((xs, _),) = simulate([record], setup, fit.names, sets, np.repeat(start, len(sets), axis=0))
+    j_theta = np.column_stack([(xs[1 + 2 * i] - xs[2 + 2 * i]) / (2 * h[i]) for i in range(ng)])
+    dx0, dv0 = 1e-4 * max(abs(amplitude), 1e-12), 1e-3
+    initial = np.array([[[amplitude + dx0, 0.0]], [[amplitude - dx0, 0.0]]])
+    initial = np.concatenate([initial, [[[amplitude, dv0]]], [[[amplitude, -dv0]]]])
+    ((xn, _),) = simulate([record], setup, fit.names, np.repeat(fit.values[None], 4, 0), initial)
+    j_nu = np.column_stack(
+        [np.ones(xs.shape[1]), (xn[0] - xn[1]) / (2 * dx0), (xn[2] - xn[3]) / (2 * dv0)]
+    )
+    return _profiled(j_theta, j_nu)
+
+
+def _profiled(j_theta: np.ndarray, j_nu: np.ndarray) -> np.ndarray:
+    """J_θᵀ·(1 − P_ν)·J_θ: the information on θ with the nuisances ν fitted too."""
+    q, _ = np.linalg.qr(j_nu)
+    projected = j_theta - q @ (q.T @ j_theta)
+    return projected.T @ projected
+
+
+def next_releases(
+    records: Sequence[Record],
+    setup: Setup,
+    fit: MotionFit,
+    amplitudes: Sequence[float],
+    unit: str,
+) -> tuple[PlannedRelease, ...]:
+    """For each of ``amplitudes`` (m or rad), each coefficient's σ now and predicted after one
+    more record released from it (module doc); () when the fit's σ are not all known."""
+    white = fit.std_white
+    if white is None or not (np.all(np.isfinite(fit.std)) and np.all(white > 0)):
+        return ()
+    variance = fit.sse / max(fit.n_samples - fit.n_params, 1)
+    own, _ = sensitivities(records, setup, fit, ())
+    ng = len(fit.names)
+    info_now = _profiled(own[:, :ng], own[:, ng:])
+    inflation = np.asarray(fit.std) / white
+    out = []
+    for a in amplitudes:
+        record = planned_record(records[0], a, setup, fit)
+        info = (info_now + _information(record, setup, fit, a)) / variance
+        after = np.sqrt(np.maximum(np.diag(np.linalg.pinv(info)), 0.0)) * inflation
+        out.append(PlannedRelease(float(a), unit, fit.names, np.asarray(fit.std), after))
+    return tuple(out)
+
+
+def best_release(
+    planned: Sequence[PlannedRelease], values: np.ndarray
+) -> tuple[PlannedRelease, str] | None:
+    """The candidate that most shrinks the least-determined coefficient (largest σ/|θ| now)
+    and that coefficient's name; None without candidates."""
+    if not planned:
+        return None
+    first = planned[0]
+    relative = first.std_now / np.maximum(np.abs(values), 1e-300)
+    worst = int(np.argmax(relative))
+    best = min(planned, key=lambda p: p.std_after[worst])
+    return best, first.names[worst]
+
+
+def release_advice(
+    planned: Sequence[PlannedRelease], values: np.ndarray, largest: float, named: str
+) -> str | None:
+    """The sentence naming the next decay to run (``best_release``), its coefficient called
+    ``named`` (the result's name for it); None without candidates."""
+    chosen = best_release(planned, values)
+    if chosen is None:
+        return None
+    best, name = chosen
+    i = best.names.index(name)
+    again = "again " if np.isclose(best.amplitude, largest) else ""
+    return (
+        f"the next decay to run: released {again}from {best.amplitude:.3g} {best.unit} "
+        f"({best.amplitude / largest:g}× the largest release so far) would bring σ of {named} "
+        f"from {best.std_now[i]:.2g} to {best.std_after[i]:.2g} (predicted from this fit, "
+        "if its model holds)"
+    )
