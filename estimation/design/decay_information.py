@@ -64,35 +64,31 @@ class PlannedRelease:
         }
 
 
-def planned_record(template: Record, amplitude: float, setup: Setup, fit: MotionFit) -> Record:
-    """``template``'s setting released at rest from its rest position + ``amplitude``: its
-    samples from its first, the model's motion under ``fit``'s coefficients (noise-free)."""
+def planned_record(template: Record) -> Record:
+    """``template``'s setting (its samples from its first, known terms, weights) as a free
+    record: where one more release is integrated (its positions are never read)."""
     t = np.asarray(template.t, dtype=float) - float(template.t[0])
-    base = replace(template, run_id="planned", t=t, x=np.zeros_like(t), released_at=None)
-    ((xi, _),) = simulate([base], setup, fit.names, fit.values, np.array([[amplitude, 0.0]]))
-    return replace(base, x=xi)
+    return replace(template, run_id="planned", t=t, x=np.zeros_like(t), released_at=None)
 
 
 def _information(record: Record, setup: Setup, fit: MotionFit, amplitude: float) -> np.ndarray:
-    """I_A·σ² on ``fit``'s coefficients (module doc): the record's rest position, initial
-    angle and rate projected out."""
+    """J_θᵀ·(1 − P_ν)·J_θ of ``record`` released from ``amplitude`` under ``fit``'s
+    coefficients (module doc): one integration of every perturbed set, the coefficients'
+    and the record's own initial angle and rate."""
     ng = len(fit.names)
     h = DIFF_STEP * np.maximum(np.abs(fit.values), 1e-12)
-    sets = np.repeat(fit.values[None, :], 2 * ng + 1, axis=0)
+    dx0, dv0 = DIFF_STEP * max(abs(amplitude), 1e-12), 1e-3
+    sets = np.repeat(fit.values[None, :], 2 * ng + 4, axis=0)
+    starts = np.repeat(np.array([[[amplitude, 0.0]]]), 2 * ng + 4, axis=0)
     for i in range(ng):
-        sets[1 + 2 * i, i] += h[i]
-        sets[2 + 2 * i, i] -= h[i]
-    start = np.array([[[amplitude, 0.0]]])
-    ((xs, _),) = simulate([record], setup, fit.names, sets, np.repeat(start, len(sets), axis=0))
-    j_theta = np.column_stack([(xs[1 + 2 * i] - xs[2 + 2 * i]) / (2 * h[i]) for i in range(ng)])
-    dx0, dv0 = 1e-4 * max(abs(amplitude), 1e-12), 1e-3
-    initial = np.array([[[amplitude + dx0, 0.0]], [[amplitude - dx0, 0.0]]])
-    initial = np.concatenate([initial, [[[amplitude, dv0]]], [[[amplitude, -dv0]]]])
-    ((xn, _),) = simulate([record], setup, fit.names, np.repeat(fit.values[None], 4, 0), initial)
-    j_nu = np.column_stack(
-        [np.ones(xs.shape[1]), (xn[0] - xn[1]) / (2 * dx0), (xn[2] - xn[3]) / (2 * dv0)]
-    )
-    return _profiled(j_theta, j_nu)
+        sets[2 * i, i] += h[i]
+        sets[2 * i + 1, i] -= h[i]
+    starts[2 * ng :, 0] += [[dx0, 0.0], [-dx0, 0.0], [0.0, dv0], [0.0, -dv0]]
+    ((xs, _),) = simulate([record], setup, fit.names, sets, starts)
+    j_theta = np.column_stack([(xs[2 * i] - xs[2 * i + 1]) / (2 * h[i]) for i in range(ng)])
+    d_x0 = (xs[2 * ng] - xs[2 * ng + 1]) / (2 * dx0)
+    d_v0 = (xs[2 * ng + 2] - xs[2 * ng + 3]) / (2 * dv0)
+    return _profiled(j_theta, np.column_stack([np.ones(xs.shape[1]), d_x0, d_v0]))
 
 
 def _profiled(j_theta: np.ndarray, j_nu: np.ndarray) -> np.ndarray:
@@ -119,10 +115,10 @@ def next_releases(
     ng = len(fit.names)
     info_now = _profiled(own[:, :ng], own[:, ng:])
     inflation = np.asarray(fit.std) / white
+    planned = planned_record(records[0])
     out = []
     for a in amplitudes:
-        record = planned_record(records[0], a, setup, fit)
-        info = (info_now + _information(record, setup, fit, a)) / variance
+        info = (info_now + _information(planned, setup, fit, a)) / variance
         after = np.sqrt(np.maximum(np.diag(np.linalg.pinv(info)), 0.0)) * inflation
         out.append(PlannedRelease(float(a), unit, fit.names, np.asarray(fit.std), after))
     return tuple(out)
