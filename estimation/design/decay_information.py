@@ -149,8 +149,9 @@ def release_advice(
     best, name = chosen
     i = best.names.index(name)
     again = "again " if np.isclose(best.amplitude, largest) else ""
+    degrees = f" = {np.degrees(best.amplitude):.3g}°" if best.unit == "rad" else ""
     return (
-        f"the next decay to run: released {again}from {best.amplitude:.3g} {best.unit} "
+        f"the next decay to run: released {again}from {best.amplitude:.3g} {best.unit}{degrees} "
         f"({best.amplitude / largest:g}× the largest release so far) would bring σ of {named} "
         f"from {best.std_now[i]:.2g} to {best.std_after[i]:.2g} (predicted from this fit, "
         "if its model holds)"
