@@ -41,6 +41,17 @@ def wait_job(client, job_id: str, *, states=FINAL, timeout_s: float = 30.0) -> d
     )
 
 
+def completed_estimation(client, run_ids, *, timeout_s: float = 120.0, **fields) -> dict:
+    """``POST /api/jobs/estimation`` of ``run_ids`` (no effect search, unless ``fields`` say
+    otherwise) and the job once completed (fails naming the job if it did not complete)."""
+    body = {"run_ids": run_ids, "search_effects": False} | fields
+    r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=timeout_s)
+    assert job["state"] == "completed", job
+    return job
+
+
 def wait_job_until(
     client, job_id: str, ready: Callable[[dict], bool], what: str, *, timeout_s: float = 30.0
 ) -> dict:

@@ -15,7 +15,7 @@ import zipfile
 
 import pytest
 
-from tests.api.conftest import AUTH, wait_job
+from tests.api.conftest import AUTH, completed_estimation
 from tests.integration.test_decay_import import heave_decay
 from tests.support.cli import RigCliText, printed_json
 
@@ -37,12 +37,7 @@ def _decays(tmp_path) -> tuple[list[bytes], dict[str, float]]:
 
 
 def _estimate(client, run_ids, **extra) -> dict:
-    body = {"run_ids": run_ids, "search_effects": False} | extra
-    r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
-    assert r.status_code == 202, r.text
-    job = wait_job(client, r.json()["id"], timeout_s=180)
-    assert job["state"] == "completed", job
-    return job
+    return completed_estimation(client, run_ids, timeout_s=180, **extra)
 
 
 def _report_md(client, result_id: int) -> str:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from daq.csv_to_store import import_csv
-from tests.api.conftest import AUTH, wait_job
+from tests.api.conftest import AUTH, completed_estimation
 from tests.estimation.synth import SURGE_TRUTH, Physics, weight_run
 
 FORCE_N = 24.5
@@ -30,12 +30,7 @@ def _import_repeats(store, tmp_path) -> list[str]:
 
 
 def _estimate(client, run_ids, **extra) -> dict:
-    body = {"run_ids": run_ids, "search_effects": False} | extra
-    r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
-    assert r.status_code == 202, r.text
-    job = wait_job(client, r.json()["id"], timeout_s=120)
-    assert job["state"] == "completed", job
-    return job
+    return completed_estimation(client, run_ids, timeout_s=120, **extra)
 
 
 def test_a_flagged_repeat_is_left_out_only_when_the_request_says_so(client, tmp_path):
