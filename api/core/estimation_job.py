@@ -16,7 +16,6 @@ from typing import Any
 from api.core.estimation_failure import fit_subject, fitting
 from api.core.result_subject import subject as result_subject
 from api.core.rig_envelope import envelope_of_runs
-from api.core.theory_job import theory_document
 from daq.estimators import Estimator
 from daq.procedures.run_kinds import KINDS
 from daq.store import Store
@@ -104,7 +103,10 @@ def run_estimation(
     if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
             data |= estimator.budget(store, runs, result, report_dir)
-            if estimator.compares_theory:
+            if estimator.compares_theory:  # the hull's theory compares a tow or spin's
+                # here: a decay never loads the vehicle file, hull theory nor the tow budget
+                from api.core.theory_job import theory_document
+
                 data |= theory_document(store, data, result.repeats, report_dir)
     data["subject"] = result_subject("estimation", data)  # as GET /api/results names it
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from estimation.data.left_out import LeftOut
+from estimation.stats.smoothing import running_median
 
 #: Longest median sample step accepted as seconds (the rig samples at 10 Hz: 0.1 s).
 MAX_MEDIAN_STEP_S = 1.0
@@ -106,11 +107,9 @@ def encoder_quantum(x: np.ndarray) -> float:
 def _trend_deviation(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Per interior sample, its deviation (position units) from the local second
     derivative's median trend; NaN at both ends."""
-    from scipy.ndimage import median_filter
-
     h1, h2 = np.diff(t)[:-1], np.diff(t)[1:]
     accel = 2.0 * ((x[2:] - x[1:-1]) / h2 - (x[1:-1] - x[:-2]) / h1) / (h1 + h2)
-    trend = median_filter(accel, size=9, mode="nearest")
+    trend = running_median(accel, 9)
     dev = np.full(x.shape, np.nan)
     dev[1:-1] = (accel - trend) * h1 * h2 / 2.0
     return dev
@@ -150,10 +149,8 @@ def find_spikes(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 def noise_threshold(x: np.ndarray) -> float:
     """Displacement that is motion, not encoder noise: max(4σ, 1.5 quanta), σ from the
     sample-to-sample scatter about a 5-sample running median."""
-    from scipy.ndimage import median_filter
-
     x = np.asarray(x, dtype=float)
-    scatter = x - median_filter(x, size=5, mode="nearest")
+    scatter = x - running_median(x, 5)
     noise = 1.4826 * float(np.median(np.abs(scatter)))
     return max(NOISE_FACTOR * noise, QUANTUM_FACTOR * encoder_quantum(x), 1e-12)
 

@@ -3,8 +3,9 @@ against that decay when it is recorded: a heave decay of a 143 kg body with quad
 damping, integrated by scipy's solve_ivp (independent of the engine's integrator), 20 Hz,
 20 µm noise. The σ predicted for the quadratic damping after a second record released from
 twice the first's amplitude must be what the joint fit of the two then reports, within the
-spread a σ estimated from one noise draw has (±35 %; four pairs of seeds: measured +0.5 … +23 % above the prediction). A record
-released again from the same amplitude is predicted to cut σ by √2, as it must."""
+spread a σ estimated from one noise draw has (±35 %; four pairs of seeds: measured 0.5–23 %
+above the prediction). A record released again from the same amplitude is predicted to cut
+σ by √2, as it must."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.signal import savgol_filter
 
-from estimation.stats.smoothing import savgol
+from estimation.stats.smoothing import running_median, savgol
 
 
 @pytest.mark.parametrize("window", [5, 7, 9])
@@ -54,3 +54,24 @@ def test_a_quartic_filter_of_a_quartic_is_exact_to_rounding_at_both_ends():
     for window in (7, 41):
         ours = savgol(y, window, 4, deriv=2, delta=0.02)
         np.testing.assert_allclose(ours, exact, rtol=0, atol=1e-11)  # SciPy's: 2·10⁻¹⁰
+
+
+@pytest.mark.parametrize("size", [1, 3, 5, 9])
+@pytest.mark.parametrize("n", [1, 2, 4, 9, 10, 257])
+def test_running_median_is_scipys_median_filter_to_the_bit(size, n):
+    """The window finder's running median (sizes 5 and 9) is ``median_filter(mode="nearest")``
+    exactly, ends included: an odd window's median is one of its samples, ties and repeated
+    values (an encoder's steps) too."""
+    from scipy.ndimage import median_filter
+
+    rng = np.random.default_rng(n + 100 * size)
+    for x in (rng.standard_normal(n), np.round(rng.standard_normal(n) * 3) * 0.25):
+        ours = running_median(x, size)
+        np.testing.assert_array_equal(ours, median_filter(x, size=size, mode="nearest"))
+
+
+def test_running_median_of_samples_not_all_finite_is_scipys():
+    from scipy.ndimage import median_filter
+
+    x = np.array([0.0, 1.0, np.nan, 3.0, np.inf, 2.0, -1.0])
+    np.testing.assert_array_equal(running_median(x, 5), median_filter(x, size=5, mode="nearest"))
