@@ -41,7 +41,7 @@ DIFF_STEP = 1e-4
 @dataclass(frozen=True)
 class PlannedRelease:
     """One more record released from ``amplitude`` (m or rad): each coefficient's σ now and
-    predicted after it (``names`` order), and the coefficient the advice is about."""
+    predicted after it (``names`` order)."""
 
     amplitude: float
     unit: str

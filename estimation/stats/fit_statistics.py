@@ -9,34 +9,32 @@ from typing import Self
 
 import numpy as np
 
-#: A combination whose scaled gradient has more than this share of its length along the
-#: directions the data do not determine is not determined either (``stats.identify``'s
-#: ``NULL_LOADING``, the rule for one parameter).
-COMBINATION_NULL_LOADING = 0.01
-
 
 @dataclass(frozen=True)
 class Combinations:
     """What σ of a combination Σ g_i·θ_i of a fit's coefficients needs (``stats.identify``):
     the coefficients' covariance C (the pseudo-inverse's where the data leave a direction
     undetermined; NaN rows for coefficients whose σ was withdrawn), the undetermined
-    directions (rows, in the column-scaled coordinates θ·D) and the column scales D."""
+    directions (rows, in the column-scaled coordinates θ·D), the column scales D, and the
+    share of its length a combination may have along those directions (``null_loading``:
+    the rule one coefficient's σ follows, ``stats.identify.NULL_LOADING``)."""
 
     covariance: np.ndarray
     null: np.ndarray
     scale: np.ndarray
+    null_loading: float
 
     def std(self, gradient: np.ndarray) -> float | None:
         """σ = √(gᵀ·C·g), or None when the combination is not determined: its scaled gradient
-        g/D loads the undetermined directions by more than ``COMBINATION_NULL_LOADING`` of
-        its length, or it takes a coefficient whose σ was withdrawn."""
+        g/D loads the undetermined directions by more than ``null_loading`` of its length,
+        or it takes a coefficient whose σ was withdrawn."""
         g = np.asarray(gradient, dtype=float)
         used = np.flatnonzero(g)
         if used.size == 0:
             return 0.0
         scaled = g / self.scale
         if self.null.size and np.linalg.norm(self.null @ scaled) > (
-            COMBINATION_NULL_LOADING * np.linalg.norm(scaled)
+            self.null_loading * np.linalg.norm(scaled)
         ):
             return None
         c = self.covariance[np.ix_(used, used)]

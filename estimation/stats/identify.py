@@ -133,5 +133,7 @@ def honest_statistics(
     corr = np.divide(cov_serial[:g, :g], np.where(ok, denom, 1.0), out=np.eye(g), where=ok)
     corr = np.where(ok | np.eye(g, dtype=bool), corr, np.nan)
     every = np.divide(cov_serial[:g, :g], denom, out=np.eye(g), where=denom > 0)
-    combinations = Combinations(np.outer(larger, larger) * every, null[:, :g], norms[:g].copy())
+    combinations = Combinations(
+        np.outer(larger, larger) * every, null[:, :g], norms[:g].copy(), NULL_LOADING
+    )
     return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white, quantization, combinations)
