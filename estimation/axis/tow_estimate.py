@@ -404,12 +404,19 @@ def combination_conditions(
     final: MotionFit, runs: Sequence[RunData]
 ) -> tuple[dict[str, float], list[float]]:
     """What a tow's well-determined combinations are evaluated at: each run's constant drive
-    (a thruster run's at its end; N or N·m), and the speed each run reached (the model's at
-    the end of its window; m/s or rad/s)."""
+    (a per-sample drive's over the last fifth of the run, a thruster run's at its end; N or
+    N·m; none when it reverses there, as a wave's force does: a drive that changes sign has
+    no steady speed), and the speed each run reached (the model's at the end of its window;
+    m/s or rad/s)."""
     held = {}
     for r in runs:
         d = np.asarray(r.drive, dtype=float)
-        held[r.run_id] = float(d) if d.ndim == 0 else float(np.median(d[-max(d.size // 5, 1) :]))
+        if d.ndim == 0:
+            held[r.run_id] = float(d)
+            continue
+        end = d[-max(d.size // 5, 1) :]
+        if not (np.any(end > 0) and np.any(end < 0)):
+            held[r.run_id] = float(np.median(end))
     return held, [float(v[-1]) for v in final.velocities if v.size]
 
 
