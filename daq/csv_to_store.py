@@ -25,7 +25,7 @@ import csv
 import json
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -130,6 +130,17 @@ def _number(
             f"line {line}, column {column!r}: {text!r} is not allowed; use a finite number"
         )
     return value
+
+
+def _unread(texts: Mapping[str, str]) -> bool:
+    """Whether a row's own ``quality`` flags its read as failed (``Quality.ERROR``): a towrig
+    export writes such a sample's position empty (NaN), and it is imported as it was
+    recorded, unread, for estimation to leave out; a blank position on any other row is
+    refused."""
+    try:
+        return bool(int(float(texts.get("quality", "0").strip() or 0)) & Quality.ERROR)
+    except ValueError:
+        return False
 
 
 def _header(
@@ -243,10 +254,15 @@ def _parse_rows(
                 f"{path}: line {line}: {len(row)} fields, the header has {len(columns)}"
             )
         values: dict[str, float] = {}
-        for column, text in zip(columns, row, strict=True):
+        texts = dict(zip(columns, row, strict=True))
+        for column, text in texts.items():
             missing_ok = column not in ("t", position, logged, "seq", "t_mono", "t_wall", "quality")
             values[column] = _number(
-                text, line, names.get(column, column), allow_missing=missing_ok, dialect=dialect
+                text,
+                line,
+                names.get(column, column),
+                allow_missing=missing_ok or (column == position and _unread(texts)),
+                dialect=dialect,
             )
             rising = column in ("t", "seq", "t_mono") and column in previous
             if rising and values[column] <= previous[column]:

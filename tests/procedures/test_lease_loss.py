@@ -70,23 +70,12 @@ def pg_url(postgres_server):
     postgres_server.drop_database(url)
 
 
-#: The PLC's reply timeout of this test's rig file, s: most of a 10 Hz period, not the rig
-#: file's 50 ms. The simulated PLC is a thread of this test's process, so a loaded machine
-#: delays its replies as it delays the test (the real PLC's are not): CI once saw a reply
-#: later than 50 ms, and the thruster tow ended, as it must, on its first unread sample
-#: ("sensor data stale or unread") before the lock was ever lost.
-PLC_TIMEOUT_S = 0.09
-
-
 @pytest.fixture
 def simulated_devices(tmp_path) -> tuple[SimulatedRigThread, Path]:
     """A simulated rig standing in for the hardware, and a hardware rig file pointing at it."""
     with SimulatedRigThread(load_rig(DEFAULT_RIG_FILE)) as sim:
         ends = sim.endpoints
-        rig_file = hardware_rig_file(
-            tmp_path, ends.port, ends.thruster_serial_port, plc_timeout_s=PLC_TIMEOUT_S
-        )
-        yield sim, rig_file
+        yield sim, hardware_rig_file(tmp_path, ends.port, ends.thruster_serial_port)
 
 
 def _session(rig_file: Path, store: Store, owner: str) -> RigSession:

@@ -49,6 +49,22 @@ def test_import_makes_a_completed_run_with_mapped_channels(store: Store, tmp_pat
     assert store.get_run(spin).channel_names == ("yaw_angle",)
 
 
+def test_an_unread_sample_imports_as_recorded_and_a_blank_position_elsewhere_is_refused(
+    store: Store, tmp_path
+) -> None:
+    """A towrig export writes a failed read's position empty, its quality flagging it (2:
+    read error): it imports as it was recorded, NaN and flagged, for estimation to leave
+    out. A blank position on a row whose quality does not say so is refused, naming it."""
+    text = "t,position,quality\n0,0,0\n0.1,0.004,0\n0.2,,2\n0.3,0.035,0\n"
+    run_id = import_csv(store, write(tmp_path, text), kind="tow", parameters={"force_n": 24.5})
+    table = store.samples(run_id)
+    assert math.isnan(table.channels["tow_position"][2]) and table.quality[2] == 2
+    np.testing.assert_array_equal(table.channels["tow_position"][[0, 1, 3]], [0.0, 0.004, 0.035])
+    blank = "t,position,quality\n0,0,0\n0.1,,0\n0.2,0.01,0\n"
+    with pytest.raises(CsvImportError, match="line 3, column 'tow_position': '' is not a number"):
+        import_csv(store, write(tmp_path, blank, "b.csv"), kind="tow", parameters={"force_n": 1.0})
+
+
 def test_csv_export_reimports_identically(store: Store, tmp_path) -> None:
     run_id = new_run(store)
     store.add_samples(run_id, make_samples(0, 50))
