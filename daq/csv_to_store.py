@@ -25,7 +25,7 @@ import csv
 import json
 import math
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -130,17 +130,6 @@ def _number(
             f"line {line}, column {column!r}: {text!r} is not allowed; use a finite number"
         )
     return value
-
-
-def _unread(texts: Mapping[str, str]) -> bool:
-    """Whether a row's own ``quality`` flags its read as failed (``Quality.ERROR``): a towrig
-    export writes such a sample's position empty (NaN), and it is imported as it was
-    recorded, unread, for estimation to leave out; a blank position on any other row is
-    refused."""
-    try:
-        return bool(int(float(texts.get("quality", "0").strip() or 0)) & Quality.ERROR)
-    except ValueError:
-        return False
 
 
 def _header(
@@ -254,15 +243,10 @@ def _parse_rows(
                 f"{path}: line {line}: {len(row)} fields, the header has {len(columns)}"
             )
         values: dict[str, float] = {}
-        texts = dict(zip(columns, row, strict=True))
-        for column, text in texts.items():
-            missing_ok = column not in ("t", position, logged, "seq", "t_mono", "t_wall", "quality")
+        for column, text in zip(columns, row, strict=True):
+            missing_ok = column not in ("t", logged, "seq", "t_mono", "t_wall", "quality")
             values[column] = _number(
-                text,
-                line,
-                names.get(column, column),
-                allow_missing=missing_ok or (column == position and _unread(texts)),
-                dialect=dialect,
+                text, line, names.get(column, column), allow_missing=missing_ok, dialect=dialect
             )
             rising = column in ("t", "seq", "t_mono") and column in previous
             if rising and values[column] <= previous[column]:
@@ -276,6 +260,14 @@ def _parse_rows(
                     f"{path}: line {line}, column {column!r}: {values[column]!r} is not "
                     "allowed; use an integer ≥ 0"
                 )
+        # a towrig export writes a failed read's position empty, its own quality flagging it:
+        # imported as recorded (NaN, flagged) for estimation to leave out; refused elsewhere
+        unread = int(values.get("quality", 0)) & Quality.ERROR
+        if math.isnan(values[position]) and not unread:
+            text = row[columns.index(position)]
+            raise CsvImportError(
+                f"line {line}, column {names.get(position, position)!r}: {text!r} is not a number"
+            )
         previous = values
         if logged:
             values[logged] *= scale
