@@ -10,8 +10,9 @@ coefficients θ is
 
 where ν are the record's own nuisances (its rest position, initial angle and rate: fitted
 for every record, so projected out, P_ν = J_ν(J_νᵀJ_ν)⁻¹J_νᵀ) and σ² the fit's residual
-variance SSE/(n − p). The records already fitted give I_0 the same way from the fit's own
-Jacobian, and (I_0 + I_A)⁻¹ is the white σ after the new record; each coefficient's is then
+variance SSE/(n − p). The records already fitted give I_0 = C_w⁻¹, the inverse of the fit's
+own white covariance of the coefficients (``FitStatistics.combinations``), and
+(I_0 + I_A)⁻¹ is the white σ after the new record; each coefficient's is then
 scaled by the ratio of its reported σ to its white σ now (the serial correlation and
 quantization the records show, ``stats.identify``, taken to persist). That is how far one
 more record released from A would shrink each σ if the model holds. Candidates: the
@@ -27,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from estimation.motion.output_error_fit import MotionFit, sensitivities, simulate
+from estimation.motion.output_error_fit import MotionFit, simulate
 from estimation.motion.records import Record, Setup
 from estimation.report_numbers import finite_or_none
 
@@ -107,18 +108,16 @@ def next_releases(
 ) -> tuple[PlannedRelease, ...]:
     """For each of ``amplitudes`` (m or rad), each coefficient's σ now and predicted after one
     more record released from it (module doc); () when the fit's σ are not all known."""
-    white = fit.std_white
-    if white is None or not (np.all(np.isfinite(fit.std)) and np.all(white > 0)):
+    white, c = fit.std_white, fit.combinations
+    if white is None or c is None or not (np.all(np.isfinite(fit.std)) and np.all(white > 0)):
         return ()
     variance = fit.sse / max(fit.n_samples - fit.n_params, 1)
-    own, _ = sensitivities(records, setup, fit, ())
-    ng = len(fit.names)
-    info_now = _profiled(own[:, :ng], own[:, ng:])
+    info_now = np.linalg.inv(c.white)  # I_0, σ² included
     inflation = np.asarray(fit.std) / white
     planned = planned_record(records[0])
     out = []
     for a in amplitudes:
-        info = (info_now + _information(planned, setup, fit, a)) / variance
+        info = info_now + _information(planned, setup, fit, a) / variance
         after = np.sqrt(np.maximum(np.diag(np.linalg.pinv(info)), 0.0)) * inflation
         out.append(PlannedRelease(float(a), unit, fit.names, np.asarray(fit.std), after))
     return tuple(out)

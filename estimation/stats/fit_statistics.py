@@ -15,14 +15,17 @@ class Combinations:
     """What σ of a combination Σ g_i·θ_i of a fit's coefficients needs (``stats.identify``):
     the coefficients' covariance C (the pseudo-inverse's where the data leave a direction
     undetermined; NaN rows for coefficients whose σ was withdrawn), the undetermined
-    directions (rows, in the column-scaled coordinates θ·D), the column scales D, and the
+    directions (rows, in the column-scaled coordinates θ·D), the column scales D, the
     share of its length a combination may have along those directions (``null_loading``:
-    the rule one coefficient's σ follows, ``stats.identify.NULL_LOADING``)."""
+    the rule one coefficient's σ follows, ``stats.identify.NULL_LOADING``), and the white
+    covariance σ̂²·(JᵀJ)⁺ of the coefficients alone (the nuisances profiled out), from which
+    a planner adds a planned record's information (``design.decay_information``)."""
 
     covariance: np.ndarray
     null: np.ndarray
     scale: np.ndarray
     null_loading: float
+    white: np.ndarray
 
     def std(self, gradient: np.ndarray) -> float | None:
         """σ = √(gᵀ·C·g), or None when the combination is not determined: its scaled gradient

@@ -134,6 +134,10 @@ def honest_statistics(
     corr = np.where(ok | np.eye(g, dtype=bool), corr, np.nan)
     every = np.divide(cov_serial[:g, :g], denom, out=np.eye(g), where=denom > 0)
     combinations = Combinations(
-        np.outer(larger, larger) * every, null[:, :g], norms[:g].copy(), NULL_LOADING
+        np.outer(larger, larger) * every,
+        null[:, :g],
+        norms[:g].copy(),
+        NULL_LOADING,
+        cov_white[:g, :g].copy(),
     )
     return Identified(std, corr, lost[:g].copy(), sse, n, p, std_white, quantization, combinations)
