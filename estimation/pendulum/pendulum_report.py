@@ -175,8 +175,9 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
             else f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
             f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | — | — |"
         )
-    if doc["repeats"] is not None and any(c["n"] > 1 for c in doc["repeats"]["conditions"]):
-        lines += ["", *repeats_markdown(doc["repeats"])]  # what was compared, left out
+    repeats = result.motion.repeats if result.motion else None
+    if repeats is not None and repeats.repeated:  # what was compared, left out
+        lines += ["", *repeats_markdown(doc["repeats"])]
     lines += effects_found(result.effects, digits=5)
     lines += ambiguity_lines(result.ambiguous, result.advice)
     wb, wa = doc["diagnostics"]["ljung_box_before"], doc["diagnostics"]["ljung_box_after"]

@@ -107,6 +107,7 @@ class RepeatAnalysis:
 
     @property
     def repeated(self) -> bool:
+        """Whether any condition was run more than once."""
         return any(c.n > 1 for c in self.conditions)
 
     def to_json(self) -> dict[str, Any]:
