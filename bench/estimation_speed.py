@@ -99,7 +99,7 @@ def main() -> None:
         def decay(t: np.ndarray = t, x: np.ndarray = x, known: dict = known) -> object:
             return estimate_decay(t, x, "heave", **known)
 
-        found = list(estimate_decay(t, x, "heave", **known).effects)
+        found = list(estimate_decay(t, x, "heave", **known).effect_names)
         entry = timed(decay, 3)
         entry["effects_found"] = found
         cases[f"full_effect_search_decay_{name}"] = entry

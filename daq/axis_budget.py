@@ -16,7 +16,7 @@ from typing import Any
 
 from daq.config import RigConfig, RigConfigError, parse_rig
 from daq.store import Store
-from estimation.axis.result import EstimationResult
+from estimation.axis.tow_section import TowResult
 from estimation.data.run_arrays import RunData
 from estimation.stats.repeatability import RepeatAnalysis
 from estimation.uncertainty import Chain, uncertainty_budget
@@ -56,7 +56,7 @@ def tolerances_of(rig: RigConfig | None) -> dict[str, float]:
 def fitted_budget(
     store: Store,
     runs: Sequence[RunData],
-    result: EstimationResult,
+    result: TowResult,
     repeats: RepeatAnalysis | None = None,
 ) -> Budget | None:
     """The uncertainty budget of an output-error ``result`` of ``runs`` with the rig file's
@@ -72,7 +72,7 @@ def fitted_budget(
 def budget_document(
     store: Store,
     runs: Sequence[RunData],
-    result: EstimationResult,
+    result: TowResult,
     report_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """{"budget": …} for the result JSON (None for the seed methods, which carry no fit to

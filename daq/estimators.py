@@ -74,7 +74,7 @@ def _axis_methods() -> tuple[str, ...]:
 
 def _axis_units() -> dict[str, dict[str, str]]:
     from estimation.axis.crosscheck_comparison import UNITS as COMPARED
-    from estimation.axis.result import UNITS
+    from estimation.axis.tow_section import UNITS
 
     return {axis: UNITS[axis] | COMPARED[axis] for axis in UNITS}
 
@@ -174,7 +174,11 @@ def _pendulum_budget(
     store: Store, runs: list[Any], result: Any, report_dir: str | Path | None
 ) -> dict[str, Any]:
     """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
-    return {"budget": result.budget().to_json() if result.method == "output-error" else None}
+    from estimation.pendulum.pendulum_estimate import pendulum_budget
+
+    if result.method != "output-error":
+        return {"budget": None}
+    return {"budget": pendulum_budget(result).to_json()}
 
 
 def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:

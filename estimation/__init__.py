@@ -14,23 +14,23 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from estimation.axis import METHODS
-    from estimation.axis.result import EffectEstimate, EstimationResult
     from estimation.axis.tow_estimate import estimate
     from estimation.data.run_arrays import RunData
     from estimation.errors import EstimationFailed
     from estimation.motion.decay_estimate import estimate_decay, estimate_records
-    from estimation.motion.decay_result import DecayResult
+    from estimation.motion.decay_section import DecayResult
+    from estimation.motion.estimation_result import EffectEstimate, EstimationResult
     from estimation.thrust.curve import ThrustCurve, fit_thrust_curve
 
 #: Where each public name lives: imported from there on first use.
 _HOME = {
     "METHODS": "axis",
     "estimate": "axis.tow_estimate",
-    "EffectEstimate": "axis.result",
-    "EstimationResult": "axis.result",
+    "EffectEstimate": "motion.estimation_result",
+    "EstimationResult": "motion.estimation_result",
     "RunData": "data.run_arrays",
     "EstimationFailed": "errors",
-    "DecayResult": "motion.decay_result",
+    "DecayResult": "motion.decay_section",
     "estimate_decay": "motion.decay_estimate",
     "estimate_records": "motion.decay_estimate",
     "ThrustCurve": "thrust.curve",

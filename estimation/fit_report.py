@@ -1,6 +1,8 @@
-"""The parts of a fit report the axis and the pendulum reports write alike: the summary rows
-after the coefficients, the effects found, the error before and after per run, and the
-result.json + report.md pair."""
+"""The one report of every estimate (``report_markdown``), whose sections every kind's result
+fills alike — what the record determines, the summary, the figures, the coefficients before
+and after, the kind's own sections, the repeats, the effects found, the error before and
+after per run and the search's evidence — and the result.json + report.md pair. A kind's
+report module gives the title, its figures and its own sections."""
 
 from __future__ import annotations
 
@@ -8,32 +10,95 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
-from estimation.axis.result import EffectEstimate
+from estimation.figures import figure_links
 from estimation.motion.equivalent import EquivalentDamping
+from estimation.motion.estimation_result import EffectEstimate, EstimationResult
 from estimation.motion.term_search import Step
 from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
+from estimation.uncertainty.text import repeats_markdown
+
+#: What these parts read of a result: the one result type, whatever its kind's section.
+FitSummary = EstimationResult[Any]
 
 
-class FitSummary(Protocol):
-    """What these parts read of a result (``EstimationResult``, ``PendulumResult``)."""
+def report_markdown(
+    result: FitSummary,
+    title: str,
+    labels: Mapping[str, str],
+    figures: Sequence[tuple[str, Path]] = (),
+    own_sections: Sequence[str] = (),
+    coefficients_heading: str = "Coefficients",
+) -> str:
+    """The Markdown report of ``result``, every kind's sections in one order: ``title``, what
+    the record determines (B_e by amplitude where the result has it), the summary, the
+    figures, the coefficients before and after the search (and those given), then the kind's
+    ``own_sections`` (lines), the repeats, the effects found with the ambiguity, the error
+    before and after per run (``labels``: each run's label in the figures) and the evidence."""
+    unit = result.units.get("position", "")
+    digits = 6
+    lines = [f"# {title}", ""]
+    lines += determined_section(result.well_determined, result.equivalent, unit)
+    lines += ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
+    lines += [
+        f"| {name} | {value_and_sigma(c.value, c.std)} | {c.unit} |"
+        for name, c in result.coefficients.items()
+    ]
+    lines += summary_rows(result, unit, labels)
+    if figures:
+        lines += figure_links(figures)
+    lines += [
+        f"## {coefficients_heading}",
+        "",
+        "| coefficient | before the search | after | unit |",
+        "|---|---|---|---|",
+    ]
+    for name, after in result.coefficients.items():
+        before = result.coefficients_before.get(name)
+        shown = "—" if before is None else value_and_sigma(before.value, before.std, digits)
+        lines.append(
+            f"| {name} | {shown} | {value_and_sigma(after.value, after.std, digits)} | "
+            f"{after.unit} |"
+        )
+    lines += [
+        f"| {name} (given) | {c.value:.{digits}g} | {c.value:.{digits}g} | {c.unit} |"
+        for name, c in result.known.items()
+    ]
+    if result.possibly_biased:
+        lines += ["", "**The coefficients may be biased** (the warnings say why)."]
+    lines += list(own_sections)
+    if result.repeats is not None and result.repeats.repeated:  # compared, any left out
+        lines += ["", *repeats_markdown(result.repeats.to_json())]
+    lines += effects_found(result.effects, digits=digits)
+    lines += ambiguity_lines(result.ambiguous, result.advice)
+    lines += error_before_after(result, unit, labels)
+    lines += evidence_section(result, unit)
+    return "\n".join(lines) + "\n"
 
-    @property
-    def runs(self) -> tuple[str, ...]: ...
-    @property
-    def effects(self) -> tuple[EffectEstimate, ...]: ...
-    @property
-    def rmse_before(self) -> float: ...
-    @property
-    def rmse_after(self) -> float: ...
-    @property
-    def rmse_per_run_before(self) -> dict[str, float]: ...
-    @property
-    def rmse_per_run_after(self) -> dict[str, float]: ...
-    @property
-    def warnings(self) -> tuple[str, ...]: ...
+
+def evidence_section(result: FitSummary, unit: str) -> list[str]:
+    """The "Evidence" section: BIC, the leave-one-record-out RMSE and the residual's Ljung–Box
+    Q before → after the search, then every trial (``evidence_table``)."""
+    cv = [f"{x:.4g}" if x is not None else "n/a" for x in (result.cv_before, result.cv_after)]
+    bic = [
+        f"{f.bic:.1f}" if f is not None and math.isfinite(f.bic) else "n/a"
+        for f in (result.fit_before, result.fit_after)
+    ]
+    q = [
+        f"{w.q_statistic:.1f} (p {w.p_value:.2g})" if math.isfinite(w.q_statistic) else "n/a"
+        for w in (result.whiteness_before, result.whiteness_after)
+    ]
+    return [
+        "",
+        "## Evidence",
+        "",
+        f"BIC {bic[0]} → {bic[1]}; leave-one-record-out RMSE {cv[0]} → {cv[1]} {unit}; "
+        f"Ljung–Box Q {q[0]} → {q[1]}",
+        "",
+        *evidence_table(result.rules, result.steps, unit),
+    ]
 
 
 def summary_rows(result: FitSummary, unit: str, labels: Mapping[str, str]) -> list[str]:
@@ -47,6 +112,11 @@ def summary_rows(result: FitSummary, unit: str, labels: Mapping[str, str]) -> li
         lines.append("| effects found | none (the base model explains the data) | |")
     lines += [
         f"| RMSE before → after | {result.rmse_before:.3g} → {result.rmse_after:.3g} | {unit} |",
+        *(
+            [f"| noise floor | {result.noise:.3g} | {unit} |"]
+            if result.noise is not None and math.isfinite(result.noise)
+            else []
+        ),
         f"| warnings | {len(result.warnings)} (below) | |"
         if result.warnings
         else "| warnings | none | |",

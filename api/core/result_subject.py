@@ -25,8 +25,8 @@ def subject(kind: str, data: Mapping[str, Any]) -> str:
         return OTHER_RESULTS[kind](data)
     from daq.procedures.run_kinds import KINDS  # the labels (only a list needs them)
 
-    recorded = data.get("analysis") or data.get("kind")  # a pendulum's, a decay's document
-    if recorded not in KINDS:  # a tow's or a spin's names its axis
+    recorded = data.get("kind") or data.get("analysis")  # schema 1: a pendulum's "analysis"
+    if recorded not in KINDS:  # schema 1: a tow's or a spin's named only its axis
         recorded = next((k for k, t in AXES.items() if t.axis == data.get("axis")), None)
     if recorded in KINDS:
         line = data.get("dof") or data.get("axis")  # a settling sphere's tow: heave

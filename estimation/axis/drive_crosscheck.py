@@ -51,6 +51,7 @@ from estimation.axis.crosscheck_comparison import (
 from estimation.axis.effects import EFFECTS
 from estimation.axis.set_separability import SetSeparability, damping_at, separability
 from estimation.axis.tow_estimate import SEPARABILITY_LIMIT
+from estimation.data.driven_axes import DRIVEN_AXES
 from estimation.design.advice import separating_load
 from estimation.design.planning_envelope import RigEnvelope
 from estimation.report_numbers import finite_values
@@ -117,9 +118,13 @@ class CrossCheck:
 
 
 def _check(name: str, doc: Any) -> None:
-    analysis = doc.get("analysis") if isinstance(doc, dict) else None
-    if analysis is not None:  # another estimator's result (the axis estimator names none)
-        raise ValueError(f"{name}: a {analysis} analysis; allowed: a tow or spin estimation result")
+    # every document names its kind (schema 1: a pendulum's "analysis", a tow's nothing)
+    kind = (doc.get("kind") or doc.get("analysis")) if isinstance(doc, dict) else None
+    driven = {a.kind for a in DRIVEN_AXES.values()}
+    if kind is not None and kind not in driven:  # another estimator's result
+        raise ValueError(
+            f"{name}: a {kind} estimation; allowed: an estimation of {' or '.join(sorted(driven))}"
+        )
     if not isinstance(doc, dict) or not isinstance(doc.get("coefficients"), dict):
         raise ValueError(
             f"{name}: not an estimation result (no 'coefficients'); allowed: a stored "

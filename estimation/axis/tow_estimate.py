@@ -20,7 +20,6 @@ from estimation.axis.output_error import (
 )
 from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.axis.release import fit_release, speed_at_release
-from estimation.axis.result import EffectEstimate, EstimationResult
 from estimation.axis.reverse import (
     FRICTION_AND_BIAS,
     ReverseTest,
@@ -30,6 +29,7 @@ from estimation.axis.reverse import (
 from estimation.axis.seed_methods import SEED_METHODS
 from estimation.axis.tow_repeats import LOOK_FOR, analyse_tow_repeats, without_excluded
 from estimation.axis.tow_search import candidate_effects, tow_search
+from estimation.axis.tow_section import UNITS, TowResult, TowSection
 from estimation.axis.unexplained import characterise
 from estimation.blas_threads import one_blas_thread
 from estimation.data.driven_axes import driven_axis
@@ -44,11 +44,13 @@ from estimation.design.planning_envelope import RigEnvelope
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
 from estimation.motion.equation import SETTLES_WITHIN
+from estimation.motion.estimation_result import EffectEstimate, EstimationResult
 from estimation.motion.record_bootstrap import Bootstrap, record_bootstrap
 from estimation.motion.term_search import SearchOutcome, search_terms
 from estimation.motion.terms import units_of
 from estimation.motion.well_determined import Combination, drags_at_speeds, terminal_speeds
 from estimation.report_numbers import Coefficient
+from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.misfit import lag_one
 from estimation.stats.repeatability import outlier_warnings
@@ -68,7 +70,7 @@ def estimate(
     seed: int = 0,
     envelope: RigEnvelope | None = None,
     exclude_outliers: bool = False,
-) -> EstimationResult:
+) -> TowResult:
     """Estimate inertia, K_L and K_Q of one axis from runs, with σ, effects and evidence.
 
     Model: (M + M_drive)·v̇ + K_L·v + K_Q·|v|·v = τ (+ effects found in the residual).
@@ -121,7 +123,7 @@ def _output_error(
     n_bootstrap: int,
     seed: int,
     envelope: RigEnvelope | None = None,
-) -> EstimationResult:
+) -> TowResult:
     """The output-error estimate of validated runs (``estimate``)."""
     method = "output-error"
     runs = [fit_release(r) for r in runs]
@@ -321,7 +323,7 @@ def _build(
     uncertainty: DriveUncertainty | None = None,
     reverse: ReverseTest | None = None,
     envelope: RigEnvelope | None = None,
-) -> EstimationResult:
+) -> TowResult:
     """The result document of ``outcome`` (base and final fit, the search's evidence)."""
     base, final = outcome.base, outcome.final
     moving = {
@@ -370,33 +372,40 @@ def _build(
         runs=ids,
         coefficients=coefficients,
         coefficients_before=_coefficients(base, axis),
+        units=dict(UNITS.get(axis, {})),
         effects=effects,
+        not_identified=tuple(
+            n for n, s in zip(final.names, final.std, strict=True) if not np.isfinite(s)
+        ),
         ambiguous=tuple(outcome.ambiguous),
         rmse_before=base.rmse,
         rmse_after=final.rmse,
         rmse_per_run_before=dict(zip(ids, base.rmse_per_run(), strict=True)),
         rmse_per_run_after=dict(zip(ids, final.rmse_per_run(), strict=True)),
-        correlation_names=final.names,
-        correlation=final.correlation,
         warnings=tuple(warnings),
         advice=tuple(outcome.advice),
         whiteness_before=ljung_box(base.residuals),
         whiteness_after=ljung_box(final.residuals),
-        residual_correlations=regressor_correlations(base, prepared, force_before),
-        force_rmse_per_run_before=_rms_per_run(ids, force_before),
-        force_rmse_per_run_after=_rms_per_run(ids, force_residuals(final, prepared)),
+        rules=TOW_RULES,
         steps=tuple(outcome.steps),
         cv_before=outcome.cv_base,
         cv_after=outcome.cv_final,
         bootstrap=boot,
-        uncertainty=uncertainty,
-        reverse_test=reverse,
-        windows={r.run_id: r.window_report() for r in runs},
-        drive_laws={r.run_id: r.drive_law for r in runs if r.drive_law},
-        unexplained=unexplained,
         well_determined=well_determined(final, *combination_conditions(final, runs), axis),
+        section=TowSection(
+            residual_correlations=regressor_correlations(base, prepared, force_before),
+            force_rmse_per_run_before=_rms_per_run(ids, force_before),
+            force_rmse_per_run_after=_rms_per_run(ids, force_residuals(final, prepared)),
+            uncertainty=uncertainty,
+            reverse_test=reverse,
+            windows={r.run_id: r.window_report() for r in runs},
+            drive_laws={r.run_id: r.drive_law for r in runs if r.drive_law},
+            unexplained=unexplained,
+        ),
         fit_before=base,
         fit_after=final,
+        setup=setup_of(prepared),
+        records=records_of(prepared),
     )
 
 
@@ -433,7 +442,7 @@ def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[st
     return {i: float(np.sqrt(np.mean(r**2))) for i, r in zip(ids, residuals, strict=True)}
 
 
-def _seed_result(axis, method, runs, prepared) -> EstimationResult:
+def _seed_result(axis, method, runs, prepared) -> TowResult:
     ls = SEED_METHODS[method](prepared)
     warnings = []
     if ls.values[0] > 0:

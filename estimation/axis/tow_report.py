@@ -13,12 +13,11 @@ from matplotlib.figure import Figure
 
 from estimation.axis.force_residual import force_residuals
 from estimation.axis.prepared_run import PreparedRun, prepare
-from estimation.axis.result import UNITS, EstimationResult
+from estimation.axis.tow_section import UNITS, TowResult
 from estimation.data.run_arrays import RunData
 from estimation.figures import (
     FitRow,
     effects_text,
-    figure_links,
     fit_over_measurements,
     new_figure,
     prefixed,
@@ -26,17 +25,7 @@ from estimation.figures import (
     save_figure,
     signed,
 )
-from estimation.fit_report import (
-    ambiguity_lines,
-    determined_section,
-    effects_found,
-    error_before_after,
-    evidence_table,
-    summary_rows,
-    value_and_sigma,
-    write_result_and_markdown,
-)
-from estimation.stats.acceptance_rules import TOW_RULES
+from estimation.fit_report import report_markdown, write_result_and_markdown
 
 AXIS_LABELS = {
     "surge": {"position": "position", "velocity": "velocity", "drive": "force", "force": "N"},
@@ -60,9 +49,7 @@ def run_labels(runs: Sequence[PreparedRun], axis: str) -> dict[str, str]:
     return labels
 
 
-def fit_figure(
-    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
-) -> Figure:
+def fit_figure(result: TowResult, runs: Sequence[PreparedRun], labels: dict[str, str]) -> Figure:
     """The fit over the measurements (:func:`estimation.figures.fit_over_measurements`)."""
     units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
     before, after = result.fit_before, result.fit_after
@@ -80,9 +67,7 @@ def fit_figure(
     return fit_over_measurements(rows, names["position"], unit, title)
 
 
-def force_figure(
-    result: EstimationResult, runs: Sequence[PreparedRun], labels: dict[str, str]
-) -> Figure:
+def force_figure(result: TowResult, runs: Sequence[PreparedRun], labels: dict[str, str]) -> Figure:
     """Force-domain residual (the force the model misses) against model velocity, before and
     after the effect search, moving samples of every run."""
     units, names = UNITS[result.axis], AXIS_LABELS[result.axis]
@@ -108,69 +93,27 @@ def force_figure(
     return fig
 
 
-def _summary(result: EstimationResult, labels: dict[str, str]) -> list[str]:
-    """The table a reader needs first: coefficients ± σ, effects, RMSE, warnings."""
-    units = UNITS[result.axis]
-    unit = units["position"]
-    lines = [
-        "## Summary",
-        "",
-        "| quantity | value ± σ | unit |",
-        "|---|---|---|",
-    ]
-    for name, est in result.coefficients.items():
-        lines.append(f"| {name} | {value_and_sigma(est.value, est.std)} | {units[name]} |")
-    return lines + summary_rows(result, unit, labels)
-
-
 def _markdown(
-    result: EstimationResult, labels: dict[str, str], figures: Sequence[tuple[str, Path]]
+    result: TowResult, labels: dict[str, str], figures: Sequence[tuple[str, Path]]
 ) -> str:
-    units = UNITS[result.axis]
-    doc = result.to_json()
-    lines = [f"# Estimation report — {result.subject}, {result.method}", ""]
-    lines += determined_section(result.well_determined)
-    lines += _summary(result, labels)
-    lines += figure_links(figures)
-    lines += [
-        "## Coefficients (vehicle alone)",
-        "",
-        "| coefficient | before | after | unit |",
-        "|---|---|---|---|",
-    ]
-    for name, after in result.coefficients.items():
-        before = result.coefficients_before[name]
-        lines.append(
-            f"| {name} | {value_and_sigma(before.value, before.std, 6)} | "
-            f"{value_and_sigma(after.value, after.std, 6)} | {units[name]} |"
-        )
-    lines += effects_found(result.effects, digits=6)
-    lines += ambiguity_lines(result.ambiguous, result.advice)
-    lines += error_before_after(result, units["position"], labels)
+    """The one report (``fit_report.report_markdown``); the tow's own section: the samples
+    each run's fit left out (values or times that could not be trusted)."""
     left_out = [
         f"- {labels.get(rid, rid)}: {gap.describe()}"
-        for rid, w in result.windows.items()
+        for rid, w in result.section.windows.items()
         for gap in w.left_out
     ]
-    if left_out:  # samples whose value or time could not be trusted: holes in the fit
-        lines += ["", "## Samples left out", "", *left_out]
-    ev = doc["evidence"]
-    cv = [f"{x:.4g}" if x is not None else "n/a" for x in (result.cv_before, result.cv_after)]
-    lines += [
-        "",
-        "## Evidence",
-        "",
-        f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}; "
-        f"leave-one-run-out RMSE {cv[0]} → {cv[1]} {units['position']}",
-        "",
-        *evidence_table(TOW_RULES, result.steps, units["position"]),
-    ]
-    return "\n".join(lines) + "\n"
+    return report_markdown(
+        result,
+        f"Estimation report — {result.subject}, {result.method}",
+        labels,
+        figures,
+        ["", "## Samples left out", "", *left_out] if left_out else [],
+        coefficients_heading="Coefficients (vehicle alone)",
+    )
 
 
-def write_report(
-    result: EstimationResult, runs: Sequence[RunData], directory: str | Path
-) -> list[Path]:
+def write_report(result: TowResult, runs: Sequence[RunData], directory: str | Path) -> list[Path]:
     """Write result.json, report.md and the figures (``fit`` and ``force_residual``, each as
     a 150 dpi PNG and an SVG) to directory; returns the paths written."""
     if result.fit_before is None or result.fit_after is None:
@@ -184,7 +127,7 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     # the samples the result fitted: a release found in the data was refined by the fit and
     # may fall on the other side of a sample (one more or one fewer sample than ``runs``)
-    fitted = {rid: w.t_release for rid, w in result.windows.items()}
+    fitted = {rid: w.t_release for rid, w in result.section.windows.items()}
     prepared = [prepare(replace(r, t_release=fitted.get(r.run_id, r.t_release))) for r in runs]
     labels = run_labels(prepared, result.axis)
     fit = save_figure(fit_figure(result, prepared, labels), out, "fit")

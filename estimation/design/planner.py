@@ -145,15 +145,15 @@ class Decision:
 def state_from_result(
     result: object, recorded: Sequence[Candidate], budget: Budget | None = None
 ) -> AxisState:
-    """The planner's view of an ``estimation.axis.result.EstimationResult`` and its
+    """The planner's view of an ``estimation.axis.tow_section.TowResult`` and its
     uncertainty ``budget`` (None: none, U = 2σ)."""
-    r = result  # duck-typed: an EstimationResult
+    r = result  # duck-typed: a TowResult
     values = {n: e.value for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
     std = {n: e.std for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
     for e in r.effects:  # type: ignore[attr-defined]
         values[e.name], std[e.name] = e.value, e.std
-    names = list(r.correlation_names)  # type: ignore[attr-defined]
-    corr = np.asarray(r.correlation)  # type: ignore[attr-defined]
+    names = list(r.fit_after.names)  # type: ignore[attr-defined]
+    corr = np.asarray(r.fit_after.correlation)  # type: ignore[attr-defined]
     pairs = {
         (a, b): float(corr[i, j])
         for i, a in enumerate(names)

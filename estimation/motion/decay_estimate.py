@@ -32,8 +32,9 @@ from estimation.design.decay_information import (
 )
 from estimation.motion.decay_end import FreeWindow, centre, free_decay_end
 from estimation.motion.decay_repeats import LOOK_FOR, analyse_decay_repeats, release_amplitude
-from estimation.motion.decay_result import DecayResult
+from estimation.motion.decay_section import DecayResult, DecaySection
 from estimation.motion.equivalent import damping_over_swings
+from estimation.motion.estimation_result import EffectEstimate, EstimationResult
 from estimation.motion.output_error_fit import MotionFit, fit_motion
 from estimation.motion.record_bootstrap import DEFAULT_DRAWS, MIN_RECORDS, record_bootstrap
 from estimation.motion.records import Record, Setup, known_terms_of, validate
@@ -221,12 +222,12 @@ def estimate_records(
         repeats=repeats,
         bootstrap=boot,
         alternatives=alternatives,
-        window=ends,
+        section=replace(result.section, window=ends),
         equivalent=equivalent,
         well_determined=decay_combinations(setup, first, final, equivalent),
         setup=setup,
         records=tuple(windowed),
-        base=base,
+        names=dict(names or {}),
     )
 
 
@@ -317,18 +318,28 @@ def _result(setup, records, outcome: SearchOutcome, starts) -> DecayResult:
         )
     total_m, k = inertia_and_stiffness(setup, records[0], final)
     period = 2 * np.pi * np.sqrt(total_m / k) if k and k > 0 and total_m > 0 else None
-    return DecayResult(
-        dof=setup.dof,
-        runs=tuple(r.run_id for r in records),
+    ids = tuple(r.run_id for r in records)
+    return EstimationResult(
+        axis=setup.dof,
+        method="output-error",
+        runs=ids,
         coefficients=coefficients,
+        coefficients_before=_coefficients(setup, base),
+        units=units_of(setup.dof, [n for n in (*coefficients, *known) if n in LIBRARY]),
+        effects=tuple(
+            EffectEstimate(e, final.value(e), final.sigma(e), coefficients[e].unit)
+            for e in final.effects
+        ),
         known=known,
-        effects=final.effects,
         not_identified=final.not_identified,
         rmse_before=base.rmse,
         rmse_after=final.rmse,
+        rmse_per_run_before=dict(zip(ids, base.rmse_per_run(), strict=True)),
+        rmse_per_run_after=dict(zip(ids, final.rmse_per_run(), strict=True)),
         noise=noise,
-        whiteness=white,
         whiteness_before=ljung_box(base.residuals),
+        whiteness_after=white,
+        rules=DECAY_RULES,
         possibly_biased=biased,
         natural_period_s=period,
         warnings=tuple(warnings),
@@ -336,10 +347,15 @@ def _result(setup, records, outcome: SearchOutcome, starts) -> DecayResult:
         cv_before=outcome.cv_base,
         cv_after=outcome.cv_final,
         advice=outcome.advice,
-        equilibrium={r.run_id: float(e) for r, e in zip(records, final.equilibrium, strict=True)},
-        release_time_s=dict(starts),
         ambiguous=outcome.ambiguous,
-        fit=final,
+        section=DecaySection(
+            equilibrium={
+                r.run_id: float(e) for r, e in zip(records, final.equilibrium, strict=True)
+            },
+            release_time_s=dict(starts),
+        ),
+        fit_before=base,
+        fit_after=final,
     )
 
 

@@ -1,5 +1,5 @@
-"""Free-decay report: result.json, report.md (coefficients with σ, the repeats and any left
-out, the search's evidence, error before/after) and one figure per fitted record: measured x
+"""Free-decay report: result.json, report.md (the one report, ``fit_report.report_markdown``,
+with each record's fitted window) and one figure per fitted record: measured x
 and the fitted model against time from release, with the residual beneath
 (docs/estimation.md, *Free decay*)."""
 
@@ -10,18 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from estimation.figures import figure_links, new_figure, run_label, save_figure
-from estimation.fit_report import (
-    ambiguity_lines,
-    determined_section,
-    evidence_table,
-    write_result_and_markdown,
-)
-from estimation.motion.decay_result import DecayResult
+from estimation.figures import new_figure, run_label, save_figure
+from estimation.fit_report import report_markdown, write_result_and_markdown
+from estimation.motion.decay_section import DecayResult
 from estimation.motion.records import Record
 from estimation.motion.terms import DOFS, units_of
-from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.uncertainty.text import repeats_markdown
 
 #: x's unit per DOF.
 POSITION_UNIT = {dof: units_of(dof)["position"] for dof in DOFS}
@@ -33,15 +26,15 @@ def fitted_window(
     """The samples the fit used (``t`` from release, s; measured x) and the model there:
     x_model = x − residual (``x_eq + ξ``, estimation.motion.output_error_fit). ``t_end``: the
     window's end (default: the one the result used)."""
-    if result.fit is None:
+    if result.fit_after is None:
         raise ValueError("result: got a result without its fit, allowed: one made by estimate")
     index = result.runs.index(record.run_id)
-    release = result.release_time_s[record.run_id]
-    if t_end is None and record.run_id in result.window:
-        t_end = result.window[record.run_id].end
+    release = result.section.release_time_s[record.run_id]
+    if t_end is None and record.run_id in result.section.window:
+        t_end = result.section.window[record.run_id].end
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
     keep = (t >= release) & (t <= (np.inf if t_end is None else t_end))
-    residual = result.fit.residuals[index]
+    residual = result.fit_after.residuals[index]
     if int(keep.sum()) != residual.size:
         raise ValueError(
             f"record {record.run_id}: got {int(keep.sum())} samples in the window, allowed: "
@@ -51,7 +44,7 @@ def fitted_window(
 
 
 def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, float | None]):
-    unit = POSITION_UNIT.get(result.dof, "m or rad")
+    unit = POSITION_UNIT.get(result.axis, "m or rad")
     fig = new_figure(3.6 * len(records))
     axes = fig.subplots(2 * len(records), 1, sharex=False, height_ratios=[3, 1] * len(records))
     fig.subplots_adjust(hspace=0.6)
@@ -60,7 +53,7 @@ def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, f
         top, bottom = axes[2 * i], axes[2 * i + 1]
         top.plot(t, x, ".", ms=2, color="0.4", label="measured")
         top.plot(t, model, "-", lw=1.2, color="C0", label="model")
-        top.set_ylabel(f"{result.dof} ({unit})")
+        top.set_ylabel(f"{result.axis} ({unit})")
         top.set_title(run_label(i + 1, record.run_id), fontsize=9, loc="left")  # as the page
         top.legend(loc="upper right", fontsize=8)
         bottom.plot(t, x - model, "-", lw=0.8, color="C3")
@@ -71,44 +64,19 @@ def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, f
 
 
 def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
-    doc = result.to_json()
-    unit = POSITION_UNIT.get(result.dof, "")
-    lines = [f"# Free decay of {result.dof}: {', '.join(result.runs)}", ""]
-    lines += determined_section(result.well_determined, result.equivalent, unit)
-    lines += ["## Coefficients", ""]
-    lines += ["| coefficient | value | σ | unit |", "|---|---|---|---|"]
-    for name, c in doc["coefficients"].items():
-        std = "not identified" if c["std"] is None else f"{c['std']:.4g}"
-        value = "—" if c["value"] is None else f"{c['value']:.6g}"
-        lines.append(f"| {name} | {value} | {std} | {c['unit']} |")
-    for name, c in doc["known"].items():
-        lines.append(f"| {name} (known) | {c['value']:.6g} | — | {c['unit']} |")
-    lines += [
-        "",
-        f"Effects kept: {', '.join(result.effects) or 'none'}. RMS error before the search "
-        f"{result.rmse_before:.3g} {unit}, after {result.rmse_after:.3g} {unit} (noise floor "
-        f"{result.noise:.3g} {unit}).",
+    """The one report (``fit_report.report_markdown``); the decay's own section: each
+    record's fitted window and what ended it."""
+    windows = [
+        f"- {run}: {result.section.release_time_s[run]:.4g} s to {w.end:.4g} s ({w.ended_by})"
+        for run, w in result.section.window.items()
     ]
-    if ambiguous := ambiguity_lines(result.ambiguous, result.advice):
-        lines += ["", *ambiguous, ""]
-    for run, w in result.window.items():
-        lines.append(
-            f"Fitted window of {run}: {result.release_time_s[run]:.4g} s to {w.end:.4g} s "
-            f"({w.ended_by})."
-        )
-    if result.possibly_biased:
-        lines.append("**The coefficients may be biased** (warnings below say why).")
-    if result.repeats is not None and result.repeats.repeated:  # what was compared, left out
-        lines += ["", *repeats_markdown(doc["repeats"])]
-    lines += [
-        "",
-        "## Evidence",
-        "",
-        *evidence_table(DECAY_RULES, result.steps, unit),
-    ]
-    if result.warnings:
-        lines += ["", "## Warnings", "", *(f"- {w}" for w in result.warnings)]
-    return "\n".join([*lines, "", *figure_links(figures)]) + "\n"
+    return report_markdown(
+        result,
+        f"Free decay of {result.axis}: {', '.join(result.runs)}",
+        {rid: run_label(i, rid) for i, rid in enumerate(result.runs, start=1)},
+        figures,
+        ["", "## Fitted windows", "", *windows] if windows else [],
+    )
 
 
 def write_decay_report(

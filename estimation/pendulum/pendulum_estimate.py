@@ -18,14 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from estimation.axis.result import EffectEstimate
 from estimation.blas_threads import one_blas_thread
 from estimation.data.run_arrays import validate_run_set
 from estimation.errors import EstimationFailed
 from estimation.motion.decay_estimate import estimate_records
-from estimation.motion.decay_result import DecayResult
+from estimation.motion.estimation_result import EffectEstimate, EstimationResult
 from estimation.motion.output_error_fit import MotionFit
-from estimation.motion.term_search import Step, evidence_json
 from estimation.motion.terms import LIBRARY
 from estimation.pendulum import PENDULUM_METHODS
 from estimation.pendulum.configuration import (
@@ -47,13 +45,10 @@ from estimation.pendulum.methods import (
     row_value,
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
-from estimation.report_numbers import Coefficient, finite_or_none, finite_values
-from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.stats.diagnostics import Whiteness, ljung_box
+from estimation.report_numbers import Coefficient, finite_or_none
 from estimation.uncertainty.budget import Budget
 from estimation.uncertainty.motion_budget import motion_budget
 
-SCHEMA_VERSION = 1
 GEOMETRY_EXACT = (
     "Type B not declared: the rig file's pendulum geometry (rod, arm, buoyancy) is taken as "
     "exact, so U covers the fit alone"
@@ -65,132 +60,73 @@ BASE_NAMES: tuple[str, ...] = (ADDED_MASS, *BASE_TERMS)
 
 
 @dataclass(frozen=True)
-class PendulumResult:
-    """Everything one pendulum estimation produced; ``to_json()`` is the documented document."""
+class PendulumSection:
+    """What a pendulum's result adds to the one result (``motion.estimation_result``): the
+    thesis's methods side by side, each run's extrema, its geometry and its decay as
+    prepared (the swing's release is its first sample)."""
 
-    axis: str
-    method: str
-    runs: tuple[str, ...]
-    coefficients: dict[str, Coefficient]
-    coefficients_before: dict[str, Coefficient]
-    effects: tuple[EffectEstimate, ...]
-    ambiguous: tuple[tuple[str, ...], ...]
     methods: tuple[MethodEstimate, ...]
     peaks: dict[str, Peaks]
-    rmse_before: float
-    rmse_after: float
-    rmse_per_run_before: dict[str, float]
-    rmse_per_run_after: dict[str, float]
-    whiteness_before: Whiteness
-    whiteness_after: Whiteness
-    steps: tuple[Step, ...]
-    warnings: tuple[str, ...]
-    advice: tuple[str, ...]
     geometry: dict[str, dict[str, float]]
-    fit_before: MotionFit = field(repr=False, compare=False)
-    fit_after: MotionFit = field(repr=False, compare=False)
     decays: tuple[Decay, ...] = field(default=(), repr=False, compare=False)
-    #: The one engine's result (``motion.decay_estimate``): B_e, what is well determined,
-    #: the budget.
-    motion: DecayResult | None = field(default=None, repr=False, compare=False)
 
-    def budget(self) -> Budget:
-        """The GUM budget of the output-error coefficients (``uncertainty.motion_budget``,
-        the one engine's), named and in the units this result reports them."""
-        if self.motion is None or self.motion.fit is None:
-            raise ValueError("result: got a pendulum estimate without its fit")
-        names = self.motion.fit.names
-        b = motion_budget(self.motion, units={n: unit(n, self.axis) for n in names})
-        return replace(
-            b,
-            notes=(GEOMETRY_EXACT,),
-            coefficients={
-                reported(n): replace(c, name=reported(n)) for n, c in b.coefficients.items()
-            },
-        )
-
-    def method_estimate(self, method: str, run_id: str | None = None) -> MethodEstimate:
-        """The row of ``method`` (on ``run_id``, default the first run)."""
-        rid = run_id or self.runs[0]
+    def method_estimate(self, method: str, run_id: str) -> MethodEstimate:
+        """The row of ``method`` on ``run_id``."""
         for m in self.methods:
-            if m.method == method and m.run_id == rid:
+            if m.method == method and m.run_id == run_id:
                 return m
-        raise KeyError(f"method {method!r} on run {rid!r} not in this result")
+        raise KeyError(f"method {method!r} on run {run_id!r} not in this result")
 
-    def to_json(self) -> dict[str, Any]:
-        """The JSON document (schema in docs/pendulum.md); each run's peaks carry the
-        release (its decay's first sample) on the run's clock, so a plot can show the time
-        from the release."""
+    def to_json(self, result: EstimationResult[Any]) -> dict[str, Any]:
+        """The pendulum's keys (docs/pendulum.md): its analysis and swing axis, the methods,
+        each run's peaks with its release on the run's clock (a plot's time origin), the
+        geometry, and each run's fitted initial angle, rate and offset."""
         start = {d.run_id: float(d.t[0]) for d in self.decays}
-        return {
-            "schema_version": SCHEMA_VERSION,
-            "analysis": "pendulum",
-            "axis": self.axis,
-            "method": self.method,
-            "runs": list(self.runs),
-            "coefficients": {k: v.to_json() for k, v in self.coefficients.items()},
-            "coefficients_before": {k: v.to_json() for k, v in self.coefficients_before.items()},
-            "units": {reported(n): unit(n, self.axis) for n in COEFFICIENTS} | {"position": "rad"},
-            "effects": [e.to_json() for e in self.effects],
-            "ambiguous": [list(g) for g in self.ambiguous],
-            "methods": [m.to_json() for m in self.methods],
-            "peaks": {
-                rid: p.to_json() | {"release_time_s": start.get(rid)}
-                for rid, p in self.peaks.items()
-            },
-            "rmse_before": finite_or_none(self.rmse_before),
-            "rmse_after": finite_or_none(self.rmse_after),
-            "rmse_per_run_before": finite_values(self.rmse_per_run_before),
-            "rmse_per_run_after": finite_values(self.rmse_per_run_after),
-            "warnings": list(self.warnings),
-            "advice": list(self.advice),
-            "equivalent_linear_damping": [
-                e.to_json() for e in (self.motion.equivalent if self.motion else ())
-            ],
-            "well_determined": [
-                c.to_json() for c in (self.motion.well_determined if self.motion else ())
-            ],
-            "coefficients_possibly_biased": bool(self.motion and self.motion.possibly_biased),
-            "bootstrap": (
-                self.motion.bootstrap.to_json(reported)
-                if self.motion and self.motion.bootstrap
-                else None
-            ),
-            # the runs' repeats, a decay's and a tow set's shape (``motion.decay_repeats``)
-            "repeats": self.motion.repeats.to_json()
-            if self.motion and self.motion.repeats
-            else None,
-            "next_release": [
-                p.to_json(reported) for p in (self.motion.next_release if self.motion else ())
-            ],
-            "geometry": self.geometry,
-            "diagnostics": {
-                "ljung_box_before": self.whiteness_before.to_json(),
-                "ljung_box_after": self.whiteness_after.to_json(),
-            },
-            "evidence": evidence_json(
-                self.fit_before,
-                self.fit_after,
-                None if self.motion is None else self.motion.cv_before,
-                None if self.motion is None else self.motion.cv_after,
-                self.steps,
-            ),
-            "acceptance_rules": DECAY_RULES.to_json(),
-            "nuisance": {
+        fit = result.fit_after
+        nuisance = (
+            {}
+            if fit is None
+            else {
                 rid: {
                     "initial_angle": finite_or_none(a),
                     "initial_rate": finite_or_none(r),
                     "offset": finite_or_none(o),
                 }
                 for rid, a, r, o in zip(
-                    self.runs,
-                    self.fit_after.initial[:, 0],
-                    self.fit_after.initial[:, 1],
-                    self.fit_after.equilibrium,
-                    strict=True,
+                    result.runs, fit.initial[:, 0], fit.initial[:, 1], fit.equilibrium, strict=True
                 )
+            }
+        )
+        return {
+            "kind": "pendulum",
+            "analysis": "pendulum",  # schema 1's name of the kind, kept for its readers
+            "axis": result.axis,
+            "methods": [m.to_json() for m in self.methods],
+            "peaks": {
+                rid: p.to_json() | {"release_time_s": start.get(rid)}
+                for rid, p in self.peaks.items()
             },
+            "geometry": self.geometry,
+            "nuisance": nuisance,
         }
+
+
+#: A pendulum's result.
+PendulumResult = EstimationResult[PendulumSection]
+
+
+def pendulum_budget(result: PendulumResult) -> Budget:
+    """The GUM budget of a pendulum's output-error coefficients (``uncertainty.motion_budget``,
+    the one engine's), named and in the units the result reports them."""
+    if result.fit_after is None:
+        raise ValueError("result: got a pendulum estimate without its fit")
+    names = result.fit_after.names
+    b = motion_budget(result, units={n: unit(n, result.axis) for n in names})
+    return replace(
+        b,
+        notes=(GEOMETRY_EXACT,),
+        coefficients={reported(n): replace(c, name=reported(n)) for n, c in b.coefficients.items()},
+    )
 
 
 def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
@@ -299,7 +235,7 @@ def estimate_pendulum(
         subject=f"{axis} swing",
         names={INERTIA: reported(INERTIA)},
     )
-    if motion.base is None or motion.fit is None:
+    if motion.fit_before is None or motion.fit_after is None:
         raise EstimationFailed(f"the {axis} swing", "the one engine returned no model")
     decays = [d for d in decays if d.run_id in motion.runs]  # a left-out repeat: no method
     peaks: dict[str, Peaks] = {d.run_id: found[d.run_id] for d in decays}
@@ -312,13 +248,10 @@ def estimate_pendulum(
             equation_error(d, p),
             equation_error(d, p, quadratic=False),
         ]
-    base, final = motion.base, motion.fit
-    steps: tuple[Step, ...] = motion.steps
-    ambiguous: tuple[tuple[str, ...], ...] = tuple(motion.ambiguous)
+    base, final = motion.fit_before, motion.fit_after
     advice = list(motion.advice)
     ids = tuple(d.run_id for d in decays)
     rows += _output_error_rows(decays, final)
-    white_before, white_after = ljung_box(base.residuals), ljung_box(final.residuals)
     warnings = [*_warnings(rows, peaks, decays, final), *motion.warnings]
     if final.effects and len({round(float(np.max(np.abs(d.phi))), 2) for d in decays}) < 2:
         advice.append(
@@ -334,30 +267,25 @@ def estimate_pendulum(
     effects = tuple(
         EffectEstimate(e, final.value(e), final.sigma(e), unit(e, axis)) for e in final.effects
     )
-    return PendulumResult(
-        axis=axis,
-        method=method,
-        runs=ids,
-        coefficients=coefficients,
-        coefficients_before=_coefficients(base, axis),
-        effects=effects,
-        ambiguous=tuple(ambiguous),
-        methods=tuple(rows),
-        peaks=peaks,
-        rmse_before=base.rmse,
-        rmse_after=final.rmse,
-        rmse_per_run_before=dict(zip(ids, base.rmse_per_run(), strict=True)),
-        rmse_per_run_after=dict(zip(ids, final.rmse_per_run(), strict=True)),
-        whiteness_before=white_before,
-        whiteness_after=white_after,
-        steps=tuple(steps),
-        warnings=tuple(warnings),
-        advice=tuple(advice),
-        geometry={d.run_id: asdict(d.geometry) for d in decays},
-        fit_before=base,
-        fit_after=final,
-        decays=tuple(decays),
-        motion=motion,
+    return EstimationResult(
+        **{
+            **motion.__dict__,
+            "axis": axis,
+            "method": method,
+            "runs": ids,
+            "coefficients": coefficients,
+            "coefficients_before": _coefficients(base, axis),
+            "units": {reported(n): unit(n, axis) for n in COEFFICIENTS} | {"position": "rad"},
+            "effects": effects,
+            "warnings": tuple(warnings),
+            "advice": tuple(advice),
+            "section": PendulumSection(
+                methods=tuple(rows),
+                peaks=peaks,
+                geometry={d.run_id: asdict(d.geometry) for d in decays},
+                decays=tuple(decays),
+            ),
+        }
     )
 
 

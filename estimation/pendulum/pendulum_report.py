@@ -1,4 +1,5 @@
-"""Pendulum report: result.json, report.md (summary first, figures linked) and the figures:
+"""Pendulum report: result.json, report.md (the one report, ``fit_report.report_markdown``, with
+the methods side by side) and the figures:
 measured vs model before/after the effect search against time from release with residuals,
 residual vs angular rate, peak magnitudes with exponential and linear envelopes."""
 
@@ -14,26 +15,15 @@ from estimation.figures import (
     TIME_LABEL,
     FitRow,
     effects_text,
-    figure_links,
     fit_over_measurements,
     new_figure,
     prefixed,
     run_label,
     save_figure,
 )
-from estimation.fit_report import (
-    ambiguity_lines,
-    determined_section,
-    effects_found,
-    error_before_after,
-    evidence_table,
-    summary_rows,
-    write_result_and_markdown,
-)
-from estimation.pendulum.configuration import unit
+from estimation.fit_report import report_markdown, write_result_and_markdown
+from estimation.motion.output_error_fit import MotionFit
 from estimation.pendulum.pendulum_estimate import PendulumResult
-from estimation.stats.acceptance_rules import DECAY_RULES
-from estimation.uncertainty.text import repeats_markdown
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -50,29 +40,39 @@ def run_labels(result: PendulumResult) -> dict[str, str]:
     """``run 1 (a1b2c3d4), swing 12.3°``: order, id prefix and the largest swing angle."""
     return {
         d.run_id: run_label(i, d.run_id, f"swing {np.degrees(np.max(np.abs(d.phi))):.3g}°")
-        for i, d in enumerate(result.decays, start=1)
+        for i, d in enumerate(result.section.decays, start=1)
     }
+
+
+def _fits(result: PendulumResult) -> tuple[MotionFit, MotionFit]:
+    """The fits before and after the search (a result made by ``estimate_pendulum``)."""
+    if result.fit_before is None or result.fit_after is None:
+        raise ValueError(
+            "result: got a result without its fits, allowed: one made by estimate_pendulum()"
+        )
+    return result.fit_before, result.fit_after
 
 
 def fit_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     """The fit over the measurements (:func:`estimation.figures.fit_over_measurements`)."""
     # the samples fitted: each swing as the engine windowed it (it ends where the body
     # comes to rest), on the time from its release
-    fitted = result.motion.records if result.motion else [d.record() for d in result.decays]
+    fitted = result.records or tuple(d.record() for d in result.section.decays)
+    before, after = _fits(result)
     rows = [
         FitRow(
             labels[d.run_id],
             np.asarray(r.t, dtype=float) - d.t[0],
             np.asarray(r.x, dtype=float),
-            result.fit_before.residuals[i],
-            result.fit_after.residuals[i],
+            before.residuals[i],
+            after.residuals[i],
         )
-        for i, (d, r) in enumerate(zip(result.decays, fitted, strict=True))
+        for i, (d, r) in enumerate(zip(result.section.decays, fitted, strict=True))
     ]
     title = (
-        f"pendulum, {result.method}: before = {effects_text(result.fit_before.effects)} "
+        f"pendulum, {result.method}: before = {effects_text(before.effects)} "
         f"(RMSE {result.rmse_before:.3g} rad), after = "
-        f"{effects_text(result.fit_after.effects)} (RMSE {result.rmse_after:.3g} rad)"
+        f"{effects_text(after.effects)} (RMSE {result.rmse_after:.3g} rad)"
     )
     return fit_over_measurements(rows, "angle φ", "rad", title, legend_loc="upper right")
 
@@ -82,10 +82,9 @@ def rate_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     friction shows as a step at zero rate, quadratic damping as an odd curve."""
     fig = new_figure(4.6)
     axes = fig.subplots(1, 2)
-    for ax, which in zip(axes, ("before", "after"), strict=True):
-        fit = result.fit_before if which == "before" else result.fit_after
+    for ax, which, fit in zip(axes, ("before", "after"), _fits(result), strict=True):
         scale, unit = prefixed(fit.residuals, "rad")
-        for d, res, rate in zip(result.decays, fit.residuals, fit.velocities, strict=True):
+        for d, res, rate in zip(result.section.decays, fit.residuals, fit.velocities, strict=True):
             ax.plot(rate, res / scale, ".", ms=3, label=labels[d.run_id])
         ax.axhline(0.0, color="0.6", lw=0.8)
         ax.set_title(f"{which}: {effects_text(fit.effects)}", loc="left", fontsize=10)
@@ -100,8 +99,8 @@ def peaks_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     """Peak magnitudes with the exponential (viscous) and linear (dry friction) envelopes."""
     fig = new_figure(5.0)
     ax = fig.add_subplot(1, 1, 1)
-    start = {d.run_id: float(d.t[0]) for d in result.decays}
-    for (rid, p), colour in zip(result.peaks.items(), COLOURS, strict=False):
+    start = {d.run_id: float(d.t[0]) for d in result.section.decays}
+    for (rid, p), colour in zip(result.section.peaks.items(), COLOURS, strict=False):
         t0 = start.get(rid, 0.0)
         tt = np.linspace(p.times[0], p.times[-1], 100)
         ax.plot(p.times - t0, p.amplitudes, "o", ms=4, color=colour, label=f"{labels[rid]}: |peak|")
@@ -115,7 +114,7 @@ def peaks_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
         "pendulum: peak magnitudes, exponential (viscous) vs linear (dry friction) envelope",
         fontsize=11,
     )
-    ax.legend(fontsize=8, ncols=max(1, len(result.peaks)))
+    ax.legend(fontsize=8, ncols=max(1, len(result.section.peaks)))
     return fig
 
 
@@ -126,39 +125,12 @@ def _pm(est: dict | None) -> str:
     return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
 
 
-def _summary(result: PendulumResult, labels: dict[str, str]) -> list[str]:
-    """Coefficients ± σ (headline method, after the effects), effects, RMSE, warnings, runs."""
-    doc = result.to_json()
-    lines = ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
-    for name, est in doc["coefficients"].items():
-        lines.append(f"| {name} | {_pm(est)} | {unit(name, result.axis)} |")
-    return lines + summary_rows(result, "rad", labels)
-
-
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
-    """The Markdown report: summary table, figures, methods side by side, the repeats (and
-    any left out), effects, error before/after, evidence."""
+    """The one report (``fit_report.report_markdown``); the pendulum's own section: the
+    methods side by side, per run."""
     doc = result.to_json()
-    labels = run_labels(result) if result.decays else {r: r for r in result.runs}
+    labels = run_labels(result) if result.section.decays else {r: r for r in result.runs}
     lines = [
-        f"# Pendulum free-decay report — {result.axis}, headline method {result.method}",
-        "",
-        *(
-            determined_section(result.motion.well_determined, result.motion.equivalent, "rad")
-            if result.motion
-            else determined_section(())
-        ),
-        *_summary(result, labels),
-        *(figure_links(figures) if figures else []),
-        "## Coefficients of the vehicle (headline)",
-        "",
-        "| coefficient | before effects | after effects | unit |",
-        "|---|---|---|---|",
-    ]
-    for name, est in doc["coefficients"].items():
-        before = doc["coefficients_before"].get(name)
-        lines.append(f"| {name} | {_pm(before)} | {_pm(est)} | {unit(name, result.axis)} |")
-    lines += [
         "",
         "## Methods side by side",
         "",
@@ -175,29 +147,20 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
             else f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
             f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | — | — |"
         )
-    repeats = result.motion.repeats if result.motion else None
-    if repeats is not None and repeats.repeated:  # what was compared, left out
-        lines += ["", *repeats_markdown(doc["repeats"])]
-    lines += effects_found(result.effects, digits=5)
-    lines += ambiguity_lines(result.ambiguous, result.advice)
-    wb, wa = doc["diagnostics"]["ljung_box_before"], doc["diagnostics"]["ljung_box_after"]
-    ev = doc["evidence"]
-    lines += error_before_after(result, "rad", labels)
-    lines += [
-        "",
-        f"Ljung–Box Q {wb['q']:.1f} (p {wb['p_value']:.2g}) → "
-        f"{wa['q']:.1f} (p {wa['p_value']:.2g}); "
-        f"BIC {ev['bic_before']:.1f} → {ev['bic_after']:.1f}",
-        "",
-        *evidence_table(DECAY_RULES, result.steps, "rad"),
-    ]
-    return "\n".join(lines) + "\n"
+    return report_markdown(
+        result,
+        f"Pendulum free-decay report — {result.axis}, headline method {result.method}",
+        labels,
+        figures,
+        lines,
+        coefficients_heading="Coefficients of the vehicle (headline)",
+    )
 
 
 def write_pendulum_report(result: PendulumResult, directory: str | Path) -> list[Path]:
     """Write result.json, report.md and the figures ``fit``, ``residual_vs_rate`` and
     ``peaks`` (each a 150 dpi PNG and an SVG) to directory; returns the paths written."""
-    if not result.decays:
+    if not result.section.decays:
         raise ValueError(
             "result: got a result without its decays, allowed: one made by estimate_pendulum()"
         )

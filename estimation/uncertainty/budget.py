@@ -35,8 +35,8 @@ from scipy import special
 
 from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
-from estimation.axis.result import EstimationResult
 from estimation.axis.tow_estimate import combination_conditions, well_determined
+from estimation.axis.tow_section import TowResult
 from estimation.data.run_arrays import RunData
 from estimation.kind_advice import advice_for
 from estimation.motion.output_error_fit import MotionFit
@@ -166,7 +166,7 @@ def round_reported(value: float, expanded: float, digits: int = 2) -> tuple[str,
 
 def _type_b_sensitivity(
     runs: Sequence[RunData],
-    result: EstimationResult,
+    result: TowResult,
     fit: MotionFit,
     conditions: tuple[Mapping[str, float], Sequence[float]],
     chain: Chain,
@@ -194,7 +194,7 @@ def _type_b_sensitivity(
 
 def _type_b_rows(
     runs: Sequence[RunData],
-    result: EstimationResult,
+    result: TowResult,
     fit: MotionFit,
     conditions: tuple[Mapping[str, float], Sequence[float]],
     chain: Chain,
@@ -263,14 +263,14 @@ def coefficient_budget(name: str, value: float, rows: list[BudgetRow]) -> Coeffi
     return CoefficientBudget(name, value, shared, u_c, dof, k, expanded, shown_value, shown_u)
 
 
-def as_fitted(runs: Sequence[RunData], result: EstimationResult) -> list[RunData]:
+def as_fitted(runs: Sequence[RunData], result: TowResult) -> list[RunData]:
     """The runs with the release instants the estimate fitted with: a release found in the
     data was refined by the fit (``estimation.axis.release.fit_release``), and the result's
     window holds the refined instant (refining again would repeat the costliest step of an
     estimate: 95 s on the ship2d record)."""
     out = []
     for r in runs:
-        w = result.windows.get(r.run_id)
+        w = result.section.windows.get(r.run_id)
         if w is not None and r.window_found is not None and w != r.window_found:
             r = replace(r, t_release=w.t_release, window_found=w)
         out.append(r)
@@ -279,7 +279,7 @@ def as_fitted(runs: Sequence[RunData], result: EstimationResult) -> list[RunData
 
 def uncertainty_budget(
     runs: Sequence[RunData],
-    result: EstimationResult,
+    result: TowResult,
     chain: Chain | None,
     tolerances: Mapping[str, float] | None,
     repeats: RepeatAnalysis | None = None,

@@ -23,13 +23,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
-from estimation.motion.decay_result import DecayResult
 from estimation.motion.equivalent import equivalent_damping
+from estimation.motion.estimation_result import EstimationResult
 from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
 from estimation.motion.records import Setup, known_terms_of
 from estimation.motion.term_search import TRIAL_NFEV
@@ -65,7 +66,7 @@ def _moved(setup: Setup, source: str, delta: float) -> Setup | None:
 
 
 def motion_budget(
-    result: DecayResult,
+    result: EstimationResult[Any],
     tolerances: Mapping[str, float] | None = None,
     units: Mapping[str, str] | None = None,
 ) -> Budget:
@@ -73,7 +74,7 @@ def motion_budget(
     declared half-widths by ``DECLARABLE`` name; ``units``: a coefficient's unit where the
     result's own is not the one reported (a pendulum's vehicle terms). ``ValueError``
     naming the field for an unknown name or a negative half-width."""
-    fit, setup = result.fit, result.setup
+    fit, setup = result.fit_after, result.setup
     if fit is None or setup is None:
         raise ValueError("result: got an estimate without its fit, allowed: a fitted decay")
     declared = {}
@@ -203,7 +204,9 @@ def _fit_row(
     )
 
 
-def _combinations_on(setup: Setup, result: DecayResult, fit: MotionFit) -> dict[str, float]:
+def _combinations_on(
+    setup: Setup, result: EstimationResult[Any], fit: MotionFit
+) -> dict[str, float]:
     """The result's well-determined combinations recomputed on ``fit`` with ``setup`` (a
     re-fit with a declared input moved), at the same amplitudes, by name."""
     first = result.records[0]
@@ -220,7 +223,7 @@ def _combinations_on(setup: Setup, result: DecayResult, fit: MotionFit) -> dict[
 
 
 def _repeatability(
-    result: DecayResult, fit: MotionFit, setup: Setup
+    result: EstimationResult[Any], fit: MotionFit, setup: Setup
 ) -> tuple[dict[str, tuple[float, int]], str]:
     """{name: (s/√N, N)} from N repeat campaigns of ``result``'s records (module doc), and a
     note when repeats exist but cannot be evaluated ({} and "" without repeats)."""

@@ -30,8 +30,8 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
-from estimation.axis.result import EstimationResult
 from estimation.axis.tow_estimate import well_determined
+from estimation.axis.tow_section import TowResult
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.terms import LIBRARY
 from estimation.uncertainty.rows import BudgetRow, counted_once, repeatability_row
@@ -50,7 +50,7 @@ def coefficient_unit(name: str, axis: str) -> str:
 
 
 def combination_rows(
-    result: EstimationResult,
+    result: TowResult,
     fit: MotionFit,
     conditions: tuple[Mapping[str, float], Sequence[float]],
     dof_fit: float,
@@ -81,12 +81,12 @@ def combination_rows(
 
 
 def type_a_rows(
-    result: EstimationResult, fit: MotionFit, repeat_std: Mapping[str, tuple[float, int]]
+    result: TowResult, fit: MotionFit, repeat_std: Mapping[str, tuple[float, int]]
 ) -> dict[str, list[BudgetRow]]:
     rows: dict[str, list[BudgetRow]] = {}
     dof_fit = max(fit.n_samples - fit.n_params, 1)
     boot = result.bootstrap
-    drive = result.uncertainty
+    drive = result.section.uncertainty
     for i, name in enumerate(fit.names):
         unit = coefficient_unit(name, result.axis)
         if not math.isfinite(float(fit.std[i])):  # the data do not determine it: no U at all

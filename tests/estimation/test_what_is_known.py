@@ -135,15 +135,14 @@ def test_a_pendulum_swing_reports_what_it_determines_first():
     """A pendulum's result carries T₀, ω₀ and ζ (the one engine's), and its report opens with
     them and B_e at the same amplitudes, before any raw coefficient."""
     r = estimate_pendulum([pendulum_decay()])
-    assert r.motion is not None
-    names = [c.name for c in r.motion.well_determined]
+    names = [c.name for c in r.well_determined]
     assert names[:2] == ["natural period T₀", "natural frequency ω₀"]
-    assert all(c.std is not None for c in r.motion.well_determined)
+    assert all(c.std is not None for c in r.well_determined)
     md = pendulum_markdown(r)
     assert re.findall(r"^## .*", md, re.M)[0] == "## What the record determines"
     assert md.index("natural frequency ω₀") < md.index("## Summary")
     # B_e at the amplitudes of the damping ratios, in the same section
-    assert r.motion.equivalent and md.index("equivalent linear damping B_e") < md.index("## Sum")
+    assert r.equivalent and md.index("equivalent linear damping B_e") < md.index("## Sum")
 
 
 def test_the_settling_sphere_report_opens_with_its_terminal_speed(tmp_path):

@@ -71,7 +71,7 @@ def test_raw_recordings_estimate_within_3_percent(tmp_path, scale):
     for run in runs:  # the truth releases at 1 s; within the time it takes to move 2 mm
         accel = float(run.drive) / (SCALES[scale][0] + run.declared_extra_inertia())
         slack = max(0.05, np.sqrt(2 * 2e-3 / accel))
-        assert result.windows[run.run_id].t_release == pytest.approx(1.0, abs=slack)
+        assert result.section.windows[run.run_id].t_release == pytest.approx(1.0, abs=slack)
     for name, value in zip(
         ("inertia", "linear_damping", "quadratic_damping"), SCALES[scale], strict=True
     ):
@@ -160,7 +160,7 @@ def test_spin_recordings_with_the_release_coil_estimate_within_3_percent(tmp_pat
         )
     result = estimate(runs, n_bootstrap=0)
     for run in runs:
-        w = result.windows[run.run_id]
+        w = result.section.windows[run.run_id]
         assert w.release_source == "release coil, refined by the fit"
         assert w.end_source == "release coil off" and w.spikes_dropped == 1
         assert w.t_release == pytest.approx(1.0, abs=0.02)

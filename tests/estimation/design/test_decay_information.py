@@ -33,8 +33,8 @@ def _decay(x0: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
 def test_the_next_release_named_is_the_one_that_teaches_most_and_its_sigma_comes_true():
     t, x = _decay(0.05, seed=1)
     first = estimate_decay(t, x, "heave", **KNOWN)
-    assert first.effects == ("quadratic_damping",)
-    i = first.fit.names.index("quadratic_damping")
+    assert first.effect_names == ("quadratic_damping",)
+    i = first.fit_after.names.index("quadratic_damping")
     plan = {round(p.amplitude / 0.05, 1): p for p in first.next_release}
     assert sorted(plan) == [0.5, 1.0, 1.5, 2.0]
     # a quadratic damping grows with the speed: the larger the release, the more it teaches
@@ -48,6 +48,6 @@ def test_the_next_release_named_is_the_one_that_teaches_most_and_its_sigma_comes
 
     t2, x2 = _decay(0.10, seed=2)
     both = estimate_records([Record("a", t, x), Record("b", t2, x2)], "heave", **KNOWN)
-    assert both.effects == ("quadratic_damping",)
-    measured = both.fit.std[both.fit.names.index("quadratic_damping")]
+    assert both.effect_names == ("quadratic_damping",)
+    measured = both.fit_after.std[both.fit_after.names.index("quadratic_damping")]
     assert 0.65 * after[3] <= measured <= 1.35 * after[3], (measured, after[3])

@@ -59,8 +59,8 @@ def test_heave_decay_with_hydrostatic_stiffness(scale):
     r = estimate_decay(t, x, "heave", known_inertia=mass, stiffness=k, min_inertia=0.0)
     assert r.coefficients["inertia"].value == pytest.approx(added, rel=0.02)
     assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.10)
-    assert r.effects == ()
-    assert r.equilibrium["decay"] == pytest.approx(0.3, abs=1e-4)
+    assert r.effect_names == ()
+    assert r.section.equilibrium["decay"] == pytest.approx(0.3, abs=1e-4)
     assert r.to_json()["coefficients"]["inertia"]["unit"] == "kg"
 
 
@@ -77,7 +77,7 @@ def test_decays_of_other_dofs_with_quadratic_damping(dof, scale):
     t, x = decay_record(m, b1, b2, k, x0=0.3 * length, noise=1e-5 * length)
     r = estimate_decay(t, x, dof, known_inertia=known, stiffness=k)
     assert r.coefficients["inertia"].value == pytest.approx(m - known, rel=0.02)
-    assert "quadratic_damping" in r.effects
+    assert "quadratic_damping" in r.effect_names
     assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.10)
     assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.10)
 
@@ -96,7 +96,7 @@ def test_roll_with_stiffening_righting_arm(scale):
     )
     r = estimate_decay(t, x, "roll", known_inertia=dry, stiffness=c44, min_inertia=0.0)
     assert r.coefficients["inertia"].value == pytest.approx(added, rel=0.02)
-    assert "cubic_stiffness" in r.effects and "quadratic_damping" in r.effects
+    assert "cubic_stiffness" in r.effect_names and "quadratic_damping" in r.effect_names
     assert r.coefficients["cubic_stiffness"].value == pytest.approx(k3, rel=0.10)
     assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.10)
     assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.10)
@@ -160,7 +160,7 @@ def test_decay_whose_whole_inertia_is_identified_finds_its_damping_law(scale, ho
     if not hold:
         t, x = _released_at_first_sample(t, x)
     r = estimate_decay(t, x, "heave", stiffness=k)
-    assert r.effects == ("quadratic_damping",)
+    assert r.effect_names == ("quadratic_damping",)
     assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.05)
     assert r.coefficients["inertia"].value == pytest.approx(total, rel=0.01)
     for name, truth in (("linear_damping", b1), ("quadratic_damping", b2)):  # the same law
@@ -250,7 +250,7 @@ def test_a_one_count_flicker_in_the_hold_is_not_the_release():
     x = np.round(x / step) * step
     x[np.searchsorted(t, 1.0) - 8] += step  # one count out, on the still body
     r = estimate_decay(t, x, "heave", stiffness=k)
-    assert r.release_time_s["decay"] == pytest.approx(1.0, abs=0.026)
+    assert r.section.release_time_s["decay"] == pytest.approx(1.0, abs=0.026)
     assert r.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.05)
 
 
@@ -294,7 +294,7 @@ def test_the_same_sparse_decay_with_its_damping_law_is_not_flagged(seed):
     r = estimate_decay(
         t, x, "heave", stiffness=k, t_release=float(t[0]), candidates=("quadratic_damping",)
     )
-    assert r.effects == ("quadratic_damping",)
+    assert r.effect_names == ("quadratic_damping",)
     assert r.rmse_after < 2 * r.noise
     assert not any("× the noise floor" in w for w in r.warnings), r.warnings
     assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.05)
@@ -312,5 +312,5 @@ def test_a_sparse_decay_is_released_at_its_first_samples():
         assert release_of(Record("decay", t, x)) <= t[0] + 0.1, seed
     t, x, k, b1 = _sparse_decay("143kg", 2)
     r = estimate_decay(t, x, "heave", stiffness=k)
-    assert r.effects == ("quadratic_damping",)
+    assert r.effect_names == ("quadratic_damping",)
     assert r.coefficients["linear_damping"].value == pytest.approx(b1, rel=0.05)

@@ -59,7 +59,7 @@ def test_a_drift_in_one_record_is_not_claimed_for_the_three():
         "removed in the backward check: leave-one-record-out error did not drop"
     ), removed
     assert removed.loro_after > removed.loro_before
-    assert result.effects == ()
+    assert result.effect_names == ()
 
 
 def test_a_true_quadratic_damping_predicts_every_held_out_record():
@@ -72,7 +72,7 @@ def test_a_true_quadratic_damping_predicts_every_held_out_record():
     (step,) = _checked(result)
     assert step.term == "quadratic_damping" and step.accepted
     assert loro_dropped(step.loro_after, step.loro_before)
-    assert result.effects == ("quadratic_damping",)
+    assert result.effect_names == ("quadratic_damping",)
     assert result.coefficients["quadratic_damping"].value == pytest.approx(b2, rel=0.05)
 
 

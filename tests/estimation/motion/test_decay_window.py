@@ -80,7 +80,7 @@ def test_the_fit_reads_the_free_part_and_reports_its_window():
 def test_a_given_end_is_kept():
     t, x = record("catch")
     r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K, t_end=25.0)
-    assert r.window["decay"].end == 25.0 and r.window["decay"].ended_by == "given"
+    assert r.section.window["decay"].end == 25.0 and r.section.window["decay"].ended_by == "given"
 
 
 def test_the_report_shows_the_window_and_plots_only_the_free_part(tmp_path):
@@ -91,9 +91,9 @@ def test_the_report_shows_the_window_and_plots_only_the_free_part(tmp_path):
     r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K, candidates=())
     write_decay_report(r, [Record("decay", t, x)], tmp_path)
     text = (tmp_path / "report.md").read_text()
-    assert f"to {r.window['decay'].end:.4g} s (the half-cycle from" in text
+    assert f"to {r.section.window['decay'].end:.4g} s (the half-cycle from" in text
     shown, _, _ = fitted_window(r, Record("decay", t, x))
-    assert shown[-1] + r.release_time_s["decay"] <= r.window["decay"].end
+    assert shown[-1] + r.section.release_time_s["decay"] <= r.section.window["decay"].end
 
 
 @pytest.mark.parametrize("scale", list(SCALES))
@@ -105,9 +105,9 @@ def test_a_decay_held_by_dry_friction_ends_where_it_comes_to_rest(scale):
     kw = dict(decay_effect(n, scale) for n in ("quadratic_damping", "coulomb_friction"))
     t, x, truth = decay(scale, seed=40, **kw)
     r = estimate_decay(t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"])
-    window = r.window["decay"]
+    window = r.section.window["decay"]
     assert 9.0 < window.end < 9.6 and window.ended_by.startswith("the body came to rest")
-    assert set(r.effects) == {"quadratic_damping", "coulomb_friction"}, r.steps
+    assert set(r.effect_names) == {"quadratic_damping", "coulomb_friction"}, r.steps
     assert r.coefficients["quadratic_damping"].value == pytest.approx(kw["b2"], rel=0.02)
     assert r.coefficients["coulomb_friction"].value == pytest.approx(kw["fc"], rel=0.02)
 
@@ -133,7 +133,7 @@ def test_a_dropout_is_not_read_as_energy_taken_out():
     t, x = _dropout(*record())
     assert free_decay_end(t, x, 2e-5).ended_by == "end of the record"
     r = estimate_decay(t, x, "heave", known_inertia=1.0, stiffness=K)
-    assert r.window["decay"].end == t[-1]
+    assert r.section.window["decay"].end == t[-1]
     assert r.coefficients["quadratic_damping"].value == pytest.approx(B2, rel=0.05)
 
 

@@ -71,11 +71,11 @@ def test_a_rival_is_not_added_beside_the_term_the_data_hold(truth_terms):
     r = estimate_decay(
         t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"], candidates=DAMPING
     )
-    assert r.effects == truth_terms
+    assert r.effect_names == truth_terms
     (value,) = kw.values()
     assert r.coefficients[truth_terms[0]].value == pytest.approx(value, rel=0.02)
     # the evidence: the added step's trial whitened the residual; Q is evidence, not a rule
     (added,) = [s for s in r.steps if s.added]
     assert added.term == truth_terms[0] and added.q_after < added.q_before / 10
     forward = [s for s in r.steps if s.accepted and "backward check" not in s.reason]
-    assert all(s.added == (s.term in r.effects) for s in forward)
+    assert all(s.added == (s.term in r.effect_names) for s in forward)

@@ -67,14 +67,14 @@ def test_the_one_equation_configured_as_the_pendulum_matches_the_independent_int
 def test_clean_record_all_methods_recover_alpha_and_beta(clean):
     _within(clean.coefficients["added_mass"], ALPHA, 1e-3, 3)
     _within(clean.coefficients["linear_damping"], BETA, 1e-3, 3)
-    fit = clean.method_estimate("damped-fit")
+    fit = clean.section.method_estimate("damped-fit", clean.runs[0])
     _within(fit.added_mass, ALPHA, 0.01)
     _within(fit.linear_damping, BETA, 0.01)
     for name in ("log-decrement", "equation-error", "equation-error-linear"):
-        m = clean.method_estimate(name)
+        m = clean.section.method_estimate(name, clean.runs[0])
         _within(m.added_mass, ALPHA, 0.02, 3)
         _within(m.linear_damping, BETA, 0.02, 3)
-    eq = clean.method_estimate("equation-error").quadratic_damping
+    eq = clean.section.method_estimate("equation-error", clean.runs[0]).quadratic_damping
     assert abs(eq.value) < 3 * eq.std  # no quadratic drag in the data
     assert clean.effects == ()
     assert clean.rmse_after == clean.rmse_before
@@ -114,7 +114,7 @@ def test_dry_friction_is_found_and_removes_the_bias(dry):
 
 
 def test_equation_error_shows_the_thesis_signature_of_dry_friction(dry):
-    eq = dry.method_estimate("equation-error")
+    eq = dry.section.method_estimate("equation-error", dry.runs[0])
     # seed 002 §7.2: LS with {φ̇, |φ̇|φ̇} gives a too-large β and a negative γ
     assert eq.quadratic_damping.value < -3 * eq.quadratic_damping.std
     assert eq.linear_damping.value > 1.3 * BETA
@@ -128,7 +128,7 @@ def test_quadratic_damping_is_found_not_dry_friction():
     _within(result.coefficients["added_mass"], ALPHA, 0.005)
     _within(result.coefficients["linear_damping"], BETA, 0.01)
     assert result.rmse_after < result.rmse_before / 20
-    eq = result.method_estimate("equation-error").quadratic_damping
+    eq = result.section.method_estimate("equation-error", result.runs[0]).quadratic_damping
     assert eq.value > 0
     # cubic drag fits the same direction and passes the rules alone, but the record
     # separates the two laws (ΔBIC in the thousands on white residuals): it lost its round,
@@ -269,7 +269,7 @@ def test_headline_method_and_unknown_method():
     run = decay()
     fit = estimate_pendulum([run], method="damped-fit", search=False)
     assert fit.coefficients["added_mass"].value == pytest.approx(
-        fit.method_estimate("damped-fit").added_mass.value
+        fit.section.method_estimate("damped-fit", fit.runs[0]).added_mass.value
     )
     with pytest.raises(ValueError, match=r"method: got 'ls-raw', allowed: output-error"):
         estimate_pendulum([run], method="ls-raw")
@@ -382,20 +382,20 @@ def test_a_flagged_swing_is_left_out_of_every_method_when_asked(tmp_path):
         decay(beta=BETA * (1.3 if i == 2 else 1.0), seed=20 + i, run_id=f"p{i}") for i in range(5)
     ]
     kept = estimate_pendulum(runs, search=False)
-    assert kept.motion.repeats.outliers == ("p2",) and kept.motion.repeats.excluded == ()
+    assert kept.repeats.outliers == ("p2",) and kept.repeats.excluded == ()
     assert "p2" in kept.runs
     assert kept.coefficients["linear_damping"].value > 1.02 * BETA
     dropped = estimate_pendulum(runs, search=False, exclude_outliers=True)
     four = ("p0", "p1", "p3", "p4")
-    assert dropped.runs == four and dropped.motion.repeats.excluded == ("p2",)
-    assert {m.run_id for m in dropped.methods} == set(four)
-    assert tuple(dropped.peaks) == four and tuple(dropped.geometry) == four
+    assert dropped.runs == four and dropped.repeats.excluded == ("p2",)
+    assert {m.run_id for m in dropped.section.methods} == set(four)
+    assert tuple(dropped.section.peaks) == four and tuple(dropped.section.geometry) == four
     assert dropped.to_json()["repeats"]["excluded"] == ["p2"]
     _within(dropped.coefficients["linear_damping"], BETA, 0.002)
     (warning,) = [w for w in dropped.warnings if "outlier among the repeats" in w]
     assert warning.startswith("record p2 is an outlier") and "left out of the fit" in warning
     # the condition names the swing, not the pivot's rotation the engine fits
-    (condition,) = dropped.motion.repeats.conditions
+    (condition,) = dropped.repeats.conditions
     assert condition.label.startswith(f"{dropped.axis} swing, released ")
     write_pendulum_report(dropped, tmp_path)
     report = (tmp_path / "report.md").read_text(encoding="utf-8")

@@ -75,12 +75,12 @@ def test_kvlcc2_roll_decay_in_the_published_model(run):
     r = _published_model(run)
     c = r.coefficients
     assert c["inertia"].value == pytest.approx(A44, rel=0.15)
-    assert r.window[run].end == pytest.approx(FREE_UNTIL[run], abs=0.1)
-    assert r.to_json()["window"][run]["end_time_s"] == r.window[run].end
+    assert r.section.window[run].end == pytest.approx(FREE_UNTIL[run], abs=0.1)
+    assert r.to_json()["window"][run]["end_time_s"] == r.section.window[run].end
     # the amplitude-dependent period: a stiffness term explains it, or it is flagged
-    assert "cubic_stiffness" in r.effects or r.possibly_biased
-    assert "quadratic_damping" in r.effects
-    assert ("coulomb_friction" in r.effects) is KEEPS_FRICTION[run], r.steps
+    assert "cubic_stiffness" in r.effect_names or r.possibly_biased
+    assert "quadratic_damping" in r.effect_names
+    assert ("coulomb_friction" in r.effect_names) is KEEPS_FRICTION[run], r.steps
     assert ("quadratic_damping", "coulomb_friction") not in r.ambiguous or not KEEPS_FRICTION[run]
     assert _be5(r) == pytest.approx(PUBLISHED[run][2], rel=0.10)
     # a B2 beyond 25 % and beyond its own 2σ of the published value is never silent
@@ -89,7 +89,7 @@ def test_kvlcc2_roll_decay_in_the_published_model(run):
     assert not off or r.possibly_biased
     assert r.to_json()["coefficients"]["inertia"]["unit"] == "kg·m²"
     # a term kept within 2σ of zero (21340's drift: BIC on a residual taken as white) says so
-    for name in r.effects:
+    for name in r.effect_names:
         if abs(c[name].value) < 2 * (c[name].std or 0.0):
             assert any(w.startswith(f"{name} = ") for w in r.warnings), r.warnings
 
@@ -129,9 +129,9 @@ def test_kvlcc2_full_search_reports_its_choice_and_the_conventional_model():
         min_inertia=0.0,
         run_id="21337",
     )
-    assert "cubic_stiffness" in r.effects
+    assert "cubic_stiffness" in r.effect_names
     assert r.coefficients["inertia"].value == pytest.approx(A44, rel=0.15)
-    if "quadratic_damping" not in r.effects:
+    if "quadratic_damping" not in r.effect_names:
         coeffs, delta_bic = r.alternatives["quadratic_damping"]
         assert coeffs["quadratic_damping"].value == pytest.approx(14.95, rel=0.25)
         assert delta_bic > 0
@@ -173,8 +173,8 @@ def test_tencate_whole_record_is_flagged_structured():
     so few points (``stats.misfit``)."""
     run = tencate_e1(t_release=0.0)
     r = estimate([run], n_bootstrap=0)
-    assert r.unexplained is not None and r.unexplained.structured
-    assert r.unexplained.ratio > 3
+    assert r.section.unexplained is not None and r.section.unexplained.structured
+    assert r.section.unexplained.ratio > 3
     assert any("still structured" in w for w in r.warnings)
 
 
@@ -223,7 +223,7 @@ def test_tencate_as_its_readme_imports_it_still_knows_its_terminal_speed():
     first: the body had moved by then (it was put 6 ms after it)."""
     run = windowed_run(tencate_e1(t_end=2.45), end_known=True)
     r = estimate([run], n_bootstrap=0)
-    assert r.windows["E1"].t_release < run.t[1]
+    assert r.section.windows["E1"].t_release < run.t[1]
     assert {"linear_damping", "quadratic_damping"} <= set(r.fit_after.not_identified)
     m, s = r.coefficients["inertia"].value, r.coefficients["inertia"].std
     assert s is None or not m > 2 * s
@@ -242,7 +242,7 @@ def test_kvlcc2_gives_one_answer_by_the_pendulum_and_the_decay_route(run):
     rule set, so the added inertia agrees within the two U and B_e(5°) within 2σ of their
     difference, and both lie within the published values (A44 19.0 ± 15 %, Be5 ± 10 %)."""
     from estimation.pendulum.data import PendulumGeometry, PendulumRun
-    from estimation.pendulum.pendulum_estimate import estimate_pendulum
+    from estimation.pendulum.pendulum_estimate import estimate_pendulum, pendulum_budget
     from estimation.uncertainty.motion_budget import motion_budget
 
     d = _csv("kvlcc2-roll-decay", f"kvlcc2_roll_decay_{run}.csv")
@@ -250,11 +250,11 @@ def test_kvlcc2_gives_one_answer_by_the_pendulum_and_the_decay_route(run):
     swing = PendulumRun(run, t, phi, 2.0, PendulumGeometry(**_KVLCC2_AS_PENDULUM), axis="sway")
     pendulum = estimate_pendulum([swing])
     decay = estimate_decay(t, phi, "roll", known_inertia=I44, stiffness=C44, run_id=run)
-    u_p = pendulum.budget().coefficients["added_mass"]
+    u_p = pendulum_budget(pendulum).coefficients["added_mass"]
     u_d = motion_budget(decay).coefficients["inertia"]
     assert abs(u_p.value - u_d.value) <= np.hypot(u_p.expanded, u_d.expanded)
-    assert pendulum.motion is not None
-    be_p, be_d = pendulum.motion.equivalent_damping(np.deg2rad(5)), _be5_of(decay)
+    be_p, be_d = pendulum.equivalent_damping(np.deg2rad(5)), _be5_of(decay)
+    assert be_p is not None
     assert abs(be_p.value - be_d.value) <= 2 * np.hypot(be_p.std, be_d.std)
     for added, be5 in ((u_p.value, be_p.value), (u_d.value, be_d.value)):
         assert added == pytest.approx(A44, rel=0.15)

@@ -35,7 +35,7 @@ def _ship2d_run() -> RunData:
 def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
     run = _ship2d_run()
     r = estimate([run], n_bootstrap=0)
-    u = r.unexplained
+    u = r.section.unexplained
     assert u is not None and u.structured
     assert u.period is not None and u.period.domain == "time"
     assert u.period.value == pytest.approx(0.802, rel=0.05)
@@ -64,5 +64,5 @@ def test_ship2d_with_the_release_found_in_the_data_never_overflows():
 
     run = _ship2d_run()
     r = estimate([windowed_run(run)], n_bootstrap=0)
-    assert r.unexplained is not None and r.unexplained.structured
+    assert r.section.unexplained is not None and r.section.unexplained.structured
     assert all(np.isfinite(c.value) for c in r.coefficients.values())

@@ -92,7 +92,7 @@ def test_decay_term_alone_is_recovered(scale, effect):
     field, value = decay_effect(effect, scale)
     t, x, truth = decay(scale, seed=33, **{field: value})
     r = estimate_decay(t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"])
-    assert r.effects == (effect,), [(s.term, s.reason) for s in r.steps]
+    assert r.effect_names == (effect,), [(s.term, s.reason) for s in r.steps]
     assert r.coefficients[effect].value == pytest.approx(value, rel=0.10)
     assert r.coefficients["inertia"].value == pytest.approx(truth["added"], rel=0.02 * 1.8 / 0.8)
     assert r.coefficients["linear_damping"].value == pytest.approx(truth["b1"], rel=0.10)
@@ -114,7 +114,7 @@ def test_decay_terms_in_a_pair_are_recovered(scale, pair):
     kw = dict(decay_effect(name, scale) for name in pair)
     t, x, truth = decay(scale, seed=34, **kw)
     r = estimate_decay(t, x, "heave", known_inertia=truth["known"], stiffness=truth["k"])
-    assert set(r.effects) == set(pair), [(s.term, s.round, s.reason) for s in r.steps]
+    assert set(r.effect_names) == set(pair), [(s.term, s.round, s.reason) for s in r.steps]
     for name, value in zip(pair, kw.values(), strict=True):
         assert r.coefficients[name].value == pytest.approx(value, rel=0.10)
     assert r.coefficients["inertia"].value == pytest.approx(truth["added"], rel=0.02 * 1.8 / 0.8)

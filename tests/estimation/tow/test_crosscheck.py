@@ -125,9 +125,12 @@ def test_bad_documents_name_the_field():
         cross_check(w, _doc((8.0, 0.1, 4.0), (1, 1, 1), axis="yaw"))
     with pytest.raises(ValueError, match="weight_result: not an estimation result"):
         cross_check({"table": []}, w)
-    pendulum = {"analysis": "pendulum", "axis": "surge", "coefficients": {}}
-    with pytest.raises(ValueError, match="weight_result: a pendulum analysis; allowed"):
+    pendulum = {"analysis": "pendulum", "axis": "surge", "coefficients": {}}  # schema 1
+    with pytest.raises(ValueError, match="weight_result: a pendulum estimation; allowed"):
         cross_check(pendulum, w)
+    decay = {"kind": "decay", "dof": "surge", "coefficients": {}}  # schema 2 names every kind
+    with pytest.raises(ValueError, match="thruster_result: a decay estimation; allowed: an "):
+        cross_check(w, decay)
 
 
 # --- sets that cannot separate K_L from K_Q -------------------------------------------------

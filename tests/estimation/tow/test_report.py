@@ -165,7 +165,7 @@ def test_report_draws_a_release_found_from_motion_and_refined_across_a_sample(tm
     _numpy_tow(tmp_path / "tow.csv", noise_m)
     run = run_from_csv(tmp_path / "tow.csv", axis="surge", drive=24.5)
     result = estimate([run], n_bootstrap=0, search_effects=False)
-    refined = result.windows[run.run_id]
+    refined = result.section.windows[run.run_id]
     assert refined.release_source == "motion onset, refined by the fit"
     found_samples = np.count_nonzero(run.t > run.t_release)
     assert np.count_nonzero(run.t > refined.t_release) == found_samples + 1  # the case itself
@@ -182,8 +182,10 @@ def test_the_report_lists_the_samples_a_fit_left_out(surge, tmp_path):
     runs, result = surge
     first = result.runs[0]
     hole = LeftOut(12.3, 12.7, 4, "PLC read failed", in_motion=True)
-    windows = dict(result.windows) | {first: replace(result.windows[first], left_out=(hole,))}
-    write_report(replace(result, windows=windows), runs, tmp_path / "out")
+    windows = result.section.windows
+    windows = dict(windows) | {first: replace(windows[first], left_out=(hole,))}
+    section = replace(result.section, windows=windows)
+    write_report(replace(result, section=section), runs, tmp_path / "out")
     md = (tmp_path / "out" / "report.md").read_text()
     assert "## Samples left out" in md
     assert f"({first[:8]}), " in md.split("## Samples left out")[1].splitlines()[2]
