@@ -150,7 +150,7 @@ def test_no_parameter_of_the_route_or_option_of_the_command_is_declared_beside_i
 
 
 #: Every command that records or imports runs, and the one that annotates them afterwards.
-RECORDING = [name for name, (module, _, _) in COMMANDS.items() if records_runs(name, module)]
+RECORDING = [name for name, (module, _) in COMMANDS.items() if records_runs(name, module)]
 
 
 @pytest.mark.parametrize("command", [*RECORDING, "annotate"])
