@@ -44,19 +44,9 @@ REGISTER_WIDTH: dict[str, int] = {
     "bool": 1,
 }
 
-#: Channel names the code knows (see README, "Register map"). A rig file lists only those
-#: its rig has; what the rig can do follows from them (``daq.rig_capabilities``).
-STANDARD_CHANNELS = (
-    "tow_position",
-    "yaw_angle",
-    "load_cell",
-    "supply_voltage",
-    "heartbeat",
-    "tow_release",
-    "spin_release",
-    "end_of_travel",
-    "estop",
-)
+# The channel names the code knows are declared where they are used, not listed here: each
+# run kind's in its module (``KindSpec.needs``), the safety channels in
+# ``daq.rig_capabilities``; a rig file lists only those its rig has (README, "Register map").
 
 #: Channels a rig with a ``[pendulum]`` section defines (encoder and release latch).
 PENDULUM_CHANNELS = ("pendulum_angle", "pendulum_release")

@@ -1,14 +1,19 @@
-"""The ``rig`` command table: every command's module, attribute and short help, so that
-``rig --help`` lists them and a command's module is imported only when it runs. The run
-kinds' commands are read from their kind modules (``daq/procedures/kinds/*.py``: the
-``command``, ``help`` and ``rank`` literals of each ``SPEC``) without importing them — the
-registry's request models cost ~0.4 s of CPU per ``rig --help`` — so a new kind is listed
-without an edit here; tests/api/test_cli_edges.py checks the table against the registry."""
+"""The ``rig`` command table: every command's module and attribute, so that a command's
+module is imported only when it runs, and its short help, read from the source without
+importing it, so that ``rig --help`` lists them (importing every command costs seconds of
+CPU; the registry's request models alone ~0.4 s). The run kinds' commands and help are the
+``command``, ``help`` and ``rank`` literals of each ``SPEC`` in ``daq/procedures/kinds/*.py``,
+so a new kind is listed without an edit here; another command's short help is its
+function's docstring (``ast`` on the function's text, ~0.03 s of CPU, only for
+``rig --help``), so it is written once, where the command is. tests/api/test_cli_edges.py
+checks both against the commands."""
 
 from __future__ import annotations
 
 import ast
+import functools
 import importlib.util
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -40,11 +45,10 @@ def _spec_literals(path: Path) -> dict[str, object] | None:
     return None
 
 
-def kind_commands() -> dict[str, tuple[str, str, str]]:
+@functools.cache
+def _kind_helps() -> dict[str, str]:
     """The command of each kind the rig runs (its ``SPEC`` has a ``request`` and a
-    ``command``), in rank order: name → (module, attribute, short help)."""
-    import click
-
+    ``command``), in rank order: name → its help."""
     spec = importlib.util.find_spec(KINDS_PACKAGE)
     folders = spec.submodule_search_locations if spec is not None else None
     found: list[tuple[int, str, str]] = []
@@ -60,163 +64,90 @@ def kind_commands() -> dict[str, tuple[str, str, str]]:
             )
             if isinstance(command, str) and isinstance(text, str) and isinstance(rank, int):
                 found.append((rank, command, text))
-    return {  # the short help as click shortens the command's own help
-        name: (PROCEDURES_MODULE, name.replace("-", "_"),
-               click.Command(name, help=about).get_short_help_str(80))
-        for _, name, about in sorted(found)
-    }  # fmt: skip
+    return {name: about for _, name, about in sorted(found)}
 
 
-#: name → (module, attribute, its short help as ``rig --help`` lists it without importing
-#: the module: ``get_short_help_str(80)``, checked by tests/api/test_cli_edges.py) of the
-#: commands that are not a run kind's.
-OTHER_COMMANDS: dict[str, tuple[str, str, str]] = {
-    "sequence": (
-        "api.cli.procedures",
-        "sequence",
-        "Run a sequence file (tows, spins, calibrations; repeats and rest time).",
-    ),
-    "campaign": (
-        "api.cli.campaign",
-        "campaign",
-        "Measure until certain: the planner picks each test, stops at the target or...",
-    ),
-    "capabilities": (
-        "api.cli.capabilities",
-        "capabilities",
-        "What the rig can do: each test (and drive), or why not; the safety channels...",
-    ),
-    "runs": ("api.cli.runs", "runs", "List stored runs, newest first."),
-    "show": (
-        "api.cli.show",
-        "show",
-        "Show one run: configuration, how it ended, events and results (id or unique...",
-    ),
-    "results": (
-        "api.cli.results",
-        "results",
-        "List stored results, newest first, or compare two or more (--compare).",
-    ),
-    "annotate": (
-        "api.cli.metadata",
-        "annotate",
-        "Set a run's metadata: operator, water (°C, g/kg), notes, tags, free keys.",
-    ),
-    "export": (
-        "api.cli.export",
-        "export",
-        "Export a run with its units and metadata, in a format of --format.",
-    ),
-    "import": (
-        "api.cli.imports",
-        "import_",
-        "Import a CSV (columns t [s] and position [m or rad]; more allowed); prints...",
-    ),
-    "import-calibration": (
-        "api.cli.calibration",
-        "import_calibration",
-        "Import a thrust-stand calibration table (CSV: command, thrust, optional...",
-    ),
-    "calibrations": (
-        "api.cli.calibration",
-        "calibrations",
-        "List thrust calibrations, measured (calibration runs) and imported tables,...",
-    ),
-    "thrust": (
-        "api.cli.calibration",
-        "thrust",
-        "Thrust law of the stored calibration: the force ± σ at --command and...",
-    ),
-    "jobs": (
-        "api.cli.jobs",
-        "jobs",
-        "List jobs stored in the database (every service's, across restarts), newest...",
-    ),
-    "queue": (
-        "api.cli.jobs",
-        "queue",
-        "Show the rigs' queues: procedure jobs waiting for the rig, in the order they...",
-    ),
-    "estimate": (
-        "api.cli.estimate",
-        "estimate",
-        "Fit (m + m_a) v̇ + K_L v + K_Q |v| v = τ to stored tow or spin runs (or α, β...",
-    ),
-    "crosscheck": (
-        "api.cli.crosscheck",
-        "crosscheck",
-        "Estimate weight-driven and thruster-driven runs of one axis (or take two...",
-    ),
-    "warm-up": (
-        "api.cli.warm_up",
-        "warm_up",
-        "Compile the estimator's kernels now (5-9 s of CPU once per install), so the...",
-    ),
-    "sim": (
-        "api.cli.sim",
-        "sim",
-        "Run the simulated rig (plant, Modbus PLC, thruster controller) until Ctrl-C.",
-    ),
-    "serve": (
-        "api.cli.serve",
-        "serve",
-        "Serve the HTTP API and the browser UI (binds 127.0.0.1 by default).",
-    ),
-    "token": (
-        "api.cli.serve",
-        "token",
-        "Print the API's bearer token (created on first use; or set RIG_API_TOKEN).",
-    ),
-    "user": (
-        "api.cli.people",
-        "user",
-        "Named users of the API: each with a token (shown once) and a role (operator...",
-    ),
-    "ack-estop": (
-        "api.cli.people",
-        "ack_estop",
-        "Acknowledge an emergency stop: the rig takes starts again (named in the log).",
-    ),
-    "hold": (
-        "api.cli.people",
-        "hold",
-        "Hold the rig for local work: remote starts by anyone else are refused (423).",
-    ),
-    "release": (
-        "api.cli.people",
-        "release",
-        "Release the hold of the rig (its holder, or another operator with --override).",
-    ),
-    "sixdof": (
-        "api.cli.sixdof",
-        "sixdof",
-        "Simulate VEHICLE (a name from fixtures/vehicles or $RIG_VEHICLES_DIR, or a...",
-    ),
-    "sensitivity": (
-        "api.cli.analysis",
-        "sensitivity",
-        "Rank VEHICLE's coefficients (a name from fixtures/vehicles or...",
-    ),
-    "predict-added-mass": (
-        "api.cli.theory",
-        "predict_added_mass",
-        "Predict VEHICLE's added mass per DOF from its [hull] (a name from...",
-    ),
-    "predict-uncertainty": (
-        "api.cli.uncertainty",
-        "predict_uncertainty",
-        "Simulate SEQUENCE's weight-driven tows and spins with the current model and...",
-    ),
-    "water": (
-        "api.cli.theory",
-        "water",
-        "Water density and viscosity at a temperature (ITTC 7.5-02-01-03 formulas).",
-    ),
+def kind_commands() -> dict[str, tuple[str, str]]:
+    """The command of each kind the rig runs, in rank order: name → (module, attribute)."""
+    return {name: (PROCEDURES_MODULE, name.replace("-", "_")) for name in _kind_helps()}
+
+
+#: Where a top-level function's text ends: the next line starting a statement at column 0.
+_TOP_LEVEL = re.compile(r"\n(?=[^\s)\]}#])")
+
+
+def _docstring(source: str, attr: str) -> str | None:
+    """The docstring of the top-level function ``attr`` in ``source``: only that function's
+    text is parsed (a third of the CPU of parsing the whole module)."""
+    found = re.search(rf"^(?:async )?def {re.escape(attr)}\(", source, re.MULTILINE)
+    if found is None:
+        return None
+    end = _TOP_LEVEL.search(source, found.end())
+    node = ast.parse(source[found.start() : end.start() if end else None]).body[0]
+    assert isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+    return ast.get_docstring(node)
+
+
+def _source(module: str) -> str:
+    """The text of ``module``'s file, not imported."""
+    spec = importlib.util.find_spec(module)
+    if spec is None or spec.origin is None:
+        raise ModuleNotFoundError(module)
+    return Path(spec.origin).read_text(encoding="utf-8")
+
+
+def short_helps() -> dict[str, str]:
+    """Every command's short help as click shortens its help (``get_short_help_str(80)``):
+    a kind's from its ``SPEC``, another's from its function's docstring."""
+    import click
+
+    sources = {module: _source(module) for module, _ in OTHER_COMMANDS.values()}
+    helps = _kind_helps() | {
+        name: _docstring(sources[module], attr) or ""
+        for name, (module, attr) in OTHER_COMMANDS.items()
+    }
+    return {
+        name: click.Command(name, help=text).get_short_help_str(80) for name, text in helps.items()
+    }
+
+
+#: name → (module, attribute) of the commands that are not a run kind's (their short help is
+#: their function's docstring, read by :func:`short_helps`).
+OTHER_COMMANDS: dict[str, tuple[str, str]] = {
+    "sequence": ("api.cli.procedures", "sequence"),
+    "campaign": ("api.cli.campaign", "campaign"),
+    "capabilities": ("api.cli.capabilities", "capabilities"),
+    "runs": ("api.cli.runs", "runs"),
+    "show": ("api.cli.show", "show"),
+    "results": ("api.cli.results", "results"),
+    "annotate": ("api.cli.metadata", "annotate"),
+    "export": ("api.cli.export", "export"),
+    "import": ("api.cli.imports", "import_"),
+    "import-calibration": ("api.cli.calibration", "import_calibration"),
+    "calibrations": ("api.cli.calibration", "calibrations"),
+    "thrust": ("api.cli.calibration", "thrust"),
+    "jobs": ("api.cli.jobs", "jobs"),
+    "queue": ("api.cli.jobs", "queue"),
+    "estimate": ("api.cli.estimate", "estimate"),
+    "crosscheck": ("api.cli.crosscheck", "crosscheck"),
+    "warm-up": ("api.cli.warm_up", "warm_up"),
+    "sim": ("api.cli.sim", "sim"),
+    "serve": ("api.cli.serve", "serve"),
+    "token": ("api.cli.serve", "token"),
+    "user": ("api.cli.people", "user"),
+    "ack-estop": ("api.cli.people", "ack_estop"),
+    "hold": ("api.cli.people", "hold"),
+    "release": ("api.cli.people", "release"),
+    "sixdof": ("api.cli.sixdof", "sixdof"),
+    "sensitivity": ("api.cli.analysis", "sensitivity"),
+    "predict-added-mass": ("api.cli.theory", "predict_added_mass"),
+    "predict-uncertainty": ("api.cli.uncertainty", "predict_uncertainty"),
+    "water": ("api.cli.theory", "water"),
 }
 
 
-#: Every command, the kinds' first: name → (module, attribute, short help).
-COMMANDS: Mapping[str, tuple[str, str, str]] = kind_commands() | OTHER_COMMANDS
+#: Every command, the kinds' first: name → (module, attribute).
+COMMANDS: Mapping[str, tuple[str, str]] = kind_commands() | OTHER_COMMANDS
 
 
 def records_runs(name: str, module: str) -> bool:

@@ -57,7 +57,9 @@ scenario_option = click.option(
 def report_option(help: str) -> Callable[[Any], Any]:
     """``--report`` (into ``report_dir``): a folder to write the command's report to;
     ``help`` says what goes in it. Create it first with :func:`report_folder`."""
-    return click.option("--report", "report_dir", type=click.Path(file_okay=False), help=help)
+    return click.option(
+        "--report", "report_dir", type=click.Path(file_okay=False), metavar="DIR", help=help
+    )
 
 
 def estimate_option(help: str) -> Callable[[Any], Any]:

@@ -6,10 +6,10 @@ help), and the code span between ``<!-- options: package.module.Model … -->`` 
 ``<!-- /options -->`` (inline, in a command table's row) with the options of those models
 (``[--operator NAME] … [--tag TAG]…``, ``--command C | --force N`` for a model's
 ``exactly_one_of``), so adding an option to an operation is one edit in its model and a run
-of this module. A command with no request model (``rig serve``) is named ``cli:serve`` in
-the span (``cli:user.add`` for ``rig user add``): its options are read from its click
-command, where they are declared. ``--check`` only says which files differ (exit 1), as
-``tests/api/test_docs_tables.py`` does.
+of this module. A command's own options, made from no model (``--json``, ``--report``,
+``rig serve``'s), are named ``cli:serve`` in the span (``cli:user.add`` for ``rig user
+add``): they are read from its click command, where each is declared. ``--check`` only says
+which files differ (exit 1), as ``tests/api/test_docs_tables.py`` does.
 """
 
 from __future__ import annotations
@@ -157,12 +157,18 @@ def _command(path: str) -> click.Command:
 
 
 def command_words(command: click.Command) -> list[str]:
-    """The options of ``command`` as synopsis words, in their order, but ``--db``
-    (:data:`_SAID_ONCE`) and hidden ones."""
+    """The command's own options as synopsis words, in their order: those made from no
+    request model (a model's are its span's), but ``--db`` (:data:`_SAID_ONCE`) and hidden
+    ones."""
+    from api.cli.options import ModelOption  # only to tell a model's options apart
+
     return [
         _click_word(p)
         for p in command.params
-        if isinstance(p, click.Option) and not p.hidden and p.name not in _SAID_ONCE
+        if isinstance(p, click.Option)
+        and not isinstance(p, ModelOption)
+        and not p.hidden
+        and p.name not in _SAID_ONCE
     ]
 
 

@@ -11,6 +11,7 @@ import click
 from api.cli.common import db_option, echo_json, json_option, open_store
 from api.cli.options import request_from, request_options
 from api.core.job_filter import JobFilter
+from api.core.paging import JobsPage
 
 if TYPE_CHECKING:  # imported where used: `rig --help` stays light
     from daq.store.job_repository import JobRepository
@@ -75,15 +76,16 @@ def _show_jobs(
 
 @click.command("jobs")
 @request_options(JobFilter)
-@click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
+@request_options(JobsPage)
 @db_option
 @json_option
-def jobs(limit, db_url, as_json, **chosen):
+def jobs(db_url, as_json, **chosen):
     """List jobs stored in the database (every service's, across restarts), newest first."""
     state = request_from(JobFilter, chosen).state  # as GET /api/jobs takes it
+    page = request_from(JobsPage, chosen)
     _show_jobs(
         db_url,
-        lambda repo: repo.list_jobs(None, state=state, limit=limit),
+        lambda repo: repo.list_jobs(None, state=state, limit=page.limit, offset=page.offset),
         "kind",
         "no jobs stored yet: start one with `rig serve` and the API",
         as_json,

@@ -21,7 +21,7 @@ from typing import Any, NoReturn
 
 import click
 
-from api.cli.command_table import COMMANDS, records_runs
+from api.cli.command_table import COMMANDS, records_runs, short_helps
 from api.cli.common import DEBUG_ENV, RIG_FILE_ENV
 from daq.collector import no_collections_while_loading
 
@@ -64,7 +64,7 @@ class RigGroup(click.Group):
         entry = COMMANDS.get(cmd_name)
         if entry is None:
             return None
-        module, attr, _ = entry
+        module, attr = entry
         with no_collections_while_loading():
             command = getattr(importlib.import_module(module), attr)
         if records_runs(cmd_name, module):
@@ -77,7 +77,7 @@ class RigGroup(click.Group):
         limit = formatter.width - 6 - max(len(name) for name in COMMANDS)
         rows = [
             (name, click.Command(name, help=text).get_short_help_str(limit))
-            for name, (_, _, text) in COMMANDS.items()
+            for name, text in short_helps().items()
         ]
         with formatter.section("Commands"):
             formatter.write_dl(rows)

@@ -99,24 +99,34 @@ def _repeatable(help_text: str) -> str:
     return f"{text}{' ' if text.endswith('.') else '. ' if text else ''}Repeatable."
 
 
+class ModelOption(click.Option):
+    """An option made from a field of the request ``model`` (the docs list a command's own
+    options, ``cli:`` in ``api.cli.docs_tables``'s spans, apart from its models')."""
+
+    def __init__(self, decls: list[str], *, model: type[BaseModel], **attrs: Any) -> None:
+        super().__init__(decls, **attrs)
+        self.model = model
+
+
 def model_options(model: type[BaseModel], *, required: bool = True) -> list[click.Option]:
     """One click option per flagged field of ``model`` (in field order): a list field is a
     repeatable option. ``required=False``: no option is required on the command line (a
     command offering two requests checks the one the user chose)."""
-    options = []
+    options: list[click.Option] = []
     for name, info in model.model_fields.items():
         flag = _flag(info)
         if flag is None:
             continue
         if flag.when_set is not None:
-            option = click.Option(
-                [flag.name, name], is_flag=True, help=flag.help or info.description
+            option = ModelOption(
+                [flag.name, name], model=model, is_flag=True, help=flag.help or info.description
             )
         elif flag.parse is None and (element := _element(info.annotation)) is not None:
             if typing.get_origin(element) is typing.Literal:  # one of the listed words
                 element = click.Choice([str(word) for word in typing.get_args(element)])
-            option = click.Option(
+            option = ModelOption(
                 [flag.name, name],
+                model=model,
                 type=element,
                 multiple=True,
                 required=required and info.is_required(),
@@ -126,8 +136,9 @@ def model_options(model: type[BaseModel], *, required: bool = True) -> list[clic
         else:
             # a required field has no default at all (click ≥ 8.3 takes None as one)
             default = {} if info.is_required() else {"default": info.default}
-            option = click.Option(
+            option = ModelOption(
                 [flag.name, name],
+                model=model,
                 type=_click_type(info, flag),
                 required=required and info.is_required(),
                 show_default=default.get("default") not in (None, ""),  # "" says nothing

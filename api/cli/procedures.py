@@ -17,6 +17,7 @@ from api.cli.common import (
     flag_names,
     json_option,
     open_store,
+    report_option,
     rig_option,
     run_with_signals,
     scenario_option,
@@ -142,13 +143,8 @@ def _report_option(spec: KindSpec) -> Callable[[Callable], Callable]:
     def decorate(func: Callable) -> Callable:
         if spec.report is None:
             return func
-        return click.option(
-            "--report",
-            "report_dir",
-            type=click.Path(file_okay=False),
-            metavar="DIR",
-            default=None,
-            help="After a completed run, write its report (report.md and figures) to DIR.",
+        return report_option(
+            "After a completed run, write its report (report.md and figures) to DIR."
         )(func)
 
     return decorate

@@ -17,6 +17,7 @@ from api.cli.common import (
     user_errors,
 )
 from api.cli.options import request_from, request_options
+from api.core.paging import ResultsPage
 from api.core.result_filter import ResultFilter
 from api.core.result_subject import subject
 
@@ -30,7 +31,7 @@ def _pm(cell: dict | None) -> str:
 
 @click.command("results")
 @request_options(ResultFilter)
-@click.option("--limit", type=click.IntRange(1, 500), default=50, show_default=True)
+@request_options(ResultsPage)
 @click.option(
     "--compare",
     is_flag=True,
@@ -40,7 +41,7 @@ def _pm(cell: dict | None) -> str:
 @click.argument("compare_ids", metavar="[IDS]...", nargs=-1, type=click.IntRange(1))
 @db_option
 @json_option
-def results(limit, compare, compare_ids, db_url, as_json, **chosen):
+def results(compare, compare_ids, db_url, as_json, **chosen):
     """List stored results, newest first, or compare two or more (--compare)."""
     from api.core.result_compare import MAX_COMPARED, MIN_COMPARED, compare_results
 
@@ -71,10 +72,11 @@ def results(limit, compare, compare_ids, db_url, as_json, **chosen):
             return None
         # the filters as GET /api/results takes them (api.core.result_filter), days local
         result_filter = request_from(ResultFilter, chosen)
+        page = request_from(ResultsPage, chosen)
         with user_errors():
             try:
                 filters = result_filter.store_filters(datetime.now().astimezone().tzinfo)
-                found = store.list_results(**filters, limit=limit)
+                found = store.list_results(**filters, limit=page.limit, offset=page.offset)
             except ValueError as err:  # a day, a date-time or a zone none of the forms
                 fail(flag_names(click.get_current_context(), str(err)))
         if as_json:

@@ -21,6 +21,7 @@ from api.cli.common import (
 )
 from api.cli.options import request_from, request_options
 from api.cli.show import input_summary, local_time
+from api.core.paging import RunsPage
 from api.core.run_filter import RunFilter
 
 
@@ -40,17 +41,16 @@ def aligned(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
 
 @click.command("runs")
 @request_options(RunFilter)
-@click.option("--limit", type=click.IntRange(1, 10_000), default=50, show_default=True)
-@click.option(
-    "--offset", type=click.IntRange(0), default=0, show_default=True, help="Skip this many."
-)
+@request_options(RunsPage)
 @db_option
 @json_option
-def runs(limit, offset, db_url, as_json, **chosen):
+def runs(db_url, as_json, **chosen):
     """List stored runs, newest first."""
     ctx = click.get_current_context()
-    # the filters as GET /api/runs takes them (api.core.run_filter), days local here
+    # the filters and the page as GET /api/runs takes them, days local here
     run_filter = request_from(RunFilter, chosen)
+    page = request_from(RunsPage, chosen)
+    limit, offset = page.limit, page.offset
     try:
         filters = run_filter.store_filters(datetime.now().astimezone().tzinfo)
     except ValueError as err:  # a day, a date-time or a zone that is none of the forms

@@ -1,7 +1,7 @@
 """Which stored jobs to list: one declaration for ``GET /api/jobs`` (its query parameters,
 ``Annotated[JobFilter, Query()]``) and ``rig jobs`` (its options, ``request_options``), so a
 filter added here is on both faces, with the same name, choices and help. The page
-(``limit``, ``offset``) is each face's own, as for the runs (``api.http.paging``)."""
+(``limit``, ``offset``) is ``api.core.paging.JobsPage``, on both faces too."""
 
 from __future__ import annotations
 

@@ -15,6 +15,7 @@ import uuid
 from typing import Any
 
 from api.core.job_model import Job, JobNotFound
+from api.core.paging import MOST_JOBS
 from api.core.service import RigService
 from daq.store.faults import one_line
 from daq.store.job_repository import JobRepository
@@ -24,8 +25,8 @@ log = logging.getLogger(__name__)
 
 #: Ended jobs kept in memory (all of them stay in the database).
 KEEP_ENDED = 500
-#: Jobs ``list`` reads from the database, newest first.
-LIST_LIMIT = 500
+#: Jobs ``list`` reads from the database, newest first: one page's most.
+LIST_LIMIT = MOST_JOBS
 #: A progress change that is neither a new state nor a new message is written at most this often.
 SAVE_EVERY_S = 1.0
 

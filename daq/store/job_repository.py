@@ -72,10 +72,17 @@ class JobRepository:
         return None if row is None else dict(row._mapping)
 
     def list_jobs(
-        self, rig_name: str | None, *, state: str | None = None, limit: int = 500
+        self,
+        rig_name: str | None,
+        *,
+        state: str | None = None,
+        limit: int = 500,
+        offset: int = 0,
     ) -> list[dict[str, Any]]:
-        """The rig's jobs (every rig's with None), newest first, in ``state`` if given."""
-        query = sa.select(jobs).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(limit)
+        """The rig's jobs (every rig's with None), newest first, in ``state`` if given,
+        ``offset`` of them skipped, at most ``limit``."""
+        order = (jobs.c.created_at.desc(), jobs.c.id)
+        query = sa.select(jobs).order_by(*order).limit(limit).offset(offset)
         if rig_name is not None:
             query = query.where(jobs.c.rig_name == rig_name)
         if state is not None:

@@ -22,7 +22,7 @@ from pathlib import Path
 import click
 import pytest
 
-from api.cli.command_table import PROCEDURES_MODULE, kind_commands
+from api.cli.command_table import PROCEDURES_MODULE, kind_commands, short_helps
 from api.cli.main import COMMANDS, DEBUG_ENV, main
 from daq.procedures.run_kinds import RIG_KINDS
 from daq.store import Store
@@ -290,12 +290,14 @@ def test_every_command_of_the_group_has_cases():
 
 
 def test_the_lazy_help_table_matches_each_command():
-    """``rig --help`` lists COMMANDS' short help without importing the modules: it must be
-    what each command says of itself."""
-    for name, (module, attr, short) in COMMANDS.items():
+    """``rig --help`` lists each command's short help read from its source without
+    importing the modules: it must be what each command says of itself."""
+    shorts = short_helps()
+    assert list(shorts) == list(COMMANDS)
+    for name, (module, attr) in COMMANDS.items():
         command = getattr(importlib.import_module(module), attr)
         assert command.name == name
-        assert short == command.get_short_help_str(limit=80), name
+        assert shorts[name] == command.get_short_help_str(limit=80), name
 
 
 def test_the_help_lists_each_kind_the_registry_runs_in_its_order():
@@ -306,12 +308,14 @@ def test_the_help_lists_each_kind_the_registry_runs_in_its_order():
     assert list(listed) == [str(spec.command) for spec in RIG_KINDS.values()]
     assert list(COMMANDS)[: len(listed)] == list(listed)
     for spec in RIG_KINDS.values():
-        _, attr, short = listed[str(spec.command)]
+        _, attr = listed[str(spec.command)]
         command = getattr(importlib.import_module(PROCEDURES_MODULE), attr)
-        assert short == command.get_short_help_str(limit=80)
+        assert short_helps()[str(spec.command)] == command.get_short_help_str(limit=80)
 
 
-def test_a_kind_module_dropped_in_is_listed_without_an_edit_to_the_table(monkeypatch, tmp_path):
+def test_a_kind_module_dropped_in_is_listed_without_an_edit_to_the_table(
+    monkeypatch, tmp_path, request
+):
     """A new kind is a module of daq/procedures/kinds: ``rig --help`` lists its command,
     at its rank, with no edit to the command table."""
     import shutil
@@ -328,13 +332,12 @@ def test_a_kind_module_dropped_in_is_listed_without_an_edit_to_the_table(monkeyp
     assert found is not None
     monkeypatch.setattr(found, "submodule_search_locations", [str(folder)])
     monkeypatch.setattr(importlib.util, "find_spec", lambda name: found)
+    command_table._kind_helps.cache_clear()  # read the kinds again, then as installed
+    request.addfinalizer(command_table._kind_helps.cache_clear)
     listed = command_table.kind_commands()
     assert list(listed).index("drive-one") == list(listed).index("pendulum") + 1
-    assert listed["drive-one"] == (
-        PROCEDURES_MODULE,
-        "drive_one",
-        "Drive one thruster by hand for a while.",
-    )
+    assert listed["drive-one"] == (PROCEDURES_MODULE, "drive_one")
+    assert short_helps()["drive-one"] == "Drive one thruster by hand for a while."
 
 
 #: Cases run as real subprocesses: they reach a device, bind or connect to a port, or

@@ -17,6 +17,7 @@ from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from api.core.export_request import ExportQuery
 from api.core.imports import ImportQuery
 from api.core.job_filter import JobFilter
+from api.core.paging import JobsPage, ResultsPage, RunsPage
 from api.core.people import AckIn, HoldIn, ReleaseIn
 from api.core.pretest import PretestQuery
 from api.core.result_filter import ResultFilter
@@ -46,6 +47,9 @@ OPERATIONS = [
     (ExportQuery, "get", "/api/runs/{run_id}/export", "export"),
     (CalibrationChoice, "get", "/api/thrust", "thrust"),
     (JobFilter, "get", "/api/jobs", "jobs"),
+    (RunsPage, "get", "/api/runs", "runs"),
+    (JobsPage, "get", "/api/jobs", "jobs"),
+    (ResultsPage, "get", "/api/results", "results"),
 ]
 
 #: (the route's method and path, the command, its models, what only one face takes: the
@@ -57,8 +61,10 @@ WHOLE = [
      {"output", "db_url"}),
     (("get", "/api/thrust"), "thrust", (ThrustQuery, CalibrationChoice), set(),
      {"db_url", "as_json"}),
-    (("get", "/api/jobs"), "jobs", (JobFilter,), {"limit", "offset"},
-     {"limit", "db_url", "as_json"}),
+    (("get", "/api/jobs"), "jobs", (JobFilter, JobsPage), set(), {"db_url", "as_json"}),
+    (("get", "/api/runs"), "runs", (RunFilter, RunsPage), set(), {"db_url", "as_json"}),
+    (("get", "/api/results"), "results", (ResultFilter, ResultsPage), set(),
+     {"compare", "db_url", "as_json"}),
 ]  # fmt: skip
 
 
@@ -144,7 +150,7 @@ def test_no_parameter_of_the_route_or_option_of_the_command_is_declared_beside_i
 
 
 #: Every command that records or imports runs, and the one that annotates them afterwards.
-RECORDING = [name for name, (module, _, _) in COMMANDS.items() if records_runs(name, module)]
+RECORDING = [name for name, (module, _) in COMMANDS.items() if records_runs(name, module)]
 
 
 @pytest.mark.parametrize("command", [*RECORDING, "annotate"])
@@ -153,6 +159,27 @@ def test_each_command_recording_runs_takes_the_run_metadata_options_of_the_model
     for name, (flag, description) in _flags(RunMetadataQuery).items():
         assert flag.name in options[name].opts, (command, name)
         assert (options[name].help or "").startswith(flag.help or description or ""), name
+
+
+@pytest.mark.parametrize(
+    ("page", "path", "command"),
+    [(RunsPage, "/api/runs", "runs"), (JobsPage, "/api/jobs", "jobs"),
+     (ResultsPage, "/api/results", "results")],
+)  # fmt: skip
+def test_a_page_past_its_list_s_size_is_refused_alike_by_the_route_and_the_command(
+    client, page, path, command, tmp_path
+):
+    """One range per list (``api.core.paging``): the command had taken 10 000 jobs where
+    the route took 500, and 50 rows by default where the route gave 100."""
+    most = page.model_json_schema()["properties"]["limit"]["maximum"]
+    assert client.get(f"{path}?limit={most}", headers=AUTH).status_code == 200
+    r = client.get(f"{path}?limit={most + 1}", headers=AUTH)
+    assert r.status_code == 422 and "limit" in r.text, r.text
+    db = f"sqlite:///{tmp_path / 'rig.db'}"
+    said = CliRunner().invoke(main, [command, "--db", db, "--limit", str(most + 1)])
+    assert said.exit_code == 2
+    assert f"'--limit': {most + 1} is not in the range 1<=x<={most}" in said.output
+    assert _command(command)["limit"].default == page.model_fields["limit"].default
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from api.http.paging import MAX_OFFSET
+from api.core.paging import MAX_OFFSET
 from daq.store.migrate import create_engine
 from tests.api.conftest import AUTH, SHORT_TOW, wait_rig_free
 

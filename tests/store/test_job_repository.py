@@ -85,3 +85,13 @@ def test_report_files_read_back_byte_for_byte_from_a_reopened_database(store):
         assert repo.report_file(result_id, "fit.png") == ("image/png", png)
         assert repo.report_file(result_id, "fit.svg") == ("image/svg+xml", svg)
         assert repo.report_file(result_id, "fit.pdf") is None
+
+
+def test_jobs_are_listed_a_page_at_a_time_newest_first(store):
+    """``rig jobs --limit --offset`` (``api.core.paging.JobsPage``) pages in the database."""
+    repo = JobRepository(store)
+    for n in range(4):
+        repo.save(f"job{n}", _job(JobState.COMPLETED) | {"created_at": 100.0 + n})
+    ids = [j["id"] for j in repo.list_jobs(RIG, limit=2, offset=1)]
+    assert ids == ["job2", "job1"]
+    assert [j["id"] for j in repo.list_jobs(RIG, limit=2, offset=3)] == ["job0"]

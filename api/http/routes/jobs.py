@@ -14,6 +14,7 @@ from api.core.job_filter import JobFilter
 from api.core.job_model import Job
 from api.core.job_requests import procedure_from_request
 from api.core.jobs import JobRunner
+from api.core.paging import JobsPage
 from api.core.sequence_request import SequenceRequest
 from api.core.service import RigService
 from api.http.deps import (
@@ -24,7 +25,6 @@ from api.http.deps import (
     require_read,
     require_write,
 )
-from api.http.paging import JobsLimit, Offset
 from api.http.schemas import (
     JobEventOut,
     JobOut,
@@ -149,13 +149,13 @@ def start_estimation(
 def list_jobs(
     runner: RunnerDep,
     job_filter: Annotated[JobFilter, Query()],
-    limit: JobsLimit = 100,
-    offset: Offset = 0,
+    page: Annotated[JobsPage, Query()],
 ) -> list[dict]:
     """This rig's jobs, newest first, from the database (so they outlive a restart). The
-    filters are ``api.core.job_filter.JobFilter``'s (``rig jobs`` too)."""
-    state = job_filter.state
-    return [j.to_json() for j in runner.list(limit=limit, offset=offset, state=state)]
+    filters and the page are ``api.core.job_filter.JobFilter``'s and
+    ``api.core.paging.JobsPage``'s (``rig jobs`` too)."""
+    found = runner.list(limit=page.limit, offset=page.offset, state=job_filter.state)
+    return [j.to_json() for j in found]
 
 
 @router.get(

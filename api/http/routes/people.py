@@ -12,15 +12,15 @@ from __future__ import annotations
 import asyncio
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Request
+from fastapi import APIRouter, Depends, Query, Request
 from pydantic import BaseModel, Field
 
 from api.core.job_model import iso_time
+from api.core.paging import EventsPage
 from api.core.people import AckIn, HoldIn, ReleaseIn
 from api.core.rig_guard import RigGuard
 from api.http.deps import OperatorDep, ServiceDep, require_read
 from api.http.identity import known_user
-from api.http.paging import EventsLimit
 from api.http.schemas import error_responses
 from daq.store.people_and_safety_log import User
 
@@ -100,11 +100,11 @@ async def release_rig(
 async def rig_events(
     request: Request,
     service: ServiceDep,
-    limit: EventsLimit = 50,
+    page: Annotated[EventsPage, Query()],
 ) -> list[dict]:
     """The rig's safety log, newest first: emergency stops, acknowledgements, holds and
     releases, each naming who."""
-    events = await asyncio.to_thread(RigGuard.of(service).log.recent, limit)
+    events = await asyncio.to_thread(RigGuard.of(service).log.recent, page.limit)
     return [
         {
             "t_wall": iso_time(e["t_wall"]),

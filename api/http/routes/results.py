@@ -15,12 +15,12 @@ from fastapi.responses import Response
 
 from api.core.job_model import without_report_files
 from api.core.jobs import REPORT_SUFFIXES, JobRunner
+from api.core.paging import ResultsPage
 from api.core.report_archive import archive_name, report_zip
 from api.core.result_compare import compare_results, parse_ids
 from api.core.result_filter import ResultFilter
 from api.core.result_subject import subject
 from api.http.deps import RunnerDep, StoreDep, require_read
-from api.http.paging import Offset, ResultsLimit
 from api.http.schemas import ResultOut, error_responses, file_response
 from daq.store import ResultNotFound, Store
 from daq.store.run_records import ResultInfo
@@ -65,15 +65,15 @@ def list_results(
     runner: RunnerDep,
     response: Response,
     result_filter: Annotated[ResultFilter, Query()],
-    limit: ResultsLimit = 100,
-    offset: Offset = 0,
+    page: Annotated[ResultsPage, Query()],
 ) -> list[dict]:
     """Estimation and calibration results, newest first, a page at a time (paged in the
     database): ``X-Total-Count`` says how many match, ``X-Next-Offset`` where the next page
     starts (absent on the last). An unknown ``run`` is a 404 naming it. The filters are
-    ``api.core.result_filter.ResultFilter``'s (``rig results`` too)."""
-    filters = result_filter.store_filters()
-    found = store.list_results(**filters, limit=limit, offset=offset)
+    ``api.core.result_filter.ResultFilter``'s, the page ``api.core.paging.ResultsPage``'s
+    (``rig results`` too)."""
+    filters, offset = result_filter.store_filters(), page.offset
+    found = store.list_results(**filters, limit=page.limit, offset=offset)
     total = store.count_results(**filters)
     response.headers["X-Total-Count"] = str(total)
     if offset + len(found) < total:

@@ -19,10 +19,10 @@ from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
 from api.core.export_request import ExportQuery
+from api.core.paging import RunsPage, SamplesPage
 from api.core.run_cache import EndedRunCache
 from api.core.run_filter import RunFilter
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
-from api.http.paging import Offset, RunsLimit, SamplesLimit
 from api.http.schemas import (
     EventOut,
     RunOut,
@@ -50,14 +50,14 @@ def list_runs(
     store: StoreDep,
     response: Response,
     run_filter: Annotated[RunFilter, Query()],
-    limit: RunsLimit = 100,
-    offset: Offset = 0,
+    page: Annotated[RunsPage, Query()],
 ) -> list[dict]:
     """Stored runs, newest first, a page at a time: the ``X-Total-Count`` header gives how
     many match the filters, ``X-Next-Offset`` the ``offset`` of the next page (absent on
-    the last). The filters are ``api.core.run_filter.RunFilter``'s (``rig runs`` too)."""
-    filters = run_filter.store_filters()
-    runs = store.list_runs(**filters, limit=limit, offset=offset)
+    the last). The filters and the page are ``api.core.run_filter.RunFilter``'s and
+    ``api.core.paging.RunsPage``'s (``rig runs`` too)."""
+    filters, offset = run_filter.store_filters(), page.offset
+    runs = store.list_runs(**filters, limit=page.limit, offset=offset)
     total = store.count_runs(**filters)
     response.headers["X-Total-Count"] = str(total)
     if offset + len(runs) < total:
@@ -108,10 +108,11 @@ async def get_run(
 def get_samples(
     run_id: str,
     store: StoreDep,
+    page: Annotated[SamplesPage, Query()],
     start_seq: Annotated[int, Query(ge=0, le=2**62)] = 0,
-    limit: SamplesLimit = 1000,
 ) -> dict:
     """A page of samples (columns; SI units; null when a channel was not read)."""
+    limit = page.limit
     run = store.get_run(run_id)
     table = store.samples(run.id, start_seq=start_seq, limit=limit + 1)
     more = len(table) > limit
