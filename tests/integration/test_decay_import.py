@@ -97,7 +97,7 @@ def test_the_published_kvlcc2_roll_decay_imports_and_estimates_over_the_cli(rig)
     assert inertia["unit"] == "kg·m²"
     assert inertia["value"] == pytest.approx(A44, rel=0.15)
     text = rig("estimate", run_id, "--no-effects")
-    assert text.startswith("roll free decay from 1 run(s)") and "inertia" in text
+    assert text.startswith("roll free decay / output-error from 1 run(s)") and "inertia" in text
     # B_e over the swings, in the document's order and unit (N·m·s/rad on roll)
     (line,) = [x for x in text.splitlines() if "equivalent linear damping" in x]
     assert "(N·m·s/rad)" in line and line.count(" at ") == len(data["equivalent_linear_damping"])
@@ -141,4 +141,5 @@ def test_rig_estimate_report_of_a_decay_shows_the_fit_and_its_residual(rig, tmp_
     assert "# Free decay of heave" in md and "| inertia |" in md and "![" in md
     doc = json.loads((out / "result.json").read_text(encoding="utf-8"))
     assert doc["coefficients"]["inertia"]["value"] == pytest.approx(truth["added"], rel=0.02)
-    assert f"after {doc['rmse_after']:.3g} m" in md
+    rmse = f"| RMSE before → after | {doc['rmse_before']:.3g} → {doc['rmse_after']:.3g} | m |"
+    assert rmse in md
