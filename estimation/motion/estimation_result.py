@@ -72,9 +72,10 @@ class EstimationResult(Generic[S]):
     ``axis``: the line or DOF the equation is of (surge, yaw, heave, roll, a pendulum's swing
     axis); ``dof``: the line as imported where it differs (a settling sphere's tow: heave);
     ``names``: the kind's name for an engine coefficient where it differs (a pendulum's
-    inertia is its added mass): the bootstrap's, the correlation's and the next release's
-    names are reported through it. ``possibly_biased``: None where the kind does not judge
-    its coefficients this way (a tow set's residual is traced in its section instead)."""
+    inertia is its added mass): the document names the engine's coefficients through it
+    wherever it lists them (the bootstrap, the correlation, the next release, the given, the
+    unidentified and the rivals' coefficients). ``possibly_biased``: None where the kind does
+    not judge its coefficients this way (a tow set's residual is traced in its section)."""
 
     axis: str
     method: str
@@ -167,14 +168,14 @@ class EstimationResult(Generic[S]):
             "runs": list(self.runs),
             "coefficients": {k: c.to_json() for k, c in self.coefficients.items()},
             "coefficients_before": {k: c.to_json() for k, c in self.coefficients_before.items()},
-            "known": {k: c.to_json() for k, c in self.known.items()},
+            "known": {name(k): c.to_json() for k, c in self.known.items()},
             "units": dict(self.units),
             "effects": [e.to_json() for e in self.effects],
-            "not_identified": list(self.not_identified),
+            "not_identified": [name(n) for n in self.not_identified],
             "ambiguous": [list(g) for g in self.ambiguous],
             "alternatives": {
                 rival: {
-                    "coefficients": {k: c.to_json() for k, c in coeffs.items()},
+                    "coefficients": {name(k): c.to_json() for k, c in coeffs.items()},
                     "delta_bic": finite_or_none(delta),
                 }
                 for rival, (coeffs, delta) in self.alternatives.items()
