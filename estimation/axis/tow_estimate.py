@@ -391,6 +391,8 @@ def _build(
         cv_before=outcome.cv_base,
         cv_after=outcome.cv_final,
         bootstrap=boot,
+        # what the residual's character says of the coefficients (None: a seed method's)
+        possibly_biased=None if unexplained is None else unexplained.structured,
         well_determined=well_determined(final, *combination_conditions(final, runs), axis),
         section=TowSection(
             residual_correlations=regressor_correlations(base, prepared, force_before),

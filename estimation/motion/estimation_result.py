@@ -74,8 +74,10 @@ class EstimationResult(Generic[S]):
     ``names``: the kind's name for an engine coefficient where it differs (a pendulum's
     inertia is its added mass): the document names the engine's coefficients through it
     wherever it lists them (the bootstrap, the correlation, the next release, the given, the
-    unidentified and the rivals' coefficients). ``possibly_biased``: None where the kind does
-    not judge its coefficients this way (a tow set's residual is traced in its section)."""
+    unidentified and the rivals' coefficients). ``possibly_biased``: the residual holds
+    structure no kept term explains, so the coefficients may be biased by it (a decay's
+    misfit verdict, a tow set's ``unexplained``); None where nothing judged it (a seed
+    method's result)."""
 
     axis: str
     method: str

@@ -49,6 +49,8 @@ def test_every_kind_is_one_type_with_one_document_shape():
         assert doc["rmse_per_run_after"].keys() == set(result.runs), kind
         assert doc["diagnostics"]["ljung_box_after"]["q"] is not None, kind
         assert doc["correlation"]["names"], kind
+        # every output-error fit is judged for structure its terms leave (a bool, not null)
+        assert isinstance(doc["coefficients_possibly_biased"], bool), kind
 
 
 def test_what_one_kind_alone_has_is_its_section_s():
