@@ -18,9 +18,18 @@ INCONSISTENT = [[1, 5, 1 / 7], [1 / 5, 1, 7], [7, 1 / 7, 1]]
 def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(chromium, client, service):
     from playwright.sync_api import expect
 
+    # a stored estimation result is offered under what it is of (GET /api/results' subject)
+    store = service.store
+    run = store.create_run(kind="tow", parameters={}, channel_names=["carriage_position"],
+                           rig_name="r", vehicle="benbam", rig_toml="")  # fmt: skip
+    doc = {"kind": "tow", "axis": "surge", "dof": "heave", "method": "output-error",
+           "coefficients": {}, "runs": [run]}  # fmt: skip
+    result_id = store.add_result([run], "estimation", doc)
     with signed_in_page(chromium, service, client) as page:
         page.click("nav a[data-page=analysis]")
         expect(page.locator("#an-vehicle option")).not_to_have_count(0)
+        offered = page.locator(f"#an-estimates label:has(input[value='{result_id}'])")
+        expect(offered).to_contain_text(f"#{result_id} heave tow test / output-error")
         page.select_option("#an-vehicle", "benbam")
         for name in ("steady_surge_speed", "steady_yaw_rate"):
             page.check(f"#an-responses input[value={name}]")

@@ -38,7 +38,7 @@ async function analysisLoad() {
     $("#an-estimates").innerHTML = results
       .filter((r) => (r.data || {}).axis)
       .slice(0, 20)
-      .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.data.axis)}${r.data.analysis ? ` ${esc(r.data.analysis)}` : ""} (${esc(localTime(r.created_at))})</label>`)
+      .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.subject || r.data.axis)} (${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';
   } catch (err) {
     $("#an-estimates").textContent = err.message;

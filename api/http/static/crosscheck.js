@@ -12,8 +12,8 @@ import { FINAL } from "./state.js";
 const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q", damping_at_speed: "K_L + K_Q·|v|" };
 
 // What a cross-check compares (GET /api/kinds): runs of the kinds both a weight and the
-// thrusters drive, and estimation results on their axes from their estimator (a result that
-// names its analysis names the estimator: a pendulum's swing may be a surge too).
+// thrusters drive, and estimation results of those kinds (a result names its kind; one stored
+// before schema 2 named only its axis, and a pendulum's its analysis: a swing may be a surge).
 export function crosscheckKinds(kinds) {
   const both = kinds.filter((k) => ["weight", "thrusters"].every((d) => k.drives.includes(d)));
   return {
@@ -26,9 +26,8 @@ export function crosscheckKinds(kinds) {
 async function crosscheckLoad() {
   try {
     const cc = crosscheckKinds(await loadKinds()); // start_forms.js
-    const results = (await api("GET", "/api/results?kind=estimation")).filter(
-      (r) => cc.axes.includes((r.data || {}).axis) && (!r.data.analysis || cc.estimators.includes(r.data.analysis)),
-    );
+    const ofKinds = (d) => (d.kind ? cc.kinds.includes(d.kind) : cc.axes.includes(d.axis) && (!d.analysis || cc.estimators.includes(d.analysis)));
+    const results = (await api("GET", "/api/results?kind=estimation")).filter((r) => ofKinds(r.data || {}));
     const option = (r) => {
       const draws = ((r.data.uncertainty || {}).calibration_draws || 0) > 0;
       return `<option value="${esc(r.id)}" data-thrusters="${esc(draws)}">#${esc(r.id)} ${esc(r.data.axis)}, ${r.data.runs.length} run(s)${draws ? ", thruster-driven" : ""} — ${esc(localTime(r.created_at))}</option>`;

@@ -37,7 +37,7 @@ async function sixdofLoadEstimates() {
     $("#sixdof-estimates").innerHTML = results
       .filter((r) => ["surge", "sway", "heave", "roll", "pitch", "yaw"].includes((r.data || {}).axis))
       .slice(0, 20)
-      .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.data.axis)} (${r.data.analysis ? `${esc(r.data.analysis)}, ` : ""}${esc(r.data.method || "")}, ${esc(localTime(r.created_at))})</label>`)
+      .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.subject || r.data.axis)} (${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';
   } catch (err) {
     $("#sixdof-estimates").textContent = err.message;
