@@ -294,6 +294,8 @@ def _result(setup, records, outcome: SearchOutcome, starts) -> DecayResult:
     known = {n: Coefficient(float(v), 0.0, units[n]) for n, v in setup.known_terms.items()}
     if setup.inertia is not None:
         known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])
+    if setup.known_inertia > 0:  # the document says the inertia above is the rest of it
+        known["known_inertia"] = Coefficient(float(setup.known_inertia), 0.0, units["inertia"])
     white = ljung_box(final.residuals)
     moved = _moved(final, [base, *outcome.rejected])
     noise = position_noise(final.residuals, [r.t for r in records])

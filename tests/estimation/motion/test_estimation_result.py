@@ -61,6 +61,11 @@ def test_what_one_kind_alone_has_is_its_section_s():
     assert "windows" in docs["tow"] and "windows" not in docs["decay"]
     assert "equilibrium" in docs["decay"] and "equilibrium" not in docs["pendulum"]
     assert "methods" in docs["pendulum"] and "methods" not in docs["tow"]
+    # what a decay was given is stated beside what it identified: the body's own inertia
+    # given, the identified inertia is the added one
+    known = docs["decay"]["known"]
+    assert known["known_inertia"]["value"] == decay("143kg", 1)[2]["known"]
+    assert known["known_inertia"]["std"] == 0 and "restoring_spring" in known
     tow = docs["tow"]["diagnostics"]
     assert {"ljung_box_before", "ljung_box_after", "force_rmse_per_run_after"} <= tow.keys()
     # the pendulum's engine coefficient is reported under the pendulum's name
