@@ -74,30 +74,37 @@ def apply_estimate(
 def apply_result_json(
     vehicle: Vehicle6, doc: Mapping[str, Any], source: str = "result"
 ) -> Vehicle6:
-    """Plug a stored per-axis estimation result (``EstimationResult.to_json()``: ``axis``
-    and ``coefficients`` {inertia, linear_damping, quadratic_damping: {value, std}}) into
-    the vehicle with :func:`apply_estimate`; σ comes along where the result has one.
+    """Plug a stored per-axis estimation result (``EstimationResult.to_json()``: its line,
+    ``dof`` else ``axis``, and ``coefficients`` {inertia, linear_damping, quadratic_damping:
+    {value, std}}) into the vehicle with :func:`apply_estimate`; σ comes along where the
+    result has one. A result without ``quadratic_damping`` (a decay's or a swing's whose
+    search found none) leaves the vehicle's value.
 
     A result giving the ``added_mass`` (a pendulum free decay's) gives it with the swing
-    axis's ``linear_damping`` (and ``quadratic_damping`` when its effect search found it;
-    otherwise the vehicle's value stays): the inertia is the body's plus the added mass."""
-    axis = doc.get("axis") if isinstance(doc, Mapping) else None
-    if axis is not None and doc.get("dof"):  # a tow imported as heave: the heave's model
-        axis = doc["dof"]
+    axis's damping: the inertia is the body's plus the added mass. A free decay's that was
+    given the body's own inertia (``known.known_inertia``) identified the added part: the
+    inertia is the sum."""
+    # a tow imported as heave, a free decay: the line it moved along
+    axis = (doc.get("dof") or doc.get("axis")) if isinstance(doc, Mapping) else None
     if axis not in DOFS:
         raise VehicleError(source, "axis", axis, "one of " + ", ".join(DOFS))
     coefficients = doc.get("coefficients")
     if not isinstance(coefficients, Mapping):
         raise VehicleError(source, "coefficients", coefficients, "a table of {value, std}")
-    if "added_mass" in coefficients:
-        coefficients = dict(coefficients)
-        added = coefficients.pop("added_mass", None)
-        if isinstance(added, Mapping) and is_finite(added.get("value")):
-            body = vehicle.rigid_body_inertia(axis)
-            coefficients["inertia"] = {"value": body + added["value"], "std": added.get("std")}
-        coefficients.setdefault(
-            "quadratic_damping", {"value": vehicle.coefficients()[f"quadratic_damping.{axis}"]}
-        )
+    coefficients = dict(coefficients)
+    added = coefficients.pop("added_mass", None)
+    if isinstance(added, Mapping) and is_finite(added.get("value")):
+        body = vehicle.rigid_body_inertia(axis)
+        coefficients["inertia"] = {"value": body + added["value"], "std": added.get("std")}
+    given = (doc.get("known") or {}).get("known_inertia")
+    given = given.get("value") if isinstance(given, Mapping) else None
+    identified = coefficients.get("inertia")
+    if isinstance(identified, Mapping) and is_finite(given) and is_finite(identified.get("value")):
+        total = given + float(identified["value"])
+        coefficients["inertia"] = {"value": total, "std": identified.get("std")}
+    coefficients.setdefault(
+        "quadratic_damping", {"value": vehicle.coefficients()[f"quadratic_damping.{axis}"]}
+    )
     values: dict[str, float] = {}
     sigma: dict[str, float] = {}
     for key in ("inertia", "linear_damping", "quadratic_damping"):

@@ -49,7 +49,7 @@ def plug_results(vehicle: Vehicle6, results: Sequence[Mapping[str, Any]]) -> Veh
     seen: dict[str, int] = {}
     for k, doc in enumerate(results):
         where = f"results[{k}]" + (f" (id {doc['result_id']})" if "result_id" in doc else "")
-        axis = str(doc.get("axis"))
+        axis = str(doc.get("dof") or doc.get("axis"))  # the line it moved along
         if axis in seen:
             raise IdentifiabilityError(
                 f"{where}: axis: a second result for {axis!r} (the first is results[{seen[axis]}]);"

@@ -36,7 +36,7 @@ async function analysisLoad() {
   try {
     const results = await api("GET", "/api/results?kind=estimation");
     $("#an-estimates").innerHTML = results
-      .filter((r) => (r.data || {}).axis)
+      .filter((r) => (r.data || {}).dof || (r.data || {}).axis) // the line it moved along
       .slice(0, 20)
       .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.subject || r.data.axis)} (${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';

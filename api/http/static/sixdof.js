@@ -35,7 +35,7 @@ async function sixdofLoadEstimates() {
   try {
     const results = await api("GET", "/api/results?kind=estimation");
     $("#sixdof-estimates").innerHTML = results
-      .filter((r) => ["surge", "sway", "heave", "roll", "pitch", "yaw"].includes((r.data || {}).axis))
+      .filter((r) => ["surge", "sway", "heave", "roll", "pitch", "yaw"].includes((r.data || {}).dof || (r.data || {}).axis))
       .slice(0, 20)
       .map((r) => `<label><input type="checkbox" value="${esc(r.id)}"> #${esc(r.id)} ${esc(r.subject || r.data.axis)} (${esc(localTime(r.created_at))})</label>`)
       .join("") || '<span class="muted">no stored estimation results</span>';

@@ -276,6 +276,34 @@ def test_apply_result_json_uses_value_and_std(benbam):
         apply_result_json(benbam, {"axis": "heading"}, "result 7")
 
 
+def test_a_free_decay_s_result_plugs_into_its_dof(benbam):
+    """A heave decay's document (``dof``, no ``axis``) that was given the body's own inertia
+    identified the added part: the vehicle's heave inertia is their sum, its σ the fit's; no
+    quadratic damping found leaves the vehicle's."""
+    from estimation.vehicle.apply_estimates import apply_result_json
+
+    body = benbam.rigid_body_inertia("heave")
+    doc = {
+        "kind": "decay",
+        "dof": "heave",
+        "coefficients": {
+            "inertia": {"value": 12.5, "std": 0.3},
+            "linear_damping": {"value": 4.0, "std": 0.1},
+        },
+        "known": {"known_inertia": {"value": body, "std": 0.0}},
+    }
+    veh = apply_result_json(benbam, doc, "result 3")
+    assert veh.total_inertia("heave") == pytest.approx(body + 12.5)
+    assert veh.sigma["added_mass.heave"] == 0.3
+    assert veh.coefficients()["linear_damping.heave"] == 4.0
+    kept = benbam.coefficients()["quadratic_damping.heave"]
+    assert veh.coefficients()["quadratic_damping.heave"] == kept
+    # without the body's inertia given, the identified inertia is the whole
+    whole = {**doc["coefficients"], "inertia": {"value": body + 5.0, "std": 0.3}}
+    veh = apply_result_json(benbam, {**doc, "coefficients": whole, "known": {}}, "result 3")
+    assert veh.total_inertia("heave") == pytest.approx(body + 5.0)
+
+
 def test_evaluation_budget_refuses_a_violent_input(benbam):
     with pytest.raises(ValueError, match=r"duration_s: .*too fast"):
         simulate(benbam, 600.0, force=lambda t: [0, 0, 0, 0, 0, math.sin(t)], max_evaluations=2000)
