@@ -19,12 +19,20 @@ def page_url(chromium, client, service):
         yield pg, live.url
 
 
-def test_sixdof_page_simulates_a_yaw_turn(page_url):
+def test_sixdof_page_simulates_a_yaw_turn(page_url, service):
     from playwright.sync_api import expect
 
+    # a free decay's stored result is offered for its DOF (it names its dof, not an axis)
+    run = service.store.create_run(kind="decay", parameters={}, channel_names=["decay_position"],
+                                   rig_name="r", vehicle="seed002-rov", rig_toml="")  # fmt: skip
+    doc = {"kind": "decay", "dof": "heave", "method": "output-error", "coefficients": {},
+           "runs": [run]}  # fmt: skip
+    result_id = service.store.add_result([run], "estimation", doc)
     page, url = page_url
     page.goto(f"{url}/#token={TOKEN}")
     page.click("nav a[data-page=sixdof]")
+    offered = page.locator(f"#sixdof-estimates label:has(input[value='{result_id}'])")
+    expect(offered).to_contain_text(f"#{result_id} heave free decay / output-error")
     page.select_option("#sixdof-vehicle", "seed002-rov")
     expect(page.locator("#sixdof-commands input")).to_have_count(8)
     expect(page.locator("#sixdof-alloc tbody tr")).to_have_count(6)
