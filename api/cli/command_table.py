@@ -4,16 +4,15 @@ importing it, so that ``rig --help`` lists them (importing every command costs s
 CPU; the registry's request models alone ~0.4 s). The run kinds' commands and help are the
 ``command``, ``help`` and ``rank`` literals of each ``SPEC`` in ``daq/procedures/kinds/*.py``,
 so a new kind is listed without an edit here; another command's short help is its
-function's docstring (``ast`` on the function's text, ~0.03 s of CPU, only for
-``rig --help``), so it is written once, where the command is. tests/api/test_cli_edges.py
-checks both against the commands."""
+function's docstring (``ast`` on its module's text, only for ``rig --help``), so it is
+written once, where the command is. tests/api/test_cli_edges.py checks both against the
+commands."""
 
 from __future__ import annotations
 
 import ast
 import functools
 import importlib.util
-import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -72,20 +71,14 @@ def kind_commands() -> dict[str, tuple[str, str]]:
     return {name: (PROCEDURES_MODULE, name.replace("-", "_")) for name in _kind_helps()}
 
 
-#: Where a top-level function's text ends: the next line starting a statement at column 0.
-_TOP_LEVEL = re.compile(r"\n(?=[^\s)\]}#])")
-
-
-def _docstring(source: str, attr: str) -> str | None:
-    """The docstring of the top-level function ``attr`` in ``source``: only that function's
-    text is parsed (a third of the CPU of parsing the whole module)."""
-    found = re.search(rf"^(?:async )?def {re.escape(attr)}\(", source, re.MULTILINE)
-    if found is None:
-        return None
-    end = _TOP_LEVEL.search(source, found.end())
-    node = ast.parse(source[found.start() : end.start() if end else None]).body[0]
-    assert isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
-    return ast.get_docstring(node)
+def _docstrings(source: str) -> dict[str, str]:
+    """The docstring of each top-level function in ``source``, by name (the module parsed,
+    not imported)."""
+    return {
+        node.name: ast.get_docstring(node) or ""
+        for node in ast.parse(source).body
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+    }
 
 
 def _source(module: str) -> str:
@@ -101,10 +94,9 @@ def short_helps() -> dict[str, str]:
     a kind's from its ``SPEC``, another's from its function's docstring."""
     import click
 
-    sources = {module: _source(module) for module, _ in OTHER_COMMANDS.values()}
+    docstrings = {module: _docstrings(_source(module)) for module, _ in OTHER_COMMANDS.values()}
     helps = _kind_helps() | {
-        name: _docstring(sources[module], attr) or ""
-        for name, (module, attr) in OTHER_COMMANDS.items()
+        name: docstrings[module].get(attr, "") for name, (module, attr) in OTHER_COMMANDS.items()
     }
     return {
         name: click.Command(name, help=text).get_short_help_str(80) for name, text in helps.items()
