@@ -20,12 +20,9 @@ from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
 from estimation.uncertainty.text import repeats_markdown
 
-#: What these parts read of a result: the one result type, whatever its kind's section.
-FitSummary = EstimationResult[Any]
-
 
 def report_markdown(
-    result: FitSummary,
+    result: EstimationResult[Any],
     title: str,
     labels: Mapping[str, str],
     figures: Sequence[tuple[str, Path]] = (),
@@ -78,7 +75,7 @@ def report_markdown(
     return "\n".join(lines) + "\n"
 
 
-def evidence_section(result: FitSummary, unit: str) -> list[str]:
+def evidence_section(result: EstimationResult[Any], unit: str) -> list[str]:
     """The "Evidence" section: BIC, the leave-one-record-out RMSE and the residual's Ljung–Box
     Q before → after the search, then every trial (``evidence_table``)."""
     cv = [f"{x:.4g}" if x is not None else "n/a" for x in (result.cv_before, result.cv_after)]
@@ -101,7 +98,7 @@ def evidence_section(result: FitSummary, unit: str) -> list[str]:
     ]
 
 
-def summary_rows(result: FitSummary, unit: str, labels: Mapping[str, str]) -> list[str]:
+def summary_rows(result: EstimationResult[Any], unit: str, labels: Mapping[str, str]) -> list[str]:
     """The summary table's rows after the coefficients (effects, RMSE in ``unit``, warnings),
     the warnings in full, then which run each figure label stands for."""
     lines = [
@@ -151,7 +148,9 @@ def ambiguity_lines(groups: Sequence[Sequence[str]], advice: Sequence[str]) -> l
     return lines + [f"- advice: {a}" for a in advice[len(groups) :]]
 
 
-def error_before_after(result: FitSummary, unit: str, labels: Mapping[str, str]) -> list[str]:
+def error_before_after(
+    result: EstimationResult[Any], unit: str, labels: Mapping[str, str]
+) -> list[str]:
     """The "Error before and after" table: RMSE in ``unit`` per run and over all runs."""
     lines = [
         "",

@@ -128,7 +128,6 @@ def _pm(est: dict | None) -> str:
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
     """The one report (``fit_report.report_markdown``); the pendulum's own section: the
     methods side by side, per run."""
-    doc = result.to_json()
     labels = run_labels(result) if result.section.decays else {r: r for r in result.runs}
     lines = [
         "",
@@ -137,7 +136,10 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         "| run | method | α [kg] | β [N·s/m] | γ [kg/m] | e [rad²] | RMSE [rad] |",
         "|---|---|---|---|---|---|---|",
     ]
-    rows = sorted(doc["methods"], key=lambda m: (m["run_id"], METHOD_ORDER.index(m["method"])))
+    rows = sorted(
+        (m.to_json() for m in result.section.methods),
+        key=lambda m: (m["run_id"], METHOD_ORDER.index(m["method"])),
+    )
     for m in rows:
         lines.append(
             f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
