@@ -100,12 +100,8 @@ def _repeatable(help_text: str) -> str:
 
 
 class ModelOption(click.Option):
-    """An option made from a field of the request ``model`` (the docs list a command's own
+    """An option made from a field of a request model (the docs list a command's own
     options, ``cli:`` in ``api.cli.docs_tables``'s spans, apart from its models')."""
-
-    def __init__(self, decls: list[str], *, model: type[BaseModel], **attrs: Any) -> None:
-        super().__init__(decls, **attrs)
-        self.model = model
 
 
 def model_options(model: type[BaseModel], *, required: bool = True) -> list[click.Option]:
@@ -119,14 +115,13 @@ def model_options(model: type[BaseModel], *, required: bool = True) -> list[clic
             continue
         if flag.when_set is not None:
             option = ModelOption(
-                [flag.name, name], model=model, is_flag=True, help=flag.help or info.description
+                [flag.name, name], is_flag=True, help=flag.help or info.description
             )
         elif flag.parse is None and (element := _element(info.annotation)) is not None:
             if typing.get_origin(element) is typing.Literal:  # one of the listed words
                 element = click.Choice([str(word) for word in typing.get_args(element)])
             option = ModelOption(
                 [flag.name, name],
-                model=model,
                 type=element,
                 multiple=True,
                 required=required and info.is_required(),
@@ -138,7 +133,6 @@ def model_options(model: type[BaseModel], *, required: bool = True) -> list[clic
             default = {} if info.is_required() else {"default": info.default}
             option = ModelOption(
                 [flag.name, name],
-                model=model,
                 type=_click_type(info, flag),
                 required=required and info.is_required(),
                 show_default=default.get("default") not in (None, ""),  # "" says nothing
