@@ -455,4 +455,4 @@ def _seed_result(axis, method, runs, prepared) -> TowResult:
     fit = MotionFit(**{**fit.__dict__, "values": ls.values})
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())
     result = _build(axis, method, runs, prepared, outcome, None)
-    return EstimationResult(**{**result.__dict__, "warnings": (*warnings, *result.warnings)})
+    return replace(result, warnings=(*warnings, *result.warnings))
