@@ -115,7 +115,8 @@ SERVICE_PACE = 10.0
 def service(request: pytest.FixtureRequest, tmp_path_factory) -> Iterator[RigService]:
     """The rig service of the module, defined here once: in a ``simtime`` module the simulated
     rig in process on simulated time (paced: ``SERVICE_PACE``), otherwise over Modbus TCP and
-    a pty in real time. A module's ``rig_service`` marker builds it, always in process on
+    a pty in real time, with the reply allowances of a loaded test machine
+    (``tests.procedures.conftest.simulated_rig_file``). A module's ``rig_service`` marker builds it, always in process on
     simulated time, from ``rig`` (a rig file, or ``"fast-pendulum"``: the fast pendulum's,
     ``tests.procedures.test_pendulum.fast_rig_file``), ``scenario`` (a scenario file) and
     ``spill`` (True: a spill folder of its own, ``RIG_SPILL_DIR``)."""
@@ -124,7 +125,9 @@ def service(request: pytest.FixtureRequest, tmp_path_factory) -> Iterator[RigSer
     marker = request.node.get_closest_marker("rig_service")
     if marker is None:
         if request.node.get_closest_marker("simtime") is None:
-            yield RigService(RigSource.load(), db)
+            from tests.procedures.conftest import simulated_rig_file
+
+            yield RigService(RigSource.load(simulated_rig_file(folder)), db)
         else:
             yield simulated_service(RigSource.load(), db)
         return

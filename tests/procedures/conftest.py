@@ -36,6 +36,23 @@ def short_rail(rig: RigConfig, end_of_travel_m: float = 0.5) -> RigConfig:
 #: CI, the link-fault test beside a busy process).
 SIMULATED_PLC_TIMEOUT_S = 0.09
 
+#: The thruster controller's reply allowance of the rig files these tests write, s, for
+#: the same reason: BENBAM's 0.1 s is a real controller's; a simulated one on a thread of a
+#: loaded test process answered an ARM later than that (a 503 in a fresh-clone run).
+SIMULATED_THRUSTER_ACK_S = 0.3
+
+
+def simulated_rig_file(folder: Path) -> Path:
+    """BENBAM's rig file in ``folder``, simulated, with the reply allowances of a simulated
+    rig on a loaded test machine (``SIMULATED_PLC_TIMEOUT_S``, ``SIMULATED_THRUSTER_ACK_S``)."""
+    text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
+    assert "timeout_s = 0.05\n" in text and "ack_timeout_s = 0.1\n" in text
+    text = text.replace("timeout_s = 0.05\n", f"timeout_s = {SIMULATED_PLC_TIMEOUT_S}\n", 1)
+    text = text.replace("ack_timeout_s = 0.1\n", f"ack_timeout_s = {SIMULATED_THRUSTER_ACK_S}\n")
+    path = folder / "benbam-simulated.toml"
+    path.write_text(text)
+    return path
+
 
 def hardware_rig_file(
     folder: Path,
