@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from daq.config import RigConfig, RigConfigError, parse_rig
@@ -19,9 +18,8 @@ from daq.store import Store
 from estimation.axis.tow_section import TowResult
 from estimation.data.run_arrays import RunData
 from estimation.stats.repeatability import RepeatAnalysis
-from estimation.uncertainty import Chain, uncertainty_budget
+from estimation.uncertainty import Chain, TowRefits, uncertainty_budget
 from estimation.uncertainty.budget import Budget
-from estimation.uncertainty.text import append_to_report
 
 
 def rig_of_runs(store: Store, run_ids: Sequence[str]) -> RigConfig | None:
@@ -64,25 +62,12 @@ def fitted_budget(
     if result.fit_after is None or result.method != "output-error":
         return None
     rig = rig_of_runs(store, [r.run_id for r in runs])
-    return uncertainty_budget(
-        runs, result, chain_of(rig) if rig else None, tolerances_of(rig), repeats
-    )
+    refits = TowRefits(runs, result, chain_of(rig) if rig else None)
+    return uncertainty_budget(result, refits, tolerances_of(rig), repeats)
 
 
-def budget_document(
-    store: Store,
-    runs: Sequence[RunData],
-    result: TowResult,
-    report_dir: str | Path | None = None,
-) -> dict[str, Any]:
+def budget_document(store: Store, runs: Sequence[RunData], result: TowResult) -> dict[str, Any]:
     """{"budget": …} for the result JSON (None for the seed methods, which carry no fit to
-    re-fit), its repeatability from the result's repeats; appended to report.md, with the
-    repeats, when a report was written."""
+    re-fit), its repeatability from the result's repeats."""
     fitted = fitted_budget(store, runs, result, result.repeats)
-    if fitted is None:
-        return {"budget": None}
-    budget = fitted.to_json()
-    if report_dir is not None and (Path(report_dir) / "report.md").exists():
-        repeats = result.repeats.to_json() if result.repeats else None
-        append_to_report(report_dir, budget, repeats)
-    return {"budget": budget}
+    return {"budget": None if fitted is None else fitted.to_json()}

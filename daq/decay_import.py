@@ -107,7 +107,7 @@ class DecayRun:
     known_inertia: float
     t_release: float | None
     t_end: float | None
-    #: Declared half-widths of the given inputs (``estimation.uncertainty.motion_budget``).
+    #: Declared half-widths of the given inputs (``estimation.uncertainty.record_refits``).
     tolerances: dict[str, float] = field(default_factory=dict)
 
 
@@ -183,14 +183,13 @@ def fit_decays(
     )
 
 
-def decay_budget(
-    store: Store, runs: list[DecayRun], result: Any, report_dir: str | Path | None
-) -> dict[str, Any]:
+def decay_budget(store: Store, runs: list[DecayRun], result: Any) -> dict[str, Any]:
     """{"budget": …}: the GUM budget of the decay's coefficients with the tolerances
-    declared at import (``estimation.uncertainty.motion_budget``)."""
-    from estimation.uncertainty.motion_budget import motion_budget
+    declared at import (``estimation.uncertainty.record_refits``)."""
+    from estimation.uncertainty import RecordRefits, uncertainty_budget
 
-    return {"budget": motion_budget(result, runs[0].tolerances).to_json()}
+    budget = uncertainty_budget(result, RecordRefits(result), runs[0].tolerances, result.repeats)
+    return {"budget": budget.to_json()}
 
 
 def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:

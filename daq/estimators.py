@@ -39,8 +39,9 @@ class Estimator:
 
     What an estimator offers beyond the fit is a field, ``None`` where it offers nothing,
     so the job calls it without naming the estimator:
-    ``budget(store, runs, result, report_dir)`` → the documents added to the result after
-    it (the uncertainty budget, which the theory comparison reads); ``compares_theory``:
+    ``budget(store, runs, result)`` → the documents added to the result after it (the
+    uncertainty budget, which the theory comparison reads and the job appends to the
+    report); ``compares_theory``:
     its results are compared with the hull's theory (``api.core.theory_job``: a tow or
     spin's added mass and damping); ``units_of()`` → per axis (or dof) its results may be
     on, the unit of each quantity they report (``{"surge": {"inertia": "kg", …,
@@ -57,7 +58,7 @@ class Estimator:
     report: Callable[[Any, list[Any], Path], list[Path]] | None = None
     #: method → how the browser's method menu words it (a method missing: its name).
     method_labels: dict[str, str] = field(default_factory=dict)
-    budget: Callable[[Store, list[Any], Any, str | Path | None], dict[str, Any]] | None = None
+    budget: Callable[[Store, list[Any], Any], dict[str, Any]] | None = None
     compares_theory: bool = False
     units_of: Callable[[], dict[str, dict[str, str]]] = dict
 
@@ -108,12 +109,10 @@ def _axis_fit(
     )
 
 
-def _axis_budget(
-    store: Store, runs: list[Any], result: Any, report_dir: str | Path | None
-) -> dict[str, Any]:
+def _axis_budget(store: Store, runs: list[Any], result: Any) -> dict[str, Any]:
     from daq.axis_budget import budget_document
 
-    return budget_document(store, runs, result, report_dir)
+    return budget_document(store, runs, result)
 
 
 def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
@@ -170,9 +169,7 @@ def _pendulum_fit(
     return estimate_pendulum(runs, method=method, search=search, exclude_outliers=exclude_outliers)
 
 
-def _pendulum_budget(
-    store: Store, runs: list[Any], result: Any, report_dir: str | Path | None
-) -> dict[str, Any]:
+def _pendulum_budget(store: Store, runs: list[Any], result: Any) -> dict[str, Any]:
     """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
     from estimation.pendulum.pendulum_estimate import pendulum_budget
 

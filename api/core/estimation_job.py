@@ -102,7 +102,11 @@ def run_estimation(
             data["report_files"] = [str(p) for p in files]
     if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
-            data |= estimator.budget(store, runs, result, report_dir)
+            data |= estimator.budget(store, runs, result)
+            if data.get("budget") and report_dir is not None and "report_files" in data:
+                from estimation.uncertainty.text import append_to_report
+
+                append_to_report(report_dir, data["budget"], None)  # the report has the repeats
             if estimator.compares_theory:  # the hull's theory compares a tow or spin's
                 # here: a decay never loads the vehicle file, hull theory nor the tow budget
                 from api.core.theory_job import theory_document

@@ -127,7 +127,7 @@ class EstimationResult(Generic[S]):
     fit_before: MotionFit | None = field(default=None, repr=False, compare=False)
     fit_after: MotionFit | None = field(default=None, repr=False, compare=False)
     #: What the fit was given: the equation's setup and the records as windowed (a refit
-    #: with a declared input moved, ``uncertainty.motion_budget``).
+    #: with a declared input moved, ``uncertainty.record_refits``).
     setup: Setup | None = field(default=None, repr=False, compare=False)
     records: tuple[Record, ...] = field(default=(), repr=False, compare=False)
 

@@ -46,8 +46,8 @@ from estimation.pendulum.methods import (
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.report_numbers import Coefficient, finite_or_none
-from estimation.uncertainty.budget import Budget
-from estimation.uncertainty.motion_budget import motion_budget
+from estimation.uncertainty.budget import Budget, uncertainty_budget
+from estimation.uncertainty.record_refits import RecordRefits
 
 GEOMETRY_EXACT = (
     "Type B not declared: the rig file's pendulum geometry (rod, arm, buoyancy) is taken as "
@@ -116,15 +116,16 @@ PendulumResult = EstimationResult[PendulumSection]
 
 
 def pendulum_budget(result: PendulumResult) -> Budget:
-    """The GUM budget of a pendulum's output-error coefficients (``uncertainty.motion_budget``,
-    the one engine's), named and in the units the result reports them."""
+    """The GUM budget of a pendulum's output-error coefficients (``uncertainty.budget``, every
+    kind's), named and in the units the result reports them."""
     if result.fit_after is None:
         raise ValueError("result: got a pendulum estimate without its fit")
     names = result.fit_after.names
-    b = motion_budget(result, units={n: unit(n, result.axis) for n in names})
+    refits = RecordRefits(result, "pendulum", GEOMETRY_EXACT)
+    units = {n: unit(n, result.axis) for n in names}
+    b = uncertainty_budget(result, refits, repeats=result.repeats, units=units)
     return replace(
         b,
-        notes=(GEOMETRY_EXACT,),
         coefficients={reported(n): replace(c, name=reported(n)) for n, c in b.coefficients.items()},
     )
 

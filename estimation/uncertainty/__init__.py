@@ -4,13 +4,17 @@ prediction.
 See docs/uncertainty.md."""
 
 from estimation.uncertainty.budget import Budget, CoefficientBudget, uncertainty_budget
+from estimation.uncertainty.record_refits import RecordRefits
 from estimation.uncertainty.sources import SOURCES, Chain, check_tolerances
+from estimation.uncertainty.tow_refits import TowRefits
 
 __all__ = [
     "SOURCES",
     "Budget",
     "Chain",
     "CoefficientBudget",
+    "RecordRefits",
+    "TowRefits",
     "check_tolerances",
     "uncertainty_budget",
 ]

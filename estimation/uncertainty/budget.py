@@ -1,5 +1,5 @@
 """The uncertainty budget of every fitted coefficient, in the form of ITTC 7.5-02-01-01 and
-the GUM (JCGM 100:2008).
+the GUM (JCGM 100:2008), one for every kind of record (tow, spin, free decay, pendulum).
 
 Per coefficient θ, each source i has a standard uncertainty u_i (in its own unit), a
 sensitivity c_i = ∂θ/∂x_i and a contribution c_i·u_i. Combined standard uncertainty
@@ -10,63 +10,117 @@ GUM 7.2.6, so the stated U is never smaller than computed) with the value rounde
 same decimal place.
 
 Type A (evaluated from the data, ``estimation.uncertainty.type_a``): the largest of the
-fit's white σ, the encoder quantization's σ, the run-level bootstrap and the repeatability
-of repeat campaigns (they estimate the same random error: counted once), and the
-release-timing refit and thrust calibration draws (separate random sources).
+fit's σ, the encoder quantization's σ, the record bootstrap and the repeatability of repeat
+campaigns (they estimate the same random error: counted once), and the sources a kind has
+of its own (a tow's release-timing refit and thrust calibration draws).
 
-Type B (declared tolerances, ``estimation.uncertainty.sources``): the sensitivity is a
-central finite difference of a re-fit, c = (θ(x + u) − θ(x − u)) / 2u, with the fit's
-own model and effects. Chosen over a Monte Carlo through the fit because it costs two
-re-fits per source (a Monte Carlo needs hundreds for a stable spread), is deterministic,
-and gives the per-source sensitivity the ITTC table asks for; the Monte Carlo is used in
-the tests to check it (tests/estimation/uncertainty/test_uncertainty_chain.py). Declared tolerances
-are taken as exactly known: ν_i = ∞.
+Type B (declared tolerances): the sensitivity is a central finite difference of a re-fit,
+c = (θ(x + u) − θ(x − u)) / 2u, with the fit's own model and effects. Chosen over a Monte
+Carlo through the fit because it costs two re-fits per source (a Monte Carlo needs hundreds
+for a stable spread), is deterministic, and gives the per-source sensitivity the ITTC table
+asks for; the Monte Carlo is used in the tests to check it
+(tests/estimation/uncertainty/test_uncertainty_chain.py). Declared tolerances are taken as
+exactly known: ν_i = ∞.
+
+What differs by kind is only how its records are re-fitted with something changed — an
+input moved, a repeat campaign alone — and which inputs it can declare: a ``Refits``
+(``uncertainty.tow_refits`` for tows and spins, ``uncertainty.record_refits`` for decays and
+pendulum swings). Everything else is this module's ``uncertainty_budget``.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import numpy as np
 from scipy import special
 
-from estimation.axis.output_error import fit_output_error
-from estimation.axis.prepared_run import prepare
-from estimation.axis.tow_estimate import combination_conditions, well_determined
-from estimation.axis.tow_section import TowResult
-from estimation.data.run_arrays import RunData
+from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
+from estimation.motion.estimation_result import EstimationResult
 from estimation.motion.output_error_fit import MotionFit
+from estimation.motion.well_determined import Combination
 from estimation.report_numbers import finite_or_none
-from estimation.uncertainty.repeats import RepeatAnalysis, repeat_campaign_std
+from estimation.stats.repeatability import RepeatAnalysis, campaign_repeatability
 from estimation.uncertainty.rows import BudgetRow
-from estimation.uncertainty.sources import (
-    SOURCES,
-    Chain,
-    check_tolerances,
-    perturbed,
-    reaches,
-    standard_uncertainty,
-    weight_groups,
-)
-from estimation.uncertainty.type_a import combination_rows, type_a_rows
+from estimation.uncertainty.type_a import combination_rows, random_rows
 
-__all__ = ["Budget", "BudgetRow", "CoefficientBudget", "uncertainty_budget"]
+__all__ = [
+    "Budget",
+    "BudgetRow",
+    "CoefficientBudget",
+    "DeclaredInput",
+    "Refits",
+    "uncertainty_budget",
+]
 
 COVERAGE = 0.95
-TYPE_B_NOT_DECLARED = (
-    "Type B not declared: the rig file has no [tolerances] section, so U covers the Type A "
-    f"sources only ({advice_for('tow').declare_tolerances})"
-)
-#: The same for runs that came without a rig file (imported data): no section to add to.
-TYPE_B_NO_RIG_FILE = (
-    "Type B not declared: these runs came without a rig file, so the drive and the rig's "
-    "constants are taken as exact and U covers the Type A sources only "
-    f"({advice_for('import').declare_tolerances})"
-)
+
+
+@dataclass(frozen=True)
+class DeclaredInput:
+    """One declared Type B input of a kind's records: its half-width a (rectangular,
+    u = a/√3, GUM 4.3.7), unit and meaning; ``parts``: its independent parts (one per
+    distinct hung weight: one weight, one error); ``moves_records``: whether it changes the
+    records' own data (a drive computed from a hung mass, an encoder scale) rather than a
+    constant the model is given (a decay's stiffness)."""
+
+    name: str
+    half_width: float
+    unit: str
+    meaning: str
+    parts: int = 1
+    moves_records: bool = True
+
+    @property
+    def u(self) -> float:
+        """The standard uncertainty a/√3."""
+        return self.half_width / math.sqrt(3.0)
+
+    @property
+    def source(self) -> str:
+        """The budget row's name."""
+        return f"{self.name} (±{self.half_width:g} {self.unit}, rectangular)"
+
+
+class Refits(Protocol):
+    """How one kind's records are re-fitted for its budget; ``kind``: its ``kind_advice``
+    key; ``not_declared``: the note when it declares no Type B input."""
+
+    kind: str
+    not_declared: str
+
+    def inputs(
+        self, tolerances: Mapping[str, float]
+    ) -> tuple[dict[str, float], list[DeclaredInput], list[str]]:
+        """The declared half-widths, checked (``ValueError`` naming the field for an unknown
+        name or a bad half-width); those that reach the records; the others, each named with
+        its half-width and why."""
+        ...
+
+    def moved(
+        self, declared: DeclaredInput, delta: float, part: int
+    ) -> tuple[MotionFit, tuple[Combination, ...]] | None:
+        """The fit's model re-fitted with part ``part`` of ``declared`` moved by ``delta``,
+        and the combinations on it (None: the input moves nothing the fit sees)."""
+        ...
+
+    def combinations(self, fit: MotionFit) -> tuple[Combination, ...]:
+        """The result's well-determined combinations on ``fit``, at the result's own
+        conditions (its drives and speeds, its amplitudes)."""
+        ...
+
+    def campaign(self, run_ids: Sequence[str]) -> MotionFit:
+        """The fit's model fitted to the records ``run_ids`` alone."""
+        ...
+
+    def own_rows(self, name: str, unit: str) -> list[BudgetRow]:
+        """The kind's own random sources of coefficient ``name`` (a tow's release timing and
+        thrust calibration draws), which enter u_c as they are."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -164,85 +218,6 @@ def round_reported(value: float, expanded: float, digits: int = 2) -> tuple[str,
     return f"{round(value / step) * step:.{decimals}f}", f"{up:.{decimals}f}"
 
 
-def _type_b_sensitivity(
-    runs: Sequence[RunData],
-    result: TowResult,
-    fit: MotionFit,
-    conditions: tuple[Mapping[str, float], Sequence[float]],
-    chain: Chain,
-    source: str,
-    u: float,
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """∂θ/∂x per independent input of ``source`` (one per hung weight for weights), and
-    the same for the result's well-determined combinations, each recomputed on the re-fit
-    at the conditions the result gives it at (the nominal drives and reached speeds: a
-    terminal speed is a function of the coefficients at a stated drive)."""
-    groups: list[list[int]] = weight_groups(runs) if SOURCES[source].per_weight else [[]]
-    named = [c.name for c in result.well_determined]
-    out = []
-    for only in groups:
-        values, combined = [], []
-        for delta in (u, -u):
-            moved = [prepare(r) for r in perturbed(runs, chain, source, delta, only)]
-            refit = fit_output_error(moved, fit.effects, start=fit.values, quantization_sigma=False)
-            values.append(refit.values)
-            again = {c.name: c.value for c in well_determined(refit, *conditions, runs[0].axis)}
-            combined.append(np.array([again.get(n, math.nan) for n in named]))
-        out.append(((values[0] - values[1]) / (2 * u), (combined[0] - combined[1]) / (2 * u)))
-    return out
-
-
-def _type_b_rows(
-    runs: Sequence[RunData],
-    result: TowResult,
-    fit: MotionFit,
-    conditions: tuple[Mapping[str, float], Sequence[float]],
-    chain: Chain,
-    tolerances: Mapping[str, float],
-    notes: list[str],
-) -> dict[str, list[BudgetRow]]:
-    """Type B rows per coefficient and per well-determined combination (by name); a
-    declared input that reaches no run is named in ``notes`` instead (a thrust calibration
-    in a weight-driven estimate, the water temperature, which enters only ρ and ν)."""
-    axis = runs[0].axis
-    names = (*fit.names, *(c.name for c in result.well_determined))
-    rows: dict[str, list[BudgetRow]] = {n: [] for n in names}
-    idle = []
-    for name, half_width in tolerances.items():
-        source = SOURCES[name]
-        if axis not in source.axes or half_width <= 0:
-            continue
-        u = standard_uncertainty(half_width)
-        if not reaches(runs, chain, name, u):
-            idle.append(f"{name} (±{half_width:g} {source.unit}: {source.meaning})")
-            continue
-        grads = [
-            np.concatenate([g, c])
-            for g, c in _type_b_sensitivity(runs, result, fit, conditions, chain, name, u)
-        ]
-        for i, coef in enumerate(names):
-            parts = np.array([g[i] for g in grads])
-            contribution = float(np.sqrt(np.sum((parts * u) ** 2)))
-            note = source.meaning
-            if source.per_weight and len(grads) > 1:
-                note += f"; {len(grads)} weights, independent, c is their root-sum-square"
-            rows[coef].append(
-                BudgetRow(
-                    f"{name} (±{half_width:g} {source.unit}, rectangular)",
-                    "B",
-                    source.unit,
-                    u,
-                    contribution / u if u > 0 else 0.0,
-                    contribution,
-                    math.inf,
-                    note=note,
-                )
-            )
-    if idle:
-        notes.append("declared, but reaching no run of this estimate: " + "; ".join(idle))
-    return rows
-
-
 def coefficient_budget(name: str, value: float, rows: list[BudgetRow]) -> CoefficientBudget:
     """One coefficient's budget from its rows: u_c of the combined rows (NaN when one has no
     value), ν_eff, k and U = k·u_c, and U as reported."""
@@ -263,62 +238,117 @@ def coefficient_budget(name: str, value: float, rows: list[BudgetRow]) -> Coeffi
     return CoefficientBudget(name, value, shared, u_c, dof, k, expanded, shown_value, shown_u)
 
 
-def as_fitted(runs: Sequence[RunData], result: TowResult) -> list[RunData]:
-    """The runs with the release instants the estimate fitted with: a release found in the
-    data was refined by the fit (``estimation.axis.release.fit_release``), and the result's
-    window holds the refined instant (refining again would repeat the costliest step of an
-    estimate: 95 s on the ship2d record)."""
-    out = []
-    for r in runs:
-        w = result.section.windows.get(r.run_id)
-        if w is not None and r.window_found is not None and w != r.window_found:
-            r = replace(r, t_release=w.t_release, window_found=w)
-        out.append(r)
-    return out
-
-
 def uncertainty_budget(
-    runs: Sequence[RunData],
-    result: TowResult,
-    chain: Chain | None,
-    tolerances: Mapping[str, float] | None,
+    result: EstimationResult[Any],
+    refits: Refits,
+    tolerances: Mapping[str, float] | None = None,
     repeats: RepeatAnalysis | None = None,
+    units: Mapping[str, str] | None = None,
 ) -> Budget:
-    """The budget of every coefficient of ``result`` (an output-error estimate of ``runs``).
+    """The budget of every fitted coefficient of ``result`` and of its well-determined
+    combinations (module doc), its records re-fitted by ``refits``.
 
-    ``chain``: the rig constants the runs' drives were computed with (None: runs without a
-    rig file, e.g. imported; the note then says so rather than ask for a section of a
-    file that does not exist); ``tolerances``: the
-    declared half-widths by ``SOURCES`` name (None or empty: Type B not declared, a note
-    says so). ``repeats``: the repeat analysis of the runs (its repeat campaigns give the
-    repeatability row)."""
+    ``tolerances``: declared half-widths by the names ``refits`` knows (None or empty: Type
+    B not declared, a note says so); ``repeats``: the repeat analysis of the records (its
+    repeat campaigns give the repeatability row); ``units``: a coefficient's unit where the
+    result's own is not the one reported (a pendulum's vehicle terms)."""
     fit = result.fit_after
     if fit is None:
         raise ValueError("result: got an estimate without its fit, allowed: an output-error fit")
-    declared = check_tolerances(tolerances or {})
-    notes: list[str] = []
-    if not declared:  # advice only the user can act on: a rig file exists, or it does not
-        notes.append(TYPE_B_NOT_DECLARED if chain is not None else TYPE_B_NO_RIG_FILE)
-    runs = as_fitted(runs, result)
-    imported = chain is None
-    chain = chain or Chain(g=9.81)
-    # the drives and reached speeds the combinations are stated at: one for every re-fit
-    conditions = combination_conditions(fit, runs)
-    type_b = _type_b_rows(runs, result, fit, conditions, chain, declared, notes) if declared else {}
-    repeat_std: dict[str, tuple[float, int]] = {}
-    if repeats is not None:
-        kind = advice_for("import" if imported else "tow")
-        repeat_std, why = repeat_campaign_std(runs, fit, repeats, kind)
-        if why:
-            notes.append(why)
-    type_a = type_a_rows(result, fit, repeat_std)
-    budgets = {
-        name: coefficient_budget(name, fit.value(name), type_a[name] + type_b.get(name, []))
-        for name in fit.names
-    }
-    fit_rows = combination_rows(result, fit, conditions, max(fit.n_samples - fit.n_params, 1))
-    combinations = {
-        c.name: coefficient_budget(c.name, c.value, [fit_rows[c.name], *type_b.get(c.name, [])])
+    declared, inputs, idle = refits.inputs(tolerances or {})
+    notes = [] if declared else [refits.not_declared]
+    if idle:
+        notes.append("declared, but not an input of this estimate: " + "; ".join(idle))
+    units = {n: c.unit for n, c in result.coefficients.items()} | dict(units or {})
+    # The fit's white σ where declared inputs move the records: the structure they put in
+    # the residual is theirs, propagated by their re-fits (type_a module doc).
+    white = any(i.moves_records for i in inputs)
+    repeat_std, why = _repeatability(refits, fit, repeats, set(result.runs))
+    if why:
+        notes.append(why)
+    rows = random_rows(result, fit, units, white, repeat_std, refits.own_rows)
+    combined = combination_rows(result, fit, white, refits.combinations)
+    for declared_input in inputs:
+        try:
+            coefficients, combinations = _type_b_rows(result, fit, refits, declared_input)
+        except EstimationFailed as err:
+            notes.append(
+                f"{declared_input.name}: declared, but a re-fit with it moved by ±u did not "
+                f"fit ({err.why}): not in U"
+            )
+            continue
+        for name, row in coefficients.items():
+            rows[name].append(row)
+        for name, row in combinations.items():
+            combined[name].append(row)
+    budgets = {n: coefficient_budget(n, fit.value(n), rows[n]) for n in fit.names}
+    combination_budgets = {
+        c.name: coefficient_budget(c.name, c.value, combined[c.name])
         for c in result.well_determined
     }
-    return Budget(budgets, bool(declared), tuple(notes), declared, combinations)
+    return Budget(budgets, bool(declared), tuple(notes), declared, combination_budgets)
+
+
+def _type_b_rows(
+    result: EstimationResult[Any], fit: MotionFit, refits: Refits, declared: DeclaredInput
+) -> tuple[dict[str, BudgetRow], dict[str, BudgetRow]]:
+    """The Type B row of ``declared`` for every coefficient and every well-determined
+    combination: c = (θ(x + u) − θ(x − u)) / 2u from two re-fits per independent part; with
+    several parts (hung weights) c is their root-sum-square, with one it keeps its sign."""
+    u = declared.u
+    named = [c.name for c in result.well_determined]
+    slopes: list[np.ndarray] = []
+    for part in range(declared.parts):
+        values, combined = [], []
+        for delta in (u, -u):
+            moved = refits.moved(declared, delta, part)
+            if moved is None:
+                raise EstimationFailed(declared.name, "the input moves nothing the fit sees")
+            values.append(moved[0].values)
+            again = {c.name: c.value for c in moved[1]}
+            combined.append(np.array([again.get(n, math.nan) for n in named]))
+        slopes.append(
+            np.concatenate(
+                [(values[0] - values[1]) / (2 * u), (combined[0] - combined[1]) / (2 * u)]
+            )
+        )
+    note = declared.meaning
+    if declared.parts > 1:
+        note += f"; {declared.parts} weights, independent, c is their root-sum-square"
+    out = {}
+    for i, name in enumerate((*fit.names, *named)):
+        parts = np.array([s[i] for s in slopes])
+        c = float(parts[0]) if parts.size == 1 else float(np.sqrt(np.sum(parts**2)))
+        out[name] = BudgetRow(
+            declared.source, "B", declared.unit, u, c, abs(c) * u, math.inf, note=note
+        )
+    return {n: out[n] for n in fit.names}, {n: out[n] for n in named}
+
+
+def _repeatability(
+    refits: Refits, fit: MotionFit, repeats: RepeatAnalysis | None, fitted: set[str]
+) -> tuple[dict[str, tuple[float, int]], str]:
+    """{name: (s/√N, N)} from the N repeat campaigns of ``repeats`` among the ``fitted``
+    records (campaign k takes the k-th record of every condition and is fitted on its own;
+    u = s/√N, ν = N − 1, ITTC 7.5-02-01-01 §2.4), and a note when it cannot be evaluated
+    ({} and "" without repeats)."""
+    if repeats is None:
+        return {}, ""
+    groups = [[i for i in c.run_ids if i in fitted] for c in repeats.conditions]
+    groups = [g for g in groups if g]
+    if not any(len(g) > 1 for g in groups):
+        return {}, (
+            "repeatability not evaluated: no condition was recorded more than once (ITTC "
+            "names run-to-run scatter the largest source in practice; "
+            f"{advice_for(refits.kind).repeat_runs}, ≥ 5 for Chauvenet's criterion to be "
+            "able to flag an outlier)"
+        )
+    try:
+        spread, n = campaign_repeatability(
+            groups, fit.names, lambda members: refits.campaign(members).values
+        )
+    except EstimationFailed as err:
+        return {}, f"repeatability not evaluated: a repeat campaign did not fit ({err.why})"
+    if n < 2:
+        return {}, "repeatability not evaluated: some conditions were recorded only once"
+    return spread, ""

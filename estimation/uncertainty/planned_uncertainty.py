@@ -29,6 +29,7 @@ from estimation.data.run_arrays import RunData
 from estimation.errors import FieldError
 from estimation.uncertainty.budget import Budget, uncertainty_budget
 from estimation.uncertainty.sources import Chain
+from estimation.uncertainty.tow_refits import TowRefits
 
 
 @dataclass(frozen=True)
@@ -126,5 +127,7 @@ def predict_uncertainty(
             for k in range(p.repeats)
         ]
         result = estimate(runs, search_effects=False, n_bootstrap=0)
-        out[axis] = uncertainty_budget(runs, result, rig.chain, tolerances, result.repeats)
+        out[axis] = uncertainty_budget(
+            result, TowRefits(runs, result, rig.chain), tolerances, result.repeats
+        )
     return out

@@ -1,104 +1,94 @@
-"""The Type A rows of an uncertainty budget (evaluated from the data).
+"""The Type A rows of an uncertainty budget (evaluated from the data), one rule for every
+kind of record.
 
 The random error of a coefficient has up to four estimates, and only the largest enters u_c
 (the others are listed, marked "not combined"): they estimate the same error, so adding
 them would count it two or three times, and taking the largest keeps a σ never smaller than
 the data support.
 
-* the fit's white σ, σ̂²(JᵀJ)⁻¹: the noise of the samples. Not the estimate's σ with the
-  residual's within-run correlation (``estimation.stats.serial``): a structured residual
-  here is mostly what the declared Type B sources do to the runs, and counting it in the
-  fit's σ too counts them twice — on the 12 kg chain of
-  tests/estimation/uncertainty/test_uncertainty_chain.py U of the inertia became 0.22 kg against
-  0.13 kg from a Monte Carlo of the whole chain;
+* the fit's σ. Where declared Type B inputs move the records themselves (a tow's hung
+  masses, radii and encoder scale: ``DeclaredInput.moves_records``), the white σ̂²(JᵀJ)⁻¹
+  with ν = n − p: a residual structured within a run is then mostly what those inputs do to
+  the runs, and their re-fits propagate it; counting it in the fit's σ too counts them
+  twice — on the 12 kg chain of tests/estimation/uncertainty/test_uncertainty_chain.py U of
+  the inertia became 0.22 kg against 0.13 kg from a Monte Carlo of the whole chain.
+  Everywhere else (no tolerance declared, or only constants the model is given, as a
+  decay's stiffness) nothing else carries that structure: the estimate's own σ, the larger
+  of the white and the serial-correlation σ (``estimation.stats.identify``), with
+  ν = n_eff − p, n_eff the residual's effective sample size (``stats.misfit``: KVLCC2's
+  roll decays, n 1335, n_eff 74);
 * the encoder's quantization (``estimation.stats.quantization``): the same sample error
   (its variance is Q²/12 plus the residual's excess noise) with the correlation that one
-  unknown phase per run puts into it, which the residual cannot show. It comes from the
-  encoder step and the fitted motion, not from the residual, so no Type B source is in
-  it; it is the fit's σ where it is the larger (slow motion, little noise to dither the
-  encoder: the 143 kg tows of tests/estimation/term_search/test_term_coverage.py);
-* the run-level bootstrap;
-* the repeatability of repeat campaigns (``estimation.uncertainty.repeats``).
+  unknown phase per run puts into it, which the residual cannot show. It is the fit's σ
+  where it is the larger (slow motion, little noise to dither the encoder: the 143 kg tows
+  of tests/estimation/term_search/test_term_coverage.py);
+* the record bootstrap (ν = records − 1);
+* the repeatability of repeat campaigns (u = s/√N, ν = N − 1).
 
-The release-timing refit and the thrust calibration draws
-(``estimation.axis.drive_uncertainty``) are separate random sources and enter as they are.
+A kind's own random sources (a tow's release-timing refit and thrust calibration draws,
+``estimation.axis.drive_uncertainty``) are separate and enter as they are.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import replace
+from typing import Any
 
-from estimation.axis.tow_estimate import well_determined
-from estimation.axis.tow_section import TowResult
+import numpy as np
+
+from estimation.motion.estimation_result import EstimationResult
 from estimation.motion.output_error_fit import MotionFit
-from estimation.motion.terms import LIBRARY
+from estimation.motion.well_determined import Combination
+from estimation.stats.misfit import effective_sample_size
 from estimation.uncertainty.rows import BudgetRow, counted_once, repeatability_row
 
 QUANTIZATION = "encoder quantization (step Q, one unknown phase per run)"
-FIT_ROW = "fit (σ̂²(JᵀJ)⁻¹)"
-COMBINATION_ROW = "fit (delta method: the coefficients' σ̂²(JᵀJ)⁻¹ or quantization σ)"
-NOT_IDENTIFIED = "not identified by these runs: no σ, so no U"
+FIT_WHITE = "fit (white σ̂²(JᵀJ)⁻¹; ν = n − p)"
+FIT_SERIAL = "fit (σ with the residual's correlation; ν = n_eff − p)"
+COMBINATION_ROW = "fit (delta method through the coefficients' σ)"
+NOT_IDENTIFIED = "not identified by these records: no σ, so no U"
 
 
-def coefficient_unit(name: str, axis: str) -> str:
-    """The SI unit of a fitted coefficient or effect on ``axis``."""
-    if name == "inertia":
-        return "kg" if axis == "surge" else "kg·m²"
-    return LIBRARY[name].unit(axis) if name in LIBRARY else ""
+def fit_dof(fit: MotionFit, white: bool) -> tuple[float, str]:
+    """ν of the fit's row (n − p white, n_eff − p otherwise, at least 1) and its note."""
+    n_eff = effective_sample_size(fit.residuals)
+    dof = fit.n_samples - fit.n_params if white else n_eff - fit.n_params
+    return max(float(dof), 1.0), f"n = {fit.n_samples}, n_eff = {n_eff:.0f}, p = {fit.n_params}"
 
 
-def combination_rows(
-    result: TowResult,
+def random_rows(
+    result: EstimationResult[Any],
     fit: MotionFit,
-    conditions: tuple[Mapping[str, float], Sequence[float]],
-    dof_fit: float,
-) -> dict[str, BudgetRow]:
-    """The Type A row of each well-determined combination (a tow's terminal speed, its drag
-    at a tested speed), by name: its delta-method σ (``motion.well_determined``) through the
-    fit's correlation and, as for the coefficients, the larger of the white σ and the
-    encoder quantization's σ (the serial-correlation σ would count the declared Type B
-    sources twice, module doc). The bootstrap, release-timing and calibration draws are
-    kept per raw coefficient only, so they are not in it (docs/uncertainty.md)."""
-    forms = [f for f in (fit.std_white, fit.std_quantization) if f is not None] or [fit.std]
-    sigmas: dict[str, list[float]] = {}
-    for std in forms:
-        for c in well_determined(replace(fit, std=std), *conditions, result.axis):
-            if c.std is not None:
-                sigmas.setdefault(c.name, []).append(c.std)
-    out = {}
-    for c in result.well_determined:
-        found = [s for s in sigmas.get(c.name, []) if math.isfinite(s)]
-        if c.std is None or not math.isfinite(c.std) or not found:
-            out[c.name] = BudgetRow(
-                COMBINATION_ROW, "A", c.unit, math.nan, 1.0, math.nan, dof_fit, note=NOT_IDENTIFIED
-            )
-        else:
-            u = max(found)
-            out[c.name] = BudgetRow(COMBINATION_ROW, "A", c.unit, u, 1.0, u, dof_fit)
-    return out
-
-
-def type_a_rows(
-    result: TowResult, fit: MotionFit, repeat_std: Mapping[str, tuple[float, int]]
+    units: Mapping[str, str],
+    white: bool,
+    repeat_std: Mapping[str, tuple[float, int]],
+    own_rows: Callable[[str, str], list[BudgetRow]],
 ) -> dict[str, list[BudgetRow]]:
-    rows: dict[str, list[BudgetRow]] = {}
-    dof_fit = max(fit.n_samples - fit.n_params, 1)
+    """Each coefficient's Type A rows (module doc): the fit's (white or with the residual's
+    correlation), the quantization's, the bootstrap's and the repeatability's, counted once,
+    then the kind's ``own_rows``; a coefficient the records do not determine has one row
+    without a value (no U)."""
+    dof, counts = fit_dof(fit, white)
+    sigma = fit.std_white if white and fit.std_white is not None else fit.std
     boot = result.bootstrap
-    drive = result.section.uncertainty
+    rows: dict[str, list[BudgetRow]] = {}
     for i, name in enumerate(fit.names):
-        unit = coefficient_unit(name, result.axis)
+        unit = units.get(name, "")
         if not math.isfinite(float(fit.std[i])):  # the data do not determine it: no U at all
             rows[name] = [
-                BudgetRow(FIT_ROW, "A", unit, math.nan, 1.0, math.nan, dof_fit, note=NOT_IDENTIFIED)
-            ]
+                BudgetRow(FIT_WHITE if white else FIT_SERIAL, "A", unit, math.nan, 1.0,
+                          math.nan, dof, note=NOT_IDENTIFIED)
+            ]  # fmt: skip
             continue
-        noise = fit.std if fit.std_white is None else fit.std_white
-        random = [BudgetRow(FIT_ROW, "A", unit, float(noise[i]), 1.0, 0.0, dof_fit)]
+        random = [
+            BudgetRow(FIT_WHITE if white else FIT_SERIAL, "A", unit, float(sigma[i]), 1.0, 0.0,
+                      dof, note=counts)
+        ]  # fmt: skip
         if fit.std_quantization is not None:
             random.append(
-                BudgetRow(QUANTIZATION, "A", unit, float(fit.std_quantization[i]), 1, 0, dof_fit)
+                BudgetRow(QUANTIZATION, "A", unit, float(fit.std_quantization[i]), 1, 0, dof)
             )
         if boot is not None and boot.used > 1 and math.isfinite(boot.std.get(name, math.nan)):
             random.append(
@@ -113,36 +103,38 @@ def type_a_rows(
                 )
             )
         if name in repeat_std:
-            s, n = repeat_std[name]
-            random.append(repeatability_row(unit, s, n))
-        out = counted_once(random)
-        if drive is not None and drive.std_release_timing.get(name, 0.0) > 0:
-            u = drive.std_release_timing[name]
-            out.append(
-                BudgetRow(
-                    "release timing (refit with each release moved by its σ_t)",
-                    "A",
-                    unit,
-                    u,
-                    1.0,
-                    u,
-                    math.inf,
-                    note="σ_t from the release write's bracket and the clock",
-                )
-            )
-        if drive is not None and drive.draws > 1 and drive.std_calibration.get(name, 0.0) > 0:
-            u = drive.std_calibration[name]
-            out.append(
-                BudgetRow(
-                    f"thrust calibration ({drive.draws} curve draws)",
-                    "A",
-                    unit,
-                    u,
-                    1.0,
-                    u,
-                    drive.draws - 1,
-                    note="the calibration fit's covariance",
-                )
-            )
-        rows[name] = out
+            random.append(repeatability_row(unit, *repeat_std[name]))
+        rows[name] = [*counted_once(random), *own_rows(name, unit)]
     return rows
+
+
+def combination_rows(
+    result: EstimationResult[Any],
+    fit: MotionFit,
+    white: bool,
+    combinations: Callable[[MotionFit], tuple[Combination, ...]],
+) -> dict[str, list[BudgetRow]]:
+    """The Type A row of each well-determined combination (a tow's terminal speed, a decay's
+    T₀ and ζ), by name: its delta-method σ through the fit's correlation with the
+    coefficients' σ as for their rows — the larger of the white and the quantization σ where
+    ``white``, the estimate's σ otherwise — on the same ν. The bootstrap, repeatability and a
+    kind's own rows are kept per raw coefficient only (docs/uncertainty.md)."""
+    dof, counts = fit_dof(fit, white)
+    forms = [f for f in (fit.std_white, fit.std_quantization) if f is not None] if white else []
+    sigmas: dict[str, list[float]] = {}
+    for std in forms:
+        for c in combinations(replace(fit, std=std)):
+            if c.std is not None:
+                sigmas.setdefault(c.name, []).append(c.std)
+    out = {}
+    for c in result.well_determined:
+        found = sigmas.get(c.name, []) if forms else [c.std] if c.std is not None else []
+        found = [s for s in found if math.isfinite(s)]
+        if c.std is None or not math.isfinite(c.std) or not found:
+            row = BudgetRow(COMBINATION_ROW, "A", c.unit, math.nan, 1.0, math.nan, dof,
+                            note=NOT_IDENTIFIED)  # fmt: skip
+        else:
+            u = float(np.max(found))
+            row = BudgetRow(COMBINATION_ROW, "A", c.unit, u, 1.0, u, dof, note=counts)
+        out[c.name] = [row]
+    return out

@@ -90,6 +90,9 @@ def test_a_flagged_decay_is_left_out_only_when_the_request_says_so(client, tmp_p
     report = _report_md(client, dropped["result_id"])
     assert f"{wrong} (left out)" in report
     assert f"Left out of the fit at the user's request (exclude_outliers): {wrong}." in report
+    # every kind's report gets the budget, and the repeats once
+    assert "## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)" in report
+    assert report.count("Repeat runs") == 1 and "repeatability (4 repeat campaigns" in report
     # the four alike give their damping (the kept fit is pulled 4 % off by the fifth)
     damping = truth["damping"]
     assert dropped["coefficients"]["linear_damping"]["value"] == pytest.approx(damping, rel=0.005)

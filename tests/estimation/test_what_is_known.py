@@ -97,7 +97,7 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     a stiffness known to 1 % moves every coefficient by ≈ 1 % (a decay scales M, B and k
     alike) but not T₀ nor ζ: its row there is a tiny share, and the budget's JSON, the
     terminal lines and the markdown list them."""
-    from estimation.uncertainty.motion_budget import motion_budget
+    from estimation.uncertainty import RecordRefits, uncertainty_budget
     from estimation.uncertainty.text import budget_lines, budget_markdown
 
     mass = 143.0
@@ -105,7 +105,7 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     b1 = 0.03 * 2 * np.sqrt(total * k)
     t, x = _linear_decay(total, b1, k, x0=0.05, noise=2e-5)
     r = estimate_decay(t, x, "heave", known_inertia=mass, stiffness=k)
-    budget = motion_budget(r, {"stiffness": 0.01 * k})
+    budget = uncertainty_budget(r, RecordRefits(r), {"stiffness": 0.01 * k}, r.repeats)
     truth = {
         "natural period T₀": 2 * np.pi * np.sqrt(total / k),
         "natural frequency ω₀": np.sqrt(k / total),
@@ -124,7 +124,7 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     assert "### natural period T₀: " in budget_markdown(doc)
     # the terminal reads a summary line per quantity first; a budget of one source (the fit
     # alone, nothing declared) is that line again, so it prints no table of its own
-    fit_only = budget_lines(motion_budget(r).to_json())
+    fit_only = budget_lines(uncertainty_budget(r, RecordRefits(r), repeats=r.repeats).to_json())
     summary = [line for line in fit_only if line.startswith("  natural period T₀ ")]
     assert len(summary) == 1 and "±" in summary[0] and "fit" in summary[0]
     assert not any(line.lstrip().startswith("source ") for line in fit_only)

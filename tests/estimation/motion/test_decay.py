@@ -211,10 +211,10 @@ def test_the_decay_figure_numbers_its_records_as_every_face_does(tmp_path):
 
 @pytest.mark.parametrize("scale", _scales())
 def test_every_coefficient_of_a_decay_carries_u_that_covers_its_truth(scale):
-    """The GUM budget of a decay (``uncertainty.motion_budget``): U = k·u_c on every
+    """The GUM budget of a decay (``uncertainty.budget``): U = k·u_c on every
     identified coefficient, covering the truth; a declared stiffness tolerance adds its
     Type B row, the same share of every coefficient (a decay scales them alike)."""
-    from estimation.uncertainty.motion_budget import motion_budget
+    from estimation.uncertainty import RecordRefits, uncertainty_budget
 
     mass = MASSES[scale]
     total, k = 1.8 * mass, 40.0 * mass
@@ -222,18 +222,18 @@ def test_every_coefficient_of_a_decay_carries_u_that_covers_its_truth(scale):
     t, x = decay_record(total, b1, b2, k, x0=0.05, noise=2e-5)
     r = estimate_decay(t, x, "heave", known_inertia=mass, stiffness=k)
     truth = {"inertia": 0.8 * mass, "linear_damping": b1, "quadratic_damping": b2}
-    exact = motion_budget(r)
+    exact = uncertainty_budget(r, RecordRefits(r), repeats=r.repeats)
     assert set(exact.coefficients) == set(truth)
     for name, b in exact.coefficients.items():
         assert abs(b.value - truth[name]) <= b.expanded, name
-    declared = motion_budget(r, {"stiffness": 0.01 * k})
+    declared = uncertainty_budget(r, RecordRefits(r), {"stiffness": 0.01 * k}, r.repeats)
     share = {
         n: next(row for row in b.rows if row.kind == "B").contribution / b.value
         for n, b in declared.coefficients.items()
     }
     assert share["inertia"] == pytest.approx(total / (0.8 * mass) * 0.01 / 3**0.5, rel=0.05)
     with pytest.raises(ValueError, match=r"tolerances\.stiffness: got -1"):
-        motion_budget(r, {"stiffness": -1.0})
+        uncertainty_budget(r, RecordRefits(r), {"stiffness": -1.0}, r.repeats)
 
 
 def test_a_one_count_flicker_in_the_hold_is_not_the_release():

@@ -17,7 +17,7 @@ import pytest
 from estimation.axis.tow_repeats import analyse_tow_repeats
 from estimation.motion.decay_estimate import estimate_records
 from estimation.motion.records import Record
-from estimation.uncertainty.motion_budget import motion_budget
+from estimation.uncertainty import RecordRefits, uncertainty_budget
 from tests.estimation.term_cases import decay, tow_set
 
 ZETA = 0.03  # term_cases.decay's damping ratio
@@ -109,7 +109,11 @@ def test_a_decay_s_repeats_document_has_a_tow_set_s_shape():
 
 def _random_rows(result):
     """The fit's and the repeatability's rows of the linear damping's budget."""
-    rows = motion_budget(result).coefficients["linear_damping"].rows
+    rows = (
+        uncertainty_budget(result, RecordRefits(result), repeats=result.repeats)
+        .coefficients["linear_damping"]
+        .rows
+    )
     return {r.source.split(" (")[0]: r for r in rows}
 
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from estimation import estimate
 from estimation.axis.tow_estimate import physical_warnings
-from estimation.uncertainty import uncertainty_budget
+from estimation.uncertainty import TowRefits, uncertainty_budget
 from estimation.uncertainty.sources import Chain
 from tests.estimation.term_cases import tow_set
 
@@ -37,10 +37,10 @@ def test_runs_without_a_rig_file_are_not_asked_for_its_tolerances_section():
     import with a rig file that declares them. Runs with a rig file keep the old advice."""
     runs = tow_set("143kg", seed=300)
     result = estimate(runs, search_effects=False, n_bootstrap=0)
-    (note,) = uncertainty_budget(runs, result, None, None).notes
+    (note,) = uncertainty_budget(result, TowRefits(runs, result, None), None).notes
     assert note.startswith("Type B not declared: these runs came without a rig file")
     assert "--rig FILE" in note and "has no [tolerances] section" not in note
-    (note,) = uncertainty_budget(runs, result, Chain(g=9.81), None).notes
+    (note,) = uncertainty_budget(result, TowRefits(runs, result, Chain(g=9.81)), None).notes
     assert "the rig file has no [tolerances] section" in note
 
 
@@ -61,10 +61,10 @@ def test_imported_runs_are_told_to_import_repeats_not_to_edit_a_sequence():
     runs = tow_set("143kg", seed=300)
     result = estimate(runs, search_effects=False, n_bootstrap=0)
     repeats = analyse_tow_repeats(runs)
-    notes = uncertainty_budget(runs, result, None, None, repeats).notes
+    notes = uncertainty_budget(result, TowRefits(runs, result, None), None, repeats).notes
     (note,) = [n for n in notes if n.startswith("repeatability not evaluated")]
     assert "sequence" not in note and "import ≥ 3 records of the same condition" in note
-    notes = uncertainty_budget(runs, result, Chain(g=9.81), None, repeats).notes
+    notes = uncertainty_budget(result, TowRefits(runs, result, Chain(g=9.81)), None, repeats).notes
     assert any("`repeats` ≥ 3 in the sequence" in n for n in notes)
 
 

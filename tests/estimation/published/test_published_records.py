@@ -243,7 +243,7 @@ def test_kvlcc2_gives_one_answer_by_the_pendulum_and_the_decay_route(run):
     difference, and both lie within the published values (A44 19.0 ± 15 %, Be5 ± 10 %)."""
     from estimation.pendulum.data import PendulumGeometry, PendulumRun
     from estimation.pendulum.pendulum_estimate import estimate_pendulum, pendulum_budget
-    from estimation.uncertainty.motion_budget import motion_budget
+    from estimation.uncertainty import RecordRefits, uncertainty_budget
 
     d = _csv("kvlcc2-roll-decay", f"kvlcc2_roll_decay_{run}.csv")
     t, phi = d.t.to_numpy(), d.position.to_numpy()
@@ -251,7 +251,9 @@ def test_kvlcc2_gives_one_answer_by_the_pendulum_and_the_decay_route(run):
     pendulum = estimate_pendulum([swing])
     decay = estimate_decay(t, phi, "roll", known_inertia=I44, stiffness=C44, run_id=run)
     u_p = pendulum_budget(pendulum).coefficients["added_mass"]
-    u_d = motion_budget(decay).coefficients["inertia"]
+    u_d = uncertainty_budget(decay, RecordRefits(decay), repeats=decay.repeats).coefficients[
+        "inertia"
+    ]
     assert abs(u_p.value - u_d.value) <= np.hypot(u_p.expanded, u_d.expanded)
     be_p, be_d = pendulum.equivalent_damping(np.deg2rad(5)), _be5_of(decay)
     assert be_p is not None

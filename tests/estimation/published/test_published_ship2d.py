@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from estimation import RunData, estimate
-from estimation.uncertainty.budget import uncertainty_budget
+from estimation.uncertainty import TowRefits, uncertainty_budget
 from tests.support.shared_data import shared_file
 
 
@@ -48,7 +48,7 @@ def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
     doc = r.to_json()
     assert all(c["std"] is None for c in doc["coefficients"].values())
     assert all(e["std"] is None for e in doc["effects"])
-    budget = uncertainty_budget([run], r, None, None).to_json()["coefficients"]
+    budget = uncertainty_budget(r, TowRefits([run], r, None), None).to_json()["coefficients"]
     assert all(c["expanded_uncertainty"] is None for c in budget.values())
     assert all(c["reported"].endswith("(not identified: no U)") for c in budget.values())
     # the wave's force reverses to the record's end: no steady speed is claimed for it

@@ -14,7 +14,7 @@ from estimation import RunData, estimate
 from estimation.axis.tow_repeats import analyse_tow_repeats, group_conditions, terminal_speed
 from estimation.stats.repeatability import chauvenet
 from estimation.theory.measured import HullScale, measured_beside_theory
-from estimation.uncertainty import check_tolerances, uncertainty_budget
+from estimation.uncertainty import Chain, TowRefits, check_tolerances, uncertainty_budget
 from estimation.uncertainty.budget import coverage_factor, effective_dof, round_reported
 from estimation.uncertainty.sources import ToleranceError
 from estimation.uncertainty.type_a import QUANTIZATION
@@ -140,7 +140,7 @@ def test_the_encoder_quantization_row_is_the_fits_and_counted_once():
     result = estimate(runs, search_effects=False, n_bootstrap=0)
     fit = result.fit_after
     assert fit is not None and fit.std_quantization is not None and fit.std_white is not None
-    budget = uncertainty_budget(runs, result, None, None)
+    budget = uncertainty_budget(result, TowRefits(runs, result, None), None)
     for i, name in enumerate(fit.names):
         coefficient = budget.coefficients[name]
         rows = {r.source: r for r in coefficient.rows}
@@ -162,5 +162,40 @@ def test_the_encoder_quantization_row_is_the_fits_and_counted_once():
     ]
     result = estimate(off_grid, search_effects=False, n_bootstrap=0)
     assert result.fit_after is not None and result.fit_after.std_quantization is None
-    rows = uncertainty_budget(off_grid, result, None, None).coefficients["inertia"].rows
+    rows = (
+        uncertainty_budget(result, TowRefits(off_grid, result, None), None)
+        .coefficients["inertia"]
+        .rows
+    )
     assert QUANTIZATION not in {r.source for r in rows}
+
+
+def test_without_inputs_that_move_the_runs_the_fit_row_is_the_estimates_own_sigma():
+    """AR(1) position noise (ρ 0.9, ``test_term_coverage.correlated_noise``) on clean 143 kg
+    tows without a rig file: nothing declared carries the residual's structure, so the fit
+    row is the estimate's σ with the residual's correlation (ν = n_eff − p) and u_c is never
+    below the σ the estimate reports (the white σ alone is over 1.5× smaller here). With an
+    encoder scale's tolerance declared the row is the white σ, the structure being the
+    declared inputs' (the type_a module's rule)."""
+    from dataclasses import replace
+
+    from estimation.uncertainty.type_a import FIT_SERIAL, FIT_WHITE
+    from tests.estimation.term_search.test_term_coverage import correlated_noise
+
+    runs = [
+        replace(r, position=r.position + correlated_noise(r.t.size, 900 + i, rho=0.9))
+        for i, r in enumerate(tow_set("143kg", seed=301))
+    ]
+    result = estimate(runs, search_effects=False, n_bootstrap=0)
+    fit = result.fit_after
+    assert fit is not None and fit.std_white is not None
+    assert np.all(fit.std > 1.5 * fit.std_white)  # the structure the white σ misses
+    budget = uncertainty_budget(result, TowRefits(runs, result, None), None)
+    for i, name in enumerate(fit.names):
+        b = budget.coefficients[name]
+        (row,) = [r for r in b.rows if r.combined]
+        assert row.source == FIT_SERIAL and b.combined_std >= fit.std[i] * (1 - 1e-12), name
+        assert row.dof < fit.n_samples / 5  # n_eff of a ρ 0.9 residual is ~n/19
+    scale = {"encoder_scale_rel": 0.002}
+    declared = uncertainty_budget(result, TowRefits(runs, result, Chain(g=9.81)), scale)
+    assert FIT_WHITE in {r.source for r in declared.coefficients["inertia"].rows}

@@ -22,7 +22,7 @@ from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import prepare
 from estimation.axis.tow_estimate import combination_conditions, well_determined
 from estimation.axis.tow_repeats import analyse_tow_repeats
-from estimation.uncertainty import Chain, uncertainty_budget
+from estimation.uncertainty import Chain, TowRefits, uncertainty_budget
 
 TOLERANCES = {
     "hung_mass_kg": 0.005,
@@ -104,7 +104,9 @@ def test_budget_agrees_with_a_monte_carlo_of_the_chain(scale):
     rng = np.random.default_rng(7)
     nominal = _campaign(coef, masses, rng)
     result = estimate(nominal, search_effects=False, n_bootstrap=0)
-    budget = uncertainty_budget(nominal, result, CHAIN, TOLERANCES, analyse_tow_repeats(nominal))
+    budget = uncertainty_budget(
+        result, TowRefits(nominal, result, CHAIN), TOLERANCES, analyse_tow_repeats(nominal)
+    )
     fit = result.fit_after
     conditions = combination_conditions(fit, nominal)
     draws, combined = [], []
@@ -145,7 +147,7 @@ def test_expanded_uncertainty_covers_the_truth_in_at_least_90_percent_of_campaig
     for _ in range(100):
         runs = _campaign(coef, masses, rng)
         result = estimate(runs, search_effects=False, n_bootstrap=0)
-        budget = uncertainty_budget(runs, result, CHAIN, TOLERANCES)
+        budget = uncertainty_budget(result, TowRefits(runs, result, CHAIN), TOLERANCES)
         for i, (name, true) in enumerate(
             zip(("inertia", "linear_damping", "quadratic_damping"), coef, strict=True)
         ):
@@ -159,7 +161,7 @@ def test_without_tolerances_the_budget_says_type_b_is_not_declared():
     coef, masses = SCALES["BENBAM"]
     runs = _campaign(coef, masses, np.random.default_rng(3), exact=True)
     result = estimate(runs, search_effects=False, n_bootstrap=0)
-    budget = uncertainty_budget(runs, result, CHAIN, None)
+    budget = uncertainty_budget(result, TowRefits(runs, result, CHAIN), None)
     assert not budget.type_b_declared
     assert any(n.startswith("Type B not declared") for n in budget.notes)
     assert all(r.kind == "A" for c in budget.coefficients.values() for r in c.rows)
@@ -194,7 +196,7 @@ def test_repeat_campaigns_give_the_repeatability_row_and_an_outlier_is_flagged()
     assert len(result.runs) == 16 and "tow1-wrong" not in result.runs
     assert any("left out of the fit" in w for w in result.warnings)
     fitted = [r for r in runs if r.run_id in result.runs]
-    budget = uncertainty_budget(fitted, result, CHAIN, TOLERANCES, kept)
+    budget = uncertainty_budget(result, TowRefits(fitted, result, CHAIN), TOLERANCES, kept)
     rows = {r.source: r for r in budget.coefficients["inertia"].rows}
     repeat = next(r for s, r in rows.items() if s.startswith("repeatability (4 repeat"))
     assert repeat.dof == 3
