@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -114,7 +115,7 @@ def _print(out: dict) -> None:
         click.echo(f"note: {note}")
 
 
-@click.command("sensitivity")
+@rig_command()
 @click.argument("vehicle")
 @estimate_option("Plug a stored estimation result in (repeatable, one per axis).")
 @request_options(SensitivityRequest)

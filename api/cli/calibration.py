@@ -8,12 +8,13 @@ from pathlib import Path
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import db_option, echo_json, fail, flag_names, json_option, open_store
 from api.cli.options import request_from, request_options
 from api.core.calibration_queries import CalibrationChoice, StandTableQuery, ThrustQuery
 
 
-@click.command("import-calibration")
+@rig_command()
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
 @request_options(StandTableQuery)
 @db_option
@@ -67,7 +68,7 @@ def import_calibration(file, db_url, as_json, **options):
         )
 
 
-@click.command("thrust")
+@rig_command()
 @request_options(ThrustQuery)
 @request_options(CalibrationChoice)
 @db_option
@@ -124,7 +125,7 @@ def _fail_naming_flags(ctx: click.Context, err: ValueError) -> None:
     fail(f"{flag_names(ctx, fields)}: {rest}")
 
 
-@click.command("calibrations")
+@rig_command()
 @db_option
 @json_option
 def calibrations(db_url, as_json):

@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import db_option, echo_json, json_option, rig_option, scenario_option
 from api.cli.options import request_from, request_options
 from api.core.campaign_request import CampaignRequest
@@ -25,7 +26,7 @@ def _print_entry(entry: dict[str, Any]) -> None:
         click.echo(f"   unresolved: {'; '.join(after['unresolved'])}")
 
 
-@click.command("campaign")
+@rig_command()
 @request_options(CampaignRequest)
 @rig_option
 @scenario_option

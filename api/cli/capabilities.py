@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import echo_json, json_option, rig_option, user_errors
 
 
-@click.command("capabilities")
+@rig_command()
 @rig_option
 @json_option
 def capabilities(rig_file: str | None, as_json: bool) -> None:

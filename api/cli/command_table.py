@@ -13,8 +13,11 @@ from __future__ import annotations
 import ast
 import functools
 import importlib.util
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
+
+import click
 
 #: The module holding the procedure commands: one per kind the rig runs (derived from its
 #: registry entry, ``api.cli.procedures``) and ``rig sequence``.
@@ -92,8 +95,6 @@ def _source(module: str) -> str:
 def short_helps() -> dict[str, str]:
     """Every command's short help as click shortens its help (``get_short_help_str(80)``):
     a kind's from its ``SPEC``, another's from its function's docstring."""
-    import click
-
     docstrings = {module: _docstrings(_source(module)) for module, _ in OTHER_COMMANDS.values()}
     helps = _kind_helps() | {
         name: docstrings[module].get(attr, "") for name, (module, attr) in OTHER_COMMANDS.items()
@@ -140,6 +141,34 @@ OTHER_COMMANDS: dict[str, tuple[str, str]] = {
 
 #: Every command, the kinds' first: name → (module, attribute).
 COMMANDS: Mapping[str, tuple[str, str]] = kind_commands() | OTHER_COMMANDS
+
+
+def _table_name(function: Callable[..., Any]) -> str:
+    """The name ``OTHER_COMMANDS`` gives ``function`` (``ValueError`` when it has none)."""
+    where = (function.__module__, function.__name__)
+    for name, entry in OTHER_COMMANDS.items():
+        if entry == where:
+            return name
+    raise ValueError(f"{where[0]}.{where[1]}: not in api.cli.command_table.OTHER_COMMANDS")
+
+
+def rig_command(**options: Any) -> Callable[[Callable[..., Any]], click.Command]:
+    """``click.command`` named as ``OTHER_COMMANDS`` names the function, so a command's name
+    is written once, in the table; ``options`` as for ``click.command``."""
+
+    def named(function: Callable[..., Any]) -> click.Command:
+        return click.command(_table_name(function), **options)(function)
+
+    return named
+
+
+def rig_group(**options: Any) -> Callable[[Callable[..., Any]], click.Group]:
+    """``click.group`` named as ``OTHER_COMMANDS`` names the function (``rig_command``)."""
+
+    def named(function: Callable[..., Any]) -> click.Group:
+        return click.group(_table_name(function), **options)(function)
+
+    return named
 
 
 def records_runs(name: str, module: str) -> bool:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -23,7 +24,7 @@ from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
 from estimation.axis.crosscheck_comparison import LABELS
 
 
-@click.command("crosscheck")
+@rig_command()
 @request_options(CrossCheckJobRequest, required=False)
 @request_options(CrossCheckRequest, required=False)
 @report_option("Write report.md and the figure crosscheck.png/.svg here.")

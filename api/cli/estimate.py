@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -48,7 +49,7 @@ def _finding_lines(data: dict, lists: tuple[str, ...]) -> list[str]:
     return [f"  {_FINDING_LINES[key](item)}" for key in lists for item in data.get(key) or []]
 
 
-@click.command("estimate")
+@rig_command()
 @click.argument("run_ids", nargs=-1, required=True, metavar="RUN_ID...")
 @request_options(EstimationRequest)
 @report_option("Write report.md, result.json and the figures (PNG 150 dpi + SVG) here.")

@@ -8,13 +8,14 @@ import sys
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import db_option, fail, open_store, user_errors
 from api.cli.options import request_from, request_options
 from api.core.export_request import ExportQuery
 from daq.export_formats import FORMATS, export_file_name, write_export
 
 
-@click.command("export")
+@rig_command()
 @click.argument("run_id")
 @request_options(ExportQuery)
 @click.option(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -25,7 +26,7 @@ from api.core.imports import ImportQuery
 from daq.procedures.run_kinds import import_fields
 
 
-@click.command("import")
+@rig_command()
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
 @request_options(ImportQuery)
 @click.option(

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import db_option, echo_json, json_option, open_store
 from api.cli.options import request_from, request_options
 from api.core.job_filter import JobFilter
@@ -74,7 +75,7 @@ def _show_jobs(
         store.close()
 
 
-@click.command("jobs")
+@rig_command()
 @request_options(JobFilter)
 @request_options(JobsPage)
 @db_option
@@ -92,7 +93,7 @@ def jobs(db_url, as_json, **chosen):
     )
 
 
-@click.command("queue")
+@rig_command()
 @db_option
 @json_option
 def queue(db_url, as_json):

@@ -12,6 +12,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -84,7 +85,7 @@ def _annotate_options(command):
 
 
 @_annotate_options
-@click.command("annotate")
+@rig_command()
 @click.argument("run_id")
 @db_option
 @json_option

@@ -13,6 +13,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command, rig_group
 from api.cli.common import db_option, echo_json, fail, json_option, open_store, rig_option
 from api.cli.options import request_from, request_options
 from api.core.people import AckIn, HoldIn, ReleaseIn
@@ -26,7 +27,7 @@ user_option = click.option(
 )
 
 
-@click.group("user")
+@rig_group()
 def user() -> None:
     """Named users of the API: each with a token (shown once) and a role (operator starts
     and stops tests, viewer only reads)."""
@@ -148,7 +149,7 @@ def _guard_command(rig_file, db_url, user_name, change) -> None:
 
 
 # The options after --user are the request body's (api.core.people), as the route takes it.
-@click.command("ack-estop")
+@rig_command()
 @user_option
 @request_options(AckIn)
 @rig_option
@@ -159,7 +160,7 @@ def ack_estop(user_name, rig_file, db_url, **chosen):
     _guard_command(rig_file, db_url, user_name, lambda g, u: g.acknowledge(u, note))
 
 
-@click.command("hold")
+@rig_command()
 @user_option
 @request_options(HoldIn)
 @rig_option
@@ -170,7 +171,7 @@ def hold(user_name, rig_file, db_url, **chosen):
     _guard_command(rig_file, db_url, user_name, lambda g, u: g.take_hold(u, reason))
 
 
-@click.command("release")
+@rig_command()
 @user_option
 @request_options(ReleaseIn)
 @rig_option

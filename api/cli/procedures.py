@@ -9,6 +9,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     ProgressView,
     db_option,
@@ -224,7 +225,7 @@ def _print_thrust_fit(fit: dict[str, Any]) -> None:
     click.echo(f"{'rmse':<22} {fit['rmse_n']:.3g} [N]")
 
 
-@click.command("sequence")
+@rig_command()
 @click.argument("file", type=click.Path(dir_okay=False))
 @request_options(SequenceRequest)  # what the file's own may be overridden by: --rest
 @rig_option

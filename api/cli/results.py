@@ -7,6 +7,7 @@ from datetime import datetime
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -29,7 +30,7 @@ def _pm(cell: dict | None) -> str:
     return f"{cell['value']:.5g} ± {u} ({cell['U_from']})"
 
 
-@click.command("results")
+@rig_command()
 @request_options(ResultFilter)
 @request_options(ResultsPage)
 @click.option(

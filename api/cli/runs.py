@@ -10,6 +10,7 @@ from datetime import datetime
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -39,7 +40,7 @@ def aligned(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
     )
 
 
-@click.command("runs")
+@rig_command()
 @request_options(RunFilter)
 @request_options(RunsPage)
 @db_option

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     check_database_folder,
     db_option,
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
     from api.core.jobs import JobRunner
 
 
-@click.command()
+@rig_command()
 @rig_option
 @scenario_option
 @db_option
@@ -178,7 +179,7 @@ def _token_from_env() -> bool:
     return bool(os.environ.get(TOKEN_ENV, "").strip())
 
 
-@click.command()
+@rig_command()
 @click.option(
     "--link", is_flag=True,
     help="Print the browser UI's address with the token in it instead (open it once: the "

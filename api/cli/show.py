@@ -10,6 +10,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import db_option, echo_json, json_option, open_store, user_errors
 from daq.parameter_labels import labelled
 from daq.vocabulary import AXES
@@ -30,7 +31,7 @@ def input_summary(params: dict[str, Any]) -> str:
     return ""
 
 
-@click.command("show")
+@rig_command()
 @click.argument("run_id")
 @db_option
 @json_option

@@ -16,6 +16,7 @@ from typing import Any
 
 import click
 
+from api.cli.command_table import rig_command
 from daq.config import RigConfig, RigConfigError, load_rig
 from daq.priority import SIMULATOR_PRIORITY, set_realtime
 from daq.sim.scenario import load_scenario
@@ -92,7 +93,7 @@ def _listen_error(sim: SimulatedRig, err: BaseException) -> str:
     )
 
 
-@click.command("sim")
+@rig_command()
 @click.option(
     "--rig",
     "rig_file",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -19,7 +20,7 @@ from api.core import sixdof as sixdof_common
 from daq.store import ResultNotFound
 
 
-@click.command("sixdof")
+@rig_command()
 @click.argument("vehicle")
 @request_options(sixdof_common.SimulateRequest)
 @estimate_option("Plug a stored surge/yaw estimation result in (repeatable).")

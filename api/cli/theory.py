@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import (
     db_option,
     echo_json,
@@ -33,7 +34,7 @@ def _num(x: float | None, digits: int = 4) -> str:
     return "—" if x is None else f"{x:.{digits}g}"
 
 
-@click.command("water")
+@rig_command()
 @request_options(theory_common.WaterQuery)
 @json_option
 def water(as_json, **options):
@@ -62,7 +63,7 @@ def water(as_json, **options):
         )
 
 
-@click.command("predict-added-mass")
+@rig_command()
 @click.argument("vehicle")
 @request_options(theory_common.AddedMassQuery)
 @estimate_option("Compare a stored surge/yaw/pendulum estimation result (repeatable).")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import click
 
+from api.cli.command_table import rig_command
 from api.cli.common import db_option, echo_json, fail, json_option, open_store, rig_option
 from api.cli.options import request_from, request_options
 from api.core.pretest import PretestQuery, predict_sequence
@@ -12,7 +13,7 @@ from daq.config import load_rig
 from estimation.uncertainty.text import budget_lines
 
 
-@click.command("predict-uncertainty")
+@rig_command()
 @click.argument("sequence", type=click.Path(dir_okay=False))
 @request_options(PretestQuery)
 @rig_option

@@ -8,8 +8,10 @@ import sys
 
 import click
 
+from api.cli.command_table import rig_command
 
-@click.command("warm-up")
+
+@rig_command()
 def warm_up() -> None:
     """Compile the estimator's kernels now (5-9 s of CPU once per install), so the first
     estimate does not wait for them."""
