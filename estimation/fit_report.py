@@ -18,6 +18,7 @@ from estimation.motion.estimation_result import EffectEstimate, EstimationResult
 from estimation.motion.term_search import Step
 from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
+from estimation.stats.misfit import ABOVE_FLOOR, WHITE_P
 from estimation.uncertainty.text import repeats_markdown
 
 
@@ -92,10 +93,32 @@ def evidence_section(result: EstimationResult[Any], unit: str) -> list[str]:
         "## Evidence",
         "",
         f"BIC {bic[0]} → {bic[1]}; leave-one-record-out RMSE {cv[0]} → {cv[1]} {unit}; "
-        f"Ljung–Box Q {q[0]} → {q[1]}",
+        f"Ljung–Box Q {q[0]} → {q[1]}{misfit_verdict(result)}",
         "",
         *evidence_table(result.rules, result.steps, unit),
     ]
+
+
+def misfit_verdict(result: EstimationResult[Any]) -> str:
+    """What the final residual says, by the misfit rule every kind uses
+    (``estimation.stats.misfit``): a sentence after the Ljung–Box Q, so a Q that rejects
+    whiteness is read as the rule reads it ("" where nothing judged the residual)."""
+    if result.possibly_biased is None:
+        return ""
+    if result.possibly_biased:
+        return (
+            ". The residual holds structure no kept term explains: the coefficients may be "
+            "biased by it (the warnings say how)."
+        )
+    w = result.whiteness_after
+    if w is not None and math.isfinite(w.p_value) and w.p_value < WHITE_P:
+        return (
+            f". The residual is not white (p < {WHITE_P:g}) but within {ABOVE_FLOOR:g}× its "
+            "noise floor: an encoder's quantization or a sensor's filtering correlates a "
+            "residual that lacks no force, and the misfit rule reads it as noise "
+            "(docs/estimation.md)."
+        )
+    return ". The misfit rule reads the residual as noise."
 
 
 def summary_rows(result: EstimationResult[Any], unit: str, labels: Mapping[str, str]) -> list[str]:

@@ -196,3 +196,23 @@ def test_the_report_lists_the_samples_a_fit_left_out(surge, tmp_path):
     )
     doc = json.loads((tmp_path / "out" / "result.json").read_text())
     assert doc["windows"][first]["left_out"] == [hole.to_json()]
+
+
+def test_the_evidence_reads_a_quantized_residual_as_the_misfit_rule_does():
+    """Clean 143 kg tows on a 0.1 mm encoder grid (``tests.estimation.term_cases``): the
+    residual of a quantized encoder is never white (Ljung–Box p far below 10⁻³) yet lacks no
+    force; the evidence line says so beside the Q instead of leaving a p of 1e-60 to alarm
+    its reader. A tow set with an undeclared dry friction fitted without the search says
+    its coefficients may be biased."""
+    from estimation.fit_report import evidence_section
+    from tests.estimation.term_cases import tow_set as grid_tows
+
+    clean = estimate(grid_tows("143kg", seed=300), n_bootstrap=0)
+    assert clean.whiteness_after is not None and clean.whiteness_after.p_value < 1e-3
+    (line,) = [x for x in evidence_section(clean, "m") if x.startswith("BIC")]
+    assert "not white (p < 0.001) but within 3× its noise floor" in line
+    runs = grid_tows("143kg", seed=300, reverse=True, coulomb=0.05 * 44.1)
+    biased = estimate(runs, search_effects=False, n_bootstrap=0)
+    assert biased.possibly_biased
+    (line,) = [x for x in evidence_section(biased, "m") if x.startswith("BIC")]
+    assert "the coefficients may be biased by it" in line
