@@ -116,8 +116,9 @@ def service(request: pytest.FixtureRequest, tmp_path_factory) -> Iterator[RigSer
     """The rig service of the module, defined here once: in a ``simtime`` module the simulated
     rig in process on simulated time (paced: ``SERVICE_PACE``), otherwise over Modbus TCP and
     a pty in real time, with the reply allowances of a loaded test machine
-    (``tests.procedures.conftest.simulated_rig_file``). A module's ``rig_service`` marker builds it, always in process on
-    simulated time, from ``rig`` (a rig file, or ``"fast-pendulum"``: the fast pendulum's,
+    (``tests.procedures.conftest.simulated_rig_file``). A module's ``rig_service`` marker
+    builds it, always in process on simulated time, from ``rig`` (a rig file, or
+    ``"fast-pendulum"``: the fast pendulum's,
     ``tests.procedures.test_pendulum.fast_rig_file``), ``scenario`` (a scenario file) and
     ``spill`` (True: a spill folder of its own, ``RIG_SPILL_DIR``)."""
     folder = tmp_path_factory.mktemp("api")
