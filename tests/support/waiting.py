@@ -37,16 +37,18 @@ def set_test_budget(ends_at: float | None, timeout_s: float = 0.0) -> tuple[floa
     return before
 
 
-def _deadline(timeout_s: float) -> tuple[float, float, str]:
-    """When a wait of ``timeout_s`` starting now gives up (monotonic s), how long that is
-    from now (s), and what cut it short ("" if its own ``timeout_s``)."""
+def _deadline(timeout_s: float) -> tuple[float, str]:
+    """When a wait of ``timeout_s`` (s) starting now gives up (monotonic s), and how its
+    failure says so: its own timeout, or the test's when that comes first."""
     now = time.monotonic()
     if _budget is not None and _budget[0] - BUDGET_MARGIN_S < now + timeout_s:
         ends_at, test_timeout_s = _budget
-        cut = f", {BUDGET_MARGIN_S:g} s before the test's {test_timeout_s:g} s timeout"
         end = max(now, ends_at - BUDGET_MARGIN_S)
-        return end, end - now, cut
-    return now + timeout_s, timeout_s, ""
+        return end, (
+            f"not yet when the test's {test_timeout_s:g} s timeout was {BUDGET_MARGIN_S:g} s "
+            f"away ({end - now:.3g} s waited)"
+        )
+    return now + timeout_s, f"not within {timeout_s:g} s"
 
 
 def wait_until(
@@ -68,9 +70,9 @@ def read_until(
 ) -> T:
     """Block until ``ready(read())`` and return the value read; AssertionError naming
     ``what`` and the last value read after ``timeout_s`` (or sooner: ``set_test_budget``)."""
-    deadline, waited_s, cut = _deadline(timeout_s)
+    deadline, late = _deadline(timeout_s)
     while not ready(value := read()):
-        assert time.monotonic() < deadline, _never(what, waited_s, value, cut)
+        assert time.monotonic() < deadline, _never(what, late, value)
         time.sleep(poll_s)
     return value
 
@@ -84,17 +86,17 @@ async def until(
     on either)."""
     loop = asyncio.get_running_loop()
     deadline = loop.time() + timeout_s
-    budget_end, budget_s, cut = _deadline(math.inf)
+    budget_end, late = _deadline(math.inf)
     while not (value := await _value(condition())):
-        assert loop.time() < deadline, _never(what, timeout_s, value)
-        assert time.monotonic() < budget_end, _never(what, budget_s, value, cut)
+        assert loop.time() < deadline, _never(what, f"not within {timeout_s:g} s", value)
+        assert time.monotonic() < budget_end, _never(what, late, value)
         await asyncio.sleep(poll_s)
     return value
 
 
-def _never(what: str, timeout_s: float, last: object, cut: str = "") -> str:
+def _never(what: str, late: str, last: object) -> str:
     said = "" if last is None or isinstance(last, bool) else f" (last read: {last!r})"
-    return f"{what}: not within {timeout_s:.3g} s{cut}{said}"
+    return f"{what}: {late}{said}"
 
 
 async def _value(result: object) -> object:
