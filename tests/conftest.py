@@ -28,14 +28,16 @@ import asyncio
 import os
 import shutil
 import sqlite3
+import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
 from daq.sim.simtime import SimTimeLoop
 from tests.support.pg import PostgresServer, external_postgres, find_postgres_bin, start_postgres
+from tests.support.waiting import set_test_budget
 
 if TYPE_CHECKING:
     from daq.store import Store
@@ -93,6 +95,20 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if "chromium" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.slow)
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_timeout_set_timer(item: pytest.Item, settings: Any) -> None:
+    """As pytest-timeout starts a test's timer (``settings.timeout`` s), every wait of the
+    test is told when it fires, to give up before it naming what it waited for
+    (``tests.support.waiting.set_test_budget``); pytest-timeout's own hook then sets it."""
+    set_test_budget(time.monotonic() + settings.timeout, settings.timeout)
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_timeout_cancel_timer(item: pytest.Item) -> None:
+    """The test's timer is cancelled: no budget until the next one starts."""
+    set_test_budget(None)
 
 
 def require_tool(name: str, why: str) -> str:

@@ -11,8 +11,6 @@ import contextlib
 import itertools
 from collections.abc import AsyncIterator
 
-import pytest
-
 from daq.acquisition import Acquisition
 from daq.config import RigConfig, load_rig
 from daq.plc import PlcClient
@@ -58,16 +56,19 @@ async def _until_ok(q: asyncio.Queue) -> None:
             pass
 
 
-async def _tow_and_watch(client: PlcClient, *, rate_hz: float, n: int) -> list:
+async def _tow_and_watch(client: PlcClient, *, rate_hz: float, n: int) -> tuple[list, float]:
+    """The first ``n`` samples of a tow released under a 2.5 kg weight, and the host's
+    monotonic time (s) before the clock started: its slot 0 is due no earlier."""
     await client.write("sim_tow_weight", 2.5)
     await client.write("tow_release", True)
     acq = Acquisition(client, rate_hz=rate_hz)
     q = acq.subscribe()
+    before = acq.clock.now()
     runner = asyncio.create_task(acq.run())
     samples = [await asyncio.wait_for(q.get(), 5.0) for _ in range(n)]
     acq.stop()
     await runner
-    return samples
+    return samples, before
 
 
 async def test_tow_over_modbus_tcp_position_grows():
@@ -76,19 +77,29 @@ async def test_tow_over_modbus_tcp_position_grows():
         client = PlcClient(sim.connection_rig())
         await client.connect(timeout_s=2.0)
         try:
-            samples = await _tow_and_watch(client, rate_hz=20.0, n=20)
+            samples, before = await _tow_and_watch(client, rate_hz=20.0, n=20)
         finally:
             await client.close()
-    assert samples[0].seq == 0 and samples[-1].seq <= 21  # 20 Hz slots, at most a skip or two
+    # A busy host skips slots (a loaded run saw seq 25 for the 20th sample): the clock's
+    # promise is not a skip-free run but that every jump is flagged on the sample after it,
+    # as the run's losses name it ("slot missed", daq.sample_losses).
+    assert samples[0].seq == 0
+    jumps = [b.seq - a.seq for a, b in itertools.pairwise(samples)]
+    assert all(j >= 1 for j in jumps)
+    assert [j > 1 for j in jumps] == [bool(s.quality & Quality.OVERRUN) for s in samples[1:]]
     assert not any(s.quality & (Quality.ERROR | Quality.STALE) for s in samples)
     positions = [s.channels["tow_position"] for s in samples]
     assert positions[-1] > positions[0] + 0.05
     assert all(b >= a for a, b in itertools.pairwise(positions))
     assert samples[-1].channels["tow_release"] == 1.0
-    clock = [s.channels["plc_clock"] for s in samples]
-    # PLC ms clock, SI s: it advances with the 20 Hz slots sampled (a skipped slot included)
-    slots = samples[-1].seq - samples[0].seq
-    assert clock[-1] - clock[0] == pytest.approx(slots / 20.0, abs=0.03)
+    # PLC ms clock, SI s. Each read of it falls between its slot's deadline (a tick never
+    # starts early; slot 0 is due no earlier than ``before``) and the sample's host stamp,
+    # so its span is bracketed however late the host was (2 ms: the plant's 1 ms steps).
+    span = samples[-1].channels["plc_clock"] - samples[0].channels["plc_clock"]
+    first, last = samples[0], samples[-1]
+    low = before + last.seq / 20.0 - first.t_mono - 0.002
+    high = last.t_mono - before + 0.002
+    assert low <= span <= high, (low, span, high)
 
 
 async def test_rtu_over_a_pty():
@@ -97,7 +108,7 @@ async def test_rtu_over_a_pty():
     assert client.modbus.serial_port.startswith("/dev/")
     await client.connect(timeout_s=2.0)
     try:
-        samples = await _tow_and_watch(client, rate_hz=20.0, n=10)
+        samples, _ = await _tow_and_watch(client, rate_hz=20.0, n=10)
     finally:
         await client.close()
         await sim.stop()
