@@ -67,7 +67,7 @@ def report_markdown(
     if result.possibly_biased:
         lines += ["", "**The coefficients may be biased** (the warnings say why)."]
     lines += list(own_sections)
-    if result.repeats is not None and result.repeats.repeated:  # compared, any left out
+    if result.repeats is not None and result.repeats.conditions:  # N per condition, outliers
         lines += ["", *repeats_markdown(result.repeats.to_json())]
     lines += effects_found(result.effects, digits=digits)
     lines += ambiguity_lines(result.ambiguous, result.advice)
