@@ -16,12 +16,13 @@ Guard: every ``freeze_every`` steps and at the last, a diverged state (non-finit
 beyond ``limit`` of its record) is held at the limit (``equation.integrate``).
 
 numba is imported with this module, which ``kernel.step_grid`` loads on the first
-integration (importing numba costs ~0.3 s of CPU: a command that does not estimate never
-pays it). The compiled code is cached beside the source (``cache=True``): only the first
-process after a change compiles it (5–9 s of CPU on this 2-core box); later ones load it
-in ~0.5 s. The small scalar helpers are left to LLVM to inline; the two that take the term
-arrays are inlined by numba (``inline="always"``): 0.12 µs per state and step instead of
-0.33 µs. Inlining the RK4 step as well was no faster and took 35 s to compile.
+integration that runs compiled (importing numba costs ~0.3 s of CPU: a command that does
+not estimate, or integrates only a few short grids, ``kernel.LoopChoice``, never pays it).
+The compiled code is cached beside the source (``cache=True``): only the first process
+after a change compiles it (5–9 s of CPU on this 2-core box); later ones load it in ~0.5 s.
+The small scalar helpers are left to LLVM to inline; the two that take the term arrays are
+inlined by numba (``inline="always"``): 0.12 µs per state and step instead of 0.33 µs.
+Inlining the RK4 step as well was no faster and took 35 s to compile.
 """
 
 from __future__ import annotations

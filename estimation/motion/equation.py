@@ -18,7 +18,9 @@ for the sets it integrates (``integration_step``: the sample period of a held dr
 within 1/8 of a sample is not integrated); the state at the samples is read off the step
 grid by cubic Hermite interpolation. The step loop runs compiled
 (``kernel.step_grid``: the same arithmetic, 10–25× less CPU); a term whose regressor has no
-compiled form steps in NumPy here (``_numpy_grid``), with the same result.
+compiled form, and a process's first few short grids (``kernel.LoopChoice``: loading the
+compiled loop costs more than they do), step in NumPy here (``_numpy_grid``), with the same
+result.
 
 Dry friction (a set-valued term) is integrated exactly as the pendulum's own simulator did:
 within a step its force is constant, −F_c·sign of the motion at the step's start; a step in
@@ -46,7 +48,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from estimation.motion.kernel import step_grid
+from estimation.motion.kernel import LOOP, step_grid
 from estimation.motion.terms import Regressor, Term, TermValues
 
 #: A trajectory beyond this multiple of the record's range is a diverged trial: frozen.
@@ -401,7 +403,11 @@ def integrate(
             # exact mean of a linear one), like the held drive's mean over the step
             ramp = c.term.regressor(zeros, zeros, zeros, 0.0, middles)
             drive = drive + np.asarray(c.value)[None, :, :] * ramp[:, :, None]
-    compiled = step_grid(x0, v0, drive, inv, forces, h, n_steps, limit, GUARD_EVERY)
+    compiled = (
+        step_grid(x0, v0, drive, inv, forces, h, n_steps, limit, GUARD_EVERY)
+        if LOOP.compiled(n_steps)
+        else None
+    )
     if compiled is not None:
         xs, vs, frozen_any = compiled
     else:
@@ -425,8 +431,8 @@ def integrate(
 
 
 def _numpy_grid(x0, v0, drive, inv, forces, smooth, held, h, n_steps, limit):
-    """``integrate``'s step grid in NumPy, for terms the compiled loop has no form for
-    (``kernel.py``): the same steps and guard."""
+    """``integrate``'s step grid in NumPy, for terms the compiled loop has no form for and
+    for a process's first short grids (``kernel.py``): the same steps and guard."""
     n_sets, n_tracks = x0.shape
     xs = np.empty((n_steps, n_sets, n_tracks))
     vs = np.empty((n_steps, n_sets, n_tracks))

@@ -6,10 +6,19 @@ term's physics is written: its form is *read off its own regressor* here, by eva
 φ on a grid of states and matching it to every pair of basis functions. A term whose
 regressor matches none (or is not a function of (x, ẋ) alone) has no form: the integrator
 then runs the NumPy loop for records that carry it — the same result, only slower.
+
+Loading the compiled loop costs a process ~0.6 s of CPU (importing numba ~0.25 s, its first
+dispatch ~0.35 s: the cached machine code installs numba's lowering registries), while the
+NumPy loop costs ~50–120 µs a step, its dispatch: an estimate that integrates little (a tow
+from rest is in closed form and integrates only to screen the candidates without one: six
+grids of 211 steps, 0.07 s in NumPy) steps in NumPy and never loads numba
+(``LoopChoice``). The two loops agree to rounding (bit for bit on every case of
+``tests/estimation/motion/test_compiled_integrator.py`` here), so the choice moves no answer.
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -43,6 +52,38 @@ _PROBE_X = np.array([-3.1, -1.7, -0.31, 0.0, 0.045, 0.45, 1.3, 2.9, 7.5])
 _PROBE_V = np.array([-2.2, -0.7, -0.05, 0.0, 0.003, 0.3, 1.1, 4.0])
 #: A match leaves at most this relative difference (rounding of the same arithmetic).
 _MATCH = 1e-13
+
+
+#: Steps a process takes in the NumPy loop, in all, before it loads the compiled one: at
+#: most ~0.25 s of CPU spent before a load that turns out to be needed after all.
+NUMPY_STEPS = 2000
+#: A grid of more steps runs compiled from the first (a KVLCC2 decay: 1,600 steps, 110 grids;
+#: ship2d: 1,116 steps, 850 grids).
+NUMPY_GRID_STEPS = 500
+#: The module that imports numba (``compiled.py``).
+COMPILED = "estimation.motion.compiled"
+
+
+@dataclass
+class LoopChoice:
+    """Which loop steps the next grid (module doc): the NumPy loop while the process has not
+    loaded the compiled one, the grid has at most ``NUMPY_GRID_STEPS`` steps and the NumPy
+    loop has taken fewer than ``NUMPY_STEPS`` in all (``numpy_steps``); else the compiled."""
+
+    numpy_steps: int = 0
+
+    def compiled(self, n_steps: int) -> bool:
+        """Whether a grid of ``n_steps`` steps runs compiled (else: it is counted here)."""
+        if COMPILED in sys.modules or n_steps > NUMPY_GRID_STEPS:
+            return True
+        if self.numpy_steps + n_steps > NUMPY_STEPS:
+            return True
+        self.numpy_steps += n_steps
+        return False
+
+
+#: The process's choice (``equation.integrate`` asks it before each grid).
+LOOP = LoopChoice()
 
 
 @dataclass(frozen=True)

@@ -397,12 +397,7 @@ def fit_motion(
     """
     names = names_of(setup, effects)
     prob, p, lower, upper, typical = _solve(records, setup, names, start, max_nfev, FIT_TOLERANCE)
-    res = prob.residual(p)
-    if not np.all(np.isfinite(res)):
-        raise EstimationFailed(
-            f"the {setup.dof} equation with {', '.join(names)}",
-            "the simulated motion did not stay finite from any start",
-        )
+    res = _finite(prob.residual(p), setup, names)
     fitted = prob.measured - res
     steps = (
         [record_step(r.x) if r.quantum is None else r.quantum for r in records]
@@ -439,6 +434,31 @@ def fit_motion(
             n for n, lost in zip(names, stats.not_identified, strict=True) if lost
         ),
     )
+
+
+def fitted_values(
+    records: Sequence[Record],
+    setup: Setup,
+    effects: Sequence[str],
+    start: np.ndarray,
+    max_nfev: int,
+) -> np.ndarray:
+    """The coefficients ``fit_motion`` finds (``names_of``'s order), the same numbers, for a
+    refit whose σ and residuals are discarded (a bootstrap draw): nothing else computed."""
+    names = names_of(setup, effects)
+    prob, p, *_ = _solve(records, setup, names, start, max_nfev, FIT_TOLERANCE)
+    _finite(prob.residual(p), setup, names)
+    return prob.split(p)[0].copy()
+
+
+def _finite(res: np.ndarray, setup: Setup, names: Sequence[str]) -> np.ndarray:
+    """``res``, the residual of a converged fit; raises ``EstimationFailed`` unless finite."""
+    if not np.all(np.isfinite(res)):
+        raise EstimationFailed(
+            f"the {setup.dof} equation with {', '.join(names)}",
+            "the simulated motion did not stay finite from any start",
+        )
+    return res
 
 
 def parameters_of(fit: MotionFit, records: Sequence[int] | None = None) -> np.ndarray:

@@ -3,16 +3,17 @@ and free decays): the records resampled with replacement and refitted, σ and th
 percentiles of the draws per coefficient.
 
 Each draw is ``fit_motion`` of the resampled records with the final model's terms, from its
-coefficients and each record's own nuisances, its quantization σ not computed (only the
-values are kept). A sample the kind cannot fit meaningfully is skipped (``usable``: a tow
-set with fewer distinct drives than its data, where K_L and K_Q trade freely). Fewer than
-``MIN_RECORDS`` records: no draws — two records have three distinct resamples, two of them
-one record twice, and a tow pair only one usable (the set itself): its "spread" of 0 would
-claim a precision the records do not have. Fewer than ``MIN_DISTINCT`` distinct resamples
-among the usable draws: no spread either, for the same reason. A resample drawn again (the
-same records in the same order: 4 of 40 draws of 4 records, 19 of 3) reuses its refit. The
-spread of the draws is the between-record scatter the fit's σ assumes away: a σ well below
-it says the records disagree more than their noise.
+coefficients and each record's own nuisances; only its coefficients are kept, so only they
+are computed (``fitted_values``: no σ, no residual statistics). A sample the kind cannot
+fit meaningfully is skipped (``usable``: a tow set with fewer distinct drives than its
+data, where K_L and K_Q trade freely). Fewer than ``MIN_RECORDS`` records: no draws — two
+records have three distinct resamples, two of them one record twice, and a tow pair only
+one usable (the set itself): its "spread" of 0 would claim a precision the records do not
+have. Fewer than ``MIN_DISTINCT`` distinct resamples among the usable draws: no spread
+either, for the same reason. A resample drawn again (the same records in the same order: 4
+of 40 draws of 4 records, 19 of 3) reuses its refit. The spread of the draws is the
+between-record scatter the fit's σ assumes away: a σ well below it says the records
+disagree more than their noise.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from estimation.motion.output_error_fit import MotionFit, fit_motion, parameters_of
+from estimation.motion.output_error_fit import MotionFit, fitted_values, parameters_of
 from estimation.motion.records import Record, Setup
 from estimation.report_numbers import finite_values
 
@@ -83,14 +84,9 @@ def record_bootstrap(
         if usable is not None and not usable(sample):
             continue
         if pick not in done:  # the refit is deterministic: the same draw, bit for bit
-            done[pick] = fit_motion(
-                sample,
-                setup,
-                fit.effects,
-                start=parameters_of(fit, pick),
-                max_nfev=DRAW_NFEV,
-                quantization_sigma=False,
-            ).values
+            done[pick] = fitted_values(
+                sample, setup, fit.effects, parameters_of(fit, pick), DRAW_NFEV
+            )
         draws.append(done[pick])
         kinds.add(tuple(sorted(pick)))
     names = fit.names

@@ -1,10 +1,12 @@
 """The compiled RK4 loop (``estimation.motion.compiled``) steps exactly as the NumPy loop it
 replaces: every library force term has a compiled form read off its own regressor, and the
 two loops give the same trajectories (to rounding) alone, with dry friction stepped either
-way, and for a diverging trial; a term without a form still integrates (in NumPy)."""
+way, and for a diverging trial; a term without a form still integrates (in NumPy), and so do
+a process's first short grids."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -12,7 +14,7 @@ import pytest
 
 from estimation.axis.model import simulate
 from estimation.axis.prepared_run import prepare
-from estimation.motion import kernel
+from estimation.motion import equation, kernel
 from estimation.motion.equation import Track, integrate
 from estimation.motion.kernel import V_BASIS, X_BASIS, form_of
 from estimation.motion.terms import LIBRARY, Term, TermValues
@@ -22,6 +24,12 @@ FORCE_TERMS = [name for name, t in LIBRARY.items() if t.role == "force"]
 #: Same arithmetic in the same order; pow and sin may round differently by an ulp, which
 #: RK4 carries along but does not grow over a record.
 ROUNDING = 1e-12
+
+
+@pytest.fixture(autouse=True)
+def compiled_from_the_first_grid(monkeypatch):
+    """``integrate`` runs the compiled loop (its NumPy budget spent: ``kernel.LoopChoice``)."""
+    monkeypatch.setattr(equation, "LOOP", kernel.LoopChoice(numpy_steps=kernel.NUMPY_STEPS))
 
 
 @pytest.mark.parametrize("name", FORCE_TERMS)
@@ -117,3 +125,39 @@ def test_the_axis_simulator_steps_as_numpy_does(monkeypatch, effects):
         m.setattr(kernel, "forms_of", lambda terms: None)
         numpy = simulate(theta, names, prepared)
     _assert_same(compiled, numpy)
+
+
+def test_a_process_steps_its_first_short_grids_in_numpy_then_compiled(monkeypatch):
+    """Before numba is loaded, grids of at most NUMPY_GRID_STEPS steps run in NumPy until
+    NUMPY_STEPS in all, a longer grid compiled from the first; the same trajectories."""
+    choice = kernel.LoopChoice()
+    monkeypatch.setattr(equation, "LOOP", choice)
+    monkeypatch.delitem(sys.modules, kernel.COMPILED, raising=False)  # not loaded yet
+    ran: list[int] = []
+
+    def counted(*args):
+        ran.append(args[6])  # n_steps
+        return kernel.step_grid(*args)
+
+    monkeypatch.setattr(equation, "step_grid", counted)
+    coefficients = [
+        TermValues(LIBRARY["restoring_spring"], _sets([40.0])),
+        TermValues(LIBRARY["quadratic_damping"], _sets([0.4])),
+    ]
+    x0, v0 = np.array([[0.2, 0.0]]), np.array([[0.0, 0.1]])
+    tracks = _decay_tracks()
+    paths = [integrate(tracks, np.full((1, 1), 3.0), coefficients, x0, v0, 0.02)]
+    steps = choice.numpy_steps
+    assert ran == [] and 0 < steps <= kernel.NUMPY_GRID_STEPS
+    while not ran:
+        paths.append(integrate(tracks, np.full((1, 1), 3.0), coefficients, x0, v0, 0.02))
+    assert len(paths) == kernel.NUMPY_STEPS // steps + 1  # the grid over the budget: compiled
+    assert choice.numpy_steps == steps * (len(paths) - 1) <= kernel.NUMPY_STEPS
+    for path in paths[1:]:
+        _assert_same(path, paths[0])
+
+    ran.clear()
+    fresh = kernel.LoopChoice()
+    monkeypatch.setattr(equation, "LOOP", fresh)
+    integrate(tracks, np.full((1, 1), 3.0), coefficients, x0, v0, 0.005)
+    assert ran and ran[0] > kernel.NUMPY_GRID_STEPS and fresh.numpy_steps == 0

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from estimation.motion.decay_estimate import estimate_records
-from estimation.motion.records import Record
+from estimation.motion.output_error_fit import fit_motion, fitted_values, parameters_of
+from estimation.motion.records import Record, Setup
 from tests.estimation.term_cases import decay
 
 
@@ -68,3 +69,18 @@ def test_a_tow_pair_resamples_only_to_itself_and_claims_no_spread():
     doc = estimate(runs, n_bootstrap=20).to_json()
     assert doc["bootstrap"]["used"] == 0
     assert all(v is None for v in doc["bootstrap"]["std"].values())
+
+
+def test_a_draw_keeps_the_coefficients_the_full_fit_finds_bit_for_bit():
+    """A draw computes only its coefficients (``fitted_values``): the same numbers
+    ``fit_motion`` gives from the same resample and start, not an approximation of them."""
+    records, truth = _records(3)
+    setup = Setup("heave", truth["known"], known_terms={"restoring_spring": truth["k"]},
+                  terms=("linear_damping",))  # fmt: skip
+    fit = fit_motion(records, setup, ("quadratic_damping",))
+    pick = [2, 0, 2]
+    sample = [records[i] for i in pick]
+    full = fit_motion(sample, setup, fit.effects, start=parameters_of(fit, pick), max_nfev=50)
+    alone = fitted_values(sample, setup, fit.effects, parameters_of(fit, pick), 50)
+    assert alone.tobytes() == full.values.tobytes()
+    assert not np.array_equal(alone, fit.values)  # the resample moved them
