@@ -217,11 +217,6 @@ SOURCES: dict[str, Source] = {
 }
 
 
-def standard_uncertainty(half_width: float) -> float:
-    """u = a/√3 of a rectangular tolerance ±a (GUM 4.3.7)."""
-    return half_width / math.sqrt(3.0)
-
-
 def check_tolerances(tolerances: Mapping[str, float]) -> dict[str, float]:
     """The declared half-widths, checked: known names, finite and ≥ 0 (else ToleranceError)."""
     out = {}

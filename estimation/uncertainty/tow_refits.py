@@ -25,7 +25,6 @@ from estimation.uncertainty.sources import (
     check_tolerances,
     perturbed,
     reaches,
-    standard_uncertainty,
     weight_groups,
 )
 
@@ -88,11 +87,12 @@ class TowRefits:
             source = SOURCES[name]
             if axis not in source.axes or half_width <= 0:
                 continue
-            if not reaches(self.runs, self.chain, name, standard_uncertainty(half_width)):
+            parts = len(self._weights) if source.per_weight else 1
+            declared_input = DeclaredInput(name, half_width, source.unit, source.meaning, parts)
+            if not reaches(self.runs, self.chain, name, declared_input.u):
                 idle.append(f"{name} (±{half_width:g} {source.unit}: {source.meaning})")
                 continue
-            parts = len(self._weights) if source.per_weight else 1
-            inputs.append(DeclaredInput(name, half_width, source.unit, source.meaning, parts))
+            inputs.append(declared_input)
         return declared, inputs, idle
 
     def moved(
