@@ -2,7 +2,7 @@
 7.5-02-01-01 §2.4, repeat tests; Chauvenet's criterion), for every kind of record alike.
 
 A kind states what makes two of its records the same condition and which quantity each
-record determines on its own (a tow's terminal speed, ``uncertainty.repeats``; a decay's
+record determines on its own (a tow's terminal speed, ``axis.tow_repeats``; a decay's
 logarithmic decrement, ``motion.decay_repeats``); the rest is here, one for all: grouping
 by a size within a relative tolerance, the repeatability of each condition,
 mean ± t_0.975(N−1)·s/√N, and the outlier test.
