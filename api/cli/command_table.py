@@ -145,7 +145,10 @@ COMMANDS: Mapping[str, tuple[str, str]] = kind_commands() | OTHER_COMMANDS
 
 def _table_name(function: Callable[..., Any]) -> str:
     """The name ``OTHER_COMMANDS`` gives ``function`` (``ValueError`` when it has none)."""
-    where = (function.__module__, function.__name__)
+    # the module's own name, also when it runs as ``python -m api.cli.serve`` (``__main__``)
+    # or in a process multiprocessing spawned from that (``__mp_main__``)
+    spec = function.__globals__.get("__spec__")
+    where = (spec.name if spec is not None else function.__module__, function.__name__)
     for name, entry in OTHER_COMMANDS.items():
         if entry == where:
             return name

@@ -300,6 +300,21 @@ def test_the_lazy_help_table_matches_each_command():
         assert shorts[name] == command.get_short_help_str(limit=80), name
 
 
+def test_a_command_module_run_as_a_script_names_its_command_from_the_table():
+    """``python -m api.cli.serve`` (how the tests and a service unit start the server) runs
+    the module as ``__main__``, and each process multiprocessing spawns from it (a CSV
+    upload's import) runs it again as ``__mp_main__``: ``@rig_command()`` still finds its
+    name in the table (a rehearsal's server answered every upload with a 500)."""
+    done = subprocess.run(
+        [sys.executable, "-m", "api.cli.serve", "--help"], capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("Usage: python -m api.cli.serve [OPTIONS]")
+    spawned = "import runpy; runpy.run_module('api.cli.serve', run_name='__mp_main__')"
+    done = subprocess.run([sys.executable, "-c", spawned], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
 def test_the_help_lists_each_kind_the_registry_runs_in_its_order():
     """``rig --help`` reads the kinds' commands from their modules' source (the registry
     costs ~0.4 s of CPU to import): exactly the kinds the registry runs, in its order, each
