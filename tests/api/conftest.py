@@ -232,6 +232,11 @@ def live_url(service: RigService, client: TestClient):
         yield h
 
 
+#: How long a page's action or assertion waits for the page (ms): an event, never a sleep;
+#: it only ends a test whose page never gets there.
+PAGE_TIMEOUT_MS = 30_000
+
+
 class Chromium:
     """One real headless Debian Chromium (never a downloaded browser), driven by Playwright's
     sync API, for every browser test of a session (an xdist worker): launching it took about
@@ -253,8 +258,12 @@ class Chromium:
     ]
 
     def __init__(self, executable: str) -> None:
-        from playwright.sync_api import sync_playwright
+        from playwright.sync_api import expect, sync_playwright
 
+        # An assertion on the page waits as long as an action does: Playwright's 5 s default
+        # for ``expect`` was shorter than a page's answer beside a busy process (a queue
+        # edit's form still open after 5 s, in a fresh-clone run beside one busy loop).
+        expect.set_options(timeout=PAGE_TIMEOUT_MS)
         self._playwright = sync_playwright().start()
         self._loop = asyncio._get_running_loop()  # Playwright's, marked running
         try:
@@ -277,7 +286,7 @@ class Chromium:
             context = self._browser.new_context()
             try:
                 page = context.new_page()
-                page.set_default_timeout(30_000)
+                page.set_default_timeout(PAGE_TIMEOUT_MS)
                 page.add_init_script(CSP_WATCH)
                 yield page
             finally:
