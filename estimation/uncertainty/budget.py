@@ -46,7 +46,7 @@ from estimation.motion.well_determined import Combination
 from estimation.report_numbers import finite_or_none
 from estimation.stats.repeatability import RepeatAnalysis, campaign_repeatability
 from estimation.uncertainty.rows import BudgetRow
-from estimation.uncertainty.type_a import combination_rows, random_rows
+from estimation.uncertainty.type_a import combination_rows, fit_dof, random_rows
 
 __all__ = [
     "Budget",
@@ -103,9 +103,9 @@ class Refits(Protocol):
 
     def moved(
         self, declared: DeclaredInput, delta: float, part: int
-    ) -> tuple[MotionFit, tuple[Combination, ...]] | None:
-        """The fit's model re-fitted with part ``part`` of ``declared`` moved by ``delta``,
-        and the combinations on it (None: the input moves nothing the fit sees)."""
+    ) -> tuple[MotionFit, tuple[Combination, ...]]:
+        """The fit's model re-fitted with part ``part`` of ``declared`` (one of ``inputs``'
+        reaching ones) moved by ``delta``, and the combinations on it."""
         ...
 
     def combinations(self, fit: MotionFit) -> tuple[Combination, ...]:
@@ -266,8 +266,9 @@ def uncertainty_budget(
     repeat_std, why = _repeatability(refits, fit, repeats, set(result.runs))
     if why:
         notes.append(why)
-    rows = random_rows(result, fit, units, white, repeat_std, refits.own_rows)
-    combined = combination_rows(result, fit, white, refits.combinations)
+    dof = fit_dof(fit, white)  # the effective sample size: one pass over the residual
+    rows = random_rows(result, fit, units, white, dof, repeat_std, refits.own_rows)
+    combined = combination_rows(result, fit, white, dof, refits.combinations)
     for declared_input in inputs:
         try:
             coefficients, combinations = _type_b_rows(result, fit, refits, declared_input)
@@ -302,8 +303,6 @@ def _type_b_rows(
         values, combined = [], []
         for delta in (u, -u):
             moved = refits.moved(declared, delta, part)
-            if moved is None:
-                raise EstimationFailed(declared.name, "the input moves nothing the fit sees")
             values.append(moved[0].values)
             again = {c.name: c.value for c in moved[1]}
             combined.append(np.array([again.get(n, math.nan) for n in named]))

@@ -99,10 +99,9 @@ class RecordRefits:
 
     def moved(
         self, declared: DeclaredInput, delta: float, part: int
-    ) -> tuple[MotionFit, tuple[Combination, ...]] | None:
+    ) -> tuple[MotionFit, tuple[Combination, ...]]:
         setup = _moved(self.setup, declared.name, delta)
-        if setup is None:
-            return None
+        assert setup is not None, declared.name  # inputs() named an input not given as idle
         fit = self._refit(setup, list(range(len(self.result.records))))
         return fit, self.combinations(fit, setup)
 

@@ -52,7 +52,9 @@ NOT_IDENTIFIED = "not identified by these records: no σ, so no U"
 
 
 def fit_dof(fit: MotionFit, white: bool) -> tuple[float, str]:
-    """ν of the fit's row (n − p white, n_eff − p otherwise, at least 1) and its note."""
+    """ν of the fit's rows (n − p white, n_eff − p otherwise, at least 1) and their note
+    (n, n_eff, p); computed once per budget and passed to ``random_rows`` and
+    ``combination_rows``."""
     n_eff = effective_sample_size(fit.residuals)
     dof = fit.n_samples - fit.n_params if white else n_eff - fit.n_params
     return max(float(dof), 1.0), f"n = {fit.n_samples}, n_eff = {n_eff:.0f}, p = {fit.n_params}"
@@ -63,14 +65,15 @@ def random_rows(
     fit: MotionFit,
     units: Mapping[str, str],
     white: bool,
+    dof: tuple[float, str],
     repeat_std: Mapping[str, tuple[float, int]],
     own_rows: Callable[[str, str], list[BudgetRow]],
 ) -> dict[str, list[BudgetRow]]:
     """Each coefficient's Type A rows (module doc): the fit's (white or with the residual's
     correlation), the quantization's, the bootstrap's and the repeatability's, counted once,
     then the kind's ``own_rows``; a coefficient the records do not determine has one row
-    without a value (no U)."""
-    dof, counts = fit_dof(fit, white)
+    without a value (no U); ``dof``: ``fit_dof``'s."""
+    dof_fit, counts = dof
     sigma = fit.std_white if white and fit.std_white is not None else fit.std
     boot = result.bootstrap
     rows: dict[str, list[BudgetRow]] = {}
@@ -79,16 +82,16 @@ def random_rows(
         if not math.isfinite(float(fit.std[i])):  # the data do not determine it: no U at all
             rows[name] = [
                 BudgetRow(FIT_WHITE if white else FIT_SERIAL, "A", unit, math.nan, 1.0,
-                          math.nan, dof, note=NOT_IDENTIFIED)
+                          math.nan, dof_fit, note=NOT_IDENTIFIED)
             ]  # fmt: skip
             continue
         random = [
             BudgetRow(FIT_WHITE if white else FIT_SERIAL, "A", unit, float(sigma[i]), 1.0, 0.0,
-                      dof, note=counts)
+                      dof_fit, note=counts)
         ]  # fmt: skip
         if fit.std_quantization is not None:
             random.append(
-                BudgetRow(QUANTIZATION, "A", unit, float(fit.std_quantization[i]), 1, 0, dof)
+                BudgetRow(QUANTIZATION, "A", unit, float(fit.std_quantization[i]), 1, 0, dof_fit)
             )
         if boot is not None and boot.used > 1 and math.isfinite(boot.std.get(name, math.nan)):
             random.append(
@@ -112,14 +115,16 @@ def combination_rows(
     result: EstimationResult[Any],
     fit: MotionFit,
     white: bool,
+    dof: tuple[float, str],
     combinations: Callable[[MotionFit], tuple[Combination, ...]],
 ) -> dict[str, list[BudgetRow]]:
     """The Type A row of each well-determined combination (a tow's terminal speed, a decay's
     T₀ and ζ), by name: its delta-method σ through the fit's correlation with the
     coefficients' σ as for their rows — the larger of the white and the quantization σ where
     ``white``, the estimate's σ otherwise — on the same ν. The bootstrap, repeatability and a
-    kind's own rows are kept per raw coefficient only (docs/uncertainty.md)."""
-    dof, counts = fit_dof(fit, white)
+    kind's own rows are kept per raw coefficient only (docs/uncertainty.md); ``dof``:
+    ``fit_dof``'s."""
+    dof_fit, counts = dof
     forms = [f for f in (fit.std_white, fit.std_quantization) if f is not None] if white else []
     sigmas: dict[str, list[float]] = {}
     for std in forms:
@@ -131,10 +136,10 @@ def combination_rows(
         found = sigmas.get(c.name, []) if forms else [c.std] if c.std is not None else []
         found = [s for s in found if math.isfinite(s)]
         if c.std is None or not math.isfinite(c.std) or not found:
-            row = BudgetRow(COMBINATION_ROW, "A", c.unit, math.nan, 1.0, math.nan, dof,
+            row = BudgetRow(COMBINATION_ROW, "A", c.unit, math.nan, 1.0, math.nan, dof_fit,
                             note=NOT_IDENTIFIED)  # fmt: skip
         else:
             u = float(np.max(found))
-            row = BudgetRow(COMBINATION_ROW, "A", c.unit, u, 1.0, u, dof, note=counts)
+            row = BudgetRow(COMBINATION_ROW, "A", c.unit, u, 1.0, u, dof_fit, note=counts)
         out[c.name] = [row]
     return out
