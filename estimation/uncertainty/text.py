@@ -34,7 +34,7 @@ def _summary_row(c: dict[str, Any]) -> tuple[str, str, str, str, str]:
             _g(c["combined_standard_uncertainty"]), c["dominant_source"])  # fmt: skip
 
 
-def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> str:
+def budget_markdown(budget: dict[str, Any]) -> str:
     """## Uncertainty: a summary table (per coefficient and well-determined combination,
     value ± U, k, ν_eff, u_c and the dominant source), then each one's budget table."""
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
@@ -62,8 +62,6 @@ def budget_markdown(budget: dict[str, Any], repeats: dict[str, Any] | None = Non
                 f"| {r['source']} | {r['type']} | {_g(r['standard_uncertainty'])} {r['unit']} "
                 f"| {_g(r['sensitivity'])} | {_g(r['contribution'])} | {share} | {r['note']} |"
             )
-    if repeats is not None:
-        lines += ["", *repeats_markdown(repeats, "###")]
     return "\n".join(lines) + "\n"
 
 
@@ -143,11 +141,10 @@ def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) 
     return out
 
 
-def append_to_report(
-    folder: str | Path, budget: dict[str, Any], repeats: dict[str, Any] | None
-) -> Path:
-    """Append the uncertainty section to ``folder``/report.md (written by the report)."""
+def append_to_report(folder: str | Path, budget: dict[str, Any]) -> Path:
+    """Append the uncertainty section to ``folder``/report.md (written by the report, which
+    lists the repeats itself)."""
     path = Path(folder) / "report.md"
     with path.open("a", encoding="utf-8") as f:
-        f.write("\n" + budget_markdown(budget, repeats))
+        f.write("\n" + budget_markdown(budget))
     return path

@@ -42,12 +42,18 @@ SIMULATED_PLC_TIMEOUT_S = 0.09
 SIMULATED_THRUSTER_ACK_S = 0.3
 
 
+def _benbam_text(plc_timeout_s: float) -> str:
+    """BENBAM's rig file text with the PLC's reply timeout ``plc_timeout_s``."""
+    text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
+    assert "timeout_s = 0.05\n" in text
+    return text.replace("timeout_s = 0.05\n", f"timeout_s = {plc_timeout_s}\n", 1)
+
+
 def simulated_rig_file(folder: Path) -> Path:
     """BENBAM's rig file in ``folder``, simulated, with the reply allowances of a simulated
     rig on a loaded test machine (``SIMULATED_PLC_TIMEOUT_S``, ``SIMULATED_THRUSTER_ACK_S``)."""
-    text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
-    assert "timeout_s = 0.05\n" in text and "ack_timeout_s = 0.1\n" in text
-    text = text.replace("timeout_s = 0.05\n", f"timeout_s = {SIMULATED_PLC_TIMEOUT_S}\n", 1)
+    text = _benbam_text(SIMULATED_PLC_TIMEOUT_S)
+    assert "ack_timeout_s = 0.1\n" in text
     text = text.replace("ack_timeout_s = 0.1\n", f"ack_timeout_s = {SIMULATED_THRUSTER_ACK_S}\n")
     path = folder / "benbam-simulated.toml"
     path.write_text(text)
@@ -64,11 +70,8 @@ def hardware_rig_file(
     """BENBAM's rig file in ``folder`` with mode = "hardware", its PLC on loopback
     ``modbus_port`` (replies within ``plc_timeout_s``) and its thruster controller on
     ``thruster_port`` (a running `rig sim`, or proxies in front of one)."""
-    text = (Path(__file__).resolve().parents[2] / "fixtures/rigs/benbam.toml").read_text()
-    text = text.replace('mode = "simulated"', 'mode = "hardware"')
+    text = _benbam_text(plc_timeout_s).replace('mode = "simulated"', 'mode = "hardware"')
     text = text.replace("port = 5020", f"port = {modbus_port}")
-    assert "timeout_s = 0.05\n" in text
-    text = text.replace("timeout_s = 0.05\n", f"timeout_s = {plc_timeout_s}\n", 1)
     text = text.replace('port = "sim"', f'port = "{thruster_port}"')
     path = folder / "hw.toml"
     path.write_text(text)
