@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import atexit
 import concurrent.futures
+import contextlib
 import io
 import multiprocessing
 import os
@@ -47,6 +48,12 @@ from daq.store.migrate import shared_by_processes
 #: 10 gets ~4 % of the machine and a 10 s fit takes minutes; the clock does not share the
 #: worker's GIL, and in real-time mode no niceness can delay it.
 ANALYSIS_NICENESS = 5
+
+#: How long (s) the worker process may take over one task before it is taken as hung: it is
+#: then killed and replaced, and the task fails saying so. Every analysis here takes seconds
+#: (ship2d's estimate, the largest record shipped, ~7 s of CPU); without a bound one hung fit
+#: would hold the one-at-a-time queue, every job after it and the service's shutdown.
+ANALYSIS_DEADLINE_S = 1800.0
 
 #: What an analysis task fits: an estimation job, a cross-check job, or a campaign's fit of
 #: one axis after its run (``api.core.campaign_fit``; its outcome's ``data["fit"]`` is the
@@ -226,12 +233,14 @@ class ProcessExecutor:
     """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started by
     :meth:`start` or the first task and kept for the next ones (its imports and compiled
     fits stay warm). A worker that dies (killed, out of memory) fails its task with one
-    line and is replaced."""
+    line and is replaced; so does one still busy with a task after ``deadline_s`` (s, default
+    ``ANALYSIS_DEADLINE_S``), which is killed first."""
 
-    def __init__(self) -> None:
+    def __init__(self, deadline_s: float = ANALYSIS_DEADLINE_S) -> None:
         self._pool: concurrent.futures.ProcessPoolExecutor | None = None
         self._lock = threading.Lock()
         self._started: concurrent.futures.Future[int] | None = None
+        self.deadline_s = float(deadline_s)
         #: (pid, niceness) of the worker process that ran the last task.
         self.worker: tuple[int, int] | None = None
 
@@ -263,36 +272,64 @@ class ProcessExecutor:
         return self._started.result(timeout_s)
 
     def run(self, task: AnalysisTask) -> AnalysisOutcome:
-        pool = self._workers()
         try:
-            outcome = pool.submit(run_analysis, task).result()
-            self.worker = (outcome.pid, outcome.niceness)
-            return outcome
-        except concurrent.futures.process.BrokenProcessPool as err:
-            with self._lock:
-                if self._pool is pool:
-                    self._pool, self._started = None, None
-            pool.shutdown(wait=False, cancel_futures=True)
-            line = f"the analysis worker process ended before the {task.kind} did ({err})"
+            outcome = self._within_deadline(run_analysis, task)
+        except _WorkerLost as lost:
+            line = f"the analysis worker process {lost.how} before the {task.kind} did ({lost})"
             return AnalysisOutcome(None, None, f"error: {line}", os.getpid(), 0, error=line)
+        self.worker = (outcome.pid, outcome.niceness)
+        return outcome
 
     def call(self, store_url: str | None, fn: Callable[..., T], /, *args: Any) -> T:
-        pool = self._workers()
         try:
-            return pool.submit(call_on_store, store_url, fn, args).result()
-        except concurrent.futures.process.BrokenProcessPool as err:
-            with self._lock:
-                if self._pool is pool:
-                    self._pool, self._started = None, None
-            pool.shutdown(wait=False, cancel_futures=True)
+            return self._within_deadline(call_on_store, store_url, fn, args)
+        except _WorkerLost as lost:
             name = getattr(fn, "__name__", "analysis")
-            raise RuntimeError(f"the analysis worker process ended before {name} did") from err
+            line = f"the analysis worker process {lost.how} before {name} did ({lost})"
+            raise RuntimeError(line) from lost.__cause__
+
+    def _within_deadline(self, fn: Callable[..., T], *args: Any) -> T:
+        """``fn(*args)`` in the worker; :class:`_WorkerLost` if the worker died, or was
+        still at it ``deadline_s`` after it began (then it is killed; a new worker's start-up
+        is not counted). Either way the pool is dropped and the next task starts a new
+        worker."""
+        self.start()
+        assert self._started is not None
+        pool, started = self._workers(), self._started
+        try:
+            pid = started.result()  # up and imported: the deadline is the task's own
+            return pool.submit(fn, *args).result(timeout=self.deadline_s)
+        except concurrent.futures.TimeoutError as err:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+            self._drop(pool)
+            how = f"was killed after {self.deadline_s:g} s"
+            raise _WorkerLost(how, "taken as hung: the deadline of an analysis") from err
+        except concurrent.futures.process.BrokenProcessPool as err:
+            self._drop(pool)
+            raise _WorkerLost("ended", str(err)) from err
+
+    def _drop(self, pool: concurrent.futures.ProcessPoolExecutor) -> None:
+        """Forget ``pool`` (a dead or killed worker's) so the next task starts a new one."""
+        with self._lock:
+            if self._pool is pool:
+                self._pool, self._started = None, None
+        pool.shutdown(wait=False, cancel_futures=True)
 
     def close(self) -> None:
         with self._lock:
             pool, self._pool, self._started = self._pool, None, None
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+class _WorkerLost(Exception):
+    """The worker process is gone before its task ended: ``how`` (a phrase), and why as the
+    message."""
+
+    def __init__(self, how: str, why: str) -> None:
+        super().__init__(why)
+        self.how = how
 
 
 class ThreadExecutor:

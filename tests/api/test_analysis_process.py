@@ -5,6 +5,7 @@ document and id (its report figures stored with it), or ``failed`` with one line
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,7 @@ import pytest
 from api.core.analysis_executor import AnalysisTask, shared_process_executor
 from tests.api.conftest import AUTH, wait_job
 from tests.support.analysis_watch import Calls, Watching
+from tests.support.waiting import wait_until
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
 pytestmark = pytest.mark.simtime
@@ -148,8 +150,6 @@ def test_the_worker_of_a_killed_service_ends_with_it():
     import subprocess
     import sys
 
-    from tests.support.waiting import wait_until
-
     service = subprocess.Popen(
         [sys.executable, "-c", WORKER_OF_A_KILLED_SERVICE], stdout=subprocess.PIPE, text=True
     )
@@ -161,11 +161,31 @@ def test_the_worker_of_a_killed_service_ends_with_it():
         service.send_signal(signal.SIGKILL)
         service.wait(10)
 
-    def gone() -> bool:  # exited: no such process, or a zombie its new parent has not reaped
-        try:
-            state = Path(f"/proc/{worker}/stat").read_text().rsplit(")", 1)[1].split()[0]
-        except FileNotFoundError:
-            return True
-        return state in ("Z", "X")
+    wait_until(lambda: _gone(worker), "the worker process ended", timeout_s=15)
 
-    wait_until(gone, "the worker process ended", timeout_s=15)
+
+def test_a_hung_task_is_killed_at_the_deadline_and_the_next_one_gets_a_new_worker():
+    """A worker still busy after ``deadline_s`` is killed and replaced, and its task fails
+    saying so; without the deadline one hung fit would hold every analysis job after it."""
+    from api.core.analysis_executor import ProcessExecutor
+
+    executor = ProcessExecutor(deadline_s=2.0)
+    try:
+        first = executor.worker_pid()
+        # stdlib functions: unpickling one of this module's would import the test package
+        with pytest.raises(RuntimeError, match=r"was killed after 2 s before sleep did \(taken"):
+            executor.call(None, time.sleep, 600.0)  # a fit that never ends
+        wait_until(lambda: _gone(first), "the hung worker killed", timeout_s=15)
+        pid = executor.call(None, os.getpid)  # a new worker takes the next task
+        assert pid not in (first, os.getpid())
+    finally:
+        executor.close()
+
+
+def _gone(pid: int) -> bool:
+    """Exited: no such process, or a zombie its parent has not reaped yet."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except FileNotFoundError:
+        return True
+    return state in ("Z", "X")
