@@ -74,7 +74,8 @@ def _summary(
     ``truth`` in %, whether |error| ≤ U, what is unresolved, the effects."""
     runs = [load_run_data(store, r) for r in ids]
     result = estimate(runs, n_bootstrap=0)
-    state = state_from_result(result, [], fitted_budget(store, runs, result))
+    records = [store.get_run(r) for r in ids]
+    state = state_from_result(result, [], fitted_budget(records, runs, result))
     ratios = state.ratios(relative)
     expanded = {n: r * relative * 100 for n, r in ratios.items()}
     error = {n: (state.values[n] / t - 1) * 100 for n, t in truth.items()}

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from daq.config import RigConfig, RigConfigError, parse_rig
-from daq.store import Store
+from daq.store import RunInfo
 from estimation.axis.tow_section import TowResult
 from estimation.data.run_arrays import RunData
 from estimation.stats.repeatability import RepeatAnalysis
@@ -22,13 +22,14 @@ from estimation.uncertainty import Chain, TowRefits, uncertainty_budget
 from estimation.uncertainty.budget import Budget
 
 
-def rig_of_runs(store: Store, run_ids: Sequence[str]) -> RigConfig | None:
-    """The rig file the first run was recorded with (None: imported data without one)."""
-    for rid in run_ids:
-        text = store.get_run(rid).rig_toml
+def rig_of_runs(records: Sequence[RunInfo]) -> RigConfig | None:
+    """The rig file the first of the runs' ``records`` was recorded with (None: imported data
+    without one)."""
+    for run in records:
+        text = run.rig_toml
         if text:
             try:
-                return parse_rig(tomllib.loads(text), f"run {rid} rig file")
+                return parse_rig(tomllib.loads(text), f"run {run.id} rig file")
             except (RigConfigError, tomllib.TOMLDecodeError):
                 return None
     return None
@@ -52,22 +53,25 @@ def tolerances_of(rig: RigConfig | None) -> dict[str, float]:
 
 
 def fitted_budget(
-    store: Store,
+    records: Sequence[RunInfo],
     runs: Sequence[RunData],
     result: TowResult,
     repeats: RepeatAnalysis | None = None,
 ) -> Budget | None:
     """The uncertainty budget of an output-error ``result`` of ``runs`` with the rig file's
-    constants and tolerances (None for the seed methods, which carry no fit to re-fit)."""
+    constants and tolerances (their ``records``'; None for the seed methods, which carry no
+    fit to re-fit)."""
     if result.fit_after is None or result.method != "output-error":
         return None
-    rig = rig_of_runs(store, [r.run_id for r in runs])
+    rig = rig_of_runs(records)
     refits = TowRefits(runs, result, chain_of(rig) if rig else None)
     return uncertainty_budget(result, refits, tolerances_of(rig), repeats)
 
 
-def budget_document(store: Store, runs: Sequence[RunData], result: TowResult) -> dict[str, Any]:
+def budget_document(
+    records: Sequence[RunInfo], runs: Sequence[RunData], result: TowResult
+) -> dict[str, Any]:
     """{"budget": …} for the result JSON (None for the seed methods, which carry no fit to
     re-fit), its repeatability from the result's repeats."""
-    fitted = fitted_budget(store, runs, result, result.repeats)
+    fitted = fitted_budget(records, runs, result, result.repeats)
     return {"budget": None if fitted is None else fitted.to_json()}

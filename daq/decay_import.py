@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from daq.session import RigSource
-    from daq.store import Store
+    from daq.store import RunInfo, Store
     from estimation.design.planning_envelope import RigEnvelope
 
 Dof = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
@@ -111,15 +111,15 @@ class DecayRun:
     tolerances: dict[str, float] = field(default_factory=dict)
 
 
-def load_decays(store: Store, run_ids: Sequence[str]) -> list[DecayRun]:
-    """The stored decays, checked to be of one dof with one known stiffness and inertia
-    (they are fitted jointly); ``ValueError`` naming the run and field otherwise."""
+def load_decays(store: Store, records: Sequence[RunInfo]) -> list[DecayRun]:
+    """The stored decays of ``records`` (as the estimate read them once), their samples from
+    ``store``, checked to be of one dof with one known stiffness and inertia (they are fitted
+    jointly); ``ValueError`` naming the run and field otherwise."""
     import numpy as np  # only when a decay is loaded: the registry stays light for ``rig --help``
 
     channel = AXES[RunKind.DECAY].position_channel
     runs = []
-    for rid in run_ids:
-        run = store.get_run(rid)
+    for run in records:
         p = run.parameters
         table = store.samples(run.id)
         if channel not in table.channels:
@@ -183,7 +183,7 @@ def fit_decays(
     )
 
 
-def decay_budget(store: Store, runs: list[DecayRun], result: Any) -> dict[str, Any]:
+def decay_budget(records: Sequence[RunInfo], runs: list[DecayRun], result: Any) -> dict[str, Any]:
     """{"budget": …}: the GUM budget of the decay's coefficients with the tolerances
     declared at import (``estimation.uncertainty.record_refits``)."""
     from estimation.uncertainty import RecordRefits, uncertainty_budget

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from daq.store import Store
+    from daq.store import RunInfo, Store
     from estimation.design.planning_envelope import RigEnvelope
 
 
@@ -26,20 +26,21 @@ OUTPUT_ERROR = "output error (joint, default)"
 class Estimator:
     """How runs are estimated.
 
-    ``load``: the stored runs as the fit takes them, checked (``ValueError`` naming the
-    run and field, before anything is fitted); ``fit(runs, method, search, envelope,
-    exclude_outliers)``: the result (``to_json()``, its ``runs`` those actually fitted;
-    ``envelope``: the rig's tests, ``estimation.design``, so the advice it gives names runs
-    the rig can make; None for imports; ``exclude_outliers``: leave out the repeats
-    Chauvenet's criterion flags, every estimator alike); ``subject``: what a failed fit
-    names ("surge", "roll swing");
+    ``load(store, records)``: the stored runs as the fit takes them, checked (``ValueError``
+    naming the run and field, before anything is fitted), from their records as the estimate
+    read them once (``api.core.estimation_job.stored_runs``) and their samples in ``store``;
+    ``fit(runs, method, search, envelope, exclude_outliers)``: the result (``to_json()``,
+    its ``runs`` those actually fitted; ``envelope``: the rig's tests, ``estimation.design``,
+    so the advice it gives names runs the rig can make; None for imports;
+    ``exclude_outliers``: leave out the repeats Chauvenet's criterion flags, every estimator
+    alike); ``subject``: what a failed fit names ("surge", "roll swing");
     ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
     takes, the first the default (a callable, so the estimation code loads on first use),
     ``method_labels`` how the browser's menu words them.
 
     What an estimator offers beyond the fit is a field, ``None`` where it offers nothing,
     so the job calls it without naming the estimator:
-    ``budget(store, runs, result)`` → the documents added to the result after it (the
+    ``budget(records, runs, result)`` → the documents added to the result after it (the
     uncertainty budget, which the theory comparison reads and the job appends to the
     report); ``compares_theory``:
     its results are compared with the hull's theory (``api.core.theory_job``: a tow or
@@ -52,13 +53,13 @@ class Estimator:
     #: How messages name its runs: "tow/spin".
     runs: str
     methods_of: Callable[[], tuple[str, ...]]
-    load: Callable[[Store, Sequence[str]], list[Any]]
+    load: Callable[[Store, Sequence[RunInfo]], list[Any]]
     fit: Callable[[list[Any], str, bool, RigEnvelope | None, bool], Any]
     subject: Callable[[list[Any]], str]
     report: Callable[[Any, list[Any], Path], list[Path]] | None = None
     #: method → how the browser's method menu words it (a method missing: its name).
     method_labels: dict[str, str] = field(default_factory=dict)
-    budget: Callable[[Store, list[Any], Any], dict[str, Any]] | None = None
+    budget: Callable[[Sequence[RunInfo], list[Any], Any], dict[str, Any]] | None = None
     compares_theory: bool = False
     units_of: Callable[[], dict[str, dict[str, str]]] = dict
 
@@ -80,13 +81,13 @@ def _axis_units() -> dict[str, dict[str, str]]:
     return {axis: UNITS[axis] | COMPARED[axis] for axis in UNITS}
 
 
-def _axis_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
+def _axis_load(store: Store, records: Sequence[RunInfo]) -> list[Any]:
     from daq.body_mass import with_body_inertia
-    from daq.run_data import load_run_data
+    from daq.run_data import run_data_of
     from estimation.data.run_arrays import validate_runs
 
     # The body's own mass the tow declares: an inertia fitted below it is flagged.
-    runs = [with_body_inertia(load_run_data(store, rid), store.get_run(rid)) for rid in run_ids]
+    runs = [with_body_inertia(run_data_of(store, run), run) for run in records]
     validate_runs(runs)
     return runs
 
@@ -109,10 +110,10 @@ def _axis_fit(
     )
 
 
-def _axis_budget(store: Store, runs: list[Any], result: Any) -> dict[str, Any]:
+def _axis_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
     from daq.axis_budget import budget_document
 
-    return budget_document(store, runs, result)
+    return budget_document(records, runs, result)
 
 
 def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
@@ -148,11 +149,11 @@ def _pendulum_methods() -> tuple[str, ...]:
     return PENDULUM_METHODS
 
 
-def _pendulum_load(store: Store, run_ids: Sequence[str]) -> list[Any]:
-    from daq.run_data import load_pendulum_data
+def _pendulum_load(store: Store, records: Sequence[RunInfo]) -> list[Any]:
+    from daq.run_data import pendulum_data_of
     from estimation.pendulum.pendulum_estimate import validate_pendulum_runs
 
-    swings = [load_pendulum_data(store, rid) for rid in run_ids]
+    swings = [pendulum_data_of(store, run) for run in records]
     validate_pendulum_runs(swings)
     return swings
 
@@ -169,7 +170,7 @@ def _pendulum_fit(
     return estimate_pendulum(runs, method=method, search=search, exclude_outliers=exclude_outliers)
 
 
-def _pendulum_budget(store: Store, runs: list[Any], result: Any) -> dict[str, Any]:
+def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
     """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
     from estimation.pendulum.pendulum_estimate import pendulum_budget
 

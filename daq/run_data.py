@@ -141,12 +141,19 @@ def _timeline(
 
 
 def load_run_data(store: Store, run_id: str) -> RunData:
-    """Build the estimator's view of one stored tow or spin run.
+    """Build the estimator's view of one stored tow or spin run (:func:`run_data_of` of its
+    record)."""
+    return run_data_of(store, store.get_run(run_id))
+
+
+def run_data_of(store: Store, run: RunInfo) -> RunData:
+    """The estimator's view of the stored tow or spin run ``run`` (its record, read once by
+    the estimate: ``api.core.estimation_job.stored_runs``); its samples and events from
+    ``store``.
 
     Time base as ``_timeline`` picks it. Raises ``ValueError`` naming the run when it
     cannot be estimated.
     """
-    run = store.get_run(run_id)
     if run.kind not in POSITION_CHANNEL:
         raise ValueError(f"run {run.id}: kind {run.kind!r} cannot be estimated; allowed: tow, spin")
     rig = _rig_of(run)
@@ -302,14 +309,20 @@ def pendulum_geometry(rig: RigConfig) -> PendulumGeometry:
 
 
 def load_pendulum_data(store: Store, run_id: str) -> PendulumRun:
-    """Build the estimator's view of one stored pendulum free-decay run.
+    """Build the estimator's view of one stored pendulum free-decay run
+    (:func:`pendulum_data_of` of its record)."""
+    return pendulum_data_of(store, store.get_run(run_id))
+
+
+def pendulum_data_of(store: Store, run: RunInfo) -> PendulumRun:
+    """The estimator's view of the stored pendulum free-decay run ``run`` (its record, read
+    once by the estimate); its samples and events from ``store``.
 
     The geometry comes from the rig file stored with the run, the angle from its
     ``pendulum_angle`` channel, the time base and release instant as for a tow
     (``_timeline``). Samples after the catch (the pendulum held still) are left out.
     Raises ``ValueError`` naming the run when it cannot be estimated.
     """
-    run = store.get_run(run_id)
     terms = AXES.get(run.kind)
     if terms is None or terms.axis != Axis.SWING:  # the pendulum's swing, whatever its kind
         raise ValueError(f"run {run.id}: kind {run.kind!r} is not a pendulum free-decay run")

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from api.core.estimation_job import load_estimation_runs
+from api.core.estimation_job import load_estimation_runs, stored_runs
 from daq.axis_budget import fitted_budget
 from daq.store import Store
 from estimation.design.planner import AxisState, state_from_result
@@ -41,9 +41,10 @@ def fit_campaign_axis(
     the budget, and store the result tagged ``campaign`` when ``store_result``."""
     from estimation import estimate
 
-    _, runs = load_estimation_runs(store, list(run_ids), "output-error")
+    records = stored_runs(store, run_ids)
+    _, runs = load_estimation_runs(store, records, "output-error")
     result = estimate(runs, n_bootstrap=0, envelope=envelope)
-    budget = fitted_budget(store, runs, result)
+    budget = fitted_budget(records, runs, result)
     result_id = None
     if store_result:
         extra = {"campaign": True, "budget": None if budget is None else budget.to_json()}

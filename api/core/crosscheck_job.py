@@ -92,11 +92,12 @@ def crosscheck_results(
 
     weight = _estimation(store, weight_result_id, "weight_result_id")
     thrusters = _estimation(store, thruster_result_id, "thruster_result_id")
+    records = [store.get_run(r) for r in (*weight.get("runs", []), *thrusters.get("runs", []))]
     check = cross_check(
         weight,
         thrusters,
         supply_voltage_v=supply_voltages(store, thrusters),
-        envelope=envelope_of_runs(store, [*weight.get("runs", []), *thrusters.get("runs", [])]),
+        envelope=envelope_of_runs(store, records),
     )
     data = check.to_json()
     if report_dir is not None:

@@ -18,20 +18,29 @@ from api.core.result_subject import subject as result_subject
 from api.core.rig_envelope import envelope_of_runs
 from daq.estimators import Estimator
 from daq.procedures.run_kinds import KINDS
-from daq.store import Store
+from daq.store import RunInfo, Store
 
 
-def estimator_of(store: Store, run_ids: Sequence[str], method: str) -> Estimator:
-    """The estimator the runs call for, with ``method`` checked.
-
-    Raises ``ValueError`` naming the field for no runs, kinds no estimator takes, mixed
-    kinds (a pendulum with a tow, a tow with a spin: two axes), or a method the estimator
-    does not have; ``RunNotFound`` for an unknown id. The API calls this before starting
-    the job so such requests are a 422, not a failed job.
-    """
+def stored_runs(store: Store, run_ids: Sequence[str]) -> list[RunInfo]:
+    """The records of an estimate's runs (uuids or unique prefixes), in order: the one place
+    an estimate reads them, each once; every later step (the estimator's load, the rig's
+    envelope, the budget, the theory's rig file and water) is handed these. Raises
+    ``ValueError`` naming the field for no runs, ``RunNotFound`` for an unknown id."""
     if not run_ids:
         raise ValueError("run_ids: give at least one run id")
-    kinds = sorted({store.get_run(rid).kind for rid in run_ids})
+    return [store.get_run(rid) for rid in run_ids]
+
+
+def estimator_of(records: Sequence[RunInfo], method: str) -> Estimator:
+    """The estimator the runs of ``records`` (:func:`stored_runs`) call for, with ``method``
+    checked.
+
+    Raises ``ValueError`` naming the field for kinds no estimator takes, mixed kinds (a
+    pendulum with a tow, a tow with a spin: two axes), or a method the estimator does not
+    have. The API calls this before starting the job so such requests are a 422, not a
+    failed job.
+    """
+    kinds = sorted({run.kind for run in records})
     if len(kinds) > 1:  # a tow and a spin are two axes: one fit cannot take both
         raise ValueError(
             f"run_ids: got mixed kinds {kinds}, allowed: runs of one kind (of "
@@ -53,21 +62,22 @@ def estimator_of(store: Store, run_ids: Sequence[str], method: str) -> Estimator
 
 def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
     """The name of the estimator the runs call for (``Estimator.name``), checked
-    as :func:`estimator_of` says."""
-    return estimator_of(store, run_ids, method).name
+    as :func:`stored_runs` and :func:`estimator_of` say."""
+    return estimator_of(stored_runs(store, run_ids), method).name
 
 
 def load_estimation_runs(
-    store: Store, run_ids: Sequence[str], method: str
+    store: Store, records: Sequence[RunInfo], method: str
 ) -> tuple[str, list[Any]]:
-    """The runs as their estimator takes them, checked: (estimator name, runs).
+    """The runs of ``records`` (:func:`stored_runs`) as their estimator takes them, checked:
+    (estimator name, runs).
 
     Everything a user can get wrong is found here, before anything is fitted: raises
     ``ValueError`` naming the run and field (no applied drive, too few samples after the
-    release, mixed axes, …) and ``RunNotFound`` for an unknown id. The API calls it before
-    starting the job, so bad input is a 422, never a failed job."""
-    estimator = estimator_of(store, run_ids, method)
-    return estimator.name, estimator.load(store, run_ids)
+    release, mixed axes, …). The API calls it before starting the job, so bad input is a
+    422, never a failed job."""
+    estimator = estimator_of(records, method)
+    return estimator.name, estimator.load(store, records)
 
 
 def run_estimation(
@@ -84,25 +94,28 @@ def run_estimation(
     Chauvenet's criterion flags out of every estimator's fit (a tow set's in its ``screen``,
     a decay's or pendulum's in its fit); with what the estimator offers besides the fit (its
     uncertainty ``budget``, then the theory comparison, ``api.core.theory_job``).
-    Bad input raises as :func:`load_estimation_runs` says; a fit (or its report) that fails
-    in its numerics raises ``EstimationFailure`` (``could not fit surge of run 3f2a9c1b: why``).
+    Bad input raises as :func:`stored_runs` and :func:`load_estimation_runs` say; a fit (or
+    its report) that fails in its numerics raises ``EstimationFailure`` (``could not fit surge
+    of run 3f2a9c1b: why``).
     """
-    estimator = estimator_of(store, run_ids, method)
-    runs = estimator.load(store, run_ids)
+    records = stored_runs(store, run_ids)  # each run read once, handed to every step below
+    estimator = estimator_of(records, method)
+    runs = estimator.load(store, records)
     subject = fit_subject(estimator.subject(runs), [r.run_id for r in runs])
-    envelope = envelope_of_runs(store, [r.run_id for r in runs])  # advice within the rig
+    envelope = envelope_of_runs(store, records)  # advice within the rig
     with fitting(subject):
         result = estimator.fit(runs, method, search_effects, envelope, exclude_outliers)
         data = result.to_json()
     fitted = set(result.runs)  # a repeat the fit left out is named in its repeats, not here
     runs = [r for r in runs if r.run_id in fitted]
+    records = [r for r in records if r.id in fitted]
     if report_dir is not None and estimator.report is not None:
         with fitting(subject, "draw the report of"):
             files = estimator.report(result, runs, Path(report_dir))
             data["report_files"] = [str(p) for p in files]
     if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
-            data |= estimator.budget(store, runs, result)
+            data |= estimator.budget(records, runs, result)
             if data.get("budget") and report_dir is not None and "report_files" in data:
                 from estimation.uncertainty.text import append_to_report
 
@@ -111,7 +124,7 @@ def run_estimation(
                 # here: a decay never loads the vehicle file, hull theory nor the tow budget
                 from api.core.theory_job import theory_document
 
-                data |= theory_document(store, data, result.repeats, report_dir)
+                data |= theory_document(records, data, result.repeats, report_dir)
     data["subject"] = result_subject("estimation", data)  # as GET /api/results names it
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)

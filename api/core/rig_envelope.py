@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from daq.config import RigConfig
 from daq.procedures.run_kinds import KINDS
-from daq.store import Store
+from daq.store import RunInfo, Store
 from estimation.design.planning_envelope import RigEnvelope
 
 #: Time between runs that counts as tank time: carriage back, weights changed, water settling
@@ -29,14 +31,15 @@ def envelope_of(
     return RigEnvelope(tuple(axes), g=float(rig.rig.g), reset_s=reset_s)
 
 
-def envelope_of_runs(store: Store, run_ids: list[str]) -> RigEnvelope | None:
-    """The envelope of the rig the newest of ``run_ids`` was recorded on (its stored rig
-    file), for the estimator's advice; None when no run has a readable rig file (imports)."""
+def envelope_of_runs(store: Store, records: Sequence[RunInfo]) -> RigEnvelope | None:
+    """The envelope of the rig the newest of the runs' ``records`` was recorded on (its
+    stored rig file; ``store``: the thrusters' calibration), for the estimator's advice; None
+    when no run has a readable rig file (imports)."""
     import tomllib
 
     from daq.config import RigConfigError, parse_rig
 
-    runs = sorted((store.get_run(r) for r in run_ids), key=lambda r: r.started_at)
+    runs = sorted(records, key=lambda r: r.started_at)
     for run in reversed(runs):
         if not run.rig_toml:
             continue

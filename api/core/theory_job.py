@@ -15,17 +15,18 @@ from typing import Any
 from api.core.sixdof import VehicleNotFound, find_vehicle, vehicle_files
 from api.core.theory import DEFAULT_WATER_TEMP_C
 from daq.axis_budget import rig_of_runs
-from daq.store import Store
+from daq.store import RunInfo
 from estimation.stats.repeatability import RepeatAnalysis
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.measured import HullScale, measured_beside_theory, theory_markdown
 from estimation.water import WaterError, water_properties
 
 
-def water_of_runs(store: Store, run_ids: Sequence[str]) -> tuple[float, float, str]:
-    """The runs' water: their mean recorded temperature (°C; else ITTC's standard 15 °C), their
-    mean recorded absolute salinity (g/kg; else fresh water, 0), and where each came from."""
-    metadata = [store.get_run(rid).metadata for rid in run_ids]
+def water_of_runs(records: Sequence[RunInfo]) -> tuple[float, float, str]:
+    """The water of the runs' ``records``: their mean recorded temperature (°C; else ITTC's
+    standard 15 °C), their mean recorded absolute salinity (g/kg; else fresh water, 0), and
+    where each came from."""
+    metadata = [run.metadata for run in records]
     temps = [float(t) for m in metadata if (t := m.get(TEMP)) is not None]
     salts = [float(s) for m in metadata if (s := m.get(SALINITY)) is not None]
     temp = sum(temps) / len(temps) if temps else DEFAULT_WATER_TEMP_C
@@ -70,16 +71,17 @@ def density_uncertainty(temperature_c: float, half_width_c: float, salinity_g_kg
 
 
 def theory_document(
-    store: Store,
+    records: Sequence[RunInfo],
     result: dict[str, Any],
     repeats: RepeatAnalysis | None,
     report_dir: str | Path | None = None,
 ) -> dict[str, Any]:
-    """{"theory": …}: None (with the reason) when the vehicle file or its hull is missing."""
+    """{"theory": …} of ``result`` (its fitted runs' ``records`` give the rig file and the
+    water): None (with the reason) when the vehicle file or its hull is missing."""
     axis, budget = result.get("axis"), result.get("budget")
     if budget is None or axis not in ("surge", "yaw"):
         return {"theory": None}
-    rig = rig_of_runs(store, result["runs"])
+    rig = rig_of_runs(records)
     if rig is None:
         return {"theory": {"missing": "the runs carry no rig file (imported data)"}}
     try:
@@ -88,7 +90,7 @@ def theory_document(
         return {"theory": {"missing": str(err)}}
     if vehicle.hull is None:
         return {"theory": {"missing": f"vehicle {vehicle.name!r} declares no [hull]"}}
-    temp, salinity, source = water_of_runs(store, result["runs"])
+    temp, salinity, source = water_of_runs(records)
     try:
         water = water_properties(temp, salinity)
     except WaterError as err:  # a tank the formulas do not cover (recorded at 45 °C)

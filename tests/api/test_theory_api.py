@@ -121,10 +121,10 @@ def test_the_theory_comparison_takes_the_runs_recorded_salinity(tmp_path):
     sea = [new_run(store) for _ in range(2)]
     for rid, temp in zip(sea, (19.0, 21.0), strict=True):
         store.set_run_metadata(rid, {"water_temperature_c": temp, "salinity_g_kg": 35.165})
-    temp, salinity, source = water_of_runs(store, sea)
+    temp, salinity, source = water_of_runs([store.get_run(rid) for rid in sea])
     assert (temp, salinity) == (20.0, 35.165) and "salinity from run metadata" in source
     assert water_properties(temp, salinity).density == pytest.approx(1024.8, abs=0.1)
-    fresh = water_of_runs(store, [new_run(store)])
+    fresh = water_of_runs([store.get_run(new_run(store))])
     assert fresh[:2] == (15.0, 0.0) and "fresh water" in fresh[2]
     store.close()
 
@@ -140,7 +140,8 @@ def test_runs_recorded_in_water_the_model_does_not_cover_are_not_compared(tmp_pa
     rid = new_run(store, rig_toml=BENBAM_TOML)
     store.set_run_metadata(rid, {"water_temperature_c": 45.0})
     budget = {"coefficients": {}, "tolerances": {}}
-    doc = theory_document(store, {"axis": "surge", "budget": budget, "runs": [rid]}, None)
+    result = {"axis": "surge", "budget": budget, "runs": [rid]}
+    doc = theory_document([store.get_run(rid)], result, None)
     missing = doc["theory"]["missing"]
     assert "outside the water model" in missing and "temperature_c: got 45.0" in missing
     store.close()

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from api.core.estimation_job import load_estimation_runs, run_estimation
+from api.core.estimation_job import load_estimation_runs, run_estimation, stored_runs
 from api.core.pretest import predict_sequence
 from daq.session import RigSource
 from daq.store import Store
@@ -61,7 +61,7 @@ async def test_seed_campaign_budget_and_pretest_prediction(tmp_path):
             assert "FLAGGED" in report and "Measured vs predicted added mass" in report
             assert all(r["reynolds"] > 5e4 for r in theory["runs"].values())
         achieved[axis] = {n: c["expanded_uncertainty"] for n, c in budget["coefficients"].items()}
-        _, runs = load_estimation_runs(store, ids, "output-error")
+        _, runs = load_estimation_runs(store, stored_runs(store, ids), "output-error")
         release += [r.t_release_std for r in runs]
     predicted = predict_sequence(store, source.rig, SEQUENCE, release_std_s=float(np.mean(release)))
     for axis, coefficients in achieved.items():

@@ -128,14 +128,14 @@ def start_estimation(
     user: OperatorDep,
 ) -> dict:
     """Estimate coefficients from stored runs in a worker thread; poll the job for the result."""
-    from api.core.estimation_job import load_estimation_runs
+    from api.core.estimation_job import load_estimation_runs, stored_runs
 
-    run_ids = [store.get_run(r).id for r in body.run_ids]  # 404 for an unknown id, now
+    records = stored_runs(store, body.run_ids)  # 404 for an unknown id, now
     # 422 for bad input (mixed kinds, a method the kind lacks, a run without its drive or
     # too short), so a failed job always means the fit itself failed
-    load_estimation_runs(store, run_ids, body.method)
+    load_estimation_runs(store, records, body.method)
     started = runner.start_estimation(
-        run_ids, body.method, body.search_effects, user.name, body.exclude_outliers
+        [r.id for r in records], body.method, body.search_effects, user.name, body.exclude_outliers
     )
     return started.to_json()
 
