@@ -60,12 +60,6 @@ def estimator_of(records: Sequence[RunInfo], method: str) -> Estimator:
     return estimator
 
 
-def check_estimation_request(store: Store, run_ids: Sequence[str], method: str) -> str:
-    """The name of the estimator the runs call for (``Estimator.name``), checked
-    as :func:`stored_runs` and :func:`estimator_of` say."""
-    return estimator_of(stored_runs(store, run_ids), method).name
-
-
 def load_estimation_runs(
     store: Store, records: Sequence[RunInfo], method: str
 ) -> tuple[str, list[Any]]:
