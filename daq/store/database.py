@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 from collections.abc import Iterator
@@ -12,11 +13,19 @@ from typing import Self
 import sqlalchemy as sa
 
 from daq.store import checks
-from daq.store.faults import DatabaseNotOpened, opening_reason
+from daq.store.faults import (
+    STORE_RETRY_S,
+    DatabaseNotOpened,
+    database_name,
+    held_by_another,
+    opening_reason,
+)
 from daq.store.migrate import create_engine, default_database_url, upgrade_to_head
 from daq.store.packing import SamplePacker
 from daq.store.run_records import AmbiguousRunId, RunNotFound
 from daq.store.schema import runs as runs_t
+
+log = logging.getLogger(__name__)
 
 
 def inserted_id(result: sa.CursorResult) -> int:
@@ -103,11 +112,25 @@ class StoreBase:
 
     def __init__(self, url: str | None = None) -> None:
         self.url = url or default_database_url()
-        try:
-            self.engine = create_engine(self.url)
-            upgrade_to_head(self.engine)
-        except sa.exc.SQLAlchemyError as err:  # a bad URL, no driver, no server
-            raise DatabaseNotOpened(opening_reason(err)) from err
+        # Another process migrating the same new SQLite file holds its lock; on a loaded
+        # machine past the 10 s busy wait (a rehearsal beside a busy loop): that lock is
+        # waited out as a run's writes wait one out, STORE_RETRY_S in all.
+        give_up_at = time.monotonic() + STORE_RETRY_S
+        while True:
+            try:
+                self.engine = create_engine(self.url)
+                upgrade_to_head(self.engine)
+                break
+            except sa.exc.SQLAlchemyError as err:  # a bad URL, no driver, no server, a lock
+                if not held_by_another(err) or time.monotonic() >= give_up_at:
+                    raise DatabaseNotOpened(opening_reason(err)) from err
+                log.warning(
+                    "%s is locked by another process (migrating it?); waiting up to %g s",
+                    database_name(self.engine.url),
+                    STORE_RETRY_S,
+                )
+                self.engine.dispose()
+                time.sleep(0.2)
         self.backend = self.engine.dialect.name
         self._packers: dict[str, tuple[int, SamplePacker]] = {}
 

@@ -84,6 +84,13 @@ class StorageError:
     retryable: bool
 
 
+def held_by_another(exc: BaseException) -> bool:
+    """Whether ``exc`` is SQLite's lock held by another connection past its busy wait (a
+    later attempt can succeed; a server's errors are not this)."""
+    orig = exc.orig if isinstance(exc, sa.exc.DBAPIError) else exc
+    return getattr(orig, "sqlite_errorname", None) in _SQLITE_RETRYABLE
+
+
 def _first_line(text: str) -> str:
     line = text.strip().splitlines()[0] if text.strip() else ""
     return line.strip() or "unknown error"

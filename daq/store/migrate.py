@@ -34,12 +34,17 @@ def default_database_url() -> str:
 _json_text = functools.partial(json.dumps, ensure_ascii=False)
 
 
+#: SQLite's busy wait on every connection the store opens, ms: how long a statement waits
+#: for another connection's lock before it fails with "database is locked".
+SQLITE_BUSY_MS = 10_000
+
+
 def _set_sqlite_pragmas(dbapi_connection, _record) -> None:
     cursor = dbapi_connection.cursor()
     try:
         # the busy timeout first: switching a new file to WAL waits for the lock of a process
         # migrating it, which under load can hold it past the driver's default 5 s
-        cursor.execute("PRAGMA busy_timeout=10000")
+        cursor.execute(f"PRAGMA busy_timeout={SQLITE_BUSY_MS:d}")
         cursor.execute("PRAGMA journal_mode=WAL")
         cursor.execute("PRAGMA synchronous=NORMAL")
         cursor.execute("PRAGMA foreign_keys=ON")

@@ -4,6 +4,7 @@ process-like Store creating and finishing runs never fail or lose rows."""
 from __future__ import annotations
 
 import asyncio
+import logging
 import multiprocessing
 import threading
 import time
@@ -17,7 +18,7 @@ import sqlalchemy as sa
 from daq.store import RunRecorder, Store
 from daq.store.migrate import create_engine, current_revision, head_revision
 from tests.store.helpers import make_samples, new_run
-from tests.support.waiting import until
+from tests.support.waiting import until, wait_until
 
 
 def open_store(url: str) -> None:
@@ -44,6 +45,47 @@ def test_processes_opening_one_new_database_at_once_all_open_it(tmp_path: Path) 
             errors = [repr(err) for done in opens if (err := done.exception(timeout=60))]
             assert errors == [], n
             assert current_revision(create_engine(url)) == head_revision()
+
+
+def test_opening_waits_out_a_lock_held_past_the_busy_wait(tmp_path, monkeypatch, caplog) -> None:
+    """Another process migrating a new file on a loaded machine can hold its lock past
+    SQLite's busy wait (a rehearsal's "database is locked" at open): the open says so and
+    waits it out (up to STORE_RETRY_S, as a run's writes do) instead of failing. The busy
+    wait is shortened to 0.2 s so that the lock outlasts it at once."""
+    import sqlite3
+
+    from daq.store import migrate
+
+    monkeypatch.setattr(migrate, "SQLITE_BUSY_MS", 200)
+    caplog.set_level(logging.WARNING, logger="daq.store.database")
+    path = tmp_path / "rig.db"
+    blocker = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
+    blocker.execute("BEGIN EXCLUSIVE")
+    opened: list[Store | BaseException] = []
+
+    def open_it() -> None:
+        try:
+            opened.append(Store(f"sqlite:///{path}"))
+        except BaseException as err:  # shown by the assertion below
+            opened.append(err)
+
+    opener = threading.Thread(target=open_it)
+    opener.start()
+    try:
+        wait_until(
+            lambda: opened or any("locked by another" in r.getMessage() for r in caplog.records),
+            "the open failing once on the lock",
+            timeout_s=30,
+        )
+        assert not opened, opened  # still waiting (without the retry: DatabaseNotOpened)
+    finally:
+        blocker.execute("COMMIT")
+        blocker.close()
+        opener.join(60)
+    [store] = opened
+    assert isinstance(store, Store), store
+    assert current_revision(store.engine) == head_revision()
+    store.close()
 
 
 def test_concurrent_writers_do_not_fail(db_url: str) -> None:
