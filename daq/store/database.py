@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import logging
 import os
 import time
@@ -116,7 +117,7 @@ class StoreBase:
         # machine past the 10 s busy wait (a rehearsal beside a busy loop): that lock is
         # waited out as a run's writes wait one out, STORE_RETRY_S in all.
         give_up_at = time.monotonic() + STORE_RETRY_S
-        while True:
+        for attempt in itertools.count():
             try:
                 self.engine = create_engine(self.url)
                 upgrade_to_head(self.engine)
@@ -124,11 +125,12 @@ class StoreBase:
             except sa.exc.SQLAlchemyError as err:  # a bad URL, no driver, no server, a lock
                 if not held_by_another(err) or time.monotonic() >= give_up_at:
                     raise DatabaseNotOpened(opening_reason(err)) from err
-                log.warning(
-                    "%s is locked by another process (migrating it?); waiting up to %g s",
-                    database_name(self.engine.url),
-                    STORE_RETRY_S,
-                )
+                if attempt == 0:
+                    log.warning(
+                        "%s is locked by another process (migrating it?); waiting up to %g s",
+                        database_name(self.engine.url),
+                        STORE_RETRY_S,
+                    )
                 self.engine.dispose()
                 time.sleep(0.2)
         self.backend = self.engine.dialect.name
