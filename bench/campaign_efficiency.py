@@ -35,7 +35,7 @@ from api.core.campaign_session import run_campaign  # noqa: E402
 from api.core.rig_envelope import envelope_of  # noqa: E402
 from daq.axis_budget import fitted_budget  # noqa: E402
 from daq.procedures.sequence import load_sequence, run_sequence  # noqa: E402
-from daq.run_data import load_run_data  # noqa: E402
+from daq.run_data import load_run_data, run_data_of  # noqa: E402
 from daq.session import RigSession, RigSource  # noqa: E402
 from daq.sim.inprocess import open_inprocess_rig  # noqa: E402
 from daq.sim.simtime import SimClock  # noqa: E402
@@ -72,9 +72,9 @@ def _summary(
 ) -> dict[str, Any]:
     """U/|θ| in % of the fit of ``ids`` (the budget's U), its error against the scenario's
     ``truth`` in %, whether |error| ≤ U, what is unresolved, the effects."""
-    runs = [load_run_data(store, r) for r in ids]
+    records = [store.get_run(r) for r in ids]  # read once, as an estimate does
+    runs = [run_data_of(store, run) for run in records]
     result = estimate(runs, n_bootstrap=0)
-    records = [store.get_run(r) for r in ids]
     state = state_from_result(result, [], fitted_budget(records, runs, result))
     ratios = state.ratios(relative)
     expanded = {n: r * relative * 100 for n, r in ratios.items()}

@@ -114,8 +114,8 @@ class StoreBase:
     def __init__(self, url: str | None = None) -> None:
         self.url = url or default_database_url()
         # Another process migrating the same new SQLite file holds its lock; on a loaded
-        # machine past the 10 s busy wait (a rehearsal beside a busy loop): that lock is
-        # waited out as a run's writes wait one out, STORE_RETRY_S in all.
+        # machine past the busy wait (migrate.SQLITE_BUSY_MS; a rehearsal beside a busy
+        # loop): that lock is waited out as a run's writes wait one out, STORE_RETRY_S.
         give_up_at = time.monotonic() + STORE_RETRY_S
         for attempt in itertools.count():
             try:

@@ -112,7 +112,7 @@ def describe(exc: BaseException) -> StorageError:
         return StorageError(f"database connection lost: {_first_line(str(orig))}", True)
     name = getattr(orig, "sqlite_errorname", None)
     if name is not None:
-        return StorageError(f"SQLite: {_first_line(str(orig))}", name in _SQLITE_RETRYABLE)
+        return StorageError(f"SQLite: {_first_line(str(orig))}", held_by_another(orig))
     sqlstate = getattr(orig, "sqlstate", None)
     if isinstance(sqlstate, str) and sqlstate:
         message = f"PostgreSQL: {_first_line(str(orig))}"
