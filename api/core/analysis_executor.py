@@ -244,21 +244,24 @@ class ProcessExecutor:
         #: (pid, niceness) of the worker process that ran the last task.
         self.worker: tuple[int, int] | None = None
 
-    def _workers(self) -> concurrent.futures.ProcessPoolExecutor:
+    def _worker(
+        self,
+    ) -> tuple[concurrent.futures.ProcessPoolExecutor, concurrent.futures.Future[int]]:
+        """The pool and its worker's pid (a future: the worker imports first), both started
+        if need be, read together under the lock."""
         with self._lock:
             if self._pool is None:
                 self._pool = concurrent.futures.ProcessPoolExecutor(
                     1, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker
                 )
-            return self._pool
+            if self._started is None:
+                self._started = self._pool.submit(os.getpid)
+            return self._pool, self._started
 
     def start(self) -> None:
         """Start the worker process now, in the background (it imports while the caller
         goes on); idempotent while the worker lives."""
-        pool = self._workers()
-        with self._lock:
-            if self._started is None:
-                self._started = pool.submit(os.getpid)
+        self._worker()
 
     @property
     def started(self) -> bool:
@@ -267,9 +270,7 @@ class ProcessExecutor:
 
     def worker_pid(self, timeout_s: float = 60.0) -> int:
         """The pid of the worker process :meth:`start` started (starting it if need be)."""
-        self.start()
-        assert self._started is not None
-        return self._started.result(timeout_s)
+        return self._worker()[1].result(timeout_s)
 
     def run(self, task: AnalysisTask) -> AnalysisOutcome:
         try:
@@ -293,9 +294,7 @@ class ProcessExecutor:
         still at it ``deadline_s`` after it began (then it is killed; a new worker's start-up
         is not counted). Either way the pool is dropped and the next task starts a new
         worker."""
-        self.start()
-        assert self._started is not None
-        pool, started = self._workers(), self._started
+        pool, started = self._worker()
         try:
             pid = started.result()  # up and imported: the deadline is the task's own
             return pool.submit(fn, *args).result(timeout=self.deadline_s)
