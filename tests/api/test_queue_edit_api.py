@@ -65,7 +65,10 @@ def test_a_paused_queue_holds_new_jobs_which_are_edited_run_now_and_requeued(cli
     on_rig = client.put(f"/api/queue/{spin['id']}", json={"torque_nm": 0.3}, headers=AUTH)
     assert on_rig.status_code == 409, on_rig.text
     ended = wait_job(client, spin["id"])
-    assert ended["state"] == "completed", ended  # a failed job names why: its error
+    assert ended["state"] == "completed", (  # a job that did not complete names why
+        f"{ended['state']}: {ended.get('error')!r}, outcome {ended.get('outcome')!r}, "
+        f"progress {ended.get('progress')!r}"
+    )
     wait_rig_free(client)
     queue = _queue(client)
     assert queue["paused"] and [j["id"] for j in queue["jobs"]] == [tow["id"]], queue
