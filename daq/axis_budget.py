@@ -9,11 +9,10 @@ the budget's U (``fitted_budget``).
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Sequence
 from typing import Any
 
-from daq.config import RigConfig, RigConfigError, parse_rig
+from daq.config import RigConfig, RigConfigError, parse_rig_text
 from daq.store import RunInfo
 from estimation.axis.tow_section import TowResult
 from estimation.data.run_arrays import RunData
@@ -29,8 +28,8 @@ def rig_of_runs(records: Sequence[RunInfo]) -> RigConfig | None:
         text = run.rig_toml
         if text:
             try:
-                return parse_rig(tomllib.loads(text), f"run {run.id} rig file")
-            except (RigConfigError, tomllib.TOMLDecodeError):
+                return parse_rig_text(text, f"run {run.id} rig file")
+            except RigConfigError:
                 return None
     return None
 

@@ -11,10 +11,9 @@ inertia is in kg·m², which none of these is: None for a spin.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import replace
 
-from daq.config import RigConfigError, parse_rig
+from daq.config import RigConfigError, parse_rig_text
 from daq.store import RunInfo
 from daq.vocabulary import AXES
 from estimation.data.run_arrays import RunData
@@ -35,8 +34,8 @@ def declared_body_mass(run: RunInfo) -> float | None:
     if not run.rig_toml:
         return None
     try:
-        rig = parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
-    except (RigConfigError, tomllib.TOMLDecodeError):
+        rig = parse_rig_text(run.rig_toml, f"run {run.id} rig file")
+    except RigConfigError:
         return None  # loading the run names an unreadable rig file itself
     return rig.vehicle.dry_mass_kg
 

@@ -7,6 +7,7 @@ address: it asks ``RigConfig.channel(name)``.
 
 from __future__ import annotations
 
+import functools
 import math
 import tomllib
 from pathlib import Path
@@ -376,6 +377,24 @@ def read_toml_file(path: Path, what: str) -> dict[str, Any]:
 def parse_rig(data: dict, source: str = "rig file") -> RigConfig:
     """Validate a rig-file dictionary; raises RigConfigError naming each bad field."""
     return validate_config(RigConfig, data, source)
+
+
+@functools.lru_cache(maxsize=8)
+def _rig_of_text(text: str) -> RigConfig:
+    """``text`` parsed and validated, once per distinct text (a frozen model, safe to share)."""
+    return parse_rig(tomllib.loads(text))
+
+
+def parse_rig_text(text: str, source: str) -> RigConfig:
+    """The rig file whose text is ``text`` (a run's stored ``rig_toml``), parsed once per
+    distinct text: an estimate's steps each ask for their runs' rig, and a campaign's runs
+    share one text. Raises RigConfigError naming ``source`` and each bad field."""
+    try:
+        return _rig_of_text(text)
+    except tomllib.TOMLDecodeError as err:
+        raise RigConfigError(f"{source}: not valid TOML: {err}") from None
+    except RigConfigError:  # not cached: validated again to name its source
+        return parse_rig(tomllib.loads(text), source)
 
 
 def load_rig(path: str | Path | None = None) -> RigConfig:

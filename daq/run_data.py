@@ -15,12 +15,11 @@ channel, release coil, end switch, drive key and drive train), never branched on
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from daq.config import RigConfig, RigConfigError, parse_rig
+from daq.config import RigConfig, RigConfigError, parse_rig_text
 from daq.fit_exclusions import left_out, trusted_samples
 from daq.store import RunInfo, SampleTable, Store
 from daq.store.run_events import Gap, RunAction, RunEvents
@@ -35,8 +34,8 @@ def _rig_of(run: RunInfo) -> RigConfig | None:
     if not run.rig_toml:
         return None
     try:
-        return parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
-    except (RigConfigError, tomllib.TOMLDecodeError) as err:
+        return parse_rig_text(run.rig_toml, f"run {run.id} rig file")
+    except RigConfigError as err:
         raise ValueError(f"run {run.id}: its stored rig file is unreadable: {err}") from None
 
 

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 
 #: Temperatures the formulas (and the ITTC table) cover, °C.
 TEMPERATURE_RANGE_C = (0.0, 40.0)
+#: Water temperature used when none is given (°C): ITTC's standard temperature for fresh water.
+DEFAULT_WATER_TEMP_C = 15.0
 #: Absolute salinities the sea-water formulas cover here, g/kg (fresh water is 0).
 SALINITY_RANGE_G_KG = (0.0, 42.0)
 #: Reference-composition seawater: S_A = 35.16504 g/kg at practical salinity 35.

@@ -21,7 +21,7 @@ from api.cli.common import (
 )
 from api.cli.options import request_from, request_options
 from api.core import analysis as analysis_common
-from api.core import sixdof as sixdof_common
+from api.core import vehicle_files
 from api.core.sensitivity_request import SensitivityRequest
 from daq.store import ResultNotFound
 
@@ -151,7 +151,7 @@ def sensitivity(vehicle, estimates, weight_pairs, ahp_file, db_url, as_json, **o
     store = open_store(db_url) if request.estimates else None
     try:
         out = analysis_common.analyse_vehicle(store, request, allow_path=True)
-    except (sixdof_common.VehicleNotFound, ResultNotFound) as err:
+    except (vehicle_files.VehicleNotFound, ResultNotFound) as err:
         fail(str(err))
     except (ValueError, json.JSONDecodeError) as err:
         fail(flag_names(click.get_current_context(), str(err)))

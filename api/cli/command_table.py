@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 import functools
 import importlib.util
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -139,8 +139,23 @@ OTHER_COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+class _Commands(Mapping[str, tuple[str, str]]):
+    """Every command, the kinds' first: name → (module, attribute). The kinds' are read from
+    their modules' text only when asked for (listing, or a name not in ``OTHER_COMMANDS``):
+    ``rig runs`` or ``rig show`` parse no kind module (~5 ms of CPU)."""
+
+    def __getitem__(self, name: str) -> tuple[str, str]:
+        return OTHER_COMMANDS[name] if name in OTHER_COMMANDS else kind_commands()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(kind_commands() | OTHER_COMMANDS)
+
+    def __len__(self) -> int:
+        return len(kind_commands() | OTHER_COMMANDS)
+
+
 #: Every command, the kinds' first: name → (module, attribute).
-COMMANDS: Mapping[str, tuple[str, str]] = kind_commands() | OTHER_COMMANDS
+COMMANDS: Mapping[str, tuple[str, str]] = _Commands()
 
 
 def _table_name(function: Callable[..., Any]) -> str:

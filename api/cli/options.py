@@ -194,6 +194,12 @@ def _defaults_need_no_check(model: type[BaseModel]) -> bool:
     )
 
 
+def _is_default(info: FieldInfo, value: Any) -> bool:
+    """Whether ``value`` is the field's default itself (same type and value): validating it
+    gives the default, as no input does."""
+    return type(value) is type(info.default) and value == info.default
+
+
 def request_from(model: type[M], values: dict[str, Any], **given: Any) -> M:
     """The request ``model`` from the options' ``values`` plus ``given`` fields (an argument),
     exactly as its route takes it; a bad value exits 2 with one line per field, each named as
@@ -203,7 +209,11 @@ def request_from(model: type[M], values: dict[str, Any], **given: Any) -> M:
     from daq.procedures.params import ParameterError, problems_of  # only to word a refusal
 
     fields = request_fields(model, values)
-    if not given and not fields and _defaults_need_no_check(model):
+    if (
+        not given
+        and _defaults_need_no_check(model)
+        and all(_is_default(model.model_fields[name], value) for name, value in fields.items())
+    ):  # an option left at its default (``rig runs``' --limit 100) is no input
         return model.model_construct()  # what validating no input gives, without building it
     try:
         return model(**given, **fields)

@@ -17,6 +17,7 @@ from api.cli.common import (
 )
 from api.cli.options import request_from, request_options
 from api.core import sixdof as sixdof_common
+from api.core import vehicle_files
 from daq.store import ResultNotFound
 
 
@@ -35,7 +36,7 @@ def sixdof(vehicle, estimates, db_url, as_json, **options):
         sixdof_common.SimulateRequest, options, vehicle=vehicle, estimates=list(estimates)
     )
     try:
-        veh = sixdof_common.find_vehicle(request.vehicle, allow_path=True)
+        veh = vehicle_files.find_vehicle(request.vehicle, allow_path=True)
         if request.estimates:
             store = open_store(db_url)
             try:

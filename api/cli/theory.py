@@ -18,6 +18,7 @@ from api.cli.common import (
 from api.cli.options import request_from, request_options
 from api.core import sixdof as sixdof_common
 from api.core import theory as theory_common
+from api.core import vehicle_files
 from daq.store import ResultInfo, ResultNotFound
 
 
@@ -75,7 +76,7 @@ def predict_added_mass(vehicle, estimates, db_url, as_json, **options):
     with the ratio."""
     query = request_from(theory_common.AddedMassQuery, options)
     try:
-        veh = sixdof_common.find_vehicle(vehicle, allow_path=True)
+        veh = vehicle_files.find_vehicle(vehicle, allow_path=True)
         applied: list = []
         if estimates:
             veh, applied = sixdof_common.apply_results(veh, _stored(estimates, db_url))

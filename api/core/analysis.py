@@ -7,7 +7,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from api.core.sensitivity_request import SensitivityRequest
-from api.core.sixdof import find_vehicle, stored_estimates
+from api.core.sixdof import stored_estimates
+from api.core.vehicle_files import find_vehicle
 from daq.run_data import load_run_data
 from daq.store import Store
 from estimation.vehicle.ahp import Hierarchy, Judgement, hierarchy, judge

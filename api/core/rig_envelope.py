@@ -35,17 +35,15 @@ def envelope_of_runs(store: Store, records: Sequence[RunInfo]) -> RigEnvelope | 
     """The envelope of the rig the newest of the runs' ``records`` was recorded on (its
     stored rig file; ``store``: the thrusters' calibration), for the estimator's advice; None
     when no run has a readable rig file (imports)."""
-    import tomllib
-
-    from daq.config import RigConfigError, parse_rig
+    from daq.config import RigConfigError, parse_rig_text
 
     runs = sorted(records, key=lambda r: r.started_at)
     for run in reversed(runs):
         if not run.rig_toml:
             continue
         try:
-            rig = parse_rig(tomllib.loads(run.rig_toml), f"run {run.id} rig file")
-        except (RigConfigError, tomllib.TOMLDecodeError):
+            rig = parse_rig_text(run.rig_toml, f"run {run.id} rig file")
+        except RigConfigError:
             continue
         return envelope_of(rig, store)
     return None

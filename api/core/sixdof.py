@@ -1,39 +1,31 @@
-"""What the 6-DOF route and the ``rig sixdof`` command share: where vehicle files are,
-finding one by name, plugging stored estimates in, and the simulation summary."""
+"""What the 6-DOF route and the ``rig sixdof`` command share: plugging stored estimates in,
+one vehicle's detail and the simulation summary (vehicle files are found by
+``api.core.vehicle_files``)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import os
-import re
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from api.core.vehicle_files import find_vehicle
 from daq.procedures.flag import Flag
 from daq.procedures.params import ParameterError
 from daq.procedures.procedure_request import comma_separated_floats
 from daq.store import ResultInfo, Store
 from estimation.vehicle.apply_estimates import apply_result_json
-from estimation.vehicle.description import DOFS, Vehicle6, VehicleError
+from estimation.vehicle.description import DOFS, Vehicle6
 from estimation.vehicle.dynamics import allocation_matrix
-from estimation.vehicle.vehicle_file import load_vehicle
 
 if TYPE_CHECKING:  # the simulation (scipy.integrate) is loaded when one is run, not by an
     # estimate that only looks a vehicle file up
     from estimation.vehicle.simulation import Trajectory
 
-#: The vehicles that come with the project.
-FIXTURE_VEHICLES = Path(__file__).resolve().parents[2] / "fixtures" / "vehicles"
-#: A directory of the lab's own vehicle files, searched after the fixtures.
-VEHICLES_DIR_ENV = "RIG_VEHICLES_DIR"
 #: Trajectories sent back hold at most this many samples.
 MAX_POINTS = 2000
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
 
 
 #: Longest simulation one request runs, s.
@@ -89,78 +81,6 @@ class SimulateRequest(BaseModel):
             allowed = f"≥ duration_s / {MAX_SAMPLES} = {shortest:g} s for {self.duration_s:g} s"
             raise ParameterError([("dt", self.dt, allowed)])
         return self
-
-
-class VehicleNotFound(KeyError):
-    """No vehicle file has this name."""
-
-    def __str__(self) -> str:
-        return str(self.args[0]) if self.args else "vehicle not found"
-
-
-def vehicle_dirs() -> list[Path]:
-    """The fixtures directory, then ``$RIG_VEHICLES_DIR`` when set."""
-    dirs = [FIXTURE_VEHICLES]
-    extra = os.environ.get(VEHICLES_DIR_ENV, "").strip()
-    if extra:
-        dirs.append(Path(extra).expanduser())
-    return dirs
-
-
-def vehicle_files() -> dict[str, Path]:
-    """Vehicle name (file stem) → file; a later directory does not shadow an earlier one."""
-    found: dict[str, Path] = {}
-    for folder in vehicle_dirs():
-        if folder.is_dir():
-            for path in sorted(folder.glob("*.toml")):
-                found.setdefault(path.stem, path)
-    return found
-
-
-def find_vehicle(name: str, *, allow_path: bool = False) -> Vehicle6:
-    """The vehicle named ``name`` (a file stem, e.g. ``seed002-rov``); with ``allow_path``
-    (the CLI, not the API) also a path to a ``.toml`` file."""
-    files = vehicle_files()
-    if _NAME.match(name) and name in files:
-        return _load(files[name])
-    if allow_path and name.endswith(".toml") and Path(name).is_file():
-        return load_vehicle(name)
-    known = ", ".join(files) or "none"
-    raise VehicleNotFound(f"no vehicle named {name!r}; known: {known}")
-
-
-def shown_file(path: Path) -> str:
-    """Where a vehicle file is, without this machine's folders: ``fixtures/vehicles/x.toml``
-    for the project's, ``$RIG_VEHICLES_DIR/x.toml`` for the lab's."""
-    if path.parent == FIXTURE_VEHICLES:
-        return f"fixtures/vehicles/{path.name}"
-    return f"${VEHICLES_DIR_ENV}/{path.name}"
-
-
-def _load(path: Path) -> Vehicle6:
-    """A vehicle file, named in its errors and ``source`` as :func:`shown_file` says."""
-    shown = shown_file(path)
-    try:
-        return dataclasses.replace(load_vehicle(path), source=shown)
-    except VehicleError as err:
-        raise VehicleError(shown, err.field, err.value, err.allowed) from None
-
-
-def vehicle_summary(name: str, path: Path) -> dict[str, Any]:
-    """One line of the vehicle list (a broken file is listed with its error); file names
-    as :func:`shown_file` gives them (no absolute paths in API answers)."""
-    try:
-        v = _load(path)
-    except VehicleError as err:
-        return {"name": name, "file": shown_file(path), "error": str(err)}
-    return {
-        "name": name,
-        "file": shown_file(path),
-        "vehicle": v.name,
-        "mass_kg": v.mass_kg,
-        "thrusters": [t.name for t in v.thrusters],
-        "notes": v.notes,
-    }
 
 
 def vehicle_detail(name: str) -> dict[str, Any]:

@@ -15,10 +15,12 @@ from estimation.theory.compare import DEFAULT_BAND, compare_added_mass
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.tank import blockage
 from estimation.vehicle.description import DOFS, Vehicle6
-from estimation.water import SALINITY_RANGE_G_KG, TEMPERATURE_RANGE_C, water_properties
-
-#: Water temperature used when none is given: ITTC's standard temperature for fresh water.
-DEFAULT_WATER_TEMP_C = 15.0
+from estimation.water import (
+    DEFAULT_WATER_TEMP_C,
+    SALINITY_RANGE_G_KG,
+    TEMPERATURE_RANGE_C,
+    water_properties,
+)
 
 _T_LOW, _T_HIGH = TEMPERATURE_RANGE_C
 _S_LOW, _S_HIGH = SALINITY_RANGE_G_KG

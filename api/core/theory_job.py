@@ -12,14 +12,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from api.core.sixdof import VehicleNotFound, find_vehicle, vehicle_files
-from api.core.theory import DEFAULT_WATER_TEMP_C
+from api.core.vehicle_files import VehicleNotFound, find_vehicle, vehicle_files
 from daq.axis_budget import rig_of_runs
 from daq.store import RunInfo
 from estimation.stats.repeatability import RepeatAnalysis
 from estimation.theory.hull import predict_added_mass
 from estimation.theory.measured import HullScale, measured_beside_theory, theory_markdown
-from estimation.water import WaterError, water_properties
+from estimation.water import DEFAULT_WATER_TEMP_C, WaterError, water_properties
 
 
 def water_of_runs(records: Sequence[RunInfo]) -> tuple[float, float, str]:

@@ -328,6 +328,18 @@ def test_the_help_lists_each_kind_the_registry_runs_in_its_order():
         assert short_helps()[str(spec.command)] == command.get_short_help_str(limit=80)
 
 
+def test_a_command_that_is_no_kind_reads_no_kind_module(request):
+    """``rig runs`` looks its command up without parsing the kinds' modules (~5 ms)."""
+    from api.cli import command_table
+
+    command_table._kind_helps.cache_clear()
+    request.addfinalizer(command_table._kind_helps.cache_clear)
+    assert COMMANDS["runs"] == ("api.cli.runs", "runs")
+    assert command_table._kind_helps.cache_info().misses == 0
+    assert COMMANDS["tow"] == (PROCEDURES_MODULE, "tow")  # a kind's: read then
+    assert command_table._kind_helps.cache_info().misses == 1
+
+
 def test_a_kind_module_dropped_in_is_listed_without_an_edit_to_the_table(
     monkeypatch, tmp_path, request
 ):

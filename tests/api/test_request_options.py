@@ -1,6 +1,7 @@
-"""``api.cli.options.request_from`` given none of a model's options: the model's defaults,
-and a deferred model (the list filters, ``defer_build``) left unbuilt, ~0.06 s of CPU off
-``rig runs`` (issue 33); anything validating no input would check is still checked."""
+"""``api.cli.options.request_from`` given none of a model's options (or only their
+defaults): the model's defaults, and a deferred model (the list filters, ``defer_build``)
+left unbuilt, ~0.06 s of CPU off ``rig runs`` (issue 33); anything validating no input
+would check is still checked."""
 
 from __future__ import annotations
 
@@ -30,6 +31,19 @@ def test_no_option_given_takes_the_defaults_without_building_the_model():
     assert not window.__pydantic_complete__  # never built
     assert chosen == window()  # what validating no input gives
     assert chosen.model_fields_set == set()
+
+
+def test_an_option_left_at_its_default_is_no_input():
+    """click hands a page's --limit its default (``rig runs``): still no model built."""
+    window = _window()
+    chosen = request_from(window, {"since": None, "limit": 5})
+    assert not window.__pydantic_complete__
+    assert chosen == window()
+    assert request_from(window, {"limit": 6}).limit == 6  # another value: validated
+    assert window.__pydantic_complete__
+    with pytest.raises(SystemExit) as refused:  # not the default's type: validated, refused
+        request_from(_window(), {"limit": "five"})
+    assert refused.value.code == 2
 
 
 def test_an_option_given_is_validated():

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from api.core.sixdof import FIXTURE_VEHICLES
+from api.core.vehicle_files import FIXTURE_VEHICLES
 from tests.api.conftest import AUTH
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).

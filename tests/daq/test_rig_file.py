@@ -1,5 +1,6 @@
 """Rig-file validation: registers must fit the 16-bit address space, and an unreadable
-or binary file is one line naming the file (library and CLI)."""
+or binary file is one line naming the file (library and CLI); a run's stored rig file is
+parsed once per distinct text, its errors naming the run."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from daq.config import RigConfigError, load_rig
+from daq.config import RigConfigError, load_rig, parse_rig_text
 from tests.support.cli import run_in_process
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -68,3 +69,17 @@ def test_the_cli_reports_a_binary_or_unreadable_rig_file_without_a_traceback(tmp
         assert str(path) in result.stderr and says in result.stderr
         assert "Traceback" not in result.stderr
         assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+def test_a_stored_rig_text_is_parsed_once_and_its_errors_name_the_run(tmp_path):
+    """An estimate's steps each ask for their runs' rig (issue 33: 11 parses of one text)."""
+    text = BENBAM.read_text()
+    first = parse_rig_text(text, "run a rig file")
+    assert parse_rig_text(text, "run b rig file") is first  # the same text: the same parse
+    assert first == load_rig(BENBAM)
+    bad = text.replace("address = 0\n", "address = 65535\n", 1)
+    for source in ("run c rig file", "run d rig file"):  # a bad text is not cached
+        with pytest.raises(RigConfigError, match=f"^{source}: "):
+            parse_rig_text(bad, source)
+    with pytest.raises(RigConfigError, match=r"^run e rig file: not valid TOML: "):
+        parse_rig_text("[rig\n", "run e rig file")

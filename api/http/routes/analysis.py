@@ -12,7 +12,7 @@ from functools import partial
 from fastapi import APIRouter, Depends, HTTPException
 
 from api.core import analysis as analysis_common
-from api.core import sixdof as sixdof_common
+from api.core import vehicle_files
 from api.core.sensitivity_request import AHPRequest, SensitivityRequest
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import error_responses
@@ -66,5 +66,5 @@ def sensitivity(body: SensitivityRequest, store: StoreDep, runner: RunnerDep) ->
     )
     try:
         return runner.analysis.executor_for(store).call(store.url, study)
-    except (sixdof_common.VehicleNotFound, ResultNotFound) as err:
+    except (vehicle_files.VehicleNotFound, ResultNotFound) as err:
         raise HTTPException(404, str(err)) from None

@@ -10,6 +10,7 @@ from functools import partial
 from fastapi import APIRouter, Depends, HTTPException
 
 from api.core import sixdof as sixdof_common
+from api.core import vehicle_files
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import error_responses
 from daq.store import ResultNotFound, Store
@@ -25,8 +26,8 @@ def vehicle_with_estimates(
     ``estimates`` applied, and which were (404 for an unknown vehicle or result, 422 for a
     result that is not an estimation)."""
     try:
-        vehicle = sixdof_common.find_vehicle(name)
-    except sixdof_common.VehicleNotFound as err:
+        vehicle = vehicle_files.find_vehicle(name)
+    except vehicle_files.VehicleNotFound as err:
         raise HTTPException(404, str(err)) from None
     try:
         results = sixdof_common.stored_estimates(store, estimates)
@@ -38,7 +39,7 @@ def vehicle_with_estimates(
 @router.get("/vehicles", dependencies=[Depends(require_read)], responses=error_responses(401))
 def list_vehicles() -> list[dict]:
     """Vehicle files: fixtures/vehicles, then $RIG_VEHICLES_DIR (a broken file shows its error)."""
-    return [sixdof_common.vehicle_summary(n, p) for n, p in sixdof_common.vehicle_files().items()]
+    return [vehicle_files.vehicle_summary(n, p) for n, p in vehicle_files.vehicle_files().items()]
 
 
 @router.get(
@@ -52,7 +53,7 @@ def get_vehicle(name: str) -> dict:
     z down."""
     try:
         return sixdof_common.vehicle_detail(name)
-    except sixdof_common.VehicleNotFound as err:
+    except vehicle_files.VehicleNotFound as err:
         raise HTTPException(404, str(err)) from None
 
 
