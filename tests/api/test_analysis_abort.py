@@ -161,3 +161,33 @@ def test_a_fit_the_executor_cannot_stop_answers_409_saying_why_and_runs_on(
         release.set()
     job = wait_job(client, job_id)
     assert job["state"] == "completed" and job["outcome"] == {"held": True}, job
+
+
+@pytest.mark.slow  # a browser page
+def test_the_estimation_page_aborts_its_running_estimation(
+    chromium, service, client, tow_job, worker, tmp_path
+):
+    """The Estimation page shows the running estimation with the header's Abort control
+    beside its progress; pressing it ends the job ``aborted`` and the page says so."""
+    from playwright.sync_api import expect
+
+    from tests.api.conftest import signed_in_page
+
+    with signed_in_page(chromium, service, client) as page:
+        page.set_viewport_size({"width": 1366, "height": 900})
+        page.route("**/api/stream**", lambda route: route.abort())  # the poll is enough
+        page.click("nav a[data-page=estimation]")
+        page.check(f"#est-runs input[value='{tow_job['run_ids'][0]}']")
+        page.click("#est-run")
+        expect(page.locator("#est-state")).to_have_text("running")
+        [job] = [j for j in client.get("/api/jobs", headers=AUTH).json() if j["state"] == "running"]
+        _began(client, job["id"])
+        abort = page.locator("#est-status button[data-abort-job]")
+        expect(abort).to_have_text("Abort")
+        assert abort.get_attribute("class") == page.get_attribute("#abort-btn", "class")
+        page.screenshot(path=str(tmp_path / "estimation-running.png"))
+        abort.click()
+        expect(page.locator("#est-state")).to_have_text("aborted")
+        expect(page.locator("#est-status")).to_contain_text(f"aborted: {REASON}")
+        expect(abort).to_have_count(0)
+    assert wait_job(client, job["id"])["state"] == "aborted"
