@@ -373,13 +373,17 @@ class ProcessExecutor:
         skipped, one running is killed). A worker killed is dropped and the next task starts
         a new one; a task that only waited behind the killed one runs again there, once."""
         for again in (True, False):
-            worker = self._worker()
-            worker.pid.result()  # up and imported: the deadline is the task's own
-            number = next(self._numbers)
-            future = worker.pool.submit(_numbered, number, fn, *args)
-            if stop is not None:
-                stop.bind(functools.partial(self._end, worker, number))
+            worker, number = self._worker(), next(self._numbers)
             try:
+                worker.pid.result()  # up and imported: the deadline is the task's own
+                try:
+                    future = worker.pool.submit(_numbered, number, fn, *args)
+                except RuntimeError:  # shut down: killed for another task since taken
+                    if not again or worker.killed is None:
+                        raise
+                    continue
+                if stop is not None:
+                    stop.bind(functools.partial(self._end, worker, number))
                 return future.result(timeout=self.deadline_s)
             except concurrent.futures.TimeoutError as err:
                 self._end(worker)
