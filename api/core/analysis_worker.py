@@ -196,8 +196,10 @@ class AnalysisWorker:
         job that ended, and for one running where the executor cannot stop it, saying why."""
         with self._lock:
             stop = self._stops.get(job.id)
-            if stop is None or job.state in JOB_FINAL:
+            if job.state in JOB_FINAL:
                 raise JobConflict(f"job {job.id} already ended ({job.state})")
+            if stop is None:  # a job row this service did not start
+                raise JobConflict(f"job {job.id} ({job.state}) is not run by this service")
             began = self._began == job.id
             if not began:  # the job thread will pass it by
                 stop.request(reason)
