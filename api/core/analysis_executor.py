@@ -391,12 +391,15 @@ class ProcessExecutor:
                 raise _WorkerLost(how, "taken as hung: the deadline of an analysis") from err
             except _Skipped:
                 raise _Stopped(stop.reason if stop is not None else "stopped") from None
-            except concurrent.futures.process.BrokenProcessPool as err:
+            except (
+                concurrent.futures.process.BrokenProcessPool,
+                concurrent.futures.CancelledError,  # still pending as the killed pool shut
+            ) as err:
                 self._drop(worker)
                 if stop is not None and stop.reason is not None:
                     raise _Stopped(stop.reason) from None
                 if not again or worker.killed in (None, number):
-                    raise _WorkerLost("ended", str(err)) from err
+                    raise _WorkerLost("ended", str(err) or "its pool shut down") from err
             finally:
                 if stop is not None:
                     stop.bind(None)
