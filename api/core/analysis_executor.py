@@ -26,7 +26,9 @@ from __future__ import annotations
 import atexit
 import concurrent.futures
 import contextlib
+import functools
 import io
+import itertools
 import multiprocessing
 import os
 import pickle
@@ -80,9 +82,10 @@ class AnalysisTask:
 class AnalysisOutcome:
     """How an analysis ended: ``data`` (the result document, scratch paths included) and
     ``result_id`` with the closing ``message``, or ``error`` (one line; ``bad_input`` for a
-    ValueError/KeyError naming a field, else ``traceback`` for the log). ``reports`` are the
-    (result id, folder) pairs whose figures belong to a stored result; ``pid`` and
-    ``niceness`` say where it ran."""
+    ValueError/KeyError naming a field, else ``traceback`` for the log; ``stopped``: ended by
+    its :class:`TaskStop`, ``error`` the reason). ``reports`` are the (result id, folder)
+    pairs whose figures belong to a stored result; ``pid`` and ``niceness`` say where it
+    ran."""
 
     data: dict[str, Any] | None
     result_id: int | None
@@ -93,13 +96,46 @@ class AnalysisOutcome:
     bad_input: bool = False
     traceback: str | None = None
     reports: tuple[tuple[int, Path], ...] = field(default=())
+    stopped: bool = False
+
+
+class TaskStop:
+    """A request to stop one task before its end (its job aborted): ``reason`` once
+    :meth:`request` was called. The executor running the task binds (:meth:`bind`) what stops it
+    there; an executor that cannot stop a task says why in its ``cannot_stop``."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.reason: str | None = None
+        self._act: Callable[[], object] | None = None
+
+    def request(self, reason: str) -> None:
+        """Stop the task for ``reason`` (the first reason given stays)."""
+        with self._lock:
+            self.reason = self.reason or reason
+            act = self._act
+        if act is not None:
+            act()
+
+    def bind(self, act: Callable[[], object] | None) -> None:
+        """``act`` stops the task from now on (None: the task ended); called at once if a stop
+        was already requested."""
+        with self._lock:
+            self._act = act
+            asked = self.reason is not None
+        if asked and act is not None:
+            act()
 
 
 class AnalysisExecutor(Protocol):
     """Runs analysis tasks somewhere and hands back their outcomes."""
 
-    def run(self, task: AnalysisTask) -> AnalysisOutcome:
-        """Run ``task`` to its end (blocks the calling thread); never raises for a failed fit."""
+    #: Why this executor cannot stop a task once it began (one line), None if ``stop`` can.
+    cannot_stop: str | None
+
+    def run(self, task: AnalysisTask, stop: TaskStop | None = None) -> AnalysisOutcome:
+        """Run ``task`` to its end (blocks the calling thread); never raises for a failed fit.
+        ``stop``, requested, ends it early as a ``stopped`` outcome where the executor can."""
         ...
 
     def call(self, store_url: str | None, fn: Callable[..., T], /, *args: Any) -> T:
@@ -216,10 +252,16 @@ def _exit_with(parent: int) -> None:
             os.kill(os.getpid(), signal.SIGTERM)  # the default action: the process ends
 
 
-def _start_worker() -> None:
-    """The worker process's start: watch the process that started it, lower its priority,
-    then import what every analysis runs (the fits, the report's figures), so no task waits
-    for it."""
+#: In a worker process: its ``_Worker.state`` (the parent's shared array).
+_STATE: Any = None
+
+
+def _start_worker(state: Any) -> None:
+    """The worker process's start: keep ``state`` (``_Worker.state``), watch the process
+    that started it, lower its priority, then import what every analysis runs (the fits, the
+    report's figures), so no task waits for it."""
+    global _STATE
+    _STATE = state
     threading.Thread(
         target=_exit_with, args=(os.getppid(),), name="parent-watch", daemon=True
     ).start()
@@ -229,34 +271,64 @@ def _start_worker() -> None:
     import api.core.estimation_job  # noqa: F401
 
 
+def _numbered(number: int, fn: Callable[..., T], *args: Any) -> T:
+    """In the worker process: ``fn(*args)`` as task ``number`` (``_Worker.state``), or
+    :class:`_Skipped` if that task was stopped before it began."""
+    with _STATE.get_lock():
+        if _STATE[1] == number:
+            raise _Skipped(number)
+        _STATE[0] = number
+    return fn(*args)
+
+
+class _Skipped(Exception):
+    """The worker skipped a task stopped before it began (its number the message)."""
+
+
+@dataclass
+class _Worker:
+    """One worker process: its pool, its pid (a future: the worker imports first), and
+    ``state``, an array shared with it: [the number of the task it began last, the number
+    of a task to skip]; its lock orders a task's start against a kill (``_end``)."""
+
+    pool: concurrent.futures.ProcessPoolExecutor
+    pid: concurrent.futures.Future[int]
+    state: Any
+    #: The number of the task it ran when this executor killed it (None: not killed).
+    killed: int | None = None
+
+
 class ProcessExecutor:
     """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started by
     :meth:`start` or the first task and kept for the next ones (its imports and compiled
     fits stay warm). A worker that dies (killed, out of memory) fails its task with one
     line and is replaced; so does one still busy with a task after ``deadline_s`` (s, default
-    ``ANALYSIS_DEADLINE_S``), which is killed first."""
+    ``ANALYSIS_DEADLINE_S``), which is killed first, and one running a task whose
+    :class:`TaskStop` was requested (the task ends ``stopped``). A task that waited behind
+    a killed one is run again on the new worker."""
+
+    #: It can: its worker process is killed.
+    cannot_stop: str | None = None
 
     def __init__(self, deadline_s: float = ANALYSIS_DEADLINE_S) -> None:
-        self._pool: concurrent.futures.ProcessPoolExecutor | None = None
+        self._current: _Worker | None = None
         self._lock = threading.Lock()
-        self._started: concurrent.futures.Future[int] | None = None
+        self._numbers = itertools.count(1)
         self.deadline_s = float(deadline_s)
         #: (pid, niceness) of the worker process that ran the last task.
         self.worker: tuple[int, int] | None = None
 
-    def _worker(
-        self,
-    ) -> tuple[concurrent.futures.ProcessPoolExecutor, concurrent.futures.Future[int]]:
-        """The pool and its worker's pid (a future: the worker imports first), both started
-        if need be, read together under the lock."""
+    def _worker(self) -> _Worker:
+        """The worker process, started if need be (under the lock: one pool, one pid)."""
         with self._lock:
-            if self._pool is None:
-                self._pool = concurrent.futures.ProcessPoolExecutor(
-                    1, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker
+            if self._current is None:
+                context = multiprocessing.get_context("spawn")
+                state = context.Array("q", 2)
+                pool = concurrent.futures.ProcessPoolExecutor(
+                    1, mp_context=context, initializer=_start_worker, initargs=(state,)
                 )
-            if self._started is None:
-                self._started = self._pool.submit(os.getpid)
-            return self._pool, self._started
+                self._current = _Worker(pool, pool.submit(os.getpid), state)
+            return self._current
 
     def start(self) -> None:
         """Start the worker process now, in the background (it imports while the caller
@@ -266,15 +338,20 @@ class ProcessExecutor:
     @property
     def started(self) -> bool:
         """Whether a worker process was started (and not since closed or lost)."""
-        return self._started is not None
+        return self._current is not None
 
     def worker_pid(self, timeout_s: float = 60.0) -> int:
         """The pid of the worker process :meth:`start` started (starting it if need be)."""
-        return self._worker()[1].result(timeout_s)
+        return self._worker().pid.result(timeout_s)
 
-    def run(self, task: AnalysisTask) -> AnalysisOutcome:
+    def run(self, task: AnalysisTask, stop: TaskStop | None = None) -> AnalysisOutcome:
         try:
-            outcome = self._within_deadline(run_analysis, task)
+            outcome = self._within_deadline(run_analysis, task, stop=stop)
+        except _Stopped as stopped:
+            why = str(stopped)
+            return AnalysisOutcome(
+                None, None, f"aborted: {why}", os.getpid(), 0, error=why, stopped=True
+            )
         except _WorkerLost as lost:
             line = f"the analysis worker process {lost.how} before the {task.kind} did ({lost})"
             return AnalysisOutcome(None, None, f"error: {line}", os.getpid(), 0, error=line)
@@ -289,37 +366,72 @@ class ProcessExecutor:
             line = f"the analysis worker process {lost.how} before {name} did ({lost})"
             raise RuntimeError(line) from lost.__cause__
 
-    def _within_deadline(self, fn: Callable[..., T], *args: Any) -> T:
+    def _within_deadline(self, fn: Callable[..., T], *args: Any, stop: TaskStop | None = None) -> T:
         """``fn(*args)`` in the worker; :class:`_WorkerLost` if the worker died, or was
         still at it ``deadline_s`` after it began (then it is killed; a new worker's start-up
-        is not counted). Either way the pool is dropped and the next task starts a new
-        worker."""
-        pool, started = self._worker()
-        try:
-            pid = started.result()  # up and imported: the deadline is the task's own
-            return pool.submit(fn, *args).result(timeout=self.deadline_s)
-        except concurrent.futures.TimeoutError as err:
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(pid, signal.SIGKILL)
-            self._drop(pool)
-            how = f"was killed after {self.deadline_s:g} s"
-            raise _WorkerLost(how, "taken as hung: the deadline of an analysis") from err
-        except concurrent.futures.process.BrokenProcessPool as err:
-            self._drop(pool)
-            raise _WorkerLost("ended", str(err)) from err
+        is not counted); :class:`_Stopped` once ``stop`` is requested (a task not begun is
+        skipped, one running is killed). A worker killed is dropped and the next task starts
+        a new one; a task that only waited behind the killed one runs again there, once."""
+        for again in (True, False):
+            worker, number = self._worker(), next(self._numbers)
+            try:
+                worker.pid.result()  # up and imported: the deadline is the task's own
+                try:
+                    future = worker.pool.submit(_numbered, number, fn, *args)
+                except RuntimeError:  # shut down: killed for another task since taken
+                    if not again or worker.killed is None:
+                        raise
+                    continue
+                if stop is not None:
+                    stop.bind(functools.partial(self._end, worker, number))
+                return future.result(timeout=self.deadline_s)
+            except concurrent.futures.TimeoutError as err:
+                self._end(worker)
+                how = f"was killed after {self.deadline_s:g} s"
+                raise _WorkerLost(how, "taken as hung: the deadline of an analysis") from err
+            except _Skipped:
+                raise _Stopped(stop.reason if stop is not None else "stopped") from None
+            except (
+                concurrent.futures.process.BrokenProcessPool,
+                concurrent.futures.CancelledError,  # still pending as the killed pool shut
+            ) as err:
+                self._drop(worker)
+                if stop is not None and stop.reason is not None:
+                    raise _Stopped(stop.reason) from None
+                if not again or worker.killed in (None, number):
+                    raise _WorkerLost("ended", str(err) or "its pool shut down") from err
+            finally:
+                if stop is not None:
+                    stop.bind(None)
+        raise AssertionError("unreachable: the second attempt returns or raises")
 
-    def _drop(self, pool: concurrent.futures.ProcessPoolExecutor) -> None:
-        """Forget ``pool`` (a dead or killed worker's) so the next task starts a new one."""
+    def _end(self, worker: _Worker, number: int | None = None) -> None:
+        """The one way a worker is killed: ``worker``'s process is, whatever it runs (the
+        deadline), or only while it runs task ``number``, which is otherwise skipped if it has
+        not begun (a stop). A killed worker is dropped and a new one started."""
+        with worker.state.get_lock():  # the worker begins no task meanwhile
+            if number is not None:
+                worker.state[1] = number
+                if worker.state[0] != number:
+                    return
+            worker.killed = worker.state[0]
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(worker.pid.result(), signal.SIGKILL)
+        self._drop(worker)
+        self.start()  # the next task finds its successor imported
+
+    def _drop(self, worker: _Worker) -> None:
+        """Forget ``worker`` (a dead or killed one) so the next task starts a new one."""
         with self._lock:
-            if self._pool is pool:
-                self._pool, self._started = None, None
-        pool.shutdown(wait=False, cancel_futures=True)
+            if self._current is worker:
+                self._current = None
+        worker.pool.shutdown(wait=False, cancel_futures=True)
 
     def close(self) -> None:
         with self._lock:
-            pool, self._pool, self._started = self._pool, None, None
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+            worker, self._current = self._current, None
+        if worker is not None:
+            worker.pool.shutdown(wait=True, cancel_futures=True)
 
 
 class _WorkerLost(Exception):
@@ -331,15 +443,25 @@ class _WorkerLost(Exception):
         self.how = how
 
 
+class _Stopped(Exception):
+    """The task's :class:`TaskStop` was requested: it was skipped or its worker killed; the
+    reason is the message."""
+
+
 class ThreadExecutor:
     """Runs tasks in the calling thread on ``store`` (a database only this process can open,
     or a test that patches the fit in this process)."""
 
+    cannot_stop: str | None = (
+        "its fit runs inside the service's own process (a database only the service opens), "
+        "where it cannot be stopped once started"
+    )
+
     def __init__(self, store: Store) -> None:
         self.store = store
 
-    def run(self, task: AnalysisTask) -> AnalysisOutcome:
-        return run_analysis(task, self.store)
+    def run(self, task: AnalysisTask, stop: TaskStop | None = None) -> AnalysisOutcome:
+        return run_analysis(task, self.store)  # ``cannot_stop``: the stop is not heard
 
     def call(self, store_url: str | None, fn: Callable[..., T], /, *args: Any) -> T:
         return fn(*args) if store_url is None else fn(self.store, *args)

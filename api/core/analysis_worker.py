@@ -3,8 +3,11 @@ figures they draw, stored in the database with their result. A job thread writes
 states; the fit itself runs where the executor says (``api.core.analysis_executor``): in a
 worker process at lower priority, never in the rig's process (in-memory SQLite aside).
 
-A job here needs no rig: it starts ``running`` at once, ends ``completed`` with its outcome
-and result id or ``failed`` with the error, and cannot be aborted once started.
+A job here needs no rig: it waits ``queued`` behind the analysis before it, runs, and ends
+``completed`` with its outcome and result id, ``failed`` with the error, or ``aborted``
+(:meth:`AnalysisWorker.abort`): a queued job never runs; a running one's worker process is
+killed (``ProcessExecutor``; the thread and Dask executors cannot stop a fit: 409) and
+nothing of it is stored, unless its fit ended first.
 """
 
 from __future__ import annotations
@@ -22,13 +25,14 @@ from api.core.analysis_executor import (
     AnalysisKind,
     AnalysisTask,
     ProcessExecutor,
+    TaskStop,
     executor_for,
     shared_process_executor,
 )
-from api.core.job_model import Job, without_report_files
+from api.core.job_model import Job, JobConflict, without_report_files
 from api.core.job_registry import JobRegistry
 from daq.store import Store
-from daq.store.schema import JobState
+from daq.store.schema import JOB_FINAL, JobState
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +54,11 @@ class AnalysisWorker:
         #: Where fits run (:mod:`api.core.analysis_executor`); made at the first job.
         self.executor: AnalysisExecutor | None = None
         self._executor_lock = threading.Lock()
+        #: The stop of each job not yet ended, by id, and the job whose fit began (under
+        #: ``_lock``: a job is aborted in the queue or started, never both).
+        self._stops: dict[str, TaskStop] = {}
+        self._began: str | None = None
+        self._lock = threading.Lock()
         # One job at a time; this thread only waits for the executor and writes the registry.
         self._pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="estimate")
 
@@ -117,15 +126,34 @@ class AnalysisWorker:
     def _start(self, job: Job, kind: AnalysisKind, message: str, params: dict[str, Any]) -> None:
         """Store the new ``job``, hand it to the job thread, publish the job."""
         self.registry.save(job, event=True)
+        with self._lock:
+            self._stops[job.id] = TaskStop()
         self._pool.submit(self._run, job, kind, message, params)
         self.registry.publish(job)
 
     def _run(self, job: Job, kind: AnalysisKind, message: str, params: dict[str, Any]) -> None:
-        """Run the analysis as ``job`` through the executor: ``running`` with ``message``,
-        then ``completed`` with the outcome, result id and closing message, or ``failed``
-        with the error (logged with the worker's traceback unless it is bad input). The
-        report figures go into the database, the report folder goes and the finish time is
-        stored either way."""
+        """Run the analysis as ``job`` through the executor (not if it was aborted while
+        queued): ``running`` with ``message``, then ``completed`` with the outcome, result id
+        and closing message, ``aborted`` once stopped, or ``failed`` with the error (logged
+        with the worker's traceback unless it is bad input). The report figures go into the
+        database, the report folder goes and the finish time is stored either way."""
+        with self._lock:
+            stop = self._stops[job.id]
+            if stop.reason is not None:  # aborted while queued: :meth:`abort` ended it
+                del self._stops[job.id]
+                return
+            self._began = job.id
+        try:
+            self._fit(job, kind, message, params, stop)
+        finally:
+            with self._lock:
+                del self._stops[job.id]
+                self._began = None
+
+    def _fit(
+        self, job: Job, kind: AnalysisKind, message: str, params: dict[str, Any], stop: TaskStop
+    ) -> None:
+        """:meth:`_run`'s fit of ``job``, its ``stop`` handed to the executor."""
         store = self.registry.service.store
         assert store is not None
         update = self.registry.update
@@ -133,7 +161,10 @@ class AnalysisWorker:
         report_dir = self.report_root / f"job-{job.id}"
         try:
             task = AnalysisTask(kind, params, store.url, report_dir)
-            outcome = self.executor_for(store).run(task)
+            outcome = self.executor_for(store).run(task, stop)
+            if outcome.stopped:  # nothing stored: the worker was killed before its end
+                update(job, state=JobState.ABORTED, message=outcome.message, error=outcome.error)
+                return
             if outcome.error is not None:
                 if not outcome.bad_input:
                     log.error(
@@ -157,6 +188,34 @@ class AnalysisWorker:
         finally:
             shutil.rmtree(report_dir, ignore_errors=True)
             update(job, finished_at=time.time())
+
+    def abort(self, job: Job, reason: str) -> Job:
+        """Abort the estimation or cross-check ``job`` for ``reason``: one still queued ends
+        ``aborted`` now and never runs; one running is stopped by the executor (its worker
+        process killed; the job thread then ends it ``aborted``). ``JobConflict`` (409) for a
+        job that ended, and for one running where the executor cannot stop it, saying why."""
+        with self._lock:
+            stop = self._stops.get(job.id)
+            if job.state in JOB_FINAL:
+                raise JobConflict(f"job {job.id} already ended ({job.state})")
+            if stop is None:  # a job row this service did not start
+                raise JobConflict(f"job {job.id} ({job.state}) is not run by this service")
+            began = self._began == job.id
+            if not began:  # the job thread will pass it by
+                stop.request(reason)
+        if not began:
+            self.registry.update(
+                job, state=JobState.ABORTED, message=f"aborted: {reason}", error=reason
+            )
+            return job
+        store = self.registry.service.store
+        assert store is not None
+        why = self.executor_for(store).cannot_stop
+        if why is not None:
+            raise JobConflict(f"job {job.id}: this {job.kind} cannot be aborted: {why}")
+        self.registry.update(job, message=f"aborting: {reason}")
+        stop.request(reason)  # the worker process is killed; the job thread ends the job
+        return job
 
     def executor_for(self, store: Store) -> AnalysisExecutor:
         """The executor of this worker: ``executor`` if set, else (made once) a worker process

@@ -27,7 +27,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from api.core.analysis_executor import AnalysisOutcome, AnalysisTask, call_on_store, run_analysis
+from api.core.analysis_executor import (
+    AnalysisOutcome,
+    AnalysisTask,
+    TaskStop,
+    call_on_store,
+    run_analysis,
+)
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -76,6 +82,10 @@ class DaskExecutor:
     """Runs analyses on the Dask distributed cluster whose scheduler is at ``address``
     (``tcp://host:8786``); one task at a time per caller, as the embedded worker."""
 
+    cannot_stop: str | None = (
+        "its fit runs on a worker of the Dask cluster, which this service does not stop"
+    )
+
     def __init__(self, address: str, *, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
         from distributed import Client  # the cluster's client only where one is asked for
 
@@ -92,8 +102,8 @@ class DaskExecutor:
         """The pid of each worker process of the cluster (on its own machine)."""
         return sorted(self._client.run(os.getpid).values())
 
-    def run(self, task: AnalysisTask) -> AnalysisOutcome:
-        try:
+    def run(self, task: AnalysisTask, stop: TaskStop | None = None) -> AnalysisOutcome:
+        try:  # ``cannot_stop``: the stop is not heard
             future = self._client.submit(run_shipping_reports, task, pure=False)
             outcome, shipped = future.result()
         except Exception as err:  # a worker lost, a task the cluster could not run

@@ -35,7 +35,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from api.core.analysis_worker import REPORT_SUFFIXES, AnalysisWorker
+from api.core.analysis_worker import ANALYSES, REPORT_SUFFIXES, AnalysisWorker
 from api.core.job_model import Job, JobConflict, JobNotFound
 from api.core.job_queue import RigQueue
 from api.core.job_registry import LIST_LIMIT, JobRegistry
@@ -150,7 +150,11 @@ class JobRunner(QueueEdits):
 
     # -- procedures and the rig --------------------------------------------------------------
     def abort(self, job_id: str, reason: str = "operator abort (API)") -> Job:
-        """Abort a procedure job, queued or on the rig."""
+        """Abort a job, queued or running: a procedure (:meth:`RigWorker.abort`), an
+        estimation or a cross-check (:meth:`AnalysisWorker.abort`)."""
+        job = self.get(job_id)
+        if job.kind in ANALYSES:
+            return self.analysis.abort(job, reason)
         return self.rig.abort(job_id, reason)
 
     def pause(self, job_id: str) -> Job:

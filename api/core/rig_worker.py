@@ -271,7 +271,7 @@ class RigWorker:
         if job.state in JOB_FINAL:
             raise JobConflict(f"job {job.id} already ended ({job.state})")
         if job.kind in ANALYSES:
-            raise JobConflict(f"job {job.id}: an {job.kind} cannot be aborted once started")
+            raise JobConflict(f"job {job.id} is an {job.kind}: AnalysisWorker.abort aborts it")
         queued = self.queue.discard(job)
         if queued or job.abort is None:  # still in the queue, or not yet on the rig loop
             self.registry.update(

@@ -3,7 +3,7 @@ work a route or job must send to the worker process, never do in the rig's)."""
 
 from __future__ import annotations
 
-from api.core.analysis_executor import AnalysisExecutor, AnalysisOutcome, AnalysisTask
+from api.core.analysis_executor import AnalysisExecutor, AnalysisOutcome, AnalysisTask, TaskStop
 
 
 class Watching:
@@ -13,8 +13,12 @@ class Watching:
         self.inner = inner
         self.outcomes: list[AnalysisOutcome] = []
 
-    def run(self, task: AnalysisTask) -> AnalysisOutcome:
-        outcome = self.inner.run(task)
+    @property
+    def cannot_stop(self) -> str | None:
+        return self.inner.cannot_stop
+
+    def run(self, task: AnalysisTask, stop: TaskStop | None = None) -> AnalysisOutcome:
+        outcome = self.inner.run(task, stop)
         self.outcomes.append(outcome)
         return outcome
 

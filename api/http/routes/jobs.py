@@ -201,8 +201,10 @@ def _control_route(verb: str, control: Callable[[JobRunner, str], Job], doc: str
 _control_route(
     "abort",
     JobRunner.abort,
-    """Abort a procedure: its run ends ``aborted``, thrusters zero, brakes on. A queued job
-    leaves the queue and is kept as ``aborted``.""",
+    """Abort a job. A procedure: its run ends ``aborted``, thrusters zero, brakes on. An
+    estimation or cross-check: its fit's worker process is killed and nothing of it is
+    stored (409 where the analysis executor cannot stop a running fit, saying why). A queued
+    job never runs and is kept as ``aborted``.""",
 )
 _control_route("pause", JobRunner.pause, "Pause a sequence after the step in progress.")
 _control_route("resume", JobRunner.resume, "Resume a paused sequence.")

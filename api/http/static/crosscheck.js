@@ -4,6 +4,7 @@ import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt, localTime } from "./format.js";
 import { esc } from "./markup.js";
+import { abortButton, shownState } from "./jobs.js";
 import { onPage } from "./pages.js";
 import { load } from "./run_text.js";
 import { axisUnits, loadKinds } from "./start_forms.js";
@@ -70,11 +71,12 @@ $("#cc-estimate").onclick = async () => {
   try {
     let job = await api("POST", "/api/jobs/crosscheck", { weight_runs: weight, thruster_runs: thrusters });
     while (!FINAL.includes(job.state)) {
-      $("#cc-status").innerHTML = `<span class="state ${esc(job.state)}">${esc(job.state)}</span> ${esc(job.progress.message)}`;
+      const shown = shownState(job);
+      $("#cc-status").innerHTML = `<span class="state ${esc(shown)}">${esc(shown)}</span> ${esc(job.progress.message)}${abortButton(job)}`;
       await new Promise((res) => setTimeout(res, 500));
       job = await api("GET", `/api/jobs/${job.id}`);
     }
-    $("#cc-status").innerHTML = `<span class="state ${esc(job.state)}" id="cc-state">${esc(job.state)}</span> ${esc(job.error || job.progress.message)}`;
+    $("#cc-status").innerHTML = `<span class="state ${esc(shownState(job))}" id="cc-state">${esc(shownState(job))}</span> ${esc(job.error || job.progress.message)}`;
     if (job.state === "completed") {
       await crosscheckRender(job.outcome);
       crosscheckLoad();

@@ -5,7 +5,7 @@
 import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt } from "./format.js";
-import { showJob } from "./jobs.js";
+import { abortButton, showJob, shownState } from "./jobs.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { metadataBody } from "./run_metadata.js";
@@ -81,7 +81,8 @@ export function onFreshResult(listener) {
 
 function showEstimationJob(job) {
   if (job.id !== estimationJobId) return;
-  $("#est-status").innerHTML = `<span class="state ${esc(job.state)}" id="est-state">${esc(job.state)}</span> ${esc(job.progress.message)}`;
+  const shown = shownState(job);
+  $("#est-status").innerHTML = `<span class="state ${esc(shown)}" id="est-state">${esc(shown)}</span> ${esc(job.progress.message)}${abortButton(job)}`;
   if (job.state !== "completed" || !job.outcome || estimationDrawn === job.id) return;
   estimationDrawn = job.id;
   renderEstimation(job.outcome);

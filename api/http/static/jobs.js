@@ -1,6 +1,7 @@
 // The Rig page's job panel: the job on the rig (or the last one) with its progress, the
 // operator's act to confirm, pause and resume, its runs (a link opens the run: runs.js) and
-// its ending; the abort button. A job asked to stop shows "stopping" until its ending arrives.
+// its ending; the abort button (and the one an estimation or cross-check shows beside its
+// progress: abortButton). A job asked to stop shows "stopping" until its ending arrives.
 import { api } from "./api.js";
 import { $ } from "./dom.js";
 import { localTime } from "./format.js";
@@ -63,6 +64,28 @@ $("#abort-btn").onclick = async () => {
     alert(err.message);
   }
 };
+
+// The Abort control of an estimation or cross-check job shown on its page (the header's, same
+// look), while it is queued or running and not yet asked to stop.
+export function abortButton(job) {
+  if (FINAL.includes(job.state) || state.stopping.has(job.id)) return "";
+  return ` <button class="danger" data-abort-job="${esc(job.id)}" title="Abort this ${esc(job.kind)}: a queued one never runs, a running fit is stopped and nothing of it is stored">Abort</button>`;
+}
+
+document.addEventListener("click", async (event) => {
+  const button = event.target.closest("button[data-abort-job]");
+  if (!button) return;
+  const id = button.dataset.abortJob;
+  state.stopping.add(id); // shownState: "stopping" until the poll reads its ending
+  button.disabled = true;
+  try {
+    await api("POST", `/api/jobs/${id}/abort`);
+  } catch (err) {
+    state.stopping.delete(id);
+    button.disabled = false;
+    alert(err.message);
+  }
+});
 
 // A job update from the stream takes the panel, unless it is queued behind the one on the rig
 // (see /api/queue); estimations and campaigns have their own pages.

@@ -17,7 +17,7 @@ const OPERATOR_ONLY = [
   "#sequence-list button[data-start]",
   "#history-table button[data-requeue]",
   "#campaign-form button[type=submit]", "#campaign-stop",
-  "#est-run", "#est-reverse-btn", "#cc-compare", "#cc-estimate",
+  "#est-run", "#est-reverse-btn", "#cc-compare", "#cc-estimate", "button[data-abort-job]",
   "#an-form button[type=submit]", "#sixdof-form button[type=submit]",
   "#manual-form button",
 ].join(", ");

@@ -16,8 +16,8 @@
  */
 const MARKUP_NAMES = {
   "campaign.js": ["stopping", "pending", "rows", "sigmaText", "shown", "limited"], // badge, next test, trail, U cells
-  "crosscheck.js": ["option"], // a stored result as an <option>
-  "estimation.js": ["tags", "source", "wellDeterminedRows"], // run_text.js's cells, rows
+  "crosscheck.js": ["option", "abortButton"], // a stored result as an <option>, jobs.js's Abort
+  "estimation.js": ["tags", "source", "wellDeterminedRows", "abortButton"], // run_text.js's cells, rows, jobs.js's Abort
   "forms.js": ["label", "tip", "options", "hint", "length", "listed"], // a field's escaped pieces
   "guard.js": ["who"], // esc(who pressed or holds)
   "jobs.js": ["runs"], // the job's run links
