@@ -9,7 +9,10 @@ import pytest
 
 from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
 
-pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
+#: The rig behind the service runs in process on simulated time (tests/api/conftest.py): the
+#: runs' metadata is what is tested, and a real-time tow on a loaded test process can lose
+#: samples to its own late simulated PLC and end aborted, as the product must.
+pytestmark = [pytest.mark.simtime, pytest.mark.usefixtures("imports_in_a_thread")]
 
 META = {"operator": "Åsa", "water_temperature_c": 18.5, "tags": ["fins-v2"], "ballast": "B3"}
 
