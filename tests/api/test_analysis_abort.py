@@ -6,6 +6,7 @@ runs on."""
 
 from __future__ import annotations
 
+import concurrent.futures
 import os
 import threading
 import time
@@ -14,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from api.core.analysis_executor import ProcessExecutor
+from api.core.analysis_executor import AnalysisTask, ProcessExecutor, TaskStop
 from tests.api.conftest import AUTH, completed_estimation, wait_job
 from tests.api.test_analysis_process import _gone
 from tests.support.analysis_watch import Watching
@@ -173,65 +174,55 @@ def test_a_fit_the_executor_cannot_stop_answers_409_saying_why_and_runs_on(
     assert job["state"] == "completed" and job["outcome"] == {"held": True}, job
 
 
-def test_a_call_waiting_behind_an_aborted_fit_runs_on_the_new_worker(tmp_path):
+@pytest.fixture
+def slow_task(tmp_path) -> Iterator[tuple[ProcessExecutor, int, AnalysisTask, TaskStop]]:
+    """A worker process of the test's own whose estimations are ``slow_fit``, its pid, an
+    estimation task (its report folder ``tmp_path / "report"``) and the task's stop."""
+    executor = ProcessExecutor()
+    try:
+        executor.call(None, fits_slowly)
+        folder = tmp_path / "report"
+        task = AnalysisTask("estimation", {"run_ids": []}, f"sqlite:///{tmp_path / 'db'}", folder)
+        yield executor, executor.worker_pid(), task, TaskStop()
+    finally:
+        executor.close()
+
+
+def test_a_call_waiting_behind_an_aborted_fit_runs_on_the_new_worker(slow_task):
     """A stop kills the worker only for its own task; what waited behind it there (a
     route's call, a campaign's fit) is not lost with it but runs on the new worker."""
-    import concurrent.futures
-
-    from api.core.analysis_executor import AnalysisTask, TaskStop
-
-    executor = ProcessExecutor()
-    try:
-        executor.call(None, fits_slowly)
-        first = executor.worker_pid()
-        folder = tmp_path / "report"
-        task = AnalysisTask("estimation", {"run_ids": []}, f"sqlite:///{tmp_path / 'db'}", folder)
-        stop = TaskStop()
-        with concurrent.futures.ThreadPoolExecutor(2) as threads:
-            fit = threads.submit(executor.run, task, stop)
-            wait_until(lambda: (folder / BEGAN).is_file(), "the fit began")
-            behind = threads.submit(executor.call, None, os.getpid)
-            # the stdlib pool's submitted, unfinished tasks: the fit and the call behind it
-            pending = executor._worker().pool._pending_work_items
-            wait_until(lambda: len(pending) == 2, "the call waits behind the fit")
-            stop.request("operator abort (test)")
-            outcome = fit.result(30)
-            assert outcome.stopped and outcome.error == "operator abort (test)", outcome
-            assert behind.result(60) not in (first, os.getpid())
-        wait_until(lambda: _gone(first), "the stopped fit's worker killed", timeout_s=15)
-    finally:
-        executor.close()
+    executor, first, task, stop = slow_task
+    with concurrent.futures.ThreadPoolExecutor(2) as threads:
+        fit = threads.submit(executor.run, task, stop)
+        wait_until(lambda: (task.report_dir / BEGAN).is_file(), "the fit began")
+        behind = threads.submit(executor.call, None, os.getpid)
+        # the stdlib pool's submitted, unfinished tasks: the fit and the call behind it
+        pending = executor._worker().pool._pending_work_items
+        wait_until(lambda: len(pending) == 2, "the call waits behind the fit")
+        stop.request("operator abort (test)")
+        outcome = fit.result(30)
+        assert outcome.stopped and outcome.error == "operator abort (test)", outcome
+        assert behind.result(60) not in (first, os.getpid())
+    wait_until(lambda: _gone(first), "the stopped fit's worker killed", timeout_s=15)
 
 
-def test_a_stop_skips_its_task_not_begun_and_kills_no_other(tmp_path):
+def test_a_stop_skips_its_task_not_begun_and_kills_no_other(slow_task, tmp_path):
     """Stopped while another task holds the worker, the task is skipped when its turn comes:
     the worker (and the other task) live on."""
-    import concurrent.futures
-
-    from api.core.analysis_executor import AnalysisTask, TaskStop
-
-    executor = ProcessExecutor()
-    try:
-        executor.call(None, fits_slowly)
-        first = executor.worker_pid()
-        folder = tmp_path / "report"
-        task = AnalysisTask("estimation", {"run_ids": []}, f"sqlite:///{tmp_path / 'db'}", folder)
-        stop = TaskStop()
-        with concurrent.futures.ThreadPoolExecutor(2) as threads:
-            held = threads.submit(executor.call, None, held_until, str(tmp_path))
-            wait_until(lambda: (tmp_path / BEGAN).is_file(), "the other task began")
-            fit = threads.submit(executor.run, task, stop)
-            pending = executor._worker().pool._pending_work_items  # the stdlib pool's
-            wait_until(lambda: len(pending) == 2, "the fit waits behind the other task")
-            stop.request("operator abort (test)")
-            (tmp_path / "release").write_text("")
-            assert held.result(30) == first
-            outcome = fit.result(30)
-        assert outcome.stopped and outcome.error == "operator abort (test)", outcome
-        assert not folder.exists()  # slow_fit never began
-        assert executor.worker_pid() == first  # not killed
-    finally:
-        executor.close()
+    executor, first, task, stop = slow_task
+    with concurrent.futures.ThreadPoolExecutor(2) as threads:
+        held = threads.submit(executor.call, None, held_until, str(tmp_path))
+        wait_until(lambda: (tmp_path / BEGAN).is_file(), "the other task began")
+        fit = threads.submit(executor.run, task, stop)
+        pending = executor._worker().pool._pending_work_items  # the stdlib pool's
+        wait_until(lambda: len(pending) == 2, "the fit waits behind the other task")
+        stop.request("operator abort (test)")
+        (tmp_path / "release").write_text("")
+        assert held.result(30) == first
+        outcome = fit.result(30)
+    assert outcome.stopped and outcome.error == "operator abort (test)", outcome
+    assert not task.report_dir.exists()  # slow_fit never began
+    assert executor.worker_pid() == first  # not killed
 
 
 @pytest.mark.slow  # a browser page
