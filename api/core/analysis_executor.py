@@ -376,14 +376,15 @@ class ProcessExecutor:
             worker, number = self._worker(), next(self._numbers)
             try:
                 worker.pid.result()  # up and imported: the deadline is the task's own
+                if stop is not None:  # before the submit: a stop asked meanwhile skips the
+                    # task; bound after it, the worker could begin it first and be killed
+                    stop.bind(functools.partial(self._end, worker, number))
                 try:
                     future = worker.pool.submit(_numbered, number, fn, *args)
                 except RuntimeError:  # shut down: killed for another task since taken
                     if not again or worker.killed is None:
                         raise
                     continue
-                if stop is not None:
-                    stop.bind(functools.partial(self._end, worker, number))
                 return future.result(timeout=self.deadline_s)
             except concurrent.futures.TimeoutError as err:
                 self._end(worker)
