@@ -18,7 +18,6 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from api.core.analysis_worker import ANALYSES
 from api.core.job_model import Job, JobConflict
 from api.core.job_queue import RigQueue
 from api.core.job_registry import JobRegistry
@@ -270,8 +269,6 @@ class RigWorker:
         job = self.registry.get(job_id)
         if job.state in JOB_FINAL:
             raise JobConflict(f"job {job.id} already ended ({job.state})")
-        if job.kind in ANALYSES:
-            raise JobConflict(f"job {job.id} is an {job.kind}: AnalysisWorker.abort aborts it")
         queued = self.queue.discard(job)
         if queued or job.abort is None:  # still in the queue, or not yet on the rig loop
             self.registry.update(
