@@ -41,6 +41,17 @@ def wait_job(client, job_id: str, *, states=FINAL, timeout_s: float = 30.0) -> d
     )
 
 
+def how_it_ended(job: dict) -> str:
+    """A job's id, state and why, for an assertion on how it ended: its error, outcome (its
+    first 400 characters) and last progress; pytest cuts a whole job's dict before them."""
+    outcome = repr(job.get("outcome"))
+    outcome = outcome if len(outcome) <= 400 else outcome[:400] + "…"
+    return (
+        f"job {job.get('id')} {job.get('state')}: error {job.get('error')!r}, "
+        f"outcome {outcome}, progress {job.get('progress')!r}"
+    )
+
+
 def completed_estimation(client, run_ids, *, timeout_s: float = 120.0, **fields) -> dict:
     """``POST /api/jobs/estimation`` of ``run_ids`` (no effect search, unless ``fields`` say
     otherwise) and the job once completed (fails naming the job if it did not complete)."""
@@ -48,7 +59,7 @@ def completed_estimation(client, run_ids, *, timeout_s: float = 120.0, **fields)
     r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=timeout_s)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     return job
 
 
@@ -185,7 +196,7 @@ def client(service: RigService, tmp_path_factory) -> Iterator[TestClient]:
 def tow_job(client: TestClient) -> dict:
     """One completed short tow (shared by the read tests)."""
     job = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     return job
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from api.core.analysis_executor import AnalysisTask, ProcessExecutor, TaskStop
-from tests.api.conftest import AUTH, completed_estimation, wait_job
+from tests.api.conftest import AUTH, completed_estimation, how_it_ended, wait_job
 from tests.api.test_analysis_process import _gone
 from tests.support.analysis_watch import Watching
 from tests.support.waiting import wait_until
@@ -102,7 +102,7 @@ def test_a_running_estimation_aborted_has_its_worker_killed_and_stores_nothing(
     r = _abort(client, job_id)
     assert r.status_code == 200, r.text
     job = wait_job(client, job_id)
-    assert job["state"] == "aborted", job  # not failed
+    assert job["state"] == "aborted", how_it_ended(job)  # not failed
     assert job["error"] == REASON and job["progress"]["message"] == f"aborted: {REASON}"
     assert job["result_id"] is None and job["outcome"] is None
     [outcome] = worker.outcomes
@@ -128,7 +128,8 @@ def test_a_queued_estimation_aborted_never_runs(client, tow_job, worker):
     assert r.status_code == 200, r.text
     assert r.json()["state"] == "aborted" and r.json()["error"] == REASON, r.json()
     assert _abort(client, running).status_code == 200
-    assert wait_job(client, running)["state"] == "aborted"
+    job_end = wait_job(client, running)
+    assert job_end["state"] == "aborted", how_it_ended(job_end)
     completed_estimation(client, tow_job["run_ids"])  # the job thread passed the queued one by
 
     job = client.get(f"/api/jobs/{queued}", headers=AUTH).json()
@@ -252,4 +253,5 @@ def test_the_estimation_page_aborts_its_running_estimation(
         expect(page.locator("#est-state")).to_have_text("aborted")
         expect(page.locator("#est-status")).to_contain_text(f"aborted: {REASON}")
         expect(abort).to_have_count(0)
-    assert wait_job(client, job["id"])["state"] == "aborted"
+    job_end = wait_job(client, job["id"])
+    assert job_end["state"] == "aborted", how_it_ended(job_end)

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from tests.api.conftest import AUTH, wait_job
+from tests.api.conftest import AUTH, how_it_ended, wait_job
 from tests.support.analysis_watch import Calls
 from tests.support.cli import run_in_process
 
@@ -54,7 +54,7 @@ def test_an_estimation_runs_on_the_cluster_and_its_report_is_stored_here(
     r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=180)  # the worker imports the fit first
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     [outcome] = on_cluster.outcomes
     assert outcome.pid in on_cluster.inner.worker_pids() and outcome.pid != os.getpid()
     stored = client.app.state.service.store.result(job["result_id"])

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from api.core.analysis_executor import AnalysisTask, shared_process_executor
-from tests.api.conftest import AUTH, wait_job
+from tests.api.conftest import AUTH, how_it_ended, wait_job
 from tests.support.analysis_watch import Calls, Watching
 from tests.support.waiting import wait_until
 
@@ -34,7 +34,7 @@ def test_an_estimation_job_fits_in_a_niced_worker_process(client, tow_job, watch
     r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=120)  # the first job starts the worker
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     [outcome] = watched.outcomes
     # The service started this process's worker before any job asked for it (its imports
     # overlapped the tow), and the estimation ran in that worker.

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, wait_job, wait_rig_free
+from tests.api.conftest import AUTH, how_it_ended, wait_job, wait_rig_free
 
 pytestmark = pytest.mark.simtime
 
@@ -42,7 +42,8 @@ def test_a_campaign_runs_its_choices_as_jobs_and_keeps_the_trail(client, service
         assert "hang" in entry["instructions"]
         run = service.store.get_run(entry["run_id"])
         assert run.metadata["campaign"] == job["id"]
-        assert wait_job(client, entry["job_id"])["state"] == "completed"
+        job_end = wait_job(client, entry["job_id"])
+        assert job_end["state"] == "completed", how_it_ended(job_end)
     assert job["run_ids"] == [e["run_id"] for e in trail]
     listed = client.get("/api/campaigns", headers=AUTH).json()
     assert job["id"] in [c["id"] for c in listed]
@@ -150,6 +151,6 @@ def test_a_service_that_stops_ends_its_campaign_saying_so(tmp_path, caplog) -> N
     with Store(url) as store:
         row = JobRepository(store).get(job_id)
     assert row is not None
-    assert row["state"] == "aborted", row
+    assert row["state"] == "aborted", how_it_ended(row)
     assert row["message"].startswith("the service stopped"), row
     assert "cannot schedule new futures" not in caplog.text

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, start_job, wait_job
+from tests.api.conftest import AUTH, how_it_ended, start_job, wait_job
 
 #: Slow lane: tows on the simulated rig (in process, simulated time), then cross-check fits.
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
@@ -13,7 +13,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.simtime]
 
 def _completed(client, path: str, body: dict) -> dict:
     job = wait_job(client, start_job(client, path, body), timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     return job
 
 

@@ -10,7 +10,7 @@ import re
 
 import pytest
 
-from tests.api.conftest import AUTH, wait_job
+from tests.api.conftest import AUTH, how_it_ended, wait_job
 from tests.integration.test_decay_import import heave_decay
 
 CSV = {"Content-Type": "text/csv"}
@@ -37,7 +37,7 @@ def test_the_http_import_takes_a_decay_and_the_estimation_job_fits_it(client, tm
     r = client.post("/api/jobs/estimation", json=body_json, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     c = job["outcome"]["coefficients"]
     assert c["inertia"]["value"] == pytest.approx(truth["added"], rel=0.02)
     assert c["linear_damping"]["value"] == pytest.approx(truth["damping"], rel=0.10)
@@ -64,7 +64,7 @@ def test_a_declared_stiffness_tolerance_is_a_type_b_row_of_a_decays_budget(clien
     body_json = {"run_ids": [r.json()["run_id"]], "search_effects": False}
     r = client.post("/api/jobs/estimation", json=body_json, headers=AUTH)
     job = wait_job(client, r.json()["id"], timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     budget = job["outcome"]["budget"]
     assert budget["type_b_declared"]
     rows = {row["type"]: row for row in budget["coefficients"]["inertia"]["rows"]}

@@ -12,6 +12,7 @@ from tests.api.conftest import (
     SHORT_TOW,
     TOKEN,
     LiveServer,
+    how_it_ended,
     start_job,
     wait_job,
 )
@@ -32,7 +33,8 @@ def test_the_emergency_stop_button_works_without_a_token(chromium, client, servi
 
         page.click("#estop-btn")  # not behind the dialog: a covered button times out here
         expect(page.locator("#job-panel")).to_contain_text("Emergency stop: aborted 1 job(s)")
-        assert wait_job(client, job_id, timeout_s=10)["state"] == "aborted"
+        job_end = wait_job(client, job_id, timeout_s=10)
+        assert job_end["state"] == "aborted", how_it_ended(job_end)
         refused = client.post("/api/jobs/tow", json=SHORT_TOW, headers=AUTH)
         assert refused.status_code == 409 and "not acknowledged" in refused.json()["detail"]
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, start_job, wait_job
+from tests.api.conftest import AUTH, how_it_ended, start_job, wait_job
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
 pytestmark = pytest.mark.simtime
@@ -95,7 +95,7 @@ def test_a_rounded_load_is_stated_in_the_job_and_stored_with_the_run(client):
     (note,) = started["notes"]
     assert "force_n 10 N asked for" in note and "1.020 kg" in note and "9.996 N" in note
     job = wait_job(client, job_id)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     run = client.get(f"/api/runs/{job['run_ids'][0]}", headers=AUTH).json()
     assert run["parameters"]["requested"] == {"force_n": 10.0}
     assert run["parameters"]["force_n"] == pytest.approx(1.020 * 9.8)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from daq.config import DEFAULT_RIG_FILE
-from tests.api.conftest import AUTH, wait_job
+from tests.api.conftest import AUTH, how_it_ended, wait_job
 from tests.support.cli import RigCli
 from tests.support.shared_data import shared_file
 
@@ -171,7 +171,7 @@ def test_a_declared_dry_mass_above_the_fitted_inertia_is_flagged(rig, client, tm
     r = client.post("/api/jobs/estimation", json={"run_ids": [run["id"]]}, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=120)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     assert any(BELOW_OWN in w and "280" in w for w in job["outcome"]["warnings"])
     r = client.post("/api/runs/import?kind=spin&torque_nm=2&dry_mass_kg=30", content=body,
                     headers=AUTH | CSV)  # fmt: skip

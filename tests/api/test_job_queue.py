@@ -23,6 +23,7 @@ from pathlib import Path
 import httpx
 import pytest
 
+from tests.api.conftest import how_it_ended
 from tests.integration.test_import_kinds import _tow_csv
 from tests.support.serve import stop_service, wait_for_service
 from tests.support.waiting import read_until
@@ -140,7 +141,7 @@ def crashed_and_recovered(
         d = post_tow(client, tow(4.9, max_time_s=60))
         assert d["state"] == "queued" and d["position"] == 1
         c_end = ended(client, c["id"])
-        assert c_end["state"] == "completed", c_end  # the job says why it did not
+        assert c_end["state"] == "completed", how_it_ended(c_end)
         running_d = wait_for(client, d["id"], lambda j: j["state"] == "running" and j["run_ids"])
         e = post_tow(client, tow(24.5))
         assert e["state"] == "queued"
@@ -180,7 +181,7 @@ def crashed_and_recovered(
         assert job(client, e["id"])["created_at"].endswith("+00:00")  # ISO 8601 UTC
         client.post("/api/queue/resume")
         e_done = ended(client, e["id"])
-        assert e_done["state"] == "completed", e_done
+        assert e_done["state"] == "completed", how_it_ended(e_done)
         states = [ev["state"] for ev in client.get(f"/api/jobs/{e['id']}/events").json()]
         assert states[0] == "queued" and states[-1] == "completed" and "running" in states
         yield client, {"a": a, "c": c_end, "d": d_after, "e": e_done}
@@ -217,7 +218,7 @@ def test_queue_survives_kill_and_restart_reports_survive_a_clean_stop(db_url, tm
         r = client.post("/api/jobs/estimation", json={"run_ids": runs, "method": "output-error"})
         assert r.status_code == 202, r.text
         est = ended(client, r.json()["id"], timeout_s=120)
-        assert est["state"] == "completed", est
+        assert est["state"] == "completed", how_it_ended(est)
         plots = client.get(f"/api/results/{est['result_id']}").json()["report_plots"]
         assert "fit" in plots
         png = client.get(f"/api/results/{est['result_id']}/report/fit.png")

@@ -11,6 +11,7 @@ import pytest
 from tests.api.conftest import (
     AUTH,
     SHORT_TOW,
+    how_it_ended,
     moving_for,
     start_job,
     wait_job,
@@ -104,7 +105,8 @@ def test_emergency_stop_pauses_the_queue_and_keeps_its_jobs(client):
     assert (queued["state"], queued["position"]) == ("queued", 1)
     stop = client.post("/api/rig/emergency-stop", headers=AUTH).json()
     assert stop["aborted_jobs"] == [running]
-    assert wait_job(client, running, timeout_s=10)["state"] == "aborted"
+    job_end = wait_job(client, running, timeout_s=10)
+    assert job_end["state"] == "aborted", how_it_ended(job_end)
     queue = client.get("/api/queue", headers=AUTH).json()
     assert queue["paused"] and "emergency stop" in queue["reason"], queue
     assert [j["id"] for j in queue["jobs"]] == [queued["id"]]  # kept, not started
@@ -190,7 +192,7 @@ def test_sequence_pauses_between_steps_and_resumes(client):
     assert client.get(f"/api/jobs/{job_id}", headers=AUTH).json()["state"] == "paused"
     assert client.post(f"/api/jobs/{job_id}/resume", headers=AUTH).status_code == 200
     done = wait_job(client, job_id)
-    assert done["state"] == "completed", done
+    assert done["state"] == "completed", how_it_ended(done)
     assert len(done["run_ids"]) == 2
     assert [r["status"] for r in done["outcome"]["runs"]] == ["completed", "completed"]
 

@@ -15,7 +15,14 @@ import pytest
 from api.core.stream import sse_events
 from daq.store.people_and_safety_log import UserRepository
 from daq.store.run_events import RunAction
-from tests.api.conftest import AUTH, start_job, wait_job, wait_job_until, wait_rig_free
+from tests.api.conftest import (
+    AUTH,
+    how_it_ended,
+    start_job,
+    wait_job,
+    wait_job_until,
+    wait_rig_free,
+)
 from tests.procedures.conftest import QUICK_CALIBRATION
 from tests.support.waiting import read_until
 
@@ -82,7 +89,8 @@ def test_the_stream_carries_rpm_current_and_voltage_during_a_calibration(client,
     for name in ("thruster1_rpm", "thruster2_rpm", "thruster1_current", "thruster2_current"):
         assert isinstance(channels[name], float), (name, channels)
     assert channels["thruster1_current"] > 0 and channels["supply_voltage"] > 10
-    assert wait_job(client, job_id, timeout_s=60)["state"] == "completed"
+    job_end = wait_job(client, job_id, timeout_s=60)
+    assert job_end["state"] == "completed", how_it_ended(job_end)
 
 
 def test_manual_thrust_is_refused_to_a_viewer_while_disarmed_and_beyond_the_limits(client, service):
@@ -113,7 +121,7 @@ def test_manual_thrust_runs_one_thruster_and_returns_to_zero_when_its_time_is_up
     _arm(client)
     job_id = start_job(client, MANUAL, {"thruster": 2, "command": 0.4, "duration_s": 1.5})
     job = wait_job(client, job_id, timeout_s=30)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     assert job["label"] == "manual thrust: thruster 2 at +0.4 for 1.5 s"
     run = service.store.get_run(job["run_ids"][0])
     assert run.kind == "manual_thrust" and run.parameters["thruster"] == 2
@@ -132,7 +140,7 @@ def test_a_page_that_falls_silent_stops_the_thrust(client, service):
     assert client.post(f"/api/jobs/{job_id}/alive", headers=AUTH).status_code == 200
     _thrust_on(client, job_id, 1)
     job = wait_job(client, job_id, timeout_s=30)  # no further keep-alive: 3 s, then aborted
-    assert job["state"] == "aborted", job
+    assert job["state"] == "aborted", how_it_ended(job)
     assert job["error"].startswith("dead-man: the page that started it fell silent for 3 s")
     _left_safe(client, service, job)
     r = client.post(f"/api/jobs/{job_id}/alive", headers=AUTH)

@@ -7,7 +7,15 @@ from fastapi.testclient import TestClient
 
 from api.http.app import create_app
 from daq.session import RigSource
-from tests.api.conftest import AUTH, TOKEN, moving_for, simulated_service, wait_job, wait_job_until
+from tests.api.conftest import (
+    AUTH,
+    TOKEN,
+    how_it_ended,
+    moving_for,
+    simulated_service,
+    wait_job,
+    wait_job_until,
+)
 from tests.support.waiting import read_until
 
 
@@ -84,4 +92,5 @@ def test_a_reverse_tow_asks_for_the_far_end_pulley_and_says_reverse(asking_clien
         assert hang["operator_act"]["value"] == pytest.approx(0.5)
     finally:
         c.post(f"/api/jobs/{job_id}/abort", headers=AUTH)
-        assert wait_job(c, job_id)["state"] == "aborted"
+        job_end = wait_job(c, job_id)
+        assert job_end["state"] == "aborted", how_it_ended(job_end)

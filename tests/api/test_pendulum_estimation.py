@@ -10,6 +10,7 @@ import pytest
 from tests.api.conftest import (
     AUTH,
     SHORT_TOW,
+    how_it_ended,
     signed_in_page,
     start_job,
     wait_job,
@@ -24,9 +25,9 @@ ALPHA = 143.26 - 30.0  # kg: the scenario's surge inertia minus BENBAM's dry mas
 def runs(client) -> dict[str, str]:
     body = {"start_angle_rad": 0.3, "stop_amplitude_rad": 0.01, "max_time_s": 12, "baseline_s": 0.3}
     pendulum = wait_job(client, start_job(client, "/api/jobs/pendulum", body), timeout_s=40)
-    assert pendulum["state"] == "completed", pendulum
+    assert pendulum["state"] == "completed", how_it_ended(pendulum)
     tow = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
-    assert tow["state"] == "completed", tow
+    assert tow["state"] == "completed", how_it_ended(tow)
     return {"pendulum": pendulum["run_ids"][0], "tow": tow["run_ids"][0]}
 
 
@@ -34,7 +35,7 @@ def test_pendulum_estimation_job_stores_the_methods_and_report(client, runs):
     r = client.post("/api/jobs/estimation", json={"run_ids": [runs["pendulum"]]}, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     res = job["outcome"]
     assert res["analysis"] == "pendulum" and res["method"] == "output-error"
     assert res["coefficients"]["added_mass"]["value"] == pytest.approx(ALPHA, rel=0.03)

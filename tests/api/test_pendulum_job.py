@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, signed_in_page, start_job, wait_job
+from tests.api.conftest import AUTH, how_it_ended, signed_in_page, start_job, wait_job
 
 pytestmark = pytest.mark.rig_service(rig="fast-pendulum")
 
@@ -27,7 +27,7 @@ def test_bad_pendulum_requests_are_422_naming_the_field(client):
 def test_pendulum_job_end_to_end_stores_a_completed_decay(client):
     body = {"start_angle_rad": 0.3, "stop_amplitude_rad": 0.12, "max_time_s": 15, "baseline_s": 0.3}
     job = wait_job(client, start_job(client, "/api/jobs/pendulum", body), timeout_s=40)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     assert job["kind"] == "pendulum" and job["label"] == "pendulum 0.3 rad"
     (run_id,) = job["run_ids"]
     run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from api.cli.main import main
 from daq.store.people_and_safety_log import UserRepository
-from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
+from tests.api.conftest import AUTH, SHORT_TOW, how_it_ended, wait_job, wait_rig_free
 from tests.support.waiting import read_until
 
 pytestmark = pytest.mark.simtime
@@ -91,7 +91,8 @@ def test_motion_is_refused_after_an_emergency_stop_until_acknowledged(client, to
 
     moved = _tow(client, AUTH)
     assert moved.status_code == 202, moved.text
-    assert wait_job(client, moved.json()["id"])["state"] == "completed"
+    job_end = wait_job(client, moved.json()["id"])
+    assert job_end["state"] == "completed", how_it_ended(job_end)
 
 
 def test_a_held_rig_refuses_a_remote_start_naming_who_holds_it(client, tokens) -> None:
@@ -110,7 +111,8 @@ def test_a_held_rig_refuses_a_remote_start_naming_who_holds_it(client, tokens) -
 
     own = _tow(client, tokens["alice"])  # the holder starts her own test
     assert own.status_code == 202, own.text
-    assert wait_job(client, own.json()["id"])["state"] == "completed"
+    job_end = wait_job(client, own.json()["id"])
+    assert job_end["state"] == "completed", how_it_ended(job_end)
 
     override = client.post("/api/rig/release", json={"override": True}, headers=tokens["bob"])
     assert override.status_code == 200 and override.json()["hold"] is None
@@ -140,7 +142,8 @@ def test_a_queued_job_of_another_user_waits_while_the_rig_is_held(client, tokens
     assert queued["state"] == "queued", queued
     held = client.post("/api/rig/hold", json={"reason": "fins"}, headers=tokens["alice"])
     assert held.status_code == 200, held.text
-    assert wait_job(client, first["id"])["state"] == "completed"
+    job_end = wait_job(client, first["id"])
+    assert job_end["state"] == "completed", how_it_ended(job_end)
     queue = read_until(
         lambda: client.get("/api/queue", headers=AUTH).json(),
         lambda q: q["paused"],
@@ -150,7 +153,8 @@ def test_a_queued_job_of_another_user_waits_while_the_rig_is_held(client, tokens
     assert client.get(f"/api/jobs/{queued['id']}", headers=AUTH).json()["state"] == "queued"
     client.post("/api/rig/release", headers=tokens["alice"])
     assert not client.post("/api/queue/resume", headers=AUTH).json()["paused"]
-    assert wait_job(client, queued["id"])["state"] == "completed"
+    job_end = wait_job(client, queued["id"])
+    assert job_end["state"] == "completed", how_it_ended(job_end)
 
 
 def test_the_command_line_refuses_a_test_after_an_unacknowledged_stop(tmp_path) -> None:

@@ -19,6 +19,7 @@ from tests.api.conftest import (
     TOKEN,
     LiveServer,
     completed_tows,
+    how_it_ended,
     signed_in_page,
     start_job,
     wait_job,
@@ -98,7 +99,7 @@ def test_the_thrusters_page_reads_as_a_thrust_stand_after_a_calibration(
     job = wait_job(
         client, start_job(client, "/api/jobs/calibration", QUICK_CALIBRATION), timeout_s=60
     )
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     data = client.get("/api/calibration/latest", headers=AUTH).json()["data"]
     response = data["response"]
     strongest = max(data["table"], key=lambda r: r["thrust_per_thruster_n"])
@@ -164,4 +165,5 @@ def test_a_job_asked_to_stop_shows_stopping_at_once(chromium, client, service) -
         assert len(held) == 1
         held[0].continue_()
         expect(page.locator("#job-state")).to_have_text("aborted")
-    assert wait_job(client, job_id)["state"] == "aborted"
+    job_end = wait_job(client, job_id)
+    assert job_end["state"] == "aborted", how_it_ended(job_end)

@@ -13,6 +13,7 @@ from tests.api.conftest import (
     SHORT_TOW,
     TOKEN,
     completed_tows,
+    how_it_ended,
     signed_in_page,
     simulated_service,
     wait_job,
@@ -95,7 +96,8 @@ def test_queued_jobs_shown_reordered_edited_removed_and_the_paused_queue_resumed
         expect(page.locator("#queue-summary-text")).to_contain_text("1 waiting")
         page.click("#queue-summary-resume")
         expect(page.locator("#queue-summary-paused")).to_have_count(0)
-        assert wait_job(client, first["id"])["state"] == "completed"
+        job_end = wait_job(client, first["id"])
+        assert job_end["state"] == "completed", how_it_ended(job_end)
         expect(page.locator("#queue-summary-text")).to_have_text("empty")
         assert not errors, errors
 
@@ -144,7 +146,8 @@ def test_history_requeues_a_finished_job_and_a_sequence_starts_from_the_page(
             items.nth(0).locator("button[data-act=run-now]").click()
             expect(page.locator("#queue-reason")).to_have_count(0)
             expect(items).to_have_count(0)
-            assert wait_job(client, requeued)["state"] == "completed"
+            job_end = wait_job(client, requeued)
+            assert job_end["state"] == "completed", how_it_ended(job_end)
             expect(page.locator(f"#history-table tr[data-job='{requeued}']")).to_contain_text(
                 "completed"
             )
@@ -187,7 +190,8 @@ def test_after_a_restart_with_a_job_queued_the_rig_page_says_why_it_waits_and_re
         expect(page.locator("#queue-summary-text")).to_contain_text("2 waiting")
         page.click("#queue-summary-resume")
         expect(page.locator("#queue-summary-paused")).to_have_count(0)
-        assert wait_job(client, waiting["id"])["state"] == "completed"
+        job_end = wait_job(client, waiting["id"])
+        assert job_end["state"] == "completed", how_it_ended(job_end)
         expect(page.locator("#job-state")).to_have_text("completed", timeout=30_000)
         expect(page.locator("#job-panel")).to_contain_text("tow 44.1 N")
         expect(page.locator("#queue-summary-text")).to_have_text("empty")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
+from tests.api.conftest import AUTH, SHORT_TOW, how_it_ended, wait_job, wait_rig_free
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py): the
 #: queue's edits are what is tested, not the rig's timing, and in real time a spin on a loaded
@@ -72,10 +72,7 @@ def test_a_paused_queue_holds_new_jobs_which_are_edited_run_now_and_requeued(cli
     on_rig = client.put(f"/api/queue/{spin['id']}", json={"torque_nm": 0.3}, headers=AUTH)
     assert on_rig.status_code == 409, on_rig.text
     ended = wait_job(client, spin["id"])
-    assert ended["state"] == "completed", (  # a job that did not complete names why
-        f"{ended['state']}: {ended.get('error')!r}, outcome {ended.get('outcome')!r}, "
-        f"progress {ended.get('progress')!r}"
-    )
+    assert ended["state"] == "completed", how_it_ended(ended)
     wait_rig_free(client)
     queue = _queue(client)
     assert queue["paused"] and [j["id"] for j in queue["jobs"]] == [tow["id"]], queue

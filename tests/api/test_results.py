@@ -7,7 +7,7 @@ import tempfile
 
 import pytest
 
-from tests.api.conftest import AUTH, start_job, wait_job
+from tests.api.conftest import AUTH, how_it_ended, start_job, wait_job
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
 pytestmark = pytest.mark.simtime
@@ -21,7 +21,7 @@ def two_tows(client) -> list[str]:
             client, "/api/jobs/tow", {"force_n": force, "max_time_s": 1.5, "baseline_s": 0.3}
         )
         job = wait_job(client, job_id)
-        assert job["state"] == "completed", job
+        assert job["state"] == "completed", how_it_ended(job)
         runs += job["run_ids"]
     return runs
 
@@ -35,7 +35,7 @@ def test_estimation_job_returns_the_result_json_and_report_plots(client, two_tow
     assert r.status_code == 202, r.text
     assert r.json()["run_ids"] == two_tows  # prefixes resolved to full ids at once
     job = wait_job(client, r.json()["id"], timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     result = job["outcome"]
     assert result["axis"] == "surge"
     assert result["method"] == "output-error"
@@ -77,7 +77,7 @@ def test_estimation_input_errors(client, two_tows):
 def test_thrust_calibration_job_stores_the_curve(client):
     body = {"commands": [0.3, 0.6, 0.8], "settle_s": 0.1, "samples_per_step": 2, "tare_samples": 3}
     job = wait_job(client, start_job(client, "/api/jobs/calibration", body), timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     calibration = job["outcome"]["calibration"]
     latest = client.get("/api/calibration/latest", headers=AUTH).json()
     assert latest["id"] == calibration["result_id"]
@@ -105,7 +105,7 @@ def test_thrust_calibration_job_stores_the_curve(client):
 def test_spin_job_by_weight(client):
     body = {"weight_kg": 1.0, "max_time_s": 1.0, "baseline_s": 0.2}
     job = wait_job(client, start_job(client, "/api/jobs/spin", body))
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     run = client.get(f"/api/runs/{job['run_ids'][0]}", headers=AUTH).json()
     assert run["kind"] == "spin"
     assert run["parameters"]["torque_nm"] == pytest.approx(1.0 * 9.8 * 0.0926)

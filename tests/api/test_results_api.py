@@ -11,7 +11,7 @@ import zipfile
 
 import pytest
 
-from tests.api.conftest import AUTH, completed_tows, start_job, wait_job
+from tests.api.conftest import AUTH, completed_tows, how_it_ended, start_job, wait_job
 from tests.store.helpers import new_run
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py).
@@ -42,7 +42,7 @@ def stored(service, client) -> dict:
     store = service.store
     body = {"commands": [0.3, 0.6, 0.8], "settle_s": 0.1, "samples_per_step": 2, "tare_samples": 3}
     calibration = wait_job(client, start_job(client, "/api/jobs/calibration", body))
-    assert calibration["state"] == "completed", calibration
+    assert calibration["state"] == "completed", how_it_ended(calibration)
     alpha = new_run(store, vehicle="ALPHA-<b>")
     alpha2 = new_run(store, vehicle="ALPHA-<b>")
     beta = new_run(store, vehicle="BETA")
@@ -141,7 +141,7 @@ def test_report_zip_holds_report_md_figures_and_result_json(client):
     r = client.post("/api/jobs/estimation", json={"run_ids": runs}, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=120)
-    assert job["state"] == "completed", (job["progress"], job.get("error"))
+    assert job["state"] == "completed", how_it_ended(job)
     result_id = job["result_id"]
     stored = client.get(f"/api/results/{result_id}", headers=AUTH).json()
     assert stored["report_plots"] == ["fit", "force_residual"]  # report.md is no figure

@@ -10,7 +10,14 @@ import zipfile
 
 import pytest
 
-from tests.api.conftest import AUTH, completed_tows, estimate_in_page, signed_in_page, wait_job
+from tests.api.conftest import (
+    AUTH,
+    completed_tows,
+    estimate_in_page,
+    how_it_ended,
+    signed_in_page,
+    wait_job,
+)
 
 # a browser page: the slow lane; its two tows on the simulated rig (paced service)
 pytestmark = [pytest.mark.slow, pytest.mark.simtime]
@@ -31,7 +38,7 @@ def test_a_result_is_found_again_downloaded_and_compared(chromium, client, servi
         body = {"run_ids": runs, "search_effects": False}
         made = client.post("/api/jobs/estimation", json=body, headers=AUTH)
         second = wait_job(client, made.json()["id"], timeout_s=120)
-        assert second["state"] == "completed", second
+        assert second["state"] == "completed", how_it_ended(second)
         one, two = first["id"], second["result_id"]
 
         page.reload()  # the fresh result is gone from the card; the list has it

@@ -13,6 +13,7 @@ from tests.api.conftest import (
     AUTH,
     completed_tows,
     estimate_in_page,
+    how_it_ended,
     signed_in_page,
     wait_job,
 )
@@ -50,7 +51,7 @@ def test_the_reverse_button_starts_the_reverse_tow(chromium, client, service):
     jobs = client.get("/api/jobs", headers=AUTH).json()
     reverse = next(j for j in jobs if j["label"].startswith("tow -83.3"))
     done = wait_job(client, reverse["id"], timeout_s=60)
-    assert done["state"] == "completed", done
+    assert done["state"] == "completed", how_it_ended(done)
     run = client.get(f"/api/runs/{done['run_ids'][0]}", headers=AUTH).json()
     assert run["parameters"]["force_n"] == pytest.approx(-83.3)
     assert run["parameters"]["hung_mass_kg"] == pytest.approx(8.5)

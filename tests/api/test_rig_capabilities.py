@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.api.conftest import AUTH, TOKEN, start_job, wait_job
+from tests.api.conftest import AUTH, TOKEN, how_it_ended, start_job, wait_job
 
 ENCODER_TOW = Path(__file__).resolve().parents[2] / "fixtures/rigs/encoder-tow.toml"
 pytestmark = pytest.mark.rig_service(rig=ENCODER_TOW)
@@ -57,7 +57,7 @@ def test_what_the_rig_cannot_do_is_a_409_naming_what_is_missing(client, path, bo
 def test_a_weight_tow_on_the_minimal_rig_completes_by_distance(client):
     job_id = start_job(client, "/api/jobs/tow", {"force_n": 9.8, "max_distance_m": 0.3})
     job = wait_job(client, job_id, timeout_s=60)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     (run_id,) = job["run_ids"]
     run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
     assert run["channel_names"] == ["tow_position", "tow_release"]

@@ -30,7 +30,7 @@ from daq.operator import OperatorAct, SimulatedOperator
 from daq.session import RigSource
 from daq.sim.simulated_rig import SimulatedRigThread
 from daq.store import Store
-from tests.api.conftest import AUTH, FINAL, TOKEN, wait_job
+from tests.api.conftest import AUTH, FINAL, TOKEN, how_it_ended, wait_job
 from tests.procedures.conftest import hardware_rig_file
 from tests.support.waiting import read_until
 
@@ -114,7 +114,7 @@ def test_cli_tow_is_refused_while_the_service_drives_and_its_run_completes(
         assert cli.stdout == ""
 
         job = _play_operator(client, service, job_id)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     with Store(db_url) as store:
         runs = store.list_runs()
         assert [r.id for r in runs] == job["run_ids"]
@@ -185,7 +185,7 @@ def test_a_lost_lock_ends_the_service_job_and_frees_the_rig(rig_file, postgres_s
             with sa.create_engine(postgres_server.admin_url).connect() as admin:
                 admin.execute(sa.text("SELECT pg_terminate_backend(:p)"), {"p": backend})
             job = wait_job(client, job_id)
-            assert job["state"] == "aborted", job
+            assert job["state"] == "aborted", how_it_ended(job)
             assert job["error"].startswith("rig lock lost: the PostgreSQL connection holding")
             (run,) = client.get("/api/runs", headers=AUTH).json()
             assert (run["status"], run["reason"]) == ("aborted", job["error"])

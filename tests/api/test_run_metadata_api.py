@@ -7,7 +7,7 @@ from datetime import datetime, timedelta
 
 import pytest
 
-from tests.api.conftest import AUTH, SHORT_TOW, start_job, wait_job
+from tests.api.conftest import AUTH, SHORT_TOW, how_it_ended, start_job, wait_job
 
 #: The rig behind the service runs in process on simulated time (tests/api/conftest.py): the
 #: runs' metadata is what is tested, and a real-time tow on a loaded test process can lose
@@ -35,7 +35,7 @@ def _upload(client, name: str) -> str:
 
 def test_a_tow_started_with_metadata_stores_it_and_is_found_by_it(client):
     job = wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW | {"metadata": META}))
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     run_id = job["run_ids"][0]
     run = client.get(f"/api/runs/{run_id}", headers=AUTH).json()
     origin = {"started_by": "default", "job_id": job["id"]}  # who and which job (issue 23)

@@ -10,7 +10,7 @@ import re
 import pytest
 
 from api.core.job_requests import procedure_from_request
-from tests.api.conftest import AUTH, start_job, wait_job
+from tests.api.conftest import AUTH, how_it_ended, start_job, wait_job
 
 pytestmark = pytest.mark.simtime
 
@@ -44,7 +44,7 @@ def calibrated(client) -> None:
     job = wait_job(
         client, start_job(client, "/api/jobs/calibration", QUICK_CALIBRATION), timeout_s=60
     )
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
 
 
 def test_a_70_n_thruster_tow_beyond_the_calibration_is_refused_with_the_range(
@@ -96,6 +96,6 @@ def test_a_queued_sequence_is_checked_again_when_it_starts(client, service, cali
     _, runs_before = _counts(client)
     job = runner.start_procedure("sequence", seq, label, request=body)
     ended = wait_job(client, job.id)
-    assert ended["state"] == "failed", ended
+    assert ended["state"] == "failed", how_it_ended(ended)
     assert ended["error"].startswith("steps[1].force_n: -70.0 is not allowed")
     assert ended["run_ids"] == [] and _counts(client)[1] == runs_before

@@ -13,7 +13,14 @@ from urllib.parse import urlencode
 
 import pytest
 
-from tests.api.conftest import AUTH, signed_in_page, start_job, wait_job, wait_rig_free
+from tests.api.conftest import (
+    AUTH,
+    how_it_ended,
+    signed_in_page,
+    start_job,
+    wait_job,
+    wait_rig_free,
+)
 from tests.support.shared_data import shared_file
 
 #: Slow lane: a browser per page (tests/api/test_browser.py stays in the fast lane).
@@ -95,7 +102,8 @@ def test_rpm_current_and_power_are_live_during_a_sweep(chromium, client, service
         expect(plot).to_contain_text("thruster 2 power [W]")
         SHOTS.mkdir(exist_ok=True)
         page.screenshot(path=str(SHOTS / "thrusters-sweep-1366.png"))
-        assert wait_job(client, job_id, timeout_s=120)["state"] == "completed"
+        job_end = wait_job(client, job_id, timeout_s=120)
+        assert job_end["state"] == "completed", how_it_ended(job_end)
 
 
 def test_one_thruster_by_hand_armed_started_watched_and_stopped(chromium, client, service):

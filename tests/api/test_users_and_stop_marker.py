@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.conftest import AUTH, SHORT_TOW, wait_job, wait_rig_free
+from tests.api.conftest import AUTH, SHORT_TOW, how_it_ended, wait_job, wait_rig_free
 
 pytestmark = pytest.mark.simtime
 
@@ -61,7 +61,8 @@ def test_the_queue_stops_at_a_stop_marker_and_resumes_past_it(client) -> None:
     assert marker["position"] == 2 and marker["user"] == "default"
 
     client.post("/api/queue/resume", headers=AUTH)
-    assert wait_job(client, first["id"])["state"] == "completed"
+    job_end = wait_job(client, first["id"])
+    assert job_end["state"] == "completed", how_it_ended(job_end)
     done = wait_job(client, marker["id"])
     assert done["state"] == "completed" and done["progress"]["message"] == "stop marker reached"
     queue = client.get("/api/queue", headers=AUTH).json()
@@ -70,7 +71,8 @@ def test_the_queue_stops_at_a_stop_marker_and_resumes_past_it(client) -> None:
     assert client.get(f"/api/jobs/{second['id']}", headers=AUTH).json()["state"] == "queued"
 
     client.post("/api/queue/resume", headers=AUTH)
-    assert wait_job(client, second["id"])["state"] == "completed"
+    job_end = wait_job(client, second["id"])
+    assert job_end["state"] == "completed", how_it_ended(job_end)
 
 
 def test_a_stop_marker_outside_the_queue_is_refused_naming_the_position(client) -> None:
