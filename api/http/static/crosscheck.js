@@ -35,8 +35,9 @@ async function crosscheckLoad() {
     };
     const weight = results.filter((r) => !((r.data.uncertainty || {}).calibration_draws > 0));
     const thrusters = results.filter((r) => (r.data.uncertainty || {}).calibration_draws > 0);
-    $("#cc-weight").innerHTML = (weight.length ? weight : results).map(option).join("");
-    $("#cc-thrusters").innerHTML = (thrusters.length ? thrusters : results).map(option).join("");
+    const none = '<option value="">no stored estimation result yet</option>'; // not an empty box
+    $("#cc-weight").innerHTML = (weight.length ? weight : results).map(option).join("") || none;
+    $("#cc-thrusters").innerHTML = (thrusters.length ? thrusters : results).map(option).join("") || none;
     const runs = (await api("GET", "/api/runs?status=completed&limit=200")).filter((r) => cc.kinds.includes(r.kind));
     $("#cc-runs tbody").innerHTML = runs
       .map((r) => {
@@ -44,7 +45,7 @@ async function crosscheckLoad() {
         return `<tr><td><input type="checkbox" name="cc-w" value="${esc(r.id)}"></td><td><input type="checkbox" name="cc-t" value="${esc(r.id)}"></td>
         <td><code>${esc(r.id.slice(0, 8))}</code></td><td>${esc(r.kind)}</td><td>${esc(drive)}</td><td>${esc(load(r))}</td></tr>`;
       })
-      .join("");
+      .join("") || `<tr><td colspan="6" class="muted">no completed ${esc(cc.kinds.join(" or "))} run yet</td></tr>`;
   } catch (err) {
     $("#cc-status").textContent = err.message;
   }
