@@ -73,6 +73,12 @@ def test_runs_page_filters_pages_and_annotates(chromium, stocked):
         expect(rows.first.locator("td").nth(3)).to_have_text("5 N")
         page.select_option("#runs-filter select[name=source]", "")
 
+        page.fill("#runs-filter input[name=vehicle]", "no such vehicle")
+        page.click("#runs-filter button[type=submit]")
+        expect(count).to_have_text("0–0 of 0")
+        expect(rows).to_have_text(["no stored run matches these filters"])  # not a blank table
+        page.fill("#runs-filter input[name=vehicle]", "")
+
         today = date.today().isoformat()  # the browser's and this machine's day
         page.fill("#runs-filter input[name=since]", today)
         page.fill("#runs-filter input[name=until]", today)

@@ -4,7 +4,7 @@
 import { api } from "./api.js";
 import { $, $$ } from "./dom.js";
 import { fmt, localTime } from "./format.js";
-import { esc } from "./markup.js";
+import { emptyRow, esc } from "./markup.js";
 import { onPage } from "./pages.js";
 
 const analysis = { ready: false, responses: [] };
@@ -139,7 +139,7 @@ function analysisShow(out) {
   $("#an-ident tbody").innerHTML = (ident.coefficients || [])
     .map((c) => `<tr><td>${esc(c.name)}</td><td>${esc(fmt(c.value))}</td><td>${esc(fmt(c.sigma, 3))}</td>
       <td>${esc(pct(c.relative_sigma))}</td><td>${esc(pct(c.weighted))}</td></tr>`)
-    .join("") || '<tr><td colspan="5" class="muted">no σ: plug in estimation results</td></tr>';
+    .join("") || emptyRow(5, "no σ: plug in estimation results");
   $("#an-correlations").innerHTML = (ident.correlations || [])
     .map((c) => `<li>${esc(c.a)} ↔ ${esc(c.b)}: ρ = ${esc(fmt(c.rho, 3))}</li>`)
     .join("");

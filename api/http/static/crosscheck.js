@@ -3,7 +3,7 @@
 import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt, localTime } from "./format.js";
-import { esc } from "./markup.js";
+import { emptyRow, esc } from "./markup.js";
 import { abortButton, shownState } from "./jobs.js";
 import { onPage } from "./pages.js";
 import { load } from "./run_text.js";
@@ -45,7 +45,7 @@ async function crosscheckLoad() {
         return `<tr><td><input type="checkbox" name="cc-w" value="${esc(r.id)}"></td><td><input type="checkbox" name="cc-t" value="${esc(r.id)}"></td>
         <td><code>${esc(r.id.slice(0, 8))}</code></td><td>${esc(r.kind)}</td><td>${esc(drive)}</td><td>${esc(load(r))}</td></tr>`;
       })
-      .join("") || `<tr><td colspan="6" class="muted">no completed ${esc(cc.kinds.join(" or "))} run yet</td></tr>`;
+      .join("") || emptyRow(6, `no completed ${cc.kinds.join(" or ")} run yet`);
   } catch (err) {
     $("#cc-status").textContent = err.message;
   }

@@ -6,7 +6,7 @@ import { api } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt } from "./format.js";
 import { abortButton, showJob, shownState } from "./jobs.js";
-import { esc } from "./markup.js";
+import { emptyRow, esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { metadataBody } from "./run_metadata.js";
 import { load, source, tags } from "./run_text.js";
@@ -34,7 +34,8 @@ async function loadEstimationRuns() {
       <td><code>${esc(r.id.slice(0, 8))}</code></td><td>${esc(r.kind)}</td><td>${esc(r.drive || "—")}</td><td>${esc(load(r))}</td>
       <td>${esc(new Date(r.started_at).toLocaleString())}</td><td>${esc(r.vehicle)}</td><td>${source(r)}</td><td>${tags(r)}</td></tr>`,
     )
-    .join("");
+    .join("") ||
+    emptyRow(9, search ? "no completed run matches the search" : "no completed run to estimate yet: record a test on the Rig page, or import a record (rig import)");
 }
 $("#est-search").addEventListener("change", loadEstimationRuns);
 

@@ -9,3 +9,9 @@ const ENTITIES = { "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "
 export function esc(value) {
   return String(value).replace(/[&<>"']/g, (c) => ENTITIES[c]);
 }
+
+/** A table's one row when it has nothing to list: `text` (what the emptiness means) across
+ * its `columns`, so an empty table never looks like a page still loading. */
+export function emptyRow(columns, text) {
+  return `<tr class="empty"><td colspan="${Number(columns)}" class="muted">${esc(text)}</td></tr>`;
+}

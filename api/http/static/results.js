@@ -7,7 +7,7 @@ import { api, download } from "./api.js";
 import { $, $$ } from "./dom.js";
 import { onFreshResult, renderEstimation } from "./estimation.js";
 import { fmt, TIME_ZONE } from "./format.js";
-import { esc } from "./markup.js";
+import { emptyRow, esc } from "./markup.js";
 import { onPage } from "./pages.js";
 
 const RESULTS_PAGE = 20;
@@ -42,8 +42,9 @@ async function loadResults() {
       <td>${esc(r.subject)}</td><td>${r.run_ids.map((id) => `<code>${esc(id.slice(0, 8))}</code>`).join(" ")}</td>
       <td><button type="button" class="result-zip">report.zip</button> <button type="button" class="result-json">JSON</button></td></tr>`,
     )
-    .join("");
-  $$("#results-table tbody tr").forEach((tr) => {
+    .join("") ||
+    emptyRow(7, [...params.keys()].some((k) => !["limit", "offset", "tz"].includes(k)) ? "no stored result matches these filters" : "no stored result yet: an estimation stores one");
+  $$("#results-table tbody tr[data-result]").forEach((tr) => {
     const id = Number(tr.dataset.result);
     tr.querySelector(".result-zip").onclick = () => download(`/api/results/${id}/report.zip`, `result-${id}-report.zip`);
     tr.querySelector(".result-json").onclick = () => download(`/api/results/${id}`, `result-${id}.json`);

@@ -4,7 +4,7 @@
 import { api, download } from "./api.js";
 import { $, $$, kv } from "./dom.js";
 import { fmt, TIME_ZONE } from "./format.js";
-import { esc } from "./markup.js";
+import { emptyRow, esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { unitRowsPlot } from "./plots.js";
 import { showRunResults } from "./results.js";
@@ -42,8 +42,9 @@ export async function loadRuns() {
       <td>${esc(new Date(r.started_at).toLocaleString())}</td><td>${esc(fmt(r.duration_s, 3))} s</td><td>${esc(r.sample_count)}</td><td>${esc(r.vehicle)}</td>
       <td>${source(r)}</td><td>${tags(r)}</td></tr>`,
     )
-    .join("");
-  $$("#runs-table tbody tr").forEach((tr) => (tr.onclick = () => openRun(tr.dataset.run)));
+    .join("") ||
+    emptyRow(11, [...params.keys()].some((k) => !["limit", "offset", "tz"].includes(k)) ? "no stored run matches these filters" : "no run stored yet: record a test on the Rig page, or import a record (rig import)");
+  $$("#runs-table tbody tr[data-run]").forEach((tr) => (tr.onclick = () => openRun(tr.dataset.run)));
 }
 $("#runs-filter").addEventListener("submit", (ev) => {
   ev.preventDefault();

@@ -5,7 +5,7 @@ import assert from "node:assert/strict";
 import fs from "node:fs";
 import path from "node:path";
 import { fileURLToPath } from "node:url";
-import { esc } from "../../../api/http/static/markup.js";
+import { emptyRow, esc } from "../../../api/http/static/markup.js";
 import { scanScript } from "./markup_scan.js";
 
 const STATIC = fileURLToPath(new URL("../../../api/http/static/", import.meta.url));
@@ -16,6 +16,11 @@ test("esc escapes what could open a tag, an entity or leave a quoted attribute",
   assert.equal(esc("fins-long-name v2 · 30 N"), "fins-long-name v2 · 30 N");
   assert.equal(esc(0), "0");
   assert.equal(esc(null), "null");
+});
+
+test("an empty table's row escapes its text and spans the table", () => {
+  assert.equal(emptyRow("3", "no <run> yet"), '<tr class="empty"><td colspan="3" class="muted">no &lt;run&gt; yet</td></tr>');
+  assert.equal(emptyRow("3 onclick=x", "-"), '<tr class="empty"><td colspan="NaN" class="muted">-</td></tr>');
 });
 
 test("the scan finds a value interpolated into markup without esc", () => {

@@ -2,7 +2,7 @@
 // (escaping.test.js). Markup is every template literal whose text holds a tag ("<li>",
 // "</td>") and every right-hand side of `innerHTML =`, `innerHTML +=` and the markup argument
 // of `insertAdjacentHTML`. In markup each interpolation `${…}` must be one of:
-//   esc(…)                       the one escaping helper (api/http/static/markup.js)
+//   esc(…), emptyRow(…)          markup.js's helpers, which escape what they take
 //   a string or number literal   "—", 0
 //   a template literal           itself scanned as markup
 //   c ? a : b, a || b, c && a    with a and b (not c) again one of these
@@ -16,7 +16,7 @@
  */
 const MARKUP_NAMES = {
   "campaign.js": ["stopping", "pending", "rows", "sigmaText", "shown", "limited"], // badge, next test, trail, U cells
-  "crosscheck.js": ["option", "abortButton"], // a stored result as an <option>, jobs.js's Abort
+  "crosscheck.js": ["option", "abortButton", "none"], // a stored result as an <option>, jobs.js's Abort, the empty picker
   "estimation.js": ["tags", "source", "wellDeterminedRows", "abortButton"], // run_text.js's cells, rows, jobs.js's Abort
   "forms.js": ["label", "tip", "options", "hint", "length", "listed"], // a field's escaped pieces
   "guard.js": ["who"], // esc(who pressed or holds)
@@ -29,6 +29,9 @@ const MARKUP_NAMES = {
   // the budget's parts; the repeats table, its runs (esc'd ids) and its note
   "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows", "repeatsMarkup", "shortId", "each", "note"],
 };
+
+/** markup.js's helpers: each escapes every value it puts into markup. */
+const ESCAPING = new Set(["esc", "emptyRow"]);
 
 // ---- a small lexer: template literals with their interpolations, strings, comments, regexes
 
@@ -185,7 +188,7 @@ function checkExpression(e, where, findings, names = new Set()) {
     if (t.end === e.length) return checkTemplate(t, where, findings, names);
   }
   const call = wholeCall(e);
-  if (call === "esc" || (call && names.has(call))) return;
+  if (ESCAPING.has(call) || (call && names.has(call))) return;
   if (/^[A-Za-z_$][\w$]*$/.test(e) && names.has(e)) return;
   const t3 = ternary(e);
   if (t3) return [t3[1], t3[2]].forEach((b) => checkExpression(b, where, findings, names));
