@@ -39,7 +39,9 @@ def test_sixdof_page_simulates_a_yaw_turn(page_url, service):
     for i, u in enumerate(("-0.5", "0.5", "-0.5", "0.5")):  # seed 002's w_φ
         page.fill(f"#sixdof-form [name=u{i}]", u)
     page.fill("#sixdof-form [name=duration_s]", "40")
+    expect(page.locator("#sixdof-empty")).to_contain_text("press Simulate")  # not a blank panel
     page.click("#sixdof-form button[type=submit]")
+    expect(page.locator("#sixdof-empty")).to_be_hidden()
     expect(page.locator("#sixdof-status")).to_contain_text("40 s simulated")
     expect(page.locator("#sixdof-steady")).to_contain_text("Settled")
     expect(page.locator("#sixdof-linear .main-svg").first).to_be_visible()

@@ -120,6 +120,7 @@ async function sixdofRun(ev) {
     ["Turn radius", s.turn_radius_m === null ? "—" : `${fmt(s.turn_radius_m, 4)} m`],
     ["τ applied", Object.entries(out.tau).filter(([, x]) => Math.abs(x) > 1e-9).map(([k, x]) => `${k} ${fmt(x)}`).join(", ") || "none"],
   ]);
+  $("#sixdof-empty").hidden = true;
   const tr = out.trajectory;
   const line = (obj, k) => ({ x: tr.t, y: obj[k], name: k, mode: "lines" });
   const layout = (y) => ({ margin: { t: 20, r: 20, b: 45, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: y } } });
