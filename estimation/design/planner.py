@@ -54,6 +54,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TypedDict
 
 import numpy as np
 
@@ -207,13 +208,25 @@ def state_from_result(
     )
 
 
+class BudgetTerms(TypedDict):
+    """``AxisState``'s fields drawn from a budget."""
+
+    type_a_scale: dict[str, float]
+    type_b: dict[str, float]
+    coverage: dict[str, float]
+    type_b_source: dict[str, str]
+
+
 def budget_terms(
     budget: Budget | None, std: Mapping[str, float], named: Mapping[str, str] | None = None
-) -> dict[str, dict]:
+) -> BudgetTerms:
     """``AxisState``'s budget fields (``type_a_scale``, ``type_b``, ``coverage``,
     ``type_b_source``) from ``budget`` for the fit σ ``std``; ``named``: the fit's name of
     each coefficient the budget names otherwise (a pendulum's added mass is the inertia)."""
-    scale, type_b, coverage, source = {}, {}, {}, {}
+    scale: dict[str, float] = {}
+    type_b: dict[str, float] = {}
+    coverage: dict[str, float] = {}
+    source: dict[str, str] = {}
     back = {v: k for k, v in (named or {}).items()}
     for key, b in (budget.coefficients if budget is not None else {}).items():
         n = back.get(key, key)
