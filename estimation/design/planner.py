@@ -426,6 +426,14 @@ def _choose_release(
     judged = _judged(state, relative)
     before = max(state.ratios(relative).values(), default=float("inf"))
     judged_before = max(judged.ratios(relative).values(), default=float("inf"))
+    if not state.releases:  # a σ not known: nothing to predict from
+        unknown = [n for n in state.targets if not np.isfinite(state.std.get(n, np.nan))]
+        why = (
+            f"σ of {', '.join(unknown) or 'a coefficient'} not known, so no release can be "
+            "predicted: the largest the rig allows, where every damping shows most"
+        )
+        test = Candidate(state.axis, env.max_amplitude, "release", env)
+        return Choice(test, why, before, float("inf"), (env.max_run_s + reset_s) / 60)
     scored = []
     for r in state.releases:
         if not 0 < r.amplitude <= env.max_amplitude:

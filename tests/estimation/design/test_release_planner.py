@@ -110,3 +110,18 @@ def test_a_release_envelope_refuses_a_range_naming_the_field():
     with pytest.raises(ValueError, match=r"min_amplitude: got 0\.2 rad, allowed: 0 < min_"):
         ReleaseEnvelope("swing", "pendulum", "pendulum", "start_angle_rad", "--angle", "rad",
                         0.2, 0.1, 120.0, 0.005)  # fmt: skip
+
+
+def test_a_fit_whose_sigma_is_unknown_asks_for_the_largest_release_saying_why():
+    """With a σ not known (a coefficient the records do not determine) no release can be
+    predicted: the largest is asked for, and the trail says why."""
+    from dataclasses import replace
+
+    from estimation.design.planner import choose
+
+    state = _state(0.01, b2=572.0)
+    blind = replace(state, std={**state.std, "quadratic_damping": float("nan")}, releases=())
+    choice = choose(blind, ENVELOPE, 0.01)
+    assert choice is not None and choice.test.load == RELEASE.max_amplitude
+    assert choice.why.startswith("σ of quadratic_damping not known")
+    assert choice.predicted_before == float("inf")
