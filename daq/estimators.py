@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from daq.store import RunInfo, Store
     from estimation.design.planning_envelope import RigEnvelope
+    from estimation.uncertainty.budget import Budget
 
 
 #: The method every estimator takes, as the browser's menu words it.
@@ -34,6 +35,8 @@ class Estimator:
     so the advice it gives names runs the rig can make; None for imports;
     ``exclude_outliers``: leave out the repeats Chauvenet's criterion flags, every estimator
     alike); ``subject``: what a failed fit names ("surge", "roll swing");
+    ``budget_of(records, runs, result)``: that budget itself (None: no fit to budget), which
+    a campaign plans on (``api.core.campaign_fit``);
     ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
     takes, the first the default (a callable, so the estimation code loads on first use),
     ``method_labels`` how the browser's menu words them.
@@ -60,6 +63,7 @@ class Estimator:
     #: method → how the browser's method menu words it (a method missing: its name).
     method_labels: dict[str, str] = field(default_factory=dict)
     budget: Callable[[Sequence[RunInfo], list[Any], Any], dict[str, Any]] | None = None
+    budget_of: Callable[[Sequence[RunInfo], list[Any], Any], Budget | None] | None = None
     compares_theory: bool = False
     units_of: Callable[[], dict[str, dict[str, str]]] = dict
 
@@ -170,13 +174,17 @@ def _pendulum_fit(
     return estimate_pendulum(runs, method=method, search=search, exclude_outliers=exclude_outliers)
 
 
-def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
-    """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
+def _pendulum_budget_of(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Budget | None:
+    """The GUM budget of the output-error coefficients (None for a seed method's headline)."""
     from estimation.pendulum.pendulum_estimate import pendulum_budget
 
-    if result.method != "output-error":
-        return {"budget": None}
-    return {"budget": pendulum_budget(result).to_json()}
+    return pendulum_budget(result) if result.method == "output-error" else None
+
+
+def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
+    """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
+    budget = _pendulum_budget_of(records, runs, result)
+    return {"budget": None if budget is None else budget.to_json()}
 
 
 def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
@@ -195,6 +203,7 @@ PENDULUM = Estimator(
     subject=lambda runs: f"{runs[0].axis} swing",
     report=_pendulum_report,
     budget=_pendulum_budget,
+    budget_of=_pendulum_budget_of,
     method_labels={
         "output-error": OUTPUT_ERROR,
         "damped-fit": "pendulum: damped sinusoid fit (least squares)",

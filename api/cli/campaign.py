@@ -1,5 +1,5 @@
-"""``rig campaign``: measure until certain — the planner chooses each tow/spin, runs it,
-re-estimates, and stops at the target or the budget (docs/campaigns.md)."""
+"""``rig campaign``: measure until certain — the planner chooses each tow/spin and pendulum
+release, runs it, re-estimates, and stops at the target or the budget (docs/campaigns.md)."""
 
 from __future__ import annotations
 

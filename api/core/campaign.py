@@ -44,6 +44,8 @@ POLL_S = 0.2
 
 def instructions(test: Candidate, g: float, drum_radius_m: float | None) -> str:
     """What the operator does for ``test`` (the procedure asks for each act as well)."""
+    if test.release is not None:
+        return f"{test.describe()}: pull it out to {test.load:.4g} {test.release.unit} and latch it"
     if test.drive == "thrusters":
         return f"{test.describe()}: thrusters mounted, no weight hung"
     load = abs(test.load)

@@ -64,12 +64,13 @@ def current_models(store: Store, result_ids: Sequence[int] = ()) -> dict[str, li
 
 
 def planned_runs(rig: RigConfig, sequence_path: str | Path) -> list[PlannedRun]:
-    """The weight-driven steps of a sequence file on the planner's axes (the kinds with an
-    ``envelope``: tows and spins); other steps are not predicted."""
+    """The weight-driven steps of a sequence file on the planner's driven axes (the kinds
+    with an ``envelope`` and a drive: tows and spins); other steps (a pendulum's release
+    among them) are not predicted."""
     seq = load_sequence(sequence_path, rig)
     out = []
     for step in seq.steps:
-        if KINDS[step.kind].envelope is None:
+        if KINDS[step.kind].envelope is None or AXES[step.kind].drive_key is None:
             continue
         terms, signed = AXES[step.kind], cast(Any, step)  # a tow's or a spin's request
         if signed.drive == "weight" and signed.hung_mass_kg:
@@ -122,7 +123,7 @@ def predict_sequence(
             else 1e-4
         )
         for kind, spec in KINDS.items()
-        if spec.envelope is not None
+        if spec.envelope is not None and AXES[kind].drive_key is not None
     }
     planned_rig = PlannedRig(
         chain_of(rig), rig.acquisition.rate_hz, steps, release_std_s=release_std_s

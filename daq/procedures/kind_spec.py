@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from daq.procedures.axis_steps import RunOutcome
     from daq.procedures.recording import AbortSignal, ProgressCallback
     from daq.session import RigSession
-    from estimation.design.planning_envelope import AxisEnvelope
+    from estimation.design.planning_envelope import AxisEnvelope, ReleaseEnvelope
 
 #: How a reason names a drive ("tow with thrusters: needs a [thrusters] section").
 DRIVE_WORDS = {"weight": "with a hung weight", "thrusters": "with thrusters"}
@@ -105,9 +105,11 @@ class KindSpec:
     #: on the simulated rig; a person does them on a real one).
     acts: tuple[str, ...] = ()
     #: For the test planner (``estimation.design``): the axis's loads and travel on ``rig``
-    #: given the thrusters' calibrated (low, high) load (None: none); ``None``: the planner
-    #: does not choose this kind.
-    envelope: Callable[[RigConfig, tuple[float, float] | None], AxisEnvelope] | None = None
+    #: given the thrusters' calibrated (low, high) load (None: none), or the releases it
+    #: allows (a pendulum); ``None``: the planner does not choose this kind.
+    envelope: (
+        Callable[[RigConfig, tuple[float, float] | None], AxisEnvelope | ReleaseEnvelope] | None
+    ) = None
     #: What the live plot shows of its runs by default (``thrusters``: every thruster's
     #: command); ``()``: its axis's position and rate.
     live: tuple[str, ...] = ()

@@ -181,7 +181,7 @@ def _within(test: ReverseTest | None, envelope: RigEnvelope | None) -> ReverseTe
     calibrated reach); None when the rig cannot run a reverse test at all."""
     if test is None or envelope is None:
         return test
-    env = envelope.axis(test.axis)
+    env = envelope.driven(test.axis)
     if env is None or env.reverse_travel is None:
         return None
     reach = env.max_load

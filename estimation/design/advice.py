@@ -90,7 +90,7 @@ def reverse_advice(
             f"{head} although the runs already go both ways: a reverse {kind} at a clearly "
             f"different load (or a longer one), or a free-decay run, would{run}"
         )
-    env = envelope.axis(axis) if envelope is not None else None
+    env = envelope.driven(axis) if envelope is not None else None
     if env is not None and env.reverse_travel is None:
         return f"{head} (every run moves one way, the rig has no reverse {kind}): add a free decay"
     run = f": run `{command}`" if command else ""

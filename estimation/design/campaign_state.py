@@ -27,8 +27,8 @@ MAX_REPEATS = 2
 
 @dataclass(frozen=True)
 class Target:
-    """U/|θ| ≤ ``relative`` on M, K_L, K_Q of every axis in ``axes`` (U: the expanded
-    uncertainty of the GUM budget, 95 %), ambiguities resolved;
+    """U/|θ| ≤ ``relative`` on M, K_L, K_Q of every axis in ``axes`` (a released axis: those
+    its fit carries; U: the expanded uncertainty of the GUM budget, 95 %), ambiguities resolved;
     within ``max_runs`` runs and ``max_minutes`` tank minutes (runs + resets)."""
 
     relative: float = 0.01
@@ -43,9 +43,8 @@ class Target:
             raise ValueError(f"max_runs: got {self.max_runs}, allowed: ≥ 1")
         if not self.max_minutes > 0:
             raise ValueError(f"max_minutes: got {self.max_minutes:g}, allowed: > 0")
-        bad = [a for a in self.axes if a not in ("surge", "yaw")]
-        if bad or not self.axes:
-            raise ValueError(f"axes: got {list(self.axes)}, allowed: surge and/or yaw")
+        if not self.axes:  # which axes a rig can test: ``Campaign`` checks its envelope
+            raise ValueError("axes: got none, allowed: at least one the rig can test")
 
 
 @dataclass

@@ -39,17 +39,27 @@ While every run of an axis went one way, only the other way's candidates are con
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
 finite, no ambiguous group left), it is out of reach (Type B alone above it, judged once no
 fit is ambiguous nor one-way), or the next run does not fit the budget (runs, tank minutes).
+
+A released axis (a pendulum: ``ReleaseEnvelope``) is planned on the same target, U, progress
+and stopping rule; only the prediction differs. Its state carries, per release amplitude the
+rig allows, each coefficient's σ predicted after one more record released from it
+(``estimation.design.release_outlook``, from ``decay_information``: the one engine's fit of
+the stored records) and the run's predicted duration; the choice is the most progress on
+the worst target ratio per tank minute (``_choose_release``). Its target coefficients are
+those the fit carries of M (the added mass), K_L and K_Q (``AxisState.targets``). Its
+opening, with no record yet: half the largest release the rig allows (``opening``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TypedDict
 
 import numpy as np
 
 from estimation.design.information import PARAMETERS, predict
-from estimation.design.planning_envelope import Candidate, RigEnvelope
+from estimation.design.planning_envelope import Candidate, ReleaseEnvelope, RigEnvelope
 from estimation.uncertainty.budget import Budget
 
 BASE = PARAMETERS[:3]
@@ -61,6 +71,24 @@ SEPARATED = 0.9
 #: The opening of an axis with no fit yet: the two loads a quadratic law needs, as shares
 #: of the largest weight load (K_L and K_Q separate only with two clearly different speeds).
 OPENING_SHARES = (1.0, 0.35)
+#: The opening of a released axis with no record: this share of the largest release the rig
+#: allows. No fit yet means no information to compare releases on; one record suffices (a
+#: decay sweeps its amplitude from the release down to the stop, so it separates K_L from
+#: K_Q where a tow needs two loads); the largest release leans most on what the fit must
+#: get right at large angles (sin φ, drag that grows with speed, the latch's tolerance) and
+#: the smallest decays to the stop amplitude within a few swings at the worst signal to
+#: noise; the middle shows both dampings, and the criterion moves up or down from its fit.
+RELEASE_OPENING_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class ReleaseOutlook:
+    """One more release from ``amplitude`` (m or rad): each coefficient's fit σ predicted
+    after it (``std_after``, the fit's names) and the run's predicted duration (s)."""
+
+    amplitude: float
+    std_after: Mapping[str, float]
+    duration_s: float
 
 
 @dataclass(frozen=True)
@@ -82,6 +110,10 @@ class AxisState:
     coverage: Mapping[str, float] = field(default_factory=dict)
     #: The Type B source with the largest contribution, per coefficient ("" when none).
     type_b_source: Mapping[str, str] = field(default_factory=dict)
+    #: The coefficients the target is judged on (a released axis: those its fit carries).
+    targets: tuple[str, ...] = BASE
+    #: A released axis: each release the rig allows, as predicted from this fit.
+    releases: tuple[ReleaseOutlook, ...] = ()
 
     def expanded(self, name: str, std: float) -> float:
         """U of ``name`` were its fit σ ``std``: k·√((u_A/σ·std)² + u_B²)."""
@@ -90,9 +122,13 @@ class AxisState:
 
     def ratios(self, relative: float) -> dict[str, float]:
         """U/|θ| over the target, per target coefficient (NaN σ → inf)."""
+        return self.ratios_at(relative, self.std)
+
+    def ratios_at(self, relative: float, std: Mapping[str, float]) -> dict[str, float]:
+        """U/|θ| over the target per target coefficient were the fit's σ ``std``."""
         out = {}
-        for n in BASE:
-            v, s = self.values.get(n, np.nan), self.std.get(n, np.nan)
+        for n in self.targets:
+            v, s = self.values.get(n, np.nan), std.get(n, np.nan)
             ok = np.isfinite(s) and np.isfinite(v) and v != 0
             out[n] = float(self.expanded(n, s) / abs(v) / relative) if ok else float("inf")
         return out
@@ -101,7 +137,7 @@ class AxisState:
         """k·u_B/|θ| over the target, per target coefficient: U with the Type A part gone
         (above 1: the declared tolerances alone miss the target)."""
         out = {}
-        for n in BASE:
+        for n in self.targets:
             v = self.values.get(n, np.nan)
             ok = np.isfinite(v) and v != 0
             out[n] = float(self.expanded(n, 0.0) / abs(v) / relative) if ok else 0.0
@@ -160,16 +196,6 @@ def state_from_result(
         for j, b in enumerate(names)
         if i < j and np.isfinite(corr[i, j])
     }
-    scale, type_b, coverage, source = {}, {}, {}, {}
-    for n, b in (budget.coefficients if budget is not None else {}).items():
-        used = [row for row in b.rows if row.combined]
-        u_a = float(np.sqrt(sum(row.contribution**2 for row in used if row.kind == "A")))
-        rows_b = [row for row in used if row.kind == "B"]
-        type_b[n] = float(np.sqrt(sum(row.contribution**2 for row in rows_b)))
-        source[n] = max(rows_b, key=lambda row: row.contribution).source if rows_b else ""
-        sigma = std.get(n, np.nan)
-        scale[n] = max(u_a / sigma, 1.0) if np.isfinite(sigma) and sigma > 0 else 1.0
-        coverage[n] = b.k if np.isfinite(b.k) else 2.0
     return AxisState(
         axis=r.axis,  # type: ignore[attr-defined]
         values=values,
@@ -178,11 +204,41 @@ def state_from_result(
         ambiguous=tuple(tuple(g) for g in r.ambiguous),  # type: ignore[attr-defined]
         rmse=float(r.fit_after.rmse),  # type: ignore[attr-defined]
         recorded=tuple(recorded),
-        type_a_scale=scale,
-        type_b=type_b,
-        coverage=coverage,
-        type_b_source=source,
+        **budget_terms(budget, std),
     )
+
+
+class BudgetTerms(TypedDict):
+    """``AxisState``'s fields drawn from a budget."""
+
+    type_a_scale: dict[str, float]
+    type_b: dict[str, float]
+    coverage: dict[str, float]
+    type_b_source: dict[str, str]
+
+
+def budget_terms(
+    budget: Budget | None, std: Mapping[str, float], named: Mapping[str, str] | None = None
+) -> BudgetTerms:
+    """``AxisState``'s budget fields (``type_a_scale``, ``type_b``, ``coverage``,
+    ``type_b_source``) from ``budget`` for the fit σ ``std``; ``named``: the fit's name of
+    each coefficient the budget names otherwise (a pendulum's added mass is the inertia)."""
+    scale: dict[str, float] = {}
+    type_b: dict[str, float] = {}
+    coverage: dict[str, float] = {}
+    source: dict[str, str] = {}
+    back = {v: k for k, v in (named or {}).items()}
+    for key, b in (budget.coefficients if budget is not None else {}).items():
+        n = back.get(key, key)
+        used = [row for row in b.rows if row.combined]
+        u_a = float(np.sqrt(sum(row.contribution**2 for row in used if row.kind == "A")))
+        rows_b = [row for row in used if row.kind == "B"]
+        type_b[n] = float(np.sqrt(sum(row.contribution**2 for row in rows_b)))
+        source[n] = max(rows_b, key=lambda row: row.contribution).source if rows_b else ""
+        sigma = std.get(n, np.nan)
+        scale[n] = max(u_a / sigma, 1.0) if np.isfinite(sigma) and sigma > 0 else 1.0
+        coverage[n] = b.k if np.isfinite(b.k) else 2.0
+    return {"type_a_scale": scale, "type_b": type_b, "coverage": coverage, "type_b_source": source}
 
 
 def _theta(state: AxisState) -> np.ndarray:
@@ -212,7 +268,7 @@ def _information(
     state: AxisState, env: RigEnvelope, tests: Sequence[Candidate], terms: Sequence[str]
 ) -> np.ndarray:
     """Σ Jᵀ·J/σ_x² of ``tests`` over ``terms`` (the other parameters held at their values)."""
-    axis = env.axis(state.axis)
+    axis = env.driven(state.axis)
     assert axis is not None
     theta = _theta(state)
     info = sum((predict(theta, axis, t, env.g).information for t in tests), start=np.zeros((5, 5)))
@@ -228,7 +284,7 @@ def _restricted(info: np.ndarray, terms: Sequence[str]) -> np.ndarray:
 def _prior(env: RigEnvelope, axis: str, terms: Sequence[str]) -> np.ndarray:
     """A weak prior on friction and bias (σ = the largest load) among ``terms``: keeps I
     invertible when every run went one way, without deciding anything."""
-    load = env.axis(axis).max_load  # type: ignore[union-attr]
+    load = env.driven(axis).max_load  # type: ignore[union-attr]
     return np.diag([0.0 if n in BASE else 1 / load**2 for n in terms])
 
 
@@ -280,7 +336,7 @@ def _other_way(state: AxisState, env: RigEnvelope) -> float | None:
     """The sign every recorded run lacks when all went one way and the rig can reverse:
     such a set cannot tell dry friction from a bias (−F_c·sign(v) and b are one constant),
     which the target requires resolved, so the next run goes the other way."""
-    axis = env.axis(state.axis)
+    axis = env.driven(state.axis)
     signs = {np.sign(t.load) for t in state.recorded}
     if axis is None or axis.reverse_travel is None or len(signs) != 1:
         return None
@@ -301,7 +357,10 @@ def _judged(state: AxisState, relative: float) -> AxisState:
 def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None:
     """The best next test on ``state.axis`` (module docstring); None when the rig offers
     none that moves the body within its rate limit."""
-    axis_env = env.axis(state.axis)
+    released = env.released(state.axis)
+    if released is not None:
+        return _choose_release(state, released, env.reset_s, relative)
+    axis_env = env.driven(state.axis)
     if axis_env is None:
         return None
     theta = _theta(state)
@@ -358,9 +417,55 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     return Choice(best, why, before, after, minutes)
 
 
+def _choose_release(
+    state: AxisState, env: ReleaseEnvelope, reset_s: float, relative: float
+) -> Choice | None:
+    """The release (``state.releases``, within ``env``) with the most progress on the worst
+    target ratio per tank minute (run + ``reset_s``): ``_progress`` on ``_judged``, as a
+    driven axis's; None when the state predicts no release the rig allows."""
+    judged = _judged(state, relative)
+    before = max(state.ratios(relative).values(), default=float("inf"))
+    judged_before = max(judged.ratios(relative).values(), default=float("inf"))
+    if not state.releases:  # a σ not known: nothing to predict from
+        unknown = [n for n in state.targets if not np.isfinite(state.std.get(n, np.nan))]
+        why = (
+            f"σ of {', '.join(unknown) or 'a coefficient'} not known, so no release can be "
+            "predicted: the largest the rig allows, where every damping shows most"
+        )
+        test = Candidate(state.axis, env.max_amplitude, "release", env)
+        return Choice(test, why, before, float("inf"), (env.max_run_s + reset_s) / 60)
+    scored = []
+    for r in state.releases:
+        if not 0 < r.amplitude <= env.max_amplitude:
+            continue
+        minutes = (r.duration_s + reset_s) / 60
+        after = max(state.ratios_at(relative, r.std_after).values(), default=float("inf"))
+        judged_after = max(judged.ratios_at(relative, r.std_after).values(), default=float("inf"))
+        gain = -_progress(judged_before, judged_after) / minutes
+        scored.append(((gain, minutes), r, after, minutes))
+    if not scored:
+        return None
+    _, best, after, minutes = min(scored, key=lambda s: s[0])
+    ratios = state.ratios(relative)
+    worst = max(ratios, key=ratios.__getitem__)
+    why = (
+        f"the worst target ratio is {before:.2f} ({worst}; 1 = target met); of the "
+        f"{len(scored)} releases the rig allows, one from {best.amplitude:.3g} {env.unit} is "
+        f"predicted to bring it to {after:.2f} in {minutes:.1f} tank min, the largest "
+        "reduction of its log per tank minute"
+    )
+    test = Candidate(state.axis, best.amplitude, "release", env)
+    return Choice(test, why, before, after, minutes)
+
+
 def opening(env: RigEnvelope, axis: str, done: Sequence[Candidate]) -> Candidate | None:
-    """The next opening test of an axis without a fit (``OPENING_SHARES``), None when done."""
-    axis_env = env.axis(axis)
+    """The next opening test of an axis without a fit (``OPENING_SHARES``; a released axis:
+    ``RELEASE_OPENING_SHARE`` of its largest release), None when done."""
+    released = env.released(axis)
+    if released is not None:
+        test = Candidate(axis, RELEASE_OPENING_SHARE * released.max_amplitude, "release", released)
+        return None if test in done else test
+    axis_env = env.driven(axis)
     if axis_env is None:
         return None
     for share in OPENING_SHARES:
@@ -453,7 +558,12 @@ def decide(
         if states[axis] is None:
             test = opening(env, axis, done.get(axis, ()))
             if test is not None:
-                why = "opening run of the axis: a fit needs two clearly different loads"
+                why = (
+                    "opening run of the axis: no record to predict from; half the largest "
+                    "release the rig allows shows both dampings in one decay"
+                    if test.release is not None
+                    else "opening run of the axis: a fit needs two clearly different loads"
+                )
                 choice = Choice(test, why, float("inf"), float("inf"), 0.0)  # duration unknown
                 break
     if choice is None:

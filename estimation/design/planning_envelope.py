@@ -1,4 +1,5 @@
-"""What a rig can do, as the test planner sees it: the loads, directions and travel it offers.
+"""What a rig can do, as the test planner sees it: the loads, directions and travel it offers,
+and the release amplitudes of the axes it tests by a release from an offset (a pendulum).
 
 Pure data (no rig file, no device): ``api.core.rig_envelope`` fills it from the rig file and
 the stored thrust calibration. The planner and the estimator's advice draw every test they
@@ -14,11 +15,18 @@ import numpy as np
 
 from estimation.data.driven_axes import driven_axis
 
-Axis = Literal["surge", "yaw"]
+#: A driven axis (its words: ``estimation.data.driven_axes``) or a released one (its words:
+#: its ``ReleaseEnvelope``, from the kind's registry entry).
+Axis = str
 #: Magnitudes offered per direction and drive: a geometric grid from the largest load down.
 GRID_POINTS = 8
 #: The smallest load offered, as a share of the largest (smaller barely moves a body).
 SMALLEST_SHARE = 1 / 16
+#: Release amplitudes offered: a geometric grid from the largest the rig allows down to
+#: ``RELEASE_SMALLEST_SHARE`` of it (a smaller release decays to the run's stop amplitude
+#: within a few swings and barely shows the amplitude-dependent damping).
+RELEASE_POINTS = 8
+RELEASE_SMALLEST_SHARE = 1 / 8
 
 
 @dataclass(frozen=True)
@@ -53,31 +61,75 @@ class AxisEnvelope:
 
 
 @dataclass(frozen=True)
+class ReleaseEnvelope:
+    """An axis tested by a release at rest from an offset (a pendulum pulled out and let go),
+    in its kind's words (its registry entry fills them): ``kind``, ``command`` (``rig
+    <command>``, ``POST /api/jobs/<command>``), the request ``field`` holding the release
+    amplitude and its ``option``; the amplitudes the rig file allows,
+    (``min_amplitude``, ``max_amplitude``] in ``unit`` (rad); a run's longest duration
+    (``max_run_s``, s) and the amplitude over a cycle it stops below (``stop_amplitude``)."""
+
+    axis: Axis
+    kind: str
+    command: str
+    field: str
+    option: str
+    unit: str
+    min_amplitude: float
+    max_amplitude: float
+    max_run_s: float
+    stop_amplitude: float
+    #: No reverse run: a release is judged by its amplitude alone.
+    reverse_travel: None = None
+
+    def __post_init__(self) -> None:
+        if not 0 < self.min_amplitude < self.max_amplitude:
+            raise ValueError(
+                f"min_amplitude: got {self.min_amplitude:g} {self.unit}, allowed: 0 < "
+                f"min_amplitude < max_amplitude ({self.max_amplitude:g} {self.unit})"
+            )
+
+    def amplitudes(self) -> list[float]:
+        """The release amplitudes offered (``RELEASE_POINTS``, geometric, largest last)."""
+        low = max(self.min_amplitude, RELEASE_SMALLEST_SHARE * self.max_amplitude)
+        return [float(a) for a in np.geomspace(low, self.max_amplitude, RELEASE_POINTS)]
+
+
+@dataclass(frozen=True)
 class Candidate:
-    """One test the rig can run: its kind, signed load and drive (weight | thrusters)."""
+    """One test the rig can run: its kind, signed load and drive (weight | thrusters), or
+    for a released axis (``release``: its envelope) the release amplitude as ``load``."""
 
     axis: Axis
     load: float
-    drive: Literal["weight", "thrusters"] = "weight"
+    drive: Literal["weight", "thrusters", "release"] = "weight"
+    release: ReleaseEnvelope | None = None
 
     @property
     def kind(self) -> str:
-        return driven_axis(self.axis).kind
+        return self.release.kind if self.release else driven_axis(self.axis).kind
 
     @property
     def field(self) -> str:
-        return driven_axis(self.axis).load_field
+        return self.release.field if self.release else driven_axis(self.axis).load_field
 
     @property
     def command(self) -> str:
         """The ``rig`` command that records it."""
+        if self.release:
+            return f"rig {self.release.command} {self.release.option} {self.load:.4g}"
         return driven_axis(self.axis).command_line(self.load, self.drive)
 
     def request(self) -> dict[str, Any]:
         """The body of ``POST /api/jobs/<route>``."""
+        if self.release:
+            return {self.release.field: float(f"{self.load:.4g}")}
         return driven_axis(self.axis).request(self.load, self.drive)
 
     def describe(self) -> str:
+        if self.release:
+            degrees = f" ({np.degrees(self.load):.3g}°)" if self.release.unit == "rad" else ""
+            return f"{self.kind} released from {self.load:.4g} {self.release.unit}{degrees}"
         unit = driven_axis(self.axis).load_unit
         way = "reverse " if self.load < 0 else ""
         by = "the thrusters" if self.drive == "thrusters" else "a hung weight"
@@ -89,19 +141,32 @@ class RigEnvelope:
     """The axes a rig can test, with ``g`` (m/s², hung weight = load/g) and the time between
     runs (``reset_s``: carriage back, water settling), which counts as tank time."""
 
-    axes: tuple[AxisEnvelope, ...]
+    axes: tuple[AxisEnvelope | ReleaseEnvelope, ...]
     g: float = 9.81
     reset_s: float = 30.0
 
-    def axis(self, axis: str) -> AxisEnvelope | None:
+    def axis(self, axis: str) -> AxisEnvelope | ReleaseEnvelope | None:
         return next((a for a in self.axes if a.axis == axis), None)
+
+    def driven(self, axis: str) -> AxisEnvelope | None:
+        """``axis``'s envelope when a load drives it (None: not tested, or released)."""
+        env = self.axis(axis)
+        return env if isinstance(env, AxisEnvelope) else None
+
+    def released(self, axis: str) -> ReleaseEnvelope | None:
+        """``axis``'s envelope when it is tested by a release (None: not, or driven)."""
+        env = self.axis(axis)
+        return env if isinstance(env, ReleaseEnvelope) else None
 
     def candidates(self, axis: str) -> list[Candidate]:
         """Every test offered on ``axis``: weight loads within ±``max_load`` (reverse only if
-        the rig can run it), thruster loads within the calibrated range."""
+        the rig can run it), thruster loads within the calibrated range; on a released axis
+        its release amplitudes (``ReleaseEnvelope.amplitudes``)."""
         env = self.axis(axis)
         if env is None:
             return []
+        if isinstance(env, ReleaseEnvelope):
+            return [Candidate(env.axis, a, "release", env) for a in env.amplitudes()]
         out: list[Candidate] = []
         grid = env.max_load * np.geomspace(SMALLEST_SHARE, 1.0, GRID_POINTS)
         signs = (1.0, -1.0) if env.reverse_travel is not None else (1.0,)
@@ -122,6 +187,8 @@ class RigEnvelope:
     def allows(self, axis: str, load: float, drive: str = "weight") -> bool:
         """Whether the rig can run ``load`` on ``axis`` with ``drive``."""
         env = self.axis(axis)
+        if isinstance(env, ReleaseEnvelope):
+            return drive == "release" and 0 < load <= env.max_amplitude
         if env is None or load == 0 or abs(load) > env.max_load:
             return False
         if load < 0 and env.reverse_travel is None:

@@ -49,6 +49,43 @@ def test_a_campaign_runs_its_choices_as_jobs_and_keeps_the_trail(client, service
     assert job["id"] in [c["id"] for c in listed]
 
 
+def test_a_pendulum_campaign_chooses_its_releases_and_keeps_the_trail(client, service) -> None:
+    """The swing axis (pendulum) is planned like the others: its opening at half the rig
+    file's largest release (0.5 rad), then a release chosen from the fit and its budget, each
+    an ordinary pendulum job with the operator's acts, each fit stored with its U."""
+    wait_rig_free(client)
+    body = {"target_percent": 0.02, "axes": ["swing"], "max_runs": 2, "max_minutes": 30}
+    r = client.post("/api/campaigns", json=body, headers=AUTH)
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"], timeout_s=240)
+    assert job["state"] == "completed", job
+    doc = job["outcome"]
+    first, second = doc["trail"]
+    assert first["request"] == {"start_angle_rad": 0.25} and "opening" in first["why"]
+    assert first["command"] == "rig pendulum --angle 0.25"
+    assert set(first["after"]["expanded_percent"]) == {
+        "inertia",
+        "linear_damping",
+        "quadratic_damping",
+    }
+    # K_Q's U (≈ 0.03 %) above the 0.02 % target after the opening: a release chosen on it
+    assert second["before"] == first["after"] and "quadratic_damping" in second["why"]
+    assert "per tank minute" in second["why"] and second["predicted_after"] is not None
+    assert 0.25 < second["request"]["start_angle_rad"] <= 0.5
+    after = second["after"]["expanded_percent"]["quadratic_damping"]
+    assert after < first["after"]["expanded_percent"]["quadratic_damping"]
+    assert doc["outcome"] in ("target", "budget: 2 of 2 runs used"), doc["outcome"]
+    for entry in (first, second):
+        assert "pull it out to" in entry["instructions"]
+        assert service.store.get_run(entry["run_id"]).metadata["campaign"] == job["id"]
+        (stored,) = [
+            res
+            for res in service.store.results(entry["run_id"], kind="estimation")
+            if res.data.get("campaign") and entry["run_id"] == res.run_ids[-1]
+        ]
+        assert stored.data["kind"] == "pendulum" and stored.data["budget"]["coefficients"]
+
+
 def test_a_campaign_refuses_a_bad_target_naming_the_field(client) -> None:
     r = client.post("/api/campaigns", json={"target_percent": 0}, headers=AUTH)
     assert r.status_code == 422 and "target_percent" in r.text

@@ -27,6 +27,7 @@ def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(chromium, c
         expect(page.locator("#campaign-view")).to_contain_text("No campaign yet")
         form = page.locator("#campaign-form")
         form.locator("[name=axis-yaw]").uncheck()
+        form.locator("[name=axis-swing]").uncheck()
         form.locator("[name=max_runs]").fill("2")
         form.locator("button[type=submit]").click()
         expect(page.locator("#campaign-state")).to_have_text("running")
@@ -74,6 +75,7 @@ def test_a_campaign_stopped_from_the_page_says_stopping_at_once_then_how_it_ende
         page.click("nav a[data-page=queue]")
         form = page.locator("#campaign-form")
         form.locator("[name=axis-yaw]").uncheck()
+        form.locator("[name=axis-swing]").uncheck()
         form.locator("[name=max_runs]").fill("4")
         form.locator("button[type=submit]").click()
         expect(page.locator("#campaign-pending")).to_contain_text("hang", timeout=60_000)
@@ -101,3 +103,34 @@ def test_a_campaign_stopped_from_the_page_says_stopping_at_once_then_how_it_ende
         queued = client.get(f"/api/jobs/{entry['job_id']}", headers=AUTH).json()["created_at"]
         assert datetime.fromisoformat(queued).timestamp() < stopped_at, entry
     assert job["outcome"]["runs_used"] < 4
+
+
+def test_a_pendulum_campaign_shows_each_release_it_chose_and_why(
+    chromium, client, service, tmp_path
+):
+    """At 1366 × 768: a campaign on the swing axis alone, its opening release and the release
+    the planner chose on the first fit, each with its command, why and U before → after."""
+    from playwright.sync_api import expect
+
+    wait_rig_free(client)
+    with signed_in_page(chromium, service, client) as page:
+        page.set_viewport_size({"width": 1366, "height": 768})
+        page.click("nav a[data-page=queue]")
+        form = page.locator("#campaign-form")
+        for axis in ("surge", "yaw"):
+            form.locator(f"[name=axis-{axis}]").uncheck()
+        form.locator("[name=target_percent]").fill("0.02")
+        form.locator("[name=max_runs]").fill("2")
+        form.locator("button[type=submit]").click()
+        expect(page.locator("#campaign-pending")).to_contain_text("pull it out", timeout=60_000)
+        rows = page.locator("#campaign-trail tbody tr")
+        expect(rows).to_have_count(2, timeout=120_000)
+        expect(rows.nth(0)).to_contain_text("rig pendulum --angle 0.25")
+        expect(rows.nth(0)).to_contain_text("opening")
+        expect(rows.nth(1)).to_contain_text("per tank minute")
+        expect(rows.nth(1)).to_contain_text("K_Q")
+        expect(page.locator("#campaign-state")).to_have_text("completed", timeout=120_000)
+        page.locator("#campaign-view").scroll_into_view_if_needed()
+        page.screenshot(path=str(tmp_path / "campaign-pendulum.png"))
+    job = client.get("/api/campaigns", headers=AUTH).json()[0]
+    assert job["outcome"]["axes"] == ["swing"] and len(job["outcome"]["trail"]) == 2

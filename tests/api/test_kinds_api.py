@@ -232,7 +232,8 @@ def test_the_live_plot_and_the_cross_check_read_the_served_kinds(
     assert served["spin"]["live"] == ["yaw_angle", "yaw_rate"] and served["spin"]["axis"] == "yaw"
     assert served["spin"]["shown"] == {"field": "torque_nm", "unit": "N·m"}  # its drive
     assert served["pendulum"]["shown"] == {"field": "start_angle_rad", "unit": "rad"}
-    assert [k for k, v in served.items() if v["planned"]] == ["tow", "spin"]  # their envelopes
+    # their envelopes: loads and travel (tow, spin), the releases the rig allows (pendulum)
+    assert [k for k, v in served.items() if v["planned"]] == ["tow", "spin", "pendulum"]
     with signed_in_page(chromium, service, client) as page:
         chooser = page.locator("#live-channels")
         expect(chooser).to_contain_text("speed (from position) m/s")

@@ -37,3 +37,19 @@ def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -
     (tmp_path / "spins.toml").write_text('[[steps]]\nkind = "spin"\ntorque_nm = 0.907\n')
     err = rig("predict-uncertainty", "spins.toml", code=2).stderr
     assert "model: got no stored estimate for yaw" in err
+
+
+def test_the_pretest_predicts_a_sequences_driven_steps_and_leaves_its_releases_out(tmp_path):
+    """A pendulum step is planned by campaigns (its kind has an envelope) but driven by no
+    load: the pretest, which predicts weight-driven tows and spins, leaves it out."""
+    from api.core.pretest import planned_runs
+    from daq.config import load_rig
+
+    path = tmp_path / "mixed.toml"
+    path.write_text(
+        'name = "mixed"\n[[steps]]\nkind = "tow"\nforce_n = 24.5\n'
+        '[[steps]]\nkind = "pendulum"\nstart_angle_rad = 0.3\n',
+        encoding="utf-8",
+    )
+    (run,) = planned_runs(load_rig(), path)
+    assert run.axis == "surge" and run.drive == 24.5

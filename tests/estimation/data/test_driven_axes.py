@@ -46,3 +46,23 @@ def test_a_proposed_command_line_is_the_request_body_the_route_takes(axis, drive
 def test_an_axis_nothing_drives_is_refused_naming_the_allowed():
     with pytest.raises(ValueError, match="axis: 'heave' is not allowed; allowed surge, yaw"):
         driven_axis("heave")
+
+
+def test_a_proposed_release_is_the_request_body_its_route_takes():
+    """A released axis's words come from its kind's envelope (the pendulum's: ``rig pendulum
+    --angle 0.3``): parsed by the ``rig`` command they give the body proposed for its route."""
+    from api.core.rig_envelope import envelope_of
+    from daq.config import load_rig
+
+    envelope = envelope_of(load_rig())
+    (released,) = [r for a in envelope.axes if (r := envelope.released(a.axis)) is not None]
+    (test,) = [c for c in envelope.candidates(released.axis) if c.load == released.max_amplitude]
+    spec = KINDS[test.kind]
+    assert spec.request is not None and spec.envelope is not None
+    argv = shlex.split(test.command)
+    assert argv[:2] == ["rig", spec.command] and spec.route == released.command
+    command = KIND_COMMANDS[spec.command.replace("-", "_")]
+    parsed = request_fields(spec.request, command.make_context(argv[1], argv[2:]).params)
+    from_cli = spec.request.model_validate(parsed).model_dump()
+    assert from_cli == spec.request.model_validate(test.request()).model_dump()
+    assert from_cli[test.field] == released.max_amplitude
