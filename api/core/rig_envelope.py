@@ -6,6 +6,7 @@ from collections.abc import Sequence
 
 from daq.config import RigConfig
 from daq.procedures.run_kinds import KINDS
+from daq.vocabulary import DRIVEN_KINDS
 from daq.store import RunInfo, Store
 from estimation.design.planning_envelope import RigEnvelope
 
@@ -26,7 +27,8 @@ def envelope_of(
     for kind, spec in KINDS.items():
         if spec.envelope is None or not spec.capability(rig).available:
             continue
-        span = calibrated_range(rig, store, kind) if store is not None else None
+        driven = kind in DRIVEN_KINDS  # a release (a pendulum) has no thrust to calibrate
+        span = calibrated_range(rig, store, kind) if store is not None and driven else None
         axes.append(spec.envelope(rig, span))
     return RigEnvelope(tuple(axes), g=float(rig.rig.g), reset_s=reset_s)
 
