@@ -190,16 +190,30 @@ def run_analysis(task: AnalysisTask, store: Store | None = None) -> AnalysisOutc
             if own:
                 db.close()
     except Exception as err:
+        error = f"internal error: {type(err).__name__}: {err}" if is_defect(err) else str(err)
         return AnalysisOutcome(
             None,
             None,
-            f"error: {err}",
+            f"error: {error}",
             pid=os.getpid(),
             niceness=os.getpriority(os.PRIO_PROCESS, 0),
-            error=str(err),
-            bad_input=isinstance(err, ValueError | KeyError),
+            error=error,
+            bad_input=isinstance(err, ValueError | KeyError) and not is_defect(err),
             traceback=traceback.format_exc(),
         )
+
+
+#: The built-in errors that only a defect of ours raises on checked input: a lookup, an
+#: attribute, a type or an assertion the code did not expect. Bad input that is a missing
+#: thing raises a subclass naming it (``RunNotFound``, ``ResultNotFound``: KeyError), so a
+#: bare ``KeyError`` is not bad input: a job ended ``failed`` with ``error`` "<RunKind.PENDULUM:
+#: 'pendulum'>", unlogged, when a merge asked the thrust calibration about a pendulum.
+DEFECTS = (KeyError, IndexError, AttributeError, TypeError, NameError, AssertionError)
+
+
+def is_defect(err: BaseException) -> bool:
+    """Whether ``err`` is one of ``DEFECTS`` exactly (not a subclass that names bad input)."""
+    return type(err) in DEFECTS
 
 
 def portable(err: Exception) -> Exception:

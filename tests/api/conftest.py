@@ -355,6 +355,6 @@ def completed_tows(client, forces: Iterable[float], body: dict = SHORT_TOW) -> l
     runs = []
     for force in forces:
         job = wait_job(client, start_job(client, "/api/jobs/tow", body | {"force_n": force}))
-        assert job["state"] == "completed", job
+        assert job["state"] == "completed", how_it_ended(job)
         runs += job["run_ids"]
     return runs

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from api.core.analysis_executor import AnalysisTask, shared_process_executor
+from api.core.analysis_executor import AnalysisTask, run_analysis, shared_process_executor
+from daq.vocabulary import RunKind
 from tests.api.conftest import AUTH, how_it_ended, wait_job
 from tests.support.analysis_watch import Calls, Watching
 from tests.support.waiting import wait_until
@@ -57,6 +58,22 @@ def test_a_fit_that_fails_in_the_worker_is_an_outcome_naming_the_run(client, wat
     assert outcome.pid != os.getpid()
     assert outcome.bad_input and outcome.result_id is None
     assert "0123abcd" in (outcome.error or "")
+
+
+def test_a_defect_is_an_internal_error_not_bad_input(client, monkeypatch, tmp_path):
+    """A bare KeyError (a lookup the code did not expect) says it is ours and is logged with
+    its traceback, where a missing run (``RunNotFound``) is bad input naming the run."""
+    import api.core.estimation_job
+
+    def broken(*args, **kwargs):
+        raise KeyError(RunKind.PENDULUM)
+
+    monkeypatch.setattr(api.core.estimation_job, "run_estimation", broken)
+    store = client.app.state.service.store
+    task = AnalysisTask("estimation", {"run_ids": ["0123abcd"]}, store.url, Path(tmp_path))
+    outcome = run_analysis(task, store)  # in this process: the patched fit
+    assert not outcome.bad_input and outcome.traceback
+    assert outcome.error == "internal error: KeyError: <RunKind.PENDULUM: 'pendulum'>"
 
 
 def where_it_runs() -> tuple[int, int]:

@@ -17,7 +17,7 @@ def test_a_campaign_runs_its_choices_as_jobs_and_keeps_the_trail(client, service
     r = client.post("/api/campaigns", json=body, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=240)
-    assert job["kind"] == "campaign" and job["state"] == "completed", job
+    assert job["kind"] == "campaign" and job["state"] == "completed", how_it_ended(job)
     doc = job["outcome"]
     trail = doc["trail"]
     # a budget of 2 runs: the target (U ≤ 1 %, all separated) is not reachable with one
@@ -58,7 +58,7 @@ def test_a_pendulum_campaign_chooses_its_releases_and_keeps_the_trail(client, se
     r = client.post("/api/campaigns", json=body, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=240)
-    assert job["state"] == "completed", job
+    assert job["state"] == "completed", how_it_ended(job)
     doc = job["outcome"]
     first, second = doc["trail"]
     assert first["request"] == {"start_angle_rad": 0.25} and "opening" in first["why"]
@@ -155,7 +155,7 @@ def test_a_campaigns_fit_runs_in_the_analysis_worker_process(client, monkeypatch
     job = wait_job(
         client, client.post("/api/campaigns", json=body, headers=AUTH).json()["id"], timeout_s=240
     )
-    assert job["state"] == "completed" and job["outcome"]["runs_used"] == 1, job
+    assert job["state"] == "completed" and job["outcome"]["runs_used"] == 1, how_it_ended(job)
     [outcome] = watched.outcomes
     assert outcome.error is None, outcome.traceback
     assert outcome.pid != os.getpid() and outcome.niceness >= ANALYSIS_NICENESS

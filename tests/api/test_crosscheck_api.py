@@ -63,7 +63,7 @@ def test_crosscheck_job_then_fast_comparison_of_the_stored_results(client, runs)
     )
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=120)
-    assert job["kind"] == "crosscheck" and job["state"] == "completed", job
+    assert job["kind"] == "crosscheck" and job["state"] == "completed", how_it_ended(job)
     out = job["outcome"]
     assert out["axis"] == "surge"
     assert set(out["coefficients"]) == {"inertia", "linear_damping", "quadratic_damping"}
