@@ -1,26 +1,42 @@
-"""Seed 000's three least-squares approaches, as published (kept for comparison).
+"""Seed 000's three least-squares approaches, as published (kept for comparison), each with
+a σ and ν that hold on the residual they leave.
 
-All solve K̂ = (HᵀH)⁻¹Hᵀτ with σ̂_K = √diag(σ̂²(HᵀH)⁻¹), σ̂² = SSR/(n − p), on
-(M + M_drive)·ẍ + K_L·ẋ + K_Q·|ẋ|·ẋ = τ; the declared drive inertia is moved to the
-left-hand side so the reported inertia is the vehicle's alone.
+All solve K̂ = (HᵀH)⁻¹Hᵀτ on (M + M_drive)·ẍ + K_L·ẋ + K_Q·|ẋ|·ẋ = τ; the declared drive
+inertia is moved to the left-hand side so the reported inertia is the vehicle's alone.
 
 1. ``ls-raw``: ẋ, ẍ by backward differences of the encoder samples (eqs. 4–5, 11).
 2. ``ls-curvefit``: per run ẋ = A(1 − e^{−t/T}), ẍ = (A/T)e^{−t/T} fitted to the difference
    velocities; regression as in 1 over each run's transient (0 … 4T).
 3. ``ls-steady``: K_L, K_Q from the steady speeds A vs τ (eq. 12); then M from
    τ − K_L·ẋ − K_Q·|ẋ|·ẋ = M·ẍ with the curve-fit derivatives (eq. 13).
+
+σ and ν (the rule of every regression here, ``_solve``). The published σ̂²(HᵀH)⁻¹,
+σ̂² = SSR/(n − p), counts every sample as independent; the residual of these regressions is
+not: ls-raw's derivatives are differences of the encoder samples, so one sample's noise
+enters three rows, and a sensor's own low-pass or a model the curve fit misses makes it
+serially correlated within a run. So σ is the larger of the white σ and the long-run
+(Newey–West, AR(1)-prewhitened) sandwich of ``estimation.stats.serial`` with each run its
+own record (no lag crosses a run), as the output-error fit's σ (``stats.identify``); and
+ν = n_eff − p with n_eff = Σ_r n_r·(1 − r₁)/(1 + r₁) (``stats.misfit.effective_sample_size``:
+r₁ the pooled lag-1 autocorrelation, clipped at 0 since a negative one adds no
+information), the AR(1) variance inflation of a mean — the number of independent samples
+the residual is worth, so k = t_{0.975,ν} widens where the long-run σ rests on few of them.
+ls-steady's drag law has one point per run (runs are independent): σ white, ν = runs − 2.
+The budget (``estimation.uncertainty.seed_budget``) turns σ, ν into U.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
+from estimation.stats.misfit import effective_sample_size
+from estimation.stats.serial import long_run_scores
 
 TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
 
@@ -35,15 +51,49 @@ class LeastSquaresFit:
     std: np.ndarray
     correlation: np.ndarray
     curve_fits: tuple[tuple[float, float], ...] = ()  # (A, T) per run for 2 and 3
+    #: ν of each coefficient's σ (module doc: n_eff − p of its regression)
+    dof: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the published white σ̂²(HᵀH)⁻¹ alone, which ``std`` never goes below
+    std_white: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: n, n_eff and p of each regression, as the budget's row notes them
+    counts: str = ""
 
 
-def _solve(h: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """K̂ = (HᵀH)⁻¹Hᵀy and its covariance σ̂²(HᵀH)⁻¹."""
+@dataclass(frozen=True)
+class _Solved:
+    """One regression's K̂, covariance (module doc), white covariance, ν and counts."""
+
+    values: np.ndarray
+    cov: np.ndarray
+    cov_white: np.ndarray
+    dof: float
+    counts: str
+
+
+def _solve(h: np.ndarray, y: np.ndarray, sizes: Sequence[int] | None = None) -> _Solved:
+    """K̂ = (HᵀH)⁻¹Hᵀy; σ the larger of the white σ̂²(HᵀH)⁻¹ and the long-run sandwich
+    over records of ``sizes`` rows (default: one record), with the sandwich's correlation;
+    ν = n_eff − p (module doc)."""
+    sizes = [y.size] if sizes is None else list(sizes)
     hth_inv = np.linalg.pinv(h.T @ h)
     k = hth_inv @ h.T @ y
     resid = y - h @ k
-    dof = max(y.size - h.shape[1], 1)
-    return k, float(resid @ resid) / dof * hth_inv
+    n, p = y.size, h.shape[1]
+    white = float(resid @ resid) / max(n - p, 1) * hth_inv
+    serial = n / max(n - p, 1) * (hth_inv @ long_run_scores(resid, h, sizes) @ hth_inv)
+    std = np.sqrt(np.maximum(np.maximum(np.diag(white), np.diag(serial)), 0.0))
+    cov = np.outer(std, std) * _corr(serial)
+    n_eff = effective_sample_size(np.split(resid, np.cumsum(sizes)[:-1]))
+    return _Solved(k, cov, white, max(n_eff - p, 1.0), f"n = {n}, n_eff = {n_eff:.0f}, p = {p}")
+
+
+def _fit(method: str, solved: _Solved, fits: tuple = ()) -> LeastSquaresFit:
+    """The seed fit of one regression over (inertia, K_L, K_Q)."""
+    cov = solved.cov
+    return LeastSquaresFit(
+        method, BASE_NAMES, solved.values, np.sqrt(np.diag(cov)), _corr(cov), fits,
+        np.full(cov.shape[0], solved.dof), np.sqrt(np.diag(solved.cov_white)), solved.counts,
+    )  # fmt: skip
 
 
 def _corr(cov: np.ndarray) -> np.ndarray:
@@ -73,8 +123,8 @@ def ls_raw(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
         _, v, a, drive, _, _ = _differences(r)
         rows.append(np.column_stack([a, v, np.abs(v) * v]))
         ys.append(drive - r.extra_inertia * a)
-    k, cov = _solve(np.vstack(rows), np.concatenate(ys))
-    return LeastSquaresFit("ls-raw", BASE_NAMES, k, np.sqrt(np.diag(cov)), _corr(cov))
+    sizes = [y.size for y in ys]
+    return _fit("ls-raw", _solve(np.vstack(rows), np.concatenate(ys), sizes))
 
 
 def first_order_fit(run: PreparedRun) -> tuple[float, float]:
@@ -112,8 +162,8 @@ def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
         v, a, drive = _curve_rows(r, amp, tc)
         rows.append(np.column_stack([a, v, np.abs(v) * v]))
         ys.append(drive - r.extra_inertia * a)
-    k, cov = _solve(np.vstack(rows), np.concatenate(ys))
-    return LeastSquaresFit("ls-curvefit", BASE_NAMES, k, np.sqrt(np.diag(cov)), _corr(cov), fits)
+    sizes = [y.size for y in ys]
+    return _fit("ls-curvefit", _solve(np.vstack(rows), np.concatenate(ys), sizes), fits)
 
 
 def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
@@ -126,17 +176,24 @@ def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
         )
     fits = tuple(first_order_fit(r) for r in runs)
     speeds = np.array([amp for amp, _ in fits])
-    kd, cov_d = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives)
+    # one point per run, runs independent: white σ, ν = runs − 2
+    drag = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives, [1] * len(runs))
+    kd = drag.values
     lhs, rhs = [], []
     for r, (amp, tc) in zip(runs, fits, strict=True):
         v, a, drive = _curve_rows(r, amp, tc)
         lhs.append(a)
         rhs.append(drive - kd[0] * v - kd[1] * np.abs(v) * v - r.extra_inertia * a)
-    km, cov_m = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs))
-    values = np.array([km[0], kd[0], kd[1]])
-    cov = np.zeros((3, 3))
-    cov[0, 0], cov[1:, 1:] = cov_m[0, 0], cov_d
-    return LeastSquaresFit("ls-steady", BASE_NAMES, values, np.sqrt(np.diag(cov)), _corr(cov), fits)
+    mass = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs), [a.size for a in lhs])
+    values = np.array([mass.values[0], kd[0], kd[1]])
+    cov, white = np.zeros((3, 3)), np.zeros((3, 3))
+    cov[0, 0], cov[1:, 1:] = mass.cov[0, 0], drag.cov
+    white[0, 0], white[1:, 1:] = mass.cov_white[0, 0], drag.cov_white
+    return LeastSquaresFit(
+        "ls-steady", BASE_NAMES, values, np.sqrt(np.diag(cov)), _corr(cov), fits,
+        np.array([mass.dof, drag.dof, drag.dof]), np.sqrt(np.diag(white)),
+        f"inertia: {mass.counts}; drag law: {drag.counts}",
+    )  # fmt: skip
 
 
 SEED_METHODS = {"ls-raw": ls_raw, "ls-curvefit": ls_curvefit, "ls-steady": ls_steady}

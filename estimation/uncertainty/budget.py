@@ -46,7 +46,13 @@ from estimation.motion.well_determined import Combination
 from estimation.report_numbers import finite_or_none
 from estimation.stats.repeatability import RepeatAnalysis, campaign_repeatability
 from estimation.uncertainty.rows import BudgetRow
-from estimation.uncertainty.type_a import combination_rows, fit_dof, random_rows
+from estimation.uncertainty.type_a import (
+    SeedSigma,
+    combination_rows,
+    fit_dof,
+    random_rows,
+    seed_rows,
+)
 
 __all__ = [
     "Budget",
@@ -58,6 +64,11 @@ __all__ = [
 ]
 
 COVERAGE = 0.95
+#: Why a seed method's budget has no combinations (its terminal speeds and drags).
+SEED_COMBINATIONS = (
+    "the seed method's regression gives its coefficients a σ but not the terminal speeds "
+    "and drags computed from them: those carry no U here (the output-error method's do)"
+)
 
 
 @dataclass(frozen=True)
@@ -244,6 +255,7 @@ def uncertainty_budget(
     tolerances: Mapping[str, float] | None = None,
     repeats: RepeatAnalysis | None = None,
     units: Mapping[str, str] | None = None,
+    seed: SeedSigma | None = None,
 ) -> Budget:
     """The budget of every fitted coefficient of ``result`` and of its well-determined
     combinations (module doc), its records re-fitted by ``refits``.
@@ -251,7 +263,10 @@ def uncertainty_budget(
     ``tolerances``: declared half-widths by the names ``refits`` knows (None or empty: Type
     B not declared, a note says so); ``repeats``: the repeat analysis of the records (its
     repeat campaigns give the repeatability row); ``units``: a coefficient's unit where the
-    result's own is not the one reported (a pendulum's vehicle terms)."""
+    result's own is not the one reported (a pendulum's vehicle terms); ``seed``: a seed
+    method's own σ and ν (``type_a.SeedSigma``), its Type A instead of the fit's, its Type B
+    by ``refits`` re-fitting the seed method; its budget has no combinations (a note says
+    why)."""
     fit = result.fit_after
     if fit is None:
         raise ValueError("result: got an estimate without its fit, allowed: an output-error fit")
@@ -266,9 +281,13 @@ def uncertainty_budget(
     repeat_std, why = _repeatability(refits, fit, repeats, set(result.runs))
     if why:
         notes.append(why)
-    dof = fit_dof(fit, white)  # the effective sample size: one pass over the residual
-    rows = random_rows(result, fit, units, white, dof, repeat_std, refits.own_rows)
-    combined = combination_rows(result, fit, white, dof, refits.combinations)
+    if seed is None:
+        dof = fit_dof(fit, white)  # the effective sample size: one pass over the residual
+        rows = random_rows(result, fit, units, white, dof, repeat_std, refits.own_rows)
+        combined = combination_rows(result, fit, white, dof, refits.combinations)
+    else:
+        rows, combined = seed_rows(seed, units, repeat_std, refits.own_rows), {}
+        notes.append(SEED_COMBINATIONS)
     for declared_input in inputs:
         try:
             coefficients, combinations = _type_b_rows(result, fit, refits, declared_input)
@@ -281,11 +300,13 @@ def uncertainty_budget(
         for name, row in coefficients.items():
             rows[name].append(row)
         for name, row in combinations.items():
-            combined[name].append(row)
+            if name in combined:
+                combined[name].append(row)
     budgets = {n: coefficient_budget(n, fit.value(n), rows[n]) for n in fit.names}
     combination_budgets = {
         c.name: coefficient_budget(c.name, c.value, combined[c.name])
         for c in result.well_determined
+        if c.name in combined
     }
     return Budget(budgets, bool(declared), tuple(notes), declared, combination_budgets)
 
