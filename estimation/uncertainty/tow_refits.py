@@ -24,7 +24,6 @@ from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.well_determined import Combination
 from estimation.uncertainty.budget import DeclaredInput
 from estimation.uncertainty.rows import BudgetRow
-from estimation.uncertainty.type_a import SeedSigma
 from estimation.uncertainty.sources import (
     SOURCES,
     Chain,
@@ -33,6 +32,7 @@ from estimation.uncertainty.sources import (
     reaches,
     weight_groups,
 )
+from estimation.uncertainty.type_a import SeedSigma
 
 TYPE_B_NOT_DECLARED = (
     "Type B not declared: the rig file has no [tolerances] section, so U covers the Type A "
