@@ -10,7 +10,8 @@ inertia is moved to the left-hand side so the reported inertia is the vehicle's 
 3. ``ls-steady``: K_L, K_Q from the steady speeds A vs τ (eq. 12); then M from
    τ − K_L·ẋ − K_Q·|ẋ|·ẋ = M·ẍ with the curve-fit derivatives (eq. 13).
 
-σ and ν (the rule of every regression here, ``_solve``). The published σ̂²(HᵀH)⁻¹,
+σ and ν (the rule of every regression here, ``stats.serial.serial_covariance``). The
+published σ̂²(HᵀH)⁻¹,
 σ̂² = SSR/(n − p), counts every sample as independent; the residual of these regressions is
 not: ls-raw's derivatives are differences of the encoder samples, so one sample's noise
 enters three rows, and a sensor's own low-pass or a model the curve fit misses makes it
@@ -21,7 +22,8 @@ own record (no lag crosses a run), as the output-error fit's σ (``stats.identif
 r₁ the pooled lag-1 autocorrelation, clipped at 0 since a negative one adds no
 information), the AR(1) variance inflation of a mean — the number of independent samples
 the residual is worth, so k = t_{0.975,ν} widens where the long-run σ rests on few of them.
-ls-steady's drag law has one point per run (runs are independent): σ white, ν = runs − 2.
+ls-steady's drag law has one point per run (runs are independent, each its own record: the
+sandwich is then the heteroscedastic Σ gᵣgᵣᵀ), ν = runs − 2.
 The budget (``estimation.uncertainty.seed_budget``) turns σ, ν into U.
 """
 
@@ -35,8 +37,7 @@ import numpy as np
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
-from estimation.stats.misfit import effective_sample_size
-from estimation.stats.serial import long_run_scores
+from estimation.stats.serial import SerialCovariance, serial_covariance
 
 TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
 
@@ -59,40 +60,18 @@ class LeastSquaresFit:
     counts: str = ""
 
 
-@dataclass(frozen=True)
-class _Solved:
-    """One regression's K̂, covariance (module doc), white covariance, ν and counts."""
-
-    values: np.ndarray
-    cov: np.ndarray
-    cov_white: np.ndarray
-    dof: float
-    counts: str
+def _solve(h: np.ndarray, y: np.ndarray, sizes: Sequence[int] | None = None):
+    """K̂ = (HᵀH)⁻¹Hᵀy and its covariance over records of ``sizes`` rows (module doc)."""
+    k = np.linalg.pinv(h.T @ h) @ h.T @ y
+    return k, serial_covariance(y - h @ k, h, sizes)
 
 
-def _solve(h: np.ndarray, y: np.ndarray, sizes: Sequence[int] | None = None) -> _Solved:
-    """K̂ = (HᵀH)⁻¹Hᵀy; σ the larger of the white σ̂²(HᵀH)⁻¹ and the long-run sandwich
-    over records of ``sizes`` rows (default: one record), with the sandwich's correlation;
-    ν = n_eff − p (module doc)."""
-    sizes = [y.size] if sizes is None else list(sizes)
-    hth_inv = np.linalg.pinv(h.T @ h)
-    k = hth_inv @ h.T @ y
-    resid = y - h @ k
-    n, p = y.size, h.shape[1]
-    white = float(resid @ resid) / max(n - p, 1) * hth_inv
-    serial = n / max(n - p, 1) * (hth_inv @ long_run_scores(resid, h, sizes) @ hth_inv)
-    std = np.sqrt(np.maximum(np.maximum(np.diag(white), np.diag(serial)), 0.0))
-    cov = np.outer(std, std) * _corr(serial)
-    n_eff = effective_sample_size(np.split(resid, np.cumsum(sizes)[:-1]))
-    return _Solved(k, cov, white, max(n_eff - p, 1.0), f"n = {n}, n_eff = {n_eff:.0f}, p = {p}")
-
-
-def _fit(method: str, solved: _Solved, fits: tuple = ()) -> LeastSquaresFit:
+def _fit(method: str, solved: tuple[np.ndarray, SerialCovariance], fits=()) -> LeastSquaresFit:
     """The seed fit of one regression over (inertia, K_L, K_Q)."""
-    cov = solved.cov
+    k, c = solved
     return LeastSquaresFit(
-        method, BASE_NAMES, solved.values, np.sqrt(np.diag(cov)), _corr(cov), fits,
-        np.full(cov.shape[0], solved.dof), np.sqrt(np.diag(solved.cov_white)), solved.counts,
+        method, BASE_NAMES, k, np.sqrt(np.diag(c.cov)), _corr(c.cov), fits,
+        np.full(k.size, c.dof), np.sqrt(np.diag(c.cov_white)), c.counts,
     )  # fmt: skip
 
 
@@ -177,15 +156,14 @@ def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     fits = tuple(first_order_fit(r) for r in runs)
     speeds = np.array([amp for amp, _ in fits])
     # one point per run, runs independent: white σ, ν = runs − 2
-    drag = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives, [1] * len(runs))
-    kd = drag.values
+    kd, drag = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives, [1] * len(runs))
     lhs, rhs = [], []
     for r, (amp, tc) in zip(runs, fits, strict=True):
         v, a, drive = _curve_rows(r, amp, tc)
         lhs.append(a)
         rhs.append(drive - kd[0] * v - kd[1] * np.abs(v) * v - r.extra_inertia * a)
-    mass = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs), [a.size for a in lhs])
-    values = np.array([mass.values[0], kd[0], kd[1]])
+    km, mass = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs), [a.size for a in lhs])
+    values = np.array([km[0], kd[0], kd[1]])
     cov, white = np.zeros((3, 3)), np.zeros((3, 3))
     cov[0, 0], cov[1:, 1:] = mass.cov[0, 0], drag.cov
     white[0, 0], white[1:, 1:] = mass.cov_white[0, 0], drag.cov_white
