@@ -171,11 +171,9 @@ def _pendulum_fit(
 
 
 def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
-    """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
+    """{"budget": …} of the headline coefficients (output error's, or a seed method's)."""
     from estimation.pendulum.pendulum_estimate import pendulum_budget
 
-    if result.method != "output-error":
-        return {"budget": None}
     return {"budget": pendulum_budget(result).to_json()}
 
 
