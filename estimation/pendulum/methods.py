@@ -25,6 +25,7 @@ tolerance (its geometry is taken as exact: ``UNCERTAINTY_NOTE``), so U is Type A
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -115,9 +116,14 @@ class MethodEstimate:
 
 # ---- signal → coefficients -----------------------------------------------------------------
 def coefficients_from_signal(
-    decay_rate: float, omega: float, cov: np.ndarray, geometry: PendulumGeometry, dof: float
+    decay_rate: float,
+    omega: float,
+    cov: np.ndarray,
+    geometry: PendulumGeometry,
+    dof: float = math.inf,
 ) -> tuple[CoefficientWithU, CoefficientWithU, CoefficientWithU, CoefficientWithU]:
-    """(J, c, α, β) with σ from K (1/s), ω (rad/s) and their 2×2 covariance, U on ν ``dof``."""
+    """(J, c, α, β) with σ from K (1/s), ω (rad/s) and their 2×2 covariance, U on ν ``dof``
+    (∞: a covariance taken as exact)."""
     k = geometry.restoring_stiffness()
     arm = geometry.pivot_to_vehicle_m
     s = omega**2 + decay_rate**2

@@ -208,11 +208,14 @@ def _warnings(
     final: MotionFit,
 ) -> list[str]:
     out = []
+    # a negative γ beyond 2σ, or one beside the dry friction the output-error search kept: its
+    # σ counts the residual's correlation (``methods``), which the friction it misses puts there
+    friction = any(LIBRARY[e].set_valued_at_rest for e in final.effects)
     for m in methods:
         q = m.quadratic_damping
         if m.method != "equation-error" or q is None or q.std is None:
             continue
-        if q.value < -2 * q.std:
+        if q.value < -2 * q.std or (friction and q.value < 0):
             out.append(
                 f"equation-error γ = {q.value:.4g} ± {q.std:.2g} kg/m < 0 on run {m.run_id}: "
                 f"the signature of dry friction in the pivot (least squares puts sgn φ̇ into a "
