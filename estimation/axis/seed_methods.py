@@ -54,10 +54,20 @@ class LeastSquaresFit:
     curve_fits: tuple[tuple[float, float], ...] = ()  # (A, T) per run for 2 and 3
     #: ν of each coefficient's σ (module doc: n_eff − p of its regression)
     dof: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    #: the published white σ̂²(HᵀH)⁻¹ alone, which ``std`` never goes below
-    std_white: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the published white σ̂²(HᵀH)⁻¹ alone (its diagonal never above ``std``²)
+    cov_white: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     #: n, n_eff and p of each regression, as the budget's row notes them
     counts: str = ""
+
+    @property
+    def std_white(self) -> np.ndarray:
+        """The published white σ of each coefficient."""
+        return np.sqrt(np.maximum(np.diag(self.cov_white), 0.0))
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The coefficients' covariance: σ (the larger) with the long-run correlation."""
+        return np.outer(self.std, self.std) * self.correlation
 
 
 def _solve(h: np.ndarray, y: np.ndarray, sizes: Sequence[int] | None = None):
@@ -71,7 +81,7 @@ def _fit(method: str, solved: tuple[np.ndarray, SerialCovariance], fits=()) -> L
     k, c = solved
     return LeastSquaresFit(
         method, BASE_NAMES, k, np.sqrt(np.diag(c.cov)), _corr(c.cov), fits,
-        np.full(k.size, c.dof), np.sqrt(np.diag(c.cov_white)), c.counts,
+        np.full(k.size, c.dof), c.cov_white, c.counts,
     )  # fmt: skip
 
 
@@ -169,7 +179,7 @@ def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     white[0, 0], white[1:, 1:] = mass.cov_white[0, 0], drag.cov_white
     return LeastSquaresFit(
         "ls-steady", BASE_NAMES, values, np.sqrt(np.diag(cov)), _corr(cov), fits,
-        np.array([mass.dof, drag.dof, drag.dof]), np.sqrt(np.diag(white)),
+        np.array([mass.dof, drag.dof, drag.dof]), white,
         f"inertia: {mass.counts}; drag law: {drag.counts}",
     )  # fmt: skip
 

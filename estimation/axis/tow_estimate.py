@@ -52,6 +52,7 @@ from estimation.motion.well_determined import Combination, drags_at_speeds, term
 from estimation.report_numbers import Coefficient
 from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import ljung_box
+from estimation.stats.fit_statistics import Combinations
 from estimation.stats.misfit import lag_one
 from estimation.stats.repeatability import outlier_warnings
 
@@ -451,7 +452,12 @@ def seed_fit(method: str, prepared: Sequence[PreparedRun]) -> tuple[MotionFit, L
     ls = SEED_METHODS[method](prepared)
     simulated = ls.values if ls.values[0] > 0 else np.r_[1e-9, ls.values[1:]]
     fit = evaluate_parameters(prepared, simulated, ls.std, ls.correlation)
-    return replace(fit, values=ls.values), ls
+    # its terminal speeds and drags take σ by the delta method through the seed's covariance
+    size = ls.values.size
+    combinations = Combinations(
+        ls.covariance, np.zeros((0, size)), np.ones(size), 1.0, ls.cov_white
+    )
+    return replace(fit, values=ls.values, combinations=combinations), ls
 
 
 def _seed_result(axis, method, runs, prepared) -> TowResult:

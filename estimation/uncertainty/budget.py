@@ -64,11 +64,6 @@ __all__ = [
 ]
 
 COVERAGE = 0.95
-#: Why a seed method's budget has no combinations (its terminal speeds and drags).
-SEED_COMBINATIONS = (
-    "the seed method's regression gives its coefficients a σ but not the terminal speeds "
-    "and drags computed from them: those carry no U here (the output-error method's do)"
-)
 
 
 @dataclass(frozen=True)
@@ -264,9 +259,9 @@ def uncertainty_budget(
     B not declared, a note says so); ``repeats``: the repeat analysis of the records (its
     repeat campaigns give the repeatability row); ``units``: a coefficient's unit where the
     result's own is not the one reported (a pendulum's vehicle terms); ``seed``: a seed
-    method's own σ and ν (``type_a.SeedSigma``), its Type A instead of the fit's, its Type B
-    by ``refits`` re-fitting the seed method; its budget has no combinations (a note says
-    why)."""
+    method's own σ and ν (``type_a.SeedSigma``), its Type A instead of the fit's (its
+    combinations' by the delta method through the seed's covariance, on its smallest ν), its
+    Type B by ``refits`` re-fitting the seed method."""
     fit = result.fit_after
     if fit is None:
         raise ValueError("result: got an estimate without its fit, allowed: an output-error fit")
@@ -286,8 +281,9 @@ def uncertainty_budget(
         rows = random_rows(result, fit, units, white, dof, repeat_std, refits.own_rows)
         combined = combination_rows(result, fit, white, dof, refits.combinations)
     else:
-        rows, combined = seed_rows(seed, units, repeat_std, refits.own_rows), {}
-        notes.append(SEED_COMBINATIONS)
+        rows = seed_rows(seed, units, repeat_std, refits.own_rows)
+        dof = (max(min(seed.dof.values()), 1.0), seed.counts)
+        combined = combination_rows(result, fit, False, dof, refits.combinations)
     for declared_input in inputs:
         try:
             coefficients, combinations = _type_b_rows(result, fit, refits, declared_input)
@@ -300,13 +296,11 @@ def uncertainty_budget(
         for name, row in coefficients.items():
             rows[name].append(row)
         for name, row in combinations.items():
-            if name in combined:
-                combined[name].append(row)
+            combined[name].append(row)
     budgets = {n: coefficient_budget(n, fit.value(n), rows[n]) for n in fit.names}
     combination_budgets = {
         c.name: coefficient_budget(c.name, c.value, combined[c.name])
         for c in result.well_determined
-        if c.name in combined
     }
     return Budget(budgets, bool(declared), tuple(notes), declared, combination_budgets)
 
