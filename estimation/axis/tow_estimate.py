@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 
@@ -460,12 +461,24 @@ def seed_fit(method: str, prepared: Sequence[PreparedRun]) -> tuple[MotionFit, L
     return replace(fit, values=ls.values, combinations=combinations), ls
 
 
+def _seed_values(method: str, prepared: list[PreparedRun], _fit: MotionFit) -> np.ndarray:
+    """The seed ``method``'s coefficients on ``prepared`` runs (moved by a release's σ_t or
+    a calibration draw); NaN where its numerics refuse them (a shift the timing row then
+    skips, a draw whose spread is then not a number: no calibration row)."""
+    try:
+        return SEED_METHODS[method](prepared).values
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+        return np.full(len(BASE_NAMES), np.nan)
+
+
 def _seed_result(axis, method, runs, prepared) -> TowResult:
     fit, ls = seed_fit(method, prepared)
     warnings = []
     if not ls.values[0] > 0:
         warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())
-    result = _build(axis, method, runs, prepared, outcome, None)
+    # the release timing and thrust calibration draws through the seed method itself
+    drive = drive_uncertainty(runs, fit, partial(_seed_values, method))
+    result = _build(axis, method, runs, prepared, outcome, None, drive)
     section = replace(result.section, seed=ls)  # its σ's ν, for the budget's U
     return replace(result, warnings=(*warnings, *result.warnings), section=section)

@@ -189,4 +189,18 @@ class TowRefits:
                     note="the calibration fit's covariance",
                 )
             )
+        if drive is not None and drive.draws > 1 and math.isnan(drive.std_calibration[name]):
+            out.append(  # said, never a silently smaller U
+                BudgetRow(
+                    f"thrust calibration ({drive.draws} curve draws)",
+                    "A",
+                    unit,
+                    math.nan,
+                    1.0,
+                    0.0,
+                    drive.draws - 1,
+                    combined=False,
+                    note="a curve draw did not fit by this estimate's method: not in U",
+                )
+            )
         return out

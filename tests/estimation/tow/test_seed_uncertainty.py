@@ -105,3 +105,25 @@ def test_the_seed_budget_is_in_the_result_document():
         assert b["effective_dof"] == pytest.approx(doc["seed_regression"]["dof"][name])
         assert b["combined_standard_uncertainty"] == pytest.approx(c["std"])
         assert " ± " in b["reported"]
+
+
+def test_a_seed_results_release_timing_row_is_the_seed_method_re_fitted():
+    """Each run's release known to ±10 ms: the release-timing row of a seed result is the
+    seed method re-fitted with each release moved by its σ_t, root-sum-square over runs
+    (``drive_uncertainty(…, refit)``), as output error's is its own fit's."""
+    runs = [replace(r, t_release_std=0.01) for r in weight_tow_set(seed=3)]
+    result = estimate(runs, method="ls-curvefit", search_effects=False, n_bootstrap=0)
+    refits = TowRefits(runs, result, None, seed_refit("ls-curvefit"))
+    budget = uncertainty_budget(result, refits, None, seed=seed_sigma(result))
+    prepared = [prepare(fit_release(r)) for r in runs]
+    base = ls_curvefit(prepared).values
+    shifts = []
+    for i, run in enumerate(prepared):
+        moved = list(prepared)
+        moved[i] = replace(run, t_release=run.t_release + 0.01)
+        shifts.append(ls_curvefit(moved).values - base)
+    expected = np.sqrt(np.sum(np.square(shifts), axis=0))
+    for i, name in enumerate(result.fit_after.names):
+        (row,) = [r for r in budget.coefficients[name].rows if r.source.startswith("release")]
+        assert row.standard_uncertainty == pytest.approx(expected[i], rel=1e-9), name
+        assert row.standard_uncertainty > 0
