@@ -24,7 +24,8 @@ information), the AR(1) variance inflation of a mean — the number of independe
 the residual is worth, so k = t_{0.975,ν} widens where the long-run σ rests on few of them.
 ls-steady's drag law has one point per run (runs are independent, each its own record: the
 sandwich is then the heteroscedastic Σ gᵣgᵣᵀ), ν = runs − 2.
-The budget (``estimation.uncertainty.seed_budget``) turns σ, ν into U.
+The budget (``uncertainty.budget.uncertainty_budget`` with ``seed=``, ``daq.axis_budget``) turns
+σ, ν into U, its Type B by re-fitting the seed method (``uncertainty.tow_refits.seed_refit``).
 """
 
 from __future__ import annotations
