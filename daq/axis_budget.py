@@ -19,6 +19,7 @@ from estimation.data.run_arrays import RunData
 from estimation.stats.repeatability import RepeatAnalysis
 from estimation.uncertainty import Chain, TowRefits, uncertainty_budget
 from estimation.uncertainty.budget import Budget
+from estimation.uncertainty.tow_refits import output_error_refit, seed_refit, seed_sigma
 
 
 def rig_of_runs(records: Sequence[RunInfo]) -> RigConfig | None:
@@ -57,20 +58,22 @@ def fitted_budget(
     result: TowResult,
     repeats: RepeatAnalysis | None = None,
 ) -> Budget | None:
-    """The uncertainty budget of an output-error ``result`` of ``runs`` with the rig file's
-    constants and tolerances (their ``records``'; None for the seed methods, which carry no
-    fit to re-fit)."""
-    if result.fit_after is None or result.method != "output-error":
+    """The uncertainty budget of ``result`` of ``runs`` with the rig file's constants and
+    tolerances (their ``records'``): an output-error result's, or a seed method's (its own
+    σ and ν, its Type B by re-fitting the seed method); None without a fit."""
+    if result.fit_after is None:
         return None
     rig = rig_of_runs(records)
-    refits = TowRefits(runs, result, chain_of(rig) if rig else None)
-    return uncertainty_budget(result, refits, tolerances_of(rig), repeats)
+    seed = seed_sigma(result)
+    refit = output_error_refit if seed is None else seed_refit(result.method)
+    refits = TowRefits(runs, result, chain_of(rig) if rig else None, refit)
+    return uncertainty_budget(result, refits, tolerances_of(rig), repeats, seed=seed)
 
 
 def budget_document(
     records: Sequence[RunInfo], runs: Sequence[RunData], result: TowResult
 ) -> dict[str, Any]:
-    """{"budget": …} for the result JSON (None for the seed methods, which carry no fit to
-    re-fit), its repeatability from the result's repeats."""
+    """{"budget": …} for the result JSON (every method's), its repeatability from the
+    result's repeats."""
     fitted = fitted_budget(records, runs, result, result.repeats)
     return {"budget": None if fitted is None else fitted.to_json()}

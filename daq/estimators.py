@@ -174,17 +174,16 @@ def _pendulum_fit(
     return estimate_pendulum(runs, method=method, search=search, exclude_outliers=exclude_outliers)
 
 
-def _pendulum_budget_of(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Budget | None:
-    """The GUM budget of the output-error coefficients (None for a seed method's headline)."""
+def _pendulum_budget_of(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Budget:
+    """The GUM budget of the headline coefficients (output error's, or a seed method's)."""
     from estimation.pendulum.pendulum_estimate import pendulum_budget
 
-    return pendulum_budget(result) if result.method == "output-error" else None
+    return pendulum_budget(result)
 
 
 def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
-    """{"budget": …} of the output-error coefficients (none for a seed method's headline)."""
-    budget = _pendulum_budget_of(records, runs, result)
-    return {"budget": None if budget is None else budget.to_json()}
+    """{"budget": …} of the headline coefficients (output error's, or a seed method's)."""
+    return {"budget": _pendulum_budget_of(records, runs, result).to_json()}
 
 
 def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:

@@ -36,3 +36,22 @@ class Coefficient:
             "std": finite_or_none(self.std),
             "unit": self.unit,
         }
+
+
+@dataclass(frozen=True)
+class CoefficientWithU(Coefficient):
+    """A value ± σ that carries its own expanded uncertainty (a seed method's row, which has
+    no budget): U at 95 % (NaN without a σ), its coverage factor k = t_0.975(ν) and ν."""
+
+    expanded: float
+    k: float
+    dof: float
+
+    def to_json(self) -> dict[str, Any]:
+        """{value, std, unit, U, k, nu} (ν null when infinite; U null without a σ)."""
+        nu = None if math.isinf(self.dof) else finite_or_none(self.dof)
+        return super().to_json() | {
+            "U": finite_or_none(self.expanded),
+            "k": finite_or_none(self.k),
+            "nu": nu,
+        }

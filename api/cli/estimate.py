@@ -26,7 +26,7 @@ from api.core.estimation_job import run_estimation
 from api.core.estimation_request import EstimationRequest
 from daq.collector import hold_full_collections
 from estimation.data.left_out import LeftOut
-from estimation.uncertainty.text import budget_lines
+from estimation.uncertainty.text import budget_lines, value_with_u
 
 #: Why full collections are held (``daq.collector``): the fit loads its own modules
 #: (scipy.optimize, numba and its registries) as it goes, and they live to the end of the
@@ -141,13 +141,14 @@ def _bootstrap_lines(boot: dict | None, units: dict[str, str]) -> list[str]:
 
 
 def _method_lines(methods: list[dict], units: dict[str, str]) -> list[str]:
-    """Each method's estimate per run, side by side (a pendulum's seed-002 methods)."""
+    """Each method's estimate per run, side by side (a pendulum's seed-002 methods), each
+    seed row's coefficient with its U."""
     lines = []
     for m in methods:
         values = "  ".join(
-            f"{k} {plus_minus(v)} {units.get(k, '')}".rstrip()
+            f"{k} {value_with_u(v)} {units.get(k, '')}".rstrip()
             for k, v in m.items()
-            if isinstance(v, dict)
+            if isinstance(v, dict) and "value" in v
         )
         e = "" if m.get("mse") is None else f"  e {m['mse']:.3g}"
         lines.append(f"  {m['method']:<22} {m['run_id'][:8]:<10} {values}{e}")

@@ -10,17 +10,21 @@ The release instants are known to ±σ_t per run (``RunData.t_release_std``: hos
 a recorded release, or how sharply a found release is fixed by the data); refitting with
 each run's release moved by its σ_t gives the timing part σ_rel = √Σ(Δθ_run²). The three
 are independent: σ_total = √(σ_fit² + σ_cal² + σ_rel²).
+
+What refits is the estimate's own method (``Refit``): the output-error fit by default, a
+seed method's regression for its result (``tow_estimate.seed_fit``), so each method's
+sensitivity to its drive and release is its own.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from estimation.axis.output_error import fit_output_error
-from estimation.axis.prepared_run import prepare
+from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.data.run_arrays import RunData
 from estimation.motion.output_error_fit import MotionFit
 
@@ -47,7 +51,20 @@ class DriveUncertainty:
         }
 
 
-def release_timing(runs: Sequence[RunData], fit: MotionFit) -> dict[str, float]:
+#: The estimate's method on prepared runs, started at ``fit``: the coefficients' values.
+Refit = Callable[[list[PreparedRun], MotionFit], np.ndarray]
+
+
+def output_error_values(prepared: list[PreparedRun], fit: MotionFit) -> np.ndarray:
+    """The output-error fit's values with ``fit``'s effects, started at its values."""
+    return fit_output_error(
+        prepared, fit.effects, start=fit.values, quantization_sigma=False
+    ).values
+
+
+def release_timing(
+    runs: Sequence[RunData], fit: MotionFit, refit: Refit = output_error_values
+) -> dict[str, float]:
     """σ_rel per parameter: refit with each run's release moved by its ``t_release_std``."""
     prepared = [prepare(r) for r in runs]
     shifts = []
@@ -56,17 +73,20 @@ def release_timing(runs: Sequence[RunData], fit: MotionFit) -> dict[str, float]:
             continue
         moved = list(prepared)
         moved[i] = replace(prepared[i], t_release=prepared[i].t_release + run.t_release_std)
-        refit = fit_output_error(moved, fit.effects, start=fit.values, quantization_sigma=False)
-        if np.all(np.isfinite(refit.values)):
-            shifts.append(refit.values - fit.values)
+        values = refit(moved, fit)
+        if np.all(np.isfinite(values)):
+            shifts.append(values - fit.values)
     total = np.sqrt(np.sum(np.square(shifts), axis=0)) if shifts else np.zeros(len(fit.names))
     return {n: float(s) for n, s in zip(fit.names, total, strict=True)}
 
 
-def drive_uncertainty(runs: Sequence[RunData], fit: MotionFit) -> DriveUncertainty:
-    """Refit ``fit``'s model (same effects) once per drive draw; σ_cal is the spread."""
+def drive_uncertainty(
+    runs: Sequence[RunData], fit: MotionFit, refit: Refit = output_error_values
+) -> DriveUncertainty:
+    """Refit ``fit``'s model (same effects, by ``refit``) once per drive draw; σ_cal is the
+    spread."""
     std_fit = {n: float(s) for n, s in zip(fit.names, fit.std, strict=True)}
-    timing = release_timing(runs, fit)
+    timing = release_timing(runs, fit, refit)
     drawn = [np.asarray(r.drive_draws) for r in runs if r.drive_draws is not None]
     if not drawn:
         return DriveUncertainty(0, std_fit, dict.fromkeys(fit.names, 0.0), timing)
@@ -77,13 +97,7 @@ def drive_uncertainty(runs: Sequence[RunData], fit: MotionFit) -> DriveUncertain
             r if r.drive_draws is None else replace(r, drive=r.drive_draws[k], drive_draws=None)
             for r in runs
         ]
-        refit = fit_output_error(
-            [prepare(r) for r in alternative],
-            fit.effects,
-            start=fit.values,
-            quantization_sigma=False,
-        )
-        values.append(refit.values)
+        values.append(refit([prepare(r) for r in alternative], fit))
     spread = np.std(np.array(values), axis=0, ddof=1)
     return DriveUncertainty(
         count, std_fit, {n: float(s) for n, s in zip(fit.names, spread, strict=True)}, timing

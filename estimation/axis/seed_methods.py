@@ -1,26 +1,44 @@
-"""Seed 000's three least-squares approaches, as published (kept for comparison).
+"""Seed 000's three least-squares approaches, as published (kept for comparison), each with
+a σ and ν that hold on the residual they leave.
 
-All solve K̂ = (HᵀH)⁻¹Hᵀτ with σ̂_K = √diag(σ̂²(HᵀH)⁻¹), σ̂² = SSR/(n − p), on
-(M + M_drive)·ẍ + K_L·ẋ + K_Q·|ẋ|·ẋ = τ; the declared drive inertia is moved to the
-left-hand side so the reported inertia is the vehicle's alone.
+All solve K̂ = (HᵀH)⁻¹Hᵀτ on (M + M_drive)·ẍ + K_L·ẋ + K_Q·|ẋ|·ẋ = τ; the declared drive
+inertia is moved to the left-hand side so the reported inertia is the vehicle's alone.
 
 1. ``ls-raw``: ẋ, ẍ by backward differences of the encoder samples (eqs. 4–5, 11).
 2. ``ls-curvefit``: per run ẋ = A(1 − e^{−t/T}), ẍ = (A/T)e^{−t/T} fitted to the difference
    velocities; regression as in 1 over each run's transient (0 … 4T).
 3. ``ls-steady``: K_L, K_Q from the steady speeds A vs τ (eq. 12); then M from
    τ − K_L·ẋ − K_Q·|ẋ|·ẋ = M·ẍ with the curve-fit derivatives (eq. 13).
+
+σ and ν (the rule of every regression here, ``stats.serial.serial_covariance``). The
+published σ̂²(HᵀH)⁻¹,
+σ̂² = SSR/(n − p), counts every sample as independent; the residual of these regressions is
+not: ls-raw's derivatives are differences of the encoder samples, so one sample's noise
+enters three rows, and a sensor's own low-pass or a model the curve fit misses makes it
+serially correlated within a run. So σ is the larger of the white σ and the long-run
+(Newey–West, AR(1)-prewhitened) sandwich of ``estimation.stats.serial`` with each run its
+own record (no lag crosses a run), as the output-error fit's σ (``stats.identify``); and
+ν = n_eff − p with n_eff = Σ_r n_r·(1 − r₁)/(1 + r₁) (``stats.misfit.effective_sample_size``:
+r₁ the pooled lag-1 autocorrelation, clipped at 0 since a negative one adds no
+information), the AR(1) variance inflation of a mean — the number of independent samples
+the residual is worth, so k = t_{0.975,ν} widens where the long-run σ rests on few of them.
+ls-steady's drag law has one point per run (runs are independent, each its own record: the
+sandwich is then the heteroscedastic Σ gᵣgᵣᵀ), ν = runs − 2.
+The budget (``uncertainty.budget.uncertainty_budget`` with ``seed=``, ``daq.axis_budget``) turns
+σ, ν into U, its Type B by re-fitting the seed method (``uncertainty.tow_refits.seed_refit``).
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
+from estimation.stats.serial import SerialCovariance, serial_covariance
 
 TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
 
@@ -35,15 +53,37 @@ class LeastSquaresFit:
     std: np.ndarray
     correlation: np.ndarray
     curve_fits: tuple[tuple[float, float], ...] = ()  # (A, T) per run for 2 and 3
+    #: ν of each coefficient's σ (module doc: n_eff − p of its regression)
+    dof: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the published white σ̂²(HᵀH)⁻¹ alone (its diagonal never above ``std``²)
+    cov_white: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    #: n, n_eff and p of each regression, as the budget's row notes them
+    counts: str = ""
+
+    @property
+    def std_white(self) -> np.ndarray:
+        """The published white σ of each coefficient."""
+        return np.sqrt(np.maximum(np.diag(self.cov_white), 0.0))
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The coefficients' covariance: σ (the larger) with the long-run correlation."""
+        return np.outer(self.std, self.std) * self.correlation
 
 
-def _solve(h: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """K̂ = (HᵀH)⁻¹Hᵀy and its covariance σ̂²(HᵀH)⁻¹."""
-    hth_inv = np.linalg.pinv(h.T @ h)
-    k = hth_inv @ h.T @ y
-    resid = y - h @ k
-    dof = max(y.size - h.shape[1], 1)
-    return k, float(resid @ resid) / dof * hth_inv
+def _solve(h: np.ndarray, y: np.ndarray, sizes: Sequence[int] | None = None):
+    """K̂ = (HᵀH)⁻¹Hᵀy and its covariance over records of ``sizes`` rows (module doc)."""
+    k = np.linalg.pinv(h.T @ h) @ h.T @ y
+    return k, serial_covariance(y - h @ k, h, sizes)
+
+
+def _fit(method: str, solved: tuple[np.ndarray, SerialCovariance], fits=()) -> LeastSquaresFit:
+    """The seed fit of one regression over (inertia, K_L, K_Q)."""
+    k, c = solved
+    return LeastSquaresFit(
+        method, BASE_NAMES, k, np.sqrt(np.diag(c.cov)), _corr(c.cov), fits,
+        np.full(k.size, c.dof), c.cov_white, c.counts,
+    )  # fmt: skip
 
 
 def _corr(cov: np.ndarray) -> np.ndarray:
@@ -73,8 +113,8 @@ def ls_raw(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
         _, v, a, drive, _, _ = _differences(r)
         rows.append(np.column_stack([a, v, np.abs(v) * v]))
         ys.append(drive - r.extra_inertia * a)
-    k, cov = _solve(np.vstack(rows), np.concatenate(ys))
-    return LeastSquaresFit("ls-raw", BASE_NAMES, k, np.sqrt(np.diag(cov)), _corr(cov))
+    sizes = [y.size for y in ys]
+    return _fit("ls-raw", _solve(np.vstack(rows), np.concatenate(ys), sizes))
 
 
 def first_order_fit(run: PreparedRun) -> tuple[float, float]:
@@ -112,8 +152,8 @@ def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
         v, a, drive = _curve_rows(r, amp, tc)
         rows.append(np.column_stack([a, v, np.abs(v) * v]))
         ys.append(drive - r.extra_inertia * a)
-    k, cov = _solve(np.vstack(rows), np.concatenate(ys))
-    return LeastSquaresFit("ls-curvefit", BASE_NAMES, k, np.sqrt(np.diag(cov)), _corr(cov), fits)
+    sizes = [y.size for y in ys]
+    return _fit("ls-curvefit", _solve(np.vstack(rows), np.concatenate(ys), sizes), fits)
 
 
 def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
@@ -126,17 +166,23 @@ def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
         )
     fits = tuple(first_order_fit(r) for r in runs)
     speeds = np.array([amp for amp, _ in fits])
-    kd, cov_d = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives)
+    # one point per run, runs independent: white σ, ν = runs − 2
+    kd, drag = _solve(np.column_stack([speeds, np.abs(speeds) * speeds]), drives, [1] * len(runs))
     lhs, rhs = [], []
     for r, (amp, tc) in zip(runs, fits, strict=True):
         v, a, drive = _curve_rows(r, amp, tc)
         lhs.append(a)
         rhs.append(drive - kd[0] * v - kd[1] * np.abs(v) * v - r.extra_inertia * a)
-    km, cov_m = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs))
+    km, mass = _solve(np.concatenate(lhs)[:, None], np.concatenate(rhs), [a.size for a in lhs])
     values = np.array([km[0], kd[0], kd[1]])
-    cov = np.zeros((3, 3))
-    cov[0, 0], cov[1:, 1:] = cov_m[0, 0], cov_d
-    return LeastSquaresFit("ls-steady", BASE_NAMES, values, np.sqrt(np.diag(cov)), _corr(cov), fits)
+    cov, white = np.zeros((3, 3)), np.zeros((3, 3))
+    cov[0, 0], cov[1:, 1:] = mass.cov[0, 0], drag.cov
+    white[0, 0], white[1:, 1:] = mass.cov_white[0, 0], drag.cov_white
+    return LeastSquaresFit(
+        "ls-steady", BASE_NAMES, values, np.sqrt(np.diag(cov)), _corr(cov), fits,
+        np.array([mass.dof, drag.dof, drag.dof]), white,
+        f"inertia: {mass.counts}; drag law: {drag.counts}",
+    )  # fmt: skip
 
 
 SEED_METHODS = {"ls-raw": ls_raw, "ls-curvefit": ls_curvefit, "ls-steady": ls_steady}

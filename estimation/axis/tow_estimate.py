@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 
@@ -26,7 +27,7 @@ from estimation.axis.reverse import (
     opposite_run,
     suggest_reverse_test,
 )
-from estimation.axis.seed_methods import SEED_METHODS
+from estimation.axis.seed_methods import SEED_METHODS, LeastSquaresFit
 from estimation.axis.tow_repeats import LOOK_FOR, analyse_tow_repeats, without_excluded
 from estimation.axis.tow_search import candidate_effects, tow_search
 from estimation.axis.tow_section import UNITS, TowResult, TowSection
@@ -52,6 +53,7 @@ from estimation.motion.well_determined import Combination, drags_at_speeds, term
 from estimation.report_numbers import Coefficient
 from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import ljung_box
+from estimation.stats.fit_statistics import Combinations
 from estimation.stats.misfit import lag_one
 from estimation.stats.repeatability import outlier_warnings
 
@@ -444,15 +446,39 @@ def _rms_per_run(ids: Sequence[str], residuals: Sequence[np.ndarray]) -> dict[st
     return {i: float(np.sqrt(np.mean(r**2))) for i, r in zip(ids, residuals, strict=True)}
 
 
-def _seed_result(axis, method, runs, prepared) -> TowResult:
+def seed_fit(method: str, prepared: Sequence[PreparedRun]) -> tuple[MotionFit, LeastSquaresFit]:
+    """The seed ``method`` on ``prepared`` runs, and its coefficients as the fit a result
+    reads (the positions simulated with them, an inertia ≤ 0 at 1e-9: ``_seed_result``
+    warns of it); the uncertainty budget re-fits a seed result by this."""
     ls = SEED_METHODS[method](prepared)
+    simulated = ls.values if ls.values[0] > 0 else np.r_[1e-9, ls.values[1:]]
+    fit = evaluate_parameters(prepared, simulated, ls.std, ls.correlation)
+    # its terminal speeds and drags take σ by the delta method through the seed's covariance
+    size = ls.values.size
+    combinations = Combinations(
+        ls.covariance, np.zeros((0, size)), np.ones(size), 1.0, ls.cov_white
+    )
+    return replace(fit, values=ls.values, combinations=combinations), ls
+
+
+def _seed_values(method: str, prepared: list[PreparedRun], _fit: MotionFit) -> np.ndarray:
+    """The seed ``method``'s coefficients on ``prepared`` runs (moved by a release's σ_t or
+    a calibration draw); NaN where its numerics refuse them (a shift the timing row then
+    skips, a draw whose spread is then not a number: no calibration row)."""
+    try:
+        return SEED_METHODS[method](prepared).values
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+        return np.full(len(BASE_NAMES), np.nan)
+
+
+def _seed_result(axis, method, runs, prepared) -> TowResult:
+    fit, ls = seed_fit(method, prepared)
     warnings = []
-    if ls.values[0] > 0:
-        fit = evaluate_parameters(prepared, ls.values, ls.std, ls.correlation)
-    else:
-        fit = evaluate_parameters(prepared, np.r_[1e-9, ls.values[1:]], ls.std, ls.correlation)
+    if not ls.values[0] > 0:
         warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
-    fit = MotionFit(**{**fit.__dict__, "values": ls.values})
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())
-    result = _build(axis, method, runs, prepared, outcome, None)
-    return replace(result, warnings=(*warnings, *result.warnings))
+    # the release timing and thrust calibration draws through the seed method itself
+    drive = drive_uncertainty(runs, fit, partial(_seed_values, method))
+    result = _build(axis, method, runs, prepared, outcome, None, drive)
+    section = replace(result.section, seed=ls)  # its σ's ν, for the budget's U
+    return replace(result, warnings=(*warnings, *result.warnings), section=section)

@@ -8,6 +8,7 @@ from typing import Any
 
 from estimation.axis.drive_uncertainty import DriveUncertainty
 from estimation.axis.reverse import ReverseTest
+from estimation.axis.seed_methods import LeastSquaresFit
 from estimation.axis.unexplained import Unexplained
 from estimation.data.driven_axes import DRIVEN_AXES
 from estimation.data.window import WindowReport
@@ -36,6 +37,8 @@ class TowSection:
     unexplained: Unexplained | None = None
     #: The reverse run that separates friction from bias, when they are ambiguous.
     reverse_test: ReverseTest | None = None
+    #: A seed method's own regression (its σ's ν, the budget's Type A); None: output error.
+    seed: LeastSquaresFit | None = field(default=None, repr=False, compare=False)
 
     def to_json(self, result: EstimationResult[Any]) -> dict[str, Any]:
         """The tow's keys: its run kind (``tow``, ``spin``), its axis (and the line as
@@ -58,6 +61,15 @@ class TowSection:
         }
         if result.dof is not None:  # imported as another straight line (a tow's heave)
             doc["dof"] = result.dof
+        if self.seed is not None:  # a seed method's σ: its ν and the published white σ
+            names = self.seed.names
+            doc["seed_regression"] = {
+                "dof": finite_values(dict(zip(names, self.seed.dof.tolist(), strict=True))),
+                "std_white": finite_values(
+                    dict(zip(names, self.seed.std_white.tolist(), strict=True))
+                ),
+                "counts": self.seed.counts,
+            }
         return doc
 
 

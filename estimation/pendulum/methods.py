@@ -11,11 +11,21 @@ decay rate K = c/(2J), damped frequency ω with ω² + K² = k/J, hence
   parabola through 3 samples; ln|peak| linear in t gives K, the extremum spacing π/ω;
 - ``equation_error``: φ̈ = θ₁·|φ̇|·φ̇ + θ₂·φ̇ + θ₃·sin φ on Savitzky–Golay derivatives,
   J = −k/θ₃, c = −θ₂·J, γ = −θ₁·J/l³ (and the linear-only variant without θ₁).
-σ everywhere by the delta method from the fit's or regression's covariance.
+σ everywhere by the delta method from the fit's or regression's covariance, and every
+row's coefficient carries U = k·σ at 95 % (``CoefficientWithU``), k = t_0.975(ν) of the
+budget (``uncertainty.budget.coverage_factor``). The covariance of ``damped_fit`` and
+``equation_error`` is ``stats.serial.serial_covariance`` (the larger of the white and the
+AR(1)-prewhitened Newey–West σ; ν = n_eff − p, n_eff = n·(1 − r₁)/(1 + r₁)): their residual
+is serially correlated (a model that misses sin φ or a dry friction leaves a smooth residual;
+the Savitzky–Golay derivatives of ``equation_error`` correlate it over a window), and
+counting its samples as independent made σ too small. ``log_decrement`` regresses one point
+per extremum (each half a period apart): white σ, ν = extrema − 2. A pendulum declares no
+tolerance (its geometry is taken as exact: ``UNCERTAINTY_NOTE``), so U is Type A alone.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,8 +34,15 @@ from scipy.optimize import least_squares
 from estimation.pendulum.configuration import swing
 from estimation.pendulum.data import PendulumGeometry
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks
-from estimation.report_numbers import Coefficient, finite_or_none, finite_values
+from estimation.report_numbers import (
+    Coefficient,
+    CoefficientWithU,
+    finite_or_none,
+    finite_values,
+)
+from estimation.stats.serial import serial_covariance
 from estimation.stats.smoothing import savgol
+from estimation.uncertainty.budget import coverage_factor
 
 SG_PERIOD_FRACTION = 6  # Savitzky–Golay window ≈ period/6 ...
 SG_POLYORDER = 4  # ... with a quartic: φ̈ of a sinusoid biased < 0.02 %
@@ -41,9 +58,18 @@ ROW_UNITS = {
 }
 
 
-def row_value(name: str, value: float, std: float) -> Coefficient:
-    """``value`` ± ``std`` of the row's coefficient ``name`` in its unit (``ROW_UNITS``)."""
-    return Coefficient(value, std, ROW_UNITS[name])
+#: What a method row's U covers (every row's ``uncertainty`` key).
+UNCERTAINTY_NOTE = (
+    "U = k·σ (95 %, k = t_0.975(ν)): the method's own Type A; Type B not declared (the "
+    "pendulum's geometry is taken as exact), so no tolerance is propagated"
+)
+
+
+def row_value(name: str, value: float, std: float, dof: float) -> CoefficientWithU:
+    """``value`` ± ``std`` of the row's coefficient ``name`` in its unit (``ROW_UNITS``),
+    with U = k·σ on ``dof`` (ν)."""
+    k = coverage_factor(max(dof, 1.0))
+    return CoefficientWithU(value, std, ROW_UNITS[name], k * std, k, max(dof, 1.0))
 
 
 @dataclass(frozen=True)
@@ -52,6 +78,8 @@ class MethodEstimate:
 
     method: str
     run_id: str
+    #: each a ``CoefficientWithU`` on a seed method's row; the output-error row's U is the
+    #: budget's (``pendulum_estimate.pendulum_budget``)
     added_mass: Coefficient
     linear_damping: Coefficient
     quadratic_damping: Coefficient | None
@@ -79,15 +107,23 @@ class MethodEstimate:
             "mse": finite_or_none(self.mse),
             "rmse": finite_or_none(self.rmse),
             "note": self.note,
+            "uncertainty": (
+                UNCERTAINTY_NOTE if isinstance(self.added_mass, CoefficientWithU) else None
+            ),
             **self.extra,
         }
 
 
 # ---- signal → coefficients -----------------------------------------------------------------
 def coefficients_from_signal(
-    decay_rate: float, omega: float, cov: np.ndarray, geometry: PendulumGeometry
-) -> tuple[Coefficient, Coefficient, Coefficient, Coefficient]:
-    """(J, c, α, β) with σ from K (1/s), ω (rad/s) and their 2×2 covariance."""
+    decay_rate: float,
+    omega: float,
+    cov: np.ndarray,
+    geometry: PendulumGeometry,
+    dof: float = math.inf,
+) -> tuple[CoefficientWithU, CoefficientWithU, CoefficientWithU, CoefficientWithU]:
+    """(J, c, α, β) with σ from K (1/s), ω (rad/s) and their 2×2 covariance, U on ν ``dof``
+    (∞: a covariance taken as exact)."""
     k = geometry.restoring_stiffness()
     arm = geometry.pivot_to_vehicle_m
     s = omega**2 + decay_rate**2
@@ -102,10 +138,10 @@ def coefficients_from_signal(
     alpha = (inertia - geometry.known_inertia()) / arm**2
     beta = (damping - geometry.pivot_damping_nm_s) / arm**2
     return (
-        row_value("total_inertia", inertia, sj),
-        row_value("total_damping", damping, sc),
-        row_value("added_mass", alpha, sj / arm**2),
-        row_value("linear_damping", beta, sc / arm**2),
+        row_value("total_inertia", inertia, sj, dof),
+        row_value("total_damping", damping, sc, dof),
+        row_value("added_mass", alpha, sj / arm**2, dof),
+        row_value("linear_damping", beta, sc / arm**2, dof),
     )
 
 
@@ -149,10 +185,10 @@ def _signal_amplitude_phase(tau, phi, k, w, off) -> tuple[float, float]:
 
 
 def _method(
-    name, decay, signal_k, signal_w, cov, signal, residual, note="", extra=None
+    name, decay, signal_k, signal_w, cov, dof, signal, residual, note="", extra=None
 ) -> MethodEstimate:
     inertia, damping, alpha, beta = coefficients_from_signal(
-        signal_k, signal_w, cov, decay.geometry
+        signal_k, signal_w, cov, decay.geometry, dof
     )
     mse = float(np.mean(residual**2))
     return MethodEstimate(
@@ -173,8 +209,9 @@ def log_decrement(decay: Decay, peaks: Peaks | None = None) -> MethodEstimate:
     signal = {"C": c, "K": k, "omega": w, "theta": theta, "offset": peaks.offset}
     cov = np.diag([peaks.exp_k_std**2, w_std**2])
     return _method(
-        "log-decrement", decay, k, w, cov, signal, res,
-        f"{peaks.times.size} extrema; e is the damped sinusoid with these K, ω (C, θ by LS)",
+        "log-decrement", decay, k, w, cov, peaks.times.size - 2.0, signal, res,
+        f"{peaks.times.size} extrema (ν = extrema − 2); e is the damped sinusoid with these "
+        "K, ω (C, θ by LS)",
     )  # fmt: skip
 
 
@@ -191,8 +228,8 @@ def damped_fit(decay: Decay, peaks: Peaks | None = None) -> MethodEstimate:
 
     sol = least_squares(resid, p0, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12)
     res = -sol.fun
-    n, p = res.size, sol.x.size
-    cov = float(res @ res) / max(n - p, 1) * np.linalg.pinv(sol.jac.T @ sol.jac)
+    serial = serial_covariance(res, sol.jac)
+    cov = serial.cov
     c, k, w, theta, off = sol.x
     if c < 0:  # the same signal with a positive amplitude
         c, theta = -c, theta + np.pi
@@ -201,8 +238,8 @@ def damped_fit(decay: Decay, peaks: Peaks | None = None) -> MethodEstimate:
     stds = np.sqrt(np.maximum(np.diag(cov), 0.0))
     signal_std = dict(zip(("C", "K", "omega", "theta", "offset"), stds.tolist(), strict=True))
     return _method(
-        "damped-fit", decay, k, abs(w), cov[1:3, 1:3], signal, res,
-        "y = C·e^(−Kτ)·sin(ωτ + θ) + offset, τ = t − t₀",
+        "damped-fit", decay, k, abs(w), cov[1:3, 1:3], serial.dof, signal, res,
+        f"y = C·e^(−Kτ)·sin(ωτ + θ) + offset, τ = t − t₀; {serial.counts}",
         {"signal_std": signal_std},
     )  # fmt: skip
 
@@ -237,9 +274,8 @@ def equation_error(
     a = np.column_stack(cols)[use]
     b = d2[use]
     theta, *_ = np.linalg.lstsq(a, b, rcond=None)
-    res_eq = b - a @ theta
-    n, p = b.size, theta.size
-    cov = float(res_eq @ res_eq) / max(n - p, 1) * np.linalg.inv(a.T @ a)
+    serial = serial_covariance(b - a @ theta, a)
+    cov, dof, p = serial.cov, serial.dof, theta.size
     th3 = float(theta[-1])
     k = geometry.restoring_stiffness()
     inertia = -k / th3
@@ -259,18 +295,21 @@ def equation_error(
         g_q[0], g_q[i3] = k / th3, -k * theta[0] / th3**2
         q_val = k * float(theta[0]) / th3 / arm**3
         quad = row_value(
-            "quadratic_damping", q_val, float(np.sqrt(max(g_q @ cov @ g_q, 0.0))) / arm**3
+            "quadratic_damping", q_val, float(np.sqrt(max(g_q @ cov @ g_q, 0.0))) / arm**3, dof
         )
-    alpha = row_value("added_mass", (inertia - geometry.known_inertia()) / arm**2, sj / arm**2)
+    alpha = row_value("added_mass", (inertia - geometry.known_inertia()) / arm**2, sj / arm**2, dof)
     beta = row_value(
-        "linear_damping", (damping - geometry.pivot_damping_nm_s) / arm**2, sc / arm**2
+        "linear_damping", (damping - geometry.pivot_damping_nm_s) / arm**2, sc / arm**2, dof
     )
     mse = _simulated_mse(decay, alpha.value, beta.value, quad.value if quad else 0.0, peaks)
     name = "equation-error" if quadratic else "equation-error-linear"
-    note = f"Savitzky–Golay window {window} samples ({window * dt:.2f} s ≈ period/6), order 4"
+    note = (
+        f"Savitzky–Golay window {window} samples ({window * dt:.2f} s ≈ period/6), order 4; "
+        + serial.counts
+    )
     return MethodEstimate(
-        name, decay.run_id, alpha, beta, quad, row_value("total_inertia", inertia, sj),
-        row_value("total_damping", damping, sc),
+        name, decay.run_id, alpha, beta, quad, row_value("total_inertia", inertia, sj, dof),
+        row_value("total_damping", damping, sc, dof),
         signal, mse, float(np.sqrt(mse)), note, {"savgol_window": window},
     )  # fmt: skip
 

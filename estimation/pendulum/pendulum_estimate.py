@@ -12,6 +12,7 @@ the pendulum is a configuration of the one equation (``configuration``). One ent
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
@@ -38,16 +39,18 @@ from estimation.pendulum.configuration import (
 )
 from estimation.pendulum.data import PendulumRun, validate_pendulum_run
 from estimation.pendulum.methods import (
+    ROW_UNITS,
+    UNCERTAINTY_NOTE,
     MethodEstimate,
     damped_fit,
     equation_error,
     log_decrement,
-    row_value,
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.report_numbers import Coefficient, finite_or_none
-from estimation.uncertainty.budget import Budget, uncertainty_budget
+from estimation.uncertainty.budget import Budget, coefficient_budget, uncertainty_budget
 from estimation.uncertainty.record_refits import RecordRefits
+from estimation.uncertainty.rows import BudgetRow
 
 GEOMETRY_EXACT = (
     "Type B not declared: the rig file's pendulum geometry (rod, arm, buoyancy) is taken as "
@@ -116,8 +119,11 @@ PendulumResult = EstimationResult[PendulumSection]
 
 
 def pendulum_budget(result: PendulumResult) -> Budget:
-    """The GUM budget of a pendulum's output-error coefficients (``uncertainty.budget``, every
-    kind's), named and in the units the result reports them."""
+    """The GUM budget of a pendulum's headline coefficients (``uncertainty.budget``, every
+    kind's), named and in the units the result reports them: the output-error fit's, or a
+    seed method's pooled over runs (``seed_budget``)."""
+    if result.method != "output-error":
+        return seed_budget(result)
     if result.fit_after is None:
         raise ValueError("result: got a pendulum estimate without its fit")
     names = result.fit_after.names
@@ -128,6 +134,41 @@ def pendulum_budget(result: PendulumResult) -> Budget:
         b,
         coefficients={reported(n): replace(c, name=reported(n)) for n, c in b.coefficients.items()},
     )
+
+
+def seed_budget(result: PendulumResult) -> Budget:
+    """The budget of a seed method's headline α, β: their inverse-variance mean over runs
+    (``_pooled``), so each run's row is a Type A source of sensitivity w_r/Σw (u_c = 1/√Σw,
+    the pooled σ) on its own ν (``methods.row_value``), combined by Welch–Satterthwaite. No
+    Type B: a pendulum declares none (``GEOMETRY_EXACT``); no combinations: the seed methods
+    give none."""
+    rows = [m for m in result.section.methods if m.method == result.method]
+    budgets = {}
+    for name in BASE_NAMES:
+        est = [getattr(m, name) for m in rows]
+        weights = np.array([_weight(e) for e in est])
+        total = float(weights.sum())
+        lines = [
+            BudgetRow(
+                f"{result.method} on run {m.run_id[:8]} (inverse-variance weight)",
+                "A",
+                e.unit,
+                float(e.std) if e.std is not None else math.nan,
+                w / total if total > 0 else math.nan,
+                w * float(e.std) / total if total > 0 and e.std is not None else math.nan,
+                float(getattr(e, "dof", math.inf)),
+                note=UNCERTAINTY_NOTE,
+            )
+            for m, e, w in zip(rows, est, weights, strict=True)
+        ]
+        budgets[name] = coefficient_budget(name, result.coefficients[name].value, lines)
+    return Budget(budgets, False, (GEOMETRY_EXACT,))
+
+
+def _weight(estimate: Coefficient) -> float:
+    """1/σ² of one run's estimate; 0 without a σ (it does not count in the mean)."""
+    std = estimate.std
+    return 1 / std**2 if std is not None and math.isfinite(std) and std > 0 else 0.0
 
 
 def validate_pendulum_runs(runs: Sequence[PendulumRun]) -> str:
@@ -150,7 +191,7 @@ def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Coefficient]:
     out = {}
     for name in BASE_NAMES:
         est = [getattr(m, name) for m in rows]
-        w = np.array([1 / e.std**2 if e.std is not None and e.std > 0 else 0.0 for e in est])
+        w = np.array([_weight(e) for e in est])
         vals = np.array([e.value for e in est])
         if w.sum() > 0:
             mean, std = float(w @ vals / w.sum()), float(1 / np.sqrt(w.sum()))
@@ -167,11 +208,14 @@ def _warnings(
     final: MotionFit,
 ) -> list[str]:
     out = []
+    # a negative γ beyond 2σ, or one beside the dry friction the output-error search kept: its
+    # σ counts the residual's correlation (``methods``), which the friction it misses puts there
+    friction = any(LIBRARY[e].set_valued_at_rest for e in final.effects)
     for m in methods:
         q = m.quadratic_damping
         if m.method != "equation-error" or q is None or q.std is None:
             continue
-        if q.value < -2 * q.std:
+        if q.value < -2 * q.std or (friction and q.value < 0):
             out.append(
                 f"equation-error γ = {q.value:.4g} ± {q.std:.2g} kg/m < 0 on run {m.run_id}: "
                 f"the signature of dry friction in the pivot (least squares puts sgn φ̇ into a "
@@ -291,23 +335,26 @@ def estimate_pendulum(
 
 
 def _output_error_rows(decays: Sequence[Decay], fit: MotionFit) -> list[MethodEstimate]:
-    """The output-error fit as one row per run (coefficients are joint over runs)."""
+    """The output-error fit as one row per run (coefficients are joint over runs; their U
+    is the budget's, ``pendulum_budget``)."""
+
+    def row(name: str, value: float, std: float) -> Coefficient:
+        return Coefficient(value, std, ROW_UNITS[name])
+
     rows = []
     gamma = (
-        row_value(
-            "quadratic_damping", fit.value("quadratic_damping"), fit.sigma("quadratic_damping")
-        )
+        row("quadratic_damping", fit.value("quadratic_damping"), fit.sigma("quadratic_damping"))
         if "quadratic_damping" in fit.names
         else None
     )
     for d, res in zip(decays, fit.residuals, strict=True):
         g, arm = d.geometry, d.geometry.pivot_to_vehicle_m
-        alpha = row_value("added_mass", fit.value(INERTIA), fit.sigma(INERTIA))
-        beta = row_value("linear_damping", fit.value("linear_damping"), fit.sigma("linear_damping"))
-        inertia = row_value(
+        alpha = row("added_mass", fit.value(INERTIA), fit.sigma(INERTIA))
+        beta = row("linear_damping", fit.value("linear_damping"), fit.sigma("linear_damping"))
+        inertia = row(
             "total_inertia", g.known_inertia() + alpha.value * arm**2, fit.sigma(INERTIA) * arm**2
         )
-        damping = row_value(
+        damping = row(
             "total_damping",
             beta.value * arm**2 + g.pivot_damping_nm_s,
             fit.sigma("linear_damping") * arm**2,

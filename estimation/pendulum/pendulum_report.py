@@ -23,7 +23,9 @@ from estimation.figures import (
 )
 from estimation.fit_report import report_markdown, write_result_and_markdown
 from estimation.motion.output_error_fit import MotionFit
+from estimation.pendulum.methods import UNCERTAINTY_NOTE
 from estimation.pendulum.pendulum_estimate import PendulumResult
+from estimation.uncertainty.text import value_with_u
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -118,13 +120,6 @@ def peaks_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     return fig
 
 
-def _pm(est: dict | None) -> str:
-    if not est or est.get("value") is None:
-        return "—"
-    std = est.get("std")
-    return f"{est['value']:.5g} ± {std:.2g}" if std is not None else f"{est['value']:.5g}"
-
-
 def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
     """The one report (``fit_report.report_markdown``); the pendulum's own section: the
     methods side by side, per run."""
@@ -132,6 +127,10 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
     lines = [
         "",
         "## Methods side by side",
+        "",
+        "Each value ± σ; a seed method's row with its own U (95 %, k = t_0.975(ν)): "
+        + UNCERTAINTY_NOTE
+        + "; the output-error row's U is its uncertainty budget's.",
         "",
         "| run | method | α [kg] | β [N·s/m] | γ [kg/m] | e [rad²] | RMSE [rad] |",
         "|---|---|---|---|---|---|---|",
@@ -141,14 +140,9 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         key=lambda m: (m["run_id"], METHOD_ORDER.index(m["method"])),
     )
     for m in rows:
-        lines.append(
-            f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
-            f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | "
-            f"{m['mse']:.3g} | {m['rmse']:.3g} |"
-            if m["mse"] is not None
-            else f"| {m['run_id']} | {m['method']} | {_pm(m['added_mass'])} | "
-            f"{_pm(m['linear_damping'])} | {_pm(m['quadratic_damping'])} | — | — |"
-        )
+        shown = [value_with_u(m[k]) for k in ("added_mass", "linear_damping", "quadratic_damping")]
+        errors = "— | —" if m["mse"] is None else f"{m['mse']:.3g} | {m['rmse']:.3g}"
+        lines.append(f"| {m['run_id']} | {m['method']} | {' | '.join(shown)} | {errors} |")
     return report_markdown(
         result,
         f"Pendulum free-decay report — {result.axis}, headline method {result.method}",

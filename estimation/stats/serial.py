@@ -38,8 +38,11 @@ L = 0 and S = Σ gₜgₜᵀ (the white formula with each sample's own e²).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
+
+from estimation.stats.misfit import effective_sample_size
 
 #: |ρ| above this is treated as this (α and L stay finite; L is capped at n_r − 1 anyway).
 RHO_MAX = 0.97
@@ -104,3 +107,39 @@ def bartlett_long_run(scores: np.ndarray, lags: int) -> np.ndarray:
         gamma = g[lag:].T @ g[:-lag]
         total += (1.0 - lag / (lags + 1.0)) * (gamma + gamma.T)
     return total
+
+
+@dataclass(frozen=True)
+class SerialCovariance:
+    """A least-squares fit's covariance on a serially correlated residual: σ the larger of
+    the white σ̂²(JᵀJ)⁻¹ and the long-run sandwich, with the sandwich's correlation; the
+    white covariance alone; ν = n_eff − p; and its counts (n, n_eff, p) as text."""
+
+    cov: np.ndarray
+    cov_white: np.ndarray
+    dof: float
+    counts: str
+
+
+def serial_covariance(
+    residuals: np.ndarray, jacobian: np.ndarray, record_sizes: Sequence[int] | None = None
+) -> SerialCovariance:
+    """The covariance of a least-squares estimate (``SerialCovariance``) from its residuals
+    and Jacobian (or regressors) over records of ``record_sizes`` samples (default one):
+    cov_serial = n/(n − p)·(JᵀJ)⁻¹·S·(JᵀJ)⁻¹ (module doc), ν = n_eff − p (at least 1) with
+    n_eff = n·(1 − r₁)/(1 + r₁) (``misfit.effective_sample_size``: the number of independent
+    samples an AR(1) residual of lag-1 autocorrelation r₁ ≥ 0 is worth)."""
+    e = np.asarray(residuals, dtype=float)
+    jac = np.asarray(jacobian, dtype=float)
+    sizes = [e.size] if record_sizes is None else list(record_sizes)
+    n, p = jac.shape
+    inv = np.linalg.pinv(jac.T @ jac)
+    white = float(e @ e) / max(n - p, 1) * inv
+    serial = n / max(n - p, 1) * (inv @ long_run_scores(e, jac, sizes) @ inv)
+    std_serial = np.sqrt(np.maximum(np.diag(serial), 0.0))
+    std = np.maximum(np.sqrt(np.maximum(np.diag(white), 0.0)), std_serial)
+    denom = np.outer(std_serial, std_serial)
+    corr = np.divide(serial, denom, out=np.eye(p), where=denom > 0)
+    n_eff = effective_sample_size(np.split(e, np.cumsum(sizes)[:-1]))
+    counts = f"n = {n}, n_eff = {n_eff:.0f}, p = {p}"
+    return SerialCovariance(np.outer(std, std) * corr, white, max(n_eff - p, 1.0), counts)

@@ -46,7 +46,13 @@ from estimation.motion.well_determined import Combination
 from estimation.report_numbers import finite_or_none
 from estimation.stats.repeatability import RepeatAnalysis, campaign_repeatability
 from estimation.uncertainty.rows import BudgetRow
-from estimation.uncertainty.type_a import combination_rows, fit_dof, random_rows
+from estimation.uncertainty.type_a import (
+    SeedSigma,
+    combination_rows,
+    fit_dof,
+    random_rows,
+    seed_rows,
+)
 
 __all__ = [
     "Budget",
@@ -244,6 +250,7 @@ def uncertainty_budget(
     tolerances: Mapping[str, float] | None = None,
     repeats: RepeatAnalysis | None = None,
     units: Mapping[str, str] | None = None,
+    seed: SeedSigma | None = None,
 ) -> Budget:
     """The budget of every fitted coefficient of ``result`` and of its well-determined
     combinations (module doc), its records re-fitted by ``refits``.
@@ -251,7 +258,10 @@ def uncertainty_budget(
     ``tolerances``: declared half-widths by the names ``refits`` knows (None or empty: Type
     B not declared, a note says so); ``repeats``: the repeat analysis of the records (its
     repeat campaigns give the repeatability row); ``units``: a coefficient's unit where the
-    result's own is not the one reported (a pendulum's vehicle terms)."""
+    result's own is not the one reported (a pendulum's vehicle terms); ``seed``: a seed
+    method's own σ and ν (``type_a.SeedSigma``), its Type A instead of the fit's (its
+    combinations' by the delta method through the seed's covariance, on its smallest ν), its
+    Type B by ``refits`` re-fitting the seed method."""
     fit = result.fit_after
     if fit is None:
         raise ValueError("result: got an estimate without its fit, allowed: an output-error fit")
@@ -266,9 +276,14 @@ def uncertainty_budget(
     repeat_std, why = _repeatability(refits, fit, repeats, set(result.runs))
     if why:
         notes.append(why)
-    dof = fit_dof(fit, white)  # the effective sample size: one pass over the residual
-    rows = random_rows(result, fit, units, white, dof, repeat_std, refits.own_rows)
-    combined = combination_rows(result, fit, white, dof, refits.combinations)
+    if seed is None:
+        dof = fit_dof(fit, white)  # the effective sample size: one pass over the residual
+        rows = random_rows(result, fit, units, white, dof, repeat_std, refits.own_rows)
+        combined = combination_rows(result, fit, white, dof, refits.combinations)
+    else:
+        rows = seed_rows(seed, units, repeat_std, refits.own_rows)
+        dof = (max(min(seed.dof.values()), 1.0), seed.counts)
+        combined = combination_rows(result, fit, False, dof, refits.combinations)
     for declared_input in inputs:
         try:
             coefficients, combinations = _type_b_rows(result, fit, refits, declared_input)

@@ -20,6 +20,21 @@ def _dof(x: float | None) -> str:
     return "∞" if x is None or x >= DOF_SHOWN_AS_INFINITE else f"{x:.3g}"
 
 
+def value_with_u(estimate: dict[str, Any] | None) -> str:
+    """``value ± σ`` of a {value, std} document (``—`` without a value), and where it
+    carries its own U (a seed method's row, ``report_numbers.CoefficientWithU``) its U
+    (95 %), k and ν: ``30.13 ± 0.032 (U 0.11, k 3.33, ν 2.8)``."""
+    if not estimate or estimate.get("value") is None:
+        return "—"
+    std = estimate.get("std")
+    shown = f"{estimate['value']:.5g}" + ("" if std is None else f" ± {std:.2g}")
+    if "U" not in estimate:
+        return shown
+    if estimate["U"] is None:
+        return f"{shown} (no U)"
+    return f"{shown} (U {estimate['U']:.2g}, k {estimate['k']:.3g}, ν {_dof(estimate.get('nu'))})"
+
+
 def _budgeted(budget: dict[str, Any]) -> dict[str, Any]:
     """Every budgeted quantity of a budget document: the coefficients, then the
     combinations the record determines well (a decay's T₀, ω₀, ζ), by name."""

@@ -1,19 +1,24 @@
 """How a tow or spin set is re-fitted for its uncertainty budget (``uncertainty.budget``'s
 ``Refits``): the runs as the estimator would have seen them had a rig constant of the
 measurement chain been off by δ (``uncertainty.sources``), a repeat campaign alone, and the
-tow's own random sources (release timing, thrust calibration draws)."""
+tow's own random sources (release timing, thrust calibration draws). What re-fits them is the
+estimate's own method (``Refit``): the output-error fit, or a seed method (``seed_refit``), so
+a seed method's Type B sensitivity is its own."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 
+import numpy as np
+
 from estimation.axis.output_error import fit_output_error
-from estimation.axis.prepared_run import prepare
-from estimation.axis.tow_estimate import combination_conditions, well_determined
+from estimation.axis.prepared_run import PreparedRun, prepare
+from estimation.axis.tow_estimate import combination_conditions, seed_fit, well_determined
 from estimation.axis.tow_section import TowResult
 from estimation.data.run_arrays import RunData
+from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.well_determined import Combination
@@ -27,6 +32,7 @@ from estimation.uncertainty.sources import (
     reaches,
     weight_groups,
 )
+from estimation.uncertainty.type_a import SeedSigma
 
 TYPE_B_NOT_DECLARED = (
     "Type B not declared: the rig file has no [tolerances] section, so U covers the Type A "
@@ -38,6 +44,38 @@ TYPE_B_NO_RIG_FILE = (
     "constants are taken as exact and U covers the Type A sources only "
     f"({advice_for('import').declare_tolerances})"
 )
+
+
+#: How an estimate's runs are re-fitted: (the runs moved, prepared; the estimate's fit) → fit.
+Refit = Callable[[list[PreparedRun], MotionFit], MotionFit]
+
+
+def output_error_refit(prepared: list[PreparedRun], fit: MotionFit) -> MotionFit:
+    """The output-error fit of ``prepared`` with ``fit``'s effects, started at its values."""
+    return fit_output_error(prepared, fit.effects, start=fit.values, quantization_sigma=False)
+
+
+def seed_refit(method: str) -> Refit:
+    """The seed ``method`` (``estimation.axis.seed_methods``) as a ``Refit``; a re-fit its
+    numerics refuse (a curve fit that does not converge, one drive left) raises
+    ``EstimationFailed``, which the budget names in a note."""
+
+    def refit(prepared: list[PreparedRun], _fit: MotionFit) -> MotionFit:
+        try:
+            return seed_fit(method, prepared)[0]
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as err:
+            raise EstimationFailed(f"the {method} seed method", str(err)) from err
+
+    return refit
+
+
+def seed_sigma(result: TowResult) -> SeedSigma | None:
+    """A seed result's own σ and ν (``TowSection.seed``); None for output error."""
+    ls = result.section.seed
+    if ls is None:
+        return None
+    std = dict(zip(ls.names, ls.std.tolist(), strict=True))
+    return SeedSigma(std, dict(zip(ls.names, ls.dof.tolist(), strict=True)), ls.counts)
 
 
 def as_fitted(runs: Sequence[RunData], result: TowResult) -> list[RunData]:
@@ -57,15 +95,22 @@ def as_fitted(runs: Sequence[RunData], result: TowResult) -> list[RunData]:
 class TowRefits:
     """A tow or spin set's re-fits. ``chain``: the rig constants the runs' drives were
     computed with (None: runs without a rig file, e.g. imported; their advice names the
-    import's options, not a section of a file they never had)."""
+    import's options, not a section of a file they never had); ``refit``: the estimate's
+    method (a seed result's: ``seed_refit(result.method)``)."""
 
-    def __init__(self, runs: Sequence[RunData], result: TowResult, chain: Chain | None) -> None:
+    def __init__(
+        self,
+        runs: Sequence[RunData],
+        result: TowResult,
+        chain: Chain | None,
+        refit: Refit = output_error_refit,
+    ) -> None:
         fit = result.fit_after
         if fit is None:
             raise ValueError(
                 "result: got an estimate without its fit, allowed: an output-error fit"
             )
-        self.result, self.fit = result, fit
+        self.result, self.fit, self.refit = result, fit, refit
         self.runs = as_fitted(runs, result)
         self.chain = chain or Chain(g=9.81)
         self.kind = "import" if chain is None else "tow"
@@ -100,9 +145,7 @@ class TowRefits:
     ) -> tuple[MotionFit, tuple[Combination, ...]]:
         only = self._weights[part] if SOURCES[declared.name].per_weight else []
         moved = [prepare(r) for r in perturbed(self.runs, self.chain, declared.name, delta, only)]
-        fit = fit_output_error(
-            moved, self.fit.effects, start=self.fit.values, quantization_sigma=False
-        )
+        fit = self.refit(moved, self.fit)
         return fit, self.combinations(fit)
 
     def combinations(self, fit: MotionFit) -> tuple[Combination, ...]:
@@ -111,9 +154,7 @@ class TowRefits:
     def campaign(self, run_ids: Sequence[str]) -> MotionFit:
         index = {r.run_id: r for r in self.runs}
         prepared = [prepare(index[i]) for i in run_ids if i in index]
-        return fit_output_error(
-            prepared, self.fit.effects, start=self.fit.values, quantization_sigma=False
-        )
+        return self.refit(prepared, self.fit)
 
     def own_rows(self, name: str, unit: str) -> list[BudgetRow]:
         """The release-timing refit's and the thrust calibration draws' rows
@@ -146,6 +187,20 @@ class TowRefits:
                     u,
                     drive.draws - 1,
                     note="the calibration fit's covariance",
+                )
+            )
+        if drive is not None and drive.draws > 1 and math.isnan(drive.std_calibration[name]):
+            out.append(  # said, never a silently smaller U
+                BudgetRow(
+                    f"thrust calibration ({drive.draws} curve draws)",
+                    "A",
+                    unit,
+                    math.nan,
+                    1.0,
+                    0.0,
+                    drive.draws - 1,
+                    combined=False,
+                    note="a curve draw did not fit by this estimate's method: not in U",
                 )
             )
         return out

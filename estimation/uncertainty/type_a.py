@@ -27,13 +27,17 @@ the data support.
 
 A kind's own random sources (a tow's release-timing refit and thrust calibration draws,
 ``estimation.axis.drive_uncertainty``) are separate and enter as they are.
+
+A seed method (``--method ls-*``) has no output-error fit to read: its random error is its
+own regression's σ and ν (``SeedSigma``, ``estimation.axis.seed_methods``: the larger of the
+white and the long-run σ, ν = n_eff − p), with the repeatability counted once beside it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -49,6 +53,38 @@ FIT_WHITE = "fit (white σ̂²(JᵀJ)⁻¹; ν = n − p)"
 FIT_SERIAL = "fit (σ with the residual's correlation; ν = n_eff − p)"
 COMBINATION_ROW = "fit (delta method through the coefficients' σ)"
 NOT_IDENTIFIED = "not identified by these records: no σ, so no U"
+SEED_ROW = "seed regression (larger of white and long-run σ; ν = n_eff − p)"
+
+
+@dataclass(frozen=True)
+class SeedSigma:
+    """A seed method's own Type A: σ and ν per coefficient, and its counts (n, n_eff, p)."""
+
+    std: Mapping[str, float]
+    dof: Mapping[str, float]
+    counts: str
+
+
+def seed_rows(
+    seed: SeedSigma,
+    units: Mapping[str, str],
+    repeat_std: Mapping[str, tuple[float, int]],
+    own_rows: Callable[[str, str], list[BudgetRow]],
+) -> dict[str, list[BudgetRow]]:
+    """Each coefficient's Type A rows of a seed method (module doc): its regression's σ on
+    its ν and the repeatability, counted once, then the kind's ``own_rows``."""
+    rows: dict[str, list[BudgetRow]] = {}
+    for name, sigma in seed.std.items():
+        unit, dof = units.get(name, ""), max(float(seed.dof[name]), 1.0)
+        if not math.isfinite(sigma):
+            rows[name] = [BudgetRow(SEED_ROW, "A", unit, math.nan, 1.0, math.nan, dof,
+                                    note=NOT_IDENTIFIED)]  # fmt: skip
+            continue
+        random = [BudgetRow(SEED_ROW, "A", unit, float(sigma), 1.0, 0.0, dof, note=seed.counts)]
+        if name in repeat_std:
+            random.append(repeatability_row(unit, *repeat_std[name]))
+        rows[name] = [*counted_once(random), *own_rows(name, unit)]
+    return rows
 
 
 def fit_dof(fit: MotionFit, white: bool) -> tuple[float, str]:

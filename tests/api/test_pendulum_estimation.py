@@ -83,6 +83,9 @@ def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs
         methods = page.locator("#est-methods")
         expect(methods).to_contain_text("log-decrement")
         expect(methods).to_contain_text("equation-error")
+        # each seed row's coefficients with their own U, k and ν; the seed headline's budget
+        expect(methods).to_contain_text(re.compile(r"± \S+ \(U \S+, k \S+, ν \S+\)"))
+        expect(page.locator("#est-uncertainty .est-budget-summary")).to_contain_text("added_mass")
         expect(page.locator("#est-coefs")).to_contain_text("added_mass (kg)")
         subject = "surge pendulum free-decay test / damped-fit"  # GET /api/results' words
         expect(page.locator("#est-rmse")).to_contain_text(subject)

@@ -60,6 +60,14 @@ async def test_seed_campaign_budget_and_pretest_prediction(tmp_path):
             assert theory["theory"]["plausible"] is False and theory["theory"]["ratio"] > 10
             assert "FLAGGED" in report and "Measured vs predicted added mass" in report
             assert all(r["reynolds"] > 5e4 for r in theory["runs"].values())
+            # a seed method's estimate carries a budget too: its own regression's σ on ν,
+            # the declared sources re-fitted through the seed method, in the report
+            seed = run_estimation(store, ids, method="ls-steady", report_dir=tmp_path / "seed")
+            seed_inertia = seed["budget"]["coefficients"]["inertia"]
+            sources = {r["source"].split(" ")[0] for r in seed_inertia["rows"]}
+            assert {"seed", "hung_mass_kg", "g_m_s2"} <= sources, sources
+            assert seed_inertia["expanded_uncertainty"] > 0 and seed["budget"]["type_b_declared"]
+            assert "Uncertainty" in (tmp_path / "seed" / "report.md").read_text()
         achieved[axis] = {n: c["expanded_uncertainty"] for n, c in budget["coefficients"].items()}
         _, runs = load_estimation_runs(store, stored_runs(store, ids), "output-error")
         release += [r.t_release_std for r in runs]

@@ -5,10 +5,14 @@ import { $ } from "./dom.js";
 import { fmt } from "./format.js";
 import { esc } from "./markup.js";
 
-/** "value ± σ", the value alone without σ, "—" without a value. */
+/** "value ± σ", the value alone without σ, "—" without a value; a seed method's row adds its
+ * own U (95 %) with k and ν ("U 0.11, k 2.1, ν 17"), as its coefficients carry them. */
 export function valuePm(e) {
   if (!e || e.value === null || e.value === undefined) return "—";
-  return e.std === null || e.std === undefined ? fmt(e.value, 5) : `${fmt(e.value, 5)} ± ${fmt(e.std, 2)}`;
+  const pm = e.std === null || e.std === undefined ? fmt(e.value, 5) : `${fmt(e.value, 5)} ± ${fmt(e.std, 2)}`;
+  if (e.U === undefined) return pm;
+  const nu = e.nu === null || e.nu >= 1e4 ? "∞" : fmt(e.nu, 3); // as the budget table shows ν_eff
+  return e.U === null ? `${pm} (no U)` : `${pm} (U ${fmt(e.U, 2)}, k ${fmt(e.k, 3)}, ν ${nu})`;
 }
 
 /** The methods-side-by-side table before #est-ambiguous, or none when `res` has no methods. */
@@ -19,7 +23,7 @@ export function drawMethods(res) {
   const box = Object.assign(document.createElement("div"), { id: "est-methods" });
   $("#est-ambiguous").before(box);
   box.innerHTML = `<h4>Methods side by side</h4>
-    <table class="list"><thead><tr><th>Run</th><th>Method</th><th>α (kg)</th><th>β (N·s/m)</th><th>γ (kg/m)</th><th>e (rad²)</th></tr></thead><tbody>
+    <table class="list"><thead><tr><th>Run</th><th>Method</th><th>α (kg) ± σ (U 95 %)</th><th>β (N·s/m) ± σ (U 95 %)</th><th>γ (kg/m) ± σ (U 95 %)</th><th>e (rad²)</th></tr></thead><tbody>
     ${res.methods
       .map(
         (m) => `<tr><td><code>${esc(m.run_id.slice(0, 8))}</code></td><td>${esc(m.method)}</td><td>${esc(valuePm(m.added_mass))}</td>

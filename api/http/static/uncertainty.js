@@ -11,9 +11,8 @@ export function renderUncertainty(res) {
   if (!box) return;
   const budget = res.budget;
   if (!budget) {
-    box.innerHTML = (res.method && res.method !== "output-error" && "budget" in res // a result that has one
-      ? `<p class="muted">No uncertainty budget for ${esc(res.method)} (seed methods are compared, not signed).</p>`
-      : "") + repeatsMarkup(res.repeats); // what was compared and left out, with or without a budget
+    // every method's result has one (a seed method's too); a document stored before it had none
+    box.innerHTML = repeatsMarkup(res.repeats); // what was compared and left out, with or without a budget
     return;
   }
   const notes = (budget.notes || []).map((n) => `<p class="${n.startsWith("Type B not declared") ? "error" : "muted"}">${esc(n)}</p>`).join("");
