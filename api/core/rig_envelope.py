@@ -6,8 +6,8 @@ from collections.abc import Sequence
 
 from daq.config import RigConfig
 from daq.procedures.run_kinds import KINDS
-from daq.vocabulary import DRIVEN_KINDS
 from daq.store import RunInfo, Store
+from daq.vocabulary import DRIVEN_KINDS
 from estimation.design.planning_envelope import RigEnvelope
 
 #: Time between runs that counts as tank time: carriage back, weights changed, water settling
