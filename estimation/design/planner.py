@@ -188,14 +188,8 @@ def state_from_result(
     std = {n: e.std for n, e in r.coefficients.items()}  # type: ignore[attr-defined]
     for e in r.effects:  # type: ignore[attr-defined]
         values[e.name], std[e.name] = e.value, e.std
-    names = list(r.fit_after.names)  # type: ignore[attr-defined]
-    corr = np.asarray(r.fit_after.correlation)  # type: ignore[attr-defined]
-    pairs = {
-        (a, b): float(corr[i, j])
-        for i, a in enumerate(names)
-        for j, b in enumerate(names)
-        if i < j and np.isfinite(corr[i, j])
-    }
+    fit = r.fit_after  # type: ignore[attr-defined]
+    pairs = correlation_pairs(fit.names, fit.correlation)
     return AxisState(
         axis=r.axis,  # type: ignore[attr-defined]
         values=values,
@@ -206,6 +200,19 @@ def state_from_result(
         recorded=tuple(recorded),
         **budget_terms(budget, std),
     )
+
+
+def correlation_pairs(
+    names: Sequence[str], correlation: np.ndarray
+) -> dict[tuple[str, str], float]:
+    """Each pair (a, b) of ``names``, a before b, with its finite correlation."""
+    corr = np.asarray(correlation)
+    return {
+        (a, b): float(corr[i, j])
+        for i, a in enumerate(names)
+        for j, b in enumerate(names)
+        if i < j and np.isfinite(corr[i, j])
+    }
 
 
 class BudgetTerms(TypedDict):

@@ -20,7 +20,13 @@ import numpy as np
 
 from estimation.design.decay_information import next_releases, planned_record
 from estimation.design.information import BASELINE_S, TAIL_S
-from estimation.design.planner import BASE, AxisState, ReleaseOutlook, budget_terms
+from estimation.design.planner import (
+    BASE,
+    AxisState,
+    ReleaseOutlook,
+    budget_terms,
+    correlation_pairs,
+)
 from estimation.design.planning_envelope import Candidate, ReleaseEnvelope
 from estimation.motion.decay_repeats import release_amplitude
 from estimation.motion.output_error_fit import MotionFit, simulate
@@ -104,14 +110,7 @@ def state_from_release(
         raise ValueError("result: got a fit without its model, allowed: an output-error fit")
     values = {n: float(v) for n, v in zip(fit.names, fit.values, strict=True)}
     std = {n: float(s) for n, s in zip(fit.names, fit.std, strict=True)}
-    names = list(fit.names)
-    corr = np.asarray(fit.correlation)
-    pairs = {
-        (a, b): float(corr[i, j])
-        for i, a in enumerate(names)
-        for j, b in enumerate(names)
-        if i < j and np.isfinite(corr[i, j])
-    }
+    pairs = correlation_pairs(fit.names, fit.correlation)
     return AxisState(
         axis=env.axis,
         values=values,
