@@ -30,7 +30,9 @@ def test_the_reverse_button_starts_the_reverse_tow(chromium, client, service):
     runs = completed_tows(client, (24.5, 44.1, 83.3), {"max_time_s": 5.0, "baseline_s": 0.5})
     with signed_in_page(chromium, service, client) as page:
         estimate_in_page(page, runs, timeout_ms=180_000)
-        expect(page.locator("#est-ambiguous")).to_contain_text("rig tow --force -83.3")
+        # advice (what to run next) is set apart from a warning (the result may be wrong)
+        expect(page.locator("#est-ambiguous p.muted")).to_contain_text("rig tow --force -83.3")
+        expect(page.locator("#est-ambiguous p.warning")).to_contain_text("poorly separated")
         button = page.locator("#est-reverse-btn")
         expect(button).to_be_visible()
         expect(page.locator("#est-reverse code")).to_have_text("rig tow --force -83.3")

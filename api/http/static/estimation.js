@@ -142,7 +142,8 @@ export async function renderEstimation(res) {
   const amb = (res.ambiguous || []).map((g) => g.join(" ≈ "));
   $("#est-ambiguous").innerHTML =
     (amb.length ? `<p class="error">Ambiguous: ${esc(amb.join("; "))}</p>` : "") +
-    [...(res.warnings || []), ...(res.advice || [])].map((w) => `<p class="muted">${esc(w)}</p>`).join("");
+    (res.warnings || []).map((w) => `<p class="warning">${esc(w)}</p>`).join("") + // may be wrong
+    (res.advice || []).map((w) => `<p class="muted">${esc(w)}</p>`).join(""); // what to run next
   drawMethods(res);
   showReverseButton(res.reverse_test);
   drawFitChart(res, unit);
