@@ -72,24 +72,38 @@ def planned_record(template: Record) -> Record:
     return replace(template, run_id="planned", t=t, x=np.zeros_like(t), released_at=None)
 
 
-def _information(record: Record, setup: Setup, fit: MotionFit, amplitude: float) -> np.ndarray:
-    """J_θᵀ·(1 − P_ν)·J_θ of ``record`` released from ``amplitude`` under ``fit``'s
-    coefficients (module doc): one integration of every perturbed set, the coefficients'
-    and the record's own initial angle and rate."""
+def _information(
+    record: Record, setup: Setup, fit: MotionFit, amplitudes: Sequence[float]
+) -> list[np.ndarray]:
+    """J_θᵀ·(1 − P_ν)·J_θ of ``record`` released from each of ``amplitudes`` under ``fit``'s
+    coefficients (module doc): one integration of every amplitude's perturbed sets, the
+    coefficients' and the record's own initial angle and rate. The step is chosen for the
+    coefficient sets, the same for every amplitude: each amplitude's columns are the numbers
+    its own integration gives."""
     ng = len(fit.names)
+    per = 2 * ng + 4  # sets per amplitude
     h = DIFF_STEP * np.maximum(np.abs(fit.values), 1e-12)
-    dx0, dv0 = DIFF_STEP * max(abs(amplitude), 1e-12), 1e-3
-    sets = np.repeat(fit.values[None, :], 2 * ng + 4, axis=0)
-    starts = np.repeat(np.array([[[amplitude, 0.0]]]), 2 * ng + 4, axis=0)
+    sets = np.repeat(fit.values[None, :], per, axis=0)
     for i in range(ng):
         sets[2 * i, i] += h[i]
         sets[2 * i + 1, i] -= h[i]
-    starts[2 * ng :, 0] += [[dx0, 0.0], [-dx0, 0.0], [0.0, dv0], [0.0, -dv0]]
-    ((xs, _),) = simulate([record], setup, fit.names, sets, starts)
-    j_theta = np.column_stack([(xs[2 * i] - xs[2 * i + 1]) / (2 * h[i]) for i in range(ng)])
-    d_x0 = (xs[2 * ng] - xs[2 * ng + 1]) / (2 * dx0)
-    d_v0 = (xs[2 * ng + 2] - xs[2 * ng + 3]) / (2 * dv0)
-    return _profiled(j_theta, np.column_stack([np.ones(xs.shape[1]), d_x0, d_v0]))
+    starts, dx0s, dv0 = [], [], 1e-3
+    for a in amplitudes:
+        dx0 = DIFF_STEP * max(abs(a), 1e-12)
+        s = np.repeat(np.array([[[a, 0.0]]]), per, axis=0)
+        s[2 * ng :, 0] += [[dx0, 0.0], [-dx0, 0.0], [0.0, dv0], [0.0, -dv0]]
+        starts.append(s)
+        dx0s.append(dx0)
+    every = np.tile(sets, (len(amplitudes), 1))
+    ((xs_all, _),) = simulate([record], setup, fit.names, every, np.concatenate(starts))
+    out = []
+    for k, dx0 in enumerate(dx0s):
+        xs = xs_all[k * per : (k + 1) * per]
+        j_theta = np.column_stack([(xs[2 * i] - xs[2 * i + 1]) / (2 * h[i]) for i in range(ng)])
+        d_x0 = (xs[2 * ng] - xs[2 * ng + 1]) / (2 * dx0)
+        d_v0 = (xs[2 * ng + 2] - xs[2 * ng + 3]) / (2 * dv0)
+        out.append(_profiled(j_theta, np.column_stack([np.ones(xs.shape[1]), d_x0, d_v0])))
+    return out
 
 
 def _profiled(j_theta: np.ndarray, j_nu: np.ndarray) -> np.ndarray:
@@ -116,8 +130,8 @@ def next_releases(
     inflation = np.asarray(fit.std) / white
     planned = planned_record(records[0])
     out = []
-    for a in amplitudes:
-        info = info_now + _information(planned, setup, fit, a) / variance
+    for a, added in zip(amplitudes, _information(planned, setup, fit, amplitudes), strict=True):
+        info = info_now + added / variance
         after = np.sqrt(np.maximum(np.diag(np.linalg.pinv(info)), 0.0)) * inflation
         out.append(PlannedRelease(float(a), unit, fit.names, np.asarray(fit.std), after))
     return tuple(out)
