@@ -290,8 +290,9 @@ class _Search:
         trials: list[tuple[str, ...]] = [(c,) for c in tried]
         if pairs:
             trials += [p for p in combinations(tried, 2) if abs(rho[frozenset(p)]) < COLLINEAR]
-        steps = predicted_steps(records, setup, current, trials)
-        _, jac, nuisance = sensitivities(records, setup, current, tried)
+        # one sensitivity matrix for the whole screen: every remaining candidate's
+        steps = predicted_steps(records, setup, current, trials, remaining)
+        _, jac, nuisance = sensitivities(records, setup, current, remaining)
         own = np.hstack([jac[:, : len(current.names)], nuisance])
         n = current.n_samples
         predicted, linears = {}, {}

@@ -118,9 +118,15 @@ def partial_correlations(
 
 
 def predicted_steps(
-    records: Sequence[Record], setup: Setup, fit: MotionFit, combos: Sequence[tuple[str, ...]]
+    records: Sequence[Record],
+    setup: Setup,
+    fit: MotionFit,
+    combos: Sequence[tuple[str, ...]],
+    among: Sequence[str] = (),
 ) -> dict[tuple[str, ...], tuple[float, np.ndarray, dict[str, float]]]:
     """One Gauss–Newton step from ``fit`` for each combination of added effects.
+    ``among``: more terms whose sensitivities to form with the combinations' (a screen that
+    has formed them for all its candidates: one integration, not two).
 
     Returns, per combination, the predicted SSE after the step, the start values it gives
     (``fit``'s coefficients and effects, then the combination's) and the terms the step
@@ -130,7 +136,7 @@ def predicted_steps(
     [held, added, nuisances] is solved by Frisch–Waugh–Lovell: the held parameters and
     nuisances are factored once (QR), each combination solves only its added columns.
     """
-    extra = sorted({e for c in combos for e in c if e not in fit.effects})
+    extra = sorted({e for c in (*combos, among) for e in c if e not in fit.effects})
     params, jac, nuisance = sensitivities(records, setup, fit, extra)
     residual = np.concatenate(fit.residuals)
     held = [params.index(n) for n in fit.names]
