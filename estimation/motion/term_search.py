@@ -297,10 +297,9 @@ class _Search:
         n = current.n_samples
         predicted, linears = {}, {}
         for trial in trials:
-            sse, values, past = steps[trial]
+            sse, added, past = steps[trial]
             gain = n * np.log(max(sse, 1e-300) / current.sse) + len(trial) * np.log(n)
             predicted[trial] = current.bic + gain
-            added = values[-len(trial) :]
             linear = {t: past.get(t, float(v)) for t, v in zip(trial, added, strict=True)}
             linears[trial] = linear
         return _Round(predicted, linears, rho, own), trials
