@@ -28,8 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from estimation.motion.kernel import form_of
 from estimation.motion.output_error_fit import MotionFit, simulate
-from estimation.motion.records import Record, Setup
+from estimation.motion.records import Record, Setup, known_terms_of
+from estimation.motion.terms import LIBRARY
 from estimation.report_numbers import finite_or_none
 
 #: Release amplitudes tried, as multiples of the largest the records have: one smaller,
@@ -80,6 +82,11 @@ def _information(
     coefficients' and the record's own initial angle and rate. The step is chosen for the
     coefficient sets, the same for every amplitude: each amplitude's columns are the numbers
     its own integration gives."""
+    if len(amplitudes) > 1 and amplitudes[0] != 0 and _linear(record, setup, fit.names):
+        # ξ(t) is linear in the release: J_θ scales with A, ∂ξ/∂ξ₀ and ∂ξ/∂ξ̇₀ do not, so
+        # the projected information scales with A² (the same to round-off, 1e-12)
+        first = _information(record, setup, fit, amplitudes[:1])[0]
+        return [first * (a / amplitudes[0]) ** 2 for a in amplitudes]
     ng = len(fit.names)
     per = 2 * ng + 4  # sets per amplitude
     h = DIFF_STEP * np.maximum(np.abs(fit.values), 1e-12)
@@ -104,6 +111,22 @@ def _information(
         d_v0 = (xs[2 * ng + 2] - xs[2 * ng + 3]) / (2 * dv0)
         out.append(_profiled(j_theta, np.column_stack([np.ones(xs.shape[1]), d_x0, d_v0])))
     return out
+
+
+def _linear(record: Record, setup: Setup, names: Sequence[str]) -> bool:
+    """Whether ``record``'s motion is linear in its initial state: no drive, and every force
+    term (identified or known) proportional to x or to ẋ (``kernel.form_of``); the inertia
+    terms only scale the inertia."""
+    if record.drive is not None:
+        return False
+    terms = [LIBRARY[n] for n in (*names, *known_terms_of(record, setup)) if n != "inertia"]
+    for term in terms:
+        if term.role == "inertia":
+            continue
+        form = form_of(term) if term.role == "force" and not term.set_valued_at_rest else None
+        if form is None or (form.x_code, form.v_code) not in ((1, 0), (0, 1)):
+            return False
+    return True
 
 
 def _profiled(j_theta: np.ndarray, j_nu: np.ndarray) -> np.ndarray:
