@@ -130,6 +130,13 @@ def track_of(record: Record, setup: Setup) -> Track:
     )
 
 
+def _within(x: np.ndarray, limit: float) -> np.ndarray:
+    """``x`` held within ±``limit`` (NaN: at +``limit``); ``x`` itself when it is already."""
+    if np.all(np.abs(x) <= limit):  # False for NaN and ±inf
+        return x
+    return np.clip(np.nan_to_num(x, nan=limit, posinf=limit, neginf=-limit), -limit, limit)
+
+
 class _Problem:
     """Residuals and Jacobian of the joint fit: the identified coefficients, then x_eq per
     record, then ξ₀ and ξ̇₀ per free record (a record at rest starts at ξ = ξ̇ = 0).
@@ -253,11 +260,7 @@ class _Problem:
                     shift=delay[rows] if np.any(delay) else None,
                     unresolved=unresolved[rows],
                 )
-        lim = self.limit
-        return [
-            (np.clip(np.nan_to_num(x, nan=lim, posinf=lim, neginf=-lim), -lim, lim), v)
-            for x, v in sims
-        ]
+        return [(_within(x, self.limit), v) for x, v in sims]
 
     @staticmethod
     def _rows(coeffs: list[TermValues], rows: slice) -> list[TermValues]:
