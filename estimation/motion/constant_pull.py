@@ -71,30 +71,33 @@ def pull_response(
     values (S, 1) or (S, R); ``shift`` (S,) the timing terms' delay (s). Per record, K_L and
     K_Q are Σ θ·(−φ(0, 1)) over the v and |v|·v terms, and the constant forces moving forward
     and backward Σ θ·φ(0, ±1) over the others: the body moves forward when F + the forward
-    one > 0, backward when F + the backward one < 0, and dry friction holds it otherwise."""
+    one > 0, backward when F + the backward one < 0, and dry friction holds it otherwise.
+    Every record's samples are solved in one call (each sample's arithmetic is its own)."""
     zero, one = np.zeros(1), np.ones(1)
-    out = []
-    for i, r in enumerate(records):
-        n = total_inertia.shape[0]
-        k_l, k_q = np.zeros((n, 1)), np.zeros((n, 1))
-        forward, backward = np.zeros((n, 1)), np.zeros((n, 1))
-        for c in coefficients:
-            if c.term.role != "force":
-                continue
-            value = c.value[:, [min(i, c.value.shape[1] - 1)]]
-            if c.term.v_power == 1:
-                k_l = k_l - value * c.term.phi(zero, one)
-            elif c.term.v_power == 2:
-                k_q = k_q - value * c.term.phi(zero, one)
-            else:
-                forward = forward + value * c.term.phi(zero, one)
-                backward = backward + value * c.term.phi(zero, -one)
-        force = float(np.asarray(r.drive))
-        ahead, behind = force + forward, force + backward
-        s = np.where(ahead > 0, 1.0, np.where(behind < 0, -1.0, 0.0))
-        f_eff = np.where(ahead > 0, ahead, np.where(behind < 0, -behind, 0.0))
-        assert r.released_at is not None
-        tau = np.maximum(np.asarray(r.t)[None, :] - r.released_at - shift[:, None], 0.0)
-        x, v = constant_force_response(tau, total_inertia[:, [i]], k_l, k_q, f_eff)
-        out.append((s * x, s * v))
-    return out
+    n, nr = total_inertia.shape[0], len(records)
+    k_l, k_q = np.zeros((n, nr)), np.zeros((n, nr))
+    forward, backward = np.zeros((n, nr)), np.zeros((n, nr))
+    for c in coefficients:
+        if c.term.role != "force":
+            continue
+        value = c.value[:, np.minimum(np.arange(nr), c.value.shape[1] - 1)]  # (S, 1) or (S, R)
+        if c.term.v_power == 1:
+            k_l = k_l - value * c.term.phi(zero, one)
+        elif c.term.v_power == 2:
+            k_q = k_q - value * c.term.phi(zero, one)
+        else:
+            forward = forward + value * c.term.phi(zero, one)
+            backward = backward + value * c.term.phi(zero, -one)
+    force = np.array([float(np.asarray(r.drive)) for r in records])
+    ahead, behind = force + forward, force + backward
+    s = np.where(ahead > 0, 1.0, np.where(behind < 0, -1.0, 0.0))
+    f_eff = np.where(ahead > 0, ahead, np.where(behind < 0, -behind, 0.0))
+    sizes = [np.size(r.t) for r in records]
+    at = np.repeat(np.arange(nr), sizes)  # each sample's record
+    released = np.array([r.released_at for r in records], dtype=float)
+    t = np.concatenate([np.asarray(r.t, dtype=float) for r in records])
+    tau = np.maximum(t[None, :] - released[at][None, :] - shift[:, None], 0.0)
+    x, v = constant_force_response(tau, total_inertia[:, at], k_l[:, at], k_q[:, at], f_eff[:, at])
+    x, v = s[:, at] * x, s[:, at] * v
+    ends = np.cumsum(sizes)[:-1]
+    return list(zip(np.split(x, ends, axis=1), np.split(v, ends, axis=1), strict=True))
