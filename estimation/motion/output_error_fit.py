@@ -289,6 +289,19 @@ class _Problem:
         self.eq = eq
         self._key = key
 
+    def centre_residual(self, p: np.ndarray) -> np.ndarray:
+        """``residual(p)`` where only the residual is read (a prediction, a refit's finite
+        check): the finite-difference sets choose the step, as in ``_evaluate``, but only the
+        centre is integrated (``simulate``'s rows: the same numbers)."""
+        if p.tobytes() == self._key:
+            return self.measured - self.model
+        g, eq, xi0, v0 = self.split(p)
+        steps = 1e-6 * np.maximum(np.abs(g), self.scale[: self.ng] * 1e-3)
+        sets = np.vstack([g, g + np.diag(steps)])
+        sims = self.simulate(sets, xi0[None, :], v0[None, :], rows=slice(0, 1))
+        x = np.concatenate([s[0] for s in sims], axis=1)
+        return self.measured - (x[0] + eq[self.index])
+
     @property
     def model(self) -> np.ndarray:
         """The modelled positions at the last parameters evaluated (m or rad)."""
@@ -450,7 +463,7 @@ def fitted_values(
     refit whose σ and residuals are discarded (a bootstrap draw): nothing else computed."""
     names = names_of(setup, effects)
     prob, p, *_ = _solve(records, setup, names, start, max_nfev, FIT_TOLERANCE)
-    _finite(prob.residual(p), setup, names)
+    _finite(prob.centre_residual(p), setup, names)
     return prob.split(p)[0].copy()
 
 
@@ -500,7 +513,7 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
         train = [r for j, r in enumerate(records) if j != i]
         start = parameters_of(fit, [j for j in range(nr) if j != i])
         prob, sub, *_ = _solve(train, setup, fit.names, start, LORO_NFEV, REFIT_TOLERANCE)
-        if not np.all(np.isfinite(prob.residual(sub))):
+        if not np.all(np.isfinite(prob.centre_residual(sub))):
             raise EstimationFailed(
                 f"the {setup.dof} equation with {', '.join(fit.names)} without record "
                 f"{records[i].run_id}",
@@ -532,7 +545,7 @@ def predict_record(
     scale = np.concatenate([np.maximum(np.abs(values), 1e-12), _nuisance_scale([record])])
     prob = _Problem([record], setup, names, scale)
     if not record.free:  # its one nuisance, the rest position, enters linearly: the mean
-        res = prob.residual(np.concatenate([values, [0.0]]))
+        res = prob.centre_residual(np.concatenate([values, [0.0]]))
         return res - np.mean(res)
     from scipy.optimize import least_squares  # here: the service imports this module's types
 
