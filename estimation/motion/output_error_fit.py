@@ -582,20 +582,23 @@ def _typical(records, setup: Setup, names, g0, inertia: float = 0.0) -> np.ndarr
         identified = float(g0[list(names).index("inertia")])
     else:
         identified = float(inertia)
+    if len(names) == 0:
+        return np.array([])
+    per_record = []  # what each record gives every name: ξ, ẋ, ẍ, its force, max |ẍ|
+    for r in records:
+        t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
+        v, a = derivatives(t, x)
+        m = known_inertia_of(r, setup) + r.weight("inertia") * abs(identified)
+        d = r.drive_at_samples()
+        peak = float(np.max(np.abs(a)))
+        force = max(m * peak, 0.0 if d is None else float(np.max(np.abs(d))))
+        per_record.append((r, t, x - rest_of(r), v, a, force, peak))
     out = []
     for n, start in zip(names, g0, strict=True):
         sizes = []
-        for r in records:
-            t, x = np.asarray(r.t, dtype=float), np.asarray(r.x, dtype=float)
-            v, a = derivatives(t, x)
-            xi = x - rest_of(r)
-            m = known_inertia_of(r, setup) + r.weight("inertia") * abs(identified)
-            d = r.drive_at_samples()
-            force = max(
-                m * float(np.max(np.abs(a))), 0.0 if d is None else float(np.max(np.abs(d)))
-            )
+        for r, t, xi, v, a, force, peak in per_record:
             size = (
-                force / max(float(np.max(np.abs(a))), 1e-12)
+                force / max(peak, 1e-12)
                 if n == "inertia"
                 else LIBRARY[n].typical(force, xi, v, a, r.hung_weight, t - t[0])
             )
