@@ -509,9 +509,8 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
         return None
     ng = len(fit.names)
     held_out = []
-    for i in range(nr):
+    for i, start in enumerate(_fold_starts(records, setup, fit)):
         train = [r for j, r in enumerate(records) if j != i]
-        start = parameters_of(fit, [j for j in range(nr) if j != i])
         prob, sub, *_ = _solve(train, setup, fit.names, start, LORO_NFEV, REFIT_TOLERANCE)
         if not np.all(np.isfinite(prob.centre_residual(sub))):
             raise EstimationFailed(
@@ -522,6 +521,37 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
         held_out.append(predict_record(records[i], setup, fit.names, sub[:ng], fit, i))
     per_record = tuple(float(np.sqrt(np.mean(r**2))) for r in held_out)
     return HeldOut(pooled_rmse(held_out), per_record)
+
+
+def _fold_starts(records: Sequence[Record], setup: Setup, fit: MotionFit) -> list[np.ndarray]:
+    """Each leave-one-record-out fold's start: ``fit``'s parameters without the held-out
+    record's nuisances, moved by one Gauss–Newton step on the other records' rows of
+    ``fit``'s own Jacobian (scaled by each parameter's size; one evaluation for all folds).
+    At ``fit``'s optimum the gradient of the whole is zero, so this step is the fold's
+    first-order correction for the record it leaves out: the refit starts near its own
+    optimum (the bench's pair search: 98 → 81 fold evaluations) and converges to it as
+    before. A Jacobian that is not finite leaves the plain starts."""
+    nr, ng = len(records), len(fit.names)
+    plain = [parameters_of(fit, [j for j in range(nr) if j != i]) for i in range(nr)]
+    scale = np.concatenate([np.maximum(np.abs(fit.values), 1e-12), _nuisance_scale(records)])
+    whole = _Problem(records, setup, fit.names, scale)
+    p = parameters_of(fit)
+    res, jac = whole.residual(p), whole.jacobian(p)
+    if not (np.all(np.isfinite(res)) and np.all(np.isfinite(jac))):
+        return plain
+    slot = np.cumsum(whole.free) - 1  # a free record's place among the free ones
+    starts = []
+    for i, start in enumerate(plain):
+        others = [j for j in range(nr) if j != i]
+        free = slot[[j for j in others if whole.free[j]]]
+        cols = np.concatenate(
+            [np.arange(ng), ng + np.array(others), ng + nr + free, ng + nr + whole.nf + free]
+        ).astype(int)
+        rows = whole.index != i
+        d = scale[cols]
+        step = np.linalg.lstsq(jac[np.ix_(rows, cols)] * d, res[rows], rcond=None)[0] * d
+        starts.append(start - step)
+    return starts
 
 
 def predict_record(
