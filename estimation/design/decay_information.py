@@ -28,8 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from estimation.motion.kernel import form_of
 from estimation.motion.output_error_fit import MotionFit, simulate
-from estimation.motion.records import Record, Setup
+from estimation.motion.records import Record, Setup, known_terms_of
+from estimation.motion.terms import LIBRARY
 from estimation.report_numbers import finite_or_none
 
 #: Release amplitudes tried, as multiples of the largest the records have: one smaller,
@@ -72,24 +74,59 @@ def planned_record(template: Record) -> Record:
     return replace(template, run_id="planned", t=t, x=np.zeros_like(t), released_at=None)
 
 
-def _information(record: Record, setup: Setup, fit: MotionFit, amplitude: float) -> np.ndarray:
-    """J_θᵀ·(1 − P_ν)·J_θ of ``record`` released from ``amplitude`` under ``fit``'s
-    coefficients (module doc): one integration of every perturbed set, the coefficients'
-    and the record's own initial angle and rate."""
+def _information(
+    record: Record, setup: Setup, fit: MotionFit, amplitudes: Sequence[float]
+) -> list[np.ndarray]:
+    """J_θᵀ·(1 − P_ν)·J_θ of ``record`` released from each of ``amplitudes`` under ``fit``'s
+    coefficients (module doc): one integration of every amplitude's perturbed sets, the
+    coefficients' and the record's own initial angle and rate. The step is chosen for the
+    coefficient sets, the same for every amplitude: each amplitude's columns are the numbers
+    its own integration gives."""
+    if len(amplitudes) > 1 and amplitudes[0] != 0 and _linear(record, setup, fit.names):
+        # ξ(t) is linear in the release: J_θ scales with A, ∂ξ/∂ξ₀ and ∂ξ/∂ξ̇₀ do not, so
+        # the projected information scales with A² (the same to round-off, 1e-12)
+        first = _information(record, setup, fit, amplitudes[:1])[0]
+        return [first * (a / amplitudes[0]) ** 2 for a in amplitudes]
     ng = len(fit.names)
+    per = 2 * ng + 4  # sets per amplitude
     h = DIFF_STEP * np.maximum(np.abs(fit.values), 1e-12)
-    dx0, dv0 = DIFF_STEP * max(abs(amplitude), 1e-12), 1e-3
-    sets = np.repeat(fit.values[None, :], 2 * ng + 4, axis=0)
-    starts = np.repeat(np.array([[[amplitude, 0.0]]]), 2 * ng + 4, axis=0)
+    sets = np.repeat(fit.values[None, :], per, axis=0)
     for i in range(ng):
         sets[2 * i, i] += h[i]
         sets[2 * i + 1, i] -= h[i]
-    starts[2 * ng :, 0] += [[dx0, 0.0], [-dx0, 0.0], [0.0, dv0], [0.0, -dv0]]
-    ((xs, _),) = simulate([record], setup, fit.names, sets, starts)
-    j_theta = np.column_stack([(xs[2 * i] - xs[2 * i + 1]) / (2 * h[i]) for i in range(ng)])
-    d_x0 = (xs[2 * ng] - xs[2 * ng + 1]) / (2 * dx0)
-    d_v0 = (xs[2 * ng + 2] - xs[2 * ng + 3]) / (2 * dv0)
-    return _profiled(j_theta, np.column_stack([np.ones(xs.shape[1]), d_x0, d_v0]))
+    starts, dx0s, dv0 = [], [], 1e-3
+    for a in amplitudes:
+        dx0 = DIFF_STEP * max(abs(a), 1e-12)
+        s = np.repeat(np.array([[[a, 0.0]]]), per, axis=0)
+        s[2 * ng :, 0] += [[dx0, 0.0], [-dx0, 0.0], [0.0, dv0], [0.0, -dv0]]
+        starts.append(s)
+        dx0s.append(dx0)
+    every = np.tile(sets, (len(amplitudes), 1))
+    ((xs_all, _),) = simulate([record], setup, fit.names, every, np.concatenate(starts))
+    out = []
+    for k, dx0 in enumerate(dx0s):
+        xs = xs_all[k * per : (k + 1) * per]
+        j_theta = np.column_stack([(xs[2 * i] - xs[2 * i + 1]) / (2 * h[i]) for i in range(ng)])
+        d_x0 = (xs[2 * ng] - xs[2 * ng + 1]) / (2 * dx0)
+        d_v0 = (xs[2 * ng + 2] - xs[2 * ng + 3]) / (2 * dv0)
+        out.append(_profiled(j_theta, np.column_stack([np.ones(xs.shape[1]), d_x0, d_v0])))
+    return out
+
+
+def _linear(record: Record, setup: Setup, names: Sequence[str]) -> bool:
+    """Whether ``record``'s motion is linear in its initial state: no drive, and every force
+    term (identified or known) proportional to x or to ẋ (``kernel.form_of``); the inertia
+    terms only scale the inertia."""
+    if record.drive is not None:
+        return False
+    terms = [LIBRARY[n] for n in (*names, *known_terms_of(record, setup)) if n != "inertia"]
+    for term in terms:
+        if term.role == "inertia":
+            continue
+        form = form_of(term) if term.role == "force" and not term.set_valued_at_rest else None
+        if form is None or (form.x_code, form.v_code) not in ((1, 0), (0, 1)):
+            return False
+    return True
 
 
 def _profiled(j_theta: np.ndarray, j_nu: np.ndarray) -> np.ndarray:
@@ -116,8 +153,8 @@ def next_releases(
     inflation = np.asarray(fit.std) / white
     planned = planned_record(records[0])
     out = []
-    for a in amplitudes:
-        info = info_now + _information(planned, setup, fit, a) / variance
+    for a, added in zip(amplitudes, _information(planned, setup, fit, amplitudes), strict=True):
+        info = info_now + added / variance
         after = np.sqrt(np.maximum(np.diag(np.linalg.pinv(info)), 0.0)) * inflation
         out.append(PlannedRelease(float(a), unit, fit.names, np.asarray(fit.std), after))
     return tuple(out)

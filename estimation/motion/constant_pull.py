@@ -33,28 +33,41 @@ def applies(records: Sequence[Record], terms: Sequence[Term]) -> bool:
 
 
 def constant_force_response(
-    tau: np.ndarray, inertia: np.ndarray, k_l: np.ndarray, k_q: np.ndarray, force: np.ndarray
+    tau: np.ndarray,
+    inertia: np.ndarray,
+    k_l: np.ndarray,
+    k_q: np.ndarray,
+    force: np.ndarray,
+    at: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Displacement and velocity from rest under a constant force ≥ 0 (closed form).
 
     Solves M v̇ = F − K_L v − K_Q v², v(0) = 0:  v = v∞(1 − E)/(1 + aE), E = e^{−λt},
     λ = √(K_L² + 4K_Q F)/M, v∞ = 2F/(K_L + √·), a = 4K_Q F/(K_L + √·)²;
-    x = v∞[t + (1 + a)/λ · (ln(1 + aE) − ln(1 + a))/a]. Parameter arrays broadcast as (S, 1).
+    x = v∞[t + (1 + a)/λ · (ln(1 + aE) − ln(1 + a))/a]. Parameter arrays broadcast as (S, 1);
+    with ``at`` (the parameters' column of each of ``tau``'s columns: records (S, R) of
+    samples (S, n)) what depends on the parameters alone is computed once per record.
     """
     disc = np.sqrt(k_l**2 + 4.0 * k_q * force)
     denom = np.maximum(k_l + disc, 1e-300)
     v_inf = 2.0 * force / denom
     a = 4.0 * k_q * force / denom**2
     lam = np.maximum(disc, 1e-300) / inertia
-    e = np.exp(-lam * tau)
     small = a < 1e-7
     a_safe = np.where(small, 1.0, a)
+    log_a = np.log1p(a_safe)
+    gain = 1.0 + a
+    if at is not None:
+        v_inf, a, lam, small, a_safe, log_a, gain = (
+            p[:, at] for p in (v_inf, a, lam, small, a_safe, log_a, gain)
+        )
+    e = np.exp(-lam * tau)
     ratio = np.where(
         small,
         (e - 1.0) - a * (e * e - 1.0) / 2.0,
-        (np.log1p(a_safe * e) - np.log1p(a_safe)) / a_safe,
+        (np.log1p(a_safe * e) - log_a) / a_safe,
     )
-    x = v_inf * (tau + (1.0 + a) / lam * ratio)
+    x = v_inf * (tau + gain / lam * ratio)
     v = v_inf * (1.0 - e) / (1.0 + a * e)
     return x, v
 
@@ -71,30 +84,33 @@ def pull_response(
     values (S, 1) or (S, R); ``shift`` (S,) the timing terms' delay (s). Per record, K_L and
     K_Q are Σ θ·(−φ(0, 1)) over the v and |v|·v terms, and the constant forces moving forward
     and backward Σ θ·φ(0, ±1) over the others: the body moves forward when F + the forward
-    one > 0, backward when F + the backward one < 0, and dry friction holds it otherwise."""
+    one > 0, backward when F + the backward one < 0, and dry friction holds it otherwise.
+    Every record's samples are solved in one call (each sample's arithmetic is its own)."""
     zero, one = np.zeros(1), np.ones(1)
-    out = []
-    for i, r in enumerate(records):
-        n = total_inertia.shape[0]
-        k_l, k_q = np.zeros((n, 1)), np.zeros((n, 1))
-        forward, backward = np.zeros((n, 1)), np.zeros((n, 1))
-        for c in coefficients:
-            if c.term.role != "force":
-                continue
-            value = c.value[:, [min(i, c.value.shape[1] - 1)]]
-            if c.term.v_power == 1:
-                k_l = k_l - value * c.term.phi(zero, one)
-            elif c.term.v_power == 2:
-                k_q = k_q - value * c.term.phi(zero, one)
-            else:
-                forward = forward + value * c.term.phi(zero, one)
-                backward = backward + value * c.term.phi(zero, -one)
-        force = float(np.asarray(r.drive))
-        ahead, behind = force + forward, force + backward
-        s = np.where(ahead > 0, 1.0, np.where(behind < 0, -1.0, 0.0))
-        f_eff = np.where(ahead > 0, ahead, np.where(behind < 0, -behind, 0.0))
-        assert r.released_at is not None
-        tau = np.maximum(np.asarray(r.t)[None, :] - r.released_at - shift[:, None], 0.0)
-        x, v = constant_force_response(tau, total_inertia[:, [i]], k_l, k_q, f_eff)
-        out.append((s * x, s * v))
-    return out
+    n, nr = total_inertia.shape[0], len(records)
+    k_l, k_q = np.zeros((n, nr)), np.zeros((n, nr))
+    forward, backward = np.zeros((n, nr)), np.zeros((n, nr))
+    for c in coefficients:
+        if c.term.role != "force":
+            continue
+        value = c.value[:, np.minimum(np.arange(nr), c.value.shape[1] - 1)]  # (S, 1) or (S, R)
+        if c.term.v_power == 1:
+            k_l = k_l - value * c.term.phi(zero, one)
+        elif c.term.v_power == 2:
+            k_q = k_q - value * c.term.phi(zero, one)
+        else:
+            forward = forward + value * c.term.phi(zero, one)
+            backward = backward + value * c.term.phi(zero, -one)
+    force = np.array([float(np.asarray(r.drive)) for r in records])
+    ahead, behind = force + forward, force + backward
+    s = np.where(ahead > 0, 1.0, np.where(behind < 0, -1.0, 0.0))
+    f_eff = np.where(ahead > 0, ahead, np.where(behind < 0, -behind, 0.0))
+    sizes = [np.size(r.t) for r in records]
+    at = np.repeat(np.arange(nr), sizes)  # each sample's record
+    released = np.array([r.released_at for r in records], dtype=float)
+    t = np.concatenate([np.asarray(r.t, dtype=float) for r in records])
+    tau = np.maximum(t[None, :] - released[at][None, :] - shift[:, None], 0.0)
+    x, v = constant_force_response(tau, total_inertia, k_l, k_q, f_eff, at)
+    x, v = s[:, at] * x, s[:, at] * v
+    ends = np.cumsum(sizes)[:-1]
+    return list(zip(np.split(x, ends, axis=1), np.split(v, ends, axis=1), strict=True))

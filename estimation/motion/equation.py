@@ -111,7 +111,8 @@ def accelerator(
 def hermite(
     grid_x: np.ndarray, grid_v: np.ndarray, h: float, tau: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Cubic Hermite interpolation on a uniform grid; grid arrays (K, S), tau (S, n)."""
+    """Cubic Hermite interpolation on a uniform grid; grid arrays (K, S), tau (S, n) or
+    (1, n): the same times for every set. Returns x and ẋ, each (S, n)."""
     k_max = grid_x.shape[0] - 2
     k = np.clip(np.floor(tau / h).astype(int), 0, k_max)
     s = np.clip(tau / h - k, 0.0, 1.0)
@@ -424,8 +425,9 @@ def integrate(
         vs = np.clip(np.nan_to_num(vs), -limit / h, limit / h)
     out = []
     for i, tr in enumerate(tracks):
-        tau = np.maximum(tr.tau[None, :] - later[:, None], 0.0)  # held at the start before it
-        tau = np.broadcast_to(tau, (n_sets, tr.tau.size))
+        # held at the start before it; one row when every set starts at once (``hermite``
+        # forms its weights once for all sets)
+        tau = np.maximum(tr.tau[None, :] - later[:, None], 0.0)
         out.append(hermite(xs[:, :, i], vs[:, :, i], h, tau))
     return out
 

@@ -290,16 +290,16 @@ class _Search:
         trials: list[tuple[str, ...]] = [(c,) for c in tried]
         if pairs:
             trials += [p for p in combinations(tried, 2) if abs(rho[frozenset(p)]) < COLLINEAR]
-        steps = predicted_steps(records, setup, current, trials)
-        _, jac, nuisance = sensitivities(records, setup, current, tried)
+        # one sensitivity matrix for the whole screen: every remaining candidate's
+        steps = predicted_steps(records, setup, current, trials, remaining)
+        _, jac, nuisance = sensitivities(records, setup, current, remaining)
         own = np.hstack([jac[:, : len(current.names)], nuisance])
         n = current.n_samples
         predicted, linears = {}, {}
         for trial in trials:
-            sse, values, past = steps[trial]
+            sse, added, past = steps[trial]
             gain = n * np.log(max(sse, 1e-300) / current.sse) + len(trial) * np.log(n)
             predicted[trial] = current.bic + gain
-            added = values[-len(trial) :]
             linear = {t: past.get(t, float(v)) for t, v in zip(trial, added, strict=True)}
             linears[trial] = linear
         return _Round(predicted, linears, rho, own), trials

@@ -118,23 +118,30 @@ def partial_correlations(
 
 
 def predicted_steps(
-    records: Sequence[Record], setup: Setup, fit: MotionFit, combos: Sequence[tuple[str, ...]]
+    records: Sequence[Record],
+    setup: Setup,
+    fit: MotionFit,
+    combos: Sequence[tuple[str, ...]],
+    among: Sequence[str] = (),
 ) -> dict[tuple[str, ...], tuple[float, np.ndarray, dict[str, float]]]:
     """One Gauss–Newton step from ``fit`` for each combination of added effects.
+    ``among``: more terms whose sensitivities to form with the combinations' (a screen that
+    has formed them for all its candidates: one integration, not two).
 
-    Returns, per combination, the predicted SSE after the step, the start values it gives
-    (``fit``'s coefficients and effects, then the combination's) and the terms the step
-    wanted past their bound (name → the value it wanted). A step that takes a bounded term
-    past its bound leaves that term at the bound. A linear prediction,
-    used to decide which combinations are worth a converged fit. The least squares on
-    [held, added, nuisances] is solved by Frisch–Waugh–Lovell: the held parameters and
-    nuisances are factored once (QR), each combination solves only its added columns.
+    Returns, per combination, the predicted SSE after the step, the values it gives the
+    combination's terms (in its order) and the terms the step wanted past their bound
+    (name → the value it wanted). A step that takes a bounded term past its bound leaves
+    that term at the bound nearest to zero. A linear prediction, used to decide which
+    combinations are worth a converged fit. The least squares on [held, added, nuisances]
+    is solved by Frisch–Waugh–Lovell: the held parameters and nuisances are projected out
+    once (QR), each combination solves only its added columns (the held parameters' own
+    step is not formed: a trial starts them from ``fit``'s values).
     """
-    extra = sorted({e for c in combos for e in c if e not in fit.effects})
+    extra = sorted({e for c in (*combos, among) for e in c if e not in fit.effects})
     params, jac, nuisance = sensitivities(records, setup, fit, extra)
     residual = np.concatenate(fit.residuals)
     held = [params.index(n) for n in fit.names]
-    q, r = np.linalg.qr(np.hstack([jac[:, held], nuisance]))
+    q, _ = np.linalg.qr(np.hstack([jac[:, held], nuisance]))
     q_res, q_jac = q.T @ residual, q.T @ jac
     res_perp, jac_perp = residual - q @ q_res, jac - q @ q_jac
     gram, moment = jac_perp.T @ jac_perp, jac_perp.T @ res_perp
@@ -149,28 +156,26 @@ def predicted_steps(
                 if cols
                 else np.zeros(0)
             )
-            beta = np.linalg.lstsq(r, q_res - q_jac[:, cols] @ delta, rcond=None)[0]
-            values = np.array([*fit.values, *np.zeros(len(free))])
-            values = values + np.concatenate([beta[: len(held)], delta])
             past = {
-                e: float(v)
-                for e, v in zip(free, values[len(held) :], strict=True)
-                if not LIBRARY[e].in_bounds(v)
+                e: float(v) for e, v in zip(free, delta, strict=True) if not LIBRARY[e].in_bounds(v)
             }
             if not past:
                 break
             wanted.update(past)
             free = [e for e in free if e not in past]
         left = res_perp - jac_perp[:, cols] @ delta
-        full = {n: v for n, v in zip([*fit.names, *free], values, strict=True)}
+        stepped = dict(zip(free, delta, strict=True))
         # an effect the step took past its bound starts at the bound nearest to zero
-        start = np.array(
+        values = np.array(
             [
-                full[n] if n in full else float(np.clip(0.0, LIBRARY[n].lower, LIBRARY[n].upper))
-                for n in (*fit.names, *(e for e in combo if e not in fit.names))
+                float(stepped[e])
+                if e in stepped
+                else float(np.clip(0.0, LIBRARY[e].lower, LIBRARY[e].upper))
+                for e in combo
+                if e not in fit.names
             ]
         )
-        out[combo] = (float(left @ left), start, wanted)
+        out[combo] = (float(left @ left), values, wanted)
     return out
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -91,12 +92,21 @@ def third_differences(t: np.ndarray, r: np.ndarray) -> np.ndarray:
     t, r = np.asarray(t, dtype=float), np.asarray(r, dtype=float)
     if r.size < 4:
         return np.empty(0)
-    span = np.lib.stride_tricks.sliding_window_view(t, 4)
+    w = _divided_difference_weights(t.tobytes())
+    return np.sum(w * np.lib.stride_tricks.sliding_window_view(r, 4), axis=1)
+
+
+@lru_cache(maxsize=8)  # the records of one estimate (each entry holds its times as key)
+def _divided_difference_weights(t_bytes: bytes) -> np.ndarray:
+    """``third_differences``' normalised weights of each four consecutive sample times
+    (read-only): one search reads the noise of many residuals on the same records' times."""
+    span = np.lib.stride_tricks.sliding_window_view(np.frombuffer(t_bytes), 4)
     gaps = span[:, :, None] - span[:, None, :]  # tᵢ − tⱼ per window
     gaps[:, np.arange(4), np.arange(4)] = 1.0
     w = 1.0 / np.prod(gaps, axis=2)
     w /= np.linalg.norm(w, axis=1, keepdims=True)
-    return np.sum(w * np.lib.stride_tricks.sliding_window_view(r, 4), axis=1)
+    w.flags.writeable = False
+    return w
 
 
 def position_noise(
@@ -115,8 +125,14 @@ def position_noise(
         r = np.asarray(r, dtype=float)
         t = np.arange(r.size, dtype=float) if times is None else np.asarray(times[i], float)
         d = third_differences(t, r)
-        for k in range(0, max(d.size - NOISE_WINDOW // 2, 1), NOISE_WINDOW):
-            w = d[k : k + NOISE_WINDOW]
+        # windows start every NOISE_WINDOW samples while at least half a window is left;
+        # the whole ones at once (each row's mean is the same sum as the window's own)
+        starts = range(0, max(d.size - NOISE_WINDOW // 2, 1), NOISE_WINDOW)
+        whole = sum(1 for k in starts if k + NOISE_WINDOW <= d.size)
+        rows = d[: whole * NOISE_WINDOW].reshape(whole, NOISE_WINDOW)
+        estimates.extend(np.sqrt(np.mean(rows**2, axis=1)).tolist())
+        if len(starts) > whole:  # the last window, shorter (at least half of one)
+            w = d[whole * NOISE_WINDOW : whole * NOISE_WINDOW + NOISE_WINDOW]
             if w.size >= NOISE_WINDOW // 2:
                 estimates.append(float(np.sqrt(np.mean(w**2))))
     return float(np.percentile(estimates, NOISE_QUANTILE)) if estimates else 0.0

@@ -51,3 +51,23 @@ def test_the_next_release_named_is_the_one_that_teaches_most_and_its_sigma_comes
     assert both.effect_names == ("quadratic_damping",)
     measured = both.fit_after.std[both.fit_after.names.index("quadratic_damping")]
     assert 0.65 * after[3] <= measured <= 1.35 * after[3], (measured, after[3])
+
+
+def test_a_linear_models_information_scales_with_the_release_squared_a_nonlinear_ones_not():
+    """The next-release advice integrates one amplitude when the model is linear in the
+    release (``decay_information._linear``) and scales it by A²: the same numbers as each
+    amplitude's own integration, to round-off. With quadratic damping it must not scale."""
+    from estimation.design import decay_information as di
+
+    t, x = _decay(0.05, seed=1)
+    for keep, linear in (((), True), (("quadratic_damping",), False)):
+        result = estimate_decay(t, x, "heave", candidates=keep, **KNOWN)
+        fit, planned = result.fit_after, di.planned_record(result.records[0])
+        assert di._linear(planned, result.setup, fit.names) is linear
+        amplitudes = [0.025, 0.05, 0.1]
+        each = [di._information(planned, result.setup, fit, [a])[0] for a in amplitudes]
+        together = di._information(planned, result.setup, fit, amplitudes)
+        for a, b in zip(each, together, strict=True):
+            assert np.allclose(a, b, rtol=1e-9, atol=0.0)
+        if not linear:  # a quadratic damping's information grows faster than A²
+            assert not np.allclose(together[2], together[0] * 16, rtol=1e-3)
