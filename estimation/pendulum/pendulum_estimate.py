@@ -136,10 +136,15 @@ def pendulum_budget(result: PendulumResult) -> Budget:
     )
 
 
+#: The seed headline's row for runs that disagree beyond their own σ (``_scatter``).
+SCATTER_ROW = "scatter between runs beyond their σ (Birge ratio; ν = runs − 1)"
+
+
 def seed_budget(result: PendulumResult) -> Budget:
     """The budget of a seed method's headline α, β: their inverse-variance mean over runs
     (``_pooled``), so each run's row is a Type A source of sensitivity w_r/Σw (u_c = 1/√Σw,
-    the pooled σ) on its own ν (``methods.row_value``), combined by Welch–Satterthwaite. No
+    the pooled σ) on its own ν (``methods.row_value``), and the runs' scatter beyond their σ
+    (``_scatter``) as one more, combined by Welch–Satterthwaite. No
     Type B: a pendulum declares none (``GEOMETRY_EXACT``); no combinations: the seed methods
     give none."""
     rows = [m for m in result.section.methods if m.method == result.method]
@@ -161,6 +166,10 @@ def seed_budget(result: PendulumResult) -> Budget:
             )
             for m, e, w in zip(rows, est, weights, strict=True)
         ]
+        scatter, dof = _scatter(np.array([e.value for e in est]), weights)
+        if scatter > 0:
+            unit = est[0].unit
+            lines.append(BudgetRow(SCATTER_ROW, "A", unit, scatter, 1.0, scatter, dof))
         budgets[name] = coefficient_budget(name, result.coefficients[name].value, lines)
     return Budget(budgets, False, (GEOMETRY_EXACT,))
 
@@ -187,7 +196,8 @@ def _coefficients(fit: MotionFit, axis: str) -> dict[str, Coefficient]:
 
 
 def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Coefficient]:
-    """Inverse-variance mean of one method's α and β over runs."""
+    """Inverse-variance mean of one method's α and β over runs, its σ 1/√Σw times the
+    runs' Birge ratio where above 1 (``_scatter``)."""
     out = {}
     for name in BASE_NAMES:
         est = [getattr(m, name) for m in rows]
@@ -195,10 +205,28 @@ def _pooled(rows: Sequence[MethodEstimate]) -> dict[str, Coefficient]:
         vals = np.array([e.value for e in est])
         if w.sum() > 0:
             mean, std = float(w @ vals / w.sum()), float(1 / np.sqrt(w.sum()))
+            std = float(np.hypot(std, _scatter(vals, w)[0]))
         else:
             mean, std = float(vals.mean()), float("nan")
         out[name] = Coefficient(mean, std, est[0].unit)
     return out
+
+
+def _scatter(values: np.ndarray, weights: np.ndarray) -> tuple[float, int]:
+    """The runs' scatter beyond their own σ, as a standard uncertainty of their weighted
+    mean, and its ν: with χ² = Σ wᵣ(θᵣ − θ̄)² over the n runs that have a σ, the Birge ratio
+    R_B = √(χ²/(n − 1)); above 1 the runs disagree more than their σ allow (a drift between
+    runs, a σ too small), and the mean's σ 1/√Σw is raised to R_B/√Σw (Birge 1932; the
+    weighted-mean practice of CODATA and the PDG): this is the part √(R_B² − 1)/√Σw, on
+    ν = n − 1. Zero for one run or runs that agree within their σ."""
+    used = weights > 0
+    n = int(used.sum())
+    if n < 2:
+        return 0.0, max(n - 1, 1)
+    w, v = weights[used], values[used]
+    mean = float(w @ v / w.sum())
+    birge2 = float(w @ (v - mean) ** 2) / (n - 1)
+    return float(np.sqrt(max(birge2 - 1.0, 0.0) / w.sum())), n - 1
 
 
 def _warnings(

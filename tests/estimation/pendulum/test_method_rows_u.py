@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from api.cli.estimate import summary_lines
@@ -62,3 +63,16 @@ def test_a_seed_headline_has_a_budget_and_the_cli_shows_each_rows_u(dry):
     doc = dry.to_json() | {"budget": budget, "result_id": 1}
     lines = [line for line in summary_lines(doc) if line.lstrip().startswith("damped-fit  ")]
     assert len(lines) == 2 and all("(U " in line and ", ν " in line for line in lines), lines
+
+
+def test_runs_that_disagree_beyond_their_sigma_raise_the_pooled_sigma_by_the_birge_ratio():
+    """The inverse-variance mean's σ 1/√Σw holds only if the runs agree within their σ; two
+    runs 10 σ apart have χ² = 50 on ν 1 (R_B = √50): the headline σ is R_B/√Σw and the seed
+    budget carries the part beyond 1/√Σw as its own row; runs within their σ add nothing."""
+    from estimation.pendulum.pendulum_estimate import _scatter
+
+    w = np.array([1.0, 1.0])  # σ 1 each: 1/√Σw = 1/√2
+    assert _scatter(np.array([0.0, 0.5]), w) == (0.0, 1)  # χ² = 0.125 < ν
+    part, dof = _scatter(np.array([0.0, 10.0]), w)
+    assert dof == 1 and math.hypot(1 / math.sqrt(2), part) == pytest.approx(math.sqrt(50 / 2))
+    assert _scatter(np.array([3.0]), np.array([1.0]))[0] == 0.0  # one run: no scatter to see
