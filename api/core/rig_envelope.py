@@ -7,7 +7,6 @@ from collections.abc import Sequence
 from daq.config import RigConfig
 from daq.procedures.run_kinds import KINDS
 from daq.store import RunInfo, Store
-from daq.vocabulary import DRIVEN_KINDS
 from estimation.design.planning_envelope import RigEnvelope
 
 #: Time between runs that counts as tank time: carriage back, weights changed, water settling
@@ -27,8 +26,7 @@ def envelope_of(
     for kind, spec in KINDS.items():
         if spec.envelope is None or not spec.capability(rig).available:
             continue
-        driven = kind in DRIVEN_KINDS  # a release (a pendulum) has no thrust to calibrate
-        span = calibrated_range(rig, store, kind) if store is not None and driven else None
+        span = calibrated_range(rig, store, kind) if store is not None else None
         axes.append(spec.envelope(rig, span))
     return RigEnvelope(tuple(axes), g=float(rig.rig.g), reset_s=reset_s)
 

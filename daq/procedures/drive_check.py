@@ -19,7 +19,7 @@ from daq.procedures.params import ParameterError
 from daq.procedures.run_kinds import KINDS
 from daq.procedures.thrust_commands import latest_calibration, law_commands, thruster_commands
 from daq.store import Store
-from daq.vocabulary import DRIVE_FIELD
+from daq.vocabulary import DRIVE_FIELD, DRIVEN_KINDS
 
 #: Trial drives scanned from the rig limit down (×0.9 each) to find the calibrated reach.
 _SCAN_STEPS = 120
@@ -116,8 +116,9 @@ def check_steps(steps: Iterable[Any], rig: RigConfig, store: Store) -> None:
 
 def calibrated_range(rig: RigConfig, store: Store, kind: str) -> tuple[float, float] | None:
     """The signed (low, high) drive of ``kind`` the newest stored calibration delivers,
-    within the rig's limit; None without thrusters or a calibration."""
-    if rig.thrusters is None:
+    within the rig's limit; None without thrusters or a calibration, and for a kind that has
+    no drive (a pendulum's release: nothing for thrusters to deliver)."""
+    if rig.thrusters is None or kind not in DRIVEN_KINDS:
         return None
     try:
         commands_for, _ = _commands_for(store, rig, kind)
