@@ -108,6 +108,9 @@ def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page, tmp_
     coefs = page.locator("#est-coefs tbody tr:not(.est-known)")  # the well-determined rows aside
     expect(coefs).to_have_count(3)
     expect(page.locator("#est-coefs")).to_contain_text("inertia")
+    # no effect found: no "before effects" value beside each coefficient (it would repeat it)
+    expect(page.locator("#est-effects-list")).to_contain_text("none")
+    expect(page.locator("#est-coefs")).not_to_contain_text("before effects")
     # two tows: too few to resample (their "spread" would be 0): no bootstrap column
     expect(page.locator("#est-coefs thead th")).to_have_count(3)
     expect(page.locator("#est-rmse")).to_contain_text("RMSE after")

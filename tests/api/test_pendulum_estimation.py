@@ -91,6 +91,8 @@ def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs
         expect(page.locator("#est-rmse")).to_contain_text(subject)
         expect(page.locator("#est-rmse")).to_contain_text("rad")
         expect(page.locator("#est-effects-list")).to_contain_text("quadratic_damping")
+        # an effect found: each coefficient shows its value before the search beside it
+        expect(page.locator("#est-coefs")).to_contain_text("before effects")
         # B_e's amplitudes in rad and in degrees, as the damping ratios above are named
         expect(page.locator("#est-equivalent tbody tr").first).to_contain_text(
             re.compile(r"^\S+ rad \(\S+°\)")

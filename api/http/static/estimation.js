@@ -113,9 +113,12 @@ export async function renderEstimation(res) {
   $("#est-coefs thead tr").innerHTML =
     "<th>Coefficient</th><th>Value</th><th>± σ</th>" +
     (boot ? `<th title="each coefficient's spread over fits to runs drawn with replacement (docs/estimation.md)">Bootstrap σ [2.5–97.5 %] (${esc(boot.used)} of ${esc(boot.requested)} draws)</th>` : "");
+  // the value before the search only where the search added an effect (a seed method's
+  // result, or one with no effect found, has nothing "before" to show)
+  const searched = (res.effects || []).length > 0;
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
-      const before = (res.coefficients_before || {})[k];
+      const before = searched ? (res.coefficients_before || {})[k] : null;
       return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
         ${boot ? `<td>${esc(bootstrapText(boot, k))}</td>` : ""}
         ${before ? `<td class="muted">before effects: ${esc(valuePm(before))}</td>` : ""}</tr>`;
