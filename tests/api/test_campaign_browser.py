@@ -4,6 +4,7 @@ marker added from the Queue page; a campaign stopped from the card."""
 
 from __future__ import annotations
 
+import re
 import time
 from datetime import datetime
 
@@ -41,7 +42,8 @@ def test_a_campaign_started_from_the_page_shows_its_trail_as_it_runs(chromium, c
         expect(page.locator("#campaign-state")).to_have_text("running")
         expect(rows.nth(0)).to_contain_text("rig tow --force")
         expect(rows.nth(0)).to_contain_text("no fit yet")  # before the first run
-        expect(rows.nth(0)).to_contain_text("K_Q")  # U after it
+        # U after it, each coefficient named as the result and the Estimation page name it
+        expect(rows.nth(0)).to_contain_text(re.compile(r"quadratic_damping \S+ %"))
         expect(rows).to_have_count(2, timeout=60_000)
         expect(page.locator("#campaign-state")).to_have_text("completed", timeout=60_000)
         expect(page.locator("#campaign-summary")).to_contain_text("2 of 2 runs")
@@ -128,7 +130,10 @@ def test_a_pendulum_campaign_shows_each_release_it_chose_and_why(
         expect(rows.nth(0)).to_contain_text("rig pendulum --angle 0.25")
         expect(rows.nth(0)).to_contain_text("opening")
         expect(rows.nth(1)).to_contain_text("per tank minute")
-        expect(rows.nth(1)).to_contain_text("K_Q")
+        # the coefficient the why names is the one its U columns name (no second vocabulary)
+        worst = re.search(r"worst target ratio is \S+ \((\w+);", rows.nth(1).inner_text())
+        assert worst, rows.nth(1).inner_text()
+        expect(rows.nth(1).locator("td").nth(4)).to_contain_text(f"{worst[1]} ")
         expect(page.locator("#campaign-state")).to_have_text("completed", timeout=120_000)
         page.locator("#campaign-view").scroll_into_view_if_needed()
         page.screenshot(path=str(tmp_path / "campaign-pendulum.png"))

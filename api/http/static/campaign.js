@@ -13,16 +13,15 @@ import { FINAL, state } from "./state.js";
 import { onJob } from "./stream.js";
 
 const campaignView = { job: null };
-const COEFFS = [["inertia", "M"], ["linear_damping", "K_L"], ["quadratic_damping", "K_Q"]];
-
+// each coefficient by the name the result, the trail's "why" and the Estimation page give it
 function sigmaText(status) {
   const pct = (status && status.expanded_percent) || {};
+  const percent = (v) => (v == null ? "—" : `${Number(v).toPrecision(2)} %`);
   if (!Object.keys(pct).length) return `<span class="muted">no fit yet</span>`;
-  const shown = COEFFS.map(([k, s]) => `${esc(s)} ${pct[k] == null ? "—" : `${Number(pct[k]).toPrecision(2)} %`}`).join(" · ");
+  const shown = Object.entries(pct).map(([k, v]) => `${esc(k)} ${percent(v)}`).join(" · ");
   const typeB = Object.entries(status.type_b_above_target || {});
   if (!typeB.length) return shown;
-  const names = Object.fromEntries(COEFFS);
-  const limited = typeB.map(([k, v]) => `${esc(names[k] || k)} ${v == null ? "—" : `${Number(v).toPrecision(2)} %`}`).join(", ");
+  const limited = typeB.map(([k, v]) => `${esc(k)} ${percent(v)}`).join(", ");
   return `${shown}<br><span class="muted">tolerances alone: ${limited}</span>`;
 }
 
