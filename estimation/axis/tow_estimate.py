@@ -54,6 +54,7 @@ from estimation.report_numbers import Coefficient
 from estimation.stats.acceptance_rules import TOW_RULES
 from estimation.stats.diagnostics import ljung_box
 from estimation.stats.fit_statistics import Combinations
+from estimation.stats.method_bias import method_bias
 from estimation.stats.misfit import lag_one
 from estimation.stats.repeatability import outlier_warnings
 
@@ -471,44 +472,14 @@ def _seed_values(method: str, prepared: list[PreparedRun], _fit: MotionFit) -> n
         return np.full(len(BASE_NAMES), np.nan)
 
 
-#: A seed method's coefficient further than this many σ of the difference from the output-
-#: error fit of the same runs is named in its result's warnings (``seed_disagreement``).
-SEED_DISAGREES_SIGMAS = 2.0
-
-
-def seed_disagreement(
-    method: str, ls: LeastSquaresFit, reference: MotionFit, axis: str
-) -> list[str]:
-    """Each coefficient of the seed ``method`` further than ``SEED_DISAGREES_SIGMAS``·√(σ_seed²
-    + σ_oe²) from ``reference``, the one engine's base output-error fit of the same runs: a
-    bias of the method's model of the record, which its U (noise and declared inputs) does not
-    cover, so never silent. Both σ count the residual's serial correlation; the two estimates
-    share the records, so the σ of their difference is at most that root sum and the rule errs
-    toward silence. On synthetic tows (solve_ivp, 10, 143 and 1000 kg, white and AR(1) ρ 0.9
-    position noise, 10 seeds each) ls-raw sat 5.6–8.8 σ (median) from the output-error fit and
-    ls-steady 21–80 σ, flagged in every seed (differenced derivatives of noisy positions; a
-    first-order curve's steady speed taken as the terminal speed); ls-curvefit 0.6–0.7 σ,
-    flagged in none."""
-    units = units_of(axis)
-    apart = []
-    for i, name in enumerate(BASE_NAMES):
-        value, std = float(ls.values[i]), float(ls.std[i])
-        ref, ref_std = float(reference.values[i]), float(reference.std[i])
-        z = abs(value - ref) / float(np.hypot(std, ref_std))
-        if np.isfinite(z) and z > SEED_DISAGREES_SIGMAS:
-            apart.append(f"{name} {value:.4g} against {ref:.4g} {units[name]} ({z:.1f} σ)")
-    if not apart:
-        return []
-    return [
-        f"{method} is biased on these runs: {'; '.join(apart)} from the output-error fit of "
-        "the same runs. The bias is the method's own model of the record and its U does not "
-        "cover it: sign the output-error result"
-    ]
-
-
 def _seed_result(axis, method, runs, prepared) -> TowResult:
     fit, ls = seed_fit(method, prepared)
-    warnings = seed_disagreement(method, ls, fit_output_error(prepared), axis)
+    units = units_of(axis)
+    seed = {
+        n: Coefficient(float(v), float(sd), units[n])
+        for n, v, sd in zip(BASE_NAMES, ls.values, ls.std, strict=True)
+    }
+    warnings = method_bias(method, seed, _coefficients(fit_output_error(prepared), axis))
     if not ls.values[0] > 0:
         warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())

@@ -48,6 +48,7 @@ from estimation.pendulum.methods import (
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.report_numbers import Coefficient, finite_or_none
+from estimation.stats.method_bias import method_bias
 from estimation.uncertainty.budget import Budget, coefficient_budget, uncertainty_budget
 from estimation.uncertainty.record_refits import RecordRefits
 from estimation.uncertainty.rows import BudgetRow
@@ -337,6 +338,7 @@ def estimate_pendulum(
         coefficients = _coefficients(final, axis)
     else:
         coefficients = _pooled([m for m in rows if m.method == method])
+        warnings = [*method_bias(method, coefficients, _coefficients(final, axis)), *warnings]
     effects = tuple(
         EffectEstimate(e, final.value(e), final.sigma(e), unit(e, axis)) for e in final.effects
     )

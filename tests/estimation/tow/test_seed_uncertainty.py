@@ -132,7 +132,7 @@ def test_a_seed_results_release_timing_row_is_the_seed_method_re_fitted():
 @pytest.mark.parametrize("scale", ["10kg", "1000kg"])
 def test_a_biased_seed_method_says_so_against_the_output_error_fit(scale):
     """ls-raw and ls-steady sit 5–80 σ from the output-error fit of the same runs (their
-    model of the record is biased: ``seed_disagreement``), which their U does not cover: the
+    model of the record is biased: ``stats.method_bias``), which their U does not cover: the
     result says so and names output error as the result to sign; ls-curvefit, which agrees
     within 1 σ, says nothing of the kind. Four clean tows with AR(1) ρ 0.9 noise, 3 seeds."""
     for seed in range(3):
