@@ -170,12 +170,14 @@ class Campaign:
         ratios = state.ratios(self.target.relative)
         percent = {n: _finite(r * self.target.relative * 100) for n, r in ratios.items()}
         floor = state.floor(self.target.relative)
-        return {
-            "expanded_percent": percent,
+        return {  # each coefficient by the result's name for it (``AxisState.name``)
+            "expanded_percent": {state.name(n): p for n, p in percent.items()},
             "unresolved": state.unresolved(),
             "correlated": state.correlated(),
             "type_b_above_target": {
-                n: _finite(f * self.target.relative * 100) for n, f in floor.items() if f > 1.0
+                state.name(n): _finite(f * self.target.relative * 100)
+                for n, f in floor.items()
+                if f > 1.0
             },
         }
 

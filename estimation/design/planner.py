@@ -114,6 +114,13 @@ class AxisState:
     targets: tuple[str, ...] = BASE
     #: A released axis: each release the rig allows, as predicted from this fit.
     releases: tuple[ReleaseOutlook, ...] = ()
+    #: The result's name of an engine coefficient where it differs (a pendulum's inertia is
+    #: its added mass): the trail and its why name each coefficient as the result does.
+    names: Mapping[str, str] = field(default_factory=dict)
+
+    def name(self, coefficient: str) -> str:
+        """``coefficient`` (an engine name) as the axis's result names it."""
+        return self.names.get(coefficient, coefficient)
 
     def expanded(self, name: str, std: float) -> float:
         """U of ``name`` were its fit σ ``std``: k·√((u_A/σ·std)² + u_B²)."""
@@ -456,7 +463,7 @@ def _choose_release(
     ratios = state.ratios(relative)
     worst = max(ratios, key=ratios.__getitem__)
     why = (
-        f"the worst target ratio is {before:.2f} ({worst}; 1 = target met); of the "
+        f"the worst target ratio is {before:.2f} ({state.name(worst)}; 1 = target met); of the "
         f"{len(scored)} releases the rig allows, one from {best.amplitude:.3g} {env.unit} is "
         f"predicted to bring it to {after:.2f} in {minutes:.1f} tank min, the largest "
         "reduction of its log per tank minute"
@@ -518,7 +525,8 @@ def _out_of_reach(
         worst = max(floor, key=floor.__getitem__, default=None)
         if worst is not None and floor[worst] > 1.0:
             return (
-                f"target out of reach: on {axis} the declared tolerances alone give {worst} "
+                f"target out of reach: on {axis} the declared tolerances alone give "
+                f"{state.name(worst)} "
                 f"U = {floor[worst] * relative * 100:.2g} % of its value, above the "
                 f"{relative * 100:g} % target, and more runs do not shrink them (dominant: "
                 f"{state.type_b_source.get(worst) or 'Type B'}); declare that tolerance "

@@ -122,4 +122,5 @@ def state_from_release(
         **budget_terms(budget, std, r.names),  # type: ignore[attr-defined]
         targets=tuple(n for n in BASE if n in values),
         releases=release_outlooks(records, setup, fit, env),
+        names=dict(r.names),  # type: ignore[attr-defined]
     )

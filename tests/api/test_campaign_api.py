@@ -63,8 +63,9 @@ def test_a_pendulum_campaign_chooses_its_releases_and_keeps_the_trail(client, se
     first, second = doc["trail"]
     assert first["request"] == {"start_angle_rad": 0.25} and "opening" in first["why"]
     assert first["command"] == "rig pendulum --angle 0.25"
+    # each coefficient as the pendulum's result names it (its inertia is the added mass α)
     assert set(first["after"]["expanded_percent"]) == {
-        "inertia",
+        "added_mass",
         "linear_damping",
         "quadratic_damping",
     }
