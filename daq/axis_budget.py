@@ -1,16 +1,15 @@
 """The axis estimator's uncertainty budget: the rig file's constants and ``[tolerances]``
 handed to ``estimation.uncertainty`` as plain numbers (estimation never reads a rig file).
 
-The axis entry (``daq.estimators.AXIS``) offers ``budget_document`` after its fit (which
+The axis entry (``daq.estimators.AXIS``) offers ``fitted_budget`` after its fit (which
 compared the repeats and left out the flagged ones when asked, as every estimator's does);
 the estimation job calls what the entry offers, naming no estimator. A campaign stops on
-the budget's U (``fitted_budget``).
+the budget's U.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from daq.config import RigConfig, RigConfigError, parse_rig_text
 from daq.store import RunInfo
@@ -68,12 +67,3 @@ def fitted_budget(
     refit = output_error_refit if seed is None else seed_refit(result.method)
     refits = TowRefits(runs, result, chain_of(rig) if rig else None, refit)
     return uncertainty_budget(result, refits, tolerances_of(rig), repeats, seed=seed)
-
-
-def budget_document(
-    records: Sequence[RunInfo], runs: Sequence[RunData], result: TowResult
-) -> dict[str, Any]:
-    """{"budget": …} for the result JSON (every method's), its repeatability from the
-    result's repeats."""
-    fitted = fitted_budget(records, runs, result, result.repeats)
-    return {"budget": None if fitted is None else fitted.to_json()}

@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from daq.session import RigSource
     from daq.store import RunInfo, Store
     from estimation.design.planning_envelope import RigEnvelope
+    from estimation.uncertainty.budget import Budget
 
 Dof = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
 
@@ -183,13 +184,12 @@ def fit_decays(
     )
 
 
-def decay_budget(records: Sequence[RunInfo], runs: list[DecayRun], result: Any) -> dict[str, Any]:
-    """{"budget": …}: the GUM budget of the decay's coefficients with the tolerances
-    declared at import (``estimation.uncertainty.record_refits``)."""
+def decay_budget(records: Sequence[RunInfo], runs: list[DecayRun], result: Any) -> Budget:
+    """The GUM budget of the decay's coefficients with the tolerances declared at import
+    (``estimation.uncertainty.record_refits``)."""
     from estimation.uncertainty import RecordRefits, uncertainty_budget
 
-    budget = uncertainty_budget(result, RecordRefits(result), runs[0].tolerances, result.repeats)
-    return {"budget": budget.to_json()}
+    return uncertainty_budget(result, RecordRefits(result), runs[0].tolerances, result.repeats)
 
 
 def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:

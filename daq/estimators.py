@@ -35,17 +35,15 @@ class Estimator:
     so the advice it gives names runs the rig can make; None for imports;
     ``exclude_outliers``: leave out the repeats Chauvenet's criterion flags, every estimator
     alike); ``subject``: what a failed fit names ("surge", "roll swing");
-    ``budget_of(records, runs, result)``: that budget itself (None: no fit to budget), which
-    a campaign plans on (``api.core.campaign_fit``);
     ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
     takes, the first the default (a callable, so the estimation code loads on first use),
     ``method_labels`` how the browser's menu words them.
 
     What an estimator offers beyond the fit is a field, ``None`` where it offers nothing,
     so the job calls it without naming the estimator:
-    ``budget(records, runs, result)`` → the documents added to the result after it (the
-    uncertainty budget, which the theory comparison reads and the job appends to the
-    report); ``compares_theory``:
+    ``budget(records, runs, result)`` → the result's GUM budget (``Budget``; None: no fit
+    to budget), which the job adds to the result's document and report, the theory
+    comparison reads and a campaign plans on (``api.core.campaign_fit``); ``compares_theory``:
     its results are compared with the hull's theory (``api.core.theory_job``: a tow or
     spin's added mass and damping); ``units_of()`` → per axis (or dof) its results may be
     on, the unit of each quantity they report (``{"surge": {"inertia": "kg", …,
@@ -62,8 +60,7 @@ class Estimator:
     report: Callable[[Any, list[Any], Path], list[Path]] | None = None
     #: method → how the browser's method menu words it (a method missing: its name).
     method_labels: dict[str, str] = field(default_factory=dict)
-    budget: Callable[[Sequence[RunInfo], list[Any], Any], dict[str, Any]] | None = None
-    budget_of: Callable[[Sequence[RunInfo], list[Any], Any], Budget | None] | None = None
+    budget: Callable[[Sequence[RunInfo], list[Any], Any], Budget | None] | None = None
     compares_theory: bool = False
     units_of: Callable[[], dict[str, dict[str, str]]] = dict
 
@@ -114,10 +111,11 @@ def _axis_fit(
     )
 
 
-def _axis_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
-    from daq.axis_budget import budget_document
+def _axis_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Budget | None:
+    """Every method's budget, its repeatability from the result's repeats."""
+    from daq.axis_budget import fitted_budget
 
-    return budget_document(records, runs, result)
+    return fitted_budget(records, runs, result, result.repeats)
 
 
 def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
@@ -174,16 +172,11 @@ def _pendulum_fit(
     return estimate_pendulum(runs, method=method, search=search, exclude_outliers=exclude_outliers)
 
 
-def _pendulum_budget_of(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Budget:
+def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Budget:
     """The GUM budget of the headline coefficients (output error's, or a seed method's)."""
     from estimation.pendulum.pendulum_estimate import pendulum_budget
 
     return pendulum_budget(result)
-
-
-def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> dict[str, Any]:
-    """{"budget": …} of the headline coefficients (output error's, or a seed method's)."""
-    return {"budget": _pendulum_budget_of(records, runs, result).to_json()}
 
 
 def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
@@ -202,7 +195,6 @@ PENDULUM = Estimator(
     subject=lambda runs: f"{runs[0].axis} swing",
     report=_pendulum_report,
     budget=_pendulum_budget,
-    budget_of=_pendulum_budget_of,
     method_labels={
         "output-error": OUTPUT_ERROR,
         "damped-fit": "pendulum: damped sinusoid fit (least squares)",

@@ -53,7 +53,7 @@ def fit_campaign_axis(
         estimator = estimator_of(records, "output-error")
         runs = estimator.load(store, records)
         result = estimator.fit(runs, "output-error", True, envelope, False)
-        budget = estimator.budget_of(records, runs, result) if estimator.budget_of else None
+        budget = estimator.budget(records, runs, result) if estimator.budget else None
         state = state_from_release(result, recorded, budget, released)
         result_id = _stored(store, run_ids, result, budget, store_result)
         return AxisFit(state, result_id, float(runs[-1].t[-1] - runs[-1].t[0]))

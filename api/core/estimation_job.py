@@ -109,7 +109,8 @@ def run_estimation(
             data["report_files"] = [str(p) for p in files]
     if estimator.budget is not None:  # the theory comparison reads the budget
         with fitting(subject, "compute the uncertainty budget of"):
-            data |= estimator.budget(records, runs, result)
+            budget = estimator.budget(records, runs, result)
+            data["budget"] = None if budget is None else budget.to_json()
             if data.get("budget") and report_dir is not None and "report_files" in data:
                 from estimation.uncertainty.text import append_to_report
 

@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from daq.axis_budget import budget_document
+from daq.axis_budget import fitted_budget
 from estimation import estimate
 from estimation.axis.prepared_run import prepare
 from estimation.axis.release import fit_release
@@ -92,12 +92,14 @@ def test_a_seed_results_budget_re_fits_the_seed_method_itself(method):
 
 
 def test_the_seed_budget_is_in_the_result_document():
-    """The estimation job adds every method's budget (``budget_document``): a seed result's
-    coefficients each carry value ± U, k and ν_eff, and its regression's ν and white σ are in
-    the document (``seed_regression``)."""
+    """The estimation job adds every method's budget (``fitted_budget``, as
+    ``daq.estimators.AXIS`` does): a seed result's coefficients each carry value ± U, k and
+    ν_eff, and its regression's ν and white σ are in the document (``seed_regression``)."""
     runs = weight_tow_set(seed=5)
     result = estimate(runs, method="ls-curvefit", search_effects=False, n_bootstrap=0)
-    doc = result.to_json() | budget_document([], runs, result)
+    budget = fitted_budget([], runs, result, result.repeats)
+    assert budget is not None
+    doc = result.to_json() | {"budget": budget.to_json()}
     assert set(doc["seed_regression"]) == {"dof", "std_white", "counts"}
     for name, c in doc["coefficients"].items():
         b = doc["budget"]["coefficients"][name]
