@@ -40,6 +40,7 @@ from dataclasses import replace
 import numpy as np
 
 from estimation.motion.decay_end import SWING_SIGMAS, centre, extrema
+from estimation.motion.fit_memo import Recent
 from estimation.motion.records import Record
 from estimation.motion.terms import units_of
 from estimation.stats.diagnostics import position_noise
@@ -61,10 +62,30 @@ SAME_CONDITION = (
 )
 
 
+#: A decay estimate reads each windowed record's noise and release amplitude more than once
+#: (the repeats' comparison, the next release's candidates): kept by the record's identity.
+_NOISE: Recent[float] = Recent(size=8)
+_AMPLITUDE: Recent[float] = Recent(size=8)
+
+
+def _noise(record: Record) -> float:
+    """``position_noise`` of ``record``'s positions on its own times."""
+
+    def compute() -> float:
+        t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
+        return position_noise([x], [t])
+
+    return _NOISE.get((record,), compute)
+
+
 def release_amplitude(record: Record) -> float:
     """|x(release) − x_eq| (m or rad) of a record windowed from its release."""
-    t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
-    return abs(float(x[0]) - centre(t, x, position_noise([x], [t])))
+
+    def compute() -> float:
+        t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
+        return abs(float(x[0]) - centre(t, x, _noise(record)))
+
+    return _AMPLITUDE.get((record,), compute)
 
 
 def log_decrement(record: Record) -> tuple[float, float]:
@@ -72,7 +93,7 @@ def log_decrement(record: Record) -> tuple[float, float]:
     release (module doc); NaN with fewer than two half-cycle heights. σ_δ: the position
     noise σ carried through (each h_k read with σ/√2, ln h_k with σ/(√2·h_k))."""
     t, x = np.asarray(record.t, dtype=float), np.asarray(record.x, dtype=float)
-    noise = position_noise([x], [t])
+    noise = _noise(record)
     _, e = extrema(t, x, SWING_SIGMAS * max(noise, 1e-300))
     h = np.abs(np.diff(e[: 2 * FIRST_CYCLES + 2])) / 2
     h = h[h > 0]

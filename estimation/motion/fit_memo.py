@@ -16,6 +16,9 @@ from typing import Any, Generic, TypeVar
 
 R = TypeVar("R")
 
+#: Inputs compared by value (names, counts, tuples of them); every other by identity.
+_BY_VALUE = (str, int, tuple)
+
 
 class Recent(Generic[R]):
     """``get(inputs, compute)``: ``compute()``, or its result for the same input objects
@@ -30,7 +33,7 @@ class Recent(Generic[R]):
         with self._lock:
             for held, result in self._entries:
                 if len(held) == len(inputs) and all(
-                    a is b or (isinstance(a, str | int | tuple) and a == b)
+                    a is b or (isinstance(a, _BY_VALUE) and a == b)
                     for a, b in zip(held, inputs, strict=True)
                 ):
                     return result

@@ -37,6 +37,7 @@ from estimation.motion.equation import (
     integration_step,
     total_inertia,
 )
+from estimation.motion.fit_memo import Recent
 from estimation.motion.record_derivatives import derivatives, record_step
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
 from estimation.motion.terms import LIBRARY, TermValues
@@ -111,6 +112,17 @@ def equation_error_start(records: Sequence[Record], setup: Setup, names: Sequenc
     return sol[: len(names)], np.array(eqs), np.array(init, dtype=float)
 
 
+#: A search builds a problem for every fit, fold and prediction on the same records: each
+#: record's track (its derivatives' range and speed, and what the track caches itself) is
+#: formed once (by the identity of the record and setup, ``fit_memo``).
+_TRACKS: Recent[Track] = Recent(size=16)
+
+
+def _track(record: Record, setup: Setup) -> Track:
+    """``track_of(record, setup)``, the same object again for the same record and setup."""
+    return _TRACKS.get((record, setup), lambda: track_of(record, setup))
+
+
 def track_of(record: Record, setup: Setup) -> Track:
     """The record as the integrator reads it: τ from its start (its first sample, or its
     release: held at rest before it), its drive, its known inertia, the weight of the
@@ -157,7 +169,7 @@ class _Problem:
         self.ng, self.nr = len(self.names), len(records)
         self.free = np.array([r.free for r in records])
         self.nf = int(self.free.sum())
-        self.tracks = [track_of(r, setup) for r in records]
+        self.tracks = [_track(r, setup) for r in records]
         #: each identified coefficient's weight per record (ng, R); known terms per record
         self.weights = np.array([[r.weight(n) for r in records] for n in self.names])
         self.inertia_weight = np.array([r.weight("inertia") for r in records])
