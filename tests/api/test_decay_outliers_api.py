@@ -19,6 +19,10 @@ from tests.api.conftest import AUTH, completed_estimation
 from tests.integration.test_decay_import import heave_decay
 from tests.support.cli import RigCliText, printed_json
 
+#: The ten uploads are imported in a worker thread (``imports_in_a_thread``): this module is
+#: about ``exclude_outliers``; the upload's child process is tested where it is the subject.
+pytestmark = pytest.mark.usefixtures("imports_in_a_thread")
+
 CSV = {"Content-Type": "text/csv"}
 BODY_KG = 1000.0  # released from 0.05 m: the 0.1 mm noise is 0.2 % of the amplitude
 SCALES = (1.0, 1.0, 1.3, 1.0, 1.0)  # the third decay's damping × 1.3

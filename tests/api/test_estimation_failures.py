@@ -117,6 +117,7 @@ def test_rig_debug_shows_the_traceback_of_bad_input_too(tmp_path: Path) -> None:
     assert quiet.stderr.startswith("error: no run with id") and quiet.stderr.count("\n") == 1
 
 
+@pytest.mark.usefixtures("imports_in_a_thread")  # its uploads are not what it tests
 def test_the_api_tells_a_failed_fit_from_bad_input(client, tmp_path, monkeypatch) -> None:
     _tow_csv(tmp_path / "tow.csv", 30.0, 2)
     r = client.post("/api/runs/import?kind=tow&force_n=30", content=(tmp_path / "tow.csv")

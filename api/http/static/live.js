@@ -139,20 +139,25 @@ function liveSample(s) {
   liveRequestDraw();
 }
 
-// Redraw at most every LIVE_REDRAW_MS and never more than half the time: a redraw costs
-// Plotly tens of ms (hundreds on a loaded machine), samples arrive every 100 ms.
+// Redraw at most every LIVE_REDRAW_MS while a job runs, every LIVE_IDLE_REDRAW_MS while the
+// rig is idle (only its noise moves), and never more than half the time: a redraw costs
+// Plotly tens of ms (hundreds on a loaded machine), samples arrive every 100 ms. An open Rig
+// page kept a headless Chromium at 0.16-0.3 core redrawing an idle rig four times a second.
 const LIVE_REDRAW_MS = 250;
+const LIVE_IDLE_REDRAW_MS = 1000;
 let liveTimer = null;
 let liveDrawMs = 0;
+const liveRunning = () => Boolean(state.job && !FINAL.includes(state.job.state));
 function liveRequestDraw() {
   if (liveTimer !== null) return;
+  const every = liveRunning() ? LIVE_REDRAW_MS : LIVE_IDLE_REDRAW_MS;
   liveTimer = setTimeout(() => {
     liveTimer = null;
     if ($("#page-rig").hidden) return;
     const t = performance.now();
     liveDraw();
     liveDrawMs = performance.now() - t;
-  }, Math.max(LIVE_REDRAW_MS, liveDrawMs));
+  }, Math.max(every, liveDrawMs));
 }
 
 export function resetLive() {
