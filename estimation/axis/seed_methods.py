@@ -38,6 +38,7 @@ import numpy as np
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
+from estimation.motion.terms import DOFS
 from estimation.stats.serial import SerialCovariance, serial_covariance
 
 TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
@@ -117,6 +118,25 @@ def ls_raw(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     return _fit("ls-raw", _solve(np.vstack(rows), np.concatenate(ys), sizes))
 
 
+def one_way_drives(runs: Sequence[PreparedRun], method: str) -> None:
+    """Refuse a run whose drive reverses after its release (``ValueError`` naming it): a
+    first-order rise from rest, ẋ = A(1 − e^{−t/T}), is the response to one drive held in
+    one direction, and a drive that changes sign (a reversing thruster profile, a wave's
+    force) has neither that rise nor a steady speed. Only a sign change counts, which no
+    constant drive makes whatever its noise: a drive that steps within one direction is
+    left to the result's σ and its comparison with the output-error fit."""
+    for r in runs:
+        _, _, drive = _moving(r)
+        if np.any(drive > 0) and np.any(drive < 0):
+            unit = "N·m" if DOFS.get(r.dof, False) else "N"
+            raise ValueError(
+                f"runs: {r.run_id}: drive: got a drive that reverses after the release "
+                f"({float(drive.min()):.4g} to {float(drive.max()):.4g} {unit}), allowed: one "
+                f"direction per run for {method} (a first-order rise from rest under one "
+                "drive); output-error and ls-raw take any drive"
+            )
+
+
 def first_order_fit(run: PreparedRun) -> tuple[float, float]:
     """Fit ẋ = A(1 − e^{−t/T}) to the difference velocities of one run; returns (A, T)."""
     from scipy.optimize import OptimizeWarning, curve_fit  # the service imports this module
@@ -146,6 +166,7 @@ def _curve_rows(run: PreparedRun, amp: float, tc: float):
 
 def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     """Approach 2: regress τ on the first-order curve-fit derivatives over each transient."""
+    one_way_drives(runs, "ls-curvefit")
     fits = tuple(first_order_fit(r) for r in runs)
     rows, ys = [], []
     for r, (amp, tc) in zip(runs, fits, strict=True):
@@ -158,6 +179,7 @@ def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
 
 def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     """Approach 3: drag law from steady speeds vs drive, then inertia from the transients."""
+    one_way_drives(runs, "ls-steady")
     drives = np.array([r.mean_abs_drive * np.sign(np.mean(r.drive)) for r in runs])
     if np.unique(np.round(np.abs(drives), 9)).size < 2:
         raise ValueError(

@@ -33,3 +33,26 @@ def test_reversing_thrust_names_coulomb_friction_unambiguously():
     assert doc["effects"][0]["value"] == pytest.approx(4.0, rel=0.1)
     assert doc["ambiguous"] == []
     assert doc["rmse_after"] < 0.2 * doc["rmse_before"]
+
+
+def test_seed_methods_on_a_reversing_thrust_refuse_or_cover_the_truth():
+    """A seed method on thruster runs whose thrust reverses (20 → −20 → 0 N, …): ls-raw
+    regresses each sample on its own drive and recovers the coefficients within 2σ; the
+    curve-fit methods model a first-order rise under one drive held one way, which these
+    runs do not have, so they refuse them naming the run and the drive's range instead of
+    fitting a curve the record does not follow (``seed_methods.one_way_drives``)."""
+    runs = _runs(Physics(*SURGE_TRUTH))
+    doc = estimate(runs, method="ls-raw", n_bootstrap=0).to_json()
+    for name, truth in zip(
+        ("inertia", "linear_damping", "quadratic_damping"), SURGE_TRUTH, strict=True
+    ):
+        c = doc["coefficients"][name]
+        assert abs(c["value"] - truth) < 2 * c["std"], (name, c, truth)
+    for method in ("ls-curvefit", "ls-steady"):
+        with pytest.raises(
+            ValueError,
+            match=r"runs: thr-0: drive: got a drive that reverses "
+            r"after the release \(-20 to 20 N\), allowed: one "
+            rf"direction per run for {method}",
+        ):
+            estimate(runs, method=method, n_bootstrap=0)
