@@ -38,7 +38,7 @@ import numpy as np
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
-from estimation.motion.terms import DOFS
+from estimation.motion.terms import force_unit
 from estimation.stats.serial import SerialCovariance, serial_covariance
 
 TRANSIENT_TIME_CONSTANTS = 4.0  # the paper's "time to steady state" ≈ 4T
@@ -128,7 +128,7 @@ def one_way_drives(runs: Sequence[PreparedRun], method: str) -> None:
     for r in runs:
         _, _, drive = _moving(r)
         if np.any(drive > 0) and np.any(drive < 0):
-            unit = "N·m" if DOFS.get(r.dof, False) else "N"
+            unit = force_unit(r.dof)
             raise ValueError(
                 f"runs: {r.run_id}: drive: got a drive that reverses after the release "
                 f"({float(drive.min()):.4g} to {float(drive.max()):.4g} {unit}), allowed: one "

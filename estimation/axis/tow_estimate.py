@@ -473,13 +473,9 @@ def _seed_values(method: str, prepared: list[PreparedRun], _fit: MotionFit) -> n
 
 
 def _seed_result(axis, method, runs, prepared) -> TowResult:
-    fit, ls = seed_fit(method, prepared)
-    units = units_of(axis)
-    seed = {
-        n: Coefficient(float(v), float(sd), units[n])
-        for n, v, sd in zip(BASE_NAMES, ls.values, ls.std, strict=True)
-    }
-    warnings = method_bias(method, seed, _coefficients(fit_output_error(prepared), axis))
+    fit, ls = seed_fit(method, prepared)  # ``fit`` carries the seed's values and σ
+    reference = _coefficients(fit_output_error(prepared), axis)
+    warnings = method_bias(method, _coefficients(fit, axis), reference)
     if not ls.values[0] > 0:
         warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())

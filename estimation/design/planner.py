@@ -441,7 +441,9 @@ def _choose_release(
     before = max(state.ratios(relative).values(), default=float("inf"))
     judged_before = max(judged.ratios(relative).values(), default=float("inf"))
     if not state.releases:  # a σ not known: nothing to predict from
-        unknown = [n for n in state.targets if not np.isfinite(state.std.get(n, np.nan))]
+        unknown = [
+            state.name(n) for n in state.targets if not np.isfinite(state.std.get(n, np.nan))
+        ]
         why = (
             f"σ of {', '.join(unknown) or 'a coefficient'} not known, so no release can be "
             "predicted: the largest the rig allows, where every damping shows most"

@@ -33,6 +33,13 @@ DOFS: dict[str, bool] = {
     "pitch": True,
     "yaw": True,
 }
+
+
+def force_unit(dof: str) -> str:
+    """Unit of a force or drive on ``dof``: N, or N·m on a rotation."""
+    return "N·m" if DOFS.get(dof, False) else "N"
+
+
 EQUIVALENT_SAMPLES = 4096  # phases per cycle of ``Term.equivalent_damping`` (midpoint rule)
 STANDARD_GRAVITY = 9.80665  # m/s², scales the drive_inertia term (k·|τ|/g)
 

@@ -37,7 +37,7 @@ import numpy as np
 from estimation.motion.equivalent import EquivalentDamping
 from estimation.motion.output_error_fit import MotionFit
 from estimation.motion.records import Record, Setup, known_inertia_of, known_terms_of
-from estimation.motion.terms import DOFS, LIBRARY
+from estimation.motion.terms import DOFS, LIBRARY, force_unit
 from estimation.report_numbers import Coefficient
 from estimation.stats.fit_statistics import FitStatistics
 
@@ -97,8 +97,8 @@ def terminal_speed(fit: FitStatistics, drive: float, dof: str) -> Combination | 
         for i, t in used:
             grad[i] = -way * float(t.phi(np.zeros(1), np.array([way * u]))[0]) / slope
         sigma = fit.combination_std(grad)
-    force_unit = "N·m" if DOFS[dof] else "N"
-    return Combination(way * u, sigma, unit, name=f"terminal speed at {drive:.4g} {force_unit}")
+    name = f"terminal speed at {drive:.4g} {force_unit(dof)}"
+    return Combination(way * u, sigma, unit, name=name)
 
 
 def drag_at_speed(fit: FitStatistics, speed: float, dof: str) -> Combination | None:
@@ -117,8 +117,8 @@ def drag_at_speed(fit: FitStatistics, speed: float, dof: str) -> Combination | N
         grad[i] = -float(t.phi(np.zeros(1), np.array([speed]))[0])
     drag = float(grad @ fit.values)
     sigma = fit.combination_std(grad)
-    speed_unit, force_unit = ("rad/s", "N·m") if DOFS[dof] else ("m/s", "N")
-    return Combination(drag, sigma, force_unit, name=f"drag at {speed:.4g} {speed_unit}")
+    speed_unit = "rad/s" if DOFS[dof] else "m/s"
+    return Combination(drag, sigma, force_unit(dof), name=f"drag at {speed:.4g} {speed_unit}")
 
 
 def drags_at_speeds(
