@@ -87,8 +87,11 @@ class Comparison:
         s = math.hypot(self.weight_std, self.thruster_std)
         return self.difference / s if s > 0 else float("nan")
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self, axis: str) -> dict[str, Any]:
+        """The comparison as the API gives it; ``label`` is the one spelling the page and the
+        report both show (``label(axis)``)."""
         doc: dict[str, Any] = {
+            "label": self.label(axis),
             "weight": {
                 "value": finite_or_none(self.weight),
                 "std": finite_or_none(self.weight_std),

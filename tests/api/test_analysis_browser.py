@@ -15,7 +15,7 @@ pytestmark = pytest.mark.slow
 INCONSISTENT = [[1, 5, 1 / 7], [1 / 5, 1, 7], [7, 1 / 7, 1]]
 
 
-def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(chromium, client, service):
+def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(chromium, client, service, tmp_path):
     from playwright.sync_api import expect
 
     # a stored estimation result is offered under what it is of (GET /api/results' subject)
@@ -43,6 +43,12 @@ def test_analysis_page_ranks_sweeps_and_reports_ahp_errors(chromium, client, ser
         expect(first).to_contain_text("quadratic_damping")
         expect(page.locator("#an-bars .main-svg").first).to_be_attached()
         expect(page.locator("#an-stability")).to_contain_text("response's weight")
+        # The plot's title is drawn (Plotly ignores a title given as a string).
+        expect(page.locator("#an-bars .gtitle")).to_have_text(
+            "Composite knock-out index Σ Sc·Y (%)"
+        )
+        page.set_viewport_size({"width": 1366, "height": 768})
+        page.screenshot(path=str(tmp_path / "analysis-ranking.png"), full_page=True)
 
         ahp = {"name": "mine", "matrix": INCONSISTENT, "labels": ["a", "b", "c"]}
         page.fill("#an-form [name=ahp]", json.dumps(ahp))

@@ -37,7 +37,7 @@ def page_url(chromium, client, service, tmp_path_factory):
         yield pg, live.url, results, first, second, rows
 
 
-def test_crosscheck_page_compares_results_and_runs(page_url):
+def test_crosscheck_page_compares_results_and_runs(page_url, tmp_path):
     from playwright.sync_api import expect
 
     page, url, results, first, second, expected = page_url
@@ -70,6 +70,9 @@ def test_crosscheck_page_compares_results_and_runs(page_url):
     expect(rows.nth(1)).to_contain_text("undecided")
     expect(rows.nth(1).locator("td.verdict")).to_have_attribute("title", re.compile("one drive"))
     expect(rows.last).to_contain_text(re.compile(r"K_L \+ K_Q·\|v\| at \|v\| = \S+ m/s \(N·s/m\)"))
+    expect(page.locator("#cc-plot .gtitle")).to_contain_text("relative to the weight-driven value")
+    page.set_viewport_size({"width": 1366, "height": 768})
+    page.screenshot(path=str(tmp_path / "crosscheck-undecided.png"), full_page=True)
 
     for run in first:
         page.check(f"#cc-runs input[name=cc-w][value='{run}']")

@@ -123,8 +123,8 @@ function analysisShow(out) {
   }));
   Plotly.react("an-bars", traces, {
     barmode: "stack",
-    title: "Composite knock-out index Σ Sc·Y (%)",
-    xaxis: { title: "Sc·Y (%)", type: "log" },
+    title: { text: "Composite knock-out index Σ Sc·Y (%)" },
+    xaxis: { title: { text: "Sc·Y (%)" }, type: "log" },
     yaxis: { autorange: "reversed", automargin: true },
     height: 80 + 22 * coefs.length,
     legend: { orientation: "h", y: -0.15 },

@@ -10,7 +10,6 @@ import { load } from "./run_text.js";
 import { axisUnits, loadKinds } from "./start_forms.js";
 import { FINAL } from "./state.js";
 
-const CC_LABELS = { inertia: "inertia", linear_damping: "K_L", quadratic_damping: "K_Q", damping_at_speed: "K_L + K_Q·|v|" };
 
 // What a cross-check compares (GET /api/kinds): runs of the kinds both a weight and the
 // thrusters drive, and estimation results of those kinds (a result names its kind; one stored
@@ -94,7 +93,9 @@ async function crosscheckRender(res) {
   const pm = (s) => `${fmt(s.value, 5)} ± ${fmt(s.std, 2)}`;
   // Stored cross-checks from before "combined" / "undecided" existed have neither key.
   const rows = { ...res.coefficients, ...(res.combined || {}) };
-  const label = (k, c) => CC_LABELS[k] + (c.speed != null ? ` at |v| = ${fmt(c.speed, 3)} ${units.velocity || ""}` : "");
+  // The label is the API's (one spelling with the report); a stored cross-check from before it
+  // existed has the coefficient's key only.
+  const label = (k, c) => c.label || k;
   // An undecided coefficient's z is computed, not judged: shown in parentheses, reason on hover.
   $("#cc-table tbody").innerHTML = Object.entries(rows)
     .map(
@@ -121,7 +122,7 @@ async function crosscheckRender(res) {
     name: side === "weight" ? "weight-driven" : "thruster-driven",
     type: "scatter",
     mode: "markers",
-    x: names.map((k) => CC_LABELS[k] + (rows[k].verdict === "undecided" ? " (undecided)" : "")),
+    x: names.map((k) => label(k, rows[k]) + (rows[k].verdict === "undecided" ? " (undecided)" : "")),
     y: names.map((k) => rows[k][side].value / rows[k].weight.value),
     error_y: { type: "data", array: names.map((k) => (rows[k][side].std || 0) / rows[k].weight.value) },
   }));
@@ -129,10 +130,12 @@ async function crosscheckRender(res) {
     "cc-plot",
     traces,
     {
-      title: "Coefficients relative to the weight-driven value (±1σ_total)",
-      yaxis: { title: "value / weight-driven value" },
-      margin: { t: 40 },
-      legend: { orientation: "h", y: -0.15 },
+      title: { text: "Coefficients relative to the weight-driven value (±1σ_total)" },
+      // The labels are the table's (a combined damping names its speed): the axis makes room.
+      xaxis: { automargin: true },
+      yaxis: { title: { text: "value / weight-driven value" } },
+      margin: { t: 60 },
+      legend: { orientation: "h", x: 0, y: 1.0, yanchor: "bottom" },
     },
     { responsive: true, displaylogo: false },
   );

@@ -18,3 +18,18 @@ test("a flat series still gets an axis; no numbers give none", () => {
   assert.ok(flat.range[0] < 5 && flat.range[1] > 5, flat.range);
   assert.equal(niceAxis(NaN, 1), null);
 });
+
+test("every plot title is an object: the bundled Plotly draws no title given as a string", async () => {
+  // Plotly ≥ 3 (plotly.min.js served from the Python package) ignores `title: "…"` on the
+  // layout and on axes; the cross-check and analysis plots once lost theirs that way.
+  const { readdir, readFile } = await import("node:fs/promises");
+  const dir = new URL("../../../api/http/static/", import.meta.url);
+  const found = [];
+  for (const name of (await readdir(dir)).filter((n) => n.endsWith(".js") && !n.includes(".min."))) {
+    const text = await readFile(new URL(name, dir), "utf8");
+    text.split("\n").forEach((line, i) => {
+      if (/\btitle:\s*["'`]/.test(line)) found.push(`${name}:${i + 1}: ${line.trim()}`);
+    });
+  }
+  assert.deepEqual(found, []);
+});

@@ -193,7 +193,10 @@ def test_one_thruster_level_leaves_K_L_and_K_Q_undecided_with_the_run_that_decid
     assert any(d.startswith("K_L, K_Q undecided: the thruster set") for d in doc["diagnosis"])
     md = markdown(check)
     assert "| **undecided** |" in md and "Undecided K_L, K_Q: the thruster set" in md
-    assert "K_L + K_Q·|v| at |v| = " in md
+    # The document's label is the report's spelling (the page shows the document's).
+    assert combined["label"] == f"K_L + K_Q·|v| at |v| = {combined['speed']:.3g} m/s"
+    assert combined["label"] in md
+    assert doc["coefficients"]["linear_damping"]["label"] == "K_L"
     files = write_crosscheck_report(check, tmp_path)
     assert files[1].stat().st_size > 5000
 
