@@ -51,6 +51,15 @@ class RigLimit:
 
     highest: Callable[[RigConfig], float | None]
     signed: bool = False
+    #: The rig file's setting the limit is (``max_force_n``), named in a refusal; ``None``:
+    #: the limit is worked out from several.
+    setting: str | None = None
+
+    @classmethod
+    def of_setting(cls, path: str, *, signed: bool = False) -> RigLimit:
+        """The limit is the rig file's setting ``path`` (``"limits.max_force_n"``)."""
+        section, name = path.split(".")
+        return cls(lambda rig: getattr(getattr(rig, section), name), signed, name)
 
 
 @dataclass(frozen=True)
@@ -218,6 +227,13 @@ class ProcedureRequest(StrictRequest):
         return None if mark is None else mark.highest(rig)
 
     @classmethod
+    def limit_named(cls, name: str) -> str:
+        """``", rig limit max_force_n"``: the rig file's setting bounding field ``name``, as
+        a refusal names it (its :class:`RigLimit`'s ``setting``); "" when it has none."""
+        mark = _rig_limit_of(cls, name)
+        return f", rig limit {mark.setting}" if mark is not None and mark.setting else ""
+
+    @classmethod
     def field_limits(cls, rig: RigConfig) -> dict[str, dict[str, float]]:
         """``{field: {"max": …, "min"?: …}}`` for every field ``rig`` bounds (``GET /api/rig``
         → ``field_limits``; ``min`` = −max where the field is signed)."""
@@ -321,6 +337,18 @@ class SignedLoadRequest(ProcedureRequest):
         """The load one kg hung gives per g (1 m for a tow, the drum's radius for a spin),
         the load's limit and how it is named."""
         raise NotImplementedError
+
+    @field_validator("*")
+    @classmethod
+    def _load(cls, value: Any, info: ValidationInfo) -> Any:
+        """The load field (``load_field``) within the rig's limit on it, either sign."""
+        rig = rig_of(info)
+        if rig is None or info.field_name != cls.load_field:
+            return value
+        high, why = cls.drive_limit(rig) or math.nan, cls.limit_named(cls.load_field)
+        return p.in_range(
+            cls.load_field, value, low=0, high=high, unit=cls.load_unit, why_high=why, signed=True
+        )
 
     @field_validator("weight_kg", check_fields=False)
     @classmethod

@@ -86,7 +86,7 @@ class TowRequest(SignedLoadRequest):
             "reverse tow from the far end (far-end pulley, or thrusters turned round).",
         ),
         Flag("--force"),
-        RigLimit(lambda rig: rig.limits.max_force_n, signed=True),
+        RigLimit.of_setting("limits.max_force_n", signed=True),
     ] = None
     weight_kg: Annotated[
         float | None,
@@ -130,15 +130,6 @@ class TowRequest(SignedLoadRequest):
         limit, g = float(cls.drive_limit(rig) or math.nan), rig.rig.g
         return 1.0, limit, f", max_force_n / g = {limit:g} N / {g:g}"
 
-    @field_validator("force_n")
-    @classmethod
-    def _force(cls, value: float | None, info: ValidationInfo) -> float | None:
-        rig = rig_of(info)
-        if rig is None:
-            return value
-        high, why = cls.drive_limit(rig) or math.nan, ", rig limit max_force_n"
-        return p.in_range("force_n", value, low=0, high=high, unit="N", why_high=why, signed=True)
-
     @field_validator("max_distance_m")
     @classmethod
     def _distance(cls, value: float | None, info: ValidationInfo) -> float | None:
@@ -169,7 +160,7 @@ class SpinRequest(SignedLoadRequest):
             "spin (cord wound the other way, or thrusters turned round).",
         ),
         Flag("--torque"),
-        RigLimit(lambda rig: rig.limits.max_torque_nm, signed=True),
+        RigLimit.of_setting("limits.max_torque_nm", signed=True),
     ] = None
     weight_kg: Annotated[
         float | None,
@@ -209,17 +200,6 @@ class SpinRequest(SignedLoadRequest):
         # refuses first, naming what is missing); nan keeps a direct call from crashing.
         radius = rig.geometry.spin_drum_radius_m or math.nan
         return radius, cls.drive_limit(rig) or math.nan, ", max_torque_nm / (g · drum radius)"
-
-    @field_validator("torque_nm")
-    @classmethod
-    def _torque(cls, value: float | None, info: ValidationInfo) -> float | None:
-        rig = rig_of(info)
-        if rig is None:
-            return value
-        high, why = cls.drive_limit(rig) or math.nan, ", rig limit max_torque_nm"
-        return p.in_range(
-            "torque_nm", value, low=0, high=high, unit="N·m", why_high=why, signed=True
-        )
 
     @field_validator("max_angle_rad")
     @classmethod
@@ -337,7 +317,7 @@ class ManualThrustRequest(ProcedureRequest):
             "max_thruster_command; negative: reverse thrust. Required.",
         ),
         Flag("--command", metavar="C"),
-        RigLimit(lambda rig: rig.limits.max_thruster_command, signed=True),
+        RigLimit.of_setting("limits.max_thruster_command", signed=True),
         RequiredByCheck(),
     ] = None
     duration_s: Annotated[
@@ -371,11 +351,11 @@ class ManualThrustRequest(ProcedureRequest):
         rig = rig_of(info)
         if rig is None:
             return value
-        most = rig.limits.max_thruster_command
+        most = cls.rig_limit("command", rig) or math.nan
         return p.in_range(
             "command", value, low=-most, high=most, unit="(fraction of full thrust)",
             low_inclusive=True, required=required_by_check(cls, "command"),
-            why_high=", rig limit max_thruster_command",
+            why_high=cls.limit_named("command"),
         )  # fmt: skip
 
     @field_validator("duration_s")
