@@ -26,7 +26,7 @@ from api.core.estimation_job import run_estimation
 from api.core.estimation_request import EstimationRequest
 from daq.collector import hold_full_collections
 from estimation.data.left_out import LeftOut
-from estimation.uncertainty.text import budget_lines, value_with_u
+from estimation.uncertainty.text import budget_lines, plus_minus_u, value_with_u
 
 #: Why full collections are held (``daq.collector``): the fit loads its own modules
 #: (scipy.optimize, numba and its registries) as it goes, and they live to the end of the
@@ -200,8 +200,8 @@ def _theory_lines(theory: dict | None) -> list[str]:
         return []
     a = theory["added"]
     lines = [
-        f"  added (fitted − body {a['body']:.4g}): {a['value']:.4g} ± "
-        f"{a['expanded_uncertainty']:.2g} {a['unit']}; "
+        f"  added (fitted − body {a['body']:.4g}): {a['value']:.4g}"
+        f"{plus_minus_u(a['expanded_uncertainty'])} {a['unit']}; "
         + ", ".join(
             f"{name.split(' = ')[0]} {c['value']:.4g}"
             for name, c in theory["dimensionless"].items()

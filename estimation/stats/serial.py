@@ -128,11 +128,16 @@ def serial_covariance(
     and Jacobian (or regressors) over records of ``record_sizes`` samples (default one):
     cov_serial = n/(n − p)·(JᵀJ)⁻¹·S·(JᵀJ)⁻¹ (module doc), ν = n_eff − p (at least 1) with
     n_eff = n·(1 − r₁)/(1 + r₁) (``misfit.effective_sample_size``: the number of independent
-    samples an AR(1) residual of lag-1 autocorrelation r₁ ≥ 0 is worth)."""
+    samples an AR(1) residual of lag-1 autocorrelation r₁ ≥ 0 is worth). With no more
+    samples than parameters (n ≤ p) the residual is zero by construction and says nothing
+    of the noise: every σ is then not known (NaN), ν = 0."""
     e = np.asarray(residuals, dtype=float)
     jac = np.asarray(jacobian, dtype=float)
     sizes = [e.size] if record_sizes is None else list(record_sizes)
     n, p = jac.shape
+    if n <= p:
+        unknown = np.full((p, p), np.nan)
+        return SerialCovariance(unknown, unknown, 0.0, f"n = {n}, p = {p}: no residual")
     inv = np.linalg.pinv(jac.T @ jac)
     white = float(e @ e) / max(n - p, 1) * inv
     serial = n / max(n - p, 1) * (inv @ long_run_scores(e, jac, sizes) @ inv)

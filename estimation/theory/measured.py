@@ -22,6 +22,7 @@ from typing import Any
 from estimation import scale
 from estimation.theory.compare import DEFAULT_BAND, compare_added_mass
 from estimation.uncertainty.budget import coverage_factor
+from estimation.uncertainty.text import plus_minus_u
 from estimation.water import WaterProperties
 
 
@@ -44,25 +45,37 @@ class HullScale:
     u_density: float = 0.0
 
 
-def _expanded(u: float, u_c: float, dof: float | None) -> float:
-    """U = k·u with ν_eff scaled from the inertia's (the added sources have ν = ∞)."""
+def _expanded(u: float | None, u_c: float | None, dof: float | None) -> float | None:
+    """U = k·u with ν_eff scaled from the coefficient's (the added sources have ν = ∞);
+    None when the coefficient's own u is not known (then neither is U)."""
+    if u is None or u_c is None or not (math.isfinite(u) and math.isfinite(u_c)):
+        return None
     if dof is None or u_c <= 0 or u <= 0:
         return coverage_factor(math.inf) * u
     return coverage_factor(dof * (u / u_c) ** 4) * u
 
 
+def _hypot(u: float | None, *others: float) -> float | None:
+    """√(u² + Σ others²); None when ``u`` is not known."""
+    return None if u is None or not math.isfinite(u) else math.hypot(u, *others)
+
+
+def _per(u: float | None, divisor: float) -> float | None:
+    return None if u is None else u / divisor
+
+
 def measured_beside_theory(
     axis: str,
-    coefficients: Mapping[str, tuple[float, float, float | None]],
+    coefficients: Mapping[str, tuple[float, float | None, float | None]],
     speeds: Mapping[str, float],
     water: WaterProperties,
     hull: HullScale,
     g: float,
     band: tuple[float, float] = DEFAULT_BAND,
 ) -> dict[str, Any]:
-    """The document (module docstring). ``coefficients``: name → (value, u_c, ν_eff or None
-    for ∞) for inertia and quadratic_damping; ``speeds``: run id → terminal speed (m/s or
-    rad/s)."""
+    """The document (module docstring). ``coefficients``: name → (value, u_c or None when
+    not known, ν_eff or None for ∞) for inertia and quadratic_damping; ``speeds``: run id →
+    terminal speed (m/s or rad/s). A U that rests on an unknown u_c is None."""
     rho, nu = water.density, water.kinematic_viscosity
     length = hull.length_m
     runs = {}
@@ -75,7 +88,7 @@ def measured_beside_theory(
         }
     inertia, u_c, dof = coefficients["inertia"]
     added = inertia - hull.body_inertia
-    u_added = math.hypot(u_c, hull.u_body)
+    u_added = _hypot(u_c, hull.u_body)
     relative = {"rho": hull.u_density / rho, "volume": hull.u_volume / hull.volume_m3}
     if axis == "surge":
         divisor = rho * hull.volume_m3
@@ -85,7 +98,7 @@ def measured_beside_theory(
         name, unit = "C_I = I_a / (ρ ∇ L²)", "kg·m²"
         relative["length_squared"] = 2 * hull.u_length / length
     # u(C)/C = √((u_x/x)² + Σ(u_d/d)²), written for x: u(C)·divisor
-    u_coef = math.sqrt(u_added**2 + added**2 * sum(r**2 for r in relative.values()))
+    u_coef = _hypot(u_added, *(added * r for r in relative.values()))
     out: dict[str, Any] = {
         "water": water.to_json(),
         "length_m": length,
@@ -104,7 +117,7 @@ def measured_beside_theory(
         "dimensionless": {
             name: {
                 "value": added / divisor,
-                "expanded_uncertainty": _expanded(u_coef, u_c, dof) / divisor,
+                "expanded_uncertainty": _per(_expanded(u_coef, u_c, dof), divisor),
                 "relative_u_of_divisor": relative,
             }
         },
@@ -113,10 +126,10 @@ def measured_beside_theory(
     if axis == "surge" and "quadratic_damping" in coefficients:
         k_q, u_kq, dof_kq = coefficients["quadratic_damping"]
         area_divisor = rho * hull.reference_area_m2 / 2
-        u_cd = math.hypot(u_kq, abs(k_q) * hull.u_density / rho)
+        u_cd = _hypot(u_kq, abs(k_q) * hull.u_density / rho)
         out["dimensionless"]["C_D = 2 K_Q / (ρ A_ref)"] = {
             "value": k_q / area_divisor,
-            "expanded_uncertainty": _expanded(u_cd, u_kq, dof_kq) / area_divisor,
+            "expanded_uncertainty": _per(_expanded(u_cd, u_kq, dof_kq), area_divisor),
         }
     if hull.predicted_added is not None and hull.predicted_added > 0:
         out["theory"] = compare_added_mass(added, hull.predicted_added, band).to_json()
@@ -144,12 +157,12 @@ def theory_markdown(doc: Mapping[str, Any]) -> str:
     a = doc["added"]
     lines += [
         "",
-        f"Added (fitted − body {a['body']:.4g} {a['unit']}): {a['value']:.4g} ± "
-        f"{a['expanded_uncertainty']:.2g} {a['unit']}.",
+        f"Added (fitted − body {a['body']:.4g} {a['unit']}): {a['value']:.4g}"
+        f"{plus_minus_u(a['expanded_uncertainty'])} {a['unit']}.",
         "",
     ]
     for name, c in doc["dimensionless"].items():
-        lines.append(f"- {name} = {c['value']:.4g} ± {c['expanded_uncertainty']:.2g}")
+        lines.append(f"- {name} = {c['value']:.4g}{plus_minus_u(c['expanded_uncertainty'])}")
     t = doc["theory"]
     if t is not None:
         flag = "" if t["plausible"] else "**FLAGGED** "

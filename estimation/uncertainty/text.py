@@ -20,6 +20,12 @@ def _dof(x: float | None) -> str:
     return "∞" if x is None or x >= DOF_SHOWN_AS_INFINITE else f"{x:.3g}"
 
 
+def plus_minus_u(expanded: float | None) -> str:
+    """`` ± U`` of an expanded uncertainty, or `` (U not known)`` when it rests on a σ the
+    data do not give (a coefficient not identified)."""
+    return " (U not known)" if expanded is None else f" ± {expanded:.2g}"
+
+
 def value_with_u(estimate: dict[str, Any] | None) -> str:
     """``value ± σ`` of a {value, std} document (``—`` without a value), and where it
     carries its own U (a seed method's row, ``report_numbers.CoefficientWithU``) its U

@@ -141,3 +141,44 @@ def test_crosscheck_input_errors(client, runs):
     assert r.status_code == 422
     r = client.post("/api/crosscheck", json={"weight_result_id": 1, "thruster_result_id": 2})
     assert r.status_code == 401
+
+
+@pytest.mark.parametrize("method", ["ls-raw", "ls-curvefit", "ls-steady"])
+def test_a_seed_method_on_thruster_tows_end_to_end(client, runs, method):
+    """A seed method (``--method ls-*``) on the rig's thruster tows through the estimation
+    job: the thrust calibration's draws reach it as they reach output error; every
+    coefficient has a σ and a U, or neither and is named not identified (ls-steady's drag law
+    through two runs has no residual to give one); each coefficient further than 2σ of the
+    difference from the output-error fit of the same runs is named in the bias warning; and
+    the theory comparison, which reads U, is made either way."""
+    reference = wait_job(
+        client,
+        start_job(client, "/api/jobs/estimation", {"run_ids": runs["thrusters"]}),
+        timeout_s=120,
+    )
+    assert reference["state"] == "completed", how_it_ended(reference)
+    oe = reference["outcome"]["coefficients"]
+    job = wait_job(
+        client,
+        start_job(client, "/api/jobs/estimation", {"run_ids": runs["thrusters"], "method": method}),
+        timeout_s=120,
+    )
+    assert job["state"] == "completed", how_it_ended(job)
+    out = job["outcome"]
+    assert out["method"] == method
+    assert out["uncertainty"]["calibration_draws"] == 30
+    budget = out["budget"]["coefficients"]
+    biased = [w for w in out["warnings"] if w.startswith(f"{method} is biased")]
+    for name, c in out["coefficients"].items():
+        u = budget[name]["expanded_uncertainty"]
+        if c["std"] is None:
+            assert u is None and name in out["not_identified"], (name, c, u)
+            continue
+        assert u is not None and u > c["std"] > 0, (name, c, u)
+        z = abs(c["value"] - oe[name]["value"]) / (c["std"] ** 2 + oe[name]["std"] ** 2) ** 0.5
+        assert (z > 2) == any(f"{name} {c['value']:.4g} against" in w for w in biased), (z, biased)
+    if method == "ls-steady":  # two runs, two drag coefficients: no σ, never a round-off one
+        assert out["coefficients"]["linear_damping"]["std"] is None
+        drag = out["theory"]["dimensionless"]["C_D = 2 K_Q / (ρ A_ref)"]
+        assert drag["value"] is not None and drag["expanded_uncertainty"] is None
+    assert "added" in out["theory"] or "missing" in out["theory"], out["theory"]

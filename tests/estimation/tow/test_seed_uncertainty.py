@@ -147,3 +147,27 @@ def test_a_biased_seed_method_says_so_against_the_output_error_fit(scale):
             said = [w for w in estimate(runs, method=method).warnings if "is biased" in w]
             assert bool(said) == biased, (method, seed, said)
             assert not said or "sign the output-error result" in said[0]
+
+
+def test_a_drag_law_through_as_many_runs_as_coefficients_has_no_sigma():
+    """ls-steady on two tows fits K_L and K_Q through two steady-speed points: the residual
+    is zero by construction and says nothing of the noise, so their σ and U are not known
+    (null, the coefficients named not identified with a run at another force as the cure),
+    never the round-off σ of ~1e-12 they once had; the inertia, from every transient sample,
+    keeps its σ and U."""
+    runs = weight_tow_set(seed=3)[:2]
+    result = estimate(runs, method="ls-steady", search_effects=False, n_bootstrap=0)
+    doc = result.to_json()
+    assert doc["seed_regression"]["dof"]["linear_damping"] == 0
+    for name in ("linear_damping", "quadratic_damping"):
+        assert doc["coefficients"][name]["std"] is None, doc["coefficients"][name]
+        assert any(
+            w.startswith(f"{name} is not identified") and "a run at another force" in w
+            for w in doc["warnings"]
+        ), doc["warnings"]
+    assert doc["coefficients"]["inertia"]["std"] > 0
+    budget = fitted_budget([], runs, result, result.repeats)
+    assert budget is not None
+    for name in ("linear_damping", "quadratic_damping"):
+        assert not np.isfinite(budget.coefficients[name].expanded)
+    assert np.isfinite(budget.coefficients["inertia"].expanded)
