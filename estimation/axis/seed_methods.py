@@ -164,9 +164,28 @@ def _curve_rows(run: PreparedRun, amp: float, tc: float):
     return amp * (1 - e), amp / tc * e, drive[keep]
 
 
+def distinct_drives(runs: Sequence[PreparedRun], method: str) -> np.ndarray:
+    """The runs' mean drives (signed), or ``ValueError`` when they hold fewer than two
+    distinct levels: a first-order curve gives two numbers per run (its steady speed A and
+    time constant T), and one drive level's curves are fitted exactly by a one-parameter
+    family of (M, K_L, K_Q) with K_Q = 0 — a residual of zero that says nothing of the noise
+    and a drag law the records never tested."""
+    drives = np.array([r.mean_abs_drive * np.sign(np.mean(r.drive)) for r in runs])
+    if np.unique(np.round(np.abs(drives), 9)).size < 2:
+        unit = force_unit(runs[0].dof) if runs else "N"
+        levels = ", ".join(f"{d:.4g}" for d in sorted(set(np.round(np.abs(drives), 9))))
+        raise ValueError(
+            f"runs: drive: got one drive level ({levels} {unit}), allowed: two or more "
+            f"different forces/torques for {method} (a first-order curve per run gives its "
+            "steady speed and time constant only); output-error and ls-raw take one run"
+        )
+    return drives
+
+
 def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     """Approach 2: regress τ on the first-order curve-fit derivatives over each transient."""
     one_way_drives(runs, "ls-curvefit")
+    distinct_drives(runs, "ls-curvefit")
     fits = tuple(first_order_fit(r) for r in runs)
     rows, ys = [], []
     for r, (amp, tc) in zip(runs, fits, strict=True):
@@ -180,12 +199,7 @@ def ls_curvefit(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
 def ls_steady(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
     """Approach 3: drag law from steady speeds vs drive, then inertia from the transients."""
     one_way_drives(runs, "ls-steady")
-    drives = np.array([r.mean_abs_drive * np.sign(np.mean(r.drive)) for r in runs])
-    if np.unique(np.round(np.abs(drives), 9)).size < 2:
-        raise ValueError(
-            f"runs: drive: got one distinct drive {sorted(set(np.abs(drives)))}, allowed: "
-            "ls-steady needs runs at two or more different forces/torques"
-        )
+    drives = distinct_drives(runs, "ls-steady")
     fits = tuple(first_order_fit(r) for r in runs)
     speeds = np.array([amp for amp, _ in fits])
     # one point per run, runs independent: white σ, ν = runs − 2

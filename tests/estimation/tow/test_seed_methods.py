@@ -1,5 +1,7 @@
 """Seed 000's three approaches on data regenerated from the paper's published curve fits."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -37,7 +39,18 @@ def test_raw_differences_collapse_on_a_coarse_encoder(axis):
     assert coarse["rmse_after"] > 2 * steady["rmse_after"]
 
 
-def test_ls_steady_needs_two_forces():
-    runs = paper_curve_runs("surge")[:1]
-    with pytest.raises(ValueError, match="ls-steady needs runs at two or more"):
-        estimate(runs, method="ls-steady")
+@pytest.mark.parametrize("method", ["ls-curvefit", "ls-steady"])
+def test_the_curve_methods_need_two_drive_levels(method):
+    """One drive level's first-order curves are fitted exactly by (M, K_L, K_Q) with
+    K_Q = 0 (ls-curvefit once returned 0 ± 1e-10 for it, every σ ~1e-11): both curve methods
+    refuse one level, naming the runs' drive, what they need and what takes one run."""
+    runs = paper_curve_runs("surge")
+    one_level = [runs[0], replace(runs[0], run_id="again")]
+    for refused in (runs[:1], one_level):
+        with pytest.raises(
+            ValueError,
+            match=rf"runs: drive: got one drive level \(\S+ N\), allowed: two or more "
+            rf"different forces/torques for {method} .*output-error and ls-raw take one run",
+        ):
+            estimate(refused, method=method)
+    assert estimate(runs[:2], method=method, n_bootstrap=0).method == method
