@@ -10,7 +10,6 @@ import { load } from "./run_text.js";
 import { axisUnits, loadKinds } from "./start_forms.js";
 import { FINAL } from "./state.js";
 
-
 // What a cross-check compares (GET /api/kinds): runs of the kinds both a weight and the
 // thrusters drive, and estimation results of those kinds (a result names its kind; one stored
 // before schema 2 named only its axis, and a pendulum's its analysis: a swing may be a surge).
