@@ -11,6 +11,11 @@ from estimation.axis.crosscheck_comparison import LABELS, SPEED_UNITS, UNITS
 from estimation.axis.drive_crosscheck import CrossCheck
 
 
+def _pm(value: float, std: float) -> str:
+    """``value ± σ``, or the value with "σ not known"."""
+    return f"{value:.5g} ± {std:.2g}" if math.isfinite(std) else f"{value:.5g} (σ not known)"
+
+
 def markdown(check: CrossCheck, figures: Sequence[tuple[str, Path]] = ()) -> str:
     """The cross-check as a Markdown report (table, verdict, figures, common factor, RMSE,
     diagnosis)."""
@@ -27,11 +32,11 @@ def markdown(check: CrossCheck, figures: Sequence[tuple[str, Path]] = ()) -> str
     ]
     for c in check.all_comparisons:
         # an undecided coefficient's z is shown in parentheses: computed, not judged
-        z = f"{c.z:+.2f}" if c.decided else f"({c.z:+.2f})"
+        z = "—" if not math.isfinite(c.z) else f"{c.z:+.2f}" if c.decided else f"({c.z:+.2f})"
         shown = c.verdict if c.decided else "**undecided**"
         lines.append(
-            f"| {c.label(check.axis)} ({units[c.name]}) | {c.weight:.5g} ± {c.weight_std:.2g} | "
-            f"{c.thruster:.5g} ± {c.thruster_std:.2g} | {c.difference:+.3g} | {z} | {shown} |"
+            f"| {c.label(check.axis)} ({units[c.name]}) | {_pm(c.weight, c.weight_std)} | "
+            f"{_pm(c.thruster, c.thruster_std)} | {c.difference:+.3g} | {z} | {shown} |"
         )
     undecided = [c for c in check.all_comparisons if not c.decided]
     if undecided:

@@ -219,6 +219,7 @@ def cross_check(
         w, sw = _value_std(weight_result, name)
         t, st = _value_std(thruster_result, name)
         why = "; ".join(reasons) if reasons and name in DAMPING else None
+        why = _sigma_unknown(sw, st) or why
         comparisons.append(Comparison(name, w, sw, t, st, undecided=why))
     combined = _combined(weight_result, thruster_result, sep, axis)
     factor = common_factor([*comparisons, *combined])
@@ -369,7 +370,26 @@ def _combined(
             )
     w, sw = damping_at(weight, speed)
     t, st = damping_at(thruster, speed)
+    why = why or _sigma_unknown(sw, st)
     return [Comparison(COMBINED, w, sw, t, st, undecided=why, speed=speed)]
+
+
+def _sigma_unknown(weight_std: float, thruster_std: float) -> str | None:
+    """Why a coefficient gets no verdict when a set has no σ for it (its runs do not
+    identify it: a z without one would be judged on the other set's σ alone); None when
+    both have one."""
+    sides = [
+        side
+        for side, std in (("weight", weight_std), ("thruster", thruster_std))
+        if not math.isfinite(std)
+    ]
+    if not sides:
+        return None
+    which = " and the ".join(sides) + (" sets have" if len(sides) > 1 else " set has")
+    return (
+        f"the {which} no σ for it (its runs do not identify it): estimate that set with a run "
+        "at another force, or with output-error"
+    )
 
 
 def _named(found: dict[str, float], names: list[str], axis: str) -> str:

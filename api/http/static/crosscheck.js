@@ -89,7 +89,7 @@ async function crosscheckRender(res) {
   const units = (await axisUnits())[res.axis] || {}; // start_forms.js
   $("#cc-result").hidden = false;
   $("#cc-title").textContent = `${res.axis}: weight result #${res.weight_result_id} vs thruster result #${res.thruster_result_id} — ${res.verdict}`;
-  const pm = (s) => `${fmt(s.value, 5)} ± ${fmt(s.std, 2)}`;
+  const pm = (s) => `${fmt(s.value, 5)}${s.std == null ? " (σ not known)" : ` ± ${fmt(s.std, 2)}`}`;
   // Stored cross-checks from before "combined" / "undecided" existed have neither key.
   const rows = { ...res.coefficients, ...(res.combined || {}) };
   // The label is the API's (one spelling with the report); a stored cross-check from before it

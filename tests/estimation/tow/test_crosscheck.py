@@ -298,3 +298,24 @@ def test_with_the_rigs_envelope_the_undecided_advice_is_a_thruster_tow_the_rig_c
     assert 0 < force <= 48.0
     assert max(force / 36.0, 36.0 / force) >= 1.5
     assert "4×" not in reason
+
+
+def test_a_coefficient_a_set_gives_no_sigma_for_is_undecided_naming_that_set():
+    """ls-steady through two weight tows gives K_L and K_Q no σ (its drag law has no
+    residual): they, and the damping at the thruster set's speed built from them, are
+    undecided naming the weight set, not judged "agree" on the thruster set's σ alone or
+    listed among what both sets decide; the report prints "σ not known", never "± nan"."""
+    phys = Physics(*SURGE_TRUTH)
+    weight = estimate(tow_set(phys, drives=(24.5, 44.1)), method="ls-steady", n_bootstrap=0)
+    assert weight.to_json()["coefficients"]["linear_damping"]["std"] is None
+    check = cross_check(weight.to_json(), _thrusters(phys, (36.0,)))
+    doc = check.to_json()
+    rows = {**doc["coefficients"], **doc["combined"]}
+    for name in ("linear_damping", "quadratic_damping", "damping_at_speed"):
+        assert rows[name]["verdict"] == "undecided", rows[name]
+        assert rows[name]["reason"].startswith("the weight set has no σ for it"), rows[name]
+    assert doc["coefficients"]["inertia"]["verdict"] == "agree"
+    assert doc["verdict"] == "agree" and doc["undecided"] == ["linear_damping", "quadratic_damping"]
+    assert "on what both decide (inertia; all |z| < 2)" in doc["diagnosis"][0]
+    md = markdown(check)
+    assert "nan" not in md and md.count("(σ not known)") == 3
