@@ -23,6 +23,14 @@ class EstimationFailed(RuntimeError):
         return type(self), (self.what, self.why)
 
 
+class MethodRefused(ValueError):
+    """The method asked for does not suit these records, which shows only once they are
+    prepared (a drive that reverses after its release, one drive level for a curve method):
+    the user's choice of method, in one line naming the run, what it has and what would
+    suit — bad input at every face (the CLI exits 2, a job ends ``failed`` unlogged), never
+    a numerical failure."""
+
+
 class FieldError(ValueError):
     """A quantity that describes nothing physical: one line naming the field, the value
     and what is allowed."""

@@ -4,7 +4,9 @@ Bad input (an unknown run, a run without its drive, too few samples after the re
 found before anything is fitted and names the field: the CLI exits 2, the API answers 422.
 What fails after that — an overflow in a simulation, NaN in a Jacobian, a singular matrix —
 is ours, not the user's: :func:`fitting` turns it into :class:`EstimationFailure`, one line
-``could not fit <what>: <why>``; the CLI exits 1 and an estimation job ends ``failed``.
+``could not fit <what>: <why>``; the CLI exits 1 and an estimation job ends ``failed``. A
+method that does not suit the prepared records (``estimation.errors.MethodRefused``) is
+the user's and passes through as it is.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from estimation.errors import EstimationFailed
+from estimation.errors import EstimationFailed, MethodRefused
 
 #: What the numerics raise when a fit breaks down on valid input: numpy with ``np.seterr``
 #: raising (FloatingPointError), scipy's "array must not contain infs or NaNs" (ValueError),
@@ -62,6 +64,8 @@ def fitting(subject: str, doing: str = "fit") -> Iterator[None]:
         with np.errstate(call=note, over="call", invalid="call", divide="call"):
             yield
     except EstimationFailure:
+        raise
+    except MethodRefused:  # the method does not suit the records: the user's, as it is
         raise
     except EstimationFailed as err:  # the estimator's own line: "could not fit …: why"
         raise EstimationFailure(str(err)) from err

@@ -38,6 +38,7 @@ import numpy as np
 
 from estimation.axis.model import BASE_NAMES
 from estimation.axis.prepared_run import PreparedRun
+from estimation.errors import MethodRefused
 from estimation.motion.terms import force_unit
 from estimation.stats.serial import SerialCovariance, serial_covariance
 
@@ -119,7 +120,7 @@ def ls_raw(runs: Sequence[PreparedRun]) -> LeastSquaresFit:
 
 
 def one_way_drives(runs: Sequence[PreparedRun], method: str) -> None:
-    """Refuse a run whose drive reverses after its release (``ValueError`` naming it): a
+    """Refuse a run whose drive reverses after its release (``MethodRefused`` naming it): a
     first-order rise from rest, ẋ = A(1 − e^{−t/T}), is the response to one drive held in
     one direction, and a drive that changes sign (a reversing thruster profile, a wave's
     force) has neither that rise nor a steady speed. Only a sign change counts, which no
@@ -129,7 +130,7 @@ def one_way_drives(runs: Sequence[PreparedRun], method: str) -> None:
         _, _, drive = _moving(r)
         if np.any(drive > 0) and np.any(drive < 0):
             unit = force_unit(r.dof)
-            raise ValueError(
+            raise MethodRefused(
                 f"runs: {r.run_id}: drive: got a drive that reverses after the release "
                 f"({float(drive.min()):.4g} to {float(drive.max()):.4g} {unit}), allowed: one "
                 f"direction per run for {method} (a first-order rise from rest under one "
@@ -165,7 +166,7 @@ def _curve_rows(run: PreparedRun, amp: float, tc: float):
 
 
 def distinct_drives(runs: Sequence[PreparedRun], method: str) -> np.ndarray:
-    """The runs' mean drives (signed), or ``ValueError`` when they hold fewer than two
+    """The runs' mean drives (signed), or ``MethodRefused`` when they hold fewer than two
     distinct levels: a first-order curve gives two numbers per run (its steady speed A and
     time constant T), and one drive level's curves are fitted exactly by a one-parameter
     family of (M, K_L, K_Q) with K_Q = 0 — a residual of zero that says nothing of the noise
@@ -174,7 +175,7 @@ def distinct_drives(runs: Sequence[PreparedRun], method: str) -> np.ndarray:
     if np.unique(np.round(np.abs(drives), 9)).size < 2:
         unit = force_unit(runs[0].dof) if runs else "N"
         levels = ", ".join(f"{d:.4g}" for d in sorted(set(np.round(np.abs(drives), 9))))
-        raise ValueError(
+        raise MethodRefused(
             f"runs: drive: got one drive level ({levels} {unit}), allowed: two or more "
             f"different forces/torques for {method} (a first-order curve per run gives its "
             "steady speed and time constant only); output-error and ls-raw take one run"

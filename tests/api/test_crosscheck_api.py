@@ -3,6 +3,8 @@ the fast comparison of two stored results, its plot, and input errors."""
 
 from __future__ import annotations
 
+import logging
+
 import pytest
 
 from tests.api.conftest import AUTH, how_it_ended, start_job, wait_job
@@ -182,3 +184,25 @@ def test_a_seed_method_on_thruster_tows_end_to_end(client, runs, method):
         drag = out["theory"]["dimensionless"]["C_D = 2 K_Q / (ρ A_ref)"]
         assert drag["value"] is not None and drag["expanded_uncertainty"] is None
     assert "added" in out["theory"] or "missing" in out["theory"], out["theory"]
+
+
+def test_a_curve_method_on_one_drive_level_is_refused_as_bad_input(client, runs, caplog):
+    """ls-curvefit on one weight tow: the job ends failed with the refusal itself as its
+    error (the run's drive level, what the method needs, what takes one run) — the user's
+    choice of method, not "could not fit", and no traceback in the service's log."""
+    with caplog.at_level(logging.ERROR, logger="api.core.analysis_worker"):
+        job = wait_job(
+            client,
+            start_job(
+                client,
+                "/api/jobs/estimation",
+                {"run_ids": runs["weight"][:1], "method": "ls-curvefit"},
+            ),
+            timeout_s=120,
+        )
+    assert job["state"] == "failed"
+    assert job["error"].startswith(
+        "runs: drive: got one drive level (24.5 N), allowed: two or more"
+    )
+    assert "output-error and ls-raw take one run" in job["error"]
+    assert not [r for r in caplog.records if job["id"] in r.getMessage()]
