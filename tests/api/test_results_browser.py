@@ -91,3 +91,23 @@ def test_a_result_is_found_again_downloaded_and_compared(chromium, client, servi
         link.click()
         expect(page.locator("#page-estimation")).to_be_visible()
         expect(page.locator("#est-status")).to_contain_text(f"Stored result #{one}")
+
+        # ls-steady through the two runs: its drag law has no residual, so K_L and K_Q have
+        # no σ and no U; the page says so where a σ would stand, never "± —" or a round-off σ
+        body = {"run_ids": runs, "method": "ls-steady"}
+        made = client.post("/api/jobs/estimation", json=body, headers=AUTH)
+        steady = wait_job(client, made.json()["id"], timeout_s=120)
+        assert steady["state"] == "completed", how_it_ended(steady)
+        page.goto(f"{page.url.split('#')[0]}#results/{steady['result_id']}")
+        expect(page.locator("#est-status")).to_contain_text(f"#{steady['result_id']}")
+        for name in ("linear_damping", "quadratic_damping"):
+            row = page.locator("#est-coefs tbody tr", has_text=name).first
+            expect(row).to_contain_text("not identified (no σ)")
+        inertia = page.locator("#est-coefs tbody tr", has_text="inertia").first
+        expect(inertia).to_contain_text("± ")
+        # its budget row: no U, so no k and no ν_eff either (not "1.96" and "∞")
+        cells = page.locator(".est-budget-summary tr[data-quantity='linear_damping'] td")
+        expect(cells.nth(1)).to_contain_text("not identified: no U")
+        expect(cells.nth(2)).to_have_text("—")
+        expect(cells.nth(3)).to_have_text("—")
+        page.screenshot(path=str(tmp_path / "results-no-sigma.png"), full_page=True)

@@ -94,7 +94,7 @@ function showEstimationJob(job) {
 // damping ratio: docs/estimation.md), as rows under the coefficients, every kind alike.
 export function wellDeterminedRows(res) {
   return (res.well_determined || [])
-    .map((c) => `<tr class="est-known"><td><em>${esc(c.name)}</em>${c.unit ? ` (${esc(c.unit)})` : ""}</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td></tr>`)
+    .map((c) => `<tr class="est-known"><td><em>${esc(c.name)}</em>${c.unit ? ` (${esc(c.unit)})` : ""}</td><td>${esc(fmt(c.value, 5))}</td><td>${esc(c.std == null ? "not identified (no σ)" : `± ${fmt(c.std, 3)}`)}</td></tr>`)
     .join("");
 }
 
@@ -119,7 +119,7 @@ export async function renderEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = searched ? (res.coefficients_before || {})[k] : null;
-      return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>± ${esc(fmt(c.std, 3))}</td>
+      return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>${esc(c.std == null ? "not identified (no σ)" : `± ${fmt(c.std, 3)}`)}</td>
         ${boot ? `<td>${esc(bootstrapText(boot, k))}</td>` : ""}
         ${before ? `<td class="muted">before effects: ${esc(valuePm(before))}</td>` : ""}</tr>`;
     })
@@ -128,7 +128,7 @@ export async function renderEstimation(res) {
   const equivalent = res.equivalent_linear_damping || [];
   $("#est-equivalent").hidden = !equivalent.length;
   $("#est-equivalent tbody").innerHTML = equivalent
-    .map((e) => `<tr><td>${esc(amplitudeText(e.amplitude, unit))}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>± ${esc(fmt(e.std, 2))}</td></tr>`)
+    .map((e) => `<tr><td>${esc(amplitudeText(e.amplitude, unit))}</td><td>${esc(fmt(e.value, 4))} ${esc(e.unit)}</td><td>${esc(e.std == null ? "σ not known" : `± ${fmt(e.std, 2)}`)}</td></tr>`)
     .join("");
   const diagnostics = res.diagnostics || {};
   const q = (w) => fmt((w || {}).q, 3);
