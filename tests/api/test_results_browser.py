@@ -110,4 +110,6 @@ def test_a_result_is_found_again_downloaded_and_compared(chromium, client, servi
         expect(cells.nth(1)).to_contain_text("not identified: no U")
         expect(cells.nth(2)).to_have_text("—")
         expect(cells.nth(3)).to_have_text("—")
+        stored = client.get(f"/api/results/{steady['result_id']}", headers=AUTH).json()
+        expect(page.locator("#est-plots figure")).to_have_count(len(stored["report_plots"]))
         page.screenshot(path=str(tmp_path / "results-no-sigma.png"), full_page=True)
