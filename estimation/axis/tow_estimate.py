@@ -33,7 +33,7 @@ from estimation.axis.tow_search import candidate_effects, tow_search
 from estimation.axis.tow_section import UNITS, TowResult, TowSection
 from estimation.axis.unexplained import characterise
 from estimation.blas_threads import one_blas_thread
-from estimation.data.driven_axes import driven_axis
+from estimation.data.driven_axes import DRIVEN_AXES, driven_axis
 from estimation.data.run_arrays import RunData, validate_runs
 from estimation.design.advice import (
     both_ways,
@@ -270,9 +270,10 @@ def _linear_drag_warning(
 def physical_warnings(fit: MotionFit, runs: Sequence[RunData]) -> list[str]:
     """A coefficient the data do not determine (σ NaN), an inertia below the body's own,
     a damping held at its bound 0 is named (values a body cannot have are never silent)."""
+    load = driven_axis(runs[0].axis).load_name if runs and runs[0].axis in DRIVEN_AXES else "load"
     out = [
         f"{n} is not identified by these runs (no σ): the data cannot determine it; "
-        "a record with the acceleration from rest (the release) or a run at another force "
+        f"a record with the acceleration from rest (the release) or a run at another {load} "
         "would"
         for n, s in zip(fit.names, fit.std, strict=True)
         if not np.isfinite(s)

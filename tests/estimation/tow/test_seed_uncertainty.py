@@ -171,3 +171,8 @@ def test_a_drag_law_through_as_many_runs_as_coefficients_has_no_sigma():
     for name in ("linear_damping", "quadratic_damping"):
         assert not np.isfinite(budget.coefficients[name].expanded)
     assert np.isfinite(budget.coefficients["inertia"].expanded)
+    # a spin's cure is a run at another torque
+    spins = weight_tow_set(axis="yaw", seed=3)[:2]
+    spin = estimate(spins, method="ls-steady", search_effects=False, n_bootstrap=0).to_json()
+    assert spin["coefficients"]["quadratic_damping"]["std"] is None
+    assert any("a run at another torque would" in w for w in spin["warnings"]), spin["warnings"]
