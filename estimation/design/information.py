@@ -88,6 +88,7 @@ def predict(
 ) -> Prediction:
     """Duration, peak rate and information of ``test`` under the model ``theta``."""
     travel = env.travel if test.load > 0 else (env.reverse_travel or env.travel)
+    travel = travel if test.travel is None else min(test.travel, travel)
     extra = hung_inertia(env, test, g)
     scale = np.maximum(np.abs(theta), 1e-3 * np.maximum(np.abs(theta[:3]).max(), 1.0))
     sets = [theta]

@@ -34,6 +34,10 @@ Progress is ln(before) − ln(after), each capped below at 1 (``_progress``): U 
 1/√(information), and the absolute reduction bought the shortest run whenever the ratio
 was far above 1 — on the dry-friction scenario a fast tow, where only a slow one separates
 F_c from K_L.
+Each load is offered to the end of travel and stopped short (``RigEnvelope.run_lengths``):
+a run's length is judged like its load, by progress per tank minute, and a stopped run's
+information is that of the full run's beginning; most of what a tow or spin teaches is in
+its rise and first steady stretch, while the reset is paid either way.
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
@@ -388,7 +392,8 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     pair = _pair_to_separate(state)
     other_way = _other_way(state, env)
     scored = []
-    for c in env.candidates(state.axis):
+    tests = [t for c in env.candidates(state.axis) for t in env.run_lengths(c)]
+    for c in tests:
         if other_way is not None and np.sign(c.load) != other_way:
             continue
         p = predict(theta, axis_env, c, env.g)
