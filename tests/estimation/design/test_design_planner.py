@@ -18,7 +18,7 @@ import pytest
 
 from estimation import estimate
 from estimation.design.campaign_state import MAX_REPEATS, Campaign, Target
-from estimation.design.information import predict
+from estimation.design.information import predict, predict_lengths
 from estimation.design.planner import BASE, AxisState, choose, decide, planned_terms
 from estimation.design.planning_envelope import AxisEnvelope, Candidate, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, tow_set
@@ -142,6 +142,11 @@ def test_a_run_stopped_short_is_the_full_runs_beginning_and_is_offered_at_each_l
         assert np.linalg.eigvalsh(full.information - short.information).min() > -1e-9 * np.trace(
             full.information
         )
+    # the planner's one integration per load gives what each length's own integration gives
+    for test, once in zip(lengths, predict_lengths(theta, SURGE, lengths, 9.8), strict=True):
+        alone = predict(theta, SURGE, test, 9.8)
+        assert once.duration_s == alone.duration_s and once.peak_rate == alone.peak_rate
+        np.testing.assert_allclose(once.information, alone.information, rtol=1e-12)
     assert "stopped after 0.6625 m" in lengths[3].describe()
     assert lengths[3].request()["max_distance_m"] == 0.6625
     assert lengths[3].command.endswith("--max-distance 0.6625")
