@@ -33,22 +33,34 @@ class DrivenAxis:
     load_name: str
     load_unit: str
     load_option: str
+    #: The request field that stops the run short of the rig's full travel, its unit and
+    #: its ``rig`` option: "max_distance_m", "m", "--max-distance".
+    travel_field: str
+    travel_unit: str
+    travel_option: str
 
-    def command_line(self, load: float, drive: str = "weight") -> str:
-        """``rig tow --force -83.3`` (``--thrusters`` when ``drive`` is the thrusters)."""
+    def command_line(self, load: float, drive: str = "weight", travel: float | None = None) -> str:
+        """``rig tow --force -83.3`` (``--thrusters`` when ``drive`` is the thrusters;
+        ``--max-distance 2.5`` when ``travel`` stops it short of the rig's full travel)."""
         thrusters = " --thrusters" if drive == "thrusters" else ""
-        return f"rig {self.command} {self.load_option} {load:.4g}{thrusters}"
+        short = "" if travel is None else f" {self.travel_option} {travel:.4g}"
+        return f"rig {self.command} {self.load_option} {load:.4g}{thrusters}{short}"
 
-    def request(self, load: float, drive: str = "weight") -> dict[str, Any]:
+    def request(
+        self, load: float, drive: str = "weight", travel: float | None = None
+    ) -> dict[str, Any]:
         """The body of ``POST /api/jobs/<route>`` that starts it."""
-        return {self.load_field: float(f"{load:.4g}"), "drive": drive}
+        short = {} if travel is None else {self.travel_field: float(f"{travel:.4g}")}
+        return {self.load_field: float(f"{load:.4g}"), "drive": drive} | short
 
 
 #: Per axis (``RunData.axis``), its words; an axis missing is driven by nothing of the rig.
 DRIVEN_AXES: dict[str, DrivenAxis] = {
-    "surge": DrivenAxis("tow", "tow", "tow", "force_n", "force", "N", "--force"),
-    "yaw": DrivenAxis("spin", "spin", "spin", "torque_nm", "torque", "N·m", "--torque"),
-}
+    "surge": DrivenAxis("tow", "tow", "tow", "force_n", "force", "N", "--force",
+                        "max_distance_m", "m", "--max-distance"),
+    "yaw": DrivenAxis("spin", "spin", "spin", "torque_nm", "torque", "N·m", "--torque",
+                      "max_angle_rad", "rad", "--max-angle"),
+}  # fmt: skip
 
 
 def driven_axis(axis: str) -> DrivenAxis:

@@ -15,6 +15,7 @@ the run (``estimation.design.planner``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,8 +88,24 @@ def predict(
     max_time_s: float = 120.0,
 ) -> Prediction:
     """Duration, peak rate and information of ``test`` under the model ``theta``."""
-    travel = env.travel if test.load > 0 else (env.reverse_travel or env.travel)
-    extra = hung_inertia(env, test, g)
+    return predict_lengths(theta, env, [test], g, rate_hz, max_time_s)[0]
+
+
+def predict_lengths(
+    theta: np.ndarray,
+    env: AxisEnvelope,
+    tests: Sequence[Candidate],
+    g: float,
+    rate_hz: float = 10.0,
+    max_time_s: float = 120.0,
+) -> list[Prediction]:
+    """``predict`` of each of ``tests`` — one load and drive, stopped at different travels
+    (``Candidate.travel``) — from one integration: a run stopped short is the beginning of
+    the longest, cut where the body first reaches its travel."""
+    (load,) = {t.load for t in tests}
+    room = env.travel if load > 0 else (env.reverse_travel or env.travel)
+    travels = [room if t.travel is None else min(t.travel, room) for t in tests]
+    extra = hung_inertia(env, tests[0], g)
     scale = np.maximum(np.abs(theta), 1e-3 * np.maximum(np.abs(theta[:3]).max(), 1.0))
     sets = [theta]
     for i in range(len(theta)):
@@ -96,18 +113,25 @@ def predict(
             d = np.array(theta, dtype=float)
             d[i] += sign * DIFF_STEP * scale[i]
             sets.append(d)
-    xs, t, peak = _simulate(np.array(sets), test.load, extra, travel, max_time_s)
+    xs_all, t_all, _ = _simulate(np.array(sets), load, extra, max(travels), max_time_s)
     every = max(1, round(1.0 / rate_hz / STEP_S))
-    xs = xs[every - 1 :: every]
-    jac = np.column_stack(
-        [
-            (xs[:, 1 + 2 * i] - xs[:, 2 + 2 * i]) / (2 * DIFF_STEP * scale[i])
-            for i in range(len(theta))
-        ]
-    )
-    # the fit takes one position offset per run (a nuisance): only J's part orthogonal to
-    # a constant carries information on θ
-    jac = jac - jac.mean(axis=0)
-    moving = bool(abs(xs[-1, 0]) > 1e-3) if len(xs) else False
-    duration = BASELINE_S + float(t[-1] if len(t) else max_time_s) + TAIL_S
-    return Prediction(duration, peak, jac.T @ jac, moving)
+    out = []
+    for travel in travels:
+        reached = np.flatnonzero(np.abs(xs_all[:, 0]) >= travel)
+        end = int(reached[0]) + 1 if len(reached) else len(xs_all)
+        x_run, t = xs_all[:end], t_all[:end]
+        peak = float(np.max(np.abs(np.diff(x_run[:, 0])) / STEP_S, initial=0.0))
+        xs = x_run[every - 1 :: every]
+        jac = np.column_stack(
+            [
+                (xs[:, 1 + 2 * i] - xs[:, 2 + 2 * i]) / (2 * DIFF_STEP * scale[i])
+                for i in range(len(theta))
+            ]
+        )
+        # the fit takes one position offset per run (a nuisance): only J's part orthogonal
+        # to a constant carries information on θ
+        jac = jac - jac.mean(axis=0)
+        moving = bool(abs(xs[-1, 0]) > 1e-3) if len(xs) else False
+        duration = BASELINE_S + float(t[-1] if len(t) else max_time_s) + TAIL_S
+        out.append(Prediction(duration, peak, jac.T @ jac, moving))
+    return out

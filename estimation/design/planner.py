@@ -34,6 +34,10 @@ Progress is ln(before) − ln(after), each capped below at 1 (``_progress``): U 
 1/√(information), and the absolute reduction bought the shortest run whenever the ratio
 was far above 1 — on the dry-friction scenario a fast tow, where only a slow one separates
 F_c from K_L.
+Each load is offered to the end of travel and stopped short (``RigEnvelope.run_lengths``):
+a run's length is judged like its load, by progress per tank minute, and a stopped run's
+information is that of the full run's beginning; most of what a tow or spin teaches is in
+its rise and first steady stretch, while the reset is paid either way.
 While every run of an axis went one way, only the other way's candidates are considered
 (friction and a bias are one constant then; the target requires them told apart).
 Stopping rule (``decide``): the target is met on every axis (U/|θ| ≤ target, every σ
@@ -58,7 +62,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from estimation.design.information import PARAMETERS, predict
+from estimation.design.information import PARAMETERS, predict, predict_lengths
 from estimation.design.planning_envelope import Candidate, ReleaseEnvelope, RigEnvelope
 from estimation.uncertainty.budget import Budget
 
@@ -388,23 +392,24 @@ def choose(state: AxisState, env: RigEnvelope, relative: float) -> Choice | None
     pair = _pair_to_separate(state)
     other_way = _other_way(state, env)
     scored = []
-    for c in env.candidates(state.axis):
-        if other_way is not None and np.sign(c.load) != other_way:
+    for load in env.candidates(state.axis):
+        if other_way is not None and np.sign(load.load) != other_way:
             continue
-        p = predict(theta, axis_env, c, env.g)
-        if not p.moves or p.peak_rate > axis_env.max_rate:
-            continue
-        minutes = (p.duration_s + env.reset_s) / 60
-        added = _restricted(p.information, terms) / max(state.rmse, 1e-9) ** 2
-        cov = k * _covariance(base_info + added)
-        after = _worst(cov, state, relative)
-        gain = -_progress(judged_before, _worst(cov, judged, relative)) / minutes
-        if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
-            rho = _rho(cov, terms, *pair)
-            key = (0.0, gain) if rho < SEPARATED else (rho, minutes)
-        else:
-            key = (gain, minutes)
-        scored.append((key, c, after, minutes, cov))
+        lengths = env.run_lengths(load)  # one integration for every length of a load
+        for c, p in zip(lengths, predict_lengths(theta, axis_env, lengths, env.g), strict=True):
+            if not p.moves or p.peak_rate > axis_env.max_rate:
+                continue
+            minutes = (p.duration_s + env.reset_s) / 60
+            added = _restricted(p.information, terms) / max(state.rmse, 1e-9) ** 2
+            cov = k * _covariance(base_info + added)
+            after = _worst(cov, state, relative)
+            gain = -_progress(judged_before, _worst(cov, judged, relative)) / minutes
+            if pair is not None:  # separated (with margin): the most informative; else lowest |ρ|
+                rho = _rho(cov, terms, *pair)
+                key = (0.0, gain) if rho < SEPARATED else (rho, minutes)
+            else:
+                key = (gain, minutes)
+            scored.append((key, c, after, minutes, cov))
     if not scored:
         return None
     key, best, after, minutes, cov = min(scored, key=lambda s: s[0])

@@ -8,7 +8,7 @@ propose from :meth:`RigEnvelope.candidates`, so neither proposes a load the rig 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -27,6 +27,10 @@ SMALLEST_SHARE = 1 / 16
 #: within a few swings and barely shows the amplitude-dependent damping).
 RELEASE_POINTS = 8
 RELEASE_SMALLEST_SHARE = 1 / 8
+#: Run lengths offered per driven load, as shares of the travel in its direction: a run
+#: stopped short (``max_distance_m``, ``max_angle_rad``) costs less tank time and may teach
+#: more per minute than one to the end of travel (the planner judges; ``run_lengths``).
+RUN_LENGTH_SHARES = (1.0, 1 / 2, 1 / 4, 1 / 8)
 
 
 @dataclass(frozen=True)
@@ -104,6 +108,9 @@ class Candidate:
     load: float
     drive: Literal["weight", "thrusters", "release"] = "weight"
     release: ReleaseEnvelope | None = None
+    #: A driven run stopped after this distance (m) or angle (rad); None: the rig's full
+    #: travel in its direction.
+    travel: float | None = None
 
     @property
     def kind(self) -> str:
@@ -118,22 +125,25 @@ class Candidate:
         """The ``rig`` command that records it."""
         if self.release:
             return f"rig {self.release.command} {self.release.option} {self.load:.4g}"
-        return driven_axis(self.axis).command_line(self.load, self.drive)
+        return driven_axis(self.axis).command_line(self.load, self.drive, self.travel)
 
     def request(self) -> dict[str, Any]:
         """The body of ``POST /api/jobs/<route>``."""
         if self.release:
             return {self.release.field: float(f"{self.load:.4g}")}
-        return driven_axis(self.axis).request(self.load, self.drive)
+        return driven_axis(self.axis).request(self.load, self.drive, self.travel)
 
     def describe(self) -> str:
         if self.release:
             degrees = f" ({np.degrees(self.load):.3g}°)" if self.release.unit == "rad" else ""
             return f"{self.kind} released from {self.load:.4g} {self.release.unit}{degrees}"
-        unit = driven_axis(self.axis).load_unit
+        words = driven_axis(self.axis)
         way = "reverse " if self.load < 0 else ""
         by = "the thrusters" if self.drive == "thrusters" else "a hung weight"
-        return f"{way}{self.kind} at {self.load:.4g} {unit} driven by {by}"
+        short = (
+            "" if self.travel is None else f", stopped after {self.travel:.4g} {words.travel_unit}"
+        )
+        return f"{way}{self.kind} at {self.load:.4g} {words.load_unit} driven by {by}{short}"
 
 
 @dataclass(frozen=True)
@@ -183,6 +193,15 @@ class RigEnvelope:
                     for m in reach * np.geomspace(SMALLEST_SHARE * 2, 1.0, GRID_POINTS // 2)
                 ]
         return out
+
+    def run_lengths(self, test: Candidate) -> list[Candidate]:
+        """``test`` to the end of travel and stopped short after each ``RUN_LENGTH_SHARES``
+        of the travel in its direction (a released axis's test: itself)."""
+        env = self.driven(test.axis)
+        if env is None or test.release is not None:
+            return [test]
+        room = env.travel if test.load > 0 else (env.reverse_travel or env.travel)
+        return [test] + [replace(test, travel=share * room) for share in RUN_LENGTH_SHARES[1:]]
 
     def allows(self, axis: str, load: float, drive: str = "weight") -> bool:
         """Whether the rig can run ``load`` on ``axis`` with ``drive``."""

@@ -23,24 +23,28 @@ def test_every_driven_kind_of_the_registry_has_its_axis_words_in_estimation():
         spec, terms = KINDS[by_axis[axis]], AXES[by_axis[axis]]
         assert (words.kind, words.command, words.route) == (spec.kind, spec.command, spec.route)
         assert (words.load_field, words.load_unit) == (terms.drive_key, terms.drive_unit)
+        assert words.travel_field == terms.travel_key
 
 
 @pytest.mark.parametrize("axis", sorted(DRIVEN_AXES))
 @pytest.mark.parametrize("drive", ["weight", "thrusters"])
-def test_a_proposed_command_line_is_the_request_body_the_route_takes(axis, drive):
-    """``rig tow --force -2.5 --thrusters`` parsed by the ``rig`` command gives the same
-    request as the body proposed for ``POST /api/jobs/tow``."""
+@pytest.mark.parametrize("travel", [None, 1.5])
+def test_a_proposed_command_line_is_the_request_body_the_route_takes(axis, drive, travel):
+    """``rig tow --force -2.5 --thrusters`` (``--max-distance 1.5``: a run the planner stops
+    short) parsed by the ``rig`` command gives the same request as the body proposed for
+    ``POST /api/jobs/tow``."""
     words = driven_axis(axis)
     spec = KINDS[words.kind]
     assert spec.request is not None
-    argv = shlex.split(words.command_line(-2.5, drive))
+    argv = shlex.split(words.command_line(-2.5, drive, travel))
     assert argv[:2] == ["rig", words.command]
     command = KIND_COMMANDS[words.command.replace("-", "_")]
     parsed = request_fields(spec.request, command.make_context(argv[1], argv[2:]).params)
     from_cli = spec.request.model_validate(parsed).model_dump()
-    from_body = spec.request.model_validate(words.request(-2.5, drive)).model_dump()
+    from_body = spec.request.model_validate(words.request(-2.5, drive, travel)).model_dump()
     assert from_cli == from_body
     assert from_body[words.load_field] == -2.5 and from_body["drive"] == drive
+    assert from_body[words.travel_field] == travel
 
 
 def test_an_axis_nothing_drives_is_refused_naming_the_allowed():

@@ -18,7 +18,7 @@ import pytest
 
 from estimation import estimate
 from estimation.design.campaign_state import MAX_REPEATS, Campaign, Target
-from estimation.design.information import predict
+from estimation.design.information import predict, predict_lengths
 from estimation.design.planner import BASE, AxisState, choose, decide, planned_terms
 from estimation.design.planning_envelope import AxisEnvelope, Candidate, RigEnvelope
 from tests.estimation.synth import SURGE_TRUTH, YAW_TRUTH, tow_set
@@ -29,6 +29,7 @@ RIG = RigEnvelope((SURGE, YAW), g=9.8)
 QUANTUM = 1e-4  # the synthetic encoder step: white position noise of QUANTUM/√12
 
 
+@pytest.mark.parametrize("share", [1.0, 0.25])
 @pytest.mark.parametrize(
     ("axis", "truth", "drives", "env"),
     [
@@ -36,14 +37,18 @@ QUANTUM = 1e-4  # the synthetic encoder step: white position noise of QUANTUM/�
         ("yaw", YAW_TRUTH, (0.907, 2.269), YAW),
     ],
 )
-def test_predicted_sigma_agrees_with_the_fit_on_independent_runs(axis, truth, drives, env):
-    travel = env.travel
+def test_predicted_sigma_agrees_with_the_fit_on_independent_runs(axis, truth, drives, env, share):
+    """To the end of travel and stopped short (a quarter of it: the planner offers such runs,
+    ``RigEnvelope.run_lengths``, and must not find them more informative than they are)."""
+    travel = env.travel * share
     runs = tow_set(
         axis=axis, seed=3, drives=drives, quantum=QUANTUM, travel_limit=travel, duration_s=120.0
     )
     result = estimate(runs, search_effects=False, n_bootstrap=0)
     theta = np.array([*truth, 0.0, 0.0])
-    info = sum(predict(theta, env, Candidate(axis, d), 9.8).information for d in drives)
+    short = None if share == 1.0 else travel
+    tests = [Candidate(axis, d, travel=short) for d in drives]
+    info = sum(predict(theta, env, t, 9.8).information for t in tests)
     sigma_x = QUANTUM / np.sqrt(12)
     predicted = sigma_x * np.sqrt(np.diag(np.linalg.inv(info[:3, :3])))
     fitted = np.array(
@@ -120,6 +125,46 @@ def test_a_clean_axis_is_planned_on_its_base_model_and_one_way_runs_suspect_fric
     assert planned_terms(found) == (*BASE, "coulomb_friction")
     one_way = _state([Candidate("surge", 100.0)])
     assert planned_terms(one_way) == (*BASE, "coulomb_friction", "constant_bias")
+
+
+def test_a_run_stopped_short_is_the_full_runs_beginning_and_is_offered_at_each_length():
+    theta = np.array([*SURGE_TRUTH, 0.0, 0.0])
+    full = predict(theta, SURGE, Candidate("surge", -20.0), 9.8)
+    lengths = RIG.run_lengths(Candidate("surge", -20.0))
+    assert [t.travel for t in lengths] == [
+        None,
+        *(s * SURGE.reverse_travel for s in (0.5, 0.25, 0.125)),
+    ]
+    for test in lengths[1:]:
+        short = predict(theta, SURGE, test, 9.8)
+        assert short.duration_s < full.duration_s
+        # the rest of the run adds information: full − short is positive semi-definite
+        assert np.linalg.eigvalsh(full.information - short.information).min() > -1e-9 * np.trace(
+            full.information
+        )
+    # the planner's one integration per load gives what each length's own integration gives
+    for test, once in zip(lengths, predict_lengths(theta, SURGE, lengths, 9.8), strict=True):
+        alone = predict(theta, SURGE, test, 9.8)
+        assert once.duration_s == alone.duration_s and once.peak_rate == alone.peak_rate
+        np.testing.assert_allclose(once.information, alone.information, rtol=1e-12)
+    assert "stopped after 0.6625 m" in lengths[3].describe()
+    assert lengths[3].request()["max_distance_m"] == 0.6625
+    assert lengths[3].command.endswith("--max-distance 0.6625")
+
+
+def test_a_run_stopped_short_is_chosen_when_it_teaches_more_per_tank_minute():
+    """After a fast tow one way the reverse run's worth is its transient (where inertia,
+    friction and the bias show apart) more than its steady tail: with the 30 s reset paid
+    either way, a tow stopped at half its travel is predicted to teach more per tank minute
+    than any run to the end of travel (on the simulated rig: 7.7 s against 13 s)."""
+    state = _state([Candidate("surge", 100.0)])
+    choice = choose(state, RIG, 0.01)
+    assert choice is not None and choice.test.load < 0
+    assert choice.test.travel is not None and choice.test.travel < SURGE.reverse_travel
+    full = predict(
+        np.array([*SURGE_TRUTH, 0.0, 0.0]), SURGE, Candidate("surge", choice.test.load), 9.8
+    )
+    assert choice.minutes < (full.duration_s + RIG.reset_s) / 60
 
 
 def test_no_reverse_candidate_on_a_rig_without_one():
