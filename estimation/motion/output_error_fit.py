@@ -505,6 +505,13 @@ class HeldOut:
 
     rmse: float
     per_record: tuple[float, ...]
+    #: samples of each held-out record (the folds' weights in the pooled RMSE)
+    sizes: tuple[int, ...] = ()
+
+    def pooled_over(self, folds: Sequence[int]) -> float:
+        """The pooled RMSE of the folds ``folds`` alone (m or rad)."""
+        n = sum(self.sizes[i] for i in folds)
+        return float(np.sqrt(sum(self.sizes[i] * self.per_record[i] ** 2 for i in folds) / n))
 
 
 def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit) -> HeldOut | None:
@@ -532,7 +539,7 @@ def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit
             )
         held_out.append(predict_record(records[i], setup, fit.names, sub[:ng], fit, i))
     per_record = tuple(float(np.sqrt(np.mean(r**2))) for r in held_out)
-    return HeldOut(pooled_rmse(held_out), per_record)
+    return HeldOut(pooled_rmse(held_out), per_record, tuple(r.size for r in held_out))
 
 
 def _fold_starts(records: Sequence[Record], setup: Setup, fit: MotionFit) -> list[np.ndarray]:

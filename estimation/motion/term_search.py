@@ -231,13 +231,16 @@ class HeldOutErrors:
             self._done[key] = leave_one_record_out(self.records, self.setup, fit)
         return self._done[key]
 
-    def rmse(self, fit: MotionFit) -> float | None:
-        """``fit``'s pooled held-out RMSE (None: fewer than 3 records, or a refit failed)."""
+    def rmse(self, fit: MotionFit, folds: Sequence[int] | None = None) -> float | None:
+        """``fit``'s pooled held-out RMSE, over ``folds`` only when given (None: fewer than
+        3 records, no fold, or a refit failed)."""
         try:
             held = self.of(fit)
         except EstimationFailed:
             return None
-        return None if held is None else held.rmse
+        if held is None or (folds is not None and not folds):
+            return None
+        return held.rmse if folds is None else held.pooled_over(folds)
 
 
 @dataclass
@@ -379,21 +382,49 @@ class _Search:
             new = self.held_out.of(trial)
         except EstimationFailed as err:
             return f"leave-one-record-out refit failed: {err.why}"
-        if new is None:
+        folds = self.testing_folds(current, terms) if new is not None else []
+        if new is None or not folds:
             return self.tied(trial, terms) if self.kind.rules.variance_inflation_stands_in else None
         bar = bars[0]
         assert bar is not None
-        seen[:] = [bar.rmse, new.rmse]
-        if all(b is None or loro_dropped(new.rmse, b.rmse) for b in bars):
+        before, after = bar.pooled_over(folds), new.pooled_over(folds)
+        seen[:] = [before, after]
+        if all(b is None or loro_dropped(after, b.pooled_over(folds)) for b in bars):
             return None
-        folds = ", ".join(
-            f"{r.run_id} {b:.3g} → {n:.3g}"
-            for r, b, n in zip(self.records, bar.per_record, new.per_record, strict=True)
+        shown = ", ".join(
+            f"{self.records[i].run_id} {bar.per_record[i]:.3g} → {new.per_record[i]:.3g}"
+            for i in folds
+        )
+        left = [self.records[i].run_id for i in range(len(self.records)) if i not in folds]
+        aside = (
+            f"; without {', '.join(left)} the other records cannot fit {' + '.join(terms)}, "
+            "so those folds are not counted"
+            if left
+            else ""
         )
         return (
-            f"leave-one-record-out error did not drop (RMSE {bar.rmse:.4g} → "
-            f"{new.rmse:.4g}; per record {folds})"
+            f"leave-one-record-out error did not drop (RMSE {before:.4g} → "
+            f"{after:.4g}; per record {shown}{aside})"
         )
+
+    def testing_folds(self, current: MotionFit, terms: Sequence[str]) -> list[int]:
+        """The leave-one-record-out folds that can test ``terms``: those whose training
+        records (all but the fold's) leave each term at least the screen's share of its
+        sensitivity independent of ``current``'s parameters (``SEPARABLE``). On the others
+        the term is a combination of those parameters, so the fold's refit puts an arbitrary
+        value on it (a mirror pair of spins, +5 and −5 N·m, cannot tell dry friction from
+        K_L) and its prediction of the record left out says nothing about the term."""
+        new = [t for t in terms if t not in current.names]
+        return [
+            i
+            for i in range(len(self.records))
+            if all(
+                SEPARABLE.verdict(t, share, "") is None
+                for t, share in independent_shares(
+                    self.records, self.setup, current, new, without=i
+                ).items()
+            )
+        ]
 
     def tied(self, fit: MotionFit, terms: Sequence[str]) -> str | None:
         """Why a member of ``terms`` is not identified without out-of-sample evidence
@@ -690,6 +721,8 @@ def search_terms(
         round_no += 1
     final, removed = search.backward(current, round_no)
     ambiguous, advice, swaps = search.ambiguities(final, candidates)
+    # the held-out errors over the folds that can test what was found (``testing_folds``)
+    tested = search.testing_folds(base, final.effects) if final.effects else None
     return SearchOutcome(
         base=base,
         final=final,
@@ -697,8 +730,8 @@ def search_terms(
         ambiguous=ambiguous,
         advice=advice,
         rejected=(*rejected_last, *removed),
-        cv_base=search.held_out.rmse(base),
-        cv_final=search.held_out.rmse(final),
+        cv_base=search.held_out.rmse(base, tested),
+        cv_final=search.held_out.rmse(final, tested),
         alternatives=swaps,
     )
 

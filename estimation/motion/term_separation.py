@@ -71,18 +71,28 @@ def _residualise(columns: np.ndarray, others: np.ndarray) -> np.ndarray:
 
 
 def independent_shares(
-    records: Sequence[Record], setup: Setup, fit: MotionFit, names: Sequence[str]
+    records: Sequence[Record],
+    setup: Setup,
+    fit: MotionFit,
+    names: Sequence[str],
+    without: int | None = None,
 ) -> dict[str, float]:
     """Share of each effect's sensitivity that ``fit``'s own parameters cannot mimic.
 
     ‖P⊥ ∂x/∂θ_e‖ / ‖∂x/∂θ_e‖ with P⊥ removing the span of the base coefficients, ``fit``'s
     effects and each record's nuisances: 0 when the effect is a combination of them (e.g. a bias
     on one run at one force is an inertia change), 1 when it is orthogonal to them all.
+    ``without``: on the records but that one (a leave-one-record-out fold's), at ``fit``.
     """
     params, jac, nuisance = sensitivities(records, setup, fit, names)
     held = [i for i, n in enumerate(params) if n in fit.names]
     columns = jac[:, [params.index(name) for name in names]]
-    perp = _residualise(columns, np.hstack([jac[:, held], nuisance]))  # one QR for all
+    others = np.hstack([jac[:, held], nuisance])
+    if without is not None:  # the fold's rows; the left-out record's own nuisances go too
+        rows = np.repeat(np.arange(len(records)), [r.t.size for r in records]) != without
+        columns, others = columns[rows], others[rows]
+        others = others[:, np.any(others != 0.0, axis=0)]
+    perp = _residualise(columns, others)  # one QR for all
     norms = np.linalg.norm(columns, axis=0)
     kept = np.linalg.norm(perp, axis=0)
     return {name: float(k / n) if n else 0.0 for name, k, n in zip(names, kept, norms, strict=True)}
