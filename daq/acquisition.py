@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from daq.clock import REAL_CLOCK, Clock
+from daq.cpu_wait import ThreadCpuWait, no_cpu_wait
 from daq.plc import Reading
 from daq.priority import restore_scheduling, scheduling, set_realtime
 from daq.sample import Quality, Sample
@@ -64,6 +65,11 @@ class ClockStats:
     overruns: int = 0
     #: Of those, the wake-ups over half a period late (the host was busy, not the device).
     late_wakeups: int = 0
+    #: Of the others (ticks that ran long), those the host held up: the OS kept the clock's
+    #: thread waiting for a CPU (``daq.cpu_wait``) so long that without that wait the tick
+    #: would have ended in time. What is left, ``overruns - late_wakeups - host_stalls``,
+    #: are ticks the device or this process made long.
+    host_stalls: int = 0
     skipped_slots: int = 0
     failed_polls: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
@@ -101,6 +107,7 @@ class Acquisition:
         realtime: bool = False,
         clock: Clock = REAL_CLOCK,
         extra_channels: Callable[[], dict[str, float]] | None = None,
+        cpu_wait: Callable[[], float] | None = None,
     ) -> None:
         if not (math.isfinite(rate_hz) and 0 < rate_hz <= 10_000):
             raise ValueError(f"rate_hz must be in (0, 10000] Hz, got {rate_hz!r}")
@@ -122,6 +129,9 @@ class Acquisition:
         #: thrusters' telemetry, ``daq.thruster_supervisor``); never waited on, and never
         #: part of the device-lost or quality decision, which is the PLC's alone.
         self.extra_channels = extra_channels
+        #: The clock thread's cumulative wait for a CPU, s (``daq.cpu_wait``): by default read
+        #: from the OS on a real clock, none on a simulated one; tests pass their own.
+        self.cpu_wait = cpu_wait
         self.stats = ClockStats()
         self.latest: Sample | None = None
         #: Set while the device has been unreadable for longer than ``device_lost_after_s``.
@@ -192,10 +202,14 @@ class Acquisition:
         # (5 ms by default): more than a slot at high rates. Hand it back faster while running.
         switch_interval = sys.getswitchinterval()
         sys.setswitchinterval(min(switch_interval, max(period / 4, 0.0002)))
+        # The OS's account of this thread (the one running the clock): made here.
+        own_wait = None if self.cpu_wait or self.clock.simulated else ThreadCpuWait()
+        waited = self.cpu_wait or own_wait or no_cpu_wait
         t0 = self.clock.now()
         last_good = t0
         slot = 0
         overrun = False
+        waited_before = waited()
         try:
             while True:
                 deadline = t0 + slot * period
@@ -203,12 +217,14 @@ class Acquisition:
                 if self._stopping:
                     return
                 start = self.clock.now()
+                waited_at_start = waited()
                 due = math.ceil((start - t0) / period - 0.5)
                 if due > slot:  # woke over half a period late (busy machine): skip, not burst
                     self.stats.overruns += 1
                     self.stats.late_wakeups += 1
                     self.stats.skipped_slots += due - slot
                     slot, overrun = due, True
+                    waited_before = waited_at_start
                     continue
                 self.stats.lateness_s.append(start - deadline)
                 sample = await self._tick(slot, overrun)
@@ -226,14 +242,24 @@ class Acquisition:
                     sample = dataclasses.replace(sample, channels=sample.channels | extra)
                 self._publish(sample)
                 # Next slot: the first one not more than half a period overdue.
-                due = math.ceil((self.clock.now() - t0) / period - 0.5)
+                end = self.clock.now()
+                due = math.ceil((end - t0) / period - 0.5)
                 next_slot = max(slot + 1, due)
                 overrun = next_slot > slot + 1
+                waited_now = waited()
                 if overrun:
                     self.stats.overruns += 1
                     self.stats.skipped_slots += next_slot - slot - 1
-                slot = next_slot
+                    # The CPU wait that held this slot back: before the wake-up (no more than
+                    # the wake-up's lateness) and during the tick.
+                    held = min(waited_at_start - waited_before, max(0.0, start - deadline))
+                    held += waited_now - waited_at_start
+                    if math.ceil((end - held - t0) / period - 0.5) <= slot + 1:
+                        self.stats.host_stalls += 1
+                slot, waited_before = next_slot, waited_now
         finally:
+            if own_wait is not None:
+                own_wait.close()
             self._running = False
             sys.setswitchinterval(switch_interval)
             if saved is not None:

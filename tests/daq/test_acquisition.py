@@ -95,6 +95,43 @@ async def test_an_overrun_skips_slots_and_never_bursts():
     assert all(s.quality == Quality.OK for s in after)
 
 
+class HostHeldSampler(TimedSampler):
+    """Its polls take ``read_s``, of which the OS kept the clock's thread waiting for a CPU
+    ``held_s`` (``waited`` is the clock's ``cpu_wait``)."""
+
+    def __init__(self, clock: SimClock, read_s: float, held_s: float) -> None:
+        super().__init__(clock, read_s)
+        self.held_s = held_s
+        self.waited_s = 0.0
+
+    def waited(self) -> float:
+        return self.waited_s
+
+    async def read_all(self) -> dict[str, Reading]:
+        self.waited_s += self.held_s
+        return await super().read_all()
+
+
+@pytest.mark.parametrize(
+    ("held_s", "host_held_it"),
+    [(0.15, True), (0.02, False)],
+    ids=["the-host-held-it", "the-tick-ran-long"],
+)
+async def test_a_tick_the_host_held_up_is_counted_apart_from_a_long_tick(held_s, host_held_it):
+    # 10 Hz: a 0.2 s poll ends past 1.5 slots and skips one. Held 0.15 s by the host, it
+    # would have ended at 0.05 s (in time); held 0.02 s, at 0.18 s (late anyway).
+    sampler = HostHeldSampler(SimClock.of_running_loop(), read_s=0.2, held_s=held_s)
+    acq = Acquisition(sampler, rate_hz=10.0, clock=sampler.clock, cpu_wait=sampler.waited)
+    q = acq.subscribe()
+    runner = asyncio.create_task(acq.run())
+    samples = await _collect(q, 3)
+    acq.stop()
+    await runner
+    assert [s.seq for s in samples] == [0, 2, 4]
+    assert acq.stats.overruns >= 2 and acq.stats.late_wakeups == 0
+    assert acq.stats.host_stalls == (acq.stats.overruns if host_held_it else 0)
+
+
 async def test_a_slow_subscriber_loses_its_own_oldest_samples_only():
     clock, sampler = _clock_and_sampler()
     acq = Acquisition(sampler, rate_hz=100.0, clock=clock)

@@ -66,8 +66,9 @@ async def test_plc_lost_mid_acquisition_then_back(server, plc):
     acq.stop()
     await runner
     # The clock kept its slots through the outage: failed reads fail fast, no tick ran long
-    # (a late wake-up of a loaded host is not the PLC's doing and is counted apart).
-    assert acq.stats.overruns - acq.stats.late_wakeups == 0
+    # (a late wake-up of a loaded host, or a tick the OS kept off a CPU, is not the PLC's
+    # doing and is counted apart).
+    assert acq.stats.overruns - acq.stats.late_wakeups - acq.stats.host_stalls == 0
     assert acq.stats.failed_polls >= 10
 
 

@@ -173,9 +173,10 @@ async def test_dropped_responses_time_out_on_time_and_recover():
         await _until_ok(q)
         assert not acq.device_lost.is_set()
     assert all(s.quality & Quality.ERROR for s in dropped)
-    # A 50 ms timeout inside a 100 ms slot: no tick ran long while the PLC was mute (a late
-    # wake-up of a loaded host is counted apart).
-    assert acq.stats.overruns - acq.stats.late_wakeups == 0
+    # A 50 ms timeout inside a 100 ms slot: no tick ran long while the PLC was mute. A late
+    # wake-up of a loaded host, and a tick the OS kept off a CPU (a busy run saw 0.165 s
+    # with 1 ms of CPU and 0.144 s of waiting for one), are the host's, counted apart.
+    assert acq.stats.overruns - acq.stats.late_wakeups - acq.stats.host_stalls == 0
     assert client.stats.errors >= 5
     # pymodbus drops a TCP link after 3 unanswered requests; our back-off loop restores it.
     assert client.stats.reconnects >= 1
