@@ -28,6 +28,7 @@ import asyncio
 import os
 import shutil
 import sqlite3
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -85,6 +86,24 @@ def _byte_compile_the_checkout() -> None:
     root = Path(__file__).resolve().parents[1]
     for package in ("api", "daq", "estimation", "thrusters", "tests"):
         compileall.compile_dir(root / package, quiet=1, workers=1)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_collection(session: pytest.Session) -> Iterator[object]:
+    """While the test modules are collected, pytest writes their assert-rewritten byte code
+    (``__pycache__/*-pytest-*.pyc``), as it does by default: with ``PYTHONDONTWRITEBYTECODE``
+    set (this machine) it never did, and every worker of every run rewrote and compiled the
+    228 test modules and conftests again before its first test: ``pytest --collect-only
+    -m ""`` took 11.0 s of CPU, 6.1 s with the cache (means of three alternating runs).
+    The cache is checked against the source (mtime, size) and written atomically (workers
+    collect at once). Only for the collection: the processes the tests start keep the
+    setting (``_byte_compile_the_checkout`` writes the checkout's own byte code)."""
+    writes_no_bytecode = sys.dont_write_bytecode
+    sys.dont_write_bytecode = False
+    try:
+        return (yield)
+    finally:
+        sys.dont_write_bytecode = writes_no_bytecode
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -1,0 +1,192 @@
+"""Where the test suite's wall time goes: the README's test command, timed (issue 34 item 5).
+
+Runs ``python -m pytest -m ""`` (pyproject's addopts: the workers and their scheduling) with
+this module as a plugin, which appends one line per test to a timeline file (worker, node
+id, start and end in wall seconds, the worker's own CPU over the test), while the runner
+samples the CPU of every process under pytest once a second from ``/proc`` (a process's
+user + system time as last seen, by kind: xdist worker, chromium, ``rig serve``, spawned
+analysis or upload child, …; a process that lives under a second can be missed, the
+``children`` total of the run is exact). Prints one JSON document:
+
+* ``wall_s``, ``cpu_s`` (the run's user + system, children included), ``outcome`` (pytest's
+  last line);
+* ``first_test_s``: when the first test began (the session's start-up: byte code, numba's
+  cache, the workers' imports and collection);
+* ``workers``: each worker's busy seconds and when its last test ended — the spread between
+  the first and the last worker to finish is what scheduling can still win;
+* ``last_modules``: the modules that ended last (on the critical path);
+* ``modules``: the longest modules (summed test wall seconds, worker CPU, tests);
+* ``cpu_by_kind``: CPU seconds per process kind; ``tests_by_cpu``: the tests whose worker
+  spent the most CPU.
+
+Wall seconds on this 2-core machine depend on what else runs: compare runs by alternating
+them, and read ``cpu_s`` beside ``wall_s``.
+
+    .venv/bin/python bench/suite_time.py [--out /tmp/suite] [PYTEST ARGS …]
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+TIMELINE_ENV = "SUITE_TIME_TIMELINE"
+TICKS = os.sysconf("SC_CLK_TCK")
+
+# --- the plugin (loaded in the controller and every worker by ``-p bench.suite_time``) ---
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Any:
+    path = os.environ.get(TIMELINE_ENV)
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    start, cpu = time.time(), time.process_time()
+    result = yield
+    if path:
+        line = {"worker": worker, "id": item.nodeid, "start": start, "end": time.time()}
+        line["cpu"] = time.process_time() - cpu
+        with open(path, "a", encoding="utf-8") as out:  # one short append per test
+            out.write(json.dumps(line) + "\n")
+    return result
+
+
+# --- the runner ---
+
+
+def _kind(cmdline: str) -> str:
+    if "chromium" in cmdline:
+        return "chromium"
+    if "playwright" in cmdline:
+        return "playwright driver"
+    if "postgres" in cmdline:
+        return "postgres"
+    if "spawn_main" in cmdline:
+        return "spawned child (analysis worker, CSV upload)"
+    if "exec(eval(sys.stdin" in cmdline:
+        return "xdist worker"
+    if "pytest" in cmdline:
+        return "pytest controller"
+    if " serve" in cmdline:
+        return "rig serve"
+    if "mypy" in cmdline:
+        return "mypy"
+    if "api.cli" in cmdline or "/rig " in cmdline:
+        return "rig command"
+    return cmdline.split(" ")[0].rsplit("/", 1)[-1] or "?"
+
+
+def _processes() -> dict[int, tuple[int, float, str]]:
+    """pid -> (parent pid, user + system CPU s, command line) of every process now."""
+    found = {}
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = Path(entry.path, "stat").read_text()
+            cmdline = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2 :].split()
+        cpu = (int(fields[11]) + int(fields[12])) / TICKS
+        found[int(entry.name)] = (int(fields[1]), cpu, cmdline.strip())
+    return found
+
+
+def _sample(root: int, seen: dict[tuple[int, str], tuple[str, float]]) -> None:
+    procs = _processes()
+    children = collections.defaultdict(list)
+    for pid, (parent, _, _) in procs.items():
+        children[parent].append(pid)
+    stack = [root]
+    while stack:
+        pid = stack.pop()
+        stack.extend(children.get(pid, ()))
+        if pid in procs:
+            _, cpu, cmdline = procs[pid]
+            key = (pid, cmdline[:80])
+            kind = seen[key][0] if key in seen else _kind(cmdline)
+            seen[key] = (kind, cpu)
+
+
+def _summary(timeline: list[dict[str, Any]], t0: float) -> dict[str, Any]:
+    """Times in seconds from the command's start (``t0``, wall)."""
+    modules: dict[str, dict[str, Any]] = {}
+    workers: dict[str, dict[str, float]] = {}
+    for line in timeline:
+        name = line["id"].split("::", 1)[0]
+        wall = line["end"] - line["start"]
+        m = modules.setdefault(name, {"wall_s": 0.0, "cpu_s": 0.0, "tests": 0, "end_s": 0.0})
+        m["wall_s"] += wall
+        m["cpu_s"] += line["cpu"]
+        m["tests"] += 1
+        m["end_s"] = max(m["end_s"], line["end"] - t0)
+        m["worker"] = line["worker"]
+        w = workers.setdefault(line["worker"], {"busy_s": 0.0, "last_end_s": 0.0})
+        w["busy_s"] += wall
+        w["last_end_s"] = max(w["last_end_s"], line["end"] - t0)
+
+    def rounded(d: dict[str, Any]) -> dict[str, Any]:
+        return {k: round(v, 1) if isinstance(v, float) else v for k, v in d.items()}
+
+    longest = sorted(modules.items(), key=lambda kv: -kv[1]["wall_s"])[:25]
+    last = sorted(modules.items(), key=lambda kv: -kv[1]["end_s"])[:8]
+    by_cpu = sorted(timeline, key=lambda line: -line["cpu"])[:20]
+    return {
+        "first_test_s": round(min(line["start"] for line in timeline) - t0, 1),
+        "workers": {w: rounded(v) for w, v in sorted(workers.items())},
+        "last_modules": {n: rounded(m) for n, m in last},
+        "modules": {n: rounded(m) for n, m in longest},
+        "tests_by_cpu": {line["id"]: round(line["cpu"], 1) for line in by_cpu},
+        "tests_worker_cpu_s": round(sum(line["cpu"] for line in timeline), 1),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=Path("/tmp/suite-time"))
+    args, pytest_args = parser.parse_known_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    timeline = args.out / "timeline.jsonl"
+    timeline.unlink(missing_ok=True)
+    command = [sys.executable, "-m", "pytest", "-m", "", "-p", "bench.suite_time", *pytest_args]
+    env = os.environ | {TIMELINE_ENV: str(timeline)}
+    before, started, t0 = os.times(), time.monotonic(), time.time()
+    with open(args.out / "pytest.txt", "w", encoding="utf-8") as log:
+        run = subprocess.Popen(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
+        seen: dict[tuple[int, str], tuple[str, float]] = {}
+        while run.poll() is None:
+            _sample(run.pid, seen)
+            time.sleep(1.0)
+    wall, after = time.monotonic() - started, os.times()
+    cpu = (after.children_user - before.children_user) + (
+        after.children_system - before.children_system
+    )
+    by_kind: dict[str, float] = collections.Counter()
+    for kind, seconds in seen.values():
+        by_kind[kind] += seconds
+    text = (args.out / "pytest.txt").read_text(encoding="utf-8").strip().splitlines()
+    lines = [json.loads(line) for line in timeline.read_text(encoding="utf-8").splitlines()]
+    report = {
+        "command": " ".join(command[1:]),
+        "wall_s": round(wall, 1),
+        "cpu_s": round(cpu, 1),
+        "outcome": re.sub(r"=+", "", text[-1]).strip() if text else "",
+        "failed": [line for line in text if line.startswith(("FAILED", "ERROR"))],
+        "cpu_by_kind": {k: round(v, 1) for k, v in sorted(by_kind.items(), key=lambda kv: -kv[1])},
+    } | _summary(lines, t0)
+    print(json.dumps(report, indent=1, ensure_ascii=False))
+
+
+if __name__ == "__main__":
+    main()
