@@ -311,6 +311,8 @@ class RigService:
                 "rate_hz": acq.rate_hz,
                 "ticks": stats.ticks,
                 "overruns": stats.overruns,
+                "late_wakeups": stats.late_wakeups,
+                "host_stalls": stats.host_stalls,
                 "skipped_slots": stats.skipped_slots,
                 "failed_polls": stats.failed_polls,
                 "dropped": dict(stats.dropped),

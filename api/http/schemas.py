@@ -185,6 +185,14 @@ class ClockOut(BaseModel):
     rate_hz: float
     ticks: int
     overruns: int
+    late_wakeups: int = Field(
+        description="Of the overruns, the wake-ups over half a period late (a busy host)."
+    )
+    host_stalls: int = Field(
+        description="Of the other overruns, the ticks the OS kept waiting for a CPU so long "
+        "that without the wait they would have ended in time (daq.cpu_wait); the rest are "
+        "the device's or this process's."
+    )
     skipped_slots: int
     failed_polls: int
     dropped: dict[str, int]

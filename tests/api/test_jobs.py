@@ -168,6 +168,8 @@ def test_rig_status_reports_values_clock_and_limits(client):
     assert set(status["sample"]["channels"]) >= {"tow_position", "yaw_angle", "load_cell"}
     assert status["clock"]["rate_hz"] == 10.0
     assert status["clock"]["ticks"] > 0
+    clock = status["clock"]  # the overruns, and of them those the host made
+    assert 0 <= clock["late_wakeups"] + clock["host_stalls"] <= clock["overruns"]
     assert 0 <= status["clock"]["lateness_p50_s"] <= status["clock"]["lateness_p99_s"]
     assert status["limits"]["max_force_n"] == 100.0
 
