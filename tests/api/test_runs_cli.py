@@ -22,14 +22,15 @@ def rig(tmp_path: Path) -> RigCli:
 def test_import_with_metadata_then_find_annotate_show_and_export(rig, tmp_path: Path) -> None:
     first = rig("import", "day1.csv", "--kind", "tow", "--force", "10", "--weight", "1.02",
                 "--operator", "Ada", "--water-temp", "18.5", "--tag", "fins-v2",
-                "--meta", "ballast=B3", "--meta", "depth_m=1.2").stdout.strip()  # fmt: skip
+                "--meta", "ballast=K3", "--meta", "depth_m=1.2").stdout.strip()  # fmt: skip
     second = rig("import", "day1.csv", "--kind", "spin", "--torque", "0.5").stdout.strip()
 
     def found(*filters: str) -> list[str]:
         return [r["id"] for r in json.loads(rig("runs", "--json", *filters).stdout)]
 
     assert found("--tag", "fins-v2") == [first]
-    assert found("--search", "b3") == [first]
+    # a search also matches run ids: "k3" is no hex digit pair, so no random id can match it
+    assert found("--search", "k3") == [first]
     assert found("--drive", "weight") == [first] and found("--drive", "none") == [second]
     assert set(found("--source", "imported", "--since", "today", "--until", "today")) == {
         first, second
@@ -37,7 +38,7 @@ def test_import_with_metadata_then_find_annotate_show_and_export(rig, tmp_path: 
     assert found("--source", "recorded") == [] and found("--until", "yesterday") == []
     run = json.loads(rig("show", first[:8], "--json").stdout)
     assert run["metadata"] == {"operator": "Ada", "water_temperature_c": 18.5,
-                               "tags": ["fins-v2"], "ballast": "B3", "depth_m": 1.2}  # fmt: skip
+                               "tags": ["fins-v2"], "ballast": "K3", "depth_m": 1.2}  # fmt: skip
     assert (run["source"], run["source_file"], run["drive"]) == ("imported", "day1.csv", "weight")
 
     listed = rig("runs", "--limit", "1")
