@@ -19,7 +19,6 @@ from daq.run_data import load_run_data
 from daq.sample_losses import SAMPLES_LOST
 from daq.session import RigSession
 from daq.vocabulary import AXES
-from estimation.data.driven_axes import driven_axis
 from estimation.design.campaign_state import Campaign
 from estimation.design.planner import Choice
 
@@ -104,9 +103,7 @@ async def run_campaign(
         choice = decision.choice
         assert choice is not None
         test = choice.test
-        raw = {test.field: test.load} | ({} if test.release else {"drive": test.drive})
-        if test.travel is not None:  # stopped short of the end of travel
-            raw[driven_axis(test.axis).travel_field] = test.travel
+        raw = test.request()  # as the service's campaign sends it and the trail records it
         spec = KINDS[test.kind]  # the planner's tests: the kinds' entries
         if tag is not None:
             session.run_metadata = (session.run_metadata or {}) | {"campaign": tag}

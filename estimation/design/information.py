@@ -103,7 +103,7 @@ def predict_lengths(
     (``Candidate.travel``) — from one integration: a run stopped short is the beginning of
     the longest, cut where the body first reaches its travel."""
     (load,) = {t.load for t in tests}
-    room = env.travel if load > 0 else (env.reverse_travel or env.travel)
+    room = env.room(load)
     travels = [room if t.travel is None else min(t.travel, room) for t in tests]
     extra = hung_inertia(env, tests[0], g)
     scale = np.maximum(np.abs(theta), 1e-3 * np.maximum(np.abs(theta[:3]).max(), 1.0))

@@ -55,6 +55,11 @@ class AxisEnvelope:
     def kind(self) -> str:
         return driven_axis(self.axis).kind
 
+    def room(self, load: float) -> float:
+        """The travel a run under ``load`` has: forward, or back from the far end for a
+        negative load (the forward travel where the reverse is not set)."""
+        return self.travel if load > 0 else (self.reverse_travel or self.travel)
+
     @property
     def load_field(self) -> str:
         return driven_axis(self.axis).load_field
@@ -200,7 +205,7 @@ class RigEnvelope:
         env = self.driven(test.axis)
         if env is None or test.release is not None:
             return [test]
-        room = env.travel if test.load > 0 else (env.reverse_travel or env.travel)
+        room = env.room(test.load)
         return [test] + [replace(test, travel=share * room) for share in RUN_LENGTH_SHARES[1:]]
 
     def allows(self, axis: str, load: float, drive: str = "weight") -> bool:
