@@ -366,8 +366,9 @@ def _build(
             "sample): the fit may rest on that limit rather than on the data, so no coefficient "
             "is identified (no σ is given)"
         )
-    unexplained = characterise(final, prepared, axis) if method == "output-error" else None
-    if unexplained is not None and (text := unexplained.warning(axis, outcome.searched)):
+    # every method's residual is judged by the one rule; a seed method words its own warning
+    unexplained = characterise(final, prepared, axis)
+    if method == "output-error" and (text := unexplained.warning(axis, outcome.searched)):
         warnings.append(text)
     force_before = force_residuals(base, prepared)
     return EstimationResult(
@@ -395,8 +396,8 @@ def _build(
         cv_before=outcome.cv_base,
         cv_after=outcome.cv_final,
         bootstrap=boot,
-        # what the residual's character says of the coefficients (None: a seed method's)
-        possibly_biased=None if unexplained is None else unexplained.structured,
+        # what the residual's character says of the coefficients
+        possibly_biased=unexplained.structured,
         well_determined=well_determined(final, *combination_conditions(final, runs), axis),
         section=TowSection(
             residual_correlations=regressor_correlations(base, prepared, force_before),
@@ -475,13 +476,19 @@ def _seed_values(method: str, prepared: list[PreparedRun], _fit: MotionFit) -> n
 
 def _seed_result(axis, method, runs, prepared) -> TowResult:
     fit, ls = seed_fit(method, prepared)  # ``fit`` carries the seed's values and σ
-    reference = _coefficients(fit_output_error(prepared), axis)
-    warnings = method_bias(method, _coefficients(fit, axis), reference)
-    if not ls.values[0] > 0:
-        warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
+    output_error = fit_output_error(prepared)
+    bias = method_bias(method, _coefficients(fit, axis), _coefficients(output_error, axis))
     outcome = SearchOutcome(base=fit, final=fit, cv_base=None, cv_final=None, steps=())
     # the release timing and thrust calibration draws through the seed method itself
     drive = drive_uncertainty(runs, fit, partial(_seed_values, method))
     result = _build(axis, method, runs, prepared, outcome, None, drive)
+    # the positions its coefficients predict, judged by the rule every result's residual is
+    reference = characterise(output_error, prepared, axis)
+    misfit = result.section.unexplained
+    seed_warnings = list(bias)
+    if misfit is not None and (text := misfit.seed_warning(method, axis, reference, bool(bias))):
+        seed_warnings.append(text)
+    if not ls.values[0] > 0:
+        seed_warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
     section = replace(result.section, seed=ls)  # its σ's ν, for the budget's U
-    return replace(result, warnings=(*warnings, *result.warnings), section=section)
+    return replace(result, warnings=(*seed_warnings, *result.warnings), section=section)

@@ -58,11 +58,9 @@ class Unexplained:
         """Force residual RMS over the noise floor (≈ 1 when only noise is left)."""
         return self.force_rms / self.noise_floor if self.noise_floor > 0 else float("inf")
 
-    def warning(self, axis: str, searched: bool = True) -> str | None:
-        """One sentence for ``warnings``, or None when nothing structured is left
-        (``searched``: whether the effect search ran; if not, the sentence asks for it)."""
-        if not self.structured:
-            return None
+    def evidence(self, axis: str) -> str:
+        """What the residual shows, in words: its Ljung–Box p, force RMS over the noise floor,
+        and its strongest correlate or sinusoid."""
         where = f"strongest correlate: {self.strongest}" if self.strongest else "no clear correlate"
         if self.period is not None and self.period.share >= PERIODIC_SHARE:
             where = (
@@ -75,10 +73,17 @@ class Unexplained:
                 f"{self.period.value:.3g} {self.period.unit} ({self.period.share:.0%} of it)"
             )
         unit = "N" if axis == "surge" else "N·m"
-        evidence = (
+        return (
             f"(Ljung–Box p = {self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} {unit}, "
             f"{self.ratio:.1f}× the noise floor the fit implies); {where}"
         )
+
+    def warning(self, axis: str, searched: bool = True) -> str | None:
+        """One sentence for ``warnings``, or None when nothing structured is left
+        (``searched``: whether the effect search ran; if not, the sentence asks for it)."""
+        if not self.structured:
+            return None
+        evidence = self.evidence(axis)
         if not searched:
             return (
                 f"the residual is structured {evidence}; the effect search was off, so no "
@@ -88,6 +93,39 @@ class Unexplained:
         return (
             f"the residual is still structured after the effect search {evidence}; no effect "
             "in the library explains it, so none was added: the coefficients may be biased by it"
+        )
+
+    def seed_warning(
+        self, method: str, axis: str, output_error: Unexplained, concluded: bool = False
+    ) -> str | None:
+        """One sentence for a seed method's result whose coefficients misfit the records
+        (None when its residual is not structured). ``output_error``: the same verdict on
+        the output-error fit of the same runs (the base model, no effect searched), which
+        says whose model the structure belongs to: the seed method's own (its derivatives,
+        first-order curves or steady speeds are not the equation's solution) when output
+        error leaves the record at its floor, the record's (a force neither model has)
+        when it does not. A seed σ rests on the method's own regression and can be large
+        enough to hide a bias from ``method_bias``; the positions it predicts cannot.
+        ``concluded``: ``method_bias`` already told the user what to sign, so the sentence
+        ends with the evidence."""
+        if not self.structured:
+            return None
+        head = (
+            f"{method}'s coefficients do not reproduce the runs: simulated with them, the "
+            f"residual is structured {self.evidence(axis)}"
+        )
+        if output_error.structured:
+            return (
+                f"{head}; the output-error fit of the same runs leaves "
+                f"{output_error.ratio:.1f}× its floor too: the record holds a force neither "
+                "model has; estimate with output-error, whose effect search looks for it"
+            )
+        head += f", where the output-error fit of the same runs leaves {output_error.ratio:.1f}×"
+        if concluded:
+            return head
+        return (
+            f"{head}: the method's own model misfits the record, so its coefficients may be "
+            "biased, and their U does not cover that: sign the output-error result"
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -166,7 +204,10 @@ def _dominant_period(
     axis: str,
 ) -> Period | None:
     """The sinusoid that explains most of the force residual: in rail position (the encoder's
-    reading, so a feature of the rail lines up across runs) or in time since release."""
+    reading, so a feature of the rail lines up across runs) or in time since release. A
+    domain whose best fit is the longest period tried (2/3 of the longest run) has a trend
+    there, not a period: a drift the model's law misses (a seed method's) is not named a
+    sinusoid."""
     units = {"position": "m" if axis == "surge" else "rad", "time": "s"}
     best: Period | None = None
     for domain, unit in units.items():
@@ -187,6 +228,8 @@ def _dominant_period(
         for u, f in parts:
             explained += _sinusoid_fit(u, f - f.mean(), 2 * np.pi / periods)
         k = int(np.argmax(explained))
+        if k == periods.size - 1:  # best at the longest period tried: a trend, not a period
+            continue
         share = float(explained[k] / total)
         if best is None or share > best.share:
             best = Period(domain, float(periods[k]), unit, share)

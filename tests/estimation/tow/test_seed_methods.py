@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from estimation import estimate
-from tests.estimation.synth import paper_curve_runs
+from tests.estimation.synth import paper_curve_runs, tow_set
 
 TABLE1_INERTIA = {"surge": (133.2060, 143.2591), "yaw": (7.0796, 7.9708)}
 
@@ -54,3 +54,37 @@ def test_the_curve_methods_need_two_drive_levels(method):
         ):
             estimate(refused, method=method)
     assert estimate(runs[:2], method=method, n_bootstrap=0).method == method
+
+
+def test_a_seed_result_that_misfits_its_runs_says_so_whatever_its_sigma():
+    """ls-curvefit on four clean tows: K_L 26.7 ± 8.2 against the truth 20.16, a σ wide
+    enough that the comparison with output error (``method_bias``) finds nothing, while the
+    positions its coefficients predict leave a force residual ~25× the noise floor (output
+    error: ~1×). The misfit rule every result's residual is judged by says so, with output
+    error's figure beside it, and names the slow drift a drag law leaves as a trend, not as a
+    sinusoid whose period is the longest one tried."""
+    runs = tow_set(axis="surge")
+    seed = estimate(runs, method="ls-curvefit", n_bootstrap=0)
+    reference = estimate(runs, n_bootstrap=0, search_effects=False)
+    assert seed.possibly_biased is True and reference.possibly_biased is False
+    assert not any(" is biased on these runs" in w for w in seed.warnings)  # σ hides it
+    (misfit,) = [w for w in seed.warnings if "do not reproduce the runs" in w]
+    floor = seed.section.unexplained.ratio
+    assert floor > 10
+    assert f"{floor:.1f}× the noise floor" in misfit
+    beside = reference.section.unexplained.ratio
+    assert f"output-error fit of the same runs leaves {beside:.1f}×" in misfit
+    assert "sign the output-error result" in misfit
+    assert "periodic in time" not in misfit
+    doc = seed.to_json()
+    assert doc["coefficients_possibly_biased"] is True
+    assert doc["unexplained"]["structured"] is True
+
+
+def test_a_seed_method_that_agrees_with_output_error_is_not_called_a_misfit():
+    """On a coarse (5 mm) encoder ls-steady's first-order curves fit the record as well as the
+    quadratic model does (force residual within 3× its floor): no misfit warning."""
+    runs = paper_curve_runs("surge", quantum=5e-3)
+    seed = estimate(runs, method="ls-steady", n_bootstrap=0)
+    assert seed.possibly_biased is False
+    assert not any("do not reproduce the runs" in w for w in seed.warnings)
