@@ -72,6 +72,10 @@ def row_value(name: str, value: float, std: float, dof: float) -> CoefficientWit
     return CoefficientWithU(value, std, ROW_UNITS[name], k * std, k, max(dof, 1.0))
 
 
+#: The symbols of a method row's coefficients, as the methods table's columns name them.
+SYMBOLS = {"added_mass": "α", "linear_damping": "β", "quadratic_damping": "γ"}
+
+
 @dataclass(frozen=True)
 class MethodEstimate:
     """One method on one run: α (kg), β (N·s/m), γ (kg/m) or None, with σ; e and RMSE (rad)."""
@@ -90,6 +94,30 @@ class MethodEstimate:
     rmse: float
     note: str = ""
     extra: dict = field(default_factory=dict)
+    #: z of each coefficient from the output-error row of the same run
+    #: (``stats.method_bias.z_scores``); None on output error's own rows
+    against_output_error: dict[str, float] | None = None
+
+    @property
+    def coefficients(self) -> dict[str, Coefficient]:
+        """α, β and γ (when the method gives one) by name."""
+        out = {"added_mass": self.added_mass, "linear_damping": self.linear_damping}
+        if self.quadratic_damping is not None:
+            out["quadratic_damping"] = self.quadratic_damping
+        return out
+
+    @property
+    def vs_output_error(self) -> str:
+        """The row's largest z from the output-error row of its run, with its coefficient's
+        symbol ("4.4 σ (α)", as the report and the page show it); "—" on output error's own
+        row, "no σ" where neither gives one."""
+        z = self.against_output_error
+        if z is None:
+            return "—"
+        if not z:
+            return "no σ"
+        name = max(z, key=z.__getitem__)
+        return f"{z[name]:.1f} σ ({SYMBOLS[name]})"
 
     def to_json(self) -> dict:
         """The method's row of the result document."""
@@ -110,6 +138,8 @@ class MethodEstimate:
             "uncertainty": (
                 UNCERTAINTY_NOTE if isinstance(self.added_mass, CoefficientWithU) else None
             ),
+            "z_against_output_error": self.against_output_error,
+            "vs_output_error": self.vs_output_error,
             **self.extra,
         }
 

@@ -48,7 +48,7 @@ from estimation.pendulum.methods import (
 )
 from estimation.pendulum.swing_extrema import Decay, Peaks, find_peaks, prepare_decay
 from estimation.report_numbers import Coefficient, finite_or_none
-from estimation.stats.method_bias import method_bias
+from estimation.stats.method_bias import DISAGREES_SIGMAS, apart, method_bias, z_scores
 from estimation.uncertainty.budget import Budget, coefficient_budget, uncertainty_budget
 from estimation.uncertainty.record_refits import RecordRefits
 from estimation.uncertainty.rows import BudgetRow
@@ -250,6 +250,19 @@ def _warnings(
                 f"the signature of dry friction in the pivot (least squares puts sgn φ̇ into a "
                 f"too-large β, {m.linear_damping.value:.4g} N·s/m, and a negative γ)"
             )
+    # every seed row against the output-error fit of its run (``stats.method_bias``)
+    reference = {m.run_id: m.coefficients for m in methods if m.method == "output-error"}
+    far = [
+        f"{m.method} on run {m.run_id}: {'; '.join(pieces)}"
+        for m in methods
+        if m.method != "output-error" and (pieces := apart(m.coefficients, reference[m.run_id]))
+    ]
+    if far:
+        out.append(
+            "method rows further than "
+            f"{DISAGREES_SIGMAS:g} σ from the output-error fit of the same run (each "
+            "method's own model of the record, which its U does not cover): " + " | ".join(far)
+        )
     for rid, p in peaks.items():
         if p.decays_linearly:
             out.append(
@@ -325,7 +338,7 @@ def estimate_pendulum(
     base, final = motion.fit_before, motion.fit_after
     advice = list(motion.advice)
     ids = tuple(d.run_id for d in decays)
-    rows += _output_error_rows(decays, final)
+    rows = _against_output_error([*rows, *_output_error_rows(decays, final)])
     warnings = [*_warnings(rows, peaks, decays, final), *motion.warnings]
     if final.effects and len({round(float(np.max(np.abs(d.phi))), 2) for d in decays}) < 2:
         advice.append(
@@ -362,6 +375,18 @@ def estimate_pendulum(
             ),
         }
     )
+
+
+def _against_output_error(rows: Sequence[MethodEstimate]) -> list[MethodEstimate]:
+    """Each seed method's row with the z of its coefficients from the output-error row of
+    the same run (``stats.method_bias``: the result a user is told to sign)."""
+    reference = {m.run_id: m.coefficients for m in rows if m.method == "output-error"}
+    return [
+        m
+        if m.method == "output-error"
+        else replace(m, against_output_error=z_scores(m.coefficients, reference[m.run_id]))
+        for m in rows
+    ]
 
 
 def _output_error_rows(decays: Sequence[Decay], fit: MotionFit) -> list[MethodEstimate]:

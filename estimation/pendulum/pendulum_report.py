@@ -25,6 +25,7 @@ from estimation.fit_report import report_markdown, write_result_and_markdown
 from estimation.motion.output_error_fit import MotionFit
 from estimation.pendulum.methods import UNCERTAINTY_NOTE
 from estimation.pendulum.pendulum_estimate import PendulumResult
+from estimation.stats.method_bias import DISAGREES_SIGMAS
 from estimation.uncertainty.text import value_with_u
 
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
@@ -130,10 +131,13 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         "",
         "Each value ± σ; a seed method's row with its own U (95 %, k = t_0.975(ν)): "
         + UNCERTAINTY_NOTE
-        + "; the output-error row's U is its uncertainty budget's.",
+        + "; the output-error row's U is its uncertainty budget's. *vs output error*: the "
+        f"row's largest z from the output-error row of its run; beyond {DISAGREES_SIGMAS:g} σ "
+        "the warnings name it.",
         "",
-        "| run | method | α [kg] | β [N·s/m] | γ [kg/m] | e [rad²] | RMSE [rad] |",
-        "|---|---|---|---|---|---|---|",
+        "| run | method | α [kg] | β [N·s/m] | γ [kg/m] | e [rad²] | RMSE [rad] "
+        "| vs output error |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     rows = sorted(
         (m.to_json() for m in result.section.methods),
@@ -142,7 +146,10 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
     for m in rows:
         shown = [value_with_u(m[k]) for k in ("added_mass", "linear_damping", "quadratic_damping")]
         errors = "— | —" if m["mse"] is None else f"{m['mse']:.3g} | {m['rmse']:.3g}"
-        lines.append(f"| {m['run_id']} | {m['method']} | {' | '.join(shown)} | {errors} |")
+        lines.append(
+            f"| {m['run_id']} | {m['method']} | {' | '.join(shown)} | {errors} | "
+            f"{m['vs_output_error']} |"
+        )
     return report_markdown(
         result,
         f"Pendulum free-decay report — {result.axis}, headline method {result.method}",

@@ -29,24 +29,43 @@ from estimation.report_numbers import Coefficient
 DISAGREES_SIGMAS = 2.0
 
 
+def z_scores(
+    seed: Mapping[str, Coefficient], reference: Mapping[str, Coefficient]
+) -> dict[str, float]:
+    """|seed − reference| / √(σ_seed² + σ_ref²) of every coefficient both name with a σ."""
+    out = {}
+    for name, s in seed.items():
+        r = reference.get(name)
+        if r is None or s.std is None or r.std is None:
+            continue
+        z = abs(s.value - r.value) / math.hypot(s.std, r.std)
+        if math.isfinite(z):
+            out[name] = float(z)
+    return out
+
+
+def apart(seed: Mapping[str, Coefficient], reference: Mapping[str, Coefficient]) -> list[str]:
+    """ "name value against value unit (z σ)" for each coefficient of ``seed`` further than
+    ``DISAGREES_SIGMAS`` from ``reference``."""
+    return [
+        f"{name} {seed[name].value:.4g} against {reference[name].value:.4g} "
+        f"{seed[name].unit} ({z:.1f} σ)"
+        for name, z in z_scores(seed, reference).items()
+        if z > DISAGREES_SIGMAS
+    ]
+
+
 def method_bias(
     method: str, seed: Mapping[str, Coefficient], reference: Mapping[str, Coefficient]
 ) -> list[str]:
     """One warning naming every coefficient of ``seed`` (the ``method``'s) further than
     ``DISAGREES_SIGMAS`` σ of the difference from the same name in ``reference`` (the
     output-error fit of the same records); empty when none is, or no σ is known."""
-    apart = []
-    for name, s in seed.items():
-        r = reference.get(name)
-        if r is None or s.std is None or r.std is None:
-            continue
-        z = abs(s.value - r.value) / math.hypot(s.std, r.std)
-        if math.isfinite(z) and z > DISAGREES_SIGMAS:
-            apart.append(f"{name} {s.value:.4g} against {r.value:.4g} {s.unit} ({z:.1f} σ)")
-    if not apart:
+    far = apart(seed, reference)
+    if not far:
         return []
     return [
-        f"{method} is biased on these runs: {'; '.join(apart)} from the output-error fit of "
+        f"{method} is biased on these runs: {'; '.join(far)} from the output-error fit of "
         "the same runs. The bias is the method's own model of the record and its U does not "
         "cover it: sign the output-error result"
     ]

@@ -69,7 +69,7 @@ def test_methods_are_checked_per_kind_and_kinds_not_mixed(client, runs):
         assert text in r.json()["detail"]
 
 
-def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs):
+def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs, tmp_path):
     from playwright.sync_api import expect
 
     with signed_in_page(chromium, service, client) as page:
@@ -85,6 +85,9 @@ def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs
         expect(methods).to_contain_text("equation-error")
         # each seed row's coefficients with their own U, k and ν; the seed headline's budget
         expect(methods).to_contain_text(re.compile(r"± \S+ \(U \S+, k \S+, ν \S+\)"))
+        # each seed row's largest z from the output-error row of its run, as the report's
+        expect(methods.locator("th").last).to_have_text("vs output error")
+        expect(methods).to_contain_text(re.compile(r"\d+\.\d σ \([αβγ]\)"))
         expect(page.locator("#est-uncertainty .est-budget-summary")).to_contain_text("added_mass")
         expect(page.locator("#est-coefs")).to_contain_text("added_mass (kg)")
         subject = "surge pendulum free-decay test / damped-fit"  # GET /api/results' words
@@ -98,6 +101,7 @@ def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs
             re.compile(r"^\S+ rad \(\S+°\)")
         )
         expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
+        methods.screenshot(path=str(tmp_path / "pendulum-methods.png"))
         # The peaks plot on the time from the release, as the report (not the run's clock).
         layout = page.evaluate("() => document.getElementById('est-fit-plot').layout")
         assert layout["xaxis"]["title"]["text"] == "time from release [s]"

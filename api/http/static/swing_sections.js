@@ -23,11 +23,11 @@ export function drawMethods(res) {
   const box = Object.assign(document.createElement("div"), { id: "est-methods" });
   $("#est-ambiguous").before(box);
   box.innerHTML = `<h4>Methods side by side</h4>
-    <table class="list"><thead><tr><th>Run</th><th>Method</th><th>α (kg) ± σ (U 95 %)</th><th>β (N·s/m) ± σ (U 95 %)</th><th>γ (kg/m) ± σ (U 95 %)</th><th>e (rad²)</th></tr></thead><tbody>
+    <table class="list"><thead><tr><th>Run</th><th>Method</th><th>α (kg) ± σ (U 95 %)</th><th>β (N·s/m) ± σ (U 95 %)</th><th>γ (kg/m) ± σ (U 95 %)</th><th>e (rad²)</th><th title="the row's largest z from the output-error row of its run; beyond 2 σ the warnings name it">vs output error</th></tr></thead><tbody>
     ${res.methods
       .map(
         (m) => `<tr><td><code>${esc(m.run_id.slice(0, 8))}</code></td><td>${esc(m.method)}</td><td>${esc(valuePm(m.added_mass))}</td>
-        <td>${esc(valuePm(m.linear_damping))}</td><td>${esc(valuePm(m.quadratic_damping))}</td><td>${esc(fmt(m.mse, 3))}</td></tr>`,
+        <td>${esc(valuePm(m.linear_damping))}</td><td>${esc(valuePm(m.quadratic_damping))}</td><td>${esc(fmt(m.mse, 3))}</td><td>${esc(m.vs_output_error ?? "—")}</td></tr>`,
       )
       .join("")}</tbody></table>`;
 }
