@@ -384,7 +384,15 @@ class _Search:
             return f"leave-one-record-out refit failed: {err.why}"
         folds = self.testing_folds(current, terms) if new is not None else []
         if new is None or not folds:
-            return self.tied(trial, terms) if self.kind.rules.variance_inflation_stands_in else None
+            if not self.kind.rules.variance_inflation_stands_in:
+                return None
+            return self.tied(
+                trial,
+                terms,
+                "too few records for a leave-one-record-out check"
+                if new is None
+                else "no record left out leaves the others able to separate it",
+            )
         bar = bars[0]
         assert bar is not None
         before, after = bar.pooled_over(folds), new.pooled_over(folds)
@@ -426,9 +434,15 @@ class _Search:
             )
         ]
 
-    def tied(self, fit: MotionFit, terms: Sequence[str]) -> str | None:
+    def tied(
+        self,
+        fit: MotionFit,
+        terms: Sequence[str],
+        unchecked: str = "too few records for a leave-one-record-out check",
+    ) -> str | None:
         """Why a member of ``terms`` is not identified without out-of-sample evidence
-        (variance inflation above ``VIF_LIMIT``), or None; recorded in ``inseparable``."""
+        (variance inflation above ``VIF_LIMIT``), or None; recorded in ``inseparable``.
+        ``unchecked``: why there is no such evidence, in the reason's words."""
         for term in terms:
             vif = variance_inflation(self.records, self.setup, fit, term)
             if vif <= VIF_LIMIT:
@@ -442,8 +456,8 @@ class _Search:
             shown = f"ρ = {rho:.3f}" if np.isfinite(rho) else "ρ unknown: no σ"
             reason = (
                 f"{term} not identified: inseparable from {partner} on these records "
-                f"(VIF {vif:.0f} > {VIF_LIMIT:g}, {shown}; too few records for a "
-                f"leave-one-record-out check): add {LIBRARY[term].separation(self.kind.free)}"
+                f"(VIF {vif:.0f} > {VIF_LIMIT:g}, {shown}; {unchecked}): add "
+                f"{LIBRARY[term].separation(self.kind.free)}"
             )
             self.inseparable.setdefault(term, (partner, reason))
             return reason

@@ -292,7 +292,8 @@ class OutOfSample:
         return (
             f"with ≥ {LORO_MIN_RUNS} {self.held_out}s, the leave-one-{self.held_out}-out "
             f"prediction error is lower by more than the refits resolve ({LORO_RESOLUTION:.0e} "
-            f"of itself) {self.judged}; with fewer {self.held_out}s {self.fewer}"
+            f"of itself) {self.judged}, over the folds whose training {self.held_out}s can "
+            f"separate the term; with fewer {self.held_out}s, or no such fold, {self.fewer}"
         )
 
     def verdict(self, trial: Trial) -> str | None:

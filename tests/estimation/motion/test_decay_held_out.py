@@ -113,4 +113,4 @@ def test_with_two_records_the_check_is_not_formed_and_says_so():
         r for r in result.to_json()["acceptance_rules"]["applied"] if r["name"] == "out of sample"
     ]
     assert "≥ 3 records" in rule["statement"]
-    assert "with fewer records it is not applied" in rule["statement"]
+    assert "with fewer records, or no such fold, it is not applied" in rule["statement"]
