@@ -11,10 +11,12 @@ Both σ count the residual's serial correlation; the two estimates share the rec
 
 Measured on synthetic tows (solve_ivp, 10, 143 and 1000 kg, white and AR(1) ρ 0.9 position
 noise, 10 seeds each): ls-raw sat 5.6–8.8 σ (median) from the output-error fit and ls-steady
-21–80 σ, named in every seed; ls-curvefit 0.6–0.7 σ, named in none. A pendulum's seed
-headline (its rows pooled over runs) is compared with the output-error fit after the
-search, the result a user is told to sign: a linear decay's β takes up the quadratic drag or
-pivot friction that fit found.
+21–80 σ, named in every seed; ls-curvefit 0.6–0.7 σ, named in none: its σ is wide enough
+to hide its bias, which the misfit of the positions its coefficients predict shows instead
+(``axis.unexplained.Unexplained.seed_warning``). A pendulum's seed headline (its rows pooled
+over runs), and each of its rows against the output-error row of its run, are compared with
+the output-error fit after the search, the result a user is told to sign: a linear decay's β
+takes up the quadratic drag or pivot friction that fit found.
 """
 
 from __future__ import annotations
