@@ -33,10 +33,13 @@ from daq.operator import Operator, PromptOperator, SimulatedOperator, console_as
 from daq.plc import PlcClient
 from daq.priority import (
     THRUSTER_LINK_PRIORITY,
+    WORKER_PRIORITY,
     Scheduling,
+    WorkerThreads,
     restore_scheduling,
     scheduling,
     set_realtime,
+    worker_threads,
 )
 from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState, engage_brake
@@ -139,6 +142,7 @@ class RigSession:
         #: Whether the OS granted real-time scheduling at ``open`` (with ``realtime``).
         self.realtime_active = False
         self._scheduling: Scheduling | None = None
+        self._workers: WorkerThreads | None = None
         self.clock = clock
         self._devices = devices
         self.rig = source.rig
@@ -179,6 +183,8 @@ class RigSession:
         ``connect_timeout_s`` (default: the rig file's ``[modbus] connect_timeout_s``)."""
         self._closing = None
         self.lease_fault.arm(self.rig_lock, self._zero_target, self.close)
+        if self.realtime:  # before the first asyncio.to_thread: its workers follow the clock
+            self._workers = worker_threads(asyncio.get_running_loop())
         await asyncio.to_thread(self.rig_lock.acquire)
         self._has_rig = True
         conn = self.rig
@@ -195,6 +201,9 @@ class RigSession:
         if self.realtime:
             self._scheduling = scheduling()
             self.realtime_active = set_realtime(warn=False)
+            if self.realtime_active and self._workers is not None:
+                # They share the GIL with the clock (daq.priority.WORKER_PRIORITY).
+                self._workers.priority = WORKER_PRIORITY
         self.plc = made.plc_client if made else PlcClient(conn)
         if connect_timeout_s is None:
             connect_timeout_s = conn.modbus.connect_timeout_s
@@ -263,6 +272,8 @@ class RigSession:
         if self._scheduling is not None:
             restore_scheduling(self._scheduling)
             self._scheduling, self.realtime_active = None, False
+        if self._workers is not None:
+            self._workers.priority = None
         release_all_full_collections()
         await asyncio.to_thread(self.rig_lock.release)
 
