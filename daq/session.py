@@ -194,7 +194,12 @@ class RigSession:
         elif self.simulated:
             from daq.sim.simulated_rig import SimulatedRigThread
 
-            sim = SimulatedRigThread(self.rig, self.source.scenario)
+            # The thruster line on loopback TCP, not a pty: the kernel hands each frame
+            # written to a pty to the other end from a worker thread at normal priority,
+            # which a busy host left waiting 0.22 s while the simulator sat idle (two
+            # heartbeats unanswered: the link declared lost). A loopback TCP write reaches
+            # the simulator in the writer's own system call (docs/simulated-rig.md).
+            sim = SimulatedRigThread(self.rig, self.source.scenario, thruster_transport="tcp")
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()

@@ -27,6 +27,7 @@ from daq.priority import (
 )
 from daq.procedures.recording import AbortSignal, RecordedRun
 from daq.session import RigSession, RigSource
+from daq.sim.simulated_rig import SimulatedRigThread
 
 
 def _survivors(rounds: int = 300) -> list[list[list[int]]]:
@@ -137,6 +138,10 @@ async def test_a_real_time_session_raises_the_simulated_plc_and_gives_the_clock_
             pytest.skip("SCHED_FIFO refused here (needs CAP_SYS_NICE)")
         sim = session.sim
         assert sim is not None
+        # Its thruster line on loopback TCP: a frame on a pty waits for a kernel worker at
+        # normal priority to carry it (0.22 s beside busy loops), whatever runs real-time.
+        assert isinstance(sim, SimulatedRigThread)
+        assert sim.endpoints.thruster_serial_port.startswith("socket://")
         policy = await asyncio.to_thread(sim.call, os.sched_getscheduler, 0)
         param = await asyncio.to_thread(sim.call, os.sched_getparam, 0)
         assert policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
