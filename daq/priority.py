@@ -3,7 +3,8 @@ thread, and the helper processes the service starts.
 
 The acquisition clock's thread runs SCHED_FIFO (:func:`set_realtime`); the in-process
 simulated rig just below it (``SIMULATOR_PRIORITY``: it stands in for a PLC with its own
-CPU), and the thruster line's I/O thread below that (``THRUSTER_LINK_PRIORITY``). Work that
+CPU), the thruster line's I/O thread below that (``THRUSTER_LINK_PRIORITY``) and the
+session's worker threads at the bottom (``WORKER_PRIORITY``: they share the GIL). Work that
 may wait (fits, reports, imports) runs in helper processes at normal scheduling and
 positive niceness (:func:`lower_priority`), whatever the thread that started them ran at.
 
@@ -15,9 +16,15 @@ from everything else and the soak lost polls and slots (782 skipped, 255 failed 
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 import os
+import threading
+import weakref
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +43,18 @@ SIMULATOR_PRIORITY = 5
 #: issue 35). The thread only blocks on the line (one frame and its reply per tick), so it
 #: cannot take a core from anyone.
 THRUSTER_LINK_PRIORITY = 4
+
+#: SCHED_FIFO priority of a real-time session's worker threads (its loop's default executor:
+#: ``asyncio.to_thread``, the store's writes and the rig lock's calls): the lowest, below
+#: everything that keeps time. They share the GIL with the real-time threads, so whatever
+#: priority they run at, the clock, the simulated rig and the thruster line wait at when one
+#: holds it. At normal priority, beside two busy loops, a worker was preempted holding the
+#: GIL (or the lock of its condition variable) and waited 0.4-1.7 s for a CPU while the
+#: clock's thread slept in the GIL's futex: no heartbeat for 0.4-1.8 s, the controller's
+#: watchdog tripped mid-calibration (traced with ``perf sched`` and per-thread schedstat;
+#: issue 34). Their work is short (a batch of samples, a lock file): real-time at the bottom,
+#: they run it at once instead of making every real-time thread wait for a CPU.
+WORKER_PRIORITY = 1
 
 
 def lower_priority(niceness: int) -> None:
@@ -90,3 +109,44 @@ def restore_scheduling(saved: Scheduling) -> None:
     with contextlib.suppress(OSError):
         os.sched_setscheduler(0, policy, param)
         os.setpriority(os.PRIO_PROCESS, 0, niceness)
+
+
+class WorkerThreads(ThreadPoolExecutor):
+    """An event loop's default executor whose threads run each task at ``priority``:
+    SCHED_FIFO at it (:func:`set_realtime`), or as they started when None. Set while a
+    real-time session is open (:data:`WORKER_PRIORITY`); idle threads change at their next
+    task."""
+
+    def __init__(self) -> None:
+        super().__init__(thread_name_prefix="rig-worker")
+        self.priority: int | None = None
+        self._local = threading.local()
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        return super().submit(self._at_priority, fn, *args, **kwargs)
+
+    def _at_priority(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Any:
+        wanted, local = self.priority, self._local
+        if getattr(local, "priority", None) != wanted:
+            if not hasattr(local, "started"):
+                local.started = scheduling()
+            if wanted is None:
+                restore_scheduling(local.started)
+            else:
+                set_realtime(wanted, warn=False)
+            local.priority = wanted
+        return fn(*args, **kwargs)
+
+
+_workers: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, WorkerThreads] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def worker_threads(loop: asyncio.AbstractEventLoop) -> WorkerThreads:
+    """``loop``'s default executor as :class:`WorkerThreads` (installed on first call)."""
+    workers = _workers.get(loop)
+    if workers is None:
+        workers = _workers[loop] = WorkerThreads()
+        loop.set_default_executor(workers)
+    return workers

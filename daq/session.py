@@ -33,10 +33,13 @@ from daq.operator import Operator, PromptOperator, SimulatedOperator, console_as
 from daq.plc import PlcClient
 from daq.priority import (
     THRUSTER_LINK_PRIORITY,
+    WORKER_PRIORITY,
     Scheduling,
+    WorkerThreads,
     restore_scheduling,
     scheduling,
     set_realtime,
+    worker_threads,
 )
 from daq.rig_lock import RigLease, rig_lock
 from daq.safe_state import RELEASE_CHANNELS, SafeState, engage_brake
@@ -139,6 +142,7 @@ class RigSession:
         #: Whether the OS granted real-time scheduling at ``open`` (with ``realtime``).
         self.realtime_active = False
         self._scheduling: Scheduling | None = None
+        self._workers: WorkerThreads | None = None
         self.clock = clock
         self._devices = devices
         self.rig = source.rig
@@ -179,6 +183,8 @@ class RigSession:
         ``connect_timeout_s`` (default: the rig file's ``[modbus] connect_timeout_s``)."""
         self._closing = None
         self.lease_fault.arm(self.rig_lock, self._zero_target, self.close)
+        if self.realtime:  # before the first asyncio.to_thread: its workers follow the clock
+            self._workers = worker_threads(asyncio.get_running_loop())
         await asyncio.to_thread(self.rig_lock.acquire)
         self._has_rig = True
         conn = self.rig
@@ -188,13 +194,21 @@ class RigSession:
         elif self.simulated:
             from daq.sim.simulated_rig import SimulatedRigThread
 
-            sim = SimulatedRigThread(self.rig, self.source.scenario)
+            # The thruster line on loopback TCP, not a pty: the kernel hands each frame
+            # written to a pty to the other end from a worker thread at normal priority,
+            # which a busy host left waiting 0.22 s while the simulator sat idle (two
+            # heartbeats unanswered: the link declared lost). A loopback TCP write reaches
+            # the simulator in the writer's own system call (docs/simulated-rig.md).
+            sim = SimulatedRigThread(self.rig, self.source.scenario, thruster_transport="tcp")
             self.sim = sim
             await asyncio.to_thread(sim.__enter__)
             conn = sim.connection_rig()
         if self.realtime:
             self._scheduling = scheduling()
             self.realtime_active = set_realtime(warn=False)
+            if self.realtime_active and self._workers is not None:
+                # They share the GIL with the clock (daq.priority.WORKER_PRIORITY).
+                self._workers.priority = WORKER_PRIORITY
         self.plc = made.plc_client if made else PlcClient(conn)
         if connect_timeout_s is None:
             connect_timeout_s = conn.modbus.connect_timeout_s
@@ -263,6 +277,8 @@ class RigSession:
         if self._scheduling is not None:
             restore_scheduling(self._scheduling)
             self._scheduling, self.realtime_active = None, False
+        if self._workers is not None:
+            self._workers.priority = None
         release_all_full_collections()
         await asyncio.to_thread(self.rig_lock.release)
 

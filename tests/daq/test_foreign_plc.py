@@ -163,7 +163,14 @@ def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, t
         table = store.samples(run.id)
         assert len(table) == outcome["samples"] > 10
         position = table.channels["tow_position"]
-        assert 0.4 <= position[-1] < 0.4 + CART_SPEED_M_S * 0.5  # braked soon after 0.4 m
+        # a poll this process's PLC answered late (a loaded host) is a NaN sample, flagged,
+        # and the run names the loss; a rehearsal beside a busy loop had one as the last
+        unread = ~np.isfinite(position)
+        assert all(table.quality[unread] != 0)
+        if unread.any():
+            assert any("lost" in m and "PLC read failed" in m for m in events), events
+        last_read = position[~unread][-1]
+        assert 0.4 <= last_read < 0.4 + CART_SPEED_M_S * 0.5  # braked soon after 0.4 m
         # released after the baseline: the first samples are at rest, the release comes
         # later (how many samples a 0.3 s baseline holds depends on the host's timing: a
         # rehearsal under load recorded two, not three)

@@ -19,9 +19,15 @@ from collections.abc import Iterator
 import pytest
 
 from daq.collector import HELD_THRESHOLD, full_collections_held
-from daq.priority import SIMULATOR_PRIORITY, THRUSTER_LINK_PRIORITY, set_realtime
+from daq.priority import (
+    SIMULATOR_PRIORITY,
+    THRUSTER_LINK_PRIORITY,
+    WORKER_PRIORITY,
+    set_realtime,
+)
 from daq.procedures.recording import AbortSignal, RecordedRun
 from daq.session import RigSession, RigSource
+from daq.sim.simulated_rig import SimulatedRigThread
 
 
 def _survivors(rounds: int = 300) -> list[list[list[int]]]:
@@ -132,6 +138,10 @@ async def test_a_real_time_session_raises_the_simulated_plc_and_gives_the_clock_
             pytest.skip("SCHED_FIFO refused here (needs CAP_SYS_NICE)")
         sim = session.sim
         assert sim is not None
+        # Its thruster line on loopback TCP: a frame on a pty waits for a kernel worker at
+        # normal priority to carry it (0.22 s beside busy loops), whatever runs real-time.
+        assert isinstance(sim, SimulatedRigThread)
+        assert sim.endpoints.thruster_serial_port.startswith("socket://")
         policy = await asyncio.to_thread(sim.call, os.sched_getscheduler, 0)
         param = await asyncio.to_thread(sim.call, os.sched_getparam, 0)
         assert policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
@@ -145,7 +155,19 @@ async def test_a_real_time_session_raises_the_simulated_plc_and_gives_the_clock_
         link_param = os.sched_getparam(link.native_id)
         assert link_policy & ~getattr(os, "SCHED_RESET_ON_FORK", 0) == os.SCHED_FIFO
         assert link_param.sched_priority == THRUSTER_LINK_PRIORITY
+        # The loop's worker threads (the store's writes) share the GIL with all of them: at
+        # normal priority a busy host preempted one holding it and the clock slept in the
+        # GIL's futex for up to 1.8 s. Real-time at the bottom while the session is open.
+        policy, priority = await asyncio.to_thread(_own_scheduling)
+        assert policy == os.SCHED_FIFO and priority == WORKER_PRIORITY
     assert (os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0)) == before
+    assert await asyncio.to_thread(_own_scheduling) == (os.SCHED_OTHER, 0)
+
+
+def _own_scheduling() -> tuple[int, int]:
+    """The calling thread's policy (without SCHED_RESET_ON_FORK) and real-time priority."""
+    policy = os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0)
+    return policy, os.sched_getparam(0).sched_priority
 
 
 def test_a_test_command_freezes_the_heap_once_the_rig_is_open(tmp_path, monkeypatch):
