@@ -13,7 +13,7 @@ database it reads and stores into, where to draw its report); running it gives a
   (:func:`shared_process_executor`), started with the service (:meth:`ProcessExecutor.start`)
   and kept while the process lives. The worker is forked from a server that imported the
   fitting and report modules once (``api.core.worker_processes``): it is ready in
-  milliseconds where a spawned interpreter spent ~1.3 s of CPU importing them, and so is
+  milliseconds where a spawned interpreter spent ~0.7 s of CPU importing them, and so is
   the worker that replaces a killed one;
 * :class:`ThreadExecutor`: in the calling thread, on the service's own ``Store`` (a database
   no other process can open: in-memory SQLite; and tests that patch the fit in process).

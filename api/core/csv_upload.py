@@ -3,7 +3,7 @@
 The upload is streamed to a temporary file (the service holds one chunk at a time) and
 parsed and stored by a short-lived child process (niced; forked from the server that
 preloaded the import's code, ``api.core.worker_processes``, so it starts in milliseconds
-instead of importing NumPy and the store for ~1 s of CPU), so neither the parse of up to
+instead of importing NumPy and the store for ~0.7 s of CPU), so neither the parse of up to
 ``MAX_IMPORT_ROWS`` rows nor its garbage collection ever holds the GIL the acquisition
 clock's thread needs. A database only this process can open (in-memory SQLite) falls back
 to a worker thread.

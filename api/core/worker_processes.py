@@ -4,7 +4,7 @@ imported their code once.
 The analysis worker (``api.core.analysis_executor``) and each CSV upload's import
 (``api.core.csv_upload``) run in child processes of their own, never beside the clock's
 thread. A spawned child is a new interpreter: each one imported NumPy, SciPy, the store and
-the fits again (~1.3 s of CPU before its first task), and the service starts one per CSV
+the fits again (~0.7 s of CPU before its first task), and the service starts one per CSV
 upload and a new worker after each killed fit. Here each is forked from one server process
 instead (``multiprocessing``'s ``forkserver``): a fresh interpreter started once, at the
 first child, which imports ``PRELOAD`` and then only forks; a child begins with that code
@@ -18,7 +18,8 @@ as a spawned worker's did), and each child still sets its own priority. A child 
 the service's environment as it is when the child starts (:class:`_Process`), not the
 server's, as a spawned child did. The server ends once the service and all its children have
 ended (``multiprocessing.forkserver``); while the service lives it holds the preloaded
-modules, ~100 MB resident, most of it shared with the worker forked from it.
+modules, ~85 MB resident, most of it shared with the worker forked from it (~35 MB
+proportional set size; ``bench/worker_start.py``).
 """
 
 from __future__ import annotations
