@@ -16,8 +16,10 @@ analysis or upload child, …; a process that lives under a second can be missed
   the first and the last worker to finish is what scheduling can still win;
 * ``last_modules``: the modules that ended last (on the critical path);
 * ``modules``: the longest modules (summed test wall seconds, worker CPU, tests);
-* ``cpu_by_kind``: CPU seconds per process kind; ``tests_by_cpu``: the tests whose worker
-  spent the most CPU.
+* ``cpu_by_kind``: CPU seconds per process kind, ``processes_by_kind`` how many processes of
+  each kind were seen (a forkserver's children run its command line: a child is told from
+  its server by its parent), ``children_cpu_s`` each such child's CPU; ``tests_by_cpu``: the
+  tests whose worker spent the most CPU.
 
 Wall seconds on this 2-core machine depend on what else runs: compare runs by alternating
 them, and read ``cpu_s`` beside ``wall_s``.
@@ -43,6 +45,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 TIMELINE_ENV = "SUITE_TIME_TIMELINE"
 TICKS = os.sysconf("SC_CLK_TCK")
+#: The kind of an analysis worker's or a CSV upload's process (spawned, or forked from a server).
+CHILD = "spawned child (analysis worker, CSV upload)"
 
 # --- the plugin (loaded in the controller and every worker by ``-p bench.suite_time``) ---
 
@@ -64,7 +68,12 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
 # --- the runner ---
 
 
-def _kind(cmdline: str) -> str:
+def _kind(cmdline: str, parent: str = "") -> str:
+    """The kind of the process running ``cmdline``, whose parent runs ``parent``."""
+    if "multiprocessing.forkserver" in cmdline:  # a forked child runs its server's command
+        if "multiprocessing.forkserver" in parent:
+            return CHILD
+        return "forkserver (preloaded: the children's imports)"
     if "chromium" in cmdline:
         return "chromium"
     if "playwright" in cmdline:
@@ -72,7 +81,7 @@ def _kind(cmdline: str) -> str:
     if "postgres" in cmdline:
         return "postgres"
     if "spawn_main" in cmdline:
-        return "spawned child (analysis worker, CSV upload)"
+        return CHILD
     if "exec(eval(sys.stdin" in cmdline:
         return "xdist worker"
     if "pytest" in cmdline:
@@ -113,9 +122,10 @@ def _sample(root: int, seen: dict[tuple[int, str], tuple[str, float]]) -> None:
         pid = stack.pop()
         stack.extend(children.get(pid, ()))
         if pid in procs:
-            _, cpu, cmdline = procs[pid]
+            parent, cpu, cmdline = procs[pid]
             key = (pid, cmdline[:80])
-            kind = seen[key][0] if key in seen else _kind(cmdline)
+            parent_cmdline = procs[parent][2] if parent in procs else ""
+            kind = seen[key][0] if key in seen else _kind(cmdline, parent_cmdline)
             seen[key] = (kind, cpu)
 
 
@@ -173,8 +183,10 @@ def main() -> None:
         after.children_system - before.children_system
     )
     by_kind: dict[str, float] = collections.Counter()
+    count: dict[str, int] = collections.Counter()
     for kind, seconds in seen.values():
         by_kind[kind] += seconds
+        count[kind] += 1
     text = (args.out / "pytest.txt").read_text(encoding="utf-8").strip().splitlines()
     lines = [json.loads(line) for line in timeline.read_text(encoding="utf-8").splitlines()]
     report = {
@@ -184,6 +196,8 @@ def main() -> None:
         "outcome": re.sub(r"=+", "", text[-1]).strip() if text else "",
         "failed": [line for line in text if line.startswith(("FAILED", "ERROR"))],
         "cpu_by_kind": {k: round(v, 1) for k, v in sorted(by_kind.items(), key=lambda kv: -kv[1])},
+        "processes_by_kind": dict(sorted(count.items(), key=lambda kv: -kv[1])),
+        "children_cpu_s": sorted((round(s, 2) for k, s in seen.values() if k == CHILD))[::-1],
     } | _summary(lines, t0)
     print(json.dumps(report, indent=1, ensure_ascii=False))
 

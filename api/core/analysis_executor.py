@@ -7,12 +7,14 @@ database it reads and stores into, where to draw its report); running it gives a
 :func:`run_analysis` is the one function that turns a task into its outcome; an
 :class:`AnalysisExecutor` says where it runs:
 
-* :class:`ProcessExecutor` (the service's): in a spawned worker process at niceness
+* :class:`ProcessExecutor` (the service's): in a worker process at niceness
   ``ANALYSIS_NICENESS``, so a fit (170 MB, seconds of CPU, full garbage collections) never
   shares the GIL, the memory or the CPU priority of the rig's process. One per process
-  (:func:`shared_process_executor`), started with the service (:meth:`ProcessExecutor.start`:
-  the fitting and report modules imported while the rig records, ~1.3 s of CPU a spawned
-  worker otherwise spends on the first estimate) and kept while the process lives;
+  (:func:`shared_process_executor`), started with the service (:meth:`ProcessExecutor.start`)
+  and kept while the process lives. The worker is forked from a server that imported the
+  fitting and report modules once (``api.core.worker_processes``): it is ready in
+  milliseconds where a spawned interpreter spent ~0.7 s of CPU importing them, and so is
+  the worker that replaces a killed one;
 * :class:`ThreadExecutor`: in the calling thread, on the service's own ``Store`` (a database
   no other process can open: in-memory SQLite; and tests that patch the fit in process).
 
@@ -34,13 +36,13 @@ import os
 import pickle
 import signal
 import threading
-import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Protocol, TypeVar
 
+from api.core.worker_processes import worker_context
 from daq.priority import lower_priority
 from daq.store import Store
 from daq.store.migrate import shared_by_processes
@@ -253,17 +255,16 @@ def call_on_store(store_url: str | None, fn: Callable[..., T], args: tuple[Any, 
     raise failure  # outside the handler, so nothing is chained to it
 
 
-#: How often the worker looks whether the process that started it still lives, s.
-PARENT_CHECK_S = 1.0
-
-
-def _exit_with(parent: int) -> None:
-    """End this worker once ``parent`` is gone: a service killed with SIGKILL (or out of
-    memory) cannot shut its pool down, and its idle worker (85-385 MB) would live on."""
-    while True:
-        time.sleep(PARENT_CHECK_S)
-        if os.getppid() != parent:
-            os.kill(os.getpid(), signal.SIGTERM)  # the default action: the process ends
+def _exit_with_parent() -> None:
+    """End this worker once the process that started it (the service) is gone: a service
+    killed with SIGKILL (or out of memory) cannot shut its pool down, and its idle worker
+    (85-385 MB) would live on, and with it the server it was forked from. Waits on
+    ``multiprocessing``'s sentinel of the parent (a pipe the parent holds open while it
+    lives); the worker's own parent process is that server, not the service."""
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        parent.join()
+    os.kill(os.getpid(), signal.SIGTERM)  # the default action: the process ends
 
 
 #: In a worker process: its ``_Worker.state`` (the parent's shared array).
@@ -272,13 +273,12 @@ _STATE: Any = None
 
 def _start_worker(state: Any) -> None:
     """The worker process's start: keep ``state`` (``_Worker.state``), watch the process
-    that started it, lower its priority, then import what every analysis runs (the fits, the
-    report's figures), so no task waits for it."""
+    that started it, lower its priority, and have what every analysis runs (the fits, the
+    report's figures) imported, so no task waits for it (the server preloaded them:
+    ``worker_processes.PRELOAD``; here they are found in ``sys.modules``)."""
     global _STATE
     _STATE = state
-    threading.Thread(
-        target=_exit_with, args=(os.getppid(),), name="parent-watch", daemon=True
-    ).start()
+    threading.Thread(target=_exit_with_parent, name="parent-watch", daemon=True).start()
     lower_priority(ANALYSIS_NICENESS)
     import api.core.campaign_fit
     import api.core.crosscheck_job
@@ -313,7 +313,8 @@ class _Worker:
 
 
 class ProcessExecutor:
-    """One spawned worker process at niceness ``ANALYSIS_NICENESS``, started by
+    """One worker process (forked from ``worker_processes``' preloaded server) at niceness
+    ``ANALYSIS_NICENESS``, started by
     :meth:`start` or the first task and kept for the next ones (its imports and compiled
     fits stay warm). A worker that dies (killed, out of memory) fails its task with one
     line and is replaced; so does one still busy with a task after ``deadline_s`` (s, default
@@ -336,7 +337,7 @@ class ProcessExecutor:
         """The worker process, started if need be (under the lock: one pool, one pid)."""
         with self._lock:
             if self._current is None:
-                context = multiprocessing.get_context("spawn")
+                context = worker_context()
                 state = context.Array("q", 2)
                 pool = concurrent.futures.ProcessPoolExecutor(
                     1, mp_context=context, initializer=_start_worker, initargs=(state,)

@@ -169,10 +169,10 @@ def simulated_service(source: RigSource, store_url: str, **options: Any) -> RigS
 
 @pytest.fixture(scope="module")
 def imports_in_a_thread() -> Iterator[None]:
-    """The module's CSV uploads imported in a worker thread, not a spawned child process
-    (``api.core.csv_upload``: each child starts an interpreter and imports NumPy and the
-    store, seconds of CPU). For modules where the import is incidental; the child's path is
-    tested by test_import_kinds_api.py, test_edge_limits.py and the browser tests."""
+    """The module's CSV uploads imported in a worker thread, not a child process
+    (``api.core.csv_upload``: a process per upload, forked from the preloaded server). For
+    modules where the import is incidental; the child's path is tested by
+    test_import_kinds_api.py, test_edge_limits.py and the browser tests."""
     from api.core import csv_upload
 
     with pytest.MonkeyPatch.context() as patch:

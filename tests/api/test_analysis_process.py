@@ -162,7 +162,8 @@ WORKER_OF_A_KILLED_SERVICE = (
 
 def test_the_worker_of_a_killed_service_ends_with_it():
     """A service killed with SIGKILL cannot shut its pool down; its worker notices the
-    parent is gone within PARENT_CHECK_S and ends (rehearsals left a dozen such workers)."""
+    service is gone (the pipe it held closed) and ends, and so does the server it was forked
+    from, which ends with its last client (rehearsals left a dozen such workers)."""
     import signal
     import subprocess
     import sys
@@ -174,11 +175,51 @@ def test_the_worker_of_a_killed_service_ends_with_it():
         assert service.stdout is not None
         worker = int(service.stdout.readline())
         os.kill(worker, 0)  # alive
+        server = _parent(worker)
+        assert _parent(server) == service.pid  # forked from the service's server
     finally:
         service.send_signal(signal.SIGKILL)
         service.wait(10)
 
     wait_until(lambda: _gone(worker), "the worker process ended", timeout_s=15)
+    wait_until(lambda: _gone(server), "the worker's server ended", timeout_s=15)
+
+
+def test_the_worker_is_forked_from_a_server_that_imported_the_fits_once(client):
+    """The worker starts ready: it is forked from a server (``api.core.worker_processes``)
+    that imported the fitting code before its first fork (its memory holds NumPy's and
+    SciPy's compiled modules), so a new worker (a test's, or one replacing a killed worker)
+    imports nothing. The server is an interpreter of its own (exec'd, not a fork of the
+    threaded service) at ``SERVER_NICENESS``, below no child's niceness."""
+    from api.core import worker_processes
+    from api.core.analysis_executor import ANALYSIS_NICENESS
+    from api.core.csv_upload import IMPORT_NICENESS
+
+    worker = shared_process_executor().worker_pid()
+    server = worker_processes.server_pid()
+    assert server is not None and server not in (os.getpid(), worker)
+    assert _parent(worker) == server and _parent(server) == os.getpid()
+    assert b"multiprocessing.forkserver" in Path(f"/proc/{server}/cmdline").read_bytes()
+    maps = Path(f"/proc/{server}/maps").read_text()
+    assert "_multiarray_umath" in maps and "/scipy/" in maps
+    niceness = os.getpriority(os.PRIO_PROCESS, server)
+    assert niceness == worker_processes.SERVER_NICENESS > os.getpriority(os.PRIO_PROCESS, 0)
+    assert niceness <= min(ANALYSIS_NICENESS, IMPORT_NICENESS)
+
+
+def test_a_worker_runs_with_the_services_environment_as_at_its_start(client, monkeypatch):
+    """A worker forked from the server started earlier still sees the service's environment
+    as it is when the worker starts (as a spawned worker did), not the server's."""
+    from api.core.analysis_executor import ProcessExecutor
+
+    shared_process_executor().worker_pid()  # the server runs, started before the change
+    monkeypatch.setenv("RIG_TEST_WORKER_ENVIRONMENT", "set after the server started")
+    executor = ProcessExecutor()
+    try:
+        seen = executor.call(None, os.getenv, "RIG_TEST_WORKER_ENVIRONMENT")
+    finally:
+        executor.close()
+    assert seen == "set after the server started"
 
 
 def test_a_hung_task_is_killed_at_the_deadline_and_the_next_one_gets_a_new_worker():
@@ -197,6 +238,11 @@ def test_a_hung_task_is_killed_at_the_deadline_and_the_next_one_gets_a_new_worke
         assert pid not in (first, os.getpid())
     finally:
         executor.close()
+
+
+def _parent(pid: int) -> int:
+    """The parent process id of process ``pid``."""
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
 
 
 def _gone(pid: int) -> bool:
