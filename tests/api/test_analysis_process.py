@@ -196,8 +196,8 @@ def test_the_worker_is_forked_from_a_server_that_imported_the_fits_once(client):
     from api.core.csv_upload import IMPORT_NICENESS
 
     worker = shared_process_executor().worker_pid()
-    server = worker_processes.server_pid()
-    assert server is not None and server not in (os.getpid(), worker)
+    server = _parent(worker)
+    assert server not in (os.getpid(), worker)
     assert _parent(worker) == server and _parent(server) == os.getpid()
     assert b"multiprocessing.forkserver" in Path(f"/proc/{server}/cmdline").read_bytes()
     maps = Path(f"/proc/{server}/maps").read_text()
