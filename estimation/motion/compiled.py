@@ -203,3 +203,28 @@ def _held_at_limit(x: float, limit: float) -> float:
     if np.isnan(x):
         return 0.0
     return min(max(x, -limit), limit)
+
+
+@njit(cache=True)
+def hermite(grid_x, grid_v, h, tau):
+    """``equation.hermite`` compiled: the same arithmetic in the same order, per sample
+    (grid arrays (K, S); ``tau`` (S, n) or (1, n)); returns x and ẋ, each (S, n)."""
+    n_sets = grid_x.shape[1]
+    rows, n = tau.shape
+    k_max = grid_x.shape[0] - 2
+    x = np.empty((n_sets, n))
+    v = np.empty((n_sets, n))
+    for c in range(n_sets):
+        row = c if rows > 1 else 0
+        for i in range(n):
+            at = tau[row, i] / h
+            k = min(max(int(np.floor(at)), 0), k_max)
+            s = min(max(tau[row, i] / h - k, 0.0), 1.0)
+            x0, x1 = grid_x[k, c], grid_x[k + 1, c]
+            v0, v1 = grid_v[k, c] * h, grid_v[k + 1, c] * h
+            s2, s3 = s * s, s * s * s
+            xi = (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * v0 + (-2 * s3 + 3 * s2) * x1
+            x[c, i] = xi + (s3 - s2) * v1
+            vi = ((6 * s2 - 6 * s) * x0 + (3 * s2 - 4 * s + 1) * v0 + (6 * s - 6 * s2) * x1) / h
+            v[c, i] = vi + (3 * s2 - 2 * s) * v1 / h
+    return x, v
