@@ -5,10 +5,10 @@ machine code in its cache (``cache=True``: ``__pycache__`` beside the source, el
 ``$NUMBA_CACHE_DIR`` or the user's cache folder). On a fresh install, or after
 ``compiled.py`` changed, that first call costs 5–9 s of CPU; from a warm cache it loads in
 ~0.5 s. :func:`warm_up` makes that first call on a problem of one state and three steps,
-through ``kernel.step_grid`` (so with exactly the argument types an estimate passes: numba
-compiles one machine-code version per type signature, and every estimate's signature is
-the same). ``rig warm-up`` runs it; ``rig serve`` runs it in a background process at its
-start.
+through ``kernel.step_grid`` and ``kernel.hermite`` (the grid's read-off), so with exactly
+the argument types an estimate passes (numba compiles one machine-code version per type
+signature, and every estimate's signature is the same). ``rig warm-up`` runs it; ``rig
+serve`` runs it in a background process at its start.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from estimation.motion.kernel import step_grid
+from estimation.motion.kernel import hermite, step_grid
 from estimation.motion.terms import LIBRARY, TermValues
 
 #: A smooth term and a set-valued one: the loop's branches all take the same signature.
@@ -32,6 +32,7 @@ def warm_up() -> float:
     grid = step_grid(np.zeros((1, 1)), one, np.ones((1, 1, 1)), one, forces, 0.01, 3, np.ones(1), 1)
     if grid is None:
         raise RuntimeError(f"warm-up: a term of {_TERMS} has no compiled form")
+    hermite(grid[0][:, :, 0], grid[1][:, :, 0], 0.01, np.array([[0.0, 0.015]]))
     return time.process_time() - start
 
 

@@ -81,26 +81,29 @@ def extrema(t: np.ndarray, x: np.ndarray, swing: float) -> tuple[np.ndarray, np.
     found: list[int] = []
     hi = lo = 0
     direction = 0  # +1 looking for a maximum, −1 for a minimum, 0 not yet known
-    for i in range(1, x.size):
-        if x[i] > x[hi]:
+    # the walk reads Python floats (the same doubles): indexing an array sample by sample
+    # made each read an object, most of the walk's time
+    xs, ts = np.asarray(x, dtype=float).tolist(), np.asarray(t, dtype=float).tolist()
+    for i in range(1, len(xs)):
+        if xs[i] > xs[hi]:
             hi = i
-        if x[i] < x[lo]:
+        if xs[i] < xs[lo]:
             lo = i
-        if direction >= 0 and x[hi] - x[i] >= swing:
+        if direction >= 0 and xs[hi] - xs[i] >= swing:
             found.append(hi)
             direction, lo = -1, i
-        elif direction <= 0 and x[i] - x[lo] >= swing:
+        elif direction <= 0 and xs[i] - xs[lo] >= swing:
             found.append(lo)
             direction, hi = 1, i
     times, values = [], []
     for i in found:
-        if not 0 < i < x.size - 1:  # a record's first or last sample is not a seen turn
+        if not 0 < i < len(xs) - 1:  # a record's first or last sample is not a seen turn
             continue
-        y0, y1, y2 = x[i - 1], x[i], x[i + 1]
+        y0, y1, y2 = xs[i - 1], xs[i], xs[i + 1]
         curve = y0 - 2 * y1 + y2
-        s = float(np.clip(0.5 * (y0 - y2) / curve, -1.0, 1.0)) if curve != 0 else 0.0
-        step = t[i + 1] - t[i] if s > 0 else t[i] - t[i - 1]
-        times.append(t[i] + s * step)
+        s = min(max(0.5 * (y0 - y2) / curve, -1.0), 1.0) if curve != 0 else 0.0
+        step = ts[i + 1] - ts[i] if s > 0 else ts[i] - ts[i - 1]
+        times.append(ts[i] + s * step)
         values.append(y1 - 0.25 * (y0 - y2) * s)
     return np.array(times), np.array(values)
 

@@ -50,8 +50,13 @@ def equivalent_damping(
     identified coefficient counts with its record's ``weight`` (a pendulum's vehicle term
     at lever arm l: B_e is then the pivot's, in N·m·s/rad)."""
 
+    formed: dict[str, float] = {}  # a term both fitted and known (a pivot's damping): once
+
     def per_unit_of(name: str) -> float:
-        return LIBRARY[name].equivalent_damping(amplitude, omega) if name in LIBRARY else 0.0
+        if name not in formed:
+            term = LIBRARY.get(name)
+            formed[name] = term.equivalent_damping(amplitude, omega) if term else 0.0
+        return formed[name]
 
     w = weights or {}
     per_unit = np.array([per_unit_of(n) * float(w.get(n, 1.0)) for n in fit.names])

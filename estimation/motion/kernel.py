@@ -187,3 +187,19 @@ def step_grid(
         vs,
     )
     return xs, vs, bool(frozen)
+
+
+def hermite(
+    grid_x: np.ndarray, grid_v: np.ndarray, h: float, tau: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``equation.hermite`` (the samples read off a step grid) by the compiled loop, the
+    same numbers: for a grid ``step_grid`` made (the compiled module is then loaded). The
+    arrays are passed C-ordered, the one argument type ``warm_up`` compiles."""
+    from estimation.motion import compiled
+
+    return compiled.hermite(
+        np.ascontiguousarray(grid_x, dtype=float),
+        np.ascontiguousarray(grid_v, dtype=float),
+        float(h),
+        np.ascontiguousarray(tau, dtype=float),
+    )

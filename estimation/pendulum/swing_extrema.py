@@ -4,6 +4,7 @@ exponential (viscous) and linear (dry-friction) envelopes of their magnitudes.""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -27,7 +28,13 @@ class Decay:
     t_release_std: float = 0.0
 
     def record(self) -> Record:
-        """The decay as a record of the one equation, its geometry as known terms."""
+        """The decay as a record of the one equation, its geometry as known terms: the same
+        object every time (the fit's tracks are kept by the record's identity, so the seed
+        methods' simulations of one run share its track)."""
+        return self._record
+
+    @cached_property
+    def _record(self) -> Record:
         return record_of(self.run_id, self.t, self.phi, self.geometry)
 
 

@@ -1,8 +1,8 @@
 """``rig warm-up`` leaves the estimator's compiled loop in numba's cache, so the first
 estimate after an install loads it instead of compiling it (5-9 s of CPU): a process after
 the warm-up integrates both ways an estimate does (the axis simulator and the one-equation
-integrator) with cache hits only. Real subprocesses on a fresh ``NUMBA_CACHE_DIR``: a
-process's compile cache is the behaviour."""
+integrator, its grid read off compiled too) with cache hits only. Real subprocesses on a
+fresh ``NUMBA_CACHE_DIR``: a process's compile cache is the behaviour."""
 
 from __future__ import annotations
 
@@ -32,9 +32,9 @@ forces = [TermValues(LIBRARY[n], np.array([[v]])) for n, v in
           (("restoring_spring", 40.0), ("quadratic_damping", 0.4), ("coulomb_friction", 0.1))]
 integrate([Track(tau, None, 2.0, 1.0, 0.3)], np.array([[3.0]]), forces,
           np.array([[0.2]]), np.array([[0.0]]), 0.02)
-stats = compiled.integrate_grid.stats
-print(json.dumps({"hits": sum(stats.cache_hits.values()),
-                  "misses": sum(stats.cache_misses.values())}))
+stats = [f.stats for f in (compiled.integrate_grid, compiled.hermite)]
+print(json.dumps({"hits": [sum(s.cache_hits.values()) for s in stats],
+                  "misses": sum(sum(s.cache_misses.values()) for s in stats)}))
 """
 
 
@@ -51,7 +51,7 @@ def test_after_warm_up_an_estimate_loads_the_compiled_loop_and_compiles_nothing(
     said = _run([sys.executable, "-m", "api.cli.main", "warm-up"], env)
     assert said.startswith("estimator kernels ready (")
     counted = json.loads(_run([sys.executable, "-c", ESTIMATE_LIKE], env).splitlines()[-1])
-    assert counted == {"hits": counted["hits"], "misses": 0} and counted["hits"] >= 1
+    assert counted == {"hits": counted["hits"], "misses": 0} and min(counted["hits"]) >= 1
 
 
 def test_the_services_warm_up_stays_in_its_session_out_of_its_ctrl_c():

@@ -161,3 +161,20 @@ def test_a_process_steps_its_first_short_grids_in_numpy_then_compiled(monkeypatc
     monkeypatch.setattr(equation, "LOOP", fresh)
     integrate(tracks, np.full((1, 1), 3.0), coefficients, x0, v0, 0.005)
     assert ran and ran[0] > kernel.NUMPY_GRID_STEPS and fresh.numpy_steps == 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_compiled_read_off_of_a_grid_gives_the_same_numbers_as_numpys(seed):
+    """``kernel.hermite`` (a compiled grid's samples) is ``equation.hermite`` bit for bit:
+    one time row for every set or one per set, samples on grid points, between them, before
+    the first (held) and past the last step."""
+    rng = np.random.default_rng(seed)
+    steps, sets, n, h = 40 + 30 * seed, 1 + 5 * seed, 25 + 40 * seed, 0.01 + 0.03 * seed
+    grid_x, grid_v = rng.normal(size=(steps, sets)), 10 * rng.normal(size=(steps, sets))
+    tau = np.sort(rng.uniform(-2 * h, (steps + 1) * h, size=(1 if seed % 2 else sets, n)))
+    tau[:, : n // 3] = np.round(tau[:, : n // 3] / h) * h
+    tau = np.maximum(tau, 0.0)
+    numpy_x, numpy_v = equation.hermite(grid_x, grid_v, h, tau)
+    compiled_x, compiled_v = kernel.hermite(grid_x, grid_v, h, tau)
+    assert compiled_x.shape == numpy_x.shape == (sets, n)
+    assert np.array_equal(compiled_x, numpy_x) and np.array_equal(compiled_v, numpy_v)
