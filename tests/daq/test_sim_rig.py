@@ -158,7 +158,12 @@ async def test_simulated_plc_stops_and_returns():
         await _until_ok(q)
         assert not acq.device_lost.is_set()
     assert client.stats.reconnects == 1
-    assert acq.stats.failed_polls >= 5
+    # The outage lasted at least device_lost_after_s, 5 slots at 50 Hz: each one was polled
+    # and failed, or skipped and counted (a loaded host wakes the clock late and skips
+    # slots: a stress run saw 7-8 late wake-ups and fewer than 5 polls). At least the first
+    # failed poll and the one that found the device lost ran.
+    assert acq.stats.failed_polls >= 2
+    assert acq.stats.failed_polls + acq.stats.skipped_slots >= 5
 
 
 async def test_dropped_responses_time_out_on_time_and_recover():
