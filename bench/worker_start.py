@@ -59,20 +59,11 @@ def _memory_mb(pid: int | None) -> dict[str, float] | None:
     return found
 
 
-def _server() -> int | None:
-    """The pid of a fork server this process started, if any."""
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-            cmdline = (entry / "cmdline").read_bytes()
-        except OSError:
-            continue
-        parent = int(stat.rsplit(")", 1)[1].split()[1])
-        if parent == os.getpid() and b"multiprocessing.forkserver" in cmdline:
-            return int(entry.name)
-    return None
+def _server_of(worker: int) -> int | None:
+    """The fork server ``worker`` was forked from: its parent, when that is not this
+    process (a spawned worker's parent is this process: no server)."""
+    parent = int(Path(f"/proc/{worker}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    return None if parent == os.getpid() else parent
 
 
 def _timed_start(executor: Any, server: int | None) -> dict[str, Any]:
@@ -82,7 +73,7 @@ def _timed_start(executor: Any, server: int | None) -> dict[str, Any]:
     executor.start()
     pid = executor.call(None, os.getpid)
     wall = time.perf_counter() - started
-    server = server or _server()
+    server = server or _server_of(pid)
     spent = _cpu_s(server) - server_cpu if server is not None else 0.0
     return {
         "wall_s": round(wall, 3),

@@ -482,12 +482,13 @@ def _seed_result(axis, method, runs, prepared) -> TowResult:
     # the release timing and thrust calibration draws through the seed method itself
     drive = drive_uncertainty(runs, fit, partial(_seed_values, method))
     result = _build(axis, method, runs, prepared, outcome, None, drive)
-    # the positions its coefficients predict, judged by the rule every result's residual is
-    reference = characterise(output_error, prepared, axis)
+    # the positions its coefficients predict, judged by the rule every result's residual is;
+    # output error's verdict on the same runs says whose the structure is
     misfit = result.section.unexplained
     seed_warnings = list(bias)
-    if misfit is not None and (text := misfit.seed_warning(method, axis, reference, bool(bias))):
-        seed_warnings.append(text)
+    if misfit is not None and misfit.structured:
+        reference = characterise(output_error, prepared, axis)
+        seed_warnings.append(misfit.seed_warning(method, axis, reference, bool(bias)))
     if not ls.values[0] > 0:
         seed_warnings.append(f"{method}: inertia {ls.values[0]:.4g} ≤ 0 cannot be simulated")
     section = replace(result.section, seed=ls)  # its σ's ν, for the budget's U

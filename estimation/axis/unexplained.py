@@ -22,6 +22,7 @@ import numpy as np
 from estimation.axis.force_residual import force_noise_floor, force_residuals
 from estimation.axis.prepared_run import PreparedRun
 from estimation.motion.output_error_fit import MotionFit
+from estimation.motion.terms import force_unit
 from estimation.report_numbers import finite_or_none, finite_values
 from estimation.stats.acceptance_rules import NUMERICAL_SHARE
 from estimation.stats.diagnostics import ljung_box
@@ -72,9 +73,9 @@ class Unexplained:
                 f"; strongest sinusoid in {self.period.domain}: period "
                 f"{self.period.value:.3g} {self.period.unit} ({self.period.share:.0%} of it)"
             )
-        unit = "N" if axis == "surge" else "N·m"
         return (
-            f"(Ljung–Box p = {self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} {unit}, "
+            f"(Ljung–Box p = {self.ljung_box_p:.2g}; force residual {self.force_rms:.3g} "
+            f"{force_unit(axis)}, "
             f"{self.ratio:.1f}× the noise floor the fit implies); {where}"
         )
 
@@ -97,9 +98,9 @@ class Unexplained:
 
     def seed_warning(
         self, method: str, axis: str, output_error: Unexplained, concluded: bool = False
-    ) -> str | None:
+    ) -> str:
         """One sentence for a seed method's result whose coefficients misfit the records
-        (None when its residual is not structured). ``output_error``: the same verdict on
+        (its residual is ``structured``). ``output_error``: the same verdict on
         the output-error fit of the same runs (the base model, no effect searched), which
         says whose model the structure belongs to: the seed method's own (its derivatives,
         first-order curves or steady speeds are not the equation's solution) when output
@@ -108,8 +109,6 @@ class Unexplained:
         enough to hide a bias from ``method_bias``; the positions it predicts cannot.
         ``concluded``: ``method_bias`` already told the user what to sign, so the sentence
         ends with the evidence."""
-        if not self.structured:
-            return None
         head = (
             f"{method}'s coefficients do not reproduce the runs: simulated with them, the "
             f"residual is structured {self.evidence(axis)}"
