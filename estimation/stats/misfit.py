@@ -23,7 +23,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.special import gammaincc
 
 #: Ljung–Box p (or the excess's p) below this: decisive, not chance.
 WHITE_P = 1e-3
@@ -59,6 +58,8 @@ def excess_p(ratio: float, n_eff: float) -> float:
     square ``ratio``² times the floor's on ``n_eff`` effective samples."""
     if not np.isfinite(ratio) or n_eff <= 0:
         return 0.0 if ratio > 1 else 1.0
+    from scipy.special import gammaincc  # here: the service imports this module
+
     return float(gammaincc(n_eff / 2.0, n_eff * ratio**2 / 2.0))
 
 

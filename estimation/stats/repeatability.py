@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import numpy as np
-from scipy import special
 
 from estimation.report_numbers import finite_or_none
 
@@ -73,6 +72,8 @@ class Condition:
         """t_0.975(N−1)·s/√N: the 95 % repeatability of the mean."""
         if self.n < 2:
             return math.nan
+        from scipy import special  # here: the service imports this module
+
         return float(special.stdtrit(self.n - 1, 0.975) * self.std / math.sqrt(self.n))
 
     def to_json(self) -> dict[str, Any]:
@@ -138,6 +139,8 @@ def chauvenet(values: Sequence[float], reading_sigma: Sequence[float] | None = N
     # an unknown reading σ (NaN) sets no floor
     read = np.zeros(n) if reading_sigma is None else np.nan_to_num(np.asarray(reading_sigma))
     least = READING_SIGMAS * read
+    from scipy import special  # here: the service imports this module
+
     return [
         bool(n * special.erfc(d / s / math.sqrt(2)) < CHAUVENET_LIMIT and d > f)
         for d, f in zip(deviation, least, strict=True)

@@ -36,7 +36,6 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from scipy import special
 
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
@@ -206,6 +205,8 @@ def coverage_factor(dof: float, coverage: float = COVERAGE) -> float:
     distribution functions, which ``scipy.stats``' t.ppf and norm.ppf call (importing
     ``scipy.stats`` costs ~0.4 s of CPU)."""
     q = 0.5 + coverage / 2
+    from scipy import special  # here: the service imports this module (+27 MB resident)
+
     return float(special.ndtri(q) if math.isinf(dof) else special.stdtrit(dof, q))
 
 
