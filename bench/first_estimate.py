@@ -6,16 +6,17 @@ latency is what they wait. The fit runs in the process's analysis worker
 (``rig import --kind decay --dof roll``, as bench/estimate_process.py) imported into a
 temporary SQLite database:
 
-* ``prestarted``: the service as it ships — the worker started with the service and given
-  ``--lead`` seconds (the length of a short test) before the estimate is asked for;
-* ``spawned_at_first_job``: the same with the worker's start at the service's start
-  switched off (the behaviour before it existed): the first job spawns the worker and
-  waits for its imports;
+* ``at_first_job``: the service as it ships — the analysis worker and the server it forks
+  from (``api.core.worker_processes``) start with the first analysis, which waits for the
+  server's imports (an idle service holds neither: ``bench/serve_idle.py``);
+* ``prestarted``: the worker and its server started with the service (as fabf1ff did) and
+  given ``--lead`` seconds (the length of a short test) before the estimate is asked for;
 
 each with the wall time from POST ``/api/jobs/estimation`` to ``completed`` for the first job
-and for a second one on the same service. Each case runs in a fresh process of this script
-(a process has one analysis worker). Prints one JSON document.
-Run: .venv/bin/python bench/first_estimate.py [--lead 5]
+and for a second one on the same service, ``--lead`` seconds after the service started. Each
+case runs in a fresh process of this script (a process has one analysis worker), the cases
+alternated ``--repeat`` times. Prints one JSON document: each run and the medians.
+Run: .venv/bin/python bench/first_estimate.py [--lead 5] [--repeat 3]
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -36,17 +38,18 @@ from bench.estimate_process import KVLCC2, imported  # noqa: E402
 from bench.service import serve_in_thread, wait_job  # noqa: E402
 
 TOKEN = "bench-token"
+CASES = ("at_first_job", "prestarted")
 
 
 def one_case(db_url: str, run_id: str, prestart: bool, lead_s: float) -> dict[str, float]:
     """Start the service on ``db_url``, wait ``lead_s``, time two estimation jobs (s)."""
     import httpx
 
-    from api.core.analysis_worker import AnalysisWorker
+    from api.core.analysis_executor import shared_process_executor
 
-    if not prestart:
-        AnalysisWorker.start = lambda self, store: None  # type: ignore[method-assign]
     service, _app, server, thread, base = serve_in_thread(db_url, TOKEN, realtime=False)
+    if prestart:
+        shared_process_executor().start()
     out: dict[str, float] = {}
     try:
         time.sleep(lead_s)  # the user records or imports meanwhile
@@ -69,7 +72,8 @@ def one_case(db_url: str, run_id: str, prestart: bool, lead_s: float) -> dict[st
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--lead", type=float, default=5.0, help="Seconds before the estimate.")
-    parser.add_argument("--case", choices=("prestarted", "spawned_at_first_job"))
+    parser.add_argument("--repeat", type=int, default=3, help="Rounds of both cases.")
+    parser.add_argument("--case", choices=CASES)
     parser.add_argument("--db", help=argparse.SUPPRESS)
     parser.add_argument("--run", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -81,25 +85,31 @@ def main() -> None:
         db_url = f"sqlite:///{Path(tmp) / 'rig.db'}"
         env = os.environ | {"RIG_DATABASE_URL": db_url}
         run_id = imported(KVLCC2, env, tmp)
-        cases = {}
-        for case in ("spawned_at_first_job", "prestarted"):
-            argv = [sys.executable, __file__, "--case", case, "--lead", str(args.lead)]
-            proc = subprocess.run(
-                [*argv, "--db", db_url, "--run", run_id],
-                env=env,
-                capture_output=True,
-                text=True,
-                check=False,
-            )
-            if proc.returncode != 0:
-                raise SystemExit(f"{case} failed: {proc.stderr.strip()[-2000:]}")
-            cases[case] = json.loads(proc.stdout.strip().splitlines()[-1])
+        runs: dict[str, list[dict[str, float]]] = {case: [] for case in CASES}
+        for _ in range(args.repeat):
+            for case in CASES:
+                argv = [sys.executable, __file__, "--case", case, "--lead", str(args.lead)]
+                proc = subprocess.run(
+                    [*argv, "--db", db_url, "--run", run_id],
+                    env=env,
+                    capture_output=True,
+                    text=True,
+                    check=False,
+                )
+                if proc.returncode != 0:
+                    raise SystemExit(f"{case} failed: {proc.stderr.strip()[-2000:]}")
+                runs[case].append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    medians = {
+        case: {key: statistics.median(r[key] for r in found) for key in found[0]}
+        for case, found in runs.items()
+    }
     doc = {
         "record": "kvlcc2 21337 (published roll decay)",
         "lead_s": args.lead,
-        **cases,
-        "first_ratio_prestarted_to_spawned": round(
-            cases["prestarted"]["first_s"] / cases["spawned_at_first_job"]["first_s"], 3
+        "median": medians,
+        "runs": runs,
+        "first_ratio_at_first_job_to_prestarted": round(
+            medians["at_first_job"]["first_s"] / medians["prestarted"]["first_s"], 3
         ),
     }
     print(json.dumps(doc, indent=2))

@@ -10,10 +10,11 @@ database it reads and stores into, where to draw its report); running it gives a
 * :class:`ProcessExecutor` (the service's): in a worker process at niceness
   ``ANALYSIS_NICENESS``, so a fit (170 MB, seconds of CPU, full garbage collections) never
   shares the GIL, the memory or the CPU priority of the rig's process. One per process
-  (:func:`shared_process_executor`), started with the service (:meth:`ProcessExecutor.start`)
-  and kept while the process lives. The worker is forked from a server that imported the
-  fitting and report modules once (``api.core.worker_processes``): it is ready in
-  milliseconds where a spawned interpreter spent ~0.7 s of CPU importing them, and so is
+  (:func:`shared_process_executor`), started by its first task (or :meth:`ProcessExecutor.start`;
+  an idle service holds none) and kept while the process lives. The worker is forked from a
+  server that imported the fitting and report modules once (``api.core.worker_processes``;
+  the service starts it with its first test, :meth:`ProcessExecutor.prepare`): it is ready
+  in milliseconds where a spawned interpreter spent ~0.7 s of CPU importing them, and so is
   the worker that replaces a killed one;
 * :class:`ThreadExecutor`: in the calling thread, on the service's own ``Store`` (a database
   no other process can open: in-memory SQLite; and tests that patch the fit in process).
@@ -349,6 +350,12 @@ class ProcessExecutor:
         """Start the worker process now, in the background (it imports while the caller
         goes on); idempotent while the worker lives."""
         self._worker()
+
+    def prepare(self) -> None:
+        """Start the server its workers fork from (``worker_processes``: it imports their
+        code once, ~0.7 s of CPU, in the background), but no worker: the first task's
+        worker is then forked ready in milliseconds. Idempotent while the server lives."""
+        worker_context()
 
     @property
     def started(self) -> bool:

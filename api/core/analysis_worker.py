@@ -62,12 +62,14 @@ class AnalysisWorker:
         # One job at a time; this thread only waits for the executor and writes the registry.
         self._pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="estimate")
 
-    def start(self, store: Store) -> None:
-        """Start the executor's worker with the service (``ProcessExecutor.start``), so the
-        first estimate finds its fitting code imported."""
+    def prepare(self, store: Store) -> None:
+        """Start the server the executor's worker forks from (``ProcessExecutor.prepare``),
+        not the worker: called as the first test starts, so the server's imports overlap
+        the test, not the first estimate, and an idle service holds neither (~70 MB
+        proportional, ``bench/serve_idle.py``)."""
         executor = self.executor_for(store)
         if isinstance(executor, ProcessExecutor):
-            executor.start()
+            executor.prepare()
 
     def close(self) -> None:
         """Drop the jobs not started and wait for the one running. The process's shared

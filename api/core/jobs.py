@@ -74,15 +74,22 @@ class JobRunner(QueueEdits):
         #: Scratch space where reports are drawn before they are stored in the database.
         self.report_root = report_root or Path(tempfile.mkdtemp(prefix="towrig-reports-"))
         self.rig = RigWorker(service, self.registry)
-        #: Start a validated procedure or queue it: the rig worker's own method
-        #: (:meth:`RigWorker.start_procedure`), for the routes, campaigns and queue edits.
-        self.start_procedure = self.rig.start_procedure
         self.queue: RigQueue = self.rig.queue
         self.analysis = AnalysisWorker(self.registry, self.report_root)
         #: Called by :meth:`close` once the rig is free, before the analysis worker and
         #: the registry close: parts that run in threads of their own (campaigns) end
         #: and write their ending here.
         self.before_close: list[Callable[[], None]] = []
+
+    def start_procedure(self, kind: str, params: Any, label: str, **options: Any) -> Job:
+        """Start a validated procedure or queue it (:meth:`RigWorker.start_procedure`, its
+        options), for the routes, campaigns and queue edits; then start the server the
+        analysis worker forks from, if not yet (``AnalysisWorker.prepare``): a test's runs
+        are what is estimated next, so its imports overlap the test."""
+        job = self.rig.start_procedure(kind, params, label, **options)
+        if self.service.store is not None:
+            self.analysis.prepare(self.service.store)
+        return job
 
     @property
     def jobs(self) -> dict[str, Job]:
@@ -104,10 +111,9 @@ class JobRunner(QueueEdits):
 
     def open(self) -> None:
         """After the service started: mark jobs a dead service left running ``interrupted``,
-        take back the queue, paused until an operator resumes it, and start the analysis
-        worker (its imports overlap the first test, not the first estimate)."""
-        if self.service.store is not None:
-            self.analysis.start(self.service.store)
+        take back the queue, paused until an operator resumes it. Neither the analysis
+        worker nor the server it forks from starts here (an idle service holds neither:
+        :meth:`start_procedure`, ``AnalysisWorker.prepare``)."""
         recovered = self.repo.recover_interrupted(self.rig_name)
         if recovered:
             log.warning("marked %d job(s) interrupted: %s", len(recovered), ", ".join(recovered))

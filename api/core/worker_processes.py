@@ -16,9 +16,13 @@ starts it, and the service's threads may run real-time: so :func:`worker_context
 from a short-lived thread at normal scheduling and ``SERVER_NICENESS`` (its imports yield to
 the rig as a spawned worker's did); each child still sets its own priority. A child starts
 with the service's environment as it is when the child starts (:class:`_Process`), not the
-server's, as a spawned child did. The server ends once the service and all its children
-have ended (``multiprocessing.forkserver``); while the service lives it holds the preloaded
-modules, ~85 MB resident, most of it shared with the worker forked from it.
+server's, as a spawned child did. The server starts with the service's first test
+(``AnalysisWorker.prepare``: its ~0.7 s of CPU overlap the test) or its first child, if that
+comes first (an analysis or a CSV upload, which then waits for those imports), not with the
+service: it holds the preloaded modules, ~85 MB resident (~65 MB proportional with no worker
+beside it, and ~7 MB more for ``multiprocessing``'s resource tracker it starts), which an
+idle service does not need (``bench/serve_idle.py``). It ends once the service and all its
+children have ended (``multiprocessing.forkserver``).
 
 The server is the process's one ``forkserver`` (``multiprocessing`` has one per process):
 whoever starts it first decides what it preloads. The service is the only user in a rig's

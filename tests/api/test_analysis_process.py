@@ -29,17 +29,15 @@ def watched(client, monkeypatch) -> Watching:
 
 
 def test_an_estimation_job_fits_in_a_niced_worker_process(client, tow_job, watched):
-    assert shared_process_executor().started  # by the service's start, before any job
-    started_worker = shared_process_executor().worker_pid()
     body = {"run_ids": tow_job["run_ids"], "search_effects": False}
     r = client.post("/api/jobs/estimation", json=body, headers=AUTH)
     assert r.status_code == 202, r.text
     job = wait_job(client, r.json()["id"], timeout_s=120)  # the first job starts the worker
     assert job["state"] == "completed", how_it_ended(job)
     [outcome] = watched.outcomes
-    # The service started this process's worker before any job asked for it (its imports
-    # overlapped the tow), and the estimation ran in that worker.
-    assert outcome.pid == started_worker
+    # The estimation ran in the process's worker, forked from its server.
+    assert outcome.pid == shared_process_executor().worker_pid()
+    assert _parent(outcome.pid) == _fork_server()
     assert outcome.pid != os.getpid()
     assert outcome.niceness > os.getpriority(os.PRIO_PROCESS, 0)
     store = client.app.state.service.store
@@ -207,6 +205,78 @@ def test_the_worker_is_forked_from_a_server_that_imported_the_fits_once(client):
     assert niceness <= min(ANALYSIS_NICENESS, IMPORT_NICENESS)
 
 
+#: A service started (its app's lifespan, as ``rig serve`` starts it) and answering, then
+#: its first test, then its first analysis: prints the processes it had started when idle,
+#: once the test started, and the parent of the worker the analysis started.
+IDLE_SERVICE = """
+import json, os, sys
+from pathlib import Path
+from fastapi.testclient import TestClient
+from api.core.analysis_executor import shared_process_executor
+from api.http.app import create_app
+from daq.session import RigSource
+from tests.api.conftest import SHORT_TOW, TOKEN, how_it_ended, simulated_service, wait_job
+
+def children():
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            if int(stat[1]) == os.getpid() and stat[0] not in "ZX":
+                found[entry.name] = (entry / "cmdline").read_bytes().decode()
+        except (FileNotFoundError, ProcessLookupError):
+            continue
+    return found
+
+service = simulated_service(RigSource.load(), f"sqlite:///{sys.argv[1]}/rig.db")
+auth = {"Authorization": f"Bearer {TOKEN}"}
+app = create_app(service, token=TOKEN, report_root=Path(sys.argv[1]))
+with TestClient(app) as client:
+    assert client.get("/api/health").status_code == 200
+    idle = children()
+    started = client.post("/api/jobs/tow", json=SHORT_TOW, headers=auth)
+    assert started.status_code == 202, started.text
+    testing, worker_started = children(), shared_process_executor().started
+    job = wait_job(client, started.json()["id"])
+    assert job["state"] == "completed", how_it_ended(job)
+    worker = shared_process_executor().worker_pid()
+    parent = int(Path(f"/proc/{worker}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    print(json.dumps({"idle": idle, "testing": testing, "worker_started": worker_started,
+                      "worker_parent": parent}))
+"""
+
+
+def test_an_idle_service_starts_no_worker_and_its_first_test_the_workers_server(tmp_path):
+    """An idle service holds no analysis worker nor the server workers fork from (together
+    ~70 MB proportional, ``bench/serve_idle.py``): its first test starts the server, which
+    imports the fitting code once while the test runs, and the first analysis the worker,
+    forked from it. A fresh process: what a process starts is the behaviour (this one's
+    server is shared by its tests)."""
+    import json
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run(
+        [sys.executable, "-c", IDLE_SERVICE, str(tmp_path)],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    seen = json.loads(done.stdout.strip().splitlines()[-1])
+    assert [line for line in seen["idle"].values() if "multiprocessing" in line] == []
+    testing = seen["testing"]
+    [server] = [pid for pid, line in testing.items() if "multiprocessing.forkserver" in line]
+    assert "api.core.estimation_job" in testing[server]  # it preloads the fits
+    assert not seen["worker_started"]  # the worker waits for an analysis
+    assert seen["worker_parent"] == int(server)  # then is forked from the server
+
+
 def test_a_worker_runs_with_the_services_environment_as_at_its_start(client, monkeypatch):
     """A worker forked from the server started earlier still sees the service's environment
     as it is when the worker starts (as a spawned worker did), not the server's."""
@@ -243,6 +313,22 @@ def test_a_hung_task_is_killed_at_the_deadline_and_the_next_one_gets_a_new_worke
 def _parent(pid: int) -> int:
     """The parent process id of process ``pid``."""
     return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+def _fork_server() -> int:
+    """The pid of this process's fork server (``api.core.worker_processes``), which must run."""
+    servers = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:  # a process of the host may end meanwhile
+            ours = _parent(int(entry.name)) == os.getpid() and not _gone(int(entry.name))
+            if ours and b"multiprocessing.forkserver" in (entry / "cmdline").read_bytes():
+                servers.append(int(entry.name))
+        except (FileNotFoundError, ProcessLookupError):
+            continue
+    [server] = servers
+    return server
 
 
 def _gone(pid: int) -> bool:
