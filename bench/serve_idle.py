@@ -12,14 +12,15 @@ per process (by role) and in total, the proportional set size (PSS: shared pages
 among the processes mapping them, so the total is what the processes cost the machine
 together) and the resident set size (RSS: each process's pages, shared ones counted in every
 process), MB; and the CPU seconds every process spent until then. SIGINT ends the service
-(as Ctrl-C does).
+(as Ctrl-C does). With ``--tow`` it first records one short tow through the API (what a
+first test starts: the analysis worker's fork server) and measures once that has ended.
 
 Each checkout is byte-compiled and run once untimed first (numba's cache filled), as an
 install leaves it. ``--repeat`` runs the checkouts alternately (base, ours, base, …); prints
 one JSON document with each run and each figure's median per checkout, and ours over base
 where two are given.
 
-    .venv/bin/python bench/serve_idle.py [--repeat 3] [--settle 2] [--src DIR ...]
+    .venv/bin/python bench/serve_idle.py [--repeat 3] [--settle 2] [--tow] [--src DIR ...]
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 TICKS = os.sysconf("SC_CLK_TCK")
 TOKEN = "bench-serve-idle-token"
+FINAL = ("completed", "aborted", "failed", "interrupted")
 #: The packages ``rig serve`` imports (byte-compiled first).
 PACKAGES = ("api", "daq", "estimation", "thrusters")
 
@@ -114,7 +116,30 @@ def _answers(url: str) -> bool:
         return False
 
 
-def _run(src: Path, settle_s: float, timeout_s: float = 180.0) -> dict[str, Any]:
+def _api(url: str, path: str, body: dict[str, Any] | None = None) -> dict[str, Any]:
+    """GET (or POST ``body`` to) ``path`` with the token; the JSON reply."""
+    import urllib.request
+
+    data = None if body is None else json.dumps(body).encode()
+    headers = {"Authorization": f"Bearer {TOKEN}", "Content-Type": "application/json"}
+    request = urllib.request.Request(f"{url}{path}", data=data, headers=headers)
+    with urllib.request.urlopen(request, timeout=30) as reply:
+        return dict(json.loads(reply.read()))
+
+
+def _tow(url: str, timeout_s: float = 120.0) -> None:
+    """One short tow through the API, waited for until it ends."""
+    job = _api(url, "/api/jobs/tow", {"force_n": 24.5, "max_time_s": 1.5, "baseline_s": 0.3})
+    end = time.monotonic() + timeout_s
+    while (state := _api(url, f"/api/jobs/{job['id']}")["state"]) not in FINAL:
+        if time.monotonic() > end:
+            raise SystemExit(f"the tow did not end: {state}")
+        time.sleep(0.2)  # the job offers no event to wait on from outside
+    if state != "completed":
+        raise SystemExit(f"the tow ended {state}")
+
+
+def _run(src: Path, settle_s: float, tow: bool, timeout_s: float = 180.0) -> dict[str, Any]:
     """One ``rig serve`` on the checkout ``src``, measured once idle, then ended."""
     with tempfile.TemporaryDirectory(prefix="serve-idle-") as folder:
         env = os.environ | {
@@ -149,6 +174,8 @@ def _run(src: Path, settle_s: float, timeout_s: float = 180.0) -> dict[str, Any]
                     raise SystemExit(f"{src}: rig serve did not answer")
                 time.sleep(0.05)
             answered = time.perf_counter() - started
+            if tow:
+                _tow(url)
             # idle: no warm-up left and the same processes for settle_s
             stable_since, seen = time.monotonic(), _descendants(proc.pid)
             while True:
@@ -205,6 +232,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--settle", type=float, default=2.0, help="seconds without change")
+    parser.add_argument("--tow", action="store_true", help="measure after one short tow")
     parser.add_argument("--src", type=Path, action="append", help="a checkout (repeatable)")
     args = parser.parse_args()
     sources = [src.resolve() for src in args.src or [ROOT]]
@@ -212,16 +240,16 @@ def main() -> None:
     for src in sources:  # as an install leaves it: byte code written, numba's cache filled
         compiled = [sys.executable, "-m", "compileall", "-q", *(str(src / p) for p in PACKAGES)]
         subprocess.run(compiled, check=True, capture_output=True)
-        _run(src, args.settle)
+        _run(src, args.settle, args.tow)
     for _ in range(args.repeat):
         for src in sources:
-            runs[str(src)].append(_run(src, args.settle))
+            runs[str(src)].append(_run(src, args.settle, args.tow))
     medians = {}
     for src, found in runs.items():
         flats = [_flat(r) for r in found]
         keys = sorted({k for f in flats for k in f})
         medians[src] = {k: round(statistics.median(f.get(k, 0.0) for f in flats), 3) for k in keys}
-    doc: dict[str, Any] = {"repeat": args.repeat, "median": medians, "runs": runs}
+    doc: dict[str, Any] = {"repeat": args.repeat, "tow": args.tow, "median": medians, "runs": runs}
     if len(sources) == 2:
         base, ours = (medians[str(src)] for src in sources)
         doc["ours_over_base"] = {k: round(ours[k] / base[k], 3) for k in ours if base.get(k)}
