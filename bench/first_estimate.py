@@ -6,9 +6,10 @@ latency is what they wait. The fit runs in the process's analysis worker
 (``rig import --kind decay --dof roll``, as bench/estimate_process.py) imported into a
 temporary SQLite database:
 
-* ``at_first_job``: the service as it ships — the analysis worker and the server it forks
-  from (``api.core.worker_processes``) start with the first analysis, which waits for the
-  server's imports (an idle service holds neither: ``bench/serve_idle.py``);
+* ``at_first_job``: the service as it ships, when no test came first (the run here is
+  imported): the analysis worker and the server it forks from (``api.core.worker_processes``)
+  start with the first analysis, which waits for the server's imports (an idle service holds
+  neither, and a test started on it starts the server: ``bench/serve_idle.py``);
 * ``prestarted``: the worker and its server started with the service (as fabf1ff did) and
   given ``--lead`` seconds (the length of a short test) before the estimate is asked for;
 
