@@ -34,7 +34,7 @@ X_BASIS: tuple[Basis, ...] = (
     np.ones_like,
     lambda x: x,
     lambda x: x * x,
-    lambda x: x**3.0,
+    lambda x: x * x * x,
     np.sin,
 )
 #: V(ẋ) by code: the order of ``compiled._v_basis``.
@@ -44,7 +44,7 @@ V_BASIS: tuple[Basis, ...] = (
     np.abs,
     lambda v: np.abs(v) * v,
     lambda v: v * v,
-    lambda v: v**3.0,
+    lambda v: v * v * v,
     np.sign,
 )
 #: States the regressor is probed at: both signs, zero, and sizes where sin x ≠ x.

@@ -313,7 +313,7 @@ LIBRARY: dict[str, Term] = {
             ("N/m³", "N·m/rad³"),
             "the period of a decay changes with amplitude",
             "a decay released from a clearly larger offset",
-            phi=lambda x, v: -(x**3),
+            phi=lambda x, v: -(x * x * x),
             dphi_dx=lambda x, v: -3.0 * x**2,
             x_power=3,
         ),
@@ -324,7 +324,7 @@ LIBRARY: dict[str, Term] = {
             "steady-speed residual growing like ẋ³ (largest at the highest force)",
             "a run at a clearly higher force (e.g. 1.5× the largest), or a decay released "
             "from a clearly larger amplitude (the laws part at the highest speed)",
-            phi=lambda x, v: -(v**3),
+            phi=lambda x, v: -(v * v * v),
             dphi_dv=lambda x, v: -3.0 * v**2,
             lower=0.0,
             physical="≥ 0: drag opposes the motion",
