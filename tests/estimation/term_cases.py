@@ -5,9 +5,10 @@ once per case (``cache``), the seeds differ only in dither and noise.
 
 The integrator is DOP853 (8th order) at rtol 1e-10: it takes a third of RK45's steps at
 that tolerance (the 45 decay and 64 tow paths of the library tests: 8.4 -> 3.8 s of CPU).
-Its paths are as close to a rtol-1e-13 reference as RK45's were (≤ 4e-11 m against ≤ 1.1e-11
-m, beside the decays' ≥ 2e-5 m of noise), and every quantized tow of every case for seeds
-0–560 is the same to the last bit as RK45's."""
+Both stay within 4e-11 m of a rtol-1e-13 reference on the decays (RK45 ≤ 1.1e-11 m, DOP853
+≤ 3.7e-11 m), six decades under their ≥ 2e-5 m of noise. Every quantized tow the tests draw
+(the clean sets at seeds 0–560, the single effects at 31, the pairs at 32) is RK45's to the
+last bit; over all 70 cases × 561 seeds, 4 runs of 157,080 (seeds never drawn) differ."""
 
 from __future__ import annotations
 
