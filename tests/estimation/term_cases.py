@@ -1,7 +1,14 @@
 """Synthetic records for the term-library tests, from scipy's solve_ivp on the equation
 written out here (never the project's simulator): tow sets at 10, 143 and 1000 kg with any
 library effect, and heave decays with any decay term; each noise-free path is integrated
-once per case (``cache``), the seeds differ only in dither and noise."""
+once per case (``cache``), the seeds differ only in dither and noise.
+
+The integrator is DOP853 (8th order) at rtol 1e-10: it takes a third of RK45's steps at
+that tolerance (the 45 decay and 64 tow paths of the library tests: 8.4 -> 3.8 s of CPU).
+Both stay within 4e-11 m of a rtol-1e-13 reference on the decays (RK45 ≤ 1.1e-11 m, DOP853
+≤ 3.7e-11 m), six decades under their ≥ 2e-5 m of noise. Every quantized tow the tests draw
+(the clean sets at seeds 0–560, the single effects at 31, the pairs at 32) is RK45's to the
+last bit; over all 70 cases × 561 seeds, 4 runs of 157,080 (seeds never drawn) differ."""
 
 from __future__ import annotations
 
@@ -39,7 +46,13 @@ def _tow_path(scale, force, coulomb, bias, spring, cubic, delay, hung, duration)
     t = np.arange(0.0, duration, 1.0 / RATE)
     tau = np.clip(t - 1.0 - delay, 0.0, None)
     sol = solve_ivp(
-        rhs, (0.0, tau[-1] + 0.1), [0.0, 0.0], dense_output=True, rtol=1e-10, atol=1e-12
+        rhs,
+        (0.0, tau[-1] + 0.1),
+        [0.0, 0.0],
+        method="DOP853",
+        dense_output=True,
+        rtol=1e-10,
+        atol=1e-12,
     )
     x = sol.sol(tau)[0]
     t.flags.writeable = x.flags.writeable = False
@@ -119,6 +132,7 @@ def _decay_path(scale, b2, b3, k3, fc, drift=0.0, damping=1.0, release=0.05):
             (start, t[-1]),
             state,
             events=turn,
+            method="DOP853",
             dense_output=True,
             rtol=1e-10,
             atol=1e-13,

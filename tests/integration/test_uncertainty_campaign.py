@@ -15,6 +15,7 @@ from api.core.estimation_job import load_estimation_runs, run_estimation, stored
 from api.core.pretest import predict_sequence
 from daq.session import RigSource
 from daq.store import Store
+from estimation.axis import tow_report
 from tests.support.motion_runs import completed_runs
 from tests.support.simrig import rig_session
 
@@ -29,7 +30,16 @@ def _drives(kind: str) -> list[float]:
     return [s[key] for s in steps if s["kind"] == kind]
 
 
-async def test_seed_campaign_budget_and_pretest_prediction(tmp_path):
+def _figure_not_rendered(fig, folder: Path, stem: str) -> list[Path]:
+    """``estimation.figures.save_figure`` without the rendering: the paths it would write.
+    The figures are built (``fit_figure``, ``force_figure`` on this campaign's fit), not
+    drawn to PNG and SVG: this test reads report.md only, and rendering them was about a
+    third of its CPU. Their files are checked in ``tests/estimation/tow/test_report.py``."""
+    return [folder / f"{stem}.png", folder / f"{stem}.svg"]
+
+
+async def test_seed_campaign_budget_and_pretest_prediction(tmp_path, monkeypatch):
+    monkeypatch.setattr(tow_report, "save_figure", _figure_not_rendered)
     source = RigSource.load()
     store = Store(f"sqlite:///{tmp_path / 'rig.db'}")
     async with rig_session(source, store) as session:

@@ -11,6 +11,7 @@ import pytest
 from PIL import Image
 
 from estimation import estimate
+from estimation.axis import tow_report
 from estimation.axis.prepared_run import prepare
 from estimation.axis.tow_report import fit_figure, force_figure, run_labels, write_report
 from estimation.data.csv_import import run_from_csv
@@ -178,8 +179,13 @@ def test_a_fit_row_with_mismatched_samples_names_them():
         FitRow("run 1", np.zeros(3), np.zeros(3), np.zeros(2), np.zeros(3))
 
 
-def test_the_report_lists_the_samples_a_fit_left_out(surge, tmp_path):
+def test_the_report_lists_the_samples_a_fit_left_out(surge, tmp_path, monkeypatch):
     runs, result = surge
+    # report.md and result.json are read here, the figures never (their files are
+    # test_report_writes_json_markdown_and_figures's): built, not rendered to PNG and SVG
+    monkeypatch.setattr(
+        tow_report, "save_figure", lambda fig, out, stem: [out / f"{stem}.png", out / f"{stem}.svg"]
+    )
     first = result.runs[0]
     hole = LeftOut(12.3, 12.7, 4, "PLC read failed", in_motion=True)
     windows = result.section.windows
