@@ -10,9 +10,9 @@
 let plotlyLoading = null;
 let plotlyReady = false;
 /** Calls `draw(Plotly)`: at once once Plotly is loaded, else when it is (calls keep their
- * order); the first call loads /static/plotly.min.js. */
+ * order); the first call loads /static/plotly.min.js. A promise of what `draw` returns. */
 export function withPlotly(draw) {
-  if (plotlyReady) return draw(window.Plotly);
+  if (plotlyReady) return Promise.resolve(draw(window.Plotly));
   plotlyLoading ||= new Promise((resolve, reject) => {
     const script = document.createElement("script");
     script.src = "/static/plotly.min.js";
