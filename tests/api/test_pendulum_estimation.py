@@ -102,7 +102,9 @@ def test_estimation_page_shows_a_pendulum_result(chromium, client, service, runs
         )
         expect(page.locator("#est-plots img").first).to_be_visible(timeout=20_000)
         methods.screenshot(path=str(tmp_path / "pendulum-methods.png"))
-        # The peaks plot on the time from the release, as the report (not the run's clock).
+        # The peaks plot on the time from the release, as the report (not the run's clock);
+        # drawn once Plotly has loaded (the page loads it with its first plot).
+        page.wait_for_function("() => document.getElementById('est-fit-plot').layout")
         layout = page.evaluate("() => document.getElementById('est-fit-plot').layout")
         assert layout["xaxis"]["title"]["text"] == "time from release [s]"
         first_peak = page.evaluate("() => document.getElementById('est-fit-plot').data[0].x[0]")

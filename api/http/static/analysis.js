@@ -6,6 +6,7 @@ import { $, $$ } from "./dom.js";
 import { fmt, localTime } from "./format.js";
 import { emptyRow, esc } from "./markup.js";
 import { onPage } from "./pages.js";
+import { reactPlot } from "./plots.js";
 
 const analysis = { ready: false, responses: [] };
 const ANALYSIS_PLOT = { responsive: true, displaylogo: false };
@@ -121,7 +122,7 @@ function analysisShow(out) {
     y: coefs,
     x: out.ranking.map((r) => (r.sc[n] === null ? null : 100 * r.sc[n] * out.weights[n])),
   }));
-  Plotly.react("an-bars", traces, {
+  reactPlot("an-bars", traces, {
     barmode: "stack",
     title: { text: "Composite knock-out index Σ Sc·Y (%)" },
     xaxis: { title: { text: "Sc·Y (%)" }, type: "log" },

@@ -6,6 +6,7 @@ import { fmt, localTime } from "./format.js";
 import { emptyRow, esc } from "./markup.js";
 import { abortButton, shownState } from "./jobs.js";
 import { onPage } from "./pages.js";
+import { reactPlot } from "./plots.js";
 import { load } from "./run_text.js";
 import { axisUnits, loadKinds } from "./start_forms.js";
 import { FINAL } from "./state.js";
@@ -125,7 +126,7 @@ async function crosscheckRender(res) {
     y: names.map((k) => rows[k][side].value / rows[k].weight.value),
     error_y: { type: "data", array: names.map((k) => (rows[k][side].std || 0) / rows[k].weight.value) },
   }));
-  Plotly.react(
+  reactPlot(
     "cc-plot",
     traces,
     {

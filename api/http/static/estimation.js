@@ -8,6 +8,7 @@ import { fmt } from "./format.js";
 import { abortButton, showJob, shownState } from "./jobs.js";
 import { emptyRow, esc } from "./markup.js";
 import { onPage } from "./pages.js";
+import { newPlot, purgePlot } from "./plots.js";
 import { metadataBody } from "./run_metadata.js";
 import { load, source, tags } from "./run_text.js";
 import { axisUnits, ensureStartForms, estimatedKinds } from "./start_forms.js";
@@ -176,13 +177,13 @@ function drawFitChart(res, unit) {
   const perRun = Object.keys(res.rmse_per_run_before || {});
   $("#est-fit-plot").hidden = !peaks && !perRun.length;
   if (peaks) {
-    Plotly.newPlot("est-fit-plot", peaks.traces, peaks.layout, { responsive: true, displaylogo: false });
+    newPlot("est-fit-plot", peaks.traces, peaks.layout, { responsive: true, displaylogo: false });
     return;
   }
-  if (!perRun.length) return Plotly.purge("est-fit-plot");
+  if (!perRun.length) return purgePlot("est-fit-plot");
   // the report figures' labels: "run 1 (a1b2c3d4)" in the result's run order
   const runLabels = perRun.map((r) => `run ${(res.runs || []).indexOf(r) + 1} (${r.slice(0, 8)})`);
-  Plotly.newPlot(
+  newPlot(
     "est-fit-plot",
     [
       { x: runLabels, y: perRun.map((r) => res.rmse_per_run_before[r]), type: "bar", name: "RMSE before" },

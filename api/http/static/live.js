@@ -7,7 +7,7 @@
 import { $, $$ } from "./dom.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
-import { unitRowsPlot } from "./plots.js";
+import { unitRowsPlot, withPlotly } from "./plots.js";
 import { channelLabel } from "./run_plot.js";
 import { servedKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
@@ -77,7 +77,7 @@ function liveUseKind(kind) {
   const saved = liveSaved()[kind];
   live.selected = Array.isArray(saved) ? saved.filter((k) => keys.has(k)) : liveDefaults(kind);
   liveRenderChooser();
-  liveDraw();
+  liveDrawSoon();
 }
 
 function liveRenderChooser() {
@@ -143,6 +143,8 @@ function liveSample(s) {
 // rig is idle (only its noise moves), and never more than half the time: a redraw costs
 // Plotly tens of ms (hundreds on a loaded machine), samples arrive every 100 ms. An open Rig
 // page kept a headless Chromium at 0.16-0.3 core redrawing an idle rig four times a second.
+// Nothing is drawn while the Rig page is hidden, the first plot included: a page opened and
+// left for another before the first redraw never loads Plotly (plots.js withPlotly).
 const LIVE_REDRAW_MS = 250;
 const LIVE_IDLE_REDRAW_MS = 1000;
 let liveTimer = null;
@@ -158,6 +160,13 @@ function liveRequestDraw() {
     liveDraw();
     liveDrawMs = performance.now() - t;
   }, Math.max(every, liveDrawMs));
+}
+
+// A change the user sees at once on a plot already drawn; else the next redraw draws it.
+let liveDrawn = false;
+function liveDrawSoon() {
+  if (liveDrawn && !$("#page-rig").hidden) liveDraw();
+  else liveRequestDraw();
 }
 
 export function resetLive() {
@@ -177,6 +186,7 @@ function liveDraw() {
     key: c.key,
   }));
   const empty = live.channels.length ? "Choose channels above" : "Waiting for the rig's channels…";
+  liveDrawn = true;
   unitRowsPlot("live-plot", series, { xTitle: "time [s]", empty, revision: "live" });
 }
 
@@ -187,8 +197,8 @@ export function initLivePlot() {
     localStorage.setItem(LIVE_STORE, JSON.stringify(saved));
     if (live.kind) liveUseKind(live.kind);
   };
-  liveDraw();
+  liveRequestDraw();
 }
 
 onSample(liveSample);
-onPage("rig", () => Plotly.Plots.resize("live-plot"));
+onPage("rig", () => (liveDrawn ? withPlotly((Plotly) => Plotly.Plots.resize("live-plot")) : liveRequestDraw()));

@@ -7,6 +7,7 @@
 // the inputs (GET /api/rig → field_limits).
 import { api, authHeaders } from "./api.js";
 import { $ } from "./dom.js";
+import { withPlotly } from "./plots.js";
 import { onRigStatus, refreshRig } from "./rig.js";
 import { servedKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
@@ -109,6 +110,10 @@ $("#manual-form").addEventListener("submit", async (ev) => {
     duration_s: Number($("#manual-duration").value),
   };
   try {
+    // The run's live plot needs Plotly (plots.js loads it with the first plot): loaded before
+    // the run starts, its compile (a second of a core, more on a loaded PC) cannot hold the
+    // keep-alive back while the service counts its 3 s.
+    await withPlotly(() => {}).catch(() => {});
     follow(await api("POST", `/api/jobs/${kind.route}?queue=false`, body));
   } catch (err) {
     $("#manual-status").textContent = err.message;

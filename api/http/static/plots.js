@@ -1,6 +1,38 @@
 // Plots with one row per unit, shared by the live plot (live.js) and the run detail
 // (runs.js): each series {x, y, name, label, unit, key} goes in the row of its unit; a row is
-// titled by its channel when it holds one, and its y axis steps on 1-2-5 values.
+// titled by its channel when it holds one, and its y axis steps on 1-2-5 values. Plotly
+// itself is loaded with the first plot (withPlotly), not with the page.
+
+// ---- Plotly, on first use ------------------------------------------------------------------
+// plotly.min.js (4.8 MB, from the Python package) took a headless Chromium about a second of
+// a core to compile and run on every page load: a page whose plots are never shown (the
+// queue, people, a run list) no longer pays it, and the page is usable before it arrives.
+let plotlyLoading = null;
+let plotlyReady = false;
+/** Calls `draw(Plotly)`: at once once Plotly is loaded, else when it is (calls keep their
+ * order); the first call loads /static/plotly.min.js. A promise of what `draw` returns. */
+export function withPlotly(draw) {
+  if (plotlyReady) return Promise.resolve(draw(window.Plotly));
+  plotlyLoading ||= new Promise((resolve, reject) => {
+    const script = document.createElement("script");
+    script.src = "/static/plotly.min.js";
+    script.onload = resolve;
+    script.onerror = () => {
+      plotlyLoading = null; // the next plot tries again
+      reject(new Error("plotly.min.js did not load"));
+    };
+    document.head.append(script);
+  }).then(() => {
+    plotlyReady = true;
+  });
+  return plotlyLoading.then(() => draw(window.Plotly));
+}
+
+/** Plotly.newPlot, Plotly.react and Plotly.purge through withPlotly. */
+export const newPlot = (...args) => withPlotly((Plotly) => Plotly.newPlot(...args));
+export const reactPlot = (...args) => withPlotly((Plotly) => Plotly.react(...args));
+// nothing to purge before Plotly drew anything
+export const purgePlot = (element) => plotlyLoading && withPlotly((Plotly) => Plotly.purge(element));
 
 // ---- axis ticks --------------------------------------------------------------------------
 // A 1-2-5 step giving about `target` intervals over [lo, hi], and a range just beyond the
@@ -73,5 +105,5 @@ export function unitRowsPlot(element, series, { xTitle, empty = "Choose channels
     layout.yaxis = { visible: false };
     layout.height = 300;
   }
-  Plotly.react(element, traces, layout, { responsive: true, displaylogo: false });
+  return withPlotly((Plotly) => Plotly.react(element, traces, layout, { responsive: true, displaylogo: false }));
 }

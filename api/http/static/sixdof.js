@@ -5,6 +5,7 @@ import { $, $$, kv } from "./dom.js";
 import { fmt, localTime } from "./format.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
+import { newPlot } from "./plots.js";
 
 const sixdof = { vehicles: null, detail: null, estimates: [] };
 const SIXDOF_FORCE = ["X (N)", "Y (N)", "Z (N)", "K (N·m)", "M (N·m)", "N (N·m)"];
@@ -124,9 +125,9 @@ async function sixdofRun(ev) {
   const tr = out.trajectory;
   const line = (obj, k) => ({ x: tr.t, y: obj[k], name: k, mode: "lines" });
   const layout = (y) => ({ margin: { t: 20, r: 20, b: 45, l: 60 }, xaxis: { title: { text: "t (s)" } }, yaxis: { title: { text: y } } });
-  Plotly.newPlot("sixdof-linear", ["u", "v", "w"].map((k) => line(tr.nu, k)), layout("u, v, w (m/s)"), SIXDOF_PLOT);
-  Plotly.newPlot("sixdof-angular", ["p", "q", "r"].map((k) => line(tr.nu, k)), layout("p, q, r (rad/s)"), SIXDOF_PLOT);
-  Plotly.newPlot(
+  newPlot("sixdof-linear", ["u", "v", "w"].map((k) => line(tr.nu, k)), layout("u, v, w (m/s)"), SIXDOF_PLOT);
+  newPlot("sixdof-angular", ["p", "q", "r"].map((k) => line(tr.nu, k)), layout("p, q, r (rad/s)"), SIXDOF_PLOT);
+  newPlot(
     "sixdof-track",
     [{ x: tr.eta.y, y: tr.eta.x, mode: "lines", name: "track" }],
     {

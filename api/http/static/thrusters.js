@@ -10,7 +10,7 @@ import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { state } from "./state.js";
 import { onSample } from "./stream.js";
-import { unitRowsPlot } from "./plots.js";
+import { unitRowsPlot, newPlot } from "./plots.js";
 import { THRUST_UNITS, commandFor, gramsPerWatt, inThrustUnit, liveStand, liveStandCells, standFigures, standSeries, thrust } from "./thrust_stand.js";
 import "./manual_thrust.js";
 
@@ -67,15 +67,15 @@ function drawStand() {
     const forces = Array.from({ length: 201 }, (_, i) => fmin + ((fmax - fmin) * i) / 200);
     const inverse = layout("Inverse map: thrust → command", yTitle);
     inverse.yaxis = { title: { text: "command (fraction)" } };
-    Plotly.newPlot("cal-inverse-plot", [{ x: forces.map(inUnit), y: forces.map((f) => commandFor(p, f)), mode: "lines", name: "inverse map" }], inverse, config);
+    newPlot("cal-inverse-plot", [{ x: forces.map(inUnit), y: forces.map((f) => commandFor(p, f)), mode: "lines", name: "inverse map" }], inverse, config);
   }
-  Plotly.newPlot("cal-plot", traces, layout("Thrust against command", "command (fraction)"), config);
+  newPlot("cal-plot", traces, layout("Thrust against command", "command (fraction)"), config);
   // thrust against RPM and against electrical power: only rows that carry them
   const against = (key) => table.filter((r) => typeof r[key] === "number");
   const plotAgainst = (id, key, title, xTitle) => {
     const rows = against(key);
     $(`#${id}`).hidden = !rows.length;
-    if (rows.length) Plotly.newPlot(id, [{ x: rows.map((r) => r[key]), y: rows.map((r) => inUnit(r.thrust_per_thruster_n)), mode: "markers" }], layout(title, xTitle), config);
+    if (rows.length) newPlot(id, [{ x: rows.map((r) => r[key]), y: rows.map((r) => inUnit(r.thrust_per_thruster_n)), mode: "markers" }], layout(title, xTitle), config);
   };
   plotAgainst("cal-rpm-plot", "rpm", "Thrust against RPM", "RPM (mean over thrusters)");
   plotAgainst("cal-power-plot", "power_w", "Thrust against electrical power", "electrical power per thruster (W)");
