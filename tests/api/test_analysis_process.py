@@ -153,7 +153,8 @@ def test_exports_studies_simulations_and_crosschecks_run_in_the_worker(
 WORKER_OF_A_KILLED_SERVICE = (
     "from api.core.analysis_executor import ProcessExecutor\n"
     "import time\n"
-    "print(ProcessExecutor().worker_pid(), flush=True)\n"
+    "executor = ProcessExecutor()  # held: a pool dropped shuts its own worker down\n"
+    "print(executor.worker_pid(), flush=True)\n"
     "time.sleep(120)\n"
 )
 
