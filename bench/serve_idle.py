@@ -30,7 +30,6 @@ import json
 import os
 import re
 import signal
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -39,11 +38,13 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # the service runs in processes of its own, on --src
+
+from bench.checkouts import alternated  # noqa: E402
+
 TICKS = os.sysconf("SC_CLK_TCK")
 TOKEN = "bench-serve-idle-token"
 FINAL = ("completed", "aborted", "failed", "interrupted")
-#: The packages ``rig serve`` imports (byte-compiled first).
-PACKAGES = ("api", "daq", "estimation", "thrusters")
 
 
 def _stat(pid: int) -> list[str]:
@@ -218,16 +219,6 @@ def _run(src: Path, settle_s: float, tow: bool, timeout_s: float = 180.0) -> dic
     }
 
 
-def _flat(doc: dict[str, Any], prefix: str = "") -> dict[str, float]:
-    out: dict[str, float] = {}
-    for key, value in doc.items():
-        if isinstance(value, dict):
-            out |= _flat(value, f"{prefix}{key}.")
-        elif isinstance(value, int | float):
-            out[prefix + key] = value
-    return out
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
@@ -236,23 +227,8 @@ def main() -> None:
     parser.add_argument("--src", type=Path, action="append", help="a checkout (repeatable)")
     args = parser.parse_args()
     sources = [src.resolve() for src in args.src or [ROOT]]
-    runs: dict[str, list[dict[str, Any]]] = {str(src): [] for src in sources}
-    for src in sources:  # as an install leaves it: byte code written, numba's cache filled
-        compiled = [sys.executable, "-m", "compileall", "-q", *(str(src / p) for p in PACKAGES)]
-        subprocess.run(compiled, check=True, capture_output=True)
-        _run(src, args.settle, args.tow)
-    for _ in range(args.repeat):
-        for src in sources:
-            runs[str(src)].append(_run(src, args.settle, args.tow))
-    medians = {}
-    for src, found in runs.items():
-        flats = [_flat(r) for r in found]
-        keys = sorted({k for f in flats for k in f})
-        medians[src] = {k: round(statistics.median(f.get(k, 0.0) for f in flats), 3) for k in keys}
-    doc: dict[str, Any] = {"repeat": args.repeat, "tow": args.tow, "median": medians, "runs": runs}
-    if len(sources) == 2:
-        base, ours = (medians[str(src)] for src in sources)
-        doc["ours_over_base"] = {k: round(ours[k] / base[k], 3) for k in ours if base.get(k)}
+    found = alternated(sources, lambda src: _run(src, args.settle, args.tow), args.repeat)
+    doc: dict[str, Any] = {"repeat": args.repeat, "tow": args.tow} | found
     print(json.dumps(doc, indent=1))
 
 

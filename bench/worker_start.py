@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import statistics
 import subprocess
 import sys
 import time
@@ -111,9 +110,6 @@ def one_case() -> dict[str, Any]:
 
 
 #: The packages a case imports (byte-compiled first).
-PACKAGES = ("api", "daq", "estimation", "thrusters")
-
-
 def _run(src: Path) -> dict[str, Any]:
     """One case in a fresh process on the checkout ``src``."""
     done = subprocess.run(
@@ -129,16 +125,6 @@ def _run(src: Path) -> dict[str, Any]:
     return dict(json.loads(done.stdout.strip().splitlines()[-1]))
 
 
-def _flat(doc: dict[str, Any], prefix: str = "") -> dict[str, float]:
-    out: dict[str, float] = {}
-    for key, value in doc.items():
-        if isinstance(value, dict):
-            out |= _flat(value, f"{prefix}{key}.")
-        elif isinstance(value, int | float):
-            out[prefix + key] = value
-    return out
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
@@ -148,23 +134,12 @@ def main() -> None:
     if args.case:  # a child: one run on the checkout on sys.path
         print(json.dumps(one_case()))
         return
+    # here, not at the top: a child imports the checkout on its PYTHONPATH, not this one
+    sys.path.append(str(ROOT))
+    from bench.checkouts import alternated
+
     sources = [src.resolve() for src in args.src or [ROOT]]
-    runs: dict[str, list[dict[str, Any]]] = {str(src): [] for src in sources}
-    for src in sources:  # as an install leaves it: byte code written, numba's cache filled
-        compiled = [sys.executable, "-m", "compileall", "-q", *(str(src / p) for p in PACKAGES)]
-        subprocess.run(compiled, check=True, capture_output=True)
-        _run(src)
-    for _ in range(args.repeat):
-        for src in sources:
-            runs[str(src)].append(_run(src))
-    medians = {
-        src: {k: round(statistics.median(_flat(r)[k] for r in found), 3) for k in _flat(found[0])}
-        for src, found in runs.items()
-    }
-    doc: dict[str, Any] = {"repeat": args.repeat, "median": medians, "runs": runs}
-    if len(sources) == 2:
-        base, ours = (medians[str(src)] for src in sources)
-        doc["ours_over_base"] = {k: round(ours[k] / base[k], 3) for k in ours if base.get(k)}
+    doc: dict[str, Any] = {"repeat": args.repeat} | alternated(sources, _run, args.repeat)
     print(json.dumps(doc, indent=1))
 
 
