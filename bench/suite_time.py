@@ -5,11 +5,16 @@ this module as a plugin, which appends one line per test to a timeline file (wor
 id, start and end in wall seconds, the worker's own CPU over the test), while the runner
 samples the CPU of every process under pytest once a second from ``/proc`` (a process's
 user + system time as last seen, by kind: xdist worker, chromium, ``rig serve``, spawned
-analysis or upload child, …; a process that lives under a second can be missed, the
-``children`` total of the run is exact). Prints one JSON document:
+analysis or upload child, …; a process that lives under a second can be missed). Prints one
+JSON document:
 
-* ``wall_s``, ``cpu_s`` (the run's user + system, children included), ``outcome`` (pytest's
-  last line);
+* ``wall_s``, ``outcome`` (pytest's last line);
+* ``cpu_s``: the run's user + system as ``os.times`` counts it, children included — only the
+  processes waited for down the tree: a process whose parent ended first (a killed
+  ``rig serve``'s workers, a browser's helpers) is reaped by init and not in it;
+  ``processes_cpu_s``: the sum over every process seen under pytest (each counted once,
+  keyed by pid and start time); ``machine_cpu_s``: every core's busy time over the run
+  (``/proc/stat``), which on a quiet machine is the suite's whole CPU;
 * ``first_test_s``: when the first test began (the session's start-up: byte code, numba's
   cache, the workers' imports and collection);
 * ``workers``: each worker's busy seconds and when its last test ended — the spread between
@@ -84,19 +89,21 @@ def _kind(cmdline: str, parent: str = "") -> str:
         return CHILD
     if "exec(eval(sys.stdin" in cmdline:
         return "xdist worker"
-    if "pytest" in cmdline:
-        return "pytest controller"
-    if " serve" in cmdline:
+    # before "pytest": a service or command a test starts has pytest's tmp paths in its args
+    if "api.cli.serve" in cmdline or "rig serve" in cmdline:
         return "rig serve"
-    if "mypy" in cmdline:
-        return "mypy"
     if "api.cli" in cmdline or "/rig " in cmdline:
         return "rig command"
+    if "pytest" in cmdline:
+        return "pytest controller"
+    if "mypy" in cmdline:
+        return "mypy"
     return cmdline.split(" ")[0].rsplit("/", 1)[-1] or "?"
 
 
-def _processes() -> dict[int, tuple[int, float, str]]:
-    """pid -> (parent pid, user + system CPU s, command line) of every process now."""
+def _processes() -> dict[int, tuple[int, float, str, int]]:
+    """pid -> (parent pid, user + system CPU s, command line, start time in clock ticks
+    since boot) of every process now (a zombie's command line is empty)."""
     found = {}
     for entry in os.scandir("/proc"):
         if not entry.name.isdigit():
@@ -108,25 +115,36 @@ def _processes() -> dict[int, tuple[int, float, str]]:
             continue
         fields = stat[stat.rindex(")") + 2 :].split()
         cpu = (int(fields[11]) + int(fields[12])) / TICKS
-        found[int(entry.name)] = (int(fields[1]), cpu, cmdline.strip())
+        found[int(entry.name)] = (int(fields[1]), cpu, cmdline.strip(), int(fields[19]))
     return found
 
 
-def _sample(root: int, seen: dict[tuple[int, str], tuple[str, float]]) -> None:
+def _machine_busy_s() -> float:
+    """CPU seconds every core of the machine has spent busy since boot (``/proc/stat``:
+    user, nice, system, irq, softirq and steal)."""
+    fields = Path("/proc/stat").read_text().splitlines()[0].split()[1:]
+    user, nice, system, _idle, _iowait, irq, softirq, steal = map(int, fields[:8])
+    return (user + nice + system + irq + softirq + steal) / TICKS
+
+
+def _sample(root: int, seen: dict[tuple[int, int], tuple[str, float]]) -> None:
+    """Record the kind and CPU of every process under ``root``, keyed by (pid, start time):
+    one entry per process however often it is seen, after an ``exec`` (its kind is its new
+    command's) and as a zombie (kind kept, CPU final)."""
     procs = _processes()
     children = collections.defaultdict(list)
-    for pid, (parent, _, _) in procs.items():
+    for pid, (parent, _, _, _) in procs.items():
         children[parent].append(pid)
     stack = [root]
     while stack:
         pid = stack.pop()
         stack.extend(children.get(pid, ()))
         if pid in procs:
-            parent, cpu, cmdline = procs[pid]
-            key = (pid, cmdline[:80])
+            parent, cpu, cmdline, started = procs[pid]
+            key = (pid, started)
             parent_cmdline = procs[parent][2] if parent in procs else ""
-            kind = seen[key][0] if key in seen else _kind(cmdline, parent_cmdline)
-            seen[key] = (kind, cpu)
+            fresh = cmdline or key not in seen
+            seen[key] = (_kind(cmdline, parent_cmdline) if fresh else seen[key][0], cpu)
 
 
 def _summary(timeline: list[dict[str, Any]], t0: float) -> dict[str, Any]:
@@ -174,11 +192,13 @@ def main() -> None:
     before, started, t0 = os.times(), time.monotonic(), time.time()
     with open(args.out / "pytest.txt", "w", encoding="utf-8") as log:
         run = subprocess.Popen(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
-        seen: dict[tuple[int, str], tuple[str, float]] = {}
+        seen: dict[tuple[int, int], tuple[str, float]] = {}
+        busy_before = _machine_busy_s()
         while run.poll() is None:
             _sample(run.pid, seen)
             time.sleep(1.0)
     wall, after = time.monotonic() - started, os.times()
+    machine_cpu = _machine_busy_s() - busy_before
     cpu = (after.children_user - before.children_user) + (
         after.children_system - before.children_system
     )
@@ -193,6 +213,8 @@ def main() -> None:
         "command": " ".join(command[1:]),
         "wall_s": round(wall, 1),
         "cpu_s": round(cpu, 1),
+        "machine_cpu_s": round(machine_cpu, 1),
+        "processes_cpu_s": round(sum(s for _, s in seen.values()), 1),
         "outcome": re.sub(r"=+", "", text[-1]).strip() if text else "",
         "failed": [line for line in text if line.startswith(("FAILED", "ERROR"))],
         "cpu_by_kind": {k: round(v, 1) for k, v in sorted(by_kind.items(), key=lambda kv: -kv[1])},
