@@ -7,7 +7,7 @@ import { initLivePlot } from "./live.js";
 import { showPage } from "./pages.js";
 import { refreshRig } from "./rig.js";
 import { state } from "./state.js";
-import { stream } from "./stream.js";
+import { reconnectStream, stream } from "./stream.js";
 // the pages: each registers its loaders, listeners and controls when imported
 import "./analysis.js";
 import "./campaign.js";
@@ -36,6 +36,7 @@ $("#token-form").addEventListener("submit", async (ev) => {
   try {
     await api("GET", "/api/rig");
     $("#token-dialog").hidden = true;
+    reconnectStream();
     refreshAll();
   } catch (err) {
     askToken(err.message);
@@ -48,6 +49,7 @@ window.addEventListener("hashchange", () => {
     initToken();
     $("#token-dialog").hidden = true;
     $("#token-error").textContent = "";
+    reconnectStream();
     return refreshAll();
   }
   showPage();
