@@ -39,7 +39,9 @@ $("#token-form").addEventListener("submit", async (ev) => {
     reconnectStream();
     refreshAll();
   } catch (err) {
-    askToken(err.message);
+    // a 401 has been said already (api.js tokenRefused: "The token was refused: …"); its bare
+    // detail here replaced that until the next poll refused the token again, 2-3 s later
+    askToken(err.status === 401 && state.token ? "" : err.message);
   }
 });
 
