@@ -188,7 +188,9 @@ def client(service: RigService, tmp_path_factory) -> Iterator[TestClient]:
         max_upload_bytes=64 * 1024,
         report_root=tmp_path_factory.mktemp("reports"),
     )
-    with TestClient(app) as c:
+    # the module's page server (``page_server``) stops before the service does
+    with TestClient(app) as c, contextlib.ExitStack() as page_servers:
+        app.state.page_servers = page_servers
         yield c
 
 
@@ -328,13 +330,33 @@ def chromium() -> Iterator[Chromium]:
 
 @contextlib.contextmanager
 def signed_in_page(chromium: Chromium, service: RigService, client: TestClient) -> Iterator[Any]:
-    """``client``'s rig service and jobs behind a real uvicorn server, and a page of the
-    session's ``chromium`` on it, signed in with the test token."""
-    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
-    with LiveServer(app) as live, chromium.page() as page:
-        page.goto(f"{live.url}/#token={TOKEN}")
-        yield page
-        assert csp_blocked(page) == []  # the page's Content-Security-Policy blocked nothing
+    """``client``'s rig service and jobs behind a real uvicorn server (``page_server``), and
+    a page of the session's ``chromium`` on it (a fresh browser context), signed in with the
+    test token."""
+    with contextlib.ExitStack() as own:
+        live = page_server(service, client, own)
+        with chromium.page() as page:
+            page.goto(f"{live.url}/#token={TOKEN}")
+            yield page
+            assert csp_blocked(page) == []  # the page's Content-Security-Policy blocked nothing
+
+
+def page_server(service: RigService, client: TestClient, own: contextlib.ExitStack) -> LiveServer:
+    """The real uvicorn server of ``client``'s rig service and jobs that pages open: one per
+    module (the ``client`` fixture's, stopped with it), or for a client a test made itself one
+    entered on ``own``. A server and app per page cost each test about half a second of the
+    worker's CPU: the app's first request builds every route's models (FastAPI does that
+    lazily, per app), and uvicorn's start and stop."""
+    state = client.app.state
+    live: LiveServer | None = getattr(state, "page_server", None)
+    if live is not None:
+        return live
+    app = create_app(service, token=TOKEN, manage_service=False, runner=state.runner)
+    shared: contextlib.ExitStack | None = getattr(state, "page_servers", None)
+    live = (shared or own).enter_context(LiveServer(app))
+    if shared is not None:
+        state.page_server = live
+    return live
 
 
 #: Records what the page's Content-Security-Policy blocks (``csp_blocked``).

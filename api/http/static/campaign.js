@@ -12,7 +12,13 @@ import { loadKinds } from "./start_forms.js";
 import { FINAL, state } from "./state.js";
 import { onJob } from "./stream.js";
 
-const campaignView = { job: null };
+// `streamed`: each campaign's newest document from the stream. An HTTP answer about a campaign
+// (its start, its stop, the list) can be read after a newer stream event about it (the page
+// showed the first test's instructions, then the start's answer, parsed later, wiped them
+// for the whole run); the stream's document is drawn instead, and the stream always brings
+// the last one.
+const campaignView = { job: null, streamed: {} };
+const newest = (job) => (job && campaignView.streamed[job.id]) || job;
 // each coefficient by the name the result, the trail's "why" and the Estimation page give it
 function sigmaText(status) {
   const pct = (status && status.expanded_percent) || {};
@@ -67,7 +73,7 @@ async function campaignCall(method, path, body) {
   $("#campaign-error").textContent = "";
   try {
     const job = await api(method, path, body);
-    showCampaign(job);
+    showCampaign(newest(job));
     return true;
   } catch (err) {
     $("#campaign-error").textContent = err.message;
@@ -88,6 +94,7 @@ $("#campaign-form").addEventListener("submit", (ev) => {
 });
 
 function onCampaignJobEvent(job) {
+  campaignView.streamed[job.id] = job;
   if (!campaignView.job || campaignView.job.id === job.id || !FINAL.includes(job.state)) showCampaign(job);
 }
 
@@ -105,7 +112,7 @@ async function loadCampaign() {
   try {
     renderCampaignAxes(await loadKinds()); // start_forms.js
     const all = await api("GET", "/api/campaigns");
-    if (!campaignView.job || !all.some((j) => j.id === campaignView.job.id)) showCampaign(all[0] || null);
+    if (!campaignView.job || !all.some((j) => j.id === campaignView.job.id)) showCampaign(newest(all[0] || null));
   } catch (err) {
     $("#campaign-error").textContent = err.message;
   }

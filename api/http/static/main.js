@@ -7,7 +7,7 @@ import { initLivePlot } from "./live.js";
 import { showPage } from "./pages.js";
 import { refreshRig } from "./rig.js";
 import { state } from "./state.js";
-import { stream } from "./stream.js";
+import { reconnectStream, stream } from "./stream.js";
 // the pages: each registers its loaders, listeners and controls when imported
 import "./analysis.js";
 import "./campaign.js";
@@ -36,9 +36,12 @@ $("#token-form").addEventListener("submit", async (ev) => {
   try {
     await api("GET", "/api/rig");
     $("#token-dialog").hidden = true;
+    reconnectStream();
     refreshAll();
   } catch (err) {
-    askToken(err.message);
+    // a 401 has been said already (api.js tokenRefused: "The token was refused: …"); its bare
+    // detail here replaced that until the next poll refused the token again, 2-3 s later
+    askToken(err.status === 401 && state.token ? "" : err.message);
   }
 });
 
@@ -48,6 +51,7 @@ window.addEventListener("hashchange", () => {
     initToken();
     $("#token-dialog").hidden = true;
     $("#token-error").textContent = "";
+    reconnectStream();
     return refreshAll();
   }
   showPage();
