@@ -30,8 +30,9 @@ from estimation.stats.misfit import effective_sample_size, structured
 
 PERIODIC_SHARE = 0.3  # a sinusoid explaining this share of the residual is called periodic
 N_FREQUENCIES = 300
-#: Frequencies per block of the sinusoid fit (``_sinusoid_fit``).
-SINUSOID_BLOCK = 32
+#: Frequencies per block of the sinusoid fit (``_sinusoid_fit``), at least; more while a
+#: block has fewer than ``SINUSOID_CELLS`` (frequency, sample) cells.
+SINUSOID_BLOCK, SINUSOID_CELLS = 32, 16384
 
 
 @dataclass(frozen=True)
@@ -244,8 +245,9 @@ def _sinusoid_fit(u: np.ndarray, f: np.ndarray, omegas: np.ndarray) -> np.ndarra
     samples 2.7 → 2.1 ms). Each ω's numbers are its own row's, as on the whole grid; only
     the BLAS products s·f, c·f may round differently in the last bit on long records."""
     explained = np.empty(omegas.size)
-    for k in range(0, omegas.size, SINUSOID_BLOCK):
-        explained[k : k + SINUSOID_BLOCK] = _sinusoid_block(u, f, omegas[k : k + SINUSOID_BLOCK])
+    rows = max(SINUSOID_BLOCK, SINUSOID_CELLS // max(u.size, 1))  # a short record: one block
+    for k in range(0, omegas.size, rows):
+        explained[k : k + rows] = _sinusoid_block(u, f, omegas[k : k + rows])
     return explained
 
 
