@@ -27,6 +27,7 @@ from estimation.axis.output_error import fit_output_error
 from estimation.axis.prepared_run import PreparedRun, prepare
 from estimation.data.run_arrays import RunData
 from estimation.motion.output_error_fit import MotionFit
+from estimation.stats.quantization import encoder_step
 
 
 @dataclass(frozen=True)
@@ -91,13 +92,14 @@ def drive_uncertainty(
     if not drawn:
         return DriveUncertainty(0, std_fit, dict.fromkeys(fit.names, 0.0), timing)
     count = min(d.shape[0] for d in drawn)
+    steps = [encoder_step(np.asarray(r.position)) for r in runs]  # a draw moves no position
     values = []
     for k in range(count):
         alternative = [
             r if r.drive_draws is None else replace(r, drive=r.drive_draws[k], drive_draws=None)
             for r in runs
         ]
-        values.append(refit([prepare(r) for r in alternative], fit))
+        values.append(refit([prepare(r, q) for r, q in zip(alternative, steps, strict=True)], fit))
     spread = np.std(np.array(values), axis=0, ddof=1)
     return DriveUncertainty(
         count, std_fit, {n: float(s) for n, s in zip(fit.names, spread, strict=True)}, timing

@@ -38,8 +38,10 @@ class PreparedRun:
     dof: str = "surge"  # the DOF it moved along, as imported (a spin: yaw)
 
 
-def prepare(run: RunData) -> PreparedRun:
-    """Cut a run to its usable window and precompute what the simulators need."""
+def prepare(run: RunData, step: float | None = None) -> PreparedRun:
+    """Cut a run to its usable window and precompute what the simulators need. ``step``:
+    the encoder step of ``run.position`` when the caller has it (a re-fit of the same
+    positions with another drive or rig constant: ``encoder_step`` is the costliest part)."""
     keep = run.window() & (np.asarray(run.t) > run.t_release - BASELINE_KEPT_S)
     t = np.asarray(run.t, dtype=float)[keep]
     drive = run.drive_at_samples()[keep]
@@ -63,7 +65,7 @@ def prepare(run: RunData) -> PreparedRun:
         ),
         t_release_std=float(run.t_release_std),
         drive_at_release=_held_at(run, run.t_release),
-        encoder_step=encoder_step(np.asarray(run.position)),
+        encoder_step=encoder_step(np.asarray(run.position)) if step is None else step,
         dof=run.dof_name,
     )
 

@@ -30,6 +30,9 @@ from estimation.stats.misfit import effective_sample_size, structured
 
 PERIODIC_SHARE = 0.3  # a sinusoid explaining this share of the residual is called periodic
 N_FREQUENCIES = 300
+#: Frequencies per block of the sinusoid fit (``_sinusoid_fit``), at least; more while a
+#: block has fewer than ``SINUSOID_CELLS`` (frequency, sample) cells.
+SINUSOID_BLOCK, SINUSOID_CELLS = 32, 16384
 
 
 @dataclass(frozen=True)
@@ -236,7 +239,19 @@ def _dominant_period(
 
 
 def _sinusoid_fit(u: np.ndarray, f: np.ndarray, omegas: np.ndarray) -> np.ndarray:
-    """Variance of ``f`` (centred) explained by a·sin(ωu) + b·cos(ωu) + c, for each ω."""
+    """Variance of ``f`` (centred) explained by a·sin(ωu) + b·cos(ωu) + c, for each ω; in
+    blocks of ``SINUSOID_BLOCK`` frequencies, so the sines, cosines and their products stay
+    in the cache (the whole (ω, u) grid does not: 300 ω × 3000 samples 72 → 25 ms, × 200
+    samples 2.7 → 2.1 ms). Each ω's numbers are its own row's, as on the whole grid; only
+    the BLAS products s·f, c·f may round differently in the last bit on long records."""
+    explained = np.empty(omegas.size)
+    rows = max(SINUSOID_BLOCK, SINUSOID_CELLS // max(u.size, 1))  # a short record: one block
+    for k in range(0, omegas.size, rows):
+        explained[k : k + rows] = _sinusoid_block(u, f, omegas[k : k + rows])
+    return explained
+
+
+def _sinusoid_block(u: np.ndarray, f: np.ndarray, omegas: np.ndarray) -> np.ndarray:
     phase = np.outer(omegas, u)
     s, c = np.sin(phase), np.cos(phase)
     s -= s.mean(axis=1, keepdims=True)

@@ -70,10 +70,12 @@ def terminal_speed(fit: FitStatistics, drive: float, dof: str) -> Combination | 
     if not any(t.v_power and values[i] > 0 for i, t in used):
         return None
     way = float(np.sign(drive))
+    # what every evaluation reads, looked up once (the root search evaluates ~20 times)
+    zero, forces = np.zeros(1), [(values[i], t.phi) for i, t in used]
 
     def balance(u: float) -> float:  # drive + Σ θ φ along the drive's direction
         v = np.array([way * u])
-        return way * (drive + sum(values[i] * float(t.phi(np.zeros(1), v)[0]) for i, t in used))
+        return way * (drive + sum(c * float(phi(zero, v)[0]) for c, phi in forces))
 
     tiny = 1e-12
     if balance(tiny) <= 0:

@@ -118,6 +118,9 @@ class TowRefits:
         # the drives and reached speeds the combinations are stated at: one for every re-fit
         self.conditions = combination_conditions(fit, self.runs)
         self._weights = weight_groups(self.runs)
+        # the runs as fitted, prepared once: a re-fit reuses a run its source leaves as it
+        # is, and the encoder step of positions it leaves as they are
+        self._prepared = [prepare(r) for r in self.runs]
 
     def inputs(
         self, tolerances: Mapping[str, float]
@@ -144,7 +147,8 @@ class TowRefits:
         self, declared: DeclaredInput, delta: float, part: int
     ) -> tuple[MotionFit, tuple[Combination, ...]]:
         only = self._weights[part] if SOURCES[declared.name].per_weight else []
-        moved = [prepare(r) for r in perturbed(self.runs, self.chain, declared.name, delta, only)]
+        changed = perturbed(self.runs, self.chain, declared.name, delta, only)
+        moved = [self._prepare(i, r) for i, r in enumerate(changed)]
         fit = self.refit(moved, self.fit)
         return fit, self.combinations(fit)
 
@@ -152,9 +156,16 @@ class TowRefits:
         return well_determined(fit, *self.conditions, self.runs[0].axis)
 
     def campaign(self, run_ids: Sequence[str]) -> MotionFit:
-        index = {r.run_id: r for r in self.runs}
-        prepared = [prepare(index[i]) for i in run_ids if i in index]
+        index = {r.run_id: p for r, p in zip(self.runs, self._prepared, strict=True)}
+        prepared = [index[i] for i in run_ids if i in index]
         return self.refit(prepared, self.fit)
+
+    def _prepare(self, i: int, run: RunData) -> PreparedRun:
+        """Run ``i`` as a re-fit moved it, prepared (the nominal one when it is unmoved)."""
+        nominal, prepared = self.runs[i], self._prepared[i]
+        if run is nominal:
+            return prepared
+        return prepare(run, prepared.encoder_step if run.position is nominal.position else None)
 
     def own_rows(self, name: str, unit: str) -> list[BudgetRow]:
         """The release-timing refit's and the thrust calibration draws' rows
