@@ -7,13 +7,16 @@ logged, never raised.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import socket
 import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import serial
+from serial.urlhandler import protocol_socket
 
 from thrusters import protocol as p
 
@@ -43,8 +46,30 @@ class LinkStats:
     reconnects: int = 0
 
 
+class _SocketPort(protocol_socket.Serial):
+    """pyserial's ``socket://`` port without the 0.3 s sleep its ``close`` takes "in case of
+    quick reconnects": this link reconnects at most once per frame and the controller's
+    server accepts at once, so the sleep only held up every close of the simulated rig's
+    thruster line (each ``rig serve`` stop, each ``rig tow``, each service a test stops)
+    and each drop of the line after an I/O error."""
+
+    def close(self) -> None:
+        sock: socket.socket | None = getattr(self, "_socket", None)  # pyserial is untyped
+        if sock is not None:
+            with contextlib.suppress(OSError):
+                sock.shutdown(socket.SHUT_RDWR)
+            sock.close()
+        self._socket = None
+        self.is_open = False
+
+
 def open_serial_port(url: str, baudrate: int) -> serial.SerialBase:
     """A pyserial port for a device path or URL, reading in slices of ``READ_SLICE_S``."""
+    if url.startswith("socket://"):
+        port = _SocketPort(None, baudrate=baudrate, timeout=READ_SLICE_S, write_timeout=0.5)
+        port.port = url  # as serial_for_url does
+        port.open()
+        return port
     return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE_S, write_timeout=0.5)
 
 

@@ -38,7 +38,8 @@ if TYPE_CHECKING:
     from api.core.jobs import JobRunner
 
 log = logging.getLogger(__name__)
-#: How often the campaign looks at the job it queued (s); it also wakes when stopped.
+#: How often a campaign whose job is queued looks whether it was stopped meanwhile (s); the
+#: job's end wakes it at once.
 POLL_S = 0.2
 
 
@@ -231,7 +232,10 @@ class CampaignRunner:
     def _wait(self, item: Job, stop: threading.Event) -> Job | None:
         """``item`` once it ended; None when the campaign is stopped while it is queued."""
         while item.state not in JOB_FINAL:
-            if stop.wait(POLL_S) and item.position is not None:
+            # Woken as the job ends (it was polled: up to POLL_S late for each test); a stop
+            # takes a queued job out, but a running one is waited for (not spun on).
+            item.ended.wait(POLL_S)
+            if stop.is_set() and item.position is not None:
                 return None
         return item
 

@@ -11,7 +11,7 @@ from typing import Any
 from daq.procedures.recording import AbortSignal
 from daq.procedures.sequence import SequenceControl
 from daq.store.run_records import to_datetime
-from daq.store.schema import JobState
+from daq.store.schema import JOB_FINAL, JobState
 
 
 class JobNotFound(KeyError):
@@ -86,6 +86,12 @@ class Job:
     control: SequenceControl | None = None
     confirm: asyncio.Event | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
+    #: Set as the job reaches a final state (``JobRegistry.update``): what a thread waits on.
+    ended: threading.Event = field(default_factory=threading.Event)
+
+    def __post_init__(self) -> None:
+        if self.state in JOB_FINAL:  # read back ended
+            self.ended.set()
 
     def to_json(self) -> dict[str, Any]:
         with self.lock:

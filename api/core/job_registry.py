@@ -116,6 +116,8 @@ class JobRegistry:
             for name, value in changes.items():
                 setattr(job, name, value)
             event = (job.state, job.message) != before
+            if job.state in JOB_FINAL:
+                job.ended.set()
         self.publish(job)
         due = time.monotonic() - self._saved_at.get(job.id, 0.0) >= SAVE_EVERY_S
         if event or due or set(changes) - {"fraction", "message"}:

@@ -5,10 +5,12 @@ from __future__ import annotations
 import asyncio
 import itertools
 import signal
+import socket
 import sys
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from thruster_helpers import FakeClock, limits, thruster_port
@@ -300,3 +302,30 @@ async def test_watchdog_trip_seen_in_the_reply_is_a_fault(served) -> None:
         fault = await asyncio.wait_for(drv.wait_fault(), 1)
         assert fault.kind == "watchdog" and "watchdog tripped" in fault.reason
         assert drv.state == "WDT" and emu.outputs == [0.0, 0.0]
+
+
+def test_closing_a_socket_line_hangs_up_without_pyserial_s_sleep(monkeypatch) -> None:
+    """pyserial's ``socket://`` port sleeps 0.3 s in ``close`` ("quick reconnects"): every
+    close of the simulated rig's thruster line paid it. The link's own port hangs up (the
+    controller's end reads EOF) and sleeps nowhere."""
+    from serial.urlhandler import protocol_socket
+
+    from thrusters.link import open_serial_port
+
+    slept: list[float] = []
+    monkeypatch.setattr(protocol_socket, "time", SimpleNamespace(sleep=slept.append))
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        host, port_number = server.getsockname()
+        port = open_serial_port(f"socket://{host}:{port_number}", 115200)
+        peer, _ = server.accept()
+        with peer:
+            peer.settimeout(30)  # a port that never hangs up fails here, not at the test's timeout
+            port.write(b"$X\n")
+            port.close()
+            assert not port.is_open
+            received = b""
+            while chunk := peer.recv(64):  # ends at the hang-up
+                received += chunk
+    assert received == b"$X\n"
+    assert slept == []
+    port.close()  # closing twice is harmless, as pyserial's
