@@ -109,7 +109,6 @@ def one_case() -> dict[str, Any]:
     }
 
 
-#: The packages a case imports (byte-compiled first).
 def _run(src: Path) -> dict[str, Any]:
     """One case in a fresh process on the checkout ``src``."""
     done = subprocess.run(
