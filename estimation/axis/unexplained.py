@@ -8,13 +8,17 @@ which a short record can reach) — something outside the effect library acts on
 It is characterised, not fitted: its correlation with position, velocity, time since release
 and acceleration, and the dominant period of a sinusoid in position or in time (the share of
 the force residual it explains, from a least-squares periodogram, per run with its own
-amplitude and phase).
+amplitude and phase). The period scan is the costliest part (~300 sinusoids per run and
+domain) and only a report reads it (the result's document, a warning's words): it runs when
+``Unexplained.period`` is first read, on the moving samples copied at the verdict, so it gives
+the numbers it gave when it ran inside ``characterise`` (a flagged residual's ``strongest``
+reads it there).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -45,6 +49,22 @@ class Period:
     share: float  # fraction of the force residual's variance it explains
 
 
+class PeriodScan:
+    """The strongest sinusoid of a force residual (``_dominant_period``), scanned when first
+    asked for and kept: per domain, each run's moving coordinates and forces (copies)."""
+
+    def __init__(self, parts: dict[str, list[tuple[np.ndarray, np.ndarray]]], axis: str) -> None:
+        self._parts, self._axis = parts, axis
+        self._done = False
+        self._period: Period | None = None
+
+    def period(self) -> Period | None:
+        if not self._done:  # two threads may both scan: the same numbers
+            self._period = _dominant_period(self._parts, self._axis)
+            self._done = True
+        return self._period
+
+
 @dataclass(frozen=True)
 class Unexplained:
     """How much structure is left after the search, and what it looks like."""
@@ -54,8 +74,13 @@ class Unexplained:
     force_rms: float  # N or N·m
     noise_floor: float  # N or N·m
     correlations: dict[str, float]  # Pearson r with position, velocity, time, acceleration
-    period: Period | None
+    scan: PeriodScan = field(repr=False, compare=False)  # ``period``, when first read
     strongest: str | None  # "position", "velocity", "time", "acceleration", or None
+
+    @property
+    def period(self) -> Period | None:
+        """The strongest sinusoid in the force residual (None: none but a trend)."""
+        return self.scan.period()
 
     @property
     def ratio(self) -> float:
@@ -171,13 +196,20 @@ def characterise(fit: MotionFit, runs: Sequence[PreparedRun], axis: str) -> Unex
         for name, cols in coords.items()
     }
     along = {"position": [np.asarray(r.x) for r in runs], "time": coords["time"]}
-    period = _dominant_period(forces, along, moving, axis)
+    scan = PeriodScan(
+        {
+            domain: [(c[m], f[m]) for c, f, m in zip(along[domain], forces, moving, strict=True)]
+            for domain in ("position", "time")
+        },
+        axis,
+    )
     strongest = None
     if flagged:
         strongest = max(correlations, key=lambda k: abs(correlations[k]))
+        period = scan.period()
         if period is not None and period.share >= max(PERIODIC_SHARE, correlations[strongest] ** 2):
             strongest = period.domain
-    return Unexplained(flagged, p_value, force_rms, floor, correlations, period, strongest)
+    return Unexplained(flagged, p_value, force_rms, floor, correlations, scan, strongest)
 
 
 def _coordinates(fit: MotionFit, runs: Sequence[PreparedRun]) -> dict[str, list[np.ndarray]]:
@@ -200,21 +232,17 @@ def _pearson(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _dominant_period(
-    forces: Sequence[np.ndarray],
-    coords: dict[str, list[np.ndarray]],
-    moving: Sequence[np.ndarray],
-    axis: str,
+    moving_parts: dict[str, list[tuple[np.ndarray, np.ndarray]]], axis: str
 ) -> Period | None:
-    """The sinusoid that explains most of the force residual: in rail position (the encoder's
-    reading, so a feature of the rail lines up across runs) or in time since release. A
-    domain whose best fit is the longest period tried (2/3 of the longest run) has a trend
-    there, not a period: a drift the model's law misses (a seed method's) is not named a
-    sinusoid."""
+    """The sinusoid that explains most of the force residual (``moving_parts``: per domain,
+    each run's moving coordinates and forces): in rail position (the encoder's reading, so
+    a feature of the rail lines up across runs) or in time since release. A domain whose
+    best fit is the longest period tried (2/3 of the longest run) has a trend there, not a
+    period: a drift the model's law misses (a seed method's) is not named a sinusoid."""
     units = {"position": "m" if axis == "surge" else "rad", "time": "s"}
     best: Period | None = None
     for domain, unit in units.items():
-        parts = [(c[m], f[m]) for c, f, m in zip(coords[domain], forces, moving, strict=True)]
-        parts = [(u, f) for u, f in parts if u.size >= 10 and np.ptp(u) > 0]
+        parts = [(u, f) for u, f in moving_parts[domain] if u.size >= 10 and np.ptp(u) > 0]
         if not parts:
             continue
         step = float(np.median(np.concatenate([np.abs(np.diff(u)) for u, _ in parts])))
