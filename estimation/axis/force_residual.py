@@ -42,16 +42,31 @@ def force_residuals(fit: MotionFit, runs: Sequence[PreparedRun]) -> list[np.ndar
 
 
 def _force_of(fit: MotionFit, run: PreparedRun, res: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The linearised force of one run's position residual ``res`` (see force_residuals):
-    each term's own stiffness −θ·∂φ/∂x and damping −θ·∂φ/∂v along the model motion."""
-    d1, d2 = smoothed_derivatives(run.t, res)
+    """The linearised force of one run's position residual ``res`` (see force_residuals)."""
+    return _linear_force(_linearisation(fit, run, v), run, res)
+
+
+def _linearisation(
+    fit: MotionFit, run: PreparedRun, v: np.ndarray
+) -> tuple[np.floating, np.ndarray, np.ndarray]:
+    """What the linearised force of a residual on ``run`` multiplies r̈, ṙ and r by: the
+    total inertia, each term's own damping −θ·∂φ/∂v and stiffness −θ·∂φ/∂x along the model
+    motion ``v`` (the fit's and the run's alone: one for all the residuals of a noise floor)."""
     p = ParamView(fit.values[None, :], fit.effects)
     x = run.x - run.x[0]
     damping, stiffness = np.zeros_like(v), np.zeros_like(v)
     for c in p.forces:
         damping = damping - c.value[0, 0] * c.term.dphi_dv(x, v)
         stiffness = stiffness - c.value[0, 0] * c.term.dphi_dx(x, v)
-    return p.total_inertia(run)[0] * d2 + damping * d1 + stiffness * res
+    return p.total_inertia(run)[0], damping, stiffness
+
+
+def _linear_force(
+    linearisation: tuple[np.floating, np.ndarray, np.ndarray], run: PreparedRun, res: np.ndarray
+) -> np.ndarray:
+    inertia, damping, stiffness = linearisation
+    d1, d2 = smoothed_derivatives(run.t, res)
+    return inertia * d2 + damping * d1 + stiffness * res
 
 
 def force_noise_floor(fit: MotionFit, runs: Sequence[PreparedRun], draws: int = 4) -> float:
@@ -70,8 +85,9 @@ def _noise_floor(fit: MotionFit, runs: Sequence[PreparedRun], draws: int) -> flo
     sigma = position_noise(fit.residuals, [r.t for r in runs])
     for r, res, v in zip(runs, fit.residuals, fit.velocities, strict=True):
         moving = r.t > r.t_release
+        linearisation = _linearisation(fit, r, v)
         for _ in range(draws):
-            f = _force_of(fit, r, rng.normal(0.0, sigma, res.size), v)[moving]
+            f = _linear_force(linearisation, r, rng.normal(0.0, sigma, res.size))[moving]
             total += float(f @ f)
             count += f.size
     return float(np.sqrt(total / count)) if count else 0.0
