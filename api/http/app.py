@@ -19,7 +19,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.middleware.trustedhost import TrustedHostMiddleware
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
@@ -47,7 +47,7 @@ from api.http.routes import stream as routes_stream
 from api.http.routes import theory as routes_theory
 from api.http.routes import users as routes_users
 from api.http.security import SecurityHeaders, TokenFirst
-from api.http.static_assets import app_with_offline_docs, compress_static
+from api.http.static_assets import app_with_offline_docs, bundle, compress_static
 from daq.procedures.kind_spec import NotCapable
 from daq.procedures.params import ParameterError
 from daq.store import AmbiguousRunId, RunNotFound
@@ -280,10 +280,10 @@ def create_app(
         return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
 
     @app.get("/static/plotly.min.js", include_in_schema=False)
-    def plotly_bundle() -> FileResponse:
+    def plotly_bundle(request: Request) -> Response:
         if plotly_js is None:  # pragma: no cover
             raise StarletteHTTPException(404, "plotly is not installed")
-        return FileResponse(plotly_js, media_type="text/javascript")
+        return bundle(plotly_js, "text/javascript", request.headers.get("accept-encoding", ""))
 
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     return app

@@ -4,13 +4,14 @@ CDN), and the big static bundles go over the wire gzipped."""
 from __future__ import annotations
 
 import gzip
+import os
 
 import httpx
 import pytest
 
 from api.core.service import RigService
 from api.http.app import create_app
-from api.http.static_assets import DOCS_ASSETS_URL
+from api.http.static_assets import DOCS_ASSETS_URL, bundle
 from daq.session import RigSource
 from tests.api.conftest import TOKEN, LiveServer
 
@@ -75,6 +76,23 @@ def test_static_bundles_are_gzipped(docs_server, path):
         assert len(raw) < 0.45 * len(plain), (len(raw), len(plain))
         identity = h.get(docs_server + path, headers={"Accept-Encoding": "identity"})
         assert "content-encoding" not in identity.headers and identity.content == plain
+
+
+def test_a_bundle_is_compressed_once_per_version_of_its_file(tmp_path):
+    js = tmp_path / "bundle.js"
+    js.write_bytes(b"x = 1;\n" * 5000)
+    first = bundle(js, "text/javascript", "gzip, deflate, br")
+    again = bundle(js, "text/javascript", "gzip")
+    assert again.body is first.body  # from memory: not compressed again for each page
+    assert gzip.decompress(first.body) == js.read_bytes()
+    assert first.headers["etag"] and first.headers["last-modified"]  # still cacheable
+    js.write_bytes(b"y = 2;\n" * 5000)  # an upgrade: same size, newer file
+    stat = js.stat()
+    os.utime(js, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))
+    newer = bundle(js, "text/javascript", "gzip")
+    assert gzip.decompress(newer.body) == js.read_bytes()
+    assert newer.headers["etag"] != first.headers["etag"]
+    assert "content-encoding" not in bundle(js, "text/javascript", "identity").headers
 
 
 def test_api_responses_are_not_compressed(docs_server):
