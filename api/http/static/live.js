@@ -4,7 +4,7 @@
 // and `rate`, GET /api/kinds via start_forms.js's `servedKinds`); the user's choice is kept
 // per kind in localStorage. Fed by the stream's samples (stream.js); a started test calls
 // resetLive(); it reads the page's `state` (rig status, current job).
-import { $, $$ } from "./dom.js";
+import { $, $$, everyFrame } from "./dom.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
 import { unitRowsPlot, withPlotly } from "./plots.js";
@@ -124,7 +124,6 @@ function liveSync() {
 // ---- samples -------------------------------------------------------------------------------
 function liveSample(s) {
   live.count += 1;
-  $("#live-count").textContent = String(live.count);
   if (live.t0 === null) live.t0 = s.t_mono;
   const v = { ...s.channels };
   (s.thrusters || []).forEach((u, i) => (v[`thruster_${i + 1}`] = u));
@@ -135,9 +134,16 @@ function liveSample(s) {
   live.last = s;
   live.buffer.push({ t: s.t_mono - live.t0, v });
   if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);
+  liveTick();
+}
+
+// The count, the channel list and the job's kind once a frame (at most at the stream's 10 Hz),
+// however many samples arrived since.
+const liveTick = everyFrame(() => {
+  $("#live-count").textContent = String(live.count);
   liveSync();
   liveRequestDraw();
-}
+});
 
 // Redraw at most every LIVE_REDRAW_MS while a job runs, every LIVE_IDLE_REDRAW_MS while the
 // rig is idle (only its noise moves), and never more than half the time: a redraw costs

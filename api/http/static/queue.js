@@ -3,7 +3,7 @@
 // start, and the history of past jobs with re-queue. Live from the stream's job events
 // (onQueueJobEvent) and a poll of GET /api/queue.
 import { api } from "./api.js";
-import { $, $$ } from "./dom.js";
+import { $, $$, setHtml } from "./dom.js";
 import { fmt, localTime } from "./format.js";
 import { formBody, problemField } from "./forms.js";
 import { showJob, shownState } from "./jobs.js";
@@ -36,10 +36,11 @@ async function refreshQueue() {
 function showQueueSummary(q) {
   const next = q.jobs[0];
   const waiting = q.jobs.length ? `${q.jobs.length} waiting · next: <strong>${esc(next.label)}</strong>` : "empty";
-  $("#queue-summary").innerHTML = `
+  const written = setHtml($("#queue-summary"), `
     <p class="muted"><a href="#queue">Queue</a>: <span id="queue-summary-text">${waiting}</span></p>
     ${q.paused ? `<p class="queue-paused" id="queue-summary-paused"><strong>Queue paused:</strong> ${esc(q.reason || "")}
-      <button type="button" id="queue-summary-resume">Resume the queue</button></p>` : ""}`;
+      <button type="button" id="queue-summary-resume">Resume the queue</button></p>` : ""}`);
+  if (!written) return; // the same summary: its elements and their handler stay
   const resume = $("#queue-summary-resume");
   if (resume) resume.onclick = () => queueAction("POST", "/api/queue/resume");
 }

@@ -4,7 +4,7 @@
 // power in N, kgf or lbf; the fitted curve and its inverse map; every calibration stored; and
 // one thruster under manual control (manual_thrust.js).
 import { api } from "./api.js";
-import { $, $$, kv } from "./dom.js";
+import { $, $$, everyFrame, kv, setHtml } from "./dom.js";
 import { fmt, localTime, voltageText } from "./format.js";
 import { esc } from "./markup.js";
 import { onPage } from "./pages.js";
@@ -101,7 +101,7 @@ async function loadCalibrationList() {
 // numbers and as a plot of the last minute.
 const LIVE_POINTS = 600; // one minute at 10 Hz
 const LIVE_REDRAW_MS = 500;
-const live = { buffer: [], t0: null, timer: null };
+const live = { buffer: [], t0: null, timer: null, sample: null };
 
 function onStandSample(sample) {
   const units = (state.rig && state.rig.units) || {};
@@ -109,28 +109,30 @@ function onStandSample(sample) {
   if (live.t0 === null) live.t0 = sample.t_mono;
   live.buffer.push({ t: sample.t_mono - live.t0, rows: liveStand(sample, units, count) });
   if (live.buffer.length > LIVE_POINTS) live.buffer.splice(0, live.buffer.length - LIVE_POINTS);
+  live.sample = sample;
   if ($("#page-thrusters").hidden) return;
   if (live.timer === null) live.timer = setTimeout(drawLive, LIVE_REDRAW_MS);
+  showReadings();
+}
+
+// The newest sample's readings, once a frame (at most at the stream's 10 Hz); a table whose
+// values did not change is not rewritten.
+const showReadings = everyFrame(() => {
+  if ($("#page-thrusters").hidden || !live.sample) return;
+  const units = (state.rig && state.rig.units) || {};
   const readings = [];
-  for (const [name, value] of Object.entries(sample.channels || {})) {
+  for (const [name, value] of Object.entries(live.sample.channels || {})) {
     if (typeof value !== "number") continue;
     const label = name.replace(/_/g, " ");
     if (units[name] === "V") readings.push([label, voltageText([value])]);
     else if (units[name] === "N") readings.push([label, `${fmt(inUnit(value), 4)} ${stand.unit}`]);
   }
-  const box = $("#stand-live");
-  box.textContent = "Live: ";
-  for (const [label, text] of readings) {
-    const span = document.createElement("span");
-    span.className = "reading";
-    span.textContent = `${label} ${text}`;
-    box.append(span);
-  }
-  $("#stand-live-table").hidden = !count;
-  $("#stand-live-table tbody").innerHTML = live.buffer[live.buffer.length - 1].rows
-    .map((row) => `<tr>${liveStandCells(row).map((text) => `<td>${esc(text)}</td>`).join("")}</tr>`)
-    .join("");
-}
+  setHtml($("#stand-live"), `Live: ${readings.map(([label, text]) => `<span class="reading">${esc(label)} ${esc(text)}</span>`).join("")}`);
+  const rows = live.buffer[live.buffer.length - 1].rows;
+  $("#stand-live-table").hidden = !rows.length;
+  const cells = (row) => liveStandCells(row).map((text) => `<td>${esc(text)}</td>`).join("");
+  setHtml($("#stand-live-table tbody"), rows.map((row) => `<tr>${cells(row)}</tr>`).join(""));
+});
 
 // The last minute's RPM and power per thruster, redrawn at most every LIVE_REDRAW_MS; no
 // blank plot while no run logs the telemetry (outside a sweep or a manual run).

@@ -16,6 +16,7 @@
  */
 const MARKUP_NAMES = {
   "campaign.js": ["stopping", "pending", "rows", "sigmaText", "shown", "limited"], // badge, next test, trail, U cells
+  "dom.js": ["html"], // setHtml's markup, scanned where each caller builds it
   "crosscheck.js": ["option", "abortButton", "none"], // a stored result as an <option>, jobs.js's Abort, the empty picker
   "estimation.js": ["tags", "source", "wellDeterminedRows", "abortButton"], // run_text.js's cells, rows, jobs.js's Abort
   "forms.js": ["label", "tip", "options", "hint", "length", "listed"], // a field's escaped pieces
@@ -25,7 +26,8 @@ const MARKUP_NAMES = {
   "results.js": ["resultLink", "heads", "body", "cell"], // links, the comparison's cells
   "run_metadata.js": ["inputs"], // the metadata object's fields (forms.js's fieldHtml)
   "runs.js": ["tags", "source"], // run_text.js's cells
-  "start_forms.js": ["fields"], // a form's fields (forms.js's fieldHtml)
+  "start_forms.js": ["fields"],
+  "thrusters.js": ["cells"], // a live row's cells // a form's fields (forms.js's fieldHtml)
   // the budget's parts; the repeats table, its runs (esc'd ids) and its note
   "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows", "repeatsMarkup", "shortId", "each", "note"],
 };
@@ -234,12 +236,18 @@ function isMarkup(t) {
   return /<\/?[a-zA-Z]/.test(t.quasis.join(""));
 }
 
-/** The right-hand sides written into markup: innerHTML (+)= … ; insertAdjacentHTML(_, …). */
+/** The right-hand sides written into markup: innerHTML (+)= … ; insertAdjacentHTML(_, …);
+ * setHtml(_, …). */
 function markupSinks(s) {
   const sinks = [];
   for (const m of s.matchAll(/\.innerHTML\s*\+?=\s*/g)) {
     const start = m.index + m[0].length;
     sinks.push({ start, text: s.slice(start, skipCode(s, start, ";)")) });
+  }
+  // dom.js setHtml(element, markup): innerHTML unless unchanged
+  for (const m of s.matchAll(/\bsetHtml\(\s*(?:[^,()]|\([^()]*\))+,\s*/g)) {
+    const start = m.index + m[0].length;
+    sinks.push({ start, text: s.slice(start, skipCode(s, start, ")")) });
   }
   for (const m of s.matchAll(/\.insertAdjacentHTML\(\s*("[^"]*"|'[^']*')\s*,\s*/g)) {
     const start = m.index + m[0].length;
