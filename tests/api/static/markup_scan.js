@@ -26,8 +26,8 @@ const MARKUP_NAMES = {
   "results.js": ["resultLink", "heads", "body", "cell"], // links, the comparison's cells
   "run_metadata.js": ["inputs"], // the metadata object's fields (forms.js's fieldHtml)
   "runs.js": ["tags", "source"], // run_text.js's cells
-  "start_forms.js": ["fields"],
-  "thrusters.js": ["cells"], // a live row's cells // a form's fields (forms.js's fieldHtml)
+  "start_forms.js": ["fields"], // a form's fields (forms.js's fieldHtml)
+  "thrusters.js": ["cells"], // a live row's cells
   // the budget's parts; the repeats table, its runs (esc'd ids) and its note
   "uncertainty.js": ["notes", "summary", "tables", "details", "rep", "rows", "repeatsMarkup", "shortId", "each", "note"],
 };
