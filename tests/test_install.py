@@ -108,6 +108,8 @@ def test_installed_rig_serve_answers_with_the_token(installed, tmp_path):
         assert httpx.get(url + "api/rig", timeout=5).status_code == 401  # the token matters
         page = httpx.get(url, timeout=5)  # the browser UI's static files shipped
         assert page.status_code == 200 and "<html" in page.text.lower()
+        plots = httpx.get(url + "static/vendor/plotly-basic.min.js", timeout=5)
+        assert plots.status_code == 200 and "plotly.js" in plots.text[:200]  # vendored, shipped
         assert db.is_file()  # the migrations shipped: the schema was created
     finally:
         stop_service(proc)

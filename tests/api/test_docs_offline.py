@@ -63,8 +63,8 @@ def test_redoc_renders_with_the_network_blocked(chromium, docs_server):
 
 @pytest.mark.parametrize(
     "path",
-    ["/static/plotly.min.js", "/static/estimation.js", f"{DOCS_ASSETS_URL}/swagger-ui-bundle.js",
-     f"{DOCS_ASSETS_URL}/redoc.standalone.js"],
+    ["/static/vendor/plotly-basic.min.js", "/static/estimation.js",
+     f"{DOCS_ASSETS_URL}/swagger-ui-bundle.js", f"{DOCS_ASSETS_URL}/redoc.standalone.js"],
 )  # fmt: skip
 def test_static_bundles_are_gzipped(docs_server, path):
     with httpx.Client() as h:  # raw bytes: no transparent decoding

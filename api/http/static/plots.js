@@ -4,22 +4,22 @@
 // itself is loaded with the first plot (withPlotly), not with the page.
 
 // ---- Plotly, on first use ------------------------------------------------------------------
-// plotly.min.js (4.8 MB, from the Python package) took a headless Chromium about a second of
-// a core to compile and run on every page load: a page whose plots are never shown (the
+// plotly.js (the full 4.8 MB bundle then) took a headless Chromium about a second of a core
+// to compile and run on every page load: a page whose plots are never shown (the
 // queue, people, a run list) no longer pays it, and the page is usable before it arrives.
 let plotlyLoading = null;
 let plotlyReady = false;
 /** Calls `draw(Plotly)`: at once once Plotly is loaded, else when it is (calls keep their
- * order); the first call loads /static/plotly.min.js. A promise of what `draw` returns. */
+ * order); the first call loads /static/vendor/plotly-basic.min.js (app.py PLOTLY_JS). A promise of what `draw` returns. */
 export function withPlotly(draw) {
   if (plotlyReady) return Promise.resolve(draw(window.Plotly));
   plotlyLoading ||= new Promise((resolve, reject) => {
     const script = document.createElement("script");
-    script.src = "/static/plotly.min.js";
+    script.src = "/static/vendor/plotly-basic.min.js";
     script.onload = resolve;
     script.onerror = () => {
       plotlyLoading = null; // the next plot tries again
-      reject(new Error("plotly.min.js did not load"));
+      reject(new Error("plotly-basic.min.js did not load"));
     };
     document.head.append(script);
   }).then(() => {

@@ -20,7 +20,7 @@ test("a flat series still gets an axis; no numbers give none", () => {
 });
 
 test("every plot title is an object: the bundled Plotly draws no title given as a string", async () => {
-  // Plotly ≥ 3 (plotly.min.js served from the Python package) ignores `title: "…"` on the
+  // Plotly ≥ 3 (the vendored plotly-basic.min.js) ignores `title: "…"` on the
   // layout and on axes; the cross-check and analysis plots once lost theirs that way.
   const { readdir, readFile } = await import("node:fs/promises");
   const dir = new URL("../../../api/http/static/", import.meta.url);
