@@ -45,7 +45,7 @@ def bundle(path: Path, media_type: str, accept_encoding: str) -> Response:
     through), else the file itself. Both carry the file's ``ETag`` and ``Last-Modified``."""
     stat = path.stat()
     plain = FileResponse(path, media_type=media_type, stat_result=stat)
-    if "gzip" not in accept_encoding:  # the test GZipMiddleware makes for the other files
+    if "gzip" not in accept_encoding:  # the test GZipMiddleware applies to the other files
         return plain
     body = _gzipped(path, stat.st_mtime_ns, stat.st_size)
     validators = {k: plain.headers[k] for k in ("etag", "last-modified")}
