@@ -64,6 +64,7 @@ def _linearisation(
 def _linear_force(
     linearisation: tuple[np.floating, np.ndarray, np.ndarray], run: PreparedRun, res: np.ndarray
 ) -> np.ndarray:
+    """``_force_of`` with the run's linearisation already made (``_linearisation``)."""
     inertia, damping, stiffness = linearisation
     d1, d2 = smoothed_derivatives(run.t, res)
     return inertia * d2 + damping * d1 + stiffness * res

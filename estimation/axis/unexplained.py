@@ -17,6 +17,7 @@ reads it there).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -55,14 +56,10 @@ class PeriodScan:
 
     def __init__(self, parts: dict[str, list[tuple[np.ndarray, np.ndarray]]], axis: str) -> None:
         self._parts, self._axis = parts, axis
-        self._done = False
-        self._period: Period | None = None
 
+    @functools.cached_property
     def period(self) -> Period | None:
-        if not self._done:  # two threads may both scan: the same numbers
-            self._period = _dominant_period(self._parts, self._axis)
-            self._done = True
-        return self._period
+        return _dominant_period(self._parts, self._axis)
 
 
 @dataclass(frozen=True)
@@ -80,7 +77,7 @@ class Unexplained:
     @property
     def period(self) -> Period | None:
         """The strongest sinusoid in the force residual (None: none but a trend)."""
-        return self.scan.period()
+        return self.scan.period
 
     @property
     def ratio(self) -> float:
@@ -206,7 +203,7 @@ def characterise(fit: MotionFit, runs: Sequence[PreparedRun], axis: str) -> Unex
     strongest = None
     if flagged:
         strongest = max(correlations, key=lambda k: abs(correlations[k]))
-        period = scan.period()
+        period = scan.period
         if period is not None and period.share >= max(PERIODIC_SHARE, correlations[strongest] ** 2):
             strongest = period.domain
     return Unexplained(flagged, p_value, force_rms, floor, correlations, scan, strongest)

@@ -10,7 +10,8 @@
 let plotlyLoading = null;
 let plotlyReady = false;
 /** Calls `draw(Plotly)`: at once once Plotly is loaded, else when it is (calls keep their
- * order); the first call loads /static/vendor/plotly-basic.min.js (app.py PLOTLY_JS). A promise of what `draw` returns. */
+ * order); the first call loads /static/vendor/plotly-basic.min.js (app.py PLOTLY_JS). A
+ * promise of what `draw` returns. */
 export function withPlotly(draw) {
   if (plotlyReady) return Promise.resolve(draw(window.Plotly));
   plotlyLoading ||= new Promise((resolve, reject) => {

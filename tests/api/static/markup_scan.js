@@ -16,8 +16,8 @@
  */
 const MARKUP_NAMES = {
   "campaign.js": ["stopping", "pending", "rows", "sigmaText", "shown", "limited"], // badge, next test, trail, U cells
-  "dom.js": ["html"], // setHtml's markup, scanned where each caller builds it
   "crosscheck.js": ["option", "abortButton", "none"], // a stored result as an <option>, jobs.js's Abort, the empty picker
+  "dom.js": ["html"], // setHtml's markup, scanned where each caller builds it
   "estimation.js": ["tags", "source", "wellDeterminedRows", "abortButton"], // run_text.js's cells, rows, jobs.js's Abort
   "forms.js": ["label", "tip", "options", "hint", "length", "listed"], // a field's escaped pieces
   "guard.js": ["who"], // esc(who pressed or holds)
