@@ -25,10 +25,14 @@ subprocesses, the browser, the fault proxies) run in real time.
 from __future__ import annotations
 
 import asyncio
+import fcntl
 import os
 import shutil
 import sqlite3
+import subprocess
 import sys
+import tempfile
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -57,21 +61,22 @@ def pytest_asyncio_loop_factories(config: pytest.Config, item: pytest.Item) -> d
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_sessionstart(session: pytest.Session) -> None:
-    """The xdist controller compiles the estimator's RK4 loop into numba's cache
-    (``estimation.motion.compiled_warm_up``) before it starts the workers (xdist's own
-    ``pytest_sessionstart`` is ``trylast``). On a fresh clone the cache is empty, and every
-    worker, analysis worker and ``rig serve`` warm-up that integrates before the first
-    compile is written compiled it again: three cold workers at once took 58 s of CPU,
-    one compile then two cache loads 22 s. From a warm cache this loads in ~1 s."""
+    """The xdist controller byte-compiles the checkout, then starts compiling the estimator's
+    RK4 loop into numba's cache (``estimation.motion.compiled_warm_up``) in a process of its
+    own, before it starts the workers (xdist's own ``pytest_sessionstart`` is ``trylast``).
+    On a fresh clone the cache is empty, and every worker, analysis worker and ``rig serve``
+    warm-up that integrates before the first compile is written compiled it again: three cold
+    workers at once took 58 s of CPU, one compile then two cache loads 22 s. The compile
+    (~15 s of one core on a fresh clone; ~1 s from a warm cache) runs while the workers
+    import and collect, on the core the controller alone would leave idle; each worker waits
+    for it before its first test (``pytest_runtestloop``)."""
     config = session.config
     if hasattr(config, "workerinput"):
         return  # a worker: the controller did both before it started
     _byte_compile_the_checkout()
     if not getattr(config.option, "numprocesses", None):
         return  # one process (-n 0): it compiles numba's loop at most once anyway
-    from estimation.motion.compiled_warm_up import warm_up
-
-    warm_up()
+    config.stash[_WARM_UP] = _CompiledWarmUp.start(Path(tempfile.mkdtemp(prefix="warm-up-")))
 
 
 def _byte_compile_the_checkout() -> None:
@@ -86,6 +91,98 @@ def _byte_compile_the_checkout() -> None:
     root = Path(__file__).resolve().parents[1]
     for package in ("api", "daq", "estimation", "thrusters", "tests"):
         compileall.compile_dir(root / package, quiet=1, workers=1)
+
+
+class _CompiledWarmUp:
+    """numba's compile of the RK4 loop in a process of its own, whose end the workers wait
+    for: the process holds an exclusive ``flock`` on ``lock`` from before it starts (the
+    controller hands it the locked file) to its exit, however it ends; a worker's shared lock
+    is granted once it has ended (an event, no polling). Its output goes to ``log``."""
+
+    #: The environment variable that tells the workers the lock file's path.
+    ENV = "TOWRIG_TEST_WARM_UP_LOCK"
+    #: How long a worker waits for the compile before it goes on without it (s): then its
+    #: first integration compiles the loop itself, slower but correct.
+    WAIT_S = 600.0
+
+    def __init__(self, process: subprocess.Popen, log: Path) -> None:
+        self.process, self.log = process, log
+        self.late_workers: list[str] = []  # a worker's report of a wait it gave up
+
+    @classmethod
+    def start(cls, folder: Path) -> _CompiledWarmUp:
+        lock, log = folder / "lock", folder / "output.txt"
+        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o600)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            with open(log, "wb") as out:
+                process = subprocess.Popen(
+                    [sys.executable, "-c", _WARM_UP_CODE],
+                    stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                    pass_fds=(fd,),
+                )  # fmt: skip
+        finally:
+            os.close(fd)  # the process holds the lock now, until it exits
+        os.environ[cls.ENV] = str(lock)  # the workers, started after this, inherit it
+        return cls(process, log)
+
+    @classmethod
+    def wait(cls) -> str | None:
+        """In a worker: wait until the compile has ended; None, or why it did not wait."""
+        path = os.environ.get(cls.ENV)
+        if not path:
+            return None
+        fd = os.open(path, os.O_RDONLY)
+        granted = threading.Thread(target=fcntl.flock, args=(fd, fcntl.LOCK_SH), daemon=True)
+        granted.start()
+        granted.join(cls.WAIT_S)
+        if granted.is_alive():
+            return f"numba's warm-up still held {path} after {cls.WAIT_S:.0f} s"
+        os.close(fd)
+        return None
+
+    def outcome(self) -> str | None:
+        """In the controller, at the end: None, or how the warm-up failed; its files go."""
+        code = self.process.wait()
+        output = self.log.read_text(encoding="utf-8", errors="replace")
+        shutil.rmtree(self.log.parent, ignore_errors=True)
+        return None if code == 0 else f"numba's warm-up exited with {code}:\n{output}"
+
+
+#: The warm-up's program: compile the loop into numba's cache (or load it from there).
+_WARM_UP_CODE = "from estimation.motion.compiled_warm_up import warm_up; warm_up()"
+_WARM_UP = pytest.StashKey[_CompiledWarmUp]()
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtestloop(session: pytest.Session) -> None:
+    """A worker waits for the controller's numba warm-up (``_CompiledWarmUp``) after it has
+    collected and before its first test; a wait that gave up is reported to the controller
+    (xdist's ``workeroutput``)."""
+    config = session.config
+    if hasattr(config, "workerinput") and (late := _CompiledWarmUp.wait()):
+        config.workeroutput[_CompiledWarmUp.ENV] = late  # type: ignore[attr-defined]
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: Any, error: object) -> None:
+    """The controller keeps a worker's report of a warm-up it gave up waiting for."""
+    warm_up = node.config.stash.get(_WARM_UP, None)
+    late = getattr(node, "workeroutput", {}).get(_CompiledWarmUp.ENV)
+    if warm_up is not None and late:
+        warm_up.late_workers.append(f"{node.gateway.id}: {late}")
+
+
+def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
+    """The controller says when its numba warm-up failed or a worker gave up waiting for it
+    (the workers then compiled the loop on their first integration: slower, still correct; a
+    broken loop fails the estimator's tests themselves)."""
+    warm_up = config.stash.get(_WARM_UP, None)
+    if warm_up is None:
+        return
+    for problem in filter(None, [warm_up.outcome(), *warm_up.late_workers]):
+        terminalreporter.write_sep("=", "numba warm-up", red=True)
+        terminalreporter.write_line(problem)
 
 
 @pytest.hookimpl(wrapper=True)
