@@ -26,7 +26,6 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from api.core.jobs import JobConflict, JobNotFound, JobRunner
 from api.core.rig_guard import RigHeld
 from api.core.service import RigService, RigUnavailable
-from api.http.app_codes import declare_app_codes
 from api.http.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
 from api.http.request_errors import request_json_error, request_not_found
 from api.http.routes import analysis as routes_analysis
@@ -266,8 +265,7 @@ def create_app(
         routes_calibration,
         routes_theory,
     ):
-        declare_app_codes(module.router)
-        app.include_router(module.router)
+        app.router.routes.extend(module.router.routes)
 
     @app.get("/", include_in_schema=False)
     def index() -> FileResponse:

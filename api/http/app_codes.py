@@ -11,6 +11,9 @@ docs/api.md) says every code a route can answer (``tests/api/test_status_codes.p
 - 503: the run database is not open (``get_store``: the service not started or stopped),
   or it cannot be reached or written (``daq.store.faults.StorageUnavailable``); a route
   that reads the database without ``get_store`` declares its 503 itself.
+
+Every route module's router makes :class:`AppCodesRoute` routes, so a route is complete
+where it is declared and every app serves the same route objects (``api.http.app``).
 """
 
 from __future__ import annotations
@@ -51,11 +54,21 @@ def app_codes(route: APIRoute) -> set[int]:
     return codes
 
 
-def declare_app_codes(router: APIRouter) -> None:
-    """Add the app's codes to the ``responses`` of every route of ``router`` (before it is
-    included: the OpenAPI document is built from them). Idempotent."""
-    for route in router.routes:
-        if not isinstance(route, APIRoute):
-            continue
-        missing = sorted(c for c in app_codes(route) if c not in route.responses)
-        route.responses.update(error_responses(*missing))
+class AppCodesRoute(APIRoute):
+    """A route whose ``responses`` include the codes the app answers on its behalf
+    (:func:`app_codes`), and so its OpenAPI document. A route's response models are made as
+    it is built, and the codes follow from its dependencies, known only once it is built: a
+    route that lacks some is built again with them, once per process, where it is declared."""
+
+    def __init__(self, path: str, endpoint: Callable[..., Any], **options: Any) -> None:
+        super().__init__(path, endpoint, **options)
+        missing = sorted(c for c in app_codes(self) if c not in self.responses)
+        if missing:
+            responses = {**self.responses, **error_responses(*missing)}
+            super().__init__(path, endpoint, **(options | {"responses": responses}))
+
+
+def app_router(prefix: str, tag: str) -> APIRouter:
+    """A route module's router: ``prefix`` before its paths, ``tag`` in the OpenAPI
+    document, :class:`AppCodesRoute` routes."""
+    return APIRouter(prefix=prefix, tags=[tag], route_class=AppCodesRoute)

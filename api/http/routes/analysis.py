@@ -9,18 +9,19 @@ from __future__ import annotations
 
 from functools import partial
 
-from fastapi import APIRouter, Depends, HTTPException
+from fastapi import Depends, HTTPException
 
 from api.core import analysis as analysis_common
 from api.core import vehicle_files
 from api.core.sensitivity_request import AHPRequest, SensitivityRequest
+from api.http.app_codes import app_router
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import error_responses
 from daq.store import ResultNotFound
 from estimation.vehicle.ahp import Judgement
 from estimation.vehicle.responses import RESPONSES
 
-router = APIRouter(prefix="/api/analysis", tags=["analysis"])
+router = app_router("/api/analysis", "analysis")
 #: Right-hand-side evaluations one simulation may cost (a typical one needs a few hundred).
 MAX_EVALUATIONS = 200_000
 #: A request's analysis stops (422) past this many seconds (a typical one takes 0.3 s).

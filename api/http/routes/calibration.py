@@ -5,17 +5,18 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Request
+from fastapi import Depends, HTTPException, Query, Request
 from starlette.concurrency import run_in_threadpool
 
 from api.core.calibration_queries import CalibrationChoice, StandTableQuery, ThrustQuery
+from api.http.app_codes import app_router
 from api.http.deps import StoreDep, require_read, require_write
 from api.http.schemas import csv_upload_body, error_responses
 from api.http.uploads import upload_bytes
 from daq.calibration_catalog import calibrations, latest, voltage_for
 from daq.calibration_law import NoCalibration, import_calibration, law_of
 
-router = APIRouter(prefix="/api", tags=["calibration"])
+router = app_router("/api", "calibration")
 
 #: The stored name of a table when the query names none.
 DEFAULT_NAME = "upload.csv"

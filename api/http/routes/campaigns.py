@@ -3,15 +3,16 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends
+from fastapi import Depends
 
 from api.core.campaign import CampaignRunner
 from api.core.campaign_request import CampaignRequest
 from api.core.job_model import JobConflict
+from api.http.app_codes import app_router
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, error_responses
 
-router = APIRouter(prefix="/api/campaigns", tags=["campaigns"])
+router = app_router("/api/campaigns", "campaigns")
 
 
 @router.post(

@@ -7,14 +7,15 @@ import tempfile
 from functools import partial
 from pathlib import Path
 
-from fastapi import APIRouter, Depends
+from fastapi import Depends
 from starlette.concurrency import run_in_threadpool
 
 from api.core.crosscheck_requests import CrossCheckJobRequest, CrossCheckRequest
+from api.http.app_codes import app_router
 from api.http.deps import OperatorDep, RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import JobOut, ResultOut, error_responses
 
-router = APIRouter(prefix="/api", tags=["crosscheck"])
+router = app_router("/api", "crosscheck")
 
 
 @router.post(

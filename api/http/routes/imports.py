@@ -17,18 +17,19 @@ import tempfile
 from pathlib import Path
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Query, Request
+from fastapi import Depends, Query, Request
 
 from api.core.csv_upload import import_file
 from api.core.imports import ImportQuery, plan_import
 from api.core.run_metadata_query import RunMetadataQuery
+from api.http.app_codes import app_router
 from api.http.deps import ServiceDep, StoreDep, require_write
 from api.http.schemas import ImportOut, csv_upload_body, error_responses
 from api.http.uploads import save_upload
 from daq.procedures.params import ParameterError
 from daq.procedures.run_kinds import import_fields
 
-router = APIRouter(prefix="/api", tags=["runs"])
+router = app_router("/api", "runs")
 
 
 _IMPORT_BODY = csv_upload_body(

@@ -7,7 +7,7 @@ import inspect
 from collections.abc import Callable
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Query
+from fastapi import Depends, Query
 
 from api.core.estimation_request import EstimationRequest
 from api.core.job_filter import JobFilter
@@ -17,6 +17,7 @@ from api.core.jobs import JobRunner
 from api.core.paging import JobsPage
 from api.core.sequence_request import SequenceRequest
 from api.core.service import RigService
+from api.http.app_codes import app_router
 from api.http.deps import (
     OperatorDep,
     RunnerDep,
@@ -34,7 +35,7 @@ from daq.procedures.kind_spec import KindSpec
 from daq.procedures.run_kinds import RIG_KINDS
 from daq.store.people_and_safety_log import User
 
-router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+router = app_router("/api/jobs", "jobs")
 _START = error_responses(401, 403, 409, 422, 423, 503)
 _CONTROL = error_responses(401, 404, 409, 503)
 #: ``?queue=false``: refuse (409) instead of queueing when the rig is busy.

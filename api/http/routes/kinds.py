@@ -8,15 +8,16 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Depends
+from fastapi import Depends
 from pydantic import BaseModel, Field
 
+from api.http.app_codes import app_router
 from api.http.deps import require_read
 from api.http.schemas import error_responses
 from daq.procedures.kind_spec import KindSpec
 from daq.procedures.run_kinds import KINDS
 
-router = APIRouter(prefix="/api", tags=["rig"])
+router = app_router("/api", "rig")
 
 
 class KindImportOut(BaseModel):

@@ -12,19 +12,20 @@ from __future__ import annotations
 import asyncio
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Query, Request
+from fastapi import Depends, Query, Request
 from pydantic import BaseModel, Field
 
 from api.core.job_model import iso_time
 from api.core.paging import EventsPage
 from api.core.people import AckIn, HoldIn, ReleaseIn
 from api.core.rig_guard import RigGuard
+from api.http.app_codes import app_router
 from api.http.deps import OperatorDep, ServiceDep, require_read
 from api.http.identity import known_user
 from api.http.schemas import error_responses
 from daq.store.people_and_safety_log import User
 
-router = APIRouter(prefix="/api", tags=["people"])
+router = app_router("/api", "people")
 
 
 class GuardOut(BaseModel):

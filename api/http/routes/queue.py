@@ -6,17 +6,18 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Body, Depends
+from fastapi import Body, Depends
 from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from api.core.job_model import JobConflict
 from api.core.sequence_request import SequenceRequest
+from api.http.app_codes import app_router
 from api.http.deps import OperatorDep, RunnerDep, require_read, require_write
 from api.http.schemas import JobOut, QueueMoveRequest, QueueOut, error_responses
 from daq.procedures.run_kinds import RIG_KINDS
 
-router = APIRouter(prefix="/api/queue", tags=["queue"])
+router = app_router("/api/queue", "queue")
 _CHANGE = error_responses(401, 404, 409, 503)
 #: Job kinds whose request a queued job can have replaced.
 _EDITABLE = (*RIG_KINDS, "sequence")

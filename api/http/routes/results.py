@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, HTTPException, Query
+from fastapi import Depends, HTTPException, Query
 from fastapi.responses import Response
 
 from api.core.job_model import without_report_files
@@ -20,12 +20,13 @@ from api.core.report_archive import archive_name, report_zip
 from api.core.result_compare import compare_results, parse_ids
 from api.core.result_filter import ResultFilter
 from api.core.result_subject import subject
+from api.http.app_codes import app_router
 from api.http.deps import RunnerDep, StoreDep, require_read
 from api.http.schemas import ResultOut, error_responses, file_response
 from daq.store import ResultNotFound, Store
 from daq.store.run_records import ResultInfo
 
-router = APIRouter(prefix="/api", tags=["results"])
+router = app_router("/api", "results")
 _READ = error_responses(401, 404, 422)
 
 

@@ -5,11 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable, Coroutine
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Request
+from fastapi import Depends, Request
 
 from api.core.jobs import JobConflict, JobRunner
 from api.core.rig_guard import RigGuard
 from api.core.service import RigService
+from api.http.app_codes import app_router
 from api.http.deps import OperatorDep, RunnerDep, ServiceDep, require_read, require_write
 from api.http.identity import anyone
 from api.http.schemas import EmergencyStopOut, Health, RigStatus, error_responses
@@ -20,7 +21,7 @@ from daq.session import RigSession
 from daq.store.database import software_version
 from daq.store.people_and_safety_log import User
 
-router = APIRouter(prefix="/api", tags=["rig"])
+router = app_router("/api", "rig")
 
 
 def rig_status(service: RigService, runner: JobRunner) -> dict:

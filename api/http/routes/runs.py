@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Query
+from fastapi import Depends, Query
 from fastapi.responses import FileResponse, Response, StreamingResponse
 from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
@@ -22,6 +22,7 @@ from api.core.export_request import ExportQuery
 from api.core.paging import RunsPage, SamplesPage
 from api.core.run_cache import EndedRunCache
 from api.core.run_filter import RunFilter
+from api.http.app_codes import app_router
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import (
     EventOut,
@@ -36,7 +37,7 @@ from daq.store import Store
 from daq.store.channel_units import column_infos
 from daq.store.csv_export import csv_chunks
 
-router = APIRouter(prefix="/api", tags=["runs"])
+router = app_router("/api", "runs")
 _READ = error_responses(401, 404, 422)
 
 

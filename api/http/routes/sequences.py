@@ -5,16 +5,17 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, HTTPException, Query
+from fastapi import Depends, HTTPException, Query
 
 from api.core.pretest import PretestQuery, predict_sequence
 from api.core.sequence_files import list_sequences, sequence_files
+from api.http.app_codes import app_router
 from api.http.deps import RunnerDep, ServiceDep, StoreDep, require_read
 from api.http.schemas import SequenceFileOut, error_responses
 from daq.procedures.params import ParameterError
 from daq.store import ResultNotFound
 
-router = APIRouter(prefix="/api/sequences", tags=["jobs"])
+router = app_router("/api/sequences", "jobs")
 
 
 @router.get(

@@ -7,16 +7,17 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import partial
 
-from fastapi import APIRouter, Depends, HTTPException
+from fastapi import Depends, HTTPException
 
 from api.core import sixdof as sixdof_common
 from api.core import vehicle_files
+from api.http.app_codes import app_router
 from api.http.deps import RunnerDep, StoreDep, require_read, require_write
 from api.http.schemas import error_responses
 from daq.store import ResultNotFound, Store
 from estimation.vehicle.description import Vehicle6
 
-router = APIRouter(prefix="/api", tags=["sixdof"])
+router = app_router("/api", "sixdof")
 
 
 def vehicle_with_estimates(

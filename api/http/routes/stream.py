@@ -4,14 +4,15 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Query
+from fastapi import Depends, Query
 from fastapi.responses import StreamingResponse
 
 from api.core.stream import sse_events
+from api.http.app_codes import app_router
 from api.http.deps import ServiceDep, require_read
 from api.http.schemas import error_responses, file_response
 
-router = APIRouter(prefix="/api", tags=["stream"])
+router = app_router("/api", "stream")
 
 
 @router.get(

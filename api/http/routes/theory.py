@@ -7,15 +7,16 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Query
+from fastapi import Depends, Query
 from pydantic import Field
 
 from api.core import theory as theory_common
+from api.http.app_codes import app_router
 from api.http.deps import StoreDep, require_read
 from api.http.routes.sixdof import vehicle_with_estimates
 from api.http.schemas import error_responses
 
-router = APIRouter(prefix="/api", tags=["theory"])
+router = app_router("/api", "theory")
 
 
 @router.get("/water", dependencies=[Depends(require_read)], responses=error_responses(401, 422))

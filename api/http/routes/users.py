@@ -6,16 +6,17 @@ from __future__ import annotations
 
 from typing import Literal
 
-from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi import Depends, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field
 
+from api.http.app_codes import app_router
 from api.http.deps import Credentials, StoreDep
 from api.http.identity import DEFAULT_USER, known_user
 from api.http.schemas import error_responses
 from daq.store.people_and_safety_log import User, UserExists, UserRepository, check_user_name
 from daq.store.run_records import to_datetime
 
-router = APIRouter(prefix="/api/users", tags=["people"])
+router = app_router("/api/users", "people")
 _ADMIN = error_responses(401, 403)
 
 
