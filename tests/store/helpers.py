@@ -131,3 +131,15 @@ def no_sql(text: str | None) -> None:
     assert text is not None and "\n" not in text, text
     for word in ("INSERT INTO", "SELECT ", "UPDATE ", "[SQL", "parameters", "Background on"):
         assert word not in text, text
+
+
+def migrate_by_revisions(engine: sa.Engine) -> None:
+    """Bring an empty database to head by running Alembic's revisions one by one (what
+    ``upgrade_to_head`` does only for a database at an older revision; a new one it makes
+    at head at once)."""
+    from alembic import command
+
+    from daq.store.migrate import alembic_config
+
+    with engine.begin() as connection:
+        command.upgrade(alembic_config(connection), "head")

@@ -30,14 +30,14 @@ def open_store(url: str) -> None:
 @pytest.mark.slow  # real processes racing: the slow lane
 def test_processes_opening_one_new_database_at_once_all_open_it(tmp_path: Path) -> None:
     """A CLI and a service (or a test reading the run a `rig tow` creates) opening the same
-    new SQLite file at once: the first migrates, the others wait for its lock and find the
-    schema at head (before, some failed with "table results already exists"; the race
+    new SQLite file at once: the first makes the schema, the others wait for its lock and
+    find it at head (before, some failed with "table results already exists"; the race
     needs the opens to overlap, so five new files get four processes each). Each open is a
     process of its own, forked from a server that imported the store once
     (``forkserver``): 20 interpreters importing it took 35 s of CPU, and forks overlap
     more tightly than interpreters that start up first."""
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(["daq.store", "alembic.command", __name__])
+    context.set_forkserver_preload(["daq.store", __name__])  # a new file needs no Alembic
     with ProcessPoolExecutor(4, mp_context=context, max_tasks_per_child=1) as processes:
         for n in range(5):
             url = f"sqlite:///{tmp_path / f'rig{n}.db'}"
