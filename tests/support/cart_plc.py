@@ -157,9 +157,10 @@ def _serve() -> None:
             else:
                 raise ValueError(f"unknown command {command!r}")
     finally:
+        # the server's threads are daemons: this process's exit ends them and closes their
+        # sockets (its stop() would wait out the serving loop's 0.5 s poll first)
         stop.set()
         program.join(5)
-        server.stop()
 
 
 if __name__ == "__main__":
