@@ -31,6 +31,8 @@ MISSED_SLOT = "slot missed"
 NAN_VALUE = "NaN value"
 #: How the reason of a run aborted for a hole beyond its kind's tolerance begins.
 SAMPLES_LOST = "samples lost"
+#: Every reason a sample is lost for; :func:`loss_reason` names several in one string.
+REASONS = (*(text for _, text in FLAG_REASONS), NAN_VALUE, MISSED_SLOT)
 #: Reasons that are the host's, not the rig's: the PC was late (a slot skipped, a late host
 #: stamp). Named, counted and left out of the fit like any loss, but they do not abort a
 #: run: the devices answered and the rig is safe; a hole they leave that is too long for the
@@ -119,6 +121,9 @@ class LossTracker:
     def _lose(
         self, seq_first: int, t_first: float, seq_last: int, t_last: float, count: int, why: str
     ) -> None:
+        # each reason once, whether a sample named it alone or beside others: not "PLC read
+        # failed, PLC read failed, stale channel" for a failed read that then went stale
+        named = tuple(r for r in REASONS if r in why) or (why,)
         gap = self._open
         if gap is None:
             self._open = Gap(
@@ -127,12 +132,12 @@ class LossTracker:
                 t_first=t_first,
                 t_last=t_last,
                 count=count,
-                reasons=(why,),
+                reasons=named,
                 t_before=self.last_good,
                 at_s=t_first - (self.t0 if self.t0 is not None else t_first),
             )
             return
-        reasons = gap.reasons if why in gap.reasons else (*gap.reasons, why)
+        reasons = (*gap.reasons, *(r for r in named if r not in gap.reasons))
         self._open = replace(
             gap, seq_last=seq_last, t_last=t_last, count=gap.count + count, reasons=reasons
         )

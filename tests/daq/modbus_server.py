@@ -37,6 +37,10 @@ class MapServer:
         #: The next this-many writes answer ``slow_write_s`` late (after the client's timeout).
         self.slow_writes = 0
         self.slow_write_s = 0.2
+        #: The same for reads; ``late_replies`` counts the late replies sent.
+        self.slow_reads = 0
+        self.slow_read_s = 0.2
+        self.late_replies = 0
         #: Like a PLC scan: heartbeat +1 per 10 ms and plc_clock in ms, while True.
         self.heartbeat_running = True
         self.requests = 0
@@ -95,6 +99,10 @@ class MapServer:
         if fc in (5, 6, 15, 16) and set_values is not None and self.slow_writes:
             self.slow_writes -= 1
             await asyncio.sleep(self.slow_write_s)  # fault knob: a reply after the timeout
+        if fc in _READ_FC and self.slow_reads:
+            self.slow_reads -= 1
+            await asyncio.sleep(self.slow_read_s)  # fault knob: a reply after the timeout
+            self.late_replies += 1  # (its registers are filled below, in this same step)
         if fc in _READ_FC:
             if self.fail_reads:
                 return ExcCodes.DEVICE_FAILURE

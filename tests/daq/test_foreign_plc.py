@@ -1,9 +1,10 @@
 """A rig of two channels on a PLC that is neither the simulator nor built on pymodbus.
 
 pyModbusTCP's ``ModbusServer`` (its own Modbus TCP implementation) stands in for a lab's
-PLC: the encoder is a uint32 in two holding registers, the brake a coil, nothing else: no
-end-of-travel switch, no e-stop, no heartbeat, no thrusters. The test plays the PLC's
-program (the cart rolls while the brake is released, like a weight-driven carriage) and the
+PLC (``tests.support.cart_plc``, in a process of its own as a PLC has a CPU of its own): the
+encoder is a uint32 in two holding registers, the brake a coil, nothing else: no
+end-of-travel switch, no e-stop, no heartbeat, no thrusters. The PLC's program rolls the
+cart while the brake is released, like a weight-driven carriage; the test plays the
 operator (Enter at each prompt), and `rig tow` runs end to end against it as a user would.
 """
 
@@ -11,25 +12,25 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from pyModbusTCP.server import DataBank, ModbusServer
 
 from daq.store import Store
+from tests.support.cart_plc import (
+    CART_SPEED_M_S,
+    ENCODER_ADDRESS,
+    METRES_PER_COUNT,
+    RELEASE_COIL,
+    CartPlc,
+)
 from tests.support.cli import answer_prompts, printed_json
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
 
 ROOT = Path(__file__).resolve().parents[2]
 RIG = [sys.executable, "-m", "api.cli.main"]
-
-#: The carriage's speed once the brake lets go (m/s) and the encoder's resolution (m/count).
-CART_SPEED_M_S = 0.5
-METRES_PER_COUNT = 1e-5
 
 RIG_FILE = """
 [rig]
@@ -58,67 +59,24 @@ max_speed_m_s = 1.0
 [[channels]]
 name = "tow_position"
 kind = "holding"
-address = 10
+address = {encoder}
 type = "uint32"
 word_order = "big"
-scale = 1e-5
+scale = {scale}
 unit = "m"
 
 [[channels]]
 name = "tow_release"
 kind = "coil"
-address = 3
+address = {release}
 type = "bool"
 """
 
 
-class CartPlc:
-    """The PLC's program: while coil 3 (the brake release) is set, the encoder count in
-    holding registers 10-11 (high word first) advances at ``CART_SPEED_M_S``."""
-
-    def __init__(self) -> None:
-        self.bank = DataBank()
-        self.server = ModbusServer(host="127.0.0.1", port=0, no_block=True, data_bank=self.bank)
-        self.position_m = 0.0
-        self.released_ever = threading.Event()
-        self.braked_after_release = threading.Event()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._scan, name="cart-plc", daemon=True)
-
-    @property
-    def port(self) -> int:
-        return self.server._service.server_address[1]  # bound by start() (port 0: any free)
-
-    def start(self) -> None:
-        self._write_position(0.0)
-        self.server.start()
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._thread.join(5)
-        self.server.stop()
-
-    def reset(self) -> None:
-        """The operator pushes the carriage back to the start."""
-        self._write_position(0.0)
-
-    def _write_position(self, metres: float) -> None:
-        self.position_m = metres
-        counts = round(metres / METRES_PER_COUNT)
-        self.bank.set_holding_registers(10, [counts >> 16, counts & 0xFFFF])
-
-    def _scan(self) -> None:
-        last = time.monotonic()
-        while not self._stop.wait(0.005):
-            now = time.monotonic()
-            released = bool(self.bank.get_coils(3, 1)[0])
-            if released:
-                self.released_ever.set()
-                self._write_position(self.position_m + CART_SPEED_M_S * (now - last))
-            elif self.released_ever.is_set():
-                self.braked_after_release.set()
-            last = now
+def rig_file_text(port: int) -> str:
+    return RIG_FILE.format(
+        port=port, encoder=ENCODER_ADDRESS, release=RELEASE_COIL, scale=METRES_PER_COUNT
+    )
 
 
 @pytest.fixture
@@ -133,7 +91,7 @@ def cart_plc():
 
 def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, tmp_path):
     rig_file = tmp_path / "lab.toml"
-    rig_file.write_text(RIG_FILE.format(port=cart_plc.port), encoding="utf-8")
+    rig_file.write_text(rig_file_text(cart_plc.port), encoding="utf-8")
     db = f"sqlite:///{tmp_path / 'rig.db'}"
     tow = subprocess.Popen(
         [*RIG, "tow", "--force", "4.9", "--max-distance", "0.4", "--max-time", "10",
@@ -154,7 +112,7 @@ def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, t
     assert asked[0].startswith("Return the carriage") and asked[1].startswith("Hang 0.500 kg")
     outcome = printed_json(out)
     assert outcome["status"] == "completed"
-    assert cart_plc.braked_after_release.is_set(), "the brake was never engaged after the tow"
+    assert cart_plc.state()["braked_after_release"], "the brake was never engaged after the tow"
     with Store(db) as store:
         run = store.get_run(outcome["run_id"])
         assert list(run.channel_names) == ["tow_position", "tow_release"]
@@ -163,7 +121,7 @@ def test_rig_tow_runs_on_a_two_channel_rig_against_a_pymodbustcp_plc(cart_plc, t
         table = store.samples(run.id)
         assert len(table) == outcome["samples"] > 10
         position = table.channels["tow_position"]
-        # a poll this process's PLC answered late (a loaded host) is a NaN sample, flagged,
+        # a poll the PLC answered late (a loaded host) is a NaN sample, flagged,
         # and the run names the loss; a rehearsal beside a busy loop had one as the last
         unread = ~np.isfinite(position)
         assert all(table.quality[unread] != 0)
@@ -196,7 +154,7 @@ def test_a_thruster_port_that_cannot_be_opened_is_one_line_naming_device_and_set
 ):
     port = port.format(tmp=tmp_path)
     rig_file = tmp_path / "lab.toml"
-    text = RIG_FILE.format(port=cart_plc.port) + f'\n[thrusters]\nport = "{port}"\ncount = 2\n'
+    text = rig_file_text(cart_plc.port) + f'\n[thrusters]\nport = "{port}"\ncount = 2\n'
     rig_file.write_text(text, encoding="utf-8")
     result = subprocess.run(
         [*RIG, "tow", "--force", "4.9", "--rig", str(rig_file),

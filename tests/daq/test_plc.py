@@ -221,6 +221,28 @@ async def test_server_lost_then_back_reconnects_in_the_background(server):
         await plc.close()
 
 
+async def test_a_late_reply_costs_its_poll_not_the_link(server):
+    """A reply after ``timeout_s`` fails that poll only: the link stays up without a
+    reconnect (pymodbus drops the late reply's transaction), and the next poll reads what
+    the PLC holds then, not the late reply."""
+    # 0.2 s, not the default 0.05 s: a loaded host's hiccup must not fail the next poll too
+    plc = PlcClient(server.rig_config(timeout_s=0.2))
+    await plc.connect(timeout_s=2.0)
+    try:
+        server.set("tow_position", 0.25)
+        server.slow_reads, server.slow_read_s = 1, 0.5  # the next read's reply comes late
+        with pytest.raises(DeviceError, match="input registers 0-11"):
+            await plc.read_all()
+        await until(lambda: server.late_replies == 1, "the late reply sent", timeout_s=2)
+        server.set("tow_position", 0.75)
+        readings = await plc.read_all()
+        assert readings["tow_position"].value == pytest.approx(0.75)
+        assert all(r.quality == Quality.OK for r in readings.values())
+        assert plc.connected and plc.stats.reconnects == 0 and plc.stats.errors == 1
+    finally:
+        await plc.close()
+
+
 async def test_a_write_whose_reply_is_late_is_sent_again(server, plc):
     server.slow_writes = 1  # the first reply comes 0.2 s late (timeout_s = 0.05 s)
     await plc.write("tow_release", True)

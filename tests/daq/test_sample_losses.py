@@ -35,6 +35,17 @@ def test_consecutive_lost_samples_are_one_gap_with_its_span_count_and_reasons():
     assert first.describe() == "3 samples lost in 0.4 s at 0.5 s (PLC read failed, stale channel)"
 
 
+def test_a_sample_lost_for_several_reasons_names_each_once_in_its_gap():
+    failed, failed_stale = loss_reason(Quality.ERROR), loss_reason(Quality.ERROR | Quality.STALE)
+    assert failed_stale == "PLC read failed, stale channel"
+    (gap,) = _feed([(0, None), (1, failed), (2, failed_stale), (3, failed_stale), (4, None)]).gaps
+    assert gap.reasons == ("PLC read failed", "stale channel")
+    assert gap.describe() == "3 samples lost in 0.4 s at 0.1 s (PLC read failed, stale channel)"
+    late = loss_reason(Quality.OVERRUN | Quality.STALE)  # a reason with a comma of its own
+    (gap,) = _feed([(0, None), (1, late), (2, None)]).gaps
+    assert gap.reasons == ("stale channel", "late slot, no device clock")
+
+
 def test_skipped_slots_are_lost_samples_dated_between_their_neighbours():
     gaps = _feed([(0, None), (1, None), (4, "late slot, no device clock"), (5, None)]).gaps
     (gap,) = gaps
