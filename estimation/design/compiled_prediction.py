@@ -1,4 +1,4 @@
-"""The planner's run prediction (``information._simulate``) compiled (numba): the same
+"""The planner's run prediction (``information.numpy_run``) compiled (numba): the same
 semi-implicit Euler arithmetic, in the same order, one parameter set after another.
 
 A prediction steps 11 parameter sets (the model and its central differences) every 10 ms
@@ -8,7 +8,9 @@ the planner: ~1 s of CPU, 17 predictions of ~2,000 steps; 260 predictions of
 ``tests/estimation/design`` took 14.7 s). Compiled, they take 0.04 s, the same bits
 (``tests/estimation/design/test_compiled_prediction.py`` against the NumPy loop).
 
-numba is imported with this module, which ``information`` loads with the first prediction.
+numba is imported with this module, which ``information.compiled_run`` loads when the
+process has numba loaded already or has stepped ``information.NUMPY_STEPS`` in NumPy
+(``information.LoopChoice``: loading numba costs ~0.6 s of CPU).
 The machine code is cached beside the source (``cache=True``) and compiled by
 ``estimation.motion.compiled_warm_up`` (``rig warm-up``), as the estimator's RK4 loop is.
 """

@@ -1,37 +1,16 @@
 """The planner's compiled prediction loop (``estimation.design.compiled_prediction``) steps
-bit for bit as the NumPy loop it replaced (``_numpy_simulate`` here, the loop as it was):
-runs that reach their travel, that end at the time limit, a load the friction holds, a
-negative load, and a set that would reverse without the no-backwards rule."""
+bit for bit as its NumPy loop (``information.numpy_run``): runs that reach their travel, that
+end at the time limit, a load the friction holds, a negative load, and a set that would
+reverse without the no-backwards rule; and a process steps in NumPy only until numba is
+loaded or it has taken ``NUMPY_STEPS`` there."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from estimation.design.information import STEP_S, _simulate
-
-
-def _numpy_simulate(theta, load, extra, travel, t_end):
-    """``information._simulate`` before it was compiled (40d18ee)."""
-    s = np.sign(load)
-    m, kl, kq, fc, b = (theta[:, i] for i in range(5))
-    net_static = abs(load) - np.maximum(fc, 0.0)
-    n = int(t_end / STEP_S)
-    x = np.zeros(len(theta))
-    v = np.zeros(len(theta))
-    xs = np.empty((n, len(theta)))
-    for k in range(n):
-        a = (load - kl * v - kq * np.abs(v) * v - fc * s + b) / (m + extra)
-        a = np.where((v == 0) & (net_static <= 0), 0.0, a)
-        v = v + a * STEP_S
-        v = np.where(v * s < 0, 0.0, v)
-        x = x + v * STEP_S
-        xs[k] = x
-        if abs(x[0]) >= travel:
-            xs = xs[: k + 1]
-            break
-    t = STEP_S * np.arange(1, len(xs) + 1)
-    return xs, t, float(np.max(np.abs(np.diff(xs[:, 0])) / STEP_S, initial=0.0))
+from estimation.design import information
+from estimation.design.information import STEP_S, LoopChoice, compiled_run, numpy_run
 
 
 def _sets(theta):
@@ -58,8 +37,31 @@ def _sets(theta):
     ],
 )
 def test_the_compiled_prediction_is_the_numpy_loop_bit_for_bit(theta, load, extra, travel, t_end):
-    sets = _sets(theta)
-    xs, t, peak = _simulate(sets, load, extra, travel, t_end)
-    xs_np, t_np, peak_np = _numpy_simulate(sets, load, extra, travel, t_end)
-    assert xs.shape == xs_np.shape and xs.tobytes() == xs_np.tobytes()
-    assert t.tobytes() == t_np.tobytes() and peak == peak_np
+    sets, n = _sets(theta), int(t_end / STEP_S)
+    compiled = compiled_run(sets, load, extra, travel, n)
+    stepped = numpy_run(sets, load, extra, travel, n)
+    assert compiled.shape == stepped.shape and compiled.tobytes() == stepped.tobytes()
+
+
+def test_a_process_steps_in_numpy_until_numba_is_loaded_or_its_budget_is_spent(monkeypatch):
+    import sys
+
+    sets = _sets((143.0, 20.0, 35.0, 0.0, 0.0))
+    monkeypatch.delitem(sys.modules, "numba", raising=False)
+    used = []
+    monkeypatch.setattr(information, "numpy_run", lambda *a: used.append("numpy") or numpy_run(*a))
+    # (the compiled stand-in steps in NumPy: numba is not to be imported while it is hidden)
+    monkeypatch.setattr(
+        information, "compiled_run", lambda *a: used.append("compiled") or numpy_run(*a)
+    )
+    monkeypatch.setattr(information, "LOOP", LoopChoice())
+    monkeypatch.setattr(information, "NUMPY_STEPS", 300)
+    xs, _, _ = information._simulate(sets, 24.5, 0.0, 5.3, 2.0)  # 200 steps
+    assert used == ["numpy"] and information.LOOP.numpy_steps == len(xs) == 200
+    information._simulate(sets, 24.5, 0.0, 5.3, 2.0)  # 400 steps, over the budget
+    information._simulate(sets, 24.5, 0.0, 5.3, 2.0)
+    assert used == ["numpy", "numpy", "compiled"]
+    monkeypatch.setattr(information, "LOOP", LoopChoice())
+    monkeypatch.setitem(sys.modules, "numba", object())  # an estimate loaded it: compiled
+    information._simulate(sets, 24.5, 0.0, 5.3, 2.0)
+    assert used[-1] == "compiled"
