@@ -15,6 +15,7 @@ the run (``estimation.design.planner``).
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -53,15 +54,51 @@ def hung_inertia(env: AxisEnvelope, test: Candidate, g: float) -> float:
     return abs(test.load) * radius / g  # (|τ|/(g·r))·r², kg·m²
 
 
+#: Steps a process takes in the NumPy loop, in all, before it loads the compiled one (numba:
+#: ~0.6 s of CPU and ~110 MB resident, docs/api.md): ~25 µs a step, so at most ~0.5 s spent
+#: before a load that turns out to be needed after all; a process that has loaded numba
+#: already (an estimate that integrated) steps compiled from the first.
+NUMPY_STEPS = 20_000
+
+
+@dataclass
+class LoopChoice:
+    """Which loop steps the next prediction (``NUMPY_STEPS``): the NumPy loop while numba is
+    not loaded and the process has taken fewer than ``NUMPY_STEPS`` steps in it
+    (``numpy_steps``), else the compiled one (``compiled_prediction``, the same bits)."""
+
+    numpy_steps: int = 0
+
+    def compiled(self) -> bool:
+        return "numba" in sys.modules or self.numpy_steps >= NUMPY_STEPS
+
+
+#: The process's choice (``_simulate`` asks it before each prediction).
+LOOP = LoopChoice()
+
+
 def _simulate(
     theta: np.ndarray, load: float, extra: float, travel: float, t_end: float
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Positions (rows: parameter sets) every ``STEP_S`` until ``t_end`` or the nominal set
-    (row 0) reaches ``travel``; returns (x, t, peak rate of row 0)."""
+    (row 0) reaches ``travel``; returns (x, t, peak rate of row 0). Semi-implicit Euler, in
+    the loop ``LOOP`` chooses."""
+    n = int(t_end / STEP_S)
+    if LOOP.compiled():
+        xs = compiled_run(theta, load, extra, travel, n)
+    else:
+        xs = numpy_run(theta, load, extra, travel, n)
+        LOOP.numpy_steps += len(xs)
+    t = STEP_S * np.arange(1, len(xs) + 1)
+    return xs, t, float(np.max(np.abs(np.diff(xs[:, 0])) / STEP_S, initial=0.0))
+
+
+def numpy_run(theta: np.ndarray, load: float, extra: float, travel: float, n: int) -> np.ndarray:
+    """``n`` steps (fewer when set 0 reaches ``travel``) of every set at once, in NumPy:
+    ~15 array operations a step on arrays of one number per set."""
     s = np.sign(load)
     m, kl, kq, fc, b = (theta[:, i] for i in range(5))
     net_static = abs(load) - np.maximum(fc, 0.0)
-    n = int(t_end / STEP_S)
     x = np.zeros(len(theta))
     v = np.zeros(len(theta))
     xs = np.empty((n, len(theta)))
@@ -73,10 +110,21 @@ def _simulate(
         x = x + v * STEP_S
         xs[k] = x
         if abs(x[0]) >= travel:
-            xs = xs[: k + 1]
-            break
-    t = STEP_S * np.arange(1, len(xs) + 1)
-    return xs, t, float(np.max(np.abs(np.diff(xs[:, 0])) / STEP_S, initial=0.0))
+            return xs[: k + 1]
+    return xs
+
+
+def compiled_run(theta: np.ndarray, load: float, extra: float, travel: float, n: int) -> np.ndarray:
+    """``numpy_run`` stepped by the compiled loop (``compiled_prediction``: numba, loaded
+    here), one set after another: the same bits."""
+    from estimation.design.compiled_prediction import run_from_rest
+
+    m, kl, kq, fc, b = np.ascontiguousarray(np.asarray(theta, dtype=float).T)
+    stuck = abs(load) - np.maximum(fc, 0.0) <= 0
+    direction = float(np.sign(load))
+    return run_from_rest(
+        m, kl, kq, fc, b, stuck, float(load), direction, float(extra), STEP_S, float(travel), n
+    )
 
 
 def predict(

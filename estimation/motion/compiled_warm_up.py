@@ -7,8 +7,10 @@ machine code in its cache (``cache=True``: ``__pycache__`` beside the source, el
 ~0.5 s. :func:`warm_up` makes that first call on a problem of one state and three steps,
 through ``kernel.step_grid`` and ``kernel.hermite`` (the grid's read-off), so with exactly
 the argument types an estimate passes (numba compiles one machine-code version per type
-signature, and every estimate's signature is the same). ``rig warm-up`` runs it; ``rig
-serve`` runs it in a background process at its start.
+signature, and every estimate's signature is the same), and the test planner's compiled
+prediction loop (``estimation.design.compiled_prediction``, through
+``information.compiled_run``). ``rig warm-up`` runs it; ``rig serve`` runs it in a
+background process at its start.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import time
 
 import numpy as np
 
+from estimation.design.information import compiled_run
 from estimation.motion.kernel import hermite, step_grid
 from estimation.motion.terms import LIBRARY, TermValues
 
@@ -33,6 +36,7 @@ def warm_up() -> float:
     if grid is None:
         raise RuntimeError(f"warm-up: a term of {_TERMS} has no compiled form")
     hermite(grid[0][:, :, 0], grid[1][:, :, 0], 0.01, np.array([[0.0, 0.015]]))
+    compiled_run(np.array([[1.0, 1.0, 1.0, 0.0, 0.0]]), 1.0, 0.0, 1.0, 3)
     return time.process_time() - start
 
 

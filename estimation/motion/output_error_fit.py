@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.blas_threads import one_blas_thread
 from estimation.errors import EstimationFailed
 from estimation.motion import constant_pull, equation
 from estimation.motion.equation import (
@@ -408,6 +409,7 @@ def _solve(
     return prob, sol.x, lower, upper, typical
 
 
+@one_blas_thread
 def fit_motion(
     records: Sequence[Record],
     setup: Setup,
@@ -464,6 +466,7 @@ def fit_motion(
     )
 
 
+@one_blas_thread
 def fitted_values(
     records: Sequence[Record],
     setup: Setup,
@@ -514,6 +517,7 @@ class HeldOut:
         return float(np.sqrt(sum(self.sizes[i] * self.per_record[i] ** 2 for i in folds) / n))
 
 
+@one_blas_thread
 def leave_one_record_out(records: Sequence[Record], setup: Setup, fit: MotionFit) -> HeldOut | None:
     """Each record predicted by the shared coefficients refitted on the others (None with
     fewer than ``LORO_MIN_RUNS`` records).

@@ -37,6 +37,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from estimation.blas_threads import one_blas_thread
 from estimation.errors import EstimationFailed
 from estimation.kind_advice import advice_for
 from estimation.motion.estimation_result import EstimationResult
@@ -245,6 +246,7 @@ def coefficient_budget(name: str, value: float, rows: list[BudgetRow]) -> Coeffi
     return CoefficientBudget(name, value, shared, u_c, dof, k, expanded, shown_value, shown_u)
 
 
+@one_blas_thread
 def uncertainty_budget(
     result: EstimationResult[Any],
     refits: Refits,

@@ -6,6 +6,8 @@ equation written out here), estimated by ``estimation.motion.estimate_decay``.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -21,6 +23,20 @@ def decay_record(
     """t, x of a free decay from rest at x0 (+ a 1 s hold at x0 before the release)."""
     period = 2 * np.pi * np.sqrt(total / k)
     duration = duration or 12 * period
+    t, path = _decay_path(total, b1, b2, k, k3, x0, rate, duration)
+    x = path + offset
+    hold = np.arange(-1.0, 0.0, 1.0 / rate)
+    t_all = np.concatenate([hold + 1.0, t + 1.0])
+    x_all = np.concatenate([np.full(hold.size, x0 + offset), x])
+    rng = np.random.default_rng(seed)
+    return t_all, x_all + noise * rng.standard_normal(x_all.size)
+
+
+@cache
+def _decay_path(total, b1, b2, k, k3, x0, rate, duration):
+    """The noise-free solve_ivp path of ``decay_record`` (t from the release, x), solved once
+    per module for the physics several tests share (the noise, seed and offset differ; the
+    arrays are read-only, each caller adds to a copy)."""
 
     def rhs(_t, s):
         x, v = s
@@ -28,12 +44,9 @@ def decay_record(
 
     t = np.arange(0.0, duration, 1.0 / rate)
     sol = solve_ivp(rhs, (0, duration), [x0, 0.0], t_eval=t, rtol=1e-10, atol=1e-12)
-    x = sol.y[0] + offset
-    hold = np.arange(-1.0, 0.0, 1.0 / rate)
-    t_all = np.concatenate([hold + 1.0, t + 1.0])
-    x_all = np.concatenate([np.full(hold.size, x0 + offset), x])
-    rng = np.random.default_rng(seed)
-    return t_all, x_all + noise * rng.standard_normal(x_all.size)
+    path = sol.y[0]
+    t.flags.writeable = path.flags.writeable = False
+    return t, path
 
 
 #: Vehicle masses (kg) of the three scales; a Froude-like family: length λ = (m/143)^{1/3},
