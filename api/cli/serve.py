@@ -122,7 +122,7 @@ def serve(
         app.state.runner.close()
         bad_db = f"cannot open database {db_url or '(default)'}: {err}"
         fail(str(err) if isinstance(err, RigUnavailable) else bad_db, code=1)
-    warming = warm_up_in_background()  # the first estimate should not wait 5-9 s for a compiler
+    warming = warm_up_in_background()  # the first estimate should not wait 5-17 s for a compiler
     shown = f"[{host}]" if ":" in host else host
     where = "RIG_API_TOKEN" if _token_from_env() else f"{token_path()} (or run 'rig token')"
     click.echo(f"rig service: http://{shown}:{bound_port}/  ({source.rig.rig.name}, "

@@ -13,7 +13,7 @@ from api.cli.command_table import rig_command
 
 @rig_command()
 def warm_up() -> None:
-    """Compile the estimator's kernels now (5-9 s of CPU once per install), so the first
+    """Compile the estimator's kernels now (5-17 s of CPU once per install), so the first
     estimate does not wait for them."""
     from estimation.motion.compiled_warm_up import warm_up as compile_kernels
 

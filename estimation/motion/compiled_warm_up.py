@@ -3,7 +3,8 @@
 numba compiles ``compiled.integrate_grid`` on its first call in a process and keeps the
 machine code in its cache (``cache=True``: ``__pycache__`` beside the source, else
 ``$NUMBA_CACHE_DIR`` or the user's cache folder). On a fresh install, or after
-``compiled.py`` changed, that first call costs 5–9 s of CPU; from a warm cache it loads in
+``compiled.py`` changed, that first call costs 5–17 s of CPU (14–17 s with the planner's
+loop on a 2-core machine, ``bench/estimate_process.py``); from a warm cache it loads in
 ~0.5 s. :func:`warm_up` makes that first call on a problem of one state and three steps,
 through ``kernel.step_grid`` and ``kernel.hermite`` (the grid's read-off), so with exactly
 the argument types an estimate passes (numba compiles one machine-code version per type
