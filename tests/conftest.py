@@ -25,6 +25,7 @@ subprocesses, the browser, the fault proxies) run in real time.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import fcntl
 import os
 import shutil
@@ -261,11 +262,14 @@ def postgres_server() -> Iterator[PostgresServer]:
         server.stop()
 
 
-@pytest.fixture(params=BACKENDS)
-def db_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
-    """URL of a fresh, empty database on each backend."""
-    if request.param == "sqlite":
-        yield f"sqlite:///{tmp_path / 'rig.db'}"
+@contextlib.contextmanager
+def fresh_database(
+    backend: str, request: pytest.FixtureRequest, folder: Path, name: str = "rig.db"
+) -> Iterator[str]:
+    """URL of a fresh, empty database on ``backend``: SQLite at ``folder/name``, or a new
+    database on the session's PostgreSQL server, dropped after."""
+    if backend == "sqlite":
+        yield f"sqlite:///{folder / name}"
         return
     server: PostgresServer = request.getfixturevalue("postgres_server")
     url = server.create_database()
@@ -273,6 +277,13 @@ def db_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
         yield url
     finally:
         server.drop_database(url)
+
+
+@pytest.fixture(params=BACKENDS)
+def db_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
+    """URL of a fresh, empty database on each backend."""
+    with fresh_database(request.param, request, tmp_path) as url:
+        yield url
 
 
 @pytest.fixture(scope="session")

@@ -23,6 +23,7 @@ from daq.store.migrate import (
     upgrade_to_head,
 )
 from daq.store.schema import metadata
+from tests.conftest import fresh_database
 from tests.store.helpers import migrate_by_revisions
 from tests.support.pg import PostgresServer
 from tests.support.waiting import wait_until
@@ -31,15 +32,9 @@ from tests.support.waiting import wait_until
 @pytest.fixture
 def other_db_url(db_url: str, request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
     """A second fresh, empty database on ``db_url``'s backend."""
-    if db_url.startswith("sqlite"):
-        yield f"sqlite:///{tmp_path / 'other.db'}"
-        return
-    server: PostgresServer = request.getfixturevalue("postgres_server")
-    url = server.create_database()
-    try:
+    backend = "sqlite" if db_url.startswith("sqlite") else "postgresql"
+    with fresh_database(backend, request, tmp_path, "other.db") as url:
         yield url
-    finally:
-        server.drop_database(url)
 
 
 @pytest.fixture
