@@ -336,6 +336,6 @@ def _gone(pid: int) -> bool:
     """Exited: no such process, or a zombie its parent has not reaped yet."""
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except FileNotFoundError:
+    except (FileNotFoundError, ProcessLookupError):  # gone before the open, or reaped after it
         return True
     return state in ("Z", "X")

@@ -105,8 +105,10 @@ async def test_a_terminated_lock_connection_stops_the_tow_and_frees_the_rig(
 
             await until(thrust_on_and_released, "A's thrust on, its brake released")
             backend = a.rig_lock.pg.backend_pid
-            t_lost = time.monotonic()
             with sa.create_engine(postgres_server.admin_url).connect() as admin:
+                # the lock is lost when its connection is terminated, not while this test
+                # opens its own admin connection (a new engine and a login)
+                t_lost = time.monotonic()
                 admin.execute(sa.text("SELECT pg_terminate_backend(:p)"), {"p": backend})
             await until(
                 lambda: outputs.zero_after(t_lost) is not None and not sim.plant.tow_release,
