@@ -35,11 +35,11 @@ def trusted_samples(
     tracker = LossTracker()
     good = np.zeros(len(table), dtype=bool)
     for i in range(len(table)):
-        reason = loss_reason(
+        reasons = loss_reason(
             int(table.quality[i]), not math.isfinite(values[i]), device_clock=device_clock
         )
-        tracker.feed(int(table.seq[i]), float(table.t_mono[i]), reason)
-        good[i] = reason is None
+        tracker.feed(int(table.seq[i]), float(table.t_mono[i]), reasons)
+        good[i] = not reasons
     tracker.finish()
     return good, tuple(tracker.gaps)
 

@@ -31,7 +31,7 @@ MISSED_SLOT = "slot missed"
 NAN_VALUE = "NaN value"
 #: How the reason of a run aborted for a hole beyond its kind's tolerance begins.
 SAMPLES_LOST = "samples lost"
-#: Every reason a sample is lost for; :func:`loss_reason` names several in one string.
+#: Every reason a sample is lost for (a sample may have several: :func:`loss_reason`).
 REASONS = (*(text for _, text in FLAG_REASONS), NAN_VALUE, MISSED_SLOT)
 #: Reasons that are the host's, not the rig's: the PC was late (a slot skipped, a late host
 #: stamp). Named, counted and left out of the fit like any loss, but they do not abort a
@@ -55,18 +55,19 @@ def device_side(gap: Gap) -> bool:
     return any(reason not in HOST_SIDE for reason in gap.reasons)
 
 
-def loss_reason(quality: int, value_nan: bool = False, *, device_clock: bool = False) -> str | None:
-    """Why a sample of quality ``quality`` cannot be fitted (None: it can). ``value_nan``:
-    the channel used is NaN; ``device_clock``: the PLC's clock stamps the sample, so a late
-    host time stamp (OVERRUN) does not matter."""
-    reasons = [
+def loss_reason(
+    quality: int, value_nan: bool = False, *, device_clock: bool = False
+) -> tuple[str, ...]:
+    """Why a sample of quality ``quality`` cannot be fitted, each reason once in
+    ``REASONS``' order (empty: it can). ``value_nan``: the channel used is NaN;
+    ``device_clock``: the PLC's clock stamps the sample, so a late host time stamp
+    (OVERRUN) does not matter."""
+    reasons = tuple(
         text
         for flag, text in FLAG_REASONS
         if quality & flag and not (flag is Quality.OVERRUN and device_clock)
-    ]
-    if value_nan and not quality & Quality.ERROR:
-        reasons.append(NAN_VALUE)
-    return ", ".join(reasons) or None
+    )
+    return (*reasons, NAN_VALUE) if value_nan and not quality & Quality.ERROR else reasons
 
 
 class LossTracker:
@@ -88,20 +89,20 @@ class LossTracker:
         """The gap still going on (no good sample since it began)."""
         return self._open
 
-    def feed(self, seq: int, t: float, reason: str | None) -> Gap | None:
-        """Take sample ``seq`` at ``t`` (s), lost for ``reason`` (None: good). Returns the
-        gap it closes (a good sample after lost ones), else None."""
+    def feed(self, seq: int, t: float, reasons: tuple[str, ...]) -> Gap | None:
+        """Take sample ``seq`` at ``t`` (s), lost for ``reasons`` (``loss_reason``; empty:
+        good). Returns the gap it closes (a good sample after lost ones), else None."""
         if self.t0 is None:
             self.t0 = t
         if self._seq is not None and self._t is not None and seq > self._seq + 1:
             missed = seq - self._seq - 1
             step = (t - self._t) / (missed + 1)
             self._lose(
-                self._seq + 1, self._t + step, self._seq + missed, t - step, missed, MISSED_SLOT
+                self._seq + 1, self._t + step, self._seq + missed, t - step, missed, (MISSED_SLOT,)
             )
         self._seq, self._t = seq, t
-        if reason is not None:
-            self._lose(seq, t, seq, t, 1, reason)
+        if reasons:
+            self._lose(seq, t, seq, t, 1, reasons)
             return None
         self.last_good = t
         closed = self._open
@@ -119,11 +120,14 @@ class LossTracker:
         return closed
 
     def _lose(
-        self, seq_first: int, t_first: float, seq_last: int, t_last: float, count: int, why: str
+        self,
+        seq_first: int,
+        t_first: float,
+        seq_last: int,
+        t_last: float,
+        count: int,
+        named: tuple[str, ...],
     ) -> None:
-        # each reason once, whether a sample named it alone or beside others: not "PLC read
-        # failed, PLC read failed, stale channel" for a failed read that then went stale
-        named = tuple(r for r in REASONS if r in why) or (why,)
         gap = self._open
         if gap is None:
             self._open = Gap(
@@ -137,6 +141,8 @@ class LossTracker:
                 at_s=t_first - (self.t0 if self.t0 is not None else t_first),
             )
             return
+        # each reason once: not "PLC read failed, PLC read failed, stale channel" for a
+        # failed read that then went stale
         reasons = (*gap.reasons, *(r for r in named if r not in gap.reasons))
         self._open = replace(
             gap, seq_last=seq_last, t_last=t_last, count=gap.count + count, reasons=reasons

@@ -201,8 +201,8 @@ class RecordedRun:
         beyond the kind's tolerance aborts the run (once)."""
         value = sample.channels.get(self._position or "")
         nan = value is not None and math.isnan(value)
-        reason = loss_reason(sample.quality, nan, device_clock=self._device_clock)
-        closed = self.losses.feed(sample.seq, sample.t_mono, reason)
+        reasons = loss_reason(sample.quality, nan, device_clock=self._device_clock)
+        closed = self.losses.feed(sample.seq, sample.t_mono, reasons)
         if closed is not None:
             self._loss_event(closed)
         gap = closed or self.losses.open_gap

@@ -10,11 +10,12 @@ from daq.store.run_events import RunEvents, losses_text
 from daq.store.run_records import EventInfo
 
 
-def _feed(rows: list[tuple[int, str | None]], period: float = 0.1) -> LossTracker:
-    """Samples (seq, reason) at seq·period s from t = 10 s."""
+def _feed(rows: list[tuple[int, str | tuple[str, ...] | None]], period: float = 0.1) -> LossTracker:
+    """Samples (seq, reason or reasons; None: good) at seq·period s from t = 10 s."""
     tracker = LossTracker()
-    for seq, reason in rows:
-        tracker.feed(seq, 10.0 + seq * period, reason)
+    for seq, why in rows:
+        reasons = () if why is None else (why,) if isinstance(why, str) else why
+        tracker.feed(seq, 10.0 + seq * period, reasons)
     tracker.finish()
     return tracker
 
@@ -37,7 +38,7 @@ def test_consecutive_lost_samples_are_one_gap_with_its_span_count_and_reasons():
 
 def test_a_sample_lost_for_several_reasons_names_each_once_in_its_gap():
     failed, failed_stale = loss_reason(Quality.ERROR), loss_reason(Quality.ERROR | Quality.STALE)
-    assert failed_stale == "PLC read failed, stale channel"
+    assert failed_stale == ("PLC read failed", "stale channel")
     (gap,) = _feed([(0, None), (1, failed), (2, failed_stale), (3, failed_stale), (4, None)]).gaps
     assert gap.reasons == ("PLC read failed", "stale channel")
     assert gap.describe() == "3 samples lost in 0.4 s at 0.1 s (PLC read failed, stale channel)"
@@ -57,8 +58,8 @@ def test_skipped_slots_are_lost_samples_dated_between_their_neighbours():
 def test_a_run_that_ends_in_a_gap_keeps_it_open_ended():
     tracker = LossTracker()
     for seq in range(3):
-        tracker.feed(seq, seq * 0.1, None)
-    tracker.feed(3, 0.3, "PLC read failed")
+        tracker.feed(seq, seq * 0.1, ())
+    tracker.feed(3, 0.3, ("PLC read failed",))
     assert tracker.hole_s(0.9) == pytest.approx(0.7)  # still going: from the last good
     gap = tracker.finish()
     assert gap is not None and gap.t_after is None and gap.hole_s == pytest.approx(0.1)
@@ -78,17 +79,17 @@ def test_gaps_round_trip_through_the_run_events_in_time_order():
 @pytest.mark.parametrize(
     ("quality", "nan", "clock", "reason"),
     [
-        (Quality.OK, False, False, None),
-        (Quality.ERROR, True, False, "PLC read failed"),
-        (Quality.STALE, False, False, "stale channel"),
-        (Quality.OVERRUN, False, False, "late slot, no device clock"),
-        (Quality.OVERRUN, False, True, None),  # the PLC's clock stamps it
-        (Quality.OK, True, False, "NaN value"),
+        (Quality.OK, False, False, ()),
+        (Quality.ERROR, True, False, ("PLC read failed",)),
+        (Quality.STALE, False, False, ("stale channel",)),
+        (Quality.OVERRUN, False, False, ("late slot, no device clock",)),
+        (Quality.OVERRUN, False, True, ()),  # the PLC's clock stamps it
+        (Quality.OK, True, False, ("NaN value",)),
         (
             Quality.STALE | Quality.OVERRUN,
             False,
             False,
-            "stale channel, late slot, no device clock",
+            ("stale channel", "late slot, no device clock"),
         ),
     ],
 )
