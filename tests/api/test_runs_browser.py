@@ -17,12 +17,16 @@ pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README,
 
 
 @pytest.fixture(scope="module")
-def stocked(service, live_url) -> str:
-    """56 runs: 53 weight tows, 2 tagged pendulums, 1 imported tow; the live server's URL."""
+def stocked(service, live_url) -> tuple[str, str, str]:
+    """56 runs: 53 weight tows, 2 tagged pendulums, 1 imported tow; the live server's URL,
+    and the first and last local day the tows can have been recorded on (ISO dates: the
+    same day unless the stocking ran across midnight)."""
+    first_day = date.today().isoformat()
     with Store(service.store_url) as store:
         for i in range(53):
             run = new_run(store, parameters={"force_n": 9.8, "hung_mass_kg": 1.0 + i / 1000})
             store.finish_run(run, "completed")
+        last_day = date.today().isoformat()
         for _ in range(2):
             run = new_run(store, kind="pendulum", parameters={"start_angle_rad": 0.2},
                           metadata={"operator": "Ada", "tags": ["decay"]})  # fmt: skip
@@ -35,16 +39,17 @@ def stocked(service, live_url) -> str:
             rig_name="imported", vehicle="unknown", rig_toml="", samples=samples,
             started_at=1.7e9, stopped_at=1.7e9 + 0.4, source_file="bench_day1.csv",
         )  # fmt: skip
-    return str(live_url.base_url).rstrip("/")
+    return str(live_url.base_url).rstrip("/"), first_day, last_day
 
 
 def test_runs_page_filters_pages_and_annotates(chromium, stocked):
     from playwright.sync_api import expect
 
+    url, first_day, last_day = stocked
     with chromium.page() as page:
         errors: list[str] = []
         page.on("pageerror", lambda err: errors.append(str(err)))
-        page.goto(f"{stocked}/#token={TOKEN}")
+        page.goto(f"{url}/#token={TOKEN}")
         page.wait_for_load_state()
         assert not errors, errors
         page.click("nav a[data-page=runs]")
@@ -79,9 +84,10 @@ def test_runs_page_filters_pages_and_annotates(chromium, stocked):
         expect(rows).to_have_text(["no stored run matches these filters"])  # not a blank table
         page.fill("#runs-filter input[name=vehicle]", "")
 
-        today = date.today().isoformat()  # the browser's and this machine's day
-        page.fill("#runs-filter input[name=since]", today)
-        page.fill("#runs-filter input[name=until]", today)
+        # the days the tows were recorded on, as the browser's (this machine's) local days;
+        # not date.today(): a run that crossed midnight filtered its tows out (a rehearsal)
+        page.fill("#runs-filter input[name=since]", first_day)
+        page.fill("#runs-filter input[name=until]", last_day)
         page.select_option("#runs-filter select[name=drive]", "weight")
         page.click("#runs-filter button[type=submit]")
         expect(count).to_have_text(re.compile(r"^1–50 of (5[3-9]|[6-9]\d|\d{3,})$"))  # the tows
