@@ -135,12 +135,17 @@ class InProcessModbus:
         if not self.connected:
             raise ConnectionError("in-process PLC: not connected")
         faults = self.plc.faults
-        try:
-            exc = await asyncio.wait_for(
-                self.plc.serve(fc, start, address, count, words, values), self.timeout_s
-            )
-        except TimeoutError:
-            raise TimeoutError(f"no response within {self.timeout_s} s") from None
+        # Served in the requesting task (not a task of its own, as ``wait_for`` would make),
+        # under the client's timeout only when the PLC may wait before answering.
+        serving = self.plc.serve(fc, start, address, count, words, values)
+        if self.plc.answers_at_once:
+            exc = await serving
+        else:
+            try:
+                async with asyncio.timeout(self.timeout_s):
+                    exc = await serving
+            except TimeoutError:
+                raise TimeoutError(f"no response within {self.timeout_s} s") from None
         if faults.take_drop():
             await asyncio.sleep(self.timeout_s)
             raise TimeoutError(f"no response within {self.timeout_s} s")
