@@ -105,6 +105,16 @@ class SimTimeLoop(asyncio.SelectorEventLoop):
         due = scheduled[0].when() if scheduled else self._sim_now + timeout
         self._sim_now = max(self._sim_now, due)
 
+    def alone(self) -> bool:
+        """Whether a task that yields now (``await asyncio.sleep(0)``) would be the next to
+        run anyway: no other callback ready, no timer due, the loop not stopping. On this
+        loop time stands still while anything is ready, so such a yield changes nothing
+        (``daq.sim.inprocess`` skips it; only I/O from real sockets would be seen later)."""
+        if self._ready or self._stopping:  # type: ignore[attr-defined]
+            return False
+        scheduled = self._scheduled  # type: ignore[attr-defined]
+        return not scheduled or scheduled[0].when() > self._sim_now
+
     def run_in_executor(  # type: ignore[override]
         self, executor: Executor | None, func: Callable[..., T], *args: Any
     ) -> asyncio.Future[T]:

@@ -69,6 +69,24 @@ async def test_a_stall_moves_time_on_and_late_timers_run_in_order():
     assert order == ["a", "b"] and clock.now() == START_S + 1.0
 
 
+async def test_a_task_is_alone_only_while_nothing_else_could_run_before_it():
+    loop = asyncio.get_running_loop()
+    assert isinstance(loop, SimTimeLoop)
+    await asyncio.sleep(0)
+    loop.call_later(1.0, lambda: None)  # a timer not yet due leaves it alone
+    assert loop.alone()
+    loop.call_soon(lambda: None)
+    assert not loop.alone()  # a ready callback would run first
+    await asyncio.sleep(0)
+    assert loop.alone()
+    loop.call_at(loop.time(), lambda: None)
+    assert not loop.alone()  # a timer due now would run first
+    await asyncio.sleep(0)
+    assert not loop.alone()  # now ready: it runs after this task in this pass
+    await asyncio.sleep(0)
+    assert loop.alone()
+
+
 def test_a_paced_loop_runs_at_most_that_many_times_faster_than_the_wall_clock():
     async def two_seconds() -> float:
         started = time.monotonic()
