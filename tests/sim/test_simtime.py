@@ -99,6 +99,27 @@ def test_a_paced_loop_runs_at_most_that_many_times_faster_than_the_wall_clock():
         SimTimeLoop(pace=0)
 
 
+def test_a_loop_with_an_idle_pace_keeps_its_pace_only_while_busy():
+    busy = False
+
+    async def wall_of(seconds: float) -> float:
+        started = time.monotonic()
+        await asyncio.sleep(seconds)
+        return time.monotonic() - started
+
+    loop = SimTimeLoop(pace=100.0, idle_pace=2.0, busy=lambda: busy)
+    with asyncio.Runner(loop_factory=lambda: loop) as runner:
+        assert loop.current_pace == 2.0
+        assert runner.run(wall_of(0.6)) >= 0.3  # idle: 0.6 s at 2x
+        busy = True
+        assert loop.current_pace == 100.0
+        assert runner.run(wall_of(6.0)) >= 0.06  # busy: 6 s at 100x
+    with pytest.raises(ValueError, match="idle_pace"):
+        SimTimeLoop(pace=10.0, idle_pace=-1.0, busy=lambda: False)
+    with pytest.raises(ValueError, match="give both"):
+        SimTimeLoop(pace=10.0, idle_pace=1.0)
+
+
 async def _tow(tmp_path, name: str) -> tuple[np.ndarray, np.ndarray, float]:
     """A 30 s tow on a fresh in-process rig; its sample times, positions and the wall time
     it took."""
