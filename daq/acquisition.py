@@ -279,9 +279,13 @@ class Acquisition:
         channels: dict[str, float] = {}
         stale: list[str] = []
         for name, r in readings.items():
-            quality |= r.quality
-            channels[name] = math.nan if r.quality & Quality.ERROR else r.value
-            if r.quality & Quality.STALE:
+            flags = r.quality
+            if not flags:  # OK: no flag arithmetic (each IntFlag operation makes a member)
+                channels[name] = r.value
+                continue
+            quality |= flags
+            channels[name] = math.nan if flags & Quality.ERROR else r.value
+            if flags & Quality.STALE:
                 stale.append(name)
         if quality & Quality.ERROR:
             self.stats.failed_polls += 1

@@ -12,6 +12,10 @@ import struct
 from daq.config import Channel
 
 _STRUCT = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i", "float32": "f"}
+#: The value's big-endian bytes, and the same bytes as 16-bit words (precompiled: a poll
+#: encodes and decodes every channel).
+_VALUE = {name: struct.Struct(">" + fmt) for name, fmt in _STRUCT.items()}
+_WORDS = {size: struct.Struct(">" + "H" * (size // 2)) for size in (2, 4)}
 _RANGE = {
     "uint16": (0, 0xFFFF),
     "int16": (-0x8000, 0x7FFF),
@@ -22,14 +26,13 @@ _RANGE = {
 
 def raw_to_words(channel: Channel, raw: int | float) -> list[int]:
     """Pack a raw (unscaled) value into the channel's register words."""
-    fmt = _STRUCT[channel.type]
     if channel.type != "float32":
         lo, hi = _RANGE[channel.type]
         raw = int(raw)
         # A wrapping counter wraps; any other value saturates at the type's range.
         raw = (raw - lo) % (hi - lo + 1) + lo if channel.wraps else min(max(raw, lo), hi)
-    data = struct.pack(">" + fmt, raw)
-    words = [int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2)]
+    value = _VALUE[channel.type]
+    words = list(_WORDS[value.size].unpack(value.pack(raw)))
     if channel.word_order == "little":
         words.reverse()
     return words
@@ -39,9 +42,9 @@ def words_to_raw(channel: Channel, words: list[int]) -> int | float:
     """Unpack the channel's register words into its raw value."""
     if len(words) != channel.width:
         raise ValueError(f"channel {channel.name!r} needs {channel.width} words, got {len(words)}")
-    ordered = list(reversed(words)) if channel.word_order == "little" else list(words)
-    data = b"".join(w.to_bytes(2, "big") for w in ordered)
-    return struct.unpack(">" + _STRUCT[channel.type], data)[0]
+    ordered = reversed(words) if channel.word_order == "little" else words
+    value = _VALUE[channel.type]
+    return value.unpack(_WORDS[value.size].pack(*ordered))[0]
 
 
 def si_to_raw(channel: Channel, value: float) -> int | float:

@@ -32,6 +32,7 @@ from daq.plc import PlcClient
 from daq.sim.plant import Plant
 from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario
+from daq.sim.simtime import SimTimeLoop
 from daq.sim.simulated_rig import SimulatedRig, takes_one_argument
 from thrusters.driver import ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
@@ -135,12 +136,21 @@ class InProcessModbus:
         if not self.connected:
             raise ConnectionError("in-process PLC: not connected")
         faults = self.plc.faults
-        try:
-            exc = await asyncio.wait_for(
-                self.plc.serve(fc, start, address, count, words, values), self.timeout_s
-            )
-        except TimeoutError:
-            raise TimeoutError(f"no response within {self.timeout_s} s") from None
+        if self.plc.answers_at_once:
+            # What ``wait_for`` below does when the PLC answers at once, without its task,
+            # future and timer: the request is served one loop pass later and the reply
+            # taken two passes after that, so other tasks interleave exactly as there.
+            await _loop_pass()
+            exc = await self._serve_now(fc, start, address, count, words, values)
+            await _loop_pass()
+            await _loop_pass()
+        else:
+            try:
+                exc = await asyncio.wait_for(
+                    self.plc.serve(fc, start, address, count, words, values), self.timeout_s
+                )
+            except TimeoutError:
+                raise TimeoutError(f"no response within {self.timeout_s} s") from None
         if faults.take_drop():
             await asyncio.sleep(self.timeout_s)
             raise TimeoutError(f"no response within {self.timeout_s} s")
@@ -148,6 +158,34 @@ class InProcessModbus:
             await asyncio.sleep(self.timeout_s)
             raise ModbusException("response could not be decoded")
         return exc
+
+    async def _serve_now(
+        self,
+        fc: int,
+        start: int,
+        address: int,
+        count: int,
+        words: list[int],
+        values: list[int] | list[bool] | None,
+    ) -> object:
+        """Serve in this task; under the client's timeout if a fault was switched on since
+        the request was sent (the PLC may wait now)."""
+        serving = self.plc.serve(fc, start, address, count, words, values)
+        if self.plc.answers_at_once:
+            return await serving
+        try:
+            async with asyncio.timeout(self.timeout_s):
+                return await serving
+        except TimeoutError:
+            raise TimeoutError(f"no response within {self.timeout_s} s") from None
+
+
+async def _loop_pass() -> None:
+    """Let the loop run one pass, unless on simulated time nothing else could run in it
+    (``SimTimeLoop.alone``): then the pass would change nothing and is skipped."""
+    loop = asyncio.get_running_loop()
+    if not (isinstance(loop, SimTimeLoop) and loop.alone()):
+        await asyncio.sleep(0)
 
 
 @dataclass

@@ -68,6 +68,7 @@ class Plant:
         n = self.thruster_port.count
         self.commands = [0.0] * n
         self.thrusts_n = [0.0] * n
+        self._no_thrust = [0.0] * n
         self.tow_release_at: float | None = None
         self.spin_release_at: float | None = None
         self.tow_release = False
@@ -182,17 +183,20 @@ class Plant:
         if self.spin_release_at is not None and t >= self.spin_release_at:
             self.spin_release_at = None
             self.spin_braked = False
-        volts = self.loaded_voltage_v()
-        alpha = self._thrust_alpha
         thrusts = self.thrusts_n
-        for i, u in enumerate(self.commands):
-            thrusts[i] += (self.static_thrust_n(u, volts) - thrusts[i]) * alpha
+        lever = self.thruster_port.yaw_lever_arm_m
+        if any(self.commands) or any(thrusts):
+            volts = self.loaded_voltage_v()
+            alpha = self._thrust_alpha
+            for i, u in enumerate(self.commands):
+                thrusts[i] += (self.static_thrust_n(u, volts) - thrusts[i]) * alpha
+            surge_thrust = sum(thrusts)
+            yaw_torque = lever * sum(s * f for s, f in zip(self._yaw_sign, thrusts, strict=True))
+        else:  # thrusters off and at rest: the same zeros as above, without the arithmetic
+            thrusts[:] = self._no_thrust
+            surge_thrust, yaw_torque = 0.0, lever * 0.0
         if self.thrust_stand:
             surge_thrust = yaw_torque = 0.0
-        else:
-            surge_thrust = sum(thrusts)
-            lever = self.thruster_port.yaw_lever_arm_m
-            yaw_torque = lever * sum(s * f for s, f in zip(self._yaw_sign, thrusts, strict=True))
         self._step_tow(surge_thrust)
         self._step_yaw(yaw_torque)
         if self.pendulum is not None:

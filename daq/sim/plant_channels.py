@@ -6,6 +6,7 @@ switches)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from daq.sim.plant import Plant
 
@@ -13,42 +14,59 @@ from daq.sim.plant import Plant
 HEARTBEAT_PERIOD_S = 0.01
 
 
+def _tow_position(plant: Plant) -> float:
+    counts_per_m = plant.scenario.sensors.encoder_counts_per_m
+    return round(plant.position_m * counts_per_m) / counts_per_m
+
+
+def _yaw_angle(plant: Plant) -> float:
+    cpr = plant.scenario.sensors.encoder_counts_per_rad
+    return round(plant.yaw_rad * cpr) / cpr
+
+
+def _load_cell(plant: Plant) -> float:
+    sens = plant.scenario.sensors
+    force = sum(plant.thrusts_n) if plant.thrust_stand else 0.0
+    noise = plant.sensor_noise.gauss(0.0, sens.load_cell_noise_n)
+    return force + sens.load_cell_offset_n + noise
+
+
+def _supply_voltage(plant: Plant) -> float:
+    noise = plant.sensor_noise.gauss(0.0, plant.scenario.sensors.supply_voltage_noise_v)
+    return plant.loaded_voltage_v() + noise
+
+
+def _bit(flag: Callable[[Plant], bool]) -> Callable[[Plant], float]:
+    return lambda plant: 1.0 if flag(plant) else 0.0
+
+
+#: Each standard channel's reading of the plant (one look-up per channel a poll reads).
+_READINGS: dict[str, Callable[[Plant], float]] = {
+    "tow_position": _tow_position,
+    "yaw_angle": _yaw_angle,
+    "load_cell": _load_cell,
+    "supply_voltage": _supply_voltage,
+    "heartbeat": lambda plant: float(int(plant.sim_time_s / HEARTBEAT_PERIOD_S + 1e-9)),
+    "plc_clock": lambda plant: plant.sim_time_s,
+    "tow_release": _bit(lambda plant: plant.tow_release),
+    "spin_release": _bit(lambda plant: plant.spin_release),
+    "end_of_travel": _bit(lambda plant: plant.end_of_travel),
+    "estop": _bit(lambda plant: plant.estop),
+    "sim_thrust_stand": _bit(lambda plant: plant.thrust_stand),
+    "sim_reset": lambda plant: 0.0,
+    "sim_tow_reversed": _bit(lambda plant: plant.tow_reversed),
+    "sim_spin_reversed": _bit(lambda plant: plant.spin_reversed),
+    "sim_tow_weight": lambda plant: plant.tow_weight_kg,
+    "sim_spin_weight": lambda plant: plant.spin_weight_kg,
+    "sim_carriage_position": lambda plant: plant.position_m,
+}
+
+
 def read_channel(plant: Plant, name: str) -> float | None:
     """SI value of a standard channel, as the PLC would report it now (None: unknown)."""
-    sens = plant.scenario.sensors
-    if name == "tow_position":
-        return round(plant.position_m * sens.encoder_counts_per_m) / sens.encoder_counts_per_m
-    if name == "yaw_angle":
-        cpr = sens.encoder_counts_per_rad
-        return round(plant.yaw_rad * cpr) / cpr
-    if name == "load_cell":
-        force = sum(plant.thrusts_n) if plant.thrust_stand else 0.0
-        noise = plant.sensor_noise.gauss(0.0, sens.load_cell_noise_n)
-        return force + sens.load_cell_offset_n + noise
-    if name == "supply_voltage":
-        return plant.loaded_voltage_v() + plant.sensor_noise.gauss(0.0, sens.supply_voltage_noise_v)
-    if name == "heartbeat":
-        return float(int(plant.sim_time_s / HEARTBEAT_PERIOD_S + 1e-9))
-    if name == "plc_clock":
-        return plant.sim_time_s
-    bits = {
-        "tow_release": plant.tow_release,
-        "spin_release": plant.spin_release,
-        "end_of_travel": plant.end_of_travel,
-        "estop": plant.estop,
-        "sim_thrust_stand": plant.thrust_stand,
-        "sim_reset": False,
-        "sim_tow_reversed": plant.tow_reversed,
-        "sim_spin_reversed": plant.spin_reversed,
-    }
-    if name in bits:
-        return 1.0 if bits[name] else 0.0
-    if name == "sim_tow_weight":
-        return plant.tow_weight_kg
-    if name == "sim_spin_weight":
-        return plant.spin_weight_kg
-    if name == "sim_carriage_position":
-        return plant.position_m
+    reading = _READINGS.get(name)
+    if reading is not None:
+        return reading(plant)
     if plant.pendulum is not None:
         return plant.pendulum.read(name)
     return None

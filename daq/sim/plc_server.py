@@ -127,7 +127,7 @@ class SimulatedPLC:
         kind = _KIND_OF_FC.get(function_code)
         if kind is None:
             return ExcCodes.ILLEGAL_FUNCTION
-        if any(a not in self._covered[kind] for a in range(address, address + count)):
+        if not self._covered[kind].issuperset(range(address, address + count)):
             return ExcCodes.ILLEGAL_ADDRESS
         if self.faults.delay_s > 0:
             await asyncio.sleep(self.faults.delay_s)
@@ -142,6 +142,12 @@ class SimulatedPLC:
             if self._jitter_s > 0:
                 await asyncio.sleep(self._rng.uniform(0.0, self._jitter_s))
         return None
+
+    @property
+    def answers_at_once(self) -> bool:
+        """``serve`` answers without waiting on the loop: no ``faults.delay_s`` and no
+        timestamp jitter in the scenario."""
+        return self.faults.delay_s <= 0 and self._jitter_s <= 0
 
     async def serve(
         self,

@@ -14,7 +14,10 @@ Real sockets and ptys still work on this loop, but their peers run in real time:
 simulated time for in-process devices (``daq.sim.inprocess``). A loop that serves someone
 in real time (a rig service behind HTTP in a test) is paced: ``SimTimeLoop(pace=10)`` lets
 its time run at most 10 times faster than the wall clock while it waits, so an idle rig
-does not spin a core and a client's requests still arrive between its ticks.
+does not spin a core and a client's requests still arrive between its ticks. With
+``idle_pace`` and ``busy`` it keeps that pace only while ``busy()`` (e.g. a job holds the
+rig) and the slower ``idle_pace`` otherwise: an idle rig between a client's requests
+needs its time to pass no faster than that, and each tick costs CPU.
 """
 
 from __future__ import annotations
@@ -50,7 +53,7 @@ class _SimSelector:
         if self._loop.busy_threads:
             wait = _THREAD_POLL_S if timeout is None else min(timeout, _THREAD_POLL_S)
             return self._inner.select(wait)  # time stands still while a thread works
-        pace = self._loop.pace
+        pace = self._loop.current_pace
         if pace is not None and timeout is not None:
             started = time.monotonic()
             events = self._inner.select(timeout / pace)
@@ -72,13 +75,28 @@ class _SimSelector:
 class SimTimeLoop(asyncio.SelectorEventLoop):
     """An event loop on simulated time (see the module docstring)."""
 
-    def __init__(self, start_s: float = START_S, *, pace: float | None = None) -> None:
+    def __init__(
+        self,
+        start_s: float = START_S,
+        *,
+        pace: float | None = None,
+        idle_pace: float | None = None,
+        busy: Callable[[], bool] | None = None,
+    ) -> None:
         super().__init__()
-        if pace is not None and not pace > 0:
-            raise ValueError(f"pace: must be > 0 (times faster than real time), got {pace!r}")
+        for name, value in (("pace", pace), ("idle_pace", idle_pace)):
+            if value is not None and not value > 0:
+                raise ValueError(
+                    f"{name}: must be > 0 (times faster than real time), got {value!r}"
+                )
+        if (idle_pace is None) != (busy is None) or (idle_pace is not None and pace is None):
+            raise ValueError("idle_pace and busy: give both, with a pace, or neither")
         self._sim_now = start_s
         #: At most this many simulated seconds per real second while waiting (None: no limit).
         self.pace = pace
+        #: The pace while ``busy()`` is false (None: always ``pace``).
+        self.idle_pace = idle_pace
+        self.busy = busy
         #: Worker-thread calls still running; time does not move while any is.
         self.busy_threads = 0
         inner: selectors.BaseSelector = self._selector  # type: ignore[has-type]
@@ -86,6 +104,13 @@ class SimTimeLoop(asyncio.SelectorEventLoop):
 
     def time(self) -> float:
         return self._sim_now
+
+    @property
+    def current_pace(self) -> float | None:
+        """The pace of a wait now: ``idle_pace`` while not ``busy()``, else ``pace``."""
+        if self.busy is not None and not self.busy():
+            return self.idle_pace
+        return self.pace
 
     @property
     def clock(self) -> SimClock:
@@ -104,6 +129,16 @@ class SimTimeLoop(asyncio.SelectorEventLoop):
         scheduled = self._scheduled  # type: ignore[attr-defined]
         due = scheduled[0].when() if scheduled else self._sim_now + timeout
         self._sim_now = max(self._sim_now, due)
+
+    def alone(self) -> bool:
+        """Whether a task that yields now (``await asyncio.sleep(0)``) would be the next to
+        run anyway: no other callback ready, no timer due, the loop not stopping. On this
+        loop time stands still while anything is ready, so such a yield changes nothing
+        (``daq.sim.inprocess`` skips it; only I/O from real sockets would be seen later)."""
+        if self._ready or self._stopping:  # type: ignore[attr-defined]
+            return False
+        scheduled = self._scheduled  # type: ignore[attr-defined]
+        return not scheduled or scheduled[0].when() > self._sim_now
 
     def run_in_executor(  # type: ignore[override]
         self, executor: Executor | None, func: Callable[..., T], *args: Any

@@ -120,6 +120,9 @@ def start_job(client, path: str, body: dict) -> str:
 #: plant (and holds the GIL) that much more often than in real time, so a module that
 #: seldom runs a test is faster left in real time.
 SERVICE_PACE = 10.0
+#: The pace while no job holds the rig: an idle rig only serves HTTP requests and streams
+#: samples, and at ``SERVICE_PACE`` its ticks cost about 0.05 s of CPU per wall second.
+IDLE_SERVICE_PACE = 1.0
 
 
 @pytest.fixture(scope="module")
@@ -157,14 +160,23 @@ def service(request: pytest.FixtureRequest, tmp_path_factory) -> Iterator[RigSer
 
 def simulated_service(source: RigSource, store_url: str, **options: Any) -> RigService:
     """A rig service (not started) whose rig thread runs the simulated rig in process on
-    simulated time, paced at ``SERVICE_PACE``; ``options`` as for ``RigService``."""
-    return RigService(
+    simulated time, paced at ``SERVICE_PACE`` while a job holds the rig and at
+    ``IDLE_SERVICE_PACE`` otherwise; ``options`` as for ``RigService``."""
+
+    def rig_held() -> bool:
+        session = service.session
+        return session is not None and session.lock_holder is not None
+
+    service = RigService(
         source,
         store_url,
-        loop_factory=functools.partial(SimTimeLoop, pace=SERVICE_PACE),
+        loop_factory=functools.partial(
+            SimTimeLoop, pace=SERVICE_PACE, idle_pace=IDLE_SERVICE_PACE, busy=rig_held
+        ),
         devices=open_inprocess_rig,
         **options,
     )
+    return service
 
 
 @pytest.fixture(scope="module")

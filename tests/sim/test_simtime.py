@@ -69,6 +69,24 @@ async def test_a_stall_moves_time_on_and_late_timers_run_in_order():
     assert order == ["a", "b"] and clock.now() == START_S + 1.0
 
 
+async def test_a_task_is_alone_only_while_nothing_else_could_run_before_it():
+    loop = asyncio.get_running_loop()
+    assert isinstance(loop, SimTimeLoop)
+    await asyncio.sleep(0)
+    loop.call_later(1.0, lambda: None)  # a timer not yet due leaves it alone
+    assert loop.alone()
+    loop.call_soon(lambda: None)
+    assert not loop.alone()  # a ready callback would run first
+    await asyncio.sleep(0)
+    assert loop.alone()
+    loop.call_at(loop.time(), lambda: None)
+    assert not loop.alone()  # a timer due now would run first
+    await asyncio.sleep(0)
+    assert not loop.alone()  # now ready: it runs after this task in this pass
+    await asyncio.sleep(0)
+    assert loop.alone()
+
+
 def test_a_paced_loop_runs_at_most_that_many_times_faster_than_the_wall_clock():
     async def two_seconds() -> float:
         started = time.monotonic()
@@ -79,6 +97,27 @@ def test_a_paced_loop_runs_at_most_that_many_times_faster_than_the_wall_clock():
         assert runner.run(two_seconds()) >= 0.2
     with pytest.raises(ValueError, match="pace"):
         SimTimeLoop(pace=0)
+
+
+def test_a_loop_with_an_idle_pace_keeps_its_pace_only_while_busy():
+    busy = False
+
+    async def wall_of(seconds: float) -> float:
+        started = time.monotonic()
+        await asyncio.sleep(seconds)
+        return time.monotonic() - started
+
+    loop = SimTimeLoop(pace=100.0, idle_pace=2.0, busy=lambda: busy)
+    with asyncio.Runner(loop_factory=lambda: loop) as runner:
+        assert loop.current_pace == 2.0
+        assert runner.run(wall_of(0.6)) >= 0.3  # idle: 0.6 s at 2x
+        busy = True
+        assert loop.current_pace == 100.0
+        assert runner.run(wall_of(6.0)) >= 0.06  # busy: 6 s at 100x
+    with pytest.raises(ValueError, match="idle_pace"):
+        SimTimeLoop(pace=10.0, idle_pace=-1.0, busy=lambda: False)
+    with pytest.raises(ValueError, match="give both"):
+        SimTimeLoop(pace=10.0, idle_pace=1.0)
 
 
 async def _tow(tmp_path, name: str) -> tuple[np.ndarray, np.ndarray, float]:
