@@ -1,17 +1,23 @@
 """Helpers for the thruster tests: a scripted controller in memory (``ExpectedProtocol``)
-or on a real pty (``ScriptedPeer``), rig settings."""
+or on a real pty (``ScriptedPeer``), the simulated controller on a CPU of its own
+(``ControllerThread``), rig settings."""
 
 from __future__ import annotations
 
+import asyncio
+import inspect
 import os
 import select
 import threading
 import time
 import tty
 from collections.abc import Callable
+from typing import Any
 
 from daq.config import Limits, load_rig
+from daq.priority import SIMULATOR_PRIORITY, set_realtime
 from thrusters.driver import ThrusterDriver
+from thrusters.emulator import ThrusterControllerEmulator
 from thrusters.link import READ_SLICE_S, SerialLink
 from thrusters.settings import ThrusterPort
 
@@ -174,3 +180,53 @@ class FakeClock:
 
     def __call__(self) -> float:
         return self.t
+
+
+class ControllerThread:
+    """``emulator`` served from an event loop of its own in a thread that runs real-time just
+    below the rig's clock where the OS allows (``daq.priority.SIMULATOR_PRIORITY``), as the
+    simulated rig, the fault proxies and the cart PLC run: the real board answers and keeps
+    its watchdog on a CPU of its own, whatever the host does.
+
+    In the test's own loop at normal priority, a loaded worker read the host's frames late:
+    the emulator then took a heartbeat sent in time for one past its watchdog (it tripped)
+    and answered after the driver's reply timeout. Whatever it is told to do while it serves
+    goes through ``call`` (its loop is not the test's); its state is read directly."""
+
+    def __init__(self, emulator: ThrusterControllerEmulator) -> None:
+        self.emulator = emulator
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._run, name="thruster-controller", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        set_realtime(SIMULATOR_PRIORITY, warn=False)
+        asyncio.set_event_loop(self._loop)
+        self._loop.run_forever()
+
+    async def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """``fn(*args)`` on the controller's loop (awaited there if awaitable); its result."""
+
+        async def run() -> Any:
+            result = fn(*args)
+            return await result if inspect.isawaitable(result) else result
+
+        return await asyncio.wrap_future(asyncio.run_coroutine_threadsafe(run(), self._loop))
+
+    async def serve(self, transport: str, **tcp: Any) -> str:
+        """Serve on a new pty (``"pty"``: its path) or TCP (``"socket"``: its URL)."""
+        if transport == "pty":
+            return await self.call(self.emulator.start_pty)
+        return await self.call(lambda: self.emulator.start_tcp(**tcp))
+
+    async def close(self) -> None:
+        """Stop serving and end the thread."""
+        if self._loop.is_closed():
+            return
+        try:
+            await self.call(self.emulator.stop)
+        finally:
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join(5)  # its loop has nothing left to run: at once
+            if not self._thread.is_alive():
+                self._loop.close()
