@@ -8,12 +8,19 @@ import signal
 import socket
 import sys
 import time
-from collections.abc import AsyncIterator
+from asyncio.subprocess import Process
+from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from thruster_helpers import ControllerThread, FakeClock, limits, thruster_port
+from thruster_helpers import (
+    ControllerProcess,
+    ControllerThread,
+    FakeClock,
+    limits,
+    thruster_port,
+)
 
 from tests.support.waiting import until
 from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
@@ -27,7 +34,7 @@ CHILD = Path(__file__).with_name("thruster_child.py")
 #: The child-process tests (signals, SIGKILL) on the serial line only: how a process ends
 #: is the process's, and the frames it sends on the way are the ones this module's
 #: in-process tests prove on both transports. (The atexit fallback writes raw bytes: both.)
-ON_THE_SERIAL_LINE = pytest.mark.parametrize("served", ["pty"], indirect=True)
+ON_THE_SERIAL_LINE = pytest.mark.parametrize("device", ["pty"], indirect=True)
 
 
 @pytest.fixture
@@ -45,6 +52,16 @@ async def controller() -> AsyncIterator[ControllerThread]:
 @pytest.fixture(params=["pty", "socket"])
 async def served(request, controller) -> tuple[ThrusterControllerEmulator, str]:
     return controller.emulator, await controller.serve(request.param)
+
+
+@pytest.fixture(params=["pty", "socket"])
+async def device(request) -> AsyncIterator[tuple[ControllerProcess, str]]:
+    """The controller in a process of its own, for a host that is a child process."""
+    process = ControllerProcess()
+    try:
+        yield process, await process.start(request.param)
+    finally:
+        await process.stop()
 
 
 async def test_clamp_and_slew_visible_in_controller_outputs(served) -> None:
@@ -149,21 +166,37 @@ async def test_heartbeat_keeps_controller_armed(served) -> None:
         assert status.state == "ARMED" and status.rpm == (0.0, 0.0)
 
 
-async def _start_child(url: str, mode: str) -> asyncio.subprocess.Process:
-    proc = await asyncio.create_subprocess_exec(
-        sys.executable, str(CHILD), url, mode, stdout=asyncio.subprocess.PIPE
-    )
-    assert proc.stdout is not None
-    assert await asyncio.wait_for(proc.stdout.readline(), 10) == b"armed\n"
-    return proc
+@pytest.fixture
+async def start_child() -> AsyncIterator[Callable[[str, str], Awaitable[Process]]]:
+    """``await start_child(url, mode)``: thruster_child.py armed at 50 % thrust; a child still
+    running when the test ends (it failed first) is killed, not left heartbeating on the line."""
+    started: list[Process] = []
+
+    async def start(url: str, mode: str) -> Process:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, str(CHILD), url, mode, stdout=asyncio.subprocess.PIPE
+        )
+        started.append(proc)
+        assert proc.stdout is not None
+        assert await asyncio.wait_for(proc.stdout.readline(), 10) == b"armed\n"
+        return proc
+
+    yield start
+    for proc in started:
+        if proc.returncode is None:
+            proc.kill()
+            await proc.wait()
 
 
-async def _wait_for_thrust(emu: ThrusterControllerEmulator) -> None:
+async def _wait_for_thrust(controller: ControllerProcess) -> None:
     """Until the controller has applied the child's 50 %: read from its record of outputs,
     not its present ones (the ``atexit`` child holds 50 % for only two heartbeats, which a
     loaded test process may sleep through)."""
-    seen = emu.seen  # type: ignore[attr-defined]
-    await until(lambda: [0.5, 0.5] in [f for _, f in seen], "the child at 50 % thrust", timeout_s=3)
+
+    async def reached() -> bool:
+        return [0.5, 0.5] in [f for _, f in (await controller.read()).seen]
+
+    await until(reached, "the child at 50 % thrust", timeout_s=3)
 
 
 async def _watchdog_tripped(emu: ThrusterControllerEmulator) -> None:
@@ -173,44 +206,55 @@ async def _watchdog_tripped(emu: ThrusterControllerEmulator) -> None:
 
 @ON_THE_SERIAL_LINE
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-async def test_signal_zeroes_and_acks_before_the_process_exits(served, sig) -> None:
-    emu, url = served
-    proc = await _start_child(url, "signals")
-    await _wait_for_thrust(emu)
-    acks_before = emu.stats.acks
+async def test_signal_zeroes_and_acks_before_the_process_exits(device, start_child, sig) -> None:
+    controller, url = device
+    proc = await start_child(url, "signals")
+    await _wait_for_thrust(controller)
+    acks_before = (await controller.read()).acks
     proc.send_signal(sig)
     assert await asyncio.wait_for(proc.wait(), 5) == -sig
     exited = time.monotonic()
-    zero_times = [t for t, cmds in emu.stats.accepted_commands if cmds == (0, 0)]
+    emu = await controller.read()
+    zero_times = [t for t, cmds in emu.accepted_commands if cmds == (0, 0)]
     assert zero_times and zero_times[-1] < exited, "zero accepted (and ACKed) before exit"
-    assert emu.stats.acks >= acks_before + 2  # the zero and the DISARM were answered
+    assert emu.acks >= acks_before + 2  # the zero and the DISARM were answered
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
-    assert emu.stats.watchdog_trips == 0, "zeroed by the driver, not by the watchdog"
+    assert emu.watchdog_trips == 0, "zeroed by the driver, not by the watchdog"
 
 
 @ON_THE_SERIAL_LINE
-async def test_sigkill_leaves_it_to_the_controller_watchdog(served) -> None:
-    emu, url = served
-    proc = await _start_child(url, "signals")
-    await _wait_for_thrust(emu)
+async def test_sigkill_leaves_it_to_the_controller_watchdog(device, start_child) -> None:
+    controller, url = device
+    proc = await start_child(url, "signals")
+    await _wait_for_thrust(controller)
     proc.kill()
     await asyncio.wait_for(proc.wait(), 5)
     killed = time.monotonic()
-    await until(lambda: emu.state != "ARMED", "the watchdog tripping", timeout_s=2)
+
+    async def tripped() -> bool:
+        return (await controller.read()).state != "ARMED"
+
+    await until(tripped, "the watchdog tripping", timeout_s=2)
+    emu = await controller.read()
     assert emu.state == "WDT" and emu.outputs == [0.0, 0.0]
-    assert emu.stats.watchdog_trips == 1
+    assert emu.watchdog_trips == 1
     assert emu.seen[-1][0] - killed <= 0.5
 
 
-async def test_atexit_fallback_writes_zero_when_never_closed(served) -> None:
-    emu, url = served
-    proc = await _start_child(url, "atexit")
-    await _wait_for_thrust(emu)
+async def test_atexit_fallback_writes_zero_when_never_closed(device, start_child) -> None:
+    controller, url = device
+    proc = await start_child(url, "atexit")
+    await _wait_for_thrust(controller)
     assert await asyncio.wait_for(proc.wait(), 5) == 3
-    await until(lambda: emu.state == "DISARMED", "the controller disarmed", timeout_s=5)
-    assert emu.stats.accepted_commands[-1][1] == (0, 0)
+
+    async def disarmed() -> bool:
+        return (await controller.read()).state == "DISARMED"
+
+    await until(disarmed, "the controller disarmed", timeout_s=5)
+    emu = await controller.read()
+    assert emu.accepted_commands[-1][1] == (0, 0)
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
-    assert emu.stats.watchdog_trips == 0
+    assert emu.watchdog_trips == 0
 
 
 async def test_driver_reconnects_when_the_controller_comes_back() -> None:

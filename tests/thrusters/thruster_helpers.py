@@ -6,12 +6,16 @@ from __future__ import annotations
 
 import asyncio
 import inspect
+import json
 import os
 import select
+import sys
 import threading
 import time
 import tty
 from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from daq.config import Limits, load_rig
@@ -125,7 +129,9 @@ class ExpectedProtocol:
 
 class ScriptedPeer:
     """A fake controller on a real pty that expects exact bytes and replies with given
-    bytes: ``[(expected_write, reply_or_None), ...]`` (None = stay silent)."""
+    bytes: ``[(expected_write, reply_or_None), ...]`` (None = stay silent). It answers from a
+    thread that runs real-time where the OS allows, as ``ControllerThread`` does: a reply
+    the driver waits for must not wait for the loaded test process."""
 
     def __init__(self, conversation: list[tuple[bytes, bytes | None]]) -> None:
         self.conversation = conversation
@@ -148,6 +154,7 @@ class ScriptedPeer:
         return data
 
     def _serve(self) -> None:
+        set_realtime(SIMULATOR_PRIORITY, warn=False)
         for i, (expected, reply) in enumerate(self.conversation):
             got = self._read_exact(len(expected), 3.0)
             self.received.append(got)
@@ -230,3 +237,66 @@ class ControllerThread:
             self._thread.join(5)  # its loop has nothing left to run: at once
             if not self._thread.is_alive():
                 self._loop.close()
+
+
+@dataclass(frozen=True)
+class ControllerState:
+    """What the controller process says of itself (``controller_process.py``)."""
+
+    state: str
+    outputs: list[float]
+    acks: int
+    watchdog_trips: int
+    #: Accepted THR frames as (monotonic time, commands in per mille).
+    accepted_commands: list[tuple[float, tuple[int, ...]]]
+    #: Every change of its outputs as (monotonic time, fractions).
+    seen: list[tuple[float, list[float]]]
+
+
+class ControllerProcess:
+    """The simulated controller of 2 thrusters in a real-time process of its own
+    (``controller_process.py``): for tests whose host is another process, that only read
+    what the controller did."""
+
+    SCRIPT = Path(__file__).with_name("controller_process.py")
+
+    def __init__(self) -> None:
+        self._process: asyncio.subprocess.Process | None = None
+        self.url = ""
+
+    async def start(self, transport: str) -> str:
+        """Serve on a new pty (``"pty"``) or TCP (``"socket"``); its path or URL."""
+        self._process = await asyncio.create_subprocess_exec(
+            sys.executable, str(self.SCRIPT), transport,
+            stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE,
+        )  # fmt: skip
+        self.url = (await self._line()).strip()
+        return self.url
+
+    async def read(self) -> ControllerState:
+        """The controller's state now."""
+        assert self._process is not None and self._process.stdin is not None
+        self._process.stdin.write(b"state\n")
+        got = json.loads(await self._line())
+        got["accepted_commands"] = [(t, tuple(c)) for t, c in got["accepted_commands"]]
+        got["seen"] = [(t, f) for t, f in got["seen"]]
+        return ControllerState(**got)
+
+    async def _line(self) -> bytes:
+        assert self._process is not None and self._process.stdout is not None
+        line = await asyncio.wait_for(self._process.stdout.readline(), 10)
+        assert line, f"the controller process ended (exit {await self._process.wait()})"
+        return line
+
+    async def stop(self) -> None:
+        process, self._process = self._process, None
+        if process is None:
+            return
+        assert process.stdin is not None
+        process.stdin.close()
+        try:
+            await asyncio.wait_for(process.wait(), 5)
+        finally:
+            if process.returncode is None:
+                process.kill()
+                await process.wait()
