@@ -1,4 +1,9 @@
-"""ThrusterDriver against the simulated controller over a real pty and over socket://."""
+"""ThrusterDriver against the simulated controller over a real pty and over socket://.
+
+Scheduled as the rig runs them, so a loaded test process only makes the test slower: the
+controller answers from a CPU of its own (a real-time thread, ``ControllerThread``, or, when
+the host is a child process, a real-time process, ``ControllerProcess``), and the driver's
+line thread runs as a real-time session runs it (``SessionDriver``, thruster_child.py)."""
 
 from __future__ import annotations
 
@@ -18,12 +23,13 @@ from thruster_helpers import (
     ControllerProcess,
     ControllerThread,
     FakeClock,
+    SessionDriver,
     limits,
     thruster_port,
 )
 
 from tests.support.waiting import until
-from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
+from thrusters.driver import LINK_LOST_AFTER
 from thrusters.emulator import ThrusterControllerEmulator
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -67,7 +73,7 @@ async def device(request) -> AsyncIterator[tuple[ControllerProcess, str]]:
 async def test_clamp_and_slew_visible_in_controller_outputs(served) -> None:
     emu, url = served
     clock = FakeClock()  # the slew limiter's time: commands 0.02 s apart, on any machine
-    async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
+    async with SessionDriver(thruster_port(url), limits(), clock=clock) as drv:
         await drv.arm()
         t0 = clock.t
         for _ in range(100):
@@ -91,7 +97,7 @@ async def test_zero_on_exception_exit(served) -> None:
     emu, url = served
     clock = FakeClock()
     with pytest.raises(RuntimeError, match="procedure failed"):
-        async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
+        async with SessionDriver(thruster_port(url), limits(), clock=clock) as drv:
             await drv.arm()
             clock.t += 0.1
             await drv.command([0.3, 0.3])
@@ -105,7 +111,7 @@ async def test_zero_on_exception_exit(served) -> None:
 
 async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served, controller) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         await controller.call(emu.inject, b"\x00\x17 line noise \xff\r\n")
         assert await drv.command([0.1, 0.1])
@@ -123,7 +129,7 @@ async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served, contr
 async def test_silent_controller_times_out_then_its_watchdog_latches(served) -> None:
     emu, url = served
     clock = FakeClock()
-    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits(), clock=clock)
+    drv = SessionDriver(thruster_port(url, ack_timeout_s=0.05), limits(), clock=clock)
     await drv.open()
     await drv.arm()
     clock.t += 0.1  # slew 2.0 /s: 0.2 in one step
@@ -155,7 +161,7 @@ async def test_silent_controller_times_out_then_its_watchdog_latches(served) -> 
 
 async def test_heartbeat_keeps_controller_armed(served) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         await drv.command([0.1, 0.1])
         for _ in range(8):
@@ -262,7 +268,7 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
     url = await first.serve("socket")
     port = int(url.rsplit(":", 1)[1])
     clock = FakeClock()
-    drv = ThrusterDriver(thruster_port(url), limits(), clock=clock)
+    drv = SessionDriver(thruster_port(url), limits(), clock=clock)
     await drv.open()
     await drv.arm()
     await first.close()  # controller (or its serial server) goes away
@@ -288,7 +294,7 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
 async def test_recorded_outputs_bracket_every_change_the_controller_made(served) -> None:
     """Late and early heartbeats change the ramp; the record follows what was applied."""
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         with drv.recording_outputs() as steps:
             for pause in (0.0, 0.02, 0.15, 0.05, 0.01, 0.12, 0.1, 0.1):
@@ -313,7 +319,7 @@ async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(
     frame goes out at once, commands stay zero, and only a new ARM clears the fault."""
     emu, url = served
     clock = FakeClock()
-    async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
+    async with SessionDriver(thruster_port(url), limits(), clock=clock) as drv:
         await drv.arm()
         clock.t += 0.1
         await drv.command([0.3, 0.3])
@@ -346,7 +352,7 @@ async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(
 
 async def test_watchdog_trip_seen_in_the_reply_is_a_fault(served) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         await drv.command([0.2, 0.2])
         # no heartbeat: the controller trips

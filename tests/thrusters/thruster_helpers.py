@@ -5,6 +5,7 @@ or on a real pty (``ScriptedPeer``), the simulated controller on a CPU of its ow
 from __future__ import annotations
 
 import asyncio
+import functools
 import inspect
 import json
 import os
@@ -19,13 +20,29 @@ from pathlib import Path
 from typing import Any
 
 from daq.config import Limits, load_rig
-from daq.priority import SIMULATOR_PRIORITY, set_realtime
+from daq.priority import SIMULATOR_PRIORITY, THRUSTER_LINK_PRIORITY, set_realtime
 from thrusters.driver import ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
 from thrusters.link import READ_SLICE_S, SerialLink
 from thrusters.settings import ThrusterPort
 
 RIG = load_rig()
+
+
+class SessionDriver(ThrusterDriver):
+    """A ``ThrusterDriver`` whose line I/O thread runs as a real-time session runs it
+    (``daq/session.py``: at ``THRUSTER_LINK_PRIORITY`` where the OS allows).
+
+    Beside a real-time controller thread in the same process: at normal priority that
+    thread, polling the line every 10 ms, was taken off the CPU by a loaded machine while
+    it held the GIL, and the controller's reply waited for it past the 0.05-0.1 s reply
+    timeout (the inversion ``daq.priority`` describes for a session's workers)."""
+
+    async def open(self, *, io_thread_setup: Callable[[], object] | None = None) -> None:
+        await super().open(io_thread_setup=io_thread_setup or _link_as_in_a_session)
+
+
+_link_as_in_a_session = functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
 
 
 def thruster_port(port: str, **overrides: object) -> ThrusterPort:
@@ -166,7 +183,7 @@ class ScriptedPeer:
 
     def driver(self, lim: Limits | None = None, *, clock: Callable[[], float] | None = None):
         extra = {} if clock is None else {"clock": clock}
-        return ThrusterDriver(thruster_port(self.path), lim or limits(), **extra)
+        return SessionDriver(thruster_port(self.path), lim or limits(), **extra)
 
     def assert_done(self) -> None:
         """Every step happened byte-exact and the host wrote nothing more."""
