@@ -146,9 +146,7 @@ class ExpectedProtocol:
 
 class ScriptedPeer:
     """A fake controller on a real pty that expects exact bytes and replies with given
-    bytes: ``[(expected_write, reply_or_None), ...]`` (None = stay silent). It answers from a
-    thread that runs real-time where the OS allows, as ``ControllerThread`` does: a reply
-    the driver waits for must not wait for the loaded test process."""
+    bytes: ``[(expected_write, reply_or_None), ...]`` (None = stay silent)."""
 
     def __init__(self, conversation: list[tuple[bytes, bytes | None]]) -> None:
         self.conversation = conversation
@@ -171,7 +169,6 @@ class ScriptedPeer:
         return data
 
     def _serve(self) -> None:
-        set_realtime(SIMULATOR_PRIORITY, warn=False)
         for i, (expected, reply) in enumerate(self.conversation):
             got = self._read_exact(len(expected), 3.0)
             self.received.append(got)
@@ -183,7 +180,7 @@ class ScriptedPeer:
 
     def driver(self, lim: Limits | None = None, *, clock: Callable[[], float] | None = None):
         extra = {} if clock is None else {"clock": clock}
-        return SessionDriver(thruster_port(self.path), lim or limits(), **extra)
+        return ThrusterDriver(thruster_port(self.path), lim or limits(), **extra)
 
     def assert_done(self) -> None:
         """Every step happened byte-exact and the host wrote nothing more."""
