@@ -1,4 +1,9 @@
-"""ThrusterDriver against the simulated controller over a real pty and over socket://."""
+"""ThrusterDriver against the simulated controller over a real pty and over socket://.
+
+Scheduled as the rig runs them, so a loaded test process only makes the test slower: the
+controller answers from a CPU of its own (a real-time thread, ``ControllerThread``, or, when
+the host is a child process, a real-time process, ``ControllerProcess``), and the driver's
+line thread runs as a real-time session runs it (``SessionDriver``, thruster_child.py)."""
 
 from __future__ import annotations
 
@@ -8,15 +13,23 @@ import signal
 import socket
 import sys
 import time
-from collections.abc import AsyncIterator
+from asyncio.subprocess import Process
+from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from thruster_helpers import FakeClock, limits, thruster_port
+from thruster_helpers import (
+    ControllerProcess,
+    ControllerThread,
+    FakeClock,
+    SessionDriver,
+    limits,
+    thruster_port,
+)
 
 from tests.support.waiting import until
-from thrusters.driver import LINK_LOST_AFTER, ThrusterDriver
+from thrusters.driver import LINK_LOST_AFTER
 from thrusters.emulator import ThrusterControllerEmulator
 
 pytestmark = pytest.mark.slow  # real stack in real time: the slow lane (README, Tests)
@@ -27,23 +40,40 @@ CHILD = Path(__file__).with_name("thruster_child.py")
 #: The child-process tests (signals, SIGKILL) on the serial line only: how a process ends
 #: is the process's, and the frames it sends on the way are the ones this module's
 #: in-process tests prove on both transports. (The atexit fallback writes raw bytes: both.)
-ON_THE_SERIAL_LINE = pytest.mark.parametrize("served", ["pty"], indirect=True)
+ON_THE_SERIAL_LINE = pytest.mark.parametrize("device", ["pty"], indirect=True)
 
 
-@pytest.fixture(params=["pty", "socket"])
-async def served(request) -> AsyncIterator[tuple[ThrusterControllerEmulator, str]]:
+@pytest.fixture
+async def controller() -> AsyncIterator[ControllerThread]:
+    """The simulated controller on a CPU of its own; ``emulator.seen`` lists every change of
+    its outputs as (monotonic time, fractions)."""
     seen: list[tuple[float, list[float]]] = []
     emu = ThrusterControllerEmulator(2, on_outputs=lambda f: seen.append((time.monotonic(), f)))
     emu.seen = seen  # type: ignore[attr-defined]
-    url = await (emu.start_pty() if request.param == "pty" else emu.start_tcp())
-    yield emu, url
-    await emu.stop()
+    thread = ControllerThread(emu)
+    yield thread
+    await thread.close()
+
+
+@pytest.fixture(params=["pty", "socket"])
+async def served(request, controller) -> tuple[ThrusterControllerEmulator, str]:
+    return controller.emulator, await controller.serve(request.param)
+
+
+@pytest.fixture(params=["pty", "socket"])
+async def device(request) -> AsyncIterator[tuple[ControllerProcess, str]]:
+    """The controller in a process of its own, for a host that is a child process."""
+    process = ControllerProcess()
+    try:
+        yield process, await process.start(request.param)
+    finally:
+        await process.stop()
 
 
 async def test_clamp_and_slew_visible_in_controller_outputs(served) -> None:
     emu, url = served
     clock = FakeClock()  # the slew limiter's time: commands 0.02 s apart, on any machine
-    async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
+    async with SessionDriver(thruster_port(url), limits(), clock=clock) as drv:
         await drv.arm()
         t0 = clock.t
         for _ in range(100):
@@ -67,7 +97,7 @@ async def test_zero_on_exception_exit(served) -> None:
     emu, url = served
     clock = FakeClock()
     with pytest.raises(RuntimeError, match="procedure failed"):
-        async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
+        async with SessionDriver(thruster_port(url), limits(), clock=clock) as drv:
             await drv.arm()
             clock.t += 0.1
             await drv.command([0.3, 0.3])
@@ -79,16 +109,16 @@ async def test_zero_on_exception_exit(served) -> None:
     assert emu.stats.accepted_commands[-1][1] == (0, 0)
 
 
-async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served) -> None:
+async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served, controller) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
-        emu.inject(b"\x00\x17 line noise \xff\r\n")
+        await controller.call(emu.inject, b"\x00\x17 line noise \xff\r\n")
         assert await drv.command([0.1, 0.1])
         emu.corrupt_replies = 1
         assert not await drv.command([0.1, 0.1]), "a corrupted ACK is not an ACK"
-        emu.inject(b"$ACK,9999,ARMED*0000\r\n\r\n")
-        emu.inject(b"partial frame without end " * 20)
+        await controller.call(emu.inject, b"$ACK,9999,ARMED*0000\r\n\r\n")
+        await controller.call(emu.inject, b"partial frame without end " * 20)
         assert await drv.heartbeat()
         assert drv.stats.garbage_lines >= 2
         assert drv.stats.corrupt_lines == 2
@@ -99,7 +129,7 @@ async def test_garbage_and_corrupt_replies_are_counted_never_fatal(served) -> No
 async def test_silent_controller_times_out_then_its_watchdog_latches(served) -> None:
     emu, url = served
     clock = FakeClock()
-    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=0.05), limits(), clock=clock)
+    drv = SessionDriver(thruster_port(url, ack_timeout_s=0.05), limits(), clock=clock)
     await drv.open()
     await drv.arm()
     clock.t += 0.1  # slew 2.0 /s: 0.2 in one step
@@ -131,7 +161,7 @@ async def test_silent_controller_times_out_then_its_watchdog_latches(served) -> 
 
 async def test_heartbeat_keeps_controller_armed(served) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         await drv.command([0.1, 0.1])
         for _ in range(8):
@@ -142,17 +172,37 @@ async def test_heartbeat_keeps_controller_armed(served) -> None:
         assert status.state == "ARMED" and status.rpm == (0.0, 0.0)
 
 
-async def _start_child(url: str, mode: str) -> asyncio.subprocess.Process:
-    proc = await asyncio.create_subprocess_exec(
-        sys.executable, str(CHILD), url, mode, stdout=asyncio.subprocess.PIPE
-    )
-    assert proc.stdout is not None
-    assert await asyncio.wait_for(proc.stdout.readline(), 10) == b"armed\n"
-    return proc
+@pytest.fixture
+async def start_child() -> AsyncIterator[Callable[[str, str], Awaitable[Process]]]:
+    """``await start_child(url, mode)``: thruster_child.py armed at 50 % thrust; a child still
+    running when the test ends (it failed first) is killed, not left heartbeating on the line."""
+    started: list[Process] = []
+
+    async def start(url: str, mode: str) -> Process:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, str(CHILD), url, mode, stdout=asyncio.subprocess.PIPE
+        )
+        started.append(proc)
+        assert proc.stdout is not None
+        assert await asyncio.wait_for(proc.stdout.readline(), 10) == b"armed\n"
+        return proc
+
+    yield start
+    for proc in started:
+        if proc.returncode is None:
+            proc.kill()
+            await proc.wait()
 
 
-async def _wait_for_thrust(emu: ThrusterControllerEmulator) -> None:
-    await until(lambda: emu.outputs == [0.5, 0.5], "the child at 50 % thrust", timeout_s=3)
+async def _wait_for_thrust(controller: ControllerProcess) -> None:
+    """Until the controller has applied the child's 50 %: read from its record of outputs,
+    not its present ones (the ``atexit`` child holds 50 % for only two heartbeats, which a
+    loaded test process may sleep through)."""
+
+    async def reached() -> bool:
+        return [0.5, 0.5] in [f for _, f in (await controller.read()).seen]
+
+    await until(reached, "the child at 50 % thrust", timeout_s=3)
 
 
 async def _watchdog_tripped(emu: ThrusterControllerEmulator) -> None:
@@ -162,64 +212,73 @@ async def _watchdog_tripped(emu: ThrusterControllerEmulator) -> None:
 
 @ON_THE_SERIAL_LINE
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-async def test_signal_zeroes_and_acks_before_the_process_exits(served, sig) -> None:
-    emu, url = served
-    proc = await _start_child(url, "signals")
-    await _wait_for_thrust(emu)
-    acks_before = emu.stats.acks
+async def test_signal_zeroes_and_acks_before_the_process_exits(device, start_child, sig) -> None:
+    controller, url = device
+    proc = await start_child(url, "signals")
+    await _wait_for_thrust(controller)
+    acks_before = (await controller.read()).acks
     proc.send_signal(sig)
     assert await asyncio.wait_for(proc.wait(), 5) == -sig
     exited = time.monotonic()
-    zero_times = [t for t, cmds in emu.stats.accepted_commands if cmds == (0, 0)]
+    emu = await controller.read()
+    zero_times = [t for t, cmds in emu.accepted_commands if cmds == (0, 0)]
     assert zero_times and zero_times[-1] < exited, "zero accepted (and ACKed) before exit"
-    assert emu.stats.acks >= acks_before + 2  # the zero and the DISARM were answered
+    assert emu.acks >= acks_before + 2  # the zero and the DISARM were answered
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
-    assert emu.stats.watchdog_trips == 0, "zeroed by the driver, not by the watchdog"
+    assert emu.watchdog_trips == 0, "zeroed by the driver, not by the watchdog"
 
 
 @ON_THE_SERIAL_LINE
-async def test_sigkill_leaves_it_to_the_controller_watchdog(served) -> None:
-    emu, url = served
-    proc = await _start_child(url, "signals")
-    await _wait_for_thrust(emu)
+async def test_sigkill_leaves_it_to_the_controller_watchdog(device, start_child) -> None:
+    controller, url = device
+    proc = await start_child(url, "signals")
+    await _wait_for_thrust(controller)
     proc.kill()
     await asyncio.wait_for(proc.wait(), 5)
     killed = time.monotonic()
-    await until(lambda: emu.state != "ARMED", "the watchdog tripping", timeout_s=2)
+
+    async def tripped() -> bool:
+        return (await controller.read()).state != "ARMED"
+
+    await until(tripped, "the watchdog tripping", timeout_s=2)
+    emu = await controller.read()
     assert emu.state == "WDT" and emu.outputs == [0.0, 0.0]
-    assert emu.stats.watchdog_trips == 1
+    assert emu.watchdog_trips == 1
     assert emu.seen[-1][0] - killed <= 0.5
 
 
-async def test_atexit_fallback_writes_zero_when_never_closed(served) -> None:
-    emu, url = served
-    proc = await _start_child(url, "atexit")
-    await _wait_for_thrust(emu)
+async def test_atexit_fallback_writes_zero_when_never_closed(device, start_child) -> None:
+    controller, url = device
+    proc = await start_child(url, "atexit")
+    await _wait_for_thrust(controller)
     assert await asyncio.wait_for(proc.wait(), 5) == 3
-    await until(lambda: emu.state == "DISARMED", "the controller disarmed", timeout_s=5)
-    assert emu.stats.accepted_commands[-1][1] == (0, 0)
+
+    async def disarmed() -> bool:
+        return (await controller.read()).state == "DISARMED"
+
+    await until(disarmed, "the controller disarmed", timeout_s=5)
+    emu = await controller.read()
+    assert emu.accepted_commands[-1][1] == (0, 0)
     assert emu.outputs == [0.0, 0.0] and emu.state == "DISARMED"
-    assert emu.stats.watchdog_trips == 0
+    assert emu.watchdog_trips == 0
 
 
 async def test_driver_reconnects_when_the_controller_comes_back() -> None:
-    emu = ThrusterControllerEmulator(2)
-    url = await emu.start_tcp()
+    first = ControllerThread(ThrusterControllerEmulator(2))
+    url = await first.serve("socket")
     port = int(url.rsplit(":", 1)[1])
     clock = FakeClock()
-    # A generous reply allowance: the dead link fails at once (connection refused), so
-    # the allowance only bounds the wait for the live emulator in this same event loop,
-    # which a busy machine may reach later than a real controller's 0.1 s.
-    drv = ThrusterDriver(thruster_port(url, ack_timeout_s=1.0), limits(), clock=clock)
+    drv = SessionDriver(thruster_port(url), limits(), clock=clock)
     await drv.open()
     await drv.arm()
-    await emu.stop()  # controller (or its serial server) goes away
+    await first.close()  # controller (or its serial server) goes away
     assert not await drv.heartbeat()
     assert not await drv.heartbeat(), "still down: reconnect attempt fails, no exception"
     assert drv.link_lost  # LINK_LOST_AFTER = 2 frames failed: a zero frame was tried at once
     assert drv.stats.io_errors == 3
-    emu2 = ThrusterControllerEmulator(2)
-    await emu2.start_tcp(port=port)
+    second = ControllerThread(ThrusterControllerEmulator(2))
+    emu2 = second.emulator
+    await second.serve("socket", port=port)
     try:
         assert not await drv.heartbeat()  # reconnected; a fresh controller is DISARMED
         assert drv.stats.reconnects == 1 and drv.stats.naks["disarmed"] == 1
@@ -229,13 +288,13 @@ async def test_driver_reconnects_when_the_controller_comes_back() -> None:
         await drv.close()
         assert emu2.outputs == [0.0, 0.0] and emu2.state == "DISARMED"
     finally:
-        await emu2.stop()
+        await second.close()
 
 
 async def test_recorded_outputs_bracket_every_change_the_controller_made(served) -> None:
     """Late and early heartbeats change the ramp; the record follows what was applied."""
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         with drv.recording_outputs() as steps:
             for pause in (0.0, 0.02, 0.15, 0.05, 0.01, 0.12, 0.1, 0.1):
@@ -260,7 +319,7 @@ async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(
     frame goes out at once, commands stay zero, and only a new ARM clears the fault."""
     emu, url = served
     clock = FakeClock()
-    async with ThrusterDriver(thruster_port(url), limits(), clock=clock) as drv:
+    async with SessionDriver(thruster_port(url), limits(), clock=clock) as drv:
         await drv.arm()
         clock.t += 0.1
         await drv.command([0.3, 0.3])
@@ -293,7 +352,7 @@ async def test_link_lost_after_consecutive_bad_replies_holds_zero_until_rearmed(
 
 async def test_watchdog_trip_seen_in_the_reply_is_a_fault(served) -> None:
     emu, url = served
-    async with ThrusterDriver(thruster_port(url), limits()) as drv:
+    async with SessionDriver(thruster_port(url), limits()) as drv:
         await drv.arm()
         await drv.command([0.2, 0.2])
         # no heartbeat: the controller trips

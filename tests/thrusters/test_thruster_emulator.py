@@ -1,4 +1,7 @@
-"""The simulated thruster controller, talked to with raw bytes over TCP and a pty."""
+"""The simulated thruster controller, talked to with raw bytes over TCP and a pty.
+
+It serves from a thread of its own (``ControllerThread``), as the real board answers from a
+CPU of its own: the test is the host, and a loaded test process only makes the host late."""
 
 from __future__ import annotations
 
@@ -8,6 +11,7 @@ from collections.abc import AsyncIterator
 
 import pytest
 import serial
+from thruster_helpers import ControllerThread
 
 from tests.support.waiting import until
 from thrusters import protocol as p
@@ -26,19 +30,33 @@ class Line:
 
 
 @pytest.fixture
-async def emu() -> AsyncIterator[ThrusterControllerEmulator]:
-    seen: list[list[float]] = []
+async def controller() -> AsyncIterator[ControllerThread]:
+    """The controller on a thread of its own; ``emulator.seen`` lists every change of its
+    outputs as (monotonic time, fractions)."""
+    seen: list[tuple[float, list[float]]] = []
     emulator = ThrusterControllerEmulator(
-        2, on_outputs=seen.append, telemetry=lambda: [(1500.0, 2.5), (-1200.0, 1.75)]
+        2,
+        on_outputs=lambda f: seen.append((time.monotonic(), f)),
+        telemetry=lambda: [(1500.0, 2.5), (-1200.0, 1.75)],
     )
     emulator.seen = seen  # type: ignore[attr-defined]
-    yield emulator
-    await emulator.stop()
+    thread = ControllerThread(emulator)
+    yield thread
+    await thread.close()
 
 
 @pytest.fixture
-async def line(emu: ThrusterControllerEmulator) -> AsyncIterator[Line]:
-    url = await emu.start_tcp()
+def emu(controller: ControllerThread) -> ThrusterControllerEmulator:
+    return controller.emulator
+
+
+def outputs_seen(emu: ThrusterControllerEmulator) -> list[list[float]]:
+    return [f for _, f in emu.seen]  # type: ignore[attr-defined]
+
+
+@pytest.fixture
+async def line(controller: ControllerThread) -> AsyncIterator[Line]:
+    url = await controller.serve("socket")
     host, port = url.removeprefix("socket://").split(":")
     reader, writer = await asyncio.open_connection(host, int(port))
     yield Line(reader, writer)
@@ -52,7 +70,7 @@ async def test_arm_then_thr_is_acked_and_sets_outputs(emu, line) -> None:
         == b"$ACK,2,ARMED*" + (p.ack_frame(2, "ARMED")[13:])
     )
     assert emu.outputs == [0.25, -0.5]
-    assert emu.seen == [[0.25, -0.5]]
+    assert outputs_seen(emu) == [[0.25, -0.5]]
     assert emu.stats.acks == 2 and emu.stats.frames_ok == 2
 
 
@@ -94,14 +112,14 @@ async def test_garbage_lines_are_counted_not_answered(emu, line) -> None:
 async def test_watchdog_trips_latches_and_rearms(emu, line) -> None:
     await line.ask(p.arm_frame(1))
     await line.ask(p.thr_frame(2, [400, 400]))
-    t_last = time.monotonic()
     # QRY does not feed the watchdog: only accepted ARM/THR frames do.
     await line.ask(p.qry_frame(3))
     await until(lambda: emu.state != "ARMED", "the watchdog tripping", timeout_s=2)
-    tripped_after = time.monotonic() - t_last
     assert emu.state == "WDT"
+    # From the last frame it took to the zeroing, on the controller's own clock.
+    tripped_after = emu.seen[-1][0] - emu.stats.accepted_commands[-1][0]
     assert 0.38 <= tripped_after <= 0.6
-    assert emu.outputs == [0.0, 0.0] and emu.seen[-1] == [0.0, 0.0]
+    assert emu.outputs == [0.0, 0.0] and emu.seen[-1][1] == [0.0, 0.0]
     assert emu.stats.watchdog_trips == 1
     assert await line.ask(p.thr_frame(4, [100, 100])) == p.nak_frame(4, "disarmed")
     assert (await line.ask(p.qry_frame(5))).startswith(b"$STA,5,WDT,1500,-1200,2.50,1.75*")
@@ -122,7 +140,7 @@ async def test_disarm_zeroes(emu, line) -> None:
     await line.ask(p.arm_frame(1))
     await line.ask(p.thr_frame(2, [100, -100]))
     assert await line.ask(p.disarm_frame(3)) == p.ack_frame(3, "DISARMED")
-    assert emu.outputs == [0.0, 0.0] and emu.seen[-1] == [0.0, 0.0]
+    assert emu.outputs == [0.0, 0.0] and emu.seen[-1][1] == [0.0, 0.0]
 
 
 async def test_silent_ignores_frames_but_watchdog_runs(emu, line) -> None:
@@ -135,8 +153,8 @@ async def test_silent_ignores_frames_but_watchdog_runs(emu, line) -> None:
     assert emu.state == "WDT" and emu.outputs == [0.0, 0.0]
 
 
-async def test_pty_transport_with_pyserial(emu) -> None:
-    path = await emu.start_pty()
+async def test_pty_transport_with_pyserial(emu, controller) -> None:
+    path = await controller.serve("pty")
     assert path.startswith("/dev/")
 
     def talk() -> list[bytes]:

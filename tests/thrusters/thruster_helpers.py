@@ -1,21 +1,48 @@
 """Helpers for the thruster tests: a scripted controller in memory (``ExpectedProtocol``)
-or on a real pty (``ScriptedPeer``), rig settings."""
+or on a real pty (``ScriptedPeer``), the simulated controller on a CPU of its own
+(``ControllerThread``), rig settings."""
 
 from __future__ import annotations
 
+import asyncio
+import functools
+import inspect
+import json
 import os
 import select
+import sys
 import threading
 import time
 import tty
 from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 from daq.config import Limits, load_rig
+from daq.priority import SIMULATOR_PRIORITY, THRUSTER_LINK_PRIORITY, set_realtime
 from thrusters.driver import ThrusterDriver
+from thrusters.emulator import ThrusterControllerEmulator
 from thrusters.link import READ_SLICE_S, SerialLink
 from thrusters.settings import ThrusterPort
 
 RIG = load_rig()
+
+
+class SessionDriver(ThrusterDriver):
+    """A ``ThrusterDriver`` whose line I/O thread runs as a real-time session runs it
+    (``daq/session.py``: at ``THRUSTER_LINK_PRIORITY`` where the OS allows).
+
+    Beside a real-time controller thread in the same process: at normal priority that
+    thread, polling the line every 10 ms, was taken off the CPU by a loaded machine while
+    it held the GIL, and the controller's reply waited for it past the 0.05-0.1 s reply
+    timeout (the inversion ``daq.priority`` describes for a session's workers)."""
+
+    async def open(self, *, io_thread_setup: Callable[[], object] | None = None) -> None:
+        await super().open(io_thread_setup=io_thread_setup or _link_as_in_a_session)
+
+
+_link_as_in_a_session = functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
 
 
 def thruster_port(port: str, **overrides: object) -> ThrusterPort:
@@ -174,3 +201,116 @@ class FakeClock:
 
     def __call__(self) -> float:
         return self.t
+
+
+class ControllerThread:
+    """``emulator`` served from an event loop of its own in a thread that runs real-time just
+    below the rig's clock where the OS allows (``daq.priority.SIMULATOR_PRIORITY``), as the
+    simulated rig, the fault proxies and the cart PLC run: the real board answers and keeps
+    its watchdog on a CPU of its own, whatever the host does.
+
+    In the test's own loop at normal priority, a loaded worker read the host's frames late:
+    the emulator then took a heartbeat sent in time for one past its watchdog (it tripped)
+    and answered after the driver's reply timeout. Whatever it is told to do while it serves
+    goes through ``call`` (its loop is not the test's); its state is read directly."""
+
+    def __init__(self, emulator: ThrusterControllerEmulator) -> None:
+        self.emulator = emulator
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._run, name="thruster-controller", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        set_realtime(SIMULATOR_PRIORITY, warn=False)
+        asyncio.set_event_loop(self._loop)
+        self._loop.run_forever()
+
+    async def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """``fn(*args)`` on the controller's loop (awaited there if awaitable); its result."""
+
+        async def run() -> Any:
+            result = fn(*args)
+            return await result if inspect.isawaitable(result) else result
+
+        return await asyncio.wrap_future(asyncio.run_coroutine_threadsafe(run(), self._loop))
+
+    async def serve(self, transport: str, **tcp: Any) -> str:
+        """Serve on a new pty (``"pty"``: its path) or TCP (``"socket"``: its URL)."""
+        if transport == "pty":
+            return await self.call(self.emulator.start_pty)
+        return await self.call(lambda: self.emulator.start_tcp(**tcp))
+
+    async def close(self) -> None:
+        """Stop serving and end the thread."""
+        if self._loop.is_closed():
+            return
+        try:
+            await self.call(self.emulator.stop)
+        finally:
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join(5)  # its loop has nothing left to run: at once
+            if not self._thread.is_alive():
+                self._loop.close()
+
+
+@dataclass(frozen=True)
+class ControllerState:
+    """What the controller process says of itself (``controller_process.py``)."""
+
+    state: str
+    outputs: list[float]
+    acks: int
+    watchdog_trips: int
+    #: Accepted THR frames as (monotonic time, commands in per mille).
+    accepted_commands: list[tuple[float, tuple[int, ...]]]
+    #: Every change of its outputs as (monotonic time, fractions).
+    seen: list[tuple[float, list[float]]]
+
+
+class ControllerProcess:
+    """The simulated controller of 2 thrusters in a real-time process of its own
+    (``controller_process.py``): for tests whose host is another process, that only read
+    what the controller did."""
+
+    SCRIPT = Path(__file__).with_name("controller_process.py")
+
+    def __init__(self) -> None:
+        self._process: asyncio.subprocess.Process | None = None
+        self.url = ""
+
+    async def start(self, transport: str) -> str:
+        """Serve on a new pty (``"pty"``) or TCP (``"socket"``); its path or URL."""
+        self._process = await asyncio.create_subprocess_exec(
+            sys.executable, str(self.SCRIPT), transport,
+            stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE,
+        )  # fmt: skip
+        self.url = (await self._line()).strip()
+        return self.url
+
+    async def read(self) -> ControllerState:
+        """The controller's state now."""
+        assert self._process is not None and self._process.stdin is not None
+        self._process.stdin.write(b"state\n")
+        got = json.loads(await self._line())
+        got["accepted_commands"] = [(t, tuple(c)) for t, c in got["accepted_commands"]]
+        got["seen"] = [(t, f) for t, f in got["seen"]]
+        return ControllerState(**got)
+
+    async def _line(self) -> bytes:
+        assert self._process is not None and self._process.stdout is not None
+        line = await asyncio.wait_for(self._process.stdout.readline(), 10)
+        assert line, f"the controller process ended (exit {await self._process.wait()})"
+        return line
+
+    async def stop(self) -> None:
+        process, self._process = self._process, None
+        if process is None:
+            return
+        assert process.stdin is not None
+        process.stdin.close()
+        try:
+            await asyncio.wait_for(process.wait(), 5)
+        finally:
+            if process.returncode is None:
+                process.kill()
+                await process.wait()
