@@ -19,8 +19,9 @@ connected clients on ``clock`` (a ``daq.sim.simtime.SimClock`` in tests).
 from __future__ import annotations
 
 import asyncio
+import functools
 import inspect
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -136,19 +137,18 @@ class InProcessModbus:
         if not self.connected:
             raise ConnectionError("in-process PLC: not connected")
         faults = self.plc.faults
+        serving = functools.partial(self.plc.serve, fc, start, address, count, words, values)
         if self.plc.answers_at_once:
             # What ``wait_for`` below does when the PLC answers at once, without its task,
             # future and timer: the request is served one loop pass later and the reply
             # taken two passes after that, so other tasks interleave exactly as there.
             await _loop_pass()
-            exc = await self._serve_now(fc, start, address, count, words, values)
+            exc = await self._serve_now(serving)
             await _loop_pass()
             await _loop_pass()
         else:
             try:
-                exc = await asyncio.wait_for(
-                    self.plc.serve(fc, start, address, count, words, values), self.timeout_s
-                )
+                exc = await asyncio.wait_for(serving(), self.timeout_s)
             except TimeoutError:
                 raise TimeoutError(f"no response within {self.timeout_s} s") from None
         if faults.take_drop():
@@ -159,23 +159,14 @@ class InProcessModbus:
             raise ModbusException("response could not be decoded")
         return exc
 
-    async def _serve_now(
-        self,
-        fc: int,
-        start: int,
-        address: int,
-        count: int,
-        words: list[int],
-        values: list[int] | list[bool] | None,
-    ) -> object:
+    async def _serve_now(self, serving: Callable[[], Awaitable[object]]) -> object:
         """Serve in this task; under the client's timeout if a fault was switched on since
         the request was sent (the PLC may wait now)."""
-        serving = self.plc.serve(fc, start, address, count, words, values)
         if self.plc.answers_at_once:
-            return await serving
+            return await serving()
         try:
             async with asyncio.timeout(self.timeout_s):
-                return await serving
+                return await serving()
         except TimeoutError:
             raise TimeoutError(f"no response within {self.timeout_s} s") from None
 
