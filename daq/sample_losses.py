@@ -20,24 +20,24 @@ from dataclasses import replace
 from daq.sample import Quality
 from daq.store.run_events import Gap
 
+#: A sample stamped late by the host, with no device clock to correct it (OVERRUN).
+LATE_SLOT = "late slot, no device clock"
 #: The reason each quality flag gives (in this order when several are set).
 FLAG_REASONS: tuple[tuple[Quality, str], ...] = (
     (Quality.ERROR, "PLC read failed"),
     (Quality.STALE, "stale channel"),
-    (Quality.OVERRUN, "late slot, no device clock"),
+    (Quality.OVERRUN, LATE_SLOT),
 )
 #: A slot the clock skipped (no sample at all), and a value the read left unset.
 MISSED_SLOT = "slot missed"
 NAN_VALUE = "NaN value"
 #: How the reason of a run aborted for a hole beyond its kind's tolerance begins.
 SAMPLES_LOST = "samples lost"
-#: Every reason a sample is lost for (a sample may have several: :func:`loss_reason`).
-REASONS = (*(text for _, text in FLAG_REASONS), NAN_VALUE, MISSED_SLOT)
 #: Reasons that are the host's, not the rig's: the PC was late (a slot skipped, a late host
 #: stamp). Named, counted and left out of the fit like any loss, but they do not abort a
 #: run: the devices answered and the rig is safe; a hole they leave that is too long for the
 #: fit makes the loader refuse the run instead (``daq.fit_exclusions``).
-HOST_SIDE = frozenset({MISSED_SLOT, "late slot, no device clock"})
+HOST_SIDE = frozenset({MISSED_SLOT, LATE_SLOT})
 
 
 def hole_text(hole_s: float, limit_s: float) -> str:
@@ -58,10 +58,10 @@ def device_side(gap: Gap) -> bool:
 def loss_reason(
     quality: int, value_nan: bool = False, *, device_clock: bool = False
 ) -> tuple[str, ...]:
-    """Why a sample of quality ``quality`` cannot be fitted, each reason once in
-    ``REASONS``' order (empty: it can). ``value_nan``: the channel used is NaN;
-    ``device_clock``: the PLC's clock stamps the sample, so a late host time stamp
-    (OVERRUN) does not matter."""
+    """Why a sample of quality ``quality`` cannot be fitted, each reason once, in
+    ``FLAG_REASONS``' order and then ``NAN_VALUE`` (empty: it can). ``value_nan``: the
+    channel used is NaN; ``device_clock``: the PLC's clock stamps the sample, so a late
+    host time stamp (OVERRUN) does not matter."""
     reasons = tuple(
         text
         for flag, text in FLAG_REASONS
