@@ -10,7 +10,7 @@ the planner: ~1 s of CPU, 17 predictions of ~2,000 steps; 260 predictions of
 
 numba is imported with this module, which ``information.compiled_run`` loads when the
 process has numba loaded already or has stepped ``information.NUMPY_STEPS`` in NumPy
-(``information.LoopChoice``: loading numba costs ~0.6 s of CPU).
+(``information.LOOP``, an ``estimation.loop_choice.LoopChoice``: loading numba costs ~0.6 s of CPU).
 The machine code is cached beside the source (``cache=True``) and compiled by
 ``estimation.motion.compiled_warm_up`` (``rig warm-up``), as the estimator's RK4 loop is.
 """

@@ -15,13 +15,13 @@ the run (``estimation.design.planner``).
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from estimation.design.planning_envelope import AxisEnvelope, Candidate
+from estimation.loop_choice import LoopChoice
 
 PARAMETERS = ("inertia", "linear_damping", "quadratic_damping", "coulomb_friction", "constant_bias")
 #: Integration step, s (semi-implicit Euler; BENBAM's time constants are ≥ 1 s).
@@ -61,20 +61,9 @@ def hung_inertia(env: AxisEnvelope, test: Candidate, g: float) -> float:
 NUMPY_STEPS = 20_000
 
 
-@dataclass
-class LoopChoice:
-    """Which loop steps the next prediction (``NUMPY_STEPS``): the NumPy loop while numba is
-    not loaded and the process has taken fewer than ``NUMPY_STEPS`` steps in it
-    (``numpy_steps``), else the compiled one (``compiled_prediction``, the same bits)."""
-
-    numpy_steps: int = 0
-
-    def compiled(self) -> bool:
-        return "numba" in sys.modules or self.numpy_steps >= NUMPY_STEPS
-
-
-#: The process's choice (``_simulate`` asks it before each prediction).
-LOOP = LoopChoice()
+#: The process's choice (``_simulate`` asks it before each prediction): compiled
+#: (``compiled_prediction``, the same bits) once numba is loaded, by an estimate or by this.
+LOOP = LoopChoice("numba", NUMPY_STEPS)
 
 
 def _simulate(
@@ -88,7 +77,7 @@ def _simulate(
         xs = compiled_run(theta, load, extra, travel, n)
     else:
         xs = numpy_run(theta, load, extra, travel, n)
-        LOOP.numpy_steps += len(xs)
+        LOOP.stepped_in_numpy(len(xs))
     t = STEP_S * np.arange(1, len(xs) + 1)
     return xs, t, float(np.max(np.abs(np.diff(xs[:, 0])) / STEP_S, initial=0.0))
 

@@ -22,7 +22,7 @@ beyond ``limit`` of its record) is held at the limit (``equation.integrate``).
 
 numba is imported with this module, which ``kernel.step_grid`` loads on the first
 integration that runs compiled (importing numba costs ~0.3 s of CPU: a command that does
-not estimate, or integrates only a few short grids, ``kernel.LoopChoice``, never pays it).
+not estimate, or integrates only a few short grids, ``kernel.LOOP``, never pays it).
 The compiled code is cached beside the source (``cache=True``): only the first process
 after a change compiles it (7–10 s of CPU on this 2-core box); later ones load it in ~0.5 s.
 The helpers that take the term arrays are inlined by numba (``inline="always"``), and so is

@@ -19,7 +19,7 @@ within 1/8 of a sample is not integrated); the state at the samples is read off 
 grid by cubic Hermite interpolation. The step loop runs compiled
 (``kernel.step_grid``: the same arithmetic, 10–25× less CPU), and so does the read-off of a
 grid it made (``kernel.hermite``: the same numbers, 5× less CPU); a term whose regressor has no
-compiled form, and a process's first few short grids (``kernel.LoopChoice``: loading the
+compiled form, and a process's first few short grids (``kernel.LOOP``: loading the
 compiled loop costs more than they do), step in NumPy here (``_numpy_grid``), with the same
 result.
 
@@ -406,10 +406,9 @@ def integrate(
             # exact mean of a linear one), like the held drive's mean over the step
             ramp = c.term.regressor(zeros, zeros, zeros, 0.0, middles)
             drive = drive + np.asarray(c.value)[None, :, :] * ramp[:, :, None]
+    chosen = LOOP.compiled(n_steps)
     compiled = (
-        step_grid(x0, v0, drive, inv, forces, h, n_steps, limit, GUARD_EVERY)
-        if LOOP.compiled(n_steps)
-        else None
+        step_grid(x0, v0, drive, inv, forces, h, n_steps, limit, GUARD_EVERY) if chosen else None
     )
     if compiled is not None:
         xs, vs, frozen_any = compiled
@@ -417,6 +416,8 @@ def integrate(
         xs, vs, frozen_any = _numpy_grid(
             x0, v0, drive, inv, forces, smooth, held, h, n_steps, limit
         )
+        if not chosen:  # a grid with a term of no compiled form is not the choice's
+            LOOP.stepped_in_numpy(n_steps)
     if skipped.any():
         xs[:, skipped, :], vs[:, skipped, :] = limit, 0.0
     if frozen_any:  # the steps before the guard saw it: x and ẋ both held within the

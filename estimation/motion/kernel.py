@@ -11,20 +11,21 @@ Loading the compiled loop costs a process ~0.6 s of CPU (importing numba ~0.25 s
 dispatch ~0.35 s: the cached machine code installs numba's lowering registries), while the
 NumPy loop costs ~50–120 µs a step, its dispatch: an estimate that integrates little (a tow
 from rest is in closed form and integrates only to screen the candidates without one: six
-grids of 211 steps, 0.07 s in NumPy) steps in NumPy and never loads numba
-(``LoopChoice``). The two loops agree to rounding (bit for bit on every case of
-``tests/estimation/motion/test_compiled_integrator.py`` here), so the choice moves no answer.
+grids of 211 steps, 0.07 s in NumPy) steps in NumPy and never loads numba (``LOOP``, an
+``estimation.loop_choice.LoopChoice``). The two loops agree to rounding (bit for bit on every
+case of ``tests/estimation/motion/test_compiled_integrator.py`` here), so the choice moves no
+answer.
 """
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
+from estimation.loop_choice import LoopChoice
 from estimation.motion.terms import Term, TermValues
 
 Basis = Callable[[np.ndarray], np.ndarray]
@@ -64,26 +65,9 @@ NUMPY_GRID_STEPS = 500
 COMPILED = "estimation.motion.compiled"
 
 
-@dataclass
-class LoopChoice:
-    """Which loop steps the next grid (module doc): the NumPy loop while the process has not
-    loaded the compiled one, the grid has at most ``NUMPY_GRID_STEPS`` steps and the NumPy
-    loop has taken fewer than ``NUMPY_STEPS`` in all (``numpy_steps``); else the compiled."""
-
-    numpy_steps: int = 0
-
-    def compiled(self, n_steps: int) -> bool:
-        """Whether a grid of ``n_steps`` steps runs compiled (else: it is counted here)."""
-        if COMPILED in sys.modules or n_steps > NUMPY_GRID_STEPS:
-            return True
-        if self.numpy_steps + n_steps > NUMPY_STEPS:
-            return True
-        self.numpy_steps += n_steps
-        return False
-
-
-#: The process's choice (``equation.integrate`` asks it before each grid).
-LOOP = LoopChoice()
+#: The process's choice (``equation.integrate`` asks it before each grid and counts the
+#: grids it steps in NumPy): module doc.
+LOOP = LoopChoice(COMPILED, NUMPY_STEPS, NUMPY_GRID_STEPS)
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from estimation.design import information
-from estimation.design.information import STEP_S, LoopChoice, compiled_run, numpy_run
+from estimation.design.information import STEP_S, compiled_run, numpy_run
+from estimation.loop_choice import LoopChoice
 
 
 def _sets(theta):
@@ -54,14 +55,13 @@ def test_a_process_steps_in_numpy_until_numba_is_loaded_or_its_budget_is_spent(m
     monkeypatch.setattr(
         information, "compiled_run", lambda *a: used.append("compiled") or numpy_run(*a)
     )
-    monkeypatch.setattr(information, "LOOP", LoopChoice())
-    monkeypatch.setattr(information, "NUMPY_STEPS", 300)
+    monkeypatch.setattr(information, "LOOP", LoopChoice("numba", 300))
     xs, _, _ = information._simulate(sets, 24.5, 0.0, 5.3, 2.0)  # 200 steps
     assert used == ["numpy"] and information.LOOP.numpy_steps == len(xs) == 200
     information._simulate(sets, 24.5, 0.0, 5.3, 2.0)  # 400 steps, over the budget
     information._simulate(sets, 24.5, 0.0, 5.3, 2.0)
     assert used == ["numpy", "numpy", "compiled"]
-    monkeypatch.setattr(information, "LOOP", LoopChoice())
+    monkeypatch.setattr(information, "LOOP", LoopChoice("numba", information.NUMPY_STEPS))
     monkeypatch.setitem(sys.modules, "numba", object())  # an estimate loaded it: compiled
     information._simulate(sets, 24.5, 0.0, 5.3, 2.0)
     assert used[-1] == "compiled"

@@ -28,8 +28,8 @@ ROUNDING = 1e-12
 
 @pytest.fixture(autouse=True)
 def compiled_from_the_first_grid(monkeypatch):
-    """``integrate`` runs the compiled loop (its NumPy budget spent: ``kernel.LoopChoice``)."""
-    monkeypatch.setattr(equation, "LOOP", kernel.LoopChoice(numpy_steps=kernel.NUMPY_STEPS))
+    """``integrate`` runs the compiled loop (its NumPy budget spent: ``kernel.LOOP``)."""
+    monkeypatch.setattr(equation, "LOOP", replace(kernel.LOOP, numpy_steps=kernel.NUMPY_STEPS))
 
 
 @pytest.mark.parametrize("name", FORCE_TERMS)
@@ -130,7 +130,7 @@ def test_the_axis_simulator_steps_as_numpy_does(monkeypatch, effects):
 def test_a_process_steps_its_first_short_grids_in_numpy_then_compiled(monkeypatch):
     """Before numba is loaded, grids of at most NUMPY_GRID_STEPS steps run in NumPy until
     NUMPY_STEPS in all, a longer grid compiled from the first; the same trajectories."""
-    choice = kernel.LoopChoice()
+    choice = replace(kernel.LOOP, numpy_steps=0)
     monkeypatch.setattr(equation, "LOOP", choice)
     monkeypatch.delitem(sys.modules, kernel.COMPILED, raising=False)  # not loaded yet
     ran: list[int] = []
@@ -157,7 +157,7 @@ def test_a_process_steps_its_first_short_grids_in_numpy_then_compiled(monkeypatc
         _assert_same(path, paths[0])
 
     ran.clear()
-    fresh = kernel.LoopChoice()
+    fresh = replace(kernel.LOOP, numpy_steps=0)
     monkeypatch.setattr(equation, "LOOP", fresh)
     integrate(tracks, np.full((1, 1), 3.0), coefficients, x0, v0, 0.005)
     assert ran and ran[0] > kernel.NUMPY_GRID_STEPS and fresh.numpy_steps == 0
