@@ -11,16 +11,14 @@ clock's loop (procedures, the CLI and the benchmarks use the thread runner)::
 
 from __future__ import annotations
 
-import asyncio
 import inspect
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
 from daq.config import RigConfig
-from daq.priority import SIMULATOR_PRIORITY, set_realtime
+from daq.sim.device_loop import DeviceLoop
 from daq.sim.plant import Plant
 from daq.sim.plc_server import SimulatedPLC
 from daq.sim.scenario import Scenario
@@ -167,25 +165,13 @@ class SimulatedRigThread:
 
     def __init__(self, rig: RigConfig, scenario: Scenario | None = None, **kwargs: Any) -> None:
         self.sim = SimulatedRig(rig, scenario, **kwargs)
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._run, name="simulated-rig", daemon=True)
-        self._thread.start()
+        # it stands in for devices with their own CPU (``device_loop``)
+        self._device = DeviceLoop("simulated-rig")
         try:
-            self.endpoints: SimEndpoints = self._submit(self.sim.start(), 10.0)
+            self.endpoints: SimEndpoints = self._device.submit(self.sim.start).result(10.0)
         except BaseException:
-            self._shutdown_loop()
+            self._device.close()
             raise
-
-    def _run(self) -> None:
-        # It stands in for devices with their own CPU: real-time just below the clock where
-        # the OS allows (at normal priority, sharing the GIL, a busy host starved it past the
-        # Modbus read timeout for 0.1-0.4 s at a time: issue 35, CI's `rig pendulum`).
-        set_realtime(SIMULATOR_PRIORITY, warn=False)
-        asyncio.set_event_loop(self._loop)
-        self._loop.run_forever()
-
-    def _submit(self, coro: Any, timeout: float | None) -> Any:
-        return asyncio.run_coroutine_threadsafe(coro, self._loop).result(timeout)
 
     @property
     def plant(self) -> Plant:
@@ -211,28 +197,15 @@ class SimulatedRigThread:
         """
         if not args and takes_one_argument(fn):
             args = (self.sim,)
-
-        async def run() -> Any:
-            result = fn(*args)
-            if inspect.isawaitable(result):
-                result = await result
-            return result
-
-        return self._submit(run(), timeout)
+        return self._device.submit(fn, *args).result(timeout)
 
     def close(self) -> None:
         """Stop the simulated rig and its thread (idempotent)."""
-        if not self._loop.is_closed() and self._thread.is_alive():
+        if self._device.running:
             try:
-                self._submit(self.sim.stop(), 10.0)
+                self._device.submit(self.sim.stop).result(10.0)
             finally:
-                self._shutdown_loop()
-
-    def _shutdown_loop(self) -> None:
-        self._loop.call_soon_threadsafe(self._loop.stop)
-        self._thread.join(5.0)
-        if not self._thread.is_alive():
-            self._loop.close()
+                self._device.close()
 
     def __enter__(self) -> SimulatedRigThread:
         return self

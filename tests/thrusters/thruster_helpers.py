@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import asyncio
 import functools
-import inspect
 import json
 import os
 import select
@@ -20,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from daq.config import Limits, load_rig
-from daq.priority import SIMULATOR_PRIORITY, THRUSTER_LINK_PRIORITY, set_realtime
+from daq.priority import THRUSTER_LINK_PRIORITY, set_realtime
+from daq.sim.device_loop import DeviceLoop
 from thrusters.driver import ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
 from thrusters.link import READ_SLICE_S, SerialLink
@@ -204,10 +204,10 @@ class FakeClock:
 
 
 class ControllerThread:
-    """``emulator`` served from an event loop of its own in a thread that runs real-time just
-    below the rig's clock where the OS allows (``daq.priority.SIMULATOR_PRIORITY``), as the
-    simulated rig, the fault proxies and the cart PLC run: the real board answers and keeps
-    its watchdog on a CPU of its own, whatever the host does.
+    """``emulator`` served from a device loop of its own (``daq.sim.device_loop``: a thread
+    that runs real-time just below the rig's clock where the OS allows), as the simulated rig
+    runs: the real board answers and keeps its watchdog on a CPU of its own, whatever the
+    host does.
 
     In the test's own loop at normal priority, a loaded worker read the host's frames late:
     the emulator then took a heartbeat sent in time for one past its watchdog (it tripped)
@@ -216,23 +216,11 @@ class ControllerThread:
 
     def __init__(self, emulator: ThrusterControllerEmulator) -> None:
         self.emulator = emulator
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._run, name="thruster-controller", daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        set_realtime(SIMULATOR_PRIORITY, warn=False)
-        asyncio.set_event_loop(self._loop)
-        self._loop.run_forever()
+        self._device = DeviceLoop("thruster-controller")
 
     async def call(self, fn: Callable[..., Any], *args: Any) -> Any:
         """``fn(*args)`` on the controller's loop (awaited there if awaitable); its result."""
-
-        async def run() -> Any:
-            result = fn(*args)
-            return await result if inspect.isawaitable(result) else result
-
-        return await asyncio.wrap_future(asyncio.run_coroutine_threadsafe(run(), self._loop))
+        return await asyncio.wrap_future(self._device.submit(fn, *args))
 
     async def serve(self, transport: str, **tcp: Any) -> str:
         """Serve on a new pty (``"pty"``: its path) or TCP (``"socket"``: its URL)."""
@@ -242,15 +230,12 @@ class ControllerThread:
 
     async def close(self) -> None:
         """Stop serving and end the thread."""
-        if self._loop.is_closed():
+        if not self._device.running:
             return
         try:
             await self.call(self.emulator.stop)
         finally:
-            self._loop.call_soon_threadsafe(self._loop.stop)
-            self._thread.join(5)  # its loop has nothing left to run: at once
-            if not self._thread.is_alive():
-                self._loop.close()
+            self._device.close()  # its loop has nothing left to run: at once
 
 
 @dataclass(frozen=True)
