@@ -41,13 +41,16 @@ from typing import Any
 from daq.priority import lower_priority
 
 #: What the server imports before its first fork: the analysis worker's code (the fits, the
-#: cross-check and the campaign's fit with their report figures) and the CSV import's.
+#: cross-check and the campaign's fit with their report figures) and the CSV import's, and
+#: ``scipy.special``, whose statistics every fit's tests and budgets call (those modules
+#: import it where it is called, as the service imports them too and never loads SciPy).
 PRELOAD = (
     "api.core.analysis_executor",
     "api.core.estimation_job",
     "api.core.crosscheck_job",
     "api.core.campaign_fit",
     "api.core.csv_upload",
+    "scipy.special",
 )
 
 #: Niceness of the server: that of the analysis worker (``ANALYSIS_NICENESS``). Not above

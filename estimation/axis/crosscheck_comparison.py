@@ -10,7 +10,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.special import chdtrc
 
 from estimation.motion.terms import units_of
 from estimation.report_numbers import finite_or_none
@@ -183,6 +182,8 @@ def common_factor(comparisons: list[Comparison]) -> CommonFactor | None:
             used.append(c.name)
     if not ratios:
         return None
+    from scipy.special import chdtrc  # here: the service imports this module (its UNITS)
+
     w = 1.0 / np.square(sigmas)
     k = float(np.sum(w * ratios) / np.sum(w))
     stat = float(np.sum(w * (np.array(ratios) - k) ** 2))

@@ -138,6 +138,44 @@ def test_the_service_process_imports_no_optimizer_integrator_or_plotting(tmp_pat
     assert [m for m in NOT_FOR_THE_SERVICE if m in loaded] == []
 
 
+#: The service started as ``rig serve`` starts it (its simulated rig in real time), then every
+#: read route without a path parameter answered (those the browser loads first: the kinds
+#: with their units, the runs, the results, …); the modules loaded meanwhile are printed.
+SERVED_PROBE = """
+import json, sys
+from fastapi.routing import APIRoute
+from fastapi.testclient import TestClient
+from api.core.service import RigService
+from api.http.app import create_app
+from daq.session import RigSource
+app = create_app(RigService(RigSource.load(), "sqlite:///rig.db"), token="t")
+with TestClient(app) as client:
+    before = set(sys.modules)
+    for route in app.routes:
+        if isinstance(route, APIRoute) and "GET" in route.methods and "{" not in route.path:
+            if "stream" not in route.path:  # an event stream never ends
+                answer = client.get(route.path, headers={"Authorization": "Bearer t"})
+                assert answer.status_code < 500, (route.path, answer.text)
+print(json.dumps(sorted(set(sys.modules) - before)))
+"""
+
+
+def test_serving_the_read_routes_imports_nothing_the_service_never_loads(tmp_path):
+    """Not even on a request: an import in one of the service's threads holds the GIL while
+    an extension module initialises, and a loaded machine can take the CPU from that thread
+    meanwhile, so the clock's real-time thread waits for the GIL. The first page load did
+    import ``scipy.special`` (the kinds' units, ``estimation.axis.crosscheck_comparison``):
+    beside 8 busy loops a 10 ms real-time ticker was up to 232 ms late during that import
+    (none without it), and CI lost two slots of a browser tow at b7981f9."""
+    proc = subprocess.run(
+        [sys.executable, "-c", SERVED_PROBE], cwd=tmp_path, capture_output=True, text=True,
+        env=os.environ | {"XDG_DATA_HOME": str(tmp_path)}, timeout=300, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    loaded = set(json.loads(proc.stdout.strip().splitlines()[-1]))
+    assert [m for m in NOT_FOR_THE_SERVICE if m in loaded] == []
+
+
 def test_the_run_list_walks_its_loaded_modules_in_no_full_collection(tmp_path):
     """What ``rig runs`` loads (SQLAlchemy, the store, pydantic) lives to the end of the
     process: loaded with the collector paused and frozen after (``daq.collector``), no full
