@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import httpx
 import pytest
 import xarray as xr
 
@@ -39,6 +40,13 @@ def server(tmp_path_factory):
         yield url
     finally:
         stop_service(proc)
+
+
+def _clock_record(server: str) -> dict:
+    """The service's account of its clock (``GET /api/rig``'s ``clock``): its skipped slots,
+    late wake-ups and host stalls, for a failure's message."""
+    rig = httpx.get(f"{server}api/rig", headers={"Authorization": f"Bearer {TOKEN}"}, timeout=10)
+    return rig.json().get("clock") or {}
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +112,10 @@ def test_tow_from_the_page_live_data_run_listed_and_estimated(server, page, tmp_
     boxes.nth(0).check()
     boxes.nth(1).check()
     page.click("#est-run")
-    expect(page.locator("#est-state")).to_have_text("completed", timeout=60_000)
+    try:
+        expect(page.locator("#est-state")).to_have_text("completed", timeout=60_000)
+    except AssertionError as err:  # a refused run names its lost slots; the clock says why
+        raise AssertionError(f"{err}\nthe service's clock: {_clock_record(server)}") from err
     coefs = page.locator("#est-coefs tbody tr:not(.est-known)")  # the well-determined rows aside
     expect(coefs).to_have_count(3)
     expect(page.locator("#est-coefs")).to_contain_text("inertia")

@@ -165,7 +165,7 @@ def test_serving_the_read_routes_imports_nothing_the_service_never_loads(tmp_pat
     an extension module initialises, and a loaded machine can take the CPU from that thread
     meanwhile, so the clock's real-time thread waits for the GIL. The first page load did
     import ``scipy.special`` (the kinds' units, ``estimation.axis.crosscheck_comparison``):
-    beside 8 busy loops a 10 ms real-time ticker was 232 ms late once in 13 such imports
+    beside 8 busy loops a 10 ms real-time ticker was 232 ms late once in 12 such imports
     (22-38 ms in the others, 18-28 ms beside plain Python), and CI's browser tow at b7981f9
     lost two slots seconds after it."""
     proc = subprocess.run(
