@@ -98,6 +98,13 @@ def set_realtime(priority: int = 10, *, warn: bool = True) -> bool:
     return True
 
 
+def thruster_link_realtime() -> bool:
+    """In the thruster line's I/O thread of a real-time session (``io_thread_setup`` of
+    ``thrusters.driver.ThrusterDriver.open``): SCHED_FIFO at ``THRUSTER_LINK_PRIORITY``,
+    quietly normal where the OS refuses; whether it was granted."""
+    return set_realtime(THRUSTER_LINK_PRIORITY, warn=False)
+
+
 def scheduling() -> Scheduling:
     """The calling thread's scheduling, to give back with :func:`restore_scheduling`."""
     return os.sched_getscheduler(0), os.sched_getparam(0), os.getpriority(os.PRIO_PROCESS, 0)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import functools
 import logging
 import math
 from collections.abc import AsyncIterator, Sequence
@@ -32,13 +31,13 @@ from daq.lease_fault import LeaseFault
 from daq.operator import Operator, PromptOperator, SimulatedOperator, console_ask
 from daq.plc import PlcClient
 from daq.priority import (
-    THRUSTER_LINK_PRIORITY,
     WORKER_PRIORITY,
     Scheduling,
     WorkerThreads,
     restore_scheduling,
     scheduling,
     set_realtime,
+    thruster_link_realtime,
     worker_threads,
 )
 from daq.rig_lock import RigLease, rig_lock
@@ -226,11 +225,7 @@ class RigSession:
             driver = made.driver if made and made.driver else None
             driver = driver or open_thruster_driver(conn.thrusters, conn.limits)
             # The line's I/O thread follows the clock into real time, below the simulated rig.
-            link_setup = (
-                functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
-                if self.realtime_active
-                else None
-            )
+            link_setup = thruster_link_realtime if self.realtime_active else None
             await driver.open(io_thread_setup=link_setup)
             self.thrusters = driver  # only an open driver is zeroed and closed later
             self._tasks.append(

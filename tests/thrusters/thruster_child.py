@@ -14,14 +14,13 @@ controller's watchdog rightly tripped, on a host scheduled as no session runs on
 from __future__ import annotations
 
 import asyncio
-import functools
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from daq.config import load_rig
-from daq.priority import THRUSTER_LINK_PRIORITY, set_realtime
+from daq.priority import set_realtime, thruster_link_realtime
 from thrusters.driver import ThrusterDriver
 
 
@@ -29,9 +28,7 @@ async def main(url: str, mode: str) -> None:
     rig = load_rig()
     drv = ThrusterDriver(rig.thrusters, rig.limits, port=url)
     set_realtime(warn=False)
-    await drv.open(
-        io_thread_setup=functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
-    )
+    await drv.open(io_thread_setup=thruster_link_realtime)
     if mode == "signals":
         drv.install_signal_handlers()
     await drv.arm()

@@ -5,7 +5,6 @@ or on a real pty (``ScriptedPeer``), the simulated controller on a CPU of its ow
 from __future__ import annotations
 
 import asyncio
-import functools
 import json
 import os
 import select
@@ -19,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from daq.config import Limits, load_rig
-from daq.priority import THRUSTER_LINK_PRIORITY, set_realtime
+from daq.priority import thruster_link_realtime
 from daq.sim.device_loop import DeviceLoop
 from thrusters.driver import ThrusterDriver
 from thrusters.emulator import ThrusterControllerEmulator
@@ -39,10 +38,7 @@ class SessionDriver(ThrusterDriver):
     timeout (the inversion ``daq.priority`` describes for a session's workers)."""
 
     async def open(self, *, io_thread_setup: Callable[[], object] | None = None) -> None:
-        await super().open(io_thread_setup=io_thread_setup or _link_as_in_a_session)
-
-
-_link_as_in_a_session = functools.partial(set_realtime, THRUSTER_LINK_PRIORITY, warn=False)
+        await super().open(io_thread_setup=io_thread_setup or thruster_link_realtime)
 
 
 def thruster_port(port: str, **overrides: object) -> ThrusterPort:
