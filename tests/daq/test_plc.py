@@ -225,12 +225,13 @@ async def test_a_late_reply_costs_its_poll_not_the_link(server):
     """A reply after ``timeout_s`` fails that poll only: the link stays up without a
     reconnect (pymodbus drops the late reply's transaction), and the next poll reads what
     the PLC holds then, not the late reply."""
-    # 0.2 s, not the default 0.05 s: a loaded host's hiccup must not fail the next poll too
-    plc = PlcClient(server.rig_config(timeout_s=0.2))
+    # 0.5 s, not the default 0.05 s: a loaded host's hiccup must not fail the next poll too
+    # (the server answers from this test's own loop; the late reply comes after 1 s)
+    plc = PlcClient(server.rig_config(timeout_s=0.5))
     await plc.connect(timeout_s=2.0)
     try:
         server.set("tow_position", 0.25)
-        server.slow_reads, server.slow_read_s = 1, 0.5  # the next read's reply comes late
+        server.slow_reads, server.slow_read_s = 1, 1.0  # the next read's reply comes late
         with pytest.raises(DeviceError, match="input registers 0-11"):
             await plc.read_all()
         await until(lambda: server.late_replies == 1, "the late reply sent", timeout_s=2)

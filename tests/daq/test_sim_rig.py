@@ -124,7 +124,7 @@ async def test_rtu_over_a_pty():
 
 async def test_rtu_over_a_socket_url():
     sim = await _started(rtu="socket")
-    client = PlcClient(_pointed(sim.connection_rig(), timeout_s=0.2))
+    client = PlcClient(_pointed(sim.connection_rig(), timeout_s=REPLY_WITHIN_S))
     assert client.modbus.serial_port.startswith("socket://")
     await client.connect(timeout_s=2.0)
     try:
