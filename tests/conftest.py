@@ -208,10 +208,33 @@ def pytest_collection(session: pytest.Session) -> Iterator[object]:
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """A test on a browser page (the ``chromium`` fixture, tests/api/conftest.py) is in the
     slow lane wherever it is written: a page is the real stack in real time. ``tryfirst``:
-    marked before ``-m`` deselects."""
+    marked before ``-m`` deselects. Then the modules are put in the order the workers take
+    them (`_longest_first`)."""
     for item in items:
         if "chromium" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.slow)
+    items[:] = _longest_first(items)
+
+
+def _longest_first(items: list[pytest.Item]) -> list[pytest.Item]:
+    """``items`` by module, the modules likely to take longest first, each module's tests in
+    their own order. xdist's ``loadscope`` hands the workers whole modules in this order
+    (``--no-loadscope-reorder`` in pyproject.toml; its own reorder puts the modules with the
+    most tests first, which left single long tests, the browser pages, mypy, schemathesis,
+    to start last and run on alone at the end). Longest-first list scheduling leaves the
+    shortest tail; "longest" is guessed from the tests marked slow (the real stack,
+    statistical fits), most first, then the others by their number. On the durations of
+    one full run, simulated on three workers: the last worker ends 28 s sooner (668 s
+    against 696 s), 5 s after the 663 s of ordering by the measured durations themselves."""
+    modules: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        modules.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
+
+    def expected(tests: list[pytest.Item]) -> tuple[int, int]:
+        return sum(t.get_closest_marker("slow") is not None for t in tests), len(tests)
+
+    ordered = sorted(modules.values(), key=expected, reverse=True)
+    return [item for tests in ordered for item in tests]
 
 
 @pytest.hookimpl(tryfirst=True, optionalhook=True)
