@@ -90,7 +90,9 @@ def test_call_runs_fault_injection_on_the_simulators_loop():
             sim.call(sim.plc.stop_server)
             sim.call(sim.plc.start_server)
             client.close()
-            client = ModbusTcpClient("127.0.0.1", port=sim.endpoints.port, timeout=ANSWER_S)
+            client = ModbusTcpClient(
+                "127.0.0.1", port=sim.endpoints.port, timeout=ANSWER_S, retries=0
+            )
             assert client.connect()
             assert not client.read_input_registers(0, count=2, device_id=1).isError()
         finally:
