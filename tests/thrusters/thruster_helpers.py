@@ -140,6 +140,14 @@ class ExpectedProtocol:
         assert self._written == b"", f"host wrote unexpected bytes {self._written!r}"
 
 
+#: How long a driver talking to a `ScriptedPeer` waits for a reply (s), instead of the rig
+#: file's 0.1 s: the peer answers from a thread of the test's process, which a loaded machine
+#: can hold off longer than that (a full run here saw a scripted reply come after 0.1 s and
+#: the driver retry past the script's end). The conversations check bytes and retries, not
+#: the controller's speed; a silent step costs this long.
+PTY_REPLY_S = 0.5
+
+
 class ScriptedPeer:
     """A fake controller on a real pty that expects exact bytes and replies with given
     bytes: ``[(expected_write, reply_or_None), ...]`` (None = stay silent)."""
@@ -175,8 +183,10 @@ class ScriptedPeer:
                 os.write(self.master, reply)
 
     def driver(self, lim: Limits | None = None, *, clock: Callable[[], float] | None = None):
+        """A driver on this pty that waits `PTY_REPLY_S` for each reply."""
         extra = {} if clock is None else {"clock": clock}
-        return ThrusterDriver(thruster_port(self.path), lim or limits(), **extra)
+        port = thruster_port(self.path, ack_timeout_s=PTY_REPLY_S)
+        return ThrusterDriver(port, lim or limits(), **extra)
 
     def assert_done(self) -> None:
         """Every step happened byte-exact and the host wrote nothing more."""
