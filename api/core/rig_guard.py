@@ -8,14 +8,16 @@ the holder releases it, or another operator overrides, which the log names.
 
 The state lives in the database's safety log (``rig_events``), read at each check, so a
 hold or an acknowledgement made with the ``rig`` command reaches a running ``rig serve``,
-and an unacknowledged stop outlives a restart.
+and an unacknowledged stop outlives a restart. A change made through the service is also
+published on its live stream (a ``guard`` event), so every open page shows it at once; one
+made with the ``rig`` command reaches the pages at their next poll of ``GET /api/rig``.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from api.core.job_model import JobConflict, iso_time
@@ -53,16 +55,22 @@ def check_reason(reason: Any) -> str:
 
 
 class RigGuard:
-    """The emergency-stop latch and the hold of one rig, kept in its safety log."""
+    """The emergency-stop latch and the hold of one rig, kept in its safety log; each change
+    is handed to ``published`` as the new :meth:`state`, if given."""
 
-    def __init__(self, log: RigEventLog) -> None:
+    def __init__(
+        self, log: RigEventLog, published: Callable[[dict[str, Any]], None] | None = None
+    ) -> None:
         self.log = log
+        self.published = published
 
     @classmethod
     def of(cls, service: RigService) -> RigGuard:
+        """The guard of ``service``'s rig, its changes published on the service's stream."""
         if service.store is None:
             raise RigUnavailable("the rig service is not running")
-        return cls(RigEventLog(service.store, service.source.rig.rig.name))
+        log = RigEventLog(service.store, service.source.rig.rig.name)
+        return cls(log, service.broadcaster.publish_guard)
 
     # -- state --------------------------------------------------------------------------
     def estop(self) -> dict[str, Any] | None:
@@ -119,9 +127,16 @@ class RigGuard:
             raise refused
 
     # -- changes ----------------------------------------------------------------------------
+    def _add(self, kind: str, user_name: str | None, message: str) -> dict[str, Any]:
+        """Log the change, then publish the new state."""
+        event = self.log.add(kind, user_name, message)
+        if self.published is not None:
+            self.published(self.state())
+        return event
+
     def record_stop(self, user_name: str | None, message: str) -> dict[str, Any]:
         """Latch an emergency stop (whoever pressed it; None: no token given)."""
-        return self.log.add(ESTOP, user_name, message)
+        return self._add(ESTOP, user_name, message)
 
     def acknowledge(self, user: User, note: str = "") -> dict[str, Any]:
         """A named operator acknowledges the emergency stop; 409 when none is latched."""
@@ -130,7 +145,7 @@ class RigGuard:
             raise JobConflict("no emergency stop to acknowledge")
         when = _when(stop) if stop is not None else "now (not recorded)"
         text = f"acknowledged the emergency stop of {when}" + (f": {note}" if note else "")
-        event = self.log.add(ESTOP_ACK, user.name, text)
+        event = self._add(ESTOP_ACK, user.name, text)
         _STOPPING.discard(self.log.rig_name)
         return event
 
@@ -140,7 +155,7 @@ class RigGuard:
         held = self.hold()
         if held is not None and held["user_name"] != user.name:
             raise self.refusal(user.name) or JobConflict("rig is held")
-        return self.log.add(HOLD, user.name, reason)
+        return self._add(HOLD, user.name, reason)
 
     def release(self, user: User, override: bool = False) -> dict[str, Any]:
         """Release the hold: its holder, or any operator with ``override`` (logged as
@@ -149,16 +164,14 @@ class RigGuard:
         if held is None:
             raise JobConflict("the rig is not held")
         if held["user_name"] == user.name:
-            return self.log.add(RELEASE, user.name, "released by the holder")
+            return self._add(RELEASE, user.name, "released by the holder")
         if not override:
             raise RigHeld(
                 f"rig is held by {held['user_name']}: {held['message']}; only the holder "
                 "releases it (an operator may pass override)",
                 holder=held["user_name"],
             )
-        return self.log.add(
-            RELEASE, user.name, f"override: released the hold of {held['user_name']}"
-        )
+        return self._add(RELEASE, user.name, f"override: released the hold of {held['user_name']}")
 
 
 @contextlib.contextmanager

@@ -14,6 +14,10 @@ Job updates are thinned to what changed: a ``job`` event (the whole job document
 anything but its progress changed, else a small ``job_progress`` event (``id``, ``kind``,
 ``state``, ``progress``), at most ``max_hz`` per job — a progress update that comes sooner
 is held and sent when it is due, so the last one always arrives.
+
+A ``guard`` event (``{"estop", "hold"}``, as ``GET /api/rig`` → ``guard``) goes to every
+client when the service latches or acknowledges an emergency stop, or a hold is taken or
+released through it: a page shows a stop pressed elsewhere at once, not at its next poll.
 """
 
 from __future__ import annotations
@@ -198,6 +202,13 @@ class Broadcaster:
             clients = [c for c in self._clients if c.jobs]
         for c in clients:
             c.offer_job(job)
+
+    def publish_guard(self, guard: dict[str, Any]) -> None:
+        """The rig's guard changed (``RigGuard.state``): to every client."""
+        with self._lock:
+            clients = list(self._clients)
+        for c in clients:
+            c.offer("guard", guard)
 
 
 def _sse(kind: str, data: dict[str, Any]) -> bytes:

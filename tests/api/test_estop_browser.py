@@ -49,3 +49,25 @@ def test_the_emergency_stop_button_works_without_a_token(chromium, client, servi
             ("estop", None),
         ]
         wait_job(client, start_job(client, "/api/jobs/tow", SHORT_TOW))
+
+
+def test_a_stop_pressed_elsewhere_shows_on_an_open_page_without_its_poll(
+    chromium, client, service
+) -> None:
+    """The page's timers are stopped once it shows the rig (Playwright's clock): its 2 s
+    status poll never fires again, so the stop pressed by a lab tool, and its
+    acknowledgement, can reach the page only through the stream's ``guard`` event."""
+    from playwright.sync_api import expect
+
+    app = create_app(service, token=TOKEN, manage_service=False, runner=client.app.state.runner)
+    with LiveServer(app) as live, chromium.page() as page:
+        page.clock.install()
+        page.goto(f"{live.url}#token={TOKEN}")
+        expect(page.locator("#hold-btn")).to_be_visible()  # the guard, drawn from a status
+        expect(page.locator("#live-count")).not_to_have_text("0")  # the stream delivers
+        page.clock.pause_at(page.evaluate("Date.now()") + 1000)  # no page timer fires now
+
+        assert client.post("/api/rig/emergency-stop").status_code == 200
+        expect(page.locator("#estop-latched")).to_contain_text("refuses motion")
+        assert client.post("/api/estop/ack", headers=AUTH).status_code == 200
+        expect(page.locator("#estop-latched")).to_have_count(0)

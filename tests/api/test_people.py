@@ -5,10 +5,13 @@ by the person at the tank refusing everyone else's start, naming who and why."""
 
 from __future__ import annotations
 
+import asyncio
+
 import pytest
 from click.testing import CliRunner
 
 from api.cli.main import main
+from api.core.stream import Client
 from daq.store.people_and_safety_log import UserRepository
 from tests.api.conftest import AUTH, SHORT_TOW, how_it_ended, wait_job, wait_rig_free
 from tests.support.waiting import read_until
@@ -93,6 +96,34 @@ def test_motion_is_refused_after_an_emergency_stop_until_acknowledged(client, to
     assert moved.status_code == 202, moved.text
     job_end = wait_job(client, moved.json()["id"])
     assert job_end["state"] == "completed", how_it_ended(job_end)
+
+
+def test_each_guard_change_through_the_service_is_published_on_its_stream(
+    client, service, tokens
+) -> None:
+    """A stop, its acknowledgement, a hold and its release each send the guard's new state
+    to every stream client (a ``guard`` event), so an open page shows a stop pressed
+    elsewhere at once, not at its next poll (tests/api/test_estop_browser.py)."""
+    loop = asyncio.new_event_loop()  # the listener's wake-ups go there; nothing runs it
+    listener = Client(loop, None, samples=False, jobs=False)
+    service.broadcaster.add(listener)
+    try:
+        assert client.post("/api/rig/emergency-stop").status_code == 200
+        assert client.post("/api/estop/ack", headers=tokens["alice"]).status_code == 200
+        hold = {"reason": "rigging the vehicle"}
+        assert client.post("/api/rig/hold", json=hold, headers=tokens["alice"]).status_code == 200
+        assert client.post("/api/rig/release", headers=tokens["alice"]).status_code == 200
+    finally:
+        service.broadcaster.remove(listener)
+        loop.close()
+    assert {kind for kind, _ in listener.queue} == {"guard"}
+    shown = [
+        (guard["estop"] is not None, guard["hold"] and guard["hold"]["by"])
+        for _, guard in listener.queue
+    ]
+    assert shown == [(True, None), (False, None), (False, "alice"), (False, None)]
+    stop = listener.queue[0][1]["estop"]  # as GET /api/rig → guard shows it
+    assert stop["by"] is None and "emergency stop" in stop["message"] and stop["at"]
 
 
 def test_a_held_rig_refuses_a_remote_start_naming_who_holds_it(client, tokens) -> None:

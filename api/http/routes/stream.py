@@ -21,7 +21,8 @@ router = app_router("/api", "stream")
     response_class=StreamingResponse,
     responses=file_response(
         {"text/event-stream": {}},
-        "Events `sample` (one clock tick, SI), `job` (a job's new state), "
+        "Events `sample` (one clock tick, SI), `job` (a job's new state), `guard` (the "
+        "emergency stop and hold after a change through the service, to every client), "
         "`dropped` (how many events this client missed because it read too slowly).",
     )
     | error_responses(401, 422),

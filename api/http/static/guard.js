@@ -1,11 +1,14 @@
 // The rig's guard on the Rig page: an emergency stop waiting for an operator's
 // acknowledgement, and who holds the rig (GET /api/rig → guard), in a technician's words
-// with local times, drawn with each rig status (rig.js).
+// with local times, drawn with each rig status (rig.js). A change made through the service
+// (the stream's `guard` event) asks for the status at once, not at the next 2 s poll: a stop
+// pressed on another page or by a lab tool shows on every open page within a round trip.
 import { api } from "./api.js";
 import { $ } from "./dom.js";
 import { localTime } from "./format.js";
 import { esc } from "./markup.js";
 import { onRigStatus, refreshRig } from "./rig.js";
+import { onGuard } from "./stream.js";
 
 function renderGuard(guard) {
   const panel = $("#guard-panel");
@@ -40,3 +43,4 @@ function renderGuard(guard) {
 }
 
 onRigStatus((s) => renderGuard(s.guard || {}));
+onGuard(() => refreshRig());

@@ -1,11 +1,13 @@
 // The rig's live stream (GET /api/stream, server-sent events read with fetch so the token
-// travels in a header): samples and job updates, handed to the modules that subscribed
-// (onSample, onJob). Reconnects after a drop; asks for a token on a 401.
+// travels in a header): samples, job updates and changes of the rig's guard, handed to the
+// modules that subscribed (onSample, onJob, onGuard). Reconnects after a drop; asks for a
+// token on a 401.
 import { authHeaders, tokenRefused } from "./api.js";
 import { FINAL, state } from "./state.js";
 
 const sampleListeners = [];
 const jobListeners = [];
+const guardListeners = [];
 
 /** Calls `listener(sample)` for every sample the stream sends ({seq, t_mono, channels, …}). */
 export function onSample(listener) {
@@ -16,6 +18,12 @@ export function onSample(listener) {
  * each listener picks the jobs it shows (by kind, by state). */
 export function onJob(listener) {
   jobListeners.push(listener);
+}
+
+/** Calls `listener(guard)` when the rig's guard changes through the service ({estop, hold}:
+ * an emergency stop latched or acknowledged, a hold taken or released). */
+export function onGuard(listener) {
+  guardListeners.push(listener);
 }
 
 /** Hands a job document to every job listener, as the stream does. */
@@ -80,6 +88,8 @@ export async function stream() {
             if (FINAL.includes(obj.state)) delete state.jobDocs[obj.id];
             else state.jobDocs[obj.id] = obj;
             jobEvent(obj);
+          } else if (kind === "guard") {
+            for (const listener of guardListeners) listener(obj);
           } else if (kind === "job_progress" && state.jobDocs[obj.id]) {
             // only the progress changed: the stream sends it without the rest of the job
             const job = { ...state.jobDocs[obj.id], state: obj.state, progress: obj.progress };
