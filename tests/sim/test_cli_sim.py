@@ -16,7 +16,7 @@ from pymodbus.client import ModbusTcpClient
 from daq.config import load_rig
 from daq.registers import decode
 from tests.conftest import require_tool
-from tests.support.waiting import wait_until
+from tests.support.waiting import ANSWER_S, wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 RIG_SIM = [sys.executable, "-c", "from api.cli.main import main; main()", "sim"]
@@ -141,7 +141,7 @@ def test_mbpoll_reads_registers_and_releases_the_tow(rig_sim):
     weight = regs["sim_tow_weight"]
     mbpoll(exe, port, "-t", "4:int", "-B", "-r", str(weight["address"]), "127.0.0.1", "2500")
     mbpoll(exe, port, "-t", "0", "-r", str(regs["tow_release"]["address"]), "127.0.0.1", "1")
-    client = ModbusTcpClient("127.0.0.1", port=port, timeout=5, retries=0)
+    client = ModbusTcpClient("127.0.0.1", port=port, timeout=ANSWER_S, retries=0)
     assert client.connect()
     try:
         coil = client.read_coils(regs["tow_release"]["address"], count=1, device_id=1)
@@ -191,7 +191,7 @@ def test_rtu_flag_serves_modbus_rtu_on_a_pty():
         mb = running.ready["modbus"]
         assert mb["transport"] == "rtu" and Path(mb["serial_port"]).exists()
         client = ModbusSerialClient(
-            mb["serial_port"], baudrate=mb["baudrate"], timeout=5, retries=0
+            mb["serial_port"], baudrate=mb["baudrate"], timeout=ANSWER_S, retries=0
         )
         assert client.connect()
         try:

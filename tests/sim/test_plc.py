@@ -15,7 +15,7 @@ from daq.config import load_rig
 from daq.registers import decode, encode
 from daq.sim.plant import Plant
 from daq.sim.plc_server import SimulatedPLC
-from tests.support.waiting import until
+from tests.support.waiting import ANSWER_S, until
 
 RIG = load_rig()
 UNIT = RIG.modbus.unit_id
@@ -26,14 +26,6 @@ async def plc():
     simulated = SimulatedPLC(RIG, Plant(RIG))
     yield simulated
     await simulated.stop()
-
-
-#: How long a read that should succeed may wait for its answer. The server runs in this
-#: test's own loop, so on a loaded machine (three workers on two cores and a browser) an
-#: answer can come late; a short timeout there would test the machine, not the PLC. Only the
-#: fault tests, which wait for a read to fail, set a short one (and `patient` for their
-#: recovery reads).
-ANSWER_S = 5.0
 
 
 async def tcp_client(port: int, timeout: float = ANSWER_S) -> AsyncModbusTcpClient:

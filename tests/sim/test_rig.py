@@ -13,18 +13,10 @@ from daq.collector import hold_full_collections
 from daq.config import load_rig
 from daq.registers import decode
 from daq.sim.simulated_rig import SimulatedRigThread
-from tests.support.waiting import wait_until
+from tests.support.waiting import ANSWER_S, wait_until
 from thrusters import protocol
 
 RIG = load_rig()
-
-
-#: How long a request that should be answered may wait: the simulator runs in a thread of
-#: this test's process, which on a loaded machine (three workers on two cores and a browser)
-#: can answer late; these tests check what is served, not how fast (a full run here once saw a
-#: first RTU answer miss a 0.3 s timeout). A test that waits for a request to fail sets a
-#: short one.
-ANSWER_S = 5.0
 
 
 def send(port: serial.Serial, frame: bytes) -> protocol.Reply:

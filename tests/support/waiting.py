@@ -24,6 +24,14 @@ T = TypeVar("T")
 #: tear down (a service's teardown waits for the fit still running).
 BUDGET_MARGIN_S = 10.0
 
+#: How long a request a test expects to be answered may wait for its reply, s (a Modbus read,
+#: a thruster frame, from a simulator in the test's own process, a thread or a `rig sim`): on a
+#: loaded machine (three workers on two cores and a browser) a reply can come after 0.3 s,
+#: and these tests check what is served, not how fast. The reply ends the wait, so a passing
+#: test is no slower. A test that waits for a request to *fail* sets a short timeout of its
+#: own.
+ANSWER_S = 5.0
+
 #: The running test's budget: (monotonic time its pytest-timeout fires, s; that timeout, s).
 _budget: tuple[float, float] | None = None
 

@@ -13,7 +13,7 @@ import pytest
 import serial
 from thruster_helpers import ControllerThread
 
-from tests.support.waiting import until
+from tests.support.waiting import ANSWER_S, until
 from thrusters import protocol as p
 from thrusters.emulator import ThrusterControllerEmulator
 
@@ -158,7 +158,7 @@ async def test_pty_transport_with_pyserial(emu, controller) -> None:
     assert path.startswith("/dev/")
 
     def talk() -> list[bytes]:
-        with serial.serial_for_url(path, baudrate=115200, timeout=5) as port:
+        with serial.serial_for_url(path, baudrate=115200, timeout=ANSWER_S) as port:
             port.write(p.arm_frame(1) + p.thr_frame(2, [-1000, 1000]))
             return [port.readline(), port.readline()]
 
@@ -167,7 +167,7 @@ async def test_pty_transport_with_pyserial(emu, controller) -> None:
     assert emu.outputs == [-1.0, 1.0]
 
     def reopen_and_read() -> bytes:
-        with serial.serial_for_url(path, baudrate=115200, timeout=5) as port:
+        with serial.serial_for_url(path, baudrate=115200, timeout=ANSWER_S) as port:
             port.write(p.qry_frame(3))
             port.readline()
             emu.inject(b"\x7fjunk\r\n")  # pyserial flushes input on open: inject while open
