@@ -41,7 +41,7 @@ def report_markdown(
     lines += determined_section(result.well_determined, result.equivalent, unit)
     lines += ["## Summary", "", "| quantity | value ± σ | unit |", "|---|---|---|"]
     lines += [
-        f"| {name} | {value_and_sigma(c.value, c.std)} | {c.unit} |"
+        f"| {result.labels.get(name, name)} | {value_and_sigma(c.value, c.std)} | {c.unit} |"
         for name, c in result.coefficients.items()
     ]
     lines += summary_rows(result, unit, labels)
@@ -57,8 +57,8 @@ def report_markdown(
         before = result.coefficients_before.get(name)
         shown = "—" if before is None else value_and_sigma(before.value, before.std, digits)
         lines.append(
-            f"| {name} | {shown} | {value_and_sigma(after.value, after.std, digits)} | "
-            f"{after.unit} |"
+            f"| {result.labels.get(name, name)} | {shown} | "
+            f"{value_and_sigma(after.value, after.std, digits)} | {after.unit} |"
         )
     lines += [
         f"| {name} (given) | {c.value:.{digits}g} | {c.value:.{digits}g} | {c.unit} |"

@@ -97,10 +97,11 @@ def summary_lines(data: dict) -> list[str]:
     the error before and after, the windows, the uncertainty budget, the theory, the id."""
     # what it is of in GET /api/results' words (``api.core.result_subject``): a tow's heave
     lines = [f"{data.get('subject') or 'estimate'} from {len(data['runs'])} run(s)"]
-    units = data.get("units") or {}
+    units, labels = data.get("units") or {}, data.get("labels") or {}
     for name, c in data["coefficients"].items():
         shown = plus_minus(c) + (" (not identified)" if c.get("std") is None else "")
-        lines.append(f"  {name:<28} {shown} {c.get('unit') or units.get(name, '')}")
+        label = labels.get(name, name)  # a decay's added inertia
+        lines.append(f"  {label:<28} {shown} {c.get('unit') or units.get(name, '')}")
     lines += [  # what the record determines well, beside the raw coefficients
         f"  {c['name']:<28} {plus_minus(c)} {c['unit']}".rstrip()
         for c in data.get("well_determined") or []

@@ -294,8 +294,11 @@ def _result(setup, records, outcome: SearchOutcome, starts) -> DecayResult:
     known = {n: Coefficient(float(v), 0.0, units[n]) for n, v in setup.known_terms.items()}
     if setup.inertia is not None:
         known["inertia"] = Coefficient(float(setup.inertia), 0.0, units["inertia"])
+    labels: dict[str, str] = {}
     if setup.known_inertia > 0:  # the document says the inertia above is the rest of it
         known["known_inertia"] = Coefficient(float(setup.known_inertia), 0.0, units["inertia"])
+        added = "added inertia" if rotational else "added mass"
+        labels["inertia"] = f"{added} (body's own {setup.known_inertia:.6g} given)"
     white = ljung_box(final.residuals)
     moved = _moved(final, [base, *outcome.rejected])
     noise = position_noise(final.residuals, [r.t for r in records])
@@ -333,6 +336,7 @@ def _result(setup, records, outcome: SearchOutcome, starts) -> DecayResult:
             for e in final.effects
         ),
         known=known,
+        labels=labels,
         not_identified=final.not_identified,
         rmse_before=base.rmse,
         rmse_after=final.rmse,

@@ -96,6 +96,10 @@ class EstimationResult(Generic[S]):
     rmse_per_run_after: dict[str, float] = field(default_factory=dict)
     #: Terms given, not fitted (a declared stiffness or inertia), σ 0.
     known: dict[str, Coefficient] = field(default_factory=dict)
+    #: How a report names a coefficient whose key alone would mislead a reader (a decay given
+    #: the body's own inertia: ``inertia`` is the added part, "added inertia (body's own
+    #: 115.743 given)" in the coefficient's unit); the key stays the document's name.
+    labels: dict[str, str] = field(default_factory=dict)
     not_identified: tuple[str, ...] = ()
     #: Groups of terms the records cannot tell apart (a kept term first).
     ambiguous: tuple[tuple[str, ...], ...] = ()
@@ -171,6 +175,7 @@ class EstimationResult(Generic[S]):
             "coefficients": {k: c.to_json() for k, c in self.coefficients.items()},
             "coefficients_before": {k: c.to_json() for k, c in self.coefficients_before.items()},
             "known": {name(k): c.to_json() for k, c in self.known.items()},
+            "labels": dict(self.labels),
             "units": dict(self.units),
             "effects": [e.to_json() for e in self.effects],
             "not_identified": [name(n) for n in self.not_identified],

@@ -94,7 +94,7 @@ def test_the_http_import_names_a_bad_decay_field(client, query, detail):
 def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, tmp_path):
     """The Estimation page offers every kind with an estimator (GET /api/kinds), a decay
     among them, sends its "leave out flagged repeats" box as ``exclude_outliers``, and shows
-    its coefficients with the units the result carries."""
+    its coefficients with the units and labels the result carries."""
     from playwright.sync_api import expect
 
     from tests.api.conftest import estimate_in_page, signed_in_page
@@ -115,7 +115,8 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         ) as request:
             estimate_in_page(page, [r.json()["run_id"]], timeout_ms=60_000)
         assert request.value.post_data_json["exclude_outliers"] is True
-        expect(page.locator("#est-coefs")).to_contain_text("inertia (kg)")
+        # the identified inertia is the added one, named so beside the body's own given
+        expect(page.locator("#est-coefs")).to_contain_text("added mass (body's own 10 given) (kg)")
         expect(page.locator("#est-rmse")).to_contain_text("heave free decay")
         rmse = page.locator("#est-rmse tr", has_text="RMSE after").locator("td").nth(1)
         expect(rmse).to_have_text(re.compile(r"^\S+ m$"))  # a heave's position: m

@@ -120,7 +120,8 @@ export async function renderEstimation(res) {
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = searched ? (res.coefficients_before || {})[k] : null;
-      return `<tr><td>${esc(k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>${esc(c.std == null ? "not identified (no σ)" : `± ${fmt(c.std, 3)}`)}</td>
+      // the document's label where the key alone would mislead (a decay's added inertia)
+      return `<tr><td>${esc((res.labels || {})[k] || k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>${esc(c.std == null ? "not identified (no σ)" : `± ${fmt(c.std, 3)}`)}</td>
         ${boot ? `<td>${esc(bootstrapText(boot, k))}</td>` : ""}
         ${before ? `<td class="muted">before effects: ${esc(valuePm(before))}</td>` : ""}</tr>`;
     })

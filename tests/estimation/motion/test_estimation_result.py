@@ -19,7 +19,7 @@ from tests.estimation.term_cases import decay, tow_set
 #: The shared keys docs/estimation.md lists: every kind's document has each of them.
 SHARED = {
     "schema_version", "method", "runs", "coefficients", "coefficients_before", "known",
-    "units", "effects", "not_identified", "ambiguous", "alternatives", "well_determined",
+    "labels", "units", "effects", "not_identified", "ambiguous", "alternatives", "well_determined",
     "equivalent_linear_damping", "natural_period_s", "rmse_before", "rmse_after",
     "rmse_per_run_before", "rmse_per_run_after", "noise", "coefficients_possibly_biased",
     "correlation", "diagnostics", "warnings", "advice", "evidence", "acceptance_rules",
@@ -66,6 +66,10 @@ def test_what_one_kind_alone_has_is_its_section_s():
     known = docs["decay"]["known"]
     assert known["known_inertia"]["value"] == decay("143kg", 1)[2]["known"]
     assert known["known_inertia"]["std"] == 0 and "restoring_spring" in known
+    # and the reports name it so, where the key alone would read as the whole inertia
+    given = f"{known['known_inertia']['value']:.6g}"
+    assert docs["decay"]["labels"] == {"inertia": f"added mass (body's own {given} given)"}
+    assert docs["tow"]["labels"] == {} and docs["pendulum"]["labels"] == {}
     tow = docs["tow"]["diagnostics"]
     assert {"ljung_box_before", "ljung_box_after", "force_rmse_per_run_after"} <= tow.keys()
     # the pendulum's engine coefficient is reported under the pendulum's name
