@@ -274,7 +274,7 @@ def physical_warnings(fit: MotionFit, runs: Sequence[RunData]) -> list[str]:
     out = [
         f"{n} is not identified by these runs (no σ): the data cannot determine it; "
         f"a record with the acceleration from rest (the release) or a run at another {load} "
-        "would"
+        "would determine it"
         for n, s in zip(fit.names, fit.std, strict=True)
         if not np.isfinite(s)
     ]

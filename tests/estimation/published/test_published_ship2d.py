@@ -48,6 +48,10 @@ def test_ship2d_wave_forcing_is_unexplained_periodic_structure():
     doc = r.to_json()
     assert all(c["std"] is None for c in doc["coefficients"].values())
     assert all(e["std"] is None for e in doc["effects"])
+    # each says so in a whole sentence: what would determine it (it ended "…would")
+    unknown = [w for w in r.warnings if "is not identified by these runs (no σ)" in w]
+    assert {w.split()[0] for w in unknown} >= set(doc["coefficients"]), r.warnings
+    assert all(w.endswith("or a run at another force would determine it") for w in unknown)
     budget = uncertainty_budget(r, TowRefits([run], r, None), None).to_json()["coefficients"]
     assert all(c["expanded_uncertainty"] is None for c in budget.values())
     assert all(c["reported"].endswith("(not identified: no U)") for c in budget.values())
