@@ -3,6 +3,7 @@ the CLI, both from the JSON documents (``Budget.to_json``, ``RepeatAnalysis.to_j
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -124,6 +125,10 @@ def repeats_markdown(repeats: dict[str, Any], heading: str = "##") -> list[str]:
     return lines
 
 
+#: The terminal budget table's source column, characters (a longer name wraps below).
+SOURCE_WIDTH = 52
+
+
 def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> list[str]:
     """Plain lines for the terminal: one summary line per coefficient (and well-determined
     combination) — value ± U, k, ν_eff, the dominant source — then the budget table of each
@@ -142,13 +147,17 @@ def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) 
             f"  {name} = {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
             f"ν_eff = {_dof(c['effective_dof'])}); dominant: {c['dominant_source']}"
         )
-        out.append(f"    {'source':<52} {'type':<4} {'u':>10} {'c':>10} {'c·u':>10} {'share':>7}")
+        head = f"{'type':<4} {'u':>10} {'c':>10} {'c·u':>10} {'share':>7}"
+        out.append(f"    {'source':<{SOURCE_WIDTH}} {head}")
         for r in c["rows"]:
             share = f"{100 * r['share']:6.1f}%" if r["combined"] else "    —  "
+            # a long source name goes on over the next lines of its column, never cut
+            first, *rest = textwrap.wrap(r["source"], SOURCE_WIDTH) or [""]
             out.append(
-                f"    {r['source'][:52]:<52} {r['type']:<4} {_g(r['standard_uncertainty']):>10} "
+                f"    {first:<{SOURCE_WIDTH}} {r['type']:<4} {_g(r['standard_uncertainty']):>10} "
                 f"{_g(r['sensitivity']):>10} {_g(r['contribution']):>10} {share:>7}"
             )
+            out += [f"      {more}" for more in rest]
     if repeats is not None:
         for c in repeats["conditions"]:
             if c["n"] > 1:

@@ -98,7 +98,7 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     alike) but not T₀ nor ζ: its row there is a tiny share, and the budget's JSON, the
     terminal lines and the markdown list them."""
     from estimation.uncertainty import RecordRefits, uncertainty_budget
-    from estimation.uncertainty.text import budget_lines, budget_markdown
+    from estimation.uncertainty.text import SOURCE_WIDTH, budget_lines, budget_markdown
 
     mass = 143.0
     total, k = 1.8 * mass, 40.0 * mass
@@ -121,6 +121,16 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     doc = budget.to_json()
     assert set(doc["combinations"]) == set(budget.combinations)
     assert any(line.startswith("  natural period T₀ = ") for line in budget_lines(doc))
+    # a source's name longer than the terminal table's column goes on below it, never cut
+    tabled = [r["source"] for c in doc["coefficients"].values() for r in c["rows"]]
+    assert max(len(name) for name in tabled) > SOURCE_WIDTH  # (encoder quantization's)
+    shown: list[str] = []  # each table row's source column, its continuation lines joined
+    for line in budget_lines(doc):
+        if line.startswith("      ") and shown:
+            shown[-1] += " " + line.strip()
+        elif line.startswith("    ") and not line.startswith("    source "):
+            shown.append(line[4 : 4 + SOURCE_WIDTH].strip())
+    assert {" ".join(name.split()) for name in tabled} <= set(shown)
     assert "### natural period T₀: " in budget_markdown(doc)
     # the terminal reads a summary line per quantity first; a budget of one source (the fit
     # alone, nothing declared) is that line again, so it prints no table of its own
