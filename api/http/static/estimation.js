@@ -117,10 +117,11 @@ export async function renderEstimation(res) {
   // the value before the search only where the search added an effect (a seed method's
   // result, or one with no effect found, has nothing "before" to show)
   const searched = (res.effects || []).length > 0;
+  // each coefficient under its label where the key alone would mislead (a decay given the
+  // body's own inertia: the added inertia)
   $("#est-coefs tbody").innerHTML = Object.entries(res.coefficients || {})
     .map(([k, c]) => {
       const before = searched ? (res.coefficients_before || {})[k] : null;
-      // the document's label where the key alone would mislead (a decay's added inertia)
       return `<tr><td>${esc((res.labels || {})[k] || k)} (${esc(units[k] || c.unit || "")})</td><td>${esc(fmt(c.value, 5))}</td><td>${esc(c.std == null ? "not identified (no σ)" : `± ${fmt(c.std, 3)}`)}</td>
         ${boot ? `<td>${esc(bootstrapText(boot, k))}</td>` : ""}
         ${before ? `<td class="muted">before effects: ${esc(valuePm(before))}</td>` : ""}</tr>`;
