@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Any
 
 from api.core.job_model import JobConflict, iso_time
@@ -55,22 +55,16 @@ def check_reason(reason: Any) -> str:
 
 
 class RigGuard:
-    """The emergency-stop latch and the hold of one rig, kept in its safety log; each change
-    is handed to ``published`` as the new :meth:`state`, if given."""
+    """The emergency-stop latch and the hold of one rig, kept in its safety log."""
 
-    def __init__(
-        self, log: RigEventLog, published: Callable[[dict[str, Any]], None] | None = None
-    ) -> None:
+    def __init__(self, log: RigEventLog) -> None:
         self.log = log
-        self.published = published
 
     @classmethod
     def of(cls, service: RigService) -> RigGuard:
-        """The guard of ``service``'s rig, its changes published on the service's stream."""
         if service.store is None:
             raise RigUnavailable("the rig service is not running")
-        log = RigEventLog(service.store, service.source.rig.rig.name)
-        return cls(log, service.broadcaster.publish_guard)
+        return cls(RigEventLog(service.store, service.source.rig.rig.name))
 
     # -- state --------------------------------------------------------------------------
     def estop(self) -> dict[str, Any] | None:
@@ -127,16 +121,9 @@ class RigGuard:
             raise refused
 
     # -- changes ----------------------------------------------------------------------------
-    def _add(self, kind: str, user_name: str | None, message: str) -> dict[str, Any]:
-        """Log the change, then publish the new state."""
-        event = self.log.add(kind, user_name, message)
-        if self.published is not None:
-            self.published(self.state())
-        return event
-
     def record_stop(self, user_name: str | None, message: str) -> dict[str, Any]:
         """Latch an emergency stop (whoever pressed it; None: no token given)."""
-        return self._add(ESTOP, user_name, message)
+        return self.log.add(ESTOP, user_name, message)
 
     def acknowledge(self, user: User, note: str = "") -> dict[str, Any]:
         """A named operator acknowledges the emergency stop; 409 when none is latched."""
@@ -145,7 +132,7 @@ class RigGuard:
             raise JobConflict("no emergency stop to acknowledge")
         when = _when(stop) if stop is not None else "now (not recorded)"
         text = f"acknowledged the emergency stop of {when}" + (f": {note}" if note else "")
-        event = self._add(ESTOP_ACK, user.name, text)
+        event = self.log.add(ESTOP_ACK, user.name, text)
         _STOPPING.discard(self.log.rig_name)
         return event
 
@@ -155,7 +142,7 @@ class RigGuard:
         held = self.hold()
         if held is not None and held["user_name"] != user.name:
             raise self.refusal(user.name) or JobConflict("rig is held")
-        return self._add(HOLD, user.name, reason)
+        return self.log.add(HOLD, user.name, reason)
 
     def release(self, user: User, override: bool = False) -> dict[str, Any]:
         """Release the hold: its holder, or any operator with ``override`` (logged as
@@ -164,14 +151,25 @@ class RigGuard:
         if held is None:
             raise JobConflict("the rig is not held")
         if held["user_name"] == user.name:
-            return self._add(RELEASE, user.name, "released by the holder")
+            return self.log.add(RELEASE, user.name, "released by the holder")
         if not override:
             raise RigHeld(
                 f"rig is held by {held['user_name']}: {held['message']}; only the holder "
                 "releases it (an operator may pass override)",
                 holder=held["user_name"],
             )
-        return self._add(RELEASE, user.name, f"override: released the hold of {held['user_name']}")
+        return self.log.add(
+            RELEASE, user.name, f"override: released the hold of {held['user_name']}"
+        )
+
+
+def published_state(service: RigService, guard: RigGuard) -> dict[str, Any]:
+    """The guard's :meth:`~RigGuard.state` after a change made through ``service``, sent to
+    every client of its live stream (a ``guard`` event): one read answers the request and
+    every open page."""
+    state = guard.state()
+    service.broadcaster.publish_guard(state)
+    return state
 
 
 @contextlib.contextmanager
@@ -179,7 +177,8 @@ def latching_stop(service: RigService, user_name: str | None) -> Iterator[None]:
     """Around an emergency stop: motion is refused from the moment it is pressed (in
     memory), and afterwards the stop is recorded in the safety log naming ``user_name``.
     The stop never waits for the database first; if recording fails, motion stays refused
-    until an operator acknowledges (fail safe)."""
+    until an operator acknowledges (fail safe). Once recorded it is published on the live
+    stream (:func:`published_state`)."""
     name = service.source.rig.rig.name
     _STOPPING.add(name)
     try:
@@ -187,8 +186,13 @@ def latching_stop(service: RigService, user_name: str | None) -> Iterator[None]:
     finally:
         who = f" by {user_name}" if user_name else " (no token)"
         try:
-            RigGuard.of(service).record_stop(user_name, f"emergency stop (API){who}")
+            guard = RigGuard.of(service)
+            guard.record_stop(user_name, f"emergency stop (API){who}")
         except Exception as err:  # the stop stands; motion stays refused
             log.error("emergency stop not recorded in the safety log: %s", err)
         else:
             _STOPPING.discard(name)
+            try:  # the pages see it at their next poll of the rig's status otherwise
+                published_state(service, guard)
+            except Exception as err:
+                log.warning("emergency stop recorded but not sent to the stream: %s", err)

@@ -18,7 +18,7 @@ from pydantic import BaseModel, Field
 from api.core.job_model import iso_time
 from api.core.paging import EventsPage
 from api.core.people import AckIn, HoldIn, ReleaseIn
-from api.core.rig_guard import RigGuard
+from api.core.rig_guard import RigGuard, published_state
 from api.http.app_codes import app_router
 from api.http.deps import OperatorDep, ServiceDep, require_read
 from api.http.identity import known_user
@@ -50,9 +50,10 @@ class RigEventOut(BaseModel):
 
 
 async def _guard(service, change) -> dict[str, Any]:
+    """Make ``change`` to the rig's guard; its new state answers and goes to the stream."""
     guard = RigGuard.of(service)
     await asyncio.to_thread(change, guard)
-    return await asyncio.to_thread(guard.state)
+    return await asyncio.to_thread(published_state, service, guard)
 
 
 @router.get("/whoami", response_model=UserOut, responses=error_responses(401))
