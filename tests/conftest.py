@@ -51,6 +51,14 @@ if TYPE_CHECKING:
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """The service's ignored warnings (``api.http.known_warnings``) are the suite's too, so a
+    new warning stands out in its summary."""
+    from api.http.known_warnings import PYTEST_FILTER
+
+    config.addinivalue_line("filterwarnings", PYTEST_FILTER)
+
+
 @pytest.hookimpl
 def pytest_asyncio_loop_factories(config: pytest.Config, item: pytest.Item) -> dict:
     """Tests marked ``simtime`` run on simulated time (``daq.sim.simtime.SimTimeLoop``):

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import warnings
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -22,12 +21,12 @@ from fastapi.middleware.cors import CORSMiddleware
 from fastapi.middleware.trustedhost import TrustedHostMiddleware
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
-from pydantic.warnings import UnsupportedFieldAttributeWarning
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from api.core.jobs import JobConflict, JobNotFound, JobRunner
 from api.core.rig_guard import RigHeld
 from api.core.service import RigService, RigUnavailable
+from api.http.known_warnings import ignore_known_warnings
 from api.http.limits import JSON_BODY_LIMIT, UPLOAD_BODY_LIMIT, BodyLimit
 from api.http.request_errors import request_json_error, request_not_found
 from api.http.routes import analysis as routes_analysis
@@ -68,18 +67,7 @@ MAX_UPLOAD_BYTES = UPLOAD_BODY_LIMIT
 #: Host names an ``open_read`` service always answers to (besides ``allowed_hosts``).
 LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1", "[::1]")
 
-# A query-parameter model (``Annotated[RunFilter, Query()]``) reaches pydantic as
-# ``Annotated[RunFilter, Field(alias="run_filter")]``. FastAPI silences pydantic's warning
-# that such an alias "has no effect" while it builds the field's adapter, but the list models
-# defer their build (``api.core.paging``, for the CLI's start-up), so the adapter is built at
-# the first request, outside FastAPI's silence, and ``rig serve`` printed one warning per
-# model to the technician's terminal. FastAPI reads the model's fields by their own names, so
-# the warning is pydantic's false positive (pydantic#12356); only this one is silenced.
-warnings.filterwarnings(
-    "ignore",
-    message=r"The 'alias' attribute with value '\w+' was provided to the `Field\(\)` function",
-    category=UnsupportedFieldAttributeWarning,
-)
+ignore_known_warnings()  # pydantic's false positive at the first list requests
 
 
 def _json_safe(value: Any) -> Any:
