@@ -122,7 +122,7 @@ def summary_lines(data: dict) -> list[str]:
     ]
     lines += _equivalent_lines(data.get("equivalent_linear_damping") or [], units)
     if data.get("budget"):
-        lines += [f"  {line}" for line in budget_lines(data["budget"], data.get("repeats"))]
+        lines += [f"  {line}" for line in budget_lines(data["budget"], data.get("repeats"), labels)]
     lines += _theory_lines(data.get("theory"))
     lines.append(f"  stored as result #{data['result_id']}")
     return lines

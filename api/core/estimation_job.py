@@ -114,7 +114,7 @@ def run_estimation(
             if data.get("budget") and report_dir is not None and "report_files" in data:
                 from estimation.uncertainty.text import append_to_report
 
-                append_to_report(report_dir, data["budget"])
+                append_to_report(report_dir, data["budget"], data.get("labels"))
             if estimator.compares_theory:  # the hull's theory compares a tow or spin's
                 # here: a decay never loads the vehicle file, hull theory nor the tow budget
                 from api.core.theory_job import theory_document

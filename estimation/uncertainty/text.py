@@ -56,22 +56,24 @@ def _summary_row(c: dict[str, Any]) -> tuple[str, str, str, str, str]:
             _g(c["combined_standard_uncertainty"]), c["dominant_source"])  # fmt: skip
 
 
-def budget_markdown(budget: dict[str, Any]) -> str:
+def budget_markdown(budget: dict[str, Any], labels: dict[str, str] | None = None) -> str:
     """## Uncertainty: a summary table (per coefficient and well-determined combination,
-    value ± U, k, ν_eff, u_c and the dominant source), then each one's budget table."""
+    value ± U, k, ν_eff, u_c and the dominant source), then each one's budget table; a
+    quantity named as the result's ``labels`` name it (a decay's added inertia)."""
+    label = (labels or {}).get
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
     lines += [f"**{n}**" for n in budget["notes"]]
     lines += ["", "| quantity | value ± U (95 %) | k | ν_eff | u_c | dominant source |",
               "|---|---|---|---|---|---|"]  # fmt: skip
-    lines += [f"| {name} | " + " | ".join(_summary_row(c)) + " |"
+    lines += [f"| {label(name, name)} | " + " | ".join(_summary_row(c)) + " |"
               for name, c in _budgeted(budget).items()]  # fmt: skip
     for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None:  # not identified: no budget to show
-            lines += ["", f"### {name}: {c['reported']}"]
+            lines += ["", f"### {label(name, name)}: {c['reported']}"]
             continue
         lines += [
             "",
-            f"### {name}: {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
+            f"### {label(name, name)}: {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
             f"ν_eff = {_dof(c['effective_dof'])}, u_c = {_g(c['combined_standard_uncertainty'])}; "
             f"dominant: {c['dominant_source']})",
             "",
@@ -129,12 +131,17 @@ def repeats_markdown(repeats: dict[str, Any], heading: str = "##") -> list[str]:
 SOURCE_WIDTH = 52
 
 
-def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) -> list[str]:
+def budget_lines(
+    budget: dict[str, Any],
+    repeats: dict[str, Any] | None = None,
+    labels: dict[str, str] | None = None,
+) -> list[str]:
     """Plain lines for the terminal: one summary line per coefficient (and well-determined
     combination) — value ± U, k, ν_eff, the dominant source — then the budget table of each
-    one with more than one source (a single source is its summary line again)."""
+    one with more than one source (a single source is its summary line again); a quantity
+    named as the result's ``labels`` name it (a decay's added inertia)."""
     out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
-    budgeted = _budgeted(budget)
+    budgeted = {(labels or {}).get(name, name): c for name, c in _budgeted(budget).items()}
     width = max((len(name) for name in budgeted), default=8) + 2
     out.append(f"  {'quantity':<{width}} {'value ± U':<24} {'k':>6} {'ν_eff':>6}  dominant source")
     for name, c in budgeted.items():
@@ -171,10 +178,12 @@ def budget_lines(budget: dict[str, Any], repeats: dict[str, Any] | None = None) 
     return out
 
 
-def append_to_report(folder: str | Path, budget: dict[str, Any]) -> Path:
+def append_to_report(
+    folder: str | Path, budget: dict[str, Any], labels: dict[str, str] | None = None
+) -> Path:
     """Append the uncertainty section to ``folder``/report.md (written by the report, which
-    lists the repeats itself)."""
+    lists the repeats itself); ``labels``: the result's names of its quantities."""
     path = Path(folder) / "report.md"
     with path.open("a", encoding="utf-8") as f:
-        f.write("\n" + budget_markdown(budget))
+        f.write("\n" + budget_markdown(budget, labels))
     return path

@@ -117,6 +117,11 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         assert request.value.post_data_json["exclude_outliers"] is True
         # the identified inertia is the added one, named so beside the body's own given
         expect(page.locator("#est-coefs")).to_contain_text("added mass (body's own 10 given) (kg)")
+        budget_row = page.locator("#est-uncertainty .est-budget-summary tr[data-quantity=inertia]")
+        expect(budget_row.locator("td").first).to_have_text("added mass (body's own 10 given)")
+        expect(page.locator("#est-uncertainty .est-budget-head").first).to_contain_text(
+            "added mass (body's own 10 given) = "
+        )
         expect(page.locator("#est-rmse")).to_contain_text("heave free decay")
         rmse = page.locator("#est-rmse tr", has_text="RMSE after").locator("td").nth(1)
         expect(rmse).to_have_text(re.compile(r"^\S+ m$"))  # a heave's position: m

@@ -100,6 +100,10 @@ def test_the_published_kvlcc2_roll_decay_imports_and_estimates_over_the_cli(rig)
     assert text.startswith("roll free decay / output-error from 1 run(s)")
     # the identified inertia is the added one: named so, with the body's own that was given
     assert f"  added inertia (body's own {I44:.6g} given) {inertia['value']:.5g}" in text
+    # and so in the uncertainty budget: its summary line and its table's heading
+    budget = text[text.index("uncertainty (95 %") :]
+    assert budget.count(f"added inertia (body's own {I44:.6g} given) ") == 2
+    assert not re.search(r"^\s+inertia\b", budget, re.M)
     # B_e over the swings, in the document's order and unit (N·m·s/rad on roll)
     (line,) = [x for x in text.splitlines() if "equivalent linear damping" in x]
     assert "(N·m·s/rad)" in line and line.count(" at ") == len(data["equivalent_linear_damping"])
@@ -142,6 +146,10 @@ def test_rig_estimate_report_of_a_decay_shows_the_fit_and_its_residual(rig, tmp_
     md = (out / "report.md").read_text(encoding="utf-8")
     assert "# Free decay of heave" in md and "![" in md
     assert "| added mass (body's own 10 given) |" in md  # the identified inertia's row
+    budget = md[md.index("## Uncertainty") :]  # and its budget, the summary row and heading
+    assert "| added mass (body's own 10 given) |" in budget
+    assert "### added mass (body's own 10 given): " in budget
+    assert "| inertia |" not in md and "### inertia" not in md
     doc = json.loads((out / "result.json").read_text(encoding="utf-8"))
     assert doc["coefficients"]["inertia"]["value"] == pytest.approx(truth["added"], rel=0.02)
     rmse = f"| RMSE before → after | {doc['rmse_before']:.3g} → {doc['rmse_after']:.3g} | m |"

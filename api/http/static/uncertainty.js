@@ -24,10 +24,12 @@ export function renderUncertainty(res) {
     c.expanded_uncertainty == null ? "—" : c.effective_dof === null || c.effective_dof >= 1e4 ? "∞" : fmt(c.effective_dof, 3);
   const kOf = (c) => (c.expanded_uncertainty == null ? "—" : fmt(c.coverage_factor, 4));
   const entries = Object.entries(budgeted);
+  // a quantity as the result names it (a decay given the body's own inertia: its added inertia)
+  const label = (name) => (res.labels || {})[name] || name;
   // one summary row per quantity, read first; each quantity's sources in its own table below
   // (folded when there are many: a decay's T₀ and ζ at every amplitude)
   const summary = `<table class="list est-budget-summary"><thead><tr><th>Quantity</th><th>Value ± U (95 %)</th><th>k</th><th>ν_eff</th><th>u_c</th><th>Dominant source</th></tr></thead><tbody>${entries
-    .map(([name, c]) => `<tr data-quantity="${esc(name)}"><td>${esc(name)}</td><td><strong>${esc(c.reported)}</strong></td><td>${esc(kOf(c))}</td><td>${esc(dofOf(c))}</td><td>${esc(fmt(c.combined_standard_uncertainty, 3))}</td><td>${esc(c.dominant_source)}</td></tr>`)
+    .map(([name, c]) => `<tr data-quantity="${esc(name)}"><td>${esc(label(name))}</td><td><strong>${esc(c.reported)}</strong></td><td>${esc(kOf(c))}</td><td>${esc(dofOf(c))}</td><td>${esc(fmt(c.combined_standard_uncertainty, 3))}</td><td>${esc(c.dominant_source)}</td></tr>`)
     .join("")}</tbody></table>`;
   const tables = entries.map(([name, c]) => {
     const rows = (c.rows || []).map((r) => `<tr${r.combined ? "" : ' class="muted"'}>
@@ -36,7 +38,7 @@ export function renderUncertainty(res) {
         <td>${esc(fmt(r.contribution, 3))}</td>
         <td>${r.combined ? `${(100 * (r.share || 0)).toFixed(1)} %` : "not combined"}</td>
         <td class="muted">${esc(r.note || "")}</td></tr>`).join("");
-    return `<h4 class="est-budget-head"><strong>${esc(name)} = ${esc(c.reported)}</strong>
+    return `<h4 class="est-budget-head"><strong>${esc(label(name))} = ${esc(c.reported)}</strong>
         <span class="muted">(95 %, k = ${esc(kOf(c))}, ν_eff = ${esc(dofOf(c))}, u_c = ${esc(fmt(c.combined_standard_uncertainty, 3))}; dominant: ${esc(c.dominant_source)})</span></h4>
       <table class="list est-budget" data-coefficient="${esc(name)}"><thead><tr><th>Source</th><th>Type</th><th>u</th><th>Sensitivity c</th><th>Contribution c·u</th><th>Share</th><th>Note</th></tr></thead>
       <tbody>${rows}</tbody></table>`;
