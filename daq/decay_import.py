@@ -192,13 +192,16 @@ def decay_budget(records: Sequence[RunInfo], runs: list[DecayRun], result: Any) 
     return uncertainty_budget(result, RecordRefits(result), runs[0].tolerances, result.repeats)
 
 
-def decay_report(result: Any, runs: list[DecayRun], folder: Path) -> list[Path]:
-    """The decay report (``estimation.motion.decay_report``): coefficients, evidence, figure."""
+def decay_report(
+    result: Any, runs: list[DecayRun], folder: Path, budget: dict[str, Any] | None
+) -> list[Path]:
+    """The decay report (``estimation.motion.decay_report``): coefficients, evidence, figure,
+    the ``budget`` beside them."""
     from estimation.motion.decay_report import write_decay_report  # matplotlib: only when asked
     from estimation.motion.records import Record
 
     records = [Record(r.run_id, r.t, r.x) for r in runs]
-    return write_decay_report(result, records, folder, {r.run_id: r.t_end for r in runs})
+    return write_decay_report(result, records, folder, {r.run_id: r.t_end for r in runs}, budget)
 
 
 def decay_units() -> dict[str, dict[str, str]]:

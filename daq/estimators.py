@@ -35,7 +35,8 @@ class Estimator:
     so the advice it gives names runs the rig can make; None for imports;
     ``exclude_outliers``: leave out the repeats Chauvenet's criterion flags, every estimator
     alike); ``subject``: what a failed fit names ("surge", "roll swing");
-    ``report(result, runs, folder)``: the report's files; ``methods``: the methods it
+    ``report(result, runs, folder, budget)``: the report's files (``budget``: the result's
+    budget document, shown beside its summary, or None); ``methods``: the methods it
     takes, the first the default (a callable, so the estimation code loads on first use),
     ``method_labels`` how the browser's menu words them.
 
@@ -57,7 +58,7 @@ class Estimator:
     load: Callable[[Store, Sequence[RunInfo]], list[Any]]
     fit: Callable[[list[Any], str, bool, RigEnvelope | None, bool], Any]
     subject: Callable[[list[Any]], str]
-    report: Callable[[Any, list[Any], Path], list[Path]] | None = None
+    report: Callable[[Any, list[Any], Path, dict[str, Any] | None], list[Path]] | None = None
     #: method → how the browser's method menu words it (a method missing: its name).
     method_labels: dict[str, str] = field(default_factory=dict)
     budget: Callable[[Sequence[RunInfo], list[Any], Any], Budget | None] | None = None
@@ -118,10 +119,12 @@ def _axis_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -> Bu
     return fitted_budget(records, runs, result, result.repeats)
 
 
-def _axis_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
+def _axis_report(
+    result: Any, runs: list[Any], folder: Path, budget: dict[str, Any] | None
+) -> list[Path]:
     from estimation.axis.tow_report import write_report  # matplotlib: load only when asked
 
-    return write_report(result, runs, folder)
+    return write_report(result, runs, folder, budget)
 
 
 #: Tow and spin runs: the axis model (``estimation.axis.tow_estimate``).
@@ -179,10 +182,12 @@ def _pendulum_budget(records: Sequence[RunInfo], runs: list[Any], result: Any) -
     return pendulum_budget(result)
 
 
-def _pendulum_report(result: Any, runs: list[Any], folder: Path) -> list[Path]:
+def _pendulum_report(
+    result: Any, runs: list[Any], folder: Path, budget: dict[str, Any] | None
+) -> list[Path]:
     from estimation.pendulum.pendulum_report import write_pendulum_report
 
-    return write_pendulum_report(result, folder)
+    return write_pendulum_report(result, folder, budget)
 
 
 #: Pendulum free decays: α, β of the swing axis (``estimation.pendulum.pendulum_estimate``).

@@ -19,7 +19,11 @@ from estimation.motion.term_search import Step
 from estimation.motion.well_determined import Combination
 from estimation.stats.acceptance_rules import RuleSet
 from estimation.stats.misfit import ABOVE_FLOOR, WHITE_P
-from estimation.uncertainty.text import repeats_markdown
+from estimation.uncertainty.text import (
+    budget_sources_markdown,
+    budget_summary_markdown,
+    repeats_markdown,
+)
 
 
 def report_markdown(
@@ -29,12 +33,15 @@ def report_markdown(
     figures: Sequence[tuple[str, Path]] = (),
     own_sections: Sequence[str] = (),
     coefficients_heading: str = "Coefficients",
+    budget: Mapping[str, Any] | None = None,
 ) -> str:
     """The Markdown report of ``result``, every kind's sections in one order: ``title``, what
     the record determines (B_e by amplitude where the result has it), the summary, the
-    figures, the coefficients before and after the search (and those given), then the kind's
+    ``budget``'s value ± U of each quantity (where the estimate has a budget), the figures,
+    the coefficients before and after the search (and those given), then the kind's
     ``own_sections`` (lines), the repeats, the effects found with the ambiguity, the error
-    before and after per run (``labels``: each run's label in the figures) and the evidence."""
+    before and after per run (``labels``: each run's label in the figures), the evidence and
+    the budget's sources."""
     unit = result.units.get("position", "")
     digits = 6
     lines = [f"# {title}", ""]
@@ -45,6 +52,8 @@ def report_markdown(
         for name, c in result.coefficients.items()
     ]
     lines += summary_rows(result, unit, labels)
+    if budget:  # U beside the σ above: the fit's σ is one of the budget's sources
+        lines += budget_summary_markdown(budget, result.labels)
     if figures:
         lines += figure_links(figures)
     lines += [
@@ -73,6 +82,8 @@ def report_markdown(
     lines += ambiguity_lines(result.ambiguous, result.advice)
     lines += error_before_after(result, unit, labels)
     lines += evidence_section(result, unit)
+    if budget:
+        lines += budget_sources_markdown(budget, result.labels)
     return "\n".join(lines) + "\n"
 
 
@@ -221,7 +232,8 @@ def determined_section(
     lines += [
         "Read these first: combinations of the raw coefficients (below) that the record "
         "determines closely even where the coefficients alone are not (σ by the delta method "
-        "from the fit's covariance; docs/estimation.md, *What the record determines well*).",
+        "from the fit's covariance, the fit's alone: value ± U with every source is under "
+        "*Uncertainty*; docs/estimation.md, *What the record determines well*).",
         "",
         "| quantity | value ± σ | unit |",
         "|---|---|---|",

@@ -103,23 +103,21 @@ def run_estimation(
     fitted = set(result.runs)  # a repeat the fit left out is named in its repeats, not here
     runs = [r for r in runs if r.run_id in fitted]
     records = [r for r in records if r.id in fitted]
-    if report_dir is not None and estimator.report is not None:
-        with fitting(subject, "draw the report of"):
-            files = estimator.report(result, runs, Path(report_dir))
-            data["report_files"] = [str(p) for p in files]
-    if estimator.budget is not None:  # the theory comparison reads the budget
+    if estimator.budget is not None:  # before the report, which shows it
         with fitting(subject, "compute the uncertainty budget of"):
             budget = estimator.budget(records, runs, result)
             data["budget"] = None if budget is None else budget.to_json()
-            if data.get("budget") and report_dir is not None and "report_files" in data:
-                from estimation.uncertainty.text import append_to_report
+    if report_dir is not None and estimator.report is not None:
+        with fitting(subject, "draw the report of"):
+            files = estimator.report(result, runs, Path(report_dir), data.get("budget"))
+            data["report_files"] = [str(p) for p in files]
+    if estimator.budget is not None and estimator.compares_theory:  # reads the budget
+        # the hull's theory compares a tow or spin's; here: a decay never loads the vehicle
+        # file, hull theory nor the tow budget
+        with fitting(subject, "compute the uncertainty budget of"):
+            from api.core.theory_job import theory_document
 
-                append_to_report(report_dir, data["budget"], data.get("labels"))
-            if estimator.compares_theory:  # the hull's theory compares a tow or spin's
-                # here: a decay never loads the vehicle file, hull theory nor the tow budget
-                from api.core.theory_job import theory_document
-
-                data |= theory_document(records, data, result.repeats, report_dir)
+            data |= theory_document(records, data, result.repeats, report_dir)
     data["subject"] = result_subject("estimation", data)  # as GET /api/results names it
     stored = {k: v for k, v in data.items() if k != "report_files"}  # no scratch paths
     data["result_id"] = store.add_result([r.run_id for r in runs], "estimation", stored)

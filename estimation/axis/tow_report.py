@@ -4,9 +4,10 @@ force-domain residual against velocity (see docs/estimation.md, "Report")."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -94,7 +95,10 @@ def force_figure(result: TowResult, runs: Sequence[PreparedRun], labels: dict[st
 
 
 def _markdown(
-    result: TowResult, labels: dict[str, str], figures: Sequence[tuple[str, Path]]
+    result: TowResult,
+    labels: dict[str, str],
+    figures: Sequence[tuple[str, Path]],
+    budget: Mapping[str, Any] | None = None,
 ) -> str:
     """The one report (``fit_report.report_markdown``); the tow's own section: the samples
     each run's fit left out (values or times that could not be trusted)."""
@@ -110,12 +114,19 @@ def _markdown(
         figures,
         ["", "## Samples left out", "", *left_out] if left_out else [],
         coefficients_heading="Coefficients (vehicle alone)",
+        budget=budget,
     )
 
 
-def write_report(result: TowResult, runs: Sequence[RunData], directory: str | Path) -> list[Path]:
+def write_report(
+    result: TowResult,
+    runs: Sequence[RunData],
+    directory: str | Path,
+    budget: Mapping[str, Any] | None = None,
+) -> list[Path]:
     """Write result.json, report.md and the figures (``fit`` and ``force_residual``, each as
-    a 150 dpi PNG and an SVG) to directory; returns the paths written."""
+    a 150 dpi PNG and an SVG) to directory; ``budget``: the result's uncertainty budget
+    document, shown in report.md. Returns the paths written."""
     if result.fit_before is None or result.fit_after is None:
         raise ValueError("result: got a result without fits, allowed: one made by estimate()")
     if tuple(r.run_id for r in runs) != result.runs:
@@ -136,5 +147,6 @@ def write_report(result: TowResult, runs: Sequence[RunData], directory: str | Pa
         ("Measured vs model before and after the effect search, and residuals, per run", fit[0]),
         ("Force-domain residual vs model velocity, before and after", force[0]),
     ]
-    written = write_result_and_markdown(out, result.to_json(), _markdown(result, labels, figures))
+    markdown = _markdown(result, labels, figures, budget)
+    written = write_result_and_markdown(out, result.to_json(), markdown)
     return [*written, *fit, *force]

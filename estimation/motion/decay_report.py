@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +64,11 @@ def _figure(result: DecayResult, records: Sequence[Record], ends: Mapping[str, f
     return fig
 
 
-def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
+def _markdown(
+    result: DecayResult,
+    figures: Sequence[tuple[str, Path]],
+    budget: Mapping[str, Any] | None = None,
+) -> str:
     """The one report (``fit_report.report_markdown``); the decay's own section: each
     record's fitted window and what ended it."""
     windows = [
@@ -76,6 +81,7 @@ def _markdown(result: DecayResult, figures: Sequence[tuple[str, Path]]) -> str:
         {rid: run_label(i, rid) for i, rid in enumerate(result.runs, start=1)},
         figures,
         ["", "## Fitted windows", "", *windows] if windows else [],
+        budget=budget,
     )
 
 
@@ -84,9 +90,11 @@ def write_decay_report(
     records: Sequence[Record],
     directory: str | Path,
     ends: Mapping[str, float | None] | None = None,
+    budget: Mapping[str, Any] | None = None,
 ) -> list[Path]:
     """Write result.json, report.md and the ``decay`` figure (PNG and SVG) into directory;
-    ``ends``: each record's end of free motion (s, as given to the fit). The paths written."""
+    ``ends``: each record's end of free motion (s, as given to the fit); ``budget``: the
+    result's uncertainty budget document, shown in report.md. The paths written."""
     if tuple(r.run_id for r in records) != result.runs:
         raise ValueError(
             f"records: got {[r.run_id for r in records]}, allowed: the result's runs "
@@ -96,5 +104,5 @@ def write_decay_report(
     out.mkdir(parents=True, exist_ok=True)
     fig = save_figure(_figure(result, records, ends or {}), out, "decay")
     figures = [("Measured and fitted free decay, and the residual, per record", fig[0])]
-    written = write_result_and_markdown(out, result.to_json(), _markdown(result, figures))
+    written = write_result_and_markdown(out, result.to_json(), _markdown(result, figures, budget))
     return [*written, *fig]

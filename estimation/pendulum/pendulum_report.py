@@ -5,8 +5,9 @@ residual vs angular rate, peak magnitudes with exponential and linear envelopes.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -121,7 +122,11 @@ def peaks_figure(result: PendulumResult, labels: dict[str, str]) -> Figure:
     return fig
 
 
-def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]] = ()) -> str:
+def pendulum_markdown(
+    result: PendulumResult,
+    figures: Sequence[tuple[str, Path]] = (),
+    budget: Mapping[str, Any] | None = None,
+) -> str:
     """The one report (``fit_report.report_markdown``); the pendulum's own section: the
     methods side by side, per run."""
     labels = run_labels(result) if result.section.decays else {r: r for r in result.runs}
@@ -157,12 +162,16 @@ def pendulum_markdown(result: PendulumResult, figures: Sequence[tuple[str, Path]
         figures,
         lines,
         coefficients_heading="Coefficients of the vehicle (headline)",
+        budget=budget,
     )
 
 
-def write_pendulum_report(result: PendulumResult, directory: str | Path) -> list[Path]:
+def write_pendulum_report(
+    result: PendulumResult, directory: str | Path, budget: Mapping[str, Any] | None = None
+) -> list[Path]:
     """Write result.json, report.md and the figures ``fit``, ``residual_vs_rate`` and
-    ``peaks`` (each a 150 dpi PNG and an SVG) to directory; returns the paths written."""
+    ``peaks`` (each a 150 dpi PNG and an SVG) to directory; ``budget``: the result's
+    uncertainty budget document, shown in report.md. Returns the paths written."""
     if not result.section.decays:
         raise ValueError(
             "result: got a result without its decays, allowed: one made by estimate_pendulum()"
@@ -178,5 +187,6 @@ def write_pendulum_report(result: PendulumResult, directory: str | Path) -> list
         ("Residual vs model angular rate, before and after", rate[0]),
         ("Peak magnitudes with the viscous and dry-friction envelopes", peaks[0]),
     ]
-    written = write_result_and_markdown(out, result.to_json(), pendulum_markdown(result, figures))
+    markdown = pendulum_markdown(result, figures, budget)
+    written = write_result_and_markdown(out, result.to_json(), markdown)
     return [*written, *fit, *rate, *peaks]

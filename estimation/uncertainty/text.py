@@ -1,10 +1,10 @@
-"""The budget and the repeats as text: a Markdown section for report.md and plain lines for
-the CLI, both from the JSON documents (``Budget.to_json``, ``RepeatAnalysis.to_json``)."""
+"""The budget and the repeats as text: report.md's sections and plain lines for the CLI,
+both from the JSON documents (``Budget.to_json``, ``RepeatAnalysis.to_json``)."""
 
 from __future__ import annotations
 
 import textwrap
-from pathlib import Path
+from collections.abc import Mapping
 from typing import Any
 
 
@@ -42,7 +42,7 @@ def value_with_u(estimate: dict[str, Any] | None) -> str:
     return f"{shown} (U {estimate['U']:.2g}, k {estimate['k']:.3g}, ν {_dof(estimate.get('nu'))})"
 
 
-def _budgeted(budget: dict[str, Any]) -> dict[str, Any]:
+def _budgeted(budget: Mapping[str, Any]) -> dict[str, Any]:
     """Every budgeted quantity of a budget document: the coefficients, then the
     combinations the record determines well (a decay's T₀, ω₀, ζ), by name."""
     return {**budget["coefficients"], **(budget.get("combinations") or {})}
@@ -56,10 +56,13 @@ def _summary_row(c: dict[str, Any]) -> tuple[str, str, str, str, str]:
             _g(c["combined_standard_uncertainty"]), c["dominant_source"])  # fmt: skip
 
 
-def budget_markdown(budget: dict[str, Any], labels: dict[str, str] | None = None) -> str:
-    """## Uncertainty: a summary table (per coefficient and well-determined combination,
-    value ± U, k, ν_eff, u_c and the dominant source), then each one's budget table; a
-    quantity named as the result's ``labels`` name it (a decay's added inertia)."""
+def budget_summary_markdown(
+    budget: Mapping[str, Any], labels: Mapping[str, str] | None = None
+) -> list[str]:
+    """report.md's "Uncertainty" section, read beside the summary: the budget's notes, then
+    one row per coefficient and well-determined combination (value ± U, k, ν_eff, u_c, the
+    dominant source); a quantity named as the result's ``labels`` name it (a decay's added
+    inertia)."""
     label = (labels or {}).get
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
     lines += [f"**{n}**" for n in budget["notes"]]
@@ -67,6 +70,16 @@ def budget_markdown(budget: dict[str, Any], labels: dict[str, str] | None = None
               "|---|---|---|---|---|---|"]  # fmt: skip
     lines += [f"| {label(name, name)} | " + " | ".join(_summary_row(c)) + " |"
               for name, c in _budgeted(budget).items()]  # fmt: skip
+    return [*lines, ""]
+
+
+def budget_sources_markdown(
+    budget: Mapping[str, Any], labels: Mapping[str, str] | None = None
+) -> list[str]:
+    """report.md's last section: each quantity's budget table (every source's u, sensitivity,
+    contribution and share), named as in :func:`budget_summary_markdown`."""
+    label = (labels or {}).get
+    lines = ["", "## Uncertainty budget by source"]
     for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None:  # not identified: no budget to show
             lines += ["", f"### {label(name, name)}: {c['reported']}"]
@@ -86,7 +99,7 @@ def budget_markdown(budget: dict[str, Any], labels: dict[str, str] | None = None
                 f"| {r['source']} | {r['type']} | {_g(r['standard_uncertainty'])} {r['unit']} "
                 f"| {_g(r['sensitivity'])} | {_g(r['contribution'])} | {share} | {r['note']} |"
             )
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _with_unit(value: str, unit: str | None) -> str:
@@ -176,14 +189,3 @@ def budget_lines(
         if repeats["excluded"]:
             out.append(f"  left out (--exclude-outliers): {', '.join(repeats['excluded'])}")
     return out
-
-
-def append_to_report(
-    folder: str | Path, budget: dict[str, Any], labels: dict[str, str] | None = None
-) -> Path:
-    """Append the uncertainty section to ``folder``/report.md (written by the report, which
-    lists the repeats itself); ``labels``: the result's names of its quantities."""
-    path = Path(folder) / "report.md"
-    with path.open("a", encoding="utf-8") as f:
-        f.write("\n" + budget_markdown(budget, labels))
-    return path

@@ -5,6 +5,7 @@ sequence from the stored estimate and refuses an axis it has no model for."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 from tests.estimation.tow.test_report import _numpy_tow
@@ -20,7 +21,15 @@ def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -
     assert "Type B not declared" in out
     assert "inertia = " in out and "dominant:" in out
     report = (tmp_path / "report" / "report.md").read_text()
-    assert "## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)" in report
+    # value ± U read beside the summary's σ (the fit's, one of U's sources), the sources last
+    heads = [line for line in report.splitlines() if line.startswith("## ")]
+    at = heads.index("## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)")
+    assert heads[at - 1] == "## Summary" and heads[at + 1] == "## Figures"
+    assert heads.index("## Uncertainty budget by source") > heads.index("## Evidence")
+    reported = re.search(r"inertia = (.+?) \(k = ", out)
+    assert reported, out
+    beside = report[report.index(heads[at]) : report.index("## Figures")]
+    assert f"| inertia | {reported[1]} | " in beside
 
     (tmp_path / "plan.toml").write_text(
         'name = "plan"\nrepeats = 2\n[[steps]]\nkind = "tow"\nforce_n = 24.5\n'

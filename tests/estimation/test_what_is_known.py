@@ -98,7 +98,12 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
     alike) but not T₀ nor ζ: its row there is a tiny share, and the budget's JSON, the
     terminal lines and the markdown list them."""
     from estimation.uncertainty import RecordRefits, uncertainty_budget
-    from estimation.uncertainty.text import SOURCE_WIDTH, budget_lines, budget_markdown
+    from estimation.uncertainty.text import (
+        SOURCE_WIDTH,
+        budget_lines,
+        budget_sources_markdown,
+        budget_summary_markdown,
+    )
 
     mass = 143.0
     total, k = 1.8 * mass, 40.0 * mass
@@ -131,14 +136,14 @@ def test_a_decays_combinations_carry_u_and_a_stiffness_tolerance_does_not_move_t
         elif line.startswith("    ") and not line.startswith("    source "):
             shown.append(line[4 : 4 + SOURCE_WIDTH].strip())
     assert {" ".join(name.split()) for name in tabled} <= set(shown)
-    assert "### natural period T₀: " in budget_markdown(doc)
+    assert "### natural period T₀: " in "\n".join(budget_sources_markdown(doc))
     # the terminal reads a summary line per quantity first; a budget of one source (the fit
     # alone, nothing declared) is that line again, so it prints no table of its own
     fit_only = budget_lines(uncertainty_budget(r, RecordRefits(r), repeats=r.repeats).to_json())
     summary = [line for line in fit_only if line.startswith("  natural period T₀ ")]
     assert len(summary) == 1 and "±" in summary[0] and "fit" in summary[0]
     assert not any(line.lstrip().startswith("source ") for line in fit_only)
-    assert "| natural period T₀ | " in budget_markdown(doc)  # the report's summary table
+    assert "| natural period T₀ | " in "\n".join(budget_summary_markdown(doc))  # report.md's
 
 
 def test_a_pendulum_swing_reports_what_it_determines_first():
