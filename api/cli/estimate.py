@@ -26,7 +26,12 @@ from api.core.estimation_job import run_estimation
 from api.core.estimation_request import EstimationRequest
 from daq.collector import hold_full_collections
 from estimation.data.left_out import LeftOut
-from estimation.uncertainty.text import budget_lines, plus_minus_u, value_with_u
+from estimation.uncertainty.text import (
+    budget_source_lines,
+    budget_summary_lines,
+    plus_minus_u,
+    value_with_u,
+)
 
 #: Why full collections are held (``daq.collector``): the fit loads its own modules
 #: (scipy.optimize, numba and its registries) as it goes, and they live to the end of the
@@ -94,7 +99,8 @@ def summary_lines(data: dict) -> list[str]:
     estimator is named: an axis fit, a pendulum's swing and a free decay differ in which
     sections they carry): its subject, each coefficient ± σ with its unit ("not
     identified" when the data do not determine it), the methods side by side, the findings,
-    the error before and after, the windows, the uncertainty budget, the theory, the id."""
+    the error before and after, the budget's value ± U of each quantity, the windows, each
+    quantity's uncertainty by source, the theory, the id."""
     # what it is of in GET /api/results' words (``api.core.result_subject``): a tow's heave
     lines = [f"{data.get('subject') or 'estimate'} from {len(data['runs'])} run(s)"]
     units, labels = data.get("units") or {}, data.get("labels") or {}
@@ -114,6 +120,8 @@ def summary_lines(data: dict) -> list[str]:
         lines.append(
             f"  RMSE before {data['rmse_before']:.3g} {unit}, after {data['rmse_after']:.3g} {unit}"
         )
+    if data.get("budget"):  # value ± U beside the σ above (the fit's alone), as report.md has it
+        lines += [f"  {line}" for line in budget_summary_lines(data["budget"], labels)]
     lines += [_window_line(run_id, w) for run_id, w in (data.get("windows") or {}).items()]
     lines += [
         f"  run {run_id[:8]}: {_left_out_text(gap)}"
@@ -121,8 +129,10 @@ def summary_lines(data: dict) -> list[str]:
         for gap in w.get("left_out") or []
     ]
     lines += _equivalent_lines(data.get("equivalent_linear_damping") or [], units)
-    if data.get("budget"):
-        lines += [f"  {line}" for line in budget_lines(data["budget"], data.get("repeats"), labels)]
+    if data.get("budget"):  # each quantity's sources
+        lines += [
+            f"  {line}" for line in budget_source_lines(data["budget"], data.get("repeats"), labels)
+        ]
     lines += _theory_lines(data.get("theory"))
     lines.append(f"  stored as result #{data['result_id']}")
     return lines

@@ -145,13 +145,20 @@ SOURCE_WIDTH = 52
 
 
 def budget_lines(
-    budget: dict[str, Any],
-    repeats: dict[str, Any] | None = None,
-    labels: dict[str, str] | None = None,
+    budget: Mapping[str, Any],
+    repeats: Mapping[str, Any] | None = None,
+    labels: Mapping[str, str] | None = None,
 ) -> list[str]:
-    """Plain lines for the terminal: one summary line per coefficient (and well-determined
-    combination) — value ± U, k, ν_eff, the dominant source — then the budget table of each
-    one with more than one source (a single source is its summary line again); a quantity
+    """Plain lines for the terminal: :func:`budget_summary_lines`, then
+    :func:`budget_source_lines`."""
+    return budget_summary_lines(budget, labels) + budget_source_lines(budget, repeats, labels)
+
+
+def budget_summary_lines(
+    budget: Mapping[str, Any], labels: Mapping[str, str] | None = None
+) -> list[str]:
+    """The terminal's summary of a budget: its notes, then one line per coefficient (and
+    well-determined combination) — value ± U, k, ν_eff, the dominant source; a quantity
     named as the result's ``labels`` name it (a decay's added inertia)."""
     out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
     budgeted = {(labels or {}).get(name, name): c for name, c in _budgeted(budget).items()}
@@ -160,12 +167,25 @@ def budget_lines(
     for name, c in budgeted.items():
         reported, k, dof, _, dominant = _summary_row(c)
         out.append(f"  {name:<{width}} {reported:<24} {k:>6} {dof:>6}  {dominant}")
-    for name, c in budgeted.items():
+    return out
+
+
+def budget_source_lines(
+    budget: Mapping[str, Any],
+    repeats: Mapping[str, Any] | None = None,
+    labels: Mapping[str, str] | None = None,
+) -> list[str]:
+    """The terminal's budget table of each quantity with more than one source (a single
+    source is its summary line again), under a heading, then the ``repeats`` per condition."""
+    out = []
+    for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None or len(c["rows"]) < 2:
             continue
+        out += [] if out else ["uncertainty by source:"]
         out.append(
-            f"  {name} = {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
-            f"ν_eff = {_dof(c['effective_dof'])}); dominant: {c['dominant_source']}"
+            f"  {(labels or {}).get(name, name)} = {c['reported']} "
+            f"(k = {_g(c['coverage_factor'], '.3f')}, ν_eff = {_dof(c['effective_dof'])}); "
+            f"dominant: {c['dominant_source']}"
         )
         head = f"{'type':<4} {'u':>10} {'c':>10} {'c·u':>10} {'share':>7}"
         out.append(f"    {'source':<{SOURCE_WIDTH}} {head}")

@@ -20,6 +20,11 @@ def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -
     assert "uncertainty (95 %, ITTC/GUM):" in out
     assert "Type B not declared" in out
     assert "inertia = " in out and "dominant:" in out
+    # the terminal as report.md: value ± U after the summary's σ and the error, sources last
+    lines = out.splitlines()
+    at = lines.index("  uncertainty (95 %, ITTC/GUM):")
+    assert lines[at - 1].startswith("  RMSE before ")
+    assert "  uncertainty by source:" in lines[at + 1 :]
     report = (tmp_path / "report" / "report.md").read_text()
     # value ± U read beside the summary's σ (the fit's, one of U's sources), the sources last
     heads = [line for line in report.splitlines() if line.startswith("## ")]
