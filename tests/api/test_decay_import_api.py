@@ -117,6 +117,9 @@ def test_the_estimation_page_lists_and_fits_a_decay(chromium, service, client, t
         assert request.value.post_data_json["exclude_outliers"] is True
         # the identified inertia is the added one, named so beside the body's own given
         expect(page.locator("#est-coefs")).to_contain_text("added mass (body's own 10 given) (kg)")
+        # the result's facts (the subject, the error before and after), then its budget, as
+        # report.md and rig estimate order them
+        expect(page.locator("#est-rmse + #est-uncertainty")).to_have_count(1)
         budget_row = page.locator("#est-uncertainty .est-budget-summary tr[data-quantity=inertia]")
         expect(budget_row.locator("td").first).to_have_text("added mass (body's own 10 given)")
         expect(page.locator("#est-uncertainty .est-budget-head").first).to_contain_text(
