@@ -303,8 +303,15 @@ def evidence_table(rules: RuleSet, steps: Sequence[Step], unit: str) -> list[str
     return lines
 
 
-def write_result_and_markdown(out: Path, doc: dict[str, Any], markdown: str) -> list[Path]:
-    """Write ``doc`` as result.json and ``markdown`` as report.md into ``out``; their paths."""
+def write_result_and_markdown(
+    out: Path,
+    result: EstimationResult[Any],
+    markdown: str,
+    budget: Mapping[str, Any] | None = None,
+) -> list[Path]:
+    """Write ``result``'s document, with its ``budget`` where it has one, as result.json and
+    ``markdown`` as report.md into ``out``; their paths."""
+    doc = result.to_json() | ({"budget": budget} if budget else {})
     json_path = out / "result.json"
     json_path.write_text(json.dumps(doc, indent=2, ensure_ascii=False))
     md_path = out / "report.md"

@@ -148,5 +148,5 @@ def write_report(
         ("Force-domain residual vs model velocity, before and after", force[0]),
     ]
     markdown = _markdown(result, labels, figures, budget)
-    written = write_result_and_markdown(out, result.to_json(), markdown)
+    written = write_result_and_markdown(out, result, markdown, budget)
     return [*written, *fit, *force]

@@ -104,5 +104,5 @@ def write_decay_report(
     out.mkdir(parents=True, exist_ok=True)
     fig = save_figure(_figure(result, records, ends or {}), out, "decay")
     figures = [("Measured and fitted free decay, and the residual, per record", fig[0])]
-    written = write_result_and_markdown(out, result.to_json(), _markdown(result, figures, budget))
+    written = write_result_and_markdown(out, result, _markdown(result, figures, budget), budget)
     return [*written, *fig]

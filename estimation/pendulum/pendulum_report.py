@@ -188,5 +188,5 @@ def write_pendulum_report(
         ("Peak magnitudes with the viscous and dry-friction envelopes", peaks[0]),
     ]
     markdown = pendulum_markdown(result, figures, budget)
-    written = write_result_and_markdown(out, result.to_json(), markdown)
+    written = write_result_and_markdown(out, result, markdown, budget)
     return [*written, *fit, *rate, *peaks]

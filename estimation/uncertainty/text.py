@@ -177,7 +177,7 @@ def budget_source_lines(
 ) -> list[str]:
     """The terminal's budget table of each quantity with more than one source (a single
     source is its summary line again), under a heading, then the ``repeats`` per condition."""
-    out = []
+    out: list[str] = []
     for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None or len(c["rows"]) < 2:
             continue

@@ -35,6 +35,9 @@ def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -
     assert reported, out
     beside = report[report.index(heads[at]) : report.index("## Figures")]
     assert f"| inertia | {reported[1]} | " in beside
+    # the folder's result.json carries the same budget (a lab tool reads it, not the page)
+    doc = json.loads((tmp_path / "report" / "result.json").read_text())
+    assert doc["budget"]["coefficients"]["inertia"]["reported"] == reported[1]
 
     (tmp_path / "plan.toml").write_text(
         'name = "plan"\nrepeats = 2\n[[steps]]\nkind = "tow"\nforce_n = 24.5\n'
