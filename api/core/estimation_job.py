@@ -114,7 +114,7 @@ def run_estimation(
     if estimator.budget is not None and estimator.compares_theory:  # reads the budget
         # the hull's theory compares a tow or spin's; here: a decay never loads the vehicle
         # file, hull theory nor the tow budget
-        with fitting(subject, "compute the uncertainty budget of"):
+        with fitting(subject, "compare the hull's theory with"):
             from api.core.theory_job import theory_document
 
             data |= theory_document(records, data, result.repeats, report_dir)

@@ -181,7 +181,8 @@ def budget_source_lines(
     for name, c in _budgeted(budget).items():
         if c["expanded_uncertainty"] is None or len(c["rows"]) < 2:
             continue
-        out += [] if out else ["uncertainty by source:"]
+        if not out:  # the heading, above the first table
+            out.append("uncertainty by source:")
         out.append(
             f"  {(labels or {}).get(name, name)} = {c['reported']} "
             f"(k = {_g(c['coverage_factor'], '.3f')}, ν_eff = {_dof(c['effective_dof'])}); "
