@@ -64,8 +64,9 @@ def budget_summary_markdown(
     dominant source); a quantity named as the result's ``labels`` name it (a decay's added
     inertia)."""
     label = (labels or {}).get
-    lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)", ""]
-    lines += [f"**{n}**" for n in budget["notes"]]
+    lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)"]
+    for note in budget["notes"]:  # each its own paragraph (adjacent lines would run together)
+        lines += ["", f"**{note}**"]
     lines += ["", "| quantity | value ± U (95 %) | k | ν_eff | u_c | dominant source |",
               "|---|---|---|---|---|---|"]  # fmt: skip
     lines += [f"| {label(name, name)} | " + " | ".join(_summary_row(c)) + " |"

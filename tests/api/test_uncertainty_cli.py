@@ -35,6 +35,7 @@ def test_estimate_prints_the_budget_and_the_pretest_predicts_u(tmp_path: Path) -
     assert reported, out
     beside = report[report.index(heads[at]) : report.index("## Figures")]
     assert f"| inertia | {reported[1]} | " in beside
+    assert "Type B not declared" in beside and "**\n**" not in beside  # a paragraph per note
     # the folder's result.json carries the same budget (a lab tool reads it, not the page)
     doc = json.loads((tmp_path / "report" / "result.json").read_text())
     assert doc["budget"]["coefficients"]["inertia"]["reported"] == reported[1]
