@@ -42,10 +42,12 @@ def value_with_u(estimate: dict[str, Any] | None) -> str:
     return f"{shown} (U {estimate['U']:.2g}, k {estimate['k']:.3g}, ν {_dof(estimate.get('nu'))})"
 
 
-def _budgeted(budget: Mapping[str, Any]) -> dict[str, Any]:
+def _budgeted(budget: Mapping[str, Any], labels: Mapping[str, str] | None = None) -> dict[str, Any]:
     """Every budgeted quantity of a budget document: the coefficients, then the
-    combinations the record determines well (a decay's T₀, ω₀, ζ), by name."""
-    return {**budget["coefficients"], **(budget.get("combinations") or {})}
+    combinations the record determines well (a decay's T₀, ω₀, ζ), by the name a reader is
+    shown: the result's ``labels`` where it has one (a decay's added inertia), else its key."""
+    both = {**budget["coefficients"], **(budget.get("combinations") or {})}
+    return {(labels or {}).get(name, name): c for name, c in both.items()}
 
 
 def _summary_row(c: dict[str, Any]) -> tuple[str, str, str, str, str]:
@@ -63,14 +65,13 @@ def budget_summary_markdown(
     one row per coefficient and well-determined combination (value ± U, k, ν_eff, u_c, the
     dominant source); a quantity named as the result's ``labels`` name it (a decay's added
     inertia)."""
-    label = (labels or {}).get
     lines = ["## Uncertainty (ITTC 7.5-02-01-01 / GUM, 95 %)"]
     for note in budget["notes"]:  # each its own paragraph (adjacent lines would run together)
         lines += ["", f"**{note}**"]
     lines += ["", "| quantity | value ± U (95 %) | k | ν_eff | u_c | dominant source |",
               "|---|---|---|---|---|---|"]  # fmt: skip
-    lines += [f"| {label(name, name)} | " + " | ".join(_summary_row(c)) + " |"
-              for name, c in _budgeted(budget).items()]  # fmt: skip
+    lines += [f"| {name} | " + " | ".join(_summary_row(c)) + " |"
+              for name, c in _budgeted(budget, labels).items()]  # fmt: skip
     return [*lines, ""]
 
 
@@ -79,15 +80,14 @@ def budget_sources_markdown(
 ) -> list[str]:
     """report.md's last section: each quantity's budget table (every source's u, sensitivity,
     contribution and share), named as in :func:`budget_summary_markdown`."""
-    label = (labels or {}).get
     lines = ["", "## Uncertainty budget by source"]
-    for name, c in _budgeted(budget).items():
+    for name, c in _budgeted(budget, labels).items():
         if c["expanded_uncertainty"] is None:  # not identified: no budget to show
-            lines += ["", f"### {label(name, name)}: {c['reported']}"]
+            lines += ["", f"### {name}: {c['reported']}"]
             continue
         lines += [
             "",
-            f"### {label(name, name)}: {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
+            f"### {name}: {c['reported']} (k = {_g(c['coverage_factor'], '.3f')}, "
             f"ν_eff = {_dof(c['effective_dof'])}, u_c = {_g(c['combined_standard_uncertainty'])}; "
             f"dominant: {c['dominant_source']})",
             "",
@@ -162,7 +162,7 @@ def budget_summary_lines(
     well-determined combination) — value ± U, k, ν_eff, the dominant source; a quantity
     named as the result's ``labels`` name it (a decay's added inertia)."""
     out = ["uncertainty (95 %, ITTC/GUM):"] + [f"  {n}" for n in budget["notes"]]
-    budgeted = {(labels or {}).get(name, name): c for name, c in _budgeted(budget).items()}
+    budgeted = _budgeted(budget, labels)
     width = max((len(name) for name in budgeted), default=8) + 2
     out.append(f"  {'quantity':<{width}} {'value ± U':<24} {'k':>6} {'ν_eff':>6}  dominant source")
     for name, c in budgeted.items():
@@ -179,13 +179,13 @@ def budget_source_lines(
     """The terminal's budget table of each quantity with more than one source (a single
     source is its summary line again), under a heading, then the ``repeats`` per condition."""
     out: list[str] = []
-    for name, c in _budgeted(budget).items():
+    for name, c in _budgeted(budget, labels).items():
         if c["expanded_uncertainty"] is None or len(c["rows"]) < 2:
             continue
         if not out:  # the heading, above the first table
             out.append("uncertainty by source:")
         out.append(
-            f"  {(labels or {}).get(name, name)} = {c['reported']} "
+            f"  {name} = {c['reported']} "
             f"(k = {_g(c['coverage_factor'], '.3f')}, ν_eff = {_dof(c['effective_dof'])}); "
             f"dominant: {c['dominant_source']}"
         )
